@@ -1,0 +1,59 @@
+# fotogeo — the two commands a newcomer runs: `make demo` and `make test`.
+# Both set up everything themselves: Debian packages (as root), a virtual environment made
+# from Debian's Python 3 with its system site-packages (so QGIS's Python bindings and
+# fotogeo share one interpreter), and the Python packages pinned by constraints.txt.
+
+SHELL := /bin/bash
+SYSPY ?= /usr/bin/python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip --disable-pip-version-check -q
+DEMO_OUT ?= out/demo
+APT_BASE := python3 python3-venv python3-pip
+APT_TEST := $(APT_BASE) python3-qgis qgis-providers gdal-bin
+APT_BENCH := $(APT_TEST) otb-bin
+
+.PHONY: demo test bench plugin clean system-base system-test system-bench
+
+define apt_install
+	@missing=""; for p in $(1); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" != 0 ]; then echo "fotogeo: need Debian packages:$$missing (run as root or: sudo apt-get install$$missing)"; exit 1; fi; \
+	  echo "fotogeo: installing Debian packages:$$missing"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing >/dev/null; \
+	fi
+endef
+
+system-base:
+	$(call apt_install,$(APT_BASE))
+
+system-test:
+	$(call apt_install,$(APT_TEST))
+
+system-bench:
+	$(call apt_install,$(APT_BENCH))
+
+$(VENV)/.created: | system-base
+	$(SYSPY) -m venv --system-site-packages $(VENV)
+	$(PIP) install -U "pip>=23"
+	touch $@
+
+$(VENV)/.installed: $(VENV)/.created pyproject.toml constraints.txt
+	$(PIP) install -c constraints.txt -e ".[test]"
+	touch $@
+
+$(VENV)/.bench: $(VENV)/.installed
+	$(PIP) install -c constraints.txt -e ".[test,bench]"
+	touch $@
+
+demo: $(VENV)/.installed
+	$(VENV)/bin/fotogeo demo --output $(DEMO_OUT)
+
+test: system-test $(VENV)/.installed
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
+
+bench: system-bench $(VENV)/.bench
+	$(PY) benchmarks/register_bench.py
+
+clean:
+	rm -rf $(VENV) out dist build *.egg-info

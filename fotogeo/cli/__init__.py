@@ -1,0 +1,26 @@
+"""The ``fotogeo`` command line: one thin sub-command per capability.
+
+Each sub-command lives in its own module of this package, parses its arguments and calls
+one tool function; errors derived from :class:`fotogeo.errors.FotogeoError` are printed
+as one clear line (exit code 2), without a traceback.
+"""
+from __future__ import annotations
+
+import importlib
+
+import click
+
+from .. import __version__
+
+#: modules of this package that each define ``command`` (a click command).
+COMMAND_MODULES = ("register_cmd", "demo_cmd", "fuse_cmd")
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="fotogeo")
+def main():
+    """fotogeo: aerial and satellite images to map-accurate data."""
+
+
+for _name in COMMAND_MODULES:
+    main.add_command(importlib.import_module(f"{__name__}.{_name}").command)

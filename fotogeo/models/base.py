@@ -1,0 +1,182 @@
+"""The one model protocol shared by every geometric model in fotogeo.
+
+A model maps *source* points (``(N, src_dims)``: image pixels, or ground X, Y[, Z]) to
+*destination* points (``(N, 2)``). Every model class offers:
+
+* ``Model.estimate(src, dst, weights=None)`` — weighted least squares from point pairs
+  (raises :class:`~fotogeo.errors.ModelError` below ``min_points`` or on degenerate input);
+* ``model.forward(src)`` and ``model.inverse(dst)`` — the mapping and its inverse;
+* ``model.residuals(src, dst)`` — Euclidean distance ``|forward(src) - dst|`` per pair;
+* class attributes ``name``, ``n_params``, ``min_points``, ``src_dims``;
+* ``model.to_dict()`` / :func:`model_from_dict` — JSON-ready serialisation.
+
+All fits run in normalised coordinates (offset and scale per axis, the RPC00B way:
+``u = (x - offset) / scale`` with values in about [-1, 1]), which keeps the normal
+equations well conditioned whatever the map units.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import InputError, ModelError
+
+#: name -> model class; filled by :func:`register_model`.
+MODELS: dict[str, type["Model"]] = {}
+
+
+def register_model(cls):
+    """Class decorator adding a model to :data:`MODELS` under ``cls.name``."""
+    MODELS[cls.name] = cls
+    return cls
+
+
+def get_model(name: str) -> type["Model"]:
+    """The model class called ``name`` (raises :class:`InputError` listing the valid names)."""
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise InputError(f"unknown model {name!r}; choose one of: {', '.join(sorted(MODELS))}") from None
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    """Per-axis ``offset`` and ``scale``: ``normalise(x) = (x - offset) / scale``."""
+
+    offset: np.ndarray
+    scale: np.ndarray
+
+    @classmethod
+    def of(cls, pts: np.ndarray) -> "Normalisation":
+        """Mid-range offset and half-range scale, so the points span [-1, 1] per axis."""
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        offset = (lo + hi) / 2.0
+        scale = (hi - lo) / 2.0
+        scale = np.where(scale > 0, scale, 1.0)
+        return cls(offset, scale)
+
+    def normalise(self, pts: np.ndarray) -> np.ndarray:
+        return (pts - self.offset) / self.scale
+
+    def denormalise(self, pts: np.ndarray) -> np.ndarray:
+        return pts * self.scale + self.offset
+
+    def to_dict(self) -> dict:
+        return {"offset": self.offset.tolist(), "scale": self.scale.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Normalisation":
+        return cls(np.asarray(d["offset"], float), np.asarray(d["scale"], float))
+
+
+def check_pairs(cls, src, dst, weights=None):
+    """Validate point pairs for ``cls``: shapes, finiteness, count; return float64 arrays."""
+    src = np.asarray(src, dtype=np.float64)
+    dst = np.asarray(dst, dtype=np.float64)
+    if src.ndim != 2 or src.shape[1] != cls.src_dims:
+        raise InputError(f"{cls.name}: source points must have shape (N, {cls.src_dims}); got {src.shape}")
+    if dst.ndim != 2 or dst.shape[1] != 2 or len(dst) != len(src):
+        raise InputError(f"{cls.name}: destination points must have shape ({len(src)}, 2); got {dst.shape}")
+    if not (np.isfinite(src).all() and np.isfinite(dst).all()):
+        raise InputError(f"{cls.name}: point coordinates contain NaN or infinity; remove those points")
+    if len(src) < cls.min_points:
+        raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} points; got {len(src)}")
+    if weights is None:
+        w = np.ones(len(src))
+    else:
+        w = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if len(w) != len(src) or not np.isfinite(w).all() or (w < 0).any():
+            raise InputError(f"{cls.name}: weights must be {len(src)} finite non-negative numbers")
+        if np.count_nonzero(w) < cls.min_points:
+            raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} points with weight > 0")
+    return src, dst, w
+
+
+def weighted_lstsq(A: np.ndarray, b: np.ndarray, w: np.ndarray, name: str) -> np.ndarray:
+    """Solve ``min Σ w (A x - b)²``; raise :class:`ModelError` when A is rank deficient."""
+    sw = np.sqrt(w)[:, None]
+    Aw, bw = A * sw, b * sw if b.ndim == 2 else b * sw[:, 0]
+    x, _, rank, _ = np.linalg.lstsq(Aw, bw, rcond=None)
+    if rank < A.shape[1]:
+        raise ModelError(f"model {name!r}: the points are degenerate (collinear, duplicated or "
+                         f"too clustered) — rank {rank} < {A.shape[1]} parameters")
+    return x
+
+
+@dataclass(frozen=True)
+class Model:
+    """Base of all models: parameters in normalised coordinates plus both normalisations."""
+
+    params: np.ndarray
+    src_norm: Normalisation
+    dst_norm: Normalisation
+    info: dict = field(default_factory=dict, compare=False)
+
+    name: ClassVar[str] = "model"
+    n_params: ClassVar[int] = 0
+    min_points: ClassVar[int] = 0
+    src_dims: ClassVar[int] = 2
+
+    # -- subclasses implement these two, in normalised coordinates -----------------------
+    @classmethod
+    def _fit(cls, s: np.ndarray, d: np.ndarray, w: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _apply(self, s: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    # -- the protocol ---------------------------------------------------------------------
+    @classmethod
+    def estimate(cls, src, dst, weights=None):
+        """Weighted least-squares estimate from ``src`` -> ``dst`` pairs."""
+        src, dst, w = check_pairs(cls, src, dst, weights)
+        sn, dn = Normalisation.of(src[w > 0]), Normalisation.of(dst[w > 0])
+        params = cls._fit(sn.normalise(src), dn.normalise(dst), w)
+        return cls(np.asarray(params, dtype=np.float64), sn, dn)
+
+    def forward(self, src) -> np.ndarray:
+        """Map source points ``(N, src_dims)`` to destination points ``(N, 2)``."""
+        src = np.asarray(src, dtype=np.float64)
+        if src.ndim != 2 or src.shape[1] != self.src_dims:
+            raise InputError(f"{self.name}: points must have shape (N, {self.src_dims}); got {src.shape}")
+        return self.dst_norm.denormalise(self._apply(self.src_norm.normalise(src)))
+
+    def inverse(self, dst, iterations: int = 20, tol: float = 1e-10) -> np.ndarray:
+        """Map destination points back to source points (2-D models; Newton iteration).
+
+        Subclasses with a closed-form inverse override this.
+        """
+        if self.src_dims != 2:
+            raise ModelError(f"{self.name}: the inverse of a 3-D model needs heights; use its own method")
+        d = self.dst_norm.normalise(np.asarray(dst, dtype=np.float64))
+        s = d.copy()  # normalised source and destination both span about [-1, 1]
+        eps = 1e-6
+        for _ in range(iterations):
+            f = self._apply(s) - d
+            jx = (self._apply(s + [eps, 0]) - self._apply(s - [eps, 0])) / (2 * eps)
+            jy = (self._apply(s + [0, eps]) - self._apply(s - [0, eps])) / (2 * eps)
+            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+            det = np.where(np.abs(det) > 1e-15, det, np.nan)
+            ds0 = (jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det
+            ds1 = (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det
+            s = s - np.column_stack([ds0, ds1])
+            if np.nanmax(np.abs(np.concatenate([ds0, ds1])), initial=0.0) < tol:
+                break
+        return self.src_norm.denormalise(s)
+
+    def residuals(self, src, dst) -> np.ndarray:
+        """Euclidean distance between ``forward(src)`` and ``dst``, per pair (destination units)."""
+        return np.hypot(*(self.forward(src) - np.asarray(dst, dtype=np.float64)).T)
+
+    def to_dict(self) -> dict:
+        return {"model": self.name, "params": self.params.tolist(),
+                "src_norm": self.src_norm.to_dict(), "dst_norm": self.dst_norm.to_dict()}
+
+
+def model_from_dict(d: dict) -> Model:
+    """Rebuild a model serialised with ``to_dict``."""
+    cls = get_model(d["model"])
+    return cls(np.asarray(d["params"], float), Normalisation.from_dict(d["src_norm"]),
+               Normalisation.from_dict(d["dst_norm"]))

@@ -1,0 +1,124 @@
+"""Plane-to-plane models as 3x3 matrices: similarity, affine 2-D, projective (homography).
+
+In normalised coordinates ``s`` (source) and ``d`` (destination), each model is a matrix
+``M`` with ``[d; 1] ~ M [s; 1]``:
+
+* similarity (4 parameters, ≥2 points): ``d = [[a, -b], [b, a]] s + t`` — scale, rotation, shift;
+* affine (6 parameters, ≥3 points): ``d = A s + t``;
+* projective (8 parameters, ≥4 points): ``d = (H[:2] [s; 1]) / (H[2] [s; 1])``, fitted by the
+  normalised DLT (Hartley) and refined by Gauss-Newton on the weighted geometric error
+  ``Σ w |d - H(s)|²``.
+
+``world_matrix()`` gives the same mapping in real (un-normalised) coordinates.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from .base import Model, register_model, weighted_lstsq
+
+
+class _MatrixModel(Model):
+    """Shared machinery of the 3x3-matrix models."""
+
+    @property
+    def matrix(self) -> np.ndarray:
+        return self.params.reshape(3, 3)
+
+    def _apply(self, s):
+        M = self.matrix
+        h = s @ M[:, :2].T + M[:, 2]
+        return h[:, :2] / h[:, 2:3]
+
+    def inverse(self, dst, **_):
+        """Closed-form inverse through the inverted matrix."""
+        d = self.dst_norm.normalise(np.asarray(dst, dtype=np.float64))
+        Mi = np.linalg.inv(self.matrix)
+        h = d @ Mi[:, :2].T + Mi[:, 2]
+        return self.src_norm.denormalise(h[:, :2] / h[:, 2:3])
+
+    def world_matrix(self) -> np.ndarray:
+        """3x3 matrix mapping real source coordinates to real destination coordinates."""
+        S = np.diag([*(1 / self.src_norm.scale), 1.0])
+        S[:2, 2] = -self.src_norm.offset / self.src_norm.scale
+        D = np.diag([*self.dst_norm.scale, 1.0])
+        D[:2, 2] = self.dst_norm.offset
+        W = D @ self.matrix @ S
+        return W / W[2, 2]
+
+
+@register_model
+class Similarity(_MatrixModel):
+    name = "similarity"
+    n_params = 4
+    min_points = 2
+
+    @classmethod
+    def _fit(cls, s, d, w):
+        n = len(s)
+        A = np.zeros((2 * n, 4))
+        A[0::2] = np.column_stack([s[:, 0], -s[:, 1], np.ones(n), np.zeros(n)])
+        A[1::2] = np.column_stack([s[:, 1], s[:, 0], np.zeros(n), np.ones(n)])
+        a, b, tx, ty = weighted_lstsq(A, d.reshape(-1), np.repeat(w, 2), cls.name)
+        return np.array([[a, -b, tx], [b, a, ty], [0, 0, 1.0]]).ravel()
+
+
+@register_model
+class Affine(_MatrixModel):
+    name = "affine"
+    n_params = 6
+    min_points = 3
+
+    @classmethod
+    def _fit(cls, s, d, w):
+        A = np.column_stack([s, np.ones(len(s))])
+        X = weighted_lstsq(A, d, w, cls.name)  # (3, 2)
+        return np.vstack([X.T, [0, 0, 1.0]]).ravel()
+
+
+@register_model
+class Projective(_MatrixModel):
+    name = "projective"
+    n_params = 8
+    min_points = 4
+
+    @classmethod
+    def _fit(cls, s, d, w, iterations: int = 10):
+        n = len(s)
+        x, y, u, v = s[:, 0], s[:, 1], d[:, 0], d[:, 1]
+        z, o = np.zeros(n), np.ones(n)
+        A = np.empty((2 * n, 9))
+        A[0::2] = np.column_stack([x, y, o, z, z, z, -u * x, -u * y, -u])
+        A[1::2] = np.column_stack([z, z, z, x, y, o, -v * x, -v * y, -v])
+        A *= np.sqrt(np.repeat(w, 2))[:, None]
+        _, sv, vt = np.linalg.svd(A, full_matrices=False)
+        if sv[-2] < 1e-9 * sv[0]:
+            raise ModelError("model 'projective': the points are degenerate (collinear or duplicated)")
+        H = vt[-1].reshape(3, 3)
+        H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 else H / np.linalg.norm(H)
+        return cls._refine(H, s, d, w, iterations).ravel()
+
+    @staticmethod
+    def _refine(H, s, d, w, iterations):
+        """Gauss-Newton on the 8 parameters (h33 = 1) minimising the weighted geometric error."""
+        h = H.ravel()[:8].copy()
+        sw = np.sqrt(np.repeat(w, 2))
+        x, y = s[:, 0], s[:, 1]
+        for _ in range(iterations):
+            den = h[6] * x + h[7] * y + 1.0
+            if np.any(np.abs(den) < 1e-9):
+                break
+            pu = (h[0] * x + h[1] * y + h[2]) / den
+            pv = (h[3] * x + h[4] * y + h[5]) / den
+            J = np.zeros((2 * len(x), 8))
+            J[0::2, 0], J[0::2, 1], J[0::2, 2] = x / den, y / den, 1 / den
+            J[1::2, 3], J[1::2, 4], J[1::2, 5] = x / den, y / den, 1 / den
+            J[0::2, 6], J[0::2, 7] = -pu * x / den, -pu * y / den
+            J[1::2, 6], J[1::2, 7] = -pv * x / den, -pv * y / den
+            r = (d - np.column_stack([pu, pv])).reshape(-1)
+            step, *_ = np.linalg.lstsq(J * sw[:, None], r * sw, rcond=None)
+            h += step
+            if np.max(np.abs(step)) < 1e-12:
+                break
+        return np.append(h, 1.0).reshape(3, 3)

@@ -1,0 +1,78 @@
+"""The pixel-coordinate convention of fotogeo — written once, here.
+
+Pixel coordinates are ``(col, row)`` = ``(x, y)`` float64 arrays of shape ``(N, 2)``.
+Everywhere fotogeo reads, writes or returns them they follow GDAL/QGIS (the *corner*
+convention): ``(0, 0)`` is the top-left corner of the top-left pixel, whose centre is
+``(0.5, 0.5)``; pixel ``[row, col]`` of an array covers ``[col, col+1) x [row, row+1)``.
+A GDAL geotransform / rasterio ``Affine`` maps these coordinates straight to map
+coordinates: ``X, Y = transform * (col, row)``.
+
+OpenCV (``cv2.remap``, ``cv2.KeyPoint``) and most papers put the centre of the top-left
+pixel at ``(0, 0)`` (the *centre* convention). Only two functions cross that boundary:
+:func:`to_centre` before handing coordinates to OpenCV-style array indexing, and
+:func:`from_centre` for coordinates coming back. Nothing else adds or subtracts 0.5.
+
+Arrays are band-first ``(bands, rows, cols)``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+
+#: Offset between the two conventions: corner = centre + HALF.
+HALF = 0.5
+
+
+def as_points(xy, dims: int = 2, name: str = "points") -> np.ndarray:
+    """Return ``xy`` as a float64 ``(N, dims)`` array, or raise :class:`InputError`."""
+    a = np.asarray(xy, dtype=np.float64)
+    if a.ndim == 1 and a.size == dims:
+        a = a.reshape(1, dims)
+    if a.ndim != 2 or a.shape[1] != dims:
+        raise InputError(f"{name} must have shape (N, {dims}); got {a.shape}")
+    return a
+
+
+def to_centre(xy) -> np.ndarray:
+    """GDAL corner convention -> centre convention (OpenCV, array indices).
+
+    >>> to_centre([[0.5, 0.5]]).tolist()
+    [[0.0, 0.0]]
+    """
+    return np.asarray(xy, dtype=np.float64) - HALF
+
+
+def from_centre(xy) -> np.ndarray:
+    """Centre convention (OpenCV, array indices) -> GDAL corner convention.
+
+    >>> from_centre([[0.0, 0.0]]).tolist()
+    [[0.5, 0.5]]
+    """
+    return np.asarray(xy, dtype=np.float64) + HALF
+
+
+def pixel_centres(cols: int, rows: int, col_off: float = 0.0, row_off: float = 0.0):
+    """Corner-convention coordinates of the centres of a ``rows x cols`` window.
+
+    Returns two float64 arrays ``(x, y)`` of shape ``(rows, cols)``.
+    """
+    x = col_off + HALF + np.arange(cols, dtype=np.float64)
+    y = row_off + HALF + np.arange(rows, dtype=np.float64)
+    return np.meshgrid(x, y)
+
+
+def pixel_to_map(transform, xy) -> np.ndarray:
+    """Map coordinates of corner-convention pixel coordinates through an affine geotransform.
+
+    ``transform`` is a rasterio/affine ``Affine`` (a, b, c, d, e, f): X = a*col + b*row + c,
+    Y = d*col + e*row + f.
+    """
+    p = as_points(xy)
+    t = transform
+    return np.column_stack([t.a * p[:, 0] + t.b * p[:, 1] + t.c, t.d * p[:, 0] + t.e * p[:, 1] + t.f])
+
+
+def map_to_pixel(transform, XY) -> np.ndarray:
+    """Inverse of :func:`pixel_to_map`."""
+    return pixel_to_map(~transform, XY)
