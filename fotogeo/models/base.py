@@ -49,11 +49,16 @@ class Normalisation:
     scale: np.ndarray
 
     @classmethod
-    def of(cls, pts: np.ndarray) -> "Normalisation":
-        """Mid-range offset and half-range scale, so the points span [-1, 1] per axis."""
+    def of(cls, pts: np.ndarray, isotropic: bool = False) -> "Normalisation":
+        """Mid-range offset and half-range scale, so the points span [-1, 1] per axis.
+
+        ``isotropic`` uses one scale (the largest half-range) for all axes.
+        """
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         offset = (lo + hi) / 2.0
         scale = (hi - lo) / 2.0
+        if isotropic:
+            scale = np.full_like(scale, scale.max())
         scale = np.where(scale > 0, scale, 1.0)
         return cls(offset, scale)
 
@@ -118,6 +123,7 @@ class Model:
     n_params: ClassVar[int] = 0
     min_points: ClassVar[int] = 0
     src_dims: ClassVar[int] = 2
+    isotropic: ClassVar[bool] = False  # normalise all axes with one scale
 
     # -- subclasses implement these two, in normalised coordinates -----------------------
     @classmethod
@@ -132,7 +138,8 @@ class Model:
     def estimate(cls, src, dst, weights=None):
         """Weighted least-squares estimate from ``src`` -> ``dst`` pairs."""
         src, dst, w = check_pairs(cls, src, dst, weights)
-        sn, dn = Normalisation.of(src[w > 0]), Normalisation.of(dst[w > 0])
+        sn = Normalisation.of(src[w > 0], cls.isotropic)
+        dn = Normalisation.of(dst[w > 0], cls.isotropic)
         params = cls._fit(sn.normalise(src), dn.normalise(dst), w)
         return cls(np.asarray(params, dtype=np.float64), sn, dn)
 

@@ -53,6 +53,7 @@ class Similarity(_MatrixModel):
     name = "similarity"
     n_params = 4
     min_points = 2
+    isotropic = True  # a similarity stays one only under equal scaling of both axes
 
     @classmethod
     def _fit(cls, s, d, w):
@@ -92,8 +93,8 @@ class Projective(_MatrixModel):
         A[0::2] = np.column_stack([x, y, o, z, z, z, -u * x, -u * y, -u])
         A[1::2] = np.column_stack([z, z, z, x, y, o, -v * x, -v * y, -v])
         A *= np.sqrt(np.repeat(w, 2))[:, None]
-        _, sv, vt = np.linalg.svd(A, full_matrices=False)
-        if sv[-2] < 1e-9 * sv[0]:
+        _, sv, vt = np.linalg.svd(A)  # full: vt[-1] spans the null space even for 4 points
+        if len(sv) < 8 or sv[7] < 1e-9 * sv[0]:
             raise ModelError("model 'projective': the points are degenerate (collinear or duplicated)")
         H = vt[-1].reshape(3, 3)
         H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 else H / np.linalg.norm(H)

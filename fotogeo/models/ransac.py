@@ -60,7 +60,7 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
             ratio = count / n
             if ratio >= 1.0:
                 break
-            denom = np.log(max(1e-12, 1.0 - ratio ** k))
+            denom = np.log1p(-min(ratio ** k, 1.0 - 1e-12)) or -1e-12
             limit = min(max_trials, int(np.ceil(np.log(1.0 - confidence) / denom)))
     if best_mask is None or best_count < need:
         raise MatchingError(

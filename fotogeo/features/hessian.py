@@ -1,0 +1,245 @@
+"""SURF detector: box-filter Hessian on an integral image, 3x3x3 maxima, quadratic refinement.
+
+Conventions of this module (internal to :mod:`fotogeo.features`): positions are in the
+*centre* convention (pixel ``[r, c]`` has its centre at ``(x, y) = (c, r)``); the public
+:func:`fotogeo.features.surf` converts once with :func:`fotogeo.pixels.from_centre`.
+
+Integral image (of the image padded by ``pad`` pixels on every side)::
+
+    ii[R, C] = sum(img[:R, :C]),   box(r0:r1, c0:c1) = ii[r1,c1] - ii[r0,c1] - ii[r1,c0] + ii[r0,c0]
+
+Box filters of odd size L = 3 l (Bay et al. 2008, fig. 1), centred on pixel (r, c):
+
+    Dxx = box(rows r-l+1 .. r+l-1, cols c-(3l-1)/2 .. c+(3l-1)/2) - 3 box(same rows, cols c-(l-1)/2 .. c+(l-1)/2)
+    Dyy = Dxx transposed
+    Dxy = box(TL) + box(BR) - box(TR) - box(BL),  four l x l lobes around (r, c) with a 1-pixel gap
+
+each divided by the filter area L^2, and the blob response
+
+    det(H) = Dxx Dyy - (0.9 Dxy)^2,       laplacian = sign(Dxx + Dyy).
+
+The threshold is on det(H) in (grey level)^2: for an image in 0..255 it has the meaning of
+OpenCV's ``hessianThreshold``; for an image scaled by k it scales by k^2.
+
+Scale space (Bay et al. 2008, sec. 3.3): octave o samples every p = 2^o pixels with filter
+sizes 9, 15, 21, 27 (o = 0), 15, 27, 39, 51 (o = 1), 27, 51, 75, 99, ... (the step between
+sizes doubles per octave); SURF scale s = 1.2 L / 9. Maxima over the 26 neighbours in
+(x, y, layer) of the two middle layers are refined by the Newton step ``d = -H^-1 g`` of a
+quadratic fit and rejected when any component of ``d`` exceeds 0.5 (sample units; see
+:data:`MAX_OFFSET` for the small tolerance). Octave o+1 repeats the scales between octave
+o's top layers (e.g. a blob of size 23 peaks at L=21 in octave 0 and at L=27 in octave 1):
+such duplicates are dropped from the coarser octave (interpolated size below
+``L2(o) + step(o)/2``), else the ratio test would reject both copies.
+
+The response maps are computed in bands of sample rows (with a one-row halo for the
+non-maximum suppression), so memory stays bounded on large images; each row belongs to
+exactly one band interior, so bands never produce duplicates.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+#: Largest accepted Newton offset (sample units). Nominally 0.5 (beyond it the maximum
+#: belongs to a neighbouring sample), but a blob centred exactly between two samples gives
+#: 0.5 plus the bias of the quadratic model (its cross terms): about 0.51 for a Gaussian blob.
+#: Plateaus yield one maximum (tie-break in :func:`_maxima`), so 0.6 loses no blob and
+#: creates no duplicate.
+MAX_OFFSET = 0.6
+
+#: Target number of response samples per band and layer (bounds peak memory).
+BAND_SAMPLES = 1 << 20
+
+
+def octave_sizes(octave: int) -> list[int]:
+    """Filter sizes of the four layers of ``octave`` (Bay et al.: 9,15,21,27; 15,27,39,51; ...)."""
+    step = 6 << octave
+    first = 3 * (1 << (octave + 1)) + 3 if octave else 9  # 9, 15, 27, 51, 99, ...
+    return [first + step * i for i in range(4)]
+
+
+def scale_of_size(size):
+    """SURF scale s of a filter of size L: s = 1.2 L / 9."""
+    return 1.2 * np.asarray(size, dtype=np.float64) / 9.0
+
+
+def integral(img: np.ndarray, pad: int) -> np.ndarray:
+    """float64 integral image of ``img`` padded by ``pad`` pixels (reflect-101) on every side.
+
+    Shape ``(rows + 2 pad + 1, cols + 2 pad + 1)``; image pixel ``[r, c]`` is padded pixel
+    ``[r + pad, c + pad]``.
+    """
+    src = np.ascontiguousarray(img, dtype=np.float32)
+    if pad > 0:
+        src = cv2.copyMakeBorder(src, pad, pad, pad, pad, cv2.BORDER_REFLECT_101)
+    return cv2.integral(src, sdepth=cv2.CV_64F)
+
+
+def _sub32(a, b):
+    """a - b computed in float64 (integral values are large), stored as float32."""
+    out = np.empty(a.shape, np.float32)
+    np.subtract(a, b, out=out, casting="unsafe")
+    return out
+
+
+def _layer(ii, pad, r0, nr, nc, p, size):
+    """det(H) and trace of one filter ``size`` on the sample grid rows ``r0 + p*k`` (k < nr),
+    cols ``p*j`` (j < nc). Returns two float32 arrays ``(nr, nc)``."""
+    l = size // 3
+    h = (size - 1) // 2          # half size
+    rr = pad + r0                # padded row of the first sample
+    rend = rr + p * (nr - 1) + 1  # stop (exclusive) for a strided slice starting at rr
+    cc = pad
+    cend = cc + p * (nc - 1) + 1
+
+    def rows(off):  # ii rows r + off for every sample row (all columns)
+        return ii[rr + off:rend + off:p]
+
+    def cols(a, off):  # columns c + off for every sample column
+        return a[:, cc + off:cend + off:p]
+
+    # Differences of integral rows/columns are cumulative sums (large): keep them float64
+    # and store only the final lobe sums as float32.
+    # Dxx: rows [r-l+1, r+l), whole lobe cols [c-h, c+h+1), middle [c-(l-1)/2, c+(l+1)/2)
+    m = (l - 1) // 2
+    v = rows(l) - rows(-l + 1)
+    dxx = _sub32(cols(v, h + 1), cols(v, -h))
+    dxx -= 3.0 * _sub32(cols(v, m + 1), cols(v, -m))
+    # Dyy: the transpose. v[i] = strip sum of integral row (rr - h + i) over cols [c-l+1, c+l)
+    ccs = ii[rr - h:rend + h + 1, :]
+    v = ccs[:, cc + l:cend + l:p] - ccs[:, cc - l + 1:cend - l + 1:p]
+
+    def vrows(off):  # integral rows r + off
+        return v[h + off:h + off + p * (nr - 1) + 1:p]
+
+    dyy = _sub32(vrows(h + 1), vrows(-h))
+    dyy -= 3.0 * _sub32(vrows(m + 1), vrows(-m))
+    # Dxy: top lobes rows [r-l, r), bottom [r+1, r+1+l); left cols [c-l, c), right [c+1, c+1+l)
+    d = rows(0) - rows(-l)
+    d -= rows(l + 1) - rows(1)
+    dxy = _sub32(cols(d, 0), cols(d, -l))
+    dxy -= _sub32(cols(d, l + 1), cols(d, 1))
+    norm = np.float32(1.0 / (size * size))
+    dxx *= norm
+    dyy *= norm
+    dxy *= norm
+    trace = dxx + dyy
+    dxy *= dxy
+    dxy *= np.float32(0.81)
+    dxx *= dyy
+    dxx -= dxy
+    return dxx, trace
+
+
+def _refine(det, cand_layer, k, j):
+    """Quadratic (Newton) refinement around maxima at ``det[cand_layer, k, j]``.
+
+    Returns offsets (dx, dy, dlayer) and a boolean ``ok`` (all |offset| <= MAX_OFFSET, finite).
+    """
+    L, K, J = cand_layer, k, j
+
+    def v(dl, dk, dj):
+        return det[L + dl, K + dk, J + dj].astype(np.float64)
+
+    c = v(0, 0, 0)
+    gx = (v(0, 0, 1) - v(0, 0, -1)) / 2
+    gy = (v(0, 1, 0) - v(0, -1, 0)) / 2
+    gs = (v(1, 0, 0) - v(-1, 0, 0)) / 2
+    hxx = v(0, 0, 1) + v(0, 0, -1) - 2 * c
+    hyy = v(0, 1, 0) + v(0, -1, 0) - 2 * c
+    hss = v(1, 0, 0) + v(-1, 0, 0) - 2 * c
+    hxy = (v(0, 1, 1) - v(0, 1, -1) - v(0, -1, 1) + v(0, -1, -1)) / 4
+    hxs = (v(1, 0, 1) - v(1, 0, -1) - v(-1, 0, 1) + v(-1, 0, -1)) / 4
+    hys = (v(1, 1, 0) - v(1, -1, 0) - v(-1, 1, 0) + v(-1, -1, 0)) / 4
+    hm = np.stack([np.stack([hxx, hxy, hxs], -1), np.stack([hxy, hyy, hys], -1),
+                   np.stack([hxs, hys, hss], -1)], -2)
+    g = np.stack([gx, gy, gs], -1)
+    detm = np.linalg.det(hm) if len(c) else np.zeros(0)
+    ok = np.abs(detm) > 1e-30
+    off = np.zeros_like(g)
+    if ok.any():
+        off[ok] = -np.linalg.solve(hm[ok], g[ok][..., None])[..., 0]
+    ok &= np.all(np.abs(off) <= MAX_OFFSET, axis=1) & np.all(np.isfinite(off), axis=1)
+    return off, ok
+
+
+def detect(img: np.ndarray, threshold: float, n_octaves: int, ii=None, pad: int = 0):
+    """Detect SURF keypoints in a float32 image (no NaN).
+
+    Returns a dict of arrays: ``x``, ``y`` (centre convention), ``size`` (interpolated
+    filter size L), ``response`` (det(H) at the maximum), ``laplacian`` (int8 ±1).
+    ``ii``/``pad``: a precomputed integral image from :func:`integral` and its padding
+    (the padding must be at least half the largest filter plus 2).
+    """
+    rows, cols = img.shape
+    largest = octave_sizes(n_octaves - 1)[-1]
+    need = largest // 2 + 2
+    if ii is None or pad < need:
+        pad = max(pad, need)
+        ii = integral(img, pad)
+    out = {k: [] for k in ("x", "y", "size", "response", "laplacian")}
+    for o in range(n_octaves):
+        p = 1 << o
+        sizes = octave_sizes(o)
+        nr_all = -(-rows // p)
+        nc = -(-cols // p)
+        if nr_all < 3 or nc < 3:
+            break
+        band = max(8, BAND_SAMPLES // max(nc, 1))
+        for k0 in range(0, nr_all, band):
+            k1 = min(nr_all, k0 + band)
+            h0, h1 = max(0, k0 - 1), min(nr_all, k1 + 1)  # with one-row halo
+            nr = h1 - h0
+            if nr < 3:
+                continue
+            maps = [_layer(ii, pad, h0 * p, nr, nc, p, sz) for sz in sizes]
+            det = np.stack([m[0] for m in maps])
+            for li in (1, 2):
+                _maxima(det, maps[li][1], li, sizes, o, p, h0, k0, k1, rows, cols, threshold, out)
+    if not out["x"]:
+        return {k: np.zeros(0, dtype=np.int8 if k == "laplacian" else np.float64) for k in out}
+    return {k: np.concatenate(v) for k, v in out.items()}
+
+
+def _maxima(det, trace, li, sizes, o, p, h0, k0, k1, rows, cols, threshold, out):
+    """3x3x3 maxima of layer ``li`` in the band interior rows [k0, k1), refined; appends to out."""
+    # Ties (e.g. a blob centred between pixels) are broken in raster/layer order: a sample
+    # must be >= every neighbour and > those that come before it (the smaller layer, and
+    # the previous row and the left neighbour in its own layer), so a plateau yields one maximum.
+    cur = det[li]
+    full = np.ones((3, 3), np.uint8)
+    before = np.array([[1, 1, 1], [1, 0, 0], [0, 0, 0]], np.uint8)
+    is_max = (cur > threshold) & (cur >= cv2.dilate(det[li + 1], full))
+    is_max &= cur > cv2.dilate(det[li - 1], full)
+    is_max &= cur >= cv2.dilate(cur, full)
+    is_max &= cur > cv2.dilate(cur, before, borderType=cv2.BORDER_CONSTANT, borderValue=-np.inf)
+    # the next-larger filter must fit inside the image one sample around the candidate
+    big = sizes[li + 1] // 2 + p
+    nr, nc = cur.shape
+    kk = h0 + np.arange(nr)
+    row_ok = (kk >= k0) & (kk < k1) & (kk * p - big >= 0) & (kk * p + big <= rows - 1)
+    jj = np.arange(nc)
+    col_ok = (jj * p - big >= 0) & (jj * p + big <= cols - 1)
+    is_max &= row_ok[:, None] & col_ok[None, :]
+    # also keep the 1-sample neighbourhood inside the band arrays
+    is_max[0, :] = is_max[-1, :] = False
+    is_max[:, 0] = is_max[:, -1] = False
+    k, j = np.nonzero(is_max)
+    if not len(k):
+        return
+    off, ok = _refine(det, np.full(len(k), li), k, j)
+    k, j, off = k[ok], j[ok], off[ok]
+    step = sizes[1] - sizes[0]
+    size = sizes[li] + off[:, 2] * step
+    if o > 0:
+        # Octaves overlap in scale: a blob between the finer octave's top layer and this
+        # octave's first middle layer is a maximum in both. The finer octave (denser
+        # sampling) owns sizes below its top middle layer plus half its step.
+        prev = octave_sizes(o - 1)
+        keep = size >= prev[2] + (prev[1] - prev[0]) / 2
+        k, j, off, size = k[keep], j[keep], off[keep], size[keep]
+    out["x"].append((j + off[:, 0]) * p)
+    out["y"].append((h0 + k + off[:, 1]) * p)
+    out["size"].append(size)
+    out["response"].append(cur[k, j].astype(np.float64))
+    out["laplacian"].append(np.where(trace[k, j] > 0, 1, -1).astype(np.int8))

@@ -1,0 +1,239 @@
+"""SURF keypoints and descriptors (Bay, Ess, Tuytelaars, Van Gool 2008), in numpy + OpenCV.
+
+OpenCV's binary wheels exclude SURF, so fotogeo implements it: the detector lives in
+:mod:`fotogeo.features.hessian`, orientation and descriptor in
+:mod:`fotogeo.features.describe`; this module validates inputs, handles nodata, selects
+a spatially balanced subset and returns a :class:`SurfResult`.
+
+>>> import numpy as np
+>>> yy, xx = np.mgrid[0:64, 0:64] + 0.5              # pixel centres, GDAL corner convention
+>>> img = 255 * np.exp(-((xx - 32.0) ** 2 + (yy - 30.0) ** 2) / (2 * 3.0 ** 2))
+>>> res = surf(img, upright=True)
+>>> len(res), res.xy.round(1).tolist()
+(1, [[32.0, 30.0]])
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+from ..pixels import from_centre
+from . import describe, hessian
+
+#: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics).
+DEFAULT_THRESHOLD = 100.0
+
+#: Radius, in units of the scale s, that the descriptor window (20s square rotated
+#: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
+WINDOW_RADIUS = 14.5
+
+
+@dataclass(frozen=True)
+class SurfResult:
+    """SURF keypoints and descriptors of one image.
+
+    Attributes
+    ----------
+    xy : (N, 2) float64
+        ``(col, row)`` positions in the GDAL corner convention (the centre of the top-left
+        pixel is ``(0.5, 0.5)``).
+    scale : (N,) float64
+        SURF scale s (1.2 for the 9x9 filter; s = 1.2 L / 9 for filter size L).
+    angle : (N,) float64
+        Orientation in **degrees**, in [0, 360), measured from +x (columns) towards +y
+        (rows, downwards), i.e. clockwise on screen like OpenCV's ``KeyPoint.angle``; 0 for
+        upright SURF.
+    response : (N,) float64
+        det(H) at the maximum (grey level^2, see :func:`surf`).
+    laplacian : (N,) int8
+        Sign of the trace of H: -1 for bright blobs on a dark background, +1 for dark blobs.
+        Matching only across equal signs is a free speed-up and filter.
+    descriptors : (N, 64) or (N, 128) float32
+        Unit-length SURF descriptors (128 when ``extended``).
+    """
+
+    xy: np.ndarray
+    scale: np.ndarray
+    angle: np.ndarray
+    response: np.ndarray
+    laplacian: np.ndarray
+    descriptors: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.xy.shape[0])
+
+    @classmethod
+    def empty(cls, extended: bool = False) -> "SurfResult":
+        """A result without keypoints (arrays of the right shapes and dtypes)."""
+        z = np.zeros(0)
+        return cls(np.zeros((0, 2)), z, z.copy(), z.copy(), np.zeros(0, np.int8),
+                   np.zeros((0, 128 if extended else 64), np.float32))
+
+
+def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_octaves: int = 4,
+         upright: bool = False, extended: bool = False, max_keypoints: int | None = None) -> SurfResult:
+    """Detect and describe SURF keypoints in a 2-D image.
+
+    Parameters
+    ----------
+    image : 2-D array, any real numeric dtype
+        Grey levels, ideally 0..255 (the pipeline passes float32 after a robust contrast
+        stretch). NaN/inf pixels are treated as nodata.
+    mask : 2-D bool array, optional
+        True where the image is valid. A keypoint is dropped when any invalid pixel lies
+        within ``WINDOW_RADIUS * s`` (14.5 s, the reach of its rotated descriptor window) of
+        it, so no descriptor sees nodata. The image border is not nodata: beyond it the image
+        is mirrored (reflect-101) for the descriptor windows.
+    hessian_threshold : float
+        Minimum det(H) = Dxx Dyy - (0.9 Dxy)^2 with every box response divided by the filter
+        area, for grey levels 0..255 -- the same meaning as OpenCV's ``hessianThreshold``
+        (usual values 100..400; lower gives more keypoints). det(H) scales with the square of
+        the contrast: for an image in 0..1 divide the threshold by 255^2.
+    n_octaves : int
+        Octaves of the scale space (filter sizes 9-27, 15-51, 27-99, 51-195, ...).
+    upright : bool
+        U-SURF: skip the orientation (angle 0); faster, not rotation invariant.
+    extended : bool
+        128-D descriptors (sums split by the sign of the other derivative).
+    max_keypoints : int, optional
+        Keep at most this many keypoints, spatially balanced: the image is divided into
+        about ``max_keypoints / 8`` square cells and the cells take turns giving their next
+        strongest keypoint (round robin), so keypoints spread over the image.
+
+    Returns
+    -------
+    SurfResult
+        Keypoints sorted by (row, col) of their position; empty (with the right array
+        shapes) for constant, tiny or fully masked images.
+    """
+    img = _check_image(image)
+    valid = np.isfinite(img)
+    if mask is not None:
+        valid &= _check_mask(mask, img.shape)
+    hessian_threshold = _check_number(hessian_threshold, "hessian_threshold", 0.0)
+    n_octaves = _check_int(n_octaves, "n_octaves", 1, 8)
+    if max_keypoints is not None:
+        max_keypoints = _check_int(max_keypoints, "max_keypoints", 0, None)
+    upright, extended = bool(upright), bool(extended)
+
+    rows, cols = img.shape
+    if rows < 24 or cols < 24 or not valid.any() or max_keypoints == 0:
+        return SurfResult.empty(extended)
+    n_octaves = min(n_octaves, _usable_octaves(rows, cols))
+    all_valid = bool(valid.all())
+    if not all_valid:
+        img = img.copy()
+        img[~valid] = img[valid].mean()
+    img = img.astype(np.float32, copy=False)
+
+    s_max = float(hessian.scale_of_size(hessian.octave_sizes(n_octaves - 1)[-1]))
+    pad = max(hessian.octave_sizes(n_octaves - 1)[-1] // 2 + 2, int(np.ceil(WINDOW_RADIUS * s_max)) + 2)
+    pad = min(pad, 4 * max(rows, cols))
+    ii = hessian.integral(img, pad)
+    kp = hessian.detect(img, hessian_threshold, n_octaves, ii=ii, pad=pad)
+    x, y = kp["x"], kp["y"]
+    s = hessian.scale_of_size(kp["size"])
+    keep = np.ones(len(x), bool)
+    if not all_valid and len(x):
+        keep = _clear_of_nodata(~valid, x, y, WINDOW_RADIUS * s)
+    idx = np.nonzero(keep)[0]
+    if max_keypoints is not None and len(idx) > max_keypoints:
+        idx = idx[_balanced(x[idx], y[idx], kp["response"][idx], rows, cols, max_keypoints)]
+    # deterministic output order: by row, then column, then scale
+    idx = idx[np.lexsort((s[idx], x[idx], y[idx]))]
+    x, y, s = x[idx], y[idx], s[idx]
+    if not len(x):
+        return SurfResult.empty(extended)
+    theta = np.zeros(len(x)) if upright else describe.orientation(ii, pad, x, y, s)
+    desc = describe.descriptors(ii, pad, x, y, s, theta, extended)
+    return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
+                      angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
+                      laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
+
+
+def _usable_octaves(rows: int, cols: int) -> int:
+    """Octaves whose largest filter (plus one sample) still fits in the image."""
+    n = 1
+    while n < 8:
+        o = n
+        big = hessian.octave_sizes(o)[2]      # largest filter needed for layer-1 maxima
+        if big + 2 * (1 << o) + 2 > min(rows, cols):
+            break
+        n += 1
+    return n
+
+
+def _clear_of_nodata(invalid: np.ndarray, x, y, radius) -> np.ndarray:
+    """True for keypoints with no invalid pixel in the square of half-side ``radius``."""
+    rows, cols = invalid.shape
+    cnt = cv2.integral(invalid.astype(np.uint8), sdepth=cv2.CV_32S)
+    r = np.ceil(radius).astype(np.int64)
+    cx, cy = np.rint(x).astype(np.int64), np.rint(y).astype(np.int64)
+    x0, x1 = np.clip(cx - r, 0, cols), np.clip(cx + r + 1, 0, cols)
+    y0, y1 = np.clip(cy - r, 0, rows), np.clip(cy + r + 1, 0, rows)
+    n = cnt[y1, x1] - cnt[y0, x1] - cnt[y1, x0] + cnt[y0, x0]
+    return n == 0
+
+
+def _balanced(x, y, response, rows: int, cols: int, budget: int) -> np.ndarray:
+    """Indices of ``budget`` keypoints chosen round robin over a grid of ~budget/8 cells.
+
+    Within a cell keypoints are ranked by decreasing response; the selection takes every
+    cell's rank-0 keypoint, then every rank-1, ... (ties in rank by decreasing response).
+    """
+    ncells = max(1, budget // 8)
+    side = np.sqrt(rows * cols / ncells)
+    gx, gy = max(1, int(round(cols / side))), max(1, int(round(rows / side)))
+    cell = (np.minimum((y * gy / rows).astype(np.int64), gy - 1) * gx
+            + np.minimum((x * gx / cols).astype(np.int64), gx - 1))
+    order = np.lexsort((-response, cell))            # by cell, strongest first
+    c_sorted = cell[order]
+    start = np.r_[0, np.nonzero(np.diff(c_sorted))[0] + 1]
+    first = np.repeat(start, np.diff(np.r_[start, len(order)]))
+    rank = np.empty(len(order), np.int64)
+    rank[order] = np.arange(len(order)) - first
+    pick = np.lexsort((-response, rank))[:budget]
+    return np.sort(pick)
+
+
+def _check_image(image) -> np.ndarray:
+    a = np.asarray(image)
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool) \
+            or np.issubdtype(a.dtype, np.complexfloating):
+        raise InputError(f"image must be a real numeric array; got dtype {a.dtype}")
+    if a.ndim != 2:
+        raise InputError(f"image must be 2-D (rows, cols); got shape {a.shape} — pass one band, "
+                         "e.g. the first principal component")
+    if np.issubdtype(a.dtype, np.floating):
+        return a.astype(np.float32, copy=False) if a.dtype.itemsize <= 4 else a.astype(np.float64)
+    return a.astype(np.float32)
+
+
+def _check_mask(mask, shape) -> np.ndarray:
+    m = np.asarray(mask)
+    if m.dtype != bool and not np.issubdtype(m.dtype, np.integer):
+        raise InputError(f"mask must be a bool array (True = valid); got dtype {m.dtype}")
+    if m.shape != shape:
+        raise InputError(f"mask must have the image's shape {shape}; got {m.shape}")
+    return m.astype(bool)
+
+
+def _check_number(v, name: str, lo: float) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number; got {v!r}") from None
+    if not np.isfinite(f) or f < lo:
+        raise InputError(f"{name} must be a finite number >= {lo}; got {v!r}")
+    return f
+
+
+def _check_int(v, name: str, lo: int, hi: int | None) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+        raise InputError(f"{name} must be an integer; got {v!r}")
+    if v < lo or (hi is not None and v > hi):
+        raise InputError(f"{name} must be between {lo} and {hi if hi is not None else 'inf'}; got {v}")
+    return int(v)

@@ -1,0 +1,100 @@
+"""Robust model fit on tie points with a spatially spread check-point hold-out (array layer).
+
+Steps of :func:`fit_tie_points`:
+
+1. :func:`~fotogeo.models.ransac` with ``threshold`` (destination units) gives a first model
+   and rejects gross mismatches;
+2. :func:`~fotogeo.models.robust_refit` (Tukey IRLS over all pairs) lets every correct match
+   take part — over relief the correct matches deviate from a plane-to-plane model by far
+   more than a tight RANSAC threshold;
+3. a seeded, spatially spread ``check_fraction`` of the inliers is held out
+   (:func:`spread_split`) and the final model is re-fitted robustly on the control points only;
+4. residuals ``d = model(src) − dst`` and ``RMSE = sqrt(1/n Σ (dx² + dy²))`` for the control
+   and the check points separately.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import MatchingError
+from .models import ransac, robust_refit
+
+
+@dataclass(frozen=True)
+class TieFit:
+    model: object
+    inliers: np.ndarray  # (N,) bool over all input pairs
+    role: np.ndarray  # (N,) str: 'control', 'check' or 'outlier'
+    residual_xy: np.ndarray  # (N, 2) model(src) - dst
+    ransac_inliers: int
+    ransac_trials: int
+    sigma: float
+
+    def rmse(self, role: str) -> float:
+        sel = self.role == role
+        if not sel.any():
+            return float("nan")
+        return float(np.sqrt(np.mean(np.sum(self.residual_xy[sel] ** 2, axis=1))))
+
+    def count(self, role: str) -> int:
+        return int(np.count_nonzero(self.role == role))
+
+
+def spread_split(xy: np.ndarray, fraction: float, rng, cells: int | None = None) -> np.ndarray:
+    """Boolean mask choosing about ``fraction`` of the points, spread over a grid of cells.
+
+    Points are binned into a ``cells x cells`` grid over their bounding box; each cell gives
+    up ``round(fraction * count)`` of its points (randomly, seeded), with the rounding
+    remainder distributed so the total is ``round(fraction * N)``.
+    """
+    n = len(xy)
+    chosen = np.zeros(n, bool)
+    total = int(round(fraction * n))
+    if total <= 0 or n == 0:
+        return chosen
+    rng = np.random.default_rng(rng)
+    cells = cells or max(1, int(np.sqrt(n / 4)))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    ij = np.minimum((cells * (xy - lo) / span).astype(int), cells - 1)
+    cell = ij[:, 1] * cells + ij[:, 0]
+    order = rng.permutation(n)
+    rank = np.empty(n)
+    for c in np.unique(cell):  # rank of each point within its cell, in random order
+        members = order[cell[order] == c]
+        rank[members] = (np.arange(len(members)) + rng.random()) / len(members)
+    chosen[np.argsort(rank, kind="stable")[:total]] = True
+    return chosen
+
+
+def fit_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float,
+                   check_fraction: float = 0.3, rng=0, max_trials: int = 5000) -> TieFit:
+    """Fit ``model_cls`` to tie points ``src -> dst`` (see the module docstring)."""
+    src = np.asarray(src, float)
+    dst = np.asarray(dst, float)
+    rng = np.random.default_rng(rng)
+    rs = ransac(model_cls, src, dst, threshold, rng=rng, max_trials=max_trials,
+                min_inliers=model_cls.min_points + 2)
+    rob = robust_refit(model_cls, src, dst, rs.model, min_sigma=min_sigma)
+    inl = rob.inliers
+    n_inl = int(inl.sum())
+    if n_inl < model_cls.min_points + 2:
+        raise MatchingError(f"only {n_inl} consistent tie points for a {model_cls.name} model "
+                            f"(at least {model_cls.min_points + 2} needed)")
+    idx = np.flatnonzero(inl)
+    frac = check_fraction if n_inl - int(round(check_fraction * n_inl)) >= model_cls.min_points + 2 else 0.0
+    is_check = np.zeros(len(src), bool)
+    is_check[idx] = spread_split(src[idx], frac, rng)
+    control = inl & ~is_check
+    fit = robust_refit(model_cls, src[control], dst[control], rob.model, min_sigma=min_sigma)
+    model = fit.model
+    role = np.full(len(src), "outlier", dtype=object)
+    role[control] = "control"
+    role[is_check] = "check"
+    # control points the final refit rejected stay out of the statistics
+    ctrl_idx = np.flatnonzero(control)
+    role[ctrl_idx[~fit.inliers]] = "outlier"
+    resid = model.forward(src) - dst
+    return TieFit(model, role != "outlier", role.astype(str), resid, int(rs.inliers.sum()), rs.trials, fit.sigma)

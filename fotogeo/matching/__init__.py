@@ -1,0 +1,27 @@
+"""Area-based matching: NCC, least-squares matching, pyramids, GCP transfer, X targets.
+
+All coordinates are ``(x, y)`` in the GDAL corner convention of :mod:`fotogeo.pixels`
+(centre of the top-left pixel = (0.5, 0.5)). Images are 2-D arrays of any real dtype with
+NaN (or an optional boolean mask, True = valid) marking nodata. Bad arguments raise
+:class:`fotogeo.errors.InputError`; matching failures are reported in each result's
+``status`` and never raised.
+
+- :func:`ncc` — normalised cross-correlation with a sub-pixel peak fit (seed 001).
+- :func:`lsm`, :func:`lsm_many` — least-squares matching, 6 affine + 2 radiometric
+  parameters, σ from the Gauss-Markov covariance (seeds 000/001).
+- :func:`build_pyramid`, :func:`pyramid_match`, :func:`transfer_points` — coarse-to-fine
+  NCC on ``cv2.pyrDown`` pyramids followed by LSM (seeds 000/003).
+- :func:`measure_target`, :func:`synthetic_x_target` — X-shaped fiducial / calibration
+  targets: edge method, then LSM against a synthetic template (seed 000).
+"""
+from .lsm import CONVERGED, PARAMETERS, LSMBatch, LSMResult, lsm, lsm_many
+from .ncc import NCCResult, ncc
+from .pyramid import (PyramidMatch, TransferResult, build_pyramid, from_level, levels_for, pyramid_match,
+                      to_level, transfer_points)
+from .targets import TargetResult, measure_target, synthetic_x_target
+
+__all__ = [
+    "CONVERGED", "PARAMETERS", "LSMBatch", "LSMResult", "NCCResult", "PyramidMatch", "TargetResult",
+    "TransferResult", "build_pyramid", "from_level", "levels_for", "lsm", "lsm_many", "measure_target",
+    "ncc", "pyramid_match", "synthetic_x_target", "to_level", "transfer_points",
+]

@@ -1,0 +1,194 @@
+"""Measurement of X-shaped fiducial / calibration targets (seed 000).
+
+Two steps, as in the paper:
+
+1. **Approximate centre by an edge method.** In a window around the approximation, a first
+   threshold ``T0 = (MAX + MIN) / 2`` separates target from background (the target is the
+   minority class unless ``polarity`` says otherwise); their mean grey levels ``MGL``
+   (target) and ``MBGL`` (background) give the final threshold
+   ``T = sqrt((MGL² + MBGL²) / 2)`` (paper eq. 11). Along every row the grey-value profile
+   crosses ``T`` at the arm edges (rising and falling gradient); edges are located to
+   sub-pixel by linear interpolation, and the arm mid-points ``x_m = (x_rise + x_fall) / 2``
+   (eq. 12) of rows that cut both arms are sorted into the two diagonals. A straight line
+   ``x = a + b·y`` is fitted to each diagonal's mid-points; their intersection is the
+   approximate centre, their slopes the arm directions and the run lengths the arm width.
+2. **Sub-pixel centre by least-squares matching** of a synthetic X-target template (the
+   measured arm directions, width and grey levels, area-sampled) against the image with the
+   affine + radiometric model of :mod:`fotogeo.matching.lsm`. The template centre maps to
+   the target centre; its precision is the LSM σ.
+
+Coordinates are GDAL corner convention (:mod:`fotogeo.pixels`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..pixels import from_centre, pixel_centres
+from .lsm import CONVERGED, lsm_many
+from .ncc import as_image, as_xy, check_int
+
+
+def synthetic_x_target(shape, centre_xy, arm_width: float, angles_deg=(45.0, 135.0), target: float = 255.0,
+                       background: float = 0.0, radius: float | None = None, supersample: int = 8) -> np.ndarray:
+    """Area-sampled image of an X target: two straight arms of width ``arm_width`` crossing at
+    ``centre_xy`` (corner convention) at ``angles_deg`` (direction of each arm, degrees from
+    the +x axis towards +y, i.e. clockwise on screen); arms end at ``radius`` px from the
+    centre if given. Each pixel is the mean over ``supersample²`` sub-pixel samples.
+    """
+    rows, cols = int(shape[0]), int(shape[1])
+    s = check_int(supersample, "supersample", 1)
+    sub = (np.arange(s) + 0.5) / s - 0.5
+    X, Y = pixel_centres(cols, rows)
+    xs = (X[..., None, None] + sub[None, None, None, :]) - float(centre_xy[0]) + np.zeros((s, 1))
+    ys = (Y[..., None, None] + sub[None, None, :, None]) - float(centre_xy[1]) + np.zeros((1, s))
+    hit = np.zeros(xs.shape, dtype=bool)
+    for a in np.deg2rad(np.asarray(angles_deg, dtype=np.float64)):
+        hit |= np.abs(-np.sin(a) * xs + np.cos(a) * ys) <= arm_width / 2.0
+    if radius is not None:
+        hit &= xs * xs + ys * ys <= radius * radius
+    cover = hit.mean(axis=(-2, -1))
+    return background + (target - background) * cover
+
+
+@dataclass(frozen=True)
+class TargetResult:
+    """A measured X target.
+
+    ``xy``: sub-pixel centre (corner convention; NaN if failed); ``sigma``: (σx, σy) px from
+    LSM; ``approx_xy``: centre from the edge method; ``status``: ``"converged"`` or why it
+    failed; ``target_grey``, ``background_grey`` (MGL, MBGL); ``arm_width`` px;
+    ``arm_angles`` degrees; ``ncc``: correlation of template and image after LSM.
+    """
+
+    xy: np.ndarray
+    sigma: np.ndarray
+    approx_xy: np.ndarray
+    status: str
+    target_grey: float
+    background_grey: float
+    arm_width: float
+    arm_angles: tuple
+    ncc: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status == CONVERGED
+
+
+def _row_runs(row: np.ndarray, T: float, sign: float):
+    """Sub-pixel (rise, fall) crossings of ``sign·(row − T) > 0`` runs not touching the ends."""
+    above = sign * (row - T) > 0
+    idx = np.nonzero(above[1:] != above[:-1])[0]
+    runs, start = [], None
+    for j in idx:
+        x = j + (T - row[j]) / (row[j + 1] - row[j])  # centre convention within the row
+        if not above[j]:
+            start = x
+        elif start is not None:
+            runs.append((start, x))
+            start = None
+    return runs
+
+
+def _edge_centre(win: np.ndarray, polarity: str):
+    """Approximate centre etc. from the edge method; raises ``ValueError`` with a reason."""
+    mx, mn = float(win.max()), float(win.min())
+    if not mx > mn:
+        raise ValueError("flat window")
+    T0 = 0.5 * (mx + mn)
+    bright = win > T0
+    if polarity == "auto":
+        sign = 1.0 if bright.mean() < 0.5 else -1.0
+    else:
+        sign = 1.0 if polarity == "bright" else -1.0
+    tgt = bright if sign > 0 else ~bright
+    mgl, mbgl = float(win[tgt].mean()), float(win[~tgt].mean())
+    T = float(np.sqrt(0.5 * (mgl * mgl + mbgl * mbgl)))
+    two, one = [], []
+    for r in range(win.shape[0]):
+        runs = _row_runs(win[r], T, sign)
+        y = r  # centre convention
+        if len(runs) == 2 and runs[1][0] - runs[0][1] > 1.0:
+            (a0, a1), (b0, b1) = runs
+            two.append((y, 0.5 * (a0 + a1), 0.5 * (b0 + b1), a1 - a0, b1 - b0))
+        elif len(runs) == 1:
+            one.append((y, 0.5 * (runs[0][0] + runs[0][1])))
+    if len(two) < 6:
+        raise ValueError("too few rows cut both arms")
+    two = np.array(two)
+    y_mid = float(np.median([o[0] for o in one])) if one else float(two[:, 0].mean())
+    up = two[:, 0] < y_mid
+    # "\" diagonal: left run above the crossing, right run below; "/" the other way round
+    back = np.concatenate([two[up][:, [0, 1, 3]], two[~up][:, [0, 2, 4]]])
+    fwd = np.concatenate([two[up][:, [0, 2, 4]], two[~up][:, [0, 1, 3]]])
+    if len(back) < 3 or len(fwd) < 3:
+        raise ValueError("arms not found on both diagonals")
+    A1 = np.polyfit(back[:, 0], back[:, 1], 1)  # x = b*y + a
+    A2 = np.polyfit(fwd[:, 0], fwd[:, 1], 1)
+    if abs(A1[0] - A2[0]) < 1e-6:
+        raise ValueError("arms are parallel")
+    yc = (A2[1] - A1[1]) / (A1[0] - A2[0])
+    xc = A1[0] * yc + A1[1]
+    width = float(np.median(np.concatenate([back[:, 2] / np.hypot(1, A1[0]), fwd[:, 2] / np.hypot(1, A2[0])])))
+    angles = (float(np.degrees(np.arctan2(1.0, A1[0]))), float(np.degrees(np.arctan2(1.0, A2[0]))))
+    return np.array([xc, yc]), mgl, mbgl, width, angles
+
+
+def measure_target(image, approx_xy, *, half_window: int = 12, search_half_window: int | None = None,
+                   polarity: str = "auto", arm_width: float | None = None, arm_angles=None,
+                   interpolation: str = "bicubic", max_iterations: int = 30, mask=None) -> TargetResult:
+    """Measure the centre of an X-shaped target near ``approx_xy`` to sub-pixel precision.
+
+    Parameters
+    ----------
+    image : 2-D array (any real dtype, NaN = nodata)
+    approx_xy : (x, y) approximate centre, corner convention; within a few pixels
+    half_window : LSM window ``(2h+1)²``; the arms should reach at least ``h`` px from the centre
+    search_half_window : edge-method window half-size (default ``half_window + 3``)
+    polarity : ``"auto"`` (target = minority class), ``"bright"`` or ``"dark"``
+    arm_width, arm_angles : override the measured arm width (px) / directions (degrees)
+    interpolation, max_iterations : passed to :func:`fotogeo.matching.lsm_many`
+
+    Returns :class:`TargetResult`; failures are in ``status`` (``"window outside image"``,
+    ``"nodata in window"``, ``"edge method: ..."``, or an LSM status).
+    """
+    img = as_image(image, "image", mask)
+    q = as_xy(approx_xy, "approx_xy")
+    h = check_int(half_window, "half_window", 3)
+    hs = h + 3 if search_half_window is None else check_int(search_half_window, "search_half_window", 3)
+    if polarity not in ("auto", "bright", "dark"):
+        raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
+    nan2 = np.array([np.nan, np.nan])
+
+    def fail(status, approx=nan2, mgl=np.nan, mbgl=np.nan, w=np.nan, ang=(np.nan, np.nan)):
+        return TargetResult(nan2, nan2, approx, status, mgl, mbgl, w, ang, np.nan)
+
+    c, r = int(np.floor(q[0])), int(np.floor(q[1]))
+    H, W = img.shape
+    if r - hs < 0 or c - hs < 0 or r + hs >= H or c + hs >= W:
+        return fail("window outside image")
+    win = img[r - hs:r + hs + 1, c - hs:c + hs + 1]
+    if np.isnan(win).any():
+        return fail("nodata in window")
+    try:
+        centre, mgl, mbgl, width, angles = _edge_centre(win, polarity)
+    except ValueError as exc:
+        return fail(f"edge method: {exc}")
+    approx = from_centre(centre + [c - hs, r - hs])
+    if arm_width is not None:
+        width = float(arm_width)
+    if arm_angles is not None:
+        angles = tuple(float(a) for a in arm_angles)
+    if not (np.isfinite(approx).all() and np.hypot(*(approx - q)) <= hs):
+        return fail("edge method: centre outside the window", approx, mgl, mbgl, width, angles)
+    if not (0.5 <= width <= h):
+        return fail("edge method: implausible arm width", approx, mgl, mbgl, width, angles)
+    s = h + 3
+    tpl = synthetic_x_target((2 * s + 1, 2 * s + 1), (s + 0.5, s + 0.5), width, angles, mgl, mbgl)
+    b = lsm_many(tpl, img, [[s + 0.5, s + 0.5]], approx[None], half_window=h, interpolation=interpolation,
+                 max_iterations=max_iterations, max_shift=3.0)
+    res = b[0]
+    return TargetResult(res.xy, res.sigma, approx, res.status, mgl, mbgl, width, angles, res.ncc)

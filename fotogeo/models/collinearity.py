@@ -1,0 +1,203 @@
+"""Space resection: the collinearity equations with known interior orientation.
+
+Ground ``(X, Y, Z)`` -> pixel ``(col, row)`` through a pinhole camera (see
+:mod:`fotogeo.camera` for the equations and the PATB angle convention)::
+
+    (x, y, z) = (R(ω, φ, κ)·diag(1, −1, −1))ᵀ (X − C),   col = fx x/z + ppx,   row = fy y/z + ppy
+
+The 6 exterior-orientation unknowns ``C = (X0, Y0, Z0)``, ``ω, φ, κ`` (degrees) are estimated
+from ≥ 4 GCPs by Gauss-Newton on the weighted image error Σ w |pixel − f(X)|², with the
+rotation updated multiplicatively (``R ← R·exp([δθ]×)``), starting from the 3-D DLT
+(:class:`~fotogeo.models.spatial.DLT`, ≥ 6 points, not coplanar) decomposed with the known
+calibration matrix ``K``: ``K⁻¹ P[:, :3] ∝ (R·D)ᵀ`` (nearest rotation by SVD), ``C = −P[:, :3]⁻¹
+P[:, 3]``. With fewer points or flat terrain the start comes from OpenCV's ``solvePnP``
+(SQPnP).
+
+The interior orientation is fixed: bind it with ``Collinearity.for_camera(camera)`` (a
+subclass usable wherever a model class is expected, e.g. :func:`~fotogeo.models.ransac`) or
+pass ``camera=`` to :meth:`Collinearity.estimate`. ``params`` holds the 6 unknowns (X0, Y0,
+Z0 in map units; ω, φ, κ in degrees) followed by the 7 fixed interior values (f, sensor w, h,
+image w, h, ppx, ppy), so :func:`~fotogeo.models.base.model_from_dict` restores the model;
+``n_params`` counts the 6 unknowns. The normalisations are the identity (the resection is
+computed in map units relative to the points' centroid).
+
+``info``: ``sigma0`` = sqrt(vᵀPv / (2n − 6)) (px), ``std`` (standard deviations of the 6
+unknowns, σ0²·(JᵀPJ)⁻¹, in map units and degrees), ``cond`` (of the scaled Jacobian),
+``iterations``, ``init`` ("dlt" or "pnp").
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from ..camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
+from ..dem import as_height_source
+from ..errors import InputError, ModelError
+from .base import Normalisation, check_pairs, register_model
+from .spatial import DLT, FittedModel
+
+_D = np.diag([1.0, -1.0, -1.0])
+
+
+def _rodrigues(v: np.ndarray) -> np.ndarray:
+    th = float(np.linalg.norm(v))
+    if th < 1e-15:
+        return np.eye(3)
+    k = v / th
+    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(th) * Kx + (1 - math.cos(th)) * Kx @ Kx
+
+
+@register_model
+class Collinearity(FittedModel):
+    name = "collinearity"
+    n_params = 6
+    min_points = 4
+    src_dims = 3
+    camera: FrameCamera | None = None  # bound by for_camera()
+
+    @classmethod
+    def for_camera(cls, camera: FrameCamera) -> type["Collinearity"]:
+        """A subclass with the interior orientation ``camera`` fixed."""
+        return type("Collinearity", (cls,), {"camera": camera, "__module__": __name__})
+
+    # -- geometry ------------------------------------------------------------------------------
+    @property
+    def frame(self) -> OrientedFrame:
+        p = self.params
+        cam = FrameCamera(p[6], (p[7], p[8]), (int(p[9]), int(p[10])), (p[11], p[12]))
+        return OrientedFrame(cam, ExteriorOrientation(*p[:6]))
+
+    def _apply(self, s):  # identity normalisations: s are map coordinates
+        return self.frame.world_to_pixel(s)
+
+    def inverse(self, dst, z=None, *, dem=None, **_):
+        """Pixels -> ground at heights ``z`` (scalar or (N,)) or on ``dem`` (exact ray intersection)."""
+        if dem is not None:
+            return self.frame.pixel_to_world(dst, dem)
+        if z is None:
+            raise InputError("collinearity: the inverse needs the height: pass z= (scalar or one per point) or dem=")
+        return self.frame.pixel_to_world_at(dst, z)
+
+    # -- estimation -------------------------------------------------------------------------
+    @classmethod
+    def estimate(cls, src, dst, weights=None, *, camera: FrameCamera | None = None,
+                 iterations: int = 30):
+        """Space resection from GCPs ``src`` (X, Y, Z) -> ``dst`` (col, row); see the module doc."""
+        camera = camera or cls.camera
+        if camera is None:
+            raise InputError("collinearity needs the interior orientation: use Collinearity.for_camera(camera) "
+                             "or pass camera=")
+        src, dst, w = check_pairs(cls, src, dst, weights)
+        use = w > 0
+        ctr = Normalisation.of(src[use]).offset
+        s = src - ctr  # local coordinates for conditioning
+        K = np.array([[camera.fx, 0, camera.principal_point[0]], [0, camera.fy, camera.principal_point[1]],
+                      [0, 0, 1.0]])
+        init = "dlt"
+        try:
+            if np.count_nonzero(use) < DLT.min_points:
+                raise ModelError("too few points for the DLT start")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                P = DLT.estimate(s[use], dst[use], w[use]).world_matrix()
+            C, Rcv = cls._decompose(P, K)
+        except ModelError:
+            init = "pnp"
+            C, Rcv = cls._pnp(s[use], dst[use], K)
+        C, Rcv, info = cls._gauss_newton(s, dst, w, K, C, Rcv, iterations)
+        ang = angles_patb(Rcv @ _D)
+        fixed = [camera.focal_length, *camera.sensor_size, *camera.image_size, *camera.principal_point]
+        params = np.array([*(C + ctr), *ang, *fixed], dtype=np.float64)
+        ident3 = Normalisation(np.zeros(3), np.ones(3))
+        ident2 = Normalisation(np.zeros(2), np.ones(2))
+        info.update(init=init, n_points=int(np.count_nonzero(use)))
+        model = cls(params, ident3, ident2, info)
+        model._warn_if_ill_posed()
+        return model
+
+    @staticmethod
+    def _decompose(P, K):
+        M = np.linalg.solve(K, P[:, :3])
+        if np.linalg.det(M) < 0:
+            M, P = -M, -P
+        U, S, Vt = np.linalg.svd(M)
+        if S[-1] < 1e-9 * S[0]:
+            raise ModelError("degenerate DLT")
+        Rt = U @ Vt  # (R·D)ᵀ
+        C = -np.linalg.solve(P[:, :3], P[:, 3])
+        return C, Rt.T
+
+    @staticmethod
+    def _pnp(s, d, K):
+        import cv2
+
+        flags = cv2.SOLVEPNP_SQPNP if len(s) >= 3 else cv2.SOLVEPNP_ITERATIVE
+        ok, rvec, tvec = cv2.solvePnP(s.astype(np.float64), (d - 0.5).astype(np.float64), K, None,
+                                      flags=flags)  # OpenCV: centre convention
+        if not ok:
+            raise ModelError("collinearity: no initial exterior orientation found (solvePnP failed); "
+                             "check that the GCP ground and pixel coordinates correspond")
+        Rt, _ = cv2.Rodrigues(rvec)
+        Rt = Rt.astype(np.float64)
+        # OpenCV's K maps centre-convention pixels: shift ppx, ppy back by 0.5 to compare
+        return -Rt.T @ tvec.reshape(3), Rt.T
+
+    @staticmethod
+    def _project(s, K, C, Rcv):
+        c = (s - C) @ Rcv
+        return np.column_stack([K[0, 0] * c[:, 0] / c[:, 2] + K[0, 2], K[1, 1] * c[:, 1] / c[:, 2] + K[1, 2]]), c
+
+    @classmethod
+    def _gauss_newton(cls, s, d, w, K, C, Rcv, iterations):
+        sw = np.sqrt(np.repeat(w, 2))
+        scale = float(np.median(np.linalg.norm(s - C, axis=1)))  # distance: balances position and angle
+        it, J, r = 0, None, None
+        for it in range(1, iterations + 1):
+            px, c = cls._project(s, K, C, Rcv)
+            if np.any(c[:, 2] <= 0):
+                raise ModelError("collinearity: GCPs fall behind the camera during the adjustment; "
+                                 "check the points (ground/pixel order, units)")
+            r = (d - px).reshape(-1)
+            J = np.empty((len(r), 6))
+            h = 1e-6
+            for k in range(6):
+                e = np.zeros(6)
+                e[k] = h
+                cols = []
+                for sgn in (1, -1):
+                    Ck = C + sgn * e[:3] * scale
+                    Rk = Rcv @ _rodrigues(sgn * e[3:])
+                    cols.append(cls._project(s, K, Ck, Rk)[0].reshape(-1))
+                J[:, k] = (cols[0] - cols[1]) / (2 * h)
+            step, *_ = np.linalg.lstsq(J * sw[:, None], r * sw, rcond=None)
+            C = C + step[:3] * scale
+            Rcv = Rcv @ _rodrigues(step[3:])
+            if np.max(np.abs(step)) < 1e-12:
+                break
+        px, _ = cls._project(s, K, C, Rcv)
+        v = (d - px).reshape(-1)
+        dof = max(1, len(v) - 6 - int(np.sum(w == 0)) * 2)
+        sigma0 = float(np.sqrt(np.sum(np.repeat(w, 2) * v ** 2) / dof))
+        Jw = J * sw[:, None]
+        sv = np.linalg.svd(Jw, compute_uv=False)
+        info = {"sigma0": sigma0, "cond": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
+                "iterations": it}
+        try:
+            Q = np.linalg.inv(Jw.T @ Jw)
+            std = np.sqrt(np.diag(Q)) * sigma0
+            info["std"] = [*(std[:3] * scale), *np.degrees(std[3:])]  # rotation std about camera axes
+        except np.linalg.LinAlgError:
+            info["std"] = [float("inf")] * 6
+        return C, Rcv, info
+
+    def to_dict(self) -> dict:
+        d = super().to_dict()
+        d["params_names"] = ["X0", "Y0", "Z0", "omega", "phi", "kappa", "focal_length", "sensor_w",
+                             "sensor_h", "image_w", "image_h", "ppx", "ppy"]
+        return d
+
+
+__all__ = ["Collinearity", "as_height_source"]

@@ -1,0 +1,248 @@
+"""Rational Function Models (RFM / RPC) with cubic numerators and denominators.
+
+In normalised coordinates (RPC00B style: ``u = (x − offset) / scale``, about [−1, 1]; the
+offsets/scales are the model's ``src_norm`` / ``dst_norm``), with ``t(s)`` the 20 cubic terms
+of :func:`~fotogeo.models.polynomial.terms_3d` in RPC00B order (``L, P, H`` = first, second,
+third source axis)::
+
+    x = (a · t(s)) / (b · t(s)),    y = (c · t(s)) / (d · t(s)),    b0 = d0 = 1
+
+Variants (Öztürk et al.; Tao & Hu 2001):
+
+* ``rfm`` — separate denominators ``b ≠ d`` (20 + 19 per axis, 78 parameters);
+* ``rfm-common`` — one common denominator ``b = d`` (59 parameters);
+* ``rfm-poly`` — no denominator ``b = d = (1, 0, …)``: a cubic polynomial (40 parameters).
+
+Direction: ``rfm*`` classes are fitted ground -> image (``src = (X, Y, Z)``, ``dst = (col,
+row)``, like RPC00B). The ``rfm*-i2g`` classes are the same equations fitted image ->
+ground: ``src = (col, row, Z)``, ``dst = (X, Y)``; their ``inverse(XY, z)`` gives pixels.
+
+Solution (linearised, iterative, regularised): each rational equation is multiplied by its
+denominator, ``a·t − x (b·t) = 0``, which is linear in the parameters: rows
+``[t, −x·t₁..₁₉] p = x``. Each iteration re-weights the rows by ``w / Q²`` with ``Q = b·t``
+from the previous iteration, so the minimised quantity tends to the true image error
+Σ w (x − a·t / b·t)² (Tao & Hu's iterative least squares). Every solve is Tikhonov-
+regularised, ``min ‖W^½(A p − l)‖² + λ² ‖p₂₃‖²``, where ``p₂₃`` are the coefficients of the
+second- and third-degree terms only (the constant and linear terms are free): strong
+regularisation thus tends to the first-order rational function, which is already exact for a
+pinhole frame camera (DLT), and weak regularisation to the full cubic RFM. ``λ`` is chosen per
+solve by generalised cross-validation, ``GCV(λ) = n ‖r_λ‖² / (n − tr H_λ)²`` over a
+logarithmic grid ``λ = σ_max(A) · 10^k``, ``k ∈ [−8, 1]`` (σ_max the largest singular value of
+the weighted design; ``H_λ`` the influence matrix). The iteration starts from the
+unregularised first-order rational fit.
+
+``info``: ``lambda`` and ``lambda_rel`` (λ / σ_max) per solved block, ``dof`` (effective
+number of parameters tr H), ``cond`` and ``rank`` of the unregularised weighted design (the
+effective rank at rtol 1e-12), ``iterations``, ``direction``, ``min_denominator`` (smallest
+|Q| over a 5×5×5 grid of the normalised cube, relative to its largest): an
+:class:`~fotogeo.models.spatial.IllPosedWarning` is issued when the unregularised problem is
+ill-conditioned (too few or badly spread points) or a denominator nearly vanishes.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..errors import ModelError
+from .base import register_model
+from .polynomial import TERM_DEGREE_3D, terms_3d
+from .spatial import FittedModel, IllPosedWarning, design_diagnostics
+
+_HIGH = TERM_DEGREE_3D >= 2  # regularised terms
+_LOG_GRID = np.arange(-8.0, 1.01, 0.25)
+CRITERION = 'loo'
+TOLERANCE = 0.05
+
+
+def tikhonov_gcv(A, l, Lmat, grid=_LOG_GRID, accept=None):
+    """Solve ``min ‖A p − l‖² + λ² ‖Lmat p‖²`` with λ chosen by cross-validation over ``grid``.
+
+    Returns ``(p, λ, λ/σ_max, tr H)``. Raises :class:`ModelError` if no λ gives a solution.
+    """
+    n, m = A.shape
+    smax = np.linalg.norm(A, 2)
+    if not np.isfinite(smax) or smax == 0:
+        raise ModelError("RFM: the design matrix is zero or not finite; check the points")
+    cands = []
+    for k in grid:
+        lam = smax * 10.0 ** k
+        M = np.vstack([A, lam * Lmat])
+        U, S, Vt = np.linalg.svd(M, full_matrices=False)
+        if S[-1] <= S[0] * 1e-13:
+            continue
+        Ut = U[:n]
+        p = Vt.T @ ((Ut.T @ l) / S)
+        r = l - A @ p
+        hii = np.sum(Ut ** 2, axis=1)
+        trH = float(hii.sum())
+        if n - trH < 0.5 or hii.max() > 1 - 1e-9:
+            continue
+        if accept is not None and not accept(p):
+            continue
+        if CRITERION == "loo":
+            g = float(np.sum((r / (1 - hii)) ** 2))
+        else:
+            g = n * float(r @ r) / (n - trH) ** 2
+        cands.append((g, p, lam, 10.0 ** k, trH))
+    if not cands:
+        raise ModelError("RFM: no regularisation parameter gives a solution; the points leave the first-"
+                         "order terms undetermined (e.g. all at one height); add points or use a 2-D model")
+    gmin = min(c[0] for c in cands)
+    best = max((c for c in cands if c[0] <= (1 + TOLERANCE) * gmin), key=lambda c: c[2])
+    return best[1], best[2], best[3], best[4]
+
+
+class _RFMBase(FittedModel):
+    """Shared RFM machinery; ``variant`` is 'separate', 'common' or 'poly'."""
+
+    src_dims = 3
+    uses_height = True
+    variant = "separate"
+    direction = "ground-to-image"
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """``(4, 20)``: numerator x, denominator x, numerator y, denominator y (RPC00B order)."""
+        return self.params.reshape(4, 20)
+
+    def _apply(self, s):
+        T = terms_3d(s)
+        nx, dx, ny, dy = self.coefficients
+        return np.column_stack([(T @ nx) / (T @ dx), (T @ ny) / (T @ dy)])
+
+    @classmethod
+    def _blocks(cls, T, d, q):
+        """Linearised design blocks ``(A, l, Lmat, weights-without-w, first-order columns)``."""
+        n = len(T)
+        H, H1 = np.diag(_HIGH.astype(float))[_HIGH], np.diag(_HIGH[1:].astype(float))[_HIGH[1:]]
+        lin, lin1 = ~_HIGH, ~_HIGH[1:]
+        if cls.variant == "poly":
+            return [(T, d[:, k], H, np.ones(n), lin) for k in range(2)]
+        z, z1 = np.zeros_like(T), np.zeros_like(T[:, 1:])
+        if cls.variant == "separate":
+            # unknowns [a (20), c (20), b' (19), d' (19)]; besides the higher-order terms the
+            # difference of the two denominators is penalised, so that strong regularisation
+            # tends to the common-denominator first-order model: the DLT.
+            A = np.vstack([np.column_stack([T, z, -d[:, :1] * T[:, 1:], z1]),
+                           np.column_stack([z, T, z1, -d[:, 1:] * T[:, 1:]])])
+            L = np.zeros((4 * 16 + 19, 78))
+            L[0:16, 0:20], L[16:32, 20:40] = H, H
+            L[32:48, 40:59], L[48:64, 59:78] = H1, H1
+            L[64:, 40:59], L[64:, 59:78] = np.eye(19), -np.eye(19)
+            keep = np.concatenate([lin, lin, lin1, lin1])
+            return [(A, d.T.reshape(-1), L, np.concatenate([1.0 / q[:, 0] ** 2, 1.0 / q[:, 1] ** 2]), keep)]
+        A = np.vstack([np.column_stack([T, z, -d[:, :1] * T[:, 1:]]),
+                       np.column_stack([z, T, -d[:, 1:] * T[:, 1:]])])
+        L = np.zeros((48, 59))
+        L[0:16, 0:20], L[16:32, 20:40], L[32:48, 40:59] = H, H, H1
+        keep = np.concatenate([lin, lin, lin1])
+        return [(A, d.T.reshape(-1), L, np.tile(1.0 / q[:, 0] ** 2, 2), keep)]
+
+    @classmethod
+    def _unpack(cls, sols):
+        one = np.zeros(20)
+        one[0] = 1.0
+        if cls.variant == "poly":
+            return np.concatenate([sols[0], one, sols[1], one])
+        p = sols[0]
+        if cls.variant == "separate":
+            return np.concatenate([p[:20], [1.0], p[40:59], p[20:40], [1.0], p[59:78]])
+        den = np.concatenate([[1.0], p[40:]])
+        return np.concatenate([p[:20], den, p[20:40], den])
+
+    @classmethod
+    def _solve(cls, T, d, w, q, linear_only=False):
+        sols, lams, rels, dofs, conds, ranks = [], [], [], [], [], []
+        for A, l, L, qw, keep in cls._blocks(T, d, q):
+            rw = np.sqrt(np.tile(w, len(l) // len(w)) * qw)
+            Aw, lw = A * rw[:, None], l * rw
+            if linear_only:  # only constant and linear terms, unregularised (separate: the DLT)
+                if cls.variant == "separate":
+                    keep = keep & ~np.concatenate([np.zeros(59, bool), np.ones(19, bool)])
+                    Aw = Aw.copy()
+                    Aw[:, 40:59] += Aw[:, 59:78]  # one common denominator: b' = d'
+                x = np.zeros(A.shape[1])
+                x[keep], _, rank, _ = np.linalg.lstsq(Aw[:, keep], lw, rcond=None)
+                if rank < keep.sum():
+                    raise ModelError(f"model {cls.name!r}: the points do not determine even the first-order "
+                                     "terms (coplanar, collinear or duplicated points); use a 2-D model")
+                if cls.variant == "separate":
+                    x[59:78] = x[40:59]
+                sols.append(x)
+                continue
+            x, lam, rel, dof = tikhonov_gcv(Aw, lw, L, accept=cls._accept)
+            cond, rank = design_diagnostics(Aw)
+            sols.append(x)
+            lams.append(lam), rels.append(rel), dofs.append(dof), conds.append(cond), ranks.append(rank)
+        return cls._unpack(sols), {"lambda": lams, "lambda_rel": rels, "dof": dofs, "cond": conds,
+                                   "rank": ranks}
+
+    @classmethod
+    def _accept(cls, p):
+        """Reject solutions whose denominator nearly vanishes inside the normalised cube."""
+        if cls.variant == "poly":
+            return True
+        return cls._min_denominator(cls._unpack([p])) >= 0.05
+
+    @classmethod
+    def _fit(cls, s, d, w, iterations: int = 20, tol: float = 1e-9):
+        T = terms_3d(s)
+        q = np.ones((len(s), 2))
+        params = None
+        for _ in range(1 if cls.variant == "poly" else 5):  # first-order start (Q = 1 for poly)
+            params, _ = cls._solve(T, d, w, q, linear_only=True)
+            q = cls._denominators(T, params)
+        info, it = {}, 0
+        for it in range(1, iterations + 1):
+            new, info = cls._solve(T, d, w, q)
+            change = np.max(np.abs(new - params))
+            params = new
+            q = cls._denominators(T, params)
+            if cls.variant == "poly" or change < tol:
+                break
+        info.update(iterations=it, direction=cls.direction, variant=cls.variant,
+                    regularisation="tikhonov on degree-2/3 terms, lambda by GCV",
+                    min_denominator=cls._min_denominator(params))
+        return params, info
+
+    @staticmethod
+    def _denominators(T, params):
+        c = params.reshape(4, 20)
+        return np.column_stack([T @ c[1], T @ c[3]])
+
+    @staticmethod
+    def _min_denominator(params):
+        g = np.linspace(-1, 1, 5)
+        cube = np.stack(np.meshgrid(g, g, g), -1).reshape(-1, 3)
+        q = np.abs(_RFMBase._denominators(terms_3d(cube), params))
+        return float(q.min() / q.max())
+
+    def _warn_if_ill_posed(self):
+        super()._warn_if_ill_posed()
+        if self.info.get("min_denominator", 1.0) < 0.05:
+            self.info.setdefault("ill_posed", []).append("denominator nearly zero inside the normalised domain")
+            warnings.warn(f"model {self.name!r}: a denominator nearly vanishes inside the fitted domain "
+                          f"(min |Q| / max |Q| = {self.info['min_denominator']:.2g}); predictions there are "
+                          "unreliable — use 'rfm-common', 'rfm-poly' or more, better spread points",
+                          IllPosedWarning, stacklevel=3)
+
+
+def _rfm_class(cls_name, name, variant, n_params, min_points, direction):
+    doc = (f"Cubic RFM, {variant} denominator(s), fitted {direction} "
+           f"({n_params} parameters, ≥ {min_points} points; Tikhonov + GCV).")
+    cls = type(cls_name, (_RFMBase,), {"name": name, "variant": variant, "n_params": n_params,
+                                       "min_points": min_points, "direction": direction, "__doc__": doc,
+                                       "__module__": __name__})
+    return register_model(cls)
+
+
+# minimum points: the unregularised first-order part (4 + 3 per axis, separate; 4 + 4 + 3
+# for two axes, common; 4 per axis, poly) must be determined
+RFM = _rfm_class("RFM", "rfm", "separate", 78, 7, "ground-to-image")
+RFMCommon = _rfm_class("RFMCommon", "rfm-common", "common", 59, 6, "ground-to-image")
+RFMPoly = _rfm_class("RFMPoly", "rfm-poly", "poly", 40, 4, "ground-to-image")
+RFMImageToGround = _rfm_class("RFMImageToGround", "rfm-i2g", "separate", 78, 7, "image-to-ground")
+RFMCommonImageToGround = _rfm_class("RFMCommonImageToGround", "rfm-common-i2g", "common", 59, 6,
+                                    "image-to-ground")
+RFMPolyImageToGround = _rfm_class("RFMPolyImageToGround", "rfm-poly-i2g", "poly", 40, 4, "image-to-ground")

@@ -1,0 +1,216 @@
+"""Shared machinery of the ground -> image orientation models, and the 3-D DLT.
+
+3-D models map ``src = (X, Y, Z)`` ground points (``src_dims = 3``) to ``dst = (col, row)``
+pixels (GDAL corner convention). The same classes can be fitted the other way round, image
+-> ground, by passing ``src = (col, row, Z)`` and ``dst = (X, Y)``: the equations only see a
+3-D source and a 2-D destination (the ``-i2g`` RFM names record that direction).
+
+``inverse(dst, z)`` of a 3-D model needs the third source coordinate: ``z`` (scalar or
+``(N,)``) is the height (or, for an image -> ground fit, the height that goes with the
+pixel), and the first two source coordinates are found by Newton's method at that fixed
+``z``. ``inverse(dst, dem=dem)`` instead intersects with a DEM (ground -> image models):
+``Z`` is updated from ``dem.heights(X, Y)`` until it changes by less than ``tol_z``.
+
+Estimation runs in normalised coordinates (:class:`~fotogeo.models.base.Normalisation`),
+records diagnostics in ``model.info`` (``cond``: condition number of the weighted design
+matrix in normalised coordinates; ``rank``: its numerical rank; ``relief``: the ratio of
+the source's third-axis half-range to its horizontal half-range) and warns with
+:class:`IllPosedWarning` when the problem is ill-posed (nearly flat terrain for a model with
+height terms, condition number above ``COND_WARN``, or fewer points than parameters).
+
+DLT (11 parameters, ≥ 6 points, not all coplanar): ``col = (L1 X + L2 Y + L3 Z + L4) /
+(L9 X + L10 Y + L11 Z + 1)``, ``row = (L5 X + L6 Y + L7 Z + L8) / (L9 X + L10 Y + L11 Z + 1)``
+— an exact pinhole camera. Solved by the linear (homogeneous, SVD) DLT in normalised
+coordinates, then refined by Gauss-Newton on the weighted image error.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..dem import as_height_source
+from ..errors import InputError, ModelError
+from .base import Model, Normalisation, check_pairs, register_model
+
+#: condition number (normalised weighted design) above which a fit is reported ill-posed
+COND_WARN = 1e7
+#: relief ratio below which height terms are reported as poorly determined
+RELIEF_WARN = 0.01
+
+
+class IllPosedWarning(UserWarning):
+    """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""
+
+
+def design_diagnostics(A: np.ndarray, w: np.ndarray | None = None) -> tuple[float, int]:
+    """Condition number and numerical rank (rtol 1e-12) of ``sqrt(w)·A``."""
+    Aw = A if w is None else A * np.sqrt(w)[:, None]
+    s = np.linalg.svd(Aw, compute_uv=False)
+    if s.size == 0 or s[0] == 0:
+        return float("inf"), 0
+    rank = int(np.sum(s > s[0] * 1e-12))
+    cond = float(s[0] / s[-1]) if s[-1] > 0 and len(s) == A.shape[1] else float("inf")
+    return cond, rank
+
+
+class FittedModel(Model):
+    """A :class:`Model` whose ``_fit`` returns ``(params, info)``; checks and warns on ill-posedness."""
+
+    #: models whose equations contain the third source axis (height) as a variable
+    uses_height = False
+
+    @classmethod
+    def estimate(cls, src, dst, weights=None):
+        """Weighted least-squares estimate from ``src`` -> ``dst`` pairs (see the module doc)."""
+        src, dst, w = check_pairs(cls, src, dst, weights)
+        sn, dn = Normalisation.of(src[w > 0]), Normalisation.of(dst[w > 0])
+        params, info = cls._fit(sn.normalise(src), dn.normalise(dst), w)
+        info = dict(info)
+        info.setdefault("n_points", int(np.count_nonzero(w)))
+        if cls.src_dims == 3:
+            span = src[w > 0].max(axis=0) - src[w > 0].min(axis=0)
+            info["relief"] = float(span[2] / max(span[0], span[1], 1e-300))
+        model = cls(np.asarray(params, dtype=np.float64), sn, dn, info)
+        model._warn_if_ill_posed()
+        return model
+
+    def _warn_if_ill_posed(self):
+        info, problems = self.info, []
+        if self.uses_height and info.get("relief", 1.0) < RELIEF_WARN:
+            problems.append(f"nearly flat terrain (height range / horizontal range = {info['relief']:.2g} "
+                            f"< {RELIEF_WARN}): the height terms are poorly determined; use a 2-D model "
+                            "(projective, poly1-3) or add points at other heights")
+        cond = np.max(np.atleast_1d(info.get("cond", 0.0)))
+        if cond > COND_WARN:
+            problems.append(f"condition number {cond:.3g} > {COND_WARN:.0g}: the points do not determine "
+                            "all parameters; add points spread over the image (and heights)")
+        if info.get("n_points", np.inf) * 2 < self.n_params:
+            problems.append(f"{info['n_points']} points for {self.n_params} parameters: the "
+                            "higher-order terms are set by the regularisation, not by the data")
+        if problems:
+            info["ill_posed"] = problems
+            warnings.warn(f"model {self.name!r}: " + "; ".join(problems), IllPosedWarning, stacklevel=3)
+
+    # -- inverse of 3-D models ---------------------------------------------------------------
+    def inverse(self, dst, z=None, *, dem=None, iterations: int = 30, tol: float = 1e-12,
+                tol_z: float = 1e-4):
+        """First two source coordinates of ``dst`` at fixed third coordinate ``z`` (or on ``dem``).
+
+        2-D models ignore ``z``/``dem`` and use the Newton inverse of the base class.
+        """
+        if self.src_dims == 2:
+            return super().inverse(dst, iterations=iterations, tol=tol)
+        dst = np.asarray(dst, dtype=np.float64)
+        if dst.ndim != 2 or dst.shape[1] != 2:
+            raise InputError(f"{self.name}: points to invert must have shape (N, 2); got {dst.shape}")
+        if dem is None:
+            if z is None:
+                raise InputError(f"{self.name}: the inverse of a 3-D model needs the height: pass z= "
+                                 "(scalar or one per point) or dem=")
+            z = np.broadcast_to(np.asarray(z, dtype=np.float64), (len(dst),))
+            return self._inverse_at(dst, z, iterations, tol)
+        src = as_height_source(dem)
+        z = np.full(len(dst), float(self.src_norm.offset[2]))
+        out = self._inverse_at(dst, z, iterations, tol)
+        for _ in range(iterations):
+            z_new = src.heights_and_gradient(out[:, :2])[0]
+            out = self._inverse_at(dst, z_new, iterations, tol)
+            if not np.nanmax(np.abs(z_new - z), initial=0.0) >= tol_z:
+                break
+            z = z_new
+        return out
+
+    def _inverse_at(self, dst, z, iterations, tol):
+        d = self.dst_norm.normalise(dst)
+        zn = (z - self.src_norm.offset[2]) / self.src_norm.scale[2]
+        s = np.zeros((len(d), 2))
+        eps = 1e-6
+        ex, ey = np.array([eps, 0, 0]), np.array([0, eps, 0])
+        for _ in range(iterations):
+            p = np.column_stack([s, zn])
+            f = self._apply(p) - d
+            jx = (self._apply(p + ex) - self._apply(p - ex)) / (2 * eps)
+            jy = (self._apply(p + ey) - self._apply(p - ey)) / (2 * eps)
+            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+            det = np.where(np.abs(det) > 1e-15, det, np.nan)
+            ds = np.column_stack([(jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det,
+                                  (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det])
+            s = s - ds
+            if not np.nanmax(np.abs(ds), initial=0.0) >= tol:
+                break
+        return self.src_norm.denormalise(np.column_stack([s, zn]))
+
+
+@register_model
+class DLT(FittedModel):
+    name = "dlt"
+    n_params = 11
+    min_points = 6
+    src_dims = 3
+    uses_height = True
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """3x4 projection matrix in normalised coordinates (``P[2, 3] = 1``)."""
+        return self.params.reshape(3, 4)
+
+    def _apply(self, s):
+        P = self.matrix
+        h = s @ P[:, :3].T + P[:, 3]
+        return h[:, :2] / h[:, 2:3]
+
+    def world_matrix(self) -> np.ndarray:
+        """3x4 matrix mapping real (X, Y, Z, 1) to homogeneous real pixels (scaled so P[2,3] = 1)."""
+        S = np.diag([*(1 / self.src_norm.scale), 1.0])
+        S[:3, 3] = -self.src_norm.offset / self.src_norm.scale
+        D = np.diag([*self.dst_norm.scale, 1.0])
+        D[:2, 2] = self.dst_norm.offset
+        W = D @ self.matrix @ S
+        return W / W[2, 3]
+
+    @classmethod
+    def _fit(cls, s, d, w, iterations: int = 15):
+        n = len(s)
+        Xh = np.column_stack([s, np.ones(n)])
+        z = np.zeros((n, 4))
+        A = np.empty((2 * n, 12))
+        A[0::2] = np.column_stack([Xh, z, -d[:, :1] * Xh])
+        A[1::2] = np.column_stack([z, Xh, -d[:, 1:] * Xh])
+        A *= np.sqrt(np.repeat(w, 2))[:, None]
+        _, sv, vt = np.linalg.svd(A)
+        if len(sv) < 11 or sv[10] < 1e-9 * sv[0]:
+            raise ModelError("model 'dlt': the points are degenerate — coplanar (flat terrain), collinear or "
+                             "duplicated; DLT needs ≥ 6 points not on one plane (use 'projective' for flat terrain)")
+        P = vt[-1].reshape(3, 4)
+        P = P / P[2, 3] if abs(P[2, 3]) > 1e-12 else P / np.linalg.norm(P)
+        p, cond = cls._refine(P.ravel()[:11], s, d, w, iterations)
+        cond_lin = float(sv[0] / sv[10])
+        return np.append(p, 1.0), {"cond": cond, "cond_linear": cond_lin, "rank": 11 if np.isfinite(cond) else 10}
+
+    @staticmethod
+    def _refine(p, s, d, w, iterations):
+        """Gauss-Newton on L1..L11 minimising Σ w |d - P(s)|²; returns params and cond of the Jacobian."""
+        sw = np.sqrt(np.repeat(w, 2))
+        n = len(s)
+        Xh = np.column_stack([s, np.ones(n)])
+        cond = float("inf")
+        for _ in range(iterations):
+            P = np.append(p, 1.0).reshape(3, 4)
+            den = Xh @ P[2]
+            if np.any(np.abs(den) < 1e-9):
+                break
+            u, v = (Xh @ P[0]) / den, (Xh @ P[1]) / den
+            J = np.zeros((2 * n, 11))
+            J[0::2, 0:4] = Xh / den[:, None]
+            J[1::2, 4:8] = Xh / den[:, None]
+            J[0::2, 8:11] = -u[:, None] * s / den[:, None]
+            J[1::2, 8:11] = -v[:, None] * s / den[:, None]
+            r = (d - np.column_stack([u, v])).reshape(-1)
+            Jw = J * sw[:, None]
+            step, _, rank, sv = np.linalg.lstsq(Jw, r * sw, rcond=None)
+            cond = float(sv[0] / sv[-1]) if rank == 11 else float("inf")
+            p = p + step
+            if np.max(np.abs(step)) < 1e-13:
+                break
+        return p, cond

@@ -1,0 +1,295 @@
+"""The registration tool: reference orthophoto + target image (paths) → georeferenced raster.
+
+``register(reference, target, output)`` runs the pipeline of the source paper (Dihkan
+2019) with fotogeo's additions:
+
+1. read both images (decimated to ``max_match_pixels`` for matching), PCA band fusion;
+2. keypoints + descriptors (SURF by default), SSD matching with the ratio test;
+3. tie points: target pixels ↔ reference map coordinates, transformed into the output CRS
+   (``"auto"`` = the UTM zone of the reference centre);
+4. RANSAC + robust refit of the model (projective by default), check points held out;
+5. window-by-window resampling of every band of the target onto the output grid;
+6. outputs written atomically: ``OUT.tif``, ``OUT.gpkg`` (layers ``tie_points`` and
+   ``error_vectors``) and ``OUT.json`` (the report).
+"""
+from __future__ import annotations
+
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from affine import Affine
+
+from . import __version__
+from .errors import InputError, MatchingError, ModelError
+from .features.match import match_descriptors
+from .fit import fit_tie_points
+from .fusion import pca_fuse
+from .geo import pixel_size_in, resolve_crs, transform_points
+from .models import get_model
+from .pixels import pixel_to_map
+from .progress import as_progress
+from .rasterio_io import AtomicOutputs, check_output, open_raster, read_decimated
+from .resample import RESAMPLING, warp_to_grid
+from .tiepoints import DETECTORS, detect
+from .vectors import error_vectors, write_json, write_layers
+
+PLANAR_MODELS = ("projective", "affine", "similarity")
+
+
+@dataclass(frozen=True)
+class RegisterOptions:
+    """Parameters of :func:`register` (CLI flags of the same names)."""
+
+    detector: str = "surf"
+    max_keypoints: int = 8000
+    hessian_threshold: float | None = None
+    ratio: float = 0.8
+    mutual: bool = True
+    model: str = "projective"
+    ransac_threshold: float = 3.0  # reference pixels
+    check_fraction: float = 0.3
+    seed: int = 0
+    resampling: str = "nearest"
+    resolution: float | None = None  # output CRS units; None = the reference's
+    dst_crs: str = "auto"
+    max_match_pixels: int = 16_000_000
+    exaggeration: float = 1.0
+
+    def validate(self):
+        if self.detector not in DETECTORS:
+            raise InputError(f"detector {self.detector!r} unknown; choose one of {', '.join(DETECTORS)}")
+        if self.model not in PLANAR_MODELS:
+            raise InputError(f"model {self.model!r} is not a registration model; choose one of "
+                             f"{', '.join(PLANAR_MODELS)}")
+        if self.resampling not in RESAMPLING:
+            raise InputError(f"resampling {self.resampling!r} unknown; choose one of {', '.join(RESAMPLING)}")
+        if not 0 <= self.check_fraction < 0.9:
+            raise InputError(f"check_fraction must be in [0, 0.9); got {self.check_fraction}")
+        if self.resolution is not None and not self.resolution > 0:
+            raise InputError(f"resolution must be a positive number of output CRS units; got {self.resolution}")
+        if not self.ransac_threshold > 0:
+            raise InputError(f"ransac_threshold must be > 0 reference pixels; got {self.ransac_threshold}")
+
+
+@dataclass(frozen=True)
+class Registration:
+    """What :func:`register` produced: paths, the fitted model and the report dict."""
+
+    output: Path
+    vectors: Path
+    report_path: Path
+    model: object
+    report: dict = field(repr=False)
+
+
+def _versions() -> dict:
+    import cv2
+    import pyproj
+    import rasterio
+    return {"fotogeo": __version__, "python": platform.python_version(), "numpy": np.__version__,
+            "opencv": cv2.__version__, "rasterio": rasterio.__version__, "gdal": rasterio.__gdal_version__,
+            "pyproj": pyproj.__version__}
+
+
+def _features(info, role, opts, prog, timings):
+    t0 = time.perf_counter()
+    bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
+    fused = pca_fuse(bands, mask, nodata=info.nodata, rng=opts.seed, name=f"{role} {info.path}")
+    t1 = time.perf_counter()
+    prog(0.3, f"{role}: keypoints")
+    kp = detect(fused.image, fused.mask, opts.detector, max_keypoints=opts.max_keypoints,
+                hessian_threshold=opts.hessian_threshold)
+    timings[f"read_fuse_{role}"] = t1 - t0
+    timings[f"detect_{role}"] = time.perf_counter() - t1
+    return kp, np.asarray(factor, float), fused.explained
+
+
+def output_grid(model, info, crs, res: float):
+    """Output transform, width and height covering the target footprint under ``model``."""
+    t = np.linspace(0, 1, 65)
+    w, h = info.width, info.height
+    edge = np.concatenate([np.column_stack([t * w, 0 * t]), np.column_stack([w + 0 * t, t * h]),
+                           np.column_stack([(1 - t) * w, h + 0 * t]), np.column_stack([0 * t, (1 - t) * h])])
+    if hasattr(model, "world_matrix"):
+        M = model.world_matrix()
+        den = edge @ M[2, :2] + M[2, 2]
+        if not (np.all(den > 0) or np.all(den < 0)):
+            raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
+                             "the tie points are too few or badly spread; try --model affine")
+    XY = model.forward(edge)
+    if not np.isfinite(XY).all():
+        raise ModelError("the fitted model maps part of the target footprint to infinity")
+    x0, y0 = np.floor(XY.min(axis=0) / res) * res
+    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
+    width, height = int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+    # sanity: the footprint's area in output pixels against the target's own pixel count
+    area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
+    if width * height > max(64 * area / res ** 2, 1e4) or width * height > 2 ** 32:
+        raise ModelError(f"the fitted model gives an implausible output grid ({width}x{height}); "
+                         f"the tie points are probably wrong")
+    return Affine(res, 0, x0, 0, -res, y1), width, height
+
+
+HINT = ("check that the images overlap, then try a looser --ratio (0.9), more --max-keypoints, "
+        "a lower --hessian-threshold or --detector sift")
+
+
+def find_tie_points(ref, tgt, opts: RegisterOptions, prog=None, timings=None):
+    """Keypoints in both images, matched: ``(target_xy, reference_xy, counts)`` in full-resolution
+    pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.rasterio_io.RasterInfo`."""
+    prog = as_progress(prog)
+    timings = {} if timings is None else timings
+    kp_ref, f_ref, ev_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"), timings)
+    kp_tgt, f_tgt, ev_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"), timings)
+    prog.stage(0.9, 1.0, "matching descriptors")
+    t0 = time.perf_counter()
+    m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
+                          laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
+    timings["match"] = time.perf_counter() - t0
+    min_pts = get_model(opts.model).min_points + 2
+    if len(m) < min_pts:
+        raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
+                            f"{str(ref.path)!r} (found {len(kp_tgt)} and {len(kp_ref)} keypoints); {HINT}")
+    counts = {"keypoints": {"reference": len(kp_ref), "target": len(kp_tgt)}, "matches": len(m),
+              "pca_explained_variance": {"reference": ev_ref, "target": ev_tgt}}
+    return kp_tgt.xy[m.pairs[:, 0]] * f_tgt, kp_ref.xy[m.pairs[:, 1]] * f_ref, counts
+
+
+def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
+             options: RegisterOptions | None = None, progress=None, tie_points=None,
+             **kwargs) -> Registration:
+    """Register ``target`` to the georeferenced ``reference``; write ``output`` (GeoTIFF).
+
+    Options come as a :class:`RegisterOptions` or as keyword arguments of the same names.
+    ``vectors`` (GeoPackage) and ``report`` (JSON) default to ``output`` with ``.gpkg`` /
+    ``.json``. ``progress(fraction, message) -> bool`` may cancel (return False): nothing is
+    left behind then, and no input is modified. ``tie_points = (target_xy, reference_xy)``
+    (full-resolution pixels, corner convention) skips detection and matching — for tie
+    points from another matcher or measured by hand.
+    """
+    opts = options or RegisterOptions(**kwargs)
+    if options is not None and kwargs:
+        raise InputError("give either options= or keyword options, not both")
+    opts.validate()
+    prog = as_progress(progress)
+    output = Path(output)
+    vectors = Path(vectors) if vectors else output.with_suffix(".gpkg")
+    report = Path(report) if report else output.with_suffix(".json")
+    if len({output.resolve(), vectors.resolve(), report.resolve()}) < 3:
+        raise InputError("output raster, vectors and report must be three different paths")
+    for p, role in ((output, "output raster"), (vectors, "vector output"), (report, "report")):
+        check_output(p, [reference, target], overwrite, role)
+    ref = open_raster(reference, "reference")
+    tgt = open_raster(target, "target")
+    if not ref.georeferenced:
+        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
+                         f"register against a georeferenced orthophoto, or georeference it first")
+    timings: dict = {}
+    t_all = time.perf_counter()
+    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
+    crs = resolve_crs(opts.dst_crs, ref.crs, centre)
+    ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
+    res = opts.resolution or ref_px
+
+    if tie_points is None:
+        src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.55, "matching"), timings)
+    else:
+        src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in tie_points)
+        if len(src) != len(ref_xy):
+            raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
+        counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
+                  "pca_explained_variance": None, "tie_points_given": True}
+    dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
+    prog.stage(0.55, 0.6, "fitting the model")
+    t0 = time.perf_counter()
+    try:
+        fit = fit_tie_points(get_model(opts.model), src, dst, threshold=opts.ransac_threshold * ref_px,
+                             min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed)
+    except MatchingError as e:
+        raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
+    timings["fit"] = time.perf_counter() - t0
+    transform, width, height = output_grid(fit.model, tgt, crs, res)
+    rep = _report(opts, ref, tgt, crs, ref_px, res, counts, fit, transform, width, height)
+    model = fit.model
+    with AtomicOutputs() as out:
+        t0 = time.perf_counter()
+        scale = res / max(1e-12, _target_gsd(model, tgt))
+        block = int(min(1024, max(64, 512 / max(1.0, scale))))
+        warp_to_grid(tgt.path, out.temp(output), model.inverse, crs=crs, transform=transform,
+                     width=width, height=height, resampling=opts.resampling, block=block,
+                     progress=prog.stage(0.6, 0.95, "resampling"))
+        timings["resample"] = time.perf_counter() - t0
+        prog.stage(0.95, 1.0, "writing tie points and report")
+        _write_vectors(out.temp(vectors), fit, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+        timings["total"] = time.perf_counter() - t_all
+        rep["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
+        write_json(out.temp(report), rep)
+        prog(1.0, "done")
+        out.commit()
+    return Registration(output, vectors, report, model, rep)
+
+
+def _target_gsd(model, tgt) -> float:
+    c = np.array([[tgt.width / 2, tgt.height / 2], [tgt.width / 2 + 1, tgt.height / 2],
+                  [tgt.width / 2, tgt.height / 2 + 1]])
+    p = model.forward(c)
+    u, v = p[1] - p[0], p[2] - p[0]
+    return math.sqrt(abs(u[0] * v[1] - u[1] * v[0]))
+
+
+def _stats(resid: np.ndarray, px: float) -> dict:
+    if len(resid) == 0:
+        return {"n": 0}
+    d = np.hypot(resid[:, 0], resid[:, 1])
+    rmse = float(np.sqrt(np.mean(d ** 2)))
+    return {"n": int(len(d)), "rmse_m": rmse, "rmse_px": rmse / px,
+            "rms_x_m": float(np.sqrt(np.mean(resid[:, 0] ** 2))), "rms_y_m": float(np.sqrt(np.mean(resid[:, 1] ** 2))),
+            "median_m": float(np.median(d)), "max_m": float(d.max())}
+
+
+def _report(opts, ref, tgt, crs, ref_px, res, counts, fit, transform, width, height):
+    from dataclasses import asdict
+    model = fit.model
+    return {
+        "fotogeo": "register",
+        "reference": str(ref.path), "target": str(tgt.path),
+        "options": asdict(opts),
+        "output_crs": crs.to_string(), "output_crs_wkt": crs.to_wkt(),
+        "output_grid": {"width": width, "height": height, "resolution": res, "transform": list(transform)[:6]},
+        "reference_pixel_size": ref_px,
+        **counts,
+        "ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
+                   "threshold_m": opts.ransac_threshold * ref_px},
+        "inliers": int(fit.inliers.sum()),
+        "robust_sigma_m": fit.sigma,
+        "model": model.to_dict(),
+        "model_matrix": model.world_matrix().tolist() if hasattr(model, "world_matrix") else None,
+        "control": _stats(fit.residual_xy[fit.role == "control"], ref_px),
+        "check": _stats(fit.residual_xy[fit.role == "check"], ref_px),
+        "units": "metres in the output CRS (px = reference pixels)",
+        "versions": _versions(),
+    }
+
+
+def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration):
+    import shapely
+    keep = fit.inliers
+    idx = np.flatnonzero(keep)
+    d = fit.residual_xy[keep]
+    pts = dst[keep]
+    length = np.hypot(d[:, 0], d[:, 1])
+    common = {"id": idx.astype(np.int64), "role": fit.role[keep],
+              "ref_x": pts[:, 0], "ref_y": pts[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
+              "target_col": src[keep, 0], "target_row": src[keep, 1]}
+    layers = {
+        "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
+                       "residual_px": length / ref_px, "geometry": shapely.points(pts)},
+        "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
+                          "length": length, "exaggeration": np.full(len(idx), float(exaggeration)),
+                          "geometry": error_vectors(pts, pts + d, exaggeration)},
+    }
+    write_layers(path, layers, crs.to_wkt())

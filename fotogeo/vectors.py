@@ -1,0 +1,69 @@
+"""Vector and report outputs: tie points and error vectors as GeoPackage layers, JSON reports.
+
+Error vectors are LineStrings from the reference (true) position ``P`` to the model's
+position ``P'``; with an ``exaggeration`` k the drawn line ends at ``P + k (P' − P)`` so that
+metre-sized errors are visible on a map, while ``dx``, ``dy`` and ``length`` always hold
+the true (unexaggerated) values in map units.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import geopandas as gpd
+import numpy as np
+import shapely
+
+from .errors import OutputError
+
+
+def error_vectors(start: np.ndarray, end: np.ndarray, exaggeration: float = 1.0) -> np.ndarray:
+    """Shapely LineStrings from ``start`` to ``start + exaggeration * (end - start)``."""
+    stop = start + exaggeration * (end - start)
+    coords = np.stack([start, stop], axis=1)  # (N, 2, 2)
+    return shapely.linestrings(coords)
+
+
+def write_layers(path, layers: dict, crs) -> None:
+    """Write ``{layer name: GeoDataFrame-like dict with 'geometry'}`` into one GeoPackage."""
+    path = Path(path)
+    try:
+        for i, (name, columns) in enumerate(layers.items()):
+            gdf = gpd.GeoDataFrame({k: v for k, v in columns.items() if k != "geometry"},
+                                   geometry=columns["geometry"], crs=crs)
+            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if i == 0 else "a", engine="pyogrio")
+    except Exception as e:  # noqa: BLE001 - any writer failure becomes one clear error
+        raise OutputError(f"could not write GeoPackage {str(path)!r}: {e}") from None
+
+
+def _jsonable(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def _finite(o):
+    """Replace non-finite floats (NaN, inf) by None, recursively: JSON has no NaN."""
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    if isinstance(o, np.ndarray):
+        return _finite(o.tolist())
+    return o
+
+
+def write_json(path, data: dict) -> None:
+    """Write ``data`` as indented JSON (numpy values converted, NaN written as null)."""
+    text = json.dumps(_finite(data), indent=2, default=_jsonable, allow_nan=False)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())

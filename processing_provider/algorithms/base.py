@@ -1,0 +1,165 @@
+"""What every fotogeo Processing algorithm shares.
+
+- fotogeo is imported lazily, inside ``processAlgorithm`` (:meth:`FotogeoAlgorithm.tool`),
+  after checking the third-party packages the algorithm needs, so the plugin loads even
+  when a dependency is missing and the algorithm then says exactly which one and how to
+  install it;
+- the tools' progress protocol ``progress(fraction, message) -> bool`` is bridged to the
+  Processing feedback (:func:`progress_callback`): progress bar, progress text, cancel;
+- every :class:`fotogeo.errors.FotogeoError` — a cancel included — becomes a
+  :class:`QgsProcessingException` carrying the same message (:meth:`FotogeoAlgorithm.run_tool`).
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+
+from qgis.core import (QgsApplication, QgsProcessingAlgorithm, QgsProcessingException, QgsProviderRegistry,
+                       QgsRasterLayer)
+from qgis.PyQt.QtCore import QCoreApplication
+
+#: import name -> pip distribution name of the third-party packages fotogeo uses.
+DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", "shapely": "shapely",
+                "geopandas": "geopandas", "cv2": "opencv-python-headless"}
+
+REFERENCES = {
+    "dihkan": "Dihkan, M. (2019): registration of multi-epoch aerial images to orthophotos with PCA band "
+              "fusion, SURF features, RANSAC and a homography (fotogeo's source paper 002).",
+    "surf": "Bay, H., Ess, A., Tuytelaars, T., Van Gool, L. (2008): Speeded-Up Robust Features (SURF). "
+            "Computer Vision and Image Understanding 110(3), 346-359.",
+    "sift": "Lowe, D. G. (2004): Distinctive image features from scale-invariant keypoints. IJCV 60(2), 91-110.",
+    "ransac": "Fischler, M. A., Bolles, R. C. (1981): Random sample consensus. Comm. ACM 24(6), 381-395.",
+}
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("fotogeo", text)
+
+
+def missing_dependencies(names=tuple(DEPENDENCIES), import_them: bool = True) -> list[tuple[str, str]]:
+    """``[(import name, reason)]`` of the packages in ``names`` that cannot be imported.
+
+    With ``import_them`` False only their presence is checked (cheap; used at load time).
+    """
+    missing = []
+    for name in names:
+        try:
+            if import_them:
+                importlib.import_module(name)
+            elif name not in sys.modules and importlib.util.find_spec(name) is None:
+                missing.append((name, "not installed"))
+        except Exception as e:  # noqa: BLE001 - ImportError, or a broken binary wheel (e.g. numpy ABI)
+            missing.append((name, f"{type(e).__name__}: {e}"))
+    return missing
+
+
+def dependency_message(missing) -> str:
+    """One clear message naming what is missing and the pip command that installs it."""
+    names = ", ".join(f"{n} ({why})" for n, why in missing)
+    pip = " ".join(f'"{DEPENDENCIES.get(n, n)}"' for n, _ in missing)
+    return (f"fotogeo cannot run: the Python package(s) {names} cannot be imported by QGIS's Python "
+            f"({sys.executable}). Install them into that Python, e.g. `python3 -m pip install {pip}` "
+            f"(on Debian/Ubuntu also: apt install python3-rasterio python3-geopandas python3-opencv), "
+            f"then restart QGIS.")
+
+
+def progress_callback(feedback):
+    """A fotogeo progress callback driving a :class:`QgsProcessingFeedback`.
+
+    ``fraction`` (0..1) → ``setProgress(100 * fraction)``, a new message → ``setProgressText``;
+    returns ``not feedback.isCanceled()`` (False asks the tool to stop and clean up).
+    """
+    last = [None]
+
+    def progress(fraction: float, message: str = "") -> bool:
+        if feedback is None:
+            return True
+        feedback.setProgress(100.0 * min(max(float(fraction), 0.0), 1.0))
+        if message and message != last[0]:
+            last[0] = message
+            feedback.setProgressText(message)
+        return not feedback.isCanceled()
+
+    return progress
+
+
+class FotogeoAlgorithm(QgsProcessingAlgorithm):
+    """Base class: names, help, lazy tool import, progress and error bridging."""
+
+    #: stable lowercase algorithm id; display name; group (id, name)
+    ALG_ID = ""
+    DISPLAY = ""
+    GROUP = ("", "")
+    #: import names of the third-party packages this algorithm needs
+    REQUIRES: tuple = tuple(DEPENDENCIES)
+    HELP = ""
+
+    def name(self):
+        return self.ALG_ID
+
+    def displayName(self):
+        return tr(self.DISPLAY)
+
+    def group(self):
+        return tr(self.GROUP[1])
+
+    def groupId(self):
+        return self.GROUP[0]
+
+    def shortHelpString(self):
+        text = tr(self.HELP)
+        missing = missing_dependencies(self.REQUIRES, import_them=False)
+        if missing:
+            text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + dependency_message(missing)
+        return text
+
+    def helpUrl(self):
+        return "https://github.com/fotogeo/fotogeo"
+
+    def icon(self):
+        return QgsApplication.getThemeIcon("/processingAlgorithm.svg")
+
+    def createInstance(self):
+        return type(self)()
+
+    # -- running a tool ------------------------------------------------------------------
+    def tool(self, module: str, attr: str):
+        """Import ``fotogeo.<module>.<attr>`` now; missing dependencies → one clear exception."""
+        missing = missing_dependencies(self.REQUIRES)
+        if missing:
+            raise QgsProcessingException(dependency_message(missing))
+        try:
+            mod = importlib.import_module(f"fotogeo.{module}")
+        except ImportError as e:
+            missing = missing_dependencies(tuple(DEPENDENCIES))
+            if missing:
+                raise QgsProcessingException(dependency_message(missing)) from None
+            raise QgsProcessingException(f"fotogeo could not be imported ({e}); reinstall the fotogeo plugin") from None
+        return getattr(mod, attr)
+
+    def run_tool(self, func, *args, feedback=None, **kwargs):
+        """Call a fotogeo tool with a progress callback; FotogeoError → QgsProcessingException."""
+        from fotogeo.errors import Cancelled, FotogeoError
+        try:
+            return func(*args, progress=progress_callback(feedback), **kwargs)
+        except Cancelled as e:
+            raise QgsProcessingException(str(e)) from None
+        except FotogeoError as e:
+            raise QgsProcessingException(str(e)) from None
+
+    # -- parameters ----------------------------------------------------------------------
+    def raster_path(self, parameters, name: str, context) -> str:
+        """Local file path of a raster-layer parameter (a GDAL file), or a clear exception."""
+        layer = self.parameterAsRasterLayer(parameters, name, context)
+        if layer is None or not isinstance(layer, QgsRasterLayer):
+            raise QgsProcessingException(self.invalidRasterError(parameters, name))
+        if layer.providerType() != "gdal":
+            raise QgsProcessingException(
+                f"{name}: layer {layer.name()!r} comes from the {layer.providerType()!r} provider, not from a "
+                f"raster file; save it as a GeoTIFF (Export > Save As) and use that file")
+        parts = QgsProviderRegistry.instance().decodeUri("gdal", layer.source())
+        return parts.get("path") or layer.source()
+
+    def enum_value(self, parameters, name: str, context, options) -> str:
+        return options[self.parameterAsEnum(parameters, name, context)]

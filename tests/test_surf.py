@@ -1,0 +1,210 @@
+"""fotogeo's SURF: invariances on real images, conventions, masks and input handling."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from fotogeo.errors import InputError
+from fotogeo.features import SurfResult, surf
+from fotogeo.pixels import from_centre, to_centre
+
+rasterio = pytest.importorskip("rasterio")
+
+
+def _stretch(a, valid):
+    lo, hi = np.percentile(a[valid], [1, 99])
+    return np.clip((a - lo) / (hi - lo) * 255, 0, 255).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def landsat(data_dir):
+    """Band mean of the Landsat RGB clip, stretched to 0..255, and its validity mask."""
+    with rasterio.open(data_dir / "landsat_rgb" / "RGB.byte.tif") as ds:
+        a = ds.read().astype(np.float32)
+    valid = (a > 0).all(0)
+    return _stretch(a.mean(0), valid), valid
+
+
+@pytest.fixture(scope="module")
+def ortho(data_dir):
+    """NGI orthophoto tile 1 at half resolution (its texture is finer than Landsat's)."""
+    with rasterio.open(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif") as ds:
+        a = ds.read().astype(np.float32)
+    size = (a.shape[2] // 2, a.shape[1] // 2)
+    valid = cv2.resize((a > 0).all(0).astype(np.float32), size, interpolation=cv2.INTER_AREA) > 0.999
+    a = cv2.resize(a.mean(0), size, interpolation=cv2.INTER_AREA)
+    return _stretch(a, valid) * valid, valid
+
+
+def _warp(a, valid, deg, scale):
+    """Rotate (counter-clockwise on screen) and scale about the centre on an enlarged canvas.
+
+    Returns the warped image and mask and the 2x3 matrix in the *centre* convention.
+    """
+    h, w = a.shape
+    m = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), deg, scale)
+    c, s = abs(m[0, 0]), abs(m[0, 1])
+    nw, nh = int(np.ceil(w * c + h * s - 1e-6)), int(np.ceil(w * s + h * c - 1e-6))
+    m[0, 2] += (nw - 1) / 2 - (w - 1) / 2
+    m[1, 2] += (nh - 1) / 2 - (h - 1) / 2
+    b = cv2.warpAffine(a, m, (nw, nh), flags=cv2.INTER_LINEAR)
+    vb = cv2.warpAffine(valid.astype(np.float32), m, (nw, nh), flags=cv2.INTER_LINEAR) > 0.999
+    return b, vb, m
+
+
+def _correct_matches(ra: SurfResult, rb: SurfResult, m, scale, tol=1.5):
+    """(repeatable keypoints, correct ratio-test matches) under the known centre-convention map m."""
+    pa = from_centre(to_centre(ra.xy) @ m[:, :2].T + m[:, 2])
+    d2 = ((pa[:, None, :] - rb.xy[None]) ** 2).sum(-1)
+    sr = rb.scale[None] / (ra.scale[:, None] * scale)
+    geo = (d2 <= tol ** 2) & (sr > 1 / 1.3) & (sr < 1.3)
+    rep = min(geo.any(1).sum(), geo.any(0).sum())
+    dd = ((ra.descriptors[:, None, :] - rb.descriptors[None]) ** 2).sum(-1)
+    nn = dd.argmin(1)
+    first, second = np.sort(dd, 1)[:, :2].T
+    ok = geo[np.arange(len(ra)), nn] & (np.sqrt(first) < 0.8 * np.sqrt(second))
+    return int(rep), int(ok.sum()), nn, ok
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("deg, min_frac", [(30, 0.3), (90, 0.8), (180, 0.8)])
+def test_rotation_invariance(landsat, deg, min_frac):
+    a, valid = landsat
+    ra = surf(a, valid)
+    b, vb, m = _warp(a, valid, deg, 1.0)
+    rb = surf(b, vb)
+    assert len(ra) > 200 and len(rb) > 200
+    rep, correct, _, _ = _correct_matches(ra, rb, m, 1.0)
+    # measured: 30 deg 117/385 correct, 90 deg 385/385, 180 deg 366/385
+    assert correct >= min_frac * len(ra), (rep, correct, len(ra))
+
+
+@pytest.mark.data
+def test_rotation_180_on_ortho_and_angle_convention(ortho):
+    """NGI frames are ~180 deg from the orthophotos: this must work; angles turn as documented."""
+    a, valid = ortho
+    ra = surf(a, valid)
+    for deg in (180, 90):
+        b, vb, m = _warp(a, valid, deg, 1.0)
+        rb = surf(b, vb)
+        rep, correct, nn, ok = _correct_matches(ra, rb, m, 1.0)
+        assert correct >= 0.6 * len(ra), (deg, rep, correct, len(ra))
+        # a counter-clockwise rotation on screen lowers angles (measured clockwise) by deg
+        dang = (rb.angle[nn[ok]] - ra.angle[ok] + deg + 180) % 360 - 180
+        assert np.median(np.abs(dang)) < 3.0
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("scale", [0.5, 2.0])
+def test_scale_invariance(ortho, scale):
+    a, valid = ortho
+    ra = surf(a, valid)
+    b, vb, m = _warp(a, valid, 0.0, scale)
+    rb = surf(b, vb)
+    rep, correct, _, _ = _correct_matches(ra, rb, m, scale, tol=1.5 * max(scale, 1.0))
+    n_overlap = min(len(ra), len(rb))
+    assert rep >= 0.25 * n_overlap, (rep, len(ra), len(rb))
+    assert correct >= 0.15 * n_overlap, (correct, len(ra), len(rb))
+
+
+@pytest.mark.data
+def test_deterministic_and_options(landsat):
+    a, valid = landsat
+    r1, r2 = surf(a, valid), surf(a.copy(), valid.copy())
+    for f in ("xy", "scale", "angle", "response", "laplacian", "descriptors"):
+        assert np.array_equal(getattr(r1, f), getattr(r2, f)), f
+    assert r1.xy.dtype == np.float64 and r1.descriptors.dtype == np.float32
+    assert r1.laplacian.dtype == np.int8 and set(np.unique(r1.laplacian)) <= {-1, 1}
+    assert np.allclose(np.linalg.norm(r1.descriptors, axis=1), 1, atol=1e-5)
+    up = surf(a, valid, upright=True)
+    assert np.all(up.angle == 0) and np.array_equal(up.xy, r1.xy)
+    ext = surf(a, valid, extended=True)
+    assert ext.descriptors.shape == (len(r1), 128)
+    assert len(surf(a, valid, hessian_threshold=400)) < len(r1)
+
+
+@pytest.mark.data
+def test_max_keypoints_spreads_over_the_image(landsat):
+    a, valid = landsat
+    full = surf(a, valid, hessian_threshold=20)
+    k = 150
+    sel = surf(a, valid, hessian_threshold=20, max_keypoints=k)
+    assert len(sel) == k
+    # a subset of the full set
+    key = {tuple(p) for p in full.xy.round(6)}
+    assert all(tuple(p) in key for p in sel.xy.round(6))
+    # covers more cells of an 8x8 grid than the k strongest keypoints do
+    def cells(xy):
+        return len({(int(x * 8 / a.shape[1]), int(y * 8 / a.shape[0])) for x, y in xy})
+    strongest = full.xy[np.argsort(-full.response)[:k]]
+    assert cells(sel.xy) > cells(strongest)
+
+
+@pytest.mark.data
+def test_mask_and_nan_are_honoured(landsat):
+    a, valid = landsat
+    a = a.copy()
+    hole = np.zeros_like(valid)
+    hole[200:400, 250:450] = True
+    a[300:320, 100:140] = np.nan
+    res = surf(a, valid & ~hole)
+    assert len(res) > 100
+    invalid = ~valid | hole | np.isnan(a)
+    rr, cc = np.nonzero(invalid)
+    # no invalid pixel within the descriptor reach (14.5 s, square) of any keypoint
+    c = to_centre(res.xy)
+    for (x, y), s in zip(c[::3], res.scale[::3]):
+        near = (np.abs(cc - x) <= 14.5 * s) & (np.abs(rr - y) <= 14.5 * s)
+        assert not near.any()
+
+
+def _blob(shape, cx, cy, sigma, bright=True):
+    rows, cols = shape
+    yy, xx = np.mgrid[0:rows, 0:cols] + 0.5              # pixel centres, corner convention
+    g = np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * sigma ** 2))
+    return (40 + 180 * g) if bright else (220 - 180 * g)
+
+
+@pytest.mark.parametrize("cx, cy", [(40.0, 33.0), (40.5, 33.5), (40.0, 33.5), (41.25, 32.75)])
+def test_blob_position_in_gdal_corner_convention(cx, cy):
+    res = surf(_blob((72, 80), cx, cy, 2.5), upright=True)
+    assert len(res) == 1
+    assert np.abs(res.xy[0] - [cx, cy]).max() < 0.1
+    assert res.laplacian[0] == -1                      # bright blob: negative trace
+    assert 1.5 < res.scale[0] < 3.5                     # box filters: s ~ 0.75 sigma of the blob
+    dark = surf(_blob((72, 80), cx, cy, 2.5, bright=False), upright=True)
+    assert len(dark) == 1 and dark.laplacian[0] == 1
+
+
+@pytest.mark.parametrize("image", [np.zeros((10, 10)), np.full((100, 120), 77.0),
+                                   np.full((64, 64), np.nan), np.zeros((0, 5)),
+                                   np.random.default_rng(0).uniform(0, 255, (20, 300))])
+def test_small_constant_nan_give_no_keypoints(image):
+    for extended in (False, True):
+        res = surf(image, extended=extended)
+        assert len(res) == 0
+        assert res.xy.shape == (0, 2) and res.descriptors.shape == (0, 128 if extended else 64)
+
+
+def test_fully_masked_and_zero_budget(rng):
+    img = rng.uniform(0, 255, (80, 90))
+    assert len(surf(img, np.zeros(img.shape, bool))) == 0
+    assert len(surf(img, max_keypoints=0)) == 0
+    assert len(surf(img.astype(np.uint8))) > 0      # integer dtypes work
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(image=np.zeros((3, 50, 50))), "image"),
+    (dict(image=np.array([["a"]])), "image"),
+    (dict(image=np.zeros((50, 50), complex)), "image"),
+    (dict(image=np.zeros((50, 50)), mask=np.ones((40, 50), bool)), "mask"),
+    (dict(image=np.zeros((50, 50)), mask=np.ones((50, 50))), "mask"),
+    (dict(image=np.zeros((50, 50)), hessian_threshold=-1), "hessian_threshold"),
+    (dict(image=np.zeros((50, 50)), n_octaves=0), "n_octaves"),
+    (dict(image=np.zeros((50, 50)), max_keypoints=2.5), "max_keypoints"),
+])
+def test_bad_inputs_raise_input_error(kwargs, name):
+    image = kwargs.pop("image")
+    with pytest.raises(InputError, match=name):
+        surf(image, **kwargs)
