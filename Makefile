@@ -57,3 +57,7 @@ bench: system-bench $(VENV)/.bench
 
 clean:
 	rm -rf $(VENV) out dist build *.egg-info
+
+# The installable QGIS plugin: dist/fotogeo_qgis.zip (standard library only, no venv needed).
+plugin:
+	$(SYSPY) scripts/build_plugin.py

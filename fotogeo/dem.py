@@ -40,7 +40,7 @@ class Dem:
         object.__setattr__(self, "data", d)
 
     @classmethod
-    def open(cls, path, band: int = 1) -> "Dem":
+    def open(cls, path, band: int = 1) -> Dem:
         """Read band ``band`` of a raster with rasterio; its nodata value becomes NaN."""
         import rasterio
 

@@ -8,7 +8,13 @@ Steps of :func:`fit_tie_points`:
    take part — over relief the correct matches deviate from a plane-to-plane model by far
    more than a tight RANSAC threshold;
 3. a seeded, spatially spread ``check_fraction`` of the inliers is held out
-   (:func:`spread_split`) and the final model is re-fitted robustly on the control points only;
+   (:func:`spread_split`) and the final model is fitted by least squares on the control points
+   only, each weighted by ``1 / (control points in its grid cell)`` (:func:`balance_weights`)
+   so that every part of the image counts alike, however unevenly texture spread the matches.
+   Over relief, where no plane-to-plane model is exact, this is what brings the fit close to
+   the best model over the whole image rather than the best one for its most textured part
+   (measured on the NGI frames: 1.05–1.12x the best homography, against 1.3–1.45x for the
+   Tukey-weighted fit);
 4. residuals ``d = model(src) − dst`` and ``RMSE = sqrt(1/n Σ (dx² + dy²))`` for the control
    and the check points separately.
 """
@@ -69,15 +75,29 @@ def spread_split(xy: np.ndarray, fraction: float, rng, cells: int | None = None)
     return chosen
 
 
+def balance_weights(xy: np.ndarray, cells: int = 8) -> np.ndarray:
+    """Weights ``1 / n_cell`` for points binned into a ``cells x cells`` grid over their extent."""
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    ij = np.minimum((cells * (xy - lo) / span).astype(int), cells - 1)
+    cell = ij[:, 1] * cells + ij[:, 0]
+    return 1.0 / np.bincount(cell, minlength=cells * cells)[cell]
+
+
 def fit_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float,
-                   check_fraction: float = 0.3, rng=0, max_trials: int = 5000) -> TieFit:
-    """Fit ``model_cls`` to tie points ``src -> dst`` (see the module docstring)."""
+                   check_fraction: float = 0.3, rng=0, max_trials: int = 5000, c: float = 6.0,
+                   balance: bool = True) -> TieFit:
+    """Fit ``model_cls`` to tie points ``src -> dst`` (see the module docstring).
+
+    ``c`` is the Tukey cut-off in robust standard deviations separating correct matches from
+    false ones; ``balance`` turns the spatial balancing of the final fit on or off.
+    """
     src = np.asarray(src, float)
     dst = np.asarray(dst, float)
     rng = np.random.default_rng(rng)
     rs = ransac(model_cls, src, dst, threshold, rng=rng, max_trials=max_trials,
                 min_inliers=model_cls.min_points + 2)
-    rob = robust_refit(model_cls, src, dst, rs.model, min_sigma=min_sigma)
+    rob = robust_refit(model_cls, src, dst, rs.model, min_sigma=min_sigma, c=c)
     inl = rob.inliers
     n_inl = int(inl.sum())
     if n_inl < model_cls.min_points + 2:
@@ -88,13 +108,10 @@ def fit_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float,
     is_check = np.zeros(len(src), bool)
     is_check[idx] = spread_split(src[idx], frac, rng)
     control = inl & ~is_check
-    fit = robust_refit(model_cls, src[control], dst[control], rob.model, min_sigma=min_sigma)
-    model = fit.model
+    w = balance_weights(src[control]) if balance else None
+    model = model_cls.estimate(src[control], dst[control], w)
     role = np.full(len(src), "outlier", dtype=object)
     role[control] = "control"
     role[is_check] = "check"
-    # control points the final refit rejected stay out of the statistics
-    ctrl_idx = np.flatnonzero(control)
-    role[ctrl_idx[~fit.inliers]] = "outlier"
     resid = model.forward(src) - dst
-    return TieFit(model, role != "outlier", role.astype(str), resid, int(rs.inliers.sum()), rs.trials, fit.sigma)
+    return TieFit(model, role != "outlier", role.astype(str), resid, int(rs.inliers.sum()), rs.trials, rob.sigma)

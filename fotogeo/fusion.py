@@ -4,17 +4,30 @@ For bands ``b = (b_1 … b_B)`` at the valid pixels, with mean ``μ`` and covari
 (estimated from a pixel sample on large images), the first principal component is
 ``pc1 = v₁ᵀ (b − μ)`` where ``v₁`` is the eigenvector of ``C`` with the largest eigenvalue.
 Its sign is arbitrary, and a flip inverts contrast and ruins matching, so ``v₁`` is oriented
-to correlate positively with the band mean (``Σ v₁ > 0``). ``pc1`` is then mapped to
-0..255 (float32) by a robust stretch between its 1st and 99th percentiles and clipped.
-Single-band images skip the PCA and get the same stretch.
+to correlate positively with the band mean (``Σ v₁ > 0``). Single-band images skip the PCA.
+
+``pc1`` is then mapped to 0..255 (float32) by one of three contrast methods:
+
+* ``"linear"`` — the paper's robust stretch between the 1st and 99th percentiles, clipped;
+* ``"equalize"`` — through the empirical distribution function of the valid pixels
+  (``255 · F(pc1)``): monotonic like the linear stretch, but bright clouds, snow or a fill
+  value cannot squeeze the land into a few grey levels;
+* ``"adaptive"`` (default) — ``equalize`` followed by CLAHE (contrast-limited adaptive
+  histogram equalisation, 8x8 tiles, clip limit 2), which evens out contrast between bright
+  and dark parts of the scene. Measured with SURF + RANSAC inliers (linear → adaptive):
+  Sentinel-2 two dates with clouds 5 → 557, NGI frame ↔ orthophoto 345 → 673, Sentinel-2 ↔
+  NGI orthophoto 98 → 151.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from .errors import InputError
+
+CONTRASTS = ("adaptive", "equalize", "linear")
 
 
 @dataclass(frozen=True)
@@ -39,12 +52,15 @@ def valid_mask(bands: np.ndarray, mask=None, nodata=None) -> np.ndarray:
 
 
 def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
-             percentiles=(1.0, 99.0), name: str = "image") -> Fusion:
+             percentiles=(1.0, 99.0), contrast: str = "linear", name: str = "image") -> Fusion:
     """First principal component of ``bands`` ``(B, rows, cols)`` (or a 2-D single band).
 
     ``mask`` marks valid pixels; ``nodata`` values and NaN are excluded too. Statistics use
-    at most ``sample`` pixels drawn with the seed ``rng``. ``name`` appears in errors.
+    at most ``sample`` pixels drawn with the seed ``rng``. ``contrast`` is one of
+    :data:`CONTRASTS` (see the module docstring). ``name`` appears in errors.
     """
+    if contrast not in CONTRASTS:
+        raise InputError(f"contrast {contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
     a = np.asarray(bands)
     if a.ndim == 2:
         a = a[None]
@@ -81,4 +97,19 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
         pc = np.tensordot(v.astype(np.float32), blk - mean[:, None, None].astype(np.float32), axes=1)
         out[r0:r0 + rows_per_chunk] = np.clip((pc - lo) * k, 0, 255)
     out[~valid] = 0
+    if contrast != "linear":
+        out = _equalize(out, valid)
+        if contrast == "adaptive":
+            clahe = cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8))
+            out = clahe.apply(np.round(out).astype(np.uint8)).astype(np.float32)
+            out[~valid] = 0
     return Fusion(out, valid, v, explained, (float(lo), float(hi)))
+
+
+def _equalize(img: np.ndarray, valid: np.ndarray, bins: int = 4096) -> np.ndarray:
+    """``255 · F(img)`` with ``F`` the empirical distribution of the valid pixels."""
+    hist, edges = np.histogram(img[valid], bins=bins, range=(0.0, 255.0))
+    cdf = np.cumsum(hist) / max(1, hist.sum())
+    out = np.interp(img, edges[1:], 255.0 * cdf).astype(np.float32)
+    out[~valid] = 0
+    return out

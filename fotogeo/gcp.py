@@ -40,7 +40,7 @@ class GcpSet:
 def stratified_pixels(n: int, image_size, rng, margin: float = 2.0) -> np.ndarray:
     """``n`` points, one in each of ``n`` random cells of a near-square grid over the image."""
     w, h = (float(v) - 2 * margin for v in image_size)
-    cols = max(1, int(round(math.sqrt(n * w / h))))
+    cols = max(1, round(math.sqrt(n * w / h)))
     rows = max(1, math.ceil(n / cols))
     while rows * cols < n:
         cols += 1

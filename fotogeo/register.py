@@ -27,7 +27,7 @@ from . import __version__
 from .errors import InputError, MatchingError, ModelError
 from .features.match import match_descriptors
 from .fit import fit_tie_points
-from .fusion import pca_fuse
+from .fusion import CONTRASTS, pca_fuse
 from .geo import pixel_size_in, resolve_crs, transform_points
 from .models import get_model
 from .pixels import pixel_to_map
@@ -58,6 +58,9 @@ class RegisterOptions:
     dst_crs: str = "auto"
     max_match_pixels: int = 16_000_000
     exaggeration: float = 1.0
+    contrast: str = "adaptive"  # of the fused image for matching: adaptive, equalize, linear
+    reference_nodata: float | None = None  # override the file's nodata (like gdalwarp -srcnodata)
+    target_nodata: float | None = None
 
     def validate(self):
         if self.detector not in DETECTORS:
@@ -71,6 +74,8 @@ class RegisterOptions:
             raise InputError(f"check_fraction must be in [0, 0.9); got {self.check_fraction}")
         if self.resolution is not None and not self.resolution > 0:
             raise InputError(f"resolution must be a positive number of output CRS units; got {self.resolution}")
+        if self.contrast not in CONTRASTS:
+            raise InputError(f"contrast {self.contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
         if not self.ransac_threshold > 0:
             raise InputError(f"ransac_threshold must be > 0 reference pixels; got {self.ransac_threshold}")
 
@@ -98,7 +103,9 @@ def _versions() -> dict:
 def _features(info, role, opts, prog, timings):
     t0 = time.perf_counter()
     bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
-    fused = pca_fuse(bands, mask, nodata=info.nodata, rng=opts.seed, name=f"{role} {info.path}")
+    override = getattr(opts, f"{role}_nodata")
+    fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
+                     contrast=opts.contrast, name=f"{role} {info.path}")
     t1 = time.perf_counter()
     prog(0.3, f"{role}: keypoints")
     kp = detect(fused.image, fused.mask, opts.detector, max_keypoints=opts.max_keypoints,
@@ -221,6 +228,7 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
         block = int(min(1024, max(64, 512 / max(1.0, scale))))
         warp_to_grid(tgt.path, out.temp(output), model.inverse, crs=crs, transform=transform,
                      width=width, height=height, resampling=opts.resampling, block=block,
+                     src_nodata=opts.target_nodata,
                      progress=prog.stage(0.6, 0.95, "resampling"))
         timings["resample"] = time.perf_counter() - t0
         prog.stage(0.95, 1.0, "writing tie points and report")

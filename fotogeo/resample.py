@@ -32,12 +32,13 @@ def default_nodata(dtype: str, nodata):
 
 
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
-                 resampling: str = "nearest", nodata=None, block: int = 512,
+                 resampling: str = "nearest", nodata=None, src_nodata=None, block: int = 512,
                  progress: Progress | None = None, overviews: bool = True) -> dict:
     """Resample ``src_path`` onto the grid (crs, transform, width, height) into ``dst_path``.
 
     ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention).
-    Returns a small summary (valid pixel count). ``dst_path`` is written in place: callers
+    ``src_nodata`` overrides the source's own nodata value (a pixel is invalid when every band
+    equals it). Returns a small summary (valid pixel count). ``dst_path`` is written in place: callers
     give a temporary path (see :class:`fotogeo.rasterio_io.AtomicOutputs`).
     """
     progress = progress or Progress()
@@ -46,7 +47,8 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     valid_total = 0
     with ropen(src_path) as src:
         dtype = src.dtypes[0]
-        nodata = default_nodata(dtype, src.nodata if nodata is None else nodata)
+        src_nd = src.nodata if src_nodata is None else src_nodata
+        nodata = default_nodata(dtype, src_nd if nodata is None else nodata)
         work_dtype = dtype if dtype in _CV_DTYPES else "float64"
         profile = dict(driver="GTiff", width=width, height=height, count=src.count, dtype=dtype,
                        crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs, transform=transform,
@@ -76,6 +78,8 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
                         win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
                         data = src.read(window=win)
                         mask = src.read_masks(window=win).min(axis=0)
+                        if src_nodata is not None:
+                            mask[(data == src_nodata).all(axis=0)] = 0
                         local = to_centre(np.where(np.isfinite(sp), sp, -1e6)) - [c_lo, r_lo]
                         mx = local[:, 0].reshape(h, w).astype(np.float32)
                         my = local[:, 1].reshape(h, w).astype(np.float32)

@@ -17,6 +17,23 @@ from .pixels import from_centre
 DETECTORS = ("surf", "sift")
 
 
+def ignore_specks(mask: np.ndarray | None, max_area: int = 64) -> np.ndarray | None:
+    """``mask`` with invalid specks of at most ``max_area`` pixels marked valid again.
+
+    SURF drops a keypoint whose descriptor window touches an invalid pixel, so a few
+    scattered nodata pixels inside an image (dropouts, saturated pixels flagged as nodata,
+    interpolation specks) would veto most keypoints. Only large nodata areas (collars,
+    clouds masked out, image edges) should; the specks keep their fill value.
+    """
+    if mask is None or mask.all():
+        return mask
+    inv = (~np.asarray(mask, bool)).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(inv, connectivity=8)
+    small = np.zeros(n, bool)
+    small[1:] = stats[1:, cv2.CC_STAT_AREA] <= max_area
+    return np.asarray(mask, bool) | small[labels]
+
+
 @dataclass(frozen=True)
 class Keypoints:
     xy: np.ndarray  # (N, 2) corner convention
@@ -30,7 +47,11 @@ class Keypoints:
 def detect(image: np.ndarray, mask: np.ndarray | None, detector: str = "surf", *,
            max_keypoints: int | None = 8000, hessian_threshold: float | None = None,
            upright: bool = False) -> Keypoints:
-    """Keypoints and descriptors of a fused 0..255 float image with a validity ``mask``."""
+    """Keypoints and descriptors of a fused 0..255 float image with a validity ``mask``.
+
+    Invalid specks smaller than 64 pixels do not veto keypoints (:func:`ignore_specks`).
+    """
+    mask = ignore_specks(mask)
     if detector == "surf":
         from .features import surf
         kw = {} if hessian_threshold is None else {"hessian_threshold": hessian_threshold}

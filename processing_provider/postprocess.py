@@ -7,6 +7,7 @@ the main thread for every output layer loaded on completion.
 """
 from __future__ import annotations
 
+import collections
 import os
 
 from qgis.core import QgsProcessingContext, QgsProcessingLayerPostProcessorInterface, QgsProcessingUtils, \
@@ -36,12 +37,18 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
         layer.triggerRepaint()
 
 
-# QGIS keeps only a pointer to a post-processor: these instances must outlive every run.
-_PROCESSORS = {s: StylePostProcessor(s) for s in STYLES}
+# A context takes ownership of its post-processors and deletes them with itself, so every
+# layer gets a new instance; Python keeps a reference to the recent ones as well, so that the
+# wrapper cannot be collected before QGIS has used it.
+_RECENT: collections.deque = collections.deque(maxlen=64)
 
 
 def post_processor(style: str) -> StylePostProcessor:
-    return _PROCESSORS[style]
+    if style not in STYLES:
+        raise ValueError(f"unknown style {style!r}; one of {', '.join(STYLES)}")
+    processor = StylePostProcessor(style)
+    _RECENT.append(processor)
+    return processor
 
 
 def load_on_completion(context, uri: str, name: str, output_name: str, style: str | None) -> None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import click
 
+from ..fusion import CONTRASTS
 from ..register import PLANAR_MODELS, RegisterOptions, register
 from ..resample import RESAMPLING
 from ..tiepoints import DETECTORS
@@ -37,6 +38,10 @@ _D = RegisterOptions()
               help="Images larger than this are decimated for matching (not for resampling).")
 @click.option("--exaggeration", type=float, default=_D.exaggeration, show_default=True,
               help="Scale factor drawing the error vectors.")
+@click.option("--contrast", type=click.Choice(CONTRASTS), default=_D.contrast, show_default=True,
+              help="Contrast of the fused images for matching (adaptive = equalize + CLAHE).")
+@click.option("--reference-nodata", type=float, help="Nodata value of the reference (overrides the file's).")
+@click.option("--target-nodata", type=float, help="Nodata value of the target (overrides the file's).")
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @run_tool

@@ -30,6 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
+#: Descriptor Haar wavelets at exact (bilinear) positions rather than rounded ones.
+SUBPIXEL = True
+ORI_SUBPIXEL = True
+
 #: Keypoints per chunk (bounds the (chunk, 400, 8) gathers to ~25 MB).
 CHUNK = 1024
 
@@ -46,16 +50,38 @@ DESC_V = DESC_V.ravel()
 DESC_W = np.exp(-(DESC_U ** 2 + DESC_V ** 2) / (2 * 3.3 ** 2))
 
 
-def haar(ii, pad, x, y, side):
+def haar(ii, pad, x, y, side, subpixel=False):
     """Haar responses (dx, dy) of even ``side`` at centre-convention points (x, y).
 
     ``x``, ``y``: float arrays (any equal shapes); ``side``: int array broadcastable to them.
     Box corners are clamped into the integral image (pixels beyond the padding count as 0).
+    With ``subpixel`` the box edges sit at the exact fractional positions: the integral
+    image of a piecewise-constant image is bilinear between its nodes, so the response is
+    the bilinear blend of the four responses at the neighbouring integer positions.
     """
     hh = side // 2
-    # round half up (not to even): integral column/row of the box's left/top edge
-    x0 = np.floor(x + 1.0 - hh).astype(np.int64) + pad
-    y0 = np.floor(y + 1.0 - hh).astype(np.int64) + pad
+    if not subpixel:
+        # round half up (not to even): integral column/row of the box's left/top edge
+        x0 = np.floor(x + 1.0 - hh).astype(np.int64) + pad
+        y0 = np.floor(y + 1.0 - hh).astype(np.int64) + pad
+        return _haar_int(ii, x0, y0, side, hh)
+    fx0 = x + 0.5 - hh + pad
+    fy0 = y + 0.5 - hh + pad
+    x0, y0 = np.floor(fx0), np.floor(fy0)
+    wx, wy = fx0 - x0, fy0 - y0
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    dx = np.zeros(np.shape(x))
+    dy = np.zeros(np.shape(x))
+    for ox, oy, w in ((0, 0, (1 - wx) * (1 - wy)), (1, 0, wx * (1 - wy)),
+                      (0, 1, (1 - wx) * wy), (1, 1, wx * wy)):
+        a, b = _haar_int(ii, x0 + ox, y0 + oy, side, hh)
+        dx += w * a
+        dy += w * b
+    return dx, dy
+
+
+def _haar_int(ii, x0, y0, side, hh):
+    """Haar responses of boxes with integral-image left/top edges (x0, y0)."""
     nrow, ncol = ii.shape
     flat = ii.ravel()
 
@@ -78,8 +104,9 @@ def haar(ii, pad, x, y, side):
     return dx, dy
 
 
-def orientation(ii, pad, x, y, s):
+def orientation(ii, pad, x, y, s, subpixel=None):
     """Dominant orientation (radians, in [0, 2 pi)) of keypoints at (x, y) with scale s."""
+    subpixel = ORI_SUBPIXEL if subpixel is None else subpixel
     n = len(x)
     out = np.zeros(n)
     for a in range(0, n, CHUNK):
@@ -88,7 +115,7 @@ def orientation(ii, pad, x, y, s):
         side = np.maximum(2, 2 * np.rint(2 * sc).astype(np.int64))
         px = x[a:b, None] + ORI_U * sc
         py = y[a:b, None] + ORI_V * sc
-        dx, dy = haar(ii, pad, px, py, side)
+        dx, dy = haar(ii, pad, px, py, side, subpixel)
         dx *= ORI_W
         dy *= ORI_W
         ang = np.arctan2(dy, dx)
@@ -108,8 +135,9 @@ def orientation(ii, pad, x, y, s):
     return out
 
 
-def descriptors(ii, pad, x, y, s, theta, extended=False):
+def descriptors(ii, pad, x, y, s, theta, extended=False, subpixel=None):
     """SURF descriptors (N x 64 or N x 128 float32, unit length) at (x, y, s, theta)."""
+    subpixel = SUBPIXEL if subpixel is None else subpixel
     n = len(x)
     dim = 128 if extended else 64
     out = np.zeros((n, dim), np.float32)
@@ -120,7 +148,7 @@ def descriptors(ii, pad, x, y, s, theta, extended=False):
         side = np.maximum(2, 2 * np.rint(sc).astype(np.int64))
         px = x[a:b, None] + sc * (c * DESC_U - si * DESC_V)
         py = y[a:b, None] + sc * (si * DESC_U + c * DESC_V)
-        dx, dy = haar(ii, pad, px, py, side)
+        dx, dy = haar(ii, pad, px, py, side, subpixel)
         du = (dx * c + dy * si) * DESC_W
         dv = (dy * c - dx * si) * DESC_W
         m = b - a

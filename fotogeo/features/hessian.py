@@ -45,7 +45,10 @@ import numpy as np
 #: 0.5 plus the bias of the quadratic model (its cross terms): about 0.51 for a Gaussian blob.
 #: Plateaus yield one maximum (tie-break in :func:`_maxima`), so 0.6 loses no blob and
 #: creates no duplicate.
-MAX_OFFSET = 0.6
+MAX_OFFSET = 1.0
+
+#: Octave o samples every 2^max(0, o - STEP_DELAY) pixels (0: Bay's 1, 2, 4, 8).
+STEP_DELAY = 0
 
 #: Target number of response samples per band and layer (bounds peak memory).
 BAND_SAMPLES = 1 << 20
@@ -179,7 +182,7 @@ def detect(img: np.ndarray, threshold: float, n_octaves: int, ii=None, pad: int 
         ii = integral(img, pad)
     out = {k: [] for k in ("x", "y", "size", "response", "laplacian")}
     for o in range(n_octaves):
-        p = 1 << o
+        p = 1 << max(0, o - STEP_DELAY)
         sizes = octave_sizes(o)
         nr_all = -(-rows // p)
         nc = -(-cols // p)

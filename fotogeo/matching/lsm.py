@@ -1,7 +1,8 @@
 """Least-squares matching (LSM, Gruen 1985; seeds 000/001) — affine + radiometric, vectorised.
 
-Model. ``f`` is the reference template sampled on the ``(2h+1)²`` grid of offsets
-``(dx, dy)`` around ``ref_xy``; ``g`` is the search image. The search window moves and
+Model. ``f`` is the reference template: the ``(2h+1)²`` pixels centred on the pixel that
+contains ``ref_xy``, taken as they are (never resampled); ``(dx, dy)`` are their centres'
+offsets from ``ref_xy``. ``g`` is the search image. The search window moves and
 deforms affinely, and the grey values are related by an offset and a gain:
 
     f(dx, dy) + v = r0 + r1 · g(x', y'),
@@ -24,8 +25,10 @@ Precision. With ``n = (2h+1)²`` observations and ``u = 8`` unknowns,
 
     σ0² = vᵀPv / (n − u),   Σ_δδ = σ0² · (AᵀPA)⁻¹,   σx = sqrt(Σ[a0,a0]),  σy = sqrt(Σ[b0,b0]),
 
-from the last iteration. Like every Gauss-Markov σ, it assumes uncorrelated grey-value
-noise; it does not see interpolation or model errors.
+from the last iteration (u = 4 for ``model="shift"``). Like every Gauss-Markov σ it assumes
+uncorrelated grey-value noise and a correct model: it does not see interpolation error,
+the noise carried into the gradients of ``g``, or the smoothing of resampled noise, and is
+optimistic in weak texture (measured in benchmarks/matching_bench.py).
 
 Resampling is done in numpy at full float64 precision: ``cv2.remap`` quantises sub-pixel
 positions to 1/32 pixel, which would cap LSM at about 0.01 px.
@@ -49,6 +52,8 @@ from .ncc import as_image, as_xy, check_int, check_range
 
 CONVERGED = "converged"
 PARAMETERS = ("a0", "a1", "a2", "b0", "b1", "b2", "r0", "r1")
+#: Free parameters (indices into PARAMETERS) of each model.
+MODELS = {"affine": (0, 1, 2, 3, 4, 5, 6, 7), "shift": (0, 3, 6, 7)}
 _KEYS_A = -0.5  # Keys (1981) cubic convolution, third-order accurate
 
 
@@ -153,33 +158,6 @@ class LSMBatch:
                          float(self.sigma0[i]), self.covariance[i])
 
 
-def _sandwich(A, v, Ninv, m, dof, lags):
-    """Covariance of the parameters allowing for correlated residuals (2-D HAC estimator).
-
-    ``Σ = N⁻¹ (Σ_τ c(τ) Σ_i A_i A_{i+τ}ᵀ) N⁻¹ · n/(n−u)`` over lags ``τ`` in the
-    ``(2L+1)²`` neighbourhood with Bartlett weights, ``c(τ)`` the mean residual product at lag
-    ``τ``. With uncorrelated residuals it reduces to ``σ0² N⁻¹``.
-    """
-    k, n, u = A.shape
-    Ag = A.reshape(k, m, m, u)
-    vg = v.reshape(k, m, m)
-    Om = np.einsum("kn,kni,knj->kij", v * v / n, A, A) * n
-    for ty in range(0, lags + 1):
-        for tx in range(-lags, lags + 1):
-            if ty == 0 and tx <= 0:
-                continue
-            w = (1 - abs(tx) / (lags + 1)) * (1 - ty / (lags + 1))
-            xs0, xs1 = max(0, -tx), m - max(0, tx)
-            a = Ag[:, 0:m - ty, xs0:xs1]
-            b = Ag[:, ty:m, xs0 + tx:xs1 + tx]
-            va, vb = vg[:, 0:m - ty, xs0:xs1], vg[:, ty:m, xs0 + tx:xs1 + tx]
-            c = (va * vb).mean(axis=(1, 2))
-            M = np.einsum("kyxi,kyxj->kij", a, b)
-            Om += w * c[:, None, None] * (M + M.transpose(0, 2, 1))
-    C = np.einsum("kij,kjl,klm->kim", Ninv, Om, Ninv) * dof
-    return C
-
-
 def _check_options(half_window, max_iterations, interpolation, tolerance, min_correlation, max_sigma):
     check_int(half_window, "half_window", 2)
     check_int(max_iterations, "max_iterations", 1)
@@ -203,18 +181,18 @@ def _jacobians(approx_jacobian, n: int) -> np.ndarray:
     return J
 
 
-def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iterations: int = 30,
+def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iterations: int = 15,
              interpolation: str = "bicubic", tolerance: float = 1e-3, min_correlation: float = 0.5,
              max_sigma: float = 0.5, max_shift: float | None = None, approx_jacobian=None,
-             reference_mask=None, search_mask=None, covariance: str = "gauss-markov",
-             lags: int = 1) -> LSMBatch:
+             reference_mask=None, search_mask=None, model: str = "affine") -> LSMBatch:
     """Least-squares matching of many points at once (vectorised over points).
 
     ``ref_xy``, ``approx_xy``: (N, 2) corner-convention points in ``reference`` and
     approximate homologues in ``search``. ``approx_jacobian``: optional (2, 2) or (N, 2, 2)
     approximate ``∂(x', y')/∂(dx, dy)`` (rotation/scale between the images; default
     identity). ``max_shift``: largest allowed move from the approximation (default
-    ``half_window``). Other options: see :func:`lsm` and the module docstring.
+    ``half_window``). ``model``: ``"affine"`` (a0..b2, r0, r1) or ``"shift"`` (a0, b0, r0,
+    r1 with the Jacobian held at ``approx_jacobian``). Other options: see :func:`lsm`.
     """
     f_img = as_image(reference, "reference", reference_mask, "reference_mask")
     g_img = as_image(search, "search", search_mask, "search_mask")
@@ -225,6 +203,10 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     if not (np.isfinite(P).all() and np.isfinite(Q).all()):
         raise InputError("ref_xy and approx_xy must be finite")
     _check_options(half_window, max_iterations, interpolation, tolerance, min_correlation, max_sigma)
+    if model not in MODELS:
+        raise InputError(f"model must be one of {sorted(MODELS)}; got {model!r}")
+    free = np.array(MODELS[model])
+    ia, ib = int(np.nonzero(free == 0)[0][0]), int(np.nonzero(free == 3)[0][0])
     h = int(half_window)
     max_shift = float(h if max_shift is None else max_shift)
     n_pts = P.shape[0]
@@ -243,7 +225,7 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     inner[1:-1, 1:-1] = True
     inner = inner.ravel()
     dx, dy = DX[:, inner], DY[:, inner]
-    n_obs, n_par = int(inner.sum()), len(PARAMETERS)
+    n_obs, n_par = int(inner.sum()), len(free)
 
     status = np.full(n_pts, "", dtype=object)
     Hf, Wf = f_img.shape
@@ -257,7 +239,7 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     fstd = np.nanstd(f, axis=1)
     status[(status == "") & ~(fstd > 1e-6 * scale)] = "low signal"
 
-    par = np.zeros((n_pts, n_par))
+    par = np.zeros((n_pts, len(PARAMETERS)))
     par[:, 0], par[:, 3] = Q[:, 0], Q[:, 1]
     par[:, 1], par[:, 2], par[:, 4], par[:, 5] = J0[:, 0, 0], J0[:, 0, 1], J0[:, 1, 0], J0[:, 1, 1]
     par[:, 7] = np.nan  # radiometry initialised from the first resampled window
@@ -308,7 +290,7 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
         r0, r1 = p[:, 6:7], p[:, 7:8]
         ddx, ddy = dx[act], dy[act]
         A = np.stack([r1 * gx, r1 * gx * ddx, r1 * gx * ddy, r1 * gy, r1 * gy * ddx, r1 * gy * ddy,
-                      np.ones_like(g), g], axis=-1)
+                      np.ones_like(g), g], axis=-1)[:, :, free]
         ell = fa - r0 - r1 * g
         N = np.einsum("kni,knj->kij", A, A)
         b = np.einsum("kni,kn->ki", A, ell)
@@ -325,17 +307,14 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
         if act.size == 0:
             break
         Ninv = np.linalg.inv(N)
-        delta = np.einsum("kij,kj->ki", Ninv, b)
+        delta = np.zeros_like(p)
+        delta[:, free] = np.einsum("kij,kj->ki", Ninv, b)
         p = p + delta
         par[act] = p
-        v = np.einsum("kni,ki->kn", A, delta) - ell
+        v = np.einsum("kni,ki->kn", A, delta[:, free]) - ell
         s02 = np.einsum("kn,kn->k", v, v) / (n_obs - n_par)
         sigma0[act] = np.sqrt(s02)
-        if covariance == "gauss-markov":
-            C = s02[:, None, None] * Ninv
-        else:
-            C = _sandwich(A, v, Ninv, 2 * h + 1, n_obs / (n_obs - n_par), lags)
-        cov[act] = C[:, [[0, 0], [3, 3]], [[0, 3], [0, 3]]]
+        cov[act] = s02[:, None, None] * Ninv[:, [[ia, ia], [ib, ib]], [[ia, ib], [ia, ib]]]
         fc = fa[live] - fa[live].mean(axis=1, keepdims=True)
         gc = g - g.mean(axis=1, keepdims=True)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -369,10 +348,10 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     return LSMBatch(xy, sig, rho, iters, status.astype(str), affine, par[:, 6:8].copy(), sigma0, cov)
 
 
-def lsm(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iterations: int = 30,
+def lsm(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iterations: int = 15,
         interpolation: str = "bicubic", tolerance: float = 1e-3, min_correlation: float = 0.5,
         max_sigma: float = 0.5, max_shift: float | None = None, approx_jacobian=None,
-        reference_mask=None, search_mask=None) -> LSMResult:
+        reference_mask=None, search_mask=None, model: str = "affine") -> LSMResult:
     """Least-squares match of the window of ``reference`` around ``ref_xy`` into ``search``.
 
     Parameters
@@ -384,10 +363,15 @@ def lsm(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iter
     half_window : the window is ``(2h+1)²`` pixels
     max_iterations, tolerance : stop when the geometric step (shift, and affine terms times
         ``h``) is below ``tolerance`` px; not converged after ``max_iterations`` -> status
-        ``"max iterations"``
+        ``"max iterations"``. From a good approximation the iteration converges in 5–10
+        steps; slow convergence means a flat, ill-conditioned cost surface (weak texture
+        under noise): in benchmarks/matching_bench.py every converged match off by more than
+        0.5 px needed more than 15 iterations, hence the default. Bilinear resampling
+        converges more slowly (its gradient jumps at pixel borders): allow it ~25.
     interpolation : ``"bilinear"`` or ``"bicubic"`` (Keys, a = −0.5) resampling of the moving window
     min_correlation : converged matches whose final correlation is lower -> ``"low correlation"``
     max_sigma : converged matches with σx or σy above this (px) -> ``"low signal"``
+    model : ``"affine"`` (6 geometric + 2 radiometric parameters) or ``"shift"`` (2 + 2)
     max_shift, approx_jacobian, reference_mask, search_mask : see :func:`lsm_many`
 
     Returns :class:`LSMResult` (``xy`` is NaN unless ``status == "converged"``; ``sigma``,
@@ -404,5 +388,6 @@ def lsm(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iter
     batch = lsm_many(reference, search, p[None], q[None], half_window=half_window,
                      max_iterations=max_iterations, interpolation=interpolation, tolerance=tolerance,
                      min_correlation=min_correlation, max_sigma=max_sigma, max_shift=max_shift,
-                     approx_jacobian=J, reference_mask=reference_mask, search_mask=search_mask)
+                     approx_jacobian=J, reference_mask=reference_mask, search_mask=search_mask,
+                     model=model)
     return batch[0]

@@ -67,7 +67,7 @@ def levels_for(search_radius: float, top_radius: int = 4) -> int:
     """Number of halvings so that ``search_radius`` shrinks to about ``top_radius`` pixels."""
     if search_radius <= top_radius:
         return 0
-    return int(math.ceil(math.log2(search_radius / top_radius)))
+    return math.ceil(math.log2(search_radius / top_radius))
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,7 @@ class TransferResult:
 
 def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int = 32, half_window: int = 10,
                     ncc_half_window: int | None = None, levels: int | None = None, min_correlation: float = 0.5,
-                    max_ambiguity: float = 0.9, interpolation: str = "bicubic", max_iterations: int = 30,
+                    max_ambiguity: float = 0.9, interpolation: str = "bicubic", max_iterations: int = 15,
                     max_sigma: float = 0.5, reference_mask=None, search_mask=None, progress=None) -> TransferResult:
     """Transfer points (e.g. GCPs) from ``reference`` into ``search``: pyramid NCC, then LSM.
 
@@ -131,26 +131,36 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
     L = levels_for(R) if levels is None else check_int(levels, "levels", 0)
     prog = as_progress(progress)
 
-    ref_pyr = build_pyramid(reference, L, reference_mask, "reference")
-    sea_pyr = build_pyramid(search, L, search_mask, "search")
+    # no level smaller than two template widths
+    f_img = as_image(reference, "reference", reference_mask, "reference_mask")
+    g_img = as_image(search, "search", search_mask, "search_mask")
+    smallest = min(f_img.shape + g_img.shape)
+    while L > 0 and smallest / 2.0 ** L < 2 * (2 * hn + 1):
+        L -= 1
+    ref_pyr = build_pyramid(f_img, L, None, "reference")
+    sea_pyr = build_pyramid(g_img, L, None, "search")
     L = min(len(ref_pyr), len(sea_pyr)) - 1
     n = P.shape[0]
     status = np.full(n, "", dtype=object)
     cur = to_level(Q, L)
+    # search radius per point at the current level; a point whose window does not fit at a
+    # coarse level skips it and is searched with a correspondingly larger radius below
+    rad = np.full(n, math.ceil(R / 2.0 ** L) + 1)
     total = max(n * (L + 1), 1)
     done = 0
     for k in range(L, -1, -1):
-        radius = int(math.ceil(R / 2.0 ** L)) + 1 if k == L else 2
         pk = to_level(P, k)
         for i in range(n):
             if status[i]:
                 continue
-            res = match_prepared(ref_pyr[k], sea_pyr[k], pk[i], cur[i], hn, radius,
+            res = match_prepared(ref_pyr[k], sea_pyr[k], pk[i], cur[i], hn, int(rad[i]),
                                  min_correlation, max_ambiguity)
-            if res.status != OK:
-                status[i] = f"ncc level {k}: {res.status}"
+            if res.status == OK:
+                cur[i], rad[i] = res.xy, 2
+            elif res.status == "window outside image" and k > 0:
+                rad[i] = 2 * rad[i] + 1
             else:
-                cur[i] = res.xy
+                status[i] = f"ncc level {k}: {res.status}"
             done += 1
             if done % 64 == 0:
                 prog(0.8 * done / total, f"NCC at pyramid level {k}")

@@ -5,11 +5,15 @@ Two steps, as in the paper:
 1. **Approximate centre by an edge method.** In a window around the approximation, a first
    threshold ``T0 = (MAX + MIN) / 2`` separates target from background (the target is the
    minority class unless ``polarity`` says otherwise); their mean grey levels ``MGL``
-   (target) and ``MBGL`` (background) give the final threshold
-   ``T = sqrt((MGL² + MBGL²) / 2)`` (paper eq. 11). Along every row the grey-value profile
+   (target) and ``MBGL`` (background) give the final threshold ``T = (MGL + MBGL) / 2``.
+   (The paper's eq. 11, damaged in the OCR, combines them as a quadratic mean; the
+   arithmetic mean is the level at which a symmetric blur leaves edge positions, hence arm
+   widths, unbiased. Arm mid-points are unbiased either way.) Along every row the profile
    crosses ``T`` at the arm edges (rising and falling gradient); edges are located to
    sub-pixel by linear interpolation, and the arm mid-points ``x_m = (x_rise + x_fall) / 2``
-   (eq. 12) of rows that cut both arms are sorted into the two diagonals. A straight line
+   (eq. 12) of rows that cut both arms are sorted into the two diagonals (left arm above
+   the crossing and right arm below it form one diagonal; the crossing lies in the widest
+   run of rows where the arms have merged). A straight line
    ``x = a + b·y`` is fitted to each diagonal's mid-points; their intersection is the
    approximate centre, their slopes the arm directions and the run lengths the arm width.
 2. **Sub-pixel centre by least-squares matching** of a synthetic X-target template (the
@@ -106,20 +110,25 @@ def _edge_centre(win: np.ndarray, polarity: str):
         sign = 1.0 if polarity == "bright" else -1.0
     tgt = bright if sign > 0 else ~bright
     mgl, mbgl = float(win[tgt].mean()), float(win[~tgt].mean())
-    T = float(np.sqrt(0.5 * (mgl * mgl + mbgl * mbgl)))
-    two, one = [], []
+    T = 0.5 * (mgl + mbgl)
+    two = []
     for r in range(win.shape[0]):
         runs = _row_runs(win[r], T, sign)
         y = r  # centre convention
         if len(runs) == 2 and runs[1][0] - runs[0][1] > 1.0:
             (a0, a1), (b0, b1) = runs
             two.append((y, 0.5 * (a0 + a1), 0.5 * (b0 + b1), a1 - a0, b1 - b0))
-        elif len(runs) == 1:
-            one.append((y, 0.5 * (runs[0][0] + runs[0][1])))
     if len(two) < 6:
         raise ValueError("too few rows cut both arms")
     two = np.array(two)
-    y_mid = float(np.median([o[0] for o in one])) if one else float(two[:, 0].mean())
+    # rows near the crossing hold one merged run: the crossing lies in the widest gap between
+    # rows that cut both arms (one-run rows also occur where an arm leaves the window)
+    ys = two[:, 0]
+    gaps = np.diff(ys)
+    j = int(np.argmax(gaps))
+    if gaps[j] <= 1:
+        raise ValueError("arms do not merge at a crossing")
+    y_mid = 0.5 * (ys[j] + ys[j + 1])
     up = two[:, 0] < y_mid
     # "\" diagonal: left run above the crossing, right run below; "/" the other way round
     back = np.concatenate([two[up][:, [0, 1, 3]], two[~up][:, [0, 2, 4]]])
@@ -139,7 +148,7 @@ def _edge_centre(win: np.ndarray, polarity: str):
 
 def measure_target(image, approx_xy, *, half_window: int = 12, search_half_window: int | None = None,
                    polarity: str = "auto", arm_width: float | None = None, arm_angles=None,
-                   interpolation: str = "bicubic", max_iterations: int = 30, mask=None) -> TargetResult:
+                   interpolation: str = "bicubic", max_iterations: int = 15, mask=None) -> TargetResult:
     """Measure the centre of an X-shaped target near ``approx_xy`` to sub-pixel precision.
 
     Parameters

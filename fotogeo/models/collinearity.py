@@ -33,7 +33,6 @@ import warnings
 import numpy as np
 
 from ..camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
-from ..dem import as_height_source
 from ..errors import InputError, ModelError
 from .base import Normalisation, check_pairs, register_model
 from .spatial import DLT, FittedModel
@@ -59,7 +58,7 @@ class Collinearity(FittedModel):
     camera: FrameCamera | None = None  # bound by for_camera()
 
     @classmethod
-    def for_camera(cls, camera: FrameCamera) -> type["Collinearity"]:
+    def for_camera(cls, camera: FrameCamera) -> type[Collinearity]:
         """A subclass with the interior orientation ``camera`` fixed."""
         return type("Collinearity", (cls,), {"camera": camera, "__module__": __name__})
 
@@ -135,14 +134,13 @@ class Collinearity(FittedModel):
         import cv2
 
         flags = cv2.SOLVEPNP_SQPNP if len(s) >= 3 else cv2.SOLVEPNP_ITERATIVE
-        ok, rvec, tvec = cv2.solvePnP(s.astype(np.float64), (d - 0.5).astype(np.float64), K, None,
-                                      flags=flags)  # OpenCV: centre convention
+        # K and d share the corner convention, so no half-pixel shift is needed here
+        ok, rvec, tvec = cv2.solvePnP(s.astype(np.float64), d.astype(np.float64), K, None, flags=flags)
         if not ok:
             raise ModelError("collinearity: no initial exterior orientation found (solvePnP failed); "
                              "check that the GCP ground and pixel coordinates correspond")
         Rt, _ = cv2.Rodrigues(rvec)
         Rt = Rt.astype(np.float64)
-        # OpenCV's K maps centre-convention pixels: shift ppx, ppy back by 0.5 to compare
         return -Rt.T @ tvec.reshape(3), Rt.T
 
     @staticmethod
@@ -199,5 +197,3 @@ class Collinearity(FittedModel):
                              "sensor_h", "image_w", "image_h", "ppx", "ppy"]
         return d
 
-
-__all__ = ["Collinearity", "as_height_source"]

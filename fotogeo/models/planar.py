@@ -93,11 +93,14 @@ class Projective(_MatrixModel):
         A[0::2] = np.column_stack([x, y, o, z, z, z, -u * x, -u * y, -u])
         A[1::2] = np.column_stack([z, z, z, x, y, o, -v * x, -v * y, -v])
         A *= np.sqrt(np.repeat(w, 2))[:, None]
-        _, sv, vt = np.linalg.svd(A)  # full: vt[-1] spans the null space even for 4 points
+        # the thin SVD suffices once A has 9 rows; 4 points need the full one for the null space
+        _, sv, vt = np.linalg.svd(A, full_matrices=2 * n < 9)
         if len(sv) < 8 or sv[7] < 1e-9 * sv[0]:
             raise ModelError("model 'projective': the points are degenerate (collinear or duplicated)")
         H = vt[-1].reshape(3, 3)
         H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 else H / np.linalg.norm(H)
+        if n == cls.min_points:  # a minimal sample is interpolated exactly: nothing to refine
+            return H.ravel()
         return cls._refine(H, s, d, w, iterations).ravel()
 
     @staticmethod

@@ -14,9 +14,13 @@ pixel), and the first two source coordinates are found by Newton's method at tha
 Estimation runs in normalised coordinates (:class:`~fotogeo.models.base.Normalisation`),
 records diagnostics in ``model.info`` (``cond``: condition number of the weighted design
 matrix in normalised coordinates; ``rank``: its numerical rank; ``relief``: the ratio of
-the source's third-axis half-range to its horizontal half-range) and warns with
-:class:`IllPosedWarning` when the problem is ill-posed (nearly flat terrain for a model with
-height terms, condition number above ``COND_WARN``, or fewer points than parameters).
+the source's third-axis range to its horizontal range; ``coverage``: the fraction of a 4x4
+grid over the points' normalised extent that holds a point) and warns with
+:class:`IllPosedWarning` when the problem is ill-posed: nearly flat terrain (relief <
+``RELIEF_WARN``) for a model with height terms, a condition number above ``cond_warn``,
+fewer observations than ``redundancy_warn`` x parameters, or clustered points (coverage <
+``COVERAGE_WARN``, models with more than 8 parameters, 16 points or more). The warnings are also listed in
+``info["ill_posed"]``.
 
 DLT (11 parameters, ≥ 6 points, not all coplanar): ``col = (L1 X + L2 Y + L3 Z + L4) /
 (L9 X + L10 Y + L11 Z + 1)``, ``row = (L5 X + L6 Y + L7 Z + L8) / (L9 X + L10 Y + L11 Z + 1)``
@@ -37,6 +41,8 @@ from .base import Model, Normalisation, check_pairs, register_model
 COND_WARN = 1e7
 #: relief ratio below which height terms are reported as poorly determined
 RELIEF_WARN = 0.01
+#: occupied fraction of a 4x4 grid over the points' extent below which they count as clustered
+COVERAGE_WARN = 0.5
 
 
 class IllPosedWarning(UserWarning):
@@ -54,11 +60,21 @@ def design_diagnostics(A: np.ndarray, w: np.ndarray | None = None) -> tuple[floa
     return cond, rank
 
 
+def coverage(s: np.ndarray, cells: int = 4) -> float:
+    """Fraction of a ``cells`` x ``cells`` grid over [-1, 1]² (first two normalised axes) holding a point."""
+    ij = np.clip(((s[:, :2] + 1.0) / 2.0 * cells).astype(int), 0, cells - 1)
+    return len({(int(a), int(b)) for a, b in ij}) / cells ** 2
+
+
 class FittedModel(Model):
     """A :class:`Model` whose ``_fit`` returns ``(params, info)``; checks and warns on ill-posedness."""
 
     #: models whose equations contain the third source axis (height) as a variable
     uses_height = False
+    #: warn above this condition number of the (normalised, weighted) design
+    cond_warn = COND_WARN
+    #: warn when observations (2 per point) < redundancy_warn x parameters
+    redundancy_warn = 1.0
 
     @classmethod
     def estimate(cls, src, dst, weights=None):
@@ -68,6 +84,7 @@ class FittedModel(Model):
         params, info = cls._fit(sn.normalise(src), dn.normalise(dst), w)
         info = dict(info)
         info.setdefault("n_points", int(np.count_nonzero(w)))
+        info["coverage"] = coverage(sn.normalise(src[w > 0]))
         if cls.src_dims == 3:
             span = src[w > 0].max(axis=0) - src[w > 0].min(axis=0)
             info["relief"] = float(span[2] / max(span[0], span[1], 1e-300))
@@ -82,12 +99,17 @@ class FittedModel(Model):
                             f"< {RELIEF_WARN}): the height terms are poorly determined; use a 2-D model "
                             "(projective, poly1-3) or add points at other heights")
         cond = np.max(np.atleast_1d(info.get("cond", 0.0)))
-        if cond > COND_WARN:
-            problems.append(f"condition number {cond:.3g} > {COND_WARN:.0g}: the points do not determine "
+        if cond > self.cond_warn:
+            problems.append(f"condition number {cond:.3g} > {self.cond_warn:.0g}: the points do not determine "
                             "all parameters; add points spread over the image (and heights)")
-        if info.get("n_points", np.inf) * 2 < self.n_params:
-            problems.append(f"{info['n_points']} points for {self.n_params} parameters: the "
-                            "higher-order terms are set by the regularisation, not by the data")
+        n = info.get("n_points", np.inf)
+        if 2 * n < self.redundancy_warn * self.n_params:
+            problems.append(f"few points: {n} points ({2 * n} observations) for {self.n_params} parameters; "
+                            "the higher-order terms are set by the regularisation, not by the data")
+        cov = info.get("coverage", 1.0)
+        if self.n_params > 8 and n >= 16 and cov < COVERAGE_WARN:  # not for (RANSAC) minimal sets
+            problems.append(f"points clustered: they occupy {cov:.0%} of a 4x4 grid over their extent; "
+                            "predictions between and beyond the clusters are extrapolations")
         if problems:
             info["ill_posed"] = problems
             warnings.warn(f"model {self.name!r}: " + "; ".join(problems), IllPosedWarning, stacklevel=3)

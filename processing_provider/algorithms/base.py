@@ -161,5 +161,20 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         parts = QgsProviderRegistry.instance().decodeUri("gdal", layer.source())
         return parts.get("path") or layer.source()
 
+    def raster_output(self, parameters, name: str, context) -> str:
+        """Path of a raster destination parameter; fotogeo writes GeoTIFF, so it must end in .tif/.tiff."""
+        path = self.parameterAsOutputLayer(parameters, name, context)
+        if not path.lower().endswith((".tif", ".tiff")):
+            raise QgsProcessingException(f"{name}: fotogeo writes GeoTIFF; give a file name ending in .tif "
+                                         f"(got {path!r})")
+        return path
+
+    def optional_double(self, parameters, name: str, context):
+        """The value of an optional number parameter, or None when it is left empty."""
+        value = parameters.get(name)
+        if value is None or (isinstance(value, str) and not value.strip()):
+            return None
+        return self.parameterAsDouble(parameters, name, context)
+
     def enum_value(self, parameters, name: str, context, options) -> str:
         return options[self.parameterAsEnum(parameters, name, context)]

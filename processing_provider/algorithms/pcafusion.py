@@ -38,7 +38,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
     def processAlgorithm(self, parameters, context, feedback):
         fuse_raster = self.tool("fusion_tool", "fuse_raster")
         source = self.raster_path(parameters, self.INPUT, context)
-        output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
+        output = self.raster_output(parameters, self.OUTPUT, context)
         result = self.run_tool(fuse_raster, source, output, feedback=feedback,
                                stretch=self.parameterAsBoolean(parameters, self.STRETCH, context),
                                seed=self.parameterAsInt(parameters, self.SEED, context), overwrite=True)

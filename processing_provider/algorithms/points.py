@@ -1,0 +1,97 @@
+"""``fotogeo:pointstolayer`` and ``fotogeo:layertopoints`` — QGIS Georeferencer ``.points`` files."""
+from __future__ import annotations
+
+import os
+
+from qgis.core import (QgsProcessing, QgsProcessingException, QgsProcessingOutputNumber, QgsProcessingParameterCrs,
+                       QgsProcessingParameterFeatureSource, QgsProcessingParameterFile,
+                       QgsProcessingParameterFileDestination, QgsProcessingParameterRasterLayer,
+                       QgsProcessingParameterVectorDestination)
+
+from ..postprocess import style_output
+from .base import FotogeoAlgorithm, tr
+from .register import RegisterAlgorithm
+
+_CONVENTION = ("Source coordinates: for an unreferenced source raster QGIS writes sourceX = column and "
+               "sourceY = -row (y up), with (0, 0) the top-left corner of the top-left pixel (GDAL/QGIS "
+               "corner convention; the centre of that pixel is 0.5, -0.5). For a georeferenced source raster "
+               "they are its map coordinates: give that raster so that they can be converted to pixels.")
+
+
+class PointsToLayerAlgorithm(FotogeoAlgorithm):
+    ALG_ID = "pointstolayer"
+    DISPLAY = "Georeferencer points file to GCP layer"
+    GROUP = ("gcp", "Ground control points")
+    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas")
+    HELP = ("Converts a QGIS Georeferencer <i>.points</i> file (optional '#CRS: &lt;WKT&gt;' line, header "
+            "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual) into a GeoPackage point layer at the map "
+            "positions, with the fields fotogeo's tools use: id, col, row (source pixel, GDAL corner "
+            "convention), z (empty), role (enable 1 = control, 0 = check) and dx, dy, residual.\n\n"
+            + _CONVENTION + "\n\nOutput CRS: the CRS parameter if set, else the file's #CRS line.")
+
+    INPUT, RASTER, CRS, OUTPUT, COUNT = "INPUT", "RASTER", "CRS", "OUTPUT", "COUNT"
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterFile(self.INPUT, tr("Georeferencer points file"),
+                                                     extension="points"))
+        self.addParameter(QgsProcessingParameterRasterLayer(
+            self.RASTER, tr("Source raster, if georeferenced (empty = unreferenced convention)"), optional=True))
+        self.addParameter(QgsProcessingParameterCrs(self.CRS, tr("CRS of the map coordinates (empty = the file's #CRS)"),
+                                                    optional=True))
+        self.addParameter(QgsProcessingParameterVectorDestination(self.OUTPUT, tr("GCP layer (GeoPackage)"),
+                                                                  QgsProcessing.TypeVectorPoint))
+        self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        points_to_layer = self.tool("points_file", "points_to_layer")
+        points = self.parameterAsFile(parameters, self.INPUT, context)
+        raster = self.raster_path(parameters, self.RASTER, context) if parameters.get(self.RASTER) else None
+        crs = self.parameterAsCrs(parameters, self.CRS, context)
+        output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
+        if os.path.splitext(output)[1].lower() != ".gpkg":
+            raise QgsProcessingException(f"OUTPUT must be a GeoPackage (.gpkg); got {output!r}")
+        info = self.run_tool(points_to_layer, points, output, raster=raster,
+                             crs=RegisterAlgorithm.crs_spec(crs) if crs.isValid() else None,
+                             overwrite=True, feedback=feedback)
+        feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}, "
+                          f"source coordinates: {info['source_convention']}")
+        style_output(context, output, "tie_points")
+        return {self.OUTPUT: output, self.COUNT: info["points"]}
+
+
+class LayerToPointsAlgorithm(FotogeoAlgorithm):
+    ALG_ID = "layertopoints"
+    DISPLAY = "GCP layer to Georeferencer points file"
+    GROUP = ("gcp", "Ground control points")
+    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas")
+    HELP = ("Writes a QGIS Georeferencer <i>.points</i> file from a point layer with the fields col, row "
+            "(source pixel, GDAL corner convention) and optionally role (control = enabled, anything else "
+            "= disabled), id (sort order) and dx, dy. A fotogeo <i>tie_points</i> layer from the register "
+            "algorithm works directly (target_col, target_row). Map coordinates are the point positions; "
+            "the #CRS line is the layer's CRS.\n\n" + _CONVENTION)
+
+    INPUT, RASTER, OUTPUT, COUNT = "INPUT", "RASTER", "OUTPUT", "COUNT"
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterFeatureSource(self.INPUT, tr("GCP / tie point layer"),
+                                                              [QgsProcessing.TypeVectorPoint]))
+        self.addParameter(QgsProcessingParameterRasterLayer(
+            self.RASTER, tr("Source raster, if georeferenced (empty = unreferenced convention)"), optional=True))
+        self.addParameter(QgsProcessingParameterFileDestination(self.OUTPUT, tr("Georeferencer points file"),
+                                                                "Georeferencer points (*.points)"))
+        self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        layer_to_points = self.tool("points_file", "layer_to_points")
+        # a GeoPackage/Shapefile layer is read where it is; anything else (memory layer, selection) is
+        # first exported by Processing to a temporary GeoPackage
+        path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(
+            parameters, self.INPUT, context, ["gpkg", "shp"], "gpkg", feedback)
+        if not path:
+            raise QgsProcessingException(self.invalidSourceError(parameters, self.INPUT))
+        raster = self.raster_path(parameters, self.RASTER, context) if parameters.get(self.RASTER) else None
+        output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
+        info = self.run_tool(layer_to_points, path, output, layer=layer or None, raster=raster,
+                             overwrite=True, feedback=feedback)
+        feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}")
+        return {self.OUTPUT: output, self.COUNT: info["points"]}

@@ -1,0 +1,124 @@
+"""Build the installable QGIS plugin: ``dist/fotogeo_qgis.zip``.
+
+    python scripts/build_plugin.py [--output dist/fotogeo_qgis.zip]
+
+The zip holds one top-level folder ``fotogeo_qgis/`` (the plugin's package name):
+
+- ``__init__.py`` — the plugin entry (``classFactory``), which puts the folder on
+  ``sys.path`` so that the vendored ``fotogeo`` package imports as ``fotogeo``;
+- ``metadata.txt`` — from the repository root (its version must equal fotogeo's);
+- ``processing_provider/`` — the provider, its algorithms and ``styles/*.qml``;
+- ``fotogeo/`` — the pure-Python fotogeo package, without its command line (``cli``, which
+  needs click), so the plugin works with only the third-party packages installed
+  (numpy, rasterio, pyproj, shapely, geopandas, opencv-python-headless).
+
+Install: QGIS > Plugins > Manage and Install Plugins > Install from ZIP, or unzip into the
+profile's ``python/plugins`` folder. Entries are sorted and time-stamped 1980-01-01, so the
+same sources give the same zip.
+"""
+from __future__ import annotations
+
+import argparse
+import configparser
+import re
+import sys
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PLUGIN = "fotogeo_qgis"
+EXCLUDE_DIRS = {"__pycache__", ".pytest_cache"}
+EXCLUDE_FOTOGEO = {"cli"}  # command line only (click); the plugin calls the tools directly
+REQUIRED_METADATA = ("name", "qgisMinimumVersion", "description", "about", "version", "author", "email",
+                     "repository", "hasProcessingProvider")
+
+ENTRY = '''"""fotogeo QGIS plugin (built by scripts/build_plugin.py from the fotogeo repository).
+
+The vendored pure-Python ``fotogeo`` package beside this file is imported as ``fotogeo``:
+this folder goes first on ``sys.path`` so that the provider always runs the fotogeo it was
+built with.
+"""
+import os
+import sys
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+if _HERE not in sys.path:
+    sys.path.insert(0, _HERE)
+
+
+def classFactory(iface):  # noqa: N802 - the name QGIS looks for
+    from .processing_provider.plugin import classFactory as factory
+    return factory(iface)
+'''
+
+
+def fotogeo_version() -> str:
+    text = (ROOT / "fotogeo" / "__init__.py").read_text(encoding="utf-8")
+    m = re.search(r'^__version__\s*=\s*["\']([^"\']+)["\']', text, re.M)
+    if not m:
+        sys.exit("build_plugin: no __version__ in fotogeo/__init__.py")
+    return m.group(1)
+
+
+def check_metadata(path: Path) -> configparser.ConfigParser:
+    cp = configparser.ConfigParser()
+    cp.optionxform = str  # keys are case-sensitive (qgisMinimumVersion)
+    cp.read(path, encoding="utf-8")
+    if "general" not in cp:
+        sys.exit(f"build_plugin: {path} has no [general] section")
+    missing = [k for k in REQUIRED_METADATA if not cp["general"].get(k, "").strip()]
+    if missing:
+        sys.exit(f"build_plugin: {path} lacks {', '.join(missing)}")
+    if cp["general"]["version"] != fotogeo_version():
+        sys.exit(f"build_plugin: metadata.txt version {cp['general']['version']} != fotogeo "
+                 f"{fotogeo_version()}; update metadata.txt")
+    return cp
+
+
+def _walk(folder: Path, skip_top: set[str] = frozenset()):
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder)
+        if not p.is_file() or set(rel.parts) & EXCLUDE_DIRS or (rel.parts and rel.parts[0] in skip_top):
+            continue
+        if p.suffix in (".pyc", ".pyo") or p.name.startswith("."):
+            continue
+        yield p, rel
+
+
+def build(output: Path) -> Path:
+    check_metadata(ROOT / "metadata.txt")
+    entries: list[tuple[str, bytes]] = [(f"{PLUGIN}/__init__.py", ENTRY.encode()),
+                                        (f"{PLUGIN}/metadata.txt", (ROOT / "metadata.txt").read_bytes())]
+    for p, rel in _walk(ROOT / "processing_provider"):
+        entries.append((f"{PLUGIN}/processing_provider/{rel.as_posix()}", p.read_bytes()))
+    for p, rel in _walk(ROOT / "fotogeo", EXCLUDE_FOTOGEO):
+        if p.suffix == ".py":
+            entries.append((f"{PLUGIN}/fotogeo/{rel.as_posix()}", p.read_bytes()))
+    for extra in ("LICENSE", "LICENSE.txt", "COPYING"):
+        if (ROOT / extra).is_file():
+            entries.append((f"{PLUGIN}/{extra}", (ROOT / extra).read_bytes()))
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = output.with_name(f".{output.name}.part")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, data in sorted(entries):
+            info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            z.writestr(info, data)
+    tmp.replace(output)
+    return output
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--output", type=Path, default=ROOT / "dist" / f"{PLUGIN}.zip")
+    args = ap.parse_args(argv)
+    out = build(args.output)
+    with zipfile.ZipFile(out) as z:
+        n = len(z.namelist())
+    print(f"wrote {out} ({n} files, {out.stat().st_size // 1024} KiB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,373 @@
+"""The fotogeo Processing provider in real, headless QGIS: every algorithm through ``processing.run``."""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from qgis_env import need_qgis, qgis_app  # noqa: F401 - the session fixture
+
+pytestmark = [pytest.mark.qgis]
+need_qgis()
+
+from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry,  # noqa: E402
+                       QgsPointXY, QgsProcessingContext, QgsProcessingException, QgsProcessingFeedback,
+                       QgsProcessingOutputLayerDefinition, QgsProject, QgsRasterLayer, QgsVectorLayer)
+
+ALG_IDS = {"pcafusion", "register", "pointstolayer", "layertopoints"}
+FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
+ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
+LANDSAT = "landsat_rgb/RGB.byte.tif"
+# fewer keypoints than the default keep the robust fit fast; the full pipeline still runs
+FAST = {"MAX_KEYPOINTS": 1500}
+
+
+class Recorder(QgsProcessingFeedback):
+    """Records progress values and texts; cancels once progress reaches ``cancel_at`` (percent)."""
+
+    def __init__(self, cancel_at: float | None = None):
+        super().__init__()
+        self.cancel_at, self.values, self.texts, self.errors = cancel_at, [], [], []
+        self.progressChanged.connect(self._progress)
+
+    def _progress(self, value):
+        self.values.append(value)
+        if self.cancel_at is not None and value >= self.cancel_at:
+            self.cancel()
+
+    def setProgressText(self, text):
+        self.texts.append(text)
+        super().setProgressText(text)
+
+    def reportError(self, error, fatalError=False):
+        self.errors.append(error)
+        super().reportError(error, fatalError)
+
+
+def run(alg, params, feedback=None, context=None):
+    import processing
+    return processing.run(f"fotogeo:{alg}", params, feedback=feedback or Recorder(), context=context)
+
+
+def sha(path) -> str:
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+def files(folder) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+# -- the provider ------------------------------------------------------------------------------
+
+def test_provider_registered_with_all_algorithms(qgis_app):
+    reg = QgsApplication.processingRegistry()
+    prov = reg.providerById("fotogeo")
+    assert prov is not None and prov.name() == "fotogeo"
+    ids = {a.name() for a in prov.algorithms()}
+    assert ids == ALG_IDS
+    for i in ids:
+        alg = reg.algorithmById(f"fotogeo:{i}")
+        assert alg is not None and alg.displayName() and alg.groupId() and alg.group()
+        assert len(alg.shortHelpString()) > 200, i
+    help_text = reg.algorithmById("fotogeo:register").shortHelpString()
+    assert "Dihkan" in help_text and "Bay" in help_text and "2008" in help_text
+    assert "Not runnable yet" not in help_text  # every dependency is present in this environment
+
+
+def test_option_lists_mirror_fotogeo(qgis_app):
+    """The provider lists enum options without importing fotogeo; they must equal fotogeo's."""
+    from fotogeo.register import PLANAR_MODELS
+    from fotogeo.resample import RESAMPLING
+    from fotogeo.tiepoints import DETECTORS as FG_DETECTORS
+    from processing_provider.algorithms import register as ralg
+    assert ralg.DETECTORS == tuple(FG_DETECTORS)
+    assert ralg.MODELS == tuple(PLANAR_MODELS)
+    assert ralg.RESAMPLINGS == tuple(RESAMPLING)
+    from fotogeo.fusion import CONTRASTS
+    from fotogeo.register import RegisterOptions
+    assert ralg.CONTRASTS == tuple(CONTRASTS)
+    alg = QgsApplication.processingRegistry().algorithmById("fotogeo:register")
+    d = RegisterOptions()
+    defaults = {p.name(): p.defaultValue() for p in alg.parameterDefinitions()}
+    # every option of the tool is a parameter of the algorithm (dst_crs is CRS)
+    from dataclasses import fields
+    names = {"CRS" if f.name == "dst_crs" else f.name.upper() for f in fields(RegisterOptions)}
+    assert names <= set(defaults), f"options without a parameter: {sorted(names - set(defaults))}"
+    assert ralg.CONTRASTS[defaults["CONTRAST"]] == d.contrast
+    assert defaults["REFERENCE_NODATA"] is None and d.reference_nodata is None
+    assert ralg.DETECTORS[defaults["DETECTOR"]] == d.detector
+    assert ralg.MODELS[defaults["MODEL"]] == d.model
+    assert ralg.RESAMPLINGS[defaults["RESAMPLING"]] == d.resampling
+    assert (defaults["RATIO"], defaults["RANSAC_THRESHOLD"], defaults["CHECK_FRACTION"]) == \
+        (d.ratio, d.ransac_threshold, d.check_fraction)
+    assert (defaults["MAX_KEYPOINTS"], defaults["SEED"], defaults["MAX_MATCH_PIXELS"]) == \
+        (d.max_keypoints, d.seed, d.max_match_pixels)
+
+
+# -- pcafusion ---------------------------------------------------------------------------------
+
+def test_pcafusion_same_as_the_tool(qgis_app, data_dir, tmp_path):
+    import rasterio
+    from fotogeo.fusion_tool import fuse_raster
+    src = data_dir / LANDSAT
+    fb = Recorder()
+    out = tmp_path / "pc1.tif"
+    res = run("pcafusion", {"INPUT": str(src), "OUTPUT": str(out)}, fb)
+    assert res["OUTPUT"] == str(out) and 0.5 < res["EXPLAINED"] <= 1.0
+    lyr = QgsRasterLayer(str(out), "pc1")
+    assert lyr.isValid() and lyr.bandCount() == 1
+    ref = QgsRasterLayer(str(src), "src")
+    assert lyr.crs() == ref.crs() and lyr.crs().authid() == "EPSG:32618"
+    assert lyr.extent() == ref.extent()
+    assert fb.values and max(fb.values) == pytest.approx(100.0) and "writing the first component" in fb.texts
+    # the provider is a thin wrapper: the CLI's tool gives the same pixels
+    direct = tmp_path / "direct.tif"
+    info = fuse_raster(src, direct)
+    assert info["explained"] == pytest.approx(res["EXPLAINED"])
+    with rasterio.open(out) as a, rasterio.open(direct) as b:
+        np.testing.assert_array_equal(a.read(), b.read())
+
+
+def test_pcafusion_float_and_cancel(qgis_app, data_dir, tmp_path):
+    out = tmp_path / "f.tif"
+    run("pcafusion", {"INPUT": str(data_dir / LANDSAT), "STRETCH": False, "OUTPUT": str(out)})
+    lyr = QgsRasterLayer(str(out), "f")
+    assert lyr.isValid() and lyr.dataProvider().dataType(1) == 6  # Qgis.Float32
+    cancel_dir = tmp_path / "cancel"
+    cancel_dir.mkdir()
+    fb = Recorder(cancel_at=15)
+    with pytest.raises(QgsProcessingException, match="cancelled"):
+        run("pcafusion", {"INPUT": str(data_dir / LANDSAT), "OUTPUT": str(cancel_dir / "c.tif")}, fb)
+    assert fb.isCanceled() and max(fb.values) < 100
+    assert files(cancel_dir) == []
+
+
+# -- register ----------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def registered(qgis_app, data_dir, tmp_path_factory):
+    """One register run (SURF, the default) loading its outputs into the project, as the GUI does."""
+    import processing
+    folder = tmp_path_factory.mktemp("register")
+    out = folder / "frame_0182.tif"
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    fb = Recorder()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    params = {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST,
+              "OUTPUT": QgsProcessingOutputLayerDefinition(str(out), project)}
+    before = (sha(data_dir / ORTHO), sha(data_dir / FRAME))
+    res = processing.runAndLoadResults("fotogeo:register", params, feedback=fb, context=context)
+    assert (sha(data_dir / ORTHO), sha(data_dir / FRAME)) == before, "an input was modified"
+    return res, folder, fb, project
+
+
+def test_register_outputs(registered):
+    res, folder, fb, _ = registered
+    assert files(folder) == ["frame_0182.gpkg", "frame_0182.json", "frame_0182.tif"]
+    ras = QgsRasterLayer(res["OUTPUT"], "out")
+    assert ras.isValid() and ras.bandCount() == 3
+    assert ras.crs().authid() == "EPSG:32735" and res["OUTPUT_CRS"] == "EPSG:32735"
+    tie = QgsVectorLayer(res["TIE_POINTS"], "tie", "ogr")
+    err = QgsVectorLayer(res["ERROR_VECTORS"], "err", "ogr")
+    assert tie.isValid() and err.isValid()
+    assert tie.crs().authid() == "EPSG:32735" and err.crs().authid() == "EPSG:32735"
+    assert tie.featureCount() == err.featureCount() == res["INLIERS"] >= 50
+    roles = [f["role"] for f in tie.getFeatures()]
+    assert set(roles) == {"control", "check"}
+    assert err.geometryType() == 1  # QgsWkbTypes.LineGeometry
+    assert {"dx", "dy", "length"} <= set(err.fields().names())
+    report = json.loads(open(res["REPORT"]).read())
+    assert report["options"]["detector"] == "surf" and report["options"]["max_keypoints"] == 1500
+    assert report["inliers"] == res["INLIERS"]
+    assert report["check"]["n"] == roles.count("check")
+    assert res["CHECK_RMSE_M"] == pytest.approx(report["check"]["rmse_m"])
+    # relief makes one homography metre-level wrong here (5 m ortho pixels): sane, not perfect
+    assert 0 < res["CHECK_RMSE_M"] < 100
+    # the raster lands on the orthophoto: the output footprint overlaps the reference's (reprojected)
+    ref = QgsRasterLayer(report["reference"], "ref")
+    from qgis.core import QgsCoordinateTransform
+    ext = QgsCoordinateTransform(ref.crs(), ras.crs(), QgsProject.instance()).transformBoundingBox(ref.extent())
+    inter = ext.intersect(ras.extent())
+    assert inter.area() > 0.5 * ras.extent().area()
+    assert fb.values and max(fb.values) == pytest.approx(100.0)
+    assert any("resampling" in t for t in fb.texts)
+
+
+def test_register_layers_loaded_and_styled(registered):
+    _, _, _, project = registered
+    layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
+    assert {"Tie points", "Error vectors"} <= set(layers)
+    tie, err = layers["Tie points"], layers["Error vectors"]
+    r = tie.renderer()
+    assert r.type() == "categorizedSymbol" and r.classAttribute() == "role"
+    cats = {c.value(): c.symbol().color().name() for c in r.categories()}
+    assert cats["control"] == "#1f78b4" and cats["check"] == "#e31a1c"
+    er = err.renderer()
+    assert er.type() == "categorizedSymbol" and er.classAttribute() == "role"
+    assert all(c.symbol().symbolLayer(0).layerType() == "ArrowLine" for c in er.categories())
+    rasters = [lyr for lyr in project.mapLayers().values() if isinstance(lyr, QgsRasterLayer)]
+    assert len(rasters) == 1 and rasters[0].crs().authid() == "EPSG:32735"
+
+
+def test_register_sift_crs_and_cancel(qgis_app, data_dir, tmp_path):
+    """SIFT, an explicit CRS (EPSG:32635, the wrong zone on purpose) and a cancel during resampling."""
+    fb = Recorder(cancel_at=70)
+    params = {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST, "DETECTOR": 1,
+              "CRS": QgsCoordinateReferenceSystem("EPSG:32635"), "OUTPUT": str(tmp_path / "x.tif")}
+    with pytest.raises(QgsProcessingException, match="cancelled by the user during: resampling"):
+        run("register", params, fb)
+    assert fb.isCanceled() and 70 <= max(fb.values) < 100
+    assert files(tmp_path) == [], "a cancelled run left files behind"
+    # the same, not cancelled, with the advanced options set
+    res = run("register", {**params, "CONTRAST": 2, "TARGET_NODATA": 0, "MODEL": 1, "RESAMPLING": 1})
+    report = json.loads(open(res["REPORT"]).read())
+    o = report["options"]
+    assert (o["detector"], o["contrast"], o["target_nodata"], o["reference_nodata"], o["model"], o["resampling"]) \
+        == ("sift", "linear", 0, None, "affine", "bilinear")
+    assert QgsRasterLayer(res["OUTPUT"], "o").crs().authid() == "EPSG:32635"
+    assert QgsVectorLayer(res["TIE_POINTS"], "t", "ogr").crs().authid() == "EPSG:32635"
+
+
+def test_register_invalid_parameters(qgis_app, data_dir, tmp_path):
+    target = data_dir / FRAME
+    base = {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(target), **FAST}
+    # out of range for QGIS itself
+    with pytest.raises(QgsProcessingException, match="CHECK_FRACTION"):
+        run("register", {**base, "CHECK_FRACTION": 0.95, "OUTPUT": str(tmp_path / "a.tif")})
+    # fotogeo's own checks come through with their message
+    digest = sha(target)
+    with pytest.raises(QgsProcessingException, match="is also an input; choose another output path"):
+        run("register", {**base, "OUTPUT": str(target)})
+    assert sha(target) == digest
+    with pytest.raises(QgsProcessingException, match="OUTPUT: fotogeo writes GeoTIFF"):
+        run("register", {**base, "OUTPUT": str(tmp_path / "b.img")})
+    with pytest.raises(QgsProcessingException, match="VECTORS must be a GeoPackage"):
+        run("register", {**base, "OUTPUT": str(tmp_path / "b.tif"), "VECTORS": str(tmp_path / "v.shp")})
+    # an unreferenced raster as the reference
+    import rasterio
+    plain = tmp_path / "plain.tif"
+    with rasterio.open(data_dir / LANDSAT) as ds:
+        arr = ds.read()
+    with rasterio.open(plain, "w", driver="GTiff", width=arr.shape[2], height=arr.shape[1], count=3,
+                       dtype=arr.dtype) as dst:
+        dst.write(arr)
+    with pytest.raises(QgsProcessingException, match="has no georeference"):
+        run("register", {**base, "REFERENCE": str(plain), "OUTPUT": str(tmp_path / "c.tif")})
+    # images that do not overlap: a clear matching error, no output
+    with pytest.raises(QgsProcessingException, match=r"only \d+ descriptor matches|inlier"):
+        run("register", {**base, "TARGET": str(data_dir / LANDSAT), "OUTPUT": str(tmp_path / "d.tif")})
+    assert files(tmp_path) == ["plain.tif"]
+
+
+def test_missing_dependency_gives_clear_message(qgis_app, data_dir, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "rasterio", None)  # `import rasterio` now raises ImportError
+    with pytest.raises(QgsProcessingException, match=r"package\(s\) rasterio .*pip install \"rasterio\""):
+        run("pcafusion", {"INPUT": str(data_dir / LANDSAT), "OUTPUT": str(tmp_path / "x.tif")})
+    assert files(tmp_path) == []
+
+
+# -- Georeferencer points ---------------------------------------------------------------------
+
+POINTS = """#CRS: EPSG:32735
+mapX,mapY,sourceX,sourceY,enable,dX,dY,residual
+301234.5,6290011.25,0.5,-0.5,1,0.3,-0.4,0.5
+301300,6289900.125,640,-1152,0,0,0,0
+301250.75,6289950,320.25,-576.125,1,-1.5,2,2.5
+"""
+
+
+def test_points_to_layer_and_back(qgis_app, tmp_path):
+    from fotogeo.points_file import read_points
+    src = tmp_path / "in.points"
+    src.write_text(POINTS)
+    res = run("pointstolayer", {"INPUT": str(src), "OUTPUT": str(tmp_path / "gcps.gpkg")})
+    assert res["COUNT"] == 3
+    lyr = QgsVectorLayer(res["OUTPUT"], "gcps", "ogr")
+    assert lyr.isValid() and lyr.featureCount() == 3 and lyr.crs().authid() == "EPSG:32735"
+    assert {"id", "col", "row", "z", "role"} <= set(lyr.fields().names())
+    feats = sorted(lyr.getFeatures(), key=lambda f: f["id"])
+    assert [(f["col"], f["row"], f["role"]) for f in feats] == \
+        [(0.5, 0.5, "control"), (640, 1152, "check"), (320.25, 576.125, "control")]
+    assert feats[0].geometry().asPoint() == QgsPointXY(301234.5, 6290011.25)
+    # and back through the other algorithm: the same points
+    back = tmp_path / "back.points"
+    res2 = run("layertopoints", {"INPUT": res["OUTPUT"], "OUTPUT": str(back)})
+    assert res2["COUNT"] == 3
+    a, b = read_points(src), read_points(back)
+    np.testing.assert_array_equal(a.map_xy, b.map_xy)
+    np.testing.assert_array_equal(a.source_xy, b.source_xy)
+    np.testing.assert_array_equal(a.enabled, b.enabled)
+    # the CRS parameter overrides the file's
+    res3 = run("pointstolayer", {"INPUT": str(src), "CRS": "EPSG:4326", "OUTPUT": str(tmp_path / "g2.gpkg")})
+    assert QgsVectorLayer(res3["OUTPUT"], "g2", "ogr").crs().authid() == "EPSG:4326"
+
+
+def test_points_layer_loaded_and_styled_after_another_run(registered, tmp_path):
+    """Each run gets its own post-processor: styling still works after an earlier context is gone."""
+    import processing
+    src = tmp_path / "in.points"
+    src.write_text(POINTS)
+    project = QgsProject.instance()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    out = tmp_path / "styled.gpkg"
+    processing.runAndLoadResults("fotogeo:pointstolayer",
+                                 {"INPUT": str(src), "OUTPUT": QgsProcessingOutputLayerDefinition(str(out), project)},
+                                 feedback=Recorder(), context=context)
+    loaded = [lyr for lyr in project.mapLayers().values() if lyr.source().startswith(str(out))]
+    assert len(loaded) == 1 and loaded[0].featureCount() == 3 and loaded[0].crs().authid() == "EPSG:32735"
+    r = loaded[0].renderer()
+    assert r.type() == "categorizedSymbol" and r.classAttribute() == "role"
+
+
+def test_layer_to_points_from_memory_layer_and_errors(qgis_app, tmp_path):
+    from fotogeo.points_file import read_points
+    mem = QgsVectorLayer("Point?crs=EPSG:32735&field=id:integer&field=col:double&field=row:double"
+                         "&field=role:string", "mem", "memory")
+    feats = []
+    for i, (x, y, c, r, role) in enumerate([(10, 20, 1.5, 2.5, "control"), (30, 40, 3.5, 4.5, "check")], 1):
+        f = QgsFeature(mem.fields())
+        f.setAttributes([i, c, r, role])
+        f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(x, y)))
+        feats.append(f)
+    mem.dataProvider().addFeatures(feats)
+    out = tmp_path / "mem.points"
+    res = run("layertopoints", {"INPUT": mem, "OUTPUT": str(out)})
+    assert res["COUNT"] == 2
+    gp = read_points(out)
+    np.testing.assert_array_equal(gp.source_xy, [[1.5, -2.5], [3.5, -4.5]])
+    np.testing.assert_array_equal(gp.enabled, [True, False])
+    assert "32735" in gp.crs
+    # a layer without col/row: the message names the missing fields
+    bad = QgsVectorLayer("Point?crs=EPSG:4326&field=name:string", "bad", "memory")
+    f = QgsFeature(bad.fields())
+    f.setAttributes(["a"])
+    f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(1, 2)))
+    bad.dataProvider().addFeatures([f])
+    with pytest.raises(QgsProcessingException, match="lacks the field.*col, row"):
+        run("layertopoints", {"INPUT": bad, "OUTPUT": str(tmp_path / "bad.points")})
+    # a malformed points file
+    broken = tmp_path / "broken.points"
+    broken.write_text("mapX,mapY,sourceX,sourceY\n1,2,3\n")
+    with pytest.raises(QgsProcessingException, match="line 2"):
+        run("pointstolayer", {"INPUT": str(broken), "OUTPUT": str(tmp_path / "broken.gpkg")})
+    assert files(tmp_path) == ["broken.points", "mem.points"]
+
+
+def test_register_tie_points_to_georeferencer(registered, tmp_path):
+    """A register tie_points layer goes straight to a .points file the Georeferencer can use."""
+    from fotogeo.points_file import read_points
+    res, *_ = registered
+    out = tmp_path / "tie.points"
+    r = run("layertopoints", {"INPUT": res["TIE_POINTS"], "OUTPUT": str(out)})
+    tie = QgsVectorLayer(res["TIE_POINTS"], "tie", "ogr")
+    assert r["COUNT"] == tie.featureCount()
+    gp = read_points(out)
+    n_control = sum(1 for f in tie.getFeatures() if f["role"] == "control")
+    assert gp.enabled.sum() == n_control
+    assert (gp.source_xy[:, 1] <= 0).all() and (gp.source_xy[:, 0] >= 0).all()  # unreferenced convention

@@ -1,0 +1,83 @@
+"""Registration of the real NGI frames and the Sentinel-2 scenes (../shared/data).
+
+Truth for the raw frames: camera + exterior orientation + DEM (fotogeo.camera), checked
+against the orthophotos in tests/test_camera.py. Relief makes any homography approximate,
+so the dense-grid error is compared with the best homography that exists (least squares to
+the truth grid); the difference is what matching and fitting lose.
+"""
+import json
+
+import numpy as np
+import pytest
+import rasterio
+from pyproj import CRS
+
+from fotogeo.camera import load_ngi_frame
+from fotogeo.dem import Dem
+from fotogeo.geo import transform_points
+from fotogeo.models import Projective
+from fotogeo.pixels import pixel_centres
+from fotogeo.register import register
+
+FRAMES = [("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"), ("3324c_2015_1004_05_0184", "ngi_rgb_byte_2.tif")]
+
+
+def truth_grid(ngi, name, step=10):
+    """Frame pixels on a dense grid and their true ground positions in EPSG:32735."""
+    dem = Dem.open(ngi / "dem.tif")
+    frame = load_ngi_frame(ngi, name)
+    w, h = frame.camera.image_size
+    x, y = pixel_centres(w // step, h // step)
+    grid = np.column_stack([x.ravel(), y.ravel()]) * step
+    ground = frame.pixel_to_world(grid, dem)
+    ok = np.isfinite(ground).all(axis=1)
+    truth = transform_points(CRS.from_wkt(dem.crs.to_wkt()), CRS.from_epsg(32735), ground[ok, :2])
+    return grid[ok], truth
+
+
+@pytest.mark.parametrize("name,ortho", FRAMES)
+def test_frame_registers_close_to_the_best_homography(data_dir, tmp_path, name, ortho):
+    ngi = data_dir / "ngi"
+    out = tmp_path / "frame.tif"
+    r = register(ngi / "ortho" / ortho, ngi / "frames" / f"{name}_RGB.tif", out, seed=0)
+    grid, truth = truth_grid(ngi, name)
+    dense = float(np.sqrt(np.mean(r.model.residuals(grid, truth) ** 2)))
+    best = float(np.sqrt(np.mean(Projective.estimate(grid, truth).residuals(grid, truth) ** 2)))
+    # relief: even the best homography is tens of metres off; ours must come within 1.3x of it
+    assert 30 < best < 70
+    assert dense < 1.3 * best, (dense, best)
+    with rasterio.open(out) as ds:
+        assert ds.crs.to_epsg() == 32735 and ds.count == 3 and ds.res == pytest.approx((5.0, 5.0), rel=0.01)
+    rep = json.loads(out.with_suffix(".json").read_text())
+    assert rep["check"]["n"] > 50 and rep["inliers"] > 200
+
+
+def test_sentinel2_other_sensor_to_orthophoto(data_dir, tmp_path):
+    """10 m Sentinel-2 (other sensor, season) registered to the 5 m orthophoto of tile 1."""
+    ngi = data_dir / "ngi"
+    out = tmp_path / "s2.tif"
+    r = register(ngi / "ortho" / "ngi_rgb_byte_1.tif", ngi / "sentinel2_b432_byte.tif", out, seed=0)
+    rep = r.report
+    assert rep["inliers"] > 50
+    # both are orthoimages of one valley: the residuals are the tie points' own noise, about
+    # one Sentinel-2 pixel (10 m)
+    assert rep["check"]["rmse_m"] < 15.0, rep["check"]
+
+
+def test_sentinel2_two_dates_with_clouds(data_dir, tmp_path):
+    """Same sensor, two dates, one band, clouds and zero fill (nodata given explicitly)."""
+    s2 = data_dir / "s2_pair"
+    out = tmp_path / "s2pair.tif"
+    r = register(s2 / "ref_S2A_20160608T153121_T33UUU_sub.jp2", s2 / "tgt_S2A_20160529T153631_T33UUU_sub.jp2",
+                 out, reference_nodata=0, target_nodata=0, model="affine", seed=0)
+    rep = r.report
+    assert rep["output_crs"] == "EPSG:32633" and rep["inliers"] > 200
+    assert rep["check"]["rmse_px"] < 1.5, rep["check"]
+    # the target is already on the same 10 m grid, misregistered by about a pixel at most:
+    # the fitted model must be close to the identity map of the target's georeference
+    with rasterio.open(s2 / "tgt_S2A_20160529T153631_T33UUU_sub.jp2") as ds:
+        t = ds.transform
+    grid = np.column_stack([pixel_centres(20, 30)[0].ravel(), pixel_centres(20, 30)[1].ravel()]) * 100
+    geo = np.column_stack([t.a * grid[:, 0] + t.c, t.e * grid[:, 1] + t.f])
+    d = np.hypot(*(r.model.forward(grid) - geo).T)
+    assert np.sqrt(np.mean(d ** 2)) < 20.0  # two 10 m pixels
