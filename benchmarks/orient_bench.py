@@ -80,7 +80,7 @@ def predict(name, frame, g):
     return m.forward(g.check_ground), m.forward(g.gcp_ground) - g.gcp_pixel
 
 
-def run(frames, splits, spreads, trials, noise, models, data):
+def run(frames, splits, spreads, trials, noise, models, data, clusters=3, cluster_radius=0.1):
     ngi = data / "ngi"
     dem = Dem.open(ngi / "dem.tif")
     rows = []
@@ -93,7 +93,8 @@ def run(frames, splits, spreads, trials, noise, models, data):
                 times = {m: 0.0 for m in models}
                 skipped = {}
                 for seed in range(trials):
-                    g = make_gcps(frame, dem, n_gcp, n_chk, spread, noise=noise, seed=seed)
+                    g = make_gcps(frame, dem, n_gcp, n_chk, spread, noise=noise, seed=seed, n_clusters=clusters,
+                                   cluster_radius=cluster_radius)
                     for name in models:
                         need = GDAL_MIN.get(name) or MODELS[name].min_points
                         if n_gcp < need:
@@ -154,19 +155,23 @@ def main(argv=None):
     ap.add_argument("--spreads", default="homogeneous,clustered")
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--noise", type=float, default=0.3)
+    ap.add_argument("--clusters", type=int, default=3, help="clustered spread: number of GCP discs")
+    ap.add_argument("--cluster-radius", type=float, default=0.1, help="disc radius / shorter image side")
     ap.add_argument("--models", default=",".join(FOTOGEO_MODELS + GDAL_MODELS))
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "orient_bench.json")
     a = ap.parse_args(argv)
     splits = [tuple(int(v) for v in s.split("/")) for s in a.splits.split(",")]
     t0 = time.time()
-    rows = run(a.frames.split(","), splits, a.spreads.split(","), a.trials, a.noise, a.models.split(","), a.data)
+    rows = run(a.frames.split(","), splits, a.spreads.split(","), a.trials, a.noise, a.models.split(","), a.data,
+               a.clusters, a.cluster_radius)
     print(table(rows))
     from osgeo import gdal
 
     a.out.parent.mkdir(parents=True, exist_ok=True)
     result = {"benchmark": "orient_bench", "units": "pixels (x = col, y = row)",
               "config": {"frames": a.frames, "splits": a.splits, "spreads": a.spreads, "trials": a.trials,
-                         "noise_px": a.noise, "gcp_generation": "fotogeo.gcp.make_gcps (seeds 0..trials-1)"},
+                         "noise_px": a.noise, "clusters": a.clusters,
+                         "cluster_radius": a.cluster_radius, "gcp_generation": "fotogeo.gcp.make_gcps (seeds 0..trials-1)"},
               "environment": {"python": platform.python_version(), "numpy": np.__version__,
                               "gdal": gdal.__version__},
               "seconds": time.time() - t0, "rows": rows}

@@ -10,8 +10,7 @@ from __future__ import annotations
 import collections
 import os
 
-from qgis.core import QgsProcessingContext, QgsProcessingLayerPostProcessorInterface, QgsProcessingUtils, \
-    QgsVectorLayer
+from qgis.core import QgsProcessingContext, QgsProcessingLayerPostProcessorInterface, QgsProcessingUtils, QgsVectorLayer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
 STYLES = ("tie_points", "error_vectors")

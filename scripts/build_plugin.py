@@ -54,7 +54,7 @@ def classFactory(iface):  # noqa: N802 - the name QGIS looks for
 
 def fotogeo_version() -> str:
     text = (ROOT / "fotogeo" / "__init__.py").read_text(encoding="utf-8")
-    m = re.search(r'^__version__\s*=\s*["\']([^"\']+)["\']', text, re.M)
+    m = re.search(r'^__version__\s*=\s*["\']([^"\']+)["\']', text, re.MULTILINE)
     if not m:
         sys.exit("build_plugin: no __version__ in fotogeo/__init__.py")
     return m.group(1)

@@ -10,8 +10,16 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from qgis.core import (QgsApplication, QgsMapLayer, QgsArrowSymbolLayer, QgsCategorizedSymbolRenderer, QgsLineSymbol,
-                       QgsMarkerSymbol, QgsRendererCategory, QgsSimpleMarkerSymbolLayerBase, QgsVectorLayer)
+from qgis.core import (
+    QgsApplication,
+    QgsArrowSymbolLayer,
+    QgsCategorizedSymbolRenderer,
+    QgsLineSymbol,
+    QgsMapLayer,
+    QgsMarkerSymbol,
+    QgsRendererCategory,
+    QgsVectorLayer,
+)
 from qgis.PyQt.QtGui import QColor
 
 OUT = Path(__file__).resolve().parents[1] / "processing_provider" / "styles"

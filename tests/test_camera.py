@@ -100,6 +100,15 @@ def test_ray_dem_intersection_on_synthetic_relief():
     assert np.isfinite(P).all()
     assert np.abs(P[:, 2] - dem.heights(P[:, :2])).max() < 1e-5
     assert np.abs(frame.world_to_pixel(P) - xy).max() < 1e-6
+    far = OrientedFrame(CAM, ExteriorOrientation(50000.0, 0.0, 4000.0, 0.0, 0.0, 0.0))
+    assert np.isnan(far.pixel_to_world(xy[:10], dem)).all()  # rays that never meet the DEM
+
+
+def test_dem_open_errors(tmp_path):
+    from fotogeo.errors import RasterError
+
+    with pytest.raises(RasterError, match="cannot read DEM"):
+        Dem.open(tmp_path / "missing.tif")
 
 
 def test_readers(tmp_path):

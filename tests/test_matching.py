@@ -155,6 +155,20 @@ def test_lsm_recovers_subpixel_affine_on_orthophoto(ortho, interpolation):
     np.testing.assert_allclose(np.median(b.affine[b.ok][:, :, :2], axis=0), A[:, :2], atol=0.01)
 
 
+def test_lsm_half_turn_with_approximate_jacobian(ortho):
+    """Frames are rotated ~180° against the orthophotos: LSM starts from the given Jacobian."""
+    A = affine(shift=(0.37, -0.21), angle_deg=183.0, scale=0.9)
+    sea = warp(ortho, A)
+    pts = grid_points(30, 90, 210, seed=11)
+    truth = apply(A, pts)
+    b = lsm_many(ortho, sea, pts, truth + [0.8, -0.6], approx_jacobian=-np.eye(2) * 0.9)
+    assert b.ok.mean() > 0.9, np.unique(b.status, return_counts=True)
+    assert np.sqrt(((b.xy[b.ok] - truth[b.ok]) ** 2).mean()) < 0.05
+    np.testing.assert_allclose(np.median(b.affine[b.ok][:, :, :2], axis=0), A[:, :2], atol=0.01)
+    # without the Jacobian the identity start cannot reach a half turn
+    assert not lsm_many(ortho, sea, pts[:5], truth[:5]).ok.any()
+
+
 def test_lsm_radiometric_change_and_uint8_input(landsat):
     A = affine(shift=(-0.43, 0.71), angle_deg=-3.0, scale=0.95, centre=(100.0, 100.0))
     sea = warp(landsat, A)

@@ -162,6 +162,9 @@ def test_dlt_serves_the_one_ransac(pinhole_points):
     px[:6] += 40.0  # six blunders
     res = ransac(DLT, g.gcp_ground, px, threshold=1.0, rng=3)
     assert not res.inliers[:6].any() and res.inliers[6:].all()
+    res = ransac(Collinearity.for_camera(CAM), g.gcp_ground, px, threshold=1.0, rng=3)
+    assert not res.inliers[:6].any() and res.inliers[6:].all()
+    assert np.allclose(res.model.frame.eo.centre, FRAME.eo.centre, atol=1e-3)
 
 
 # -- the NGI frame: accuracy targets ------------------------------------------------------------

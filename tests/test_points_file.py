@@ -5,8 +5,15 @@ import numpy as np
 import pytest
 
 from fotogeo.errors import InputError, OutputError, VectorError
-from fotogeo.points_file import (HEADER, layer_to_points, pixel_to_source, points_to_layer, read_points,
-                                 source_to_pixel, write_points)
+from fotogeo.points_file import (
+    HEADER,
+    layer_to_points,
+    pixel_to_source,
+    points_to_layer,
+    read_points,
+    source_to_pixel,
+    write_points,
+)
 
 gpd = pytest.importorskip("geopandas")
 

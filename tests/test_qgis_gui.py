@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from qgis_env import need_qgis
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -14,7 +14,6 @@ import zipfile
 from pathlib import Path
 
 import pytest
-
 from qgis_env import need_qgis
 
 ROOT = Path(__file__).resolve().parents[1]

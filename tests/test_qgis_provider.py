@@ -7,15 +7,25 @@ import sys
 
 import numpy as np
 import pytest
-
 from qgis_env import need_qgis, qgis_app  # noqa: F401 - the session fixture
 
 pytestmark = [pytest.mark.qgis]
 need_qgis()
 
-from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry,  # noqa: E402
-                       QgsPointXY, QgsProcessingContext, QgsProcessingException, QgsProcessingFeedback,
-                       QgsProcessingOutputLayerDefinition, QgsProject, QgsRasterLayer, QgsVectorLayer)
+from qgis.core import (  # noqa: E402
+    QgsApplication,
+    QgsCoordinateReferenceSystem,
+    QgsFeature,
+    QgsGeometry,
+    QgsPointXY,
+    QgsProcessingContext,
+    QgsProcessingException,
+    QgsProcessingFeedback,
+    QgsProcessingOutputLayerDefinition,
+    QgsProject,
+    QgsRasterLayer,
+    QgsVectorLayer,
+)
 
 ALG_IDS = {"pcafusion", "register", "pointstolayer", "layertopoints"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
@@ -111,6 +121,7 @@ def test_option_lists_mirror_fotogeo(qgis_app):
 
 def test_pcafusion_same_as_the_tool(qgis_app, data_dir, tmp_path):
     import rasterio
+
     from fotogeo.fusion_tool import fuse_raster
     src = data_dir / LANDSAT
     fb = Recorder()
@@ -239,6 +250,8 @@ def test_register_invalid_parameters(qgis_app, data_dir, tmp_path):
     # out of range for QGIS itself
     with pytest.raises(QgsProcessingException, match="CHECK_FRACTION"):
         run("register", {**base, "CHECK_FRACTION": 0.95, "OUTPUT": str(tmp_path / "a.tif")})
+    with pytest.raises(QgsProcessingException, match="REFERENCE"):
+        run("register", {**base, "REFERENCE": str(tmp_path / "missing.tif"), "OUTPUT": str(tmp_path / "a.tif")})
     # fotogeo's own checks come through with their message
     digest = sha(target)
     with pytest.raises(QgsProcessingException, match="is also an input; choose another output path"):

@@ -15,6 +15,10 @@ Linearised about the current parameters (Gauss-Markov model, ``l + v = A·δ``, 
     A = [r1·gx, r1·gx·dx, r1·gx·dy, r1·gy, r1·gy·dx, r1·gy·dy, 1, g⁰]
     δ = (AᵀPA)⁻¹ AᵀPl,   parameters += δ, iterate until the geometric step < ``tolerance`` px.
 
+A geometric step that reverses the previous one (negative scalar product, affine terms
+scaled to pixels at the window edge) is halved: Gauss-Newton overshoots and oscillates when
+the linearisation is poor, e.g. when the window is resampled at a scale > 1.
+
 ``g⁰`` is the search image resampled on the deformed grid (bilinear or bicubic, see
 :func:`sample`); ``(gx, gy)`` are the gradients of ``g`` in search-image coordinates,
 obtained from central differences of the resampled window (computed on a grid one pixel
@@ -248,6 +252,8 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     cov = np.full((n_pts, 2, 2), np.nan)
     rho = np.full(n_pts, np.nan)
 
+    prev_delta = np.zeros_like(par)
+    step_scale = np.array([1.0, h, h, 1.0, h, h, 0.0, 0.0])  # parameter -> px at the window edge
     for it in range(1, int(max_iterations) + 1):
         act = np.nonzero(status == "")[0]
         if act.size == 0:
@@ -309,9 +315,14 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
         Ninv = np.linalg.inv(N)
         delta = np.zeros_like(p)
         delta[:, free] = np.einsum("kij,kj->ki", Ninv, b)
+        v = np.einsum("kni,ki->kn", A, delta[:, free]) - ell  # least-squares residuals
+        # damping: a geometric step that reverses the previous one (Gauss-Newton overshoot,
+        # e.g. when the window is resampled at a scale > 1) is halved
+        osc = np.einsum("ki,ki->k", delta * step_scale, prev_delta[act] * step_scale) < 0
+        delta[osc] *= 0.5
+        prev_delta[act] = delta
         p = p + delta
         par[act] = p
-        v = np.einsum("kni,ki->kn", A, delta[:, free]) - ell
         s02 = np.einsum("kn,kn->k", v, v) / (n_obs - n_par)
         sigma0[act] = np.sqrt(s02)
         cov[act] = s02[:, None, None] * Ninv[:, [[ia, ia], [ib, ib]], [[ia, ib], [ia, ib]]]
@@ -320,9 +331,7 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
         with np.errstate(divide="ignore", invalid="ignore"):
             rho[act] = (fc * gc).sum(1) / np.sqrt((fc * fc).sum(1) * (gc * gc).sum(1))
         # checks
-        step = np.max(np.abs(np.column_stack([delta[:, 0], delta[:, 3],
-                                              h * (np.abs(delta[:, 1]) + np.abs(delta[:, 2])),
-                                              h * (np.abs(delta[:, 4]) + np.abs(delta[:, 5]))])), axis=1)
+        step = np.abs(delta * step_scale).max(axis=1)
         detn = p[:, 1] * p[:, 5] - p[:, 2] * p[:, 4]
         # an affine step must keep a plausible geometry relative to the approximation
         det0 = np.linalg.det(J0[act])
@@ -365,9 +374,8 @@ def lsm(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max_iter
         ``h``) is below ``tolerance`` px; not converged after ``max_iterations`` -> status
         ``"max iterations"``. From a good approximation the iteration converges in 5–10
         steps; slow convergence means a flat, ill-conditioned cost surface (weak texture
-        under noise): in benchmarks/matching_bench.py every converged match off by more than
-        0.5 px needed more than 15 iterations, hence the default. Bilinear resampling
-        converges more slowly (its gradient jumps at pixel borders): allow it ~25.
+        under noise), where the matches that do converge late are often wrong by > 0.5 px
+        (benchmarks/matching_bench.py), hence the default of 15.
     interpolation : ``"bilinear"`` or ``"bicubic"`` (Keys, a = −0.5) resampling of the moving window
     min_correlation : converged matches whose final correlation is lower -> ``"low correlation"``
     max_sigma : converged matches with σx or σy above this (px) -> ``"low signal"``

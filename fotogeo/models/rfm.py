@@ -75,6 +75,7 @@ _LOG_GRID = np.arange(-8.0, 1.01, 0.25)
 CRITERION = "loo"
 #: take the largest λ whose criterion is within this fraction of the minimum
 TOLERANCE = 0.05
+SE_FACTOR = 1.0
 
 
 def tikhonov_cv(A, l, Lmat, grid=_LOG_GRID, accept=None):
@@ -106,18 +107,20 @@ def tikhonov_cv(A, l, Lmat, grid=_LOG_GRID, accept=None):
         if accept is not None and not accept(p):
             continue
         if n - trH < 0.5 or hii.max() > 1 - 1e-9:
-            g = np.inf  # no redundancy left: cross-validation undefined
+            g, se = np.inf, 0.0  # no redundancy left: cross-validation undefined
         elif CRITERION == "loo":
-            g = float(np.sum((r / (1 - hii)) ** 2))
+            e2 = (r / (1 - hii)) ** 2
+            g, se = float(e2.sum()), float(np.sqrt(n) * e2.std())
         else:
-            g = n * float(r @ r) / (n - trH) ** 2
-        cands.append((g, p, lam, 10.0 ** k, trH))
+            g, se = n * float(r @ r) / (n - trH) ** 2, 0.0
+        cands.append((g, p, lam, 10.0 ** k, trH, se))
     if not cands:
         raise ModelError("RFM: no regularisation parameter gives a solution; the points leave the first-"
                          "order terms undetermined (e.g. all at one height); add points or use a 2-D model")
-    gmin = min(c[0] for c in cands)
-    best = max((c for c in cands if c[0] <= (1 + TOLERANCE) * gmin or not np.isfinite(gmin)),
-               key=lambda c: c[2])
+    imin = min(range(len(cands)), key=lambda i: cands[i][0])
+    gmin = cands[imin][0]
+    limit = gmin + cands[imin][5] * SE_FACTOR + TOLERANCE * gmin
+    best = max((c for c in cands if c[0] <= limit or not np.isfinite(gmin)), key=lambda c: c[2])
     return best[1], best[2], best[3], best[4]
 
 

@@ -15,8 +15,13 @@ import importlib
 import importlib.util
 import sys
 
-from qgis.core import (QgsApplication, QgsProcessingAlgorithm, QgsProcessingException, QgsProviderRegistry,
-                       QgsRasterLayer)
+from qgis.core import (
+    QgsApplication,
+    QgsProcessingAlgorithm,
+    QgsProcessingException,
+    QgsProviderRegistry,
+    QgsRasterLayer,
+)
 from qgis.PyQt.QtCore import QCoreApplication
 
 #: import name -> pip distribution name of the third-party packages fotogeo uses.
@@ -24,8 +29,8 @@ DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", 
                 "geopandas": "geopandas", "cv2": "opencv-python-headless"}
 
 REFERENCES = {
-    "dihkan": "Dihkan, M. (2019): registration of multi-epoch aerial images to orthophotos with PCA band "
-              "fusion, SURF features, RANSAC and a homography (fotogeo's source paper 002).",
+    "dihkan": "Dihkan (2019): automatic registration of multi-epoch, multi-sensor aerial images to an "
+              "orthophoto with PCA band fusion, SURF, RANSAC and a homography (fotogeo's source paper 002).",
     "surf": "Bay, H., Ess, A., Tuytelaars, T., Van Gool, L. (2008): Speeded-Up Robust Features (SURF). "
             "Computer Vision and Image Understanding 110(3), 346-359.",
     "sift": "Lowe, D. G. (2004): Distinctive image features from scale-invariant keypoints. IJCV 60(2), 91-110.",
@@ -113,9 +118,6 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if missing:
             text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + dependency_message(missing)
         return text
-
-    def helpUrl(self):
-        return "https://github.com/fotogeo/fotogeo"
 
     def icon(self):
         return QgsApplication.getThemeIcon("/processingAlgorithm.svg")

@@ -1,9 +1,14 @@
 """``fotogeo:pcafusion`` — first principal component of a multi-band raster (PCA band fusion)."""
 from __future__ import annotations
 
-from qgis.core import (QgsProcessingOutputNumber, QgsProcessingParameterBoolean, QgsProcessingParameterDefinition,
-                       QgsProcessingParameterNumber, QgsProcessingParameterRasterDestination,
-                       QgsProcessingParameterRasterLayer)
+from qgis.core import (
+    QgsProcessingOutputNumber,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterDestination,
+    QgsProcessingParameterRasterLayer,
+)
 
 from .base import FotogeoAlgorithm, tr
 
@@ -20,7 +25,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
             "(0 = nodata), which is what helps feature matching most; otherwise float32 component "
             "values (nodata -9999). The georeference is kept; the explained variance is written to the "
             "output's metadata and returned as EXPLAINED.\n\n"
-            "Reference: Dihkan, M. (2019), fotogeo source paper 002.")
+            "Reference: Dihkan (2019), fotogeo source paper 002.")
 
     INPUT, STRETCH, SEED, OUTPUT, EXPLAINED = "INPUT", "STRETCH", "SEED", "OUTPUT", "EXPLAINED"
 

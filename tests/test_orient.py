@@ -1,0 +1,141 @@
+"""The orientation tools on GCPs derived from a real NGI frame's true geometry."""
+import json
+
+import geopandas as gpd
+import numpy as np
+import pytest
+import rasterio
+import shapely
+from click.testing import CliRunner
+
+from fotogeo.camera import load_ngi_frame, read_interior_orientation
+from fotogeo.cli import main
+from fotogeo.dem import Dem
+from fotogeo.errors import InputError, ModelError, VectorError
+from fotogeo.gcp import make_gcps
+from fotogeo.orient import compare_models, orient
+
+NAME = "3324c_2015_1004_05_0182"
+
+
+def _write(path, ground, pixel, role, crs, with_z=True):
+    cols = {"id": [f"P{i}" for i in range(len(pixel))], "col": pixel[:, 0], "row": pixel[:, 1], "role": role}
+    if with_z:
+        cols["z"] = ground[:, 2]
+    gpd.GeoDataFrame(cols, geometry=shapely.points(ground[:, :2]), crs=crs).to_file(path, driver="GPKG")
+
+
+@pytest.fixture(scope="module")
+def ngi_gcps(data_dir, tmp_path_factory):
+    d = tmp_path_factory.mktemp("gcps")
+    ngi = data_dir / "ngi"
+    frame, dem = load_ngi_frame(ngi, NAME), Dem.open(ngi / "dem.tif")
+    s = make_gcps(frame, dem, 40, 20, "homogeneous", noise=0.3, seed=3)
+    ground = np.vstack([s.gcp_ground, s.check_ground])
+    pixel = np.vstack([s.gcp_pixel, s.check_pixel])
+    role = ["control"] * 40 + ["check"] * 20
+    path = d / "gcps.gpkg"
+    _write(path, ground, pixel, role, dem.crs.to_wkt())
+    return {"path": path, "image": ngi / "frames" / f"{NAME}_RGB.tif", "ground": ground, "pixel": pixel,
+            "role": role, "crs": dem.crs.to_wkt(), "dir": d, "ngi": ngi}
+
+
+@pytest.mark.parametrize("model,limit", [("dlt", 0.45), ("rfm", 0.6), ("collinearity", 0.45), ("poly1", None)])
+def test_models_reach_the_noise_level_or_show_relief(ngi_gcps, tmp_path, model, limit):
+    g = ngi_gcps
+    rep = orient(g["image"], g["path"], model=model, report=tmp_path / "r.json", vectors=tmp_path / "v.gpkg",
+                 plot=tmp_path / "p.png", camera=g["ngi"] / "interior_orientation.yaml")
+    saved = json.loads((tmp_path / "r.json").read_text())
+    assert saved["control"]["n"] + saved.get("blunder", {"n": 0})["n"] == 40 and saved["check"]["n"] == 20
+    for k in ("rms_x_px", "rms_y_px", "rms_xy_px", "min_px", "max_px", "median_px"):
+        assert k in saved["check"]
+    if limit is None:  # a 2-D affine cannot model relief: its check error is far above the noise
+        assert rep["check"]["rms_xy_px"] > 2.0
+    else:
+        assert rep["check"]["rms_xy_px"] < limit, rep["check"]
+    ev = gpd.read_file(tmp_path / "v.gpkg", layer="error_vectors")
+    assert len(ev) == 60 and np.allclose(ev.length, np.hypot(ev.dx, ev.dy))
+    assert (tmp_path / "p.png").stat().st_size > 10000
+
+
+def test_blunder_is_found_and_removed(ngi_gcps, tmp_path):
+    g = ngi_gcps
+    pixel = g["pixel"].copy()
+    pixel[5] += [6.0, -4.0]
+    path = tmp_path / "blunder.gpkg"
+    _write(path, g["ground"], pixel, g["role"], g["crs"])
+    rep = orient(g["image"], path, model="dlt", remove_blunders=True)
+    assert rep["snooping"] and rep["snooping"][0]["id"] == "P5" and rep["snooping"][0]["removed"]
+    assert rep["blunder"]["n"] == 1 and rep["check"]["rms_xy_px"] < 0.45
+
+
+def test_rectify_and_exports(ngi_gcps, tmp_path):
+    g = ngi_gcps
+    out = tmp_path / "rect.tif"
+    rep = orient(g["image"], g["path"], model="dlt", rectify=out, dem=g["ngi"] / "dem.tif",
+                 points=tmp_path / "g.points", resolution=10.0)
+    with rasterio.open(out) as ds:
+        assert ds.res == (10.0, 10.0) and ds.count == 3
+        assert (ds.read(1) > 0).mean() > 0.3
+    text = (tmp_path / "g.points").read_text().splitlines()
+    assert text[0].startswith("#CRS:") and text[1].startswith("mapX,mapY,sourceX,sourceY") and len(text) == 62
+    assert rep["rectified"]["resolution"] == 10.0
+
+
+def test_compare_models_table(ngi_gcps, tmp_path):
+    g = ngi_gcps
+    rows = compare_models(g["image"], g["path"], models=["poly1", "projective", "dlt", "rfm"], counts=(40, 10),
+                          trials=2, table=tmp_path / "t.csv", markdown=tmp_path / "t.md")
+    by = {(r["model"], r["spread"], r["n_control"]): r for r in rows}
+    assert by[("dlt", "homogeneous", 40)]["check_rms_x_px"] < 0.5
+    assert by[("poly1", "homogeneous", 40)]["check_rms_x_px"] > 1.0  # relief shows in 2-D models
+    assert (tmp_path / "t.md").read_text().startswith("| model |")
+    assert len((tmp_path / "t.csv").read_text().splitlines()) == 1 + len(rows)
+
+
+def test_cli_orient(ngi_gcps, tmp_path):
+    g = ngi_gcps
+    r = CliRunner().invoke(main, ["orient", str(g["image"]), str(g["path"]), "--model", "dlt", "-q",
+                                  "--report", str(tmp_path / "c.json")])
+    assert r.exit_code == 0, r.output
+    assert "check" in r.output and (tmp_path / "c.json").exists()
+
+
+def test_bad_gcp_inputs(ngi_gcps, tmp_path):
+    g = ngi_gcps
+    with pytest.raises(ModelError, match="at least 6"):
+        p = tmp_path / "few.gpkg"
+        _write(p, g["ground"][:5], g["pixel"][:5], ["control"] * 5, g["crs"])
+        orient(g["image"], p, model="dlt")
+    p = tmp_path / "nocrs.gpkg"
+    _write(p, g["ground"], g["pixel"], g["role"], None)
+    with pytest.raises(VectorError, match="no CRS"):
+        orient(g["image"], p, model="dlt")
+    p = tmp_path / "noz.gpkg"
+    _write(p, g["ground"], g["pixel"], g["role"], g["crs"], with_z=False)
+    with pytest.raises(ModelError, match="needs a height"):
+        orient(g["image"], p, model="dlt")
+    pix = g["pixel"].copy()
+    pix[3] = [5000, 10]
+    p = tmp_path / "outside.gpkg"
+    _write(p, g["ground"], pix, g["role"], g["crs"])
+    with pytest.raises(InputError, match="P3 .*outside"):
+        orient(g["image"], p, model="dlt")
+    ground = g["ground"].copy()
+    ground[7, 0] = np.nan
+    p = tmp_path / "nan.gpkg"
+    _write(p, ground, g["pixel"], g["role"], g["crs"])
+    with pytest.raises(InputError, match="P7"):
+        orient(g["image"], p, model="dlt")
+    p = tmp_path / "dup.gpkg"
+    _write(p, np.vstack([g["ground"], g["ground"][:1]]), np.vstack([g["pixel"], g["pixel"][:1]]),
+           g["role"] + ["control"], g["crs"])
+    with pytest.raises(InputError, match="duplicated"):
+        orient(g["image"], p, model="dlt")
+    bad = tmp_path / "bad.points"
+    bad.write_text("this is not a points file\n1,2\n")
+    with pytest.raises((VectorError, InputError)):
+        orient(g["image"], bad, model="poly1")
+    with pytest.raises(ModelError, match="interior orientation"):
+        orient(g["image"], g["path"], model="collinearity")
+    assert read_interior_orientation(g["ngi"] / "interior_orientation.yaml")
