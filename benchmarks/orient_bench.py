@@ -13,7 +13,8 @@ image on the GCPs, and the check points' image errors are pooled over the trials
 2-D models (fotogeo's affine, projective, bilinear, poly1-3 and GDAL's polynomial 1-3 and
 thin-plate spline through ``osgeo.gdal.Transformer`` with ``METHOD=GCP_POLYNOMIAL`` /
 ``GCP_TPS``, ground -> pixel via the transformer's inverse direction) see the ground X, Y only.
-``rfm-i2g`` is fitted image -> ground ((col, row, Z) -> (X, Y)) and checked through its
+``rfm-plain`` is the unregularised cubic RFM of the paper (separate denominators, iterative LS
+only) for comparison. ``rfm-i2g`` is fitted image -> ground ((col, row, Z) -> (X, Y)) and checked through its
 inverse at the check point's height. ``collinearity`` knows the interior orientation.
 
 Run: ``.venv/bin/python benchmarks/orient_bench.py`` (about a minute per frame on one core;
@@ -39,10 +40,19 @@ from fotogeo.camera import load_ngi_frame
 from fotogeo.dem import Dem
 from fotogeo.errors import FotogeoError
 from fotogeo.gcp import make_gcps
-from fotogeo.models import MODELS, Collinearity, IllPosedWarning
+from fotogeo.models import MODELS, RFM, Collinearity, IllPosedWarning
+
+
+class PlainRFM(RFM):
+    """The paper's cubic RFM: iterative LS without regularisation (λ = 1e-12 σ_max), no pole check."""
+
+    name = "rfm-plain"
+    lambda_grid = np.array([-12.0])
+    reject_poles = False
+
 
 FOTOGEO_MODELS = ["affine", "projective", "bilinear", "poly1", "poly2", "poly3", "affine-height", "poly3d-2",
-                  "poly3d-3", "dlt", "rfm", "rfm-common", "rfm-poly", "rfm-i2g", "collinearity"]
+                  "poly3d-3", "dlt", "rfm-plain", "rfm", "rfm-common", "rfm-poly", "rfm-i2g", "collinearity"]
 GDAL_MODELS = ["gdal-poly1", "gdal-poly2", "gdal-poly3", "gdal-tps"]
 GDAL_MIN = {"gdal-poly1": 3, "gdal-poly2": 6, "gdal-poly3": 10, "gdal-tps": 3}
 
@@ -67,7 +77,7 @@ def predict(name, frame, g):
     """Check-point pixels predicted by model ``name`` fitted on the GCPs of ``g``."""
     if name.startswith("gdal-"):
         return gdal_predict(name, g.gcp_ground, g.gcp_pixel, g.check_ground), None
-    cls = MODELS[name]
+    cls = PlainRFM if name == "rfm-plain" else MODELS[name]
     if name == "collinearity":
         cls = Collinearity.for_camera(frame.camera)
     if name.endswith("-i2g"):
@@ -96,7 +106,7 @@ def run(frames, splits, spreads, trials, noise, models, data, clusters=3, cluste
                     g = make_gcps(frame, dem, n_gcp, n_chk, spread, noise=noise, seed=seed, n_clusters=clusters,
                                    cluster_radius=cluster_radius)
                     for name in models:
-                        need = GDAL_MIN.get(name) or MODELS[name].min_points
+                        need = GDAL_MIN.get(name) or (PlainRFM if name == "rfm-plain" else MODELS[name]).min_points
                         if n_gcp < need:
                             skipped[name] = f"needs >= {need} GCPs"
                             continue

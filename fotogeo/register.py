@@ -34,6 +34,7 @@ from .pixels import pixel_to_map
 from .progress import as_progress
 from .rasterio_io import AtomicOutputs, check_output, open_raster, read_decimated
 from .resample import RESAMPLING, warp_to_grid
+from .terrain import TERRAIN_MODELS
 from .tiepoints import DETECTORS, detect
 from .vectors import error_vectors, write_json, write_layers
 
@@ -49,7 +50,7 @@ class RegisterOptions:
     hessian_threshold: float | None = None
     ratio: float = 0.8
     mutual: bool = True
-    model: str = "projective"
+    model: str | None = None  # projective without a DEM, auto with one
     ransac_threshold: float = 3.0  # reference pixels
     check_fraction: float = 0.3
     seed: int = 0
@@ -65,9 +66,9 @@ class RegisterOptions:
     def validate(self):
         if self.detector not in DETECTORS:
             raise InputError(f"detector {self.detector!r} unknown; choose one of {', '.join(DETECTORS)}")
-        if self.model not in PLANAR_MODELS:
+        if self.model not in (None, *PLANAR_MODELS, *TERRAIN_MODELS):
             raise InputError(f"model {self.model!r} is not a registration model; choose one of "
-                             f"{', '.join(PLANAR_MODELS)}")
+                             f"{', '.join(PLANAR_MODELS + TERRAIN_MODELS)}")
         if self.resampling not in RESAMPLING:
             raise InputError(f"resampling {self.resampling!r} unknown; choose one of {', '.join(RESAMPLING)}")
         if not 0 <= self.check_fraction < 0.9:
@@ -157,7 +158,7 @@ def find_tie_points(ref, tgt, opts: RegisterOptions, prog=None, timings=None):
     m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
                           laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
     timings["match"] = time.perf_counter() - t0
-    min_pts = get_model(opts.model).min_points + 2
+    min_pts = 6
     if len(m) < min_pts:
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
                             f"{str(ref.path)!r} (found {len(kp_tgt)} and {len(kp_ref)} keypoints); {HINT}")
@@ -167,7 +168,7 @@ def find_tie_points(ref, tgt, opts: RegisterOptions, prog=None, timings=None):
 
 
 def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
-             options: RegisterOptions | None = None, progress=None, tie_points=None,
+             options: RegisterOptions | None = None, progress=None, tie_points=None, dem=None, camera=None,
              **kwargs) -> Registration:
     """Register ``target`` to the georeferenced ``reference``; write ``output`` (GeoTIFF).
 
@@ -177,6 +178,12 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     left behind then, and no input is modified. ``tie_points = (target_xy, reference_xy)``
     (full-resolution pixels, corner convention) skips detection and matching — for tie
     points from another matcher or measured by hand.
+
+    With ``dem`` (a DEM path or :class:`~fotogeo.dem.Dem`) the registration is terrain-aware
+    (:mod:`fotogeo.terrain`): each tie point gets its DEM height, a 3-D model (``model`` =
+    ``auto``, ``dlt``, ``rfm``, ``rfm-common``, ``rfm-poly``, or ``collinearity`` with
+    ``camera``, a FrameCamera or interior-orientation YAML) is fitted, and the output is
+    orthorectified: every output pixel takes its height from the DEM.
     """
     opts = options or RegisterOptions(**kwargs)
     if options is not None and kwargs:
@@ -188,8 +195,12 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     report = Path(report) if report else output.with_suffix(".json")
     if len({output.resolve(), vectors.resolve(), report.resolve()}) < 3:
         raise InputError("output raster, vectors and report must be three different paths")
+    if dem is None and opts.model not in (None, *PLANAR_MODELS):
+        raise InputError(f"model {opts.model!r} is a terrain model: it needs a DEM (dem=, --dem)")
+    if dem is not None and opts.model not in (None, *TERRAIN_MODELS):
+        raise InputError(f"with a DEM the model must be one of {', '.join(TERRAIN_MODELS)}; got {opts.model!r}")
     for p, role in ((output, "output raster"), (vectors, "vector output"), (report, "report")):
-        check_output(p, [reference, target], overwrite, role)
+        check_output(p, [reference, target, dem if isinstance(dem, (str, Path)) else None], overwrite, role)
     ref = open_raster(reference, "reference")
     tgt = open_raster(target, "target")
     if not ref.georeferenced:
@@ -214,31 +225,108 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     prog.stage(0.55, 0.6, "fitting the model")
     t0 = time.perf_counter()
     try:
-        fit = fit_tie_points(get_model(opts.model), src, dst, threshold=opts.ransac_threshold * ref_px,
-                             min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed)
+        if dem is None:
+            gf = _planar(opts, src, dst, ref_px, tgt, crs, res)
+        else:
+            gf = _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera)
     except MatchingError as e:
         raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
     timings["fit"] = time.perf_counter() - t0
-    transform, width, height = output_grid(fit.model, tgt, crs, res)
-    rep = _report(opts, ref, tgt, crs, ref_px, res, counts, fit, transform, width, height)
-    model = fit.model
+    rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
     with AtomicOutputs() as out:
         t0 = time.perf_counter()
-        scale = res / max(1e-12, _target_gsd(model, tgt))
-        block = int(min(1024, max(64, 512 / max(1.0, scale))))
-        warp_to_grid(tgt.path, out.temp(output), model.inverse, crs=crs, transform=transform,
-                     width=width, height=height, resampling=opts.resampling, block=block,
-                     src_nodata=opts.target_nodata,
-                     progress=prog.stage(0.6, 0.95, "resampling"))
+        warp_to_grid(tgt.path, out.temp(output), gf.inverse_map, crs=crs, transform=gf.transform,
+                     width=gf.width, height=gf.height, resampling=opts.resampling, block=gf.block,
+                     src_nodata=opts.target_nodata, progress=prog.stage(0.6, 0.95, "resampling"))
         timings["resample"] = time.perf_counter() - t0
         prog.stage(0.95, 1.0, "writing tie points and report")
-        _write_vectors(out.temp(vectors), fit, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+        _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
         timings["total"] = time.perf_counter() - t_all
         rep["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
         write_json(out.temp(report), rep)
         prog(1.0, "done")
         out.commit()
-    return Registration(output, vectors, report, model, rep)
+    return Registration(output, vectors, report, gf.model, rep)
+
+
+@dataclass(frozen=True)
+class GeoFit:
+    """A fitted registration, 2-D or terrain-aware, in the form the outputs need."""
+
+    model: object
+    role: np.ndarray  # (N,) control / check / outlier (/ no_height)
+    residual_m: np.ndarray  # (N, 2) model position − reference position, output CRS units
+    z: np.ndarray | None  # (N,) tie point heights (terrain-aware only)
+    inverse_map: object  # output map XY -> target pixel
+    transform: object
+    width: int
+    height: int
+    block: int
+    details: dict  # model-specific report entries
+
+    @property
+    def inliers(self):
+        return np.isin(self.role, ("control", "check"))
+
+
+def _block(res, gsd):
+    """Output window size keeping the source window read per block near 512² pixels."""
+    return int(min(1024, max(64, 512 / max(1.0, res / max(gsd, 1e-12)))))
+
+
+def _planar(opts, src, dst, ref_px, tgt, crs, res) -> GeoFit:
+    fit = fit_tie_points(get_model(opts.model or "projective"), src, dst, threshold=opts.ransac_threshold * ref_px,
+                         min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed)
+    model = fit.model
+    transform, width, height = output_grid(model, tgt, crs, res)
+    details = {"ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
+                          "threshold_m": opts.ransac_threshold * ref_px},
+               "robust_sigma_m": fit.sigma,
+               "model_matrix": model.world_matrix().tolist() if hasattr(model, "world_matrix") else None}
+    return GeoFit(model, fit.role, fit.residual_xy, None, model.inverse, transform, width, height,
+                  _block(res, _target_gsd(model, tgt)), details)
+
+
+def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
+    from .dem import Dem
+    from .orient import load_camera
+    from .terrain import DemSampler, fit_terrain, ground_footprint
+    d = dem if isinstance(dem, Dem) else Dem.open(dem)
+    sampler = DemSampler(d, crs)
+    z = sampler.heights(dst)
+    n_h = int(np.isfinite(z).sum())
+    if n_h < 12:
+        raise InputError(f"the DEM {d.path!r} gives heights for only {n_h} of {len(z)} tie points: it must cover "
+                         f"the overlap of the images (nodata holes are skipped)")
+    fit = fit_terrain(src, np.column_stack([dst, z]), model=opts.model or "auto", camera=load_camera(camera),
+                      threshold_m=opts.ransac_threshold * ref_px, min_sigma_m=ref_px,
+                      check_fraction=opts.check_fraction, rng=opts.seed)
+    model = fit.model
+    XY = ground_footprint(model, tgt.width, tgt.height, sampler)
+    x0, y0 = np.floor(XY.min(axis=0) / res) * res
+    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
+    transform, width, height = Affine(res, 0, x0, 0, -res, y1), int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+
+    def inverse_map(XYo):
+        return model.forward(np.column_stack([XYo, sampler.heights(XYo)]))
+
+    c = np.array([[tgt.width / 2, tgt.height / 2]])
+    gsd = float(np.sqrt(np.mean(np.hypot(*(model.inverse(c + [[1, 0]], dem=sampler)[:, :2]
+                                           - model.inverse(c, dem=sampler)[:, :2]).T) ** 2)))
+    details = {"terrain": {"dem": str(d.path), "tie_points_without_height": int(len(z) - n_h),
+                           "prefilter_inliers": fit.prefilter_inliers, "candidates": fit.candidates,
+                           "chosen": model.name, "chosen_because": fit.chosen_because,
+                           "robust_sigma_px": fit.sigma_px,
+                           "control_rmse_target_px": _rms(fit.residual_px[fit.role == "control"]),
+                           "check_rmse_target_px": _rms(fit.residual_px[fit.role == "check"]),
+                           "model_info": {k: v for k, v in getattr(model, "info", {}).items()
+                                          if isinstance(v, (int, float, str, list, bool))}}}
+    return GeoFit(model, fit.role, fit.residual_m, z, inverse_map, transform, width, height,
+                  _block(res, gsd if np.isfinite(gsd) else res), details)
+
+
+def _rms(r):
+    return float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else None
 
 
 def _target_gsd(model, tgt) -> float:
@@ -259,25 +347,22 @@ def _stats(resid: np.ndarray, px: float) -> dict:
             "median_m": float(np.median(d)), "max_m": float(d.max())}
 
 
-def _report(opts, ref, tgt, crs, ref_px, res, counts, fit, transform, width, height):
+def _report(opts, ref, tgt, crs, ref_px, res, counts, gf):
     from dataclasses import asdict
-    model = fit.model
     return {
         "fotogeo": "register",
         "reference": str(ref.path), "target": str(tgt.path),
         "options": asdict(opts),
         "output_crs": crs.to_string(), "output_crs_wkt": crs.to_wkt(),
-        "output_grid": {"width": width, "height": height, "resolution": res, "transform": list(transform)[:6]},
+        "output_grid": {"width": gf.width, "height": gf.height, "resolution": res,
+                        "transform": list(gf.transform)[:6]},
         "reference_pixel_size": ref_px,
         **counts,
-        "ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
-                   "threshold_m": opts.ransac_threshold * ref_px},
-        "inliers": int(fit.inliers.sum()),
-        "robust_sigma_m": fit.sigma,
-        "model": model.to_dict(),
-        "model_matrix": model.world_matrix().tolist() if hasattr(model, "world_matrix") else None,
-        "control": _stats(fit.residual_xy[fit.role == "control"], ref_px),
-        "check": _stats(fit.residual_xy[fit.role == "check"], ref_px),
+        "inliers": int(gf.inliers.sum()),
+        "model": gf.model.to_dict(),
+        **gf.details,
+        "control": _stats(gf.residual_m[gf.role == "control"], ref_px),
+        "check": _stats(gf.residual_m[gf.role == "check"], ref_px),
         "units": "metres in the output CRS (px = reference pixels)",
         "versions": _versions(),
     }
@@ -287,12 +372,14 @@ def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration):
     import shapely
     keep = fit.inliers
     idx = np.flatnonzero(keep)
-    d = fit.residual_xy[keep]
+    d = fit.residual_m[keep]
     pts = dst[keep]
     length = np.hypot(d[:, 0], d[:, 1])
     common = {"id": idx.astype(np.int64), "role": fit.role[keep],
               "ref_x": pts[:, 0], "ref_y": pts[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
               "target_col": src[keep, 0], "target_row": src[keep, 1]}
+    if fit.z is not None:
+        common["z"] = fit.z[keep]
     layers = {
         "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
                        "residual_px": length / ref_px, "geometry": shapely.points(pts)},

@@ -286,6 +286,17 @@ def test_approximation_too_far_off(ortho):
         assert (not m.ok) or np.allclose(m.xy, apply(A, p)[0], atol=0.1), (off, m)
 
 
+def test_transfer_progress_and_cancel(ortho):
+    from fotogeo.errors import Cancelled
+
+    seen = []
+    pts = grid_points(5, 80, 220, seed=6)
+    transfer_points(ortho, ortho, pts, pts + 3.0, search_radius=8, progress=lambda f, m: seen.append(f))
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+    with pytest.raises(Cancelled):
+        transfer_points(ortho, ortho, pts, pts + 3.0, search_radius=8, progress=lambda f, m: f < 0.5)
+
+
 def test_transfer_reports_stage_of_failure(ortho):
     bad = ortho.copy()
     bad[90:110, 90:110] = np.nan

@@ -125,8 +125,8 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
     res, profile, out = _install_and_load(plugin_zip, tmp_path, data_dir)
     assert "fotogeo_qgis" in res["available"] and res["has_provider"] == "yes"
     assert res["loaded"] and res["started"], res
-    assert res["algorithms"] == ["fotogeo:layertopoints", "fotogeo:pcafusion", "fotogeo:pointstolayer",
-                                 "fotogeo:register"]
+    assert res["algorithms"] == ["fotogeo:comparemodels", "fotogeo:layertopoints", "fotogeo:orient",
+                                 "fotogeo:pcafusion", "fotogeo:pointstolayer", "fotogeo:register"]
     assert not res["help_mentions_missing"]
     assert "error" not in res, res.get("error")
     assert res["run"]["output_exists"] and 0.5 < res["run"]["explained"] <= 1
@@ -138,7 +138,7 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
 @pytest.mark.qgis
 def test_plugin_loads_without_a_dependency_and_says_what_is_missing(plugin_zip, tmp_path, data_dir):
     res, _, out = _install_and_load(plugin_zip, tmp_path, data_dir, block="rasterio")
-    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 4, res
+    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 6, res
     assert res["help_mentions_missing"]
     assert "run" not in res
     assert "rasterio" in res["error"] and "pip install" in res["error"], res["error"]

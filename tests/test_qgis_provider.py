@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
     QgsVectorLayer,
 )
 
-ALG_IDS = {"pcafusion", "register", "pointstolayer", "layertopoints"}
+ALG_IDS = {"pcafusion", "register", "orient", "comparemodels", "pointstolayer", "layertopoints"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 LANDSAT = "landsat_rgb/RGB.byte.tif"
@@ -96,6 +96,9 @@ def test_option_lists_mirror_fotogeo(qgis_app):
     assert ralg.DETECTORS == tuple(FG_DETECTORS)
     assert ralg.MODELS == tuple(PLANAR_MODELS)
     assert ralg.RESAMPLINGS == tuple(RESAMPLING)
+    from fotogeo.models import MODELS
+    from processing_provider.algorithms import orient as oalg
+    assert oalg.MODELS == tuple(sorted(MODELS))
     from fotogeo.fusion import CONTRASTS
     from fotogeo.register import RegisterOptions
     assert ralg.CONTRASTS == tuple(CONTRASTS)

@@ -68,7 +68,7 @@ def _correct_matches(ra: SurfResult, rb: SurfResult, m, scale, tol=1.5):
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("deg, min_frac", [(30, 0.3), (90, 0.8), (180, 0.8)])
+@pytest.mark.parametrize("deg, min_frac", [(30, 0.45), (90, 0.9), (180, 0.9)])
 def test_rotation_invariance(landsat, deg, min_frac):
     a, valid = landsat
     ra = surf(a, valid)
@@ -76,7 +76,7 @@ def test_rotation_invariance(landsat, deg, min_frac):
     rb = surf(b, vb)
     assert len(ra) > 200 and len(rb) > 200
     rep, correct, _, _ = _correct_matches(ra, rb, m, 1.0)
-    # measured: 30 deg 117/385 correct, 90 deg 385/385, 180 deg 366/385
+    # measured (2026-11-21): 30 deg 144/245 correct, 90 deg 244/245, 180 deg 241/245
     assert correct >= min_frac * len(ra), (rep, correct, len(ra))
 
 
@@ -89,7 +89,8 @@ def test_rotation_180_on_ortho_and_angle_convention(ortho):
         b, vb, m = _warp(a, valid, deg, 1.0)
         rb = surf(b, vb)
         rep, correct, nn, ok = _correct_matches(ra, rb, m, 1.0)
-        assert correct >= 0.6 * len(ra), (deg, rep, correct, len(ra))
+        # measured: 180 deg 332/350, 90 deg 341/350
+        assert correct >= 0.85 * len(ra), (deg, rep, correct, len(ra))
         # a counter-clockwise rotation on screen lowers angles (measured clockwise) by deg
         dang = (rb.angle[nn[ok]] - ra.angle[ok] + deg + 180) % 360 - 180
         assert np.median(np.abs(dang)) < 3.0
@@ -103,9 +104,10 @@ def test_scale_invariance(ortho, scale):
     b, vb, m = _warp(a, valid, 0.0, scale)
     rb = surf(b, vb)
     rep, correct, _, _ = _correct_matches(ra, rb, m, scale, tol=1.5 * max(scale, 1.0))
-    n_overlap = min(len(ra), len(rb))
-    assert rep >= 0.25 * n_overlap, (rep, len(ra), len(rb))
-    assert correct >= 0.15 * n_overlap, (correct, len(ra), len(rb))
+    n_overlap = min(len(ra), len(rb))      # B at 0.5 lies inside A; A at 2x lies inside B
+    # measured: scale 0.5: 71 repeated, 63 correct of 79; scale 2: 320 and 278 of 350
+    assert rep >= 0.6 * n_overlap, (rep, len(ra), len(rb))
+    assert correct >= 0.5 * n_overlap, (correct, len(ra), len(rb))
 
 
 @pytest.mark.data
@@ -191,7 +193,9 @@ def test_fully_masked_and_zero_budget(rng):
     img = rng.uniform(0, 255, (80, 90))
     assert len(surf(img, np.zeros(img.shape, bool))) == 0
     assert len(surf(img, max_keypoints=0)) == 0
-    assert len(surf(img.astype(np.uint8))) > 0      # integer dtypes work
+    blob = _blob((72, 80), 40.0, 33.0, 2.5)
+    for dtype in (np.uint8, np.int16, np.float64, np.float16):   # any real dtype works
+        assert len(surf(blob.astype(dtype))) == 1
 
 
 @pytest.mark.parametrize("kwargs, name", [
@@ -208,3 +212,33 @@ def test_bad_inputs_raise_input_error(kwargs, name):
     image = kwargs.pop("image")
     with pytest.raises(InputError, match=name):
         surf(image, **kwargs)
+
+
+def _box_kernels(size):
+    """Dense float64 kernels of Bay's Dxx, Dyy, Dxy box filters (correlation, centred)."""
+    l, c = size // 3, size // 2
+    kxx = np.zeros((size, size))
+    kxx[c - l + 1:c + l, :] = 1.0
+    kxx[c - l + 1:c + l, c - (l - 1) // 2:c + (l - 1) // 2 + 1] = -2.0
+    kxy = np.zeros((size, size))
+    kxy[c - l:c, c - l:c] = kxy[c + 1:c + 1 + l, c + 1:c + 1 + l] = 1.0
+    kxy[c - l:c, c + 1:c + 1 + l] = kxy[c + 1:c + 1 + l, c - l:c] = -1.0
+    return kxx, kxx.T.copy(), kxy
+
+
+@pytest.mark.parametrize("size, step", [(9, 1), (15, 1), (27, 2), (51, 4)])
+def test_box_filter_responses_match_dense_float64_reference(rng, size, step):
+    """det(H) from integral-image slicing (float32 storage) == dense float64 convolution."""
+    from fotogeo.features import hessian
+    img = rng.uniform(0, 255, (90, 110)).astype(np.float32)
+    img = cv2.GaussianBlur(img, (0, 0), 1.5)
+    pad = size // 2 + 2
+    ii = hessian.integral(img, pad)
+    nr, nc = -(-90 // step), -(-110 // step)
+    det, trace = hessian._layer(ii, pad, 0, nr, nc, step, size)
+    ref = [cv2.filter2D(img.astype(np.float64), -1, k, borderType=cv2.BORDER_REFLECT_101) / size ** 2
+           for k in _box_kernels(size)]
+    dxx, dyy, dxy = (r[::step, ::step] for r in ref)
+    want = dxx * dyy - (0.9 * dxy) ** 2
+    assert np.allclose(det, want, rtol=1e-4, atol=1e-3 * np.abs(want).max())
+    assert np.array_equal(np.sign(trace)[np.abs(dxx + dyy) > 1e-3], np.sign(dxx + dyy)[np.abs(dxx + dyy) > 1e-3])

@@ -63,6 +63,26 @@ def test_dark_target_and_approximate_edge_method():
     np.testing.assert_allclose(sorted(res.arm_angles), [40.0, 128.0], atol=2.0)
 
 
+@pytest.mark.parametrize("angles", [(30.0, 120.0), (60.0, 150.0), (25.0, 110.0)])
+def test_tilted_x_targets(angles):
+    """The edge method scans rows and columns: X targets tilted by ±20° are found."""
+    rng = np.random.default_rng(9)
+    centre = np.array([40.21, 39.64])
+    res = measure_target(make_target(rng, centre, angles, width=3.0), centre + [1.5, 1.0])
+    assert res.ok, res.status
+    assert np.hypot(*(res.xy - centre)) < 0.05
+
+
+def test_plus_shaped_target_needs_its_shape():
+    rng = np.random.default_rng(10)
+    centre = np.array([40.21, 39.64])
+    img = make_target(rng, centre, (5.0, 95.0), width=3.0)
+    assert measure_target(img, centre + [1.0, -1.0]).status.startswith("edge method")
+    res = measure_target(img, centre + [1.0, -1.0], arm_width=3.0, arm_angles=(5.0, 95.0))
+    assert res.ok, res.status
+    assert np.hypot(*(res.xy - centre)) < 0.05
+
+
 def test_target_failures_are_reported():
     flat = np.full((60, 60), 100.0)
     assert measure_target(flat, (30, 30)).status.startswith("edge method")

@@ -5,6 +5,7 @@ import click
 
 from ..fusion import CONTRASTS
 from ..register import PLANAR_MODELS, RegisterOptions, register
+from ..terrain import TERRAIN_MODELS
 from ..resample import RESAMPLING
 from ..tiepoints import DETECTORS
 from .common import ConsoleProgress, run_tool
@@ -22,7 +23,13 @@ _D = RegisterOptions()
               help="Output CRS: 'auto' (UTM zone of the reference centre), EPSG:xxxx, WKT or PROJ.")
 @click.option("--resolution", type=float, help="Output pixel size in output CRS units [the reference's].")
 @click.option("--resampling", type=click.Choice(list(RESAMPLING)), default=_D.resampling, show_default=True)
-@click.option("--model", type=click.Choice(PLANAR_MODELS), default=_D.model, show_default=True)
+@click.option("--model", type=click.Choice(PLANAR_MODELS + TERRAIN_MODELS),
+              help="projective (default), affine, similarity; with --dem: auto (default), dlt, rfm, "
+                   "rfm-common, rfm-poly, collinearity.")
+@click.option("--dem", type=click.Path(dir_okay=False),
+              help="DEM: terrain-aware registration with a 3-D model and an orthorectified output.")
+@click.option("--camera", type=click.Path(dir_okay=False),
+              help="Interior orientation YAML of the target's camera (for --model collinearity).")
 @click.option("--detector", type=click.Choice(DETECTORS), default=_D.detector, show_default=True)
 @click.option("--max-keypoints", type=int, default=_D.max_keypoints, show_default=True,
               help="Per image, spatially balanced.")
@@ -45,7 +52,7 @@ _D = RegisterOptions()
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @run_tool
-def command(reference, target, output, vectors, report, overwrite, quiet, **opts):
+def command(reference, target, output, vectors, report, overwrite, quiet, dem, camera, **opts):
     """Register TARGET (any image of the area) to the georeferenced REFERENCE orthophoto.
 
     PCA band fusion, SURF keypoints, SSD ratio-test matching, RANSAC + robust homography,
@@ -55,7 +62,7 @@ def command(reference, target, output, vectors, report, overwrite, quiet, **opts
     bar = ConsoleProgress(quiet)
     try:
         r = register(reference, target, output, vectors=vectors, report=report, overwrite=overwrite,
-                     options=RegisterOptions(**opts), progress=bar)
+                     options=RegisterOptions(**opts), progress=bar, dem=dem, camera=camera)
     finally:
         bar.close()
     rep = r.report
@@ -65,4 +72,8 @@ def command(reference, target, output, vectors, report, overwrite, quiet, **opts
         s = rep[role]
         if s.get("n"):
             click.echo(f"{role:8s} n={s['n']:5d}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)")
+    if "terrain" in rep:
+        t = rep["terrain"]
+        click.echo(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
+                   f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
     click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}")

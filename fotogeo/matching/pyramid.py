@@ -130,6 +130,7 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
     check_range(max_ambiguity, "max_ambiguity", 0.0, 1.0)
     L = levels_for(R) if levels is None else check_int(levels, "levels", 0)
     prog = as_progress(progress)
+    prog(0.0, "building image pyramids")
 
     # no level smaller than two template widths
     f_img = as_image(reference, "reference", reference_mask, "reference_mask")
@@ -164,6 +165,7 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
             done += 1
             if done % 64 == 0:
                 prog(0.8 * done / total, f"NCC at pyramid level {k}")
+        prog(0.8 * done / total, f"NCC at pyramid level {k} done")
         if k > 0:
             cur = to_level(from_level(cur, k), k - 1)
     ncc_xy = np.where((status == "")[:, None], cur, np.nan)

@@ -16,6 +16,8 @@ Two steps, as in the paper:
    run of rows where the arms have merged). A straight line
    ``x = a + b·y`` is fitted to each diagonal's mid-points; their intersection is the
    approximate centre, their slopes the arm directions and the run lengths the arm width.
+   The same is done along columns (for arms nearer the horizontal); the scan that cut both
+   arms in more lines is kept.
 2. **Sub-pixel centre by least-squares matching** of a synthetic X-target template (the
    measured arm directions, width and grey levels, area-sampled) against the image with the
    affine + radiometric model of :mod:`fotogeo.matching.lsm`. The template centre maps to
@@ -97,19 +99,23 @@ def _row_runs(row: np.ndarray, T: float, sign: float):
     return runs
 
 
-def _edge_centre(win: np.ndarray, polarity: str):
-    """Approximate centre etc. from the edge method; raises ``ValueError`` with a reason."""
+def _grey_levels(win: np.ndarray, polarity: str):
+    """(sign, MGL, MBGL): +1 for a bright target; class means split at (MAX + MIN) / 2."""
     mx, mn = float(win.max()), float(win.min())
     if not mx > mn:
         raise ValueError("flat window")
-    T0 = 0.5 * (mx + mn)
-    bright = win > T0
+    bright = win > 0.5 * (mx + mn)
     if polarity == "auto":
         sign = 1.0 if bright.mean() < 0.5 else -1.0
     else:
         sign = 1.0 if polarity == "bright" else -1.0
     tgt = bright if sign > 0 else ~bright
-    mgl, mbgl = float(win[tgt].mean()), float(win[~tgt].mean())
+    return sign, float(win[tgt].mean()), float(win[~tgt].mean())
+
+
+def _edge_centre(win: np.ndarray, polarity: str):
+    """Approximate centre etc. from the edge method; raises ``ValueError`` with a reason."""
+    sign, mgl, mbgl = _grey_levels(win, polarity)
     T = 0.5 * (mgl + mbgl)
     two = []
     for r in range(win.shape[0]):
@@ -118,7 +124,7 @@ def _edge_centre(win: np.ndarray, polarity: str):
         if len(runs) == 2 and runs[1][0] - runs[0][1] > 1.0:
             (a0, a1), (b0, b1) = runs
             two.append((y, 0.5 * (a0 + a1), 0.5 * (b0 + b1), a1 - a0, b1 - b0))
-    if len(two) < 6:
+    if len(two) < 4:
         raise ValueError("too few rows cut both arms")
     two = np.array(two)
     # rows near the crossing hold one merged run: the crossing lies in the widest gap between
@@ -133,7 +139,7 @@ def _edge_centre(win: np.ndarray, polarity: str):
     # "\" diagonal: left run above the crossing, right run below; "/" the other way round
     back = np.concatenate([two[up][:, [0, 1, 3]], two[~up][:, [0, 2, 4]]])
     fwd = np.concatenate([two[up][:, [0, 2, 4]], two[~up][:, [0, 1, 3]]])
-    if len(back) < 3 or len(fwd) < 3:
+    if len(back) < 2 or len(fwd) < 2:
         raise ValueError("arms not found on both diagonals")
     A1 = np.polyfit(back[:, 0], back[:, 1], 1)  # x = b*y + a
     A2 = np.polyfit(fwd[:, 0], fwd[:, 1], 1)
@@ -143,7 +149,26 @@ def _edge_centre(win: np.ndarray, polarity: str):
     xc = A1[0] * yc + A1[1]
     width = float(np.median(np.concatenate([back[:, 2] / np.hypot(1, A1[0]), fwd[:, 2] / np.hypot(1, A2[0])])))
     angles = (float(np.degrees(np.arctan2(1.0, A1[0]))), float(np.degrees(np.arctan2(1.0, A2[0]))))
-    return np.array([xc, yc]), mgl, mbgl, width, angles
+    return np.array([xc, yc]), mgl, mbgl, width, angles, len(two)
+
+
+def _edge_centre_rows_or_cols(win: np.ndarray, polarity: str):
+    """:func:`_edge_centre` along rows and along columns (for arms nearer the horizontal);
+    keeps the scan that cut both arms more often."""
+    best, reason = None, ""
+    for transposed in (False, True):
+        try:
+            c, mgl, mbgl, w, ang, n = _edge_centre(win.T if transposed else win, polarity)
+        except ValueError as exc:
+            reason = reason or str(exc)
+            continue
+        if transposed:
+            c, ang = c[::-1], (90.0 - ang[0], 90.0 - ang[1])
+        if best is None or n > best[-1]:
+            best = (c, mgl, mbgl, w, ang, n)
+    if best is None:
+        raise ValueError(reason)
+    return best[:5]
 
 
 def measure_target(image, approx_xy, *, half_window: int = 12, search_half_window: int | None = None,
@@ -158,7 +183,9 @@ def measure_target(image, approx_xy, *, half_window: int = 12, search_half_windo
     half_window : LSM window ``(2h+1)²``; the arms should reach at least ``h`` px from the centre
     search_half_window : edge-method window half-size (default ``half_window + 3``)
     polarity : ``"auto"`` (target = minority class), ``"bright"`` or ``"dark"``
-    arm_width, arm_angles : override the measured arm width (px) / directions (degrees)
+    arm_width, arm_angles : override the measured arm width (px) / directions (degrees, from
+        +x towards +y). The edge method needs arms within about 20° of the diagonals; for
+        other targets (e.g. '+'), give both and LSM starts from ``approx_xy`` itself
     interpolation, max_iterations : passed to :func:`fotogeo.matching.lsm_many`
 
     Returns :class:`TargetResult`; failures are in ``status`` (``"window outside image"``,
@@ -183,10 +210,14 @@ def measure_target(image, approx_xy, *, half_window: int = 12, search_half_windo
     if np.isnan(win).any():
         return fail("nodata in window")
     try:
-        centre, mgl, mbgl, width, angles = _edge_centre(win, polarity)
+        centre, mgl, mbgl, width, angles = _edge_centre_rows_or_cols(win, polarity)
+        approx = from_centre(centre + [c - hs, r - hs])
     except ValueError as exc:
-        return fail(f"edge method: {exc}")
-    approx = from_centre(centre + [c - hs, r - hs])
+        if arm_width is None or arm_angles is None or str(exc) == "flat window":
+            return fail(f"edge method: {exc}")
+        # arms near the image axes ('+'): with the target's shape given, LSM starts at approx_xy
+        _, mgl, mbgl = _grey_levels(win, polarity)
+        approx = q
     if arm_width is not None:
         width = float(arm_width)
     if arm_angles is not None:

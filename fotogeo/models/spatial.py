@@ -80,7 +80,7 @@ class FittedModel(Model):
     def estimate(cls, src, dst, weights=None):
         """Weighted least-squares estimate from ``src`` -> ``dst`` pairs (see the module doc)."""
         src, dst, w = check_pairs(cls, src, dst, weights)
-        sn, dn = Normalisation.of(src[w > 0]), Normalisation.of(dst[w > 0])
+        sn, dn = Normalisation.of(src[w > 0], cls.isotropic), Normalisation.of(dst[w > 0], cls.isotropic)
         params, info = cls._fit(sn.normalise(src), dn.normalise(dst), w)
         info = dict(info)
         info.setdefault("n_points", int(np.count_nonzero(w)))

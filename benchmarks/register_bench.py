@@ -1,0 +1,568 @@
+"""Registration benchmark (issue 2): fotogeo SURF vs OpenCV SIFT vs Orfeo ToolBox SURF tie points.
+
+Run:  .venv/bin/python benchmarks/register_bench.py [--quick] [--no-otb] [--no-big]
+
+Every method goes through the SAME RANSAC, robust fit, check-point hold-out, geo step,
+resampling and outputs of :func:`fotogeo.register.register` (seed 0, default options unless
+the case says otherwise):
+
+- ``surf`` — fotogeo's default pipeline (``register(ref, tgt, out)``);
+- ``sift`` — the same with OpenCV SIFT keypoints (``detector="sift"``);
+- ``otb``  — ``otbcli_HomologousPointsExtraction -algorithm surf -mode full`` on the very
+  single-band images fotogeo matches (the decimated read + PCA fusion + ``adaptive`` contrast
+  of ``register``'s own matching step, rounded to uint8, written WITHOUT georeference), with
+  ``-threshold`` = fotogeo's ratio (0.8) and ``-backmatching`` = fotogeo's ``mutual`` (on). Its
+  pairs are scaled back to full-resolution pixels and given to
+  ``register(..., tie_points=(target_xy, reference_xy))``. Why no georeference: with a
+  georeferenced input OTB writes map ("physical") coordinates instead of pixels and even
+  detects a different set of keypoints (the raw NGI frames carry an approximate, rotated
+  georeference). Without one it writes GDAL corner-convention pixel coordinates (checked
+  here: a 180-degree self-match gives x1 + x2 = W exactly). OTB gets no validity mask
+  (nodata pixels are 0); fotogeo and SIFT get the mask.
+
+Pairs: NGI frames 0182 / 0184 -> orthophoto tiles 1 / 2 (truth = camera + exterior orientation
++ DEM, ``truth_grid`` of tests/test_register_ngi.py); Sentinel-2 (10 m) -> NGI orthophoto 1
+(5 m); s2_pair (two dates, nodata 0, affine); Landsat RGB under the known synthetic warp of
+tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.demo``).
+
+Reported per pair and method: keypoints (reference/target), descriptor matches, inliers,
+check-point RMSE (m and reference px), for cases with truth the dense-grid RMSE of the fitted
+model against the truth, the best homography's RMSE on the same grid and their ratio (target
+of issue 2: <= 1.3x), the share of raw matches within 3 reference pixels of the truth
+("correct"), time per stage (``timings_s`` of the report, plus fusion and the OTB call for
+OTB), and the peak memory (max RSS) of the process that ran the case: each case runs in its
+own fresh Python subprocess; OTB's own peak is reported separately (its process is a child).
+
+Big image: a 20000x20000 3-band uint8 tiled DEFLATE GeoTIFF (the central 640x640 of NGI frame
+0182 upsampled 31.25x by ``gdal_translate``, which streams, so the generator stays small) is
+registered to orthophoto tile 1 in a subprocess; peak RSS and the peak reached by each stage
+(VmHWM read from /proc at every progress message) are reported. Requirement: well under 2 GB.
+
+Writes benchmarks/results/register_bench.json and prints tables.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
+OUT = ROOT / "benchmarks" / "results" / "register_bench.json"
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # truth helpers shared with the tests
+
+METHODS = ("surf", "sift", "otb", "otb180")
+OTB_EXE = "otbcli_HomologousPointsExtraction"
+NGI_FRAMES = {"ngi_0182": ("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"),
+              "ngi_0184": ("3324c_2015_1004_05_0184", "ngi_rgb_byte_2.tif")}
+BIG_SIZE = 20000
+CORRECT_TOL_PX = 3.0  # reference pixels, = register's RANSAC threshold
+
+
+# ------------------------------------------------------------------------------ memory
+def _status_mb(key: str) -> float:
+    """VmHWM / VmRSS of this process from /proc (MB)."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def _maxrss_mb(who=resource.RUSAGE_SELF) -> float:
+    return resource.getrusage(who).ru_maxrss / 1024.0  # Linux: kilobytes
+
+
+# ------------------------------------------------------------------------------ inputs
+def make_landsat_pair(folder: Path):
+    """Landsat RGB and the target of tests/test_register.py's ``pair`` fixture (same H_TRUE,
+    same construction); returns (reference, target, H) with H: target px -> reference px."""
+    import cv2
+    import rasterio
+    from test_register import H_TRUE, _apply
+    from fotogeo.pixels import pixel_centres, to_centre
+    ref = DATA / "landsat_rgb" / "RGB.byte.tif"
+    with rasterio.open(ref) as ds:
+        img = ds.read()
+    w, h = 640, 600
+    c = _apply(H_TRUE, [[w / 2, h / 2]])[0]
+    H = np.array([[1, 0, 791 / 2 - c[0]], [0, 1, 718 / 2 - c[1]], [0, 0, 1]]) @ H_TRUE
+    x, y = pixel_centres(w, h)
+    src = to_centre(_apply(H, np.column_stack([x.ravel(), y.ravel()])))
+    mx, my = src[:, 0].reshape(h, w).astype(np.float32), src[:, 1].reshape(h, w).astype(np.float32)
+    bands = [cv2.remap(b, mx, my, cv2.INTER_CUBIC, borderValue=0) for b in img]
+    rng = np.random.default_rng(0)
+    tgt_bands = np.stack([np.clip(bands[2] * 0.7 + 30 + rng.normal(0, 2, (h, w)), 1, 255),
+                          np.clip(bands[0] * 1.1 + rng.normal(0, 2, (h, w)), 1, 255),
+                          np.clip(bands[1] * 0.9 + 10 + rng.normal(0, 2, (h, w)), 1, 255)]).astype(np.uint8)
+    tgt_bands[:, (np.stack(bands) == 0).all(axis=0)] = 0
+    tgt = folder / "landsat_target.tif"
+    with rasterio.open(tgt, "w", driver="GTiff", width=w, height=h, count=3, dtype="uint8", nodata=0) as ds:
+        ds.write(tgt_bands)
+    return ref, tgt, H
+
+
+def build_cases(tmp: Path, quick: bool):
+    from fotogeo.demo import make_scene
+    ngi = DATA / "ngi"
+    cases = []
+    for key, (name, ortho) in NGI_FRAMES.items():
+        cases.append(dict(name=key, reference=str(ngi / "ortho" / ortho),
+                          target=str(ngi / "frames" / f"{name}_RGB.tif"), options={},
+                          truth={"kind": "ngi", "frame": name}, otb180=True))
+    if not quick:
+        cases.append(dict(name="s2_to_ngi", reference=str(ngi / "ortho" / "ngi_rgb_byte_1.tif"),
+                          target=str(ngi / "sentinel2_b432_byte.tif"), options={}, truth=None))
+        s2 = DATA / "s2_pair"
+        cases.append(dict(name="s2_pair", reference=str(s2 / "ref_S2A_20160608T153121_T33UUU_sub.jp2"),
+                          target=str(s2 / "tgt_S2A_20160529T153631_T33UUU_sub.jp2"),
+                          options=dict(reference_nodata=0, target_nodata=0, model="affine"), truth=None))
+        ref, tgt, H = make_landsat_pair(tmp)
+        cases.append(dict(name="landsat_warp", reference=str(ref), target=str(tgt), options={},
+                          truth={"kind": "homography", "H": H.tolist()}))
+    scene = make_scene(tmp / "demo", seed=7)
+    cases.append(dict(name="demo", reference=str(scene.reference), target=str(scene.target), options={},
+                      truth={"kind": "demo", "seed": 7}))
+    return cases
+
+
+# ------------------------------------------------------------------------------ truth
+class Truth:
+    """target pixel (corner convention) -> true map XY in the output CRS, and a dense grid."""
+
+    def __init__(self, case, tmp: Path):
+        self.kind = case["truth"]["kind"]
+        t = case["truth"]
+        if self.kind == "ngi":
+            from pyproj import CRS
+            from fotogeo.camera import load_ngi_frame
+            from fotogeo.dem import Dem
+            from test_register_ngi import truth_grid
+            ngi = DATA / "ngi"
+            self.dem = Dem.open(ngi / "dem.tif")
+            self.frame = load_ngi_frame(ngi, t["frame"])
+            self.src_crs, self.dst_crs = CRS.from_wkt(self.dem.crs.to_wkt()), CRS.from_epsg(32735)
+            self.crs = "EPSG:32735"
+            self.grid, self.truth = truth_grid(ngi, t["frame"])
+        elif self.kind == "homography":
+            import rasterio
+            from fotogeo.pixels import pixel_centres
+            self.H = np.array(t["H"])
+            with rasterio.open(case["reference"]) as ds:
+                self.t_ref, self.crs = ds.transform, ds.crs.to_string()
+            x, y = pixel_centres(64, 60)  # as tests/test_register.py
+            self.grid = np.column_stack([x.ravel(), y.ravel()]) * 10
+            self.truth = self(self.grid)
+        elif self.kind == "demo":
+            from fotogeo.demo import make_scene
+            from fotogeo.pixels import pixel_centres
+            self.scene = make_scene(tmp / "demo_truth", seed=t["seed"])
+            self.crs = "EPSG:32635"
+            x, y = pixel_centres(90, 70)  # as fotogeo.demo.truth_comparison (step 10)
+            grid = np.column_stack([x.ravel(), y.ravel()]) * 10
+            truth = self(grid)
+            ok = np.isfinite(truth).all(axis=1)
+            self.grid, self.truth = grid[ok], truth[ok]
+
+    def __call__(self, xy):
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        if self.kind == "ngi":
+            from fotogeo.geo import transform_points
+            g = self.frame.pixel_to_world(xy, self.dem)[:, :2]
+            out = np.full_like(g, np.nan)
+            ok = np.isfinite(g).all(axis=1)
+            if ok.any():
+                out[ok] = transform_points(self.src_crs, self.dst_crs, g[ok])
+            return out
+        if self.kind == "homography":
+            from test_register import _apply
+            from fotogeo.pixels import pixel_to_map
+            return pixel_to_map(self.t_ref, _apply(self.H, xy))
+        return self.scene.frame.pixel_to_world(xy, self.scene.dem)[:, :2]
+
+    def evaluate(self, model, reference, raw=None, case=None) -> dict:
+        from fotogeo.models import Projective
+        rms = lambda e: float(np.sqrt(np.mean(np.asarray(e) ** 2)))  # noqa: E731
+        dense = rms(model.residuals(self.grid, self.truth))
+        best = rms(Projective.estimate(self.grid, self.truth).residuals(self.grid, self.truth))
+        out = {"n_grid": int(len(self.grid)), "dense_rmse_m": dense, "best_homography_rmse_m": best}
+        if best > 1e-6 * max(1.0, dense):
+            out["dense_over_best"] = dense / best
+        if raw is not None and len(raw["target_xy"]):
+            out.update(self.correct_share(raw, reference))
+        return out
+
+    def correct_share(self, raw, reference) -> dict:
+        """Raw matches whose reference position lies within CORRECT_TOL_PX of the true position."""
+        from pyproj import CRS
+        from fotogeo.geo import pixel_size_in, transform_points
+        from fotogeo.pixels import pixel_to_map
+        from fotogeo.rasterio_io import open_raster
+        ref = open_raster(reference)
+        crs = CRS.from_user_input(self.crs)
+        px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
+        got = transform_points(ref.crs, crs, pixel_to_map(ref.transform, raw["reference_xy"]))
+        err = np.hypot(*(self(raw["target_xy"]) - got).T)
+        err = np.where(np.isfinite(err), err, np.inf)
+        return {"raw_matches": int(len(err)), "raw_correct": int(np.sum(err <= CORRECT_TOL_PX * px)),
+                "raw_correct_share": float(np.mean(err <= CORRECT_TOL_PX * px))}
+
+
+# ------------------------------------------------------------------------------ worker
+def otb_tie_points(reference, target, opts, work: Path, timings: dict, prerotate: bool = False):
+    """OTB SURF pairs on the images fotogeo matches; (target_xy, reference_xy, info) in
+    full-resolution corner-convention pixels."""
+    import rasterio
+    from fotogeo.fusion import pca_fuse
+    from fotogeo.rasterio_io import open_raster, read_decimated
+    exe = shutil.which(OTB_EXE)
+    if exe is None:
+        raise RuntimeError(f"{OTB_EXE} not found (Debian package otb-bin)")
+    paths, factors = {}, {}
+    for role, path in (("reference", reference), ("target", target)):
+        t0 = time.perf_counter()
+        info = open_raster(path, role)
+        bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)  # as register's _features
+        override = getattr(opts, f"{role}_nodata")
+        fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
+                         contrast=opts.contrast, name=f"{role} {path}")
+        img = np.clip(np.round(fused.image), 0, 255).astype(np.uint8)
+        img[~fused.mask] = 0
+        if role == "target" and prerotate:  # diagnostic only: undo a known ~180 degree rotation
+            img = np.ascontiguousarray(img[::-1, ::-1])
+            sizes = np.array([img.shape[1], img.shape[0]], float)
+        p = work / f"otb_{role}.tif"
+        with rasterio.open(p, "w", driver="GTiff", width=img.shape[1], height=img.shape[0], count=1,
+                           dtype="uint8") as ds:  # no CRS / transform on purpose: pixel output
+            ds.write(img, 1)
+        paths[role], factors[role] = p, np.asarray(factor, float)
+        timings[f"read_fuse_{role}"] = time.perf_counter() - t0
+        del bands, mask, fused, img
+    pairs_txt = work / "otb_pairs.txt"
+    cmd = [exe, "-in1", str(paths["target"]), "-in2", str(paths["reference"]), "-out", str(pairs_txt),
+           "-algorithm", "surf", "-mode", "full", "-threshold", str(opts.ratio),
+           "-backmatching", "1" if opts.mutual else "0"]
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    timings["otb"] = time.perf_counter() - t0
+    log = p.stdout + p.stderr
+    found = [int(line.split("Found ")[1].split()[0]) for line in log.splitlines() if "surf points in image" in line]
+    info = {"command": " ".join(["otbcli_HomologousPointsExtraction"] + cmd[1:]), "returncode": p.returncode,
+            "keypoints_target": found[0] if len(found) > 0 else None,
+            "keypoints_reference": found[1] if len(found) > 1 else None,
+            "otb_peak_mb": _maxrss_mb(resource.RUSAGE_CHILDREN)}
+    if p.returncode != 0:
+        info["log_tail"] = log.strip().splitlines()[-5:]
+        raise RuntimeError(f"OTB exited with code {p.returncode}: {' | '.join(info['log_tail'])}")
+    pairs = np.loadtxt(pairs_txt, ndmin=2) if pairs_txt.exists() and pairs_txt.stat().st_size else np.zeros((0, 4))
+    pairs = pairs.reshape(-1, 4)
+    info["pairs"] = int(len(pairs))
+    if prerotate:  # corner convention: a 180 degree rotation maps x to W - x
+        pairs[:, :2] = sizes - pairs[:, :2]
+    return pairs[:, :2] * factors["target"], pairs[:, 2:] * factors["reference"], info
+
+
+def worker(spec_path: str):
+    """One case x method in this (fresh) process; writes a JSON result next to the spec."""
+    spec = json.loads(Path(spec_path).read_text())
+    import warnings
+    warnings.simplefilter("ignore")
+    import cv2  # noqa: F401 - imports first, so that the baseline memory includes them
+    import rasterio  # noqa: F401
+    from fotogeo.errors import FotogeoError
+    from fotogeo.register import RegisterOptions, find_tie_points, register
+    from fotogeo.rasterio_io import open_raster
+    work = Path(spec["work"])
+    method = spec["method"]
+    base_mb = _status_mb("VmRSS")
+    stages, last = [], [None]
+
+    def progress(fraction, message):
+        key = message.split(" window")[0]
+        if key != last[0]:
+            stages.append((key, round(_status_mb("VmHWM"), 1)))
+            last[0] = key
+        return True
+
+    res = {"case": spec["name"], "method": method, "ok": False, "base_rss_mb": base_mb}
+    opts = dict(seed=0, **spec["options"])
+    if method in ("surf", "sift"):
+        opts["detector"] = method
+    out = work / "out.tif"
+    timings, t0 = {}, time.perf_counter()
+    try:
+        if method.startswith("otb"):
+            tgt_xy, ref_xy, info = otb_tie_points(spec["reference"], spec["target"], RegisterOptions(**opts),
+                                                  work, timings, prerotate=method == "otb180")
+            res["otb"] = info
+            res["raw"] = {"target_xy": tgt_xy.tolist(), "reference_xy": ref_xy.tolist()}
+            stages.append(("otb tie points", round(_status_mb("VmHWM"), 1)))
+            r = register(spec["reference"], spec["target"], out, tie_points=(tgt_xy, ref_xy), progress=progress,
+                         **opts)
+        else:
+            r = register(spec["reference"], spec["target"], out, progress=progress, **opts)
+        wall = time.perf_counter() - t0
+        res["peak_rss_mb"] = _maxrss_mb()
+        stages.append(("end", round(_status_mb("VmHWM"), 1)))
+        rep = r.report
+        timings.update(rep["timings_s"])
+        res.update(ok=True, wall_s=wall, report={k: rep[k] for k in (
+            "keypoints", "matches", "inliers", "ransac", "check", "control", "model", "output_crs",
+            "output_grid", "reference_pixel_size", "robust_sigma_m")})
+        if method.startswith("otb"):
+            res["report"]["keypoints"] = {"reference": res["otb"]["keypoints_reference"],
+                                          "target": res["otb"]["keypoints_target"]}
+        if spec.get("raw_matches") and not method.startswith("otb"):  # after the measurement: same opts -> same matches
+            tx, rx, _ = find_tie_points(open_raster(spec["reference"]), open_raster(spec["target"]),
+                                        RegisterOptions(**opts))
+            res["raw"] = {"target_xy": tx.tolist(), "reference_xy": rx.tolist()}
+    except (FotogeoError, RuntimeError, subprocess.TimeoutExpired) as e:
+        res["error"] = f"{type(e).__name__}: {e}"
+        res["peak_rss_mb"] = _maxrss_mb()
+        res["wall_s"] = time.perf_counter() - t0
+    res["timings_s"] = timings
+    res["stage_peak_mb"] = stages
+    if method.startswith("otb") and "otb" in res:
+        res["otb"]["otb_peak_mb"] = _maxrss_mb(resource.RUSAGE_CHILDREN)
+    Path(spec["result"]).write_text(json.dumps(res))
+
+
+def run_case(case, method, tmp: Path, env=None, raw_matches=False):
+    work = Path(tempfile.mkdtemp(prefix=f"{case['name']}_{method}_", dir=tmp))
+    spec = dict(case, method=method, work=str(work), result=str(work / "result.json"), raw_matches=raw_matches)
+    (work / "spec.json").write_text(json.dumps(spec))
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--worker", str(work / "spec.json")],
+                       capture_output=True, text=True, env=env)
+    dt = time.perf_counter() - t0
+    if p.returncode != 0 or not (work / "result.json").exists():
+        res = {"case": case["name"], "method": method, "ok": False,
+               "error": f"worker crashed (exit {p.returncode}): {p.stderr.strip()[-600:]}"}
+    else:
+        res = json.loads((work / "result.json").read_text())
+    res["process_s"] = dt
+    shutil.rmtree(work, ignore_errors=True)
+    return res
+
+
+# ------------------------------------------------------------------------------ summary
+def summarise(res, truth, case):
+    """Flat numbers for the table (and the JSON) from a worker result."""
+    t = res.get("timings_s", {})
+    s = {"ok": res["ok"], "peak_rss_mb": res.get("peak_rss_mb"), "base_rss_mb": res.get("base_rss_mb"),
+         "error": res.get("error")}
+    if res["method"].startswith("otb"):
+        o = res.get("otb", {})
+        s.update(otb_peak_mb=o.get("otb_peak_mb"), otb_pairs=o.get("pairs"),
+                 keypoints=[o.get("keypoints_reference"), o.get("keypoints_target")])
+        features = t.get("read_fuse_reference", 0) + t.get("read_fuse_target", 0) + t.get("otb", 0)
+        s["time_s"] = {"features_and_matching": features, "otb_call": t.get("otb"), "fit": t.get("fit"),
+                       "resample": t.get("resample"),
+                       "total": features + t.get("total", 0) if "total" in t else None}
+    else:
+        features = sum(t.get(k, 0) for k in ("read_fuse_reference", "detect_reference", "read_fuse_target",
+                                             "detect_target", "match"))
+        s["time_s"] = {"features_and_matching": features if t else None,
+                       "read_fuse": t.get("read_fuse_reference", 0) + t.get("read_fuse_target", 0) if t else None,
+                       "detect": t.get("detect_reference", 0) + t.get("detect_target", 0) if t else None,
+                       "match": t.get("match"), "fit": t.get("fit"), "resample": t.get("resample"),
+                       "total": t.get("total")}
+    if res["ok"]:
+        rep = res["report"]
+        kp = rep["keypoints"]
+        s.update(keypoints=[kp.get("reference"), kp.get("target")], matches=rep["matches"], inliers=rep["inliers"],
+                 check_n=rep["check"].get("n"), check_rmse_m=rep["check"].get("rmse_m"),
+                 check_rmse_px=rep["check"].get("rmse_px"))
+        if truth is not None:
+            from fotogeo.models import model_from_dict
+            if rep["output_crs"] != truth.crs:
+                s["truth_error"] = f"output CRS {rep['output_crs']} != truth CRS {truth.crs}"
+            else:
+                s.update(truth.evaluate(model_from_dict(rep["model"]), case["reference"], res.get("raw"), case))
+    elif truth is not None and res.get("raw"):
+        s.update(truth.correct_share(res["raw"], case["reference"]))
+    return s
+
+
+def fmt(x, spec="{:.2f}", none="-"):
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return none
+    return spec.format(x)
+
+
+def print_table(rows):
+    hdr = (f"{'case':<13}{'method':<6}{'kp ref/tgt':>14}{'match':>7}{'inl':>6}{'chk':>5}{'chk m':>8}{'chk px':>8}"
+           f"{'dense m':>9}{'best m':>8}{'d/best':>7}{'corr%':>7}{'t feat':>8}{'t fit':>7}{'t res':>7}"
+           f"{'t tot':>8}{'peak MB':>9}")
+    print(hdr)
+    print("-" * len(hdr))
+    for r in rows:
+        s = r["summary"]
+        kp = s.get("keypoints") or [None, None]
+        kps = f"{fmt(kp[0], '{:d}')}/{fmt(kp[1], '{:d}')}"
+        t = s["time_s"]
+        peak = fmt(s["peak_rss_mb"], "{:.0f}")
+        if r["method"].startswith("otb") and s.get("otb_peak_mb") is not None:
+            peak += f"+{s['otb_peak_mb']:.0f}"
+        corr = fmt(100 * s["raw_correct_share"], "{:.0f}") if "raw_correct_share" in s else "-"
+        print(f"{r['case']:<13}{r['method']:<6}{kps:>14}{fmt(s.get('matches', s.get('otb_pairs')), '{:d}'):>7}"
+              f"{fmt(s.get('inliers'), '{:d}'):>6}{fmt(s.get('check_n'), '{:d}'):>5}{fmt(s.get('check_rmse_m')):>8}"
+              f"{fmt(s.get('check_rmse_px')):>8}{fmt(s.get('dense_rmse_m')):>9}{fmt(s.get('best_homography_rmse_m')):>8}"
+              f"{fmt(s.get('dense_over_best')):>7}{corr:>7}{fmt(t.get('features_and_matching')):>8}"
+              f"{fmt(t.get('fit')):>7}{fmt(t.get('resample')):>7}{fmt(t.get('total')):>8}{peak:>9}")
+        if not s["ok"]:
+            print(f"{'':<19}FAILED: {s['error'][:240]}")
+
+
+def ratios(rows):
+    """fotogeo SURF / peer for total time, check RMSE, dense RMSE, peak memory."""
+    by = {(r["case"], r["method"]): r["summary"] for r in rows}
+    out = []
+    for case in dict.fromkeys(r["case"] for r in rows):
+        ours = by.get((case, "surf"))
+        for peer in ("sift", "otb", "otb180"):
+            other = by.get((case, peer))
+            if not ours or not other:
+                continue
+
+            def q(a, b):
+                return a / b if (a is not None and b not in (None, 0) and ours["ok"] and other["ok"]) else None
+            out.append({"case": case, "peer": peer,
+                        "time": q(ours["time_s"]["total"], other["time_s"]["total"]),
+                        "check_rmse": q(ours.get("check_rmse_m"), other.get("check_rmse_m")),
+                        "dense_rmse": q(ours.get("dense_rmse_m"), other.get("dense_rmse_m")),
+                        "peak_mb": q(ours.get("peak_rss_mb"), other.get("peak_rss_mb")),
+                        "peer_failed": not other["ok"]})
+    return out
+
+
+def print_ratios(rat):
+    print(f"\n{'case':<13}{'fotogeo SURF / ':<15}{'time':>7}{'check RMSE':>12}{'dense RMSE':>12}{'peak MB':>9}")
+    for r in rat:
+        note = "  (peer failed)" if r["peer_failed"] else ""
+        print(f"{r['case']:<13}{r['peer']:<15}{fmt(r['time']):>7}{fmt(r['check_rmse']):>12}"
+              f"{fmt(r['dense_rmse']):>12}{fmt(r['peak_mb']):>9}{note}")
+
+
+# ------------------------------------------------------------------------------ big image
+def make_big_target(path: Path, size: int = BIG_SIZE):
+    """Central 640x640 of frame 0182, upsampled (bilinear) to size x size, tiled + DEFLATE."""
+    frame = DATA / "ngi" / "frames" / "3324c_2015_1004_05_0182_RGB.tif"
+    import rasterio
+    with rasterio.open(frame) as ds:
+        w, h = ds.width, ds.height
+    side = min(w, h)
+    x0, y0 = (w - side) // 2, (h - side) // 2
+    cmd = ["gdal_translate", "-q", "--config", "GDAL_CACHEMAX", "256", "-srcwin", str(x0), str(y0), str(side),
+           str(side), "-outsize", str(size), str(size), "-r", "bilinear", "-co", "TILED=YES",
+           "-co", "COMPRESS=DEFLATE", "-co", "BIGTIFF=YES", "-co", "NUM_THREADS=2", str(frame), str(path)]
+    t0 = time.perf_counter()
+    p = subprocess.run(["/usr/bin/time", "-f", "%M"] + cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"gdal_translate failed: {p.stderr}")
+    return {"seconds": time.perf_counter() - t0, "generator_peak_mb": int(p.stderr.strip().splitlines()[-1]) / 1024,
+            "file_mb": path.stat().st_size / 2 ** 20, "crop": [x0, y0, side, side], "size": size}
+
+
+def big_image(tmp: Path):
+    target = tmp / "big_20000.tif"
+    gen = make_big_target(target)
+    case = dict(name="big_20000", reference=str(DATA / "ngi" / "ortho" / "ngi_rgb_byte_1.tif"),
+                target=str(target), options={}, truth=None)
+    res = run_case(case, "surf", tmp)
+    out = {"generation": gen, "result": res}
+    target.unlink(missing_ok=True)
+    return out
+
+
+def print_big(big):
+    g, r = big["generation"], big["result"]
+    print(f"\nBig image: {g['size']}x{g['size']}x3 uint8 tiled DEFLATE target ({g['file_mb']:.0f} MB on disk, "
+          f"generated in {g['seconds']:.1f} s, generator peak {g['generator_peak_mb']:.0f} MB) -> NGI ortho tile 1")
+    if r["ok"]:
+        rep, t = r["report"], r["timings_s"]
+        print(f"  registered: keypoints ref/tgt {rep['keypoints']['reference']}/{rep['keypoints']['target']}, "
+              f"matches {rep['matches']}, inliers {rep['inliers']}, check RMSE {rep['check'].get('rmse_m', float('nan')):.2f} m "
+              f"({rep['check'].get('rmse_px', float('nan')):.2f} px)")
+        print("  time: " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()))
+    else:
+        print(f"  FAILED: {r['error']}")
+    print(f"  peak RSS {r.get('peak_rss_mb', float('nan')):.0f} MB (baseline after imports {r.get('base_rss_mb', float('nan')):.0f} MB); "
+          f"limit 2048 MB -> {'OK' if r.get('peak_rss_mb', 1e9) < 2048 else 'EXCEEDED'}")
+    print("  peak RSS reached by the start of each stage (MB): "
+          + ", ".join(f"{k}: {v:.0f}" for k, v in r.get("stage_peak_mb", [])))
+
+
+# ------------------------------------------------------------------------------ main
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="only the NGI frames and the demo scene, no big image")
+    ap.add_argument("--no-otb", action="store_true", help="skip Orfeo ToolBox")
+    ap.add_argument("--no-big", action="store_true", help="skip the 20000x20000 memory check")
+    ap.add_argument("--big-only", action="store_true", help="only the 20000x20000 memory check (prints, writes no JSON)")
+    ap.add_argument("--worker", help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.worker:
+        return worker(a.worker)
+    if not DATA.is_dir():
+        sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
+    methods = [m for m in METHODS if not (m.startswith("otb") and a.no_otb)]
+    if "otb" in methods and shutil.which(OTB_EXE) is None:
+        print(f"note: {OTB_EXE} not on PATH (apt-get install otb-bin); OTB skipped")
+        methods = [m for m in methods if not m.startswith("otb")]
+    t_start = time.perf_counter()
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="register_bench_") as td:
+        tmp = Path(td)
+        cases = [] if a.big_only else build_cases(tmp, a.quick)
+        for case in cases:
+            truth = Truth(case, tmp) if case["truth"] else None
+            for m in [m for m in methods if m != "otb180" or case.get("otb180")]:
+                res = run_case(case, m, tmp, raw_matches=truth is not None)
+                s = summarise(res, truth, case)
+                rows.append({"case": case["name"], "method": m, "summary": s,
+                             "timings_s": res.get("timings_s"), "stage_peak_mb": res.get("stage_peak_mb"),
+                             "otb": {k: v for k, v in res.get("otb", {}).items()} or None,
+                             "options": case["options"]})
+                status = "ok" if s["ok"] else "FAILED"
+                print(f"  {case['name']:<13}{m:<5} {status} ({res['process_s']:.1f} s)", flush=True)
+        big = None if ((a.quick or a.no_big) and not a.big_only) else big_image(tmp)
+    print()
+    print_table(rows)
+    rat = ratios(rows)
+    print_ratios(rat)
+    if big:
+        print_big(big)
+    total = time.perf_counter() - t_start
+    print(f"\nbenchmark wall time {total:.0f} s")
+    if a.big_only:  # a development aid: the JSON always holds a whole run
+        return
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    if big:
+        big["result"].pop("raw", None)
+    OUT.write_text(json.dumps({
+        "quick": a.quick, "methods": methods, "rows": rows, "ratios_fotogeo_surf_over_peer": rat, "big_image": big,
+        "notes": {"peak_rss_mb": "max RSS of the fresh Python process that ran the case (includes imports: "
+                                 "base_rss_mb); for otb '+N' is the OTB process's own peak",
+                  "raw_correct_share": f"share of raw matches within {CORRECT_TOL_PX} reference px of the truth",
+                  "time_s.total": "register's timings_s.total; for otb: fusion + OTB call + register(tie_points)"},
+        "command": " ".join([Path(sys.executable).name] + sys.argv),
+        "machine": {"python": platform.python_version(), "cpus": os.cpu_count(), "platform": platform.platform()},
+        "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "wall_s": total,
+    }, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+    print(f"wrote {OUT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()

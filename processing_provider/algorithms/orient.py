@@ -1,0 +1,267 @@
+"""``fotogeo:orient`` and ``fotogeo:comparemodels`` — orientation models fitted to GCPs."""
+from __future__ import annotations
+
+import os
+
+from qgis.core import (
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputString,
+    QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterCrs,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterFileDestination,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterDestination,
+    QgsProcessingParameterRasterLayer,
+    QgsProcessingParameterString,
+    QgsProcessingParameterVectorDestination,
+)
+
+from ..postprocess import load_on_completion, style_output
+from .base import FotogeoAlgorithm, tr
+from .register import RESAMPLINGS, RegisterAlgorithm
+
+# Mirror of sorted(fotogeo.models.MODELS) (fotogeo is imported lazily; a test checks they agree).
+MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3", "poly3d-1",
+          "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g", "rfm-i2g", "rfm-poly",
+          "rfm-poly-i2g", "similarity")
+SPREADS = ("homogeneous", "heterogeneous")
+GCP_FILTER = "GCP files (*.gpkg *.points *.csv *.geojson *.shp);;All files (*.*)"
+FIELDS = ("col", "row", "z", "role", "id")
+
+REFERENCE_004 = ("Öztürk, Karşlı, Dihkan: orientation of aerial photographs from map GCPs with affine-with-height, "
+                 "bilinear, projective, DLT and rational function models (fotogeo's source paper 004).")
+
+GCP_HELP = ("GCPs: a point layer file (GeoPackage, Shapefile, GeoJSON) with the image position in fields col, "
+            "row (GDAL corner convention: 0,0 = top-left corner of the top-left pixel), optional z, role "
+            "(control / check) and id; a CSV with map columns x, y (CRS parameter needed); or a QGIS "
+            "Georeferencer .points file (enabled = control, disabled = check). The field names can be changed "
+            "under Advanced. Heights for 3-D models: the z field, else the DEM, else the constant height.")
+
+
+class _GcpAlgorithm(FotogeoAlgorithm):
+    """Parameters shared by orient and comparemodels: the image, GCP source, heights, camera."""
+
+    GROUP = ("orientation", "Orientation")
+    IMAGE, GCPS, LAYER, CRS, DEM, HEIGHT, CAMERA = "IMAGE", "GCPS", "LAYER", "CRS", "DEM", "HEIGHT", "CAMERA"
+
+    def add_gcp_parameters(self):
+        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image")))
+        self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("GCP file (layer, CSV or .points)"),
+                                                     fileFilter=GCP_FILTER))
+        self.addParameter(QgsProcessingParameterString(self.LAYER, tr("Layer of a multi-layer GCP file"),
+                                                       optional=True))
+        self.addParameter(QgsProcessingParameterCrs(
+            self.CRS, tr("Map CRS of the GCPs (for CSV, .points without #CRS, layers without CRS)"), optional=True))
+        self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, tr("DEM for GCPs without height"),
+                                                            optional=True))
+        self.addParameter(QgsProcessingParameterNumber(self.HEIGHT, tr("Constant height for GCPs without height"),
+                                                       QgsProcessingParameterNumber.Double, optional=True))
+        self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Interior orientation YAML (collinearity)"),
+                                                     optional=True, fileFilter="YAML (*.yaml *.yml)"))
+        for f in FIELDS:
+            p = QgsProcessingParameterString(f"{f.upper()}_FIELD", tr(f"Field: {f}"), defaultValue=f)
+            p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+            self.addParameter(p)
+
+    def gcp_arguments(self, parameters, context) -> dict:
+        crs = self.parameterAsCrs(parameters, self.CRS, context)
+        camera = self.parameterAsFile(parameters, self.CAMERA, context)
+        return dict(
+            layer=self.parameterAsString(parameters, self.LAYER, context) or None,
+            crs=RegisterAlgorithm.crs_spec(crs) if crs.isValid() else None,
+            dem=self.raster_path(parameters, self.DEM, context) if parameters.get(self.DEM) else None,
+            height=self.optional_double(parameters, self.HEIGHT, context),
+            camera=camera or None,
+            fields={f: self.parameterAsString(parameters, f"{f.upper()}_FIELD", context) or f for f in FIELDS},
+        )
+
+
+class OrientAlgorithm(_GcpAlgorithm):
+    ALG_ID = "orient"
+    DISPLAY = "Orient image from GCPs"
+    HELP = ("Fits an orientation model (ground → image) to the control points of an image and measures it "
+            "at the check points: similarity, affine, projective, polynomials 1-3 (2-D), affine with height, "
+            "bilinear, 3-D polynomials, DLT, rational function models (separate, common or no denominator; "
+            "ground→image or image→ground, '-i2g') and collinearity with a known camera. Least squares with "
+            "data snooping flags blunders (optionally removed and refitted).\n\n"
+            "Outputs (each optional): JSON report (RMS x, y, xy, min, max, median in pixels, or mm with a scan "
+            "pixel size, per-point residuals, blunders, warnings); GeoPackage with the layers gcps and "
+            "error_vectors (arrows from each GCP to where the model puts its image point on the ground); a "
+            "PNG plot of the residual vectors; a Georeferencer .points file with residuals; for RFMs a GeoTIFF "
+            "copy of the image carrying the model as GDAL RPC metadata (usable by gdalwarp -rpc and QGIS); "
+            "a rectified GeoTIFF in the GCP CRS.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
+
+    MODEL, SCAN_PIXEL_UM, SNOOPING, REMOVE_BLUNDERS = "MODEL", "SCAN_PIXEL_UM", "SNOOPING", "REMOVE_BLUNDERS"
+    EXAGGERATION, RESOLUTION, RESAMPLING = "EXAGGERATION", "RESOLUTION", "RESAMPLING"
+    REPORT, VECTORS, PLOT, POINTS, RPC, RECTIFY = "REPORT", "VECTORS", "PLOT", "POINTS", "RPC", "RECTIFY"
+    GCP_LAYER, ERROR_VECTORS = "GCP_LAYER", "ERROR_VECTORS"
+    CONTROL_RMS, CHECK_RMS, BLUNDERS, MODEL_NAME = "CONTROL_RMS_XY_PX", "CHECK_RMS_XY_PX", "BLUNDERS", "MODEL_NAME"
+
+    def initAlgorithm(self, config=None):
+        Num = QgsProcessingParameterNumber
+        self.add_gcp_parameters()
+        self.addParameter(QgsProcessingParameterEnum(self.MODEL, tr("Model"), options=list(MODELS),
+                                                     defaultValue=MODELS.index("poly1")))
+        self.addParameter(QgsProcessingParameterBoolean(self.SNOOPING, tr("Data snooping (flag blunders)"),
+                                                        defaultValue=True))
+        self.addParameter(QgsProcessingParameterBoolean(self.REMOVE_BLUNDERS, tr("Remove flagged blunders and refit"),
+                                                        defaultValue=False))
+        advanced = [
+            Num(self.SCAN_PIXEL_UM, tr("Scan pixel size in µm (report residuals in mm on the photo)"), Num.Double,
+                optional=True, minValue=0.0),
+            Num(self.EXAGGERATION, tr("Error vector exaggeration (drawing scale)"), Num.Double, defaultValue=1.0,
+                minValue=0.001),
+            Num(self.RESOLUTION, tr("Rectified pixel size (0 = the image's ground sample distance)"), Num.Double,
+                defaultValue=0.0, minValue=0.0),
+            QgsProcessingParameterEnum(self.RESAMPLING, tr("Rectification resampling"), options=list(RESAMPLINGS),
+                                       defaultValue=0),
+        ]
+        for p in advanced:
+            p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+            self.addParameter(p)
+        self.addParameter(QgsProcessingParameterFileDestination(self.REPORT, tr("Report (JSON)"), "JSON (*.json)",
+                                                                optional=True, createByDefault=True))
+        self.addParameter(QgsProcessingParameterVectorDestination(
+            self.VECTORS, tr("GCPs and error vectors (GeoPackage)"), QgsProcessing.TypeVectorPoint, optional=True,
+            createByDefault=True))
+        self.addParameter(QgsProcessingParameterFileDestination(self.PLOT, tr("Residual plot (PNG)"), "PNG (*.png)",
+                                                                optional=True, createByDefault=False))
+        self.addParameter(QgsProcessingParameterFileDestination(
+            self.POINTS, tr("Georeferencer points file with residuals"), "Georeferencer points (*.points)",
+            optional=True, createByDefault=False))
+        self.addParameter(QgsProcessingParameterRasterDestination(
+            self.RPC, tr("Image with the RFM as GDAL RPC metadata (RFM models)"), optional=True,
+            createByDefault=False))
+        self.addParameter(QgsProcessingParameterRasterDestination(self.RECTIFY, tr("Rectified image"), optional=True,
+                                                                  createByDefault=False))
+        self.addOutput(QgsProcessingOutputVectorLayer(self.GCP_LAYER, tr("GCPs with residuals")))
+        self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
+        self.addOutput(QgsProcessingOutputNumber(self.CONTROL_RMS, tr("RMS xy at control points (px)")))
+        self.addOutput(QgsProcessingOutputNumber(self.CHECK_RMS, tr("RMS xy at check points (px)")))
+        self.addOutput(QgsProcessingOutputNumber(self.BLUNDERS, tr("Flagged blunders")))
+        self.addOutput(QgsProcessingOutputString(self.MODEL_NAME, tr("Model")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        orient = self.tool("orient", "orient")
+        image = self.raster_path(parameters, self.IMAGE, context)
+        gcps = self.parameterAsFile(parameters, self.GCPS, context)
+        outputs = {
+            "report": self.parameterAsFileOutput(parameters, self.REPORT, context),
+            "vectors": self.parameterAsOutputLayer(parameters, self.VECTORS, context),
+            "plot": self.parameterAsFileOutput(parameters, self.PLOT, context),
+            "points": self.parameterAsFileOutput(parameters, self.POINTS, context),
+            "rpc": self.parameterAsOutputLayer(parameters, self.RPC, context),
+            "rectify": self.parameterAsOutputLayer(parameters, self.RECTIFY, context),
+        }
+        outputs = {k: v for k, v in outputs.items() if v}
+        if "vectors" in outputs and os.path.splitext(outputs["vectors"])[1].lower() != ".gpkg":
+            raise QgsProcessingException(f"VECTORS must be a GeoPackage (.gpkg); got {outputs['vectors']!r}")
+        for key in ("rpc", "rectify"):
+            if key in outputs and not outputs[key].lower().endswith((".tif", ".tiff")):
+                raise QgsProcessingException(f"{key.upper()}: fotogeo writes GeoTIFF; give a file name ending "
+                                             f"in .tif (got {outputs[key]!r})")
+        model = self.enum_value(parameters, self.MODEL, context, MODELS)
+        resolution = self.parameterAsDouble(parameters, self.RESOLUTION, context)
+        rep = self.run_tool(
+            orient, image, gcps, model=model, feedback=feedback, overwrite=True,
+            snooping=self.parameterAsBoolean(parameters, self.SNOOPING, context),
+            remove_blunders=self.parameterAsBoolean(parameters, self.REMOVE_BLUNDERS, context),
+            scan_pixel_um=self.optional_double(parameters, self.SCAN_PIXEL_UM, context) or None,
+            exaggeration=self.parameterAsDouble(parameters, self.EXAGGERATION, context),
+            resolution=resolution if resolution > 0 else None,
+            resampling=self.enum_value(parameters, self.RESAMPLING, context, RESAMPLINGS),
+            **self.gcp_arguments(parameters, context), **outputs)
+        feedback.pushInfo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
+        for role in ("control", "check", "blunder"):
+            s = rep.get(role) or {}
+            if s.get("n"):
+                feedback.pushInfo(f"{role}: n={s['n']}, RMS x {s['rms_x_px']:.3f} px, y {s['rms_y_px']:.3f} px, "
+                                  f"xy {s['rms_xy_px']:.3f} px, max {s['max_px']:.3f} px")
+        for f in rep.get("snooping", []):
+            feedback.pushWarning(f"blunder? GCP {f['id']}: {f['reason']}{' (removed)' if f['removed'] else ''}")
+        for w in rep.get("warnings", []):
+            feedback.pushWarning(w)
+        nan = float("nan")
+        result = {self.CONTROL_RMS: float((rep.get("control") or {}).get("rms_xy_px", nan)),
+                  self.CHECK_RMS: float((rep.get("check") or {}).get("rms_xy_px", nan)),
+                  self.BLUNDERS: len(rep.get("snooping", [])), self.MODEL_NAME: rep["model_name"]}
+        for key, name in (("report", self.REPORT), ("plot", self.PLOT), ("points", self.POINTS), ("rpc", self.RPC),
+                          ("rectify", self.RECTIFY), ("vectors", self.VECTORS)):
+            result[name] = outputs.get(key)
+        if "vectors" in outputs:
+            vec = outputs["vectors"]
+            result[self.GCP_LAYER] = f"{vec}|layername=gcps"
+            result[self.ERROR_VECTORS] = f"{vec}|layername=error_vectors"
+            if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
+                style_output(context, vec, "tie_points")
+                load_on_completion(context, result[self.ERROR_VECTORS], tr("Error vectors"), self.ERROR_VECTORS,
+                                   "error_vectors")
+        return result
+
+
+class CompareModelsAlgorithm(_GcpAlgorithm):
+    ALG_ID = "comparemodels"
+    DISPLAY = "Compare orientation models on GCPs"
+    HELP = ("Table 1 of the source paper for your GCPs: every chosen model × number of control points × spread "
+            "(homogeneous = stratified over the image; heterogeneous = clustered around two centres), over "
+            "seeded trials. All GCPs are pooled; in each trial the points not chosen as control points are the "
+            "check points. Reported per row: median RMS x / y at control and check points, RMS xy and maximum at "
+            "check points (pixels), and why a model could not be fitted. Writes a CSV table (and optionally "
+            "Markdown) and prints the table in the log.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
+
+    MODELS_PARAM, COUNTS, SPREADS_PARAM, TRIALS, SEED = "MODELS", "COUNTS", "SPREADS", "TRIALS", "SEED"
+    TABLE, MARKDOWN, ROWS = "TABLE", "MARKDOWN", "ROWS"
+
+    def initAlgorithm(self, config=None):
+        self.add_gcp_parameters()
+        self.addParameter(QgsProcessingParameterEnum(self.MODELS_PARAM, tr("Models (none = all that the GCPs allow)"),
+                                                     options=list(MODELS), allowMultiple=True, optional=True))
+        self.addParameter(QgsProcessingParameterString(self.COUNTS, tr("Control-point counts (comma-separated)"),
+                                                       defaultValue="40,20,15,10,6"))
+        self.addParameter(QgsProcessingParameterEnum(self.SPREADS_PARAM, tr("Spreads"), options=list(SPREADS),
+                                                     allowMultiple=True, defaultValue=[0, 1]))
+        self.addParameter(QgsProcessingParameterNumber(self.TRIALS, tr("Seeded trials per cell (median reported)"),
+                                                       QgsProcessingParameterNumber.Integer, defaultValue=5,
+                                                       minValue=1))
+        self.addParameter(QgsProcessingParameterNumber(self.SEED, tr("Random seed"),
+                                                       QgsProcessingParameterNumber.Integer, defaultValue=0,
+                                                       minValue=0))
+        self.addParameter(QgsProcessingParameterFileDestination(self.TABLE, tr("Comparison table (CSV)"),
+                                                                "CSV (*.csv)", optional=True, createByDefault=True))
+        self.addParameter(QgsProcessingParameterFileDestination(self.MARKDOWN, tr("Comparison table (Markdown)"),
+                                                                "Markdown (*.md)", optional=True,
+                                                                createByDefault=False))
+        self.addOutput(QgsProcessingOutputNumber(self.ROWS, tr("Table rows")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        compare_models = self.tool("orient", "compare_models")
+        markdown_table = self.tool("orient", "markdown_table")
+        text = self.parameterAsString(parameters, self.COUNTS, context)
+        try:
+            counts = tuple(int(c) for c in text.replace(" ", "").split(",") if c)
+        except ValueError:
+            raise QgsProcessingException(f"COUNTS must be whole numbers separated by commas, e.g. 40,20,10; "
+                                         f"got {text!r}") from None
+        if not counts or min(counts) < 1:
+            raise QgsProcessingException(f"COUNTS needs at least one positive number of control points; got {text!r}")
+        models = [MODELS[i] for i in self.parameterAsEnums(parameters, self.MODELS_PARAM, context)] or None
+        spreads = tuple(SPREADS[i] for i in self.parameterAsEnums(parameters, self.SPREADS_PARAM, context))
+        if not spreads:
+            raise QgsProcessingException("SPREADS: choose at least one of homogeneous, heterogeneous")
+        table = self.parameterAsFileOutput(parameters, self.TABLE, context) or None
+        markdown = self.parameterAsFileOutput(parameters, self.MARKDOWN, context) or None
+        image = self.raster_path(parameters, self.IMAGE, context)
+        gcps = self.parameterAsFile(parameters, self.GCPS, context)
+        rows = self.run_tool(compare_models, image, gcps, models=models, counts=counts, spreads=spreads,
+                             trials=self.parameterAsInt(parameters, self.TRIALS, context),
+                             seed=self.parameterAsInt(parameters, self.SEED, context), table=table,
+                             markdown=markdown, overwrite=True, feedback=feedback,
+                             **self.gcp_arguments(parameters, context))
+        feedback.pushInfo(markdown_table(rows))
+        return {self.TABLE: table, self.MARKDOWN: markdown, self.ROWS: len(rows)}

@@ -1,0 +1,130 @@
+"""Terrain-aware registration of the real NGI frames: tie points + DEM → 3-D model → orthophoto."""
+import json
+
+import cv2
+import numpy as np
+import pytest
+import rasterio
+from pyproj import CRS
+
+from fotogeo.camera import load_ngi_frame
+from fotogeo.dem import Dem
+from fotogeo.errors import InputError, RasterError
+from fotogeo.geo import transform_points
+from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
+from fotogeo.register import register
+
+F182, F184 = "3324c_2015_1004_05_0182", "3324c_2015_1004_05_0184"
+
+
+def dense_truth(ngi, name, step=10):
+    """Frame pixels, their true ground points (X, Y in EPSG:32735, Z)."""
+    dem = Dem.open(ngi / "dem.tif")
+    frame = load_ngi_frame(ngi, name)
+    w, h = frame.camera.image_size
+    x, y = pixel_centres(w // step, h // step)
+    px = np.column_stack([x.ravel(), y.ravel()]) * step
+    g = frame.pixel_to_world(px, dem)
+    ok = np.isfinite(g).all(axis=1)
+    xy = transform_points(CRS.from_wkt(dem.crs.to_wkt()), CRS.from_epsg(32735), g[ok, :2])
+    return px[ok], np.column_stack([xy, g[ok, 2]])
+
+
+def dense_rmse(model, px, truth):
+    on_ground = model.inverse(px, z=truth[:, 2])[:, :2]
+    return float(np.sqrt(np.mean(np.sum((on_ground - truth[:, :2]) ** 2, axis=1))))
+
+
+@pytest.mark.parametrize("name,ortho,model", [(F182, "ngi_rgb_byte_1.tif", "auto"), (F184, "ngi_rgb_byte_2.tif", "dlt")])
+def test_terrain_registration_within_one_ortho_pixel(data_dir, tmp_path, name, ortho, model):
+    ngi = data_dir / "ngi"
+    out = tmp_path / "ortho.tif"
+    r = register(ngi / "ortho" / ortho, ngi / "frames" / f"{name}_RGB.tif", out, dem=ngi / "dem.tif",
+                 model=model, camera=ngi / "interior_orientation.yaml", seed=0)
+    px, truth = dense_truth(ngi, name)
+    rmse = dense_rmse(r.model, px, truth)
+    assert rmse < 5.0, rmse  # one 5 m orthophoto pixel; the best homography is ~45 m here
+    rep = json.loads(out.with_suffix(".json").read_text())
+    assert rep["terrain"]["chosen"] in ("collinearity", "dlt", "rfm", "rfm-common", "rfm-poly")
+    assert rep["terrain"]["check_rmse_target_px"] < 2.0 and rep["check"]["n"] > 100
+    with rasterio.open(out) as ds:
+        assert ds.crs.to_epsg() == 32735
+    if name == F182:
+        _compare_with_true_orthophoto(ngi, name, out)
+
+
+def _compare_with_true_orthophoto(ngi, name, out):
+    """The output against an orthophoto rendered from the true geometry on the same grid:
+    local shifts by phase correlation in 64x64 windows must be below 1 pixel RMSE."""
+    dem = Dem.open(ngi / "dem.tif")
+    frame = load_ngi_frame(ngi, name)
+    ngi_crs = CRS.from_wkt(dem.crs.to_wkt())
+    with rasterio.open(out) as ds:
+        ours = ds.read().astype(np.float32).mean(axis=0)
+        valid = ds.read_masks(1) > 0
+        t, (h, w) = ds.transform, ds.shape
+    x, y = pixel_centres(w, h)
+    XY = transform_points(CRS.from_epsg(32735), ngi_crs, pixel_to_map(t, np.column_stack([x.ravel(), y.ravel()])))
+    src = frame.world_to_pixel(np.column_stack([XY, dem.heights(XY)]))
+    src = to_centre(np.where(np.isfinite(src), src, -1e6))
+    with rasterio.open(ngi / "frames" / f"{name}_RGB.tif") as fs:
+        fimg = fs.read().astype(np.float32).mean(axis=0)
+    truth = cv2.remap(fimg, src[:, 0].reshape(h, w).astype(np.float32), src[:, 1].reshape(h, w).astype(np.float32),
+                      cv2.INTER_LINEAR, borderValue=0)
+    shifts = []
+    win = cv2.createHanningWindow((64, 64), cv2.CV_32F)
+    for r0 in range(0, h - 64, 64):
+        for c0 in range(0, w - 64, 64):
+            a, b = ours[r0:r0 + 64, c0:c0 + 64], truth[r0:r0 + 64, c0:c0 + 64]
+            if not valid[r0:r0 + 64, c0:c0 + 64].all() or (b == 0).any() or a.std() < 5:
+                continue
+            (dx, dy), resp = cv2.phaseCorrelate(a, b, win)
+            if resp > 0.2:
+                shifts.append((dx, dy))
+    s = np.array(shifts)
+    assert len(s) > 50
+    rms = float(np.sqrt(np.mean(np.sum(s ** 2, axis=1))))
+    assert rms < 1.0, (rms, len(s))
+
+
+def test_sentinel2_reference_with_dem(data_dir, tmp_path):
+    ngi = data_dir / "ngi"
+    r = register(ngi / "sentinel2_b432_byte.tif", ngi / "frames" / f"{F182}_RGB.tif", tmp_path / "s2.tif",
+                 dem=ngi / "dem.tif", model="dlt", seed=0)
+    px, truth = dense_truth(ngi, F182)
+    assert dense_rmse(r.model, px, truth) < 10.0  # one Sentinel-2 pixel
+    assert r.report["output_grid"]["resolution"] == pytest.approx(10.0, rel=0.02)
+
+
+def _write_dem(path, data, transform, crs):
+    with rasterio.open(path, "w", driver="GTiff", width=data.shape[1], height=data.shape[0], count=1,
+                       dtype="float32", transform=transform, crs=crs, nodata=-9999) as ds:
+        ds.write(data.astype(np.float32), 1)
+
+
+def test_dem_bad_inputs_and_holes(data_dir, tmp_path):
+    ngi = data_dir / "ngi"
+    ref, tgt = ngi / "ortho" / "ngi_rgb_byte_1.tif", ngi / "frames" / f"{F182}_RGB.tif"
+    with rasterio.open(ngi / "dem.tif") as ds:
+        z, t, crs = ds.read(1, masked=True).filled(-9999), ds.transform, ds.crs
+    # a DEM without CRS
+    nocrs = tmp_path / "nocrs.tif"
+    _write_dem(nocrs, z, t, None)
+    with pytest.raises((InputError, RasterError), match="CRS"):
+        register(ref, tgt, tmp_path / "a.tif", dem=nocrs, model="dlt")
+    # a DEM far from the images
+    far = tmp_path / "far.tif"
+    _write_dem(far, z, t * t.translation(-5000, -5000), crs)
+    with pytest.raises(InputError, match="heights for only"):
+        register(ref, tgt, tmp_path / "b.tif", dem=far, model="dlt")
+    assert not list(tmp_path.glob("a.*")) and not list(tmp_path.glob("b.*"))
+    # a nodata hole under part of the tie points: those are skipped and counted
+    holed = z.copy()
+    hr, hc = holed.shape[0] // 2, holed.shape[1] // 2
+    holed[hr - 15:hr + 15, hc - 15:hc + 15] = -9999
+    hole = tmp_path / "hole.tif"
+    _write_dem(hole, holed, t, crs)
+    r = register(ref, tgt, tmp_path / "c.tif", dem=hole, model="dlt", seed=0)
+    assert r.report["terrain"]["tie_points_without_height"] > 0
+    with pytest.raises(InputError, match="terrain model"):
+        register(ref, tgt, tmp_path / "d.tif", model="dlt")
