@@ -67,6 +67,7 @@ OTB_EXE = "otbcli_HomologousPointsExtraction"
 NGI_FRAMES = {"ngi_0182": ("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"),
               "ngi_0184": ("3324c_2015_1004_05_0184", "ngi_rgb_byte_2.tif")}
 BIG_SIZE = 20000
+CAPPED_CACHE_MB = 256
 CORRECT_TOL_PX = 3.0  # reference pixels, = register's RANSAC threshold
 
 
@@ -155,6 +156,12 @@ class Truth:
             self.src_crs, self.dst_crs = CRS.from_wkt(self.dem.crs.to_wkt()), CRS.from_epsg(32735)
             self.crs = "EPSG:32735"
             self.grid, self.truth = truth_grid(ngi, t["frame"])
+            # a target made from a crop of the frame, scaled: frame px = offset + target px * scale
+            self.offset, self.scale = np.asarray(t.get("offset", (0.0, 0.0)), float), float(t.get("scale", 1.0))
+            if "scale" in t:
+                g = (self.grid - self.offset) / self.scale
+                ok = ((g >= 0) & (g <= t["size"])).all(axis=1)
+                self.grid, self.truth = g[ok], self.truth[ok]
         elif self.kind == "homography":
             import rasterio
             from fotogeo.pixels import pixel_centres
@@ -179,7 +186,7 @@ class Truth:
         xy = np.asarray(xy, float).reshape(-1, 2)
         if self.kind == "ngi":
             from fotogeo.geo import transform_points
-            g = self.frame.pixel_to_world(xy, self.dem)[:, :2]
+            g = self.frame.pixel_to_world(self.offset + xy * self.scale, self.dem)[:, :2]
             out = np.full_like(g, np.nan)
             ok = np.isfinite(g).all(axis=1)
             if ok.any():
@@ -286,13 +293,15 @@ def worker(spec_path: str):
     work = Path(spec["work"])
     method = spec["method"]
     base_mb = _status_mb("VmRSS")
-    stages, last = [], [None]
+    stages, last = [], ["imports"]  # (stage, peak RSS reached by the END of that stage)
+
+    def mark(key):
+        if key != last[0]:
+            stages.append((last[0], round(_status_mb("VmHWM"), 1)))
+            last[0] = key
 
     def progress(fraction, message):
-        key = message.split(" window")[0]
-        if key != last[0]:
-            stages.append((key, round(_status_mb("VmHWM"), 1)))
-            last[0] = key
+        mark(message.split(" window")[0])
         return True
 
     res = {"case": spec["name"], "method": method, "ok": False, "base_rss_mb": base_mb}
@@ -303,18 +312,19 @@ def worker(spec_path: str):
     timings, t0 = {}, time.perf_counter()
     try:
         if method.startswith("otb"):
+            mark("fusion + OTB")
             tgt_xy, ref_xy, info = otb_tie_points(spec["reference"], spec["target"], RegisterOptions(**opts),
                                                   work, timings, prerotate=method == "otb180")
             res["otb"] = info
             res["raw"] = {"target_xy": tgt_xy.tolist(), "reference_xy": ref_xy.tolist()}
-            stages.append(("otb tie points", round(_status_mb("VmHWM"), 1)))
+            mark("register(tie_points)")
             r = register(spec["reference"], spec["target"], out, tie_points=(tgt_xy, ref_xy), progress=progress,
                          **opts)
         else:
             r = register(spec["reference"], spec["target"], out, progress=progress, **opts)
         wall = time.perf_counter() - t0
         res["peak_rss_mb"] = _maxrss_mb()
-        stages.append(("end", round(_status_mb("VmHWM"), 1)))
+        mark("end")
         rep = r.report
         timings.update(rep["timings_s"])
         res.update(ok=True, wall_s=wall, report={k: rep[k] for k in (
@@ -475,33 +485,89 @@ def make_big_target(path: Path, size: int = BIG_SIZE):
             "file_mb": path.stat().st_size / 2 ** 20, "crop": [x0, y0, side, side], "size": size}
 
 
+def probe_read(path: str, result: str):
+    """Subprocess: fotogeo's decimated read of ``path`` against the same read done in strips of
+    256 output rows under a 256 MB GDAL cache (a candidate fix); time, peak RSS, equality."""
+    import warnings
+    warnings.simplefilter("ignore")
+    import rasterio
+    from rasterio.enums import Resampling
+    from rasterio.windows import Window
+    from fotogeo.rasterio_io import open_raster, read_decimated
+    info = open_raster(path)
+    out = {"base_rss_mb": _status_mb("VmRSS")}
+    t0 = time.perf_counter()
+    with rasterio.Env(GDAL_CACHEMAX=CAPPED_CACHE_MB * 2 ** 20):  # bytes when given as an int
+        with rasterio.open(path) as ds:
+            factor = max(1.0, float(np.sqrt(ds.width * ds.height / 16_000_000)))  # as read_decimated
+            ow, oh = max(1, int(round(ds.width / factor))), max(1, int(round(ds.height / factor)))
+            fy = ds.height / oh
+            strips = np.empty((ds.count, oh, ow), np.dtype(ds.dtypes[0]))
+            for i0 in range(0, oh, 256):
+                i1 = min(oh, i0 + 256)
+                strips[:, i0:i1] = ds.read(window=Window(0, i0 * fy, ds.width, (i1 - i0) * fy),
+                                           out_shape=(ds.count, i1 - i0, ow), resampling=Resampling.average)
+    out["strips_s"], out["strips_peak_mb"] = time.perf_counter() - t0, _status_mb("VmHWM")
+    t0 = time.perf_counter()
+    bands, _, _ = read_decimated(info, 16_000_000)
+    out["read_decimated_s"], out["read_decimated_peak_mb"] = time.perf_counter() - t0, _status_mb("VmHWM")
+    out["identical"] = bool(np.array_equal(bands, strips))
+    Path(result).write_text(json.dumps(out))
+
+
 def big_image(tmp: Path):
     target = tmp / "big_20000.tif"
     gen = make_big_target(target)
+    x0, y0, side, _ = gen["crop"]
     case = dict(name="big_20000", reference=str(DATA / "ngi" / "ortho" / "ngi_rgb_byte_1.tif"),
-                target=str(target), options={}, truth=None)
+                target=str(target), options={},
+                truth={"kind": "ngi", "frame": "3324c_2015_1004_05_0182", "offset": [x0, y0],
+                       "scale": side / BIG_SIZE, "size": BIG_SIZE})
     res = run_case(case, "surf", tmp)
-    out = {"generation": gen, "result": res}
+    # the same run with GDAL's block cache bounded (GDAL_CACHEMAX defaults to 5 % of the RAM)
+    capped = run_case(case, "surf", tmp, env=dict(os.environ, GDAL_CACHEMAX=str(CAPPED_CACHE_MB)))
+    probe_json = tmp / "probe.json"
+    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--probe-read", str(target), str(probe_json)],
+                   check=True)
+    probe = json.loads(probe_json.read_text())
+    truth = Truth(case, tmp)
+    for r in (res, capped):
+        r["summary"] = summarise(r, truth, case)
+    out = {"generation": gen, "result": res, "result_gdal_cachemax_256mb": capped, "read_probe": probe,
+           "gdal_cachemax_default_note": "GDAL default block cache = 5 % of physical RAM",
+           "physical_ram_mb": os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 20}
     target.unlink(missing_ok=True)
     return out
 
 
 def print_big(big):
-    g, r = big["generation"], big["result"]
-    print(f"\nBig image: {g['size']}x{g['size']}x3 uint8 tiled DEFLATE target ({g['file_mb']:.0f} MB on disk, "
-          f"generated in {g['seconds']:.1f} s, generator peak {g['generator_peak_mb']:.0f} MB) -> NGI ortho tile 1")
-    if r["ok"]:
-        rep, t = r["report"], r["timings_s"]
-        print(f"  registered: keypoints ref/tgt {rep['keypoints']['reference']}/{rep['keypoints']['target']}, "
-              f"matches {rep['matches']}, inliers {rep['inliers']}, check RMSE {rep['check'].get('rmse_m', float('nan')):.2f} m "
-              f"({rep['check'].get('rmse_px', float('nan')):.2f} px)")
-        print("  time: " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()))
-    else:
-        print(f"  FAILED: {r['error']}")
-    print(f"  peak RSS {r.get('peak_rss_mb', float('nan')):.0f} MB (baseline after imports {r.get('base_rss_mb', float('nan')):.0f} MB); "
-          f"limit 2048 MB -> {'OK' if r.get('peak_rss_mb', 1e9) < 2048 else 'EXCEEDED'}")
-    print("  peak RSS reached by the start of each stage (MB): "
-          + ", ".join(f"{k}: {v:.0f}" for k, v in r.get("stage_peak_mb", [])))
+    g = big["generation"]
+    print(f"\nBig image: {g['size']}x{g['size']}x3 uint8 tiled DEFLATE target (central {g['crop'][2]}x{g['crop'][3]} of "
+          f"frame 0182 upsampled; {g['file_mb']:.0f} MB on disk, generated in {g['seconds']:.1f} s, generator peak "
+          f"{g['generator_peak_mb']:.0f} MB) -> NGI ortho tile 1; machine RAM {big['physical_ram_mb']:.0f} MB")
+    for label, key in (("default environment", "result"),
+                       (f"GDAL_CACHEMAX={CAPPED_CACHE_MB} MB", "result_gdal_cachemax_256mb")):
+        r = big[key]
+        print(f"  [{label}]")
+        if r["ok"]:
+            rep, t, s = r["report"], r["timings_s"], r["summary"]
+            print(f"    keypoints ref/tgt {rep['keypoints']['reference']}/{rep['keypoints']['target']}, matches "
+                  f"{rep['matches']}, inliers {rep['inliers']}, check RMSE {fmt(rep['check'].get('rmse_m'))} m "
+                  f"({fmt(rep['check'].get('rmse_px'))} px), dense {fmt(s.get('dense_rmse_m'))} m vs best homography "
+                  f"{fmt(s.get('best_homography_rmse_m'))} m ({fmt(s.get('dense_over_best'))}x)")
+            print("    time: " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()))
+        else:
+            print(f"    FAILED: {r['error']}")
+        peak = r.get("peak_rss_mb")
+        print(f"    peak RSS {fmt(peak, '{:.0f}')} MB (after imports {fmt(r.get('base_rss_mb'), '{:.0f}')} MB); "
+              f"limit 2048 MB -> {'under' if peak is not None and peak < 2048 else 'EXCEEDED'}")
+        print("    peak RSS by the end of each stage (MB): "
+              + ", ".join(f"{k}: {v:.0f}" for k, v in r.get("stage_peak_mb", [])))
+    p = big["read_probe"]
+    print(f"  decimated read of the target alone (fresh process, after imports {p['base_rss_mb']:.0f} MB): in strips of "
+          f"256 rows under a {CAPPED_CACHE_MB} MB GDAL cache {p['strips_s']:.1f} s, peak {p['strips_peak_mb']:.0f} MB; "
+          f"then fotogeo's read_decimated (default cache) {p['read_decimated_s']:.1f} s, peak "
+          f"{p['read_decimated_peak_mb']:.0f} MB; identical arrays: {p['identical']}")
 
 
 # ------------------------------------------------------------------------------ main
@@ -512,9 +578,12 @@ def main():
     ap.add_argument("--no-big", action="store_true", help="skip the 20000x20000 memory check")
     ap.add_argument("--big-only", action="store_true", help="only the 20000x20000 memory check (prints, writes no JSON)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--probe-read", nargs=2, help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.worker:
         return worker(a.worker)
+    if a.probe_read:
+        return probe_read(*a.probe_read)
     if not DATA.is_dir():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
     methods = [m for m in METHODS if not (m.startswith("otb") and a.no_otb)]

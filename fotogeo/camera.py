@@ -189,6 +189,7 @@ class OrientedFrame:
             if not np.isfinite(h0).any():
                 return np.full((n, 3), np.nan)
             zlo, zhi = float(np.nanmin(h0)) - 1000.0, float(np.nanmax(h0)) + 1000.0
+            zhi = min(zhi, C[2] - 1e-3)  # unknown relief: search below the camera only
         if zhi >= C[2]:
             raise ModelError(f"frame {self.name!r}: the DEM reaches {zhi:.1f}, above the projection "
                              f"centre Z = {C[2]:.1f}; check the DEM and the exterior orientation")
@@ -215,7 +216,7 @@ class OrientedFrame:
             lo[idx] = np.where(~lost & ~above, z, lo[idx])
             with np.errstate(divide="ignore", invalid="ignore"):
                 zn = z - f / fp
-            bad = ~np.isfinite(zn) | (zn <= lo[idx]) | (zn >= hi[idx])
+            bad = (~np.isfinite(zn) | (zn <= lo[idx]) | (zn >= hi[idx])) & (f != 0)  # f = 0: exact root
             zn = np.where(bad, 0.5 * (lo[idx] + hi[idx]), zn)
             # off the DEM: step back halfway towards the last iterate that was on it, and
             # exclude the off-DEM side from the bracket (the crossing is assumed nearer)

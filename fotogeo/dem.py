@@ -129,6 +129,10 @@ def as_height_source(dem):
 class _Constant:
     z: float
 
+    @property
+    def z_range(self) -> tuple[float, float]:
+        return self.z, self.z
+
     def heights_and_gradient(self, XY):
         n = len(XY)
         return np.full(n, self.z), np.zeros(n), np.zeros(n)

@@ -97,13 +97,21 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
         pc = np.tensordot(v.astype(np.float32), blk - mean[:, None, None].astype(np.float32), axes=1)
         out[r0:r0 + rows_per_chunk] = np.clip((pc - lo) * k, 0, 255)
     out[~valid] = 0
-    if contrast != "linear":
-        out = _equalize(out, valid)
-        if contrast == "adaptive":
-            clahe = cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8))
-            out = clahe.apply(np.round(out).astype(np.uint8)).astype(np.float32)
-            out[~valid] = 0
-    return Fusion(out, valid, v, explained, (float(lo), float(hi)))
+    return Fusion(apply_contrast(out, valid, contrast), valid, v, explained, (float(lo), float(hi)))
+
+
+def apply_contrast(image: np.ndarray, valid: np.ndarray, contrast: str) -> np.ndarray:
+    """Re-map a linearly stretched 0..255 image with ``contrast`` (see the module docstring)."""
+    if contrast not in CONTRASTS:
+        raise InputError(f"contrast {contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
+    if contrast == "linear":
+        return image
+    out = _equalize(image, valid)
+    if contrast == "adaptive":
+        clahe = cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8))
+        out = clahe.apply(np.round(out).astype(np.uint8)).astype(np.float32)
+        out[~valid] = 0
+    return out
 
 
 def _equalize(img: np.ndarray, valid: np.ndarray, bins: int = 4096) -> np.ndarray:

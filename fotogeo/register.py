@@ -24,12 +24,12 @@ import numpy as np
 from affine import Affine
 
 from . import __version__
-from .errors import InputError, MatchingError, ModelError
+from .errors import FotogeoError, InputError, MatchingError, ModelError
 from .features.match import match_descriptors
 from .fit import fit_tie_points
-from .fusion import CONTRASTS, pca_fuse
+from .fusion import CONTRASTS, apply_contrast, pca_fuse
 from .geo import pixel_size_in, resolve_crs, transform_points
-from .models import get_model
+from .models import Projective, get_model, ransac
 from .pixels import pixel_to_map
 from .progress import as_progress
 from .rasterio_io import AtomicOutputs, check_output, open_raster, read_decimated
@@ -60,6 +60,7 @@ class RegisterOptions:
     max_match_pixels: int = 16_000_000
     exaggeration: float = 1.0
     contrast: str = "adaptive"  # of the fused image for matching: adaptive, equalize, linear
+    refine: str = "none"  # "lsm": least-squares matching of the tie points before the fit
     reference_nodata: float | None = None  # override the file's nodata (like gdalwarp -srcnodata)
     target_nodata: float | None = None
 
@@ -75,6 +76,8 @@ class RegisterOptions:
             raise InputError(f"check_fraction must be in [0, 0.9); got {self.check_fraction}")
         if self.resolution is not None and not self.resolution > 0:
             raise InputError(f"resolution must be a positive number of output CRS units; got {self.resolution}")
+        if self.refine not in ("none", "lsm"):
+            raise InputError(f"refine must be 'none' or 'lsm'; got {self.refine!r}")
         if self.contrast not in CONTRASTS:
             raise InputError(f"contrast {self.contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
         if not self.ransac_threshold > 0:
@@ -106,14 +109,14 @@ def _features(info, role, opts, prog, timings):
     bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
     override = getattr(opts, f"{role}_nodata")
     fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
-                     contrast=opts.contrast, name=f"{role} {info.path}")
+                     contrast="linear", name=f"{role} {info.path}")
     t1 = time.perf_counter()
     prog(0.3, f"{role}: keypoints")
-    kp = detect(fused.image, fused.mask, opts.detector, max_keypoints=opts.max_keypoints,
-                hessian_threshold=opts.hessian_threshold)
+    kp = detect(apply_contrast(fused.image, fused.mask, opts.contrast), fused.mask, opts.detector,
+                max_keypoints=opts.max_keypoints, hessian_threshold=opts.hessian_threshold)
     timings[f"read_fuse_{role}"] = t1 - t0
     timings[f"detect_{role}"] = time.perf_counter() - t1
-    return kp, np.asarray(factor, float), fused.explained
+    return kp, np.asarray(factor, float), fused
 
 
 def output_grid(model, info, crs, res: float):
@@ -151,8 +154,8 @@ def find_tie_points(ref, tgt, opts: RegisterOptions, prog=None, timings=None):
     pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.rasterio_io.RasterInfo`."""
     prog = as_progress(prog)
     timings = {} if timings is None else timings
-    kp_ref, f_ref, ev_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"), timings)
-    kp_tgt, f_tgt, ev_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"), timings)
+    kp_ref, f_ref, fu_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"), timings)
+    kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"), timings)
     prog.stage(0.9, 1.0, "matching descriptors")
     t0 = time.perf_counter()
     m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
@@ -163,8 +166,43 @@ def find_tie_points(ref, tgt, opts: RegisterOptions, prog=None, timings=None):
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
                             f"{str(ref.path)!r} (found {len(kp_tgt)} and {len(kp_ref)} keypoints); {HINT}")
     counts = {"keypoints": {"reference": len(kp_ref), "target": len(kp_tgt)}, "matches": len(m),
-              "pca_explained_variance": {"reference": ev_ref, "target": ev_tgt}}
-    return kp_tgt.xy[m.pairs[:, 0]] * f_tgt, kp_ref.xy[m.pairs[:, 1]] * f_ref, counts
+              "pca_explained_variance": {"reference": fu_ref.explained, "target": fu_tgt.explained}}
+    t_xy, r_xy = kp_tgt.xy[m.pairs[:, 0]], kp_ref.xy[m.pairs[:, 1]]
+    if opts.refine == "lsm":
+        t0 = time.perf_counter()
+        t_xy, counts["lsm"] = refine_lsm(fu_ref, fu_tgt, r_xy, t_xy)
+        timings["refine_lsm"] = time.perf_counter() - t0
+    return t_xy * f_tgt, r_xy * f_ref, counts
+
+
+def refine_lsm(fu_ref, fu_tgt, ref_xy, tgt_xy, half_window: int = 10):
+    """Refine target tie-point positions by least-squares matching (:func:`fotogeo.matching.lsm_many`).
+
+    The template is the reference's linearly stretched first component around each reference
+    keypoint; the approximate local affinity comes from a RANSAC homography between the two
+    keypoint sets (its Jacobian at each point), so rotated and scaled pairs converge. Points
+    whose LSM does not converge keep their keypoint position. Returns (xy, summary).
+    """
+    from .matching import CONVERGED, lsm_many
+    try:
+        H = ransac(Projective, ref_xy, tgt_xy, 3.0, rng=0, max_trials=2000).model
+    except FotogeoError:
+        return tgt_xy, {"refined": 0, "note": "no homography to start LSM from"}
+    e = 0.5
+    jx = (H.forward(ref_xy + [e, 0]) - H.forward(ref_xy - [e, 0])) / (2 * e)
+    jy = (H.forward(ref_xy + [0, e]) - H.forward(ref_xy - [0, e])) / (2 * e)
+    J = np.stack([jx, jy], axis=2)  # J[:, :, k] = d(target)/d(reference axis k)
+    ref_img = np.where(fu_ref.mask, fu_ref.image, np.nan).astype(np.float32)
+    tgt_img = np.where(fu_tgt.mask, fu_tgt.image, np.nan).astype(np.float32)
+    res = lsm_many(ref_img, tgt_img, ref_xy, tgt_xy, half_window=half_window, approx_jacobian=J,
+                   max_shift=3.0)
+    ok = np.asarray(res.status) == CONVERGED
+    out = tgt_xy.copy()
+    out[ok] = res.xy[ok]
+    moved = np.hypot(*(out[ok] - tgt_xy[ok]).T) if ok.any() else np.zeros(0)
+    return out, {"refined": int(ok.sum()), "of": int(len(ok)),
+                 "median_shift_px": float(np.median(moved)) if len(moved) else None,
+                 "median_sigma_px": float(np.median(np.hypot(*res.sigma[ok].T))) if ok.any() else None}
 
 
 def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,

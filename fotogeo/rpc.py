@@ -203,33 +203,28 @@ def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) 
     QGIS's RPC option then use the RPC. Written to a temporary file beside ``dst_path`` and
     renamed when complete.
     """
-    from osgeo import gdal
+    import rasterio
+    import rasterio.shutil
+    from rasterio.errors import RasterioError
 
     src_path, dst_path = Path(src_path), Path(dst_path)
     if dst_path.exists() and not overwrite:
         raise OutputError(f"{dst_path} exists; pass overwrite=True or choose another output path")
-    if dst_path.resolve() == src_path.resolve():
+    if dst_path.exists() and dst_path.resolve() == src_path.resolve():
         raise OutputError(f"output {dst_path} equals the input raster; choose another output path")
     if not dst_path.parent.is_dir():
         raise OutputError(f"output folder {dst_path.parent} does not exist; create it first")
+    if not src_path.exists():
+        raise InputError(f"input raster {src_path} does not exist")
     tmp = dst_path.with_name(f".{dst_path.name}.part.tif")
-    used = gdal.GetUseExceptions()
-    gdal.UseExceptions()
     try:
-        try:
-            src = gdal.Open(str(src_path))
-        except RuntimeError as exc:
-            raise InputError(f"cannot open raster {src_path}: {exc}") from None
-        out = gdal.GetDriverByName("GTiff").CreateCopy(str(tmp), src, options=["TILED=YES", "COMPRESS=DEFLATE"])
-        out.SetMetadata(rpc.to_gdal_metadata(), "RPC")
-        out.FlushCache()
-        out = src = None
+        rasterio.shutil.copy(str(src_path), str(tmp), driver="GTiff", tiled=True, compress="deflate")
+        with rasterio.open(tmp, "r+") as ds:
+            ds.update_tags(ns="RPC", **rpc.to_gdal_metadata())
         tmp.replace(dst_path)
-    except RuntimeError as exc:
-        raise OutputError(f"cannot write {dst_path}: {exc}") from None
+    except RasterioError as exc:
+        raise OutputError(f"cannot write {dst_path} from {src_path}: {exc}") from None
     finally:
-        if not used:
-            gdal.DontUseExceptions()
         if tmp.exists():
             tmp.unlink()
     return dst_path

@@ -20,7 +20,7 @@ pytestmark = [pytest.mark.qgis]
 
 SCRIPT = r'''
 import json, os, sys
-root, data, out = sys.argv[1:4]
+root, data, out, gcps = sys.argv[1:5]
 sys.path.append("/usr/share/qgis/python/plugins")
 sys.path.insert(0, root)
 from qgis.core import QgsApplication, QgsProcessingContext
@@ -40,11 +40,17 @@ values = {
                  "TARGET": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "OUTPUT": f"{out}/reg.tif"},
     "pointstolayer": {"INPUT": f"{out}/in.points", "OUTPUT": f"{out}/gcps.gpkg"},
     "layertopoints": {"INPUT": f"{out}/gcps.gpkg", "OUTPUT": f"{out}/back.points"},
+    "orient": {"IMAGE": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "GCPS": gcps,
+               "DEM": f"{data}/ngi/dem.tif", "MODEL": 4, "REPORT": f"{out}/orient.json",
+               "VECTORS": f"{out}/orient.gpkg"},
+    "comparemodels": {"IMAGE": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "GCPS": gcps,
+                      "DEM": f"{data}/ngi/dem.tif", "MODELS": [0, 4], "COUNTS": "20", "TRIALS": 1,
+                      "TABLE": f"{out}/table.csv"},
 }
 with open(f"{out}/in.points", "w") as f:
     f.write("#CRS: EPSG:32735\nmapX,mapY,sourceX,sourceY,enable,dX,dY,residual\n1,2,3.5,-4.5,1,0,0,0\n5,6,7.5,-8.5,0,0,0,0\n")
 context = QgsProcessingContext()
-for name in ("pcafusion", "register", "pointstolayer", "layertopoints"):
+for name in values:
     alg = QgsApplication.processingRegistry().algorithmById(f"fotogeo:{name}")
     r = res[name] = {}
     try:
@@ -69,17 +75,38 @@ os._exit(0)
 '''
 
 
+def _gcps(data_dir, path):
+    """60 GCPs of NGI frame 0182 from its true geometry (fields col, row, role, id; heights from the DEM)."""
+    import geopandas as gpd
+    import numpy as np
+    import shapely
+
+    from fotogeo.camera import load_ngi_frame
+    from fotogeo.dem import Dem
+    from fotogeo.gcp import make_gcps
+    ngi = data_dir / "ngi"
+    dem = Dem.open(ngi / "dem.tif")
+    s = make_gcps(load_ngi_frame(ngi, "3324c_2015_1004_05_0182"), dem, 40, 20, "homogeneous", noise=0.3, seed=5)
+    pixel = np.vstack([s.gcp_pixel, s.check_pixel])
+    gpd.GeoDataFrame({"id": [f"P{i}" for i in range(60)], "col": pixel[:, 0], "row": pixel[:, 1],
+                      "role": ["control"] * 40 + ["check"] * 20},
+                     geometry=shapely.points(np.vstack([s.gcp_ground, s.check_ground])[:, :2]),
+                     crs=dem.crs.to_wkt()).to_file(path, driver="GPKG")
+    return path
+
+
 def test_every_algorithm_runs_from_its_dialog(tmp_path, data_dir):
     need_qgis()
     script = tmp_path / "dialogs.py"
     script.write_text(SCRIPT)
+    gcps = _gcps(data_dir, tmp_path / "ngi_gcps.gpkg")
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"))
-    r = subprocess.run([sys.executable, str(script), str(ROOT), str(data_dir), str(tmp_path)], cwd=tmp_path,
-                       env=env, capture_output=True, text=True, timeout=180)
+    r = subprocess.run([sys.executable, str(script), str(ROOT), str(data_dir), str(tmp_path), str(gcps)],
+                       cwd=tmp_path, env=env, capture_output=True, text=True, timeout=180)
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
     assert lines, f"dialog script failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     res = json.loads(lines[-1][7:])
-    assert set(res) == {"pcafusion", "register", "pointstolayer", "layertopoints"}
+    assert set(res) == {"pcafusion", "register", "pointstolayer", "layertopoints", "orient", "comparemodels"}
     for name, r in res.items():
         assert "error" not in r, f"{name}:\n{r['error']}"
         inputs = [p for p in r["parameters"] if p not in ("OUTPUT", "VECTORS", "REPORT")]
@@ -89,4 +116,7 @@ def test_every_algorithm_runs_from_its_dialog(tmp_path, data_dir):
     assert reg["OUTPUT_CRS"] == "EPSG:32735" and reg["INLIERS"] > 50
     assert {p.name for p in tmp_path.iterdir()} >= {"reg.tif"}
     assert res["pointstolayer"]["result"]["COUNT"] == 2 and res["layertopoints"]["result"]["COUNT"] == 2
+    assert res["orient"]["result"]["MODEL_NAME"] == "dlt" and res["orient"]["result"]["CHECK_RMS_XY_PX"] < 0.6
+    assert (tmp_path / "orient.json").exists() and (tmp_path / "orient.gpkg").exists()
+    assert res["comparemodels"]["result"]["ROWS"] == 4 and (tmp_path / "table.csv").exists()
     assert (tmp_path / "back.points").read_text().splitlines()[2:] == ["1,2,3.5,-4.5,1,0,0,0", "5,6,7.5,-8.5,0,0,0,0"]

@@ -52,15 +52,19 @@ def _sha(p):
     return hashlib.sha256(p.read_bytes()).hexdigest()
 
 
-def test_known_warp_is_recovered(pair, tmp_path):
+@pytest.mark.parametrize("refine", ["none", "lsm"])
+def test_known_warp_is_recovered(pair, tmp_path, refine):
     ref, tgt, H, _ = pair
     before = (_sha(ref), _sha(tgt))
     out = tmp_path / "out.tif"
-    r = register(ref, tgt, out, detector=DETECTOR, seed=1)
+    r = register(ref, tgt, out, detector=DETECTOR, seed=1, refine=refine)
     assert (_sha(ref), _sha(tgt)) == before  # inputs untouched
     rep = json.loads((tmp_path / "out.json").read_text())
     assert rep["output_crs"] == "EPSG:32618" and rep["check"]["n"] >= 20
-    assert rep["check"]["rmse_px"] < 1.0, rep["check"]
+    # tie points of a noisy, re-banded, up-scaled 300 m image scatter by about a pixel ...
+    assert rep["check"]["rmse_px"] < 1.5, rep["check"]
+    if refine == "lsm":
+        assert rep["lsm"]["refined"] > 50
     # dense truth: the fitted model against the true mapping over the whole target
     with rasterio.open(ref) as ds:
         t_ref = ds.transform
@@ -68,10 +72,11 @@ def test_known_warp_is_recovered(pair, tmp_path):
     grid = np.column_stack([x.ravel(), y.ravel()]) * 10
     truth = pixel_to_map(t_ref, _apply(H, grid))
     err = np.hypot(*(r.model.forward(grid) - truth).T)
-    assert np.sqrt(np.mean(err ** 2)) < 0.5 * t_ref.a  # half a reference pixel
+    # ... while the fitted model is right to a third of a pixel (measured 0.25 px, 0.19 with LSM)
+    assert np.sqrt(np.mean(err ** 2)) < 0.35 * t_ref.a
     with rasterio.open(out) as ds:
         assert ds.crs.to_epsg() == 32618 and ds.count == 3 and ds.dtypes[0] == "uint8" and ds.nodata == 0
-        assert ds.res == pytest.approx((t_ref.a, -t_ref.e), rel=1e-6)
+        assert ds.res == pytest.approx((t_ref.a, -t_ref.e), rel=1e-4)  # square pixels of equal area
         assert ds.overviews(1) and ds.profile["tiled"]
         out_img = ds.read(1)
         # the output agrees with the reference's red band re-banded as target band 1 (blue*0.7+30)

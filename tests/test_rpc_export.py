@@ -55,9 +55,10 @@ def test_gdaltransform_reproduces_our_projection(ngi_rpc, data_dir, tmp_path):
     assert got.shape == px.shape
     assert np.abs(got - px).max() < 0.01  # pixels, GDAL's corner convention
     # the GeoTIFF's RPC reads back as the same model
-    from osgeo import gdal
+    import rasterio
 
-    md = gdal.Open(str(out)).GetMetadata("RPC")
+    with rasterio.open(out) as ds:
+        md = ds.tags(ns="RPC")
     assert float(md["LINE_OFF"]) == pytest.approx(rpc.line_off)
     with pytest.raises(OutputError, match="exists"):
         write_rpc_geotiff(data_dir / "ngi" / "frames" / f"{FRAME}_RGB.tif", out, rpc)
@@ -67,7 +68,7 @@ def test_gdaltransform_reproduces_our_projection(ngi_rpc, data_dir, tmp_path):
 @pytest.mark.data
 def test_vendor_rpc_matches_gdal(data_dir, tmp_path):
     """Our RPC evaluation + 0.5 px equals GDAL's RPC transformer on a vendor file."""
-    from osgeo import gdal
+    gdal = pytest.importorskip("osgeo.gdal", reason="needs GDAL's Python bindings (Debian python3-gdal)")
 
     rpc = read_rpc(data_dir / "rpc" / "rpcm" / "rpc_IKONOS.txt")
     ds = gdal.GetDriverByName("GTiff").Create(str(tmp_path / "v.tif"), 10, 10, 1)

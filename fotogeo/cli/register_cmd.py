@@ -49,6 +49,8 @@ _D = RegisterOptions()
               help="Contrast of the fused images for matching (adaptive = equalize + CLAHE).")
 @click.option("--reference-nodata", type=float, help="Nodata value of the reference (overrides the file's).")
 @click.option("--target-nodata", type=float, help="Nodata value of the target (overrides the file's).")
+@click.option("--refine", type=click.Choice(["none", "lsm"]), default=_D.refine, show_default=True,
+              help="Refine tie points by least-squares matching before the fit.")
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @run_tool

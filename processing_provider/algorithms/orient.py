@@ -194,6 +194,7 @@ class OrientAlgorithm(_GcpAlgorithm):
         for key, name in (("report", self.REPORT), ("plot", self.PLOT), ("points", self.POINTS), ("rpc", self.RPC),
                           ("rectify", self.RECTIFY), ("vectors", self.VECTORS)):
             result[name] = outputs.get(key)
+        result[self.GCP_LAYER] = result[self.ERROR_VECTORS] = None
         if "vectors" in outputs:
             vec = outputs["vectors"]
             result[self.GCP_LAYER] = f"{vec}|layername=gcps"

@@ -27,6 +27,7 @@ DETECTORS = ("surf", "sift")
 MODELS = ("projective", "affine", "similarity")
 RESAMPLINGS = ("nearest", "bilinear", "cubic")
 CONTRASTS = ("adaptive", "equalize", "linear")
+REFINES = ("none", "lsm")
 
 
 class RegisterAlgorithm(FotogeoAlgorithm):
@@ -40,7 +41,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "nearest/second-nearest ratio test; RANSAC and a robust least-squares fit of a projective "
             "(homography), affine or similarity model; a share of the inliers held out as check points; "
             "resampling of every band onto the output grid (nearest neighbour by default). Advanced: "
-            "contrast of the fused images (adaptive = histogram equalisation + CLAHE), nodata overrides, "
+            "contrast of the fused images (adaptive = histogram equalisation + CLAHE), least-squares "
+            "refinement of the tie points (lsm), nodata overrides, "
             "keypoint budget, seed.\n\n"
             "Outputs: the registered GeoTIFF; a GeoPackage with the layers <i>tie_points</i> (field "
             "<i>role</i> = control/check, residuals dx, dy) and <i>error_vectors</i> (lines from the "
@@ -57,6 +59,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
     CHECK_FRACTION, MAX_KEYPOINTS, HESSIAN_THRESHOLD = "CHECK_FRACTION", "MAX_KEYPOINTS", "HESSIAN_THRESHOLD"
     SEED, MAX_MATCH_PIXELS, EXAGGERATION = "SEED", "MAX_MATCH_PIXELS", "EXAGGERATION"
     CONTRAST, REFERENCE_NODATA, TARGET_NODATA = "CONTRAST", "REFERENCE_NODATA", "TARGET_NODATA"
+    REFINE = "REFINE"
     OUTPUT, VECTORS, REPORT = "OUTPUT", "VECTORS", "REPORT"
     TIE_POINTS, ERROR_VECTORS = "TIE_POINTS", "ERROR_VECTORS"
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
@@ -94,6 +97,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
                 defaultValue=1.0, minValue=0.001),
             QgsProcessingParameterEnum(self.CONTRAST, tr("Contrast of the fused images for matching"),
                                        options=list(CONTRASTS), defaultValue=0),
+            QgsProcessingParameterEnum(self.REFINE, tr("Refine tie points before the fit (lsm = least-squares "
+                                                       "matching)"), options=list(REFINES), defaultValue=0),
             Num(self.REFERENCE_NODATA, tr("Reference nodata value (empty = the file's)"), Num.Double,
                 defaultValue=None, optional=True),
             Num(self.TARGET_NODATA, tr("Target nodata value (empty = the file's)"), Num.Double,
@@ -153,6 +158,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             seed=self.parameterAsInt(parameters, self.SEED, context),
             exaggeration=self.parameterAsDouble(parameters, self.EXAGGERATION, context),
             contrast=self.enum_value(parameters, self.CONTRAST, context, CONTRASTS),
+            refine=self.enum_value(parameters, self.REFINE, context, REFINES),
             reference_nodata=self.optional_double(parameters, self.REFERENCE_NODATA, context),
             target_nodata=self.optional_double(parameters, self.TARGET_NODATA, context),
         )
