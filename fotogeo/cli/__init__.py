@@ -12,8 +12,8 @@ import click
 
 from .. import __version__
 
-#: modules of this package that each define ``command`` (a click command).
-COMMAND_MODULES = ("register_cmd", "fuse_cmd", "demo_cmd", "orient_cmd", "compare_cmd")
+#: modules of this package that each define ``command`` (a click command, or a list of them).
+COMMAND_MODULES = ("register_cmd", "fuse_cmd", "demo_cmd", "orient_cmd", "compare_cmd", "matching_cmd")
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -23,4 +23,6 @@ def main():
 
 
 for _name in COMMAND_MODULES:
-    main.add_command(importlib.import_module(f"{__name__}.{_name}").command)
+    _cmd = importlib.import_module(f"{__name__}.{_name}").command
+    for _c in (_cmd if isinstance(_cmd, list) else [_cmd]):
+        main.add_command(_c)

@@ -1,0 +1,64 @@
+"""The area-based matching tools and their CLI: GCP transfer and X-target measurement."""
+import numpy as np
+import pandas as pd
+import pytest
+import rasterio
+from click.testing import CliRunner
+
+from fotogeo.cli import main
+from fotogeo.errors import OutputError, VectorError
+from fotogeo.matching import synthetic_x_target
+from fotogeo.transfer_tool import measure_targets, transfer_gcps
+
+
+def _write(path, img):
+    img = np.asarray(img)
+    with rasterio.open(path, "w", driver="GTiff", width=img.shape[-1], height=img.shape[-2], count=1,
+                       dtype=img.dtype) as ds:
+        ds.write(img.reshape(1, *img.shape[-2:]))
+
+
+def test_transfer_recovers_a_known_subpixel_shift(data_dir, tmp_path):
+    """The search image is the reference shifted by (3.4, -2.3) px with an exact Fourier shift."""
+    with rasterio.open(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif") as ds:
+        ref = ds.read(2, window=((300, 556), (200, 456))).astype(np.float64)
+    shift = np.array([3.4, -2.3])
+    fy, fx = np.meshgrid(np.fft.fftfreq(256), np.fft.fftfreq(256), indexing="ij")
+    search = np.real(np.fft.ifft2(np.fft.fft2(ref) * np.exp(-2j * np.pi * (fx * shift[0] + fy * shift[1]))))
+    _write(tmp_path / "ref.tif", ref.astype(np.float32))
+    _write(tmp_path / "search.tif", search.astype(np.float32))
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(60, 196, (25, 2))
+    pd.DataFrame({"id": range(25), "ref_col": pts[:, 0], "ref_row": pts[:, 1], "col": np.round(pts[:, 0]),
+                  "row": np.round(pts[:, 1])}).to_csv(tmp_path / "pts.csv", index=False)
+    r = transfer_gcps(tmp_path / "ref.tif", tmp_path / "search.tif", tmp_path / "pts.csv", tmp_path / "out.csv")
+    out = pd.read_csv(tmp_path / "out.csv")
+    ok = out.status == "converged"
+    assert ok.sum() >= 18 and r["converged"] == ok.sum()
+    err = out.loc[ok, ["col", "row"]].to_numpy() - (pts[ok.to_numpy()] + shift)
+    assert np.sqrt(np.mean(np.sum(err ** 2, axis=1))) < 0.1
+    assert (out.loc[ok, "sigma_x"] < 0.2).all()
+    with pytest.raises(OutputError, match="overwrite"):
+        transfer_gcps(tmp_path / "ref.tif", tmp_path / "search.tif", tmp_path / "pts.csv", tmp_path / "out.csv")
+    pd.DataFrame({"a": [1]}).to_csv(tmp_path / "bad.csv", index=False)
+    with pytest.raises(VectorError, match="ref_col"):
+        transfer_gcps(tmp_path / "ref.tif", tmp_path / "search.tif", tmp_path / "bad.csv", tmp_path / "o2.csv")
+
+
+def test_measure_targets_cli(tmp_path):
+    img = np.full((200, 300), 40.0)
+    centres = np.array([[60.3, 50.7], [150.55, 120.25], [240.8, 90.4]])
+    for c in centres:
+        patch = synthetic_x_target((41, 41), c - np.floor(c) + 20, 3.0, target=210.0, background=40.0, radius=18)
+        r0, c0 = int(np.floor(c[1])) - 20, int(np.floor(c[0])) - 20
+        img[r0:r0 + 41, c0:c0 + 41] = np.maximum(img[r0:r0 + 41, c0:c0 + 41], patch)
+    _write(tmp_path / "t.tif", img.astype(np.float32))
+    pd.DataFrame({"col": np.round(centres[:, 0]) + 1, "row": np.round(centres[:, 1]) - 1}).to_csv(
+        tmp_path / "approx.csv", index=False)
+    res = CliRunner().invoke(main, ["measure-targets", str(tmp_path / "t.tif"), str(tmp_path / "approx.csv"),
+                                    "-o", str(tmp_path / "m.csv"), "-q"])
+    assert res.exit_code == 0, res.output
+    m = pd.read_csv(tmp_path / "m.csv")
+    assert np.abs(m[["col", "row"]].to_numpy() - centres).max() < 0.05
+    r = measure_targets(tmp_path / "t.tif", tmp_path / "approx.csv", tmp_path / "m.gpkg")
+    assert r["measured"] == 3
