@@ -10,29 +10,18 @@ import json
 import numpy as np
 import pytest
 import rasterio
-from pyproj import CRS
 
-from fotogeo.camera import load_ngi_frame
-from fotogeo.dem import Dem
-from fotogeo.geo import transform_points
 from fotogeo.models import Projective
 from fotogeo.pixels import pixel_centres
 from fotogeo.register import register
+from ngi_truth import FRAMES, truth_points
 
-FRAMES = [("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"), ("3324c_2015_1004_05_0184", "ngi_rgb_byte_2.tif")]
 
 
 def truth_grid(ngi, name, step=10):
     """Frame pixels on a dense grid and their true ground positions in EPSG:32735."""
-    dem = Dem.open(ngi / "dem.tif")
-    frame = load_ngi_frame(ngi, name)
-    w, h = frame.camera.image_size
-    x, y = pixel_centres(w // step, h // step)
-    grid = np.column_stack([x.ravel(), y.ravel()]) * step
-    ground = frame.pixel_to_world(grid, dem)
-    ok = np.isfinite(ground).all(axis=1)
-    truth = transform_points(CRS.from_wkt(dem.crs.to_wkt()), CRS.from_epsg(32735), ground[ok, :2])
-    return grid[ok], truth
+    px, xyz = truth_points(ngi, name, step)
+    return px, xyz[:, :2]
 
 
 @pytest.mark.parametrize("name,ortho", FRAMES)

@@ -13,21 +13,14 @@ from fotogeo.errors import InputError, RasterError
 from fotogeo.geo import transform_points
 from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
 from fotogeo.register import register
+from ngi_truth import truth_points
 
 F182, F184 = "3324c_2015_1004_05_0182", "3324c_2015_1004_05_0184"
 
 
 def dense_truth(ngi, name, step=10):
     """Frame pixels, their true ground points (X, Y in EPSG:32735, Z)."""
-    dem = Dem.open(ngi / "dem.tif")
-    frame = load_ngi_frame(ngi, name)
-    w, h = frame.camera.image_size
-    x, y = pixel_centres(w // step, h // step)
-    px = np.column_stack([x.ravel(), y.ravel()]) * step
-    g = frame.pixel_to_world(px, dem)
-    ok = np.isfinite(g).all(axis=1)
-    xy = transform_points(CRS.from_wkt(dem.crs.to_wkt()), CRS.from_epsg(32735), g[ok, :2])
-    return px[ok], np.column_stack([xy, g[ok, 2]])
+    return truth_points(ngi, name, step)
 
 
 def dense_rmse(model, px, truth):
