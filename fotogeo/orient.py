@@ -14,6 +14,9 @@ the control points with data snooping (:mod:`fotogeo.orientation`), and writes w
 * ``points`` — QGIS Georeferencer ``.points`` file with the residuals;
 * ``rpc`` — for the RFM models: a GeoTIFF copy of the image carrying the model as GDAL RPC
   metadata (RPC00B, refitted in lon/lat/h), usable by ``gdalwarp -rpc`` and QGIS;
+* ``gcp_tiff`` — for ``poly1``–``poly3``: a GeoTIFF copy of the image carrying the control
+  points as GDAL GCPs, so that ``gdalwarp -order N`` / QGIS reproduce the fitted polynomial
+  (GDAL fits the same least-squares polynomial of total degree N to the same points);
 * ``rectify`` — the image resampled to a map grid in the GCPs' CRS through the model,
   heights from ``dem`` or ``height`` for 3-D models, window by window.
 """
@@ -54,7 +57,7 @@ def _ground_of_pixels(model, pixel, z):
 
 
 def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
-           rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
+           gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
            remove_blunders: bool = False, exaggeration: float = 1.0, resolution=None,
            resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,
            progress=None) -> dict:
@@ -67,7 +70,10 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
     camera = load_camera(camera)
     cls = resolve_model(model, camera)
     outs = {k: v for k, v in dict(report=report, vectors=vectors, plot=plot, points=points, rpc=rpc,
-                                  rectify=rectify).items() if v}
+                                  gcp_tiff=gcp_tiff, rectify=rectify).items() if v}
+    if gcp_tiff and model not in ("poly1", "poly2", "poly3"):
+        raise InputError(f"a GCP GeoTIFF reproduces polynomial models only (poly1, poly2, poly3 = gdalwarp -order "
+                         f"1-3); model {model!r} is not one")
     for k, v in outs.items():
         check_output(v, [image, gcps, dem], overwrite, k)
     if len({Path(v).resolve() for v in outs.values()}) < len(outs):
@@ -113,6 +119,10 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
             tmp = out.temp(rpc)
             write_rpc_geotiff(image, tmp, rpc_model)
             rep["rpc"] = {"path": str(rpc), **rpc_model.to_gdal_metadata()}
+        if gcp_tiff:
+            ctrl = fit.role == "control"
+            _write_gcp_tiff(image, out.temp(gcp_tiff), g.pixel[ctrl], g.ground[ctrl], g.ids[ctrl], g.crs)
+            rep["gcp_tiff"] = {"path": str(gcp_tiff), "order": int(model[-1]), "gcps": int(ctrl.sum())}
         prog(0.4, "vectors and exports written")
         if rectify:
             rep["rectified"] = _rectify(out.temp(rectify), info, g, fit.model, dem, height, resolution,
@@ -122,6 +132,26 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         prog(1.0, "done")
         out.commit()
     return rep
+
+
+def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
+    """Copy ``src_path`` with GDAL GCPs (pixel/line in the corner convention, as GDAL's are)."""
+    from rasterio.control import GroundControlPoint
+    from rasterio.crs import CRS as RioCRS
+    from .rasterio_io import ropen
+    gcps = [GroundControlPoint(row=float(p[1]), col=float(p[0]), x=float(q[0]), y=float(q[1]),
+                               z=float(q[2]) if np.isfinite(q[2]) else 0.0, id=str(i))
+            for p, q, i in zip(pixel, ground, ids)]
+    with ropen(src_path) as src:
+        prof = src.profile.copy()
+        prof.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256, compress="deflate")
+        for k in ("transform", "crs", "photometric", "jpeg_quality", "jpegtablesmode"):
+            prof.pop(k, None)
+        if src.count == 3 and src.dtypes[0] == "uint8":
+            prof["photometric"] = "RGB"
+        with ropen(dst_path, "w", **prof, gcps=gcps, crs=RioCRS.from_wkt(crs.to_wkt())) as dst:
+            for _, win in src.block_windows(1):
+                dst.write(src.read(window=win), window=win)
 
 
 def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration):

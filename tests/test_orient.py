@@ -139,3 +139,22 @@ def test_bad_gcp_inputs(ngi_gcps, tmp_path):
     with pytest.raises(ModelError, match="interior orientation"):
         orient(g["image"], g["path"], model="collinearity")
     assert read_interior_orientation(g["ngi"] / "interior_orientation.yaml")
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_gcp_tiff_is_reproduced_by_gdal(ngi_gcps, tmp_path, order):
+    gdal = pytest.importorskip("osgeo.gdal", reason="needs GDAL's Python bindings (Debian python3-gdal)")
+    g = ngi_gcps
+    out = tmp_path / "gcp.tif"
+    rep = orient(g["image"], g["path"], model=f"poly{order}", gcp_tiff=out)
+    from fotogeo.models import model_from_dict
+    model = model_from_dict(rep["model"])
+    ds = gdal.Open(str(out))
+    assert ds.GetGCPCount() == 40
+    tr = gdal.Transformer(ds, None, [f"MAX_GCP_ORDER={order}"])
+    ground = g["ground"][:, :2]
+    ours = model.forward(ground)
+    theirs = np.array([tr.TransformPoint(1, float(x), float(y), 0.0)[1][:2] for x, y in ground])
+    assert np.abs(ours - theirs).max() < 1e-3
+    with pytest.raises(InputError, match="polynomial"):
+        orient(g["image"], g["path"], model="dlt", gcp_tiff=tmp_path / "x.tif")

@@ -40,6 +40,8 @@ def fields_of(kw):
 @click.option("--plot", type=click.Path(dir_okay=False), help="PNG of the residual vectors over the image.")
 @click.option("--points", type=click.Path(dir_okay=False), help="QGIS .points file with residuals.")
 @click.option("--rpc", type=click.Path(dir_okay=False), help="GeoTIFF copy with the RFM as GDAL RPC metadata.")
+@click.option("--gcp-tiff", type=click.Path(dir_okay=False),
+              help="GeoTIFF copy with the control points as GDAL GCPs (poly1-3; gdalwarp -order N reproduces them).")
 @click.option("--rectify", type=click.Path(dir_okay=False), help="Rectified GeoTIFF in the GCP CRS.")
 @click.option("--resolution", type=float, help="Pixel size of the rectified raster [image GSD].")
 @click.option("--resampling", type=click.Choice(list(RESAMPLING)), default="nearest", show_default=True)
