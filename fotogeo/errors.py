@@ -38,3 +38,7 @@ class ModelError(FotogeoError, ValueError):
 
 class Cancelled(FotogeoError):
     """The progress callback asked to stop; no partial output is left behind."""
+
+
+class FotogeoWarning(UserWarning):
+    """Base class of fotogeo's warnings: a result was produced but deserves caution."""

@@ -34,7 +34,7 @@ import warnings
 import numpy as np
 
 from ..dem import as_height_source
-from ..errors import InputError, ModelError
+from ..errors import FotogeoWarning, InputError, ModelError
 from .base import Model, Normalisation, check_pairs, register_model
 
 #: condition number (normalised weighted design) above which a fit is reported ill-posed
@@ -45,7 +45,7 @@ RELIEF_WARN = 0.01
 COVERAGE_WARN = 0.5
 
 
-class IllPosedWarning(UserWarning):
+class IllPosedWarning(FotogeoWarning):
     """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""
 
 
