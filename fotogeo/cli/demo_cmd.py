@@ -26,13 +26,18 @@ def command(output, seed, detector, quiet):
         res = run_demo(output, seed=seed, detector=detector, progress=bar)
     finally:
         bar.close()
-    rep, truth = res["registration"].report, res["truth"]
-    click.echo(f"scene: {output}/reference.tif (orthophoto, EPSG:32635, 4 m), {output}/target.tif (frame)")
+    rep, truth = res["registration"].report, res["truth"]  # noqa: F841 - rep used below
+    click.echo(f"scene: {output}/reference.tif (orthophoto, EPSG:32635, 4 m), {output}/target.tif (frame), "
+               f"{output}/dem.tif")
     click.echo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
                f"matches {rep['matches']}, inliers {rep['inliers']}")
-    for role in ("control", "check"):
-        s = rep[role]
-        click.echo(f"{role:8s} points n={s['n']:4d}  RMSE {s['rmse_m']:6.2f} m ({s['rmse_px']:.2f} px)")
-    click.echo(f"truth    grid   n={truth['n']:4d}  RMSE {truth['dense_rmse_m']:6.2f} m "
-               f"(max {truth['dense_max_m']:.2f} m); best possible homography {truth['best_homography_rmse_m']:.2f} m")
-    click.echo(f"wrote {res['registration'].output} (+ .gpkg, .json) in {time.perf_counter() - t0:.1f} s")
+    for title, r, t in (("homography (the paper's model)", res["registration"], truth),
+                        ("terrain-aware (tie points + DEM -> 3-D model)", res["terrain"], res["terrain_truth"])):
+        click.echo(f"{title}: model {r.report['model']['model']}")
+        for role in ("control", "check"):
+            s = r.report[role]
+            click.echo(f"  {role:7s} points n={s['n']:4d}  RMSE {s['rmse_m']:6.2f} m ({s['rmse_px']:.2f} px)")
+        click.echo(f"  truth   grid   n={t['n']:4d}  RMSE {t['dense_rmse_m']:6.2f} m (max {t['dense_max_m']:.2f} m)"
+                   f"; best possible homography {t['best_homography_rmse_m']:.2f} m")
+        click.echo(f"  wrote {r.output} (+ .gpkg, .json)")
+    click.echo(f"done in {time.perf_counter() - t0:.1f} s")
