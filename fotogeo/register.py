@@ -130,7 +130,8 @@ def output_grid(model, info, crs, res: float):
         den = edge @ M[2, :2] + M[2, 2]
         if not (np.all(den > 0) or np.all(den < 0)):
             raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
-                             "the tie points are too few or badly spread; try --model affine")
+                             "the tie points are too few or badly spread — check that the images overlap, "
+                             "or try --model affine")
     XY = model.forward(edge)
     if not np.isfinite(XY).all():
         raise ModelError("the fitted model maps part of the target footprint to infinity")
@@ -141,7 +142,7 @@ def output_grid(model, info, crs, res: float):
     area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
     if width * height > max(64 * area / res ** 2, 1e4) or width * height > 2 ** 32:
         raise ModelError(f"the fitted model gives an implausible output grid ({width}x{height}); "
-                         f"the tie points are probably wrong")
+                         f"the tie points are probably wrong — check that the images overlap")
     return Affine(res, 0, x0, 0, -res, y1), width, height
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from rasterio.enums import Resampling
 from rasterio.windows import Window
 
-from .rasterio_io import ropen
+from .rasterio_io import gdal_env, ropen
 from .pixels import pixel_centres, pixel_to_map, to_centre
 from .progress import Progress
 
@@ -45,7 +45,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     interp = RESAMPLING[resampling]
     margin = _MARGIN[resampling]
     valid_total = 0
-    with ropen(src_path) as src:
+    with gdal_env(), ropen(src_path) as src:
         dtype = src.dtypes[0]
         src_nd = src.nodata if src_nodata is None else src_nodata
         nodata = default_nodata(dtype, src_nd if nodata is None else nodata)
