@@ -21,7 +21,7 @@ the case says otherwise):
   (nodata pixels are 0); fotogeo and SIFT get the mask.
 
 Pairs: NGI frames 0182 / 0184 -> orthophoto tiles 1 / 2 (truth = camera + exterior orientation
-+ DEM, ``truth_grid`` of tests/test_register_ngi.py); Sentinel-2 (10 m) -> NGI orthophoto 1
++ DEM, ``truth_points`` of tests/ngi_truth.py); Sentinel-2 (10 m) -> NGI orthophoto 1
 (5 m); s2_pair (two dates, nodata 0, affine); Landsat RGB under the known synthetic warp of
 tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.demo``).
 
@@ -61,6 +61,9 @@ DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "register_bench.json"
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))  # truth helpers shared with the tests
+SNAPSHOT_ENV = "FOTOGEO_BENCH_SNAPSHOT"  # a frozen copy of fotogeo/ (and tests/) the whole run imports
+if os.environ.get(SNAPSHOT_ENV):
+    sys.path[:0] = [os.environ[SNAPSHOT_ENV], str(Path(os.environ[SNAPSHOT_ENV]) / "tests")]
 
 METHODS = ("surf", "sift", "otb", "otb180")
 OTB_EXE = "otbcli_HomologousPointsExtraction"
@@ -93,6 +96,7 @@ def make_landsat_pair(folder: Path):
     import rasterio
     from test_register import H_TRUE, _apply
     from fotogeo.pixels import pixel_centres, to_centre
+    from fotogeo.rasterio_io import ropen
     ref = DATA / "landsat_rgb" / "RGB.byte.tif"
     with rasterio.open(ref) as ds:
         img = ds.read()
@@ -109,7 +113,7 @@ def make_landsat_pair(folder: Path):
                           np.clip(bands[1] * 0.9 + 10 + rng.normal(0, 2, (h, w)), 1, 255)]).astype(np.uint8)
     tgt_bands[:, (np.stack(bands) == 0).all(axis=0)] = 0
     tgt = folder / "landsat_target.tif"
-    with rasterio.open(tgt, "w", driver="GTiff", width=w, height=h, count=3, dtype="uint8", nodata=0) as ds:
+    with ropen(tgt, "w", driver="GTiff", width=w, height=h, count=3, dtype="uint8", nodata=0) as ds:
         ds.write(tgt_bands)
     return ref, tgt, H
 
@@ -124,11 +128,13 @@ def build_cases(tmp: Path, quick: bool):
                           truth={"kind": "ngi", "frame": name}, otb180=True))
     if not quick:
         cases.append(dict(name="s2_to_ngi", reference=str(ngi / "ortho" / "ngi_rgb_byte_1.tif"),
-                          target=str(ngi / "sentinel2_b432_byte.tif"), options={}, truth=None))
+                          target=str(ngi / "sentinel2_b432_byte.tif"), options={},
+                          truth={"kind": "georef", "crs": "EPSG:32735"}))
         s2 = DATA / "s2_pair"
         cases.append(dict(name="s2_pair", reference=str(s2 / "ref_S2A_20160608T153121_T33UUU_sub.jp2"),
                           target=str(s2 / "tgt_S2A_20160529T153631_T33UUU_sub.jp2"),
-                          options=dict(reference_nodata=0, target_nodata=0, model="affine"), truth=None))
+                          options=dict(reference_nodata=0, target_nodata=0, model="affine"),
+                          truth={"kind": "georef", "crs": "EPSG:32633"}))
         ref, tgt, H = make_landsat_pair(tmp)
         cases.append(dict(name="landsat_warp", reference=str(ref), target=str(tgt), options={},
                           truth={"kind": "homography", "H": H.tolist()}))
@@ -145,17 +151,28 @@ class Truth:
     def __init__(self, case, tmp: Path):
         self.kind = case["truth"]["kind"]
         t = case["truth"]
-        if self.kind == "ngi":
+        if self.kind == "georef":  # approximate: the target's own georeference (orthoimages)
+            from pyproj import CRS
+            from fotogeo.pixels import pixel_centres
+            from fotogeo.rasterio_io import open_raster
+            info = open_raster(case["target"])
+            self.t_tgt, self.tgt_crs, self.crs = info.transform, info.crs, t["crs"]
+            self.out_crs = CRS.from_user_input(self.crs)
+            x, y = pixel_centres(info.width // 50, info.height // 50)
+            self.grid = np.column_stack([x.ravel(), y.ravel()]) * 50
+            self.truth = self(self.grid)
+        elif self.kind == "ngi":
             from pyproj import CRS
             from fotogeo.camera import load_ngi_frame
             from fotogeo.dem import Dem
-            from test_register_ngi import truth_grid
+            from ngi_truth import truth_points  # tests/ngi_truth.py, shared with the tests
             ngi = DATA / "ngi"
             self.dem = Dem.open(ngi / "dem.tif")
             self.frame = load_ngi_frame(ngi, t["frame"])
             self.src_crs, self.dst_crs = CRS.from_wkt(self.dem.crs.to_wkt()), CRS.from_epsg(32735)
             self.crs = "EPSG:32735"
-            self.grid, self.truth = truth_grid(ngi, t["frame"])
+            self.grid, xyz = truth_points(ngi, t["frame"], step=10, crs=32735)
+            self.truth = xyz[:, :2]
             # a target made from a crop of the frame, scaled: frame px = offset + target px * scale
             self.offset, self.scale = np.asarray(t.get("offset", (0.0, 0.0)), float), float(t.get("scale", 1.0))
             if "scale" in t:
@@ -184,6 +201,10 @@ class Truth:
 
     def __call__(self, xy):
         xy = np.asarray(xy, float).reshape(-1, 2)
+        if self.kind == "georef":
+            from fotogeo.geo import transform_points
+            from fotogeo.pixels import pixel_to_map
+            return transform_points(self.tgt_crs, self.out_crs, pixel_to_map(self.t_tgt, xy))
         if self.kind == "ngi":
             from fotogeo.geo import transform_points
             g = self.frame.pixel_to_world(self.offset + xy * self.scale, self.dem)[:, :2]
@@ -198,14 +219,17 @@ class Truth:
             return pixel_to_map(self.t_ref, _apply(self.H, xy))
         return self.scene.frame.pixel_to_world(xy, self.scene.dem)[:, :2]
 
-    def evaluate(self, model, reference, raw=None, case=None) -> dict:
+    def evaluate(self, model, reference, raw=None) -> dict:
         from fotogeo.models import Projective
         rms = lambda e: float(np.sqrt(np.mean(np.asarray(e) ** 2)))  # noqa: E731
         dense = rms(model.residuals(self.grid, self.truth))
-        best = rms(Projective.estimate(self.grid, self.truth).residuals(self.grid, self.truth))
-        out = {"n_grid": int(len(self.grid)), "dense_rmse_m": dense, "best_homography_rmse_m": best}
-        if best > 1e-6 * max(1.0, dense):
-            out["dense_over_best"] = dense / best
+        if self.kind == "georef":  # not a truth: only the distance from the target's own georeference
+            out = {"georef_rmse_m": dense}
+        else:
+            best = rms(Projective.estimate(self.grid, self.truth).residuals(self.grid, self.truth))
+            out = {"n_grid": int(len(self.grid)), "dense_rmse_m": dense, "best_homography_rmse_m": best}
+            if best > 1e-6 * max(1.0, dense):
+                out["dense_over_best"] = dense / best
         if raw is not None and len(raw["target_xy"]):
             out.update(self.correct_share(raw, reference))
         return out
@@ -223,29 +247,48 @@ class Truth:
         err = np.hypot(*(self(raw["target_xy"]) - got).T)
         err = np.where(np.isfinite(err), err, np.inf)
         return {"raw_matches": int(len(err)), "raw_correct": int(np.sum(err <= CORRECT_TOL_PX * px)),
-                "raw_correct_share": float(np.mean(err <= CORRECT_TOL_PX * px))}
+                "raw_correct_share": float(np.mean(err <= CORRECT_TOL_PX * px)),
+                "raw_correct_against": "target georeference (approximate)" if self.kind == "georef" else "truth"}
 
 
 # ------------------------------------------------------------------------------ worker
+def matching_image(info, role, opts):
+    """The single-band image and validity mask register's matching step hands to the detector,
+    and the decimation factor: fotogeo's own ``_features`` runs with ``detect`` intercepted (so the
+    benchmark follows any change of the read / fusion / contrast steps)."""
+    import fotogeo.register as fr
+    from fotogeo.progress import as_progress
+    from fotogeo.tiepoints import Keypoints
+    seen = {}
+
+    def intercept(image, mask, *args, **kwargs):
+        seen["image"], seen["mask"] = image, mask
+        return Keypoints(np.zeros((0, 2)), np.zeros((0, 64), np.float32), None)
+
+    original = fr.detect
+    fr.detect = intercept
+    try:
+        _, factor, _ = fr._features(info, role, opts, as_progress(None), {})
+    finally:
+        fr.detect = original
+    mask = seen["mask"] if seen["mask"] is not None else np.ones(seen["image"].shape, bool)
+    return seen["image"], np.asarray(mask, bool), np.asarray(factor, float)
+
+
 def otb_tie_points(reference, target, opts, work: Path, timings: dict, prerotate: bool = False):
     """OTB SURF pairs on the images fotogeo matches; (target_xy, reference_xy, info) in
     full-resolution corner-convention pixels."""
     import rasterio
-    from fotogeo.fusion import pca_fuse
-    from fotogeo.rasterio_io import open_raster, read_decimated
+    from fotogeo.rasterio_io import open_raster
     exe = shutil.which(OTB_EXE)
     if exe is None:
         raise RuntimeError(f"{OTB_EXE} not found (Debian package otb-bin)")
     paths, factors = {}, {}
     for role, path in (("reference", reference), ("target", target)):
         t0 = time.perf_counter()
-        info = open_raster(path, role)
-        bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)  # as register's _features
-        override = getattr(opts, f"{role}_nodata")
-        fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
-                         contrast=opts.contrast, name=f"{role} {path}")
-        img = np.clip(np.round(fused.image), 0, 255).astype(np.uint8)
-        img[~fused.mask] = 0
+        image, valid, factor = matching_image(open_raster(path, role), role, opts)
+        img = np.clip(np.round(image), 0, 255).astype(np.uint8)
+        img[~valid] = 0
         if role == "target" and prerotate:  # diagnostic only: undo a known ~180 degree rotation
             img = np.ascontiguousarray(img[::-1, ::-1])
             sizes = np.array([img.shape[1], img.shape[0]], float)
@@ -255,7 +298,7 @@ def otb_tie_points(reference, target, opts, work: Path, timings: dict, prerotate
             ds.write(img, 1)
         paths[role], factors[role] = p, np.asarray(factor, float)
         timings[f"read_fuse_{role}"] = time.perf_counter() - t0
-        del bands, mask, fused, img
+        del image, valid, img
     pairs_txt = work / "otb_pairs.txt"
     cmd = [exe, "-in1", str(paths["target"]), "-in2", str(paths["reference"]), "-out", str(pairs_txt),
            "-algorithm", "surf", "-mode", "full", "-threshold", str(opts.ratio),
@@ -304,7 +347,9 @@ def worker(spec_path: str):
         mark(message.split(" window")[0])
         return True
 
-    res = {"case": spec["name"], "method": method, "ok": False, "base_rss_mb": base_mb}
+    import fotogeo
+    res = {"case": spec["name"], "method": method, "ok": False, "base_rss_mb": base_mb,
+           "fotogeo_imported_from": str(Path(fotogeo.__file__).parent)}
     opts = dict(seed=0, **spec["options"])
     if method in ("surf", "sift"):
         opts["detector"] = method
@@ -327,7 +372,7 @@ def worker(spec_path: str):
         mark("end")
         rep = r.report
         timings.update(rep["timings_s"])
-        res.update(ok=True, wall_s=wall, report={k: rep[k] for k in (
+        res.update(ok=True, wall_s=wall, report={k: rep.get(k) for k in (
             "keypoints", "matches", "inliers", "ransac", "check", "control", "model", "output_crs",
             "output_grid", "reference_pixel_size", "robust_sigma_m")})
         if method.startswith("otb"):
@@ -399,7 +444,7 @@ def summarise(res, truth, case):
             if rep["output_crs"] != truth.crs:
                 s["truth_error"] = f"output CRS {rep['output_crs']} != truth CRS {truth.crs}"
             else:
-                s.update(truth.evaluate(model_from_dict(rep["model"]), case["reference"], res.get("raw"), case))
+                s.update(truth.evaluate(model_from_dict(rep["model"]), case["reference"], res.get("raw")))
     elif truth is not None and res.get("raw"):
         s.update(truth.correct_share(res["raw"], case["reference"]))
     return s
@@ -426,6 +471,8 @@ def print_table(rows):
         if r["method"].startswith("otb") and s.get("otb_peak_mb") is not None:
             peak += f"+{s['otb_peak_mb']:.0f}"
         corr = fmt(100 * s["raw_correct_share"], "{:.0f}") if "raw_correct_share" in s else "-"
+        if s.get("raw_correct_against", "truth") != "truth":
+            corr = "~" + corr  # against the target's own georeference, not a truth
         print(f"{r['case']:<13}{r['method']:<6}{kps:>14}{fmt(s.get('matches', s.get('otb_pairs')), '{:d}'):>7}"
               f"{fmt(s.get('inliers'), '{:d}'):>6}{fmt(s.get('check_n'), '{:d}'):>5}{fmt(s.get('check_rmse_m')):>8}"
               f"{fmt(s.get('check_rmse_px')):>8}{fmt(s.get('dense_rmse_m')):>9}{fmt(s.get('best_homography_rmse_m')):>8}"
@@ -571,12 +618,28 @@ def print_big(big):
 
 
 # ------------------------------------------------------------------------------ main
+def source_state(root: Path = ROOT) -> dict:
+    """git HEAD, uncommitted fotogeo files and a hash of fotogeo's sources under ``root``."""
+    import hashlib
+    h = hashlib.sha256()
+    for f in sorted((root / "fotogeo").rglob("*.py")):
+        h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
+
+    def git(*args):
+        p = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True)
+        return p.stdout.strip() if p.returncode == 0 else None
+    status = git("status", "--porcelain", "--", "fotogeo")
+    return {"git_head": git("rev-parse", "--short", "HEAD"), "fotogeo_sha256": h.hexdigest()[:16],
+            "fotogeo_uncommitted": status.splitlines() if status else []}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="only the NGI frames and the demo scene, no big image")
     ap.add_argument("--no-otb", action="store_true", help="skip Orfeo ToolBox")
     ap.add_argument("--no-big", action="store_true", help="skip the 20000x20000 memory check")
     ap.add_argument("--big-only", action="store_true", help="only the 20000x20000 memory check (prints, writes no JSON)")
+    ap.add_argument("--cases", help="comma-separated case names to run (default: all)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--probe-read", nargs=2, help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -594,7 +657,22 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory(prefix="register_bench_") as td:
         tmp = Path(td)
+        # Several engineers share the tree: the whole run (this process and every worker) imports
+        # one frozen copy of fotogeo/ and tests/, taken now; its hash is recorded.
+        snap = tmp / "snapshot"
+        for d in ("fotogeo", "tests"):
+            shutil.copytree(ROOT / d, snap / d, ignore=shutil.ignore_patterns("__pycache__"))
+        state = source_state()
+        state["snapshot_sha256"] = source_state(snap)["fotogeo_sha256"]
+        os.environ[SNAPSHOT_ENV] = str(snap)
+        sys.path[:0] = [str(snap), str(snap / "tests")]
+        import fotogeo
+        assert Path(fotogeo.__file__).resolve().is_relative_to(snap.resolve()), fotogeo.__file__
+        print(f"fotogeo source: git {state['git_head']}, snapshot sha256 {state['snapshot_sha256']}, "
+              f"uncommitted: {', '.join(state['fotogeo_uncommitted']) or 'none'}", flush=True)
         cases = [] if a.big_only else build_cases(tmp, a.quick)
+        if a.cases:
+            cases = [c for c in cases if c["name"] in a.cases.split(",")]
         for case in cases:
             truth = Truth(case, tmp) if case["truth"] else None
             for m in [m for m in methods if m != "otb180" or case.get("otb180")]:
@@ -603,7 +681,9 @@ def main():
                 rows.append({"case": case["name"], "method": m, "summary": s,
                              "timings_s": res.get("timings_s"), "stage_peak_mb": res.get("stage_peak_mb"),
                              "otb": {k: v for k, v in res.get("otb", {}).items()} or None,
-                             "options": case["options"]})
+                             "options": case["options"], "fotogeo_imported_from": res.get("fotogeo_imported_from")})
+                if res.get("fotogeo_imported_from") and not res["fotogeo_imported_from"].startswith(str(snap)):
+                    print(f"WARNING: the worker imported fotogeo from {res['fotogeo_imported_from']}, not the snapshot")
                 status = "ok" if s["ok"] else "FAILED"
                 print(f"  {case['name']:<13}{m:<5} {status} ({res['process_s']:.1f} s)", flush=True)
         big = None if ((a.quick or a.no_big) and not a.big_only) else big_image(tmp)
@@ -614,6 +694,10 @@ def main():
     if big:
         print_big(big)
     total = time.perf_counter() - t_start
+    state["tree_changed_during_run"] = source_state()["fotogeo_sha256"] != state["fotogeo_sha256"]
+    if state["tree_changed_during_run"]:
+        print(f"\nnote: fotogeo/ in the tree changed during the run; all rows used the snapshot "
+              f"{state['snapshot_sha256']} taken at the start")
     print(f"\nbenchmark wall time {total:.0f} s")
     if a.big_only:  # a development aid: the JSON always holds a whole run
         return
@@ -624,8 +708,12 @@ def main():
         "quick": a.quick, "methods": methods, "rows": rows, "ratios_fotogeo_surf_over_peer": rat, "big_image": big,
         "notes": {"peak_rss_mb": "max RSS of the fresh Python process that ran the case (includes imports: "
                                  "base_rss_mb); for otb '+N' is the OTB process's own peak",
-                  "raw_correct_share": f"share of raw matches within {CORRECT_TOL_PX} reference px of the truth",
+                  "raw_correct_share": f"share of raw matches within {CORRECT_TOL_PX} reference px of the truth "
+                                       "(s2 cases, '~' in the table: of the target's own georeference, approximate)",
+                  "georef_rmse_m": "s2 cases: RMSE of the fitted model against the target's own georeference on "
+                                   "a 50 px grid (not a truth; the s2_pair target is known to be within ~1 px)",
                   "time_s.total": "register's timings_s.total; for otb: fusion + OTB call + register(tie_points)"},
+        "source": state,
         "command": " ".join([Path(sys.executable).name] + sys.argv),
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count(), "platform": platform.platform()},
         "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "wall_s": total,
