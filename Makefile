@@ -54,6 +54,10 @@ test: system-test $(VENV)/.installed
 
 bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/register_bench.py
+	$(PY) benchmarks/surf_bench.py
+	$(PY) benchmarks/terrain_bench.py
+	$(PY) benchmarks/orient_bench.py
+	$(PY) benchmarks/matching_bench.py
 
 clean:
 	rm -rf $(VENV) out dist build *.egg-info

@@ -14,6 +14,7 @@ Each method keeps its N strongest keypoints in A (N = 1000) and N x area(B)/area
 - repeatability = corresponding keypoints / min(n_A, n_B in the overlap);
   matching score = correct nearest-neighbour descriptor matches / min(n_A, n_B);
   ratio score = correct matches passing the 0.8 ratio test / min(n_A, n_B).
+  Nearest neighbours: L2 on descriptors; SURF methods compare only equal Laplacian signs.
 - OTB's HomologousPointsExtraction only outputs matched pairs (its own ratio test, set to
   0.8, no scales): it gets a ratio score = correct pairs (1.5 px) / min(keypoints found in
   A, in B) -- the whole images, which slightly favours nobody but is not the overlap.
@@ -22,9 +23,10 @@ Each method keeps its N strongest keypoints in A (N = 1000) and N x area(B)/area
 
 Speed: detection + description of one image of about 1, 4 and 16 Mpx (mirror-tiled from
 the NGI orthophoto, real texture at every size), each method in a fresh process with its
-default settings; peak memory = growth of the process's max RSS during the call. OTB runs
-as a command line (HomologousPointsExtraction against a 64x64 second image), so its time
-includes the application start-up, reported separately.
+default settings; peak memory = growth of the process's resident high-water mark during
+the call. OTB runs as a command line (HomologousPointsExtraction against a 64x64 second
+image), so its time includes the application start-up (reported separately) and its
+memory is the whole process's peak.
 
 Writes benchmarks/results/surf_bench.json and prints tables with ratios vs the peers.
 """
@@ -33,7 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import shutil
 import subprocess
 import sys
@@ -48,6 +49,9 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "surf_bench.json"
 N_KEEP = 1000
+#: Match SURF keypoints only within equal Laplacian sign (as SURF prescribes; SIFT has none).
+#: Measured: no change in any score (opposite-contrast descriptors are far apart anyway).
+USE_LAPLACIAN = True
 TOL = 1.5
 IMAGES = {
     "ngi_frame_0182": "ngi/frames/3324c_2015_1004_05_0182_RGB.tif",
@@ -131,25 +135,25 @@ def transforms(quick):
 def run_ours(img):
     from fotogeo.features import surf
     r = surf(img, hessian_threshold=10.0)
-    return r.xy, r.scale, r.descriptors, r.response
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
 def run_sift(img):
     sift = cv2.SIFT_create()
     kp, d = sift.detectAndCompute(img, None)
     if not kp:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros((0, 128), np.float32), np.zeros(0)
+        return np.zeros((0, 2)), np.zeros(0), np.zeros((0, 128), np.float32), np.zeros(0), None
     xy = np.array([k.pt for k in kp], float) + 0.5      # OpenCV centre -> GDAL corner
-    return xy, np.array([k.size for k in kp]), d, np.array([k.response for k in kp])
+    return xy, np.array([k.size for k in kp]), d, np.array([k.response for k in kp]), None
 
 
 def run_mahotas(img, max_points=4 * N_KEEP):
     import mahotas.features.surf as ms
     p = ms.surf(img.astype(np.float64), max_points=max_points)
     if not len(p):
-        return np.zeros((0, 2)), np.zeros(0), np.zeros((0, 64), np.float32), np.zeros(0)
+        return np.zeros((0, 2)), np.zeros(0), np.zeros((0, 64), np.float32), np.zeros(0), np.zeros(0)
     xy = p[:, [1, 0]] + 0.5                              # array indices -> GDAL corner
-    return xy, p[:, 2], p[:, 6:].astype(np.float32), p[:, 3]
+    return xy, p[:, 2], p[:, 6:].astype(np.float32), p[:, 3], np.sign(p[:, 4])
 
 
 METHODS = {"fotogeo": run_ours, "mahotas": run_mahotas, "sift": run_sift}
@@ -181,7 +185,7 @@ def run_otb(img_a, img_b, tmp):
     write_tif(pb, img_b)
     t0 = time.perf_counter()
     p = subprocess.run([exe, "-in1", str(pa), "-in2", str(pb), "-out", str(out), "-algorithm", "surf",
-                        "-threshold", "0.8"], capture_output=True, text=True)
+                        "-threshold", "0.8"], capture_output=True, text=True, check=False)
     dt = time.perf_counter() - t0
     n = [int(line.split("Found ")[1].split()[0]) for line in (p.stdout + p.stderr).splitlines()
          if "surf points in image" in line]
@@ -214,22 +218,26 @@ def inside(valid, xy, margin=16):
 
 
 def top(feat, n):
-    xy, s, d, r = feat
+    """The n strongest keypoints: (xy, scale, descriptors, laplacian sign or None)."""
+    xy, s, d, r, lap = feat
     i = np.argsort(-r, kind="stable")[:n]
-    return xy[i], s[i], d[i]
+    return xy[i], s[i], d[i], (None if lap is None else lap[i])
 
 
 def evaluate(fa, fb, hm, va, vb):
-    (xa, sa, da), (xb, sb, db) = fa, fb
+    (xa, sa, da, la), (xb, sb, db, lb) = fa, fb
     ma = apply_h(hm, xa)
     ia = inside(vb, ma) & inside(va, xa)
     ib = inside(va, apply_h(np.linalg.inv(hm), xb)) & inside(vb, xb)
     xa, sa, da, ma = xa[ia], sa[ia], da[ia], ma[ia]
     xb, sb, db = xb[ib], sb[ib], db[ib]
+    use_lap = USE_LAPLACIAN and la is not None and lb is not None
+    if use_lap:
+        la, lb = la[ia], lb[ib]
     n = min(len(xa), len(xb))
     if n == 0:
-        return dict(n_a=len(xa), n_b=len(xb), repeatability=0.0, matching_score=0.0, ratio_score=0.0,
-                    ratio_precision=0.0, correct_ratio=0)
+        return {"n_a": len(xa), "n_b": len(xb), "repeatability": 0.0, "matching_score": 0.0, "ratio_score": 0.0,
+                    "ratio_precision": 0.0, "correct_ratio": 0}
     ls = local_scale(hm, xa)
     d2 = ((ma[:, None, :] - xb[None]) ** 2).sum(-1)
     sr = sb[None] / (sa * ls)[:, None]
@@ -237,14 +245,16 @@ def evaluate(fa, fb, hm, va, vb):
     rep = min(geo.any(1).sum(), geo.any(0).sum()) / n
     da, db = da.astype(np.float32), db.astype(np.float32)
     dd = (da * da).sum(1)[:, None] + (db * db).sum(1)[None] - 2 * da @ db.T
+    if use_lap:   # SURF compares only keypoints of equal contrast type (Bay et al. 2008, 4.3)
+        dd[la[:, None] != lb[None]] = np.inf
     nn = dd.argmin(1)
     part = np.partition(dd, 1, axis=1)[:, :2] if dd.shape[1] > 1 else np.c_[dd, np.full(len(dd), np.inf)]
     ratio = np.sqrt(np.maximum(part[:, 0], 0)) < 0.8 * np.sqrt(np.maximum(part[:, 1], 0))
     correct = geo[np.arange(len(xa)), nn]
-    return dict(n_a=int(len(xa)), n_b=int(len(xb)), repeatability=float(rep),
-                matching_score=float(correct.sum() / n), ratio_score=float((correct & ratio).sum() / n),
-                ratio_precision=float((correct & ratio).sum() / max(ratio.sum(), 1)),
-                correct_ratio=int((correct & ratio).sum()))
+    return {"n_a": len(xa), "n_b": len(xb), "repeatability": float(rep),
+                "matching_score": float(correct.sum() / n), "ratio_score": float((correct & ratio).sum() / n),
+                "ratio_precision": float((correct & ratio).sum() / max(ratio.sum(), 1)),
+                "correct_ratio": int((correct & ratio).sum())}
 
 
 def evaluate_otb(res, hm, n_keep):
@@ -252,11 +262,11 @@ def evaluate_otb(res, hm, n_keep):
         return None
     pairs, (na, nb), dt = res
     if not len(pairs):
-        return dict(n_a=na, n_b=nb, ratio_score=0.0, ratio_precision=0.0, correct_ratio=0, seconds=dt)
+        return {"n_a": na, "n_b": nb, "ratio_score": 0.0, "ratio_precision": 0.0, "correct_ratio": 0, "seconds": dt}
     e = np.linalg.norm(apply_h(hm, pairs[:, :2]) - pairs[:, 2:], axis=1)
     c = int((e <= TOL).sum())
-    return dict(n_a=na, n_b=nb, ratio_score=c / max(min(na, nb), 1), ratio_precision=c / len(pairs),
-                correct_ratio=c, seconds=dt)
+    return {"n_a": na, "n_b": nb, "ratio_score": c / max(min(na, nb), 1), "ratio_precision": c / len(pairs),
+                "correct_ratio": c, "seconds": dt}
 
 
 def quality(quick, tmp):
@@ -267,8 +277,8 @@ def quality(quick, tmp):
         feats_a = {m: top(f(a), N_KEEP) for m, f in METHODS.items()}
         for fam, label, tf in transforms(quick):
             b, vb, hm = tf(a, va)
-            nb = int(round(N_KEEP * vb.sum() / va.sum()))
-            row = dict(image=name, family=fam, case=label)
+            nb = round(N_KEEP * vb.sum() / va.sum())
+            row = {"image": name, "family": fam, "case": label}
             for m, f in METHODS.items():
                 row[m] = evaluate(feats_a[m], top(f(b), nb), hm, va, vb)
             row["otb"] = evaluate_otb(run_otb(a, b, tmp), hm, N_KEEP)
@@ -285,7 +295,7 @@ def real_pair(tmp):
     b, _ = load(IMAGES["ngi_ortho_1"])
     out = {}
     for m, f in METHODS.items():
-        (xa, _, da), (xb, _, db) = top(f(a), 2000), top(f(b), 2000)
+        (xa, _, da, _), (xb, _, db, _) = top(f(a), 2000), top(f(b), 2000)
         matcher = cv2.BFMatcher(cv2.NORM_L2)
         knn = matcher.knnMatch(da.astype(np.float32), db.astype(np.float32), k=2)
         good = [p[0] for p in knn if len(p) == 2 and p[0].distance < 0.8 * p[1].distance]
@@ -298,34 +308,61 @@ def real_pair(tmp):
 
 def _ransac(pa, pb):
     if len(pa) < 8:
-        return dict(matches=int(len(pa)), inliers=0)
+        return {"matches": len(pa), "inliers": 0}
     _, inl = cv2.findHomography(pa.astype(np.float32), pb.astype(np.float32), cv2.RANSAC, 5.0,
                                 maxIters=5000, confidence=0.999)
-    return dict(matches=int(len(pa)), inliers=int(inl.sum()) if inl is not None else 0)
+    return {"matches": len(pa), "inliers": int(inl.sum()) if inl is not None else 0}
 
 
 # ----------------------------------------------------------------------------- speed
 def speed_image(mpx):
     a, _ = load(IMAGES["ngi_ortho_1"])
-    side = int(round(np.sqrt(mpx * 1e6)))
+    side = round(np.sqrt(mpx * 1e6))
     reps = (-(-side // a.shape[0]), -(-side // a.shape[1]))
     tiles = np.block([[a if (i + j) % 2 == 0 else a[::-1, ::-1] for j in range(reps[1])]
                       for i in range(reps[0])])
     return np.ascontiguousarray(tiles[:side, :side])
 
 
+def _status_kb(field):
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    return 0
+
+
 def child(method, path):
-    """Time one call in a fresh process; print JSON {seconds, peak_mb, n}."""
+    """Time one call in a fresh process; print JSON {seconds, peak_mb, n}.
+
+    Peak memory: the kernel's high-water mark of this process (VmHWM, reset after the
+    warm-up through /proc/self/clear_refs) minus the resident size before the call.
+    ru_maxrss is not used: it inherits the parent's size at fork.
+    """
     img = np.load(path)
     f = DEFAULTS[method]
     f(np.ascontiguousarray(img[:256, :256]))          # warm-up (lazy imports, allocators)
-    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+    base = _status_kb("VmRSS")
     t0 = time.perf_counter()
     r = f(img)
     dt = time.perf_counter() - t0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak = max(_status_kb("VmHWM"), base)
     n = len(r) if not isinstance(r, tuple) else len(r[0])
-    print(json.dumps(dict(seconds=dt, peak_mb=(peak - base) / 1024, n=n)))
+    print(json.dumps({"seconds": dt, "peak_mb": (peak - base) / 1024, "n": n}))
+
+
+#: Runs a command from a small process and reports its wall time and max RSS (a child forked
+#: from this big benchmark process would inherit our size in ru_maxrss).
+_WRAP = ("import resource, subprocess, sys, time, json; t = time.perf_counter(); "
+         "p = subprocess.run(sys.argv[1:], capture_output=True, text=True); "
+         "dt = time.perf_counter() - t; "
+         "print(json.dumps(dict(seconds=dt, maxrss_kb=resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, "
+         "out=p.stdout + p.stderr)))")
 
 
 def speed(quick, tmp):
@@ -338,7 +375,7 @@ def speed(quick, tmp):
         img = speed_image(mpx)
         path = Path(tmp) / f"speed_{mpx}.npy"
         np.save(path, img)
-        row = dict(mpx=round(img.size / 1e6, 2))
+        row = {"mpx": round(img.size / 1e6, 2)}
         for m in DEFAULTS:
             best = None
             for _ in range(2 if mpx < 16 else 1):
@@ -354,7 +391,7 @@ def speed(quick, tmp):
             tif = Path(tmp) / f"speed_{mpx}.tif"
             write_tif(tif, img)
             dt, mb, n = _otb_time(exe, tif, small, tmp)
-            row["otb"] = dict(seconds=dt, seconds_minus_startup=dt - otb_startup, peak_mb=mb, n=n)
+            row["otb"] = {"seconds": dt, "seconds_minus_startup": dt - otb_startup, "peak_mb": mb, "n": n}
         rows.append(row)
         print("  " + f"{row['mpx']:5.1f} Mpx  " + "  ".join(
             f"{m} {row[m]['seconds']:.2f}s {row[m]['peak_mb']:.0f}MB n={row[m]['n']}"
@@ -363,15 +400,14 @@ def speed(quick, tmp):
 
 
 def _otb_time(exe, a, b, tmp):
-    t0 = time.perf_counter()
-    p = subprocess.Popen([exe, "-in1", str(a), "-in2", str(b), "-out", str(Path(tmp) / "t.txt"),
-                          "-algorithm", "surf"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    out = p.stdout.read()
-    _, _, ru = os.wait4(p.pid, 0)
-    p.returncode = 0
-    dt = time.perf_counter() - t0
-    n = [int(line.split("Found ")[1].split()[0]) for line in out.splitlines() if "surf points in image 1" in line]
-    return dt, ru.ru_maxrss / 1024, (n or [0])[0]
+    """Wall time (s), max RSS (MB) and keypoints in image 1 of one OTB SURF run."""
+    p = subprocess.run([sys.executable, "-c", _WRAP, exe, "-in1", str(a), "-in2", str(b),
+                        "-out", str(Path(tmp) / "t.txt"), "-algorithm", "surf"],
+                       capture_output=True, text=True, check=True)
+    r = json.loads(p.stdout)
+    n = [int(line.split("Found ")[1].split()[0]) for line in r["out"].splitlines()
+         if "surf points in image 1" in line]
+    return r["seconds"], r["maxrss_kb"] / 1024, (n or [0])[0]
 
 
 # ----------------------------------------------------------------------------- report
@@ -412,17 +448,21 @@ def main(argv=None):
             print("  " + "  ".join(f"{m}: {v['inliers']}/{v['matches']}" for m, v in rp.items()))
         print("speed (detection + description):", flush=True)
         sp, startup = ([], None) if args.no_speed else speed(args.quick, tmp)
+    quick = {"quality": args.quick, "speed": args.quick}
     if args.speed_only or args.no_speed:   # partial runs merge into an existing result
         old = json.loads(OUT.read_text()) if OUT.exists() else {}
+        old_quick = old.get("quick") if isinstance(old.get("quick"), dict) else {}
         if args.speed_only:
             rows, table, rp = old.get("cases", []), old.get("families", {}), old.get("real_pair", {})
+            quick["quality"] = old_quick.get("quality")
         else:
             sp, startup = old.get("speed", []), old.get("otb_startup_s")
+            quick["speed"] = old_quick.get("speed")
     OUT.parent.mkdir(parents=True, exist_ok=True)
-    result = dict(quick=args.quick, n_keep=N_KEEP, tolerance_px=TOL, cases=rows, families=table,
-                  real_pair=rp, speed=sp, otb_startup_s=startup,
-                  machine=dict(cpus=os.cpu_count(), opencv=cv2.__version__, numpy=np.__version__),
-                  date=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+    result = {"quick": quick, "n_keep": N_KEEP, "tolerance_px": TOL, "cases": rows, "families": table,
+                  "real_pair": rp, "speed": sp, "otb_startup_s": startup,
+                  "machine": {"cpus": os.cpu_count(), "opencv": cv2.__version__, "numpy": np.__version__},
+                  "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     tmp_out = OUT.with_suffix(".json.tmp")
     tmp_out.write_text(json.dumps(result, indent=1))
     tmp_out.replace(OUT)

@@ -68,7 +68,7 @@ def _correct_matches(ra: SurfResult, rb: SurfResult, m, scale, tol=1.5):
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("deg, min_frac", [(30, 0.45), (90, 0.9), (180, 0.9)])
+@pytest.mark.parametrize("deg, min_frac", [(30, 0.5), (90, 0.9), (180, 0.9)])
 def test_rotation_invariance(landsat, deg, min_frac):
     a, valid = landsat
     ra = surf(a, valid)
@@ -76,7 +76,7 @@ def test_rotation_invariance(landsat, deg, min_frac):
     rb = surf(b, vb)
     assert len(ra) > 200 and len(rb) > 200
     rep, correct, _, _ = _correct_matches(ra, rb, m, 1.0)
-    # measured (2026-11-21): 30 deg 144/245 correct, 90 deg 244/245, 180 deg 241/245
+    # measured (default threshold 50): 30 deg 219/366 correct, 90 deg 365/366, 180 deg 363/366
     assert correct >= min_frac * len(ra), (rep, correct, len(ra))
 
 
@@ -89,7 +89,7 @@ def test_rotation_180_on_ortho_and_angle_convention(ortho):
         b, vb, m = _warp(a, valid, deg, 1.0)
         rb = surf(b, vb)
         rep, correct, nn, ok = _correct_matches(ra, rb, m, 1.0)
-        # measured: 180 deg 332/350, 90 deg 341/350
+        # measured: 180 deg 669/688, 90 deg 668/688
         assert correct >= 0.85 * len(ra), (deg, rep, correct, len(ra))
         # a counter-clockwise rotation on screen lowers angles (measured clockwise) by deg
         dang = (rb.angle[nn[ok]] - ra.angle[ok] + deg + 180) % 360 - 180
@@ -105,9 +105,9 @@ def test_scale_invariance(ortho, scale):
     rb = surf(b, vb)
     rep, correct, _, _ = _correct_matches(ra, rb, m, scale, tol=1.5 * max(scale, 1.0))
     n_overlap = min(len(ra), len(rb))      # B at 0.5 lies inside A; A at 2x lies inside B
-    # measured: scale 0.5: 71 repeated, 63 correct of 79; scale 2: 320 and 278 of 350
-    assert rep >= 0.6 * n_overlap, (rep, len(ra), len(rb))
-    assert correct >= 0.5 * n_overlap, (correct, len(ra), len(rb))
+    # measured: scale 0.5: 143 repeated, 135 correct of 156; scale 2: 649 and 603 of 688
+    assert rep >= 0.7 * n_overlap, (rep, len(ra), len(rb))
+    assert correct >= 0.6 * n_overlap, (correct, len(ra), len(rb))
 
 
 @pytest.mark.data
@@ -199,14 +199,14 @@ def test_fully_masked_and_zero_budget(rng):
 
 
 @pytest.mark.parametrize("kwargs, name", [
-    (dict(image=np.zeros((3, 50, 50))), "image"),
-    (dict(image=np.array([["a"]])), "image"),
-    (dict(image=np.zeros((50, 50), complex)), "image"),
-    (dict(image=np.zeros((50, 50)), mask=np.ones((40, 50), bool)), "mask"),
-    (dict(image=np.zeros((50, 50)), mask=np.ones((50, 50))), "mask"),
-    (dict(image=np.zeros((50, 50)), hessian_threshold=-1), "hessian_threshold"),
-    (dict(image=np.zeros((50, 50)), n_octaves=0), "n_octaves"),
-    (dict(image=np.zeros((50, 50)), max_keypoints=2.5), "max_keypoints"),
+    ({"image": np.zeros((3, 50, 50))}, "image"),
+    ({"image": np.array([["a"]])}, "image"),
+    ({"image": np.zeros((50, 50), complex)}, "image"),
+    ({"image": np.zeros((50, 50)), "mask": np.ones((40, 50), bool)}, "mask"),
+    ({"image": np.zeros((50, 50)), "mask": np.ones((50, 50))}, "mask"),
+    ({"image": np.zeros((50, 50)), "hessian_threshold": -1}, "hessian_threshold"),
+    ({"image": np.zeros((50, 50)), "n_octaves": 0}, "n_octaves"),
+    ({"image": np.zeros((50, 50)), "max_keypoints": 2.5}, "max_keypoints"),
 ])
 def test_bad_inputs_raise_input_error(kwargs, name):
     image = kwargs.pop("image")
@@ -242,3 +242,19 @@ def test_box_filter_responses_match_dense_float64_reference(rng, size, step):
     want = dxx * dyy - (0.9 * dxy) ** 2
     assert np.allclose(det, want, rtol=1e-4, atol=1e-3 * np.abs(want).max())
     assert np.array_equal(np.sign(trace)[np.abs(dxx + dyy) > 1e-3], np.sign(dxx + dyy)[np.abs(dxx + dyy) > 1e-3])
+
+
+@pytest.mark.data
+def test_row_bands_merge_without_duplicates(landsat, monkeypatch):
+    """Memory-bounded banded detection finds exactly what one big band finds."""
+    from fotogeo.features import hessian
+    a, valid = landsat
+    img = np.where(valid, a, a[valid].mean()).astype(np.float32)
+    monkeypatch.setattr(hessian, "BAND_SAMPLES", 1 << 24)
+    whole = hessian.detect(img, 50.0, 4, blur=0.0)
+    monkeypatch.setattr(hessian, "BAND_SAMPLES", 1 << 12)    # bands of ~5 sample rows
+    banded = hessian.detect(img, 50.0, 4, blur=0.0)
+    order = [np.lexsort((d["size"], d["x"], d["y"])) for d in (whole, banded)]
+    assert len(whole["x"]) > 100
+    for k in ("x", "y", "size", "response", "laplacian", "octave"):
+        assert np.array_equal(whole[k][order[0]], banded[k][order[1]]), k

@@ -2,6 +2,7 @@
 
 :func:`surf` returns a :class:`SurfResult` (positions in the GDAL corner convention).
 """
-from .surf import SurfResult, surf  # noqa: F401
+from .match import Matches, match_descriptors
+from .surf import SurfResult, surf
 
-__all__ = ["surf", "SurfResult"]
+__all__ = ["Matches", "SurfResult", "match_descriptors", "surf"]
