@@ -58,3 +58,21 @@ def test_opencv_remap_uses_centre_convention():
     mx = np.array([[2.0]], np.float32)
     my = np.array([[1.0]], np.float32)
     assert cv2.remap(a, mx, my, cv2.INTER_LINEAR)[0, 0] == a[1, 2]
+
+
+def test_sift_offset_correction_on_a_rotated_self_match(data_dir):
+    """OpenCV's SIFT keypoints sit +0.25 px off; fotogeo corrects it (tiepoints.SIFT_OFFSET).
+    Under a 180° rotation a corner-convention point x maps to W − x, so matched pairs must
+    satisfy x1 + x2 = W (and y1 + y2 = H) on average."""
+    from fotogeo.features.match import match_descriptors
+    from fotogeo.tiepoints import detect
+    with rasterio.open(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif") as ds:
+        img = ds.read(2, window=((200, 712), (100, 612))).astype(np.float32)
+    rot = img[::-1, ::-1].copy()
+    for det in ("sift", "surf"):
+        a, b = detect(img, None, det, max_keypoints=2000), detect(rot, None, det, max_keypoints=2000)
+        m = match_descriptors(a.descriptors, b.descriptors, laplacian1=a.laplacian, laplacian2=b.laplacian)
+        s = a.xy[m.pairs[:, 0]] + b.xy[m.pairs[:, 1]] - [512, 512]
+        good = np.hypot(*s.T) < 2
+        assert good.sum() > 100, det
+        np.testing.assert_allclose(np.median(s[good], axis=0), [0, 0], atol=0.06, err_msg=det)
