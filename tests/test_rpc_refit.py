@@ -46,8 +46,8 @@ def test_reader_and_model_agree(data_dir):
 def test_refit_vendor_rpc(data_dir, name):
     rpc = read_rpc(data_dir / "rpc" / "rpcm" / name)
     rng = np.random.default_rng(42)
-    g, px = sample(rpc, 1000, rng)
-    fit_g, fit_px, chk_g, chk_px = g[:300], px[:300], g[300:], px[300:]
+    g, px = sample(rpc, 500, rng)
+    fit_g, fit_px, chk_g, chk_px = g[:200], px[:200], g[200:], px[200:]
     m = MODELS["rfm"].estimate(fit_g, fit_px)
     rms = np.sqrt(np.mean((m.forward(chk_g) - chk_px) ** 2, axis=0))
     assert (rms < 0.01).all(), rms
