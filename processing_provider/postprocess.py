@@ -50,10 +50,11 @@ def post_processor(style: str) -> StylePostProcessor:
     return processor
 
 
-def load_on_completion(context, uri: str, name: str, output_name: str, style: str | None) -> None:
-    """Ask Processing to load vector ``uri`` on completion as ``name``, styled with ``style``."""
-    details = QgsProcessingContext.LayerDetails(name, context.project(), output_name,
-                                                QgsProcessingUtils.LayerHint.Vector)
+def load_on_completion(context, uri: str, name: str, output_name: str, style: str | None,
+                       raster: bool = False) -> None:
+    """Ask Processing to load ``uri`` (vector, or raster) on completion as ``name``, styled with ``style``."""
+    hint = QgsProcessingUtils.LayerHint.Raster if raster else QgsProcessingUtils.LayerHint.Vector
+    details = QgsProcessingContext.LayerDetails(name, context.project(), output_name, hint)
     if style:
         details.setPostProcessor(post_processor(style))
     context.addLayerToLoadOnCompletion(uri, details)

@@ -1,12 +1,16 @@
 """The fotogeo Processing provider: a plain list of algorithms, no GUI code."""
 from __future__ import annotations
 
+import os
+
 from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsProcessingProvider
+from qgis.PyQt.QtGui import QIcon
 
 from .algorithms import ALGORITHMS
 from .algorithms.base import dependency_message, missing_dependencies
 
 PROVIDER_ID = "fotogeo"
+ICON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "icon.svg")
 
 
 def _version() -> str:
@@ -32,7 +36,10 @@ class FotogeoProvider(QgsProcessingProvider):
         return _version()
 
     def icon(self):
-        return QgsApplication.getThemeIcon("/processingAlgorithm.svg")
+        return QIcon(ICON) if os.path.exists(ICON) else QgsApplication.getThemeIcon("/processingAlgorithm.svg")
+
+    def svgIconPath(self):
+        return ICON
 
     def loadAlgorithms(self):
         for cls in ALGORITHMS:

@@ -48,21 +48,23 @@ values = {
                       "TABLE": f"{out}/table.csv"},
 }
 with open(f"{out}/in.points", "w") as f:
-    f.write("#CRS: EPSG:32735\nmapX,mapY,sourceX,sourceY,enable,dX,dY,residual\n1,2,3.5,-4.5,1,0,0,0\n5,6,7.5,-8.5,0,0,0,0\n")
+    f.write("#CRS: EPSG:32735\nmapX,mapY,sourceX,sourceY,enable,dX,dY,residual\n"
+            "1,2,3.5,-4.5,1,0,0,0\n5,6,7.5,-8.5,0,0,0,0\n")
 context = QgsProcessingContext()
-for name in values:
+others = sorted(a.name() for a in provider.algorithms() if a.name() not in values)
+for name in list(values) + others:  # every dialog opens; the algorithms with values also run, in this order
     alg = QgsApplication.processingRegistry().algorithmById(f"fotogeo:{name}")
     r = res[name] = {}
     try:
         dialog = AlgorithmDialog(alg.create(), False, None)
         panel = dialog.mainWidget()
         r["widgets"] = sorted(panel.wrappers)
-        r["parameters"] = sorted(p.name() for p in alg.parameterDefinitions())
-        for key, value in values[name].items():
-            if key in panel.wrappers:
-                panel.wrappers[key].setParameterValue(value, context)
-            else:  # destinations have their own widgets in 3.22
-                panel.outputWidgets[key].setValue(value)
+        r["parameters"] = sorted(p.name() for p in alg.parameterDefinitions() if not p.isDestination())
+        r["destinations"] = sorted(p.name() for p in alg.parameterDefinitions() if p.isDestination())
+        for key, value in values.get(name, {}).items():
+            panel.wrappers[key].setParameterValue(value, context)
+        if name not in values:
+            continue
         params = panel.createProcessingParameters()
         r["result"] = {k: (v if isinstance(v, (int, float, str)) else str(v))
                        for k, v in processing.run(alg, params).items()}
@@ -106,11 +108,13 @@ def test_every_algorithm_runs_from_its_dialog(tmp_path, data_dir):
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
     assert lines, f"dialog script failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     res = json.loads(lines[-1][7:])
-    assert set(res) == {"pcafusion", "register", "pointstolayer", "layertopoints", "orient", "comparemodels"}
+    sys.path.insert(0, str(ROOT))
+    from processing_provider.algorithms import ALGORITHMS
+    assert set(res) == {a.ALG_ID for a in ALGORITHMS}
     for name, r in res.items():
         assert "error" not in r, f"{name}:\n{r['error']}"
-        inputs = [p for p in r["parameters"] if p not in ("OUTPUT", "VECTORS", "REPORT")]
-        assert set(inputs) <= set(r["widgets"]), (name, set(inputs) - set(r["widgets"]))
+        # one widget per parameter, destinations included
+        assert r["destinations"] and set(r["parameters"]) | set(r["destinations"]) == set(r["widgets"]), name
     assert (tmp_path / "pc1.tif").exists() and res["pcafusion"]["result"]["EXPLAINED"] > 0.5
     reg = res["register"]["result"]
     assert reg["OUTPUT_CRS"] == "EPSG:32735" and reg["INLIERS"] > 50

@@ -14,8 +14,8 @@ need_qgis()
 from qgis.core import (  # noqa: E402
     QgsProcessingContext,
     QgsProcessingException,
-    QgsProcessingOutputLayerDefinition,
     QgsProcessingFeedback,
+    QgsProcessingOutputLayerDefinition,
     QgsProject,
     QgsRasterLayer,
     QgsVectorLayer,
@@ -96,8 +96,14 @@ def test_orient_dlt_all_outputs(gcps, tmp_path):
 def test_orient_from_points_file_and_rpc_export(gcps, tmp_path):
     """The Georeferencer path: GCPs as a .points file (heights from the DEM), an RFM exported as GDAL RPC."""
     import rasterio
+
+    from fotogeo.points_file import read_points
     pts = tmp_path / "g.points"
-    run("orient", base(gcps, MODEL=ORIENT_MODELS.index("poly1"), POINTS=str(pts)))
+    gtif = tmp_path / "gcp.tif"
+    run("orient", base(gcps, MODEL=ORIENT_MODELS.index("poly1"), POINTS=str(pts), GCP_TIFF=str(gtif)))
+    with rasterio.open(gtif) as ds:  # the control points as GDAL GCPs, for gdalwarp -order 1 / QGIS
+        gcp_list, gcp_crs = ds.gcps
+        assert len(gcp_list) == read_points(pts).enabled.sum() and gcp_crs is not None
     rpc = tmp_path / "rpc.tif"
     res = run("orient", {"IMAGE": gcps["image"], "GCPS": str(pts), "DEM": gcps["dem"],
                          "MODEL": ORIENT_MODELS.index("rfm"), "RPC": str(rpc), "VECTORS": None, "REPORT": None,
@@ -106,7 +112,7 @@ def test_orient_from_points_file_and_rpc_export(gcps, tmp_path):
     with rasterio.open(rpc) as ds:
         assert ds.rpcs is not None and ds.rpcs.height_scale > 0
     assert QgsRasterLayer(str(rpc), "rpc").isValid()
-    assert files(tmp_path) == ["g.points", "rpc.tif"]
+    assert files(tmp_path) == ["g.points", "gcp.tif", "rpc.tif"]
 
 
 def test_orient_errors_and_cancel(gcps, tmp_path):
@@ -169,3 +175,19 @@ def test_compare_models(gcps, tmp_path):
     with pytest.raises(QgsProcessingException, match="COUNTS must be whole numbers"):
         run("comparemodels", base(gcps, COUNTS="twenty", TABLE=str(tmp_path / "x.csv")))
     assert files(tmp_path) == ["t.csv", "t.md"]
+
+
+def test_orient_from_a_project_layer(gcps, tmp_path):
+    """GCPs digitised in the project (a memory layer) work like the file they came from."""
+    from qgis.core import QgsFeatureRequest
+    layer = QgsVectorLayer(gcps["path"], "gcps", "ogr").materialize(QgsFeatureRequest())
+    assert layer.providerType() == "memory" and layer.featureCount() == 60
+    params = {"IMAGE": gcps["image"], "DEM": gcps["dem"], "COL_FIELD": "c", "ROW_FIELD": "r",
+              "MODEL": ORIENT_MODELS.index("dlt")}
+    from_layer = run("orient", {**params, "GCP_LAYER_INPUT": layer, "REPORT": str(tmp_path / "a.json")})
+    from_file = run("orient", {**params, "GCPS": gcps["path"], "REPORT": str(tmp_path / "b.json")})
+    assert from_layer["CHECK_RMS_XY_PX"] == pytest.approx(from_file["CHECK_RMS_XY_PX"], rel=1e-9)
+    with pytest.raises(QgsProcessingException, match="not both and not neither"):
+        run("orient", {**params, "GCPS": gcps["path"], "GCP_LAYER_INPUT": layer})
+    with pytest.raises(QgsProcessingException, match="not both and not neither"):
+        run("orient", params)

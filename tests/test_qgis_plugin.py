@@ -92,6 +92,7 @@ def test_zip_layout(plugin_zip, tmp_path):
     g = cp["general"]
     assert g["qgisMinimumVersion"] == "3.22" and g["hasProcessingProvider"] == "yes"
     assert g["version"] == fotogeo.__version__
+    assert f"fotogeo_qgis/{g['icon']}" in names
     for key in ("name", "description", "about", "author", "email", "repository"):
         assert g[key].strip(), key
     # the same sources give the same bytes
@@ -113,8 +114,9 @@ def _install_and_load(plugin_zip, tmp_path, data_dir, block=""):
     env["QT_QPA_PLATFORM"] = "offscreen"
     env["HOME"] = str(tmp_path / "home")  # a fresh QGIS settings folder
     out = tmp_path / "pc1.tif"
-    r = subprocess.run([sys.executable, str(script), str(profile), block, str(data_dir / "landsat_rgb" / "RGB.byte.tif"),
-                        str(out)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=180)
+    src = data_dir / "landsat_rgb" / "RGB.byte.tif"
+    r = subprocess.run([sys.executable, str(script), str(profile), block, str(src), str(out)], cwd=tmp_path,
+                       env=env, capture_output=True, text=True, timeout=180)
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
     assert lines, f"loader failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     return json.loads(lines[-1][7:]), profile, out
@@ -125,8 +127,10 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
     res, profile, out = _install_and_load(plugin_zip, tmp_path, data_dir)
     assert "fotogeo_qgis" in res["available"] and res["has_provider"] == "yes"
     assert res["loaded"] and res["started"], res
-    assert res["algorithms"] == ["fotogeo:comparemodels", "fotogeo:layertopoints", "fotogeo:orient",
-                                 "fotogeo:pcafusion", "fotogeo:pointstolayer", "fotogeo:register"]
+    assert res["algorithms"] == ["fotogeo:comparemodels", "fotogeo:demo", "fotogeo:layertopoints",
+                                 "fotogeo:measuretargets",
+                                 "fotogeo:orient", "fotogeo:pcafusion", "fotogeo:pointstolayer",
+                                 "fotogeo:register", "fotogeo:transferpoints"]
     assert not res["help_mentions_missing"]
     assert "error" not in res, res.get("error")
     assert res["run"]["output_exists"] and 0.5 < res["run"]["explained"] <= 1
@@ -138,7 +142,7 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
 @pytest.mark.qgis
 def test_plugin_loads_without_a_dependency_and_says_what_is_missing(plugin_zip, tmp_path, data_dir):
     res, _, out = _install_and_load(plugin_zip, tmp_path, data_dir, block="rasterio")
-    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 6, res
+    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 9, res
     assert res["help_mentions_missing"]
     assert "run" not in res
     assert "rasterio" in res["error"] and "pip install" in res["error"], res["error"]

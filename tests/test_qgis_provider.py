@@ -27,7 +27,8 @@ from qgis.core import (  # noqa: E402
     QgsVectorLayer,
 )
 
-ALG_IDS = {"pcafusion", "register", "orient", "comparemodels", "pointstolayer", "layertopoints"}
+ALG_IDS = {"pcafusion", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
+           "layertopoints", "demo"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 LANDSAT = "landsat_rgb/RGB.byte.tif"
@@ -76,6 +77,7 @@ def test_provider_registered_with_all_algorithms(qgis_app):
     reg = QgsApplication.processingRegistry()
     prov = reg.providerById("fotogeo")
     assert prov is not None and prov.name() == "fotogeo"
+    assert prov.svgIconPath().endswith("icon.svg") and not prov.icon().isNull()
     ids = {a.name() for a in prov.algorithms()}
     assert ids == ALG_IDS
     for i in ids:
@@ -94,7 +96,8 @@ def test_option_lists_mirror_fotogeo(qgis_app):
     from fotogeo.tiepoints import DETECTORS as FG_DETECTORS
     from processing_provider.algorithms import register as ralg
     assert ralg.DETECTORS == tuple(FG_DETECTORS)
-    assert ralg.MODELS == tuple(PLANAR_MODELS)
+    from fotogeo.terrain import TERRAIN_MODELS
+    assert ralg.MODELS == ("default",) + tuple(PLANAR_MODELS) + tuple(TERRAIN_MODELS)
     assert ralg.RESAMPLINGS == tuple(RESAMPLING)
     from fotogeo.models import MODELS
     from processing_provider.algorithms import orient as oalg
@@ -112,7 +115,8 @@ def test_option_lists_mirror_fotogeo(qgis_app):
     assert ralg.CONTRASTS[defaults["CONTRAST"]] == d.contrast
     assert defaults["REFERENCE_NODATA"] is None and d.reference_nodata is None
     assert ralg.DETECTORS[defaults["DETECTOR"]] == d.detector
-    assert ralg.MODELS[defaults["MODEL"]] == d.model
+    assert defaults["MODEL"] == 0 and d.model is None  # "default" = the tool's own choice
+    assert ralg.REFINES[defaults["REFINE"]] == d.refine
     assert ralg.RESAMPLINGS[defaults["RESAMPLING"]] == d.resampling
     assert (defaults["RATIO"], defaults["RANSAC_THRESHOLD"], defaults["CHECK_FRACTION"]) == \
         (d.ratio, d.ransac_threshold, d.check_fraction)
@@ -238,13 +242,31 @@ def test_register_sift_crs_and_cancel(qgis_app, data_dir, tmp_path):
     assert fb.isCanceled() and 70 <= max(fb.values) < 100
     assert files(tmp_path) == [], "a cancelled run left files behind"
     # the same, not cancelled, with the advanced options set
-    res = run("register", {**params, "CONTRAST": 2, "TARGET_NODATA": 0, "MODEL": 1, "RESAMPLING": 1})
+    res = run("register", {**params, "CONTRAST": 2, "TARGET_NODATA": 0, "MODEL": 2, "RESAMPLING": 1})
     report = json.loads(open(res["REPORT"]).read())
     o = report["options"]
     assert (o["detector"], o["contrast"], o["target_nodata"], o["reference_nodata"], o["model"], o["resampling"]) \
         == ("sift", "linear", 0, None, "affine", "bilinear")
     assert QgsRasterLayer(res["OUTPUT"], "o").crs().authid() == "EPSG:32635"
     assert QgsVectorLayer(res["TIE_POINTS"], "t", "ogr").crs().authid() == "EPSG:32635"
+
+
+def test_register_terrain_aware_with_dem(registered, data_dir, tmp_path):
+    """With the DEM a 3-D model (DLT) orthorectifies the frame: far smaller check error than one homography."""
+    from processing_provider.algorithms.register import MODELS
+    planar, *_ = registered
+    res = run("register", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST,
+                           "DEM": str(data_dir / "ngi" / "dem.tif"), "MODEL": MODELS.index("dlt"),
+                           "OUTPUT": str(tmp_path / "ortho.tif")})
+    with pytest.raises(QgsProcessingException, match="terrain model: it needs a DEM"):
+        run("register", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST,
+                         "MODEL": MODELS.index("rfm"), "OUTPUT": str(tmp_path / "x.tif")})
+    assert files(tmp_path) == ["ortho.gpkg", "ortho.json", "ortho.tif"]
+    report = json.loads(open(res["REPORT"]).read())
+    assert report["terrain"]["chosen"] == "dlt" and report["terrain"]["dem"].endswith("dem.tif")
+    assert res["CHECK_RMSE_M"] < 0.5 * planar["CHECK_RMSE_M"]
+    assert QgsRasterLayer(res["OUTPUT"], "o").crs().authid() == "EPSG:32735"
+    assert QgsVectorLayer(res["TIE_POINTS"], "t", "ogr").featureCount() == res["INLIERS"]
 
 
 def test_register_invalid_parameters(qgis_app, data_dir, tmp_path):
@@ -387,3 +409,87 @@ def test_register_tie_points_to_georeferencer(registered, tmp_path):
     n_control = sum(1 for f in tie.getFeatures() if f["role"] == "control")
     assert gp.enabled.sum() == n_control
     assert (gp.source_xy[:, 1] <= 0).all() and (gp.source_xy[:, 0] >= 0).all()  # unreferenced convention
+
+
+def test_demo_loads_styled_results(qgis_app, tmp_path):
+    """The demo generates its scene, registers it, compares with the truth and loads four layers."""
+    import processing
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    res = processing.runAndLoadResults("fotogeo:demo", {"OUTPUT": str(tmp_path / "demo")}, feedback=Recorder(),
+                                       context=context)
+    assert {"reference.tif", "registered.gpkg", "registered.json", "registered.tif", "target.tif"} <= \
+        set(files(tmp_path / "demo"))
+    # a good registration of the generated frame: near the best any homography can do against the truth
+    assert res["TRUTH_RMSE_M"] < 1.5 * res["BEST_HOMOGRAPHY_RMSE_M"]
+    layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
+    assert {"Demo reference", "Demo registered", "Demo tie points", "Demo error vectors"} <= set(layers)
+    assert layers["Demo registered"].crs().authid() == "EPSG:32635"
+    assert layers["Demo tie points"].renderer().type() == "categorizedSymbol"
+    if res["ORTHORECTIFIED"]:  # fotogeo.demo also runs the terrain-aware registration with the scene's DEM
+        assert res["TERRAIN_TRUTH_RMSE_M"] < res["TRUTH_RMSE_M"]
+        assert layers["Demo orthorectified"].crs().authid() == "EPSG:32635"
+
+
+def _run_task(alg_id, params, cancel_at=None, timeout=90.0):
+    """Run an algorithm as the toolbox dialog does: a QgsProcessingAlgRunnerTask on QGIS's task manager
+    (a worker thread), with the dialog's Cancel (task.cancel()) once progress reaches ``cancel_at``."""
+    import time
+
+    from qgis.core import QgsProcessingAlgRunnerTask
+    from qgis.PyQt.QtCore import QCoreApplication
+    alg = QgsApplication.processingRegistry().createAlgorithmById(alg_id)
+    context = QgsProcessingContext()
+    context.setProject(QgsProject.instance())
+    feedback = Recorder()
+    task = QgsProcessingAlgRunnerTask(alg, params, context, feedback)
+    done = {}
+    task.executed.connect(lambda ok, results: done.update(ok=ok, results=results))
+    if cancel_at is not None:
+        task.progressChanged.connect(lambda p: task.cancel() if p >= cancel_at else None)
+    QgsApplication.taskManager().addTask(task)
+    t0 = time.monotonic()
+    while "ok" not in done and time.monotonic() - t0 < timeout:
+        QCoreApplication.processEvents()
+        time.sleep(0.01)
+    assert "ok" in done, "the task did not finish"
+    return done, feedback
+
+
+def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_path):
+    base = {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST}
+    done, fb = _run_task("fotogeo:register", {**base, "OUTPUT": str(tmp_path / "bg.tif")})
+    assert done["ok"] and done["results"]["OUTPUT_CRS"] == "EPSG:32735" and fb.values[-1] == pytest.approx(100)
+    assert files(tmp_path) == ["bg.gpkg", "bg.json", "bg.tif"]
+    cancelled = tmp_path / "cancelled"
+    cancelled.mkdir()
+    done, fb = _run_task("fotogeo:register", {**base, "OUTPUT": str(cancelled / "c.tif")}, cancel_at=65)
+    assert not done["ok"] and fb.isCanceled()
+    assert any("cancelled by the user" in e for e in fb.errors), fb.errors
+    assert files(cancelled) == []
+
+
+@pytest.mark.parametrize("alg_id, module, func, skip, rename", [
+    ("pcafusion", "fusion_tool", "fuse_raster", {"source", "output", "sample_pixels", "block_rows"},
+     {"source": "INPUT"}),
+    ("orient", "orient", "orient", {"image", "gcps", "fields"}, {}),
+    ("comparemodels", "orient", "compare_models", {"image", "gcps", "fields"}, {}),
+    ("transferpoints", "transfer_tool", "transfer_gcps", {"reference", "search", "points", "output"},
+     {"ref_fields": "REF_COL_FIELD", "approx_fields": "COL_FIELD"}),
+    ("measuretargets", "transfer_tool", "measure_targets", {"image", "points", "output"},
+     {"approx_fields": "COL_FIELD"}),
+    ("register", "register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
+])
+def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
+    """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""
+    import importlib
+    import inspect
+    tool = getattr(importlib.import_module(f"fotogeo.{module}"), func)
+    names = {p.name() for p in QgsApplication.processingRegistry().algorithmById(f"fotogeo:{alg_id}")
+             .parameterDefinitions()}
+    keywords = [k for k, p in inspect.signature(tool).parameters.items()
+                if p.kind == p.KEYWORD_ONLY and k not in skip | {"overwrite", "progress"}]
+    missing = sorted(k for k in keywords if rename.get(k, k.upper()) not in names)
+    assert not missing, f"fotogeo.{module}.{func} options without a parameter in fotogeo:{alg_id}: {missing}"

@@ -1,10 +1,12 @@
 """The fotogeo Processing algorithms: one class per capability, each a thin call of one fotogeo tool."""
+from .demo import DemoAlgorithm
+from .matching import MeasureTargetsAlgorithm, TransferPointsAlgorithm
 from .orient import CompareModelsAlgorithm, OrientAlgorithm
 from .pcafusion import PcaFusionAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
 
-#: every algorithm the provider offers (ids: pcafusion, register, orient, comparemodels, pointstolayer,
-#: layertopoints)
+#: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
-              PointsToLayerAlgorithm, LayerToPointsAlgorithm)
+              TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
+              DemoAlgorithm)

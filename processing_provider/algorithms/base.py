@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import sys
+import threading
 
 from qgis.core import (
     QgsApplication,
@@ -26,7 +27,7 @@ from qgis.PyQt.QtCore import QCoreApplication
 
 #: import name -> pip distribution name of the third-party packages fotogeo uses.
 DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", "shapely": "shapely",
-                "geopandas": "geopandas", "cv2": "opencv-python-headless"}
+                "geopandas": "geopandas", "pyogrio": "pyogrio", "cv2": "opencv-python-headless"}
 
 REFERENCES = {
     "dihkan": "Dihkan (2019): automatic registration of multi-epoch, multi-sensor aerial images to an "
@@ -67,6 +68,31 @@ def dependency_message(missing) -> str:
             f"({sys.executable}). Install them into that Python, e.g. `python3 -m pip install {pip}` "
             f"(on Debian/Ubuntu also: apt install python3-rasterio python3-geopandas python3-opencv), "
             f"then restart QGIS.")
+
+
+_PINNED_PROJ_CONTEXTS: dict = {}
+
+
+def pin_pyproj_context() -> None:
+    """Keep this OS thread's PROJ context of pyproj alive for the life of the process.
+
+    QGIS runs algorithms on its task manager's worker threads, which are not Python threads:
+    every call into Python gets a fresh Python thread state. pyproj (3.7) keeps the thread's
+    PROJ context pointer in thread-specific storage but the object that destroys it in a
+    ``threading.local``, which dies with the thread state at the end of the call: the next
+    algorithm run on the same worker thread then uses a destroyed context ("no database
+    context specified", or a crash). Holding that object here keeps the context valid: one per
+    OS thread id, replaced when a new thread reuses the id of a finished one (pyproj issue 1509,
+    fixed upstream by pyproj pull request 1541, not released as of pyproj 3.7.2).
+    """
+    try:
+        from pyproj import _context
+        _context._set_context_data_dir()  # creates this thread's context, or finds the existing one
+        manager = _context.get_context_manager()
+    except Exception:  # noqa: BLE001 - pyproj missing, or without these internals: run as is
+        return
+    if manager is not None:  # None: the context was made by an earlier call on this thread, and pinned then
+        _PINNED_PROJ_CONTEXTS[threading.get_ident()] = manager
 
 
 def progress_callback(feedback):
@@ -143,6 +169,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
     def run_tool(self, func, *args, feedback=None, **kwargs):
         """Call a fotogeo tool with a progress callback; FotogeoError → QgsProcessingException."""
         from fotogeo.errors import Cancelled, FotogeoError
+        pin_pyproj_context()
         try:
             return func(*args, progress=progress_callback(feedback), **kwargs)
         except Cancelled as e:

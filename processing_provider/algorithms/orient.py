@@ -13,6 +13,7 @@ from qgis.core import (
     QgsProcessingParameterCrs,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
+    QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterNumber,
@@ -37,7 +38,8 @@ FIELDS = ("col", "row", "z", "role", "id")
 REFERENCE_004 = ("Öztürk, Karşlı, Dihkan: orientation of aerial photographs from map GCPs with affine-with-height, "
                  "bilinear, projective, DLT and rational function models (fotogeo's source paper 004).")
 
-GCP_HELP = ("GCPs: a point layer file (GeoPackage, Shapefile, GeoJSON) with the image position in fields col, "
+GCP_HELP = ("GCPs: a point layer of the project, or a point layer file (GeoPackage, Shapefile, GeoJSON), with "
+            "the image position in fields col, "
             "row (GDAL corner convention: 0,0 = top-left corner of the top-left pixel), optional z, role "
             "(control / check) and id; a CSV with map columns x, y (CRS parameter needed); or a QGIS "
             "Georeferencer .points file (enabled = control, disabled = check). The field names can be changed "
@@ -49,11 +51,15 @@ class _GcpAlgorithm(FotogeoAlgorithm):
 
     GROUP = ("orientation", "Orientation")
     IMAGE, GCPS, LAYER, CRS, DEM, HEIGHT, CAMERA = "IMAGE", "GCPS", "LAYER", "CRS", "DEM", "HEIGHT", "CAMERA"
+    GCP_LAYER_IN = "GCP_LAYER_INPUT"
 
     def add_gcp_parameters(self):
         self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image")))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("GCP file (layer, CSV or .points)"),
-                                                     fileFilter=GCP_FILTER))
+                                                     fileFilter=GCP_FILTER, optional=True))
+        self.addParameter(QgsProcessingParameterFeatureSource(
+            self.GCP_LAYER_IN, tr("… or a GCP point layer of the project"), [QgsProcessing.TypeVectorPoint],
+            optional=True))
         self.addParameter(QgsProcessingParameterString(self.LAYER, tr("Layer of a multi-layer GCP file"),
                                                        optional=True))
         self.addParameter(QgsProcessingParameterCrs(
@@ -69,11 +75,26 @@ class _GcpAlgorithm(FotogeoAlgorithm):
             p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
             self.addParameter(p)
 
-    def gcp_arguments(self, parameters, context) -> dict:
+    def gcp_source(self, parameters, context, feedback) -> tuple[str, str | None]:
+        """``(path, layer name)`` of the GCPs: the file, or the project layer (exported if it is not a file)."""
+        given = [bool(parameters.get(self.GCPS)), bool(parameters.get(self.GCP_LAYER_IN))]
+        if given.count(True) != 1:
+            raise QgsProcessingException("give the GCPs either as a file (GCPS) or as a point layer "
+                                         "(GCP_LAYER_INPUT), not both and not neither")
+        if given[0]:
+            return (self.parameterAsFile(parameters, self.GCPS, context),
+                    self.parameterAsString(parameters, self.LAYER, context) or None)
+        path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(
+            parameters, self.GCP_LAYER_IN, context, ["gpkg", "shp", "geojson"], "gpkg", feedback)
+        if not path:
+            raise QgsProcessingException(self.invalidSourceError(parameters, self.GCP_LAYER_IN))
+        return path, layer or None
+
+    def gcp_arguments(self, parameters, context, layer=None) -> dict:
         crs = self.parameterAsCrs(parameters, self.CRS, context)
         camera = self.parameterAsFile(parameters, self.CAMERA, context)
         return dict(
-            layer=self.parameterAsString(parameters, self.LAYER, context) or None,
+            layer=layer,
             crs=RegisterAlgorithm.crs_spec(crs) if crs.isValid() else None,
             dem=self.raster_path(parameters, self.DEM, context) if parameters.get(self.DEM) else None,
             height=self.optional_double(parameters, self.HEIGHT, context),
@@ -94,12 +115,15 @@ class OrientAlgorithm(_GcpAlgorithm):
             "pixel size, per-point residuals, blunders, warnings); GeoPackage with the layers gcps and "
             "error_vectors (arrows from each GCP to where the model puts its image point on the ground); a "
             "PNG plot of the residual vectors; a Georeferencer .points file with residuals; for RFMs a GeoTIFF "
-            "copy of the image carrying the model as GDAL RPC metadata (usable by gdalwarp -rpc and QGIS); "
+            "copy of the image carrying the model as GDAL RPC metadata (usable by gdalwarp -rpc and QGIS); for "
+            "poly1-3 a GeoTIFF copy carrying the control points as GDAL GCPs (gdalwarp -order 1-3 reproduces the "
+            "model); "
             "a rectified GeoTIFF in the GCP CRS.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
 
     MODEL, SCAN_PIXEL_UM, SNOOPING, REMOVE_BLUNDERS = "MODEL", "SCAN_PIXEL_UM", "SNOOPING", "REMOVE_BLUNDERS"
     EXAGGERATION, RESOLUTION, RESAMPLING = "EXAGGERATION", "RESOLUTION", "RESAMPLING"
     REPORT, VECTORS, PLOT, POINTS, RPC, RECTIFY = "REPORT", "VECTORS", "PLOT", "POINTS", "RPC", "RECTIFY"
+    GCP_TIFF = "GCP_TIFF"
     GCP_LAYER, ERROR_VECTORS = "GCP_LAYER", "ERROR_VECTORS"
     CONTROL_RMS, CHECK_RMS, BLUNDERS, MODEL_NAME = "CONTROL_RMS_XY_PX", "CHECK_RMS_XY_PX", "BLUNDERS", "MODEL_NAME"
 
@@ -138,6 +162,9 @@ class OrientAlgorithm(_GcpAlgorithm):
         self.addParameter(QgsProcessingParameterRasterDestination(
             self.RPC, tr("Image with the RFM as GDAL RPC metadata (RFM models)"), optional=True,
             createByDefault=False))
+        self.addParameter(QgsProcessingParameterRasterDestination(
+            self.GCP_TIFF, tr("Image with the control points as GDAL GCPs (poly1-3)"), optional=True,
+            createByDefault=False))
         self.addParameter(QgsProcessingParameterRasterDestination(self.RECTIFY, tr("Rectified image"), optional=True,
                                                                   createByDefault=False))
         self.addOutput(QgsProcessingOutputVectorLayer(self.GCP_LAYER, tr("GCPs with residuals")))
@@ -150,19 +177,20 @@ class OrientAlgorithm(_GcpAlgorithm):
     def processAlgorithm(self, parameters, context, feedback):
         orient = self.tool("orient", "orient")
         image = self.raster_path(parameters, self.IMAGE, context)
-        gcps = self.parameterAsFile(parameters, self.GCPS, context)
+        gcps, gcp_layer = self.gcp_source(parameters, context, feedback)
         outputs = {
             "report": self.parameterAsFileOutput(parameters, self.REPORT, context),
             "vectors": self.parameterAsOutputLayer(parameters, self.VECTORS, context),
             "plot": self.parameterAsFileOutput(parameters, self.PLOT, context),
             "points": self.parameterAsFileOutput(parameters, self.POINTS, context),
             "rpc": self.parameterAsOutputLayer(parameters, self.RPC, context),
+            "gcp_tiff": self.parameterAsOutputLayer(parameters, self.GCP_TIFF, context),
             "rectify": self.parameterAsOutputLayer(parameters, self.RECTIFY, context),
         }
         outputs = {k: v for k, v in outputs.items() if v}
         if "vectors" in outputs and os.path.splitext(outputs["vectors"])[1].lower() != ".gpkg":
             raise QgsProcessingException(f"VECTORS must be a GeoPackage (.gpkg); got {outputs['vectors']!r}")
-        for key in ("rpc", "rectify"):
+        for key in ("rpc", "gcp_tiff", "rectify"):
             if key in outputs and not outputs[key].lower().endswith((".tif", ".tiff")):
                 raise QgsProcessingException(f"{key.upper()}: fotogeo writes GeoTIFF; give a file name ending "
                                              f"in .tif (got {outputs[key]!r})")
@@ -176,7 +204,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             exaggeration=self.parameterAsDouble(parameters, self.EXAGGERATION, context),
             resolution=resolution if resolution > 0 else None,
             resampling=self.enum_value(parameters, self.RESAMPLING, context, RESAMPLINGS),
-            **self.gcp_arguments(parameters, context), **outputs)
+            **self.gcp_arguments(parameters, context, gcp_layer), **outputs)
         feedback.pushInfo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
         for role in ("control", "check", "blunder"):
             s = rep.get(role) or {}
@@ -192,7 +220,7 @@ class OrientAlgorithm(_GcpAlgorithm):
                   self.CHECK_RMS: float((rep.get("check") or {}).get("rms_xy_px", nan)),
                   self.BLUNDERS: len(rep.get("snooping", [])), self.MODEL_NAME: rep["model_name"]}
         for key, name in (("report", self.REPORT), ("plot", self.PLOT), ("points", self.POINTS), ("rpc", self.RPC),
-                          ("rectify", self.RECTIFY), ("vectors", self.VECTORS)):
+                          ("gcp_tiff", self.GCP_TIFF), ("rectify", self.RECTIFY), ("vectors", self.VECTORS)):
             result[name] = outputs.get(key)
         result[self.GCP_LAYER] = result[self.ERROR_VECTORS] = None
         if "vectors" in outputs:
@@ -258,11 +286,11 @@ class CompareModelsAlgorithm(_GcpAlgorithm):
         table = self.parameterAsFileOutput(parameters, self.TABLE, context) or None
         markdown = self.parameterAsFileOutput(parameters, self.MARKDOWN, context) or None
         image = self.raster_path(parameters, self.IMAGE, context)
-        gcps = self.parameterAsFile(parameters, self.GCPS, context)
+        gcps, gcp_layer = self.gcp_source(parameters, context, feedback)
         rows = self.run_tool(compare_models, image, gcps, models=models, counts=counts, spreads=spreads,
                              trials=self.parameterAsInt(parameters, self.TRIALS, context),
                              seed=self.parameterAsInt(parameters, self.SEED, context), table=table,
                              markdown=markdown, overwrite=True, feedback=feedback,
-                             **self.gcp_arguments(parameters, context))
+                             **self.gcp_arguments(parameters, context, gcp_layer))
         feedback.pushInfo(markdown_table(rows))
         return {self.TABLE: table, self.MARKDOWN: markdown, self.ROWS: len(rows)}

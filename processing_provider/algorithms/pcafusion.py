@@ -17,7 +17,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pcafusion"
     DISPLAY = "PCA band fusion (first principal component)"
     GROUP = ("images", "Images")
-    REQUIRES = ("numpy", "rasterio", "pyproj")
+    REQUIRES = ("numpy", "rasterio", "pyproj", "cv2")
     HELP = ("Fuses all bands of a raster into its first principal component, as in the registration "
             "pipeline of Dihkan (2019): the band covariance is estimated on a sample of valid pixels "
             "and every pixel is projected onto the leading eigenvector.\n\n"

@@ -29,7 +29,7 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pointstolayer"
     DISPLAY = "Georeferencer points file to GCP layer"
     GROUP = ("gcp", "Ground control points")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas")
+    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio")
     HELP = ("Converts a QGIS Georeferencer <i>.points</i> file (optional '#CRS: &lt;WKT&gt;' line, header "
             "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual) into a GeoPackage point layer at the map "
             "positions, with the fields fotogeo's tools use: id, col, row (source pixel, GDAL corner "
@@ -43,8 +43,8 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
                                                      extension="points"))
         self.addParameter(QgsProcessingParameterRasterLayer(
             self.RASTER, tr("Source raster, if georeferenced (empty = unreferenced convention)"), optional=True))
-        self.addParameter(QgsProcessingParameterCrs(self.CRS, tr("CRS of the map coordinates (empty = the file's #CRS)"),
-                                                    optional=True))
+        self.addParameter(QgsProcessingParameterCrs(
+            self.CRS, tr("CRS of the map coordinates (empty = the file's #CRS)"), optional=True))
         self.addParameter(QgsProcessingParameterVectorDestination(self.OUTPUT, tr("GCP layer (GeoPackage)"),
                                                                   QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
@@ -70,7 +70,7 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "layertopoints"
     DISPLAY = "GCP layer to Georeferencer points file"
     GROUP = ("gcp", "Ground control points")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas")
+    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio")
     HELP = ("Writes a QGIS Georeferencer <i>.points</i> file from a point layer with the fields col, row "
             "(source pixel, GDAL corner convention) and optionally role (control = enabled, anything else "
             "= disabled), id (sort order) and dx, dy. A fotogeo <i>tie_points</i> layer from the register "

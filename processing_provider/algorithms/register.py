@@ -13,6 +13,7 @@ from qgis.core import (
     QgsProcessingParameterCrs,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
+    QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
@@ -24,7 +25,10 @@ from .base import REFERENCES, FotogeoAlgorithm, tr
 
 # Mirrors of fotogeo's option lists (fotogeo is imported lazily; tests check they agree).
 DETECTORS = ("surf", "sift")
-MODELS = ("projective", "affine", "similarity")
+PLANAR = ("projective", "affine", "similarity")
+TERRAIN = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity")
+#: index 0 = the tool's default (model None): projective without a DEM, auto with one
+MODELS = ("default",) + PLANAR + TERRAIN
 RESAMPLINGS = ("nearest", "bilinear", "cubic")
 CONTRASTS = ("adaptive", "equalize", "linear")
 REFINES = ("none", "lsm")
@@ -49,8 +53,12 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "reference position to the model's, with dx, dy, length in metres; drawn scaled by "
             "<i>exaggeration</i>); a JSON report with RMSE at control and check points, timings and "
             "versions.\n\n"
+            "With a DEM the registration is terrain-aware: every tie point gets its DEM height, a 3-D "
+            "ground-to-image model is fitted (auto keeps the simplest of collinearity — with the camera's "
+            "interior orientation —, DLT and the rational function models whose check RMSE is within 5 % of the "
+            "best) and the output is orthorectified with the DEM heights.\n\n"
             "Output CRS: empty = the UTM zone of the reference centre. Resolution 0 = the reference's "
-            "pixel size. A single homography cannot model strong relief: expect metre-level residuals on "
+            "pixel size. A single homography cannot model strong relief (give a DEM): expect metre-level residuals on "
             "mountainous frames.\n\n"
             f"References: {REFERENCES['dihkan']} {REFERENCES['surf']} {REFERENCES['ransac']}")
 
@@ -59,7 +67,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
     CHECK_FRACTION, MAX_KEYPOINTS, HESSIAN_THRESHOLD = "CHECK_FRACTION", "MAX_KEYPOINTS", "HESSIAN_THRESHOLD"
     SEED, MAX_MATCH_PIXELS, EXAGGERATION = "SEED", "MAX_MATCH_PIXELS", "EXAGGERATION"
     CONTRAST, REFERENCE_NODATA, TARGET_NODATA = "CONTRAST", "REFERENCE_NODATA", "TARGET_NODATA"
-    REFINE = "REFINE"
+    REFINE, DEM, CAMERA = "REFINE", "DEM", "CAMERA"
     OUTPUT, VECTORS, REPORT = "OUTPUT", "VECTORS", "REPORT"
     TIE_POINTS, ERROR_VECTORS = "TIE_POINTS", "ERROR_VECTORS"
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
@@ -71,8 +79,14 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
         self.addParameter(QgsProcessingParameterEnum(self.DETECTOR, tr("Keypoint detector"), options=list(DETECTORS),
                                                      defaultValue=0))
-        self.addParameter(QgsProcessingParameterEnum(self.MODEL, tr("Geometric model"), options=list(MODELS),
-                                                     defaultValue=0))
+        self.addParameter(QgsProcessingParameterEnum(
+            self.MODEL, tr("Geometric model (default: projective; with a DEM: auto)"), options=list(MODELS),
+            defaultValue=0))
+        self.addParameter(QgsProcessingParameterRasterLayer(
+            self.DEM, tr("DEM (terrain-aware registration: 3-D model, orthorectified output)"), optional=True))
+        self.addParameter(QgsProcessingParameterFile(
+            self.CAMERA, tr("Interior orientation YAML of the target camera (model collinearity)"), optional=True,
+            fileFilter="YAML (*.yaml *.yml)"))
         self.addParameter(QgsProcessingParameterEnum(self.RESAMPLING, tr("Resampling"), options=list(RESAMPLINGS),
                                                      defaultValue=0))
         self.addParameter(QgsProcessingParameterCrs(self.CRS, tr("Output CRS (empty = UTM zone of the reference)"),
@@ -144,7 +158,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         resolution = self.parameterAsDouble(parameters, self.RESOLUTION, context)
         options = dict(
             detector=self.enum_value(parameters, self.DETECTOR, context, DETECTORS),
-            model=self.enum_value(parameters, self.MODEL, context, MODELS),
+            model=MODELS[self.parameterAsEnum(parameters, self.MODEL, context)] if
+            self.parameterAsEnum(parameters, self.MODEL, context) else None,
             resampling=self.enum_value(parameters, self.RESAMPLING, context, RESAMPLINGS),
             dst_crs=self.crs_spec(self.parameterAsCrs(parameters, self.CRS, context)),
             resolution=resolution if resolution > 0 else None,
@@ -164,8 +179,10 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         )
         feedback.pushInfo("options: " + ", ".join(f"{k}={v}" for k, v in options.items() if k != "dst_crs")
                           + f", output CRS={'auto' if options['dst_crs'] == 'auto' else 'given'}")
-        result = self.run_tool(register, reference, target, output, vectors=vectors, report=report,
-                               overwrite=True, feedback=feedback, **options)
+        dem = self.raster_path(parameters, self.DEM, context) if parameters.get(self.DEM) else None
+        camera = self.parameterAsFile(parameters, self.CAMERA, context) or None
+        result = self.run_tool(register, reference, target, output, vectors=vectors, report=report, dem=dem,
+                               camera=camera, overwrite=True, feedback=feedback, **options)
         rep = result.report
         feedback.pushInfo(f"keypoints target/reference {rep['keypoints']['target']}/{rep['keypoints']['reference']}, "
                           f"matches {rep['matches']}, inliers {rep['inliers']}")

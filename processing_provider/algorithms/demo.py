@@ -1,0 +1,88 @@
+"""``fotogeo:demo`` — a generated scene registered and checked against its known truth."""
+from __future__ import annotations
+
+import os
+
+from qgis.core import (
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputRasterLayer,
+    QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterFolderDestination,
+    QgsProcessingParameterNumber,
+)
+
+from ..postprocess import load_on_completion
+from .base import FotogeoAlgorithm, tr
+from .register import DETECTORS
+
+
+class DemoAlgorithm(FotogeoAlgorithm):
+    ALG_ID = "demo"
+    DISPLAY = "Demo: register a generated scene and compare with its truth"
+    GROUP = ("registration", "Registration")
+    HELP = ("Generates a realistic scene without any download — a fractal DEM, a textured orthophoto "
+            "(EPSG:32635, 4 m) and a frame rendered through a known rotated and tilted camera with other "
+            "radiometry and noise — registers the frame to the orthophoto with the register algorithm (the "
+            "paper's homography, and terrain-aware with the scene's DEM), and compares the fitted models with "
+            "the known geometry on a dense grid. The results load into the project: reference, registered "
+            "frame(s), tie points and error vectors. A quick check that fotogeo and its dependencies work in "
+            "this QGIS.")
+
+    OUTPUT, SEED, DETECTOR = "OUTPUT", "SEED", "DETECTOR"
+    REFERENCE, REGISTERED, TIE_POINTS, ERROR_VECTORS = "REFERENCE", "REGISTERED", "TIE_POINTS", "ERROR_VECTORS"
+    CHECK_RMSE, TRUTH_RMSE, BEST_RMSE = "CHECK_RMSE_M", "TRUTH_RMSE_M", "BEST_HOMOGRAPHY_RMSE_M"
+    ORTHORECTIFIED, TERRAIN_TRUTH_RMSE = "ORTHORECTIFIED", "TERRAIN_TRUTH_RMSE_M"
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterNumber(self.SEED, tr("Seed of the generated scene"),
+                                                       QgsProcessingParameterNumber.Integer, defaultValue=7,
+                                                       minValue=0))
+        self.addParameter(QgsProcessingParameterEnum(self.DETECTOR, tr("Keypoint detector"), options=list(DETECTORS),
+                                                     defaultValue=0))
+        self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, tr("Folder for the scene and results")))
+        self.addOutput(QgsProcessingOutputRasterLayer(self.REFERENCE, tr("Reference orthophoto")))
+        self.addOutput(QgsProcessingOutputRasterLayer(self.REGISTERED, tr("Registered frame")))
+        self.addOutput(QgsProcessingOutputVectorLayer(self.TIE_POINTS, tr("Tie points")))
+        self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
+        self.addOutput(QgsProcessingOutputNumber(self.CHECK_RMSE, tr("RMSE at check points (m)")))
+        self.addOutput(QgsProcessingOutputNumber(self.TRUTH_RMSE, tr("RMSE against the true geometry (m)")))
+        self.addOutput(QgsProcessingOutputNumber(self.BEST_RMSE, tr("Best possible homography RMSE (m)")))
+        self.addOutput(QgsProcessingOutputRasterLayer(self.ORTHORECTIFIED, tr("Terrain-aware (orthorectified) frame")))
+        self.addOutput(QgsProcessingOutputNumber(self.TERRAIN_TRUTH_RMSE,
+                                                 tr("Terrain-aware RMSE against the true geometry (m)")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        run_demo = self.tool("demo", "run_demo")
+        folder = self.parameterAsString(parameters, self.OUTPUT, context)
+        os.makedirs(folder, exist_ok=True)
+        res = self.run_tool(run_demo, folder, seed=self.parameterAsInt(parameters, self.SEED, context),
+                            detector=self.enum_value(parameters, self.DETECTOR, context, DETECTORS),
+                            feedback=feedback)
+        reg, truth = res["registration"], res["truth"]
+        rep = reg.report
+        feedback.pushInfo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, matches "
+                          f"{rep['matches']}, inliers {rep['inliers']}; check RMSE {rep['check']['rmse_m']:.2f} m; "
+                          f"against the truth {truth['dense_rmse_m']:.2f} m (best possible homography "
+                          f"{truth['best_homography_rmse_m']:.2f} m)")
+        result = {self.OUTPUT: folder, self.REFERENCE: os.path.join(folder, "reference.tif"),
+                  self.REGISTERED: str(reg.output), self.TIE_POINTS: f"{reg.vectors}|layername=tie_points",
+                  self.ERROR_VECTORS: f"{reg.vectors}|layername=error_vectors",
+                  self.CHECK_RMSE: float(rep["check"]["rmse_m"]), self.TRUTH_RMSE: float(truth["dense_rmse_m"]),
+                  self.BEST_RMSE: float(truth["best_homography_rmse_m"])}
+        terrain = res.get("terrain")  # the terrain-aware run, with the scene's DEM
+        result[self.ORTHORECTIFIED] = str(terrain.output) if terrain is not None else None
+        result[self.TERRAIN_TRUTH_RMSE] = (float(res["terrain_truth"]["dense_rmse_m"]) if terrain is not None
+                                           else float("nan"))
+        if terrain is not None:
+            feedback.pushInfo(f"terrain-aware: model {terrain.report['model'].get('model')}, against the truth "
+                              f"{result[self.TERRAIN_TRUTH_RMSE]:.2f} m")
+        if context.project() is not None:  # a demo is for looking at: load its layers
+            layers = [(self.REFERENCE, "Demo reference", None), (self.REGISTERED, "Demo registered", None)]
+            if terrain is not None:
+                layers.append((self.ORTHORECTIFIED, "Demo orthorectified", None))
+            for key, name, style in layers + [
+                    (self.ERROR_VECTORS, "Demo error vectors", "error_vectors"),
+                    (self.TIE_POINTS, "Demo tie points", "tie_points")]:
+                load_on_completion(context, result[key], tr(name), key, style, raster=style is None)
+        return result
