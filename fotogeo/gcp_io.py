@@ -27,7 +27,9 @@ from pyproj import CRS
 from .errors import InputError, VectorError
 from .geo import transform_points
 
-ROLES = ("control", "check")
+#: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
+#: and of the statistics when such a layer is read back
+ROLES = ("control", "check", "blunder")
 
 
 @dataclass(frozen=True)
@@ -126,7 +128,7 @@ def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id=
                  else np.full(len(table), "control"))
         bad = sorted(set(roles) - set(ROLES))
         if bad:
-            raise VectorError(f"{what}: role values must be 'control' or 'check'; found {bad}")
+            raise VectorError(f"{what}: role values must be 'control', 'check' or 'blunder'; found {bad}")
         idf = _field(cols, id, what, required=False)
         ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
         zf = _field(cols, z, what, required=False) if z else None

@@ -32,7 +32,9 @@ def write_layers(path, layers: dict, crs) -> None:
         for i, (name, columns) in enumerate(layers.items()):
             gdf = gpd.GeoDataFrame({k: v for k, v in columns.items() if k != "geometry"},
                                    geometry=columns["geometry"], crs=crs)
-            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if i == 0 else "a", engine="pyogrio")
+            # GeoPackage 1.2: QGIS 3.22's GDAL reads the 1.4 files newer GDALs write only partially
+            opts = {"dataset_options": {"VERSION": "1.2"}} if i == 0 else {}
+            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if i == 0 else "a", engine="pyogrio", **opts)
     except Exception as e:  # noqa: BLE001 - any writer failure becomes one clear error
         raise OutputError(f"could not write GeoPackage {str(path)!r}: {e}") from None
 
