@@ -90,32 +90,10 @@ def _maxrss_mb(who=resource.RUSAGE_SELF) -> float:
 
 # ------------------------------------------------------------------------------ inputs
 def make_landsat_pair(folder: Path):
-    """Landsat RGB and the target of tests/test_register.py's ``pair`` fixture (same H_TRUE,
-    same construction); returns (reference, target, H) with H: target px -> reference px."""
-    import cv2
-    import rasterio
-    from test_register import H_TRUE, _apply
-    from fotogeo.pixels import pixel_centres, to_centre
-    from fotogeo.rasterio_io import ropen
-    ref = DATA / "landsat_rgb" / "RGB.byte.tif"
-    with rasterio.open(ref) as ds:
-        img = ds.read()
-    w, h = 640, 600
-    c = _apply(H_TRUE, [[w / 2, h / 2]])[0]
-    H = np.array([[1, 0, 791 / 2 - c[0]], [0, 1, 718 / 2 - c[1]], [0, 0, 1]]) @ H_TRUE
-    x, y = pixel_centres(w, h)
-    src = to_centre(_apply(H, np.column_stack([x.ravel(), y.ravel()])))
-    mx, my = src[:, 0].reshape(h, w).astype(np.float32), src[:, 1].reshape(h, w).astype(np.float32)
-    bands = [cv2.remap(b, mx, my, cv2.INTER_CUBIC, borderValue=0) for b in img]
-    rng = np.random.default_rng(0)
-    tgt_bands = np.stack([np.clip(bands[2] * 0.7 + 30 + rng.normal(0, 2, (h, w)), 1, 255),
-                          np.clip(bands[0] * 1.1 + rng.normal(0, 2, (h, w)), 1, 255),
-                          np.clip(bands[1] * 0.9 + 10 + rng.normal(0, 2, (h, w)), 1, 255)]).astype(np.uint8)
-    tgt_bands[:, (np.stack(bands) == 0).all(axis=0)] = 0
-    tgt = folder / "landsat_target.tif"
-    with ropen(tgt, "w", driver="GTiff", width=w, height=h, count=3, dtype="uint8", nodata=0) as ds:
-        ds.write(tgt_bands)
-    return ref, tgt, H
+    """Landsat RGB under the known warp of tests/synthetic_pair.py; returns (reference, target, H)
+    with H: target px -> reference px."""
+    from synthetic_pair import make_landsat_pair as make
+    return make(DATA / "landsat_rgb" / "RGB.byte.tif", folder)
 
 
 def build_cases(tmp: Path, quick: bool):
@@ -214,7 +192,7 @@ class Truth:
                 out[ok] = transform_points(self.src_crs, self.dst_crs, g[ok])
             return out
         if self.kind == "homography":
-            from test_register import _apply
+            from synthetic_pair import apply_h as _apply
             from fotogeo.pixels import pixel_to_map
             return pixel_to_map(self.t_ref, _apply(self.H, xy))
         return self.scene.frame.pixel_to_world(xy, self.scene.dem)[:, :2]

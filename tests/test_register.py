@@ -2,50 +2,21 @@
 import hashlib
 import json
 
-import cv2
 import numpy as np
 import pytest
 import rasterio
 
 from fotogeo.errors import Cancelled, InputError, MatchingError, ModelError, OutputError, RasterError
-from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
+from fotogeo.pixels import pixel_centres, pixel_to_map
 from fotogeo.register import register
+from synthetic_pair import apply_h, make_landsat_pair
 
 DETECTOR = "surf"
-# target pixel (corner convention) -> reference pixel: rotation 200°, scale 0.9, mild perspective
-_C, _S = np.cos(np.radians(200)), np.sin(np.radians(200))
-H_TRUE = np.array([[0.9 * _C, -0.9 * _S, 0], [0.9 * _S, 0.9 * _C, 0], [2e-5, -1e-5, 1.0]])
-
-
-def _apply(H, p):
-    h = np.column_stack([p, np.ones(len(p))]) @ H.T
-    return h[:, :2] / h[:, 2:]
-
-
 @pytest.fixture(scope="module")
 def pair(data_dir, tmp_path_factory):
     """Landsat RGB as reference; the target is it under H_TRUE, re-banded and without georeference."""
-    d = tmp_path_factory.mktemp("pair")
-    ref = data_dir / "landsat_rgb" / "RGB.byte.tif"
-    with rasterio.open(ref) as ds:
-        img = ds.read()
-    w, h = 640, 600
-    # centre the target on the reference: shift so that target centre maps to reference centre
-    c = _apply(H_TRUE, [[w / 2, h / 2]])[0]
-    H = np.array([[1, 0, 791 / 2 - c[0]], [0, 1, 718 / 2 - c[1]], [0, 0, 1]]) @ H_TRUE
-    x, y = pixel_centres(w, h)
-    src = to_centre(_apply(H, np.column_stack([x.ravel(), y.ravel()])))
-    mx, my = src[:, 0].reshape(h, w).astype(np.float32), src[:, 1].reshape(h, w).astype(np.float32)
-    bands = [cv2.remap(b, mx, my, cv2.INTER_CUBIC, borderValue=0) for b in img]
-    rng = np.random.default_rng(0)
-    tgt_bands = np.stack([np.clip(bands[2] * 0.7 + 30 + rng.normal(0, 2, (h, w)), 1, 255),
-                          np.clip(bands[0] * 1.1 + rng.normal(0, 2, (h, w)), 1, 255),
-                          np.clip(bands[1] * 0.9 + 10 + rng.normal(0, 2, (h, w)), 1, 255)]).astype(np.uint8)
-    tgt_bands[:, (np.stack(bands) == 0).all(axis=0)] = 0
-    tgt = d / "target.tif"
-    with rasterio.open(tgt, "w", driver="GTiff", width=w, height=h, count=3, dtype="uint8", nodata=0) as ds:
-        ds.write(tgt_bands)
-    return ref, tgt, H, d
+    ref, tgt, H = make_landsat_pair(data_dir / "landsat_rgb" / "RGB.byte.tif", tmp_path_factory.mktemp("pair"))
+    return ref, tgt, H, tgt.parent
 
 
 def _sha(p):
@@ -70,7 +41,7 @@ def test_known_warp_is_recovered(pair, tmp_path, refine):
         t_ref = ds.transform
     x, y = pixel_centres(64, 60)
     grid = np.column_stack([x.ravel(), y.ravel()]) * 10
-    truth = pixel_to_map(t_ref, _apply(H, grid))
+    truth = pixel_to_map(t_ref, apply_h(H, grid))
     err = np.hypot(*(r.model.forward(grid) - truth).T)
     # ... while the fitted model is right to a third of a pixel (measured 0.25 px, 0.19 with LSM)
     assert np.sqrt(np.mean(err ** 2)) < 0.35 * t_ref.a
