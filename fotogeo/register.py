@@ -427,3 +427,35 @@ def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration):
                           "geometry": error_vectors(pts, pts + d, exaggeration)},
     }
     write_layers(path, layers, crs.to_wkt())
+
+
+def match_images(reference, target, output, *, overwrite: bool = False, progress=None, **options) -> dict:
+    """Detect and match features only: write the tie points of ``target`` ↔ ``reference`` to the
+    GeoPackage ``output`` (layer ``tie_points``), without fitting a georeference or resampling.
+
+    Points lie at their reference map positions (reference CRS) when the reference is
+    georeferenced, else at their reference pixel positions (no CRS). Fields: ``id``,
+    ``target_col``, ``target_row``, ``ref_col``, ``ref_row`` (full resolution, corner
+    convention), ``inlier`` (1 when consistent with a RANSAC homography between the pixel sets
+    at ``ransac_threshold`` reference pixels). Options as :class:`RegisterOptions`.
+    """
+    import shapely
+    opts = RegisterOptions(**options)
+    opts.validate()
+    prog = as_progress(progress)
+    check_output(output, [reference, target], overwrite, "tie-point layer")
+    ref, tgt = open_raster(reference, "reference"), open_raster(target, "target")
+    src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.9, "matching"))
+    try:
+        inl = ransac(Projective, src, ref_xy, opts.ransac_threshold, rng=opts.seed).inliers
+    except FotogeoError:
+        inl = np.zeros(len(src), bool)
+    pts = pixel_to_map(ref.transform, ref_xy) if ref.georeferenced else ref_xy
+    layer = {"id": np.arange(len(src), dtype=np.int64), "target_col": src[:, 0], "target_row": src[:, 1],
+             "ref_col": ref_xy[:, 0], "ref_row": ref_xy[:, 1], "inlier": inl.astype(np.int64),
+             "geometry": shapely.points(pts)}
+    with AtomicOutputs() as out:
+        write_layers(out.temp(output), {"tie_points": layer}, ref.crs.to_wkt() if ref.georeferenced else None)
+        prog(1.0, "done")
+        out.commit()
+    return {"output": str(output), **counts, "inliers": int(inl.sum())}

@@ -128,7 +128,7 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
     assert "fotogeo_qgis" in res["available"] and res["has_provider"] == "yes"
     assert res["loaded"] and res["started"], res
     assert res["algorithms"] == ["fotogeo:comparemodels", "fotogeo:demo", "fotogeo:layertopoints",
-                                 "fotogeo:measuretargets",
+                                 "fotogeo:matchfeatures", "fotogeo:measuretargets",
                                  "fotogeo:orient", "fotogeo:pcafusion", "fotogeo:pointstolayer",
                                  "fotogeo:register", "fotogeo:transferpoints"]
     assert not res["help_mentions_missing"]
@@ -142,7 +142,7 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
 @pytest.mark.qgis
 def test_plugin_loads_without_a_dependency_and_says_what_is_missing(plugin_zip, tmp_path, data_dir):
     res, _, out = _install_and_load(plugin_zip, tmp_path, data_dir, block="rasterio")
-    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 9, res
+    assert res["loaded"] and res["started"] and len(res["algorithms"]) == 10, res
     assert res["help_mentions_missing"]
     assert "run" not in res
     assert "rasterio" in res["error"] and "pip install" in res["error"], res["error"]

@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
     QgsVectorLayer,
 )
 
-ALG_IDS = {"pcafusion", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
+ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
            "layertopoints", "demo"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
@@ -493,3 +493,20 @@ def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip,
                 if p.kind == p.KEYWORD_ONLY and k not in skip | {"overwrite", "progress"}]
     missing = sorted(k for k in keywords if rename.get(k, k.upper()) not in names)
     assert not missing, f"fotogeo.{module}.{func} options without a parameter in fotogeo:{alg_id}: {missing}"
+
+
+def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):
+    """Detect and match only: a tie-point layer at the reference map positions, with inlier flags."""
+    from processing_provider.algorithms import features as falg
+    from fotogeo.tiepoints import DETECTORS as FG_DETECTORS
+    assert falg.DETECTORS == FG_DETECTORS
+    out = tmp_path / "tp.gpkg"
+    res = run("matchfeatures", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME),
+                                        "MAX_KEYPOINTS": 3000, "OUTPUT": str(out)})
+    layer = QgsVectorLayer(f"{out}|layername=tie_points", "tp", "ogr")
+    assert layer.isValid() and layer.featureCount() == res["MATCHES"] > 100
+    assert 0 < res["INLIERS"] <= res["MATCHES"]
+    assert layer.crs().isValid() and {"target_col", "ref_col", "inlier"} <= set(layer.fields().names())
+    with pytest.raises(QgsProcessingException, match="GeoPackage"):
+        run("matchfeatures", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME),
+                                      "OUTPUT": str(tmp_path / "tp.shp")})

@@ -71,3 +71,21 @@ def test_sentinel2_two_dates_with_clouds(data_dir, tmp_path):
     geo = np.column_stack([t.a * grid[:, 0] + t.c, t.e * grid[:, 1] + t.f])
     d = np.hypot(*(r.model.forward(grid) - geo).T)
     assert np.sqrt(np.mean(d ** 2)) < 20.0  # two 10 m pixels
+
+
+def test_match_only_layer_and_cli(data_dir, tmp_path):
+    import geopandas as gpd
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    ngi = data_dir / "ngi"
+    out = tmp_path / "tp.gpkg"
+    r = CliRunner().invoke(main, ["match", str(ngi / "ortho" / "ngi_rgb_byte_1.tif"),
+                                  str(ngi / "frames" / f"{FRAMES[0][0]}_RGB.tif"), "-o", str(out), "-q"])
+    assert r.exit_code == 0, r.output
+    tp = gpd.read_file(out, layer="tie_points")
+    assert len(tp) > 500 and tp.inlier.sum() > 200 and tp.crs is not None
+    # inliers sit at their reference pixels' map positions
+    with rasterio.open(ngi / "ortho" / "ngi_rgb_byte_1.tif") as ds:
+        t = ds.transform
+    np.testing.assert_allclose(tp.geometry.x, t.a * tp.ref_col + t.c, atol=1e-6)
