@@ -35,8 +35,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))  # exact warps shared with the tests
+from synthetic_images import warp  # noqa: E402
 from fotogeo.matching import lsm_many, measure_target, ncc, synthetic_x_target
-from fotogeo.pixels import from_centre, pixel_centres, to_centre
+from fotogeo.pixels import from_centre, to_centre
 
 DATA = ROOT.parent / "shared" / "data"
 H = 10  # half window for every method: 21x21 pixels
@@ -71,27 +73,6 @@ def affine(shift, angle_deg, scale, centre):
 
 def apply(A, xy):
     return np.atleast_2d(xy) @ A[:, :2].T + A[:, 2]
-
-
-def warp(image, A, a=4):
-    """search(y) = image(A⁻¹ y), Lanczos-a in float64 (cv2.warpAffine quantises to 1/32 px)."""
-    rows, cols = image.shape
-    X, Y = pixel_centres(cols, rows)
-    B = np.linalg.inv(np.vstack([A, [0, 0, 1]]))[:2]
-    src = to_centre(np.stack([X, Y], axis=-1) @ B[:, :2].T + B[:, 2])
-    sx, sy = src[..., 0], src[..., 1]
-    x0, y0 = np.floor(sx).astype(int), np.floor(sy).astype(int)
-    pad = np.pad(image, a + 1, mode="reflect")
-    taps = range(-a + 1, a + 1)
-    wx = [np.sinc(sx - (x0 + i)) * np.sinc((sx - (x0 + i)) / a) for i in taps]
-    wy = [np.sinc(sy - (y0 + j)) * np.sinc((sy - (y0 + j)) / a) for j in taps]
-    out, wsum = np.zeros(image.shape), np.zeros(image.shape)
-    for j, wj in zip(taps, wy):
-        r = np.clip(y0 + j + a + 1, 0, pad.shape[0] - 1)
-        for i, wi in zip(taps, wx):
-            out += wi * wj * pad[r, np.clip(x0 + i + a + 1, 0, pad.shape[1] - 1)]
-            wsum += wi * wj
-    return out / wsum
 
 
 # -- peer methods on the same windows ------------------------------------------------------

@@ -48,6 +48,14 @@ class TieFit:
         return int(np.count_nonzero(self.role == role))
 
 
+def cell_ids(xy: np.ndarray, cells: int) -> np.ndarray:
+    """Index of the ``cells x cells`` grid cell (over the points' bounding box) of each point."""
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    ij = np.minimum((cells * (xy - lo) / span).astype(int), cells - 1)
+    return ij[:, 1] * cells + ij[:, 0]
+
+
 def spread_split(xy: np.ndarray, fraction: float, rng, cells: int | None = None) -> np.ndarray:
     """Boolean mask choosing about ``fraction`` of the points, spread over a grid of cells.
 
@@ -61,11 +69,7 @@ def spread_split(xy: np.ndarray, fraction: float, rng, cells: int | None = None)
     if total <= 0 or n == 0:
         return chosen
     rng = np.random.default_rng(rng)
-    cells = cells or max(1, int(np.sqrt(n / 4)))
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    span = np.where(hi > lo, hi - lo, 1.0)
-    ij = np.minimum((cells * (xy - lo) / span).astype(int), cells - 1)
-    cell = ij[:, 1] * cells + ij[:, 0]
+    cell = cell_ids(xy, cells or max(1, int(np.sqrt(n / 4))))
     order = rng.permutation(n)
     rank = np.empty(n)
     for c in np.unique(cell):  # rank of each point within its cell, in random order
@@ -77,10 +81,7 @@ def spread_split(xy: np.ndarray, fraction: float, rng, cells: int | None = None)
 
 def balance_weights(xy: np.ndarray, cells: int = 8) -> np.ndarray:
     """Weights ``1 / n_cell`` for points binned into a ``cells x cells`` grid over their extent."""
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    span = np.where(hi > lo, hi - lo, 1.0)
-    ij = np.minimum((cells * (xy - lo) / span).astype(int), cells - 1)
-    cell = ij[:, 1] * cells + ij[:, 0]
+    cell = cell_ids(xy, cells)
     return 1.0 / np.bincount(cell, minlength=cells * cells)[cell]
 
 

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from affine import Affine
 
 from .errors import InputError, ModelError
 from .gcp_io import check_inside, read_gcps
@@ -34,7 +33,7 @@ from .models import get_model
 from .orientation import compare, fit_orientation, resolve_model
 from .progress import as_progress
 from .rasterio_io import AtomicOutputs, check_output, open_raster, read_decimated
-from .resample import warp_to_grid
+from .resample import grid_covering, warp_to_grid
 from .vectors import error_vectors, write_json, write_layers
 
 
@@ -170,7 +169,7 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration):
 def _plot(path, info, pixel, residual, role, size: int = 1000):
     """PNG of the residual vectors (scaled to be visible) over a grey thumbnail of the image."""
     bands, _, (fx, fy) = read_decimated(info, size * size, "image")
-    img = bands[:3].mean(axis=0) if len(bands) >= 1 else bands[0]
+    img = bands[:3].mean(axis=0)
     lo, hi = np.percentile(img, [1, 99])
     grey = np.clip((img - lo) / max(hi - lo, 1e-9) * 200 + 30, 0, 255).astype(np.uint8)
     canvas = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
@@ -221,9 +220,7 @@ def _rectify(path, info, g, model, dem, height, resolution, resampling, prog):
     cg = model.inverse(c, z=zmean)[:, :2] if model.src_dims == 3 else model.inverse(c)
     u, v = cg[1] - cg[0], cg[2] - cg[0]
     res = float(resolution or np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
-    x0, y0 = np.floor(XY.min(axis=0) / res) * res
-    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
-    width, height_px = int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+    transform, width, height_px = grid_covering(XY, res)
     if width * height_px > 4 * w * h * max(1.0, (np.sqrt(abs(u[0] * v[1] - u[1] * v[0])) / res) ** 2) + 1e6:
         raise ModelError(f"rectified grid would be {width}x{height_px} px: the model is unstable outside the GCPs")
 
@@ -233,7 +230,6 @@ def _rectify(path, info, g, model, dem, height, resolution, resampling, prog):
             return model.forward(np.column_stack([XYm, zz]))
         return model.forward(XYm)
 
-    transform = Affine(res, 0, x0, 0, -res, y1)
     warp_to_grid(info.path, path, inverse_map, crs=g.crs, transform=transform, width=width, height=height_px,
                  resampling=resampling, progress=prog)
     return {"width": width, "height": height_px, "resolution": res, "transform": list(transform)[:6]}

@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from affine import Affine
 
 from . import __version__
 from .errors import FotogeoError, InputError, MatchingError, ModelError
@@ -33,7 +32,7 @@ from .models import Projective, get_model, ransac
 from .pixels import pixel_to_map
 from .progress import as_progress
 from .rasterio_io import AtomicOutputs, check_output, open_raster, read_decimated
-from .resample import RESAMPLING, warp_to_grid
+from .resample import RESAMPLING, grid_covering, warp_to_grid
 from .terrain import TERRAIN_MODELS
 from .tiepoints import DETECTORS, detect
 from .vectors import error_vectors, write_json, write_layers
@@ -135,15 +134,13 @@ def output_grid(model, info, crs, res: float):
     XY = model.forward(edge)
     if not np.isfinite(XY).all():
         raise ModelError("the fitted model maps part of the target footprint to infinity")
-    x0, y0 = np.floor(XY.min(axis=0) / res) * res
-    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
-    width, height = int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+    transform, width, height = grid_covering(XY, res)
     # sanity: the footprint's area in output pixels against the target's own pixel count
     area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
     if width * height > max(64 * area / res ** 2, 1e4) or width * height > 2 ** 32:
         raise ModelError(f"the fitted model gives an implausible output grid ({width}x{height}); "
                          f"the tie points are probably wrong — check that the images overlap")
-    return Affine(res, 0, x0, 0, -res, y1), width, height
+    return transform, width, height
 
 
 HINT = ("check that the images overlap, then try a looser --ratio (0.9), more --max-keypoints, "
@@ -342,9 +339,7 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
                       check_fraction=opts.check_fraction, rng=opts.seed)
     model = fit.model
     XY = ground_footprint(model, tgt.width, tgt.height, sampler)
-    x0, y0 = np.floor(XY.min(axis=0) / res) * res
-    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
-    transform, width, height = Affine(res, 0, x0, 0, -res, y1), int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+    transform, width, height = grid_covering(XY, res)
 
     def inverse_map(XYo):
         return model.forward(np.column_stack([XYo, sampler.heights(XYo)]))

@@ -26,6 +26,16 @@ _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
 _CV_DTYPES = {"uint8", "uint16", "int16", "float32", "float64"}
 
 
+def grid_covering(XY, res: float):
+    """North-up grid of pixel size ``res`` covering points ``XY`` (N, 2), its edges snapped to
+    multiples of ``res`` (like ``gdalwarp -tap``): ``(transform, width, height)``."""
+    from affine import Affine
+    XY = np.asarray(XY, float)
+    x0, y0 = np.floor(XY.min(axis=0) / res) * res
+    x1, y1 = np.ceil(XY.max(axis=0) / res) * res
+    return Affine(res, 0, x0, 0, -res, y1), int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
+
+
 def default_nodata(dtype: str, nodata):
     """The source nodata if set, else 0 (GDAL's usual choice for a warped raster)."""
     return nodata if nodata is not None else 0

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from synthetic_images import warp
 import pytest
 
 from fotogeo.errors import InputError
@@ -21,7 +22,7 @@ from fotogeo.matching import (
     to_level,
     transfer_points,
 )
-from fotogeo.pixels import pixel_centres, to_centre
+from fotogeo.pixels import pixel_centres
 
 rasterio = pytest.importorskip("rasterio")
 
@@ -56,31 +57,6 @@ def affine(shift=(0.0, 0.0), angle_deg=0.0, scale=1.0, centre=(150.0, 150.0)):
 def apply(A, xy):
     xy = np.atleast_2d(np.asarray(xy, dtype=np.float64))
     return xy @ A[:, :2].T + A[:, 2]
-
-
-def warp(image, A, a=4):
-    """search(y) = image(A⁻¹ y) on the same grid, Lanczos-``a`` interpolation (float64).
-
-    Not cv2.warpAffine: it quantises positions to 1/32 px and its cubic kernel (a = −0.75)
-    biases a 0.25–0.3 px shift by about 0.05 px on these images, which would spoil the truth.
-    """
-    H, W = image.shape
-    X, Y = pixel_centres(W, H)
-    B = np.linalg.inv(np.vstack([A, [0, 0, 1]]))[:2]
-    src = to_centre(np.stack([X, Y], axis=-1) @ B[:, :2].T + B[:, 2])
-    sx, sy = src[..., 0], src[..., 1]
-    x0, y0 = np.floor(sx).astype(int), np.floor(sy).astype(int)
-    pad = np.pad(image, a + 1, mode="reflect")
-    taps = range(-a + 1, a + 1)
-    wx = [np.sinc(sx - (x0 + i)) * np.sinc((sx - (x0 + i)) / a) for i in taps]
-    wy = [np.sinc(sy - (y0 + j)) * np.sinc((sy - (y0 + j)) / a) for j in taps]
-    out, wsum = np.zeros((H, W)), np.zeros((H, W))
-    for j, wj in zip(taps, wy):
-        rows = np.clip(y0 + j + a + 1, 0, pad.shape[0] - 1)
-        for i, wi in zip(taps, wx):
-            out += wi * wj * pad[rows, np.clip(x0 + i + a + 1, 0, pad.shape[1] - 1)]
-            wsum += wi * wj
-    return out / wsum
 
 
 def grid_points(n, lo, hi, seed=0):

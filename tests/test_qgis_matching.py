@@ -77,13 +77,9 @@ def test_transfer_points_recovers_a_subpixel_shift(shifted, tmp_path):
 def test_measure_targets(qgis_app, tmp_path):
     import pandas as pd
 
-    from fotogeo.matching import synthetic_x_target
-    img = np.full((200, 300), 40.0)
+    from synthetic_images import x_target_scene
     centres = np.array([[60.3, 50.7], [150.55, 120.25], [240.8, 90.4]])
-    for c in centres:
-        patch = synthetic_x_target((41, 41), c - np.floor(c) + 20, 3.0, target=210.0, background=40.0, radius=18)
-        r0, c0 = int(np.floor(c[1])) - 20, int(np.floor(c[0])) - 20
-        img[r0:r0 + 41, c0:c0 + 41] = np.maximum(img[r0:r0 + 41, c0:c0 + 41], patch)
+    img = x_target_scene(centres)
     _write(tmp_path / "t.tif", img.astype(np.float32))
     pd.DataFrame({"x": np.round(centres[:, 0]) + 1, "y": np.round(centres[:, 1]) - 1}).to_csv(
         tmp_path / "approx.csv", index=False)

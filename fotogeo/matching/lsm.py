@@ -51,8 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..pixels import as_points, from_centre, to_centre
-from .ncc import as_image, as_xy, check_int, check_range
+from ..pixels import from_centre, to_centre
+from .ncc import as_image, as_point_pairs, as_xy, check_int, check_range
 
 CONVERGED = "converged"
 PARAMETERS = ("a0", "a1", "a2", "b0", "b1", "b2", "r0", "r1")
@@ -200,12 +200,7 @@ def lsm_many(reference, search, ref_xy, approx_xy, *, half_window: int = 10, max
     """
     f_img = as_image(reference, "reference", reference_mask, "reference_mask")
     g_img = as_image(search, "search", search_mask, "search_mask")
-    P = as_points(ref_xy, name="ref_xy")
-    Q = as_points(approx_xy, name="approx_xy")
-    if P.shape != Q.shape:
-        raise InputError(f"ref_xy and approx_xy must have the same shape; got {P.shape} and {Q.shape}")
-    if not (np.isfinite(P).all() and np.isfinite(Q).all()):
-        raise InputError("ref_xy and approx_xy must be finite")
+    P, Q = as_point_pairs(ref_xy, approx_xy)
     _check_options(half_window, max_iterations, interpolation, tolerance, min_correlation, max_sigma)
     if model not in MODELS:
         raise InputError(f"model must be one of {sorted(MODELS)}; got {model!r}")

@@ -242,3 +242,14 @@ def match_prepared(f_img: np.ndarray, g_img: np.ndarray, p: np.ndarray, q: np.nd
     # template centre pixel lands on search pixel (r0 + iy + h, c0 + ix + h)
     xy = from_centre([c0 + ix + h + dx, r0 + iy + h + dy]) + frac
     return NCCResult(xy, best, float(amb), OK, surf)
+
+
+def as_point_pairs(ref_xy, approx_xy):
+    """``ref_xy`` and ``approx_xy`` as finite float64 (N, 2) arrays of equal shape, or InputError."""
+    P = as_points(ref_xy, name="ref_xy")
+    Q = as_points(approx_xy, name="approx_xy")
+    if P.shape != Q.shape:
+        raise InputError(f"ref_xy and approx_xy must have the same shape; got {P.shape} and {Q.shape}")
+    if not (np.isfinite(P).all() and np.isfinite(Q).all()):
+        raise InputError("ref_xy and approx_xy must be finite")
+    return P, Q

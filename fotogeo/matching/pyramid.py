@@ -23,7 +23,7 @@ from ..errors import InputError
 from ..pixels import as_points, from_centre, to_centre
 from ..progress import as_progress
 from .lsm import CONVERGED, lsm_many
-from .ncc import OK, as_image, check_int, check_range, match_prepared
+from .ncc import OK, as_image, as_point_pairs, check_int, check_range, match_prepared
 
 
 def to_level(xy, level: int) -> np.ndarray:
@@ -117,12 +117,7 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
 
     Returns :class:`TransferResult`.
     """
-    P = as_points(ref_xy, name="ref_xy")
-    Q = as_points(approx_xy, name="approx_xy")
-    if P.shape != Q.shape:
-        raise InputError(f"ref_xy and approx_xy must have the same shape; got {P.shape} and {Q.shape}")
-    if not (np.isfinite(P).all() and np.isfinite(Q).all()):
-        raise InputError("ref_xy and approx_xy must be finite")
+    P, Q = as_point_pairs(ref_xy, approx_xy)
     R = check_int(search_radius, "search_radius", 1)
     h = check_int(half_window, "half_window", 2)
     hn = h if ncc_half_window is None else check_int(ncc_half_window, "ncc_half_window", 2)
