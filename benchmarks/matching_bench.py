@@ -243,7 +243,7 @@ def run_targets(rng, n):
 def run_real_pair(rng, n):
     """Orthophoto tile 1 -> raw frame 0182 (rotated ~180°, relief), truth from camera geometry.
 
-    Truth: ortho pixel -> map (X, Y) -> DEM height -> frame pixel (fotogeo.camera); the data
+    Truth: ortho pixel -> map (X, Y) -> DEM height -> frame pixel (fotogeo.geometry.camera); the data
     README measures this geometry to about 0.8 ortho px RMSE, so the discrepancy below is an
     agreement with the geometry, not an accuracy. The truth-free measure is the closure of a
     forward (ortho -> frame) and backward (frame -> ortho) LSM, compared with LSM's σ.
@@ -251,11 +251,11 @@ def run_real_pair(rng, n):
     try:
         import rasterio
 
-        from fotogeo.camera import load_ngi_frame
-        from fotogeo.dem import Dem
+        from fotogeo.io.camera import load_ngi_frame
+        from fotogeo.geometry.dem import Dem
         from fotogeo.pixels import pixel_to_map
     except ImportError as exc:
-        return {"skipped": f"needs fotogeo.camera / fotogeo.dem: {exc}"}
+        return {"skipped": f"needs fotogeo.geometry.camera / fotogeo.dem: {exc}"}
 
     def grey(path):
         with rasterio.open(path) as ds:

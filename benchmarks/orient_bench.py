@@ -1,7 +1,7 @@
 """Orientation models from GCPs on the NGI frames, beside GDAL's GCP transformers.
 
 For each frame, spread (homogeneous = stratified, clustered = GCPs in 3 discs, check points
-everywhere; see :mod:`fotogeo.gcp`), GCP/check split and seeded trial, GCPs and check points
+everywhere; see :mod:`fotogeo.orientation.simulation`), GCP/check split and seeded trial, GCPs and check points
 are generated from the true geometry (camera + exterior orientation + DEM), the GCP pixel
 coordinates get Gaussian noise (default 0.3 px per axis), every model is fitted ground ->
 image on the GCPs, and the check points' image errors are pooled over the trials:
@@ -36,10 +36,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from fotogeo.camera import load_ngi_frame
-from fotogeo.dem import Dem
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import FotogeoError
-from fotogeo.gcp import make_gcps
+from fotogeo.orientation.simulation import make_gcps
 from fotogeo.models import MODELS, RFM, Collinearity, IllPosedWarning
 
 
@@ -181,7 +181,7 @@ def main(argv=None):
     result = {"benchmark": "orient_bench", "units": "pixels (x = col, y = row)",
               "config": {"frames": a.frames, "splits": a.splits, "spreads": a.spreads, "trials": a.trials,
                          "noise_px": a.noise, "clusters": a.clusters,
-                         "cluster_radius": a.cluster_radius, "gcp_generation": "fotogeo.gcp.make_gcps (seeds 0..trials-1)"},
+                         "cluster_radius": a.cluster_radius, "gcp_generation": "fotogeo.orientation.simulation.make_gcps (seeds 0..trials-1)"},
               "environment": {"python": platform.python_version(), "numpy": np.__version__,
                               "gdal": gdal.__version__},
               "seconds": time.time() - t0, "rows": rows}

@@ -3,7 +3,7 @@
 Run:  .venv/bin/python benchmarks/register_bench.py [--quick] [--no-otb] [--no-big]
 
 Every method goes through the SAME RANSAC, robust fit, check-point hold-out, geo step,
-resampling and outputs of :func:`fotogeo.register.register` (seed 0, default options unless
+resampling and outputs of :func:`fotogeo.tools.register.register` (seed 0, default options unless
 the case says otherwise):
 
 - ``surf`` — fotogeo's default pipeline (``register(ref, tgt, out)``);
@@ -23,7 +23,7 @@ the case says otherwise):
 Pairs: NGI frames 0182 / 0184 -> orthophoto tiles 1 / 2 (truth = camera + exterior orientation
 + DEM, ``truth_points`` of tests/ngi_truth.py); Sentinel-2 (10 m) -> NGI orthophoto 1
 (5 m); s2_pair (two dates, nodata 0, affine); Landsat RGB under the known synthetic warp of
-tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.demo``).
+tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.tools.demo``).
 
 Reported per pair and method: keypoints (reference/target), descriptor matches, inliers,
 check-point RMSE (m and reference px), for cases with truth the dense-grid RMSE of the fitted
@@ -97,7 +97,7 @@ def make_landsat_pair(folder: Path):
 
 
 def build_cases(tmp: Path, quick: bool):
-    from fotogeo.demo import make_scene
+    from fotogeo.tools.demo import make_scene
     ngi = DATA / "ngi"
     cases = []
     for key, (name, ortho) in NGI_FRAMES.items():
@@ -132,7 +132,7 @@ class Truth:
         if self.kind == "georef":  # approximate: the target's own georeference (orthoimages)
             from pyproj import CRS
             from fotogeo.pixels import pixel_centres
-            from fotogeo.rasterio_io import open_raster
+            from fotogeo.io.raster import open_raster
             info = open_raster(case["target"])
             self.t_tgt, self.tgt_crs, self.crs = info.transform, info.crs, t["crs"]
             self.out_crs = CRS.from_user_input(self.crs)
@@ -141,8 +141,8 @@ class Truth:
             self.truth = self(self.grid)
         elif self.kind == "ngi":
             from pyproj import CRS
-            from fotogeo.camera import load_ngi_frame
-            from fotogeo.dem import Dem
+            from fotogeo.io.camera import load_ngi_frame
+            from fotogeo.geometry.dem import Dem
             from ngi_truth import truth_points  # tests/ngi_truth.py, shared with the tests
             ngi = DATA / "ngi"
             self.dem = Dem.open(ngi / "dem.tif")
@@ -167,11 +167,11 @@ class Truth:
             self.grid = np.column_stack([x.ravel(), y.ravel()]) * 10
             self.truth = self(self.grid)
         elif self.kind == "demo":
-            from fotogeo.demo import make_scene
+            from fotogeo.tools.demo import make_scene
             from fotogeo.pixels import pixel_centres
             self.scene = make_scene(tmp / "demo_truth", seed=t["seed"])
             self.crs = "EPSG:32635"
-            x, y = pixel_centres(90, 70)  # as fotogeo.demo.truth_comparison (step 10)
+            x, y = pixel_centres(90, 70)  # as fotogeo.tools.demo.truth_comparison (step 10)
             grid = np.column_stack([x.ravel(), y.ravel()]) * 10
             truth = self(grid)
             ok = np.isfinite(truth).all(axis=1)
@@ -180,11 +180,11 @@ class Truth:
     def __call__(self, xy):
         xy = np.asarray(xy, float).reshape(-1, 2)
         if self.kind == "georef":
-            from fotogeo.geo import transform_points
+            from fotogeo.crs import transform_points
             from fotogeo.pixels import pixel_to_map
             return transform_points(self.tgt_crs, self.out_crs, pixel_to_map(self.t_tgt, xy))
         if self.kind == "ngi":
-            from fotogeo.geo import transform_points
+            from fotogeo.crs import transform_points
             g = self.frame.pixel_to_world(self.offset + xy * self.scale, self.dem)[:, :2]
             out = np.full_like(g, np.nan)
             ok = np.isfinite(g).all(axis=1)
@@ -215,9 +215,9 @@ class Truth:
     def correct_share(self, raw, reference) -> dict:
         """Raw matches whose reference position lies within CORRECT_TOL_PX of the true position."""
         from pyproj import CRS
-        from fotogeo.geo import pixel_size_in, transform_points
+        from fotogeo.crs import pixel_size_in, transform_points
         from fotogeo.pixels import pixel_to_map
-        from fotogeo.rasterio_io import open_raster
+        from fotogeo.io.raster import open_raster
         ref = open_raster(reference)
         crs = CRS.from_user_input(self.crs)
         px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
@@ -234,9 +234,9 @@ def matching_image(info, role, opts):
     """The single-band image and validity mask register's matching step hands to the detector,
     and the decimation factor: fotogeo's own ``_features`` runs with ``detect`` intercepted (so the
     benchmark follows any change of the read / fusion / contrast steps)."""
-    import fotogeo.register as fr
+    import fotogeo.tools.register as fr
     from fotogeo.progress import as_progress
-    from fotogeo.tiepoints import Keypoints
+    from fotogeo.features.detect import Keypoints
     seen = {}
 
     def intercept(image, mask, *args, **kwargs):
@@ -257,7 +257,7 @@ def otb_tie_points(reference, target, opts, work: Path, timings: dict, prerotate
     """OTB SURF pairs on the images fotogeo matches; (target_xy, reference_xy, info) in
     full-resolution corner-convention pixels."""
     import rasterio
-    from fotogeo.rasterio_io import open_raster
+    from fotogeo.io.raster import open_raster
     exe = shutil.which(OTB_EXE)
     if exe is None:
         raise RuntimeError(f"{OTB_EXE} not found (Debian package otb-bin)")
@@ -309,8 +309,9 @@ def worker(spec_path: str):
     import cv2  # noqa: F401 - imports first, so that the baseline memory includes them
     import rasterio  # noqa: F401
     from fotogeo.errors import FotogeoError
-    from fotogeo.register import RegisterOptions, find_tie_points, register
-    from fotogeo.rasterio_io import open_raster
+    from fotogeo.tools.register import RegisterOptions, register
+    from fotogeo.tools.match import find_tie_points
+    from fotogeo.io.raster import open_raster
     work = Path(spec["work"])
     method = spec["method"]
     base_mb = _status_mb("VmRSS")
@@ -518,7 +519,7 @@ def probe_read(path: str, result: str):
     import rasterio
     from rasterio.enums import Resampling
     from rasterio.windows import Window
-    from fotogeo.rasterio_io import open_raster, read_decimated
+    from fotogeo.io.raster import open_raster, read_decimated
     info = open_raster(path)
     out = {"base_rss_mb": _status_mb("VmRSS")}
     t0 = time.perf_counter()

@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from ngi_truth import FRAMES, truth_points  # noqa: E402
 
 from fotogeo.models import Projective  # noqa: E402
-from fotogeo.register import register  # noqa: E402
+from fotogeo.tools.register import register  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 

@@ -42,3 +42,7 @@ class Cancelled(FotogeoError):
 
 class FotogeoWarning(UserWarning):
     """Base class of fotogeo's warnings: a result was produced but deserves caution."""
+
+
+class IllPosedWarning(FotogeoWarning):
+    """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""

@@ -5,9 +5,9 @@ Checked against the orthophotos in tests/test_camera.py (0.7–0.8 orthophoto pi
 import numpy as np
 from pyproj import CRS
 
-from fotogeo.camera import load_ngi_frame
-from fotogeo.dem import Dem
-from fotogeo.geo import transform_points
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.geometry.dem import Dem
+from fotogeo.crs import transform_points
 from fotogeo.pixels import pixel_centres
 
 FRAMES = [("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"), ("3324c_2015_1004_05_0184", "ngi_rgb_byte_2.tif")]

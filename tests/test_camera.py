@@ -7,17 +7,9 @@ import numpy as np
 import pytest
 from affine import Affine
 
-from fotogeo.camera import (
-    ExteriorOrientation,
-    FrameCamera,
-    OrientedFrame,
-    angles_patb,
-    load_ngi_frame,
-    read_exterior_orientation,
-    read_interior_orientation,
-    rotation_patb,
-)
-from fotogeo.dem import Dem
+from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, rotation_patb
+from fotogeo.io.camera import load_ngi_frame, read_exterior_orientation, read_interior_orientation
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import InputError
 from fotogeo.pixels import pixel_centres, to_centre
 

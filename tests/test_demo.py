@@ -2,7 +2,7 @@
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.demo import run_demo
+from fotogeo.tools.demo import run_demo
 
 
 def test_demo_registers_against_known_truth(tmp_path):

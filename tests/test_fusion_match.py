@@ -5,7 +5,7 @@ import rasterio
 
 from fotogeo.errors import InputError
 from fotogeo.features.match import match_descriptors
-from fotogeo.fusion import pca_fuse
+from fotogeo.image.fusion import pca_fuse
 
 
 def test_pca_sign_and_stretch_follow_the_band_mean(rng):

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from fotogeo.errors import InputError, MatchingError, ModelError
-from fotogeo.fit import fit_tie_points, spread_split
+from fotogeo.models.robust import fit_tie_points, spread_split
 from fotogeo.models import Affine, Projective, Similarity, get_model, model_from_dict, ransac, robust_refit
 
 

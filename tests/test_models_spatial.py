@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 from affine import Affine
 
-from fotogeo.camera import ExteriorOrientation, FrameCamera, OrientedFrame, load_ngi_frame
-from fotogeo.dem import Dem
+from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import InputError, ModelError
-from fotogeo.gcp import make_gcps
+from fotogeo.orientation.simulation import make_gcps
 from fotogeo.models import DLT, MODELS, Collinearity, IllPosedWarning, get_model, model_from_dict, ransac
 from fotogeo.pixels import pixel_centres
 

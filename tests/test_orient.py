@@ -8,12 +8,13 @@ import rasterio
 import shapely
 from click.testing import CliRunner
 
-from fotogeo.camera import load_ngi_frame, read_interior_orientation
+from fotogeo.io.camera import load_ngi_frame, read_interior_orientation
 from fotogeo.cli import main
-from fotogeo.dem import Dem
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import InputError, ModelError, VectorError
-from fotogeo.gcp import make_gcps
-from fotogeo.orient import compare_models, orient
+from fotogeo.orientation.simulation import make_gcps
+from fotogeo.tools.compare import compare_models
+from fotogeo.tools.orient import orient
 
 NAME = "3324c_2015_1004_05_0182"
 

@@ -26,7 +26,7 @@ def test_conversions_are_inverse_and_half_pixel():
 
 
 def test_resampling_identity_and_half_pixel_shift(tmp_path):
-    from fotogeo.resample import warp_to_grid
+    from fotogeo.io.warp import warp_to_grid
     rng = np.random.default_rng(0)
     data = rng.integers(0, 255, (1, 40, 50), dtype=np.uint8)
     t = Affine(2.0, 0, 100.0, 0, -2.0, 500.0)
@@ -65,7 +65,7 @@ def test_sift_offset_correction_on_a_rotated_self_match(data_dir):
     Under a 180° rotation a corner-convention point x maps to W − x, so matched pairs must
     satisfy x1 + x2 = W (and y1 + y2 = H) on average."""
     from fotogeo.features.match import match_descriptors
-    from fotogeo.tiepoints import detect
+    from fotogeo.features.detect import detect
     with rasterio.open(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif") as ds:
         img = ds.read(2, window=((200, 712), (100, 612))).astype(np.float32)
     rot = img[::-1, ::-1].copy()

@@ -5,15 +5,8 @@ import numpy as np
 import pytest
 
 from fotogeo.errors import InputError, OutputError, VectorError
-from fotogeo.points_file import (
-    HEADER,
-    layer_to_points,
-    pixel_to_source,
-    points_to_layer,
-    read_points,
-    source_to_pixel,
-    write_points,
-)
+from fotogeo.io.points import HEADER, pixel_to_source, read_points, source_to_pixel, write_points
+from fotogeo.tools.points import layer_to_points, points_to_layer
 
 gpd = pytest.importorskip("geopandas")
 

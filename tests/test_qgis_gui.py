@@ -83,9 +83,9 @@ def _gcps(data_dir, path):
     import numpy as np
     import shapely
 
-    from fotogeo.camera import load_ngi_frame
-    from fotogeo.dem import Dem
-    from fotogeo.gcp import make_gcps
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.orientation.simulation import make_gcps
     ngi = data_dir / "ngi"
     dem = Dem.open(ngi / "dem.tif")
     s = make_gcps(load_ngi_frame(ngi, "3324c_2015_1004_05_0182"), dem, 40, 20, "homogeneous", noise=0.3, seed=5)

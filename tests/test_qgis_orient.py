@@ -1,5 +1,5 @@
 """fotogeo:orient and fotogeo:comparemodels in real, headless QGIS, on GCPs from a real NGI frame's
-true geometry (camera + exterior orientation + DEM, see fotogeo.gcp.make_gcps)."""
+true geometry (camera + exterior orientation + DEM, see fotogeo.orientation.simulation.make_gcps)."""
 from __future__ import annotations
 
 import json
@@ -42,9 +42,9 @@ def gcps(qgis_app, data_dir, tmp_path_factory):
     import geopandas as gpd
     import shapely
 
-    from fotogeo.camera import load_ngi_frame
-    from fotogeo.dem import Dem
-    from fotogeo.gcp import make_gcps
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.orientation.simulation import make_gcps
     ngi = data_dir / "ngi"
     frame, dem = load_ngi_frame(ngi, NAME), Dem.open(ngi / "dem.tif")
     s = make_gcps(frame, dem, 40, 20, "homogeneous", noise=0.3, seed=3)
@@ -70,7 +70,7 @@ def base(g, **kw):
 
 
 def test_orient_dlt_all_outputs(gcps, tmp_path):
-    from fotogeo.points_file import read_points
+    from fotogeo.io.points import read_points
     model = ORIENT_MODELS.index("dlt")
     out = {"REPORT": str(tmp_path / "r.json"), "VECTORS": str(tmp_path / "v.gpkg"), "PLOT": str(tmp_path / "p.png"),
            "POINTS": str(tmp_path / "g.points"), "RECTIFY": str(tmp_path / "rect.tif")}
@@ -97,7 +97,7 @@ def test_orient_from_points_file_and_rpc_export(gcps, tmp_path):
     """The Georeferencer path: GCPs as a .points file (heights from the DEM), an RFM exported as GDAL RPC."""
     import rasterio
 
-    from fotogeo.points_file import read_points
+    from fotogeo.io.points import read_points
     pts = tmp_path / "g.points"
     gtif = tmp_path / "gcp.tif"
     run("orient", base(gcps, MODEL=ORIENT_MODELS.index("poly1"), POINTS=str(pts), GCP_TIFF=str(gtif)))

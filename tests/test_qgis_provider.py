@@ -91,19 +91,19 @@ def test_provider_registered_with_all_algorithms(qgis_app):
 
 def test_option_lists_mirror_fotogeo(qgis_app):
     """The provider lists enum options without importing fotogeo; they must equal fotogeo's."""
-    from fotogeo.register import PLANAR_MODELS
-    from fotogeo.resample import RESAMPLING
-    from fotogeo.tiepoints import DETECTORS as FG_DETECTORS
+    from fotogeo.tools.register import PLANAR_MODELS
+    from fotogeo.io.warp import RESAMPLING
+    from fotogeo.features.detect import DETECTORS as FG_DETECTORS
     from processing_provider.algorithms import register as ralg
     assert ralg.DETECTORS == tuple(FG_DETECTORS)
-    from fotogeo.terrain import TERRAIN_MODELS
+    from fotogeo.orientation.terrain import TERRAIN_MODELS
     assert ralg.MODELS == ("default",) + tuple(PLANAR_MODELS) + tuple(TERRAIN_MODELS)
     assert ralg.RESAMPLINGS == tuple(RESAMPLING)
     from fotogeo.models import MODELS
     from processing_provider.algorithms import orient as oalg
     assert oalg.MODELS == tuple(sorted(MODELS))
-    from fotogeo.fusion import CONTRASTS
-    from fotogeo.register import RegisterOptions
+    from fotogeo.image.contrast import CONTRASTS
+    from fotogeo.tools.register import RegisterOptions
     assert ralg.CONTRASTS == tuple(CONTRASTS)
     alg = QgsApplication.processingRegistry().algorithmById("fotogeo:register")
     d = RegisterOptions()
@@ -129,7 +129,7 @@ def test_option_lists_mirror_fotogeo(qgis_app):
 def test_pcafusion_same_as_the_tool(qgis_app, data_dir, tmp_path):
     import rasterio
 
-    from fotogeo.fusion_tool import fuse_raster
+    from fotogeo.tools.fuse import fuse_raster
     src = data_dir / LANDSAT
     fb = Recorder()
     out = tmp_path / "pc1.tif"
@@ -320,7 +320,7 @@ mapX,mapY,sourceX,sourceY,enable,dX,dY,residual
 
 
 def test_points_to_layer_and_back(qgis_app, tmp_path):
-    from fotogeo.points_file import read_points
+    from fotogeo.io.points import read_points
     src = tmp_path / "in.points"
     src.write_text(POINTS)
     res = run("pointstolayer", {"INPUT": str(src), "OUTPUT": str(tmp_path / "gcps.gpkg")})
@@ -364,7 +364,7 @@ def test_points_layer_loaded_and_styled_after_another_run(registered, tmp_path):
 
 
 def test_layer_to_points_from_memory_layer_and_errors(qgis_app, tmp_path):
-    from fotogeo.points_file import read_points
+    from fotogeo.io.points import read_points
     mem = QgsVectorLayer("Point?crs=EPSG:32735&field=id:integer&field=col:double&field=row:double"
                          "&field=role:string", "mem", "memory")
     feats = []
@@ -399,7 +399,7 @@ def test_layer_to_points_from_memory_layer_and_errors(qgis_app, tmp_path):
 
 def test_register_tie_points_to_georeferencer(registered, tmp_path):
     """A register tie_points layer goes straight to a .points file the Georeferencer can use."""
-    from fotogeo.points_file import read_points
+    from fotogeo.io.points import read_points
     res, *_ = registered
     out = tmp_path / "tie.points"
     r = run("layertopoints", {"INPUT": res["TIE_POINTS"], "OUTPUT": str(out)})
@@ -428,7 +428,7 @@ def test_demo_loads_styled_results(qgis_app, tmp_path):
     assert {"Demo reference", "Demo registered", "Demo tie points", "Demo error vectors"} <= set(layers)
     assert layers["Demo registered"].crs().authid() == "EPSG:32635"
     assert layers["Demo tie points"].renderer().type() == "categorizedSymbol"
-    if res["ORTHORECTIFIED"]:  # fotogeo.demo also runs the terrain-aware registration with the scene's DEM
+    if res["ORTHORECTIFIED"]:  # fotogeo.tools.demo also runs the terrain-aware registration with the scene's DEM
         assert res["TERRAIN_TRUTH_RMSE_M"] < res["TRUTH_RMSE_M"]
         assert layers["Demo orthorectified"].crs().authid() == "EPSG:32635"
 
@@ -472,15 +472,15 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
 
 
 @pytest.mark.parametrize("alg_id, module, func, skip, rename", [
-    ("pcafusion", "fusion_tool", "fuse_raster", {"source", "output", "sample_pixels", "block_rows"},
+    ("pcafusion", "tools.fuse", "fuse_raster", {"source", "output", "sample_pixels", "block_rows"},
      {"source": "INPUT"}),
-    ("orient", "orient", "orient", {"image", "gcps", "fields"}, {}),
-    ("comparemodels", "orient", "compare_models", {"image", "gcps", "fields"}, {}),
-    ("transferpoints", "transfer_tool", "transfer_gcps", {"reference", "search", "points", "output"},
+    ("orient", "tools.orient", "orient", {"image", "gcps", "fields"}, {}),
+    ("comparemodels", "tools.compare", "compare_models", {"image", "gcps", "fields"}, {}),
+    ("transferpoints", "tools.transfer", "transfer_gcps", {"reference", "search", "points", "output"},
      {"ref_fields": "REF_COL_FIELD", "approx_fields": "COL_FIELD"}),
-    ("measuretargets", "transfer_tool", "measure_targets", {"image", "points", "output"},
+    ("measuretargets", "tools.targets", "measure_targets", {"image", "points", "output"},
      {"approx_fields": "COL_FIELD"}),
-    ("register", "register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
+    ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""
@@ -497,8 +497,8 @@ def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip,
 
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):
     """Detect and match only: a tie-point layer at the reference map positions, with inlier flags."""
-    from processing_provider.algorithms import features as falg
-    from fotogeo.tiepoints import DETECTORS as FG_DETECTORS
+    from processing_provider.algorithms import match as falg
+    from fotogeo.features.detect import DETECTORS as FG_DETECTORS
     assert falg.DETECTORS == FG_DETECTORS
     out = tmp_path / "tp.gpkg"
     res = run("matchfeatures", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME),

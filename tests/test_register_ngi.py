@@ -1,6 +1,6 @@
 """Registration of the real NGI frames and the Sentinel-2 scenes (../shared/data).
 
-Truth for the raw frames: camera + exterior orientation + DEM (fotogeo.camera), checked
+Truth for the raw frames: camera + exterior orientation + DEM (fotogeo.geometry.camera), checked
 against the orthophotos in tests/test_camera.py. Relief makes any homography approximate,
 so the dense-grid error is compared with the best homography that exists (least squares to
 the truth grid); the difference is what matching and fitting lose.
@@ -13,7 +13,7 @@ import rasterio
 
 from fotogeo.models import Projective
 from fotogeo.pixels import pixel_centres
-from fotogeo.register import register
+from fotogeo.tools.register import register
 from ngi_truth import FRAMES, truth_points
 
 

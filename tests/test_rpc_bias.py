@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from fotogeo.errors import InputError, RasterError
-from fotogeo.rpc_bias import estimate_bias, rpc_from_raster
+from fotogeo.orientation.bias import estimate_bias
+from fotogeo.io.rpc import rpc_from_raster
 
 
 def _gcps(qb2):

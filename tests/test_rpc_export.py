@@ -7,11 +7,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from fotogeo.camera import load_ngi_frame
-from fotogeo.dem import Dem
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import InputError, OutputError
 from fotogeo.models import MODELS
-from fotogeo.rpc import Rpc, frame_rpc, read_rpc, write_rpc_geotiff
+from fotogeo.orientation.rpc import Rpc, frame_rpc
+from fotogeo.io.rpc import read_rpc, write_rpc_geotiff
 
 NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
 FRAME = "3324c_2015_1004_05_0182"

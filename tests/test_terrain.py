@@ -7,12 +7,12 @@ import pytest
 import rasterio
 from pyproj import CRS
 
-from fotogeo.camera import load_ngi_frame
-from fotogeo.dem import Dem
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.geometry.dem import Dem
 from fotogeo.errors import InputError, RasterError
-from fotogeo.geo import transform_points
+from fotogeo.crs import transform_points
 from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
-from fotogeo.register import register
+from fotogeo.tools.register import register
 from ngi_truth import truth_points
 
 F182, F184 = "3324c_2015_1004_05_0182", "3324c_2015_1004_05_0184"

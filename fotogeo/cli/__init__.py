@@ -13,7 +13,7 @@ import click
 from .. import __version__
 
 #: modules of this package that each define ``command`` (a click command, or a list of them).
-COMMAND_MODULES = ("register_cmd", "match_cmd", "fuse_cmd", "demo_cmd", "orient_cmd", "compare_cmd", "matching_cmd")
+COMMAND_MODULES = ("register", "match", "fuse", "demo", "orient", "compare", "transfer", "targets")
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

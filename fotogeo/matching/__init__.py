@@ -17,14 +17,14 @@ NaN (or an optional boolean mask, True = valid) marking nodata. Bad arguments ra
 from .lsm import CONVERGED, PARAMETERS, LSMBatch, LSMResult, lsm, lsm_many
 from .ncc import NCCResult, ncc
 from .pyramid import (
-                      PyramidMatch,
-                      TransferResult,
-                      build_pyramid,
-                      from_level,
-                      levels_for,
-                      pyramid_match,
-                      to_level,
-                      transfer_points,
+    PyramidMatch,
+    TransferResult,
+    build_pyramid,
+    from_level,
+    levels_for,
+    pyramid_match,
+    to_level,
+    transfer_points,
 )
 from .targets import TargetResult, measure_target, synthetic_x_target
 

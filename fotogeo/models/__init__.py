@@ -1,12 +1,11 @@
 """Geometric models sharing one protocol (see :mod:`fotogeo.models.base`) and one RANSAC."""
 from .base import MODELS, Model, Normalisation, get_model, model_from_dict, register_model
-from .planar import Affine, Projective, Similarity
-from .ransac import RansacResult, RobustFit, ransac, robust_refit
-from .spatial import DLT, FittedModel, IllPosedWarning
-from .polynomial import AffineHeight, Bilinear, Poly1, Poly2, Poly3, Poly3D1, Poly3D2, Poly3D3
-from .rfm import (RFM, RFMCommon, RFMCommonImageToGround, RFMImageToGround, RFMPoly,
-                  RFMPolyImageToGround)
 from .collinearity import Collinearity
+from .planar import Affine, Projective, Similarity
+from .polynomial import AffineHeight, Bilinear, Poly1, Poly2, Poly3, Poly3D1, Poly3D2, Poly3D3
+from .ransac import RansacResult, RobustFit, ransac, robust_refit
+from .rfm import RFM, RFMCommon, RFMCommonImageToGround, RFMImageToGround, RFMPoly, RFMPolyImageToGround
+from .spatial import DLT, FittedModel, IllPosedWarning
 
 __all__ = ["MODELS", "Model", "Normalisation", "get_model", "model_from_dict", "register_model",
            "Affine", "Projective", "Similarity", "RansacResult", "RobustFit", "ransac", "robust_refit",

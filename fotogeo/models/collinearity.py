@@ -1,7 +1,7 @@
 """Space resection: the collinearity equations with known interior orientation.
 
 Ground ``(X, Y, Z)`` -> pixel ``(col, row)`` through a pinhole camera (see
-:mod:`fotogeo.camera` for the equations and the PATB angle convention)::
+:mod:`fotogeo.geometry.camera` for the equations and the PATB angle convention)::
 
     (x, y, z) = (R(ω, φ, κ)·diag(1, −1, −1))ᵀ (X − C),   col = fx x/z + ppx,   row = fy y/z + ppy
 
@@ -32,8 +32,8 @@ import warnings
 
 import numpy as np
 
-from ..camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
 from ..errors import InputError, ModelError
+from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
 from .base import Normalisation, check_pairs, register_model
 from .spatial import DLT, FittedModel
 

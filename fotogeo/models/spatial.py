@@ -33,8 +33,8 @@ import warnings
 
 import numpy as np
 
-from ..dem import as_height_source
-from ..errors import FotogeoWarning, InputError, ModelError
+from ..errors import IllPosedWarning, InputError, ModelError
+from ..geometry.dem import as_height_source
 from .base import Model, Normalisation, check_pairs, register_model
 
 #: condition number (normalised weighted design) above which a fit is reported ill-posed
@@ -43,10 +43,6 @@ COND_WARN = 1e7
 RELIEF_WARN = 0.01
 #: occupied fraction of a 4x4 grid over the points' extent below which they count as clustered
 COVERAGE_WARN = 0.5
-
-
-class IllPosedWarning(FotogeoWarning):
-    """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""
 
 
 def design_diagnostics(A: np.ndarray, w: np.ndarray | None = None) -> tuple[float, int]:

@@ -1,11 +1,14 @@
-"""The fotogeo Processing algorithms: one class per capability, each a thin call of one fotogeo tool."""
+"""The fotogeo Processing algorithms: one module per tool (the same stem as ``fotogeo/tools/``
+and ``fotogeo/cli/``), each a thin call of that tool."""
+from .compare import CompareModelsAlgorithm
 from .demo import DemoAlgorithm
-from .features import MatchFeaturesAlgorithm
-from .matching import MeasureTargetsAlgorithm, TransferPointsAlgorithm
-from .orient import CompareModelsAlgorithm, OrientAlgorithm
-from .pcafusion import PcaFusionAlgorithm
+from .fuse import PcaFusionAlgorithm
+from .match import MatchFeaturesAlgorithm
+from .orient import OrientAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
+from .targets import MeasureTargetsAlgorithm
+from .transfer import TransferPointsAlgorithm
 
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,

@@ -53,7 +53,7 @@ class DemoAlgorithm(FotogeoAlgorithm):
                                                  tr("Terrain-aware RMSE against the true geometry (m)")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        run_demo = self.tool("demo", "run_demo")
+        run_demo = self.tool("tools.demo", "run_demo")
         folder = self.parameterAsString(parameters, self.OUTPUT, context)
         os.makedirs(folder, exist_ok=True)
         res = self.run_tool(run_demo, folder, seed=self.parameterAsInt(parameters, self.SEED, context),

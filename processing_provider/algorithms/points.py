@@ -50,7 +50,7 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        points_to_layer = self.tool("points_file", "points_to_layer")
+        points_to_layer = self.tool("tools.points", "points_to_layer")
         points = self.parameterAsFile(parameters, self.INPUT, context)
         raster = self.raster_path(parameters, self.RASTER, context) if parameters.get(self.RASTER) else None
         crs = self.parameterAsCrs(parameters, self.CRS, context)
@@ -89,7 +89,7 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        layer_to_points = self.tool("points_file", "layer_to_points")
+        layer_to_points = self.tool("tools.points", "layer_to_points")
         # a GeoPackage/Shapefile layer is read where it is; anything else (memory layer, selection) is
         # first exported by Processing to a temporary GeoPackage
         path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(

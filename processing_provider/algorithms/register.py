@@ -146,7 +146,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         return crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
 
     def processAlgorithm(self, parameters, context, feedback):
-        register = self.tool("register", "register")
+        register = self.tool("tools.register", "register")
         reference = self.raster_path(parameters, self.REFERENCE, context)
         target = self.raster_path(parameters, self.TARGET, context)
         output = self.raster_output(parameters, self.OUTPUT, context)

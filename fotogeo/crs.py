@@ -1,0 +1,68 @@
+"""CRS helpers: the automatic UTM zone, transformers, and pixel sizes across CRSs."""
+from __future__ import annotations
+
+import numpy as np
+from pyproj import CRS, Transformer
+from pyproj.aoi import AreaOfInterest
+from pyproj.database import query_utm_crs_info
+from pyproj.exceptions import CRSError
+
+from .errors import InputError
+
+
+def parse_crs(spec, what: str = "CRS") -> CRS:
+    """A :class:`pyproj.CRS` from an EPSG code, WKT, PROJ string or CRS object; a clear
+    :class:`InputError` naming ``what`` otherwise (the one CRS parser of fotogeo).
+
+    >>> parse_crs("EPSG:32635").to_epsg()
+    32635
+    """
+    try:
+        return CRS.from_user_input(spec)
+    except (CRSError, TypeError, ValueError) as e:
+        raise InputError(f"{what} {str(spec)[:80]!r} is not a CRS pyproj understands ({str(e)[:120]}); "
+                         f"give an EPSG code such as EPSG:32735, a WKT or a PROJ string") from None
+
+
+def utm_crs_for(lon: float, lat: float) -> CRS:
+    """The WGS 84 UTM zone CRS containing (lon, lat) (EPSG 326zz north, 327zz south)."""
+    infos = query_utm_crs_info(datum_name="WGS 84",
+                               area_of_interest=AreaOfInterest(lon, lat, lon, lat))
+    infos = [i for i in infos if i.code.startswith(("326", "327"))]
+    if infos:
+        return CRS.from_epsg(int(infos[0].code))
+    zone = int((lon + 180.0) // 6.0) % 60 + 1
+    return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
+
+
+def to_lonlat(crs: CRS, xy) -> np.ndarray:
+    """Geographic (lon, lat) of points given in ``crs``."""
+    t = Transformer.from_crs(crs, CRS.from_epsg(4326), always_xy=True)
+    p = np.asarray(xy, float).reshape(-1, 2)
+    return np.column_stack(t.transform(p[:, 0], p[:, 1]))
+
+
+def resolve_crs(spec, reference_crs: CRS, centre_xy) -> CRS:
+    """Output CRS from a user spec: ``"auto"`` (UTM zone of ``centre_xy``), EPSG code, WKT, PROJ."""
+    if spec is None or str(spec).lower() == "auto":
+        lon, lat = to_lonlat(reference_crs, centre_xy)[0]
+        return utm_crs_for(float(lon), float(lat))
+    return parse_crs(spec, "output CRS (or 'auto')")
+
+
+def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
+    """Transform (N, 2) points between CRSs (x = easting/longitude first)."""
+    p = np.asarray(xy, float).reshape(-1, 2)
+    if CRS.from_user_input(src_crs) == CRS.from_user_input(dst_crs):
+        return p.copy()
+    t = Transformer.from_crs(src_crs, dst_crs, always_xy=True)
+    return np.column_stack(t.transform(p[:, 0], p[:, 1]))
+
+
+def pixel_size_in(transform, src_crs: CRS, dst_crs: CRS, col: float, row: float) -> float:
+    """Side of a square with the area of pixel (col, row) of a raster, measured in ``dst_crs`` units."""
+    from .pixels import pixel_to_map
+    corners = pixel_to_map(transform, [[col, row], [col + 1, row], [col, row + 1]])
+    c = transform_points(src_crs, dst_crs, corners)
+    u, v = c[1] - c[0], c[2] - c[0]
+    return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))

@@ -1,0 +1,181 @@
+"""Digital elevation models: a height array with its geotransform, sampled bilinearly.
+
+A :class:`Dem` holds a float64 height array ``data[row, col]`` (NaN where there is no
+height), the affine ``transform`` of its grid (rasterio ``Affine``; GDAL corner convention,
+see :mod:`fotogeo.pixels`) and optionally its CRS. Heights are given at pixel *centres*.
+
+Bilinear sampling at map point ``(X, Y)``: with ``(c, r) = to_centre(~transform * (X, Y))``
+(array-index coordinates, the centre of ``data[0, 0]`` at (0, 0)), ``i = floor(r)``,
+``j = floor(c)``, ``t = r - i``, ``u = c - j``::
+
+    h = (1-t)(1-u) z[i, j] + (1-t) u z[i, j+1] + t (1-u) z[i+1, j] + t u z[i+1, j+1]
+
+Points in the outer half pixel (between the outermost centres and the raster edge) take
+the nearest edge value (the index is clamped); points outside the raster, or whose
+neighbourhood touches a nodata cell, get NaN.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pyproj import CRS, Transformer
+
+from ..errors import InputError, RasterError
+from ..pixels import as_points, to_centre
+
+
+@dataclass(frozen=True)
+class Dem:
+    """Heights ``data`` (rows, cols; float64, NaN = no height) on the grid ``transform``."""
+
+    data: np.ndarray
+    transform: object
+    crs: object = None
+    path: str | None = field(default=None, compare=False)
+
+    def __post_init__(self):
+        d = np.asarray(self.data, dtype=np.float64)
+        if d.ndim != 2 or min(d.shape) < 2:
+            raise InputError(f"DEM array must be 2-D with at least 2x2 cells; got shape {d.shape}")
+        object.__setattr__(self, "data", d)
+
+    @classmethod
+    def open(cls, path, band: int = 1) -> Dem:
+        """Read band ``band`` of a raster with rasterio; its nodata value becomes NaN."""
+        import rasterio
+
+        try:
+            with rasterio.open(path) as ds:
+                t = ds.transform
+                if (t.a, t.b, t.c, t.d, t.e, t.f) == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0):
+                    raise RasterError(f"DEM {path}: has no georeference (identity transform); "
+                                      "georeference it first")
+                z = ds.read(band, masked=True).astype(np.float64)
+                return cls(z.filled(np.nan), ds.transform, ds.crs, str(path))
+        except rasterio.errors.RasterioIOError as exc:
+            raise RasterError(f"cannot read DEM {path}: {exc}") from None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.data.shape
+
+    @property
+    def z_range(self) -> tuple[float, float]:
+        """(min, max) of the valid heights."""
+        return float(np.nanmin(self.data)), float(np.nanmax(self.data))
+
+    def _inverse(self):
+        """Coefficients (a, b, c, d, e, f) of the inverse geotransform (map -> corner pixels)."""
+        t = self.transform
+        det = t.a * t.e - t.b * t.d
+        a, b, d, e = t.e / det, -t.b / det, -t.d / det, t.a / det
+        return a, b, -a * t.c - b * t.f, d, e, -d * t.c - e * t.f
+
+    def _index(self, XY):
+        P = as_points(XY, 2, "DEM sample points")
+        a, b, c0, d, e, f0 = self._inverse()
+        p = to_centre(np.column_stack([a * P[:, 0] + b * P[:, 1] + c0, d * P[:, 0] + e * P[:, 1] + f0]))
+        rows, cols = self.data.shape
+        c, r = p[:, 0], p[:, 1]
+        inside = (c >= -0.5) & (c <= cols - 0.5) & (r >= -0.5) & (r <= rows - 0.5)
+        c = np.clip(np.where(inside, c, 0.0), 0.0, cols - 1.0)
+        r = np.clip(np.where(inside, r, 0.0), 0.0, rows - 1.0)
+        j = np.minimum(np.floor(c).astype(np.intp), cols - 2)
+        i = np.minimum(np.floor(r).astype(np.intp), rows - 2)
+        return i, j, r - i, c - j, inside
+
+    def heights(self, XY) -> np.ndarray:
+        """Bilinear heights ``(N,)`` at map points ``XY`` ``(N, 2)``; NaN outside or at nodata."""
+        return self.heights_and_gradient(XY)[0]
+
+    def heights_and_gradient(self, XY):
+        """Bilinear heights and their map-coordinate gradient ``(h, dh/dX, dh/dY)``, each ``(N,)``."""
+        i, j, t, u, inside = self._index(XY)
+        z = self.data
+        z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+        h = (1 - t) * ((1 - u) * z00 + u * z01) + t * ((1 - u) * z10 + u * z11)
+        dh_du = (1 - t) * (z01 - z00) + t * (z11 - z10)  # per array column
+        dh_dt = (1 - u) * (z10 - z00) + u * (z11 - z01)  # per array row
+        h = np.where(inside, h, np.nan)
+        # chain rule through the inverse geotransform: (col, row) = inv * (X, Y)
+        a, b, _, d, e, _ = self._inverse()
+        dX = dh_du * a + dh_dt * d
+        dY = dh_du * b + dh_dt * e
+        return h, np.where(inside, dX, np.nan), np.where(inside, dY, np.nan)
+
+    def __repr__(self) -> str:  # the array is large
+        return f"Dem(shape={self.shape}, path={self.path!r})"
+
+
+def as_height_source(dem):
+    """Wrap ``dem`` into an object with ``heights_and_gradient(XY)``.
+
+    Accepts a :class:`Dem` (or anything with ``heights_and_gradient``), any object with a
+    ``heights(XY)`` method or a callable ``XY -> heights`` (gradient by central differences
+    with a 1 map-unit step), or a number (a constant height).
+    """
+    if hasattr(dem, "heights_and_gradient"):
+        return dem
+    if isinstance(dem, (int, float, np.floating, np.integer)):
+        return _Constant(float(dem))
+    f = getattr(dem, "heights", dem)
+    if not callable(f):
+        raise InputError("dem must be a fotogeo.geometry.dem.Dem, an object with heights(XY), a callable "
+                         f"XY -> heights or a constant height; got {type(dem).__name__}")
+    return _Sampled(f)
+
+
+@dataclass(frozen=True)
+class _Constant:
+    z: float
+
+    @property
+    def z_range(self) -> tuple[float, float]:
+        return self.z, self.z
+
+    def heights_and_gradient(self, XY):
+        n = len(XY)
+        return np.full(n, self.z), np.zeros(n), np.zeros(n)
+
+
+@dataclass(frozen=True)
+class _Sampled:
+    f: object
+    step: float = 1.0
+
+    def heights_and_gradient(self, XY):
+        XY = np.asarray(XY, dtype=np.float64)
+        e = self.step
+        h = np.asarray(self.f(XY), dtype=np.float64).reshape(-1)
+        gx = (np.asarray(self.f(XY + [e, 0])) - np.asarray(self.f(XY - [e, 0]))).reshape(-1) / (2 * e)
+        gy = (np.asarray(self.f(XY + [0, e])) - np.asarray(self.f(XY - [0, e]))).reshape(-1) / (2 * e)
+        return h, gx, gy
+
+
+class DemSampler:
+    """Heights of a :class:`~fotogeo.geometry.dem.Dem` at points given in another CRS (bilinear).
+
+    ``heights_and_gradient`` makes it usable wherever fotogeo takes a height source.
+    """
+
+    def __init__(self, dem, crs):
+        self.dem = dem
+        if dem.crs is None:
+            raise InputError(f"DEM {dem.path!r} has no CRS; assign one (gdal_edit.py -a_srs) before using it")
+        dcrs = CRS.from_user_input(dem.crs)
+        self._t = None if dcrs == CRS.from_user_input(crs) else Transformer.from_crs(crs, dcrs, always_xy=True)
+        self.z_range = dem.z_range
+
+    def heights(self, XY) -> np.ndarray:
+        XY = np.asarray(XY, float)
+        if self._t is not None:
+            XY = np.column_stack(self._t.transform(XY[:, 0], XY[:, 1]))
+        return self.dem.heights(XY)
+
+    def heights_and_gradient(self, XY, step: float = 1.0):
+        XY = np.asarray(XY, float)
+        h = self.heights(XY)
+        gx = (self.heights(XY + [step, 0]) - self.heights(XY - [step, 0])) / (2 * step)
+        gy = (self.heights(XY + [0, step]) - self.heights(XY - [0, step])) / (2 * step)
+        return h, gx, gy

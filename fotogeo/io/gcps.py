@@ -1,0 +1,180 @@
+"""Ground control points from files: vector layers, CSV tables and QGIS ``.points`` files.
+
+A GCP joins a ground position ``(X, Y[, Z])`` in a map CRS with an image position
+``(col, row)`` in the GDAL corner convention (:mod:`fotogeo.pixels`), plus an ``id`` and a
+``role`` (``control`` points fit a model, ``check`` points measure it).
+
+Accepted inputs (:func:`read_gcps`):
+
+* any point layer GDAL reads (GeoPackage, Shapefile, GeoJSON, …) with fields for the image
+  position (default ``col``, ``row``), optional height ``z``, ``role`` and ``id``;
+* a CSV table with map coordinates in columns ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``,
+  ``lon``/``lat``) and the same fields; its CRS must be given;
+* a QGIS Georeferencer ``.points`` file (enabled points are control points, disabled ones
+  check points; see :mod:`fotogeo.io.points`).
+
+Heights come from the height field, else from a DEM (bilinear, transformed into the DEM's
+CRS as needed), else a constant; otherwise they stay NaN and only 2-D models can be fitted.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from pyproj import CRS
+
+from ..crs import parse_crs, transform_points
+from ..errors import InputError, VectorError
+
+#: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
+#: and of the statistics when such a layer is read back
+ROLES = ("control", "check", "blunder")
+
+
+@dataclass(frozen=True)
+class Gcps:
+    ground: np.ndarray  # (N, 3) X, Y, Z (Z NaN when unknown) in ``crs``
+    pixel: np.ndarray  # (N, 2) col, row (corner convention)
+    role: np.ndarray  # (N,) 'control' | 'check'
+    ids: np.ndarray  # (N,) str
+    crs: CRS
+    source: str = ""
+
+    def __len__(self) -> int:
+        return len(self.pixel)
+
+    def select(self, mask) -> "Gcps":
+        m = np.asarray(mask)
+        return replace(self, ground=self.ground[m], pixel=self.pixel[m], role=self.role[m], ids=self.ids[m])
+
+    @property
+    def has_heights(self) -> bool:
+        return bool(np.isfinite(self.ground[:, 2]).all())
+
+
+def _field(columns, name, what, required=True):
+    low = {c.lower(): c for c in columns}
+    if name and name.lower() in low:
+        return low[name.lower()]
+    if required:
+        raise VectorError(f"{what} has no field {name!r} (fields: {', '.join(map(str, columns))}); "
+                          f"name the right one with the field options")
+    return None
+
+
+def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id="id", crs=None,
+              raster=None, dem=None, height=None) -> Gcps:
+    """Read GCPs from ``path`` (see the module docstring). ``crs`` overrides/sets the map CRS."""
+    p = Path(path)
+    what = f"GCP file {str(p)!r}"
+    if not p.exists():
+        raise VectorError(f"{what} does not exist")
+    zs = None
+    if p.suffix.lower() == ".points":
+        from .points import read_points, source_to_pixel
+        from .raster import raster_transform
+        gp = read_points(p)
+        pix = source_to_pixel(gp.source_xy, raster_transform(raster))
+        xy = gp.map_xy
+        roles = np.where(gp.enabled, "control", "check")
+        ids = np.array([str(i + 1) for i in range(len(gp))])
+        spec = crs or gp.crs
+        if not spec:
+            raise VectorError(f"{what} has no '#CRS' line; give the map CRS of its points (crs=/--crs)")
+        map_crs = parse_crs(spec, what)
+    else:
+        if p.suffix.lower() == ".csv":
+            import pandas as pd
+            try:
+                df = pd.read_csv(p)
+            except Exception as e:  # noqa: BLE001
+                raise VectorError(f"{what} cannot be read as CSV: {e}") from None
+            xcol = next((c for c in df.columns if c.lower() in ("x", "mapx", "lon", "easting")), None)
+            ycol = next((c for c in df.columns if c.lower() in ("y", "mapy", "lat", "northing")), None)
+            if xcol is None or ycol is None:
+                raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
+            if not crs:
+                raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
+            xy = df[[xcol, ycol]].to_numpy(float)
+            map_crs = parse_crs(crs, what)
+            table = df
+        else:
+            import geopandas as gpd
+            try:
+                table = gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
+            except Exception as e:  # noqa: BLE001
+                raise VectorError(f"{what} cannot be read as a vector layer: {e}") from None
+            geom = table.geometry
+            if len(table) and not (geom.geom_type == "Point").all():
+                raise VectorError(f"{what}: GCPs must be points; found {sorted(set(geom.geom_type))}")
+            if crs:
+                map_crs = parse_crs(crs, what)
+            elif table.crs is None:
+                raise VectorError(f"{what} has no CRS; set one on the layer or give it (crs=/--crs)")
+            else:
+                map_crs = CRS.from_user_input(table.crs)
+            xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)]) if len(table) else np.zeros((0, 2))
+        cols = list(table.columns)
+        pix = table[[_field(cols, col, what), _field(cols, row, what)]].to_numpy(float)
+        rf = _field(cols, role, what, required=False)
+        roles = (table[rf].fillna("control").astype(str).str.lower().to_numpy() if rf
+                 else np.full(len(table), "control"))
+        bad = sorted(set(roles) - set(ROLES))
+        if bad:
+            raise VectorError(f"{what}: role values must be 'control', 'check' or 'blunder'; found {bad}")
+        idf = _field(cols, id, what, required=False)
+        ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
+        zf = _field(cols, z, what, required=False) if z else None
+        if zf is not None:
+            zs = table[zf].to_numpy(float)
+    if len(pix) == 0:
+        raise VectorError(f"{what} holds no points")
+    ground = np.column_stack([xy, np.full(len(xy), np.nan) if zs is None else zs])
+    g = Gcps(ground, pix, np.asarray(roles, dtype=object).astype(str), np.asarray(ids).astype(str), map_crs, str(p))
+    g = _fill_heights(g, dem, height)
+    _validate(g, what)
+    return g
+
+
+def _fill_heights(g: Gcps, dem, height) -> Gcps:
+    z = g.ground[:, 2].copy()
+    missing = ~np.isfinite(z)
+    if missing.any() and dem is not None:
+        from ..geometry.dem import Dem
+        d = dem if isinstance(dem, Dem) else Dem.open(dem)
+        if d.crs is None:
+            raise InputError(f"DEM {d.path!r} has no CRS; it cannot be matched to the GCPs")
+        xy = transform_points(g.crs, CRS.from_user_input(d.crs), g.ground[missing, :2])
+        h = d.heights(xy)
+        if not np.isfinite(h).all():
+            bad = g.ids[missing][~np.isfinite(h)]
+            raise InputError(f"DEM {d.path!r} does not cover GCP(s) {', '.join(bad[:10])}"
+                             f"{' …' if len(bad) > 10 else ''}; use a DEM covering all GCPs or give heights")
+        z[missing] = h
+    elif missing.any() and height is not None:
+        z[missing] = float(height)
+    return replace(g, ground=np.column_stack([g.ground[:, :2], z]))
+
+
+def _validate(g: Gcps, what: str):
+    bad = ~(np.isfinite(g.ground[:, :2]).all(axis=1) & np.isfinite(g.pixel).all(axis=1))
+    if bad.any():
+        raise InputError(f"{what}: GCP(s) {', '.join(g.ids[bad][:10])} have missing (NaN) coordinates; "
+                         f"fix or remove them")
+    key = np.round(np.column_stack([g.ground[:, :2], g.pixel]), 6)
+    _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    if (counts > 1).any():
+        dup = g.ids[first[counts > 1]]
+        raise InputError(f"{what}: duplicated GCP(s) {', '.join(dup[:10])}; remove the copies")
+    dup_ids = [i for i, c in zip(*np.unique(g.ids, return_counts=True)) if c > 1]
+    if dup_ids:
+        raise InputError(f"{what}: GCP id(s) {', '.join(dup_ids[:10])} are used more than once")
+
+
+def check_inside(g: Gcps, width: int, height: int, what: str):
+    """Raise :class:`InputError` naming the GCPs whose image position lies outside the image."""
+    out = ~((g.pixel[:, 0] >= 0) & (g.pixel[:, 0] <= width) & (g.pixel[:, 1] >= 0) & (g.pixel[:, 1] <= height))
+    if out.any():
+        raise InputError(f"GCP(s) {', '.join(g.ids[out][:10])} of {what} lie outside the image "
+                         f"({width}x{height} px): check the col/row fields (corner convention) or remove them")

@@ -1,0 +1,163 @@
+"""QGIS Georeferencer ``.points`` files: read, write, and convert to/from a GeoPackage layer.
+
+The format, as QGIS writes it (``QgsGCPList::saveGcps``) and reads it (``loadGcps``)::
+
+    #CRS: <WKT or any CRS definition of the map coordinates>     (optional line)
+    mapX,mapY,sourceX,sourceY,enable,dX,dY,residual               (header, skipped on read)
+    500012.5,6200034.25,100.5,-200.25,1,0.1,-0.2,0.2236
+
+Columns are positional (older files say ``pixelX,pixelY`` and may be tab-separated);
+``enable`` is 1 or 0 and missing means 1; ``dX, dY, residual`` are QGIS's residuals.
+
+Source coordinates are in the source raster's *layer* coordinates:
+
+- for an unreferenced raster QGIS uses the pixel grid with y pointing up, so
+  ``sourceX = col`` and ``sourceY = -row``, with (0, 0) the top-left corner of the top-left
+  pixel — the GDAL corner convention of :mod:`fotogeo.pixels`; the pixel centre of the
+  top-left pixel is (0.5, -0.5);
+- for a georeferenced raster they are map coordinates of that raster, and
+  ``(col, row) = ~transform * (sourceX, sourceY)``.
+
+A fotogeo GCP / tie-point layer is a GeoPackage point layer in the map CRS with fields
+``id`` (int), ``col``, ``row`` (source pixel, corner convention), ``z`` (height, NULL when
+unknown), ``role`` (``control`` or ``check``) and, when known, ``dx``, ``dy``,
+``residual``. ``enable = 1`` ↔ ``role = control``; a disabled point becomes a ``check``
+point (excluded from the fit, used to measure it), and any role other than ``control``
+is written with ``enable = 0``.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, VectorError
+from ..pixels import as_points
+
+HEADER = "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual"
+CRS_PREFIX = "#CRS:"
+
+
+@dataclass(frozen=True)
+class GeorefPoints:
+    """The content of one ``.points`` file (coordinates exactly as written in it)."""
+
+    map_xy: np.ndarray  # (N, 2) float64, map coordinates (in ``crs``)
+    source_xy: np.ndarray  # (N, 2) float64, source layer coordinates (see module docstring)
+    enabled: np.ndarray  # (N,) bool
+    residual: np.ndarray  # (N, 2) float64 dX, dY (NaN when the file has none)
+    crs: str | None = None  # the text after "#CRS: ", or None
+
+    def __len__(self) -> int:
+        return len(self.map_xy)
+
+
+def _fmt(v: float) -> str:
+    """Shortest text that reads back to the same float64 (like QGIS's qgsDoubleToString)."""
+    v = float(v)
+    if not math.isfinite(v):
+        return "0"
+    if v == int(v) and abs(v) < 1e15:
+        return str(int(v))
+    return repr(v)
+
+
+def read_points(path) -> GeorefPoints:
+    """Read a Georeferencer ``.points`` file; a :class:`VectorError` names the bad line."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise VectorError(f"points file {str(p)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise VectorError(f"points file {str(p)!r} cannot be read as text ({e})") from None
+    crs = None
+    rows = []
+    header_seen = False
+    for n, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        if not line:
+            continue
+        if line.startswith("#"):
+            if line.upper().startswith(CRS_PREFIX):
+                crs = line[len(CRS_PREFIX):].strip() or None
+            continue
+        parts = [s.strip() for s in (line.split(",") if "," in line else re.split(r"\t+", line))]
+        if not header_seen and parts and re.match(r"^[A-Za-z]", parts[0]):
+            header_seen = True  # mapX,mapY,sourceX,... (or pixelX,pixelY in older files)
+            continue
+        if len(parts) < 4:
+            raise VectorError(f"points file {str(p)!r}, line {n}: expected at least 4 values "
+                              f"mapX,mapY,sourceX,sourceY; got {raw!r}")
+        try:
+            vals = [float(s) for s in parts[:4]]
+            enable = bool(int(float(parts[4]))) if len(parts) > 4 and parts[4] != "" else True
+            res = [float(s) for s in parts[5:7]] if len(parts) >= 7 else [math.nan, math.nan]
+        except ValueError:
+            raise VectorError(f"points file {str(p)!r}, line {n}: not a number in {raw!r}") from None
+        rows.append(vals + [float(enable)] + res)
+    if not rows:
+        raise VectorError(f"points file {str(p)!r} holds no points (expected the header "
+                          f"{HEADER!r} followed by one line per point)")
+    a = np.array(rows, dtype=np.float64)
+    return GeorefPoints(a[:, 0:2].copy(), a[:, 2:4].copy(), a[:, 4] > 0, a[:, 5:7].copy(), crs)
+
+
+def write_points(path, map_xy, source_xy, enabled=None, residual=None, crs: str | None = None) -> None:
+    """Write a Georeferencer ``.points`` file (QGIS ≥ 3.26 layout; 3.22 reads it too).
+
+    ``crs`` (WKT or any CRS definition) becomes the ``#CRS:`` line when given. Writes
+    straight to ``path``; :func:`layer_to_points` adds the atomic rename and checks.
+    """
+    m = as_points(map_xy, name="map_xy")
+    s = as_points(source_xy, name="source_xy")
+    if len(m) != len(s):
+        raise InputError(f"map_xy has {len(m)} points but source_xy has {len(s)}")
+    en = np.ones(len(m), bool) if enabled is None else np.asarray(enabled, bool).reshape(-1)
+    if len(en) != len(m):
+        raise InputError(f"enabled has {len(en)} values for {len(m)} points")
+    r = np.zeros((len(m), 2)) if residual is None else as_points(residual, name="residual")
+    if len(r) != len(m):
+        raise InputError(f"residual has {len(r)} rows for {len(m)} points")
+    r = np.where(np.isfinite(r), r, 0.0)
+    lines = []
+    if crs:
+        lines.append(f"{CRS_PREFIX} {' '.join(str(crs).split())}")
+    lines.append(HEADER)
+    for (X, Y), (x, y), e, (dx, dy) in zip(m, s, en, r):
+        lines.append(",".join([_fmt(X), _fmt(Y), _fmt(x), _fmt(y), "1" if e else "0",
+                               _fmt(dx), _fmt(dy), _fmt(math.hypot(dx, dy))]))
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def source_to_pixel(source_xy, transform=None) -> np.ndarray:
+    """Georeferencer source coordinates → fotogeo ``(col, row)`` (GDAL corner convention).
+
+    ``transform`` is the source raster's affine geotransform when it is georeferenced;
+    ``None`` (unreferenced raster) means ``col = sourceX``, ``row = -sourceY``.
+
+    >>> source_to_pixel([[0.5, -0.5]]).tolist()
+    [[0.5, 0.5]]
+    """
+    s = as_points(source_xy, name="source coordinates")
+    if transform is None:
+        return np.column_stack([s[:, 0], -s[:, 1]])
+    from ..pixels import map_to_pixel
+    return map_to_pixel(transform, s)
+
+
+def pixel_to_source(colrow, transform=None) -> np.ndarray:
+    """Inverse of :func:`source_to_pixel`.
+
+    >>> pixel_to_source([[10.0, 20.0]]).tolist()
+    [[10.0, -20.0]]
+    """
+    p = as_points(colrow, name="pixel coordinates")
+    if transform is None:
+        return np.column_stack([p[:, 0], -p[:, 1]])
+    from ..pixels import pixel_to_map
+    return pixel_to_map(transform, p)

@@ -1,0 +1,40 @@
+"""JSON reports: numpy values converted, NaN and infinity written as null (JSON has neither)."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+
+def _jsonable(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def _finite(o):
+    """Replace non-finite floats (NaN, inf) by None, recursively: JSON has no NaN."""
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    if isinstance(o, np.ndarray):
+        return _finite(o.tolist())
+    return o
+
+
+def write_json(path, data: dict) -> None:
+    """Write ``data`` as indented JSON (numpy values converted, NaN written as null)."""
+    text = json.dumps(_finite(data), indent=2, default=_jsonable, allow_nan=False)
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())

@@ -1,0 +1,96 @@
+"""RPC files: RPC00B text (``_RPC.TXT``), Pleiades DIMAP XML, GDAL RPC metadata of a raster, and
+GeoTIFF copies of an image carrying a fitted RPC as GDAL metadata (``gdalwarp -rpc`` reads it).
+"""
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from ..errors import InputError, OutputError, RasterError
+from ..orientation.rpc import Rpc
+
+
+def read_rpc_text(path) -> Rpc:
+    """Read a ``KEY: value [unit]`` RPC text file (IKONOS ``_rpc.txt``, Planet/SkySat ``_RPC.TXT``)."""
+    path = Path(path)
+    d = {}
+    for line in path.read_text(errors="replace").splitlines():
+        key, sep, value = line.partition(":")
+        if sep and value.split():
+            d[key.strip().upper()] = value.split()[0]
+    return Rpc.from_mapping(d, str(path))
+
+
+def read_rpc_dimap(path) -> Rpc:
+    """Read the ground -> image ``Inverse_Model`` of a DIMAP v2 RPC XML (Pleiades, SPOT 6/7)."""
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise InputError(f"{path}: not valid XML ({exc})") from None
+    inv = root.find(".//Inverse_Model")
+    valid = root.find(".//RFM_Validity")
+    if inv is None or valid is None:
+        raise InputError(f"{path}: no DIMAP Inverse_Model / RFM_Validity; unsupported RPC file")
+    d = {el.tag: el.text for el in list(inv) + list(valid) if el.text and el.text.strip()}
+    return Rpc.from_mapping(d, str(path))
+
+
+def read_rpc(path) -> Rpc:
+    """Read an RPC text or DIMAP XML file (by content)."""
+    path = Path(path)
+    head = path.read_text(errors="replace")[:2000]
+    if head.lstrip().startswith("<"):
+        return read_rpc_dimap(path)
+    if re.search(r"^\s*LINE_OFF\s*:", head, re.MULTILINE):
+        return read_rpc_text(path)
+    raise InputError(f"{path}: unsupported RPC format (expected 'LINE_OFF: ...' text or DIMAP XML)")
+
+
+def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) -> Path:
+    """Copy raster ``src_path`` to the GeoTIFF ``dst_path`` with ``rpc`` as GDAL RPC metadata.
+
+    The copy keeps pixels and any georeference; ``gdalwarp -rpc`` / ``gdaltransform -rpc`` and
+    QGIS's RPC option then use the RPC. Written to a temporary file beside ``dst_path`` and
+    renamed when complete.
+    """
+    import rasterio
+    import rasterio.shutil
+    from rasterio.errors import RasterioError
+
+    src_path, dst_path = Path(src_path), Path(dst_path)
+    if dst_path.exists() and not overwrite:
+        raise OutputError(f"{dst_path} exists; pass overwrite=True or choose another output path")
+    if dst_path.exists() and dst_path.resolve() == src_path.resolve():
+        raise OutputError(f"output {dst_path} equals the input raster; choose another output path")
+    if not dst_path.parent.is_dir():
+        raise OutputError(f"output folder {dst_path.parent} does not exist; create it first")
+    if not src_path.exists():
+        raise InputError(f"input raster {src_path} does not exist")
+    tmp = dst_path.with_name(f".{dst_path.name}.part.tif")
+    try:
+        rasterio.shutil.copy(str(src_path), str(tmp), driver="GTiff", tiled=True, compress="deflate")
+        with rasterio.open(tmp, "r+") as ds:
+            ds.update_tags(ns="RPC", **rpc.to_gdal_metadata())
+        tmp.replace(dst_path)
+    except RasterioError as exc:
+        raise OutputError(f"cannot write {dst_path} from {src_path}: {exc}") from None
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return dst_path
+
+
+def rpc_from_raster(path) -> Rpc:
+    """The RPC00B model stored in a raster's GDAL ``RPC`` metadata."""
+    from .raster import ropen
+    try:
+        with ropen(path) as ds:
+            rpcs = ds.rpcs
+    except Exception as e:  # noqa: BLE001
+        raise RasterError(f"cannot read raster {str(path)!r}: {e}") from None
+    if rpcs is None:
+        raise RasterError(f"raster {str(path)!r} carries no RPC metadata")
+    d = {k.upper().replace("_COEFF", "_COEFF"): v for k, v in rpcs.to_dict().items()}
+    return Rpc.from_mapping(d, f"RPC of {path}")

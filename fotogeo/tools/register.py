@@ -1,0 +1,350 @@
+"""The registration tool: reference orthophoto + target image (paths) → georeferenced raster.
+
+``register(reference, target, output)`` runs the pipeline of the source paper (Dihkan
+2019) with fotogeo's additions:
+
+1. read both images (decimated to ``max_match_pixels`` for matching), PCA band fusion;
+2. keypoints + descriptors (SURF by default), SSD matching with the ratio test;
+3. tie points: target pixels ↔ reference map coordinates, transformed into the output CRS
+   (``"auto"`` = the UTM zone of the reference centre);
+4. RANSAC + robust refit of the model (projective by default), check points held out;
+5. window-by-window resampling of every band of the target onto the output grid;
+6. outputs written atomically: ``OUT.tif``, ``OUT.gpkg`` (layers ``tie_points`` and
+   ``error_vectors``) and ``OUT.json`` (the report).
+"""
+from __future__ import annotations
+
+import math
+import platform
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..crs import pixel_size_in, resolve_crs, transform_points
+from ..errors import InputError, MatchingError, ModelError
+from ..features.detect import DETECTORS
+from ..image.contrast import CONTRASTS
+from ..io.raster import AtomicOutputs, check_output, open_raster
+from ..io.report import write_json
+from ..io.vector import error_vectors, write_layers
+from ..io.warp import RESAMPLING, grid_covering, warp_to_grid
+from ..models import get_model
+from ..models.robust import fit_tie_points
+from ..orientation.terrain import TERRAIN_MODELS
+from ..pixels import pixel_to_map
+from ..progress import as_progress
+from .match import HINT, find_tie_points
+
+PLANAR_MODELS = ("projective", "affine", "similarity")
+
+
+@dataclass(frozen=True)
+class RegisterOptions:
+    """Parameters of :func:`register` (CLI flags of the same names)."""
+
+    detector: str = "surf"
+    max_keypoints: int = 8000
+    hessian_threshold: float | None = None
+    ratio: float = 0.8
+    mutual: bool = True
+    model: str | None = None  # projective without a DEM, auto with one
+    ransac_threshold: float = 3.0  # reference pixels
+    check_fraction: float = 0.3
+    seed: int = 0
+    resampling: str = "nearest"
+    resolution: float | None = None  # output CRS units; None = the reference's
+    dst_crs: str = "auto"
+    max_match_pixels: int = 16_000_000
+    exaggeration: float = 1.0
+    contrast: str = "adaptive"  # of the fused image for matching: adaptive, equalize, linear
+    refine: str = "none"  # "lsm": least-squares matching of the tie points before the fit
+    reference_nodata: float | None = None  # override the file's nodata (like gdalwarp -srcnodata)
+    target_nodata: float | None = None
+
+    def validate(self):
+        if self.detector not in DETECTORS:
+            raise InputError(f"detector {self.detector!r} unknown; choose one of {', '.join(DETECTORS)}")
+        if self.model not in (None, *PLANAR_MODELS, *TERRAIN_MODELS):
+            raise InputError(f"model {self.model!r} is not a registration model; choose one of "
+                             f"{', '.join(PLANAR_MODELS + TERRAIN_MODELS)}")
+        if self.resampling not in RESAMPLING:
+            raise InputError(f"resampling {self.resampling!r} unknown; choose one of {', '.join(RESAMPLING)}")
+        if not 0 <= self.check_fraction < 0.9:
+            raise InputError(f"check_fraction must be in [0, 0.9); got {self.check_fraction}")
+        if self.resolution is not None and not self.resolution > 0:
+            raise InputError(f"resolution must be a positive number of output CRS units; got {self.resolution}")
+        if self.refine not in ("none", "lsm"):
+            raise InputError(f"refine must be 'none' or 'lsm'; got {self.refine!r}")
+        if self.contrast not in CONTRASTS:
+            raise InputError(f"contrast {self.contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
+        if not self.ransac_threshold > 0:
+            raise InputError(f"ransac_threshold must be > 0 reference pixels; got {self.ransac_threshold}")
+
+
+@dataclass(frozen=True)
+class Registration:
+    """What :func:`register` produced: paths, the fitted model and the report dict."""
+
+    output: Path
+    vectors: Path
+    report_path: Path
+    model: object
+    report: dict = field(repr=False)
+
+
+def _versions() -> dict:
+    import cv2
+    import pyproj
+    import rasterio
+    return {"fotogeo": __version__, "python": platform.python_version(), "numpy": np.__version__,
+            "opencv": cv2.__version__, "rasterio": rasterio.__version__, "gdal": rasterio.__gdal_version__,
+            "pyproj": pyproj.__version__}
+
+
+def output_grid(model, info, crs, res: float):
+    """Output transform, width and height covering the target footprint under ``model``."""
+    t = np.linspace(0, 1, 65)
+    w, h = info.width, info.height
+    edge = np.concatenate([np.column_stack([t * w, 0 * t]), np.column_stack([w + 0 * t, t * h]),
+                           np.column_stack([(1 - t) * w, h + 0 * t]), np.column_stack([0 * t, (1 - t) * h])])
+    if hasattr(model, "world_matrix"):
+        M = model.world_matrix()
+        den = edge @ M[2, :2] + M[2, 2]
+        if not (np.all(den > 0) or np.all(den < 0)):
+            raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
+                             "the tie points are too few or badly spread — check that the images overlap, "
+                             "or try --model affine")
+    XY = model.forward(edge)
+    if not np.isfinite(XY).all():
+        raise ModelError("the fitted model maps part of the target footprint to infinity")
+    transform, width, height = grid_covering(XY, res)
+    # sanity: the footprint's area in output pixels against the target's own pixel count
+    area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
+    if width * height > max(64 * area / res ** 2, 1e4) or width * height > 2 ** 32:
+        raise ModelError(f"the fitted model gives an implausible output grid ({width}x{height}); "
+                         f"the tie points are probably wrong — check that the images overlap")
+    return transform, width, height
+
+
+def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
+             options: RegisterOptions | None = None, progress=None, tie_points=None, dem=None, camera=None,
+             **kwargs) -> Registration:
+    """Register ``target`` to the georeferenced ``reference``; write ``output`` (GeoTIFF).
+
+    Options come as a :class:`RegisterOptions` or as keyword arguments of the same names.
+    ``vectors`` (GeoPackage) and ``report`` (JSON) default to ``output`` with ``.gpkg`` /
+    ``.json``. ``progress(fraction, message) -> bool`` may cancel (return False): nothing is
+    left behind then, and no input is modified. ``tie_points = (target_xy, reference_xy)``
+    (full-resolution pixels, corner convention) skips detection and matching — for tie
+    points from another matcher or measured by hand.
+
+    With ``dem`` (a DEM path or :class:`~fotogeo.geometry.dem.Dem`) the registration is terrain-aware
+    (:mod:`fotogeo.orientation.terrain`): each tie point gets its DEM height, a 3-D model (``model`` =
+    ``auto``, ``dlt``, ``rfm``, ``rfm-common``, ``rfm-poly``, or ``collinearity`` with
+    ``camera``, a FrameCamera or interior-orientation YAML) is fitted, and the output is
+    orthorectified: every output pixel takes its height from the DEM.
+    """
+    opts = options or RegisterOptions(**kwargs)
+    if options is not None and kwargs:
+        raise InputError("give either options= or keyword options, not both")
+    opts.validate()
+    prog = as_progress(progress)
+    output = Path(output)
+    vectors = Path(vectors) if vectors else output.with_suffix(".gpkg")
+    report = Path(report) if report else output.with_suffix(".json")
+    if len({output.resolve(), vectors.resolve(), report.resolve()}) < 3:
+        raise InputError("output raster, vectors and report must be three different paths")
+    if dem is None and opts.model not in (None, *PLANAR_MODELS):
+        raise InputError(f"model {opts.model!r} is a terrain model: it needs a DEM (dem=, --dem)")
+    if dem is not None and opts.model not in (None, *TERRAIN_MODELS):
+        raise InputError(f"with a DEM the model must be one of {', '.join(TERRAIN_MODELS)}; got {opts.model!r}")
+    for p, role in ((output, "output raster"), (vectors, "vector output"), (report, "report")):
+        check_output(p, [reference, target, dem if isinstance(dem, (str, Path)) else None], overwrite, role)
+    ref = open_raster(reference, "reference")
+    tgt = open_raster(target, "target")
+    if not ref.georeferenced:
+        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
+                         f"register against a georeferenced orthophoto, or georeference it first")
+    timings: dict = {}
+    t_all = time.perf_counter()
+    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
+    crs = resolve_crs(opts.dst_crs, ref.crs, centre)
+    ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
+    res = opts.resolution or ref_px
+
+    if tie_points is None:
+        src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.55, "matching"), timings)
+    else:
+        src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in tie_points)
+        if len(src) != len(ref_xy):
+            raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
+        counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
+                  "pca_explained_variance": None, "tie_points_given": True}
+    dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
+    prog.stage(0.55, 0.6, "fitting the model")
+    t0 = time.perf_counter()
+    try:
+        if dem is None:
+            gf = _planar(opts, src, dst, ref_px, tgt, crs, res)
+        else:
+            gf = _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera)
+    except MatchingError as e:
+        raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
+    timings["fit"] = time.perf_counter() - t0
+    rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
+    with AtomicOutputs() as out:
+        t0 = time.perf_counter()
+        warp_to_grid(tgt.path, out.temp(output), gf.inverse_map, crs=crs, transform=gf.transform,
+                     width=gf.width, height=gf.height, resampling=opts.resampling, block=gf.block,
+                     src_nodata=opts.target_nodata, progress=prog.stage(0.6, 0.95, "resampling"))
+        timings["resample"] = time.perf_counter() - t0
+        prog.stage(0.95, 1.0, "writing tie points and report")
+        _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+        timings["total"] = time.perf_counter() - t_all
+        rep["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
+        write_json(out.temp(report), rep)
+        prog(1.0, "done")
+        out.commit()
+    return Registration(output, vectors, report, gf.model, rep)
+
+
+@dataclass(frozen=True)
+class GeoFit:
+    """A fitted registration, 2-D or terrain-aware, in the form the outputs need."""
+
+    model: object
+    role: np.ndarray  # (N,) control / check / outlier (/ no_height)
+    residual_m: np.ndarray  # (N, 2) model position − reference position, output CRS units
+    z: np.ndarray | None  # (N,) tie point heights (terrain-aware only)
+    inverse_map: object  # output map XY -> target pixel
+    transform: object
+    width: int
+    height: int
+    block: int
+    details: dict  # model-specific report entries
+
+    @property
+    def inliers(self):
+        return np.isin(self.role, ("control", "check"))
+
+
+def _block(res, gsd):
+    """Output window size keeping the source window read per block near 512² pixels."""
+    return int(min(1024, max(64, 512 / max(1.0, res / max(gsd, 1e-12)))))
+
+
+def _planar(opts, src, dst, ref_px, tgt, crs, res) -> GeoFit:
+    fit = fit_tie_points(get_model(opts.model or "projective"), src, dst, threshold=opts.ransac_threshold * ref_px,
+                         min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed)
+    model = fit.model
+    transform, width, height = output_grid(model, tgt, crs, res)
+    details = {"ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
+                          "threshold_m": opts.ransac_threshold * ref_px},
+               "robust_sigma_m": fit.sigma,
+               "model_matrix": model.world_matrix().tolist() if hasattr(model, "world_matrix") else None}
+    return GeoFit(model, fit.role, fit.residual_xy, None, model.inverse, transform, width, height,
+                  _block(res, _target_gsd(model, tgt)), details)
+
+
+def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
+    from ..geometry.dem import Dem, DemSampler
+    from ..io.camera import load_camera
+    from ..orientation.terrain import fit_terrain, ground_footprint
+    d = dem if isinstance(dem, Dem) else Dem.open(dem)
+    sampler = DemSampler(d, crs)
+    z = sampler.heights(dst)
+    n_h = int(np.isfinite(z).sum())
+    if n_h < 12:
+        raise InputError(f"the DEM {d.path!r} gives heights for only {n_h} of {len(z)} tie points: it must cover "
+                         f"the overlap of the images (nodata holes are skipped)")
+    fit = fit_terrain(src, np.column_stack([dst, z]), model=opts.model or "auto", camera=load_camera(camera),
+                      threshold_m=opts.ransac_threshold * ref_px, min_sigma_m=ref_px,
+                      check_fraction=opts.check_fraction, rng=opts.seed)
+    model = fit.model
+    XY = ground_footprint(model, tgt.width, tgt.height, sampler)
+    transform, width, height = grid_covering(XY, res)
+
+    def inverse_map(XYo):
+        return model.forward(np.column_stack([XYo, sampler.heights(XYo)]))
+
+    c = np.array([[tgt.width / 2, tgt.height / 2]])
+    gsd = float(np.sqrt(np.mean(np.hypot(*(model.inverse(c + [[1, 0]], dem=sampler)[:, :2]
+                                           - model.inverse(c, dem=sampler)[:, :2]).T) ** 2)))
+    details = {"terrain": {"dem": str(d.path), "tie_points_without_height": int(len(z) - n_h),
+                           "prefilter_inliers": fit.prefilter_inliers, "candidates": fit.candidates,
+                           "chosen": model.name, "chosen_because": fit.chosen_because,
+                           "robust_sigma_px": fit.sigma_px,
+                           "control_rmse_target_px": _rms(fit.residual_px[fit.role == "control"]),
+                           "check_rmse_target_px": _rms(fit.residual_px[fit.role == "check"]),
+                           "model_info": {k: v for k, v in getattr(model, "info", {}).items()
+                                          if isinstance(v, (int, float, str, list, bool))}}}
+    return GeoFit(model, fit.role, fit.residual_m, z, inverse_map, transform, width, height,
+                  _block(res, gsd if np.isfinite(gsd) else res), details)
+
+
+def _rms(r):
+    return float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else None
+
+
+def _target_gsd(model, tgt) -> float:
+    c = np.array([[tgt.width / 2, tgt.height / 2], [tgt.width / 2 + 1, tgt.height / 2],
+                  [tgt.width / 2, tgt.height / 2 + 1]])
+    p = model.forward(c)
+    u, v = p[1] - p[0], p[2] - p[0]
+    return math.sqrt(abs(u[0] * v[1] - u[1] * v[0]))
+
+
+def _stats(resid: np.ndarray, px: float) -> dict:
+    if len(resid) == 0:
+        return {"n": 0}
+    d = np.hypot(resid[:, 0], resid[:, 1])
+    rmse = float(np.sqrt(np.mean(d ** 2)))
+    return {"n": int(len(d)), "rmse_m": rmse, "rmse_px": rmse / px,
+            "rms_x_m": float(np.sqrt(np.mean(resid[:, 0] ** 2))), "rms_y_m": float(np.sqrt(np.mean(resid[:, 1] ** 2))),
+            "median_m": float(np.median(d)), "max_m": float(d.max())}
+
+
+def _report(opts, ref, tgt, crs, ref_px, res, counts, gf):
+    from dataclasses import asdict
+    return {
+        "fotogeo": "register",
+        "reference": str(ref.path), "target": str(tgt.path),
+        "options": asdict(opts),
+        "output_crs": crs.to_string(), "output_crs_wkt": crs.to_wkt(),
+        "output_grid": {"width": gf.width, "height": gf.height, "resolution": res,
+                        "transform": list(gf.transform)[:6]},
+        "reference_pixel_size": ref_px,
+        **counts,
+        "inliers": int(gf.inliers.sum()),
+        "model": gf.model.to_dict(),
+        **gf.details,
+        "control": _stats(gf.residual_m[gf.role == "control"], ref_px),
+        "check": _stats(gf.residual_m[gf.role == "check"], ref_px),
+        "units": "metres in the output CRS (px = reference pixels)",
+        "versions": _versions(),
+    }
+
+
+def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration):
+    import shapely
+    keep = fit.inliers
+    idx = np.flatnonzero(keep)
+    d = fit.residual_m[keep]
+    pts = dst[keep]
+    length = np.hypot(d[:, 0], d[:, 1])
+    common = {"id": idx.astype(np.int64), "role": fit.role[keep],
+              "ref_x": pts[:, 0], "ref_y": pts[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
+              "target_col": src[keep, 0], "target_row": src[keep, 1]}
+    if fit.z is not None:
+        common["z"] = fit.z[keep]
+    layers = {
+        "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
+                       "residual_px": length / ref_px, "geometry": shapely.points(pts)},
+        "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
+                          "length": length, "exaggeration": np.full(len(idx), float(exaggeration)),
+                          "geometry": error_vectors(pts, pts + d, exaggeration)},
+    }
+    write_layers(path, layers, crs.to_wkt())
