@@ -16,6 +16,9 @@ def parse_crs(spec, what: str = "CRS") -> CRS:
 
     >>> parse_crs("EPSG:32635").to_epsg()
     32635
+    >>> parse_crs("EPSG:99999", "output CRS")
+    Traceback (most recent call last):
+    fotogeo.errors.InputError: output CRS 'EPSG:99999' is not a CRS pyproj understands (...); give an EPSG code ...
     """
     try:
         return CRS.from_user_input(spec)
@@ -25,7 +28,11 @@ def parse_crs(spec, what: str = "CRS") -> CRS:
 
 
 def utm_crs_for(lon: float, lat: float) -> CRS:
-    """The WGS 84 UTM zone CRS containing (lon, lat) (EPSG 326zz north, 327zz south)."""
+    """The WGS 84 UTM zone CRS containing (lon, lat) (EPSG 326zz north, 327zz south).
+
+    >>> utm_crs_for(27.1, 39.9).to_epsg(), utm_crs_for(18.5, -33.9).to_epsg()
+    (32635, 32734)
+    """
     infos = query_utm_crs_info(datum_name="WGS 84",
                                area_of_interest=AreaOfInterest(lon, lat, lon, lat))
     infos = [i for i in infos if i.code.startswith(("326", "327"))]

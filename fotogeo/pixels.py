@@ -66,7 +66,15 @@ def pixel_to_map(transform, xy) -> np.ndarray:
     """Map coordinates of corner-convention pixel coordinates through an affine geotransform.
 
     ``transform`` is a rasterio/affine ``Affine`` (a, b, c, d, e, f): X = a*col + b*row + c,
-    Y = d*col + e*row + f.
+    Y = d*col + e*row + f. With 10 m pixels, (0, 0) is the raster's top-left corner and
+    (0.5, 0.5) the centre of its top-left pixel:
+
+    >>> from affine import Affine
+    >>> t = Affine(10.0, 0.0, 500000.0, 0.0, -10.0, 4200000.0)
+    >>> pixel_to_map(t, [[0, 0], [0.5, 0.5], [2, 1]]).tolist()
+    [[500000.0, 4200000.0], [500005.0, 4199995.0], [500020.0, 4199990.0]]
+    >>> to_centre(map_to_pixel(t, [[500005.0, 4199995.0]])).tolist()  # array index [0, 0]
+    [[0.0, 0.0]]
     """
     p = as_points(xy)
     t = transform

@@ -56,6 +56,18 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
     ``mask`` marks valid pixels; ``nodata`` values and NaN are excluded too. Statistics use
     at most ``sample`` pixels drawn with the seed ``rng``. ``contrast`` is one of
     :data:`CONTRASTS` (see the module docstring). ``name`` appears in errors.
+
+    Two perfectly correlated bands fuse into one band carrying all the variance, stretched
+    to 0..255 (float32, the shape of one band):
+
+    >>> x = np.arange(20.0).reshape(4, 5)
+    >>> f = pca_fuse(np.stack([x, 2 * x + 1]))
+    >>> f.image.shape, f.image.dtype, f.mask.all()
+    ((4, 5), dtype('float32'), True)
+    >>> f.component.round(3).tolist(), round(f.explained, 3)
+    ([0.447, 0.894], 1.0)
+    >>> float(f.image[0, 0]), float(f.image[-1, -1])
+    (0.0, 255.0)
     """
     if contrast not in CONTRASTS:
         raise InputError(f"contrast {contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")

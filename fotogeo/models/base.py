@@ -34,7 +34,20 @@ def register_model(cls):
 
 
 def get_model(name: str) -> type["Model"]:
-    """The model class called ``name`` (raises :class:`InputError` listing the valid names)."""
+    """The model class called ``name`` (raises :class:`InputError` listing the valid names).
+
+    The protocol on four pixel → map pairs (10 px = 20 m, north up):
+
+    >>> px = [[0, 0], [10, 0], [0, 10], [10, 10]]
+    >>> XY = [[100, 200], [120, 200], [100, 180], [120, 180]]
+    >>> m = get_model("affine").estimate(px, XY)
+    >>> m.name, m.n_params, m.min_points, m.src_dims
+    ('affine', 6, 3, 2)
+    >>> m.forward([[5, 5]]).tolist()
+    [[110.0, 190.0]]
+    >>> m.residuals(px, XY).round(9).tolist()
+    [0.0, 0.0, 0.0, 0.0]
+    """
     try:
         return MODELS[name]
     except KeyError:
