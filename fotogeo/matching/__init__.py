@@ -13,8 +13,12 @@ NaN (or an optional boolean mask, True = valid) marking nodata. Bad arguments ra
   NCC on ``cv2.pyrDown`` pyramids followed by LSM (seeds 000/003).
 - :func:`measure_target`, :func:`synthetic_x_target` — X-shaped fiducial / calibration
   targets: edge method, then LSM against a synthetic template (seed 000).
+- :mod:`fotogeo.matching.status` — the status words all of them report (``OK``,
+  ``CONVERGED``, ``WINDOW_OUTSIDE``, …), one word per outcome.
 """
-from .lsm import CONVERGED, PARAMETERS, LSMBatch, LSMResult, lsm, lsm_many
+from . import status
+from .lsm import LSMBatch, LSMResult, lsm, lsm_many
+from .lsm_steps import PARAMETERS
 from .ncc import NCCResult, ncc
 from .pyramid import (
     PyramidMatch,
@@ -26,10 +30,27 @@ from .pyramid import (
     to_level,
     transfer_points,
 )
+from .status import (
+    AMBIGUOUS,
+    CONVERGED,
+    DIVERGED,
+    FLAT,
+    LOW_CORRELATION,
+    LOW_SIGNAL,
+    MAX_ITERATIONS,
+    NODATA,
+    OK,
+    PEAK_AT_BORDER,
+    SHIFT_BEYOND_WINDOW,
+    SINGULAR,
+    WINDOW_OUTSIDE,
+)
 from .targets import TargetResult, measure_target, synthetic_x_target
 
 __all__ = [
-    "CONVERGED", "PARAMETERS", "LSMBatch", "LSMResult", "NCCResult", "PyramidMatch", "TargetResult",
+    "AMBIGUOUS", "CONVERGED", "DIVERGED", "FLAT", "LOW_CORRELATION", "LOW_SIGNAL", "MAX_ITERATIONS", "NODATA",
+    "OK", "PEAK_AT_BORDER", "SHIFT_BEYOND_WINDOW", "SINGULAR", "WINDOW_OUTSIDE", "status",
+    "PARAMETERS", "LSMBatch", "LSMResult", "NCCResult", "PyramidMatch", "TargetResult",
     "TransferResult", "build_pyramid", "from_level", "levels_for", "lsm", "lsm_many", "measure_target",
     "ncc", "pyramid_match", "synthetic_x_target", "to_level", "transfer_points",
 ]

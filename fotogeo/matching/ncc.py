@@ -28,9 +28,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..pixels import as_points, from_centre
-
-#: Status of a successful NCC match.
-OK = "ok"
+from .status import AMBIGUOUS, FLAT, LOW_CORRELATION, NODATA, OK, PEAK_AT_BORDER, WINDOW_OUTSIDE
 
 # -- shared input helpers (used by lsm, pyramid and targets too) ---------------------------
 
@@ -178,9 +176,10 @@ def ncc(reference, search, ref_xy, approx_xy, *, half_window: int = 10, search_r
     subpixel : ``"quadratic"`` or ``"gaussian"`` peak fit
     reference_mask, search_mask : optional boolean arrays, True = valid pixel
 
-    Returns :class:`NCCResult`; ``status`` is ``"ok"`` or one of ``"window outside image"``,
-    ``"nodata in window"``, ``"flat patch"``, ``"low correlation"``, ``"ambiguous"``,
-    ``"peak at search border"`` (the approximation is probably too far off).
+    Returns :class:`NCCResult`; ``status`` (:mod:`fotogeo.matching.status`) is ``"ok"`` or
+    one of ``"window outside image"``, ``"nodata in window"``, ``"flat patch"``,
+    ``"low correlation"``, ``"ambiguous"``, ``"peak at search border"`` (the approximation
+    is probably too far off).
     """
     f_img = as_image(reference, "reference", reference_mask, "reference_mask")
     g_img = as_image(search, "search", search_mask, "search_mask")
@@ -205,13 +204,13 @@ def match_prepared(f_img: np.ndarray, g_img: np.ndarray, p: np.ndarray, q: np.nd
     frac = p - from_centre([pc, pr])
     H, W = f_img.shape
     if pr - h < 0 or pc - h < 0 or pr + h >= H or pc + h >= W:
-        return _fail("window outside image")
+        return _fail(WINDOW_OUTSIDE)
     tpl = f_img[pr - h:pr + h + 1, pc - h:pc + h + 1]
     if np.isnan(tpl).any():
-        return _fail("nodata in window")
+        return _fail(NODATA)
     scale = max(float(np.abs(tpl).max()), 1.0)
     if tpl.std() <= 1e-6 * scale:
-        return _fail("flat patch")
+        return _fail(FLAT)
 
     # search region, clipped to the image
     qc, qr = int(np.floor(q[0] - frac[0])), int(np.floor(q[1] - frac[1]))
@@ -219,24 +218,24 @@ def match_prepared(f_img: np.ndarray, g_img: np.ndarray, p: np.ndarray, q: np.nd
     r0, r1 = max(qr - r - h, 0), min(qr + r + h + 1, Hs)
     c0, c1 = max(qc - r - h, 0), min(qc + r + h + 1, Ws)
     if r1 - r0 < 2 * h + 3 or c1 - c0 < 2 * h + 3:
-        return _fail("window outside image")
+        return _fail(WINDOW_OUTSIDE)
     win = g_img[r0:r1, c0:c1]
     rho = correlation_surface(tpl, win)
     surf = rho if keep_surface else None
     if not np.isfinite(rho).any():
-        return _fail("nodata in window" if np.isnan(win).any() else "flat patch", surface=surf)
+        return _fail(NODATA if np.isnan(win).any() else FLAT, surface=surf)
     iy, ix = np.unravel_index(int(np.argmax(rho)), rho.shape)
     best = float(rho[iy, ix])
     amb = second_peak(rho, (iy, ix)) / best if best > 0 else np.nan
     if best < min_correlation:
-        return _fail("low correlation", best, amb, surf)
+        return _fail(LOW_CORRELATION, best, amb, surf)
     if iy == 0 or ix == 0 or iy == rho.shape[0] - 1 or ix == rho.shape[1] - 1:
-        return _fail("peak at search border", best, amb, surf)
+        return _fail(PEAK_AT_BORDER, best, amb, surf)
     nb = rho[iy - 1:iy + 2, ix - 1:ix + 2]
     if not np.isfinite(nb).all():
-        return _fail("nodata in window", best, amb, surf)
+        return _fail(NODATA, best, amb, surf)
     if amb > max_ambiguity:
-        return _fail("ambiguous", best, amb, surf)
+        return _fail(AMBIGUOUS, best, amb, surf)
     dx = _subpixel(nb[1, 0], nb[1, 1], nb[1, 2], subpixel)
     dy = _subpixel(nb[0, 1], nb[1, 1], nb[2, 1], subpixel)
     # template centre pixel lands on search pixel (r0 + iy + h, c0 + ix + h)

@@ -22,8 +22,9 @@ import numpy as np
 from ..errors import InputError
 from ..pixels import as_points, from_centre, to_centre
 from ..progress import as_progress
-from .lsm import CONVERGED, lsm_many
-from .ncc import OK, as_image, as_point_pairs, check_int, check_range, match_prepared
+from .lsm import lsm_many
+from .ncc import as_image, as_point_pairs, check_int, check_range, match_prepared
+from .status import CONVERGED, OK, STAGE_LSM, WINDOW_OUTSIDE, at_stage, ncc_level
 
 
 def to_level(xy, level: int) -> np.ndarray:
@@ -153,10 +154,10 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
                                  min_correlation, max_ambiguity)
             if res.status == OK:
                 cur[i], rad[i] = res.xy, 2
-            elif res.status == "window outside image" and k > 0:
+            elif res.status == WINDOW_OUTSIDE and k > 0:
                 rad[i] = 2 * rad[i] + 1
             else:
-                status[i] = f"ncc level {k}: {res.status}"
+                status[i] = at_stage(ncc_level(k), res.status)
             done += 1
             if done % 64 == 0:
                 prog(0.8 * done / total, f"NCC at pyramid level {k}")
@@ -174,7 +175,7 @@ def transfer_points(reference, search, ref_xy, approx_xy, *, search_radius: int 
                      max_iterations=max_iterations, min_correlation=min_correlation, max_sigma=max_sigma,
                      max_shift=2.0)
         xy[live], sigma[live], rho[live] = b.xy, b.sigma, b.ncc
-        status[live] = [s if s == CONVERGED else f"lsm: {s}" for s in b.status]
+        status[live] = [s if s == CONVERGED else at_stage(STAGE_LSM, s) for s in b.status]
     prog(1.0, "points transferred")
     return TransferResult(xy, sigma, rho, status.astype(str), ncc_xy, L)
 

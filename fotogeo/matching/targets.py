@@ -33,8 +33,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..pixels import from_centre, pixel_centres
-from .lsm import CONVERGED, lsm_many
+from .lsm import lsm_many
 from .ncc import as_image, as_xy, check_int
+from .status import CONVERGED, NODATA, STAGE_EDGE_METHOD, WINDOW_OUTSIDE, at_stage
 
 
 def synthetic_x_target(shape, centre_xy, arm_width: float, angles_deg=(45.0, 135.0), target: float = 255.0,
@@ -205,16 +206,16 @@ def measure_target(image, approx_xy, *, half_window: int = 12, search_half_windo
     c, r = int(np.floor(q[0])), int(np.floor(q[1]))
     H, W = img.shape
     if r - hs < 0 or c - hs < 0 or r + hs >= H or c + hs >= W:
-        return fail("window outside image")
+        return fail(WINDOW_OUTSIDE)
     win = img[r - hs:r + hs + 1, c - hs:c + hs + 1]
     if np.isnan(win).any():
-        return fail("nodata in window")
+        return fail(NODATA)
     try:
         centre, mgl, mbgl, width, angles = _edge_centre_rows_or_cols(win, polarity)
         approx = from_centre(centre + [c - hs, r - hs])
     except ValueError as exc:
         if arm_width is None or arm_angles is None or str(exc) == "flat window":
-            return fail(f"edge method: {exc}")
+            return fail(at_stage(STAGE_EDGE_METHOD, str(exc)))
         # arms near the image axes ('+'): with the target's shape given, LSM starts at approx_xy
         _, mgl, mbgl = _grey_levels(win, polarity)
         approx = q
@@ -223,9 +224,9 @@ def measure_target(image, approx_xy, *, half_window: int = 12, search_half_windo
     if arm_angles is not None:
         angles = tuple(float(a) for a in arm_angles)
     if not (np.isfinite(approx).all() and np.hypot(*(approx - q)) <= hs):
-        return fail("edge method: centre outside the window", approx, mgl, mbgl, width, angles)
+        return fail(at_stage(STAGE_EDGE_METHOD, "centre outside the window"), approx, mgl, mbgl, width, angles)
     if not (0.5 <= width <= h):
-        return fail("edge method: implausible arm width", approx, mgl, mbgl, width, angles)
+        return fail(at_stage(STAGE_EDGE_METHOD, "implausible arm width"), approx, mgl, mbgl, width, angles)
     s = h + 3
     tpl = synthetic_x_target((2 * s + 1, 2 * s + 1), (s + 0.5, s + 0.5), width, angles, mgl, mbgl)
     b = lsm_many(tpl, img, [[s + 0.5, s + 0.5]], approx[None], half_window=h, interpolation=interpolation,
