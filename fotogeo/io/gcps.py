@@ -44,23 +44,15 @@ class Gcps:
     def __len__(self) -> int:
         return len(self.pixel)
 
-    def select(self, mask) -> "Gcps":
-        m = np.asarray(mask)
-        return replace(self, ground=self.ground[m], pixel=self.pixel[m], role=self.role[m], ids=self.ids[m])
-
     @property
     def has_heights(self) -> bool:
         return bool(np.isfinite(self.ground[:, 2]).all())
 
 
-def _field(columns, name, what, required=True):
-    low = {c.lower(): c for c in columns}
-    if name and name.lower() in low:
-        return low[name.lower()]
-    if required:
-        raise VectorError(f"{what} has no field {name!r} (fields: {', '.join(map(str, columns))}); "
-                          f"name the right one with the field options")
-    return None
+#: Accepted names of the map-coordinate columns of a CSV table (any letter case).
+X_NAMES = ("x", "mapx", "lon", "easting")
+Y_NAMES = ("y", "mapy", "lat", "northing")
+_FIELD_HINT = "name the right one with the field options"
 
 
 def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id="id", crs=None,
@@ -70,64 +62,10 @@ def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id=
     what = f"GCP file {str(p)!r}"
     if not p.exists():
         raise VectorError(f"{what} does not exist")
-    zs = None
     if p.suffix.lower() == ".points":
-        from .points import read_points, source_to_pixel
-        from .raster import raster_transform
-        gp = read_points(p)
-        pix = source_to_pixel(gp.source_xy, raster_transform(raster))
-        xy = gp.map_xy
-        roles = np.where(gp.enabled, "control", "check")
-        ids = np.array([str(i + 1) for i in range(len(gp))])
-        spec = crs or gp.crs
-        if not spec:
-            raise VectorError(f"{what} has no '#CRS' line; give the map CRS of its points (crs=/--crs)")
-        map_crs = parse_crs(spec, what)
+        xy, pix, roles, ids, zs, map_crs = _from_points_file(p, what, crs, raster)
     else:
-        if p.suffix.lower() == ".csv":
-            import pandas as pd
-            try:
-                df = pd.read_csv(p)
-            except Exception as e:  # noqa: BLE001
-                raise VectorError(f"{what} cannot be read as CSV: {e}") from None
-            xcol = next((c for c in df.columns if c.lower() in ("x", "mapx", "lon", "easting")), None)
-            ycol = next((c for c in df.columns if c.lower() in ("y", "mapy", "lat", "northing")), None)
-            if xcol is None or ycol is None:
-                raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
-            if not crs:
-                raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
-            xy = df[[xcol, ycol]].to_numpy(float)
-            map_crs = parse_crs(crs, what)
-            table = df
-        else:
-            import geopandas as gpd
-            try:
-                table = gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
-            except Exception as e:  # noqa: BLE001
-                raise VectorError(f"{what} cannot be read as a vector layer: {e}") from None
-            geom = table.geometry
-            if len(table) and not (geom.geom_type == "Point").all():
-                raise VectorError(f"{what}: GCPs must be points; found {sorted(set(geom.geom_type))}")
-            if crs:
-                map_crs = parse_crs(crs, what)
-            elif table.crs is None:
-                raise VectorError(f"{what} has no CRS; set one on the layer or give it (crs=/--crs)")
-            else:
-                map_crs = CRS.from_user_input(table.crs)
-            xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)]) if len(table) else np.zeros((0, 2))
-        cols = list(table.columns)
-        pix = table[[_field(cols, col, what), _field(cols, row, what)]].to_numpy(float)
-        rf = _field(cols, role, what, required=False)
-        roles = (table[rf].fillna("control").astype(str).str.lower().to_numpy() if rf
-                 else np.full(len(table), "control"))
-        bad = sorted(set(roles) - set(ROLES))
-        if bad:
-            raise VectorError(f"{what}: role values must be 'control', 'check' or 'blunder'; found {bad}")
-        idf = _field(cols, id, what, required=False)
-        ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
-        zf = _field(cols, z, what, required=False) if z else None
-        if zf is not None:
-            zs = table[zf].to_numpy(float)
+        xy, pix, roles, ids, zs, map_crs = _from_table(p, what, layer, crs, col, row, z, role, id)
     if len(pix) == 0:
         raise VectorError(f"{what} holds no points")
     ground = np.column_stack([xy, np.full(len(xy), np.nan) if zs is None else zs])
@@ -135,6 +73,61 @@ def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id=
     g = _fill_heights(g, dem, height)
     _validate(g, what)
     return g
+
+
+def _from_points_file(p: Path, what: str, crs, raster):
+    """``(map xy, pixel, roles, ids, heights=None, CRS)`` of a Georeferencer ``.points`` file."""
+    from .points import read_points, source_to_pixel
+    from .raster import raster_transform
+    gp = read_points(p)
+    pix = source_to_pixel(gp.source_xy, raster_transform(raster))
+    spec = crs or gp.crs
+    if not spec:
+        raise VectorError(f"{what} has no '#CRS' line; give the map CRS of its points (crs=/--crs)")
+    ids = np.array([str(i + 1) for i in range(len(gp))])
+    return gp.map_xy, pix, np.where(gp.enabled, "control", "check"), ids, None, parse_crs(spec, what)
+
+
+def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
+    """``(map xy, pixel, roles, ids, heights or None, CRS)`` of a CSV table or a point layer."""
+    from .tables import find_column, is_layer, numeric_columns, read_table
+    table = read_table(p, "GCP file", layer)
+    if is_layer(table):
+        xy, map_crs = _layer_positions(table, what, crs)
+    else:
+        xcol = next((c for c in table.columns if str(c).lower() in X_NAMES), None)
+        ycol = next((c for c in table.columns if str(c).lower() in Y_NAMES), None)
+        if xcol is None or ycol is None:
+            raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
+        if not crs:
+            raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
+        xy, map_crs = table[[xcol, ycol]].to_numpy(float), parse_crs(crs, what)
+    pix = numeric_columns(table, [col, row], what, _FIELD_HINT)
+    rf = find_column(table, role)
+    roles = (table[rf].fillna("control").astype(str).str.lower().to_numpy() if rf
+             else np.full(len(table), "control"))
+    bad = sorted(set(roles) - set(ROLES))
+    if bad:
+        raise VectorError(f"{what}: role values must be 'control', 'check' or 'blunder'; found {bad}")
+    idf = find_column(table, id)
+    ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
+    zf = find_column(table, z)
+    return xy, pix, roles, ids, (table[zf].to_numpy(float) if zf is not None else None), map_crs
+
+
+def _layer_positions(table, what: str, crs):
+    """Map positions (N, 2) of a point layer's geometries and its CRS (``crs`` overrides it)."""
+    geom = table.geometry
+    if len(table) and not (geom.geom_type == "Point").all():
+        raise VectorError(f"{what}: GCPs must be points; found {sorted(set(geom.geom_type))}")
+    if crs:
+        map_crs = parse_crs(crs, what)
+    elif table.crs is None:
+        raise VectorError(f"{what} has no CRS; set one on the layer or give it (crs=/--crs)")
+    else:
+        map_crs = CRS.from_user_input(table.crs)
+    xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)]) if len(table) else np.zeros((0, 2))
+    return xy, map_crs
 
 
 def _fill_heights(g: Gcps, dem, height) -> Gcps:

@@ -100,6 +100,29 @@ def read_decimated(info: RasterInfo, max_pixels: int, role: str = "raster", stri
     return bands, mask, (fx, fy)
 
 
+#: Tile size of every GeoTIFF fotogeo writes (GDAL's default for TILED=YES).
+GEOTIFF_BLOCK = 256
+
+
+def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fields) -> dict:
+    """The rasterio profile of a GeoTIFF output: ``base`` (e.g. a source's ``profile``)
+    updated with ``fields`` (width, height, count, dtype, crs, transform, nodata, …) and
+    fotogeo's creation options — driver GTiff, tiled in 256x256 blocks, DEFLATE compression.
+
+    With ``predictor``, also the DEFLATE predictor for the data type (2, horizontal
+    differencing, for integers; 3, floating point, otherwise) and ``BIGTIFF=IF_SAFER``, for
+    large outputs such as rectified images. Without ``base`` and ``fields`` the result are
+    the creation options alone, e.g. for ``rasterio.shutil.copy``.
+    """
+    profile = dict(base or {})
+    profile.update(fields)
+    profile.update(driver="GTiff", tiled=True, blockxsize=GEOTIFF_BLOCK, blockysize=GEOTIFF_BLOCK,
+                   compress="deflate")
+    if predictor:
+        profile.update(predictor=2 if np.dtype(profile["dtype"]).kind in "iu" else 3, BIGTIFF="IF_SAFER")
+    return profile
+
+
 def check_output(path, inputs, overwrite: bool, role: str = "output") -> Path:
     """Refuse an output that equals an input, exists without ``overwrite``, or has no folder."""
     p = Path(path).resolve()

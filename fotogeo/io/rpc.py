@@ -59,6 +59,8 @@ def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) 
     import rasterio.shutil
     from rasterio.errors import RasterioError
 
+    from .raster import geotiff_profile
+
     src_path, dst_path = Path(src_path), Path(dst_path)
     if dst_path.exists() and not overwrite:
         raise OutputError(f"{dst_path} exists; pass overwrite=True or choose another output path")
@@ -70,7 +72,7 @@ def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) 
         raise InputError(f"input raster {src_path} does not exist")
     tmp = dst_path.with_name(f".{dst_path.name}.part.tif")
     try:
-        rasterio.shutil.copy(str(src_path), str(tmp), driver="GTiff", tiled=True, compress="deflate")
+        rasterio.shutil.copy(str(src_path), str(tmp), **geotiff_profile())
         with rasterio.open(tmp, "r+") as ds:
             ds.update_tags(ns="RPC", **rpc.to_gdal_metadata())
         tmp.replace(dst_path)
@@ -92,5 +94,5 @@ def rpc_from_raster(path) -> Rpc:
         raise RasterError(f"cannot read raster {str(path)!r}: {e}") from None
     if rpcs is None:
         raise RasterError(f"raster {str(path)!r} carries no RPC metadata")
-    d = {k.upper().replace("_COEFF", "_COEFF"): v for k, v in rpcs.to_dict().items()}
+    d = {k.upper(): v for k, v in rpcs.to_dict().items()}
     return Rpc.from_mapping(d, f"RPC of {path}")

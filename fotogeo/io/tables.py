@@ -1,4 +1,12 @@
-"""Point tables: CSV files or vector layers (any OGR format) in, CSV or GeoPackage out."""
+"""Point tables: CSV files or vector layers (any OGR format) in, CSV or GeoPackage out.
+
+Every table fotogeo reads (GCPs, points to transfer, approximate target positions, tie-point
+layers) goes through :func:`read_table`: a ``.csv`` file becomes a pandas ``DataFrame``,
+anything else is read by GDAL (GeoPackage, Shapefile, GeoJSON, …) into a geopandas
+``GeoDataFrame`` carrying the point geometries and the layer's CRS. Column (field) names are
+matched case-insensitively. Failures are one :class:`fotogeo.errors.VectorError` naming the
+file and what is wrong.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -8,30 +16,61 @@ import numpy as np
 from ..errors import VectorError
 
 
-def _read_table(path, what):
+def read_table(path, what: str, layer: str | None = None):
+    """Read the point table ``path``: CSV → ``DataFrame``, any vector format → ``GeoDataFrame``.
+
+    ``what`` names the table in error messages (e.g. ``"GCP file"``); ``layer`` picks a layer
+    of a multi-layer vector file (default: the first). A missing or unreadable file raises
+    :class:`VectorError` with the path and the reader's reason.
+    """
     p = Path(path)
     if not p.exists():
         raise VectorError(f"{what} {str(p)!r} does not exist")
+    csv = p.suffix.lower() == ".csv"
     try:
-        if p.suffix.lower() == ".csv":
+        if csv:
             import pandas as pd
-            return pd.read_csv(p), None
+            return pd.read_csv(p)
         import geopandas as gpd
-        gdf = gpd.read_file(p, engine="pyogrio")
-        return gdf, gdf
+        return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
     except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
-        raise VectorError(f"{what} {str(p)!r} cannot be read: {e}") from None
+        kind = "CSV" if csv else "a vector layer" + (f" (layer {layer!r})" if layer else "")
+        raise VectorError(f"{what} {str(p)!r} cannot be read as {kind}: {e}") from None
 
 
-def _columns(table, names, what):
-    low = {c.lower(): c for c in table.columns}
-    missing = [n for n in names if n.lower() not in low]
+def is_layer(table) -> bool:
+    """True when ``table`` (from :func:`read_table`) carries point geometries (a vector layer)."""
+    import geopandas as gpd
+    return isinstance(table, gpd.GeoDataFrame)
+
+
+def find_column(table, name: str | None) -> str | None:
+    """The column of ``table`` called ``name`` in any letter case, or None."""
+    if not name:
+        return None
+    return {str(c).lower(): c for c in table.columns}.get(name.lower())
+
+
+def require_columns(table, names, what: str, hint: str = "") -> list:
+    """The columns of ``table`` called ``names`` (any letter case), or :class:`VectorError`
+    listing the missing ones, the table's own fields and ``hint`` (how to fix it)."""
+    found = [find_column(table, n) for n in names]
+    missing = [n for n, c in zip(names, found) if c is None]
     if missing:
-        raise VectorError(f"{what} lacks the column(s) {', '.join(missing)} (has: {', '.join(map(str, table.columns))})")
-    return table[[low[n.lower()] for n in names]].to_numpy(float)
+        fields = ", ".join(str(c) for c in table.columns if c != "geometry") or "none"
+        raise VectorError(f"{what} lacks the field(s) {', '.join(missing)}{f' ({hint})' if hint else ''}; "
+                          f"its fields are: {fields}")
+    return found
 
 
-def _write_table(path, columns: dict, crs=None, xy=None):
+def numeric_columns(table, names, what: str, hint: str = "") -> np.ndarray:
+    """The columns ``names`` of ``table`` as a float64 (N, len(names)) array (see :func:`require_columns`)."""
+    return table[require_columns(table, names, what, hint)].to_numpy(float)
+
+
+def write_table(path, columns: dict, crs=None, xy=None) -> None:
+    """Write ``columns`` (name → values) as CSV (by the ``.csv`` suffix) or as the GeoPackage
+    layer ``points``, whose point geometries are ``xy`` (N, 2) or else the ``col``, ``row`` columns."""
     if str(path).lower().endswith(".csv"):
         import pandas as pd
         pd.DataFrame(columns).to_csv(path, index=False)

@@ -17,11 +17,14 @@ import numpy as np
 from rasterio.enums import Resampling
 from rasterio.windows import Window
 
+from ..options import RESAMPLINGS
 from ..pixels import pixel_centres, pixel_to_map, to_centre
 from ..progress import Progress
-from .raster import gdal_env, ropen
+from .raster import gdal_env, geotiff_profile, ropen
 
-RESAMPLING = {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
+#: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
+RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
+              for n in RESAMPLINGS}
 _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
 _CV_DTYPES = {"uint8", "uint16", "int16", "float32", "float64"}
 
@@ -36,7 +39,7 @@ def grid_covering(XY, res: float):
     return Affine(res, 0, x0, 0, -res, y1), int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
 
 
-def default_nodata(dtype: str, nodata):
+def default_nodata(nodata):
     """The source nodata if set, else 0 (GDAL's usual choice for a warped raster)."""
     return nodata if nodata is not None else 0
 
@@ -58,12 +61,11 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     with gdal_env(), ropen(src_path) as src:
         dtype = src.dtypes[0]
         src_nd = src.nodata if src_nodata is None else src_nodata
-        nodata = default_nodata(dtype, src_nd if nodata is None else nodata)
+        nodata = default_nodata(src_nd if nodata is None else nodata)
         work_dtype = dtype if dtype in _CV_DTYPES else "float64"
-        profile = dict(driver="GTiff", width=width, height=height, count=src.count, dtype=dtype,
-                       crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs, transform=transform,
-                       nodata=nodata, tiled=True, blockxsize=256, blockysize=256, compress="deflate",
-                       predictor=2 if np.dtype(dtype).kind in "iu" else 3, BIGTIFF="IF_SAFER")
+        profile = geotiff_profile(width=width, height=height, count=src.count, dtype=dtype,
+                                  crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs, transform=transform,
+                                  nodata=nodata, predictor=True)
         colorinterp = src.colorinterp
         windows = [(r, c) for r in range(0, height, block) for c in range(0, width, block)]
         with ropen(dst_path, "w", **profile) as dst:

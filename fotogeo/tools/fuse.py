@@ -13,7 +13,7 @@ import numpy as np
 from rasterio.windows import Window
 
 from ..image.fusion import pca_fuse, valid_mask
-from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated, ropen
+from ..io.raster import AtomicOutputs, check_output, geotiff_profile, open_raster, read_decimated, ropen
 from ..progress import as_progress
 
 
@@ -39,9 +39,8 @@ def fuse_raster(source, output, *, stretch: bool = True, sample_pixels: int = 4_
     dtype, nodata = ("uint8", 0) if stretch else ("float32", -9999.0)
     with AtomicOutputs() as out, ropen(info.path) as src:
         tmp = out.temp(output)
-        prof = dict(driver="GTiff", width=src.width, height=src.height, count=1, dtype=dtype,
-                    crs=src.crs, transform=src.transform, nodata=nodata, tiled=True,
-                    blockxsize=256, blockysize=256, compress="deflate")
+        prof = geotiff_profile(width=src.width, height=src.height, count=1, dtype=dtype, crs=src.crs,
+                               transform=src.transform, nodata=nodata)
         with ropen(tmp, "w", **prof) as dst:
             for r0 in range(0, src.height, block_rows):
                 win = Window(0, r0, src.width, min(block_rows, src.height - r0))

@@ -129,13 +129,12 @@ def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
     from rasterio.control import GroundControlPoint
     from rasterio.crs import CRS as RioCRS
 
-    from ..io.raster import ropen
+    from ..io.raster import geotiff_profile, ropen
     gcps = [GroundControlPoint(row=float(p[1]), col=float(p[0]), x=float(q[0]), y=float(q[1]),
                                z=float(q[2]) if np.isfinite(q[2]) else 0.0, id=str(i))
             for p, q, i in zip(pixel, ground, ids)]
     with ropen(src_path) as src:
-        prof = src.profile.copy()
-        prof.update(driver="GTiff", tiled=True, blockxsize=256, blockysize=256, compress="deflate")
+        prof = geotiff_profile(src.profile)
         for k in ("transform", "crs", "photometric", "jpeg_quality", "jpegtablesmode"):
             prof.pop(k, None)
         if src.count == 3 and src.dtypes[0] == "uint8":

@@ -67,29 +67,22 @@ def layer_to_points(source, output, *, layer: str | None = None, raster=None, ov
     coordinates follow the unreferenced convention unless ``raster`` (georeferenced) is
     given. Points are written in ``id`` order when the field exists. Returns a summary dict.
     """
-    import geopandas as gpd
-
     from ..io.raster import AtomicOutputs, check_output
+    from ..io.tables import find_column, is_layer, read_table, require_columns
     from ..progress import as_progress
 
     prog = as_progress(progress)
     check_output(output, [source, raster], overwrite, "output points file")
-    src = Path(source)
-    if not src.exists():
-        raise VectorError(f"point layer source {str(src)!r} does not exist")
-    try:
-        gdf = gpd.read_file(src, layer=layer, engine="pyogrio") if layer else gpd.read_file(src, engine="pyogrio")
-    except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
-        raise VectorError(f"cannot read point layer {layer or '(first)'} of {str(src)!r}: {e}") from None
-    what = f"layer {layer or '(first)'} of {str(src)!r}"
-    cols = {c.lower(): c for c in gdf.columns}
-    if "col" not in cols and "row" not in cols and "target_col" in cols and "target_row" in cols:
-        cols["col"], cols["row"] = cols["target_col"], cols["target_row"]  # a register tie_points layer
-    missing = [f for f in ("col", "row") if f not in cols]
-    if missing:
-        raise VectorError(f"{what} lacks the field(s) {', '.join(missing)} (source pixel coordinates; "
-                          f"or target_col/target_row of a register tie_points layer); its fields are: "
-                          f"{', '.join(c for c in gdf.columns if c != 'geometry') or 'none'}")
+    gdf = read_table(source, "point layer", layer)
+    what = f"layer {layer or '(first)'} of {str(source)!r}"
+    if not is_layer(gdf):
+        raise VectorError(f"{what} has no point geometries (the map positions); use a point layer")
+    pixel_fields = ["col", "row"]
+    if find_column(gdf, "col") is None and find_column(gdf, "row") is None \
+            and find_column(gdf, "target_col") is not None and find_column(gdf, "target_row") is not None:
+        pixel_fields = ["target_col", "target_row"]  # a register tie_points layer
+    col, row = require_columns(gdf, pixel_fields, what, "source pixel coordinates; or target_col/target_row "
+                               "of a register tie_points layer")
     if len(gdf) == 0:
         raise VectorError(f"{what} has no features")
     geom = gdf.geometry
@@ -98,17 +91,19 @@ def layer_to_points(source, output, *, layer: str | None = None, raster=None, ov
     if not (geom.geom_type == "Point").all():
         kinds = sorted(set(geom.geom_type))
         raise VectorError(f"{what} must hold single points; it has {', '.join(kinds)}")
-    if "id" in cols:
-        gdf = gdf.sort_values(cols["id"], kind="stable")
+    id_field, role_field = find_column(gdf, "id"), find_column(gdf, "role")
+    dx_field, dy_field = find_column(gdf, "dx"), find_column(gdf, "dy")
+    if id_field is not None:
+        gdf = gdf.sort_values(id_field, kind="stable")
         geom = gdf.geometry
     prog(0.3, "layer read")
-    colrow = np.column_stack([gdf[cols["col"]].to_numpy(float), gdf[cols["row"]].to_numpy(float)])
+    colrow = np.column_stack([gdf[col].to_numpy(float), gdf[row].to_numpy(float)])
     if not np.isfinite(colrow).all():
         raise VectorError(f"{what} has empty (NULL) or non-finite col/row values")
-    enabled = (gdf[cols["role"]].astype(str).str.lower() == "control").to_numpy() if "role" in cols \
+    enabled = (gdf[role_field].astype(str).str.lower() == "control").to_numpy() if role_field is not None \
         else np.ones(len(gdf), bool)
-    residual = (np.column_stack([gdf[cols["dx"]].to_numpy(float), gdf[cols["dy"]].to_numpy(float)])
-                if "dx" in cols and "dy" in cols else None)
+    residual = (np.column_stack([gdf[dx_field].to_numpy(float), gdf[dy_field].to_numpy(float)])
+                if dx_field is not None and dy_field is not None else None)
     map_xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)])
     source_xy = pixel_to_source(colrow, raster_transform(raster))
     crs = gdf.crs.to_wkt() if gdf.crs is not None else None

@@ -5,7 +5,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
-from ..io.tables import _columns, _read_table, _write_table
+from ..io.tables import numeric_columns, read_table, write_table
+from ..matching.status import CONVERGED
 from ..progress import as_progress
 
 
@@ -16,8 +17,8 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
     check_output(output, [image, points], overwrite)
     if polarity not in ("auto", "bright", "dark"):
         raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
-    table, _ = _read_table(points, "point table")
-    approx = _columns(table, approx_fields, "point table")
+    table = read_table(points, "point table")
+    approx = numeric_columns(table, approx_fields, "point table")
     info = open_raster(image, "image")
     bands, mask, _ = read_decimated(info, info.width * info.height, "image")
     img = np.where(mask, bands.astype(np.float32).mean(axis=0), np.nan)
@@ -34,7 +35,7 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
             "col": xy[:, 0], "row": xy[:, 1], "sigma_x": sig[:, 0], "sigma_y": sig[:, 1],
             "status": np.array([r[2] for r in rows], dtype=object)}
     with AtomicOutputs() as out:
-        _write_table(out.temp(output), cols, None, np.where(np.isfinite(xy), xy, approx))
+        write_table(out.temp(output), cols, None, np.where(np.isfinite(xy), xy, approx))
         out.commit()
     return {"output": str(output), "targets": len(rows),
-            "measured": int(sum(np.isfinite(r[0]).all() for r in rows))}
+            "measured": int(sum(r[2] == CONVERGED for r in rows))}

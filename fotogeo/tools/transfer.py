@@ -18,7 +18,8 @@ import numpy as np
 from ..errors import VectorError
 from ..image.fusion import pca_fuse
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
-from ..io.tables import _columns, _read_table, _write_table
+from ..io.tables import find_column, is_layer, numeric_columns, read_table, write_table
+from ..matching.status import CONVERGED
 from ..progress import as_progress
 
 
@@ -41,22 +42,21 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     """
     prog = as_progress(progress)
     check_output(output, [reference, search, points], overwrite)
-    table, gdf = _read_table(points, "point table")
+    table = read_table(points, "point table")
     ref_info, ref_img = _fused(reference, "reference")
-    low = {c.lower() for c in table.columns}
-    if all(f.lower() in low for f in ref_fields):
-        ref_xy = _columns(table, ref_fields, "point table")
-    elif gdf is not None and ref_info.georeferenced and len(gdf):
+    if all(find_column(table, f) is not None for f in ref_fields):
+        ref_xy = numeric_columns(table, ref_fields, "point table")
+    elif is_layer(table) and ref_info.georeferenced and len(table):
         from ..crs import transform_points
         from ..pixels import map_to_pixel
-        if gdf.crs is None:
+        if table.crs is None:
             raise VectorError(f"point table {points!r} has no CRS; its geometries cannot be placed on the reference")
-        XY = np.column_stack([gdf.geometry.x, gdf.geometry.y])
-        ref_xy = map_to_pixel(ref_info.transform, transform_points(gdf.crs, ref_info.crs, XY))
+        XY = np.column_stack([table.geometry.x, table.geometry.y])
+        ref_xy = map_to_pixel(ref_info.transform, transform_points(table.crs, ref_info.crs, XY))
     else:
         raise VectorError(f"point table {points!r} needs reference pixel columns {', '.join(ref_fields)} "
                           f"(or point geometries on a georeferenced reference)")
-    approx = _columns(table, approx_fields, "point table")
+    approx = numeric_columns(table, approx_fields, "point table")
     _, search_img = _fused(search, "search")
     prog(0.2, "images read")
     from ..matching import transfer_points
@@ -68,10 +68,9 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
             "sigma_x": res.sigma[:, 0], "sigma_y": res.sigma[:, 1], "ncc": res.ncc,
             "status": np.asarray(res.status).astype(object)}
     with AtomicOutputs() as out:
-        _write_table(out.temp(output), cols, None,
-                     np.where(np.isfinite(res.xy), res.xy, approx))
+        write_table(out.temp(output), cols, None, np.where(np.isfinite(res.xy), res.xy, approx))
         out.commit()
-    ok = np.asarray(res.status) == "converged"
+    ok = np.asarray(res.status) == CONVERGED
     prog(1.0, "done")
     return {"output": str(output), "points": len(ok), "converged": int(ok.sum()),
             "median_sigma_px": float(np.median(np.hypot(*res.sigma[ok].T))) if ok.any() else None,
