@@ -6,13 +6,13 @@ NaN (or an optional boolean mask, True = valid) marking nodata. Bad arguments ra
 :class:`fotogeo.errors.InputError`; matching failures are reported in each result's
 ``status`` and never raised.
 
-- :func:`ncc` — normalised cross-correlation with a sub-pixel peak fit (seed 001).
+- :func:`ncc` — normalised cross-correlation with a sub-pixel peak fit (the Turkish 'Görüntü Eşleme' study of NCC and LSM; no author in our copy).
 - :func:`lsm`, :func:`lsm_many` — least-squares matching, 6 affine + 2 radiometric
-  parameters, σ from the Gauss-Markov covariance (seeds 000/001).
+  parameters, σ from the Gauss-Markov covariance (Büyüksalih; the 'Görüntü Eşleme' study).
 - :func:`build_pyramid`, :func:`pyramid_match`, :func:`transfer_points` — coarse-to-fine
-  NCC on ``cv2.pyrDown`` pyramids followed by LSM (seeds 000/003).
+  NCC on ``cv2.pyrDown`` pyramids followed by LSM (Büyüksalih; Yastıklı).
 - :func:`measure_target`, :func:`synthetic_x_target` — X-shaped fiducial / calibration
-  targets: edge method, then LSM against a synthetic template (seed 000).
+  targets: edge method, then LSM against a synthetic template (Büyüksalih).
 - :mod:`fotogeo.matching.status` — the status words all of them report (``OK``,
   ``CONVERGED``, ``WINDOW_OUTSIDE``, …), one word per outcome.
 """

@@ -1,4 +1,4 @@
-"""Least-squares matching (LSM, Gruen 1985; seeds 000/001) — affine + radiometric, vectorised.
+"""Least-squares matching (LSM, Gruen 1985; Büyüksalih; the 'Görüntü Eşleme' study) — affine + radiometric, vectorised.
 
 Model. ``f`` is the reference template: the ``(2h+1)²`` pixels centred on the pixel that
 contains ``ref_xy``, taken as they are (never resampled); ``(dx, dy)`` are their centres'

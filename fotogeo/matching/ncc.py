@@ -15,7 +15,7 @@ All coordinates are GDAL corner-convention ``(x, y)`` (see :mod:`fotogeo.pixels`
 fractional part of ``ref_xy`` relative to its pixel centre is carried over to the result, so
 the returned ``xy`` is the position in ``search`` homologous to ``ref_xy`` itself.
 
-Quality measures (seed 001: ρ < 0.5 is a weak match): ``ncc`` (peak ρ) and ``ambiguity``
+Quality measures (the 'Görüntü Eşleme' study: ρ < 0.5 is a weak match): ``ncc`` (peak ρ) and ``ambiguity``
 (the second-highest local maximum of ρ, at least two pixels from the peak, divided by the
 peak). Failures are reported in ``status``, never raised.
 """
@@ -169,7 +169,7 @@ def ncc(reference, search, ref_xy, approx_xy, *, half_window: int = 10, search_r
     ----------
     reference, search : 2-D arrays (any real dtype, NaN = nodata)
     ref_xy, approx_xy : (x, y) in GDAL corner convention (pixel centre of [0, 0] = (0.5, 0.5))
-    half_window : template is ``(2h+1)²`` pixels (seed 001: at least 5x5, i.e. h >= 2)
+    half_window : template is ``(2h+1)²`` pixels (the 'Görüntü Eşleme' study: at least 5x5, i.e. h >= 2)
     search_radius : integer offsets ``|u|, |v| <= r`` around ``approx_xy`` are tested
     min_correlation : peak ρ below this -> ``"low correlation"``
     max_ambiguity : second/first peak above this -> ``"ambiguous"`` (repetitive texture)

@@ -1,4 +1,4 @@
-"""Image pyramids and coarse-to-fine matching (seeds 000 and 003).
+"""Image pyramids and coarse-to-fine matching (Büyüksalih: sub-pixel matching on pyramids; Yastıklı: digital aerial triangulation).
 
 Levels are built with ``cv2.pyrDown`` (5x5 Gaussian, keep every second pixel). pyrDown
 keeps input pixel ``2j`` (centre convention) as output pixel ``j``, so between level 0 and

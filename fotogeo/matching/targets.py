@@ -1,4 +1,4 @@
-"""Measurement of X-shaped fiducial / calibration targets (seed 000).
+"""Measurement of X-shaped fiducial / calibration targets (Büyüksalih).
 
 Two steps, as in the paper:
 
