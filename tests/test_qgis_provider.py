@@ -89,39 +89,79 @@ def test_provider_registered_with_all_algorithms(qgis_app):
     assert "Not runnable yet" not in help_text  # every dependency is present in this environment
 
 
-def test_option_lists_mirror_fotogeo(qgis_app):
-    """The provider lists enum options without importing fotogeo; they must equal fotogeo's."""
-    from fotogeo.tools.register import PLANAR_MODELS
-    from fotogeo.io.warp import RESAMPLING
-    from fotogeo.features.detect import DETECTORS as FG_DETECTORS
-    from processing_provider.algorithms import register as ralg
-    assert ralg.DETECTORS == tuple(FG_DETECTORS)
-    from fotogeo.orientation.terrain import TERRAIN_MODELS
-    assert ralg.MODELS == ("default",) + tuple(PLANAR_MODELS) + tuple(TERRAIN_MODELS)
-    assert ralg.RESAMPLINGS == tuple(RESAMPLING)
-    from fotogeo.models import MODELS
-    from processing_provider.algorithms import orient as oalg
-    assert oalg.MODELS == tuple(sorted(MODELS))
-    from fotogeo.image.contrast import CONTRASTS
-    from fotogeo.tools.register import RegisterOptions
-    assert ralg.CONTRASTS == tuple(CONTRASTS)
-    alg = QgsApplication.processingRegistry().algorithmById("fotogeo:register")
-    d = RegisterOptions()
-    defaults = {p.name(): p.defaultValue() for p in alg.parameterDefinitions()}
-    # every option of the tool is a parameter of the algorithm (dst_crs is CRS)
-    from dataclasses import fields
-    names = {"CRS" if f.name == "dst_crs" else f.name.upper() for f in fields(RegisterOptions)}
-    assert names <= set(defaults), f"options without a parameter: {sorted(names - set(defaults))}"
-    assert ralg.CONTRASTS[defaults["CONTRAST"]] == d.contrast
-    assert defaults["REFERENCE_NODATA"] is None and d.reference_nodata is None
-    assert ralg.DETECTORS[defaults["DETECTOR"]] == d.detector
-    assert defaults["MODEL"] == 0 and d.model is None  # "default" = the tool's own choice
-    assert ralg.REFINES[defaults["REFINE"]] == d.refine
-    assert ralg.RESAMPLINGS[defaults["RESAMPLING"]] == d.resampling
-    assert (defaults["RATIO"], defaults["RANSAC_THRESHOLD"], defaults["CHECK_FRACTION"]) == \
-        (d.ratio, d.ransac_threshold, d.check_fraction)
-    assert (defaults["MAX_KEYPOINTS"], defaults["SEED"], defaults["MAX_MATCH_PIXELS"]) == \
-        (d.max_keypoints, d.seed, d.max_match_pixels)
+def _expected_default(option):
+    """What the QGIS parameter's default must be for ``option`` (see fotogeo/options.py)."""
+    if option.kind == "choice":
+        return 0 if option.nullable else option.qgis_choices.index(option.default)
+    if option.kind == "choices":
+        return None if option.nullable else [option.qgis_choices.index(c) for c in option.default]
+    if option.kind == "ints":
+        return ",".join(map(str, option.default))
+    if option.kind in ("int", "float") and option.nullable:
+        return option.automatic
+    return None if option.kind == "crs" else option.default  # an empty CRS means the option's default
+
+
+def _expected_optional(option) -> bool:
+    if option.kind in ("crs", "file", "raster"):
+        return True
+    if option.kind in ("str", "choices"):
+        return option.nullable
+    return option.kind in ("int", "float") and option.nullable and option.automatic is None
+
+
+def test_parameters_are_generated_from_the_option_tables(qgis_app):
+    """Every option of an algorithm's tables is a parameter with the table's name, label, default, range,
+    enum entries, optional and advanced flags; and the values users rely on are what they were."""
+    from qgis.core import QgsProcessingParameterDefinition as Definition
+
+    from processing_provider.algorithms import ALGORITHMS
+    reg = QgsApplication.processingRegistry()
+    for cls in ALGORITHMS:
+        alg = reg.algorithmById(f"fotogeo:{cls.ALG_ID}")
+        for option in (o for table in cls.OPTIONS for o in table.values()):
+            where = f"{cls.ALG_ID}: {option.name}"
+            p = alg.parameterDefinition(option.qgis_name)
+            assert p is not None, f"{where}: no parameter {option.qgis_name}"
+            assert p.description() == option.label and p.defaultValue() == _expected_default(option), where
+            assert bool(p.flags() & Definition.FlagAdvanced) == option.advanced, where
+            assert bool(p.flags() & Definition.FlagOptional) == _expected_optional(option), where
+            if option.kind in ("choice", "choices"):
+                assert p.options() == list(option.qgis_choices) and p.allowMultiple() == (option.kind == "choices")
+            if option.kind in ("int", "float"):
+                assert p.dataType() == (p.Integer if option.kind == "int" else p.Double), where
+                for bound, value in (("minimum", option.minimum), ("maximum", option.maximum)):
+                    if value is not None:
+                        assert getattr(p, bound)() == value, where
+    # the values of today's dialogs, and the one drift fixed: the ratio minimum of register and matchfeatures
+    d = {p.name(): p for p in reg.algorithmById("fotogeo:register").parameterDefinitions()}
+    assert [d[n].defaultValue() for n in ("RATIO", "RANSAC_THRESHOLD", "CHECK_FRACTION", "MAX_KEYPOINTS", "SEED",
+                                          "MAX_MATCH_PIXELS", "RESOLUTION", "HESSIAN_THRESHOLD", "MODEL")] == \
+        [0.8, 3.0, 0.3, 8000, 0, 16_000_000, 0.0, 0.0, 0]
+    assert d["MODEL"].options()[0] == "default" and d["CHECK_FRACTION"].maximum() == 0.89
+    m = {p.name(): p for p in reg.algorithmById("fotogeo:matchfeatures").parameterDefinitions()}
+    assert m["RATIO"].minimum() == d["RATIO"].minimum() == 0.05
+
+
+def test_parameters_read_back_as_the_tools_arguments(qgis_app):
+    """Enums, "0 = automatic", empty optional numbers, CRS and field names come back as the tool takes them."""
+    from fotogeo.options import REGISTER
+    alg = QgsApplication.processingRegistry().algorithmById("fotogeo:register").create()
+    context = QgsProcessingContext()
+    params = {"MODEL": REGISTER["model"].qgis_choices.index("dlt"), "RESOLUTION": 0, "HESSIAN_THRESHOLD": 400,
+              "TARGET_NODATA": 0, "CRS": "EPSG:3857", "CONTRAST": 2, "MUTUAL": False}
+    args = alg.option_arguments({**{p.name(): p.defaultValue() for p in alg.parameterDefinitions()}, **params},
+                                context)
+    assert {k: args[k] for k in ("model", "resolution", "hessian_threshold", "target_nodata", "reference_nodata",
+                                 "dst_crs", "contrast", "mutual", "detector", "dem", "camera")} == \
+        {"model": "dlt", "resolution": None, "hessian_threshold": 400.0, "target_nodata": 0.0,
+         "reference_nodata": None, "dst_crs": "EPSG:3857", "contrast": "linear", "mutual": False, "detector": "surf",
+         "dem": None, "camera": None}
+    assert alg.option_arguments({"MODEL": 0, "CRS": None}, context)["model"] is None
+    assert alg.option_arguments({"MODEL": 0, "CRS": None}, context)["dst_crs"] == "auto"
+    transfer = QgsApplication.processingRegistry().algorithmById("fotogeo:transferpoints").create()
+    args = transfer.option_arguments({"COL_FIELD": "c", "ROW_FIELD": ""}, context)
+    assert args["approx_fields"] == ("c", "row") and args["ref_fields"] == ("ref_col", "ref_row")
 
 
 # -- pcafusion ---------------------------------------------------------------------------------
@@ -253,7 +293,8 @@ def test_register_sift_crs_and_cancel(qgis_app, data_dir, tmp_path):
 
 def test_register_terrain_aware_with_dem(registered, data_dir, tmp_path):
     """With the DEM a 3-D model (DLT) orthorectifies the frame: far smaller check error than one homography."""
-    from processing_provider.algorithms.register import MODELS
+    from fotogeo.options import REGISTER
+    MODELS = REGISTER["model"].qgis_choices
     planar, *_ = registered
     res = run("register", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME), **FAST,
                            "DEM": str(data_dir / "ngi" / "dem.tif"), "MODEL": MODELS.index("dlt"),
@@ -497,9 +538,6 @@ def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip,
 
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):
     """Detect and match only: a tie-point layer at the reference map positions, with inlier flags."""
-    from processing_provider.algorithms import match as falg
-    from fotogeo.features.detect import DETECTORS as FG_DETECTORS
-    assert falg.DETECTORS == FG_DETECTORS
     out = tmp_path / "tp.gpkg"
     res = run("matchfeatures", {"REFERENCE": str(data_dir / ORTHO), "TARGET": str(data_dir / FRAME),
                                         "MAX_KEYPOINTS": 3000, "OUTPUT": str(out)})

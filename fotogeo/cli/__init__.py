@@ -1,8 +1,10 @@
 """The ``fotogeo`` command line: one thin sub-command per capability.
 
-Each sub-command lives in its own module of this package, parses its arguments and calls
-one tool function; errors derived from :class:`fotogeo.errors.FotogeoError` are printed
-as one clear line (exit code 2), without a traceback.
+Each sub-command lives in its own module of this package and calls one tool function; its
+options are generated from the tool's table in :mod:`fotogeo.options`
+(:func:`fotogeo.cli.common.options_from`). Errors derived from
+:class:`fotogeo.errors.FotogeoError` are printed as one clear line without a traceback:
+exit code 2, or 130 for a cancel (:func:`fotogeo.cli.common.run_tool`).
 """
 from __future__ import annotations
 

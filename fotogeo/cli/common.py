@@ -1,4 +1,5 @@
-"""What the sub-commands share: a console progress bar and error reporting."""
+"""What the sub-commands share: options generated from the option table, a console progress bar,
+error reporting and exit codes."""
 from __future__ import annotations
 
 import functools
@@ -7,6 +8,14 @@ import sys
 import click
 
 from ..errors import Cancelled, FotogeoError
+from ..options import Option, Table
+
+#: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
+EXIT_ERROR = 2
+#: exit code of a cancel (the progress callback said stop): 128 + SIGINT, the shell's code for an interrupted job
+EXIT_CANCELLED = 130
+
+_CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
 
 class ConsoleProgress:
@@ -33,14 +42,83 @@ class ConsoleProgress:
 
 
 def run_tool(func):
-    """Decorator for command bodies: FotogeoError -> one 'Error: ...' line and exit code 2."""
+    """Decorator for command bodies: a fotogeo error becomes one line on stderr and an exit code.
+
+    - :class:`~fotogeo.errors.Cancelled` (the progress callback returned False): one line
+      ``Cancelled: <message>`` and exit code 130 (:data:`EXIT_CANCELLED`, 128 + SIGINT, what a
+      shell reports for an interrupted job); the tool has removed what it had started writing;
+    - any other :class:`~fotogeo.errors.FotogeoError`: ``Error: <message>`` and exit code 2
+      (:data:`EXIT_ERROR`), without a traceback.
+    """
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
         except Cancelled as e:
-            raise click.ClickException(f"cancelled: {e}") from None
+            click.echo(f"Cancelled: {e}", err=True)
+            sys.exit(EXIT_CANCELLED)
         except FotogeoError as e:
             click.echo(f"Error: {e}", err=True)
-            sys.exit(2)
+            sys.exit(EXIT_ERROR)
     return wrapper
+
+
+def _comma_list(option: Option):
+    """click callback: ``"a,b"`` → ``("a", "b")`` (ints for kind ``ints``), checked against the option."""
+    def convert(ctx, param, text):
+        if text is None:
+            return None
+        items = tuple(t.strip() for t in text.split(",") if t.strip())
+        if option.kind == "ints":
+            try:
+                items = tuple(int(t) for t in items)
+            except ValueError:
+                raise click.BadParameter(f"whole numbers separated by commas, e.g. 40,20,10; got {text!r}") from None
+            if not items or (option.minimum is not None and min(items) < option.minimum):
+                raise click.BadParameter(f"at least one number, each >= {option.minimum}; got {text!r}")
+        else:
+            unknown = [t for t in items if t not in option.choices]
+            if unknown or not items:
+                raise click.BadParameter(f"{', '.join(unknown) or 'nothing'} unknown; choose from "
+                                         f"{', '.join(option.choices)}")
+        return items
+    return convert
+
+
+def click_option(option: Option):
+    """The click option of one table entry: flag, type, default (shown in ``--help``), help."""
+    kw = dict(help=option.help, show_default=True)
+    decls = [option.cli_flag, option.name]
+    if option.kind == "bool":
+        if option.default:
+            decls[0] = f"{option.cli_flag}/--no-{option.cli_flag[2:]}"
+            kw["default"] = True
+        else:
+            kw.update(is_flag=True, default=False, show_default=False)
+    elif option.kind == "choice":
+        kw.update(type=click.Choice(option.choices), default=option.default)
+    elif option.kind in ("choices", "ints"):
+        kw.update(default=None if option.default is None else ",".join(map(str, option.default)),
+                  callback=_comma_list(option))
+    elif option.kind in ("file", "raster"):
+        kw.update(type=click.Path(dir_okay=False), default=option.default)
+    else:
+        kw.update(type=_CLICK_TYPES[option.kind], default=option.default)
+    return click.option(*decls, **kw)
+
+
+def options_from(*tables: Table):
+    """Decorator adding the click options of ``tables``, in table order, to a command."""
+    def decorate(f):
+        for option in reversed([o for t in tables for o in t.values()]):
+            f = click_option(option)(f)
+        return f
+    return decorate
+
+
+def tool_arguments(kw: dict, *tables: Table) -> dict:
+    """Pop the values of ``tables``' options from ``kw``; return them as the tool's keyword arguments."""
+    out = {}
+    for table in tables:
+        out.update(table.arguments({name: kw.pop(name) for name in table}))
+    return out

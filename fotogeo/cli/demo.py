@@ -1,21 +1,21 @@
-"""``fotogeo:demo`` — the embedded default scene, registered, checked against its truth."""
+"""``fotogeo demo`` — the embedded default scene, registered, checked against its truth."""
 from __future__ import annotations
 
 import time
 
 import click
 
-from .common import ConsoleProgress, run_tool
+from ..options import DEMO
+from .common import ConsoleProgress, options_from, run_tool
 
 
 @click.command("demo")
 @click.option("-o", "--output", default="out/demo", show_default=True, type=click.Path(file_okay=False),
               help="Folder for the generated scene and the results.")
-@click.option("--seed", type=int, default=7, show_default=True, help="Seed of the generated scene.")
-@click.option("--detector", type=click.Choice(["surf", "sift"]), default="surf", show_default=True)
+@options_from(DEMO)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def command(output, seed, detector, quiet):
+def command(output, quiet, **options):
     """Generate a realistic scene (fractal DEM, textured UTM orthophoto, a frame rendered through a
     known rotated and tilted camera with other radiometry and noise), register the frame to the
     orthophoto, and print the accuracy against the known truth. No download."""
@@ -23,10 +23,10 @@ def command(output, seed, detector, quiet):
     t0 = time.perf_counter()
     bar = ConsoleProgress(quiet)
     try:
-        res = run_demo(output, seed=seed, detector=detector, progress=bar)
+        res = run_demo(output, progress=bar, **options)
     finally:
         bar.close()
-    rep, truth = res["registration"].report, res["truth"]  # noqa: F841 - rep used below
+    rep, truth = res["registration"].report, res["truth"]
     click.echo(f"scene: {output}/reference.tif (orthophoto, EPSG:32635, 4 m), {output}/target.tif (frame), "
                f"{output}/dem.tif")
     click.echo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "

@@ -3,24 +3,23 @@ from __future__ import annotations
 
 import click
 
-from ..tools.fuse import fuse_raster
-from .common import ConsoleProgress, run_tool
+from ..options import FUSE
+from .common import ConsoleProgress, options_from, run_tool
 
 
 @click.command("fuse")
 @click.argument("source", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False))
-@click.option("--stretch/--no-stretch", default=True, show_default=True,
-              help="uint8 0..255 robust stretch, or float32 component values.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@options_from(FUSE)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def command(source, output, stretch, seed, overwrite, quiet):
+def command(source, output, overwrite, quiet, **options):
     """First principal component of all bands of SOURCE (nodata excluded), georeference kept."""
+    from ..tools.fuse import fuse_raster
     bar = ConsoleProgress(quiet)
     try:
-        r = fuse_raster(source, output, stretch=stretch, seed=seed, overwrite=overwrite, progress=bar)
+        r = fuse_raster(source, output, overwrite=overwrite, progress=bar, **options)
     finally:
         bar.close()
     click.echo(f"PC1 explains {100 * r['explained']:.1f}% of the variance; component "

@@ -3,28 +3,24 @@ from __future__ import annotations
 
 import click
 
-from .common import ConsoleProgress, run_tool
+from ..options import TARGETS
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 
 @click.command("measure-targets")
 @click.argument("image", type=click.Path(dir_okay=False))
 @click.argument("points", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
-@click.option("--half-window", type=int, default=12, show_default=True)
-@click.option("--polarity", type=click.Choice(["auto", "bright", "dark"]), default="auto", show_default=True)
+@options_from(TARGETS)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def targets(image, points, output, half_window, polarity, overwrite, quiet):
+def command(image, points, output, overwrite, quiet, **kw):
     """Measure X-shaped fiducial/calibration targets near the approximate col/row of POINTS."""
     from ..tools.targets import measure_targets
     bar = ConsoleProgress(quiet)
     try:
-        r = measure_targets(image, points, output, half_window=half_window, polarity=polarity,
-                            overwrite=overwrite, progress=bar)
+        r = measure_targets(image, points, output, overwrite=overwrite, progress=bar, **tool_arguments(kw, TARGETS))
     finally:
         bar.close()
     click.echo(f"{r['measured']} of {r['targets']} targets measured; wrote {r['output']}")
-
-
-command = targets

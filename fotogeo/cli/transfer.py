@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import ConsoleProgress, run_tool
+from ..options import TRANSFER
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 
 @click.command("transfer-points")
@@ -11,23 +12,19 @@ from .common import ConsoleProgress, run_tool
 @click.argument("search", type=click.Path(dir_okay=False))
 @click.argument("points", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
-@click.option("--search-radius", type=int, default=32, show_default=True, help="Pixels around the approximation.")
-@click.option("--half-window", type=int, default=10, show_default=True, help="LSM window (2h+1)².")
+@options_from(TRANSFER)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def transfer(reference, search, points, output, search_radius, half_window, overwrite, quiet):
+def command(reference, search, points, output, overwrite, quiet, **kw):
     """Transfer POINTS (ref_col/ref_row, approximate col/row) from REFERENCE into SEARCH by
     pyramid NCC + least-squares matching; sub-pixel positions with σ per point."""
     from ..tools.transfer import transfer_gcps
     bar = ConsoleProgress(quiet)
     try:
-        r = transfer_gcps(reference, search, points, output, search_radius=search_radius,
-                          half_window=half_window, overwrite=overwrite, progress=bar)
+        r = transfer_gcps(reference, search, points, output, overwrite=overwrite, progress=bar,
+                          **tool_arguments(kw, TRANSFER))
     finally:
         bar.close()
     click.echo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "
                f"statuses {r['statuses']}; wrote {r['output']}")
-
-
-command = transfer

@@ -12,9 +12,9 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..options import DETECTORS
 from ..pixels import from_centre
 
-DETECTORS = ("surf", "sift")
 SIFT_OFFSET = 0.25
 
 

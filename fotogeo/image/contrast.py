@@ -15,8 +15,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-
-CONTRASTS = ("adaptive", "equalize", "linear")
+from ..options import CONTRASTS
 
 
 def apply_contrast(image: np.ndarray, valid: np.ndarray, contrast: str) -> np.ndarray:

@@ -12,3 +12,10 @@ __all__ = ["MODELS", "Model", "Normalisation", "get_model", "model_from_dict", "
            "DLT", "FittedModel", "IllPosedWarning", "AffineHeight", "Bilinear", "Poly1", "Poly2", "Poly3",
            "Poly3D1", "Poly3D2", "Poly3D3", "RFM", "RFMCommon", "RFMPoly", "RFMImageToGround",
            "RFMCommonImageToGround", "RFMPolyImageToGround", "Collinearity"]
+
+# the option table lists the model names literally (the QGIS plugin reads it without numpy): one list, checked here
+from ..options import ORIENTATION_MODELS  # noqa: E402
+
+if tuple(sorted(MODELS)) != ORIENTATION_MODELS:
+    raise ImportError(f"fotogeo.options.ORIENTATION_MODELS {ORIENTATION_MODELS} differs from the registered models "
+                      f"{tuple(sorted(MODELS))}: update the list in fotogeo/options.py")

@@ -7,7 +7,10 @@
 - the tools' progress protocol ``progress(fraction, message) -> bool`` is bridged to the
   Processing feedback (:func:`progress_callback`): progress bar, progress text, cancel;
 - every :class:`fotogeo.errors.FotogeoError` — a cancel included — becomes a
-  :class:`QgsProcessingException` carrying the same message (:meth:`FotogeoAlgorithm.run_tool`).
+  :class:`QgsProcessingException` carrying the same message (:meth:`FotogeoAlgorithm.run_tool`);
+- the tool options are parameters generated from the algorithm's option tables
+  (:attr:`FotogeoAlgorithm.OPTIONS`, from :mod:`fotogeo.options`, see :func:`parameter`) and
+  read back into the tool's keyword arguments (:meth:`FotogeoAlgorithm.option_arguments`).
 """
 from __future__ import annotations
 
@@ -18,12 +21,23 @@ import threading
 
 from qgis.core import (
     QgsApplication,
+    QgsCoordinateReferenceSystem,
     QgsProcessingAlgorithm,
     QgsProcessingException,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterCrs,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterEnum,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterLayer,
+    QgsProcessingParameterString,
     QgsProviderRegistry,
     QgsRasterLayer,
 )
 from qgis.PyQt.QtCore import QCoreApplication
+
+from fotogeo.options import Option, Table  # standard library only: loads without fotogeo's dependencies
 
 #: import name -> pip distribution name of the third-party packages fotogeo uses.
 DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", "shapely": "shapely",
@@ -115,6 +129,67 @@ def progress_callback(feedback):
     return progress
 
 
+def crs_spec(crs: QgsCoordinateReferenceSystem) -> str:
+    """'auto' for an empty CRS parameter, else an authority code or WKT pyproj understands."""
+    if not crs.isValid():
+        return "auto"
+    if crs.authid().upper().startswith(("EPSG:", "ESRI:", "IAU")):
+        return crs.authid()
+    return crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
+
+
+def _number_parameter(option: Option, label: str):
+    """A number option: default ``None`` → optional (empty = None) unless ``automatic`` stands for None."""
+    Num = QgsProcessingParameterNumber
+    bounds = {k: float(v) for k, v in (("minValue", option.minimum), ("maxValue", option.maximum)) if v is not None}
+    empty_is_none = option.nullable and option.automatic is None
+    default = option.automatic if option.nullable else option.default
+    return Num(option.qgis_name, label, Num.Integer if option.kind == "int" else Num.Double, defaultValue=default,
+               optional=empty_is_none, **bounds)
+
+
+def parameter(option: Option) -> QgsProcessingParameterDefinition:
+    """The QGIS Processing parameter of one option of :mod:`fotogeo.options` (see its docstring)."""
+    name, label, kind = option.qgis_name, tr(option.label), option.kind
+    if kind in ("int", "float"):
+        p = _number_parameter(option, label)
+    elif kind == "bool":
+        p = QgsProcessingParameterBoolean(name, label, defaultValue=option.default)
+    elif kind == "choice":
+        p = QgsProcessingParameterEnum(name, label, options=list(option.qgis_choices),
+                                       defaultValue=0 if option.nullable else option.qgis_choices.index(option.default))
+    elif kind == "choices":
+        p = QgsProcessingParameterEnum(
+            name, label, options=list(option.qgis_choices), allowMultiple=True, optional=option.nullable,
+            defaultValue=None if option.nullable else [option.qgis_choices.index(c) for c in option.default])
+    elif kind == "ints":
+        p = QgsProcessingParameterString(name, label, defaultValue=",".join(map(str, option.default)))
+    elif kind == "str":
+        p = QgsProcessingParameterString(name, label, defaultValue=option.default, optional=option.nullable)
+    elif kind == "crs":
+        p = QgsProcessingParameterCrs(name, label, optional=True)
+    elif kind == "file":
+        p = QgsProcessingParameterFile(name, label, optional=True, fileFilter=option.file_filter)
+    else:  # raster
+        p = QgsProcessingParameterRasterLayer(name, label, optional=True)
+    if option.advanced:
+        p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+    return p
+
+
+def _whole_numbers(option: Option, text: str) -> tuple:
+    """The comma-separated whole numbers of an ``ints`` option, or a clear exception."""
+    try:
+        values = tuple(int(c) for c in text.replace(" ", "").split(",") if c)
+    except ValueError:
+        raise QgsProcessingException(f"{option.qgis_name} must be whole numbers separated by commas, e.g. "
+                                     f"40,20,10; got {text!r}") from None
+    if not values or (option.minimum is not None and min(values) < option.minimum):
+        raise QgsProcessingException(f"{option.qgis_name} needs at least one whole number, each >= "
+                                     f"{option.minimum}; got {text!r}")
+    return values
+
+
 class FotogeoAlgorithm(QgsProcessingAlgorithm):
     """Base class: names, help, lazy tool import, progress and error bridging."""
 
@@ -125,6 +200,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
     #: import names of the third-party packages this algorithm needs
     REQUIRES: tuple = tuple(DEPENDENCIES)
     HELP = ""
+    #: the option tables (:mod:`fotogeo.options`) whose options are parameters of this algorithm
+    OPTIONS: tuple[Table, ...] = ()
 
     def name(self):
         return self.ALG_ID
@@ -198,12 +275,44 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
                                          f"(got {path!r})")
         return path
 
-    def optional_double(self, parameters, name: str, context):
-        """The value of an optional number parameter, or None when it is left empty."""
-        value = parameters.get(name)
-        if value is None or (isinstance(value, str) and not value.strip()):
-            return None
-        return self.parameterAsDouble(parameters, name, context)
+    def add_options(self, table: Table):
+        """Add the parameters of the options of ``table``, in table order."""
+        for option in table.values():
+            self.addParameter(parameter(option))
 
-    def enum_value(self, parameters, name: str, context, options) -> str:
-        return options[self.parameterAsEnum(parameters, name, context)]
+    def option_value(self, parameters, option: Option, context):
+        """The value of ``option``'s parameter as the tool takes it (None for empty / automatic)."""
+        name, kind = option.qgis_name, option.kind
+        if kind in ("int", "float"):
+            given = parameters.get(name)
+            if option.nullable and option.automatic is None and (given is None or str(given).strip() == ""):
+                return None
+            value = (self.parameterAsInt if kind == "int" else self.parameterAsDouble)(parameters, name, context)
+            return None if option.nullable and value == option.automatic else value
+        if kind == "bool":
+            return self.parameterAsBoolean(parameters, name, context)
+        if kind == "choice":
+            index = self.parameterAsEnum(parameters, name, context)
+            return None if option.none_choice and index == 0 else option.qgis_choices[index]
+        if kind == "choices":
+            picked = tuple(option.qgis_choices[i] for i in self.parameterAsEnums(parameters, name, context))
+            if picked or option.nullable:
+                return picked or None
+            raise QgsProcessingException(f"{name}: choose at least one of {', '.join(option.choices)}")
+        if kind == "ints":
+            return _whole_numbers(option, self.parameterAsString(parameters, name, context))
+        if kind == "str":
+            return self.parameterAsString(parameters, name, context) or option.default
+        if kind == "crs":
+            crs = self.parameterAsCrs(parameters, name, context)
+            return crs_spec(crs) if crs.isValid() else option.default
+        if kind == "file":
+            return self.parameterAsFile(parameters, name, context) or None
+        return self.raster_path(parameters, name, context) if parameters.get(name) else None  # raster
+
+    def option_arguments(self, parameters, context, *tables: Table) -> dict:
+        """The tool's keyword arguments from the parameters of ``tables`` [:attr:`OPTIONS`]."""
+        out = {}
+        for table in tables or self.OPTIONS:
+            out.update(table.arguments({o.name: self.option_value(parameters, o, context) for o in table.values()}))
+        return out

@@ -7,14 +7,13 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputRasterLayer,
     QgsProcessingOutputVectorLayer,
-    QgsProcessingParameterEnum,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterNumber,
 )
+
+from fotogeo.options import DEMO
 
 from ..postprocess import load_on_completion
 from .base import FotogeoAlgorithm, tr
-from .register import DETECTORS
 
 
 class DemoAlgorithm(FotogeoAlgorithm):
@@ -29,17 +28,14 @@ class DemoAlgorithm(FotogeoAlgorithm):
             "frame(s), tie points and error vectors. A quick check that fotogeo and its dependencies work in "
             "this QGIS.")
 
-    OUTPUT, SEED, DETECTOR = "OUTPUT", "SEED", "DETECTOR"
+    OPTIONS = (DEMO,)
+    OUTPUT = "OUTPUT"
     REFERENCE, REGISTERED, TIE_POINTS, ERROR_VECTORS = "REFERENCE", "REGISTERED", "TIE_POINTS", "ERROR_VECTORS"
     CHECK_RMSE, TRUTH_RMSE, BEST_RMSE = "CHECK_RMSE_M", "TRUTH_RMSE_M", "BEST_HOMOGRAPHY_RMSE_M"
     ORTHORECTIFIED, TERRAIN_TRUTH_RMSE = "ORTHORECTIFIED", "TERRAIN_TRUTH_RMSE_M"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterNumber(self.SEED, tr("Seed of the generated scene"),
-                                                       QgsProcessingParameterNumber.Integer, defaultValue=7,
-                                                       minValue=0))
-        self.addParameter(QgsProcessingParameterEnum(self.DETECTOR, tr("Keypoint detector"), options=list(DETECTORS),
-                                                     defaultValue=0))
+        self.add_options(DEMO)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTPUT, tr("Folder for the scene and results")))
         self.addOutput(QgsProcessingOutputRasterLayer(self.REFERENCE, tr("Reference orthophoto")))
         self.addOutput(QgsProcessingOutputRasterLayer(self.REGISTERED, tr("Registered frame")))
@@ -56,9 +52,7 @@ class DemoAlgorithm(FotogeoAlgorithm):
         run_demo = self.tool("tools.demo", "run_demo")
         folder = self.parameterAsString(parameters, self.OUTPUT, context)
         os.makedirs(folder, exist_ok=True)
-        res = self.run_tool(run_demo, folder, seed=self.parameterAsInt(parameters, self.SEED, context),
-                            detector=self.enum_value(parameters, self.DETECTOR, context, DETECTORS),
-                            feedback=feedback)
+        res = self.run_tool(run_demo, folder, feedback=feedback, **self.option_arguments(parameters, context))
         reg, truth = res["registration"], res["truth"]
         rep = reg.report
         feedback.pushInfo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, matches "

@@ -3,12 +3,11 @@ from __future__ import annotations
 
 from qgis.core import (
     QgsProcessingOutputNumber,
-    QgsProcessingParameterBoolean,
-    QgsProcessingParameterDefinition,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
     QgsProcessingParameterRasterLayer,
 )
+
+from fotogeo.options import FUSE
 
 from .base import FotogeoAlgorithm, tr
 
@@ -27,16 +26,12 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
             "output's metadata and returned as EXPLAINED.\n\n"
             "Reference: Dihkan (2019), fotogeo source paper 002.")
 
-    INPUT, STRETCH, SEED, OUTPUT, EXPLAINED = "INPUT", "STRETCH", "SEED", "OUTPUT", "EXPLAINED"
+    OPTIONS = (FUSE,)
+    INPUT, OUTPUT, EXPLAINED = "INPUT", "OUTPUT", "EXPLAINED"
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterRasterLayer(self.INPUT, tr("Multi-band raster")))
-        self.addParameter(QgsProcessingParameterBoolean(self.STRETCH, tr("Stretch to 8 bit (1..255, 0 = nodata)"),
-                                                        defaultValue=True))
-        seed = QgsProcessingParameterNumber(self.SEED, tr("Random seed (pixel sample)"),
-                                            QgsProcessingParameterNumber.Integer, defaultValue=0, minValue=0)
-        seed.setFlags(seed.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
-        self.addParameter(seed)
+        self.add_options(FUSE)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("First principal component")))
         self.addOutput(QgsProcessingOutputNumber(self.EXPLAINED, tr("Explained variance (fraction)")))
 
@@ -44,8 +39,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
         fuse_raster = self.tool("tools.fuse", "fuse_raster")
         source = self.raster_path(parameters, self.INPUT, context)
         output = self.raster_output(parameters, self.OUTPUT, context)
-        result = self.run_tool(fuse_raster, source, output, feedback=feedback,
-                               stretch=self.parameterAsBoolean(parameters, self.STRETCH, context),
-                               seed=self.parameterAsInt(parameters, self.SEED, context), overwrite=True)
+        result = self.run_tool(fuse_raster, source, output, feedback=feedback, overwrite=True,
+                               **self.option_arguments(parameters, context))
         feedback.pushInfo(f"explained variance of the first component: {100 * result['explained']:.2f} %")
         return {self.OUTPUT: output, self.EXPLAINED: float(result["explained"])}

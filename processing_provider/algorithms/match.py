@@ -7,16 +7,14 @@ from qgis.core import (
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
-    QgsProcessingParameterEnum,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorDestination,
 )
 
+from fotogeo.options import MATCH
+
 from ..postprocess import style_output
 from .base import REFERENCES, FotogeoAlgorithm, tr
-
-DETECTORS = ("surf", "sift")
 
 
 class MatchFeaturesAlgorithm(FotogeoAlgorithm):
@@ -33,20 +31,13 @@ class MatchFeaturesAlgorithm(FotogeoAlgorithm):
             "algorithm and the Georeferencer (layertopoints).\n\n"
             f"References: {REFERENCES['dihkan']} {REFERENCES['surf']}")
 
-    REFERENCE, TARGET, DETECTOR, MAX_KEYPOINTS, RATIO = "REFERENCE", "TARGET", "DETECTOR", "MAX_KEYPOINTS", "RATIO"
-    OUTPUT, MATCHES, INLIERS = "OUTPUT", "MATCHES", "INLIERS"
+    OPTIONS = (MATCH,)
+    REFERENCE, TARGET, OUTPUT, MATCHES, INLIERS = "REFERENCE", "TARGET", "OUTPUT", "MATCHES", "INLIERS"
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference raster")))
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target raster")))
-        self.addParameter(QgsProcessingParameterEnum(self.DETECTOR, tr("Detector"), options=list(DETECTORS),
-                                                     defaultValue=0))
-        self.addParameter(QgsProcessingParameterNumber(self.MAX_KEYPOINTS, tr("Keypoints per image (spread)"),
-                                                       QgsProcessingParameterNumber.Integer, defaultValue=8000,
-                                                       minValue=10))
-        self.addParameter(QgsProcessingParameterNumber(self.RATIO, tr("Ratio test (nearest / second nearest)"),
-                                                       QgsProcessingParameterNumber.Double, defaultValue=0.8,
-                                                       minValue=0.1, maxValue=1.0))
+        self.add_options(MATCH)
         self.addParameter(QgsProcessingParameterVectorDestination(self.OUTPUT, tr("Tie points (GeoPackage)"),
                                                                   QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber(self.MATCHES, tr("Matches")))
@@ -59,10 +50,7 @@ class MatchFeaturesAlgorithm(FotogeoAlgorithm):
             raise QgsProcessingException(f"OUTPUT must be a GeoPackage (.gpkg); got {output!r}")
         info = self.run_tool(match_images, self.raster_path(parameters, self.REFERENCE, context),
                              self.raster_path(parameters, self.TARGET, context), output, feedback=feedback,
-                             overwrite=True,
-                             detector=DETECTORS[self.parameterAsEnum(parameters, self.DETECTOR, context)],
-                             max_keypoints=self.parameterAsInt(parameters, self.MAX_KEYPOINTS, context),
-                             ratio=self.parameterAsDouble(parameters, self.RATIO, context))
+                             overwrite=True, **self.option_arguments(parameters, context))
         feedback.pushInfo(f"keypoints {info['keypoints']['target']} / {info['keypoints']['reference']}, "
                           f"matches {info['matches']}, homography inliers {info['inliers']}")
         style_output(context, output, "tie_points")

@@ -1,4 +1,4 @@
-"""``fotogeo:orient`` and ``fotogeo:comparemodels`` — orientation models fitted to GCPs."""
+"""``fotogeo:orient`` — an orientation model fitted to GCPs; the GCP parameters it shares with comparemodels."""
 from __future__ import annotations
 
 import os
@@ -9,31 +9,20 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
     QgsProcessingOutputVectorLayer,
-    QgsProcessingParameterBoolean,
-    QgsProcessingParameterCrs,
-    QgsProcessingParameterDefinition,
-    QgsProcessingParameterEnum,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
     QgsProcessingParameterRasterLayer,
-    QgsProcessingParameterString,
     QgsProcessingParameterVectorDestination,
 )
 
+from fotogeo.options import GCP, ORIENT
+
 from ..postprocess import load_on_completion, style_output
 from .base import FotogeoAlgorithm, tr
-from .register import RESAMPLINGS, RegisterAlgorithm
 
-# Mirror of sorted(fotogeo.models.MODELS) (fotogeo is imported lazily; a test checks they agree).
-MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3", "poly3d-1",
-          "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g", "rfm-i2g", "rfm-poly",
-          "rfm-poly-i2g", "similarity")
-SPREADS = ("homogeneous", "heterogeneous")
 GCP_FILTER = "GCP files (*.gpkg *.points *.csv *.geojson *.shp);;All files (*.*)"
-FIELDS = ("col", "row", "z", "role", "id")
 
 REFERENCE_004 = ("Öztürk, Karşlı, Dihkan: orientation of aerial photographs from map GCPs with affine-with-height, "
                  "bilinear, projective, DLT and rational function models (fotogeo's source paper 004).")
@@ -50,8 +39,7 @@ class _GcpAlgorithm(FotogeoAlgorithm):
     """Parameters shared by orient and comparemodels: the image, GCP source, heights, camera."""
 
     GROUP = ("orientation", "Orientation")
-    IMAGE, GCPS, LAYER, CRS, DEM, HEIGHT, CAMERA = "IMAGE", "GCPS", "LAYER", "CRS", "DEM", "HEIGHT", "CAMERA"
-    GCP_LAYER_IN = "GCP_LAYER_INPUT"
+    IMAGE, GCPS, GCP_LAYER_IN, LAYER = "IMAGE", "GCPS", "GCP_LAYER_INPUT", "LAYER"
 
     def add_gcp_parameters(self):
         self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image")))
@@ -60,20 +48,7 @@ class _GcpAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterFeatureSource(
             self.GCP_LAYER_IN, tr("… or a GCP point layer of the project"), [QgsProcessing.TypeVectorPoint],
             optional=True))
-        self.addParameter(QgsProcessingParameterString(self.LAYER, tr("Layer of a multi-layer GCP file"),
-                                                       optional=True))
-        self.addParameter(QgsProcessingParameterCrs(
-            self.CRS, tr("Map CRS of the GCPs (for CSV, .points without #CRS, layers without CRS)"), optional=True))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.DEM, tr("DEM for GCPs without height"),
-                                                            optional=True))
-        self.addParameter(QgsProcessingParameterNumber(self.HEIGHT, tr("Constant height for GCPs without height"),
-                                                       QgsProcessingParameterNumber.Double, optional=True))
-        self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Interior orientation YAML (collinearity)"),
-                                                     optional=True, fileFilter="YAML (*.yaml *.yml)"))
-        for f in FIELDS:
-            p = QgsProcessingParameterString(f"{f.upper()}_FIELD", tr(f"Field: {f}"), defaultValue=f)
-            p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
-            self.addParameter(p)
+        self.add_options(GCP)
 
     def gcp_source(self, parameters, context, feedback) -> tuple[str, str | None]:
         """``(path, layer name)`` of the GCPs: the file, or the project layer (exported if it is not a file)."""
@@ -91,16 +66,8 @@ class _GcpAlgorithm(FotogeoAlgorithm):
         return path, layer or None
 
     def gcp_arguments(self, parameters, context, layer=None) -> dict:
-        crs = self.parameterAsCrs(parameters, self.CRS, context)
-        camera = self.parameterAsFile(parameters, self.CAMERA, context)
-        return dict(
-            layer=layer,
-            crs=RegisterAlgorithm.crs_spec(crs) if crs.isValid() else None,
-            dem=self.raster_path(parameters, self.DEM, context) if parameters.get(self.DEM) else None,
-            height=self.optional_double(parameters, self.HEIGHT, context),
-            camera=camera or None,
-            fields={f: self.parameterAsString(parameters, f"{f.upper()}_FIELD", context) or f for f in FIELDS},
-        )
+        """The tool's GCP keyword arguments (:data:`fotogeo.options.GCP`); ``layer`` from :meth:`gcp_source`."""
+        return {**self.option_arguments(parameters, context, GCP), "layer": layer}
 
 
 class OrientAlgorithm(_GcpAlgorithm):
@@ -120,35 +87,15 @@ class OrientAlgorithm(_GcpAlgorithm):
             "model); "
             "a rectified GeoTIFF in the GCP CRS.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
 
-    MODEL, SCAN_PIXEL_UM, SNOOPING, REMOVE_BLUNDERS = "MODEL", "SCAN_PIXEL_UM", "SNOOPING", "REMOVE_BLUNDERS"
-    EXAGGERATION, RESOLUTION, RESAMPLING = "EXAGGERATION", "RESOLUTION", "RESAMPLING"
+    OPTIONS = (GCP, ORIENT)
     REPORT, VECTORS, PLOT, POINTS, RPC, RECTIFY = "REPORT", "VECTORS", "PLOT", "POINTS", "RPC", "RECTIFY"
     GCP_TIFF = "GCP_TIFF"
     GCP_LAYER, ERROR_VECTORS = "GCP_LAYER", "ERROR_VECTORS"
     CONTROL_RMS, CHECK_RMS, BLUNDERS, MODEL_NAME = "CONTROL_RMS_XY_PX", "CHECK_RMS_XY_PX", "BLUNDERS", "MODEL_NAME"
 
     def initAlgorithm(self, config=None):
-        Num = QgsProcessingParameterNumber
         self.add_gcp_parameters()
-        self.addParameter(QgsProcessingParameterEnum(self.MODEL, tr("Model"), options=list(MODELS),
-                                                     defaultValue=MODELS.index("poly1")))
-        self.addParameter(QgsProcessingParameterBoolean(self.SNOOPING, tr("Data snooping (flag blunders)"),
-                                                        defaultValue=True))
-        self.addParameter(QgsProcessingParameterBoolean(self.REMOVE_BLUNDERS, tr("Remove flagged blunders and refit"),
-                                                        defaultValue=False))
-        advanced = [
-            Num(self.SCAN_PIXEL_UM, tr("Scan pixel size in µm (report residuals in mm on the photo)"), Num.Double,
-                optional=True, minValue=0.0),
-            Num(self.EXAGGERATION, tr("Error vector exaggeration (drawing scale)"), Num.Double, defaultValue=1.0,
-                minValue=0.001),
-            Num(self.RESOLUTION, tr("Rectified pixel size (0 = the image's ground sample distance)"), Num.Double,
-                defaultValue=0.0, minValue=0.0),
-            QgsProcessingParameterEnum(self.RESAMPLING, tr("Rectification resampling"), options=list(RESAMPLINGS),
-                                       defaultValue=0),
-        ]
-        for p in advanced:
-            p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
-            self.addParameter(p)
+        self.add_options(ORIENT)
         self.addParameter(QgsProcessingParameterFileDestination(self.REPORT, tr("Report (JSON)"), "JSON (*.json)",
                                                                 optional=True, createByDefault=True))
         self.addParameter(QgsProcessingParameterVectorDestination(
@@ -194,17 +141,9 @@ class OrientAlgorithm(_GcpAlgorithm):
             if key in outputs and not outputs[key].lower().endswith((".tif", ".tiff")):
                 raise QgsProcessingException(f"{key.upper()}: fotogeo writes GeoTIFF; give a file name ending "
                                              f"in .tif (got {outputs[key]!r})")
-        model = self.enum_value(parameters, self.MODEL, context, MODELS)
-        resolution = self.parameterAsDouble(parameters, self.RESOLUTION, context)
-        rep = self.run_tool(
-            orient, image, gcps, model=model, feedback=feedback, overwrite=True,
-            snooping=self.parameterAsBoolean(parameters, self.SNOOPING, context),
-            remove_blunders=self.parameterAsBoolean(parameters, self.REMOVE_BLUNDERS, context),
-            scan_pixel_um=self.optional_double(parameters, self.SCAN_PIXEL_UM, context) or None,
-            exaggeration=self.parameterAsDouble(parameters, self.EXAGGERATION, context),
-            resolution=resolution if resolution > 0 else None,
-            resampling=self.enum_value(parameters, self.RESAMPLING, context, RESAMPLINGS),
-            **self.gcp_arguments(parameters, context, gcp_layer), **outputs)
+        rep = self.run_tool(orient, image, gcps, feedback=feedback, overwrite=True,
+                            **self.option_arguments(parameters, context, ORIENT),
+                            **self.gcp_arguments(parameters, context, gcp_layer), **outputs)
         feedback.pushInfo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
         for role in ("control", "check", "blunder"):
             s = rep.get(role) or {}

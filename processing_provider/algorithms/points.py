@@ -7,17 +7,16 @@ from qgis.core import (
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
-    QgsProcessingParameterCrs,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorDestination,
 )
 
+from fotogeo.options import LAYER_TO_POINTS, POINTS_TO_LAYER
+
 from ..postprocess import style_output
 from .base import FotogeoAlgorithm, tr
-from .register import RegisterAlgorithm
 
 _CONVENTION = ("Source coordinates: for an unreferenced source raster QGIS writes sourceX = column and "
                "sourceY = -row (y up), with (0, 0) the top-left corner of the top-left pixel (GDAL/QGIS "
@@ -36,15 +35,13 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
             "convention), z (empty), role (enable 1 = control, 0 = check) and dx, dy, residual.\n\n"
             + _CONVENTION + "\n\nOutput CRS: the CRS parameter if set, else the file's #CRS line.")
 
-    INPUT, RASTER, CRS, OUTPUT, COUNT = "INPUT", "RASTER", "CRS", "OUTPUT", "COUNT"
+    OPTIONS = (POINTS_TO_LAYER,)
+    INPUT, OUTPUT, COUNT = "INPUT", "OUTPUT", "COUNT"
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFile(self.INPUT, tr("Georeferencer points file"),
                                                      extension="points"))
-        self.addParameter(QgsProcessingParameterRasterLayer(
-            self.RASTER, tr("Source raster, if georeferenced (empty = unreferenced convention)"), optional=True))
-        self.addParameter(QgsProcessingParameterCrs(
-            self.CRS, tr("CRS of the map coordinates (empty = the file's #CRS)"), optional=True))
+        self.add_options(POINTS_TO_LAYER)
         self.addParameter(QgsProcessingParameterVectorDestination(self.OUTPUT, tr("GCP layer (GeoPackage)"),
                                                                   QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
@@ -52,14 +49,11 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
     def processAlgorithm(self, parameters, context, feedback):
         points_to_layer = self.tool("tools.points", "points_to_layer")
         points = self.parameterAsFile(parameters, self.INPUT, context)
-        raster = self.raster_path(parameters, self.RASTER, context) if parameters.get(self.RASTER) else None
-        crs = self.parameterAsCrs(parameters, self.CRS, context)
         output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
         if os.path.splitext(output)[1].lower() != ".gpkg":
             raise QgsProcessingException(f"OUTPUT must be a GeoPackage (.gpkg); got {output!r}")
-        info = self.run_tool(points_to_layer, points, output, raster=raster,
-                             crs=RegisterAlgorithm.crs_spec(crs) if crs.isValid() else None,
-                             overwrite=True, feedback=feedback)
+        info = self.run_tool(points_to_layer, points, output, overwrite=True, feedback=feedback,
+                             **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}, "
                           f"source coordinates: {info['source_convention']}")
         style_output(context, output, "tie_points")
@@ -77,13 +71,13 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
             "algorithm works directly (target_col, target_row). Map coordinates are the point positions; "
             "the #CRS line is the layer's CRS.\n\n" + _CONVENTION)
 
-    INPUT, RASTER, OUTPUT, COUNT = "INPUT", "RASTER", "OUTPUT", "COUNT"
+    OPTIONS = (LAYER_TO_POINTS,)
+    INPUT, OUTPUT, COUNT = "INPUT", "OUTPUT", "COUNT"
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource(self.INPUT, tr("GCP / tie point layer"),
                                                               [QgsProcessing.TypeVectorPoint]))
-        self.addParameter(QgsProcessingParameterRasterLayer(
-            self.RASTER, tr("Source raster, if georeferenced (empty = unreferenced convention)"), optional=True))
+        self.add_options(LAYER_TO_POINTS)
         self.addParameter(QgsProcessingParameterFileDestination(self.OUTPUT, tr("Georeferencer points file"),
                                                                 "Georeferencer points (*.points)"))
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
@@ -96,9 +90,8 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
             parameters, self.INPUT, context, ["gpkg", "shp"], "gpkg", feedback)
         if not path:
             raise QgsProcessingException(self.invalidSourceError(parameters, self.INPUT))
-        raster = self.raster_path(parameters, self.RASTER, context) if parameters.get(self.RASTER) else None
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        info = self.run_tool(layer_to_points, path, output, layer=layer or None, raster=raster,
-                             overwrite=True, feedback=feedback)
+        info = self.run_tool(layer_to_points, path, output, layer=layer or None, overwrite=True, feedback=feedback,
+                             **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}")
         return {self.OUTPUT: output, self.COUNT: info["points"]}

@@ -4,34 +4,19 @@ from __future__ import annotations
 import os
 
 from qgis.core import (
-    QgsCoordinateReferenceSystem,
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
     QgsProcessingOutputVectorLayer,
-    QgsProcessingParameterBoolean,
-    QgsProcessingParameterCrs,
-    QgsProcessingParameterDefinition,
-    QgsProcessingParameterEnum,
-    QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterDestination,
     QgsProcessingParameterRasterLayer,
 )
 
+from fotogeo.options import REGISTER, REGISTER_TERRAIN
+
 from ..postprocess import load_on_completion
 from .base import REFERENCES, FotogeoAlgorithm, tr
-
-# Mirrors of fotogeo's option lists (fotogeo is imported lazily; tests check they agree).
-DETECTORS = ("surf", "sift")
-PLANAR = ("projective", "affine", "similarity")
-TERRAIN = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity")
-#: index 0 = the tool's default (model None): projective without a DEM, auto with one
-MODELS = ("default",) + PLANAR + TERRAIN
-RESAMPLINGS = ("nearest", "bilinear", "cubic")
-CONTRASTS = ("adaptive", "equalize", "linear")
-REFINES = ("none", "lsm")
 
 
 class RegisterAlgorithm(FotogeoAlgorithm):
@@ -62,65 +47,16 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "mountainous frames.\n\n"
             f"References: {REFERENCES['dihkan']} {REFERENCES['surf']} {REFERENCES['ransac']}")
 
-    REFERENCE, TARGET, DETECTOR, MODEL, RESAMPLING = "REFERENCE", "TARGET", "DETECTOR", "MODEL", "RESAMPLING"
-    CRS, RESOLUTION, RATIO, MUTUAL, RANSAC_THRESHOLD = "CRS", "RESOLUTION", "RATIO", "MUTUAL", "RANSAC_THRESHOLD"
-    CHECK_FRACTION, MAX_KEYPOINTS, HESSIAN_THRESHOLD = "CHECK_FRACTION", "MAX_KEYPOINTS", "HESSIAN_THRESHOLD"
-    SEED, MAX_MATCH_PIXELS, EXAGGERATION = "SEED", "MAX_MATCH_PIXELS", "EXAGGERATION"
-    CONTRAST, REFERENCE_NODATA, TARGET_NODATA = "CONTRAST", "REFERENCE_NODATA", "TARGET_NODATA"
-    REFINE, DEM, CAMERA = "REFINE", "DEM", "CAMERA"
-    OUTPUT, VECTORS, REPORT = "OUTPUT", "VECTORS", "REPORT"
+    OPTIONS = (REGISTER_TERRAIN, REGISTER)
+    REFERENCE, TARGET, OUTPUT, VECTORS, REPORT = "REFERENCE", "TARGET", "OUTPUT", "VECTORS", "REPORT"
     TIE_POINTS, ERROR_VECTORS = "TIE_POINTS", "ERROR_VECTORS"
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
 
     def initAlgorithm(self, config=None):
-        Num = QgsProcessingParameterNumber
-        advanced = []
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
-        self.addParameter(QgsProcessingParameterEnum(self.DETECTOR, tr("Keypoint detector"), options=list(DETECTORS),
-                                                     defaultValue=0))
-        self.addParameter(QgsProcessingParameterEnum(
-            self.MODEL, tr("Geometric model (default: projective; with a DEM: auto)"), options=list(MODELS),
-            defaultValue=0))
-        self.addParameter(QgsProcessingParameterRasterLayer(
-            self.DEM, tr("DEM (terrain-aware registration: 3-D model, orthorectified output)"), optional=True))
-        self.addParameter(QgsProcessingParameterFile(
-            self.CAMERA, tr("Interior orientation YAML of the target camera (model collinearity)"), optional=True,
-            fileFilter="YAML (*.yaml *.yml)"))
-        self.addParameter(QgsProcessingParameterEnum(self.RESAMPLING, tr("Resampling"), options=list(RESAMPLINGS),
-                                                     defaultValue=0))
-        self.addParameter(QgsProcessingParameterCrs(self.CRS, tr("Output CRS (empty = UTM zone of the reference)"),
-                                                    optional=True))
-        self.addParameter(Num(self.RESOLUTION, tr("Output pixel size in output CRS units (0 = the reference's)"),
-                              Num.Double, defaultValue=0.0, minValue=0.0))
-        self.addParameter(Num(self.RATIO, tr("Ratio test (nearest / second-nearest distance)"), Num.Double,
-                              defaultValue=0.8, minValue=0.05, maxValue=1.0))
-        self.addParameter(Num(self.RANSAC_THRESHOLD, tr("RANSAC threshold (reference pixels)"), Num.Double,
-                              defaultValue=3.0, minValue=0.01))
-        self.addParameter(Num(self.CHECK_FRACTION, tr("Fraction of inliers held out as check points"), Num.Double,
-                              defaultValue=0.3, minValue=0.0, maxValue=0.89))
-        advanced += [
-            QgsProcessingParameterBoolean(self.MUTUAL, tr("Keep only mutual nearest neighbours"), defaultValue=True),
-            Num(self.MAX_KEYPOINTS, tr("Maximum keypoints per image"), Num.Integer, defaultValue=8000, minValue=10),
-            Num(self.HESSIAN_THRESHOLD, tr("SURF Hessian threshold (0 = automatic)"), Num.Double,
-                defaultValue=0.0, minValue=0.0),
-            Num(self.MAX_MATCH_PIXELS, tr("Decimate images larger than this many pixels for matching"), Num.Integer,
-                defaultValue=16_000_000, minValue=10_000),
-            Num(self.SEED, tr("Random seed"), Num.Integer, defaultValue=0, minValue=0),
-            Num(self.EXAGGERATION, tr("Error vector exaggeration (drawing scale)"), Num.Double,
-                defaultValue=1.0, minValue=0.001),
-            QgsProcessingParameterEnum(self.CONTRAST, tr("Contrast of the fused images for matching"),
-                                       options=list(CONTRASTS), defaultValue=0),
-            QgsProcessingParameterEnum(self.REFINE, tr("Refine tie points before the fit (lsm = least-squares "
-                                                       "matching)"), options=list(REFINES), defaultValue=0),
-            Num(self.REFERENCE_NODATA, tr("Reference nodata value (empty = the file's)"), Num.Double,
-                defaultValue=None, optional=True),
-            Num(self.TARGET_NODATA, tr("Target nodata value (empty = the file's)"), Num.Double,
-                defaultValue=None, optional=True),
-        ]
-        for p in advanced:
-            p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
-            self.addParameter(p)
+        for table in self.OPTIONS:
+            self.add_options(table)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Registered raster")))
         # optional: left empty they are written beside the raster (OUT.gpkg, OUT.json), as the CLI does
         self.addParameter(QgsProcessingParameterFileDestination(
@@ -136,15 +72,6 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.CHECK_RMSE, tr("RMSE at check points (m)")))
         self.addOutput(QgsProcessingOutputString(self.OUTPUT_CRS, tr("Output CRS")))
 
-    @staticmethod
-    def crs_spec(crs: QgsCoordinateReferenceSystem) -> str:
-        """'auto' for an empty CRS parameter, else an authority code or WKT pyproj understands."""
-        if not crs.isValid():
-            return "auto"
-        if crs.authid().upper().startswith(("EPSG:", "ESRI:", "IAU")):
-            return crs.authid()
-        return crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
-
     def processAlgorithm(self, parameters, context, feedback):
         register = self.tool("tools.register", "register")
         reference = self.raster_path(parameters, self.REFERENCE, context)
@@ -154,35 +81,11 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         report = self.parameterAsFileOutput(parameters, self.REPORT, context) or os.path.splitext(output)[0] + ".json"
         if not vectors.lower().endswith(".gpkg"):
             raise QgsProcessingException(f"VECTORS must be a GeoPackage file ending in .gpkg; got {vectors!r}")
-        hessian = self.parameterAsDouble(parameters, self.HESSIAN_THRESHOLD, context)
-        resolution = self.parameterAsDouble(parameters, self.RESOLUTION, context)
-        options = dict(
-            detector=self.enum_value(parameters, self.DETECTOR, context, DETECTORS),
-            model=MODELS[self.parameterAsEnum(parameters, self.MODEL, context)] if
-            self.parameterAsEnum(parameters, self.MODEL, context) else None,
-            resampling=self.enum_value(parameters, self.RESAMPLING, context, RESAMPLINGS),
-            dst_crs=self.crs_spec(self.parameterAsCrs(parameters, self.CRS, context)),
-            resolution=resolution if resolution > 0 else None,
-            ratio=self.parameterAsDouble(parameters, self.RATIO, context),
-            mutual=self.parameterAsBoolean(parameters, self.MUTUAL, context),
-            ransac_threshold=self.parameterAsDouble(parameters, self.RANSAC_THRESHOLD, context),
-            check_fraction=self.parameterAsDouble(parameters, self.CHECK_FRACTION, context),
-            max_keypoints=self.parameterAsInt(parameters, self.MAX_KEYPOINTS, context),
-            hessian_threshold=hessian if hessian > 0 else None,
-            max_match_pixels=self.parameterAsInt(parameters, self.MAX_MATCH_PIXELS, context),
-            seed=self.parameterAsInt(parameters, self.SEED, context),
-            exaggeration=self.parameterAsDouble(parameters, self.EXAGGERATION, context),
-            contrast=self.enum_value(parameters, self.CONTRAST, context, CONTRASTS),
-            refine=self.enum_value(parameters, self.REFINE, context, REFINES),
-            reference_nodata=self.optional_double(parameters, self.REFERENCE_NODATA, context),
-            target_nodata=self.optional_double(parameters, self.TARGET_NODATA, context),
-        )
-        feedback.pushInfo("options: " + ", ".join(f"{k}={v}" for k, v in options.items() if k != "dst_crs")
-                          + f", output CRS={'auto' if options['dst_crs'] == 'auto' else 'given'}")
-        dem = self.raster_path(parameters, self.DEM, context) if parameters.get(self.DEM) else None
-        camera = self.parameterAsFile(parameters, self.CAMERA, context) or None
-        result = self.run_tool(register, reference, target, output, vectors=vectors, report=report, dem=dem,
-                               camera=camera, overwrite=True, feedback=feedback, **options)
+        options = self.option_arguments(parameters, context)
+        shown = ", ".join(f"{k}={v}" for k, v in options.items() if k in REGISTER and k != "dst_crs")
+        feedback.pushInfo(f"options: {shown}, output CRS={'auto' if options['dst_crs'] == 'auto' else 'given'}")
+        result = self.run_tool(register, reference, target, output, vectors=vectors, report=report, overwrite=True,
+                               feedback=feedback, **options)
         rep = result.report
         feedback.pushInfo(f"keypoints target/reference {rep['keypoints']['target']}/{rep['keypoints']['reference']}, "
                           f"matches {rep['matches']}, inliers {rep['inliers']}")

@@ -1,4 +1,4 @@
-"""``fotogeo:transferpoints`` and ``fotogeo:measuretargets`` — area-based matching."""
+"""``fotogeo:transferpoints`` — points transferred by pyramid NCC + least-squares matching."""
 from __future__ import annotations
 
 import os
@@ -6,13 +6,12 @@ import os
 from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputNumber,
-    QgsProcessingParameterDefinition,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
-    QgsProcessingParameterString,
 )
+
+from fotogeo.options import TRANSFER
 
 from .base import FotogeoAlgorithm, tr
 
@@ -24,12 +23,8 @@ REFERENCE_001 = ("Area-based matching after fotogeo's source papers 000/001: nor
                  "σ0² = vᵀPv / (n − u) (Ackermann: 0.1-0.3 px).")
 
 
-def _advanced(alg, param):
-    param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
-    alg.addParameter(param)
-
-
-def _table_output(alg, parameters, name, context) -> str:
+def table_output(alg, parameters, name, context) -> str:
+    """Path of a point-table destination: fotogeo writes CSV or GeoPackage, chosen by suffix."""
     path = alg.parameterAsFileOutput(parameters, name, context)
     if os.path.splitext(path)[1].lower() not in (".csv", ".gpkg"):
         raise QgsProcessingException(f"{name} must be a .csv or .gpkg file; got {path!r}")
@@ -50,23 +45,15 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
             "(GDAL corner convention). Output (CSV or GeoPackage, by suffix): per point col, row (refined), "
             "sigma_x, sigma_y (px), ncc, status, and the approximation.\n\nReference: " + REFERENCE_001)
 
-    REFERENCE, SEARCH, POINTS, SEARCH_RADIUS, HALF_WINDOW = "REFERENCE", "SEARCH", "POINTS", "SEARCH_RADIUS", \
-        "HALF_WINDOW"
-    OUTPUT, COUNT, CONVERGED, MEDIAN_SIGMA = "OUTPUT", "COUNT", "CONVERGED", "MEDIAN_SIGMA_PX"
-    FIELDS = (("REF_COL_FIELD", "ref_col"), ("REF_ROW_FIELD", "ref_row"), ("COL_FIELD", "col"),
-              ("ROW_FIELD", "row"), ("ID_FIELD", "id"))
+    OPTIONS = (TRANSFER,)
+    REFERENCE, SEARCH, POINTS, OUTPUT = "REFERENCE", "SEARCH", "POINTS", "OUTPUT"
+    COUNT, CONVERGED, MEDIAN_SIGMA = "COUNT", "CONVERGED", "MEDIAN_SIGMA_PX"
 
     def initAlgorithm(self, config=None):
-        Num = QgsProcessingParameterNumber
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference image")))
         self.addParameter(QgsProcessingParameterRasterLayer(self.SEARCH, tr("Search image")))
         self.addParameter(QgsProcessingParameterFile(self.POINTS, tr("Point table"), fileFilter=TABLE_FILTER))
-        self.addParameter(Num(self.SEARCH_RADIUS, tr("Search radius around the approximation (px)"), Num.Integer,
-                              defaultValue=32, minValue=1))
-        self.addParameter(Num(self.HALF_WINDOW, tr("LSM half window h (window (2h+1)², px)"), Num.Integer,
-                              defaultValue=10, minValue=2))
-        for name, default in self.FIELDS:
-            _advanced(self, QgsProcessingParameterString(name, tr(f"Field: {default}"), defaultValue=default))
+        self.add_options(TRANSFER)
         self.addParameter(QgsProcessingParameterFileDestination(self.OUTPUT, tr("Transferred points"), OUTPUT_FILTER))
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Points")))
         self.addOutput(QgsProcessingOutputNumber(self.CONVERGED, tr("Converged points")))
@@ -74,15 +61,11 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
 
     def processAlgorithm(self, parameters, context, feedback):
         transfer_gcps = self.tool("tools.transfer", "transfer_gcps")
-        f = {name: self.parameterAsString(parameters, name, context) or default for name, default in self.FIELDS}
-        output = _table_output(self, parameters, self.OUTPUT, context)
+        output = table_output(self, parameters, self.OUTPUT, context)
         r = self.run_tool(
             transfer_gcps, self.raster_path(parameters, self.REFERENCE, context),
             self.raster_path(parameters, self.SEARCH, context), self.parameterAsFile(parameters, self.POINTS, context),
-            output, search_radius=self.parameterAsInt(parameters, self.SEARCH_RADIUS, context),
-            half_window=self.parameterAsInt(parameters, self.HALF_WINDOW, context),
-            ref_fields=(f["REF_COL_FIELD"], f["REF_ROW_FIELD"]), approx_fields=(f["COL_FIELD"], f["ROW_FIELD"]),
-            id_field=f["ID_FIELD"], overwrite=True, feedback=feedback)
+            output, overwrite=True, feedback=feedback, **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "
                           f"statuses {r['statuses']}")
         sigma = r["median_sigma_px"]

@@ -1,0 +1,295 @@
+"""Every tool option, declared once: the command line and the QGIS parameters are generated from here.
+
+An :class:`Option` is one keyword argument of a tool (``fotogeo/tools/<tool>.py``): its name,
+kind, default, valid range or choices, the command-line help and flag, the QGIS parameter
+label and name, and whether QGIS shows it under *Advanced*. A :class:`Table` is the ordered
+set of options of one tool. From a table,
+
+- ``fotogeo.cli.common.options_from(table)`` makes the click options of the ``fotogeo``
+  command (flag ``--name-with-dashes``, default shown in ``--help``);
+- ``processing_provider/algorithms/base.py`` adds the QGIS Processing parameters
+  (``NAME`` in upper case) and reads them back into the tool's keyword arguments;
+- :class:`RegisterOptions` (the registration settings) is a frozen dataclass built from
+  :data:`REGISTER`, whose ``validate()`` checks types, ranges and choices against the table.
+
+Conventions of the QGIS side, where a number or an enum cannot be empty: an option whose
+default is ``None`` is an optional parameter (empty = ``None``), unless it has an
+``automatic`` value — the number standing for ``None`` ("0 = automatic") — or a
+``none_choice`` — the enum entry, listed first, standing for ``None`` ("default").
+
+The choice lists (:data:`DETECTORS`, :data:`CONTRASTS`, :data:`RESAMPLINGS`,
+:data:`PLANAR_MODELS`, :data:`TERRAIN_MODELS`, :data:`ORIENTATION_MODELS`, ...) live here
+and the array and tool modules import them, so there is one list of each. This module
+imports the standard library only: the QGIS plugin reads it when it loads, before it knows
+whether numpy and the other dependencies are installed.
+"""
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass, field, fields, make_dataclass, replace
+
+from .errors import InputError
+
+DETECTORS = ("surf", "sift")
+CONTRASTS = ("adaptive", "equalize", "linear")
+RESAMPLINGS = ("nearest", "bilinear", "cubic")
+PLANAR_MODELS = ("projective", "affine", "similarity")
+TERRAIN_MODELS = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity")
+#: every model of :data:`fotogeo.models.MODELS`, sorted (``fotogeo.models`` checks it on import)
+ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3",
+                      "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
+                      "rfm-i2g", "rfm-poly", "rfm-poly-i2g", "similarity")
+REFINES = ("none", "lsm")
+POLARITIES = ("auto", "bright", "dark")
+SPREADS = ("homogeneous", "heterogeneous")
+
+#: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes
+KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
+         "str": "text / String", "choice": "one of choices / Enum", "choices": "comma list / multiple Enum",
+         "ints": "comma list of int / String", "crs": "CRS text / CRS", "file": "path / File",
+         "raster": "path / raster layer"}
+
+
+@dataclass(frozen=True)
+class Option:
+    """One keyword argument of a tool, as the command line and QGIS show it (see the module docstring)."""
+
+    name: str
+    kind: str
+    default: object = None
+    label: str = ""  # QGIS parameter description
+    help: str | None = None  # command-line help
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False  # the minimum itself is not valid (QGIS allows it only as ``automatic``)
+    choices: tuple = ()
+    advanced: bool = False
+    automatic: float | None = None  # QGIS number standing for None
+    none_choice: str | None = None  # QGIS enum entry standing for None, listed first
+    file_filter: str = ""
+    flag: str | None = None  # command-line flag [--name-with-dashes]
+    param: str | None = None  # QGIS parameter name [NAME]
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"option {self.name}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+
+    @property
+    def cli_flag(self) -> str:
+        return self.flag or "--" + self.name.replace("_", "-")
+
+    @property
+    def qgis_name(self) -> str:
+        return self.param or self.name.upper()
+
+    @property
+    def nullable(self) -> bool:
+        return self.default is None
+
+    @property
+    def qgis_choices(self) -> tuple:
+        """The entries of the QGIS enum: ``none_choice`` first when there is one."""
+        return ((self.none_choice,) if self.none_choice else ()) + tuple(self.choices)
+
+    def range_text(self) -> str:
+        lo = "" if self.minimum is None else f"{'>' if self.exclusive_minimum else '>='} {self.minimum}"
+        hi = "" if self.maximum is None else f"<= {self.maximum}"
+        return " and ".join(t for t in (lo, hi) if t)
+
+    def check(self, value) -> None:
+        """Raise :class:`InputError` naming the option unless ``value`` has its kind, range and choices."""
+        if value is None:
+            if self.nullable:
+                return
+            raise InputError(f"{self.name} needs a value (default {self.default!r})")
+        if self.kind == "choice":
+            if value not in self.choices:
+                raise InputError(f"{self.name} {value!r} unknown; choose one of {', '.join(self.choices)}")
+        elif self.kind == "bool":
+            if value not in (True, False):
+                raise InputError(f"{self.name} must be True or False; got {value!r}")
+        elif self.kind in ("int", "float"):
+            whole = self.kind == "int"
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral if whole else numbers.Real):
+                raise InputError(f"{self.name} must be {'a whole number' if whole else 'a number'}; got {value!r}")
+            below = self.minimum is not None and not (value > self.minimum if self.exclusive_minimum
+                                                      else value >= self.minimum)
+            above = self.maximum is not None and not value <= self.maximum
+            if below or above or value != value:  # value != value: NaN
+                raise InputError(f"{self.name} must be {self.range_text()}; got {value!r}")
+
+
+class Table(dict):
+    """The options of one tool, by name, in the order the command line and QGIS list them.
+
+    ``groups`` gathers several options into one keyword argument of the tool: a dict
+    ``{key: option name}`` becomes a dict, a tuple of option names a tuple (e.g. the field
+    names ``col_field``, ``row_field`` → ``approx_fields=("col", "row")``).
+    """
+
+    def __init__(self, *options: Option, groups: dict | None = None):
+        super().__init__((o.name, o) for o in options)
+        if len(self) != len(options):
+            raise ValueError("an option table names an option twice")
+        self.groups = dict(groups or {})
+
+    def __add__(self, other: Table) -> Table:
+        return Table(*self.values(), *other.values(), groups={**self.groups, **other.groups})
+
+    def only(self, *names: str, **changes) -> Table:
+        """The options ``names`` of this table (``changes``: ``{name: {field: value}}``)."""
+        return Table(*(replace(self[n], **changes.get(n, {})) for n in names))
+
+    def arguments(self, values: dict) -> dict:
+        """``values`` (by option name) as the tool's keyword arguments: the groups gathered."""
+        out = dict(values)
+        for key, spec in self.groups.items():
+            out[key] = ({k: out.pop(n) for k, n in spec.items()} if isinstance(spec, dict)
+                        else tuple(out.pop(n) for n in spec))
+        return out
+
+
+def field_options(*names: str) -> tuple[Option, ...]:
+    """``<name>_field`` options: the attribute names a point table is read with (advanced)."""
+    return tuple(Option(f"{n}_field", "str", n, label=f"Field: {n}", advanced=True) for n in names)
+
+
+# -- shared options -----------------------------------------------------------------------
+SEED = Option("seed", "int", 0, "Random seed", minimum=0, advanced=True)
+DETECTOR = Option("detector", "choice", "surf", "Keypoint detector", choices=DETECTORS)
+MAX_KEYPOINTS = Option("max_keypoints", "int", 8000, "Maximum keypoints per image", "Per image, spatially balanced.",
+                       minimum=10, advanced=True)
+RATIO = Option("ratio", "float", 0.8, "Ratio test (nearest / second-nearest distance)",
+               "Nearest/second-nearest ratio test.", minimum=0.05, maximum=1.0)
+RANSAC_THRESHOLD = Option("ransac_threshold", "float", 3.0, "RANSAC threshold (reference pixels)",
+                          "RANSAC inlier threshold in reference pixels.", minimum=0.01)
+EXAGGERATION = Option("exaggeration", "float", 1.0, "Error vector exaggeration (drawing scale)",
+                      "Scale factor drawing the error vectors.", minimum=0.001, advanced=True)
+RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
+YAML = "YAML (*.yaml *.yml)"
+
+# -- the tools ------------------------------------------------------------------------------
+#: registration settings, in the field order of :class:`RegisterOptions` (and of the report's "options")
+REGISTER = Table(
+    DETECTOR, MAX_KEYPOINTS,
+    Option("hessian_threshold", "float", None, "SURF Hessian threshold (0 = automatic)",
+           "SURF detector threshold (on 0..255 fused images).", minimum=0.0, automatic=0.0, advanced=True),
+    RATIO,
+    Option("mutual", "bool", True, "Keep only mutual nearest neighbours", "Keep only mutual nearest neighbours.",
+           advanced=True),
+    Option("model", "choice", None, "Geometric model (default: projective; with a DEM: auto)",
+           "projective (default), affine, similarity; with --dem: auto (default), dlt, rfm, rfm-common, rfm-poly, "
+           "collinearity.", choices=PLANAR_MODELS + TERRAIN_MODELS, none_choice="default"),
+    RANSAC_THRESHOLD,
+    Option("check_fraction", "float", 0.3, "Fraction of inliers held out as check points",
+           "Fraction of inliers held out as check points.", minimum=0.0, maximum=0.89),
+    SEED, RESAMPLING,
+    Option("resolution", "float", None, "Output pixel size in output CRS units (0 = the reference's)",
+           "Output pixel size in output CRS units [the reference's].", minimum=0.0, exclusive_minimum=True,
+           automatic=0.0),
+    Option("dst_crs", "crs", "auto", "Output CRS (empty = UTM zone of the reference)",
+           "Output CRS: 'auto' (UTM zone of the reference centre), EPSG:xxxx, WKT or PROJ.", flag="--crs",
+           param="CRS"),
+    Option("max_match_pixels", "int", 16_000_000, "Decimate images larger than this many pixels for matching",
+           "Images larger than this are decimated for matching (not for resampling).", minimum=10_000, advanced=True),
+    EXAGGERATION,
+    Option("contrast", "choice", "adaptive", "Contrast of the fused images for matching",
+           "Contrast of the fused images for matching (adaptive = equalize + CLAHE).", choices=CONTRASTS,
+           advanced=True),
+    Option("refine", "choice", "none", "Refine tie points before the fit (lsm = least-squares matching)",
+           "Refine tie points by least-squares matching before the fit.", choices=REFINES, advanced=True),
+    Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)",
+           "Nodata value of the reference (overrides the file's).", advanced=True),
+    Option("target_nodata", "float", None, "Target nodata value (empty = the file's)",
+           "Nodata value of the target (overrides the file's).", advanced=True),
+)
+#: registration inputs besides the two images: terrain-aware registration
+REGISTER_TERRAIN = Table(
+    Option("dem", "raster", None, "DEM (terrain-aware registration: 3-D model, orthorectified output)",
+           "DEM: terrain-aware registration with a 3-D model and an orthorectified output."),
+    Option("camera", "file", None, "Interior orientation YAML of the target camera (model collinearity)",
+           "Interior orientation YAML of the target's camera (for --model collinearity).", file_filter=YAML),
+)
+#: detect and match only (``match_images``), with the registration's option declarations
+MATCH = REGISTER.only("detector", "max_keypoints", "ratio", "ransac_threshold", max_keypoints={"advanced": False})
+FUSE = Table(
+    Option("stretch", "bool", True, "Stretch to 8 bit (1..255, 0 = nodata)",
+           "uint8 0..255 robust stretch, or float32 component values."),
+    replace(SEED, label="Random seed (pixel sample)"),
+)
+DEMO = Table(
+    Option("seed", "int", 7, "Seed of the generated scene", "Seed of the generated scene.", minimum=0),
+    DETECTOR,
+)
+#: where GCPs, their heights and the camera come from (orient, compare)
+GCP = Table(
+    Option("layer", "str", None, "Layer of a multi-layer GCP file", "Layer of a multi-layer GCP file."),
+    Option("crs", "crs", None, "Map CRS of the GCPs (for CSV, .points without #CRS, layers without CRS)",
+           "Map CRS of the GCPs (needed for CSV, .points without #CRS, layers without CRS)."),
+    Option("dem", "raster", None, "DEM for GCPs without height", "Heights for GCPs without a z value (bilinear)."),
+    Option("height", "float", None, "Constant height for GCPs without height",
+           "Constant height for GCPs without a z value."),
+    Option("camera", "file", None, "Interior orientation YAML (collinearity)",
+           "Interior orientation YAML (collinearity).", file_filter=YAML),
+    *field_options("col", "row", "z", "role", "id"),
+    groups={"fields": {n: f"{n}_field" for n in ("col", "row", "z", "role", "id")}},
+)
+ORIENT = Table(
+    Option("model", "choice", "poly1", "Model", choices=ORIENTATION_MODELS),
+    Option("snooping", "bool", True, "Data snooping (flag blunders)", "Data snooping for blunders."),
+    Option("remove_blunders", "bool", False, "Remove flagged blunders and refit", "Drop flagged blunders and refit."),
+    Option("scan_pixel_um", "float", None, "Scan pixel size in µm (report residuals in mm on the photo)",
+           "Scan pixel size (µm) to report residuals in mm on the photo.", minimum=0.0, advanced=True),
+    EXAGGERATION,
+    Option("resolution", "float", None, "Rectified pixel size (0 = the image's ground sample distance)",
+           "Pixel size of the rectified raster [image GSD].", minimum=0.0, exclusive_minimum=True, automatic=0.0,
+           advanced=True),
+    replace(RESAMPLING, label="Rectification resampling", advanced=True),
+)
+COMPARE = Table(
+    Option("models", "choices", None, "Models (none = all that the GCPs allow)",
+           "Comma-separated model names [all that the GCPs allow].", choices=ORIENTATION_MODELS),
+    Option("counts", "ints", (40, 20, 15, 10, 6), "Control-point counts (comma-separated)", "Control-point counts.",
+           minimum=1),
+    Option("spreads", "choices", SPREADS, "Spreads", choices=SPREADS),
+    Option("trials", "int", 5, "Seeded trials per cell (median reported)", "Seeded trials per cell (median reported).",
+           minimum=1),
+    replace(SEED, advanced=False),
+)
+TRANSFER = Table(
+    Option("search_radius", "int", 32, "Search radius around the approximation (px)",
+           "Pixels around the approximation.", minimum=1),
+    Option("half_window", "int", 10, "LSM half window h (window (2h+1)², px)", "LSM window (2h+1)².", minimum=2),
+    *field_options("ref_col", "ref_row", "col", "row", "id"),
+    groups={"ref_fields": ("ref_col_field", "ref_row_field"), "approx_fields": ("col_field", "row_field")},
+)
+TARGETS = Table(
+    Option("half_window", "int", 12, "Half window (px)", minimum=4),
+    Option("polarity", "choice", "auto", "Target polarity", choices=POLARITIES),
+    *field_options("col", "row", "id"),
+    groups={"approx_fields": ("col_field", "row_field")},
+)
+_SOURCE_RASTER = Option("raster", "raster", None, "Source raster, if georeferenced (empty = unreferenced convention)",
+                        "Source raster, when the points are in its map coordinates.")
+POINTS_TO_LAYER = Table(_SOURCE_RASTER, Option("crs", "crs", None, "CRS of the map coordinates (empty = the file's #CRS)",
+                                               "CRS of the map coordinates [the file's #CRS]."))
+LAYER_TO_POINTS = Table(_SOURCE_RASTER)
+
+
+_PYTHON_TYPES = {"int": "int", "float": "float", "bool": "bool", "str": "str", "choice": "str", "crs": "str"}
+
+
+def _validate(self) -> None:
+    """Check every field against :data:`REGISTER` (kind, range, choices); :class:`InputError` names it."""
+    for f in fields(self):
+        REGISTER[f.name].check(getattr(self, f.name))
+
+
+RegisterOptions = make_dataclass(
+    "RegisterOptions", [(o.name, f"{_PYTHON_TYPES[o.kind]} | None" if o.nullable else _PYTHON_TYPES[o.kind],
+                         field(default=o.default))
+                        for o in REGISTER.values()],
+    frozen=True, namespace={"validate": _validate,
+                            "__doc__": "Parameters of :func:`fotogeo.tools.register.register` (declared in "
+                                       ":data:`fotogeo.options.REGISTER`; CLI flags of the same names)."})
+RegisterOptions.__module__ = __name__

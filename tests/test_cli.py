@@ -1,0 +1,101 @@
+"""The command line as a user meets it: options generated from the option table, exit codes, messages."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+from click.testing import CliRunner
+from rasterio.transform import from_origin
+
+from fotogeo.cli import main
+from fotogeo.cli import common
+from fotogeo.options import COMPARE, DEMO, FUSE, GCP, MATCH, ORIENT, REGISTER, REGISTER_TERRAIN, TARGETS, TRANSFER
+
+#: command -> the option tables it is generated from
+COMMANDS = {"register": (REGISTER_TERRAIN, REGISTER), "match": (MATCH,), "fuse": (FUSE,), "demo": (DEMO,),
+            "orient": (ORIENT, GCP), "compare-models": (COMPARE, GCP), "transfer-points": (TRANSFER,),
+            "measure-targets": (TARGETS,)}
+
+
+@pytest.fixture
+def small_rgb(tmp_path):
+    """A 3-band 64 x 48 GeoTIFF (UTM, 10 m) of smooth random texture."""
+    rng = np.random.default_rng(3)
+    data = (rng.random((3, 48, 64)) * 200 + 20).astype(np.uint8)
+    path = tmp_path / "rgb.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=64, height=48, count=3, dtype="uint8", crs="EPSG:32635",
+                       transform=from_origin(500000, 4000000, 10, 10)) as ds:
+        ds.write(data)
+    return path
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], terminal_width=200)
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_command_options_come_from_the_table(name):
+    """Each table option is a click option of the command with the table's flag, default and help."""
+    params = {p.name: p for p in main.commands[name].params}
+    for table in COMMANDS[name]:
+        for option in table.values():
+            p = params.get(option.name)
+            assert p is not None, f"{name}: option {option.name} has no click option"
+            assert option.cli_flag in p.opts, (name, option.name, p.opts)
+            default = option.default
+            if option.kind in ("choices", "ints") and default is not None:
+                default = ",".join(map(str, default))
+            assert p.default == default, (name, option.name)
+            assert p.help == option.help
+            if option.kind == "choice":
+                assert tuple(p.type.choices) == option.choices
+    help_text = invoke(name, "--help").output
+    assert all(o.cli_flag in help_text for t in COMMANDS[name] for o in t.values())
+
+
+def test_help_shows_the_defaults():
+    text = invoke("register", "--help").output
+    assert "--ratio FLOAT" in text and "[default: 0.8]" in text and "[default: auto]" in text
+    assert "--mutual / --no-mutual" in text and "[default: surf]" in text
+    assert "[default: 40,20,15,10,6]" in invoke("compare-models", "--help").output
+
+
+def test_cancel_exits_130_with_one_line(small_rgb, tmp_path, monkeypatch):
+    """A progress callback saying stop: exit code 130 (as an interrupted job), one line, no output left."""
+    monkeypatch.setattr(common.ConsoleProgress, "__call__", lambda self, fraction, message: False)
+    out = tmp_path / "pc1.tif"
+    r = invoke("fuse", small_rgb, "-o", out)
+    assert r.exit_code == common.EXIT_CANCELLED == 130, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Cancelled: cancelled by the user"), r.stderr
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rgb.tif"]
+
+
+def test_fuse_runs_and_errors_exit_2(small_rgb, tmp_path):
+    out = tmp_path / "pc1.tif"
+    r = invoke("fuse", small_rgb, "-o", out, "--no-stretch", "--seed", 4, "-q")
+    assert r.exit_code == 0, r.output
+    with rasterio.open(out) as ds:
+        assert ds.dtypes[0] == "float32" and ds.crs.to_epsg() == 32635
+    r = invoke("fuse", small_rgb, "-o", out, "-q")  # exists, no --overwrite
+    assert r.exit_code == 2 and r.stderr.startswith("Error: ") and len(r.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--ratio", "0.01"], "ratio must be >= 0.05"),
+    (["--check-fraction", "0.95"], "check_fraction must be >= 0.0 and <= 0.89"),
+    (["--resolution", "0"], "resolution must be > 0.0"),
+    (["--max-keypoints", "5"], "max_keypoints must be >= 10"),
+])
+def test_register_ranges_from_the_table(small_rgb, tmp_path, args, message):
+    """Out-of-range values stop before any work, with the option's name and its valid range."""
+    r = invoke("register", small_rgb, small_rgb, "-o", tmp_path / "o.tif", "-q", *args)
+    assert r.exit_code == 2 and message in r.stderr, r.stderr
+    assert not (tmp_path / "o.tif").exists()
+
+
+def test_comma_lists_are_checked(small_rgb, tmp_path):
+    r = invoke("compare-models", small_rgb, tmp_path / "g.csv", "--counts", "10,x")
+    assert r.exit_code == 2 and "whole numbers" in r.output
+    r = invoke("compare-models", small_rgb, tmp_path / "g.csv", "--spreads", "homogeneous,random")
+    assert r.exit_code == 2 and "random unknown" in r.output
