@@ -40,7 +40,7 @@ from fotogeo.io.camera import load_ngi_frame
 from fotogeo.geometry.dem import Dem
 from fotogeo.errors import FotogeoError
 from fotogeo.orientation.simulation import make_gcps
-from fotogeo.models import MODELS, RFM, Collinearity, IllPosedWarning
+from fotogeo.models import MODELS, RFM, IllPosedWarning
 
 
 class PlainRFM(RFM):
@@ -78,15 +78,14 @@ def predict(name, frame, g):
     if name.startswith("gdal-"):
         return gdal_predict(name, g.gcp_ground, g.gcp_pixel, g.check_ground), None
     cls = PlainRFM if name == "rfm-plain" else MODELS[name]
-    if name == "collinearity":
-        cls = Collinearity.for_camera(frame.camera)
+    fit = cls.options_from(camera=frame.camera)  # the camera of the collinearity model, else nothing
     if name.endswith("-i2g"):
         m = cls.estimate(np.column_stack([g.gcp_pixel, g.gcp_ground[:, 2]]), g.gcp_ground[:, :2])
         return m.inverse(g.check_ground[:, :2], g.check_ground[:, 2])[:, :2], None
     if cls.src_dims == 2:
         m = cls.estimate(g.gcp_ground[:, :2], g.gcp_pixel)
         return m.forward(g.check_ground[:, :2]), m.forward(g.gcp_ground[:, :2]) - g.gcp_pixel
-    m = cls.estimate(g.gcp_ground, g.gcp_pixel)
+    m = cls.estimate(g.gcp_ground, g.gcp_pixel, **fit)
     return m.forward(g.check_ground), m.forward(g.gcp_ground) - g.gcp_pixel
 
 

@@ -234,7 +234,7 @@ def matching_image(info, role, opts):
     """The single-band image and validity mask register's matching step hands to the detector,
     and the decimation factor: fotogeo's own ``_features`` runs with ``detect`` intercepted (so the
     benchmark follows any change of the read / fusion / contrast steps)."""
-    import fotogeo.tools.register as fr
+    import fotogeo.tools.match as fr
     from fotogeo.progress import as_progress
     from fotogeo.features.detect import Keypoints
     seen = {}
@@ -246,7 +246,7 @@ def matching_image(info, role, opts):
     original = fr.detect
     fr.detect = intercept
     try:
-        _, factor, _ = fr._features(info, role, opts, as_progress(None), {})
+        _, factor, _ = fr._features(info, role, opts, as_progress(None))
     finally:
         fr.detect = original
     mask = seen["mask"] if seen["mask"] is not None else np.ones(seen["image"].shape, bool)

@@ -66,7 +66,7 @@ def main():
                         rows.append({"frame": name, "reference": ref_name, "method": label, "error": str(e)})
                         continue
                     m = r.model
-                    on = m.forward(px) if m.src_dims == 2 else m.inverse(px, z=truth[:, 2])[:, :2]
+                    on = r.georeference.with_heights(truth[:, 2]).pixel_to_map(px)
                     rows.append({"frame": name, "reference": ref_name, "method": label,
                                  "model": r.report.get("terrain", {}).get("chosen", m.name),
                                  "dense_rmse_m": rms(on - truth[:, :2]), "best_homography_m": best,

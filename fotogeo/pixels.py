@@ -84,3 +84,19 @@ def pixel_to_map(transform, xy) -> np.ndarray:
 def map_to_pixel(transform, XY) -> np.ndarray:
     """Inverse of :func:`pixel_to_map`."""
     return pixel_to_map(~transform, XY)
+
+
+def outline(width: float, height: float, n: int = 33) -> np.ndarray:
+    """Points along the border of a ``width x height`` image, ``(4 n, 2)``, corner convention.
+
+    The four edges in turn — top (left to right), right (down), bottom (right to left), left
+    (up) — each with ``n`` evenly spaced points including both corners, so the polygon runs
+    clockwise on the screen from the top-left corner ``(0, 0)``.
+
+    >>> outline(4, 2, 3)[:6].tolist()
+    [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0], [4.0, 0.0], [4.0, 1.0], [4.0, 2.0]]
+    """
+    t = np.linspace(0, 1, n)
+    w, h = width, height
+    return np.concatenate([np.column_stack([t * w, 0 * t]), np.column_stack([w + 0 * t, t * h]),
+                           np.column_stack([(1 - t) * w, h + 0 * t]), np.column_stack([0 * t, (1 - t) * h])])

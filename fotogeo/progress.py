@@ -6,12 +6,14 @@ A progress callback is any callable ``progress(fraction: float, message: str) ->
 :class:`fotogeo.errors.Cancelled` and removes what it had started writing.
 
 Tools split their work into stages with :meth:`Progress.stage`, each stage owning a slice
-of the fraction range, so nested functions report in their own 0..1 terms.
+of the fraction range, so nested functions report in their own 0..1 terms. A progress and
+all its stages share one ``timings`` store, which :meth:`Progress.timed` blocks fill with
+wall-clock seconds (a tool starts its own store with :meth:`Progress.with_own_timings`).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Optional
 
 from .errors import Cancelled
@@ -58,8 +60,19 @@ class Progress:
         return child
 
     def timed(self, name: str):
-        """Context manager adding the wall time of a block to ``timings[name]`` (seconds)."""
+        """Context manager adding the wall time of a block to ``timings[name]`` (seconds).
+
+        >>> p = Progress().with_own_timings()
+        >>> with p.stage(0.0, 1.0, "work").timed("work"):
+        ...     pass
+        >>> list(p.timings)
+        ['work']
+        """
         return _Timer(self.timings, name)
+
+    def with_own_timings(self) -> "Progress":
+        """This progress with a new, empty ``timings`` store, shared by the stages made from it."""
+        return replace(self, timings={})
 
 
 class _Timer:

@@ -59,7 +59,7 @@ def test_rational_models_are_exact_for_a_pinhole_camera(pinhole_points, name):
 
 def test_collinearity_recovers_exterior_orientation(pinhole_points):
     g = pinhole_points
-    m = Collinearity.for_camera(CAM).estimate(g.gcp_ground, g.gcp_pixel)
+    m = Collinearity.estimate(g.gcp_ground, g.gcp_pixel, camera=CAM)
     eo = m.frame.eo
     assert np.allclose(eo.centre, FRAME.eo.centre, atol=1e-4)
     assert np.allclose([eo.omega, eo.phi, eo.kappa], [1.5, -2.0, -179.0], atol=1e-7)
@@ -68,7 +68,7 @@ def test_collinearity_recovers_exterior_orientation(pinhole_points):
     m4 = Collinearity.estimate(g.gcp_ground[:5], g.gcp_pixel[:5], camera=CAM)
     assert m4.info["init"] == "pnp" and np.allclose(m4.frame.eo.centre, FRAME.eo.centre, atol=1e-3)
     # inverse: exact ray intersection
-    P = m.inverse(g.check_pixel, dem=synthetic_dem())
+    P = m.inverse(g.check_pixel, heights=synthetic_dem())
     assert np.abs(P - g.check_ground).max() < 1e-3
     with pytest.raises(InputError, match="interior orientation"):
         Collinearity.estimate(g.gcp_ground, g.gcp_pixel)
@@ -140,7 +140,7 @@ def test_serialisation_round_trip(pinhole_points):
             m = MODELS[name].estimate(g.gcp_ground, g.gcp_pixel)
             m2 = model_from_dict(m.to_dict())
             assert np.allclose(m2.forward(g.check_ground), m.forward(g.check_ground), atol=1e-9), name
-    c = Collinearity.for_camera(CAM).estimate(g.gcp_ground, g.gcp_pixel)
+    c = Collinearity.estimate(g.gcp_ground, g.gcp_pixel, camera=CAM)
     assert np.allclose(model_from_dict(c.to_dict()).forward(g.check_ground), c.forward(g.check_ground))
 
 
@@ -154,7 +154,7 @@ def test_image_to_ground_rfm_and_inverse(pinhole_points):
     XY = m.forward(np.column_stack([g.check_pixel, g.check_ground[:, 2]]))
     assert np.abs(XY - g.check_ground[:, :2]).max() < 0.05  # metres (~0.01 px)
     # the inverse of the ground -> image RFM on a DEM gives the ground point
-    assert np.abs(fwd.inverse(g.check_pixel, dem=synthetic_dem()) - g.check_ground).max() < 0.05
+    assert np.abs(fwd.inverse(g.check_pixel, heights=synthetic_dem()) - g.check_ground).max() < 0.05
 
 
 def test_dlt_serves_the_one_ransac(pinhole_points):
@@ -163,7 +163,7 @@ def test_dlt_serves_the_one_ransac(pinhole_points):
     px[:6] += 40.0  # six blunders
     res = ransac(DLT, g.gcp_ground, px, threshold=1.0, rng=3)
     assert not res.inliers[:6].any() and res.inliers[6:].all()
-    res = ransac(Collinearity.for_camera(CAM), g.gcp_ground, px, threshold=1.0, rng=3)
+    res = ransac(Collinearity, g.gcp_ground, px, threshold=1.0, rng=3, fit_options={"camera": CAM})
     assert not res.inliers[:6].any() and res.inliers[6:].all()
     assert np.allclose(res.model.frame.eo.centre, FRAME.eo.centre, atol=1e-3)
 
@@ -175,10 +175,10 @@ def _check_rms(frame, dem, names, spread, trials=20):
     for seed in range(trials):
         g = make_gcps(frame, dem, 40, 20, spread, noise=0.3, seed=seed)
         for n in names:
-            cls = Collinearity.for_camera(frame.camera) if n == "collinearity" else MODELS[n]
+            cls = MODELS[n]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", IllPosedWarning)
-                m = cls.estimate(g.gcp_ground, g.gcp_pixel)
+                m = cls.estimate(g.gcp_ground, g.gcp_pixel, **cls.options_from(camera=frame.camera))
             out[n].append(m.forward(g.check_ground) - g.check_pixel)
     return {n: np.sqrt(np.mean(np.concatenate(v) ** 2, axis=0)) for n, v in out.items()}
 

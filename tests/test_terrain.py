@@ -25,7 +25,7 @@ def dense_truth(ngi, name, step=10):
 
 
 def dense_rmse(model, px, truth):
-    on_ground = model.inverse(px, z=truth[:, 2])[:, :2]
+    on_ground = model.inverse(px, heights=truth[:, 2])[:, :2]
     return float(np.sqrt(np.mean(np.sum((on_ground - truth[:, :2]) ** 2, axis=1))))
 
 

@@ -13,16 +13,58 @@ Bilinear sampling at map point ``(X, Y)``: with ``(c, r) = to_centre(~transform 
 Points in the outer half pixel (between the outermost centres and the raster edge) take
 the nearest edge value (the index is clamped); points outside the raster, or whose
 neighbourhood touches a nodata cell, get NaN.
+
+Heights reach the 3-D models as one ``heights`` argument (``model.inverse(dst, heights)``,
+:class:`~fotogeo.geometry.georeference.Georeference`): ``None``, a number, an ``(N,)``
+array (one per point), or a :class:`HeightSource` — anything with
+``heights_and_gradient(XY)`` (a :class:`Dem`, a :class:`DemSampler`, a constant from
+:func:`as_height_source`). Numbers and arrays are heights already; a height source is
+sampled where the ground point turns out to be, so a model's inverse intersects the terrain.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from pyproj import CRS, Transformer
 
 from ..errors import InputError, RasterError
 from ..pixels import as_points, to_centre
+
+
+@runtime_checkable
+class HeightSource(Protocol):
+    """Terrain heights at map points: what a 3-D model's inverse intersects with.
+
+    ``heights_and_gradient(XY)`` takes map points ``(N, 2)`` and returns ``(h, dh/dX, dh/dY)``,
+    each ``(N,)``, NaN where there is no height. Optional: a ``z_range`` attribute ``(min, max)``
+    bounding the heights (ray intersections then search that bracket) and a ``heights(XY)``
+    method (a cheaper way to the heights alone).
+    """
+
+    def heights_and_gradient(self, XY) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+def is_height_source(heights) -> bool:
+    """True for a terrain (anything :func:`as_height_source` wraps except a number); False for
+    ``None``, numbers and arrays of heights."""
+    return isinstance(heights, HeightSource) or hasattr(heights, "heights") or callable(heights)
+
+
+def heights_at(heights, XY) -> np.ndarray:
+    """Heights ``(N,)`` at map points ``XY`` ``(N, 2)`` for any ``heights`` argument (module doc):
+    a number (broadcast), an ``(N,)`` array (as is) or a height source (sampled)."""
+    n = len(XY)
+    if heights is None:
+        raise InputError("heights are needed here: give a number, one height per point or a DEM")
+    if not is_height_source(heights):
+        return np.broadcast_to(np.asarray(heights, dtype=np.float64), (n,))
+    if hasattr(heights, "heights"):
+        return np.asarray(heights.heights(XY), dtype=np.float64)
+    if isinstance(heights, HeightSource):
+        return heights.heights_and_gradient(XY)[0]
+    return np.asarray(heights(XY), dtype=np.float64).reshape(-1)  # a callable XY -> heights
 
 
 @dataclass(frozen=True)
@@ -108,8 +150,8 @@ class Dem:
         return f"Dem(shape={self.shape}, path={self.path!r})"
 
 
-def as_height_source(dem):
-    """Wrap ``dem`` into an object with ``heights_and_gradient(XY)``.
+def as_height_source(dem) -> HeightSource:
+    """Wrap ``dem`` into a :class:`HeightSource` (an object with ``heights_and_gradient(XY)``).
 
     Accepts a :class:`Dem` (or anything with ``heights_and_gradient``), any object with a
     ``heights(XY)`` method or a callable ``XY -> heights`` (gradient by central differences

@@ -3,9 +3,17 @@
 A model maps *source* points (``(N, src_dims)``: image pixels, or ground X, Y[, Z]) to
 *destination* points (``(N, 2)``). Every model class offers:
 
-* ``Model.estimate(src, dst, weights=None)`` — weighted least squares from point pairs
-  (raises :class:`~fotogeo.errors.ModelError` below ``min_points`` or on degenerate input);
-* ``model.forward(src)`` and ``model.inverse(dst)`` — the mapping and its inverse;
+* ``Model.estimate(src, dst, weights=None, **fit_options)`` — weighted least squares from
+  point pairs (raises :class:`~fotogeo.errors.ModelError` below ``min_points`` or on
+  degenerate input). ``fit_options`` are the model's own parameters that are not estimated,
+  declared in the class attribute ``fit_options`` (name -> what it is), e.g. the camera of
+  the collinearity model; :meth:`Model.options_from` picks them from what a caller has;
+* ``model.forward(src)`` and ``model.inverse(dst, heights=None)`` — the mapping and its
+  inverse. ``heights`` completes the source points of 3-D models (``src_dims = 3``): a
+  number, an ``(N,)`` array (one per point), or a
+  :class:`~fotogeo.geometry.dem.HeightSource` (a DEM: the inverse then intersects the
+  terrain). 2-D models ignore it, as pyproj's ``transform(xx, yy, zz=None)`` does;
+* ``model.folds(points)`` — whether the mapping folds over a region (e.g. the image outline);
 * ``model.residuals(src, dst)`` — Euclidean distance ``|forward(src) - dst|`` per pair;
 * class attributes ``name``, ``n_params``, ``min_points``, ``src_dims``;
 * ``model.to_dict()`` / :func:`model_from_dict` — JSON-ready serialisation.
@@ -16,6 +24,7 @@ equations well conditioned whatever the map units.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -123,6 +132,29 @@ def weighted_lstsq(A: np.ndarray, b: np.ndarray, w: np.ndarray, name: str) -> np
     return x
 
 
+def newton_2d(apply: Callable[[np.ndarray], np.ndarray], d: np.ndarray, s: np.ndarray,
+              iterations: int, tol: float, eps: float = 1e-6) -> np.ndarray:
+    """Solve ``apply(s) = d`` for ``s`` ``(N, 2)`` by Newton's method, starting from ``s``.
+
+    ``apply`` maps ``(N, 2)`` to ``(N, 2)``; its 2x2 Jacobian ``J = [jx jy]`` comes from central
+    differences with step ``eps``, and each step is ``Δs = J⁻¹ (apply(s) − d)`` by Cramer's
+    rule. Stops when every ``|Δs| < tol`` or after ``iterations``; points whose Jacobian is
+    singular (``|det J| ≤ 1e-15``) become NaN.
+    """
+    for _ in range(iterations):
+        f = apply(s) - d
+        jx = (apply(s + [eps, 0]) - apply(s - [eps, 0])) / (2 * eps)
+        jy = (apply(s + [0, eps]) - apply(s - [0, eps])) / (2 * eps)
+        det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+        det = np.where(np.abs(det) > 1e-15, det, np.nan)
+        ds = np.column_stack([(jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det,
+                              (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det])
+        s = s - ds
+        if not np.nanmax(np.abs(ds), initial=0.0) >= tol:
+            break
+    return s
+
+
 @dataclass(frozen=True)
 class Model:
     """Base of all models: parameters in normalised coordinates plus both normalisations."""
@@ -137,6 +169,8 @@ class Model:
     min_points: ClassVar[int] = 0
     src_dims: ClassVar[int] = 2
     isotropic: ClassVar[bool] = False  # normalise all axes with one scale
+    #: keyword options of ``estimate`` that are parameters, not estimated: name -> what it is
+    fit_options: ClassVar[dict[str, str]] = {}
 
     # -- subclasses implement these two, in normalised coordinates -----------------------
     @classmethod
@@ -147,6 +181,17 @@ class Model:
         raise NotImplementedError
 
     # -- the protocol ---------------------------------------------------------------------
+    @classmethod
+    def options_from(cls, **available) -> dict:
+        """The ``fit_options`` of this model, taken from ``available`` (others are left out).
+
+        Raises :class:`ModelError` naming an option the model needs that is missing (None).
+        """
+        for name, what in cls.fit_options.items():
+            if available.get(name) is None:
+                raise ModelError(f"model {cls.name!r} needs {what}")
+        return {name: available[name] for name in cls.fit_options}
+
     @classmethod
     def estimate(cls, src, dst, weights=None):
         """Weighted least-squares estimate from ``src`` -> ``dst`` pairs."""
@@ -163,28 +208,32 @@ class Model:
             raise InputError(f"{self.name}: points must have shape (N, {self.src_dims}); got {src.shape}")
         return self.dst_norm.denormalise(self._apply(self.src_norm.normalise(src)))
 
-    def inverse(self, dst, iterations: int = 20, tol: float = 1e-10) -> np.ndarray:
+    def inverse(self, dst, heights=None, *, iterations: int = 20, tol: float = 1e-10) -> np.ndarray:
         """Map destination points back to source points (2-D models; Newton iteration).
 
-        Subclasses with a closed-form inverse override this.
+        ``heights`` is ignored by 2-D models (see the module docstring). Subclasses with a
+        closed-form inverse, and the 3-D models, override this.
         """
         if self.src_dims != 2:
             raise ModelError(f"{self.name}: the inverse of a 3-D model needs heights; use its own method")
         d = self.dst_norm.normalise(np.asarray(dst, dtype=np.float64))
-        s = d.copy()  # normalised source and destination both span about [-1, 1]
-        eps = 1e-6
-        for _ in range(iterations):
-            f = self._apply(s) - d
-            jx = (self._apply(s + [eps, 0]) - self._apply(s - [eps, 0])) / (2 * eps)
-            jy = (self._apply(s + [0, eps]) - self._apply(s - [0, eps])) / (2 * eps)
-            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
-            det = np.where(np.abs(det) > 1e-15, det, np.nan)
-            ds0 = (jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det
-            ds1 = (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det
-            s = s - np.column_stack([ds0, ds1])
-            if np.nanmax(np.abs(np.concatenate([ds0, ds1])), initial=0.0) < tol:
-                break
-        return self.src_norm.denormalise(s)
+        # normalised source and destination both span about [-1, 1]: start at s = d
+        return self.src_norm.denormalise(newton_2d(self._apply, d, d.copy(), iterations, tol))
+
+    def folds(self, points) -> bool:
+        """True when the mapping folds over ``points`` (source coordinates, e.g. an image outline).
+
+        The Jacobian determinant of the destination with respect to the first two source axes
+        (central differences in normalised coordinates) must keep one sign and stay finite
+        and non-zero at every point; otherwise the map of the region is not one-to-one.
+        """
+        s = self.src_norm.normalise(np.asarray(points, dtype=np.float64))
+        eps, e0, e1 = 1e-6, np.zeros(s.shape[1]), np.zeros(s.shape[1])
+        e0[0], e1[1] = eps, eps
+        jx = (self._apply(s + e0) - self._apply(s - e0)) / (2 * eps)
+        jy = (self._apply(s + e1) - self._apply(s - e1)) / (2 * eps)
+        det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
+        return not (np.all(det > 0) or np.all(det < 0))
 
     def residuals(self, src, dst) -> np.ndarray:
         """Euclidean distance between ``forward(src)`` and ``dst``, per pair (destination units)."""

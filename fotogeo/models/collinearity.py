@@ -13,9 +13,10 @@ calibration matrix ``K``: ``K⁻¹ P[:, :3] ∝ (R·D)ᵀ`` (nearest rotation by
 P[:, 3]``. With fewer points or flat terrain the start comes from OpenCV's ``solvePnP``
 (SQPnP).
 
-The interior orientation is fixed: bind it with ``Collinearity.for_camera(camera)`` (a
-subclass usable wherever a model class is expected, e.g. :func:`~fotogeo.models.ransac`) or
-pass ``camera=`` to :meth:`Collinearity.estimate`. ``params`` holds the 6 unknowns (X0, Y0,
+The interior orientation is fixed: it is the fit option ``camera`` (a
+:class:`~fotogeo.geometry.camera.FrameCamera`) of :meth:`Collinearity.estimate`, which every
+generic fit passes on (``fit_options={"camera": camera}`` of :func:`~fotogeo.models.ransac`,
+or ``Collinearity.options_from(camera=camera)``). ``params`` holds the 6 unknowns (X0, Y0,
 Z0 in map units; ω, φ, κ in degrees) followed by the 7 fixed interior values (f, sensor w, h,
 image w, h, ppx, ppy), so :func:`~fotogeo.models.base.model_from_dict` restores the model;
 ``n_params`` counts the 6 unknowns. The normalisations are the identity (the resection is
@@ -34,6 +35,7 @@ import numpy as np
 
 from ..errors import InputError, ModelError
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
+from ..geometry.dem import is_height_source
 from .base import Normalisation, check_pairs, register_model
 from .spatial import DLT, FittedModel
 
@@ -55,12 +57,8 @@ class Collinearity(FittedModel):
     n_params = 6
     min_points = 4
     src_dims = 3
-    camera: FrameCamera | None = None  # bound by for_camera()
-
-    @classmethod
-    def for_camera(cls, camera: FrameCamera) -> type[Collinearity]:
-        """A subclass with the interior orientation ``camera`` fixed."""
-        return type("Collinearity", (cls,), {"camera": camera, "__module__": __name__})
+    fit_options = {"camera": "the interior orientation: give the camera (focal length, sensor and image "
+                             "size), e.g. --camera interior_orientation.yaml"}
 
     # -- geometry ------------------------------------------------------------------------------
     @property
@@ -72,23 +70,24 @@ class Collinearity(FittedModel):
     def _apply(self, s):  # identity normalisations: s are map coordinates
         return self.frame.world_to_pixel(s)
 
-    def inverse(self, dst, z=None, *, dem=None, **_):
-        """Pixels -> ground at heights ``z`` (scalar or (N,)) or on ``dem`` (exact ray intersection)."""
-        if dem is not None:
-            return self.frame.pixel_to_world(dst, dem)
-        if z is None:
-            raise InputError("collinearity: the inverse needs the height: pass z= (scalar or one per point) or dem=")
-        return self.frame.pixel_to_world_at(dst, z)
+    def inverse(self, dst, heights=None, **_):
+        """Pixels -> ground at fixed ``heights`` (a number or one per point) or on a DEM (exact ray
+        intersection, :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world`)."""
+        if heights is None:
+            raise InputError("collinearity: the inverse needs the height: pass heights= (a number, one per "
+                             "point, or a DEM)")
+        if is_height_source(heights):
+            return self.frame.pixel_to_world(dst, heights)
+        return self.frame.pixel_to_world_at(dst, heights)
 
     # -- estimation -------------------------------------------------------------------------
     @classmethod
     def estimate(cls, src, dst, weights=None, *, camera: FrameCamera | None = None,
                  iterations: int = 30):
         """Space resection from GCPs ``src`` (X, Y, Z) -> ``dst`` (col, row); see the module doc."""
-        camera = camera or cls.camera
         if camera is None:
-            raise InputError("collinearity needs the interior orientation: use Collinearity.for_camera(camera) "
-                             "or pass camera=")
+            raise InputError("collinearity needs the interior orientation: pass camera= (a FrameCamera), "
+                             "e.g. fit_options={'camera': camera} through ransac or fit_orientation")
         src, dst, w = check_pairs(cls, src, dst, weights)
         use = w > 0
         ctr = Normalisation.of(src[use]).offset

@@ -9,7 +9,10 @@ In normalised coordinates ``s`` (source) and ``d`` (destination), each model is 
   normalised DLT (Hartley) and refined by Gauss-Newton on the weighted geometric error
   ``Σ w |d - H(s)|²``.
 
-``world_matrix()`` gives the same mapping in real (un-normalised) coordinates.
+``world_matrix()`` gives the same mapping in real (un-normalised) coordinates. A matrix model
+folds a region (:meth:`~fotogeo.models.base.Model.folds`) when its horizon, the line
+``M[2, :2]·xy + M[2, 2] = 0`` in real source coordinates, crosses it: the denominator must
+keep one sign over the region's points (always so for similarity and affine).
 """
 from __future__ import annotations
 
@@ -31,8 +34,8 @@ class _MatrixModel(Model):
         h = s @ M[:, :2].T + M[:, 2]
         return h[:, :2] / h[:, 2:3]
 
-    def inverse(self, dst, **_):
-        """Closed-form inverse through the inverted matrix."""
+    def inverse(self, dst, heights=None, **_):
+        """Closed-form inverse through the inverted matrix (``heights`` is ignored: a 2-D model)."""
         d = self.dst_norm.normalise(np.asarray(dst, dtype=np.float64))
         Mi = np.linalg.inv(self.matrix)
         h = d @ Mi[:, :2].T + Mi[:, 2]
@@ -46,6 +49,12 @@ class _MatrixModel(Model):
         D[:2, 2] = self.dst_norm.offset
         W = D @ self.matrix @ S
         return W / W[2, 2]
+
+    def folds(self, points) -> bool:
+        """True when the horizon of the matrix crosses the region outlined by ``points`` (module doc)."""
+        M = self.world_matrix()
+        den = np.asarray(points, dtype=np.float64) @ M[2, :2] + M[2, 2]
+        return not (np.all(den > 0) or np.all(den < 0))
 
 
 @register_model

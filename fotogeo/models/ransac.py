@@ -4,7 +4,10 @@
 minimal samples (``model_cls.min_points``), fits, counts pairs whose residual is below
 ``threshold`` and keeps the largest consensus, stopping adaptively once the probability
 of having missed a better sample falls below ``1 - confidence``:
-``trials = log(1 - confidence) / log(1 - inlier_ratio ** min_points)``.
+``trials = log(1 - confidence) / log(1 - inlier_ratio ** min_points)``. A sample whose model
+fails ``is_valid(model)`` (e.g. a homography that folds the image,
+:meth:`~fotogeo.models.base.Model.folds`) is rejected before its consensus is counted.
+``fit_options`` (e.g. the camera of the collinearity model) go to every ``estimate``.
 
 :func:`robust_refit` then re-estimates on *all* pairs by iteratively reweighted least
 squares with Tukey's biweight ``w = (1 - (r / (c σ))²)²`` for ``|r| < c σ`` (0 beyond),
@@ -15,6 +18,7 @@ take part and still rejects the false ones, whose residuals are far larger.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +36,10 @@ class RansacResult:
 
 
 def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
-           confidence: float = 0.999, rng=None, min_inliers: int | None = None) -> RansacResult:
+           confidence: float = 0.999, rng=None, min_inliers: int | None = None,
+           is_valid: Callable[[Model], bool] | None = None, fit_options: dict | None = None) -> RansacResult:
     """Robustly fit ``model_cls`` to ``src -> dst`` pairs; the final model is refitted on the inliers."""
+    opts = fit_options or {}
     src = np.asarray(src, dtype=np.float64)
     dst = np.asarray(dst, dtype=np.float64)
     n, k = len(src), model_cls.min_points
@@ -47,7 +53,9 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
         trials += 1
         idx = rng.choice(n, k, replace=False)
         try:
-            m = model_cls.estimate(src[idx], dst[idx])
+            m = model_cls.estimate(src[idx], dst[idx], **opts)
+            if is_valid is not None and not is_valid(m):
+                continue
             r = m.residuals(src, dst)
         except (FotogeoError, np.linalg.LinAlgError, FloatingPointError):
             continue
@@ -66,10 +74,10 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
         raise MatchingError(
             f"RANSAC found only {best_count} inliers for a {model_cls.name} model among {n} matches "
             f"(at least {need} needed, threshold {threshold:g})")
-    model = model_cls.estimate(src[best_mask], dst[best_mask])
+    model = model_cls.estimate(src[best_mask], dst[best_mask], **opts)
     mask = model.residuals(src, dst) < threshold
     if mask.sum() >= need:
-        model = model_cls.estimate(src[mask], dst[mask])
+        model = model_cls.estimate(src[mask], dst[mask], **opts)
     else:
         mask = best_mask
     return RansacResult(model, mask, trials, threshold)
@@ -88,7 +96,7 @@ class RobustFit:
 
 
 def robust_refit(model_cls, src, dst, initial: Model, *, min_sigma: float, c: float = 4.685,
-                 iterations: int = 30) -> RobustFit:
+                 iterations: int = 30, fit_options: dict | None = None) -> RobustFit:
     """IRLS with Tukey's biweight, starting from ``initial``, over all pairs (see module doc)."""
     src = np.asarray(src, dtype=np.float64)
     dst = np.asarray(dst, dtype=np.float64)
@@ -105,7 +113,7 @@ def robust_refit(model_cls, src, dst, initial: Model, *, min_sigma: float, c: fl
         if np.count_nonzero(w_new) < model_cls.min_points:
             break
         try:
-            model = model_cls.estimate(src, dst, w_new)
+            model = model_cls.estimate(src, dst, w_new, **(fit_options or {}))
         except FotogeoError:
             break
         r = model.residuals(src, dst)

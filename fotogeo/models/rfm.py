@@ -15,7 +15,7 @@ Variants (Öztürk et al.; Tao & Hu 2001):
 
 Direction: ``rfm*`` classes are fitted ground -> image (``src = (X, Y, Z)``, ``dst = (col,
 row)``, like RPC00B). The ``rfm*-i2g`` classes are the same equations fitted image ->
-ground: ``src = (col, row, Z)``, ``dst = (X, Y)``; their ``inverse(XY, z)`` gives pixels.
+ground: ``src = (col, row, Z)``, ``dst = (X, Y)``; their ``inverse(XY, heights)`` gives pixels.
 
 Solution (linearised, iterative, regularised): each rational equation is multiplied by its
 denominator, ``a·t − x (b·t) = 0``, which is linear in the parameters: rows

@@ -5,11 +5,12 @@ pixels (GDAL corner convention). The same classes can be fitted the other way ro
 -> ground, by passing ``src = (col, row, Z)`` and ``dst = (X, Y)``: the equations only see a
 3-D source and a 2-D destination (the ``-i2g`` RFM names record that direction).
 
-``inverse(dst, z)`` of a 3-D model needs the third source coordinate: ``z`` (scalar or
-``(N,)``) is the height (or, for an image -> ground fit, the height that goes with the
+``inverse(dst, heights)`` of a 3-D model needs the third source coordinate. A number or an
+``(N,)`` array is that height (or, for an image -> ground fit, the height that goes with the
 pixel), and the first two source coordinates are found by Newton's method at that fixed
-``z``. ``inverse(dst, dem=dem)`` instead intersects with a DEM (ground -> image models):
-``Z`` is updated from ``dem.heights(X, Y)`` until it changes by less than ``tol_z``.
+height. A :class:`~fotogeo.geometry.dem.HeightSource` (a DEM) instead is intersected
+(ground -> image models): ``Z`` is updated from the DEM's height at ``(X, Y)`` until it
+changes by less than ``tol_z``.
 
 Estimation runs in normalised coordinates (:class:`~fotogeo.models.base.Normalisation`),
 records diagnostics in ``model.info`` (``cond``: condition number of the weighted design
@@ -34,8 +35,8 @@ import warnings
 import numpy as np
 
 from ..errors import IllPosedWarning, InputError, ModelError
-from ..geometry.dem import as_height_source
-from .base import Model, Normalisation, check_pairs, register_model
+from ..geometry.dem import as_height_source, is_height_source
+from .base import Model, Normalisation, check_pairs, newton_2d, register_model
 
 #: condition number (normalised weighted design) above which a fit is reported ill-posed
 COND_WARN = 1e7
@@ -111,24 +112,23 @@ class FittedModel(Model):
             warnings.warn(f"model {self.name!r}: " + "; ".join(problems), IllPosedWarning, stacklevel=3)
 
     # -- inverse of 3-D models ---------------------------------------------------------------
-    def inverse(self, dst, z=None, *, dem=None, iterations: int = 30, tol: float = 1e-12,
-                tol_z: float = 1e-4):
-        """First two source coordinates of ``dst`` at fixed third coordinate ``z`` (or on ``dem``).
+    def inverse(self, dst, heights=None, *, iterations: int = 30, tol: float = 1e-12, tol_z: float = 1e-4):
+        """First two source coordinates of ``dst`` at fixed ``heights`` or on a DEM (module doc).
 
-        2-D models ignore ``z``/``dem`` and use the Newton inverse of the base class.
+        2-D models ignore ``heights`` and use the Newton inverse of the base class.
         """
         if self.src_dims == 2:
             return super().inverse(dst, iterations=iterations, tol=tol)
         dst = np.asarray(dst, dtype=np.float64)
         if dst.ndim != 2 or dst.shape[1] != 2:
             raise InputError(f"{self.name}: points to invert must have shape (N, 2); got {dst.shape}")
-        if dem is None:
-            if z is None:
-                raise InputError(f"{self.name}: the inverse of a 3-D model needs the height: pass z= "
-                                 "(scalar or one per point) or dem=")
-            z = np.broadcast_to(np.asarray(z, dtype=np.float64), (len(dst),))
+        if heights is None:
+            raise InputError(f"{self.name}: the inverse of a 3-D model needs the height: pass heights= "
+                             "(a number, one per point, or a DEM)")
+        if not is_height_source(heights):
+            z = np.broadcast_to(np.asarray(heights, dtype=np.float64), (len(dst),))
             return self._inverse_at(dst, z, iterations, tol)
-        src = as_height_source(dem)
+        src = as_height_source(heights)
         z = np.full(len(dst), float(self.src_norm.offset[2]))
         out = self._inverse_at(dst, z, iterations, tol)
         for _ in range(iterations):
@@ -142,21 +142,7 @@ class FittedModel(Model):
     def _inverse_at(self, dst, z, iterations, tol):
         d = self.dst_norm.normalise(dst)
         zn = (z - self.src_norm.offset[2]) / self.src_norm.scale[2]
-        s = np.zeros((len(d), 2))
-        eps = 1e-6
-        ex, ey = np.array([eps, 0, 0]), np.array([0, eps, 0])
-        for _ in range(iterations):
-            p = np.column_stack([s, zn])
-            f = self._apply(p) - d
-            jx = (self._apply(p + ex) - self._apply(p - ex)) / (2 * eps)
-            jy = (self._apply(p + ey) - self._apply(p - ey)) / (2 * eps)
-            det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
-            det = np.where(np.abs(det) > 1e-15, det, np.nan)
-            ds = np.column_stack([(jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det,
-                                  (-jx[:, 1] * f[:, 0] + jx[:, 0] * f[:, 1]) / det])
-            s = s - ds
-            if not np.nanmax(np.abs(ds), initial=0.0) >= tol:
-                break
+        s = newton_2d(lambda s2: self._apply(np.column_stack([s2, zn])), d, np.zeros((len(d), 2)), iterations, tol)
         return self.src_norm.denormalise(np.column_stack([s, zn]))
 
 

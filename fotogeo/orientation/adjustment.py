@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import FotogeoError, ModelError
 from ..models import get_model
+from ..models.stats import residual_stats
 
 CRITICAL_W = 3.29
 
@@ -48,26 +49,29 @@ def model_src(model_cls, ground: np.ndarray) -> np.ndarray:
 
 def role_stats(res: np.ndarray, scale_mm: float | None = None) -> dict:
     """n, RMS x/y/xy, min, max, median of residual vectors ``res`` (pixels; optionally mm)."""
-    if len(res) == 0:
-        return {"n": 0}
-    d = np.hypot(res[:, 0], res[:, 1])
-    s = {"n": int(len(res)), "rms_x_px": float(np.sqrt(np.mean(res[:, 0] ** 2))),
-         "rms_y_px": float(np.sqrt(np.mean(res[:, 1] ** 2))), "rms_xy_px": float(np.sqrt(np.mean(d ** 2))),
-         "min_px": float(d.min()), "max_px": float(d.max()), "median_px": float(np.median(d))}
+    r = residual_stats(res)
+    if r["n"] == 0:
+        return r
+    s = {"n": r["n"], "rms_x_px": r["rms_x"], "rms_y_px": r["rms_y"], "rms_xy_px": r["rms_xy"],
+         "min_px": r["min"], "max_px": r["max"], "median_px": r["median"]}
     if scale_mm:
         s.update({k.replace("_px", "_mm"): v * scale_mm for k, v in list(s.items()) if k.endswith("_px")})
     return s
 
 
-def _fit(model_cls, src, pix, mask):
+def _fit(model_cls, src, pix, mask, fit_options):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        m = model_cls.estimate(src[mask], pix[mask])
+        m = model_cls.estimate(src[mask], pix[mask], **fit_options)
     return m, [str(w.message) for w in caught]
 
 
-def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fraction: float = 0.2):
-    """Data snooping on the control points (module docstring); returns (control mask, findings)."""
+def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fraction: float = 0.2,
+          fit_options: dict | None = None):
+    """Data snooping on the control points (module docstring); returns (control mask, findings).
+
+    ``fit_options`` go to every ``estimate`` (e.g. the camera of the collinearity model)."""
+    fit_options = fit_options or {}
     control = control.copy()
     findings = []
     budget = int(max_fraction * control.sum())
@@ -76,7 +80,7 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
         n, u = len(idx), model_cls.n_params
         if 2 * n - u < 2 or n - 1 < model_cls.min_points:
             break
-        m, _ = _fit(model_cls, src, pix, control)
+        m, _ = _fit(model_cls, src, pix, control, fit_options)
         v = m.forward(src[idx]) - pix[idx]
         s0 = np.sqrt(np.sum(v ** 2) / (2 * n - u))
         loo = np.full_like(v, np.nan)
@@ -84,7 +88,7 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
             keep = control.copy()
             keep[i] = False
             try:
-                mk, _ = _fit(model_cls, src, pix, keep)
+                mk, _ = _fit(model_cls, src, pix, keep, fit_options)
                 loo[k] = mk.forward(src[i:i + 1])[0] - pix[i]
             except FotogeoError:
                 continue
@@ -107,21 +111,15 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
     return control, findings
 
 
-def resolve_model(model_name: str, camera=None):
-    """The model class for ``model_name``; ``collinearity`` is bound to ``camera`` (a FrameCamera)."""
-    cls = get_model(model_name)
-    if model_name == "collinearity":
-        if camera is None:
-            raise ModelError("model 'collinearity' needs the interior orientation: give the camera "
-                             "(focal length, sensor and image size), e.g. --camera interior_orientation.yaml")
-        cls = cls.for_camera(camera)
-    return cls
-
-
 def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool = True,
                     remove_blunders: bool = False, scale_mm: float | None = None, camera=None) -> OrientFit:
-    """Fit ``model_name`` on the control points, evaluate it on control and check points."""
-    cls = resolve_model(model_name, camera)
+    """Fit ``model_name`` on the control points, evaluate it on control and check points.
+
+    ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera`) is passed to the models that
+    take it as a fit option (collinearity, see :meth:`~fotogeo.models.base.Model.options_from`).
+    """
+    cls = get_model(model_name)
+    fit_options = cls.options_from(camera=camera)
     src = model_src(cls, np.asarray(ground, float))
     pix = np.asarray(pixel, float)
     role = np.asarray(role).astype(object)
@@ -130,8 +128,9 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
         raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} control points; got {int(control.sum())}")
     findings = []
     if snooping:
-        control, findings = snoop(cls, src, pix, control, np.asarray(ids), remove=remove_blunders)
-    model, warns = _fit(cls, src, pix, control)
+        control, findings = snoop(cls, src, pix, control, np.asarray(ids), remove=remove_blunders,
+                                  fit_options=fit_options)
+    model, warns = _fit(cls, src, pix, control, fit_options)
     res = model.forward(src) - pix
     role = role.copy()
     role[(role == "control") & ~control] = "blunder"

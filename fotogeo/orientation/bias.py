@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..models import Affine
+from ..models.stats import rmse
 from ..pixels import from_centre
 from .rpc import Rpc
 
@@ -37,11 +38,10 @@ class RpcBias:
         return p @ self.matrix[:, :2].T + self.matrix[:, 2]
 
     def summary(self) -> dict:
-        rms = lambda r: float(np.sqrt(np.mean(np.sum(r ** 2, axis=1))))  # noqa: E731
         return {"method": self.method, "shift_px": self.shift.tolist(), "matrix": self.matrix.tolist(),
-                "rms_before_px": rms(self.before), "mean_before_px": self.before.mean(axis=0).tolist(),
-                "rms_after_px": rms(self.after),
-                "rms_leave_one_out_px": rms(self.leave_one_out) if np.isfinite(self.leave_one_out).all() else None}
+                "rms_before_px": rmse(self.before), "mean_before_px": self.before.mean(axis=0).tolist(),
+                "rms_after_px": rmse(self.after),
+                "rms_leave_one_out_px": rmse(self.leave_one_out) if np.isfinite(self.leave_one_out).all() else None}
 
 
 def _fit(method, p, m):

@@ -18,7 +18,7 @@ as they are.)
 Readers: :func:`read_rpc_text` (``KEY: value`` files of IKONOS, Planet, SkySat; units after
 the value are ignored) and :func:`read_rpc_dimap` (Pleiades/SPOT DIMAP v2 ``Inverse_Model``).
 :meth:`Rpc.to_model` gives a :class:`fotogeo.models.rfm.RFM` with ``src = (lon, lat, h)`` ->
-``dst = (samp, line)`` that evaluates identically (and inverts with ``inverse(dst, z)``), and
+``dst = (samp, line)`` that evaluates identically (and inverts with ``inverse(dst, heights)``), and
 :meth:`Rpc.from_model` goes back.
 """
 from __future__ import annotations

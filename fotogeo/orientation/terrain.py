@@ -5,14 +5,14 @@ Here every tie point gets the DEM height at its reference map position, and a 3-
 ground→image model of the orientation work (``dlt``, ``rfm``, ``rfm-common``, ``rfm-poly``,
 ``collinearity`` with a known camera) is fitted:
 
-1. gross mismatches go first, with the 2-D machinery of :func:`fotogeo.models.robust.fit_tie_points`'s
-   first steps (RANSAC on a homography + Tukey refit with a wide cut-off, which keeps every
-   correct match however large its relief displacement);
-2. a DLT is fitted to those matches by Tukey IRLS on its image residuals (``min_sigma`` = 0.5
-   target pixel) — the relief is now modelled, so residuals shrink to the matching noise and
-   the remaining false matches stand out;
-3. check points are held out spatially spread; each candidate model is fitted once by least
-   squares on the control points;
+1. gross mismatches go first, with the one robust tie-point selection of the 2-D registration,
+   :func:`fotogeo.models.robust.select_tie_points` (RANSAC on a homography + Tukey refit with a
+   wide cut-off, which keeps every correct match however large its relief displacement);
+2. as its ``refine`` step a DLT is fitted to those matches by Tukey IRLS on its image
+   residuals (``min_sigma`` = 0.5 target pixel) — the relief is now modelled, so residuals
+   shrink to the matching noise and the remaining false matches stand out;
+3. check points are held out spatially spread (at least 20 control points kept); each
+   candidate model is fitted once by least squares on the control points;
 4. ``model="auto"`` keeps the simplest candidate (collinearity, DLT, then the RFMs) whose check
    RMSE is within 5 % of the best, ranking fits with ill-posedness warnings last (the report
    lists every candidate and says why). Measured on the NGI frames, dense truth RMSE:
@@ -20,7 +20,8 @@ ground→image model of the orientation work (``dlt``, ``rfm``, ``rfm-common``, 
    matching noise, which is why parsimony decides between near-equal check RMSEs.
 
 Residuals are given in target pixels and, through the model's inverse at each tie point's
-height, in metres on the ground.
+height, in metres on the ground. A candidate whose fit options are missing (``collinearity``
+without a camera, see :meth:`~fotogeo.models.base.Model.options_from`) is left out of ``auto``.
 """
 from __future__ import annotations
 
@@ -30,11 +31,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FotogeoError, InputError, MatchingError, ModelError
-from ..models import Projective, ransac, robust_refit
-from ..models.robust import spread_split
-from .adjustment import resolve_model
+from ..models import DLT, Projective, get_model, robust_refit
+from ..models.robust import select_tie_points
+from ..models.stats import rmse
+from ..options import TERRAIN_MODELS
 
-TERRAIN_MODELS = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity")
 #: candidates of ``auto``, simplest first
 PARSIMONY = ("collinearity", "dlt", "rfm-poly", "rfm-common", "rfm")
 
@@ -57,54 +58,33 @@ class TerrainFit:
 
 
 def fit_terrain(target_px, ground, *, model: str = "auto", camera=None, threshold_m: float,
-                min_sigma_m: float, check_fraction: float = 0.3, rng=0) -> TerrainFit:
-    """Fit a 3-D model from ``ground`` (N, 3: X, Y, Z; Z NaN = no height) to ``target_px`` (N, 2)."""
+                min_sigma_m: float, check_fraction: float = 0.3, rng=0, is_valid=None) -> TerrainFit:
+    """Fit a 3-D model from ``ground`` (N, 3: X, Y, Z; Z NaN = no height) to ``target_px`` (N, 2).
+
+    ``is_valid`` rejects RANSAC samples of the homography prefilter (e.g. one folding the image).
+    """
     if model not in TERRAIN_MODELS:
         raise InputError(f"model {model!r} is not a terrain model; choose one of {', '.join(TERRAIN_MODELS)}")
     src, ground = np.asarray(target_px, float), np.asarray(ground, float)
     has_h = np.isfinite(ground[:, 2])
-    rng = np.random.default_rng(rng)
-    # 1. gross mismatches out, relief kept (the 2-D pre-filter)
-    rs = ransac(Projective, src, ground[:, :2], threshold_m, rng=rng, min_inliers=6)
-    pre = robust_refit(Projective, src, ground[:, :2], rs.model, min_sigma=min_sigma_m, c=6.0).inliers & has_h
-    if pre.sum() < 12:
-        raise MatchingError(f"only {int(pre.sum())} consistent tie points with DEM heights (12 needed)")
-    # 2. robust 3-D fit with the DLT (linear, fast): the relief is modelled now, so the
-    #    residuals shrink to the matching noise and the remaining false matches stand out
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        dlt = resolve_model("dlt")
-        rob = robust_refit(dlt, ground[pre], src[pre], dlt.estimate(ground[pre], src[pre]), min_sigma=0.5)
-    inl = np.zeros(len(src), bool)
-    inl[np.flatnonzero(pre)[rob.inliers]] = True
-    # 3. spatially spread check points
-    idx = np.flatnonzero(inl)
-    frac = check_fraction if len(idx) * (1 - check_fraction) >= 20 else 0.0
-    is_check = np.zeros(len(src), bool)
-    is_check[idx] = spread_split(src[idx], frac, rng)
-    control = inl & ~is_check
-    # 4. every candidate fitted once on the control points; the simplest one within 5 % of the
-    #    best check RMSE wins (more parameters must earn their place), ill-posed fits last
-    names = [m for m in PARSIMONY if m != "collinearity" or camera is not None] if model == "auto" else [model]
-    cand, fitted = [], {}
-    for name in names:
-        try:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                m = resolve_model(name, camera).estimate(ground[control], src[control])
-        except FotogeoError as e:
-            cand.append({"model": name, "note": str(e)})
-            continue
-        r = m.residuals(ground, src)
-        rms = lambda sel: float(np.sqrt(np.mean(r[sel] ** 2))) if sel.any() else float("nan")  # noqa: E731
-        info = getattr(m, "info", {})
-        entry = {"model": name, "control_rmse_px": rms(control), "check_rmse_px": rms(is_check),
-                 "warnings": [str(w.message) for w in caught], "ill_posed": bool(info.get("ill_posed"))}
-        cand.append(entry)
-        fitted[name] = m
-    if not fitted:
-        raise MatchingError("no terrain model could be fitted: " + "; ".join(c.get("note", "") for c in cand))
-    key = "check_rmse_px" if frac else "control_rmse_px"
+
+    def relief_filter(pre):
+        """Step 2: robust 3-D fit with the DLT (linear, fast) on the prefiltered matches."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rob = robust_refit(DLT, ground[pre], src[pre], DLT.estimate(ground[pre], src[pre]), min_sigma=0.5)
+        inl = np.zeros(len(src), bool)
+        inl[np.flatnonzero(pre)[rob.inliers]] = True
+        return inl, rob.sigma
+
+    sel = select_tie_points(Projective, src, ground[:, :2], threshold=threshold_m, min_sigma=min_sigma_m,
+                            check_fraction=check_fraction, rng=rng, usable=has_h, refine=relief_filter,
+                            min_consistent=12, min_control=20, is_valid=is_valid,
+                            what="tie points with DEM heights")
+    control, is_check = sel.control, sel.is_check
+    names = [n for n in PARSIMONY if _has_fit_options(n, camera)] if model == "auto" else [model]
+    cand, fitted = _fit_candidates(names, ground, src, control, is_check, camera)
+    key = "check_rmse_px" if is_check.any() else "control_rmse_px"
     ok = [c for c in cand if c["model"] in fitted and not c["ill_posed"]] or [c for c in cand if c["model"] in fitted]
     best = min(c[key] for c in ok)
     chosen = next(c for c in ok if c[key] <= 1.05 * best)
@@ -112,25 +92,42 @@ def fit_terrain(target_px, ground, *, model: str = "auto", camera=None, threshol
     because = ("the model asked for" if model != "auto" else
                f"simplest of {', '.join(c['model'] for c in ok)} within 5 % of the best {key.split('_')[0]} "
                f"RMSE ({best:.3f} px)")
-    sigma = rob.sigma
-    role = np.full(len(src), "outlier", dtype=object)
+    role = sel.role
     role[~has_h] = "no_height"
-    role[control], role[is_check] = "control", "check"
     res_px = m.forward(ground) - src
     with np.errstate(invalid="ignore"):
         on_ground = np.full((len(src), 2), np.nan)
-        ok = has_h
-        on_ground[ok] = m.inverse(src[ok], z=ground[ok, 2])[:, :2]
-    return TerrainFit(m, role.astype(str), res_px, on_ground - ground[:, :2], ground, cand, because, sigma,
-                      int(pre.sum()))
+        on_ground[has_h] = m.inverse(src[has_h], ground[has_h, 2])[:, :2]
+    return TerrainFit(m, role.astype(str), res_px, on_ground - ground[:, :2], ground, cand, because, sel.sigma,
+                      sel.prefilter_inliers)
 
 
-def ground_footprint(model, width: int, height: int, sampler) -> np.ndarray:
-    """Ground XY of the target image's outline, each edge point intersected with the DEM."""
-    t = np.linspace(0, 1, 33)
-    edge = np.concatenate([np.column_stack([t * width, 0 * t]), np.column_stack([width + 0 * t, t * height]),
-                           np.column_stack([(1 - t) * width, height + 0 * t]), np.column_stack([0 * t, (1 - t) * height])])
-    XY = model.inverse(edge, dem=sampler)[:, :2]
-    if not np.isfinite(XY).any():
-        raise ModelError("the target footprint does not meet the DEM under the fitted model; does the DEM cover it?")
-    return XY[np.isfinite(XY).all(axis=1)]
+def _has_fit_options(name: str, camera) -> bool:
+    """Whether the model ``name`` has every fit option it needs (the camera, for collinearity)."""
+    try:
+        get_model(name).options_from(camera=camera)
+    except ModelError:
+        return False
+    return True
+
+
+def _fit_candidates(names, ground, src, control, is_check, camera):
+    """Step 4: each candidate fitted once on the control points; its control and check RMSE (px)."""
+    cand, fitted = [], {}
+    for name in names:
+        try:
+            cls = get_model(name)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                m = cls.estimate(ground[control], src[control], **cls.options_from(camera=camera))
+        except FotogeoError as e:
+            cand.append({"model": name, "note": str(e)})
+            continue
+        res = m.forward(ground) - src
+        info = getattr(m, "info", {})
+        cand.append({"model": name, "control_rmse_px": rmse(res[control]), "check_rmse_px": rmse(res[is_check]),
+                     "warnings": [str(w.message) for w in caught], "ill_posed": bool(info.get("ill_posed"))})
+        fitted[name] = m
+    if not fitted:
+        raise MatchingError("no terrain model could be fitted: " + "; ".join(c.get("note", "") for c in cand))
+    return cand, fitted

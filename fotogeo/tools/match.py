@@ -5,8 +5,6 @@ SSD ratio test); :func:`match_images` writes its tie points as a layer without f
 """
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from ..errors import FotogeoError, MatchingError
@@ -17,22 +15,22 @@ from ..image.fusion import pca_fuse
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..io.vector import write_layers
 from ..models import Projective, ransac
+from ..options import RegisterOptions
 from ..pixels import pixel_to_map
 from ..progress import as_progress
 
 
-def _features(info, role, opts, prog, timings):
-    t0 = time.perf_counter()
-    bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
-    override = getattr(opts, f"{role}_nodata")
-    fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
-                     contrast="linear", name=f"{role} {info.path}")
-    t1 = time.perf_counter()
+def _features(info, role, opts, prog):
+    """Keypoints of one image; wall times in ``prog.timings`` (``read_fuse_<role>``, ``detect_<role>``)."""
+    with prog.timed(f"read_fuse_{role}"):
+        bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
+        override = getattr(opts, f"{role}_nodata")
+        fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
+                         contrast="linear", name=f"{role} {info.path}")
     prog(0.3, f"{role}: keypoints")
-    kp = detect(apply_contrast(fused.image, fused.mask, opts.contrast), fused.mask, opts.detector,
-                max_keypoints=opts.max_keypoints, hessian_threshold=opts.hessian_threshold)
-    timings[f"read_fuse_{role}"] = t1 - t0
-    timings[f"detect_{role}"] = time.perf_counter() - t1
+    with prog.timed(f"detect_{role}"):
+        kp = detect(apply_contrast(fused.image, fused.mask, opts.contrast), fused.mask, opts.detector,
+                    max_keypoints=opts.max_keypoints, hessian_threshold=opts.hessian_threshold)
     return kp, np.asarray(factor, float), fused
 
 
@@ -40,18 +38,16 @@ HINT = ("check that the images overlap, then try a looser --ratio (0.9), more --
         "a lower --hessian-threshold or --detector sift")
 
 
-def find_tie_points(ref, tgt, opts, prog=None, timings=None):
+def find_tie_points(ref, tgt, opts, prog=None):
     """Keypoints in both images, matched: ``(target_xy, reference_xy, counts)`` in full-resolution
-    pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.io.raster.RasterInfo`."""
+    pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.io.raster.RasterInfo`.
+    Wall times of the steps go to ``prog.timings`` (:meth:`fotogeo.progress.Progress.timed`)."""
     prog = as_progress(prog)
-    timings = {} if timings is None else timings
-    kp_ref, f_ref, fu_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"), timings)
-    kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"), timings)
-    prog.stage(0.9, 1.0, "matching descriptors")
-    t0 = time.perf_counter()
-    m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
-                          laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
-    timings["match"] = time.perf_counter() - t0
+    kp_ref, f_ref, fu_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"))
+    kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"))
+    with prog.stage(0.9, 1.0, "matching descriptors").timed("match"):
+        m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
+                              laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
     min_pts = 6
     if len(m) < min_pts:
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
@@ -60,9 +56,8 @@ def find_tie_points(ref, tgt, opts, prog=None, timings=None):
               "pca_explained_variance": {"reference": fu_ref.explained, "target": fu_tgt.explained}}
     t_xy, r_xy = kp_tgt.xy[m.pairs[:, 0]], kp_ref.xy[m.pairs[:, 1]]
     if opts.refine == "lsm":
-        t0 = time.perf_counter()
-        t_xy, counts["lsm"] = refine_lsm(fu_ref, fu_tgt, r_xy, t_xy)
-        timings["refine_lsm"] = time.perf_counter() - t0
+        with prog.timed("refine_lsm"):
+            t_xy, counts["lsm"] = refine_lsm(fu_ref, fu_tgt, r_xy, t_xy)
     return t_xy * f_tgt, r_xy * f_ref, counts
 
 
@@ -107,7 +102,6 @@ def match_images(reference, target, output, *, overwrite: bool = False, progress
     at ``ransac_threshold`` reference pixels). Options as :class:`RegisterOptions`.
     """
     import shapely
-    from .register import RegisterOptions
     opts = RegisterOptions(**options)
     opts.validate()
     prog = as_progress(progress)

@@ -34,15 +34,10 @@ from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..io.report import write_json
 from ..io.vector import error_vectors, write_layers
 from ..io.warp import grid_covering, warp_to_grid
-from ..orientation.adjustment import fit_orientation, resolve_model
+from ..geometry.georeference import Georeference
+from ..models import get_model
+from ..orientation.adjustment import fit_orientation
 from ..progress import as_progress
-
-
-def _ground_of_pixels(model, pixel, z):
-    """Where ``model`` puts image points on the ground (at heights ``z`` for 3-D models)."""
-    if model.src_dims == 3:
-        return model.inverse(pixel, z=z)[:, :2]
-    return model.inverse(pixel)
 
 
 def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
@@ -57,7 +52,7 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
     """
     prog = as_progress(progress)
     camera = load_camera(camera)
-    cls = resolve_model(model, camera)
+    get_model(model).options_from(camera=camera)  # fails early, naming a missing camera
     outs = {k: v for k, v in dict(report=report, vectors=vectors, plot=plot, points=points, rpc=rpc,
                                   gcp_tiff=gcp_tiff, rectify=rectify).items() if v}
     if gcp_tiff and model not in ("poly1", "poly2", "poly3"):
@@ -78,19 +73,10 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
     fit = fit_orientation(model, g.ground, g.pixel, g.role, g.ids, snooping=snooping,
                           remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera)
     prog(0.3, "model fitted")
-    z = g.ground[:, 2] if cls.src_dims == 3 else None
-    on_ground = _ground_of_pixels(fit.model, g.pixel, z)
+    # where the model puts each measured image point on the ground, at the GCP's height
+    on_ground = Georeference(fit.model, heights=g.ground[:, 2], crs=g.crs).pixel_to_map(g.pixel)
     d_ground = on_ground - g.ground[:, :2]
-    rep = {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
-           "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
-           "warnings": fit.warnings, "model": fit.model.to_dict(),
-           "model_info": {k: v for k, v in getattr(fit.model, "info", {}).items()
-                          if isinstance(v, (int, float, str, list, bool))},
-           "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
-           "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
-                       "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
-                       **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
-                      for i, r, p, v, dg in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground)]}
+    rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
     with AtomicOutputs() as out:
         if vectors:
             _write_vectors(out.temp(vectors), g, fit, on_ground, d_ground, exaggeration)
@@ -122,6 +108,20 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         prog(1.0, "done")
         out.commit()
     return rep
+
+
+def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
+    scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
+    return {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
+            "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
+            "warnings": fit.warnings, "model": fit.model.to_dict(),
+            "model_info": {k: v for k, v in getattr(fit.model, "info", {}).items()
+                           if isinstance(v, (int, float, str, list, bool))},
+            "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
+            "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
+                        "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
+                        **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
+                       for i, r, p, v, dg in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground)]}
 
 
 def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
@@ -182,46 +182,42 @@ def _plot(path, info, pixel, residual, role, size: int = 1000):
 
 
 def _rectify(path, info, g, model, dem, height, resolution, resampling, prog):
-    """Resample the image to a north-up grid in the GCP CRS through ``model`` (ground → image)."""
-    hsrc = None
-    if model.src_dims == 3:
-        from pyproj import CRS
+    """Resample the image to a north-up grid in the GCP CRS through ``model`` (ground → image).
 
-        from ..geometry.dem import Dem, as_height_source
-        if dem is not None:
-            d = dem if isinstance(dem, Dem) else Dem.open(dem)
-            if CRS.from_user_input(d.crs) != g.crs:
-                raise InputError(f"rectification with a DEM needs the DEM in the GCPs' CRS ({g.crs.to_string()})")
-            hsrc = as_height_source(d)
-        else:
-            z0 = height if height is not None else float(np.nanmean(g.ground[:, 2]))
-            hsrc = as_height_source(float(z0))
-    t = np.linspace(0, 1, 33)
+    Heights (3-D models; 2-D ones ignore them) come from ``dem``, else ``height``, else the
+    GCPs' mean height; the default resolution is the ground sample distance at the image
+    centre at the GCPs' mean height.
+    """
+    zmean = _mean_height(g)
+    heights = _dem_in(dem, g.crs) if dem is not None else (zmean if height is None else height)
+    geo = Georeference(model, heights=heights, crs=g.crs)
     w, h = info.width, info.height
-    edge = np.concatenate([np.column_stack([t * w, 0 * t]), np.column_stack([w + 0 * t, t * h]),
-                           np.column_stack([(1 - t) * w, h + 0 * t]), np.column_stack([0 * t, (1 - t) * h])])
-    zmean = float(np.nanmean(g.ground[:, 2])) if model.src_dims == 3 else None
-    if model.src_dims == 3:
-        XY = model.inverse(edge, dem=hsrc) if dem is not None else model.inverse(edge, z=zmean if height is None else height)
-    else:
-        XY = model.inverse(edge)
-    XY = XY[:, :2]
+    XY = geo.footprint(w, h)
     if not np.isfinite(XY).all():
         raise ModelError("the model does not map the whole image footprint to the ground; rectify with another model")
-    c = np.array([[w / 2, h / 2], [w / 2 + 1, h / 2], [w / 2, h / 2 + 1]])
-    cg = model.inverse(c, z=zmean)[:, :2] if model.src_dims == 3 else model.inverse(c)
-    u, v = cg[1] - cg[0], cg[2] - cg[0]
-    res = float(resolution or np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
+    gsd = geo.with_heights(zmean).ground_sample_distance(w, h)
+    res = float(resolution or gsd)
     transform, width, height_px = grid_covering(XY, res)
-    if width * height_px > 4 * w * h * max(1.0, (np.sqrt(abs(u[0] * v[1] - u[1] * v[0])) / res) ** 2) + 1e6:
+    if width * height_px > 4 * w * h * max(1.0, (gsd / res) ** 2) + 1e6:
         raise ModelError(f"rectified grid would be {width}x{height_px} px: the model is unstable outside the GCPs")
-
-    def inverse_map(XYm):
-        if model.src_dims == 3:
-            zz = hsrc.heights_and_gradient(XYm)[0]
-            return model.forward(np.column_stack([XYm, zz]))
-        return model.forward(XYm)
-
-    warp_to_grid(info.path, path, inverse_map, crs=g.crs, transform=transform, width=width, height=height_px,
+    warp_to_grid(info.path, path, geo.map_to_pixel, crs=g.crs, transform=transform, width=width, height=height_px,
                  resampling=resampling, progress=prog)
     return {"width": width, "height": height_px, "resolution": res, "transform": list(transform)[:6]}
+
+
+def _mean_height(g):
+    """Mean height of the GCPs, None when none has one."""
+    z = g.ground[:, 2]
+    return float(np.nanmean(z)) if np.isfinite(z).any() else None
+
+
+def _dem_in(dem, crs):
+    """The DEM (path or :class:`~fotogeo.geometry.dem.Dem`) as a height source at points in ``crs``."""
+    from pyproj import CRS
+
+    from ..geometry.dem import Dem, DemSampler
+    d = dem if isinstance(dem, Dem) else Dem.open(dem)
+    if d.crs is None:
+        raise InputError(f"DEM {d.path!r} has no CRS; it cannot be matched to the GCPs (assign one with "
+                         "gdal_edit.py -a_srs)")
+    return d if CRS.from_user_input(d.crs) == crs else DemSampler(d, crs)

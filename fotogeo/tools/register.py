@@ -14,9 +14,7 @@
 """
 from __future__ import annotations
 
-import math
 import platform
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,63 +23,19 @@ import numpy as np
 from .. import __version__
 from ..crs import pixel_size_in, resolve_crs, transform_points
 from ..errors import InputError, MatchingError, ModelError
-from ..features.detect import DETECTORS
-from ..image.contrast import CONTRASTS
+from ..geometry.georeference import Georeference
 from ..io.raster import AtomicOutputs, check_output, open_raster
 from ..io.report import write_json
 from ..io.vector import error_vectors, write_layers
-from ..io.warp import RESAMPLING, grid_covering, warp_to_grid
+from ..io.warp import grid_covering, warp_to_grid
 from ..models import get_model
 from ..models.robust import fit_tie_points
+from ..models.stats import residual_stats, rmse
+from ..options import PLANAR_MODELS, RegisterOptions  # declared in the option table
 from ..orientation.terrain import TERRAIN_MODELS
-from ..pixels import pixel_to_map
+from ..pixels import outline, pixel_to_map
 from ..progress import as_progress
 from .match import HINT, find_tie_points
-
-PLANAR_MODELS = ("projective", "affine", "similarity")
-
-
-@dataclass(frozen=True)
-class RegisterOptions:
-    """Parameters of :func:`register` (CLI flags of the same names)."""
-
-    detector: str = "surf"
-    max_keypoints: int = 8000
-    hessian_threshold: float | None = None
-    ratio: float = 0.8
-    mutual: bool = True
-    model: str | None = None  # projective without a DEM, auto with one
-    ransac_threshold: float = 3.0  # reference pixels
-    check_fraction: float = 0.3
-    seed: int = 0
-    resampling: str = "nearest"
-    resolution: float | None = None  # output CRS units; None = the reference's
-    dst_crs: str = "auto"
-    max_match_pixels: int = 16_000_000
-    exaggeration: float = 1.0
-    contrast: str = "adaptive"  # of the fused image for matching: adaptive, equalize, linear
-    refine: str = "none"  # "lsm": least-squares matching of the tie points before the fit
-    reference_nodata: float | None = None  # override the file's nodata (like gdalwarp -srcnodata)
-    target_nodata: float | None = None
-
-    def validate(self):
-        if self.detector not in DETECTORS:
-            raise InputError(f"detector {self.detector!r} unknown; choose one of {', '.join(DETECTORS)}")
-        if self.model not in (None, *PLANAR_MODELS, *TERRAIN_MODELS):
-            raise InputError(f"model {self.model!r} is not a registration model; choose one of "
-                             f"{', '.join(PLANAR_MODELS + TERRAIN_MODELS)}")
-        if self.resampling not in RESAMPLING:
-            raise InputError(f"resampling {self.resampling!r} unknown; choose one of {', '.join(RESAMPLING)}")
-        if not 0 <= self.check_fraction < 0.9:
-            raise InputError(f"check_fraction must be in [0, 0.9); got {self.check_fraction}")
-        if self.resolution is not None and not self.resolution > 0:
-            raise InputError(f"resolution must be a positive number of output CRS units; got {self.resolution}")
-        if self.refine not in ("none", "lsm"):
-            raise InputError(f"refine must be 'none' or 'lsm'; got {self.refine!r}")
-        if self.contrast not in CONTRASTS:
-            raise InputError(f"contrast {self.contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
-        if not self.ransac_threshold > 0:
-            raise InputError(f"ransac_threshold must be > 0 reference pixels; got {self.ransac_threshold}")
 
 
 @dataclass(frozen=True)
@@ -93,6 +47,7 @@ class Registration:
     report_path: Path
     model: object
     report: dict = field(repr=False)
+    georeference: Georeference | None = field(default=None, repr=False)  # target pixels <-> output map
 
 
 def _versions() -> dict:
@@ -104,29 +59,23 @@ def _versions() -> dict:
             "pyproj": pyproj.__version__}
 
 
-def output_grid(model, info, crs, res: float):
-    """Output transform, width and height covering the target footprint under ``model``."""
-    t = np.linspace(0, 1, 65)
-    w, h = info.width, info.height
-    edge = np.concatenate([np.column_stack([t * w, 0 * t]), np.column_stack([w + 0 * t, t * h]),
-                           np.column_stack([(1 - t) * w, h + 0 * t]), np.column_stack([0 * t, (1 - t) * h])])
-    if hasattr(model, "world_matrix"):
-        M = model.world_matrix()
-        den = edge @ M[2, :2] + M[2, 2]
-        if not (np.all(den > 0) or np.all(den < 0)):
-            raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
-                             "the tie points are too few or badly spread — check that the images overlap, "
-                             "or try --model affine")
-    XY = model.forward(edge)
+def output_grid(geo, width: int, height: int, res: float):
+    """Output transform, width and height covering the target footprint under a planar ``geo``."""
+    edge = outline(width, height, 65)
+    if geo.model.folds(edge):  # final guard: RANSAC rejects folding samples, its refits are not checked
+        raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
+                         "the tie points are too few or badly spread — check that the images overlap, "
+                         "or try --model affine")
+    XY = geo.pixel_to_map(edge)
     if not np.isfinite(XY).all():
         raise ModelError("the fitted model maps part of the target footprint to infinity")
-    transform, width, height = grid_covering(XY, res)
+    transform, w, h = grid_covering(XY, res)
     # sanity: the footprint's area in output pixels against the target's own pixel count
     area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
-    if width * height > max(64 * area / res ** 2, 1e4) or width * height > 2 ** 32:
-        raise ModelError(f"the fitted model gives an implausible output grid ({width}x{height}); "
+    if w * h > max(64 * area / res ** 2, 1e4) or w * h > 2 ** 32:
+        raise ModelError(f"the fitted model gives an implausible output grid ({w}x{h}); "
                          f"the tie points are probably wrong — check that the images overlap")
-    return transform, width, height
+    return transform, w, h
 
 
 def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
@@ -151,7 +100,45 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     if options is not None and kwargs:
         raise InputError("give either options= or keyword options, not both")
     opts.validate()
-    prog = as_progress(progress)
+    prog = as_progress(progress).with_own_timings()
+    output, vectors, report = _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite)
+    ref = open_raster(reference, "reference")
+    tgt = open_raster(target, "target")
+    if not ref.georeferenced:
+        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
+                         f"register against a georeferenced orthophoto, or georeference it first")
+    with AtomicOutputs() as out:
+        with prog.timed("total"):
+            centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
+            crs = resolve_crs(opts.dst_crs, ref.crs, centre)
+            ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
+            res = opts.resolution or ref_px
+            src, ref_xy, counts = _tie_points(opts, ref, tgt, prog, tie_points)
+            dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
+            with prog.stage(0.55, 0.6, "fitting the model").timed("fit"):
+                try:
+                    gf = (_planar(opts, src, dst, ref_px, tgt, crs, res) if dem is None else
+                          _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera))
+                except MatchingError as e:
+                    raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
+            rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
+            stage = prog.stage(0.6, 0.95, "resampling")
+            with stage.timed("resample"):
+                warp_to_grid(tgt.path, out.temp(output), gf.georeference.map_to_pixel, crs=crs,
+                             transform=gf.transform, width=gf.width, height=gf.height,
+                             resampling=opts.resampling, block=gf.block, src_nodata=opts.target_nodata,
+                             progress=stage)
+            prog.stage(0.95, 1.0, "writing tie points and report")
+            _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+        rep["timings_s"] = {k: round(v, 4) for k, v in prog.timings.items()}
+        write_json(out.temp(report), rep)
+        prog(1.0, "done")
+        out.commit()
+    return Registration(output, vectors, report, gf.model, rep, gf.georeference)
+
+
+def _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite):
+    """The three output paths (vectors and report default beside ``output``), checked."""
     output = Path(output)
     vectors = Path(vectors) if vectors else output.with_suffix(".gpkg")
     report = Path(report) if report else output.with_suffix(".json")
@@ -163,68 +150,38 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
         raise InputError(f"with a DEM the model must be one of {', '.join(TERRAIN_MODELS)}; got {opts.model!r}")
     for p, role in ((output, "output raster"), (vectors, "vector output"), (report, "report")):
         check_output(p, [reference, target, dem if isinstance(dem, (str, Path)) else None], overwrite, role)
-    ref = open_raster(reference, "reference")
-    tgt = open_raster(target, "target")
-    if not ref.georeferenced:
-        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
-                         f"register against a georeferenced orthophoto, or georeference it first")
-    timings: dict = {}
-    t_all = time.perf_counter()
-    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
-    crs = resolve_crs(opts.dst_crs, ref.crs, centre)
-    ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
-    res = opts.resolution or ref_px
+    return output, vectors, report
 
+
+def _tie_points(opts, ref, tgt, prog, tie_points):
+    """Matched (target pixels, reference pixels, counts), or the ``tie_points`` given."""
     if tie_points is None:
-        src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.55, "matching"), timings)
-    else:
-        src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in tie_points)
-        if len(src) != len(ref_xy):
-            raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
-        counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
-                  "pca_explained_variance": None, "tie_points_given": True}
-    dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
-    prog.stage(0.55, 0.6, "fitting the model")
-    t0 = time.perf_counter()
-    try:
-        if dem is None:
-            gf = _planar(opts, src, dst, ref_px, tgt, crs, res)
-        else:
-            gf = _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera)
-    except MatchingError as e:
-        raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
-    timings["fit"] = time.perf_counter() - t0
-    rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
-    with AtomicOutputs() as out:
-        t0 = time.perf_counter()
-        warp_to_grid(tgt.path, out.temp(output), gf.inverse_map, crs=crs, transform=gf.transform,
-                     width=gf.width, height=gf.height, resampling=opts.resampling, block=gf.block,
-                     src_nodata=opts.target_nodata, progress=prog.stage(0.6, 0.95, "resampling"))
-        timings["resample"] = time.perf_counter() - t0
-        prog.stage(0.95, 1.0, "writing tie points and report")
-        _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
-        timings["total"] = time.perf_counter() - t_all
-        rep["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
-        write_json(out.temp(report), rep)
-        prog(1.0, "done")
-        out.commit()
-    return Registration(output, vectors, report, gf.model, rep)
+        return find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.55, "matching"))
+    src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in tie_points)
+    if len(src) != len(ref_xy):
+        raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
+    counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
+              "pca_explained_variance": None, "tie_points_given": True}
+    return src, ref_xy, counts
 
 
 @dataclass(frozen=True)
 class GeoFit:
     """A fitted registration, 2-D or terrain-aware, in the form the outputs need."""
 
-    model: object
+    georeference: Georeference  # target pixels <-> output map XY
     role: np.ndarray  # (N,) control / check / outlier (/ no_height)
     residual_m: np.ndarray  # (N, 2) model position − reference position, output CRS units
     z: np.ndarray | None  # (N,) tie point heights (terrain-aware only)
-    inverse_map: object  # output map XY -> target pixel
     transform: object
     width: int
     height: int
     block: int
     details: dict  # model-specific report entries
+
+    @property
+    def model(self):
+        return self.georeference.model
 
     @property
     def inliers(self):
@@ -233,26 +190,33 @@ class GeoFit:
 
 def _block(res, gsd):
     """Output window size keeping the source window read per block near 512² pixels."""
+    gsd = gsd if np.isfinite(gsd) else res
     return int(min(1024, max(64, 512 / max(1.0, res / max(gsd, 1e-12)))))
+
+
+def _unfolded(width: int, height: int):
+    """RANSAC validity of a target pixel -> map homography: it must not fold the target image."""
+    edge = outline(width, height, 65)
+    return lambda model: not model.folds(edge)
 
 
 def _planar(opts, src, dst, ref_px, tgt, crs, res) -> GeoFit:
     fit = fit_tie_points(get_model(opts.model or "projective"), src, dst, threshold=opts.ransac_threshold * ref_px,
-                         min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed)
-    model = fit.model
-    transform, width, height = output_grid(model, tgt, crs, res)
+                         min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed,
+                         is_valid=_unfolded(tgt.width, tgt.height))
+    geo = Georeference(fit.model, crs=crs, direction="image-to-ground")
+    transform, width, height = output_grid(geo, tgt.width, tgt.height, res)
     details = {"ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
                           "threshold_m": opts.ransac_threshold * ref_px},
-               "robust_sigma_m": fit.sigma,
-               "model_matrix": model.world_matrix().tolist() if hasattr(model, "world_matrix") else None}
-    return GeoFit(model, fit.role, fit.residual_xy, None, model.inverse, transform, width, height,
-                  _block(res, _target_gsd(model, tgt)), details)
+               "robust_sigma_m": fit.sigma, "model_matrix": fit.model.world_matrix().tolist()}
+    return GeoFit(geo, fit.role, fit.residual_xy, None, transform, width, height,
+                  _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
 
 
 def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
     from ..geometry.dem import Dem, DemSampler
     from ..io.camera import load_camera
-    from ..orientation.terrain import fit_terrain, ground_footprint
+    from ..orientation.terrain import fit_terrain
     d = dem if isinstance(dem, Dem) else Dem.open(dem)
     sampler = DemSampler(d, crs)
     z = sampler.heights(dst)
@@ -262,49 +226,31 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
                          f"the overlap of the images (nodata holes are skipped)")
     fit = fit_terrain(src, np.column_stack([dst, z]), model=opts.model or "auto", camera=load_camera(camera),
                       threshold_m=opts.ransac_threshold * ref_px, min_sigma_m=ref_px,
-                      check_fraction=opts.check_fraction, rng=opts.seed)
-    model = fit.model
-    XY = ground_footprint(model, tgt.width, tgt.height, sampler)
-    transform, width, height = grid_covering(XY, res)
-
-    def inverse_map(XYo):
-        return model.forward(np.column_stack([XYo, sampler.heights(XYo)]))
-
-    c = np.array([[tgt.width / 2, tgt.height / 2]])
-    gsd = float(np.sqrt(np.mean(np.hypot(*(model.inverse(c + [[1, 0]], dem=sampler)[:, :2]
-                                           - model.inverse(c, dem=sampler)[:, :2]).T) ** 2)))
+                      check_fraction=opts.check_fraction, rng=opts.seed, is_valid=_unfolded(tgt.width, tgt.height))
+    geo = Georeference(fit.model, heights=sampler, crs=crs)
+    XY = geo.footprint(tgt.width, tgt.height)
+    if not np.isfinite(XY).any():
+        raise ModelError("the target footprint does not meet the DEM under the fitted model; does the DEM cover it?")
+    transform, width, height = grid_covering(XY[np.isfinite(XY).all(axis=1)], res)
+    info = getattr(fit.model, "info", {})
     details = {"terrain": {"dem": str(d.path), "tie_points_without_height": int(len(z) - n_h),
                            "prefilter_inliers": fit.prefilter_inliers, "candidates": fit.candidates,
-                           "chosen": model.name, "chosen_because": fit.chosen_because,
+                           "chosen": fit.model.name, "chosen_because": fit.chosen_because,
                            "robust_sigma_px": fit.sigma_px,
-                           "control_rmse_target_px": _rms(fit.residual_px[fit.role == "control"]),
-                           "check_rmse_target_px": _rms(fit.residual_px[fit.role == "check"]),
-                           "model_info": {k: v for k, v in getattr(model, "info", {}).items()
-                                          if isinstance(v, (int, float, str, list, bool))}}}
-    return GeoFit(model, fit.role, fit.residual_m, z, inverse_map, transform, width, height,
-                  _block(res, gsd if np.isfinite(gsd) else res), details)
-
-
-def _rms(r):
-    return float(np.sqrt(np.mean(np.sum(r ** 2, axis=1)))) if len(r) else None
-
-
-def _target_gsd(model, tgt) -> float:
-    c = np.array([[tgt.width / 2, tgt.height / 2], [tgt.width / 2 + 1, tgt.height / 2],
-                  [tgt.width / 2, tgt.height / 2 + 1]])
-    p = model.forward(c)
-    u, v = p[1] - p[0], p[2] - p[0]
-    return math.sqrt(abs(u[0] * v[1] - u[1] * v[0]))
+                           "control_rmse_target_px": rmse(fit.residual_px[fit.role == "control"], None),
+                           "check_rmse_target_px": rmse(fit.residual_px[fit.role == "check"], None),
+                           "model_info": {k: v for k, v in info.items() if isinstance(v, (int, float, str, list, bool))}}}
+    return GeoFit(geo, fit.role, fit.residual_m, z, transform, width, height,
+                  _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
 
 
 def _stats(resid: np.ndarray, px: float) -> dict:
-    if len(resid) == 0:
-        return {"n": 0}
-    d = np.hypot(resid[:, 0], resid[:, 1])
-    rmse = float(np.sqrt(np.mean(d ** 2)))
-    return {"n": int(len(d)), "rmse_m": rmse, "rmse_px": rmse / px,
-            "rms_x_m": float(np.sqrt(np.mean(resid[:, 0] ** 2))), "rms_y_m": float(np.sqrt(np.mean(resid[:, 1] ** 2))),
-            "median_m": float(np.median(d)), "max_m": float(d.max())}
+    """Residual statistics of one role in output CRS units (m) and reference pixels (px)."""
+    s = residual_stats(resid)
+    if s["n"] == 0:
+        return s
+    return {"n": s["n"], "rmse_m": s["rms_xy"], "rmse_px": s["rms_xy"] / px, "rms_x_m": s["rms_x"],
+            "rms_y_m": s["rms_y"], "median_m": s["median"], "max_m": s["max"]}
 
 
 def _report(opts, ref, tgt, crs, ref_px, res, counts, gf):
