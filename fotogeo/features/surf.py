@@ -138,45 +138,58 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     if rows < 24 or cols < 24 or not valid.any() or max_keypoints == 0:
         return SurfResult.empty(extended)
     n_octaves = min(n_octaves, _usable_octaves(rows, cols))
-    all_valid = bool(valid.all())
-    if not all_valid:
+    img = _prepared(img, valid)
+    # one integral image at a time: detection and description each walk the octaves
+    # (hessian.octave_integrals), the second time with room for the descriptor windows
+    kp = hessian.detect(img, hessian_threshold, n_octaves, blur=PRESMOOTH_SIGMA)
+    idx = _selected(kp, valid, max_keypoints)
+    if not len(idx):
+        return SurfResult.empty(extended)
+    x, y, s = kp["x"][idx], kp["y"][idx], hessian.scale_of_size(kp["size"][idx])
+    theta, desc = _described(img, x, y, s, kp["octave"][idx], upright, extended)
+    return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
+                      angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
+                      laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
+
+
+def _prepared(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """float32 image with nodata filled by the valid mean, pre-smoothed (σ :data:`PRESMOOTH_SIGMA`)."""
+    if not valid.all():
         img = img.copy()
         img[~valid] = img[valid].mean()
     img = img.astype(np.float32, copy=False)
     if PRESMOOTH_SIGMA > 0:
         img = cv2.GaussianBlur(img, (0, 0), PRESMOOTH_SIGMA, borderType=cv2.BORDER_REFLECT_101)
+    return img
 
-    # one integral image at a time: detection and description each walk the octaves
-    # (hessian.octave_integrals), the second time with room for the descriptor windows
-    kp = hessian.detect(img, hessian_threshold, n_octaves, blur=PRESMOOTH_SIGMA)
+
+def _selected(kp: dict, valid: np.ndarray, max_keypoints: int | None) -> np.ndarray:
+    """Indices of the detections to keep: clear of nodata, at most ``max_keypoints`` spatially
+    balanced, in a deterministic order (by row, then column, then scale)."""
     x, y = kp["x"], kp["y"]
     s = hessian.scale_of_size(kp["size"])
     keep = np.ones(len(x), bool)
-    if not all_valid and len(x):
+    if not valid.all() and len(x):
         keep = _clear_of_nodata(~valid, x, y, WINDOW_RADIUS * s)
     idx = np.nonzero(keep)[0]
     if max_keypoints is not None and len(idx) > max_keypoints:
-        idx = idx[_balanced(x[idx], y[idx], kp["response"][idx], rows, cols, max_keypoints)]
-    # deterministic output order: by row, then column, then scale
-    idx = idx[np.lexsort((s[idx], x[idx], y[idx]))]
-    x, y, s = x[idx], y[idx], s[idx]
-    if not len(x):
-        return SurfResult.empty(extended)
-    # each octave's keypoints are described on the smoothed image they were detected on
-    octave = kp["octave"][idx]
+        idx = idx[_balanced(x[idx], y[idx], kp["response"][idx], *valid.shape, max_keypoints)]
+    return idx[np.lexsort((s[idx], x[idx], y[idx]))]
+
+
+def _described(img, x, y, s, octave, upright: bool, extended: bool):
+    """Orientation (radians) and descriptors of the keypoints, each octave's keypoints
+    described on the smoothed integral image they were detected on."""
     theta = np.zeros(len(x))
     desc = np.zeros((len(x), 128 if extended else 64), np.float32)
-    last = int(octave.max())
-    for o, ii_o, pad in hessian.octave_integrals(img, last + 1, PRESMOOTH_SIGMA, WINDOW_RADIUS):
+    for o, ii_o, pad in hessian.octave_integrals(img, int(octave.max()) + 1, PRESMOOTH_SIGMA, WINDOW_RADIUS):
         sel = np.nonzero(octave == o)[0]
         if len(sel):
             if not upright:
                 theta[sel] = describe.orientation(ii_o, pad, x[sel], y[sel], s[sel])
             desc[sel] = describe.descriptors(ii_o, pad, x[sel], y[sel], s[sel], theta[sel], extended)
         del ii_o                                # before the next octave's integral is built
-    return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
-                      angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
-                      laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
+    return theta, desc
 
 
 def _usable_octaves(rows: int, cols: int) -> int:

@@ -29,7 +29,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from pyproj import CRS, Transformer
 
-from ..errors import InputError, RasterError
+from ..errors import InputError
 from ..pixels import as_points, to_centre
 
 
@@ -84,19 +84,10 @@ class Dem:
 
     @classmethod
     def open(cls, path, band: int = 1) -> Dem:
-        """Read band ``band`` of a raster with rasterio; its nodata value becomes NaN."""
-        import rasterio
-
-        try:
-            with rasterio.open(path) as ds:
-                t = ds.transform
-                if (t.a, t.b, t.c, t.d, t.e, t.f) == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0):
-                    raise RasterError(f"DEM {path}: has no georeference (identity transform); "
-                                      "georeference it first")
-                z = ds.read(band, masked=True).astype(np.float64)
-                return cls(z.filled(np.nan), ds.transform, ds.crs, str(path))
-        except rasterio.errors.RasterioIOError as exc:
-            raise RasterError(f"cannot read DEM {path}: {exc}") from None
+        """Read band ``band`` of a raster file: :func:`fotogeo.io.raster.read_dem` (the reader lives
+        in the io layer; this is a shortcut for interactive use)."""
+        from ..io.raster import read_dem
+        return read_dem(path, band)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -135,7 +135,8 @@ def _fill_heights(g: Gcps, dem, height) -> Gcps:
     missing = ~np.isfinite(z)
     if missing.any() and dem is not None:
         from ..geometry.dem import Dem
-        d = dem if isinstance(dem, Dem) else Dem.open(dem)
+        from .raster import read_dem
+        d = dem if isinstance(dem, Dem) else read_dem(dem)
         if d.crs is None:
             raise InputError(f"DEM {d.path!r} has no CRS; it cannot be matched to the GCPs")
         xy = transform_points(g.crs, CRS.from_user_input(d.crs), g.ground[missing, :2])

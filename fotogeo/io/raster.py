@@ -182,3 +182,19 @@ def raster_transform(raster):
         return None
     info = open_raster(raster, "source raster")
     return info.transform if not info.transform.is_identity else None
+
+
+def read_dem(path, band: int = 1):
+    """A :class:`~fotogeo.geometry.dem.Dem` from band ``band`` of a raster; nodata becomes NaN.
+
+    Refuses a raster without georeference (identity transform): heights need map positions.
+    """
+    from ..geometry.dem import Dem
+    try:
+        with ropen(path) as ds:
+            if ds.transform.is_identity:
+                raise RasterError(f"DEM {path}: has no georeference (identity transform); georeference it first")
+            z = ds.read(band, masked=True).astype(np.float64)
+            return Dem(z.filled(np.nan), ds.transform, ds.crs, str(path))
+    except RasterioIOError as exc:
+        raise RasterError(f"cannot read DEM {path}: {exc}") from None

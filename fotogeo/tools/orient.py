@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import InputError, ModelError
 from ..io.camera import load_camera
 from ..io.gcps import check_inside, read_gcps
-from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated, read_dem
 from ..io.report import write_json
 from ..io.vector import error_vectors, write_layers
 from ..io.warp import grid_covering, warp_to_grid
@@ -216,7 +216,7 @@ def _dem_in(dem, crs):
     from pyproj import CRS
 
     from ..geometry.dem import Dem, DemSampler
-    d = dem if isinstance(dem, Dem) else Dem.open(dem)
+    d = dem if isinstance(dem, Dem) else read_dem(dem)
     if d.crs is None:
         raise InputError(f"DEM {d.path!r} has no CRS; it cannot be matched to the GCPs (assign one with "
                          "gdal_edit.py -a_srs)")

@@ -24,7 +24,7 @@ from .. import __version__
 from ..crs import pixel_size_in, resolve_crs, transform_points
 from ..errors import InputError, MatchingError, ModelError
 from ..geometry.georeference import Georeference
-from ..io.raster import AtomicOutputs, check_output, open_raster
+from ..io.raster import AtomicOutputs, check_output, open_raster, read_dem
 from ..io.report import write_json
 from ..io.vector import error_vectors, write_layers
 from ..io.warp import grid_covering, warp_to_grid
@@ -217,7 +217,7 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
     from ..geometry.dem import Dem, DemSampler
     from ..io.camera import load_camera
     from ..orientation.terrain import fit_terrain
-    d = dem if isinstance(dem, Dem) else Dem.open(dem)
+    d = dem if isinstance(dem, Dem) else read_dem(dem)
     sampler = DemSampler(d, crs)
     z = sampler.heights(dst)
     n_h = int(np.isfinite(z).sum())

@@ -45,7 +45,7 @@ DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", 
 
 REFERENCES = {
     "dihkan": "Dihkan (2019): automatic registration of multi-epoch, multi-sensor aerial images to an "
-              "orthophoto with PCA band fusion, SURF, RANSAC and a homography (fotogeo's source paper 002).",
+              "orthophoto with PCA band fusion, SURF, RANSAC and a homography.",
     "surf": "Bay, H., Ess, A., Tuytelaars, T., Van Gool, L. (2008): Speeded-Up Robust Features (SURF). "
             "Computer Vision and Image Understanding 110(3), 346-359.",
     "sift": "Lowe, D. G. (2004): Distinctive image features from scale-invariant keypoints. IJCV 60(2), 91-110.",

@@ -6,18 +6,18 @@ from qgis.core import QgsProcessingOutputNumber, QgsProcessingParameterFileDesti
 from fotogeo.options import COMPARE, GCP
 
 from .base import tr
-from .orient import GCP_HELP, REFERENCE_004, _GcpAlgorithm
+from .orient import GCP_HELP, REFERENCE_ORIENTATION, _GcpAlgorithm
 
 
 class CompareModelsAlgorithm(_GcpAlgorithm):
     ALG_ID = "comparemodels"
     DISPLAY = "Compare orientation models on GCPs"
-    HELP = ("Table 1 of the source paper for your GCPs: every chosen model × number of control points × spread "
+    HELP = ("Table 1 of Öztürk, Karşlı & Dihkan for your GCPs: every chosen model × number of control points × spread "
             "(homogeneous = stratified over the image; heterogeneous = clustered around two centres), over "
             "seeded trials. All GCPs are pooled; in each trial the points not chosen as control points are the "
             "check points. Reported per row: median RMS x / y at control and check points, RMS xy and maximum at "
             "check points (pixels), and why a model could not be fitted. Writes a CSV table (and optionally "
-            "Markdown) and prints the table in the log.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
+            "Markdown) and prints the table in the log.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_ORIENTATION)
 
     OPTIONS = (GCP, COMPARE)
     TABLE, MARKDOWN, ROWS = "TABLE", "MARKDOWN", "ROWS"

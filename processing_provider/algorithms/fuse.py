@@ -24,7 +24,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
             "(0 = nodata), which is what helps feature matching most; otherwise float32 component "
             "values (nodata -9999). The georeference is kept; the explained variance is written to the "
             "output's metadata and returned as EXPLAINED.\n\n"
-            "Reference: Dihkan (2019), fotogeo source paper 002.")
+            "Reference: Dihkan (2019).")
 
     OPTIONS = (FUSE,)
     INPUT, OUTPUT, EXPLAINED = "INPUT", "OUTPUT", "EXPLAINED"

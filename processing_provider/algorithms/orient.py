@@ -24,8 +24,8 @@ from .base import FotogeoAlgorithm, tr
 
 GCP_FILTER = "GCP files (*.gpkg *.points *.csv *.geojson *.shp);;All files (*.*)"
 
-REFERENCE_004 = ("Öztürk, Karşlı, Dihkan: orientation of aerial photographs from map GCPs with affine-with-height, "
-                 "bilinear, projective, DLT and rational function models (fotogeo's source paper 004).")
+REFERENCE_ORIENTATION = ("Öztürk, Karşlı, Dihkan: orientation of aerial photographs from map GCPs with affine-with-height, "
+                 "bilinear, projective, DLT and rational function models.")
 
 GCP_HELP = ("GCPs: a point layer of the project, or a point layer file (GeoPackage, Shapefile, GeoJSON), with "
             "the image position in fields col, "
@@ -85,7 +85,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             "copy of the image carrying the model as GDAL RPC metadata (usable by gdalwarp -rpc and QGIS); for "
             "poly1-3 a GeoTIFF copy carrying the control points as GDAL GCPs (gdalwarp -order 1-3 reproduces the "
             "model); "
-            "a rectified GeoTIFF in the GCP CRS.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_004)
+            "a rectified GeoTIFF in the GCP CRS.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_ORIENTATION)
 
     OPTIONS = (GCP, ORIENT)
     REPORT, VECTORS, PLOT, POINTS, RPC, RECTIFY = "REPORT", "VECTORS", "PLOT", "POINTS", "RPC", "RECTIFY"

@@ -21,8 +21,8 @@ class MeasureTargetsAlgorithm(FotogeoAlgorithm):
     REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio", "cv2")
     HELP = ("Measures X-shaped fiducial or calibration targets to sub-pixel near approximate positions: an "
             "edge method (thresholds from the target's and the background's grey levels) gives the approximate "
-            "centre, then least-squares matching against a synthetic X template refines it (fotogeo's source "
-            "paper 000).\n\nPoint table (CSV or vector layer file): approximate positions in col, row (GDAL "
+            "centre, then least-squares matching against a synthetic X template refines it (after "
+            "Büyüksalih).\n\nPoint table (CSV or vector layer file): approximate positions in col, row (GDAL "
             "corner convention). Output (CSV or GeoPackage, by suffix): per target col, row, sigma_x, sigma_y "
             "(px), status, and the approximation. Polarity: bright targets on a dark background, dark on bright, "
             "or auto.")

@@ -17,7 +17,7 @@ from .base import FotogeoAlgorithm, tr
 
 TABLE_FILTER = "Point tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
 OUTPUT_FILTER = "CSV (*.csv);;GeoPackage (*.gpkg)"
-REFERENCE_001 = ("Area-based matching after fotogeo's source papers 000/001: normalised cross-correlation "
+REFERENCE_MATCHING = ("Area-based matching after Büyüksalih and the Turkish 'Görüntü Eşleme' study: normalised cross-correlation "
                  "(a correlation below 0.5 is a weak match) and least-squares matching with an affine geometric "
                  "and a linear radiometric model, iterated until the corrections vanish, precision from "
                  "σ0² = vᵀPv / (n − u) (Ackermann: 0.1-0.3 px).")
@@ -43,7 +43,7 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
             "Point table (CSV or vector layer file): reference pixel positions in ref_col, ref_row (or point "
             "geometries, when the reference is georeferenced) and approximate search positions in col, row "
             "(GDAL corner convention). Output (CSV or GeoPackage, by suffix): per point col, row (refined), "
-            "sigma_x, sigma_y (px), ncc, status, and the approximation.\n\nReference: " + REFERENCE_001)
+            "sigma_x, sigma_y (px), ncc, status, and the approximation.\n\nReference: " + REFERENCE_MATCHING)
 
     OPTIONS = (TRANSFER,)
     REFERENCE, SEARCH, POINTS, OUTPUT = "REFERENCE", "SEARCH", "POINTS", "OUTPUT"
