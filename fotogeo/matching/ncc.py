@@ -195,6 +195,17 @@ def ncc(reference, search, ref_xy, approx_xy, *, half_window: int = 10, search_r
     return match_prepared(f_img, g_img, p, q, h, r, min_correlation, max_ambiguity, subpixel, keep_surface)
 
 
+def square_window(img: np.ndarray, col: int, row: int, h: int):
+    """``(window, None)``: the ``(2h+1)²`` pixels of ``img`` centred on array index
+    ``[row, col]``; ``(None, status)`` when it leaves the image (:data:`WINDOW_OUTSIDE`) or
+    holds nodata (:data:`NODATA`, NaN pixels)."""
+    H, W = img.shape
+    if row - h < 0 or col - h < 0 or row + h >= H or col + h >= W:
+        return None, WINDOW_OUTSIDE
+    win = img[row - h:row + h + 1, col - h:col + h + 1]
+    return (None, NODATA) if np.isnan(win).any() else (win, None)
+
+
 def match_prepared(f_img: np.ndarray, g_img: np.ndarray, p: np.ndarray, q: np.ndarray, h: int, r: int,
                    min_correlation: float = 0.5, max_ambiguity: float = 0.9, subpixel: str = "quadratic",
                    keep_surface: bool = False) -> NCCResult:
@@ -202,12 +213,9 @@ def match_prepared(f_img: np.ndarray, g_img: np.ndarray, p: np.ndarray, q: np.nd
     # template: pixel containing ref_xy, carry the fractional offset from its centre
     pc, pr = int(np.floor(p[0])), int(np.floor(p[1]))
     frac = p - from_centre([pc, pr])
-    H, W = f_img.shape
-    if pr - h < 0 or pc - h < 0 or pr + h >= H or pc + h >= W:
-        return _fail(WINDOW_OUTSIDE)
-    tpl = f_img[pr - h:pr + h + 1, pc - h:pc + h + 1]
-    if np.isnan(tpl).any():
-        return _fail(NODATA)
+    tpl, status = square_window(f_img, pc, pr, h)
+    if tpl is None:
+        return _fail(status)
     scale = max(float(np.abs(tpl).max()), 1.0)
     if tpl.std() <= 1e-6 * scale:
         return _fail(FLAT)

@@ -34,8 +34,8 @@ import numpy as np
 from ..errors import InputError
 from ..pixels import from_centre, pixel_centres
 from .lsm import lsm_many
-from .ncc import as_image, as_xy, check_int
-from .status import CONVERGED, NODATA, STAGE_EDGE_METHOD, WINDOW_OUTSIDE, at_stage
+from .ncc import as_image, as_xy, check_int, square_window
+from .status import CONVERGED, STAGE_EDGE_METHOD, at_stage
 
 
 def synthetic_x_target(shape, centre_xy, arm_width: float, angles_deg=(45.0, 135.0), target: float = 255.0,
@@ -204,12 +204,9 @@ def measure_target(image, approx_xy, *, half_window: int = 12, search_half_windo
         return TargetResult(nan2, nan2, approx, status, mgl, mbgl, w, ang, np.nan)
 
     c, r = int(np.floor(q[0])), int(np.floor(q[1]))
-    H, W = img.shape
-    if r - hs < 0 or c - hs < 0 or r + hs >= H or c + hs >= W:
-        return fail(WINDOW_OUTSIDE)
-    win = img[r - hs:r + hs + 1, c - hs:c + hs + 1]
-    if np.isnan(win).any():
-        return fail(NODATA)
+    win, status = square_window(img, c, r, hs)
+    if win is None:
+        return fail(status)
     try:
         centre, mgl, mbgl, width, angles = _edge_centre_rows_or_cols(win, polarity)
         approx = from_centre(centre + [c - hs, r - hs])
