@@ -73,3 +73,57 @@ def pixel_size_in(transform, src_crs: CRS, dst_crs: CRS, col: float, row: float)
     c = transform_points(src_crs, dst_crs, corners)
     u, v = c[1] - c[0], c[2] - c[0]
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
+
+
+def _name(crs: CRS) -> str:
+    """A short name of ``crs`` for messages (its EPSG code or name, never a whole WKT)."""
+    epsg = crs.to_epsg()
+    return f"EPSG:{epsg}" if epsg else repr(crs.name[:60])
+
+
+def require_planar(crs: CRS, what: str) -> CRS:
+    """Refuse a geocentric CRS (X, Y, Z from the Earth's centre: not a map) for ``what``.
+
+    >>> require_planar(CRS.from_epsg(4978), "GCP CRS")
+    Traceback (most recent call last):
+    fotogeo.errors.InputError: GCP CRS EPSG:4978 is geocentric (X, Y, Z from the Earth's centre), not a map; ...
+    """
+    if crs.is_geocentric:
+        raise InputError(f"{what} {_name(crs)} is geocentric (X, Y, Z from the Earth's centre), not a map; "
+                         f"use a projected CRS such as the UTM zone of the area (e.g. EPSG:32635)")
+    return crs
+
+
+def require_projected(crs: CRS, what: str, near_lonlat=None) -> CRS:
+    """Refuse a geocentric or geographic CRS for ``what``, an output measured in metres (a
+    geographic CRS would report degrees as metres); the message suggests the UTM zone of
+    ``near_lonlat`` when given.
+
+    >>> require_projected(CRS.from_epsg(4326), "output CRS", (27.1, 39.9))
+    Traceback (most recent call last):
+    fotogeo.errors.InputError: output CRS EPSG:4326 is geographic (degrees); fotogeo's residuals, resolution ...
+    """
+    require_planar(crs, what)
+    if crs.is_geographic:
+        zone = f"EPSG:{utm_crs_for(*near_lonlat).to_epsg()}, the UTM zone of the area, or " if near_lonlat else ""
+        raise InputError(f"{what} {_name(crs)} is geographic (degrees); fotogeo's residuals, resolution and "
+                         f"RMSE are in metres: use a projected CRS ({zone}'auto')")
+    return crs
+
+
+def check_lonlat_range(crs: CRS, xy, what: str):
+    """Refuse points labelled with a geographic ``crs`` whose coordinates cannot be degrees
+    (|lon| > 360 or |lat| > 90): metres labelled as EPSG:4326, a wrong CRS in the file.
+
+    >>> check_lonlat_range(CRS.from_epsg(4326), [[500000.0, 4420000.0]], "GCPs 'g.csv'")
+    Traceback (most recent call last):
+    fotogeo.errors.InputError: GCPs 'g.csv' are labelled EPSG:4326 (degrees) but their coordinates reach ...
+    """
+    if not crs.is_geographic:
+        return
+    p = np.asarray(xy, float).reshape(-1, 2)
+    p = p[np.isfinite(p).all(axis=1)]
+    if len(p) and (np.abs(p[:, 0]).max() > 360 or np.abs(p[:, 1]).max() > 90):
+        raise InputError(f"{what} are labelled {_name(crs)} (degrees) but their coordinates reach "
+                         f"({np.abs(p[:, 0]).max():.6g}, {np.abs(p[:, 1]).max():.6g}), which are not longitudes and "
+                         f"latitudes — probably metres: give their real CRS (e.g. the UTM zone, EPSG:326zz)")

@@ -65,7 +65,7 @@ def test_write_json_refuses_what_it_cannot_convert(tmp_path):
 def test_atomic_outputs_commit_renames_every_file(tmp_path):
     a, b = tmp_path / "a.tif", tmp_path / "b.json"
     b.write_text("old")
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite=True) as out:  # b.json exists: replacing it needs overwrite
         ta, tb = out.temp(a), out.temp(b)
         assert ta.parent == tmp_path and tb.parent == tmp_path and ta != a and tb != b
         assert not ta.exists()  # writers create the file themselves

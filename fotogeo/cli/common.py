@@ -2,8 +2,11 @@
 error reporting and exit codes."""
 from __future__ import annotations
 
+import contextlib
 import functools
+import signal
 import sys
+import threading
 
 import click
 
@@ -12,8 +15,36 @@ from ..options import Option, Table
 
 #: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
 EXIT_ERROR = 2
-#: exit code of a cancel (the progress callback said stop): 128 + SIGINT, the shell's code for an interrupted job
+#: exit code of a cancel (the progress callback said stop) or Ctrl-C: 128 + SIGINT, the shell's code for an interrupted job
 EXIT_CANCELLED = 130
+#: exit code after SIGTERM (``kill``): 128 + SIGTERM, what a shell reports for a terminated job
+EXIT_TERMINATED = 128 + signal.SIGTERM
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised in the main thread when the process receives SIGTERM.
+
+    A :class:`KeyboardInterrupt` (not an ``Exception``), so library code that catches
+    ``Exception`` does not swallow it and it unwinds like Ctrl-C: every
+    :class:`~fotogeo.io.raster.AtomicOutputs` on the way removes its temporary files.
+    """
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated(f"terminated by signal {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def terminate_as_exception():
+    """While inside, SIGTERM raises :class:`Terminated` (main thread only; restored on exit)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
@@ -47,13 +78,23 @@ def run_tool(func):
     - :class:`~fotogeo.errors.Cancelled` (the progress callback returned False): one line
       ``Cancelled: <message>`` and exit code 130 (:data:`EXIT_CANCELLED`, 128 + SIGINT, what a
       shell reports for an interrupted job); the tool has removed what it had started writing;
+    - Ctrl-C (SIGINT): ``Cancelled: interrupted`` and exit code 130; SIGTERM: ``Cancelled:
+      terminated by signal SIGTERM`` and exit code 143 (:data:`EXIT_TERMINATED`, 128 +
+      SIGTERM). Both unwind as exceptions, so no temporary output is left behind;
     - any other :class:`~fotogeo.errors.FotogeoError`: ``Error: <message>`` and exit code 2
       (:data:`EXIT_ERROR`), without a traceback.
     """
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
-            return func(*args, **kwargs)
+            with terminate_as_exception():
+                return func(*args, **kwargs)
+        except Terminated as e:
+            click.echo(f"Cancelled: {e}; no output was written", err=True)
+            sys.exit(EXIT_TERMINATED)
+        except KeyboardInterrupt:
+            click.echo("Cancelled: interrupted (Ctrl-C); no output was written", err=True)
+            sys.exit(EXIT_CANCELLED)
         except Cancelled as e:
             click.echo(f"Cancelled: {e}", err=True)
             sys.exit(EXIT_CANCELLED)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 import warnings
 from dataclasses import dataclass
@@ -123,47 +124,165 @@ def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fiel
     return profile
 
 
+#: largest output grid fotogeo writes (pixels per band): 2^32, a 65536² raster
+MAX_GRID_PIXELS = 2 ** 32
+#: an output grid may have at most this many times the pixels of its source image (10x finer
+#: than the source's own sampling, linearly); finer grids only interpolate
+MAX_GRID_UPSAMPLING = 100
+#: DEFLATE rarely compresses imagery better than this; free space below size / this is clearly too little
+BEST_COMPRESSION = 4
+
+
 def check_output(path, inputs, overwrite: bool, role: str = "output") -> Path:
-    """Refuse an output that equals an input, exists without ``overwrite``, or has no folder."""
+    """Refuse an output that equals an input, exists without ``overwrite``, is a folder, or whose
+    folder is missing or not writable (a temporary file is actually created there and removed)."""
     p = Path(path).resolve()
     for i in inputs:
         if i is not None and Path(i).resolve() == p:
             raise OutputError(f"{role} {str(path)!r} is also an input; choose another output path")
+    if p.is_dir():
+        raise OutputError(f"{role} {str(path)!r} is a folder; give a file name")
     if p.exists() and not overwrite:
         raise OutputError(f"{role} {str(path)!r} exists; pass overwrite=True (--overwrite) to replace it")
     if not p.parent.is_dir():
         raise OutputError(f"folder of {role} {str(path)!r} does not exist; create it first")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{p.stem}.", suffix=".probe", dir=p.parent)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OutputError(f"cannot write {role} {str(path)!r}: the folder {str(p.parent)!r} is not writable "
+                          f"({e.strerror or e}); choose another folder") from None
     return p
 
 
-class AtomicOutputs:
-    """Temporary paths beside each final path, renamed together by :meth:`commit`.
+def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolution: float | None = None):
+    """Refuse an output grid larger than :data:`MAX_GRID_PIXELS` or than
+    :data:`MAX_GRID_UPSAMPLING` times the ``source_pixels`` it is resampled from.
 
-    Used as a context manager: leaving it without ``commit()`` (an error or a cancel)
-    deletes every temporary file, so no half-written output is ever left.
+    The limits are absolute and relative to the source, never scaled by the resolution, so a
+    resolution far too fine is refused before any pixel is written; the message gives the
+    finest resolution that passes (the grid's pixel count falls with the resolution squared).
+    """
+    n = int(width) * int(height)
+    limit = min(MAX_GRID_PIXELS, MAX_GRID_UPSAMPLING * int(source_pixels))
+    if n <= limit:
+        return
+    hint = ""
+    if resolution:
+        finest = float(resolution) * float(np.sqrt(n / limit))
+        hint = f"; use a resolution of {finest:.4g} or coarser (now {float(resolution):.4g})"
+    raise OutputError(f"{what} would be {width}x{height} = {n:.3g} pixels, more than "
+                      f"{'the limit of ' + format(MAX_GRID_PIXELS, '.3g') if limit == MAX_GRID_PIXELS else f'{MAX_GRID_UPSAMPLING}x the source image ({int(source_pixels):.3g} pixels)'}"
+                      f"{hint}")
+
+
+def check_space(folder, nbytes: float, what: str):
+    """Refuse when the free space of ``folder`` is clearly too little for ``nbytes`` uncompressed
+    output (less than ``nbytes / BEST_COMPRESSION`` plus 16 MB)."""
+    need = float(nbytes) / BEST_COMPRESSION + 16 * 2 ** 20
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if free < need:
+        raise OutputError(f"not enough free space for {what} in {str(folder)!r}: {free / 2 ** 20:.0f} MB free, "
+                          f"about {need / 2 ** 20:.0f} MB needed (uncompressed {nbytes / 2 ** 20:.0f} MB); "
+                          f"free some space, choose another folder or a coarser resolution")
+
+
+def grid_bytes(width: int, height: int, bands: int, dtype) -> float:
+    """Uncompressed size of a ``bands``-band grid of ``dtype`` (overviews add a third)."""
+    return float(width) * float(height) * bands * np.dtype(dtype).itemsize * 4 / 3
+
+
+#: side files GDAL may write beside a raster; they follow it on commit and are deleted with it
+SIDE_FILES = (".aux.xml", ".ovr", ".msk")
+
+
+class AtomicOutputs:
+    """Temporary paths beside each final path, committed together by :meth:`commit`.
+
+    Used as a context manager: leaving it without ``commit()`` (an error, a cancel, a signal
+    turned into an exception) deletes every temporary file, so no half-written output is left.
+
+    :meth:`commit` is all or nothing. Without ``overwrite`` each final name is claimed
+    exclusively (``os.link``, which fails if the name exists, or ``O_EXCL`` creation where
+    links are unsupported): an output that appeared since the start — e.g. written by a
+    concurrent run — is never replaced, and of two runs writing the same new path exactly one
+    succeeds. With ``overwrite`` an existing file is kept as a hidden backup until the whole
+    set is in place. If any step fails, what was committed is undone (backups restored, new
+    files removed) and an :class:`OutputError` names the file.
     """
 
-    def __init__(self):
+    def __init__(self, overwrite: bool = False):
+        self.overwrite = overwrite
         self._pairs: list[tuple[Path, Path]] = []
 
     def temp(self, final) -> Path:
         final = Path(final)
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=f".part{final.suffix}", dir=final.parent)
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=f".part{final.suffix}", dir=final.parent)
+        except OSError as e:
+            raise OutputError(f"cannot write {str(final)!r} ({e.strerror or e}); choose a writable folder") from None
         os.close(fd)
         os.unlink(tmp)  # writers (GDAL, SQLite) want to create the file themselves
         self._pairs.append((Path(tmp), final))
         return Path(tmp)
 
-    def commit(self):
+    def _files(self):
+        """(temporary, final) of every file to commit: the outputs and their GDAL side files."""
         for tmp, final in self._pairs:
-            if final.exists():
-                final.unlink() if final.is_file() else None
+            yield tmp, final
+            for sfx in SIDE_FILES:
+                if Path(str(tmp) + sfx).exists():
+                    yield Path(str(tmp) + sfx), Path(str(final) + sfx)
+
+    def commit(self):
+        done: list[tuple[Path, Path | None]] = []  # (final, backup of what it replaced or None)
+        for tmp, final in list(self._files()):
+            try:
+                done.append((final, self._place(tmp, final)))
+            except OSError as e:
+                self._rollback(done)
+                if isinstance(e, OutputError):
+                    raise
+                raise OutputError(f"could not write {str(final)!r} ({e.strerror or e}); no output was "
+                                  f"changed") from None
+        for _, backup in done:
+            if backup is not None:
+                with contextlib.suppress(OSError):
+                    backup.unlink()
+        self.discard()
+
+    def _place(self, tmp: Path, final: Path):
+        """Move ``tmp`` to ``final``; return the backup of a replaced file (None if none was)."""
+        if final.is_dir():
+            raise OutputError(f"{str(final)!r} is a folder; it cannot be replaced by an output")
+        if not self.overwrite or not os.path.lexists(final):
+            _claim(tmp, final)
+            return None
+        fd, backup = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=f".bak{final.suffix}", dir=final.parent)
+        os.close(fd)
+        os.replace(final, backup)
+        try:
             os.replace(tmp, final)
-        self._pairs = []
+        except OSError:
+            os.replace(backup, final)
+            raise
+        return Path(backup)
+
+    def _rollback(self, done):
+        for final, backup in reversed(done):
+            with contextlib.suppress(OSError):
+                if backup is not None:
+                    os.replace(backup, final)
+                else:
+                    final.unlink()
 
     def discard(self):
         for tmp, _ in self._pairs:
-            for p in (tmp, Path(str(tmp) + ".aux.xml"), Path(str(tmp) + ".ovr")):
+            for p in (tmp, *(Path(str(tmp) + sfx) for sfx in SIDE_FILES)):
                 with contextlib.suppress(FileNotFoundError):
                     p.unlink()
         self._pairs = []
@@ -174,6 +293,28 @@ class AtomicOutputs:
     def __exit__(self, *exc):
         self.discard()
         return False
+
+
+def _claim(tmp: Path, final: Path):
+    """Give ``tmp`` the name ``final`` only if no file has it (exclusive); ``tmp`` is removed."""
+    try:
+        os.link(tmp, final)
+    except FileExistsError:
+        raise OutputError(f"{str(final)!r} appeared while fotogeo was working (another run?); it was not "
+                          f"replaced — pass overwrite=True (--overwrite) to replace it") from None
+    except OSError:  # no hard links here (e.g. FAT, some network shares): claim the name with O_EXCL
+        try:
+            os.close(os.open(final, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
+        except FileExistsError:
+            raise OutputError(f"{str(final)!r} appeared while fotogeo was working (another run?); it was not "
+                              f"replaced — pass overwrite=True (--overwrite) to replace it") from None
+        try:
+            os.replace(tmp, final)
+        except OSError:
+            final.unlink()
+            raise
+        return
+    os.unlink(tmp)
 
 
 def raster_transform(raster):

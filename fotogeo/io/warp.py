@@ -11,12 +11,14 @@ the output nodata value. Results go to a tiled, DEFLATE-compressed GeoTIFF with 
 from __future__ import annotations
 
 import math
+import warnings
 
 import cv2
 import numpy as np
 from rasterio.enums import Resampling
 from rasterio.windows import Window
 
+from ..errors import FotogeoWarning
 from ..options import RESAMPLINGS
 from ..pixels import pixel_centres, pixel_to_map, to_centre
 from ..progress import Progress
@@ -39,9 +41,23 @@ def grid_covering(XY, res: float):
     return Affine(res, 0, x0, 0, -res, y1), int(round((x1 - x0) / res)), int(round((y1 - y0) / res))
 
 
-def default_nodata(nodata):
-    """The source nodata if set, else 0 (GDAL's usual choice for a warped raster)."""
-    return nodata if nodata is not None else 0
+def default_nodata(nodata, dtype):
+    """The output nodata: the source's if set; else one no valid value of ``dtype`` can take
+    by accident — NaN for floating point, the most negative value for signed integers (a
+    source without nodata rarely reaches it; a valid pixel that does is counted and warned
+    about) — and 0 for unsigned integers (GDAL's usual choice for a warped image).
+
+    >>> default_nodata(None, "float32"), default_nodata(None, "int16"), default_nodata(None, "uint8")
+    (nan, -32768, 0)
+    >>> default_nodata(255, "uint8")
+    255
+    """
+    if nodata is not None:
+        return nodata
+    kind = np.dtype(dtype).kind
+    if kind == "f":
+        return float("nan")
+    return int(np.iinfo(dtype).min) if kind == "i" else 0
 
 
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
@@ -61,7 +77,9 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     with gdal_env(), ropen(src_path) as src:
         dtype = src.dtypes[0]
         src_nd = src.nodata if src_nodata is None else src_nodata
-        nodata = default_nodata(src_nd if nodata is None else nodata)
+        nodata = default_nodata(src_nd if nodata is None else nodata, dtype)
+        floating = np.dtype(dtype).kind == "f"
+        collisions = 0
         work_dtype = dtype if dtype in _CV_DTYPES else "float64"
         profile = geotiff_profile(width=width, height=height, count=src.count, dtype=dtype,
                                   crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs, transform=transform,
@@ -92,6 +110,10 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
                         mask = src.read_masks(window=win).min(axis=0)
                         if src_nodata is not None:
                             mask[(data == src_nodata).all(axis=0)] = 0
+                        if floating:  # NaN and ±inf are never data (nodata everywhere, as in fuse)
+                            finite = np.isfinite(data)
+                            mask[~finite.all(axis=0)] = 0
+                            data = np.where(finite, data, 0)
                         local = to_centre(np.where(np.isfinite(sp), sp, -1e6)) - [c_lo, r_lo]
                         mx = local[:, 0].reshape(h, w).astype(np.float32)
                         my = local[:, 1].reshape(h, w).astype(np.float32)
@@ -103,6 +125,8 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
                             res = cv2.remap(band, mx, my, interp, borderMode=cv2.BORDER_REPLICATE)
                             out[b][good] = res[good].astype(dtype, copy=False)
                         valid_total += int(good.sum())
+                        if not floating:
+                            collisions += int((out[:, good] == nodata).all(axis=0).sum())
                 dst.write(out, window=Window(c0, r0, w, h))
                 progress((k + 1) / len(windows) * (0.9 if overviews else 1.0),
                          f"resampling window {k + 1}/{len(windows)}")
@@ -113,4 +137,9 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
                                         else Resampling.average)
                     dst.update_tags(ns="rio_overview", resampling=resampling)
     progress(1.0, "resampled")
-    return {"valid_pixels": valid_total}
+    if collisions and np.dtype(dtype).kind == "i":
+        warnings.warn(f"{collisions} valid pixels of {src_path} equal the output nodata value {nodata} and will "
+                      f"read as nodata; give the source a nodata value outside its data", FotogeoWarning,
+                      stacklevel=2)
+    return {"valid_pixels": valid_total, "nodata": None if nodata != nodata else nodata,
+            "nodata_collisions": collisions}
