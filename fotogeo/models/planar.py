@@ -3,11 +3,20 @@
 In normalised coordinates ``s`` (source) and ``d`` (destination), each model is a matrix
 ``M`` with ``[d; 1] ~ M [s; 1]``:
 
-* similarity (4 parameters, ≥2 points): ``d = [[a, -b], [b, a]] s + t`` — scale, rotation, shift;
+* similarity (4 parameters, ≥3 points): ``d = [[a, -b], [b, a]] s + t`` (proper: scale,
+  rotation, shift) or ``d = [[a, b], [b, -a]] s + t`` (improper: the same after a mirror),
+  whichever fits with the smaller weighted residual. Pixel → map needs the improper one
+  (rows grow down, Y grows up), map → map the proper one; two points fit both exactly, so
+  three are needed, and collinear points cannot tell them apart (refused);
 * affine (6 parameters, ≥3 points): ``d = A s + t``;
 * projective (8 parameters, ≥4 points): ``d = (H[:2] [s; 1]) / (H[2] [s; 1])``, fitted by the
   normalised DLT (Hartley) and refined by Gauss-Newton on the weighted geometric error
   ``Σ w |d - H(s)|²``.
+
+The linear models (similarity, affine) check the numerical rank of their weighted design in
+normalised coordinates (singular values below ``1e-10`` of the largest count as zero), so
+exactly collinear points are refused as projective and the polynomials refuse them, instead
+of being interpolated with a zero residual by a rounding-level singular value.
 
 ``world_matrix()`` gives the same mapping in real (un-normalised) coordinates. A matrix model
 folds a region (:meth:`~fotogeo.models.base.Model.folds`) when its horizon, the line
@@ -20,6 +29,18 @@ import numpy as np
 
 from ..errors import ModelError
 from .base import Model, register_model, weighted_lstsq
+
+#: relative singular value below which a linear design counts as rank deficient
+RANK_RTOL = 1e-10
+
+
+def _check_rank(A: np.ndarray, w: np.ndarray, name: str, what: str = "collinear, duplicated or too clustered"):
+    """Refuse a weighted design ``sqrt(w)·A`` whose numerical rank (rtol :data:`RANK_RTOL`) is deficient."""
+    sv = np.linalg.svd(A * np.sqrt(w)[:, None], compute_uv=False)
+    rank = int(np.sum(sv > sv[0] * RANK_RTOL)) if sv[0] > 0 else 0
+    if rank < A.shape[1]:
+        raise ModelError(f"model {name!r}: the points are degenerate ({what}) — rank {rank} < {A.shape[1]} "
+                         f"parameters; spread the points over the image")
 
 
 class _MatrixModel(Model):
@@ -61,17 +82,31 @@ class _MatrixModel(Model):
 class Similarity(_MatrixModel):
     name = "similarity"
     n_params = 4
-    min_points = 2
+    min_points = 3  # two points fit a proper and an improper similarity exactly
     isotropic = True  # a similarity stays one only under equal scaling of both axes
 
     @classmethod
     def _fit(cls, s, d, w):
+        _check_rank(np.column_stack([s, np.ones(len(s))]), w, cls.name,
+                    "collinear: a mirror about their line fits as well, so the similarity is undetermined")
+        fits = [cls._fit_handed(s, d, w, mirror) for mirror in (False, True)]
+        return min(fits, key=lambda f: f[1])[0]
+
+    @classmethod
+    def _fit_handed(cls, s, d, w, mirror: bool):
+        """Weighted least-squares proper (``mirror`` False) or improper similarity: (matrix, Σ w r²)."""
         n = len(s)
+        x, y = s[:, 0], (-s[:, 1] if mirror else s[:, 1])  # improper = proper after y -> -y
         A = np.zeros((2 * n, 4))
-        A[0::2] = np.column_stack([s[:, 0], -s[:, 1], np.ones(n), np.zeros(n)])
-        A[1::2] = np.column_stack([s[:, 1], s[:, 0], np.zeros(n), np.ones(n)])
-        a, b, tx, ty = weighted_lstsq(A, d.reshape(-1), np.repeat(w, 2), cls.name)
-        return np.array([[a, -b, tx], [b, a, ty], [0, 0, 1.0]]).ravel()
+        A[0::2] = np.column_stack([x, -y, np.ones(n), np.zeros(n)])
+        A[1::2] = np.column_stack([y, x, np.zeros(n), np.ones(n)])
+        ww = np.repeat(w, 2)
+        p = weighted_lstsq(A, d.reshape(-1), ww, cls.name)
+        a, b, tx, ty = p
+        M = np.array([[a, -b, tx], [b, a, ty], [0, 0, 1.0]])
+        if mirror:
+            M[:, 1] *= -1
+        return M.ravel(), float(np.sum(ww * (A @ p - d.reshape(-1)) ** 2))
 
 
 @register_model
@@ -83,6 +118,7 @@ class Affine(_MatrixModel):
     @classmethod
     def _fit(cls, s, d, w):
         A = np.column_stack([s, np.ones(len(s))])
+        _check_rank(A, w, cls.name)
         X = weighted_lstsq(A, d, w, cls.name)  # (3, 2)
         return np.vstack([X.T, [0, 0, 1.0]]).ravel()
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MatchingError
+from ..errors import MatchingError, ModelError
 from .ransac import RansacResult, ransac, robust_refit
 from .stats import rmse
 
@@ -113,6 +113,30 @@ class TieSelection:
         return role
 
 
+#: a robust fit keeping at least this fraction of the pairs ...
+SWALLOWED_FRACTION = 0.95
+#: ... with an RMSE above this many RANSAC thresholds has fitted nothing: refused
+SWALLOWED_RMSE = 10.0
+
+
+def refuse_swallowed_fit(model_cls, residuals, inliers, threshold: float):
+    """Refuse a fit that calls (nearly) every pair an inlier while its RMSE over them is far
+    above the RANSAC ``threshold``: the robust scale has grown to swallow every residual, so
+    the inliers mean nothing (a model that cannot describe the geometry, e.g. a similarity
+    without the mirror of pixel → map, returned kilometres of error with every match kept).
+    """
+    r = np.asarray(residuals, float)[np.asarray(inliers, bool)]
+    frac = len(r) / max(1, len(inliers))
+    if len(r) < 3 or frac < SWALLOWED_FRACTION:
+        return
+    err = float(np.sqrt(np.mean(r ** 2)))
+    if err > SWALLOWED_RMSE * threshold:
+        raise ModelError(f"the {model_cls.name} model does not describe these tie points: {frac:.0%} of them are "
+                         f"kept as inliers but their RMSE is {err:.4g}, {err / threshold:.0f}x the RANSAC threshold "
+                         f"{threshold:.4g}; use a model that fits the geometry (e.g. projective, or a DEM and a 3-D "
+                         f"model) or check the tie points")
+
+
 def select_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float, check_fraction: float = 0.3,
                       rng=0, max_trials: int = 5000, c: float = 6.0, usable=None, refine=None,
                       min_consistent: int | None = None, min_control: int | None = None, is_valid=None,
@@ -130,6 +154,7 @@ def select_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float
     rs = ransac(model_cls, src, dst, threshold, rng=rng, max_trials=max_trials,
                 min_inliers=model_cls.min_points + 2, is_valid=is_valid)
     rob = robust_refit(model_cls, src, dst, rs.model, min_sigma=min_sigma, c=c)
+    refuse_swallowed_fit(model_cls, rob.model.residuals(src, dst), rob.inliers, threshold)
     inl = rob.inliers if usable is None else rob.inliers & usable
     n_pre = int(inl.sum())
     if n_pre < need:
