@@ -46,3 +46,44 @@ class FotogeoWarning(UserWarning):
 
 class IllPosedWarning(FotogeoWarning):
     """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""
+
+
+#: WKT keywords that open a CRS definition (WKT1 and WKT2)
+_WKT_KEYWORDS = ("PROJCRS", "GEOGCRS", "GEODCRS", "BOUNDCRS", "COMPOUNDCRS", "VERTCRS", "ENGCRS", "PROJCS",
+                 "GEOGCS", "GEOCCS", "COMPD_CS", "VERT_CS", "LOCAL_CS")
+
+
+def _shorten_wkt(text: str) -> str:
+    """Replace each WKT CRS definition in ``text`` by ``KEYWORD["name"]`` (its name only)."""
+    import re
+    out, pos = [], 0
+    for m in re.finditer(r"\b(" + "|".join(_WKT_KEYWORDS) + r")\s*\[", text):
+        if m.start() < pos:
+            continue  # nested inside the definition already shortened
+        depth, end = 0, len(text)
+        for i in range(m.end() - 1, len(text)):
+            depth += {"[": 1, "]": -1}.get(text[i], 0)
+            if depth == 0:
+                end = i + 1
+                break
+        name = re.match(r'\s*"([^"]*)"', text[m.end():end])
+        out.append(text[pos:m.start()] + f'{m.group(1)}["{name.group(1) if name else "…"}"]')
+        pos = end
+    return "".join(out) + text[pos:]
+
+
+def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
+    """``text`` as one line for an error message: whitespace collapsed, WKT CRS definitions
+    shortened to their names, quoted values longer than ``value_limit`` and the whole text
+    longer than ``limit`` characters cut with "…".
+
+    >>> one_line('CRS PROJCS["WGS 84 / UTM zone 35N",GEOGCS["WGS 84",DATUM["x"]]] is\\n  projected')
+    'CRS PROJCS["WGS 84 / UTM zone 35N"] is projected'
+    >>> one_line("got '" + "x" * 1000 + "'").count("x"), "…" in one_line("got '" + "x" * 1000 + "'")
+    (68, True)
+    """
+    import re
+    text = " ".join(_shorten_wkt(str(text)).split())
+    half = value_limit // 2
+    text = re.sub(r"(?<!\w)'([^']{%d,})'(?!\w)" % (value_limit + 1), lambda m: f"'{m.group(1)[:half]}…{m.group(1)[-8:]}'", text)
+    return text if len(text) <= limit else text[:limit - 1] + "…"

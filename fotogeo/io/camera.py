@@ -6,9 +6,10 @@ the principal point convention is explained there.
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, one_line
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
 
 
@@ -24,9 +25,14 @@ def _parse_value(text: str):
     return text.strip("'\"")
 
 
-def _parse_simple_yaml(text: str) -> dict:
-    """Parse the two-level ``key: value`` YAML subset of orthority interior-orientation files."""
+def _parse_simple_yaml(text: str, where: str = "") -> tuple[dict, dict]:
+    """Parse the two-level ``key: value`` YAML subset of orthority interior-orientation files.
+
+    Returns ``(data, lines)``: the nested dict and the line number of each top-level key.
+    ``where`` (the file) starts the message of the :class:`InputError` for a malformed line.
+    """
     out: dict = {}
+    lines: dict = {}
     stack = [(-1, out)]
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].rstrip()
@@ -34,17 +40,58 @@ def _parse_simple_yaml(text: str) -> dict:
             continue
         indent = len(line) - len(line.lstrip())
         key, sep, value = line.strip().partition(":")
-        if not sep:
-            raise InputError(f"line {lineno}: expected 'key: value', got {raw!r}")
+        if not sep or not key.strip():
+            raise InputError(one_line(f"{where}line {lineno}: expected 'key: value', got {raw!r}"))
         while indent <= stack[-1][0]:
             stack.pop()
         parent = stack[-1][1]
+        if parent is out:
+            lines[key.strip()] = lineno
         if value.strip():
             parent[key.strip()] = _parse_value(value)
         else:
             parent[key.strip()] = child = {}
             stack.append((indent, child))
-    return out
+    return out, lines
+
+
+def _number(d: dict, key: str, kind=float, default=None):
+    """``d[key]`` as a finite ``kind`` (int or float); ValueError names the key."""
+    value = d.get(key, default)
+    if value is None:
+        raise ValueError(f"{key} is missing")
+    if isinstance(value, (list, dict, bool)) or not isinstance(value, (int, float)):
+        raise ValueError(f"{key} must be a number; got {str(value)[:40]!r}")
+    if not math.isfinite(value) or (kind is int and value != int(value)):
+        raise ValueError(f"{key} must be a finite {'whole ' if kind is int else ''}number; got {value!r}")
+    return kind(value)
+
+
+def _pair(d: dict, key: str, kind):
+    """``d[key]`` as two finite positive numbers ``[w, h]``; ValueError names the key."""
+    value = d.get(key)
+    if not isinstance(value, list) or len(value) != 2:
+        raise ValueError(f"{key} must be [width, height]; got {str(value)[:40]!r}")
+    w, h = (_number({key: v}, key, kind) for v in value)
+    if w <= 0 or h <= 0:
+        raise ValueError(f"{key} must be positive; got [{w}, {h}]")
+    return w, h
+
+
+def _frame_camera(d) -> FrameCamera:
+    """A pinhole :class:`FrameCamera` from one camera's dict; ValueError says which value is wrong."""
+    if not isinstance(d, dict):
+        raise ValueError("a camera must be a block of indented 'key: value' lines")
+    if d.get("type", "pinhole") != "pinhole":
+        raise ValueError(f"type {str(d.get('type'))[:40]!r} is not supported; only 'pinhole' is")
+    w, h = _pair(d, "im_size", int)
+    sw, sh = _pair(d, "sensor_size", float)
+    f = _number(d, "focal_len")
+    if f <= 0:
+        raise ValueError(f"focal_len must be positive; got {f}")
+    m = max(w, h)
+    pp = (w / 2.0 + _number(d, "cx", default=0.0) * m, h / 2.0 + _number(d, "cy", default=0.0) * m)
+    return FrameCamera(f, (sw, sh), (w, h), pp)
 
 
 def read_interior_orientation(path) -> dict[str, FrameCamera]:
@@ -54,26 +101,26 @@ def read_interior_orientation(path) -> dict[str, FrameCamera]:
     and optional ``cx``, ``cy``: the principal point offset from the image centre in units of
     ``max(w, h)`` pixels (orthority's normalised convention), so
     ``ppx = w/2 + cx·max(w, h)``, ``ppy = h/2 + cy·max(w, h)`` (corner convention).
+    Any problem is one :class:`InputError` naming the file, the line and the value.
     """
     path = Path(path)
     try:
-        data = _parse_simple_yaml(path.read_text())
-    except OSError as exc:
-        raise InputError(f"cannot read interior orientation {path}: {exc}") from None
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(f"interior orientation file {str(path)!r} does not exist") from None
+    except IsADirectoryError:
+        raise InputError(f"interior orientation file {str(path)!r} is a folder; give the YAML file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(one_line(f"cannot read interior orientation {str(path)!r} as UTF-8 text: {exc}")) from None
+    data, lines = _parse_simple_yaml(text, f"interior orientation {str(path)!r}, ")
     cams = {}
     for cid, d in data.items():
-        if not isinstance(d, dict) or d.get("type", "pinhole") != "pinhole":
-            raise InputError(f"{path}: camera {cid!r} is not a 'pinhole' camera; only pinhole is supported")
         try:
-            w, h = (int(v) for v in d["im_size"])
-            sw, sh = (float(v) for v in d["sensor_size"])
-            f = float(d["focal_len"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"{path}: camera {cid!r} needs im_size [w, h], sensor_size [w, h] and "
-                             "focal_len") from None
-        m = max(w, h)
-        pp = (w / 2.0 + float(d.get("cx", 0.0)) * m, h / 2.0 + float(d.get("cy", 0.0)) * m)
-        cams[cid] = FrameCamera(f, (sw, sh), (w, h), pp)
+            cams[cid] = _frame_camera(d)
+        except (ValueError, TypeError, OverflowError, ZeroDivisionError, InputError) as exc:
+            raise InputError(one_line(f"interior orientation {str(path)!r}, line {lines[cid]}: camera {cid!r}: {exc}; "
+                                      f"it needs im_size [w, h], sensor_size [w, h] and focal_len "
+                                      f"(type pinhole, optional cx, cy)")) from None
     return cams
 
 
@@ -81,16 +128,20 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments allowed)."""
     path = Path(path)
     out = {}
-    for lineno, raw in enumerate(path.read_text().splitlines(), 1):
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(one_line(f"cannot read exterior orientation {str(path)!r} as text: {exc}")) from None
+    for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].split()
         if not line:
             continue
         if len(line) != 7:
-            raise InputError(f"{path}, line {lineno}: expected 'name X Y Z omega phi kappa'; got {raw!r}")
+            raise InputError(one_line(f"{path}, line {lineno}: expected 'name X Y Z omega phi kappa'; got {raw!r}"))
         try:
             out[line[0]] = ExteriorOrientation(*(float(v) for v in line[1:]))
         except ValueError:
-            raise InputError(f"{path}, line {lineno}: non-numeric orientation value in {raw!r}") from None
+            raise InputError(one_line(f"{path}, line {lineno}: non-numeric orientation value in {raw!r}")) from None
     return out
 
 

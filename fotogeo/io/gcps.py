@@ -93,7 +93,7 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
     from .tables import find_column, is_layer, numeric_columns, read_table
     table = read_table(p, "GCP file", layer)
     if is_layer(table):
-        xy, map_crs = _layer_positions(table, what, crs)
+        xy, map_crs = _layer_positions(table, what, crs, id)
     else:
         xcol = next((c for c in table.columns if str(c).lower() in X_NAMES), None)
         ycol = next((c for c in table.columns if str(c).lower() in Y_NAMES), None)
@@ -101,8 +101,8 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
             raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
         if not crs:
             raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
-        xy, map_crs = table[[xcol, ycol]].to_numpy(float), parse_crs(crs, what)
-    pix = numeric_columns(table, [col, row], what, _FIELD_HINT)
+        xy, map_crs = numeric_columns(table, [xcol, ycol], what, id_field=id), parse_crs(crs, what)
+    pix = numeric_columns(table, [col, row], what, _FIELD_HINT, id_field=id)
     rf = find_column(table, role)
     roles = (table[rf].fillna("control").astype(str).str.lower().to_numpy() if rf
              else np.full(len(table), "control"))
@@ -112,14 +112,21 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
     idf = find_column(table, id)
     ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
     zf = find_column(table, z)
-    return xy, pix, roles, ids, (table[zf].to_numpy(float) if zf is not None else None), map_crs
+    zs = numeric_columns(table, [zf], what, id_field=id)[:, 0] if zf is not None else None
+    return xy, pix, roles, ids, zs, map_crs
 
 
-def _layer_positions(table, what: str, crs):
+def _layer_positions(table, what: str, crs, id: str | None = "id"):
     """Map positions (N, 2) of a point layer's geometries and its CRS (``crs`` overrides it)."""
+    from .tables import describe_rows
     geom = table.geometry
+    missing = (geom.isna() | geom.is_empty).to_numpy()
+    if missing.any():
+        raise VectorError(f"{what}: {describe_rows(table, np.flatnonzero(missing), id)} "
+                          f"{'have' if missing.sum() > 1 else 'has'} no geometry (the map position); "
+                          f"fix or remove {'them' if missing.sum() > 1 else 'it'}")
     if len(table) and not (geom.geom_type == "Point").all():
-        raise VectorError(f"{what}: GCPs must be points; found {sorted(set(geom.geom_type))}")
+        raise VectorError(f"{what}: GCPs must be points (single points); found {', '.join(sorted(set(map(str, geom.geom_type))))}")
     if crs:
         map_crs = parse_crs(crs, what)
     elif table.crs is None:
@@ -154,8 +161,8 @@ def _fill_heights(g: Gcps, dem, height) -> Gcps:
 def _validate(g: Gcps, what: str):
     bad = ~(np.isfinite(g.ground[:, :2]).all(axis=1) & np.isfinite(g.pixel).all(axis=1))
     if bad.any():
-        raise InputError(f"{what}: GCP(s) {', '.join(g.ids[bad][:10])} have missing (NaN) coordinates; "
-                         f"fix or remove them")
+        raise InputError(f"{what}: GCP(s) {', '.join(g.ids[bad][:10])} have missing (empty, NaN) or infinite "
+                         f"coordinates; fix or remove them")
     key = np.round(np.column_stack([g.ground[:, :2], g.pixel]), 6)
     _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
     if (counts > 1).any():
@@ -167,8 +174,23 @@ def _validate(g: Gcps, what: str):
 
 
 def check_inside(g: Gcps, width: int, height: int, what: str):
-    """Raise :class:`InputError` naming the GCPs whose image position lies outside the image."""
+    """Raise :class:`InputError` naming the GCPs whose image position lies outside the image.
+
+    For a ``.points`` file the message explains its source-coordinate convention, the usual
+    cause: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive
+    ``sourceY`` values put the points above the image.
+    """
     out = ~((g.pixel[:, 0] >= 0) & (g.pixel[:, 0] <= width) & (g.pixel[:, 1] >= 0) & (g.pixel[:, 1] <= height))
-    if out.any():
-        raise InputError(f"GCP(s) {', '.join(g.ids[out][:10])} of {what} lie outside the image "
-                         f"({width}x{height} px): check the col/row fields (corner convention) or remove them")
+    if not out.any():
+        return
+    head = f"GCP(s) {', '.join(g.ids[out][:10])} of {what} lie outside the image ({width}x{height} px)"
+    if not str(g.source).lower().endswith(".points"):
+        raise InputError(f"{head}: check the col/row fields (corner convention) or remove them")
+    if (g.pixel[out, 1] < 0).all() and (g.pixel[out, 1] >= -height).all() and (g.pixel[out, 0] >= 0).all():
+        raise InputError(f"{head}: their rows come out negative because the file's sourceY values are positive. "
+                         f"For an unreferenced raster QGIS writes sourceY = -row (y up from the top-left corner), "
+                         f"so this file uses the opposite sign: negate its sourceY column, or, if the points were "
+                         f"measured on a georeferenced copy of the image, give that raster (raster=/--raster)")
+    raise InputError(f"{head}: a .points file holds sourceX = col, sourceY = -row for an unreferenced raster, "
+                     f"or the raster's map coordinates for a georeferenced one; check that the file was measured "
+                     f"on this image (and on its georeferenced or unreferenced version as used here)")

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, VectorError
+from ..errors import InputError, VectorError, one_line
 from ..pixels import as_points
 
 HEADER = "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual"
@@ -65,18 +65,59 @@ def _fmt(v: float) -> str:
     return repr(v)
 
 
+#: first fields of a header line: QGIS writes ``mapX,mapY,sourceX,...``, older files ``pixelX,pixelY``
+HEADER_STARTS = (("mapx", "mapy", "sourcex", "sourcey"), ("mapx", "mapy", "pixelx", "pixely"))
+
+
+def _is_header(parts: list[str]) -> bool:
+    """True for the header line only: ``mapX,mapY,sourceX,sourceY[,...]`` (any letter case)."""
+    return tuple(p.lower() for p in parts[:4]) in HEADER_STARTS
+
+
+def _parse_line(parts: list[str], where: str, raw: str) -> list[float]:
+    """``[mapX, mapY, sourceX, sourceY, enable, dX, dY]`` of one data line (dX, dY NaN when absent)."""
+    if not 4 <= len(parts) <= 8:
+        raise VectorError(one_line(f"{where}: expected at least 4 values mapX,mapY,sourceX,sourceY and at most 8 "
+                                   f"(…,enable,dX,dY,residual), separated by commas; got {raw!r}"))
+    names = HEADER.split(",")
+    values = []
+    for name, text in zip(names, parts[:7]):
+        if name == "enable" and text == "":
+            values.append(1.0)  # missing enable means enabled
+            continue
+        try:
+            v = float(text)
+        except ValueError:
+            raise VectorError(one_line(f"{where}: not a number: {name} is {text!r}")) from None
+        if not math.isfinite(v):
+            raise VectorError(one_line(f"{where}: {name} is {text!r}; every value must be a finite number"))
+        if name == "enable" and v not in (0.0, 1.0):
+            raise VectorError(one_line(f"{where}: enable must be 1 (control point) or 0 (check point); got {text!r}"))
+        values.append(v)
+    values += [1.0] if len(values) == 4 else []
+    values += [math.nan] * (7 - len(values)) if len(values) < 7 else []
+    return values[:7]
+
+
 def read_points(path) -> GeorefPoints:
-    """Read a Georeferencer ``.points`` file; a :class:`VectorError` names the bad line."""
+    """Read a Georeferencer ``.points`` file; a :class:`VectorError` names the bad line.
+
+    Only the exact header (``mapX,mapY,sourceX,sourceY,...`` or ``mapX,mapY,pixelX,pixelY,...``)
+    is skipped; every other line must be a point with finite numbers and ``enable`` 0 or 1, so a
+    first point starting with ``nan`` is refused, not mistaken for a header.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise VectorError(f"points file {str(p)!r} does not exist") from None
+    except IsADirectoryError:
+        raise VectorError(f"points file {str(p)!r} is a folder; give the .points file") from None
     except (OSError, UnicodeDecodeError) as e:
-        raise VectorError(f"points file {str(p)!r} cannot be read as text ({e})") from None
+        raise VectorError(one_line(f"points file {str(p)!r} cannot be read as UTF-8 text ({e})")) from None
     crs = None
     rows = []
-    header_seen = False
+    data_seen = False
     for n, raw in enumerate(text.splitlines(), 1):
         line = raw.strip()
         if not line:
@@ -86,19 +127,11 @@ def read_points(path) -> GeorefPoints:
                 crs = line[len(CRS_PREFIX):].strip() or None
             continue
         parts = [s.strip() for s in (line.split(",") if "," in line else re.split(r"\t+", line))]
-        if not header_seen and parts and re.match(r"^[A-Za-z]", parts[0]):
-            header_seen = True  # mapX,mapY,sourceX,... (or pixelX,pixelY in older files)
+        if not data_seen and _is_header(parts):
+            data_seen = True  # the header, before any point
             continue
-        if len(parts) < 4:
-            raise VectorError(f"points file {str(p)!r}, line {n}: expected at least 4 values "
-                              f"mapX,mapY,sourceX,sourceY; got {raw!r}")
-        try:
-            vals = [float(s) for s in parts[:4]]
-            enable = bool(int(float(parts[4]))) if len(parts) > 4 and parts[4] != "" else True
-            res = [float(s) for s in parts[5:7]] if len(parts) >= 7 else [math.nan, math.nan]
-        except ValueError:
-            raise VectorError(f"points file {str(p)!r}, line {n}: not a number in {raw!r}") from None
-        rows.append(vals + [float(enable)] + res)
+        data_seen = True
+        rows.append(_parse_line(parts, f"points file {str(p)!r}, line {n}", raw))
     if not rows:
         raise VectorError(f"points file {str(p)!r} holds no points (expected the header "
                           f"{HEADER!r} followed by one line per point)")

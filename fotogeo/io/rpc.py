@@ -3,49 +3,82 @@ GeoTIFF copies of an image carrying a fitted RPC as GDAL metadata (``gdalwarp -r
 """
 from __future__ import annotations
 
+import dataclasses
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from ..errors import InputError, OutputError, RasterError
+import numpy as np
+
+from ..errors import InputError, OutputError, RasterError, one_line
 from ..orientation.rpc import Rpc
+
+
+def _read_text(path: Path, what: str) -> str:
+    """The text of ``path`` (undecodable bytes replaced); :class:`InputError` for a folder or a missing file."""
+    try:
+        return path.read_text(errors="replace")
+    except FileNotFoundError:
+        raise InputError(f"{what} {str(path)!r} does not exist") from None
+    except IsADirectoryError:
+        raise InputError(f"{what} {str(path)!r} is a folder; give the RPC file (_RPC.TXT or DIMAP RPC XML)") from None
+    except OSError as exc:
+        raise InputError(one_line(f"cannot read {what} {str(path)!r}: {exc}")) from None
+
+
+def _checked(rpc: Rpc, source: str) -> Rpc:
+    """``rpc`` if every value is finite, the scales non-zero and the denominators not all zero."""
+    for f in dataclasses.fields(rpc):
+        value = np.asarray(getattr(rpc, f.name), dtype=np.float64)
+        if not np.isfinite(value).all():
+            raise InputError(f"{source}: {f.name.upper()} is not finite; the RPC file is damaged")
+        if f.name.endswith("_scale") and value == 0:
+            raise InputError(f"{source}: {f.name.upper()} is 0; the RPC file is damaged")
+        if f.name.endswith("_den") and not value.any():
+            raise InputError(f"{source}: {f.name.upper()}_COEFF are all 0; the RPC file is damaged")
+    return rpc
 
 
 def read_rpc_text(path) -> Rpc:
     """Read a ``KEY: value [unit]`` RPC text file (IKONOS ``_rpc.txt``, Planet/SkySat ``_RPC.TXT``)."""
     path = Path(path)
     d = {}
-    for line in path.read_text(errors="replace").splitlines():
+    for line in _read_text(path, "RPC file").splitlines():
         key, sep, value = line.partition(":")
         if sep and value.split():
             d[key.strip().upper()] = value.split()[0]
-    return Rpc.from_mapping(d, str(path))
+    source = f"RPC file {str(path)!r}"
+    return _checked(Rpc.from_mapping(d, source), source)
 
 
 def read_rpc_dimap(path) -> Rpc:
     """Read the ground -> image ``Inverse_Model`` of a DIMAP v2 RPC XML (Pleiades, SPOT 6/7)."""
     path = Path(path)
+    source = f"RPC file {str(path)!r}"
+    _read_text(path, "RPC file")  # a folder or a missing file: a clear message
     try:
         root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise InputError(f"{path}: not valid XML ({exc})") from None
+    except (ET.ParseError, ValueError, LookupError, UnicodeError) as exc:
+        raise InputError(one_line(f"{source}: not valid XML ({exc}); give a DIMAP RPC XML or an RPC text file")) from None
+    except OSError as exc:
+        raise InputError(one_line(f"cannot read {source}: {exc}")) from None
     inv = root.find(".//Inverse_Model")
     valid = root.find(".//RFM_Validity")
     if inv is None or valid is None:
-        raise InputError(f"{path}: no DIMAP Inverse_Model / RFM_Validity; unsupported RPC file")
+        raise InputError(f"{source}: no DIMAP Inverse_Model / RFM_Validity; unsupported RPC file")
     d = {el.tag: el.text for el in list(inv) + list(valid) if el.text and el.text.strip()}
-    return Rpc.from_mapping(d, str(path))
+    return _checked(Rpc.from_mapping(d, source), source)
 
 
 def read_rpc(path) -> Rpc:
     """Read an RPC text or DIMAP XML file (by content)."""
     path = Path(path)
-    head = path.read_text(errors="replace")[:2000]
+    head = _read_text(path, "RPC file")[:2000]
     if head.lstrip().startswith("<"):
         return read_rpc_dimap(path)
     if re.search(r"^\s*LINE_OFF\s*:", head, re.MULTILINE):
         return read_rpc_text(path)
-    raise InputError(f"{path}: unsupported RPC format (expected 'LINE_OFF: ...' text or DIMAP XML)")
+    raise InputError(f"RPC file {str(path)!r}: unsupported RPC format (expected 'LINE_OFF: ...' text or DIMAP XML)")
 
 
 def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) -> Path:

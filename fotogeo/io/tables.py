@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import VectorError
+from ..errors import VectorError, one_line
 
 
 def read_table(path, what: str, layer: str | None = None):
@@ -63,9 +63,48 @@ def require_columns(table, names, what: str, hint: str = "") -> list:
     return found
 
 
-def numeric_columns(table, names, what: str, hint: str = "") -> np.ndarray:
-    """The columns ``names`` of ``table`` as a float64 (N, len(names)) array (see :func:`require_columns`)."""
-    return table[require_columns(table, names, what, hint)].to_numpy(float)
+def describe_rows(table, rows, id_field: str | None = "id", limit: int = 10) -> str:
+    """``rows`` (0-based positions in ``table``) named for a message: by the ``id_field`` values when
+    the table has that field, else as data rows (1-based; for a CSV, line = row + 1 after the header)."""
+    rows = list(rows)
+    idf = find_column(table, id_field)
+    if idf is not None:
+        names = [repr(str(v))[:40] for v in table[idf].iloc[rows[:limit]]]
+        text = f"point{'s' if len(rows) > 1 else ''} {', '.join(names)}"
+    else:
+        unit = "feature" if is_layer(table) else "row"
+        text = f"{unit}{'s' if len(rows) > 1 else ''} {', '.join(str(r + 1) for r in rows[:limit])}"
+    return text + (f" and {len(rows) - limit} more" if len(rows) > limit else "")
+
+
+def numeric_columns(table, names, what: str, hint: str = "", *, finite: bool = False,
+                    id_field: str | None = "id") -> np.ndarray:
+    """The columns ``names`` of ``table`` as a float64 (N, len(names)) array (see :func:`require_columns`).
+
+    A value that is not a number (text in a numeric field) raises :class:`VectorError` naming the
+    field, the rows (by ``id_field`` when the table has it) and the value. Empty cells become NaN,
+    unless ``finite``: then empty, NaN and infinite values are refused the same way.
+    """
+    import pandas as pd
+    columns = require_columns(table, names, what, hint)
+    out = np.empty((len(table), len(columns)), dtype=np.float64)
+    for j, c in enumerate(columns):
+        raw = table[c]
+        values = pd.to_numeric(raw, errors="coerce") if raw.dtype.kind not in "iufb" else raw
+        text = (values.isna() & raw.notna()).to_numpy()
+        if text.any():
+            rows = np.flatnonzero(text)
+            raise VectorError(one_line(f"{what}: field {str(c)!r} must hold numbers; {describe_rows(table, rows, id_field)} "
+                                       f"hold{'s' if len(rows) == 1 else ''} {str(raw.iloc[rows[0]])!r}; fix the value"
+                                       f"{'s' if len(rows) > 1 else ''} or name the right field"))
+        out[:, j] = np.asarray(values, dtype=np.float64)
+        if finite and not np.isfinite(out[:, j]).all():
+            rows = np.flatnonzero(~np.isfinite(out[:, j]))
+            raise VectorError(one_line(f"{what}: {describe_rows(table, rows, id_field)} "
+                                       f"{'have' if len(rows) > 1 else 'has'} no valid {str(c)!r} (empty, NaN or "
+                                       f"infinite); fill in the value{'s' if len(rows) > 1 else ''} or remove "
+                                       f"{'those rows' if len(rows) > 1 else 'that row'}"))
+    return out
 
 
 def write_table(path, columns: dict, crs=None, xy=None) -> None:
