@@ -25,6 +25,7 @@ whether numpy and the other dependencies are installed.
 """
 from __future__ import annotations
 
+import math
 import numbers
 from dataclasses import dataclass, field, fields, make_dataclass, replace
 
@@ -116,7 +117,15 @@ class Option:
                                                       else value >= self.minimum)
             above = self.maximum is not None and not value <= self.maximum
             if below or above or value != value:  # value != value: NaN
-                raise InputError(f"{self.name} must be {self.range_text()}; got {value!r}")
+                raise InputError(f"{self.name} must be {self.range_text() or 'a number'}; got {value!r}")
+            if not math.isfinite(value):  # ±inf: never a valid setting
+                raise InputError(f"{self.name} must be a finite number; got {value!r}")
+        elif self.kind in ("ints", "choices"):
+            items = (value,) if isinstance(value, (str, bytes, numbers.Number)) else tuple(value)
+            if not items:
+                raise InputError(f"{self.name} needs at least one value")
+            for item in items:  # each item as an "int" or a "choice" option of the same name and range
+                replace(self, kind="int" if self.kind == "ints" else "choice", default=0).check(item)
 
 
 class Table(dict):
