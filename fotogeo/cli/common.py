@@ -7,10 +7,11 @@ import functools
 import signal
 import sys
 import threading
+import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError
+from ..errors import Cancelled, FotogeoError, one_line
 from ..options import Option, Table
 
 #: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
@@ -45,6 +46,24 @@ def terminate_as_exception():
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def warnings_as_lines():
+    """While inside, each warning (fotogeo's or a library's) is one ``Warning: <message>`` line
+    on stderr — no file name, line number or source line — and a repeated message is shown once."""
+    shown = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = one_line(str(message))
+        if text not in shown:
+            shown.add(text)
+            click.echo(f"Warning: {text}", err=True)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
+
 
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
@@ -87,7 +106,7 @@ def run_tool(func):
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
-            with terminate_as_exception():
+            with terminate_as_exception(), warnings_as_lines():
                 return func(*args, **kwargs)
         except Terminated as e:
             click.echo(f"Cancelled: {e}; no output was written", err=True)

@@ -258,7 +258,8 @@ def _disk_full_error(call: _Call, file, is_output: bool, folder: str, free: int 
 def translate_own(exc: FotogeoError, call: _Call) -> FotogeoError | None:
     """``exc`` in one line with final paths; a failed write on a full disk says so. None: unchanged."""
     text = one_line(call.final_paths(str(exc)))
-    if isinstance(exc, OSError) and not isinstance(exc, (InputError, ModelError)) and "disk" not in text.lower():
+    about_space = text.lower().startswith("disk full") or "free space" in text.lower()
+    if isinstance(exc, OSError) and not isinstance(exc, (InputError, ModelError)) and not about_space:
         file = call.file_in(exc)
         role, is_output = call.role_of(file)
         low = _full_disk(call, file) if is_output or "writ" in text.lower() else None

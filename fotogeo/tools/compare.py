@@ -9,8 +9,10 @@ from ..io.gcps import check_inside, read_gcps
 from ..io.raster import AtomicOutputs, check_output, open_raster
 from ..models import get_model
 from ..orientation.comparison import compare
+from .boundary import tool
 
 
+@tool("COMPARE", "GCP", rasters={"image": None, "dem": None})
 def compare_models(image, gcps, *, models=None, counts=(40, 20, 15, 10, 6), spreads=("homogeneous", "heterogeneous"),
                    trials: int = 5, seed: int = 0, table=None, markdown=None, dem=None, height=None, crs=None,
                    layer=None, fields=None, camera=None, overwrite: bool = False, progress=None) -> list[dict]:

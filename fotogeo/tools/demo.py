@@ -29,6 +29,7 @@ from ..io.raster import ropen
 from ..models import Projective
 from ..models.stats import rmse
 from ..pixels import map_to_pixel, pixel_centres, to_centre
+from .boundary import tool
 
 CRS = "EPSG:32635"
 ORIGIN = (500000.0, 4420000.0)  # top-left corner of the orthophoto
@@ -139,6 +140,7 @@ def truth_comparison(scene: Scene, georeference, step: int = 10) -> dict:
             "best_homography_rmse_m": rmse(best.forward(grid) - truth)}
 
 
+@tool("DEMO", "REGISTER", outputs=("folder",))
 def run_demo(folder, *, progress=None, seed: int = 7, **options) -> dict:
     """Make the scene in ``folder``, register it twice — with the paper's homography and
     terrain-aware with the scene's DEM — and return both reports with their truth comparisons."""

@@ -15,8 +15,10 @@ from rasterio.windows import Window
 from ..image.fusion import pca_fuse, valid_mask
 from ..io.raster import AtomicOutputs, check_output, geotiff_profile, open_raster, read_decimated, ropen
 from ..progress import as_progress
+from .boundary import tool
 
 
+@tool("FUSE", rasters={"source": None})
 def fuse_raster(source, output, *, stretch: bool = True, sample_pixels: int = 4_000_000, seed: int = 0,
                 overwrite: bool = False, progress=None, block_rows: int = 512) -> dict:
     """Write the first principal component of ``source`` to ``output``.

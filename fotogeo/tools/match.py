@@ -18,6 +18,7 @@ from ..models import Projective, ransac
 from ..options import RegisterOptions
 from ..pixels import pixel_to_map
 from ..progress import as_progress
+from .boundary import tool
 
 
 def _features(info, role, opts, prog):
@@ -91,6 +92,7 @@ def refine_lsm(fu_ref, fu_tgt, ref_xy, tgt_xy, half_window: int = 10):
                  "median_sigma_px": float(np.median(np.hypot(*res.sigma[ok].T))) if ok.any() else None}
 
 
+@tool("MATCH", rasters={"reference": None, "target": None})
 def match_images(reference, target, output, *, overwrite: bool = False, progress=None, **options) -> dict:
     """Detect and match features only: write the tie points of ``target`` ↔ ``reference`` to the
     GeoPackage ``output`` (layer ``tie_points``), without fitting a georeference or resampling.

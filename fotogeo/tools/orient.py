@@ -38,8 +38,10 @@ from ..geometry.georeference import Georeference
 from ..models import get_model
 from ..orientation.adjustment import fit_orientation
 from ..progress import as_progress
+from .boundary import OUTPUTS, tool
 
 
+@tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
 def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
            gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
            remove_blunders: bool = False, exaggeration: float = 1.0, resolution=None,

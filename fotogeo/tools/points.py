@@ -9,10 +9,12 @@ from ..crs import parse_crs
 from ..errors import InputError, VectorError
 from ..io.raster import raster_transform
 from ..io.points import pixel_to_source, read_points, source_to_pixel, write_points
+from .boundary import tool
 
 DEFAULT_LAYER = "gcps"
 
 
+@tool("POINTS_TO_LAYER", rasters={"raster": None})
 def points_to_layer(points, output, *, raster=None, crs=None, layer: str = DEFAULT_LAYER,
                     overwrite: bool = False, progress=None) -> dict:
     """Convert a ``.points`` file into a GeoPackage point layer (fields id, col, row, z, role, dx, dy, residual).
@@ -56,6 +58,7 @@ def points_to_layer(points, output, *, raster=None, crs=None, layer: str = DEFAU
             "source_convention": "georeferenced raster" if transform is not None else "unreferenced (sourceY = -row)"}
 
 
+@tool("LAYER_TO_POINTS", rasters={"raster": None})
 def layer_to_points(source, output, *, layer: str | None = None, raster=None, overwrite: bool = False,
                     progress=None) -> dict:
     """Write a ``.points`` file from a point layer with fields ``col``, ``row`` (and ``role``, ``id``).

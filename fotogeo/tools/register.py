@@ -36,6 +36,7 @@ from ..orientation.terrain import TERRAIN_MODELS
 from ..pixels import outline, pixel_to_map
 from ..progress import as_progress
 from .match import HINT, find_tie_points
+from .boundary import tool
 
 
 @dataclass(frozen=True)
@@ -78,6 +79,7 @@ def output_grid(geo, width: int, height: int, res: float):
     return transform, w, h
 
 
+@tool("REGISTER", "REGISTER_TERRAIN", rasters={"reference": "reference_nodata", "target": "target_nodata", "dem": None})
 def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
              options: RegisterOptions | None = None, progress=None, tie_points=None, dem=None, camera=None,
              **kwargs) -> Registration:

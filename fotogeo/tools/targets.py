@@ -8,8 +8,10 @@ from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..io.tables import numeric_columns, read_table, write_table
 from ..matching.status import CONVERGED
 from ..progress import as_progress
+from .boundary import tool
 
 
+@tool("TARGETS", rasters={"image": None})
 def measure_targets(image, points, output, *, half_window: int = 12, polarity: str = "auto",
                     approx_fields=("col", "row"), id_field="id", overwrite: bool = False, progress=None) -> dict:
     """Measure X-targets near the approximate positions of table ``points``; write ``output``."""
@@ -18,7 +20,7 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
     if polarity not in ("auto", "bright", "dark"):
         raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
     table = read_table(points, "point table")
-    approx = numeric_columns(table, approx_fields, "point table")
+    approx = numeric_columns(table, approx_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     info = open_raster(image, "image")
     bands, mask, _ = read_decimated(info, info.width * info.height, "image")
     img = np.where(mask, bands.astype(np.float32).mean(axis=0), np.nan)

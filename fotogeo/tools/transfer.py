@@ -21,6 +21,7 @@ from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..io.tables import find_column, is_layer, numeric_columns, read_table, write_table
 from ..matching.status import CONVERGED
 from ..progress import as_progress
+from .boundary import tool
 
 
 def _fused(path, role):
@@ -30,6 +31,7 @@ def _fused(path, role):
     return info, np.where(f.mask, f.image, np.nan).astype(np.float32)
 
 
+@tool("TRANSFER", rasters={"reference": None, "search": None})
 def transfer_gcps(reference, search, points, output, *, search_radius: int = 32, half_window: int = 10,
                   ref_fields=("ref_col", "ref_row"), approx_fields=("col", "row"), id_field="id",
                   overwrite: bool = False, progress=None) -> dict:
@@ -45,7 +47,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     table = read_table(points, "point table")
     ref_info, ref_img = _fused(reference, "reference")
     if all(find_column(table, f) is not None for f in ref_fields):
-        ref_xy = numeric_columns(table, ref_fields, "point table")
+        ref_xy = numeric_columns(table, ref_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     elif is_layer(table) and ref_info.georeferenced and len(table):
         from ..crs import transform_points
         from ..pixels import map_to_pixel
@@ -56,7 +58,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     else:
         raise VectorError(f"point table {points!r} needs reference pixel columns {', '.join(ref_fields)} "
                           f"(or point geometries on a georeferenced reference)")
-    approx = numeric_columns(table, approx_fields, "point table")
+    approx = numeric_columns(table, approx_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     _, search_img = _fused(search, "search")
     prog(0.2, "images read")
     from ..matching import transfer_points
