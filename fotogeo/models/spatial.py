@@ -60,7 +60,7 @@ def design_diagnostics(A: np.ndarray, w: np.ndarray | None = None) -> tuple[floa
 def coverage(s: np.ndarray, cells: int = 4) -> float:
     """Fraction of a ``cells`` x ``cells`` grid over [-1, 1]² (first two normalised axes) holding a point."""
     ij = np.clip(((s[:, :2] + 1.0) / 2.0 * cells).astype(int), 0, cells - 1)
-    return len({(int(a), int(b)) for a, b in ij}) / cells ** 2
+    return len(np.unique(ij[:, 0] * cells + ij[:, 1])) / cells ** 2
 
 
 class FittedModel(Model):
@@ -182,7 +182,7 @@ class DLT(FittedModel):
         A[0::2] = np.column_stack([Xh, z, -d[:, :1] * Xh])
         A[1::2] = np.column_stack([z, Xh, -d[:, 1:] * Xh])
         A *= np.sqrt(np.repeat(w, 2))[:, None]
-        _, sv, vt = np.linalg.svd(A)
+        _, sv, vt = np.linalg.svd(A, full_matrices=False)
         if len(sv) < 11 or sv[10] < 1e-9 * sv[0]:
             raise ModelError("model 'dlt': the points are degenerate — coplanar (flat terrain), collinear or "
                              "duplicated; DLT needs ≥ 6 points not on one plane (use 'projective' for flat terrain)")
@@ -212,8 +212,14 @@ class DLT(FittedModel):
             J[1::2, 8:11] = -v[:, None] * s / den[:, None]
             r = (d - np.column_stack([u, v])).reshape(-1)
             Jw = J * sw[:, None]
-            step, _, rank, sv = np.linalg.lstsq(Jw, r * sw, rcond=None)
-            cond = float(sv[0] / sv[-1]) if rank == 11 else float("inf")
+            q, rj = np.linalg.qr(Jw)
+            sv = np.linalg.svd(rj, compute_uv=False)
+            if sv[-1] <= sv[0] * max(Jw.shape) * np.finfo(float).eps:  # rank < 11, as lstsq decides it
+                cond = float("inf")
+                step = np.linalg.lstsq(Jw, r * sw, rcond=None)[0]
+            else:
+                cond = float(sv[0] / sv[-1])
+                step = np.linalg.solve(rj, q.T @ (r * sw))
             p = p + step
             if np.max(np.abs(step)) < 1e-13:
                 break

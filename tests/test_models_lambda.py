@@ -1,0 +1,75 @@
+"""The RFM's λ from one decomposition equals leave-one-out cross-validation with a solve per λ."""
+import warnings
+
+import numpy as np
+import pytest
+
+from fotogeo.models import MODELS
+from fotogeo.models import tikhonov as rfm
+from fotogeo.models.polynomial import terms_3d
+
+
+def reference_cv(A, l, L, grid):
+    """The plain algorithm: for every λ an SVD of [A; λL], PRESS and the one-standard-error rule."""
+    n = len(l)
+    smax = np.linalg.norm(A, 2)
+    cands = []
+    for k in grid:
+        lam = smax * 10.0 ** k
+        M = np.vstack([A, lam * L])
+        U, S, Vt = np.linalg.svd(M, full_matrices=False)
+        if S[-1] <= S[0] * 1e-13:
+            continue
+        p = Vt.T @ ((U.T @ np.concatenate([l, np.zeros(len(L))])) / S)
+        hii = np.sum(U[:n] ** 2, axis=1)
+        r = l - A @ p
+        e2 = (r / (1 - hii)) ** 2
+        cands.append((e2.sum(), np.sqrt(n) * e2.std(), p, 10.0 ** k))
+    gmin, se = min((c[0], c[1]) for c in cands)
+    best = max((c for c in cands if c[0] <= gmin + rfm.SE_FACTOR * se + rfm.TOLERANCE * gmin), key=lambda c: c[3])
+    return best[2], best[3]
+
+
+def frame_design(n, noise, seed):
+    """The rfm-common design of a pinhole camera (plus a radial term) seen from random ground points."""
+    rng = np.random.default_rng(seed)
+    s = rng.uniform(-1, 1, (n, 3))
+    den = 1 + 0.05 * s[:, 0] - 0.03 * s[:, 1] + 0.02 * s[:, 2]
+    d = np.column_stack([(0.9 * s[:, 0] + 0.1 * s[:, 2]) / den, (0.8 * s[:, 1] - 0.05 * s[:, 2]) / den])
+    d += 0.02 * d * (d ** 2).sum(1, keepdims=True) + rng.normal(0, noise, d.shape)
+    (A, l, L, _), = MODELS["rfm-common"]._blocks(terms_3d(s), d)
+    return A, l, L
+
+
+@pytest.mark.parametrize("n,noise,seed", [(30, 1e-3, 0), (60, 1e-3, 1), (400, 1e-4, 2), (400, 1e-2, 3)])
+def test_one_decomposition_gives_the_loo_choice(n, noise, seed):
+    A, l, L = frame_design(n, noise, seed)
+    p_ref, rel_ref = reference_cv(A, l, L, rfm._LOG_GRID)
+    p, lam, rel, dof, _ = rfm.tikhonov_cv(A, l, L)
+    assert rel == rel_ref
+    assert np.allclose(p, p_ref, rtol=1e-7, atol=1e-9 * np.abs(p_ref).max())
+    assert 11 <= dof <= A.shape[1]
+    # the same with the x rows and the y rows factorised apart
+    blocks = [(slice(0, n), np.flatnonzero(np.any(A[:n] != 0, 0))), (slice(n, 2 * n), np.flatnonzero(np.any(A[n:] != 0, 0)))]
+    p2, _, rel2, dof2, _ = rfm.tikhonov_cv(A, l, L, row_blocks=blocks)
+    assert rel2 == rel_ref and np.allclose(p2, p, rtol=1e-8, atol=1e-10 * np.abs(p).max())
+    assert dof2 == pytest.approx(dof, rel=1e-9)
+
+
+def test_fixed_lambda_solution_equals_the_cv_solution():
+    A, l, L = frame_design(200, 1e-3, 4)
+    p, _, rel, _, _ = rfm.tikhonov_cv(A, l, L)
+    assert np.allclose(rfm.tikhonov_at(A, l, L, rel), p, rtol=1e-8, atol=1e-10 * np.abs(p).max())
+
+
+def test_rfm_fit_matches_reference_lambda_on_a_frame():
+    """A whole fit: the λ kept in the iteration is the one cross-validation picks at the end."""
+    rng = np.random.default_rng(5)
+    ground = rng.uniform(-1, 1, (300, 3)) * [1000, 1000, 50] + [5e5, 6e6, 300]
+    den = 1 + 1e-4 * (ground[:, 2] - 300)
+    px = np.column_stack([(ground[:, 0] - 5e5) / den, (ground[:, 1] - 6e6) / den]) + rng.normal(0, 0.3, (300, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = MODELS["rfm"].estimate(ground, px)
+    assert np.sqrt(np.mean((m.forward(ground) - px) ** 2)) < 0.35
+    assert len(m.info["lambda_rel"]) == 1 and np.isfinite(m.info["dof"][0])
