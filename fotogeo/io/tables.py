@@ -35,7 +35,7 @@ def read_table(path, what: str, layer: str | None = None):
         return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
     except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
         kind = "CSV" if csv else "a vector layer" + (f" (layer {layer!r})" if layer else "")
-        raise VectorError(f"{what} {str(p)!r} cannot be read as {kind}: {e}") from None
+        raise VectorError(one_line(f"{what} {str(p)!r} cannot be read as {kind}: {e}")) from None
 
 
 def is_layer(table) -> bool:
