@@ -10,10 +10,13 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check -q
 DEMO_OUT ?= out/demo
 APT_BASE := python3 python3-venv python3-pip
-APT_TEST := $(APT_BASE) python3-qgis qgis-providers gdal-bin
+APT_QGIS := $(APT_BASE) qgis python3-qgis qgis-providers
+# the tests also run the real programs: qgis_process, and the desktop qgis on a virtual display
+APT_TEST := $(APT_QGIS) gdal-bin xvfb xauth
+QGIS_PROFILE ?= $(HOME)/.local/share/QGIS/QGIS3/profiles/default
 APT_BENCH := $(APT_TEST) otb-bin
 
-.PHONY: demo test bench plugin clean system-base system-test system-bench
+.PHONY: demo test bench plugin qgis-install clean system-base system-qgis system-test system-bench
 
 define apt_install
 	@missing=""; for p in $(1); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -26,6 +29,9 @@ endef
 
 system-base:
 	$(call apt_install,$(APT_BASE))
+
+system-qgis:
+	$(call apt_install,$(APT_QGIS))
 
 system-test:
 	$(call apt_install,$(APT_TEST))
@@ -65,3 +71,9 @@ clean:
 # The installable QGIS plugin: dist/fotogeo_qgis.zip (standard library only, no venv needed).
 plugin:
 	$(SYSPY) scripts/build_plugin.py
+
+# fotogeo in a QGIS profile, ready to run: the plugin, its own runtime (a venv of binary wheels
+# beside QGIS, never inside QGIS's process; see processing_provider/runtime.py), enabled.
+# FOTOGEO_RUNTIME=<dir> puts the runtime elsewhere than <profile>/python/fotogeo-env.
+qgis-install: system-qgis
+	$(SYSPY) scripts/qgis_install.py --profile "$(QGIS_PROFILE)" $(if $(FOTOGEO_RUNTIME),--runtime "$(FOTOGEO_RUNTIME)")

@@ -1,7 +1,8 @@
-"""The QGIS plugin object: registers the fotogeo Processing provider, nothing else.
+"""The QGIS plugin object: registers the fotogeo Processing provider; in the desktop, one menu.
 
-``initProcessing`` is what QGIS calls for Processing-only use (qgis_process, headless);
-``initGui`` calls it too and adds no GUI of its own: every capability is in the toolbox.
+``initProcessing`` is what QGIS calls for Processing-only use (qgis_process, headless) and
+stays free of GUI code; ``initGui`` calls it and adds the menu *fotogeo* with *Install /
+repair runtime* (:mod:`processing_provider.install_action`). Every capability is in the toolbox.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ class FotogeoPlugin:
     def __init__(self, iface=None):
         self.iface = iface
         self.provider = None
+        self.menu = None
 
     def initProcessing(self):
         if self.provider is None:
@@ -26,8 +28,14 @@ class FotogeoPlugin:
 
     def initGui(self):
         self.initProcessing()
+        if self.iface is not None:
+            from .install_action import RuntimeMenu
+            self.menu = RuntimeMenu(self.iface, self.provider)
 
     def unload(self):
+        if self.menu is not None:
+            self.menu.remove()
+            self.menu = None
         if self.provider is not None:
             QgsApplication.processingRegistry().removeProvider(self.provider)
             self.provider = None

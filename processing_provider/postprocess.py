@@ -10,7 +10,14 @@ from __future__ import annotations
 import collections
 import os
 
-from qgis.core import QgsProcessingContext, QgsProcessingLayerPostProcessorInterface, QgsProcessingUtils, QgsVectorLayer
+from qgis.core import (
+    QgsLayerTreeLayer,
+    QgsProcessingContext,
+    QgsProcessingLayerPostProcessorInterface,
+    QgsProcessingUtils,
+    QgsProject,
+    QgsVectorLayer,
+)
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
 STYLES = ("tie_points", "error_vectors")
@@ -20,20 +27,50 @@ def style_path(style: str) -> str:
     return os.path.join(STYLE_DIR, f"{style}.qml")
 
 
-class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
-    """Loads one QML style onto the output layer (stateless, so one instance per style serves all runs)."""
+class LoadedRun:
+    """The layers one algorithm run loads: keeps its vector layers above its rasters in the layer tree.
 
-    def __init__(self, style: str):
+    Processing adds the layers of a run in the order of their sources (so a ``.gpkg`` comes
+    before a ``.tif``), each on top of the tree: without help the raster would hide the tie
+    points and error vectors. Each layer's post-processor reports here once it is added.
+    """
+
+    def __init__(self):
+        self.vector_ids: list[str] = []
+
+    def place(self, layer, context) -> None:
+        project = (context.project() if context is not None else None) or QgsProject.instance()
+        node = project.layerTreeRoot().findLayer(layer.id())
+        if node is None:
+            return
+        if isinstance(layer, QgsVectorLayer):
+            self.vector_ids.append(layer.id())
+            return
+        parent = node.parent()
+        children = parent.children()
+        below = [i for i, n in enumerate(children) if isinstance(n, QgsLayerTreeLayer) and n.layerId() in self.vector_ids]
+        if below and children.index(node) < max(below):
+            parent.insertChildNode(max(below) + 1, node.clone())
+            parent.removeChildNode(node)
+
+
+class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
+    """Loads one QML style (None: keeps the layer's style) onto the output layer; places it in its run."""
+
+    def __init__(self, style: str | None, run: LoadedRun | None = None):
         super().__init__()
-        self.style = style
+        self.style, self.run = style, run
 
     def postProcessLayer(self, layer, context, feedback):
-        if not isinstance(layer, QgsVectorLayer) or not layer.isValid():
+        if layer is None or not layer.isValid():
             return
-        message, ok = layer.loadNamedStyle(style_path(self.style))
-        if not ok and feedback is not None:
-            feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
-        layer.triggerRepaint()
+        if self.style and isinstance(layer, QgsVectorLayer):
+            message, ok = layer.loadNamedStyle(style_path(self.style))
+            if not ok and feedback is not None:
+                feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
+            layer.triggerRepaint()
+        if self.run is not None:
+            self.run.place(layer, context)
 
 
 # A context takes ownership of its post-processors and deletes them with itself, so every
@@ -42,25 +79,26 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
 _RECENT: collections.deque = collections.deque(maxlen=64)
 
 
-def post_processor(style: str) -> StylePostProcessor:
-    if style not in STYLES:
+def post_processor(style: str | None, run: LoadedRun | None = None) -> StylePostProcessor:
+    if style is not None and style not in STYLES:
         raise ValueError(f"unknown style {style!r}; one of {', '.join(STYLES)}")
-    processor = StylePostProcessor(style)
+    processor = StylePostProcessor(style, run)
     _RECENT.append(processor)
     return processor
 
 
 def load_on_completion(context, uri: str, name: str, output_name: str, style: str | None,
-                       raster: bool = False) -> None:
-    """Ask Processing to load ``uri`` (vector, or raster) on completion as ``name``, styled with ``style``."""
-    hint = QgsProcessingUtils.LayerHint.Raster if raster else QgsProcessingUtils.LayerHint.Vector
+                       raster: bool = False, run: LoadedRun | None = None) -> None:
+    """Ask Processing to load ``uri`` (vector or raster; a CSV loads as a table) on completion as ``name``, styled with
+    ``style``; with ``run`` its vectors stay above its rasters."""
+    hint = (QgsProcessingUtils.LayerHint.Raster if raster else QgsProcessingUtils.LayerHint.Vector)
     details = QgsProcessingContext.LayerDetails(name, context.project(), output_name, hint)
-    if style:
-        details.setPostProcessor(post_processor(style))
+    if style or run is not None:
+        details.setPostProcessor(post_processor(style, run))
     context.addLayerToLoadOnCompletion(uri, details)
 
 
-def style_output(context, key: str, style: str) -> None:
+def style_output(context, key: str, style: str | None, run: LoadedRun | None = None) -> None:
     """Set ``style`` on an output Processing already loads on completion (e.g. a vector destination)."""
     if context.willLoadLayerOnCompletion(key):
-        context.layerToLoadOnCompletionDetails(key).setPostProcessor(post_processor(style))
+        context.layerToLoadOnCompletionDetails(key).setPostProcessor(post_processor(style, run))

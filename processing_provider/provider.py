@@ -7,7 +7,7 @@ from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
 from .algorithms import ALGORITHMS
-from .algorithms.base import dependency_message, missing_dependencies
+from . import runner
 
 PROVIDER_ID = "fotogeo"
 ICON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "icon.svg")
@@ -44,6 +44,5 @@ class FotogeoProvider(QgsProcessingProvider):
     def loadAlgorithms(self):
         for cls in ALGORITHMS:
             self.addAlgorithm(cls())
-        missing = missing_dependencies(import_them=False)
-        if missing:
-            QgsMessageLog.logMessage(dependency_message(missing), "fotogeo", Qgis.Warning)
+        ok, why = runner.runtime_status(refresh=True)
+        QgsMessageLog.logMessage(why, "fotogeo", Qgis.Info if ok else Qgis.Warning)

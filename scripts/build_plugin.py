@@ -29,8 +29,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = "fotogeo_qgis"
 EXCLUDE_DIRS = {"__pycache__", ".pytest_cache"}
 EXCLUDE_FOTOGEO = {"cli"}  # command line only (click); the plugin calls the tools directly
-REQUIRED_METADATA = ("name", "qgisMinimumVersion", "description", "about", "version", "author", "email",
-                     "repository", "hasProcessingProvider")
+# what QGIS needs to install and load a plugin from a ZIP or a profile folder; the official plugin
+# repository also wants email, homepage, repository and tracker, which fotogeo (no public site yet) omits
+REQUIRED_METADATA = ("name", "qgisMinimumVersion", "description", "about", "version", "author",
+                     "hasProcessingProvider", "license")
+PLACEHOLDER_HOSTS = ("example.org", "example.com")
 
 ENTRY = '''"""fotogeo QGIS plugin (built by scripts/build_plugin.py from the fotogeo repository).
 
@@ -69,6 +72,9 @@ def check_metadata(path: Path) -> configparser.ConfigParser:
     missing = [k for k in REQUIRED_METADATA if not cp["general"].get(k, "").strip()]
     if missing:
         sys.exit(f"build_plugin: {path} lacks {', '.join(missing)}")
+    placeholders = [k for k, v in cp["general"].items() if any(h in v for h in PLACEHOLDER_HOSTS)]
+    if placeholders:
+        sys.exit(f"build_plugin: {path} has placeholder values in {', '.join(placeholders)}")
     if cp["general"]["version"] != fotogeo_version():
         sys.exit(f"build_plugin: metadata.txt version {cp['general']['version']} != fotogeo "
                  f"{fotogeo_version()}; update metadata.txt")
@@ -85,7 +91,8 @@ def _walk(folder: Path, skip_top: set[str] = frozenset()):
         yield p, rel
 
 
-def build(output: Path) -> Path:
+def plugin_files() -> list[tuple[str, bytes]]:
+    """``(path in the zip, bytes)`` of every file of the plugin, sorted (``fotogeo_qgis/...``)."""
     check_metadata(ROOT / "metadata.txt")
     entries: list[tuple[str, bytes]] = [(f"{PLUGIN}/__init__.py", ENTRY.encode()),
                                         (f"{PLUGIN}/metadata.txt", (ROOT / "metadata.txt").read_bytes())]
@@ -97,6 +104,11 @@ def build(output: Path) -> Path:
     for extra in ("LICENSE", "LICENSE.txt", "COPYING"):
         if (ROOT / extra).is_file():
             entries.append((f"{PLUGIN}/{extra}", (ROOT / extra).read_bytes()))
+    return sorted(entries)
+
+
+def build(output: Path) -> Path:
+    entries = plugin_files()
     output.parent.mkdir(parents=True, exist_ok=True)
     tmp = output.with_name(f".{output.name}.part")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

@@ -15,6 +15,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PROCESSING_PLUGINS = "/usr/share/qgis/python/plugins"
 _STATE: dict = {}
+# QGIS computes statistics when it loads a raster layer, and GDAL would save them in an
+# .aux.xml beside the raster — beside the inputs in ../shared/data. Tests never write beside
+# their inputs: no GDAL side files in this process and the QGIS processes it starts.
+os.environ["GDAL_PAM_ENABLED"] = "NO"
 
 
 def start():
@@ -22,6 +26,7 @@ def start():
     if "app" in _STATE:
         return _STATE["app"], _STATE["provider"]
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    os.environ.setdefault("FOTOGEO_PYTHON", sys.executable)  # the plugin's runtime: this venv (it has fotogeo)
     from qgis.core import QgsApplication
     if PROCESSING_PLUGINS not in sys.path:
         sys.path.append(PROCESSING_PLUGINS)

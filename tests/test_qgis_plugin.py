@@ -93,8 +93,11 @@ def test_zip_layout(plugin_zip, tmp_path):
     assert g["qgisMinimumVersion"] == "3.22" and g["hasProcessingProvider"] == "yes"
     assert g["version"] == fotogeo.__version__
     assert f"fotogeo_qgis/{g['icon']}" in names
-    for key in ("name", "description", "about", "author", "email", "repository"):
+    for key in ("name", "description", "about", "author", "license"):
         assert g[key].strip(), key
+    assert "example.org" not in meta_text and "fotogeo_qgis/LICENSE" in names
+    assert "GNU GENERAL PUBLIC LICENSE" in z_text(plugin_zip, "fotogeo_qgis/LICENSE") and g["license"] == "GPL-3.0-or-later"
+    assert "fotogeo_qgis/fotogeo/worker.py" in names and "fotogeo_qgis/processing_provider/runtime-requirements.txt" in names
     # the same sources give the same bytes
     again = tmp_path / "again.zip"
     subprocess.run([sys.executable, str(ROOT / "scripts" / "build_plugin.py"), "--output", str(again)],
@@ -102,7 +105,12 @@ def test_zip_layout(plugin_zip, tmp_path):
     assert again.read_bytes() == plugin_zip.read_bytes()
 
 
-def _install_and_load(plugin_zip, tmp_path, data_dir, block=""):
+def z_text(zip_path, name) -> str:
+    with zipfile.ZipFile(zip_path) as z:
+        return z.read(name).decode()
+
+
+def _install_and_load(plugin_zip, tmp_path, data_dir, block="", runtime=None):
     need_qgis()
     profile = tmp_path / "profile" / "python" / "plugins"
     profile.mkdir(parents=True)
@@ -110,7 +118,11 @@ def _install_and_load(plugin_zip, tmp_path, data_dir, block=""):
         z.extractall(profile)
     script = tmp_path / "load_plugin.py"
     script.write_text(LOADER)
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSTARTUP")}
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSTARTUP", "FOTOGEO_PYTHON")}
+    if runtime is None:
+        env["FOTOGEO_PYTHON"] = sys.executable  # this venv serves as the plugin's runtime
+    else:
+        env["FOTOGEO_RUNTIME"] = str(runtime)
     env["QT_QPA_PLATFORM"] = "offscreen"
     env["HOME"] = str(tmp_path / "home")  # a fresh QGIS settings folder
     out = tmp_path / "pc1.tif"
@@ -134,16 +146,17 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
     assert not res["help_mentions_missing"]
     assert "error" not in res, res.get("error")
     assert res["run"]["output_exists"] and 0.5 < res["run"]["explained"] <= 1
-    # the algorithm ran the fotogeo vendored in the installed plugin, not the repository's
+    # QGIS imported the vendored fotogeo (its option table) from the installed plugin, not the repository's
     assert res["fotogeo_file"].startswith(str(profile / "fotogeo_qgis" / "fotogeo"))
     assert res["unloaded"] and not res["provider_after_unload"] and not res["fotogeo_after_unload"]
 
 
 @pytest.mark.qgis
-def test_plugin_loads_without_a_dependency_and_says_what_is_missing(plugin_zip, tmp_path, data_dir):
-    res, _, out = _install_and_load(plugin_zip, tmp_path, data_dir, block="rasterio")
+def test_plugin_loads_without_its_runtime_and_says_what_is_missing(plugin_zip, tmp_path, data_dir):
+    """No runtime and no rasterio in QGIS's Python: the plugin loads, the algorithms name the fix."""
+    res, _, out = _install_and_load(plugin_zip, tmp_path, data_dir, block="rasterio", runtime=tmp_path / "none")
     assert res["loaded"] and res["started"] and len(res["algorithms"]) == 10, res
     assert res["help_mentions_missing"]
     assert "run" not in res
-    assert "rasterio" in res["error"] and "pip install" in res["error"], res["error"]
+    assert "none is not installed" in res["error"] and "Install / repair runtime" in res["error"], res["error"]
     assert not out.exists()

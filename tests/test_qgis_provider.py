@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 
 import numpy as np
 import pytest
@@ -259,8 +258,12 @@ def test_register_outputs(registered):
 def test_register_layers_loaded_and_styled(registered):
     _, _, _, project = registered
     layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
-    assert {"Tie points", "Error vectors"} <= set(layers)
-    tie, err = layers["Tie points"], layers["Error vectors"]
+    assert {"frame_0182 tie points", "frame_0182 error vectors"} <= set(layers)  # named after the output
+    tie, err = layers["frame_0182 tie points"], layers["frame_0182 error vectors"]
+    # the vectors are above the raster in the layer tree (Processing alone would put the .tif on top)
+    order = [node.layer() for node in project.layerTreeRoot().findLayers()]
+    raster_at = next(i for i, lyr in enumerate(order) if isinstance(lyr, QgsRasterLayer))
+    assert order.index(tie) < raster_at and order.index(err) < raster_at
     r = tie.renderer()
     assert r.type() == "categorizedSymbol" and r.classAttribute() == "role"
     cats = {c.value(): c.symbol().color().name() for c in r.categories()}
@@ -343,11 +346,26 @@ def test_register_invalid_parameters(qgis_app, data_dir, tmp_path):
     assert files(tmp_path) == ["plain.tif"]
 
 
-def test_missing_dependency_gives_clear_message(qgis_app, data_dir, tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "rasterio", None)  # `import rasterio` now raises ImportError
-    with pytest.raises(QgsProcessingException, match=r"package\(s\) rasterio .*pip install \"rasterio\""):
-        run("pcafusion", {"INPUT": str(data_dir / LANDSAT), "OUTPUT": str(tmp_path / "x.tif")})
-    assert files(tmp_path) == []
+def test_missing_runtime_gives_clear_message(qgis_app, data_dir, tmp_path, monkeypatch):
+    """Without fotogeo's runtime: algorithms cannot execute, and say what is missing and the one fix."""
+    from processing_provider import runner
+    monkeypatch.delenv("FOTOGEO_PYTHON")
+    monkeypatch.setenv("FOTOGEO_RUNTIME", str(tmp_path / "no-runtime"))
+    runner.forget_status()
+    try:
+        alg = QgsApplication.processingRegistry().algorithmById("fotogeo:pcafusion")
+        ok, message = alg.canExecute()
+        assert not ok and "no-runtime" in message and "Install / repair runtime" in message
+        assert "runtime.py' install" in message and "Not runnable yet" in alg.shortHelpString()
+        out = tmp_path / "out"
+        out.mkdir()
+        with pytest.raises(QgsProcessingException, match="is not installed. Fix: menu fotogeo"):
+            run("pcafusion", {"INPUT": str(data_dir / LANDSAT), "OUTPUT": str(out / "x.tif")})
+        assert files(out) == []
+    finally:
+        monkeypatch.undo()
+        runner.forget_status()
+    assert QgsApplication.processingRegistry().algorithmById("fotogeo:pcafusion").canExecute() == (True, "")
 
 
 # -- Georeferencer points ---------------------------------------------------------------------

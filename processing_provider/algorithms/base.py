@@ -1,26 +1,24 @@
 """What every fotogeo Processing algorithm shares.
 
-- fotogeo is imported lazily, inside ``processAlgorithm`` (:meth:`FotogeoAlgorithm.tool`),
-  after checking the third-party packages the algorithm needs, so the plugin loads even
-  when a dependency is missing and the algorithm then says exactly which one and how to
-  install it;
-- the tools' progress protocol ``progress(fraction, message) -> bool`` is bridged to the
-  Processing feedback (:func:`progress_callback`): progress bar, progress text, cancel;
-- every :class:`fotogeo.errors.FotogeoError` — a cancel included — becomes a
-  :class:`QgsProcessingException` carrying the same message (:meth:`FotogeoAlgorithm.run_tool`);
+- fotogeo's tools never run in QGIS's process: :meth:`FotogeoAlgorithm.run_tool` runs them in
+  the plugin's runtime (``python -m fotogeo.worker``, see :mod:`processing_provider.runner` and
+  :mod:`processing_provider.runtime` for why), which reports progress, warnings and the
+  result as JSON; cancel stops the worker, whose atomic outputs clean up;
+- every fotogeo error — a cancel included — becomes a :class:`QgsProcessingException`
+  carrying the tool's own one-line message;
+- :meth:`FotogeoAlgorithm.canExecute` is False, with the reason and the one command that fixes
+  it, until the runtime works (the toolbox then refuses to open the algorithm);
 - the tool options are parameters generated from the algorithm's option tables
   (:attr:`FotogeoAlgorithm.OPTIONS`, from :mod:`fotogeo.options`, see :func:`parameter`) and
   read back into the tool's keyword arguments (:meth:`FotogeoAlgorithm.option_arguments`).
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import sys
-import threading
+import os
 
 from qgis.core import (
     QgsApplication,
+    QgsProcessing,
     QgsCoordinateReferenceSystem,
     QgsProcessingAlgorithm,
     QgsProcessingException,
@@ -39,9 +37,7 @@ from qgis.PyQt.QtCore import QCoreApplication
 
 from fotogeo.options import Option, Table  # standard library only: loads without fotogeo's dependencies
 
-#: import name -> pip distribution name of the third-party packages fotogeo uses.
-DEPENDENCIES = {"numpy": "numpy<2", "rasterio": "rasterio", "pyproj": "pyproj", "shapely": "shapely",
-                "geopandas": "geopandas", "pyogrio": "pyogrio", "cv2": "opencv-python-headless"}
+from .. import runner
 
 REFERENCES = {
     "dihkan": "Dihkan (2019): automatic registration of multi-epoch, multi-sensor aerial images to an "
@@ -55,78 +51,6 @@ REFERENCES = {
 
 def tr(text: str) -> str:
     return QCoreApplication.translate("fotogeo", text)
-
-
-def missing_dependencies(names=tuple(DEPENDENCIES), import_them: bool = True) -> list[tuple[str, str]]:
-    """``[(import name, reason)]`` of the packages in ``names`` that cannot be imported.
-
-    With ``import_them`` False only their presence is checked (cheap; used at load time).
-    """
-    missing = []
-    for name in names:
-        try:
-            if import_them:
-                importlib.import_module(name)
-            elif name not in sys.modules and importlib.util.find_spec(name) is None:
-                missing.append((name, "not installed"))
-        except Exception as e:  # noqa: BLE001 - ImportError, or a broken binary wheel (e.g. numpy ABI)
-            missing.append((name, f"{type(e).__name__}: {e}"))
-    return missing
-
-
-def dependency_message(missing) -> str:
-    """One clear message naming what is missing and the pip command that installs it."""
-    names = ", ".join(f"{n} ({why})" for n, why in missing)
-    pip = " ".join(f'"{DEPENDENCIES.get(n, n)}"' for n, _ in missing)
-    return (f"fotogeo cannot run: the Python package(s) {names} cannot be imported by QGIS's Python "
-            f"({sys.executable}). Install them into that Python, e.g. `python3 -m pip install {pip}` "
-            f"(on Debian/Ubuntu also: apt install python3-rasterio python3-geopandas python3-opencv), "
-            f"then restart QGIS.")
-
-
-_PINNED_PROJ_CONTEXTS: dict = {}
-
-
-def pin_pyproj_context() -> None:
-    """Keep this OS thread's PROJ context of pyproj alive for the life of the process.
-
-    QGIS runs algorithms on its task manager's worker threads, which are not Python threads:
-    every call into Python gets a fresh Python thread state. pyproj (3.7) keeps the thread's
-    PROJ context pointer in thread-specific storage but the object that destroys it in a
-    ``threading.local``, which dies with the thread state at the end of the call: the next
-    algorithm run on the same worker thread then uses a destroyed context ("no database
-    context specified", or a crash). Holding that object here keeps the context valid: one per
-    OS thread id, replaced when a new thread reuses the id of a finished one (pyproj issue 1509,
-    fixed upstream by pyproj pull request 1541, not released as of pyproj 3.7.2).
-    """
-    try:
-        from pyproj import _context
-        _context._set_context_data_dir()  # creates this thread's context, or finds the existing one
-        manager = _context.get_context_manager()
-    except Exception:  # noqa: BLE001 - pyproj missing, or without these internals: run as is
-        return
-    if manager is not None:  # None: the context was made by an earlier call on this thread, and pinned then
-        _PINNED_PROJ_CONTEXTS[threading.get_ident()] = manager
-
-
-def progress_callback(feedback):
-    """A fotogeo progress callback driving a :class:`QgsProcessingFeedback`.
-
-    ``fraction`` (0..1) → ``setProgress(100 * fraction)``, a new message → ``setProgressText``;
-    returns ``not feedback.isCanceled()`` (False asks the tool to stop and clean up).
-    """
-    last = [None]
-
-    def progress(fraction: float, message: str = "") -> bool:
-        if feedback is None:
-            return True
-        feedback.setProgress(100.0 * min(max(float(fraction), 0.0), 1.0))
-        if message and message != last[0]:
-            last[0] = message
-            feedback.setProgressText(message)
-        return not feedback.isCanceled()
-
-    return progress
 
 
 def crs_spec(crs: QgsCoordinateReferenceSystem) -> str:
@@ -197,8 +121,6 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
     ALG_ID = ""
     DISPLAY = ""
     GROUP = ("", "")
-    #: import names of the third-party packages this algorithm needs
-    REQUIRES: tuple = tuple(DEPENDENCIES)
     HELP = ""
     #: the option tables (:mod:`fotogeo.options`) whose options are parameters of this algorithm
     OPTIONS: tuple[Table, ...] = ()
@@ -217,10 +139,15 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
 
     def shortHelpString(self):
         text = tr(self.HELP)
-        missing = missing_dependencies(self.REQUIRES, import_them=False)
-        if missing:
-            text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + dependency_message(missing)
+        ok, why = runner.runtime_status()
+        if not ok:
+            text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + why
         return text
+
+    def canExecute(self):  # noqa: N802 - QGIS API
+        """(False, what is missing and the fix) until fotogeo's runtime works."""
+        ok, why = runner.runtime_status()
+        return (True, "") if ok else (False, why)
 
     def icon(self):
         return QgsApplication.getThemeIcon("/processingAlgorithm.svg")
@@ -229,30 +156,13 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         return type(self)()
 
     # -- running a tool ------------------------------------------------------------------
-    def tool(self, module: str, attr: str):
-        """Import ``fotogeo.<module>.<attr>`` now; missing dependencies → one clear exception."""
-        missing = missing_dependencies(self.REQUIRES)
-        if missing:
-            raise QgsProcessingException(dependency_message(missing))
-        try:
-            mod = importlib.import_module(f"fotogeo.{module}")
-        except ImportError as e:
-            missing = missing_dependencies(tuple(DEPENDENCIES))
-            if missing:
-                raise QgsProcessingException(dependency_message(missing)) from None
-            raise QgsProcessingException(f"fotogeo could not be imported ({e}); reinstall the fotogeo plugin") from None
-        return getattr(mod, attr)
+    def run_tool(self, tool: str, *args, feedback=None, **kwargs):
+        """Run fotogeo's ``tool`` (``fotogeo.worker.TOOLS``) in the runtime; its result as JSON types.
 
-    def run_tool(self, func, *args, feedback=None, **kwargs):
-        """Call a fotogeo tool with a progress callback; FotogeoError → QgsProcessingException."""
-        from fotogeo.errors import Cancelled, FotogeoError
-        pin_pyproj_context()
-        try:
-            return func(*args, progress=progress_callback(feedback), **kwargs)
-        except Cancelled as e:
-            raise QgsProcessingException(str(e)) from None
-        except FotogeoError as e:
-            raise QgsProcessingException(str(e)) from None
+        Paths and options go as JSON; progress, warnings and cancel travel with the feedback;
+        a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message.
+        """
+        return runner.run_tool(tool, *args, feedback=feedback, **kwargs)
 
     # -- parameters ----------------------------------------------------------------------
     def raster_path(self, parameters, name: str, context) -> str:
@@ -274,6 +184,16 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(f"{name}: fotogeo writes GeoTIFF; give a file name ending in .tif "
                                          f"(got {path!r})")
         return path
+
+    def file_output_or_beside(self, parameters, name: str, context, main: str, suffix: str) -> str:
+        """A file destination's path; left empty or temporary, ``main`` with ``suffix`` — beside the main
+        output, as the command line does and as the label's "[beside the raster]" says."""
+        given = parameters.get(name)
+        sink = getattr(given, "sink", None)
+        text = sink.staticValue() if sink is not None else given
+        if text in (None, "", QgsProcessing.TEMPORARY_OUTPUT):
+            return os.path.splitext(main)[0] + suffix
+        return self.parameterAsFileOutput(parameters, name, context)
 
     def add_options(self, table: Table):
         """Add the parameters of the options of ``table``, in table order."""

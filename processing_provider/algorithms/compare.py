@@ -1,10 +1,11 @@
 """``fotogeo:comparemodels`` — orientation models compared over control-point counts and spreads."""
 from __future__ import annotations
 
-from qgis.core import QgsProcessingOutputNumber, QgsProcessingParameterFileDestination
+from qgis.core import QgsProcessingOutputNumber, QgsProcessingParameterFileDestination, QgsProcessingUtils
 
 from fotogeo.options import COMPARE, GCP
 
+from ..postprocess import load_on_completion
 from .base import tr
 from .orient import GCP_HELP, REFERENCE_ORIENTATION, _GcpAlgorithm
 
@@ -17,7 +18,7 @@ class CompareModelsAlgorithm(_GcpAlgorithm):
             "seeded trials. All GCPs are pooled; in each trial the points not chosen as control points are the "
             "check points. Reported per row: median RMS x / y at control and check points, RMS xy and maximum at "
             "check points (pixels), and why a model could not be fitted. Writes a CSV table (and optionally "
-            "Markdown) and prints the table in the log.\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_ORIENTATION)
+            "Markdown); the CSV opens in QGIS as a table layer (Open Attribute Table).\n\n" + GCP_HELP + "\n\nReference: " + REFERENCE_ORIENTATION)
 
     OPTIONS = (GCP, COMPARE)
     TABLE, MARKDOWN, ROWS = "TABLE", "MARKDOWN", "ROWS"
@@ -33,14 +34,20 @@ class CompareModelsAlgorithm(_GcpAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.ROWS, tr("Table rows")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        compare_models = self.tool("tools.compare", "compare_models")
-        markdown_table = self.tool("tools.compare", "markdown_table")
         options = self.option_arguments(parameters, context, COMPARE)
-        table = self.parameterAsFileOutput(parameters, self.TABLE, context) or None
+        table = self.parameterAsFileOutput(parameters, self.TABLE, context) or \
+            QgsProcessingUtils.generateTempFilename("comparemodels.csv")
         markdown = self.parameterAsFileOutput(parameters, self.MARKDOWN, context) or None
         image = self.raster_path(parameters, self.IMAGE, context)
         gcps, gcp_layer = self.gcp_source(parameters, context, feedback)
-        rows = self.run_tool(compare_models, image, gcps, table=table, markdown=markdown, overwrite=True,
+        rows = self.run_tool("compare_models", image, gcps, table=table, markdown=markdown, overwrite=True,
                              feedback=feedback, **options, **self.gcp_arguments(parameters, context, gcp_layer))
-        feedback.pushInfo(markdown_table(rows))
+        fitted = [r for r in rows if r.get("check_rms_xy_px") is not None]
+        if fitted:
+            best = min(fitted, key=lambda r: r["check_rms_xy_px"])
+            feedback.pushInfo(f"{len(rows)} rows; lowest check RMS xy: {best['model']} ({best['spread']}, "
+                              f"{best['n_control']} control points) {best['check_rms_xy_px']:.3f} px")
+        if context.project() is not None:  # the table opens in QGIS (Open Attribute Table), not as text in the log
+            load_on_completion(context, f"{table}|option:AUTODETECT_TYPE=YES", tr("Orientation models compared"),
+                               self.TABLE, None)
         return {self.TABLE: table, self.MARKDOWN: markdown, self.ROWS: len(rows)}

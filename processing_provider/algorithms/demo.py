@@ -12,7 +12,7 @@ from qgis.core import (
 
 from fotogeo.options import DEMO
 
-from ..postprocess import load_on_completion
+from ..postprocess import LoadedRun, load_on_completion
 from .base import FotogeoAlgorithm, tr
 
 
@@ -49,34 +49,34 @@ class DemoAlgorithm(FotogeoAlgorithm):
                                                  tr("Terrain-aware RMSE against the true geometry (m)")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        run_demo = self.tool("tools.demo", "run_demo")
         folder = self.parameterAsString(parameters, self.OUTPUT, context)
         os.makedirs(folder, exist_ok=True)
-        res = self.run_tool(run_demo, folder, feedback=feedback, **self.option_arguments(parameters, context))
+        res = self.run_tool("run_demo", folder, feedback=feedback, **self.option_arguments(parameters, context))
         reg, truth = res["registration"], res["truth"]
-        rep = reg.report
+        rep = reg["report"]
         feedback.pushInfo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, matches "
                           f"{rep['matches']}, inliers {rep['inliers']}; check RMSE {rep['check']['rmse_m']:.2f} m; "
                           f"against the truth {truth['dense_rmse_m']:.2f} m (best possible homography "
                           f"{truth['best_homography_rmse_m']:.2f} m)")
         result = {self.OUTPUT: folder, self.REFERENCE: os.path.join(folder, "reference.tif"),
-                  self.REGISTERED: str(reg.output), self.TIE_POINTS: f"{reg.vectors}|layername=tie_points",
-                  self.ERROR_VECTORS: f"{reg.vectors}|layername=error_vectors",
+                  self.REGISTERED: reg["output"], self.TIE_POINTS: f"{reg['vectors']}|layername=tie_points",
+                  self.ERROR_VECTORS: f"{reg['vectors']}|layername=error_vectors",
                   self.CHECK_RMSE: float(rep["check"]["rmse_m"]), self.TRUTH_RMSE: float(truth["dense_rmse_m"]),
                   self.BEST_RMSE: float(truth["best_homography_rmse_m"])}
         terrain = res.get("terrain")  # the terrain-aware run, with the scene's DEM
-        result[self.ORTHORECTIFIED] = str(terrain.output) if terrain is not None else None
+        result[self.ORTHORECTIFIED] = terrain["output"] if terrain is not None else None
         result[self.TERRAIN_TRUTH_RMSE] = (float(res["terrain_truth"]["dense_rmse_m"]) if terrain is not None
                                            else float("nan"))
         if terrain is not None:
-            feedback.pushInfo(f"terrain-aware: model {terrain.report['model'].get('model')}, against the truth "
+            feedback.pushInfo(f"terrain-aware: model {terrain['report']['model'].get('model')}, against the truth "
                               f"{result[self.TERRAIN_TRUTH_RMSE]:.2f} m")
-        if context.project() is not None:  # a demo is for looking at: load its layers
+        if context.project() is not None:  # a demo is for looking at: load its layers, vectors above rasters
+            run = LoadedRun()
             layers = [(self.REFERENCE, "Demo reference", None), (self.REGISTERED, "Demo registered", None)]
             if terrain is not None:
                 layers.append((self.ORTHORECTIFIED, "Demo orthorectified", None))
             for key, name, style in layers + [
                     (self.ERROR_VECTORS, "Demo error vectors", "error_vectors"),
                     (self.TIE_POINTS, "Demo tie points", "tie_points")]:
-                load_on_completion(context, result[key], tr(name), key, style, raster=style is None)
+                load_on_completion(context, result[key], tr(name), key, style, raster=style is None, run=run)
         return result

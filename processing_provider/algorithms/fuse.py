@@ -16,7 +16,6 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pcafusion"
     DISPLAY = "PCA band fusion (first principal component)"
     GROUP = ("images", "Images")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "cv2")
     HELP = ("Fuses all bands of a raster into its first principal component, as in the registration "
             "pipeline of Dihkan (2019): the band covariance is estimated on a sample of valid pixels "
             "and every pixel is projected onto the leading eigenvector.\n\n"
@@ -36,10 +35,9 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.EXPLAINED, tr("Explained variance (fraction)")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        fuse_raster = self.tool("tools.fuse", "fuse_raster")
         source = self.raster_path(parameters, self.INPUT, context)
         output = self.raster_output(parameters, self.OUTPUT, context)
-        result = self.run_tool(fuse_raster, source, output, feedback=feedback, overwrite=True,
+        result = self.run_tool("fuse_raster", source, output, feedback=feedback, overwrite=True,
                                **self.option_arguments(parameters, context))
         feedback.pushInfo(f"explained variance of the first component: {100 * result['explained']:.2f} %")
         return {self.OUTPUT: output, self.EXPLAINED: float(result["explained"])}

@@ -21,7 +21,6 @@ class MatchFeaturesAlgorithm(FotogeoAlgorithm):
     ALG_ID = "matchfeatures"
     DISPLAY = "Detect and match features (tie points)"
     GROUP = ("registration", "Registration")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio", "cv2")
     HELP = ("The first half of the registration pipeline, without fitting or resampling: both rasters are "
             "fused to their first principal component, keypoints are detected (fotogeo's SURF, or OpenCV "
             "SIFT) and matched (SSD nearest neighbour, ratio test, mutual check). The output point layer "
@@ -44,11 +43,10 @@ class MatchFeaturesAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.INLIERS, tr("Homography inliers")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        match_images = self.tool("tools.match", "match_images")
         output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
         if os.path.splitext(output)[1].lower() != ".gpkg":
             raise QgsProcessingException(f"OUTPUT must be a GeoPackage (.gpkg); got {output!r}")
-        info = self.run_tool(match_images, self.raster_path(parameters, self.REFERENCE, context),
+        info = self.run_tool("match_images", self.raster_path(parameters, self.REFERENCE, context),
                              self.raster_path(parameters, self.TARGET, context), output, feedback=feedback,
                              overwrite=True, **self.option_arguments(parameters, context))
         feedback.pushInfo(f"keypoints {info['keypoints']['target']} / {info['keypoints']['reference']}, "

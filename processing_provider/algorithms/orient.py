@@ -122,7 +122,6 @@ class OrientAlgorithm(_GcpAlgorithm):
         self.addOutput(QgsProcessingOutputString(self.MODEL_NAME, tr("Model")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        orient = self.tool("tools.orient", "orient")
         image = self.raster_path(parameters, self.IMAGE, context)
         gcps, gcp_layer = self.gcp_source(parameters, context, feedback)
         outputs = {
@@ -141,7 +140,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             if key in outputs and not outputs[key].lower().endswith((".tif", ".tiff")):
                 raise QgsProcessingException(f"{key.upper()}: fotogeo writes GeoTIFF; give a file name ending "
                                              f"in .tif (got {outputs[key]!r})")
-        rep = self.run_tool(orient, image, gcps, feedback=feedback, overwrite=True,
+        rep = self.run_tool("orient", image, gcps, feedback=feedback, overwrite=True,
                             **self.option_arguments(parameters, context, ORIENT),
                             **self.gcp_arguments(parameters, context, gcp_layer), **outputs)
         feedback.pushInfo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
@@ -167,7 +166,9 @@ class OrientAlgorithm(_GcpAlgorithm):
             result[self.GCP_LAYER] = f"{vec}|layername=gcps"
             result[self.ERROR_VECTORS] = f"{vec}|layername=error_vectors"
             if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
+                name = f"{os.path.splitext(os.path.basename(vec))[0]} {rep['model_name']}"
+                context.layerToLoadOnCompletionDetails(vec).name = f"{name} {tr('GCPs')}"
                 style_output(context, vec, "tie_points")
-                load_on_completion(context, result[self.ERROR_VECTORS], tr("Error vectors"), self.ERROR_VECTORS,
-                                   "error_vectors")
+                load_on_completion(context, result[self.ERROR_VECTORS], f"{name} {tr('error vectors')}",
+                                   self.ERROR_VECTORS, "error_vectors")
         return result

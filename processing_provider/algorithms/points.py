@@ -28,7 +28,6 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pointstolayer"
     DISPLAY = "Georeferencer points file to GCP layer"
     GROUP = ("gcp", "Ground control points")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio")
     HELP = ("Converts a QGIS Georeferencer <i>.points</i> file (optional '#CRS: &lt;WKT&gt;' line, header "
             "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual) into a GeoPackage point layer at the map "
             "positions, with the fields fotogeo's tools use: id, col, row (source pixel, GDAL corner "
@@ -47,12 +46,11 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        points_to_layer = self.tool("tools.points", "points_to_layer")
         points = self.parameterAsFile(parameters, self.INPUT, context)
         output = self.parameterAsOutputLayer(parameters, self.OUTPUT, context)
         if os.path.splitext(output)[1].lower() != ".gpkg":
             raise QgsProcessingException(f"OUTPUT must be a GeoPackage (.gpkg); got {output!r}")
-        info = self.run_tool(points_to_layer, points, output, overwrite=True, feedback=feedback,
+        info = self.run_tool("points_to_layer", points, output, overwrite=True, feedback=feedback,
                              **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}, "
                           f"source coordinates: {info['source_convention']}")
@@ -64,7 +62,6 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "layertopoints"
     DISPLAY = "GCP layer to Georeferencer points file"
     GROUP = ("gcp", "Ground control points")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio")
     HELP = ("Writes a QGIS Georeferencer <i>.points</i> file from a point layer with the fields col, row "
             "(source pixel, GDAL corner convention) and optionally role (control = enabled, anything else "
             "= disabled), id (sort order) and dx, dy. A fotogeo <i>tie_points</i> layer from the register "
@@ -83,7 +80,6 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        layer_to_points = self.tool("tools.points", "layer_to_points")
         # a GeoPackage/Shapefile layer is read where it is; anything else (memory layer, selection) is
         # first exported by Processing to a temporary GeoPackage
         path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(
@@ -91,7 +87,7 @@ class LayerToPointsAlgorithm(FotogeoAlgorithm):
         if not path:
             raise QgsProcessingException(self.invalidSourceError(parameters, self.INPUT))
         output = self.parameterAsFileOutput(parameters, self.OUTPUT, context)
-        info = self.run_tool(layer_to_points, path, output, layer=layer or None, overwrite=True, feedback=feedback,
+        info = self.run_tool("layer_to_points", path, output, layer=layer or None, overwrite=True, feedback=feedback,
                              **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}")
         return {self.OUTPUT: output, self.COUNT: info["points"]}

@@ -15,7 +15,7 @@ from qgis.core import (
 
 from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
-from ..postprocess import load_on_completion
+from ..postprocess import LoadedRun, load_on_completion, style_output
 from .base import REFERENCES, FotogeoAlgorithm, tr
 
 
@@ -73,32 +73,31 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputString(self.OUTPUT_CRS, tr("Output CRS")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        register = self.tool("tools.register", "register")
         reference = self.raster_path(parameters, self.REFERENCE, context)
         target = self.raster_path(parameters, self.TARGET, context)
         output = self.raster_output(parameters, self.OUTPUT, context)
-        vectors = self.parameterAsFileOutput(parameters, self.VECTORS, context) or os.path.splitext(output)[0] + ".gpkg"
-        report = self.parameterAsFileOutput(parameters, self.REPORT, context) or os.path.splitext(output)[0] + ".json"
+        vectors = self.file_output_or_beside(parameters, self.VECTORS, context, output, ".gpkg")
+        report = self.file_output_or_beside(parameters, self.REPORT, context, output, ".json")
         if not vectors.lower().endswith(".gpkg"):
             raise QgsProcessingException(f"VECTORS must be a GeoPackage file ending in .gpkg; got {vectors!r}")
         options = self.option_arguments(parameters, context)
         shown = ", ".join(f"{k}={v}" for k, v in options.items() if k in REGISTER and k != "dst_crs")
         feedback.pushInfo(f"options: {shown}, output CRS={'auto' if options['dst_crs'] == 'auto' else 'given'}")
-        result = self.run_tool(register, reference, target, output, vectors=vectors, report=report, overwrite=True,
+        result = self.run_tool("register", reference, target, output, vectors=vectors, report=report, overwrite=True,
                                feedback=feedback, **options)
-        rep = result.report
-        feedback.pushInfo(f"keypoints target/reference {rep['keypoints']['target']}/{rep['keypoints']['reference']}, "
-                          f"matches {rep['matches']}, inliers {rep['inliers']}")
-        for role in ("control", "check"):
-            s = rep[role]
-            if s.get("n"):
-                feedback.pushInfo(f"{role}: n={s['n']}, RMSE {s['rmse_m']:.3f} m ({s['rmse_px']:.2f} reference px)")
+        rep = result["report"]
+        for line in summary_lines(rep):
+            feedback.pushInfo(line)
         tie_uri = f"{vectors}|layername=tie_points"
         err_uri = f"{vectors}|layername=error_vectors"
         if context.willLoadLayerOnCompletion(output):
-            # the user asked for the raster to be loaded: load the two vector layers, styled, with it
-            load_on_completion(context, err_uri, tr("Error vectors"), self.ERROR_VECTORS, "error_vectors")
-            load_on_completion(context, tie_uri, tr("Tie points"), self.TIE_POINTS, "tie_points")
+            # the user asked for the raster to be loaded: load the two vector layers, styled, above it
+            stem = os.path.splitext(os.path.basename(output))[0]
+            run = LoadedRun()
+            style_output(context, output, None, run)
+            load_on_completion(context, err_uri, f"{stem} {tr('error vectors')}", self.ERROR_VECTORS,
+                               "error_vectors", run=run)
+            load_on_completion(context, tie_uri, f"{stem} {tr('tie points')}", self.TIE_POINTS, "tie_points", run=run)
         nan = float("nan")
         return {self.OUTPUT: output, self.VECTORS: vectors, self.REPORT: report,
                 self.TIE_POINTS: tie_uri, self.ERROR_VECTORS: err_uri,
@@ -106,3 +105,18 @@ class RegisterAlgorithm(FotogeoAlgorithm):
                 self.CONTROL_RMSE: float(rep["control"].get("rmse_m", nan)),
                 self.CHECK_RMSE: float(rep["check"].get("rmse_m", nan)),
                 self.OUTPUT_CRS: rep["output_crs"]}
+
+
+def summary_lines(rep: dict) -> list[str]:
+    """The lines the command line prints after a registration (fotogeo/cli/register.py), units named."""
+    lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
+             f"matches {rep['matches']}, inliers {rep['inliers']}"]
+    for role in ("control", "check"):
+        s = rep[role]
+        if s.get("n"):
+            lines.append(f"{role} n={s['n']}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)")
+    if "terrain" in rep:
+        t = rep["terrain"]
+        lines.append(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
+                     f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
+    return lines

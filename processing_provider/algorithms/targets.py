@@ -18,7 +18,6 @@ class MeasureTargetsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "measuretargets"
     DISPLAY = "Measure X-shaped targets"
     GROUP = ("matching", "Area-based matching")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio", "cv2")
     HELP = ("Measures X-shaped fiducial or calibration targets to sub-pixel near approximate positions: an "
             "edge method (thresholds from the target's and the background's grey levels) gives the approximate "
             "centre, then least-squares matching against a synthetic X template refines it (after "
@@ -40,10 +39,9 @@ class MeasureTargetsAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.MEASURED, tr("Measured targets")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        measure_targets = self.tool("tools.targets", "measure_targets")
         output = table_output(self, parameters, self.OUTPUT, context)
         r = self.run_tool(
-            measure_targets, self.raster_path(parameters, self.IMAGE, context),
+            "measure_targets", self.raster_path(parameters, self.IMAGE, context),
             self.parameterAsFile(parameters, self.POINTS, context), output, overwrite=True, feedback=feedback,
             **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{r['measured']} of {r['targets']} targets measured")

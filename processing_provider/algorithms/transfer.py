@@ -35,7 +35,6 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "transferpoints"
     DISPLAY = "Transfer points by least-squares matching"
     GROUP = ("matching", "Area-based matching")
-    REQUIRES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio", "cv2")
     HELP = ("Finds points of a reference image (GCPs measured there, or an orthophoto's map positions) in a "
             "search image to sub-pixel, with their precision: coarse-to-fine normalised cross-correlation on "
             "image pyramids from the approximate positions, then least-squares matching. Both images must have "
@@ -60,10 +59,9 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.MEDIAN_SIGMA, tr("Median σ of the converged points (px)")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        transfer_gcps = self.tool("tools.transfer", "transfer_gcps")
         output = table_output(self, parameters, self.OUTPUT, context)
         r = self.run_tool(
-            transfer_gcps, self.raster_path(parameters, self.REFERENCE, context),
+            "transfer_gcps", self.raster_path(parameters, self.REFERENCE, context),
             self.raster_path(parameters, self.SEARCH, context), self.parameterAsFile(parameters, self.POINTS, context),
             output, overwrite=True, feedback=feedback, **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "

@@ -1,0 +1,130 @@
+"""Run a fotogeo tool in the plugin's runtime (``python -m fotogeo.worker``) for a Processing algorithm.
+
+The worker's JSON lines drive the algorithm's feedback: progress and its text, warnings;
+its final line is the tool's result (JSON) or its error, raised as a
+:class:`QgsProcessingException` with the tool's own one-line message. Cancel (the dialog's
+button, a task's cancel) sends SIGTERM: the worker raises ``Cancelled`` inside the tool, whose
+atomic outputs delete what they had started; a worker that does not stop within
+:data:`KILL_AFTER_S` is killed. Why a separate process at all: :mod:`processing_provider.runtime`.
+"""
+from __future__ import annotations
+
+import json
+import queue
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+
+from qgis.core import QgsApplication, QgsProcessingException, QgsSettings
+
+from . import runtime as rt
+
+KILL_AFTER_S = 15.0
+_STATUS: dict = {}
+
+
+def current_runtime() -> rt.Runtime:
+    """The runtime of the running QGIS profile (see :func:`processing_provider.runtime.resolve`)."""
+    return rt.resolve(QgsApplication.qgisSettingsDirPath(), QgsSettings().value(rt.SETTING, "") or None)
+
+
+def runtime_status(refresh: bool = False) -> tuple[bool, str]:
+    """``(usable, message)`` of the current runtime, cached until :func:`forget_status`."""
+    key = str(current_runtime())
+    if refresh or _STATUS.get("key") != key:
+        _STATUS.update(key=key, value=rt.status(current_runtime()))
+    return _STATUS["value"]
+
+
+def forget_status() -> None:
+    _STATUS.clear()
+
+
+def _reader(stream, lines: queue.Queue):
+    for line in stream:
+        lines.put(line)
+    lines.put(None)
+
+
+def _message(line: str):
+    try:
+        message = json.loads(line)
+    except ValueError:
+        return None
+    return message if isinstance(message, dict) else None
+
+
+def _apply(message: dict, feedback, last: list):
+    """Progress and warnings to the feedback; returns the final message, or None."""
+    kind = message.get("type")
+    if kind == "progress":
+        if feedback is not None:
+            feedback.setProgress(100.0 * min(max(float(message.get("fraction", 0.0)), 0.0), 1.0))
+            text = message.get("message") or ""
+            if text and text != last[0]:
+                last[0] = text
+                feedback.setProgressText(text)
+        return None
+    if kind == "warning":
+        if feedback is not None:
+            feedback.pushWarning(message.get("message", ""))
+        return None
+    return message if kind in ("result", "error") else None
+
+
+def run_tool(tool: str, *args, feedback=None, **kwargs):
+    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result."""
+    ok, why = runtime_status()
+    if not ok:
+        ok, why = runtime_status(refresh=True)  # installed since the last look?
+    if not ok:
+        raise QgsProcessingException(why)
+    runtime = current_runtime()
+    request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs}) + "\n"
+    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
+        try:
+            proc = subprocess.Popen(rt.worker_command(runtime), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                    stderr=stderr, text=True, encoding="utf-8", env=rt.worker_environment(),
+                                    cwd=str(rt.PLUGIN_ROOT))
+        except OSError as e:
+            forget_status()
+            raise QgsProcessingException(f"fotogeo's runtime {runtime.python} cannot start ({e}). Fix: menu "
+                                         f"fotogeo > Install / repair runtime") from None
+        proc.stdin.write(request)
+        proc.stdin.flush()
+        final = _follow(proc, feedback)
+        proc.wait()
+        if final is None:
+            stderr.seek(0)
+            tail = " | ".join(stderr.read().strip().splitlines()[-5:])
+            raise QgsProcessingException(f"fotogeo's worker stopped without an answer (exit {proc.returncode}): "
+                                         f"{tail or 'no message'}")
+        if final["type"] == "error":
+            if final.get("traceback") and feedback is not None:
+                feedback.pushDebugInfo(final["traceback"])
+            raise QgsProcessingException(final.get("message") or final.get("error", "fotogeo failed"))
+        return final.get("result")
+
+
+def _follow(proc, feedback):
+    """Read the worker's lines until its final message; SIGTERM it on cancel, kill it if it hangs."""
+    lines: queue.Queue = queue.Queue()
+    threading.Thread(target=_reader, args=(proc.stdout, lines), daemon=True).start()
+    last, final, cancelled_at = [None], None, None
+    while True:
+        if cancelled_at is None and feedback is not None and feedback.isCanceled():
+            cancelled_at = time.monotonic()
+            proc.send_signal(signal.SIGTERM)
+        if cancelled_at is not None and time.monotonic() - cancelled_at > KILL_AFTER_S and proc.poll() is None:
+            proc.kill()
+        try:
+            line = lines.get(timeout=0.1)
+        except queue.Empty:
+            continue
+        if line is None:
+            return final
+        message = _message(line)
+        if message is not None:
+            final = _apply(message, feedback, last) or final

@@ -1,0 +1,205 @@
+"""fotogeo in the real QGIS programs: ``qgis_process`` and the desktop ``qgis`` under Xvfb.
+
+The other QGIS tests import QGIS into the venv's Python, which loads the pip wheels' GDAL/GEOS
+before QGIS's and so cannot see what a user meets. Here a fresh profile
+(``QGIS_CUSTOM_CONFIG_PATH``) is set up by the install command (``scripts/qgis_install.py``, what
+``make qgis-install`` runs) and Debian's own binaries run the algorithms: QGIS loads its GDAL 3.6,
+the plugin runs fotogeo in its runtime. The runtime is kept in ``build/qgis-test-runtime``
+between runs (the first run downloads the wheels, ~40 s). Inputs are copied to tmp and
+``GDAL_PAM_ENABLED=NO`` keeps QGIS from writing ``.aux.xml`` files.
+
+``FOTOGEO_UPDATE_SCREENSHOTS=1`` copies the desktop screenshots to ``docs/`` (shown in the README).
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from fotogeo.options import COMPARE, ORIENT
+
+ROOT = Path(__file__).resolve().parents[1]
+RUNTIME = ROOT / "build" / "qgis-test-runtime"
+QGIS_PROCESS = "/usr/bin/qgis_process.bin"  # the /usr/bin/qgis_process wrapper adds --noversioncheck, refused by 3.22
+QGIS_DESKTOP = "/usr/bin/qgis.bin"
+FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
+ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
+LANDSAT = "landsat_rgb/RGB.byte.tif"
+
+pytestmark = [pytest.mark.qgis, pytest.mark.skipif(not os.path.exists(QGIS_PROCESS),
+                                                   reason="Debian's qgis package is not installed (make test installs it)")]
+
+
+@pytest.fixture(scope="module")
+def config(tmp_path_factory):
+    """A fresh QGIS settings tree whose default profile got fotogeo from the install command."""
+    config = tmp_path_factory.mktemp("qgis-config")
+    profile = config / "profiles" / "default"
+    r = subprocess.run(["/usr/bin/python3", str(ROOT / "scripts" / "qgis_install.py"), "--profile", str(profile),
+                        "--runtime", str(RUNTIME)], capture_output=True, text=True, timeout=600, env=_env(config))
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    ini = (profile / "QGIS" / "QGIS3.ini").read_text()
+    assert "fotogeo_qgis=true" in ini and f"runtime={RUNTIME}" in ini
+    assert (profile / "python" / "plugins" / "fotogeo_qgis" / "fotogeo" / "worker.py").is_file()
+    return config
+
+
+def _env(config) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("FOTOGEO_") and k != "PYTHONPATH"}
+    env.update(QGIS_CUSTOM_CONFIG_PATH=str(config), GDAL_PAM_ENABLED="NO", QT_QPA_PLATFORM="offscreen")
+    return env
+
+
+def qgis_process(config, alg, **params) -> dict:
+    args = [QGIS_PROCESS, "--json", "run", f"fotogeo:{alg}", "--"] + [f"{k}={v}" for k, v in params.items()]
+    r = subprocess.run(args, capture_output=True, text=True, timeout=180, env=_env(config))
+    assert r.returncode == 0, f"{alg}: exit {r.returncode}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    return json.loads(r.stdout[r.stdout.index("{"):])["results"]
+
+
+@pytest.fixture(scope="module")
+def inputs(data_dir, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("inputs")
+    for rel in (FRAME, ORTHO, LANDSAT, "ngi/dem.tif"):
+        shutil.copy(data_dir / rel, folder / Path(rel).name)
+    return folder
+
+
+def test_qgis_process_lists_and_runs_the_algorithms(config, inputs, tmp_path):
+    r = subprocess.run([QGIS_PROCESS, "list"], capture_output=True, text=True, timeout=120, env=_env(config))
+    assert r.returncode == 0 and "fotogeo:register" in r.stdout and "fotogeo:comparemodels" in r.stdout
+    # pcafusion and register (outputs left empty go beside the raster)
+    res = qgis_process(config, "pcafusion", INPUT=inputs / "RGB.byte.tif", OUTPUT=tmp_path / "pc1.tif")
+    assert 0.5 < res["EXPLAINED"] <= 1 and (tmp_path / "pc1.tif").is_file()
+    out = tmp_path / "reg" / "frame_0182.tif"
+    out.parent.mkdir()
+    res = qgis_process(config, "register", REFERENCE=inputs / Path(ORTHO).name, TARGET=inputs / Path(FRAME).name,
+                       MAX_KEYPOINTS=1500, OUTPUT=out)
+    assert sorted(p.name for p in out.parent.iterdir()) == ["frame_0182.gpkg", "frame_0182.json", "frame_0182.tif"]
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert res["INLIERS"] == report["inliers"] >= 50 and res["CHECK_RMSE_M"] == pytest.approx(report["check"]["rmse_m"])
+    # the runtime's libraries, not QGIS's GDAL 3.6: the wheels ran where they work
+    assert not report["versions"]["gdal"].startswith("3.6")
+    # tie points → Georeferencer .points → GCP layer → orientation and comparison on them
+    points = tmp_path / "tie.points"
+    res = qgis_process(config, "layertopoints", INPUT=f"{out.with_suffix('.gpkg')}|layername=tie_points",
+                       OUTPUT=points)
+    assert res["COUNT"] == report["inliers"]
+    res = qgis_process(config, "pointstolayer", INPUT=points, OUTPUT=tmp_path / "gcps.gpkg")
+    assert res["COUNT"] == report["inliers"]
+    res = qgis_process(config, "orient", IMAGE=inputs / Path(FRAME).name, GCPS=tmp_path / "gcps.gpkg",
+                       DEM=inputs / "dem.tif", MODEL=ORIENT["model"].qgis_choices.index("dlt"), REPORT=tmp_path / "orient.json",
+                       VECTORS=tmp_path / "orient.gpkg")
+    assert res["MODEL_NAME"] == "dlt" and 0 < res["CONTROL_RMS_XY_PX"] < 50
+    res = qgis_process(config, "comparemodels", IMAGE=inputs / Path(FRAME).name, GCPS=tmp_path / "gcps.gpkg",
+                       DEM=inputs / "dem.tif", MODELS=",".join(str(COMPARE["models"].qgis_choices.index(m)) for m in ("affine", "dlt")), COUNTS="20", TRIALS=1, TABLE=tmp_path / "cmp.csv")
+    assert res["ROWS"] >= 2 and (tmp_path / "cmp.csv").read_text().startswith("model,")
+    res = qgis_process(config, "matchfeatures", REFERENCE=inputs / Path(ORTHO).name,
+                       TARGET=inputs / Path(FRAME).name, MAX_KEYPOINTS=1500, OUTPUT=tmp_path / "tp.gpkg")
+    assert 0 < res["INLIERS"] <= res["MATCHES"]
+    assert sorted(p.name for p in inputs.iterdir() if p.suffix == ".xml") == []  # no .aux.xml beside the inputs
+
+
+def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
+    """A fotogeo error reaches qgis_process as the tool's one-line message, not a Python traceback."""
+    r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:register", "--", f"REFERENCE={inputs / 'RGB.byte.tif'}",
+                        f"TARGET={inputs / Path(FRAME).name}", f"OUTPUT={inputs / Path(FRAME).name}"],
+                       capture_output=True, text=True, timeout=120, env=_env(config))
+    assert r.returncode != 0
+    text = r.stdout + r.stderr
+    assert "is also an input; choose another output path" in text and "Traceback" not in text
+
+
+DESKTOP_SCRIPT = r'''
+import json, os, traceback
+from qgis.PyQt.QtCore import QTimer, Qt
+from qgis.PyQt.QtWidgets import QDockWidget, QTextEdit
+from qgis.utils import iface
+from qgis.core import QgsApplication, QgsProject
+OUT, REF, TGT = (os.environ[k] for k in ("FOTOGEO_DESKTOP_OUT", "FOTOGEO_DESKTOP_REF", "FOTOGEO_DESKTOP_TGT"))
+state = {}
+
+def finish():
+    with open(os.path.join(OUT, "result.json"), "w") as f:
+        json.dump(state, f)
+    QgsApplication.exit(0)
+
+def guard(fn):
+    def wrapped(*args):
+        try:
+            fn(*args)
+        except Exception:
+            state["error"] = traceback.format_exc()
+            finish()
+    return wrapped
+
+def grab(widget, name, width=960):
+    widget.grab().scaledToWidth(width, Qt.SmoothTransformation).save(os.path.join(OUT, name), "PNG", 9)
+
+@guard
+def toolbox():
+    import qgis.utils
+    iface.mainWindow().resize(1280, 800)
+    state["plugins"] = list(qgis.utils.active_plugins)
+    state["can_execute"] = list(QgsApplication.processingRegistry().algorithmById("fotogeo:register").canExecute())
+    dock = iface.mainWindow().findChild(QDockWidget, "ProcessingToolbox")
+    dock.show()
+    dock.raise_()
+    dock.searchBox.setText("fotogeo")
+    QTimer.singleShot(1500, guard(lambda: (grab(iface.mainWindow(), "qgis_toolbox.png"), dialog())))
+
+@guard
+def dialog():
+    import processing
+    dlg = processing.createAlgorithmDialog("fotogeo:register", {
+        "REFERENCE": REF, "TARGET": TGT, "MAX_KEYPOINTS": 1500, "OUTPUT": os.path.join(OUT, "frame_0182.tif")})
+    dlg.resize(900, 700)
+    dlg.show()
+    globals()["DLG"] = dlg
+    QTimer.singleShot(1000, guard(lambda: (grab(dlg, "qgis_register_dialog.png", 900), dlg.runAlgorithm(), wait(0))))
+
+@guard
+def wait(n):
+    if len(QgsProject.instance().mapLayers()) >= 3 or n > 200:
+        state["layers"] = [node.layer().name() for node in QgsProject.instance().layerTreeRoot().findLayers()]
+        state["log"] = DLG.findChild(QTextEdit, "txtLog").toPlainText()
+        DLG.close()
+        iface.mapCanvas().zoomToFullExtent()
+        QTimer.singleShot(3000, guard(lambda: (grab(iface.mainWindow(), "qgis_results.png"), finish())))
+    else:
+        QTimer.singleShot(500, guard(lambda: wait(n + 1)))
+
+QTimer.singleShot(3000, toolbox)
+'''
+
+
+@pytest.mark.skipif(not shutil.which("xvfb-run") or not os.path.exists(QGIS_DESKTOP),
+                    reason="xvfb and the qgis desktop are not installed (make test installs them)")
+def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
+    """The desktop under Xvfb: the plugin loads, register runs from its dialog, its layers load above the raster."""
+    script = tmp_path / "startup.py"
+    script.write_text(DESKTOP_SCRIPT)
+    out = tmp_path / "desktop"
+    out.mkdir()
+    env = {**_env(config), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_REF": str(inputs / Path(ORTHO).name),
+           "FOTOGEO_DESKTOP_TGT": str(inputs / Path(FRAME).name)}
+    env.pop("QT_QPA_PLATFORM")
+    subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", QGIS_DESKTOP, "--nologo", "--noversioncheck",
+                    "--code", str(script)], capture_output=True, text=True, timeout=240, env=env, cwd=tmp_path)
+    # QGIS 3.22 may abort while quitting (after the script wrote its result): judge by the result
+    state = json.loads((out / "result.json").read_text())
+    assert "error" not in state, state.get("error")
+    assert "fotogeo_qgis" in state["plugins"] and state["can_execute"] == [True, ""]
+    assert state["layers"] == ["frame_0182 tie points", "frame_0182 error vectors", "Registered raster"]
+    # the CLI's summary lines, units named
+    assert re.search(r"check n=\d+ +RMSE [\d.]+ m +\([\d.]+ reference px\)", state["log"]), state["log"][-800:]
+    assert {"frame_0182.tif", "frame_0182.gpkg", "frame_0182.json"} <= {p.name for p in out.iterdir()}
+    for png in ("qgis_toolbox.png", "qgis_register_dialog.png", "qgis_results.png"):
+        assert (out / png).stat().st_size > 20_000, png
+        if os.environ.get("FOTOGEO_UPDATE_SCREENSHOTS"):
+            shutil.copy(out / png, ROOT / "docs" / png)
