@@ -42,11 +42,18 @@ def utm_crs_for(lon: float, lat: float) -> CRS:
     return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
 
 
+def _transform(t: Transformer, p: np.ndarray) -> np.ndarray:
+    """``t`` applied to (N, 2) points; one point goes through as floats (pyproj would convert a
+    one-element array to a scalar, which numpy deprecates)."""
+    if len(p) == 1:
+        return np.array([t.transform(float(p[0, 0]), float(p[0, 1]))], float)
+    return np.column_stack(t.transform(p[:, 0], p[:, 1]))
+
+
 def to_lonlat(crs: CRS, xy) -> np.ndarray:
     """Geographic (lon, lat) of points given in ``crs``."""
     t = Transformer.from_crs(crs, CRS.from_epsg(4326), always_xy=True)
-    p = np.asarray(xy, float).reshape(-1, 2)
-    return np.column_stack(t.transform(p[:, 0], p[:, 1]))
+    return _transform(t, np.asarray(xy, float).reshape(-1, 2))
 
 
 def resolve_crs(spec, reference_crs: CRS, centre_xy) -> CRS:
@@ -62,8 +69,7 @@ def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
     p = np.asarray(xy, float).reshape(-1, 2)
     if CRS.from_user_input(src_crs) == CRS.from_user_input(dst_crs):
         return p.copy()
-    t = Transformer.from_crs(src_crs, dst_crs, always_xy=True)
-    return np.column_stack(t.transform(p[:, 0], p[:, 1]))
+    return _transform(Transformer.from_crs(src_crs, dst_crs, always_xy=True), p)
 
 
 def pixel_size_in(transform, src_crs: CRS, dst_crs: CRS, col: float, row: float) -> float:

@@ -13,9 +13,10 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("-o", "--output", default="out/demo", show_default=True, type=click.Path(file_okay=False),
               help="Folder for the generated scene and the results.")
 @options_from(DEMO)
+@click.option("--overwrite", is_flag=True, help="Replace the files of an earlier demo in the folder.")
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def command(output, quiet, **options):
+def command(output, overwrite, quiet, **options):
     """Generate a realistic scene (fractal DEM, textured UTM orthophoto, a frame rendered through a
     known rotated and tilted camera with other radiometry and noise), register the frame to the
     orthophoto, and print the accuracy against the known truth. No download."""
@@ -23,7 +24,7 @@ def command(output, quiet, **options):
     t0 = time.perf_counter()
     bar = ConsoleProgress(quiet)
     try:
-        res = run_demo(output, progress=bar, **options)
+        res = run_demo(output, progress=bar, overwrite=overwrite, **options)
     finally:
         bar.close()
     rep, truth = res["registration"].report, res["truth"]

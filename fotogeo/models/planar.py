@@ -92,6 +92,16 @@ class Similarity(_MatrixModel):
         fits = [cls._fit_handed(s, d, w, mirror) for mirror in (False, True)]
         return min(fits, key=lambda f: f[1])[0]
 
+    def param_directions(self) -> np.ndarray:
+        """(9, 4) directions of ``a``, ``b``, ``tx``, ``ty`` in the stored 3x3 matrix (proper or
+        improper, as fitted): the free parameters, e.g. for the redundancy numbers of data snooping."""
+        mirror = np.linalg.det(self.matrix[:2, :2]) < 0
+        D = np.zeros((3, 3, 4))
+        D[0, 0, 0], D[1, 1, 0] = 1.0, (-1.0 if mirror else 1.0)
+        D[1, 0, 1], D[0, 1, 1] = 1.0, (1.0 if mirror else -1.0)
+        D[0, 2, 2] = D[1, 2, 3] = 1.0
+        return D.reshape(9, 4)
+
     @classmethod
     def _fit_handed(cls, s, d, w, mirror: bool):
         """Weighted least-squares proper (``mirror`` False) or improper similarity: (matrix, Σ w r²)."""

@@ -5,13 +5,21 @@ or ``(X, Y, Z)`` for 3-D ones (``src_dims``), ``dst`` = ``(col, row)`` pixels. R
 ``v = model(ground) − measured pixel`` (``dx``, ``dy`` in pixels); for each role
 ``RMS_x = sqrt(mean dx²)``, ``RMS_y = sqrt(mean dy²)``, ``RMS_xy = sqrt(mean (dx² + dy²))``.
 
-Blunder detection (:func:`snoop`) is Baarda's data snooping with leave-one-out residuals:
-for control point ``i``, ``ℓ_i`` is its residual under the model fitted without it. For a
-least-squares fit ``v_i = r_i ℓ_i`` with ``r_i`` the point's redundancy number, so
-``r_i = v_i / ℓ_i`` per axis, and the standardised residual is
+Blunder detection (:func:`snoop`) is Baarda's (1968) data snooping. For control point ``i``,
+``ℓ_i`` is its residual under the model fitted without it, and ``v_i = r_i ℓ_i`` per axis
+defines its redundancy number ``r_i``; the standardised residual is
 ``w_i = v_i / (σ₀ √r_i)`` with ``σ₀² = Σ v² / (2n − u)``. ``|w_i| > 3.29`` (α = 0.1 %,
 two-sided) flags a blunder; with ``remove`` the worst one is dropped, the model refitted and
 the test repeated.
+
+The leave-one-out residuals come in closed form from one factorisation: with ``J`` the
+``(2n, u)`` design of the fit (for nonlinear models the Jacobian of ``forward`` with respect
+to the free parameters at the solution, by central differences) and its thin SVD
+``J = U S Vᵀ`` (rank-truncated), the hat matrix is ``H = U Uᵀ``; dropping point ``i``
+changes its residual to ``ℓ_i = (I − H_ii)⁻¹ v_i`` with ``H_ii`` the point's 2x2 block —
+exact for linear least squares, first order for nonlinear ones — so the redundancy numbers
+are the diagonal of ``I − H`` (Förstner 1987). Models regularised by Tikhonov (the RFMs,
+whose λ is chosen anew per fit) are refitted without each point instead.
 """
 from __future__ import annotations
 
@@ -66,11 +74,78 @@ def _fit(model_cls, src, pix, mask, fit_options):
     return m, [str(w.message) for w in caught]
 
 
+def free_directions(model):
+    """``(len(params), u)`` basis of the model's free parameters in its stored ``params``, or
+    None when the closed form does not apply (a regularised fit: the RFMs).
+
+    A model may say it with ``param_directions()`` (the similarity: 4 free directions in its
+    3x3 matrix); otherwise the first ``n_params`` stored parameters are the free ones and the
+    rest are fixed (the matrix models' ``h33 = 1``, the DLT's ``L12 = 1``, the camera of the
+    collinearity model).
+    """
+    if hasattr(model, "param_directions"):
+        return model.param_directions()
+    if model.name.startswith("rfm"):
+        return None
+    return np.eye(len(model.params))[:, :model.n_params]
+
+
+def jacobian(model, src: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """``(2n, u)`` derivative of ``forward(src)`` (x, y interleaved) along ``directions``, by central differences."""
+    from dataclasses import replace
+    p0 = model.params
+    cols = []
+    for d in directions.T:
+        h = 1e-6 * max(1.0, float(np.abs(p0 @ d)) if np.any(d) else 1.0)
+        fp = replace(model, params=p0 + h * d).forward(src)
+        fm = replace(model, params=p0 - h * d).forward(src)
+        cols.append(((fp - fm) / (2 * h)).reshape(-1))
+    return np.column_stack(cols)
+
+
+def leave_one_out(model, src: np.ndarray, pix: np.ndarray) -> np.ndarray:
+    """Closed-form leave-one-out residuals ``ℓ_i = (I − H_ii)⁻¹ v_i`` (module docstring); NaN for a
+    point without redundancy. None when the model needs refits (:func:`free_directions`)."""
+    dirs = free_directions(model)
+    if dirs is None:
+        return None
+    J = jacobian(model, src, dirs)
+    U, sv, _ = np.linalg.svd(J, full_matrices=False)
+    U = U[:, sv > sv[0] * 1e-10] if sv.size and sv[0] > 0 else U[:, :0]
+    Ui = U.reshape(len(src), 2, -1)
+    H = np.einsum("nak,nbk->nab", Ui, Ui)  # the 2x2 diagonal blocks of H = U Uᵀ
+    M = np.eye(2) - H
+    v = model.forward(src) - pix
+    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+    ok = det > 1e-9
+    loo = np.full_like(v, np.nan)
+    loo[ok] = np.linalg.solve(M[ok], v[ok][..., None])[..., 0]
+    return loo
+
+
+def _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options, prog):
+    """Leave-one-out residuals by refitting without each point (the fallback of :func:`leave_one_out`)."""
+    loo = np.full((len(idx), 2), np.nan)
+    for k, i in enumerate(idx):
+        prog(k / len(idx), f"data snooping: leaving out point {k + 1}/{len(idx)}")
+        keep = control.copy()
+        keep[i] = False
+        try:
+            mk, _ = _fit(model_cls, src, pix, keep, fit_options)
+            loo[k] = mk.forward(src[i:i + 1])[0] - pix[i]
+        except FotogeoError:
+            continue
+    return loo
+
+
 def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fraction: float = 0.2,
-          fit_options: dict | None = None):
+          fit_options: dict | None = None, progress=None):
     """Data snooping on the control points (module docstring); returns (control mask, findings).
 
-    ``fit_options`` go to every ``estimate`` (e.g. the camera of the collinearity model)."""
+    ``fit_options`` go to every ``estimate`` (e.g. the camera of the collinearity model);
+    ``progress(fraction, message) -> bool`` reports each test and may cancel (:class:`Cancelled`)."""
+    from ..progress import as_progress
+    prog = as_progress(progress)
     fit_options = fit_options or {}
     control = control.copy()
     findings = []
@@ -80,22 +155,18 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
         n, u = len(idx), model_cls.n_params
         if 2 * n - u < 2 or n - 1 < model_cls.min_points:
             break
+        prog(min(0.99, len(findings) / max(1, budget + 1)), f"data snooping: test {len(findings) + 1}")
         m, _ = _fit(model_cls, src, pix, control, fit_options)
         v = m.forward(src[idx]) - pix[idx]
         s0 = np.sqrt(np.sum(v ** 2) / (2 * n - u))
-        loo = np.full_like(v, np.nan)
-        for k, i in enumerate(idx):
-            keep = control.copy()
-            keep[i] = False
-            try:
-                mk, _ = _fit(model_cls, src, pix, keep, fit_options)
-                loo[k] = mk.forward(src[i:i + 1])[0] - pix[i]
-            except FotogeoError:
-                continue
+        loo = leave_one_out(m, src[idx], pix[idx])
+        if loo is None:
+            loo = _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options,
+                                       prog.stage(0.0, 0.99, "data snooping"))
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.clip(np.where(np.abs(loo) > 1e-12, v / loo, 1.0), 1e-3, 1.0)
             w = np.abs(v) / (s0 * np.sqrt(r)) if s0 > 0 else np.zeros_like(v)
-        wmax = np.nanmax(w, axis=1)
+        wmax = np.nanmax(w, axis=1) if np.isfinite(w).any() else np.full(n, np.nan)
         k = int(np.nanargmax(wmax)) if np.isfinite(wmax).any() else -1
         flagged = [(ids[idx[j]], float(wmax[j])) for j in np.flatnonzero(wmax > CRITICAL_W)]
         if k < 0 or wmax[k] <= CRITICAL_W:
@@ -108,12 +179,15 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
         if not can_remove:
             break
         control[idx[k]] = False
+    prog(1.0, "data snooping done")
     return control, findings
 
 
 def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool = True,
-                    remove_blunders: bool = False, scale_mm: float | None = None, camera=None) -> OrientFit:
-    """Fit ``model_name`` on the control points, evaluate it on control and check points.
+                    remove_blunders: bool = False, scale_mm: float | None = None, camera=None,
+                    progress=None) -> OrientFit:
+    """Fit ``model_name`` on the control points, evaluate it on control and check points
+    (``progress`` goes to :func:`snoop`).
 
     ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera`) is passed to the models that
     take it as a fit option (collinearity, see :meth:`~fotogeo.models.base.Model.options_from`).
@@ -129,7 +203,7 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     findings = []
     if snooping:
         control, findings = snoop(cls, src, pix, control, np.asarray(ids), remove=remove_blunders,
-                                  fit_options=fit_options)
+                                  fit_options=fit_options, progress=progress)
     model, warns = _fit(cls, src, pix, control, fit_options)
     res = model.forward(src) - pix
     role = role.copy()

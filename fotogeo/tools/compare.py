@@ -9,6 +9,7 @@ from ..io.gcps import check_inside, read_gcps
 from ..io.raster import AtomicOutputs, check_output, open_raster
 from ..models import get_model
 from ..orientation.comparison import compare
+from .checks import check_camera_size, check_gcp_crs
 from .boundary import tool
 
 
@@ -24,6 +25,9 @@ def compare_models(image, gcps, *, models=None, counts=(40, 20, 15, 10, 6), spre
             check_output(p, [image, gcps], overwrite, "table")
     g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
                   height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
+    camera = load_camera(camera)
+    check_camera_size(camera, info.width, info.height, image)
     check_inside(g, info.width, info.height, f"{gcps}")
     if models is None:
         models = ["similarity", "affine", "projective", "poly2", "poly3", "affine-height", "bilinear", "dlt",
@@ -33,10 +37,10 @@ def compare_models(image, gcps, *, models=None, counts=(40, 20, 15, 10, 6), spre
     if not counts:
         raise InputError(f"{gcps} has only {len(g)} GCPs; the comparison needs more points than control points")
     rows = compare(usable, g.ground, g.pixel, counts=counts, spreads=spreads, trials=trials, seed=seed,
-                   camera=load_camera(camera), progress=progress)
+                   camera=camera, progress=progress)
     for m in set(models) - set(usable):
         rows.append({"model": m, "note": "3-D model: GCPs have no heights (give a height field, DEM or constant)"})
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         if table:
             import csv
             keys = ["model", "spread", "n_control", "n_check", "control_rms_x_px", "control_rms_y_px",

@@ -26,6 +26,7 @@ from affine import Affine
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
 from ..geometry.dem import Dem
 from ..io.raster import ropen
+from ..io.report import write_json
 from ..models import Projective
 from ..models.stats import rmse
 from ..pixels import map_to_pixel, pixel_centres, to_centre
@@ -140,18 +141,62 @@ def truth_comparison(scene: Scene, georeference, step: int = 10) -> dict:
             "best_homography_rmse_m": rmse(best.forward(grid) - truth)}
 
 
+#: the files :func:`run_demo` writes into its folder
+DEMO_FILES = ("reference.tif", "target.tif", "dem.tif", "registered.tif", "registered.gpkg", "registered.json",
+              "orthorectified.tif", "orthorectified.gpkg", "orthorectified.json")
+
+
 @tool("DEMO", "REGISTER", outputs=("folder",))
-def run_demo(folder, *, progress=None, seed: int = 7, **options) -> dict:
+def run_demo(folder, *, progress=None, seed: int = 7, overwrite: bool = False, **options) -> dict:
     """Make the scene in ``folder``, register it twice — with the paper's homography and
-    terrain-aware with the scene's DEM — and return both reports with their truth comparisons."""
+    terrain-aware with the scene's DEM — and return both reports with their truth comparisons.
+
+    All of :data:`DEMO_FILES` are made in a hidden working folder inside ``folder`` and
+    committed together (:class:`~fotogeo.io.raster.AtomicOutputs`): an error or a cancel
+    leaves ``folder`` as it was, and existing files are replaced only with ``overwrite``.
+    """
+    import shutil
+    import tempfile
+    from dataclasses import replace
+
+    from ..io.raster import AtomicOutputs, check_output
     from ..progress import as_progress
     from .register import register
     prog = as_progress(progress)
-    scene = make_scene(folder, seed=seed)
-    prog(0.05, "scene generated")
-    r2 = register(scene.reference, scene.target, Path(folder) / "registered.tif", overwrite=True,
-                  progress=prog.stage(0.05, 0.5, "homography"), **options)
-    r3 = register(scene.reference, scene.target, Path(folder) / "orthorectified.tif", overwrite=True,
-                  dem=scene.dem_path, progress=prog.stage(0.5, 1.0, "terrain-aware"), **options)
-    return {"registration": r2, "truth": truth_comparison(scene, r2.georeference),
-            "terrain": r3, "terrain_truth": truth_comparison(scene, r3.georeference)}
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in DEMO_FILES:
+        check_output(folder / name, [], overwrite, "demo output")
+    work = Path(tempfile.mkdtemp(prefix=".fotogeo-demo.", dir=folder))
+    try:
+        with AtomicOutputs(overwrite) as out:
+            scene = make_scene(work, seed=seed)
+            prog(0.05, "scene generated")
+            r2 = register(scene.reference, scene.target, work / "registered.tif",
+                          progress=prog.stage(0.05, 0.5, "homography"), **options)
+            r3 = register(scene.reference, scene.target, work / "orthorectified.tif", dem=scene.dem_path,
+                          progress=prog.stage(0.5, 1.0, "terrain-aware"), **options)
+            res = {"truth": truth_comparison(scene, r2.georeference),
+                   "terrain_truth": truth_comparison(scene, r3.georeference)}
+            for key, r in (("registration", r2), ("terrain", r3)):
+                report = _moved(r.report, work, folder)
+                write_json(r.report_path, report)
+                res[key] = replace(r, output=folder / r.output.name, vectors=folder / r.vectors.name,
+                                   report_path=folder / r.report_path.name, report=report)
+            for name in DEMO_FILES:
+                (work / name).replace(out.temp(folder / name))
+            out.commit()
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return res
+
+
+def _moved(value, old: Path, new: Path):
+    """``value`` (a report) with every path string under ``old`` moved to ``new``."""
+    if isinstance(value, dict):
+        return {k: _moved(v, old, new) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_moved(v, old, new) for v in value]
+    if isinstance(value, str) and value.startswith(str(old)):
+        return str(new) + value[len(str(old)):]
+    return value

@@ -39,7 +39,7 @@ def fuse_raster(source, output, *, stretch: bool = True, sample_pixels: int = 4_
     valid = valid_mask(bands, mask, info.nodata)
     mean = bands.reshape(bands.shape[0], -1)[:, valid.ravel()].astype(np.float64).mean(axis=1)
     dtype, nodata = ("uint8", 0) if stretch else ("float32", -9999.0)
-    with AtomicOutputs() as out, ropen(info.path) as src:
+    with AtomicOutputs(overwrite) as out, ropen(info.path) as src:
         tmp = out.temp(output)
         prof = geotiff_profile(width=src.width, height=src.height, count=1, dtype=dtype, crs=src.crs,
                                transform=src.transform, nodata=nodata)

@@ -118,7 +118,7 @@ def match_images(reference, target, output, *, overwrite: bool = False, progress
     layer = {"id": np.arange(len(src), dtype=np.int64), "target_col": src[:, 0], "target_row": src[:, 1],
              "ref_col": ref_xy[:, 0], "ref_row": ref_xy[:, 1], "inlier": inl.astype(np.int64),
              "geometry": shapely.points(pts)}
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_layers(out.temp(output), {"tie_points": layer}, ref.crs.to_wkt() if ref.georeferenced else None)
         prog(1.0, "done")
         out.commit()

@@ -38,6 +38,7 @@ from ..geometry.georeference import Georeference
 from ..models import get_model
 from ..orientation.adjustment import fit_orientation
 from ..progress import as_progress
+from .checks import check_camera_size, check_gcp_crs, check_output_grid
 from .boundary import OUTPUTS, tool
 
 
@@ -69,17 +70,21 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
     info = open_raster(image, "image")
     g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
                   height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
+    check_camera_size(camera, info.width, info.height, image)
     check_inside(g, info.width, info.height, f"{gcps}")
     prog(0.1, "GCPs read")
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     fit = fit_orientation(model, g.ground, g.pixel, g.role, g.ids, snooping=snooping,
-                          remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera)
+                          remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera,
+                          progress=prog.stage(0.1, 0.3, "fitting the model"))
     prog(0.3, "model fitted")
     # where the model puts each measured image point on the ground, at the GCP's height
     on_ground = Georeference(fit.model, heights=g.ground[:, 2], crs=g.crs).pixel_to_map(g.pixel)
     d_ground = on_ground - g.ground[:, :2]
     rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
-    with AtomicOutputs() as out:
+    grid = _rectify_grid(rectify, info, g, fit.model, dem, height, resolution) if rectify else None
+    with AtomicOutputs(overwrite) as out:
         if vectors:
             _write_vectors(out.temp(vectors), g, fit, on_ground, d_ground, exaggeration)
         if plot:
@@ -103,8 +108,8 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
             rep["gcp_tiff"] = {"path": str(gcp_tiff), "order": int(model[-1]), "gcps": int(ctrl.sum())}
         prog(0.4, "vectors and exports written")
         if rectify:
-            rep["rectified"] = _rectify(out.temp(rectify), info, g, fit.model, dem, height, resolution,
-                                        resampling, prog.stage(0.4, 0.98, "rectifying"))
+            rep["rectified"] = _rectify(out.temp(rectify), info, g, grid, resampling,
+                                        prog.stage(0.4, 0.98, "rectifying"))
         if report:
             write_json(out.temp(report), rep)
         prog(1.0, "done")
@@ -183,12 +188,15 @@ def _plot(path, info, pixel, residual, role, size: int = 1000):
         Path(str(path) + ".png").replace(path)
 
 
-def _rectify(path, info, g, model, dem, height, resolution, resampling, prog):
-    """Resample the image to a north-up grid in the GCP CRS through ``model`` (ground → image).
+def _rectify_grid(path, info, g, model, dem, height, resolution):
+    """The georeference and the north-up grid in the GCP CRS that rectifying ``info`` through
+    ``model`` (ground → image) writes to ``path``, checked before any pixel is resampled.
 
     Heights (3-D models; 2-D ones ignore them) come from ``dem``, else ``height``, else the
     GCPs' mean height; the default resolution is the ground sample distance at the image
-    centre at the GCPs' mean height.
+    centre at the GCPs' mean height. A model that spreads the image over a ground area far
+    larger than its pixels cover (64x, whatever the resolution) is refused as unstable; the
+    grid's size is checked by :func:`~fotogeo.tools.checks.check_output_grid`.
     """
     zmean = _mean_height(g)
     heights = _dem_in(dem, g.crs) if dem is not None else (zmean if height is None else height)
@@ -198,13 +206,23 @@ def _rectify(path, info, g, model, dem, height, resolution, resampling, prog):
     if not np.isfinite(XY).all():
         raise ModelError("the model does not map the whole image footprint to the ground; rectify with another model")
     gsd = geo.with_heights(zmean).ground_sample_distance(w, h)
+    span = XY.max(axis=0) - XY.min(axis=0)
+    if not np.isfinite(gsd) or gsd <= 0 or span[0] * span[1] / gsd ** 2 > 64 * w * h:
+        raise ModelError("the model spreads the image over a ground area far larger than its pixels cover: "
+                         "it is unstable outside the GCPs; rectify with a simpler model or more spread GCPs")
     res = float(resolution or gsd)
     transform, width, height_px = grid_covering(XY, res)
-    if width * height_px > 4 * w * h * max(1.0, (gsd / res) ** 2) + 1e6:
-        raise ModelError(f"rectified grid would be {width}x{height_px} px: the model is unstable outside the GCPs")
-    warp_to_grid(info.path, path, geo.map_to_pixel, crs=g.crs, transform=transform, width=width, height=height_px,
-                 resampling=resampling, progress=prog)
-    return {"width": width, "height": height_px, "resolution": res, "transform": list(transform)[:6]}
+    check_output_grid(path, width, height_px, bands=info.count, dtype=info.dtype, source_pixels=w * h,
+                      resolution=res, what=f"the rectified raster {str(path)!r}")
+    return geo, transform, width, height_px, res
+
+
+def _rectify(path, info, g, grid, resampling, prog):
+    """Resample the image onto ``grid`` (from :func:`_rectify_grid`) through its georeference."""
+    geo, transform, width, height_px, res = grid
+    written = warp_to_grid(info.path, path, geo.map_to_pixel, crs=g.crs, transform=transform, width=width,
+                           height=height_px, resampling=resampling, progress=prog)
+    return {"width": width, "height": height_px, "resolution": res, "transform": list(transform)[:6], **written}
 
 
 def _mean_height(g):

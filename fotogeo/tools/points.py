@@ -49,7 +49,7 @@ def points_to_layer(points, output, *, raster=None, crs=None, layer: str = DEFAU
         "dx": res[:, 0], "dy": res[:, 1], "residual": np.hypot(res[:, 0], res[:, 1]),
         "geometry": shapely.points(gp.map_xy),
     }
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_layers(out.temp(output), {layer: columns}, crs_obj.to_wkt() if crs_obj else None)
         prog(1.0, "layer written")
         out.commit()
@@ -110,7 +110,7 @@ def layer_to_points(source, output, *, layer: str | None = None, raster=None, ov
     map_xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)])
     source_xy = pixel_to_source(colrow, raster_transform(raster))
     crs = gdf.crs.to_wkt() if gdf.crs is not None else None
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_points(out.temp(output), map_xy, source_xy, enabled, residual, crs)
         prog(1.0, "points file written")
         out.commit()

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..crs import pixel_size_in, resolve_crs, transform_points
+from ..crs import pixel_size_in, require_projected, resolve_crs, to_lonlat, transform_points
 from ..errors import InputError, MatchingError, ModelError
 from ..geometry.georeference import Georeference
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_dem
@@ -35,6 +35,7 @@ from ..options import PLANAR_MODELS, RegisterOptions  # declared in the option t
 from ..orientation.terrain import TERRAIN_MODELS
 from ..pixels import outline, pixel_to_map
 from ..progress import as_progress
+from .checks import check_camera_size, check_output_grid
 from .match import HINT, find_tie_points
 from .boundary import tool
 
@@ -61,7 +62,9 @@ def _versions() -> dict:
 
 
 def output_grid(geo, width: int, height: int, res: float):
-    """Output transform, width and height covering the target footprint under a planar ``geo``."""
+    """Output transform, width and height covering the target footprint under a planar ``geo``
+    (a model that folds the image or maps it to a sliver of its bounding box is refused; the
+    grid's size is checked by :func:`~fotogeo.tools.checks.check_output_grid`)."""
     edge = outline(width, height, 65)
     if geo.model.folds(edge):  # final guard: RANSAC rejects folding samples, its refits are not checked
         raise ModelError("the fitted homography folds the target image (its horizon crosses the image): "
@@ -73,7 +76,7 @@ def output_grid(geo, width: int, height: int, res: float):
     transform, w, h = grid_covering(XY, res)
     # sanity: the footprint's area in output pixels against the target's own pixel count
     area = 0.5 * abs(np.dot(XY[:, 0], np.roll(XY[:, 1], 1)) - np.dot(XY[:, 1], np.roll(XY[:, 0], 1)))
-    if w * h > max(64 * area / res ** 2, 1e4) or w * h > 2 ** 32:
+    if w * h > max(64 * area / res ** 2, 1e4):
         raise ModelError(f"the fitted model gives an implausible output grid ({w}x{h}); "
                          f"the tie points are probably wrong — check that the images overlap")
     return transform, w, h
@@ -109,10 +112,15 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     if not ref.georeferenced:
         raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
                          f"register against a georeferenced orthophoto, or georeference it first")
-    with AtomicOutputs() as out:
+    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
+    crs = require_projected(resolve_crs(opts.dst_crs, ref.crs, centre), "output CRS",
+                            tuple(to_lonlat(ref.crs, centre)[0]))
+    if dem is not None and camera is not None:
+        from ..io.camera import load_camera
+        camera = load_camera(camera)
+        check_camera_size(camera, tgt.width, tgt.height, target)
+    with AtomicOutputs(overwrite) as out:
         with prog.timed("total"):
-            centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
-            crs = resolve_crs(opts.dst_crs, ref.crs, centre)
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
             res = opts.resolution or ref_px
             src, ref_xy, counts = _tie_points(opts, ref, tgt, prog, tie_points)
@@ -123,13 +131,17 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
                           _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera))
                 except MatchingError as e:
                     raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
+            check_output_grid(output, gf.width, gf.height, bands=tgt.count, dtype=tgt.dtype,
+                              source_pixels=tgt.width * tgt.height, resolution=res,
+                              what=f"the registered raster {str(output)!r}")
             rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
             stage = prog.stage(0.6, 0.95, "resampling")
             with stage.timed("resample"):
-                warp_to_grid(tgt.path, out.temp(output), gf.georeference.map_to_pixel, crs=crs,
-                             transform=gf.transform, width=gf.width, height=gf.height,
-                             resampling=opts.resampling, block=gf.block, src_nodata=opts.target_nodata,
-                             progress=stage)
+                written = warp_to_grid(tgt.path, out.temp(output), gf.georeference.map_to_pixel, crs=crs,
+                                       transform=gf.transform, width=gf.width, height=gf.height,
+                                       resampling=opts.resampling, block=gf.block, src_nodata=opts.target_nodata,
+                                       progress=stage)
+                rep["output_grid"].update(written)
             prog.stage(0.95, 1.0, "writing tie points and report")
             _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
         rep["timings_s"] = {k: round(v, 4) for k, v in prog.timings.items()}

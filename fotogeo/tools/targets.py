@@ -36,7 +36,7 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
     cols = {"id": ids.astype(object), "approx_col": approx[:, 0], "approx_row": approx[:, 1],
             "col": xy[:, 0], "row": xy[:, 1], "sigma_x": sig[:, 0], "sigma_y": sig[:, 1],
             "status": np.array([r[2] for r in rows], dtype=object)}
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_table(out.temp(output), cols, None, np.where(np.isfinite(xy), xy, approx))
         out.commit()
     return {"output": str(output), "targets": len(rows),

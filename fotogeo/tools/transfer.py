@@ -69,7 +69,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
             "approx_col": approx[:, 0], "approx_row": approx[:, 1], "col": res.xy[:, 0], "row": res.xy[:, 1],
             "sigma_x": res.sigma[:, 0], "sigma_y": res.sigma[:, 1], "ncc": res.ncc,
             "status": np.asarray(res.status).astype(object)}
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_table(out.temp(output), cols, None, np.where(np.isfinite(res.xy), res.xy, approx))
         out.commit()
     ok = np.asarray(res.status) == CONVERGED
