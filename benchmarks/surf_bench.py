@@ -107,6 +107,9 @@ def transforms(quick):
            for d in rot]
     out += [("scale", f"scale{s}", lambda a, v, s=s: geometric(a, v, rotation_scale(0, s)))
             for s in scl]
+    rs = [(45, 1.3)] if quick else [(45, 1.3), (30, 0.7), (90, 1.5), (135, 0.6)]
+    out += [("rotation+scale", f"rot{d}_scale{s}", lambda a, v, d=d, s=s: geometric(a, v, rotation_scale(d, s)))
+            for d, s in rs]
 
     def view(a, v, k):
         h, w = a.shape
@@ -269,13 +272,15 @@ def evaluate_otb(res, hm, n_keep):
                 "correct_ratio": c, "seconds": dt}
 
 
-def quality(quick, tmp):
-    names = ["ngi_ortho_1"] if quick else list(IMAGES)
+def quality(quick, tmp, families=None, images=None):
+    names = images or (["ngi_ortho_1"] if quick else list(IMAGES))
     rows = []
     for name in names:
-        a, va = load(IMAGES[name])
+        a, va = load(IMAGES.get(name, name))   # a key of IMAGES or a path under DATA
         feats_a = {m: top(f(a), N_KEEP) for m, f in METHODS.items()}
         for fam, label, tf in transforms(quick):
+            if families and fam not in families:
+                continue
             b, vb, hm = tf(a, va)
             nb = round(N_KEEP * vb.sum() / va.sum())
             row = {"image": name, "family": fam, "case": label}
@@ -432,7 +437,12 @@ def main(argv=None):
     ap.add_argument("--child", nargs=2, metavar=("METHOD", "NPY"), help=argparse.SUPPRESS)
     ap.add_argument("--no-speed", action="store_true", help="skip the timing runs")
     ap.add_argument("--speed-only", action="store_true", help="only the timing runs")
+    ap.add_argument("--families", help="comma-separated transform families to run (e.g. scale,rotation+scale); "
+                                       "a partial run prints its tables and does not write the JSON")
+    ap.add_argument("--images", help=f"comma-separated images: {', '.join(IMAGES)} or RGB paths under the data folder")
     args = ap.parse_args(argv)
+    families = args.families.split(",") if args.families else None
+    images = args.images.split(",") if args.images else None
     if args.child:
         return child(*args.child)
     if not DATA.is_dir():
@@ -441,8 +451,11 @@ def main(argv=None):
         rows, table, rp = [], {}, {}
         if not args.speed_only:
             print("quality (mean over images and cases of each family):", flush=True)
-            rows = quality(args.quick, tmp)
+            rows = quality(args.quick, tmp, families, images)
             table = summarise(rows)
+            if families or images:   # a partial run: tables only
+                print_tables(table, {}, [], None)
+                return
             print("real pair (ngi frame 0182 vs ortho 1):", flush=True)
             rp = real_pair(tmp)
             print("  " + "  ".join(f"{m}: {v['inliers']}/{v['matches']}" for m, v in rp.items()))
