@@ -34,7 +34,7 @@ __version__ = "0.1.0"
 #: public tool functions: name -> module under fotogeo.tools
 _TOOLS = {"register": "register", "match_images": "match", "orient": "orient", "compare_models": "compare",
           "fuse_raster": "fuse", "transfer_gcps": "transfer", "measure_targets": "targets",
-          "points_to_layer": "points", "layer_to_points": "points", "run_demo": "demo"}
+          "points_to_layer": "points", "layer_to_points": "points", "run_demo": "demo", "rpc_bias": "rpc_bias"}
 
 __all__ = ["__version__", "FotogeoError", "FotogeoWarning", "InputError", "RasterError", "VectorError",
            "OutputError", "MatchingError", "ModelError", "Cancelled", "IllPosedWarning", *_TOOLS]

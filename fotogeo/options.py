@@ -278,6 +278,13 @@ TARGETS = Table(
     *field_options("col", "row", "id"),
     groups={"approx_fields": ("col_field", "row_field")},
 )
+RPC_BIAS = Table(
+    Option("method", "choice", "shift", "Correction (shift: >= 1 GCP; affine: >= 3)",
+           "Image-space correction: shift (>= 1 GCP) or affine (>= 3 GCPs).", choices=("shift", "affine")),
+    *GCP.only("layer", "crs", "dem", "height").values(),
+    *field_options("col", "row", "z", "role", "id"),
+    groups={"fields": {n: f"{n}_field" for n in ("col", "row", "z", "role", "id")}},
+)
 _SOURCE_RASTER = Option("raster", "raster", None, "Source raster, if georeferenced (empty = unreferenced convention)",
                         "Source raster, when the points are in its map coordinates.")
 POINTS_TO_LAYER = Table(_SOURCE_RASTER, Option("crs", "crs", None, "CRS of the map coordinates (empty = the file's #CRS)",

@@ -49,6 +49,7 @@ TOOLS = {
     "points_to_layer": ("fotogeo.tools.points", "points_to_layer"),
     "layer_to_points": ("fotogeo.tools.points", "layer_to_points"),
     "run_demo": ("fotogeo.tools.demo", "run_demo"),
+    "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
 }
 #: arrays larger than this are summarised (shape only) in results, not listed
 MAX_ARRAY = 10_000

@@ -127,6 +127,7 @@ TOOLS = {
     "tools.points.points_to_layer": ((fo.POINTS_TO_LAYER,), {"layer"}),
     "tools.points.layer_to_points": ((fo.LAYER_TO_POINTS,), {"layer"}),
     "tools.demo.run_demo": ((fo.DEMO,), set()),
+    "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
 }
 
 

@@ -142,7 +142,7 @@ def test_zip_installs_and_loads_in_fresh_profile(plugin_zip, tmp_path, data_dir)
     assert res["algorithms"] == ["fotogeo:comparemodels", "fotogeo:demo", "fotogeo:layertopoints",
                                  "fotogeo:matchfeatures", "fotogeo:measuretargets",
                                  "fotogeo:orient", "fotogeo:pcafusion", "fotogeo:pointstolayer",
-                                 "fotogeo:register", "fotogeo:transferpoints"]
+                                 "fotogeo:register", "fotogeo:rpcbias", "fotogeo:transferpoints"]
     assert not res["help_mentions_missing"]
     assert "error" not in res, res.get("error")
     assert res["run"]["output_exists"] and 0.5 < res["run"]["explained"] <= 1

@@ -71,3 +71,39 @@ def estimate_bias(rpc: Rpc, lonlath, pixels, method: str = "shift") -> RpcBias:
             Mi = _fit(method, p[keep], m[keep])
             loo[i] = m[i] - (p[i] @ Mi[:, :2].T + Mi[:, 2])
     return RpcBias(method, M[:, 2].copy(), M, m - p, after, loo)
+
+
+def corrected_rpc(rpc: Rpc, bias: RpcBias, *, grid: int = 11, levels: int = 5) -> tuple[Rpc, float]:
+    """The vendor ``rpc`` with the image-space ``bias`` correction built in, as RPC00B, and the
+    largest deviation (px) of the returned RPC from ``correction(rpc)`` over its ground volume.
+
+    A shift is exact: ``sample = SAMP_OFF + SAMP_SCALE·N/D``, so ``t`` adds to ``SAMP_OFF`` and
+    ``LINE_OFF`` (deviation 0). An affinity mixes sample and line, whose denominators differ in
+    general, so the corrected mapping is refitted: a ``grid`` x ``grid`` x ``levels`` lattice
+    over the RPC's normalised ground volume (offset ± scale in lon, lat, h) is projected through
+    ``rpc`` and the correction, and a ground → image RFM is fitted to it
+    (:func:`~fotogeo.orientation.rpc.fit_rpc`); the deviation is measured on a second, staggered
+    lattice.
+    """
+    from dataclasses import replace
+
+    if bias.method == "shift":
+        return replace(rpc, samp_off=rpc.samp_off + bias.shift[0], line_off=rpc.line_off + bias.shift[1]), 0.0
+    from .rpc import fit_rpc
+
+    def lattice(n, k, stagger=0.0):
+        u = (np.arange(n) + stagger) / (n - 1) * 2 - 1
+        v = np.linspace(-1, 1, k)
+        L, P, H = (a.ravel() for a in np.meshgrid(u, u, v, indexing="ij"))
+        return np.column_stack([rpc.long_off + rpc.long_scale * L, rpc.lat_off + rpc.lat_scale * P,
+                                rpc.height_off + rpc.height_scale * H])
+
+    def target(g):
+        return bias.correct(from_centre(rpc.project(g[:, 0], g[:, 1], g[:, 2])))
+
+    g = lattice(grid, levels)
+    new, _ = fit_rpc(g, target(g), "EPSG:4326")
+    t = lattice(grid - 1, levels, stagger=0.5)
+    t = t[np.all(np.abs(t[:, :2] - [rpc.long_off, rpc.lat_off]) <= [rpc.long_scale, rpc.lat_scale], axis=1)]
+    dev = np.hypot(*(from_centre(new.project(t[:, 0], t[:, 1], t[:, 2])) - target(t)).T)
+    return new, float(dev.max())

@@ -32,8 +32,11 @@ from ..models.stats import residual_stats
 from ..orientation.bias import corrected_rpc, estimate_bias
 from ..pixels import from_centre
 from ..progress import as_progress
+from .boundary import tool
+from .checks import check_gcp_crs
 
 
+@tool("RPC_BIAS", rasters={"image": None, "dem": None})
 def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=None, crs=None, dem=None,
              height=None, fields=None, overwrite: bool = False, progress=None) -> dict:
     """Correct the vendor RPC of ``image`` with ``gcps``; write ``output`` and the report (module doc).
@@ -53,6 +56,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     info = open_raster(image, "image")
     rpc = rpc_from_raster(image)
     g = read_gcps(gcps, layer=layer, crs=crs, dem=dem, height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
     if not g.has_heights:
         raise InputError(f"GCP file {str(gcps)!r}: every GCP needs a height for an RPC (a z field, a DEM or a "
                          f"constant height)")
@@ -69,7 +73,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     new, refit_max = corrected_rpc(rpc, bias)
     prog(0.5, "correction fitted")
     rep = {"fotogeo": "rpc-bias", "image": str(image), "gcps": str(gcps), "output": str(output),
-           "method": method, "correction": bias.summary(), "refit_max_px": refit_max, "skipped": skipped,
+           "report": str(report), "method": method, "correction": bias.summary(), "refit_max_px": refit_max, "skipped": skipped,
            "units": "pixels (corner convention); residual = measured − projected",
            "rpc": new.to_gdal_metadata()}
     for role, sel in (("control", control), ("check", check)):
@@ -77,7 +81,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
         after = g.pixel[sel] - from_centre(new.project(*ground[sel].T))
         rep[role] = {"ids": [str(i) for i in g.ids[sel]], "before": residual_stats(before),
                      "after": residual_stats(after)}
-    with AtomicOutputs() as out:
+    with AtomicOutputs(overwrite) as out:
         write_rpc_geotiff(image, out.temp(output), new)
         prog(0.9, "corrected copy written")
         write_json(out.temp(report), rep)

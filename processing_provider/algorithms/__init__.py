@@ -7,10 +7,11 @@ from .match import MatchFeaturesAlgorithm
 from .orient import OrientAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
+from .rpc_bias import RpcBiasAlgorithm
 from .targets import MeasureTargetsAlgorithm
 from .transfer import TransferPointsAlgorithm
 
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              DemoAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm)
