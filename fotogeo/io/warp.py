@@ -7,28 +7,57 @@ source window that those coordinates touch (plus a margin for the interpolation 
 is read, and ``cv2.remap`` samples it; memory therefore stays bounded by the block size
 whatever the raster sizes. Source nodata (mask) and positions outside the source become
 the output nodata value. Results go to a tiled, DEFLATE-compressed GeoTIFF with overviews.
+
+Speed (issue 15): the windows are computed by a pool of threads (``cv2.remap``, numpy and
+GDAL's reads release the GIL), each with its own handle on the source, at most two windows
+per thread in flight; the calling thread writes them in order (so the file is the same
+whatever the thread count), GDAL compresses the tiles in its own threads (the GTiff
+``NUM_THREADS`` creation option) and builds the overviews with ``GDAL_NUM_THREADS``. A
+window's pixels depend only on its position in the grid, never on the thread count:
+outputs are pixel-identical to the one-thread run. :func:`fotogeo.io.warp_tiles.warp_tiled`
+splits a large grid into tiles written by separate tasks (threads or Dask workers).
 """
 from __future__ import annotations
 
+import collections
+import concurrent.futures as cf
+import contextlib
 import math
+import os
+import queue
 import warnings
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from rasterio.enums import Resampling
+import rasterio
+from rasterio.enums import MaskFlags, Resampling
 from rasterio.windows import Window
 
 from ..errors import FotogeoWarning
 from ..options import RESAMPLINGS
-from ..pixels import pixel_centres, pixel_to_map, to_centre
+from ..pixels import HALF, pixel_centres, pixel_to_map
 from ..progress import Progress
-from .raster import gdal_env, geotiff_profile, ropen
+from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 
 #: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
 RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
               for n in RESAMPLINGS}
 _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
 _CV_DTYPES = {"uint8", "uint16", "int16", "float32", "float64"}
+#: environment variable bounding fotogeo's resampling threads (the batch sets it to 1 in its tasks)
+THREADS_ENV = "FOTOGEO_NUM_THREADS"
+
+
+def default_threads() -> int:
+    """Threads for resampling: ``$FOTOGEO_NUM_THREADS`` if set, else the CPUs this process may use."""
+    given = os.environ.get(THREADS_ENV, "").strip()
+    if given.isdigit() and int(given) > 0:
+        return int(given)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def grid_covering(XY, res: float):
@@ -60,86 +89,236 @@ def default_nodata(nodata, dtype):
     return int(np.iinfo(dtype).min) if kind == "i" else 0
 
 
+@dataclass(frozen=True)
+class Plan:
+    """Everything a window needs besides the source handle: the output grid, the mapping, the
+    resampling and the nodata rules (made once by :func:`make_plan`, shared by the threads)."""
+
+    inverse_map: object
+    transform: object
+    resampling: str
+    dtype: str
+    count: int
+    nodata: object
+    src_nodata: object  # the override of the source's nodata (None: the file's mask)
+    all_valid: bool  # the source has no nodata, mask or alpha: its mask is all 255, not read
+    src_width: int
+    src_height: int
+
+    @property
+    def floating(self) -> bool:
+        return np.dtype(self.dtype).kind == "f"
+
+
+def make_plan(src, inverse_map, transform, resampling="nearest", nodata=None, src_nodata=None) -> Plan:
+    """The :class:`Plan` of resampling the open rasterio dataset ``src`` onto ``transform``."""
+    dtype = src.dtypes[0]
+    src_nd = src.nodata if src_nodata is None else src_nodata
+    all_valid = src_nodata is None and all(f == [MaskFlags.all_valid] for f in src.mask_flag_enums)
+    return Plan(inverse_map, transform, resampling, dtype, src.count,
+                default_nodata(src_nd if nodata is None else nodata, dtype), src_nodata, all_valid,
+                src.width, src.height)
+
+
+def _source_mask(src, plan: Plan, win: Window, data):
+    """uint8 validity (255 valid) of a source window: the file's mask, the nodata override, finiteness.
+    Returns ``(mask, data)`` — floating data with NaN/±inf replaced by 0 (never data, as in fuse)."""
+    if plan.all_valid:
+        mask = np.full(data.shape[1:], 255, np.uint8)
+    else:
+        mask = src.read_masks(window=win).min(axis=0)
+    if plan.src_nodata is not None:
+        mask[(data == plan.src_nodata).all(axis=0)] = 0
+    if plan.floating:
+        finite = np.isfinite(data)
+        mask[~finite.all(axis=0)] = 0
+        data = np.where(finite, data, 0)
+    return mask, data
+
+
+def centres_to_map(t, r0: int, c0: int, h: int, w: int) -> np.ndarray:
+    """Map coordinates ``(h * w, 2)`` of the pixel centres of a window, row by row: the same
+    numbers as ``pixel_to_map(t, pixel_centres(...))`` (same operations in the same order),
+    computed by broadcasting one row and one column instead of two full grids.
+
+    >>> from affine import Affine
+    >>> t = Affine(2.0, 0.5, 100.0, 0.25, -2.0, 50.0)
+    >>> x, y = pixel_centres(3, 2, 4, 7)
+    >>> bool((centres_to_map(t, 7, 4, 2, 3) == pixel_to_map(t, np.column_stack([x.ravel(), y.ravel()]))).all())
+    True
+    """
+    x = c0 + HALF + np.arange(w, dtype=np.float64)
+    y = (r0 + HALF + np.arange(h, dtype=np.float64))[:, None]
+    XY = np.empty((h, w, 2))
+    np.add(t.a * x + t.b * y, t.c, out=XY[..., 0])
+    np.add(t.d * x + t.e * y, t.f, out=XY[..., 1])
+    return XY.reshape(h * w, 2)
+
+
+def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
+    """The ``h x w`` output window at row ``r0``, column ``c0`` of the grid: ``(array (count, h, w),
+    valid pixel count, count of valid pixels equal to nodata)``. Depends only on the position."""
+    interp, margin = RESAMPLING[plan.resampling], _MARGIN[plan.resampling]
+    sp = np.asarray(plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)))
+    out = np.full((plan.count, h, w), plan.nodata, dtype=plan.dtype)
+    finite = np.isfinite(sp)
+    everywhere = bool(finite.all())
+    cr = sp if everywhere else sp[finite.all(axis=1)]
+    if not len(cr):
+        return out, 0, 0
+    c_lo = max(0, int(math.floor(cr[:, 0].min())) - margin)
+    c_hi = min(plan.src_width, int(math.ceil(cr[:, 0].max())) + margin)
+    r_lo = max(0, int(math.floor(cr[:, 1].min())) - margin)
+    r_hi = min(plan.src_height, int(math.ceil(cr[:, 1].max())) + margin)
+    if c_hi <= c_lo or r_hi <= r_lo:
+        return out, 0, 0
+    win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
+    mask, data = _source_mask(src, plan, win, src.read(window=win))
+    if not everywhere:
+        sp = np.where(finite, sp, -1e6)
+    # centre convention (OpenCV) in the window: (x - 0.5) - c_lo, computed in float64 then float32
+    mx = (sp[:, 0] - HALF - c_lo).reshape(h, w).astype(np.float32)
+    my = (sp[:, 1] - HALF - r_lo).reshape(h, w).astype(np.float32)
+    nearest = interp == cv2.INTER_NEAREST
+    m = cv2.remap(mask, mx, my, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
+                  borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    good = m > 0 if nearest else m >= 255
+    work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
+    for b in range(plan.count):
+        band = data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype)
+        res = cv2.remap(band, mx, my, interp, borderMode=cv2.BORDER_REPLICATE)
+        np.copyto(out[b], res.astype(plan.dtype, copy=False), where=good)
+    collisions = 0 if plan.floating else int(((out == plan.nodata).all(axis=0) & good).sum())
+    return out, int(good.sum()), collisions
+
+
+def windows_of(height: int, width: int, block: int, r_off: int = 0, c_off: int = 0, rows=None, cols=None):
+    """``(r0, c0, h, w)`` of the ``block``-sized windows of the region ``rows x cols`` at
+    ``(r_off, c_off)`` of a ``height x width`` grid (the whole grid by default), row by row."""
+    rows = height - r_off if rows is None else rows
+    cols = width - c_off if cols is None else cols
+    return [(r, c, min(block, r_off + rows - r), min(block, c_off + cols - c))
+            for r in range(r_off, r_off + rows, block) for c in range(c_off, c_off + cols, block)]
+
+
+@contextlib.contextmanager
+def _source_handles(path, n: int):
+    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared)."""
+    handles = queue.Queue()
+    opened = []
+    try:
+        for _ in range(n):
+            cm = ropen(path)
+            opened.append(cm)
+            handles.put(cm.__enter__())
+        yield handles
+    finally:
+        for cm in opened:
+            cm.__exit__(None, None, None)
+
+
+def resampled_windows(src_path, plan: Plan, windows, threads: int):
+    """Yield ``(window, (array, valid, collisions))`` for each of ``windows`` in order, computed by
+    ``threads`` threads with at most two windows per thread in flight (memory stays bounded)."""
+    threads = max(1, min(int(threads), len(windows) or 1))
+    with _source_handles(src_path, threads) as handles:
+        def job(win):
+            src = handles.get()
+            try:
+                return resample_window(src, plan, *win)
+            finally:
+                handles.put(src)
+
+        if threads == 1:
+            for win in windows:
+                yield win, job(win)
+            return
+        pool = cf.ThreadPoolExecutor(threads, thread_name_prefix="fotogeo-warp")
+        try:
+            pending = collections.deque()
+            todo = iter(windows)
+            for win in todo:
+                pending.append((win, pool.submit(job, win)))
+                if len(pending) >= 2 * threads:
+                    break
+            while pending:
+                win, fut = pending.popleft()
+                nxt = next(todo, None)
+                if nxt is not None:
+                    pending.append((nxt, pool.submit(job, nxt)))
+                yield win, fut.result()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def write_env(threads: int):
+    """GDAL settings of fotogeo's raster writes: a bounded block cache, and ``threads`` threads
+    for compressing tiles and computing overviews."""
+    return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))))
+
+
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
                  resampling: str = "nearest", nodata=None, src_nodata=None, block: int = 512,
-                 progress: Progress | None = None, overviews: bool = True) -> dict:
+                 progress: Progress | None = None, overviews: bool = True, threads: int | None = None) -> dict:
     """Resample ``src_path`` onto the grid (crs, transform, width, height) into ``dst_path``.
 
-    ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention).
-    ``src_nodata`` overrides the source's own nodata value (a pixel is invalid when every band
-    equals it). Returns a small summary (valid pixel count). ``dst_path`` is written in place: callers
-    give a temporary path (see :class:`fotogeo.io.raster.AtomicOutputs`).
+    ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); it
+    is called from several threads at once (``threads``, default :func:`default_threads`), so
+    it must not keep state between calls. ``src_nodata`` overrides the source's own nodata value
+    (a pixel is invalid when every band equals it). Returns a small summary (valid pixel count).
+    ``dst_path`` is written in place: callers give a temporary path (see
+    :class:`fotogeo.io.raster.AtomicOutputs`).
     """
     progress = progress or Progress()
-    interp = RESAMPLING[resampling]
-    margin = _MARGIN[resampling]
-    valid_total = 0
-    with gdal_env(), ropen(src_path) as src:
-        dtype = src.dtypes[0]
-        src_nd = src.nodata if src_nodata is None else src_nodata
-        nodata = default_nodata(src_nd if nodata is None else nodata, dtype)
-        floating = np.dtype(dtype).kind == "f"
-        collisions = 0
-        work_dtype = dtype if dtype in _CV_DTYPES else "float64"
-        profile = geotiff_profile(width=width, height=height, count=src.count, dtype=dtype,
-                                  crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs, transform=transform,
-                                  nodata=nodata, predictor=True)
+    threads = default_threads() if threads is None else max(1, int(threads))
+    windows = windows_of(height, width, block)
+    with write_env(threads), ropen(src_path) as src:
+        plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
         colorinterp = src.colorinterp
-        windows = [(r, c) for r in range(0, height, block) for c in range(0, width, block)]
-        with ropen(dst_path, "w", **profile) as dst:
-            try:
-                dst.colorinterp = colorinterp
-            except Exception:  # noqa: BLE001 - colour interpretation is cosmetic
-                pass
-            for k, (r0, c0) in enumerate(windows):
-                h, w = min(block, height - r0), min(block, width - c0)
-                x, y = pixel_centres(w, h, c0, r0)
-                XY = pixel_to_map(transform, np.column_stack([x.ravel(), y.ravel()]))
-                sp = inverse_map(XY)
-                out = np.full((src.count, h, w), nodata, dtype=dtype)
-                ok = np.isfinite(sp).all(axis=1)
-                if ok.any():
-                    cr = sp[ok]
-                    c_lo = max(0, int(math.floor(cr[:, 0].min())) - margin)
-                    c_hi = min(src.width, int(math.ceil(cr[:, 0].max())) + margin)
-                    r_lo = max(0, int(math.floor(cr[:, 1].min())) - margin)
-                    r_hi = min(src.height, int(math.ceil(cr[:, 1].max())) + margin)
-                    if c_hi > c_lo and r_hi > r_lo:
-                        win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
-                        data = src.read(window=win)
-                        mask = src.read_masks(window=win).min(axis=0)
-                        if src_nodata is not None:
-                            mask[(data == src_nodata).all(axis=0)] = 0
-                        if floating:  # NaN and ±inf are never data (nodata everywhere, as in fuse)
-                            finite = np.isfinite(data)
-                            mask[~finite.all(axis=0)] = 0
-                            data = np.where(finite, data, 0)
-                        local = to_centre(np.where(np.isfinite(sp), sp, -1e6)) - [c_lo, r_lo]
-                        mx = local[:, 0].reshape(h, w).astype(np.float32)
-                        my = local[:, 1].reshape(h, w).astype(np.float32)
-                        m = cv2.remap(mask, mx, my, cv2.INTER_NEAREST if interp == cv2.INTER_NEAREST
-                                      else cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-                        good = m >= 255 if interp != cv2.INTER_NEAREST else m > 0
-                        for b in range(src.count):
-                            band = data[b] if work_dtype == dtype else data[b].astype(work_dtype)
-                            res = cv2.remap(band, mx, my, interp, borderMode=cv2.BORDER_REPLICATE)
-                            out[b][good] = res[good].astype(dtype, copy=False)
-                        valid_total += int(good.sum())
-                        if not floating:
-                            collisions += int((out[:, good] == nodata).all(axis=0).sum())
-                dst.write(out, window=Window(c0, r0, w, h))
-                progress((k + 1) / len(windows) * (0.9 if overviews else 1.0),
-                         f"resampling window {k + 1}/{len(windows)}")
-            if overviews:
-                factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= 128]
-                if factors:
-                    dst.build_overviews(factors, Resampling.nearest if resampling == "nearest"
-                                        else Resampling.average)
-                    dst.update_tags(ns="rio_overview", resampling=resampling)
+    summary = write_windows(src_path, dst_path, plan, windows, crs=crs, width=width, height=height, threads=threads,
+                            colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0)
+    if overviews:
+        with write_env(threads), ropen(dst_path, "r+") as dst:
+            add_overviews(dst, width, height, resampling)
     progress(1.0, "resampled")
-    if collisions and np.dtype(dtype).kind == "i":
-        warnings.warn(f"{collisions} valid pixels of {src_path} equal the output nodata value {nodata} and will "
-                      f"read as nodata; give the source a nodata value outside its data", FotogeoWarning,
-                      stacklevel=2)
-    return {"valid_pixels": valid_total, "nodata": None if nodata != nodata else nodata,
-            "nodata_collisions": collisions}
+    if summary["nodata_collisions"] and np.dtype(plan.dtype).kind == "i":
+        warnings.warn(f"{summary['nodata_collisions']} valid pixels of {src_path} equal the output nodata value "
+                      f"{plan.nodata} and will read as nodata; give the source a nodata value outside its data",
+                      FotogeoWarning, stacklevel=2)
+    return summary
+
+
+def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
+                  progress=None, share: float = 1.0, offset=(0, 0)) -> dict:
+    """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height``
+    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`."""
+    progress = progress or Progress()
+    r_off, c_off = offset
+    profile = geotiff_profile(width=width, height=height, count=plan.count, dtype=plan.dtype,
+                              crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs,
+                              transform=plan.transform * plan.transform.translation(c_off, r_off) if any(offset)
+                              else plan.transform,
+                              nodata=plan.nodata, predictor=True, num_threads=str(threads))
+    valid = collisions = 0
+    with write_env(threads), ropen(dst_path, "w", **profile) as dst:
+        try:
+            dst.colorinterp = colorinterp
+        except Exception:  # noqa: BLE001 - colour interpretation is cosmetic
+            pass
+        for k, ((r0, c0, h, w), (out, n_valid, n_coll)) in enumerate(resampled_windows(src_path, plan, windows,
+                                                                                       threads)):
+            dst.write(out, window=Window(c0 - c_off, r0 - r_off, w, h))
+            valid += n_valid
+            collisions += n_coll
+            progress((k + 1) / len(windows) * share, f"resampling window {k + 1}/{len(windows)}")
+    nd = plan.nodata
+    return {"valid_pixels": valid, "nodata": None if nd != nd else nd, "nodata_collisions": collisions}
+
+
+def add_overviews(dst, width: int, height: int, resampling: str) -> None:
+    """Internal overviews of an open (``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
+    pixels on its short side; nearest for nearest-neighbour outputs, else average."""
+    factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= 128]
+    if factors:
+        dst.build_overviews(factors, Resampling.nearest if resampling == "nearest" else Resampling.average)
+        dst.update_tags(ns="rio_overview", resampling=resampling)

@@ -1,0 +1,145 @@
+"""Parallel window resampling and tiled warps (issue 15): the pixels never depend on the thread
+count, the tiling or the executor; nearest neighbour equals a plain per-pixel lookup; nodata
+and NaN keep their rules."""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import hashlib
+
+import numpy as np
+import pytest
+import rasterio
+from affine import Affine
+
+from fotogeo.io.warp import grid_covering, warp_to_grid
+from fotogeo.io.warp_tiles import tile_windows, warp_tiled
+from fotogeo.pixels import outline, pixel_to_map
+
+CRS = "EPSG:32635"
+SRC_T = Affine.translation(500000, 7000000) * Affine.rotation(13.3) * Affine.scale(2.0, -2.0)
+
+
+def _source(path, dtype="uint8", bands=3, size=(300, 260), nodata=None, holes=False, seed=0):
+    rng = np.random.default_rng(seed)
+    h, w = size
+    if np.dtype(dtype).kind == "f":
+        data = rng.normal(100, 30, (bands, h, w)).astype(dtype)
+    else:
+        info = np.iinfo(dtype)
+        data = rng.integers(max(info.min, -1000), min(info.max, 1000) + 1, (bands, h, w)).astype(dtype)
+    if holes:
+        data[:, 40:60, 30:90] = np.nan if np.dtype(dtype).kind == "f" else (nodata or 0)
+        if np.dtype(dtype).kind == "f":
+            data[1, 100:105, 10:20] = np.inf
+    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=bands, dtype=dtype, crs=CRS,
+                       transform=SRC_T, nodata=nodata) as ds:
+        ds.write(data)
+    return data
+
+
+def _inverse(XY):
+    inv = ~SRC_T
+    return np.column_stack([inv.a * XY[:, 0] + inv.b * XY[:, 1] + inv.c, inv.d * XY[:, 0] + inv.e * XY[:, 1] + inv.f])
+
+
+def _grid(res=1.7, size=(300, 260)):
+    return grid_covering(pixel_to_map(SRC_T, outline(size[1], size[0], 5)), res)
+
+
+def _read(path):
+    with rasterio.open(path) as ds:
+        return ds.read(), ds.nodata, ds.overviews(1)
+
+
+def _warp(src, dst, threads, resampling="nearest", block=64, **kw):
+    t, w, h = _grid()
+    return warp_to_grid(src, dst, _inverse, crs=CRS, transform=t, width=w, height=h, resampling=resampling,
+                        block=block, threads=threads, **kw)
+
+
+@pytest.mark.parametrize("resampling", ["nearest", "bilinear", "cubic"])
+@pytest.mark.parametrize("dtype,nodata", [("uint8", None), ("int16", -9), ("float32", None)])
+def test_thread_count_never_changes_pixels(tmp_path, resampling, dtype, nodata):
+    _source(tmp_path / "s.tif", dtype, nodata=nodata, holes=True)
+    results = []
+    for threads in (1, 3):
+        out = tmp_path / f"o{threads}.tif"
+        summary = _warp(tmp_path / "s.tif", out, threads, resampling)
+        data, nd, ovr = _read(out)
+        results.append((hashlib.sha1(data.tobytes()).hexdigest(), summary, repr(nd), ovr))
+    assert results[0] == results[1]
+    assert results[0][1]["valid_pixels"] > 0
+
+
+def test_nearest_equals_plain_lookup(tmp_path):
+    """Every output pixel is the source pixel containing its centre's preimage, or nodata outside."""
+    src = _source(tmp_path / "s.tif", "uint8", size=(300, 260))
+    _warp(tmp_path / "s.tif", tmp_path / "o.tif", threads=2)
+    out, nd, _ = _read(tmp_path / "o.tif")
+    t, w, h = _grid()
+    cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    sp = _inverse(pixel_to_map(t, np.column_stack([cols.ravel(), rows.ravel()])))
+    ci, ri = np.floor(sp[:, 0]).astype(int), np.floor(sp[:, 1]).astype(int)
+    inside = (ci >= 0) & (ci < 260) & (ri >= 0) & (ri < 300)
+    # away from pixel edges (a centre's preimage within 1e-3 px of an edge may round either way)
+    clear = inside & (np.abs(sp[:, 0] - np.round(sp[:, 0])) > 1e-3) & (np.abs(sp[:, 1] - np.round(sp[:, 1])) > 1e-3)
+    flat = out.reshape(3, -1)
+    assert (flat[:, clear] == src[:, ri[clear], ci[clear]]).all()
+    assert (flat[:, ~inside] == nd).all()
+    assert clear.sum() > 0.9 * inside.sum()
+
+
+def test_nan_and_nodata_rules_kept(tmp_path):
+    """NaN/inf in a float source become the output's NaN nodata; a signed source's nodata stays its own."""
+    _source(tmp_path / "f.tif", "float32", holes=True)
+    s = _warp(tmp_path / "f.tif", tmp_path / "fo.tif", threads=2)
+    data, nd, _ = _read(tmp_path / "fo.tif")
+    assert np.isnan(nd) and s["nodata"] is None and np.isfinite(data[~np.isnan(data)]).all()
+    assert int((~np.isnan(data[0])).sum()) == s["valid_pixels"]
+    _source(tmp_path / "i.tif", "int16", nodata=-9, holes=True)
+    s = _warp(tmp_path / "i.tif", tmp_path / "io.tif", threads=2)
+    data, nd, _ = _read(tmp_path / "io.tif")
+    assert nd == -9 and s["nodata"] == -9 and int((data[0] != -9).sum()) == s["valid_pixels"]
+
+
+def test_cancel_stops_the_pool(tmp_path):
+    from fotogeo.errors import Cancelled
+    from fotogeo.progress import Progress
+    _source(tmp_path / "s.tif")
+    seen = []
+
+    def stop_after_three(fraction, message):
+        seen.append(message)
+        return len(seen) < 3
+
+    with pytest.raises(Cancelled):
+        _warp(tmp_path / "s.tif", tmp_path / "o.tif", threads=2, progress=Progress(stop_after_three))
+
+
+def test_tile_windows_cover_the_grid_once():
+    tiles = tile_windows(1000, 777, 256)
+    cover = np.zeros((1000, 777), int)
+    for r0, c0, h, w in tiles:
+        cover[r0:r0 + h, c0:c0 + w] += 1
+    assert (cover == 1).all()
+
+
+@pytest.mark.parametrize("executor", ["threads", "processes"])
+def test_tiled_warp_is_pixel_identical(tmp_path, executor):
+    """Tiles written by separate tasks (threads, or processes: the plan is pickled) and assembled
+    into a COG give the one-process warp's pixels; the tile folder is removed."""
+    _source(tmp_path / "s.tif", "uint8")
+    _warp(tmp_path / "s.tif", tmp_path / "one.tif", threads=1)
+    t, w, h = _grid()
+    pool = (cf.ThreadPoolExecutor(2) if executor == "threads" else
+            cf.ProcessPoolExecutor(2, mp_context=__import__("multiprocessing").get_context("spawn")))
+    with pool:
+        summary = warp_tiled(tmp_path / "s.tif", tmp_path / "cog.tif", _inverse, crs=CRS, transform=t, width=w,
+                             height=h, tile=100, block=64, executor=pool)
+    assert summary["tiles"] == len(tile_windows(h, w, 128))
+    one, nd1, _ = _read(tmp_path / "one.tif")
+    cog, nd2, ovr = _read(tmp_path / "cog.tif")
+    assert (one == cog).all() and nd1 == nd2
+    with rasterio.open(tmp_path / "cog.tif") as ds:
+        assert ds.transform == t and ds.crs.to_epsg() == 32635 and ds.profile["tiled"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cog.tif", "one.tif", "s.tif"]
