@@ -1,0 +1,234 @@
+"""Bundle block adjustment of frame images (array layer): aerial triangulation.
+
+The collinearity equations of :mod:`fotogeo.orientation.bundle_jacobian` (the camera
+convention of :mod:`fotogeo.geometry.camera`: PATB angles, corner-convention pixels, plus
+Brown's radial and tangential distortion) relate every image observation of a ground point
+to the exterior orientation of its frame. :func:`adjust_block` estimates, together, the
+exterior orientations of all frames (``X0, Y0, Z0, ω, φ, κ``), the ground coordinates of all
+tie points and, optionally, the interior orientation (self-calibration: any of ``f, ppx, ppy,
+k1, k2, k3, p1, p2``, shared by the frames) — the bundle block adjustment of Yastıklı's
+digital aerial triangulation, solved as in Triggs et al. (2000):
+
+* in a local Cartesian frame (the block's mean projection centre subtracted); the map CRS
+  must be projected and metric (a geographic CRS is refused);
+* control points are observations of ``X, Y, Z`` with their σ; check points are adjusted as
+  tie points and only compared with their known coordinates afterwards;
+* Levenberg–Marquardt on the reduced normal equations (points eliminated by the Schur
+  complement; :mod:`~fotogeo.orientation.bundle_normals`, :mod:`~fotogeo.orientation.bundle_lm`)
+  with analytic Jacobians vectorised over the observations;
+* robust in three phases (:mod:`~fotogeo.orientation.bundle_robust`): Huber (1964)
+  reweighting from the approximate orientation; then the multiple correlation of every free
+  interior parameter with the exterior orientations — a parameter the block cannot determine
+  (ϱ > ``max_correlation``, e.g. a free focal length against the flying heights over flat
+  ground, nadir frames) is held fixed and reported; then Baarda's (1968) data snooping with
+  redundancy numbers in closed form, culling the worst observation of every flagged point and
+  solving again until nothing is flagged;
+* precision: σ₀ (in px with the default a priori image σ of 1 px; ≈ 1 when the a priori σ are
+  right) and the image RMS in px, and the a-posteriori σ of every orientation
+  parameter, interior parameter and point, from the inverse blocks of the reduced system.
+
+The datum comes from ≥ 3 control points or from priors on the approximate orientation
+(``eo_sigma``, GNSS/INS). A point needs 2 rays (a control point 1).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ModelError
+from ..geometry.camera import FrameCamera
+from ..progress import as_progress
+from . import bundle_jacobian as bj
+from .bundle_lm import State, levenberg_marquardt
+from .bundle_problem import build_problem, check_block, initial_points, local_frame
+from .bundle_robust import huber_weights, interior_correlations, posterior, worst_per_point
+
+ROLES = ("tie", "control", "check")
+
+
+@dataclass(frozen=True)
+class Block:
+    """Observations of a block: the frames, their approximate orientation and the image points.
+
+    ``obs_frame``, ``obs_point`` ``(n,)`` index ``frames`` and ``point_ids``; ``obs_pixel``
+    ``(n, 2)`` (corner convention); ``obs_sigma`` ``(n,)`` a priori σ in px (default 1).
+    ``point_xyz`` ``(P, 3)`` known coordinates of control and check points (NaN for tie
+    points), ``point_sigma`` ``(P, 3)`` their σ (control), ``role`` ``(P,)`` one of
+    :data:`ROLES`. ``distortion`` = initial ``(k1, k2, k3, p1, p2)``.
+    """
+
+    camera: FrameCamera
+    frames: tuple
+    eo: tuple
+    obs_frame: np.ndarray
+    obs_point: np.ndarray
+    obs_pixel: np.ndarray
+    point_ids: tuple
+    point_xyz: np.ndarray
+    point_sigma: np.ndarray
+    role: np.ndarray
+    obs_sigma: np.ndarray | None = None
+    distortion: tuple = (0.0, 0.0, 0.0, 0.0, 0.0)
+    crs: object = None
+
+
+@dataclass(frozen=True)
+class BundleOptions:
+    """``self_calibration``: free interior parameters (names of ``INTERIOR_NAMES``);
+    ``eo_sigma``: ``(σ position m, σ angles °)`` priors on the approximate orientation or None."""
+
+    self_calibration: tuple = ()
+    eo_sigma: tuple | None = None
+    robust_rounds: int = 4
+    huber_k: float = 2.0
+    snooping: bool = True
+    critical_w: float = 3.29
+    max_snooping_rounds: int = 10
+    max_correlation: float = 0.999
+    max_iterations: int = 60
+    max_residual_px: float = 10.0
+
+
+@dataclass(frozen=True)
+class BundleResult:
+    frames: tuple
+    eo: tuple  # adjusted ExteriorOrientation per frame, map CRS
+    eo_sigma: np.ndarray  # (m, 6): X0, Y0, Z0 (m), rotations about the camera axes (°)
+    camera: FrameCamera  # adjusted f and principal point
+    distortion: dict  # k1, k2, k3, p1, p2
+    interior_sigma: dict  # σ of the free interior parameters
+    point_xyz: np.ndarray  # (P, 3) adjusted, NaN for points dropped
+    point_sigma: np.ndarray  # (P, 3)
+    point_rays: np.ndarray  # (P,) observations used
+    residuals: np.ndarray  # (n, 2) projected − measured, px (NaN where the point was dropped)
+    status: np.ndarray  # (n,) "used", "blunder" or "dropped"
+    redundancy: np.ndarray  # (n, 2) redundancy numbers (NaN unless used)
+    w_test: np.ndarray  # (n,) largest standardised residual (NaN unless used)
+    sigma0: float
+    stats: dict
+    fixed: tuple  # interior parameters held fixed: {parameter, multiple_correlation, partner, ...}
+    correlations: tuple  # of the free interior parameters at the end
+    blunders: tuple  # {observation, frame, point, w, residual_px, round}
+    iterations: int
+    timings: dict = field(default_factory=dict)
+
+
+def _solve(pb, s, p, opts, prog, label):
+    s, info = levenberg_marquardt(pb, s, p, max_iterations=opts.max_iterations, progress=prog)
+    v = np.linalg.norm(bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel,
+                       axis=1)
+    med = float(np.median(v))
+    if not np.isfinite(med) or med > opts.max_residual_px:
+        raise ModelError(f"bundle adjustment did not converge ({label}): median image residual {med:.3g} px "
+                         f"after {info.iterations} iterations; check the approximate exterior orientation, "
+                         f"the camera file and the tie points")
+    return s, info.iterations
+
+
+class _Run:
+    """The mutable state of one adjustment across its phases (block-wide arrays)."""
+
+    def __init__(self, block, opts):
+        self.block, self.opts = block, opts
+        self.origin, self.R, self.C = local_frame(block)
+        self.interior = np.array([block.camera.focal_length, *block.camera.principal_point,
+                                  *block.distortion], dtype=np.float64)
+        self.free = [bj.INTERIOR_NAMES.index(n) for n in opts.self_calibration]
+        self.active = np.ones(len(block.obs_frame), bool)
+        self.X = initial_points(block, self.origin, self.R, self.C, self.interior)
+        self.iterations = 0
+
+    def problem(self):
+        pb = build_problem(self.block, self.active, self.free, self.origin, self.opts.eo_sigma)
+        return pb, State(self.R, self.C, self.X[pb.point_ids], self.interior)
+
+    def keep(self, pb, s):
+        self.R, self.C, self.interior = s.R, s.C, s.interior
+        self.X[pb.point_ids] = s.X
+
+
+def adjust_block(block: Block, options: BundleOptions | None = None, *, progress=None) -> BundleResult:
+    """Bundle block adjustment of ``block`` (module docstring); raises :class:`InputError` for
+    a block that cannot be adjusted (datum, unconnected frames) and :class:`ModelError` when
+    it does not converge."""
+    opts = options or BundleOptions()
+    prog = as_progress(progress).with_own_timings()
+    check_block(block, opts)
+    run = _Run(block, opts)
+    t0 = time.perf_counter()
+    pb, s = run.problem()
+    p = pb.p0
+    with prog.timed("robust"):
+        for k in range(max(1, opts.robust_rounds)):
+            s, it = _solve(pb, s, p, opts, prog.stage(k / opts.robust_rounds * 0.4, (k + 1) / opts.robust_rounds * 0.4,
+                                                      "robust reweighting"), "reweighting")
+            run.iterations += it
+            v = bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel
+            p = pb.p0 * huber_weights(v, pb.p0, opts.huber_k)
+    run.keep(pb, s)
+    fixed = []
+    with prog.timed("correlations"):
+        while run.free:
+            corr = interior_correlations(pb, posterior(pb, s, p), block.frames, bj.INTERIOR_NAMES)
+            worst = _to_fix(corr, opts.max_correlation)
+            if worst is None:
+                break
+            run.free.remove(bj.INTERIOR_NAMES.index(worst["parameter"]))
+            run.interior[bj.INTERIOR_NAMES.index(worst["parameter"])] = _initial_interior(block)[
+                bj.INTERIOR_NAMES.index(worst["parameter"])]
+            fixed.append({**worst, "reason": _fix_reason(worst, opts.max_correlation)})
+            pb, s = run.problem()
+            s, it = _solve(pb, s, p, opts, prog.stage(0.4, 0.5, "re-solving"), "after fixing a parameter")
+            run.iterations += it
+            run.keep(pb, s)
+    blunders = []
+    with prog.timed("snooping"):
+        for rnd in range(opts.max_snooping_rounds + 1):
+            pb, s = run.problem()
+            if rnd > 0 or not opts.snooping:  # the first test is made at the robust solution
+                s, it = _solve(pb, s, pb.p0, opts, prog.stage(0.5 + 0.05 * min(rnd, 9), 0.55 + 0.05 * min(rnd, 9),
+                                                              "data snooping"), "data snooping")
+                run.iterations += it
+                run.keep(pb, s)
+            post = posterior(pb, s, pb.p0)
+            if not opts.snooping or rnd == opts.max_snooping_rounds:
+                break
+            worst, cull = worst_per_point(pb, post.w, opts.critical_w, block.role[pb.point_ids] != "control")
+            if worst.size == 0:
+                break
+            for a in worst:
+                o = int(pb.obs_ids[a])
+                blunders.append({"observation": o, "frame": block.frames[block.obs_frame[o]],
+                                 "point": block.point_ids[block.obs_point[o]], "w": float(np.max(post.w[a])),
+                                 "residual_px": float(np.hypot(*post.v[a])), "round": rnd + 1})
+            run.active[pb.obs_ids[cull]] = False
+    prog.timings["total"] = time.perf_counter() - t0
+    from .bundle_result import make_result
+    corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
+    return make_result(block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+
+
+def _to_fix(corr, limit):
+    """The interior parameter to hold fixed, or None: the one of largest multiple correlation above
+    ``limit`` — unless its strongest partner is a higher-order free interior term (k2 for k1), which
+    goes first (the lower-order term carries most of the effect)."""
+    over = {c["parameter"]: c for c in corr if c["multiple_correlation"] > limit}
+    if not over:
+        return None
+    worst = max(over.values(), key=lambda c: c["multiple_correlation"])
+    partner = worst["partner"]
+    if partner in over and bj.INTERIOR_NAMES.index(partner) > bj.INTERIOR_NAMES.index(worst["parameter"]):
+        return over[partner]
+    return worst
+
+
+def _initial_interior(block):
+    return np.array([block.camera.focal_length, *block.camera.principal_point, *block.distortion])
+
+
+def _fix_reason(c, limit):
+    return (f"{c['parameter']} cannot be told from the exterior orientation: its multiple correlation with "
+            f"the other unknowns is {c['multiple_correlation']:.4f} > {limit} (largest: "
+            f"{c['correlation']:+.3f} with {c['partner']}); held fixed at its initial value")

@@ -1,0 +1,68 @@
+"""The frozen result of a bundle adjustment: map coordinates, precision and statistics (array layer).
+
+Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from ``R·diag(1, −1, −1)``);
+σ of the orientation are ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
+degrees, as :mod:`fotogeo.models.collinearity` reports them), σ of the points
+``σ₀ √diag(Σ_bb,i)``. Statistics: σ₀, the image RMS of the used observations (px), and per role
+the RMSE of ``adjusted − known`` per axis, planimetric ``√(RMSE_X² + RMSE_Y²)`` and in height,
+in metres: control (residuals of the weighted coordinates) and check (true errors).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..geometry.camera import ExteriorOrientation, angles_patb
+from . import bundle_jacobian as bj
+
+
+def _rmse(d: np.ndarray) -> dict:
+    if len(d) == 0:
+        return {"n": 0}
+    r = np.sqrt(np.mean(d ** 2, axis=0))
+    return {"n": int(len(d)), "rmse_x_m": float(r[0]), "rmse_y_m": float(r[1]), "rmse_z_m": float(r[2]),
+            "rmse_planimetric_m": float(np.hypot(r[0], r[1])), "max_planimetric_m": float(np.max(np.hypot(d[:, 0], d[:, 1]))),
+            "max_z_m": float(np.max(np.abs(d[:, 2])))}
+
+
+def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
+    """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``."""
+    from .bundle import BundleResult
+    m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
+    s0 = post.sigma0
+    eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
+    sd = s0 * np.sqrt(np.maximum(np.diag(post.S_inv), 0.0))
+    eo_sigma = sd[:6 * m].reshape(m, 6).copy()
+    eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
+    interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
+    cam = replace(block.camera, focal_length=float(run.interior[0]),
+                  principal_point=(float(run.interior[1]), float(run.interior[2])))
+    distortion = dict(zip(bj.INTERIOR_NAMES[3:], map(float, run.interior[3:])))
+    xyz = np.full((P, 3), np.nan)
+    xyz[pb.point_ids] = run.X[pb.point_ids] + run.origin
+    psig = np.full((P, 3), np.nan)
+    psig[pb.point_ids] = s0 * np.sqrt(np.maximum(np.diagonal(post.point_cofactor, axis1=1, axis2=2), 0.0))
+    rays = np.zeros(P, int)
+    rays[pb.point_ids] = pb.st.counts
+    live = np.isfinite(xyz[block.obs_point]).all(axis=1)
+    res = np.full((n, 2), np.nan)
+    res[live] = bj.project(run.R, run.C, run.X, block.obs_frame[live], block.obs_point[live], run.interior,
+                           pb.scale) - block.obs_pixel[live]
+    status = np.where(live, "blunder", "dropped").astype(object)
+    status[[b["observation"] for b in blunders if not live[b["observation"]]]] = "blunder"
+    status[pb.obs_ids] = "used"
+    red = np.full((n, 2), np.nan)
+    red[pb.obs_ids] = post.r
+    w = np.full(n, np.nan)
+    w[pb.obs_ids] = np.max(post.w, axis=1)
+    stats = {"sigma0": s0, "redundancy": int(post.redundancy), "n_frames": m,
+             "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
+             "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
+             "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r))}
+    for role in ("control", "check"):
+        sel = (block.role == role) & np.isfinite(xyz).all(axis=1)
+        stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])
+    return BundleResult(tuple(block.frames), eo, eo_sigma, cam, distortion, interior_sigma, xyz, psig, rays, res,
+                        status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations), tuple(blunders),
+                        run.iterations, timings)

@@ -1,0 +1,125 @@
+"""Robust estimation, data snooping and precision of the bundle adjustment (array layer).
+
+*Reweighting* (Huber 1964): with the normalised residual of observation ``a``
+``e_a = |v_a| √p_a / σ̂``, ``σ̂ = median(|v| √p) / 1.1774`` (the median of a 2-D Gaussian
+residual's norm is ``σ √(2 ln 2)``), the robust weight is ``ρ_a = min(1, k / e_a)``.
+
+*Data snooping* (Baarda 1968) with redundancy numbers in closed form (Förstner 1987): with
+``Q_a = J_a N⁻¹ J_aᵀ`` the cofactor of the adjusted observation (from the blocks of ``N⁻¹``,
+:func:`fotogeo.orientation.bundle_normals.observation_cofactors`) the residual's cofactor is
+``Q_vv,a = 1/p_a − diag Q_a`` per axis, the redundancy numbers ``r_a = p_a Q_vv,a`` (they sum
+to the redundancy ``2n + n_control − u``) and the standardised residual
+``w_a = |v_a| / (σ₀ √Q_vv,a)`` with the a-posteriori ``σ₀² = E / (n_obs − u)`` (Pope's τ test).
+``max(w_a) > 3.29`` (α = 0.1 %) flags observation ``a``; per point only the worst flagged
+observation is culled per round (a flagged tie point left with < 3 rays is dropped whole), and
+the block is solved again.
+
+*Precision*: ``σ₀² N⁻¹`` gives the a-posteriori covariance; for every free interior parameter
+``k`` the multiple correlation with all other camera-side unknowns (points eliminated) is
+``ϱ_k = √(1 − 1/(S_kk (S⁻¹)_kk))`` (``S`` the reduced camera matrix); ``ϱ_k`` close to 1 means
+the block cannot tell the parameter from the exterior orientations (a free focal length
+over flat ground against the flying heights) and it is held fixed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bundle_lm import Problem, State, cost, linearise
+from .bundle_normals import inverse_blocks, observation_cofactors, reduced_system
+
+CRITICAL_W = 3.29
+RAYLEIGH_MEDIAN = float(np.sqrt(2 * np.log(2)))
+
+
+def huber_weights(v: np.ndarray, p: np.ndarray, k: float = 2.0) -> np.ndarray:
+    """Robust weights ``ρ = min(1, k / e)`` of image residuals ``v`` ``(n, 2)`` (module docstring)."""
+    e = np.linalg.norm(v, axis=1) * np.sqrt(p)
+    scale = max(float(np.median(e)) / RAYLEIGH_MEDIAN, 1e-12)
+    e = e / scale
+    return np.where(e > k, k / np.maximum(e, 1e-300), 1.0)
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """A-posteriori statistics of one adjustment (module docstring)."""
+
+    sigma0: float
+    redundancy: int  # number of observations − unknowns
+    S: np.ndarray  # reduced camera matrix (undamped)
+    S_inv: np.ndarray  # its inverse: cofactors of the camera-side unknowns
+    point_cofactor: np.ndarray  # (P, 3, 3)
+    r: np.ndarray  # (n, 2) redundancy numbers
+    w: np.ndarray  # (n, 2) standardised residuals
+    v: np.ndarray  # (n, 2) image residuals
+
+
+def _inverse(S: np.ndarray) -> np.ndarray:
+    """``S⁻¹`` scaled to a unit diagonal first; a tiny ridge keeps a singular ``S`` invertible
+    (the correlations of an undetermined parameter then come out as 1)."""
+    d = np.sqrt(np.maximum(np.diag(S), 1e-300))
+    Sn = S / d[:, None] / d[None, :]
+    try:
+        inv = np.linalg.inv(Sn + 1e-12 * np.eye(len(S)))
+    except np.linalg.LinAlgError:
+        inv = np.linalg.pinv(Sn)
+    return inv / d[:, None] / d[None, :]
+
+
+def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
+    """σ₀, the inverse blocks, redundancy numbers and standardised residuals at ``s``."""
+    nm, J_c, J_p, v = linearise(pb, s, p)
+    S, _, Vinv = reduced_system(pb.st, nm, 0.0)
+    S_inv = _inverse(S)
+    T, S_bb = inverse_blocks(pb.st, nm, S_inv, Vinv)
+    Q = observation_cofactors(pb.st, J_c, J_p, S_inv, T, Vinv, S_bb)
+    n_obs = 2 * len(v) + int(np.count_nonzero(pb.ctrl_w)) + int(np.count_nonzero(pb.eo_w))
+    u = pb.st.n_camera + 3 * pb.st.n_points
+    dof = n_obs - u
+    e = cost(pb, s, p)
+    sigma0 = float(np.sqrt(e / dof)) if dof > 0 else float("nan")
+    qvv = 1.0 / np.maximum(p, 1e-300)[:, None] - np.stack([Q[:, 0, 0], Q[:, 1, 1]], axis=1)
+    qvv = np.maximum(qvv, 1e-12 / np.maximum(p, 1e-300)[:, None])
+    r = p[:, None] * qvv
+    w = np.abs(v) / (sigma0 * np.sqrt(qvv)) if sigma0 > 0 else np.zeros_like(v)
+    return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v)
+
+
+def worst_per_point(pb: Problem, w: np.ndarray, critical: float = CRITICAL_W, tie=None):
+    """``(worst, with_point)``: indices (into the problem's observations) of the worst observation of
+    each point whose standardised residual exceeds ``critical``, and of all the observations of the
+    flagged tie and check points (``tie``: ``(P,)`` mask) that would keep fewer than 3 rays — with 2 rays the
+    part of an error along the epipolar line has no redundancy, and in a near-collinear 3-ray
+    point the w-tests of two rays are nearly equal, so the point is dropped rather than guessed."""
+    wmax = np.nanmax(w, axis=1)
+    order = np.lexsort((-wmax, pb.st.point))  # by point, worst first
+    first = np.r_[True, pb.st.point[order][1:] != pb.st.point[order][:-1]]
+    cand = order[first]
+    worst = np.sort(cand[wmax[cand] > critical])
+    if tie is None:
+        return worst, worst
+    pts = pb.st.point[worst]
+    gone = pts[tie[pts] & (pb.st.counts[pts] <= 3)]
+    return worst, np.union1d(worst, np.flatnonzero(np.isin(pb.st.point, gone)))
+
+
+def interior_correlations(pb: Problem, post: Posterior, frame_names, interior_names) -> list[dict]:
+    """For each free interior parameter: its multiple correlation ``ϱ`` with all other
+    camera-side unknowns and its largest pairwise correlation and partner (module docstring)."""
+    m = pb.st.n_frames
+    S, Si = post.S, post.S_inv
+    names = [f"{frame_names[j]}.{a}" for j in range(m) for a in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
+    names += [interior_names[k] for k in pb.st.free_interior]
+    sd = np.sqrt(np.maximum(np.diag(Si), 1e-300))
+    out = []
+    for q, k in enumerate(pb.st.free_interior):
+        i = 6 * m + q
+        vif = S[i, i] * Si[i, i]
+        rho = float(np.sqrt(max(0.0, 1.0 - 1.0 / vif))) if vif > 0 else 1.0
+        corr = Si[i] / (sd[i] * sd)
+        corr[i] = 0.0
+        j = int(np.argmax(np.abs(corr)))
+        out.append({"parameter": interior_names[k], "multiple_correlation": rho,
+                    "partner": names[j], "correlation": float(corr[j])})
+    return out

@@ -1,0 +1,147 @@
+"""Bundle block adjustment (fotogeo.orientation.bundle*) on synthetic blocks with known truth."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fotogeo.errors import InputError, ModelError
+from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera
+from fotogeo.orientation import bundle_jacobian as bj
+from fotogeo.orientation.block_simulation import simulate_block
+from fotogeo.orientation.bundle import BundleOptions, adjust_block
+
+DISTORTION = (-0.05, 0.0, 0.0, 0.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def standard():
+    sb = simulate_block(seed=0)
+    return sb, adjust_block(sb.block)
+
+
+def _eo_array(eos):
+    return np.array([[e.X, e.Y, e.Z, e.omega, e.phi, e.kappa] for e in eos])
+
+
+def test_jacobians_match_central_differences():
+    rng = np.random.default_rng(5)
+    cam = FrameCamera(50.0, (20.0, 30.0), (2000, 3000), (1003.0, 1496.0))
+    interior = np.array([cam.focal_length, *cam.principal_point, -0.05, 0.01, -0.002, 3e-4, -2e-4])
+    scale = bj.pixel_scale(cam)
+    eos = [ExteriorOrientation(100.0 * j, 20.0 * j, 1000.0, *rng.normal(0, 3, 3)) for j in range(3)]
+    R = np.stack([e.rotation_cv for e in eos])
+    C = np.array([e.centre for e in eos])
+    X = np.column_stack([rng.uniform(-150, 350, 12), rng.uniform(-200, 250, 12), rng.uniform(-40, 60, 12)])
+    frame, point = np.repeat(np.arange(3), 12), np.tile(np.arange(12), 3)
+    px, J_eo, J_p, J_int, _ = bj.project_with_jacobians(R, C, X, frame, point, interior, scale)
+    assert np.allclose(px, bj.project(R, C, X, frame, point, interior, scale))
+
+    h = 1e-6
+    for k in range(3):  # projection centre of every frame at once (each observation has one frame)
+        d = np.zeros(3)
+        d[k] = h
+        num = (bj.project(R, C + d, X, frame, point, interior, scale)
+               - bj.project(R, C - d, X, frame, point, interior, scale)) / (2 * h)
+        assert np.allclose(J_eo[:, :, k], num, rtol=1e-5, atol=1e-6)
+    for k in range(3):  # multiplicative rotation increments R·exp([δθ]×)
+        d = np.zeros((3, 3))
+        d[:, k] = h
+        num = (bj.project(R @ bj.rodrigues(d), C, X, frame, point, interior, scale)
+               - bj.project(R @ bj.rodrigues(-d), C, X, frame, point, interior, scale)) / (2 * h)
+        assert np.allclose(J_eo[:, :, 3 + k], num, rtol=1e-5, atol=1e-3)
+    for k in range(3):  # ground points
+        d = np.zeros(3)
+        d[k] = h
+        num = (bj.project(R, C, X + d, frame, point, interior, scale)
+               - bj.project(R, C, X - d, frame, point, interior, scale)) / (2 * h)
+        assert np.allclose(J_p[:, :, k], num, rtol=1e-5, atol=1e-6)
+    for k in range(8):  # interior: f, ppx, ppy, k1, k2, k3, p1, p2
+        step = 1e-7 if k >= 3 else 1e-5
+        d = np.zeros(8)
+        d[k] = step
+        num = (bj.project(R, C, X, frame, point, interior + d, scale)
+               - bj.project(R, C, X, frame, point, interior - d, scale)) / (2 * step)
+        assert np.allclose(J_int[:, :, k], num, rtol=1e-5, atol=1e-4), bj.INTERIOR_NAMES[k]
+
+
+def test_block_recovers_truth_at_the_noise_level(standard):
+    sb, r = standard
+    check = r.stats["check"]
+    assert check["n"] >= 8
+    assert check["rmse_planimetric_m"] < 0.5 * sb.gsd
+    assert check["rmse_z_m"] < 1.5 * sb.gsd
+    assert 0.8 < r.sigma0 < 1.2  # a priori σ = the simulated 0.3 px
+    assert 0.15 < r.stats["image_rms_px"] < 0.3
+    err = _eo_array(r.eo) - _eo_array(sb.true_eo)
+    err[:, 5] = (err[:, 5] + 180) % 360 - 180
+    assert np.all(np.abs(err[:, :3]) < 4 * r.eo_sigma[:, :3] + 0.05)
+    assert np.all(np.abs(err[:, 3:]) < 0.2)
+    # a-posteriori σ of the points: finite for every point kept, larger in height than in plan
+    kept = np.isfinite(r.point_xyz).all(axis=1)
+    assert np.isfinite(r.point_sigma[kept]).all()
+    assert np.median(r.point_sigma[kept, 2]) > np.median(r.point_sigma[kept, 0])
+
+
+def test_every_planted_blunder_is_caught(standard):
+    sb, r = standard
+    assert len(sb.blunders) >= 40
+    assert np.all(r.status[sb.blunders] != "used")
+    good = np.setdiff1d(np.arange(len(r.status)), sb.blunders)
+    assert np.mean(r.status[good] != "used") < 0.05  # few good observations are lost
+    assert all(b["w"] > 3.29 for b in r.blunders)
+
+
+def test_self_calibration_recovers_focal_length_and_k1_with_gnss_centres():
+    sb = simulate_block(seed=2, eo_noise=(0.05, 0.5), true_focal_length=30.15, true_distortion=DISTORTION)
+    r = adjust_block(sb.block, BundleOptions(self_calibration=("f", "k1", "k2"), eo_sigma=(0.05, 10.0)))
+    assert not r.fixed
+    assert abs(r.camera.focal_length - 30.15) < max(3 * r.interior_sigma["f"], 0.01)  # nominal 30.0
+    assert abs(r.distortion["k1"] - DISTORTION[0]) < 3 * r.interior_sigma["k1"] + 1e-3
+    assert r.stats["check"]["rmse_planimetric_m"] < 0.5 * sb.gsd
+
+
+def test_free_focal_length_over_flat_ground_is_held_fixed_and_reported():
+    sb = simulate_block(seed=4, strips=2, frames_per_strip=6, relief=1.0, attitude_sd=0.3)
+    r = adjust_block(sb.block, BundleOptions(self_calibration=("f", "k1")))
+    fixed = {f["parameter"]: f for f in r.fixed}
+    assert "f" in fixed and fixed["f"]["multiple_correlation"] > 0.999
+    assert fixed["f"]["partner"].endswith("Z0") and abs(fixed["f"]["correlation"]) > 0.95
+    assert "held fixed" in fixed["f"]["reason"]
+    assert r.camera.focal_length == sb.block.camera.focal_length
+    assert r.stats["check"]["rmse_planimetric_m"] < 0.5 * sb.gsd
+
+
+def test_fewer_than_three_control_points_without_orientation_priors():
+    b = simulate_block(seed=1, strips=2, frames_per_strip=4, n_control=2).block
+    with pytest.raises(InputError, match="at least 3"):
+        adjust_block(b)
+
+
+def test_a_frame_no_tie_point_reaches_is_named():
+    b = simulate_block(seed=1, strips=2, frames_per_strip=4).block
+    far = dataclasses.replace(b.eo[0], X=b.eo[0].X + 50000.0)
+    lonely = dataclasses.replace(b, frames=b.frames + ("far_away",), eo=b.eo + (far,))
+    with pytest.raises(InputError, match="far_away"):
+        adjust_block(lonely)
+
+
+def test_geographic_crs_is_refused():
+    b = simulate_block(seed=1, strips=2, frames_per_strip=4).block
+    with pytest.raises(InputError, match="geographic"):
+        adjust_block(dataclasses.replace(b, crs="EPSG:4326"))
+
+
+def test_a_block_that_cannot_converge_stops_with_a_clear_error():
+    b = simulate_block(seed=1, strips=2, frames_per_strip=4, blunder_fraction=0.0).block
+    garbage = b.obs_pixel + np.random.default_rng(0).normal(0, 40, b.obs_pixel.shape)  # no real tie points
+    with pytest.raises(ModelError, match="did not converge.*median image residual"):
+        adjust_block(dataclasses.replace(b, obs_pixel=garbage))
+
+
+def test_points_behind_the_cameras_are_refused_at_the_start():
+    b = simulate_block(seed=1, strips=2, frames_per_strip=4).block
+    below = tuple(dataclasses.replace(e, Z=-500.0) for e in b.eo)
+    with pytest.raises(ModelError, match="behind their camera"):
+        adjust_block(dataclasses.replace(b, eo=below))
