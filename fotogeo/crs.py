@@ -1,6 +1,8 @@
 """CRS helpers: the automatic UTM zone, transformers, and pixel sizes across CRSs."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from pyproj import CRS, Transformer
 from pyproj.aoi import AreaOfInterest
@@ -56,12 +58,50 @@ def to_lonlat(crs: CRS, xy) -> np.ndarray:
     return _transform(t, np.asarray(xy, float).reshape(-1, 2))
 
 
+#: the words an output CRS may be given as, besides any CRS pyproj understands
+CRS_RULES = ("auto", "reference", "utm")
+
+
+def choose_output_crs(spec, reference_crs: CRS, centre_xy) -> tuple[CRS, str]:
+    """The output CRS for a user ``spec`` and the sentence saying why it was chosen.
+
+    - ``"auto"`` (or None, the default): the reference's CRS when it is projected (a GIS user's
+      expectation: the output overlays the reference pixel for pixel), else — a geographic
+      reference — the UTM zone of the reference centre ``centre_xy`` (given in ``reference_crs``);
+    - ``"reference"``: the reference's CRS (refused later if it is geographic);
+    - ``"utm"``: always the WGS 84 UTM zone of the reference centre (the rule of Dihkan (2019),
+      whose reference orthophotos are UTM);
+    - anything else: an EPSG code, WKT or PROJ string (:func:`parse_crs`).
+
+    >>> from pyproj import CRS
+    >>> lo25 = CRS.from_proj4("+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +ellps=WGS84 +units=m")
+    >>> crs, why = choose_output_crs("auto", lo25, [[20000.0, -3700000.0]])
+    >>> crs == lo25, why
+    (True, "auto: the reference's CRS (it is projected)")
+    >>> crs, why = choose_output_crs("utm", lo25, [[20000.0, -3700000.0]])
+    >>> crs.to_epsg(), why
+    (32735, 'utm: the UTM zone of the reference centre')
+    >>> choose_output_crs(None, CRS.from_epsg(4326), [[27.1, 39.9]])[0].to_epsg()
+    32635
+    """
+    word = "auto" if spec is None else str(spec).strip().lower()
+    ref = CRS.from_user_input(reference_crs)
+    if word == "reference" or (word == "auto" and not (ref.is_geographic or ref.is_geocentric)):
+        return ref, f"{word}: the reference's CRS" + (" (it is projected)" if word == "auto" else "")
+    if word in ("auto", "utm"):
+        lon, lat = to_lonlat(ref, centre_xy)[0]
+        why = "the UTM zone of the reference centre" + (" (the reference's CRS is not projected)"
+                                                          if word == "auto" else "")
+        return utm_crs_for(float(lon), float(lat)), f"{word}: {why}"
+    try:
+        return parse_crs(spec, "output CRS (or 'auto')"), "given"
+    except InputError as e:
+        raise InputError(f"{e}, or one of the words {', '.join(CRS_RULES)}") from None
+
+
 def resolve_crs(spec, reference_crs: CRS, centre_xy) -> CRS:
-    """Output CRS from a user spec: ``"auto"`` (UTM zone of ``centre_xy``), EPSG code, WKT, PROJ."""
-    if spec is None or str(spec).lower() == "auto":
-        lon, lat = to_lonlat(reference_crs, centre_xy)[0]
-        return utm_crs_for(float(lon), float(lat))
-    return parse_crs(spec, "output CRS (or 'auto')")
+    """Output CRS from a user spec (:func:`choose_output_crs` without the reason)."""
+    return choose_output_crs(spec, reference_crs, centre_xy)[0]
 
 
 def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
@@ -85,6 +125,24 @@ def _name(crs: CRS) -> str:
     """A short name of ``crs`` for messages (its EPSG code or name, never a whole WKT)."""
     epsg = crs.to_epsg()
     return f"EPSG:{epsg}" if epsg else repr(crs.name[:60])
+
+
+def short_name(crs: CRS) -> str:
+    """``crs`` in one short phrase for summaries: its EPSG code, else its name, else its PROJ string.
+
+    >>> short_name(CRS.from_epsg(32735))
+    'EPSG:32735'
+    >>> short_name(CRS.from_proj4("+proj=tmerc +lon_0=25 +ellps=WGS84 +units=m"))[:26]
+    '+proj=tmerc +lat_0=0 +lon_'
+    """
+    epsg = crs.to_epsg()
+    if epsg:
+        return f"EPSG:{epsg}"
+    if crs.name and crs.name.lower() not in ("unnamed", "unknown", "undefined"):
+        return crs.name[:80]
+    with warnings.catch_warnings():  # pyproj warns that a PROJ string loses details: here it only names the CRS
+        warnings.simplefilter("ignore")
+        return (crs.to_proj4() or "")[:120]
 
 
 def require_planar(crs: CRS, what: str) -> CRS:

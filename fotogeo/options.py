@@ -43,6 +43,8 @@ ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dl
 REFINES = ("none", "lsm")
 POLARITIES = ("auto", "bright", "dark")
 SPREADS = ("homogeneous", "heterogeneous")
+#: interior parameters a bundle adjustment may estimate (self-calibration; fotogeo.orientation.bundle_jacobian)
+INTERIOR_PARAMETERS = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
 
 #: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes
 KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
@@ -120,6 +122,15 @@ class Option:
                 raise InputError(f"{self.name} must be {self.range_text() or 'a number'}; got {value!r}")
             if not math.isfinite(value):  # ±inf: never a valid setting
                 raise InputError(f"{self.name} must be a finite number; got {value!r}")
+        elif self.kind == "str" and self.choices:  # a word of the choices or a number in range ("auto" or 20)
+            if value in self.choices:
+                return
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise InputError(f"{self.name} must be {' or '.join(map(repr, self.choices))} or a number "
+                                 f"{self.range_text()}; got {value!r}") from None
+            replace(self, kind="float", choices=(), default=0).check(number)
         elif self.kind in ("ints", "choices"):
             items = (value,) if isinstance(value, (str, bytes, numbers.Number)) else tuple(value)
             if not items:
@@ -172,8 +183,11 @@ RATIO = Option("ratio", "float", 0.8, "Ratio test (nearest / second-nearest dist
                "Nearest/second-nearest ratio test.", minimum=0.05, maximum=1.0)
 RANSAC_THRESHOLD = Option("ransac_threshold", "float", 3.0, "RANSAC threshold (reference pixels)",
                           "RANSAC inlier threshold in reference pixels.", minimum=0.01)
-EXAGGERATION = Option("exaggeration", "float", 1.0, "Error vector exaggeration (drawing scale)",
-                      "Scale factor drawing the error vectors.", minimum=0.001, advanced=True)
+#: error vectors drawn k times their length: ``auto`` (the default) or a number (see fotogeo.io.vector)
+EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration (auto or a number)",
+                      "Error vectors drawn this many times their length: 'auto' (a 1-2-5 factor making them "
+                      "readable, see the report) or a number.", minimum=0.0, exclusive_minimum=True, choices=("auto",),
+                      advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
 YAML = "YAML (*.yaml *.yml)"
 
@@ -196,12 +210,16 @@ REGISTER = Table(
     Option("resolution", "float", None, "Output pixel size in output CRS units (0 = the reference's)",
            "Output pixel size in output CRS units [the reference's].", minimum=0.0, exclusive_minimum=True,
            automatic=0.0),
-    Option("dst_crs", "crs", "auto", "Output CRS (empty = UTM zone of the reference)",
-           "Output CRS: 'auto' (UTM zone of the reference centre), EPSG:xxxx, WKT or PROJ.", flag="--crs",
+    Option("dst_crs", "crs", "auto", "Output CRS (empty = the reference's if projected, else the UTM zone of its centre)",
+           "Output CRS: 'auto' = 'reference' if the reference's CRS is projected, else 'utm'; 'reference'; 'utm' "
+           "(UTM zone of the reference centre, the source paper's rule); or EPSG:xxxx, WKT, PROJ.", flag="--crs",
            param="CRS"),
     Option("max_match_pixels", "int", 16_000_000, "Decimate images larger than this many pixels for matching",
            "Images larger than this are decimated for matching (not for resampling).", minimum=10_000, advanced=True),
     EXAGGERATION,
+    Option("cog", "bool", False, "Write a Cloud Optimized GeoTIFF (COG)",
+           "Write the registered raster as a Cloud Optimized GeoTIFF (tiled, overviews; GDAL's COG driver).",
+           advanced=True),
     Option("contrast", "choice", "adaptive", "Contrast of the fused images for matching",
            "Contrast of the fused images for matching (adaptive = equalize + CLAHE).", choices=CONTRASTS,
            advanced=True),
@@ -244,7 +262,9 @@ GCP = Table(
     groups={"fields": {n: f"{n}_field" for n in ("col", "row", "z", "role", "id")}},
 )
 ORIENT = Table(
-    Option("model", "choice", "poly1", "Model", choices=ORIENTATION_MODELS),
+    Option("model", "choice", "poly1", "Model (auto = the simplest candidate the GCPs support, see the report)",
+           "Model name, or auto: every candidate the GCPs allow is fitted and the simplest within 5 % of the best "
+           "check RMSE is kept.", choices=ORIENTATION_MODELS + ("auto",)),  # last: QGIS enum indices keep their meaning
     Option("snooping", "bool", True, "Data snooping (flag blunders)", "Data snooping for blunders."),
     Option("remove_blunders", "bool", False, "Remove flagged blunders and refit", "Drop flagged blunders and refit."),
     Option("scan_pixel_um", "float", None, "Scan pixel size in µm (report residuals in mm on the photo)",
@@ -290,6 +310,42 @@ _SOURCE_RASTER = Option("raster", "raster", None, "Source raster, if georeferenc
 POINTS_TO_LAYER = Table(_SOURCE_RASTER, Option("crs", "crs", None, "CRS of the map coordinates (empty = the file's #CRS)",
                                                "CRS of the map coordinates [the file's #CRS]."))
 LAYER_TO_POINTS = Table(_SOURCE_RASTER)
+#: aerial triangulation (``fotogeo triangulate``, fotogeo.tools.triangulate)
+TRIANGULATE = Table(
+    Option("crs", "crs", None, "Map CRS of the GCPs and orientations (empty = the GCP list's first line)",
+           "Projected map CRS of the GCPs and the orientation file [the GCP list's CRS line]."),
+    Option("check_points", "str", None, "GCP names used as check points (comma-separated)",
+           "Comma-separated GCP names held out as check points."),
+    Option("self_calibration", "choices", None, "Interior parameters to estimate (none = fixed camera)",
+           "Comma-separated interior parameters to estimate [none].", choices=INTERIOR_PARAMETERS),
+    Option("control_sigma_xy", "float", 0.05, "σ of GCP X and Y (m)", "σ of the GCPs' X, Y (m).", minimum=0.0,
+           exclusive_minimum=True),
+    Option("control_sigma_z", "float", 0.05, "σ of GCP heights (m)", "σ of the GCPs' Z (m).", minimum=0.0,
+           exclusive_minimum=True),
+    Option("image_sigma", "float", 1.0, "A priori σ of image measurements (px)",
+           "A priori σ of the image measurements (px); the report's σ0 is relative to it.", minimum=0.0,
+           exclusive_minimum=True, advanced=True),
+    Option("eo_sigma_position", "float", None, "σ of the approximate projection centres (m; empty = free)",
+           "σ of the approximate projection centres, e.g. GNSS (m) [free].", minimum=0.0, exclusive_minimum=True,
+           advanced=True),
+    Option("eo_sigma_angle", "float", None, "σ of the approximate angles (°; empty = free)",
+           "σ of the approximate ω, φ, κ, e.g. INS (degrees) [free].", minimum=0.0, exclusive_minimum=True,
+           advanced=True),
+    Option("snooping", "bool", True, "Data snooping (cull blunders and re-solve)", "Data snooping for blunders."),
+    Option("max_correlation", "float", 0.999, "Hold fixed interior parameters correlated above",
+           "Interior parameters whose multiple correlation exceeds this are held fixed.", minimum=0.5, maximum=1.0,
+           advanced=True),
+)
+#: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
+#: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)
+REGISTER_BATCH = Table(
+    Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
+           "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine]."),
+    Option("workers", "int", None, "Local Dask workers (0 = one per CPU)", "Workers of the local cluster [one per CPU].",
+           minimum=0, automatic=0),
+    Option("resume", "bool", True, "Skip scenes already registered (manifest and outputs)",
+           "Skip scenes whose outputs and manifest row say they are done."),
+)
 
 
 _PYTHON_TYPES = {"int": "int", "float": "float", "bool": "bool", "str": "str", "choice": "str", "crs": "str"}

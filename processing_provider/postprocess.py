@@ -1,7 +1,9 @@
 """Styles applied to fotogeo outputs when Processing loads them into the project.
 
 ``styles/tie_points.qml`` colours points by ``role`` (control blue, check red);
-``styles/error_vectors.qml`` draws error vectors as arrows, coloured by ``role`` too.
+and labels each with its id and residual (px); ``styles/error_vectors.qml`` draws error vectors
+as arrows, coloured by ``role`` too, and :func:`show_legend` puts the layer's exaggeration
+sentence (its ``legend`` field) into the legend.
 They are set through :class:`QgsProcessingLayerPostProcessorInterface`, which QGIS runs in
 the main thread for every output layer loaded on completion.
 """
@@ -68,9 +70,28 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
             message, ok = layer.loadNamedStyle(style_path(self.style))
             if not ok and feedback is not None:
                 feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
+            show_legend(layer)
             layer.triggerRepaint()
         if self.run is not None:
             self.run.place(layer, context)
+
+
+def show_legend(layer) -> str | None:
+    """Put the layer's ``legend`` field (error vectors: "x20; 1 mm on the map = 0.25 m of error (at
+    1:50 000)", see fotogeo.io.vector) into its legend: appended to each category's label and
+    set as the layer's abstract. Returns the text, or None for a layer without it."""
+    if layer.fields().indexOf("legend") < 0:
+        return None
+    feature = next(layer.getFeatures(), None)
+    text = feature["legend"] if feature is not None else None
+    if not text:
+        return None
+    renderer = layer.renderer()
+    if hasattr(renderer, "categories"):
+        for i, category in enumerate(renderer.categories()):
+            renderer.updateCategoryLabel(i, f"{category.label()} ({text})")
+    layer.setAbstract(f"Error vectors drawn {text}.")
+    return text
 
 
 # A context takes ownership of its post-processors and deletes them with itself, so every

@@ -28,9 +28,11 @@ def test_auto_is_the_utm_zone_of_the_centre(lon, lat, epsg):
 
 
 def test_auto_from_a_projected_reference():
-    """The centre is given in the reference CRS and converted to lon/lat first."""
+    """'utm' converts the centre (given in the reference CRS) to lon/lat first; 'auto' (issue 11's
+    documented default) keeps a projected reference's CRS, which was UTM before."""
     # Web Mercator (3 000 000, 4 800 000) is at 26.95° E, 39.5° N
-    assert resolve_crs("auto", CRS.from_epsg(3857), [[3_000_000.0, 4_800_000.0]]).to_epsg() == 32635
+    assert resolve_crs("utm", CRS.from_epsg(3857), [[3_000_000.0, 4_800_000.0]]).to_epsg() == 32635
+    assert resolve_crs("auto", CRS.from_epsg(3857), [[3_000_000.0, 4_800_000.0]]).to_epsg() == 3857
     # a point of zone 35S stays in zone 35S
     assert resolve_crs("auto", CRS.from_epsg(32735), [[400_000.0, 6_300_000.0]]).to_epsg() == 32735
 

@@ -40,7 +40,7 @@ def test_register_options_are_the_table():
     assert (d.detector, d.max_keypoints, d.hessian_threshold, d.ratio, d.mutual, d.model, d.ransac_threshold,
             d.check_fraction, d.seed, d.resampling, d.resolution, d.dst_crs, d.max_match_pixels, d.exaggeration,
             d.contrast, d.refine, d.reference_nodata, d.target_nodata) == \
-        ("surf", 8000, None, 0.8, True, None, 3.0, 0.3, 0, "nearest", None, "auto", 16_000_000, 1.0, "adaptive",
+        ("surf", 8000, None, 0.8, True, None, 3.0, 0.3, 0, "nearest", None, "auto", 16_000_000, "auto", "adaptive",
          "none", None, None)
     d.validate()
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -10,7 +10,9 @@ import json
 import numpy as np
 import pytest
 import rasterio
+from pyproj import CRS
 
+from fotogeo.crs import transform_points
 from fotogeo.models import Projective
 from fotogeo.pixels import pixel_centres
 from fotogeo.tools.register import register
@@ -30,14 +32,22 @@ def test_frame_registers_close_to_the_best_homography(data_dir, tmp_path, name, 
     out = tmp_path / "frame.tif"
     r = register(ngi / "ortho" / ortho, ngi / "frames" / f"{name}_RGB.tif", out, seed=0)
     grid, truth = truth_grid(ngi, name)
+    # the default output CRS is the reference's (tmerc lon_0=25, not UTM): the truth goes there
+    with rasterio.open(ngi / "ortho" / ortho) as ref:
+        ref_crs, ref_t = CRS.from_wkt(ref.crs.to_wkt()), ref.transform
+    truth = transform_points(CRS.from_epsg(32735), ref_crs, truth)
     dense = float(np.sqrt(np.mean(r.model.residuals(grid, truth) ** 2)))
     best = float(np.sqrt(np.mean(Projective.estimate(grid, truth).residuals(grid, truth) ** 2)))
     # relief: even the best homography is tens of metres off; ours must come within 1.3x of it
     assert 30 < best < 70
     assert dense < 1.3 * best, (dense, best)
     with rasterio.open(out) as ds:
-        assert ds.crs.to_epsg() == 32735 and ds.count == 3 and ds.res == pytest.approx((5.0, 5.0), rel=0.01)
+        assert CRS.from_wkt(ds.crs.to_wkt()) == ref_crs and ds.count == 3 and ds.res == (5.0, 5.0)
+        # on the reference's pixel grid: the origin a whole number of reference pixels away
+        off = np.array([(ds.transform.c - ref_t.c) / 5.0, (ds.transform.f - ref_t.f) / 5.0])
+        assert np.allclose(off, np.round(off), atol=1e-6), off
     rep = json.loads(out.with_suffix(".json").read_text())
+    assert rep["output_grid"]["aligned_to_reference"] and rep["output_crs_rule"].startswith("auto: the reference's")
     assert rep["check"]["n"] > 50 and rep["inliers"] > 200
 
 

@@ -23,7 +23,10 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
 def command(image, gcps, quiet, **kw):
-    """Fit an orientation model (ground → image) to the GCPs of IMAGE; check points measure it."""
+    """Fit an orientation model (ground → image) to the GCPs of IMAGE; check points measure it.
+
+    --model auto fits every model the GCPs allow and keeps the simplest within 5 % of the best
+    check RMSE (the candidates and the reason are printed and in the report)."""
     from ..tools.orient import orient
     bar = ConsoleProgress(quiet)
     try:
@@ -31,6 +34,12 @@ def command(image, gcps, quiet, **kw):
     finally:
         bar.close()
     click.echo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
+    if "model_selection" in rep:
+        sel = rep["model_selection"]
+        key = sel["compared"]
+        tried = ", ".join(f"{c['model']} {c[key]:.3f}" if c.get(key) is not None else f"{c['model']} (not fitted)"
+                          for c in sel["candidates"])
+        click.echo(f"auto chose {sel['chosen']}: {sel['because']}; {key.replace('_', ' ')}: {tried}")
     for role in ("control", "check", "blunder"):
         s = rep.get(role)
         if s and s.get("n"):
@@ -41,3 +50,5 @@ def command(image, gcps, quiet, **kw):
         click.echo(f"blunder? GCP {f['id']}: {f['reason']}{' — removed' if f['removed'] else ''}")
     for w in rep["warnings"]:
         click.echo(f"warning: {w}")
+    if kw.get("vectors") or kw.get("plot"):
+        click.echo(f"error vectors {rep['exaggeration']['legend']}")

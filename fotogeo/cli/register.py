@@ -21,8 +21,10 @@ def command(reference, target, output, vectors, report, overwrite, quiet, **opti
     """Register TARGET (any image of the area) to the georeferenced REFERENCE orthophoto.
 
     PCA band fusion, SURF keypoints, SSD ratio-test matching, RANSAC + robust homography,
-    check points held out; writes OUT.tif (nearest neighbour by default), OUT.gpkg (layers
-    tie_points, error_vectors) and OUT.json (report).
+    check points held out; writes OUT.tif (nearest neighbour by default; --cog for a Cloud
+    Optimized GeoTIFF), OUT.gpkg (layers tie_points, error_vectors, error_grid) and OUT.json
+    (report). Output CRS: the reference's when it is projected (on its pixel grid), else the UTM
+    zone of its centre; --crs utm / reference / EPSG:xxxx to choose.
     """
     from ..tools.register import register
     bar = ConsoleProgress(quiet)
@@ -31,15 +33,6 @@ def command(reference, target, output, vectors, report, overwrite, quiet, **opti
                      **options)
     finally:
         bar.close()
-    rep = r.report
-    click.echo(f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
-               f"matches {rep['matches']}, inliers {rep['inliers']}")
-    for role in ("control", "check"):
-        s = rep[role]
-        if s.get("n"):
-            click.echo(f"{role:8s} n={s['n']:5d}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)")
-    if "terrain" in rep:
-        t = rep["terrain"]
-        click.echo(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
-                   f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
+    for line in r.report["summary"]:  # fotogeo.tools.register_report.summary_lines: units and choices named
+        click.echo(line)
     click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}")

@@ -212,3 +212,78 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     if (role == "blunder").any():
         stats["blunder"] = role_stats(res[role == "blunder"], scale_mm)
     return OrientFit(model, res, role.astype(str), stats, findings, warns)
+
+
+#: candidates of ``orient --model auto``: 2-D, then 3-D (heights needed), each fitted if the GCPs allow it
+AUTO_CANDIDATES = ("similarity", "affine", "collinearity", "projective", "bilinear", "affine-height", "dlt", "poly2",
+                   "poly3", "rfm-poly", "rfm-common", "rfm")
+
+
+def auto_candidates(n_control: int, has_heights: bool, camera=None) -> list[str]:
+    """The models of :data:`AUTO_CANDIDATES` that ``n_control`` control points allow, simplest
+    (fewest parameters) first: at least ``min_points`` and, unless regularised (the RFMs), two
+    more observations than parameters (2n ≥ u + 2); 3-D models need heights, collinearity the camera."""
+    names = []
+    for name in AUTO_CANDIDATES:
+        cls = get_model(name)
+        if cls.src_dims == 3 and not has_heights:
+            continue
+        try:
+            cls.options_from(camera=camera)
+        except ModelError:
+            continue
+        if n_control >= cls.min_points and (name.startswith("rfm") or 2 * n_control >= cls.n_params + 2):
+            names.append(name)
+    return sorted(names, key=lambda n: get_model(n).n_params)  # stable: the listed order breaks ties
+
+
+def select_model(ground, pixel, role, ids, *, camera=None, tolerance: float = 0.05, progress=None):
+    """``orient --model auto``: fit every :func:`auto_candidates` model on the control points and
+    keep the simplest whose RMSE is within ``tolerance`` of the best (the parsimony rule of the
+    terrain-aware registration, :func:`fotogeo.orientation.terrain.choose_parsimonious`).
+
+    The RMSE compared is the check points' when there are at least 3, else the control points'
+    leave-one-out RMSE (each point predicted by the model fitted without it: closed form for the
+    linear models, refits for the RFMs). Returns ``(name, selection)`` with ``selection`` =
+    ``{"candidates": [...], "chosen": name, "because": text, "compared": key}``; progress is
+    reported per candidate and a cancel takes effect between two.
+    """
+    from ..progress import as_progress
+    from .terrain import choose_parsimonious
+    prog = as_progress(progress)
+    ground, pixel, role = np.asarray(ground, float), np.asarray(pixel, float), np.asarray(role).astype(object)
+    control = role == "control"
+    names = auto_candidates(int(control.sum()), bool(np.isfinite(ground[:, 2]).all()), camera)
+    if not names:
+        raise ModelError(f"{int(control.sum())} control points are too few for any orientation model (the "
+                         f"similarity needs 3)")
+    key = "check_rmse_px" if (role == "check").sum() >= 3 else "loo_rmse_px"
+    cand = []
+    for i, name in enumerate(names):
+        prog(i / len(names), f"fitting candidate model {name} ({i + 1}/{len(names)})")
+        cand.append(_candidate(name, ground, pixel, role, ids, camera, key))
+    prog(1.0, "candidate models fitted")
+    chosen, because = choose_parsimonious(cand, key, tolerance)
+    return chosen, {"candidates": cand, "chosen": chosen, "because": because, "compared": key}
+
+
+def _candidate(name, ground, pixel, role, ids, camera, key) -> dict:
+    """One candidate of :func:`select_model`: its control, check (or leave-one-out) RMSE in pixels."""
+    try:
+        f = fit_orientation(name, ground, pixel, role, ids, snooping=False, camera=camera)
+    except FotogeoError as e:
+        return {"model": name, "note": str(e)}
+    row = {"model": name, "n_params": get_model(name).n_params, "control_rmse_px": f.stats["control"].get("rms_xy_px"),
+           "check_rmse_px": f.stats["check"].get("rms_xy_px"),
+           "ill_posed": bool(getattr(f.model, "info", {}).get("ill_posed")), "warnings": f.warnings}
+    if key == "loo_rmse_px":
+        cls = get_model(name)
+        src, control = model_src(cls, ground), role == "control"
+        idx = np.flatnonzero(control)
+        loo = leave_one_out(f.model, src[idx], pixel[idx])
+        if loo is None:
+            loo = _refit_leave_one_out(cls, src, pixel, control, idx, cls.options_from(camera=camera),
+                                       lambda *a: True)
+        ok = np.isfinite(loo).all(axis=1)
+        row["loo_rmse_px"] = float(np.sqrt(np.mean(np.sum(loo[ok] ** 2, axis=1)))) if ok.any() else None
+    return row

@@ -15,7 +15,8 @@ ground→image model of the orientation work (``dlt``, ``rfm``, ``rfm-common``, 
    candidate model is fitted once by least squares on the control points;
 4. ``model="auto"`` keeps the simplest candidate (collinearity, DLT, then the RFMs) whose check
    RMSE is within 5 % of the best, ranking fits with ill-posedness warnings last (the report
-   lists every candidate and says why). Measured on the NGI frames, dense truth RMSE:
+   lists every candidate and says why; :func:`choose_parsimonious`, shared with ``orient
+   --model auto``). Each candidate reports progress and a cancel takes effect between two. Measured on the NGI frames, dense truth RMSE:
    collinearity 1.5/1.9 m, DLT 2.1/2.6 m, RFM 3.2/4.1 m — the RFM's extra terms fit the
    matching noise, which is why parsimony decides between near-equal check RMSEs.
 
@@ -58,11 +59,15 @@ class TerrainFit:
 
 
 def fit_terrain(target_px, ground, *, model: str = "auto", camera=None, threshold_m: float,
-                min_sigma_m: float, check_fraction: float = 0.3, rng=0, is_valid=None) -> TerrainFit:
+                min_sigma_m: float, check_fraction: float = 0.3, rng=0, is_valid=None, progress=None) -> TerrainFit:
     """Fit a 3-D model from ``ground`` (N, 3: X, Y, Z; Z NaN = no height) to ``target_px`` (N, 2).
 
     ``is_valid`` rejects RANSAC samples of the homography prefilter (e.g. one folding the image).
+    ``progress(fraction, message) -> bool`` hears of the tie-point selection and of each
+    candidate model; False cancels (:class:`~fotogeo.errors.Cancelled`) between two steps.
     """
+    from ..progress import as_progress
+    prog = as_progress(progress)
     if model not in TERRAIN_MODELS:
         raise InputError(f"model {model!r} is not a terrain model; choose one of {', '.join(TERRAIN_MODELS)}")
     src, ground = np.asarray(target_px, float), np.asarray(ground, float)
@@ -70,6 +75,7 @@ def fit_terrain(target_px, ground, *, model: str = "auto", camera=None, threshol
 
     def relief_filter(pre):
         """Step 2: robust 3-D fit with the DLT (linear, fast) on the prefiltered matches."""
+        prog(0.25, "relief filter: robust DLT on the prefiltered tie points")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             rob = robust_refit(DLT, ground[pre], src[pre], DLT.estimate(ground[pre], src[pre]), min_sigma=0.5)
@@ -77,21 +83,18 @@ def fit_terrain(target_px, ground, *, model: str = "auto", camera=None, threshol
         inl[np.flatnonzero(pre)[rob.inliers]] = True
         return inl, rob.sigma
 
+    prog(0.0, "selecting tie points (RANSAC, relief filter)")
     sel = select_tie_points(Projective, src, ground[:, :2], threshold=threshold_m, min_sigma=min_sigma_m,
                             check_fraction=check_fraction, rng=rng, usable=has_h, refine=relief_filter,
                             min_consistent=12, min_control=20, is_valid=is_valid,
                             what="tie points with DEM heights")
     control, is_check = sel.control, sel.is_check
     names = [n for n in PARSIMONY if _has_fit_options(n, camera)] if model == "auto" else [model]
-    cand, fitted = _fit_candidates(names, ground, src, control, is_check, camera)
+    cand, fitted = _fit_candidates(names, ground, src, control, is_check, camera, prog.stage(0.4, 1.0, "candidates"))
     key = "check_rmse_px" if is_check.any() else "control_rmse_px"
-    ok = [c for c in cand if c["model"] in fitted and not c["ill_posed"]] or [c for c in cand if c["model"] in fitted]
-    best = min(c[key] for c in ok)
-    chosen = next(c for c in ok if c[key] <= 1.05 * best)
-    m = fitted[chosen["model"]]
-    because = ("the model asked for" if model != "auto" else
-               f"simplest of {', '.join(c['model'] for c in ok)} within 5 % of the best {key.split('_')[0]} "
-               f"RMSE ({best:.3f} px)")
+    name, because = choose_parsimonious(cand, key)
+    m = fitted[name]
+    because = "the model asked for" if model != "auto" else because
     role = sel.role
     role[~has_h] = "no_height"
     res_px = m.forward(ground) - src
@@ -111,10 +114,33 @@ def _has_fit_options(name: str, camera) -> bool:
     return True
 
 
-def _fit_candidates(names, ground, src, control, is_check, camera):
+def choose_parsimonious(candidates: list, key: str, tolerance: float = 0.05) -> tuple[str, str]:
+    """The simplest candidate whose ``key`` RMSE is within ``tolerance`` of the best, and why.
+
+    ``candidates`` are dicts in order of simplicity (``model``, ``key``, ``ill_posed``); those
+    without ``key`` (not fitted) are skipped; fits with ill-posedness warnings are chosen only
+    if every fit has them.
+
+    >>> choose_parsimonious([{"model": "dlt", "rmse": 1.02, "ill_posed": False},
+    ...                      {"model": "rfm", "rmse": 1.00, "ill_posed": False}], "rmse")
+    ('dlt', 'simplest of dlt, rfm within 5 % of the best rmse RMSE (1.000 px)')
+    """
+    fitted = [c for c in candidates if c.get(key) is not None and np.isfinite(c[key])]
+    if not fitted:
+        raise MatchingError("no candidate model could be fitted: " + "; ".join(c.get("note", "") for c in candidates))
+    ok = [c for c in fitted if not c.get("ill_posed")] or fitted
+    best = min(c[key] for c in ok)
+    chosen = next(c for c in ok if c[key] <= (1 + tolerance) * best)
+    label = key.replace("_rmse_px", "").replace("_px", "")
+    return chosen["model"], (f"simplest of {', '.join(c['model'] for c in ok)} within {tolerance:.0%} of the best "
+                             f"{label} RMSE ({best:.3f} px)").replace("%", " %")
+
+
+def _fit_candidates(names, ground, src, control, is_check, camera, prog):
     """Step 4: each candidate fitted once on the control points; its control and check RMSE (px)."""
     cand, fitted = [], {}
-    for name in names:
+    for i, name in enumerate(names):
+        prog(i / len(names), f"fitting candidate model {name} ({i + 1}/{len(names)})")
         try:
             cls = get_model(name)
             with warnings.catch_warnings(record=True) as caught:

@@ -6,31 +6,34 @@
 1. read both images (decimated to ``max_match_pixels`` for matching), PCA band fusion;
 2. keypoints + descriptors (SURF by default), SSD matching with the ratio test;
 3. tie points: target pixels ↔ reference map coordinates, transformed into the output CRS
-   (``"auto"`` = the UTM zone of the reference centre);
+   (``"auto"`` = the reference's CRS when it is projected, else the UTM zone of the reference
+   centre; ``"reference"``; ``"utm"``, the source paper's rule — :func:`fotogeo.crs.choose_output_crs`);
 4. RANSAC + robust refit of the model (projective by default), check points held out;
-5. window-by-window resampling of every band of the target onto the output grid;
-6. outputs written atomically: ``OUT.tif``, ``OUT.gpkg`` (layers ``tie_points`` and
-   ``error_vectors``) and ``OUT.json`` (the report).
+5. window-by-window resampling of every band of the target onto the output grid — aligned to
+   the reference's pixel grid when the output CRS is the reference's (:func:`aligned_grid`);
+6. outputs written atomically: ``OUT.tif`` (a Cloud Optimized GeoTIFF with ``cog=True``),
+   ``OUT.gpkg`` (layers ``tie_points``, ``error_vectors`` and ``error_grid``, the mean residual
+   per grid cell) and ``OUT.json`` (the report, whose ``notes`` explain every number).
 """
 from __future__ import annotations
 
-import platform
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..crs import pixel_size_in, require_projected, resolve_crs, to_lonlat, transform_points
+from ..crs import choose_output_crs, pixel_size_in, require_projected, short_name, to_lonlat, transform_points
 from ..errors import InputError, MatchingError, ModelError
 from ..geometry.georeference import Georeference
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_dem
 from ..io.report import write_json
-from ..io.vector import error_vectors, write_layers
+from ..io.vector import (error_vectors, exaggeration_value, grid_means, legend_text, nominal_scale,
+                         write_layers)
 from ..io.warp import grid_covering, warp_to_grid
 from ..models import get_model
 from ..models.robust import fit_tie_points
-from ..models.stats import residual_stats, rmse
+from ..models.stats import rmse
 from ..options import PLANAR_MODELS, RegisterOptions  # declared in the option table
 from ..orientation.terrain import TERRAIN_MODELS
 from ..pixels import outline, pixel_to_map
@@ -38,27 +41,10 @@ from ..progress import as_progress
 from .checks import check_camera_size, check_output_grid
 from .match import HINT, find_tie_points
 from .boundary import tool
+from .register_report import build_report, notes, summary_lines
+from .results import Registration
 
-
-@dataclass(frozen=True)
-class Registration:
-    """What :func:`register` produced: paths, the fitted model and the report dict."""
-
-    output: Path
-    vectors: Path
-    report_path: Path
-    model: object
-    report: dict = field(repr=False)
-    georeference: Georeference | None = field(default=None, repr=False)  # target pixels <-> output map
-
-
-def _versions() -> dict:
-    import cv2
-    import pyproj
-    import rasterio
-    return {"fotogeo": __version__, "python": platform.python_version(), "numpy": np.__version__,
-            "opencv": cv2.__version__, "rasterio": rasterio.__version__, "gdal": rasterio.__gdal_version__,
-            "pyproj": pyproj.__version__}
+__all__ = ["register", "Registration", "RegisterOptions", "aligned_grid", "summary_lines"]
 
 
 def output_grid(geo, width: int, height: int, res: float):
@@ -113,8 +99,8 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
         raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
                          f"register against a georeferenced orthophoto, or georeference it first")
     centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
-    crs = require_projected(resolve_crs(opts.dst_crs, ref.crs, centre), "output CRS",
-                            tuple(to_lonlat(ref.crs, centre)[0]))
+    crs, crs_rule = choose_output_crs(opts.dst_crs, ref.crs, centre)
+    require_projected(crs, "output CRS", tuple(to_lonlat(ref.crs, centre)[0]))
     if dem is not None and camera is not None:
         from ..io.camera import load_camera
         camera = load_camera(camera)
@@ -122,33 +108,87 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     with AtomicOutputs(overwrite) as out:
         with prog.timed("total"):
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
-            res = opts.resolution or ref_px
+            res = opts.resolution or _reference_step(ref, crs) or ref_px
             src, ref_xy, counts = _tie_points(opts, ref, tgt, prog, tie_points)
             dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
-            with prog.stage(0.55, 0.6, "fitting the model").timed("fit"):
+            fit_stage = prog.stage(0.55, 0.6, "fitting the model")
+            with fit_stage.timed("fit"):
                 try:
                     gf = (_planar(opts, src, dst, ref_px, tgt, crs, res) if dem is None else
-                          _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera))
+                          _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, fit_stage))
                 except MatchingError as e:
                     raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
             check_output_grid(output, gf.width, gf.height, bands=tgt.count, dtype=tgt.dtype,
                               source_pixels=tgt.width * tgt.height, resolution=res,
                               what=f"the registered raster {str(output)!r}")
-            rep = _report(opts, ref, tgt, crs, ref_px, res, counts, gf)
-            stage = prog.stage(0.6, 0.95, "resampling")
+            transform, width, height, aligned = aligned_grid(gf.transform, gf.width, gf.height, res, ref, crs)
+            gf = replace(gf, transform=transform, width=width, height=height)
+            rep = build_report(opts, ref, tgt, crs, ref_px, res, counts, gf)
+            rep["output_crs_name"], rep["output_crs_rule"] = short_name(crs), crs_rule
+            rep["output_grid"]["aligned_to_reference"] = aligned
+            stage = prog.stage(0.6, 0.95 if not opts.cog else 0.9, "resampling")
             with stage.timed("resample"):
-                written = warp_to_grid(tgt.path, out.temp(output), gf.georeference.map_to_pixel, crs=crs,
+                raster = out.temp(output)
+                written = warp_to_grid(tgt.path, raster, gf.georeference.map_to_pixel, crs=crs,
                                        transform=gf.transform, width=gf.width, height=gf.height,
                                        resampling=opts.resampling, block=gf.block, src_nodata=opts.target_nodata,
                                        progress=stage)
                 rep["output_grid"].update(written)
+            if opts.cog:
+                from ..io.cog import convert_to_cog
+                with prog.stage(0.9, 0.95, "writing the Cloud Optimized GeoTIFF").timed("cog"):
+                    convert_to_cog(raster, opts.resampling)
             prog.stage(0.95, 1.0, "writing tie points and report")
-            _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+            rep["exaggeration"] = _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+            rep["notes"] = notes(rep, dem is not None)
         rep["timings_s"] = {k: round(v, 4) for k, v in prog.timings.items()}
+        rep["summary"] = summary_lines(rep)
         write_json(out.temp(report), rep)
         prog(1.0, "done")
         out.commit()
     return Registration(output, vectors, report, gf.model, rep, gf.georeference)
+
+
+def _north_up(ref, crs) -> bool:
+    """Whether the output CRS is the reference's and the reference grid is north-up (no rotation)."""
+    t = ref.transform
+    return ref.crs == crs and t.b == 0 and t.d == 0 and t.a > 0 and t.e < 0
+
+
+def _reference_step(ref, crs) -> float | None:
+    """The reference's own pixel size as the default resolution, when the output grid can be
+    aligned with it (same CRS, north-up, square pixels); None otherwise."""
+    t = ref.transform
+    return float(t.a) if _north_up(ref, crs) and math.isclose(t.a, -t.e, rel_tol=1e-9) else None
+
+
+def aligned_grid(transform, width: int, height: int, res: float, ref, crs):
+    """The output grid ``(transform, width, height)`` of pixel size ``res`` covering the given
+    one, moved onto the reference's pixel grid; and whether it is aligned (the 4th value).
+
+    When the output CRS is the reference's and the reference is north-up, the grid's origin
+    (top-left corner) is put on a corner of a reference pixel — a whole number of reference
+    pixels from the reference's origin — and the grid grows right and down to cover the
+    footprint. With the default resolution (the reference's pixel size) or any whole multiple
+    of it, every output pixel is then exactly a reference pixel or a block of them: the output
+    overlays the reference without resampling (``aligned`` True). With another resolution only
+    the origin is aligned (``aligned`` False). In another CRS, or under a rotated reference,
+    the grid is the footprint's, its edges on multiples of ``res`` (``gdalwarp -tap``),
+    unchanged (``aligned`` False).
+    """
+    from affine import Affine
+    if not _north_up(ref, crs):
+        return transform, width, height, False
+    t = ref.transform
+    a, e = t.a, -t.e
+    x_min, y_max = transform.c, transform.f
+    x_max, y_min = x_min + width * res, y_max - height * res
+    x0 = t.c + math.floor((x_min - t.c) / a + 1e-9) * a
+    y1 = t.f - math.floor((t.f - y_max) / e + 1e-9) * e
+    w = int(math.ceil((x_max - x0) / res - 1e-9))
+    h = int(math.ceil((y1 - y_min) / res - 1e-9))
+    whole = all(round(res / step) >= 1 and abs(res / step - round(res / step)) < 1e-9 for step in (a, e))
+    return Affine(res, 0, x0, 0, -res, y1), w, h, bool(whole)
 
 
 def _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite):
@@ -227,7 +267,7 @@ def _planar(opts, src, dst, ref_px, tgt, crs, res) -> GeoFit:
                   _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
 
 
-def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
+def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, prog=None) -> GeoFit:
     from ..geometry.dem import Dem, DemSampler
     from ..io.camera import load_camera
     from ..orientation.terrain import fit_terrain
@@ -240,7 +280,8 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
                          f"the overlap of the images (nodata holes are skipped)")
     fit = fit_terrain(src, np.column_stack([dst, z]), model=opts.model or "auto", camera=load_camera(camera),
                       threshold_m=opts.ransac_threshold * ref_px, min_sigma_m=ref_px,
-                      check_fraction=opts.check_fraction, rng=opts.seed, is_valid=_unfolded(tgt.width, tgt.height))
+                      check_fraction=opts.check_fraction, rng=opts.seed, is_valid=_unfolded(tgt.width, tgt.height),
+                      progress=prog)
     geo = Georeference(fit.model, heights=sampler, crs=crs)
     XY = geo.footprint(tgt.width, tgt.height)
     if not np.isfinite(XY).any():
@@ -258,53 +299,37 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera) -> GeoFit:
                   _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
 
 
-def _stats(resid: np.ndarray, px: float) -> dict:
-    """Residual statistics of one role in output CRS units (m) and reference pixels (px)."""
-    s = residual_stats(resid)
-    if s["n"] == 0:
-        return s
-    return {"n": s["n"], "rmse_m": s["rms_xy"], "rmse_px": s["rms_xy"] / px, "rms_x_m": s["rms_x"],
-            "rms_y_m": s["rms_y"], "median_m": s["median"], "max_m": s["max"]}
-
-
-def _report(opts, ref, tgt, crs, ref_px, res, counts, gf):
-    from dataclasses import asdict
-    return {
-        "fotogeo": "register",
-        "reference": str(ref.path), "target": str(tgt.path),
-        "options": asdict(opts),
-        "output_crs": crs.to_string(), "output_crs_wkt": crs.to_wkt(),
-        "output_grid": {"width": gf.width, "height": gf.height, "resolution": res,
-                        "transform": list(gf.transform)[:6]},
-        "reference_pixel_size": ref_px,
-        **counts,
-        "inliers": int(gf.inliers.sum()),
-        "model": gf.model.to_dict(),
-        **gf.details,
-        "control": _stats(gf.residual_m[gf.role == "control"], ref_px),
-        "check": _stats(gf.residual_m[gf.role == "check"], ref_px),
-        "units": "metres in the output CRS (px = reference pixels)",
-        "versions": _versions(),
-    }
-
-
-def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration):
+def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration) -> dict:
+    """The GeoPackage of tie points, error vectors and the mean-residual grid; returns the
+    exaggeration entry of the report (k, how it was chosen, the legend sentence)."""
     import shapely
     keep = fit.inliers
     idx = np.flatnonzero(keep)
     d = fit.residual_m[keep]
     pts = dst[keep]
     length = np.hypot(d[:, 0], d[:, 1])
+    k, how = exaggeration_value(exaggeration, float(np.median(length)) if len(length) else 0.0, pts)
+    scale = nominal_scale(pts)
+    legend = legend_text(k, scale)
     common = {"id": idx.astype(np.int64), "role": fit.role[keep],
               "ref_x": pts[:, 0], "ref_y": pts[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
               "target_col": src[keep, 0], "target_row": src[keep, 1]}
     if fit.z is not None:
         common["z"] = fit.z[keep]
+    g = grid_means(pts, d)
     layers = {
         "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
                        "residual_px": length / ref_px, "geometry": shapely.points(pts)},
         "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
-                          "length": length, "exaggeration": np.full(len(idx), float(exaggeration)),
-                          "geometry": error_vectors(pts, pts + d, exaggeration)},
+                          "length": length, "exaggeration": np.full(len(idx), k), "legend": [legend] * len(idx),
+                          "geometry": error_vectors(pts, pts + d, k)},
+        "error_grid": {**{c: g[c] for c in ("cell_col", "cell_row", "n", "mean_dx", "mean_dy", "length", "rms")},
+                       "exaggeration": np.full(len(g["n"]), k), "legend": [legend] * len(g["n"]),
+                       "geometry": error_vectors(np.column_stack([g["x"], g["y"]]).reshape(-1, 2),
+                                                 np.column_stack([g["x"] + g["mean_dx"], g["y"] + g["mean_dy"]])
+                                                 .reshape(-1, 2), k)},
     }
-    write_layers(path, layers, crs.to_wkt())
+    what = f"Error vectors drawn {legend}"
+    write_layers(path, layers, crs.to_wkt(), {"error_vectors": what + ".",
+                                              "error_grid": f"Mean residual per grid cell, {what}."})
+    return {"factor": k, "chosen": how, "map_scale": scale, "legend": legend, "grid_cells": int(len(g["n"]))}

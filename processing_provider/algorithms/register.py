@@ -42,7 +42,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "ground-to-image model is fitted (auto keeps the simplest of collinearity — with the camera's "
             "interior orientation —, DLT and the rational function models whose check RMSE is within 5 % of the "
             "best) and the output is orthorectified with the DEM heights.\n\n"
-            "Output CRS: empty = the UTM zone of the reference centre. Resolution 0 = the reference's "
+            "Output CRS: empty = the reference's CRS when it is projected (the output then lies on the "
+            "reference's pixel grid), else the UTM zone of the reference centre. Resolution 0 = the reference's "
             "pixel size. A single homography cannot model strong relief (give a DEM): expect metre-level residuals on "
             "mountainous frames.\n\n"
             f"References: {REFERENCES['dihkan']} {REFERENCES['surf']} {REFERENCES['ransac']}")
@@ -119,4 +120,5 @@ def summary_lines(rep: dict) -> list[str]:
         t = rep["terrain"]
         lines.append(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
                      f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
+    lines += rep.get("summary", [])[-2:]  # the library's lines: output CRS (and why), grid alignment, exaggeration
     return lines

@@ -1,5 +1,5 @@
 <!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>
-<qgis version="3.22.16-Białowieża" styleCategories="Symbology">
+<qgis version="3.22.16-Białowieża" styleCategories="Symbology|Labeling" labelsEnabled="1">
   <renderer-v2 forceraster="0" referencescale="-1" type="categorizedSymbol" attr="role" symbollevels="0" enableorderby="0">
     <categories>
       <category label="Control point" value="control" symbol="0" render="true"/>
@@ -185,6 +185,15 @@
     <rotation/>
     <sizescale/>
   </renderer-v2>
+  <labeling type="simple">
+    <settings calloutType="simple">
+      <text-style fieldName="concat(&quot;id&quot;, ': ', format_number(&quot;residual_px&quot;, 2), ' px')" isExpression="1" fontSize="8" fontSizeUnit="Point" textColor="0,0,0,255" textOpacity="1" fontFamily="Sans Serif" namedStyle="Regular" fontWeight="50">
+        <text-buffer bufferDraw="1" bufferSize="0.8" bufferSizeUnits="MM" bufferColor="255,255,255,255" bufferOpacity="0.8" bufferJoinStyle="128" bufferNoFill="1"/>
+      </text-style>
+      <placement placement="0" dist="1" distUnits="MM" quadOffset="2"/>
+      <rendering obstacle="1" displayAll="0" limitNumLabels="0" scaleVisibility="0" drawLabels="1"/>
+    </settings>
+  </labeling>
   <blendMode>0</blendMode>
   <featureBlendMode>0</featureBlendMode>
   <layerGeometryType>0</layerGeometryType>

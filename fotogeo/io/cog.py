@@ -1,0 +1,40 @@
+"""Cloud Optimized GeoTIFF: a written GeoTIFF converted in place with GDAL's COG driver.
+
+The tools write their GeoTIFF as usual (window by window, through
+:class:`~fotogeo.io.raster.AtomicOutputs`) and convert the temporary file before the commit:
+GDAL's ``COG`` driver copies it into a tiled GeoTIFF with overviews, its header and tile
+index at the start of the file (``LAYOUT=COG`` in GDAL's image structure metadata), so a
+web client or QGIS reads any window or zoom level with few range requests. The copy goes to
+a hidden file beside the source and replaces it; an error leaves the source as it was.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from ..errors import OutputError
+
+#: creation options of the COG copy (deflate keeps every data type lossless)
+COG_OPTIONS = {"COMPRESS": "DEFLATE", "BLOCKSIZE": 512, "OVERVIEWS": "AUTO", "BIGTIFF": "IF_SAFER"}
+
+
+def convert_to_cog(path, resampling: str = "nearest") -> Path:
+    """Rewrite the GeoTIFF ``path`` as a Cloud Optimized GeoTIFF (overviews by ``resampling``)."""
+    import rasterio.shutil
+    from rasterio.errors import RasterioError
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".cog.tif", dir=path.parent)
+    os.close(fd)
+    os.unlink(tmp)
+    try:
+        rasterio.shutil.copy(path, tmp, driver="COG", OVERVIEW_RESAMPLING=resampling.upper(), **COG_OPTIONS)
+        os.replace(tmp, path)
+    except (RasterioError, OSError) as e:
+        raise OutputError(f"could not write the Cloud Optimized GeoTIFF {str(path)!r}: {e}") from None
+    finally:
+        for p in (tmp, tmp + ".aux.xml"):
+            if os.path.exists(p):
+                os.unlink(p)
+    return path

@@ -1,0 +1,58 @@
+"""The styles of fotogeo's vector outputs in headless QGIS (issue 11): GCP / tie-point labels
+(id and residual) and the error vectors' exaggeration sentence in the legend."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from qgis_env import need_qgis, qgis_app  # noqa: F401 - the session fixture
+
+pytestmark = [pytest.mark.qgis]
+need_qgis()
+
+from qgis.core import QgsVectorLayer  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from processing_provider.postprocess import show_legend, style_path  # noqa: E402
+
+
+def _layer(tmp_path, name, geometry, columns):
+    import geopandas as gpd
+    gpd.GeoDataFrame(columns, geometry=geometry, crs="EPSG:32735").to_file(tmp_path / f"{name}.gpkg", layer=name)
+    layer = QgsVectorLayer(f"{tmp_path / name}.gpkg|layername={name}", name, "ogr")
+    assert layer.isValid()
+    return layer
+
+
+def test_gcp_labels_show_id_and_residual(qgis_app, tmp_path):
+    import shapely
+    layer = _layer(tmp_path, "gcps", shapely.points([[0, 0], [10, 10]]),
+                   {"id": ["P1", "P2"], "role": ["control", "check"], "residual_px": [0.1234, 2.5]})
+    message, ok = layer.loadNamedStyle(style_path("tie_points"))
+    assert ok, message
+    assert layer.labelsEnabled()
+    settings = layer.labeling().settings()
+    assert settings.isExpression and '"id"' in settings.fieldName and "residual_px" in settings.fieldName
+    from qgis.core import QgsExpression, QgsExpressionContext, QgsExpressionContextUtils
+    ctx = QgsExpressionContext(QgsExpressionContextUtils.globalProjectLayerScopes(layer))
+    feature = next(layer.getFeatures())
+    ctx.setFeature(feature)
+    assert QgsExpression(settings.fieldName).evaluate(ctx) == "P1: 0.12 px"
+
+
+def test_error_vector_legend_states_the_exaggeration(qgis_app, tmp_path):
+    import shapely
+    legend = "x200; 1 mm on the map = 0.1 m of error (at 1:20 000)"
+    lines = shapely.linestrings(np.array([[[0, 0], [5, 5]], [[10, 10], [12, 9]]], float))
+    layer = _layer(tmp_path, "error_vectors", lines, {"role": ["control", "check"], "legend": [legend] * 2,
+                                                      "exaggeration": [200.0, 200.0]})
+    message, ok = layer.loadNamedStyle(style_path("error_vectors"))
+    assert ok, message
+    assert show_legend(layer) == legend
+    labels = [c.label() for c in layer.renderer().categories()]
+    assert labels[0] == f"Control point ({legend})" and all(legend in t for t in labels)
+    assert legend in layer.abstract()
+    plain = _layer(tmp_path, "plain", shapely.points([[0, 0]]), {"role": ["control"]})
+    assert show_legend(plain) is None
