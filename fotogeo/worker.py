@@ -50,6 +50,7 @@ TOOLS = {
     "layer_to_points": ("fotogeo.tools.points", "layer_to_points"),
     "run_demo": ("fotogeo.tools.demo", "run_demo"),
     "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
+    "register_batch": ("fotogeo.tools.batch", "register_batch"),
 }
 #: arrays larger than this are summarised (shape only) in results, not listed
 MAX_ARRAY = 10_000

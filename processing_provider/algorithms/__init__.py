@@ -7,6 +7,7 @@ from .match import MatchFeaturesAlgorithm
 from .orient import OrientAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
+from .register_batch import RegisterBatchAlgorithm
 from .rpc_bias import RpcBiasAlgorithm
 from .targets import MeasureTargetsAlgorithm
 from .transfer import TransferPointsAlgorithm
@@ -14,4 +15,4 @@ from .transfer import TransferPointsAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm)

@@ -1,0 +1,193 @@
+"""Batch co-registration on Dask (issue 15): scene pairs made from Landsat RGB by known warps, every
+result checked against its warp; a failing scene isolated; resume; a scheduler address (Dask
+processes started here); a worker killed mid-batch; the command line; Dask missing."""
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+distributed = pytest.importorskip("distributed", reason="Dask is the 'batch' extra: pip install -e '.[batch]'")
+
+from batch_scenes import make_scene, make_unmatchable, model_error_px  # noqa: E402
+from fotogeo.errors import InputError  # noqa: E402
+from fotogeo.io.manifest import read_csv  # noqa: E402
+from fotogeo.tools.batch import register_batch  # noqa: E402
+
+SIZE = 320
+OPTIONS = {"detector": "sift", "max_keypoints": 2000, "dst_crs": "EPSG:32618"}
+
+
+@pytest.fixture(scope="module")
+def scenes(data_dir, tmp_path_factory):
+    """(reference, {path: H}, unmatchable path): four warped scenes of Landsat RGB and one of noise."""
+    ref = data_dir / "landsat_rgb" / "RGB.byte.tif"
+    folder = tmp_path_factory.mktemp("scenes")
+    warps = dict(make_scene(ref, folder, k, SIZE) for k in range(4))
+    return ref, warps, make_unmatchable(folder)
+
+
+@pytest.fixture(scope="module")
+def thread_client():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
+            distributed.Client(c) as client:
+        yield client
+
+
+def _check_all(ref, warps, outdir, rows):
+    """Every scene registered, its model within 0.5 reference px of the known warp everywhere."""
+    by_target = {r["target"]: r for r in rows}
+    for path, H in warps.items():
+        row = by_target[str(path.resolve())]
+        assert row["status"] == "ok", row
+        assert row["inliers"] >= 50 and row["check_rmse_px"] < 1.0 and row["seconds"] is not None
+        assert model_error_px(outdir / f"{path.stem}.json", ref, H, SIZE) < 0.5
+        assert (outdir / f"{path.stem}.tif").is_file() and (outdir / f"{path.stem}.gpkg").is_file()
+
+
+def test_batch_checks_every_scene_and_isolates_a_failure(scenes, thread_client, tmp_path):
+    import geopandas as gpd
+    ref, warps, noise = scenes
+    seen = []
+    r = register_batch(ref, [*warps, noise], tmp_path / "out", client=thread_client, progress=lambda f, m: seen.append(f)
+                       or True, **OPTIONS)
+    assert (r.ok, r.failed, r.skipped) == (4, 1, 0)
+    rows = read_csv(r.manifest_csv)
+    _check_all(ref, warps, tmp_path / "out", rows)
+    failed = [x for x in rows if x["status"] == "failed"]
+    assert [x["scene"] for x in failed] == ["noise"] and "\n" not in failed[0]["error"] and failed[0]["error"]
+    assert r.failures == {"noise": failed[0]["error"]}
+    layer = gpd.read_file(r.manifest_gpkg, layer="scenes")
+    assert len(layer) == 5 and layer.crs.to_epsg() == 4326
+    ok = layer[layer.status == "ok"]
+    assert ok.geometry.notna().all() and ok.geometry.is_valid.all()
+    # the footprints lie on the reference (Landsat RGB: about 77-79 W, 23-26 N... in lon/lat)
+    with __import__("rasterio").open(ref) as ds:
+        from pyproj import Transformer
+        lon, lat = Transformer.from_crs(ds.crs, "EPSG:4326", always_xy=True).transform(
+            (ds.bounds.left + ds.bounds.right) / 2, (ds.bounds.top + ds.bounds.bottom) / 2)
+    assert all(abs(g.centroid.x - lon) < 1 and abs(g.centroid.y - lat) < 1 for g in ok.geometry)
+    assert seen[-1] == 1.0 and seen == sorted(seen)
+
+
+def test_resume_skips_finished_scenes(scenes, thread_client, tmp_path):
+    ref, warps, noise = scenes
+    out = tmp_path / "out"
+    first = list(warps)[:2]
+    register_batch(ref, first, out, client=thread_client, **OPTIONS)
+    stamps = {p.stem: (out / f"{p.stem}.tif").stat().st_mtime_ns for p in first}
+    (out / f"{first[1].stem}.json").unlink()  # an incomplete scene is registered again
+    r = register_batch(ref, [*warps, noise], out, client=thread_client, **OPTIONS)
+    assert (r.ok, r.failed, r.skipped) == (3, 1, 1)
+    assert (out / f"{first[0].stem}.tif").stat().st_mtime_ns == stamps[first[0].stem]
+    assert (out / f"{first[1].stem}.tif").stat().st_mtime_ns != stamps[first[1].stem]
+    _check_all(ref, warps, out, read_csv(r.manifest_csv))
+    # a crash between the outputs and the manifest: the report proves the scene done
+    (out / "manifest.csv").unlink()
+    r = register_batch(ref, list(warps), out, client=thread_client, **OPTIONS)
+    assert (r.ok, r.failed, r.skipped) == (0, 0, 4)
+    r = register_batch(ref, first[:1], out, client=thread_client, resume=False, **OPTIONS)
+    assert (r.ok, r.skipped) == (1, 0)
+
+
+def test_bad_batches_are_refused_before_any_work(scenes, tmp_path):
+    ref, warps, _ = scenes
+    with pytest.raises(InputError, match="no file matches"):
+        register_batch(ref, str(tmp_path / "nothing*.tif"), tmp_path / "o", client=object())
+    with pytest.raises(InputError, match="ratio"):
+        register_batch(ref, list(warps), tmp_path / "o", client=object(), ratio=7)
+    with pytest.raises(InputError, match="replace an input"):
+        register_batch(ref, list(warps), next(iter(warps)).parent, client=object())
+
+
+def test_dask_missing_gives_one_clear_line(scenes, tmp_path, monkeypatch):
+    ref, warps, _ = scenes
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(InputError, match=r"pip install 'fotogeo\[batch\]'"):
+        register_batch(ref, list(warps)[:1], tmp_path / "o")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _worker_pids(client) -> dict:
+    return client.run(os.getpid)
+
+
+def test_scheduler_address_and_a_killed_worker(scenes, tmp_path):
+    """`dask scheduler` + `dask worker` processes started here; the command line points at them with
+    --scheduler and a list file; one worker is killed while it runs a scene: the batch completes
+    and that scene is registered by a worker again (Dask retries the tasks of a lost worker)."""
+    from click.testing import CliRunner
+    from fotogeo.cli import main
+    ref, warps, _ = scenes
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    procs = [subprocess.Popen([*dask, "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers", "2",
+                                       "--nthreads", "1", "--no-dashboard"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        with distributed.Client(address, timeout="30s") as watcher:
+            watcher.wait_for_workers(2, timeout=60)
+            listing = tmp_path / "targets.txt"
+            listing.write_text("".join(f"{p}\n" for p in warps) * 1, encoding="utf-8")
+            killed = {}
+            finished = threading.Event()
+
+            def kill_a_busy_worker():
+                deadline = time.monotonic() + 60
+                while time.monotonic() < deadline and not killed and not finished.is_set():
+                    busy = {w: keys for w, keys in watcher.processing().items() if keys}
+                    if busy:
+                        pids = _worker_pids(watcher)
+                        worker, keys = next(iter(busy.items()))
+                        time.sleep(0.3)  # inside the scene, not at its start
+                        killed.update(worker=worker, keys=list(keys))
+                        os.kill(pids[worker], signal.SIGKILL)
+                    time.sleep(0.05)
+
+            killer = threading.Thread(target=kill_a_busy_worker, daemon=True)
+            killer.start()
+            result = CliRunner().invoke(main, ["register-batch", str(ref), str(listing), "-o", str(tmp_path / "out"),
+                                               "--scheduler", address, "-q", "--detector", "sift",
+                                               "--max-keypoints", "2000", "--crs", "EPSG:32618"])
+            finished.set()
+            killer.join(timeout=5)
+        assert result.exit_code == 0, result.output
+        assert "4 registered, 0 done before, 0 failed" in result.output
+        assert killed, "no worker was busy to be killed"
+        rows = read_csv(tmp_path / "out" / "manifest.csv")
+        _check_all(ref, warps, tmp_path / "out", rows)
+        killed_scenes = {k.split("-")[2] for k in map(str, killed["keys"])}
+        assert killed_scenes and all(r["status"] == "ok" for r in rows if r["scene"] in killed_scenes)
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def test_local_process_cluster(scenes, tmp_path):
+    """The default route: a local cluster of worker processes (here two), made and closed by the batch."""
+    ref, warps, _ = scenes
+    r = register_batch(ref, list(warps)[:2], tmp_path / "out", workers=2, **OPTIONS)
+    assert (r.ok, r.failed) == (2, 0)
+    rows = read_csv(r.manifest_csv)
+    _check_all(ref, dict(list(warps.items())[:2]), tmp_path / "out", rows)
+    assert len({row["worker"] for row in rows}) >= 1 and all(str(os.getpid()) not in row["worker"] for row in rows)
