@@ -145,3 +145,33 @@ def test_points_behind_the_cameras_are_refused_at_the_start():
     below = tuple(dataclasses.replace(e, Z=-500.0) for e in b.eo)
     with pytest.raises(ModelError, match="behind their camera"):
         adjust_block(dataclasses.replace(b, eo=below))
+
+
+def test_inverse_blocks_and_redundancy_numbers_equal_the_dense_inverse():
+    """Σ_aa, Σ_bb and Q_a from the reduced system equal the blocks of the dense (JᵀPJ)⁻¹."""
+    from fotogeo.orientation.bundle import _Run
+    from fotogeo.orientation.bundle_lm import linearise
+    from fotogeo.orientation.bundle_robust import posterior
+    sb = simulate_block(seed=3, strips=2, frames_per_strip=3, point_spacing=150.0, blunder_fraction=0.0)
+    run = _Run(sb.block, BundleOptions(self_calibration=("f", "k1")))
+    pb, s = run.problem()
+    _, J_c, J_p, _ = linearise(pb, s, pb.p0)
+    n, nc, P = len(pb.st.point), pb.st.n_camera, pb.st.n_points
+    J = np.zeros((2 * n, nc + 3 * P))
+    idx = pb.st.rows[:, :, 0]
+    for a in range(n):
+        J[2 * a:2 * a + 2, idx[a]] = J_c[a]
+        J[2 * a:2 * a + 2, nc + 3 * pb.st.point[a]:nc + 3 * pb.st.point[a] + 3] = J_p[a]
+    N = J.T @ (np.repeat(pb.p0, 2)[:, None] * J)
+    N[nc:, nc:] += np.diag(pb.ctrl_w.reshape(-1))
+    Ninv = np.linalg.inv(N)
+    post = posterior(pb, s, pb.p0)
+    assert np.allclose(post.S_inv, Ninv[:nc, :nc], rtol=1e-6, atol=1e-12 * np.abs(Ninv[:nc, :nc]).max())
+    dense_bb = np.stack([Ninv[nc + 3 * i:nc + 3 * i + 3, nc + 3 * i:nc + 3 * i + 3] for i in range(P)])
+    assert np.allclose(post.point_cofactor, dense_bb, rtol=1e-6, atol=1e-9 * np.abs(dense_bb).max())
+    Q = J @ Ninv @ J.T
+    r_dense = 1 - np.repeat(pb.p0, 2) * np.diag(Q)
+    assert np.allclose(post.r.reshape(-1), r_dense, atol=1e-6)
+    # the redundancy numbers of all observations (image and control) add up to the redundancy
+    r_ctrl = 1 - pb.ctrl_w.reshape(-1) * np.diag(Ninv[nc:, nc:])
+    assert np.isclose(post.r.sum() + r_ctrl[pb.ctrl_w.reshape(-1) > 0].sum(), post.redundancy, atol=1e-6)

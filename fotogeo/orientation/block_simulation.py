@@ -77,15 +77,23 @@ def _flight(camera, strips, per_strip, fwd, side, height, rng, attitude_sd, conv
 
 
 def _observe(true_eo, camera, interior, XYZ, margin):
-    R = np.stack([e.rotation_cv for e in true_eo])
-    C = np.array([e.centre for e in true_eo])
-    m, P = len(true_eo), len(XYZ)
-    frame, point = np.repeat(np.arange(m), P), np.tile(np.arange(P), m)
-    c = bj.camera_coordinates(R, C, XYZ, frame, point)
-    px = bj.project(R, C, XYZ, frame, point, interior, bj.pixel_scale(camera))
+    """Observations of the points every frame sees (one frame at a time: only the points within
+    the frame's ground radius are projected, so memory stays proportional to the observations)."""
+    scale = bj.pixel_scale(camera)
     w, h = camera.image_size
-    seen = (c[:, 2] > 0) & (px[:, 0] > margin) & (px[:, 0] < w - margin) & (px[:, 1] > margin) & (px[:, 1] < h - margin)
-    return frame[seen], point[seen], px[seen]
+    frames, points, pixels = [], [], []
+    for j, e in enumerate(true_eo):
+        reach = 1.5 * np.hypot(w / camera.fx, h / camera.fy) * (e.Z - XYZ[:, 2].min())
+        near = np.flatnonzero(np.hypot(XYZ[:, 0] - e.X, XYZ[:, 1] - e.Y) < reach)
+        zero = np.zeros(len(near), dtype=np.intp)
+        c = bj.camera_coordinates(e.rotation_cv[None], e.centre[None], XYZ[near], zero, np.arange(len(near)))
+        px = bj.project(e.rotation_cv[None], e.centre[None], XYZ[near], zero, np.arange(len(near)), interior, scale)
+        seen = ((c[:, 2] > 0) & (px[:, 0] > margin) & (px[:, 0] < w - margin) & (px[:, 1] > margin)
+                & (px[:, 1] < h - margin))
+        frames.append(np.full(int(seen.sum()), j, dtype=np.intp))
+        points.append(near[seen])
+        pixels.append(px[seen])
+    return np.concatenate(frames), np.concatenate(points), np.concatenate(pixels)
 
 
 def _pick_control(xyz, rays, n_control, lo, hi):

@@ -34,7 +34,10 @@ from __future__ import annotations
 
 import numpy as np
 
-INTERIOR_NAMES = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
+from ..options import INTERIOR_PARAMETERS
+
+INTERIOR_NAMES = INTERIOR_PARAMETERS  # the one list of interior parameter names (fotogeo.options)
+
 D_CV = np.diag([1.0, -1.0, -1.0])
 
 

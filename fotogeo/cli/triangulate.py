@@ -1,0 +1,46 @@
+"""``fotogeo triangulate FRAMES... --camera C.yaml --eo EO.txt --observations OBS.csv --gcps gcp_list.txt -o OUTDIR``."""
+from __future__ import annotations
+
+import click
+
+from ..options import TRIANGULATE
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+
+
+@click.command("triangulate")
+@click.argument("frames", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--camera", required=True, type=click.Path(dir_okay=False), help="Interior orientation YAML.")
+@click.option("--eo", required=True, type=click.Path(dir_okay=False),
+              help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees).")
+@click.option("--observations", required=True, type=click.Path(dir_okay=False),
+              help="Tie-point measurements: a table frame, point, col, row[, sigma] (corner convention).")
+@click.option("--gcps", type=click.Path(dir_okay=False), help="Ground control: ODM/OpenSfM gcp_list.txt.")
+@click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
+              help="Existing folder for exterior_orientation.txt, block.gpkg and report.json.")
+@options_from(TRIANGULATE)
+@click.option("--overwrite", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True)
+@run_tool
+def command(frames, camera, eo, observations, gcps, folder, overwrite, quiet, **kw):
+    """Orient a block of frames together: bundle block adjustment with GCPs (aerial triangulation).
+
+    Reports σ0, the control and check-point RMSE, the blunders culled and the interior parameters
+    estimated or held fixed (and why).
+    """
+    from ..tools.triangulate import triangulate
+    bar = ConsoleProgress(quiet)
+    try:
+        rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, overwrite=overwrite,
+                          progress=bar, **tool_arguments(kw, TRIANGULATE))
+    finally:
+        bar.close()
+    st = rep["statistics"]
+    click.echo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
+               f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
+    for role in ("control", "check"):
+        s = st[role]
+        if s.get("n"):
+            click.echo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} Z {s['rmse_z_m']:.3f} m")
+    for f in rep["fixed_parameters"]:
+        click.echo(f"held fixed: {f['reason']}")
+    click.echo(f"wrote {rep['folder']}")
