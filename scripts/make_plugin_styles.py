@@ -2,8 +2,12 @@
 
     QT_QPA_PLATFORM=offscreen .venv/bin/python scripts/make_plugin_styles.py
 
-tie_points.qml: points categorised by ``role`` — control blue circles, check red triangles.
+tie_points.qml: points categorised by ``role`` — control blue circles, check red triangles —
+labelled "id: residual px" (small, white buffer).
 error_vectors.qml: lines drawn as arrows from the reference position, categorised by ``role``.
+error_grid.qml: the registration's mean residual per grid cell, one dark-orange arrow per cell.
+
+``--only NAME ...`` regenerates just those styles.
 """
 from __future__ import annotations
 
@@ -17,7 +21,12 @@ from qgis.core import (
     QgsLineSymbol,
     QgsMapLayer,
     QgsMarkerSymbol,
+    QgsPalLayerSettings,
+    QgsTextBufferSettings,
+    QgsTextFormat,
+    QgsVectorLayerSimpleLabeling,
     QgsRendererCategory,
+    QgsSingleSymbolRenderer,
     QgsVectorLayer,
 )
 from qgis.PyQt.QtGui import QColor
@@ -38,36 +47,71 @@ def tie_points_renderer():
     return QgsCategorizedSymbolRenderer("role", cats)
 
 
+def arrow_symbol(colour: str, width: float = 0.3) -> QgsLineSymbol:
+    """A straight arrow from the line's start, plain single head."""
+    arrow = QgsArrowSymbolLayer()
+    arrow.setIsCurved(False)
+    arrow.setIsRepeated(False)
+    arrow.setArrowWidth(width)
+    arrow.setArrowStartWidth(width)
+    arrow.setHeadLength(1.6)
+    arrow.setHeadThickness(1.0)
+    arrow.setHeadType(QgsArrowSymbolLayer.HeadSingle)
+    arrow.setArrowType(QgsArrowSymbolLayer.ArrowPlain)
+    arrow.subSymbol().setColor(QColor(colour))
+    arrow.subSymbol().symbolLayer(0).setStrokeColor(QColor(colour))
+    sym = QgsLineSymbol()
+    sym.changeSymbolLayer(0, arrow)
+    return sym
+
+
+def tie_points_labeling():
+    settings = QgsPalLayerSettings()
+    settings.fieldName = "concat(\"id\", ': ', format_number(\"residual_px\", 2), ' px')"
+    settings.isExpression = True
+    settings.dist = 1.0
+    fmt = QgsTextFormat()
+    fmt.setSize(8)
+    buffer = QgsTextBufferSettings()
+    buffer.setEnabled(True)
+    buffer.setSize(0.8)
+    buffer.setColor(QColor("#ffffff"))
+    buffer.setOpacity(0.8)
+    fmt.setBuffer(buffer)
+    settings.setFormat(fmt)
+    return QgsVectorLayerSimpleLabeling(settings)
+
+
+def error_grid_renderer():
+    return QgsSingleSymbolRenderer(arrow_symbol("#d95f02", 0.5))
+
+
 def error_vectors_renderer():
     cats = []
     for value, label, colour in ROLES + ((None, "other", "#888888"),):
-        arrow = QgsArrowSymbolLayer()
-        arrow.setIsCurved(False)
-        arrow.setIsRepeated(False)
-        arrow.setArrowWidth(0.3)
-        arrow.setArrowStartWidth(0.3)
-        arrow.setHeadLength(1.6)
-        arrow.setHeadThickness(1.0)
-        arrow.setHeadType(QgsArrowSymbolLayer.HeadSingle)
-        arrow.setArrowType(QgsArrowSymbolLayer.ArrowPlain)
-        arrow.subSymbol().setColor(QColor(colour))
-        arrow.subSymbol().symbolLayer(0).setStrokeColor(QColor(colour))
-        sym = QgsLineSymbol()
-        sym.changeSymbolLayer(0, arrow)
-        cats.append(QgsRendererCategory(value, sym, label))
+        cats.append(QgsRendererCategory(value, arrow_symbol(colour), label))
     return QgsCategorizedSymbolRenderer("role", cats)
 
 
 def main():
+    only = set(sys.argv[sys.argv.index("--only") + 1:]) if "--only" in sys.argv else None
     app = QgsApplication([], False)
     app.initQgis()
     OUT.mkdir(parents=True, exist_ok=True)
     for name, geom, renderer in (("tie_points", "Point", tie_points_renderer()),
-                                 ("error_vectors", "LineString", error_vectors_renderer())):
+                                 ("error_vectors", "LineString", error_vectors_renderer()),
+                                 ("error_grid", "LineString", error_grid_renderer())):
+        if only is not None and name not in only:
+            continue
         layer = QgsVectorLayer(f"{geom}?field=role:string&field=dx:double&field=dy:double", name, "memory")
         layer.setRenderer(renderer)
+        categories = QgsMapLayer.Symbology
+        if name == "tie_points":
+            layer.setLabeling(tie_points_labeling())
+            layer.setLabelsEnabled(True)
+            categories |= QgsMapLayer.Labeling
         path = OUT / f"{name}.qml"
-        msg, ok = layer.saveNamedStyle(str(path), categories=QgsMapLayer.Symbology)
+        msg, ok = layer.saveNamedStyle(str(path), categories=categories)
         if not ok:
             sys.exit(f"could not write {path}: {msg}")
         print(f"wrote {path}")

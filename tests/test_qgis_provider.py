@@ -277,6 +277,9 @@ def test_register_layers_loaded_and_styled(registered):
     er = err.renderer()
     assert er.type() == "categorizedSymbol" and er.classAttribute() == "role"
     assert all(c.symbol().symbolLayer(0).layerType() == "ArrowLine" for c in er.categories())
+    grid = layers["frame_0182 mean error per cell"]  # the gridded mean residual, one arrow per cell, above the raster
+    assert grid.featureCount() > 0 and order.index(grid) < raster_at
+    assert grid.renderer().symbol().symbolLayer(0).layerType() == "ArrowLine"
     rasters = [lyr for lyr in project.mapLayers().values() if isinstance(lyr, QgsRasterLayer)]
     assert len(rasters) == 1 and is_reference_crs(rasters[0].crs())
 

@@ -195,7 +195,8 @@ def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
     state = json.loads((out / "result.json").read_text())
     assert "error" not in state, state.get("error")
     assert "fotogeo_qgis" in state["plugins"] and state["can_execute"] == [True, ""]
-    assert state["layers"] == ["frame_0182 tie points", "frame_0182 error vectors", "Registered raster"]
+    assert state["layers"] == ["frame_0182 tie points", "frame_0182 error vectors", "frame_0182 mean error per cell",
+                               "Registered raster"]
     # the CLI's summary lines, units named
     assert re.search(r"check n=\d+ +RMSE [\d.]+ m +\([\d.]+ reference px\)", state["log"]), state["log"][-800:]
     assert {"frame_0182.tif", "frame_0182.gpkg", "frame_0182.json"} <= {p.name for p in out.iterdir()}

@@ -50,7 +50,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
 
     OPTIONS = (REGISTER_TERRAIN, REGISTER)
     REFERENCE, TARGET, OUTPUT, VECTORS, REPORT = "REFERENCE", "TARGET", "OUTPUT", "VECTORS", "REPORT"
-    TIE_POINTS, ERROR_VECTORS = "TIE_POINTS", "ERROR_VECTORS"
+    TIE_POINTS, ERROR_VECTORS, ERROR_GRID = "TIE_POINTS", "ERROR_VECTORS", "ERROR_GRID"
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
 
     def initAlgorithm(self, config=None):
@@ -68,6 +68,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             createByDefault=True))
         self.addOutput(QgsProcessingOutputVectorLayer(self.TIE_POINTS, tr("Tie points")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
+        self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_GRID, tr("Mean error per grid cell")))
         self.addOutput(QgsProcessingOutputNumber(self.INLIERS, tr("Inliers (control + check)")))
         self.addOutput(QgsProcessingOutputNumber(self.CONTROL_RMSE, tr("RMSE at control points (m)")))
         self.addOutput(QgsProcessingOutputNumber(self.CHECK_RMSE, tr("RMSE at check points (m)")))
@@ -91,17 +92,20 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(line)
         tie_uri = f"{vectors}|layername=tie_points"
         err_uri = f"{vectors}|layername=error_vectors"
+        grid_uri = f"{vectors}|layername=error_grid"
         if context.willLoadLayerOnCompletion(output):
             # the user asked for the raster to be loaded: load the two vector layers, styled, above it
             stem = os.path.splitext(os.path.basename(output))[0]
             run = LoadedRun()
             style_output(context, output, None, run)
+            load_on_completion(context, grid_uri, f"{stem} {tr('mean error per cell')}", self.ERROR_GRID,
+                               "error_grid", run=run)
             load_on_completion(context, err_uri, f"{stem} {tr('error vectors')}", self.ERROR_VECTORS,
                                "error_vectors", run=run)
             load_on_completion(context, tie_uri, f"{stem} {tr('tie points')}", self.TIE_POINTS, "tie_points", run=run)
         nan = float("nan")
         return {self.OUTPUT: output, self.VECTORS: vectors, self.REPORT: report,
-                self.TIE_POINTS: tie_uri, self.ERROR_VECTORS: err_uri,
+                self.TIE_POINTS: tie_uri, self.ERROR_VECTORS: err_uri, self.ERROR_GRID: grid_uri,
                 self.INLIERS: int(rep["inliers"]),
                 self.CONTROL_RMSE: float(rep["control"].get("rmse_m", nan)),
                 self.CHECK_RMSE: float(rep["check"].get("rmse_m", nan)),
