@@ -105,6 +105,59 @@ def test_qgis_process_lists_and_runs_the_algorithms(config, inputs, tmp_path):
     assert sorted(p.name for p in inputs.iterdir() if p.suffix == ".xml") == []  # no .aux.xml beside the inputs
 
 
+def test_qgis_process_runs_the_matching_rpc_and_demo_algorithms(config, inputs, data_dir, tmp_path):
+    """The algorithms the first test does not reach: transferpoints, measuretargets, rpcbias and demo."""
+    import numpy as np
+    import pandas as pd
+    import rasterio
+
+    from synthetic_images import x_target_scene
+    from test_rpc_bias_tool import _gcp_layer
+    # transferpoints: an orthophoto crop and the same crop shifted by (3.4, -2.3) px (exact Fourier shift)
+    shift = np.array([3.4, -2.3])
+    with rasterio.open(inputs / Path(ORTHO).name) as ds:
+        ref = ds.read(2, window=((300, 556), (200, 456))).astype(np.float64)
+    fy, fx = np.meshgrid(np.fft.fftfreq(256), np.fft.fftfreq(256), indexing="ij")
+    search = np.real(np.fft.ifft2(np.fft.fft2(ref) * np.exp(-2j * np.pi * (fx * shift[0] + fy * shift[1]))))
+    for name, img in (("ref.tif", ref), ("search.tif", search)):
+        with rasterio.open(tmp_path / name, "w", driver="GTiff", width=256, height=256, count=1,
+                           dtype="float32") as ds:
+            ds.write(img.astype(np.float32)[None])
+    pts = np.random.default_rng(1).uniform(60, 196, (25, 2))
+    pd.DataFrame({"id": range(25), "ref_col": pts[:, 0], "ref_row": pts[:, 1], "col": np.round(pts[:, 0]),
+                  "row": np.round(pts[:, 1])}).to_csv(tmp_path / "pts.csv", index=False)
+    res = qgis_process(config, "transferpoints", REFERENCE=tmp_path / "ref.tif", SEARCH=tmp_path / "search.tif",
+                       POINTS=tmp_path / "pts.csv", OUTPUT=tmp_path / "moved.csv")
+    out = pd.read_csv(tmp_path / "moved.csv")
+    ok = (out.status == "converged").to_numpy()
+    assert res["CONVERGED"] == ok.sum() >= 18
+    assert np.sqrt(np.mean(np.sum((out.loc[ok, ["col", "row"]].to_numpy() - (pts[ok] + shift)) ** 2, axis=1))) < 0.1
+    # measuretargets: X targets at known sub-pixel centres
+    centres = np.array([[60.3, 50.7], [150.55, 120.25], [240.8, 90.4]])
+    img = x_target_scene(centres).astype(np.float32)
+    with rasterio.open(tmp_path / "t.tif", "w", driver="GTiff", width=img.shape[1], height=img.shape[0], count=1,
+                       dtype="float32") as ds:
+        ds.write(img[None])
+    pd.DataFrame({"col": np.round(centres[:, 0]) + 1, "row": np.round(centres[:, 1]) - 1}).to_csv(
+        tmp_path / "approx.csv", index=False)
+    res = qgis_process(config, "measuretargets", IMAGE=tmp_path / "t.tif", POINTS=tmp_path / "approx.csv",
+                       POLARITY=1, OUTPUT=tmp_path / "m.csv")
+    assert res["MEASURED"] == 3
+    assert np.abs(pd.read_csv(tmp_path / "m.csv")[["col", "row"]].to_numpy() - centres).max() < 0.05
+    # rpcbias: the QuickBird-2 vendor RPC corrected with its GCPs (3 of 5 inside the image)
+    shutil.copy(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "qb2.tif")
+    _gcp_layer(data_dir / "qb2", tmp_path / "qb2_gcps.gpkg")
+    res = qgis_process(config, "rpcbias", IMAGE=tmp_path / "qb2.tif", GCPS=tmp_path / "qb2_gcps.gpkg",
+                       OUTPUT=tmp_path / "qb2_rpc.tif")
+    assert res["RMS_BEFORE_PX"] > 3.0 and res["RMS_AFTER_PX"] < 0.15
+    with rasterio.open(tmp_path / "qb2_rpc.tif") as ds:
+        assert float(ds.tags(ns="RPC")["SAMP_OFF"]) != pytest.approx(float(
+            rasterio.open(tmp_path / "qb2.tif").tags(ns="RPC")["SAMP_OFF"]))
+    # demo: the generated scene, registered against its known truth
+    res = qgis_process(config, "demo", OUTPUT=tmp_path / "demo")
+    assert res["TRUTH_RMSE_M"] < 1.3 * res["BEST_HOMOGRAPHY_RMSE_M"] and res["TERRAIN_TRUTH_RMSE_M"] < 2.0
+
+
 def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
     """A fotogeo error reaches qgis_process as the tool's one-line message, not a Python traceback."""
     r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:register", "--", f"REFERENCE={inputs / 'RGB.byte.tif'}",
