@@ -158,7 +158,7 @@ def test_inverse_blocks_and_redundancy_numbers_equal_the_dense_inverse():
     _, J_c, J_p, _ = linearise(pb, s, pb.p0)
     n, nc, P = len(pb.st.point), pb.st.n_camera, pb.st.n_points
     J = np.zeros((2 * n, nc + 3 * P))
-    idx = pb.st.rows[:, :, 0]
+    idx = pb.st.index
     for a in range(n):
         J[2 * a:2 * a + 2, idx[a]] = J_c[a]
         J[2 * a:2 * a + 2, nc + 3 * pb.st.point[a]:nc + 3 * pb.st.point[a] + 3] = J_p[a]

@@ -49,8 +49,11 @@ class Structure:
     starts: np.ndarray  # (P,) first observation of each point
     counts: np.ndarray  # (P,) observations per point (≥ 1)
     by_frame: tuple  # observation indices per frame
-    rows: np.ndarray  # (n, 6 + k, 3) row of each entry of W_a in the sparse W
-    cols: np.ndarray  # (n, 6 + k, 3) its column (3 per point)
+    index: np.ndarray  # (n, 6 + k) camera-side unknowns of each observation
+    indptr: np.ndarray  # the fixed pattern of the sparse Wᵀ (CSR, 3P × nc): row starts,
+    indices: np.ndarray  # column indices,
+    eo_pos: np.ndarray  # positions of the EO entries of W_a (n, 6, 3) in its data,
+    int_pos: np.ndarray  # positions of the interior entries of W_i (P, k, 3)
 
     @property
     def n_camera(self) -> int:
@@ -58,33 +61,49 @@ class Structure:
 
     def camera_index(self, obs=None) -> np.ndarray:
         """``(n, 6 + k)`` camera-side unknown indices of observations (EO of its frame, then interior)."""
-        frame = self.frame if obs is None else self.frame[obs]
-        eo = 6 * frame[:, None] + np.arange(6)
-        interior = np.broadcast_to(6 * self.n_frames + np.arange(len(self.free_interior)),
-                                   (len(frame), len(self.free_interior)))
-        return np.concatenate([eo, interior], axis=1)
+        return self.index if obs is None else self.index[obs]
 
 
 def make_structure(frame, point, n_frames: int, n_points: int, free_interior) -> Structure:
-    """The :class:`Structure` of observations already sorted by ``point`` (every point observed)."""
+    """The :class:`Structure` of observations sorted by ``point``, then ``frame`` (every point observed).
+
+    The sparse ``Wᵀ`` (``3P × nc``, CSR) has a fixed pattern: row ``3i + j`` holds, for each
+    observation ``a`` of point ``i`` (frames ascending), the 6 entries ``W_a[:6, j]`` at the columns
+    of its frame's orientation, then the ``k`` interior entries ``Σ_a W_a[6:, j]``."""
     frame = np.asarray(frame, dtype=np.intp)
     point = np.asarray(point, dtype=np.intp)
+    n = len(point)
     counts = np.bincount(point, minlength=n_points)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     by_frame = tuple(np.flatnonzero(frame == j) for j in range(n_frames))
     free = np.asarray(free_interior, dtype=np.intp)
-    nk = 6 + len(free)
-    idx = np.concatenate([6 * frame[:, None] + np.arange(6),
-                          np.broadcast_to(6 * n_frames + np.arange(len(free)), (len(frame), len(free)))], axis=1)
-    rows = np.broadcast_to(idx[:, :, None], (len(frame), nk, 3))
-    cols = np.broadcast_to((3 * point[:, None] + np.arange(3))[:, None, :], (len(frame), nk, 3))
-    return Structure(frame, point, n_frames, n_points, free, starts, counts, by_frame, rows, cols)
+    k = len(free)
+    index = np.concatenate([6 * frame[:, None] + np.arange(6),
+                            np.broadcast_to(6 * n_frames + np.arange(k), (n, k))], axis=1)
+    row_len = np.repeat(6 * counts + k, 3)
+    indptr = np.concatenate([[0], np.cumsum(row_len)])
+    row0 = indptr[:-1].reshape(n_points, 3)  # start of row 3i + j
+    within = np.arange(n) - starts[point]  # rank of the observation in its point
+    eo_pos = row0[point][:, None, :] + 6 * within[:, None, None] + np.arange(6)[None, :, None]
+    int_pos = row0[:, None, :] + 6 * counts[:, None, None] + np.arange(k)[None, :, None]
+    indices = np.empty(indptr[-1], dtype=np.int32 if 6 * n_frames + k < 2 ** 31 else np.int64)
+    indices[eo_pos] = (6 * frame[:, None, None] + np.arange(6)[None, :, None])
+    indices[int_pos] = 6 * n_frames + np.arange(k)[None, :, None]
+    return Structure(frame, point, n_frames, n_points, free, starts, counts, by_frame, index, indptr, indices,
+                     eo_pos, int_pos)
 
 
-def sparse_columns(st: Structure, blocks: np.ndarray):
-    """The sparse ``nc × 3P`` matrix with the per-observation blocks ``(n, 6 + k, 3)`` (module docstring)."""
+def sparse_transposed(st: Structure, blocks: np.ndarray):
+    """The sparse ``3P × nc`` CSR matrix ``Wᵀ`` of per-observation blocks ``(n, 6 + k, 3)``
+    (module docstring; the pattern is :class:`Structure`'s)."""
     from scipy.sparse import csr_matrix
-    return csr_matrix((blocks.ravel(), (st.rows.ravel(), st.cols.ravel())), shape=(st.n_camera, 3 * st.n_points))
+    data = np.empty(len(st.indices))
+    data[st.eo_pos] = blocks[:, :6, :]
+    if len(st.free_interior):
+        data[st.int_pos] = np.add.reduceat(blocks[:, 6:, :], st.starts, axis=0)
+    m = csr_matrix((data, st.indices, st.indptr), shape=(3 * st.n_points, st.n_camera))
+    m.has_sorted_indices = True
+    return m
 
 
 @dataclass(frozen=True)
@@ -152,32 +171,44 @@ def _damped(M, lam, axis_diag):
 def reduced_system(st: Structure, nm: Normals, lam: float = 0.0):
     """``(S, rhs, V⁻¹)`` of the reduced camera system with damping ``λ`` (module docstring)."""
     Vinv = inverse3(_damped(nm.V, lam, (1, 2)))
-    W = sparse_columns(st, nm.W)
-    Y = sparse_columns(st, nm.W @ Vinv[st.point])  # W_a V_i⁻¹
-    S = _damped(nm.U, lam, (0, 1)) - (Y @ W.T).toarray()
-    rhs = -(nm.g_a - Y @ nm.g_b.reshape(-1))
+    Wt = sparse_transposed(st, nm.W)
+    Yt = sparse_transposed(st, nm.W @ Vinv[st.point])  # (W_a V_i⁻¹)ᵀ
+    S = _damped(nm.U, lam, (0, 1)) - (Yt.T @ Wt).toarray()
+    rhs = -(nm.g_a - Yt.T @ nm.g_b.reshape(-1))
     return 0.5 * (S + S.T), rhs, Vinv
 
 
 def back_substitute(st: Structure, nm: Normals, Vinv, delta_a) -> np.ndarray:
     """Point increments ``δb_i = −V_i⁻¹ (g_b,i + W_iᵀ δa)`` ``(P, 3)``."""
-    Wd = (sparse_columns(st, nm.W).T @ delta_a).reshape(-1, 3)
+    Wd = (sparse_transposed(st, nm.W) @ delta_a).reshape(-1, 3)
     return -(Vinv @ (nm.g_b + Wd)[:, :, None])[:, :, 0]
 
 
+def observation_pairs(st: Structure, lo: int, hi: int):
+    """``(a, b)``: every ordered pair of observations of the same point, for the observations
+    ``lo:hi`` as ``a`` (grouped by ``a``, each observation paired with itself too)."""
+    a_obs = np.arange(lo, hi)
+    reps = st.counts[st.point[a_obs]]
+    a = np.repeat(a_obs, reps)
+    first = np.repeat(np.cumsum(reps) - reps, reps)
+    b = st.starts[st.point[a]] + (np.arange(len(a)) - first)
+    return a, b
+
+
 def inverse_blocks(st: Structure, nm: Normals, S_inv, Vinv):
-    """``(T, Σ_bb)``: per observation ``T_a = (S⁻¹ W_i)[idx_a]`` ``(n, 6 + k, 3)`` and per point
+    """``(T, Σ_bb)``: per observation ``T_a = (S⁻¹ W_i)[idx_a] = Σ_b S⁻¹[idx_a, idx_b] W_b`` over the
+    observations ``b`` of its point, ``(n, 6 + k, 3)``, and per point
     ``Σ_bb,i = V_i⁻¹ + V_i⁻¹ (W_iᵀ S⁻¹ W_i) V_i⁻¹`` ``(P, 3, 3)`` (module docstring)."""
-    W = sparse_columns(st, nm.W).tocsc()
-    idx = st.rows[:, :, 0]
+    idx = st.index
     T = np.empty(nm.W.shape)
-    step = max(1, CHUNK // 3)
-    for lo in range(0, st.n_points, step):
-        hi = min(st.n_points, lo + step)
-        full = np.asarray((W[:, 3 * lo:3 * hi].T @ S_inv).T)  # S⁻¹ W for these points, (nc, 3 (hi − lo))
-        obs = np.arange(st.starts[lo], st.starts[hi - 1] + st.counts[hi - 1])
-        c = 3 * (st.point[obs] - lo)[:, None] + np.arange(3)
-        T[obs] = full[idx[obs][:, :, None], c[:, None, :]]
+    n = len(st.point)
+    step = max(1, CHUNK // 4)
+    for lo in range(0, n, step):
+        hi = min(n, lo + step)
+        a, b = observation_pairs(st, lo, hi)
+        contrib = S_inv[idx[a][:, :, None], idx[b][:, None, :]] @ nm.W[b]
+        bounds = np.flatnonzero(np.r_[True, a[1:] != a[:-1]])
+        T[lo:hi] = np.add.reduceat(contrib, bounds, axis=0)  # every observation pairs with itself
     WT = np.add.reduceat(nm.W.transpose(0, 2, 1) @ T, st.starts, axis=0)
     S_bb = Vinv + Vinv @ WT @ Vinv
     return T, S_bb

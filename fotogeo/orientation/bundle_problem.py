@@ -127,7 +127,7 @@ def build_problem(block, active, free_interior, origin, eo_sigma) -> Problem:
     compact = np.full(len(block.point_ids), -1)
     compact[point_ids] = np.arange(len(point_ids))
     obs = np.flatnonzero(keep)
-    obs = obs[np.argsort(compact[block.obs_point[obs]], kind="stable")]
+    obs = obs[np.lexsort((block.obs_frame[obs], compact[block.obs_point[obs]]))]  # by point, then frame
     st = make_structure(block.obs_frame[obs], compact[block.obs_point[obs]], len(block.frames), len(point_ids),
                         free_interior)
     sigma = np.ones(len(block.obs_frame)) if block.obs_sigma is None else np.asarray(block.obs_sigma, float)
