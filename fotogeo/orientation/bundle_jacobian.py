@@ -90,7 +90,11 @@ def _distort(c, interior, scale):
 
 def project(R, C, X, frame, point, interior, scale) -> np.ndarray:
     """Pixels ``(n, 2)`` (corner convention) of the observations (module docstring)."""
-    c = camera_coordinates(R, C, X, frame, point)
+    return project_camera(camera_coordinates(R, C, X, frame, point), interior, scale)
+
+
+def project_camera(c, interior, scale) -> np.ndarray:
+    """Pixels ``(n, 2)`` of camera-axis points ``c`` ``(n, 3)`` (distortion, focal length, principal point)."""
     _, _, _, _, ud, vd = _distort(c, interior, scale)
     f, ppx, ppy = interior[:3]
     return np.column_stack([f * scale[0] * ud + ppx, f * scale[1] * vd + ppy])

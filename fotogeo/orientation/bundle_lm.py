@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from ..errors import ModelError
 from . import bundle_jacobian as bj
@@ -53,8 +54,7 @@ class State:
 def residuals(pb: Problem, s: State) -> tuple[np.ndarray, np.ndarray]:
     """Image residuals ``v = projected − measured`` ``(n, 2)`` and the camera depths ``z`` ``(n,)``."""
     c = bj.camera_coordinates(s.R, s.C, s.X, pb.st.frame, pb.st.point)
-    px = bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale)
-    return px - pb.pixel, c[:, 2]
+    return bj.project_camera(c, s.interior, pb.scale) - pb.pixel, c[:, 2]
 
 
 def _eo_prior_residual(pb: Problem, s: State) -> np.ndarray:
@@ -77,8 +77,8 @@ def cost(pb: Problem, s: State, p: np.ndarray) -> float:
 def linearise(pb: Problem, s: State, p: np.ndarray):
     """``(Normals, J_c, J_p, v)`` at ``s`` with observation weights ``p``."""
     st = pb.st
-    _, J_eo, J_p, J_int, _ = bj.project_with_jacobians(s.R, s.C, s.X, st.frame, st.point, s.interior, pb.scale)
-    v, _ = residuals(pb, s)
+    px, J_eo, J_p, J_int, _ = bj.project_with_jacobians(s.R, s.C, s.X, st.frame, st.point, s.interior, pb.scale)
+    v = px - pb.pixel
     J_c = np.concatenate([J_eo, J_int[:, :, st.free_interior]], axis=2)
     k = len(st.free_interior)
     U_prior = np.concatenate([pb.eo_w.reshape(-1), np.zeros(k)])
@@ -100,7 +100,6 @@ def apply_step(pb: Problem, s: State, delta_a: np.ndarray, delta_b: np.ndarray) 
 
 def solve_step(pb: Problem, s: State, nm: Normals, lam: float) -> State | None:
     """The damped Gauss–Newton step, or None when the reduced system is not positive definite."""
-    from scipy.linalg import LinAlgError, cho_factor, cho_solve
     try:
         S, rhs, Vinv = reduced_system(pb.st, nm, lam)
         delta_a = cho_solve(cho_factor(S), rhs)
