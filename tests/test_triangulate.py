@@ -121,3 +121,20 @@ def test_a_camera_for_another_image_size_is_refused(tmp_path, small_block):
         triangulate(frames, tmp_path / "camera.yaml", tmp_path / "eo.txt", tmp_path / "tie.csv", out,
                     gcps=tmp_path / "gcp_list.txt")
     assert not any(out.iterdir())
+
+
+def test_block_file_readers_name_the_bad_line_and_field(tmp_path):
+    from fotogeo.errors import VectorError
+    from fotogeo.io.block import read_gcp_list, read_image_observations
+    bad = tmp_path / "gcp_list.txt"
+    bad.write_text("EPSG:32635\n500000 4420000 800 10 20 a.JPG g1\n500010 4420000 oops 10 20 b.JPG g2\n")
+    with pytest.raises(InputError, match="line 3"):
+        read_gcp_list(bad)
+    good = tmp_path / "good.txt"
+    good.write_text("EPSG:32635\n500000 4420000 800 10 20 images/a.JPG g1\n")
+    g = read_gcp_list(good)
+    assert g.crs == "EPSG:32635" and list(g.frame) == ["a"] and g.pixel.tolist() == [[10.5, 20.5]]
+    table = tmp_path / "obs.csv"
+    table.write_text("frame,point,col\na.tif,1,10\n")
+    with pytest.raises(VectorError, match="row"):
+        read_image_observations(table)
