@@ -239,7 +239,7 @@ def test_box_filter_responses_match_dense_float64_reference(rng, size, step):
     ref = [cv2.filter2D(img.astype(np.float64), -1, k, borderType=cv2.BORDER_REFLECT_101) / size ** 2
            for k in _box_kernels(size)]
     dxx, dyy, dxy = (r[::step, ::step] for r in ref)
-    want = dxx * dyy - (0.9 * dxy) ** 2
+    want = dxx * dyy - (hessian.DXY_WEIGHT * dxy) ** 2
     assert np.allclose(det, want, rtol=1e-4, atol=1e-3 * np.abs(want).max())
     assert np.array_equal(np.sign(trace)[np.abs(dxx + dyy) > 1e-3], np.sign(dxx + dyy)[np.abs(dxx + dyy) > 1e-3])
 

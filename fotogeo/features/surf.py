@@ -100,9 +100,9 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
         it, so no descriptor sees nodata. The image border is not nodata: beyond it the image
         is mirrored (reflect-101) for the descriptor windows.
     hessian_threshold : float
-        Minimum det(H) = Dxx Dyy - (0.9 Dxy)^2 with every box response divided by the filter
-        area, for grey levels 0..255 -- the same meaning as OpenCV's ``hessianThreshold``
-        (usual values 100..400 there; lower gives more keypoints), except that the image is
+        Minimum det(H) = Dxx Dyy - (w Dxy)^2 (w = 1.0, ``hessian.DXY_WEIGHT``) with every box
+        response divided by the filter area, for grey levels 0..255 -- the same meaning as
+        OpenCV's ``hessianThreshold`` (usual values 100..400 there; lower gives more keypoints), except that the image is
         first smoothed with a Gaussian of sigma :data:`PRESMOOTH_SIGMA`, which lowers the
         responses of the finest details: hence the default of 50 (see
         :data:`DEFAULT_THRESHOLD`). det(H) scales with the square of the contrast: for an image in 0..1 divide
@@ -179,14 +179,16 @@ def _selected(kp: dict, valid: np.ndarray, max_keypoints: int | None) -> np.ndar
 
 def _described(img, x, y, s, octave, upright: bool, extended: bool):
     """Orientation (radians) and descriptors of the keypoints, each octave's keypoints
-    described on the smoothed integral image they were detected on."""
+    described on the smoothed image (orientation) and its integral (descriptor) they were
+    detected on."""
     theta = np.zeros(len(x))
     desc = np.zeros((len(x), 128 if extended else 64), np.float32)
-    for o, ii_o, pad in hessian.octave_integrals(img, int(octave.max()) + 1, PRESMOOTH_SIGMA, WINDOW_RADIUS):
+    for o, ii_o, pad, img_o in hessian.octave_integrals(img, int(octave.max()) + 1, PRESMOOTH_SIGMA,
+                                                        WINDOW_RADIUS):
         sel = np.nonzero(octave == o)[0]
         if len(sel):
             if not upright:
-                theta[sel] = describe.orientation(ii_o, pad, x[sel], y[sel], s[sel])
+                theta[sel] = describe.orientation(img_o, x[sel], y[sel], s[sel])
             desc[sel] = describe.descriptors(ii_o, pad, x[sel], y[sel], s[sel], theta[sel], extended)
         del ii_o                                # before the next octave's integral is built
     return theta, desc
