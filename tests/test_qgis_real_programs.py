@@ -56,7 +56,9 @@ def _env(config) -> dict:
 
 
 def qgis_process(config, alg, **params) -> dict:
-    args = [QGIS_PROCESS, "--json", "run", f"fotogeo:{alg}", "--"] + [f"{k}={v}" for k, v in params.items()]
+    # a list value repeats the parameter (a multiple-layer input)
+    args = [QGIS_PROCESS, "--json", "run", f"fotogeo:{alg}", "--"] + [
+        f"{k}={v}" for k, vs in params.items() for v in (vs if isinstance(vs, list) else [vs])]
     r = subprocess.run(args, capture_output=True, text=True, timeout=180, env=_env(config))
     assert r.returncode == 0, f"{alg}: exit {r.returncode}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     return json.loads(r.stdout[r.stdout.index("{"):])["results"]
@@ -153,6 +155,12 @@ def test_qgis_process_runs_the_matching_rpc_and_demo_algorithms(config, inputs, 
     with rasterio.open(tmp_path / "qb2_rpc.tif") as ds:
         assert float(ds.tags(ns="RPC")["SAMP_OFF"]) != pytest.approx(float(
             rasterio.open(tmp_path / "qb2.tif").tags(ns="RPC")["SAMP_OFF"]))
+    # registerbatch: two scenes under known warps (one task each on a local Dask cluster in the runtime)
+    from batch_scenes import make_scene
+    scenes = [make_scene(inputs / "RGB.byte.tif", tmp_path, k)[0] for k in (1, 2)]
+    res = qgis_process(config, "registerbatch", REFERENCE=inputs / "RGB.byte.tif", TARGETS=scenes,
+                       OUTDIR=tmp_path / "batch", MAX_KEYPOINTS=1500)
+    assert res["OK"] == 2 and res["FAILED"] == 0
     # demo: the generated scene, registered against its known truth
     res = qgis_process(config, "demo", OUTPUT=tmp_path / "demo")
     assert res["TRUTH_RMSE_M"] < 1.3 * res["BEST_HOMOGRAPHY_RMSE_M"] and res["TERRAIN_TRUTH_RMSE_M"] < 2.0

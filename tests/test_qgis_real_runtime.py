@@ -30,9 +30,11 @@ def _requirement_names(lines) -> dict:
 
 
 def test_runtime_requirements_follow_pyproject_and_constraints():
-    """Every dependency of pyproject (click aside) with its minimum, bounded as constraints.txt bounds it."""
+    """Every dependency of pyproject (click aside) and of its 'batch' extra with its minimum, bounded as
+    constraints.txt bounds it."""
     import tomllib
-    deps = _requirement_names(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["dependencies"])
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    deps = _requirement_names(project["dependencies"] + project["optional-dependencies"]["batch"])
     constraints = _requirement_names((ROOT / "constraints.txt").read_text().splitlines())
     runtime = _requirement_names(rt.REQUIREMENTS.read_text().splitlines())
     deps.pop("click")
