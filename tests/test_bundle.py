@@ -175,3 +175,16 @@ def test_inverse_blocks_and_redundancy_numbers_equal_the_dense_inverse():
     # the redundancy numbers of all observations (image and control) add up to the redundancy
     r_ctrl = 1 - pb.ctrl_w.reshape(-1) * np.diag(Ninv[nc:, nc:])
     assert np.isclose(post.r.sum() + r_ctrl[pb.ctrl_w.reshape(-1) > 0].sum(), post.redundancy, atol=1e-6)
+
+
+def test_a_control_point_with_a_wrong_coordinate_is_rejected():
+    sb = simulate_block(seed=5, blunder_fraction=0.0)
+    b = sb.block
+    ctrl = np.flatnonzero(b.role == "control")
+    wrong = b.point_xyz.copy()
+    wrong[ctrl[2], 0] += 1.5  # 1.5 m in X against a σ of 2 cm
+    r = adjust_block(dataclasses.replace(b, point_xyz=wrong))
+    assert r.roles[ctrl[2]] == "rejected"
+    assert [x["point"] for x in r.blunders if x["kind"] == "control"] == [b.point_ids[ctrl[2]]]
+    assert r.stats["n_control_rejected"] == 1
+    assert r.stats["check"]["rmse_planimetric_m"] < 0.5 * sb.gsd

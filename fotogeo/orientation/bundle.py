@@ -33,7 +33,7 @@ The datum comes from ≥ 3 control points or from priors on the approximate orie
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -45,7 +45,7 @@ from .bundle_lm import State, levenberg_marquardt
 from .bundle_problem import build_problem, check_block, initial_points, local_frame
 from .bundle_robust import huber_weights, interior_correlations, posterior, worst_per_point
 
-ROLES = ("tie", "control", "check")
+ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,7 @@ class BundleOptions:
 
     self_calibration: tuple = ()
     eo_sigma: tuple | None = None
-    robust_rounds: int = 4
+    robust_rounds: int = 3
     huber_k: float = 2.0
     snooping: bool = True
     critical_w: float = 3.29
@@ -94,6 +94,7 @@ class BundleOptions:
 @dataclass(frozen=True)
 class BundleResult:
     frames: tuple
+    roles: np.ndarray  # (P,) final roles: the block's, with "rejected" for control points that failed the test
     eo: tuple  # adjusted ExteriorOrientation per frame, map CRS
     eo_sigma: np.ndarray  # (m, 6): X0, Y0, Z0 (m), rotations about the camera axes (°)
     camera: FrameCamera  # adjusted f and principal point
@@ -195,19 +196,38 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
             post = posterior(pb, s, pb.p0)
             if not opts.snooping or rnd == opts.max_snooping_rounds:
                 break
-            worst, cull = worst_per_point(pb, post.w, opts.critical_w, block.role[pb.point_ids] != "control")
-            if worst.size == 0:
+            if not _snoop_round(run, pb, post, opts, rnd, blunders):
                 break
-            for a in worst:
-                o = int(pb.obs_ids[a])
-                blunders.append({"observation": o, "frame": block.frames[block.obs_frame[o]],
-                                 "point": block.point_ids[block.obs_point[o]], "w": float(np.max(post.w[a])),
-                                 "residual_px": float(np.hypot(*post.v[a])), "round": rnd + 1})
-            run.active[pb.obs_ids[cull]] = False
     prog.timings["total"] = time.perf_counter() - t0
     from .bundle_result import make_result
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
-    return make_result(block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+    return make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+
+
+def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:
+    """One round of data snooping (:mod:`~fotogeo.orientation.bundle_robust`): demote the worst
+    flagged control point, or cull the worst flagged observation of every point (a flagged tie or
+    check point left with < 3 rays is dropped); True when something changed."""
+    block = run.block
+    wc = np.where(np.isfinite(post.w_control), post.w_control, -np.inf).max(axis=1)
+    n_ctrl = int(np.count_nonzero(np.isfinite(wc)))
+    if n_ctrl and wc.max() > opts.critical_w and (n_ctrl > 3 or opts.eo_sigma is not None):
+        i = int(np.argmax(wc))
+        pid = int(pb.point_ids[i])
+        role = block.role.astype(object)
+        role[pid] = "rejected"
+        run.block = replace(block, role=role.astype(str))
+        blunders.append({"point": block.point_ids[pid], "kind": "control", "w": float(wc[i]),
+                         "residual_m": [float(x) for x in pb.ctrl_xyz[i] - run.X[pid]], "round": rnd + 1})
+        return True
+    worst, cull = worst_per_point(pb, post.w, opts.critical_w, block.role[pb.point_ids] != "control")
+    for a in worst:
+        o = int(pb.obs_ids[a])
+        blunders.append({"observation": o, "kind": "image", "frame": block.frames[block.obs_frame[o]],
+                         "point": block.point_ids[block.obs_point[o]], "w": float(np.max(post.w[a])),
+                         "residual_px": float(np.hypot(*post.v[a])), "round": rnd + 1})
+    run.active[pb.obs_ids[cull]] = False
+    return worst.size > 0
 
 
 def _to_fix(corr, limit):

@@ -50,7 +50,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     res[live] = bj.project(run.R, run.C, run.X, block.obs_frame[live], block.obs_point[live], run.interior,
                            pb.scale) - block.obs_pixel[live]
     status = np.where(live, "blunder", "dropped").astype(object)
-    status[[b["observation"] for b in blunders if not live[b["observation"]]]] = "blunder"
+    status[[b["observation"] for b in blunders if "observation" in b and not live[b["observation"]]]] = "blunder"
     status[pb.obs_ids] = "used"
     red = np.full((n, 2), np.nan)
     red[pb.obs_ids] = post.r
@@ -63,6 +63,8 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     for role in ("control", "check"):
         sel = (block.role == role) & np.isfinite(xyz).all(axis=1)
         stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])
-    return BundleResult(tuple(block.frames), eo, eo_sigma, cam, distortion, interior_sigma, xyz, psig, rays, res,
+    stats["n_blunders"] = sum(1 for b in blunders if b.get("kind") == "image")
+    stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
+    return BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz, psig, rays, res,
                         status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations), tuple(blunders),
                         run.iterations, timings)

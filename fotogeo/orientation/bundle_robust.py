@@ -10,6 +10,8 @@ residual's norm is ``σ √(2 ln 2)``), the robust weight is ``ρ_a = min(1, k /
 ``Q_vv,a = 1/p_a − diag Q_a`` per axis, the redundancy numbers ``r_a = p_a Q_vv,a`` (they sum
 to the redundancy ``2n + n_control − u``) and the standardised residual
 ``w_a = |v_a| / (σ₀ √Q_vv,a)`` with the a-posteriori ``σ₀² = E / (n_obs − u)`` (Pope's τ test).
+Control coordinates are tested the same way (``Q_vv = 1/w − (Σ_bb,i)_axis``); a flagged control
+point is demoted (its coordinates no longer used, role ``rejected``) rather than its rays culled.
 ``max(w_a) > 3.29`` (α = 0.1 %) flags observation ``a``; per point only the worst flagged
 observation is culled per round (a flagged tie point left with < 3 rays is dropped whole), and
 the block is solved again.
@@ -53,6 +55,7 @@ class Posterior:
     r: np.ndarray  # (n, 2) redundancy numbers
     w: np.ndarray  # (n, 2) standardised residuals
     v: np.ndarray  # (n, 2) image residuals
+    w_control: np.ndarray  # (P, 3) standardised residuals of the control coordinates (NaN elsewhere)
 
 
 def _inverse(S: np.ndarray) -> np.ndarray:
@@ -83,7 +86,11 @@ def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
     qvv = np.maximum(qvv, 1e-12 / np.maximum(p, 1e-300)[:, None])
     r = p[:, None] * qvv
     w = np.abs(v) / (sigma0 * np.sqrt(qvv)) if sigma0 > 0 else np.zeros_like(v)
-    return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v)
+    ctrl = pb.ctrl_w > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        qc = np.where(ctrl, 1.0 / pb.ctrl_w - np.diagonal(S_bb, axis1=1, axis2=2), np.nan)
+        w_c = np.abs(s.X - pb.ctrl_xyz) / (sigma0 * np.sqrt(np.maximum(qc, 1e-12 / np.maximum(pb.ctrl_w, 1e-300))))
+    return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v, np.where(ctrl, w_c, np.nan))
 
 
 def worst_per_point(pb: Problem, w: np.ndarray, critical: float = CRITICAL_W, tie=None):

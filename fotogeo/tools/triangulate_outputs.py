@@ -14,8 +14,8 @@ def block_layers(result, block) -> dict:
     :mod:`fotogeo.tools.triangulate`)."""
     ids = np.array(block.point_ids, dtype=object)
     live = np.isfinite(result.point_xyz).all(axis=1)
-    tie = live & (block.role == "tie")
-    known = live & (block.role != "tie")
+    tie = live & (result.roles == "tie")
+    known = live & (result.roles != "tie")
     d = result.point_xyz[known] - block.point_xyz[known]
     eo = np.array([[e.X, e.Y, e.Z, e.omega, e.phi, e.kappa] for e in result.eo])
     o_live = live[block.obs_point]
@@ -25,7 +25,7 @@ def block_layers(result, block) -> dict:
                        "rays": result.point_rays[tie], "sigma_x": result.point_sigma[tie, 0],
                        "sigma_y": result.point_sigma[tie, 1], "sigma_z": result.point_sigma[tie, 2]},
         "control": {"geometry": _points3d(result.point_xyz[known]), "id": ids[known].astype(str),
-                    "role": block.role[known], "rays": result.point_rays[known], "dx": d[:, 0], "dy": d[:, 1],
+                    "role": result.roles[known], "rays": result.point_rays[known], "dx": d[:, 0], "dy": d[:, 1],
                     "dz": d[:, 2], "given_x": block.point_xyz[known, 0], "given_y": block.point_xyz[known, 1],
                     "given_z": block.point_xyz[known, 2]},
         "frames": {"geometry": _points3d(eo[:, :3]), "name": np.array(block.frames, dtype=str),
