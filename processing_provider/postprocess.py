@@ -22,7 +22,7 @@ from qgis.core import (
 )
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
-STYLES = ("tie_points", "error_vectors", "error_grid")
+STYLES = ("tie_points", "gcps", "error_vectors", "error_grid")
 
 
 def style_path(style: str) -> str:

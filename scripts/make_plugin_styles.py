@@ -2,8 +2,10 @@
 
     QT_QPA_PLATFORM=offscreen .venv/bin/python scripts/make_plugin_styles.py
 
-tie_points.qml: points categorised by ``role`` — control blue circles, check red triangles —
-labelled "id: residual px" (small, white buffer).
+tie_points.qml: points categorised by ``role`` — control blue circles, check red triangles
+(dense registration tie points: unlabelled, labels would bury the image).
+gcps.qml: the same symbols, labelled "id: residual px" (small, white buffer): GCP layers (orient,
+points-to-layer), a few dozen points each.
 error_vectors.qml: lines drawn as arrows from the reference position, categorised by ``role``.
 error_grid.qml: the registration's mean residual per grid cell, one dark-orange arrow per cell.
 
@@ -67,7 +69,9 @@ def arrow_symbol(colour: str, width: float = 0.3) -> QgsLineSymbol:
 
 def tie_points_labeling():
     settings = QgsPalLayerSettings()
-    settings.fieldName = "concat(\"id\", ': ', format_number(\"residual_px\", 2), ' px')"
+    # residual_px (orient's gcps layer) or residual (points-to-layer); attribute() is NULL, not an error, when missing
+    settings.fieldName = ("concat(\"id\", ': ', format_number(coalesce(attribute('residual_px'), "
+                          "attribute('residual')), 2), ' px')")
     settings.isExpression = True
     settings.dist = 1.0
     fmt = QgsTextFormat()
@@ -99,6 +103,7 @@ def main():
     app.initQgis()
     OUT.mkdir(parents=True, exist_ok=True)
     for name, geom, renderer in (("tie_points", "Point", tie_points_renderer()),
+                                 ("gcps", "Point", tie_points_renderer()),
                                  ("error_vectors", "LineString", error_vectors_renderer()),
                                  ("error_grid", "LineString", error_grid_renderer())):
         if only is not None and name not in only:
@@ -106,7 +111,7 @@ def main():
         layer = QgsVectorLayer(f"{geom}?field=role:string&field=dx:double&field=dy:double", name, "memory")
         layer.setRenderer(renderer)
         categories = QgsMapLayer.Symbology
-        if name == "tie_points":
+        if name == "gcps":
             layer.setLabeling(tie_points_labeling())
             layer.setLabelsEnabled(True)
             categories |= QgsMapLayer.Labeling

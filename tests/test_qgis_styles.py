@@ -30,7 +30,7 @@ def test_gcp_labels_show_id_and_residual(qgis_app, tmp_path):
     import shapely
     layer = _layer(tmp_path, "gcps", shapely.points([[0, 0], [10, 10]]),
                    {"id": ["P1", "P2"], "role": ["control", "check"], "residual_px": [0.1234, 2.5]})
-    message, ok = layer.loadNamedStyle(style_path("tie_points"))
+    message, ok = layer.loadNamedStyle(style_path("gcps"))
     assert ok, message
     assert layer.labelsEnabled()
     settings = layer.labeling().settings()
@@ -40,6 +40,14 @@ def test_gcp_labels_show_id_and_residual(qgis_app, tmp_path):
     feature = next(layer.getFeatures())
     ctx.setFeature(feature)
     assert QgsExpression(settings.fieldName).evaluate(ctx) == "P1: 0.12 px"
+    # a points-to-layer GCP layer names its residual 'residual'; dense tie points stay unlabelled
+    other = _layer(tmp_path, "gcps2", shapely.points([[0, 0]]), {"id": ["Q7"], "role": ["check"], "residual": [1.0]})
+    other.loadNamedStyle(style_path("gcps"))
+    ctx.setFeature(next(other.getFeatures()))
+    assert QgsExpression(settings.fieldName).evaluate(ctx) == "Q7: 1.00 px"
+    tie = _layer(tmp_path, "tie", shapely.points([[0, 0]]), {"id": ["T1"], "role": ["control"]})
+    tie.loadNamedStyle(style_path("tie_points"))
+    assert not tie.labelsEnabled()
 
 
 def test_error_vector_legend_states_the_exaggeration(qgis_app, tmp_path):

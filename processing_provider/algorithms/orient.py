@@ -168,7 +168,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
                 name = f"{os.path.splitext(os.path.basename(vec))[0]} {rep['model_name']}"
                 context.layerToLoadOnCompletionDetails(vec).name = f"{name} {tr('GCPs')}"
-                style_output(context, vec, "tie_points")
+                style_output(context, vec, "gcps")
                 load_on_completion(context, result[self.ERROR_VECTORS], f"{name} {tr('error vectors')}",
                                    self.ERROR_VECTORS, "error_vectors")
         return result

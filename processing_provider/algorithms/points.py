@@ -54,7 +54,7 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
                              **self.option_arguments(parameters, context))
         feedback.pushInfo(f"{info['points']} points ({info['enabled']} enabled), CRS {info['crs']}, "
                           f"source coordinates: {info['source_convention']}")
-        style_output(context, output, "tie_points")
+        style_output(context, output, "gcps")
         return {self.OUTPUT: output, self.COUNT: info["points"]}
 
 
