@@ -138,3 +138,31 @@ def test_block_file_readers_name_the_bad_line_and_field(tmp_path):
     table.write_text("frame,point,col\na.tif,1,10\n")
     with pytest.raises(VectorError, match="row"):
         read_image_observations(table)
+
+
+def test_triangulate_matches_rendered_frames(tmp_path):
+    """No observation table: the overlapping frames of a rendered block are matched (SURF pairs along
+    and across the strips, epipolar RANSAC, multi-ray tracks) and the block adjusted."""
+    from fotogeo.orientation.block_render import render_block
+    cam = FrameCamera(6.0, (4.0, 6.0), (400, 600))
+    sb = simulate_block(seed=1, strips=2, frames_per_strip=4, camera=cam, point_spacing=80.0, blunder_fraction=0.0,
+                        margin=5.0)
+    images, _ = render_block(sb)
+    frames, checks = write_block(tmp_path, sb, image_size=(400, 600))
+    for path, img in zip(frames, images):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            with rasterio.open(path, "r+") as ds:
+                ds.write(img[None])
+    (tmp_path / "camera.yaml").write_text(CAMERA_YAML.replace("[200, 300]", "[400, 600]").replace(
+        "3.0\n", "6.0\n").replace("[2.0, 3.0]", "[4.0, 6.0]"))
+    out = tmp_path / "out"
+    out.mkdir()
+    rep = triangulate(frames, tmp_path / "camera.yaml", tmp_path / "eo.txt", None, out,
+                      gcps=tmp_path / "gcp_list.txt", check_points=checks, image_sigma=0.3)
+    pairs = [tuple(p["pair"]) for p in rep["matching"]["pairs"] if p["inliers"] >= 20]
+    assert (0, 1) in pairs and any(i < 4 <= j for i, j in pairs)  # along and across the strips
+    assert rep["matching"]["tracks"] > 1000
+    st = rep["statistics"]
+    assert st["image_rms_px"] < 0.3
+    assert st["check"]["rmse_planimetric_m"] < 1.0 * sb.gsd and st["check"]["rmse_z_m"] < 2.0 * sb.gsd

@@ -12,8 +12,9 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("--camera", required=True, type=click.Path(dir_okay=False), help="Interior orientation YAML.")
 @click.option("--eo", required=True, type=click.Path(dir_okay=False),
               help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees).")
-@click.option("--observations", required=True, type=click.Path(dir_okay=False),
-              help="Tie-point measurements: a table frame, point, col, row[, sigma] (corner convention).")
+@click.option("--observations", type=click.Path(dir_okay=False),
+              help="Tie-point measurements: a table frame, point, col, row[, sigma] (corner convention) "
+                   "[match the overlapping frames].")
 @click.option("--gcps", type=click.Path(dir_okay=False), help="Ground control: ODM/OpenSfM gcp_list.txt.")
 @click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
               help="Existing folder for exterior_orientation.txt, block.gpkg and report.json.")

@@ -42,7 +42,7 @@ from ..geometry.camera import FrameCamera
 from ..progress import as_progress
 from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
-from .bundle_problem import build_problem, check_block, initial_points, local_frame
+from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
 from .bundle_robust import huber_weights, interior_correlations, posterior, worst_per_point
 
 ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
@@ -140,8 +140,26 @@ class _Run:
         self.active = np.ones(len(block.obs_frame), bool)
         self.X = initial_points(block, self.origin, self.R, self.C, self.interior)
         self.iterations = 0
+        self.unusable = 0
+        self.drop_unusable()
+
+    def drop_unusable(self):
+        """Drop tie and check points whose rays do not meet in front of their cameras, or meet 10x
+        farther than the median point (near-parallel rays of a wrong match drift to infinity)."""
+        b = self.block
+        Xs = np.nan_to_num(self.X)
+        z = bj.camera_coordinates(self.R, self.C, Xs, b.obs_frame, b.obs_point)[:, 2]
+        dist = np.linalg.norm(Xs[b.obs_point] - self.C[b.obs_frame], axis=1)
+        bad_obs = self.active & ((z <= 0) | (dist > 10 * np.median(dist[self.active]))
+                                 | ~np.isfinite(self.X[b.obs_point]).all(axis=1))
+        bad = np.zeros(len(b.point_ids), bool)
+        bad[b.obs_point[bad_obs]] = True
+        bad &= b.role != "control"
+        self.unusable += int(np.count_nonzero(bad & active_points(b, self.active)))
+        self.active &= ~bad[b.obs_point]
 
     def problem(self):
+        self.drop_unusable()
         pb = build_problem(self.block, self.active, self.free, self.origin, self.opts.eo_sigma)
         return pb, State(self.R, self.C, self.X[pb.point_ids], self.interior)
 
@@ -201,7 +219,9 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     prog.timings["total"] = time.perf_counter() - t0
     from .bundle_result import make_result
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
-    return make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+    result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+    result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)
+    return result
 
 
 def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:

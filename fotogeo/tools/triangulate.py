@@ -8,7 +8,9 @@
 * ``eo`` — the approximate exterior orientation, ``name X Y Z omega phi kappa`` lines in the
   map CRS (metres, PATB degrees), e.g. from GNSS/INS;
 * ``observations`` — the image measurements of the tie points, a table ``frame, point, col,
-  row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`);
+  row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
+  frames are matched (:mod:`fotogeo.tools.triangulate_match`: footprints at the mean GCP
+  height, SURF pairs, epipolar RANSAC, multi-ray tracks);
 * ``gcps`` — ground control in ODM/OpenSfM's ``gcp_list.txt`` (the CRS line, then ``X Y Z
   im_x im_y image_name name``, :func:`fotogeo.io.block.read_gcp_list`); the GCPs named in
   ``check_points`` are held out as check points;
@@ -104,6 +106,17 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
             np.concatenate(px), np.concatenate(s_obs))
 
 
+def _matched(frames, names, cam, eos, gcp, prog):
+    """Image observations from matching the overlapping frames (:mod:`fotogeo.tools.triangulate_match`)."""
+    from ..io.block import ImageObservations
+    from .triangulate_match import match_block
+    height = float(np.mean(gcp.ground[:, 2])) if gcp is not None else 0.0
+    frame, track, pixel, report = match_block(frames, cam, eos, height, progress=prog)
+    obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
+                            np.array([f"tie{t}" for t in track], dtype=object), pixel, None)
+    return obs, report
+
+
 @tool("TRIANGULATE", outputs=("folder",))
 def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, check_points=None,
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
@@ -115,15 +128,19 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"output folder {str(folder)!r} does not exist; create it first")
-    inputs = [*frames, camera, eo, observations, gcps]
+    inputs = [*frames, camera, eo, observations, gcps]  # observations None: matched
     finals = [folder / name for name in FILES]
     for path in finals:
         check_output(path, inputs, overwrite, "output")
     cam = load_camera(camera)
     names = _frames(frames, cam)
     eos = _orientations(eo, names)
-    obs = read_image_observations(observations)
     gcp = read_gcp_list(gcps) if gcps else None
+    matching = None
+    if observations is not None:
+        obs = read_image_observations(observations)
+    else:
+        obs, matching = _matched(frames, names, cam, eos, gcp, prog.stage(0.05, 0.5, "matching the frames"))
     map_crs = parse_crs(crs if crs else (gcp.crs if gcp is not None else None), "map CRS") if (crs or gcp) else None
     if map_crs is None:
         raise InputError("give the map CRS (crs=..., --crs) or a GCP list whose first line is the CRS")
@@ -137,12 +154,13 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
         eo_sigma = (eo_sigma_position or 1e6, eo_sigma_angle or 1e3)
     opts = BundleOptions(self_calibration=tuple(self_calibration or ()), eo_sigma=eo_sigma, snooping=snooping,
                          max_correlation=max_correlation)
-    prog(0.05, "inputs read")
-    result = adjust_block(block, opts, progress=prog.stage(0.05, 0.9, "bundle adjustment"))
+    prog(0.5, "inputs read")
+    result = adjust_block(block, opts, progress=prog.stage(0.5, 0.9, "bundle adjustment"))
     from .triangulate_outputs import block_layers, report
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera), "eo": str(eo),
-                                         "observations": str(observations), "gcps": str(gcps) if gcps else None,
-                                         "folder": str(folder)})
+                                         "gcps": str(gcps) if gcps else None,
+                                         "observations": str(observations) if observations else None,
+                                         "folder": str(folder), "matching": matching})
     with AtomicOutputs(overwrite) as out:
         write_exterior_orientation(out.temp(finals[0]), names, result.eo,
                                    f"fotogeo triangulate: adjusted exterior orientation, CRS {map_crs.to_string()}\n"
