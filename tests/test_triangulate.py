@@ -1,6 +1,7 @@
 """The triangulate tool and command on a small synthetic block written to files."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
 
@@ -166,3 +167,14 @@ def test_triangulate_matches_rendered_frames(tmp_path):
     st = rep["statistics"]
     assert st["image_rms_px"] < 0.3
     assert st["check"]["rmse_planimetric_m"] < 1.0 * sb.gsd and st["check"]["rmse_z_m"] < 2.0 * sb.gsd
+
+
+def test_a_frame_that_overlaps_no_other_is_named(tmp_path, small_block):
+    from fotogeo.errors import MatchingError
+    from fotogeo.tools.triangulate_match import match_block
+    b = small_block.block
+    eos = list(b.eo)
+    eos[3] = dataclasses.replace(eos[3], X=eos[3].X + 30000.0)
+    frames, _ = write_block(tmp_path, small_block)
+    with pytest.raises(MatchingError, match=f"{b.frames[3]}.tif.*overlap no other frame"):
+        match_block(frames, CAMERA, eos, 0.0)

@@ -77,9 +77,11 @@ def match_block(frames, camera, eos, height: float, *, epipolar_px: float = 1.0,
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     pairs = overlapping_pairs(camera, eos, height)
-    if not pairs:
-        raise MatchingError("no two frames overlap with the approximate orientation; check the orientation file "
-                            "and the frames' order")
+    alone = sorted(set(range(len(frames))) - {i for p in pairs for i in p})
+    if alone:
+        raise MatchingError(f"frame(s) {', '.join(repr(str(frames[i])) for i in alone[:10])} overlap no other frame "
+                            f"with the approximate orientation (footprints at height {height:.1f}); check the "
+                            f"orientation file or remove them")
     infos = [open_raster(f, "frame") for f in frames]
     uf, pos, per_pair = _UnionFind(), {}, []
     for k, (i, j) in enumerate(pairs):
