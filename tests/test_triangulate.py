@@ -178,3 +178,17 @@ def test_a_frame_that_overlaps_no_other_is_named(tmp_path, small_block):
     frames, _ = write_block(tmp_path, small_block)
     with pytest.raises(MatchingError, match=f"{b.frames[3]}.tif.*overlap no other frame"):
         match_block(frames, CAMERA, eos, 0.0)
+
+
+def test_self_calibration_writes_the_adjusted_camera(tmp_path, small_block):
+    from fotogeo.io.camera import read_interior_orientation
+    frames, checks = write_block(tmp_path, small_block)
+    out = tmp_path / "out"
+    out.mkdir()
+    rep = triangulate(frames, tmp_path / "camera.yaml", tmp_path / "eo.txt", tmp_path / "tie.csv", out,
+                      gcps=tmp_path / "gcp_list.txt", check_points=checks, image_sigma=0.3,
+                      self_calibration=("ppx", "ppy"), eo_sigma_position=5.0)
+    assert (out / "camera.yaml").exists()
+    cam = next(iter(read_interior_orientation(out / "camera.yaml").values()))  # pinhole: no distortion estimated
+    assert cam.principal_point == pytest.approx(tuple(rep["camera"]["principal_point"]), abs=1e-9)
+    assert cam.focal_length == 3.0

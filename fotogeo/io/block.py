@@ -12,6 +12,11 @@
 * **Exterior orientation** out (``write_exterior_orientation``): ``name X Y Z omega phi kappa``
   lines, the format :func:`fotogeo.io.camera.read_exterior_orientation` reads (metres, PATB
   degrees).
+* **Interior orientation** out (``write_interior_orientation``): orthority's YAML — ``type:
+  pinhole`` without distortion (what :func:`fotogeo.io.camera.read_interior_orientation` reads),
+  ``type: brown`` with ``k1, k2, p1, p2, k3`` otherwise (orthority's Brown model is OpenCV's, the
+  same as fotogeo's bundle adjustment); the principal point as ``cx, cy``, offsets from the image
+  centre in units of ``max(w, h)`` pixels.
 """
 from __future__ import annotations
 
@@ -101,3 +106,18 @@ def write_exterior_orientation(path, names, eos, header: str = "") -> None:
     out = [f"# {h}" for h in header.splitlines()] if header else []
     out += [f"{n} {e.X:.4f} {e.Y:.4f} {e.Z:.4f} {e.omega:.8f} {e.phi:.8f} {e.kappa:.8f}" for n, e in zip(names, eos)]
     Path(path).write_text("\n".join(out) + "\n", encoding="utf-8")
+
+
+def write_interior_orientation(path, name: str, camera, distortion: dict | None = None) -> None:
+    """One camera in orthority's YAML (module docstring)."""
+    w, h = camera.image_size
+    m = max(w, h)
+    d = {k: float(v) for k, v in (distortion or {}).items()}
+    brown = any(v != 0.0 for v in d.values())
+    lines = [f"{name}:", f"    type: {'brown' if brown else 'pinhole'}", f"    im_size: [{int(w)}, {int(h)}]",
+             f"    focal_len: {camera.focal_length!r}",
+             f"    sensor_size: [{camera.sensor_size[0]!r}, {camera.sensor_size[1]!r}]",
+             f"    cx: {(camera.principal_point[0] - w / 2.0) / m!r}", f"    cy: {(camera.principal_point[1] - h / 2.0) / m!r}"]
+    if brown:
+        lines += [f"    {k}: {d.get(k, 0.0)!r}" for k in ("k1", "k2", "p1", "p2", "k3")]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

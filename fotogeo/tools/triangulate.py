@@ -19,6 +19,8 @@ runs :func:`fotogeo.orientation.bundle.adjust_block` in the map CRS (projected, 
 writes into ``folder``, as one set (nothing on an error or a cancel):
 
 * ``exterior_orientation.txt`` — the adjusted orientations, in the input's format;
+* ``camera.yaml`` — with ``self_calibration``: the adjusted interior orientation (orthority's
+  YAML, :func:`fotogeo.io.block.write_interior_orientation`);
 * ``block.gpkg`` — layers ``tie_points`` (3-D, σ, rays), ``control`` (control and check points
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
   angles, σ) and ``residuals`` (every image observation at its ground point: frame, pixel,
@@ -35,7 +37,8 @@ import numpy as np
 
 from ..crs import parse_crs, require_projected
 from ..errors import FotogeoWarning, InputError
-from ..io.block import frame_key, read_gcp_list, read_image_observations, write_exterior_orientation
+from ..io.block import (frame_key, read_gcp_list, read_image_observations, write_exterior_orientation,
+                        write_interior_orientation)
 from ..io.camera import load_camera, read_exterior_orientation
 from ..io.raster import AtomicOutputs, check_output, open_raster
 from ..io.report import write_json
@@ -46,6 +49,7 @@ from .boundary import tool
 from .checks import check_camera_size
 
 FILES = ("exterior_orientation.txt", "block.gpkg", "report.json")
+CAMERA_FILE = "camera.yaml"  # written with self-calibration
 
 
 def _frames(frames, camera):
@@ -129,7 +133,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
     if not folder.is_dir():
         raise InputError(f"output folder {str(folder)!r} does not exist; create it first")
     inputs = [*frames, camera, eo, observations, gcps]  # observations None: matched
-    finals = [folder / name for name in FILES]
+    finals = [folder / name for name in FILES] + ([folder / CAMERA_FILE] if self_calibration else [])
     for path in finals:
         check_output(path, inputs, overwrite, "output")
     cam = load_camera(camera)
@@ -167,6 +171,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                                    f"name X Y Z omega phi kappa (metres, PATB degrees)")
         write_layers(out.temp(finals[1]), block_layers(result, block), map_crs)
         write_json(out.temp(finals[2]), rep)
+        if self_calibration:
+            write_interior_orientation(out.temp(finals[3]), "adjusted", result.camera, result.distortion)
         out.commit()
     prog(1.0, "done")
     return rep
