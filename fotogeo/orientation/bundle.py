@@ -116,6 +116,11 @@ class BundleResult:
     timings: dict = field(default_factory=dict)
 
 
+def _robust_weights(pb, s, opts):
+    v = bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel
+    return pb.p0 * huber_weights(v, pb.p0, opts.huber_k)
+
+
 def _solve(pb, s, p, opts, prog, label):
     s, info = levenberg_marquardt(pb, s, p, max_iterations=opts.max_iterations, progress=prog)
     v = np.linalg.norm(bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel,
@@ -184,8 +189,7 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
             s, it = _solve(pb, s, p, opts, prog.stage(k / opts.robust_rounds * 0.4, (k + 1) / opts.robust_rounds * 0.4,
                                                       "robust reweighting"), "reweighting")
             run.iterations += it
-            v = bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel
-            p = pb.p0 * huber_weights(v, pb.p0, opts.huber_k)
+            p = _robust_weights(pb, s, opts)
     run.keep(pb, s)
     fixed = []
     with prog.timed("correlations"):
@@ -199,6 +203,7 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
                 bj.INTERIOR_NAMES.index(worst["parameter"])]
             fixed.append({**worst, "reason": _fix_reason(worst, opts.max_correlation)})
             pb, s = run.problem()
+            p = _robust_weights(pb, s, opts)  # the problem may have lost points: weights anew
             s, it = _solve(pb, s, p, opts, prog.stage(0.4, 0.5, "re-solving"), "after fixing a parameter")
             run.iterations += it
             run.keep(pb, s)
