@@ -369,7 +369,8 @@ def test_one_line_messages_shorten_wkt():
 
 def test_every_public_tool_is_behind_the_boundary():
     names = ["register", "orient", "compare_models", "match_images", "fuse_raster", "transfer_gcps",
-             "measure_targets", "points_to_layer", "layer_to_points", "run_demo", "rpc_bias"]
+             "measure_targets", "points_to_layer", "layer_to_points", "run_demo", "rpc_bias", "register_batch",
+             "triangulate"]
     assert all(hasattr(getattr(fotogeo, n), "__wrapped_tool__") for n in names)
 
 
