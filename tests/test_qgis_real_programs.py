@@ -259,7 +259,7 @@ def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
     assert state["layers"] == ["frame_0182 tie points", "frame_0182 error vectors", "frame_0182 mean error per cell",
                                "Registered raster"]
     # the CLI's summary lines, units named
-    assert re.search(r"check n=\d+ +RMSE [\d.]+ m +\([\d.]+ reference px\)", state["log"]), state["log"][-800:]
+    assert re.search(r"check +n= *\d+ +RMSE [\d.]+ m +\([\d.]+ reference px\)", state["log"]), state["log"][-800:]
     assert {"frame_0182.tif", "frame_0182.gpkg", "frame_0182.json"} <= {p.name for p in out.iterdir()}
     for png in ("qgis_toolbox.png", "qgis_register_dialog.png", "qgis_results.png"):
         assert (out / png).stat().st_size > 20_000, png

@@ -88,7 +88,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         result = self.run_tool("register", reference, target, output, vectors=vectors, report=report, overwrite=True,
                                feedback=feedback, **options)
         rep = result["report"]
-        for line in summary_lines(rep):
+        for line in rep["summary"]:  # the command line's lines (fotogeo.tools.register_report.summary_lines)
             feedback.pushInfo(line)
         tie_uri = f"{vectors}|layername=tie_points"
         err_uri = f"{vectors}|layername=error_vectors"
@@ -110,19 +110,3 @@ class RegisterAlgorithm(FotogeoAlgorithm):
                 self.CONTROL_RMSE: float(rep["control"].get("rmse_m", nan)),
                 self.CHECK_RMSE: float(rep["check"].get("rmse_m", nan)),
                 self.OUTPUT_CRS: rep["output_crs"]}
-
-
-def summary_lines(rep: dict) -> list[str]:
-    """The lines the command line prints after a registration (fotogeo/cli/register.py), units named."""
-    lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
-             f"matches {rep['matches']}, inliers {rep['inliers']}"]
-    for role in ("control", "check"):
-        s = rep[role]
-        if s.get("n"):
-            lines.append(f"{role} n={s['n']}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)")
-    if "terrain" in rep:
-        t = rep["terrain"]
-        lines.append(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
-                     f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
-    lines += rep.get("summary", [])[-2:]  # the library's lines: output CRS (and why), grid alignment, exaggeration
-    return lines
