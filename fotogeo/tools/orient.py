@@ -64,22 +64,11 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
     """
     prog = as_progress(progress)
     camera = load_camera(camera)
-    if model == "auto" and (gcp_tiff or rpc):
-        raise InputError("--gcp-tiff and --rpc export one model kind (polynomials, RFMs): name the model instead "
-                         "of 'auto'")
     if model != "auto":
         get_model(model).options_from(camera=camera)  # fails early, naming a missing camera
     outs = {k: v for k, v in dict(report=report, vectors=vectors, plot=plot, points=points, rpc=rpc,
                                   gcp_tiff=gcp_tiff, rectify=rectify).items() if v}
-    if gcp_tiff and model not in ("poly1", "poly2", "poly3"):
-        raise InputError(f"a GCP GeoTIFF reproduces polynomial models only (poly1, poly2, poly3 = gdalwarp -order "
-                         f"1-3); model {model!r} is not one")
-    for k, v in outs.items():
-        check_output(v, [image, gcps, dem], overwrite, k)
-    if len({Path(v).resolve() for v in outs.values()}) < len(outs):
-        raise InputError("two outputs have the same path; give each its own")
-    if rpc and not model.startswith("rfm") or (rpc and model.endswith("-i2g")):
-        raise InputError(f"--rpc exports a ground-to-image RFM; model {model!r} is not one (use rfm, rfm-common, rfm-poly)")
+    _check_outputs(model, outs, [image, gcps, dem], overwrite)
     info = open_raster(image, "image")
     g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
                   height=height, **(fields or {}))
@@ -137,6 +126,23 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         out.commit()
     geo = Georeference(fit.model, heights=_mean_height(g), crs=g.crs)
     return Orientation(fit.model, geo, rep, {k: Path(v) for k, v in outs.items()})
+
+
+def _check_outputs(model: str, outs: dict, inputs: list, overwrite: bool) -> None:
+    """Refuse, before any work, exports the model cannot give and output paths that clash or exist."""
+    if model == "auto" and ("gcp_tiff" in outs or "rpc" in outs):
+        raise InputError("--gcp-tiff and --rpc export one model kind (polynomials, RFMs): name the model instead "
+                         "of 'auto'")
+    if "gcp_tiff" in outs and model not in ("poly1", "poly2", "poly3"):
+        raise InputError(f"a GCP GeoTIFF reproduces polynomial models only (poly1, poly2, poly3 = gdalwarp -order "
+                         f"1-3); model {model!r} is not one")
+    for k, v in outs.items():
+        check_output(v, inputs, overwrite, k)
+    if len({Path(v).resolve() for v in outs.values()}) < len(outs):
+        raise InputError("two outputs have the same path; give each its own")
+    if "rpc" in outs and (not model.startswith("rfm") or model.endswith("-i2g")):
+        raise InputError(f"--rpc exports a ground-to-image RFM; model {model!r} is not one (use rfm, rfm-common, "
+                         f"rfm-poly)")
 
 
 def _exaggeration(option, g) -> dict:
