@@ -41,14 +41,15 @@ class _GcpAlgorithm(FotogeoAlgorithm):
     GROUP = ("orientation", "Orientation")
     IMAGE, GCPS, GCP_LAYER_IN, LAYER = "IMAGE", "GCPS", "GCP_LAYER_INPUT", "LAYER"
 
-    def add_gcp_parameters(self):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image")))
+    def add_gcp_parameters(self, image_label: str = "Image", table=GCP):
+        """The image, the GCPs (a file, or a point layer of the project) and the options of ``table``."""
+        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr(image_label)))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("GCP file (layer, CSV or .points)"),
                                                      fileFilter=GCP_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource(
             self.GCP_LAYER_IN, tr("… or a GCP point layer of the project"), [QgsProcessing.TypeVectorPoint],
             optional=True))
-        self.add_options(GCP)
+        self.add_options(table)
 
     def gcp_source(self, parameters, context, feedback) -> tuple[str, str | None]:
         """``(path, layer name)`` of the GCPs: the file, or the project layer (exported if it is not a file)."""

@@ -2,19 +2,15 @@
 from __future__ import annotations
 
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingOutputNumber,
-    QgsProcessingParameterFeatureSource,
-    QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import RPC_BIAS
 
 from .base import tr
-from .orient import GCP_FILTER, _GcpAlgorithm
+from .orient import _GcpAlgorithm
 
 
 class RpcBiasAlgorithm(_GcpAlgorithm):
@@ -32,13 +28,7 @@ class RpcBiasAlgorithm(_GcpAlgorithm):
     OUTPUT, REPORT, RMS_BEFORE, RMS_AFTER = "OUTPUT", "REPORT", "RMS_BEFORE_PX", "RMS_AFTER_PX"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image with a vendor RPC")))
-        self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("GCP file (layer, CSV or .points)"),
-                                                     fileFilter=GCP_FILTER, optional=True))
-        self.addParameter(QgsProcessingParameterFeatureSource(
-            self.GCP_LAYER_IN, tr("… or a GCP point layer of the project"), [QgsProcessing.TypeVectorPoint],
-            optional=True))
-        self.add_options(RPC_BIAS)
+        self.add_gcp_parameters("Image with a vendor RPC", RPC_BIAS)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Image with the corrected RPC")))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.REPORT, tr("Report (JSON) [beside the image]"), "JSON (*.json)", optional=True,
