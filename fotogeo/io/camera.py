@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..errors import InputError, one_line
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
+from .text import read_text_file
 
 
 def _parse_value(text: str):
@@ -104,14 +105,7 @@ def read_interior_orientation(path) -> dict[str, FrameCamera]:
     Any problem is one :class:`InputError` naming the file, the line and the value.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"interior orientation file {str(path)!r} does not exist") from None
-    except IsADirectoryError:
-        raise InputError(f"interior orientation file {str(path)!r} is a folder; give the YAML file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(one_line(f"cannot read interior orientation {str(path)!r} as UTF-8 text: {exc}")) from None
+    text = read_text_file(path, "interior orientation file", hint="give the YAML file")
     data, lines = _parse_simple_yaml(text, f"interior orientation {str(path)!r}, ")
     cams = {}
     for cid, d in data.items():
@@ -128,10 +122,7 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments allowed)."""
     path = Path(path)
     out = {}
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(one_line(f"cannot read exterior orientation {str(path)!r} as text: {exc}")) from None
+    text = read_text_file(path, "exterior orientation file", hint="give the text file of 'name X Y Z omega phi kappa' lines")
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].split()
         if not line:

@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import InputError, VectorError, one_line
 from ..pixels import as_points
+from .text import read_text_file
 
 HEADER = "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual"
 CRS_PREFIX = "#CRS:"
@@ -107,14 +108,7 @@ def read_points(path) -> GeorefPoints:
     first point starting with ``nan`` is refused, not mistaken for a header.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise VectorError(f"points file {str(p)!r} does not exist") from None
-    except IsADirectoryError:
-        raise VectorError(f"points file {str(p)!r} is a folder; give the .points file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise VectorError(one_line(f"points file {str(p)!r} cannot be read as UTF-8 text ({e})")) from None
+    text = read_text_file(p, "points file", hint="give the .points file", error=VectorError)
     crs = None
     rows = []
     data_seen = False

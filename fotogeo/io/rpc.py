@@ -12,18 +12,12 @@ import numpy as np
 
 from ..errors import InputError, OutputError, RasterError, one_line
 from ..orientation.rpc import Rpc
+from .text import read_text_file
 
 
 def _read_text(path: Path, what: str) -> str:
-    """The text of ``path`` (undecodable bytes replaced); :class:`InputError` for a folder or a missing file."""
-    try:
-        return path.read_text(errors="replace")
-    except FileNotFoundError:
-        raise InputError(f"{what} {str(path)!r} does not exist") from None
-    except IsADirectoryError:
-        raise InputError(f"{what} {str(path)!r} is a folder; give the RPC file (_RPC.TXT or DIMAP RPC XML)") from None
-    except OSError as exc:
-        raise InputError(one_line(f"cannot read {what} {str(path)!r}: {exc}")) from None
+    """The text of ``path`` (undecodable bytes replaced; :func:`~fotogeo.io.text.read_text_file`)."""
+    return read_text_file(path, what, hint="give the RPC file (_RPC.TXT or DIMAP RPC XML)", errors="replace")
 
 
 def _checked(rpc: Rpc, source: str) -> Rpc:

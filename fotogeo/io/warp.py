@@ -36,7 +36,7 @@ from rasterio.windows import Window
 
 from ..errors import FotogeoWarning
 from ..options import RESAMPLINGS
-from ..pixels import HALF, pixel_centres, pixel_to_map
+from ..pixels import HALF, pixel_centres, pixel_to_map  # noqa: F401 - used by the doctests
 from ..progress import Progress
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 
