@@ -51,6 +51,7 @@ TOOLS = {
     "run_demo": ("fotogeo.tools.demo", "run_demo"),
     "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
     "register_batch": ("fotogeo.tools.batch", "register_batch"),
+    "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
 }
 #: arrays larger than this are summarised (shape only) in results, not listed
 MAX_ARRAY = 10_000
