@@ -138,6 +138,25 @@ def _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options, prog):
     return loo
 
 
+def standardised_residuals(model_cls, src, pix, control, *, fit_options: dict | None = None, progress=None):
+    """Residuals ``v`` ``(n, 2)`` of the control points (``control`` mask, in its order) under the model
+    fitted to them, and Baarda's standardised residual of each, ``max(|w_x|, |w_y|)`` ``(n,)``
+    (module docstring; NaN without redundancy). Needs ``2n − u ≥ 1``."""
+    idx = np.flatnonzero(control)
+    n, u = len(idx), model_cls.n_params
+    m, _ = _fit(model_cls, src, pix, control, fit_options or {})
+    v = m.forward(src[idx]) - pix[idx]
+    s0 = np.sqrt(np.sum(v ** 2) / (2 * n - u))
+    loo = leave_one_out(m, src[idx], pix[idx])
+    if loo is None:
+        loo = _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options or {}, progress or (lambda *a: True))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.clip(np.where(np.abs(loo) > 1e-12, v / loo, 1.0), 1e-3, 1.0)
+        w = np.abs(v) / (s0 * np.sqrt(r)) if s0 > 0 else np.zeros_like(v)
+    wmax = np.nanmax(w, axis=1) if np.isfinite(w).any() else np.full(n, np.nan)
+    return v, wmax
+
+
 def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fraction: float = 0.2,
           fit_options: dict | None = None, progress=None):
     """Data snooping on the control points (module docstring); returns (control mask, findings).
@@ -156,17 +175,8 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
         if 2 * n - u < 2 or n - 1 < model_cls.min_points:
             break
         prog(min(0.99, len(findings) / max(1, budget + 1)), f"data snooping: test {len(findings) + 1}")
-        m, _ = _fit(model_cls, src, pix, control, fit_options)
-        v = m.forward(src[idx]) - pix[idx]
-        s0 = np.sqrt(np.sum(v ** 2) / (2 * n - u))
-        loo = leave_one_out(m, src[idx], pix[idx])
-        if loo is None:
-            loo = _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options,
-                                       prog.stage(0.0, 0.99, "data snooping"))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.clip(np.where(np.abs(loo) > 1e-12, v / loo, 1.0), 1e-3, 1.0)
-            w = np.abs(v) / (s0 * np.sqrt(r)) if s0 > 0 else np.zeros_like(v)
-        wmax = np.nanmax(w, axis=1) if np.isfinite(w).any() else np.full(n, np.nan)
+        v, wmax = standardised_residuals(model_cls, src, pix, control, fit_options=fit_options,
+                                         progress=prog.stage(0.0, 0.99, "data snooping"))
         k = int(np.nanargmax(wmax)) if np.isfinite(wmax).any() else -1
         flagged = [(ids[idx[j]], float(wmax[j])) for j in np.flatnonzero(wmax > CRITICAL_W)]
         if k < 0 or wmax[k] <= CRITICAL_W:
