@@ -1,0 +1,206 @@
+"""Automatic ground control for a block from reference orthophotos and a DEM (issue 13).
+
+A new flight over an area that has an orthophoto needs no surveyed GCPs: the registration
+pipeline already matches a frame to an orthophoto, and the DEM gives those matches heights,
+which makes them 3-D control points (Dihkan 2019 for the matching; the terrain-aware fit of
+:mod:`fotogeo.orientation.terrain` for the robust selection).
+
+Signature (what :func:`fotogeo.tools.triangulate.triangulate` merges as control)::
+
+    automatic_control(frames, names, camera, eos, reference, dem, crs, *,
+                      per_frame=90, cells=3, options=None, progress=None) -> GcpList
+
+* ``frames`` — frame raster paths; ``names`` — their keys (:func:`fotogeo.io.block.frame_key`);
+* ``camera`` — the :class:`~fotogeo.geometry.camera.FrameCamera`; ``eos`` — the approximate
+  exterior orientations in ``crs`` (used for footprints only: which reference tile to match);
+* ``reference`` — one orthophoto path, a VRT, or a list of tiles (any CRS each);
+* ``dem`` — a DEM path or :class:`~fotogeo.geometry.dem.Dem` (any CRS);
+* ``crs`` — the block's projected map CRS; the GCPs' ground coordinates are given in it;
+* returns a :class:`fotogeo.io.block.GcpList` — the structure ``read_gcp_list`` returns
+  (``crs`` as text, ``name``, ``ground`` (n, 3), ``pixel`` (n, 2) corner convention, ``frame``
+  keys; one row per image measurement).
+
+Per frame:
+
+1. the frame's footprint (approximate orientation, plane of the DEM's mean height) selects the
+   reference tiles it overlaps; each is matched to the frame with
+   :func:`fotogeo.tools.match.find_tie_points` (PCA fusion, SURF, ratio test, mutual check);
+2. reference pixels -> reference map -> ``crs`` (:func:`fotogeo.crs.transform_points`), heights
+   from the DEM (:class:`fotogeo.geometry.dem.DemSampler`, bilinear); matches without a height
+   are dropped;
+3. the matches of all tiles go through the registration's robust terrain fit
+   (:func:`fotogeo.orientation.terrain.fit_terrain` with the collinearity model and the
+   camera: homography RANSAC, Tukey refit, DLT relief filter) — its inliers are the candidates.
+
+Across frames: the reference keypoints are detected identically for every frame matched to a
+tile, so a reference keypoint (tile, position) matched in several frames is one GCP with
+several image measurements. Thinning (Gruber's positions, generalised): every frame is cut
+into ``cells x cells`` regions with a budget of ``per_frame / cells²`` points each; candidates
+are taken in order of (more frames first, smaller fit residual), and one is kept while any of
+its measurements falls in a region still below its budget — so the control is spread over
+every frame and multi-ray points come first.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..crs import parse_crs, pixel_size_in, require_projected, transform_points
+from ..errors import FotogeoError, InputError, MatchingError
+from ..geometry.camera import OrientedFrame
+from ..geometry.dem import Dem, DemSampler
+from ..io.block import GcpList
+from ..io.raster import open_raster, read_dem
+from ..options import RegisterOptions
+from ..pixels import outline, pixel_to_map
+from ..progress import as_progress
+from .match import find_tie_points
+
+
+def _references(reference) -> list:
+    refs = [reference] if isinstance(reference, (str, bytes)) or hasattr(reference, "__fspath__") else list(reference)
+    if not refs:
+        raise InputError("reference: give at least one orthophoto (a file, several tiles or a VRT)")
+    infos = [open_raster(r, "reference") for r in refs]
+    for info in infos:
+        if not info.georeferenced:
+            raise InputError(f"reference {str(info.path)!r} has no georeference (CRS and geotransform); automatic "
+                             f"control needs a georeferenced orthophoto")
+    return infos
+
+
+def _footprint(camera, eo, height):
+    """The frame's outline on the plane at ``height`` (shapely polygon in the block CRS) or None."""
+    from shapely.geometry import Polygon
+    w, h = camera.image_size
+    g = OrientedFrame(camera, eo).pixel_to_world_at(outline(w, h, 8), height)
+    return Polygon(g[:, :2]) if np.isfinite(g).all() else None
+
+
+def _tile_outline(info, crs):
+    """The reference tile's outline in the block CRS (shapely polygon)."""
+    from shapely.geometry import Polygon
+    edge = pixel_to_map(info.transform, outline(info.width, info.height, 8))
+    return Polygon(transform_points(info.crs, crs, edge))
+
+
+def _frame_matches(frame_info, tiles, tile_ids, crs, heights, opts, prog):
+    """Matches of one frame with the reference tiles it overlaps: ``(frame px, XYZ, tile id, ref px, ref step m)``."""
+    px, xyz, tile, ref_xy, steps = [], [], [], [], []
+    for k, (t, info) in enumerate(zip(tile_ids, tiles)):
+        try:
+            f_xy, r_xy, _ = find_tie_points(info, frame_info, opts, prog.stage(k / len(tiles), (k + 1) / len(tiles),
+                                                                             f"matching with {info.path.name}"))
+        except MatchingError:
+            continue
+        XY = transform_points(info.crs, crs, pixel_to_map(info.transform, r_xy))
+        Z = heights.heights(XY)
+        ok = np.isfinite(Z)
+        px.append(f_xy[ok])
+        xyz.append(np.column_stack([XY[ok], Z[ok]]))
+        tile.append(np.full(int(ok.sum()), t))
+        ref_xy.append(r_xy[ok])
+        steps.append(pixel_size_in(info.transform, info.crs, crs, info.width / 2, info.height / 2))
+    if not px:
+        return None
+    return np.concatenate(px), np.concatenate(xyz), np.concatenate(tile), np.concatenate(ref_xy), max(steps)
+
+
+def _robust_inliers(px, xyz, camera, step, opts):
+    """Inliers of the registration's terrain fit (module docstring, step 3) and their residuals (px)."""
+    from ..orientation.terrain import fit_terrain
+    fit = fit_terrain(px, xyz, model="collinearity", camera=camera, threshold_m=opts.ransac_threshold * step,
+                      min_sigma_m=step, check_fraction=0.0, rng=opts.seed)
+    return fit.inliers, np.hypot(*fit.residual_px.T)
+
+
+def _region(px, camera, cells):
+    w, h = camera.image_size
+    col = np.clip((px[:, 0] / w * cells).astype(int), 0, cells - 1)
+    row = np.clip((px[:, 1] / h * cells).astype(int), 0, cells - 1)
+    return row * cells + col
+
+
+def thin_to_budget(point, frame, region, score, budget: int) -> np.ndarray:
+    """Points to keep (sorted unique ids of ``point``) so that each (frame, region) gets up to ``budget``.
+
+    ``point``, ``frame``, ``region`` (n,) describe the measurements; ``score`` (n,) orders the
+    points (a point's smallest score counts; lower first). Greedy: a point is kept while any of
+    its measurements falls in a (frame, region) that holds fewer than ``budget`` kept points.
+
+    >>> thin_to_budget(np.array([0, 1, 2, 2]), np.array([0, 0, 0, 1]), np.zeros(4, int),
+    ...                np.array([0.0, 1.0, 2.0, 2.0]), 1).tolist()
+    [0, 2]
+    """
+    ids, inv = np.unique(point, return_inverse=True)
+    best = np.full(len(ids), np.inf)
+    np.minimum.at(best, inv, score)
+    cell = frame.astype(np.int64) * (int(region.max()) + 1 if len(region) else 1) + region
+    count: dict = {}
+    members = [[] for _ in ids]
+    for m, i in enumerate(inv):
+        members[i].append(cell[m])
+    keep = []
+    for i in np.argsort(best, kind="stable"):
+        if any(count.get(c, 0) < budget for c in members[i]):
+            keep.append(ids[i])
+            for c in members[i]:
+                count[c] = count.get(c, 0) + 1
+    return np.sort(np.array(keep, dtype=ids.dtype))
+
+
+def _crs_text(crs) -> str:
+    auth = crs.to_authority()
+    return f"{auth[0]}:{auth[1]}" if auth else crs.to_wkt()
+
+
+def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
+                      options: RegisterOptions | None = None, progress=None) -> GcpList:
+    """Control points of the block from ``reference`` orthophoto(s) and ``dem`` (module docstring)."""
+    prog = as_progress(progress)
+    if per_frame < cells * cells:
+        raise InputError(f"per_frame must be at least {cells * cells} (one point per region); got {per_frame}")
+    if len(frames) != len(names) or len(frames) != len(eos):
+        raise InputError("frames, names and eos must have one entry per frame")
+    opts = options or RegisterOptions()
+    crs = require_projected(parse_crs(crs, "map CRS of the block"), "map CRS of the block")
+    tiles = _references(reference)
+    d = dem if isinstance(dem, Dem) else read_dem(dem)
+    heights = DemSampler(d, crs)
+    mean_h = float(np.nanmean(d.data))
+    outlines = [_tile_outline(info, crs) for info in tiles]
+    rows = []  # per frame: (frame index, frame px, XYZ, key (tile, ref px), residual px)
+    for i, f in enumerate(frames):
+        stage = prog.stage(i / len(frames), (i + 1) / len(frames), f"control for frame {names[i]}")
+        foot = _footprint(camera, eos[i], mean_h)
+        near = [k for k, o in enumerate(outlines) if foot is not None and o.intersects(foot)]
+        got = _frame_matches(open_raster(f, "frame"), [tiles[k] for k in near], near, crs, heights, opts,
+                             stage) if near else None
+        if got is None:
+            continue
+        px, xyz, tile, ref_xy, step = got
+        try:
+            inl, res = _robust_inliers(px, xyz, camera, step, opts)
+        except FotogeoError:
+            continue
+        rows.append((np.full(int(inl.sum()), i), px[inl], xyz[inl], tile[inl], ref_xy[inl], res[inl]))
+    if not rows:
+        raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])}; "
+                            f"check that the orthophoto covers the frames and the approximate orientation")
+    frame, px, xyz, tile, ref_xy, res = (np.concatenate(c) for c in zip(*rows))
+    _, point = np.unique(np.column_stack([tile, np.round(ref_xy, 3)]), axis=0, return_inverse=True)
+    point = point.ravel()
+    first = np.lexsort((res, frame, point))  # one measurement per (point, frame): the smallest residual
+    once = first[np.r_[True, (np.diff(point[first]) != 0) | (np.diff(frame[first]) != 0)]]
+    frame, px, xyz, res, point = frame[once], px[once], xyz[once], res[once], point[once]
+    n_frames = np.bincount(point)[point]
+    score = -n_frames * 1e3 + np.minimum(res, 999.0)  # more rays first, then the smaller residual
+    keep = np.isin(point, thin_to_budget(point, frame, _region(px, camera, cells), score,
+                                         max(1, per_frame // (cells * cells))))
+    ids = {p: k for k, p in enumerate(dict.fromkeys(point[keep]))}
+    ground = np.zeros((len(ids), 3))
+    np.add.at(ground, [ids[p] for p in point[keep]], xyz[keep])  # the same keypoint: the same XYZ
+    ground /= np.bincount([ids[p] for p in point[keep]])[:, None]
+    prog(1.0, f"{len(ids)} control points in {len(set(frame[keep]))} frames")
+    return GcpList(_crs_text(crs), np.array([f"auto{ids[p]}" for p in point[keep]], dtype=object),
+                   ground[[ids[p] for p in point[keep]]], px[keep],
+                   np.array([names[f] for f in frame[keep]], dtype=object))
