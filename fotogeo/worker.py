@@ -20,6 +20,13 @@ Protocol (one request per process, JSON lines, UTF-8):
 - SIGTERM cancels as well: the running tool gets :class:`~fotogeo.errors.Cancelled` at once, so
   its :class:`~fotogeo.io.raster.AtomicOutputs` delete what they had started writing.
 
+``python -m fotogeo.worker --session`` keeps one process for many quick requests (the GCP picker's
+refits, :func:`serve_session`): each stdin line ``{"id": N, "tool": NAME, "kwargs": {...}}`` (NAME
+from :data:`TOOLS` or :data:`SESSION_TOOLS`) gets ``{"id": N, "type": "warning", "message": m}``
+lines, then exactly one ``{"id": N, "type": "result", "result": R}`` or
+``{"id": N, "type": "error", "error": CLASS, "message": ONE_LINE}``; no progress lines. An error
+never ends the session; EOF or a line ``quit`` does.
+
 ``python -m fotogeo.worker --check`` prints one JSON object describing the environment
 (:func:`check_environment`): package versions, the GDAL/GEOS/PROJ each wheel runs with, the
 native libraries actually loaded, and a smoke test of the calls that fail when the
@@ -52,6 +59,11 @@ TOOLS = {
     "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
     "register_batch": ("fotogeo.tools.batch", "register_batch"),
     "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
+}
+#: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)
+SESSION_TOOLS = {
+    "fit_gcps": ("fotogeo.tools.gcp_fit", "fit_gcps"),
+    "sample_heights": ("fotogeo.tools.gcp_fit", "sample_heights"),
 }
 #: arrays larger than this are summarised (shape only) in results, not listed
 MAX_ARRAY = 10_000
@@ -193,6 +205,67 @@ def serve(stdin=None) -> int:
     channel.send(type="result", result=result)
     return 0
 
+def _session_function(name):
+    """The function a session request names (:data:`TOOLS` or :data:`SESSION_TOOLS`)."""
+    import importlib
+    from .errors import InputError
+    table = {**TOOLS, **SESSION_TOOLS}
+    if name not in table:
+        raise InputError(f"unknown tool {name!r}; one of {', '.join(table)}")
+    module, attr = table[name]
+    return getattr(importlib.import_module(module), attr)
+
+
+def answer_request(request: dict, channel: _Channel) -> None:
+    """Run one session request and send its warnings, then its one result or error line."""
+    from .errors import FotogeoError, one_line
+    rid = request.get("id")
+    try:
+        func = _session_function(request.get("tool"))
+        kwargs = request.get("kwargs") or {}
+        if not isinstance(kwargs, dict):
+            raise TypeError(f"kwargs must be a JSON object, got {type(kwargs).__name__}")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = to_json(func(progress=None, **kwargs))
+    except FotogeoError as e:
+        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e))
+        return
+    except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the session
+        import traceback
+        traceback.print_exc()
+        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(f"{type(e).__name__}: {e}"))
+        return
+    for w in caught:
+        channel.send(id=rid, type="warning", message=one_line(w.message))
+    channel.send(id=rid, type="result", result=result)
+
+
+def serve_session(stdin=None) -> int:
+    """Answer request lines from ``stdin`` until EOF or ``quit`` (module docstring); exit status 0.
+
+    SIGTERM ends the session at once (the quick tools write nothing that would need cleaning up).
+    """
+    stdin = stdin or sys.stdin
+    channel = _Channel()
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
+    for line in stdin:
+        text = line.strip()
+        if text == "quit":
+            break
+        if not text:
+            continue
+        try:
+            request = json.loads(text)
+            if not isinstance(request, dict):
+                raise ValueError("a request is a JSON object")
+        except ValueError as e:
+            channel.send(id=None, type="error", error="InputError", message=f"fotogeo.worker: bad request ({e})")
+            continue
+        answer_request(request, channel)
+    return 0
+
+
 #: import name -> the packages fotogeo's tools import
 PACKAGES = ("numpy", "rasterio", "pyproj", "shapely", "geopandas", "pyogrio", "cv2")
 #: native libraries whose copies must not be mixed: a wheel's own, never the system's
@@ -284,8 +357,10 @@ def main(argv=None) -> int:
     if argv[:1] == ["--check"]:
         print(json.dumps(check_environment(), indent=1))
         return 0
+    if argv == ["--session"]:
+        return serve_session()
     if argv:
-        print("usage: python -m fotogeo.worker [--check]  (a JSON request on stdin)", file=sys.stderr)
+        print("usage: python -m fotogeo.worker [--check | --session]  (JSON requests on stdin)", file=sys.stderr)
         return EXIT_ERROR
     return serve()
 

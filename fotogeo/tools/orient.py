@@ -85,9 +85,7 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
                           remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera,
                           progress=prog.stage(0.2, 0.3, "fitting the model"))
     prog(0.3, "model fitted")
-    # where the model puts each measured image point on the ground, at the GCP's height
-    on_ground = Georeference(fit.model, heights=g.ground[:, 2], crs=g.crs).pixel_to_map(g.pixel)
-    d_ground = on_ground - g.ground[:, :2]
+    on_ground, d_ground = ground_residuals(fit.model, g.ground, g.pixel, g.crs)
     rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
     if selection:
         rep["model_selection"] = selection
@@ -126,6 +124,14 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         out.commit()
     geo = Georeference(fit.model, heights=_mean_height(g), crs=g.crs)
     return Orientation(fit.model, geo, rep, {k: Path(v) for k, v in outs.items()})
+
+
+def ground_residuals(model, ground, pixel, crs):
+    """``(on_ground, d_ground)``: where ``model`` (ground → image) puts each measured image point
+    ``pixel`` on the ground at the GCP's own height ``ground[:, 2]`` (2-D models ignore it), and
+    that minus the GCP's map position (map units; NaN where the model gives no ground point)."""
+    on_ground = Georeference(model, heights=ground[:, 2], crs=crs).pixel_to_map(pixel)
+    return on_ground, on_ground - ground[:, :2]
 
 
 def _check_outputs(model: str, outs: dict, inputs: list, overwrite: bool) -> None:

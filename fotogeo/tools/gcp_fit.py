@@ -1,0 +1,266 @@
+"""The GCP picker's quick refit (issue 14): GCPs as JSON in, residuals and prediction grids out.
+
+:func:`fit_gcps` is what the QGIS dock calls on every change, through a long-lived worker
+(``python -m fotogeo.worker --session``), so it takes and returns plain JSON types and keeps
+the rasters it reads (image size, DEM, camera) in a small cache keyed by path, size and
+modification time. It fits with ``orient``'s own code (:func:`fotogeo.orientation.adjustment.fit_orientation`
+on the control points, :func:`fotogeo.tools.orient.ground_residuals` for the map residuals), so
+a row's residuals and the RMS are exactly what ``fotogeo orient`` reports for the same points.
+
+Conventions (``orient``'s): pixels ``(col, row)`` in the corner convention; residual
+``v = model(ground) − measured pixel``; ``dx_map, dy_map`` = where the model puts the measured
+pixel on the ground (at the point's height) minus the GCP; RMS = ``sqrt(mean(dx² + dy²))``
+per role. ``w`` is Baarda's (1968) standardised residual of a control point,
+``max(|w_x|, |w_y|)`` (:func:`~fotogeo.orientation.adjustment.standardised_residuals`);
+``|w| > 3.29`` flags a blunder (the user then disables or fixes the point: nothing is
+removed automatically, as ``orient`` without ``--remove-blunders``).
+
+Heights, per point: the given ``z`` (``"field"``), else bilinear from ``dem`` (``"dem"``, any
+CRS; a point the DEM does not cover gets no height and says so), else ``default_height``
+(``"constant"``), else none (``"none"``: 2-D models only).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..crs import parse_crs, transform_points
+from ..errors import InputError, ModelError
+from ..models import get_model
+from ..orientation.adjustment import CRITICAL_W, fit_orientation, model_src, select_model, standardised_residuals
+from .gcp_grids import prediction_grids
+
+ROLES = ("control", "check", "disabled")
+NO_DEM_HEIGHT = "no height: the DEM does not cover this point"
+_CACHE: dict = {}
+_CACHE_SIZE = 8
+
+
+def _cached(kind: str, path, load):
+    """``load(path)`` once per file version (path, size, modification time); a few kept."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return load(path)  # the loader names the missing file
+    key = (kind, os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    if key not in _CACHE:
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = load(path)
+    return _CACHE[key]
+
+
+def _dem(path):
+    from ..io.raster import read_dem
+    d = _cached("dem", path, read_dem)
+    if d.crs is None:
+        raise InputError(f"DEM {str(path)!r} has no CRS; it cannot be matched to the GCPs (assign one with "
+                         f"gdal_edit.py -a_srs)")
+    return d
+
+
+def dem_heights(dem, crs, xy) -> np.ndarray:
+    """Bilinear DEM heights ``(N,)`` at map points ``xy`` in ``crs`` (NaN outside the DEM), sampled as
+    :func:`fotogeo.io.gcps.read_gcps` samples them for ``orient``."""
+    from pyproj import CRS
+    d = _dem(dem)
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    return np.asarray(d.heights(transform_points(crs, CRS.from_user_input(d.crs), xy)), float)
+
+
+def sample_heights(xy, *, crs, dem, progress=None) -> dict:
+    """``{"z": [...]}``: DEM heights at map points ``xy`` (``[[x, y], ...]`` in ``crs``); null outside the DEM."""
+    z = dem_heights(dem, parse_crs(crs, "the points' crs"), xy)
+    return {"z": [float(v) if np.isfinite(v) else None for v in z]}
+
+
+def _parse_gcps(gcps) -> tuple:
+    """``(ids, roles, pixel (N, 2), xy (N, 2), z (N,))`` of the JSON GCPs; :class:`InputError` naming a bad one."""
+    if not isinstance(gcps, (list, tuple)):
+        raise InputError("gcps must be a list of {id, col, row, x, y, z, role} objects")
+    ids, roles, rows = [], [], []
+    for k, p in enumerate(gcps):
+        gid = str(p.get("id", k + 1)) if isinstance(p, dict) else str(k + 1)
+        try:
+            vals = [float(p[key]) for key in ("col", "row", "x", "y")]
+            z = p.get("z")
+            z = np.nan if z is None else float(z)
+        except (KeyError, TypeError, ValueError):
+            raise InputError(f"GCP {gid}: col, row, x and y must be numbers (z a number or null)") from None
+        if not np.isfinite(vals).all():
+            raise InputError(f"GCP {gid}: col, row, x and y must be finite numbers")
+        role = str(p.get("role", "control")).lower()
+        if role not in ROLES:
+            raise InputError(f"GCP {gid}: role {role!r} is not one of {', '.join(ROLES)}")
+        ids.append(gid)
+        roles.append(role)
+        rows.append(vals + [z])
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise InputError(f"GCP id(s) {', '.join(dup[:10])} are used more than once; give each GCP its own id")
+    a = np.array(rows, float).reshape(-1, 5)
+    return np.array(ids, dtype=object), np.array(roles, dtype=object), a[:, :2], a[:, 2:4], a[:, 4]
+
+
+def _heights(xy, z, crs, dem, default_height):
+    """``(z, z_source, flags)`` per point (module docstring)."""
+    z = z.copy()
+    source = np.where(np.isfinite(z), "field", "none").astype(object)
+    flags = np.full(len(z), "", dtype=object)
+    missing = ~np.isfinite(z)
+    if missing.any() and dem:
+        h = dem_heights(dem, crs, xy[missing])
+        idx = np.flatnonzero(missing)
+        z[idx] = h
+        source[idx[np.isfinite(h)]] = "dem"
+        flags[idx[~np.isfinite(h)]] = NO_DEM_HEIGHT
+    elif missing.any() and default_height is not None:
+        z[missing] = float(default_height)
+        source[missing] = "constant"
+    return z, source, flags
+
+
+def _image_size(image, width, height):
+    if image:
+        from ..io.raster import open_raster
+        info = _cached("image", image, lambda p: open_raster(p, "image"))
+        return info.width, info.height
+    if width and height:
+        return int(width), int(height)
+    return None, None
+
+
+def _camera(camera, size, image):
+    if not camera:
+        return None
+    from ..io.camera import load_camera
+    cam = _cached("camera", camera, load_camera)
+    if size[0]:
+        from .checks import check_camera_size
+        check_camera_size(cam, size[0], size[1], image or "the image")
+    return cam
+
+
+def _needed(name: str, n_control: int, n_without_height: int) -> tuple[int, str]:
+    """``(more control points needed, message)`` for model ``name`` (``auto``: the simplest candidate)."""
+    cls = get_model("similarity" if name == "auto" else name)
+    need = max(0, cls.min_points - n_control)
+    if not need:
+        return 0, ""
+    what = f"{name} needs {cls.min_points} control points" + (" (similarity)" if name == "auto" else "")
+    if cls.src_dims == 3 and n_without_height:
+        what += f" with heights ({n_without_height} without a height)"
+    return need, f"{what}: {need} more"
+
+
+def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
+             default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
+    """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
+    (the interface: /tmp/briefs/picker_api.md §3, copied in DESIGN.md). JSON types in and out."""
+    map_crs = parse_crs(crs, "the GCPs' crs")
+    ids, roles, pixel, xy, z = _parse_gcps(gcps)
+    z, z_source, flags = _heights(xy, z, map_crs, dem, default_height)
+    size = _image_size(image, width, height)
+    cam = _camera(camera, size, image)
+    if model != "auto":
+        get_model(model).options_from(camera=cam)  # names a missing camera
+    outside = np.zeros(len(ids), bool)
+    if size[0]:
+        outside = ~((pixel >= 0).all(axis=1) & (pixel[:, 0] <= size[0]) & (pixel[:, 1] <= size[1]))
+        flags[outside] = f"outside the image ({size[0]}x{size[1]} px)"
+    ground = np.column_stack([xy, z])
+    three_d = model != "auto" and get_model(model).src_dims == 3
+    use = (roles != "disabled") & ~outside & (np.isfinite(z) if three_d else True)
+    control = use & (roles == "control")
+    n_no_z = int(((roles == "control") & ~np.isfinite(z)).sum())
+    needed, message = _needed(model, int(control.sum()), n_no_z)
+    result = _empty_result(model, ids, roles, z, z_source, flags, needed, message)
+    if needed:
+        return result
+    try:
+        name = model
+        if model == "auto":
+            name, selection = select_model(ground[use], pixel[use], roles[use], ids[use], camera=cam)
+            result["model_selection"] = selection
+        fit = fit_orientation(name, ground[use], pixel[use], roles[use], ids[use], snooping=False, camera=cam)
+    except ModelError as e:
+        result.update(message=str(e))
+        return result
+    result["model"] = name
+    _fill_points(result, fit, name, ground, pixel, map_crs, use, ~outside, cam, snooping)
+    result["ok"], result["message"] = True, _summary(name, result["rms"], result["points"])
+    result["warnings"] = fit.warnings
+    if grid:
+        result["forward"], result["inverse"] = prediction_grids(
+            fit.model, map_crs, ground[use], size, int(grid), dem=dem and _dem(dem),
+            default_height=default_height)
+    return result
+
+
+def _empty_result(model, ids, roles, z, z_source, flags, needed, message) -> dict:
+    nan = None
+    points = [{"id": i, "role": r, "z": float(h) if np.isfinite(h) else None, "z_source": s, "dx_px": nan,
+               "dy_px": nan, "residual_px": nan, "dx_map": nan, "dy_map": nan, "residual_map": nan, "w": nan,
+               "flag": f} for i, r, h, s, f in zip(ids, roles, z, z_source, flags)]
+    rms = {"control_px": nan, "control_map": nan, "check_px": nan, "check_map": nan, "n_control": 0, "n_check": 0}
+    return {"model": model, "ok": False, "message": message, "needed": int(needed), "points": points,
+            "rms": rms, "forward": None, "inverse": None}
+
+
+def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snooping):
+    """Residuals (pixels, map), w and flags of every row: orient's numbers for the points used;
+    the fitted model's prediction for disabled rows that have what the model needs."""
+    from .orient import ground_residuals
+    cls = get_model(name)
+    has = np.isfinite(ground[:, 2]) if cls.src_dims == 3 else np.ones(len(ground), bool)
+    shown = use | (inside & has)
+    control = use & (np.array([p["role"] for p in result["points"]]) == "control")
+    res = np.full((len(ground), 2), np.nan)
+    res[use] = fit.residual
+    other = shown & ~use
+    if other.any():
+        res[other] = fit.model.forward(model_src(cls, ground[other])) - pixel[other]
+    d_map = np.full((len(ground), 2), np.nan)
+    d_map[shown] = ground_residuals(fit.model, ground[shown], pixel[shown], crs)[1]
+    w = np.full(len(ground), np.nan)
+    n, u = int(control.sum()), cls.n_params
+    if snooping and 2 * n - u >= 2 and n - 1 >= cls.min_points:
+        w[control] = standardised_residuals(cls, model_src(cls, ground[use]), pixel[use],
+                                            control[use], fit_options=cls.options_from(camera=cam))[1]
+    for k, p in enumerate(result["points"]):
+        p.update(dx_px=_num(res[k, 0]), dy_px=_num(res[k, 1]), residual_px=_num(np.hypot(*res[k])),
+                 dx_map=_num(d_map[k, 0]), dy_map=_num(d_map[k, 1]), residual_map=_num(np.hypot(*d_map[k])),
+                 w=_num(w[k]))
+        if np.isfinite(w[k]) and w[k] > CRITICAL_W:
+            p["flag"] = "blunder" + (f"; {p['flag']}" if p["flag"] else "")
+    result["rms"] = _rms(res, d_map, fit.role, use)
+
+
+def _num(v):
+    return float(v) if np.isfinite(v) else None
+
+
+def _rms(res, d_map, fit_role, use) -> dict:
+    """RMS (pixels: orient's ``rms_xy_px``; map units) and counts per role of the points used."""
+    out = {}
+    for role in ("control", "check"):
+        sel = np.zeros(len(res), bool)
+        sel[np.flatnonzero(use)[fit_role == role]] = True
+        n = int(sel.sum())
+        out[f"{role}_px"] = float(np.sqrt(np.mean(np.sum(res[sel] ** 2, axis=1)))) if n else None
+        ok = sel & np.isfinite(d_map).all(axis=1)
+        out[f"{role}_map"] = float(np.sqrt(np.mean(np.sum(d_map[ok] ** 2, axis=1)))) if ok.any() else None
+        out[f"n_{role}"] = n
+    return out
+
+
+def _summary(name, rms, points) -> str:
+    """One line for the dock's status: model, RMS, blunders."""
+    text = f"{name}: control RMS {rms['control_px']:.3f} px ({rms['n_control']} points)"
+    if rms["n_check"]:
+        text += f", check RMS {rms['check_px']:.3f} px ({rms['n_check']})"
+    blunders = [p["id"] for p in points if p["flag"].startswith("blunder")]
+    if blunders:
+        text += f"; blunder suspected at {', '.join(blunders[:5])} (|w| > {CRITICAL_W})"
+    return text

@@ -1,0 +1,79 @@
+"""Prediction grids of a fitted orientation model for the GCP picker (issue 14).
+
+The dock predicts where the second click of a GCP belongs while the cursor moves, without a
+round trip to the worker per mouse move: it interpolates these grids bilinearly.
+
+* ``forward`` — image → map: ``cols`` and ``rows`` evenly spaced over the whole image
+  (0..width, 0..height, corner convention), ``x[i][j], y[i][j]`` the map position of pixel
+  ``(cols[j], rows[i])`` (:meth:`~fotogeo.geometry.georeference.Georeference.pixel_to_map`; 3-D
+  models intersect the DEM, else the constant height, else the GCPs' mean height).
+* ``inverse`` — map → image: ``xs`` ascending and ``ys`` descending (north up) over the GCPs'
+  map extent padded on each side by half its span, ``col[i][j], row[i][j]`` the pixel of map
+  point ``(xs[j], ys[i])`` (3-D models at the DEM height there, falling back on the constant
+  or the GCPs' mean height where the DEM has none).
+
+Values are NaN where the model gives no answer (a ray that misses the DEM, a point behind the
+camera, a rational function's pole); the worker writes them as JSON null.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.georeference import Georeference
+
+PAD = 0.5  # fraction of the GCPs' span added on each side of the inverse grid
+
+
+def _fallback_height(ground, default_height):
+    z = ground[:, 2]
+    if default_height is not None:
+        return float(default_height)
+    return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
+
+
+def forward_grid(model, crs, size, n: int, heights) -> dict | None:
+    """Image → map grid (module docstring); None without an image size."""
+    if not size[0]:
+        return None
+    cols, rows = np.linspace(0.0, size[0], n), np.linspace(0.0, size[1], n)
+    C, R = np.meshgrid(cols, rows)
+    with np.errstate(all="ignore"):
+        XY = Georeference(model, heights=heights, crs=crs).pixel_to_map(np.column_stack([C.ravel(), R.ravel()]))
+    XY = np.where(np.isfinite(XY), XY, np.nan)
+    return {"cols": cols.tolist(), "rows": rows.tolist(), "x": XY[:, 0].reshape(n, n).tolist(),
+            "y": XY[:, 1].reshape(n, n).tolist()}
+
+
+def inverse_grid(model, crs, ground, n: int, dem_sampler, fallback: float) -> dict:
+    """Map → image grid over the padded GCP extent (module docstring)."""
+    lo, hi = ground[:, :2].min(axis=0), ground[:, :2].max(axis=0)
+    span = hi - lo
+    span = np.where(span > 0, span, max(float(span.max()), 1.0))
+    lo, hi = lo - PAD * span, hi + PAD * span
+    xs, ys = np.linspace(lo[0], hi[0], n), np.linspace(hi[1], lo[1], n)
+    X, Y = np.meshgrid(xs, ys)
+    XY = np.column_stack([X.ravel(), Y.ravel()])
+    z = np.full(len(XY), fallback)
+    if dem_sampler is not None:
+        h = np.asarray(dem_sampler.heights(XY), float)
+        z = np.where(np.isfinite(h), h, fallback)
+    with np.errstate(all="ignore"):
+        P = Georeference(model, heights=z, crs=crs).map_to_pixel(XY)
+    P = np.where(np.isfinite(P), P, np.nan)
+    return {"xs": xs.tolist(), "ys": ys.tolist(), "col": P[:, 0].reshape(n, n).tolist(),
+            "row": P[:, 1].reshape(n, n).tolist()}
+
+
+def prediction_grids(model, crs, ground, size, n: int, *, dem=None, default_height=None):
+    """``(forward, inverse)`` grids of ``model`` (ground → image) with ``n`` x ``n`` nodes each.
+
+    ``ground`` ``(N, 3)`` are the GCPs used (their extent, their mean height); ``dem`` a
+    :class:`~fotogeo.geometry.dem.Dem` in any CRS; ``size`` the image ``(width, height)`` or
+    ``(None, None)``.
+    """
+    from .orient import _dem_in
+    n = max(2, min(int(n), 200))
+    fallback = _fallback_height(ground, default_height)
+    sampler = _dem_in(dem, crs) if dem is not None else None
+    heights = sampler if sampler is not None else fallback
+    return forward_grid(model, crs, size, n, heights), inverse_grid(model, crs, ground, n, sampler, fallback)
