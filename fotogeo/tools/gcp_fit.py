@@ -234,21 +234,21 @@ def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snoopi
                  w=_num(w[k]))
         if np.isfinite(w[k]) and w[k] > CRITICAL_W:
             p["flag"] = "blunder" + (f"; {p['flag']}" if p["flag"] else "")
-    result["rms"] = _rms(res, d_map, fit.role, use)
+    result["rms"] = _rms(fit.stats, d_map, fit.role, use)
 
 
 def _num(v):
     return float(v) if np.isfinite(v) else None
 
 
-def _rms(res, d_map, fit_role, use) -> dict:
+def _rms(fit_stats, d_map, fit_role, use) -> dict:
     """RMS (pixels: orient's ``rms_xy_px``; map units) and counts per role of the points used."""
     out = {}
     for role in ("control", "check"):
-        sel = np.zeros(len(res), bool)
+        sel = np.zeros(len(d_map), bool)
         sel[np.flatnonzero(use)[fit_role == role]] = True
         n = int(sel.sum())
-        out[f"{role}_px"] = float(np.sqrt(np.mean(np.sum(res[sel] ** 2, axis=1)))) if n else None
+        out[f"{role}_px"] = fit_stats[role].get("rms_xy_px") if n else None  # orient's own number
         ok = sel & np.isfinite(d_map).all(axis=1)
         out[f"{role}_map"] = float(np.sqrt(np.mean(np.sum(d_map[ok] ** 2, axis=1)))) if ok.any() else None
         out[f"n_{role}"] = n

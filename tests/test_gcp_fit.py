@@ -1,0 +1,191 @@
+"""The GCP picker's refit (fotogeo.tools.gcp_fit.fit_gcps): the same residuals and RMS as
+``fotogeo orient`` on the same points, heights from the field / DEM / a constant, data-snooping
+flags, "needs N more", a DEM that misses a point, and the prediction grids against the NGI
+frame's true geometry (tests/ngi_truth.py)."""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pyproj import CRS
+
+from fotogeo.tools.gcp_fit import NO_DEM_HEIGHT, fit_gcps
+from fotogeo.tools.orient import orient
+from ngi_truth import FRAMES, truth_points
+
+MAP_CRS = "EPSG:32735"
+FRAME = FRAMES[0][0]
+
+
+@pytest.fixture(scope="module")
+def ngi(data_dir) -> Path:
+    return data_dir / "ngi"
+
+
+@pytest.fixture(scope="module")
+def truth(ngi):
+    return truth_points(ngi, FRAME, step=10)
+
+
+def pick(truth, n, n_check, seed=1, noise_px=0.3, with_z=False):
+    """``n`` GCPs of the true geometry, the last ``n_check`` check points, image noise ``noise_px``."""
+    px, ground = truth
+    rng = np.random.default_rng(seed)
+    idx = rng.choice(len(px), n, replace=False)
+    noisy = px[idx] + rng.normal(0, noise_px, (n, 2))
+    return [{"id": f"g{k}", "col": float(c), "row": float(r), "x": float(ground[i, 0]), "y": float(ground[i, 1]),
+             "z": float(ground[i, 2]) if with_z else None, "role": "check" if k >= n - n_check else "control"}
+            for k, ((c, r), i) in enumerate(zip(noisy, idx))]
+
+
+def write_csv(path, gcps):
+    fields = ["id", "x", "y", "col", "row", "role"] + (["z"] if gcps[0]["z"] is not None else [])
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fields, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(gcps)
+    return path
+
+
+def as_read_by_orient(path, gcps):
+    """The GCPs as orient reads them back from the CSV (pandas' float parser may differ in the last bit)."""
+    from fotogeo.io.gcps import read_gcps
+    g = read_gcps(path, crs=MAP_CRS)
+    return [{**p, "col": c, "row": r, "x": x, "y": y, "z": None if p["z"] is None else z}
+            for p, (c, r), (x, y, z) in zip(gcps, g.pixel.tolist(), g.ground.tolist())]
+
+
+@pytest.mark.parametrize("model, n, with_z", [("affine", 12, False), ("projective", 12, True), ("dlt", 16, False),
+                                              ("rfm-poly", 40, False), ("collinearity", 10, False)])
+def test_residuals_and_rms_are_orients(ngi, truth, tmp_path, model, n, with_z):
+    gcps = pick(truth, n, 4, with_z=with_z)
+    image = ngi / "frames" / f"{FRAME}_RGB.tif"
+    camera = ngi / "interior_orientation.yaml"
+    rep = orient(image, write_csv(tmp_path / "g.csv", gcps), model=model, crs=MAP_CRS, dem=ngi / "dem.tif",
+                 camera=camera)
+    gcps = as_read_by_orient(tmp_path / "g.csv", gcps)
+    fit = fit_gcps(gcps, model, crs=MAP_CRS, image=str(image), dem=str(ngi / "dem.tif"), camera=str(camera))
+    assert fit["ok"] and fit["model"] == model and fit["needed"] == 0
+    ours = {p["id"]: p for p in fit["points"]}
+    for p in rep["points"]:
+        q = ours[p["id"]]
+        assert (q["dx_px"], q["dy_px"]) == (p["dx_px"], p["dy_px"])
+        assert (q["dx_map"], q["dy_map"]) == (p["dx_ground"], p["dy_ground"])
+        assert q["role"] == p["role"] and q["z_source"] == ("field" if with_z else "dem")
+    assert (fit["rms"]["control_px"], fit["rms"]["check_px"]) == (rep["control"]["rms_xy_px"], rep["check"]["rms_xy_px"])
+    assert (fit["rms"]["n_control"], fit["rms"]["n_check"]) == (n - 4, 4)
+    assert 0.05 < fit["rms"]["control_px"] < (30 if model in ("affine", "projective") else 1.0)
+
+
+def test_a_blunder_is_flagged_as_orient_flags_it(ngi, truth, tmp_path):
+    gcps = pick(truth, 14, 0, seed=4, noise_px=0.2)
+    gcps[5]["col"] += 6.0
+    image = ngi / "frames" / f"{FRAME}_RGB.tif"
+    rep = orient(image, write_csv(tmp_path / "g.csv", gcps), model="dlt", crs=MAP_CRS, dem=ngi / "dem.tif")
+    fit = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=str(image), dem=str(ngi / "dem.tif"))
+    flagged = [p["id"] for p in fit["points"] if p["flag"].startswith("blunder")]
+    orient_flagged = [rep["snooping"][0]["id"]] + [i for i, _ in rep["snooping"][0]["also_flagged"]]
+    assert flagged == ["g5"] and sorted(orient_flagged) == flagged
+    w = {p["id"]: p["w"] for p in fit["points"]}
+    assert w["g5"] == pytest.approx(rep["snooping"][0]["w"], rel=1e-9) and max(v for k, v in w.items() if k != "g5") < 3.29
+    assert "blunder suspected at g5" in fit["message"]
+    off = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=str(image), dem=str(ngi / "dem.tif"), snooping=False)
+    assert all(p["w"] is None and p["flag"] == "" for p in off["points"])
+
+
+def test_heights_field_dem_constant_and_a_dem_that_misses_a_point(ngi, truth):
+    gcps = pick(truth, 9, 0, seed=2, with_z=True)
+    for p in gcps[3:6]:
+        p["z"] = None
+    gcps[6]["z"] = None
+    gcps[6]["x"] += 2e5  # far outside the DEM (the image position no longer matches: it is left out anyway)
+    fit = fit_gcps(gcps, "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"), width=640, height=1152)
+    rows = {p["id"]: p for p in fit["points"]}
+    assert [rows[f"g{k}"]["z_source"] for k in range(9)] == ["field"] * 3 + ["dem"] * 3 + ["none"] + ["field"] * 2
+    assert rows["g6"]["flag"] == NO_DEM_HEIGHT and rows["g6"]["z"] is None and rows["g6"]["dx_px"] is None
+    # 8 control points with heights: dlt fits; the DEM heights are the DEM's, bilinear
+    assert fit["ok"] and fit["rms"]["n_control"] == 8
+    px, ground = truth
+    for k in (3, 4, 5):
+        i = np.flatnonzero((ground[:, 0] == gcps[k]["x"]) & (ground[:, 1] == gcps[k]["y"]))[0]
+        assert rows[f"g{k}"]["z"] == pytest.approx(ground[i, 2], abs=1e-3)  # truth_points sampled the same DEM
+    # a 2-D model does not need the height: the row keeps its flag but is fitted
+    two_d = fit_gcps(gcps, "affine", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    assert two_d["rms"]["n_control"] == 9 and {p["id"]: p for p in two_d["points"]}["g6"]["dx_px"] is not None
+    camera = str(ngi / "interior_orientation.yaml")
+    flat = [{**p, "z": None} for p in gcps[:6] + gcps[7:]]
+    const = fit_gcps(flat, "collinearity", crs=MAP_CRS, default_height=450.0, camera=camera)
+    assert {p["z_source"] for p in const["points"]} == {"constant"} and {p["z"] for p in const["points"]} == {450.0}
+    on_dem = fit_gcps(flat, "collinearity", crs=MAP_CRS, dem=str(ngi / "dem.tif"), camera=camera)
+    assert const["ok"] and const["rms"]["control_px"] > 3 * on_dem["rms"]["control_px"]  # wrong heights show
+
+
+def test_too_few_points_say_how_many_more(ngi, truth):
+    gcps = pick(truth, 7, 0, seed=3)
+    r = fit_gcps(gcps[:4], "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    assert (r["ok"], r["needed"], r["message"]) == (False, 2, "dlt needs 6 control points: 2 more")
+    assert r["rms"]["control_px"] is None and r["forward"] is None and r["inverse"] is None
+    no_z = fit_gcps(gcps[:6], "dlt", crs=MAP_CRS)
+    assert no_z["needed"] == 6 and no_z["message"] == "dlt needs 6 control points with heights (6 without a height): 6 more"
+    disabled = [{**p, "role": "disabled" if k < 2 else p["role"]} for k, p in enumerate(gcps)]
+    assert fit_gcps(disabled, "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"))["needed"] == 1
+    assert fit_gcps(gcps[:2], "auto", crs=MAP_CRS)["message"] == "auto needs 3 control points (similarity): 1 more"
+    assert fit_gcps(gcps[:2], "collinearity", crs=MAP_CRS, dem=str(ngi / "dem.tif"),
+                    camera=str(ngi / "interior_orientation.yaml"))["message"] == \
+        "collinearity needs 4 control points: 2 more"
+
+
+def test_disabled_points_get_the_models_prediction_but_stay_out_of_the_fit(ngi, truth):
+    gcps = pick(truth, 10, 0, seed=5)
+    all_on = fit_gcps(gcps[:9], "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    with_off = fit_gcps(gcps[:9] + [{**gcps[9], "role": "disabled"}], "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    as_check = fit_gcps(gcps[:9] + [{**gcps[9], "role": "check"}], "dlt", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    assert with_off["rms"] == all_on["rms"] and as_check["rms"]["n_check"] == 1
+    off, check = with_off["points"][-1], as_check["points"][-1]
+    assert off["role"] == "disabled" and off["w"] is None and off["residual_px"] > 0
+    assert (off["dx_px"], off["dy_px"], off["dx_map"]) == pytest.approx((check["dx_px"], check["dy_px"], check["dx_map"]))
+
+
+def test_prediction_grids_follow_the_true_geometry(ngi, truth):
+    from fotogeo.crs import transform_points
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.camera import load_ngi_frame
+    gcps = pick(truth, 20, 0, seed=6, noise_px=0.0)
+    fit = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=str(ngi / "frames" / f"{FRAME}_RGB.tif"),
+                   dem=str(ngi / "dem.tif"), grid=9)
+    frame, dem = load_ngi_frame(ngi, FRAME), Dem.open(ngi / "dem.tif")
+    dem_crs = CRS.from_wkt(dem.crs.to_wkt())
+    fw = fit["forward"]
+    assert fw["cols"][0] == 0 and fw["cols"][-1] == 640 and fw["rows"][-1] == 1152
+    px = np.array([[c, r] for r in fw["rows"] for c in fw["cols"]])
+    true_xy = transform_points(dem_crs, CRS.from_user_input(MAP_CRS), frame.pixel_to_world(px, dem)[:, :2])
+    grid_xy = np.column_stack([np.ravel(fw["x"]), np.ravel(fw["y"])]).astype(float)
+    ok = np.isfinite(true_xy).all(axis=1)
+    assert ok.sum() > 60 and np.abs(grid_xy[ok] - true_xy[ok]).max() < 1.0  # metres; GSD about 6 m
+    inv = fit["inverse"]
+    assert inv["ys"][0] > inv["ys"][-1] and inv["xs"][0] < inv["xs"][-1]
+    XY = np.array([[x, y] for y in inv["ys"] for x in inv["xs"]])
+    xy_dem = transform_points(CRS.from_user_input(MAP_CRS), dem_crs, XY)
+    z = dem.heights(xy_dem)
+    inside = np.isfinite(z)
+    true_px = frame.world_to_pixel(np.column_stack([xy_dem, z])[inside])
+    grid_px = np.column_stack([np.ravel(inv["col"]), np.ravel(inv["row"])]).astype(float)[inside]
+    assert inside.sum() > 40 and np.abs(grid_px - true_px).max() < 0.2
+
+
+def test_bad_input_is_one_line(ngi):
+    from fotogeo.errors import InputError
+    with pytest.raises(InputError, match="GCP a: col, row, x and y must be numbers"):
+        fit_gcps([{"id": "a", "col": "x", "row": 1, "x": 1, "y": 1}], "affine", crs=MAP_CRS)
+    with pytest.raises(InputError, match="used more than once"):
+        fit_gcps([{"id": "a", "col": 1, "row": 1, "x": 1, "y": 1}] * 2, "affine", crs=MAP_CRS)
+    with pytest.raises(InputError, match="crs"):
+        fit_gcps([], "affine", crs="EPSG:99999")
+    from fotogeo.errors import ModelError
+    with pytest.raises(ModelError, match="camera"):
+        fit_gcps([], "collinearity", crs=MAP_CRS)
+    out = fit_gcps([{"id": "o", "col": 700, "row": 5, "x": 1, "y": 1, "role": "control"}], "affine", crs=MAP_CRS,
+                   width=640, height=1152)
+    assert out["points"][0]["flag"] == "outside the image (640x1152 px)" and out["needed"] == 3
