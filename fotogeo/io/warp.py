@@ -102,6 +102,7 @@ class Plan:
     nodata: object
     src_nodata: object  # the override of the source's nodata (None: the file's mask)
     all_valid: bool  # the source has no nodata, mask or alpha: its mask is all 255, not read
+    band_nodata: object  # the file's nodata value when its masks come from it (per band), else None
     src_width: int
     src_height: int
 
@@ -115,18 +116,22 @@ def make_plan(src, inverse_map, transform, resampling="nearest", nodata=None, sr
     dtype = src.dtypes[0]
     src_nd = src.nodata if src_nodata is None else src_nodata
     all_valid = src_nodata is None and all(f == [MaskFlags.all_valid] for f in src.mask_flag_enums)
+    band_nodata = src.nodata if any(MaskFlags.nodata in f for f in src.mask_flag_enums) else None
     return Plan(inverse_map, transform, resampling, dtype, src.count,
                 default_nodata(src_nd if nodata is None else nodata, dtype), src_nodata, all_valid,
-                src.width, src.height)
+                band_nodata, src.width, src.height)
 
 
 def _source_mask(src, plan: Plan, win: Window, data):
-    """uint8 validity (255 valid) of a source window: the file's mask, the nodata override, finiteness.
-    Returns ``(mask, data)`` — floating data with NaN/±inf replaced by 0 (never data, as in fuse)."""
+    """uint8 validity (255 valid) of a source window: the file's masks, the nodata override, finiteness.
+    A pixel is valid where any band's mask is (a nodata value is per band, as in GDAL's warper: a
+    dark RGB pixel with one channel at 0 stays), invalid where every band equals the override
+    ``src_nodata`` or any band is NaN/±inf. Returns ``(mask, data)`` — floating data with NaN/±inf
+    replaced by 0 (never data, as in fuse)."""
     if plan.all_valid:
         mask = np.full(data.shape[1:], 255, np.uint8)
     else:
-        mask = src.read_masks(window=win).min(axis=0)
+        mask = src.read_masks(window=win).max(axis=0)
     if plan.src_nodata is not None:
         mask[(data == plan.src_nodata).all(axis=0)] = 0
     if plan.floating:
@@ -137,56 +142,155 @@ def _source_mask(src, plan: Plan, win: Window, data):
 
 
 def centres_to_map(t, r0: int, c0: int, h: int, w: int) -> np.ndarray:
-    """Map coordinates ``(h * w, 2)`` of the pixel centres of a window, row by row: the same
-    numbers as ``pixel_to_map(t, pixel_centres(...))`` (same operations in the same order),
-    computed by broadcasting one row and one column instead of two full grids.
+    """Map coordinates ``(h * w, 2)`` of the pixel centres of a window, row by row, evaluated as
+    GDAL's ``GDALApplyGeoTransform`` does — ``X = (c + col * a) + row * b`` and
+    ``Y = (f + col * d) + row * e``, left to right in float64 — so that a centre falling exactly on
+    a source pixel edge lands on the same side of it as in ``gdalwarp`` (the order of the sums
+    decides the last bit). One row and one column are computed, then broadcast.
 
     >>> from affine import Affine
     >>> t = Affine(2.0, 0.5, 100.0, 0.25, -2.0, 50.0)
     >>> x, y = pixel_centres(3, 2, 4, 7)
-    >>> bool((centres_to_map(t, 7, 4, 2, 3) == pixel_to_map(t, np.column_stack([x.ravel(), y.ravel()]))).all())
+    >>> bool(np.allclose(centres_to_map(t, 7, 4, 2, 3), pixel_to_map(t, np.column_stack([x.ravel(), y.ravel()]))))
     True
     """
     x = c0 + HALF + np.arange(w, dtype=np.float64)
     y = (r0 + HALF + np.arange(h, dtype=np.float64))[:, None]
     XY = np.empty((h, w, 2))
-    np.add(t.a * x + t.b * y, t.c, out=XY[..., 0])
-    np.add(t.d * x + t.e * y, t.f, out=XY[..., 1])
+    np.add(t.c + x * t.a, y * t.b, out=XY[..., 0])
+    np.add(t.f + x * t.d, y * t.e, out=XY[..., 1])
     return XY.reshape(h * w, 2)
 
 
-def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
-    """The ``h x w`` output window at row ``r0``, column ``c0`` of the grid: ``(array (count, h, w),
-    valid pixel count, count of valid pixels equal to nodata)``. Depends only on the position."""
-    interp, margin = RESAMPLING[plan.resampling], _MARGIN[plan.resampling]
-    sp = np.asarray(plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)))
-    out = np.full((plan.count, h, w), plan.nodata, dtype=plan.dtype)
+def gdal_inverse_geotransform(t):
+    """The inverse of the affine ``t`` (rasterio order a, b, c, d, e, f) computed as GDAL's
+    ``GDALInvGeoTransform`` does (the north-up case by division, else by the adjoint over the
+    determinant), as an ``Affine``: with it, source pixel coordinates equal GDAL's to the last bit.
+
+    >>> from affine import Affine
+    >>> gdal_inverse_geotransform(Affine(0.3, 0.0, 500000.0, 0.0, -0.3, 7000000.0)).c == -500000.0 / 0.3
+    True
+    """
+    from affine import Affine
+    if t.b == 0.0 and t.d == 0.0 and t.a != 0.0 and t.e != 0.0:
+        return Affine(1.0 / t.a, 0.0, -t.c / t.a, 0.0, 1.0 / t.e, -t.f / t.e)
+    det = t.a * t.e - t.b * t.d
+    if abs(det) <= 1e-10 * max(abs(t.a), abs(t.b), abs(t.d), abs(t.e)) ** 2:
+        raise ValueError(f"the geotransform {tuple(t)[:6]} cannot be inverted (its pixels have no area)")
+    inv_det = 1.0 / det
+    return Affine(t.e * inv_det, -t.b * inv_det, (t.b * t.f - t.c * t.e) * inv_det,
+                  -t.d * inv_det, t.a * inv_det, (-t.a * t.f + t.c * t.d) * inv_det)
+
+
+@dataclass(frozen=True)
+class GeotransformInverse:
+    """Map XY → source pixel (corner convention) of a source with the affine geotransform
+    ``transform``, in GDAL's arithmetic (:func:`gdal_inverse_geotransform` applied as
+    ``GDALApplyGeoTransform``): the ``inverse_map`` with which :func:`warp_to_grid` gives
+    ``gdalwarp -et 0``'s pixels when source and grid share a CRS. Picklable (Dask tiles)."""
+
+    transform: object
+
+    def __call__(self, XY) -> np.ndarray:
+        i = gdal_inverse_geotransform(self.transform)
+        XY = np.asarray(XY, np.float64)
+        return np.column_stack([i.c + XY[:, 0] * i.a + XY[:, 1] * i.b, i.f + XY[:, 0] * i.d + XY[:, 1] * i.e])
+
+
+#: GDAL's tolerance when it takes the source pixel of a position (``GWKCheckAndComputeSrcOffsets``
+#: in GDAL's gdalwarpkernel.cpp): a coordinate less than 1e-10 px below a pixel edge is in the next pixel
+GDAL_EDGE_EPSILON = 1e-10
+_INT16_MAX = 32767
+
+
+def nearest_source_pixels(sp, width: int, height: int):
+    """Integer source pixel ``(col, row)`` of each position ``sp`` (N, 2) (corner convention), by
+    GDAL's nearest-neighbour rule in float64: a position is inside when ``0 <= x`` and
+    ``x + 1e-10 <= width`` (same for y), its pixel is ``floor(x + 1e-10)`` (the last one for
+    ``x + 1e-10 == width``). Returns ``(col, row, inside)``; outside positions get -1.
+
+    >>> sp = np.array([[2.0, 0.0], [2.0 - 1e-12, 0.5], [1.999, 3.0 - 1e-10], [1.0, 3.0], [-1e-12, 1.0],
+    ...                [np.nan, 1.0]])
+    >>> col, row, inside = nearest_source_pixels(sp, 3, 3)
+    >>> col.tolist(), row.tolist(), inside.tolist()
+    ([2, 2, 1, -1, -1, -1], [0, 0, 2, -1, -1, -1], [True, True, True, False, False, False])
+    """
+    with np.errstate(invalid="ignore"):
+        shifted = sp + GDAL_EDGE_EPSILON
+        inside = ((sp[:, 0] >= 0) & (sp[:, 1] >= 0) & (shifted[:, 0] <= width) & (shifted[:, 1] <= height))
+        idx = np.floor(shifted, out=shifted)
+        np.minimum(idx, (width - 1, height - 1), out=idx)
+    idx[~inside] = -1
+    idx = idx.astype(np.int32)
+    return idx[:, 0], idx[:, 1], inside
+
+
+def _nearest_maps(sp, plan: Plan, h: int, w: int):
+    """Source window and OpenCV maps holding the exact integer source pixels (GDAL's rule, see
+    :func:`nearest_source_pixels`): ``CV_16SC2`` maps (no rounding left to OpenCV) when the window
+    fits in int16, else integer-valued float32 maps (exact below 2²⁴). None when nothing is inside."""
+    col, row, inside = nearest_source_pixels(sp, plan.src_width, plan.src_height)
+    if not inside.any():
+        return None
+    c_lo, c_hi = int(col.min(where=inside, initial=plan.src_width)), int(col.max()) + 1
+    r_lo, r_hi = int(row.min(where=inside, initial=plan.src_height)), int(row.max()) + 1
+    lc = np.where(inside, col - c_lo, -1).reshape(h, w)
+    lr = np.where(inside, row - r_lo, -1).reshape(h, w)
+    win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
+    if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
+        return win, np.stack([lc, lr], axis=-1).astype(np.int16), None
+    return win, lc.astype(np.float32), lr.astype(np.float32)
+
+
+def _interpolation_maps(sp, plan: Plan, h: int, w: int):
+    """Source window (positions plus the kernel's margin) and float32 OpenCV maps (centre
+    convention, computed in float64 then rounded) for bilinear and cubic. None when nothing is inside."""
+    margin = _MARGIN[plan.resampling]
     finite = np.isfinite(sp)
     everywhere = bool(finite.all())
     cr = sp if everywhere else sp[finite.all(axis=1)]
     if not len(cr):
-        return out, 0, 0
+        return None
     c_lo = max(0, int(math.floor(cr[:, 0].min())) - margin)
     c_hi = min(plan.src_width, int(math.ceil(cr[:, 0].max())) + margin)
     r_lo = max(0, int(math.floor(cr[:, 1].min())) - margin)
     r_hi = min(plan.src_height, int(math.ceil(cr[:, 1].max())) + margin)
     if c_hi <= c_lo or r_hi <= r_lo:
-        return out, 0, 0
-    win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
-    mask, data = _source_mask(src, plan, win, src.read(window=win))
+        return None
     if not everywhere:
         sp = np.where(finite, sp, -1e6)
-    # centre convention (OpenCV) in the window: (x - 0.5) - c_lo, computed in float64 then float32
+    # centre convention (OpenCV) in the window: (x - 0.5) - c_lo
     mx = (sp[:, 0] - HALF - c_lo).reshape(h, w).astype(np.float32)
     my = (sp[:, 1] - HALF - r_lo).reshape(h, w).astype(np.float32)
-    nearest = interp == cv2.INTER_NEAREST
-    m = cv2.remap(mask, mx, my, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
+    return Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo), mx, my
+
+
+def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
+    """The ``h x w`` output window at row ``r0``, column ``c0`` of the grid: ``(array (count, h, w),
+    valid pixel count, count of valid pixels equal to nodata)``. Depends only on the position.
+
+    Nearest neighbour takes, for each output centre, the source pixel GDAL's warper takes
+    (:func:`nearest_source_pixels`), so with :class:`GeotransformInverse` the pixels equal
+    ``gdalwarp -r near -et 0``'s, exact half-pixel ties included."""
+    sp = np.asarray(plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
+    out = np.full((plan.count, h, w), plan.nodata, dtype=plan.dtype)
+    nearest = plan.resampling == "nearest"
+    located = (_nearest_maps if nearest else _interpolation_maps)(sp, plan, h, w)
+    if located is None:
+        return out, 0, 0
+    win, map1, map2 = located
+    mask, data = _source_mask(src, plan, win, src.read(window=win))
+    m = cv2.remap(mask, map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
                   borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     good = m > 0 if nearest else m >= 255
+    interp = RESAMPLING[plan.resampling]
     work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
+    per_band = nearest and plan.band_nodata is not None and plan.band_nodata != plan.nodata
     for b in range(plan.count):
         band = data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype)
-        res = cv2.remap(band, mx, my, interp, borderMode=cv2.BORDER_REPLICATE)
+        res = cv2.remap(band, map1, map2, interp, borderMode=cv2.BORDER_REPLICATE)
+        if per_band:  # a band at the source's nodata is that band's nodata in the output (GDAL)
+            res[res == plan.band_nodata] = plan.nodata
         np.copyto(out[b], res.astype(plan.dtype, copy=False), where=good)
     collisions = 0 if plan.floating else int(((out == plan.nodata).all(axis=0) & good).sum())
     return out, int(good.sum()), collisions
