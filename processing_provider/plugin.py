@@ -2,7 +2,9 @@
 
 ``initProcessing`` is what QGIS calls for Processing-only use (qgis_process, headless) and
 stays free of GUI code; ``initGui`` calls it and adds the menu *fotogeo* with *Install /
-repair runtime* (:mod:`processing_provider.install_action`). Every capability is in the toolbox.
+repair runtime* (:mod:`processing_provider.install_action`) and *GCP picker* (menu and toolbar),
+which opens the dock :class:`processing_provider.picker.dock.PickerDock`. Every other capability is
+in the toolbox. ``unload`` closes the dock and the picker's worker session.
 """
 from __future__ import annotations
 
@@ -19,6 +21,8 @@ class FotogeoPlugin:
         self.iface = iface
         self.provider = None
         self.menu = None
+        self.picker_action = None
+        self.picker = None
 
     def initProcessing(self):
         if self.provider is None:
@@ -31,8 +35,41 @@ class FotogeoPlugin:
         if self.iface is not None:
             from .install_action import RuntimeMenu
             self.menu = RuntimeMenu(self.iface, self.provider)
+            from qgis.PyQt.QtGui import QIcon
+            from qgis.PyQt.QtWidgets import QAction
+            from .install_action import MENU
+            icon = QIcon(os.path.join(os.path.dirname(os.path.abspath(__file__)), "icon.svg"))
+            self.picker_action = QAction(icon, "GCP picker", self.iface.mainWindow())
+            self.picker_action.setObjectName("fotogeoGcpPicker")
+            self.picker_action.triggered.connect(self.open_picker)
+            self.iface.addPluginToMenu(MENU, self.picker_action)
+            self.iface.addToolBarIcon(self.picker_action)
+
+    def open_picker(self):
+        """Show the GCP picker dock (created at the first call) on the right of the main window."""
+        if self.picker is None:
+            from qgis.PyQt.QtCore import Qt
+            from .picker.dock import PickerDock
+            self.picker = PickerDock(self.iface.mapCanvas(), self.iface.mainWindow(),
+                                     message_bar=self.iface.messageBar())
+            self.iface.addDockWidget(Qt.RightDockWidgetArea, self.picker)
+        self.picker.show()
+        self.picker.raise_()
+        return self.picker
 
     def unload(self):
+        if self.picker is not None:
+            self.picker.close_picker()
+            self.iface.removeDockWidget(self.picker)
+            self.picker.deleteLater()
+            self.picker = None
+        if self.picker_action is not None:
+            from .install_action import MENU
+            self.iface.removePluginMenu(MENU, self.picker_action)
+            self.iface.removeToolBarIcon(self.picker_action)
+            self.picker_action = None
+        from .session import close_shared_session
+        close_shared_session()
         if self.menu is not None:
             self.menu.remove()
             self.menu = None

@@ -1,0 +1,236 @@
+"""The dock widget "fotogeo GCP picker": the image canvas, the controls, the residual table.
+
+Layout, top to bottom: the image and GCP-layer choosers; the model (every fotogeo orientation
+model, ``auto``, collinearity with a camera file), the height source (a DEM layer, the ``z``
+field or a constant) and the arrow exaggeration; the proposal row (reference raster, count,
+Propose / Accept / Reject); the action row (undo, redo, import, export, rectify, RPC, report);
+the image canvas; the fit summary; the table. The handlers of the rows are in
+:mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
+"""
+from __future__ import annotations
+
+from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayerProxyModel
+from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
+from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtWidgets import (
+    QComboBox,
+    QDockWidget,
+    QDoubleSpinBox,
+    QFormLayout,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSpinBox,
+    QSplitter,
+    QVBoxLayout,
+    QWidget,
+)
+
+from fotogeo.options import ORIENTATION_MODELS  # standard library only
+
+from .controller import PickerController
+from .dock_actions import DockActions
+from .fit import HEIGHT_SOURCES, FitSettings
+from .gcp_layer import GcpLayer
+from .image_source import ImageError, PickerImage
+from .map_tools import IMAGE, MAP, PickTool
+from .table import GcpTable
+
+MODELS = ("auto",) + ORIENTATION_MODELS
+TITLE = "fotogeo GCP picker"
+
+
+def _row(*widgets) -> QWidget:
+    box = QWidget()
+    layout = QHBoxLayout(box)
+    layout.setContentsMargins(0, 0, 0, 0)
+    for w in widgets:
+        layout.addWidget(w)
+    return box
+
+
+class PickerDock(DockActions, QDockWidget):
+    """The picker (module docstring). ``map_canvas`` is QGIS's main canvas; ``session`` a
+    :class:`~processing_provider.session.WorkerSession` (default: the shared one)."""
+
+    def __init__(self, map_canvas, parent=None, session=None, message_bar=None):
+        super().__init__(TITLE, parent)
+        self.setObjectName("FotogeoGcpPicker")
+        if session is None:
+            from ..session import shared_session
+            session = shared_session()
+        self.map_canvas, self.session, self.message_bar = map_canvas, session, message_bar
+        self.tasks, self.last_message = [], ""
+        self.image_canvas = QgsMapCanvas()
+        self.image_canvas.setCanvasColor(Qt.darkGray)
+        self.image_canvas.setMinimumHeight(260)
+        self.controller = PickerController(self.image_canvas, map_canvas, session, self.fit_settings)
+        self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
+                      MAP: PickTool(map_canvas, self.controller, MAP)}
+        self._build()
+        self.controller.fitted.connect(self._show_fit)
+        self.controller.message.connect(self.say)
+        self.image_canvas.setMapTool(self.tools[IMAGE])
+        self.activate_map_tool()
+
+    # -- widgets ------------------------------------------------------------------------------
+    def _build(self):
+        self.image_combo = QgsMapLayerComboBox()
+        self.image_combo.setFilters(QgsMapLayerProxyModel.RasterLayer)
+        self.image_combo.setAllowEmptyLayer(True)
+        self.image_combo.setLayer(None)
+        self.image_combo.layerChanged.connect(lambda layer: layer is not None and self.open_image(layer.source()))
+        self.image_file = QgsFileWidget()
+        self.image_file.setFilter("Images (*.tif *.tiff *.jpg *.jpeg *.png *.jp2 *.img *.vrt);;All files (*)")
+        self.image_file.fileChanged.connect(lambda path: path and self.open_image(path))
+        self.gcp_combo = QgsMapLayerComboBox()
+        self.gcp_combo.setFilters(QgsMapLayerProxyModel.PointLayer)
+        self.gcp_combo.setAllowEmptyLayer(True)
+        self.gcp_combo.setLayer(None)
+        self.gcp_combo.layerChanged.connect(self._gcp_layer_chosen)
+        new_layer = QPushButton("New")
+        new_layer.setToolTip("A new GCP layer (memory, in the project CRS) saved with the project")
+        new_layer.clicked.connect(lambda: self.new_gcp_layer())
+        self.model_combo = QComboBox()
+        self.model_combo.addItems(MODELS)
+        self.model_combo.currentTextChanged.connect(lambda _text: self.controller.refit())
+        self.camera_file = QgsFileWidget()
+        self.camera_file.setFilter("Camera YAML (*.yaml *.yml)")
+        self.camera_file.fileChanged.connect(lambda _p: self.controller.refit())
+        self.height_combo = QComboBox()
+        self.height_combo.addItems(HEIGHT_SOURCES)
+        self.dem_combo = QgsMapLayerComboBox()
+        self.dem_combo.setFilters(QgsMapLayerProxyModel.RasterLayer)
+        self.dem_combo.setAllowEmptyLayer(True)
+        self.dem_combo.setLayer(None)
+        self.height_spin = QDoubleSpinBox()
+        self.height_spin.setRange(-1000.0, 9000.0)
+        for w in (self.height_combo, self.dem_combo):
+            (w.currentTextChanged if isinstance(w, QComboBox) and not isinstance(w, QgsMapLayerComboBox)
+             else w.layerChanged).connect(lambda *_: self.controller.refit())
+        self.height_spin.valueChanged.connect(lambda _v: self.controller.refit())
+        self.exaggeration_spin = QDoubleSpinBox()
+        self.exaggeration_spin.setRange(0.0, 100000.0)
+        self.exaggeration_spin.setValue(self.controller.exaggeration)
+        self.exaggeration_spin.valueChanged.connect(self._exaggeration_changed)
+        form = QFormLayout()
+        form.addRow("Image", _row(self.image_combo, self.image_file))
+        form.addRow("GCP layer", _row(self.gcp_combo, new_layer))
+        form.addRow("Model", _row(self.model_combo, QLabel("camera"), self.camera_file))
+        form.addRow("Heights", _row(self.height_combo, self.dem_combo, self.height_spin))
+        form.addRow("Arrows ×", self.exaggeration_spin)
+        form.addRow("Propose", self._proposal_row())
+        top = QWidget()
+        layout = QVBoxLayout(top)
+        layout.addLayout(form)
+        layout.addWidget(self._action_row())
+        layout.addWidget(self.image_canvas, 1)
+        self.summary = QLabel("choose an image and a GCP layer, then click a point on the image and on the map")
+        self.summary.setWordWrap(True)
+        layout.addWidget(self.summary)
+        self.table = GcpTable()
+        self.table.role_changed.connect(self.controller.set_role)
+        self.table.gcp_selected.connect(self.controller.select)
+        splitter = QSplitter(Qt.Vertical)
+        splitter.addWidget(top)
+        splitter.addWidget(self.table)
+        self.setWidget(splitter)
+
+    def _proposal_row(self) -> QWidget:
+        self.reference_combo = QgsMapLayerComboBox()
+        self.reference_combo.setFilters(QgsMapLayerProxyModel.RasterLayer)
+        self.reference_combo.setAllowEmptyLayer(True)
+        self.reference_combo.setLayer(None)
+        self.count_spin = QSpinBox()
+        self.count_spin.setRange(4, 500)
+        self.count_spin.setValue(30)
+        buttons = [("Propose GCPs", self.propose), ("Accept all", lambda: self.controller.accept_proposals()),
+                   ("Reject all", lambda: self.controller.reject_proposals())]
+        widgets = [self.reference_combo, self.count_spin]
+        for text, slot in buttons:
+            b = QPushButton(text)
+            b.clicked.connect(slot)
+            widgets.append(b)
+        self.propose_button = widgets[2]
+        return _row(*widgets)
+
+    def _action_row(self) -> QWidget:
+        stack = self.controller.undo_stack
+        self.undo_button, self.redo_button = QPushButton("Undo"), QPushButton("Redo")
+        self.undo_button.clicked.connect(stack.undo)
+        self.redo_button.clicked.connect(stack.redo)
+        stack.canUndoChanged.connect(self.undo_button.setEnabled)
+        stack.canRedoChanged.connect(self.redo_button.setEnabled)
+        self.undo_button.setEnabled(False)
+        self.redo_button.setEnabled(False)
+        widgets = [self.undo_button, self.redo_button]
+        for text, slot in (("Import…", self.import_dialog), ("Export…", self.export_dialog),
+                           ("Rectify…", lambda: self.run_dialog("rectify")), ("RPC…", lambda: self.run_dialog("rpc")),
+                           ("Report…", lambda: self.run_dialog("report")), ("Pick on map", self.activate_map_tool)):
+            b = QPushButton(text)
+            b.clicked.connect(slot)
+            widgets.append(b)
+        return _row(*widgets)
+
+    # -- state --------------------------------------------------------------------------------
+    def fit_settings(self) -> FitSettings:
+        dem = self.dem_combo.currentLayer()
+        camera = self.camera_file.filePath() or None
+        return FitSettings(model=self.model_combo.currentText(), height_source=self.height_combo.currentText(),
+                           dem=dem.source() if dem is not None else None, height=self.height_spin.value(),
+                           camera=camera)
+
+    def open_image(self, path: str) -> bool:
+        """Show ``path`` on the image canvas in pixel units; False (and the reason shown) if it cannot."""
+        try:
+            image = PickerImage(path, on_overviews=lambda ok, error: self.say(
+                "pyramids built" if ok else f"pyramids not built: {error}"))
+        except ImageError as e:
+            self.say(str(e))
+            return False
+        self.image = image
+        self.image_canvas.setDestinationCrs(image.layer.crs())
+        self.image_canvas.setLayers([image.layer])
+        self.image_canvas.setExtent(image.layer.extent())
+        self.image_canvas.refresh()
+        self.controller.set_image(image)
+        return True
+
+    def new_gcp_layer(self, crs: QgsCoordinateReferenceSystem | None = None) -> GcpLayer:
+        """A new memory GCP layer in ``crs`` (default: the map canvas's CRS), added to the project and chosen."""
+        crs = crs or self.map_canvas.mapSettings().destinationCrs()
+        store = GcpLayer.create(crs)
+        self.gcp_combo.setLayer(store.layer)
+        return store
+
+    def _gcp_layer_chosen(self, layer):
+        if layer is None:
+            self.controller.set_store(None)
+            return
+        try:
+            self.controller.set_store(GcpLayer(layer))
+        except ValueError as e:
+            self.say(str(e))
+            self.controller.set_store(None)
+
+    def _exaggeration_changed(self, value):
+        self.controller.exaggeration = value
+        self.controller.show()
+
+    def _show_fit(self, fit: dict):
+        store = self.controller.store
+        self.table.fill(store.gcps() if store else [], fit)
+        self.summary.setText(self.describe_fit(fit))
+
+    def activate_map_tool(self):
+        self.map_canvas.setMapTool(self.tools[MAP])
+
+    def closeEvent(self, event):  # noqa: N802 - Qt's name
+        self.close_picker()
+        super().closeEvent(event)
+
+    def close_picker(self):
+        for tool in self.tools.values():
+            if tool.canvas().mapTool() is tool:
+                tool.canvas().unsetMapTool(tool)
+        self.controller.close()

@@ -1,0 +1,159 @@
+"""The picker dock's actions: proposals, import/export, and the tools run on the current GCPs.
+
+- *Propose GCPs*: fotogeo's ``propose_gcps`` (SURF tie points between the image and a reference
+  raster, the registration's robust fit, a grid budget over the image, LSM refinement) in a
+  :class:`~.tasks.ToolTask`; its candidates appear as cyan squares to accept or reject.
+- *Import / Export*: ``.points`` and ODM ``gcp_list.txt`` (:mod:`.files`); an import is one undo step.
+- *Rectify / RPC / Report*: ``fotogeo orient`` on the GCP layer (written to a temporary
+  GeoPackage) with the dock's model, heights and camera, in a task; a rectified raster is
+  added to the project.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+
+from qgis.core import Qgis, QgsMessageLog, QgsProject, QgsRasterLayer
+from qgis.PyQt.QtWidgets import QFileDialog
+
+from . import fit as fitting
+from . import files, tasks
+
+#: orient's output keyword and the file filter of each run button
+RUNS = {"rectify": ("rectify", "GeoTIFF (*.tif)"), "rpc": ("rpc", "GeoTIFF with RPC (*.tif)"),
+        "report": ("report", "JSON report (*.json)")}
+
+
+class DockActions:
+    """Mixed into :class:`~.dock.PickerDock` (needs its controller, session, combos and ``say``)."""
+
+    def say(self, text: str, level=Qgis.Info):
+        """Show ``text`` under the canvas (and on QGIS's message bar when there is one)."""
+        self.last_message = text
+        self.summary.setText(text)
+        QgsMessageLog.logMessage(text, "fotogeo picker", level)
+        if self.message_bar is not None:
+            self.message_bar.pushMessage("fotogeo picker", text, level, 8)
+
+    @staticmethod
+    def describe_fit(fit: dict) -> str:
+        line = fitting.summary(fit)
+        if not fit.get("ok") and fit.get("needed"):
+            line = f"{line} (the table fills once the model has enough control points)"
+        return line
+
+    # -- proposals ----------------------------------------------------------------------------
+    def propose(self, reference: str | None = None, count: int | None = None):
+        """Start ``propose_gcps`` of the image against ``reference`` (default: the chosen raster layer)."""
+        layer = self.reference_combo.currentLayer()
+        reference = reference or (layer.source() if layer is not None else None)
+        if not reference or getattr(self, "image", None) is None or self.controller.store is None:
+            self.say("Propose GCPs needs the image, a GCP layer and a reference raster (an orthophoto)", Qgis.Warning)
+            return None
+        kwargs = {"image": self.image.path, "reference": reference, "count": count or self.count_spin.value()}
+        dem = self.dem_combo.currentLayer()
+        if dem is not None:
+            kwargs["dem"] = dem.source()
+        self.propose_button.setEnabled(False)
+        self.say("proposing GCPs (task manager: progress and cancel)")
+        task = tasks.start("fotogeo picker: propose GCPs", "propose_gcps", kwargs, self._proposals_done)
+        self.tasks.append(task)
+        return task
+
+    def _proposals_done(self, ok, result, error):
+        self.propose_button.setEnabled(True)
+        if not ok:
+            self.say(f"Propose GCPs: {error}", Qgis.Warning)
+            return
+        self.controller.set_proposals(result)
+
+    # -- files ----------------------------------------------------------------------------------
+    def import_dialog(self):
+        path, _ = QFileDialog.getOpenFileName(self, "Import GCPs", "", "Georeferencer points (*.points);;"
+                                              "ODM gcp_list (*.txt)")
+        if path:
+            self.import_file(path)
+
+    def export_dialog(self):
+        path, _ = QFileDialog.getSaveFileName(self, "Export GCPs", "", "Georeferencer points (*.points);;"
+                                              "ODM gcp_list (*.txt)")
+        if path:
+            self.export_file(path)
+
+    def import_file(self, path: str) -> int:
+        """Add the GCPs of a ``.points`` or ``gcp_list.txt`` file (one undo step); the count, 0 on failure."""
+        from ..session import SessionError
+        store = self.controller.store
+        if store is None or getattr(self, "image", None) is None:
+            self.say("choose the image and the GCP layer before importing", Qgis.Warning)
+            return 0
+        try:
+            if path.lower().endswith(".points"):
+                gcps = files.import_points(self.session, path, store)
+            else:
+                gcps = files.import_gcp_list(path, self.image.path, store)
+        except (files.PickerFileError, SessionError, ValueError) as e:
+            self.say(str(e), Qgis.Warning)
+            return 0
+        self.controller.add(gcps, f"import {len(gcps)} GCPs")
+        self.say(f"{len(gcps)} GCPs imported from {os.path.basename(path)}")
+        return len(gcps)
+
+    def export_file(self, path: str) -> bool:
+        from ..session import SessionError
+        store = self.controller.store
+        if store is None:
+            self.say("no GCP layer to export", Qgis.Warning)
+            return False
+        try:
+            if path.lower().endswith(".points"):
+                files.export_points(self.session, store, path)
+            else:
+                files.export_gcp_list(store, self.controller.fit, self.image.path, path)
+        except (files.PickerFileError, SessionError, RuntimeError) as e:
+            self.say(str(e), Qgis.Warning)
+            return False
+        self.say(f"{len(store.gcps())} GCPs written to {path}")
+        return True
+
+    # -- tools on the current GCPs --------------------------------------------------------------
+    def run_dialog(self, kind: str):
+        key, file_filter = RUNS[kind]
+        path, _ = QFileDialog.getSaveFileName(self, f"fotogeo orient: {kind}", "", file_filter)
+        if path:
+            self.run_orient(kind, path)
+
+    def orient_arguments(self) -> dict:
+        """``orient``'s keyword arguments for the dock's model, heights and camera (GCPs: a temporary GeoPackage)."""
+        s = self.controller.settings()
+        folder = tempfile.mkdtemp(prefix="fotogeo-picker-")
+        gpkg = self.controller.store.export_gpkg(os.path.join(folder, "gcps.gpkg"))
+        kwargs = {"image": self.image.path, "gcps": gpkg, "layer": "gcps", "model": s.model, "overwrite": True}
+        if s.height_source == "dem" and s.dem:
+            kwargs["dem"] = s.dem
+        if s.height_source == "constant" and s.height is not None:
+            kwargs["height"] = s.height
+        if s.camera:
+            kwargs["camera"] = s.camera
+        if s.height_source != "field":
+            # no height field: orient then takes the DEM / the constant for every point, as the dock's fit does
+            kwargs["fields"] = {"z": "fotogeo_picker_no_height_field"}
+        return kwargs
+
+    def run_orient(self, kind: str, output: str, on_done=None):
+        """``fotogeo orient`` with output ``kind`` (rectify, rpc, report) written to ``output``, in a task."""
+        if self.controller.store is None or getattr(self, "image", None) is None or not self.controller.fit.get("ok"):
+            self.say(f"{kind}: first pick enough GCPs for the model ({self.controller.fit.get('message', '')})",
+                     Qgis.Warning)
+            return None
+        kwargs = {**self.orient_arguments(), RUNS[kind][0]: output}
+
+        def done(ok, result, error):
+            if ok and kind == "rectify":
+                QgsProject.instance().addMapLayer(QgsRasterLayer(output, os.path.basename(output)))
+            self.say(f"{kind}: written to {output}" if ok else f"{kind}: {error}", Qgis.Success if ok else Qgis.Warning)
+            if on_done is not None:
+                on_done(ok, result, error)
+        task = tasks.start(f"fotogeo picker: {kind}", "orient", kwargs, done)
+        self.tasks.append(task)
+        return task

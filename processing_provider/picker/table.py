@@ -1,0 +1,84 @@
+"""The picker's GCP table: one row per GCP with its residuals in pixels and map units.
+
+Columns: id, *on* (checked = control point, unchecked = check point: QGIS's enable/disable),
+col, row (px, corner convention), x, y (layer CRS), z and where it came from (field, DEM,
+constant), dx, dy, residual in px and in map units (model minus measurement, the same numbers
+``fotogeo orient`` reports), the standardised residual w of data snooping (Baarda 1968) and the
+flag (blunder, no height, ...). Selecting a row highlights the GCP on both canvases.
+"""
+from __future__ import annotations
+
+from qgis.PyQt.QtCore import Qt, pyqtSignal
+from qgis.PyQt.QtGui import QColor
+from qgis.PyQt.QtWidgets import QAbstractItemView, QTableWidget, QTableWidgetItem
+
+COLUMNS = ("id", "on", "col", "row", "x", "y", "z", "z from", "dx px", "dy px", "res px", "dx map", "dy map",
+           "res map", "w", "flag")
+#: table column -> (key in fit_gcps' point rows, decimals)
+RESULT_COLUMNS = {"dx px": ("dx_px", 3), "dy px": ("dy_px", 3), "res px": ("residual_px", 3),
+                  "dx map": ("dx_map", 3), "dy map": ("dy_map", 3), "res map": ("residual_map", 3), "w": ("w", 2)}
+
+
+def _text(value, decimals: int) -> str:
+    return "" if value is None else f"{value:.{decimals}f}"
+
+
+class GcpTable(QTableWidget):
+    """The table (module docstring); ``role_changed(id, role)`` and ``gcp_selected(id)`` go to the controller."""
+
+    role_changed = pyqtSignal(str, str)
+    gcp_selected = pyqtSignal(str)
+
+    def __init__(self, parent=None):
+        super().__init__(0, len(COLUMNS), parent)
+        self.setHorizontalHeaderLabels(COLUMNS)
+        self.setSelectionBehavior(QAbstractItemView.SelectRows)
+        self.setSelectionMode(QAbstractItemView.SingleSelection)
+        self.setEditTriggers(QAbstractItemView.NoEditTriggers)
+        self.verticalHeader().setVisible(False)
+        self._filling = False
+        self.itemChanged.connect(self._item_changed)
+        self.itemSelectionChanged.connect(self._selection_changed)
+
+    def fill(self, gcps, fit: dict) -> None:
+        """Show ``gcps`` (:class:`~.gcp_layer.Gcp`) with the rows of ``fit`` (``fit_gcps``'s result)."""
+        rows = {p["id"]: p for p in fit.get("points", [])}
+        self._filling = True
+        try:
+            self.setRowCount(len(gcps))
+            for i, g in enumerate(gcps):
+                r = rows.get(g.id, {})
+                z = r.get("z", g.z)
+                values = {"id": g.id, "col": _text(g.col, 2), "row": _text(g.row, 2), "x": _text(g.x, 3),
+                          "y": _text(g.y, 3), "z": _text(z, 2), "z from": r.get("z_source", ""),
+                          "flag": r.get("flag", "")}
+                values.update({c: _text(r.get(k), d) for c, (k, d) in RESULT_COLUMNS.items()})
+                for j, name in enumerate(COLUMNS):
+                    item = QTableWidgetItem("" if name == "on" else str(values.get(name, "")))
+                    item.setData(Qt.UserRole, g.id)
+                    if name == "on":
+                        item.setFlags(Qt.ItemIsUserCheckable | Qt.ItemIsEnabled | Qt.ItemIsSelectable)
+                        item.setCheckState(Qt.Checked if g.role == "control" else Qt.Unchecked)
+                    elif name != "id":
+                        item.setTextAlignment(Qt.AlignRight | Qt.AlignVCenter)
+                    if r.get("flag"):
+                        item.setBackground(QColor(255, 220, 160))
+                    self.setItem(i, j, item)
+        finally:
+            self._filling = False
+        self.resizeColumnsToContents()
+
+    def row_values(self, row: int) -> dict:
+        """The texts of one row by column name (tests and the report)."""
+        return {name: self.item(row, j).text() if name != "on" else self.item(row, j).checkState() == Qt.Checked
+                for j, name in enumerate(COLUMNS)}
+
+    def _item_changed(self, item):
+        if self._filling or COLUMNS[item.column()] != "on":
+            return
+        self.role_changed.emit(item.data(Qt.UserRole), "control" if item.checkState() == Qt.Checked else "check")
+
+    def _selection_changed(self):
+        items = self.selectedItems()
+        if items:
+            self.gcp_selected.emit(items[0].data(Qt.UserRole))
