@@ -1,0 +1,259 @@
+"""The GCP picker driven by simulated mouse events in a GUI QgsApplication (offscreen); run by
+tests/test_qgis_picker.py as ``python picker_gui_script.py ARGS.json`` (one QgsApplication per process).
+
+Writes what it saw to ``ARGS["out"]/state.json``: the stored GCPs after each step, the fits, the
+table's rows, the messages shown. The test process compares them with ``fotogeo orient``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+import traceback
+
+ARGS = json.loads(open(sys.argv[1]).read())
+sys.path.insert(0, ARGS["root"])
+from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry,  # noqa: E402
+                       QgsPointXY, QgsProject, QgsSnappingConfig, QgsTolerance, QgsVectorLayer)
+
+APP = QgsApplication([], True)
+APP.initQgis()
+from qgis.gui import QgsMapCanvas, QgsMapCanvasSnappingUtils, QgsMapMouseEvent  # noqa: E402
+from qgis.PyQt.QtCore import QEvent, QPoint, Qt  # noqa: E402
+
+from processing_provider.picker.dock import PickerDock  # noqa: E402
+from processing_provider.picker.map_tools import IMAGE, MAP  # noqa: E402
+from processing_provider.session import WorkerSession  # noqa: E402
+
+STATE: dict = {}
+
+
+def pump(seconds=0.05):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        APP.processEvents()
+        time.sleep(0.01)
+
+
+def mouse(tool, kind, pos: QPoint, button=Qt.LeftButton):
+    canvas = tool.canvas()
+    buttons = button if kind != QEvent.MouseButtonRelease else Qt.NoButton
+    event = QgsMapMouseEvent(canvas, kind, pos, button, buttons, Qt.NoModifier)
+    {QEvent.MouseButtonPress: tool.canvasPressEvent, QEvent.MouseMove: tool.canvasMoveEvent,
+     QEvent.MouseButtonRelease: tool.canvasReleaseEvent}[kind](event)
+
+
+def click(tool, pos: QPoint, button=Qt.LeftButton):
+    mouse(tool, QEvent.MouseMove, pos, Qt.NoButton)
+    mouse(tool, QEvent.MouseButtonPress, pos, button)
+    mouse(tool, QEvent.MouseButtonRelease, pos, button)
+
+
+def drag(tool, start: QPoint, end: QPoint):
+    mouse(tool, QEvent.MouseButtonPress, start)
+    mouse(tool, QEvent.MouseMove, QPoint((start.x() + end.x()) // 2, (start.y() + end.y()) // 2))
+    mouse(tool, QEvent.MouseMove, end)
+    mouse(tool, QEvent.MouseButtonRelease, end)
+
+
+def screen(canvas, x, y) -> QPoint:
+    p = canvas.getCoordinateTransform().transform(QgsPointXY(x, y))
+    return QPoint(round(p.x()), round(p.y()))
+
+
+def gcps(dock):
+    return [{"id": g.id, "col": g.col, "row": g.row, "x": g.x, "y": g.y, "z": g.z, "role": g.role}
+            for g in dock.controller.store.gcps()]
+
+
+def table(dock):
+    return [{k: v for k, v in dock.table.row_values(i).items()} for i in range(dock.table.rowCount())]
+
+
+def map_screen(dock, x, y) -> QPoint:
+    """Screen position on the main canvas of map point (x, y) in the GCP layer's CRS."""
+    p = dock.controller.layer_to_map(x, y)
+    return screen(dock.map_canvas, p.x(), p.y())
+
+
+def pick(dock, truth, image_first=True):
+    """One GCP by two clicks (image then map, or map then image) at the truth's screen positions."""
+    img = screen(dock.image_canvas, truth["col"], -truth["row"])
+    mp = map_screen(dock, truth["x"], truth["y"])
+    for side in ((IMAGE, MAP) if image_first else (MAP, IMAGE)):
+        click(dock.tools[side], img if side == IMAGE else mp)
+
+
+def setup():
+    crs = QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"])
+    QgsProject.instance().setCrs(crs)
+    canvas = QgsMapCanvas()
+    canvas.resize(800, 800)
+    canvas.setDestinationCrs(crs)
+    canvas.show()
+    utils = QgsMapCanvasSnappingUtils(canvas, canvas)  # owned by the canvas (the app keeps its own)
+    canvas.setSnappingUtils(utils)
+    STATE["_utils"] = utils
+    dock = PickerDock(canvas, session=WorkerSession())
+    dock.resize(900, 1000)
+    dock.show()
+    pump(0.3)
+    return canvas, dock
+
+
+def snapping_layer(canvas, vertex):
+    """A line layer with a vertex at ``vertex`` on ``canvas``; project snapping on vertices, 12 px, handed to
+    the canvas's snapping utils as QGIS's main window does when the project's snapping settings change."""
+    crs = canvas.mapSettings().destinationCrs()
+    layer = QgsVectorLayer("LineString", "roads", "memory")
+    layer.setCrs(crs)
+    f = QgsFeature()
+    f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(vertex[0] - 50, vertex[1] - 40), QgsPointXY(*vertex),
+                                              QgsPointXY(vertex[0] + 60, vertex[1] - 30)]))
+    layer.dataProvider().addFeatures([f])
+    QgsProject.instance().addMapLayer(layer)
+    config = QgsSnappingConfig(QgsProject.instance())
+    config.setEnabled(True)
+    config.setMode(QgsSnappingConfig.AllLayers)
+    config.setTypeFlag(QgsSnappingConfig.VertexFlag)
+    config.setTolerance(12)
+    config.setUnits(QgsTolerance.Pixels)
+    QgsProject.instance().setSnappingConfig(config)
+    canvas.setLayers([layer])
+    STATE["_utils"].setConfig(QgsProject.instance().snappingConfig())
+    return layer
+
+
+def main():
+    canvas, dock = setup()
+    truth = ARGS["gcps"]
+    STATE["not_raster"] = [dock.open_image(ARGS["not_raster"]), dock.last_message]
+    assert dock.open_image(ARGS["frame"]), dock.last_message
+    store = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    dock.model_combo.setCurrentText("dlt")
+    dock.height_combo.setCurrentText("dem")
+    from qgis.core import QgsRasterLayer
+    dem = QgsRasterLayer(ARGS["dem"], "dem")
+    small_dem = QgsRasterLayer(ARGS["small_dem"], "small dem")
+    QgsProject.instance().addMapLayers([dem, small_dem], False)
+    dock.dem_combo.setLayer(dem)
+    xs, ys = [g["x"] for g in truth], [g["y"] for g in truth]
+    from qgis.core import QgsRectangle
+    canvas.setExtent(QgsRectangle(min(xs) - 50, min(ys) - 50, max(xs) + 50, max(ys) + 50))
+    canvas.refresh()
+    pump(0.3)
+    STATE["map_units_per_pixel"] = canvas.mapUnitsPerPixel()
+    STATE["image_units_per_pixel"] = dock.image_canvas.mapUnitsPerPixel()
+    # snapping: a vertex 4 screen px from the first GCP's map position
+    mupp = canvas.mapUnitsPerPixel()
+    vertex = (truth[0]["x"] + 4.3 * mupp, truth[0]["y"] - 1.7 * mupp)
+    snapping_layer(canvas, vertex)
+    canvas.refresh()
+    mouse(dock.tools[MAP], QEvent.MouseMove, map_screen(dock, *vertex), Qt.NoButton)  # builds the snapping index
+    pump(1.0)
+    STATE["vertex"] = vertex
+    for k in range(3):
+        pick(dock, truth[k], image_first=k % 2 == 0)
+    STATE["few"] = {"summary": dock.summary.text(), "fit": dock.controller.fit, "gcps": gcps(dock)}
+    for k in range(3, 10):
+        pick(dock, truth[k], image_first=k % 2 == 0)
+    STATE["picked"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock),
+                       "summary": dock.summary.text()}
+    store.export_gpkg(os.path.join(ARGS["out"], "picked.gpkg"))
+    # prediction: the cursor over GCP 1's image position; the map canvas shows where the model puts it
+    g1 = store.gcps()[1]
+    mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, g1.col, -g1.row), Qt.NoButton)
+    pred = dock.controller.overlays[MAP].state.predicted
+    STATE["predicted"] = [pred.x(), pred.y()] if pred is not None else None
+    # move: drag GCP 4 on the image by (+8, +5) screen px
+    g4 = dock.controller.gcp("4")
+    start = screen(dock.image_canvas, g4.col, -g4.row)
+    drag(dock.tools[IMAGE], start, start + QPoint(8, 5))
+    STATE["moved"] = {"before": [g4.col, g4.row], "after": [dock.controller.gcp("4").col, dock.controller.gcp("4").row]}
+    # move on the map: drag GCP 6 by (-6, +3) screen px
+    g6 = dock.controller.gcp("6")
+    start = map_screen(dock, g6.x, g6.y)
+    drag(dock.tools[MAP], start, start + QPoint(-6, 3))
+    STATE["moved_map"] = {"before": [g6.x, g6.y], "after": [dock.controller.gcp("6").x, dock.controller.gcp("6").y]}
+    # delete GCP 5 with a right click, undo, redo, undo
+    g5 = dock.controller.gcp("5")
+    before_delete = gcps(dock)
+    click(dock.tools[MAP], map_screen(dock, g5.x, g5.y), Qt.RightButton)
+    after_delete = gcps(dock)
+    stack = dock.controller.undo_stack
+    stack.undo()
+    after_undo = gcps(dock)
+    stack.redo()
+    after_redo = gcps(dock)
+    stack.undo()
+    STATE["delete"] = {"before": before_delete, "deleted": after_delete, "undone": after_undo, "redone": after_redo,
+                       "undone_again": gcps(dock), "undo_text": stack.undoText()}
+    # undo the two moves too: back to the clicked points
+    stack.undo()
+    stack.undo()
+    STATE["after_undo_moves"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock)}
+    # role: uncheck GCP 2 in the table -> a check point
+    from qgis.PyQt.QtCore import Qt as _Qt
+    dock.table.item(1, 1).setCheckState(_Qt.Unchecked)
+    STATE["role"] = {"gcps": gcps(dock), "fit": dock.controller.fit}
+    store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
+    # .points round trip
+    points = os.path.join(ARGS["out"], "picked.points")
+    STATE["export_points"] = dock.export_file(points)
+    other = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    STATE["import_points"] = dock.import_file(points)
+    STATE["reimported"] = gcps(dock)
+    # a DEM that covers only part of the GCPs
+    dock.gcp_combo.setLayer(store.layer)
+    dock.dem_combo.setLayer(small_dem)
+    STATE["small_dem"] = {"fit": dock.controller.fit, "table": table(dock), "summary": dock.summary.text()}
+    dock.dem_combo.setLayer(dem)
+    # the project (canvas) CRS differs from the GCP layer's: WGS 84 lon/lat
+    wgs84 = QgsCoordinateReferenceSystem("EPSG:4326")
+    canvas.setDestinationCrs(wgs84)
+    QgsProject.instance().setCrs(wgs84)
+    corner = dock.controller.layer_to_map(min(xs) - 50, min(ys) - 50)
+    far = dock.controller.layer_to_map(max(xs) + 50, max(ys) + 50)
+    canvas.setExtent(QgsRectangle(corner.x(), corner.y(), far.x(), far.y()))
+    canvas.refresh()
+    pump(0.3)
+    pick(dock, truth[12])
+    STATE["wgs84"] = {"gcp": gcps(dock)[-1], "canvas_crs": canvas.mapSettings().destinationCrs().authid(),
+                      "layer_crs_wkt": store.crs.toWkt(), "map_units_per_pixel": canvas.mapUnitsPerPixel()}
+    del other
+
+
+def propose():
+    """Proposals on the frame against the reference orthophoto, all accepted (every third a check point)."""
+    canvas, dock = setup()
+    assert dock.open_image(ARGS["frame"]), dock.last_message
+    dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    from qgis.core import QgsRasterLayer
+    dem = QgsRasterLayer(ARGS["dem"], "dem")
+    QgsProject.instance().addMapLayer(dem, False)
+    dock.dem_combo.setLayer(dem)
+    dock.height_combo.setCurrentText("dem")
+    dock.model_combo.setCurrentText("dlt")
+    start = time.monotonic()
+    task = dock.propose(reference=ARGS["reference"], count=30)
+    while dock.propose_button.isEnabled() is False and time.monotonic() - start < 600:
+        pump(0.2)
+    STATE["propose_s"] = time.monotonic() - start
+    STATE["task_error"] = task.error
+    STATE["proposals"] = list(dock.controller.proposals)
+    STATE["accepted"] = len(dock.controller.accept_proposals(check_every=3))
+    STATE["fit"] = dock.controller.fit
+    STATE["summary"] = dock.summary.text()
+    STATE["gcps"] = gcps(dock)
+
+
+if __name__ == "__main__":
+    try:
+        propose() if ARGS.get("mode") == "propose" else main()
+    except Exception:
+        STATE["error"] = traceback.format_exc()
+    with open(os.path.join(ARGS["out"], "state.json"), "w") as f:
+        json.dump({k: v for k, v in STATE.items() if not k.startswith("_")}, f)
+    sys.stdout.flush()
+    os._exit(0)

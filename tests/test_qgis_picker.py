@@ -1,0 +1,184 @@
+"""The GCP picker dock (issue 14) in a real, headless QGIS: simulated mouse events on the image canvas and
+on the map canvas create, move, snap and delete GCPs; the table matches ``fotogeo orient``; undo restores;
+``.points`` round-trips; bad input is reported in the dock; proposals on the NGI frame become GCPs.
+
+The dock runs in a fresh process with a GUI QgsApplication (``QT_QPA_PLATFORM=offscreen``; the other QGIS
+tests share a non-GUI one): ``tests/picker_gui_script.py`` drives it and writes what it saw to a JSON file.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from qgis_env import need_qgis
+
+ROOT = Path(__file__).resolve().parents[1]
+FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
+pytestmark = [pytest.mark.qgis]
+
+
+def truth_gcps(data_dir, n=20):
+    """``n`` GCPs of NGI frame 0182 from its true geometry (exact pixels, ground on the DEM)."""
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.orientation.simulation import make_gcps
+    ngi = data_dir / "ngi"
+    dem = Dem.open(ngi / "dem.tif")
+    s = make_gcps(load_ngi_frame(ngi, "3324c_2015_1004_05_0182"), dem, n, 0, "homogeneous", noise=0.0, seed=3)
+    return [{"col": float(p[0]), "row": float(p[1]), "x": float(g[0]), "y": float(g[1])}
+            for p, g in zip(s.gcp_pixel, s.gcp_ground)], dem.crs.to_wkt()
+
+
+def small_dem(data_dir, path, gcps):
+    """A crop of the NGI DEM covering only the GCPs west of their median x."""
+    import rasterio
+    from rasterio.windows import from_bounds
+    xs, ys = [g["x"] for g in gcps], [g["y"] for g in gcps]
+    with rasterio.open(data_dir / "ngi" / "dem.tif") as ds:
+        window = from_bounds(min(xs) - 100, min(ys) - 100, float(np.median(xs)), max(ys) + 100, ds.transform)
+        window = window.round_offsets().round_lengths()
+        profile = {**ds.profile, "width": int(window.width), "height": int(window.height),
+                   "transform": ds.window_transform(window)}
+        data = ds.read(window=window)
+    with rasterio.open(path, "w", **profile) as out:
+        out.write(data)
+    return path
+
+
+def run_script(script: str, args: dict, tmp_path: Path, timeout: int = 300) -> dict:
+    need_qgis()
+    args_file = tmp_path / "args.json"
+    args_file.write_text(json.dumps({"root": str(ROOT), "out": str(tmp_path), **args}))
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"), GDAL_PAM_ENABLED="NO",
+               FOTOGEO_PYTHON=sys.executable)
+    r = subprocess.run([sys.executable, str(ROOT / "tests" / script), str(args_file)], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=timeout)
+    state_file = tmp_path / "state.json"
+    assert state_file.exists(), f"{script} failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    state = json.loads(state_file.read_text())
+    assert "error" not in state, state["error"] + r.stderr[-2000:]
+    return state
+
+
+@pytest.fixture(scope="module")
+def picked(data_dir, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("picker")
+    gcps, crs = truth_gcps(data_dir)
+    (tmp / "notes.txt").write_text("not an image\n")
+    args = {"frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs, "gcps": gcps,
+            "small_dem": str(small_dem(data_dir, tmp / "small_dem.tif", gcps)), "not_raster": str(tmp / "notes.txt")}
+    return run_script("picker_gui_script.py", args, tmp), gcps, tmp
+
+
+def _by_id(rows):
+    return {r["id"]: r for r in rows}
+
+
+def test_dock_rejects_a_file_that_is_not_a_raster(picked):
+    state, _, tmp = picked
+    opened, message = state["not_raster"]
+    assert opened is False and "notes.txt" in message and "is not a raster GDAL can read" in message
+
+
+def test_clicks_on_both_canvases_create_gcps_with_snapping(picked):
+    state, truth, _ = picked
+    upp, mupp = state["image_units_per_pixel"], state["map_units_per_pixel"]
+    got = state["picked"]["gcps"]
+    assert [g["id"] for g in got] == [str(k) for k in range(1, 11)]
+    for g, t in zip(got, truth):  # image first for odd ids, map first for even ids: same pairs
+        assert abs(g["col"] - t["col"]) <= upp and abs(g["row"] - t["row"]) <= upp
+        assert g["role"] == "control" and g["z"] is None
+    for g, t in zip(got[1:], truth[1:]):
+        assert abs(g["x"] - t["x"]) <= mupp and abs(g["y"] - t["y"]) <= mupp
+    # GCP 1 was clicked 4.6 screen px from a road vertex: it snapped onto the vertex exactly
+    vertex = state["vertex"]
+    assert (got[0]["x"], got[0]["y"]) == pytest.approx(tuple(vertex), abs=1e-6)
+    assert np.hypot(truth[0]["x"] - vertex[0], truth[0]["y"] - vertex[1]) > 4 * mupp
+
+
+def test_drag_moves_and_right_click_deletes_and_undo_restores(picked):
+    state, truth, _ = picked
+    upp, mupp = state["image_units_per_pixel"], state["map_units_per_pixel"]
+    m = state["moved"]  # dragged by (+8, +5) screen px on the image canvas: row grows downwards
+    assert np.subtract(m["after"], m["before"]) == pytest.approx([8 * upp, 5 * upp], abs=1e-6)
+    m = state["moved_map"]  # dragged by (-6, +3) screen px on the map: y decreases downwards
+    assert np.subtract(m["after"], m["before"]) == pytest.approx([-6 * mupp, -3 * mupp], abs=1e-6)
+    d = state["delete"]
+    assert "5" in _by_id(d["before"]) and "5" not in _by_id(d["deleted"]) and len(d["deleted"]) == 9
+    assert _by_id(d["undone"]) == _by_id(d["before"]) == _by_id(d["undone_again"])
+    assert _by_id(d["redone"]) == _by_id(d["deleted"])
+    # two more undos take back both moves: the points as clicked
+    assert _by_id(state["after_undo_moves"]["gcps"]) == _by_id(state["picked"]["gcps"])
+
+
+def test_prediction_follows_the_model(picked):
+    state, _, _ = picked
+    g2 = _by_id(state["picked"]["gcps"])["2"]
+    assert np.hypot(state["predicted"][0] - g2["x"], state["predicted"][1] - g2["y"]) < 3 * state["map_units_per_pixel"]
+
+
+def _orient(data_dir, gpkg, report):
+    from fotogeo.tools.orient import orient
+    orient(data_dir / FRAME, gpkg, model="dlt", dem=data_dir / "ngi" / "dem.tif", layer="gcps", report=report)
+    return json.loads(Path(report).read_text())
+
+
+@pytest.mark.parametrize("step, gpkg", [("picked", "picked.gpkg"), ("role", "with_check.gpkg")])
+def test_table_and_residuals_match_fotogeo_orient(picked, data_dir, step, gpkg):
+    state, _, tmp = picked
+    fit = state[step]["fit"]
+    assert fit["ok"] and fit["model"] == "dlt"
+    rep = _orient(data_dir, tmp / gpkg, tmp / f"{step}.json")
+    rows = _by_id(fit["points"])
+    assert set(rows) == {str(p["id"]) for p in rep["points"]}
+    for p in rep["points"]:
+        r = rows[str(p["id"])]
+        assert (r["dx_px"], r["dy_px"]) == pytest.approx((p["dx_px"], p["dy_px"]), abs=1e-9)
+        assert (r["dx_map"], r["dy_map"]) == pytest.approx((p["dx_ground"], p["dy_ground"]), abs=1e-6)
+        assert r["role"] == p["role"] and r["z_source"] == "dem"
+    assert fit["rms"]["control_px"] == pytest.approx(rep["control"]["rms_xy_px"], abs=1e-9)
+    if step == "role":  # GCP 2 unchecked in the table: a check point, measured but not fitted
+        assert rows["2"]["role"] == "check" and fit["rms"]["n_check"] == 1
+        assert fit["rms"]["check_px"] == pytest.approx(rep["check"]["rms_xy_px"], abs=1e-9)
+    else:  # the table shows the same numbers
+        table = {t["id"]: t for t in state[step]["table"]}
+        for p in rep["points"]:
+            assert table[str(p["id"])]["dx px"] == f"{p['dx_px']:.3f}"
+            assert table[str(p["id"])]["dy map"] == f"{p['dy_ground']:.3f}"
+        assert f"{rep['control']['rms_xy_px']:.3f} px" in state[step]["summary"]
+
+
+def test_layer_round_trips_through_points_file(picked):
+    state, _, tmp = picked
+    assert state["export_points"] and state["import_points"] == 10
+    key = lambda g: (g["col"], g["row"], g["x"], g["y"], g["role"])  # noqa: E731
+    assert sorted(map(key, state["reimported"])) == sorted(map(key, state["role"]["gcps"]))
+    assert (tmp / "picked.points").read_text().startswith("#CRS: ")
+
+
+def test_too_few_points_and_a_dem_that_misses_gcps_are_shown(picked):
+    state, truth, _ = picked
+    assert "dlt needs 6 control points: 3 more" in state["few"]["summary"]
+    small = state["small_dem"]
+    median_x = float(np.median([t["x"] for t in truth]))
+    flags = {t["id"]: t["flag"] for t in small["table"]}
+    gcps = _by_id(state["role"]["gcps"])
+    outside = {i for i, g in gcps.items() if g["x"] > median_x + 50}
+    assert outside and all(flags[i] == "no height: the DEM does not cover this point" for i in outside)
+    assert all(flags[i] == "" for i, g in gcps.items() if g["x"] < median_x - 50)
+    assert "more" in small["summary"] and "without a height" in small["summary"]
+
+
+def test_project_crs_other_than_the_layers(picked):
+    state, truth, _ = picked
+    w = state["wgs84"]
+    assert w["canvas_crs"] == "EPSG:4326" and 'PARAMETER["central_meridian",25]' in w["layer_crs_wkt"]
+    # clicked on a lon/lat canvas, stored in the layer's metres: within a screen pixel (~7 m) of the truth
+    t = truth[12]
+    assert np.hypot(w["gcp"]["x"] - t["x"], w["gcp"]["y"] - t["y"]) < 12.0
+    assert abs(w["gcp"]["col"] - t["col"]) <= state["image_units_per_pixel"]
