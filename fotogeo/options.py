@@ -314,6 +314,8 @@ LAYER_TO_POINTS = Table(_SOURCE_RASTER)
 TRIANGULATE = Table(
     Option("crs", "crs", None, "Map CRS of the GCPs and orientations (empty = the GCP list's first line)",
            "Projected map CRS of the GCPs and the orientation file [the GCP list's CRS line]."),
+    Option("gcp_crs", "crs", None, "CRS of the GCP file's ground X, Y (empty = its own, else the map CRS)",
+           "CRS of the GCPs' ground x, y when the file carries none (CSV) or to override it [the map CRS]."),
     Option("check_points", "str", None, "GCP names used as check points (comma-separated)",
            "Comma-separated GCP names held out as check points."),
     Option("self_calibration", "choices", None, "Interior parameters to estimate (none = fixed camera)",
@@ -335,6 +337,18 @@ TRIANGULATE = Table(
     Option("max_correlation", "float", 0.999, "Hold fixed interior parameters correlated above",
            "Interior parameters whose multiple correlation exceeds this are held fixed.", minimum=0.5, maximum=1.0,
            advanced=True),
+    Option("check_fraction", "float", 0.0, "Fraction of the control held out as check points (spread, seeded)",
+           "Fraction of the control points held out as check points, spread over the block (seeded) [0].",
+           minimum=0.0, maximum=0.9),
+    replace(SEED, label="Random seed (check-point hold-out)"),
+    Option("dem", "raster", None, "DEM (footprints and orthorectification; empty = mean height of the points)",
+           "DEM for the footprints and --orthorectify [the mean height of the adjusted points]."),
+    Option("orthorectify", "bool", False, "Orthorectify every frame with its adjusted orientation",
+           "Write <frame>_ortho.tif: every frame orthorectified with its adjusted orientation and the DEM."),
+    Option("resolution", "float", None, "Orthophoto pixel size (0 = each frame's ground sample distance)",
+           "Pixel size of the orthorectified frames [each frame's GSD].", minimum=0.0, exclusive_minimum=True,
+           automatic=0.0, advanced=True),
+    replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
 )
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)

@@ -84,7 +84,14 @@ def test_triangulate_writes_the_adjusted_block(tmp_path, small_block):
         assert np.hypot(e.X - true[name].X, e.Y - true[name].Y) < 10 * gsd
     import pyogrio
     layers = {name for name, _ in pyogrio.list_layers(out / "block.gpkg")}
-    assert layers == {"tie_points", "control", "frames", "residuals"}
+    assert layers == {"tie_points", "control", "frames", "residuals", "footprints"}
+    feet = pyogrio.read_dataframe(out / "block.gpkg", layer="footprints")
+    assert list(feet["name"]) == list(small_block.block.frames) and feet["on_terrain"].all()
+    for name, poly in zip(feet["name"], feet.geometry):  # each outline holds its projection centre (near-nadir)
+        import shapely
+        assert poly.contains(shapely.Point(true[name].X, true[name].Y))
+    page = (out / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 3 and "Control layout" in page
     ctrl = pyogrio.read_dataframe(out / "block.gpkg", layer="control")
     assert set(ctrl["role"]) == {"control", "check"}
     assert json.loads((out / "report.json").read_text())["statistics"]["n_frames"] == 10

@@ -1,4 +1,4 @@
-"""``fotogeo triangulate FRAMES... --camera C.yaml --eo EO.txt --observations OBS.csv --gcps gcp_list.txt -o OUTDIR``."""
+"""``fotogeo triangulate FRAMES... --camera C.yaml [--eo EO.txt] [--observations OBS.csv] --gcps GCPS -o OUTDIR``."""
 from __future__ import annotations
 
 import click
@@ -9,15 +9,19 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 @click.command("triangulate")
 @click.argument("frames", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--camera", required=True, type=click.Path(dir_okay=False), help="Interior orientation YAML.")
-@click.option("--eo", required=True, type=click.Path(dir_okay=False),
-              help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees).")
+@click.option("--camera", required=True, type=click.Path(dir_okay=False),
+              help="Interior orientation YAML (pinhole, or brown with k1, k2, p1, p2, k3: a camera.yaml it wrote).")
+@click.option("--eo", type=click.Path(dir_okay=False),
+              help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees) "
+                   "[frames without a line: space resection against their GCPs].")
 @click.option("--observations", type=click.Path(dir_okay=False),
               help="Tie-point measurements: a table frame, point, col, row[, sigma] (corner convention) "
                    "[match the overlapping frames].")
-@click.option("--gcps", type=click.Path(dir_okay=False), help="Ground control: ODM/OpenSfM gcp_list.txt.")
+@click.option("--gcps", type=click.Path(dir_okay=False),
+              help="Ground control: ODM/OpenSfM gcp_list.txt, or a point layer / CSV in any CRS with one row per "
+                   "(point, frame) measurement: id, frame, col, row, z, optional role.")
 @click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
-              help="Existing folder for exterior_orientation.txt, block.gpkg and report.json.")
+              help="Existing folder for exterior_orientation.txt, block.gpkg, report.json and report.html.")
 @options_from(TRIANGULATE)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)

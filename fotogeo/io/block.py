@@ -9,6 +9,12 @@
   ``geo_x geo_y geo_z im_x im_y image_name [gcp_name]``. OpenSfM's pixel coordinates put the
   centre of the top-left pixel at (0, 0) (its normalisation adds 0.5), so fotogeo adds 0.5 to
   reach the corner convention; lines without a name are named by their ground coordinates.
+* **Ground control as a table** (``read_control_table``): a point layer (any GDAL vector format;
+  the geometry is the ground X, Y in the layer's CRS) or a CSV (columns ``x``, ``y`` or their
+  aliases of :mod:`fotogeo.io.gcps`, the CRS given), in ANY CRS, with one row per measurement
+  of a point in a frame: fields ``id``, ``frame``, ``col``, ``row`` (corner convention), ``z``
+  (the ground height, metres) and an optional ``role`` (``control`` / ``check``; one role per
+  id). :func:`control_in` transforms the ground X, Y into the block's map CRS (heights are kept).
 * **Exterior orientation** out (``write_exterior_orientation``): ``name X Y Z omega phi kappa``
   lines, the format :func:`fotogeo.io.camera.read_exterior_orientation` reads (metres, PATB
   degrees).
@@ -62,11 +68,87 @@ def read_image_observations(path) -> ImageObservations:
 
 @dataclass(frozen=True)
 class GcpList:
-    crs: str
+    crs: object  # a CRS spec: the gcp_list.txt line or a pyproj CRS
     name: np.ndarray  # (n,) point names
     ground: np.ndarray  # (n, 3)
     pixel: np.ndarray  # (n, 2) corner convention
     frame: np.ndarray  # (n,) frame keys
+    role: np.ndarray | None = None  # (n,) "control" / "check" when the file says; None: all control
+
+
+def read_control(path, crs=None, csv_crs=None) -> GcpList:
+    """Ground control of a block: ``gcp_list.txt`` (any ``.txt``) or a table (:func:`read_control_table`)."""
+    return read_gcp_list(path) if Path(path).suffix.lower() == ".txt" else read_control_table(path, crs, csv_crs)
+
+
+def read_control_table(path, crs=None, csv_crs=None) -> GcpList:
+    """Read ground control from a point layer or CSV (module docstring); ``crs`` sets/overrides its CRS,
+    ``csv_crs`` is the CRS of a CSV's x, y when ``crs`` is not given (the block's map CRS)."""
+    from .gcps import X_NAMES, Y_NAMES, _layer_positions
+    from .tables import find_column, is_layer
+    what = f"GCP file {str(path)!r}"
+    hint = "one row per measurement of a point in a frame: id, frame, col, row (corner convention), z, optional role"
+    t = read_table(path, "GCP file")
+    if len(t) == 0:
+        raise InputError(f"{what} holds no points")
+    idc, fcol = require_columns(t, ("id", "frame"), what, hint)
+    if is_layer(t):
+        xy, map_crs = _layer_positions(t, what, crs)
+    else:
+        xcol = next((c for c in t.columns if str(c).lower() in X_NAMES), None)
+        ycol = next((c for c in t.columns if str(c).lower() in Y_NAMES), None)
+        if xcol is None or ycol is None:
+            raise InputError(f"{what} needs ground coordinate columns x and y (or mapX/mapY, lon/lat, easting/northing)")
+        crs = crs or csv_crs
+        if not crs:
+            raise InputError(f"{what}: a CSV carries no CRS; give the CRS of its x, y (gcp_crs=, --gcp-crs)")
+        from ..crs import parse_crs
+        xy, map_crs = numeric_columns(t, [xcol, ycol], what, hint, finite=True), parse_crs(crs, what)
+    z = numeric_columns(t, ("z",), what, hint + "; the bundle adjustment needs the heights", finite=True)[:, 0]
+    pixel = numeric_columns(t, ("col", "row"), what, hint, finite=True)
+    names = t[idc].astype(str).to_numpy(dtype=object)
+    rf = find_column(t, "role")
+    role = None
+    if rf is not None:
+        role = t[rf].fillna("control").astype(str).str.strip().str.lower().to_numpy(dtype=object)
+        bad = sorted(set(role) - {"control", "check"})
+        if bad:
+            raise InputError(f"{what}: role values must be 'control' or 'check'; found {', '.join(bad[:5])}")
+        mixed = sorted({n for n in names if len(set(role[names == n])) > 1})
+        if mixed:
+            raise InputError(f"{what}: point(s) {', '.join(mixed[:10])} have both roles; give each id one role")
+    frames = np.array([frame_key(v) for v in t[fcol]], dtype=object)
+    return GcpList(map_crs, names, np.column_stack([xy, z]), pixel, frames, role)
+
+
+def control_in(gcp: GcpList, map_crs) -> GcpList:
+    """``gcp`` with its ground X, Y transformed into ``map_crs`` (:func:`fotogeo.crs.transform_points`)."""
+    from dataclasses import replace
+
+    from ..crs import parse_crs, transform_points
+    src = parse_crs(gcp.crs, "CRS of the GCP file")
+    xy = transform_points(src, map_crs, gcp.ground[:, :2])
+    if not np.isfinite(xy).all():
+        raise InputError(f"GCPs cannot be transformed from {src.to_string()} into the map CRS {map_crs.to_string()} "
+                         f"(outside its area of use?); check the GCP CRS and --crs")
+    return replace(gcp, crs=map_crs, ground=np.column_stack([xy, gcp.ground[:, 2]]))
+
+
+def split_check_points(gcp: GcpList, check_ids, fraction: float, seed) -> set:
+    """The GCP names held out as check points: the file's ``check`` roles, the ``check_ids`` named, and
+    with ``fraction`` > 0 a seeded hold-out of the remaining control points spread over the block
+    (:func:`fotogeo.models.robust.spread_split` on their mean ground positions), leaving ≥ 3 control."""
+    from ..models.robust import spread_split
+    checks = set(check_ids) | (set(gcp.name[gcp.role == "check"]) if gcp.role is not None else set())
+    if fraction:
+        rest = sorted(set(gcp.name) - checks)
+        xy = np.array([gcp.ground[gcp.name == n, :2].mean(axis=0) for n in rest]).reshape(-1, 2)
+        chosen = spread_split(xy, fraction, seed) if len(rest) - round(fraction * len(rest)) >= 3 else np.zeros(0)
+        if not np.any(chosen):
+            raise InputError(f"check_fraction {fraction}: {len(rest)} control points leave none to hold out with 3 "
+                             f"control points kept; lower it or give more GCPs")
+        checks |= {n for n, c in zip(rest, chosen) if c}
+    return checks
 
 
 def read_gcp_list(path) -> GcpList:

@@ -79,12 +79,18 @@ def _pair(d: dict, key: str, kind):
     return w, h
 
 
-def _frame_camera(d) -> FrameCamera:
+#: orthority's Brown distortion terms (OpenCV's model, the bundle adjustment's), in file order
+BROWN_TERMS = ("k1", "k2", "p1", "p2", "k3")
+
+
+def _frame_camera(d, types=("pinhole",)) -> FrameCamera:
     """A pinhole :class:`FrameCamera` from one camera's dict; ValueError says which value is wrong."""
     if not isinstance(d, dict):
         raise ValueError("a camera must be a block of indented 'key: value' lines")
-    if d.get("type", "pinhole") != "pinhole":
-        raise ValueError(f"type {str(d.get('type'))[:40]!r} is not supported; only 'pinhole' is")
+    if d.get("type", "pinhole") not in types:
+        raise ValueError(f"type {str(d.get('type'))[:40]!r} is not supported here; only "
+                         f"{' or '.join(map(repr, types))} {'is' if len(types) == 1 else 'are'}"
+                         + (" (a 'brown' camera with distortion is read by triangulate)" if "brown" not in types else ""))
     w, h = _pair(d, "im_size", int)
     sw, sh = _pair(d, "sensor_size", float)
     f = _number(d, "focal_len")
@@ -116,6 +122,33 @@ def read_interior_orientation(path) -> dict[str, FrameCamera]:
                                       f"it needs im_size [w, h], sensor_size [w, h] and focal_len "
                                       f"(type pinhole, optional cx, cy)")) from None
     return cams
+
+
+def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
+    """The first camera of an interior orientation YAML and its distortion ``{k1, k2, k3, p1, p2}``.
+
+    Besides ``type: pinhole`` (no distortion) it reads orthority's ``type: brown`` with the
+    optional terms ``k1, k2, p1, p2, k3`` (OpenCV's Brown (1971) model on the focal-length-
+    normalised camera coordinates, the model of :mod:`fotogeo.orientation.bundle_jacobian`),
+    which is what ``fotogeo triangulate`` writes after self-calibration, so its ``camera.yaml``
+    is a valid ``--camera`` of the next run.
+    """
+    path = Path(path)
+    text = read_text_file(path, "interior orientation file", hint="give the YAML file")
+    data, lines = _parse_simple_yaml(text, f"interior orientation {str(path)!r}, ")
+    if not data:
+        raise InputError(f"camera file {str(path)!r} defines no camera")
+    cid, d = next(iter(data.items()))
+    try:
+        cam = _frame_camera(d, ("pinhole", "brown"))
+        dist = {k: _number(d, k, default=0.0) for k in BROWN_TERMS}
+        if d.get("type", "pinhole") == "pinhole" and any(dist.values()):
+            raise ValueError("distortion terms need type: brown")
+    except (ValueError, TypeError, OverflowError, ZeroDivisionError, InputError) as exc:
+        raise InputError(one_line(f"interior orientation {str(path)!r}, line {lines[cid]}: camera {cid!r}: {exc}; "
+                                  f"it needs im_size [w, h], sensor_size [w, h] and focal_len (type pinhole, or "
+                                  f"brown with k1, k2, p1, p2, k3; optional cx, cy)")) from None
+    return cam, dist
 
 
 def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:

@@ -4,72 +4,56 @@
 
 * ``frames`` — the frame rasters (their names key everything else; their size must be the
   camera's);
-* ``camera`` — the interior orientation YAML (:func:`fotogeo.io.camera.read_interior_orientation`);
+* ``camera`` — the interior orientation YAML: pinhole, or orthority's ``brown`` with distortion
+  (:func:`fotogeo.io.camera.read_camera_with_distortion`; the ``camera.yaml`` a self-calibrating
+  run writes is a valid camera of the next run);
 * ``eo`` — the approximate exterior orientation, ``name X Y Z omega phi kappa`` lines in the
-  map CRS (metres, PATB degrees), e.g. from GNSS/INS;
+  map CRS (metres, PATB degrees), e.g. from GNSS/INS; optional with control: a frame it lacks
+  (or every frame, ``eo=None``) is resected against its ≥ 4 GCPs
+  (:mod:`fotogeo.tools.triangulate_inputs`);
 * ``observations`` — the image measurements of the tie points, a table ``frame, point, col,
   row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
   frames are matched (:mod:`fotogeo.tools.triangulate_match`: footprints at the mean GCP
   height, SURF pairs, epipolar RANSAC, multi-ray tracks);
-* ``gcps`` — ground control in ODM/OpenSfM's ``gcp_list.txt`` (the CRS line, then ``X Y Z
-  im_x im_y image_name name``, :func:`fotogeo.io.block.read_gcp_list`); the GCPs named in
-  ``check_points`` are held out as check points;
+* ``gcps`` — ground control: ODM/OpenSfM's ``gcp_list.txt`` (:func:`fotogeo.io.block.read_gcp_list`)
+  or a point layer / CSV in any CRS, one row per (point, frame) measurement with ``id, frame,
+  col, row, z[, role]`` (:func:`fotogeo.io.block.read_control_table`), transformed into the map
+  CRS; check points: the ``role`` field, the names in ``check_points`` and a seeded spread
+  hold-out of ``check_fraction`` of the control;
 
 runs :func:`fotogeo.orientation.bundle.adjust_block` in the map CRS (projected, metric) and
-writes into ``folder``, as one set (nothing on an error or a cancel):
+writes into ``folder``, as one set (nothing on an error or a cancel;
+:mod:`fotogeo.tools.triangulate_outputs`):
 
 * ``exterior_orientation.txt`` — the adjusted orientations, in the input's format;
 * ``camera.yaml`` — with ``self_calibration``: the adjusted interior orientation (orthority's
   YAML, :func:`fotogeo.io.block.write_interior_orientation`);
 * ``block.gpkg`` — layers ``tie_points`` (3-D, σ, rays), ``control`` (control and check points
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
-  angles, σ) and ``residuals`` (every image observation at its ground point: frame, pixel,
-  residual vector in px, status, standardised residual);
+  angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel,
+  residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
+  the DEM or the mean height, :mod:`fotogeo.tools.triangulate_ortho`);
 * ``report.json`` — σ₀, image RMS, control/check RMSE per axis, interior parameters estimated,
-  held fixed and why, blunders culled, timings.
+  held fixed and why, blunders culled, timings; ``report.html`` — the same with plots
+  (:mod:`fotogeo.tools.triangulate_report`);
+* with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation.
 """
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..crs import parse_crs, require_projected
-from ..errors import FotogeoWarning, InputError
-from ..io.block import (frame_key, read_gcp_list, read_image_observations, write_exterior_orientation,
-                        write_interior_orientation)
-from ..io.camera import load_camera, read_exterior_orientation
-from ..io.raster import AtomicOutputs, check_output, open_raster
-from ..io.report import write_json
-from ..io.vector import write_layers
+from ..errors import InputError
+from ..io.block import frame_key, read_image_observations
+from ..io.raster import check_output
 from ..orientation.bundle import Block, BundleOptions, adjust_block
 from ..progress import as_progress
 from .boundary import tool
-from .checks import check_camera_size
+from .triangulate_inputs import frame_names, orientations, read_block_control, read_camera
+from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 
-FILES = ("exterior_orientation.txt", "block.gpkg", "report.json")
-CAMERA_FILE = "camera.yaml"  # written with self-calibration
-
-
-def _frames(frames, camera):
-    names = [frame_key(f) for f in frames]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"frames: the names {', '.join(dup)} occur twice; every frame needs its own file name")
-    for f in frames:
-        info = open_raster(f, "frame")
-        check_camera_size(camera, info.width, info.height, f)
-    return names
-
-
-def _orientations(eo, names):
-    table = read_exterior_orientation(eo)
-    missing = [n for n in names if n not in table]
-    if missing:
-        raise InputError(f"exterior orientation {str(eo)!r} lacks the frame(s) {', '.join(missing[:10])}; "
-                         f"give one 'name X Y Z omega phi kappa' line per frame (name = the file name's stem)")
-    return tuple(table[n] for n in names)
+__all__ = ["CAMERA_FILE", "FILES", "triangulate"]
 
 
 def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
@@ -90,22 +74,15 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
     px = [obs.pixel]
     s_obs = [obs.sigma if obs.sigma is not None else np.full(len(obs.frame), image_sigma)]
     if gcp is not None:
-        inside = np.array([f in index for f in gcp.frame], dtype=bool)
-        if (~inside).any():
-            warnings.warn(f"{int((~inside).sum())} GCP measurement(s) in images that are not frames of the block "
-                          f"ignored: {', '.join(sorted(set(gcp.frame[~inside]))[:5])}", FotogeoWarning, stacklevel=3)
-        for k in np.flatnonzero(inside):
+        for k in range(len(gcp.name)):
             j = where[gcp.name[k]]
             xyz[j] = gcp.ground[k]
             role[j] = "check" if gcp.name[k] in check_ids else "control"
-        f_obs += [index[f] for f in gcp.frame[inside]]
-        p_obs += [where[n] for n in gcp.name[inside]]
-        px.append(gcp.pixel[inside])
-        s_obs.append(np.full(int(inside.sum()), image_sigma))
+        f_obs += [index[f] for f in gcp.frame]
+        p_obs += [where[n] for n in gcp.name]
+        px.append(gcp.pixel)
+        s_obs.append(np.full(len(gcp.name), image_sigma))
     sig[role == "control"] = [sigma_xy, sigma_xy, sigma_z]
-    unknown_checks = sorted(set(check_ids) - set(gcp.name if gcp is not None else []))
-    if unknown_checks:
-        raise InputError(f"check_points: {', '.join(unknown_checks[:10])} are not GCP names of the GCP list")
     return (tuple(ids), xyz, sig, role.astype(str), np.array(f_obs, dtype=np.intp), np.array(p_obs, dtype=np.intp),
             np.concatenate(px), np.concatenate(s_obs))
 
@@ -122,57 +99,59 @@ def _matched(frames, names, cam, eos, gcp, prog):
 
 
 @tool("TRIANGULATE", outputs=("folder",))
-def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, check_points=None,
+def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, gcp_crs=None, check_points=None,
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, snooping: bool = True,
-                max_correlation: float = 0.999, overwrite: bool = False, progress=None) -> dict:
+                max_correlation: float = 0.999, check_fraction: float = 0.0, seed: int = 0, dem=None,
+                orthorectify: bool = False, resolution=None, resampling: str = "nearest", overwrite: bool = False,
+                progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
     prog = as_progress(progress).with_own_timings()
     frames = [Path(f) for f in ([frames] if isinstance(frames, (str, Path)) else frames)]
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"output folder {str(folder)!r} does not exist; create it first")
-    inputs = [*frames, camera, eo, observations, gcps]  # observations None: matched
-    finals = [folder / name for name in FILES] + ([folder / CAMERA_FILE] if self_calibration else [])
-    for path in finals:
+    if eo is None and not gcps:
+        raise InputError("give the approximate exterior orientation (--eo) or ground control (--gcps) to resect "
+                         "the frames")
+    inputs = [*frames, camera, eo, observations, gcps, dem]  # observations None: matched
+    finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=self_calibration,
+                          orthorectify=orthorectify)
+    for path in finals.values():
         check_output(path, inputs, overwrite, "output")
-    cam = load_camera(camera)
-    names = _frames(frames, cam)
-    eos = _orientations(eo, names)
-    gcp = read_gcp_list(gcps) if gcps else None
+    cam, distortion = read_camera(camera)
+    names = frame_names(frames, cam)
+    gcp, map_crs, check_ids = read_block_control(gcps, crs, gcp_crs, cam, names, check_points, check_fraction, seed)
+    eos = orientations(eo, names, cam, distortion, gcp, check_ids)
     matching = None
     if observations is not None:
         obs = read_image_observations(observations)
     else:
         obs, matching = _matched(frames, names, cam, eos, gcp, prog.stage(0.05, 0.5, "matching the frames"))
-    map_crs = parse_crs(crs if crs else (gcp.crs if gcp is not None else None), "map CRS") if (crs or gcp) else None
-    if map_crs is None:
-        raise InputError("give the map CRS (crs=..., --crs) or a GCP list whose first line is the CRS")
-    require_projected(map_crs, "map CRS of the block")
-    check_ids = {c.strip() for c in (check_points or "").split(",") if c.strip()}
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, control_sigma_xy,
                                                           control_sigma_z, image_sigma)
-    block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, crs=map_crs)
+    block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, distortion=distortion,
+                  crs=map_crs)
     eo_sigma = None
     if eo_sigma_position is not None or eo_sigma_angle is not None:
         eo_sigma = (eo_sigma_position or 1e6, eo_sigma_angle or 1e3)
     opts = BundleOptions(self_calibration=tuple(self_calibration or ()), eo_sigma=eo_sigma, snooping=snooping,
                          max_correlation=max_correlation)
     prog(0.5, "inputs read")
-    result = adjust_block(block, opts, progress=prog.stage(0.5, 0.9, "bundle adjustment"))
-    from .triangulate_outputs import block_layers, report
-    rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera), "eo": str(eo),
-                                         "gcps": str(gcps) if gcps else None,
+    result = adjust_block(block, opts, progress=prog.stage(0.5, 0.8, "bundle adjustment"))
+    rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera),
+                                         "eo": str(eo) if eo else None, "gcps": str(gcps) if gcps else None,
                                          "observations": str(observations) if observations else None,
-                                         "folder": str(folder), "matching": matching})
-    with AtomicOutputs(overwrite) as out:
-        write_exterior_orientation(out.temp(finals[0]), names, result.eo,
-                                   f"fotogeo triangulate: adjusted exterior orientation, CRS {map_crs.to_string()}\n"
-                                   f"name X Y Z omega phi kappa (metres, PATB degrees)")
-        write_layers(out.temp(finals[1]), block_layers(result, block), map_crs)
-        write_json(out.temp(finals[2]), rep)
-        if self_calibration:
-            write_interior_orientation(out.temp(finals[3]), "adjusted", result.camera, result.distortion)
-        out.commit()
+                                         "dem": str(dem) if dem else None, "folder": str(folder),
+                                         "matching": matching, "resected_frames": _resected(eo, names)})
+    write_outputs(finals, result, block, frames, rep, dem=dem, resolution=resolution, resampling=resampling,
+                  overwrite=overwrite, progress=prog.stage(0.8, 1.0, "writing the outputs"))
     prog(1.0, "done")
     return rep
+
+
+def _resected(eo, names) -> list:
+    """The frames whose approximate orientation came from space resection (not in ``eo``)."""
+    from ..io.camera import read_exterior_orientation
+    table = read_exterior_orientation(eo) if eo else {}
+    return [n for n in names if n not in table]

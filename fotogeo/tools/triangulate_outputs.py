@@ -1,7 +1,56 @@
-"""What ``fotogeo triangulate`` writes: the GeoPackage layers and the report of a bundle adjustment."""
+"""What ``fotogeo triangulate`` writes: the GeoPackage layers, the reports and the orthorectified frames,
+as one set (:class:`fotogeo.io.raster.AtomicOutputs`: nothing on an error or a cancel)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+
+FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
+CAMERA_FILE = "camera.yaml"  # written with self-calibration
+ORTHO_SUFFIX = "_ortho.tif"  # <frame>_ortho.tif with orthorectify
+
+
+def output_paths(folder, *, names, self_calibration, orthorectify) -> dict:
+    """The final paths: ``eo``, ``gpkg``, ``json``, ``html``, ``camera`` (self-calibration) and
+    ``ortho:<frame>`` (orthorectify)."""
+    folder = Path(folder)
+    paths = dict(zip(("eo", "gpkg", "json", "html"), (folder / f for f in FILES)))
+    if self_calibration:
+        paths["camera"] = folder / CAMERA_FILE
+    if orthorectify:
+        paths.update({f"ortho:{n}": folder / f"{n}{ORTHO_SUFFIX}" for n in names})
+    return paths
+
+
+def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
+                  progress) -> None:
+    """Write every output of :func:`output_paths` (the orthophoto grids checked before any file)."""
+    from ..io.block import write_exterior_orientation, write_interior_orientation
+    from ..io.raster import AtomicOutputs
+    from ..io.report import write_json
+    from ..io.vector import write_layers
+    from .triangulate_ortho import footprints, ortho_grids, orthorectify, terrain
+    from .triangulate_report import write_html
+    crs = block.crs
+    feet = footprints(result, block, terrain(dem, crs, result), crs)
+    ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
+    grids = ortho_grids(ortho, result, block, frames, dem, crs, resolution) if ortho else {}
+    layers = {**block_layers(result, block), "footprints": feet}
+    with AtomicOutputs(overwrite) as out:
+        write_exterior_orientation(out.temp(paths["eo"]), block.frames, result.eo,
+                                   f"fotogeo triangulate: adjusted exterior orientation, CRS {crs.to_string()}\n"
+                                   f"name X Y Z omega phi kappa (metres, PATB degrees)")
+        if "camera" in paths:
+            write_interior_orientation(out.temp(paths["camera"]), "adjusted", result.camera, result.distortion)
+        if ortho:
+            temps = {n: out.temp(p) for n, p in ortho.items()}
+            rep["orthorectified"] = orthorectify(temps, grids, frames, block, crs, resampling,
+                                                 progress.stage(0.0, 0.9, "orthorectifying"))
+        write_layers(out.temp(paths["gpkg"]), layers, crs)
+        write_json(out.temp(paths["json"]), rep)
+        write_html(out.temp(paths["html"]), rep, result, block, feet)
+        out.commit()
 
 
 def _points3d(xyz):

@@ -1,0 +1,155 @@
+"""The inputs of ``fotogeo triangulate``: camera, frames, control, check points and the approximate orientation.
+
+* **Camera**: :func:`fotogeo.io.camera.read_camera_with_distortion` (pinhole, or orthority's
+  ``brown`` with ``k1, k2, p1, p2, k3`` — the ``camera.yaml`` a self-calibrating run writes);
+  the distortion is the bundle adjustment's starting (or fixed) value.
+* **Control**: :func:`fotogeo.io.block.read_control` (``gcp_list.txt`` or a point layer / CSV in
+  any CRS), transformed into the map CRS (``crs``, else the control's own CRS; it must be
+  projected). Measurements outside their frame are refused by name.
+* **Check points**: the file's ``check`` roles, the names given, and a seeded, spread hold-out
+  of ``check_fraction`` of the control (:func:`fotogeo.io.block.split_check_points`).
+* **Approximate orientation**: the ``--eo`` file; a frame it lacks (or every frame, without
+  one) is oriented by single-frame space resection against its control points
+  (:class:`fotogeo.models.collinearity.Collinearity`, ≥ 4 points; the measured pixels are first
+  freed of the camera's distortion, :func:`fotogeo.orientation.bundle_jacobian.undistort_rays`).
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..crs import parse_crs, require_projected
+from ..errors import FotogeoWarning, InputError, ModelError
+from ..io.block import GcpList, control_in, frame_key, read_control, split_check_points
+from ..io.camera import read_camera_with_distortion, read_exterior_orientation
+from ..io.raster import open_raster
+from .checks import check_camera_size
+
+#: the order of ``Block.distortion``
+DISTORTION_ORDER = ("k1", "k2", "k3", "p1", "p2")
+
+
+def read_camera(camera):
+    """``(FrameCamera, distortion (k1, k2, k3, p1, p2))`` from a YAML path or a FrameCamera object."""
+    if hasattr(camera, "focal_length"):
+        return camera, (0.0,) * 5
+    cam, dist = read_camera_with_distortion(camera)
+    return cam, tuple(dist[k] for k in DISTORTION_ORDER)
+
+
+def frame_names(frames, camera) -> list:
+    """The frames' keys (file stems), each frame checked against the camera's image size."""
+    names = [frame_key(f) for f in frames]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"frames: the names {', '.join(dup)} occur twice; every frame needs its own file name")
+    for f in frames:
+        info = open_raster(f, "frame")
+        check_camera_size(camera, info.width, info.height, f)
+    return names
+
+
+def read_block_control(gcps, crs, gcp_crs, camera, names, check_points, check_fraction, seed):
+    """``(GcpList in the map CRS, map CRS, check-point names)``; ``gcps`` None: ``(None, crs, set())``."""
+    if not gcps:
+        if not crs:
+            raise InputError("give the map CRS (crs=..., --crs) or ground control (--gcps) that carries one")
+        map_crs = parse_crs(crs, "map CRS")
+        require_projected(map_crs, "map CRS of the block")
+        return None, map_crs, set()
+    gcp = read_control(gcps, gcp_crs, crs)
+    map_crs = parse_crs(crs if crs else gcp.crs, "map CRS")
+    require_projected(map_crs, "map CRS of the block (give a projected one with --crs)")
+    gcp = control_in(gcp, map_crs)
+    gcp = _in_frames(gcp, names, camera, gcps)
+    ids = {c.strip() for c in (check_points or "").split(",") if c.strip()}
+    unknown = sorted(ids - set(gcp.name))
+    if unknown:
+        raise InputError(f"check_points: {', '.join(unknown[:10])} are not GCP names of {str(gcps)!r}")
+    return gcp, map_crs, split_check_points(gcp, ids, check_fraction or 0.0, seed)
+
+
+def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
+    """Drop (with a warning) measurements in images that are not frames; refuse those outside their frame."""
+    from dataclasses import replace
+    inside = np.array([f in set(names) for f in gcp.frame], dtype=bool)
+    if not inside.any():
+        raise InputError(f"GCP file {str(path)!r}: no measurement names a frame of the block (its frames: "
+                         f"{', '.join(sorted(set(gcp.frame))[:5])}); the frame field holds the frame's file name")
+    if (~inside).any():
+        warnings.warn(f"{int((~inside).sum())} GCP measurement(s) in images that are not frames of the block "
+                      f"ignored: {', '.join(sorted(set(gcp.frame[~inside]))[:5])}", FotogeoWarning, stacklevel=3)
+        keep = np.flatnonzero(inside)
+        gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],
+                      frame=gcp.frame[keep], role=None if gcp.role is None else gcp.role[keep])
+    w, h = camera.image_size
+    out = ~((gcp.pixel >= 0).all(axis=1) & (gcp.pixel[:, 0] <= w) & (gcp.pixel[:, 1] <= h))
+    nowhere = sorted(set(gcp.name[out]) - set(gcp.name[~out]))
+    if nowhere:
+        raise InputError(f"GCP file {str(path)!r}: point(s) {', '.join(nowhere[:10])} lie outside every frame "
+                         f"({w}x{h} px); check their col, row (corner convention), frame and the camera file")
+    if out.any():
+        bad = [f"{n} in {f}" for n, f in zip(gcp.name[out], gcp.frame[out])]
+        warnings.warn(f"GCP measurement(s) outside their frame ({w}x{h} px) ignored: {', '.join(bad[:6])}",
+                      FotogeoWarning, stacklevel=3)
+        keep = np.flatnonzero(~out)
+        gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],
+                      frame=gcp.frame[keep], role=None if gcp.role is None else gcp.role[keep])
+    return gcp
+
+
+def orientations(eo, names, camera, distortion, gcp: GcpList | None, check_ids) -> tuple:
+    """The approximate orientation of every frame: from ``eo``, else by space resection (module docstring)."""
+    table = read_exterior_orientation(eo) if eo else {}
+    missing = [n for n in names if n not in table]
+    if missing and gcp is None:
+        raise InputError(f"exterior orientation {str(eo)!r} lacks the frame(s) {', '.join(missing[:10])}; "
+                         f"give one 'name X Y Z omega phi kappa' line per frame (name = the file name's stem), "
+                         f"or ground control (--gcps) to resect them")
+    usable = np.array([n not in check_ids for n in gcp.name]) if gcp is not None else None
+    few = [n for n in missing if np.count_nonzero(usable & (gcp.frame == n)) < 4]
+    if few:
+        src = f"are not in {str(eo)!r}" if eo else "have no approximate orientation (no --eo)"
+        counts = [f"{n} ({np.count_nonzero(usable & (gcp.frame == n))})" for n in few[:10]]
+        raise InputError(f"frame(s) {', '.join(counts)} {src} and fewer than 4 control points to resect them; "
+                         f"give --eo lines for them or measure more GCPs in them")
+    for n in missing:
+        table[n] = resect(camera, distortion, gcp.ground[usable & (gcp.frame == n)],
+                          gcp.pixel[usable & (gcp.frame == n)], n)
+    return tuple(table[n] for n in names)
+
+
+def resect(camera, distortion, ground, pixel, name):
+    """The exterior orientation of one frame from ≥ 4 control points (module docstring)."""
+    from ..models.collinearity import Collinearity
+    from ..orientation import bundle_jacobian as bj
+    interior = np.array([camera.focal_length, *camera.principal_point, *distortion], dtype=np.float64)
+    rays = bj.undistort_rays(np.asarray(pixel, np.float64), interior, bj.pixel_scale(camera))
+    pinhole = rays @ camera.K[:2].T  # K·(u, v, 1): the pixel a distortion-free camera would see
+    ground = np.asarray(ground, np.float64)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                model = Collinearity.estimate(ground, pinhole, camera=camera)
+            except ModelError:  # a DLT start over flat ground can mirror the camera: start from PnP on 5 spread points
+                model = Collinearity.estimate(ground, pinhole, _spread_five(pinhole), camera=camera)
+    except (ModelError, InputError) as exc:
+        raise InputError(f"frame {name}: no approximate orientation from its {len(ground)} control points "
+                         f"({str(exc)[:120]}); give its --eo line") from None
+    if not np.isfinite(model.params[:6]).all() or model.info.get("sigma0", 0.0) > 50.0:
+        raise InputError(f"frame {name}: the resection against its {len(ground)} control points does not fit "
+                         f"(σ0 {model.info.get('sigma0', float('nan')):.1f} px); check their measurements or "
+                         f"give its --eo line")
+    return model.frame.eo
+
+
+def _spread_five(pixel) -> np.ndarray:
+    """Weights selecting 5 spread points (the four extremes of col ± row and the one nearest the centre);
+    fewer than the DLT needs, so :class:`~fotogeo.models.collinearity.Collinearity` starts from PnP."""
+    s, d = pixel[:, 0] + pixel[:, 1], pixel[:, 0] - pixel[:, 1]
+    centre = np.argmin(np.hypot(*(pixel - pixel.mean(axis=0)).T))
+    w = np.zeros(len(pixel))
+    w[[np.argmin(s), np.argmax(s), np.argmin(d), np.argmax(d), centre]] = 1.0
+    return w

@@ -1,0 +1,110 @@
+"""Frames on the ground after a bundle adjustment: footprints and orthorectified frames.
+
+Each adjusted frame becomes a ground → image model (:class:`AdjustedFrame`: the bundle
+adjustment's collinearity with Brown's distortion, :mod:`fotogeo.orientation.bundle_jacobian`)
+placed on the terrain by :class:`fotogeo.geometry.georeference.Georeference`:
+
+* **footprints** — the image outline (33 points per edge) intersected with the DEM, or with the
+  plane at the mean height of the adjusted points when there is no DEM;
+* **orthorectified frames** — the terrain rectification of ``fotogeo orient --rectify`` (the
+  north-up grid at the frame's ground sample distance, checked for its size, then every output
+  cell's centre → its DEM height → the image pixel, resampled by :func:`fotogeo.io.warp.warp_to_grid`).
+
+The inverse (pixel → ground) removes the distortion by the fixed-point iteration of
+:func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`, then intersects the pinhole ray.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from ..errors import InputError, ModelError
+from ..geometry.camera import OrientedFrame
+from ..geometry.dem import is_height_source
+from ..geometry.georeference import Georeference
+from ..orientation import bundle_jacobian as bj
+from ..pixels import as_points
+
+
+class AdjustedFrame:
+    """Ground ``(X, Y, Z)`` → pixel of one adjusted frame, distortion included (module docstring)."""
+
+    src_dims = 3
+
+    def __init__(self, camera, eo, distortion: dict, name: str = ""):
+        self.frame = OrientedFrame(camera, eo, name)
+        self.interior = np.array([camera.focal_length, *camera.principal_point,
+                                  *(float(distortion.get(k, 0.0)) for k in bj.INTERIOR_NAMES[3:])])
+        self.scale = bj.pixel_scale(camera)
+
+    def forward(self, XYZ) -> np.ndarray:
+        c = self.frame.world_to_camera(as_points(XYZ, 3, "ground points"))
+        px = bj.project_camera(c, self.interior, self.scale)
+        px[c[:, 2] <= 0] = np.nan
+        return px
+
+    def inverse(self, pixel, heights=None, **_) -> np.ndarray:
+        rays = bj.undistort_rays(as_points(pixel, 2, "pixels"), self.interior, self.scale)
+        pinhole = rays @ self.frame.camera.K[:2].T
+        if is_height_source(heights):
+            return self.frame.pixel_to_world(pinhole, heights)
+        return self.frame.pixel_to_world_at(pinhole, heights)
+
+
+def frame_models(result, block) -> list:
+    """One :class:`AdjustedFrame` per frame of the adjusted block."""
+    return [AdjustedFrame(result.camera, e, result.distortion, n) for n, e in zip(block.frames, result.eo)]
+
+
+def terrain(dem, crs, result):
+    """The height source: the DEM in the map CRS, else the mean height of the adjusted points."""
+    if dem is not None:
+        from .orient import _dem_in
+        return _dem_in(dem, crs)
+    z = result.point_xyz[:, 2]
+    return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
+
+
+def footprints(result, block, heights, crs) -> dict:
+    """The ``footprints`` layer: one polygon per frame on ``heights``; frames that leave the DEM
+    get the outline of the points that reach it (empty when none does)."""
+    import shapely
+    w, h = block.camera.image_size
+    polys, complete = [], []
+    for model in frame_models(result, block):
+        XY = Georeference(model, heights=heights, crs=crs).footprint(w, h)
+        ok = np.isfinite(XY).all(axis=1)
+        polys.append(shapely.polygons(XY[ok]) if ok.sum() >= 4 else shapely.Polygon())
+        complete.append(bool(ok.all()))
+    return {"geometry": np.array(polys, dtype=object), "name": np.array(block.frames, dtype=str),
+            "on_terrain": np.array(complete), "area_m2": np.array([p.area for p in polys])}
+
+
+def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dict:
+    """Per frame, the checked output grid of its orthorectification (orient's ``_rectify_grid``);
+    nothing is resampled yet, so a grid that cannot be made stops the run before any output."""
+    from ..io.raster import open_raster
+    from .orient import _rectify_grid
+    heights = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
+    g = SimpleNamespace(crs=crs, ground=heights if len(heights) else np.zeros((1, 3)))
+    grids = {}
+    for model, path, name in zip(frame_models(result, block), frames, block.frames):
+        try:
+            grids[name] = _rectify_grid(paths[name], open_raster(path, "frame"), g, model, dem, None, resolution)
+        except ModelError as exc:
+            raise InputError(f"frame {name}: cannot be orthorectified ({str(exc)[:160]}); check that the DEM "
+                             f"covers the frame's footprint") from None
+    return grids
+
+
+def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
+    """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
+    from .orient import _rectify
+    g = SimpleNamespace(crs=crs)
+    out = {}
+    for k, (path, name) in enumerate(zip(frames, block.frames)):
+        from ..io.raster import open_raster
+        stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
+        out[name] = _rectify(temp_paths[name], open_raster(path, "frame"), g, grids[name], resampling, stage)
+    return out

@@ -1,0 +1,160 @@
+"""The readable report of ``fotogeo triangulate``: ``report.html`` with embedded PNG plots.
+
+Three plots, drawn with OpenCV (no plotting library needed), embedded as base64 PNG:
+
+* **residual vectors per frame** — one panel per frame (the image rectangle), the mean image
+  residual ``projected − measured`` of the used observations in each cell of a 12 × 12 grid,
+  exaggerated by the factor printed under the panels; culled blunders as red dots;
+* **residual histogram** — the lengths ``|v|`` (px) of the used observations' residuals;
+* **control layout** — the frame footprints on the ground, control (green triangles), check
+  (blue circles) and rejected (red crosses) points with their planimetric ``adjusted − given``
+  vectors, exaggerated by the factor printed.
+
+The tables beside them repeat ``report.json``: σ₀, image RMS, control and check RMSE per axis,
+interior parameters held fixed and why, blunders, the adjusted orientations with their σ.
+"""
+from __future__ import annotations
+
+import base64
+import html
+
+import cv2
+import numpy as np
+
+GRID = 12  # cells per image side of the per-frame residual panels
+BLACK, GREY, RED, GREEN, BLUE = (0, 0, 0), (170, 170, 170), (0, 0, 220), (0, 150, 0), (200, 90, 0)  # BGR
+
+
+def _png(img) -> str:
+    ok, buf = cv2.imencode(".png", img)
+    return base64.b64encode(buf.tobytes()).decode("ascii") if ok else ""
+
+
+def _text(img, text, xy, scale=0.45, color=BLACK):
+    cv2.putText(img, text, (int(xy[0]), int(xy[1])), cv2.FONT_HERSHEY_SIMPLEX, scale, color, 1, cv2.LINE_AA)
+
+
+def residual_panels(result, block, panel: int = 220, max_frames: int = 48) -> np.ndarray:
+    """The per-frame residual-vector plot (module docstring) as a BGR image."""
+    w, h = block.camera.image_size
+    k = panel / max(w, h)
+    pw, ph = int(w * k), int(h * k)
+    m = min(len(block.frames), max_frames)
+    cols = min(m, 6)
+    rows = -(-m // cols)
+    used = result.status == "used"
+    v = result.residuals
+    rms = float(np.sqrt(np.nanmean(np.sum(v[used] ** 2, axis=1)))) if used.any() else 1.0
+    ex = 0.4 * panel / GRID / max(rms, 1e-6)  # an RMS-sized vector spans 40 % of a cell
+    img = np.full((rows * (ph + 30) + 40, cols * (pw + 16) + 16, 3), 255, np.uint8)
+    for j in range(m):
+        x0, y0 = 16 + (j % cols) * (pw + 16), 24 + (j // cols) * (ph + 30)
+        cv2.rectangle(img, (x0, y0), (x0 + pw, y0 + ph), GREY, 1)
+        _text(img, block.frames[j][-24:], (x0, y0 - 6), 0.4)
+        sel = used & (block.obs_frame == j)
+        px = block.obs_pixel[sel]
+        cell = (np.minimum((px[:, 1] / h * GRID).astype(int), GRID - 1) * GRID
+                + np.minimum((px[:, 0] / w * GRID).astype(int), GRID - 1))
+        for c in np.unique(cell):
+            at = cell == c
+            p, d = px[at].mean(axis=0) * k, v[sel][at].mean(axis=0) * ex
+            a, b = (int(x0 + p[0]), int(y0 + p[1])), (int(x0 + p[0] + d[0]), int(y0 + p[1] + d[1]))
+            cv2.arrowedLine(img, a, b, BLUE, 1, cv2.LINE_AA, tipLength=0.3)
+        for p in block.obs_pixel[(result.status == "blunder") & (block.obs_frame == j)] * k:
+            cv2.circle(img, (int(x0 + p[0]), int(y0 + p[1])), 2, RED, -1)
+    note = f"mean residual per cell of a {GRID}x{GRID} grid, x{ex:.0f} (image RMS {rms:.2f} px); red: blunders"
+    _text(img, note + (f"; first {m} of {len(block.frames)} frames" if m < len(block.frames) else ""),
+          (16, img.shape[0] - 12))
+    return img
+
+
+def histogram(result, size=(640, 320), bins: int = 30) -> np.ndarray:
+    """The residual-length histogram (module docstring) as a BGR image."""
+    W, H = size
+    img = np.full((H, W, 3), 255, np.uint8)
+    r = np.hypot(*result.residuals[result.status == "used"].T)
+    if len(r) == 0:
+        return img
+    top = float(np.percentile(r, 99.5)) or 1.0
+    counts, edges = np.histogram(np.minimum(r, top), bins=bins, range=(0.0, top))
+    x0, y0, pw, ph = 60, H - 40, W - 80, H - 70
+    for i, c in enumerate(counts):
+        bh = int(ph * c / max(counts.max(), 1))
+        cv2.rectangle(img, (x0 + i * pw // bins, y0 - bh), (x0 + (i + 1) * pw // bins - 2, y0), BLUE, -1)
+    cv2.line(img, (x0, y0), (x0 + pw, y0), BLACK, 1)
+    for t in np.linspace(0.0, top, 5):
+        _text(img, f"{t:.2f}", (x0 + t / top * pw - 12, y0 + 18), 0.4)
+    _text(img, f"|residual| px ({len(r)} observations; last bin includes > {top:.2f})", (x0, H - 6), 0.45)
+    _text(img, f"max count {int(counts.max())}", (x0, 20), 0.45)
+    return img
+
+
+def control_layout(result, block, footprints, size: int = 640) -> np.ndarray:
+    """The control layout (module docstring) as a BGR image."""
+    import shapely
+    img = np.full((size, size, 3), 255, np.uint8)
+    known = (result.roles != "tie") & np.isfinite(block.point_xyz).all(axis=1)
+    outlines = [np.asarray(shapely.get_coordinates(p)) for p in footprints["geometry"] if not p.is_empty]
+    pts = np.vstack(outlines + [block.point_xyz[known, :2]]) if outlines or known.any() else np.zeros((1, 2))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    k = (size - 80) / max(float(np.max(hi - lo)), 1e-9)
+
+    def to_px(xy):
+        xy = np.atleast_2d(xy)
+        return np.column_stack([40 + (xy[:, 0] - lo[0]) * k, size - 40 - (xy[:, 1] - lo[1]) * k]).astype(np.int32)
+    for o in outlines:
+        cv2.polylines(img, [to_px(o[:, :2])], True, GREY, 1, cv2.LINE_AA)
+    d = result.point_xyz[known, :2] - block.point_xyz[known, :2]
+    dl = np.hypot(*d.T) if len(d) else np.zeros(0)
+    scale = 0.05 * size / k / max(float(np.nanmax(dl, initial=0.0)), 1e-6)  # the largest vector: 5 % of the plot
+    for xy, dd, role in zip(block.point_xyz[known, :2], d, result.roles[known]):
+        p = tuple(to_px(xy)[0])
+        if np.isfinite(dd).all():
+            cv2.arrowedLine(img, p, tuple(to_px(xy + dd * scale)[0]), BLACK, 1, cv2.LINE_AA, tipLength=0.25)
+        if role == "control":
+            cv2.drawMarker(img, p, GREEN, cv2.MARKER_TRIANGLE_UP, 10, 2)
+        elif role == "check":
+            cv2.circle(img, p, 5, BLUE, 2)
+        else:
+            cv2.drawMarker(img, p, RED, cv2.MARKER_TILTED_CROSS, 10, 2)
+    _text(img, f"footprints (grey), control (green), check (blue), rejected (red); "
+               f"vectors x{scale:.0f}", (10, 18), 0.42)
+    return img
+
+
+def _table(rows, head) -> str:
+    cells = "".join(f"<th>{html.escape(str(h))}</th>" for h in head)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
+    return f"<table><tr>{cells}</tr>{body}</table>"
+
+
+def _fmt(x, digits=3):
+    return f"{x:.{digits}f}" if isinstance(x, (int, float)) and np.isfinite(x) else "–"
+
+
+def write_html(path, rep: dict, result, block, footprints) -> None:
+    """``report.html`` (module docstring) from the report dict and the adjusted block."""
+    st = rep["statistics"]
+    summary = [("frames", st["n_frames"]), ("points", st["n_points"]), ("observations", st["n_observations"]),
+               ("σ0", _fmt(rep["sigma0"])), ("image RMS (px)", _fmt(st["image_rms_px"])),
+               ("blunders culled", st["n_blunders"]), ("control points rejected", st.get("n_control_rejected", 0))]
+    accuracy = [(role, s["n"], *(_fmt(s[f"rmse_{a}_m"]) for a in ("x", "y", "z", "planimetric")))
+                for role in ("control", "check") for s in [st[role]] if s.get("n")]
+    fixed = [(f.get("parameter", ""), f.get("reason", "")) for f in rep["fixed_parameters"]]
+    frames = [(f["name"], _fmt(f["X"]), _fmt(f["Y"]), _fmt(f["Z"]), _fmt(f["omega"], 5), _fmt(f["phi"], 5),
+               _fmt(f["kappa"], 5), _fmt(f["sigma"]["X0"]), _fmt(f["sigma"]["Z0"])) for f in rep["frames"]]
+    plots = [("Residual vectors per frame", residual_panels(result, block)), ("Residual histogram", histogram(result)),
+             ("Control layout", control_layout(result, block, footprints))]
+    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>fotogeo triangulate</title><style>"
+             "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;margin:1em 0}"
+             "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}</style></head><body>",
+             f"<h1>Aerial triangulation: {html.escape(str(rep.get('folder', '')))}</h1>",
+             f"<p>CRS {html.escape(rep['crs'])}; {html.escape(rep['units'])}</p>",
+             _table(summary, ("", "value")), "<h2>Control and check points (RMSE, m)</h2>",
+             _table(accuracy, ("role", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>none</p>",
+             "<h2>Interior parameters held fixed</h2>", _table(fixed, ("parameter", "why")) if fixed else "<p>none</p>"]
+    parts += [f"<h2>{t}</h2><img alt='{t}' src='data:image/png;base64,{_png(img)}'>" for t, img in plots]
+    parts += ["<h2>Adjusted exterior orientation</h2>",
+              _table(frames, ("frame", "X", "Y", "Z", "ω°", "φ°", "κ°", "σX0 m", "σZ0 m")), "</body></html>"]
+    from pathlib import Path
+    Path(path).write_text("\n".join(parts), encoding="utf-8")
