@@ -21,18 +21,25 @@ from ..progress import as_progress
 from .boundary import tool
 
 
+def fused_for_matching(info, role, opts):
+    """``(fused, factor)``: the image matched (decimated to ``opts.max_match_pixels``, PCA-fused) and its
+    decimation factors (full-resolution pixels = matched pixels x factor)."""
+    bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
+    override = getattr(opts, f"{role}_nodata")
+    fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
+                     contrast="linear", name=f"{role} {info.path}")
+    return fused, np.asarray(factor, float)
+
+
 def _features(info, role, opts, prog):
     """Keypoints of one image; wall times in ``prog.timings`` (``read_fuse_<role>``, ``detect_<role>``)."""
     with prog.timed(f"read_fuse_{role}"):
-        bands, mask, factor = read_decimated(info, opts.max_match_pixels, role)
-        override = getattr(opts, f"{role}_nodata")
-        fused = pca_fuse(bands, mask, nodata=info.nodata if override is None else override, rng=opts.seed,
-                         contrast="linear", name=f"{role} {info.path}")
+        fused, factor = fused_for_matching(info, role, opts)
     prog(0.3, f"{role}: keypoints")
     with prog.timed(f"detect_{role}"):
         kp = detect(apply_contrast(fused.image, fused.mask, opts.contrast), fused.mask, opts.detector,
                     max_keypoints=opts.max_keypoints, hessian_threshold=opts.hessian_threshold)
-    return kp, np.asarray(factor, float), fused
+    return kp, factor, fused
 
 
 HINT = ("check that the images overlap, then try a looser --ratio (0.9), more --max-keypoints, "
