@@ -349,6 +349,12 @@ TRIANGULATE = Table(
            "Pixel size of the orthorectified frames [each frame's GSD].", minimum=0.0, exclusive_minimum=True,
            automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
+    Option("reference_sigma_xy", "float", 0.5, "σ of automatic control X, Y (m; from the reference orthophoto)",
+           "σ of the X, Y of control found on the reference orthophoto (--reference), m.", minimum=0.0,
+           exclusive_minimum=True, advanced=True),
+    Option("reference_sigma_z", "float", 1.0, "σ of automatic control heights (m; from the DEM)",
+           "σ of the heights of control found on the reference (from the DEM), m.", minimum=0.0,
+           exclusive_minimum=True, advanced=True),
 )
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)

@@ -128,6 +128,7 @@ TOOLS = {
     "tools.points.layer_to_points": ((fo.LAYER_TO_POINTS,), {"layer"}),
     "tools.demo.run_demo": ((fo.DEMO,), set()),
     "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
+    "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
 }
 
 

@@ -181,3 +181,34 @@ def test_orthorectify_puts_each_frame_on_the_ground(tmp_path, small_block):
                     tested += 1
     assert tested >= 10
     assert json.loads((out / "report.json").read_text())["orthorectified"][small_block.block.frames[0]]["width"] > 0
+
+
+def test_reference_adds_automatic_control(tmp_path, small_block, monkeypatch):
+    """--reference: the frames, their approximate orientation, the DEM and the map CRS go to
+    automatic_control; its points join the surveyed control with their own σ; no DEM is refused."""
+    import fotogeo.tools.triangulate_control as tc
+    from fotogeo.io.block import GcpList
+    frames, checks = write_block(tmp_path, small_block)
+    b = small_block.block
+    seen = {}
+
+    def fake(frames_, names, camera, eos, reference, dem, crs, **kw):  # the simulation's tie points, as "found"
+        seen.update(names=list(names), eos=eos, reference=reference, dem=dem, crs=crs.to_epsg())
+        tie = np.flatnonzero(b.role[b.obs_point] == "tie")
+        pick = tie[np.isin(b.obs_point[tie], np.unique(b.obs_point[tie])[:30])]
+        return GcpList("EPSG:32635", np.array([f"auto{p}" for p in b.obs_point[pick]], dtype=object),
+                       small_block.true_xyz[b.obs_point[pick]], b.obs_pixel[pick],
+                       np.array([b.frames[f] for f in b.obs_frame[pick]], dtype=object))
+    monkeypatch.setattr(tc, "automatic_control", fake)
+    rep, out = _run(tmp_path, frames=frames, gcps=tmp_path / "gcp_list.txt", check_points=checks,
+                    reference=[tmp_path / "ortho.tif"], dem=_write_dem(tmp_path / "dem.tif", small_block),
+                    reference_sigma_xy=0.4)
+    assert seen["names"] == list(b.frames) and seen["crs"] == 32635 and seen["reference"] == [tmp_path / "ortho.tif"]
+    assert [e.X for e in seen["eos"]] == pytest.approx([e.X for e in b.eo])
+    assert rep["automatic_control"] == 30 and rep["statistics"]["control"]["n"] >= 30
+    import pyogrio
+    ctrl = pyogrio.read_dataframe(out / "block.gpkg", layer="control")
+    assert ctrl["id"].str.startswith("auto").sum() == 30
+    with pytest.raises(InputError, match="needs the DEM"):
+        _run(tmp_path, frames=frames, gcps=tmp_path / "gcp_list.txt", reference=[tmp_path / "ortho.tif"],
+             overwrite=True)

@@ -20,13 +20,16 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("--gcps", type=click.Path(dir_okay=False),
               help="Ground control: ODM/OpenSfM gcp_list.txt, or a point layer / CSV in any CRS with one row per "
                    "(point, frame) measurement: id, frame, col, row, z, optional role.")
+@click.option("--reference", multiple=True, type=click.Path(dir_okay=False),
+              help="Reference orthophoto(s) (repeat for tiles, or a VRT): control found automatically by matching "
+                   "every frame to it, heights from --dem.")
 @click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
               help="Existing folder for exterior_orientation.txt, block.gpkg, report.json and report.html.")
 @options_from(TRIANGULATE)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def command(frames, camera, eo, observations, gcps, folder, overwrite, quiet, **kw):
+def command(frames, camera, eo, observations, gcps, reference, folder, overwrite, quiet, **kw):
     """Orient a block of frames together: bundle block adjustment with GCPs (aerial triangulation).
 
     Reports σ0, the control and check-point RMSE, the blunders culled and the interior parameters
@@ -35,7 +38,8 @@ def command(frames, camera, eo, observations, gcps, folder, overwrite, quiet, **
     from ..tools.triangulate import triangulate
     bar = ConsoleProgress(quiet)
     try:
-        rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, overwrite=overwrite,
+        rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
+                          overwrite=overwrite,
                           progress=bar, **tool_arguments(kw, TRIANGULATE))
     finally:
         bar.close()

@@ -50,7 +50,8 @@ from ..io.raster import check_output
 from ..orientation.bundle import Block, BundleOptions, adjust_block
 from ..progress import as_progress
 from .boundary import tool
-from .triangulate_inputs import frame_names, orientations, read_block_control, read_camera
+from ..io.block import split_check_points
+from .triangulate_inputs import add_automatic_control, frame_names, orientations, read_block_control, read_camera
 from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 
 __all__ = ["CAMERA_FILE", "FILES", "triangulate"]
@@ -103,7 +104,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, snooping: bool = True,
                 max_correlation: float = 0.999, check_fraction: float = 0.0, seed: int = 0, dem=None,
-                orthorectify: bool = False, resolution=None, resampling: str = "nearest", overwrite: bool = False,
+                orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
+                reference_sigma_xy: float = 0.5, reference_sigma_z: float = 1.0, overwrite: bool = False,
                 progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
     prog = as_progress(progress).with_own_timings()
@@ -114,22 +116,24 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
     if eo is None and not gcps:
         raise InputError("give the approximate exterior orientation (--eo) or ground control (--gcps) to resect "
                          "the frames")
-    inputs = [*frames, camera, eo, observations, gcps, dem]  # observations None: matched
+    inputs = [*frames, camera, eo, observations, gcps, dem, *_as_list(reference)]  # observations None: matched
     finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=self_calibration,
                           orthorectify=orthorectify)
     for path in finals.values():
         check_output(path, inputs, overwrite, "output")
     cam, distortion = read_camera(camera)
     names = frame_names(frames, cam)
-    gcp, map_crs, check_ids = read_block_control(gcps, crs, gcp_crs, cam, names, check_points, check_fraction, seed)
-    eos = orientations(eo, names, cam, distortion, gcp, check_ids)
+    gcp, map_crs, eos, check_ids, auto = _control(frames, names, cam, distortion, eo, gcps, crs, gcp_crs, check_points,
+                                            check_fraction, seed, reference, dem, prog.stage(0.0, 0.2, "control"))
     matching = None
     if observations is not None:
         obs = read_image_observations(observations)
     else:
-        obs, matching = _matched(frames, names, cam, eos, gcp, prog.stage(0.05, 0.5, "matching the frames"))
+        obs, matching = _matched(frames, names, cam, eos, gcp, prog.stage(0.2, 0.5, "matching the frames"))
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, control_sigma_xy,
                                                           control_sigma_z, image_sigma)
+    automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
+    sig[automatic] = [reference_sigma_xy, reference_sigma_xy, reference_sigma_z]
     block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, distortion=distortion,
                   crs=map_crs)
     eo_sigma = None
@@ -143,11 +147,37 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                                          "eo": str(eo) if eo else None, "gcps": str(gcps) if gcps else None,
                                          "observations": str(observations) if observations else None,
                                          "dem": str(dem) if dem else None, "folder": str(folder),
+                                         "reference": [str(r) for r in _as_list(reference)] or None,
+                                         "automatic_control": len(auto),
                                          "matching": matching, "resected_frames": _resected(eo, names)})
     write_outputs(finals, result, block, frames, rep, dem=dem, resolution=resolution, resampling=resampling,
                   overwrite=overwrite, progress=prog.stage(0.8, 1.0, "writing the outputs"))
     prog(1.0, "done")
     return rep
+
+
+def _control(frames, names, cam, distortion, eo, gcps, crs, gcp_crs, check_points, check_fraction, seed, reference,
+             dem, prog):
+    """``(control GcpList or None, map CRS, approximate orientations, check-point names, automatic control
+    names)``: the surveyed
+    control, the approximate orientation (resection where ``eo`` lacks a frame), the automatic control from
+    ``reference`` (:mod:`fotogeo.tools.triangulate_inputs`) and the check points."""
+    gcp, map_crs, given_checks = read_block_control(gcps, crs, gcp_crs, cam, names, check_points)
+    eos = orientations(eo, names, cam, distortion, gcp, given_checks)
+    auto = set()
+    if _as_list(reference):
+        surveyed = set(gcp.name) if gcp is not None else set()
+        gcp = add_automatic_control(gcp, frames, names, cam, eos, _as_list(reference), dem, map_crs, prog)
+        auto = set(gcp.name) - surveyed
+    check_ids = split_check_points(gcp, given_checks, check_fraction or 0.0, seed) if gcp is not None else set()
+    return gcp, map_crs, eos, check_ids, auto
+
+
+def _as_list(paths) -> list:
+    """``None`` → [], one path → [path], a sequence → a list."""
+    if not paths:
+        return []
+    return [paths] if isinstance(paths, (str, Path)) else list(paths)
 
 
 def _resected(eo, names) -> list:

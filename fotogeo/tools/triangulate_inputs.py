@@ -6,6 +6,10 @@
 * **Control**: :func:`fotogeo.io.block.read_control` (``gcp_list.txt`` or a point layer / CSV in
   any CRS), transformed into the map CRS (``crs``, else the control's own CRS; it must be
   projected). Measurements outside their frame are refused by name.
+* **Automatic control** (``reference`` orthophoto(s) and ``dem``): the GCPs that
+  :func:`fotogeo.tools.triangulate_control.automatic_control` finds by matching every frame to the
+  reference (named ``auto…``), merged with the surveyed ones; they need the approximate
+  orientation of every frame (the ``--eo`` file or resection against surveyed GCPs).
 * **Check points**: the file's ``check`` roles, the names given, and a seeded, spread hold-out
   of ``check_fraction`` of the control (:func:`fotogeo.io.block.split_check_points`).
 * **Approximate orientation**: the ``--eo`` file; a frame it lacks (or every frame, without
@@ -50,11 +54,16 @@ def frame_names(frames, camera) -> list:
     return names
 
 
-def read_block_control(gcps, crs, gcp_crs, camera, names, check_points, check_fraction, seed):
-    """``(GcpList in the map CRS, map CRS, check-point names)``; ``gcps`` None: ``(None, crs, set())``."""
+def read_block_control(gcps, crs, gcp_crs, camera, names, check_points):
+    """``(GcpList in the map CRS, map CRS, check-point names)``; ``gcps`` None: ``(None, crs, names)``.
+    The check points are the names given and the file's ``check`` roles (the hold-out comes later,
+    :func:`check_point_names`)."""
+    ids = {c.strip() for c in (check_points or "").split(",") if c.strip()}
     if not gcps:
         if not crs:
             raise InputError("give the map CRS (crs=..., --crs) or ground control (--gcps) that carries one")
+        if ids:
+            raise InputError("check_points: names given but no ground control (--gcps)")
         map_crs = parse_crs(crs, "map CRS")
         require_projected(map_crs, "map CRS of the block")
         return None, map_crs, set()
@@ -63,11 +72,31 @@ def read_block_control(gcps, crs, gcp_crs, camera, names, check_points, check_fr
     require_projected(map_crs, "map CRS of the block (give a projected one with --crs)")
     gcp = control_in(gcp, map_crs)
     gcp = _in_frames(gcp, names, camera, gcps)
-    ids = {c.strip() for c in (check_points or "").split(",") if c.strip()}
     unknown = sorted(ids - set(gcp.name))
     if unknown:
         raise InputError(f"check_points: {', '.join(unknown[:10])} are not GCP names of {str(gcps)!r}")
-    return gcp, map_crs, split_check_points(gcp, ids, check_fraction or 0.0, seed)
+    return gcp, map_crs, split_check_points(gcp, ids, 0.0, None)
+
+
+def add_automatic_control(gcp, frames, names, camera, eos, reference, dem, map_crs, progress) -> GcpList:
+    """``gcp`` (or None) plus the automatic control from ``reference`` and ``dem`` (module docstring)."""
+    from dataclasses import replace
+
+    from .triangulate_control import automatic_control
+    if dem is None:
+        raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
+    refs = [reference] if isinstance(reference, (str, bytes)) or not hasattr(reference, "__iter__") else list(reference)
+    auto = automatic_control(frames, names, camera, eos, refs, dem, map_crs, progress=progress)
+    auto = replace(auto, crs=map_crs, role=None if gcp is None or gcp.role is None else
+                   np.full(len(auto.name), "control", dtype=object))
+    if gcp is None:
+        return auto
+    clash = sorted(set(auto.name) & set(gcp.name))
+    if clash:
+        raise InputError(f"GCP names {', '.join(clash[:5])} are used by the automatic control (auto…); rename them")
+    role = None if gcp.role is None else np.concatenate([gcp.role, auto.role])
+    return GcpList(map_crs, np.concatenate([gcp.name, auto.name]), np.vstack([gcp.ground, auto.ground]),
+                   np.vstack([gcp.pixel, auto.pixel]), np.concatenate([gcp.frame, auto.frame]), role)
 
 
 def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
