@@ -37,7 +37,8 @@ tile, so a reference keypoint (tile, position) matched in several frames is one 
 several image measurements. Thinning (Gruber's positions, generalised): every frame is cut
 into ``cells x cells`` regions with a budget of ``per_frame / cells²`` points each; candidates
 are taken in order of (more frames first, smaller fit residual), and one is kept while any of
-its measurements falls in a region still below its budget — so the control is spread over
+its measurements falls in a region still below its budget
+(:func:`fotogeo.tools.triangulate_match.thin_to_budget`) — so the control is spread over
 every frame and multi-ray points come first.
 """
 from __future__ import annotations
@@ -54,6 +55,7 @@ from ..options import RegisterOptions
 from ..pixels import outline, pixel_to_map
 from ..progress import as_progress
 from .match import find_tie_points
+from .triangulate_match import image_regions, thin_to_budget
 
 
 def _references(reference) -> list:
@@ -113,41 +115,6 @@ def _robust_inliers(px, xyz, camera, step, opts):
     return fit.inliers, np.hypot(*fit.residual_px.T)
 
 
-def _region(px, camera, cells):
-    w, h = camera.image_size
-    col = np.clip((px[:, 0] / w * cells).astype(int), 0, cells - 1)
-    row = np.clip((px[:, 1] / h * cells).astype(int), 0, cells - 1)
-    return row * cells + col
-
-
-def thin_to_budget(point, frame, region, score, budget: int) -> np.ndarray:
-    """Points to keep (sorted unique ids of ``point``) so that each (frame, region) gets up to ``budget``.
-
-    ``point``, ``frame``, ``region`` (n,) describe the measurements; ``score`` (n,) orders the
-    points (a point's smallest score counts; lower first). Greedy: a point is kept while any of
-    its measurements falls in a (frame, region) that holds fewer than ``budget`` kept points.
-
-    >>> thin_to_budget(np.array([0, 1, 2, 2]), np.array([0, 0, 0, 1]), np.zeros(4, int),
-    ...                np.array([0.0, 1.0, 2.0, 2.0]), 1).tolist()
-    [0, 2]
-    """
-    ids, inv = np.unique(point, return_inverse=True)
-    best = np.full(len(ids), np.inf)
-    np.minimum.at(best, inv, score)
-    cell = frame.astype(np.int64) * (int(region.max()) + 1 if len(region) else 1) + region
-    count: dict = {}
-    members = [[] for _ in ids]
-    for m, i in enumerate(inv):
-        members[i].append(cell[m])
-    keep = []
-    for i in np.argsort(best, kind="stable"):
-        if any(count.get(c, 0) < budget for c in members[i]):
-            keep.append(ids[i])
-            for c in members[i]:
-                count[c] = count.get(c, 0) + 1
-    return np.sort(np.array(keep, dtype=ids.dtype))
-
-
 def _crs_text(crs) -> str:
     auth = crs.to_authority()
     return f"{auth[0]}:{auth[1]}" if auth else crs.to_wkt()
@@ -194,7 +161,7 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
     frame, px, xyz, res, point = frame[once], px[once], xyz[once], res[once], point[once]
     n_frames = np.bincount(point)[point]
     score = -n_frames * 1e3 + np.minimum(res, 999.0)  # more rays first, then the smaller residual
-    keep = np.isin(point, thin_to_budget(point, frame, _region(px, camera, cells), score,
+    keep = np.isin(point, thin_to_budget(point, frame, image_regions(px, camera, cells), score,
                                          max(1, per_frame // (cells * cells))))
     ids = {p: k for k, p in enumerate(dict.fromkeys(point[keep]))}
     ground = np.zeros((len(ids), 3))

@@ -1,26 +1,47 @@
 """Tie points of a block by matching its overlapping frames (the tool layer of ``fotogeo triangulate``).
 
+The steps of digital aerial triangulation's tie-point measurement (Yastıklı; Büyüksalih):
+
 * **Topology**: each frame's footprint is its outline (:func:`fotogeo.pixels.outline`) projected
   with the approximate orientation onto the plane of the mean terrain height; two frames
   overlap when their footprints share more than ``min_overlap`` of the smaller one — along and
   across strips.
-* **Matching**: every overlapping pair goes through :func:`fotogeo.tools.match.find_tie_points`
-  (PCA, SURF, ratio test and mutual check, as the registration; Dihkan 2019), then a RANSAC
-  fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px`` keeps the pairs that fit the
-  two-view geometry.
+* **Detection on a pyramid level**: every overlapping pair goes through
+  :func:`fotogeo.tools.match.find_tie_points` (PCA, SURF, ratio test and mutual check, as the
+  registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
+  ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
+  resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
+  keeps the pairs that fit the two-view geometry.
 * **Tracks**: a keypoint is the same in every pair of its frame (the detector is deterministic),
   so matches are joined into multi-ray tracks by union–find on (frame, keypoint position); a
   track that holds two different keypoints of one frame is inconsistent and dropped.
+* **Gruber positions**: every frame is cut into ``cells x cells`` regions (3 x 3: Gruber's nine
+  positions) and tracks are kept, most rays first, while any of their observations falls in a
+  region holding fewer than ``per_region`` kept tracks (:func:`thin_to_budget`; 25–30 per
+  region in the classical rule).
+* **Followed down to full resolution by least-squares matching** (Gruen 1985,
+  :func:`fotogeo.matching.lsm_many`): in each track the observation in the lowest-numbered frame is
+  the anchor; the window around it is matched into every other frame of the track, starting
+  from the keypoint position and the local affinity ``∂x_j/∂x_anchor`` of the approximate
+  orientations through the plane at the mean height (rotation between strips flown in opposite
+  directions, scale); an observation whose LSM does not converge is dropped, and with it a
+  track left with fewer than two. Each refined observation gets the LSM's a-posteriori
+  precision ``σ = sqrt((σx² + σy²) / 2)`` (floored at ``min_sigma``: a Gauss–Markov σ of LSM does not
+  see interpolation error, :mod:`fotogeo.matching.lsm`); the anchor, which defines the point,
+  gets the RMS σ of its track's transfers.
 """
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from ..errors import MatchingError
 from ..geometry.camera import OrientedFrame
-from ..io.raster import open_raster
+from ..io.raster import open_raster, read_decimated
 from ..options import RegisterOptions
 from ..pixels import outline
+from ..progress import as_progress
 from .match import find_tie_points
 
 
@@ -71,9 +92,159 @@ def _epipolar_inliers(xy1, xy2, threshold):
     return np.zeros(len(xy1), bool) if mask is None else mask.ravel().astype(bool)
 
 
-def match_block(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, options=None, progress=None):
-    """``(frame index (n,), track id (n,), pixel (n, 2), report)`` of the tie points of the block."""
-    from ..progress import as_progress
+def thin_to_budget(point, frame, region, score, budget: int) -> np.ndarray:
+    """Points to keep (sorted unique ids of ``point``) so that each (frame, region) gets up to ``budget``.
+
+    ``point``, ``frame``, ``region`` (n,) describe the measurements; ``score`` (n,) orders the
+    points (a point's smallest score counts; lower first). Greedy: a point is kept while any of
+    its measurements falls in a (frame, region) that holds fewer than ``budget`` kept points.
+
+    >>> thin_to_budget(np.array([0, 1, 2, 2]), np.array([0, 0, 0, 1]), np.zeros(4, int),
+    ...                np.array([0.0, 1.0, 2.0, 2.0]), 1).tolist()
+    [0, 2]
+    """
+    ids, inv = np.unique(point, return_inverse=True)
+    best = np.full(len(ids), np.inf)
+    np.minimum.at(best, inv, score)
+    cell = frame.astype(np.int64) * (int(region.max()) + 1 if len(region) else 1) + region
+    count: dict = {}
+    members = [[] for _ in ids]
+    for m, i in enumerate(inv):
+        members[i].append(cell[m])
+    keep = []
+    for i in np.argsort(best, kind="stable"):
+        if any(count.get(c, 0) < budget for c in members[i]):
+            keep.append(ids[i])
+            for c in members[i]:
+                count[c] = count.get(c, 0) + 1
+    return np.sort(np.array(keep, dtype=ids.dtype))
+
+
+def image_regions(px, camera, cells: int = 3) -> np.ndarray:
+    """Index ``row * cells + col`` of the ``cells x cells`` region of the frame each pixel falls in."""
+    w, h = camera.image_size
+    col = np.clip((px[:, 0] / w * cells).astype(int), 0, cells - 1)
+    row = np.clip((px[:, 1] / h * cells).astype(int), 0, cells - 1)
+    return row * cells + col
+
+
+def _detection_options(opts, info, level: int):
+    """The options with ``max_match_pixels`` set to reach pyramid level ``level`` (never above the user's)."""
+    target = max(10_000, int(info.width * info.height / 4 ** level))
+    return dataclasses.replace(opts, max_match_pixels=min(opts.max_match_pixels, target))
+
+
+def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
+    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report)``."""
+    uf, pos, per_pair = _UnionFind(), {}, []
+    det = _detection_options(opts, infos[0], level)
+    for k, (i, j) in enumerate(pairs):
+        try:
+            stage = prog.stage(k / len(pairs), (k + 1) / len(pairs), f"matching pair {k + 1}/{len(pairs)}")
+            xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], det, stage)
+        except MatchingError:
+            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
+            continue
+        keep = _epipolar_inliers(xy_i, xy_j, epipolar_px * 2 ** level)
+        per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
+        for a, b in zip(xy_i[keep], xy_j[keep]):
+            na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
+            pos[na], pos[nb] = a, b
+            uf.union(na, nb)
+    return uf, pos, per_pair
+
+
+def _tracks(uf, pos, n_frames):
+    """``(frame, track, pixel, inconsistent tracks dropped)`` from the union–find of :func:`_pair_matches`."""
+    nodes = list(pos)
+    ids = {}
+    track = np.array([ids.setdefault(uf.find(n), len(ids)) for n in nodes], dtype=np.intp)
+    frame = np.array([n[0] for n in nodes], dtype=np.intp)
+    pixel = np.array([pos[n] for n in nodes]).reshape(-1, 2)
+    _, inv, cnt = np.unique(track * (n_frames + 1) + frame, return_inverse=True, return_counts=True)
+    dup_tracks = np.unique(track[cnt[inv.ravel()] > 1])  # two keypoints of one frame in a track: inconsistent
+    ok = ~np.isin(track, dup_tracks)
+    _, track = np.unique(track[ok], return_inverse=True)
+    return frame[ok], track.ravel(), pixel[ok], int(len(dup_tracks))
+
+
+def _grey(info) -> np.ndarray:
+    """The frame at full resolution as one float32 band (mean of the bands), NaN where nodata."""
+    bands, mask, _ = read_decimated(info, info.width * info.height + 1, "frame")
+    img = bands.astype(np.float32).mean(axis=0)
+    img[~mask] = np.nan
+    return img
+
+
+def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
+    """``(n, 2, 2)`` Jacobians ``J[:, :, k] = ∂x_to / ∂(axis k of x_from)`` of the transfer of frame pixels
+    ``xy`` through the plane at ``height`` with the approximate orientations (identity where undefined)."""
+    a, b = OrientedFrame(camera, eo_from), OrientedFrame(camera, eo_to)
+
+    def transfer(p):
+        return b.world_to_pixel(a.pixel_to_world_at(p, height))
+    e = 0.5
+    jx = (transfer(xy + [e, 0]) - transfer(xy - [e, 0])) / (2 * e)
+    jy = (transfer(xy + [0, e]) - transfer(xy - [0, e])) / (2 * e)
+    J = np.stack([jx, jy], axis=2)
+    bad = ~np.isfinite(J).all(axis=(1, 2))
+    J[bad] = np.eye(2)
+    return J
+
+
+def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
+                  min_sigma: float = 0.05, prog=None):
+    """LSM transfer of each track's anchor window into its other frames (module docstring).
+
+    Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
+    """
+    from ..matching import lsm_many
+    prog = as_progress(prog)
+    n = len(frame)
+    order = np.lexsort((frame, track))
+    is_anchor = np.zeros(n, bool)
+    is_anchor[order[np.r_[True, np.diff(track[order]) != 0]]] = True
+    anchor_of = np.empty(len(np.unique(track)), np.intp)
+    anchor_of[track[is_anchor]] = np.flatnonzero(is_anchor)
+    anchor = anchor_of[track]
+    out, sigma, ok = pixel.copy(), np.full(n, np.nan), is_anchor.copy()
+    groups = sorted({(int(frame[anchor[m]]), int(frame[m])) for m in np.flatnonzero(~is_anchor)})
+    cache: dict = {}
+    for g, (fa, fb) in enumerate(groups):
+        prog(g / max(1, len(groups)), f"least-squares matching {g + 1}/{len(groups)}")
+        cache = {k: v for k, v in cache.items() if k in (fa, fb)}  # the anchor frame stays while its groups run
+        for f in (fa, fb):
+            if f not in cache:
+                cache[f] = _grey(infos[f])
+        m = np.flatnonzero(~is_anchor & (frame == fb) & (frame[anchor] == fa))
+        J = local_affinity(camera, eos[fa], eos[fb], pixel[anchor[m]], height)
+        res = lsm_many(cache[fa], cache[fb], pixel[anchor[m]], pixel[m], half_window=half_window,
+                       approx_jacobian=J, max_shift=max_shift)
+        good = res.ok
+        out[m[good]] = res.xy[good]
+        sigma[m[good]] = np.maximum(np.sqrt(np.mean(res.sigma[good] ** 2, axis=1)), min_sigma)
+        ok[m[good]] = True
+    transfers = ok & ~is_anchor
+    n_ok = np.bincount(track[transfers], minlength=len(anchor_of))
+    ok &= n_ok[track] >= 1  # the anchor and at least one transfer
+    s2 = np.bincount(track[transfers], weights=sigma[transfers] ** 2, minlength=len(anchor_of))
+    has = n_ok >= 1  # the anchor: the RMS σ of its track's transfers
+    sigma[anchor_of[has]] = np.sqrt(s2[has] / n_ok[has])
+    moved = np.hypot(*(out[transfers] - pixel[transfers]).T)
+    summary = {"transfers": int((~is_anchor).sum()), "converged": int(transfers.sum()),
+               "median_shift_px": float(np.median(moved)) if len(moved) else None,
+               "median_sigma_px": float(np.median(sigma[transfers])) if transfers.any() else None,
+               "observations_dropped": int(n - ok.sum())}
+    return ok, out, sigma, summary
+
+
+def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int = 1,
+                     cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
+                     options=None, progress=None):
+    """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
+    block (module docstring): detection on pyramid ``level``, epipolar RANSAC, tracks, thinning to
+    ``per_region`` tracks in each of ``cells x cells`` regions per frame (None: no thinning), LSM at full
+    resolution (``lsm``; σ None without it)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     pairs = overlapping_pairs(camera, eos, height)
@@ -83,28 +254,46 @@ def match_block(frames, camera, eos, height: float, *, epipolar_px: float = 1.0,
                             f"with the approximate orientation (footprints at height {height:.1f}); check the "
                             f"orientation file or remove them")
     infos = [open_raster(f, "frame") for f in frames]
-    uf, pos, per_pair = _UnionFind(), {}, []
-    for k, (i, j) in enumerate(pairs):
-        try:
-            xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], opts, prog.stage(k / len(pairs), (k + 1) / len(pairs),
-                                                                                   f"matching pair {k + 1}/{len(pairs)}"))
-        except MatchingError:
-            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
-            continue
-        keep = _epipolar_inliers(xy_i, xy_j, epipolar_px)
-        per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
-        for a, b in zip(xy_i[keep], xy_j[keep]):
-            na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
-            pos[na], pos[nb] = a, b
-            uf.union(na, nb)
-    nodes = list(pos)
-    ids = {}
-    track = np.array([ids.setdefault(uf.find(n), len(ids)) for n in nodes], dtype=np.intp)
-    frame = np.array([n[0] for n in nodes], dtype=np.intp)
-    _, inv, cnt = np.unique(track * (len(frames) + 1) + frame, return_inverse=True, return_counts=True)
-    dup_tracks = np.unique(track[cnt[inv] > 1])  # two keypoints of one frame in a track: inconsistent
-    ok = ~np.isin(track, dup_tracks)
-    pixel = np.array([pos[n] for n in nodes]).reshape(-1, 2)
-    report = {"pairs": per_pair, "tracks": int(len(np.unique(track[ok]))),
-              "dropped_inconsistent_tracks": int(len(dup_tracks))}
-    return frame[ok], track[ok], pixel[ok], report
+    uf, pos, per_pair = _pair_matches(infos, pairs, opts, level, epipolar_px, prog.stage(0.0, 0.7, "matching"))
+    frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
+    report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
+              "dropped_inconsistent_tracks": dropped}
+    if per_region is not None and len(track):
+        rays = np.bincount(track)[track].astype(float)
+        kept = thin_to_budget(track, frame, image_regions(pixel, camera, cells), -rays, int(per_region))
+        keep = np.isin(track, kept)
+        report["thinning"] = {"cells": int(cells), "per_region": int(per_region), "tracks_kept": int(len(kept))}
+        frame, track, pixel = frame[keep], np.unique(track[keep], return_inverse=True)[1].ravel(), pixel[keep]
+    sigma = None
+    if lsm and len(track):
+        ok, pixel, sigma, report["lsm"] = refine_tracks(infos, frame, track, pixel, camera, eos, height,
+                                                        max_shift=2.0 ** level + 1.5, half_window=half_window,
+                                                        prog=prog.stage(0.7, 1.0, "least-squares matching"))
+        frame, pixel, sigma = frame[ok], pixel[ok], sigma[ok]
+        track = np.unique(track[ok], return_inverse=True)[1].ravel()
+    report["tracks"] = int(len(np.unique(track)))
+    report["rays_per_track"] = {str(k): int(v) for k, v in zip(*np.unique(np.bincount(track), return_counts=True))}
+    return frame, track, pixel, sigma, report
+
+
+#: the first matcher's steps (full-resolution SURF, every epipolar inlier, no LSM): what :func:`match_block` runs
+#: unless told otherwise, so its callers keep their results until they move to :func:`matched_observations`
+FIRST_VERSION = {"level": 0, "per_region": None, "lsm": False}
+
+
+def match_block(frames, camera, eos, height: float, *, progress=None, **kwargs):
+    """``(frame index (n,), track id (n,), pixel (n, 2), report)``: :func:`block_tie_points` without the σ,
+    with the steps of :data:`FIRST_VERSION` unless ``kwargs`` name others."""
+    frame, track, pixel, _, report = block_tie_points(frames, camera, eos, height, progress=progress,
+                                                      **{**FIRST_VERSION, **kwargs})
+    return frame, track, pixel, report
+
+
+def matched_observations(frames, names, camera, eos, height: float, **kwargs):
+    """``(ImageObservations, report)``: :func:`block_tie_points` as the table the bundle adjustment reads
+    (frame keys ``names``, point ids ``tie<track>``, each observation's LSM σ)."""
+    from ..io.block import ImageObservations
+    frame, track, pixel, sigma, report = block_tie_points(frames, camera, eos, height, **kwargs)
+    obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
+                            np.array([f"tie{t}" for t in track], dtype=object), pixel, sigma)
+    return obs, report
