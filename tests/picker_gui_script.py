@@ -14,14 +14,16 @@ import traceback
 
 ARGS = json.loads(open(sys.argv[1]).read())
 sys.path.insert(0, ARGS["root"])
+sys.path.insert(0, os.path.join(ARGS["root"], "tests"))
 from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry,  # noqa: E402
                        QgsPointXY, QgsProject, QgsSnappingConfig, QgsTolerance, QgsVectorLayer)
 
 APP = QgsApplication([], True)
 APP.initQgis()
-from qgis.gui import QgsMapCanvas, QgsMapCanvasSnappingUtils, QgsMapMouseEvent  # noqa: E402
+from qgis.gui import QgsMapCanvas, QgsMapCanvasSnappingUtils  # noqa: E402
 from qgis.PyQt.QtCore import QEvent, QPoint, Qt  # noqa: E402
 
+from picker_driver import click, drag, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
 from processing_provider.picker.dock import PickerDock  # noqa: E402
 from processing_provider.picker.map_tools import IMAGE, MAP  # noqa: E402
 from processing_provider.session import WorkerSession  # noqa: E402
@@ -34,55 +36,6 @@ def pump(seconds=0.05):
     while time.monotonic() < end:
         APP.processEvents()
         time.sleep(0.01)
-
-
-def mouse(tool, kind, pos: QPoint, button=Qt.LeftButton):
-    canvas = tool.canvas()
-    buttons = button if kind != QEvent.MouseButtonRelease else Qt.NoButton
-    event = QgsMapMouseEvent(canvas, kind, pos, button, buttons, Qt.NoModifier)
-    {QEvent.MouseButtonPress: tool.canvasPressEvent, QEvent.MouseMove: tool.canvasMoveEvent,
-     QEvent.MouseButtonRelease: tool.canvasReleaseEvent}[kind](event)
-
-
-def click(tool, pos: QPoint, button=Qt.LeftButton):
-    mouse(tool, QEvent.MouseMove, pos, Qt.NoButton)
-    mouse(tool, QEvent.MouseButtonPress, pos, button)
-    mouse(tool, QEvent.MouseButtonRelease, pos, button)
-
-
-def drag(tool, start: QPoint, end: QPoint):
-    mouse(tool, QEvent.MouseButtonPress, start)
-    mouse(tool, QEvent.MouseMove, QPoint((start.x() + end.x()) // 2, (start.y() + end.y()) // 2))
-    mouse(tool, QEvent.MouseMove, end)
-    mouse(tool, QEvent.MouseButtonRelease, end)
-
-
-def screen(canvas, x, y) -> QPoint:
-    p = canvas.getCoordinateTransform().transform(QgsPointXY(x, y))
-    return QPoint(round(p.x()), round(p.y()))
-
-
-def gcps(dock):
-    return [{"id": g.id, "col": g.col, "row": g.row, "x": g.x, "y": g.y, "z": g.z, "role": g.role}
-            for g in dock.controller.store.gcps()]
-
-
-def table(dock):
-    return [{k: v for k, v in dock.table.row_values(i).items()} for i in range(dock.table.rowCount())]
-
-
-def map_screen(dock, x, y) -> QPoint:
-    """Screen position on the main canvas of map point (x, y) in the GCP layer's CRS."""
-    p = dock.controller.layer_to_map(x, y)
-    return screen(dock.map_canvas, p.x(), p.y())
-
-
-def pick(dock, truth, image_first=True):
-    """One GCP by two clicks (image then map, or map then image) at the truth's screen positions."""
-    img = screen(dock.image_canvas, truth["col"], -truth["row"])
-    mp = map_screen(dock, truth["x"], truth["y"])
-    for side in ((IMAGE, MAP) if image_first else (MAP, IMAGE)):
-        click(dock.tools[side], img if side == IMAGE else mp)
 
 
 def setup():
@@ -130,6 +83,15 @@ def main():
     truth = ARGS["gcps"]
     STATE["not_raster"] = [dock.open_image(ARGS["not_raster"]), dock.last_message]
     assert dock.open_image(ARGS["frame"]), dock.last_message
+    STATE["image_extent"] = dock.image.layer.extent().toString(3)
+    provider = dock.image.layer.dataProvider()
+    from osgeo import gdal  # QGIS's own GDAL: the same JPEG decoder as the layer
+    source = gdal.Open(ARGS["frame"])
+    band = source.GetRasterBand(1)  # (its ReadAsArray needs the system numpy: single-pixel reads)
+    value = lambda c, r: band.ReadRaster(c, r, 1, 1, buf_type=gdal.GDT_Byte)[0]  # noqa: E731
+    STATE["samples"] = [[c, r, provider.sample(QgsPointXY(c + 0.5, -(r + 0.5)), 1)[0], value(c, r),
+                         value(c, band.YSize - 1 - r)]
+                        for c, r in ((0, 0), (639, 0), (0, 1151), (300, 700), (17, 1003), (250, 10), (400, 90))]
     store = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
     dock.model_combo.setCurrentText("dlt")
     dock.height_combo.setCurrentText("dem")

@@ -85,6 +85,16 @@ def test_dock_rejects_a_file_that_is_not_a_raster(picked):
     assert opened is False and "notes.txt" in message and "is not a raster GDAL can read" in message
 
 
+def test_image_canvas_shows_pixels_at_x_col_y_minus_row(picked):
+    """Pixel (col, row) of the frame (georeferenced, rotated 180°) is drawn at x = col + 0.5, y = -(row + 0.5)
+    of the image canvas: the layer's value there is GDAL's value of that pixel, not of the row mirrored."""
+    state, _, _ = picked
+    assert state["image_extent"] == "0.000,-1152.000 : 640.000,0.000"
+    for col, row, shown, value, mirrored in state["samples"]:
+        assert shown == value, (col, row)
+    assert sum(v != m for *_, v, m in state["samples"]) >= 5
+
+
 def test_clicks_on_both_canvases_create_gcps_with_snapping(picked):
     state, truth, _ = picked
     upp, mupp = state["image_units_per_pixel"], state["map_units_per_pixel"]

@@ -134,6 +134,7 @@ class PickerDock(DockActions, QDockWidget):
         splitter = QSplitter(Qt.Vertical)
         splitter.addWidget(top)
         splitter.addWidget(self.table)
+        splitter.setSizes([640, 360])
         self.setWidget(splitter)
 
     def _proposal_row(self) -> QWidget:
@@ -189,6 +190,9 @@ class PickerDock(DockActions, QDockWidget):
             self.say(str(e))
             return False
         self.image = image
+        self.image_file.blockSignals(True)
+        self.image_file.setFilePath(path)
+        self.image_file.blockSignals(False)
         self.image_canvas.setDestinationCrs(image.layer.crs())
         self.image_canvas.setLayers([image.layer])
         self.image_canvas.setExtent(image.layer.extent())

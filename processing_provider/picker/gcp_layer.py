@@ -87,9 +87,8 @@ class GcpLayer(QObject):
     @classmethod
     def create(cls, crs: QgsCoordinateReferenceSystem, name: str = "fotogeo GCPs", add_to_project: bool = True):
         """A new memory layer in ``crs`` with the GCP fields (added to the project: saved with it)."""
-        layer = QgsVectorLayer(f"Point?crs={crs.authid() or 'wkt:' + crs.toWkt()}", name, "memory")
-        if not crs.authid():
-            layer.setCrs(crs)
+        layer = QgsVectorLayer("Point", name, "memory")
+        layer.setCrs(crs)  # the very CRS given (a WKT round trip may differ and then need a transform)
         layer.dataProvider().addAttributes([QgsField(n, t) for n, t in FIELDS])
         layer.updateFields()
         if add_to_project:

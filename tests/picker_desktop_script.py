@@ -1,0 +1,119 @@
+"""Startup script (``qgis --code``) of tests/test_qgis_picker_desktop.py: the GCP picker in the real desktop.
+
+Opens the dock through the plugin's menu action, picks GCPs by simulated clicks on the image canvas and on
+QGIS's map canvas (over the reference orthophoto), makes two of them check points, moves the cursor to show
+the prediction, and grabs screenshots; optionally runs *Propose GCPs* and grabs the proposals. Writes
+``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
+"""
+import json
+import os
+import sys
+import traceback
+
+from qgis.core import QgsApplication, QgsProject, QgsRasterLayer, QgsRectangle
+from qgis.PyQt.QtCore import QEvent, Qt, QTimer
+from qgis.PyQt.QtWidgets import QAction, QDockWidget
+from qgis.utils import iface
+
+ARGS = json.loads(open(os.environ["FOTOGEO_PICKER_ARGS"]).read())
+OUT = ARGS["out"]
+sys.path.insert(0, ARGS["tests"])
+from picker_driver import IMAGE, gcps, mouse, pick, screen, table  # noqa: E402
+
+STATE = {}
+KEEP = {}
+
+
+def finish():
+    with open(os.path.join(OUT, "result.json"), "w") as f:
+        json.dump(STATE, f)
+    QgsApplication.exit(0)
+
+
+def guard(fn):
+    def wrapped(*args):
+        try:
+            fn(*args)
+        except Exception:
+            STATE["error"] = traceback.format_exc()
+            finish()
+    return wrapped
+
+
+def grab(widget, name, width=None):
+    image = widget.grab()
+    if width:
+        image = image.scaledToWidth(width, Qt.SmoothTransformation)
+    image.save(os.path.join(OUT, name), "PNG", 9)
+
+
+@guard
+def start():
+    window = iface.mainWindow()
+    window.resize(1600, 1000)
+    project = QgsProject.instance()
+    ortho = QgsRasterLayer(ARGS["ortho"], "reference orthophoto")
+    dem = QgsRasterLayer(ARGS["dem"], "DEM")
+    project.addMapLayer(dem, False)  # listed in the dock, not drawn over the map
+    project.addMapLayer(ortho)
+    crs = ortho.crs()
+    KEEP["crs"] = crs
+    project.setCrs(crs)
+    xs, ys = [g["x"] for g in ARGS["gcps"]], [g["y"] for g in ARGS["gcps"]]
+    iface.mapCanvas().setExtent(QgsRectangle(min(xs) - 150, min(ys) - 150, max(xs) + 150, max(ys) + 150))
+    action = window.findChild(QAction, "fotogeoGcpPicker")
+    STATE["action"] = action is not None and action.text()
+    action.trigger()
+    dock = window.findChild(QDockWidget, "FotogeoGcpPicker")
+    KEEP["dock"] = dock
+    STATE["dock_visible"] = dock.isVisible()
+    window.resizeDocks([dock], [820], Qt.Horizontal)
+    assert dock.open_image(ARGS["frame"]), dock.last_message
+    dock.new_gcp_layer(crs)
+    dock.model_combo.setCurrentText("dlt")
+    dock.height_combo.setCurrentText("dem")
+    dock.dem_combo.setLayer(dem)
+    dock.exaggeration_spin.setValue(40)
+    QTimer.singleShot(2500, picking)
+
+
+@guard
+def picking():
+    dock = KEEP["dock"]
+    for k, truth in enumerate(ARGS["gcps"]):
+        pick(dock, truth, image_first=k % 2 == 0)
+    for gid in ("4", "9"):
+        dock.controller.set_role(gid, "check")
+    STATE["gcps"] = gcps(dock)
+    STATE["fit"] = {k: v for k, v in dock.controller.fit.items() if k not in ("forward", "inverse")}
+    STATE["summary"] = dock.summary.text()
+    STATE["table"] = table(dock)
+    # the cursor over the image: the map shows where the model puts that pixel
+    mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, 330, -560), Qt.NoButton)
+    QTimer.singleShot(2500, guard(lambda: (grab(iface.mainWindow(), "picker_dock.png"),
+                                           grab(dock, "picker_table.png"), proposals())))
+
+
+@guard
+def proposals():
+    if not ARGS.get("propose"):
+        finish()
+        return
+    dock = KEEP["dock"]
+    dock.new_gcp_layer(KEEP["crs"])
+    KEEP["task"] = dock.propose(reference=ARGS["ortho"], count=30)
+    wait_proposals(0)
+
+
+@guard
+def wait_proposals(n):
+    dock = KEEP["dock"]
+    if not dock.propose_button.isEnabled() and n < 600:
+        QTimer.singleShot(500, guard(lambda: wait_proposals(n + 1)))
+        return
+    STATE["proposals"] = len(dock.controller.proposals)
+    STATE["propose_error"] = KEEP["task"].error
+    QTimer.singleShot(2000, guard(lambda: (grab(iface.mainWindow(), "picker_proposals.png"), finish())))
+
+
+QTimer.singleShot(3000, start)
