@@ -25,7 +25,7 @@ import os
 
 import numpy as np
 
-from ..crs import parse_crs, transform_points
+from ..crs import parse_crs
 from ..errors import InputError, ModelError
 from ..models import get_model
 from ..orientation.adjustment import CRITICAL_W, fit_orientation, model_src, select_model, standardised_residuals
@@ -37,13 +37,13 @@ _CACHE: dict = {}
 _CACHE_SIZE = 8
 
 
-def _cached(kind: str, path, load):
-    """``load(path)`` once per file version (path, size, modification time); a few kept."""
+def _cached(kind: str, path, load, extra=""):
+    """``load(path)`` once per file version (path, size, modification time) and ``extra`` key; a few kept."""
     try:
         st = os.stat(path)
     except OSError:
         return load(path)  # the loader names the missing file
-    key = (kind, os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    key = (kind, os.path.abspath(path), st.st_size, st.st_mtime_ns, extra)
     if key not in _CACHE:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
@@ -60,13 +60,23 @@ def _dem(path):
     return d
 
 
+def dem_sampler(dem, crs):
+    """The DEM file ``dem`` as a height source at points in ``crs`` (:class:`~fotogeo.geometry.dem.DemSampler`:
+    one transformer, built once per DEM version and CRS — building it costs more than a refit)."""
+    from ..geometry.dem import DemSampler
+    return _cached("sampler", dem, lambda p: DemSampler(_dem(p), crs), extra=crs.to_wkt())
+
+
+def _grid_dem(dem, crs):
+    """The DEM on a grid in the map CRS for the prediction grids (:func:`~fotogeo.tools.gcp_grids.dem_on_map_grid`)."""
+    from .gcp_grids import dem_on_map_grid
+    return _cached("dem_on_map_grid", dem, lambda p: dem_on_map_grid(_dem(p), crs), extra=crs.to_wkt())
+
+
 def dem_heights(dem, crs, xy) -> np.ndarray:
-    """Bilinear DEM heights ``(N,)`` at map points ``xy`` in ``crs`` (NaN outside the DEM), sampled as
-    :func:`fotogeo.io.gcps.read_gcps` samples them for ``orient``."""
-    from pyproj import CRS
-    d = _dem(dem)
-    xy = np.asarray(xy, float).reshape(-1, 2)
-    return np.asarray(d.heights(transform_points(crs, CRS.from_user_input(d.crs), xy)), float)
+    """Bilinear DEM heights ``(N,)`` at map points ``xy`` in ``crs`` (NaN outside the DEM): the transform
+    (always_xy) and bilinear sampling :func:`fotogeo.io.gcps.read_gcps` applies for ``orient``."""
+    return np.asarray(dem_sampler(dem, crs).heights(np.asarray(xy, float).reshape(-1, 2)), float)
 
 
 def sample_heights(xy, *, crs, dem, progress=None) -> dict:
@@ -193,7 +203,7 @@ def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None,
     result["warnings"] = fit.warnings
     if grid:
         result["forward"], result["inverse"] = prediction_grids(
-            fit.model, map_crs, ground[use], size, int(grid), dem=dem and _dem(dem),
+            fit.model, map_crs, ground[use], size, int(grid), dem=_grid_dem(dem, map_crs) if dem else None,
             default_height=default_height)
     return result
 

@@ -13,15 +13,48 @@ round trip to the worker per mouse move: it interpolates these grids bilinearly.
   or the GCPs' mean height where the DEM has none).
 
 Values are NaN where the model gives no answer (a ray that misses the DEM, a point behind the
-camera, a rational function's pole); the worker writes them as JSON null.
+camera, a rational function's pole, a ray-DEM intersection that did not converge: its ground
+point, projected back, misses the pixel by more than :data:`CONSISTENT_PX`); the worker writes
+them as JSON null.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.dem import heights_at
 from ..geometry.georeference import Georeference
 
 PAD = 0.5  # fraction of the GCPs' span added on each side of the inverse grid
+CONSISTENT_PX = 0.1  # a forward node whose ground point projects back further than this is dropped
+
+
+def dem_on_map_grid(dem, crs):
+    """``dem`` (a :class:`~fotogeo.geometry.dem.Dem` in any CRS) resampled bilinearly onto a north-up
+    grid in ``crs`` with as many cells as it has (NaN outside it), so that the grids' many ray-DEM
+    intersections sample a DEM in the map CRS without a coordinate transformation per step.
+
+    For the prediction grids only: a second bilinear resampling smooths the heights a little; the
+    GCPs' own heights are sampled from the original DEM (:func:`fotogeo.tools.gcp_fit.dem_heights`).
+    """
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from ..crs import transform_points
+    from ..geometry.dem import Dem
+    from ..pixels import outline
+    dem_crs = CRS.from_user_input(dem.crs)
+    if dem_crs == crs:
+        return dem
+    rows, cols = dem.data.shape
+    edge = np.array([dem.transform * tuple(p) for p in outline(cols, rows, 33)])
+    edge = transform_points(dem_crs, crs, edge)
+    lo, hi = np.nanmin(edge, axis=0), np.nanmax(edge, axis=0)
+    transform = from_origin(lo[0], hi[1], (hi[0] - lo[0]) / cols, (hi[1] - lo[1]) / rows)
+    c, r = np.meshgrid(np.arange(cols) + 0.5, np.arange(rows) + 0.5)
+    X = transform.c + transform.a * c
+    Y = transform.f + transform.e * r
+    z = dem.heights(transform_points(crs, dem_crs, np.column_stack([X.ravel(), Y.ravel()])))
+    return Dem(np.asarray(z, float).reshape(rows, cols), transform, crs=crs, path=dem.path)
 
 
 def _fallback_height(ground, default_height):
@@ -37,8 +70,12 @@ def forward_grid(model, crs, size, n: int, heights) -> dict | None:
         return None
     cols, rows = np.linspace(0.0, size[0], n), np.linspace(0.0, size[1], n)
     C, R = np.meshgrid(cols, rows)
+    px = np.column_stack([C.ravel(), R.ravel()])
     with np.errstate(all="ignore"):
-        XY = Georeference(model, heights=heights, crs=crs).pixel_to_map(np.column_stack([C.ravel(), R.ravel()]))
+        XY = Georeference(model, heights=heights, crs=crs).pixel_to_map(px)
+        if getattr(model, "src_dims", 2) == 3:  # an intersection that did not converge (steep relief): no answer
+            back = model.forward(np.column_stack([XY, heights_at(heights, XY)]))
+            XY[~(np.hypot(*(back - px).T) < CONSISTENT_PX)] = np.nan
     XY = np.where(np.isfinite(XY), XY, np.nan)
     return {"cols": cols.tolist(), "rows": rows.tolist(), "x": XY[:, 0].reshape(n, n).tolist(),
             "y": XY[:, 1].reshape(n, n).tolist()}
@@ -67,13 +104,12 @@ def inverse_grid(model, crs, ground, n: int, dem_sampler, fallback: float) -> di
 def prediction_grids(model, crs, ground, size, n: int, *, dem=None, default_height=None):
     """``(forward, inverse)`` grids of ``model`` (ground → image) with ``n`` x ``n`` nodes each.
 
-    ``ground`` ``(N, 3)`` are the GCPs used (their extent, their mean height); ``dem`` a
-    :class:`~fotogeo.geometry.dem.Dem` in any CRS; ``size`` the image ``(width, height)`` or
-    ``(None, None)``.
+    ``ground`` ``(N, 3)`` are the GCPs used (their extent, their mean height); ``dem`` a height
+    source at points in ``crs`` (:func:`dem_on_map_grid`) or None; ``size`` the image
+    ``(width, height)`` or ``(None, None)``.
     """
-    from .orient import _dem_in
     n = max(2, min(int(n), 200))
     fallback = _fallback_height(ground, default_height)
-    sampler = _dem_in(dem, crs) if dem is not None else None
+    sampler = dem
     heights = sampler if sampler is not None else fallback
     return forward_grid(model, crs, size, n, heights), inverse_grid(model, crs, ground, n, sampler, fallback)
