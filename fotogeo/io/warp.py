@@ -194,7 +194,12 @@ class GeotransformInverse:
     def __call__(self, XY) -> np.ndarray:
         i = gdal_inverse_geotransform(self.transform)
         XY = np.asarray(XY, np.float64)
-        return np.column_stack([i.c + XY[:, 0] * i.a + XY[:, 1] * i.b, i.f + XY[:, 0] * i.d + XY[:, 1] * i.e])
+        out = np.empty_like(XY)
+        for k, (c, a, b) in enumerate(((i.c, i.a, i.b), (i.f, i.d, i.e))):  # (c + X a) + Y b, as GDAL
+            np.multiply(XY[:, 0], a, out=out[:, k])
+            out[:, k] += c
+            out[:, k] += XY[:, 1] * b
+        return out
 
 
 #: GDAL's tolerance when it takes the source pixel of a position (``GWKCheckAndComputeSrcOffsets``
@@ -215,14 +220,12 @@ def nearest_source_pixels(sp, width: int, height: int):
     >>> col.tolist(), row.tolist(), inside.tolist()
     ([2, 2, 1, -1, -1, -1], [0, 0, 2, -1, -1, -1], [True, True, True, False, False, False])
     """
+    x, y = sp[:, 0] + GDAL_EDGE_EPSILON, sp[:, 1] + GDAL_EDGE_EPSILON  # contiguous copies, floored in place
     with np.errstate(invalid="ignore"):
-        shifted = sp + GDAL_EDGE_EPSILON
-        inside = ((sp[:, 0] >= 0) & (sp[:, 1] >= 0) & (shifted[:, 0] <= width) & (shifted[:, 1] <= height))
-        idx = np.floor(shifted, out=shifted)
-        np.minimum(idx, (width - 1, height - 1), out=idx)
-    idx[~inside] = -1
-    idx = idx.astype(np.int32)
-    return idx[:, 0], idx[:, 1], inside
+        inside = (sp[:, 0] >= 0) & (sp[:, 1] >= 0) & (x <= width) & (y <= height)
+        col = np.where(inside, np.minimum(np.floor(x, out=x), width - 1.0, out=x), -1.0).astype(np.int32)
+        row = np.where(inside, np.minimum(np.floor(y, out=y), height - 1.0, out=y), -1.0).astype(np.int32)
+    return col, row, inside
 
 
 def _nearest_maps(sp, plan: Plan, h: int, w: int):
@@ -232,14 +235,16 @@ def _nearest_maps(sp, plan: Plan, h: int, w: int):
     col, row, inside = nearest_source_pixels(sp, plan.src_width, plan.src_height)
     if not inside.any():
         return None
-    c_lo, c_hi = int(col.min(where=inside, initial=plan.src_width)), int(col.max()) + 1
-    r_lo, r_hi = int(row.min(where=inside, initial=plan.src_height)), int(row.max()) + 1
-    lc = np.where(inside, col - c_lo, -1).reshape(h, w)
-    lr = np.where(inside, row - r_lo, -1).reshape(h, w)
+    # (numpy's masked reductions and copies are slow: np.where with a sentinel instead)
+    c_lo, c_hi = int(np.where(inside, col, plan.src_width).min()), int(col.max()) + 1
+    r_lo, r_hi = int(np.where(inside, row, plan.src_height).min()), int(row.max()) + 1
     win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
+    lc, lr = np.where(inside, col - c_lo, -1), np.where(inside, row - r_lo, -1)
     if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
-        return win, np.stack([lc, lr], axis=-1).astype(np.int16), None
-    return win, lc.astype(np.float32), lr.astype(np.float32)
+        xy = np.empty((h * w, 2), np.int16)
+        xy[:, 0], xy[:, 1] = lc, lr
+        return win, xy.reshape(h, w, 2), None
+    return win, lc.astype(np.float32).reshape(h, w), lr.astype(np.float32).reshape(h, w)
 
 
 def _interpolation_maps(sp, plan: Plan, h: int, w: int):
