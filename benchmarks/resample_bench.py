@@ -16,7 +16,7 @@ the same grid, nearest neighbour, nodata 0, 256² tiles, DEFLATE with predictor 
 
 Each runs in its own process under ``/usr/bin/time`` (wall time and peak RSS). Pixels are compared
 with gdalwarp's strip by strip (count of pixels differing in any band). fotogeo maps the source
-through :class:`fotogeo.io.warp.GeotransformInverse` (GDAL's inverse geotransform arithmetic) and
+through :class:`fotogeo.io.warp_gdal.GeotransformInverse` (GDAL's inverse geotransform arithmetic) and
 takes GDAL's source pixel ``floor(x + 1e-10)`` in float64, so the expected count is 0. Writes
 benchmarks/results/resample_bench.json.
 """
@@ -41,7 +41,8 @@ CPUS = os.cpu_count() or 1
 
 FOTOGEO = """
 import sys, numpy as np, rasterio
-from fotogeo.io.warp import GeotransformInverse, warp_to_grid
+from fotogeo.io.warp import warp_to_grid
+from fotogeo.io.warp_gdal import GeotransformInverse
 from affine import Affine
 src, dst, ovr, t, w, h = sys.argv[1], sys.argv[2], sys.argv[3] == "1", Affine(*map(float, sys.argv[4:10])), int(sys.argv[10]), int(sys.argv[11])
 with rasterio.open(src) as ds:

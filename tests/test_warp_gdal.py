@@ -17,7 +17,8 @@ import pytest
 import rasterio
 from affine import Affine
 
-from fotogeo.io.warp import GeotransformInverse, gdal_inverse_geotransform, nearest_source_pixels, warp_to_grid
+from fotogeo.io.warp import warp_to_grid
+from fotogeo.io.warp_gdal import GeotransformInverse, gdal_inverse_geotransform, nearest_source_pixels
 
 CRS = "EPSG:32735"
 GDALWARP = shutil.which("gdalwarp")

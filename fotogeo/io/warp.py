@@ -5,7 +5,9 @@ For every output window, the centres of its pixels (corner convention, see
 then to *source pixel* coordinates by ``inverse_map`` (map XY → source col/row). Only the
 source window that those coordinates touch (plus a margin for the interpolation kernel)
 is read, and ``cv2.remap`` samples it; memory therefore stays bounded by the block size
-whatever the raster sizes. Source nodata (mask) and positions outside the source become
+whatever the raster sizes. Nearest neighbour takes GDAL's source pixel, computed in float64
+(:mod:`fotogeo.io.warp_gdal`), and hands OpenCV exact integer maps: with
+:class:`~fotogeo.io.warp_gdal.GeotransformInverse` the output equals ``gdalwarp -r near -et 0``'s. Source nodata (mask) and positions outside the source become
 the output nodata value. Results go to a tiled, DEFLATE-compressed GeoTIFF with overviews.
 
 Speed (issue 15): the windows are computed by a pool of threads (``cv2.remap``, numpy and
@@ -36,15 +38,17 @@ from rasterio.windows import Window
 
 from ..errors import FotogeoWarning
 from ..options import RESAMPLINGS
-from ..pixels import HALF, pixel_centres, pixel_to_map  # noqa: F401 - used by the doctests
+from ..pixels import HALF
 from ..progress import Progress
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
+from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixels  # noqa: F401 - re-exported
 
 #: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
 RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
               for n in RESAMPLINGS}
 _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
 _CV_DTYPES = {"uint8", "uint16", "int16", "float32", "float64"}
+_INT16_MAX = 32767
 #: environment variable bounding fotogeo's resampling threads (the batch sets it to 1 in its tasks)
 THREADS_ENV = "FOTOGEO_NUM_THREADS"
 
@@ -139,93 +143,6 @@ def _source_mask(src, plan: Plan, win: Window, data):
         mask[~finite.all(axis=0)] = 0
         data = np.where(finite, data, 0)
     return mask, data
-
-
-def centres_to_map(t, r0: int, c0: int, h: int, w: int) -> np.ndarray:
-    """Map coordinates ``(h * w, 2)`` of the pixel centres of a window, row by row, evaluated as
-    GDAL's ``GDALApplyGeoTransform`` does — ``X = (c + col * a) + row * b`` and
-    ``Y = (f + col * d) + row * e``, left to right in float64 — so that a centre falling exactly on
-    a source pixel edge lands on the same side of it as in ``gdalwarp`` (the order of the sums
-    decides the last bit). One row and one column are computed, then broadcast.
-
-    >>> from affine import Affine
-    >>> t = Affine(2.0, 0.5, 100.0, 0.25, -2.0, 50.0)
-    >>> x, y = pixel_centres(3, 2, 4, 7)
-    >>> bool(np.allclose(centres_to_map(t, 7, 4, 2, 3), pixel_to_map(t, np.column_stack([x.ravel(), y.ravel()]))))
-    True
-    """
-    x = c0 + HALF + np.arange(w, dtype=np.float64)
-    y = (r0 + HALF + np.arange(h, dtype=np.float64))[:, None]
-    XY = np.empty((h, w, 2))
-    np.add(t.c + x * t.a, y * t.b, out=XY[..., 0])
-    np.add(t.f + x * t.d, y * t.e, out=XY[..., 1])
-    return XY.reshape(h * w, 2)
-
-
-def gdal_inverse_geotransform(t):
-    """The inverse of the affine ``t`` (rasterio order a, b, c, d, e, f) computed as GDAL's
-    ``GDALInvGeoTransform`` does (the north-up case by division, else by the adjoint over the
-    determinant), as an ``Affine``: with it, source pixel coordinates equal GDAL's to the last bit.
-
-    >>> from affine import Affine
-    >>> gdal_inverse_geotransform(Affine(0.3, 0.0, 500000.0, 0.0, -0.3, 7000000.0)).c == -500000.0 / 0.3
-    True
-    """
-    from affine import Affine
-    if t.b == 0.0 and t.d == 0.0 and t.a != 0.0 and t.e != 0.0:
-        return Affine(1.0 / t.a, 0.0, -t.c / t.a, 0.0, 1.0 / t.e, -t.f / t.e)
-    det = t.a * t.e - t.b * t.d
-    if abs(det) <= 1e-10 * max(abs(t.a), abs(t.b), abs(t.d), abs(t.e)) ** 2:
-        raise ValueError(f"the geotransform {tuple(t)[:6]} cannot be inverted (its pixels have no area)")
-    inv_det = 1.0 / det
-    return Affine(t.e * inv_det, -t.b * inv_det, (t.b * t.f - t.c * t.e) * inv_det,
-                  -t.d * inv_det, t.a * inv_det, (-t.a * t.f + t.c * t.d) * inv_det)
-
-
-@dataclass(frozen=True)
-class GeotransformInverse:
-    """Map XY → source pixel (corner convention) of a source with the affine geotransform
-    ``transform``, in GDAL's arithmetic (:func:`gdal_inverse_geotransform` applied as
-    ``GDALApplyGeoTransform``): the ``inverse_map`` with which :func:`warp_to_grid` gives
-    ``gdalwarp -et 0``'s pixels when source and grid share a CRS. Picklable (Dask tiles)."""
-
-    transform: object
-
-    def __call__(self, XY) -> np.ndarray:
-        i = gdal_inverse_geotransform(self.transform)
-        XY = np.asarray(XY, np.float64)
-        out = np.empty_like(XY)
-        for k, (c, a, b) in enumerate(((i.c, i.a, i.b), (i.f, i.d, i.e))):  # (c + X a) + Y b, as GDAL
-            np.multiply(XY[:, 0], a, out=out[:, k])
-            out[:, k] += c
-            out[:, k] += XY[:, 1] * b
-        return out
-
-
-#: GDAL's tolerance when it takes the source pixel of a position (``GWKCheckAndComputeSrcOffsets``
-#: in GDAL's gdalwarpkernel.cpp): a coordinate less than 1e-10 px below a pixel edge is in the next pixel
-GDAL_EDGE_EPSILON = 1e-10
-_INT16_MAX = 32767
-
-
-def nearest_source_pixels(sp, width: int, height: int):
-    """Integer source pixel ``(col, row)`` of each position ``sp`` (N, 2) (corner convention), by
-    GDAL's nearest-neighbour rule in float64: a position is inside when ``0 <= x`` and
-    ``x + 1e-10 <= width`` (same for y), its pixel is ``floor(x + 1e-10)`` (the last one for
-    ``x + 1e-10 == width``). Returns ``(col, row, inside)``; outside positions get -1.
-
-    >>> sp = np.array([[2.0, 0.0], [2.0 - 1e-12, 0.5], [1.999, 3.0 - 1e-10], [1.0, 3.0], [-1e-12, 1.0],
-    ...                [np.nan, 1.0]])
-    >>> col, row, inside = nearest_source_pixels(sp, 3, 3)
-    >>> col.tolist(), row.tolist(), inside.tolist()
-    ([2, 2, 1, -1, -1, -1], [0, 0, 2, -1, -1, -1], [True, True, True, False, False, False])
-    """
-    x, y = sp[:, 0] + GDAL_EDGE_EPSILON, sp[:, 1] + GDAL_EDGE_EPSILON  # contiguous copies, floored in place
-    with np.errstate(invalid="ignore"):
-        inside = (sp[:, 0] >= 0) & (sp[:, 1] >= 0) & (x <= width) & (y <= height)
-        col = np.where(inside, np.minimum(np.floor(x, out=x), width - 1.0, out=x), -1.0).astype(np.int32)
-        row = np.where(inside, np.minimum(np.floor(y, out=y), height - 1.0, out=y), -1.0).astype(np.int32)
-    return col, row, inside
 
 
 def _nearest_maps(sp, plan: Plan, h: int, w: int):
