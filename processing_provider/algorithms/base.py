@@ -215,6 +215,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
             index = self.parameterAsEnum(parameters, name, context)
             return None if option.none_choice and index == 0 else option.qgis_choices[index]
         if kind == "choices":
+            if option.nullable and parameters.get(name) in (None, ""):  # QGIS 3.22 reads an unset multiple enum as [0]
+                return None
             picked = tuple(option.qgis_choices[i] for i in self.parameterAsEnums(parameters, name, context))
             if picked or option.nullable:
                 return picked or None
