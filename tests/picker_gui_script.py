@@ -197,9 +197,18 @@ def propose():
     dock.dem_combo.setLayer(dem)
     dock.height_combo.setCurrentText("dem")
     dock.model_combo.setCurrentText("dlt")
+    # a first run cancelled after 1 s (the task manager's cancel): no proposals, the dock usable again
+    task = dock.propose(reference=ARGS["reference"], count=30)
+    pump(1.0)
+    task.cancel()
+    start = time.monotonic()
+    while not dock.propose_button.isEnabled() and time.monotonic() - start < 120:
+        pump(0.2)
+    STATE["cancel"] = {"s": time.monotonic() - start, "error": task.error, "proposals": len(dock.controller.proposals),
+                       "message": dock.last_message}
     start = time.monotonic()
     task = dock.propose(reference=ARGS["reference"], count=30)
-    while dock.propose_button.isEnabled() is False and time.monotonic() - start < 600:
+    while not dock.propose_button.isEnabled() and time.monotonic() - start < 600:
         pump(0.2)
     STATE["propose_s"] = time.monotonic() - start
     STATE["task_error"] = task.error

@@ -192,3 +192,19 @@ def test_project_crs_other_than_the_layers(picked):
     t = truth[12]
     assert np.hypot(w["gcp"]["x"] - t["x"], w["gcp"]["y"] - t["y"]) < 12.0
     assert abs(w["gcp"]["col"] - t["col"]) <= state["image_units_per_pixel"]
+
+
+def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel(data_dir, tmp_path):
+    """Propose GCPs (a QgsTask running fotogeo's propose_gcps) on frame 0182 against its orthophoto; a first run
+    cancelled after 1 s leaves no proposals; all 30 of the second run accepted, every third a check point."""
+    _, crs = truth_gcps(data_dir, n=6)
+    state = run_script("picker_gui_script.py", {
+        "mode": "propose", "frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs,
+        "reference": str(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif")}, tmp_path, timeout=900)
+    cancel = state["cancel"]
+    assert cancel["error"].startswith("cancelled") and cancel["proposals"] == 0 and "cancelled" in cancel["message"]
+    assert state["task_error"] is None and len(state["proposals"]) == 30 and state["accepted"] == 30
+    fit = state["fit"]
+    assert fit["ok"] and fit["model"] == "dlt" and fit["rms"]["n_control"] == 20 and fit["rms"]["n_check"] == 10
+    assert fit["rms"]["check_px"] < 1.0
+    assert all(p["z_source"] == "dem" for p in fit["points"])
