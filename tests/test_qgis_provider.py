@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -549,6 +549,7 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
     ("measuretargets", "tools.targets", "measure_targets", {"image", "points", "output"},
      {"approx_fields": "COL_FIELD"}),
     ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
+    ("triangulate", "tools.triangulate", "triangulate", set(), {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""

@@ -11,8 +11,9 @@ from .register_batch import RegisterBatchAlgorithm
 from .rpc_bias import RpcBiasAlgorithm
 from .targets import MeasureTargetsAlgorithm
 from .transfer import TransferPointsAlgorithm
+from .triangulate import TriangulateAlgorithm
 
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm)

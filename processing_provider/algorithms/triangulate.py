@@ -1,0 +1,136 @@
+"""``fotogeo:triangulate`` — a block of frames oriented together by bundle adjustment (issue 13)."""
+from __future__ import annotations
+
+import os
+
+from qgis.core import (
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputFile,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterFolderDestination,
+    QgsProcessingParameterMultipleLayers,
+    QgsProviderRegistry,
+)
+
+from fotogeo.options import TRIANGULATE, YAML
+
+from ..postprocess import LoadedRun, load_on_completion
+from .base import REFERENCES, FotogeoAlgorithm, tr
+
+CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files (*.*)"
+TABLE_FILTER = "Tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
+TEXT_FILTER = "Text (*.txt);;All files (*.*)"
+#: the block.gpkg layers the algorithm loads: (layer, output name, label, style of processing_provider/styles)
+LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", None),
+          ("tie_points", "TIE_POINTS", "Tie points", None),
+          ("control", "CONTROL", "Control and check points", "tie_points"))  # tie_points.qml: by role
+
+
+def _layer_paths(layers) -> list:
+    """File paths of raster layers (their GDAL sources)."""
+    return [QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
+            for layer in layers]
+
+
+class TriangulateAlgorithm(FotogeoAlgorithm):
+    ALG_ID = "triangulate"
+    DISPLAY = "Aerial triangulation (bundle block adjustment)"
+    GROUP = ("orientation", "Orientation")
+    HELP = ("Orients a block of overlapping frames together: a bundle block adjustment with the collinearity "
+            "equations (Levenberg–Marquardt on the reduced normal equations), ground control with its σ, optional "
+            "self-calibration (f, principal point, Brown's k1–k3, p1–p2) with correlated parameters held fixed, "
+            "Huber reweighting and Baarda's data snooping — the digital aerial triangulation of Yastıklı.\n\n"
+            "Inputs: the frames; the camera (orthority YAML: pinhole, or brown with distortion — the camera.yaml "
+            "a self-calibrating run writes); the approximate exterior orientation (name X Y Z omega phi kappa "
+            "lines; frames without one are resected against their GCPs); ground control: ODM/OpenSfM "
+            "gcp_list.txt, or a point layer / CSV in any CRS with one row per (point, frame) measurement: id, frame, "
+            "col, row (corner convention), z, optional role (control / check); and/or reference orthophoto(s) "
+            "with a DEM, on which control is found automatically. Tie points: a table (frame, point, col, row), or "
+            "left empty to match the overlapping frames (SURF, epipolar RANSAC, multi-ray tracks).\n\n"
+            "Outputs in the folder: exterior_orientation.txt, camera.yaml (self-calibration), block.gpkg (tie "
+            "points, control with residuals and role, frames, image residuals, footprints), report.json, "
+            "report.html (residual vectors per frame, histogram, control layout) and, with Orthorectify, "
+            "&lt;frame&gt;_ortho.tif.\n\n"
+            f"References: Brown (1971): close-range camera calibration. Baarda (1968): a testing procedure for "
+            f"use in geodetic networks. Triggs et al. (2000): bundle adjustment — a modern synthesis. "
+            f"{REFERENCES['surf']} {REFERENCES['ransac']}")
+
+    OPTIONS = (TRIANGULATE,)
+    FRAMES, CAMERA, EO, OBSERVATIONS, GCPS, REFERENCE, OUTDIR = ("FRAMES", "CAMERA", "EO", "OBSERVATIONS", "GCPS",
+                                                                 "REFERENCE", "OUTDIR")
+    REPORT_HTML, SIGMA0, IMAGE_RMS, CHECK_XY, CHECK_Z, BLUNDERS = ("REPORT_HTML", "SIGMA0", "IMAGE_RMS",
+                                                                   "CHECK_RMSE_XY", "CHECK_RMSE_Z", "BLUNDERS")
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterMultipleLayers(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
+        self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Camera (interior orientation YAML)"),
+                                                     fileFilter=YAML))
+        self.addParameter(QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = resect "
+                                                                 "from the GCPs)"), fileFilter=TEXT_FILTER,
+                                                     optional=True))
+        self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
+                                                     fileFilter=CONTROL_FILTER, optional=True))
+        self.addParameter(QgsProcessingParameterMultipleLayers(
+            self.REFERENCE, tr("Reference orthophoto(s) for automatic control (with the DEM)"),
+            QgsProcessing.TypeRaster, optional=True))
+        self.addParameter(QgsProcessingParameterFile(self.OBSERVATIONS, tr("Tie-point table (empty = match the "
+                                                                           "frames)"), fileFilter=TABLE_FILTER,
+                                                     optional=True))
+        self.add_options(TRIANGULATE)
+        self.addParameter(QgsProcessingParameterFolderDestination(self.OUTDIR, tr("Output folder")))
+        for _, name, label, _ in LAYERS:
+            self.addOutput(QgsProcessingOutputVectorLayer(name, tr(label)))
+        self.addOutput(QgsProcessingOutputFile(self.REPORT_HTML, tr("Report (HTML)")))
+        for name, label in ((self.SIGMA0, "σ0"), (self.IMAGE_RMS, "Image RMS (px)"),
+                            (self.CHECK_XY, "Check-point RMSE planimetric (m)"),
+                            (self.CHECK_Z, "Check-point RMSE height (m)"), (self.BLUNDERS, "Blunders culled")):
+            self.addOutput(QgsProcessingOutputNumber(name, tr(label)))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        frames = _layer_paths(self.parameterAsLayerList(parameters, self.FRAMES, context))
+        if not frames:
+            raise QgsProcessingException("FRAMES: give the frames of the block")
+        reference = _layer_paths(self.parameterAsLayerList(parameters, self.REFERENCE, context)) or None
+        files = {k: self.parameterAsFile(parameters, k, context) or None
+                 for k in (self.CAMERA, self.EO, self.OBSERVATIONS, self.GCPS)}
+        outdir = self.parameterAsString(parameters, self.OUTDIR, context)
+        os.makedirs(outdir, exist_ok=True)
+        rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
+                            outdir, feedback=feedback, gcps=files[self.GCPS], reference=reference, overwrite=True,
+                            **self.option_arguments(parameters, context))
+        st = rep["statistics"]
+        feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
+                          f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
+                          f"{st['n_blunders']} blunders culled")
+        for role in ("control", "check"):
+            s = st[role]
+            if s.get("n"):
+                feedback.pushInfo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} "
+                                  f"Z {s['rmse_z_m']:.3f} m")
+        for f in rep["fixed_parameters"]:
+            feedback.pushWarning(f"held fixed: {f['reason']}")
+        return self._outputs(rep, outdir, context)
+
+    def _outputs(self, rep, outdir, context) -> dict:
+        """The result dict; the block's layers (and orthophotos) loaded on completion, styled by role."""
+        gpkg = os.path.join(outdir, "block.gpkg")
+        check = rep["statistics"]["check"]
+        nan = float("nan")
+        result = {self.OUTDIR: outdir, self.REPORT_HTML: os.path.join(outdir, "report.html"),
+                  self.SIGMA0: float(rep["sigma0"]), self.IMAGE_RMS: float(rep["statistics"]["image_rms_px"]),
+                  self.CHECK_XY: float(check.get("rmse_planimetric_m", nan)),
+                  self.CHECK_Z: float(check.get("rmse_z_m", nan)),
+                  self.BLUNDERS: int(rep["statistics"]["n_blunders"])}
+        for layer, name, _, _ in LAYERS:
+            result[name] = f"{gpkg}|layername={layer}"
+        if context.project() is not None:  # the block's layers, vectors above the orthophotos
+            run = LoadedRun()
+            for frame in rep.get("orthorectified") or {}:
+                load_on_completion(context, os.path.join(outdir, f"{frame}_ortho.tif"), f"{frame} {tr('ortho')}",
+                                   self.OUTDIR, None, raster=True, run=run)
+            for _, name, label, style in LAYERS:
+                load_on_completion(context, result[name], tr(label), name, style, run=run)
+        return result

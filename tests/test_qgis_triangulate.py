@@ -1,0 +1,101 @@
+"""fotogeo:triangulate in real, headless QGIS: through the provider (processing) and through qgis_process."""
+from __future__ import annotations
+
+import json
+import os
+import warnings
+
+import pytest
+from qgis_env import need_qgis, qgis_app  # noqa: F401 - the session fixture
+
+pytestmark = [pytest.mark.qgis]
+need_qgis()
+
+from qgis.core import QgsProcessingContext, QgsProcessingException, QgsProject  # noqa: E402
+
+from fotogeo.orientation.block_simulation import simulate_block  # noqa: E402
+from fotogeo.tools.triangulate import triangulate  # noqa: E402
+from test_qgis_provider import Recorder  # noqa: E402
+from test_qgis_real_programs import QGIS_PROCESS, config, qgis_process  # noqa: E402,F401 - config: a fixture
+from test_triangulate import CAMERA, write_block  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def block_files(tmp_path_factory):
+    """The 2 x 5 synthetic block of test_triangulate written to files, and the tool's own result on them."""
+    folder = tmp_path_factory.mktemp("block")
+    sb = simulate_block(seed=6, strips=2, frames_per_strip=5, camera=CAMERA, point_spacing=50.0, margin=3.0,
+                        n_check=8)
+    frames, checks = write_block(folder, sb)
+    (folder / "direct").mkdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rep = triangulate(frames, folder / "camera.yaml", folder / "eo.txt", folder / "tie.csv", folder / "direct",
+                          gcps=folder / "gcp_list.txt", check_points=checks, image_sigma=0.3)
+    return folder, frames, checks, rep
+
+
+def _params(folder, frames, checks, out):
+    return {"FRAMES": [str(f) for f in frames], "CAMERA": str(folder / "camera.yaml"), "EO": str(folder / "eo.txt"),
+            "OBSERVATIONS": str(folder / "tie.csv"), "GCPS": str(folder / "gcp_list.txt"), "CHECK_POINTS": checks,
+            "IMAGE_SIGMA": 0.3, "OUTDIR": str(out)}
+
+
+def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_files, tmp_path):
+    """The algorithm gives the tool's numbers (same inputs, same report) and loads the block's layers, the
+    control styled by role."""
+    import processing
+    folder, frames, checks, direct = block_files
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    res = processing.runAndLoadResults("fotogeo:triangulate", _params(folder, frames, checks, tmp_path / "out"),
+                                       feedback=Recorder(), context=context)
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert rep["statistics"]["check"] == pytest.approx(direct["statistics"]["check"], rel=1e-6)
+    assert res["CHECK_RMSE_XY"] == pytest.approx(direct["statistics"]["check"]["rmse_planimetric_m"], rel=1e-6)
+    assert res["SIGMA0"] == pytest.approx(direct["sigma0"], rel=1e-6) and res["BLUNDERS"] >= 0
+    assert os.path.exists(res["REPORT_HTML"])
+    assert not (tmp_path / "out" / "camera.yaml").exists()  # no self-calibration asked (an unset SELF_CALIBRATION)
+    layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
+    assert {"Frame footprints", "Tie points", "Control and check points"} <= set(layers)
+    control = layers["Control and check points"]
+    assert control.renderer().type() == "categorizedSymbol" and control.renderer().classAttribute() == "role"
+    assert layers["Frame footprints"].featureCount() == 10
+    assert layers["Frame footprints"].crs().authid() == "EPSG:32635"
+
+
+def test_an_unset_multiple_choice_is_none(qgis_app):
+    """QGIS 3.22 reads an unset optional multiple enum as [0] (the first choice): SELF_CALIBRATION would
+    free the focal length, comparemodels' MODELS would fit only the first model."""
+    from qgis.core import QgsApplication
+
+    from fotogeo.options import COMPARE, TRIANGULATE
+    reg, context = QgsApplication.processingRegistry(), QgsProcessingContext()
+    tri, comp = reg.algorithmById("fotogeo:triangulate"), reg.algorithmById("fotogeo:comparemodels")
+    assert tri.option_value({}, TRIANGULATE["self_calibration"], context) is None
+    assert comp.option_value({"MODELS": None}, COMPARE["models"], context) is None
+    assert tri.option_value({"SELF_CALIBRATION": [0, 3]}, TRIANGULATE["self_calibration"], context) == ("f", "k1")
+
+
+def test_triangulate_bad_input_is_one_message(qgis_app, block_files, tmp_path):
+    folder, frames, checks, _ = block_files
+    params = _params(folder, frames, checks, tmp_path / "out")
+    params["CHECK_POINTS"] = "nosuchpoint"
+    with pytest.raises(QgsProcessingException, match="check_points: nosuchpoint are not GCP names"):
+        import processing
+        processing.run("fotogeo:triangulate", params, feedback=Recorder())
+    assert not any((tmp_path / "out").iterdir())
+
+
+@pytest.mark.skipif(not os.path.exists(QGIS_PROCESS), reason="Debian's qgis package is not installed")
+def test_triangulate_through_qgis_process(config, block_files, tmp_path):
+    """The real qgis_process program (fotogeo installed into a fresh profile, as in test_qgis_real_programs)
+    runs fotogeo:triangulate, a multiple-layer FRAMES given by repeating it, and writes the tool's adjustment."""
+    folder, frames, checks, direct = block_files
+    res = qgis_process(config, "triangulate", **_params(folder, frames, checks, tmp_path / "out"))
+    assert res["CHECK_RMSE_XY"] == pytest.approx(direct["statistics"]["check"]["rmse_planimetric_m"], rel=1e-6)
+    assert res["CHECK_RMSE_Z"] == pytest.approx(direct["statistics"]["check"]["rmse_z_m"], rel=1e-6)
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
+        ["exterior_orientation.txt", "block.gpkg", "report.json", "report.html"])
