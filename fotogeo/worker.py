@@ -101,7 +101,12 @@ def to_json(value, depth: int = 0):
 
 
 def _json_line(obj) -> str:
-    """One protocol line; NaN and infinities become null (JSON has none)."""
+    """One protocol line of ``obj`` made JSON (:func:`to_json`); NaN and infinities become null (JSON has none)."""
+    try:  # the common case, without a copy: to_json only for what json cannot write itself
+        return json.dumps(obj, ensure_ascii=False, allow_nan=False, default=to_json) + "\n"
+    except (ValueError, TypeError):
+        obj = to_json(obj)
+
     def clean(v):
         if isinstance(v, float) and not math.isfinite(v):
             return None
@@ -228,7 +233,7 @@ def answer_request(request: dict, channel: _Channel) -> None:
             raise TypeError(f"kwargs must be a JSON object, got {type(kwargs).__name__}")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            result = to_json(func(progress=None, **kwargs))
+            result = func(progress=None, **kwargs)  # made JSON as it is written (_json_line)
     except FotogeoError as e:
         channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e))
         return

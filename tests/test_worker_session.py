@@ -88,7 +88,7 @@ class _Collect:
 def warn_then_return(progress=None, value=1):
     warnings.warn("first caution")
     warnings.warn("second\ncaution")
-    return {"value": np.float64(value)}
+    return {"value": np.float64(value), "missing": [float("nan"), np.inf]}
 
 
 def fail_unexpectedly(progress=None):
@@ -105,7 +105,8 @@ def test_warnings_come_before_the_result_and_bugs_are_named(monkeypatch):
     worker.answer_request({"id": 9, "tool": "warn", "kwargs": [1]}, channel)
     assert [(m["id"], m["type"]) for m in channel.sent] == [(7, "warning"), (7, "warning"), (7, "result"),
                                                            (8, "error"), (9, "error")]
-    assert channel.sent[1]["message"] == "second caution" and channel.sent[2]["result"] == {"value": 2.0}
+    assert channel.sent[1]["message"] == "second caution"
+    assert json.loads(worker._json_line(channel.sent[2]))["result"] == {"value": 2.0, "missing": [None, None]}
     assert channel.sent[3]["error"] == "KeyError" and channel.sent[3]["message"] == "KeyError: 'x'"
 
 

@@ -12,10 +12,9 @@ round trip to the worker per mouse move: it interpolates these grids bilinearly.
   point ``(xs[j], ys[i])`` (3-D models at the DEM height there, falling back on the constant
   or the GCPs' mean height where the DEM has none).
 
-Values are NaN where the model gives no answer (a ray that misses the DEM, a point behind the
+Values are None (JSON null) where the model gives no answer (a ray that misses the DEM, a point behind the
 camera, a rational function's pole, a ray-DEM intersection that did not converge: its ground
-point, projected back, misses the pixel by more than :data:`CONSISTENT_PX`); the worker writes
-them as JSON null.
+point, projected back, misses the pixel by more than :data:`CONSISTENT_PX`).
 """
 from __future__ import annotations
 
@@ -23,6 +22,11 @@ import numpy as np
 
 from ..geometry.dem import heights_at
 from ..geometry.georeference import Georeference
+
+def _listed(a: np.ndarray) -> list:
+    """Nested lists of floats, None where ``a`` is not finite (JSON null)."""
+    return np.where(np.isfinite(a), a, None).tolist()
+
 
 PAD = 0.5  # fraction of the GCPs' span added on each side of the inverse grid
 CONSISTENT_PX = 0.1  # a forward node whose ground point projects back further than this is dropped
@@ -76,9 +80,8 @@ def forward_grid(model, crs, size, n: int, heights) -> dict | None:
         if getattr(model, "src_dims", 2) == 3:  # an intersection that did not converge (steep relief): no answer
             back = model.forward(np.column_stack([XY, heights_at(heights, XY)]))
             XY[~(np.hypot(*(back - px).T) < CONSISTENT_PX)] = np.nan
-    XY = np.where(np.isfinite(XY), XY, np.nan)
-    return {"cols": cols.tolist(), "rows": rows.tolist(), "x": XY[:, 0].reshape(n, n).tolist(),
-            "y": XY[:, 1].reshape(n, n).tolist()}
+    return {"cols": cols.tolist(), "rows": rows.tolist(), "x": _listed(XY[:, 0].reshape(n, n)),
+            "y": _listed(XY[:, 1].reshape(n, n))}
 
 
 def inverse_grid(model, crs, ground, n: int, dem_sampler, fallback: float) -> dict:
@@ -96,9 +99,8 @@ def inverse_grid(model, crs, ground, n: int, dem_sampler, fallback: float) -> di
         z = np.where(np.isfinite(h), h, fallback)
     with np.errstate(all="ignore"):
         P = Georeference(model, heights=z, crs=crs).map_to_pixel(XY)
-    P = np.where(np.isfinite(P), P, np.nan)
-    return {"xs": xs.tolist(), "ys": ys.tolist(), "col": P[:, 0].reshape(n, n).tolist(),
-            "row": P[:, 1].reshape(n, n).tolist()}
+    return {"xs": xs.tolist(), "ys": ys.tolist(), "col": _listed(P[:, 0].reshape(n, n)),
+            "row": _listed(P[:, 1].reshape(n, n))}
 
 
 def prediction_grids(model, crs, ground, size, n: int, *, dem=None, default_height=None):
