@@ -58,7 +58,8 @@ def as_read_by_orient(path, gcps):
 
 
 @pytest.mark.parametrize("model, n, with_z", [("affine", 12, False), ("projective", 12, True), ("dlt", 16, False),
-                                              ("rfm-poly", 40, False), ("collinearity", 10, False)])
+                                              ("rfm-poly", 40, False), ("collinearity", 10, False),
+                                              ("auto", 16, False)])
 def test_residuals_and_rms_are_orients(ngi, truth, tmp_path, model, n, with_z):
     gcps = pick(truth, n, 4, with_z=with_z)
     image = ngi / "frames" / f"{FRAME}_RGB.tif"
@@ -67,7 +68,8 @@ def test_residuals_and_rms_are_orients(ngi, truth, tmp_path, model, n, with_z):
                  camera=camera)
     gcps = as_read_by_orient(tmp_path / "g.csv", gcps)
     fit = fit_gcps(gcps, model, crs=MAP_CRS, image=str(image), dem=str(ngi / "dem.tif"), camera=str(camera))
-    assert fit["ok"] and fit["model"] == model and fit["needed"] == 0
+    assert fit["ok"] and fit["model"] == rep["model_name"] and fit["needed"] == 0
+    assert model != "auto" or fit["model_selection"]["chosen"] == rep["model_selection"]["chosen"] == fit["model"]
     ours = {p["id"]: p for p in fit["points"]}
     for p in rep["points"]:
         q = ours[p["id"]]
@@ -77,6 +79,13 @@ def test_residuals_and_rms_are_orients(ngi, truth, tmp_path, model, n, with_z):
     assert (fit["rms"]["control_px"], fit["rms"]["check_px"]) == (rep["control"]["rms_xy_px"], rep["check"]["rms_xy_px"])
     assert (fit["rms"]["n_control"], fit["rms"]["n_check"]) == (n - 4, 4)
     assert 0.05 < fit["rms"]["control_px"] < (30 if model in ("affine", "projective") else 1.0)
+
+
+def test_degenerate_points_are_reported_not_raised():
+    line = [{"id": f"p{k}", "col": 10.0 * k, "row": 10.0 * k, "x": 100.0 * k, "y": 100.0 * k, "z": None,
+             "role": "control"} for k in range(5)]  # all on one line: no affine transformation
+    r = fit_gcps(line, "affine", crs=MAP_CRS)
+    assert r["ok"] is False and r["needed"] == 0 and "degenerate" in r["message"] and r["forward"] is None
 
 
 def test_a_blunder_is_flagged_as_orient_flags_it(ngi, truth, tmp_path):

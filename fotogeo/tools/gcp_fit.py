@@ -26,9 +26,10 @@ import os
 import numpy as np
 
 from ..crs import parse_crs
-from ..errors import InputError, ModelError
+from ..errors import InputError, ModelError, one_line
 from ..models import get_model
 from ..orientation.adjustment import CRITICAL_W, fit_orientation, model_src, select_model, standardised_residuals
+from .boundary import tool
 from .gcp_grids import prediction_grids
 
 ROLES = ("control", "check", "disabled")
@@ -79,6 +80,7 @@ def dem_heights(dem, crs, xy) -> np.ndarray:
     return np.asarray(dem_sampler(dem, crs).heights(np.asarray(xy, float).reshape(-1, 2)), float)
 
 
+@tool()
 def sample_heights(xy, *, crs, dem, progress=None) -> dict:
     """``{"z": [...]}``: DEM heights at map points ``xy`` (``[[x, y], ...]`` in ``crs``); null outside the DEM."""
     z = dem_heights(dem, parse_crs(crs, "the points' crs"), xy)
@@ -164,6 +166,7 @@ def _needed(name: str, n_control: int, n_without_height: int) -> tuple[int, str]
     return need, f"{what}: {need} more"
 
 
+@tool()
 def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
              default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
     """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
@@ -194,8 +197,8 @@ def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None,
             name, selection = select_model(ground[use], pixel[use], roles[use], ids[use], camera=cam)
             result["model_selection"] = selection
         fit = fit_orientation(name, ground[use], pixel[use], roles[use], ids[use], snooping=False, camera=cam)
-    except ModelError as e:
-        result.update(message=str(e))
+    except (ModelError, np.linalg.LinAlgError) as e:  # degenerate points: the table says so, no error
+        result.update(message=one_line(f"{model}: {e}" if isinstance(e, np.linalg.LinAlgError) else e))
         return result
     result["model"] = name
     _fill_points(result, fit, name, ground, pixel, map_crs, use, ~outside, cam, snooping)
