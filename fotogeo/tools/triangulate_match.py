@@ -26,9 +26,11 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   orientations through the plane at the mean height (rotation between strips flown in opposite
   directions, scale); an observation whose LSM does not converge is dropped, and with it a
   track left with fewer than two. Each refined observation gets the LSM's a-posteriori
-  precision ``σ = sqrt((σx² + σy²) / 2)`` (floored at ``min_sigma``: a Gauss–Markov σ of LSM does not
-  see interpolation error, :mod:`fotogeo.matching.lsm`); the anchor, which defines the point,
-  gets the RMS σ of its track's transfers.
+  precision ``σ = sqrt((σx² + σy²) / 2)``, floored at ``min_sigma`` = 0.1 px: a Gauss–Markov σ of LSM
+  does not see interpolation error (:mod:`fotogeo.matching.lsm`) — on rendered frames (21² windows,
+  grey noise 2) most LSM σ were below 0.05 px while the true transfer errors had a median of 0.11 px,
+  and on the NGI pair a 0.05 px floor let data snooping cull tie observations with 0.08 px residuals.
+  The anchor, which defines the point, gets the RMS σ of its track's transfers.
 """
 from __future__ import annotations
 
@@ -193,7 +195,7 @@ def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
 
 
 def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
-                  min_sigma: float = 0.05, prog=None):
+                  min_sigma: float = 0.1, prog=None):
     """LSM transfer of each track's anchor window into its other frames (module docstring).
 
     Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
