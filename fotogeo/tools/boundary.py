@@ -167,6 +167,15 @@ def _raster_dtype(path) -> str | None:
         return None
 
 
+def _may_be_path(p: Path) -> bool:
+    """An existing file or a name with an extension; text no file system takes (a WKT CRS longer than a
+    file name may be: ``OSError`` "File name too long") is not a path."""
+    try:
+        return p.exists() or bool(p.suffix)
+    except OSError:
+        return False
+
+
 class _Call:
     """One tool call: its name and the files it reads and writes, for error messages."""
 
@@ -174,7 +183,7 @@ class _Call:
         self.name = name
         paths = {k: Path(v) for k, v in values.items() if isinstance(v, (str, Path)) and str(v)}
         self.outputs = {k: p for k, p in paths.items() if k in outputs}
-        self.inputs = {k: p for k, p in paths.items() if k not in outputs and (p.exists() or p.suffix)}
+        self.inputs = {k: p for k, p in paths.items() if k not in outputs and _may_be_path(p)}
 
     def final_paths(self, text: str) -> str:
         """``text`` with the hidden temporary files (``.OUT.xxxx.part.tif``) named by their final paths."""
