@@ -31,6 +31,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import InputError, ModelError
+from .threads import blas_threads_for
 
 #: name -> model class; filled by :func:`register_model`.
 MODELS: dict[str, type["Model"]] = {}
@@ -198,7 +199,8 @@ class Model:
         src, dst, w = check_pairs(cls, src, dst, weights)
         sn = Normalisation.of(src[w > 0], cls.isotropic)
         dn = Normalisation.of(dst[w > 0], cls.isotropic)
-        params = cls._fit(sn.normalise(src), dn.normalise(dst), w)
+        with blas_threads_for(2 * len(src), cls.n_params):  # small fits: one BLAS thread (models/threads.py)
+            params = cls._fit(sn.normalise(src), dn.normalise(dst), w)
         return cls(np.asarray(params, dtype=np.float64), sn, dn)
 
     def forward(self, src) -> np.ndarray:

@@ -37,6 +37,7 @@ import numpy as np
 from ..errors import IllPosedWarning, InputError, ModelError
 from ..geometry.dem import as_height_source, is_height_source
 from .base import Model, Normalisation, check_pairs, newton_2d, register_model
+from .threads import blas_threads_for
 
 #: condition number (normalised weighted design) above which a fit is reported ill-posed
 COND_WARN = 1e7
@@ -78,7 +79,8 @@ class FittedModel(Model):
         """Weighted least-squares estimate from ``src`` -> ``dst`` pairs (see the module doc)."""
         src, dst, w = check_pairs(cls, src, dst, weights)
         sn, dn = Normalisation.of(src[w > 0], cls.isotropic), Normalisation.of(dst[w > 0], cls.isotropic)
-        params, info = cls._fit(sn.normalise(src), dn.normalise(dst), w)
+        with blas_threads_for(2 * len(src), cls.n_params):  # small fits: one BLAS thread (models/threads.py)
+            params, info = cls._fit(sn.normalise(src), dn.normalise(dst), w)
         info = dict(info)
         info.setdefault("n_points", int(np.count_nonzero(w)))
         info["coverage"] = coverage(sn.normalise(src[w > 0]))

@@ -1,0 +1,96 @@
+"""One BLAS thread for the small least-squares fits, whatever the caller's thread setting (issue 15).
+
+A model fit on 1000 GCPs factorises matrices of a few thousand rows and at most ~80 columns.
+OpenBLAS splits such products over its threads, and the threads cost more than they save. On
+the 2-core development machine, loaded by other jobs (least squares + QR, best of 40 runs):
+2000 x 80 (an RFM) 14.5 ms on one thread, 23.4 ms on two; 2000 x 40 2.6 vs 4.6 ms; 1000 x 12
+0.20 vs 0.23 ms; at heavier load a 1000 x 12 QR + SVD took 0.45 vs 76 ms (median of 15: the
+threads waiting for a core spin), 20000 x 80 1.2 vs 2.8 s and 2000 x 400 0.86 vs 6.7 s.
+Below about 10⁴ matrix elements OpenBLAS keeps one thread by itself, and switching costs
+~0.03-0.06 ms, so those fits are left alone; above ``rows · cols² = 10⁹`` (a QR of ~10⁹
+flops) threads can pay, so those are left alone too.
+
+:func:`blas_threads_for` sets BLAS to one thread for the fits between (threadpoolctl, a BSD
+library, finds the BLAS libraries loaded in the process and sets their thread counts). The
+setting is process-wide, as BLAS's own is: fits running in several threads at once share one
+pin, counted under a lock, and the thread that ends the last of them puts the caller's counts
+back. threadpoolctl (3.8) lets only one Python thread at a time change OpenBLAS's count and
+silently ignores the others; fotogeo takes that control only for the moment of each change
+(``OpenBLASController.clear_controlling_thread(force=True)`` before and after), so a pin set
+in one thread is always undone, by whichever thread ends last. Without threadpoolctl nothing is
+pinned (the fits are the same, only their timing depends on the BLAS threads).
+"""
+from __future__ import annotations
+
+import contextlib
+import threading
+
+#: below this many matrix elements (rows x columns) OpenBLAS keeps one thread anyway: no pin
+SMALL_ELEMENTS = 10_000
+#: above this many rows x columns² (a QR's flop count) BLAS threads may pay: no pin
+LARGE_FLOPS = 1e9
+
+_lock = threading.Lock()
+_state = {"depth": 0, "original": None, "blas": None}
+
+
+def _blas_libraries():
+    """threadpoolctl's controllers of the loaded BLAS libraries (found once, after numpy loaded its
+    BLAS); an empty list without threadpoolctl."""
+    if _state["blas"] is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+        except ImportError:
+            _state["blas"] = []
+        else:
+            _state["blas"] = list(ThreadpoolController().select(user_api="blas").lib_controllers)
+    return _state["blas"]
+
+
+def _release_control() -> None:
+    """Let any thread change OpenBLAS's count next (threadpoolctl's single controlling thread)."""
+    try:
+        from threadpoolctl import OpenBLASController
+    except ImportError:
+        return
+    clear = getattr(OpenBLASController, "clear_controlling_thread", None)
+    if clear is not None:
+        clear(force=True)
+
+
+def _set_counts(libraries, counts) -> None:
+    _release_control()
+    for lib, n in zip(libraries, counts):
+        if n is not None:
+            lib.set_num_threads(n)
+    _release_control()
+
+
+def pins(rows: int, cols: int) -> bool:
+    """Whether a least-squares problem of ``rows x cols`` runs on one BLAS thread.
+
+    >>> pins(2000, 78), pins(8, 9), pins(200_000, 80)
+    (True, False, False)
+    """
+    return rows * cols >= SMALL_ELEMENTS and rows * cols * cols <= LARGE_FLOPS
+
+
+@contextlib.contextmanager
+def blas_threads_for(rows: int, cols: int):
+    """Run the block on one BLAS thread when :func:`pins` says so (see the module docstring)."""
+    libraries = _blas_libraries() if pins(rows, cols) else []
+    if not libraries:
+        yield
+        return
+    with _lock:
+        if _state["depth"] == 0:
+            _state["original"] = [lib.get_num_threads() for lib in libraries]
+            _set_counts(libraries, [1] * len(libraries))
+        _state["depth"] += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _state["depth"] -= 1
+            if _state["depth"] == 0:
+                _set_counts(libraries, _state["original"])
