@@ -166,8 +166,26 @@ def main():
     other = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
     STATE["import_points"] = dock.import_file(points)
     STATE["reimported"] = gcps(dock)
-    # a DEM that covers only part of the GCPs
+    # ODM gcp_list.txt round trip (heights from the fit: the DEM)
+    odm = os.path.join(ARGS["out"], "gcp_list.txt")
     dock.gcp_combo.setLayer(store.layer)
+    STATE["export_odm"] = dock.export_file(odm)
+    dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    STATE["import_odm"] = dock.import_file(odm)
+    STATE["reimported_odm"] = gcps(dock)
+    dock.gcp_combo.setLayer(store.layer)
+    # other height sources and models: a constant height; collinearity with the camera file
+    dock.height_combo.setCurrentText("constant")
+    dock.height_spin.setValue(300.0)
+    STATE["constant_dlt"] = dock.controller.fit  # one height for all: coplanar points, DLT cannot be fitted
+    dock.model_combo.setCurrentText("projective")
+    STATE["constant"] = dock.controller.fit
+    dock.height_combo.setCurrentText("dem")
+    dock.camera_file.setFilePath(ARGS["camera"])
+    dock.model_combo.setCurrentText("collinearity")
+    STATE["collinearity"] = {"fit": dock.controller.fit, "summary": dock.summary.text()}
+    dock.model_combo.setCurrentText("dlt")
+    # a DEM that covers only part of the GCPs
     dock.dem_combo.setLayer(small_dem)
     STATE["small_dem"] = {"fit": dock.controller.fit, "table": table(dock), "summary": dock.summary.text()}
     dock.dem_combo.setLayer(dem)
@@ -184,6 +202,24 @@ def main():
     STATE["wgs84"] = {"gcp": gcps(dock)[-1], "canvas_crs": canvas.mapSettings().destinationCrs().authid(),
                       "layer_crs_wkt": store.crs.toWkt(), "map_units_per_pixel": canvas.mapUnitsPerPixel()}
     del other
+    large_image(dock)
+
+
+def large_image(dock):
+    """A 3-band image above the pyramid threshold (lowered for the test): it shows at once, pyramids follow."""
+    from processing_provider.picker import image_source
+    image_source.OVERVIEW_PIXELS = 1000 * 1000
+    start = time.monotonic()
+    opened = dock.open_image(ARGS["large"])
+    STATE["large"] = {"opened": opened, "open_s": time.monotonic() - start, "bands": dock.image.layer.bandCount(),
+                      "task": dock.image.task is not None}
+    while dock.image.task is not None and not os.path.exists(dock.image.vrt + ".ovr") and time.monotonic() - start < 60:
+        pump(0.2)
+    pump(0.5)
+    from osgeo import gdal
+    vrt = gdal.Open(dock.image.vrt)
+    STATE["large"].update(overviews=vrt.GetRasterBand(1).GetOverviewCount(), vrt=dock.image.vrt,
+                          message=dock.last_message, built_s=time.monotonic() - start)
 
 
 def propose():
@@ -217,6 +253,15 @@ def propose():
     STATE["fit"] = dock.controller.fit
     STATE["summary"] = dock.summary.text()
     STATE["gcps"] = gcps(dock)
+    # the tools on the accepted GCPs: orient's report and the orthorectified frame (DEM), each in a task
+    done = {}
+    for kind, name in (("report", "orient.json"), ("rectify", "rectified.tif")):
+        dock.run_orient(kind, os.path.join(ARGS["out"], name), on_done=lambda ok, r, e, k=kind: done.update({k: [ok, e]}))
+    start = time.monotonic()
+    while len(done) < 2 and time.monotonic() - start < 600:
+        pump(0.2)
+    STATE["runs"] = done
+    STATE["layers"] = sorted(layer.name() for layer in QgsProject.instance().mapLayers().values())
 
 
 if __name__ == "__main__":

@@ -70,7 +70,11 @@ def picked(data_dir, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("picker")
     gcps, crs = truth_gcps(data_dir)
     (tmp / "notes.txt").write_text("not an image\n")
-    args = {"frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs, "gcps": gcps,
+    large = tmp / "large.tif"
+    import rasterio
+    with rasterio.open(large, "w", driver="GTiff", width=1500, height=1200, count=3, dtype="uint8") as ds:
+        ds.write(np.random.default_rng(0).integers(0, 255, (3, 1200, 1500), dtype=np.uint8))
+    args = {"large": str(large), "camera": str(data_dir / "ngi" / "interior_orientation.yaml"), "frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs, "gcps": gcps,
             "small_dem": str(small_dem(data_dir, tmp / "small_dem.tif", gcps)), "not_raster": str(tmp / "notes.txt")}
     return run_script("picker_gui_script.py", args, tmp), gcps, tmp
 
@@ -171,6 +175,40 @@ def test_layer_round_trips_through_points_file(picked):
     assert (tmp / "picked.points").read_text().startswith("#CRS: ")
 
 
+def test_layer_round_trips_through_odm_gcp_list(picked):
+    """ODM's gcp_list.txt: written with the DEM heights of the fit, read back by the dock and by fotogeo."""
+    from fotogeo.io.block import read_gcp_list
+    state, _, tmp = picked
+    assert state["export_odm"] and state["import_odm"] == 10
+    before, after = _by_id(state["role"]["gcps"]), _by_id(state["reimported_odm"])
+    heights = {p["id"]: p["z"] for p in state["role"]["fit"]["points"]}
+    assert set(before) == set(after)
+    for i, g in before.items():
+        a = after[i]
+        assert (a["col"], a["row"], a["x"], a["y"]) == pytest.approx((g["col"], g["row"], g["x"], g["y"]), abs=1e-9)
+        assert a["z"] == pytest.approx(heights[i], abs=1e-9)
+    odm = read_gcp_list(tmp / "gcp_list.txt")
+    assert list(odm.name) == list(before) and set(odm.frame) == {Path(FRAME).stem}
+    assert odm.pixel == pytest.approx(np.array([[g["col"], g["row"]] for g in before.values()]), abs=1e-9)
+
+
+def test_height_sources_and_models(picked):
+    state, _, _ = picked
+    assert not state["constant_dlt"]["ok"] and "coplanar" in state["constant_dlt"]["message"]
+    constant = state["constant"]
+    assert constant["ok"] and constant["model"] == "projective" and all(p["z"] == 300.0 and p["z_source"] == "constant" for p in constant["points"])
+    col = state["collinearity"]
+    assert col["fit"]["ok"] and col["fit"]["model"] == "collinearity" and col["summary"].startswith("collinearity")
+
+
+def test_large_multiband_image_shows_at_once_and_gets_pyramids(picked):
+    state, _, tmp = picked
+    large = state["large"]
+    assert large["opened"] and large["bands"] == 3 and large["task"]
+    assert large["overviews"] >= 3 and large["message"] == "pyramids built"
+    assert not Path(large["vrt"]).is_relative_to(tmp) and sorted(p.name for p in tmp.glob("large*")) == ["large.tif"]
+
+
 def test_too_few_points_and_a_dem_that_misses_gcps_are_shown(picked):
     state, truth, _ = picked
     assert "dlt needs 6 control points: 3 more" in state["few"]["summary"]
@@ -208,3 +246,8 @@ def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel
     assert fit["ok"] and fit["model"] == "dlt" and fit["rms"]["n_control"] == 20 and fit["rms"]["n_check"] == 10
     assert fit["rms"]["check_px"] < 1.0
     assert all(p["z_source"] == "dem" for p in fit["points"])
+    # Report and Rectify ran fotogeo orient on the same GCPs, model and DEM heights: the same check RMS
+    assert state["runs"] == {"report": [True, None], "rectify": [True, None]}
+    report = json.loads((tmp_path / "orient.json").read_text())
+    assert report["model_name"] == "dlt" and report["check"]["rms_xy_px"] == pytest.approx(fit["rms"]["check_px"], abs=1e-9)
+    assert (tmp_path / "rectified.tif").stat().st_size > 100_000 and "rectified.tif" in state["layers"]
