@@ -146,7 +146,29 @@ def orientations(eo, names, camera, distortion, gcp: GcpList | None, check_ids) 
     for n in missing:
         table[n] = resect(camera, distortion, gcp.ground[usable & (gcp.frame == n)],
                           gcp.pixel[usable & (gcp.frame == n)], n)
+    if gcp is not None:
+        check_orientation_near_control(table, [n for n in names if n not in missing], gcp, eo)
     return tuple(table[n] for n in names)
+
+
+def check_orientation_near_control(table, names, gcp: GcpList, eo, ratio: float = 5.0) -> None:
+    """Refuse approximate orientations that cannot have seen their GCPs: a frame whose projection centre
+    lies more than ``ratio`` flying heights (above its GCPs) from the mean of the GCPs it measured, or
+    below them — the mark of an orientation file and a GCP file in different CRSs (or a wrong line)."""
+    far = []
+    for n in names:
+        sel = gcp.frame == n
+        if not sel.any():
+            continue
+        e, ground = table[n], gcp.ground[sel]
+        height = e.Z - float(np.mean(ground[:, 2]))
+        dist = float(np.hypot(e.X - ground[:, 0].mean(), e.Y - ground[:, 1].mean()))
+        if not height > 0 or dist > ratio * height:
+            far.append(f"{n} ({dist:.0f} m from its GCPs, {height:.0f} m above them)")
+    if far:
+        raise InputError(f"exterior orientation {str(eo)!r} and the GCPs do not fit together: frame(s) "
+                         f"{', '.join(far[:5])}{' …' if len(far) > 5 else ''}; are both in the map CRS (--crs, "
+                         f"--gcp-crs), and are the GCPs' frame names right?")
 
 
 def resect(camera, distortion, ground, pixel, name):

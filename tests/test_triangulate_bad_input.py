@@ -1,0 +1,73 @@
+"""fotogeo triangulate on bad input: one ``Error:`` line naming the input and the fix, nothing written."""
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from fotogeo.cli import main
+from fotogeo.orientation.block_simulation import simulate_block
+from test_bad_input import assert_one_line_error
+from test_triangulate import CAMERA, write_block
+
+
+@pytest.fixture(scope="module")
+def block(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bad_block")
+    sb = simulate_block(seed=6, strips=2, frames_per_strip=5, camera=CAMERA, point_spacing=50.0, margin=3.0,
+                        n_check=8)
+    frames, checks = write_block(d, sb)
+    lines = (d / "gcp_list.txt").read_text().splitlines()
+    gcp = [ln.split() for ln in lines[1:]]
+    first = gcp[0][6]
+    outside = [lines[0]] + [" ".join(p[:3] + ["5000", "9000"] + p[5:]) if p[6] == first else " ".join(p) for p in gcp]
+    (d / "outside.txt").write_text("\n".join(outside) + "\n")
+    (d / "elsewhere.txt").write_text("\n".join([lines[0]] + [ln.replace(".JPG", "_x.JPG") for ln in lines[1:]]) + "\n")
+    from pyproj import Transformer
+    to34 = Transformer.from_crs("EPSG:32635", "EPSG:32634", always_xy=True)
+    eo34 = []
+    for ln in (d / "eo.txt").read_text().splitlines():
+        p = ln.split()
+        x, y = to34.transform(float(p[1]), float(p[2]))
+        eo34.append(" ".join([p[0], f"{x:.3f}", f"{y:.3f}", *p[3:]]))
+    (d / "eo_utm34.txt").write_text("\n".join(eo34) + "\n")
+    (d / "noz.csv").write_text("id,frame,x,y,col,row\ng1,s1_01.tif,500000,4420000,10,20\n")
+    (d / "badrole.csv").write_text("id,frame,x,y,z,col,row,role\ng1,s1_01.tif,500000,4420000,50,10,20,survey\n")
+    return d, frames, first
+
+
+def _args(d, frames, **kw):
+    base = {"--camera": d / "camera.yaml", "--eo": d / "eo.txt", "--observations": d / "tie.csv",
+            "--gcps": d / "gcp_list.txt", **kw}
+    out = d / "out"
+    out.mkdir(exist_ok=True)
+    return ["triangulate", *map(str, frames), *[str(x) for k, v in base.items() if v is not None for x in (k, v)],
+            "-o", str(out), "-q"]
+
+
+CASES = {
+    "control outside every frame": ({"--gcps": "outside.txt"}, "lie outside every frame"),
+    "control in no frame of the block": ({"--gcps": "elsewhere.txt"}, "no measurement names a frame of the block"),
+    "orientation and control in different CRSs": ({"--eo": "eo_utm34.txt"}, "do not fit together"),
+    "table without heights": ({"--gcps": "noz.csv", "--crs": "EPSG:32635"}, "lacks the field(s) z"),
+    "unknown role": ({"--gcps": "badrole.csv", "--crs": "EPSG:32635"}, "role values must be 'control' or 'check'"),
+    "neither orientation nor control": ({"--eo": None, "--gcps": None, "--crs": "EPSG:32635"},
+                                        "give the approximate exterior orientation (--eo) or ground control"),
+    "check points without control": ({"--gcps": None, "--crs": "EPSG:32635", "--check-points": "p1"},
+                                     "names given but no ground control"),
+    "geographic map CRS": ({"--crs": "EPSG:4326"}, "map CRS of the block"),
+    "reference without DEM": ({"--reference": "camera.yaml"}, "needs the DEM"),
+    "check fraction too large": ({"--check-fraction": "0.9"}, "check_fraction 0.9"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_triangulate_bad_input_is_one_line(block, case):
+    d, frames, first = block
+    given, expected = CASES[case]
+    kw = {k: (None if v is None else (v if k in ("--crs", "--check-points", "--check-fraction") else d / v))
+          for k, v in given.items()}
+    result = CliRunner().invoke(main, _args(d, frames, **kw), terminal_width=200)
+    assert_one_line_error(result, expected)
+    if case == "control outside every frame":
+        assert first in result.stderr
+    assert not any((d / "out").iterdir())
