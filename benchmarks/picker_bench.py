@@ -31,6 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 FRAME = "3324c_2015_1004_05_0182"
+_KEEP: dict = {}
 
 
 def gcps_of_frame(n: int, seed: int = 1) -> list[dict]:
@@ -51,7 +52,7 @@ def bench_session(n_gcps: int, calls: int, models: list[str]) -> dict:
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     os.environ.setdefault("FOTOGEO_PYTHON", sys.executable)
     from qgis.core import QgsApplication
-    app = QgsApplication.instance() or QgsApplication([], False)  # noqa: F841 - settings need an application
+    _KEEP["app"] = QgsApplication.instance() or QgsApplication([], False)  # the session reads QGIS settings
     from fotogeo.tools.gcp_fit import fit_gcps
     from processing_provider.session import WorkerSession
     ngi = DATA / "ngi"

@@ -15,6 +15,8 @@ import pytest
 import rasterio
 from rasterio.transform import from_origin
 
+from qgis_env import qgis_app  # noqa: F401  (a session fixture: the QGIS client tests need it)
+
 ROOT = Path(__file__).resolve().parents[1]
 CRS = "EPSG:32635"
 
@@ -118,9 +120,6 @@ def session(qgis_app):
     s = WorkerSession()
     yield s
     s.close()
-
-
-from qgis_env import qgis_app  # noqa: E402,F401  (the session fixture above needs it)
 
 
 def test_worker_session_calls_errors_restart_and_threads(session, dem_path):
