@@ -78,3 +78,19 @@ def test_bad_input(tmp_path, data_dir):
         propose_gcps(frame, plain, count=0)
     with pytest.raises(InputError, match="ratio"):
         propose_gcps(frame, plain, ratio=7)
+
+
+def test_proposals_without_a_dem_use_the_planar_robust_fit(data_dir):
+    from fotogeo.crs import transform_points
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.tools.gcp_propose import propose_gcps
+    ngi = data_dir / "ngi"
+    out = propose_gcps(ngi / "frames" / f"{FRAME}_RGB.tif", ngi / "ortho" / "ngi_rgb_byte_1.tif", count=12)
+    assert out["model"] == "projective" and len(out["candidates"]) == 12 and "z" not in out["candidates"][0]
+    frame, d = load_ngi_frame(ngi, FRAME), Dem.open(ngi / "dem.tif")
+    XY = transform_points(CRS.from_wkt(out["crs"]), CRS.from_wkt(d.crs.to_wkt()),
+                          [[c["x"], c["y"]] for c in out["candidates"]])
+    true_px = frame.world_to_pixel(np.column_stack([XY, d.heights(XY)]))
+    px = np.array([[c["col"], c["row"]] for c in out["candidates"]])
+    assert np.median(np.hypot(*(true_px - px).T)) < 1.0
