@@ -136,12 +136,14 @@ def control_in(gcp: GcpList, map_crs) -> GcpList:
 
 def split_check_points(gcp: GcpList, check_ids, fraction: float, seed) -> set:
     """The GCP names held out as check points: the file's ``check`` roles, the ``check_ids`` named, and
-    with ``fraction`` > 0 a seeded hold-out of the remaining control points spread over the block
+    with ``fraction`` > 0 a seeded hold-out of ``fraction`` of the remaining control points measured in
+    two frames or more (a check point is intersected from its rays alone), spread over the block
     (:func:`fotogeo.models.robust.spread_split` on their mean ground positions), leaving ≥ 3 control."""
     from ..models.robust import spread_split
     checks = set(check_ids) | (set(gcp.name[gcp.role == "check"]) if gcp.role is not None else set())
     if fraction:
-        rest = sorted(set(gcp.name) - checks)
+        names, rays = np.unique(gcp.name.astype(str), return_counts=True)
+        rest = sorted(set(names[rays >= 2]) - checks)
         xy = np.array([gcp.ground[gcp.name == n, :2].mean(axis=0) for n in rest]).reshape(-1, 2)
         chosen = spread_split(xy, fraction, seed) if len(rest) - round(fraction * len(rest)) >= 3 else np.zeros(0)
         if not np.any(chosen):
