@@ -30,6 +30,9 @@ def block(tmp_path_factory):
         x, y = to34.transform(float(p[1]), float(p[2]))
         eo34.append(" ".join([p[0], f"{x:.3f}", f"{y:.3f}", *p[3:]]))
     (d / "eo_utm34.txt").write_text("\n".join(eo34) + "\n")
+    moved = [lines[0]] + [" ".join([str(float(p[0]) + 5.0), *p[1:]]) if p[6] == first and k == 0 else " ".join(p)
+                          for k, p in enumerate(gcp)]
+    (d / "moved.txt").write_text("\n".join(moved) + "\n")
     (d / "noz.csv").write_text("id,frame,x,y,col,row\ng1,s1_01.tif,500000,4420000,10,20\n")
     (d / "badrole.csv").write_text("id,frame,x,y,z,col,row,role\ng1,s1_01.tif,500000,4420000,50,10,20,survey\n")
     return d, frames, first
@@ -48,6 +51,7 @@ CASES = {
     "control outside every frame": ({"--gcps": "outside.txt"}, "lie outside every frame"),
     "control in no frame of the block": ({"--gcps": "elsewhere.txt"}, "no measurement names a frame of the block"),
     "orientation and control in different CRSs": ({"--eo": "eo_utm34.txt"}, "do not fit together"),
+    "one id at two places": ({"--gcps": "moved.txt"}, "have different ground coordinates"),
     "table without heights": ({"--gcps": "noz.csv", "--crs": "EPSG:32635"}, "lacks the field(s) z"),
     "unknown role": ({"--gcps": "badrole.csv", "--crs": "EPSG:32635"}, "role values must be 'control' or 'check'"),
     "neither orientation nor control": ({"--eo": None, "--gcps": None, "--crs": "EPSG:32635"},

@@ -128,6 +128,22 @@ def test_without_eo_every_frame_is_resected_from_its_control(tmp_path, dense_con
         assert np.hypot(eo[name].X - true.X, eo[name].Y - true.Y) < 10 * gsd
 
 
+def test_command_without_eo_and_with_a_hold_out(tmp_path, dense_control):
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    frames, _ = write_block(tmp_path, dense_control)
+    (tmp_path / "out").mkdir()
+    res = CliRunner().invoke(main, ["triangulate", *map(str, frames), "--camera", str(tmp_path / "camera.yaml"),
+                                    "--observations", str(tmp_path / "tie.csv"), "--gcps",
+                                    str(tmp_path / "gcp_list.txt"), "--check-fraction", "0.2", "--seed", "4",
+                                    "--image-sigma", "0.3", "-o", str(tmp_path / "out"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert "resected from their GCPs (no --eo line): s1_01" in res.output and "check n=" in res.output
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert rep["eo"] is None and rep["statistics"]["check"]["rmse_planimetric_m"] < 0.5 * dense_control.gsd
+
+
 def test_frames_without_eo_and_too_few_gcps_are_named(tmp_path, small_block):
     frames, checks = write_block(tmp_path, small_block)
     g = read_gcp_list(tmp_path / "gcp_list.txt")

@@ -50,6 +50,10 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         s = st[role]
         if s.get("n"):
             click.echo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} Z {s['rmse_z_m']:.3f} m")
+    if rep.get("resected_frames"):
+        click.echo(f"resected from their GCPs (no --eo line): {', '.join(rep['resected_frames'])}")
+    if rep.get("automatic_control"):
+        click.echo(f"{rep['automatic_control']} control points found on the reference")
     for f in rep["fixed_parameters"]:
         click.echo(f"held fixed: {f['reason']}")
     click.echo(f"wrote {rep['folder']}")

@@ -20,6 +20,9 @@
   col, row, z[, role]`` (:func:`fotogeo.io.block.read_control_table`), transformed into the map
   CRS; check points: the ``role`` field, the names in ``check_points`` and a seeded spread
   hold-out of ``check_fraction`` of the control;
+* ``reference`` (with ``dem``) — orthophoto(s) on which control is found automatically
+  (:func:`fotogeo.tools.triangulate_control.automatic_control`), merged with ``gcps`` and weighted
+  with ``reference_sigma_xy`` / ``reference_sigma_z``;
 
 runs :func:`fotogeo.orientation.bundle.adjust_block` in the map CRS (projected, metric) and
 writes into ``folder``, as one set (nothing on an error or a cancel;

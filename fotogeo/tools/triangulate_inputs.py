@@ -72,10 +72,23 @@ def read_block_control(gcps, crs, gcp_crs, camera, names, check_points):
     require_projected(map_crs, "map CRS of the block (give a projected one with --crs)")
     gcp = control_in(gcp, map_crs)
     gcp = _in_frames(gcp, names, camera, gcps)
+    _same_ground_per_name(gcp, gcps)
     unknown = sorted(ids - set(gcp.name))
     if unknown:
         raise InputError(f"check_points: {', '.join(unknown[:10])} are not GCP names of {str(gcps)!r}")
     return gcp, map_crs, split_check_points(gcp, ids, 0.0, None)
+
+
+def _same_ground_per_name(gcp: GcpList, path, tolerance: float = 1e-3) -> None:
+    """Every measurement of one GCP must give the same ground coordinates (within ``tolerance`` m)."""
+    order = np.argsort(gcp.name.astype(str), kind="stable")
+    names, start = np.unique(gcp.name[order].astype(str), return_index=True)
+    lo = np.minimum.reduceat(gcp.ground[order], start, axis=0)
+    hi = np.maximum.reduceat(gcp.ground[order], start, axis=0)
+    bad = names[(hi - lo).max(axis=1) > tolerance]
+    if len(bad):
+        raise InputError(f"GCP file {str(path)!r}: point(s) {', '.join(bad[:10])} have different ground coordinates "
+                         f"in different rows; give each id one X, Y, Z (or different ids)")
 
 
 def add_automatic_control(gcp, frames, names, camera, eos, reference, dem, map_crs, progress) -> GcpList:
