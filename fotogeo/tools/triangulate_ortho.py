@@ -100,11 +100,11 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
 
 def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
+    from ..io.raster import open_raster
     from .orient import _rectify
     g = SimpleNamespace(crs=crs)
     out = {}
     for k, (path, name) in enumerate(zip(frames, block.frames)):
-        from ..io.raster import open_raster
         stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
         out[name] = _rectify(temp_paths[name], open_raster(path, "frame"), g, grids[name], resampling, stage)
     return out
