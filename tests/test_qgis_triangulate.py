@@ -50,8 +50,8 @@ def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_fi
     project.removeAllMapLayers()
     context = QgsProcessingContext()
     context.setProject(project)
-    res = processing.runAndLoadResults("fotogeo:triangulate", _params(folder, frames, checks, tmp_path / "out"),
-                                       feedback=Recorder(), context=context)
+    params = {**_params(folder, frames, checks, tmp_path / "out"), "ORTHORECTIFY": True}
+    res = processing.runAndLoadResults("fotogeo:triangulate", params, feedback=Recorder(), context=context)
     rep = json.loads((tmp_path / "out" / "report.json").read_text())
     assert rep["statistics"]["check"] == pytest.approx(direct["statistics"]["check"], rel=1e-6)
     assert res["CHECK_RMSE_XY"] == pytest.approx(direct["statistics"]["check"]["rmse_planimetric_m"], rel=1e-6)
@@ -64,6 +64,10 @@ def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_fi
     assert control.renderer().type() == "categorizedSymbol" and control.renderer().classAttribute() == "role"
     assert layers["Frame footprints"].featureCount() == 10
     assert layers["Frame footprints"].crs().authid() == "EPSG:32635"
+    orthos = [lyr for name, lyr in layers.items() if name.endswith(" ortho")]
+    assert len(orthos) == 10 and all(o.crs().authid() == "EPSG:32635" for o in orthos)
+    names = [n.name() for n in project.layerTreeRoot().findLayers()]
+    assert names.index("Control and check points") < min(names.index(o.name()) for o in orthos)  # vectors on top
 
 
 def test_an_unset_multiple_choice_is_none(qgis_app):
