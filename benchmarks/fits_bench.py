@@ -10,7 +10,10 @@ median of ``--repeats`` fits; its check RMSE per axis (pixels) shows that the an
 one-decomposition fits), extracted with ``git archive`` into a temporary folder and run
 in a child process with that folder first on ``PYTHONPATH``; "now" is the working tree,
 also in a child process, so both see the same machine state (they run one after the
-other, in the same invocation). GDAL's ``GCP_POLYNOMIAL`` transformer (orders 1-3, the
+other, in the same invocation). "now, 1 BLAS" is the working tree again with
+``OPENBLAS_NUM_THREADS=1`` (and OMP/MKL) in its environment: fotogeo pins its small fits to
+one BLAS thread itself (:mod:`fotogeo.models.threads`), so "now" and "now, 1 BLAS" should
+agree whatever the caller's BLAS setting. GDAL's ``GCP_POLYNOMIAL`` transformer (orders 1-3, the
 peer of fotogeo's poly1-3) is timed as its creation, which fits the polynomial.
 
 Run: ``.venv/bin/python benchmarks/fits_bench.py`` (about a minute; ``--repeats``,
@@ -116,8 +119,12 @@ def child(kind: str, args) -> None:
     print(json.dumps(fn(args.gcps, args.checks, args.repeats)))
 
 
-def run_child(kind: str, args, pythonpath: str | None) -> dict:
-    env = dict(os.environ)
+#: the environment of the "now, 1 BLAS" run
+ONE_BLAS_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def run_child(kind: str, args, pythonpath: str | None, extra_env: dict | None = None) -> dict:
+    env = {**os.environ, **(extra_env or {})}
     if pythonpath:
         env["PYTHONPATH"] = pythonpath + os.pathsep + env.get("PYTHONPATH", "")
     cmd = [sys.executable, __file__, "--child", kind, "--gcps", str(args.gcps), "--checks", str(args.checks),
@@ -133,20 +140,21 @@ def extract(rev: str, folder: Path) -> None:
         t.extractall(folder)
 
 
-def table(before: dict, now: dict, gdal: dict) -> str:
-    lines = [f"{'model':<14} {'before s':>10} {'now s':>10} {'before/now':>10} {'gdal s':>10} {'now/gdal':>9}  "
-             f"{'check rms before (x, y)':>24}  {'now (x, y)':>18}"]
+def table(before: dict, now: dict, gdal: dict, one: dict) -> str:
+    lines = [f"{'model':<14} {'before s':>10} {'now s':>10} {'1 BLAS s':>10} {'before/now':>10} {'gdal s':>10} "
+             f"{'now/gdal':>9}  {'check rms before (x, y)':>24}  {'now (x, y)':>18}"]
     peer = {v: k for k, v in GDAL.items()}
     for name in MODELS:
         b, n = before[name], now[name]
         g = gdal.get(peer.get(name, ""), {})
         gs = f"{g['seconds']:10.5f} {n['seconds'] / g['seconds']:9.2f}" if g else f"{'-':>10} {'-':>9}"
-        lines.append(f"{name:<14} {b['seconds']:10.5f} {n['seconds']:10.5f} {b['seconds'] / n['seconds']:10.1f} {gs}  "
+        lines.append(f"{name:<14} {b['seconds']:10.5f} {n['seconds']:10.5f} {one[name]['seconds']:10.5f} "
+                     f"{b['seconds'] / n['seconds']:10.1f} {gs}  "
                      f"{b['check_rms'][0]:11.4f} {b['check_rms'][1]:11.4f}  "
                      f"{n['check_rms'][0]:8.4f} {n['check_rms'][1]:8.4f}")
     for name in GDAL:
         g = gdal[name]
-        lines.append(f"{name:<14} {'':>10} {'':>10} {'':>10} {g['seconds']:10.5f} {'':>9}  {'':>24}  "
+        lines.append(f"{name:<14} {'':>10} {'':>10} {'':>10} {'':>10} {g['seconds']:10.5f} {'':>9}  {'':>24}  "
                      f"{g['check_rms'][0]:8.4f} {g['check_rms'][1]:8.4f}")
     return "\n".join(lines)
 
@@ -169,8 +177,9 @@ def main(argv=None):
         extract(a.before, Path(tmp))
         before = run_child("fotogeo", a, tmp)
     now = run_child("fotogeo", a, str(ROOT))
+    one = run_child("fotogeo", a, str(ROOT), ONE_BLAS_THREAD)
     gdal = run_child("gdal", a, str(ROOT))
-    print(table(before, now, gdal))
+    print(table(before, now, gdal, one))
     from osgeo import gdal as _gdal
 
     result = {"benchmark": "fits_bench", "units": "seconds per fit (median); check RMSE in pixels (x = col, y = row)",
@@ -179,7 +188,8 @@ def main(argv=None):
               "environment": {"python": platform.python_version(), "numpy": np.__version__,
                               "gdal": _gdal.__version__, "cpus": os.cpu_count(),
                               "load_average": list(os.getloadavg())},
-              "before": before, "now": now, "gdal": gdal, "seconds": time.time() - t0}
+              "caller_blas_env": {k: os.environ.get(k) for k in ONE_BLAS_THREAD},
+              "before": before, "now": now, "now_one_blas_thread": one, "gdal": gdal, "seconds": time.time() - t0}
     a.out.parent.mkdir(parents=True, exist_ok=True)
     tmp_out = a.out.with_suffix(".json.tmp")
     tmp_out.write_text(json.dumps(result, indent=1))
