@@ -34,7 +34,9 @@ Per frame:
 
 Across frames: the reference keypoints are detected identically for every frame matched to a
 tile, so a reference keypoint (tile, position) matched in several frames is one GCP with
-several image measurements. Thinning (Gruber's positions, generalised): every frame is cut
+several image measurements; and a feature matched in two overlapping tiles — two keypoints whose
+measurements in one frame lie within a pixel (:func:`merge_points`) — is one GCP too (the mean of its
+two ground positions). One measurement per GCP and frame (the smallest fit residual). Thinning (Gruber's positions, generalised): every frame is cut
 into ``cells x cells`` regions with a budget of ``per_frame / cells²`` points each; candidates
 are taken in order of (more frames first, smaller fit residual), and one is kept while any of
 its measurements falls in a region still below its budget
@@ -120,22 +122,37 @@ def _crs_text(crs) -> str:
     return f"{auth[0]}:{auth[1]}" if auth else crs.to_wkt()
 
 
-def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
-                      options: RegisterOptions | None = None, progress=None) -> GcpList:
-    """Control points of the block from ``reference`` orthophoto(s) and ``dem`` (module docstring)."""
-    prog = as_progress(progress)
-    if per_frame < cells * cells:
-        raise InputError(f"per_frame must be at least {cells * cells} (one point per region); got {per_frame}")
-    if len(frames) != len(names) or len(frames) != len(eos):
-        raise InputError("frames, names and eos must have one entry per frame")
-    opts = options or RegisterOptions()
-    crs = require_projected(parse_crs(crs, "map CRS of the block"), "map CRS of the block")
-    tiles = _references(reference)
-    d = dem if isinstance(dem, Dem) else read_dem(dem)
-    heights = DemSampler(d, crs)
-    mean_h = float(np.nanmean(d.data))
+def merge_points(frame, px, tile, ref_xy, same_px: float = 1.0) -> np.ndarray:
+    """Point id (n,) of every measurement: one per (tile, reference keypoint), and one for the keypoints of
+    different tiles whose measurements in a frame lie within ``same_px`` of each other (the same feature
+    in two overlapping tiles).
+
+    >>> merge_points(np.array([0, 0, 1]), np.array([[5.0, 5.0], [5.3, 5.0], [9.0, 9.0]]), np.array([0, 1, 0]),
+    ...              np.array([[1.0, 1.0], [7.0, 7.0], [1.0, 1.0]])).tolist()
+    [0, 0, 0]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    _, point = np.unique(np.column_stack([tile, np.round(ref_xy, 3)]), axis=0, return_inverse=True)
+    point = point.ravel()
+    a, b = [point[:0]], [point[:0]]
+    for f in np.unique(frame):
+        m = np.flatnonzero(frame == f)
+        pairs = cKDTree(px[m]).query_pairs(same_px, output_type="ndarray")
+        pairs = pairs[tile[m[pairs[:, 0]]] != tile[m[pairs[:, 1]]]]
+        a.append(point[m[pairs[:, 0]]])
+        b.append(point[m[pairs[:, 1]]])
+    a, b = np.concatenate(a), np.concatenate(b)
+    n = int(point.max()) + 1
+    _, label = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n)), directed=False)
+    return label[point]
+
+
+def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, prog):
+    """Inlier matches of every frame with its reference tiles: ``(frame, px, XYZ, tile, ref px, residual px)``."""
     outlines = [_tile_outline(info, crs) for info in tiles]
-    rows = []  # per frame: (frame index, frame px, XYZ, key (tile, ref px), residual px)
+    rows = []
     for i, f in enumerate(frames):
         stage = prog.stage(i / len(frames), (i + 1) / len(frames), f"control for frame {names[i]}")
         foot = _footprint(camera, eos[i], mean_h)
@@ -153,21 +170,34 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
     if not rows:
         raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])}; "
                             f"check that the orthophoto covers the frames and the approximate orientation")
-    frame, px, xyz, tile, ref_xy, res = (np.concatenate(c) for c in zip(*rows))
-    _, point = np.unique(np.column_stack([tile, np.round(ref_xy, 3)]), axis=0, return_inverse=True)
-    point = point.ravel()
+    return (np.concatenate(c) for c in zip(*rows))
+
+
+def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
+                      options: RegisterOptions | None = None, progress=None) -> GcpList:
+    """Control points of the block from ``reference`` orthophoto(s) and ``dem`` (module docstring)."""
+    prog = as_progress(progress)
+    if per_frame < cells * cells:
+        raise InputError(f"per_frame must be at least {cells * cells} (one point per region); got {per_frame}")
+    if len(frames) != len(names) or len(frames) != len(eos):
+        raise InputError("frames, names and eos must have one entry per frame")
+    crs = require_projected(parse_crs(crs, "map CRS of the block"), "map CRS of the block")
+    tiles = _references(reference)
+    d = dem if isinstance(dem, Dem) else read_dem(dem)
+    frame, px, xyz, tile, ref_xy, res = _candidates(frames, names, camera, eos, tiles, crs, DemSampler(d, crs),
+                                                    float(np.nanmean(d.data)), options or RegisterOptions(), prog)
+    point = merge_points(frame, px, tile, ref_xy)
     first = np.lexsort((res, frame, point))  # one measurement per (point, frame): the smallest residual
     once = first[np.r_[True, (np.diff(point[first]) != 0) | (np.diff(frame[first]) != 0)]]
     frame, px, xyz, res, point = frame[once], px[once], xyz[once], res[once], point[once]
-    n_frames = np.bincount(point)[point]
-    score = -n_frames * 1e3 + np.minimum(res, 999.0)  # more rays first, then the smaller residual
+    score = -np.bincount(point)[point] * 1e3 + np.minimum(res, 999.0)  # more rays first, then the smaller residual
     keep = np.isin(point, thin_to_budget(point, frame, image_regions(px, camera, cells), score,
                                          max(1, per_frame // (cells * cells))))
     ids = {p: k for k, p in enumerate(dict.fromkeys(point[keep]))}
+    idx = np.array([ids[p] for p in point[keep]], dtype=np.intp)
     ground = np.zeros((len(ids), 3))
-    np.add.at(ground, [ids[p] for p in point[keep]], xyz[keep])  # the same keypoint: the same XYZ
-    ground /= np.bincount([ids[p] for p in point[keep]])[:, None]
+    np.add.at(ground, idx, xyz[keep])  # one keypoint: one XYZ; one feature in two tiles: their mean
+    ground /= np.bincount(idx)[:, None]
     prog(1.0, f"{len(ids)} control points in {len(set(frame[keep]))} frames")
-    return GcpList(_crs_text(crs), np.array([f"auto{ids[p]}" for p in point[keep]], dtype=object),
-                   ground[[ids[p] for p in point[keep]]], px[keep],
+    return GcpList(_crs_text(crs), np.array([f"auto{k}" for k in idx], dtype=object), ground[idx], px[keep],
                    np.array([names[f] for f in frame[keep]], dtype=object))
