@@ -34,12 +34,13 @@ Per frame:
 
 Across frames: the reference keypoints are detected identically for every frame matched to a
 tile, so a reference keypoint (tile, position) matched in several frames is one GCP with
-several image measurements; and a feature matched in two overlapping tiles — two keypoints whose
-measurements in one frame lie within a pixel (:func:`merge_points`) — is one GCP too (the mean of its
-two ground positions). One measurement per GCP and frame (the smallest fit residual). Thinning (Gruber's positions, generalised): every frame is cut
-into ``cells x cells`` regions with a budget of ``per_frame / cells²`` points each; candidates
-are taken in order of (more frames first, smaller fit residual), and one is kept while any of
-its measurements falls in a region still below its budget
+several image measurements; and a feature matched in two overlapping tiles — two keypoints
+whose measurements in one frame lie within a pixel (:func:`merge_points`) — is one GCP too
+(the mean of its two ground positions). One measurement per GCP and frame (the smallest fit
+residual). Thinning (Gruber's positions, generalised): every frame is cut into ``cells x
+cells`` regions with a budget of ``per_frame / cells²`` points each; candidates are taken in
+order of (more frames first, smaller fit residual), and one is kept while any of its
+measurements falls in a region still below its budget
 (:func:`fotogeo.tools.triangulate_match.thin_to_budget`) — so the control is spread over
 every frame and multi-ray points come first.
 """
