@@ -111,7 +111,10 @@ def test_check_fraction_holds_out_a_seeded_spread_share(tmp_path, small_block):
     import pyogrio
     ctrl = pyogrio.read_dataframe(out / "block.gpkg", layer="control")
     held_out = set(ctrl["id"][ctrl["role"] == "check"])
-    assert len(held_out) == n_check[0]
+    assert len(held_out) == n_check[0] and sorted(held_out) == reps[0]["check_points"]
+    g = read_gcp_list(tmp_path / "gcp_list.txt")
+    span = np.ptp(g.ground[np.isin(g.name, list(held_out)), :2], axis=0) / np.ptp(g.ground[:, :2], axis=0)
+    assert (span > 0.5).all(), span  # spread over the block, not bunched in one corner
     assert n_check[2] == n_check[0] and reps[2]["statistics"]["check"] != reps[0]["statistics"]["check"]
     with pytest.raises(InputError, match="check_fraction 0.9"):
         _run(tmp_path, frames=frames, gcps=tmp_path / "gcp_list.txt", check_fraction=0.9, overwrite=True)

@@ -151,7 +151,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                                          "observations": str(observations) if observations else None,
                                          "dem": str(dem) if dem else None, "folder": str(folder),
                                          "reference": [str(r) for r in _as_list(reference)] or None,
-                                         "automatic_control": len(auto),
+                                         "automatic_control": len(auto), "check_points": sorted(map(str, check_ids)),
                                          "matching": matching, "resected_frames": _resected(eo, names)})
     write_outputs(finals, result, block, frames, rep, dem=dem, resolution=resolution, resampling=resampling,
                   overwrite=overwrite, progress=prog.stage(0.8, 1.0, "writing the outputs"))
