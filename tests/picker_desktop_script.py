@@ -90,7 +90,7 @@ def picking():
     STATE["table"] = table(dock)
     # the cursor over the image: the map shows where the model puts that pixel
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, 330, -560), Qt.NoButton)
-    QTimer.singleShot(2500, guard(lambda: (grab(iface.mainWindow(), "picker_dock.png"),
+    QTimer.singleShot(2500, guard(lambda: (grab(iface.mainWindow(), "picker_dock.png", 1280),
                                            grab(dock, "picker_table.png"), proposals())))
 
 
@@ -100,6 +100,8 @@ def proposals():
         finish()
         return
     dock = KEEP["dock"]
+    first = dock.controller.store.layer
+    QgsProject.instance().layerTreeRoot().findLayer(first.id()).setItemVisibilityChecked(False)
     dock.new_gcp_layer(KEEP["crs"])
     KEEP["task"] = dock.propose(reference=ARGS["ortho"], count=30)
     wait_proposals(0)
@@ -113,7 +115,18 @@ def wait_proposals(n):
         return
     STATE["proposals"] = len(dock.controller.proposals)
     STATE["propose_error"] = KEEP["task"].error
-    QTimer.singleShot(2000, guard(lambda: (grab(iface.mainWindow(), "picker_proposals.png"), finish())))
+    QTimer.singleShot(2000, guard(lambda: (grab(iface.mainWindow(), "picker_proposals.png", 1280), accept())))
+
+
+@guard
+def accept():
+    """All proposals accepted, every third a check point: the live DLT fit and its residual arrows."""
+    dock = KEEP["dock"]
+    dock.controller.accept_proposals(check_every=3)
+    dock.exaggeration_spin.setValue(150)  # sub-pixel residuals: arrows long enough to see
+    fit = dock.controller.fit
+    STATE["accepted_fit"] = {"ok": fit["ok"], "model": fit.get("model"), "rms": fit.get("rms")}
+    QTimer.singleShot(2000, guard(lambda: (grab(iface.mainWindow(), "picker_accepted.png", 1280), finish())))
 
 
 QTimer.singleShot(3000, start)

@@ -50,6 +50,7 @@ class PickerController(QObject):
         if self.store is not None:
             self.store.changed.disconnect(self.refit)
         self.store = store
+        self.pending, self.predicted, self.proposals = None, {IMAGE: None, MAP: None}, []
         self.undo_stack.clear()
         if store is not None:
             store.changed.connect(self.refit)

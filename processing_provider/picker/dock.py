@@ -9,7 +9,7 @@ the image canvas; the fit summary; the table. The handlers of the rows are in
 """
 from __future__ import annotations
 
-from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayerProxyModel
+from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtWidgets import (
@@ -134,7 +134,8 @@ class PickerDock(DockActions, QDockWidget):
         splitter = QSplitter(Qt.Vertical)
         splitter.addWidget(top)
         splitter.addWidget(self.table)
-        splitter.setSizes([640, 360])
+        splitter.setStretchFactor(0, 3)
+        splitter.setStretchFactor(1, 2)
         self.setWidget(splitter)
 
     def _proposal_row(self) -> QWidget:
@@ -203,7 +204,9 @@ class PickerDock(DockActions, QDockWidget):
     def new_gcp_layer(self, crs: QgsCoordinateReferenceSystem | None = None) -> GcpLayer:
         """A new memory GCP layer in ``crs`` (default: the map canvas's CRS), added to the project and chosen."""
         crs = crs or self.map_canvas.mapSettings().destinationCrs()
-        store = GcpLayer.create(crs)
+        names = {layer.name() for layer in QgsProject.instance().mapLayers().values()}
+        name = next(n for n in ("fotogeo GCPs", *(f"fotogeo GCPs {k}" for k in range(2, 10000))) if n not in names)
+        store = GcpLayer.create(crs, name)
         self.gcp_combo.setLayer(store.layer)
         return store
 
