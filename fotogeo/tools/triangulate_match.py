@@ -196,29 +196,34 @@ def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
 
 def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
                   min_sigma: float = 0.1, prog=None):
-    """LSM transfer of each track's anchor window into its other frames (module docstring).
+    """LSM transfer of each track's anchor window into its other frames (module docstring), frame pair by
+    frame pair (at most two full-resolution frames in memory).
 
     Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
     """
     from ..matching import lsm_many
     prog = as_progress(prog)
     n = len(frame)
+    track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
     order = np.lexsort((frame, track))
     is_anchor = np.zeros(n, bool)
     is_anchor[order[np.r_[True, np.diff(track[order]) != 0]]] = True
-    anchor_of = np.empty(len(np.unique(track)), np.intp)
+    anchor_of = np.empty(int(track.max()) + 1 if n else 0, np.intp)
     anchor_of[track[is_anchor]] = np.flatnonzero(is_anchor)
     anchor = anchor_of[track]
     out, sigma, ok = pixel.copy(), np.full(n, np.nan), is_anchor.copy()
-    groups = sorted({(int(frame[anchor[m]]), int(frame[m])) for m in np.flatnonzero(~is_anchor)})
+    others = np.flatnonzero(~is_anchor)
+    key = frame[anchor[others]].astype(np.int64) * len(eos) + frame[others]
+    others = others[np.argsort(key, kind="stable")]
+    groups = np.split(others, np.flatnonzero(np.diff(np.sort(key))) + 1) if len(others) else []
     cache: dict = {}
-    for g, (fa, fb) in enumerate(groups):
-        prog(g / max(1, len(groups)), f"least-squares matching {g + 1}/{len(groups)}")
+    for g, m in enumerate(groups):
+        fa, fb = int(frame[anchor[m[0]]]), int(frame[m[0]])
+        prog(g / len(groups), f"least-squares matching {g + 1}/{len(groups)}")
         cache = {k: v for k, v in cache.items() if k in (fa, fb)}  # the anchor frame stays while its groups run
         for f in (fa, fb):
             if f not in cache:
                 cache[f] = _grey(infos[f])
-        m = np.flatnonzero(~is_anchor & (frame == fb) & (frame[anchor] == fa))
         J = local_affinity(camera, eos[fa], eos[fb], pixel[anchor[m]], height)
         res = lsm_many(cache[fa], cache[fb], pixel[anchor[m]], pixel[m], half_window=half_window,
                        approx_jacobian=J, max_shift=max_shift)
