@@ -115,20 +115,14 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale):
     Jd[:, 1, 0] = 2 * u * v * g + 2 * p1 * u + 2 * p2 * v
     Jd[:, 1, 1] = rho + 2 * v * v * g + 6 * p1 * v + 2 * p2 * u
     iz = 1.0 / c[:, 2]
-    Juv = np.zeros((n, 2, 3))  # ∂(u, v)/∂c
-    Juv[:, 0, 0] = iz
-    Juv[:, 0, 2] = -u * iz
-    Juv[:, 1, 1] = iz
-    Juv[:, 1, 2] = -v * iz
-    A = Jd @ Juv
-    A[:, 0] *= fx
-    A[:, 1] *= fy
+    A = np.empty((n, 2, 3))  # diag(fx, fy)·Jd·∂(u, v)/∂c, ∂(u, v)/∂c = [[1, 0, −u], [0, 1, −v]] / z
+    for r, fr in ((0, fx), (1, fy)):
+        A[:, r, 0] = fr * iz * Jd[:, r, 0]
+        A[:, r, 1] = fr * iz * Jd[:, r, 1]
+        A[:, r, 2] = -(A[:, r, 0] * u + A[:, r, 1] * v)
     Rj = R[frame]
     J_point = A @ Rj.transpose(0, 2, 1)  # A Rᵀ
-    cx = np.zeros((n, 3, 3))  # [c]×
-    cx[:, 0, 1], cx[:, 0, 2], cx[:, 1, 2] = -c[:, 2], c[:, 1], -c[:, 0]
-    cx[:, 1, 0], cx[:, 2, 0], cx[:, 2, 1] = c[:, 2], -c[:, 1], c[:, 0]
-    J_eo = np.concatenate([-J_point, A @ cx], axis=2)
+    J_eo = np.concatenate([-J_point, np.cross(A, c[:, None, :])], axis=2)  # a [c]× = a × c (rows a of A)
     J_int = np.zeros((n, 2, 8))
     J_int[:, 0, 0], J_int[:, 1, 0] = ud * scale[0], vd * scale[1]
     J_int[:, 0, 1] = 1.0

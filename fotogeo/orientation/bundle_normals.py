@@ -15,18 +15,16 @@ Eliminating the points (Schur complement) leaves the reduced camera system::
     S = U − Σ_i W_i V_i⁻¹ W_iᵀ,    S δa = −(g_a − Σ_i W_i V_i⁻¹ g_b,i),
     δb_i = −V_i⁻¹ (g_b,i + W_iᵀ δa)
 
-where ``W_i`` is the ``nc × 3`` column of point ``i``. All the ``W_i`` side by side form one
-sparse ``nc × 3P`` matrix ``W`` (``W_a`` at the rows of observation ``a``'s frame and the
-interior, the columns of its point; observations of one point sum on the interior rows), and
-``Y = W·blockdiag(V⁻¹)`` has the same pattern, so ``Σ_i W_i V_i⁻¹ W_iᵀ = Y Wᵀ`` is one sparse
-product. Levenberg–Marquardt damping multiplies the diagonals of ``U`` and ``V`` by ``1 + λ``.
+where ``W_i`` is the ``nc × 3`` column of point ``i``: the blocks ``W_a`` (6 × 3) of its
+observations at their frames' rows and ``Σ_a W_a^int`` (k × 3) at the interior rows. The
+6 × 6 block of frames ``j, l`` of ``Σ_i W_i V_i⁻¹ W_iᵀ`` is ``Σ Y_a W_bᵀ`` over the pairs of
+observations ``a`` (frame ``j``) and ``b`` (frame ``l``) of one point, ``Y_a = W_a V_i⁻¹``: the
+pairs are sorted by frame pair once per :class:`Structure` and each block is one matrix
+product ``(6 × 3q)·(3q × 6)`` over its ``q`` pairs (the sparse pattern of ``S`` is that of
+the frames sharing points; ``S`` is kept dense, ``6m + k`` square). Levenberg–Marquardt
+damping multiplies the diagonals of ``U`` and ``V`` by ``1 + λ``.
 
-The inverse of ``N`` in blocks (precision and redundancy numbers) follows from ``S⁻¹``::
-
-    Σ_aa = S⁻¹,   Σ_ab,i = −T_i V_i⁻¹,   Σ_bb,i = V_i⁻¹ + V_i⁻¹ W_iᵀ T_i V_i⁻¹,   T_i = S⁻¹ W_i
-
-(only the rows of ``T_i`` of the frames that observe point ``i`` are needed: one ``(6 + k) × 3``
-block per observation); ``S⁻¹ W`` is formed for chunks of points so the memory stays bounded.
+The blocks of ``N⁻¹`` (precision, redundancy numbers) are in :mod:`fotogeo.orientation.bundle_inverse`.
 """
 from __future__ import annotations
 
@@ -34,12 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-CHUNK = 20000
 
 
 @dataclass(frozen=True)
 class Structure:
-    """Which frame and point each observation belongs to (observations sorted by point)."""
+    """Which frame and point each observation belongs to (observations sorted by point), and the
+    pairs of observations of one point in two frames ``j < l``, sorted by ``(j, l)``."""
 
     frame: np.ndarray  # (n,)
     point: np.ndarray  # (n,) non-decreasing
@@ -50,10 +48,12 @@ class Structure:
     counts: np.ndarray  # (P,) observations per point (≥ 1)
     by_frame: tuple  # observation indices per frame
     index: np.ndarray  # (n, 6 + k) camera-side unknowns of each observation
-    indptr: np.ndarray  # the fixed pattern of the sparse Wᵀ (CSR, 3P × nc): row starts,
-    indices: np.ndarray  # column indices,
-    eo_pos: np.ndarray  # positions of the EO entries of W_a (n, 6, 3) in its data,
-    int_pos: np.ndarray  # positions of the interior entries of W_i (P, k, 3)
+    frame_order: np.ndarray  # (n,) observations sorted by frame
+    frame_bounds: np.ndarray  # (m + 1,) their frames' starts in frame_order
+    pair_a: np.ndarray  # (q,) first observation of each pair (frame j)
+    pair_b: np.ndarray  # (q,) second observation (frame l > j)
+    pair_frames: np.ndarray  # (G, 2) the frame pairs (j, l) sharing points
+    pair_bounds: np.ndarray  # (G + 1,) their starts in pair_a / pair_b
 
     @property
     def n_camera(self) -> int:
@@ -65,45 +65,29 @@ class Structure:
 
 
 def make_structure(frame, point, n_frames: int, n_points: int, free_interior) -> Structure:
-    """The :class:`Structure` of observations sorted by ``point``, then ``frame`` (every point observed).
-
-    The sparse ``Wᵀ`` (``3P × nc``, CSR) has a fixed pattern: row ``3i + j`` holds, for each
-    observation ``a`` of point ``i`` (frames ascending), the 6 entries ``W_a[:6, j]`` at the columns
-    of its frame's orientation, then the ``k`` interior entries ``Σ_a W_a[6:, j]``."""
+    """The :class:`Structure` of observations sorted by ``point``, then ``frame`` (every point observed)."""
     frame = np.asarray(frame, dtype=np.intp)
     point = np.asarray(point, dtype=np.intp)
     n = len(point)
     counts = np.bincount(point, minlength=n_points)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    by_frame = tuple(np.flatnonzero(frame == j) for j in range(n_frames))
+    frame_order = np.argsort(frame, kind="stable")
+    frame_bounds = np.searchsorted(frame[frame_order], np.arange(n_frames + 1))
+    by_frame = tuple(frame_order[frame_bounds[j]:frame_bounds[j + 1]] for j in range(n_frames))
     free = np.asarray(free_interior, dtype=np.intp)
     k = len(free)
     index = np.concatenate([6 * frame[:, None] + np.arange(6),
                             np.broadcast_to(6 * n_frames + np.arange(k), (n, k))], axis=1)
-    row_len = np.repeat(6 * counts + k, 3)
-    indptr = np.concatenate([[0], np.cumsum(row_len)])
-    row0 = indptr[:-1].reshape(n_points, 3)  # start of row 3i + j
-    within = np.arange(n) - starts[point]  # rank of the observation in its point
-    eo_pos = row0[point][:, None, :] + 6 * within[:, None, None] + np.arange(6)[None, :, None]
-    int_pos = row0[:, None, :] + 6 * counts[:, None, None] + np.arange(k)[None, :, None]
-    indices = np.empty(indptr[-1], dtype=np.int32 if 6 * n_frames + k < 2 ** 31 else np.int64)
-    indices[eo_pos] = (6 * frame[:, None, None] + np.arange(6)[None, :, None])
-    indices[int_pos] = 6 * n_frames + np.arange(k)[None, :, None]
-    return Structure(frame, point, n_frames, n_points, free, starts, counts, by_frame, index, indptr, indices,
-                     eo_pos, int_pos)
-
-
-def sparse_transposed(st: Structure, blocks: np.ndarray):
-    """The sparse ``3P × nc`` CSR matrix ``Wᵀ`` of per-observation blocks ``(n, 6 + k, 3)``
-    (module docstring; the pattern is :class:`Structure`'s)."""
-    from scipy.sparse import csr_matrix
-    data = np.empty(len(st.indices))
-    data[st.eo_pos] = blocks[:, :6, :]
-    if len(st.free_interior):
-        data[st.int_pos] = np.add.reduceat(blocks[:, 6:, :], st.starts, axis=0)
-    m = csr_matrix((data, st.indices, st.indptr), shape=(3 * st.n_points, st.n_camera))
-    m.has_sorted_indices = True
-    return m
+    a, b = observation_pairs_of(point, starts, counts, 0, n)
+    keep = frame[a] < frame[b]
+    a, b = a[keep], b[keep]
+    key = frame[a] * n_frames + frame[b]
+    order = np.argsort(key, kind="stable")
+    a, b, key = a[order], b[order], key[order]
+    bounds = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]) if len(key) else np.zeros(0, np.intp)
+    pair_frames = np.column_stack([key[bounds] // n_frames, key[bounds] % n_frames])
+    return Structure(frame, point, n_frames, n_points, free, starts, counts, by_frame, index, frame_order,
+                     frame_bounds, a, b, pair_frames, np.r_[bounds, len(key)])
 
 
 @dataclass(frozen=True)
@@ -123,35 +107,50 @@ def assemble(st: Structure, J_c, J_p, v, p, *, U_prior, g_prior, V_prior, g_b_pr
     nc = st.n_camera
     U = np.diag(U_prior).astype(np.float64)
     g_a = np.array(g_prior, dtype=np.float64)
-    for j, sel in enumerate(st.by_frame):  # one dense product per frame
+    nk = J_c.shape[2]
+    pJc = J_c * p[:, None, None]  # (n, 2, 6 + k)
+    for sel in st.by_frame:  # one dense product per frame
         if sel.size == 0:
             continue
-        ix = st.camera_index(sel[:1])[0]
-        Jf = J_c[sel].reshape(-1, J_c.shape[2])
-        pw = np.repeat(p[sel], 2)
-        U[np.ix_(ix, ix)] += Jf.T @ (Jf * pw[:, None])
-        g_a[ix] += Jf.T @ (pw * v[sel].reshape(-1))
-    pv = p[:, None] * v
-    JpT = J_p.transpose(0, 2, 1)
-    V = np.add.reduceat((JpT * p[:, None, None]) @ J_p, st.starts, axis=0)
+        ix = st.index[sel[0]]
+        pJf = pJc[sel].reshape(-1, nk)
+        U[np.ix_(ix, ix)] += J_c[sel].reshape(-1, nk).T @ pJf
+        g_a[ix] += pJf.T @ v[sel].reshape(-1)
+    W = pJc.transpose(0, 2, 1) @ J_p
+    pJp = J_p * p[:, None, None]
+    V = np.add.reduceat(pJp.transpose(0, 2, 1) @ J_p, st.starts, axis=0)
     V[:, [0, 1, 2], [0, 1, 2]] += V_prior
-    g_b = np.add.reduceat((JpT @ pv[:, :, None])[:, :, 0], st.starts, axis=0) + g_b_prior
-    W = (J_c.transpose(0, 2, 1) * p[:, None, None]) @ J_p
+    gobs = pJp[:, 0] * v[:, 0, None] + pJp[:, 1] * v[:, 1, None]
+    g_b = np.add.reduceat(gobs, st.starts, axis=0) + g_b_prior
     assert U.shape == (nc, nc)
     return Normals(U, g_a, V, g_b, W)
 
 
-def inverse3(M: np.ndarray) -> np.ndarray:
-    """Inverses of ``(P, 3, 3)`` matrices by the adjugate, ``M⁻¹ = adj(M) / det(M)`` (vectorised)."""
+def _adjugate_inverse(M):
     a, b, c = M[:, 0, 0], M[:, 0, 1], M[:, 0, 2]
     d, e, f = M[:, 1, 0], M[:, 1, 1], M[:, 1, 2]
     g, h, i = M[:, 2, 0], M[:, 2, 1], M[:, 2, 2]
     A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
     det = a * A + b * B + c * C
-    if not np.all(np.abs(det) > 0):
-        raise np.linalg.LinAlgError("singular 3x3 point block")
     adj = np.stack([A, c * h - b * i, b * f - c * e, B, a * i - c * g, c * d - a * f,
                     C, b * g - a * h, a * e - b * d], axis=1).reshape(-1, 3, 3)
+    return adj, det
+
+
+def inverse3(M: np.ndarray) -> np.ndarray:
+    """Inverses of ``(P, 3, 3)`` point blocks by the adjugate, ``M⁻¹ = adj(M) / det(M)`` (vectorised).
+
+    A block singular to machine precision (``|det| ≤ 10⁻¹³ ∏ diag``: the rays of a wrong match
+    meeting at infinity, so the point's depth is not observed) is inverted with a ridge of
+    ``10⁻¹⁰ tr(M)/3``: its unobserved direction, in which its Jacobians vanish, takes no part in
+    the reduced system and gets a huge variance. A block that is not finite raises."""
+    adj, det = _adjugate_inverse(M)
+    weak = ~(np.abs(det) > 1e-13 * np.abs(M[:, 0, 0] * M[:, 1, 1] * M[:, 2, 2]))
+    if weak.any():
+        if not np.isfinite(M[weak]).all():
+            raise np.linalg.LinAlgError("singular 3x3 point block")
+        ridge = 1e-10 * np.maximum(np.trace(M[weak], axis1=1, axis2=2) / 3, 1e-300)
+        adj[weak], det[weak] = _adjugate_inverse(M[weak] + ridge[:, None, None] * np.eye(3))
     return adj / det[:, None, None]
 
 
@@ -168,64 +167,70 @@ def _damped(M, lam, axis_diag):
     return M
 
 
+def per_frame(st: Structure, x: np.ndarray) -> np.ndarray:
+    """Sums of per-observation values ``x`` ``(n, ...)`` over each frame's observations ``(m, ...)``."""
+    flat = x.reshape(len(x), -1)
+    sums = [np.bincount(st.frame, weights=flat[:, c], minlength=st.n_frames) for c in range(flat.shape[1])]
+    return np.stack(sums, axis=1).reshape((st.n_frames,) + x.shape[1:])
+
+
+def _frame_rows(x):
+    """A stack of ``(q, 6, 3)`` blocks side by side, ``(6, 3q)``: ``Σ_a A_a B_aᵀ = rows(A)·rows(B)ᵀ``."""
+    return x.transpose(1, 0, 2).reshape(6, -1)
+
+
+def schur_product(st: Structure, W: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """``Σ_i W_i V_i⁻¹ W_iᵀ`` ``(nc, nc)`` from ``W_a`` and ``Y_a = W_a V_i⁻¹`` ``(n, 6 + k, 3)``: the
+    frame blocks one product per frame and per frame pair (module docstring), the interior rows
+    from the per-point sums ``Σ_a W_a^int``."""
+    m, nc = st.n_frames, st.n_camera
+    out = np.zeros((nc, nc))
+    Yf, Wf = Y[st.frame_order, :6], W[st.frame_order, :6]
+    for j, (s, e) in enumerate(zip(st.frame_bounds[:-1].tolist(), st.frame_bounds[1:].tolist())):
+        out[6 * j:6 * j + 6, 6 * j:6 * j + 6] = _frame_rows(Yf[s:e]) @ _frame_rows(Wf[s:e]).T
+    Ya, Wb = Y[st.pair_a, :6], W[st.pair_b, :6]
+    for (j, l), s, e in zip(st.pair_frames.tolist(), st.pair_bounds[:-1].tolist(), st.pair_bounds[1:].tolist()):
+        blk = _frame_rows(Ya[s:e]) @ _frame_rows(Wb[s:e]).T
+        out[6 * j:6 * j + 6, 6 * l:6 * l + 6] = blk
+        out[6 * l:6 * l + 6, 6 * j:6 * j + 6] = blk.T
+    if len(st.free_interior):
+        Yi = np.add.reduceat(Y[:, 6:], st.starts, axis=0)  # Σ_a W_a^int V_i⁻¹ per point
+        Wi = np.add.reduceat(W[:, 6:], st.starts, axis=0)
+        cross = per_frame(st, Yi[st.point] @ W[:, :6].transpose(0, 2, 1)).transpose(1, 0, 2).reshape(-1, 6 * m)
+        out[6 * m:, :6 * m] = cross
+        out[:6 * m, 6 * m:] = cross.T
+        out[6 * m:, 6 * m:] = np.einsum("pkc,plc->kl", Yi, Wi)
+    return out
+
+
 def reduced_system(st: Structure, nm: Normals, lam: float = 0.0):
     """``(S, rhs, V⁻¹)`` of the reduced camera system with damping ``λ`` (module docstring)."""
     Vinv = inverse3(_damped(nm.V, lam, (1, 2)))
-    Wt = sparse_transposed(st, nm.W)
-    Yt = sparse_transposed(st, nm.W @ Vinv[st.point])  # (W_a V_i⁻¹)ᵀ
-    S = _damped(nm.U, lam, (0, 1)) - (Yt.T @ Wt).toarray()
-    rhs = -(nm.g_a - Yt.T @ nm.g_b.reshape(-1))
-    return 0.5 * (S + S.T), rhs, Vinv
+    Y = nm.W @ Vinv[st.point]  # Y_a = W_a V_i⁻¹
+    S = _damped(nm.U, lam, (0, 1)) - schur_product(st, nm.W, Y)
+    y = np.einsum("arc,ac->ar", Y, nm.g_b[st.point])  # Y_a g_b,i per observation
+    t = np.concatenate([per_frame(st, y[:, :6]).reshape(-1), y[:, 6:].sum(axis=0)])
+    return 0.5 * (S + S.T), -(nm.g_a - t), Vinv
 
 
 def back_substitute(st: Structure, nm: Normals, Vinv, delta_a) -> np.ndarray:
     """Point increments ``δb_i = −V_i⁻¹ (g_b,i + W_iᵀ δa)`` ``(P, 3)``."""
-    Wd = (sparse_transposed(st, nm.W) @ delta_a).reshape(-1, 3)
+    Wd = np.einsum("arc,ar->ac", nm.W, delta_a[st.index])
+    Wd = np.add.reduceat(Wd, st.starts, axis=0)
     return -(Vinv @ (nm.g_b + Wd)[:, :, None])[:, :, 0]
 
 
-def observation_pairs(st: Structure, lo: int, hi: int):
+def observation_pairs_of(point, starts, counts, lo: int, hi: int):
     """``(a, b)``: every ordered pair of observations of the same point, for the observations
-    ``lo:hi`` as ``a`` (grouped by ``a``, each observation paired with itself too)."""
+    ``lo:hi`` (sorted by point) as ``a`` (grouped by ``a``, each observation paired with itself too)."""
     a_obs = np.arange(lo, hi)
-    reps = st.counts[st.point[a_obs]]
+    reps = counts[point[a_obs]]
     a = np.repeat(a_obs, reps)
     first = np.repeat(np.cumsum(reps) - reps, reps)
-    b = st.starts[st.point[a]] + (np.arange(len(a)) - first)
+    b = starts[point[a]] + (np.arange(len(a)) - first)
     return a, b
 
 
-def inverse_blocks(st: Structure, nm: Normals, S_inv, Vinv):
-    """``(T, Σ_bb)``: per observation ``T_a = (S⁻¹ W_i)[idx_a] = Σ_b S⁻¹[idx_a, idx_b] W_b`` over the
-    observations ``b`` of its point, ``(n, 6 + k, 3)``, and per point
-    ``Σ_bb,i = V_i⁻¹ + V_i⁻¹ (W_iᵀ S⁻¹ W_i) V_i⁻¹`` ``(P, 3, 3)`` (module docstring)."""
-    idx = st.index
-    T = np.empty(nm.W.shape)
-    n = len(st.point)
-    step = max(1, CHUNK // 4)
-    for lo in range(0, n, step):
-        hi = min(n, lo + step)
-        a, b = observation_pairs(st, lo, hi)
-        contrib = S_inv[idx[a][:, :, None], idx[b][:, None, :]] @ nm.W[b]
-        bounds = np.flatnonzero(np.r_[True, a[1:] != a[:-1]])
-        T[lo:hi] = np.add.reduceat(contrib, bounds, axis=0)  # every observation pairs with itself
-    WT = np.add.reduceat(nm.W.transpose(0, 2, 1) @ T, st.starts, axis=0)
-    S_bb = Vinv + Vinv @ WT @ Vinv
-    return T, S_bb
-
-
-def observation_cofactors(st: Structure, J_c, J_p, S_inv, T, Vinv, S_bb) -> np.ndarray:
-    """``Q_a = J_a N⁻¹ J_aᵀ`` ``(n, 2, 2)``, the cofactor of each adjusted observation, from the
-    blocks of ``N⁻¹`` (chunked over observations)."""
-    n = len(st.point)
-    Q = np.empty((n, 2, 2))
-    for lo in range(0, n, CHUNK):
-        s = slice(lo, min(n, lo + CHUNK))
-        idx = st.camera_index(np.arange(s.start, s.stop))
-        Jc, Jp, pt = J_c[s], J_p[s], st.point[s]
-        Saa = S_inv[idx[:, :, None], idx[:, None, :]]
-        Sab = -(T[s] @ Vinv[pt])
-        cross = Jc @ Sab @ Jp.transpose(0, 2, 1)
-        Q[s] = (Jc @ Saa @ Jc.transpose(0, 2, 1) + cross + cross.transpose(0, 2, 1)
-                + Jp @ S_bb[pt] @ Jp.transpose(0, 2, 1))
-    return Q
+def observation_pairs(st: Structure, lo: int, hi: int):
+    """:func:`observation_pairs_of` the observations of ``st``."""
+    return observation_pairs_of(st.point, st.starts, st.counts, lo, hi)
