@@ -16,7 +16,8 @@ ARGS = json.loads(open(sys.argv[1]).read())
 sys.path.insert(0, ARGS["root"])
 sys.path.insert(0, os.path.join(ARGS["root"], "tests"))
 from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry,  # noqa: E402
-                       QgsPointXY, QgsProject, QgsSnappingConfig, QgsTolerance, QgsVectorLayer)
+                       QgsPointXY, QgsProject, QgsRasterLayer, QgsRectangle, QgsSnappingConfig, QgsTolerance,
+                       QgsVectorLayer)
 
 APP = QgsApplication([], True)
 APP.initQgis()
@@ -80,34 +81,45 @@ def snapping_layer(canvas, vertex):
 
 def main():
     canvas, dock = setup()
-    truth = ARGS["gcps"]
     STATE["not_raster"] = [dock.open_image(ARGS["not_raster"]), dock.last_message]
     assert dock.open_image(ARGS["frame"]), dock.last_message
-    STATE["image_extent"] = dock.image.layer.extent().toString(3)
-    provider = dock.image.layer.dataProvider()
-    from osgeo import gdal  # QGIS's own GDAL: the same JPEG decoder as the layer
-    source = gdal.Open(ARGS["frame"])
-    band = source.GetRasterBand(1)  # (its ReadAsArray needs the system numpy: single-pixel reads)
-    value = lambda c, r: band.ReadRaster(c, r, 1, 1, buf_type=gdal.GDT_Byte)[0]  # noqa: E731
-    STATE["samples"] = [[c, r, provider.sample(QgsPointXY(c + 0.5, -(r + 0.5)), 1)[0], value(c, r),
-                         value(c, band.YSize - 1 - r)]
-                        for c, r in ((0, 0), (639, 0), (0, 1151), (300, 700), (17, 1003), (250, 10), (400, 90))]
+    sample_image(dock)
     store = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
     dock.model_combo.setCurrentText("dlt")
     dock.height_combo.setCurrentText("dem")
-    from qgis.core import QgsRasterLayer
-    dem = QgsRasterLayer(ARGS["dem"], "dem")
-    small_dem = QgsRasterLayer(ARGS["small_dem"], "small dem")
+    dem, small_dem = QgsRasterLayer(ARGS["dem"], "dem"), QgsRasterLayer(ARGS["small_dem"], "small dem")
     QgsProject.instance().addMapLayers([dem, small_dem], False)
     dock.dem_combo.setLayer(dem)
+    truth = ARGS["gcps"]
     xs, ys = [g["x"] for g in truth], [g["y"] for g in truth]
-    from qgis.core import QgsRectangle
     canvas.setExtent(QgsRectangle(min(xs) - 50, min(ys) - 50, max(xs) + 50, max(ys) + 50))
     canvas.refresh()
     pump(0.3)
     STATE["map_units_per_pixel"] = canvas.mapUnitsPerPixel()
     STATE["image_units_per_pixel"] = dock.image_canvas.mapUnitsPerPixel()
-    # snapping: a vertex 4 screen px from the first GCP's map position
+    picking(canvas, dock, truth)
+    editing(dock)
+    files(dock, store)
+    heights_and_models(dock, dem, small_dem)
+    other_project_crs(canvas, dock, store, truth)
+    large_image(dock)
+
+
+def sample_image(dock):
+    """Values the image canvas's layer shows at (col + 0.5, -(row + 0.5)) and GDAL's at (col, row) / mirrored."""
+    provider = dock.image.layer.dataProvider()
+    from osgeo import gdal  # QGIS's own GDAL: the same JPEG decoder as the layer
+    source = gdal.Open(ARGS["frame"])
+    band = source.GetRasterBand(1)  # (its ReadAsArray needs the system numpy: single-pixel reads)
+    value = lambda c, r: band.ReadRaster(c, r, 1, 1, buf_type=gdal.GDT_Byte)[0]  # noqa: E731
+    STATE["image_extent"] = dock.image.layer.extent().toString(3)
+    STATE["samples"] = [[c, r, provider.sample(QgsPointXY(c + 0.5, -(r + 0.5)), 1)[0], value(c, r),
+                         value(c, band.YSize - 1 - r)]
+                        for c, r in ((0, 0), (639, 0), (0, 1151), (300, 700), (17, 1003), (250, 10), (400, 90))]
+
+
+def picking(canvas, dock, truth):
+    """Ten GCPs by clicks (the first snapped onto a road vertex 4.6 screen px away); the prediction."""
     mupp = canvas.mapUnitsPerPixel()
     vertex = (truth[0]["x"] + 4.3 * mupp, truth[0]["y"] - 1.7 * mupp)
     snapping_layer(canvas, vertex)
@@ -122,23 +134,24 @@ def main():
         pick(dock, truth[k], image_first=k % 2 == 0)
     STATE["picked"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock),
                        "summary": dock.summary.text()}
-    store.export_gpkg(os.path.join(ARGS["out"], "picked.gpkg"))
-    # prediction: the cursor over GCP 1's image position; the map canvas shows where the model puts it
-    g1 = store.gcps()[1]
-    mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, g1.col, -g1.row), Qt.NoButton)
+    dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "picked.gpkg"))
+    # the cursor over GCP 2's image position: the map canvas shows where the model puts it
+    g2 = dock.controller.gcp("2")
+    mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, g2.col, -g2.row), Qt.NoButton)
     pred = dock.controller.overlays[MAP].state.predicted
     STATE["predicted"] = [pred.x(), pred.y()] if pred is not None else None
-    # move: drag GCP 4 on the image by (+8, +5) screen px
+
+
+def editing(dock):
+    """Drag on both canvases, right-click delete, undo/redo, a role change in the table."""
     g4 = dock.controller.gcp("4")
     start = screen(dock.image_canvas, g4.col, -g4.row)
     drag(dock.tools[IMAGE], start, start + QPoint(8, 5))
     STATE["moved"] = {"before": [g4.col, g4.row], "after": [dock.controller.gcp("4").col, dock.controller.gcp("4").row]}
-    # move on the map: drag GCP 6 by (-6, +3) screen px
     g6 = dock.controller.gcp("6")
     start = map_screen(dock, g6.x, g6.y)
     drag(dock.tools[MAP], start, start + QPoint(-6, 3))
     STATE["moved_map"] = {"before": [g6.x, g6.y], "after": [dock.controller.gcp("6").x, dock.controller.gcp("6").y]}
-    # delete GCP 5 with a right click, undo, redo, undo
     g5 = dock.controller.gcp("5")
     before_delete = gcps(dock)
     click(dock.tools[MAP], map_screen(dock, g5.x, g5.y), Qt.RightButton)
@@ -151,30 +164,28 @@ def main():
     stack.undo()
     STATE["delete"] = {"before": before_delete, "deleted": after_delete, "undone": after_undo, "redone": after_redo,
                        "undone_again": gcps(dock), "undo_text": stack.undoText()}
-    # undo the two moves too: back to the clicked points
-    stack.undo()
+    stack.undo()  # and both moves: back to the clicked points
     stack.undo()
     STATE["after_undo_moves"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock)}
-    # role: uncheck GCP 2 in the table -> a check point
-    from qgis.PyQt.QtCore import Qt as _Qt
-    dock.table.item(1, 1).setCheckState(_Qt.Unchecked)
+    dock.table.item(1, 1).setCheckState(Qt.Unchecked)  # GCP 2: a check point
     STATE["role"] = {"gcps": gcps(dock), "fit": dock.controller.fit}
-    store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
-    # .points round trip
-    points = os.path.join(ARGS["out"], "picked.points")
-    STATE["export_points"] = dock.export_file(points)
-    other = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
-    STATE["import_points"] = dock.import_file(points)
-    STATE["reimported"] = gcps(dock)
-    # ODM gcp_list.txt round trip (heights from the fit: the DEM)
-    odm = os.path.join(ARGS["out"], "gcp_list.txt")
+    dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
+
+
+def files(dock, store):
+    """.points and ODM gcp_list.txt: export, then import into a new layer."""
+    for key, name in (("points", "picked.points"), ("odm", "gcp_list.txt")):
+        path = os.path.join(ARGS["out"], name)
+        dock.gcp_combo.setLayer(store.layer)
+        STATE[f"export_{key}"] = dock.export_file(path)
+        dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+        STATE[f"import_{key}"] = dock.import_file(path)
+        STATE[f"reimported_{key}"] = gcps(dock)
     dock.gcp_combo.setLayer(store.layer)
-    STATE["export_odm"] = dock.export_file(odm)
-    dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
-    STATE["import_odm"] = dock.import_file(odm)
-    STATE["reimported_odm"] = gcps(dock)
-    dock.gcp_combo.setLayer(store.layer)
-    # other height sources and models: a constant height; collinearity with the camera file
+
+
+def heights_and_models(dock, dem, small_dem):
+    """A constant height (DLT then projective), collinearity with the camera, a DEM missing some GCPs."""
     dock.height_combo.setCurrentText("constant")
     dock.height_spin.setValue(300.0)
     STATE["constant_dlt"] = dock.controller.fit  # one height for all: coplanar points, DLT cannot be fitted
@@ -185,14 +196,17 @@ def main():
     dock.model_combo.setCurrentText("collinearity")
     STATE["collinearity"] = {"fit": dock.controller.fit, "summary": dock.summary.text()}
     dock.model_combo.setCurrentText("dlt")
-    # a DEM that covers only part of the GCPs
     dock.dem_combo.setLayer(small_dem)
     STATE["small_dem"] = {"fit": dock.controller.fit, "table": table(dock), "summary": dock.summary.text()}
     dock.dem_combo.setLayer(dem)
-    # the project (canvas) CRS differs from the GCP layer's: WGS 84 lon/lat
+
+
+def other_project_crs(canvas, dock, store, truth):
+    """The project (canvas) CRS WGS 84 lon/lat, the GCP layer's metric: one more GCP by clicks."""
     wgs84 = QgsCoordinateReferenceSystem("EPSG:4326")
     canvas.setDestinationCrs(wgs84)
     QgsProject.instance().setCrs(wgs84)
+    xs, ys = [g["x"] for g in truth], [g["y"] for g in truth]
     corner = dock.controller.layer_to_map(min(xs) - 50, min(ys) - 50)
     far = dock.controller.layer_to_map(max(xs) + 50, max(ys) + 50)
     canvas.setExtent(QgsRectangle(corner.x(), corner.y(), far.x(), far.y()))
@@ -201,8 +215,6 @@ def main():
     pick(dock, truth[12])
     STATE["wgs84"] = {"gcp": gcps(dock)[-1], "canvas_crs": canvas.mapSettings().destinationCrs().authid(),
                       "layer_crs_wkt": store.crs.toWkt(), "map_units_per_pixel": canvas.mapUnitsPerPixel()}
-    del other
-    large_image(dock)
 
 
 def large_image(dock):
@@ -227,7 +239,6 @@ def propose():
     canvas, dock = setup()
     assert dock.open_image(ARGS["frame"]), dock.last_message
     dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
-    from qgis.core import QgsRasterLayer
     dem = QgsRasterLayer(ARGS["dem"], "dem")
     QgsProject.instance().addMapLayer(dem, False)
     dock.dem_combo.setLayer(dem)
@@ -249,6 +260,13 @@ def propose():
     STATE["propose_s"] = time.monotonic() - start
     STATE["task_error"] = task.error
     STATE["proposals"] = list(dock.controller.proposals)
+    # one accepted by a click on its square on the image, the next rejected by a right click on the map
+    first, second = dock.controller.proposals[:2]
+    click(dock.tools[IMAGE], screen(dock.image_canvas, first["col"], -first["row"]))
+    xs, ys = [c["x"] for c in STATE["proposals"]], [c["y"] for c in STATE["proposals"]]
+    canvas.setExtent(QgsRectangle(min(xs) - 100, min(ys) - 100, max(xs) + 100, max(ys) + 100))
+    click(dock.tools[MAP], map_screen(dock, second["x"], second["y"]), Qt.RightButton)
+    STATE["clicked"] = {"gcps": gcps(dock), "left": len(dock.controller.proposals)}
     STATE["accepted"] = len(dock.controller.accept_proposals(check_every=3))
     STATE["fit"] = dock.controller.fit
     STATE["summary"] = dock.summary.text()

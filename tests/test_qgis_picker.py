@@ -132,7 +132,7 @@ def test_drag_moves_and_right_click_deletes_and_undo_restores(picked):
 
 def test_prediction_follows_the_model(picked):
     state, _, _ = picked
-    g2 = _by_id(state["picked"]["gcps"])["2"]
+    g2 = _by_id(state["picked"]["gcps"])["2"]  # the cursor over GCP 2 on the image: the prediction on the map
     assert np.hypot(state["predicted"][0] - g2["x"], state["predicted"][1] - g2["y"]) < 3 * state["map_units_per_pixel"]
 
 
@@ -171,7 +171,7 @@ def test_layer_round_trips_through_points_file(picked):
     state, _, tmp = picked
     assert state["export_points"] and state["import_points"] == 10
     key = lambda g: (g["col"], g["row"], g["x"], g["y"], g["role"])  # noqa: E731
-    assert sorted(map(key, state["reimported"])) == sorted(map(key, state["role"]["gcps"]))
+    assert sorted(map(key, state["reimported_points"])) == sorted(map(key, state["role"]["gcps"]))
     assert (tmp / "picked.points").read_text().startswith("#CRS: ")
 
 
@@ -234,16 +234,22 @@ def test_project_crs_other_than_the_layers(picked):
 
 def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel(data_dir, tmp_path):
     """Propose GCPs (a QgsTask running fotogeo's propose_gcps) on frame 0182 against its orthophoto; a first run
-    cancelled after 1 s leaves no proposals; all 30 of the second run accepted, every third a check point."""
+    cancelled after 1 s leaves no proposals; of the second run's 30, one accepted and one rejected by clicks on their
+    markers, the other 28 accepted at once, every third a check point."""
     _, crs = truth_gcps(data_dir, n=6)
     state = run_script("picker_gui_script.py", {
         "mode": "propose", "frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs,
         "reference": str(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif")}, tmp_path, timeout=900)
     cancel = state["cancel"]
     assert cancel["error"].startswith("cancelled") and cancel["proposals"] == 0 and "cancelled" in cancel["message"]
-    assert state["task_error"] is None and len(state["proposals"]) == 30 and state["accepted"] == 30
+    assert state["task_error"] is None and len(state["proposals"]) == 30
+    # a click on the first square accepted it (GCP 1 at its image position), a right click rejected the second
+    first, clicked = state["proposals"][0], state["clicked"]
+    assert clicked["left"] == 28 and [g["id"] for g in clicked["gcps"]] == ["1"]
+    assert (clicked["gcps"][0]["col"], clicked["gcps"][0]["x"]) == pytest.approx((first["col"], first["x"]), abs=1e-6)
+    assert state["accepted"] == 28
     fit = state["fit"]
-    assert fit["ok"] and fit["model"] == "dlt" and fit["rms"]["n_control"] == 20 and fit["rms"]["n_check"] == 10
+    assert fit["ok"] and fit["model"] == "dlt" and fit["rms"]["n_control"] == 20 and fit["rms"]["n_check"] == 9
     assert fit["rms"]["check_px"] < 1.0
     assert all(p["z_source"] == "dem" for p in fit["points"])
     # Report and Rectify ran fotogeo orient on the same GCPs, model and DEM heights: the same check RMS

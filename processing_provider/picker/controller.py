@@ -179,6 +179,17 @@ class PickerController(QObject):
                 best = (d, g.id)
         return best[1] if best else None
 
+    def nearest_proposal(self, side: str, screen_pos, tolerance: float):
+        """The index of the proposal drawn within ``tolerance`` screen pixels of ``screen_pos``, or None."""
+        to_screen = self.canvases[side].getCoordinateTransform()
+        best = None
+        for i, c in enumerate(self.proposals):
+            p = to_screen.transform(self._canvas_point(side, (c["col"], c["row"]) if side == IMAGE else (c["x"], c["y"])))
+            d = ((p.x() - screen_pos.x()) ** 2 + (p.y() - screen_pos.y()) ** 2) ** 0.5
+            if d <= tolerance and (best is None or d < best[0]):
+                best = (d, i)
+        return best[1] if best else None
+
     def predict(self, side: str, point: QgsPointXY):
         """Where the model puts ``point`` (on canvas ``side``) on the other canvas, or None."""
         forward, inverse = getattr(self, "_grids", (None, None))
@@ -254,16 +265,14 @@ class PickerController(QObject):
         """Add the proposals ``indices`` (all by default) as GCPs in one undo step; every
         ``check_every``-th one (if > 0) becomes a check point."""
         chosen = sorted(range(len(self.proposals)) if indices is None else set(indices))
-        gcps, first = [], int(self.store.next_id()) if self.store.next_id().isdigit() else 1
-        used = {g.id for g in self.store.gcps()}
-        n = first
+        used, gcps, n = {g.id for g in self.store.gcps()}, [], 1
         for k, i in enumerate(chosen):
             while str(n) in used:
                 n += 1
+            used.add(str(n))
             c = self.proposals[i]
             role = "check" if check_every and (k + 1) % check_every == 0 else "control"
             gcps.append(Gcp(str(n), c["col"], c["row"], c["x"], c["y"], None, role))
-            used.add(str(n))
         self.reject_proposals(chosen)
         self.add(gcps, f"accept {len(gcps)} proposed GCPs")
         return gcps

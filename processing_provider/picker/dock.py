@@ -232,12 +232,26 @@ class PickerDock(DockActions, QDockWidget):
     def activate_map_tool(self):
         self.map_canvas.setMapTool(self.tools[MAP])
 
+    def showEvent(self, event):  # noqa: N802 - Qt's name
+        """Shown again after a close: the marks come back and the map tool picks again."""
+        for overlay in self.controller.overlays.values():
+            overlay.setVisible(True)
+        self.activate_map_tool()
+        super().showEvent(event)
+
     def closeEvent(self, event):  # noqa: N802 - Qt's name
-        self.close_picker()
+        """Closed (the dock's X): the main canvas gets its tool back, the marks are hidden, the state kept."""
+        self._release_tools()
+        for overlay in self.controller.overlays.values():
+            overlay.setVisible(False)
         super().closeEvent(event)
 
-    def close_picker(self):
+    def _release_tools(self):
         for tool in self.tools.values():
             if tool.canvas().mapTool() is tool:
                 tool.canvas().unsetMapTool(tool)
+
+    def close_picker(self):
+        """The plugin's unload: release the map tools and remove the marks for good."""
+        self._release_tools()
         self.controller.close()

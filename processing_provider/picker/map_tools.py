@@ -4,6 +4,7 @@
   way round; the controller pairs them);
 - left drag starting on a GCP: move that GCP's position on this canvas;
 - right click on a GCP: delete it (undo brings it back);
+- left / right click on a proposed GCP (cyan square): accept / reject it;
 - moving the cursor: the controller shows on the *other* canvas where the current model puts
   this position (the predicted next click).
 
@@ -43,6 +44,13 @@ class PickTool(QgsMapTool):
         return point
 
     def canvasPressEvent(self, event):  # noqa: N802 - QGIS's name
+        proposal = self.controller.nearest_proposal(self.side, event.pos(), GRAB_TOLERANCE_PX)
+        if proposal is not None and event.button() in (Qt.LeftButton, Qt.RightButton):
+            if event.button() == Qt.LeftButton:
+                self.controller.accept_proposals([proposal])
+            else:
+                self.controller.reject_proposals([proposal])
+            return
         near = self.controller.nearest(self.side, event.pos(), GRAB_TOLERANCE_PX)
         if event.button() == Qt.RightButton:
             if near is not None:
