@@ -135,6 +135,19 @@ def picking(canvas, dock, truth):
     STATE["picked"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock),
                        "summary": dock.summary.text()}
     dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "picked.gpkg"))
+    times = []
+    for _ in range(15):  # a refit as the GUI thread sees it: layer read, session round trip, table, overlays
+        start = time.perf_counter()
+        dock.controller.refit()
+        times.append(1000 * (time.perf_counter() - start))
+    STATE["refit_ms"] = sorted(times)
+    request = dock.controller.settings().request(dock.controller.store.gcps())
+    times = []
+    for _ in range(15):  # the session round trip alone
+        start = time.perf_counter()
+        dock.session.call("fit_gcps", **request)
+        times.append(1000 * (time.perf_counter() - start))
+    STATE["call_ms"] = sorted(times)
     # the cursor over GCP 2's image position: the map canvas shows where the model puts it
     g2 = dock.controller.gcp("2")
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, g2.col, -g2.row), Qt.NoButton)

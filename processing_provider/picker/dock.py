@@ -9,7 +9,7 @@ the image canvas; the fit summary; the table. The handlers of the rows are in
 """
 from __future__ import annotations
 
-from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject
+from qgis.core import QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsTask
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtWidgets import (
@@ -72,6 +72,15 @@ class PickerDock(DockActions, QDockWidget):
         self.controller.message.connect(self.say)
         self.image_canvas.setMapTool(self.tools[IMAGE])
         self.activate_map_tool()
+        self._start_worker()
+
+    def _start_worker(self):
+        """Start the session's worker in the background: its first start imports fotogeo (seconds), the
+        refits after it are a JSON round trip, so the first click does not wait for the imports."""
+        def warm_up(task):
+            self.session.call("fit_gcps", gcps=[], model="affine", crs="EPSG:4326", timeout=120)
+        self.warm_up = QgsTask.fromFunction("fotogeo picker: starting fotogeo's worker", warm_up)
+        QgsApplication.taskManager().addTask(self.warm_up)
 
     # -- widgets ------------------------------------------------------------------------------
     def _build(self):

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 
 from qgis.core import Qgis, QgsMessageLog, QgsProject, QgsRasterLayer
@@ -127,7 +128,9 @@ class DockActions:
         """``orient``'s keyword arguments for the dock's model, heights and camera (GCPs: a temporary GeoPackage)."""
         s = self.controller.settings()
         folder = tempfile.mkdtemp(prefix="fotogeo-picker-")
-        gpkg = self.controller.store.export_gpkg(os.path.join(folder, "gcps.gpkg"))
+        # without the z field unless the heights come from it: orient then uses the DEM / the constant for every
+        # point, as the dock's fit does
+        gpkg = self.controller.store.export_gpkg(os.path.join(folder, "gcps.gpkg"), heights=s.height_source == "field")
         kwargs = {"image": self.image.path, "gcps": gpkg, "layer": "gcps", "model": s.model, "overwrite": True}
         if s.height_source == "dem" and s.dem:
             kwargs["dem"] = s.dem
@@ -135,9 +138,6 @@ class DockActions:
             kwargs["height"] = s.height
         if s.camera:
             kwargs["camera"] = s.camera
-        if s.height_source != "field":
-            # no height field: orient then takes the DEM / the constant for every point, as the dock's fit does
-            kwargs["fields"] = {"z": "fotogeo_picker_no_height_field"}
         return kwargs
 
     def run_orient(self, kind: str, output: str, on_done=None):
@@ -149,6 +149,7 @@ class DockActions:
         kwargs = {**self.orient_arguments(), RUNS[kind][0]: output}
 
         def done(ok, result, error):
+            shutil.rmtree(os.path.dirname(kwargs["gcps"]), ignore_errors=True)
             if ok and kind == "rectify":
                 QgsProject.instance().addMapLayer(QgsRasterLayer(output, os.path.basename(output)))
             self.say(f"{kind}: written to {output}" if ok else f"{kind}: {error}", Qgis.Success if ok else Qgis.Warning)

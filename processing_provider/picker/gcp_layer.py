@@ -167,10 +167,15 @@ class GcpLayer(QObject):
             self.layer.dataProvider().changeAttributeValues(changes)
         self.layer.triggerRepaint()
 
-    def export_gpkg(self, path: str) -> str:
-        """Write the layer to a GeoPackage (layer ``gcps``) the worker's tools read; returns ``path``."""
+    def export_gpkg(self, path: str, heights: bool = True) -> str:
+        """Write the layer to a GeoPackage (layer ``gcps``) the worker's tools read; returns ``path``.
+
+        ``heights`` False leaves the ``z`` field out, so a tool takes every height from its DEM or constant.
+        """
         options = QgsVectorFileWriter.SaveVectorOptions()
         options.driverName, options.layerName = "GPKG", "gcps"
+        if not heights:
+            options.attributes = [i for i, f in enumerate(self.layer.fields()) if f.name() != "z"]
         result = QgsVectorFileWriter.writeAsVectorFormatV2(self.layer, path, QgsProject.instance().transformContext(),
                                                            options)
         if result[0] != QgsVectorFileWriter.NoError:
