@@ -292,6 +292,17 @@ def propose():
     while len(done) < 2 and time.monotonic() - start < 600:
         pump(0.2)
     STATE["runs"] = done
+    # RPC export: orient's own refusal for a DLT, then the RFM's RPC00B written into a copy of the frame
+    rpc = {}
+    dock.run_orient("rpc", os.path.join(ARGS["out"], "rpc_dlt.tif"), on_done=lambda ok, r, e: rpc.update(dlt=[ok, e]))
+    while "dlt" not in rpc and time.monotonic() - start < 600:
+        pump(0.2)
+    dock.model_combo.setCurrentText("rfm")
+    STATE["rfm_fit"] = {k: v for k, v in dock.controller.fit.items() if k in ("ok", "model", "rms", "message")}
+    dock.run_orient("rpc", os.path.join(ARGS["out"], "rpc.tif"), on_done=lambda ok, r, e: rpc.update(rfm=[ok, e]))
+    while "rfm" not in rpc and time.monotonic() - start < 600:
+        pump(0.2)
+    STATE["rpc"] = rpc
     STATE["layers"] = sorted(layer.name() for layer in QgsProject.instance().mapLayers().values())
 
 

@@ -266,3 +266,10 @@ def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel
     report = json.loads((tmp_path / "orient.json").read_text())
     assert report["model_name"] == "dlt" and report["check"]["rms_xy_px"] == pytest.approx(fit["rms"]["check_px"], abs=1e-9)
     assert (tmp_path / "rectified.tif").stat().st_size > 100_000 and "rectified.tif" in state["layers"]
+    # RPC: orient's one-line refusal for the DLT reaches the dock; with the RFM the frame gets RPC00B metadata
+    assert state["rpc"]["dlt"][0] is False and "is not one" in state["rpc"]["dlt"][1]
+    assert not (tmp_path / "rpc_dlt.tif").exists()
+    assert state["rfm_fit"]["ok"] and state["rpc"]["rfm"] == [True, None]
+    import rasterio
+    with rasterio.open(tmp_path / "rpc.tif") as ds:
+        assert {"LINE_OFF", "SAMP_OFF", "LINE_NUM_COEFF"} <= set(ds.tags(ns="RPC"))
