@@ -102,6 +102,11 @@ def main():
     files(dock, store)
     heights_and_models(dock, dem, small_dem)
     other_project_crs(canvas, dock, store, truth)
+    plain = QgsVectorLayer("Point", "plain points", "memory")  # a point layer without the GCP fields
+    QgsProject.instance().addMapLayer(plain)
+    dock.gcp_combo.setLayer(plain)
+    STATE["plain_layer"] = {"message": dock.last_message, "store": dock.controller.store is not None}
+    dock.gcp_combo.setLayer(store.layer)
     large_image(dock)
 
 

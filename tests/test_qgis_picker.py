@@ -231,6 +231,13 @@ def test_too_few_points_and_a_dem_that_misses_gcps_are_shown(picked):
     assert "more" in small["summary"] and "without a height" in small["summary"]
 
 
+def test_a_point_layer_without_the_gcp_fields_is_refused(picked):
+    plain = picked[0]["plain_layer"]
+    assert plain["store"] is False
+    assert plain["message"] == ("layer 'plain points' lacks the GCP field(s) col, row (the image position): choose a "
+                                "layer made by the picker or by fotogeo's points-to-layer")
+
+
 def test_project_crs_other_than_the_layers(picked):
     state, truth, _ = picked
     w = state["wgs84"]

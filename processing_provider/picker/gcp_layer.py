@@ -77,10 +77,10 @@ class GcpLayer(QObject):
 
     def __init__(self, layer: QgsVectorLayer):
         super().__init__()
-        missing = [name for name, _ in FIELDS[:5] if layer.fields().indexOf(name) < 0]
+        missing = [name for name in ("col", "row") if layer.fields().indexOf(name) < 0]
         if missing:
-            raise ValueError(f"layer {layer.name()!r} lacks the GCP field(s) {', '.join(missing)}: "
-                             f"choose a layer made by the picker or by fotogeo's points-to-layer")
+            raise ValueError(f"layer {layer.name()!r} lacks the GCP field(s) {', '.join(missing)} (the image "
+                             f"position): choose a layer made by the picker or by fotogeo's points-to-layer")
         self.layer = layer
         layer.afterCommitChanges.connect(self.changed.emit)
 
@@ -110,9 +110,19 @@ class GcpLayer(QObject):
             col, row = _number(f["col"]), _number(f["row"])
             if col is None or row is None:
                 continue
-            role = str(f["role"]).lower() if f["role"] not in (None, NULL) else "control"
-            out.append(Gcp(str(f["id"]), col, row, p.x(), p.y(), _number(f["z"]), role, f.id()))
+            role, gid = self._value(f, "role"), self._value(f, "id")
+            role = str(role).lower() if role is not None else "control"
+            gid = str(gid) if gid is not None else str(f.id())
+            out.append(Gcp(gid, col, row, p.x(), p.y(), _number(self._value(f, "z")), role, f.id()))
         return out
+
+    def _value(self, feature, name: str):
+        """The attribute ``name`` of ``feature``; None when it is NULL or the layer has no such field
+        (fotogeo's readers need only ``col`` and ``row``: id, role and z are optional)."""
+        if self.layer.fields().indexOf(name) < 0:
+            return None
+        value = feature[name]
+        return None if value is None or value == NULL else value
 
     def find(self, fid: int) -> Gcp | None:
         return next((g for g in self.gcps() if g.fid == fid), None)
@@ -128,18 +138,24 @@ class GcpLayer(QObject):
     def _feature(self, gcp: Gcp) -> QgsFeature:
         f = QgsFeature(self.layer.fields())
         f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(gcp.x, gcp.y)))
-        for name, value in (("id", gcp.id), ("col", gcp.col), ("row", gcp.row),
-                            ("z", NULL if gcp.z is None else gcp.z), ("role", gcp.role)):
+        for name, value in self._attributes(gcp).items():
             f[name] = value
         return f
 
+    def _attributes(self, gcp: Gcp) -> dict:
+        """The GCP's field values, for the fields the layer has."""
+        values = {"id": gcp.id, "col": gcp.col, "row": gcp.row, "z": NULL if gcp.z is None else gcp.z,
+                  "role": gcp.role}
+        return {k: v for k, v in values.items() if self.layer.fields().indexOf(k) >= 0}
+
     def add(self, gcp: Gcp) -> Gcp:
-        """Add ``gcp``; returns it with its feature id."""
+        """Add ``gcp``; returns it with its feature id (and the id the layer knows it by)."""
         ok, features = self.layer.dataProvider().addFeatures([self._feature(gcp)])
         if not ok:
             raise RuntimeError(f"the GCP layer {self.layer.name()!r} refused a new point (is it read-only?)")
         self._touched()
-        return replace(gcp, fid=features[0].id())
+        # as read back: a layer without an ``id`` field knows the point by its feature id
+        return self.find(features[0].id()) or replace(gcp, fid=features[0].id())
 
     def delete(self, fid: int) -> None:
         self.layer.dataProvider().deleteFeatures([fid])
@@ -149,9 +165,8 @@ class GcpLayer(QObject):
         """Write position, height and role of ``gcp`` (by its ``fid``)."""
         provider, fields = self.layer.dataProvider(), self.layer.fields()
         provider.changeGeometryValues({gcp.fid: QgsGeometry.fromPointXY(QgsPointXY(gcp.x, gcp.y))})
-        provider.changeAttributeValues({gcp.fid: {
-            fields.indexOf("col"): gcp.col, fields.indexOf("row"): gcp.row,
-            fields.indexOf("z"): NULL if gcp.z is None else gcp.z, fields.indexOf("role"): gcp.role}})
+        provider.changeAttributeValues({gcp.fid: {fields.indexOf(name): value for name, value
+                                                  in self._attributes(gcp).items() if name != "id"}})
         self._touched()
 
     def write_results(self, fit: dict | None) -> None:
