@@ -205,7 +205,9 @@ class PickerController(QObject):
         if self.store is None or self.image is None:
             return
         self.predicted = {side: None, other: self.predict(side, point)}
-        self.show()
+        for s, overlay in self.overlays.items():  # only the prediction moves: no re-read of the GCPs per mouse move
+            overlay.state.predicted = self.predicted[s]
+            overlay.update()
 
     def preview_move(self, side: str, gcp_id: str, point: QgsPointXY):
         gcp = self.gcp(gcp_id)
