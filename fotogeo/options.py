@@ -45,6 +45,9 @@ POLARITIES = ("auto", "bright", "dark")
 SPREADS = ("homogeneous", "heterogeneous")
 #: interior parameters a bundle adjustment may estimate (self-calibration; fotogeo.orientation.bundle_jacobian)
 INTERIOR_PARAMETERS = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
+#: Ebner's (1976) 12 additional parameters (fotogeo.orientation.bundle_jacobian); "ebner" names all of them
+EBNER_PARAMETERS = tuple(f"b{i}" for i in range(1, 13))
+SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner",)
 
 #: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes
 KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
@@ -319,7 +322,8 @@ TRIANGULATE = Table(
     Option("check_points", "str", None, "GCP names used as check points (comma-separated)",
            "Comma-separated GCP names held out as check points."),
     Option("self_calibration", "choices", None, "Interior parameters to estimate (none = fixed camera)",
-           "Comma-separated interior parameters to estimate [none].", choices=INTERIOR_PARAMETERS),
+           "Comma-separated interior parameters to estimate (ebner: Ebner's 12 additional parameters b1-b12) "
+           "[none].", choices=SELF_CALIBRATION),
     Option("control_sigma_xy", "float", 0.05, "σ of GCP X and Y (m)", "σ of the GCPs' X, Y (m).", minimum=0.0,
            exclusive_minimum=True),
     Option("control_sigma_z", "float", 0.05, "σ of GCP heights (m)", "σ of the GCPs' Z (m).", minimum=0.0,

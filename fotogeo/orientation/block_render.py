@@ -4,11 +4,12 @@
 an image: a ground texture (an orthophoto-like grid over the block: fractal noise of several
 octaves, as the demo scene's, plus random bright and dark patches — fields, roofs — for
 corners and blobs) is draped on the terrain, and each frame pixel's ray, through the true
-camera *with its distortion* (:func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`), is
-intersected with the terrain (:meth:`fotogeo.geometry.camera.OrientedFrame.pixel_to_world` on a
-DEM sampled from the block's surface) and the texture sampled there (bilinear). Gaussian grey
-noise of ``noise`` levels is added. Pixel centres follow the corner convention
-(:func:`fotogeo.pixels.pixel_centres`), the texture is sampled through :func:`fotogeo.pixels.to_centre`.
+camera *with its distortion* (Brown's and Ebner's;
+:func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`), is intersected with the terrain
+(:meth:`fotogeo.geometry.camera.OrientedFrame.pixel_to_world` on a DEM sampled from the block's
+surface) and the texture sampled there (bilinear). Gaussian grey noise of ``noise`` levels is
+added. Pixel centres follow the corner convention (:func:`fotogeo.pixels.pixel_centres`), the
+texture is sampled through :func:`fotogeo.pixels.to_centre`.
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from ..geometry.camera import FrameCamera, OrientedFrame
 from ..geometry.dem import Dem
 from ..pixels import pixel_centres, to_centre
 from . import bundle_jacobian as bj
+from .block_simulation import true_interior
 
 
 def _fractal(rng, shape, octaves=8, persistence=0.8):
@@ -61,7 +63,7 @@ def render_block(sb, *, texture_pixel: float | None = None, noise: float = 2.0, 
     tp = texture_pixel or sb.gsd / 2
     tex_t = Affine(tp, 0, x0, 0, -tp, y0)
     tex = texture(rng, (int((y0 - y1) / tp) + 1, int((x1 - x0) / tp) + 1))
-    interior = np.array([cam.focal_length, *cam.principal_point, *sb.true_distortion])
+    interior = true_interior(cam, sb.true_distortion, sb.true_additional)
     scale = bj.pixel_scale(cam)
     ideal_cam = FrameCamera(cam.focal_length, cam.sensor_size, cam.image_size, cam.principal_point)
     w, h = cam.image_size

@@ -16,7 +16,8 @@ edge midpoints and centre (``n_control``), their coordinates with Gaussian noise
 ``control_sigma``; check points are drawn at random among the remaining ≥ 3-ray points. The
 approximate orientation given to the adjustment is the truth plus Gaussian noise
 ``eo_noise = (m, °)``, and the nominal camera may differ from the true one
-(``true_focal_length``, ``true_distortion``), for self-calibration.
+(``true_focal_length``, ``true_distortion``, and Ebner's (1976) additional parameters
+``true_additional`` ``b1 … b12`` in px, :mod:`fotogeo.orientation.bundle_ebner`), for self-calibration.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ class SyntheticBlock:
     blunders: np.ndarray  # observation indices with a planted blunder
     gsd: float  # ground sample distance at the mean terrain height (m)
     surface: object  # XY (N, 2) -> Z (N,)
+    true_additional: tuple = ()  # Ebner's b1 … b12 (px)
 
 
 def terrain(rng, centre, extent, base: float, relief: float, n_hills: int = 14):
@@ -114,7 +116,8 @@ def simulate_block(*, strips: int = 3, frames_per_strip: int = 8, forward_overla
                    blunder_fraction: float = 0.015, n_control: int = 8, n_check: int = 20,
                    control_sigma: tuple = (0.02, 0.03), eo_noise: tuple = (5.0, 0.5), attitude_sd: float = 1.0,
                    convergent: float = 0.0, true_focal_length: float | None = None,
-                   true_distortion: tuple = (0.0, 0.0, 0.0, 0.0, 0.0), origin=(500000.0, 4420000.0),
+                   true_distortion: tuple = (0.0, 0.0, 0.0, 0.0, 0.0), true_additional: tuple = (),
+                   origin=(500000.0, 4420000.0),
                    margin: float = 20.0, seed=0) -> SyntheticBlock:
     """A seeded synthetic block (module docstring); the block's map coordinates start at ``origin``."""
     rng = np.random.default_rng(seed)
@@ -129,7 +132,7 @@ def simulate_block(*, strips: int = 3, frames_per_strip: int = 8, forward_overla
     gx, gy = np.meshgrid(np.arange(lo[0], hi[0], point_spacing), np.arange(lo[1], hi[1], point_spacing))
     XY = np.column_stack([gx.ravel(), gy.ravel()]) + rng.uniform(-0.4, 0.4, (gx.size, 2)) * point_spacing
     XYZ = np.column_stack([XY, surface(XY)])
-    interior = np.array([true_cam.focal_length, *true_cam.principal_point, *true_distortion])
+    interior = true_interior(true_cam, true_distortion, true_additional)
     frame, point, px = _observe(true_eo, true_cam, interior, XYZ, margin)
     rays = np.bincount(point, minlength=len(XYZ))
     keep = rays >= 2
@@ -155,7 +158,16 @@ def simulate_block(*, strips: int = 3, frames_per_strip: int = 8, forward_overla
                   np.full(len(px), max(noise, 1e-3)), (0.0, 0.0, 0.0, 0.0, 0.0), None)
     gsd = flying_height / camera.fx
     return SyntheticBlock(block, tuple(_shifted(e, shift) for e in true_eo), true_cam, tuple(true_distortion),
-                          XYZ + shift, blunders, gsd, lambda XY: surface(np.asarray(XY, float) - shift[:2]))
+                          XYZ + shift, blunders, gsd, lambda XY: surface(np.asarray(XY, float) - shift[:2]),
+                          tuple(true_additional))
+
+
+def true_interior(camera, distortion, additional=()) -> np.ndarray:
+    """The interior vector (:data:`~fotogeo.orientation.bundle_jacobian.INTERIOR_NAMES`) of a camera, its
+    Brown distortion and Ebner's additional parameters (missing ones 0)."""
+    b = np.zeros(len(bj.INTERIOR_NAMES) - bj.N_PHYSICAL)
+    b[:len(additional)] = additional
+    return np.array([camera.focal_length, *camera.principal_point, *distortion, *b], dtype=np.float64)
 
 
 def _shifted(e, shift):

@@ -6,7 +6,7 @@ Brown's radial and tangential distortion) relate every image observation of a gr
 to the exterior orientation of its frame. :func:`adjust_block` estimates, together, the
 exterior orientations of all frames (``X0, Y0, Z0, ω, φ, κ``), the ground coordinates of all
 tie points and, optionally, the interior orientation (self-calibration: any of ``f, ppx, ppy,
-k1, k2, k3, p1, p2``, shared by the frames) — the bundle block adjustment of Yastıklı's
+k1, k2, k3, p1, p2`` and Ebner's ``b1 … b12``, shared by the frames) — the bundle block adjustment of Yastıklı's
 digital aerial triangulation, solved as in Triggs et al. (2000):
 
 * in a local Cartesian frame (the block's mean projection centre subtracted); the map CRS
@@ -20,7 +20,10 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
   reweighting from the approximate orientation; then the multiple correlation of every free
   interior parameter with the exterior orientations — a parameter the block cannot determine
   (ϱ > ``max_correlation``, e.g. a free focal length against the flying heights over flat
-  ground, nadir frames) is held fixed and reported; then Baarda's (1968) data snooping with
+  ground, nadir frames) is held fixed and reported — and its precision companion for Ebner's
+  (1976) additional parameters (``self_calibration=("ebner",)``,
+  :mod:`~fotogeo.orientation.bundle_ebner`): one not significant (``|b| < significance·σ_b``)
+  is held fixed at 0 and reported; then Baarda's (1968) data snooping with
   redundancy numbers in closed form, culling the worst observation of every flagged point and
   solving again until nothing is flagged;
 * precision: σ₀ (in px with the default a priori image σ of 1 px; ≈ 1 when the a priori σ are
@@ -39,6 +42,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..geometry.camera import FrameCamera
+from ..options import EBNER_PARAMETERS
 from ..progress import as_progress
 from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
@@ -76,8 +80,10 @@ class Block:
 
 @dataclass(frozen=True)
 class BundleOptions:
-    """``self_calibration``: free interior parameters (names of ``INTERIOR_NAMES``);
-    ``eo_sigma``: ``(σ position m, σ angles °)`` priors on the approximate orientation or None."""
+    """``self_calibration``: free interior parameters (names of ``INTERIOR_NAMES``, ``"ebner"`` for
+    all of Ebner's ``b1 … b12``); ``eo_sigma``: ``(σ position m, σ angles °)`` priors on the
+    approximate orientation or None; ``max_correlation`` and ``significance``: the rules that hold
+    interior parameters fixed (module docstring)."""
 
     self_calibration: tuple = ()
     eo_sigma: tuple | None = None
@@ -87,6 +93,7 @@ class BundleOptions:
     critical_w: float = 3.29
     max_snooping_rounds: int = 10
     max_correlation: float = 0.999
+    significance: float = 3.0
     max_iterations: int = 60
     max_residual_px: float = 10.0
 
@@ -98,7 +105,7 @@ class BundleResult:
     eo: tuple  # adjusted ExteriorOrientation per frame, map CRS
     eo_sigma: np.ndarray  # (m, 6): X0, Y0, Z0 (m), rotations about the camera axes (°)
     camera: FrameCamera  # adjusted f and principal point
-    distortion: dict  # k1, k2, k3, p1, p2
+    distortion: dict  # k1, k2, k3, p1, p2 (and Ebner's b1 … b12 in px when estimated)
     interior_sigma: dict  # σ of the free interior parameters
     point_xyz: np.ndarray  # (P, 3) adjusted, NaN for points dropped
     point_sigma: np.ndarray  # (P, 3)
@@ -139,8 +146,7 @@ class _Run:
     def __init__(self, block, opts):
         self.block, self.opts = block, opts
         self.origin, self.R, self.C = local_frame(block)
-        self.interior = np.array([block.camera.focal_length, *block.camera.principal_point,
-                                  *block.distortion], dtype=np.float64)
+        self.interior = _initial_interior(block)
         self.free = [bj.INTERIOR_NAMES.index(n) for n in opts.self_calibration]
         self.active = np.ones(len(block.obs_frame), bool)
         self.X = initial_points(block, self.origin, self.R, self.C, self.interior)
@@ -178,6 +184,7 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     a block that cannot be adjusted (datum, unconnected frames) and :class:`ModelError` when
     it does not converge."""
     opts = options or BundleOptions()
+    opts = replace(opts, self_calibration=expand_self_calibration(opts.self_calibration))
     prog = as_progress(progress).with_own_timings()
     check_block(block, opts)
     run = _Run(block, opts)
@@ -193,20 +200,9 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     run.keep(pb, s)
     fixed = []
     with prog.timed("correlations"):
-        while run.free:
-            corr = interior_correlations(pb, posterior(pb, s, p), block.frames, bj.INTERIOR_NAMES)
-            worst = _to_fix(corr, opts.max_correlation)
-            if worst is None:
-                break
-            run.free.remove(bj.INTERIOR_NAMES.index(worst["parameter"]))
-            run.interior[bj.INTERIOR_NAMES.index(worst["parameter"])] = _initial_interior(block)[
-                bj.INTERIOR_NAMES.index(worst["parameter"])]
-            fixed.append({**worst, "reason": _fix_reason(worst, opts.max_correlation)})
-            pb, s = run.problem()
-            p = _robust_weights(pb, s, opts)  # the problem may have lost points: weights anew
-            s, it = _solve(pb, s, p, opts, prog.stage(0.4, 0.5, "re-solving"), "after fixing a parameter")
-            run.iterations += it
-            run.keep(pb, s)
+        pb, s, p = _correlation_rule(run, pb, s, p, opts, prog, fixed)
+    with prog.timed("significance"):
+        pb, s, p = _significance_rule(run, pb, s, p, opts, prog, fixed)
     blunders = []
     with prog.timed("snooping"):
         for rnd in range(opts.max_snooping_rounds + 1):
@@ -255,6 +251,73 @@ def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:
     return worst.size > 0
 
 
+def expand_self_calibration(names) -> tuple:
+    """The free interior parameters in :data:`INTERIOR_NAMES` order, ``"ebner"`` standing for ``b1 … b12``
+    (unknown names are kept, for :func:`check_block` to name them)."""
+    names = list(dict.fromkeys(names or ()))
+    if "ebner" in names:
+        names = [n for n in names if n != "ebner"] + list(EBNER_PARAMETERS)
+    known = [n for n in bj.INTERIOR_NAMES if n in names]
+    return tuple(known + [n for n in dict.fromkeys(names) if n not in known])
+
+
+def _hold_fixed(run, name, entry, fixed):
+    k = bj.INTERIOR_NAMES.index(name)
+    run.free.remove(k)
+    run.interior[k] = _initial_interior(run.block)[k]
+    fixed.append(entry)
+
+
+def _resolve(run, opts, prog, label):
+    """The problem rebuilt after a parameter was held fixed, its robust weights anew (it may have lost
+    points) and its solution."""
+    pb, s = run.problem()
+    p = _robust_weights(pb, s, opts)
+    s, it = _solve(pb, s, p, opts, prog.stage(0.4, 0.5, "re-solving"), label)
+    run.iterations += it
+    run.keep(pb, s)
+    return pb, s, p
+
+
+def _correlation_rule(run, pb, s, p, opts, prog, fixed):
+    """Hold fixed, one at a time, the interior parameters the block cannot tell from the exterior
+    orientation (module docstring), solving again after each."""
+    while run.free:
+        corr = interior_correlations(pb, posterior(pb, s, p), run.block.frames, bj.INTERIOR_NAMES)
+        worst = _to_fix(corr, opts.max_correlation)
+        if worst is None:
+            break
+        _hold_fixed(run, worst["parameter"], {**worst, "reason": _fix_reason(worst, opts.max_correlation)}, fixed)
+        pb, s, p = _resolve(run, opts, prog, "after fixing a parameter")
+    return pb, s, p
+
+
+def _significance_rule(run, pb, s, p, opts, prog, fixed):
+    """The precision companion of the correlation rule, for Ebner's additional parameters: one whose
+    change from its initial value is below ``opts.significance`` times its a-posteriori σ
+    (``|b − b₀| < t·σ_b``: the block does not show that error) is held fixed as not significant
+    (Gruen 1985: additional parameters are kept only where the block determines them); all such
+    parameters at once, then the block is solved and tested again."""
+    initial = _initial_interior(run.block)
+    while opts.significance > 0 and any(bj.INTERIOR_NAMES[k] in EBNER_PARAMETERS for k in run.free):
+        post = posterior(pb, s, p)
+        sd = post.sigma0 * np.sqrt(np.maximum(np.diag(post.S_inv)[6 * pb.st.n_frames:], 0.0))
+        weak = []
+        for q, k in enumerate(pb.st.free_interior):
+            name, value = bj.INTERIOR_NAMES[k], float(run.interior[k])
+            t = abs(value - initial[k]) / sd[q] if sd[q] > 0 else 0.0
+            if name in EBNER_PARAMETERS and t < opts.significance:
+                weak.append({"parameter": name, "value_px": value, "sigma_px": float(sd[q]), "t": float(t),
+                             "reason": f"{name} is not significant: |{name}| = {abs(value):.3g} px < "
+                                       f"{opts.significance:g} σ (σ = {sd[q]:.3g} px); held fixed at 0"})
+        if not weak:
+            break
+        for entry in weak:
+            _hold_fixed(run, entry["parameter"], entry, fixed)
+        pb, s, p = _resolve(run, opts, prog, "after fixing non-significant parameters")
+    return pb, s, p
+
+
 def _to_fix(corr, limit):
     """The interior parameter to hold fixed, or None: the one of largest multiple correlation above
     ``limit`` — unless its strongest partner is a higher-order free interior term (k2 for k1), which
@@ -270,7 +333,9 @@ def _to_fix(corr, limit):
 
 
 def _initial_interior(block):
-    return np.array([block.camera.focal_length, *block.camera.principal_point, *block.distortion])
+    """``(f, ppx, ppy, k1, k2, k3, p1, p2, b1 … b12)`` of the block's camera (Ebner's terms start at 0)."""
+    return np.array([block.camera.focal_length, *block.camera.principal_point, *block.distortion,
+                     *np.zeros(len(EBNER_PARAMETERS))], dtype=np.float64)
 
 
 def _fix_reason(c, limit):

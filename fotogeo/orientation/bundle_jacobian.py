@@ -12,11 +12,15 @@ and the projection centre ``C_j``, all in the block's local Cartesian frame::
     v' = v ρ + p1 (r² + 2v²) + 2 p2 u v                                OpenCV sign convention)
     col = fx u' + ppx,   row = fy v' + ppy,   fx = f·w/sensor_w,  fy = f·h/sensor_h
 
-The interior vector is ``(f, ppx, ppy, k1, k2, k3, p1, p2)`` (:data:`INTERIOR_NAMES`): ``f`` in
-the camera file's unit (mm), the principal point in pixels (corner convention), the
+The interior vector is ``(f, ppx, ppy, k1, k2, k3, p1, p2, b1 … b12)`` (:data:`INTERIOR_NAMES`):
+``f`` in the camera file's unit (mm), the principal point in pixels (corner convention), the
 distortion coefficients on the focal-length-normalised coordinates ``(u, v)`` of the
-OpenCV camera axes (y down). They are the physical part of the additional parameters of
-Ebner (1976); the frame is assumed free of the remaining affinity and shear.
+OpenCV camera axes (y down), then Ebner's (1976) additional parameters
+(:mod:`fotogeo.orientation.bundle_ebner`): with them the pixel is
+``col = x + ppx + Δx(ξ, η)``, ``row = y + ppy + Δy(ξ, η)``, ``(x, y) = (fx u', fy v')``,
+``(ξ, η) = (x / (w/2), y / (h/2))``, and every derivative through ``(x, y)`` is multiplied by
+``E = I + ∂(Δx, Δy)/∂(x, y)``. An interior vector of 8 (no additional parameters) is accepted
+everywhere and means ``b = 0``.
 
 The rotation is updated multiplicatively, ``R_j ← R_j·exp([δθ]×)`` (``δθ`` about the camera
 axes, radians), as in :mod:`fotogeo.models.collinearity`, so that
@@ -34,9 +38,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..options import INTERIOR_PARAMETERS
+from ..options import EBNER_PARAMETERS, INTERIOR_PARAMETERS
+from . import bundle_ebner
 
-INTERIOR_NAMES = INTERIOR_PARAMETERS  # the one list of interior parameter names (fotogeo.options)
+INTERIOR_NAMES = INTERIOR_PARAMETERS + EBNER_PARAMETERS  # the one list of their names (fotogeo.options)
+N_PHYSICAL = len(INTERIOR_PARAMETERS)
 
 D_CV = np.diag([1.0, -1.0, -1.0])
 
@@ -67,8 +73,16 @@ def log_rotation(R: np.ndarray) -> np.ndarray:
 
 
 def pixel_scale(camera) -> np.ndarray:
-    """``(w/sensor_w, h/sensor_h)``: pixels per unit of focal length (``fx = f·scale[0]``)."""
-    return np.array([camera.image_size[0] / camera.sensor_size[0], camera.image_size[1] / camera.sensor_size[1]])
+    """``(w/sensor_w, h/sensor_h, w/2, h/2)``: pixels per unit of focal length (``fx = f·scale[0]``)
+    and the half image size (the unit of Ebner's coordinates)."""
+    w, h = camera.image_size
+    return np.array([w / camera.sensor_size[0], h / camera.sensor_size[1], w / 2.0, h / 2.0])
+
+
+def _ebner(interior):
+    """The additional parameters ``b`` ``(12,)`` of an interior vector, or None when all are 0."""
+    b = np.asarray(interior[N_PHYSICAL:], dtype=np.float64)
+    return b if b.size and np.any(b != 0) else None
 
 
 def camera_coordinates(R, C, X, frame, point) -> np.ndarray:
@@ -78,7 +92,7 @@ def camera_coordinates(R, C, X, frame, point) -> np.ndarray:
 
 
 def _distort(c, interior, scale):
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior
+    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
     z = c[:, 2]
     u, v = c[:, 0] / z, c[:, 1] / z
     r2 = u * u + v * v
@@ -97,7 +111,12 @@ def project_camera(c, interior, scale) -> np.ndarray:
     """Pixels ``(n, 2)`` of camera-axis points ``c`` ``(n, 3)`` (distortion, focal length, principal point)."""
     _, _, _, _, ud, vd = _distort(c, interior, scale)
     f, ppx, ppy = interior[:3]
-    return np.column_stack([f * scale[0] * ud + ppx, f * scale[1] * vd + ppy])
+    x, y = f * scale[0] * ud, f * scale[1] * vd
+    b = _ebner(interior)
+    if b is not None:
+        dx, dy = bundle_ebner.corrections(b, x / scale[2], y / scale[3])
+        x, y = x + dx, y + dy
+    return np.column_stack([x + ppx, y + ppy])
 
 
 def project_with_jacobians(R, C, X, frame, point, interior, scale):
@@ -105,7 +124,7 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale):
     ``J_interior`` ``(n, 2, 8)`` (:data:`INTERIOR_NAMES`) and the camera coordinates ``(n, 3)``."""
     c = camera_coordinates(R, C, X, frame, point)
     u, v, r2, rho, ud, vd = _distort(c, interior, scale)
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior
+    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
     fx, fy = f * scale[0], f * scale[1]
     n = len(c)
     g = k1 + r2 * (2 * k2 + 3 * k3 * r2)  # dρ/d(r²)
@@ -123,7 +142,7 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale):
     Rj = R[frame]
     J_point = A @ Rj.transpose(0, 2, 1)  # A Rᵀ
     J_eo = np.concatenate([-J_point, np.cross(A, c[:, None, :])], axis=2)  # a [c]× = a × c (rows a of A)
-    J_int = np.zeros((n, 2, 8))
+    J_int = np.zeros((n, 2, len(INTERIOR_NAMES)))
     J_int[:, 0, 0], J_int[:, 1, 0] = ud * scale[0], vd * scale[1]
     J_int[:, 0, 1] = 1.0
     J_int[:, 1, 2] = 1.0
@@ -132,15 +151,32 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale):
     J_int[:, 0, 6], J_int[:, 1, 6] = 2 * fx * u * v, fy * (r2 + 2 * v * v)
     J_int[:, 0, 7], J_int[:, 1, 7] = fx * (r2 + 2 * u * u), 2 * fy * u * v
     pixel = np.column_stack([fx * ud + ppx, fy * vd + ppy])
+    b = _ebner(interior)
+    if len(scale) > 2:  # Ebner's terms are evaluated where x, y are known: the half image size is given
+        xi, eta = fx * ud / scale[2], fy * vd / scale[3]
+        gx, gy = bundle_ebner.terms(xi, eta)
+        J_int[:, 0, N_PHYSICAL:], J_int[:, 1, N_PHYSICAL:] = gx, gy
+        if b is not None:  # E = I + ∂Δ/∂(x, y) on every derivative through (x, y)
+            E = bundle_ebner.derivatives(b, xi, eta) / scale[2:4][None, None, :]
+            E[:, 0, 0] += 1.0
+            E[:, 1, 1] += 1.0
+            pixel += np.column_stack([gx @ b, gy @ b])
+            J_eo, J_point = E @ J_eo, E @ J_point
+            chain = [0, *range(3, N_PHYSICAL)]
+            J_int[:, :, chain] = E @ J_int[:, :, chain]
     return pixel, J_eo, J_point, J_int, c
 
 
 def undistort_rays(pixel, interior, scale, iterations: int = 8) -> np.ndarray:
-    """Camera-axis ray directions ``(n, 3)`` (z = 1) of pixels, removing the distortion by a
-    fixed-point iteration ``(u, v) ← (u'_measured − Δ(u, v))`` (converges for moderate distortion)."""
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior
-    ud = (pixel[:, 0] - ppx) / (f * scale[0])
-    vd = (pixel[:, 1] - ppy) / (f * scale[1])
+    """Camera-axis ray directions ``(n, 3)`` (z = 1) of pixels, removing Ebner's corrections, then
+    Brown's distortion, each by a fixed-point iteration ``(u, v) ← (u'_measured − Δ(u, v))``
+    (converges for moderate distortion)."""
+    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
+    x, y = pixel[:, 0] - ppx, pixel[:, 1] - ppy
+    b = _ebner(interior)
+    if b is not None:
+        x, y = bundle_ebner.remove(x, y, b, scale[2:4])
+    ud, vd = x / (f * scale[0]), y / (f * scale[1])
     u, v = ud.copy(), vd.copy()
     for _ in range(iterations):
         r2 = u * u + v * v

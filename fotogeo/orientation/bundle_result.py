@@ -38,7 +38,10 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
     cam = replace(block.camera, focal_length=float(run.interior[0]),
                   principal_point=(float(run.interior[1]), float(run.interior[2])))
-    distortion = dict(zip(bj.INTERIOR_NAMES[3:], map(float, run.interior[3:])))
+    names = bj.INTERIOR_NAMES[3:bj.N_PHYSICAL]
+    if np.any(run.interior[bj.N_PHYSICAL:] != 0):  # Ebner's terms, when estimated
+        names = bj.INTERIOR_NAMES[3:]
+    distortion = {k: float(run.interior[bj.INTERIOR_NAMES.index(k)]) for k in names}
     xyz = np.full((P, 3), np.nan)
     xyz[pb.point_ids] = run.X[pb.point_ids] + run.origin
     psig = np.full((P, 3), np.nan)
