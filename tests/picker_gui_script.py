@@ -209,6 +209,12 @@ def heights_and_models(dock, dem, small_dem):
     STATE["constant_dlt"] = dock.controller.fit  # one height for all: coplanar points, DLT cannot be fitted
     dock.model_combo.setCurrentText("projective")
     STATE["constant"] = dock.controller.fit
+    dock.height_combo.setCurrentText("field")
+    dock.table.item(0, 6).setText("123.5")  # z of GCP 1 typed into the table
+    z_typed, row = dock.controller.gcp("1").z, dock.controller.fit["points"][0]
+    dock.controller.undo_stack.undo()
+    STATE["typed_height"] = {"typed": z_typed, "row": row, "undone": dock.controller.gcp("1").z,
+                             "row_undone": dock.controller.fit["points"][0]}
     dock.height_combo.setCurrentText("dem")
     dock.camera_file.setFilePath(ARGS["camera"])
     dock.model_combo.setCurrentText("collinearity")

@@ -206,6 +206,10 @@ def test_height_sources_and_models(picked):
     assert not state["constant_dlt"]["ok"] and "coplanar" in state["constant_dlt"]["message"]
     constant = state["constant"]
     assert constant["ok"] and constant["model"] == "projective" and all(p["z"] == 300.0 and p["z_source"] == "constant" for p in constant["points"])
+    typed = state["typed_height"]  # a z typed into the table is the layer's height; undo takes it back
+    assert typed["typed"] == 123.5 and typed["undone"] is None
+    assert (typed["row"]["id"], typed["row"]["z"], typed["row"]["z_source"]) == ("1", 123.5, "field")
+    assert (typed["row_undone"]["z"], typed["row_undone"]["z_source"]) == (None, "none")
     col = state["collinearity"]
     assert col["fit"]["ok"] and col["fit"]["model"] == "collinearity" and col["summary"].startswith("collinearity")
 

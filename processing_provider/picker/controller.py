@@ -116,6 +116,10 @@ class PickerController(QObject):
         if before is None:
             return
         a, b = self._side_position(side, point)
+        if side == IMAGE and not self.image.inside(a, b):
+            self.message.emit(f"({a:.1f}, {b:.1f}) px is outside the image: GCP {gcp_id} not moved")
+            self.show()
+            return
         after = replace(before, col=a, row=b) if side == IMAGE else replace(before, x=a, y=b)
         self.undo_stack.push(UpdateGcp(self.store, before, after, f"move GCP {gcp_id} on the {side}"))
 

@@ -139,6 +139,7 @@ class PickerDock(DockActions, QDockWidget):
         layout.addWidget(self.summary)
         self.table = GcpTable()
         self.table.role_changed.connect(self.controller.set_role)
+        self.table.height_changed.connect(self.controller.set_height)
         self.table.gcp_selected.connect(self.controller.select)
         splitter = QSplitter(Qt.Vertical)
         splitter.addWidget(top)

@@ -4,7 +4,8 @@ Columns: id, *on* (checked = control point, unchecked = check point: QGIS's enab
 col, row (px, corner convention), x, y (layer CRS), z and where it came from (field, DEM,
 constant), dx, dy, residual in px and in map units (model minus measurement, the same numbers
 ``fotogeo orient`` reports), the standardised residual w of data snooping (Baarda 1968) and the
-flag (blunder, no height, ...). Selecting a row highlights the GCP on both canvases.
+flag (blunder, no height, ...). Selecting a row highlights the GCP on both canvases; the z cell can
+be edited (a number, or empty for none): the layer's height, used with *Heights: field*.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ class GcpTable(QTableWidget):
     """The table (module docstring); ``role_changed(id, role)`` and ``gcp_selected(id)`` go to the controller."""
 
     role_changed = pyqtSignal(str, str)
+    height_changed = pyqtSignal(str, object)  # id, float or None
     gcp_selected = pyqtSignal(str)
 
     def __init__(self, parent=None):
@@ -34,7 +36,7 @@ class GcpTable(QTableWidget):
         self.setHorizontalHeaderLabels(COLUMNS)
         self.setSelectionBehavior(QAbstractItemView.SelectRows)
         self.setSelectionMode(QAbstractItemView.SingleSelection)
-        self.setEditTriggers(QAbstractItemView.NoEditTriggers)
+        self.setEditTriggers(QAbstractItemView.DoubleClicked | QAbstractItemView.EditKeyPressed)
         self.verticalHeader().setVisible(False)
         self._filling = False
         self.itemChanged.connect(self._item_changed)
@@ -48,9 +50,8 @@ class GcpTable(QTableWidget):
             self.setRowCount(len(gcps))
             for i, g in enumerate(gcps):
                 r = rows.get(g.id, {})
-                z = r.get("z", g.z)
                 values = {"id": g.id, "col": _text(g.col, 2), "row": _text(g.row, 2), "x": _text(g.x, 3),
-                          "y": _text(g.y, 3), "z": _text(z, 2), "z from": r.get("z_source", ""),
+                          "y": _text(g.y, 3), "z": _text(r.get("z", g.z), 2), "z from": r.get("z_source", ""),
                           "flag": r.get("flag", "")}
                 values.update({c: _text(r.get(k), d) for c, (k, d) in RESULT_COLUMNS.items()})
                 for j, name in enumerate(COLUMNS):
@@ -59,7 +60,9 @@ class GcpTable(QTableWidget):
                     if name == "on":
                         item.setFlags(Qt.ItemIsUserCheckable | Qt.ItemIsEnabled | Qt.ItemIsSelectable)
                         item.setCheckState(Qt.Checked if g.role == "control" else Qt.Unchecked)
-                    elif name != "id":
+                    else:
+                        item.setFlags(Qt.ItemIsEnabled | Qt.ItemIsSelectable | (Qt.ItemIsEditable if name == "z" else 0))
+                    if name not in ("id", "on"):
                         item.setTextAlignment(Qt.AlignRight | Qt.AlignVCenter)
                     if r.get("flag"):
                         item.setBackground(QColor(255, 220, 160))
@@ -74,9 +77,17 @@ class GcpTable(QTableWidget):
                 for j, name in enumerate(COLUMNS)}
 
     def _item_changed(self, item):
-        if self._filling or COLUMNS[item.column()] != "on":
+        if self._filling:
             return
-        self.role_changed.emit(item.data(Qt.UserRole), "control" if item.checkState() == Qt.Checked else "check")
+        column, gcp_id = COLUMNS[item.column()], item.data(Qt.UserRole)
+        if column == "on":
+            self.role_changed.emit(gcp_id, "control" if item.checkState() == Qt.Checked else "check")
+        elif column == "z":
+            text = item.text().strip().replace(",", ".")
+            try:
+                self.height_changed.emit(gcp_id, float(text) if text else None)
+            except ValueError:
+                item.setText("")  # not a number: no height
 
     def _selection_changed(self):
         items = self.selectedItems()
