@@ -131,6 +131,9 @@ def picking(canvas, dock, truth):
     canvas.refresh()
     mouse(dock.tools[MAP], QEvent.MouseMove, map_screen(dock, *vertex), Qt.NoButton)  # builds the snapping index
     pump(1.0)
+    mouse(dock.tools[MAP], QEvent.MouseMove, map_screen(dock, truth[0]["x"], truth[0]["y"]), Qt.NoButton)
+    match = dock.tools[MAP].snap_indicator.match()  # QGIS's snap indicator shows the vertex under the cursor
+    STATE["indicator"] = [match.isValid(), match.point().x(), match.point().y()]
     STATE["vertex"] = vertex
     for k in range(3):
         pick(dock, truth[k], image_first=k % 2 == 0)

@@ -113,6 +113,7 @@ def test_clicks_on_both_canvases_create_gcps_with_snapping(picked):
     vertex = state["vertex"]
     assert (got[0]["x"], got[0]["y"]) == pytest.approx(tuple(vertex), abs=1e-6)
     assert np.hypot(truth[0]["x"] - vertex[0], truth[0]["y"] - vertex[1]) > 4 * mupp
+    assert state["indicator"] == [True, pytest.approx(vertex[0], abs=1e-6), pytest.approx(vertex[1], abs=1e-6)]
 
 
 def test_drag_moves_and_right_click_deletes_and_undo_restores(picked):
