@@ -1,6 +1,6 @@
 """Resampling benchmark (issue 15): fotogeo's windowed warp vs gdalwarp and rasterio.warp.reproject.
 
-Run:  .venv/bin/python benchmarks/resample_bench.py [--sizes 8000,20000] [--keep]
+Run:  .venv/bin/python benchmarks/resample_bench.py [--sizes 8000,20000] [--cog]
 
 Source: an N x N x 3 uint8 tiled DEFLATE GeoTIFF (NGI orthophoto tile 1 up-sampled by
 ``gdal_translate -r cubic``, which streams) given a rotated geotransform (13.3 degrees, 0.5 m
@@ -13,6 +13,11 @@ the same grid, nearest neighbour, nodata 0, 256² tiles, DEFLATE with predictor 
   with fotogeo's factors for the "with overviews" row);
 - ``rasterio`` — ``rasterio.warp.reproject`` band objects to band objects (GDAL's chunked warp,
   ``num_threads`` = CPUs).
+
+With ``--cog``, Cloud-Optimised GeoTIFF outputs too: ``register --cog``'s path (the warp with
+overviews, then :func:`fotogeo.io.cog.convert_to_cog`), the tiled path
+(:func:`fotogeo.io.warp_tiles.warp_tiled`: tiles by parallel tasks, VRT, one COG copy) and
+``gdalwarp -of COG``, each timed against the last.
 
 Each runs in its own process under ``/usr/bin/time`` (wall time and peak RSS). Pixels are compared
 with gdalwarp's strip by strip (count of pixels differing in any band). fotogeo maps the source
@@ -48,6 +53,23 @@ src, dst, ovr, t, w, h = sys.argv[1], sys.argv[2], sys.argv[3] == "1", Affine(*m
 with rasterio.open(src) as ds:
     inverse_map = GeotransformInverse(ds.transform)
 warp_to_grid(src, dst, inverse_map, crs="EPSG:32735", transform=t, width=w, height=h, resampling="nearest", overviews=ovr)
+"""
+FOTOGEO_COG = """
+import sys, rasterio
+from affine import Affine
+from fotogeo.io.cog import convert_to_cog
+from fotogeo.io.warp import warp_to_grid
+from fotogeo.io.warp_gdal import GeotransformInverse
+from fotogeo.io.warp_tiles import warp_tiled
+src, dst, tiled, t, w, h = sys.argv[1], sys.argv[2], sys.argv[3] == "1", Affine(*map(float, sys.argv[4:10])), int(sys.argv[10]), int(sys.argv[11])
+with rasterio.open(src) as ds:
+    inverse_map = GeotransformInverse(ds.transform)
+kw = dict(crs="EPSG:32735", transform=t, width=w, height=h, resampling="nearest")
+if tiled:
+    warp_tiled(src, dst, inverse_map, **kw)
+else:
+    warp_to_grid(src, dst, inverse_map, **kw)
+    convert_to_cog(dst, "nearest")
 """
 RASTERIO = """
 import sys, rasterio
@@ -96,7 +118,24 @@ def differing(path, reference) -> int:
     return n
 
 
-def run_size(n: int, folder: Path) -> dict:
+def cog_runs(src, folder: Path, grid, te, size) -> dict:
+    """Cloud-Optimised GeoTIFF outputs: fotogeo's two paths (``register --cog``'s warp + COG copy,
+    and the tiled warp whose tiles are assembled into a COG) and ``gdalwarp -of COG``."""
+    runs = {"fotogeo warp+cog": timed([PY, "-c", FOTOGEO_COG, str(src), str(folder / "c_grid.tif"), "0", *grid]),
+            "fotogeo tiled cog": timed([PY, "-c", FOTOGEO_COG, str(src), str(folder / "c_tiled.tif"), "1", *grid]),
+            "gdalwarp -of COG": timed(["gdalwarp", "-q", "-multi", "-wo", "NUM_THREADS=ALL_CPUS", "-et", "0", "-r",
+                                       "near", "-t_srs", "EPSG:32735", "-te", *te, "-ts", *size, "-dstnodata", "0",
+                                       "--config", "GDAL_CACHEMAX", "256", "-of", "COG", "-co", "COMPRESS=DEFLATE",
+                                       "-co", "PREDICTOR=2", "-co", "BIGTIFF=IF_SAFER", "-co", "NUM_THREADS=ALL_CPUS",
+                                       str(src), str(folder / "c_gdal.tif")])}
+    for k, v in runs.items():
+        v["ratio_to_gdalwarp"] = round(v["s"] / runs["gdalwarp -of COG"]["s"], 2)
+    names = {"fotogeo warp+cog": "c_grid", "fotogeo tiled cog": "c_tiled", "gdalwarp -of COG": "c_gdal"}
+    diff = {k: differing(folder / f"{names[k]}.tif", folder / "g.tif") for k in runs}
+    return {"runs": runs, "pixels_differing_from_gdalwarp": diff}
+
+
+def run_size(n: int, folder: Path, cog: bool = False) -> dict:
     import rasterio
     from fotogeo.io.warp import grid_covering
     from fotogeo.pixels import outline, pixel_to_map
@@ -127,6 +166,8 @@ def run_size(n: int, folder: Path) -> dict:
     out["runs"] = runs
     out["pixels"] = w * h
     out["pixels_differing_from_gdalwarp"] = diff
+    if cog:
+        out["cog"] = cog_runs(src, folder, grid, te, [str(w), str(h)])
     for f in folder.glob("*.tif"):
         f.unlink()
     return out
@@ -135,12 +176,13 @@ def run_size(n: int, folder: Path) -> dict:
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="8000", help="comma-separated source sizes (8000,20000)")
+    ap.add_argument("--cog", action="store_true", help="also time the Cloud-Optimised GeoTIFF paths")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "resample_bench.json"))
     args = ap.parse_args()
     folder = Path(tempfile.mkdtemp(prefix="resample_bench."))
     try:
         results = {"machine": {"python": platform.python_version(), "cpus": CPUS, "load": os.getloadavg()},
-                   "sizes": [run_size(int(n), folder) for n in args.sizes.split(",")]}
+                   "sizes": [run_size(int(n), folder, args.cog) for n in args.sizes.split(",")]}
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     Path(args.out).write_text(json.dumps(results, indent=1))
@@ -150,6 +192,9 @@ def main():
         for k, v in s["runs"].items():
             same = s["pixels_differing_from_gdalwarp"].get(k, "")
             print(f"{k:22s} {v['s']:8.2f} {v['ratio_to_gdalwarp']:10.2f} {v['peak_mb']:8.0f}  {same}")
+        for k, v in s.get("cog", {}).get("runs", {}).items():
+            same = s["cog"]["pixels_differing_from_gdalwarp"][k]
+            print(f"{k:22s} {v['s']:8.2f} {v['ratio_to_gdalwarp']:10.2f} {v['peak_mb']:8.0f}  {same}  (x gdalwarp -of COG)")
     print(f"\nwrote {args.out}")
 
 
