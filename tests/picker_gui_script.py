@@ -248,8 +248,9 @@ def large_image(dock):
     """A 3-band image above the pyramid threshold (lowered for the test): it shows at once, pyramids follow."""
     from processing_provider.picker import image_source
     image_source.OVERVIEW_PIXELS = 1000 * 1000
-    start = time.monotonic()
+    start, frame_folder = time.monotonic(), dock.image.folder
     opened = dock.open_image(ARGS["large"])
+    STATE["frame_vrt_removed"] = not os.path.exists(frame_folder)
     STATE["large"] = {"opened": opened, "open_s": time.monotonic() - start, "bands": dock.image.layer.bandCount(),
                       "task": dock.image.task is not None}
     while dock.image.task is not None and not os.path.exists(dock.image.vrt + ".ovr") and time.monotonic() - start < 60:

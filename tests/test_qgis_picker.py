@@ -218,7 +218,7 @@ def test_height_sources_and_models(picked):
 def test_large_multiband_image_shows_at_once_and_gets_pyramids(picked):
     state, _, tmp = picked
     large = state["large"]
-    assert large["opened"] and large["bands"] == 3 and large["task"]
+    assert large["opened"] and large["bands"] == 3 and large["task"] and state["frame_vrt_removed"]
     assert large["overviews"] >= 3 and large["message"] == "pyramids built"
     assert not Path(large["vrt"]).is_relative_to(tmp) and sorted(p.name for p in tmp.glob("large*")) == ["large.tif"]
 

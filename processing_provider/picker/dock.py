@@ -60,7 +60,7 @@ class PickerDock(DockActions, QDockWidget):
             from ..session import shared_session
             session = shared_session()
         self.map_canvas, self.session, self.message_bar = map_canvas, session, message_bar
-        self.tasks, self.last_message = [], ""
+        self.tasks, self.last_message, self.image = [], "", None
         self.image_canvas = QgsMapCanvas()
         self.image_canvas.setCanvasColor(Qt.darkGray)
         self.image_canvas.setMinimumHeight(260)
@@ -200,7 +200,7 @@ class PickerDock(DockActions, QDockWidget):
         except ImageError as e:
             self.say(str(e))
             return False
-        self.image = image
+        old, self.image = self.image, image
         self.image_file.blockSignals(True)
         self.image_file.setFilePath(path)
         self.image_file.blockSignals(False)
@@ -209,6 +209,8 @@ class PickerDock(DockActions, QDockWidget):
         self.image_canvas.setExtent(image.layer.extent())
         self.image_canvas.refresh()
         self.controller.set_image(image)
+        if old is not None:
+            old.close()
         return True
 
     def new_gcp_layer(self, crs: QgsCoordinateReferenceSystem | None = None) -> GcpLayer:
@@ -265,3 +267,7 @@ class PickerDock(DockActions, QDockWidget):
         """The plugin's unload: release the map tools and remove the marks for good."""
         self._release_tools()
         self.controller.close()
+        if self.image is not None:
+            self.image_canvas.setLayers([])
+            self.image.close()
+            self.image = None

@@ -48,7 +48,7 @@ class DockActions:
         """Start ``propose_gcps`` of the image against ``reference`` (default: the chosen raster layer)."""
         layer = self.reference_combo.currentLayer()
         reference = reference or (layer.source() if layer is not None else None)
-        if not reference or getattr(self, "image", None) is None or self.controller.store is None:
+        if not reference or self.image is None or self.controller.store is None:
             self.say("Propose GCPs needs the image, a GCP layer and a reference raster (an orthophoto)", Qgis.Warning)
             return None
         kwargs = {"image": self.image.path, "reference": reference, "count": count or self.count_spin.value()}
@@ -85,7 +85,7 @@ class DockActions:
         """Add the GCPs of a ``.points`` or ``gcp_list.txt`` file (one undo step); the count, 0 on failure."""
         from ..session import SessionError
         store = self.controller.store
-        if store is None or getattr(self, "image", None) is None:
+        if store is None or self.image is None:
             self.say("choose the image and the GCP layer before importing", Qgis.Warning)
             return 0
         try:
@@ -142,7 +142,7 @@ class DockActions:
 
     def run_orient(self, kind: str, output: str, on_done=None):
         """``fotogeo orient`` with output ``kind`` (rectify, rpc, report) written to ``output``, in a task."""
-        if self.controller.store is None or getattr(self, "image", None) is None or not self.controller.fit.get("ok"):
+        if self.controller.store is None or self.image is None or not self.controller.fit.get("ok"):
             self.say(f"{kind}: first pick enough GCPs for the model ({self.controller.fit.get('message', '')})",
                      Qgis.Warning)
             return None

@@ -11,6 +11,7 @@ them: zooming out never reads every pixel, the GUI never waits on them).
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 
 from qgis.core import QgsApplication, QgsRasterLayer, QgsTask
@@ -91,6 +92,16 @@ class PickerImage:
             self.task = OverviewTask(self.vrt, lambda ok, error: (self.layer.reload(), self.layer.triggerRepaint(),
                                                                   on_overviews and on_overviews(ok, error)))
             QgsApplication.taskManager().addTask(self.task)
+
+    def close(self):
+        """Forget the pixel layer and delete the temporary VRT (and its pyramids); an overview task is cancelled."""
+        if self.task is not None:
+            try:
+                self.task.cancel()
+            except RuntimeError:  # the task has finished and QGIS deleted it
+                pass
+        self.layer = None
+        shutil.rmtree(self.folder, ignore_errors=True)
 
     @staticmethod
     def to_pixel(x: float, y: float) -> tuple[float, float]:
