@@ -21,7 +21,10 @@ professional aerial triangulation (the truth). Per seed:
 
 Prints a table and writes ``benchmarks/results/triangulate_ngi_bench.json``.
 
-    .venv/bin/python benchmarks/triangulate_ngi_bench.py [--seeds 3] [--level 1]
+With ``--tool`` the same block also goes through ``fotogeo triangulate --reference ... --dem ...``
+(its own tie points and control merging), to show what the command gives.
+
+    .venv/bin/python benchmarks/triangulate_ngi_bench.py [--seeds 3] [--level 1] [--tool]
 """
 from __future__ import annotations
 
@@ -106,7 +109,23 @@ def registration_rmse(ngi, name, model, px, truth) -> float:
     return ground_rmse(lambda p, z: r.model.inverse(p, heights=z)[:, :2], px, truth)
 
 
-def run_seed(ngi, seed: int, level: int, perturb=(20.0, 0.5)) -> dict:
+def through_tool(ngi, approx, crs) -> tuple:
+    """The same block through ``fotogeo triangulate --reference ORTHO... --dem DEM`` (the tool's own tie
+    points and merging; control σ as here): ``(adjusted orientations by name, report)``."""
+    from fotogeo.io.block import write_exterior_orientation
+    from fotogeo.tools.triangulate import triangulate
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        write_exterior_orientation(tmp / "eo.txt", NAMES, approx)
+        (tmp / "out").mkdir()
+        rep = triangulate([ngi / "frames" / f"{n}.tif" for n in NAMES], ngi / "interior_orientation.yaml",
+                          tmp / "eo.txt", None, tmp / "out", reference=sorted((ngi / "ortho").glob("*.tif")),
+                          dem=ngi / "dem.tif", crs=crs, reference_sigma_xy=2.5, reference_sigma_z=5.0,
+                          image_sigma=0.5)
+        return read_exterior_orientation(tmp / "out" / "exterior_orientation.txt"), rep
+
+
+def run_seed(ngi, seed: int, level: int, perturb=(20.0, 0.5), tool: bool = False) -> dict:
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
     dem = Dem.open(ngi / "dem.tif")
@@ -125,12 +144,21 @@ def run_seed(ngi, seed: int, level: int, perturb=(20.0, 0.5)) -> dict:
            "image_rms_px": res.stats["image_rms_px"], "blunders": res.stats["n_blunders"],
            "control_rejected": res.stats["n_control_rejected"],
            "times_s": {"control": t1 - t0, "ties": t2 - t1, "adjust": t3 - t2}, "frames": {}}
+    by_tool, out["tool"] = {}, None
+    if tool:
+        by_tool, rep = through_tool(ngi, approx, dem.crs.to_wkt())
+        out["tool"] = {"sigma0": rep["statistics"]["sigma0"], "tie_tracks": rep["matching"]["tracks"],
+                       "seconds": time.perf_counter() - t3}
     for k, n in enumerate(NAMES):
         px, truth = dense_grid(cam, true[n], dem)
         f = {"approx": orientation_errors(approx[k], true[n]), "adjusted": orientation_errors(res.eo[k], true[n]),
              "sigma_position_m": float(np.linalg.norm(res.eo_sigma[k, :3])),
              "dense_rmse_m": {}}
-        for label, eo in (("approx", approx[k]), ("bundle", res.eo[k]), ("truth", true[n])):
+        if n in by_tool:
+            f["tool"] = orientation_errors(by_tool[n], true[n])
+        for label, eo in (("approx", approx[k]), ("bundle", res.eo[k]), ("truth", true[n]), ("tool", by_tool.get(n))):
+            if eo is None:
+                continue
             fr = OrientedFrame(cam, eo)
             f["dense_rmse_m"][label] = ground_rmse(lambda p, z, fr=fr: fr.pixel_to_world_at(p, z)[:, :2], px, truth)
         out["frames"][n] = f
@@ -158,6 +186,9 @@ def print_table(rows, reg):
             print(f"{r['seed']:>4} {n[-8:-4]:>5} {a['position_m']:7.1f} m {a['angle_deg']:.3f}° "
                   f"{b['position_m']:7.2f} m {b['angle_deg']:.4f}° {d['approx']:10.2f} m {d['bundle']:10.2f} m "
                   f"{reg[n]['collinearity']:8.2f} / {reg[n]['auto']:.2f} m")
+            if "tool" in f:
+                print(f"{'':>10} through fotogeo triangulate: {f['tool']['position_m']:7.2f} m "
+                      f"{f['tool']['angle_deg']:.4f}°, dense {d['tool']:.2f} m ({r['tool']['tie_tracks']} tie tracks)")
         print(f"     σ0 {r['sigma0']:.2f}, image RMS {r['image_rms_px']:.3f} px, {r['control_points']} control points "
               f"({r['control_measurements']} measurements), {r['tie_tracks']} tie tracks, "
               f"{r['blunders']} blunders, {r['control_rejected']} control rejected; "
@@ -169,10 +200,11 @@ def main(argv=None):
     ap.add_argument("--data", default=str(ROOT.parent / "shared" / "data" / "ngi"))
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--level", type=int, default=1, help="pyramid level of the tie-point detection")
+    ap.add_argument("--tool", action="store_true", help="also run the block through fotogeo triangulate")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "triangulate_ngi_bench.json"))
     a = ap.parse_args(argv)
     ngi = Path(a.data)
-    rows = [run_seed(ngi, s, a.level) for s in range(a.seeds)]
+    rows = [run_seed(ngi, s, a.level, tool=a.tool) for s in range(a.seeds)]
     reg = add_registration(ngi, rows)
     print_table(rows, reg)
     Path(a.out).write_text(json.dumps({"note": "times load-dependent (2 shared cores)", "level": a.level,
