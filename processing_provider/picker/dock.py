@@ -12,6 +12,7 @@ from __future__ import annotations
 from qgis.core import QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsTask
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtGui import QKeySequence
 from qgis.PyQt.QtWidgets import (
     QComboBox,
     QDockWidget,
@@ -175,6 +176,11 @@ class PickerDock(DockActions, QDockWidget):
         stack.canRedoChanged.connect(self.redo_button.setEnabled)
         self.undo_button.setEnabled(False)
         self.redo_button.setEnabled(False)
+        for action, keys in ((stack.createUndoAction(self), QKeySequence.Undo),
+                             (stack.createRedoAction(self), QKeySequence.Redo)):
+            action.setShortcut(keys)  # Ctrl+Z / Ctrl+Shift+Z while the dock has the focus
+            action.setShortcutContext(Qt.WidgetWithChildrenShortcut)
+            self.addAction(action)
         widgets = [self.undo_button, self.redo_button]
         for text, slot in (("Import…", self.import_dialog), ("Export…", self.export_dialog),
                            ("Rectify…", lambda: self.run_dialog("rectify")), ("RPC…", lambda: self.run_dialog("rpc")),
