@@ -1,8 +1,10 @@
-"""The embedded default scene (no data needed): generated, registered, checked against its truth."""
+"""The embedded default scene (no data needed): generated, registered, checked against its truth;
+then a rendered aerial block, triangulated and checked against its truth."""
 from click.testing import CliRunner
 
 from fotogeo.cli import main
 from fotogeo.tools.demo import run_demo
+from fotogeo.tools.demo_block import FRAMES_DIR, OUTPUT_DIR
 
 from auto_choice import assert_auto_choice
 
@@ -15,9 +17,21 @@ def test_demo_registers_against_known_truth(tmp_path):
     assert res["registration"].report["check"]["n"] > 100
     rep = res["terrain"].report
     assert_auto_choice(rep["terrain"], rep["check"]["n"])  # simplest candidate within 5 % of the best
+    # the aerial block: matched tie points, 5 GCPs, check points at the noise level of a 60/30 block
+    block, truth = res["block"]["report"], res["block"]["truth"]
+    assert block["matching"]["tracks"] > 1000 and len(block["frames"]) == 8
+    assert truth["check_n"] >= 8
+    assert truth["check_planimetric_gsd"] < 0.5 and truth["check_z_gsd"] < 1.5
+    assert truth["centre_rmse_m"] < 2.0 and truth["angle_rmse_deg"] < 0.1  # from 5 m / 0.5 deg approximations
+    assert block["folder"] == str(tmp_path / OUTPUT_DIR) and not list(tmp_path.glob(".fotogeo-demo*"))
 
 
 def test_demo_cli(tmp_path):
     r = CliRunner().invoke(main, ["demo", "-o", str(tmp_path / "d"), "-q"])
     assert r.exit_code == 0, r.output
     assert "truth" in r.output and (tmp_path / "d" / "orthorectified.tif").exists()
+    assert "aerial triangulation" in r.output and "GSD" in r.output
+    assert (tmp_path / "d" / FRAMES_DIR / "s1_01.tif").exists()
+    assert (tmp_path / "d" / OUTPUT_DIR / "exterior_orientation.txt").exists()
+    again = CliRunner().invoke(main, ["demo", "-o", str(tmp_path / "d"), "-q"])  # no overwrite: refused at once
+    assert again.exit_code != 0 and "exists" in again.output

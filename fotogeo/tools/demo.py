@@ -12,7 +12,8 @@
 
 :func:`run_demo` registers the target to the orthophoto with :func:`fotogeo.tools.register.register`
 and compares the fitted model with the true geometry over a dense grid of target pixels,
-beside the best homography that exists (least squares to that truth).
+beside the best homography that exists (least squares to that truth). It then renders a small
+aerial block and triangulates it (:mod:`fotogeo.tools.demo_block`).
 """
 from __future__ import annotations
 
@@ -141,7 +142,7 @@ def truth_comparison(scene: Scene, georeference, step: int = 10) -> dict:
             "best_homography_rmse_m": rmse(best.forward(grid) - truth)}
 
 
-#: the files :func:`run_demo` writes into its folder
+#: the files of the registration part of :func:`run_demo` (the block's are :func:`demo_block.block_files`)
 DEMO_FILES = ("reference.tif", "target.tif", "dem.tif", "registered.tif", "registered.gpkg", "registered.json",
               "orthorectified.tif", "orthorectified.gpkg", "orthorectified.json")
 
@@ -149,11 +150,13 @@ DEMO_FILES = ("reference.tif", "target.tif", "dem.tif", "registered.tif", "regis
 @tool("DEMO", "REGISTER", outputs=("folder",))
 def run_demo(folder, *, progress=None, seed: int = 7, overwrite: bool = False, **options) -> dict:
     """Make the scene in ``folder``, register it twice — with the paper's homography and
-    terrain-aware with the scene's DEM — and return both reports with their truth comparisons.
+    terrain-aware with the scene's DEM — and return both reports with their truth comparisons;
+    then render a small aerial block and triangulate it (:mod:`fotogeo.tools.demo_block`):
+    ``res["block"]`` holds triangulate's report and its comparison with the truth.
 
-    All of :data:`DEMO_FILES` are made in a hidden working folder inside ``folder`` and
-    committed together (:class:`~fotogeo.io.raster.AtomicOutputs`): an error or a cancel
-    leaves ``folder`` as it was, and existing files are replaced only with ``overwrite``.
+    All of :data:`DEMO_FILES` and the block's files are made in a hidden working folder inside
+    ``folder`` and committed together (:class:`~fotogeo.io.raster.AtomicOutputs`): an error or a
+    cancel leaves ``folder`` as it was, and existing files are replaced only with ``overwrite``.
     """
     import shutil
     import tempfile
@@ -161,21 +164,25 @@ def run_demo(folder, *, progress=None, seed: int = 7, overwrite: bool = False, *
 
     from ..io.raster import AtomicOutputs, check_output
     from ..progress import as_progress
+    from . import demo_block
     from .register import register
     prog = as_progress(progress)
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    for name in DEMO_FILES:
-        check_output(folder / name, [], overwrite, "demo output")
+    files = DEMO_FILES + demo_block.block_files()
+    for name in files:
+        if (folder / name).parent.is_dir():  # the block's subfolders are made at the commit
+            check_output(folder / name, [], overwrite, "demo output")
     work = Path(tempfile.mkdtemp(prefix=".fotogeo-demo.", dir=folder))
+    made = [d for d in (folder / demo_block.FRAMES_DIR, folder / demo_block.OUTPUT_DIR) if not d.exists()]
     try:
         with AtomicOutputs(overwrite) as out:
             scene = make_scene(work, seed=seed)
             prog(0.05, "scene generated")
             r2 = register(scene.reference, scene.target, work / "registered.tif",
-                          progress=prog.stage(0.05, 0.5, "homography"), **options)
+                          progress=prog.stage(0.05, 0.3, "homography"), **options)
             r3 = register(scene.reference, scene.target, work / "orthorectified.tif", dem=scene.dem_path,
-                          progress=prog.stage(0.5, 1.0, "terrain-aware"), **options)
+                          progress=prog.stage(0.3, 0.5, "terrain-aware"), **options)
             res = {"truth": truth_comparison(scene, r2.georeference),
                    "terrain_truth": truth_comparison(scene, r3.georeference)}
             for key, r in (("registration", r2), ("terrain", r3)):
@@ -183,11 +190,22 @@ def run_demo(folder, *, progress=None, seed: int = 7, overwrite: bool = False, *
                 write_json(r.report_path, report)
                 res[key] = replace(r, output=folder / r.output.name, vectors=folder / r.vectors.name,
                                    report_path=folder / r.report_path.name, report=report)
-            for name in DEMO_FILES:
+            block = demo_block.triangulate_block(work / demo_block.FRAMES_DIR, work / demo_block.OUTPUT_DIR,
+                                                 seed=seed, progress=prog.stage(0.5, 1.0, "aerial triangulation"))
+            res["block"] = {"report": _moved(block["report"], work, folder), "truth": block["truth"]}
+            write_json(work / demo_block.OUTPUT_DIR / "report.json", res["block"]["report"])
+            html = work / demo_block.OUTPUT_DIR / "report.html"  # its paths too: to the final folder
+            html.write_text(html.read_text(encoding="utf-8").replace(str(work), str(folder)), encoding="utf-8")
+            for d in made:
+                d.mkdir()
+            for name in files:
                 (work / name).replace(out.temp(folder / name))
             out.commit()
     finally:
         shutil.rmtree(work, ignore_errors=True)
+        for d in made:
+            if d.is_dir() and not any(d.iterdir()):
+                d.rmdir()
     return res
 
 
