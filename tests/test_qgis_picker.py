@@ -261,6 +261,8 @@ def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel
     state = run_script("picker_gui_script.py", {
         "mode": "propose", "frame": str(data_dir / FRAME), "dem": str(data_dir / "ngi" / "dem.tif"), "crs": crs,
         "reference": str(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif")}, tmp_path, timeout=900)
+    print(f"Propose GCPs in the dock: {state['propose_s']:.1f} s for {len(state['proposals'])} candidates; "
+          f"DLT check RMS {state['fit']['rms']['check_px']:.3f} px")
     cancel = state["cancel"]
     assert cancel["error"].startswith("cancelled") and cancel["proposals"] == 0 and "cancelled" in cancel["message"]
     assert state["task_error"] is None and len(state["proposals"]) == 30

@@ -47,7 +47,7 @@ class FitSettings:
         return {k: v for k, v in kwargs.items() if v is not None}
 
 
-def fit(session, gcps, settings: FitSettings, timeout: float = 60) -> dict:
+def fit(session, gcps, settings: FitSettings, timeout: float = 20) -> dict:
     """``fit_gcps`` of ``gcps`` in ``session``; a tool error becomes a result with ``ok`` False and its message."""
     from ..session import SessionError
     if not gcps:
