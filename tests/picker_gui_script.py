@@ -107,6 +107,12 @@ def main():
     dock.gcp_combo.setLayer(plain)
     STATE["plain_layer"] = {"message": dock.last_message, "store": dock.controller.store is not None}
     dock.gcp_combo.setLayer(store.layer)
+    gpkg = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]),
+                              path=os.path.join(ARGS["out"], "new_gcps.gpkg"))
+    for k in (14, 15, 16):
+        pick(dock, truth[k])
+    STATE["gpkg_layer"] = {"gcps": gcps(dock), "provider": gpkg.layer.providerType()}
+    dock.gcp_combo.setLayer(store.layer)
     large_image(dock)
 
 

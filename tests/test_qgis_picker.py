@@ -223,6 +223,18 @@ def test_large_multiband_image_shows_at_once_and_gets_pyramids(picked):
     assert not Path(large["vrt"]).is_relative_to(tmp) and sorted(p.name for p in tmp.glob("large*")) == ["large.tif"]
 
 
+def test_a_new_geopackage_gcp_layer_is_what_fotogeo_reads(picked):
+    """GCPs picked into a new GeoPackage layer are in the file at once, as fotogeo's GCP reader reads them."""
+    from fotogeo.io.gcps import read_gcps
+    state, _, tmp = picked
+    assert state["gpkg_layer"]["provider"] == "ogr"
+    picked_ = state["gpkg_layer"]["gcps"]
+    g = read_gcps(tmp / "new_gcps.gpkg", layer="gcps")
+    assert list(g.ids) == [p["id"] for p in picked_] and list(g.role) == ["control"] * 3
+    assert g.pixel == pytest.approx(np.array([[p["col"], p["row"]] for p in picked_]), abs=1e-9)
+    assert g.ground[:, :2] == pytest.approx(np.array([[p["x"], p["y"]] for p in picked_]), abs=1e-6)
+
+
 def test_too_few_points_and_a_dem_that_misses_gcps_are_shown(picked):
     state, truth, _ = picked
     assert "dlt needs 6 control points: 3 more" in state["few"]["summary"]

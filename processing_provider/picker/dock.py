@@ -17,6 +17,7 @@ from qgis.PyQt.QtWidgets import (
     QComboBox,
     QDockWidget,
     QDoubleSpinBox,
+    QFileDialog,
     QFormLayout,
     QHBoxLayout,
     QLabel,
@@ -99,8 +100,9 @@ class PickerDock(DockActions, QDockWidget):
         self.gcp_combo.setLayer(None)
         self.gcp_combo.layerChanged.connect(self._gcp_layer_chosen)
         new_layer = QPushButton("New")
-        new_layer.setToolTip("A new GCP layer (memory, in the project CRS) saved with the project")
-        new_layer.clicked.connect(lambda: self.new_gcp_layer())
+        new_layer.setToolTip("A new GCP layer in the project CRS: a GeoPackage (or, when no file is chosen, a "
+                             "memory layer)")
+        new_layer.clicked.connect(self.new_layer_dialog)
         self.model_combo = QComboBox()
         self.model_combo.addItems(MODELS)
         self.model_combo.currentTextChanged.connect(lambda _text: self.controller.refit())
@@ -219,14 +221,23 @@ class PickerDock(DockActions, QDockWidget):
             old.close()
         return True
 
-    def new_gcp_layer(self, crs: QgsCoordinateReferenceSystem | None = None) -> GcpLayer:
-        """A new memory GCP layer in ``crs`` (default: the map canvas's CRS), added to the project and chosen."""
+    def new_gcp_layer(self, crs: QgsCoordinateReferenceSystem | None = None, path: str | None = None) -> GcpLayer:
+        """A new GCP layer in ``crs`` (default: the map canvas's CRS), added to the project and chosen: a
+        GeoPackage at ``path`` (its points are kept in the file), else a memory layer."""
         crs = crs or self.map_canvas.mapSettings().destinationCrs()
         names = {layer.name() for layer in QgsProject.instance().mapLayers().values()}
         name = next(n for n in ("fotogeo GCPs", *(f"fotogeo GCPs {k}" for k in range(2, 10000))) if n not in names)
-        store = GcpLayer.create(crs, name)
+        store = GcpLayer.create_gpkg(path, crs, name) if path else GcpLayer.create(crs, name)
         self.gcp_combo.setLayer(store.layer)
         return store
+
+    def new_layer_dialog(self):
+        path, _ = QFileDialog.getSaveFileName(self, "New GCP GeoPackage (cancel: a memory layer)", "",
+                                              "GeoPackage (*.gpkg)")
+        try:
+            self.new_gcp_layer(path=path or None)
+        except ValueError as e:
+            self.say(str(e))
 
     def _gcp_layer_chosen(self, layer):
         if layer is None:

@@ -24,11 +24,13 @@ from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsFeature,
     QgsField,
+    QgsFields,
     QgsGeometry,
     QgsPointXY,
     QgsProject,
     QgsVectorFileWriter,
     QgsVectorLayer,
+    QgsWkbTypes,
 )
 from qgis.PyQt.QtCore import QObject, QVariant, pyqtSignal
 
@@ -91,6 +93,27 @@ class GcpLayer(QObject):
         layer.setCrs(crs)  # the very CRS given (a WKT round trip may differ and then need a transform)
         layer.dataProvider().addAttributes([QgsField(n, t) for n, t in FIELDS])
         layer.updateFields()
+        if add_to_project:
+            QgsProject.instance().addMapLayer(layer)
+        return cls(layer)
+
+    @classmethod
+    def create_gpkg(cls, path: str, crs: QgsCoordinateReferenceSystem, name: str = "fotogeo GCPs",
+                    add_to_project: bool = True):
+        """A new GeoPackage point layer ``gcps`` at ``path`` (replaced if it exists) with the GCP fields."""
+        fields = QgsFields()
+        for n, t in FIELDS:
+            fields.append(QgsField(n, t))
+        options = QgsVectorFileWriter.SaveVectorOptions()
+        options.driverName, options.layerName = "GPKG", "gcps"
+        writer = QgsVectorFileWriter.create(path, fields, QgsWkbTypes.Point, crs,
+                                            QgsProject.instance().transformContext(), options)
+        error = writer.hasError()
+        message = writer.errorMessage()
+        del writer  # closes the file
+        if error != QgsVectorFileWriter.NoError:
+            raise ValueError(f"cannot create the GCP GeoPackage {path!r}: {message}")
+        layer = QgsVectorLayer(f"{path}|layername=gcps", name, "ogr")
         if add_to_project:
             QgsProject.instance().addMapLayer(layer)
         return cls(layer)
