@@ -57,7 +57,7 @@ class Gcp:
     fid: int = -1
 
     def request(self) -> dict:
-        """The point as ``fit_gcps`` takes it (:doc:`picker interface <picker_api>`)."""
+        """The point as the worker's ``fit_gcps`` takes it (:func:`fotogeo.tools.gcp_fit.fit_gcps`)."""
         return {"id": self.id, "col": self.col, "row": self.row, "x": self.x, "y": self.y, "z": self.z,
                 "role": self.role}
 
