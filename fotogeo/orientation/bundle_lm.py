@@ -8,7 +8,8 @@ with ``v_a`` the image residual (px; :mod:`fotogeo.orientation.bundle_jacobian`)
 (a priori σ of the observation in px, ρ_a the robust weight), control coordinates observed
 with weights ``1/σ²`` per axis, and optional priors on the exterior orientation (GNSS/INS),
 the angle prior as the rotation vector ``log(R_priorᵀ R)``. Each iteration solves the reduced
-normal equations (:mod:`fotogeo.orientation.bundle_normals`) with damping ``λ`` (Marquardt
+normal equations (:mod:`fotogeo.orientation.bundle_normals`, factorised as a band:
+:mod:`fotogeo.orientation.bundle_banded`) with damping ``λ`` (Marquardt
 1963: the diagonals scaled by ``1 + λ``), accepts the step if ``E`` decreases (``λ ← λ/10``) or
 rejects it (``λ ← 4λ``; a step putting a point behind a camera is rejected too), and stops when
 ``E`` changes by less than ``tol`` relatively (1e-7: ``E`` is a χ², so the parameters then move
@@ -19,10 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
+from scipy.linalg import LinAlgError
 
 from ..errors import ModelError
 from . import bundle_jacobian as bj
+from .bundle_banded import solve_reduced
 from .bundle_normals import Normals, Structure, assemble, back_substitute, reduced_system
 
 
@@ -102,7 +104,7 @@ def solve_step(pb: Problem, s: State, nm: Normals, lam: float) -> State | None:
     """The damped Gauss–Newton step, or None when the reduced system is not positive definite."""
     try:
         S, rhs, Vinv = reduced_system(pb.st, nm, lam)
-        delta_a = cho_solve(cho_factor(S), rhs)
+        delta_a = solve_reduced(S, rhs, pb.st.band_order, pb.st.band_frames)
     except (LinAlgError, np.linalg.LinAlgError):
         return None
     delta_b = back_substitute(pb.st, nm, Vinv, delta_a)

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bundle_banded import frame_band
+
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,8 @@ class Structure:
     pair_b: np.ndarray  # (q,) second observation (frame l > j)
     pair_frames: np.ndarray  # (G, 2) the frame pairs (j, l) sharing points
     pair_bounds: np.ndarray  # (G + 1,) their starts in pair_a / pair_b
+    band_order: np.ndarray  # (m,) frames in the order that makes S a band (bundle_banded)
+    band_frames: int  # the half-bandwidth of S in that order, in frames
 
     @property
     def n_camera(self) -> int:
@@ -86,8 +90,9 @@ def make_structure(frame, point, n_frames: int, n_points: int, free_interior) ->
     a, b, key = a[order], b[order], key[order]
     bounds = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]) if len(key) else np.zeros(0, np.intp)
     pair_frames = np.column_stack([key[bounds] // n_frames, key[bounds] % n_frames])
+    band_order, band_frames = frame_band(pair_frames, n_frames)
     return Structure(frame, point, n_frames, n_points, free, starts, counts, by_frame, index, frame_order,
-                     frame_bounds, a, b, pair_frames, np.r_[bounds, len(key)])
+                     frame_bounds, a, b, pair_frames, np.r_[bounds, len(key)], band_order, band_frames)
 
 
 @dataclass(frozen=True)
