@@ -16,7 +16,7 @@ from pathlib import Path
 from ..errors import OutputError
 
 #: creation options of the COG copy (deflate keeps every data type lossless)
-COG_OPTIONS = {"COMPRESS": "DEFLATE", "BLOCKSIZE": 512, "OVERVIEWS": "AUTO", "BIGTIFF": "IF_SAFER"}
+COG_OPTIONS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BLOCKSIZE": 512, "OVERVIEWS": "AUTO", "BIGTIFF": "IF_SAFER"}
 
 
 def convert_to_cog(path, resampling: str = "nearest") -> Path:
