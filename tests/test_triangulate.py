@@ -170,7 +170,7 @@ def test_triangulate_matches_rendered_frames(tmp_path):
                       gcps=tmp_path / "gcp_list.txt", check_points=checks, image_sigma=0.3)
     pairs = [tuple(p["pair"]) for p in rep["matching"]["pairs"] if p["inliers"] >= 20]
     assert (0, 1) in pairs and any(i < 4 <= j for i, j in pairs)  # along and across the strips
-    assert rep["matching"]["tracks"] > 1000
+    assert rep["matching"]["tracks"] > 500  # Gruber thinning: 3x3 regions x 25 tracks per frame
     st = rep["statistics"]
     assert st["image_rms_px"] < 0.3
     assert st["check"]["rmse_planimetric_m"] < 1.0 * sb.gsd and st["check"]["rmse_z_m"] < 2.0 * sb.gsd
@@ -178,13 +178,13 @@ def test_triangulate_matches_rendered_frames(tmp_path):
 
 def test_a_frame_that_overlaps_no_other_is_named(tmp_path, small_block):
     from fotogeo.errors import MatchingError
-    from fotogeo.tools.triangulate_match import match_block
+    from fotogeo.tools.triangulate_match import block_tie_points
     b = small_block.block
     eos = list(b.eo)
     eos[3] = dataclasses.replace(eos[3], X=eos[3].X + 30000.0)
     frames, _ = write_block(tmp_path, small_block)
     with pytest.raises(MatchingError, match=f"{b.frames[3]}.tif.*overlap no other frame"):
-        match_block(frames, CAMERA, eos, 0.0)
+        block_tie_points(frames, CAMERA, eos, 0.0)
 
 
 def test_self_calibration_writes_the_adjusted_camera(tmp_path, small_block):

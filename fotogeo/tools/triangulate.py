@@ -14,7 +14,8 @@
 * ``observations`` — the image measurements of the tie points, a table ``frame, point, col,
   row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
   frames are matched (:mod:`fotogeo.tools.triangulate_match`: footprints at the mean GCP
-  height, SURF pairs, epipolar RANSAC, multi-ray tracks);
+  height, SURF on pyramid level 1, epipolar RANSAC, multi-ray tracks thinned to Gruber positions,
+  LSM transfer at full resolution with each observation's σ);
 * ``gcps`` — ground control: ODM/OpenSfM's ``gcp_list.txt`` (:func:`fotogeo.io.block.read_gcp_list`)
   or a point layer / CSV in any CRS, one row per (point, frame) measurement with ``id, frame,
   col, row, z[, role]`` (:func:`fotogeo.io.block.read_control_table`), transformed into the map
@@ -92,14 +93,11 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
 
 
 def _matched(frames, names, cam, eos, gcp, prog):
-    """Image observations from matching the overlapping frames (:mod:`fotogeo.tools.triangulate_match`)."""
-    from ..io.block import ImageObservations
-    from .triangulate_match import match_block
+    """Image observations (with LSM's σ) from matching the overlapping frames
+    (:func:`fotogeo.tools.triangulate_match.matched_observations`)."""
+    from .triangulate_match import matched_observations
     height = float(np.mean(gcp.ground[:, 2])) if gcp is not None else 0.0
-    frame, track, pixel, report = match_block(frames, cam, eos, height, progress=prog)
-    obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
-                            np.array([f"tie{t}" for t in track], dtype=object), pixel, None)
-    return obs, report
+    return matched_observations(frames, names, cam, eos, height, progress=prog)
 
 
 @tool("TRIANGULATE", outputs=("folder",))

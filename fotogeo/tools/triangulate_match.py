@@ -283,19 +283,6 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     return frame, track, pixel, sigma, report
 
 
-#: the first matcher's steps (full-resolution SURF, every epipolar inlier, no LSM): what :func:`match_block` runs
-#: unless told otherwise, so its callers keep their results until they move to :func:`matched_observations`
-FIRST_VERSION = {"level": 0, "per_region": None, "lsm": False}
-
-
-def match_block(frames, camera, eos, height: float, *, progress=None, **kwargs):
-    """``(frame index (n,), track id (n,), pixel (n, 2), report)``: :func:`block_tie_points` without the σ,
-    with the steps of :data:`FIRST_VERSION` unless ``kwargs`` name others."""
-    frame, track, pixel, _, report = block_tie_points(frames, camera, eos, height, progress=progress,
-                                                      **{**FIRST_VERSION, **kwargs})
-    return frame, track, pixel, report
-
-
 def matched_observations(frames, names, camera, eos, height: float, **kwargs):
     """``(ImageObservations, report)``: :func:`block_tie_points` as the table the bundle adjustment reads
     (frame keys ``names``, point ids ``tie<track>``, each observation's LSM σ)."""
