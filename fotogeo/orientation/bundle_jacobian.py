@@ -119,9 +119,10 @@ def project_camera(c, interior, scale) -> np.ndarray:
     return np.column_stack([x + ppx, y + ppy])
 
 
-def project_with_jacobians(R, C, X, frame, point, interior, scale):
+def project_with_jacobians(R, C, X, frame, point, interior, scale, additional: bool = True):
     """Pixels ``(n, 2)``, ``J_eo`` ``(n, 2, 6)`` (columns ∂C, ∂δθ), ``J_point`` ``(n, 2, 3)``,
-    ``J_interior`` ``(n, 2, 8)`` (:data:`INTERIOR_NAMES`) and the camera coordinates ``(n, 3)``."""
+    ``J_interior`` ``(n, 2, 20)`` (:data:`INTERIOR_NAMES`; the columns of Ebner's parameters left 0
+    unless ``additional``) and the camera coordinates ``(n, 3)``."""
     c = camera_coordinates(R, C, X, frame, point)
     u, v, r2, rho, ud, vd = _distort(c, interior, scale)
     f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
@@ -152,7 +153,7 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale):
     J_int[:, 0, 7], J_int[:, 1, 7] = fx * (r2 + 2 * u * u), 2 * fy * u * v
     pixel = np.column_stack([fx * ud + ppx, fy * vd + ppy])
     b = _ebner(interior)
-    if len(scale) > 2:  # Ebner's terms are evaluated where x, y are known: the half image size is given
+    if len(scale) > 2 and (additional or b is not None):  # Ebner's terms, at ξ = x / (w/2), η = y / (h/2)
         xi, eta = fx * ud / scale[2], fy * vd / scale[3]
         gx, gy = bundle_ebner.terms(xi, eta)
         J_int[:, 0, N_PHYSICAL:], J_int[:, 1, N_PHYSICAL:] = gx, gy

@@ -79,7 +79,8 @@ def cost(pb: Problem, s: State, p: np.ndarray) -> float:
 def linearise(pb: Problem, s: State, p: np.ndarray):
     """``(Normals, J_c, J_p, v)`` at ``s`` with observation weights ``p``."""
     st = pb.st
-    px, J_eo, J_p, J_int, _ = bj.project_with_jacobians(s.R, s.C, s.X, st.frame, st.point, s.interior, pb.scale)
+    px, J_eo, J_p, J_int, _ = bj.project_with_jacobians(s.R, s.C, s.X, st.frame, st.point, s.interior, pb.scale,
+                                                        additional=bool(np.any(st.free_interior >= bj.N_PHYSICAL)))
     v = px - pb.pixel
     J_c = np.concatenate([J_eo, J_int[:, :, st.free_interior]], axis=2)
     k = len(st.free_interior)

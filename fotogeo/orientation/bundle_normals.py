@@ -102,6 +102,7 @@ class Normals:
     V: np.ndarray  # (P, 3, 3)
     g_b: np.ndarray  # (P, 3)
     W: np.ndarray  # (n, nc_obs, 3)
+    WT: np.ndarray  # (n, 3, nc_obs): the same blocks transposed, contiguous
 
 
 def assemble(st: Structure, J_c, J_p, v, p, *, U_prior, g_prior, V_prior, g_b_prior) -> Normals:
@@ -114,21 +115,23 @@ def assemble(st: Structure, J_c, J_p, v, p, *, U_prior, g_prior, V_prior, g_b_pr
     g_a = np.array(g_prior, dtype=np.float64)
     nk = J_c.shape[2]
     pJc = J_c * p[:, None, None]  # (n, 2, 6 + k)
-    for sel in st.by_frame:  # one dense product per frame
-        if sel.size == 0:
+    Jf, pJf, vf = J_c[st.frame_order], pJc[st.frame_order], v[st.frame_order]  # by frame: runs are views
+    for j, (s, e) in enumerate(zip(st.frame_bounds[:-1].tolist(), st.frame_bounds[1:].tolist())):
+        if e == s:
             continue
-        ix = st.index[sel[0]]
-        pJf = pJc[sel].reshape(-1, nk)
-        U[np.ix_(ix, ix)] += J_c[sel].reshape(-1, nk).T @ pJf
-        g_a[ix] += pJf.T @ v[sel].reshape(-1)
-    W = pJc.transpose(0, 2, 1) @ J_p
+        ix = st.index[st.frame_order[s]]
+        pJ = pJf[s:e].reshape(-1, nk)
+        U[np.ix_(ix, ix)] += Jf[s:e].reshape(-1, nk).T @ pJ
+        g_a[ix] += pJ.T @ vf[s:e].reshape(-1)
+    WT = J_p.transpose(0, 2, 1) @ pJc
+    W = WT.transpose(0, 2, 1)
     pJp = J_p * p[:, None, None]
     V = np.add.reduceat(pJp.transpose(0, 2, 1) @ J_p, st.starts, axis=0)
     V[:, [0, 1, 2], [0, 1, 2]] += V_prior
     gobs = pJp[:, 0] * v[:, 0, None] + pJp[:, 1] * v[:, 1, None]
     g_b = np.add.reduceat(gobs, st.starts, axis=0) + g_b_prior
     assert U.shape == (nc, nc)
-    return Normals(U, g_a, V, g_b, W)
+    return Normals(U, g_a, V, g_b, W, WT)
 
 
 def _adjugate_inverse(M):
@@ -179,41 +182,37 @@ def per_frame(st: Structure, x: np.ndarray) -> np.ndarray:
     return np.stack(sums, axis=1).reshape((st.n_frames,) + x.shape[1:])
 
 
-def _frame_rows(x):
-    """A stack of ``(q, 6, 3)`` blocks side by side, ``(6, 3q)``: ``Σ_a A_a B_aᵀ = rows(A)·rows(B)ᵀ``."""
-    return x.transpose(1, 0, 2).reshape(6, -1)
-
-
-def schur_product(st: Structure, W: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    """``Σ_i W_i V_i⁻¹ W_iᵀ`` ``(nc, nc)`` from ``W_a`` and ``Y_a = W_a V_i⁻¹`` ``(n, 6 + k, 3)``: the
-    frame blocks one product per frame and per frame pair (module docstring), the interior rows
-    from the per-point sums ``Σ_a W_a^int``."""
-    m, nc = st.n_frames, st.n_camera
+def schur_product(st: Structure, WT: np.ndarray, YT: np.ndarray) -> np.ndarray:
+    """``Σ_i W_i V_i⁻¹ W_iᵀ`` ``(nc, nc)`` from ``W_aᵀ`` and ``Y_aᵀ = V_i⁻¹ W_aᵀ`` ``(n, 3, 6 + k)``: the
+    frame blocks one product per frame and per frame pair (module docstring; for a run of
+    observations ``Σ_a Y_a W_bᵀ = rows(Yᵀ)ᵀ·rows(Wᵀ)``, ``rows = [s:e].reshape(-1, 6 + k)`` a view), the
+    interior rows from the per-point sums ``Σ_a W_a^int``."""
+    m, nc, nk = st.n_frames, st.n_camera, WT.shape[2]
     out = np.zeros((nc, nc))
-    Yf, Wf = Y[st.frame_order, :6], W[st.frame_order, :6]
+    Yf, Wf = YT[st.frame_order], WT[st.frame_order]
     for j, (s, e) in enumerate(zip(st.frame_bounds[:-1].tolist(), st.frame_bounds[1:].tolist())):
-        out[6 * j:6 * j + 6, 6 * j:6 * j + 6] = _frame_rows(Yf[s:e]) @ _frame_rows(Wf[s:e]).T
-    Ya, Wb = Y[st.pair_a, :6], W[st.pair_b, :6]
+        out[6 * j:6 * j + 6, 6 * j:6 * j + 6] = (Yf[s:e].reshape(-1, nk).T @ Wf[s:e].reshape(-1, nk))[:6, :6]
+    Ya, Wb = YT[st.pair_a], WT[st.pair_b]
     for (j, l), s, e in zip(st.pair_frames.tolist(), st.pair_bounds[:-1].tolist(), st.pair_bounds[1:].tolist()):
-        blk = _frame_rows(Ya[s:e]) @ _frame_rows(Wb[s:e]).T
+        blk = (Ya[s:e].reshape(-1, nk).T @ Wb[s:e].reshape(-1, nk))[:6, :6]
         out[6 * j:6 * j + 6, 6 * l:6 * l + 6] = blk
         out[6 * l:6 * l + 6, 6 * j:6 * j + 6] = blk.T
     if len(st.free_interior):
-        Yi = np.add.reduceat(Y[:, 6:], st.starts, axis=0)  # Σ_a W_a^int V_i⁻¹ per point
-        Wi = np.add.reduceat(W[:, 6:], st.starts, axis=0)
-        cross = per_frame(st, Yi[st.point] @ W[:, :6].transpose(0, 2, 1)).transpose(1, 0, 2).reshape(-1, 6 * m)
+        Yi = np.add.reduceat(YT[:, :, 6:], st.starts, axis=0)  # (Σ_a W_a^int V_i⁻¹)ᵀ per point, (P, 3, k)
+        Wi = np.add.reduceat(WT[:, :, 6:], st.starts, axis=0)
+        cross = per_frame(st, Yi[st.point].transpose(0, 2, 1) @ WT[:, :, :6]).transpose(1, 0, 2).reshape(-1, 6 * m)
         out[6 * m:, :6 * m] = cross
         out[:6 * m, 6 * m:] = cross.T
-        out[6 * m:, 6 * m:] = np.einsum("pkc,plc->kl", Yi, Wi)
+        out[6 * m:, 6 * m:] = np.einsum("pck,pcl->kl", Yi, Wi)
     return out
 
 
 def reduced_system(st: Structure, nm: Normals, lam: float = 0.0):
     """``(S, rhs, V⁻¹)`` of the reduced camera system with damping ``λ`` (module docstring)."""
     Vinv = inverse3(_damped(nm.V, lam, (1, 2)))
-    Y = nm.W @ Vinv[st.point]  # Y_a = W_a V_i⁻¹
-    S = _damped(nm.U, lam, (0, 1)) - schur_product(st, nm.W, Y)
-    y = np.einsum("arc,ac->ar", Y, nm.g_b[st.point])  # Y_a g_b,i per observation
+    YT = Vinv[st.point] @ nm.WT  # Y_aᵀ = V_i⁻¹ W_aᵀ
+    S = _damped(nm.U, lam, (0, 1)) - schur_product(st, nm.WT, YT)
+    y = np.einsum("acr,ac->ar", YT, nm.g_b[st.point])  # Y_a g_b,i per observation
     t = np.concatenate([per_frame(st, y[:, :6]).reshape(-1), y[:, 6:].sum(axis=0)])
     return 0.5 * (S + S.T), -(nm.g_a - t), Vinv
 
