@@ -102,3 +102,15 @@ def test_a_camera_without_systematic_errors_keeps_no_ebner_parameter():
         assert abs(r.stats["check"][axis] - plain.stats["check"][axis]) < 0.1 * sb.gsd
     kept = adjust_block(sb.block, BundleOptions(self_calibration=("ebner",), significance=0.0))
     assert len(kept.interior_sigma) == 12  # the rule switched off: all twelve estimated
+
+
+def test_ebner_parameters_a_single_model_cannot_recover_are_held_by_the_correlation_rule():
+    """Two frames: the points cover only the overlap, and some of the twelve patterns are
+    indistinguishable there from each other or from the orientation (ϱ > 0.999)."""
+    for seed in (1, 5):
+        sb = simulate_block(seed=seed, strips=1, frames_per_strip=2, n_control=5, blunder_fraction=0.0)
+        r = adjust_block(sb.block, BundleOptions(self_calibration=("ebner",)))
+        by_correlation = [f for f in r.fixed if "multiple_correlation" in f]
+        assert by_correlation and all(f["multiple_correlation"] > 0.999 for f in by_correlation)
+        assert all("cannot be told" in f["reason"] and f["parameter"] in EBNER for f in by_correlation)
+        assert r.stats["image_rms_px"] < 0.3
