@@ -30,6 +30,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from .bundle_lm import Problem, State, cost, linearise
+from .bundle_banded import selected_inverse
 from .bundle_inverse import inverse_blocks, observation_cofactors
 from .bundle_normals import reduced_system
 
@@ -52,7 +53,7 @@ class Posterior:
     sigma0: float
     redundancy: int  # number of observations − unknowns
     S: np.ndarray  # reduced camera matrix (undamped)
-    S_inv: np.ndarray  # its inverse: cofactors of the camera-side unknowns
+    S_inv: np.ndarray  # its inverse (cofactors of the camera-side unknowns) on the band of S and the interior rows
     point_cofactor: np.ndarray  # (P, 3, 3)
     r: np.ndarray  # (n, 2) redundancy numbers
     w: np.ndarray  # (n, 2) standardised residuals
@@ -60,32 +61,45 @@ class Posterior:
     w_control: np.ndarray  # (P, 3) standardised residuals of the control coordinates (NaN elsewhere)
 
 
-def _inverse(S: np.ndarray) -> np.ndarray:
-    """``S⁻¹`` scaled to a unit diagonal first, by Cholesky factorisation (LAPACK ``potrf`` and
-    ``potri``: a third of the work of a general inverse); a tiny ridge keeps a singular ``S``
-    invertible (the correlations of an undetermined parameter then come out as 1), and a
-    matrix that is not positive definite falls back to the general (pseudo-)inverse."""
+def _inverse(S: np.ndarray, st=None) -> np.ndarray:
+    """``S⁻¹`` scaled to a unit diagonal first, a tiny ridge keeping a singular ``S`` invertible (the
+    correlations of an undetermined parameter then come out as 1). With the block's band
+    (``st``, :mod:`fotogeo.orientation.bundle_banded`) only its band and interior rows are formed
+    — all that is read of it — by Takahashi's recurrence on the band Cholesky factor; otherwise
+    (a wide band, or a matrix not positive definite) dense, by Cholesky factorisation (LAPACK
+    ``potrf`` and ``potri``: a third of the work of a general inverse), falling back to the
+    general (pseudo-)inverse."""
     d = np.sqrt(np.maximum(np.diag(S), 1e-300))
     Sn = S / d[:, None] / d[None, :]
     Sn[np.diag_indices(len(S))] += 1e-12
+    inv = None
+    if st is not None:
+        try:
+            inv = selected_inverse(Sn, st.band_order, st.band_frames)
+        except np.linalg.LinAlgError:
+            inv = None
+    if inv is None:
+        inv = _dense_inverse(Sn)
+    return inv / d[:, None] / d[None, :]
+
+
+def _dense_inverse(Sn):
     c, info = lapack.dpotrf(Sn, lower=0)
     if info == 0:
         inv, info = lapack.dpotri(c, lower=0)
     if info == 0:
-        inv = np.triu(inv) + np.triu(inv, 1).T
-    else:
-        try:
-            inv = np.linalg.inv(Sn)
-        except np.linalg.LinAlgError:
-            inv = np.linalg.pinv(Sn)
-    return inv / d[:, None] / d[None, :]
+        return np.triu(inv) + np.triu(inv, 1).T
+    try:
+        return np.linalg.inv(Sn)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(Sn)
 
 
 def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
     """σ₀, the inverse blocks, redundancy numbers and standardised residuals at ``s``."""
     nm, J_c, J_p, v = linearise(pb, s, p)
     S, _, Vinv = reduced_system(pb.st, nm, 0.0)
-    S_inv = _inverse(S)
+    S_inv = _inverse(S, pb.st)
     T, S_bb = inverse_blocks(pb.st, nm, S_inv, Vinv)
     Q = observation_cofactors(pb.st, J_c, J_p, S_inv, T, Vinv, S_bb)
     n_obs = 2 * len(v) + int(np.count_nonzero(pb.ctrl_w)) + int(np.count_nonzero(pb.eo_w))
