@@ -19,7 +19,7 @@ def test_demo_registers_against_known_truth(tmp_path):
     assert_auto_choice(rep["terrain"], rep["check"]["n"])  # simplest candidate within 5 % of the best
     # the aerial block: matched tie points, 5 GCPs, check points at the noise level of a 60/30 block
     block, truth = res["block"]["report"], res["block"]["truth"]
-    assert block["matching"]["tracks"] > 1000 and len(block["frames"]) == 8
+    assert block["matching"]["tracks"] > 300 and len(block["frames"]) == 8  # thinned to Gruber regions
     assert truth["check_n"] >= 8
     assert truth["check_planimetric_gsd"] < 0.5 and truth["check_z_gsd"] < 1.5
     assert truth["centre_rmse_m"] < 2.0 and truth["angle_rmse_deg"] < 0.1  # from 5 m / 0.5 deg approximations
