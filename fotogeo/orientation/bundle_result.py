@@ -22,7 +22,8 @@ def _rmse(d: np.ndarray) -> dict:
         return {"n": 0}
     r = np.sqrt(np.mean(d ** 2, axis=0))
     return {"n": int(len(d)), "rmse_x_m": float(r[0]), "rmse_y_m": float(r[1]), "rmse_z_m": float(r[2]),
-            "rmse_planimetric_m": float(np.hypot(r[0], r[1])), "max_planimetric_m": float(np.max(np.hypot(d[:, 0], d[:, 1]))),
+            "rmse_planimetric_m": float(np.hypot(r[0], r[1])),
+            "max_planimetric_m": float(np.max(np.hypot(d[:, 0], d[:, 1]))),
             "max_z_m": float(np.max(np.abs(d[:, 2])))}
 
 
@@ -68,6 +69,6 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
         stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])
     stats["n_blunders"] = sum(1 for b in blunders if b.get("kind") == "image")
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
-    return BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz, psig, rays, res,
-                        status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations), tuple(blunders),
-                        run.iterations, timings)
+    return BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
+                        psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
+                        tuple(blunders), run.iterations, timings)
