@@ -65,6 +65,8 @@ TOOLS = {
 SESSION_TOOLS = {
     "fit_gcps": ("fotogeo.tools.gcp_fit", "fit_gcps"),
     "sample_heights": ("fotogeo.tools.gcp_fit", "sample_heights"),
+    "read_image_gcps": ("fotogeo.tools.gcp_files", "read_image_gcps"),
+    "write_image_gcps": ("fotogeo.tools.gcp_files", "write_image_gcps"),
 }
 #: arrays larger than this are summarised (shape only) in results, not listed
 MAX_ARRAY = 10_000

@@ -6,7 +6,8 @@
   (pixels, GDAL corner convention) and an optional ``sigma`` (px).
 * **Ground control in ODM/OpenSfM's** ``gcp_list.txt`` (``read_gcp_list``): the first line is
   the CRS (``EPSG:32635``, ``WGS84 UTM 35N``, a PROJ string), then one line per measurement
-  ``geo_x geo_y geo_z im_x im_y image_name [gcp_name]``. OpenSfM's pixel coordinates put the
+  ``geo_x geo_y geo_z im_x im_y image_name [gcp_name]`` (``write_gcp_list`` writes it). ODM's
+  ``WGS84 UTM <zone><N|S>`` line is read as the EPSG code of that zone. OpenSfM's pixel coordinates put the
   centre of the top-left pixel at (0, 0) (its normalisation adds 0.5), so fotogeo adds 0.5 to
   reach the corner convention; lines without a name are named by their ground coordinates.
 * **Ground control as a table** (``read_control_table``): a point layer (any GDAL vector format;
@@ -26,13 +27,14 @@
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError, one_line
-from ..pixels import from_centre
+from ..pixels import from_centre, to_centre
 from .tables import numeric_columns, read_table, require_columns
 
 
@@ -164,7 +166,7 @@ def read_gcp_list(path) -> GcpList:
     if len(numbered) < 2:
         raise InputError(f"GCP list {str(p)!r}: expected a CRS line and measurement lines "
                          f"'geo_x geo_y geo_z im_x im_y image_name [gcp_name]'")
-    crs = numbered[0][1]
+    crs = odm_crs(numbered[0][1])
     names, ground, pixel, frames = [], [], [], []
     for lineno, ln in numbered[1:]:
         parts = ln.split()
@@ -183,6 +185,35 @@ def read_gcp_list(path) -> GcpList:
         frames.append(frame_key(parts[5]))
     return GcpList(crs, np.array(names, dtype=object), np.array(ground), from_centre(np.array(pixel)),
                    np.array(frames, dtype=object))
+
+
+_ODM_UTM = re.compile(r"^WGS\s*84\s+UTM\s+(\d{1,2})\s*([NS])$", re.IGNORECASE)
+
+
+def odm_crs(line: str) -> str:
+    """The CRS of a ``gcp_list.txt`` first line as pyproj reads it: ODM's ``WGS84 UTM 35S`` becomes its
+    EPSG code, anything else (``EPSG:32735``, a PROJ string) is kept.
+
+    >>> odm_crs("WGS84 UTM 35S"), odm_crs("WGS84 UTM 5N"), odm_crs("EPSG:2154")
+    ('EPSG:32735', 'EPSG:32605', 'EPSG:2154')
+    """
+    m = _ODM_UTM.match(line.strip())
+    if not m or not 1 <= int(m.group(1)) <= 60:
+        return line.strip()
+    return f"EPSG:{(32600 if m.group(2).upper() == 'N' else 32700) + int(m.group(1))}"
+
+
+def write_gcp_list(path, crs_line: str, gcp: GcpList) -> None:
+    """Write ``gcp`` as ODM/OpenSfM's ``gcp_list.txt`` (module docstring: pixels back to OpenSfM's
+    centre convention, frames by the names given, every value at full precision)."""
+    spaced = [str(v) for v in (*gcp.name, *gcp.frame) if not str(v) or len(str(v).split()) != 1]
+    if spaced:
+        raise InputError(f"gcp_list.txt separates values by spaces: the GCP or image name {spaced[0]!r} cannot be "
+                         f"written; rename it without spaces")
+    px = to_centre(np.asarray(gcp.pixel, float))
+    lines = [crs_line.strip()] + [f"{g[0]!r} {g[1]!r} {g[2]!r} {c!r} {r!r} {f} {n}" for n, g, (c, r), f in
+                                  zip(gcp.name, np.asarray(gcp.ground, float).tolist(), px.tolist(), gcp.frame)]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def write_exterior_orientation(path, names, eos, header: str = "") -> None:

@@ -87,7 +87,7 @@ def sample_heights(xy, *, crs, dem, progress=None) -> dict:
     return {"z": [float(v) if np.isfinite(v) else None for v in z]}
 
 
-def _parse_gcps(gcps) -> tuple:
+def parse_gcp_rows(gcps) -> tuple:
     """``(ids, roles, pixel (N, 2), xy (N, 2), z (N,))`` of the JSON GCPs; :class:`InputError` naming a bad one."""
     if not isinstance(gcps, (list, tuple)):
         raise InputError("gcps must be a list of {id, col, row, x, y, z, role} objects")
@@ -172,7 +172,7 @@ def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None,
     """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
     (the interface: /tmp/briefs/picker_api.md §3, copied in DESIGN.md). JSON types in and out."""
     map_crs = parse_crs(crs, "the GCPs' crs")
-    ids, roles, pixel, xy, z = _parse_gcps(gcps)
+    ids, roles, pixel, xy, z = parse_gcp_rows(gcps)
     z, z_source, flags = _heights(xy, z, map_crs, dem, default_height)
     size = _image_size(image, width, height)
     cam = _camera(camera, size, image)

@@ -92,7 +92,7 @@ class DockActions:
             if path.lower().endswith(".points"):
                 gcps = files.import_points(self.session, path, store)
             else:
-                gcps = files.import_gcp_list(path, self.image.path, store)
+                gcps = files.import_gcp_list(self.session, path, self.image.path, store)
         except (files.PickerFileError, SessionError, ValueError) as e:
             self.say(str(e), Qgis.Warning)
             return 0
@@ -110,7 +110,7 @@ class DockActions:
             if path.lower().endswith(".points"):
                 files.export_points(self.session, store, path)
             else:
-                files.export_gcp_list(store, self.controller.fit, self.image.path, path)
+                files.export_gcp_list(self.session, store, self.controller.fit, self.image.path, path)
         except (files.PickerFileError, SessionError, RuntimeError) as e:
             self.say(str(e), Qgis.Warning)
             return False
