@@ -499,6 +499,10 @@ def test_demo_loads_styled_results(qgis_app, tmp_path):
     if res["ORTHORECTIFIED"]:  # fotogeo.tools.demo also runs the terrain-aware registration with the scene's DEM
         assert res["TERRAIN_TRUTH_RMSE_M"] < res["TRUTH_RMSE_M"]
         assert layers["Demo orthorectified"].crs().authid() == "EPSG:32635"
+    # the rendered aerial block, triangulated: check points near the noise level, its layers loaded
+    assert 0 < res["BLOCK_CHECK_RMSE_PLAN_M"] < 1.2 and 0 < res["BLOCK_CHECK_RMSE_Z_M"] < 2.5  # GSD 1.67 m
+    assert layers["Demo block footprints"].featureCount() == 8 and layers["Demo block footprints"].geometryType() == 2
+    assert layers["Demo block tie points"].featureCount() > 300
 
 
 def _run_task(alg_id, params, cancel_at=None, timeout=90.0):
