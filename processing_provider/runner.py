@@ -74,24 +74,30 @@ def _apply(message: dict, feedback, last: list):
     return message if kind in ("result", "error") else None
 
 
-def run_tool(tool: str, *args, feedback=None, **kwargs):
-    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result."""
+def start_worker(stderr, *worker_args: str, error=QgsProcessingException, **popen) -> subprocess.Popen:
+    """Start ``python -m fotogeo.worker [worker_args]`` in the current runtime (text pipes on stdin/stdout,
+    ``stderr`` a file); ``error(message)`` with the reason and the fix when the runtime is not usable."""
     ok, why = runtime_status()
     if not ok:
         ok, why = runtime_status(refresh=True)  # installed since the last look?
     if not ok:
-        raise QgsProcessingException(why)
+        raise error(why)
     runtime = current_runtime()
+    try:
+        return subprocess.Popen(rt.worker_command(runtime, *worker_args), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=stderr, text=True, encoding="utf-8", env=rt.worker_environment(),
+                                cwd=str(rt.PLUGIN_ROOT), **popen)
+    except OSError as e:
+        forget_status()
+        raise error(f"fotogeo's runtime {runtime.python} cannot start ({e}). Fix: menu fotogeo > "
+                    f"Install / repair runtime") from None
+
+
+def run_tool(tool: str, *args, feedback=None, **kwargs):
+    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result."""
     request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs}) + "\n"
     with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
-        try:
-            proc = subprocess.Popen(rt.worker_command(runtime), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                    stderr=stderr, text=True, encoding="utf-8", env=rt.worker_environment(),
-                                    cwd=str(rt.PLUGIN_ROOT))
-        except OSError as e:
-            forget_status()
-            raise QgsProcessingException(f"fotogeo's runtime {runtime.python} cannot start ({e}). Fix: menu "
-                                         f"fotogeo > Install / repair runtime") from None
+        proc = start_worker(stderr)
         proc.stdin.write(request)
         proc.stdin.flush()
         final = _follow(proc, feedback)

@@ -27,8 +27,7 @@ import time
 
 from qgis.core import Qgis, QgsMessageLog
 
-from . import runtime as rt
-from .runner import current_runtime, forget_status, runtime_status
+from .runner import start_worker
 
 STOP_WAIT_S = 3.0
 
@@ -67,21 +66,8 @@ class WorkerSession:
         return self._proc is not None and self._proc.poll() is None
 
     def _start(self):
-        ok, why = runtime_status()
-        if not ok:
-            ok, why = runtime_status(refresh=True)  # installed since the last look?
-        if not ok:
-            raise SessionError(why)
-        runtime = current_runtime()
         self._stderr = tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace")
-        try:
-            self._proc = subprocess.Popen(rt.worker_command(runtime, "--session"), stdin=subprocess.PIPE,
-                                          stdout=subprocess.PIPE, stderr=self._stderr, text=True, encoding="utf-8",
-                                          env=rt.worker_environment(), cwd=str(rt.PLUGIN_ROOT), bufsize=1)
-        except OSError as e:
-            forget_status()
-            raise SessionError(f"fotogeo's runtime {runtime.python} cannot start ({e}). Fix: menu fotogeo > "
-                               f"Install / repair runtime") from None
+        self._proc = start_worker(self._stderr, "--session", error=SessionError, bufsize=1)
         self._lines = queue.Queue()
         threading.Thread(target=_pump, args=(self._proc.stdout, self._lines), daemon=True).start()
         self.starts += 1
