@@ -89,3 +89,31 @@ def test_an_error_inside_restores_the_setting(two_blas_threads):
             assert _blas_threads() == 1
             1 / 0
     assert _blas_threads() == 2
+
+
+LATE_SCIPY = r"""
+import json, sys
+from threadpoolctl import threadpool_info, threadpool_limits
+from fotogeo.models.threads import blas_threads_for
+with blas_threads_for(2000, 78):  # the first pin: only numpy's BLAS is loaded
+    pass
+import scipy.linalg  # noqa: F401 - loads scipy's own OpenBLAS
+with threadpool_limits(limits=2, user_api="blas"):
+    with blas_threads_for(2000, 78):
+        inside = {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+    after = {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+print(json.dumps([inside, after]))
+"""
+
+
+def test_a_blas_loaded_after_the_first_fit_is_pinned_too():
+    """scipy's own OpenBLAS (the RFM's regularisation) loads after numpy's: it must be pinned as well."""
+    import json
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", LATE_SCIPY], capture_output=True, text=True, check=True).stdout
+    inside, after = json.loads(out.strip().splitlines()[-1])
+    if len(inside) < 2 or max(after.values()) < 2:
+        pytest.skip("numpy and scipy share one BLAS here, or it cannot run two threads")
+    assert set(inside.values()) == {1}
+    assert all(n == 2 for n in after.values())

@@ -23,6 +23,7 @@ pinned (the fits are the same, only their timing depends on the BLAS threads).
 from __future__ import annotations
 
 import contextlib
+import sys
 import threading
 
 #: below this many matrix elements (rows x columns) OpenBLAS keeps one thread anyway: no pin
@@ -31,19 +32,25 @@ SMALL_ELEMENTS = 10_000
 LARGE_FLOPS = 1e9
 
 _lock = threading.Lock()
-_state = {"depth": 0, "original": None, "blas": None}
+_state = {"depth": 0, "original": None, "pinned": [], "blas": None, "modules": 0}
 
 
 def _blas_libraries():
-    """threadpoolctl's controllers of the loaded BLAS libraries (found once, after numpy loaded its
-    BLAS); an empty list without threadpoolctl."""
-    if _state["blas"] is None:
+    """threadpoolctl's controllers of the loaded BLAS libraries; an empty list without threadpoolctl.
+
+    Looked up again whenever the process has imported modules since the last look: numpy's OpenBLAS
+    is loaded first, scipy's own (``scipy.libs/libscipy_openblas``, used by the RFM's
+    :mod:`~fotogeo.models.tikhonov` and the bundle adjustment) only when ``scipy.linalg`` is first
+    imported — a list taken before that left scipy's BLAS on all its threads."""
+    loaded = len(sys.modules)
+    if _state["blas"] is None or _state["modules"] != loaded:
         try:
             from threadpoolctl import ThreadpoolController
         except ImportError:
             _state["blas"] = []
         else:
             _state["blas"] = list(ThreadpoolController().select(user_api="blas").lib_controllers)
+        _state["modules"] = len(sys.modules)
     return _state["blas"]
 
 
@@ -78,14 +85,14 @@ def pins(rows: int, cols: int) -> bool:
 @contextlib.contextmanager
 def blas_threads_for(rows: int, cols: int):
     """Run the block on one BLAS thread when :func:`pins` says so (see the module docstring)."""
-    libraries = _blas_libraries() if pins(rows, cols) else []
-    if not libraries:
+    if not pins(rows, cols):
         yield
         return
     with _lock:
-        if _state["depth"] == 0:
-            _state["original"] = [lib.get_num_threads() for lib in libraries]
-            _set_counts(libraries, [1] * len(libraries))
+        if _state["depth"] == 0:  # the first of concurrent fits pins every BLAS loaded by now
+            _state["pinned"] = _blas_libraries()
+            _state["original"] = [lib.get_num_threads() for lib in _state["pinned"]]
+            _set_counts(_state["pinned"], [1] * len(_state["pinned"]))
         _state["depth"] += 1
     try:
         yield
@@ -93,4 +100,4 @@ def blas_threads_for(rows: int, cols: int):
         with _lock:
             _state["depth"] -= 1
             if _state["depth"] == 0:
-                _set_counts(libraries, _state["original"])
+                _set_counts(_state["pinned"], _state["original"])
