@@ -62,7 +62,7 @@ def residual_panels(result, block, panel: int = 220, max_frames: int = 48) -> np
             cv2.arrowedLine(img, a, b, BLUE, 1, cv2.LINE_AA, tipLength=0.3)
         for p in block.obs_pixel[(result.status == "blunder") & (block.obs_frame == j)] * k:
             cv2.circle(img, (int(x0 + p[0]), int(y0 + p[1])), 2, RED, -1)
-    note = f"mean residual per cell of a {GRID}x{GRID} grid, x{ex:.0f} (image RMS {rms:.2f} px); red: blunders"
+    note = f"mean residual per cell of a {GRID}x{GRID} grid, x{ex:.0f} (RMS vector length {rms:.2f} px); red: blunders"
     _text(img, note + (f"; first {m} of {len(block.frames)} frames" if m < len(block.frames) else ""),
           (16, img.shape[0] - 12))
     return img
