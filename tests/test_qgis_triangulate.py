@@ -70,6 +70,66 @@ def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_fi
     assert names.index("Control and check points") < min(names.index(o.name()) for o in orthos)  # vectors on top
 
 
+def _control_layer(folder, checks):
+    """The block's gcp_list.txt as a QGIS memory point layer, as the GCP picker makes it: fields id, frame,
+    col, row (corner convention), z, role (the check points named ``check``), geometry X, Y in EPSG:32635."""
+    from qgis.core import QgsFeature, QgsGeometry, QgsPointXY, QgsVectorLayer
+
+    from fotogeo.io.block import read_gcp_list
+    gcp = read_gcp_list(folder / "gcp_list.txt")
+    layer = QgsVectorLayer("Point?crs=EPSG:32635&field=id:string&field=frame:string&field=col:double"
+                           "&field=row:double&field=z:double&field=role:string", "control", "memory")
+    features = []
+    for name, (x, y, z), (col, row), frame in zip(gcp.name, gcp.ground, gcp.pixel, gcp.frame):
+        f = QgsFeature(layer.fields())
+        f.setAttributes([str(name), str(frame), float(col), float(row), float(z),
+                         "check" if name in checks.split(",") else "control"])
+        f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(float(x), float(y))))
+        features.append(f)
+    assert layer.dataProvider().addFeatures(features)[0] and layer.featureCount() == len(gcp.name)
+    return layer
+
+
+def _second_layer_of_a_geopackage(layer, path):
+    """``layer`` written as the second layer ``control`` of the GeoPackage ``path`` (a decoy first layer
+    ``other`` without the GCP fields): the tool, given the file alone, would read the wrong one."""
+    from qgis.core import QgsCoordinateTransformContext, QgsVectorFileWriter, QgsVectorLayer
+    decoy = QgsVectorLayer("Point?crs=EPSG:32635&field=name:string", "other", "memory")
+    for name, source, mode in (("other", decoy, QgsVectorFileWriter.CreateOrOverwriteFile),
+                               ("control", layer, QgsVectorFileWriter.CreateOrOverwriteLayer)):
+        options = QgsVectorFileWriter.SaveVectorOptions()
+        options.driverName, options.layerName, options.actionOnExistingFile = "GPKG", name, mode
+        err = QgsVectorFileWriter.writeAsVectorFormatV3(source, str(path), QgsCoordinateTransformContext(), options)
+        assert err[0] == QgsVectorFileWriter.NoError, err
+    second = QgsVectorLayer(f"{path}|layername=control", "control", "ogr")
+    assert second.isValid() and second.featureCount() == layer.featureCount()
+    return second
+
+
+def test_triangulate_control_from_a_project_point_layer(qgis_app, block_files, tmp_path):
+    """Ground control as a point layer of the project (a memory layer; a layer of a multi-layer GeoPackage)
+    gives the file's adjustment: the worker gets it as a file exported to Processing's temporary folder; the
+    check points come from the layer's role field. A file and a layer together are refused."""
+    import processing
+    from qgis.core import QgsProcessingUtils
+    folder, frames, checks, direct = block_files
+    memory = _control_layer(folder, checks)
+    params = {**_params(folder, frames, checks, tmp_path), "GCPS": None, "CHECK_POINTS": None}
+    for i, layer in enumerate((memory, _second_layer_of_a_geopackage(memory, tmp_path / "control.gpkg"))):
+        res = processing.run("fotogeo:triangulate", {**params, "GCP_LAYER_INPUT": layer,
+                                                     "OUTDIR": str(tmp_path / f"out{i}")}, feedback=Recorder())
+        rep = json.loads((tmp_path / f"out{i}" / "report.json").read_text())
+        assert rep["statistics"]["check"]["n"] == direct["statistics"]["check"]["n"] > 0
+        assert rep["statistics"]["check"] == pytest.approx(direct["statistics"]["check"], rel=1e-6)
+        assert res["SIGMA0"] == pytest.approx(direct["sigma0"], rel=1e-6)
+        exported = rep["gcps"]  # not the decoy-first file: a GeoPackage of its own in Processing's temporary folder
+        assert exported.endswith(".gpkg") and os.path.dirname(exported).startswith(QgsProcessingUtils.tempFolder())
+    with pytest.raises(QgsProcessingException, match="either as a file .GCPS. or as a point layer"):
+        processing.run("fotogeo:triangulate", {**params, "GCPS": str(folder / "gcp_list.txt"),
+                                               "GCP_LAYER_INPUT": memory, "OUTDIR": str(tmp_path / "both")},
+                       feedback=Recorder())
+
+
 def test_an_unset_multiple_choice_is_none(qgis_app):
     """QGIS 3.22 reads an unset optional multiple enum as [0] (the first choice): SELF_CALIBRATION would
     free the focal length, comparemodels' MODELS would fit only the first model."""

@@ -9,6 +9,7 @@ from qgis.core import (
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
+    QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterMultipleLayers,
@@ -35,6 +36,13 @@ def _layer_paths(layers) -> list:
             for layer in layers]
 
 
+def _layer_count(path: str) -> int:
+    """The number of vector layers in the file ``path`` (0 when GDAL cannot open it)."""
+    from osgeo import ogr
+    ds = ogr.Open(path)
+    return ds.GetLayerCount() if ds is not None else 0
+
+
 class TriangulateAlgorithm(FotogeoAlgorithm):
     ALG_ID = "triangulate"
     DISPLAY = "Aerial triangulation (bundle block adjustment)"
@@ -46,7 +54,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             "Inputs: the frames; the camera (orthority YAML: pinhole, or brown with distortion — the camera.yaml "
             "a self-calibrating run writes); the approximate exterior orientation (name X Y Z omega phi kappa "
             "lines; frames without one are resected against their GCPs); ground control: ODM/OpenSfM "
-            "gcp_list.txt, or a point layer / CSV in any CRS with one row per (point, frame) measurement: id, frame, "
+            "gcp_list.txt, or a point layer (of the project, e.g. the GCP picker's, or a file) / CSV in any CRS "
+            "with one row per (point, frame) measurement: id, frame, "
             "col, row (corner convention), z, optional role (control / check); and/or reference orthophoto(s) "
             "with a DEM, on which control is found automatically. Tie points: a table (frame, point, col, row), or "
             "left empty to match the overlapping frames (SURF, epipolar RANSAC, multi-ray tracks).\n\n"
@@ -61,6 +70,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
     OPTIONS = (TRIANGULATE,)
     FRAMES, CAMERA, EO, OBSERVATIONS, GCPS, REFERENCE, OUTDIR = ("FRAMES", "CAMERA", "EO", "OBSERVATIONS", "GCPS",
                                                                  "REFERENCE", "OUTDIR")
+    GCP_LAYER_IN = "GCP_LAYER_INPUT"  # the name orient and comparemodels give their GCP point layer
     REPORT_HTML, SIGMA0, IMAGE_RMS, CHECK_XY, CHECK_Z, BLUNDERS = ("REPORT_HTML", "SIGMA0", "IMAGE_RMS",
                                                                    "CHECK_RMSE_XY", "CHECK_RMSE_Z", "BLUNDERS")
 
@@ -73,6 +83,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                                      optional=True))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
                                                      fileFilter=CONTROL_FILTER, optional=True))
+        self.addParameter(QgsProcessingParameterFeatureSource(
+            self.GCP_LAYER_IN, tr("… or a ground-control point layer of the project (id, frame, col, row, z, role)"),
+            [QgsProcessing.TypeVectorPoint], optional=True))
         self.addParameter(QgsProcessingParameterMultipleLayers(
             self.REFERENCE, tr("Reference orthophoto(s) for automatic control (with the DEM)"),
             QgsProcessing.TypeRaster, optional=True))
@@ -95,11 +108,12 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             raise QgsProcessingException("FRAMES: give the frames of the block")
         reference = _layer_paths(self.parameterAsLayerList(parameters, self.REFERENCE, context)) or None
         files = {k: self.parameterAsFile(parameters, k, context) or None
-                 for k in (self.CAMERA, self.EO, self.OBSERVATIONS, self.GCPS)}
+                 for k in (self.CAMERA, self.EO, self.OBSERVATIONS)}
+        gcps = self._control_path(parameters, context, feedback)
         outdir = self.parameterAsString(parameters, self.OUTDIR, context)
         os.makedirs(outdir, exist_ok=True)
         rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
-                            outdir, feedback=feedback, gcps=files[self.GCPS], reference=reference, overwrite=True,
+                            outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True,
                             **self.option_arguments(parameters, context))
         st = rep["statistics"]
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
@@ -113,6 +127,28 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         for f in rep["fixed_parameters"]:
             feedback.pushWarning(f"held fixed: {f['reason']}")
         return self._outputs(rep, outdir, context)
+
+    def _control_path(self, parameters, context, feedback) -> str | None:
+        """The ground control as a file path for the worker: the GCPS file, or the point layer's own file
+        (a single-layer GeoPackage, Shapefile or GeoJSON) — any other layer (memory, a layer of a multi-layer
+        GeoPackage, a selection, a database) exported by Processing to a GeoPackage in its temporary folder;
+        None when neither is given (control from the reference orthophotos, or none)."""
+        given = [bool(parameters.get(self.GCPS)), bool(parameters.get(self.GCP_LAYER_IN))]
+        if all(given):
+            raise QgsProcessingException(f"give the ground control either as a file ({self.GCPS}) or as a point "
+                                         f"layer ({self.GCP_LAYER_IN}), not both")
+        if given[0]:
+            return self.parameterAsFile(parameters, self.GCPS, context) or None
+        if not given[1]:
+            return None
+        path, layer = self.parameterAsCompatibleSourceLayerPathAndLayerName(
+            parameters, self.GCP_LAYER_IN, context, ["gpkg", "shp", "geojson"], "gpkg", feedback)
+        if path and layer and _layer_count(path) > 1:  # the worker reads a file's first layer: export this one
+            path = self.parameterAsCompatibleSourceLayerPath(parameters, self.GCP_LAYER_IN, context, [], "gpkg",
+                                                             feedback)
+        if not path:
+            raise QgsProcessingException(self.invalidSourceError(parameters, self.GCP_LAYER_IN))
+        return path
 
     def _outputs(self, rep, outdir, context) -> dict:
         """The result dict; the block's layers (and orthophotos) loaded on completion, styled by role."""
