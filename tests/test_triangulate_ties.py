@@ -99,3 +99,25 @@ def test_a_frame_that_overlaps_no_other_is_still_named(rendered):
     eos[2] = dataclasses.replace(eos[2], X=eos[2].X + 50000.0)
     with pytest.raises(MatchingError, match=f"{sb.block.frames[2]}.tif.*overlap no other frame"):
         block_tie_points(paths, sb.block.camera, eos, height)
+
+
+def test_each_frame_is_detected_once_and_the_tie_points_stay_the_same(rendered, monkeypatch):
+    """The keypoint cache (fotogeo.tools.match.FeatureCache) changes the number of detections only:
+    matching every pair with fresh detections of both frames gives the same tracks and observations."""
+    import fotogeo.tools.match as match
+    import fotogeo.tools.triangulate_match as triangulate_match
+    sb, _, paths, height, *_ = rendered
+    detections = []
+    detect = match.detect
+    monkeypatch.setattr(match, "detect", lambda *a, **k: detections.append(1) or detect(*a, **k))
+    cached = block_tie_points(paths, sb.block.camera, sb.block.eo, height, lsm=False)
+    n_cached = len(detections)
+    find = triangulate_match.find_tie_points
+    monkeypatch.setattr(triangulate_match, "find_tie_points", lambda *a, cache=None, **k: find(*a, **k))
+    detections.clear()
+    fresh = block_tie_points(paths, sb.block.camera, sb.block.eo, height, lsm=False)
+    n_pairs = len(fresh[4]["pairs"])
+    assert n_cached == len(paths) and len(detections) == 2 * n_pairs and n_pairs > len(paths)
+    for a, b in zip(cached[:3], fresh[:3]):  # frame, track, pixel
+        np.testing.assert_array_equal(a, b)
+    assert cached[4] == fresh[4]

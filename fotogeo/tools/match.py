@@ -2,6 +2,8 @@
 
 :func:`find_tie_points` is the first half of the registration (Dihkan 2019: PCA fusion, SURF,
 SSD ratio test); :func:`match_images` writes its tie points as a layer without fitting a model.
+A :class:`FeatureCache` lets an image matched in many pairs (a frame of a block) be read, fused
+and detected once.
 """
 from __future__ import annotations
 
@@ -46,13 +48,47 @@ HINT = ("check that the images overlap, then try a looser --ratio (0.9), more --
         "a lower --hessian-threshold or --detector sift")
 
 
-def find_tie_points(ref, tgt, opts, prog=None):
+class FeatureCache:
+    """Keypoints, decimation factor and PCA explained variance of images already detected, keyed by
+    (path, the role's nodata override, options), so that :func:`find_tie_points` detects an image
+    matched in several pairs once. The fused images are not kept (memory: keypoints only);
+    :meth:`forget` drops an image whose pairs are done."""
+
+    def __init__(self):
+        self._entries: dict = {}
+
+    def features(self, info, role, opts, prog):
+        """``(keypoints, factor, explained)`` of ``info`` as :func:`_features` detects it in ``role``."""
+        key = (str(info.path), getattr(opts, f"{role}_nodata"), opts)
+        if key not in self._entries:
+            kp, factor, fused = _features(info, role, opts, prog)
+            self._entries[key] = (kp, factor, fused.explained)
+        return self._entries[key]
+
+    def forget(self, info):
+        """Drop every entry of the image ``info``."""
+        self._entries = {k: v for k, v in self._entries.items() if k[0] != str(info.path)}
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+
+def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = None):
     """Keypoints in both images, matched: ``(target_xy, reference_xy, counts)`` in full-resolution
     pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.io.raster.RasterInfo`.
-    Wall times of the steps go to ``prog.timings`` (:meth:`fotogeo.progress.Progress.timed`)."""
+    Wall times of the steps go to ``prog.timings`` (:meth:`fotogeo.progress.Progress.timed`).
+    With a ``cache``, keypoints already detected are reused (the same results: detection is
+    deterministic); it is not used with ``opts.refine == "lsm"``, which needs the fused images."""
     prog = as_progress(prog)
-    kp_ref, f_ref, fu_ref = _features(ref, "reference", opts, prog.stage(0.0, 0.45, "reference: reading"))
-    kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, prog.stage(0.45, 0.9, "target: reading"))
+    stages = (prog.stage(0.0, 0.45, "reference: reading"), prog.stage(0.45, 0.9, "target: reading"))
+    if cache is not None and opts.refine != "lsm":
+        kp_ref, f_ref, ex_ref = cache.features(ref, "reference", opts, stages[0])
+        kp_tgt, f_tgt, ex_tgt = cache.features(tgt, "target", opts, stages[1])
+        fu_ref = fu_tgt = None
+    else:
+        kp_ref, f_ref, fu_ref = _features(ref, "reference", opts, stages[0])
+        kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, stages[1])
+        ex_ref, ex_tgt = fu_ref.explained, fu_tgt.explained
     with prog.stage(0.9, 1.0, "matching descriptors").timed("match"):
         m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
                               laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
@@ -61,7 +97,7 @@ def find_tie_points(ref, tgt, opts, prog=None):
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
                             f"{str(ref.path)!r} (found {len(kp_tgt)} and {len(kp_ref)} keypoints); {HINT}")
     counts = {"keypoints": {"reference": len(kp_ref), "target": len(kp_tgt)}, "matches": len(m),
-              "pca_explained_variance": {"reference": fu_ref.explained, "target": fu_tgt.explained}}
+              "pca_explained_variance": {"reference": ex_ref, "target": ex_tgt}}
     t_xy, r_xy = kp_tgt.xy[m.pairs[:, 0]], kp_ref.xy[m.pairs[:, 1]]
     if opts.refine == "lsm":
         with prog.timed("refine_lsm"):

@@ -11,7 +11,10 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
   ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
   resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
-  keeps the pairs that fit the two-view geometry.
+  keeps the pairs that fit the two-view geometry. Each frame is read, fused and detected once
+  (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
+  keypoints are dropped after its last pair, so at most the frames of the pairs still to come
+  whose first pair has run are held (keypoints and descriptors only, never the images).
 * **Tracks**: a keypoint is the same in every pair of its frame (the detector is deterministic),
   so matches are joined into multi-ray tracks by union–find on (frame, keypoint position); a
   track that holds two different keypoints of one frame is inconsistent and dropped.
@@ -44,7 +47,7 @@ from ..io.raster import open_raster, read_decimated
 from ..options import RegisterOptions
 from ..pixels import outline
 from ..progress import as_progress
-from .match import find_tie_points
+from .match import FeatureCache, find_tie_points
 
 
 def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05) -> list:
@@ -140,13 +143,18 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
     """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report)``."""
     uf, pos, per_pair = _UnionFind(), {}, []
     det = _detection_options(opts, infos[0], level)
+    cache, last_pair = FeatureCache(), {f: k for k, pair in enumerate(pairs) for f in pair}
     for k, (i, j) in enumerate(pairs):
         try:
             stage = prog.stage(k / len(pairs), (k + 1) / len(pairs), f"matching pair {k + 1}/{len(pairs)}")
-            xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], det, stage)
+            xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], det, stage, cache=cache)
         except MatchingError:
             per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
             continue
+        finally:
+            for f in (i, j):
+                if last_pair[f] == k:
+                    cache.forget(infos[f])
         keep = _epipolar_inliers(xy_i, xy_j, epipolar_px * 2 ** level)
         per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
         for a, b in zip(xy_i[keep], xy_j[keep]):
