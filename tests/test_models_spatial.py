@@ -217,3 +217,35 @@ def test_clustered_points_are_reported():
     with warnings.catch_warnings():
         warnings.simplefilter("error", IllPosedWarning)
         assert MODELS["poly3d-2"].estimate(h.gcp_ground, h.gcp_pixel).info["coverage"] >= 0.9
+
+
+class CountingDem:
+    """A height source that records how many points each call samples."""
+
+    def __init__(self, dem):
+        self.dem, self.sampled = dem, []
+
+    def heights_and_gradient(self, XY):
+        self.sampled.append(len(XY))
+        return self.dem.heights_and_gradient(XY)
+
+
+@pytest.mark.parametrize("name", ["dlt", "rfm"])
+def test_dem_intersection_iterates_only_points_that_have_not_converged(pinhole_points, name):
+    """Each point stops at the step where its height changed by less than tol_z and keeps that step's answer:
+    later steps sample fewer points, and a point's answer does not depend on the other points inverted with it."""
+    g = pinhole_points
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllPosedWarning)
+        m = MODELS[name].estimate(g.gcp_ground, g.gcp_pixel)
+    px = np.vstack([g.check_pixel, g.gcp_pixel])
+    dem = CountingDem(synthetic_dem())
+    together = m.inverse(px, heights=dem)
+    counts = dem.sampled
+    assert counts[0] == len(px) and all(a >= b for a, b in zip(counts, counts[1:])) and counts[-1] < len(px)
+    alone = np.vstack([m.inverse(p[None], heights=synthetic_dem()) for p in px])
+    assert np.abs(together - alone).max() < 1e-9
+    assert np.abs(together - np.vstack([g.check_ground, g.gcp_ground])).max() < 0.05
+    # the answers are on the terrain to tol_z and project back onto the pixels
+    assert np.abs(together[:, 2] - synthetic_dem().heights(together[:, :2])).max() < 1e-3
+    assert np.abs(m.forward(together) - px).max() < 1e-6

@@ -10,7 +10,8 @@ pixels (GDAL corner convention). The same classes can be fitted the other way ro
 pixel), and the first two source coordinates are found by Newton's method at that fixed
 height. A :class:`~fotogeo.geometry.dem.HeightSource` (a DEM) instead is intersected
 (ground -> image models): ``Z`` is updated from the DEM's height at ``(X, Y)`` until it
-changes by less than ``tol_z``.
+changes by less than ``tol_z``, point by point: a point that has converged keeps the answer of
+that step and is not iterated further (``FittedModel._intersect``).
 
 Estimation runs in normalised coordinates (:class:`~fotogeo.models.base.Normalisation`),
 records diagnostics in ``model.info`` (``cond``: condition number of the weighted design
@@ -130,21 +131,34 @@ class FittedModel(Model):
         if not is_height_source(heights):
             z = np.broadcast_to(np.asarray(heights, dtype=np.float64), (len(dst),))
             return self._inverse_at(dst, z, iterations, tol)
-        src = as_height_source(heights)
+        return self._intersect(dst, as_height_source(heights), iterations, tol, tol_z)
+
+    def _intersect(self, dst, src, iterations, tol, tol_z):
+        """Ray–DEM intersection by fixed point on ``Z``, iterating only the points still moving.
+
+        Step k: ``Z_k = h(XY_{k-1})``, ``XY_k`` = the inverse at ``Z_k`` (Newton, started at
+        ``XY_{k-1}``). A point converges at the step where ``|Z_k − Z_{k-1}| < tol_z`` (or ``Z_k``
+        is NaN: off the DEM) and keeps ``XY_k``; the others go on, at most ``iterations`` steps.
+        """
         z = np.full(len(dst), float(self.src_norm.offset[2]))
         out = self._inverse_at(dst, z, iterations, tol)
+        active = np.arange(len(dst))
         for _ in range(iterations):
-            z_new = src.heights_and_gradient(out[:, :2])[0]
-            out = self._inverse_at(dst, z_new, iterations, tol)
-            if not np.nanmax(np.abs(z_new - z), initial=0.0) >= tol_z:
+            if active.size == 0:
                 break
-            z = z_new
+            z_new = src.heights_and_gradient(out[active, :2])[0]
+            out[active] = self._inverse_at(dst[active], z_new, iterations, tol, start=out[active])
+            moving = np.abs(z_new - z[active]) >= tol_z  # False for NaN: off the DEM, done
+            z[active] = z_new
+            active = active[moving]
         return out
 
-    def _inverse_at(self, dst, z, iterations, tol):
+    def _inverse_at(self, dst, z, iterations, tol, start=None):
         d = self.dst_norm.normalise(dst)
         zn = (z - self.src_norm.offset[2]) / self.src_norm.scale[2]
-        s = newton_2d(lambda s2: self._apply(np.column_stack([s2, zn])), d, np.zeros((len(d), 2)), iterations, tol)
+        s0 = np.zeros((len(d), 2)) if start is None else self.src_norm.normalise(start)[:, :2]
+        s0 = np.where(np.isfinite(s0), s0, 0.0)
+        s = newton_2d(lambda s2: self._apply(np.column_stack([s2, zn])), d, s0, iterations, tol)
         return self.src_norm.denormalise(np.column_stack([s, zn]))
 
 

@@ -30,10 +30,6 @@ def _listed(a: np.ndarray) -> list:
 
 PAD = 0.5  # fraction of the GCPs' span added on each side of the inverse grid
 CONSISTENT_PX = 0.1  # a forward node whose ground point projects back further than this is dropped
-#: steps of a 3-D model's ray-DEM intersection for the forward grid (the models' default is 30: on the
-#: steep top edge of NGI 0182 a few nodes never converge and hold every node for all 30 steps; measured
-#: there, 15 steps halve the time and leave 2 of 625 nodes without an answer instead of 1)
-GRID_ITERATIONS = 15
 
 
 def dem_on_map_grid(dem, crs):
@@ -81,9 +77,9 @@ def forward_grid(model, crs, size, n: int, heights) -> dict | None:
     px = np.column_stack([C.ravel(), R.ravel()])
     with np.errstate(all="ignore"):
         if getattr(model, "src_dims", 2) == 3:
-            # Georeference.pixel_to_map with at most GRID_ITERATIONS steps of the model's DEM intersection;
-            # an intersection that did not converge (steep relief) has no answer
-            XY = model.inverse(px, heights, iterations=GRID_ITERATIONS)[:, :2]
+            # the model's DEM intersection (Georeference.pixel_to_map; only the nodes that have not converged
+            # are iterated); an intersection that did not converge (steep relief) has no answer
+            XY = model.inverse(px, heights)[:, :2]
             back = model.forward(np.column_stack([XY, heights_at(heights, XY)]))
             XY[~(np.hypot(*(back - px).T) < CONSISTENT_PX)] = np.nan
         else:
