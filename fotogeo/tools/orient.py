@@ -25,7 +25,7 @@ best check RMSE (:func:`fotogeo.orientation.adjustment.select_model`; the report
   points as GDAL GCPs, so that ``gdalwarp -order N`` / QGIS reproduce the fitted polynomial
   (GDAL fits the same least-squares polynomial of total degree N to the same points);
 * ``rectify`` — the image resampled to a map grid in the GCPs' CRS through the model,
-  heights from ``dem`` or ``height`` for 3-D models, window by window.
+  heights from ``dem`` or ``height`` for 3-D models, window by window (:mod:`fotogeo.tools.rectify`).
 """
 from __future__ import annotations
 
@@ -34,20 +34,22 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..errors import InputError, ModelError
+from ..errors import InputError
 from ..io.camera import load_camera
 from ..io.gcps import check_inside, read_gcps
-from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated, read_dem
+from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..io.report import write_json
 from ..io.vector import error_vectors, exaggeration_value, legend_text, nominal_scale, write_layers
-from ..io.warp import grid_covering, warp_to_grid
 from ..geometry.georeference import Georeference
 from ..models import get_model
 from ..orientation.adjustment import fit_orientation, select_model
 from ..progress import as_progress
-from .checks import check_camera_size, check_gcp_crs, check_output_grid
+from .checks import check_camera_size, check_gcp_crs
 from .boundary import OUTPUTS, tool
+from .rectify import dem_heights, mean_height, rectify_grid, rectify_image
 from .results import Orientation
+
+_dem_in = dem_heights  # the name fotogeo.tools.gcp_propose imports; new code imports rectify.dem_heights
 
 
 @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
@@ -91,7 +93,7 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         rep["model_selection"] = selection
     rep["exaggeration"] = _exaggeration(exaggeration, g)
     rep["notes"] = _notes(rep)
-    grid = _rectify_grid(rectify, info, g, fit.model, dem, height, resolution) if rectify else None
+    grid = rectify_grid(rectify, info, fit.model, g.crs, g.ground, dem, height, resolution) if rectify else None
     with AtomicOutputs(overwrite) as out:
         if vectors:
             _write_vectors(out.temp(vectors), g, fit, on_ground, d_ground, rep["exaggeration"])
@@ -116,13 +118,13 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
             rep["gcp_tiff"] = {"path": str(gcp_tiff), "order": int(model[-1]), "gcps": int(ctrl.sum())}
         prog(0.4, "vectors and exports written")
         if rectify:
-            rep["rectified"] = _rectify(out.temp(rectify), info, g, grid, resampling,
-                                        prog.stage(0.4, 0.98, "rectifying"))
+            rep["rectified"] = rectify_image(out.temp(rectify), info, g.crs, grid, resampling,
+                                             prog.stage(0.4, 0.98, "rectifying"))
         if report:
             write_json(out.temp(report), rep)
         prog(1.0, "done")
         out.commit()
-    geo = Georeference(fit.model, heights=_mean_height(g), crs=g.crs)
+    geo = Georeference(fit.model, heights=mean_height(g.ground), crs=g.crs)
     return Orientation(fit.model, geo, rep, {k: Path(v) for k, v in outs.items()})
 
 
@@ -269,58 +271,3 @@ def _scale_bar(canvas, k: float, fx: float, ground_per_pixel=None):
         cv2.line(canvas, (x, y0 - 6), (x, y0 + 6), (0, 0, 0), 2)
     text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
     cv2.putText(canvas, text, (x0, y0 - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-
-
-def _rectify_grid(path, info, g, model, dem, height, resolution):
-    """The georeference and the north-up grid in the GCP CRS that rectifying ``info`` through
-    ``model`` (ground → image) writes to ``path``, checked before any pixel is resampled.
-
-    Heights (3-D models; 2-D ones ignore them) come from ``dem``, else ``height``, else the
-    GCPs' mean height; the default resolution is the ground sample distance at the image
-    centre at the GCPs' mean height. A model that spreads the image over a ground area far
-    larger than its pixels cover (64x, whatever the resolution) is refused as unstable; the
-    grid's size is checked by :func:`~fotogeo.tools.checks.check_output_grid`.
-    """
-    zmean = _mean_height(g)
-    heights = _dem_in(dem, g.crs) if dem is not None else (zmean if height is None else height)
-    geo = Georeference(model, heights=heights, crs=g.crs)
-    w, h = info.width, info.height
-    XY = geo.footprint(w, h)
-    if not np.isfinite(XY).all():
-        raise ModelError("the model does not map the whole image footprint to the ground; rectify with another model")
-    gsd = geo.with_heights(zmean).ground_sample_distance(w, h)
-    span = XY.max(axis=0) - XY.min(axis=0)
-    if not np.isfinite(gsd) or gsd <= 0 or span[0] * span[1] / gsd ** 2 > 64 * w * h:
-        raise ModelError("the model spreads the image over a ground area far larger than its pixels cover: "
-                         "it is unstable outside the GCPs; rectify with a simpler model or more spread GCPs")
-    res = float(resolution or gsd)
-    transform, width, height_px = grid_covering(XY, res)
-    check_output_grid(path, width, height_px, bands=info.count, dtype=info.dtype, source_pixels=w * h,
-                      resolution=res, what=f"the rectified raster {str(path)!r}")
-    return geo, transform, width, height_px, res
-
-
-def _rectify(path, info, g, grid, resampling, prog):
-    """Resample the image onto ``grid`` (from :func:`_rectify_grid`) through its georeference."""
-    geo, transform, width, height_px, res = grid
-    written = warp_to_grid(info.path, path, geo.map_to_pixel, crs=g.crs, transform=transform, width=width,
-                           height=height_px, resampling=resampling, progress=prog)
-    return {"width": width, "height": height_px, "resolution": res, "transform": list(transform)[:6], **written}
-
-
-def _mean_height(g):
-    """Mean height of the GCPs, None when none has one."""
-    z = g.ground[:, 2]
-    return float(np.nanmean(z)) if np.isfinite(z).any() else None
-
-
-def _dem_in(dem, crs):
-    """The DEM (path or :class:`~fotogeo.geometry.dem.Dem`) as a height source at points in ``crs``."""
-    from pyproj import CRS
-
-    from ..geometry.dem import Dem, DemSampler
-    d = dem if isinstance(dem, Dem) else read_dem(dem)
-    if d.crs is None:
-        raise InputError(f"DEM {d.path!r} has no CRS; it cannot be matched to the GCPs (assign one with "
-                         "gdal_edit.py -a_srs)")
-    return d if CRS.from_user_input(d.crs) == crs else DemSampler(d, crs)

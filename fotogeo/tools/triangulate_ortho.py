@@ -15,8 +15,6 @@ The inverse (pixel → ground) removes the distortion by the fixed-point iterati
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 
 from ..errors import InputError, ModelError
@@ -60,8 +58,8 @@ def frame_models(result, block) -> list:
 def terrain(dem, crs, result):
     """The height source: the DEM in the map CRS, else the mean height of the adjusted points."""
     if dem is not None:
-        from .orient import _dem_in
-        return _dem_in(dem, crs)
+        from .rectify import dem_heights
+        return dem_heights(dem, crs)
     z = result.point_xyz[:, 2]
     return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
 
@@ -82,16 +80,18 @@ def footprints(result, block, heights, crs) -> dict:
 
 
 def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dict:
-    """Per frame, the checked output grid of its orthorectification (orient's ``_rectify_grid``);
-    nothing is resampled yet, so a grid that cannot be made stops the run before any output."""
+    """Per frame, the checked output grid of its orthorectification (:func:`fotogeo.tools.rectify.rectify_grid`,
+    the mean height of the adjusted points); nothing is resampled yet, so a grid that cannot be made stops the
+    run before any output."""
     from ..io.raster import open_raster
-    from .orient import _rectify_grid
-    heights = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
-    g = SimpleNamespace(crs=crs, ground=heights if len(heights) else np.zeros((1, 3)))
+    from .rectify import rectify_grid
+    points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
+    ground = points if len(points) else np.zeros((1, 3))
     grids = {}
     for model, path, name in zip(frame_models(result, block), frames, block.frames):
         try:
-            grids[name] = _rectify_grid(paths[name], open_raster(path, "frame"), g, model, dem, None, resolution)
+            grids[name] = rectify_grid(paths[name], open_raster(path, "frame"), model, crs, ground, dem, None,
+                                       resolution)
         except ModelError as exc:
             raise InputError(f"frame {name}: cannot be orthorectified ({str(exc)[:160]}); check that the DEM "
                              f"covers the frame's footprint") from None
@@ -101,10 +101,9 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
 def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
     from ..io.raster import open_raster
-    from .orient import _rectify
-    g = SimpleNamespace(crs=crs)
+    from .rectify import rectify_image
     out = {}
     for k, (path, name) in enumerate(zip(frames, block.frames)):
         stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
-        out[name] = _rectify(temp_paths[name], open_raster(path, "frame"), g, grids[name], resampling, stage)
+        out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
     return out
