@@ -99,6 +99,7 @@ def main():
     STATE["image_units_per_pixel"] = dock.image_canvas.mapUnitsPerPixel()
     picking(canvas, dock, truth)
     editing(dock)
+    delete_key(dock)
     files(dock, store)
     heights_and_models(dock, dem, small_dem)
     other_project_crs(canvas, dock, store, truth)
@@ -197,6 +198,40 @@ def editing(dock):
     dock.table.item(1, 1).setCheckState(Qt.Unchecked)  # GCP 2: a check point
     STATE["role"] = {"gcps": gcps(dock), "fit": dock.controller.fit}
     dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
+
+
+def delete_key(dock):
+    """The Delete key on the table: nothing selected, then the last two rows selected (undo adds the GCPs back
+    at the end of the layer, so the layer's order, which the exports below keep, stays); undo, redo, undo."""
+    from qgis.PyQt.QtCore import QItemSelectionModel
+    from qgis.PyQt.QtGui import QKeyEvent
+    pump(0.3)
+    t, stack = dock.table, dock.controller.undo_stack
+
+    def press_delete():
+        APP.sendEvent(t, QKeyEvent(QEvent.KeyPress, Qt.Key_Delete, Qt.NoModifier))
+        pump(0.3)
+        return gcps(dock)
+
+    before, index = gcps(dock), stack.index()
+    t.clearSelection()
+    unselected = press_delete()
+    last_two = [g["id"] for g in before[-2:]]
+    for r in [r for r in range(t.rowCount()) if t.item(r, 0).text() in last_two]:
+        t.selectionModel().select(t.model().index(r, 0), QItemSelectionModel.Select | QItemSelectionModel.Rows)
+    selected = t.selected_ids()
+    deleted = press_delete()
+    steps = stack.index() - index
+    text = stack.undoText()
+    stack.undo()
+    undone = gcps(dock)
+    stack.redo()
+    redone = gcps(dock)
+    stack.undo()
+    pump(0.3)
+    STATE["delete_key"] = {"before": before, "unselected": unselected, "last_two": last_two, "selected": selected, "deleted": deleted,
+                           "steps": steps, "undo_text": text, "undone": undone, "redone": redone,
+                           "table_ids": [t.item(r, 0).text() for r in range(t.rowCount())]}
 
 
 def files(dock, store):

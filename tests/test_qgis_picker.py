@@ -131,6 +131,19 @@ def test_drag_moves_and_right_click_deletes_and_undo_restores(picked):
     assert _by_id(state["after_undo_moves"]["gcps"]) == _by_id(state["picked"]["gcps"])
 
 
+def test_delete_key_deletes_the_selected_rows_in_one_undo_step(picked):
+    state, _, _ = picked
+    d = state["delete_key"]
+    before = _by_id(d["before"])
+    assert _by_id(d["unselected"]) == before  # nothing selected: Delete deletes nothing
+    assert d["selected"] == d["last_two"] and len(set(d["last_two"])) == 2
+    assert set(_by_id(d["deleted"])) == set(before) - set(d["last_two"]) and len(d["deleted"]) == len(before) - 2
+    assert d["steps"] == 1 and d["undo_text"] == "delete 2 GCPs"
+    assert d["undone"] == d["before"]  # one undo brings both back, unchanged and in the layer's order
+    assert _by_id(d["redone"]) == _by_id(d["deleted"])
+    assert sorted(d["table_ids"], key=int) == sorted(before, key=int)  # the table shows them again
+
+
 def test_refit_keeps_the_gui_responsive(picked):
     """Median time of a refit in the GUI thread with 10 GCPs (DLT, DEM heights, 25 x 25 grids): the worker
     session's round trip, not a process start (printed: ``pytest -s``; a loaded machine is slower)."""

@@ -30,6 +30,7 @@ from qgis.PyQt.QtWidgets import (
 
 from fotogeo.options import ORIENTATION_MODELS  # standard library only
 
+from .commands import DeleteGcps
 from .controller import PickerController
 from .dock_actions import DockActions
 from .fit import HEIGHT_SOURCES, FitSettings
@@ -144,6 +145,7 @@ class PickerDock(DockActions, QDockWidget):
         self.table.role_changed.connect(self.controller.set_role)
         self.table.height_changed.connect(self.controller.set_height)
         self.table.gcp_selected.connect(self.controller.select)
+        self.table.delete_requested.connect(self.delete_gcps)
         splitter = QSplitter(Qt.Vertical)
         splitter.addWidget(top)
         splitter.addWidget(self.table)
@@ -252,6 +254,13 @@ class PickerDock(DockActions, QDockWidget):
     def _exaggeration_changed(self, value):
         self.controller.exaggeration = value
         self.controller.show()
+
+    def delete_gcps(self, ids: list):
+        """Delete the GCPs ``ids`` (the table's selected rows) as one undo step."""
+        store = self.controller.store
+        found = [g for g in (self.controller.gcp(i) for i in ids) if g is not None]
+        if store is not None and found:
+            self.controller.undo_stack.push(DeleteGcps(store, found))
 
     def _show_fit(self, fit: dict):
         store = self.controller.store

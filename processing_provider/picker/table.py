@@ -5,12 +5,13 @@ col, row (px, corner convention), x, y (layer CRS), z and where it came from (fi
 constant), dx, dy, residual in px and in map units (model minus measurement, the same numbers
 ``fotogeo orient`` reports), the standardised residual w of data snooping (Baarda 1968) and the
 flag (blunder, no height, ...). Selecting a row highlights the GCP on both canvases; the z cell can
-be edited (a number, or empty for none): the layer's height, used with *Heights: field*.
+be edited (a number, or empty for none): the layer's height, used with *Heights: field*. The Delete
+key asks to delete the selected rows (``delete_requested``: one undo step for all of them).
 """
 from __future__ import annotations
 
 from qgis.PyQt.QtCore import Qt, pyqtSignal
-from qgis.PyQt.QtGui import QColor
+from qgis.PyQt.QtGui import QColor, QKeySequence
 from qgis.PyQt.QtWidgets import QAbstractItemView, QTableWidget, QTableWidgetItem
 
 COLUMNS = ("id", "on", "col", "row", "x", "y", "z", "z from", "dx px", "dy px", "res px", "dx map", "dy map",
@@ -25,17 +26,19 @@ def _text(value, decimals: int) -> str:
 
 
 class GcpTable(QTableWidget):
-    """The table (module docstring); ``role_changed(id, role)`` and ``gcp_selected(id)`` go to the controller."""
+    """The table (module docstring); ``role_changed(id, role)``, ``height_changed(id, z)``, ``gcp_selected(id)``
+    and ``delete_requested([id, ...])`` go to the controller."""
 
     role_changed = pyqtSignal(str, str)
     height_changed = pyqtSignal(str, object)  # id, float or None
     gcp_selected = pyqtSignal(str)
+    delete_requested = pyqtSignal(list)  # ids of the selected rows, in table order
 
     def __init__(self, parent=None):
         super().__init__(0, len(COLUMNS), parent)
         self.setHorizontalHeaderLabels(COLUMNS)
         self.setSelectionBehavior(QAbstractItemView.SelectRows)
-        self.setSelectionMode(QAbstractItemView.SingleSelection)
+        self.setSelectionMode(QAbstractItemView.ExtendedSelection)
         self.setEditTriggers(QAbstractItemView.DoubleClicked | QAbstractItemView.EditKeyPressed)
         self.verticalHeader().setVisible(False)
         self._filling = False
@@ -75,6 +78,22 @@ class GcpTable(QTableWidget):
         """The texts of one row by column name (tests and the report)."""
         return {name: self.item(row, j).text() if name != "on" else self.item(row, j).checkState() == Qt.Checked
                 for j, name in enumerate(COLUMNS)}
+
+    def selected_ids(self) -> list[str]:
+        """Ids of the selected rows, in table order."""
+        rows = sorted({index.row() for index in self.selectedIndexes()})
+        return [self.item(r, 0).data(Qt.UserRole) for r in rows if self.item(r, 0) is not None]
+
+    def keyPressEvent(self, event):  # noqa: N802 - Qt's name
+        """Delete (the platform's delete key sequence too) deletes the selected rows; other keys as usual.
+
+        While a cell is being edited the key goes to the editor, not here."""
+        ids = self.selected_ids()
+        if ids and (event.key() == Qt.Key_Delete or event.matches(QKeySequence.Delete)):
+            self.delete_requested.emit(ids)
+            event.accept()
+            return
+        super().keyPressEvent(event)
 
     def _item_changed(self, item):
         if self._filling:
