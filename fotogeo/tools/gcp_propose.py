@@ -79,8 +79,8 @@ def _robust(image_xy, XY, ref_px, opts, img, dem, crs, prog):
         return (fit.inliers, lambda px, idx: np.hypot(*(fit.model.forward(px) - XY[idx]).T), fit.sigma,
                 "projective", None)
     from ..orientation.terrain import fit_terrain
-    from .orient import _dem_in
-    ground = np.column_stack([XY, np.asarray(_dem_in(dem, crs).heights(XY), float)])
+    from .rectify import dem_heights
+    ground = np.column_stack([XY, np.asarray(dem_heights(dem, crs).heights(XY), float)])
     fit = fit_terrain(image_xy, ground, model="dlt", threshold_m=threshold, min_sigma_m=ref_px,
                       check_fraction=0.0, rng=opts.seed, is_valid=_unfolded(img.width, img.height), progress=prog)
     return (fit.inliers, lambda px, idx: np.hypot(*(fit.model.forward(ground[idx]) - px).T), fit.sigma_px, "dlt",

@@ -46,10 +46,9 @@ from ..orientation.adjustment import fit_orientation, select_model
 from ..progress import as_progress
 from .checks import check_camera_size, check_gcp_crs
 from .boundary import OUTPUTS, tool
-from .rectify import dem_heights, mean_height, rectify_grid, rectify_image
+from .rectify import mean_height, rectify_grid, rectify_image
 from .results import Orientation
 
-_dem_in = dem_heights  # the name fotogeo.tools.gcp_propose imports; new code imports rectify.dem_heights
 
 
 @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
