@@ -21,14 +21,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
-import rasterio
-import rasterio.errors
 
 from fotogeo.geometry.camera import FrameCamera
 from fotogeo.orientation.block_render import render_block
@@ -36,45 +34,15 @@ from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
 from fotogeo.tools.triangulate_match import block_tie_points
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from rendered_block_ties import with_ties, write_frames  # noqa: E402
+
 VARIANTS = {
     "before": dict(level=0, per_region=None, lsm=False),
     "pyramid": dict(level=1, per_region=25, lsm=False),
     "after": dict(level=1, per_region=25, lsm=True),
     "full+lsm": dict(level=0, per_region=25, lsm=True),
 }
-
-
-def write_frames(folder: Path, sb, images) -> list:
-    paths = []
-    for name, img in zip(sb.block.frames, images):
-        path = folder / f"{name}.tif"
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-            with rasterio.open(path, "w", driver="GTiff", width=img.shape[1], height=img.shape[0], count=1,
-                               dtype="uint8") as ds:
-                ds.write(img[None])
-        paths.append(path)
-    return paths
-
-
-def with_ties(sb, frame, track, pixel, sigma, a_priori: float):
-    """The simulated block's control and check observations plus the matched tie points."""
-    import dataclasses
-    b = sb.block
-    known = b.role[b.obs_point] != "tie"
-    pts = np.unique(b.obs_point[known])
-    remap = np.full(len(b.point_ids), -1)
-    remap[pts] = np.arange(len(pts))
-    n_t = int(track.max()) + 1
-    ids = tuple(b.point_ids[p] for p in pts) + tuple(f"tie{t}" for t in range(n_t))
-    xyz = np.vstack([b.point_xyz[pts], np.full((n_t, 3), np.nan)])
-    psig = np.vstack([b.point_sigma[pts], np.full((n_t, 3), np.nan)])
-    role = np.concatenate([b.role[pts], np.full(n_t, "tie")])
-    s = np.full(len(frame), a_priori) if sigma is None else sigma
-    return dataclasses.replace(b, obs_frame=np.concatenate([b.obs_frame[known], frame]),
-                               obs_point=np.concatenate([remap[b.obs_point[known]], len(pts) + track]),
-                               obs_pixel=np.vstack([b.obs_pixel[known], pixel]), point_ids=ids, point_xyz=xyz,
-                               point_sigma=psig, role=role, obs_sigma=np.concatenate([b.obs_sigma[known], s]))
 
 
 def run_variant(sb, paths, name, kw, a_priori):

@@ -6,21 +6,15 @@ two orthophoto tiles and the DEM only. Compared: the adjusted orientations again
 the dense-grid ground accuracy (every 10th frame pixel at its true height, adjusted vs true
 geometry) beside the single-frame terrain-aware registration (``register --dem``, collinearity with
 the camera) of the same frames. The pipeline and its measures are those of
-``benchmarks/triangulate_ngi_bench.py``.
+``tests/ngi_triangulation.py``, shared with ``benchmarks/triangulate_ngi_bench.py``.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-import numpy as np
 import pytest
 
 from fotogeo.geometry.dem import Dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from triangulate_ngi_bench import NAMES, dense_grid, registration_rmse, run_seed  # noqa: E402
+from ngi_triangulation import NAMES, dense_grid, registration_rmse, run_seed
 
 
 @pytest.fixture(scope="module")

@@ -6,9 +6,6 @@ terrain, and that ground point projects into the other frames.
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -17,9 +14,7 @@ from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
 from fotogeo.tools.triangulate_match import block_tie_points, image_regions, matched_observations, refine_tracks
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from triangulate_ties_bench import with_ties, write_frames  # noqa: E402
+from rendered_block_ties import with_ties, write_frames
 
 
 @pytest.fixture(scope="module")
