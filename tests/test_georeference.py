@@ -147,6 +147,38 @@ def test_georeference_image_to_ground_3d_model(pairs, pixels):
     assert np.abs(at_300.pixel_to_map(pixels) - FRAME.pixel_to_world_at(pixels, 300.0)[:, :2]).max() < 0.5
 
 
+
+class CountingDem:
+    """A height source that records how many points each call samples."""
+
+    def __init__(self, dem):
+        self.dem, self.sampled = dem, []
+
+    def heights_and_gradient(self, XY):
+        self.sampled.append(len(XY))
+        return self.dem.heights_and_gradient(XY)
+
+
+def test_image_to_ground_on_a_dem_iterates_only_points_that_have_not_converged(pairs, pixels):
+    """Each pixel stops at the step where its height changed by less than tol_z and keeps that step's
+    answer: later steps sample fewer points, and a pixel's answer does not depend on the other pixels
+    mapped with it (the old loop went on with every pixel until the last one converged)."""
+    g, dem = pairs, relief_dem()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllPosedWarning)
+        m = MODELS["rfm-common-i2g"].estimate(np.column_stack([g.gcp_pixel, g.gcp_ground[:, 2]]), g.gcp_ground[:, :2])
+    counting = CountingDem(dem)
+    together = Georeference(m, heights=counting, direction="image-to-ground").pixel_to_map(pixels)
+    counts = counting.sampled
+    assert counts[0] == len(pixels) and all(a >= b for a, b in zip(counts, counts[1:])) and counts[-1] < len(pixels)
+    geo = Georeference(m, heights=dem, direction="image-to-ground")
+    alone = np.vstack([geo.pixel_to_map(p[None]) for p in pixels])
+    assert np.abs(together - alone).max() < 1e-9
+    assert np.abs(together - FRAME.pixel_to_world(pixels, dem)[:, :2]).max() < 0.5
+    # on the terrain to tol_z: the model at the DEM's height there gives the same ground point
+    z = dem.heights(together)
+    assert np.abs(m.forward(np.column_stack([pixels, z])) - together).max() < 1e-3
+
 # -- RANSAC validity hook -------------------------------------------------------------------------------
 
 def _apply(Hm, xy):

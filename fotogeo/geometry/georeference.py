@@ -105,13 +105,37 @@ class Georeference:
         return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
     def _forward_on_terrain(self, px, iterations: int = 30, tol_z: float = 1e-4) -> np.ndarray:
-        """Image -> ground model on a DEM: ``XY = f(col, row, Z)``, ``Z = h(XY)`` by fixed point."""
-        z = np.full(len(px), float(self.model.src_norm.offset[2]))
-        XY = self.model.forward(np.column_stack([px, z]))
-        for _ in range(iterations):
-            z_new = heights_at(self.heights, XY)
-            XY = self.model.forward(np.column_stack([px, z_new]))
-            if not np.nanmax(np.abs(z_new - z), initial=0.0) >= tol_z:
-                break
-            z = z_new
-        return XY
+        """Image -> ground model on a DEM: ``XY = f(col, row, Z)``, ``Z = h(XY)`` by fixed point
+        (:func:`intersect_terrain`: only the points not yet converged are iterated)."""
+        z0 = np.full(len(px), float(self.model.src_norm.offset[2]))
+        return intersect_terrain(lambda idx, z, start: self.model.forward(np.column_stack([px[idx], z])),
+                                 lambda XY: heights_at(self.heights, XY), z0, iterations, tol_z)
+
+
+def intersect_terrain(solve, height_of, z0, iterations: int = 30, tol_z: float = 1e-4) -> np.ndarray:
+    """Ground points of image points on the terrain, by fixed point on the height, iterating
+    only the points still moving (an active set).
+
+    ``solve(idx, Z, start)`` gives the ground points ``(len(idx), >= 2)`` (``X, Y`` first) of
+    the image points ``idx`` at heights ``Z`` (``start``: their previous ground points, a
+    starting value for iterative solvers, or ``None`` at step 0); ``height_of(XY)`` the
+    terrain heights ``(N,)`` (NaN off the terrain). Step 0: ``P_0 = solve(Z_0 = z0)``; step k:
+    ``Z_k = h(XY_{k-1})``, ``P_k = solve(Z_k, start=P_{k-1})``. A point converges at the step
+    where ``|Z_k - Z_{k-1}| < tol_z`` (or ``Z_k`` is NaN: off the terrain) and keeps ``P_k``;
+    the others go on, at most ``iterations`` steps. A point's answer therefore does not depend
+    on the other points solved with it. Used by :meth:`Georeference.pixel_to_map` for
+    image -> ground models and by the inverse of the ground -> image 3-D models
+    (:meth:`fotogeo.models.spatial.FittedModel.inverse`).
+    """
+    z = np.array(z0, dtype=np.float64)
+    active = np.arange(len(z))
+    out = np.array(solve(active, z, None), dtype=np.float64)
+    for _ in range(iterations):
+        if active.size == 0:
+            break
+        z_new = height_of(out[active, :2])
+        out[active] = solve(active, z_new, out[active])
+        moving = np.abs(z_new - z[active]) >= tol_z  # False for NaN: off the terrain, done
+        z[active] = z_new
+        active = active[moving]
+    return out

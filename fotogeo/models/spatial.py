@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import IllPosedWarning, InputError, ModelError
 from ..geometry.dem import as_height_source, is_height_source
+from ..geometry.georeference import intersect_terrain
 from .base import Model, Normalisation, check_pairs, newton_2d, register_model
 from .threads import blas_threads_for
 
@@ -134,24 +135,16 @@ class FittedModel(Model):
         return self._intersect(dst, as_height_source(heights), iterations, tol, tol_z)
 
     def _intersect(self, dst, src, iterations, tol, tol_z):
-        """Ray–DEM intersection by fixed point on ``Z``, iterating only the points still moving.
+        """Ray–DEM intersection by fixed point on ``Z``, iterating only the points still moving
+        (:func:`fotogeo.geometry.georeference.intersect_terrain`).
 
         Step k: ``Z_k = h(XY_{k-1})``, ``XY_k`` = the inverse at ``Z_k`` (Newton, started at
         ``XY_{k-1}``). A point converges at the step where ``|Z_k − Z_{k-1}| < tol_z`` (or ``Z_k``
         is NaN: off the DEM) and keeps ``XY_k``; the others go on, at most ``iterations`` steps.
         """
-        z = np.full(len(dst), float(self.src_norm.offset[2]))
-        out = self._inverse_at(dst, z, iterations, tol)
-        active = np.arange(len(dst))
-        for _ in range(iterations):
-            if active.size == 0:
-                break
-            z_new = src.heights_and_gradient(out[active, :2])[0]
-            out[active] = self._inverse_at(dst[active], z_new, iterations, tol, start=out[active])
-            moving = np.abs(z_new - z[active]) >= tol_z  # False for NaN: off the DEM, done
-            z[active] = z_new
-            active = active[moving]
-        return out
+        z0 = np.full(len(dst), float(self.src_norm.offset[2]))
+        return intersect_terrain(lambda idx, z, start: self._inverse_at(dst[idx], z, iterations, tol, start=start),
+                                 lambda XY: src.heights_and_gradient(XY)[0], z0, iterations, tol_z)
 
     def _inverse_at(self, dst, z, iterations, tol, start=None):
         d = self.dst_norm.normalise(dst)
