@@ -8,9 +8,8 @@ the prediction, and grabs screenshots; optionally runs *Propose GCPs* and grabs 
 import json
 import os
 import sys
-import traceback
 
-from qgis.core import QgsApplication, QgsProject, QgsRasterLayer, QgsRectangle
+from qgis.core import QgsProject, QgsRasterLayer, QgsRectangle
 from qgis.PyQt.QtCore import QEvent, Qt, QTimer
 from qgis.PyQt.QtWidgets import QAction, QDockWidget
 from qgis.utils import iface
@@ -18,33 +17,12 @@ from qgis.utils import iface
 ARGS = json.loads(open(os.environ["FOTOGEO_PICKER_ARGS"]).read())
 OUT = ARGS["out"]
 sys.path.insert(0, ARGS["tests"])
+from desktop_harness import Harness  # noqa: E402
 from picker_driver import IMAGE, gcps, mouse, pick, screen, table  # noqa: E402
 
-STATE = {}
+HARNESS = Harness(OUT)
+STATE, finish, guard, grab = HARNESS.state, HARNESS.finish, HARNESS.guard, HARNESS.grab
 KEEP = {}
-
-
-def finish():
-    with open(os.path.join(OUT, "result.json"), "w") as f:
-        json.dump(STATE, f)
-    QgsApplication.exit(0)
-
-
-def guard(fn):
-    def wrapped(*args):
-        try:
-            fn(*args)
-        except Exception:
-            STATE["error"] = traceback.format_exc()
-            finish()
-    return wrapped
-
-
-def grab(widget, name, width=None):
-    image = widget.grab()
-    if width:
-        image = image.scaledToWidth(width, Qt.SmoothTransformation)
-    image.save(os.path.join(OUT, name), "PNG", 9)
 
 
 @guard

@@ -14,6 +14,7 @@ from fotogeo.geometry.georeference import Georeference
 from fotogeo.models import DLT, MODELS, Collinearity, IllPosedWarning, Projective, get_model, model_from_dict, ransac
 from fotogeo.orientation.simulation import make_gcps
 from fotogeo.pixels import outline, pixel_centres
+from height_sources import CountingDem
 
 CAM = FrameCamera(120.0, (92.16, 165.888), (640, 1152))
 FRAME = OrientedFrame(CAM, ExteriorOrientation(500.0, -300.0, 5000.0, 1.5, -2.0, -179.0))
@@ -145,18 +146,6 @@ def test_georeference_image_to_ground_3d_model(pairs, pixels):
     assert np.abs(geo.map_to_pixel(on_map) - pixels).max() < 0.05
     at_300 = geo.with_heights(300.0)
     assert np.abs(at_300.pixel_to_map(pixels) - FRAME.pixel_to_world_at(pixels, 300.0)[:, :2]).max() < 0.5
-
-
-
-class CountingDem:
-    """A height source that records how many points each call samples."""
-
-    def __init__(self, dem):
-        self.dem, self.sampled = dem, []
-
-    def heights_and_gradient(self, XY):
-        self.sampled.append(len(XY))
-        return self.dem.heights_and_gradient(XY)
 
 
 def test_image_to_ground_on_a_dem_iterates_only_points_that_have_not_converged(pairs, pixels):

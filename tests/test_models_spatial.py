@@ -14,6 +14,7 @@ from fotogeo.errors import InputError, ModelError
 from fotogeo.orientation.simulation import make_gcps
 from fotogeo.models import DLT, MODELS, Collinearity, IllPosedWarning, get_model, model_from_dict, ransac
 from fotogeo.pixels import pixel_centres
+from height_sources import CountingDem
 
 CAM = FrameCamera(120.0, (92.16, 165.888), (640, 1152))
 FRAME = OrientedFrame(CAM, ExteriorOrientation(500.0, -300.0, 5000.0, 1.5, -2.0, -179.0))
@@ -217,17 +218,6 @@ def test_clustered_points_are_reported():
     with warnings.catch_warnings():
         warnings.simplefilter("error", IllPosedWarning)
         assert MODELS["poly3d-2"].estimate(h.gcp_ground, h.gcp_pixel).info["coverage"] >= 0.9
-
-
-class CountingDem:
-    """A height source that records how many points each call samples."""
-
-    def __init__(self, dem):
-        self.dem, self.sampled = dem, []
-
-    def heights_and_gradient(self, XY):
-        self.sampled.append(len(XY))
-        return self.dem.heights_and_gradient(XY)
 
 
 @pytest.mark.parametrize("name", ["dlt", "rfm"])

@@ -177,30 +177,20 @@ def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
 
 
 DESKTOP_SCRIPT = r'''
-import json, os, traceback
-from qgis.PyQt.QtCore import QTimer, Qt
+import os, sys
+from qgis.PyQt.QtCore import QTimer
 from qgis.PyQt.QtWidgets import QDockWidget, QTextEdit
 from qgis.utils import iface
 from qgis.core import QgsApplication, QgsProject
-OUT, REF, TGT = (os.environ[k] for k in ("FOTOGEO_DESKTOP_OUT", "FOTOGEO_DESKTOP_REF", "FOTOGEO_DESKTOP_TGT"))
-state = {}
-
-def finish():
-    with open(os.path.join(OUT, "result.json"), "w") as f:
-        json.dump(state, f)
-    QgsApplication.exit(0)
-
-def guard(fn):
-    def wrapped(*args):
-        try:
-            fn(*args)
-        except Exception:
-            state["error"] = traceback.format_exc()
-            finish()
-    return wrapped
+OUT, REF, TGT, TESTS = (os.environ[k] for k in ("FOTOGEO_DESKTOP_OUT", "FOTOGEO_DESKTOP_REF", "FOTOGEO_DESKTOP_TGT",
+                                                "FOTOGEO_DESKTOP_TESTS"))
+sys.path.insert(0, TESTS)
+from desktop_harness import Harness
+HARNESS = Harness(OUT)
+state, finish, guard = HARNESS.state, HARNESS.finish, HARNESS.guard
 
 def grab(widget, name, width=960):
-    widget.grab().scaledToWidth(width, Qt.SmoothTransformation).save(os.path.join(OUT, name), "PNG", 9)
+    HARNESS.grab(widget, name, width)
 
 @guard
 def toolbox():
@@ -248,7 +238,8 @@ def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
     out = tmp_path / "desktop"
     out.mkdir()
     env = {**_env(config), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_REF": str(inputs / Path(ORTHO).name),
-           "FOTOGEO_DESKTOP_TGT": str(inputs / Path(FRAME).name)}
+           "FOTOGEO_DESKTOP_TGT": str(inputs / Path(FRAME).name),
+           "FOTOGEO_DESKTOP_TESTS": str(Path(__file__).resolve().parent)}
     env.pop("QT_QPA_PLATFORM")
     subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", QGIS_DESKTOP, "--nologo", "--noversioncheck",
                     "--code", str(script)], capture_output=True, text=True, timeout=240, env=env, cwd=tmp_path)
