@@ -48,6 +48,8 @@ INTERIOR_PARAMETERS = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
 #: Ebner's (1976) 12 additional parameters (fotogeo.orientation.bundle_jacobian); "ebner" names all of them
 EBNER_PARAMETERS = tuple(f"b{i}" for i in range(1, 13))
 SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner",)
+#: what triangulate does with a frame the block does not determine
+UNDETERMINED = ("fail", "drop")
 
 #: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes
 KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
@@ -359,6 +361,33 @@ TRIANGULATE = Table(
     Option("reference_sigma_z", "float", 1.0, "σ of automatic control heights (m; from the DEM)",
            "σ of the heights of control found on the reference (from the DEM), m.", minimum=0.0,
            exclusive_minimum=True, advanced=True),
+    Option("eo_sigma_height", "float", None, "σ of the approximate projection-centre heights (m; empty = as X, Y)",
+           "σ of the approximate projection-centre heights, e.g. GNSS vertical (m) [--eo-sigma-position, or the "
+           "images' own GNSS accuracy tags].", minimum=0.0, exclusive_minimum=True, advanced=True),
+    Option("geoinfo", "file", None, "senseFly geoinfo.txt (GPS and autopilot attitude per image)",
+           "senseFly geotag file (fileName latitude longitude altitude heading pitch roll) giving the approximate "
+           "orientation of images without --eo.", file_filter="Text files (*.txt);;All files (*)"),
+    Option("undetermined", "choice", "fail", "A frame the block does not determine: fail the run, or drop it",
+           "What to do with a frame the adjustment does not determine (too few or clustered points, angle σ "
+           "above --max-angle-sigma): fail (default) or drop it, re-adjust and report it.",
+           choices=UNDETERMINED),
+    Option("max_angle_sigma", "float", 0.5, "Largest angle σ of a determined frame (°)",
+           "A frame whose adjusted ω, φ, κ have a σ above this (degrees) is undetermined.", minimum=0.0,
+           exclusive_minimum=True, advanced=True),
+    Option("min_frame_points", "int", 6, "Fewest points that determine a frame",
+           "A frame observing fewer distinct points than this is undetermined.", minimum=3, advanced=True),
+    Option("detection_level", "int", None, "Pyramid level of tie-point detection (empty = from the frame size)",
+           "Pyramid level on which tie points are detected (0 = full resolution) [1, or the level that brings a "
+           "frame to ≤ 4 Mpx].", minimum=0, maximum=6, advanced=True),
+    Option("gruber_cells", "int", 3, "Regions per frame side for tie-point thinning (3 = Gruber's 9 positions)",
+           "Each frame is cut into N x N regions for tie-point thinning (3: Gruber's nine positions).", minimum=1,
+           maximum=12, advanced=True),
+    Option("points_per_region", "int", 25, "Tie points kept per region (0 = all)",
+           "Tracks kept per region of a frame, most rays first (0: keep every track).", minimum=0, automatic=0,
+           advanced=True),
+    Option("lsm_window", "int", 21, "Least-squares matching window (px, odd)",
+           "Side of the least-squares matching window of the tie points (px).", minimum=7, maximum=101,
+           advanced=True),
 )
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)

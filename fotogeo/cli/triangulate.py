@@ -1,4 +1,4 @@
-"""``fotogeo triangulate FRAMES... --camera C.yaml [--eo EO.txt] [--observations OBS.csv] --gcps GCPS -o OUTDIR``."""
+"""``fotogeo triangulate FRAMES... [--camera C.yaml] [--eo EO.txt] [--observations OBS.csv] [--gcps GCPS] -o OUTDIR``."""
 from __future__ import annotations
 
 import click
@@ -9,11 +9,13 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 @click.command("triangulate")
 @click.argument("frames", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--camera", required=True, type=click.Path(dir_okay=False),
-              help="Interior orientation YAML (pinhole, or brown with k1, k2, p1, p2, k3: a camera.yaml it wrote).")
+@click.option("--camera", type=click.Path(dir_okay=False),
+              help="Interior orientation YAML (pinhole, or brown with k1, k2, p1, p2, k3: a camera.yaml it wrote) "
+                   "[the images' EXIF/XMP: focal length and pixel pitch, DJI calibration].")
 @click.option("--eo", type=click.Path(dir_okay=False),
               help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees) "
-                   "[frames without a line: space resection against their GCPs].")
+                   "[frames without a line: space resection against their GCPs; without --gcps: the images' GPS "
+                   "and attitude].")
 @click.option("--observations", type=click.Path(dir_okay=False),
               help="Tie-point measurements: a table frame, point, col, row[, sigma] (corner convention) "
                    "[match the overlapping frames].")
@@ -24,7 +26,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
               help="Reference orthophoto(s) (repeat for tiles, or a VRT): control found automatically by matching "
                    "every frame to it, heights from --dem.")
 @click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
-              help="Existing folder for exterior_orientation.txt, block.gpkg, report.json and report.html.")
+              help="Folder for exterior_orientation.txt, block.gpkg, report.json and report.html (created).")
 @options_from(TRIANGULATE)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
@@ -50,6 +52,15 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         s = st[role]
         if s.get("n"):
             click.echo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} Z {s['rmse_z_m']:.3f} m")
+    worst = max(rep.get("frame_quality") or [{}], key=lambda q: q.get("angle_sigma_deg", 0.0))
+    if worst:
+        click.echo(f"worst frame {worst['name']}: angle sigma {worst['angle_sigma_deg']:.3g} deg, position sigma "
+                   f"{worst['position_sigma_m']:.3g} m, {worst['points']} points ({worst['multi_ray_points']} with 3+ rays)")
+    for d in rep.get("dropped_frames") or []:
+        click.echo(f"dropped (undetermined): {d['name']}: {d['reason']}")
+    start = rep.get("start") or {}
+    if start.get("crs_rule"):
+        click.echo(f"map CRS {rep['crs']}: {start['crs_rule']}")
     if rep.get("resected_frames"):
         click.echo(f"resected from their GCPs (no --eo line): {', '.join(rep['resected_frames'])}")
     if rep.get("automatic_control"):

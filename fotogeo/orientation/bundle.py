@@ -81,7 +81,8 @@ class Block:
 @dataclass(frozen=True)
 class BundleOptions:
     """``self_calibration``: free interior parameters (names of ``INTERIOR_NAMES``, ``"ebner"`` for
-    all of Ebner's ``b1 … b12``); ``eo_sigma``: ``(σ position m, σ angles °)`` priors on the
+    all of Ebner's ``b1 … b12``); ``eo_sigma``: ``(σ position m, σ angles °)`` or an ``(m, 6)`` array of σ
+    per frame (``inf``: free; :func:`~fotogeo.orientation.bundle_problem.eo_weights`) priors on the
     approximate orientation or None; ``max_correlation`` and ``significance``: the rules that hold
     interior parameters fixed (module docstring)."""
 

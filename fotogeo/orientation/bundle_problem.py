@@ -76,7 +76,7 @@ def check_block(block, opts) -> None:
 
 def _check_datum(block, active, opts):
     n_ctrl = int(np.count_nonzero(active_points(block, active) & (block.role == "control")))
-    if n_ctrl < 3 and opts.eo_sigma is None:
+    if n_ctrl < 3 and not (eo_weights(opts.eo_sigma, len(block.frames))[:, :3] > 1e-9).any():
         raise InputError(f"the block has {n_ctrl} control point(s) seen in a frame; the datum needs at least 3 "
                          f"(not on one line), or priors on the approximate exterior orientation (eo_sigma, "
                          f"e.g. GNSS/INS centres)")
@@ -137,10 +137,24 @@ def build_problem(block, active, free_interior, origin, eo_sigma) -> Problem:
     m = len(block.frames)
     R0 = np.stack([e.rotation_cv for e in block.eo])
     C0 = np.array([[e.X, e.Y, e.Z] for e in block.eo]) - origin
-    if eo_sigma is None:
-        eo_w = np.zeros((m, 6))
-    else:
-        sp, sa = float(eo_sigma[0]), float(np.radians(eo_sigma[1]))
-        eo_w = np.tile([1 / sp ** 2] * 3 + [1 / sa ** 2] * 3, (m, 1))
+    eo_w = eo_weights(eo_sigma, m)
     return Problem(st, block.obs_pixel[obs], 1.0 / sigma[obs] ** 2, obs, point_ids, ctrl_w, ctrl_xyz, eo_w, C0,
                    R0, bj.pixel_scale(block.camera))
+
+
+def eo_weights(eo_sigma, m: int) -> np.ndarray:
+    """``(m, 6)`` weights of the priors on the approximate orientation: ``eo_sigma`` None (free), a pair
+    ``(σ position m, σ angles °)`` for every frame, or an ``(m, 6)`` array of σ per frame and parameter
+    ``(X0, Y0, Z0 m, ω, φ, κ °)`` where ``inf`` or NaN leaves the parameter free."""
+    if eo_sigma is None:
+        return np.zeros((m, 6))
+    s = np.asarray(eo_sigma, dtype=np.float64)
+    if s.ndim == 1:
+        s = np.tile(np.repeat(s[:2], 3), (m, 1))
+    if s.shape != (m, 6):
+        raise InputError(f"eo_sigma: expected (σ position, σ angle) or one row of 6 σ per frame ({m}); got {s.shape}")
+    s = s.copy()
+    s[:, 3:] = np.radians(s[:, 3:])
+    with np.errstate(divide="ignore"):
+        w = np.where(np.isfinite(s) & (s > 0), 1.0 / np.where(s > 0, s, 1.0) ** 2, 0.0)
+    return w

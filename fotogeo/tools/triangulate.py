@@ -44,11 +44,13 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 """
 from __future__ import annotations
 
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FotogeoWarning, InputError, ModelError, OutputError
 from ..io.block import frame_key, read_image_observations
 from ..io.raster import check_output
 from ..orientation.bundle import Block, BundleOptions, adjust_block
@@ -57,6 +59,7 @@ from .boundary import tool
 from ..io.block import split_check_points
 from .triangulate_inputs import add_automatic_control, frame_names, orientations, read_block_control, read_camera
 from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
+from .triangulate_sources import block_start
 
 __all__ = ["CAMERA_FILE", "FILES", "triangulate"]
 
@@ -92,86 +95,203 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
             np.concatenate(px), np.concatenate(s_obs))
 
 
-def _matched(frames, names, cam, eos, gcp, prog):
+def _matched(frames, names, cam, eos, height, start, match, prog):
     """Image observations (with LSM's σ) from matching the overlapping frames
-    (:func:`fotogeo.tools.triangulate_match.matched_observations`)."""
+    (:func:`fotogeo.tools.triangulate_match.matched_observations`); ``(obs, report, eos, height)``, the
+    orientations and height measured on the images when ``start`` asks for them."""
     from .triangulate_match import matched_observations
-    height = float(np.mean(gcp.ground[:, 2])) if gcp is not None else 0.0
-    return matched_observations(frames, names, cam, eos, height, progress=prog)
+    obs, rep = matched_observations(frames, names, cam, eos, height, start=start, progress=prog, **match)
+    st = rep.get("start") or {}
+    eos, height = st.pop("eos", eos), st.pop("height", height)
+    return obs, rep, tuple(eos), height
+
+
+def _match_options(detection_level, gruber_cells, points_per_region, lsm_window) -> dict:
+    """The tie-point matching settings of the option table as :func:`block_tie_points` arguments."""
+    return {"level": detection_level, "cells": int(gruber_cells), "per_region": points_per_region or None,
+            "half_window": int(lsm_window) // 2}
 
 
 @tool("TRIANGULATE", outputs=("folder",))
 def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, gcp_crs=None, check_points=None,
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
-                image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, snooping: bool = True,
-                max_correlation: float = 0.999, check_fraction: float = 0.0, seed: int = 0, dem=None,
-                orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
-                reference_sigma_xy: float = 0.5, reference_sigma_z: float = 1.0, overwrite: bool = False,
-                progress=None) -> dict:
+                image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
+                snooping: bool = True, max_correlation: float = 0.999, check_fraction: float = 0.0, seed: int = 0,
+                dem=None, orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
+                reference_sigma_xy: float = 0.5, reference_sigma_z: float = 1.0, geoinfo=None,
+                undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
+                detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
+                overwrite: bool = False, progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
     prog = as_progress(progress).with_own_timings()
     frames = [Path(f) for f in ([frames] if isinstance(frames, (str, Path)) else frames)]
     folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"output folder {str(folder)!r} does not exist; create it first")
-    if eo is None and not gcps:
-        raise InputError("give the approximate exterior orientation (--eo) or ground control (--gcps) to resect "
-                         "the frames")
-    inputs = [*frames, camera, eo, observations, gcps, dem, *_as_list(reference)]  # observations None: matched
-    finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=self_calibration,
-                          orthorectify=orthorectify)
+    inputs = [*frames, camera, eo, observations, gcps, dem, geoinfo, *_as_list(reference)]
+    with _output_folder(folder):
+        return _triangulate(frames, camera, eo, observations, folder, inputs, prog, locals())
+
+
+def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
+    """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
+    finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=kw["self_calibration"],
+                          orthorectify=kw["orthorectify"])
     for path in finals.values():
-        check_output(path, inputs, overwrite, "output")
-    cam, distortion = read_camera(camera)
-    names = frame_names(frames, cam)
-    gcp, map_crs, eos, check_ids, auto = _control(frames, names, cam, distortion, eo, gcps, crs, gcp_crs, check_points,
-                                            check_fraction, seed, reference, dem, prog.stage(0.0, 0.2, "control"))
+        check_output(path, inputs, kw["overwrite"], "output")
+    start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
+                        kw["geoinfo"])
+    cam, distortion, names = start.camera, start.distortion, start.names
+    gcp, map_crs, eos, check_ids, auto = _control(frames, names, cam, distortion, start, kw, prog.stage(0.0, 0.2,
+                                                                                                      "control"))
     matching = None
     if observations is not None:
         obs = read_image_observations(observations)
     else:
-        obs, matching = _matched(frames, names, cam, eos, gcp, prog.stage(0.2, 0.5, "matching the frames"))
-    ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, control_sigma_xy,
-                                                          control_sigma_z, image_sigma)
+        height = start_height(gcp, kw["dem"], map_crs, eos, cam)
+        obs, matching, eos, height = _matched(
+            frames, names, cam, eos, height, start.measure(height),
+            _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
+            prog.stage(0.2, 0.5, "matching the frames"))
+    ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
+                                                          kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
-    sig[automatic] = [reference_sigma_xy, reference_sigma_xy, reference_sigma_z]
+    sig[automatic] = [kw["reference_sigma_xy"], kw["reference_sigma_xy"], kw["reference_sigma_z"]]
     block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, distortion=distortion,
                   crs=map_crs)
-    eo_sigma = None
-    if eo_sigma_position is not None or eo_sigma_angle is not None:
-        eo_sigma = (eo_sigma_position or 1e6, eo_sigma_angle or 1e3)
-    opts = BundleOptions(self_calibration=tuple(self_calibration or ()), eo_sigma=eo_sigma, snooping=snooping,
-                         max_correlation=max_correlation)
+    eo_sigma = start.eo_sigma(kw["eo_sigma_position"], kw["eo_sigma_height"], kw["eo_sigma_angle"])
+    opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
+                         snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    result = adjust_block(block, opts, progress=prog.stage(0.5, 0.8, "bundle adjustment"))
-    rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera),
-                                         "eo": str(eo) if eo else None, "gcps": str(gcps) if gcps else None,
+    result, block, quality, dropped = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8, "bundle adjustment"))
+    rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
+                                         "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
-                                         "dem": str(dem) if dem else None, "folder": str(folder),
-                                         "reference": [str(r) for r in _as_list(reference)] or None,
+                                         "dem": str(kw["dem"]) if kw["dem"] else None, "folder": str(folder),
+                                         "reference": [str(r) for r in _as_list(kw["reference"])] or None,
                                          "automatic_control": len(auto), "check_points": sorted(map(str, check_ids)),
-                                         "matching": matching, "resected_frames": _resected(eo, names)})
-    write_outputs(finals, result, block, frames, rep, dem=dem, resolution=resolution, resampling=resampling,
-                  overwrite=overwrite, progress=prog.stage(0.8, 1.0, "writing the outputs"))
+                                         "matching": matching, "resected_frames": start.resected,
+                                         "start": start.summary(), "frame_quality": quality.rows(),
+                                         "dropped_frames": dropped})
+    write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
+                  dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
+                  overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
     prog(1.0, "done")
     return rep
 
 
-def _control(frames, names, cam, distortion, eo, gcps, crs, gcp_crs, check_points, check_fraction, seed, reference,
-             dem, prog):
+def _control(frames, names, cam, distortion, start, kw, prog):
     """``(control GcpList or None, map CRS, approximate orientations, check-point names, automatic control
-    names)``: the surveyed
-    control, the approximate orientation (resection where ``eo`` lacks a frame), the automatic control from
-    ``reference`` (:mod:`fotogeo.tools.triangulate_inputs`) and the check points."""
-    gcp, map_crs, given_checks = read_block_control(gcps, crs, gcp_crs, cam, names, check_points)
-    eos = orientations(eo, names, cam, distortion, gcp, given_checks)
+    names)``: the surveyed control, the approximate orientation (the start's, else resection where ``eo``
+    lacks a frame), the automatic control from ``reference`` (:mod:`fotogeo.tools.triangulate_inputs`) and the
+    check points."""
+    gcp, map_crs, given_checks = read_block_control(kw["gcps"], start.crs, kw["gcp_crs"], cam, names,
+                                                    kw["check_points"])
+    if start.eos:
+        eos = tuple(start.eos[n] for n in names)
+    else:
+        eos = orientations(kw["eo"], names, cam, distortion, gcp, given_checks)
+        start.resected = _resected(kw["eo"], names)
     auto = set()
-    if _as_list(reference):
+    reference, dem = _as_list(kw["reference"]), kw["dem"]
+    if reference:
         surveyed = set(gcp.name) if gcp is not None else set()
-        gcp = add_automatic_control(gcp, frames, names, cam, eos, _as_list(reference), dem, map_crs, prog)
+        gcp = add_automatic_control(gcp, frames, names, cam, eos, reference, dem, map_crs, prog)
         auto = set(gcp.name) - surveyed
-    check_ids = split_check_points(gcp, given_checks, check_fraction or 0.0, seed) if gcp is not None else set()
+    check_ids = (split_check_points(gcp, given_checks, kw["check_fraction"] or 0.0, kw["seed"]) if gcp is not None
+                 else set())
     return gcp, map_crs, eos, check_ids, auto
+
+
+def start_height(gcp, dem, crs, eos, camera):
+    """The terrain height for footprints and the LSM start: the mean GCP height, else the mean DEM height
+    under the frames' image centres, else None (measured on the images,
+    :mod:`fotogeo.tools.triangulate_start`)."""
+    if gcp is not None:
+        return float(np.mean(gcp.ground[:, 2]))
+    if dem is not None:
+        from .triangulate_ortho import terrain
+        src = terrain(dem, crs, None)
+        if src is not None and not isinstance(src, (int, float)):
+            xy = np.array([[e.X, e.Y] for e in eos])
+            h = src.heights_and_gradient(xy)[0]
+            if np.isfinite(h).any():
+                return float(np.nanmean(h))
+    return None
+
+
+@contextmanager
+def _output_folder(folder: Path):
+    """The output folder, created (with its parents) when missing and removed again when the run fails
+    before writing anything into it."""
+    made = []
+    for parent in reversed([folder, *folder.parents]):
+        if not parent.exists():
+            made.append(parent)
+    try:
+        for d in made:
+            d.mkdir()
+    except OSError as e:
+        raise OutputError(f"cannot create the output folder {str(folder)!r} ({e.strerror or e}); choose another "
+                          f"folder (-o)") from None
+    try:
+        yield folder
+    except BaseException:
+        for d in reversed(made):
+            try:
+                d.rmdir()
+            except OSError:
+                break
+        raise
+
+
+def adjust_determined(block, opts, kw, prog):
+    """``(result, block, FrameQuality, dropped)``: the adjustment, every frame checked
+    (:mod:`fotogeo.orientation.bundle_quality`); an undetermined frame fails the run, or with
+    ``undetermined="drop"`` is dropped and the block adjusted again."""
+    from ..orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
+    dropped = []
+    while True:
+        result = adjust_block(block, opts, progress=prog)
+        quality = frame_quality(result, block)
+        prior = _angle_prior(opts.eo_sigma, len(block.frames))
+        bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
+                                  angle_prior=prior)
+        if not bad:
+            held = prior_held_frames(quality, kw["max_angle_sigma"])
+            if held:
+                warnings.warn(f"{len(held)} frame(s) keep an angle σ above {kw['max_angle_sigma']:g}° (up to "
+                              f"{max(held.values()):.3g}°): the images tie them but their absolute attitude rests on "
+                              f"its prior (e.g. a short strip cannot fix its roll); add GCPs or cross strips",
+                              FotogeoWarning, stacklevel=2)
+            return result, block, quality, dropped
+        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
+        if kw["undetermined"] != "drop" or len(block.frames) - len(bad) < 2:
+            raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
+                             f"add tie points or GCPs there, give their attitude (--eo, gimbal data, "
+                             f"--eo-sigma-angle), or leave them out (--undetermined drop)")
+        dropped += [{"name": n, "reason": why} for n, why in bad.items()]
+        block, opts = _without_frames(block, opts, set(bad))
+
+
+def _angle_prior(eo_sigma, m: int) -> np.ndarray:
+    """``(m,)`` True where the frame's angles have a prior (:func:`~fotogeo.orientation.bundle_problem.eo_weights`)."""
+    from ..orientation.bundle_problem import eo_weights
+    return (eo_weights(eo_sigma, m)[:, 3:] > 0).all(axis=1)
+
+
+def _without_frames(block, opts, names):
+    """The block and options without the frames ``names`` (their observations and EO priors)."""
+    from dataclasses import replace
+    keep_f = np.array([f not in names for f in block.frames])
+    new_index = np.cumsum(keep_f) - 1
+    keep_o = keep_f[block.obs_frame]
+    block = replace(block, frames=tuple(f for f, k in zip(block.frames, keep_f) if k),
+                    eo=tuple(e for e, k in zip(block.eo, keep_f) if k), obs_frame=new_index[block.obs_frame[keep_o]],
+                    obs_point=block.obs_point[keep_o], obs_pixel=block.obs_pixel[keep_o],
+                    obs_sigma=None if block.obs_sigma is None else np.asarray(block.obs_sigma)[keep_o])
+    sig = opts.eo_sigma
+    if sig is not None and np.ndim(sig) == 2:
+        opts = replace(opts, eo_sigma=np.asarray(sig)[keep_f])
+    return block, opts
 
 
 def _as_list(paths) -> list:

@@ -50,15 +50,24 @@ from ..progress import as_progress
 from .match import FeatureCache, find_tie_points
 
 
-def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05) -> list:
-    """``[(i, j), ...]`` (i < j) of frames whose footprints at ``height`` overlap (module docstring)."""
-    from shapely.geometry import Polygon
+def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05, *, round_footprints: bool = False) -> list:
+    """``[(i, j), ...]`` (i < j) of frames whose footprints at ``height`` overlap (module docstring).
+
+    ``round_footprints``: κ is not known yet (:mod:`fotogeo.tools.triangulate_start`), so each footprint is
+    the circle through its corners around the image centre's ground point, whatever the frame's heading."""
+    from shapely.geometry import Point, Polygon
     w, h = camera.image_size
     rim = outline(w, h, 8)
     polys = []
     for eo in eos:
         g = OrientedFrame(camera, eo).pixel_to_world_at(rim, height)
-        polys.append(Polygon(g[:, :2]) if np.isfinite(g).all() else None)
+        if not np.isfinite(g).all():
+            polys.append(None)
+        elif round_footprints:
+            c = OrientedFrame(camera, eo).pixel_to_world_at(np.array([camera.principal_point]), height)[0]
+            polys.append(Point(c[:2]).buffer(float(np.max(np.hypot(*(g[:, :2] - c[:2]).T)))))
+        else:
+            polys.append(Polygon(g[:, :2]))
     pairs = []
     for i in range(len(polys)):
         for j in range(i + 1, len(polys)):
@@ -140,8 +149,9 @@ def _detection_options(opts, info, level: int):
 
 
 def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
-    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report)``."""
-    uf, pos, per_pair = _UnionFind(), {}, []
+    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers)``
+    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels)."""
+    uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
     det = _detection_options(opts, infos[0], level)
     cache, last_pair = FeatureCache(), {f: k for k, pair in enumerate(pairs) for f in pair}
     for k, (i, j) in enumerate(pairs):
@@ -157,11 +167,12 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
                     cache.forget(infos[f])
         keep = _epipolar_inliers(xy_i, xy_j, epipolar_px * 2 ** level)
         per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
+        inliers.append((i, j, xy_i[keep], xy_j[keep]))
         for a, b in zip(xy_i[keep], xy_j[keep]):
             na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
             pos[na], pos[nb] = a, b
             uf.union(na, nb)
-    return uf, pos, per_pair
+    return uf, pos, per_pair, inliers
 
 
 def _tracks(uf, pos, n_frames):
@@ -253,26 +264,46 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
     return ok, out, sigma, summary
 
 
-def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int = 1,
+def detection_level(camera) -> int:
+    """The pyramid level of detection for frames of this size: 1 (the measured default), or the level that
+    brings a frame to at most 4 Mpx."""
+    w, h = camera.image_size
+    return max(1, int(np.ceil(np.log(w * h / 4e6) / np.log(4))))
+
+
+def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
-                     options=None, progress=None):
+                     options=None, start=None, progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
-    block (module docstring): detection on pyramid ``level``, epipolar RANSAC, tracks, thinning to
-    ``per_region`` tracks in each of ``cells x cells`` regions per frame (None: no thinning), LSM at full
-    resolution (``lsm``; σ None without it)."""
+    block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
+    RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
+    no thinning), LSM at full resolution (``lsm``; σ None without it).
+
+    ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate_start`) measures
+    what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
+    height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
-    pairs = overlapping_pairs(camera, eos, height)
+    level = detection_level(camera) if level is None else int(level)
+    if height is None:
+        from .triangulate_start import provisional_height
+        height = provisional_height(eos, camera)
+    pairs = overlapping_pairs(camera, eos, height, round_footprints=start is not None)
     alone = sorted(set(range(len(frames))) - {i for p in pairs for i in p})
     if alone:
         raise MatchingError(f"frame(s) {', '.join(repr(str(frames[i])) for i in alone[:10])} overlap no other frame "
                             f"with the approximate orientation (footprints at height {height:.1f}); check the "
                             f"orientation file or remove them")
     infos = [open_raster(f, "frame") for f in frames]
-    uf, pos, per_pair = _pair_matches(infos, pairs, opts, level, epipolar_px, prog.stage(0.0, 0.7, "matching"))
+    uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
+                                               prog.stage(0.0, 0.7, "matching"))
     frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
     report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
               "dropped_inconsistent_tracks": dropped}
+    if start is not None:
+        eos, new_height, report["start"] = start(eos, inliers)
+        height = height if new_height is None else new_height
+        report["start"].update(eos=tuple(eos), height=float(height))
     if per_region is not None and len(track):
         rays = np.bincount(track)[track].astype(float)
         kept = thin_to_budget(track, frame, image_regions(pixel, camera, cells), -rays, int(per_region))

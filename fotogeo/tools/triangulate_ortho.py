@@ -81,8 +81,9 @@ def footprints(result, block, heights, crs) -> dict:
 
 def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dict:
     """Per frame, the checked output grid of its orthorectification (:func:`fotogeo.tools.rectify.rectify_grid`,
-    the mean height of the adjusted points); nothing is resampled yet, so a grid that cannot be made stops the
-    run before any output."""
+    the mean height of the adjusted points); nothing is resampled yet. A frame whose grid cannot be made (e.g.
+    off the DEM) gets the reason instead (a string): it is reported and skipped, never losing the adjustment's
+    outputs."""
     from ..io.raster import open_raster
     from .rectify import rectify_grid
     points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
@@ -92,9 +93,8 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
         try:
             grids[name] = rectify_grid(paths[name], open_raster(path, "frame"), model, crs, ground, dem, None,
                                        resolution)
-        except ModelError as exc:
-            raise InputError(f"frame {name}: cannot be orthorectified ({str(exc)[:160]}); check that the DEM "
-                             f"covers the frame's footprint") from None
+        except (ModelError, InputError) as exc:
+            grids[name] = f"not orthorectified: {str(exc)[:160]}; check that the DEM covers the frame's footprint"
     return grids
 
 
@@ -105,5 +105,8 @@ def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, 
     out = {}
     for k, (path, name) in enumerate(zip(frames, block.frames)):
         stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
+        if isinstance(grids.get(name), str) or name not in temp_paths:  # no grid: the frame is reported, the other outputs are still written
+            out[name] = {"error": grids.get(name, "no grid")}
+            continue
         out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
     return out

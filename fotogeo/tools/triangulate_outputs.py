@@ -44,7 +44,7 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         if "camera" in paths:
             write_interior_orientation(out.temp(paths["camera"]), "adjusted", result.camera, result.distortion)
         if ortho:
-            temps = {n: out.temp(p) for n, p in ortho.items()}
+            temps = {n: out.temp(p) for n, p in ortho.items() if not isinstance(grids.get(n), str)}
             rep["orthorectified"] = orthorectify(temps, grids, frames, block, crs, resampling,
                                                  progress.stage(0.0, 0.9, "orthorectifying"))
         write_layers(out.temp(paths["gpkg"]), layers, crs)
@@ -80,7 +80,8 @@ def block_layers(result, block) -> dict:
         "frames": {"geometry": _points3d(eo[:, :3]), "name": np.array(block.frames, dtype=str),
                    "omega": eo[:, 3], "phi": eo[:, 4], "kappa": eo[:, 5], "sigma_x0": result.eo_sigma[:, 0],
                    "sigma_y0": result.eo_sigma[:, 1], "sigma_z0": result.eo_sigma[:, 2],
-                   "observations": n_used},
+                   "sigma_rx_deg": result.eo_sigma[:, 3], "sigma_ry_deg": result.eo_sigma[:, 4],
+                   "sigma_rz_deg": result.eo_sigma[:, 5], "observations": n_used},
         "residuals": {"geometry": _points3d(result.point_xyz[block.obs_point[o_live]]),
                       "frame": np.array(block.frames, dtype=object)[block.obs_frame[o_live]].astype(str),
                       "point": ids[block.obs_point[o_live]].astype(str),

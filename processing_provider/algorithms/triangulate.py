@@ -76,11 +76,12 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterMultipleLayers(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
-        self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Camera (interior orientation YAML)"),
-                                                     fileFilter=YAML))
+        self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Camera (interior orientation YAML; empty = "
+                                                                     "the images' EXIF/XMP)"),
+                                                     fileFilter=YAML, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = resect "
-                                                                 "from the GCPs)"), fileFilter=TEXT_FILTER,
-                                                     optional=True))
+                                                                 "from the GCPs, else the images' GPS)"),
+                                                     fileFilter=TEXT_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
                                                      fileFilter=CONTROL_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource(

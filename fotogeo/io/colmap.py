@@ -1,0 +1,223 @@
+"""COLMAP text models (``cameras.txt`` + ``images.txt``) -> :class:`ApproximateBlock`, and back.
+
+The format (COLMAP ``doc/format.rst``, ``doc/cameras.rst``, ``src/colmap/sensor/models.h``):
+
+* ``cameras.txt``: ``CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]`` per line. Read: ``SIMPLE_PINHOLE``
+  (f, cx, cy), ``PINHOLE`` (fx, fy, cx, cy), ``SIMPLE_RADIAL`` (f, cx, cy, k), ``RADIAL`` (f, cx, cy,
+  k1, k2), ``OPENCV`` (fx, fy, cx, cy, k1, k2, p1, p2) and ``FULL_OPENCV`` (… k3, k4, k5, k6; only
+  with k4 = k5 = k6 = 0, its rational radial term being otherwise beyond fotogeo's Brown model). The
+  distortion acts on ``(x/z, y/z)`` with OpenCV's terms, fotogeo's model
+  (:mod:`fotogeo.orientation.bundle_jacobian`): the coefficients are taken as they are. Fisheye and
+  other models are refused by name. COLMAP's image coordinates put the top-left corner at (0, 0)
+  and the centre of the top-left pixel at (0.5, 0.5): GDAL's corner convention, so ``cx, cy`` are
+  fotogeo's ``ppx, ppy`` unchanged.
+* ``images.txt``: two lines per image, ``IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME`` and the
+  (possibly empty) ``POINTS2D`` line. The Hamilton quaternion and ``T`` map world to camera,
+  ``x_cam = R·X + T``, the centre ``C = −Rᵀ·T``; camera axes x right, y down, z forward, so fotogeo's
+  PATB rotation is ``Rᵀ·diag(1, −1, −1)``.
+* COLMAP's world frame is arbitrary unless the model was geo-registered (``colmap model_aligner``
+  with positions in a projected CRS): the reader needs that CRS, and the model's X, Y, Z axes are
+  taken as the CRS's easting, northing and up. ``points3D.txt`` is not read. Binary models (``.bin``)
+  are refused with the conversion command.
+
+:func:`write_colmap` writes a block as a text model (tests, round trips).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, one_line
+from ..geometry.approx_block import ApproximateBlock, ApproxShot
+from .block import frame_key
+from .opensfm import patb_from_world_to_camera, pixel_camera, world_to_camera_from_patb
+from .text import read_text_file
+
+#: COLMAP camera models read, with their parameter names
+MODELS = {"SIMPLE_PINHOLE": ("f", "cx", "cy"), "PINHOLE": ("fx", "fy", "cx", "cy"),
+          "SIMPLE_RADIAL": ("f", "cx", "cy", "k1"), "RADIAL": ("f", "cx", "cy", "k1", "k2"),
+          "OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"),
+          "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")}
+NO_CRS = ("COLMAP coordinates have no CRS; give the CRS the model was aligned to (e.g. with colmap "
+          "model_aligner)")
+
+
+def _lines(path: Path, what: str):
+    """``(line number, text)`` of ``path`` without comment lines (blank lines kept: an image's
+    points line may be empty)."""
+    text = read_text_file(path, what, hint="give the folder of a COLMAP text model")
+    return [(i, ln.strip()) for i, ln in enumerate(text.splitlines(), 1) if not ln.lstrip().startswith("#")]
+
+
+def _camera(parts: list, where: str):
+    model = parts[1].upper()
+    if model not in MODELS:
+        raise ValueError(f"camera model {parts[1][:30]!r} cannot be converted to fotogeo's Brown model (only "
+                         f"{', '.join(MODELS)}); re-run COLMAP with --ImageReader.camera_model OPENCV")
+    names = MODELS[model]
+    if len(parts) != 4 + len(names):
+        raise ValueError(f"{model} needs {len(names)} parameters ({' '.join(names)}); got {len(parts) - 4}")
+    w, h = int(parts[2]), int(parts[3])
+    p = dict(zip(names, (float(v) for v in parts[4:])))
+    if w <= 0 or h <= 0 or not np.isfinite(list(p.values())).all():
+        raise ValueError("width, height must be positive and the parameters finite")
+    if any(p.get(k, 0.0) for k in ("k4", "k5", "k6")):
+        raise ValueError("FULL_OPENCV with k4, k5, k6 (a rational radial term) cannot be converted to fotogeo's "
+                         "Brown model; re-run COLMAP with OPENCV")
+    fx, fy = p.get("fx", p.get("f")), p.get("fy", p.get("f"))
+    return pixel_camera(w, h, fx, fy, p["cx"], p["cy"], p, f"COLMAP {model} of {where}")
+
+
+def read_colmap_cameras(path) -> dict:
+    """``cameras.txt`` -> ``{camera id (str): ApproxCamera}`` (module docstring)."""
+    path = Path(path)
+    where = f"COLMAP cameras {str(path)!r}"
+    cams = {}
+    for lineno, ln in _lines(path, "COLMAP cameras file"):
+        parts = ln.split()
+        if not parts:
+            continue
+        try:
+            if len(parts) < 4:
+                raise ValueError("expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]")
+            cams[parts[0]] = _camera(parts, repr(str(path)))
+        except ValueError as exc:
+            raise InputError(one_line(f"{where}, line {lineno}: {exc}")) from None
+    if not cams:
+        raise InputError(f"{where} defines no camera; give a COLMAP text model (colmap model_converter "
+                         f"--output_type TXT)")
+    return cams
+
+
+def _image(parts: list):
+    """``(name, camera id, C, R_wc)`` of an ``images.txt`` image line."""
+    q = np.array([float(v) for v in parts[1:5]])
+    t = np.array([float(v) for v in parts[5:8]])
+    n = np.linalg.norm(q)
+    if not (np.isfinite(q).all() and np.isfinite(t).all()) or abs(n - 1.0) > 1e-3:
+        raise ValueError(f"the quaternion QW QX QY QZ must be a finite unit quaternion; got {q.tolist()}")
+    from scipy.spatial.transform import Rotation
+    R = Rotation.from_quat(np.r_[q[1:], q[0]] / n).as_matrix()  # scipy takes (x, y, z, w)
+    return parts[9].strip(), parts[8], -R.T @ t, R
+
+
+def _is_points_line(text: str) -> bool:
+    """An ``images.txt`` POINTS2D line: empty, or ``X Y POINT3D_ID`` triplets of numbers."""
+    toks = text.split()
+    try:
+        [float(v) for v in toks]
+    except ValueError:
+        return False
+    return len(toks) % 3 == 0
+
+
+def read_colmap_images(path) -> list:
+    """``images.txt`` -> ``[(name, camera id, C (3,), R_wc (3, 3))]`` (module docstring)."""
+    path = Path(path)
+    where = f"COLMAP images {str(path)!r}"
+    out, expect_image = [], True
+    for lineno, ln in _lines(path, "COLMAP images file"):
+        parts = ln.split(maxsplit=9)
+        if expect_image and not parts:
+            continue
+        if not expect_image and _is_points_line(ln):
+            expect_image = True  # the image's POINTS2D line, possibly empty
+            continue
+        try:
+            if len(parts) < 10:
+                raise ValueError("expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME")
+            out.append(_image(parts))
+        except ValueError as exc:
+            raise InputError(one_line(f"{where}, line {lineno}: {exc}")) from None
+        expect_image = False
+    if not out:
+        raise InputError(f"{where} holds no image; COLMAP registered no image (re-run the mapper)")
+    return out
+
+
+def _model_file(folder: Path, name: str) -> Path:
+    p = folder / name
+    if p.is_file():
+        return p
+    if (folder / name.replace(".txt", ".bin")).is_file():
+        raise InputError(f"COLMAP model {str(folder)!r} is binary; convert it to text with colmap model_converter "
+                         f"--input_path {folder} --output_path {folder} --output_type TXT")
+    raise InputError(f"COLMAP model {str(folder)!r} has no {name}; give the folder of a COLMAP text model "
+                     f"(cameras.txt, images.txt)")
+
+
+def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> ApproximateBlock:
+    """Read a COLMAP text model geo-registered in ``crs`` (required; a projected CRS) into an
+    :class:`ApproximateBlock` (module docstring); shots are keyed by the image's stem, cameras by
+    COLMAP's ``CAMERA_ID``. ``height_reference`` (``"ellipsoid"``/``"geoid"``) states what Z is above
+    when known (it is whatever the alignment positions were)."""
+    from ..crs import parse_crs, require_projected
+    folder = Path(model_dir)
+    if not folder.is_dir():
+        raise InputError(f"COLMAP model {str(folder)!r} is not a folder; give the folder holding cameras.txt "
+                         f"and images.txt")
+    if crs is None:
+        raise InputError(f"COLMAP model {str(folder)!r}: {NO_CRS}")
+    map_crs = require_projected(parse_crs(crs, "COLMAP model CRS"), "COLMAP model CRS")
+    cams = read_colmap_cameras(_model_file(folder, "cameras.txt"))
+    shots = {}
+    for name, cid, C, R in read_colmap_images(_model_file(folder, "images.txt")):
+        key = frame_key(name)
+        if cid not in cams:
+            raise InputError(f"COLMAP model {str(folder)!r}: image {name!r} uses camera {cid}, which cameras.txt "
+                             f"does not define")
+        if key in shots:
+            raise InputError(f"COLMAP model {str(folder)!r}: two images have the stem {key!r}; fotogeo keys frames "
+                             f"by file stem: rename them")
+        shots[key] = ApproxShot(key, cid, tuple(C), patb_from_world_to_camera(R),
+                                height_reference=height_reference, source="COLMAP model")
+    used = {s.camera_id for s in shots.values()}
+    notes = (f"read from COLMAP model {str(folder)!r}",
+             f"model coordinates taken as {map_crs.name} (X easting, Y northing, Z up)",
+             "heights: " + (f"above the {height_reference}" if height_reference else
+                            "in the vertical reference of the alignment positions (not stated)"))
+    return ApproximateBlock({c: cams[c] for c in cams if c in used}, shots, map_crs, notes)
+
+
+def _colmap_ids(block: ApproximateBlock) -> dict:
+    """COLMAP's integer CAMERA_IDs for the block's camera ids (kept when they are positive integers)."""
+    ids = list(block.cameras)
+    if all(str(i).isdigit() and int(i) > 0 for i in ids) and len({int(i) for i in ids}) == len(ids):
+        return {i: int(i) for i in ids}
+    return {i: k for k, i in enumerate(ids, 1)}
+
+
+def _camera_line(cid: int, cam) -> str:
+    c, d = cam.camera, cam.distortion_tuple()  # (k1, k2, k3, p1, p2)
+    w, h = c.image_size
+    (ppx, ppy), (k1, k2, k3, p1, p2) = c.principal_point, d
+    if not any(d):
+        return f"{cid} PINHOLE {w} {h} {c.fx!r} {c.fy!r} {ppx!r} {ppy!r}"
+    if k3 == 0.0:
+        return f"{cid} OPENCV {w} {h} {c.fx!r} {c.fy!r} {ppx!r} {ppy!r} {k1!r} {k2!r} {p1!r} {p2!r}"
+    return f"{cid} FULL_OPENCV {w} {h} {c.fx!r} {c.fy!r} {ppx!r} {ppy!r} {k1!r} {k2!r} {p1!r} {p2!r} {k3!r} 0 0 0"
+
+
+def write_colmap(model_dir, block: ApproximateBlock, *, extension: str = ".jpg") -> None:
+    """Write ``block`` as a COLMAP text model in ``model_dir`` (created): ``cameras.txt`` (PINHOLE,
+    OPENCV, or FULL_OPENCV when k3 ≠ 0), ``images.txt`` (an empty points line per image; image names
+    are the shot names plus ``extension``) and an empty ``points3D.txt``. Shots without position or
+    angles are left out; the coordinates are the block's map coordinates."""
+    from scipy.spatial.transform import Rotation
+    folder = Path(model_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    ids = _colmap_ids(block)
+    cams = ["# Camera list with one line of data per camera:", "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]"]
+    cams += [_camera_line(ids[c], cam) for c, cam in block.cameras.items()]
+    imgs = ["# Image list with two lines of data per image:", "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME",
+            "#   POINTS2D[] as (X, Y, POINT3D_ID)"]
+    for k, s in enumerate((s for s in block.shots.values() if s.exterior is not None), 1):
+        R = world_to_camera_from_patb(s.angles)
+        x, y, z, w = Rotation.from_matrix(R).as_quat()
+        t = -R @ np.asarray(s.position)
+        pose = " ".join(repr(float(v)) for v in (w, x, y, z, *t))
+        imgs += [f"{k} {pose} {ids[s.camera_id]} {s.name}{extension}", ""]
+    (folder / "cameras.txt").write_text("\n".join(cams) + "\n", encoding="utf-8")
+    (folder / "images.txt").write_text("\n".join(imgs) + "\n", encoding="utf-8")
+    (folder / "points3D.txt").write_text("# 3D point list with one line of data per point:\n", encoding="utf-8")

@@ -1,0 +1,218 @@
+"""Where a block's camera, approximate orientation, map CRS and GNSS weights come from (``fotogeo triangulate``).
+
+Every source ends in one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`:
+
+* ``--camera`` (orthority YAML) and ``--eo`` (``name X Y Z omega phi kappa`` lines) as before;
+* nothing given: what the images carry — EXIF GPS, XMP attitude and calibration
+  (:func:`fotogeo.io.exif.read_exif_block`), with senseFly's ``geoinfo.txt`` (``--geoinfo``) for
+  the autopilot's attitude;
+* a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate_inputs`).
+
+**The map CRS** (:func:`map_crs_rule`): ``--crs``; else the ground control's own CRS; else the
+reference orthophoto's, then the DEM's, when projected; else the UTM zone of the images' GPS. The
+rule used is stated in the report (``start.crs_rule``).
+
+**Unknown attitude**: frames start level (ω = φ = 0) with κ along the flight direction
+(capture order), and κ and the terrain height are then measured on the matched pairs
+(:mod:`fotogeo.tools.triangulate_start`) before least-squares matching.
+
+**GNSS weights** (:meth:`BlockStart.eo_sigma`): σ given on the command line win
+(``--eo-sigma-position`` horizontal, ``--eo-sigma-height`` vertical, ``--eo-sigma-angle``); else
+positions from the images' GPS get the σ of their accuracy tags (senseFly ``GPSXYAccuracy`` /
+``GPSZAccuracy``, DJI RTK standard deviations) or :data:`GNSS_SIGMA` (a consumer receiver) and
+attitudes from a gimbal/autopilot :data:`ATTITUDE_SIGMA`; unknown attitudes stay free.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..crs import parse_crs, require_projected
+from ..errors import InputError
+from ..geometry.camera import ExteriorOrientation
+from ..io.block import frame_key
+
+#: σ (horizontal, vertical) in metres of a GPS position without accuracy tags (consumer receiver)
+GNSS_SIGMA = (5.0, 10.0)
+#: σ in degrees of an attitude read from a gimbal or an autopilot
+ATTITUDE_SIGMA = 5.0
+
+
+@dataclass
+class BlockStart:
+    """The camera, names, approximate orientations and CRS of a block before matching (module docstring)."""
+
+    camera: object
+    distortion: tuple
+    names: list
+    eos: dict  # name -> ExteriorOrientation of the frames that have a start
+    crs: object
+    crs_rule: str
+    source: str
+    sigmas: dict = field(default_factory=dict)  # name -> (σh, σv, σangle or None) of the images' own data
+    level: dict = field(default_factory=dict)  # name -> True where the attitude was unknown (level start)
+    resected: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+
+    def measure(self, height):
+        """The ``start`` callable of :func:`~fotogeo.tools.triangulate_match.block_tie_points`, or None when
+        the orientations and the terrain height are known."""
+        unknown_kappa = any(self.level.get(n) for n in self.names)
+        if not unknown_kappa and height is not None:
+            return None
+        from .triangulate_start import start_from_pairs
+
+        def measure(eos, inliers):
+            eos = tuple(eos)
+            return start_from_pairs(eos, self.camera, inliers, estimate_kappa=unknown_kappa,
+                                    estimate_height=height is None)
+        return measure
+
+    def eo_sigma(self, position, height, angle):
+        """The ``eo_sigma`` of :class:`~fotogeo.orientation.bundle.BundleOptions` (module docstring)."""
+        m = len(self.names)
+        if position is not None or height is not None or angle is not None:
+            h = position if position is not None else np.inf
+            v = height if height is not None else h
+            a = angle if angle is not None else np.inf
+            return np.tile([h, h, v, a, a, a], (m, 1)).astype(float)
+        if not self.sigmas:
+            return None
+        rows = []
+        for n in self.names:
+            sh, sv, sa = self.sigmas.get(n, (np.inf, np.inf, None))
+            rows.append([sh, sh, sv] + [sa if sa is not None else np.inf] * 3)
+        return np.array(rows, dtype=float)
+
+    def summary(self) -> dict:
+        return {"source": self.source, "crs_rule": self.crs_rule, "notes": list(self.notes),
+                "level_start_frames": [n for n in self.names if self.level.get(n)],
+                "gnss_sigma_m": {n: list(map(_finite, self.sigmas[n][:2])) for n in self.names if n in self.sigmas}}
+
+
+def _finite(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _projected_crs_of(path, what):
+    """The CRS of a raster when it is projected, else None."""
+    from ..io.raster import open_raster
+    info = open_raster(path, what)
+    return info.crs if info.crs is not None and info.crs.is_projected else None
+
+
+def map_crs_rule(crs, gcps, reference, dem, approx_crs) -> tuple:
+    """``(CRS or None, rule)`` of the module docstring; None: the GCP file's CRS decides later."""
+    if crs and str(crs).strip().lower() != "auto":
+        return parse_crs(crs, "--crs"), "given (--crs)"
+    if gcps:
+        return None, "the ground control's CRS (--gcps)"
+    for paths, what in ((reference, "reference orthophoto"), ([dem] if dem else [], "DEM")):
+        for p in paths or []:
+            c = _projected_crs_of(p, what)
+            if c is not None:
+                return c, f"the {what}'s CRS ({'--reference' if what.startswith('ref') else '--dem'})"
+    if approx_crs is not None:
+        return approx_crs, "the UTM zone of the images' GPS positions"
+    return None, ""
+
+
+def _from_images(frames, crs, geoinfo, need_position: bool):
+    """The ApproximateBlock of what the images carry (EXIF/XMP, and ``geoinfo``); frames without a GPS
+    position are refused first when ``need_position`` (no --eo, no --gcps) and no geoinfo can give one."""
+    from ..io.exif import read_exif_block, read_image_metadata
+    if need_position and geoinfo is None:
+        missing = [frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None]
+        if missing:
+            raise InputError(f"frame(s) {', '.join(missing[:10])} carry no GPS position in their EXIF; give the "
+                             f"approximate exterior orientation (--eo) or ground control (--gcps) to resect them")
+    return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo)
+
+
+def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo) -> BlockStart:
+    """Read the camera and the approximate orientation (module docstring)."""
+    from .triangulate_inputs import frame_names, read_camera
+    names = [frame_key(f) for f in frames]
+    approx = None
+    if camera is None or (eo is None and not gcps):
+        given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
+        approx = _from_images(frames, given or _first_projected(reference, dem), geoinfo, eo is None and not gcps)
+    if approx is not None and eo is None and not gcps:
+        _require_gps(names, approx)
+    map_crs, rule = map_crs_rule(crs, gcps, reference, dem, approx.crs if approx is not None else None)
+    if map_crs is None and not gcps:
+        raise InputError("no map CRS: give --crs (a projected CRS such as a UTM zone), ground control (--gcps), a "
+                         "projected reference orthophoto (--reference) or DEM (--dem), or images with GPS")
+    if map_crs is not None:
+        require_projected(map_crs, "map CRS of the block (--crs)")
+    if camera is not None:
+        cam, dist = read_camera(camera)
+        source = "--camera"
+    else:
+        cam, dist = _single_camera(approx)
+        source = "the images' EXIF/XMP"
+    frame_names(frames, cam)
+    start = BlockStart(cam, dist, names, {}, map_crs, rule, source,
+                       notes=list(approx.notes) if approx is not None else [])
+    if eo is None and approx is not None and not gcps:
+        _start_from_images(start, approx, map_crs)
+    return start
+
+
+def _first_projected(reference, dem):
+    for p in list(reference or []) + ([dem] if dem else []):
+        c = _projected_crs_of(p, "reference orthophoto" if p != dem else "DEM")
+        if c is not None:
+            return c
+    return None
+
+
+def _single_camera(approx):
+    """The one camera of the block; mixed cameras are named with their frames (one block per camera)."""
+    used = {}
+    for n, s in approx.shots.items():
+        used.setdefault(s.camera_id, []).append(n)
+    if len(used) > 1:
+        groups = "; ".join(f"{cid}: {', '.join(sorted(v)[:4])}{' …' if len(v) > 4 else ''}" for cid, v in used.items())
+        raise InputError(f"the frames come from {len(used)} cameras ({groups}); triangulate the frames of each "
+                         f"camera separately, or give one --camera for all")
+    ac = approx.cameras[next(iter(used))]
+    return ac.camera, ac.distortion_tuple()
+
+
+def _require_gps(names, approx) -> None:
+    """Refuse frames whose files carry no GPS position, naming them and what to give instead."""
+    missing = [n for n in names if approx.shots.get(n) is None or approx.shots[n].position is None]
+    if missing:
+        raise InputError(f"frame(s) {', '.join(missing[:10])} carry no GPS position in their EXIF; give the "
+                         f"approximate exterior orientation (--eo) or ground control (--gcps) to resect them")
+
+
+def _start_from_images(start: BlockStart, approx, map_crs) -> None:
+    """Orientations from the images' GPS and attitude; frames with unknown attitude start level, κ along
+    the flight direction (module docstring)."""
+    from .triangulate_start import flight_kappa
+    _require_gps(start.names, approx)
+    if approx.crs is not None and map_crs is not None and not approx.crs.equals(map_crs):
+        raise InputError(f"the images' positions are in {approx.crs.to_string()} but the map CRS is "
+                         f"{map_crs.to_string()}; give --crs")
+    shots = [approx.shots[n] for n in start.names]
+    order = np.argsort([n for n in start.names], kind="stable")
+    centres = np.array([s.position for s in shots])
+    kappa = np.empty(len(shots))
+    kappa[order] = flight_kappa(centres[order])
+    refs = {s.height_reference for s in shots}
+    if len(refs) > 1:
+        raise InputError(f"the images' GPS heights mix references ({', '.join(sorted(map(str, refs)))}); give --eo "
+                         f"with heights in one reference")
+    start.notes.append(f"GPS heights: {refs.pop() or 'reference not stated by the camera'}")
+    for n, s, k in zip(start.names, shots, kappa):
+        angles = s.angles if s.angles is not None else (0.0, 0.0, float(k))
+        start.level[n] = s.angles is None
+        start.eos[n] = ExteriorOrientation(*s.position, *angles)
+        sh = s.sigma_h if s.sigma_h else GNSS_SIGMA[0]
+        sv = s.sigma_v if s.sigma_v else GNSS_SIGMA[1]
+        start.sigmas[n] = (sh, sv, ATTITUDE_SIGMA if s.angles is not None else None)
+    start.source += "; orientation from the images' GPS" + ("" if all(not v for v in start.level.values()) else
+                                                              " (attitude unknown: level start, κ from the images)")

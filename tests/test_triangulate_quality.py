@@ -1,0 +1,78 @@
+"""Never wrong in silence (issue 20): every adjusted frame is checked for points, spread and angle σ.
+
+A frame tied by three points fits them exactly whatever its orientation: σ0 and the image RMS stay
+small. The tool must refuse such a block (or drop the frame when asked), never report it as a success.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fotogeo.errors import ModelError
+from fotogeo.geometry.camera import FrameCamera
+from fotogeo.orientation.block_simulation import simulate_block
+from fotogeo.orientation.bundle import BundleOptions, adjust_block
+from fotogeo.orientation.bundle_quality import frame_quality, undetermined_frames
+from fotogeo.tools.triangulate import adjust_determined
+
+CAMERA = FrameCamera(6.0, (4.0, 6.0), (400, 600))
+KW = {"min_frame_points": 6, "max_angle_sigma": 0.5, "undetermined": "fail"}
+
+
+def _starved(sb, frame_index: int, keep_points: int, kappa_error: float = 0.0):
+    """``sb``'s block with frame ``frame_index`` reduced to ``keep_points`` tie observations near its centre
+    and its approximate κ off by ``kappa_error``°."""
+    b = sb.block
+    sel = np.flatnonzero((b.obs_frame == frame_index) & (b.role[b.obs_point] == "tie"))
+    centre = np.array(CAMERA.image_size) / 2
+    sel = sel[np.argsort(np.hypot(*(b.obs_pixel[sel] - centre).T))]
+    drop = np.zeros(len(b.obs_frame), bool)
+    drop[sel[keep_points:]] = True
+    drop |= (b.obs_frame == frame_index) & (b.role[b.obs_point] != "tie")
+    eo = list(b.eo)
+    eo[frame_index] = dataclasses.replace(eo[frame_index], kappa=eo[frame_index].kappa + kappa_error)
+    return dataclasses.replace(b, eo=tuple(eo), obs_frame=b.obs_frame[~drop], obs_point=b.obs_point[~drop],
+                               obs_pixel=b.obs_pixel[~drop], obs_sigma=b.obs_sigma[~drop])
+
+
+@pytest.fixture(scope="module")
+def sb():
+    return simulate_block(seed=2, strips=2, frames_per_strip=4, camera=CAMERA, point_spacing=40.0, margin=3.0,
+                          blunder_fraction=0.0, n_check=5)
+
+
+def test_a_well_tied_block_passes(sb):
+    result = adjust_block(sb.block, BundleOptions(snooping=False))
+    q = frame_quality(result, sb.block)
+    assert undetermined_frames(q) == {}
+    assert (q.points >= 20).all() and (q.spread > 0.3).all() and (q.angle_sigma < 0.1).all()
+    assert (q.multi_ray_points > 0).all()
+
+
+def test_a_frame_tied_by_three_points_is_refused_by_name(sb):
+    block = _starved(sb, 5, 3, kappa_error=25.0)
+    with pytest.raises(ModelError, match=f"does not determine frame\\(s\\) {sb.block.frames[5]}: 3 points.*"
+                                         f"--undetermined drop"):
+        adjust_determined(block, BundleOptions(snooping=False), KW, None)
+
+
+def test_an_undetermined_frame_is_dropped_on_request_and_the_rest_adjusted(sb):
+    block = _starved(sb, 5, 3, kappa_error=25.0)
+    result, kept, q, dropped = adjust_determined(block, BundleOptions(snooping=False), {**KW, "undetermined": "drop"},
+                                                 None)
+    assert [d["name"] for d in dropped] == [sb.block.frames[5]]
+    assert sb.block.frames[5] not in kept.frames and len(kept.frames) == len(sb.block.frames) - 1
+    truth = dict(zip(sb.block.frames, sb.true_eo))
+    for name, e in zip(kept.frames, result.eo):
+        t = truth[name]
+        assert abs((e.kappa - t.kappa + 180) % 360 - 180) < 0.1
+        assert np.hypot(e.X - t.X, e.Y - t.Y) < 2 * sb.gsd  # the datum of 8 noisy GCPs
+
+
+def test_clustered_points_fail_the_spread_test(sb):
+    block = _starved(sb, 2, 8)  # 8 points, all near the image centre
+    result = adjust_block(block, BundleOptions(snooping=False))
+    bad = undetermined_frames(frame_quality(result, block))
+    assert sb.block.frames[2] in bad and "cover" in bad[sb.block.frames[2]]
