@@ -187,11 +187,10 @@ def test_geoinfo_parsing_and_mixed_height_references(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def snowpeak(tmp_path_factory):
-    from conftest import DATA
-    src = DATA / "drone_snowpeak"
+def snowpeak(data_dir, tmp_path_factory):
+    src = data_dir / "drone_snowpeak"
     if not src.is_dir():
-        pytest.skip(f"real test data not found at {src} (clone next to ../shared, or set FOTOGEO_DATA)")
+        pytest.skip(f"real test data not found at {src} (an older ../shared/data without drone_snowpeak)")
     dst = tmp_path_factory.mktemp("snowpeak")  # copies: GDAL may write .aux.xml sidecars
     for p in sorted((src / "img").glob("*.JPG")):
         shutil.copy(p, dst / p.name)
