@@ -135,6 +135,9 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
     from .triangulate_inputs import frame_names, read_camera
     names = [frame_key(f) for f in frames]
     approx = None
+    sfm = _from_orientation_file(eo, crs, reference, dem, camera) if eo is not None else None
+    if sfm is not None:
+        return _start_from_file(frames, names, camera, sfm, crs, gcps, reference, dem, str(eo))
     if camera is None or (eo is None and not gcps):
         given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
         approx = _from_images(frames, given or _first_projected(reference, dem), geoinfo, eo is None and not gcps)
@@ -216,3 +219,30 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
         start.sigmas[n] = (sh, sv, ATTITUDE_SIGMA if s.angles is not None else None)
     start.source += "; orientation from the images' GPS" + ("" if all(not v for v in start.level.values()) else
                                                               " (attitude unknown: level start, κ from the images)")
+
+
+def _from_orientation_file(eo, crs, reference, dem, camera):
+    """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`), or None."""
+    from ..io.orientation_file import read_orientation_file
+    given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
+    return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera)
+
+
+def _start_from_file(frames, names, camera, approx, crs, gcps, reference, dem, source) -> BlockStart:
+    """The start from an SfM/orthority orientation file: its cameras (unless --camera), its poses, its CRS."""
+    from .triangulate_inputs import frame_names, read_camera
+    map_crs, rule = map_crs_rule(crs, gcps, reference, dem, approx.crs)
+    map_crs = map_crs or approx.crs
+    if not approx.crs.equals(map_crs):
+        raise InputError(f"--eo {source!r} is in {approx.crs.to_string()} but the map CRS is {map_crs.to_string()}; "
+                         f"give --crs {approx.crs.to_string()}")
+    lacking = [n for n in names if n not in approx.shots or approx.shots[n].exterior is None]
+    if lacking:
+        raise InputError(f"--eo {source!r} has no pose for frame(s) {', '.join(lacking[:10])}; give a file that "
+                         f"holds every frame (by file name)")
+    sub = {n: approx.shots[n] for n in names}
+    cam, dist = read_camera(camera) if camera is not None else _single_camera(type(approx)(approx.cameras, sub))
+    frame_names(frames, cam)
+    start = BlockStart(cam, dist, list(names), {n: sub[n].exterior for n in names}, map_crs,
+                       rule or f"the CRS of --eo {source!r}", f"--eo {source}", notes=list(approx.notes))
+    return start

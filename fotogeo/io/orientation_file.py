@@ -1,0 +1,41 @@
+"""One entry for every orientation file ``--eo`` accepts: the reader is picked by the file's type.
+
+* ``*.txt`` — fotogeo's ``name X Y Z omega phi kappa`` lines (:func:`fotogeo.io.camera.read_exterior_orientation`;
+  the map CRS is the block's), read by the caller: :func:`read_orientation_file` returns None;
+* ``*.json`` — OpenSfM/ODM ``reconstruction.json`` (:func:`fotogeo.io.opensfm.read_opensfm`; ODM's
+  ``cameras.json`` beside it is used for the cameras);
+* a folder, or its ``images.txt`` / ``cameras.txt`` — a COLMAP text model (:func:`fotogeo.io.colmap.read_colmap`;
+  its coordinates are in ``crs``);
+* ``*.geojson`` / ``*.csv`` — orthority's exterior parameters (:func:`fotogeo.io.orthority.read_orthority`) with
+  the interior parameters of ``camera`` (orthority's YAML).
+
+Each returns the one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import InputError
+
+
+def read_orientation_file(path, crs=None, camera=None):
+    """The :class:`ApproximateBlock` of ``path`` (module docstring), or None for a ``.txt`` EO file."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if p.is_dir() or p.name.lower() in ("images.txt", "cameras.txt"):
+        from .colmap import read_colmap
+        return read_colmap(p if p.is_dir() else p.parent, crs=crs)
+    if suffix == ".txt":
+        return None
+    if suffix == ".json":
+        from .opensfm import read_opensfm
+        cams = p.parent / "cameras.json"
+        return read_opensfm(p, cams if cams.exists() and cams != p else None, crs=crs)
+    if suffix in (".geojson", ".csv"):
+        if camera is None:
+            raise InputError(f"orthority exterior parameters {str(p)!r} need their interior parameters: give the "
+                             f"camera YAML (--camera)")
+        from .orthority import read_orthority
+        return read_orthority(p, camera, crs=crs)
+    raise InputError(f"orientation file {str(p)!r}: unknown type; give 'name X Y Z omega phi kappa' lines (.txt), "
+                     f"an OpenSfM/ODM reconstruction.json, a COLMAP text model folder or orthority .geojson/.csv")
