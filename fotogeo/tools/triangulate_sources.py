@@ -134,6 +134,8 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
     """Read the camera and the approximate orientation (module docstring)."""
     from .triangulate_inputs import frame_names, read_camera
     names = [frame_key(f) for f in frames]
+    if reference and dem is None:
+        raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
     approx = None
     sfm = _from_orientation_file(eo, crs, reference, dem, camera) if eo is not None else None
     if sfm is not None:
