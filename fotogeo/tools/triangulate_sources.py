@@ -225,7 +225,11 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
 
 def _from_orientation_file(eo, crs, reference, dem, camera):
     """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`), or None."""
+    from pathlib import Path
+
     from ..io.orientation_file import read_orientation_file
+    if Path(eo).suffix.lower() == ".txt" and Path(eo).name.lower() not in ("images.txt", "cameras.txt"):
+        return None  # fotogeo's own EO lines: read by triangulate_inputs.orientations
     given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
     return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera)
 
