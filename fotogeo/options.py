@@ -40,7 +40,9 @@ TERRAIN_MODELS = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity"
 ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3",
                       "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
                       "rfm-i2g", "rfm-poly", "rfm-poly-i2g", "similarity")
-REFINES = ("none", "lsm")
+#: tie-point refinement: ``auto`` = ``lsm`` for the 2-D registration, ``none`` with a DEM
+#: (fotogeo.tools.register_points.refine_mode)
+REFINES = ("none", "lsm", "auto")
 POLARITIES = ("auto", "bright", "dark")
 SPREADS = ("homogeneous", "heterogeneous")
 #: interior parameters a bundle adjustment may estimate (self-calibration; fotogeo.orientation.bundle_jacobian)
@@ -228,12 +230,20 @@ REGISTER = Table(
     Option("contrast", "choice", "adaptive", "Contrast of the fused images for matching",
            "Contrast of the fused images for matching (adaptive = equalize + CLAHE).", choices=CONTRASTS,
            advanced=True),
-    Option("refine", "choice", "none", "Refine tie points before the fit (lsm = least-squares matching)",
-           "Refine tie points by least-squares matching before the fit.", choices=REFINES, advanced=True),
+    Option("refine", "choice", "auto", "Refine tie points before the fit (lsm = least-squares matching; "
+           "auto = lsm without a DEM)",
+           "Refine tie points by least-squares matching before the fit: auto = lsm for the 2-D registration, "
+           "none with --dem.", choices=REFINES, advanced=True),
     Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)",
            "Nodata value of the reference (overrides the file's).", advanced=True),
     Option("target_nodata", "float", None, "Target nodata value (empty = the file's)",
            "Nodata value of the target (overrides the file's).", advanced=True),
+    Option("reference_bands", "str", None, "Reference bands to match, e.g. 1,2,3 (empty = all)",
+           "Bands of the reference fused for matching, 1-based as gdal_translate -b, e.g. 1,2,3 [all]; "
+           "empty or constant bands are left out with a warning.", advanced=True),
+    Option("target_bands", "str", None, "Target bands to match, e.g. 4,3,2 (empty = all)",
+           "Bands of the target fused for matching, e.g. 4,3,2 [all]; the registered raster keeps every band.",
+           advanced=True),
 )
 #: registration inputs besides the two images: terrain-aware registration
 REGISTER_TERRAIN = Table(
@@ -243,7 +253,8 @@ REGISTER_TERRAIN = Table(
            "Interior orientation YAML of the target's camera (for --model collinearity).", file_filter=YAML),
 )
 #: detect and match only (``match_images``), with the registration's option declarations
-MATCH = REGISTER.only("detector", "max_keypoints", "ratio", "ransac_threshold", max_keypoints={"advanced": False})
+MATCH = REGISTER.only("detector", "max_keypoints", "ratio", "ransac_threshold", "reference_bands", "target_bands",
+                      max_keypoints={"advanced": False})
 FUSE = Table(
     Option("stretch", "bool", True, "Stretch to 8 bit (1..255, 0 = nodata)",
            "uint8 0..255 robust stretch, or float32 component values."),

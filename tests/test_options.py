@@ -41,7 +41,7 @@ def test_register_options_are_the_table():
             d.check_fraction, d.seed, d.resampling, d.resolution, d.dst_crs, d.max_match_pixels, d.exaggeration,
             d.contrast, d.refine, d.reference_nodata, d.target_nodata) == \
         ("surf", 8000, None, 0.8, True, None, 3.0, 0.3, 0, "nearest", None, "auto", 16_000_000, "auto", "adaptive",
-         "none", None, None)
+         "auto", None, None)
     d.validate()
     with pytest.raises(dataclasses.FrozenInstanceError):
         d.ratio = 0.5

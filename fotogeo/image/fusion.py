@@ -6,6 +6,13 @@ For bands ``b = (b_1 … b_B)`` at the valid pixels, with mean ``μ`` and covari
 Its sign is arbitrary, and a flip inverts contrast and ruins matching, so ``v₁`` is oriented
 to correlate positively with the band mean (``Σ v₁ > 0``). Single-band images skip the PCA.
 
+Bands that carry nothing — empty (no valid value: all nodata, NaN or masked) or constant over
+their valid pixels — are left out of the PCA with a :class:`~fotogeo.errors.FotogeoWarning`
+naming them (their weight in ``v₁`` is 0), so a Landsat-8-style stack with an empty or a
+constant band still fuses; only an image without any band left is refused. A pixel is valid
+where every band kept is finite and not all of them are ``nodata`` (GDAL's warper rule), and
+``mask`` allows it.
+
 ``pc1`` is then mapped to 0..255 (float32) by one of three contrast methods:
 
 * ``"linear"`` — the paper's robust stretch between the 1st and 99th percentiles, clipped;
@@ -20,11 +27,12 @@ to correlate positively with the band mean (``Σ v₁ > 0``). Single-band images
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FotogeoWarning, InputError
 from .contrast import CONTRASTS, apply_contrast
 
 
@@ -34,9 +42,12 @@ class Fusion:
 
     image: np.ndarray  # (rows, cols) float32 in 0..255, 0 where invalid
     mask: np.ndarray  # (rows, cols) bool, True = valid
-    component: np.ndarray  # (B,) unit eigenvector v1 (sign-fixed)
+    component: np.ndarray  # (B,) unit eigenvector v1 (sign-fixed), 0 for the bands left out
     explained: float  # fraction of the variance carried by pc1
     stretch: tuple  # (low, high) pc1 values mapped to 0 and 255
+    mean: np.ndarray | None = None  # (B,) band means μ at the valid pixels (0 for the bands left out)
+    bands: tuple = ()  # band numbers (as named, 1-based) of the bands fused
+    dropped: dict | None = None  # band number -> why it was left out ("empty", "constant 7")
 
 
 def valid_mask(bands: np.ndarray, mask=None, nodata=None) -> np.ndarray:
@@ -49,13 +60,46 @@ def valid_mask(bands: np.ndarray, mask=None, nodata=None) -> np.ndarray:
     return valid
 
 
+def band_content(bands: np.ndarray, mask=None, nodata=None, numbers=None) -> dict:
+    """Bands with nothing to fuse: ``{band number: "empty" | "constant <value>"}``.
+
+    A band is empty when none of its pixels is finite, not ``nodata`` and allowed by ``mask``
+    (``(rows, cols)``, or ``(B, rows, cols)`` per band); constant when its valid values are all
+    equal. ``numbers`` name the bands (default 1..B).
+
+    >>> b = np.stack([np.arange(12.0).reshape(3, 4), np.full((3, 4), 7.0), np.zeros((3, 4))])
+    >>> band_content(b, nodata=0)
+    {2: 'constant 7', 3: 'empty'}
+    """
+    a = np.asarray(bands)
+    numbers = range(1, len(a) + 1) if numbers is None else numbers
+    allowed = None if mask is None else np.broadcast_to(np.asarray(mask, bool), a.shape)
+    out = {}
+    for i, (n, b) in enumerate(zip(numbers, a)):
+        ok = np.isfinite(b) if b.dtype.kind == "f" else np.ones(b.shape, bool)
+        if nodata is not None and np.isfinite(nodata):
+            ok &= b != nodata
+        if allowed is not None:
+            ok &= allowed[i]
+        values = b if ok.all() else b[ok]
+        if values.size == 0:
+            out[int(n)] = "empty"
+        elif values.min() == values.max():
+            out[int(n)] = f"constant {values.flat[0]:g}"
+    return out
+
+
 def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
-             percentiles=(1.0, 99.0), contrast: str = "linear", name: str = "image") -> Fusion:
+             percentiles=(1.0, 99.0), contrast: str = "linear", name: str = "image", numbers=None) -> Fusion:
     """First principal component of ``bands`` ``(B, rows, cols)`` (or a 2-D single band).
 
-    ``mask`` marks valid pixels; ``nodata`` values and NaN are excluded too. Statistics use
+    ``mask`` marks valid pixels, ``(rows, cols)`` or per band ``(B, rows, cols)`` (a pixel is then
+    valid where every band fused allows it); ``nodata`` values and NaN are excluded too. Statistics use
     at most ``sample`` pixels drawn with the seed ``rng``. ``contrast`` is one of
-    :data:`CONTRASTS` (see the module docstring). ``name`` appears in errors.
+    :data:`CONTRASTS` (see the module docstring). ``name`` appears in errors and warnings,
+    ``numbers`` (default 1..B) name the bands there: empty or constant bands are left out
+    with a :class:`~fotogeo.errors.FotogeoWarning`, and only an image without a band left is
+    refused (:class:`~fotogeo.errors.InputError`).
 
     Two perfectly correlated bands fuse into one band carrying all the variance, stretched
     to 0..255 (float32, the shape of one band):
@@ -76,6 +120,25 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
         a = a[None]
     if a.ndim != 3 or min(a.shape) == 0:
         raise InputError(f"{name}: expected bands of shape (bands, rows, cols); got {np.shape(bands)}")
+    numbers = tuple(int(n) for n in (range(1, a.shape[0] + 1) if numbers is None else numbers))
+    if len(numbers) != a.shape[0]:
+        raise InputError(f"{name}: {len(numbers)} band numbers for {a.shape[0]} bands")
+    dropped = band_content(a, mask, nodata, numbers) if a.shape[0] > 1 else {}
+    keep = np.array([n not in dropped for n in numbers])
+    if not keep.any():
+        empty = all(w == "empty" for w in dropped.values())
+        raise InputError(f"{name}: " + ("no valid pixels in any band (all nodata, NaN or masked); check its nodata "
+                                        "value and mask" if empty else
+                                        f"no band to fuse, every band is constant or empty ({_listing(dropped)}): "
+                                        f"there is no contrast to match; check the band selection and nodata"))
+    if dropped:
+        warnings.warn(f"{name}: band{'s' if len(dropped) > 1 else ''} {_listing(dropped)} left out of the PCA "
+                      f"fusion (nothing to match in {'them' if len(dropped) > 1 else 'it'}); fused bands "
+                      f"{', '.join(str(n) for n, k in zip(numbers, keep) if k)}", FotogeoWarning, stacklevel=2)
+    full = a.shape[0]
+    a = a[keep] if not keep.all() else a
+    if mask is not None and np.ndim(mask) == 3:
+        mask = np.asarray(mask, bool)[keep].all(axis=0)
     valid = valid_mask(a, mask, nodata)
     idx = np.flatnonzero(valid)
     if idx.size < 16:
@@ -107,4 +170,12 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
         pc = np.tensordot(v.astype(np.float32), blk - mean[:, None, None].astype(np.float32), axes=1)
         out[r0:r0 + rows_per_chunk] = np.clip((pc - lo) * k, 0, 255)
     out[~valid] = 0
-    return Fusion(apply_contrast(out, valid, contrast), valid, v, explained, (float(lo), float(hi)))
+    component, means = np.zeros(full), np.zeros(full)
+    component[keep], means[keep] = v, mean
+    return Fusion(apply_contrast(out, valid, contrast), valid, component, explained, (float(lo), float(hi)), means,
+                  tuple(n for n, k in zip(numbers, keep) if k), dropped)
+
+
+def _listing(dropped: dict) -> str:
+    """``{4: "constant 7", 5: "empty"}`` → ``"4 (constant 7), 5 (empty)"``."""
+    return ", ".join(f"{n} ({why})" for n, why in dropped.items())

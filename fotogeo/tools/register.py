@@ -3,17 +3,22 @@
 ``register(reference, target, output)`` runs the pipeline of the source paper (Dihkan
 2019) with fotogeo's additions:
 
-1. read both images (decimated to ``max_match_pixels`` for matching), PCA band fusion;
-2. keypoints + descriptors (SURF by default), SSD matching with the ratio test;
+1. read both images (decimated to ``max_match_pixels`` for matching), PCA fusion of the bands
+   ``reference_bands`` / ``target_bands`` (all by default; empty or constant ones left out);
+2. keypoints + descriptors (SURF by default), SSD matching with the ratio test; with ``refine``
+   ``lsm`` (``auto``, the default, is lsm without a DEM) the consistent matches are refined by
+   least-squares matching, each with its σ and status (:mod:`fotogeo.tools.register_points`);
 3. tie points: target pixels ↔ reference map coordinates, transformed into the output CRS
    (``"auto"`` = the reference's CRS when it is projected, else the UTM zone of the reference
    centre; ``"reference"``; ``"utm"``, the source paper's rule — :func:`fotogeo.crs.choose_output_crs`);
-4. RANSAC + robust refit of the model (projective by default), check points held out;
+4. RANSAC + robust refit of the model (projective by default), check points held out; the
+   final least squares weights each point by the spatial balance and its LSM σ;
 5. window-by-window resampling of every band of the target onto the output grid — aligned to
    the reference's pixel grid when the output CRS is the reference's (:func:`aligned_grid`);
 6. outputs written atomically: ``OUT.tif`` (a Cloud Optimized GeoTIFF with ``cog=True``),
    ``OUT.gpkg`` (layers ``tie_points``, ``error_vectors`` and ``error_grid``, the mean residual
-   per grid cell) and ``OUT.json`` (the report, whose ``notes`` explain every number).
+   per grid cell) and ``OUT.json`` (the report, whose ``notes`` explain every number: RMSE, CE90
+   and CE95 per role, the tie points' own precision apart from the model's residuals).
 """
 from __future__ import annotations
 
@@ -28,20 +33,18 @@ from ..errors import InputError, MatchingError, ModelError
 from ..geometry.georeference import Georeference
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_dem
 from ..io.report import write_json
-from ..io.vector import (error_vectors, exaggeration_value, grid_means, legend_text, nominal_scale,
-                         write_layers)
 from ..io.warp import grid_covering, warp_to_grid
 from ..models import get_model
-from ..models.robust import fit_tie_points
 from ..models.stats import rmse
 from ..options import PLANAR_MODELS, RegisterOptions  # declared in the option table
 from ..orientation.terrain import TERRAIN_MODELS
 from ..pixels import outline, pixel_to_map
 from ..progress import as_progress
 from .checks import check_camera_size, check_output_grid
-from .match import HINT, find_tie_points
+from .match import HINT, band_numbers, select_bands
 from .boundary import tool
-from .register_report import build_report, notes, summary_lines
+from .register_points import fit_points, refine_mode, tie_points as find_points, write_vectors
+from .register_report import build_report, notes, precision, summary_lines
 from .results import Registration
 
 __all__ = ["register", "Registration", "RegisterOptions", "aligned_grid", "summary_lines"]
@@ -91,10 +94,14 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     if options is not None and kwargs:
         raise InputError("give either options= or keyword options, not both")
     opts.validate()
+    opts = replace(opts, **{f"{r}_bands": _band_text(getattr(opts, f"{r}_bands"), f"{r}_bands")
+                            for r in ("reference", "target")})
     prog = as_progress(progress).with_own_timings()
     output, vectors, report = _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite)
     ref = open_raster(reference, "reference")
     tgt = open_raster(target, "target")
+    for info, role in ((ref, "reference"), (tgt, "target")):
+        select_bands(getattr(opts, f"{role}_bands"), info.count, role)  # out of range: refused before any work
     if not ref.georeferenced:
         raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
                          f"register against a georeferenced orthophoto, or georeference it first")
@@ -109,12 +116,16 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
         with prog.timed("total"):
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
             res = opts.resolution or _reference_step(ref, crs) or ref_px
-            src, ref_xy, counts = _tie_points(opts, ref, tgt, prog, tie_points)
+            refine = refine_mode(opts.refine, dem is not None)
+            pts = find_points(opts, ref, tgt, prog, tie_points, refine)
+            if pts.usable is not None:  # LSM: the fit takes the converged points
+                pts = pts.subset(pts.usable)
+            src, ref_xy, counts = pts.src, pts.ref_xy, pts.counts
             dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
             fit_stage = prog.stage(0.55, 0.6, "fitting the model")
             with fit_stage.timed("fit"):
                 try:
-                    gf = (_planar(opts, src, dst, ref_px, tgt, crs, res) if dem is None else
+                    gf = (_planar(opts, src, dst, ref_px, tgt, crs, res, pts.sigma_px) if dem is None else
                           _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, fit_stage))
                 except MatchingError as e:
                     raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
@@ -124,6 +135,8 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
             transform, width, height, aligned = aligned_grid(gf.transform, gf.width, gf.height, res, ref, crs)
             gf = replace(gf, transform=transform, width=width, height=height)
             rep = build_report(opts, ref, tgt, crs, ref_px, res, counts, gf)
+            rep["refine"] = "given tie points (not refined)" if tie_points is not None else refine
+            rep["precision"] = precision(rep, None if pts.sigma_px is None else pts.sigma_px[gf.role == "check"])
             rep["output_crs_name"], rep["output_crs_rule"] = short_name(crs), crs_rule
             rep["output_grid"]["aligned_to_reference"] = aligned
             stage = prog.stage(0.6, 0.95 if not opts.cog else 0.9, "resampling")
@@ -139,7 +152,7 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
                 with prog.stage(0.9, 0.95, "writing the Cloud Optimized GeoTIFF").timed("cog"):
                     convert_to_cog(raster, opts.resampling)
             prog.stage(0.95, 1.0, "writing tie points and report")
-            rep["exaggeration"] = _write_vectors(out.temp(vectors), gf, src, dst, ref_xy, ref_px, crs, opts.exaggeration)
+            rep["exaggeration"] = write_vectors(out.temp(vectors), gf, pts, dst, ref_px, crs, opts.exaggeration)
             rep["notes"] = notes(rep, dem is not None)
         rep["timings_s"] = {k: round(v, 4) for k, v in prog.timings.items()}
         rep["summary"] = summary_lines(rep)
@@ -207,16 +220,10 @@ def _check_outputs(opts, reference, target, output, vectors, report, dem, overwr
     return output, vectors, report
 
 
-def _tie_points(opts, ref, tgt, prog, tie_points):
-    """Matched (target pixels, reference pixels, counts), or the ``tie_points`` given."""
-    if tie_points is None:
-        return find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.55, "matching"))
-    src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in tie_points)
-    if len(src) != len(ref_xy):
-        raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
-    counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
-              "pca_explained_variance": None, "tie_points_given": True}
-    return src, ref_xy, counts
+def _band_text(value, option: str) -> str | None:
+    """A ``*_bands`` option as the report shows it (``"1,2,3"``); its syntax checked."""
+    numbers = band_numbers(value, option)
+    return None if numbers is None else ",".join(map(str, numbers))
 
 
 @dataclass(frozen=True)
@@ -254,15 +261,19 @@ def _unfolded(width: int, height: int):
     return lambda model: not model.folds(edge)
 
 
-def _planar(opts, src, dst, ref_px, tgt, crs, res) -> GeoFit:
-    fit = fit_tie_points(get_model(opts.model or "projective"), src, dst, threshold=opts.ransac_threshold * ref_px,
-                         min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed,
-                         is_valid=_unfolded(tgt.width, tgt.height))
+def _planar(opts, src, dst, ref_px, tgt, crs, res, sigma_px=None) -> GeoFit:
+    fit, weights = fit_points(get_model(opts.model or "projective"), src, dst,
+                              None if sigma_px is None else sigma_px * ref_px, threshold=opts.ransac_threshold * ref_px,
+                              min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed,
+                              is_valid=_unfolded(tgt.width, tgt.height),
+                              precise=sigma_px is not None and bool(np.isfinite(sigma_px).all()))
     geo = Georeference(fit.model, crs=crs, direction="image-to-ground")
     transform, width, height = output_grid(geo, tgt.width, tgt.height, res)
     details = {"ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,
                           "threshold_m": opts.ransac_threshold * ref_px},
                "robust_sigma_m": fit.sigma, "model_matrix": fit.model.world_matrix().tolist()}
+    if weights:
+        details["fit_weights"] = weights
     return GeoFit(geo, fit.role, fit.residual_xy, None, transform, width, height,
                   _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
 
@@ -297,39 +308,3 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, prog=None) -> G
                            "model_info": {k: v for k, v in info.items() if isinstance(v, (int, float, str, list, bool))}}}
     return GeoFit(geo, fit.role, fit.residual_m, z, transform, width, height,
                   _block(res, geo.ground_sample_distance(tgt.width, tgt.height)), details)
-
-
-def _write_vectors(path, fit, src, dst, ref_xy, ref_px, crs, exaggeration) -> dict:
-    """The GeoPackage of tie points, error vectors and the mean-residual grid; returns the
-    exaggeration entry of the report (k, how it was chosen, the legend sentence)."""
-    import shapely
-    keep = fit.inliers
-    idx = np.flatnonzero(keep)
-    d = fit.residual_m[keep]
-    pts = dst[keep]
-    length = np.hypot(d[:, 0], d[:, 1])
-    k, how = exaggeration_value(exaggeration, float(np.median(length)) if len(length) else 0.0, pts)
-    scale = nominal_scale(pts)
-    legend = legend_text(k, scale)
-    common = {"id": idx.astype(np.int64), "role": fit.role[keep],
-              "ref_x": pts[:, 0], "ref_y": pts[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
-              "target_col": src[keep, 0], "target_row": src[keep, 1]}
-    if fit.z is not None:
-        common["z"] = fit.z[keep]
-    g = grid_means(pts, d)
-    layers = {
-        "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
-                       "residual_px": length / ref_px, "geometry": shapely.points(pts)},
-        "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
-                          "length": length, "exaggeration": np.full(len(idx), k), "legend": [legend] * len(idx),
-                          "geometry": error_vectors(pts, pts + d, k)},
-        "error_grid": {**{c: g[c] for c in ("cell_col", "cell_row", "n", "mean_dx", "mean_dy", "length", "rms")},
-                       "exaggeration": np.full(len(g["n"]), k), "legend": [legend] * len(g["n"]),
-                       "geometry": error_vectors(np.column_stack([g["x"], g["y"]]).reshape(-1, 2),
-                                                 np.column_stack([g["x"] + g["mean_dx"], g["y"] + g["mean_dy"]])
-                                                 .reshape(-1, 2), k)},
-    }
-    what = f"Error vectors drawn {legend}"
-    write_layers(path, layers, crs.to_wkt(), {"error_vectors": what + ".",
-                                              "error_grid": f"Mean residual per grid cell, {what}."})
-    return {"factor": k, "chosen": how, "map_scale": scale, "legend": legend, "grid_cells": int(len(g["n"]))}

@@ -19,13 +19,49 @@ def _versions() -> dict:
             "pyproj": pyproj.__version__}
 
 
+def circular_error(resid, p: float) -> float:
+    """CE``p``: the radius holding ``p`` percent of the residual vectors ``(N, 2)`` — the empirical
+    ``p``-th percentile of their lengths (linear interpolation between order statistics).
+
+    >>> circular_error([[3.0, 4.0], [0.0, 1.0], [0.0, 2.0]], 50)
+    2.0
+    """
+    r = np.asarray(resid, float).reshape(-1, 2)
+    return float(np.percentile(np.hypot(r[:, 0], r[:, 1]), p))
+
+
 def _stats(resid: np.ndarray, px: float) -> dict:
-    """Residual statistics of one role in output CRS units (m) and reference pixels (px)."""
+    """Residual statistics of one role in output CRS units (m) and reference pixels (px): RMSE
+    beside the radial CE90 / CE95."""
     s = residual_stats(resid)
     if s["n"] == 0:
         return s
-    return {"n": s["n"], "rmse_m": s["rms_xy"], "rmse_px": s["rms_xy"] / px, "rms_x_m": s["rms_x"],
-            "rms_y_m": s["rms_y"], "median_m": s["median"], "max_m": s["max"]}
+    ce90, ce95 = circular_error(resid, 90), circular_error(resid, 95)
+    return {"n": s["n"], "rmse_m": s["rms_xy"], "rmse_px": s["rms_xy"] / px, "ce90_m": ce90, "ce90_px": ce90 / px,
+            "ce95_m": ce95, "ce95_px": ce95 / px, "rms_x_m": s["rms_x"], "rms_y_m": s["rms_y"],
+            "median_m": s["median"], "max_m": s["max"]}
+
+
+def precision(rep: dict, sigma_px) -> dict:
+    """The report's ``precision``: the tie points' own precision (median LSM σ of the check points,
+    when refined) apart from the model's residuals at the check points (RMSE, CE90, CE95), in
+    reference px and metres; ``model_rmse``: the check RMSE with the tie points' own scatter taken
+    out (``sqrt(max(0, RMSE² − mean σ²))``), an estimate of the model's error alone."""
+    px = rep["reference_pixel_size"]
+    role = "check" if rep["check"].get("n") else "control"
+    s = rep[role]
+    out = {"residuals_of": role}
+    if s.get("n"):
+        out.update({f"{role}_{k}": s[k] for k in ("rmse_px", "rmse_m", "ce90_px", "ce90_m", "ce95_px", "ce95_m")})
+    sig = None if sigma_px is None else np.asarray(sigma_px, float)
+    if sig is not None and np.isfinite(sig).any():
+        sig = sig[np.isfinite(sig)]
+        med = float(np.median(sig))
+        out.update(tie_point_sigma_px=med, tie_point_sigma_m=med * px)
+        if s.get("n"):
+            model = float(np.sqrt(max(0.0, s["rmse_px"] ** 2 - float(np.mean(sig ** 2)))))
+            out.update(model_rmse_px=model, model_rmse_m=model * px)
+    return out
 
 
 def build_report(opts, ref, tgt, crs, ref_px, res, counts, gf):
@@ -57,7 +93,16 @@ def notes(rep: dict, terrain: bool) -> dict:
                    "fits, an optimistic measure of accuracy; in metres of the output CRS and in " + px,
         "check": "residuals at tie points held out of the fit (check points, spatially spread): the accuracy "
                  "estimate. They include the matching noise of the tie points themselves (their positions are "
-                 "measured by SURF/SIFT, not surveyed), so the check RMSE is an upper bound of the model's error",
+                 "measured by SURF/SIFT and least-squares matching, not surveyed), so the check RMSE is an upper "
+                 "bound of the model's error",
+        "radial_error": "ce90_m / ce95_m (and _px): radial circular error, the radius within which 90 % / 95 % of the "
+                        "residual vectors of that role lie (empirical percentiles of their lengths), beside the RMSE",
+        "precision": "the achieved precision: the tie points' own precision (tie_point_sigma: median radial σ of "
+                     "their least-squares matching, reference px and metres) apart from the model's residuals at the "
+                     "check points (RMSE, CE90, CE95); model_rmse: the check RMSE with the tie points' σ taken out, "
+                     "an estimate of the model's own error",
+        "refine": "how the tie points were refined before the fit: lsm (least-squares matching) or none; "
+                  "options.refine auto = lsm for the 2-D registration, none with a DEM",
         "residual": "model position of the target pixel on the map minus the reference's map position of the "
                     "same feature (dx, dy), in the output CRS",
         "output_crs": f"{rep['output_crs_rule']} (options.dst_crs = {rep['options']['dst_crs']!r})",
@@ -68,6 +113,12 @@ def notes(rep: dict, terrain: bool) -> dict:
         "exaggeration": f"error vectors drawn {rep['exaggeration']['legend']} ({rep['exaggeration']['chosen']})",
         "inliers": "matches kept by RANSAC and the robust refit (control + check points)",
     }
+    if "lsm" in rep:
+        notes["lsm"] = ("least-squares matching of the tie points: the reference's first component around each "
+                        "keypoint is matched into the target (affine geometry and radiometry, bicubic); status counts "
+                        "every match (refined, or why not); the fit uses the converged points only ('fit_uses'), "
+                        "weighted by the spatial balance / (σ² + s0²) (fit_weights); at most 'budget' consistent "
+                        "matches are refined, spread over the target; median_sigma_px: radial σ in reference pixels")
     if terrain:
         notes["terrain"] = ("check_rmse_target_px / control_rmse_target_px: the same residuals measured in the "
                             "target image's pixels (the 3-D model maps ground to target pixels)")
@@ -78,10 +129,23 @@ def summary_lines(rep: dict) -> list[str]:
     """The lines the command line prints after a registration (units named)."""
     lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
              f"matches {rep['matches']}, inliers {rep['inliers']}"]
+    if rep.get("lsm", {}).get("tried"):
+        lsm = rep["lsm"]
+        sig = lsm.get("median_sigma_px")
+        lines.append(f"tie points refined by LSM: {lsm['refined']} of {lsm['tried']} tried ({lsm['of']} matches)"
+                     + (f", median σ {sig:.3f} reference px ({sig * rep['reference_pixel_size']:.3g} m)"
+                        if sig else ""))
     for role in ("control", "check"):
         s = rep[role]
         if s.get("n"):
-            lines.append(f"{role:8s} n={s['n']:5d}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)")
+            lines.append(f"{role:8s} n={s['n']:5d}  RMSE {s['rmse_m']:.3f} m  ({s['rmse_px']:.2f} reference px)"
+                         f"  CE90 {s['ce90_m']:.3f} m ({s['ce90_px']:.2f} px)  CE95 {s['ce95_m']:.3f} m "
+                         f"({s['ce95_px']:.2f} px)")
+    p = rep.get("precision", {})
+    if "model_rmse_px" in p:
+        lines.append(f"precision: tie points σ {p['tie_point_sigma_px']:.3f} px ({p['tie_point_sigma_m']:.3g} m); "
+                     f"model {p['model_rmse_px']:.3f} px ({p['model_rmse_m']:.3g} m) RMSE at the {p['residuals_of']} "
+                     f"points, tie-point σ taken out")
     if "terrain" in rep:
         t = rep["terrain"]
         lines.append(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
