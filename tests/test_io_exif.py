@@ -14,7 +14,8 @@ import rasterio.shutil
 
 from fotogeo.errors import FotogeoWarning, InputError
 from fotogeo.geometry.attitude import enu_rotation_from_patb, rotation_from_ypr
-from fotogeo.io.exif import read_exif_block, read_image_metadata
+from fotogeo.io.exif import read_image_metadata
+from fotogeo.io.exif_block import read_exif_block
 from fotogeo.io.geoinfo import read_geoinfo
 from fotogeo.io.raster import ropen
 

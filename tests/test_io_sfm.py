@@ -217,7 +217,7 @@ def test_opensfm_topocentric_projection_within_the_map_scale(tmp_path):
     curvature, ~0.05 px) checks the angles' turn by the convergence (0.84° would be ~30 px)."""
     from pyproj import Proj
 
-    from fotogeo.io.opensfm import topocentric_to_lonlath
+    from fotogeo.geometry.local_frames import topocentric_to_lonlath
     path, rec = _hand_written(tmp_path)
     got = read_opensfm(path)
     ground = np.array([[30.0, -20.0, 5.0], [-80.0, 140.0, -10.0], [200.0, 50.0, 0.0]])

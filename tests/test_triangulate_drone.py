@@ -17,7 +17,7 @@ from click.testing import CliRunner
 
 from fotogeo.cli import main
 from fotogeo.io.camera import read_exterior_orientation
-from fotogeo.io.exif import read_exif_block
+from fotogeo.io.exif_block import read_exif_block
 
 pytestmark = [pytest.mark.data, pytest.mark.slow]
 

@@ -134,12 +134,14 @@ def rotation_from_body_ypr(yaw: float, pitch: float, roll: float) -> np.ndarray:
 
 def meridian_convergence(lon: float, lat: float, map_crs) -> float:
     """γ in degrees: the angle from true north to grid north of ``map_crs`` at (lon, lat), positive
-    clockwise (pyproj ``Proj.get_factors(...).meridian_convergence``; 0 for a geographic CRS)."""
-    from pyproj import CRS, Proj
+    clockwise (:func:`fotogeo.geometry.local_frames.grid_angle`; 0 for a geographic CRS)."""
+    from pyproj import CRS
+
+    from .local_frames import grid_angle
     crs = CRS.from_user_input(map_crs)
     if not crs.is_projected:
         return 0.0
-    return float(Proj(crs).get_factors(float(lon), float(lat)).meridian_convergence)
+    return float(np.degrees(grid_angle(crs, lon, lat))[0])
 
 
 def enu_to_map(lon: float, lat: float, map_crs) -> np.ndarray:

@@ -21,7 +21,7 @@ gps_position, gps_dop, ...}}`` and ``reference_lla`` ``{latitude, longitude, alt
   WGS 84; ``opensfm/geo.py``). ODM reads the same local coordinates as offsets parallel to the UTM
   grid from UTM(``reference_lla``) (GUIDE.md §7). Both readings are implemented (``frame=``):
   ``"topocentric"`` (local -> ECEF -> lon/lat/h -> map CRS; the angles turned by the frame change
-  between the reference and the camera and by the map's grid convergence, :func:`grid_angle`) and
+  between the reference and the camera and by the map's grid convergence, :func:`fotogeo.geometry.local_frames.grid_angle`) and
   ``"grid"`` (UTM offsets; angles turned only when the map CRS is not that UTM zone). ``"auto"``
   decides from the shots' ``gps_position`` (local coordinates of the image GPS): compared with the
   absolute GPS of OpenSfM's ``exif/<image>.exif`` files beside the reconstruction, converted both
@@ -37,13 +37,13 @@ from __future__ import annotations
 
 import json
 import math
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError, one_line
 from ..geometry.approx_block import ApproxCamera, ApproximateBlock, ApproxShot
+from ..geometry.local_frames import LocalFrame
 from ..geometry.camera import FrameCamera, angles_patb, rotation_patb
 from .block import frame_key
 from .text import read_text_file
@@ -90,106 +90,6 @@ def patb_from_world_to_camera(R_wc) -> tuple:
 def world_to_camera_from_patb(angles) -> np.ndarray:
     """Inverse of :func:`patb_from_world_to_camera`: ``R_wc = (R_patb·D)ᵀ``."""
     return (rotation_patb(*angles) @ _D).T
-
-
-# -- geodesy --------------------------------------------------------------------------------------
-def _enu_to_ecef(lon, lat) -> np.ndarray:
-    """``(n, 3, 3)`` rotations of local east-north-up axes into ECEF at ``lon, lat`` (degrees)."""
-    lo, la = np.radians(np.atleast_1d(lon)), np.radians(np.atleast_1d(lat))
-    so, co, sa, ca = np.sin(lo), np.cos(lo), np.sin(la), np.cos(la)
-    z = np.zeros_like(lo)
-    return np.stack([np.stack([-so, -sa * co, ca * co], -1), np.stack([co, -sa * so, ca * so], -1),
-                     np.stack([z, ca, sa], -1)], -2)
-
-
-@lru_cache(maxsize=32)
-def _transformer(src, dst):
-    from pyproj import Transformer
-    return Transformer.from_crs(src, dst, always_xy=True)
-
-
-def _apply(src, dst, *cols) -> list:
-    """``Transformer(src -> dst).transform`` on 1-D arrays (one point goes through as floats: pyproj would
-    convert a one-element array to a scalar, which numpy deprecates)."""
-    cols = [np.asarray(c, float).ravel() for c in cols]
-    if cols[0].size == 1:
-        return [np.array([v]) for v in _transformer(src, dst).transform(*(float(c[0]) for c in cols))]
-    return [np.asarray(v, float) for v in _transformer(src, dst).transform(*cols)]
-
-
-def topocentric_to_lonlath(xyz, ref) -> np.ndarray:
-    """Topocentric ``(n, 3)`` at ``ref = (lat, lon, alt)`` -> ``(n, 3)`` lon, lat (degrees), ellipsoidal h."""
-    lat0, lon0, h0 = ref
-    x0 = np.array(_transformer(4979, 4978).transform(lon0, lat0, h0))
-    e = x0 + np.asarray(xyz, float).reshape(-1, 3) @ _enu_to_ecef(lon0, lat0)[0].T
-    return np.column_stack(_apply(4978, 4979, e[:, 0], e[:, 1], e[:, 2]))
-
-
-def lonlath_to_topocentric(llh, ref) -> np.ndarray:
-    """Inverse of :func:`topocentric_to_lonlath`."""
-    lat0, lon0, h0 = ref
-    x0 = np.array(_transformer(4979, 4978).transform(lon0, lat0, h0))
-    p = np.asarray(llh, float).reshape(-1, 3)
-    e = np.column_stack(_apply(4979, 4978, p[:, 0], p[:, 1], p[:, 2]))
-    return (e - x0) @ _enu_to_ecef(lon0, lat0)[0]
-
-
-def grid_angle(crs, lon, lat) -> np.ndarray:
-    """Angle (radians, counter-clockwise) from true east to the grid's x axis at ``lon, lat``: the
-    meridian convergence, from the partial derivatives of ``pyproj.Proj.get_factors`` (a conformal map
-    turns the local east-north axes by this angle)."""
-    from pyproj import Proj
-    f = Proj(crs).get_factors(np.atleast_1d(np.asarray(lon, float)), np.atleast_1d(np.asarray(lat, float)))
-    return np.arctan2(np.asarray(f.dy_dlam, float), np.asarray(f.dx_dlam, float))
-
-
-def _rz(theta) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    z, o = np.zeros_like(c), np.ones_like(c)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
-
-
-class _Frame:
-    """One reading of OpenSfM's local frame: local <-> map positions and the local -> map axis rotations."""
-
-    def __init__(self, kind: str, ref, map_crs):
-        from ..crs import utm_crs_for
-        self.kind, self.ref, self.crs = kind, tuple(float(v) for v in ref), map_crs
-        self.utm = utm_crs_for(self.ref[1], self.ref[0])
-        self.utm0 = np.array(_transformer(4326, self.utm).transform(self.ref[1], self.ref[0]))
-
-    def to_lonlath(self, local) -> np.ndarray:
-        local = np.asarray(local, float).reshape(-1, 3)
-        if self.kind == "topocentric":
-            return topocentric_to_lonlath(local, self.ref)
-        en = self.utm0 + local[:, :2]
-        lon, lat = _apply(self.utm, 4326, en[:, 0], en[:, 1])
-        return np.column_stack([lon, lat, self.ref[2] + local[:, 2]])
-
-    def from_lonlath(self, llh) -> np.ndarray:
-        llh = np.asarray(llh, float).reshape(-1, 3)
-        if self.kind == "topocentric":
-            return lonlath_to_topocentric(llh, self.ref)
-        e, n = _apply(4326, self.utm, llh[:, 0], llh[:, 1])
-        return np.column_stack([e - self.utm0[0], n - self.utm0[1], llh[:, 2] - self.ref[2]])
-
-    def to_map(self, local):
-        """Map positions ``(n, 3)`` and the rotations ``M`` ``(n, 3, 3)`` with ``R_map = M·R_local``."""
-        llh = self.to_lonlath(local)
-        x, y = _apply(4326, self.crs, llh[:, 0], llh[:, 1])
-        turn = _rz(grid_angle(self.crs, llh[:, 0], llh[:, 1]))
-        if self.kind == "topocentric":
-            tilt = np.swapaxes(_enu_to_ecef(llh[:, 0], llh[:, 1]), 1, 2) @ _enu_to_ecef(self.ref[1], self.ref[0])
-        else:
-            tilt = _rz(-grid_angle(self.utm, llh[:, 0], llh[:, 1]))
-        return np.column_stack([x, y, llh[:, 2]]), turn @ tilt
-
-    def from_map(self, xyz):
-        """Inverse of :meth:`to_map`: local positions and ``M`` (``R_local = Mᵀ·R_map``)."""
-        xyz = np.asarray(xyz, float).reshape(-1, 3)
-        lon, lat = _apply(self.crs, 4326, xyz[:, 0], xyz[:, 1])
-        local = self.from_lonlath(np.column_stack([lon, lat, xyz[:, 2]]))
-        return local, self.to_map(local)[1]
 
 
 # -- reading --------------------------------------------------------------------------------------
@@ -286,7 +186,7 @@ def _choose_frame(frame: str, shots: dict, folder: Path, ref, crs) -> tuple[str,
     names = sorted(exif)
     stored = np.array([gps[n] for n in names], float)[:, :2]
     llh = np.array([exif[n] for n in names])
-    rms = {k: float(np.sqrt(np.mean(np.sum((_Frame(k, ref, crs).from_lonlath(llh)[:, :2] - stored) ** 2, axis=1))))
+    rms = {k: float(np.sqrt(np.mean(np.sum((LocalFrame(k, ref, crs).from_lonlath(llh)[:, :2] - stored) ** 2, axis=1))))
            for k in ("topocentric", "grid")}
     best = min(rms, key=rms.get)
     other = "grid" if best == "topocentric" else "topocentric"
@@ -340,10 +240,10 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
     kind, why = _choose_frame(frame, shots, path.parent, ref, map_crs)
     notes += [why, "heights: reference_lla altitude + local z, in the vertical reference of the GPS altitudes "
                    "(OpenSfM does not record it)"]
-    return _block(path, shots, cams, _Frame(kind, ref, map_crs), map_crs, notes)
+    return _block(path, shots, cams, LocalFrame(kind, ref, map_crs), map_crs, notes)
 
 
-def _block(path: Path, shots, cams, fr: _Frame, map_crs, notes) -> ApproximateBlock:
+def _block(path: Path, shots, cams, fr: LocalFrame, map_crs, notes) -> ApproximateBlock:
     from scipy.spatial.transform import Rotation
     where = f"OpenSfM reconstruction {str(path)!r}"
     names, cids, centres, rots, cameras = [], [], [], [], {}
@@ -404,7 +304,7 @@ def write_opensfm(path, block: ApproximateBlock, reference_lla, *, frame: str = 
                                                                           reference_lla))
     ref = tuple(float(lla[k]) for k in ("latitude", "longitude", "altitude"))
     shots = [s for s in block.shots.values() if s.exterior is not None]
-    fr = _Frame(frame, ref, block.crs)
+    fr = LocalFrame(frame, ref, block.crs)
     local, M = fr.from_map(np.array([s.position for s in shots]))
     llh = fr.to_lonlath(local)
     out, folder = {}, Path(path).parent

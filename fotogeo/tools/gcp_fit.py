@@ -170,7 +170,7 @@ def _needed(name: str, n_control: int, n_without_height: int) -> tuple[int, str]
 def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
              default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
     """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
-    (the interface: /tmp/briefs/picker_api.md §3, copied in DESIGN.md). JSON types in and out."""
+    (the interface is described in DESIGN.md). JSON types in and out."""
     map_crs = parse_crs(crs, "the GCPs' crs")
     ids, roles, pixel, xy, z = parse_gcp_rows(gcps)
     z, z_source, flags = _heights(xy, z, map_crs, dem, default_height)

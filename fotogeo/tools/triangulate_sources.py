@@ -4,7 +4,7 @@ Every source ends in one :class:`~fotogeo.geometry.approx_block.ApproximateBlock
 
 * ``--camera`` (orthority YAML) and ``--eo`` (``name X Y Z omega phi kappa`` lines) as before;
 * nothing given: what the images carry — EXIF GPS, XMP attitude and calibration
-  (:func:`fotogeo.io.exif.read_exif_block`), with senseFly's ``geoinfo.txt`` (``--geoinfo``) for
+  (:func:`fotogeo.io.exif_block.read_exif_block`), with senseFly's ``geoinfo.txt`` (``--geoinfo``) for
   the autopilot's attitude;
 * a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate_inputs`).
 
@@ -121,7 +121,8 @@ def map_crs_rule(crs, gcps, reference, dem, approx_crs) -> tuple:
 def _from_images(frames, crs, geoinfo, need_position: bool):
     """The ApproximateBlock of what the images carry (EXIF/XMP, and ``geoinfo``); frames without a GPS
     position are refused first when ``need_position`` (no --eo, no --gcps) and no geoinfo can give one."""
-    from ..io.exif import read_exif_block, read_image_metadata
+    from ..io.exif import read_image_metadata
+    from ..io.exif_block import read_exif_block
     if need_position and geoinfo is None:
         missing = [frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None]
         if missing:
@@ -166,11 +167,8 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
 
 
 def _first_projected(reference, dem):
-    for p in list(reference or []) + ([dem] if dem else []):
-        c = _projected_crs_of(p, "reference orthophoto" if p != dem else "DEM")
-        if c is not None:
-            return c
-    return None
+    """The reference's, else the DEM's CRS when projected (the middle of :func:`map_crs_rule`), else None."""
+    return map_crs_rule(None, None, reference, dem, None)[0]
 
 
 def _single_camera(approx):

@@ -1,0 +1,141 @@
+"""The option mechanism: :class:`Option` (one keyword argument of a tool, as the command line and QGIS
+show it), :class:`Table` (the ordered options of one tool) and their checks. The declarations — every
+tool's table and the choice lists — are in :mod:`fotogeo.options`, which re-exports these names.
+
+Standard library only (like :mod:`fotogeo.options`): the QGIS plugin reads it when it loads.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, replace
+
+from .errors import InputError
+
+
+#: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes
+KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
+         "str": "text / String", "choice": "one of choices / Enum", "choices": "comma list / multiple Enum",
+         "ints": "comma list of int / String", "crs": "CRS text / CRS", "file": "path / File",
+         "raster": "path / raster layer"}
+
+
+@dataclass(frozen=True)
+class Option:
+    """One keyword argument of a tool, as the command line and QGIS show it (see the module docstring)."""
+
+    name: str
+    kind: str
+    default: object = None
+    label: str = ""  # QGIS parameter description
+    help: str | None = None  # command-line help
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False  # the minimum itself is not valid (QGIS allows it only as ``automatic``)
+    choices: tuple = ()
+    advanced: bool = False
+    automatic: float | None = None  # QGIS number standing for None
+    none_choice: str | None = None  # QGIS enum entry standing for None, listed first
+    file_filter: str = ""
+    flag: str | None = None  # command-line flag [--name-with-dashes]
+    param: str | None = None  # QGIS parameter name [NAME]
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"option {self.name}: kind {self.kind!r} is not one of {', '.join(KINDS)}")
+
+    @property
+    def cli_flag(self) -> str:
+        return self.flag or "--" + self.name.replace("_", "-")
+
+    @property
+    def qgis_name(self) -> str:
+        return self.param or self.name.upper()
+
+    @property
+    def nullable(self) -> bool:
+        return self.default is None
+
+    @property
+    def qgis_choices(self) -> tuple:
+        """The entries of the QGIS enum: ``none_choice`` first when there is one."""
+        return ((self.none_choice,) if self.none_choice else ()) + tuple(self.choices)
+
+    def range_text(self) -> str:
+        lo = "" if self.minimum is None else f"{'>' if self.exclusive_minimum else '>='} {self.minimum}"
+        hi = "" if self.maximum is None else f"<= {self.maximum}"
+        return " and ".join(t for t in (lo, hi) if t)
+
+    def check(self, value) -> None:
+        """Raise :class:`InputError` naming the option unless ``value`` has its kind, range and choices."""
+        if value is None:
+            if self.nullable:
+                return
+            raise InputError(f"{self.name} needs a value (default {self.default!r})")
+        if self.kind == "choice":
+            if value not in self.choices:
+                raise InputError(f"{self.name} {value!r} unknown; choose one of {', '.join(self.choices)}")
+        elif self.kind == "bool":
+            if value not in (True, False):
+                raise InputError(f"{self.name} must be True or False; got {value!r}")
+        elif self.kind in ("int", "float"):
+            whole = self.kind == "int"
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral if whole else numbers.Real):
+                raise InputError(f"{self.name} must be {'a whole number' if whole else 'a number'}; got {value!r}")
+            below = self.minimum is not None and not (value > self.minimum if self.exclusive_minimum
+                                                      else value >= self.minimum)
+            above = self.maximum is not None and not value <= self.maximum
+            if below or above or value != value:  # value != value: NaN
+                raise InputError(f"{self.name} must be {self.range_text() or 'a number'}; got {value!r}")
+            if not math.isfinite(value):  # ±inf: never a valid setting
+                raise InputError(f"{self.name} must be a finite number; got {value!r}")
+        elif self.kind == "str" and self.choices:  # a word of the choices or a number in range ("auto" or 20)
+            if value in self.choices:
+                return
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise InputError(f"{self.name} must be {' or '.join(map(repr, self.choices))} or a number "
+                                 f"{self.range_text()}; got {value!r}") from None
+            replace(self, kind="float", choices=(), default=0).check(number)
+        elif self.kind in ("ints", "choices"):
+            items = (value,) if isinstance(value, (str, bytes, numbers.Number)) else tuple(value)
+            if not items:
+                raise InputError(f"{self.name} needs at least one value")
+            for item in items:  # each item as an "int" or a "choice" option of the same name and range
+                replace(self, kind="int" if self.kind == "ints" else "choice", default=0).check(item)
+
+
+class Table(dict):
+    """The options of one tool, by name, in the order the command line and QGIS list them.
+
+    ``groups`` gathers several options into one keyword argument of the tool: a dict
+    ``{key: option name}`` becomes a dict, a tuple of option names a tuple (e.g. the field
+    names ``col_field``, ``row_field`` → ``approx_fields=("col", "row")``).
+    """
+
+    def __init__(self, *options: Option, groups: dict | None = None):
+        super().__init__((o.name, o) for o in options)
+        if len(self) != len(options):
+            raise ValueError("an option table names an option twice")
+        self.groups = dict(groups or {})
+
+    def __add__(self, other: Table) -> Table:
+        return Table(*self.values(), *other.values(), groups={**self.groups, **other.groups})
+
+    def only(self, *names: str, **changes) -> Table:
+        """The options ``names`` of this table (``changes``: ``{name: {field: value}}``)."""
+        return Table(*(replace(self[n], **changes.get(n, {})) for n in names))
+
+    def arguments(self, values: dict) -> dict:
+        """``values`` (by option name) as the tool's keyword arguments: the groups gathered."""
+        out = dict(values)
+        for key, spec in self.groups.items():
+            out[key] = ({k: out.pop(n) for k, n in spec.items()} if isinstance(spec, dict)
+                        else tuple(out.pop(n) for n in spec))
+        return out
+
+
+def field_options(*names: str) -> tuple[Option, ...]:
+    """``<name>_field`` options: the attribute names a point table is read with (advanced)."""
+    return tuple(Option(f"{n}_field", "str", n, label=f"Field: {n}", advanced=True) for n in names)
