@@ -58,6 +58,7 @@ TOOLS = {
     "run_demo": ("fotogeo.tools.demo", "run_demo"),
     "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
     "register_batch": ("fotogeo.tools.batch", "register_batch"),
+    "coregister": ("fotogeo.tools.coreg", "coregister"),
     "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
     "propose_gcps": ("fotogeo.tools.gcp_propose", "propose_gcps"),
 }

@@ -117,7 +117,7 @@ def test_declaration_errors():
 
 #: tool -> (option tables, keyword-only arguments knowingly not options: outputs, internals)
 TOOLS = {
-    "tools.register.register": ((fo.REGISTER_TERRAIN,), {"vectors", "report", "options", "tie_points"}),
+    "tools.register.register": ((fo.REGISTER_TERRAIN,), {"vectors", "field", "report", "options", "tie_points"}),
     "tools.orient.orient": ((fo.ORIENT, fo.GCP), {"report", "vectors", "plot", "points", "rpc", "gcp_tiff",
                                                   "rectify"}),
     "tools.compare.compare_models": ((fo.COMPARE, fo.GCP), {"table", "markdown"}),
@@ -129,6 +129,7 @@ TOOLS = {
     "tools.demo.run_demo": ((fo.DEMO,), set()),
     "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
     "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
+    "tools.coreg.coregister": ((fo.COREG,), {"shifts", "field", "report"}),
 }
 
 

@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 

@@ -164,6 +164,16 @@ def test_qgis_process_runs_the_matching_rpc_and_demo_algorithms(config, inputs, 
     # demo: the generated scene, registered against its known truth
     res = qgis_process(config, "demo", OUTPUT=tmp_path / "demo")
     assert res["TRUTH_RMSE_M"] < 1.3 * res["BEST_HOMOGRAPHY_RMSE_M"] and res["TERRAIN_TRUTH_RMSE_M"] < 2.0
+    # coreg, and register with local co-registration: a seasonal pair feature matching cannot register
+    import coreg_scenes as cs
+    ref_a, tgt_a, _ = cs.seasonal_landsat()
+    ref = cs.write_geotiff(tmp_path / "season_ref.tif", ref_a, dtype="uint8")
+    tgt = cs.write_geotiff(tmp_path / "season_tgt.tif", tgt_a, dtype="uint8")
+    res = qgis_process(config, "coreg", REFERENCE=ref, TARGET=tgt, OUTPUT=tmp_path / "season.tif", GRID_SPACING=32)
+    assert res["RELIABLE"] >= 200 and res["RMS_AFTER_PX"] < 0.1
+    assert (tmp_path / "season.gpkg").is_file() and (tmp_path / "season_field.tif").is_file()
+    res = qgis_process(config, "register", REFERENCE=ref, TARGET=tgt, OUTPUT=tmp_path / "season_reg.tif", LOCAL="true")
+    assert (tmp_path / "season_reg_field.tif").is_file() and res["INLIERS"] >= 50
 
 
 def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):

@@ -13,11 +13,13 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Output GeoTIFF.")
 @click.option("--vectors", type=click.Path(dir_okay=False), help="GeoPackage of tie points and error vectors [OUT.gpkg].")
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report [OUT.json].")
+@click.option("--field", type=click.Path(dir_okay=False),
+              help="With --local: the displacement field, 2-band GeoTIFF dx, dy in output px [OUT_field.tif].")
 @options_from(REGISTER_TERRAIN, REGISTER)
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @run_tool
-def command(reference, target, output, vectors, report, overwrite, quiet, **options):
+def command(reference, target, output, vectors, report, field, overwrite, quiet, **options):
     """Register TARGET (any image of the area) to the georeferenced REFERENCE orthophoto.
 
     PCA band fusion, SURF keypoints, SSD ratio-test matching, RANSAC + robust homography,
@@ -29,10 +31,11 @@ def command(reference, target, output, vectors, report, overwrite, quiet, **opti
     from ..tools.register import register
     bar = ConsoleProgress(quiet)
     try:
-        r = register(reference, target, output, vectors=vectors, report=report, overwrite=overwrite, progress=bar,
-                     **options)
+        r = register(reference, target, output, vectors=vectors, report=report, field=field, overwrite=overwrite,
+                     progress=bar, **options)
     finally:
         bar.close()
     for line in r.report["summary"]:  # fotogeo.tools.register_report.summary_lines: units and choices named
         click.echo(line)
-    click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}")
+    field = r.report.get("local", {}).get("field")
+    click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}" + (f", {field}" if field else ""))

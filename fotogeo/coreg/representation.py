@@ -35,9 +35,10 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
+from ..options import COREG_REPRESENTATIONS
 
 #: the representations, the first being the default
-REPRESENTATIONS = ("orientation", "gradient", "rank", "intensity")
+REPRESENTATIONS = COREG_REPRESENTATIONS
 #: Gaussian σ (px) before the gradients: suppresses noise and aliasing, keeps 1-px detail
 GRADIENT_SIGMA = 1.0
 #: σ (px) of the local RMS magnitude ``s`` that normalises the gradient weights

@@ -147,10 +147,10 @@ def grid_means(points, d, *, min_count: int = 3, cells: int | None = None) -> di
     return {k: np.asarray(v, int if k in ("cell_col", "cell_row", "n") else float) for k, v in out.items()}
 
 
-def write_layers(path, layers: dict, crs, descriptions: dict | None = None) -> None:
-    """Write ``{layer name: GeoDataFrame-like dict with 'geometry'}`` into one GeoPackage;
-    ``descriptions`` (``{layer name: text}``) become the layers' GeoPackage descriptions
-    (QGIS shows them as the layer's abstract)."""
+def write_layers(path, layers: dict, crs, descriptions: dict | None = None, append: bool = False) -> None:
+    """Write ``{layer name: GeoDataFrame-like dict with 'geometry'}`` into one GeoPackage (a new
+    one, or added to the existing ``path`` with ``append``); ``descriptions`` (``{layer name:
+    text}``) become the layers' GeoPackage descriptions (QGIS shows them as the layer's abstract)."""
     path = Path(path)
     descriptions = descriptions or {}
     try:
@@ -158,9 +158,10 @@ def write_layers(path, layers: dict, crs, descriptions: dict | None = None) -> N
             gdf = gpd.GeoDataFrame({k: v for k, v in columns.items() if k != "geometry"},
                                    geometry=columns["geometry"], crs=crs)
             # GeoPackage 1.2: QGIS 3.22's GDAL reads the 1.4 files newer GDALs write only partially
-            opts = {"dataset_options": {"VERSION": "1.2"}} if i == 0 else {}
+            first = i == 0 and not append
+            opts = {"dataset_options": {"VERSION": "1.2"}} if first else {}
             if name in descriptions:
                 opts["layer_options"] = {"DESCRIPTION": descriptions[name]}
-            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if i == 0 else "a", engine="pyogrio", **opts)
+            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if first else "a", engine="pyogrio", **opts)
     except Exception as e:  # noqa: BLE001 - any writer failure becomes one clear error
         raise OutputError(f"could not write GeoPackage {str(path)!r}: {e}") from None

@@ -16,55 +16,23 @@ how many windows were valid and what to try: never a wild field.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..coreg.grid import window_grid
 from ..coreg.pipeline import CoregOptions, Coregistration, coregister_strips, status_counts
-from ..coreg.representation import REPRESENTATIONS
 from ..crs import transform_points
 from ..errors import InputError, MatchingError, RasterError
+from ..io.report import write_json
 from ..io.raster import AtomicOutputs, check_output, gdal_env, open_raster
 from ..io.warp import default_nodata
-from ..options import RESAMPLINGS, SEED, Option, Table
+from ..options import COREG
 from ..pixels import map_to_pixel, outline, pixel_to_map
 from ..progress import as_progress
 from .boundary import OUTPUTS, tool
 from .coreg_io import RasterStrips, write_corrected, write_field, write_shifts
-
-#: the co-registration options (to move into fotogeo/options.py with the CLI and QGIS wiring)
-COREG = Table(
-    Option("grid_spacing", "int", 64, "Window grid spacing (target pixels)", minimum=4),
-    Option("window", "int", 128, "Matching window size (target pixels, even)", minimum=16, maximum=4096),
-    Option("representation", "choice", "orientation", "Image representation for matching",
-           "orientation (gradient orientation, robust to seasonal/sensor radiometry and contrast inversion), "
-           "gradient, rank, intensity.", choices=REPRESENTATIONS),
-    Option("lsm_representation", "choice", None, "Representation for the least-squares refinement",
-           "Representation LSM refines on (default: the same); intensity (grey values, signed gain) was less "
-           "biased on a red/blue Landsat pair, keeps fewer windows on s2_pair.", choices=REPRESENTATIONS,
-           none_choice="same", advanced=True),
-    Option("smoothing", "float", 1.0, "Field smoothing (0 = through every window; larger = stiffer)", minimum=0.0),
-    Option("iterations", "int", 2, "Passes (each on the target deformed by the previous field)", minimum=1,
-           maximum=5, advanced=True),
-    Option("model", "choice", "affine", "Global model", choices=("affine", "projective")),
-    Option("ransac_threshold", "float", 3.0, "RANSAC threshold of the global model (target pixels)", minimum=0.01,
-           advanced=True),
-    Option("max_shift", "float", 5.0, "Largest window shift (target pixels)", minimum=0.5, advanced=True),
-    Option("min_peak_ratio", "float", 1.5, "Smallest phase-correlation peak ratio", minimum=1.0, advanced=True),
-    Option("min_correlation", "float", 0.2, "Smallest correlation of the matched windows", minimum=-1.0,
-           maximum=1.0, advanced=True),
-    Option("min_windows", "int", 10, "Fewest reliable windows (else refused)", minimum=3, advanced=True),
-    Option("reference_band", "int", 1, "Reference band (1-based)", minimum=1),
-    Option("target_band", "int", 1, "Target band (1-based)", minimum=1),
-    Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)", advanced=True),
-    Option("target_nodata", "float", None, "Target nodata value (empty = the file's)", advanced=True),
-    Option("resampling", "choice", "cubic", "Resampling of the corrected target", choices=RESAMPLINGS),
-    Option("field_step", "int", 16, "Node spacing of the displacement field (target pixels)", minimum=1,
-           advanced=True),
-    SEED,
-    Option("threads", "int", 1, "Threads (strips of windows matched in parallel)", minimum=1, advanced=True),
-)
 
 NOTES = {
     "shift": "window shift (dx, dy) in target pixels: target = reference + shift at the window's information "
@@ -143,6 +111,57 @@ def _report(res: Coregistration, grid, box, opts: CoregOptions, strips: RasterSt
     return rep
 
 
+@dataclass
+class CoregRun:
+    """One co-registration run: its report and what the windows layer is written from."""
+
+    report: dict
+    result: Coregistration
+    crs: object
+    transform: object
+
+    def write_shifts(self, path, layer: str = "windows", append: bool = False) -> None:
+        """The windows as a point layer ``layer`` of the GeoPackage ``path`` (added to it with ``append``)."""
+        res = self.result
+        resid = res.windows.shift - res.field.at(res.windows.position)
+        write_shifts(path, res.windows, res.filtered.status, resid, self.crs, self.transform, layer=layer,
+                     append=append)
+
+
+def run_coregistration(reference, target, opts: CoregOptions, *, output=None, field=None, resampling="cubic",
+                       reference_band=1, target_band=1, reference_nodata=None, target_nodata=None,
+                       progress=None) -> CoregRun:
+    """Match the windows and fit the field; write ``output`` (the corrected target) and ``field``
+    to the paths given, as they are (the caller makes them atomic). The core of :func:`coregister`
+    and of ``register(local=True)``."""
+    prog = as_progress(progress)
+    t0 = time.perf_counter()
+    with gdal_env(), RasterStrips(reference, target, reference_band=reference_band, target_band=target_band,
+                                  reference_nodata=reference_nodata, target_nodata=target_nodata) as strips:
+        grid, box = _grid(strips, opts, reference, target)
+        H, W = strips.shape
+        res = coregister_strips(grid, strips, W, H, opts, progress=prog.stage(0.0, 0.85, "matching windows"))
+        timings = {"matching": time.perf_counter() - t0, **res.timings}
+        t1 = time.perf_counter()
+        if output is not None:
+            nodata = default_nodata(strips.tgt_nodata, strips.tgt.dtypes[0])
+            write_corrected(strips, res.field, output, resampling=resampling, nodata=nodata,
+                            progress=prog.stage(0.85, 0.98, "writing the corrected target"))
+        if field is not None:
+            write_field(field, res.field, strips.tgt.crs, strips.tgt.transform)
+        timings["writing"] = time.perf_counter() - t1
+        timings["total"] = time.perf_counter() - t0
+        paths = {"reference": reference, "target": target, "output": output, "field": field}
+        report = _report(res, grid, box, opts, strips, {k: (Path(v) if v else None) for k, v in paths.items()},
+                         timings)
+        return CoregRun(report, res, strips.tgt.crs, strips.tgt.transform)
+
+
+def coreg_options(**values) -> CoregOptions:
+    """The method's settings from option values by name (missing ones: the table's defaults)."""
+    return _options({**{name: o.default for name, o in COREG.items()}, **values})
+
+
 @tool(COREG, rasters={"reference": "reference_nodata", "target": "target_nodata"},
       outputs=OUTPUTS + ("shifts", "field"))
 def coregister(reference, target, output=None, *, grid_spacing: int = 64, window: int = 128,
@@ -152,22 +171,21 @@ def coregister(reference, target, output=None, *, grid_spacing: int = 64, window
                min_peak_ratio: float = 1.5, min_correlation: float = 0.2, min_windows: int = 10,
                reference_band: int = 1, target_band: int = 1, reference_nodata=None, target_nodata=None,
                resampling: str = "cubic", field_step: int = 16, seed: int = 0, threads: int = 1,
-               shifts=None, field=None, overwrite: bool = False, progress=None) -> dict:
+               shifts=None, field=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Co-register ``target`` to ``reference``; write the corrected target to ``output``.
 
     ``output`` (GeoTIFF, the target's grid, CRS, bands and data type; None: measure only),
     ``shifts`` (GeoPackage, layer ``windows``: one point per window with ``dx``, ``dy`` in
     target px, ``reliability``, ``status``, correlations, σ, residual), ``field`` (2-band
-    float32 GeoTIFF of the displacement ``D`` in target px on a grid of ``field_step`` px).
-    Options: see :data:`COREG` and :mod:`fotogeo.coreg`. Returns the report (dict).
-    Raises :class:`~fotogeo.errors.MatchingError` when the images do not overlap or too few
-    windows are reliable.
+    float32 GeoTIFF of the displacement ``D`` in target px on a grid of ``field_step`` px),
+    ``report`` (JSON: the returned report; its ``summary`` the command line's lines).
+    Options: see :data:`~fotogeo.options.COREG` and :mod:`fotogeo.coreg`. Returns the report
+    (dict). Raises :class:`~fotogeo.errors.MatchingError` when the images do not overlap or
+    too few windows are reliable.
     """
     prog = as_progress(progress).with_own_timings()
-    if window % 2:
-        raise InputError(f"window must be an even number of pixels (the window centres lie on pixel corners); "
-                         f"got {window}, use {window + 1}")
-    outs = {"output": output, "shifts": shifts, "field": field}
+    check_window(window, "window")
+    outs = {"output": output, "shifts": shifts, "field": field, "report": report}
     for role, path in outs.items():
         if path is not None:
             check_output(path, [reference, target], overwrite, role)
@@ -177,29 +195,37 @@ def coregister(reference, target, output=None, *, grid_spacing: int = 64, window
             raise RasterError(f"{role} {str(path)!r} has no georeference (CRS and geotransform); co-registration "
                               f"needs both images on the map")
     opts = _options(dict(locals()))
-    t0 = time.perf_counter()
-    with gdal_env(), RasterStrips(reference, target, reference_band=reference_band, target_band=target_band,
-                                  reference_nodata=reference_nodata, target_nodata=target_nodata) as strips:
-        grid, box = _grid(strips, opts, reference, target)
-        H, W = strips.shape
-        res = coregister_strips(grid, strips, W, H, opts, progress=prog.stage(0.0, 0.85, "matching windows"))
-        timings = {"matching": time.perf_counter() - t0, **res.timings}
-        t1 = time.perf_counter()
-        with AtomicOutputs(overwrite) as atomic:
-            if output is not None:
-                nodata = default_nodata(strips.tgt_nodata, strips.tgt.dtypes[0])
-                write_corrected(strips, res.field, atomic.temp(output), resampling=resampling, nodata=nodata,
-                                progress=prog.stage(0.85, 0.98, "writing the corrected target"))
-            if field is not None:
-                write_field(atomic.temp(field), res.field, strips.tgt.crs, strips.tgt.transform)
-            if shifts is not None:
-                resid = res.windows.shift - res.field.at(res.windows.position)
-                write_shifts(atomic.temp(shifts), res.windows, res.filtered.status, resid, strips.tgt.crs,
-                             strips.tgt.transform)
-            atomic.commit()
-        timings["writing"] = time.perf_counter() - t1
-        timings["total"] = time.perf_counter() - t0
-        report = _report(res, grid, box, opts, strips, {k: (Path(v) if v else None) for k, v in outs.items()},
-                         timings)
+    with AtomicOutputs(overwrite) as atomic:
+        run = run_coregistration(reference, target, opts, output=output and atomic.temp(output),
+                                 field=field and atomic.temp(field), resampling=resampling,
+                                 reference_band=reference_band, target_band=target_band,
+                                 reference_nodata=reference_nodata, target_nodata=target_nodata, progress=prog)
+        if shifts is not None:
+            run.write_shifts(atomic.temp(shifts))
+        rep = run.report
+        rep.update({k: (str(v) if v is not None else None) for k, v in outs.items()})
+        rep["summary"] = summary_lines(rep)
+        if report is not None:
+            write_json(atomic.temp(report), rep)
+        atomic.commit()
     prog(1.0, "done")
-    return report
+    return rep
+
+
+def summary_lines(rep: dict) -> list[str]:
+    """The lines the command line prints after a co-registration (units named)."""
+    w, b, a = rep["windows"], rep["before"], rep["after"]
+    nan = float("nan")
+    return [f"windows: {w['reliable']} reliable, {w['valid']} valid of {w['total']} ({w['status']})",
+            f"shift before: median {b.get('median', nan):.3f} px, CE90 {b.get('ce90', nan):.3f} px; left by the "
+            f"field: RMS {a.get('rms', nan):.3f} px, CE90 {a.get('ce90', nan):.3f} px "
+            f"({a.get('rms', nan) * rep['pixel_size']:.3g} map units RMS)",
+            f"global model {rep['global_model'].get('model', '?')}, {rep['passes']} passes, smoothing "
+            f"{rep['smoothing']:g}; time {rep['timings_s'].get('total', nan):.1f} s"]
+
+
+def check_window(window: int, name: str) -> None:
+    """Window sides must be even: the window centres lie on pixel corners."""
+    if window % 2:
+        raise InputError(f"{name} must be an even number of pixels (the window centres lie on pixel corners); "
+                         f"got {window}, use {window + 1}")

@@ -178,8 +178,10 @@ def write_field(path, field, crs, transform) -> None:
         dst.update_tags(fotogeo_field=f"corrected(p) = target(p + D(p)); node spacing {field.step} target px")
 
 
-def write_shifts(path, windows, status, residual, crs, transform) -> None:
-    """The windows as points at their centres (map coordinates): shifts, reliability, status."""
+def write_shifts(path, windows, status, residual, crs, transform, *, layer: str = "windows",
+                 append: bool = False) -> None:
+    """The windows as points at their centres (map coordinates): shifts, reliability, status; the
+    layer ``layer`` of the GeoPackage ``path`` (added to an existing one with ``append``)."""
     import shapely
     from ..io.vector import write_layers
     XY = pixel_to_map(transform, windows.xy)
@@ -192,6 +194,6 @@ def write_shifts(path, windows, status, residual, crs, transform) -> None:
             "sigma_x": windows.sigma[:, 0], "sigma_y": windows.sigma[:, 1],
             "residual_dx": residual[:, 0], "residual_dy": residual[:, 1],
             "coverage": windows.coverage, "geometry": shapely.points(XY)}
-    write_layers(path, {"windows": cols}, crs.to_wkt() if crs is not None else None,
-                 {"windows": "Co-registration windows: shift (dx, dy) in target pixels, target = reference + shift; "
-                             "residual = shift - field."})
+    write_layers(path, {layer: cols}, crs.to_wkt() if crs is not None else None,
+                 {layer: "Co-registration windows: shift (dx, dy) in target pixels, target = reference + shift; "
+                             "residual = shift - field."}, append=append)

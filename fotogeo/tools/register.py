@@ -38,12 +38,14 @@ from ..models import get_model
 from ..models.stats import rmse
 from ..options import PLANAR_MODELS, RegisterOptions  # declared in the option table
 from ..orientation.terrain import TERRAIN_MODELS
-from ..pixels import outline, pixel_to_map
+from ..pixels import map_to_pixel, outline, pixel_to_map
 from ..progress import as_progress
 from .checks import check_camera_size, check_output_grid
 from .match import HINT, band_numbers, select_bands
 from .boundary import tool
 from .register_points import fit_points, refine_mode, tie_points as find_points, write_vectors
+from .coreg import check_window
+from .register_local import area_tie_points, local_correction
 from .register_report import build_report, notes, precision, summary_lines
 from .results import Registration
 
@@ -72,7 +74,7 @@ def output_grid(geo, width: int, height: int, res: float):
 
 
 @tool("REGISTER", "REGISTER_TERRAIN", rasters={"reference": "reference_nodata", "target": "target_nodata", "dem": None})
-def register(reference, target, output, *, vectors=None, report=None, overwrite: bool = False,
+def register(reference, target, output, *, vectors=None, report=None, field=None, overwrite: bool = False,
              options: RegisterOptions | None = None, progress=None, tie_points=None, dem=None, camera=None,
              **kwargs) -> Registration:
     """Register ``target`` to the georeferenced ``reference``; write ``output`` (GeoTIFF).
@@ -89,6 +91,12 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
     ``auto``, ``dlt``, ``rfm``, ``rfm-common``, ``rfm-poly``, or ``collinearity`` with
     ``camera``, a FrameCamera or interior-orientation YAML) is fitted, and the output is
     orthorectified: every output pixel takes its height from the DEM.
+
+    With ``local`` the registered raster is then corrected by a smooth displacement field
+    measured on a grid of windows against the reference (:mod:`fotogeo.tools.register_local`);
+    ``field`` (GeoTIFF, default ``output`` with ``_field.tif``) receives the field and ``vectors``
+    a layer ``local_windows``. When feature matching fails on a georeferenced target, a grid of
+    windows gives the tie points instead (``area_fallback``; the report's ``area_based`` says so).
     """
     opts = options or RegisterOptions(**kwargs)
     if options is not None and kwargs:
@@ -98,6 +106,7 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
                             for r in ("reference", "target")})
     prog = as_progress(progress).with_own_timings()
     output, vectors, report = _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite)
+    field = _field_path(opts, output, field, [reference, target], overwrite)
     ref = open_raster(reference, "reference")
     tgt = open_raster(target, "target")
     for info, role in ((ref, "reference"), (tgt, "target")):
@@ -117,18 +126,18 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
             res = opts.resolution or _reference_step(ref, crs) or ref_px
             refine = refine_mode(opts.refine, dem is not None)
-            pts = find_points(opts, ref, tgt, prog, tie_points, refine)
-            if pts.usable is not None:  # LSM: the fit takes the converged points
-                pts = pts.subset(pts.usable)
-            src, ref_xy, counts = pts.src, pts.ref_xy, pts.counts
-            dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, ref_xy))
-            fit_stage = prog.stage(0.55, 0.6, "fitting the model")
-            with fit_stage.timed("fit"):
-                try:
-                    gf = (_planar(opts, src, dst, ref_px, tgt, crs, res, pts.sigma_px) if dem is None else
-                          _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, fit_stage))
-                except MatchingError as e:
+            fit = _fitter(opts, ref, ref_px, tgt, crs, res, dem, camera, prog)
+            try:
+                pts = find_points(opts, ref, tgt, prog, tie_points, refine)
+                pts, dst, gf = fit(pts)
+            except MatchingError as e:
+                if tie_points is not None or not opts.area_fallback:
                     raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
+                refine = "area-based windows (feature matching failed)"
+                pts = area_tie_points(reference, target, ref, tgt, opts, str(e),
+                                      prog.stage(0.0, 0.55, "feature matching failed: matching windows"))
+                pts, dst, gf = fit(pts)
+            counts = pts.counts
             check_output_grid(output, gf.width, gf.height, bands=tgt.count, dtype=tgt.dtype,
                               source_pixels=tgt.width * tgt.height, resolution=res,
                               what=f"the registered raster {str(output)!r}")
@@ -136,13 +145,22 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
             gf = replace(gf, transform=transform, width=width, height=height)
             rep = build_report(opts, ref, tgt, crs, ref_px, res, counts, gf)
             rep["refine"] = "given tie points (not refined)" if tie_points is not None else refine
+            if "area_based" in counts:
+                rep["area_based"] = counts["area_based"]
             rep["precision"] = precision(rep, None if pts.sigma_px is None else pts.sigma_px[gf.role == "check"])
             rep["output_crs_name"], rep["output_crs_rule"] = short_name(crs), crs_rule
             rep["output_grid"]["aligned_to_reference"] = aligned
-            stage = prog.stage(0.6, 0.95 if not opts.cog else 0.9, "resampling")
+            inverse_map, local = gf.georeference.map_to_pixel, None
+            if opts.local:  # the field measured on a cubic registration, then one resampling through both
+                local_stage = prog.stage(0.6, 0.8, "local co-registration")
+                with local_stage.timed("local"):
+                    local = _measure_local(reference, tgt, gf, crs, out, field, opts, local_stage)
+                rep["local"] = local.report
+                inverse_map = composed_map(gf, local.result.field)
+            stage = prog.stage(0.8 if opts.local else 0.6, 0.95 if not opts.cog else 0.9, "resampling")
             with stage.timed("resample"):
                 raster = out.temp(output)
-                written = warp_to_grid(tgt.path, raster, gf.georeference.map_to_pixel, crs=crs,
+                written = warp_to_grid(tgt.path, raster, inverse_map, crs=crs,
                                        transform=gf.transform, width=gf.width, height=gf.height,
                                        resampling=opts.resampling, block=gf.block, src_nodata=opts.target_nodata,
                                        progress=stage)
@@ -152,7 +170,10 @@ def register(reference, target, output, *, vectors=None, report=None, overwrite:
                 with prog.stage(0.9, 0.95, "writing the Cloud Optimized GeoTIFF").timed("cog"):
                     convert_to_cog(raster, opts.resampling)
             prog.stage(0.95, 1.0, "writing tie points and report")
-            rep["exaggeration"] = write_vectors(out.temp(vectors), gf, pts, dst, ref_px, crs, opts.exaggeration)
+            vectors_tmp = out.temp(vectors)
+            rep["exaggeration"] = write_vectors(vectors_tmp, gf, pts, dst, ref_px, crs, opts.exaggeration)
+            if opts.local:
+                local.write_shifts(vectors_tmp, layer="local_windows", append=True)
             rep["notes"] = notes(rep, dem is not None)
         rep["timings_s"] = {k: round(v, 4) for k, v in prog.timings.items()}
         rep["summary"] = summary_lines(rep)
@@ -202,6 +223,60 @@ def aligned_grid(transform, width: int, height: int, res: float, ref, crs):
     h = int(math.ceil((y1 - y_min) / res - 1e-9))
     whole = all(round(res / step) >= 1 and abs(res / step - round(res / step)) < 1e-9 for step in (a, e))
     return Affine(res, 0, x0, 0, -res, y1), w, h, bool(whole)
+
+
+def _fitter(opts, ref, ref_px, tgt, crs, res, dem, camera, prog):
+    """``fit(tie points) -> (tie points used, their output-CRS positions, GeoFit)``: the 2-D or terrain model."""
+    def fit(pts):
+        if pts.usable is not None:  # LSM: the fit takes the converged points
+            pts = pts.subset(pts.usable)
+        dst = transform_points(ref.crs, crs, pixel_to_map(ref.transform, pts.ref_xy))
+        stage = prog.stage(0.55, 0.6, "fitting the model")
+        with stage.timed("fit"):
+            gf = (_planar(opts, pts.src, dst, ref_px, tgt, crs, res, pts.sigma_px) if dem is None else
+                  _terrain(opts, pts.src, dst, ref_px, tgt, crs, res, dem, camera, stage))
+        return pts, dst, gf
+    return fit
+
+
+def _measure_local(reference, tgt, gf, crs, out, field, opts, prog):
+    """The local field (:func:`~fotogeo.tools.register_local.local_correction`) measured on the target
+    registered by ``gf`` with cubic resampling into a temporary raster (removed again)."""
+    field_tmp = out.temp(field)
+    measured = field_tmp.with_suffix(".registered.tif")  # a private name beside the outputs
+    try:
+        warp_to_grid(tgt.path, measured, gf.georeference.map_to_pixel, crs=crs, transform=gf.transform,
+                     width=gf.width, height=gf.height, resampling="cubic", block=gf.block,
+                     src_nodata=opts.target_nodata, progress=prog.stage(0.0, 0.3, "registering for the local field"),
+                     overviews=False)
+        run = local_correction(reference, measured, None, field_tmp, opts, prog.stage(0.3, 1.0, "local field"))
+    finally:
+        measured.unlink(missing_ok=True)
+    for key in ("reference", "target", "output"):  # temporary paths; the report names the outputs
+        run.report.pop(key, None)
+    run.report["field"] = str(field)
+    return run
+
+
+def composed_map(gf, field):
+    """Output map XY → target pixels through the local field, then the model: the output pixel ``p``
+    takes the registered image at ``p + D(p)`` (``corrected(p) = registered(p + D(p))``)."""
+    def inverse_map(XY):
+        p = map_to_pixel(gf.transform, XY)
+        return gf.georeference.map_to_pixel(pixel_to_map(gf.transform, p + field.at(p)))
+    return inverse_map
+
+
+def _field_path(opts, output, field, inputs, overwrite):
+    """The displacement field's path with ``local`` (default beside the output), checked; else None."""
+    check_window(opts.local_window, "local_window")  # the area-based fallback uses it too
+    if not opts.local:
+        if field is not None:
+            raise InputError("a displacement field (--field) is written only with --local")
+        return None
+    field = Path(field) if field else output.with_name(output.stem + "_field.tif")
+    check_output(field, inputs, overwrite, "displacement field")
+    return field
 
 
 def _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite):

@@ -129,6 +129,11 @@ def summary_lines(rep: dict) -> list[str]:
     """The lines the command line prints after a registration (units named)."""
     lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
              f"matches {rep['matches']}, inliers {rep['inliers']}"]
+    if "area_based" in rep:
+        a = rep["area_based"]
+        lines[0] = (f"feature matching failed ({a['why']}); tie points from {a['windows']['reliable']} reliable "
+                    f"windows of {a['windows']['total']} (area-based, {a['window']} px windows every "
+                    f"{a['grid_spacing']} px), inliers {rep['inliers']}")
     if rep.get("lsm", {}).get("tried"):
         lsm = rep["lsm"]
         sig = lsm.get("median_sigma_px")
@@ -150,6 +155,11 @@ def summary_lines(rep: dict) -> list[str]:
         t = rep["terrain"]
         lines.append(f"3-D model {t['chosen']} ({t['chosen_because']}); check RMSE {t['check_rmse_target_px']:.2f} "
                      f"target px; {t['tie_points_without_height']} tie points without DEM height skipped")
+    if "local" in rep:
+        loc, w = rep["local"], rep["local"]["windows"]
+        lines.append(f"local field: {w['reliable']} reliable windows of {w['total']}; window shifts before RMS "
+                     f"{loc['before'].get('rms', float('nan')):.3f} px, after {loc['after'].get('rms', float('nan')):.3f} "
+                     f"px (CE90 {loc['after'].get('ce90', float('nan')):.3f} px); field {loc.get('field')}")
     g = rep["output_grid"]
     lines.append(f"output CRS {rep.get('output_crs_name', rep['output_crs'])} ({rep['output_crs_rule']}); grid {g['width']}x{g['height']} of "
                  f"{g['resolution']:g}, {'aligned to' if g.get('aligned_to_reference') else 'not aligned to'} "

@@ -1,6 +1,7 @@
 """The fotogeo Processing algorithms: one module per tool (the same stem as ``fotogeo/tools/``
 and ``fotogeo/cli/``), each a thin call of that tool."""
 from .compare import CompareModelsAlgorithm
+from .coreg import CoregAlgorithm
 from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
 from .match import MatchFeaturesAlgorithm
@@ -16,4 +17,4 @@ from .triangulate import TriangulateAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, CoregAlgorithm)

@@ -31,13 +31,19 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "(homography), affine or similarity model; a share of the inliers held out as check points; "
             "resampling of every band onto the output grid (nearest neighbour by default). Advanced: "
             "contrast of the fused images (adaptive = histogram equalisation + CLAHE), least-squares "
-            "refinement of the tie points (lsm), nodata overrides, "
+            "refinement of the tie points (lsm; auto = lsm without a DEM), the bands fused for matching, nodata "
+            "overrides, "
             "keypoint budget, seed.\n\n"
             "Outputs: the registered GeoTIFF; a GeoPackage with the layers <i>tie_points</i> (field "
             "<i>role</i> = control/check, residuals dx, dy) and <i>error_vectors</i> (lines from the "
             "reference position to the model's, with dx, dy, length in metres; drawn scaled by "
             "<i>exaggeration</i>); a JSON report with RMSE at control and check points, timings and "
             "versions.\n\n"
+            "<b>Local co-registration</b> corrects what the model leaves (residual relief, lens or scanner "
+            "distortion) by a smooth displacement field measured on a grid of windows against the reference "
+            "(as in the Co-register algorithm); the window shifts go to the layer <i>local_windows</i>. When feature "
+            "matching fails on a georeferenced target (seasonal change, clouds), a grid of windows gives the tie "
+            "points instead; the log says so.\n\n"
             "With a DEM the registration is terrain-aware: every tie point gets its DEM height, a 3-D "
             "ground-to-image model is fitted (auto keeps the simplest of collinearity — with the camera's "
             "interior orientation —, DLT and the rational function models whose check RMSE is within 5 % of the "
@@ -50,6 +56,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
 
     OPTIONS = (REGISTER_TERRAIN, REGISTER)
     REFERENCE, TARGET, OUTPUT, VECTORS, REPORT = "REFERENCE", "TARGET", "OUTPUT", "VECTORS", "REPORT"
+    FIELD = "FIELD"
     TIE_POINTS, ERROR_VECTORS, ERROR_GRID = "TIE_POINTS", "ERROR_VECTORS", "ERROR_GRID"
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
 
@@ -66,6 +73,9 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterFileDestination(
             self.REPORT, tr("Report (JSON) [beside the raster]"), "JSON (*.json)", optional=True,
             createByDefault=True))
+        self.addParameter(QgsProcessingParameterFileDestination(
+            self.FIELD, tr("Local displacement field (GeoTIFF, with local co-registration) [beside the raster]"),
+            "GeoTIFF (*.tif)", optional=True, createByDefault=False))
         self.addOutput(QgsProcessingOutputVectorLayer(self.TIE_POINTS, tr("Tie points")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_GRID, tr("Mean error per grid cell")))
@@ -85,8 +95,10 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         options = self.option_arguments(parameters, context)
         shown = ", ".join(f"{k}={v}" for k, v in options.items() if k in REGISTER and k != "dst_crs")
         feedback.pushInfo(f"options: {shown}, output CRS={'auto' if options['dst_crs'] == 'auto' else 'given'}")
-        result = self.run_tool("register", reference, target, output, vectors=vectors, report=report, overwrite=True,
-                               feedback=feedback, **options)
+        field = (self.file_output_or_beside(parameters, self.FIELD, context, output, "_field.tif")
+                 if options.get("local") else None)
+        result = self.run_tool("register", reference, target, output, vectors=vectors, report=report, field=field,
+                               overwrite=True, feedback=feedback, **options)
         rep = result["report"]
         for line in rep["summary"]:  # the command line's lines (fotogeo.tools.register_report.summary_lines)
             feedback.pushInfo(line)
@@ -104,7 +116,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
                                "error_vectors", run=run)
             load_on_completion(context, tie_uri, f"{stem} {tr('tie points')}", self.TIE_POINTS, "tie_points", run=run)
         nan = float("nan")
-        return {self.OUTPUT: output, self.VECTORS: vectors, self.REPORT: report,
+        return {self.OUTPUT: output, self.VECTORS: vectors, self.REPORT: report, self.FIELD: field,
                 self.TIE_POINTS: tie_uri, self.ERROR_VECTORS: err_uri, self.ERROR_GRID: grid_uri,
                 self.INLIERS: int(rep["inliers"]),
                 self.CONTROL_RMSE: float(rep["control"].get("rmse_m", nan)),
