@@ -127,6 +127,14 @@ def _name(crs: CRS) -> str:
     return f"EPSG:{epsg}" if epsg else repr(crs.name[:60])
 
 
+def crs_text(crs: CRS) -> str:
+    """``crs.to_string()`` (its authority code, else its PROJ string) without pyproj's warning that a PROJ
+    string loses details: the WKT goes beside it wherever the CRS must be exact."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return crs.to_string()
+
+
 def short_name(crs: CRS) -> str:
     """``crs`` in one short phrase for summaries: its EPSG code, else its name, else its PROJ string.
 

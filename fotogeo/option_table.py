@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from dataclasses import dataclass, replace
 
 from .errors import InputError
@@ -139,3 +140,29 @@ class Table(dict):
 def field_options(*names: str) -> tuple[Option, ...]:
     """``<name>_field`` options: the attribute names a point table is read with (advanced)."""
     return tuple(Option(f"{n}_field", "str", n, label=f"Field: {n}", advanced=True) for n in names)
+
+
+_FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
+
+
+def in_labels(message: str, *tables: Table, extra: dict | None = None) -> str:
+    """``message`` in the words of a QGIS user: each command-line flag of an option of ``tables``
+    (``--ratio``) becomes its parameter label in quotes, and a message that opens with an option's
+    name (``ratio must be ...``, :meth:`Option.check`) opens with its label. ``extra`` maps further
+    flags (the algorithm's own inputs, e.g. ``--reference``) to labels. Unknown flags stay as they are.
+
+    >>> t = Table(Option("ratio", "float", 0.8, "Ratio test"), Option("dst_crs", "crs", "auto", "Output CRS",
+    ...                                                               flag="--crs"))
+    >>> in_labels("try a looser --ratio (0.9) or give --crs; --other stays", t)
+    'try a looser “Ratio test” (0.9) or give “Output CRS”; --other stays'
+    >>> in_labels("ratio must be <= 1.0; got 2", t)
+    '“Ratio test” must be <= 1.0; got 2'
+    """
+    words = {o.cli_flag: o.label for t in tables for o in t.values() if o.label}
+    words.update(extra or {})
+    text = _FLAG.sub(lambda m: f"“{words[m.group(0)]}”" if m.group(0) in words else m.group(0), str(message))
+    for t in tables:
+        for o in t.values():
+            if o.label and re.match(rf"{re.escape(o.name)} (must|needs|['\"])", text):
+                return f"“{o.label}”" + text[len(o.name):]
+    return text

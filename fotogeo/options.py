@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from dataclasses import field, fields, make_dataclass, replace
 
-from .option_table import KINDS, Option, Table, field_options  # noqa: F401 (re-exported)
+from .option_table import KINDS, Option, Table, field_options, in_labels  # noqa: F401 (re-exported)
 
 DETECTORS = ("surf", "sift")
 CONTRASTS = ("adaptive", "equalize", "linear")

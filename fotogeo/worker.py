@@ -76,7 +76,7 @@ EXIT_ERROR, EXIT_CANCELLED = 2, 130
 
 def to_json(value, depth: int = 0):
     """``value`` as plain JSON types: paths → str, numpy → Python numbers and lists, dataclasses → dicts,
-    objects with ``to_dict()`` → that; arrays above :data:`MAX_ARRAY` elements → ``{"shape": [...]}``.
+    a CRS → its WKT, objects with ``to_dict()`` → that; arrays above :data:`MAX_ARRAY` elements → ``{"shape": [...]}``.
 
     >>> from pathlib import Path
     >>> to_json({"p": Path("/a/b.tif"), "t": (1, 2.5), "n": None})
@@ -96,6 +96,8 @@ def to_json(value, depth: int = 0):
         if getattr(value, "size", 1) > MAX_ARRAY:
             return {"shape": list(value.shape)}
         return to_json(value.tolist(), depth + 1)
+    if callable(getattr(value, "to_wkt", None)) and callable(getattr(value, "to_epsg", None)):  # a CRS
+        return value.to_wkt()  # whole, without the PROJ-string warning its to_dict() gives
     if callable(getattr(value, "to_dict", None)):
         return to_json(value.to_dict(), depth + 1)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):

@@ -18,8 +18,10 @@ from qgis.core import (
     QgsProcessingLayerPostProcessorInterface,
     QgsProcessingUtils,
     QgsProject,
+    QgsRendererCategory,
     QgsVectorLayer,
 )
+from qgis.PyQt.QtCore import QTimer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
 STYLES = ("tie_points", "gcps", "error_vectors", "error_grid")
@@ -57,11 +59,13 @@ class LoadedRun:
 
 
 class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
-    """Loads one QML style (None: keeps the layer's style) onto the output layer; places it in its run."""
+    """Loads one QML style (None: keeps the layer's style) onto the output layer, unticks the categories
+    ``hidden`` (e.g. the many control points of a registration: optional, the check points stay visible);
+    places it in its run and expands it in the layer tree (its legend readable at once)."""
 
-    def __init__(self, style: str | None, run: LoadedRun | None = None):
+    def __init__(self, style: str | None, run: LoadedRun | None = None, hidden: tuple = ()):
         super().__init__()
-        self.style, self.run = style, run
+        self.style, self.run, self.hidden = style, run, tuple(hidden)
 
     def postProcessLayer(self, layer, context, feedback):
         if layer is None or not layer.isValid():
@@ -70,16 +74,59 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
             message, ok = layer.loadNamedStyle(style_path(self.style))
             if not ok and feedback is not None:
                 feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
+            hide_categories(layer, self.hidden)
             show_legend(layer)
+            layer.setRenderer(layer.renderer().clone())  # tells the legend (an edit in place would not)
             layer.triggerRepaint()
         if self.run is not None:
             self.run.place(layer, context)
+        project = (context.project() if context is not None else None) or QgsProject.instance()
+        unique_name(layer, project)
+        if isinstance(layer, QgsVectorLayer):
+            expand_later(project, layer.id())
+
+
+def expand_later(project, layer_id: str) -> None:
+    """Expand the layer's node once the legend has been rebuilt (the tree view collapses a node whose legend
+    it refreshes, while the node still says expanded: toggled, the view follows)."""
+    def expand():
+        node = project.layerTreeRoot().findLayer(layer_id)
+        if node is not None:
+            node.setExpanded(False)
+            node.setExpanded(True)
+    expand()
+    QTimer.singleShot(0, expand)
+
+
+def hide_categories(layer, values) -> None:
+    """Untick (do not draw, keep in the legend) the categories of ``layer`` whose value is in ``values``."""
+    renderer = layer.renderer()
+    for i, category in enumerate(getattr(renderer, "categories", lambda: [])()):
+        if category.value() in values:
+            renderer.updateCategoryRenderState(i, False)
+
+
+def unique_name(layer, project) -> str:
+    """Give ``layer`` a name no other layer of ``project`` has ("frame registered (2)" after a second run)."""
+    taken = {other.name() for other in project.mapLayers().values() if other.id() != layer.id()}
+    base, n = layer.name(), 2
+    name = base
+    while name in taken:
+        name, n = f"{base} ({n})", n + 1
+    if name != base:
+        layer.setName(name)
+    return name
+
+
+#: the value of the legend-only category that carries the exaggeration sentence (no feature has it)
+LEGEND_VALUE = "__scale__"
 
 
 def show_legend(layer) -> str | None:
     """Put the layer's ``legend`` field (error vectors: "x20; 1 mm on the map = 0.25 m of error (at
-    1:50 000)", see fotogeo.io.vector) into its legend: appended to each category's label and
-    set as the layer's abstract. Returns the text, or None for a layer without it."""
+    1:50 000)", see fotogeo.io.vector) into its legend: a legend line of its own (a category no feature
+    belongs to, drawn with the check points' arrow), and the layer's abstract (its tooltip). Returns the
+    text, or None for a layer without it."""
     if layer.fields().indexOf("legend") < 0:
         return None
     feature = next(layer.getFeatures(), None)
@@ -87,9 +134,10 @@ def show_legend(layer) -> str | None:
     if not text:
         return None
     renderer = layer.renderer()
-    if hasattr(renderer, "categories"):
-        for i, category in enumerate(renderer.categories()):
-            renderer.updateCategoryLabel(i, f"{category.label()} ({text})")
+    categories = getattr(renderer, "categories", lambda: [])()
+    if categories and all(c.value() != LEGEND_VALUE for c in categories):
+        sample = next((c for c in categories if c.value() == "check"), categories[0])
+        renderer.addCategory(QgsRendererCategory(LEGEND_VALUE, sample.symbol().clone(), f"drawn {text}"))
     layer.setAbstract(f"Error vectors drawn {text}.")
     return text
 
@@ -100,26 +148,31 @@ def show_legend(layer) -> str | None:
 _RECENT: collections.deque = collections.deque(maxlen=64)
 
 
-def post_processor(style: str | None, run: LoadedRun | None = None) -> StylePostProcessor:
+def post_processor(style: str | None, run: LoadedRun | None = None, hidden: tuple = ()) -> StylePostProcessor:
     if style is not None and style not in STYLES:
         raise ValueError(f"unknown style {style!r}; one of {', '.join(STYLES)}")
-    processor = StylePostProcessor(style, run)
+    processor = StylePostProcessor(style, run, hidden)
     _RECENT.append(processor)
     return processor
 
 
 def load_on_completion(context, uri: str, name: str, output_name: str, style: str | None,
-                       raster: bool = False, run: LoadedRun | None = None) -> None:
+                       raster: bool = False, run: LoadedRun | None = None, hidden: tuple = ()) -> None:
     """Ask Processing to load ``uri`` (vector or raster; a CSV loads as a table) on completion as ``name``, styled with
-    ``style``; with ``run`` its vectors stay above its rasters."""
+    ``style`` (categories ``hidden`` unticked); with ``run`` its vectors stay above its rasters."""
     hint = (QgsProcessingUtils.LayerHint.Raster if raster else QgsProcessingUtils.LayerHint.Vector)
     details = QgsProcessingContext.LayerDetails(name, context.project(), output_name, hint)
-    if style or run is not None:
-        details.setPostProcessor(post_processor(style, run))
+    details.forceName = True  # the run's own name ("frame_0182 tie points"), not the file's
+    if style or run is not None or hidden:
+        details.setPostProcessor(post_processor(style, run, hidden))
     context.addLayerToLoadOnCompletion(uri, details)
 
 
-def style_output(context, key: str, style: str | None, run: LoadedRun | None = None) -> None:
-    """Set ``style`` on an output Processing already loads on completion (e.g. a vector destination)."""
+def style_output(context, key: str, style: str | None, run: LoadedRun | None = None, name: str | None = None) -> None:
+    """Set ``style`` on an output Processing already loads on completion (e.g. a vector destination), and
+    its layer ``name`` when given (instead of the parameter's description, the same for every run)."""
     if context.willLoadLayerOnCompletion(key):
-        context.layerToLoadOnCompletionDetails(key).setPostProcessor(post_processor(style, run))
+        details = context.layerToLoadOnCompletionDetails(key)
+        details.setPostProcessor(post_processor(style, run))
+        if name:
+            details.name, details.forceName = name, True

@@ -56,8 +56,8 @@ def _message(line: str):
     return message if isinstance(message, dict) else None
 
 
-def _apply(message: dict, feedback, last: list):
-    """Progress and warnings to the feedback; returns the final message, or None."""
+def _apply(message: dict, feedback, last: list, words=str):
+    """Progress and warnings (in the user's ``words``) to the feedback; returns the final message, or None."""
     kind = message.get("type")
     if kind == "progress":
         if feedback is not None:
@@ -69,7 +69,7 @@ def _apply(message: dict, feedback, last: list):
         return None
     if kind == "warning":
         if feedback is not None:
-            feedback.pushWarning(message.get("message", ""))
+            feedback.pushWarning(words(message.get("message", "")))
         return None
     return message if kind in ("result", "error") else None
 
@@ -93,14 +93,17 @@ def start_worker(stderr, *worker_args: str, error=QgsProcessingException, **pope
                     f"Install / repair runtime") from None
 
 
-def run_tool(tool: str, *args, feedback=None, **kwargs):
-    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result."""
+def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
+    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result.
+
+    ``words(message)`` puts the tool's warnings and error in the caller's words (command-line flags →
+    parameter labels, :func:`fotogeo.options.in_labels`)."""
     request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs}) + "\n"
     with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
         proc = start_worker(stderr)
         proc.stdin.write(request)
         proc.stdin.flush()
-        final = _follow(proc, feedback)
+        final = _follow(proc, feedback, words)
         proc.wait()
         if final is None:
             stderr.seek(0)
@@ -110,11 +113,11 @@ def run_tool(tool: str, *args, feedback=None, **kwargs):
         if final["type"] == "error":
             if final.get("traceback") and feedback is not None:
                 feedback.pushDebugInfo(final["traceback"])
-            raise QgsProcessingException(final.get("message") or final.get("error", "fotogeo failed"))
+            raise QgsProcessingException(words(final.get("message") or final.get("error", "fotogeo failed")))
         return final.get("result")
 
 
-def _follow(proc, feedback):
+def _follow(proc, feedback, words=str):
     """Read the worker's lines until its final message; SIGTERM it on cancel, kill it if it hangs."""
     lines: queue.Queue = queue.Queue()
     threading.Thread(target=_reader, args=(proc.stdout, lines), daemon=True).start()
@@ -133,4 +136,4 @@ def _follow(proc, feedback):
             return final
         message = _message(line)
         if message is not None:
-            final = _apply(message, feedback, last) or final
+            final = _apply(message, feedback, last, words) or final

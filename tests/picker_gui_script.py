@@ -27,6 +27,7 @@ from qgis.PyQt.QtCore import QEvent, QPoint, Qt  # noqa: E402
 from picker_driver import click, drag, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
 from processing_provider.picker.dock import PickerDock  # noqa: E402
 from processing_provider.picker.map_tools import IMAGE, MAP  # noqa: E402
+from processing_provider.picker.table import COLUMNS  # noqa: E402
 from processing_provider.session import WorkerSession  # noqa: E402
 
 STATE: dict = {}
@@ -254,7 +255,7 @@ def heights_and_models(dock, dem, small_dem):
     dock.model_combo.setCurrentText("projective")
     STATE["constant"] = dock.controller.fit
     dock.height_combo.setCurrentText("field")
-    dock.table.item(0, 6).setText("123.5")  # z of GCP 1 typed into the table
+    dock.table.item(0, COLUMNS.index("z")).setText("123.5")  # z of GCP 1 typed into the table
     z_typed, row = dock.controller.gcp("1").z, dock.controller.fit["points"][0]
     dock.controller.undo_stack.undo()
     STATE["typed_height"] = {"typed": z_typed, "row": row, "undone": dock.controller.gcp("1").z,

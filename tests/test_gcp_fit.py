@@ -98,10 +98,25 @@ def test_a_blunder_is_flagged_as_orient_flags_it(ngi, truth, tmp_path):
     orient_flagged = [rep["snooping"][0]["id"]] + [i for i, _ in rep["snooping"][0]["also_flagged"]]
     assert flagged == ["g5"] and sorted(orient_flagged) == flagged
     w = {p["id"]: p["w"] for p in fit["points"]}
-    assert w["g5"] == pytest.approx(rep["snooping"][0]["w"], rel=1e-9) and max(v for k, v in w.items() if k != "g5") < 3.29
-    assert "blunder suspected at g5" in fit["message"]
+    assert w["g5"] == pytest.approx(rep["snooping"][0]["w"], rel=1e-9)
+    assert max(v for k, v in w.items() if k != "g5" and v is not None) < 2.92  # Pope's τ at 2n − u = 17
+    assert "blunder suspected at g5" in fit["message"] and fit["blunder_test"].startswith("blunder test: |w| > 2.92")
     off = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=str(image), dem=str(ngi / "dem.tif"), snooping=False)
     assert all(p["w"] is None and p["flag"] == "" for p in off["points"])
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_redundancy_aware_blunder_flags(ngi, truth, seed):
+    """A planted 5 px blunder among 12 DLT GCPs is flagged; 8 clean GCPs (2n − u = 5) are not testable and get
+    no flag — the plain |w| > 3.29 rule flagged residuals of 0.2-0.7 px there (issue 22)."""
+    image, dem = str(ngi / "frames" / f"{FRAME}_RGB.tif"), str(ngi / "dem.tif")
+    gcps = pick(truth, 12, 0, seed=seed, noise_px=0.2)
+    gcps[5]["col"] += 5.0
+    fit = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=image, dem=dem)
+    assert [p["id"] for p in fit["points"] if p["flag"].startswith("blunder")] == ["g5"]
+    clean = fit_gcps(pick(truth, 8, 0, seed=seed, noise_px=0.2), "dlt", crs=MAP_CRS, image=image, dem=dem)
+    assert clean["ok"] and not any("blunder" in p["flag"] for p in clean["points"])
+    assert all(p["w"] is None for p in clean["points"]) and "not testable" in clean["message"]
 
 
 def test_heights_field_dem_constant_and_a_dem_that_misses_a_point(ngi, truth):

@@ -78,4 +78,5 @@ def test_qgis_gives_the_cli_message(qgis_app, env, out, case):
                        feedback=QgsProcessingFeedback())
     message = str(info.value)
     assert expected in message and "Traceback" not in message, message
-    assert cli_errors[0][len("Error: "):] in message, (cli_errors[0], message)
+    # the same message, its --flags in the dialog's words (the parameter labels)
+    assert algorithm.in_words(cli_errors[0][len("Error: "):]) in message, (cli_errors[0], message)

@@ -216,19 +216,31 @@ def toolbox():
 
 @guard
 def dialog():
+    # as a user works: the frame and the orthophoto are in the project, the orthophoto is the active layer,
+    # and the dialog opens with nothing chosen — Target must not start on the Reference layer
     import processing
+    iface.addRasterLayer(TGT, "frame 0182")
+    iface.setActiveLayer(iface.addRasterLayer(REF, "orthophoto"))
     dlg = processing.createAlgorithmDialog("fotogeo:register", {
-        "REFERENCE": REF, "TARGET": TGT, "MAX_KEYPOINTS": 1500, "OUTPUT": os.path.join(OUT, "frame_0182.tif")})
+        "MAX_KEYPOINTS": 1500, "OUTPUT": os.path.join(OUT, "frame_0182.tif")})
     dlg.resize(900, 700)
     dlg.show()
     globals()["DLG"] = dlg
+    chosen = dlg.createProcessingParameters()
+    state["dialog_inputs"] = [QgsProject.instance().mapLayer(chosen[k]).name() if QgsProject.instance().mapLayer(
+        chosen[k]) else str(chosen[k]) for k in ("REFERENCE", "TARGET")]
     QTimer.singleShot(1000, guard(lambda: (grab(dlg, "qgis_register_dialog.png", 900), dlg.runAlgorithm(), wait(0))))
 
 @guard
 def wait(n):
-    if len(QgsProject.instance().mapLayers()) >= 3 or n > 200:
+    if len(QgsProject.instance().mapLayers()) >= 6 or n > 200:
         state["layers"] = [node.layer().name() for node in QgsProject.instance().layerTreeRoot().findLayers()]
         state["log"] = DLG.findChild(QTextEdit, "txtLog").toPlainText()
+        model = iface.layerTreeView().layerTreeModel()
+        state["legend"] = {node.layer().name(): [n.data(0) for n in model.layerLegendNodes(node)]
+                           for node in QgsProject.instance().layerTreeRoot().findLayers()}
+        state["expanded"] = [node.layer().name() for node in QgsProject.instance().layerTreeRoot().findLayers()
+                             if node.isExpanded()]
         DLG.close()
         iface.mapCanvas().zoomToFullExtent()
         QTimer.singleShot(3000, guard(lambda: (grab(iface.mainWindow(), "qgis_results.png"), finish())))
@@ -257,10 +269,20 @@ def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
     state = json.loads((out / "result.json").read_text())
     assert "error" not in state, state.get("error")
     assert "fotogeo_qgis" in state["plugins"] and state["can_execute"] == [True, ""]
+    # the dialog opened on the active layer for Reference and on another layer for Target
+    assert state["dialog_inputs"] == ["orthophoto", "frame 0182"]
+    # the run's layers above the inputs, named after the output file, vectors above the raster
     assert state["layers"] == ["frame_0182 tie points", "frame_0182 error vectors", "frame_0182 mean error per cell",
-                               "Registered raster"]
-    # the CLI's summary lines, units named
+                               "frame_0182 registered", "orthophoto", "frame 0182"]
+    # the exaggeration sentence is a line of the legend itself, the layer expanded so that it shows
+    vectors = state["legend"]["frame_0182 error vectors"]
+    assert any(re.fullmatch(r"drawn x\d+; 1 mm on the map = [\d.]+ m of error \(at 1:[\d ]+\)", t) for t in vectors), vectors
+    assert "frame_0182 error vectors" in state["expanded"]
+    # the CLI's summary lines, units named; a 2-D fit over relief points to the DEM by its label, not --dem
     assert re.search(r"check +n= *\d+ +RMSE [\d.]+ m +\([\d.]+ reference px\)", state["log"]), state["log"][-800:]
+    assert "“DEM (terrain-aware registration" in state["log"] and "--dem" not in state["log"]
+    assert re.search(r"inliers \d+ \(\d+ within RANSAC's 3 reference px", state["log"])
+    assert "PROJ string" not in state["log"]
     assert {"frame_0182.tif", "frame_0182.gpkg", "frame_0182.json"} <= {p.name for p in out.iterdir()}
     for png in ("qgis_toolbox.png", "qgis_register_dialog.png", "qgis_results.png"):
         assert (out / png).stat().st_size > 20_000, png

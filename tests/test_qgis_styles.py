@@ -60,7 +60,37 @@ def test_error_vector_legend_states_the_exaggeration(qgis_app, tmp_path):
     assert ok, message
     assert show_legend(layer) == legend
     labels = [c.label() for c in layer.renderer().categories()]
-    assert labels[0] == f"Control point ({legend})" and all(legend in t for t in labels)
+    # the sentence is a legend line of its own (the roles keep short labels), drawn with an arrow, once
+    assert labels[:2] == ["Control point", "Check point"] and labels[-1] == f"drawn {legend}"
+    show_legend(layer)
+    assert [c.label() for c in layer.renderer().categories()] == labels
+    from qgis.core import QgsLayerTree, QgsLayerTreeModel
+    root = QgsLayerTree()
+    node = root.addLayer(layer)
+    model = QgsLayerTreeModel(root)
+    assert f"drawn {legend}" in [n.data(0) for n in model.layerLegendNodes(node)]
     assert legend in layer.abstract()
     plain = _layer(tmp_path, "plain", shapely.points([[0, 0]]), {"role": ["control"]})
     assert show_legend(plain) is None
+
+
+def test_run_layers_get_unique_names_and_optional_control(qgis_app, tmp_path):
+    """A second run's layers do not repeat the first's names; a registration's control points start unticked."""
+    import shapely
+    from qgis.core import QgsProject
+    from processing_provider.postprocess import hide_categories, unique_name
+    project = QgsProject()
+    first = _layer(tmp_path, "a", shapely.points([[0, 0]]), {"role": ["control"]})
+    first.setName("frame registered")
+    project.addMapLayer(first)
+    for expected in ("frame registered (2)", "frame registered (3)"):
+        again = _layer(tmp_path, "a", shapely.points([[0, 0]]), {"role": ["check"]})
+        again.setName("frame registered")
+        project.addMapLayer(again)
+        assert unique_name(again, project) == expected == again.name()
+    assert unique_name(first, project) == "frame registered"
+    tie = _layer(tmp_path, "tie2", shapely.points([[0, 0], [1, 1]]), {"role": ["control", "check"]})
+    tie.loadNamedStyle(style_path("tie_points"))
+    hide_categories(tie, ("control",))
+    shown = {c.value(): c.renderState() for c in tie.renderer().categories()}
+    assert shown["control"] is False and shown["check"] is True

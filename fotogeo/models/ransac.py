@@ -37,8 +37,10 @@ class RansacResult:
 
 def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
            confidence: float = 0.999, rng=None, min_inliers: int | None = None,
-           is_valid: Callable[[Model], bool] | None = None, fit_options: dict | None = None) -> RansacResult:
-    """Robustly fit ``model_cls`` to ``src -> dst`` pairs; the final model is refitted on the inliers."""
+           is_valid: Callable[[Model], bool] | None = None, fit_options: dict | None = None,
+           unit: str = "") -> RansacResult:
+    """Robustly fit ``model_cls`` to ``src -> dst`` pairs; the final model is refitted on the inliers.
+    ``unit`` names the unit of ``threshold`` (the units of ``dst``) in messages."""
     opts = fit_options or {}
     src = np.asarray(src, dtype=np.float64)
     dst = np.asarray(dst, dtype=np.float64)
@@ -73,7 +75,7 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
     if best_mask is None or best_count < need:
         raise MatchingError(
             f"RANSAC found only {best_count} inliers for a {model_cls.name} model among {n} matches "
-            f"(at least {need} needed, threshold {threshold:g})")
+            f"(at least {need} needed, threshold {threshold:.3g}{' ' + unit if unit else ''})")
     model = model_cls.estimate(src[best_mask], dst[best_mask], **opts)
     mask = model.residuals(src, dst) < threshold
     if mask.sum() >= need:

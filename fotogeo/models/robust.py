@@ -140,7 +140,7 @@ def refuse_swallowed_fit(model_cls, residuals, inliers, threshold: float):
 def select_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float, check_fraction: float = 0.3,
                       rng=0, max_trials: int = 5000, c: float = 6.0, usable=None, refine=None,
                       min_consistent: int | None = None, min_control: int | None = None, is_valid=None,
-                      what: str | None = None) -> TieSelection:
+                      what: str | None = None, unit: str = "") -> TieSelection:
     """Steps 1-3 of the module docstring on pairs ``src -> dst`` with a ``model_cls`` prefilter.
 
     ``usable`` (N,) bool marks pairs that may be kept at all; ``refine(inliers) -> (inliers,
@@ -152,7 +152,7 @@ def select_tie_points(model_cls, src, dst, *, threshold: float, min_sigma: float
     rng = np.random.default_rng(rng)
     need = min_consistent or model_cls.min_points + 2
     rs = ransac(model_cls, src, dst, threshold, rng=rng, max_trials=max_trials,
-                min_inliers=model_cls.min_points + 2, is_valid=is_valid)
+                min_inliers=model_cls.min_points + 2, is_valid=is_valid, unit=unit)
     rob = robust_refit(model_cls, src, dst, rs.model, min_sigma=min_sigma, c=c)
     refuse_swallowed_fit(model_cls, rob.model.residuals(src, dst), rob.inliers, threshold)
     inl = rob.inliers if usable is None else rob.inliers & usable

@@ -8,9 +8,14 @@ or ``(X, Y, Z)`` for 3-D ones (``src_dims``), ``dst`` = ``(col, row)`` pixels. R
 Blunder detection (:func:`snoop`) is Baarda's (1968) data snooping. For control point ``i``,
 ``ℓ_i`` is its residual under the model fitted without it, and ``v_i = r_i ℓ_i`` per axis
 defines its redundancy number ``r_i``; the standardised residual is
-``w_i = v_i / (σ₀ √r_i)`` with ``σ₀² = Σ v² / (2n − u)``. ``|w_i| > 3.29`` (α = 0.1 %,
-two-sided) flags a blunder; with ``remove`` the worst one is dropped, the model refitted and
-the test repeated.
+``w_i = v_i / (σ₀ √r_i)`` with ``σ₀² = Σ v² / (2n − u)``. As σ₀ comes from the same residuals,
+``w_i`` follows Pope's (1976) τ distribution with ``f = 2n − u`` degrees of freedom (never above
+``√f``): a blunder is flagged when ``|w_i|`` exceeds its α = 0.1 % two-sided quantile
+(:func:`critical_w`; 3.29, the normal quantile, for large ``f``). The test needs redundancy:
+with ``f`` below :data:`MIN_TEST_REDUNDANCY` nothing is testable, and a point whose own
+redundancy number is below :data:`MIN_POINT_REDUNDANCY` (its error hardly shows in its residual)
+gets no ``w`` ("not testable") — at low redundancy the plain 3.29 rule flagged well-fitting points.
+With ``remove`` the worst one is dropped, the model refitted and the test repeated.
 
 The leave-one-out residuals come in closed form from one factorisation: with ``J`` the
 ``(2n, u)`` design of the fit (for nonlinear models the Jacobian of ``forward`` with respect
@@ -32,7 +37,26 @@ from ..errors import FotogeoError, ModelError
 from ..models import get_model
 from ..models.stats import residual_stats
 
-CRITICAL_W = 3.29
+CRITICAL_W = 3.29  # the large-redundancy limit of critical_w
+ALPHA = 0.001
+#: total redundancy 2n − u below which the blunder test is not made
+MIN_TEST_REDUNDANCY = 6
+#: a point's redundancy number below which its standardised residual is not testable
+MIN_POINT_REDUNDANCY = 0.1
+
+
+def critical_w(f: int, alpha: float = ALPHA) -> float | None:
+    """Critical standardised residual for ``f = 2n − u`` (Pope's τ, σ₀ estimated from the same residuals);
+    None when ``f`` is below :data:`MIN_TEST_REDUNDANCY` (not testable).
+
+    >>> round(critical_w(13), 2), round(critical_w(10_000), 2), critical_w(5)
+    (2.81, 3.29, None)
+    """
+    if f < MIN_TEST_REDUNDANCY:
+        return None
+    from scipy.stats import t
+    q = float(t.ppf(1.0 - alpha / 2.0, f - 1))
+    return float(np.sqrt(f) * q / np.sqrt(f - 1 + q * q))
 
 
 @dataclass(frozen=True)
@@ -103,9 +127,9 @@ def jacobian(model, src: np.ndarray, directions: np.ndarray) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def leave_one_out(model, src: np.ndarray, pix: np.ndarray) -> np.ndarray:
-    """Closed-form leave-one-out residuals ``ℓ_i = (I − H_ii)⁻¹ v_i`` (module docstring); NaN for a
-    point without redundancy. None when the model needs refits (:func:`free_directions`)."""
+def _redundancy_blocks(model, src: np.ndarray):
+    """The 2x2 diagonal blocks ``I − H_ii`` (n, 2, 2) of the fit (module docstring), or None when the
+    model needs refits (:func:`free_directions`)."""
     dirs = free_directions(model)
     if dirs is None:
         return None
@@ -113,8 +137,15 @@ def leave_one_out(model, src: np.ndarray, pix: np.ndarray) -> np.ndarray:
     U, sv, _ = np.linalg.svd(J, full_matrices=False)
     U = U[:, sv > sv[0] * 1e-10] if sv.size and sv[0] > 0 else U[:, :0]
     Ui = U.reshape(len(src), 2, -1)
-    H = np.einsum("nak,nbk->nab", Ui, Ui)  # the 2x2 diagonal blocks of H = U Uᵀ
-    M = np.eye(2) - H
+    return np.eye(2) - np.einsum("nak,nbk->nab", Ui, Ui)  # H = U Uᵀ
+
+
+def leave_one_out(model, src: np.ndarray, pix: np.ndarray) -> np.ndarray:
+    """Closed-form leave-one-out residuals ``ℓ_i = (I − H_ii)⁻¹ v_i`` (module docstring); NaN for a
+    point without redundancy. None when the model needs refits (:func:`free_directions`)."""
+    M = _redundancy_blocks(model, src)
+    if M is None:
+        return None
     v = model.forward(src) - pix
     det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
     ok = det > 1e-9
@@ -141,19 +172,24 @@ def _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options, prog):
 def standardised_residuals(model_cls, src, pix, control, *, fit_options: dict | None = None, progress=None):
     """Residuals ``v`` ``(n, 2)`` of the control points (``control`` mask, in its order) under the model
     fitted to them, and Baarda's standardised residual of each, ``max(|w_x|, |w_y|)`` ``(n,)``
-    (module docstring; NaN without redundancy). Needs ``2n − u ≥ 1``."""
+    (module docstring; NaN without redundancy or where the point's redundancy number is below
+    :data:`MIN_POINT_REDUNDANCY`: not testable). Needs ``2n − u ≥ 1``."""
     idx = np.flatnonzero(control)
     n, u = len(idx), model_cls.n_params
     m, _ = _fit(model_cls, src, pix, control, fit_options or {})
     v = m.forward(src[idx]) - pix[idx]
     s0 = np.sqrt(np.sum(v ** 2) / (2 * n - u))
-    loo = leave_one_out(m, src[idx], pix[idx])
-    if loo is None:
-        loo = _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options or {}, progress or (lambda *a: True))
+    blocks = _redundancy_blocks(m, src[idx])
     with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.clip(np.where(np.abs(loo) > 1e-12, v / loo, 1.0), 1e-3, 1.0)
-        w = np.abs(v) / (s0 * np.sqrt(r)) if s0 > 0 else np.zeros_like(v)
-    wmax = np.nanmax(w, axis=1) if np.isfinite(w).any() else np.full(n, np.nan)
+        if blocks is not None:  # the redundancy numbers themselves, not v / ℓ (unstable where v is small)
+            r = np.stack([blocks[:, 0, 0], blocks[:, 1, 1]], axis=1)
+        else:
+            loo = _refit_leave_one_out(model_cls, src, pix, control, idx, fit_options or {},
+                                       progress or (lambda *a: True))
+            r = np.where(np.abs(loo) > 1e-12, v / loo, 1.0)
+        r = np.where(r >= MIN_POINT_REDUNDANCY, np.minimum(r, 1.0), np.nan)
+        w = np.abs(v) / (s0 * np.sqrt(r)) if s0 > 0 else np.where(np.isnan(r), np.nan, 0.0)
+        wmax = np.where(np.isnan(w).any(axis=1), np.nan, np.nanmax(np.nan_to_num(w, nan=0.0), axis=1))
     return v, wmax
 
 
@@ -172,18 +208,19 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
     while True:
         idx = np.flatnonzero(control)
         n, u = len(idx), model_cls.n_params
-        if 2 * n - u < 2 or n - 1 < model_cls.min_points:
+        critical = critical_w(2 * n - u)
+        if critical is None or n - 1 < model_cls.min_points:
             break
         prog(min(0.99, len(findings) / max(1, budget + 1)), f"data snooping: test {len(findings) + 1}")
         v, wmax = standardised_residuals(model_cls, src, pix, control, fit_options=fit_options,
                                          progress=prog.stage(0.0, 0.99, "data snooping"))
         k = int(np.nanargmax(wmax)) if np.isfinite(wmax).any() else -1
-        flagged = [(ids[idx[j]], float(wmax[j])) for j in np.flatnonzero(wmax > CRITICAL_W)]
-        if k < 0 or wmax[k] <= CRITICAL_W:
+        flagged = [(ids[idx[j]], float(wmax[j])) for j in np.flatnonzero(wmax > critical)]
+        if k < 0 or wmax[k] <= critical:
             break
         can_remove = remove and sum(f["removed"] for f in findings) < budget
         findings.append({"id": str(ids[idx[k]]), "w": float(wmax[k]), "removed": bool(can_remove),
-                         "reason": f"standardised residual |w| = {wmax[k]:.2f} > {CRITICAL_W} "
+                         "reason": f"standardised residual |w| = {wmax[k]:.2f} > {critical:.2f} "
                                    f"(residual {np.hypot(*v[k]):.3f} px)",
                          "also_flagged": [(str(i), round(x, 2)) for i, x in flagged if i != ids[idx[k]]]})
         if not can_remove:

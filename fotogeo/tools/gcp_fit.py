@@ -12,8 +12,11 @@ Conventions (``orient``'s): pixels ``(col, row)`` in the corner convention; resi
 pixel on the ground (at the point's height) minus the GCP; RMS = ``sqrt(mean(dx² + dy²))``
 per role. ``w`` is Baarda's (1968) standardised residual of a control point,
 ``max(|w_x|, |w_y|)`` (:func:`~fotogeo.orientation.adjustment.standardised_residuals`);
-``|w| > 3.29`` flags a blunder (the user then disables or fixes the point: nothing is
-removed automatically, as ``orient`` without ``--remove-blunders``).
+``|w|`` above the critical value for the fit's redundancy (:func:`~fotogeo.orientation.adjustment.critical_w`,
+3.29 at large redundancy) flags a blunder (the user then disables or fixes the point: nothing is
+removed automatically, as ``orient`` without ``--remove-blunders``). Where the redundancy does not
+support the test — ``2n − u`` too small, or a point's own redundancy number too small — the point's
+flag says "not testable" and no blunder is claimed.
 
 Heights, per point: the given ``z`` (``"field"``), else bilinear from ``dem`` (``"dem"``, any
 CRS; a point the DEM does not cover gets no height and says so), else ``default_height``
@@ -28,7 +31,7 @@ import numpy as np
 from ..crs import parse_crs
 from ..errors import InputError, ModelError, one_line
 from ..models import get_model
-from ..orientation.adjustment import CRITICAL_W, fit_orientation, model_src, select_model, standardised_residuals
+from ..orientation.adjustment import critical_w, fit_orientation, model_src, select_model, standardised_residuals
 from .boundary import tool
 from .gcp_grids import prediction_grids
 
@@ -203,6 +206,8 @@ def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None,
     result["model"] = name
     _fill_points(result, fit, name, ground, pixel, map_crs, use, ~outside, cam, snooping)
     result["ok"], result["message"] = True, _summary(name, result["rms"], result["points"])
+    if "not testable" in result["blunder_test"]:
+        result["message"] += "; " + result["blunder_test"]
     result["warnings"] = fit.warnings
     if grid:
         result["forward"], result["inverse"] = prediction_grids(
@@ -238,16 +243,30 @@ def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snoopi
     d_map[shown] = ground_residuals(fit.model, ground[shown], pixel[shown], crs)[1]
     w = np.full(len(ground), np.nan)
     n, u = int(control.sum()), cls.n_params
-    if snooping and 2 * n - u >= 2 and n - 1 >= cls.min_points:
+    critical = critical_w(2 * n - u) if snooping and n - 1 >= cls.min_points else None
+    if critical is not None:
         w[control] = standardised_residuals(cls, model_src(cls, ground[use]), pixel[use],
                                             control[use], fit_options=cls.options_from(camera=cam))[1]
+    result["blunder_test"] = _test_note(snooping, critical, 2 * n - u)
     for k, p in enumerate(result["points"]):
         p.update(dx_px=_num(res[k, 0]), dy_px=_num(res[k, 1]), residual_px=_num(np.hypot(*res[k])),
                  dx_map=_num(d_map[k, 0]), dy_map=_num(d_map[k, 1]), residual_map=_num(np.hypot(*d_map[k])),
                  w=_num(w[k]))
-        if np.isfinite(w[k]) and w[k] > CRITICAL_W:
-            p["flag"] = "blunder" + (f"; {p['flag']}" if p["flag"] else "")
+        flag = None
+        if critical is not None and control[k]:
+            flag = ("blunder" if w[k] > critical else None) if np.isfinite(w[k]) else "not testable"
+        if flag:
+            p["flag"] = flag + (f"; {p['flag']}" if p["flag"] else "")
     result["rms"] = _rms(fit.stats, d_map, fit.role, use)
+
+
+def _test_note(snooping: bool, critical, f: int) -> str:
+    """What the blunder test did, for the dock's status and tooltips."""
+    if not snooping:
+        return "blunder test off"
+    if critical is None:
+        return f"blunder test: not testable (redundancy 2n − u = {f}; needs ≥ 6 and a point to spare)"
+    return f"blunder test: |w| > {critical:.2f} (redundancy {f}, α = 0.1 %)"
 
 
 def _num(v):
@@ -275,5 +294,5 @@ def _summary(name, rms, points) -> str:
         text += f", check RMS {rms['check_px']:.3f} px ({rms['n_check']})"
     blunders = [p["id"] for p in points if p["flag"].startswith("blunder")]
     if blunders:
-        text += f"; blunder suspected at {', '.join(blunders[:5])} (|w| > {CRITICAL_W})"
+        text += f"; blunder suspected at {', '.join(blunders[:5])}"
     return text

@@ -341,7 +341,8 @@ def _planar(opts, src, dst, ref_px, tgt, crs, res, sigma_px=None) -> GeoFit:
                               None if sigma_px is None else sigma_px * ref_px, threshold=opts.ransac_threshold * ref_px,
                               min_sigma=ref_px, check_fraction=opts.check_fraction, rng=opts.seed,
                               is_valid=_unfolded(tgt.width, tgt.height),
-                              precise=sigma_px is not None and bool(np.isfinite(sigma_px).all()))
+                              precise=sigma_px is not None and bool(np.isfinite(sigma_px).all()),
+                              unit=f"m = --ransac-threshold {opts.ransac_threshold:g} reference px")
     geo = Georeference(fit.model, crs=crs, direction="image-to-ground")
     transform, width, height = output_grid(geo, tgt.width, tgt.height, res)
     details = {"ransac": {"inliers": fit.ransac_inliers, "trials": fit.ransac_trials,

@@ -213,7 +213,8 @@ MIN_S0_PX = 0.01
 PRECISE_MIN_SIGMA = 0.1
 
 
-def fit_points(model_cls, src, dst, sigma, *, threshold, min_sigma, check_fraction, rng, is_valid, precise=False):
+def fit_points(model_cls, src, dst, sigma, *, threshold, min_sigma, check_fraction, rng, is_valid, precise=False,
+               unit=""):
     """The 2-D registration's fit: :func:`fotogeo.models.robust.select_tie_points` (RANSAC, Tukey,
     spread check points), then least squares on the control points with the spatial balance
     weights — divided, when LSM gave each point its σ (``sigma`` (N,), output CRS units), by
@@ -223,7 +224,7 @@ def fit_points(model_cls, src, dst, sigma, *, threshold, min_sigma, check_fracti
     stay the balance weights. Returns ``(TieFit, weights entry of the report or None)``."""
     floor = min_sigma * (PRECISE_MIN_SIGMA if precise else 1.0)
     sel = select_tie_points(model_cls, src, dst, threshold=threshold, min_sigma=floor,
-                            check_fraction=check_fraction, rng=rng, is_valid=is_valid)
+                            check_fraction=check_fraction, rng=rng, is_valid=is_valid, unit=unit)
     c = sel.control
     w = balance_weights(src[c])
     model = model_cls.estimate(src[c], dst[c], w)

@@ -7,6 +7,7 @@ import platform
 import numpy as np
 
 from .. import __version__
+from ..crs import crs_text
 from ..models.stats import residual_stats
 
 
@@ -70,7 +71,7 @@ def build_report(opts, ref, tgt, crs, ref_px, res, counts, gf):
         "fotogeo": "register",
         "reference": str(ref.path), "target": str(tgt.path),
         "options": asdict(opts),
-        "output_crs": crs.to_string(), "output_crs_wkt": crs.to_wkt(),
+        "output_crs": crs_text(crs), "output_crs_wkt": crs.to_wkt(),
         "output_grid": {"width": gf.width, "height": gf.height, "resolution": res,
                         "transform": list(gf.transform)[:6]},
         "reference_pixel_size": ref_px,
@@ -125,10 +126,32 @@ def notes(rep: dict, terrain: bool) -> dict:
     return notes
 
 
+#: a 2-D registration leaving more than this at its check points (reference px) hints at relief: use the DEM
+DEM_HINT_PX = 3.0
+
+
+def hint_lines(rep: dict) -> list[str]:
+    """Advice the numbers call for (lines starting with "hint:"): a 2-D fit many pixels off suggests the DEM."""
+    check = rep.get("check", {})
+    if "terrain" in rep or not check.get("n") or check["rmse_px"] <= DEM_HINT_PX:
+        return []
+    return [f"hint: the 2-D model leaves {check['rmse_px']:.1f} reference px ({check['rmse_m']:.3g} m) RMSE at the "
+            f"check points: over relief no 2-D model fits a frame; give --dem"]
+
+
+def _inliers_text(rep: dict) -> str:
+    r = rep.get("ransac")
+    if not r or "threshold_m" not in r:
+        return f"inliers {rep['inliers']}"
+    px = r["threshold_m"] / rep["reference_pixel_size"]
+    return (f"inliers {rep['inliers']} ({r['inliers']} within RANSAC's {px:g} reference px, "
+            f"{rep['inliers']} kept by the robust fit)")
+
+
 def summary_lines(rep: dict) -> list[str]:
-    """The lines the command line prints after a registration (units named)."""
+    """The lines the command line prints after a registration (units named), then :func:`hint_lines`."""
     lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
-             f"matches {rep['matches']}, inliers {rep['inliers']}"]
+             f"matches {rep['matches']}, {_inliers_text(rep)}"]
     if "area_based" in rep:
         a = rep["area_based"]
         lines[0] = (f"feature matching failed ({a['why']}); tie points from {a['windows']['reliable']} reliable "
@@ -166,4 +189,4 @@ def summary_lines(rep: dict) -> list[str]:
                  f"the reference's pixels")
     if "exaggeration" in rep:
         lines.append(f"error vectors {rep['exaggeration']['legend']}")
-    return lines
+    return lines + hint_lines(rep)

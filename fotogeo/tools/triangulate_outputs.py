@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..crs import crs_text
+
 FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
 CAMERA_FILE = "camera.yaml"  # written with self-calibration
 ORTHO_SUFFIX = "_ortho.tif"  # <frame>_ortho.tif with orthorectify
@@ -39,7 +41,7 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     layers = {**block_layers(result, block), "footprints": feet}
     with AtomicOutputs(overwrite) as out:
         write_exterior_orientation(out.temp(paths["eo"]), block.frames, result.eo,
-                                   f"fotogeo triangulate: adjusted exterior orientation, CRS {crs.to_string()}\n"
+                                   f"fotogeo triangulate: adjusted exterior orientation, CRS {crs_text(crs)}\n"
                                    f"name X Y Z omega phi kappa (metres, PATB degrees)")
         if "camera" in paths:
             write_interior_orientation(out.temp(paths["camera"]), "adjusted", result.camera, result.distortion)
@@ -94,7 +96,7 @@ def block_layers(result, block) -> dict:
 def report(result, block, crs, inputs: dict) -> dict:
     """The JSON report of one adjustment."""
     cam = result.camera
-    return {"fotogeo": "triangulate", **inputs, "crs": crs.to_string(),
+    return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
             "sigma0": result.sigma0, "statistics": result.stats,
             "camera": {"focal_length": cam.focal_length, "principal_point": list(cam.principal_point),

@@ -30,15 +30,18 @@ from qgis.core import (
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
+    QgsProcessingUtils,
     QgsProviderRegistry,
     QgsRasterLayer,
 )
 from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtGui import QIcon
 
-from fotogeo.options import Option, Table  # standard library only: loads without fotogeo's dependencies
+from fotogeo.options import Option, Table, in_labels  # standard library only: loads without fotogeo's dependencies
 
 from .. import runner
 
+ICONS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "icons")
 REFERENCES = {
     "dihkan": "Dihkan (2019): automatic registration of multi-epoch, multi-sensor aerial images to an "
               "orthophoto with PCA band fusion, SURF, RANSAC and a homography.",
@@ -117,13 +120,19 @@ def _whole_numbers(option: Option, text: str) -> tuple:
 class FotogeoAlgorithm(QgsProcessingAlgorithm):
     """Base class: names, help, lazy tool import, progress and error bridging."""
 
-    #: stable lowercase algorithm id; display name; group (id, name)
+    #: stable lowercase algorithm id; display name (short: the toolbox shows ~25 characters); group (id, name)
     ALG_ID = ""
     DISPLAY = ""
     GROUP = ("", "")
+    #: what the algorithm does in one line (the help's first line, where the short name is not enough)
+    SUMMARY = ""
     HELP = ""
+    #: ``icons/<ICON>.svg`` [the group id]: one icon per family of algorithms
+    ICON = ""
     #: the option tables (:mod:`fotogeo.options`) whose options are parameters of this algorithm
     OPTIONS: tuple[Table, ...] = ()
+    #: command-line flags of the algorithm's own inputs (not in :attr:`OPTIONS`) → their parameter labels
+    WORDS: dict = {}
 
     def name(self):
         return self.ALG_ID
@@ -138,7 +147,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         return self.GROUP[0]
 
     def shortHelpString(self):
-        text = tr(self.HELP)
+        text = (f"<b>{tr(self.SUMMARY)}.</b>\n\n" if self.SUMMARY else "") + tr(self.HELP)
         ok, why = runner.runtime_status()
         if not ok:
             text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + why
@@ -149,8 +158,13 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         ok, why = runner.runtime_status()
         return (True, "") if ok else (False, why)
 
+    def svgIconPath(self):  # noqa: N802 - QGIS API
+        path = os.path.join(ICONS, f"{self.ICON or self.GROUP[0]}.svg")
+        return path if os.path.exists(path) else ""
+
     def icon(self):
-        return QgsApplication.getThemeIcon("/processingAlgorithm.svg")
+        path = self.svgIconPath()
+        return QIcon(path) if path else QgsApplication.getThemeIcon("/processingAlgorithm.svg")
 
     def createInstance(self):
         return type(self)()
@@ -162,7 +176,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         Paths and options go as JSON; progress, warnings and cancel travel with the feedback;
         a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message.
         """
-        return runner.run_tool(tool, *args, feedback=feedback, **kwargs)
+        return runner.run_tool(tool, *args, feedback=feedback, words=self.in_words, **kwargs)
+
+    def in_words(self, message: str) -> str:
+        """A tool's message as this dialog speaks: command-line flags → the parameter labels the user sees."""
+        return in_labels(message, *self.OPTIONS, extra=self.WORDS)
 
     # -- parameters ----------------------------------------------------------------------
     def raster_path(self, parameters, name: str, context) -> str:
@@ -194,6 +212,13 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if text in (None, "", QgsProcessing.TEMPORARY_OUTPUT):
             return os.path.splitext(main)[0] + suffix
         return self.parameterAsFileOutput(parameters, name, context)
+
+    def layer_stem(self, path: str, parameters, source: str, context) -> str:
+        """The name a run's layers start with: the output file's stem, or — for a temporary output
+        (``OUTPUT.tif`` in Processing's temporary folder) — the name of the ``source`` input layer."""
+        temporary = os.path.abspath(path).startswith(os.path.abspath(QgsProcessingUtils.tempFolder()))
+        layer = self.parameterAsLayer(parameters, source, context) if temporary else None
+        return layer.name() if layer is not None else os.path.splitext(os.path.basename(path))[0]
 
     def add_options(self, table: Table):
         """Add the parameters of the options of ``table``, in table order."""

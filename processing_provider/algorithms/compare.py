@@ -12,7 +12,8 @@ from .orient import GCP_HELP, REFERENCE_ORIENTATION, _GcpAlgorithm
 
 class CompareModelsAlgorithm(_GcpAlgorithm):
     ALG_ID = "comparemodels"
-    DISPLAY = "Compare orientation models on GCPs"
+    DISPLAY = "Compare models"
+    SUMMARY = "Compare orientation models on GCPs"
     HELP = ("Table 1 of Öztürk, Karşlı & Dihkan for your GCPs: every chosen model × number of control points × spread "
             "(homogeneous = stratified over the image; heterogeneous = clustered around two centres), over "
             "seeded trials. All GCPs are pooled; in each trial the points not chosen as control points are the "

@@ -18,7 +18,8 @@ from .base import FotogeoAlgorithm, tr
 
 class DemoAlgorithm(FotogeoAlgorithm):
     ALG_ID = "demo"
-    DISPLAY = "Demo: register a generated scene and compare with its truth"
+    DISPLAY = "Registration demo"
+    SUMMARY = "Demo: register a generated scene and compare with its truth"
     GROUP = ("registration", "Registration")
     HELP = ("Generates a realistic scene without any download — a fractal DEM, a textured orthophoto "
             "(EPSG:32635, 4 m) and a frame rendered through a known rotated and tilted camera with other "

@@ -14,7 +14,8 @@ from .base import FotogeoAlgorithm, tr
 
 class PcaFusionAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pcafusion"
-    DISPLAY = "PCA band fusion (first principal component)"
+    DISPLAY = "PCA band fusion"
+    SUMMARY = "PCA band fusion (first principal component)"
     GROUP = ("images", "Images")
     HELP = ("Fuses all bands of a raster into its first principal component, as in the registration "
             "pipeline of Dihkan (2019): the band covariance is estimated on a sample of valid pixels "

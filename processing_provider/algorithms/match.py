@@ -19,7 +19,8 @@ from .base import REFERENCES, FotogeoAlgorithm, tr
 
 class MatchFeaturesAlgorithm(FotogeoAlgorithm):
     ALG_ID = "matchfeatures"
-    DISPLAY = "Detect and match features (tie points)"
+    DISPLAY = "Match features"
+    SUMMARY = "Detect and match features (tie points)"
     GROUP = ("registration", "Registration")
     HELP = ("The first half of the registration pipeline, without fitting or resampling: both rasters are "
             "fused to their first principal component, keypoints are detected (fotogeo's SURF, or OpenCV "

@@ -73,7 +73,8 @@ class _GcpAlgorithm(FotogeoAlgorithm):
 
 class OrientAlgorithm(_GcpAlgorithm):
     ALG_ID = "orient"
-    DISPLAY = "Orient image from GCPs"
+    DISPLAY = "Orient from GCPs"
+    SUMMARY = "Orient image from GCPs"
     HELP = ("Fits an orientation model (ground → image) to the control points of an image and measures it "
             "at the check points: similarity, affine, projective, polynomials 1-3 (2-D), affine with height, "
             "bilinear, 3-D polynomials, DLT, rational function models (separate, common or no denominator; "

@@ -26,7 +26,8 @@ _CONVENTION = ("Source coordinates: for an unreferenced source raster QGIS write
 
 class PointsToLayerAlgorithm(FotogeoAlgorithm):
     ALG_ID = "pointstolayer"
-    DISPLAY = "Georeferencer points file to GCP layer"
+    DISPLAY = ".points file to GCP layer"
+    SUMMARY = "Georeferencer points file to GCP layer"
     GROUP = ("gcp", "Ground control points")
     HELP = ("Converts a QGIS Georeferencer <i>.points</i> file (optional '#CRS: &lt;WKT&gt;' line, header "
             "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual) into a GeoPackage point layer at the map "
@@ -60,7 +61,8 @@ class PointsToLayerAlgorithm(FotogeoAlgorithm):
 
 class LayerToPointsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "layertopoints"
-    DISPLAY = "GCP layer to Georeferencer points file"
+    DISPLAY = "GCP layer to .points file"
+    SUMMARY = "GCP layer to Georeferencer points file"
     GROUP = ("gcp", "Ground control points")
     HELP = ("Writes a QGIS Georeferencer <i>.points</i> file from a point layer with the fields col, row "
             "(source pixel, GDAL corner convention) and optionally role (control = enabled, anything else "

@@ -1,8 +1,6 @@
 """``fotogeo:register`` — register an image to a georeferenced orthophoto (Dihkan 2019 pipeline)."""
 from __future__ import annotations
 
-import os
-
 from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputNumber,
@@ -17,11 +15,13 @@ from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
 from .base import REFERENCES, FotogeoAlgorithm, tr
+from .widgets import OtherLayer
 
 
 class RegisterAlgorithm(FotogeoAlgorithm):
     ALG_ID = "register"
-    DISPLAY = "Register image to orthophoto"
+    DISPLAY = "Register to orthophoto"
+    SUMMARY = "Register image to orthophoto"
     GROUP = ("registration", "Registration")
     HELP = ("Registers a target image (an aerial frame, a satellite scene, any image of the area) to a "
             "georeferenced reference orthophoto, following Dihkan (2019): PCA band fusion with a robust "
@@ -62,7 +62,10 @@ class RegisterAlgorithm(FotogeoAlgorithm):
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
+        target = QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register"))
+        # the dialog starts Target on another layer than Reference (widgets.OtherLayer)
+        target.setMetadata({"widget_wrapper": {"class": OtherLayer, "other": self.REFERENCE}})
+        self.addParameter(target)
         for table in self.OPTIONS:
             self.add_options(table)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Registered raster")))
@@ -101,20 +104,25 @@ class RegisterAlgorithm(FotogeoAlgorithm):
                                overwrite=True, feedback=feedback, **options)
         rep = result["report"]
         for line in rep["summary"]:  # the command line's lines (fotogeo.tools.register_report.summary_lines)
-            feedback.pushInfo(line)
+            if line.startswith("hint:"):  # advice, in the dialog's words (the DEM parameter's label)
+                feedback.pushWarning(self.in_words(line))
+            else:
+                feedback.pushInfo(line)
         tie_uri = f"{vectors}|layername=tie_points"
         err_uri = f"{vectors}|layername=error_vectors"
         grid_uri = f"{vectors}|layername=error_grid"
         if context.willLoadLayerOnCompletion(output):
             # the user asked for the raster to be loaded: load the two vector layers, styled, above it
-            stem = os.path.splitext(os.path.basename(output))[0]
+            stem = self.layer_stem(output, parameters, self.TARGET, context)
             run = LoadedRun()
-            style_output(context, output, None, run)
+            style_output(context, output, None, run, name=f"{stem} {tr('registered')}")
             load_on_completion(context, grid_uri, f"{stem} {tr('mean error per cell')}", self.ERROR_GRID,
                                "error_grid", run=run)
+            # control points optional (unticked): the check points, fewer, stay readable over the image
             load_on_completion(context, err_uri, f"{stem} {tr('error vectors')}", self.ERROR_VECTORS,
-                               "error_vectors", run=run)
-            load_on_completion(context, tie_uri, f"{stem} {tr('tie points')}", self.TIE_POINTS, "tie_points", run=run)
+                               "error_vectors", run=run, hidden=("control",))
+            load_on_completion(context, tie_uri, f"{stem} {tr('tie points')}", self.TIE_POINTS, "tie_points", run=run,
+                               hidden=("control",))
         nan = float("nan")
         return {self.OUTPUT: output, self.VECTORS: vectors, self.REPORT: report, self.FIELD: field,
                 self.TIE_POINTS: tie_uri, self.ERROR_VECTORS: err_uri, self.ERROR_GRID: grid_uri,

@@ -19,7 +19,8 @@ from .base import REFERENCES, FotogeoAlgorithm, tr
 
 class RegisterBatchAlgorithm(FotogeoAlgorithm):
     ALG_ID = "registerbatch"
-    DISPLAY = "Register many images to an orthophoto (batch, Dask)"
+    DISPLAY = "Register batch (Dask)"
+    SUMMARY = "Register many images to an orthophoto (batch, Dask)"
     GROUP = ("registration", "Registration")
     HELP = ("Registers every target image to one georeferenced reference (an orthophoto, a mosaic or a VRT) with "
             "the pipeline of <i>Register image to orthophoto</i> (Dihkan 2019), one Dask task per scene: on a local "

@@ -15,7 +15,8 @@ from .orient import _GcpAlgorithm
 
 class RpcBiasAlgorithm(_GcpAlgorithm):
     ALG_ID = "rpcbias"
-    DISPLAY = "Correct a vendor RPC with GCPs (bias compensation)"
+    DISPLAY = "Correct RPC (bias)"
+    SUMMARY = "Correct a vendor RPC with GCPs (bias compensation)"
     HELP = ("Corrects the RPC (rational polynomial coefficients) of a satellite image with GCPs by an image-space "
             "shift (one GCP or more) or affinity (three or more), after Grodecki & Dial (2003), and writes a "
             "GeoTIFF copy of the image carrying the corrected RPC as GDAL metadata: QGIS and gdalwarp -rpc "

@@ -16,7 +16,8 @@ from .transfer import OUTPUT_FILTER, TABLE_FILTER, table_output
 
 class MeasureTargetsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "measuretargets"
-    DISPLAY = "Measure X-shaped targets"
+    DISPLAY = "Measure X targets"
+    SUMMARY = "Measure X-shaped targets"
     GROUP = ("matching", "Area-based matching")
     HELP = ("Measures X-shaped fiducial or calibration targets to sub-pixel near approximate positions: an "
             "edge method (thresholds from the target's and the background's grey levels) gives the approximate "

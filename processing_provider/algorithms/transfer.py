@@ -33,7 +33,8 @@ def table_output(alg, parameters, name, context) -> str:
 
 class TransferPointsAlgorithm(FotogeoAlgorithm):
     ALG_ID = "transferpoints"
-    DISPLAY = "Transfer points by least-squares matching"
+    DISPLAY = "Transfer points (LSM)"
+    SUMMARY = "Transfer points by least-squares matching"
     GROUP = ("matching", "Area-based matching")
     HELP = ("Finds points of a reference image (GCPs measured there, or an orthophoto's map positions) in a "
             "search image to sub-pixel, with their precision: coarse-to-fine normalised cross-correlation on "

@@ -45,7 +45,9 @@ def _layer_count(path: str) -> int:
 
 class TriangulateAlgorithm(FotogeoAlgorithm):
     ALG_ID = "triangulate"
-    DISPLAY = "Aerial triangulation (bundle block adjustment)"
+    DISPLAY = "Aerial triangulation"
+    SUMMARY = "Aerial triangulation (bundle block adjustment)"
+    ICON = "triangulation"
     GROUP = ("orientation", "Orientation")
     HELP = ("Orients a block of overlapping frames together: a bundle block adjustment with the collinearity "
             "equations (Levenberg–Marquardt on the reduced normal equations), ground control with its σ, optional "

@@ -9,7 +9,8 @@ the image canvas; the fit summary; the table. The handlers of the rows are in
 """
 from __future__ import annotations
 
-from qgis.core import QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsTask
+from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer,
+                       QgsTask)
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QKeySequence
@@ -33,11 +34,14 @@ from fotogeo.options import ORIENTATION_MODELS  # standard library only
 from .commands import DeleteGcps
 from .controller import PickerController
 from .dock_actions import DockActions
-from .fit import HEIGHT_SOURCES, FitSettings
+from .fit import HEIGHT_SOURCES, FitSettings, guess_dem
 from .gcp_layer import GcpLayer
 from .image_source import ImageError, PickerImage
 from .map_tools import IMAGE, MAP, PickTool
 from .table import GcpTable
+
+#: "Accept all" keeps every 4th proposal (25 %, spread as the proposals are) as a check point
+ACCEPT_CHECK_EVERY = 4
 
 MODELS = ("auto",) + ORIENTATION_MODELS
 TITLE = "fotogeo GCP picker"
@@ -118,6 +122,7 @@ class PickerDock(DockActions, QDockWidget):
         self.dem_combo.setLayer(None)
         self.height_spin = QDoubleSpinBox()
         self.height_spin.setRange(-1000.0, 9000.0)
+        self.height_combo.currentTextChanged.connect(self._heights_chosen)
         for w in (self.height_combo, self.dem_combo):
             (w.currentTextChanged if isinstance(w, QComboBox) and not isinstance(w, QgsMapLayerComboBox)
              else w.layerChanged).connect(lambda *_: self.controller.refit())
@@ -149,8 +154,8 @@ class PickerDock(DockActions, QDockWidget):
         splitter = QSplitter(Qt.Vertical)
         splitter.addWidget(top)
         splitter.addWidget(self.table)
-        splitter.setStretchFactor(0, 3)
-        splitter.setStretchFactor(1, 2)
+        splitter.setStretchFactor(0, 1)  # the table gets as much room as the image: a dozen rows without dragging
+        splitter.setStretchFactor(1, 1)
         self.setWidget(splitter)
 
     def _proposal_row(self) -> QWidget:
@@ -161,7 +166,8 @@ class PickerDock(DockActions, QDockWidget):
         self.count_spin = QSpinBox()
         self.count_spin.setRange(4, 500)
         self.count_spin.setValue(30)
-        buttons = [("Propose GCPs", self.propose), ("Accept all", lambda: self.controller.accept_proposals()),
+        buttons = [("Propose GCPs", self.propose),
+                   ("Accept all", lambda: self.controller.accept_proposals(check_every=ACCEPT_CHECK_EVERY)),
                    ("Reject all", lambda: self.controller.reject_proposals())]
         widgets = [self.reference_combo, self.count_spin]
         for text, slot in buttons:
@@ -240,6 +246,18 @@ class PickerDock(DockActions, QDockWidget):
             self.new_gcp_layer(path=path or None)
         except ValueError as e:
             self.say(str(e))
+
+    def _heights_chosen(self, source: str) -> None:
+        """Heights = dem with no DEM chosen yet: preselect the project's likeliest DEM layer (fit.guess_dem)."""
+        if source != "dem" or self.dem_combo.currentLayer() is not None:
+            return
+        image = self.image_combo.currentLayer()
+        layers = [node.layer() for node in QgsProject.instance().layerTreeRoot().findLayers()
+                  if isinstance(node.layer(), QgsRasterLayer)]
+        name = guess_dem([(lay.name(), lay.bandCount()) for lay in layers],
+                         exclude=(image.name(),) if image is not None else ())
+        if name is not None:
+            self.dem_combo.setLayer(next(lay for lay in layers if lay.name() == name))
 
     def _gcp_layer_chosen(self, layer):
         if layer is None:

@@ -14,6 +14,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fotogeo.options import in_labels  # standard library only
+
+#: command-line flags the picker's messages may carry → the dock's own fields
+PICKER_WORDS = {"--camera": "the camera file (Model row)", "--dem": "a DEM layer (Heights: dem)",
+                "--height": "a constant height (Heights: constant)", "--crs": "the GCP layer's CRS"}
+
 HEIGHT_SOURCES = ("field", "dem", "constant")
 
 
@@ -118,8 +124,8 @@ class Grid:
 
 def summary(fit: dict) -> str:
     """One line for the dock: the model and its RMS, or why there is no fit (how many more points)."""
-    if not fit.get("ok"):
-        return fit.get("message") or "no fit"
+    if not fit.get("ok"):  # in the dock's words: its camera field, not the command line's --camera
+        return in_labels(fit.get("message") or "no fit", extra=PICKER_WORDS)
     rms = fit.get("rms") or {}
 
     def part(kind):
@@ -129,6 +135,26 @@ def summary(fit: dict) -> str:
         px, mp = _number(rms.get(f"{kind}_px")), _number(rms.get(f"{kind}_map"))
         return f"{kind} ({n}): RMS {px:.3f} px / {mp:.3f} map units" if px is not None and mp is not None \
             else f"{kind} ({n}): RMS n/a"
-    flags = sum(1 for p in fit.get("points", []) if p.get("flag"))
-    tail = f"; {flags} flagged" if flags else ""
+    flags = sum(1 for p in fit.get("points", []) if "blunder" in (p.get("flag") or ""))
+    tail = f"; {flags} suspected blunder{'s' if flags > 1 else ''}" if flags else ""
+    if "not testable" in (fit.get("blunder_test") or ""):
+        tail += "; blunders not testable (too few points for this model)"
     return f"{fit.get('model', '?')}: {part('control')}; {part('check')}{tail}"
+
+
+#: words in a layer name that say "heights"
+DEM_WORDS = ("dem", "dtm", "dsm", "elev", "height", "srtm", "terrain", "lidar")
+
+
+def guess_dem(layers, exclude=()):
+    """The layer of ``layers`` (``(name, band count)`` pairs, in layer-tree order) most likely to be a DEM:
+    a one-band raster, one whose name says so first; None when no one-band raster is left after ``exclude``.
+
+    >>> guess_dem([("frame", 3), ("slope", 1), ("ngi dem", 1)]), guess_dem([("frame", 3)])
+    ('ngi dem', None)
+    >>> guess_dem([("ortho", 1), ("heights", 1)], exclude=("heights",))
+    'ortho'
+    """
+    single = [name for name, bands in layers if bands == 1 and name not in exclude]
+    named = [name for name in single if any(w in name.lower() for w in DEM_WORDS)]
+    return (named or single or [None])[0]

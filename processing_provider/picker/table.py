@@ -14,8 +14,18 @@ from qgis.PyQt.QtCore import Qt, pyqtSignal
 from qgis.PyQt.QtGui import QColor, QKeySequence
 from qgis.PyQt.QtWidgets import QAbstractItemView, QTableWidget, QTableWidgetItem
 
-COLUMNS = ("id", "on", "col", "row", "x", "y", "z", "z from", "dx px", "dy px", "res px", "dx map", "dy map",
-           "res map", "w", "flag")
+#: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
+COLUMNS = ("id", "on", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "col", "row", "x", "y",
+           "z", "z from")
+#: header tooltips: what each column means, "on" against the Georeferencer's "enable"
+TOOLTIPS = {
+    "on": "Ticked: control point, used in the fit. Unticked: check point, left out of the fit and measured against "
+          "it (the Georeferencer's unticked 'enable' means only 'not used'; here the point still reports its "
+          "residual).",
+    "w": "Standardised residual (data snooping); empty where the redundancy cannot test the point",
+    "flag": "blunder: |w| above the critical value for this redundancy; not testable: too little redundancy",
+    "res px": "Residual in image pixels (model − measured)", "res map": "Residual on the ground, map units",
+    "z from": "Where the height comes from: field, dem, constant or none"}
 #: table column -> (key in fit_gcps' point rows, decimals)
 RESULT_COLUMNS = {"dx px": ("dx_px", 3), "dy px": ("dy_px", 3), "res px": ("residual_px", 3),
                   "dx map": ("dx_map", 3), "dy map": ("dy_map", 3), "res map": ("residual_map", 3), "w": ("w", 2)}
@@ -37,6 +47,9 @@ class GcpTable(QTableWidget):
     def __init__(self, parent=None):
         super().__init__(0, len(COLUMNS), parent)
         self.setHorizontalHeaderLabels(COLUMNS)
+        for j, name in enumerate(COLUMNS):
+            if name in TOOLTIPS:
+                self.horizontalHeaderItem(j).setToolTip(TOOLTIPS[name])
         self.setSelectionBehavior(QAbstractItemView.SelectRows)
         self.setSelectionMode(QAbstractItemView.ExtendedSelection)
         self.setEditTriggers(QAbstractItemView.DoubleClicked | QAbstractItemView.EditKeyPressed)

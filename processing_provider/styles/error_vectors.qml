@@ -17,17 +17,17 @@
         </data_defined_properties>
         <layer locked="0" class="ArrowLine" enabled="1" pass="0">
           <Option type="Map">
-            <Option name="arrow_start_width" type="QString" value="0.3"/>
+            <Option name="arrow_start_width" type="QString" value="0.25"/>
             <Option name="arrow_start_width_unit" type="QString" value="MM"/>
             <Option name="arrow_start_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="arrow_type" type="QString" value="0"/>
-            <Option name="arrow_width" type="QString" value="0.3"/>
+            <Option name="arrow_width" type="QString" value="0.25"/>
             <Option name="arrow_width_unit" type="QString" value="MM"/>
             <Option name="arrow_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_length" type="QString" value="1.6"/>
+            <Option name="head_length" type="QString" value="1.2"/>
             <Option name="head_length_unit" type="QString" value="MM"/>
             <Option name="head_length_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_thickness" type="QString" value="1"/>
+            <Option name="head_thickness" type="QString" value="0.7"/>
             <Option name="head_thickness_unit" type="QString" value="MM"/>
             <Option name="head_thickness_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="head_type" type="QString" value="0"/>
@@ -38,17 +38,17 @@
             <Option name="offset_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="ring_filter" type="QString" value="0"/>
           </Option>
-          <prop v="0.3" k="arrow_start_width"/>
+          <prop v="0.25" k="arrow_start_width"/>
           <prop v="MM" k="arrow_start_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_start_width_unit_scale"/>
           <prop v="0" k="arrow_type"/>
-          <prop v="0.3" k="arrow_width"/>
+          <prop v="0.25" k="arrow_width"/>
           <prop v="MM" k="arrow_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_width_unit_scale"/>
-          <prop v="1.6" k="head_length"/>
+          <prop v="1.2" k="head_length"/>
           <prop v="MM" k="head_length_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_length_unit_scale"/>
-          <prop v="1" k="head_thickness"/>
+          <prop v="0.7" k="head_thickness"/>
           <prop v="MM" k="head_thickness_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_thickness_unit_scale"/>
           <prop v="0" k="head_type"/>
@@ -119,17 +119,17 @@
         </data_defined_properties>
         <layer locked="0" class="ArrowLine" enabled="1" pass="0">
           <Option type="Map">
-            <Option name="arrow_start_width" type="QString" value="0.3"/>
+            <Option name="arrow_start_width" type="QString" value="0.25"/>
             <Option name="arrow_start_width_unit" type="QString" value="MM"/>
             <Option name="arrow_start_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="arrow_type" type="QString" value="0"/>
-            <Option name="arrow_width" type="QString" value="0.3"/>
+            <Option name="arrow_width" type="QString" value="0.25"/>
             <Option name="arrow_width_unit" type="QString" value="MM"/>
             <Option name="arrow_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_length" type="QString" value="1.6"/>
+            <Option name="head_length" type="QString" value="1.2"/>
             <Option name="head_length_unit" type="QString" value="MM"/>
             <Option name="head_length_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_thickness" type="QString" value="1"/>
+            <Option name="head_thickness" type="QString" value="0.7"/>
             <Option name="head_thickness_unit" type="QString" value="MM"/>
             <Option name="head_thickness_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="head_type" type="QString" value="0"/>
@@ -140,17 +140,17 @@
             <Option name="offset_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="ring_filter" type="QString" value="0"/>
           </Option>
-          <prop v="0.3" k="arrow_start_width"/>
+          <prop v="0.25" k="arrow_start_width"/>
           <prop v="MM" k="arrow_start_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_start_width_unit_scale"/>
           <prop v="0" k="arrow_type"/>
-          <prop v="0.3" k="arrow_width"/>
+          <prop v="0.25" k="arrow_width"/>
           <prop v="MM" k="arrow_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_width_unit_scale"/>
-          <prop v="1.6" k="head_length"/>
+          <prop v="1.2" k="head_length"/>
           <prop v="MM" k="head_length_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_length_unit_scale"/>
-          <prop v="1" k="head_thickness"/>
+          <prop v="0.7" k="head_thickness"/>
           <prop v="MM" k="head_thickness_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_thickness_unit_scale"/>
           <prop v="0" k="head_type"/>
@@ -221,17 +221,17 @@
         </data_defined_properties>
         <layer locked="0" class="ArrowLine" enabled="1" pass="0">
           <Option type="Map">
-            <Option name="arrow_start_width" type="QString" value="0.3"/>
+            <Option name="arrow_start_width" type="QString" value="0.25"/>
             <Option name="arrow_start_width_unit" type="QString" value="MM"/>
             <Option name="arrow_start_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="arrow_type" type="QString" value="0"/>
-            <Option name="arrow_width" type="QString" value="0.3"/>
+            <Option name="arrow_width" type="QString" value="0.25"/>
             <Option name="arrow_width_unit" type="QString" value="MM"/>
             <Option name="arrow_width_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_length" type="QString" value="1.6"/>
+            <Option name="head_length" type="QString" value="1.2"/>
             <Option name="head_length_unit" type="QString" value="MM"/>
             <Option name="head_length_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
-            <Option name="head_thickness" type="QString" value="1"/>
+            <Option name="head_thickness" type="QString" value="0.7"/>
             <Option name="head_thickness_unit" type="QString" value="MM"/>
             <Option name="head_thickness_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="head_type" type="QString" value="0"/>
@@ -242,17 +242,17 @@
             <Option name="offset_unit_scale" type="QString" value="3x:0,0,0,0,0,0"/>
             <Option name="ring_filter" type="QString" value="0"/>
           </Option>
-          <prop v="0.3" k="arrow_start_width"/>
+          <prop v="0.25" k="arrow_start_width"/>
           <prop v="MM" k="arrow_start_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_start_width_unit_scale"/>
           <prop v="0" k="arrow_type"/>
-          <prop v="0.3" k="arrow_width"/>
+          <prop v="0.25" k="arrow_width"/>
           <prop v="MM" k="arrow_width_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="arrow_width_unit_scale"/>
-          <prop v="1.6" k="head_length"/>
+          <prop v="1.2" k="head_length"/>
           <prop v="MM" k="head_length_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_length_unit_scale"/>
-          <prop v="1" k="head_thickness"/>
+          <prop v="0.7" k="head_thickness"/>
           <prop v="MM" k="head_thickness_unit"/>
           <prop v="3x:0,0,0,0,0,0" k="head_thickness_unit_scale"/>
           <prop v="0" k="head_type"/>
