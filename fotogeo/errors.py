@@ -9,7 +9,16 @@ from __future__ import annotations
 
 
 class FotogeoError(Exception):
-    """Base class of every error fotogeo raises deliberately."""
+    """Base class of every error fotogeo raises deliberately.
+
+    ``option``: the name of the tool option the message is about (e.g. ``"half_window"``), when it is
+    one; the command line then names it by its flag and QGIS by its parameter's label
+    (:func:`in_callers_words`), the Python API keeps the keyword.
+    """
+
+    def __init__(self, *args, option: str | None = None):
+        super().__init__(*args)
+        self.option = option
 
 
 class InputError(FotogeoError, ValueError):
@@ -87,3 +96,18 @@ def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
     half = value_limit // 2
     text = re.sub(r"(?<!\w)'([^']{%d,})'(?!\w)" % (value_limit + 1), lambda m: f"'{m.group(1)[:half]}…{m.group(1)[-8:]}'", text)
     return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
+def in_callers_words(message: str, option: str | None, words: str | None) -> str:
+    """``message`` with the option name ``option`` (its first occurrence as a whole word) replaced by
+    ``words``: the caller's name for it (a command-line flag, a QGIS parameter label).
+
+    >>> in_callers_words("half_window 5000 is too large", "half_window", "--half-window")
+    '--half-window 5000 is too large'
+    >>> in_callers_words("nothing to rename", None, "--x")
+    'nothing to rename'
+    """
+    import re
+    if not option or not words:
+        return message
+    return re.sub(r"(?<![\w-])%s(?!\w)" % re.escape(option), lambda m: words, message, count=1)

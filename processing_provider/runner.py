@@ -93,8 +93,10 @@ def start_worker(stderr, *worker_args: str, error=QgsProcessingException, **pope
                     f"Install / repair runtime") from None
 
 
-def run_tool(tool: str, *args, feedback=None, **kwargs):
-    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result."""
+def run_tool(tool: str, *args, feedback=None, words=None, **kwargs):
+    """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result.
+
+    ``words(option name)``: the caller's name of an option an error message is about (a parameter label)."""
     request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs}) + "\n"
     with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
         proc = start_worker(stderr)
@@ -110,8 +112,19 @@ def run_tool(tool: str, *args, feedback=None, **kwargs):
         if final["type"] == "error":
             if final.get("traceback") and feedback is not None:
                 feedback.pushDebugInfo(final["traceback"])
-            raise QgsProcessingException(final.get("message") or final.get("error", "fotogeo failed"))
+            raise QgsProcessingException(_in_callers_words(final, words))
         return final.get("result")
+
+
+def _in_callers_words(error: dict, words) -> str:
+    """The worker's error message, the option it is about (``error["option"]``) named by ``words``."""
+    message = error.get("message") or error.get("error", "fotogeo failed")
+    option = error.get("option")
+    label = words(option) if option and words else None
+    if not label:
+        return message
+    from fotogeo.errors import in_callers_words
+    return in_callers_words(message, option, label)
 
 
 def _follow(proc, feedback):

@@ -160,9 +160,17 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         """Run fotogeo's ``tool`` (``fotogeo.worker.TOOLS``) in the runtime; its result as JSON types.
 
         Paths and options go as JSON; progress, warnings and cancel travel with the feedback;
-        a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message.
+        a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message, an option
+        it names called by its parameter's label (:meth:`option_label`).
         """
-        return runner.run_tool(tool, *args, feedback=feedback, **kwargs)
+        return runner.run_tool(tool, *args, feedback=feedback, words=self.option_label, **kwargs)
+
+    def option_label(self, name: str) -> str | None:
+        """How this dialog shows the option ``name``: its parameter's label in quotes, None if it has none."""
+        for table in self.OPTIONS:
+            if name in table:
+                return f"'{tr(table[name].label or name)}'"
+        return None
 
     # -- parameters ----------------------------------------------------------------------
     def raster_path(self, parameters, name: str, context) -> str:
