@@ -161,8 +161,12 @@ class _Job:
 
 
 def _warning_hook(channel: _Channel):
+    from .errors import warning_line
+
     def show(message, category, filename, lineno, file=None, line=None):
-        channel.send(type="warning", message=str(message))
+        text = warning_line(message, category)  # translated or silenced, as on the command line
+        if text is not None:
+            channel.send(type="warning", message=text)
     return show
 
 
@@ -244,8 +248,10 @@ def answer_request(request: dict, channel: _Channel) -> None:
         traceback.print_exc()
         channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(f"{type(e).__name__}: {e}"))
         return
-    for w in caught:
-        channel.send(id=rid, type="warning", message=one_line(w.message))
+    from .errors import warning_line
+    for text in dict.fromkeys(warning_line(w.message, w.category) for w in caught):
+        if text is not None:
+            channel.send(id=rid, type="warning", message=text)
     channel.send(id=rid, type="result", result=result)
 
 

@@ -11,7 +11,7 @@ import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError, in_callers_words, one_line
+from ..errors import Cancelled, FotogeoError, in_callers_words, warning_line
 from ..options import Option, Table, find_option
 
 #: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
@@ -51,12 +51,13 @@ def terminate_as_exception():
 @contextlib.contextmanager
 def warnings_as_lines():
     """While inside, each warning (fotogeo's or a library's) is one ``Warning: <message>`` line
-    on stderr — no file name, line number or source line — and a repeated message is shown once."""
+    on stderr — no file name, line number or source line — and a repeated message is shown once;
+    library notes that mean nothing to a user are translated or silenced (:func:`~fotogeo.errors.warning_line`)."""
     shown = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
-        text = one_line(str(message))
-        if text not in shown:
+        text = warning_line(message, category)  # translated or silenced (fotogeo.errors)
+        if text is not None and text not in shown:
             shown.add(text)
             click.echo(f"Warning: {text}", err=True)
 

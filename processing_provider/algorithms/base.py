@@ -49,6 +49,11 @@ REFERENCES = {
 }
 
 
+def _is_file(value) -> bool:
+    """Whether a parameter value is the path of an existing file (not a layer id, URI or layer object)."""
+    return isinstance(value, str) and os.path.isfile(value)
+
+
 def tr(text: str) -> str:
     return QCoreApplication.translate("fotogeo", text)
 
@@ -155,6 +160,21 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
     def createInstance(self):
         return type(self)()
 
+    # -- checking the parameters ---------------------------------------------------------
+    def checkParameterValues(self, parameters, context):
+        """QGIS's check of every parameter, except that a raster given as an existing file path is not
+        loaded as a layer to be checked (QGIS's own check would: the layer computes statistics and GDAL
+        saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks that file itself."""
+        for definition in self.parameterDefinitions():
+            name = definition.name()
+            if isinstance(definition, QgsProcessingParameterRasterLayer) and _is_file(parameters.get(name)):
+                continue
+            if not definition.checkValueIsAcceptable(parameters.get(name), context):
+                if isinstance(definition, QgsProcessingParameterRasterLayer):
+                    return False, self.invalidRasterError(parameters, name)
+                return False, tr(f"Incorrect parameter value for {name}")
+        return True, ""
+
     # -- running a tool ------------------------------------------------------------------
     def run_tool(self, tool: str, *args, feedback=None, **kwargs):
         """Run fotogeo's ``tool`` (``fotogeo.worker.TOOLS``) in the runtime; its result as JSON types.
@@ -174,7 +194,14 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
 
     # -- parameters ----------------------------------------------------------------------
     def raster_path(self, parameters, name: str, context) -> str:
-        """Local file path of a raster-layer parameter (a GDAL file), or a clear exception."""
+        """Local file path of a raster-layer parameter (a GDAL file), or a clear exception.
+
+        A file path given as text (``qgis_process``, ``processing.run``, the dialog's file browser) is taken
+        as it is, never loaded as a QGIS layer: a QGIS raster layer computes statistics when it loads, and
+        GDAL saves them in an ``.aux.xml`` beside the file (fotogeo's worker reads the file itself)."""
+        given = parameters.get(name)
+        if _is_file(given):
+            return given
         layer = self.parameterAsRasterLayer(parameters, name, context)
         if layer is None or not isinstance(layer, QgsRasterLayer):
             raise QgsProcessingException(self.invalidRasterError(parameters, name))
