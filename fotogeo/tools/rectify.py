@@ -124,7 +124,8 @@ def check_terrain_heights(geo: Georeference, width: int, height: int, seen_z, wh
     if getattr(geo.model, "src_dims", 2) != 3 or geo.heights is None or not len(seen):
         return
     z_mid = float(np.median(seen))
-    cols, rows = np.meshgrid(np.linspace(0.5, width - 0.5, HEIGHT_SAMPLES), np.linspace(0.5, height - 0.5, HEIGHT_SAMPLES))
+    cols, rows = np.meshgrid(np.linspace(0.5, width - 0.5, HEIGHT_SAMPLES),
+                             np.linspace(0.5, height - 0.5, HEIGHT_SAMPLES))
     XY = geo.with_heights(z_mid).pixel_to_map(np.column_stack([cols.ravel(), rows.ravel()]))
     XY = XY[np.isfinite(XY).all(axis=1)]
     z = heights_at(geo.heights, XY) if len(XY) else np.empty(0)
