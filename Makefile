@@ -55,8 +55,14 @@ $(VENV)/.bench: $(VENV)/.installed
 demo: $(VENV)/.installed
 	$(VENV)/bin/fotogeo demo --output $(DEMO_OUT)
 
+# the fitting tests again on 1 and 2 BLAS threads: a fit must not depend on the caller's threads (issue 24)
+FIT_TESTS := tests/test_models.py tests/test_models_lambda.py tests/test_models_spatial.py \
+	tests/test_models_threads.py tests/test_rpc_refit.py
+
 test: system-test $(VENV)/.installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
+	for n in 1 2; do echo "fitting tests on $$n BLAS thread(s)"; \
+	  OPENBLAS_NUM_THREADS=$$n $(PY) -m pytest -q -p no:cacheprovider $(FIT_TESTS) || exit 1; done
 
 bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/register_bench.py

@@ -9,7 +9,16 @@ from __future__ import annotations
 
 
 class FotogeoError(Exception):
-    """Base class of every error fotogeo raises deliberately."""
+    """Base class of every error fotogeo raises deliberately.
+
+    ``option``: the name of the tool option the message is about (e.g. ``"half_window"``), when it is
+    one; the command line then names it by its flag and QGIS by its parameter's label
+    (:func:`in_callers_words`), the Python API keeps the keyword.
+    """
+
+    def __init__(self, *args, option: str | None = None):
+        super().__init__(*args)
+        self.option = option
 
 
 class InputError(FotogeoError, ValueError):
@@ -87,3 +96,52 @@ def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
     half = value_limit // 2
     text = re.sub(r"(?<!\w)'([^']{%d,})'(?!\w)" % (value_limit + 1), lambda m: f"'{m.group(1)[:half]}…{m.group(1)[-8:]}'", text)
     return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
+def in_callers_words(message: str, option: str | None, words: str | None) -> str:
+    """``message`` with the option name ``option`` (its first occurrence as a whole word) replaced by
+    ``words``: the caller's name for it (a command-line flag, a QGIS parameter label).
+
+    >>> in_callers_words("half_window 5000 is too large", "half_window", "--half-window")
+    '--half-window 5000 is too large'
+    >>> in_callers_words("nothing to rename", None, "--x")
+    'nothing to rename'
+    """
+    import re
+    if not option or not words:
+        return message
+    return re.sub(r"(?<![\w-])%s(?!\w)" % re.escape(option), lambda m: words, message, count=1)
+
+
+#: library warnings that tell a user nothing to act on, silenced: numpy's floating-point and empty/NaN-slice
+#: notes (fotogeo checks the numbers that matter itself: non-finite results are refused or reported),
+#: rasterio's note on an image without georeference (the tools that need one say so)
+_SILENCED = ("All-NaN slice encountered", "All-NaN axis encountered", "Mean of empty slice",
+             "Degrees of freedom <= 0", "encountered in", "invalid value encountered", "Dataset has no geotransform")
+#: library warnings (by class name) that carry information, in fotogeo's words
+_TRANSLATED = {
+    "NodataShadowWarning": "a raster has both a nodata value and an alpha band: its empty pixels are the ones "
+                           "equal to the nodata value, the alpha band is not used as a mask; remove the nodata "
+                           "value (gdal_edit.py -unsetnodata) to mask by the alpha band",
+    "NotGeoreferencedWarning": None,
+}
+
+
+def warning_line(message, category) -> str | None:
+    """The one line a user is shown for a warning (fotogeo's own as they are, a library's translated into
+    fotogeo's words or silenced: None). The one rule of the command line and the QGIS worker.
+
+    >>> warning_line("All-NaN slice encountered", RuntimeWarning) is None
+    True
+    >>> warning_line("flat terrain:\\n  use a 2-D model", IllPosedWarning)
+    'flat terrain: use a 2-D model'
+    """
+    name = getattr(category, "__name__", "")
+    if isinstance(category, type) and issubclass(category, FotogeoWarning):
+        return one_line(str(message))
+    if name in _TRANSLATED:
+        return _TRANSLATED[name]
+    text = one_line(str(message))
+    if any(s in text for s in _SILENCED):
+        return None
+    return text

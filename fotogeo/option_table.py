@@ -72,24 +72,27 @@ class Option:
         if value is None:
             if self.nullable:
                 return
-            raise InputError(f"{self.name} needs a value (default {self.default!r})")
+            raise InputError(f"{self.name} needs a value (default {self.default!r})", option=self.name)
         if self.kind == "choice":
             if value not in self.choices:
-                raise InputError(f"{self.name} {value!r} unknown; choose one of {', '.join(self.choices)}")
+                raise InputError(f"{self.name} {value!r} unknown; choose one of {', '.join(self.choices)}",
+                                 option=self.name)
         elif self.kind == "bool":
             if value not in (True, False):
-                raise InputError(f"{self.name} must be True or False; got {value!r}")
+                raise InputError(f"{self.name} must be True or False; got {value!r}", option=self.name)
         elif self.kind in ("int", "float"):
             whole = self.kind == "int"
             if isinstance(value, bool) or not isinstance(value, numbers.Integral if whole else numbers.Real):
-                raise InputError(f"{self.name} must be {'a whole number' if whole else 'a number'}; got {value!r}")
+                raise InputError(f"{self.name} must be {'a whole number' if whole else 'a number'}; got {value!r}",
+                                 option=self.name)
             below = self.minimum is not None and not (value > self.minimum if self.exclusive_minimum
                                                       else value >= self.minimum)
             above = self.maximum is not None and not value <= self.maximum
             if below or above or value != value:  # value != value: NaN
-                raise InputError(f"{self.name} must be {self.range_text() or 'a number'}; got {value!r}")
+                raise InputError(f"{self.name} must be {self.range_text() or 'a number'}; got {value!r}",
+                                 option=self.name)
             if not math.isfinite(value):  # ±inf: never a valid setting
-                raise InputError(f"{self.name} must be a finite number; got {value!r}")
+                raise InputError(f"{self.name} must be a finite number; got {value!r}", option=self.name)
         elif self.kind == "str" and self.choices:  # a word of the choices or a number in range ("auto" or 20)
             if value in self.choices:
                 return
@@ -97,12 +100,12 @@ class Option:
                 number = float(value)
             except (TypeError, ValueError):
                 raise InputError(f"{self.name} must be {' or '.join(map(repr, self.choices))} or a number "
-                                 f"{self.range_text()}; got {value!r}") from None
+                                 f"{self.range_text()}; got {value!r}", option=self.name) from None
             replace(self, kind="float", choices=(), default=0).check(number)
         elif self.kind in ("ints", "choices"):
             items = (value,) if isinstance(value, (str, bytes, numbers.Number)) else tuple(value)
             if not items:
-                raise InputError(f"{self.name} needs at least one value")
+                raise InputError(f"{self.name} needs at least one value", option=self.name)
             for item in items:  # each item as an "int" or a "choice" option of the same name and range
                 replace(self, kind="int" if self.kind == "ints" else "choice", default=0).check(item)
 

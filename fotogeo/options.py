@@ -366,3 +366,15 @@ RegisterOptions = make_dataclass(
                             "__doc__": "Parameters of :func:`fotogeo.tools.register.register` (declared in "
                                        ":data:`fotogeo.options.REGISTER`; CLI flags of the same names)."})
 RegisterOptions.__module__ = __name__
+
+
+def find_option(name: str) -> Option | None:
+    """The first option declared as ``name`` in this module's tables (for a message's flag or label), or None.
+
+    >>> find_option("half_window").cli_flag, find_option("nope")
+    ('--half-window', None)
+    """
+    for table in [v for v in globals().values() if isinstance(v, Table)]:
+        if name in table:
+            return table[name]
+    return None

@@ -164,8 +164,12 @@ class _Job:
 
 
 def _warning_hook(channel: _Channel):
+    from .errors import warning_line
+
     def show(message, category, filename, lineno, file=None, line=None):
-        channel.send(type="warning", message=str(message))
+        text = warning_line(message, category)  # translated or silenced, as on the command line
+        if text is not None:
+            channel.send(type="warning", message=text)
     return show
 
 
@@ -205,7 +209,7 @@ def serve(stdin=None) -> int:
         channel.send(type="error", error="Cancelled", message=str(e), cancelled=True)
         return EXIT_CANCELLED
     except FotogeoError as e:
-        channel.send(type="error", error=type(e).__name__, message=str(e), cancelled=False)
+        channel.send(type="error", error=type(e).__name__, message=str(e), option=e.option, cancelled=False)
         return EXIT_ERROR
     except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the traceback
         import traceback
@@ -240,15 +244,17 @@ def answer_request(request: dict, channel: _Channel) -> None:
             warnings.simplefilter("always")
             result = func(progress=None, **kwargs)  # made JSON as it is written (_json_line)
     except FotogeoError as e:
-        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e))
+        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e), option=e.option)
         return
     except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the session
         import traceback
         traceback.print_exc()
         channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(f"{type(e).__name__}: {e}"))
         return
-    for w in caught:
-        channel.send(id=rid, type="warning", message=one_line(w.message))
+    from .errors import warning_line
+    for text in dict.fromkeys(warning_line(w.message, w.category) for w in caught):
+        if text is not None:
+            channel.send(id=rid, type="warning", message=text)
     channel.send(id=rid, type="result", result=result)
 
 

@@ -113,8 +113,17 @@ def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
         if final["type"] == "error":
             if final.get("traceback") and feedback is not None:
                 feedback.pushDebugInfo(final["traceback"])
-            raise QgsProcessingException(words(final.get("message") or final.get("error", "fotogeo failed")))
+            raise QgsProcessingException(_in_callers_words(final, words))
         return final.get("result")
+
+
+def _in_callers_words(error: dict, words) -> str:
+    """The worker's error message in the caller's words: ``words(message, option)``, ``option`` the option
+    the error is about (``error["option"]``, :attr:`fotogeo.errors.FotogeoError.option`) or None."""
+    message = error.get("message") or error.get("error", "fotogeo failed")
+    if words is str:
+        return message
+    return words(message, error.get("option"))
 
 
 def _follow(proc, feedback, words=str):

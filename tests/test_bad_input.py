@@ -9,74 +9,20 @@ and bad files written beside it once per module.
 from __future__ import annotations
 
 import errno
-import hashlib
 import os
 import shutil
 import subprocess
 import warnings
 from pathlib import Path
 
-import geopandas as gpd
-import numpy as np
 import pytest
-import rasterio
-import shapely
 from click.testing import CliRunner
 
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import FotogeoError, InputError, OutputError, VectorError
 from fotogeo.tools.demo import make_scene
-
-HEADER = "mapX,mapY,sourceX,sourceY,enable,dX,dY,residual"
-YAML_OK = "cam:\n  type: pinhole\n  im_size: [900, 700]\n  focal_len: 12.0\n  sensor_size: [10.8, 8.4]\n"
-
-
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _snapshot(folder: Path) -> dict:
-    return {p.name: _sha(p) for p in sorted(folder.iterdir()) if p.is_file()}
-
-
-def _write_bad_inputs(d: Path, scene) -> None:
-    """Bad (and a few good) input files beside the scene, named as the cases use them."""
-    rng = np.random.default_rng(1)
-    px = rng.uniform(60, 640, (30, 2))
-    XY = rng.uniform(0, 1, (30, 2)) * 2000 + [501000, 4416000]
-    ids = [f"G{i}" for i in range(30)]
-    gpd.GeoDataFrame({"id": ids, "col": px[:, 0], "row": px[:, 1], "z": 800 + rng.normal(0, 10, 30)},
-                     geometry=shapely.points(XY), crs="EPSG:32635").to_file(d / "gcps.gpkg", driver="GPKG")
-    geoms = list(shapely.points(XY))
-    geoms[3] = None
-    gpd.GeoDataFrame({"id": ids, "col": px[:, 0], "row": px[:, 1]}, geometry=geoms,
-                     crs="EPSG:32635").to_file(d / "null_geom.gpkg", driver="GPKG")
-    rows = "\n".join(f"{i},{x:.2f},{y:.2f},{c:.2f},{r:.2f}" for i, (x, y), (c, r) in zip(ids, XY, px))
-    (d / "gcps.csv").write_text("id,x,y,col,row\n" + rows + "\n")
-    (d / "text_col.csv").write_text("id,x,y,col,row\n" + rows.replace(f"G5,{XY[5, 0]:.2f},{XY[5, 1]:.2f},{px[5, 0]:.2f}",
-                                                                     f"G5,{XY[5, 0]:.2f},{XY[5, 1]:.2f},abc") + "\n")
-    lines = "\n".join(f"{x:.2f},{y:.2f},{c:.2f},{-r:.2f},1,0,0,0" for (x, y), (c, r) in zip(XY, px))
-    (d / "nan_first.points").write_text(f"#CRS: EPSG:32635\n{HEADER}\nnan,1,2,-3,1,0,0,0\n{lines}\n")
-    (d / "nan_no_header.points").write_text("nan,1,2,-3,1,0,0,0\n" + lines + "\n")
-    (d / "enable_inf.points").write_text(f"#CRS: EPSG:32635\n{HEADER}\n" + lines.replace(",1,0,0,0", ",inf,0,0,0", 1) + "\n")
-    (d / "enable_2.points").write_text(f"#CRS: EPSG:32635\n{HEADER}\n" + lines.replace(",1,0,0,0", ",2,0,0,0", 1) + "\n")
-    (d / "positive_y.points").write_text(f"#CRS: EPSG:32635\n{HEADER}\n" + lines.replace(",-", ",") + "\n")
-    (d / "empty.points").write_text(f"#CRS: EPSG:32635\n{HEADER}\n")
-    (d / "bad.yaml").write_text("cam:\n  type pinhole\n")
-    (d / "text_size.yaml").write_text(YAML_OK.replace("[900, 700]", "[wide, high]"))
-    (d / "inf_focal.yaml").write_text(YAML_OK.replace("12.0", "1e999"))
-    (d / "latin1.yaml").write_bytes(YAML_OK.replace("cam", "caméra").encode("latin-1"))
-    (d / "not_raster.tif").write_text("this is not a raster\n")
-    (d / "truncated.tif").write_bytes(scene.target.read_bytes()[:3000])
-    with rasterio.open(d / "complex.tif", "w", driver="GTiff", width=64, height=64, count=1, dtype="complex64") as ds:
-        ds.write((np.ones((64, 64)) * (1 + 2j)).astype("complex64"), 1)
-    (d / "a_folder.tif").mkdir()
-    pts = "id,ref_col,ref_row,col,row\nA,300,300,300,300\nB,nan,350,350,350\nC,400,400,400,400\n"
-    (d / "nan_row.csv").write_text(pts)
-    (d / "text_row.csv").write_text(pts.replace("B,nan", "B,left"))
-    (d / "targets_nan.csv").write_text("id,col,row\nT1,100,100\nT2,,120\n")
-    (d / "rpc_folder").mkdir()
+from bad_input_files import _snapshot, _write_bad_inputs, write_round_two_inputs
 
 
 @pytest.fixture(scope="module")
@@ -84,6 +30,7 @@ def env(tmp_path_factory):
     d = tmp_path_factory.mktemp("bad_inputs")
     scene = make_scene(d, seed=7, size=400, pixel=12.0)
     _write_bad_inputs(d, scene)
+    write_round_two_inputs(d, scene)
     (d / "exists.tif").write_bytes(b"x")
     return {"dir": d, "sha": _snapshot(d), "names": sorted(p.name for p in d.iterdir())}
 
@@ -118,10 +65,11 @@ REG = ["register", R, T, "-o", "{out}/o.tif", "-q"]
 ORI = ["orient", T]
 CMP = ["compare-models", T, G, "--table", "{out}/t.csv", "-q"]
 TRF = ["transfer-points", T, T]
+TRUE = ["orient", T, "{d}/true_gcps.gpkg", "--rectify", "{out}/r.tif"]
 CLI_CASES = {
     # register: options checked before any file is read, inputs refused with their name
     "register seed -1": (REG + ["--seed", "-1"], "seed must be >= 0"),
-    "register max-match-pixels 0": (REG + ["--max-match-pixels", "0"], "max_match_pixels must be"),
+    "register max-match-pixels 0": (REG + ["--max-match-pixels", "0"], "--max-match-pixels must be"),
     "register resolution inf": (REG + ["--resolution", "inf"], "resolution must be a finite number"),
     "register resolution nan": (REG + ["--resolution", "nan"], "resolution must be"),
     "register resolution negative": (REG + ["--resolution", "-3"], "resolution must be > 0"),
@@ -129,10 +77,10 @@ CLI_CASES = {
     "register reference-nodata -5 on uint8": (REG + ["--reference-nodata", "-5"], "cannot be stored"),
     "register target-nodata 1.5 on uint8": (REG + ["--target-nodata", "1.5"], "not a whole number"),
     "register ratio 2": (REG + ["--ratio", "2"], "ratio must be"),
-    "register check-fraction 0.95": (REG + ["--check-fraction", "0.95"], "check_fraction must be"),
-    "register ransac-threshold 0": (REG + ["--ransac-threshold", "0"], "ransac_threshold must be"),
+    "register check-fraction 0.95": (REG + ["--check-fraction", "0.95"], "--check-fraction must be"),
+    "register ransac-threshold 0": (REG + ["--ransac-threshold", "0"], "--ransac-threshold must be"),
     "register exaggeration 0": (REG + ["--exaggeration", "0"], "exaggeration must be"),
-    "register max-keypoints 1": (REG + ["--max-keypoints", "1"], "max_keypoints must be"),
+    "register max-keypoints 1": (REG + ["--max-keypoints", "1"], "--max-keypoints must be"),
     "register terrain model without dem": (REG + ["--model", "dlt"], "needs a DEM"),
     "register missing reference": (["register", "{d}/nope.tif", T, "-o", "{out}/o.tif"], "does not exist"),
     "register target not a raster": (["register", R, "{d}/not_raster.tif", "-o", "{out}/o.tif"], "not_raster.tif"),
@@ -158,7 +106,7 @@ CLI_CASES = {
     "orient resolution negative": (ORI + [G, "--rectify", "{out}/r.tif", "--resolution", "-5"], "resolution must be > 0"),
     "orient resolution inf": (ORI + [G, "--rectify", "{out}/r.tif", "--resolution", "inf"], "finite"),
     "orient exaggeration 0": (ORI + [G, "--vectors", "{out}/v.gpkg", "--exaggeration", "0"], "exaggeration must be"),
-    "orient scan pixel -1": (ORI + [G, "--report", "{out}/r.json", "--scan-pixel-um", "-1"], "scan_pixel_um must be"),
+    "orient scan pixel -1": (ORI + [G, "--report", "{out}/r.json", "--scan-pixel-um", "-1"], "--scan-pixel-um must be"),
     "orient unknown model": (ORI + [G, "--model", "nope"], "'nope' is not one of"),
     "orient csv without crs": (ORI + ["{d}/gcps.csv", "--report", "{out}/r.json"], "carries no CRS"),
     "orient text in numeric column": (ORI + ["{d}/text_col.csv", "--crs", "EPSG:32635"], "'G5' holds 'abc'"),
@@ -189,12 +137,12 @@ CLI_CASES = {
     "transfer nan row": (TRF + ["{d}/nan_row.csv", "-o", "{out}/t.csv"], "point 'B' has no valid 'ref_col'"),
     "transfer text in a column": (TRF + ["{d}/text_row.csv", "-o", "{out}/t.csv"], "'B' holds 'left'"),
     "transfer search radius 0": (TRF + ["{d}/nan_row.csv", "-o", "{out}/t.csv", "--search-radius", "0"],
-                                 "search_radius must be"),
+                                 "--search-radius must be"),
     "transfer half window 1": (TRF + ["{d}/nan_row.csv", "-o", "{out}/t.csv", "--half-window", "1"],
-                               "half_window must be"),
+                               "--half-window must be"),
     "transfer table missing": (TRF + ["{d}/nope.csv", "-o", "{out}/t.csv"], "does not exist"),
     "targets half window 2": (["measure-targets", T, "{d}/targets_nan.csv", "-o", "{out}/m.csv", "--half-window", "2"],
-                              "half_window must be"),
+                              "--half-window must be"),
     "targets empty cell": (["measure-targets", T, "{d}/targets_nan.csv", "-o", "{out}/m.csv"], "'T2' has no valid"),
     # demo and the .points tools
     "demo seed -1": (["demo", "-o", "{out}/demo", "--seed", "-1"], "seed must be >= 0"),
@@ -205,6 +153,27 @@ CLI_CASES = {
     "layer-to-points null geometry": (["layer-to-points", "{d}/null_geom.gpkg", "-o", "{out}/g.points"],
                                       "without a geometry"),
     "layer-to-points csv": (["layer-to-points", "{d}/gcps.csv", "-o", "{out}/g.points"], "no point geometries"),
+    # issue 24: heights the model never saw, a camera nested to exhaustion, options the image cannot hold
+    "orient dlt rectify on a DEM above the camera": (TRUE + ["--model", "dlt", "--dem", "{d}/dem_high.tif"],
+                                                     "dem_high.tif' reaches"),
+    "orient collinearity rectify on a DEM above the camera": (
+        TRUE + ["--model", "collinearity", "--camera", "{d}/camera.yaml", "--dem", "{d}/dem_high.tif"],
+        "above the camera's projection centre (height 4300.0)"),
+    "orient rfm-poly rectify on a DEM in feet": (TRUE + ["--model", "rfm-poly", "--dem", "{d}/dem_feet.tif"],
+                                                 "the model has only seen"),
+    "orient dlt rectify at a height above the camera": (TRUE + ["--model", "dlt", "--height", "6000"],
+                                                        "the height 6000.0 reaches"),
+    "orient camera nested 3000 deep": (ORI + [G, "--model", "collinearity", "--camera", "{d}/deep.yaml"],
+                                       "deep.yaml', line 3: im_size: a list nested 3000 deep"),
+    "register camera nested 3000 deep": (REG + ["--dem", "{d}/dem.tif", "--camera", "{d}/deep.yaml"],
+                                         "deep.yaml', line 3"),
+    "transfer empty table": (TRF + ["{d}/empty_points.csv", "-o", "{out}/t.csv"], "empty_points.csv' holds no points"),
+    "targets empty table": (["measure-targets", T, "{d}/empty_targets.csv", "-o", "{out}/m.csv"], "holds no points"),
+    "transfer half window larger than the image": (TRF + ["{d}/one_point.csv", "-o", "{out}/t.csv", "--half-window",
+                                                          "5000"], "--half-window 5000 makes a 10001 x 10001 px window"),
+    "targets half window larger than the image": (["measure-targets", T, "{d}/one_point.csv", "-o", "{out}/m.csv",
+                                                   "--half-window", "100000"], "give at most 349"),
+    "compare empty model name": (CMP + ["--models", "poly1,,affine"], "an empty entry in 'poly1,,affine'"),
 }
 
 
@@ -243,6 +212,8 @@ def _api_cases(d: Path, out: Path):
                                           VectorError, "geometry"),
         "run_demo seed -1": (lambda: fotogeo.run_demo(out / "demo", seed=-1), InputError, "seed"),
         "read_gcps null geometry": (lambda: fotogeo.orient(t, d / "null_geom.gpkg"), VectorError, "'G3'"),
+        "transfer half window 5000": (lambda: fotogeo.transfer_gcps(t, t, d / "one_point.csv", out / "t.csv",
+                                                                    half_window=5000), InputError, "half_window 5000"),
     }
 
 
@@ -338,6 +309,48 @@ def test_cli_prints_library_warnings_as_one_line(env, out, monkeypatch):
     assert result.exit_code == 0, result.output
     assert result.stderr.splitlines() == ["Warning: a library complains with a second line"], result.stderr
     (out / "f.tif").unlink()
+
+
+def test_cli_says_library_warnings_in_fotogeo_words(env, out, monkeypatch):
+    """numpy's and rasterio's notes (issue 24) are silenced or translated; fotogeo's own pass as they are."""
+    from rasterio.errors import NodataShadowWarning, NotGeoreferencedWarning
+
+    import fotogeo.tools.fuse as fuse_tool
+    from fotogeo.errors import IllPosedWarning
+    real = fuse_tool.pca_fuse
+
+    def noisy(*args, **kwargs):
+        warnings.warn("All-NaN slice encountered", RuntimeWarning)
+        warnings.warn("overflow encountered in multiply", RuntimeWarning)
+        warnings.warn(NotGeoreferencedWarning("Dataset has no geotransform, gcps, or rpcs."))
+        warnings.warn(NodataShadowWarning())
+        warnings.warn("flat terrain: use a 2-D model", IllPosedWarning)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fuse_tool, "pca_fuse", noisy)
+    result = CliRunner().invoke(main, ["fuse", str(env["dir"] / "target.tif"), "-o", str(out / "f.tif"), "-q"])
+    assert result.exit_code == 0, result.output
+    lines = result.stderr.splitlines()
+    assert len(lines) == 2 and "nodata value and an alpha band" in lines[0], lines
+    assert lines[1] == "Warning: flat terrain: use a 2-D model"
+    (out / "f.tif").unlink()
+
+
+def test_heights_partly_unseen_are_a_warning(env, out):
+    """A DEM 3000 m higher on a corner: the rectification runs and says where it extrapolates."""
+    result = CliRunner().invoke(main, _expand(TRUE + ["--model", "dlt", "--dem", "{d}/dem_corner.tif", "-q"],
+                                              env["dir"], out))
+    assert result.exit_code == 0, result.output
+    warned = [line for line in result.stderr.splitlines() if line.startswith("Warning:")]
+    assert len(warned) == 1 and "dem_corner.tif" in warned[0] and "extrapolated" in warned[0], result.stderr
+    (out / "r.tif").unlink()
+
+
+def test_transfer_summary_names_statuses_plainly(env, out):
+    result = CliRunner().invoke(main, _expand(TRF + ["{d}/one_point.csv", "-o", "{out}/t.csv", "-q"], env["dir"], out))
+    assert result.exit_code == 0 and "statuses {'converged': 1}" in result.stdout, result.output
+    assert "np.str_" not in result.output
+    (out / "t.csv").unlink()
 
 
 # -- readers used outside the tools -----------------------------------------------------------------------------

@@ -85,9 +85,9 @@ def test_fuse_runs_and_errors_exit_2(small_rgb, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--ratio", "0.01"], "ratio must be >= 0.05"),
-    (["--check-fraction", "0.95"], "check_fraction must be >= 0.0 and <= 0.89"),
+    (["--check-fraction", "0.95"], "--check-fraction must be >= 0.0 and <= 0.89"),
     (["--resolution", "0"], "resolution must be > 0.0"),
-    (["--max-keypoints", "5"], "max_keypoints must be >= 10"),
+    (["--max-keypoints", "5"], "--max-keypoints must be >= 10"),
 ])
 def test_register_ranges_from_the_table(small_rgb, tmp_path, args, message):
     """Out-of-range values stop before any work, with the option's name and its valid range."""

@@ -1,4 +1,4 @@
-"""Small fits run on one BLAS thread whatever the caller's setting, and give it back (issue 15)."""
+"""Fits run on one BLAS thread whatever the caller's setting, and give it back (issues 15 and 24)."""
 from __future__ import annotations
 
 import threading
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fotogeo.models import MODELS
-from fotogeo.models.threads import LARGE_FLOPS, SMALL_ELEMENTS, blas_threads_for, pins
+from fotogeo.models.threads import SMALL_FLOPS, blas_threads_for, pins
 
 threadpoolctl = pytest.importorskip("threadpoolctl")
 
@@ -28,9 +28,11 @@ def two_blas_threads():
 
 def test_which_problems_are_pinned():
     assert pins(2000, 78) and pins(2000, 11)  # the RFM and the DLT on 1000 GCPs
-    assert not pins(8, 9)  # a RANSAC sample: OpenBLAS keeps one thread by itself
-    assert not pins(int(LARGE_FLOPS / 80 ** 2) + 1, 80)  # large enough for threads to pay
-    assert pins(SMALL_ELEMENTS, 1) and not pins(SMALL_ELEMENTS - 1, 1)
+    assert pins(120, 59)  # the rfm-common on 60 points whose coefficients moved with the threads (issue 24)
+    assert pins(200_000, 80)  # no size where two threads paid: large fits are pinned too
+    assert not pins(8, 9) and not pins(12, 11)  # RANSAC samples: OpenBLAS keeps one thread by itself
+    assert pins(9216, 1)  # OpenBLAS's gemv threads from 9216 elements
+    assert pins(SMALL_FLOPS, 1) and not pins(SMALL_FLOPS - 1, 1)
 
 
 @pytest.mark.parametrize("name", ["dlt", "rfm-poly", "projective", "poly2"])

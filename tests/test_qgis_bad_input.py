@@ -3,7 +3,11 @@
 Each case runs one algorithm with ``processing.run`` on the bad files of
 :mod:`test_bad_input` and the matching ``fotogeo`` command; the
 :class:`QgsProcessingException` must carry the CLI's ``Error:`` text (one line, no
-traceback), nothing may be left in the output folder and the inputs stay unchanged.
+traceback) — an option named by its parameter's label where the command line says its flag —,
+nothing may be left in the output folder and the inputs stay unchanged, with no side file beside
+them. GDAL's side files are enabled here (``GDAL_PAM_ENABLED`` unset, which the other QGIS tests set
+to NO): a raster QGIS loads as a layer gets an ``.aux.xml`` of statistics beside it (tested), and
+fotogeo's algorithms must not make QGIS load their file inputs (issue 24).
 """
 from __future__ import annotations
 
@@ -50,9 +54,32 @@ CASES = {
     "transfer nan row": ("transferpoints", {"REFERENCE": T, "SEARCH": T, "POINTS": "{d}/nan_row.csv",
                                             "OUTPUT": "{out}/t.csv"},
                          ["transfer-points", T, T, "{d}/nan_row.csv", "-o", "{out}/t.csv"], "point 'B'"),
+    "orient dlt rectify on a DEM above the camera": (
+        "orient", {"IMAGE": T, "GCPS": "{d}/true_gcps.gpkg", "MODEL": "dlt", "DEM": "{d}/dem_high.tif",
+                   "RECTIFY": "{out}/r.tif"},
+        ["orient", T, "{d}/true_gcps.gpkg", "--model", "dlt", "--dem", "{d}/dem_high.tif", "--rectify", "{out}/r.tif"],
+        "above the camera's projection centre"),
+    "orient camera nested 3000 deep": ("orient", {"IMAGE": T, "GCPS": G, "MODEL": "collinearity",
+                                                  "CAMERA": "{d}/deep.yaml", "REPORT": "{out}/r.json"},
+                                       ["orient", T, G, "--model", "collinearity", "--camera", "{d}/deep.yaml",
+                                        "--report", "{out}/r.json"], "nested 3000 deep"),
+    "transfer empty table": ("transferpoints", {"REFERENCE": T, "SEARCH": T, "POINTS": "{d}/empty_points.csv",
+                                                "OUTPUT": "{out}/t.csv"},
+                             ["transfer-points", T, T, "{d}/empty_points.csv", "-o", "{out}/t.csv"], "holds no points"),
+    "transfer half window larger than the image": (
+        "transferpoints", {"REFERENCE": T, "SEARCH": T, "POINTS": "{d}/one_point.csv", "OUTPUT": "{out}/t.csv",
+                           "HALF_WINDOW": 5000},
+        ["transfer-points", T, T, "{d}/one_point.csv", "-o", "{out}/t.csv", "--half-window", "5000"],
+        "5000 makes a 10001 x 10001 px window"),
     "points to layer enable inf": ("pointstolayer", {"INPUT": "{d}/enable_inf.points", "OUTPUT": "{out}/g.gpkg"},
                                    ["points-to-layer", "{d}/enable_inf.points", "-o", "{out}/g.gpkg"], "enable is 'inf'"),
 }
+
+
+@pytest.fixture(autouse=True)
+def side_files_enabled(monkeypatch):
+    """GDAL writes its .aux.xml side files as it does for a user (qgis_env switched them off)."""
+    monkeypatch.delenv("GDAL_PAM_ENABLED", raising=False)
 
 
 def _fill(value, d, out):
@@ -80,3 +107,27 @@ def test_qgis_gives_the_cli_message(qgis_app, env, out, case):
     assert expected in message and "Traceback" not in message, message
     # the same message, its --flags in the dialog's words (the parameter labels)
     assert algorithm.in_words(cli_errors[0][len("Error: "):]) in message, (cli_errors[0], message)
+    assert " --" not in message, message  # no command-line flag in QGIS
+
+
+def test_qgis_runs_leave_no_side_file_beside_the_inputs(qgis_app, env, out, tmp_path):
+    """A successful run on file inputs (the ``out`` fixture checks the inputs' folder for side files); the
+    control: the same raster loaded as a QGIS layer gets its .aux.xml beside it — QGIS's own doing."""
+    import shutil
+
+    import processing
+    from qgis.core import QgsRasterLayer
+    d = env["dir"]
+    processing.run("fotogeo:pcafusion", {"INPUT": str(d / "target.tif"), "OUTPUT": str(out / "f.tif")},
+                   feedback=QgsProcessingFeedback())
+    processing.run("fotogeo:orient", {"IMAGE": str(d / "target.tif"), "GCPS": str(d / "true_gcps.gpkg"),
+                                      "DEM": str(d / "dem.tif"), "REPORT": str(out / "r.json")},
+                   feedback=QgsProcessingFeedback())
+    for name in ("f.tif", "r.json"):
+        (out / name).unlink()
+    copy = tmp_path / "copy.tif"
+    shutil.copy(d / "target.tif", copy)
+    layer = QgsRasterLayer(str(copy), "copy", "gdal")
+    assert layer.isValid()
+    del layer
+    assert (tmp_path / "copy.tif.aux.xml").is_file(), "QGIS no longer writes statistics beside a layer: update README"

@@ -186,6 +186,25 @@ def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
     assert "is also an input; choose another output path" in text and "Traceback" not in text
 
 
+def test_qgis_process_itself_writes_statistics_beside_raster_inputs(config, tmp_path):
+    """What QGIS does, not fotogeo (README, issue 24): qgis_process loads every raster parameter as a layer before
+    the provider's code runs, and GDAL saves that layer's statistics as ``<input>.aux.xml`` beside the input;
+    ``GDAL_PAM_ENABLED=NO`` in qgis_process's environment prevents it. fotogeo adds no other file."""
+    from fotogeo.tools.demo import make_scene
+    runs = {}
+    for pam in ("YES", "NO"):
+        folder = tmp_path / pam
+        make_scene(folder, seed=3, size=200, pixel=20.0)
+        (folder / "out").mkdir()
+        env = {**_env(config), "GDAL_PAM_ENABLED": pam}
+        r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:pcafusion", "--", f"INPUT={folder / 'reference.tif'}",
+                            f"OUTPUT={folder / 'out' / 'f.tif'}"], capture_output=True, text=True, timeout=180, env=env)
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+        runs[pam] = sorted(p.name for p in folder.iterdir() if p.is_file())
+    assert runs["YES"] == ["dem.tif", "reference.tif", "reference.tif.aux.xml", "target.tif"], runs
+    assert runs["NO"] == ["dem.tif", "reference.tif", "target.tif"], runs
+
+
 DESKTOP_SCRIPT = r'''
 import os, sys
 from qgis.PyQt.QtCore import QTimer

@@ -75,3 +75,44 @@ def test_triangulate_bad_input_is_one_line(block, case):
     if case == "control outside every frame":
         assert first in result.stderr
     assert not any((d / "out").iterdir())
+
+
+
+def _flat_dem(path, d, height_above_cameras: float):
+    """A flat DEM over the block at the highest camera's height plus ``height_above_cameras``."""
+    import numpy as np
+    import rasterio
+    eo = np.array([[float(v) for v in ln.split()[1:4]] for ln in (d / "eo.txt").read_text().splitlines()])
+    lo, hi = eo[:, :2].min(axis=0) - 3000, eo[:, :2].max(axis=0) + 3000
+    with rasterio.open(path, "w", driver="GTiff", width=60, height=60, count=1, dtype="float32", crs="EPSG:32635",
+                       transform=rasterio.transform.from_bounds(*lo, *hi, 60, 60)) as ds:
+        ds.write(np.full((1, 60, 60), eo[:, 2].max() + height_above_cameras, np.float32))
+    return path
+
+
+def _run_with_dem(block, tmp_path, dem):
+    d, frames, _ = block
+    out = tmp_path / "out"
+    args = _args(d, frames, **{"--dem": dem})
+    args[args.index("-o") + 1] = str(out)
+    return CliRunner().invoke(main, args + ["--orthorectify"], terminal_width=200), out
+
+
+def test_a_dem_above_the_cameras_is_refused(block, tmp_path):
+    """Issue 24: a DEM 10 km too high stops the run before anything is written."""
+    result, out = _run_with_dem(block, tmp_path, _flat_dem(tmp_path / "dem_high.tif", block[0], 10_000.0))
+    assert_one_line_error(result, "above the projection centre")
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_orthophotos_on_heights_never_seen_are_refused_per_frame(block, tmp_path):
+    """A DEM just under the cameras, far above every control point: no frame is orthorectified on it, each is
+    named in a warning and in the report, and the adjustment's own outputs are kept."""
+    import json
+    result, out = _run_with_dem(block, tmp_path, _flat_dem(tmp_path / "dem_near.tif", block[0], -20.0))
+    assert result.exit_code == 0, result.output
+    warned = [line for line in result.stderr.splitlines() if "not orthorectified" in line]
+    assert len(warned) == len(block[1]) and all("never saw" in line for line in warned), result.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert all("never saw" in v["error"] for v in report["orthorectified"].values())
+    assert not list(out.glob("*_ortho.tif")) and (out / "exterior_orientation.txt").is_file()

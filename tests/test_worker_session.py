@@ -112,6 +112,22 @@ def test_warnings_come_before_the_result_and_bugs_are_named(monkeypatch):
     assert channel.sent[3]["error"] == "KeyError" and channel.sent[3]["message"] == "KeyError: 'x'"
 
 
+def test_the_worker_shows_warnings_as_the_command_line_does():
+    """One rule for both (issue 24): numpy's notes silenced, rasterio's nodata/alpha note translated,
+    fotogeo's own warning as it is — in the one-shot worker's hook and in a session request."""
+    from fotogeo import worker
+    from fotogeo.errors import IllPosedWarning
+    from rasterio.errors import NodataShadowWarning
+    channel = _Collect()
+    show = worker._warning_hook(channel)
+    for message, category in (("All-NaN slice encountered", RuntimeWarning),
+                              ("overflow encountered in multiply", RuntimeWarning),
+                              (NodataShadowWarning(), NodataShadowWarning), ("flat terrain", IllPosedWarning)):
+        show(message, category, "f.py", 1)
+    texts = [m["message"] for m in channel.sent]
+    assert len(texts) == 2 and "alpha band" in texts[0] and texts[1] == "flat terrain", texts
+
+
 # -- the QGIS client -----------------------------------------------------------------------------
 
 @pytest.fixture

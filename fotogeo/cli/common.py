@@ -11,8 +11,8 @@ import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError, one_line
-from ..options import Option, Table
+from ..errors import Cancelled, FotogeoError, in_callers_words, warning_line
+from ..options import Option, Table, find_option
 
 #: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
 EXIT_ERROR = 2
@@ -51,18 +51,25 @@ def terminate_as_exception():
 @contextlib.contextmanager
 def warnings_as_lines():
     """While inside, each warning (fotogeo's or a library's) is one ``Warning: <message>`` line
-    on stderr — no file name, line number or source line — and a repeated message is shown once."""
+    on stderr — no file name, line number or source line — and a repeated message is shown once;
+    library notes that mean nothing to a user are translated or silenced (:func:`~fotogeo.errors.warning_line`)."""
     shown = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
-        text = one_line(str(message))
-        if text not in shown:
+        text = warning_line(message, category)  # translated or silenced (fotogeo.errors)
+        if text is not None and text not in shown:
             shown.add(text)
             click.echo(f"Warning: {text}", err=True)
 
     with warnings.catch_warnings():
         warnings.showwarning = show
         yield
+
+
+def flag_of(name: str | None) -> str | None:
+    """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``), None if none."""
+    option = find_option(name) if name else None
+    return option.cli_flag if option else None
 
 
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
@@ -118,7 +125,7 @@ def run_tool(func):
             click.echo(f"Cancelled: {e}", err=True)
             sys.exit(EXIT_CANCELLED)
         except FotogeoError as e:
-            click.echo(f"Error: {e}", err=True)
+            click.echo(f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}", err=True)
             sys.exit(EXIT_ERROR)
     return wrapper
 
@@ -128,7 +135,11 @@ def _comma_list(option: Option):
     def convert(ctx, param, text):
         if text is None:
             return None
-        items = tuple(t.strip() for t in text.split(",") if t.strip())
+        items = tuple(t.strip() for t in text.split(","))
+        if "" in items and any(items):  # "poly1,,affine" or a trailing comma: never drop a name silently
+            raise click.BadParameter(f"an empty entry in {text!r}; separate the entries by single commas, "
+                                     f"e.g. {','.join(t for t in items if t)}")
+        items = tuple(t for t in items if t)
         if option.kind == "ints":
             try:
                 items = tuple(int(t) for t in items)

@@ -14,10 +14,23 @@ from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
 from .text import read_text_file
 
 
-def _parse_value(text: str):
+#: lists inside lists deeper than this are refused (the files hold flat lists such as ``[w, h]``)
+MAX_LIST_DEPTH = 2
+
+
+def _list_depth(text: str) -> int:
+    """How many ``[`` open ``text`` before anything else (``"[[1, 2]]"`` → 2)."""
+    stripped = text.lstrip("[ \t")
+    return text[:len(text) - len(stripped)].count("[")
+
+
+def _parse_value(text: str, depth: int = 0):
+    """A number, a string or a (flat) list; ValueError for lists nested deeper than :data:`MAX_LIST_DEPTH`."""
     text = text.strip()
     if text.startswith("[") and text.endswith("]"):
-        return [_parse_value(t) for t in text[1:-1].split(",") if t.strip()]
+        if depth + _list_depth(text) > MAX_LIST_DEPTH:
+            raise ValueError(f"a list nested {_list_depth(text)} deep; write a flat list such as [900, 700]")
+        return [_parse_value(t, depth + 1) for t in text[1:-1].split(",") if t.strip()]
     for conv in (int, float):
         try:
             return conv(text)
@@ -49,7 +62,10 @@ def _parse_simple_yaml(text: str, where: str = "") -> tuple[dict, dict]:
         if parent is out:
             lines[key.strip()] = lineno
         if value.strip():
-            parent[key.strip()] = _parse_value(value)
+            try:
+                parent[key.strip()] = _parse_value(value)
+            except ValueError as exc:
+                raise InputError(one_line(f"{where}line {lineno}: {key.strip()}: {exc}")) from None
         else:
             parent[key.strip()] = child = {}
             stack.append((indent, child))

@@ -67,6 +67,11 @@ class Collinearity(FittedModel):
         cam = FrameCamera(p[6], (p[7], p[8]), (int(p[9]), int(p[10])), (p[11], p[12]))
         return OrientedFrame(cam, ExteriorOrientation(*p[:6]))
 
+    @property
+    def projection_centre(self) -> np.ndarray:
+        """The camera's projection centre ``(X, Y, Z)``."""
+        return self.frame.eo.centre
+
     def _apply(self, s):  # identity normalisations: s are map coordinates
         return self.frame.world_to_pixel(s)
 

@@ -173,6 +173,16 @@ class DLT(FittedModel):
         h = s @ P[:, :3].T + P[:, 3]
         return h[:, :2] / h[:, 2:3]
 
+    @property
+    def projection_centre(self) -> np.ndarray:
+        """The camera's projection centre ``(X, Y, Z)``: the ground point the 3x4 matrix maps to nothing
+        (``W [C; 1] = 0``); NaN where the matrix is singular."""
+        W = self.world_matrix()
+        try:
+            return -np.linalg.solve(W[:, :3], W[:, 3])
+        except np.linalg.LinAlgError:
+            return np.full(3, np.nan)
+
     def world_matrix(self) -> np.ndarray:
         """3x4 matrix mapping real (X, Y, Z, 1) to homogeneous real pixels (scaled so P[2,3] = 1)."""
         S = np.diag([*(1 / self.src_norm.scale), 1.0])

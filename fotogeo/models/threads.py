@@ -1,16 +1,22 @@
-"""One BLAS thread for the small least-squares fits, whatever the caller's thread setting (issue 15).
+"""Model fits on one BLAS thread whatever the caller's thread setting (issues 15 and 24).
 
-A model fit on 1000 GCPs factorises matrices of a few thousand rows and at most ~80 columns.
-OpenBLAS splits such products over its threads, and the threads cost more than they save. On
-the 2-core development machine, loaded by other jobs (least squares + QR, best of 40 runs):
-2000 x 80 (an RFM) 14.5 ms on one thread, 23.4 ms on two; 2000 x 40 2.6 vs 4.6 ms; 1000 x 12
-0.20 vs 0.23 ms; at heavier load a 1000 x 12 QR + SVD took 0.45 vs 76 ms (median of 15: the
-threads waiting for a core spin), 20000 x 80 1.2 vs 2.8 s and 2000 x 400 0.86 vs 6.7 s.
-Below about 10⁴ matrix elements OpenBLAS keeps one thread by itself, and switching costs
-~0.03-0.06 ms, so those fits are left alone; above ``rows · cols² = 10⁹`` (a QR of ~10⁹
-flops) threads can pay, so those are left alone too.
+Two reasons. Speed (issue 15): a model fit on 1000 GCPs factorises matrices of a few thousand
+rows and at most ~80 columns; OpenBLAS splits such products over its threads, and the threads
+cost more than they save. On the 2-core development machine, loaded by other jobs (least
+squares + QR, best of 40 runs): 2000 x 80 (an RFM) 14.5 ms on one thread, 23.4 ms on two;
+2000 x 40 2.6 vs 4.6 ms; at heavier load a 1000 x 12 QR + SVD took 0.45 vs 76 ms (median of
+15: the threads waiting for a core spin), 20000 x 80 1.2 vs 2.8 s and 2000 x 400 0.86 vs 6.7 s.
+Determinism (issue 24): on another 2-core machine an RFM fit on 60 points (a 120 x 59 design,
+then left unpinned because OpenBLAS was assumed to keep one thread below 10⁴ elements) gave
+coefficients 0.9 apart under ``OPENBLAS_NUM_THREADS=2`` and 1 — the regularisation's products
+are ``grid x rows x cols`` (37 x 120 x 59 ≈ OpenBLAS's GEMM threading threshold of 2.6·10⁵)
+and its gemv threads from 9216 elements. A fit must give the same coefficients whatever the
+caller's threads, so every problem OpenBLAS could split is pinned: from ``rows · cols² =``
+:data:`SMALL_FLOPS` up, without an upper limit (the measurements above found no size where two
+threads paid). Only RANSAC's minimal samples (a homography's 8 x 9, a DLT's 12 x 11) stay below:
+OpenBLAS runs them on one thread by itself, and switching costs ~0.03-0.06 ms per fit.
 
-:func:`blas_threads_for` sets BLAS to one thread for the fits between (threadpoolctl, a BSD
+:func:`blas_threads_for` sets BLAS to one thread (threadpoolctl, a BSD
 library, finds the BLAS libraries loaded in the process and sets their thread counts). The
 setting is process-wide, as BLAS's own is: fits running in several threads at once share one
 pin, counted under a lock, and the thread that ends the last of them puts the caller's counts
@@ -18,7 +24,7 @@ back. threadpoolctl (3.8) lets only one Python thread at a time change OpenBLAS'
 silently ignores the others; fotogeo takes that control only for the moment of each change
 (``OpenBLASController.clear_controlling_thread(force=True)`` before and after), so a pin set
 in one thread is always undone, by whichever thread ends last. Without threadpoolctl nothing is
-pinned (the fits are the same, only their timing depends on the BLAS threads).
+pinned (then ``OPENBLAS_NUM_THREADS=1`` is what makes fits repeatable).
 """
 from __future__ import annotations
 
@@ -26,10 +32,9 @@ import contextlib
 import sys
 import threading
 
-#: below this many matrix elements (rows x columns) OpenBLAS keeps one thread anyway: no pin
-SMALL_ELEMENTS = 10_000
-#: above this many rows x columns² (a QR's flop count) BLAS threads may pay: no pin
-LARGE_FLOPS = 1e9
+#: below this many rows x columns² no product of a fit reaches OpenBLAS's threading thresholds
+#: (gemv from 9216 matrix elements, GEMM from 2.6·10⁵ multiply-adds): no pin
+SMALL_FLOPS = 5_000
 
 _lock = threading.Lock()
 _state = {"depth": 0, "original": None, "pinned": [], "blas": None, "modules": 0}
@@ -76,10 +81,10 @@ def _set_counts(libraries, counts) -> None:
 def pins(rows: int, cols: int) -> bool:
     """Whether a least-squares problem of ``rows x cols`` runs on one BLAS thread.
 
-    >>> pins(2000, 78), pins(8, 9), pins(200_000, 80)
-    (True, False, False)
+    >>> pins(2000, 78), pins(120, 59), pins(200_000, 80), pins(8, 9), pins(12, 11)
+    (True, True, True, False, False)
     """
-    return rows * cols >= SMALL_ELEMENTS and rows * cols * cols <= LARGE_FLOPS
+    return rows * cols * cols >= SMALL_FLOPS
 
 
 @contextlib.contextmanager

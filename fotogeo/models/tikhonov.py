@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .spatial import design_diagnostics
+from .threads import blas_threads_for
 
 #: log10(λ / σ_max) candidates
 _LOG_GRID = np.arange(-8.0, 1.01, 0.25)
@@ -46,8 +47,14 @@ def tikhonov_cv(A, l, Lmat, grid=_LOG_GRID, accept=None, row_blocks=None):
 
     Returns ``(p, λ, λ/σ_max, tr H, (cond, rank))``, the last pair that of :func:`~fotogeo.
     models.spatial.design_diagnostics` of ``A``. Raises :class:`ModelError` if no λ gives a
-    solution.
+    solution. Runs on one BLAS thread (:mod:`~fotogeo.models.threads`): the same λ and
+    coefficients whatever the caller's thread setting.
     """
+    with blas_threads_for(*np.shape(A)):
+        return _tikhonov_cv(A, l, Lmat, grid, accept, row_blocks)
+
+
+def _tikhonov_cv(A, l, Lmat, grid, accept, row_blocks):
     design = _BlockDesign(A, row_blocks)
     sv = np.linalg.svd(design.R, compute_uv=False)
     smax = float(sv[0]) if sv.size else 0.0
@@ -79,7 +86,12 @@ def tikhonov_cv(A, l, Lmat, grid=_LOG_GRID, accept=None, row_blocks=None):
 
 def tikhonov_at(A, l, Lmat, lambda_rel, row_blocks=None):
     """The solution of ``min ‖A p − l‖² + λ² ‖Lmat p‖²`` at ``λ = lambda_rel · σ_max(A)``, or
-    None where ``[A; λ Lmat]`` is numerically singular (one QR of ``[A l; λ Lmat 0]``)."""
+    None where ``[A; λ Lmat]`` is numerically singular (one QR of ``[A l; λ Lmat 0]``); one BLAS thread."""
+    with blas_threads_for(*np.shape(A)):
+        return _tikhonov_at(A, l, Lmat, lambda_rel, row_blocks)
+
+
+def _tikhonov_at(A, l, Lmat, lambda_rel, row_blocks):
     m = A.shape[1]
     R = _BlockDesign(A, row_blocks, l).R
     smax = np.linalg.svd(R[:, :m], compute_uv=False)[0]

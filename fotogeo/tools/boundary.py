@@ -276,7 +276,7 @@ def translate_own(exc: FotogeoError, call: _Call) -> FotogeoError | None:
             return _disk_full_error(call, file, is_output, *low, text)
     if text == str(exc):
         return None
-    return type(exc)(text)
+    return type(exc)(text, option=getattr(exc, "option", None))
 
 
 def translate(exc: BaseException, call: _Call) -> FotogeoError | None:

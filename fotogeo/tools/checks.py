@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..crs import check_lonlat_range, require_planar
-from ..errors import InputError
+from ..errors import InputError, VectorError
 from ..io.raster import check_grid, check_space, grid_bytes
 
 
@@ -40,3 +40,24 @@ def check_output_grid(path, width: int, height: int, *, bands: int, dtype, sourc
     the output folder against the grid's uncompressed size (:func:`~fotogeo.io.raster.check_space`)."""
     check_grid(width, height, source_pixels=source_pixels, what=what, resolution=resolution)
     check_space(Path(path).resolve().parent, grid_bytes(width, height, bands, dtype), what)
+
+
+def check_window_fits(half_window: int, images: dict) -> None:
+    """Refuse a matching window ``(2·half_window + 1)²`` larger than an image of ``images`` (role →
+    opened raster): every point would be reported outside the image instead of the option being wrong.
+
+    The error names the option (``option="half_window"``), so the command line calls it by its flag.
+    """
+    size = 2 * int(half_window) + 1
+    for role, info in images.items():
+        side = min(info.width, info.height)
+        if size > side:
+            raise InputError(f"half_window {half_window} makes a {size} x {size} px window, larger than the {role} "
+                             f"{str(info.path)!r} ({info.width} x {info.height} px); give at most "
+                             f"{max((side - 1) // 2, 0)}", option="half_window")
+
+
+def check_has_points(table, what: str, columns) -> None:
+    """Refuse a point table without a single point (the tools would report "0 of 0" and write an empty file)."""
+    if len(table) == 0:
+        raise VectorError(f"{what} holds no points; give one point per line with the columns {', '.join(columns)}")

@@ -358,6 +358,7 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, prog=None) -> G
     from ..geometry.dem import Dem, DemSampler
     from ..io.camera import load_camera
     from ..orientation.terrain import fit_terrain
+    from .rectify import check_terrain_heights
     d = dem if isinstance(dem, Dem) else read_dem(dem)
     sampler = DemSampler(d, crs)
     z = sampler.heights(dst)
@@ -370,6 +371,7 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, prog=None) -> G
                       check_fraction=opts.check_fraction, rng=opts.seed, is_valid=_unfolded(tgt.width, tgt.height),
                       progress=prog)
     geo = Georeference(fit.model, heights=sampler, crs=crs)
+    check_terrain_heights(geo, tgt.width, tgt.height, z, f"the DEM {d.path!r}", "the tie points")
     XY = geo.footprint(tgt.width, tgt.height)
     if not np.isfinite(XY).any():
         raise ModelError("the target footprint does not meet the DEM under the fitted model; does the DEM cover it?")

@@ -9,6 +9,7 @@ from ..io.tables import numeric_columns, read_table, write_table
 from ..matching.status import CONVERGED
 from ..progress import as_progress
 from .boundary import tool
+from .checks import check_has_points, check_window_fits
 
 
 @tool("TARGETS", rasters={"image": None})
@@ -20,8 +21,10 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
     if polarity not in ("auto", "bright", "dark"):
         raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
     table = read_table(points, "point table")
+    check_has_points(table, f"point table {str(points)!r}", (id_field, *approx_fields))
     approx = numeric_columns(table, approx_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     info = open_raster(image, "image")
+    check_window_fits(half_window, {"image": info})
     bands, mask, _ = read_decimated(info, info.width * info.height, "image")
     img = np.where(mask, bands.astype(np.float32).mean(axis=0), np.nan)
     from ..matching import measure_target

@@ -22,10 +22,11 @@ from ..io.tables import find_column, is_layer, numeric_columns, read_table, writ
 from ..matching.status import CONVERGED
 from ..progress import as_progress
 from .boundary import tool
+from .checks import check_has_points, check_window_fits
 
 
-def _fused(path, role):
-    info = open_raster(path, role)
+def _fused(info, role):
+    path = info.path
     bands, mask, _ = read_decimated(info, info.width * info.height, role)
     f = pca_fuse(bands, mask, nodata=info.nodata, contrast="linear", name=f"{role} {path}")
     return info, np.where(f.mask, f.image, np.nan).astype(np.float32)
@@ -45,7 +46,10 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     prog = as_progress(progress)
     check_output(output, [reference, search, points], overwrite)
     table = read_table(points, "point table")
-    ref_info, ref_img = _fused(reference, "reference")
+    check_has_points(table, f"point table {str(points)!r}", (id_field, *ref_fields, *approx_fields))
+    ref_info, search_info = open_raster(reference, "reference"), open_raster(search, "search")
+    check_window_fits(half_window, {"reference": ref_info, "search": search_info})
+    ref_info, ref_img = _fused(ref_info, "reference")
     if all(find_column(table, f) is not None for f in ref_fields):
         ref_xy = numeric_columns(table, ref_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     elif is_layer(table) and ref_info.georeferenced and len(table):
@@ -59,7 +63,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
         raise VectorError(f"point table {points!r} needs reference pixel columns {', '.join(ref_fields)} "
                           f"(or point geometries on a georeferenced reference)")
     approx = numeric_columns(table, approx_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
-    _, search_img = _fused(search, "search")
+    _, search_img = _fused(search_info, "search")
     prog(0.2, "images read")
     from ..matching import transfer_points
     res = transfer_points(ref_img, search_img, ref_xy, approx, search_radius=search_radius,
@@ -76,4 +80,4 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     prog(1.0, "done")
     return {"output": str(output), "points": len(ok), "converged": int(ok.sum()),
             "median_sigma_px": float(np.median(np.hypot(*res.sigma[ok].T))) if ok.any() else None,
-            "statuses": {s: int(c) for s, c in zip(*np.unique(np.asarray(res.status), return_counts=True))}}
+            "statuses": {str(s): int(c) for s, c in zip(*np.unique(np.asarray(res.status), return_counts=True))}}

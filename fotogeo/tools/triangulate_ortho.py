@@ -15,9 +15,11 @@ The inverse (pixel → ground) removes the distortion by the fixed-point iterati
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ..errors import InputError, ModelError
+from ..errors import FotogeoWarning, InputError, ModelError
 from ..geometry.camera import OrientedFrame
 from ..geometry.dem import is_height_source
 from ..geometry.georeference import Georeference
@@ -35,6 +37,11 @@ class AdjustedFrame:
         self.interior = np.array([camera.focal_length, *camera.principal_point,
                                   *(float(distortion.get(k, 0.0)) for k in bj.INTERIOR_NAMES[3:])])
         self.scale = bj.pixel_scale(camera)
+
+    @property
+    def projection_centre(self) -> np.ndarray:
+        """The adjusted projection centre ``(X, Y, Z)``."""
+        return self.frame.eo.centre
 
     def forward(self, XYZ) -> np.ndarray:
         c = self.frame.world_to_camera(as_points(XYZ, 3, "ground points"))
@@ -94,7 +101,8 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
             grids[name] = rectify_grid(paths[name], open_raster(path, "frame"), model, crs, ground, dem, None,
                                        resolution)
         except (ModelError, InputError) as exc:
-            grids[name] = f"not orthorectified: {str(exc)[:160]}; check that the DEM covers the frame's footprint"
+            grids[name] = f"not orthorectified: {str(exc)[:300]}; check that the DEM covers the frame's footprint"
+            warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
     return grids
 
 

@@ -38,6 +38,7 @@ from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
 from fotogeo.options import Option, Table, in_labels  # standard library only: loads without fotogeo's dependencies
+from fotogeo.errors import in_callers_words  # standard library only
 
 from .. import runner
 
@@ -50,6 +51,11 @@ REFERENCES = {
     "sift": "Lowe, D. G. (2004): Distinctive image features from scale-invariant keypoints. IJCV 60(2), 91-110.",
     "ransac": "Fischler, M. A., Bolles, R. C. (1981): Random sample consensus. Comm. ACM 24(6), 381-395.",
 }
+
+
+def _is_file(value) -> bool:
+    """Whether a parameter value is the path of an existing file (not a layer id, URI or layer object)."""
+    return isinstance(value, str) and os.path.isfile(value)
 
 
 def tr(text: str) -> str:
@@ -169,22 +175,49 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
     def createInstance(self):
         return type(self)()
 
+    # -- checking the parameters ---------------------------------------------------------
+    def checkParameterValues(self, parameters, context):
+        """QGIS's check of every parameter, except that a raster given as an existing file path is not
+        loaded as a layer to be checked (QGIS's own check would: the layer computes statistics and GDAL
+        saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks that file itself."""
+        for definition in self.parameterDefinitions():
+            name = definition.name()
+            if isinstance(definition, QgsProcessingParameterRasterLayer) and _is_file(parameters.get(name)):
+                continue
+            if not definition.checkValueIsAcceptable(parameters.get(name), context):
+                if isinstance(definition, QgsProcessingParameterRasterLayer):
+                    return False, self.invalidRasterError(parameters, name)
+                return False, tr(f"Incorrect parameter value for {name}")
+        return True, ""
+
     # -- running a tool ------------------------------------------------------------------
     def run_tool(self, tool: str, *args, feedback=None, **kwargs):
         """Run fotogeo's ``tool`` (``fotogeo.worker.TOOLS``) in the runtime; its result as JSON types.
 
         Paths and options go as JSON; progress, warnings and cancel travel with the feedback;
-        a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message.
+        a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message, an option
+        it names called by its parameter's label (:meth:`option_label`).
         """
         return runner.run_tool(tool, *args, feedback=feedback, words=self.in_words, **kwargs)
 
-    def in_words(self, message: str) -> str:
-        """A tool's message as this dialog speaks: command-line flags → the parameter labels the user sees."""
+    def in_words(self, message: str, option: str | None = None) -> str:
+        """A tool's message as this dialog speaks: command-line flags → the parameter labels the user sees;
+        ``option``, the option an error is about (``FotogeoError.option``), named by its label too."""
+        for table in self.OPTIONS:
+            if option in table:
+                message = in_callers_words(message, option, table[option].cli_flag)
         return in_labels(message, *self.OPTIONS, extra=self.WORDS)
 
     # -- parameters ----------------------------------------------------------------------
     def raster_path(self, parameters, name: str, context) -> str:
-        """Local file path of a raster-layer parameter (a GDAL file), or a clear exception."""
+        """Local file path of a raster-layer parameter (a GDAL file), or a clear exception.
+
+        A file path given as text (``qgis_process``, ``processing.run``, the dialog's file browser) is taken
+        as it is, never loaded as a QGIS layer: a QGIS raster layer computes statistics when it loads, and
+        GDAL saves them in an ``.aux.xml`` beside the file (fotogeo's worker reads the file itself)."""
+        given = parameters.get(name)
+        if _is_file(given):
+            return given
         layer = self.parameterAsRasterLayer(parameters, name, context)
         if layer is None or not isinstance(layer, QgsRasterLayer):
             raise QgsProcessingException(self.invalidRasterError(parameters, name))
