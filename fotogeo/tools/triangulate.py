@@ -260,7 +260,16 @@ def adjust_determined(block, opts, kw, prog):
     from ..orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
     dropped = []
     while True:
-        result = adjust_block(block, opts, progress=prog)
+        try:
+            result = adjust_block(block, opts, progress=prog)
+        except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
+            lonely = set(getattr(e, "frames", ()))
+            if not lonely or kw["undetermined"] != "drop" or len(block.frames) - len(lonely) < 2:
+                raise
+            dropped += [{"name": n, "reason": "reached by no tie point (or fewer than 3 observations)"}
+                        for n in sorted(lonely)]
+            block, opts = _without_frames(block, opts, lonely)
+            continue
         quality = frame_quality(result, block)
         prior = _angle_prior(opts.eo_sigma, len(block.frames))
         bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
