@@ -59,8 +59,15 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     for d in rep.get("dropped_frames") or []:
         click.echo(f"dropped (undetermined): {d['name']}: {d['reason']}")
     start = rep.get("start") or {}
+    if start.get("source"):
+        click.echo(f"start: {start['source']}")
+    registered = [r for r in start.get("registration") or [] if r["status"] == "start"]
+    if registered:
+        low = min(registered, key=lambda r: r["inliers"])
+        click.echo(f"registered to the reference: {len(registered)} frames, fewest inliers {low['inliers']} "
+                   f"({low['name']}), largest angle sigma {max(r['angle_sigma_deg'] for r in registered):.3g} deg")
     if start.get("crs_rule"):
-        click.echo(f"map CRS {rep['crs']}: {start['crs_rule']}")
+        click.echo(f"map CRS {rep.get('crs_name') or rep['crs']}: {start['crs_rule']}")
     if rep.get("resected_frames"):
         click.echo(f"resected from their GCPs (no --eo line): {', '.join(rep['resected_frames'])}")
     if rep.get("automatic_control"):

@@ -82,20 +82,29 @@ def _check_datum(block, active, opts):
                          f"e.g. GNSS/INS centres)")
 
 
-def check_frames(block, active, error=InputError) -> None:
-    """Every frame must be reached by points of the block (≥ 3 observations, one of them of a
-    point other frames see too); the message names the frames that are not."""
+def lonely_frames(block, active=None) -> list:
+    """The frames not reached by points of the block (fewer than 3 observations, or no point other frames
+    see too and fewer than 3 control observations)."""
+    active = np.ones(len(block.obs_frame), bool) if active is None else active
     keep = active & active_points(block, active)[block.obs_point]
     per_frame = np.bincount(block.obs_frame[keep], minlength=len(block.frames))
     tie = keep & (block.role[block.obs_point] != "control")
     tie_frame = np.bincount(block.obs_frame[tie], minlength=len(block.frames))
     ctrl_frame = per_frame - tie_frame
-    lonely = [block.frames[j] for j in range(len(block.frames))
-              if per_frame[j] < 3 or (tie_frame[j] == 0 and ctrl_frame[j] < 3)]
+    return [block.frames[j] for j in range(len(block.frames))
+            if per_frame[j] < 3 or (tie_frame[j] == 0 and ctrl_frame[j] < 3)]
+
+
+def check_frames(block, active, error=InputError) -> None:
+    """Every frame must be reached by points of the block (:func:`lonely_frames`); the message names the
+    frames that are not."""
+    lonely = lonely_frames(block, active)
     if lonely:
-        raise error(f"frame(s) {', '.join(map(repr, lonely[:10]))} reached by no tie point (or fewer than 3 "
+        err = error(f"frame(s) {', '.join(map(repr, lonely[:10]))} reached by no tie point (or fewer than 3 "
                     f"observations): they do not overlap the block or matching found nothing there; remove them "
                     f"or add tie points")
+        err.frames = tuple(lonely)  # for a caller that may leave them out (triangulate --undetermined drop)
+        raise err
 
 
 def initial_points(block, origin, R, C, interior) -> np.ndarray:

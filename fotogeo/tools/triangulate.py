@@ -139,9 +139,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         check_output(path, inputs, kw["overwrite"], "output")
     start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
                         kw["geoinfo"])
-    cam, distortion, names = start.camera, start.distortion, start.names
-    gcp, map_crs, eos, check_ids, auto = _control(frames, names, cam, distortion, start, kw, prog.stage(0.0, 0.2,
-                                                                                                      "control"))
+    cam, distortion = start.camera, start.distortion
+    frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
+                                                                          prog.stage(0.0, 0.2, "control"))
     matching = None
     if observations is not None:
         obs = read_image_observations(observations)
@@ -161,7 +161,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    result, block, quality, dropped = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8, "bundle adjustment"))
+    result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
+                                                                                       "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
@@ -170,7 +171,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "automatic_control": len(auto), "check_points": sorted(map(str, check_ids)),
                                          "matching": matching, "resected_frames": start.resected,
                                          "start": start.summary(), "frame_quality": quality.rows(),
-                                         "dropped_frames": dropped})
+                                         "dropped_frames": dropped + undetermined})
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
@@ -178,27 +179,36 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     return rep
 
 
-def _control(frames, names, cam, distortion, start, kw, prog):
-    """``(control GcpList or None, map CRS, approximate orientations, check-point names, automatic control
-    names)``: the surveyed control, the approximate orientation (the start's, else resection where ``eo``
-    lacks a frame), the automatic control from ``reference`` (:mod:`fotogeo.tools.triangulate_inputs`) and the
-    check points."""
+def _control(frames, start, kw, prog):
+    """``(frames, names, control GcpList or None, map CRS, approximate orientations, check-point names, automatic
+    control names, frames dropped)``: the surveyed control, the approximate orientation (the start's, else
+    resection where ``eo`` lacks a frame, else registration to ``reference``,
+    :mod:`fotogeo.tools.triangulate_register`), the automatic control from ``reference``
+    (:mod:`fotogeo.tools.triangulate_inputs`) and the check points."""
+    cam, names = start.camera, start.names
     gcp, map_crs, given_checks = read_block_control(kw["gcps"], start.crs, kw["gcp_crs"], cam, names,
                                                     kw["check_points"])
-    if start.eos:
+    auto, dropped = set(), []
+    reference, dem = _as_list(kw["reference"]), kw["dem"]
+    if start.registration is not None:
+        from .triangulate_register import registration_start
+        reg = registration_start(frames, names, cam, reference, dem, map_crs, undetermined=kw["undetermined"],
+                                 progress=prog)
+        frames, names, eos, gcp, dropped = reg.frames, reg.names, reg.eos, reg.control, reg.dropped
+        start.registration[:], start.names = reg.rows, list(names)
+        auto, reference = set(gcp.name), []
+    elif start.eos:
         eos = tuple(start.eos[n] for n in names)
     else:
-        eos = orientations(kw["eo"], names, cam, distortion, gcp, given_checks)
+        eos = orientations(kw["eo"], names, cam, start.distortion, gcp, given_checks)
         start.resected = _resected(kw["eo"], names)
-    auto = set()
-    reference, dem = _as_list(kw["reference"]), kw["dem"]
     if reference:
         surveyed = set(gcp.name) if gcp is not None else set()
         gcp = add_automatic_control(gcp, frames, names, cam, eos, reference, dem, map_crs, prog)
         auto = set(gcp.name) - surveyed
     check_ids = (split_check_points(gcp, given_checks, kw["check_fraction"] or 0.0, kw["seed"]) if gcp is not None
                  else set())
-    return gcp, map_crs, eos, check_ids, auto
+    return frames, names, gcp, map_crs, eos, check_ids, auto, dropped
 
 
 def start_height(gcp, dem, crs, eos, camera):
@@ -250,7 +260,16 @@ def adjust_determined(block, opts, kw, prog):
     from ..orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
     dropped = []
     while True:
-        result = adjust_block(block, opts, progress=prog)
+        try:
+            result = adjust_block(block, opts, progress=prog)
+        except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
+            lonely = set(getattr(e, "frames", ()))
+            if not lonely or kw["undetermined"] != "drop" or len(block.frames) - len(lonely) < 2:
+                raise
+            dropped += [{"name": n, "reason": "reached by no tie point (or fewer than 3 observations)"}
+                        for n in sorted(lonely)]
+            block, opts = _without_frames(block, opts, lonely)
+            continue
         quality = frame_quality(result, block)
         prior = _angle_prior(opts.eo_sigma, len(block.frames))
         bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],

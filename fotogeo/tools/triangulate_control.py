@@ -46,6 +46,8 @@ every frame and multi-ray points come first.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..crs import parse_crs, pixel_size_in, require_projected, transform_points
@@ -110,12 +112,13 @@ def _frame_matches(frame_info, tiles, tile_ids, crs, heights, opts, prog):
     return np.concatenate(px), np.concatenate(xyz), np.concatenate(tile), np.concatenate(ref_xy), max(steps)
 
 
-def _robust_inliers(px, xyz, camera, step, opts):
-    """Inliers of the registration's terrain fit (module docstring, step 3) and their residuals (px)."""
+def _robust_fit(px, xyz, camera, step, opts):
+    """The registration's terrain fit (module docstring, step 3): its inliers, their residuals (px), the
+    fitted collinearity model (the frame's pose)."""
     from ..orientation.terrain import fit_terrain
     fit = fit_terrain(px, xyz, model="collinearity", camera=camera, threshold_m=opts.ransac_threshold * step,
                       min_sigma_m=step, check_fraction=0.0, rng=opts.seed)
-    return fit.inliers, np.hypot(*fit.residual_px.T)
+    return fit.inliers, np.hypot(*fit.residual_px.T), fit.model
 
 
 def _crs_text(crs) -> str:
@@ -150,23 +153,55 @@ def merge_points(frame, px, tile, ref_xy, same_px: float = 1.0) -> np.ndarray:
     return label[point]
 
 
-def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, prog):
-    """Inlier matches of every frame with its reference tiles: ``(frame, px, XYZ, tile, ref px, residual px)``."""
+@dataclass(frozen=True)
+class FrameFit:
+    """One frame's registration to the reference: the fitted pose (None when it failed and why), matches,
+    inliers and tiles."""
+
+    name: str
+    model: object = None  # the fitted Collinearity (its ``frame.eo`` is the pose), or None
+    matches: int = 0
+    inliers: int = 0
+    tiles: tuple = ()
+    reason: str = ""
+
+
+def _near_tiles(info, camera, eo, mean_h, outlines, crs) -> list:
+    """The reference tiles a frame overlaps: its footprint under ``eo``; ``eo`` None: under the frame raster's
+    own approximate georeference, and every tile when it has none or it meets none."""
+    from shapely.geometry import Polygon
+    if eo is not None:
+        foot = _footprint(camera, eo, mean_h)
+        return [k for k, o in enumerate(outlines) if foot is not None and o.intersects(foot)]
+    near = []
+    if info.georeferenced:
+        foot = Polygon(transform_points(info.crs, crs, pixel_to_map(info.transform, outline(info.width, info.height, 8))))
+        near = [k for k, o in enumerate(outlines) if foot.is_valid and o.intersects(foot)]
+    return near or list(range(len(outlines)))
+
+
+def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, prog, fits):
+    """Inlier matches of every frame with its reference tiles: ``(frame, px, XYZ, tile, ref px, residual px)``;
+    every frame's :class:`FrameFit` goes into ``fits``."""
     outlines = [_tile_outline(info, crs) for info in tiles]
     rows = []
     for i, f in enumerate(frames):
         stage = prog.stage(i / len(frames), (i + 1) / len(frames), f"control for frame {names[i]}")
-        foot = _footprint(camera, eos[i], mean_h)
-        near = [k for k, o in enumerate(outlines) if foot is not None and o.intersects(foot)]
-        got = _frame_matches(open_raster(f, "frame"), [tiles[k] for k in near], near, crs, heights, opts,
-                             stage) if near else None
+        info = open_raster(f, "frame")
+        near = _near_tiles(info, camera, eos[i], mean_h, outlines, crs)
+        got = _frame_matches(info, [tiles[k] for k in near], near, crs, heights, opts, stage) if near else None
+        used = tuple(tiles[k].path.name for k in near)
         if got is None:
+            why = "no reference tile under its footprint" if not near else "no matches with the reference"
+            fits[names[i]] = FrameFit(names[i], tiles=used, reason=why)
             continue
         px, xyz, tile, ref_xy, step = got
         try:
-            inl, res = _robust_inliers(px, xyz, camera, step, opts)
-        except FotogeoError:
+            inl, res, model = _robust_fit(px, xyz, camera, step, opts)
+        except FotogeoError as e:
+            fits[names[i]] = FrameFit(names[i], matches=len(px), tiles=used, reason=str(e).split(";")[0][:160])
             continue
+        fits[names[i]] = FrameFit(names[i], model, len(px), int(inl.sum()), used)
         rows.append((np.full(int(inl.sum()), i), px[inl], xyz[inl], tile[inl], ref_xy[inl], res[inl]))
     if not rows:
         raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])}; "
@@ -177,6 +212,15 @@ def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, p
 def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
                       options: RegisterOptions | None = None, progress=None) -> GcpList:
     """Control points of the block from ``reference`` orthophoto(s) and ``dem`` (module docstring)."""
+    return control_and_fits(frames, names, camera, eos, reference, dem, crs, per_frame=per_frame, cells=cells,
+                            options=options, progress=progress)[0]
+
+
+def control_and_fits(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
+                     options: RegisterOptions | None = None, progress=None) -> tuple:
+    """``(GcpList, {name: FrameFit})``: :func:`automatic_control` and every frame's registration to the
+    reference (its fitted pose, :mod:`fotogeo.tools.triangulate_register`). An ``eos`` entry None: the frame's
+    tiles are chosen by its raster's own georeference, or all when it has none."""
     prog = as_progress(progress)
     if per_frame < cells * cells:
         raise InputError(f"per_frame must be at least {cells * cells} (one point per region); got {per_frame}")
@@ -185,8 +229,10 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
     crs = require_projected(parse_crs(crs, "map CRS of the block"), "map CRS of the block")
     tiles = _references(reference)
     d = dem if isinstance(dem, Dem) else read_dem(dem)
+    fits = {}
     frame, px, xyz, tile, ref_xy, res = _candidates(frames, names, camera, eos, tiles, crs, DemSampler(d, crs),
-                                                    float(np.nanmean(d.data)), options or RegisterOptions(), prog)
+                                                    float(np.nanmean(d.data)), options or RegisterOptions(), prog,
+                                                    fits)
     point = merge_points(frame, px, tile, ref_xy)
     first = np.lexsort((res, frame, point))  # one measurement per (point, frame): the smallest residual
     once = first[np.r_[True, (np.diff(point[first]) != 0) | (np.diff(frame[first]) != 0)]]
@@ -200,5 +246,6 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
     np.add.at(ground, idx, xyz[keep])  # one keypoint: one XYZ; one feature in two tiles: their mean
     ground /= np.bincount(idx)[:, None]
     prog(1.0, f"{len(ids)} control points in {len(set(frame[keep]))} frames")
-    return GcpList(_crs_text(crs), np.array([f"auto{k}" for k in idx], dtype=object), ground[idx], px[keep],
-                   np.array([names[f] for f in frame[keep]], dtype=object))
+    gcp = GcpList(_crs_text(crs), np.array([f"auto{k}" for k in idx], dtype=object), ground[idx], px[keep],
+                  np.array([names[f] for f in frame[keep]], dtype=object))
+    return gcp, fits

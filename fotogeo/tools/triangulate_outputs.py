@@ -95,8 +95,9 @@ def block_layers(result, block) -> dict:
 
 def report(result, block, crs, inputs: dict) -> dict:
     """The JSON report of one adjustment."""
+    from ..crs import short_name
     cam = result.camera
-    return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs),
+    return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs), "crs_name": short_name(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
             "sigma0": result.sigma0, "statistics": result.stats,
             "camera": {"focal_length": cam.focal_length, "principal_point": list(cam.principal_point),

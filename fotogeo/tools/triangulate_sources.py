@@ -6,7 +6,10 @@ Every source ends in one :class:`~fotogeo.geometry.approx_block.ApproximateBlock
 * nothing given: what the images carry — EXIF GPS, XMP attitude and calibration
   (:func:`fotogeo.io.exif_block.read_exif_block`), with senseFly's ``geoinfo.txt`` (``--geoinfo``) for
   the autopilot's attitude;
-* a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate_inputs`).
+* a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate_inputs`);
+* no ``--eo``, no ``--gcps``, frames without GPS, and ``--reference`` with ``--dem``: every frame is
+  registered to the reference and its pose taken from that fit (:mod:`fotogeo.tools.triangulate_register`;
+  ``registration`` holds every frame's registration after the control step).
 
 **The map CRS** (:func:`map_crs_rule`): ``--crs``; else the ground control's own CRS; else the
 reference orthophoto's, then the DEM's, when projected; else the UTM zone of the images' GPS. The
@@ -54,6 +57,7 @@ class BlockStart:
     level: dict = field(default_factory=dict)  # name -> True where the attitude was unknown (level start)
     resected: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    registration: list | None = None  # the frames' registration rows when the start comes from the reference
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate_match.block_tie_points`, or None when
@@ -86,9 +90,12 @@ class BlockStart:
         return np.array(rows, dtype=float)
 
     def summary(self) -> dict:
-        return {"source": self.source, "crs_rule": self.crs_rule, "notes": list(self.notes),
-                "level_start_frames": [n for n in self.names if self.level.get(n)],
-                "gnss_sigma_m": {n: list(map(_finite, self.sigmas[n][:2])) for n in self.names if n in self.sigmas}}
+        out = {"source": self.source, "crs_rule": self.crs_rule, "notes": list(self.notes),
+               "level_start_frames": [n for n in self.names if self.level.get(n)],
+               "gnss_sigma_m": {n: list(map(_finite, self.sigmas[n][:2])) for n in self.names if n in self.sigmas}}
+        if self.registration is not None:
+            out["registration"] = self.registration
+        return out
 
 
 def _finite(x):
@@ -138,13 +145,15 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
     if reference and dem is None:
         raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
     approx = None
+    by_registration = eo is None and not gcps and bool(reference) and geoinfo is None and not _all_have_gps(frames)
     sfm = _from_orientation_file(eo, crs, reference, dem, camera) if eo is not None else None
     if sfm is not None:
         return _start_from_file(frames, names, camera, sfm, crs, gcps, reference, dem, str(eo))
-    if camera is None or (eo is None and not gcps):
+    if camera is None or (eo is None and not gcps and not by_registration):
         given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
-        approx = _from_images(frames, given or _first_projected(reference, dem), geoinfo, eo is None and not gcps)
-    if approx is not None and eo is None and not gcps:
+        approx = _from_images(frames, given or _first_projected(reference, dem), geoinfo,
+                              eo is None and not gcps and not by_registration)
+    if approx is not None and eo is None and not gcps and not by_registration:
         _require_gps(names, approx)
     map_crs, rule = map_crs_rule(crs, gcps, reference, dem, approx.crs if approx is not None else None)
     if map_crs is None and not gcps:
@@ -161,9 +170,20 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
     frame_names(frames, cam)
     start = BlockStart(cam, dist, names, {}, map_crs, rule, source,
                        notes=list(approx.notes) if approx is not None else [])
-    if eo is None and approx is not None and not gcps:
+    if by_registration:
+        start.registration = []
+        start.source += "; orientation from registering every frame to the reference (--reference, --dem)"
+    elif eo is None and approx is not None and not gcps:
         _start_from_images(start, approx, map_crs)
+    else:
+        start.source += f"; orientation from --eo {eo}" if eo is not None else "; orientation by resection on --gcps"
     return start
+
+
+def _all_have_gps(frames) -> bool:
+    """Whether every frame's EXIF carries a GPS position."""
+    from ..io.exif import read_image_metadata
+    return all(read_image_metadata(str(f)).lon is not None for f in frames)
 
 
 def _first_projected(reference, dem):

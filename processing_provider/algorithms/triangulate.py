@@ -82,7 +82,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                                                      "the images' EXIF/XMP)"),
                                                      fileFilter=YAML, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = resect "
-                                                                 "from the GCPs, else the images' GPS)"),
+                                                                 "from the GCPs, else the images' GPS, else register "
+                                                                 "each frame to the reference)"),
                                                      fileFilter=TEXT_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
                                                      fileFilter=CONTROL_FILTER, optional=True))
@@ -127,6 +128,11 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             if s.get("n"):
                 feedback.pushInfo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} "
                                   f"Z {s['rmse_z_m']:.3f} m")
+        start = rep.get("start") or {}
+        if start.get("source"):
+            feedback.pushInfo(f"start: {start['source']}")
+        for d in rep.get("dropped_frames") or []:
+            feedback.pushWarning(f"dropped: {d['name']}: {d['reason']}")
         for f in rep["fixed_parameters"]:
             feedback.pushWarning(f"held fixed: {f['reason']}")
         return self._outputs(rep, outdir, context)

@@ -1,0 +1,100 @@
+"""The start of a block that only a reference orthophoto and a DEM place: every frame registered to the reference.
+
+``fotogeo triangulate FRAMES --camera C --reference ORTHO... --dem DEM`` with neither ``--eo`` nor
+``--gcps`` (and frames without GPS) has no approximate orientation. It does not need one: the
+automatic control (:func:`fotogeo.tools.triangulate_control.control_and_fits`) matches every frame to
+the reference tiles under its footprint — the frame raster's own approximate georeference, else
+every tile — gives the matches their DEM heights and fits the registration's terrain model with the
+camera (``register --dem --model collinearity``: homography RANSAC, Tukey refit, DLT relief filter,
+then space resection on the inliers). That resection *is* the frame's pose; the same matches are the
+block's control, so nothing is matched twice.
+
+A pose is a start only when the registration determines it (:func:`pose_problem`): the fit
+succeeded, its angle σ (from the resection's covariance) is at most :data:`MAX_ANGLE_SIGMA`, and the
+camera lies above the terrain under it. A frame that fails is named with the reason and refused,
+or dropped with ``undetermined="drop"`` (``--undetermined drop``) while ≥ 2 frames remain; every
+frame's registration (tiles, matches, inliers, σ0, position and angle σ) is reported under
+``start.registration`` of ``report.json``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import MatchingError
+
+#: the largest angle σ (degrees) of a registration pose that can start the adjustment
+MAX_ANGLE_SIGMA = 1.0
+
+
+@dataclass(frozen=True)
+class RegistrationStart:
+    """The frames that keep a pose, their poses (in frame order), the control, the report rows, the dropped."""
+
+    frames: list
+    names: list
+    eos: tuple
+    control: object  # GcpList of the kept frames
+    rows: list
+    dropped: list
+
+
+def pose_problem(fit, dem) -> str:
+    """Why a frame's registration (:class:`~fotogeo.tools.triangulate_control.FrameFit`) cannot start the
+    adjustment, or ``""`` (module docstring)."""
+    if fit is None:
+        return "not registered to the reference"
+    if fit.model is None:
+        return f"not registered to the reference ({fit.reason})"
+    eo = fit.model.frame.eo
+    std = np.asarray(fit.model.info.get("std", [np.inf] * 6), dtype=np.float64)
+    if not np.isfinite([eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa]).all():
+        return "its registration gives no finite pose"
+    if not np.all(np.isfinite(std)) or std[3:].max() > MAX_ANGLE_SIGMA:
+        return (f"its registration does not determine the attitude (angle σ {std[3:].max():.3g}° from "
+                f"{fit.inliers} inliers)")
+    ground = dem.heights(np.array([[eo.X, eo.Y]]))[0]
+    if np.isfinite(ground) and eo.Z <= ground:
+        return f"its registration puts the camera below the terrain ({eo.Z:.0f} m, terrain {ground:.0f} m)"
+    return ""
+
+
+def _row(name, fit, problem) -> dict:
+    row = {"name": name, "tiles": list(fit.tiles) if fit else [], "matches": fit.matches if fit else 0,
+           "inliers": fit.inliers if fit else 0, "status": "dropped" if problem else "start", "reason": problem}
+    if fit is not None and fit.model is not None:
+        info, eo = fit.model.info, fit.model.frame.eo
+        std = [float(v) for v in info.get("std", [np.nan] * 6)]
+        row.update(sigma0_px=round(float(info.get("sigma0", np.nan)), 3),
+                   position_sigma_m=round(float(np.linalg.norm(std[:3])), 3), angle_sigma_deg=round(max(std[3:]), 4),
+                   pose=[round(float(v), 4) for v in (eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa)])
+    return row
+
+
+def registration_start(frames, names, camera, reference, dem, crs, *, undetermined: str = "fail",
+                       progress=None) -> RegistrationStart:
+    """Every frame's pose from its registration to ``reference`` with ``dem``, and the block's control
+    (module docstring); frames that fail are refused, or dropped with ``undetermined="drop"``."""
+    from ..geometry.dem import Dem, DemSampler
+    from ..io.raster import read_dem
+    from .triangulate_control import control_and_fits
+    d = dem if isinstance(dem, Dem) else read_dem(dem)
+    gcp, fits = control_and_fits(frames, names, camera, [None] * len(names), reference, d, crs, progress=progress)
+    sampler = DemSampler(d, crs)
+    problems = {n: pose_problem(fits.get(n), sampler) for n in names}
+    rows = [_row(n, fits.get(n), problems[n]) for n in names]
+    bad = {n: p for n, p in problems.items() if p}
+    if bad and (undetermined != "drop" or len(names) - len(bad) < 2):
+        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
+        raise MatchingError(f"no approximate orientation for frame(s) {text} — the start comes from registering "
+                            f"each frame to the reference (no --eo, no --gcps); check that the orthophoto and the "
+                            f"DEM cover them, give their --eo lines or GCPs, or leave them out (--undetermined drop)")
+    keep = [k for k, n in enumerate(names) if n not in bad]
+    kept = {names[k] for k in keep}
+    sel = np.array([f in kept for f in gcp.frame], dtype=bool)
+    gcp = replace(gcp, name=gcp.name[sel], ground=gcp.ground[sel], pixel=gcp.pixel[sel], frame=gcp.frame[sel],
+                  role=None if gcp.role is None else gcp.role[sel])
+    return RegistrationStart([frames[k] for k in keep], [names[k] for k in keep],
+                             tuple(fits[names[k]].model.frame.eo for k in keep), gcp, rows,
+                             [{"name": n, "reason": why} for n, why in bad.items()])

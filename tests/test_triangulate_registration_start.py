@@ -1,0 +1,132 @@
+"""``fotogeo triangulate`` with ``--reference`` orthophotos and ``--dem`` but neither ``--eo`` nor ``--gcps``
+(issue 20): every frame registered to the reference gives the start (:mod:`fotogeo.tools.triangulate_register`).
+
+Real data: the NGI frames 0182/0184 (no GPS, an approximate georeference in the files) against the two
+orthophoto tiles and the DEM; truth: ``ngi/exterior_orientation.txt`` from a professional aerial
+triangulation, never given to the tool. A frame the reference cannot place (noise with the same
+georeference) is named and refused, or dropped with ``undetermined="drop"``.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from fotogeo.errors import MatchingError
+from fotogeo.geometry.camera import ExteriorOrientation
+from fotogeo.io.camera import read_exterior_orientation
+from fotogeo.tools.triangulate import triangulate
+from fotogeo.tools.triangulate_control import FrameFit
+from fotogeo.tools.triangulate_register import pose_problem
+from ngi_triangulation import NAMES, orientation_errors
+
+
+def _inputs(ngi):
+    return {"camera": ngi / "interior_orientation.yaml", "reference": sorted((ngi / "ortho").glob("*.tif")),
+            "dem": ngi / "dem.tif"}
+
+
+def _run(frames, ngi, folder, **kw):
+    i = _inputs(ngi)
+    return triangulate(frames, i["camera"], kw.pop("eo", None), None, folder, reference=i["reference"], dem=i["dem"],
+                       **kw)
+
+
+@pytest.fixture(scope="module")
+def runs(data_dir, tmp_path_factory):
+    """The block started from registration, and the same block from a 20 m / 0.5° --eo (the EO-given run)."""
+    from ngi_triangulation import perturbed
+    from fotogeo.io.block import write_exterior_orientation
+    ngi = data_dir / "ngi"
+    tmp = tmp_path_factory.mktemp("reg_start")
+    frames = [ngi / "frames" / f"{n}.tif" for n in NAMES]
+    true = read_exterior_orientation(ngi / "exterior_orientation.txt")
+    rng = np.random.default_rng(0)
+    write_exterior_orientation(tmp / "eo.txt", NAMES, [perturbed(true[n], rng, 20.0, 0.5) for n in NAMES])
+    rep = _run(frames, ngi, tmp / "reg")
+    rep_eo = _run(frames, ngi, tmp / "eo", eo=tmp / "eo.txt")
+    return {"true": true, "rep": rep, "eo": read_exterior_orientation(tmp / "reg" / "exterior_orientation.txt"),
+            "eo_given": read_exterior_orientation(tmp / "eo" / "exterior_orientation.txt"), "rep_eo": rep_eo,
+            "json": json.loads((tmp / "reg" / "report.json").read_text())}
+
+
+def test_the_start_comes_from_registration_and_is_reported(runs):
+    start = runs["json"]["start"]
+    assert "registering every frame to the reference" in start["source"]
+    rows = {r["name"]: r for r in start["registration"]}
+    assert set(rows) == set(NAMES) and all(r["status"] == "start" for r in rows.values())
+    for n, r in rows.items():
+        e = orientation_errors(ExteriorOrientation(*r["pose"]), runs["true"][n])
+        # measured: 3.5 / 3.0 m and 0.033 / 0.008° (both tiles in one collinearity fit, > 2000 inliers each)
+        assert r["inliers"] > 500 and e["position_m"] < 8.0 and e["angle_deg"] < 0.1, (n, r, e)
+    assert runs["rep"]["automatic_control"] > 100 and not runs["rep"]["dropped_frames"]
+
+
+def test_adjusted_block_is_as_good_as_the_eo_given_run(runs):
+    for n in NAMES:
+        e = orientation_errors(runs["eo"][n], runs["true"][n])
+        # measured: worst frame (0184) 3.74 m and 0.027° from the professional triangulation (a 5 m orthophoto
+        # on a 24 m DEM is the control); 0182 2.64 m, 0.015°
+        assert e["position_m"] < 6.0 and e["angle_deg"] < 0.06, (n, e)
+        g = orientation_errors(runs["eo"][n], runs["eo_given"][n])  # the same solution as from a 20 m / 0.5° --eo
+        assert g["position_m"] < 0.5 and g["angle_deg"] < 0.01, (n, g)
+
+
+@pytest.fixture(scope="module")
+def with_noise_frame(data_dir, tmp_path_factory):
+    """The two frames and a third that no reference can place: noise under frame 0182's georeference."""
+    import rasterio
+    ngi = data_dir / "ngi"
+    tmp = tmp_path_factory.mktemp("noise")
+    src = ngi / "frames" / f"{NAMES[0]}.tif"
+    noise = tmp / "noise_frame.tif"
+    with rasterio.open(src) as ds:
+        profile = ds.profile
+        shape = (ds.count, ds.height, ds.width)
+    with rasterio.open(noise, "w", **profile) as out:
+        out.write(np.random.default_rng(1).integers(0, 256, shape, dtype=np.uint8))
+    frames = [ngi / "frames" / f"{n}.tif" for n in NAMES] + [noise]
+    return ngi, tmp, frames
+
+
+def test_a_frame_the_reference_cannot_place_is_named_and_refused(with_noise_frame):
+    ngi, tmp, frames = with_noise_frame
+    with pytest.raises(MatchingError, match=r"no approximate orientation for frame\(s\) noise_frame: .*--undetermined drop"):
+        _run(frames, ngi, tmp / "refused")
+    assert not (tmp / "refused").exists()
+
+
+def test_with_undetermined_drop_it_is_dropped_and_the_rest_adjusted(with_noise_frame):
+    ngi, tmp, frames = with_noise_frame
+    rep = _run(frames, ngi, tmp / "dropped", undetermined="drop")
+    assert [d["name"] for d in rep["dropped_frames"]] == ["noise_frame"]
+    assert "not registered" in rep["dropped_frames"][0]["reason"]
+    rows = {r["name"]: r for r in rep["start"]["registration"]}
+    assert rows["noise_frame"]["status"] == "dropped" and rows[NAMES[0]]["status"] == "start"
+    eos = read_exterior_orientation(tmp / "dropped" / "exterior_orientation.txt")
+    assert set(eos) == set(NAMES)
+    shutil.rmtree(tmp / "dropped")
+
+
+class _Model:
+    def __init__(self, eo, std):
+        self.frame = type("F", (), {"eo": eo})()
+        self.info = {"std": std, "sigma0": 1.0}
+
+
+class _Flat:
+    def heights(self, xy):
+        return np.full(len(xy), 500.0)
+
+
+def test_pose_problem_refuses_an_undetermined_or_underground_pose():
+    eo = ExteriorOrientation(0.0, 0.0, 3000.0, 0.0, 0.0, 0.0)
+    good = FrameFit("a", _Model(eo, [1.0, 1.0, 1.0, 0.01, 0.01, 0.02]), 100, 80)
+    assert pose_problem(good, _Flat()) == ""
+    loose = FrameFit("a", _Model(eo, [1.0, 1.0, 1.0, 0.01, 3.0, 0.02]), 30, 21)
+    assert "does not determine the attitude" in pose_problem(loose, _Flat())
+    low = FrameFit("a", _Model(ExteriorOrientation(0.0, 0.0, 100.0, 0.0, 0.0, 0.0), [1.0] * 3 + [0.01] * 3), 100, 80)
+    assert "below the terrain" in pose_problem(low, _Flat())
+    assert "no matches" in pose_problem(FrameFit("a", reason="no matches with the reference"), _Flat())
