@@ -3,6 +3,7 @@ and ``fotogeo/cli/``), each a thin call of that tool."""
 from .compare import CompareModelsAlgorithm
 from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
+from .interior import InteriorAlgorithm
 from .match import MatchFeaturesAlgorithm
 from .orient import OrientAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
@@ -16,4 +17,4 @@ from .triangulate import TriangulateAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, InteriorAlgorithm)
