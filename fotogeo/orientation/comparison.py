@@ -54,7 +54,7 @@ def parse_counts(spec) -> dict:
     item without key replaces them all.
 
     >>> parse_counts("dlt=6,10/30; rfm=60")["dlt"], parse_counts([40, 10])[""]
-    (((6, None), (10, 30)),) [((40, None), (10, None))]
+    (((6, None), (10, 30)), [(40, None), (10, None)])
     """
     if spec is None:
         return dict(FAMILY_COUNTS)
