@@ -84,11 +84,11 @@ def _content(x, y, image_mm, content, rng):
     """Grey values of the image area at photo (x, y) mm: ``content`` (2-D array) stretched over it, or texture."""
     if content is None:
         return 120 + 40 * np.sin(x / 7.0) * np.cos(y / 5.0) + 20 * np.sin((x + y) / 2.3)
-    import cv2
+    from scipy.ndimage import map_coordinates
     h, w = content.shape
-    mx = ((x / image_mm + 0.5) * w - 0.5).astype(np.float32)
-    my = ((0.5 - y / image_mm) * h - 0.5).astype(np.float32)
-    return cv2.remap(content.astype(np.float32), mx[None], my[None], cv2.INTER_LINEAR)[0]
+    mx = (x / image_mm + 0.5) * w - 0.5
+    my = (0.5 - y / image_mm) * h - 0.5
+    return map_coordinates(content.astype(np.float64), [my, mx], order=1, mode="nearest")
 
 
 def report_yaml(layout: dict, *, focal=153.0, pp=(0.01, -0.02), kind="x", size_mm=6.0, width_mm=0.6,
