@@ -40,6 +40,7 @@ class Option:
     file_filter: str = ""
     flag: str | None = None  # command-line flag [--name-with-dashes]
     param: str | None = None  # QGIS parameter name [NAME]
+    repeat: bool = False  # kind "str": the flag may be repeated; the values are joined with ";" (QGIS: one text)
 
     def __post_init__(self):
         if self.kind not in KINDS:

@@ -38,7 +38,8 @@ TERRAIN_MODELS = ("auto", "dlt", "rfm", "rfm-common", "rfm-poly", "collinearity"
 #: every model of :data:`fotogeo.models.MODELS`, sorted (``fotogeo.models`` checks it on import)
 ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3",
                       "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
-                      "rfm-i2g", "rfm-poly", "rfm-poly-i2g", "similarity")
+                      "rfm-common-plain", "rfm-i2g", "rfm-plain", "rfm-plain-i2g", "rfm-poly", "rfm-poly-i2g",
+                      "rfm-poly-plain", "similarity")
 #: tie-point refinement: ``auto`` = ``lsm`` for the 2-D registration, ``none`` with a DEM
 #: (fotogeo.tools.register_points.refine_mode)
 REFINES = ("none", "lsm", "auto")
@@ -179,15 +180,28 @@ ORIENT = Table(
            advanced=True),
     replace(RESAMPLING, label="Rectification resampling", advanced=True),
 )
+#: how compare-models forms its control/check sets (fotogeo.orientation.comparison)
+COMPARE_SETS = ("random", "roles")
 COMPARE = Table(
-    Option("models", "choices", None, "Models (none = all that the GCPs allow)",
-           "Comma-separated model names [all that the GCPs allow].", choices=ORIENTATION_MODELS),
-    Option("counts", "ints", (40, 20, 15, 10, 6), "Control-point counts (comma-separated)", "Control-point counts.",
-           minimum=1),
-    Option("spreads", "choices", SPREADS, "Spreads", choices=SPREADS),
-    Option("trials", "int", 5, "Seeded trials per cell (median reported)", "Seeded trials per cell (median reported).",
-           minimum=1),
+    Option("models", "choices", None, "Models (none = the paper's, both RFM solutions and directions, and more)",
+           "Comma-separated model names [the paper's models, its plain RFMs beside the regularised ones, image->ground "
+           "RFMs, similarity, affine, poly2/3, collinearity].", choices=ORIENTATION_MODELS),
+    Option("sets", "choice", "random", "Control/check sets: random draws, or the GCP file's role columns",
+           "random: control points drawn per trial by --counts and --spreads; roles: the file's role column and "
+           "every role_<label> column as fixed sets (the label's trailing _<number> dropped names the layout).",
+           choices=COMPARE_SETS),
+    Option("counts", "str", None, "Control points per set: N or N/M (control/check), per model as dlt=6,10;rfm=40,50 "
+           "(empty = the paper's)",
+           "Control-point counts per set: N (the rest are check points) or N/M (a spread pool of N+M points), for "
+           "every model (40,20,10) or per model or name prefix (dlt=6,10,15 rfm=40,50,60; repeat the flag) "
+           "[the paper's: 40,20,15,10,6 classical, 60,55,50,45,40 RFMs]. N = all points: the all-control row.",
+           repeat=True),
+    Option("spreads", "choices", SPREADS, "Spreads (layouts of random sets)", choices=SPREADS),
+    Option("trials", "int", 5, "Seeded trials per random set (median RMS reported)",
+           "Seeded trials per random set (median RMS reported).", minimum=1),
     replace(SEED, advanced=False),
+    replace(ORIENT["scan_pixel_um"], label="Scan pixel size in µm (the table in mm on the photo)",
+            help="Scan pixel size (µm): the table in mm on the photo, as the paper's (21 µm)."),
 )
 TRANSFER = Table(
     Option("search_radius", "int", 32, "Search radius around the approximation (px)",
@@ -336,6 +350,27 @@ COREG = Table(
     SEED,
     Option("threads", "int", 1, "Threads (strips of windows matched in parallel)",
            "Threads matching strips of windows in parallel.", minimum=1, advanced=True),
+#: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior)
+INTERIOR = Table(
+    Option("model", "choice", "affine", "Pixel -> photo transform", "Pixel -> photo-coordinate transform: affine (>= 3 "
+           "marks) or projective (>= 4).", choices=("affine", "projective")),
+    Option("scan_pixel_um", "float", None, "Scan pixel size in µm (empty = the TIFF's resolution tags)",
+           "Scan pixel size (µm) [from the TIFF's resolution tags].", minimum=0.0, exclusive_minimum=True),
+    Option("rotation", "choice", "auto", "Scan rotation (auto = tried in 90° steps)",
+           "Rotation of the scan against the photo, clockwise, in 90° steps: auto tries all four (a layout "
+           "symmetric under the rotation cannot tell them apart: give it).", choices=("auto", "0", "90", "180", "270")),
+    Option("search_mm", "float", 10.0, "Search radius around each predicted mark (mm on the photo)",
+           "Marks are looked for within this radius (mm) of where the report's layout puts them.", minimum=0.0,
+           exclusive_minimum=True, advanced=True),
+    Option("max_residual_px", "float", 1.0, "Largest mark residual accepted (scan px)",
+           "A mark whose residual exceeds this (scan pixels) refuses the scan: damaged mark or wrong report.",
+           minimum=0.0, exclusive_minimum=True),
+    Option("min_fiducials", "int", 4, "Fewest marks found", "Fewest fiducial marks that must be found.", minimum=3),
+    Option("resample", "bool", False, "Resample to the standard frame (with its camera YAML)",
+           "Write <output>_frame.tif resampled to the standard frame (square pixels, principal point at the "
+           "centre) and <output>_camera.yaml for orient and triangulate."),
+    Option("resample_pixel_um", "float", None, "Standard-frame pixel size in µm (empty = the scan's)",
+           "Pixel size (µm) of the standard frame [the scan's].", minimum=0.0, exclusive_minimum=True, advanced=True),
 )
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)

@@ -127,8 +127,8 @@ CLI_CASES = {
     "orient gcps missing": (ORI + ["{d}/nope.gpkg", "--report", "{out}/r.json"], "does not exist"),
     "orient complex image": (["orient", "{d}/complex.tif", G], "complex"),
     # compare-models
-    "compare counts abc": (CMP + ["--counts", "abc"], "whole numbers"),
-    "compare counts 0,-1": (CMP + ["--counts", "0,-1"], "each >= 1"),
+    "compare counts abc": (CMP + ["--counts", "abc"], "is not N or N/M"),
+    "compare counts 0,-1": (CMP + ["--counts", "0,-1"], "must be at least 1"),
     "compare trials 0": (CMP + ["--trials", "0"], "trials must be >= 1"),
     "compare seed -1": (CMP + ["--seed", "-1"], "seed must be >= 0"),
     "compare unknown model": (CMP + ["--models", "nope"], "nope unknown"),

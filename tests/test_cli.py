@@ -59,7 +59,8 @@ def test_help_shows_the_defaults():
     text = invoke("register", "--help").output
     assert "--ratio FLOAT" in text and "[default: 0.8]" in text and "[default: auto]" in text
     assert "--mutual / --no-mutual" in text and "[default: surf]" in text
-    assert "[default: 40,20,15,10,6]" in invoke("compare-models", "--help").output
+    assert "[the paper's: 40,20,15,10,6 classical, 60,55,50,45,40 RFMs]" in " ".join(
+        invoke("compare-models", "--help").output.split())
 
 
 def test_cancel_exits_130_with_one_line(small_rgb, tmp_path, monkeypatch):
@@ -98,6 +99,6 @@ def test_register_ranges_from_the_table(small_rgb, tmp_path, args, message):
 
 def test_comma_lists_are_checked(small_rgb, tmp_path):
     r = invoke("compare-models", small_rgb, tmp_path / "g.csv", "--counts", "10,x")
-    assert r.exit_code == 2 and "whole numbers" in r.output
+    assert r.exit_code == 2 and "'x' is not N or N/M" in r.output
     r = invoke("compare-models", small_rgb, tmp_path / "g.csv", "--spreads", "homogeneous,random")
     assert r.exit_code == 2 and "random unknown" in r.output

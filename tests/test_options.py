@@ -120,7 +120,7 @@ TOOLS = {
     "tools.register.register": ((fo.REGISTER_TERRAIN,), {"vectors", "field", "report", "options", "tie_points"}),
     "tools.orient.orient": ((fo.ORIENT, fo.GCP), {"report", "vectors", "plot", "points", "rpc", "gcp_tiff",
                                                   "rectify"}),
-    "tools.compare.compare_models": ((fo.COMPARE, fo.GCP), {"table", "markdown"}),
+    "tools.compare.compare_models": ((fo.COMPARE, fo.GCP), {"table", "markdown", "html", "plots"}),
     "tools.fuse.fuse_raster": ((fo.FUSE,), {"sample_pixels", "block_rows"}),
     "tools.transfer.transfer_gcps": ((fo.TRANSFER,), set()),
     "tools.targets.measure_targets": ((fo.TARGETS,), set()),

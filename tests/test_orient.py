@@ -90,7 +90,7 @@ def test_compare_models_table(ngi_gcps, tmp_path):
     by = {(r["model"], r["spread"], r["n_control"]): r for r in rows}
     assert by[("dlt", "homogeneous", 40)]["check_rms_x_px"] < 0.5
     assert by[("poly1", "homogeneous", 40)]["check_rms_x_px"] > 1.0  # relief shows in 2-D models
-    assert (tmp_path / "t.md").read_text().startswith("| model |")
+    assert (tmp_path / "t.md").read_text().startswith("### homogeneous (px)\n\n| model | GCP | CP |")
     assert len((tmp_path / "t.csv").read_text().splitlines()) == 1 + len(rows)
 
 

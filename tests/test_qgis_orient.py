@@ -23,8 +23,9 @@ from qgis.core import (  # noqa: E402
 
 NAME = "3324c_2015_1004_05_0182"
 ORIENT_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "poly1", "poly2", "poly3",
-                 "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g", "rfm-i2g",
-                 "rfm-poly", "rfm-poly-i2g", "similarity")
+                 "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
+                 "rfm-common-plain", "rfm-i2g", "rfm-plain", "rfm-plain-i2g", "rfm-poly", "rfm-poly-i2g",
+                 "rfm-poly-plain", "similarity")
 
 
 def run(alg, params, feedback=None, context=None):
@@ -171,8 +172,8 @@ def test_compare_models(gcps, tmp_path):
     affine20 = [r for r in rows if r["model"] == "affine" and r["n_control"] == "20"
                 and r["spread"] == "homogeneous"][0]
     assert float(dlt20["check_rms_xy_px"]) < float(affine20["check_rms_xy_px"])  # relief: 3-D beats 2-D
-    assert md.read_text().startswith("| model |")
-    with pytest.raises(QgsProcessingException, match="COUNTS must be whole numbers"):
+    assert md.read_text().startswith("### homogeneous (px)")
+    with pytest.raises(QgsProcessingException, match="counts 'twenty': 'twenty' is not N or N/M"):
         run("comparemodels", base(gcps, COUNTS="twenty", TABLE=str(tmp_path / "x.csv")))
     assert files(tmp_path) == ["t.csv", "t.md"]
 

@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg", "interior"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -554,6 +554,7 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
      {"approx_fields": "COL_FIELD"}),
     ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
     ("triangulate", "tools.triangulate", "triangulate", set(), {}),
+    ("interior", "tools.interior", "interior", {"scans", "camera_report", "output"}, {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""

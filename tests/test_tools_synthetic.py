@@ -192,7 +192,7 @@ def test_compare_models(scene, gcps, tmp_path):
                                   spreads=("homogeneous",), trials=3, table=tmp_path / "c.csv",
                                   markdown=tmp_path / "c.md")
     assert len(pd.read_csv(tmp_path / "c.csv")) == len(rows) == 6
-    assert "| dlt |" in (tmp_path / "c.md").read_text()
+    assert "| DLT |" in (tmp_path / "c.md").read_text()
     check = {(r["model"], r["n_control"]): r["check_rms_xy_px"] for r in rows}
     # measured (20 control points) dlt 0.48 px, projective 2.6 px, affine 4.3 px
     assert check[("dlt", 20)] < 0.7 and check[("projective", 20)] > 3 * check[("dlt", 20)], check

@@ -171,6 +171,9 @@ def click_option(option: Option):
     elif option.kind in ("choices", "ints"):
         kw.update(default=None if option.default is None else ",".join(map(str, option.default)),
                   callback=_comma_list(option))
+    elif option.repeat:
+        kw.update(multiple=True, default=None, show_default=False,
+                  callback=lambda ctx, param, values: ";".join(values or ()) or None)
     elif option.kind in ("file", "raster"):
         kw.update(type=click.Path(dir_okay=False), default=option.default)
     else:

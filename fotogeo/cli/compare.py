@@ -12,13 +12,16 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.argument("gcps", type=click.Path(dir_okay=False))
 @options_from(COMPARE)
 @click.option("--table", type=click.Path(dir_okay=False), help="CSV output.")
-@click.option("--markdown", type=click.Path(dir_okay=False), help="Markdown output.")
+@click.option("--markdown", type=click.Path(dir_okay=False), help="Markdown output (the paper's Table 1 layout).")
+@click.option("--html", type=click.Path(dir_okay=False), help="HTML output (the paper's Table 1 layout).")
+@click.option("--plots", type=click.Path(file_okay=False), help="Folder for error-vector plots per model and layout.")
 @options_from(GCP)
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
 def command(image, gcps, quiet, **kw):
-    """Compare orientation models at several GCP counts, homogeneous and clustered, at check points."""
+    """Compare orientation models on control/check sets (random or the file's roles) at check points:
+    the paper's Table 1 (Öztürk, Karşlı & Dihkan) for your GCPs."""
     from ..tools.compare import compare_models, markdown_table
     bar = ConsoleProgress(quiet)
     try:

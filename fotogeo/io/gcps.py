@@ -18,7 +18,7 @@ CRS as needed), else a constant; otherwise they stay NaN and only 2-D models can
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +40,8 @@ class Gcps:
     ids: np.ndarray  # (N,) str
     crs: CRS
     source: str = ""
+    #: further role columns ``role_<label>`` of a table, by label: fixed control/check sets (compare-models)
+    role_sets: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.pixel)
@@ -62,14 +64,16 @@ def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id=
     what = f"GCP file {str(p)!r}"
     if not p.exists():
         raise VectorError(f"{what} does not exist")
+    role_sets = {}
     if p.suffix.lower() == ".points":
         xy, pix, roles, ids, zs, map_crs = _from_points_file(p, what, crs, raster)
     else:
-        xy, pix, roles, ids, zs, map_crs = _from_table(p, what, layer, crs, col, row, z, role, id)
+        xy, pix, roles, ids, zs, map_crs, role_sets = _from_table(p, what, layer, crs, col, row, z, role, id)
     if len(pix) == 0:
         raise VectorError(f"{what} holds no points")
     ground = np.column_stack([xy, np.full(len(xy), np.nan) if zs is None else zs])
-    g = Gcps(ground, pix, np.asarray(roles, dtype=object).astype(str), np.asarray(ids).astype(str), map_crs, str(p))
+    g = Gcps(ground, pix, np.asarray(roles, dtype=object).astype(str), np.asarray(ids).astype(str), map_crs, str(p),
+             role_sets)
     g = _fill_heights(g, dem, height)
     _validate(g, what)
     return g
@@ -89,7 +93,8 @@ def _from_points_file(p: Path, what: str, crs, raster):
 
 
 def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
-    """``(map xy, pixel, roles, ids, heights or None, CRS)`` of a CSV table or a point layer."""
+    """``(map xy, pixel, roles, ids, heights or None, CRS, {label: roles})`` of a CSV table or a point layer
+    (the last: the further role columns ``<role>_<label>``)."""
     from .tables import find_column, is_layer, numeric_columns, read_table
     table = read_table(p, "GCP file", layer)
     if is_layer(table):
@@ -104,16 +109,25 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
         xy, map_crs = numeric_columns(table, [xcol, ycol], what, id_field=id), parse_crs(crs, what)
     pix = numeric_columns(table, [col, row], what, _FIELD_HINT, id_field=id)
     rf = find_column(table, role)
-    roles = (table[rf].fillna("control").astype(str).str.lower().to_numpy() if rf
-             else np.full(len(table), "control"))
-    bad = sorted(set(roles) - set(ROLES))
-    if bad:
-        raise VectorError(f"{what}: role values must be 'control', 'check' or 'blunder'; found {bad}")
+    roles = _roles(table, rf, what)
+    prefix = f"{rf or role}_".lower()
+    role_sets = {str(c)[len(prefix):]: _roles(table, c, what) for c in table.columns
+                 if str(c).lower().startswith(prefix) and len(str(c)) > len(prefix)}
     idf = find_column(table, id)
     ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
     zf = find_column(table, z)
     zs = numeric_columns(table, [zf], what, id_field=id)[:, 0] if zf is not None else None
-    return xy, pix, roles, ids, zs, map_crs
+    return xy, pix, roles, ids, zs, map_crs, role_sets
+
+
+def _roles(table, column, what: str) -> np.ndarray:
+    """The roles of ``column`` (empty = control; all control without the column), checked."""
+    roles = (table[column].fillna("control").astype(str).str.lower().to_numpy() if column
+             else np.full(len(table), "control"))
+    bad = sorted(set(roles) - set(ROLES))
+    if bad:
+        raise VectorError(f"{what}: {column or 'role'} values must be 'control', 'check' or 'blunder'; found {bad}")
+    return roles
 
 
 def _layer_positions(table, what: str, crs, id: str | None = "id"):

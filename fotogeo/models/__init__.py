@@ -4,14 +4,16 @@ from .collinearity import Collinearity
 from .planar import Affine, Projective, Similarity
 from .polynomial import AffineHeight, Bilinear, Poly1, Poly2, Poly3, Poly3D1, Poly3D2, Poly3D3
 from .ransac import RansacResult, RobustFit, ransac, robust_refit
-from .rfm import RFM, RFMCommon, RFMCommonImageToGround, RFMImageToGround, RFMPoly, RFMPolyImageToGround
+from .rfm import (RFM, RFMCommon, RFMCommonImageToGround, RFMCommonPlain, RFMImageToGround, RFMPlain,
+                  RFMPlainImageToGround, RFMPoly, RFMPolyImageToGround, RFMPolyPlain)
 from .spatial import DLT, FittedModel, IllPosedWarning
 
 __all__ = ["MODELS", "Model", "Normalisation", "get_model", "model_from_dict", "register_model",
            "Affine", "Projective", "Similarity", "RansacResult", "RobustFit", "ransac", "robust_refit",
            "DLT", "FittedModel", "IllPosedWarning", "AffineHeight", "Bilinear", "Poly1", "Poly2", "Poly3",
            "Poly3D1", "Poly3D2", "Poly3D3", "RFM", "RFMCommon", "RFMPoly", "RFMImageToGround",
-           "RFMCommonImageToGround", "RFMPolyImageToGround", "Collinearity"]
+           "RFMCommonImageToGround", "RFMPolyImageToGround", "RFMPlain", "RFMCommonPlain", "RFMPolyPlain",
+           "RFMPlainImageToGround", "Collinearity"]
 
 # the option table lists the model names literally (the QGIS plugin reads it without numpy): one list, checked here
 from ..options import ORIENTATION_MODELS  # noqa: E402

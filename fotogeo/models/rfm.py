@@ -107,6 +107,7 @@ class _RFMBase(FittedModel):
     #: (numerically) unregularised iterative LS of the paper — for comparisons only
     lambda_grid = _LOG_GRID
     reject_poles = True
+    plain = False  # True: the paper's unregularised solve (the ``-plain`` names)
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -291,13 +292,20 @@ def _support(cls):
     return np.flatnonzero(A[0]), np.flatnonzero(A[1])
 
 
-def _rfm_class(cls_name, name, variant, n_params, min_points, direction):
+#: log10(λ / σ_max) of the plain RFMs: numerically no regularisation (the paper's solve)
+PLAIN_GRID = np.array([-12.0])
+
+
+def _rfm_class(cls_name, name, variant, n_params, min_points, direction, plain=False):
+    how = ("unregularised iterative LS as in Öztürk, Karşlı & Dihkan — comparisons only" if plain
+           else "Tikhonov, λ by leave-one-out CV")
     doc = (f"Cubic RFM, {variant} denominator(s), fitted {direction} "
-           f"({n_params} parameters, ≥ {min_points} points; Tikhonov, λ by leave-one-out CV).")
-    cls = type(cls_name, (_RFMBase,), {"name": name, "variant": variant, "n_params": n_params,
-                                       "min_points": min_points, "direction": direction, "__doc__": doc,
-                                       "__module__": __name__})
-    return register_model(cls)
+           f"({n_params} parameters, ≥ {min_points} points; {how}).")
+    attrs = {"name": name, "variant": variant, "n_params": n_params, "min_points": min_points,
+             "direction": direction, "__doc__": doc, "__module__": __name__}
+    if plain:  # λ = 1e-12 σ_max only, no check of the denominators: the paper's plain solve
+        attrs.update(lambda_grid=PLAIN_GRID, reject_poles=False, plain=True)
+    return register_model(type(cls_name, (_RFMBase,), attrs))
 
 
 # minimum points: the unregularised first-order part must be determined with one point to
@@ -310,3 +318,11 @@ RFMImageToGround = _rfm_class("RFMImageToGround", "rfm-i2g", "separate", 78, 7, 
 RFMCommonImageToGround = _rfm_class("RFMCommonImageToGround", "rfm-common-i2g", "common", 59, 6,
                                     "image-to-ground")
 RFMPolyImageToGround = _rfm_class("RFMPolyImageToGround", "rfm-poly-i2g", "poly", 40, 5, "image-to-ground")
+# the paper's own solutions (Öztürk, Karşlı & Dihkan): least squares without regularisation. With fewer
+# observations than parameters (e.g. 40 GCPs, 78 parameters) they interpolate the control points and
+# their check-point errors show what the regularised fits above avoid
+RFMPlain = _rfm_class("RFMPlain", "rfm-plain", "separate", 78, 7, "ground-to-image", plain=True)
+RFMCommonPlain = _rfm_class("RFMCommonPlain", "rfm-common-plain", "common", 59, 7, "ground-to-image", plain=True)
+RFMPolyPlain = _rfm_class("RFMPolyPlain", "rfm-poly-plain", "poly", 40, 5, "ground-to-image", plain=True)
+RFMPlainImageToGround = _rfm_class("RFMPlainImageToGround", "rfm-plain-i2g", "separate", 78, 7, "image-to-ground",
+                                   plain=True)

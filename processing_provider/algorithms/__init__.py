@@ -4,6 +4,7 @@ from .compare import CompareModelsAlgorithm
 from .coreg import CoregAlgorithm
 from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
+from .interior import InteriorAlgorithm
 from .match import MatchFeaturesAlgorithm
 from .orient import OrientAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
@@ -17,4 +18,5 @@ from .triangulate import TriangulateAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, CoregAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, CoregAlgorithm,
+              InteriorAlgorithm)
