@@ -2,6 +2,7 @@
 and ``local``, the displacement field on top of the model (fotogeo.tools.register_local)."""
 from __future__ import annotations
 
+import numpy as np
 import pyogrio
 import pytest
 import rasterio
@@ -83,3 +84,15 @@ def test_coreg_command_writes_its_outputs_and_refuses_in_one_line(seasonal, tmp_
     assert r.exit_code == 2 and r.output.strip().splitlines() == [
         "Error: window must be an even number of pixels (the window centres lie on pixel corners); got 127, use 128"]
     assert not (tmp_path / "d.tif").exists()
+
+
+def test_featureless_target_is_refused_with_both_reasons(seasonal, tmp_path):
+    """Neither features nor windows find anything on a smooth ramp: one error naming both, nothing written."""
+    ref, _ = seasonal
+    with rasterio.open(ref) as ds:
+        shape, transform = ds.shape, ds.transform
+    flat = cs.write_geotiff(tmp_path / "flat.tif", np.tile(np.linspace(20, 220, shape[1]), (shape[0], 1)), transform=transform, dtype="uint8")
+    with pytest.raises(MatchingError) as e:
+        register(ref, flat, tmp_path / "o.tif", local=True)
+    assert "area-based matching did not help either" in str(e.value) and "valid" in str(e.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["flat.tif"]
