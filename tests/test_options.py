@@ -10,6 +10,7 @@ import sys
 import pytest
 
 from fotogeo import options as fo
+from fotogeo.options_coreg import COREG
 from fotogeo.errors import InputError
 
 THIRD_PARTY = ("numpy", "click", "rasterio", "cv2", "pyproj", "shapely", "geopandas", "pyogrio", "qgis")
@@ -129,7 +130,7 @@ TOOLS = {
     "tools.demo.run_demo": ((fo.DEMO,), set()),
     "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
     "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
-    "tools.coreg.coregister": ((fo.COREG,), {"shifts", "field", "report"}),
+    "tools.coreg.coregister": ((COREG,), {"shifts", "field", "report"}),
 }
 
 

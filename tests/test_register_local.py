@@ -82,7 +82,7 @@ def test_coreg_command_writes_its_outputs_and_refuses_in_one_line(seasonal, tmp_
         assert (tmp_path / name).is_file(), name
     r = CliRunner().invoke(main, args + ["--window", "127", "-o", str(tmp_path / "d.tif")])
     assert r.exit_code == 2 and r.output.strip().splitlines() == [
-        "Error: window must be an even number of pixels (the window centres lie on pixel corners); got 127, use 128"]
+        "Error: --window must be an even number of pixels (the window centres lie on pixel corners); got 127, use 128"]
     assert not (tmp_path / "d.tif").exists()
 
 

@@ -28,7 +28,7 @@ from ..errors import InputError, MatchingError, RasterError
 from ..io.report import write_json
 from ..io.raster import AtomicOutputs, check_output, gdal_env, open_raster
 from ..io.warp import default_nodata
-from ..options import COREG
+from ..options_coreg import COREG
 from ..pixels import map_to_pixel, outline, pixel_to_map
 from ..progress import as_progress
 from .boundary import OUTPUTS, tool
@@ -228,4 +228,4 @@ def check_window(window: int, name: str) -> None:
     """Window sides must be even: the window centres lie on pixel corners."""
     if window % 2:
         raise InputError(f"{name} must be an even number of pixels (the window centres lie on pixel corners); "
-                         f"got {window}, use {window + 1}")
+                         f"got {window}, use {window + 1}", option=name)
