@@ -59,6 +59,7 @@ TOOLS = {
     "rpc_bias": ("fotogeo.tools.rpc_bias", "rpc_bias"),
     "register_batch": ("fotogeo.tools.batch", "register_batch"),
     "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
+    "ortho": ("fotogeo.tools.ortho", "ortho"),
     "propose_gcps": ("fotogeo.tools.gcp_propose", "propose_gcps"),
 }
 #: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)
