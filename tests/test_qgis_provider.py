@@ -27,7 +27,7 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "ortho"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -554,6 +554,7 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
      {"approx_fields": "COL_FIELD"}),
     ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
     ("triangulate", "tools.triangulate", "triangulate", set(), {}),
+    ("ortho", "tools.ortho", "ortho", set(), {"dst_crs": "CRS"}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""
@@ -566,6 +567,25 @@ def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip,
                 if p.kind == p.KEYWORD_ONLY and k not in skip | {"overwrite", "progress"}]
     missing = sorted(k for k in keywords if rename.get(k, k.upper()) not in names)
     assert not missing, f"fotogeo.{module}.{func} options without a parameter in fotogeo:{alg_id}: {missing}"
+
+
+def test_ortho_box_scene(qgis_app, tmp_path):
+    """fotogeo:ortho on the rendered box scene with occlusion masking: one orthophoto per image in the folder,
+    hidden ground nodata (the same run as the command line's)."""
+    import box_scene as bs
+    import rasterio
+    paths = bs.write_scene(tmp_path)
+    out = tmp_path / "out"
+    res = run("ortho", {"IMAGES": [str(paths["frame"])], "DEM": str(paths["dsm"]), "CAMERA": str(paths["camera"]),
+                        "EO": str(paths["eo"]), "OCCLUSION": True, "RESOLUTION": 0.5, "OUTDIR": str(out)})
+    assert res["ORTHOPHOTOS"] == 1
+    with rasterio.open(out / "frame_ortho.tif") as ds:
+        v, t = ds.read(1), ds.transform
+    rows, cols = np.mgrid[0:v.shape[0], 0:v.shape[1]]
+    X, Y = t * (cols + 0.5, rows + 0.5)
+    XY = np.column_stack([X.ravel(), Y.ravel()])
+    hidden = bs.hidden_from_camera(XY, -1.0) & ~bs.on_a_box(XY, 1.0)
+    assert hidden.sum() > 500 and (v.ravel()[hidden] == 0).mean() > 0.99
 
 
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):

@@ -40,7 +40,7 @@ from ..pixels import HALF, outline
 from ..progress import as_progress
 from .boundary import tool
 from .checks import check_output_grid
-from .ortho_inputs import holes, image_models, map_crs, terrain
+from .ortho_inputs import holes, image_models, map_crs, require_heights, terrain
 
 
 #: DEFLATE level of the orthophotos: with the horizontal predictor, level 1 writes ~4x faster than 6 for ~10 %
@@ -196,6 +196,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     paths = output_paths(images, output)
     for p in paths.values():
         check_output(p, inputs, overwrite, "orthophoto")
+    require_heights([Path(p).stem for p in images], dem, height, rpc)
     crs, rule = map_crs(dst_crs, dem, eo, images, rpc)
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)

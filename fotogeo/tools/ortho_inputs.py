@@ -148,10 +148,7 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
     """``(height source or number, height reference used, notes)`` (module docstring)."""
     kinds = {im.kind for im in images}
     if dem is None:
-        if height is None:
-            what = "RPC image(s)" if "rpc" in kinds else "frame(s)"
-            raise InputError(f"{what} {', '.join(im.name for im in images[:5])}: orthorectification needs heights: "
-                             f"give a DEM (--dem) or, knowingly, a constant height (--height)")
+        require_heights([im.name for im in images], dem, height, "rpc" in kinds)
         return float(height), None, [f"constant height {float(height):g}"]
     d = read_dem(dem)
     if d.crs is None:
@@ -184,6 +181,14 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
     raise InputError(f"DEM {str(dem)!r} holds {ref} heights but {need} {target} heights: give the geoid "
                      f"undulations (--geoid, e.g. PROJ's egm96_15.gtx) or --dem-heights {target} if the DEM's "
                      f"heights are in fact {target}")
+
+
+def require_heights(names, dem, height, rpc: bool) -> None:
+    """Refuse images without heights: no DEM and no constant height (asked for knowingly)."""
+    if dem is None and height is None:
+        what = "RPC image(s)" if rpc else "frame(s)"
+        raise InputError(f"{what} {', '.join(names[:5])}: orthorectification needs heights: give a DEM (--dem) or, "
+                         f"knowingly, a constant height (--height)")
 
 
 def _as_map_source(d, crs):

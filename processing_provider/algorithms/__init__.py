@@ -5,6 +5,7 @@ from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
 from .match import MatchFeaturesAlgorithm
 from .orient import OrientAlgorithm
+from .ortho import OrthoAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
 from .register_batch import RegisterBatchAlgorithm
@@ -16,4 +17,4 @@ from .triangulate import TriangulateAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, OrthoAlgorithm)
