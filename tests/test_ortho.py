@@ -132,6 +132,23 @@ def test_ngi_frame_on_the_ngi_orthophoto(data_dir, tmp_path):
         assert a.transform == b.transform and np.abs(a.read().astype(int) - b.read()).max() <= 1
 
 
+def test_dem_read_under_the_images_only(data_dir):
+    """Only the DEM window under a frame is read (memory bounded by the frame's ground area), with the heights
+    of the whole DEM there."""
+    from fotogeo.io.raster import read_dem
+    from fotogeo.tools.ortho_inputs import image_models, map_crs, read_dem_under
+    ngi = data_dir / "ngi"
+    frame = str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif")
+    crs, _ = map_crs("auto", str(ngi / "dem.tif"), str(ngi / "exterior_orientation.txt"), [frame], False)
+    im = image_models([frame], crs, camera=str(ngi / "interior_orientation.yaml"),
+                      eo=str(ngi / "exterior_orientation.txt"))[0]
+    part, whole = read_dem_under(ngi / "dem.tif", [im], crs), read_dem(ngi / "dem.tif")
+    assert part.data.size < 0.6 * whole.data.size
+    ground = im.model.inverse(np.column_stack([np.linspace(0, 640, 50), np.linspace(0, 1152, 50)]), part)
+    assert np.isfinite(ground).all()
+    assert np.array_equal(part.heights(ground[:, :2]), whole.heights(ground[:, :2]))
+
+
 def test_qb2_rpc_against_gdal_transformer(data_dir, tmp_path):
     """The QuickBird image through its vendor RPC on the DEM: output cells sample the pixel GDAL's RPC
     transformer gives for the cell centre at the DEM height (to 0.01 px), and a DEM stating geoid heights is

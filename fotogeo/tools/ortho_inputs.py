@@ -150,9 +150,7 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
     if dem is None:
         require_heights([im.name for im in images], dem, height, "rpc" in kinds)
         return float(height), None, [f"constant height {float(height):g}"]
-    d = read_dem(dem)
-    if d.crs is None:
-        raise InputError(f"DEM {str(dem)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
+    d = read_dem_under(dem, images, crs)
     source = _as_map_source(d, crs)
     stated = crs_height_reference(d.crs)
     ref = stated if dem_heights in (None, "auto") else dem_heights
@@ -181,6 +179,51 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
     raise InputError(f"DEM {str(dem)!r} holds {ref} heights but {need} {target} heights: give the geoid "
                      f"undulations (--geoid, e.g. PROJ's egm96_15.gtx) or --dem-heights {target} if the DEM's "
                      f"heights are in fact {target}")
+
+
+#: pixels of the decimated read that bounds a DEM's heights before its window is chosen
+_RANGE_PIXELS = 1_000_000
+
+
+def read_dem_under(path, images, crs):
+    """The part of the DEM ``path`` under the images, as a :class:`~fotogeo.geometry.dem.Dem` (memory bounded by
+    the images' ground area, not the DEM's): the heights' range from a decimated read (padded by 10 % and the
+    100 m a geoid shift may add), each image's outline on the planes of the lowest and highest height (every line
+    of sight between them lies inside their bounding box), that box in the DEM's CRS plus two cells."""
+    import math
+
+    from rasterio.windows import Window
+
+    from ..crs import transform_points
+    from ..geometry.dem import Dem
+    from ..io.raster import ropen
+    from ..pixels import outline
+    with ropen(path) as ds:
+        if ds.crs is None:
+            raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
+        f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
+        small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
+        z = small.compressed().astype(float)
+        z = z[np.isfinite(z)]
+        if not z.size:
+            raise InputError(f"DEM {str(path)!r} holds no valid height")
+        pad = 0.1 * float(z.max() - z.min()) + 100.0
+        corners = []
+        for im in images:
+            for h in (float(z.min()) - pad, float(z.max()) + pad):
+                xy = im.model.inverse(outline(im.width, im.height, 9), h)[:, :2]
+                corners.append(xy[np.isfinite(xy).all(axis=1)])
+        xy = transform_points(crs, horizontal_crs(ds.crs), np.vstack(corners))
+        if not len(xy):
+            return read_dem(path)
+        inv = ~ds.transform
+        cr = np.array([inv * tuple(p) for p in xy])
+        c0, r0 = np.floor(cr.min(axis=0)).astype(int) - 2
+        c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
+        c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
+        win = Window(c0, r0, c1 - c0, r1 - r0) if c1 - c0 >= 2 and r1 - r0 >= 2 else Window(0, 0, 2, 2)
+        data = ds.read(1, window=win, masked=True).astype(np.float64)
+        return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
 
 
 def require_heights(names, dem, height, rpc: bool) -> None:
