@@ -306,6 +306,14 @@ ORTHO = Table(
     Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
            "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
 )
+#: orthophoto mosaics (``fotogeo mosaic``, fotogeo.tools.mosaic)
+MOSAIC = Table(
+    Option("feather", "float", None, "Feather width across seams (map units; 0 = automatic)",
+           "Width of the blending ramp across each seamline, in map units [16 pixels or two seam cells].",
+           minimum=0.0, exclusive_minimum=True, automatic=0.0),
+    Option("balance", "bool", True, "Balance radiometry (gain and offset per image from the overlaps)",
+           "A gain and an offset per image and band from the overlaps' means and spreads."),
+)
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)
 REGISTER_BATCH = Table(

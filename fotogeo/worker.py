@@ -60,6 +60,7 @@ TOOLS = {
     "register_batch": ("fotogeo.tools.batch", "register_batch"),
     "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
     "ortho": ("fotogeo.tools.ortho", "ortho"),
+    "mosaic": ("fotogeo.tools.mosaic", "mosaic"),
     "propose_gcps": ("fotogeo.tools.gcp_propose", "propose_gcps"),
 }
 #: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)

@@ -27,7 +27,8 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "ortho"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "ortho",
+           "mosaic"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -555,6 +556,7 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
     ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
     ("triangulate", "tools.triangulate", "triangulate", set(), {}),
     ("ortho", "tools.ortho", "ortho", set(), {"dst_crs": "CRS"}),
+    ("mosaic", "tools.mosaic", "mosaic", set(), {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""
@@ -586,6 +588,17 @@ def test_ortho_box_scene(qgis_app, tmp_path):
     XY = np.column_stack([X.ravel(), Y.ravel()])
     hidden = bs.hidden_from_camera(XY, -1.0) & ~bs.on_a_box(XY, 1.0)
     assert hidden.sum() > 500 and (v.ravel()[hidden] == 0).mean() > 0.99
+
+
+def test_mosaic_two_orthos(qgis_app, tmp_path):
+    """fotogeo:mosaic: the mosaic and its seamlines layer (the synthetic pair of tests/test_mosaic.py)."""
+    import test_mosaic as tm
+    a = tm._ortho(tmp_path / "a.tif", 0, 300, 150, box_value=240)
+    b = tm._ortho(tmp_path / "b.tif", 180, 480, 330, tm.GAIN, tm.OFFSET, box_value=30)
+    res = run("mosaic", {"ORTHOS": [str(a), str(b)], "OUTPUT": str(tmp_path / "m.tif")})
+    assert res["SEAMLINES"] == str(tmp_path / "m.gpkg")
+    layer = QgsVectorLayer(res["SEAMLINES_LAYER"], "s", "ogr")
+    assert layer.isValid() and layer.featureCount() == 1
 
 
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):

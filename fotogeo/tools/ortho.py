@@ -33,7 +33,7 @@ from ..errors import FotogeoWarning, InputError, ModelError
 from ..geometry.dem import heights_at
 from ..geometry.georeference import Georeference
 from ..geometry.occlusion import visible_pixels
-from ..io.raster import AtomicOutputs, check_output, open_raster
+from ..io.raster import AtomicOutputs, check_output, open_raster, ropen
 from ..io.warp import grid_covering, warp_to_grid
 from ..io.warp_gdal import centres_to_map
 from ..pixels import HALF, outline
@@ -170,6 +170,15 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
     return OrthoGrid(transform, width, height, res, coverage)
 
 
+def nadir_point(im, heights, crs):
+    """``(X, Y)`` of the image's nadir: under a frame's projection centre, else the ground of its centre pixel."""
+    centre = getattr(im.model, "centre", None)
+    if centre is not None:
+        return tuple(float(v) for v in centre[:2])
+    return tuple(float(v) for v in Georeference(im.model, heights=heights, crs=crs).pixel_to_map(
+        [[im.width / 2, im.height / 2]])[0])
+
+
 def occlusion_surface(heights, dem):
     """The surface of the occlusion test and its march step (half a DEM cell); a DSM with holes is refused."""
     if dem is None or np.isscalar(heights):
@@ -214,6 +223,8 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
             written = warp_to_grid(im.path, tmp, mapping, crs=crs, transform=g.transform, width=g.width,
                                    height=g.height, resampling=resampling, progress=stage, overviews=not cog,
                                    zlevel=ZLEVEL)
+            with ropen(tmp, "r+") as ds:  # where relief displacement vanishes: the mosaic's seams start there
+                ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs)))
             if cog:
                 from ..io.cog import convert_to_cog
                 convert_to_cog(tmp, resampling)

@@ -4,6 +4,7 @@ from .compare import CompareModelsAlgorithm
 from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
 from .match import MatchFeaturesAlgorithm
+from .mosaic import MosaicAlgorithm
 from .orient import OrientAlgorithm
 from .ortho import OrthoAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
@@ -17,4 +18,5 @@ from .triangulate import TriangulateAlgorithm
 #: every algorithm the provider offers
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
-              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, OrthoAlgorithm)
+              RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, OrthoAlgorithm,
+              MosaicAlgorithm)

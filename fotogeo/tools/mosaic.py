@@ -1,0 +1,211 @@
+"""``fotogeo mosaic``: one orthophoto mosaic from many, with seamlines, feathering and balancing (issue 21).
+
+``mosaic(orthos, output, seamlines=None)`` — the orthophotos must share a CRS and a pixel lattice (same pixel size,
+origins a whole number of pixels apart: what ``fotogeo ortho`` writes at one ``--resolution``). Then:
+
+1. **seam grid** — the mosaic's extent on a grid of at most :data:`SEAM_PIXELS` cells (every ``f``-th pixel):
+   each orthophoto's valid mask, grey level (mean of its bands) and band values there (GDAL average);
+2. **seamlines** (:mod:`fotogeo.mosaic.seams`) — Voronoi cells of the distance to each orthophoto's nadir point
+   (``FOTOGEO_NADIR`` written by ``fotogeo ortho``; else the centre of its valid area), each shared boundary
+   replaced by the least-cost path through the grey difference of the two orthophotos;
+3. **balancing** (:func:`fotogeo.mosaic.blend.balance`, unless ``balance=False``) — a gain and an offset per
+   orthophoto and band from the overlaps' means and spreads;
+4. **blending** (:func:`fotogeo.mosaic.blend.feather_weights`) — per output window of 512², each orthophoto's
+   window read, its balanced values weighted by the feather ramp of width ``feather`` (map units; default 16
+   pixels or two seam cells) across its seamline; memory is bounded by the seam grid and one window per image.
+
+Outputs (all or nothing): ``output`` (tiled DEFLATE GeoTIFF with overviews) and the GeoPackage ``seamlines``
+(default ``output`` with ``.gpkg``): layer ``seamlines`` (lines between two images: ``image_a``, ``image_b``) and
+``regions`` (each image's part of the mosaic, with its gains and offsets).
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.raster import AtomicOutputs, check_output, geotiff_profile, ropen
+from ..mosaic.blend import balance as balance_band
+from ..mosaic.blend import feather_weights, signed_distances
+from ..mosaic.seams import seam_labels
+from ..progress import as_progress
+from .boundary import tool
+from .checks import check_output_grid
+
+#: cells of the seam grid (seamlines, balancing statistics, feather distances)
+SEAM_PIXELS = 4_000_000
+BLOCK = 512
+
+
+def _lattice(infos, paths):
+    """The common CRS, pixel size and the union grid ``(transform, width, height)``; mismatches refused."""
+    from affine import Affine
+    first = infos[0]
+    res = (first.transform.a, first.transform.e)
+    bounds = []
+    for info, p in zip(infos, paths):
+        t = info.transform
+        if info.crs != first.crs:
+            raise InputError(f"orthophoto {str(p)!r} is in another CRS than {str(paths[0])!r}; make every "
+                             f"orthophoto in one CRS (fotogeo ortho --crs)")
+        off = ((t.c - first.transform.c) / res[0], (t.f - first.transform.f) / res[1])
+        if (t.a, t.e) != res or t.b or t.d or any(abs(o - round(o)) > 1e-6 for o in off):
+            raise InputError(f"orthophoto {str(p)!r} is not on the pixel lattice of {str(paths[0])!r} (pixel size "
+                             f"or origin); make them with one --resolution (fotogeo ortho aligns every grid)")
+        if (info.count, info.dtype) != (first.count, first.dtype):
+            raise InputError(f"orthophoto {str(p)!r} has {info.count} bands of {info.dtype}, {str(paths[0])!r} "
+                             f"{first.count} of {first.dtype}; mosaic orthophotos of one kind")
+        bounds.append((t.c, t.f + t.e * info.height, t.c + t.a * info.width, t.f))
+    b = np.array(bounds)
+    x0, y1 = b[:, 0].min(), b[:, 3].max()
+    width = int(round((b[:, 2].max() - x0) / res[0]))
+    height = int(round((y1 - b[:, 1].min()) / -res[1]))
+    return first.crs, Affine(res[0], 0, x0, 0, res[1], y1), width, height
+
+
+def _seam_grid(paths, transform, width, height, crs):
+    """Per orthophoto on the seam grid: valid mask, band values (NaN off it), and the grid's transform."""
+    from rasterio.warp import Resampling, reproject
+    f = max(1, math.ceil(math.sqrt(width * height / SEAM_PIXELS)))
+    w, h = math.ceil(width / f), math.ceil(height / f)
+    t = transform * transform.scale(f)
+    values, valid = [], []
+    for p in paths:
+        with ropen(p) as ds:
+            v = np.full((ds.count, h, w), np.nan, np.float32)
+            m = np.zeros((h, w), np.uint8)
+            reproject(ds.read(masked=True).astype(np.float32).filled(np.nan), v, src_transform=ds.transform,
+                      src_crs=crs, dst_transform=t, dst_crs=crs, resampling=Resampling.average, src_nodata=np.nan,
+                      dst_nodata=np.nan)
+            reproject(ds.dataset_mask(), m, src_transform=ds.transform, src_crs=crs, dst_transform=t, dst_crs=crs,
+                      resampling=Resampling.nearest)
+        ok = (m > 0) & np.isfinite(v).all(axis=0)
+        values.append(np.where(ok, v, np.nan))
+        valid.append(ok)
+    return np.array(values), np.array(valid), t, f
+
+
+def _nadirs(paths, valid, t):
+    out = []
+    for p, ok in zip(paths, valid):
+        with ropen(p) as ds:
+            tag = ds.tags().get("FOTOGEO_NADIR")
+        if tag:
+            out.append([float(v) for v in tag.split()])
+        else:  # the centre of the valid area
+            r, c = np.nonzero(ok)
+            out.append(list(t * (c.mean() + 0.5, r.mean() + 0.5)) if len(r) else [np.nan, np.nan])
+    return np.array(out)
+
+
+def _window(paths, transform, r0, c0, h, w, gains, offsets, signed, valid_seam, f, feather, dtype, nodata):
+    """The blended ``(bands, h, w)`` window (module docstring, step 4)."""
+    from rasterio.windows import from_bounds
+    from scipy.ndimage import map_coordinates
+    rows, cols = np.mgrid[r0:r0 + h, c0:c0 + w]
+    cr, cc = (rows + 0.5) / f - 0.5, (cols + 0.5) / f - 0.5  # seam-grid centre coordinates
+    n = len(paths)
+    vals, ok, sd = [], np.zeros((n, h, w), bool), np.zeros((n, h, w), np.float32)
+    x0, y1 = transform * (c0, r0)
+    x1, y0 = transform * (c0 + w, r0 + h)
+    for i, p in enumerate(paths):
+        with ropen(p) as ds:
+            win = from_bounds(x0, y0, x1, y1, ds.transform).round_offsets().round_lengths()
+            a = ds.read(window=win, boundless=True, masked=True)
+        vals.append(a.filled(0).astype(np.float32))
+        ok[i] = ~np.ma.getmaskarray(a).all(axis=0)
+        sd[i] = map_coordinates(signed[i], [cr, cc], order=1, mode="nearest")
+    wts = feather_weights(sd, ok, feather)
+    out = np.zeros((vals[0].shape[0], h, w), np.float32)
+    for i in range(n):
+        out += wts[i] * (gains[i][:, None, None] * vals[i] + offsets[i][:, None, None])
+    info = np.iinfo(dtype) if np.dtype(dtype).kind in "iu" else None
+    if info is not None:
+        out = np.clip(np.rint(out), info.min + (1 if nodata == info.min else 0), info.max)
+    out[:, ~ok.any(axis=0)] = nodata
+    return out.astype(dtype)
+
+
+def _seam_layers(labels, t, names, gains, offsets):
+    """The ``regions`` and ``seamlines`` layers of the label image."""
+    import shapely
+    from rasterio.features import shapes
+    polys = {i: [] for i in range(len(names))}
+    for geom, v in shapes(labels.astype(np.int32), mask=labels >= 0, transform=t):
+        polys[int(v)].append(shapely.geometry.shape(geom))
+    region = {i: shapely.union_all(p) if p else shapely.Polygon() for i, p in polys.items()}
+    lines, a, b = [], [], []
+    for i in region:
+        for j in region:
+            if i < j:
+                line = shapely.line_merge(shapely.intersection(region[i].boundary, region[j].boundary))
+                if not line.is_empty and line.length > 0:
+                    lines.append(line)
+                    a.append(names[i])
+                    b.append(names[j])
+    regions = {"geometry": np.array([region[i] for i in region], dtype=object), "image": np.array(names),
+               "gains": np.array([json.dumps([round(float(g), 4) for g in gains[i]]) for i in region]),
+               "offsets": np.array([json.dumps([round(float(o), 3) for o in offsets[i]]) for i in region])}
+    seams = {"geometry": np.array(lines, dtype=object), "image_a": np.array(a, dtype=str), "image_b": np.array(b, dtype=str)}
+    return {"seamlines": seams, "regions": regions}
+
+
+@tool("MOSAIC")
+def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, overwrite: bool = False,
+           progress=None) -> dict:
+    """Mosaic ``orthos`` into ``output`` with seamlines written to ``seamlines`` (module docstring)."""
+    from ..io.raster import open_raster
+    from ..io.vector import write_layers
+    prog = as_progress(progress)
+    paths = [str(p) for p in orthos]
+    if len(paths) < 2:
+        raise InputError("give at least two orthophotos to mosaic")
+    output = Path(output)
+    seamlines = Path(seamlines) if seamlines else output.with_suffix(".gpkg")
+    for p, role in ((output, "mosaic"), (seamlines, "seamlines")):
+        check_output(p, paths, overwrite, role)
+    infos = [open_raster(p, "orthophoto") for p in paths]
+    crs, transform, width, height = _lattice(infos, paths)
+    first = infos[0]
+    check_output_grid(output, width, height, bands=first.count, dtype=first.dtype,
+                      source_pixels=sum(i.width * i.height for i in infos), what=f"the mosaic {str(output)!r}")
+    values, valid, t, f = _seam_grid(paths, transform, width, height, crs)
+    prog(0.2, "seam grid read")
+    labels = seam_labels(valid, _nadirs(paths, valid, t), t, values.mean(axis=1))  # NaN off an image
+    prog(0.4, "seamlines")
+    n, bands = len(paths), first.count
+    gains, offsets = np.ones((n, bands)), np.zeros((n, bands))
+    if balance:
+        for b in range(bands):
+            gains[:, b], offsets[:, b] = balance_band(values[:, b], valid)
+    signed = signed_distances(labels, n, abs(t.a))
+    width_m = feather if feather is not None else max(16 * abs(transform.a), 2 * abs(t.a))
+    nodata = first.nodata if first.nodata is not None else 0
+    profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
+                              transform=transform, nodata=nodata, predictor=True, zlevel=1)
+    from rasterio.windows import Window
+    with AtomicOutputs(overwrite) as out:
+        tmp = out.temp(output)
+        with ropen(tmp, "w", **profile) as dst:
+            blocks = [(r, c) for r in range(0, height, BLOCK) for c in range(0, width, BLOCK)]
+            for k, (r, c) in enumerate(blocks):
+                h, w = min(BLOCK, height - r), min(BLOCK, width - c)
+                dst.write(_window(paths, transform, r, c, h, w, gains, offsets, signed, valid, f, width_m,
+                                  first.dtype, nodata), window=Window(c, r, w, h))
+                prog(0.4 + 0.55 * (k + 1) / len(blocks), f"blending window {k + 1}/{len(blocks)}")
+        from ..io.warp import add_overviews
+        with ropen(tmp, "r+") as dst:
+            add_overviews(dst, width, height, "bilinear")
+        names = [Path(p).stem for p in paths]
+        write_layers(out.temp(seamlines), _seam_layers(labels, t, names, gains, offsets), crs,
+                     {"seamlines": "fotogeo mosaic seamlines (least-cost paths between Voronoi cells of nadir "
+                                   "distance)", "regions": "fotogeo mosaic: each orthophoto's part, gains, offsets"})
+        out.commit()
+    prog(1.0, "done")
+    return {"fotogeo": "mosaic", "output": str(output), "seamlines": str(seamlines), "width": width,
+            "height": height, "seam_grid_factor": f, "feather_m": width_m, "images": names,
+            "gains": gains.tolist(), "offsets": offsets.tolist(), "labels_transform": list(t)[:6],
+            "cells_per_image": [int((labels == i).sum()) for i in range(n)]}
