@@ -175,6 +175,27 @@ def test_qb2_rpc_against_gdal_transformer(data_dir, tmp_path):
     assert np.nanmax(np.abs(px - np.column_stack([cols, rows]))) < 0.01
 
 
+def test_geoid_heights_made_ellipsoidal(data_dir, tmp_path):
+    """A geoid DEM under an RPC with --geoid: the heights the RPC gets are H + N (a constant N = 30 m here, in a
+    lon/lat raster), and --geoid on a DEM said to be ellipsoidal is refused."""
+    from affine import Affine
+    from fotogeo.errors import InputError
+    from fotogeo.tools.ortho_inputs import image_models, map_crs, terrain
+    geoid = tmp_path / "n.tif"
+    with rasterio.open(geoid, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32", crs="EPSG:4326",
+                       transform=Affine(0.05, 0, 23.5, 0, -0.05, -32.7)) as ds:
+        ds.write(np.full((1, 40, 40), 30.0, np.float32))
+    img, dem = str(data_dir / "qb2" / "qb2_basic1b.tif"), str(data_dir / "ngi" / "dem.tif")
+    crs, _ = map_crs("auto", dem, None, [img], True)
+    ims = image_models([img], crs, rpc=True)
+    shifted, ref, notes = terrain(dem, None, crs, ims, geoid=str(geoid))
+    plain, _, _ = terrain(dem, None, crs, ims, dem_heights="ellipsoid")
+    XY = np.column_stack([np.linspace(-58000, -55000, 20), np.linspace(-3733000, -3726000, 20)])
+    assert ref == "ellipsoid" and np.allclose(shifted.heights(XY), plain.heights(XY) + 30.0)
+    with pytest.raises(InputError, match="--geoid .* is given but the heights"):
+        terrain(dem, None, crs, ims, dem_heights="ellipsoid", geoid=str(geoid))
+
+
 # -- bad input ---------------------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
