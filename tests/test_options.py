@@ -129,6 +129,8 @@ TOOLS = {
     "tools.demo.run_demo": ((fo.DEMO,), set()),
     "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
     "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
+    "tools.ortho.ortho": ((fo.ORTHO,), set()),
+    "tools.mosaic.mosaic": ((fo.MOSAIC,), {"seamlines"}),
 }
 
 
