@@ -18,9 +18,9 @@ from qgis_env import need_qgis
 
 #: every algorithm of the provider, sorted
 ALGORITHM_IDS = ["fotogeo:comparemodels", "fotogeo:demo", "fotogeo:layertopoints", "fotogeo:matchfeatures",
-                 "fotogeo:measuretargets", "fotogeo:orient", "fotogeo:pcafusion", "fotogeo:pointstolayer",
-                 "fotogeo:register", "fotogeo:registerbatch", "fotogeo:rpcbias", "fotogeo:transferpoints",
-                 "fotogeo:triangulate"]
+                 "fotogeo:measuretargets", "fotogeo:mosaic", "fotogeo:orient", "fotogeo:ortho", "fotogeo:pcafusion",
+                 "fotogeo:pointstolayer", "fotogeo:register", "fotogeo:registerbatch", "fotogeo:rpcbias",
+                 "fotogeo:transferpoints", "fotogeo:triangulate"]
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -210,9 +210,14 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     interp = RESAMPLING[plan.resampling]
     work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
     per_band = nearest and plan.band_nodata is not None and plan.band_nodata != plan.nodata
-    for b in range(plan.count):
-        band = data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype)
-        res = cv2.remap(band, map1, map2, interp, borderMode=cv2.BORDER_REPLICATE)
+    if 1 < plan.count <= 4 and work_dtype == plan.dtype:  # one call for all bands: OpenCV's per-channel
+        stacked = cv2.remap(np.ascontiguousarray(np.moveaxis(data, 0, -1)), map1, map2, interp,  # arithmetic is
+                            borderMode=cv2.BORDER_REPLICATE)                                   # the same
+        bands = [stacked[..., b] for b in range(plan.count)]
+    else:
+        bands = [cv2.remap(data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype), map1, map2, interp,
+                           borderMode=cv2.BORDER_REPLICATE) for b in range(plan.count)]
+    for b, res in enumerate(bands):
         if per_band:  # a band at the source's nodata is that band's nodata in the output (GDAL)
             res[res == plan.band_nodata] = plan.nodata
         np.copyto(out[b], res.astype(plan.dtype, copy=False), where=good)
