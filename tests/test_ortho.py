@@ -256,6 +256,19 @@ def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):
         assert ds.bounds.right <= dem.bounds.right + 0.5
 
 
+def test_dem_holes_without_occlusion_warn(scene, bad, tmp_path):
+    """Without occlusion masking a DEM with holes still orthorectifies; the warning says the holes are nodata."""
+    result, out = _cli(scene, tmp_path, "--resolution", "0.5", dem=bad / "holes.tif")
+    assert result.exit_code == 0, result.output
+    assert any("has nodata holes" in ln for ln in result.stderr.splitlines() if ln.startswith("Warning:"))
+    v, XY = _cells(out)
+    _run(scene, tmp_path / "whole.tif")
+    w, XY2 = _cells(tmp_path / "whole.tif")
+    assert np.array_equal(XY, XY2)
+    lost = (v == 0) & (w != 0)
+    assert 100 <= lost.sum() <= 196  # the 10 x 10-cell hole, grown by the bilinear neighbourhood (<= 14 x 14)
+
+
 def test_rpc_without_dem_needs_a_constant_height(data_dir, tmp_path):
     img = data_dir / "qb2" / "qb2_basic1b.tif"
     out = tmp_path / "q.tif"

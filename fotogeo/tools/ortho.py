@@ -210,6 +210,10 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step = occlusion_surface(heights, dem) if occlusion else (None, 1.0)
+    if dem is not None and not occlusion and holes(_dem_of(heights)[0]) > 0:
+        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
+                      f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
+                      f"cells", FotogeoWarning, stacklevel=2)
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
