@@ -69,6 +69,21 @@ def test_bare_dem_leaves_the_double_image(scene, tmp_path):
     assert (v != 0).mean() > 0.999
 
 
+def test_pyramid_skips_change_nothing(scene):
+    """Rays skipping block-sized stretches above the DSM's block maxima find exactly the occlusions found by
+    sampling every half cell (random ground points and directions over the box scene)."""
+    from fotogeo.geometry.occlusion import MaxPyramid, hidden
+    from fotogeo.io.raster import read_dem
+    dsm = read_dem(scene["dsm"])
+    rng = np.random.default_rng(1)
+    XY = np.column_stack([rng.uniform(-110, 110, 4000) + bs.ORIGIN[0], rng.uniform(-110, 110, 4000) + bs.ORIGIN[1]])
+    P = np.column_stack([XY, dsm.heights(XY)])
+    d = np.column_stack([rng.normal(size=(4000, 2)), rng.uniform(0.1, 1.0, 4000)])
+    plain = hidden(dsm, P, d, step=0.25)
+    fast = hidden(dsm, P, d, step=0.25, pyramid=MaxPyramid(dsm))
+    assert 200 < plain.sum() < 3800 and np.array_equal(plain, fast)
+
+
 def test_grid_paths_equal_the_general_ones(scene):
     """The window fast path (DEM per row and column, camera coordinates separable) gives the general path's
     positions, for a pinhole and for a Brown camera (triangulate's camera.yaml)."""

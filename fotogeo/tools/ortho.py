@@ -52,11 +52,12 @@ class OrthoMapping:
     """Map ``(X, Y)`` → image pixel through the terrain (module docstring, step 2); thread-safe (no state).
 
     ``surface``: the height source the occlusion test traces through (None: no test), ``step`` its
-    horizontal step (map units), ``tol`` its height margin; ``size`` the image's ``(width, height)``."""
+    horizontal step (map units), ``pyramid`` its :class:`~fotogeo.geometry.occlusion.MaxPyramid` (or None),
+    ``tol`` its height margin; ``size`` the image's ``(width, height)``."""
 
-    def __init__(self, model, heights, size, surface=None, step: float = 1.0, tol: float = 0.05):
+    def __init__(self, model, heights, size, surface=None, step: float = 1.0, tol: float = 0.05, pyramid=None):
         self.model, self.heights, self.size = model, heights, size
-        self.surface, self.step, self.tol = surface, step, tol
+        self.surface, self.step, self.tol, self.pyramid = surface, step, tol, pyramid
 
     def __call__(self, XY) -> np.ndarray:
         XY = np.asarray(XY, np.float64)
@@ -68,7 +69,7 @@ class OrthoMapping:
         with np.errstate(invalid="ignore"):
             outside = ~((px[:, 0] >= 0) & (px[:, 0] <= w) & (px[:, 1] >= 0) & (px[:, 1] <= h))
         px[outside] = np.nan
-        return visible_pixels(self.model, self.surface, P, px, step=self.step, tol=self.tol)
+        return visible_pixels(self.model, self.surface, P, px, step=self.step, tol=self.tol, pyramid=self.pyramid)
 
 
     def grid(self, transform, r0: int, c0: int, h: int, w: int) -> np.ndarray:
@@ -180,7 +181,8 @@ def nadir_point(im, heights, crs):
 
 
 def occlusion_surface(heights, dem):
-    """The surface of the occlusion test and its march step (half a DEM cell); a DSM with holes is refused."""
+    """The surface of the occlusion test, its march step (half a DEM cell) and its block maxima (a DEM in the map
+    CRS without geoid shift; else None: every step sampled); a DSM with holes is refused."""
     if dem is None or np.isscalar(heights):
         raise InputError("occlusion masking needs a surface model: give the DSM (--dem)")
     d = _dem_of(heights)[0]
@@ -189,7 +191,8 @@ def occlusion_surface(heights, dem):
         raise InputError(f"DSM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area): a hole would let "
                          f"hidden ground show through; fill them first (gdal_fillnodata.py) or orthorectify "
                          f"without occlusion masking")
-    return heights, 0.5 * min(abs(d.transform.a), abs(d.transform.e))
+    from ..geometry.occlusion import MaxPyramid
+    return heights, 0.5 * min(abs(d.transform.a), abs(d.transform.e)), MaxPyramid(d) if heights is d else None
 
 
 @tool("ORTHO", rasters={"dem": None, "geoid": None})
@@ -209,7 +212,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     crs, rule = map_crs(dst_crs, dem, eo, images, rpc)
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
-    surface, step = occlusion_surface(heights, dem) if occlusion else (None, 1.0)
+    surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
     if dem is not None and not occlusion and holes(_dem_of(heights)[0]) > 0:
         warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
@@ -223,7 +226,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
             g = grids[im.name]
             stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims), f"orthorectifying {im.name}")
             tmp = out.temp(paths[im.name])
-            mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step)
+            mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
             written = warp_to_grid(im.path, tmp, mapping, crs=crs, transform=g.transform, width=g.width,
                                    height=g.height, resampling=resampling, progress=stage, overviews=not cog,
                                    zlevel=ZLEVEL)
