@@ -19,7 +19,8 @@ Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample dista
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
 command as a user runs it, interpreter start and imports included), CPU time (user + system: steadier than the
 wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
-after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the overlap of two outputs,
+after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the
+overlap of two outputs,
 128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
 of each tile in output pixels (median, 95th percentile and largest length) and the mean absolute grey-level
 difference. Writes benchmarks/results/ortho_bench.json and prints a table.
@@ -151,7 +152,8 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
     (work / "crs.wkt").write_text(crs)
     for name, extra in (("gdalwarp", []), ("gdalwarp_et0", ["-et", "0"])):
         gw = work / f"{name}.tif"
-        cmd = ["gdalwarp", "-q", "-overwrite", "-rpc", "-to", f"RPC_DEM={dem}", "-to", "RPC_DEM_APPLY_VDATUM_SHIFT=FALSE",
+        cmd = ["gdalwarp", "-q", "-overwrite", "-rpc", "-to", f"RPC_DEM={dem}", "-to",
+               "RPC_DEM_APPLY_VDATUM_SHIFT=FALSE",
                "-t_srs", str(work / "crs.wkt"), "-tr", str(res), str(res), "-tap", "-r", "bilinear", *extra,
                "-multi", "-wo", "NUM_THREADS=ALL_CPUS", "-co", "TILED=YES", "-co", "COMPRESS=DEFLATE",
                "-dstnodata", "0", str(img), str(gw)]
@@ -175,7 +177,8 @@ def table(results: dict) -> str:
                 rw = fg["wall_s"] / t["wall_s"]
                 rc = fg["cpu_s"] / t["cpu_s"]
                 rows.append(f"{case:<5} {res:<4} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
-                            f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  {shift}")
+                            f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
+                            f"{shift}")
     return "\n".join(rows)
 
 
@@ -199,7 +202,8 @@ def main(argv=None):
                 res = RES[case][level]
                 work = Path(tmp) / f"{case}_{level}"
                 work.mkdir()
-                r = ngi_case(work, res, a.orthority_python, a.repeat) if case == "ngi" else qb2_case(work, res, a.repeat)
+                r = (ngi_case(work, res, a.orthority_python, a.repeat) if case == "ngi"
+                     else qb2_case(work, res, a.repeat))
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     print(table(results))

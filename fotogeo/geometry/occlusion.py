@@ -15,10 +15,10 @@ The ray is marched upwards in horizontal steps ``s`` (half a DSM cell by default
 and ``P`` is hidden as soon as ``S(Q_k) > Q_k,Z + tol``; the march of a point stops when its ray
 rises above the highest surface height (then nothing can hide it). Near-vertical rays
 (``|d_XY| < 10⁻⁶ d_Z``) are seen. Off the DSM (NaN) the ray is taken as free. A :class:`MaxPyramid` (block
-maxima of the DSM) lets a ray skip a block-sized stretch at once wherever it is already above everything within
-that distance, so the cost follows the number of samples near the surface rather than the ray's length. This is the ray-tracing
-visibility test of true-orthophoto production (Amhar, Jansa & Ries 1998; Habib, Kim & Kim 2007
-discuss it against the z-buffer method); every point is independent of the others, so an output
+maxima of the DSM) lets a ray skip a block-sized stretch at once wherever it is already above everything
+within that distance, so the cost follows the number of samples near the surface rather than the ray's length.
+This is the ray-tracing visibility test of true-orthophoto production (Amhar, Jansa & Ries 1998; Habib, Kim &
+Kim 2007 discuss it against the z-buffer method); every point is independent of the others, so an output
 window can be tested alone.
 """
 from __future__ import annotations

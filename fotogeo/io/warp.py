@@ -300,7 +300,8 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); one
     that also has ``grid(transform, r0, c0, h, w)`` is asked that instead, for the same positions of a
     window's ``h x w`` cell centres (row by row), so that it can do per-row and per-column work once
-    (orthorectification samples a north-up DEM that way). It is called from several threads at once (``threads``, default :func:`default_threads`), so
+    (orthorectification samples a north-up DEM that way). It is called from several threads at once
+    (``threads``, default :func:`default_threads`), so
     it must not keep state between calls. ``src_nodata`` overrides the source's own nodata value
     (a pixel is invalid when every band equals it). ``zlevel`` sets the DEFLATE level of the file and its
     overviews (GDAL's default 6 when None; 1 writes imagery with the horizontal predictor about 4x faster

@@ -209,7 +209,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     for p in paths.values():
         check_output(p, inputs, overwrite, "orthophoto")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    crs, rule = map_crs(dst_crs, dem, eo, images, rpc)
+    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera)
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
@@ -224,7 +224,8 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     with AtomicOutputs(overwrite) as out:
         for k, im in enumerate(ims):
             g = grids[im.name]
-            stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims), f"orthorectifying {im.name}")
+            stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims),
+                               f"orthorectifying {im.name}")
             tmp = out.temp(paths[im.name])
             mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
             written = warp_to_grid(im.path, tmp, mapping, crs=crs, transform=g.transform, width=g.width,

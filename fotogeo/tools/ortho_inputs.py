@@ -118,7 +118,7 @@ def _frame_images(images, names, camera, eo, crs) -> list:
     return out
 
 
-def map_crs(dst_crs, dem, eo, images, rpc) -> tuple:
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None) -> tuple:
     """``(projected CRS, rule)`` of the module docstring."""
     if dst_crs and str(dst_crs).strip().lower() != "auto":
         c = parse_crs(dst_crs, "--crs")
@@ -132,7 +132,7 @@ def map_crs(dst_crs, dem, eo, images, rpc) -> tuple:
         if h.is_projected:
             return h, "the DEM's CRS (--dem)"
     if eo is not None and not rpc:
-        block = orientation_block(eo, None, None) if Path(eo).suffix.lower() != ".txt" else None
+        block = orientation_block(eo, None, camera) if Path(eo).suffix.lower() != ".txt" else None
         if block is not None and block.crs is not None:
             return block.crs, f"the CRS of --eo {str(eo)!r}"
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
