@@ -108,20 +108,24 @@ def _window(paths, transform, r0, c0, h, w, gains, offsets, signed, valid_seam, 
     rows, cols = np.mgrid[r0:r0 + h, c0:c0 + w]
     cr, cc = (rows + 0.5) / f - 0.5, (cols + 0.5) / f - 0.5  # seam-grid centre coordinates
     n = len(paths)
-    vals, ok, sd = [], np.zeros((n, h, w), bool), np.zeros((n, h, w), np.float32)
+    vals, ok, sd = [None] * n, np.zeros((n, h, w), bool), np.full((n, h, w), -np.inf, np.float32)
     x0, y1 = transform * (c0, r0)
     x1, y0 = transform * (c0 + w, r0 + h)
     for i, p in enumerate(paths):
         with ropen(p) as ds:
+            b = ds.bounds
+            if b.left >= x1 or b.right <= x0 or b.bottom >= y1 or b.top <= y0:
+                continue  # this orthophoto does not reach the window
             win = from_bounds(x0, y0, x1, y1, ds.transform).round_offsets().round_lengths()
             a = ds.read(window=win, boundless=True, masked=True)
-        vals.append(a.filled(0).astype(np.float32))
+        vals[i] = a.filled(0).astype(np.float32)
         ok[i] = ~np.ma.getmaskarray(a).all(axis=0)
         sd[i] = map_coordinates(signed[i], [cr, cc], order=1, mode="nearest")
     wts = feather_weights(sd, ok, feather)
-    out = np.zeros((vals[0].shape[0], h, w), np.float32)
+    out = np.zeros((len(gains[0]), h, w), np.float32)
     for i in range(n):
-        out += wts[i] * (gains[i][:, None, None] * vals[i] + offsets[i][:, None, None])
+        if vals[i] is not None:
+            out += wts[i] * (gains[i][:, None, None] * vals[i] + offsets[i][:, None, None])
     info = np.iinfo(dtype) if np.dtype(dtype).kind in "iu" else None
     if info is not None:
         out = np.clip(np.rint(out), info.min + (1 if nodata == info.min else 0), info.max)
@@ -149,7 +153,8 @@ def _seam_layers(labels, t, names, gains, offsets):
     regions = {"geometry": np.array([region[i] for i in region], dtype=object), "image": np.array(names),
                "gains": np.array([json.dumps([round(float(g), 4) for g in gains[i]]) for i in region]),
                "offsets": np.array([json.dumps([round(float(o), 3) for o in offsets[i]]) for i in region])}
-    seams = {"geometry": np.array(lines, dtype=object), "image_a": np.array(a, dtype=str), "image_b": np.array(b, dtype=str)}
+    seams = {"geometry": np.array(lines, dtype=object), "image_a": np.array(a, dtype=str),
+             "image_b": np.array(b, dtype=str)}
     return {"seamlines": seams, "regions": regions}
 
 
