@@ -72,17 +72,14 @@ def _seam_grid(paths, transform, width, height, crs):
     f = max(1, math.ceil(math.sqrt(width * height / SEAM_PIXELS)))
     w, h = math.ceil(width / f), math.ceil(height / f)
     t = transform * transform.scale(f)
+    import rasterio
     values, valid = [], []
     for p in paths:
-        with ropen(p) as ds:
+        with ropen(p) as ds:  # GDAL's warper reads the file in chunks: memory is the seam grid's
             v = np.full((ds.count, h, w), np.nan, np.float32)
-            m = np.zeros((h, w), np.uint8)
-            reproject(ds.read(masked=True).astype(np.float32).filled(np.nan), v, src_transform=ds.transform,
-                      src_crs=crs, dst_transform=t, dst_crs=crs, resampling=Resampling.average, src_nodata=np.nan,
-                      dst_nodata=np.nan)
-            reproject(ds.dataset_mask(), m, src_transform=ds.transform, src_crs=crs, dst_transform=t, dst_crs=crs,
-                      resampling=Resampling.nearest)
-        ok = (m > 0) & np.isfinite(v).all(axis=0)
+            reproject(rasterio.band(ds, list(range(1, ds.count + 1))), v, dst_transform=t, dst_crs=crs,
+                      resampling=Resampling.average, dst_nodata=np.nan)
+        ok = np.isfinite(v).all(axis=0)
         values.append(np.where(ok, v, np.nan))
         valid.append(ok)
     return np.array(values), np.array(valid), t, f
