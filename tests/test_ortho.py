@@ -59,6 +59,17 @@ def test_occluded_ground_is_nodata(scene, tmp_path):
     assert (masked[roofs] == bs.ROOF).mean() > 0.99  # roofs on the DSM are where they belong, and seen
 
 
+def test_triangulate_camera_file_reads_the_same(scene, tmp_path):
+    """triangulate's own outputs: a brown camera.yaml (here without distortion) gives the pinhole's orthophoto."""
+    brown = tmp_path / "camera.yaml"
+    brown.write_text(scene["camera"].read_text().replace("type: pinhole", "type: brown") +
+                     "  k1: 0.0\n  k2: 0.0\n  p1: 0.0\n  p2: 0.0\n  k3: 0.0\n")
+    _run(scene, tmp_path / "pinhole.tif")
+    _run(scene, tmp_path / "brown.tif", camera=str(brown))
+    with rasterio.open(tmp_path / "pinhole.tif") as a, rasterio.open(tmp_path / "brown.tif") as b:
+        assert np.array_equal(a.read(), b.read())
+
+
 def test_bare_dem_leaves_the_double_image(scene, tmp_path):
     """On the bare-ground DEM the roofs lean away from the nadir (relief displacement, a displacement of
     height · radius / flying height, 8 m for the first box): with occlusion the ground is all seen (nothing
