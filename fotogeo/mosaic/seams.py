@@ -95,8 +95,8 @@ def refine_pair(labels, i, j, grey_i, grey_j, valid_i, valid_j, *, band: int = 2
     if ends is None:
         return labels
     a, b = labels == i, labels == j
-    near = ndimage.binary_dilation((a & ndimage.binary_dilation(b)) | (b & ndimage.binary_dilation(a)),
-                                   iterations=band)
+    edge = (a & ndimage.binary_dilation(b)) | (b & ndimage.binary_dilation(a))
+    near = ndimage.maximum_filter(edge.view(np.uint8), size=2 * band + 1) > 0  # a square band: one separable pass
     region = near & overlap
     cost = EPSILON + np.abs(np.nan_to_num(grey_i, nan=0.0) - np.nan_to_num(grey_j, nan=0.0))
     if above is not None:

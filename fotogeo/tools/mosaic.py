@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -98,36 +99,89 @@ def _nadirs(paths, valid, t):
     return np.array(out)
 
 
-def _window(paths, transform, r0, c0, h, w, gains, offsets, signed, valid_seam, f, feather, dtype, nodata):
-    """The blended ``(bands, h, w)`` window (module docstring, step 4)."""
-    from rasterio.windows import from_bounds
-    from scipy.ndimage import map_coordinates
-    rows, cols = np.mgrid[r0:r0 + h, c0:c0 + w]
-    cr, cc = (rows + 0.5) / f - 0.5, (cols + 0.5) / f - 0.5  # seam-grid centre coordinates
-    n = len(paths)
-    vals, ok, sd = [None] * n, np.zeros((n, h, w), bool), np.full((n, h, w), -np.inf, np.float32)
-    x0, y1 = transform * (c0, r0)
-    x1, y0 = transform * (c0 + w, r0 + h)
-    for i, p in enumerate(paths):
-        with ropen(p) as ds:
-            b = ds.bounds
+@dataclass(frozen=True)
+class Blend:
+    """What every output window needs (module docstring, step 4): the mosaic's grid, the gains and offsets, the
+    signed distances on the seam grid (``factor`` output pixels per seam cell), the feather width, the output
+    type and nodata, and each orthophoto's bounds."""
+    transform: object
+    gains: np.ndarray
+    offsets: np.ndarray
+    signed: np.ndarray
+    factor: int
+    feather: float
+    dtype: str
+    nodata: float
+    bounds: tuple
+
+    def window(self, handles, r0: int, c0: int, h: int, w: int) -> np.ndarray:
+        """The blended ``(bands, h, w)`` window at ``(r0, c0)`` read through ``handles`` (one per orthophoto)."""
+        import cv2
+        from rasterio.windows import from_bounds
+        f = self.factor
+        mx = np.broadcast_to(((np.arange(c0, c0 + w) + 0.5) / f - 0.5).astype(np.float32), (h, w))
+        my = np.broadcast_to(((np.arange(r0, r0 + h) + 0.5) / f - 0.5).astype(np.float32)[:, None], (h, w))
+        mx, my = np.ascontiguousarray(mx), np.ascontiguousarray(my)  # seam-grid coordinates (centre convention)
+        n = len(handles)
+        vals, ok, sd = [None] * n, np.zeros((n, h, w), bool), np.full((n, h, w), -np.inf, np.float32)
+        x0, y1 = self.transform * (c0, r0)
+        x1, y0 = self.transform * (c0 + w, r0 + h)
+        for i, ds in enumerate(handles):
+            b = self.bounds[i]
             if b.left >= x1 or b.right <= x0 or b.bottom >= y1 or b.top <= y0:
                 continue  # this orthophoto does not reach the window
             win = from_bounds(x0, y0, x1, y1, ds.transform).round_offsets().round_lengths()
             a = ds.read(window=win, boundless=True, masked=True)
-        vals[i] = a.filled(0).astype(np.float32)
-        ok[i] = ~np.ma.getmaskarray(a).all(axis=0)
-        sd[i] = map_coordinates(signed[i], [cr, cc], order=1, mode="nearest")
-    wts = feather_weights(sd, ok, feather)
-    out = np.zeros((len(gains[0]), h, w), np.float32)
-    for i in range(n):
-        if vals[i] is not None:
-            out += wts[i] * (gains[i][:, None, None] * vals[i] + offsets[i][:, None, None])
-    info = np.iinfo(dtype) if np.dtype(dtype).kind in "iu" else None
-    if info is not None:
-        out = np.clip(np.rint(out), info.min + (1 if nodata == info.min else 0), info.max)
-    out[:, ~ok.any(axis=0)] = nodata
-    return out.astype(dtype)
+            vals[i] = a.filled(0).astype(np.float32)
+            ok[i] = ~np.ma.getmaskarray(a).all(axis=0)
+            sd[i] = cv2.remap(self.signed[i], mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        wts = feather_weights(sd, ok, self.feather)
+        out = np.zeros((len(self.gains[0]), h, w), np.float32)
+        for i in range(n):
+            if vals[i] is not None:
+                out += wts[i] * (self.gains[i][:, None, None] * vals[i] + self.offsets[i][:, None, None])
+        info = np.iinfo(self.dtype) if np.dtype(self.dtype).kind in "iu" else None
+        if info is not None:
+            out = np.clip(np.rint(out), info.min + (1 if self.nodata == info.min else 0), info.max)
+        out[:, ~ok.any(axis=0)] = self.nodata
+        return out.astype(self.dtype)
+
+
+def blended_windows(paths, blend: Blend, blocks, threads: int):
+    """Yield ``(block, window array)`` in order, computed by ``threads`` threads (each with its own handles on the
+    orthophotos; reads, OpenCV and numpy release the GIL), at most two windows per thread in flight."""
+    import collections
+    import concurrent.futures as cf
+    import threading
+
+    import rasterio
+    local, opened, lock = threading.local(), [], threading.Lock()
+
+    def job(block):
+        handles = getattr(local, "handles", None)
+        if handles is None:
+            handles = local.handles = [rasterio.open(p) for p in paths]
+            with lock:
+                opened.extend(handles)
+        return blend.window(handles, *block)
+
+    pool = cf.ThreadPoolExecutor(max(1, threads), thread_name_prefix="fotogeo-mosaic")
+    try:
+        pending, todo = collections.deque(), iter(blocks)
+        for block in todo:
+            pending.append((block, pool.submit(job, block)))
+            if len(pending) >= 2 * max(1, threads):
+                break
+        while pending:
+            block, fut = pending.popleft()
+            nxt = next(todo, None)
+            if nxt is not None:
+                pending.append((nxt, pool.submit(job, nxt)))
+            yield block, fut.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        for ds in opened:
+            ds.close()
 
 
 def _seam_layers(labels, t, names, gains, offsets):
@@ -189,14 +243,19 @@ def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True
     profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
                               transform=transform, nodata=nodata, predictor=True, zlevel=1)
     from rasterio.windows import Window
+
+    from ..io.warp import default_threads
+    from rasterio.coords import BoundingBox
+    from rasterio.transform import array_bounds
+    blend = Blend(transform, gains, offsets, signed, f, width_m, first.dtype, nodata,
+                  tuple(BoundingBox(*array_bounds(i.height, i.width, i.transform)) for i in infos))
+    blocks = [(r, c, min(BLOCK, height - r), min(BLOCK, width - c)) for r in range(0, height, BLOCK)
+              for c in range(0, width, BLOCK)]
     with AtomicOutputs(overwrite) as out:
         tmp = out.temp(output)
         with ropen(tmp, "w", **profile) as dst:
-            blocks = [(r, c) for r in range(0, height, BLOCK) for c in range(0, width, BLOCK)]
-            for k, (r, c) in enumerate(blocks):
-                h, w = min(BLOCK, height - r), min(BLOCK, width - c)
-                dst.write(_window(paths, transform, r, c, h, w, gains, offsets, signed, valid, f, width_m,
-                                  first.dtype, nodata), window=Window(c, r, w, h))
+            for k, ((r, c, h, w), arr) in enumerate(blended_windows(paths, blend, blocks, default_threads())):
+                dst.write(arr, window=Window(c, r, w, h))
                 prog(0.4 + 0.55 * (k + 1) / len(blocks), f"blending window {k + 1}/{len(blocks)}")
         from ..io.warp import add_overviews
         with ropen(tmp, "r+") as dst:
