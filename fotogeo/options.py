@@ -313,6 +313,9 @@ MOSAIC = Table(
            minimum=0.0, exclusive_minimum=True, automatic=0.0),
     Option("balance", "bool", True, "Balance radiometry (gain and offset per image from the overlaps)",
            "A gain and an offset per image and band from the overlaps' means and spreads."),
+    Option("dsm", "raster", None, "DSM: seamlines avoid above-ground objects (buildings, trees)",
+           "DSM: seamlines go around cells more than 2.5 m above the local ground (the DSM's morphological "
+           "opening over 40 m)."),
 )
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)

@@ -16,6 +16,7 @@ from test_bad_input import assert_one_line_error
 X0, Y1 = 500000.0, 4400000.0
 BOX = (230.0, 250.0, 80.0, 110.0)  # x0, x1, y0, y1 (m from the scene origin), across the Voronoi boundary x = 240
 GAIN, OFFSET = 1.3, 20.0  # the radiometric step planted in the second orthophoto
+BOX_ROWS, BOX_COLS = slice(40, 55), slice(115, 125)  # the box on the 2-m DSM grid
 
 
 def texture(x, y):
@@ -29,7 +30,8 @@ def _ortho(path, x0, x1, nadir_x, gain=1.0, offset=0.0, box_value=None):
     x, y = c + x0, r  # metres east of the origin, south of the top
     v = gain * texture(x, y) + offset
     inside = (x > BOX[0]) & (x < BOX[1]) & (y > BOX[2]) & (y < BOX[3])
-    v[inside] = box_value
+    if box_value is not None:
+        v[inside] = box_value
     with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8", crs="EPSG:32635",
                        transform=t, nodata=0) as ds:
         ds.write(np.clip(np.rint(v), 1, 255).astype(np.uint8), 1)
@@ -81,6 +83,27 @@ def test_seam_goes_around_the_building(pair, tmp_path):
     owner = [r.geometry.buffer(0.01).contains(box.buffer(-0.5)) for r in regions.itertuples()]
     assert sum(owner) == 1, owner  # the building comes whole from one orthophoto
     assert rep["cells_per_image"][0] > 0 and rep["cells_per_image"][1] > 0
+
+
+def test_dsm_keeps_seams_off_buildings(tmp_path):
+    """Two orthophotos that agree everywhere (no grey difference to steer the seam) and a DSM with a 12 m high
+    block across the Voronoi boundary: with the DSM the seam goes around the block, without it straight through."""
+    import geopandas as gpd
+    import shapely
+    a = _ortho(tmp_path / "a.tif", 0, 300, 150, box_value=None)
+    b = _ortho(tmp_path / "b.tif", 180, 480, 330, box_value=None)
+    with rasterio.open(tmp_path / "dsm.tif", "w", driver="GTiff", width=240, height=100, count=1, dtype="float32",
+                       crs="EPSG:32635", transform=Affine(2.0, 0, X0, 0, -2.0, Y1)) as ds:
+        z = np.full((100, 240), 300.0, np.float32)
+        z[BOX_ROWS, BOX_COLS] = 312.0
+        ds.write(z, 1)
+    box = shapely.box(X0 + BOX[0], Y1 - BOX[3], X0 + BOX[1], Y1 - BOX[2]).buffer(-0.5)
+    crossed = {}
+    for name, dsm in (("with", str(tmp_path / "dsm.tif")), ("without", None)):
+        mosaic([str(a), str(b)], str(tmp_path / f"{name}.tif"), dsm=dsm)
+        seams = gpd.read_file(tmp_path / f"{name}.gpkg", layer="seamlines")
+        crossed[name] = bool(seams.geometry.intersects(box).any())
+    assert crossed == {"with": False, "without": True}
 
 
 def test_lattice_mismatch_refused(pair, tmp_path):

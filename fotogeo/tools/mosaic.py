@@ -7,7 +7,8 @@ origins a whole number of pixels apart: what ``fotogeo ortho`` writes at one ``-
    each orthophoto's valid mask, grey level (mean of its bands) and band values there (GDAL average);
 2. **seamlines** (:mod:`fotogeo.mosaic.seams`) — Voronoi cells of the distance to each orthophoto's nadir point
    (``FOTOGEO_NADIR`` written by ``fotogeo ortho``; else the centre of its valid area), each shared boundary
-   replaced by the least-cost path through the grey difference of the two orthophotos;
+   replaced by the least-cost path through the grey difference of the two orthophotos (with ``dsm``, cells on
+   above-ground objects cost 1000 more: :func:`above_ground`);
 3. **balancing** (:func:`fotogeo.mosaic.blend.balance`, unless ``balance=False``) — a gain and an offset per
    orthophoto and band from the overlaps' means and spreads;
 4. **blending** (:func:`fotogeo.mosaic.blend.feather_weights`) — per output window of 512², each orthophoto's
@@ -84,6 +85,29 @@ def _seam_grid(paths, transform, width, height, crs):
         values.append(np.where(ok, v, np.nan))
         valid.append(ok)
     return np.array(values), np.array(valid), t, f
+
+
+#: above-ground objects: cells higher than the DSM's opening (the local ground) by more than this (m) ...
+ABOVE_GROUND_M = 2.5
+#: ... where the opening removes every object narrower than this (m)
+OBJECT_SIZE_M = 40.0
+
+
+def above_ground(dsm, t, shape, crs) -> np.ndarray:
+    """Cells of the seam grid (``t``, ``shape``) on above-ground objects of the DSM: its highest value in the cell
+    (GDAL max) above the grey opening of the DSM over :data:`OBJECT_SIZE_M` by more than :data:`ABOVE_GROUND_M`."""
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+    from scipy.ndimage import grey_opening
+    z = np.full(shape, np.nan, np.float32)
+    with ropen(dsm) as ds:
+        if ds.crs is None:
+            raise InputError(f"DSM {str(dsm)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
+        reproject(rasterio.band(ds, 1), z, dst_transform=t, dst_crs=crs, resampling=Resampling.max, dst_nodata=np.nan)
+    size = max(3, int(round(OBJECT_SIZE_M / abs(t.a))) | 1)
+    filled = np.where(np.isfinite(z), z, np.nanmin(z) if np.isfinite(z).any() else 0.0)
+    ground = grey_opening(filled, size=(size, size))
+    return np.isfinite(z) & (filled - ground > ABOVE_GROUND_M)
 
 
 def _nadirs(paths, valid, t):
@@ -210,7 +234,7 @@ def _seam_layers(labels, t, names, gains, offsets):
 
 
 @tool("MOSAIC")
-def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, overwrite: bool = False,
+def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, dsm=None, overwrite: bool = False,
            progress=None) -> dict:
     """Mosaic ``orthos`` into ``output`` with seamlines written to ``seamlines`` (module docstring)."""
     from ..io.raster import open_raster
@@ -230,7 +254,8 @@ def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True
                       source_pixels=sum(i.width * i.height for i in infos), what=f"the mosaic {str(output)!r}")
     values, valid, t, f = _seam_grid(paths, transform, width, height, crs)
     prog(0.2, "seam grid read")
-    labels = seam_labels(valid, _nadirs(paths, valid, t), t, values.mean(axis=1))  # NaN off an image
+    above = above_ground(dsm, t, valid.shape[1:], crs) if dsm is not None else None
+    labels = seam_labels(valid, _nadirs(paths, valid, t), t, values.mean(axis=1), above=above)  # NaN off an image
     prog(0.4, "seamlines")
     n, bands = len(paths), first.count
     gains, offsets = np.ones((n, bands)), np.zeros((n, bands))
