@@ -236,7 +236,14 @@ def _seam_layers(labels, t, names, gains, offsets):
 @tool("MOSAIC")
 def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, dsm=None, overwrite: bool = False,
            progress=None) -> dict:
-    """Mosaic ``orthos`` into ``output`` with seamlines written to ``seamlines`` (module docstring)."""
+    """Mosaic ``orthos`` into ``output`` with seamlines written to ``seamlines`` (module docstring); GDAL's block
+    cache bounded as in every fotogeo write (:func:`fotogeo.io.warp.write_env`)."""
+    from ..io.warp import default_threads, write_env
+    with write_env(default_threads(), 1):
+        return _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress)
+
+
+def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress) -> dict:
     from ..io.raster import open_raster
     from ..io.vector import write_layers
     prog = as_progress(progress)
