@@ -52,6 +52,8 @@ EBNER_PARAMETERS = tuple(f"b{i}" for i in range(1, 13))
 SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner",)
 #: what triangulate does with a frame the block does not determine
 UNDETERMINED = ("fail", "drop")
+#: height references a DEM may be given in (fotogeo.geometry.vertical); auto = what its CRS states
+DEM_HEIGHTS = ("auto", "ellipsoid", "geoid")
 #: image representations of the area-based co-registration (fotogeo.coreg.representation)
 COREG_REPRESENTATIONS = ("orientation", "gradient", "rank", "intensity")
 
@@ -361,8 +363,9 @@ def find_option(name: str) -> Option | None:
     >>> find_option("half_window").cli_flag, find_option("nope")
     ('--half-window', None)
     """
-    from .options_coreg import COREG  # declared apart (this module's size); imports this one
-    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG]:
+    from .options_coreg import COREG  # declared apart (this module's size); they import this one
+    from .options_products import MOSAIC, ORTHO
+    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG, ORTHO, MOSAIC]:
         if name in table:
             return table[name]
     return None

@@ -61,6 +61,8 @@ TOOLS = {
     "coregister": ("fotogeo.tools.coreg", "coregister"),
     "triangulate": ("fotogeo.tools.triangulate", "triangulate"),
     "interior": ("fotogeo.tools.interior", "interior"),
+    "ortho": ("fotogeo.tools.ortho", "ortho"),
+    "mosaic": ("fotogeo.tools.mosaic", "mosaic"),
     "propose_gcps": ("fotogeo.tools.gcp_propose", "propose_gcps"),
 }
 #: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)

@@ -11,6 +11,7 @@ import pytest
 
 from fotogeo import options as fo
 from fotogeo.options_coreg import COREG
+from fotogeo.options_products import MOSAIC, ORTHO
 from fotogeo.errors import InputError
 
 THIRD_PARTY = ("numpy", "click", "rasterio", "cv2", "pyproj", "shapely", "geopandas", "pyogrio", "qgis")
@@ -131,6 +132,8 @@ TOOLS = {
     "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
     "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
     "tools.coreg.coregister": ((COREG,), {"shifts", "field", "report"}),
+    "tools.ortho.ortho": ((ORTHO,), set()),
+    "tools.mosaic.mosaic": ((MOSAIC,), {"seamlines"}),
 }
 
 

@@ -17,10 +17,10 @@ import pytest
 from qgis_env import need_qgis
 
 #: every algorithm of the provider, sorted
-ALGORITHM_IDS = ["fotogeo:comparemodels", "fotogeo:coreg", "fotogeo:demo", "fotogeo:interior", "fotogeo:layertopoints", "fotogeo:matchfeatures",
-                 "fotogeo:measuretargets", "fotogeo:orient", "fotogeo:pcafusion", "fotogeo:pointstolayer",
-                 "fotogeo:register", "fotogeo:registerbatch", "fotogeo:rpcbias", "fotogeo:transferpoints",
-                 "fotogeo:triangulate"]
+ALGORITHM_IDS = ["fotogeo:comparemodels", "fotogeo:coreg", "fotogeo:demo", "fotogeo:interior", "fotogeo:layertopoints",
+                 "fotogeo:matchfeatures", "fotogeo:measuretargets", "fotogeo:mosaic", "fotogeo:orient", "fotogeo:ortho",
+                 "fotogeo:pcafusion", "fotogeo:pointstolayer", "fotogeo:register", "fotogeo:registerbatch",
+                 "fotogeo:rpcbias", "fotogeo:transferpoints", "fotogeo:triangulate"]
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -27,7 +27,8 @@ from qgis.core import (  # noqa: E402
 )
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
-           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg", "interior"}
+           "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg", "interior", "ortho",
+           "mosaic"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -555,6 +556,8 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
     ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
     ("triangulate", "tools.triangulate", "triangulate", set(), {}),
     ("interior", "tools.interior", "interior", {"scans", "camera_report", "output"}, {}),
+    ("ortho", "tools.ortho", "ortho", set(), {"dst_crs": "CRS"}),
+    ("mosaic", "tools.mosaic", "mosaic", set(), {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""
@@ -567,6 +570,36 @@ def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip,
                 if p.kind == p.KEYWORD_ONLY and k not in skip | {"overwrite", "progress"}]
     missing = sorted(k for k in keywords if rename.get(k, k.upper()) not in names)
     assert not missing, f"fotogeo.{module}.{func} options without a parameter in fotogeo:{alg_id}: {missing}"
+
+
+def test_ortho_box_scene(qgis_app, tmp_path):
+    """fotogeo:ortho on the rendered box scene with occlusion masking: one orthophoto per image in the folder,
+    hidden ground nodata (the same run as the command line's)."""
+    import box_scene as bs
+    import rasterio
+    paths = bs.write_scene(tmp_path)
+    out = tmp_path / "out"
+    res = run("ortho", {"IMAGES": [str(paths["frame"])], "DEM": str(paths["dsm"]), "CAMERA": str(paths["camera"]),
+                        "EO": str(paths["eo"]), "OCCLUSION": True, "RESOLUTION": 0.5, "OUTDIR": str(out)})
+    assert res["ORTHOPHOTOS"] == 1
+    with rasterio.open(out / "frame_ortho.tif") as ds:
+        v, t = ds.read(1), ds.transform
+    rows, cols = np.mgrid[0:v.shape[0], 0:v.shape[1]]
+    X, Y = t * (cols + 0.5, rows + 0.5)
+    XY = np.column_stack([X.ravel(), Y.ravel()])
+    hidden = bs.hidden_from_camera(XY, -1.0) & ~bs.on_a_box(XY, 1.0)
+    assert hidden.sum() > 500 and (v.ravel()[hidden] == 0).mean() > 0.99
+
+
+def test_mosaic_two_orthos(qgis_app, tmp_path):
+    """fotogeo:mosaic: the mosaic and its seamlines layer (the synthetic pair of tests/test_mosaic.py)."""
+    import test_mosaic as tm
+    a = tm._ortho(tmp_path / "a.tif", 0, 300, 150, box_value=240)
+    b = tm._ortho(tmp_path / "b.tif", 180, 480, 330, tm.GAIN, tm.OFFSET, box_value=30)
+    res = run("mosaic", {"ORTHOS": [str(a), str(b)], "OUTPUT": str(tmp_path / "m.tif")})
+    assert res["SEAMLINES"] == str(tmp_path / "m.gpkg")
+    layer = QgsVectorLayer(res["SEAMLINES_LAYER"], "s", "ogr")
+    assert layer.isValid() and layer.featureCount() == 1
 
 
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):

@@ -119,8 +119,36 @@ class Dem:
         return i, j, r - i, c - j, inside
 
     def heights(self, XY) -> np.ndarray:
-        """Bilinear heights ``(N,)`` at map points ``XY`` ``(N, 2)``; NaN outside or at nodata."""
-        return self.heights_and_gradient(XY)[0]
+        """Bilinear heights ``(N,)`` at map points ``XY`` ``(N, 2)``; NaN outside or at nodata (the
+        value of :meth:`heights_and_gradient` without the gradient: resampling asks it per output cell)."""
+        i, j, t, u, inside = self._index(XY)
+        z = self.data
+        top = z[i, j] + u * (z[i, j + 1] - z[i, j])
+        bottom = z[i + 1, j] + u * (z[i + 1, j + 1] - z[i + 1, j])
+        return np.where(inside, top + t * (bottom - top), np.nan)
+
+    def heights_grid(self, X, Y):
+        """Bilinear heights ``(len(Y), len(X))`` at the points of the grid ``X`` (columns) × ``Y`` (rows),
+        the values :meth:`heights` gives at those points, computed with one index and weight per column and
+        per row (a north-up DEM only: None for a rotated one). Orthorectification asks it per output window."""
+        a, b, c0, d, e, f0 = self._inverse()
+        if b != 0 or d != 0:
+            return None
+        rows, cols = self.data.shape
+        j, u, in_c = _axis_weights(to_centre(np.column_stack([a * np.asarray(X, float) + c0,
+                                                               np.zeros(len(X))]))[:, 0], cols)
+        i, t, in_r = _axis_weights(to_centre(np.column_stack([np.zeros(len(Y)),
+                                                               e * np.asarray(Y, float) + f0]))[:, 1], rows)
+        lo = int(i.min()) if len(i) else 0
+        z = self.data[lo:int(i.max()) + 2 if len(i) else 0]
+        along = z[:, j] + u * (z[:, j + 1] - z[:, j])  # each DEM row needed, interpolated along the columns
+        top = along[i - lo]
+        h = np.subtract(along[i + 1 - lo], top)
+        h *= t[:, None]
+        h += top
+        h[~in_r, :] = np.nan
+        h[:, ~in_c] = np.nan
+        return h
 
     def heights_and_gradient(self, XY):
         """Bilinear heights and their map-coordinate gradient ``(h, dh/dX, dh/dY)``, each ``(N,)``."""
@@ -139,6 +167,15 @@ class Dem:
 
     def __repr__(self) -> str:  # the array is large
         return f"Dem(shape={self.shape}, path={self.path!r})"
+
+
+def _axis_weights(p, n: int):
+    """Along one DEM axis of ``n`` cells: the lower index, the weight of the next and whether each
+    centre-convention coordinate ``p`` lies on the DEM (the per-axis half of :meth:`Dem._index`)."""
+    inside = (p >= -0.5) & (p <= n - 0.5)
+    p = np.clip(np.where(inside, p, 0.0), 0.0, n - 1.0)
+    k = np.minimum(np.floor(p).astype(np.intp), n - 2)
+    return k, p - k, inside
 
 
 def as_height_source(dem) -> HeightSource:

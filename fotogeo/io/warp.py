@@ -194,7 +194,9 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     Nearest neighbour takes, for each output centre, the source pixel GDAL's warper takes
     (:func:`nearest_source_pixels`), so with :class:`GeotransformInverse` the pixels equal
     ``gdalwarp -r near -et 0``'s, exact half-pixel ties included."""
-    sp = np.asarray(plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
+    grid = getattr(plan.inverse_map, "grid", None)  # the window's rows and columns, for separable work
+    sp = np.asarray(grid(plan.transform, r0, c0, h, w) if grid is not None else
+                    plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
     out = np.full((plan.count, h, w), plan.nodata, dtype=plan.dtype)
     nearest = plan.resampling == "nearest"
     located = (_nearest_maps if nearest else _interpolation_maps)(sp, plan, h, w)
@@ -208,9 +210,14 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     interp = RESAMPLING[plan.resampling]
     work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
     per_band = nearest and plan.band_nodata is not None and plan.band_nodata != plan.nodata
-    for b in range(plan.count):
-        band = data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype)
-        res = cv2.remap(band, map1, map2, interp, borderMode=cv2.BORDER_REPLICATE)
+    if 1 < plan.count <= 4 and work_dtype == plan.dtype:  # one call for all bands: OpenCV's per-channel
+        stacked = cv2.remap(np.ascontiguousarray(np.moveaxis(data, 0, -1)), map1, map2, interp,  # arithmetic is
+                            borderMode=cv2.BORDER_REPLICATE)                                   # the same
+        bands = [stacked[..., b] for b in range(plan.count)]
+    else:
+        bands = [cv2.remap(data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype), map1, map2, interp,
+                           borderMode=cv2.BORDER_REPLICATE) for b in range(plan.count)]
+    for b, res in enumerate(bands):
         if per_band:  # a band at the source's nodata is that band's nodata in the output (GDAL)
             res[res == plan.band_nodata] = plan.nodata
         np.copyto(out[b], res.astype(plan.dtype, copy=False), where=good)
@@ -277,21 +284,28 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
             pool.shutdown(wait=True, cancel_futures=True)
 
 
-def write_env(threads: int):
-    """GDAL settings of fotogeo's raster writes: a bounded block cache, and ``threads`` threads
-    for compressing tiles and computing overviews."""
-    return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))))
+def write_env(threads: int, zlevel: int | None = None):
+    """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for
+    compressing tiles and computing overviews, and the overviews' DEFLATE level ``zlevel``."""
+    extra = {"ZLEVEL_OVERVIEW": str(int(zlevel))} if zlevel else {}
+    return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))), **extra)
 
 
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
                  resampling: str = "nearest", nodata=None, src_nodata=None, block: int = 512,
-                 progress: Progress | None = None, overviews: bool = True, threads: int | None = None) -> dict:
+                 progress: Progress | None = None, overviews: bool = True, threads: int | None = None,
+                 zlevel: int | None = None) -> dict:
     """Resample ``src_path`` onto the grid (crs, transform, width, height) into ``dst_path``.
 
-    ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); it
-    is called from several threads at once (``threads``, default :func:`default_threads`), so
+    ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); one
+    that also has ``grid(transform, r0, c0, h, w)`` is asked that instead, for the same positions of a
+    window's ``h x w`` cell centres (row by row), so that it can do per-row and per-column work once
+    (orthorectification samples a north-up DEM that way). It is called from several threads at once
+    (``threads``, default :func:`default_threads`), so
     it must not keep state between calls. ``src_nodata`` overrides the source's own nodata value
-    (a pixel is invalid when every band equals it). Returns a small summary (valid pixel count).
+    (a pixel is invalid when every band equals it). ``zlevel`` sets the DEFLATE level of the file and its
+    overviews (GDAL's default 6 when None; 1 writes imagery with the horizontal predictor about 4x faster
+    for 10 % more bytes, measured on the NGI orthophotos). Returns a small summary (valid pixel count).
     ``dst_path`` is written in place: callers give a temporary path (see
     :class:`fotogeo.io.raster.AtomicOutputs`).
     """
@@ -302,9 +316,10 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
         plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
         colorinterp = src.colorinterp
     summary = write_windows(src_path, dst_path, plan, windows, crs=crs, width=width, height=height, threads=threads,
-                            colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0)
+                            colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0,
+                            zlevel=zlevel)
     if overviews:
-        with write_env(threads), ropen(dst_path, "r+") as dst:
+        with write_env(threads, zlevel), ropen(dst_path, "r+") as dst:
             add_overviews(dst, width, height, resampling)
     progress(1.0, "resampled")
     if summary["nodata_collisions"] and np.dtype(plan.dtype).kind == "i":
@@ -315,7 +330,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
 
 
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
-                  progress=None, share: float = 1.0, offset=(0, 0)) -> dict:
+                  progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None) -> dict:
     """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height``
     whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`."""
     progress = progress or Progress()
@@ -324,7 +339,8 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
                               crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs,
                               transform=plan.transform * plan.transform.translation(c_off, r_off) if any(offset)
                               else plan.transform,
-                              nodata=plan.nodata, predictor=True, num_threads=str(threads))
+                              nodata=plan.nodata, predictor=True, num_threads=str(threads),
+                              **({"zlevel": int(zlevel)} if zlevel else {}))
     valid = collisions = 0
     with write_env(threads), ropen(dst_path, "w", **profile) as dst:
         try:

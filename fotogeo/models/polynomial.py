@@ -40,11 +40,16 @@ def terms_3d(s: np.ndarray, n_terms: int = 20) -> np.ndarray:
     1, L, P, H, LP, LH, PH, L², P², H², PLH, L³, LP², LH², L²P, P³, PH², L²H, P²H, H³ — with L
     the first source axis (longitude / X / col), P the second (latitude / Y / row), H the third.
     """
-    L, P, H = s[:, 0], s[:, 1], s[:, 2]
-    o = np.ones(len(s))
-    t = [o, L, P, H, L * P, L * H, P * H, L * L, P * P, H * H,
-         P * L * H, L ** 3, L * P * P, L * H * H, L * L * P, P ** 3, P * H * H, L * L * H, P * P * H, H ** 3]
-    return np.column_stack(t[:n_terms])
+    L, P, H = (np.ascontiguousarray(s[:, k], dtype=np.float64) for k in range(3))
+    t = np.empty((20, len(s)))  # one contiguous row per term, returned transposed (no column copies)
+    t[0], t[1], t[2], t[3] = 1.0, L, P, H
+    np.multiply(L, P, out=t[4]), np.multiply(L, H, out=t[5]), np.multiply(P, H, out=t[6])
+    np.multiply(L, L, out=t[7]), np.multiply(P, P, out=t[8]), np.multiply(H, H, out=t[9])
+    np.multiply(t[4], H, out=t[10]), np.multiply(t[7], L, out=t[11]), np.multiply(t[8], L, out=t[12])
+    np.multiply(t[9], L, out=t[13]), np.multiply(t[7], P, out=t[14]), np.multiply(t[8], P, out=t[15])
+    np.multiply(t[9], P, out=t[16]), np.multiply(t[7], H, out=t[17]), np.multiply(t[8], H, out=t[18])
+    np.multiply(t[9], H, out=t[19])
+    return t[:n_terms].T
 
 
 #: total degree of each RPC00B term (first 4: ≤ 1, first 10: ≤ 2)

@@ -115,9 +115,8 @@ class _RFMBase(FittedModel):
         return self.params.reshape(4, 20)
 
     def _apply(self, s):
-        T = terms_3d(s)
-        nx, dx, ny, dy = self.coefficients
-        return np.column_stack([(T @ nx) / (T @ dx), (T @ ny) / (T @ dy)])
+        v = self.coefficients @ terms_3d(s).T  # (4, N): the four polynomials in one product
+        return np.column_stack([v[0] / v[1], v[2] / v[3]])
 
     @classmethod
     def _blocks(cls, T, d):

@@ -40,13 +40,43 @@ class AdjustedFrame:
 
     @property
     def projection_centre(self) -> np.ndarray:
-        """The adjusted projection centre ``(X, Y, Z)``."""
+        """The adjusted projection centre ``(X, Y, Z)``: every line of sight ends there
+        (:mod:`fotogeo.geometry.occlusion`)."""
         return self.frame.eo.centre
 
     def forward(self, XYZ) -> np.ndarray:
         c = self.frame.world_to_camera(as_points(XYZ, 3, "ground points"))
         px = bj.project_camera(c, self.interior, self.scale)
         px[c[:, 2] <= 0] = np.nan
+        return px
+
+    def forward_grid(self, X, Y, Z) -> np.ndarray:
+        """:meth:`forward` of the grid points ``(X[col], Y[row], Z[row, col])`` (``Z`` ``(len(Y), len(X))``),
+        row by row ``(N, 2)``: the camera coordinates ``c_k = Σ M_ik (P_i − C_i)`` (``M`` = ``R·D``) are built
+        from one term per column, one per row and one per point; a camera without distortion skips Brown's
+        terms."""
+        M, C = self.frame.eo.rotation_cv, self.frame.eo.centre
+        dx, dy = np.asarray(X, float) - C[0], np.asarray(Y, float) - C[1]
+        Z = np.asarray(Z, float)
+        c = []
+        for k in range(3):  # in place: c_k = M_2k·Z + (M_0k·dx − M_2k·Z0) per column + M_1k·dy per row
+            v = np.multiply(Z, M[2, k])
+            v += (dx * M[0, k] - C[2] * M[2, k])[None, :]
+            v += (dy * M[1, k])[:, None]
+            c.append(v)
+        behind = (c[2] <= 0).ravel()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if np.any(self.interior[3:]):
+                px = bj.project_camera(np.column_stack([v.ravel() for v in c]), self.interior, self.scale)
+            else:  # pinhole: col = f·sx·x/z + ppx, row = f·sy·y/z + ppy
+                f, ppx, ppy = self.interior[:3]
+                px = np.empty((c[0].size, 2))
+                for k, (s, pp) in enumerate(((f * self.scale[0], ppx), (f * self.scale[1], ppy))):
+                    np.divide(c[k], c[2], out=c[k])
+                    c[k] *= s
+                    c[k] += pp
+                    px[:, k] = c[k].ravel()
+        px[behind] = np.nan
         return px
 
     def inverse(self, pixel, heights=None, **_) -> np.ndarray:

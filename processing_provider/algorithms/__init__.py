@@ -6,7 +6,9 @@ from .demo import DemoAlgorithm
 from .fuse import PcaFusionAlgorithm
 from .interior import InteriorAlgorithm
 from .match import MatchFeaturesAlgorithm
+from .mosaic import MosaicAlgorithm
 from .orient import OrientAlgorithm
+from .ortho import OrthoAlgorithm
 from .points import LayerToPointsAlgorithm, PointsToLayerAlgorithm
 from .register import RegisterAlgorithm
 from .register_batch import RegisterBatchAlgorithm
@@ -19,4 +21,4 @@ from .triangulate import TriangulateAlgorithm
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
               RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, CoregAlgorithm,
-              InteriorAlgorithm)
+              InteriorAlgorithm, OrthoAlgorithm, MosaicAlgorithm)

@@ -1,0 +1,215 @@
+"""Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
+
+Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
+      [--cases ngi,qb2] [--resolutions native,fine]
+
+* ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
+  through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
+  both ``--aligned-pixels`` grids of the same resolution (so their cells coincide), bilinear image and DEM
+  interpolation, DEFLATE;
+* ``qb2`` — the QuickBird Basic-1B image with its vendor RPC on the same DEM through fotogeo ``--rpc`` and
+  ``gdalwarp -rpc -to RPC_DEM=…`` (``-tap``, bilinear, GDAL's default transformer error 0.125 px, and
+  ``-et 0``; all CPUs). Both take the DEM's values as ellipsoidal heights (fotogeo ``--dem-heights
+  ellipsoid``, GDAL ``RPC_DEM_APPLY_VDATUM_SHIFT=FALSE``): the DEM states EGM2008 heights, whose grid is not
+  installed here, and the comparison needs the same heights on both sides.
+
+Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
+(NGI 1 m, qb2 2 m: 25x and 9x more output cells, where the work rather than the start-up dominates).
+
+Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
+command as a user runs it, interpreter start and imports included), CPU time (user + system: steadier than the
+wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
+after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the
+overlap of two outputs,
+128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
+of each tile in output pixels (median, 95th percentile and largest length) and the mean absolute grey-level
+difference. Writes benchmarks/results/ortho_bench.json and prints a table.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
+OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
+RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0}}
+
+FOTOGEO_RUN = """
+import json, sys, time
+from fotogeo.tools.ortho import ortho
+kw = json.loads(sys.argv[1])
+t = time.perf_counter()
+ortho(**kw)
+print("WORK", time.perf_counter() - t)
+"""
+
+ORTHORITY_RUN = """
+import sys, time, glob
+from orthority.cli import cli
+t = time.perf_counter()
+try:
+    cli.main(sys.argv[1:], standalone_mode=False)
+finally:
+    print("WORK", time.perf_counter() - t)
+"""
+
+
+def timed(cmd, env=None) -> dict:
+    """Run ``cmd`` under /usr/bin/time: wall seconds, peak RSS (MB), the child's WORK seconds if printed."""
+    full = ["/usr/bin/time", "-f", "TIME %e %M %U %S", *cmd]
+    p = subprocess.run(full, capture_output=True, text=True, env={**os.environ, **(env or {})})
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))[:200]} failed: {p.stderr.strip()[-600:]}")
+    line = next(ln for ln in p.stderr.splitlines() if ln.startswith("TIME "))
+    wall, rss, user, system = line.split()[1:5]
+    work = next((float(ln.split()[1]) for ln in p.stdout.splitlines() if ln.startswith("WORK ")), None)
+    return {"wall_s": float(wall), "cpu_s": float(user) + float(system), "peak_mb": int(rss) / 1024, "work_s": work}
+
+
+def repeat(cmd, n, before=None, env=None) -> dict:
+    runs = []
+    for _ in range(n):
+        if before:
+            before()
+        runs.append(timed(cmd, env))
+    med = {k: statistics.median([r[k] for r in runs]) if runs[0][k] is not None else None for k in runs[0]}
+    return {**{k: (round(v, 3) if v is not None else None) for k, v in med.items()}, "runs": len(runs)}
+
+
+def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
+    """Local shifts (px) between two rasters on the same pixel grid (module docstring)."""
+    import cv2
+    import rasterio
+    from rasterio.windows import from_bounds
+    with rasterio.open(a_path) as a, rasterio.open(b_path) as b:
+        if abs(a.transform.a - b.transform.a) > 1e-9:
+            raise RuntimeError("outputs on different pixel sizes")
+        l, r = max(a.bounds.left, b.bounds.left), min(a.bounds.right, b.bounds.right)
+        bo, t = max(a.bounds.bottom, b.bounds.bottom), min(a.bounds.top, b.bounds.top)
+        wins = [from_bounds(l, bo, r, t, d.transform).round_offsets().round_lengths() for d in (a, b)]
+        h = min(w.height for w in wins)
+        w_ = min(w.width for w in wins)
+        wins = [w.__class__(w.col_off, w.row_off, w_, h) for w in wins]
+        A, B = (d.read(1, window=w).astype(np.float32) for d, w in zip((a, b), wins))
+        valid = (a.read_masks(1, window=wins[0]) > 0) & (b.read_masks(1, window=wins[1]) > 0)
+    hann = cv2.createHanningWindow((tile, tile), cv2.CV_32F)
+    shifts = []
+    for i in range(0, h - tile + 1, tile):
+        for j in range(0, w_ - tile + 1, tile):
+            if valid[i:i + tile, j:j + tile].all():
+                (dx, dy), _ = cv2.phaseCorrelate(A[i:i + tile, j:j + tile], B[i:i + tile, j:j + tile], hann)
+                shifts.append((dx, dy))
+    s = np.array(shifts)
+    length = np.hypot(s[:, 0], s[:, 1])
+    return {"tiles": len(s), "median_dx": round(float(np.median(s[:, 0])), 4),
+            "median_dy": round(float(np.median(s[:, 1])), 4), "p95_px": round(float(np.percentile(length, 95)), 4),
+            "max_px": round(float(length.max()), 4),
+            "mean_abs_diff": round(float(np.abs(A - B)[valid].mean()), 3), "overlap_px": int(valid.sum())}
+
+
+def ngi_case(work: Path, res: float, oty_py, n: int) -> dict:
+    ngi = DATA / "ngi"
+    frames = sorted(str(p) for p in (ngi / "frames").glob("*.tif"))
+    ext = work / "ext.csv"  # orthority reads the same lines as CSV
+    shutil.copy(ngi / "exterior_orientation.txt", ext)
+    fg_dir, oty_dir = work / "fotogeo", work / "orthority"
+    kw = {"images": frames, "output": str(fg_dir), "dem": str(ngi / "dem.tif"),
+          "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
+          "resolution": res, "resampling": "bilinear", "overwrite": True}
+    env = {"PYTHONPATH": str(ROOT)}
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env=env)}
+    if oty_py:
+        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", str(ngi / "dem.tif"), "-ip",
+               str(ngi / "interior_orientation.yaml"), "-ep", str(ext), "-r", str(res), "-ap", "-i", "bilinear",
+               "-di", "bilinear", "-cm", "deflate", "-nwm", "-od", str(oty_dir), "-o", *frames]
+        oty_dir.mkdir(exist_ok=True)
+        out["orthority"] = repeat(cmd, n)
+        out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
+                                                      oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
+    return out
+
+
+def qb2_case(work: Path, res: float, n: int) -> dict:
+    img, dem = DATA / "qb2" / "qb2_basic1b.tif", DATA / "ngi" / "dem.tif"
+    fg = work / "fotogeo_qb2.tif"
+    kw = {"images": [str(img)], "output": str(fg), "dem": str(dem), "rpc": True, "dem_heights": "ellipsoid",
+          "resolution": res, "resampling": "bilinear", "overwrite": True}
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env={"PYTHONPATH": str(ROOT)})}
+    import rasterio
+    with rasterio.open(dem) as d:
+        from pyproj import CRS
+        crs = CRS.from_user_input(d.crs.to_wkt()).sub_crs_list[0].to_wkt()
+    (work / "crs.wkt").write_text(crs)
+    for name, extra in (("gdalwarp", []), ("gdalwarp_et0", ["-et", "0"])):
+        gw = work / f"{name}.tif"
+        cmd = ["gdalwarp", "-q", "-overwrite", "-rpc", "-to", f"RPC_DEM={dem}", "-to",
+               "RPC_DEM_APPLY_VDATUM_SHIFT=FALSE",
+               "-t_srs", str(work / "crs.wkt"), "-tr", str(res), str(res), "-tap", "-r", "bilinear", *extra,
+               "-multi", "-wo", "NUM_THREADS=ALL_CPUS", "-co", "TILED=YES", "-co", "COMPRESS=DEFLATE",
+               "-dstnodata", "0", str(img), str(gw)]
+        out[name] = repeat(cmd, n)
+        out[f"agreement_{name}"] = tile_shifts(fg, gw)
+    return out
+
+
+def table(results: dict) -> str:
+    rows = ["case  res  tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
+    for case, by_res in results["cases"].items():
+        for res, r in by_res.items():
+            fg = r["fotogeo"]
+            for tool in [k for k in r if not k.startswith("agreement")]:
+                t = r[tool]
+                ag = r.get("agreement_" + tool) or (r.get("agreement") if tool == "orthority" else None)
+                if ag and "tiles" not in ag:  # per frame
+                    ag = max(ag.values(), key=lambda a: a["max_px"])
+                shift = f"{np.hypot(ag['median_dx'], ag['median_dy']):.3f}/{ag['p95_px']:.3f}/{ag['max_px']:.3f}" \
+                    if ag else ""
+                rw = fg["wall_s"] / t["wall_s"]
+                rc = fg["cpu_s"] / t["cpu_s"]
+                rows.append(f"{case:<5} {res:<4} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
+                            f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
+                            f"{shift}")
+    return "\n".join(rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--orthority-python", default=os.environ.get("ORTHORITY_PYTHON"),
+                    help="python of a venv with orthority installed [$ORTHORITY_PYTHON; none: orthority skipped]")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--cases", default="ngi,qb2")
+    ap.add_argument("--resolutions", default="native,fine")
+    a = ap.parse_args(argv)
+    if not DATA.exists():
+        sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
+    import rasterio
+    results = {"gdal_cli": subprocess.run(["gdalinfo", "--version"], capture_output=True, text=True).stdout.strip(),
+               "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)), "cases": {}}
+    with tempfile.TemporaryDirectory(prefix="ortho_bench_") as tmp:
+        for case in a.cases.split(","):
+            results["cases"][case] = {}
+            for level in a.resolutions.split(","):
+                res = RES[case][level]
+                work = Path(tmp) / f"{case}_{level}"
+                work.mkdir()
+                r = (ngi_case(work, res, a.orthority_python, a.repeat) if case == "ngi"
+                     else qb2_case(work, res, a.repeat))
+                results["cases"][case][f"{res:g}"] = r
+                print(json.dumps({case: {f"{res:g}": r}}), flush=True)
+    print(table(results))
+    OUT.write_text(json.dumps(results, indent=1))
+    print(f"wrote {OUT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()

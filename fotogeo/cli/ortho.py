@@ -1,0 +1,35 @@
+"""``fotogeo ortho IMAGE... [--camera C.yaml --eo EO | --rpc] --dem DEM -o OUT`` — orthophotos of oriented images."""
+from __future__ import annotations
+
+import click
+
+from ..options_products import ORTHO
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+
+
+@click.command("ortho")
+@click.argument("images", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(),
+              help="The orthophoto (one image), or a folder for <name>_ortho.tif of each image.")
+@options_from(ORTHO)
+@click.option("--overwrite", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True)
+@run_tool
+def command(images, output, overwrite, quiet, **kw):
+    """Orthorectify IMAGES whose orientation is known onto a DEM.
+
+    Frame cameras: --camera and --eo (fotogeo's 'name X Y Z omega phi kappa' lines, triangulate's outputs,
+    OpenSfM/ODM, COLMAP or orthority files). Satellite images: --rpc (the RPC in the GeoTIFF). With
+    --occlusion and a DSM as --dem, ground hidden from the camera becomes nodata instead of a double image.
+    """
+    from ..tools.ortho import ortho
+    bar = ConsoleProgress(quiet)
+    try:
+        rep = ortho(list(images), output, overwrite=overwrite, progress=bar, **tool_arguments(kw, ORTHO))
+    finally:
+        bar.close()
+    click.echo(f"map CRS {rep['crs']}: {rep['crs_rule']}; heights: {'; '.join(rep['notes'])}")
+    for name, r in rep["images"].items():
+        cover = "" if r["dem_coverage"] >= 0.999 else f", DEM covers {100 * r['dem_coverage']:.0f} % of it"
+        click.echo(f"{name}: {r['width']}x{r['height']} px at {r['resolution']:.4g} m, "
+                   f"{r['valid_pixels']} valid{cover} -> {r['path']}")

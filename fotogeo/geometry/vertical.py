@@ -1,0 +1,65 @@
+"""Height references: which surface a DEM's heights are measured from, and the geoid shift.
+
+Two references matter to orthorectification (:data:`~fotogeo.geometry.approx_block.HEIGHT_REFERENCES`):
+
+* ``"ellipsoid"`` — ellipsoidal heights ``h`` (GNSS, RPC00B: vendor RPCs are fitted in WGS 84 ``h``);
+* ``"geoid"`` — orthometric (gravity-related) heights ``H`` above a geoid model (EGM96, EGM2008, national
+  height systems): most DEMs and aerial-triangulation blocks.
+
+They differ by the geoid undulation ``N``: ``h = H + N`` (N is tens of metres: about +30 m in South
+Africa, so an RPC image orthorectified on an orthometric DEM without the shift is displaced by
+``30 m · tan(off-nadir angle)``).
+
+:func:`crs_height_reference` reads what a raster's CRS says: a compound CRS whose vertical part is a
+vertical CRS (``VERTCRS``) holds gravity-related heights; a 3-D geographic/projected CRS holds
+ellipsoidal heights; a 2-D CRS says nothing (None). :class:`ShiftedHeights` adds ``N`` (a raster of
+undulations, e.g. PROJ's ``egm96_15.gtx``) to a height source's ``H``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def crs_height_reference(crs) -> str | None:
+    """``"geoid"``, ``"ellipsoid"`` or None (not stated) for a CRS (pyproj/rasterio/WKT; module docstring).
+
+    >>> crs_height_reference("EPSG:32735+3855"), crs_height_reference("EPSG:4979"), crs_height_reference("EPSG:32735")
+    ('geoid', 'ellipsoid', None)
+    """
+    from pyproj import CRS
+    if crs is None:
+        return None
+    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    if c.is_compound:
+        return "geoid" if any(s.is_vertical for s in c.sub_crs_list) else None
+    if c.is_vertical:
+        return "geoid"
+    return "ellipsoid" if len(c.axis_info) == 3 else None
+
+
+def horizontal_crs(crs):
+    """The horizontal part of a compound CRS (the CRS itself otherwise), as a pyproj CRS."""
+    from pyproj import CRS
+    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    if c.is_compound:
+        return next(s for s in c.sub_crs_list if not s.is_vertical)
+    return c
+
+
+class ShiftedHeights:
+    """``heights(XY) = source.heights(XY) + undulation.heights(XY)``: orthometric DEM heights made
+    ellipsoidal with a geoid raster (both height sources queried at the same map points)."""
+
+    def __init__(self, source, undulation):
+        self.source, self.undulation = source, undulation
+        lo, hi = source.z_range
+        nlo, nhi = undulation.z_range
+        self.z_range = (lo + nlo, hi + nhi)
+
+    def heights(self, XY) -> np.ndarray:
+        return np.asarray(self.source.heights(XY), float) + np.asarray(self.undulation.heights(XY), float)
+
+    def heights_and_gradient(self, XY):
+        h, gx, gy = self.source.heights_and_gradient(XY)
+        n, nx, ny = self.undulation.heights_and_gradient(XY)
+        return h + n, gx + nx, gy + ny

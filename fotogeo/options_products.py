@@ -1,0 +1,50 @@
+"""The product tools' options (``fotogeo ortho``, ``fotogeo mosaic``, QGIS ``fotogeo:ortho`` and
+``fotogeo:mosaic``), declared as every tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
+from __future__ import annotations
+
+from .options import DEM_HEIGHTS, RESAMPLING, YAML, Option, Table  # noqa: F401
+
+#: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho)
+ORTHO = Table(
+    Option("dem", "raster", None, "DEM or DSM (heights of the output cells)",
+           "DEM, or DSM for occlusion masking: the height of every output cell (bilinear)."),
+    Option("camera", "file", None, "Camera (interior orientation YAML; empty = from the orientation file)",
+           "Interior orientation YAML (pinhole, or brown: triangulate's camera.yaml) [the --eo file's cameras].",
+           file_filter=YAML),
+    Option("eo", "file", None, "Exterior orientation (name X Y Z omega phi kappa, OpenSfM, COLMAP, orthority)",
+           "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
+           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
+           file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+    Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
+           "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),
+    Option("height", "float", None, "Constant height instead of a DEM",
+           "A constant height for every cell, knowingly, instead of a DEM."),
+    Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
+           "Height reference of the DEM: auto (what its CRS states), ellipsoid or geoid.", choices=DEM_HEIGHTS,
+           advanced=True),
+    Option("geoid", "raster", None, "Geoid undulations N (h = H + N) for a geoid DEM under an RPC",
+           "Raster of geoid undulations N (e.g. egm96_15.gtx) making geoid DEM heights ellipsoidal (h = H + N).",
+           advanced=True),
+    Option("occlusion", "bool", False, "Occlusion masking (hidden ground becomes nodata)",
+           "Trace every cell's line of sight through the DEM/DSM: hidden ground becomes nodata."),
+    Option("resolution", "float", None, "Pixel size (0 = each image's ground sample distance)",
+           "Output pixel size in map units [each image's GSD].", minimum=0.0, exclusive_minimum=True,
+           automatic=0.0),
+    Option("dst_crs", "crs", "auto", "Output CRS (empty = the DEM's when projected)",
+           "Output CRS: auto = the DEM's when projected, else the orientation file's, else the UTM zone (RPC); "
+           "or EPSG:xxxx, WKT, PROJ. Orientations from .txt lines are in it.", flag="--crs", param="CRS"),
+    RESAMPLING,
+    Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
+           "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
+)
+#: orthophoto mosaics (``fotogeo mosaic``, fotogeo.tools.mosaic)
+MOSAIC = Table(
+    Option("feather", "float", None, "Feather width across seams (map units; 0 = automatic)",
+           "Width of the blending ramp across each seamline, in map units [16 pixels or two seam cells].",
+           minimum=0.0, exclusive_minimum=True, automatic=0.0),
+    Option("balance", "bool", True, "Balance radiometry (gain and offset per image from the overlaps)",
+           "A gain and an offset per image and band from the overlaps' means and spreads."),
+    Option("dsm", "raster", None, "DSM: seamlines avoid above-ground objects (buildings, trees)",
+           "DSM: seamlines go around cells more than 2.5 m above the local ground (the DSM's morphological "
+           "opening over 40 m)."),
+)

@@ -1,0 +1,119 @@
+"""fotogeo mosaic (issue 21): two orthophotos of one textured scene with a planted radiometric step and a
+"building" that looks different in each (as a leaning roof does): balancing removes the step, the seam goes
+around the building, the seamlines layer is written; bad input is one Error line."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+from affine import Affine
+from click.testing import CliRunner
+
+from fotogeo.cli import main
+from fotogeo.tools.mosaic import mosaic
+from test_bad_input import assert_one_line_error
+
+X0, Y1 = 500000.0, 4400000.0
+BOX = (230.0, 250.0, 80.0, 110.0)  # x0, x1, y0, y1 (m from the scene origin), across the Voronoi boundary x = 240
+GAIN, OFFSET = 1.3, 20.0  # the radiometric step planted in the second orthophoto
+BOX_ROWS, BOX_COLS = slice(40, 55), slice(115, 125)  # the box on the 2-m DSM grid
+
+
+def texture(x, y):
+    return 85 + 30 * np.sin(x / 6.0) * np.cos(y / 8.0) + 20 * np.sin((x + 2 * y) / 11.0)
+
+
+def _ortho(path, x0, x1, nadir_x, gain=1.0, offset=0.0, box_value=None):
+    w, h = int(x1 - x0), 200
+    t = Affine(1.0, 0, X0 + x0, 0, -1.0, Y1)
+    c, r = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    x, y = c + x0, r  # metres east of the origin, south of the top
+    v = gain * texture(x, y) + offset
+    inside = (x > BOX[0]) & (x < BOX[1]) & (y > BOX[2]) & (y < BOX[3])
+    if box_value is not None:
+        v[inside] = box_value
+    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8", crs="EPSG:32635",
+                       transform=t, nodata=0) as ds:
+        ds.write(np.clip(np.rint(v), 1, 255).astype(np.uint8), 1)
+        ds.update_tags(FOTOGEO_NADIR=f"{X0 + nadir_x} {Y1 - 100}")
+    return path
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    d = tmp_path_factory.mktemp("mosaic")
+    return (_ortho(d / "a.tif", 0, 300, 150, box_value=240),
+            _ortho(d / "b.tif", 180, 480, 330, GAIN, OFFSET, box_value=30))
+
+
+def _read(path):
+    with rasterio.open(path) as ds:
+        return ds.read(1).astype(float), ds.transform
+
+
+def test_balancing_removes_the_step(pair, tmp_path):
+    rep = mosaic([str(p) for p in pair], str(tmp_path / "m.tif"))
+    (ga,), (gb,) = rep["gains"]
+    (oa,), (ob,) = rep["offsets"]
+    a, ta = _read(pair[0])
+    b, tb = _read(pair[1])
+    cols = slice(180, 300)  # the overlap in a's columns; b's columns 0..120
+    x = np.arange(180, 300) + 0.5
+    y = np.arange(200) + 0.5
+    off_box = ~((x[None, :] > BOX[0] - 2) & (x[None, :] < BOX[1] + 2) & (y[:, None] > BOX[2] - 2) &
+                (y[:, None] < BOX[3] + 2))
+    before = np.abs(a[:, cols] - b[:, :120])[off_box].mean()
+    after = np.abs(ga * a[:, cols] + oa - (gb * b[:, :120] + ob))[off_box].mean()
+    assert before > 20 and after * 5 <= before, (before, after)
+    m, tm = _read(tmp_path / "m.tif")
+    far_a = np.abs(m[:, 20:120] - np.clip(np.rint(ga * a[:, 20:120] + oa), 1, 255)).max()
+    assert far_a <= 1  # away from the seam the mosaic is the balanced first orthophoto
+    assert m.shape == (200, 480) and (m > 0).all()
+
+
+def test_seam_goes_around_the_building(pair, tmp_path):
+    import geopandas as gpd
+    import shapely
+    rep = mosaic([str(p) for p in pair], str(tmp_path / "m.tif"), seamlines=str(tmp_path / "s.gpkg"))
+    regions = gpd.read_file(tmp_path / "s.gpkg", layer="regions")
+    seams = gpd.read_file(tmp_path / "s.gpkg", layer="seamlines")
+    box = shapely.box(X0 + BOX[0], Y1 - BOX[3], X0 + BOX[1], Y1 - BOX[2])
+    assert len(seams) >= 1 and set(seams.iloc[0][["image_a", "image_b"]]) == {"a", "b"}
+    assert not seams.geometry.intersects(box.buffer(-0.5)).any()  # no seam crosses the building
+    owner = [r.geometry.buffer(0.01).contains(box.buffer(-0.5)) for r in regions.itertuples()]
+    assert sum(owner) == 1, owner  # the building comes whole from one orthophoto
+    assert rep["cells_per_image"][0] > 0 and rep["cells_per_image"][1] > 0
+
+
+def test_dsm_keeps_seams_off_buildings(tmp_path):
+    """Two orthophotos that agree everywhere (no grey difference to steer the seam) and a DSM with a 12 m high
+    block across the Voronoi boundary: with the DSM the seam goes around the block, without it straight through."""
+    import geopandas as gpd
+    import shapely
+    a = _ortho(tmp_path / "a.tif", 0, 300, 150, box_value=None)
+    b = _ortho(tmp_path / "b.tif", 180, 480, 330, box_value=None)
+    with rasterio.open(tmp_path / "dsm.tif", "w", driver="GTiff", width=240, height=100, count=1, dtype="float32",
+                       crs="EPSG:32635", transform=Affine(2.0, 0, X0, 0, -2.0, Y1)) as ds:
+        z = np.full((100, 240), 300.0, np.float32)
+        z[BOX_ROWS, BOX_COLS] = 312.0
+        ds.write(z, 1)
+    box = shapely.box(X0 + BOX[0], Y1 - BOX[3], X0 + BOX[1], Y1 - BOX[2]).buffer(-0.5)
+    crossed = {}
+    for name, dsm in (("with", str(tmp_path / "dsm.tif")), ("without", None)):
+        mosaic([str(a), str(b)], str(tmp_path / f"{name}.tif"), dsm=dsm)
+        seams = gpd.read_file(tmp_path / f"{name}.gpkg", layer="seamlines")
+        crossed[name] = bool(seams.geometry.intersects(box).any())
+    assert crossed == {"with": False, "without": True}
+
+
+def test_lattice_mismatch_refused(pair, tmp_path):
+    d = tmp_path
+    with rasterio.open(pair[1]) as ds:
+        prof, z = ds.profile, ds.read()
+    prof["transform"] = prof["transform"] * Affine.translation(0.5, 0)
+    with rasterio.open(d / "shifted.tif", "w", **prof) as ds:
+        ds.write(z)
+    out = d / "m.tif"
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(d / "shifted.tif"), "-o", str(out), "-q"])
+    assert_one_line_error(result, "is not on the pixel lattice")
+    assert not out.exists()
