@@ -15,6 +15,7 @@ import numpy as np
 
 from ..geometry.camera import ExteriorOrientation, angles_patb
 from . import bundle_jacobian as bj
+from .bundle_robust import largest_w
 
 
 def _rmse(d: np.ndarray) -> dict:
@@ -59,7 +60,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     red = np.full((n, 2), np.nan)
     red[pb.obs_ids] = post.r
     w = np.full(n, np.nan)
-    w[pb.obs_ids] = np.max(post.w, axis=1)
+    w[pb.obs_ids] = largest_w(post.w)  # NaN: not testable
     stats = {"sigma0": s0, "redundancy": int(post.redundancy), "n_frames": m,
              "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
              "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
