@@ -122,11 +122,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
-        for role in ("control", "check"):
-            s = st[role]
-            if s.get("n"):
-                feedback.pushInfo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} "
-                                  f"Z {s['rmse_z_m']:.3f} m")
+        from fotogeo.tools.triangulate_outputs import accuracy_lines
+        for line in accuracy_lines(rep):
+            feedback.pushInfo(line)
         for f in rep["fixed_parameters"]:
             feedback.pushWarning(f"held fixed: {f['reason']}")
         return self._outputs(rep, outdir, context)
