@@ -69,3 +69,31 @@ def test_no_automatic_check_fraction_when_the_file_names_check_points():
     g = _gcps(12, 2, np.array(["control"] * 22 + ["check"] * 2, dtype=object))
     assert check_fraction_for(None, g, set()) == 0.0
     assert check_fraction_for(None, None, set()) == 0.0
+
+
+def test_report_html_reads(tmp_path):
+    """report.html: the CRS named in a line with its WKT folded and wrapped, residual panels 360 px high with
+    titles that fit, captions (the legend of the red dots) as HTML text that wraps, the accuracy rows labelled."""
+    import base64
+    import re
+
+    import cv2
+    from pyproj import CRS
+
+    from fotogeo.tools.triangulate_outputs import report
+    from fotogeo.tools.triangulate_report import write_html
+    sb = simulate_block(seed=1, strips=1, frames_per_strip=3)
+    r = adjust_block(sb.block)
+    wkt = CRS.from_proj4("+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84").to_wkt()
+    rep = report(r, sb.block, CRS.from_wkt(wkt), {"folder": str(tmp_path)})
+    write_html(tmp_path / "report.html", rep, r, sb.block, {"geometry": []})
+    text = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "<pre class='wrap'>" in text and "word-break:break-all" in text
+    assert re.search(r"<p>CRS [^<]{1,120} <details>", text)
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", text)
+    assert len(captions) == 3 and "culled as blunders" in captions[0] and "#dc0000" in captions[0]
+    assert "rejected control" in captions[2]
+    first = re.search(r"src='data:image/png;base64,([^']+)'", text).group(1)
+    panels = cv2.imdecode(np.frombuffer(base64.b64decode(first), np.uint8), cv2.IMREAD_COLOR)
+    assert panels.shape[0] >= 360 and panels.shape[1] >= 3 * 200
+    assert "control placed by the images alone" in text and "control adjusted − given (σ-weighted)" in text

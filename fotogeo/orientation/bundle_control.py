@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.camera import OrientedFrame
 from . import bundle_jacobian as bj
 
 #: the smallest angle between two rays of a point for a 3-D intersection (degrees)
@@ -41,8 +40,9 @@ def world_rays(result, frame: np.ndarray, pixel: np.ndarray):
 def intersect(C: np.ndarray, D: np.ndarray) -> np.ndarray:
     """The point nearest (least squares) to the lines ``C + λ D`` (unit ``D``).
 
-    >>> intersect(np.array([[0.0, 0, 10], [10, 0, 10]]), np.array([[0.0, 0, -1], [-0.8, 0, -0.6]])).round(6)
-    array([0., 0., 2.5])
+    >>> C, D = np.array([[0.0, 0, 10], [10, 0, 10]]), np.array([[0.0, 0, -1], [-0.8, 0, -0.6]])
+    >>> (intersect(C, D).round(6) + 0.0).tolist()
+    [0.0, 0.0, 2.5]
     """
     P = np.eye(3)[None] - D[:, :, None] * D[:, None, :]
     return np.linalg.solve(P.sum(axis=0), np.einsum("nab,nb->a", P, C))
