@@ -25,7 +25,7 @@ CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files
 TABLE_FILTER = "Tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
 TEXT_FILTER = "Text (*.txt);;All files (*.*)"
 #: the block.gpkg layers the algorithm loads: (layer, output name, label, style of processing_provider/styles)
-LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", None),
+LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", "footprints"),  # outlines, below the points
           ("tie_points", "TIE_POINTS", "Tie points", None),
           ("control", "CONTROL", "Control and check points", "tie_points"))  # tie_points.qml: by role
 
