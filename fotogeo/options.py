@@ -258,8 +258,10 @@ TRIANGULATE = Table(
     Option("max_correlation", "float", 0.999, "Hold fixed interior parameters correlated above",
            "Interior parameters whose multiple correlation exceeds this are held fixed.", minimum=0.5, maximum=1.0,
            advanced=True),
-    Option("check_fraction", "float", 0.0, "Fraction of the control held out as check points (spread, seeded)",
-           "Fraction of the control points held out as check points, spread over the block (seeded) [0].",
+    Option("check_fraction", "float", None, "Fraction of the control held out as check points (empty = 0.2 "
+           "with ≥ 10 points in 2+ frames)",
+           "Fraction of the control points held out as check points, spread over the block (seeded) [0.2 when "
+           "no check points are named and >= 10 control points are measured in two frames or more, else 0].",
            minimum=0.0, maximum=0.9),
     replace(SEED, label="Random seed (check-point hold-out)"),
     Option("dem", "raster", None, "DEM (footprints and orthorectification; empty = mean height of the points)",
@@ -270,12 +272,12 @@ TRIANGULATE = Table(
            "Pixel size of the orthorectified frames [each frame's GSD].", minimum=0.0, exclusive_minimum=True,
            automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
-    Option("reference_sigma_xy", "float", 0.5, "σ of automatic control X, Y (m; from the reference orthophoto)",
-           "σ of the X, Y of control found on the reference orthophoto (--reference), m.", minimum=0.0,
-           exclusive_minimum=True, advanced=True),
-    Option("reference_sigma_z", "float", 1.0, "σ of automatic control heights (m; from the DEM)",
-           "σ of the heights of control found on the reference (from the DEM), m.", minimum=0.0,
-           exclusive_minimum=True, advanced=True),
+    Option("reference_sigma_xy", "float", None, "σ of automatic control X, Y (m; empty = half the orthophoto's "
+           "pixel)", "σ of the X, Y of control found on the reference orthophoto (--reference), m [half its "
+           "pixel].", minimum=0.0, exclusive_minimum=True, advanced=True),
+    Option("reference_sigma_z", "float", None, "σ of automatic control heights (m; empty = half the DEM's pixel)",
+           "σ of the heights of control found on the reference (from the DEM), m [half the DEM's pixel, at "
+           "least the X, Y σ].", minimum=0.0, exclusive_minimum=True, advanced=True),
     Option("eo_sigma_height", "float", None, "σ of the approximate projection-centre heights (m; empty = as X, Y)",
            "σ of the approximate projection-centre heights, e.g. GNSS vertical (m) [--eo-sigma-position, or the "
            "images' own GNSS accuracy tags].", minimum=0.0, exclusive_minimum=True, advanced=True),

@@ -20,11 +20,12 @@ from qgis.core import (
     QgsProject,
     QgsRendererCategory,
     QgsVectorLayer,
+    QgsWkbTypes,
 )
 from qgis.PyQt.QtCore import QTimer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
-STYLES = ("tie_points", "gcps", "error_vectors", "error_grid")
+STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints")
 
 
 def style_path(style: str) -> str:
@@ -49,6 +50,7 @@ class LoadedRun:
             return
         if isinstance(layer, QgsVectorLayer):
             self.vector_ids.append(layer.id())
+            self._points_on_top(node.parent())
             return
         parent = node.parent()
         children = parent.children()
@@ -56,6 +58,25 @@ class LoadedRun:
         if below and children.index(node) < max(below):
             parent.insertChildNode(max(below) + 1, node.clone())
             parent.removeChildNode(node)
+
+    def _points_on_top(self, parent) -> None:
+        """Reorder the run's vector layers under ``parent`` in the places they hold: points above lines
+        above polygons (a footprint outline never covers the control points), otherwise as added."""
+        nodes = [n for n in parent.children()
+                 if isinstance(n, QgsLayerTreeLayer) and n.layerId() in self.vector_ids and n.layer() is not None]
+        ranked = sorted(nodes, key=lambda n: _GEOMETRY_RANK.get(n.layer().geometryType(), 3))
+        if ranked == nodes:
+            return
+        places = [parent.children().index(n) for n in nodes]
+        clones = [n.clone() for n in ranked]
+        for n in nodes:
+            parent.removeChildNode(n)
+        for place, clone in zip(places, clones):
+            parent.insertChildNode(place, clone)
+
+
+#: the order of a run's vector layers in the tree, top first
+_GEOMETRY_RANK = {QgsWkbTypes.PointGeometry: 0, QgsWkbTypes.LineGeometry: 1, QgsWkbTypes.PolygonGeometry: 2}
 
 
 class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):

@@ -145,17 +145,47 @@ def check(runtime: Runtime, timeout: float = 120) -> dict:
         return {"ok": False, "problems": [f"the worker failed (exit {done.returncode}): {tail}"]}
 
 
+#: pip's output lines that name a step (the others — warnings, notices, dependency details — go to the log only)
+_PIP_STEPS = (("Collecting ", "collecting {}"), ("Downloading ", "downloading {}"), ("Using cached ", "cached: {}"),
+              ("Requirement already satisfied: ", "already installed: {}"),
+              ("Installing collected packages", "installing the packages"), ("Successfully installed", "installed"))
+
+
+def pip_step(line: str) -> str | None:
+    """The step a pip output line names, in a few words, or None (module docstring of the install).
+
+    >>> pip_step("Collecting rasterio>=1.3 (from -r requirements.txt (line 2))")
+    'collecting rasterio>=1.3'
+    >>> pip_step("Downloading https://files.example/ab/numpy-1.26.4-cp311-manylinux.whl (18.3 MB)")
+    'downloading numpy-1.26.4-cp311-manylinux.whl (18.3 MB)'
+    >>> pip_step("  WARNING: The script f2py is installed in '/x/bin' which is not on PATH.") is None
+    True
+    """
+    text = line.strip()
+    for prefix, form in _PIP_STEPS:
+        if text.startswith(prefix):
+            rest = text[len(prefix):].split(" (from", 1)[0].strip()
+            if prefix == "Downloading ":
+                rest = rest.rsplit("/", 1)[-1]
+            elif "{}" in form:
+                rest = rest.split()[0] if rest else ""
+            return form.format(rest)[:70]
+    return None
+
+
 def _run_logged(command, log, progress=None, span=(0.0, 1.0), expected_lines: int = 60):
-    """Run ``command``, passing its output lines to ``log``; advance ``progress`` per line."""
+    """Run ``command``, passing its output lines to ``log``; advance ``progress`` per line, naming the step of
+    the lines that name one (:func:`pip_step`) — never a warning cut short."""
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=worker_environment(), cwd=str(PLUGIN_ROOT))
-    lines = []
+    lines, step = [], "pip"
     for i, line in enumerate(proc.stdout):
         line = line.rstrip()
         lines.append(line)
         log(line)
+        step = pip_step(line) or step
         if progress is not None and progress(span[0] + (span[1] - span[0]) * min(i / expected_lines, 0.99),
-                                             line[:80]) is False:
+                                             step) is False:
             proc.terminate()
             proc.wait()
             raise RuntimeInstallError("cancelled")

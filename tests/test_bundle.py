@@ -188,3 +188,21 @@ def test_a_control_point_with_a_wrong_coordinate_is_rejected():
     assert [x["point"] for x in r.blunders if x["kind"] == "control"] == [b.point_ids[ctrl[2]]]
     assert r.stats["n_control_rejected"] == 1
     assert r.stats["check"]["rmse_planimetric_m"] < 0.5 * sb.gsd
+
+
+def test_residuals_within_their_a_priori_sigma_are_never_blunders():
+    """Observations that fit far better than their σ (σ̂₀ ≪ 1, as LSM σ on the NGI pair) are tested with
+    σ₀ = 1: the τ test's rescaling flagged 0.04-0.15 px residuals there; a planted 5 px error is still caught."""
+    sb = simulate_block(seed=6, strips=2, frames_per_strip=4, noise=0.05, blunder_fraction=0.0)
+    b = dataclasses.replace(sb.block, obs_sigma=np.full(len(sb.block.obs_frame), 1.0))
+    clean = adjust_block(b)
+    assert clean.sigma0 < 0.2
+    assert clean.blunders == ()
+    tie = np.flatnonzero(b.role[b.obs_point] == "tie")
+    counts = np.bincount(b.obs_point, minlength=len(b.point_ids))
+    planted = int(tie[np.argmax(counts[b.obs_point[tie]])])  # on a point of many rays: testable
+    px = b.obs_pixel.copy()
+    px[planted] += (3.0, 4.0)
+    r = adjust_block(dataclasses.replace(b, obs_pixel=px))
+    assert [x["observation"] for x in r.blunders] == [planted]
+    assert r.status[planted] == "blunder"

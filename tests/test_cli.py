@@ -1,6 +1,8 @@
 """The command line as a user meets it: options generated from the option table, exit codes, messages."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import rasterio
@@ -103,3 +105,40 @@ def test_comma_lists_are_checked(small_rgb, tmp_path):
     assert r.exit_code == 2 and "'x' is not N or N/M" in r.output
     r = invoke("compare-models", small_rgb, tmp_path / "g.csv", "--spreads", "homogeneous,random")
     assert r.exit_code == 2 and "random unknown" in r.output
+
+
+class _Stream:
+    """A text stream that says whether it is a terminal."""
+
+    def __init__(self, tty: bool):
+        self.tty, self.text = tty, ""
+
+    def isatty(self):
+        return self.tty
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+def test_progress_never_goes_back_and_writes_plain_lines_into_a_log():
+    """Nested stages report 2.3 % then 0.7 % (make demo's log showed 11.2 % -> 6.9 %): the shown percentage
+    stays; into a file (not a terminal) a line per step, no carriage returns."""
+    steps = [(0.023, "target: reading"), (0.007, "reference: keypoints"), (0.007, "reference: keypoints"),
+             (0.112, "matching"), (0.069, "matching"), (0.5, "matching"), (1.0, "done")]
+    log = _Stream(tty=False)
+    bar = common.ConsoleProgress(stream=log)
+    for f, m in steps:
+        bar(f, m)
+    bar.close()
+    lines = log.text.splitlines()
+    assert "\r" not in log.text and lines == ["  2.3% target: reading", "  2.3% reference: keypoints",
+                                              " 11.2% matching", " 50.0% matching", "100.0% done"]
+    term = _Stream(tty=True)
+    bar = common.ConsoleProgress(stream=term)
+    for f, m in steps:
+        bar(f, m)
+    shown = [float(p) for p in re.findall(r"\] +([\d.]+)%", term.text)]
+    assert shown == sorted(shown) and term.text.startswith("\r[")

@@ -214,3 +214,15 @@ def test_bad_input_is_one_line(ngi):
     out = fit_gcps([{"id": "o", "col": 700, "row": 5, "x": 1, "y": 1, "role": "control"}], "affine", crs=MAP_CRS,
                    width=640, height=1152)
     assert out["points"][0]["flag"] == "outside the image (640x1152 px)" and out["needed"] == 3
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_auto_with_eight_gcps_on_dem_heights_chooses_the_3d_model(ngi, truth, seed):
+    """8 GCPs on a frame over relief, heights from the DEM, no check points: auto compares the median
+    leave-one-out error — the DLT fits every point to < 1 px while the 2-D models leave ~5 px; the RMS of the
+    leave-one-out errors let one corner point of high leverage (78 px) hand the choice to affine (4.9 px)."""
+    gcps = pick(truth, 8, 0, seed=seed, noise_px=0.5, with_z=False)
+    fit = fit_gcps(gcps, "auto", crs=MAP_CRS, dem=str(ngi / "dem.tif"))
+    sel = fit["model_selection"]
+    assert sel["compared"] == "loo_median_px" and fit["model"] == "dlt", sel["candidates"]
+    assert fit["rms"]["control_px"] < 1.5

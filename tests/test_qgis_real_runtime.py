@@ -125,3 +125,16 @@ def test_ini_edit_keeps_other_lines(tmp_path):
     rt.set_ini_value(ini, "fotogeo", "runtime", "/opt/rt")
     assert ini.read_text() == ("[General]\nlocale=en\n\n[PythonPlugins]\nprocessing=true\nother=true\n"
                                "fotogeo_qgis=true\n\n[qgis]\nx=@Variant(\\0)\n\n[fotogeo]\nruntime=/opt/rt\n")
+
+
+def test_install_progress_names_pip_steps_never_warnings():
+    """The install's progress messages are pip's steps in a few words; a warning stays in the log (it was shown
+    cut at 80 characters as the progress line)."""
+    import doctest
+    finder = doctest.DocTestFinder()
+    runner = doctest.DocTestRunner()
+    for test in finder.find(rt.pip_step, "pip_step", globs={"pip_step": rt.pip_step}):
+        runner.run(test)
+    assert runner.failures == 0 and runner.tries == 3
+    assert rt.pip_step("Successfully installed affine-2.4.0 numpy-1.26.4") == "installed"
+    assert rt.pip_step("DEPRECATION: a long notice about something that pip will change in a future version") is None

@@ -12,6 +12,7 @@ pytestmark = [pytest.mark.qgis]
 need_qgis()
 
 from qgis.core import QgsProcessingContext, QgsProcessingException, QgsProject  # noqa: E402
+from qgis.PyQt.QtCore import Qt  # noqa: E402
 
 from fotogeo.orientation.block_simulation import simulate_block  # noqa: E402
 from fotogeo.tools.triangulate import triangulate  # noqa: E402
@@ -68,6 +69,10 @@ def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_fi
     assert len(orthos) == 10 and all(o.crs().authid() == "EPSG:32635" for o in orthos)
     names = [n.name() for n in project.layerTreeRoot().findLayers()]
     assert names.index("Control and check points") < min(names.index(o.name()) for o in orthos)  # vectors on top
+    # footprints: outlines only, below the tie and control points (they hid them, filled and on top)
+    assert names.index("Frame footprints") > max(names.index("Tie points"), names.index("Control and check points"))
+    fill = layers["Frame footprints"].renderer().symbol().symbolLayer(0)
+    assert fill.brushStyle() == Qt.NoBrush and fill.strokeStyle() == Qt.SolidLine
 
 
 def _control_layer(folder, checks):

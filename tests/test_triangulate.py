@@ -107,7 +107,7 @@ def test_triangulate_command(tmp_path, small_block):
                                     "--gcps", str(tmp_path / "gcp_list.txt"), "--check-points", checks,
                                     "--image-sigma", "0.3", "-o", str(out), "-q"])
     assert res.exit_code == 0, res.output
-    assert "check n=" in res.output
+    assert "check points (n=" in res.output
     assert (out / "exterior_orientation.txt").exists()
 
 

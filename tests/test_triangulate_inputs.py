@@ -122,7 +122,7 @@ def test_check_fraction_holds_out_a_seeded_spread_share(tmp_path, small_block):
 
 def test_without_eo_every_frame_is_resected_from_its_control(tmp_path, dense_control):
     frames, _ = write_block(tmp_path, dense_control)  # every GCP (the simulation's 40 check points too) is control
-    rep, out = _run(tmp_path, frames=frames, eo=None, gcps=tmp_path / "gcp_list.txt")
+    rep, out = _run(tmp_path, frames=frames, eo=None, gcps=tmp_path / "gcp_list.txt", check_fraction=0.0)
     assert rep["resected_frames"] == list(dense_control.block.frames)
     gsd = dense_control.gsd
     assert rep["statistics"]["image_rms_px"] < 0.4 and rep["statistics"]["control"]["n"] >= 40
@@ -142,7 +142,7 @@ def test_command_without_eo_and_with_a_hold_out(tmp_path, dense_control):
                                     str(tmp_path / "gcp_list.txt"), "--check-fraction", "0.2", "--seed", "4",
                                     "--image-sigma", "0.3", "-o", str(tmp_path / "out"), "-q"])
     assert res.exit_code == 0, res.output
-    assert "resected from their GCPs (no --eo line): s1_01" in res.output and "check n=" in res.output
+    assert "resected from their GCPs (no --eo line): s1_01" in res.output and "check points (n=" in res.output
     rep = json.loads((tmp_path / "out" / "report.json").read_text())
     assert rep["eo"] is None and rep["statistics"]["check"]["rmse_planimetric_m"] < 0.5 * dense_control.gsd
 

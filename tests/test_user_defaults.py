@@ -220,7 +220,7 @@ def test_orient_auto_chooses_the_simplest_adequate_model(scene, mapping, expecte
 def test_orient_auto_without_check_points_uses_leave_one_out(scene):
     gcps = _gcps(scene["dir"] / "g.csv", _affine, checks=0)
     o = fotogeo.orient(scene["tgt"], gcps, model="auto", crs="EPSG:32635")
-    assert o["model_selection"]["compared"] == "loo_rmse_px" and o.model_name == "affine"
+    assert o["model_selection"]["compared"] == "loo_median_px" and o.model_name == "affine"
 
 
 def test_orient_auto_cancel_between_candidates(scene):

@@ -76,26 +76,42 @@ _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
 
 class ConsoleProgress:
-    """A progress callback drawing one updating line on stderr (silent when ``quiet``)."""
+    """A progress callback on stderr (silent when ``quiet``): on a terminal one updating line (``\\r``); into a
+    log (not a terminal) a plain line per new step or 10 %. The percentage shown never goes back: nested
+    stages report their own fractions, which are not always in step with the whole."""
 
-    def __init__(self, quiet: bool = False, width: int = 30):
+    def __init__(self, quiet: bool = False, width: int = 30, stream=None):
         self.quiet, self.width, self.last = quiet, width, ""
+        self.stream = stream or sys.stderr
+        self.top, self.logged = 0.0, (None, -1)
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
     def __call__(self, fraction: float, message: str) -> bool:
         if self.quiet:
             return True
-        filled = int(round(self.width * fraction))
-        line = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {fraction * 100:5.1f}% {message[:50]:<50}"
+        self.top = max(self.top, min(max(float(fraction), 0.0), 1.0))
+        if not self.tty:
+            return self._plain(message)
+        filled = int(round(self.width * self.top))
+        line = f"\r[{'#' * filled}{'.' * (self.width - filled)}] {self.top * 100:5.1f}% {message[:50]:<50}"
         if line != self.last:
-            sys.stderr.write(line)
-            sys.stderr.flush()
+            self.stream.write(line)
+            self.stream.flush()
             self.last = line
         return True
 
+    def _plain(self, message: str) -> bool:
+        step = int(self.top * 10)
+        if (message, step) != self.logged and (message != self.logged[0] or step > self.logged[1]):
+            self.stream.write(f"{self.top * 100:5.1f}% {message}\n")
+            self.stream.flush()
+            self.logged = (message, step)
+        return True
+
     def close(self):
-        if not self.quiet and self.last:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
+        if not self.quiet and self.last and self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
 
 
 def run_tool(func):

@@ -38,6 +38,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
+    from ..tools.triangulate_outputs import accuracy_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -48,10 +49,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     st = rep["statistics"]
     click.echo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
-    for role in ("control", "check"):
-        s = st[role]
-        if s.get("n"):
-            click.echo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} Z {s['rmse_z_m']:.3f} m")
+    for line in accuracy_lines(rep):
+        click.echo(line)
     worst = max(rep.get("frame_quality") or [{}], key=lambda q: q.get("angle_sigma_deg", 0.0))
     if worst:
         click.echo(f"worst frame {worst['name']}: angle sigma {worst['angle_sigma_deg']:.3g} deg, position sigma "

@@ -47,7 +47,7 @@ from ..progress import as_progress
 from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
-from .bundle_robust import huber_weights, interior_correlations, posterior, worst_per_point
+from .bundle_robust import huber_weights, interior_correlations, largest_w, posterior, worst_per_point
 
 ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
 
@@ -246,7 +246,7 @@ def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:
     for a in worst:
         o = int(pb.obs_ids[a])
         blunders.append({"observation": o, "kind": "image", "frame": block.frames[block.obs_frame[o]],
-                         "point": block.point_ids[block.obs_point[o]], "w": float(np.max(post.w[a])),
+                         "point": block.point_ids[block.obs_point[o]], "w": float(largest_w(post.w[a:a + 1])[0]),
                          "residual_px": float(np.hypot(*post.v[a])), "round": rnd + 1})
     run.active[pb.obs_ids[cull]] = False
     return worst.size > 0

@@ -5,7 +5,9 @@ Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from `
 degrees, as :mod:`fotogeo.models.collinearity` reports them), σ of the points
 ``σ₀ √diag(Σ_bb,i)``. Statistics: σ₀, the image RMS of the used observations (px), and per role
 the RMSE of ``adjusted − known`` per axis, planimetric ``√(RMSE_X² + RMSE_Y²)`` and in height,
-in metres: control (residuals of the weighted coordinates) and check (true errors).
+in metres: control (residuals of the weighted coordinates: how far their σ let them move), check
+(true errors) and ``control_images`` (the control points placed by their rays alone,
+:mod:`fotogeo.orientation.bundle_control`: errors in metres comparable to the check points').
 """
 from __future__ import annotations
 
@@ -15,6 +17,8 @@ import numpy as np
 
 from ..geometry.camera import ExteriorOrientation, angles_patb
 from . import bundle_jacobian as bj
+from .bundle_control import images_only_errors, rmse
+from .bundle_robust import largest_w
 
 
 def _rmse(d: np.ndarray) -> dict:
@@ -59,7 +63,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     red = np.full((n, 2), np.nan)
     red[pb.obs_ids] = post.r
     w = np.full(n, np.nan)
-    w[pb.obs_ids] = np.max(post.w, axis=1)
+    w[pb.obs_ids] = largest_w(post.w)  # NaN: not testable
     stats = {"sigma0": s0, "redundancy": int(post.redundancy), "n_frames": m,
              "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
              "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
@@ -69,6 +73,9 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
         stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])
     stats["n_blunders"] = sum(1 for b in blunders if b.get("kind") == "image")
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
-    return BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
-                        psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
-                        tuple(blunders), run.iterations, timings)
+    result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
+                          psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
+                          tuple(blunders), run.iterations, timings)
+    errors = images_only_errors(result, block)
+    stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
+    return result

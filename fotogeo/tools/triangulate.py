@@ -57,7 +57,9 @@ from ..orientation.bundle import Block, BundleOptions, adjust_block
 from ..progress import as_progress
 from .boundary import tool
 from ..io.block import split_check_points
-from .triangulate_inputs import add_automatic_control, frame_names, orientations, read_block_control, read_camera
+from .triangulate_control import reference_sigmas
+from .triangulate_inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
+                                 read_block_control, read_camera)
 from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .triangulate_sources import block_start
 
@@ -116,9 +118,9 @@ def _match_options(detection_level, gruber_cells, points_per_region, lsm_window)
 def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, gcp_crs=None, check_points=None,
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
-                snooping: bool = True, max_correlation: float = 0.999, check_fraction: float = 0.0, seed: int = 0,
+                snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
                 dem=None, orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
-                reference_sigma_xy: float = 0.5, reference_sigma_z: float = 1.0, geoinfo=None,
+                reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
                 overwrite: bool = False, progress=None) -> dict:
@@ -154,7 +156,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
-    sig[automatic] = [kw["reference_sigma_xy"], kw["reference_sigma_xy"], kw["reference_sigma_z"]]
+    ref_sigma = (reference_sigmas(kw["reference"], kw["dem"], map_crs, kw["reference_sigma_xy"], kw["reference_sigma_z"])
+                 if auto else (None, None))
+    sig[automatic] = [ref_sigma[0], ref_sigma[0], ref_sigma[1]]
     block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, distortion=distortion,
                   crs=map_crs)
     eo_sigma = start.eo_sigma(kw["eo_sigma_position"], kw["eo_sigma_height"], kw["eo_sigma_angle"])
@@ -169,6 +173,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "dem": str(kw["dem"]) if kw["dem"] else None, "folder": str(folder),
                                          "reference": [str(r) for r in _as_list(kw["reference"])] or None,
                                          "automatic_control": len(auto), "check_points": sorted(map(str, check_ids)),
+                                         "automatic_control_sigma_m": {"xy": ref_sigma[0], "z": ref_sigma[1]},
                                          "matching": matching, "resected_frames": start.resected,
                                          "start": start.summary(), "frame_quality": quality.rows(),
                                          "dropped_frames": dropped + undetermined})
@@ -206,7 +211,7 @@ def _control(frames, start, kw, prog):
         surveyed = set(gcp.name) if gcp is not None else set()
         gcp = add_automatic_control(gcp, frames, names, cam, eos, reference, dem, map_crs, prog)
         auto = set(gcp.name) - surveyed
-    check_ids = (split_check_points(gcp, given_checks, kw["check_fraction"] or 0.0, kw["seed"]) if gcp is not None
+    check_ids = (split_check_points(gcp, given_checks, check_fraction_for(kw["check_fraction"], gcp, given_checks), kw["seed"]) if gcp is not None
                  else set())
     return frames, names, gcp, map_crs, eos, check_ids, auto, dropped
 

@@ -11,7 +11,8 @@
   reference (named ``auto…``), merged with the surveyed ones; they need the approximate
   orientation of every frame (the ``--eo`` file or resection against surveyed GCPs).
 * **Check points**: the file's ``check`` roles, the names given, and a seeded, spread hold-out
-  of ``check_fraction`` of the control (:func:`fotogeo.io.block.split_check_points`).
+  of ``check_fraction`` of the control (:func:`fotogeo.io.block.split_check_points`); without a
+  ``check_fraction`` (None) :func:`check_fraction_for` holds out a fifth where there is control to spare.
 * **Approximate orientation**: the ``--eo`` file; a frame it lacks (or every frame, without
   one) is oriented by single-frame space resection against its control points
   (:class:`fotogeo.models.collinearity.Collinearity`, ≥ 4 points; the measured pixels are first
@@ -217,3 +218,21 @@ def _spread_five(pixel) -> np.ndarray:
     w = np.zeros(len(pixel))
     w[[np.argmin(s), np.argmax(s), np.argmin(d), np.argmax(d), centre]] = 1.0
     return w
+
+
+#: without a check fraction: this share of the control is held out when at least
+#: :data:`SPARE_CONTROL` points measured in two frames or more are there to hold out
+AUTO_CHECK_FRACTION = 0.2
+SPARE_CONTROL = 10
+
+
+def check_fraction_for(fraction, gcp: GcpList | None, check_ids) -> float:
+    """The check fraction: ``fraction`` when given; else 0 when check points are given (named or by role)
+    or fewer than :data:`SPARE_CONTROL` control points are measured in two frames or more (a check point
+    is intersected from its rays alone), else :data:`AUTO_CHECK_FRACTION`."""
+    if fraction is not None:
+        return float(fraction)
+    if gcp is None or check_ids or (gcp.role is not None and (gcp.role == "check").any()):
+        return 0.0
+    _, rays = np.unique(gcp.name.astype(str), return_counts=True)
+    return AUTO_CHECK_FRACTION if np.count_nonzero(rays >= 2) >= SPARE_CONTROL else 0.0

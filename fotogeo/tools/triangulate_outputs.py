@@ -108,3 +108,37 @@ def report(result, block, crs, inputs: dict) -> dict:
                         "sigma": dict(zip(("X0", "Y0", "Z0", "rx_deg", "ry_deg", "rz_deg"), map(float, s)))}
                        for n, e, s in zip(block.frames, result.eo, result.eo_sigma)],
             "iterations": result.iterations, "timings_s": result.timings}
+
+
+def _rmse_text(s: dict) -> str:
+    z = f" Z {s['rmse_z_m']:.3f}" if np.isfinite(s.get("rmse_z_m", np.nan)) else " Z –"
+    return f"RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f}{z} m"
+
+
+def accuracy_lines(rep: dict) -> list:
+    """The accuracy of one adjustment in words, for the command line and the QGIS log: the check points'
+    errors, the control points placed by the images alone (errors in metres, like the check points'),
+    and — labelled as such — the control's adjusted − given, which its σ keeps small."""
+    st = rep["statistics"]
+    lines = []
+    if st["check"].get("n"):
+        lines.append(f"check points (n={st['check']['n']}, not used in the adjustment): {_rmse_text(st['check'])}")
+    ci = st.get("control_images") or {}
+    if ci.get("n"):
+        z = f"; Z from the {ci['n_z']} seen at an angle" if ci.get("n_z", ci["n"]) < ci["n"] else ""
+        lines.append(f"control points placed by the images alone (n={ci['n']}): {_rmse_text(ci)}{z}")
+    if st["control"].get("n"):
+        sig = rep.get("automatic_control_sigma_m") or {}
+        held = (f"; automatic control σ {sig['xy']:.3g} m X, Y and {sig['z']:.3g} m Z" if sig.get("xy") else "")
+        lines.append(f"control adjusted − given (σ-weighted: as far as their σ let them move{held}): "
+                     f"{_rmse_text(st['control'])}")
+    return lines
+
+
+def crs_summary(text: str) -> str:
+    """The report's CRS in one short phrase (its EPSG code or name; never a whole WKT)."""
+    from ..crs import parse_crs, short_name
+    try:
+        return short_name(parse_crs(text, "CRS"))
+    except Exception:  # noqa: BLE001 - a summary, never a failure
+        return str(text)[:60]

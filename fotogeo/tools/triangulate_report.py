@@ -2,16 +2,20 @@
 
 Three plots, drawn with OpenCV (no plotting library needed), embedded as base64 PNG:
 
-* **residual vectors per frame** — one panel per frame (the image rectangle), the mean image
-  residual ``projected − measured`` of the used observations in each cell of a 12 × 12 grid,
-  exaggerated by the factor printed under the panels; culled blunders as red dots;
+* **residual vectors per frame** — one panel per frame (the image rectangle, up to 4 in a row,
+  360 px high, its name cut to the panel's width above it), the mean image residual
+  ``projected − measured`` of the used observations in each cell of a 12 × 12 grid, exaggerated by
+  the factor the caption gives; culled blunders as red dots (the caption is the legend);
 * **residual histogram** — the lengths ``|v|`` (px) of the used observations' residuals;
 * **control layout** — the frame footprints on the ground, control (green triangles), check
   (blue circles) and rejected (red crosses) points with their planimetric ``adjusted − given``
   vectors, exaggerated by the factor printed.
 
-The tables beside them repeat ``report.json``: σ₀, image RMS, control and check RMSE per axis,
-interior parameters held fixed and why, blunders, the adjusted orientations with their σ.
+Captions and legends are HTML under each plot (they wrap; text drawn into a plot was cut at its
+edge). The tables beside them repeat ``report.json``: σ₀, image RMS, check RMSE, control placed by
+the images alone and the σ-weighted control residuals per axis, interior parameters held fixed and
+why, blunders, the adjusted orientations with their σ. The CRS is named in one line, its WKT folded
+and wrapped.
 """
 from __future__ import annotations
 
@@ -34,23 +38,40 @@ def _text(img, text, xy, scale=0.45, color=BLACK):
     cv2.putText(img, text, (int(xy[0]), int(xy[1])), cv2.FONT_HERSHEY_SIMPLEX, scale, color, 1, cv2.LINE_AA)
 
 
-def residual_panels(result, block, panel: int = 220, max_frames: int = 48) -> np.ndarray:
-    """The per-frame residual-vector plot (module docstring) as a BGR image."""
+def _fit_text(text: str, width: int, scale: float) -> str:
+    """``text`` cut from the left (".." + its end: frame names differ at the end) to fit ``width`` px at ``scale``.
+
+    >>> _fit_text("3324c_2015_1004_05_0182_RGB", 120, 0.45)
+    '.._05_0182_RGB'
+    """
+    def wide(t):
+        return cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)[0][0] > width
+    if not wide(text):
+        return text
+    k = 1
+    while k < len(text) and wide(".." + text[k:]):
+        k += 1
+    return ".." + text[k:]
+
+
+def residual_panels(result, block, panel: int = 360, max_frames: int = 48) -> tuple:
+    """The per-frame residual-vector plot (module docstring): ``(BGR image, caption)``."""
     w, h = block.camera.image_size
     k = panel / max(w, h)
     pw, ph = int(w * k), int(h * k)
     m = min(len(block.frames), max_frames)
-    cols = min(m, 6)
+    cols = min(m, 4)
     rows = -(-m // cols)
+    gap, top = 24, 26
     used = result.status == "used"
     v = result.residuals
     rms = float(np.sqrt(np.nanmean(np.sum(v[used] ** 2, axis=1)))) if used.any() else 1.0
     ex = 0.4 * panel / GRID / max(rms, 1e-6)  # an RMS-sized vector spans 40 % of a cell
-    img = np.full((rows * (ph + 30) + 40, cols * (pw + 16) + 16, 3), 255, np.uint8)
+    img = np.full((rows * (ph + top + 8) + 8, cols * (pw + gap) + gap, 3), 255, np.uint8)
     for j in range(m):
-        x0, y0 = 16 + (j % cols) * (pw + 16), 24 + (j // cols) * (ph + 30)
+        x0, y0 = gap + (j % cols) * (pw + gap), top + (j // cols) * (ph + top + 8)
         cv2.rectangle(img, (x0, y0), (x0 + pw, y0 + ph), GREY, 1)
-        _text(img, block.frames[j][-24:], (x0, y0 - 6), 0.4)
+        _text(img, _fit_text(block.frames[j], pw + gap - 4, 0.45), (x0, y0 - 8), 0.45)
         sel = used & (block.obs_frame == j)
         px = block.obs_pixel[sel]
         cell = (np.minimum((px[:, 1] / h * GRID).astype(int), GRID - 1) * GRID
@@ -61,11 +82,17 @@ def residual_panels(result, block, panel: int = 220, max_frames: int = 48) -> np
             a, b = (int(x0 + p[0]), int(y0 + p[1])), (int(x0 + p[0] + d[0]), int(y0 + p[1] + d[1]))
             cv2.arrowedLine(img, a, b, BLUE, 1, cv2.LINE_AA, tipLength=0.3)
         for p in block.obs_pixel[(result.status == "blunder") & (block.obs_frame == j)] * k:
-            cv2.circle(img, (int(x0 + p[0]), int(y0 + p[1])), 2, RED, -1)
-    note = f"mean residual per cell of a {GRID}x{GRID} grid, x{ex:.0f} (RMS vector length {rms:.2f} px); red: blunders"
-    _text(img, note + (f"; first {m} of {len(block.frames)} frames" if m < len(block.frames) else ""),
-          (16, img.shape[0] - 12))
-    return img
+            cv2.circle(img, (int(x0 + p[0]), int(y0 + p[1])), 3, RED, -1)
+    n_bl = int(np.count_nonzero(result.status == "blunder"))
+    caption = (f"{_swatch('#005ac8', '→')} mean image residual (projected − measured) per cell of a {GRID}×{GRID} "
+               f"grid, drawn ×{ex:.0f} (RMS vector length {rms:.2f} px); {_swatch('#dc0000', '●')} observations "
+               f"culled as blunders ({n_bl})" + (f"; the first {m} of {len(block.frames)} frames"
+                                                  if m < len(block.frames) else ""))
+    return img, caption
+
+
+def _swatch(color: str, mark: str) -> str:
+    return f"<b style='color:{color}'>{mark}</b>"
 
 
 def histogram(result, size=(640, 320), bins: int = 30) -> np.ndarray:
@@ -89,8 +116,8 @@ def histogram(result, size=(640, 320), bins: int = 30) -> np.ndarray:
     return img
 
 
-def control_layout(result, block, footprints, size: int = 640) -> np.ndarray:
-    """The control layout (module docstring) as a BGR image."""
+def control_layout(result, block, footprints, size: int = 640) -> tuple:
+    """The control layout (module docstring): ``(BGR image, caption)``."""
     import shapely
     img = np.full((size, size, 3), 255, np.uint8)
     known = (result.roles != "tie") & np.isfinite(block.point_xyz).all(axis=1)
@@ -117,9 +144,10 @@ def control_layout(result, block, footprints, size: int = 640) -> np.ndarray:
             cv2.circle(img, p, 5, BLUE, 2)
         else:
             cv2.drawMarker(img, p, RED, cv2.MARKER_TILTED_CROSS, 10, 2)
-    _text(img, f"footprints (grey), control (green), check (blue), rejected (red); "
-               f"vectors x{scale:.0f}", (10, 18), 0.42)
-    return img
+    caption = (f"{_swatch('#aaaaaa', '□')} frame footprints, {_swatch('#009600', '▲')} control, "
+               f"{_swatch('#005ac8', '○')} check, {_swatch('#dc0000', '✕')} rejected control; black vectors: "
+               f"adjusted − given in X, Y, drawn ×{scale:.0f}")
+    return img, caption
 
 
 def _table(rows, head) -> str:
@@ -132,28 +160,56 @@ def _fmt(x, digits=3):
     return f"{x:.{digits}f}" if isinstance(x, (int, float)) and np.isfinite(x) else "–"
 
 
+def _accuracy_rows(st: dict) -> list:
+    """Rows of the accuracy table: check points, control placed by the images alone, σ-weighted control."""
+    rows = []
+    for key, label in (("check", "check points (not in the adjustment)"),
+                       ("control_images", "control placed by the images alone"),
+                       ("control", "control adjusted − given (σ-weighted)")):
+        s = st.get(key) or {}
+        if s.get("n"):
+            rows.append((label, s["n"], *(_fmt(s.get(f"rmse_{a}_m")) for a in ("x", "y", "z", "planimetric"))))
+    return rows
+
+
+def _crs_block(text: str) -> str:
+    """The CRS named in one line, its full text folded and wrapped."""
+    from .triangulate_outputs import crs_summary
+    return (f"<p>CRS {html.escape(crs_summary(text))} <details><summary>full definition</summary>"
+            f"<pre class='wrap'>{html.escape(text)}</pre></details></p>")
+
+
+STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse;margin:1em 0}"
+         "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}td:first-child{text-align:left}"
+         "pre.wrap{white-space:pre-wrap;word-break:break-all;font-size:80%}"
+         "figure{margin:1em 0}img{max-width:100%;height:auto}figcaption{max-width:800px;color:#333}")
+
+
 def write_html(path, rep: dict, result, block, footprints) -> None:
     """``report.html`` (module docstring) from the report dict and the adjusted block."""
     st = rep["statistics"]
     summary = [("frames", st["n_frames"]), ("points", st["n_points"]), ("observations", st["n_observations"]),
                ("σ0", _fmt(rep["sigma0"])), ("image RMS (px)", _fmt(st["image_rms_px"])),
                ("blunders culled", st["n_blunders"]), ("control points rejected", st.get("n_control_rejected", 0))]
-    accuracy = [(role, s["n"], *(_fmt(s[f"rmse_{a}_m"]) for a in ("x", "y", "z", "planimetric")))
-                for role in ("control", "check") for s in [st[role]] if s.get("n")]
+    accuracy = _accuracy_rows(st)
     fixed = [(f.get("parameter", ""), f.get("reason", "")) for f in rep["fixed_parameters"]]
     frames = [(f["name"], _fmt(f["X"]), _fmt(f["Y"]), _fmt(f["Z"]), _fmt(f["omega"], 5), _fmt(f["phi"], 5),
                _fmt(f["kappa"], 5), _fmt(f["sigma"]["X0"]), _fmt(f["sigma"]["Z0"])) for f in rep["frames"]]
-    plots = [("Residual vectors per frame", residual_panels(result, block)), ("Residual histogram", histogram(result)),
+    hist = (histogram(result), f"lengths |v| of the {int(np.count_nonzero(result.status == 'used'))} used image "
+                               f"residuals, px")
+    plots = [("Residual vectors per frame", residual_panels(result, block)), ("Residual histogram", hist),
              ("Control layout", control_layout(result, block, footprints))]
-    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>fotogeo triangulate</title><style>"
-             "body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;margin:1em 0}"
-             "td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}</style></head><body>",
-             f"<h1>Aerial triangulation: {html.escape(str(rep.get('folder', '')))}</h1>",
-             f"<p>CRS {html.escape(rep['crs'])}; {html.escape(rep['units'])}</p>",
-             _table(summary, ("", "value")), "<h2>Control and check points (RMSE, m)</h2>",
-             _table(accuracy, ("role", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>none</p>",
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>fotogeo triangulate</title><style>{STYLE}"
+             "</style></head><body>",
+             f"<h1>Aerial triangulation: {html.escape(str(rep.get('folder', '')))}</h1>", _crs_block(rep["crs"]),
+             f"<p>{html.escape(rep['units'])}</p>", _table(summary, ("", "value")),
+             "<h2>Accuracy (RMSE, m)</h2>",
+             _table(accuracy, ("", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>no control</p>",
+             "<p>Check points and control placed by the images alone are errors in metres; the σ-weighted control "
+             "residuals say only how far the control's σ let the points move.</p>",
              "<h2>Interior parameters held fixed</h2>", _table(fixed, ("parameter", "why")) if fixed else "<p>none</p>"]
-    parts += [f"<h2>{t}</h2><img alt='{t}' src='data:image/png;base64,{_png(img)}'>" for t, img in plots]
+    parts += [f"<h2>{t}</h2><figure><img alt='{t}' src='data:image/png;base64,{_png(img)}'>"
+              f"<figcaption>{caption}</figcaption></figure>" for t, (img, caption) in plots]
     parts += ["<h2>Adjusted exterior orientation</h2>",
               _table(frames, ("frame", "X", "Y", "Z", "ω°", "φ°", "κ°", "σX0 m", "σZ0 m")), "</body></html>"]
     from pathlib import Path

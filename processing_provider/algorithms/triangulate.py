@@ -25,7 +25,7 @@ CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files
 TABLE_FILTER = "Tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
 TEXT_FILTER = "Text (*.txt);;All files (*.*)"
 #: the block.gpkg layers the algorithm loads: (layer, output name, label, style of processing_provider/styles)
-LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", None),
+LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", "footprints"),  # outlines, below the points
           ("tie_points", "TIE_POINTS", "Tie points", None),
           ("control", "CONTROL", "Control and check points", "tie_points"))  # tie_points.qml: by role
 
@@ -123,11 +123,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
-        for role in ("control", "check"):
-            s = st[role]
-            if s.get("n"):
-                feedback.pushInfo(f"{role} n={s['n']}: RMSE X {s['rmse_x_m']:.3f} Y {s['rmse_y_m']:.3f} "
-                                  f"Z {s['rmse_z_m']:.3f} m")
+        from fotogeo.tools.triangulate_outputs import accuracy_lines
+        for line in accuracy_lines(rep):
+            feedback.pushInfo(line)
         start = rep.get("start") or {}
         if start.get("source"):
             feedback.pushInfo(f"start: {start['source']}")
