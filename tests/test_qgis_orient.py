@@ -173,7 +173,7 @@ def test_compare_models(gcps, tmp_path):
                 and r["spread"] == "homogeneous"][0]
     assert float(dlt20["check_rms_xy_px"]) < float(affine20["check_rms_xy_px"])  # relief: 3-D beats 2-D
     assert md.read_text().startswith("### homogeneous (px)")
-    with pytest.raises(QgsProcessingException, match="counts 'twenty': 'twenty' is not N or N/M"):
+    with pytest.raises(QgsProcessingException, match="'twenty': 'twenty' is not N or N/M"):
         run("comparemodels", base(gcps, COUNTS="twenty", TABLE=str(tmp_path / "x.csv")))
     assert files(tmp_path) == ["t.csv", "t.md"]
 
