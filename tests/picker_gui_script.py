@@ -346,7 +346,6 @@ def propose():
     for kind, name in (("report", "orient.json"), ("rectify", "rectified.tif")):
         dock.run_orient(kind, os.path.join(ARGS["out"], name), on_done=lambda ok, r, e, k=kind: done.update({k: [ok, e]}))
     # Rectify's options (what its dialog returns): resampling, pixel size and another CRS; the report as HTML
-    from qgis.core import QgsCoordinateReferenceSystem
     dock.run_orient("rectify", os.path.join(ARGS["out"], "rectified_utm34.tif"),
                     on_done=lambda ok, r, e: done.update({"options": [ok, e]}),
                     extra={"resampling": "bilinear", "resolution": 12.5}, crs=QgsCoordinateReferenceSystem("EPSG:32734"))
