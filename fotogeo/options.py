@@ -232,8 +232,9 @@ POINTS_TO_LAYER = Table(_SOURCE_RASTER, Option("crs", "crs", None, "CRS of the m
 LAYER_TO_POINTS = Table(_SOURCE_RASTER)
 #: aerial triangulation (``fotogeo triangulate``, fotogeo.tools.triangulate)
 TRIANGULATE = Table(
-    Option("crs", "crs", None, "Map CRS of the GCPs and orientations (empty = the GCP list's first line)",
-           "Projected map CRS of the GCPs and the orientation file [the GCP list's CRS line]."),
+    Option("crs", "crs", None, "Map CRS of the block (empty = the GCPs', else the orthophotos', the DEM's or the "
+           "GPS's UTM zone)", "Projected map CRS of the block [the GCPs' CRS, else the reference orthophoto's, the "
+           "DEM's, or the UTM zone of the images' GPS]."),
     Option("gcp_crs", "crs", None, "CRS of the GCP file's ground X, Y (empty = its own, else the map CRS)",
            "CRS of the GCPs' ground x, y when the file carries none (CSV) or to override it [the map CRS]."),
     Option("check_points", "str", None, "GCP names used as check points (comma-separated)",

@@ -60,19 +60,19 @@ class LoadedRun:
             parent.removeChildNode(node)
 
     def _points_on_top(self, parent) -> None:
-        """Reorder the run's vector layers under ``parent`` in the places they hold: points above lines
-        above polygons (a footprint outline never covers the control points), otherwise as added."""
+        """Reorder the run's vector layers under ``parent``, from the place of the topmost: points above lines
+        above polygons (a footprint outline never covers the control points), otherwise as added. The clones
+        go in before the nodes come out: a layer left without a node is removed from the project."""
         nodes = [n for n in parent.children()
                  if isinstance(n, QgsLayerTreeLayer) and n.layerId() in self.vector_ids and n.layer() is not None]
         ranked = sorted(nodes, key=lambda n: _GEOMETRY_RANK.get(n.layer().geometryType(), 3))
         if ranked == nodes:
             return
-        places = [parent.children().index(n) for n in nodes]
-        clones = [n.clone() for n in ranked]
-        for n in nodes:
-            parent.removeChildNode(n)
-        for place, clone in zip(places, clones):
-            parent.insertChildNode(place, clone)
+        top = parent.children().index(nodes[0])
+        for k, node in enumerate(ranked):
+            parent.insertChildNode(top + k, node.clone())
+        for node in nodes:
+            parent.removeChildNode(node)
 
 
 #: the order of a run's vector layers in the tree, top first

@@ -345,8 +345,13 @@ def propose():
     done = {}
     for kind, name in (("report", "orient.json"), ("rectify", "rectified.tif")):
         dock.run_orient(kind, os.path.join(ARGS["out"], name), on_done=lambda ok, r, e, k=kind: done.update({k: [ok, e]}))
+    # Rectify's options (what its dialog returns): resampling, pixel size and another CRS; the report as HTML
+    dock.run_orient("rectify", os.path.join(ARGS["out"], "rectified_utm34.tif"),
+                    on_done=lambda ok, r, e: done.update({"options": [ok, e]}),
+                    extra={"resampling": "bilinear", "resolution": 12.5}, crs=QgsCoordinateReferenceSystem("EPSG:32734"))
+    dock.run_orient("report", os.path.join(ARGS["out"], "orient.html"), on_done=lambda ok, r, e: done.update(html=[ok, e]))
     start = time.monotonic()
-    while len(done) < 2 and time.monotonic() - start < 600:
+    while len(done) < 4 and time.monotonic() - start < 600:
         pump(0.2)
     STATE["runs"] = done
     # RPC export: orient's own refusal for a DLT, then the RFM's RPC00B written into a copy of the frame

@@ -301,7 +301,13 @@ def test_proposals_on_the_ngi_frame_become_gcps_with_dlt_check_rms_below_a_pixel
     assert fit["rms"]["check_px"] < 1.0
     assert all(p["z_source"] == "dem" for p in fit["points"])
     # Report and Rectify ran fotogeo orient on the same GCPs, model and DEM heights: the same check RMS
-    assert state["runs"] == {"report": [True, None], "rectify": [True, None]}
+    assert state["runs"] == {"report": [True, None], "rectify": [True, None], "options": [True, None],
+                             "html": [True, None]}
+    import rasterio
+    with rasterio.open(tmp_path / "rectified_utm34.tif") as r:  # Rectify's options honoured
+        assert r.crs.to_epsg() == 32734 and r.res == pytest.approx((12.5, 12.5))
+    page = (tmp_path / "orient.html").read_text(encoding="utf-8")
+    assert "<h2>GCPs</h2>" in page and "<h2>Residuals per role</h2>" in page
     report = json.loads((tmp_path / "orient.json").read_text())
     assert report["model_name"] == "dlt" and report["check"]["rms_xy_px"] == pytest.approx(fit["rms"]["check_px"], abs=1e-9)
     assert (tmp_path / "rectified.tif").stat().st_size > 100_000 and "rectified.tif" in state["layers"]

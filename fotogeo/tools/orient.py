@@ -10,7 +10,8 @@ best check RMSE (:func:`fotogeo.orientation.adjustment.select_model`; the report
 
 * ``report`` — JSON: model and coefficients, ``control`` / ``check`` statistics
   (``n``, ``rms_x_px``, ``rms_y_px``, ``rms_xy_px``, min, max, median; ``*_mm`` with a scan
-  pixel size), per-point residuals, blunders, warnings;
+  pixel size), per-point residuals, blunders, warnings; a path ending in ``.html`` gets the same as one
+  readable page (:mod:`fotogeo.tools.orient_report`);
 * ``vectors`` — GeoPackage, layers ``gcps`` (points with residuals) and ``error_vectors``
   (lines from each GCP to where the model puts its measured image point on the ground,
   with ``dx``, ``dy``, ``length`` in map units and ``dx_px``, ``dy_px``; ``exaggeration`` and
@@ -119,7 +120,10 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
         if rectify:
             rep["rectified"] = rectify_image(out.temp(rectify), info, g.crs, grid, resampling,
                                              prog.stage(0.4, 0.98, "rectifying"))
-        if report:
+        if report and str(report).lower().endswith((".html", ".htm")):
+            from .orient_report import write_report_html
+            write_report_html(out.temp(report), rep)
+        elif report:
             write_json(out.temp(report), rep)
         prog(1.0, "done")
         out.commit()

@@ -240,8 +240,11 @@ class PickerDock(DockActions, QDockWidget):
         return store
 
     def new_layer_dialog(self):
-        path, _ = QFileDialog.getSaveFileName(self, "New GCP GeoPackage (cancel: a memory layer)", "",
-                                              "GeoPackage (*.gpkg)")
+        from .rectify_dialog import remember, suggested
+        path, _ = QFileDialog.getSaveFileName(self, "New GCP GeoPackage (cancel: a memory layer)",
+                                              suggested(self.image.path if self.image is not None else None,
+                                                        "_gcps.gpkg"), "GeoPackage (*.gpkg)")
+        remember(path)
         try:
             self.new_gcp_layer(path=path or None)
         except ValueError as e:

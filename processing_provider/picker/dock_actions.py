@@ -6,7 +6,9 @@
 - *Import / Export*: ``.points`` and ODM ``gcp_list.txt`` (:mod:`.files`); an import is one undo step.
 - *Rectify / RPC / Report*: ``fotogeo orient`` on the GCP layer (written to a temporary
   GeoPackage) with the dock's model, heights and camera, in a task; a rectified raster is
-  added to the project.
+  added to the project. Rectify asks for resampling, pixel size and output CRS
+  (:mod:`.rectify_dialog`); Report writes HTML (or JSON); file dialogs start in the picker's last
+  folder, else beside the image.
 """
 from __future__ import annotations
 
@@ -19,10 +21,11 @@ from qgis.PyQt.QtWidgets import QFileDialog
 
 from . import fit as fitting
 from . import files, tasks
+from .rectify_dialog import RectifyDialog, remember, start_folder, suggested
 
 #: orient's output keyword and the file filter of each run button
 RUNS = {"rectify": ("rectify", "GeoTIFF (*.tif)"), "rpc": ("rpc", "GeoTIFF with RPC (*.tif)"),
-        "report": ("report", "JSON report (*.json)")}
+        "report": ("report", "HTML report (*.html);;JSON report (*.json)")}
 
 
 class DockActions:
@@ -70,16 +73,21 @@ class DockActions:
 
     # -- files ----------------------------------------------------------------------------------
     def import_dialog(self):
-        path, _ = QFileDialog.getOpenFileName(self, "Import GCPs", "", "Georeferencer points (*.points);;"
-                                              "ODM gcp_list (*.txt)")
+        path, _ = QFileDialog.getOpenFileName(self, "Import GCPs", start_folder(self._image_path()),
+                                              "Georeferencer points (*.points);;ODM gcp_list (*.txt)")
         if path:
+            remember(path)
             self.import_file(path)
 
     def export_dialog(self):
-        path, _ = QFileDialog.getSaveFileName(self, "Export GCPs", "", "Georeferencer points (*.points);;"
-                                              "ODM gcp_list (*.txt)")
+        path, _ = QFileDialog.getSaveFileName(self, "Export GCPs", suggested(self._image_path(), ".points"),
+                                              "Georeferencer points (*.points);;ODM gcp_list (*.txt)")
         if path:
+            remember(path)
             self.export_file(path)
+
+    def _image_path(self) -> str | None:
+        return self.image.path if self.image is not None else None
 
     def import_file(self, path: str) -> int:
         """Add the GCPs of a ``.points`` or ``gcp_list.txt`` file (one undo step); the count, 0 on failure."""
@@ -119,18 +127,37 @@ class DockActions:
 
     # -- tools on the current GCPs --------------------------------------------------------------
     def run_dialog(self, kind: str):
+        if kind == "rectify":
+            return self.rectify_dialog()
         key, file_filter = RUNS[kind]
-        path, _ = QFileDialog.getSaveFileName(self, f"fotogeo orient: {kind}", "", file_filter)
+        suffix = {"rpc": "_rpc.tif", "report": "_report.html"}[kind]
+        path, _ = QFileDialog.getSaveFileName(self, f"fotogeo orient: {kind}", suggested(self._image_path(), suffix),
+                                              file_filter)
         if path:
+            remember(path)
             self.run_orient(kind, path)
 
-    def orient_arguments(self) -> dict:
-        """``orient``'s keyword arguments for the dock's model, heights and camera (GCPs: a temporary GeoPackage)."""
+    def rectify_dialog(self):
+        """Rectify's options (output, resampling, pixel size, CRS), then the run."""
+        store = self.controller.store
+        dlg = RectifyDialog(self, self._image_path(), store.layer.crs() if store is not None else
+                            self.map_canvas.mapSettings().destinationCrs())
+        if dlg.exec_() != dlg.Accepted or not dlg.choices()["path"]:
+            return None
+        c = dlg.choices()
+        remember(c["path"])
+        return self.run_orient("rectify", c["path"], extra={"resampling": c["resampling"],
+                                                            "resolution": c["resolution"]}, crs=c["crs"])
+
+    def orient_arguments(self, crs=None) -> dict:
+        """``orient``'s keyword arguments for the dock's model, heights and camera (GCPs: a temporary GeoPackage,
+        transformed into ``crs`` when given)."""
         s = self.controller.settings()
         folder = tempfile.mkdtemp(prefix="fotogeo-picker-")
         # without the z field unless the heights come from it: orient then uses the DEM / the constant for every
         # point, as the dock's fit does
-        gpkg = self.controller.store.export_gpkg(os.path.join(folder, "gcps.gpkg"), heights=s.height_source == "field")
+        gpkg = self.controller.store.export_gpkg(os.path.join(folder, "gcps.gpkg"), heights=s.height_source == "field",
+                                                 crs=crs)
         kwargs = {"image": self.image.path, "gcps": gpkg, "layer": "gcps", "model": s.model, "overwrite": True}
         if s.height_source == "dem" and s.dem:
             kwargs["dem"] = s.dem
@@ -140,13 +167,16 @@ class DockActions:
             kwargs["camera"] = s.camera
         return kwargs
 
-    def run_orient(self, kind: str, output: str, on_done=None):
-        """``fotogeo orient`` with output ``kind`` (rectify, rpc, report) written to ``output``, in a task."""
+    def run_orient(self, kind: str, output: str, on_done=None, extra: dict | None = None, crs=None):
+        """``fotogeo orient`` with output ``kind`` (rectify, rpc, report) written to ``output``, in a task;
+        ``extra``: more of orient's keyword arguments (resampling, resolution); ``crs``: the GCPs' (and so the
+        output's) CRS."""
         if self.controller.store is None or self.image is None or not self.controller.fit.get("ok"):
             self.say(f"{kind}: first pick enough GCPs for the model ({self.controller.fit.get('message', '')})",
                      Qgis.Warning)
             return None
-        kwargs = {**self.orient_arguments(), RUNS[kind][0]: output}
+        kwargs = {**self.orient_arguments(crs), **{k: v for k, v in (extra or {}).items() if v is not None},
+                  RUNS[kind][0]: output}
 
         def done(ok, result, error):
             shutil.rmtree(os.path.dirname(kwargs["gcps"]), ignore_errors=True)

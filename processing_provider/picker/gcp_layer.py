@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 from qgis.core import (
     NULL,
     QgsCoordinateReferenceSystem,
+    QgsCoordinateTransform,
     QgsFeature,
     QgsField,
     QgsFields,
@@ -205,13 +206,16 @@ class GcpLayer(QObject):
             self.layer.dataProvider().changeAttributeValues(changes)
         self.layer.triggerRepaint()
 
-    def export_gpkg(self, path: str, heights: bool = True) -> str:
+    def export_gpkg(self, path: str, heights: bool = True, crs=None) -> str:
         """Write the layer to a GeoPackage (layer ``gcps``) the worker's tools read; returns ``path``.
 
-        ``heights`` False leaves the ``z`` field out, so a tool takes every height from its DEM or constant.
+        ``heights`` False leaves the ``z`` field out, so a tool takes every height from its DEM or constant;
+        ``crs`` (a valid QgsCoordinateReferenceSystem other than the layer's): the points transformed into it.
         """
         options = QgsVectorFileWriter.SaveVectorOptions()
         options.driverName, options.layerName = "GPKG", "gcps"
+        if crs is not None and crs.isValid() and crs != self.layer.crs():
+            options.ct = QgsCoordinateTransform(self.layer.crs(), crs, QgsProject.instance().transformContext())
         if not heights:
             options.attributes = [i for i, f in enumerate(self.layer.fields()) if f.name() != "z"]
         result = QgsVectorFileWriter.writeAsVectorFormatV2(self.layer, path, QgsProject.instance().transformContext(),
