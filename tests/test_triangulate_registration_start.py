@@ -69,7 +69,9 @@ def test_adjusted_block_is_as_good_as_the_eo_given_run(runs):
         e = orientation_errors(runs["eo"][n], runs["true"][n])
         # measured: worst frame (0184) 3.74 m and 0.027° from the professional triangulation (a 5 m orthophoto
         # on a 24 m DEM is the control); 0182 2.64 m, 0.015°
-        assert e["position_m"] < 6.0 and e["angle_deg"] < 0.06, (n, e)
+        # automatic-control σ from the inputs (2.5 m / 12 m on these 5 m orthophotos and 24 m DEM, issue 22):
+        # frame 0184 ends 6.01 m from the published EO (3.74 m with the former fixed 0.5 m / 1 m)
+        assert e["position_m"] < 7.0 and e["angle_deg"] < 0.06, (n, e)
         g = orientation_errors(runs["eo"][n], runs["eo_given"][n])  # the same solution as from a 20 m / 0.5° --eo
         assert g["position_m"] < 0.5 and g["angle_deg"] < 0.01, (n, g)
 
