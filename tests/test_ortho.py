@@ -273,6 +273,18 @@ def test_bad_input_one_line(scene, bad, tmp_path, case, extra, expected):
     assert not out.exists() and not list(tmp_path.glob(".*"))
 
 
+def test_failed_run_leaves_no_folder(scene, tmp_path):
+    """Two images into a new folder, one without a pose: the error names it and the folder is gone again."""
+    import shutil
+    second = tmp_path / "frame2.tif"
+    shutil.copy(scene["frame"], second)
+    out = tmp_path / "orthos"
+    result = CliRunner().invoke(main, ["ortho", str(scene["frame"]), str(second), "--camera", str(scene["camera"]),
+                                       "--eo", str(scene["eo"]), "--dem", str(scene["dsm"]), "-o", str(out), "-q"])
+    assert_one_line_error(result, "no orientation for the image(s) frame2")
+    assert not out.exists()
+
+
 def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):
     result, out = _cli(scene, tmp_path, dem=bad / "half.tif")
     assert result.exit_code == 0, result.output
