@@ -158,6 +158,22 @@ def test_ngi_frame_on_the_ngi_orthophoto(data_dir, tmp_path):
         assert a.transform == b.transform and np.abs(a.read().astype(int) - b.read()).max() <= 1
 
 
+def test_orientation_file_in_another_crs_refused(data_dir, tmp_path):
+    """orthority's CSV with a .prj stating UTM 35S while the DEM (the map CRS) is the Lo25 TM: mixed CRSs are
+    refused by name, not reinterpreted."""
+    from pyproj import CRS
+    ngi = data_dir / "ngi"
+    csv = tmp_path / "ext.csv"
+    csv.write_text((ngi / "exterior_orientation.txt").read_text())
+    (tmp_path / "ext.prj").write_text(CRS.from_epsg(32735).to_wkt())
+    out = tmp_path / "o.tif"
+    result = CliRunner().invoke(main, ["ortho", str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif"), "--camera",
+                                       str(ngi / "interior_orientation.yaml"), "--eo", str(csv), "--dem",
+                                       str(ngi / "dem.tif"), "-o", str(out), "-q"])
+    assert_one_line_error(result, "is in EPSG:32735 but the map CRS is")
+    assert not out.exists()
+
+
 def test_dem_read_under_the_images_only(data_dir):
     """Only the DEM window under a frame is read (memory bounded by the frame's ground area), with the heights
     of the whole DEM there."""
