@@ -117,3 +117,34 @@ def test_lattice_mismatch_refused(pair, tmp_path):
     result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(d / "shifted.tif"), "-o", str(out), "-q"])
     assert_one_line_error(result, "is not on the pixel lattice")
     assert not out.exists()
+
+
+def test_ngi_frames_mosaic_on_the_orthophoto(data_dir, tmp_path):
+    """The two NGI frames orthorectified (camera, EO, DEM) and mosaicked: one seamline between them, gains near 1
+    (the same camera and flight), and the mosaic lands on the published orthophoto (median tile shift well under a
+    pixel, as each frame does)."""
+    import cv2
+    from rasterio.warp import Resampling, reproject
+
+    from fotogeo.tools.ortho import ortho
+    ngi = data_dir / "ngi"
+    frames = sorted(str(p) for p in (ngi / "frames").glob("*.tif"))
+    ortho(frames, str(tmp_path / "orthos"), dem=str(ngi / "dem.tif"), camera=str(ngi / "interior_orientation.yaml"),
+          eo=str(ngi / "exterior_orientation.txt"), resolution=5.0, resampling="bilinear")
+    rep = mosaic(sorted(str(p) for p in (tmp_path / "orthos").glob("*.tif")), str(tmp_path / "m.tif"))
+    assert all(0.9 < g < 1.1 for gains in rep["gains"] for g in gains)
+    import geopandas as gpd
+    assert len(gpd.read_file(tmp_path / "m.gpkg", layer="seamlines")) == 1
+    with rasterio.open(tmp_path / "m.tif") as ds:
+        ours, prof = ds.read(1).astype(np.float32), ds.profile
+    ref = np.zeros_like(ours)
+    with rasterio.open(ngi / "ortho" / "ngi_rgb_byte_1.tif") as ds:
+        reproject(rasterio.band(ds, 1), ref, dst_transform=prof["transform"], dst_crs=prof["crs"],
+                  resampling=Resampling.bilinear, dst_nodata=0)
+    hann = cv2.createHanningWindow((128, 128), cv2.CV_32F)
+    valid = (ours > 0) & (ref > 0)
+    shifts = [cv2.phaseCorrelate(ours[i:i + 128, j:j + 128], ref[i:i + 128, j:j + 128], hann)[0]
+              for i in range(0, ours.shape[0] - 127, 128) for j in range(0, ours.shape[1] - 127, 128)
+              if valid[i:i + 128, j:j + 128].all()]
+    assert len(shifts) >= 15
+    assert np.median(np.hypot(*np.array(shifts).T)) < 0.6

@@ -158,6 +158,22 @@ def test_ngi_frame_on_the_ngi_orthophoto(data_dir, tmp_path):
         assert a.transform == b.transform and np.abs(a.read().astype(int) - b.read()).max() <= 1
 
 
+def test_orientation_file_in_another_crs_refused(data_dir, tmp_path):
+    """orthority's CSV with a .prj stating UTM 35S while the DEM (the map CRS) is the Lo25 TM: mixed CRSs are
+    refused by name, not reinterpreted."""
+    from pyproj import CRS
+    ngi = data_dir / "ngi"
+    csv = tmp_path / "ext.csv"
+    csv.write_text((ngi / "exterior_orientation.txt").read_text())
+    (tmp_path / "ext.prj").write_text(CRS.from_epsg(32735).to_wkt())
+    out = tmp_path / "o.tif"
+    result = CliRunner().invoke(main, ["ortho", str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif"), "--camera",
+                                       str(ngi / "interior_orientation.yaml"), "--eo", str(csv), "--dem",
+                                       str(ngi / "dem.tif"), "-o", str(out), "-q"])
+    assert_one_line_error(result, "is in EPSG:32735 but the map CRS is")
+    assert not out.exists()
+
+
 def test_dem_read_under_the_images_only(data_dir):
     """Only the DEM window under a frame is read (memory bounded by the frame's ground area), with the heights
     of the whole DEM there."""
@@ -271,6 +287,18 @@ def test_bad_input_one_line(scene, bad, tmp_path, case, extra, expected):
     result, out = _cli(scene, tmp_path, *extra.get("args", []), **kw)
     assert_one_line_error(result, expected)
     assert not out.exists() and not list(tmp_path.glob(".*"))
+
+
+def test_failed_run_leaves_no_folder(scene, tmp_path):
+    """Two images into a new folder, one without a pose: the error names it and the folder is gone again."""
+    import shutil
+    second = tmp_path / "frame2.tif"
+    shutil.copy(scene["frame"], second)
+    out = tmp_path / "orthos"
+    result = CliRunner().invoke(main, ["ortho", str(scene["frame"]), str(second), "--camera", str(scene["camera"]),
+                                       "--eo", str(scene["eo"]), "--dem", str(scene["dsm"]), "-o", str(out), "-q"])
+    assert_one_line_error(result, "no orientation for the image(s) frame2")
+    assert not out.exists()
 
 
 def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):

@@ -176,6 +176,31 @@ def test_qgis_process_runs_the_matching_rpc_and_demo_algorithms(config, inputs, 
     assert (tmp_path / "season_reg_field.tif").is_file() and res["INLIERS"] >= 50
 
 
+def test_qgis_process_ortho_and_mosaic(config, inputs, data_dir, tmp_path):
+    """ortho (the two NGI frames with camera, EO and DEM; the QuickBird image with its RPC) and mosaic in
+    qgis_process: the runtime reads every orientation input and writes the orthophotos and the seamlines."""
+    import rasterio
+    ngi = data_dir / "ngi"
+    for f in ("interior_orientation.yaml", "exterior_orientation.txt"):
+        shutil.copy(ngi / f, tmp_path / f)
+    frames = []
+    for f in sorted((ngi / "frames").glob("*.tif")):
+        shutil.copy(f, tmp_path / f.name)
+        frames.append(tmp_path / f.name)
+    res = qgis_process(config, "ortho", IMAGES=frames, DEM=inputs / "dem.tif",
+                       CAMERA=tmp_path / "interior_orientation.yaml", EO=tmp_path / "exterior_orientation.txt",
+                       RESOLUTION=5, OUTDIR=tmp_path / "orthos")
+    assert res["ORTHOPHOTOS"] == 2
+    orthos = sorted((tmp_path / "orthos").glob("*_ortho.tif"))
+    res = qgis_process(config, "mosaic", ORTHOS=orthos, OUTPUT=tmp_path / "m.tif")
+    assert (tmp_path / "m.gpkg").is_file() and res["SEAMLINES_LAYER"].endswith("layername=seamlines")
+    shutil.copy(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "qb2.tif")
+    res = qgis_process(config, "ortho", IMAGES=[tmp_path / "qb2.tif"], DEM=inputs / "dem.tif", RPC=True,
+                       DEM_HEIGHTS=1, RESOLUTION=6, OUTDIR=tmp_path / "qb2")
+    with rasterio.open(tmp_path / "qb2" / "qb2_ortho.tif") as ds:
+        assert res["ORTHOPHOTOS"] == 1 and ds.res == (6.0, 6.0) and ds.read_masks(1).mean() > 100
+
+
 def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
     """A fotogeo error reaches qgis_process as the tool's one-line message, not a Python traceback."""
     r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:register", "--", f"REFERENCE={inputs / 'RGB.byte.tif'}",

@@ -142,10 +142,10 @@ class Dem:
         lo = int(i.min()) if len(i) else 0
         z = self.data[lo:int(i.max()) + 2 if len(i) else 0]
         along = z[:, j] + u * (z[:, j + 1] - z[:, j])  # each DEM row needed, interpolated along the columns
-        top = along[i - lo]
-        h = np.subtract(along[i + 1 - lo], top)
+        step = along[1:] - along[:-1]  # bottom − top of each pair of DEM rows (the same values as per cell)
+        h = step[i - lo] if len(step) else np.zeros((len(i), len(j)))
         h *= t[:, None]
-        h += top
+        h += along[i - lo]
         h[~in_r, :] = np.nan
         h[:, ~in_c] = np.nan
         return h

@@ -200,9 +200,26 @@ def occlusion_surface(heights, dem):
 def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
           resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
-    """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict."""
-    prog = as_progress(progress)
+    """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
+    made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
+    folder = Path(output) if len(images) > 1 or Path(output).is_dir() else None
+    made = folder is not None and not folder.exists()
+    try:
+        return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, height=height, dem_heights=dem_heights,
+                      geoid=geoid, occlusion=occlusion, resolution=resolution, dst_crs=dst_crs, resampling=resampling,
+                      cog=cog, overwrite=overwrite, progress=progress)
+    except BaseException:
+        if made and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+        raise
+
+
+def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
+           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
+           resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
+    """The run of :func:`ortho`."""
+    prog = as_progress(progress)
     if not images:
         raise InputError("give at least one image to orthorectify")
     inputs = [*images, dem, camera, eo, geoid]

@@ -76,12 +76,23 @@ def _rpc_image(path, name, crs) -> OrthoImage:
 
 def orientation_block(eo, crs, camera):
     """The :class:`~fotogeo.geometry.approx_block.ApproximateBlock` of an SfM/orthority ``eo`` file, None for
-    fotogeo's ``.txt`` lines; a file in another CRS than ``crs`` is refused (mixed CRSs)."""
+    fotogeo's ``.txt`` lines; a file in another CRS than ``crs`` is refused (mixed CRSs). orthority's files may
+    state their CRS (``world_crs``, a ``.prj`` beside a CSV): it is read first, never overridden by ``crs``;
+    OpenSfM and COLMAP positions are expressed in ``crs``."""
     from ..io.orientation_file import read_orientation_file
-    block = read_orientation_file(eo, crs=crs, camera=camera)
+    block = None
+    if Path(eo).suffix.lower() in (".geojson", ".csv") and camera is not None:
+        try:
+            block = read_orientation_file(eo, crs=None, camera=camera)  # the file's own CRS, if it states one
+        except InputError as exc:
+            if "states no CRS" not in str(exc):
+                raise
+    block = block or read_orientation_file(eo, crs=crs, camera=camera)
     if block is not None and crs is not None and block.crs is not None and not block.crs.equals(crs):
-        raise InputError(f"--eo {str(eo)!r} is in {block.crs.to_string()} but the map CRS is {crs.to_string()}; "
-                         f"give --crs {block.crs.to_string()} or an orientation file in the map CRS")
+        from ..crs import short_name
+        raise InputError(f"--eo {str(eo)!r} is in {short_name(block.crs)} but the map CRS is {short_name(crs)}; "
+                         f"give --crs {short_name(block.crs)} (and a DEM in it or any CRS) or an orientation file in "
+                         f"the map CRS")
     return block
 
 
