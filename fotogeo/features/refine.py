@@ -58,11 +58,10 @@ def _values(img, x, y, s, blur):
     for k, f in enumerate((1 / K_SCALE, 1.0, K_SCALE)):
         tot = s * f
         sig = np.sqrt(np.maximum(tot ** 2 - blur ** 2, (0.5 * tot) ** 2))
-        g, g1, g2 = _kernels(sig / h)
-        # rows (y) first, then columns (x): L[n, i, j] at output row i, column j
-        lxx = np.einsum("nkj,nlj->nkl", np.einsum("nij,nki->nkj", p, g), g2)
-        lyy = np.einsum("nkj,nlj->nkl", np.einsum("nij,nki->nkj", p, g2), g)
-        lxy = np.einsum("nkj,nlj->nkl", np.einsum("nij,nki->nkj", p, g1), g1)
+        kern = np.concatenate(_kernels(sig / h), axis=1)      # (N, 9, 2R+1): g, g', g''
+        # rows (y) then columns (x): c[n, a, b] = sum_ij kern[n, a, i] p[n, i, j] kern[n, b, j]
+        c = (kern @ p) @ kern.transpose(0, 2, 1)
+        lxx, lyy, lxy = c[:, 0:3, 6:9], c[:, 6:9, 0:3], c[:, 3:6, 3:6]
         norm = (np.sqrt(sig ** 2 + blur ** 2) / h) ** 4      # t^4 in grid units
         out[:, k] = norm[:, None, None] * (lxx * lyy - lxy * lxy)
     return out
