@@ -154,6 +154,13 @@ def run_ours_refined(img):
     return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
+def run_ours_upscaled(img):
+    """fotogeo's SURF with surf(upscale=True): the finest blobs from the image upsampled 2x."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, upscale=True)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
 def run_sift(img):
     sift = cv2.SIFT_create()
     kp, d = sift.detectAndCompute(img, None)
@@ -513,7 +520,7 @@ def protocol_main(args):
     """Issue 19's protocol (surf_protocol.py): every tile and case, then the localisation."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import surf_protocol as sp
-    methods = {"fotogeo": run_ours, "sift": run_sift_corrected}
+    methods = {"fotogeo": run_ours, "fotogeo_upscale": run_ours_upscaled, "sift": run_sift_corrected}
     try:
         import mahotas  # noqa: F401
         methods["mahotas"] = run_mahotas
@@ -530,11 +537,12 @@ def protocol_main(args):
     print("localisation under a known warp (200 deg, x0.9, perspective), before LSM:", flush=True)
     loc = sp.localise(DATA, {"fotogeo": run_ours, "fotogeo_refined": run_ours_refined, **{
         m: f for m, f in methods.items() if m != "fotogeo"}}, geometric, apply_h, inside, tiles)
-    misses = sp.worst(rows)
+    misses = {m: sp.worst(rows, m) for m in methods if m.startswith("fotogeo")}
     print_protocol(rows, list(methods))
     print("\ntargets missed (tile, case, matching score / SIFT's, repeatability - mahotas'):")
-    for m in misses:
-        print("  ", m)
+    for m, miss in misses.items():
+        for x in miss:
+            print("  ", m, x)
     if tiles or cases:
         return
     old = json.loads(OUT.read_text()) if OUT.exists() else {}

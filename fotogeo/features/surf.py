@@ -44,9 +44,18 @@ PRESMOOTH_SIGMA = 1.2
 #: the correct matches' median error falls 0.62 -> 0.37 px (SIFT 0.10) and the dense error
 #: of the fitted homography 0.27 -> 0.15 px (SIFT 0.016); on 3 tiles x 14 cases the
 #: repeatability rises 0.773 -> 0.790 but the matching score falls 0.702 -> 0.697 (pure
-#: scale changes lose up to 0.04), and detection + description costs 1.46x the CPU time at
-#: 4 Mpx -- beyond the 1.2x budget, so it is off by default.
+#: scale changes lose up to 0.04), and the dense error of a fitted homography improves on some
+#: tiles and worsens on others (README, SURF section), at about 1.2x the CPU time (4 Mpx):
+#: so it is off by default.
 REFINE_POSITIONS = False
+
+#: ``surf(upscale=True)``: keypoints of scale s < UPSCALE_CUT come from the 2x upsampled
+#: image. The box filters' finest layers (L = 9, 15) and the pre-smoothing leave blobs finer
+#: than about s = 1.6 undetected, which a 2x enlarged copy shows: at scale 2.0 only 56 % of
+#: the 1500 strongest keypoints had a partner among the other image's 1500 (issue 19,
+#: Sentinel-2 scene). Measured (benchmarks/surf_bench.py --protocol, same run as the
+#: default): see the README's SURF section.
+UPSCALE_CUT = 1.6
 
 #: Radius, in units of the scale s, that the descriptor window (20s square rotated
 #: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
@@ -97,7 +106,7 @@ class SurfResult:
 
 def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_octaves: int = 4,
          upright: bool = False, extended: bool = False, max_keypoints: int | None = None,
-         refine_positions: bool = REFINE_POSITIONS) -> SurfResult:
+         refine_positions: bool = REFINE_POSITIONS, upscale: bool = False) -> SurfResult:
     """Detect and describe SURF keypoints in a 2-D image.
 
     Parameters
@@ -132,6 +141,11 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
         Report positions re-fitted in the Gaussian scale space
         (:mod:`fotogeo.features.refine`); descriptors, scales and angles are those of the
         box-filter detector either way. See :data:`REFINE_POSITIONS`.
+    upscale : bool
+        Also detect on the image upsampled 2x (one octave there, as SIFT doubles its input,
+        Lowe 2004 sec. 3.3): blobs finer than s = :data:`UPSCALE_CUT` come from it, the rest
+        from the image itself. Finds the fine blobs a 2x enlarged copy of the image shows,
+        at 2.3-2.7x the time; see :data:`UPSCALE_CUT`.
 
     Returns
     -------
@@ -152,6 +166,10 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     rows, cols = img.shape
     if rows < 24 or cols < 24 or not valid.any() or max_keypoints == 0:
         return SurfResult.empty(extended)
+    if upscale:
+        return _upscaled(img, valid, max_keypoints, dict(
+            hessian_threshold=hessian_threshold, upright=upright, extended=extended,
+            refine_positions=refine_positions), n_octaves)
     n_octaves = min(n_octaves, _usable_octaves(rows, cols))
     img = _prepared(img, valid)
     # one integral image at a time: detection and description each walk the octaves
@@ -165,6 +183,31 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
                       angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
                       laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
+
+
+def _upscaled(img, valid, max_keypoints, kw, n_octaves) -> SurfResult:
+    """``surf(upscale=True)``: keypoints finer than :data:`UPSCALE_CUT` from one octave on the
+    image upsampled 2x (bilinear; positions and scales halved back), the others from the
+    image itself; then the usual spatially balanced budget and (row, col, scale) order."""
+    rows, cols = img.shape
+    filled = img.astype(np.float32, copy=True)
+    filled[~valid] = filled[valid].mean()
+    up = cv2.resize(filled, (2 * cols, 2 * rows), interpolation=cv2.INTER_LINEAR)
+    vup = cv2.resize(valid.astype(np.uint8), (2 * cols, 2 * rows), interpolation=cv2.INTER_NEAREST) > 0
+    fine = surf(up, vup, n_octaves=1, **kw)
+    coarse = surf(filled, valid, n_octaves=n_octaves, **kw)
+    kf, kc = fine.scale / 2 < UPSCALE_CUT, coarse.scale >= UPSCALE_CUT
+    xy = np.vstack([fine.xy[kf] / 2, coarse.xy[kc]])
+    scale = np.r_[fine.scale[kf] / 2, coarse.scale[kc]]
+    angle, response = np.r_[fine.angle[kf], coarse.angle[kc]], np.r_[fine.response[kf], coarse.response[kc]]
+    lap = np.r_[fine.laplacian[kf], coarse.laplacian[kc]].astype(np.int8)
+    desc = np.vstack([fine.descriptors[kf], coarse.descriptors[kc]])
+    idx = np.arange(len(xy))
+    if max_keypoints is not None and len(idx) > max_keypoints:
+        idx = _balanced(xy[:, 0], xy[:, 1], response, rows, cols, max_keypoints)
+    idx = idx[np.lexsort((scale[idx], xy[idx, 0], xy[idx, 1]))]
+    return SurfResult(xy=xy[idx], scale=scale[idx], angle=angle[idx], response=response[idx],
+                      laplacian=lap[idx], descriptors=desc[idx])
 
 
 def _prepared(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
