@@ -167,8 +167,8 @@ def localise(data, methods, geometric, apply_h, inside, tiles=None, log=print):
             row[m] = localisation(pairs, hm, a.shape, apply_h) if pairs is not None else None
         out.append(row)
         log(f"  {name:14s} " + "  ".join(
-            f"{m} med {row[m]['median_px']:.3f} rms {row[m]['rms_px']:.3f} dense {row[m].get('dense_mean_px', np.nan):.3f}"
-            for m in methods if row[m]), flush=True)
+            f"{m} med {row[m]['median_px']:.3f} rms {row[m]['rms_px']:.3f} "
+            f"dense {row[m].get('dense_mean_px', np.nan):.3f}" for m in methods if row[m]), flush=True)
     return out
 
 
