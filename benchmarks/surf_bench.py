@@ -1,6 +1,12 @@
 """SURF benchmark (issue 3): fotogeo's SURF vs mahotas SURF, Orfeo ToolBox SURF, OpenCV SIFT.
 
 Run:  .venv/bin/python benchmarks/surf_bench.py [--quick]
+      .venv/bin/python benchmarks/surf_bench.py --protocol [--tiles ...] [--cases ...]
+
+``--protocol`` runs issue 19's protocol instead (held-out tiles, top 1500 keypoints by
+|response|, repeatability within 2.5 px, ratio-0.8 matches correct within 3 px; see
+``benchmarks/surf_protocol.py``) and the keypoints' localisation error under a known warp;
+a full protocol run stores its rows under ``"protocol"`` in the JSON, keeping the rest.
 
 Quality: image A (a real image, robustly stretched to 0..255, uint8) and B = T(A) for a
 known transform T (rotation 15..180 deg, scale 0.5..2, a viewpoint homography, Gaussian
@@ -141,6 +147,20 @@ def run_ours(img):
     return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
+def run_ours_refined(img):
+    """fotogeo's SURF with positions from the Gaussian scale-space fit (refine_positions=True)."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, refine_positions=True)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
+def run_ours_upscaled(img):
+    """fotogeo's SURF with surf(upscale=True): the finest blobs from the image upsampled 2x."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, upscale=True)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
 def run_sift(img):
     sift = cv2.SIFT_create()
     kp, d = sift.detectAndCompute(img, None)
@@ -157,6 +177,13 @@ def run_mahotas(img, max_points=4 * N_KEEP):
         return np.zeros((0, 2)), np.zeros(0), np.zeros((0, 64), np.float32), np.zeros(0), np.zeros(0)
     xy = p[:, [1, 0]] + 0.5                              # array indices -> GDAL corner
     return xy, p[:, 2], p[:, 6:].astype(np.float32), p[:, 3], np.sign(p[:, 4])
+
+
+def run_sift_corrected(img):
+    """SIFT with fotogeo's pipeline correction of OpenCV's +0.25 px offset (detect.SIFT_OFFSET)."""
+    from fotogeo.features.detect import SIFT_OFFSET
+    xy, s, d, r, lap = run_sift(img)
+    return xy - SIFT_OFFSET, s, d, r, lap
 
 
 METHODS = {"fotogeo": run_ours, "mahotas": run_mahotas, "sift": run_sift}
@@ -439,6 +466,10 @@ def main(argv=None):
     ap.add_argument("--speed-only", action="store_true", help="only the timing runs")
     ap.add_argument("--families", help="comma-separated transform families to run (e.g. scale,rotation+scale); "
                                        "a partial run prints its tables and does not write the JSON")
+    ap.add_argument("--protocol", action="store_true", help="issue 19's protocol on held-out tiles and the "
+                                                            "localisation error under a known warp")
+    ap.add_argument("--tiles", help="protocol: comma-separated tile names (default: all of surf_protocol.TILES)")
+    ap.add_argument("--cases", help="protocol: comma-separated case labels or families (default: all)")
     ap.add_argument("--images", help=f"comma-separated images: {', '.join(IMAGES)} or RGB paths under the data folder")
     args = ap.parse_args(argv)
     families = args.families.split(",") if args.families else None
@@ -447,6 +478,8 @@ def main(argv=None):
         return child(*args.child)
     if not DATA.is_dir():
         sys.exit(f"surf_bench: real data not found at {DATA} (set FOTOGEO_DATA)")
+    if args.protocol:
+        return protocol_main(args)
     with tempfile.TemporaryDirectory() as tmp:
         rows, table, rp = [], {}, {}
         if not args.speed_only:
@@ -481,6 +514,57 @@ def main(argv=None):
     tmp_out.replace(OUT)
     print_tables(table, rp, sp, startup)
     print(f"wrote {OUT.relative_to(ROOT)}")
+
+
+def protocol_main(args):
+    """Issue 19's protocol (surf_protocol.py): every tile and case, then the localisation."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import surf_protocol as sp
+    methods = {"fotogeo": run_ours, "fotogeo_upscale": run_ours_upscaled, "sift": run_sift_corrected}
+    try:
+        import mahotas  # noqa: F401
+        methods["mahotas"] = run_mahotas
+    except ImportError:
+        print("mahotas not installed (pip install mahotas): its column is left out", flush=True)
+    if shutil.which("otbcli_HomologousPointsExtraction") is None:
+        print("OTB (otb-bin) not installed: its column is left out", flush=True)
+    tiles = args.tiles.split(",") if args.tiles else None
+    cases = args.cases.split(",") if args.cases else None
+    t0 = time.perf_counter()
+    print("protocol (top %d by |response|, repeatability %.1f px, ratio %.1f matches correct within %.0f px):"
+          % (sp.N_TOP, sp.REP_TOL, sp.RATIO, sp.MATCH_TOL), flush=True)
+    rows = sp.run(DATA, methods, geometric, rotation_scale, apply_h, inside, tiles, cases)
+    print("localisation under a known warp (200 deg, x0.9, perspective), before LSM:", flush=True)
+    loc = sp.localise(DATA, {"fotogeo": run_ours, "fotogeo_refined": run_ours_refined, **{
+        m: f for m, f in methods.items() if m != "fotogeo"}}, geometric, apply_h, inside, tiles)
+    misses = {m: sp.worst(rows, m) for m in methods if m.startswith("fotogeo")}
+    print_protocol(rows, list(methods))
+    print("\ntargets missed (tile, case, matching score / SIFT's, repeatability - mahotas'):")
+    for m, miss in misses.items():
+        for x in miss:
+            print("  ", m, x)
+    if tiles or cases:
+        return
+    old = json.loads(OUT.read_text()) if OUT.exists() else {}
+    old["protocol"] = {"n_top": sp.N_TOP, "repeatability_px": sp.REP_TOL, "match_px": sp.MATCH_TOL,
+                       "ratio": sp.RATIO, "tiles": [list(t) for t in sp.TILES], "cases": rows,
+                       "per_case": sp.summary(rows, list(methods)), "misses": misses, "localisation": loc,
+                       "seconds": time.perf_counter() - t0,
+                       "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    tmp_out = OUT.with_suffix(".json.tmp")
+    tmp_out.write_text(json.dumps(old, indent=1))
+    tmp_out.replace(OUT)
+    print(f"wrote {OUT.relative_to(ROOT)} (key 'protocol')")
+
+
+def print_protocol(rows, methods):
+    """Repeatability / matching score per tile and case, ratios vs SIFT and mahotas."""
+    print("\ntile            case             " + "  ".join(f"{m:>13s}" for m in methods) + "  ms/sift  rep-mah")
+    for r in rows:
+        cells = "  ".join(f"{r[m]['repeatability']:.3f} / {r[m]['matching_score']:.3f}" for m in methods)
+        ratio = r["fotogeo"]["matching_score"] / max(r["sift"]["matching_score"], 1e-9)
+        dm = r["fotogeo"]["repeatability"] - r["mahotas"]["repeatability"] if "mahotas" in r else float("nan")
+        print(f"{r['image']:15s} {r['case']:16s} {cells}  {ratio:7.2f}  {dm:+7.3f}")
 
 
 def print_tables(table, rp, sp, startup):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fotogeo.errors import InputError
-from fotogeo.features import SurfResult, surf
+from fotogeo.features import SurfResult, match_descriptors, surf
 from fotogeo.pixels import from_centre, to_centre
 
 rasterio = pytest.importorskip("rasterio")
@@ -258,3 +258,158 @@ def test_row_bands_merge_without_duplicates(landsat, monkeypatch):
     assert len(whole["x"]) > 100
     for k in ("x", "y", "size", "response", "laplacian", "octave"):
         assert np.array_equal(whole[k][order[0]], banded[k][order[1]]), k
+
+
+# ------------------------------------------------------------------ issue 19's protocol
+def _tile(path, crop=None):
+    """Band mean of an RGB tile stretched 1-99 % to 0..255 (uint8) and its valid mask."""
+    with rasterio.open(path) as ds:
+        a = ds.read().astype(np.float32)
+    if crop is not None:
+        r0, c0, n = crop
+        a = a[:, r0:r0 + n, c0:c0 + n]
+    valid = (a > 0).all(0)
+    img = np.rint(_stretch(a.mean(0), valid) * valid).astype(np.uint8)
+    return img, valid
+
+
+def _warp_h(a, valid, h):
+    """Warp with the centre-convention homography h onto a canvas holding all of it."""
+    rows, cols = a.shape
+    c = np.array([[0, 0, 1], [cols - 1, 0, 1], [0, rows - 1, 1], [cols - 1, rows - 1, 1]], float).T
+    p = h @ c
+    p = p[:2] / p[2]
+    lo, hi = np.floor(p.min(1)), np.ceil(p.max(1))
+    h = np.array([[1, 0, -lo[0]], [0, 1, -lo[1]], [0, 0, 1]]) @ h
+    size = (int(hi[0] - lo[0] + 1), int(hi[1] - lo[1] + 1))
+    b = cv2.warpPerspective(a, h, size, flags=cv2.INTER_LINEAR)
+    vb = cv2.warpPerspective(valid.astype(np.float32), h, size, flags=cv2.INTER_LINEAR) > 0.999
+    b[~vb] = 0
+    return b, vb, h
+
+
+def _map(h, xy):
+    """Corner-convention points through the centre-convention homography h."""
+    p = np.column_stack([to_centre(xy), np.ones(len(xy))]) @ h.T
+    return from_centre(p[:, :2] / p[:, 2:])
+
+
+def _protocol(fa, fb, h, va, vb, n_top=1500):
+    """(repeatability within 2.5 px, matching score: ratio-0.8 matches within 3 px) as in
+    benchmarks/surf_protocol.py; fa, fb = (xy, descriptors, response, laplacian or None)."""
+    def top(f):
+        i = np.argsort(-np.abs(f[2]), kind="stable")[:n_top]
+        return f[0][i], f[1][i].astype(np.float32), None if f[3] is None else f[3][i]
+
+    def inside(valid, xy):
+        er = cv2.erode(valid.astype(np.uint8), np.ones((33, 33), np.uint8)) > 0
+        c = np.floor(xy).astype(int)
+        ok = (c >= 0).all(1) & (c[:, 0] < valid.shape[1]) & (c[:, 1] < valid.shape[0])
+        ok[ok] = er[c[ok, 1], c[ok, 0]]
+        return ok
+    (xa, da, la), (xb, db, lb) = top(fa), top(fb)
+    ia = inside(vb, _map(h, xa)) & inside(va, xa)
+    ib = inside(va, _map(np.linalg.inv(h), xb)) & inside(vb, xb)
+    xa, da, xb, db = xa[ia], da[ia], xb[ib], db[ib]
+    n = min(len(xa), len(xb))
+    d2 = ((_map(h, xa)[:, None] - xb[None]) ** 2).sum(-1)
+    rep = min((d2 <= 2.5 ** 2).any(1).sum(), (d2 <= 2.5 ** 2).any(0).sum()) / n
+    dd = (da * da).sum(1)[:, None] + (db * db).sum(1)[None] - 2 * da @ db.T
+    if la is not None:
+        dd[la[ia][:, None] != lb[ib][None]] = np.inf
+    nn = dd.argmin(1)
+    first, second = np.sqrt(np.maximum(np.partition(dd, 1, axis=1)[:, :2], 0)).T
+    ok = (first < 0.8 * second) & (d2[np.arange(len(xa)), nn] <= 9.0)
+    return rep, ok.sum() / n
+
+
+def _sift(img):
+    kp, d = cv2.SIFT_create().detectAndCompute(img, None)
+    xy = from_centre(np.array([k.pt for k in kp], float)) - 0.25
+    return xy, d, np.array([k.response for k in kp]), None
+
+
+def _ours(img, **kw):
+    r = surf(img, hessian_threshold=10.0, **kw)
+    return r.xy, r.descriptors, r.response, r.laplacian
+
+
+@pytest.fixture(scope="module")
+def held_out_tile(data_dir):
+    """A 512 x 512 tile of NGI orthophoto 2 (never used to tune SURF)."""
+    return _tile(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_2.tif", (450, 150, 512))
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("deg, scale, min_rep", [(45, 1.3, 0.52), (135, 0.6, 0.65), (30, 0.7, 0.65)])
+def test_protocol_rotation_and_scale_on_held_out_tile(held_out_tile, deg, scale, min_rep):
+    """Issue 19's protocol on a held-out tile: repeatability above a measured floor and a
+    matching score of at least 0.8x SIFT's in the same run. Measured: 45 x 1.3 rep 0.612,
+    matching 0.500 (SIFT 0.464); 135 x 0.6: 0.793, 0.648 (0.296); 30 x 0.7: 0.759, 0.600 (0.415)."""
+    a, va = held_out_tile
+    h = np.vstack([cv2.getRotationMatrix2D((0.0, 0.0), deg, scale), [0, 0, 1]])
+    b, vb, h = _warp_h(a, va, h)
+    rep, ms = _protocol(_ours(a), _ours(b), h, va, vb)
+    _, ms_sift = _protocol(_sift(a), _sift(b), h, va, vb)
+    assert rep >= min_rep, rep
+    assert ms >= 0.8 * ms_sift, (ms, ms_sift)
+
+
+@pytest.mark.data
+def test_refined_positions_are_closer_under_a_known_warp(landsat):
+    """refine_positions: correct matches under 200 deg x 0.9 + perspective agree better.
+    Measured here (default threshold, mutual ratio-test matches, median error within 3 px):
+    box maxima 0.41 px, refined 0.22 px."""
+    a, valid = landsat
+    a = np.rint(a * valid).astype(np.uint8)
+    h = np.vstack([cv2.getRotationMatrix2D((0.0, 0.0), 200, 0.9), [2e-5, -1e-5, 1]])
+    b, vb, h = _warp_h(a, valid, h)
+    med = {}
+    for refined in (False, True):
+        ra, rb = surf(a, valid, refine_positions=refined), surf(b, vb, refine_positions=refined)
+        m = match_descriptors(ra.descriptors, rb.descriptors, ratio=0.8)
+        e = np.hypot(*(_map(h, ra.xy[m.pairs[:, 0]]) - rb.xy[m.pairs[:, 1]]).T)
+        med[refined] = np.median(e[e <= 3.0])
+        if refined:   # descriptors do not change with the refinement
+            np.testing.assert_array_equal(ra.descriptors, surf(a, valid).descriptors)
+    assert med[True] <= 0.3 and med[True] < 0.75 * med[False], med
+
+
+@pytest.mark.parametrize("cx, cy", [(40.0, 33.0), (40.3, 33.6)])
+def test_refined_blob_position(cx, cy):
+    """A Gaussian blob's centre is found to 0.05 px by the scale-space refinement."""
+    for sigma in (2.5, 4.0):      # 4.0: found in two octaves, both refined to the centre
+        res = surf(_blob((80, 88), cx, cy, sigma), upright=True, refine_positions=True)
+        assert 1 <= len(res) <= 2
+        assert np.abs(res.xy - [cx, cy]).max() < 0.05, (sigma, res.xy)
+
+
+@pytest.mark.data
+def test_upscale_finds_the_blobs_a_2x_enlargement_shows(held_out_tile):
+    """surf(upscale=True) under a 2x enlargement (issue 19's weak case): matching score at
+    least 0.8x SIFT's, and clearly above the default's. Measured on this tile: default 0.347,
+    upscale 0.612, SIFT 0.461 (repeatability 0.381 / 0.675 / 0.491)."""
+    a, va = held_out_tile
+    h = np.vstack([cv2.getRotationMatrix2D((0.0, 0.0), 0.0, 2.0), [0, 0, 1]])
+    b, vb, h = _warp_h(a, va, h)
+    _, ms_default = _protocol(_ours(a), _ours(b), h, va, vb)
+    rep, ms = _protocol(_ours(a, upscale=True), _ours(b, upscale=True), h, va, vb)
+    _, ms_sift = _protocol(_sift(a), _sift(b), h, va, vb)
+    assert ms >= 0.8 * ms_sift and ms >= 1.4 * ms_default, (ms, ms_sift, ms_default)
+    assert rep >= 0.55, rep
+
+
+def test_upscale_keeps_conventions_and_budget():
+    """upscale=True: a blob's position (corner convention) and scale as without it; budget."""
+    img = _blob((72, 80), 40.3, 33.6, 2.5)
+    a, b = surf(img, upright=True), surf(img, upright=True, upscale=True)
+    assert len(b) >= 1
+    i = np.argmin(np.abs(b.scale - a.scale[0]))
+    assert np.abs(b.xy[i] - [40.3, 33.6]).max() < 0.15 and abs(b.scale[i] / a.scale[0] - 1) < 0.3
+    rng = np.random.default_rng(3)
+    tex = cv2.GaussianBlur(rng.uniform(0, 255, (120, 140)).astype(np.float32), (0, 0), 2.0)
+    full = surf(tex, hessian_threshold=1.0, upscale=True)
+    few = surf(tex, hessian_threshold=1.0, upscale=True, max_keypoints=20)
+    assert len(full) > 20 and len(few) == 20
+    order = np.lexsort((few.scale, few.xy[:, 0], few.xy[:, 1]))
+    np.testing.assert_array_equal(order, np.arange(20))

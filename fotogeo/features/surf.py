@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..pixels import from_centre
-from . import describe, hessian
+from . import describe, hessian, refine
 
 #: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics,
 #: but measured after the light pre-smoothing below, which lowers fine-detail responses).
@@ -37,6 +37,25 @@ DEFAULT_THRESHOLD = 50.0
 #: repeatability 0.685 / 0.714 / 0.736 / 0.743 / 0.742 and matching score 0.609 / 0.656 /
 #: 0.679 / 0.684 / 0.684.
 PRESMOOTH_SIGMA = 1.2
+
+#: Default of ``surf(refine_positions=...)``: positions from the Gaussian scale-space fit of
+#: :mod:`fotogeo.features.refine` instead of the box-filter maxima. Measured (issue 19,
+#: benchmarks/surf_bench.py --protocol): under the Landsat warp 200 deg x 0.9 + perspective
+#: the correct matches' median error falls 0.62 -> 0.37 px (SIFT 0.10) and the dense error
+#: of the fitted homography 0.27 -> 0.15 px (SIFT 0.016); on 3 tiles x 14 cases the
+#: repeatability rises 0.773 -> 0.790 but the matching score falls 0.702 -> 0.697 (pure
+#: scale changes lose up to 0.04), and the dense error of a fitted homography improves on some
+#: tiles and worsens on others (README, SURF section), at about 1.2x the CPU time (4 Mpx):
+#: so it is off by default.
+REFINE_POSITIONS = False
+
+#: ``surf(upscale=True)``: keypoints of scale s < UPSCALE_CUT come from the 2x upsampled
+#: image. The box filters' finest layers (L = 9, 15) and the pre-smoothing leave blobs finer
+#: than about s = 1.6 undetected, which a 2x enlarged copy shows: at scale 2.0 only 56 % of
+#: the 1500 strongest keypoints had a partner among the other image's 1500 (issue 19,
+#: Sentinel-2 scene). Measured (benchmarks/surf_bench.py --protocol, same run as the
+#: default): see the README's SURF section.
+UPSCALE_CUT = 1.6
 
 #: Radius, in units of the scale s, that the descriptor window (20s square rotated
 #: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
@@ -86,7 +105,8 @@ class SurfResult:
 
 
 def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_octaves: int = 4,
-         upright: bool = False, extended: bool = False, max_keypoints: int | None = None) -> SurfResult:
+         upright: bool = False, extended: bool = False, max_keypoints: int | None = None,
+         refine_positions: bool = REFINE_POSITIONS, upscale: bool = False) -> SurfResult:
     """Detect and describe SURF keypoints in a 2-D image.
 
     Parameters
@@ -117,6 +137,15 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
         Keep at most this many keypoints, spatially balanced: the image is divided into
         about ``max_keypoints / 8`` square cells and the cells take turns giving their next
         strongest keypoint (round robin), so keypoints spread over the image.
+    refine_positions : bool
+        Report positions re-fitted in the Gaussian scale space
+        (:mod:`fotogeo.features.refine`); descriptors, scales and angles are those of the
+        box-filter detector either way. See :data:`REFINE_POSITIONS`.
+    upscale : bool
+        Also detect on the image upsampled 2x (one octave there, as SIFT doubles its input,
+        Lowe 2004 sec. 3.3): blobs finer than s = :data:`UPSCALE_CUT` come from it, the rest
+        from the image itself. Finds the fine blobs a 2x enlarged copy of the image shows,
+        at 2.3-2.7x the time; see :data:`UPSCALE_CUT`.
 
     Returns
     -------
@@ -137,6 +166,10 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     rows, cols = img.shape
     if rows < 24 or cols < 24 or not valid.any() or max_keypoints == 0:
         return SurfResult.empty(extended)
+    if upscale:
+        return _upscaled(img, valid, max_keypoints, dict(
+            hessian_threshold=hessian_threshold, upright=upright, extended=extended,
+            refine_positions=refine_positions), n_octaves)
     n_octaves = min(n_octaves, _usable_octaves(rows, cols))
     img = _prepared(img, valid)
     # one integral image at a time: detection and description each walk the octaves
@@ -146,10 +179,35 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     if not len(idx):
         return SurfResult.empty(extended)
     x, y, s = kp["x"][idx], kp["y"][idx], hessian.scale_of_size(kp["size"][idx])
-    theta, desc = _described(img, x, y, s, kp["octave"][idx], upright, extended)
+    theta, desc, x, y = _described(img, x, y, s, kp["octave"][idx], upright, extended, refine_positions)
     return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
                       angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
                       laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
+
+
+def _upscaled(img, valid, max_keypoints, kw, n_octaves) -> SurfResult:
+    """``surf(upscale=True)``: keypoints finer than :data:`UPSCALE_CUT` from one octave on the
+    image upsampled 2x (bilinear; positions and scales halved back), the others from the
+    image itself; then the usual spatially balanced budget and (row, col, scale) order."""
+    rows, cols = img.shape
+    filled = img.astype(np.float32, copy=True)
+    filled[~valid] = filled[valid].mean()
+    up = cv2.resize(filled, (2 * cols, 2 * rows), interpolation=cv2.INTER_LINEAR)
+    vup = cv2.resize(valid.astype(np.uint8), (2 * cols, 2 * rows), interpolation=cv2.INTER_NEAREST) > 0
+    fine = surf(up, vup, n_octaves=1, **kw)
+    coarse = surf(filled, valid, n_octaves=n_octaves, **kw)
+    kf, kc = fine.scale / 2 < UPSCALE_CUT, coarse.scale >= UPSCALE_CUT
+    xy = np.vstack([fine.xy[kf] / 2, coarse.xy[kc]])
+    scale = np.r_[fine.scale[kf] / 2, coarse.scale[kc]]
+    angle, response = np.r_[fine.angle[kf], coarse.angle[kc]], np.r_[fine.response[kf], coarse.response[kc]]
+    lap = np.r_[fine.laplacian[kf], coarse.laplacian[kc]].astype(np.int8)
+    desc = np.vstack([fine.descriptors[kf], coarse.descriptors[kc]])
+    idx = np.arange(len(xy))
+    if max_keypoints is not None and len(idx) > max_keypoints:
+        idx = _balanced(xy[:, 0], xy[:, 1], response, rows, cols, max_keypoints)
+    idx = idx[np.lexsort((scale[idx], xy[idx, 0], xy[idx, 1]))]
+    return SurfResult(xy=xy[idx], scale=scale[idx], angle=angle[idx], response=response[idx],
+                      laplacian=lap[idx], descriptors=desc[idx])
 
 
 def _prepared(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -177,10 +235,12 @@ def _selected(kp: dict, valid: np.ndarray, max_keypoints: int | None) -> np.ndar
     return idx[np.lexsort((s[idx], x[idx], y[idx]))]
 
 
-def _described(img, x, y, s, octave, upright: bool, extended: bool):
-    """Orientation (radians) and descriptors of the keypoints, each octave's keypoints
-    described on the smoothed image (orientation) and its integral (descriptor) they were
-    detected on."""
+def _described(img, x, y, s, octave, upright: bool, extended: bool, refine_positions: bool = False):
+    """Orientation (radians), descriptors and (refined) positions of the keypoints, each
+    octave's keypoints described on the smoothed image (orientation) and its integral
+    (descriptor) they were detected on, and refined on that image
+    (:func:`fotogeo.features.refine.refine`) when ``refine_positions``."""
+    rx, ry = x.copy(), y.copy()
     theta = np.zeros(len(x))
     desc = np.zeros((len(x), 128 if extended else 64), np.float32)
     for o, ii_o, pad, img_o in hessian.octave_integrals(img, int(octave.max()) + 1, PRESMOOTH_SIGMA,
@@ -190,8 +250,11 @@ def _described(img, x, y, s, octave, upright: bool, extended: bool):
             if not upright:
                 theta[sel] = describe.orientation(img_o, x[sel], y[sel], s[sel])
             desc[sel] = describe.descriptors(ii_o, pad, x[sel], y[sel], s[sel], theta[sel], extended)
+            if refine_positions:     # after describing: descriptors stay those of the detector
+                blur_o = max(PRESMOOTH_SIGMA, hessian.OCTAVE_BLUR * (1 << o))
+                rx[sel], ry[sel], _ = refine.refine(img_o, x[sel], y[sel], s[sel], blur_o)
         del ii_o                                # before the next octave's integral is built
-    return theta, desc
+    return theta, desc, rx, ry
 
 
 def _usable_octaves(rows: int, cols: int) -> int:
