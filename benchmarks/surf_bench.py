@@ -69,15 +69,8 @@ IMAGES = {
 # ----------------------------------------------------------------------------- data
 def load(rel):
     """Band mean of a real RGB image stretched (1-99 %) to 0..255 as uint8, and its valid mask."""
-    import rasterio
-    with rasterio.open(DATA / rel) as ds:
-        a = ds.read().astype(np.float32)
-    valid = (a > 0).all(0)
-    m = a.mean(0)
-    lo, hi = np.percentile(m[valid], [1, 99])
-    img = np.clip((m - lo) / (hi - lo) * 255, 0, 255)
-    img[~valid] = 0
-    return np.rint(img).astype(np.uint8), valid
+    from surf_protocol import load_tile  # one loader for both benchmarks
+    return load_tile(DATA, rel, None)
 
 
 def _canvas(h, w, hm):

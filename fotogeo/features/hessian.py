@@ -169,6 +169,24 @@ def _layer(ii, pad, r0, nr, nc, p, size):
     return dxx, trace
 
 
+def central_differences(v):
+    """Value, gradient and Hessian in (x, y, s) from the 3 x 3 x 3 neighbourhood ``v(ds, dy, dx)``
+    (each an array over the points; offsets -1, 0, 1): central differences, the quadratic a Newton
+    step of a scale-space extremum solves (Brown & Lowe 2002). Returns ``(c, g (N, 3), H (N, 3, 3))``."""
+    c = v(0, 0, 0)
+    g = np.stack([(v(0, 0, 1) - v(0, 0, -1)) / 2, (v(0, 1, 0) - v(0, -1, 0)) / 2,
+                  (v(1, 0, 0) - v(-1, 0, 0)) / 2], -1)
+    hxx = v(0, 0, 1) + v(0, 0, -1) - 2 * c
+    hyy = v(0, 1, 0) + v(0, -1, 0) - 2 * c
+    hss = v(1, 0, 0) + v(-1, 0, 0) - 2 * c
+    hxy = (v(0, 1, 1) - v(0, 1, -1) - v(0, -1, 1) + v(0, -1, -1)) / 4
+    hxs = (v(1, 0, 1) - v(1, 0, -1) - v(-1, 0, 1) + v(-1, 0, -1)) / 4
+    hys = (v(1, 1, 0) - v(1, -1, 0) - v(-1, 1, 0) + v(-1, -1, 0)) / 4
+    hm = np.stack([np.stack([hxx, hxy, hxs], -1), np.stack([hxy, hyy, hys], -1),
+                   np.stack([hxs, hys, hss], -1)], -2)
+    return c, g, hm
+
+
 def _refine(det, cand_layer, k, j):
     """Quadratic (Newton) refinement around maxima at ``det[cand_layer, k, j]``.
 
@@ -179,19 +197,7 @@ def _refine(det, cand_layer, k, j):
     def v(dl, dk, dj):
         return det[L + dl, K + dk, J + dj].astype(np.float64)
 
-    c = v(0, 0, 0)
-    gx = (v(0, 0, 1) - v(0, 0, -1)) / 2
-    gy = (v(0, 1, 0) - v(0, -1, 0)) / 2
-    gs = (v(1, 0, 0) - v(-1, 0, 0)) / 2
-    hxx = v(0, 0, 1) + v(0, 0, -1) - 2 * c
-    hyy = v(0, 1, 0) + v(0, -1, 0) - 2 * c
-    hss = v(1, 0, 0) + v(-1, 0, 0) - 2 * c
-    hxy = (v(0, 1, 1) - v(0, 1, -1) - v(0, -1, 1) + v(0, -1, -1)) / 4
-    hxs = (v(1, 0, 1) - v(1, 0, -1) - v(-1, 0, 1) + v(-1, 0, -1)) / 4
-    hys = (v(1, 1, 0) - v(1, -1, 0) - v(-1, 1, 0) + v(-1, -1, 0)) / 4
-    hm = np.stack([np.stack([hxx, hxy, hxs], -1), np.stack([hxy, hyy, hys], -1),
-                   np.stack([hxs, hys, hss], -1)], -2)
-    g = np.stack([gx, gy, gs], -1)
+    c, g, hm = central_differences(v)
     detm = np.linalg.det(hm) if len(c) else np.zeros(0)
     ok = np.abs(detm) > 1e-30
     off = np.zeros_like(g)

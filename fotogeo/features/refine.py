@@ -24,6 +24,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .hessian import central_differences
+
 #: Moves of one grid step allowed before the Newton step must converge.
 STEPS = 3
 #: Ratio K between the three scales of the grid.
@@ -70,20 +72,10 @@ def _values(img, x, y, s, blur):
 def _newton(v):
     """Newton step (dx, dy, ds) in grid units from the 27 values; ``good`` where their
     quadratic has a maximum (negative definite Hessian)."""
-    c = v[:, 1, 1, 1]
-
     def at(ds, dy, dx):
         return v[:, 1 + ds, 1 + dy, 1 + dx]
-    g = np.stack([(at(0, 0, 1) - at(0, 0, -1)) / 2, (at(0, 1, 0) - at(0, -1, 0)) / 2,
-                  (at(1, 0, 0) - at(-1, 0, 0)) / 2], -1)
-    hxx = at(0, 0, 1) + at(0, 0, -1) - 2 * c
-    hyy = at(0, 1, 0) + at(0, -1, 0) - 2 * c
-    hss = at(1, 0, 0) + at(-1, 0, 0) - 2 * c
-    hxy = (at(0, 1, 1) - at(0, 1, -1) - at(0, -1, 1) + at(0, -1, -1)) / 4
-    hxs = (at(1, 0, 1) - at(1, 0, -1) - at(-1, 0, 1) + at(-1, 0, -1)) / 4
-    hys = (at(1, 1, 0) - at(1, -1, 0) - at(-1, 1, 0) + at(-1, -1, 0)) / 4
-    hm = np.stack([np.stack([hxx, hxy, hxs], -1), np.stack([hxy, hyy, hys], -1),
-                   np.stack([hxs, hys, hss], -1)], -2)
+    c, g, hm = central_differences(at)
+    hxx, hyy, hxy = hm[:, 0, 0], hm[:, 1, 1], hm[:, 0, 1]
     # negative definite: leading minors alternate in sign
     m1, m2 = hxx, hxx * hyy - hxy * hxy
     m3 = np.linalg.det(hm) if len(c) else np.zeros(0)

@@ -266,22 +266,28 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
             for win in windows:
                 yield win, job(win)
             return
-        pool = cf.ThreadPoolExecutor(threads, thread_name_prefix="fotogeo-warp")
-        try:
-            pending = collections.deque()
-            todo = iter(windows)
-            for win in todo:
-                pending.append((win, pool.submit(job, win)))
-                if len(pending) >= 2 * threads:
-                    break
-            while pending:
-                win, fut = pending.popleft()
-                nxt = next(todo, None)
-                if nxt is not None:
-                    pending.append((nxt, pool.submit(job, nxt)))
-                yield win, fut.result()
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        yield from in_order(job, windows, threads, "fotogeo-warp")
+
+
+def in_order(job, items, threads: int, name: str):
+    """Yield ``(item, job(item))`` for each of ``items`` in order, ``job`` run by ``threads`` threads
+    with at most two items per thread in flight (memory stays bounded). Leaving early (an error, a
+    cancel, a closed generator) cancels what has not started and waits for what has."""
+    pool = cf.ThreadPoolExecutor(max(1, threads), thread_name_prefix=name)
+    try:
+        pending, todo = collections.deque(), iter(items)
+        for item in todo:
+            pending.append((item, pool.submit(job, item)))
+            if len(pending) >= 2 * max(1, threads):
+                break
+        while pending:
+            item, fut = pending.popleft()
+            nxt = next(todo, None)
+            if nxt is not None:
+                pending.append((nxt, pool.submit(job, nxt)))
+            yield item, fut.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def write_env(threads: int, zlevel: int | None = None):

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.raster import AtomicOutputs, check_output, geotiff_profile, ropen
+from ..io.warp import in_order
 from ..mosaic.blend import balance as balance_band
 from ..mosaic.blend import feather_weights, signed_distances
 from ..mosaic.seams import seam_labels
@@ -175,8 +176,6 @@ class Blend:
 def blended_windows(paths, blend: Blend, blocks, threads: int):
     """Yield ``(block, window array)`` in order, computed by ``threads`` threads (each with its own handles on the
     orthophotos; reads, OpenCV and numpy release the GIL), at most two windows per thread in flight."""
-    import collections
-    import concurrent.futures as cf
     import threading
 
     import rasterio
@@ -190,21 +189,9 @@ def blended_windows(paths, blend: Blend, blocks, threads: int):
                 opened.extend(handles)
         return blend.window(handles, *block)
 
-    pool = cf.ThreadPoolExecutor(max(1, threads), thread_name_prefix="fotogeo-mosaic")
     try:
-        pending, todo = collections.deque(), iter(blocks)
-        for block in todo:
-            pending.append((block, pool.submit(job, block)))
-            if len(pending) >= 2 * max(1, threads):
-                break
-        while pending:
-            block, fut = pending.popleft()
-            nxt = next(todo, None)
-            if nxt is not None:
-                pending.append((nxt, pool.submit(job, nxt)))
-            yield block, fut.result()
+        yield from in_order(job, blocks, threads, "fotogeo-mosaic")
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
         for ds in opened:
             ds.close()
 
