@@ -159,3 +159,21 @@ def test_gcp_tiff_is_reproduced_by_gdal(ngi_gcps, tmp_path, order):
     assert np.abs(ours - theirs).max() < 1e-3
     with pytest.raises(InputError, match="polynomial"):
         orient(g["image"], g["path"], model="dlt", gcp_tiff=tmp_path / "x.tif")
+
+
+def test_image_to_ground_rfm_is_fitted_image_to_ground(ngi_gcps, tmp_path):
+    """``rfm-i2g`` is fitted (col, row, Z) -> (X, Y): its forward maps the measured pixels to the GCPs,
+    its residuals are image errors through the inverse, and the result's georeference follows it."""
+    g = ngi_gcps
+    rep = orient(g["image"], g["path"], model="rfm-i2g", report=tmp_path / "r.json", vectors=tmp_path / "v.gpkg",
+                 rectify=tmp_path / "rect.tif", dem=g["ngi"] / "dem.tif", resolution=20.0)
+    m = rep.model
+    assert m.direction == "image-to-ground"
+    ctrl = np.asarray(g["role"]) == "control"
+    on_ground = m.forward(np.column_stack([g["pixel"], g["ground"][:, 2]])[ctrl])
+    assert np.sqrt(np.mean((on_ground - g["ground"][ctrl, :2]) ** 2)) < 2.0  # metres; 0.3 px noise at ~0.5 m GSD
+    assert rep["check"]["rms_xy_px"] < 0.6, rep["check"]
+    geo = rep.georeference.with_heights(g["ground"][:, 2])  # the GCPs' own heights
+    assert np.sqrt(np.mean((geo.map_to_pixel(g["ground"][:, :2]) - g["pixel"]) ** 2)) < 0.6
+    assert np.sqrt(np.mean((geo.pixel_to_map(g["pixel"]) - g["ground"][:, :2]) ** 2)) < 2.0
+    assert rep["rectified"]["resolution"] == 20.0

@@ -9,9 +9,10 @@ convention, :mod:`fotogeo.pixels`), **map** = ``(X, Y)`` in :attr:`Georeference.
   cell's centre → the image pixel to sample), and where a ground point appears in the image.
 
 The model may have been fitted either way, which ``direction`` records (it is a property of
-the fit, not of the model class, so it is given here):
+the fit, so it may be given here; left out, it is the model's own ``direction`` — the RFM
+classes carry one, the ``-i2g`` ones ``"image-to-ground"`` — else ``"ground-to-image"``):
 
-* ``"ground-to-image"`` (default) — ``model.forward`` maps map ``(X, Y[, Z])`` → pixel
+* ``"ground-to-image"`` — ``model.forward`` maps map ``(X, Y[, Z])`` → pixel
   (orientation from GCPs, terrain-aware registration, RFM/RPC, collinearity);
 * ``"image-to-ground"`` — ``model.forward`` maps pixel ``(col, row[, Z])`` → map (the planar
   registration; an ``-i2g`` RFM fitted with ``src = (col, row, Z)``).
@@ -50,9 +51,11 @@ class Georeference:
     model: object
     heights: object = None
     crs: object = None
-    direction: str = "ground-to-image"
+    direction: str | None = None
 
     def __post_init__(self):
+        if self.direction is None:
+            object.__setattr__(self, "direction", getattr(self.model, "direction", "ground-to-image"))
         if self.direction not in DIRECTIONS:
             raise InputError(f"direction {self.direction!r} unknown; choose one of {', '.join(DIRECTIONS)}")
 

@@ -1,8 +1,11 @@
 """Orientation models fitted to GCPs: statistics, blunder detection and model comparison (array layer).
 
-Every model of :mod:`fotogeo.models` maps ground to image: ``src`` = ``(X, Y)`` for 2-D models
-or ``(X, Y, Z)`` for 3-D ones (``src_dims``), ``dst`` = ``(col, row)`` pixels. Residuals are
-``v = model(ground) − measured pixel`` (``dx``, ``dy`` in pixels); for each role
+Every model of :mod:`fotogeo.models` is fitted ground to image: ``src`` = ``(X, Y)`` for 2-D models
+or ``(X, Y, Z)`` for 3-D ones (``src_dims``), ``dst`` = ``(col, row)`` pixels — except the image → ground
+models (``direction == "image-to-ground"``, the ``*-i2g`` RFMs), fitted ``src = (col, row, Z)``,
+``dst = (X, Y)`` (:func:`fit_data`) and evaluated through their inverse at each point's height, so that
+every residual is an image error. Residuals are ``v = model(ground) − measured pixel`` (``dx``, ``dy`` in
+pixels); for each role
 ``RMS_x = sqrt(mean dx²)``, ``RMS_y = sqrt(mean dy²)``, ``RMS_xy = sqrt(mean (dx² + dy²))``.
 
 Blunder detection (:func:`snoop`) is Baarda's (1968) data snooping. For control point ``i``,
@@ -77,6 +80,28 @@ def model_src(model_cls, ground: np.ndarray) -> np.ndarray:
                              f"height field, a DEM or a constant height")
         return ground
     return ground[:, :2]
+
+
+def image_to_ground(model_cls) -> bool:
+    """Whether ``model_cls`` is fitted image → ground (the ``*-i2g`` RFMs)."""
+    return getattr(model_cls, "direction", "ground-to-image") == "image-to-ground"
+
+
+def fit_data(model_cls, ground: np.ndarray, pixel: np.ndarray):
+    """``(src, dst)`` the model class is fitted on: ``(model_src, pixel)``, or for an image → ground
+    model ``((col, row, Z), (X, Y))``."""
+    src = model_src(model_cls, ground)
+    if image_to_ground(model_cls):
+        return np.column_stack([pixel, src[:, 2]]), src[:, :2]
+    return src, pixel
+
+
+def image_residuals(model, ground: np.ndarray, pixel: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` image errors (pixels, model − measured) of a fitted model at GCPs ``ground`` (X, Y[, Z]):
+    ``forward(ground) − pixel``, or for an image → ground model ``inverse(X, Y at Z) − pixel``."""
+    if image_to_ground(model):
+        return model.inverse(ground[:, :2], ground[:, 2])[:, :2] - pixel
+    return model.forward(model_src(model, ground)) - pixel
 
 
 def role_stats(res: np.ndarray, scale_mm: float | None = None) -> dict:
@@ -194,9 +219,10 @@ def standardised_residuals(model_cls, src, pix, control, *, fit_options: dict | 
 
 
 def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fraction: float = 0.2,
-          fit_options: dict | None = None, progress=None):
+          fit_options: dict | None = None, progress=None, unit: str = "px"):
     """Data snooping on the control points (module docstring); returns (control mask, findings).
 
+    ``pix`` are the fit's destination points, in ``unit`` (the ground of an image → ground model).
     ``fit_options`` go to every ``estimate`` (e.g. the camera of the collinearity model);
     ``progress(fraction, message) -> bool`` reports each test and may cancel (:class:`Cancelled`)."""
     from ..progress import as_progress
@@ -221,7 +247,7 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
         can_remove = remove and sum(f["removed"] for f in findings) < budget
         findings.append({"id": str(ids[idx[k]]), "w": float(wmax[k]), "removed": bool(can_remove),
                          "reason": f"standardised residual |w| = {wmax[k]:.2f} > {critical:.2f} "
-                                   f"(residual {np.hypot(*v[k]):.3f} px)",
+                                   f"(residual {np.hypot(*v[k]):.3f} {unit})",
                          "also_flagged": [(str(i), round(x, 2)) for i, x in flagged if i != ids[idx[k]]]})
         if not can_remove:
             break
@@ -241,18 +267,19 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     """
     cls = get_model(model_name)
     fit_options = cls.options_from(camera=camera)
-    src = model_src(cls, np.asarray(ground, float))
-    pix = np.asarray(pixel, float)
+    ground, pixel = np.asarray(ground, float), np.asarray(pixel, float)
+    src, dst = fit_data(cls, ground, pixel)
     role = np.asarray(role).astype(object)
     control = role == "control"
     if control.sum() < cls.min_points:
         raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} control points; got {int(control.sum())}")
     findings = []
     if snooping:
-        control, findings = snoop(cls, src, pix, control, np.asarray(ids), remove=remove_blunders,
-                                  fit_options=fit_options, progress=progress)
-    model, warns = _fit(cls, src, pix, control, fit_options)
-    res = model.forward(src) - pix
+        control, findings = snoop(cls, src, dst, control, np.asarray(ids), remove=remove_blunders,
+                                  fit_options=fit_options, progress=progress,
+                                  unit="ground units" if image_to_ground(cls) else "px")
+    model, warns = _fit(cls, src, dst, control, fit_options)
+    res = image_residuals(model, ground, pixel)
     role = role.copy()
     role[(role == "control") & ~control] = "blunder"
     stats = {r: role_stats(res[role == r], scale_mm) for r in ("control", "check")}

@@ -28,7 +28,6 @@ image error in pixels.
 from __future__ import annotations
 
 import re
-import warnings
 
 import numpy as np
 
@@ -133,23 +132,11 @@ def draw_set(pixel, n_control: int, n_check, spread: str, rng) -> np.ndarray:
 def fit_set(name: str, ground, pixel, role, *, camera=None):
     """Image errors ``(N, 2)`` (pixels, model − measured) of every point under model ``name`` fitted on
     the points whose ``role`` is ``control``, and the fit's warnings (module docstring: image → ground
-    models through their inverse)."""
-    cls = get_model(name)
+    models through their inverse, :func:`~fotogeo.orientation.adjustment.image_residuals`)."""
     control = np.asarray(role) == "control"
-    if getattr(cls, "direction", "ground-to-image") != "image-to-ground":
-        f = fit_orientation(name, ground, pixel, np.where(control, "control", "check"),
-                            np.arange(len(pixel)).astype(str), snooping=False, camera=camera)
-        return f.residual, f.warnings
-    if not np.isfinite(ground[:, 2]).all():
-        raise ModelError(f"model {name!r} is 3-D and needs a height for every GCP: give a height field, a DEM or "
-                         "a constant height")
-    if control.sum() < cls.min_points:
-        raise ModelError(f"model {name!r} needs at least {cls.min_points} control points; got {int(control.sum())}")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        m = cls.estimate(np.column_stack([pixel, ground[:, 2]])[control], ground[control, :2])
-    back = m.inverse(ground[:, :2], ground[:, 2])[:, :2]
-    return back - pixel, [str(w.message) for w in caught]
+    f = fit_orientation(name, ground, pixel, np.where(control, "control", "check"),
+                        np.arange(len(pixel)).astype(str), snooping=False, camera=camera)
+    return f.residual, f.warnings
 
 
 def set_row(errors: list, roles: list) -> dict:
