@@ -47,8 +47,10 @@ def _mark_inside(u, v, kind, size, width, centre_sign):
 def render_scan(layout: dict, *, pixel_mm=0.15, film_mm=240.0, image_mm=200.0, kind="x", size_mm=6.0,
                 width_mm=0.6, k90=0, theta=1.5, scale=(1.002, 0.998), skew=0.001, offset=(7.3, -4.6), noise=2.0,
                 content=None, missing=(), seed=0) -> Scan:
-    """Render a scan (module docstring); marks in ``missing`` are left out (cut off or damaged)."""
+    """Render a scan (module docstring); marks in ``missing`` are left out (cut off or damaged).
+    ``image_mm``: the image area's side, or its ``(width, height)`` (a rectangular frame)."""
     rng = np.random.default_rng(seed)
+    image_mm = np.broadcast_to(np.asarray(image_mm, float), (2,))
     n = int(np.ceil(film_mm / pixel_mm))
     A = photo_to_pixel(pixel_mm, (n, n), k90, theta, scale, skew, offset)
     Ai = np.linalg.inv(np.vstack([A, [0, 0, 1]]))[:2]
@@ -56,7 +58,7 @@ def render_scan(layout: dict, *, pixel_mm=0.15, film_mm=240.0, image_mm=200.0, k
     x = Ai[0, 0] * cols + Ai[0, 1] * rows + Ai[0, 2]
     y = Ai[1, 0] * cols + Ai[1, 1] * rows + Ai[1, 2]
     img = np.full((n, n), 35.0)
-    inside = (np.abs(x) < image_mm / 2) & (np.abs(y) < image_mm / 2)
+    inside = (np.abs(x) < image_mm[0] / 2) & (np.abs(y) < image_mm[1] / 2)
     img[inside] = _content(x[inside], y[inside], image_mm, content, rng)
     marks = {}
     for fid, (fx, fy) in layout.items():
@@ -86,8 +88,8 @@ def _content(x, y, image_mm, content, rng):
         return 120 + 40 * np.sin(x / 7.0) * np.cos(y / 5.0) + 20 * np.sin((x + y) / 2.3)
     from scipy.ndimage import map_coordinates
     h, w = content.shape
-    mx = (x / image_mm + 0.5) * w - 0.5
-    my = (0.5 - y / image_mm) * h - 0.5
+    mx = (x / image_mm[0] + 0.5) * w - 0.5
+    my = (0.5 - y / image_mm[1]) * h - 0.5
     return map_coordinates(content.astype(np.float64), [my, mx], order=1, mode="nearest")
 
 
