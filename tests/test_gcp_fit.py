@@ -58,7 +58,7 @@ def as_read_by_orient(path, gcps):
 
 
 @pytest.mark.parametrize("model, n, with_z", [("affine", 12, False), ("projective", 12, True), ("dlt", 16, False),
-                                              ("rfm-poly", 40, False), ("collinearity", 10, False),
+                                              ("rfm-poly", 40, False), ("rfm-i2g", 40, False), ("collinearity", 10, False),
                                               ("auto", 16, False)])
 def test_residuals_and_rms_are_orients(ngi, truth, tmp_path, model, n, with_z):
     gcps = pick(truth, n, 4, with_z=with_z)

@@ -31,7 +31,8 @@ import numpy as np
 from ..crs import parse_crs
 from ..errors import InputError, ModelError, one_line
 from ..models import get_model
-from ..orientation.adjustment import critical_w, fit_orientation, model_src, select_model, standardised_residuals
+from ..orientation.adjustment import (critical_w, fit_data, fit_orientation, image_residuals, select_model,
+                                      standardised_residuals)
 from .boundary import tool
 from .gcp_grids import prediction_grids
 
@@ -238,15 +239,15 @@ def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snoopi
     res[use] = fit.residual
     other = shown & ~use
     if other.any():
-        res[other] = fit.model.forward(model_src(cls, ground[other])) - pixel[other]
+        res[other] = image_residuals(fit.model, ground[other], pixel[other])
     d_map = np.full((len(ground), 2), np.nan)
     d_map[shown] = ground_residuals(fit.model, ground[shown], pixel[shown], crs)[1]
     w = np.full(len(ground), np.nan)
     n, u = int(control.sum()), cls.n_params
     critical = critical_w(2 * n - u) if snooping and n - 1 >= cls.min_points else None
     if critical is not None:
-        w[control] = standardised_residuals(cls, model_src(cls, ground[use]), pixel[use],
-                                            control[use], fit_options=cls.options_from(camera=cam))[1]
+        w[control] = standardised_residuals(cls, *fit_data(cls, ground[use], pixel[use]), control[use],
+                                            fit_options=cls.options_from(camera=cam))[1]
     result["blunder_test"] = _test_note(snooping, critical, 2 * n - u)
     for k, p in enumerate(result["points"]):
         p.update(dx_px=_num(res[k, 0]), dy_px=_num(res[k, 1]), residual_px=_num(np.hypot(*res[k])),
