@@ -15,6 +15,7 @@ from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QKeySequence
 from qgis.PyQt.QtWidgets import (
+    QCheckBox,
     QComboBox,
     QDockWidget,
     QDoubleSpinBox,
@@ -38,6 +39,7 @@ from .fit import HEIGHT_SOURCES, FitSettings, guess_dem
 from .gcp_layer import GcpLayer
 from .image_source import ImageError, PickerImage
 from .map_tools import IMAGE, MAP, PickTool
+from .preview import OPACITY, LivePreview
 from .table import GcpTable
 
 #: "Accept all" keeps every 4th proposal (25 %, spread as the proposals are) as a check point
@@ -60,7 +62,7 @@ class PickerDock(DockActions, QDockWidget):
     """The picker (module docstring). ``map_canvas`` is QGIS's main canvas; ``session`` a
     :class:`~processing_provider.session.WorkerSession` (default: the shared one)."""
 
-    def __init__(self, map_canvas, parent=None, session=None, message_bar=None):
+    def __init__(self, map_canvas, parent=None, session=None, message_bar=None, preview_session=None):
         super().__init__(TITLE, parent)
         self.setObjectName("FotogeoGcpPicker")
         if session is None:
@@ -74,8 +76,10 @@ class PickerDock(DockActions, QDockWidget):
         self.controller = PickerController(self.image_canvas, map_canvas, session, self.fit_settings)
         self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
                       MAP: PickTool(map_canvas, self.controller, MAP)}
+        self.preview = LivePreview(map_canvas, preview_session)
         self._build()
         self.controller.fitted.connect(self._show_fit)
+        map_canvas.extentsChanged.connect(self.update_preview)
         self.controller.message.connect(self.say)
         self.image_canvas.setMapTool(self.tools[IMAGE])
         self.activate_map_tool()
@@ -137,6 +141,7 @@ class PickerDock(DockActions, QDockWidget):
         form.addRow("Model", _row(self.model_combo, QLabel("camera"), self.camera_file))
         form.addRow("Heights", _row(self.height_combo, self.dem_combo, self.height_spin))
         form.addRow("Arrows ×", self.exaggeration_spin)
+        form.addRow("Preview", self._preview_row())
         form.addRow("Propose", self._proposal_row())
         top = QWidget()
         layout = QVBoxLayout(top)
@@ -176,6 +181,29 @@ class PickerDock(DockActions, QDockWidget):
             widgets.append(b)
         self.propose_button = widgets[2]
         return _row(*widgets)
+
+    def _preview_row(self) -> QWidget:
+        self.preview_check = QCheckBox("the image on the map, warped with the current model")
+        self.preview_check.setChecked(True)
+        self.preview_check.setToolTip("After the model's minimum number of control points: the image warped onto "
+                                      "the map with the current fit, redrawn after every change")
+        self.preview_check.toggled.connect(self._preview_toggled)
+        self.opacity_spin = QSpinBox()
+        self.opacity_spin.setRange(0, 100)
+        self.opacity_spin.setSuffix(" % opaque")
+        self.opacity_spin.setValue(round(100 * OPACITY))
+        self.opacity_spin.valueChanged.connect(lambda v: self.preview.set_opacity(v / 100.0))
+        return _row(self.preview_check, self.opacity_spin)
+
+    def _preview_toggled(self, on: bool):
+        self.preview.enabled = on
+        self.update_preview()
+
+    def update_preview(self, *_):
+        """A new preview for the current fit and canvas (none while the model lacks points)."""
+        c = self.controller
+        ok = c.fit.get("ok") and c.store is not None and c.image is not None
+        self.preview.request(c.settings().request(c.store.gcps()) if ok else None)
 
     def _action_row(self) -> QWidget:
         stack = self.controller.undo_stack
@@ -287,6 +315,7 @@ class PickerDock(DockActions, QDockWidget):
         store = self.controller.store
         self.table.fill(store.gcps() if store else [], fit)
         self.summary.setText(self.describe_fit(fit))
+        self.update_preview()
 
     def activate_map_tool(self):
         self.map_canvas.setMapTool(self.tools[MAP])
@@ -295,6 +324,7 @@ class PickerDock(DockActions, QDockWidget):
         """Shown again after a close: the marks come back and the map tool picks again."""
         for overlay in self.controller.overlays.values():
             overlay.setVisible(True)
+        self.preview.set_visible(True)
         self.activate_map_tool()
         super().showEvent(event)
 
@@ -303,6 +333,7 @@ class PickerDock(DockActions, QDockWidget):
         self._release_tools()
         for overlay in self.controller.overlays.values():
             overlay.setVisible(False)
+        self.preview.set_visible(False)
         super().closeEvent(event)
 
     def _release_tools(self):
@@ -314,6 +345,8 @@ class PickerDock(DockActions, QDockWidget):
         """The plugin's unload: release the map tools and remove the marks for good."""
         self._release_tools()
         self.controller.close()
+        self.map_canvas.extentsChanged.disconnect(self.update_preview)
+        self.preview.close()
         if self.image is not None:
             self.image_canvas.setLayers([])
             self.image.close()

@@ -1,0 +1,87 @@
+"""The picker's live preview driven by simulated clicks in a GUI QgsApplication (offscreen); run by
+tests/test_qgis_picker_preview.py as ``python picker_preview_script.py ARGS.json``.
+
+Affine model: two GCPs (no preview), the third (the preview appears), GCP 3 dragged on the map (the preview
+is redrawn: its pictures before and after are saved as PNG for the test to compare), the preview switched
+off and on, a GCP deleted below the minimum (the preview goes). Writes ``ARGS["out"]/state.json``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+import traceback
+
+import picker_gui_script as base  # noqa: E402 - its QgsApplication, setup and pump
+from picker_driver import drag, map_screen, pick  # noqa: E402
+from qgis.core import QgsCoordinateReferenceSystem, QgsRectangle  # noqa: E402
+from qgis.PyQt.QtCore import QPoint  # noqa: E402
+
+ARGS, STATE, pump = base.ARGS, base.STATE, base.pump
+
+
+def settled(dock, seconds=60.0) -> dict:
+    """Pump events until the preview has answered the newest request; what it showed."""
+    start = time.monotonic()
+    while time.monotonic() - start < seconds:
+        pump(0.05)
+        p = dock.preview
+        if not p.running and p.pending is None and p.last.get("generation") == p.generation:
+            break
+    item = dock.preview.item
+    shown = {k: v for k, v in dock.preview.last.items() if k != "output"}
+    shown["drawn"] = item.image is not None and item.isVisible()
+    return shown
+
+
+def save(dock, name) -> dict:
+    item = dock.preview.item
+    path = os.path.join(ARGS["out"], name)
+    item.image.save(path, "PNG")
+    e = item.extent
+    return {"png": path, "extent": [e.xMinimum(), e.yMinimum(), e.xMaximum(), e.yMaximum()]}
+
+
+def main():
+    canvas, dock = base.setup()
+    assert dock.open_image(ARGS["frame"]), dock.last_message
+    dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    dock.model_combo.setCurrentText("affine")
+    truth = ARGS["gcps"]
+    xs, ys = [g["x"] for g in truth], [g["y"] for g in truth]
+    canvas.setExtent(QgsRectangle(min(xs) - 50, min(ys) - 50, max(xs) + 50, max(ys) + 50))
+    canvas.refresh()
+    pump(0.3)
+    STATE["canvas"] = [canvas.width(), canvas.height()]
+    for k in range(2):
+        pick(dock, truth[k])
+    STATE["two"] = settled(dock)
+    pick(dock, truth[2])
+    STATE["three"] = {**settled(dock), **save(dock, "before.png")}
+    g3 = dock.controller.gcp("3")
+    start = map_screen(dock, g3.x, g3.y)
+    STATE["gcp3_screen"] = [start.x(), start.y()]
+    STATE["drag"] = [25, -15]
+    drag(dock.tools[base.MAP], start, start + QPoint(*STATE["drag"]))
+    STATE["dragged"] = {**settled(dock), **save(dock, "after.png")}
+    dock.preview_check.setChecked(False)
+    STATE["off"] = settled(dock)
+    dock.preview_check.setChecked(True)
+    STATE["on_again"] = settled(dock)
+    dock.controller.delete("1")
+    STATE["below_minimum"] = settled(dock)
+    dock.close_picker()
+    STATE["closed"] = {"folder_removed": not os.path.exists(dock.preview.folder),
+                       "item_in_scene": dock.preview.item.scene() is not None}
+
+
+if __name__ == "__main__":
+    try:
+        main()
+    except Exception:
+        STATE["error"] = traceback.format_exc()
+    with open(os.path.join(ARGS["out"], "state.json"), "w") as f:
+        json.dump({k: v for k, v in STATE.items() if not k.startswith("_")}, f)
+    sys.stdout.flush()
+    os._exit(0)

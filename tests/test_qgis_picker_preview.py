@@ -1,0 +1,47 @@
+"""The picker's live preview in a real, headless QGIS (tests/picker_preview_script.py): none below the model's
+minimum, the image warped onto the map canvas from the minimum on, redrawn when a GCP is dragged — the picture
+around the dragged GCP moves with it —, switched off and on, gone again below the minimum."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from test_qgis_picker import run_script, truth_gcps
+
+pytestmark = [pytest.mark.qgis]
+
+
+@pytest.fixture(scope="module")
+def previewed(data_dir, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("preview")
+    gcps, crs = truth_gcps(data_dir)
+    args = {"frame": str(data_dir / "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"), "crs": crs, "gcps": gcps}
+    return run_script("picker_preview_script.py", args, tmp)
+
+
+def test_preview_appears_at_the_models_minimum_and_goes_below_it(previewed):
+    s = previewed
+    assert not s["two"]["drawn"] and not s["two"]["ok"]  # affine needs 3 control points
+    assert s["three"]["drawn"] and s["three"]["ok"] and s["three"]["model"] == "affine"
+    assert 0.05 < s["three"]["covered"] < 1.0
+    assert not s["below_minimum"]["drawn"]
+    assert not s["off"]["drawn"] and s["on_again"]["drawn"]
+    assert s["closed"] == {"folder_removed": True, "item_in_scene": False}
+
+
+def test_preview_moves_with_a_dragged_gcp(previewed):
+    """Affine on 3 GCPs fits them exactly: the picture around GCP 3 follows GCP 3's drag on the map."""
+    s = previewed
+    before, after = (cv2.imread(s[k]["png"], cv2.IMREAD_UNCHANGED) for k in ("three", "dragged"))
+    assert before.shape == after.shape and before.shape[2] == 4
+    scale = before.shape[1] / s["canvas"][0]  # preview pixels per screen pixel
+    x, y = (round(v * scale) for v in s["gcp3_screen"])
+    half, reach = 20, 60
+    template = cv2.cvtColor(before[y - half:y + half + 1, x - half:x + half + 1], cv2.COLOR_BGRA2GRAY)
+    assert (before[y - half:y + half + 1, x - half:x + half + 1, 3] == 255).all()
+    area = cv2.cvtColor(after[y - reach:y + reach + 1, x - reach:x + reach + 1], cv2.COLOR_BGRA2GRAY)
+    score = cv2.matchTemplate(area, template, cv2.TM_CCOEFF_NORMED)
+    _, best, _, (bx, by) = cv2.minMaxLoc(score)
+    moved = np.array([bx - (reach - half), by - (reach - half)]) / scale
+    assert best > 0.8 and moved == pytest.approx(s["drag"], abs=2.0), (best, moved)
+    assert s["dragged"]["extent"] == s["three"]["extent"]  # the same canvas: the picture changed, not the frame
