@@ -1,16 +1,17 @@
 """Startup script (``qgis --code``) of tests/test_qgis_picker_desktop.py: the GCP picker in the real desktop.
 
 Opens the dock through the plugin's menu action, picks GCPs by simulated clicks on the image canvas and on
-QGIS's map canvas (over the reference orthophoto), makes two of them check points, moves the cursor to show
-the prediction, and grabs screenshots; optionally runs *Propose GCPs* and grabs the proposals. Writes
-``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
+QGIS's map canvas (over the reference orthophoto) — the live preview looked at one point before DLT's minimum
+and at it —, makes two of them check points, moves the cursor to show the prediction, grabs screenshots, then
+drags a GCP on the map and saves the preview's pictures and the canvas before and after; optionally runs
+*Propose GCPs* and grabs the proposals. Writes ``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
 """
 import json
 import os
 import sys
 
 from qgis.core import QgsProject, QgsRasterLayer, QgsRectangle
-from qgis.PyQt.QtCore import QEvent, Qt, QTimer
+from qgis.PyQt.QtCore import QEvent, QPoint, Qt, QTimer
 from qgis.PyQt.QtWidgets import QAction, QDockWidget
 from qgis.utils import iface
 
@@ -18,7 +19,7 @@ ARGS = json.loads(open(os.environ["FOTOGEO_PICKER_ARGS"]).read())
 OUT = ARGS["out"]
 sys.path.insert(0, ARGS["tests"])
 from desktop_harness import Harness  # noqa: E402
-from picker_driver import IMAGE, gcps, mouse, pick, screen, table  # noqa: E402
+from picker_driver import IMAGE, MAP, drag, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
 
 HARNESS = Harness(OUT)
 STATE, finish, guard, grab = HARNESS.state, HARNESS.finish, HARNESS.guard, HARNESS.grab
@@ -55,10 +56,43 @@ def start():
     QTimer.singleShot(2500, picking)
 
 
+def when_previewed(then, n=0):
+    """``then()`` once the live preview has answered its newest request (polled from the event loop)."""
+    p = KEEP["dock"].preview
+    if (p.running or p.pending is not None or p.last.get("generation") != p.generation) and n < 300:
+        QTimer.singleShot(200, guard(lambda: when_previewed(then, n + 1)))
+        return
+    then()
+
+
+def preview_state(name=None):
+    p = KEEP["dock"].preview
+    shown = {"drawn": p.item.image is not None and p.item.isVisible(), "ok": p.last.get("ok"),
+             "model": p.last.get("model"), "covered": p.last.get("covered")}
+    if name and p.item.image is not None:
+        p.item.image.save(os.path.join(OUT, name), "PNG")
+    return shown
+
+
 @guard
 def picking():
+    """GCPs one below DLT's minimum (6), the preview looked at; the sixth; the preview again; the rest."""
     dock = KEEP["dock"]
-    for k, truth in enumerate(ARGS["gcps"]):
+    for k, truth in enumerate(ARGS["gcps"][:5]):
+        pick(dock, truth, image_first=k % 2 == 0)
+    when_previewed(guard(lambda: (STATE.update(preview_below_minimum=preview_state()), minimum())))
+
+
+@guard
+def minimum():
+    pick(KEEP["dock"], ARGS["gcps"][5], image_first=False)
+    when_previewed(guard(lambda: (STATE.update(preview_at_minimum=preview_state()), the_rest())))
+
+
+@guard
+def the_rest():
+    dock = KEEP["dock"]
+    for k, truth in enumerate(ARGS["gcps"][6:], 6):
         pick(dock, truth, image_first=k % 2 == 0)
     for gid in ("4", "9"):
         dock.controller.set_role(gid, "check")
@@ -68,8 +102,26 @@ def picking():
     STATE["table"] = table(dock)
     # the cursor over the image: the map shows where the model puts that pixel
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, 330, -560), Qt.NoButton)
-    QTimer.singleShot(2500, guard(lambda: (grab(iface.mainWindow(), "picker_dock.png", 1280),
-                                           grab(dock, "picker_table.png"), proposals())))
+    QTimer.singleShot(2500, guard(lambda: when_previewed(guard(lambda: (
+        grab(iface.mainWindow(), "picker_dock.png", 1280), grab(dock, "picker_table.png"), dragging())))))
+
+
+@guard
+def dragging():
+    """GCP 7 dragged on the map: the preview is redrawn; its pictures and the canvas before and after saved."""
+    dock = KEEP["dock"]
+    STATE["preview_before_drag"] = preview_state("preview_before.png")
+    grab(iface.mapCanvas(), "canvas_before.png")
+    g = dock.controller.gcp("7")
+    start = map_screen(dock, g.x, g.y)
+    STATE["drag"] = {"gcp": "7", "screen": [start.x(), start.y()], "by": [30, -20],
+                     "canvas": [iface.mapCanvas().width(), iface.mapCanvas().height()]}
+    drag(dock.tools[MAP], start, start + QPoint(30, -20))
+    moved = dock.controller.gcp("7")
+    STATE["drag"]["moved_map"] = [moved.x - g.x, moved.y - g.y]
+    when_previewed(guard(lambda: (STATE.update(preview_after_drag=preview_state("preview_after.png")),
+                                  QTimer.singleShot(1000, guard(lambda: (grab(iface.mapCanvas(), "canvas_after.png"),
+                                                                         proposals()))))))
 
 
 @guard

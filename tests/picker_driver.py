@@ -40,7 +40,7 @@ def screen(canvas, x, y) -> QPoint:
 
 
 def gcps(dock):
-    return [{"id": g.id, "col": g.col, "row": g.row, "x": g.x, "y": g.y, "z": g.z, "role": g.role}
+    return [{"id": g.id, "col": g.col, "row": g.row, "x": g.x, "y": g.y, "z": g.z, "role": g.role, "enabled": g.enabled}
             for g in dock.controller.store.gcps()]
 
 

@@ -196,9 +196,14 @@ def editing(dock):
     stack.undo()  # and both moves: back to the clicked points
     stack.undo()
     STATE["after_undo_moves"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock)}
-    dock.table.item(1, 1).setCheckState(Qt.Unchecked)  # GCP 2: a check point
+    dock.table.item(1, COLUMNS.index("role")).setText("check")  # GCP 2: a check point (the role column)
     STATE["role"] = {"gcps": gcps(dock), "fit": dock.controller.fit}
     dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
+    dock.table.item(2, COLUMNS.index("on")).setCheckState(Qt.Unchecked)  # GCP 3 disabled: ignored
+    STATE["disabled"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock)}
+    dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_disabled.gpkg"))
+    dock.controller.undo_stack.undo()
+    STATE["enabled_again"] = gcps(dock)
 
 
 def delete_key(dock):

@@ -72,8 +72,26 @@ def main():
     dock.controller.delete("1")
     STATE["below_minimum"] = settled(dock)
     dock.close_picker()
+    STATE["foreign_layer"] = foreign_layer()
     STATE["closed"] = {"folder_removed": not os.path.exists(dock.preview.folder),
                        "item_in_scene": dock.preview.item.scene() is not None}
+
+
+def foreign_layer():
+    """A point layer with only col and row (as points-to-layer may give): disabling a point adds the field."""
+    from processing_provider.picker.gcp_layer import Gcp, GcpLayer
+    from qgis.core import QgsField, QgsVectorLayer
+    from qgis.PyQt.QtCore import QVariant
+    layer = QgsVectorLayer("Point", "foreign", "memory")
+    layer.dataProvider().addAttributes([QgsField("col", QVariant.Double), QgsField("row", QVariant.Double)])
+    layer.updateFields()
+    store = GcpLayer(layer)
+    on = store.add(Gcp("1", 1.0, 2.0, 10.0, 20.0))
+    off = store.add(Gcp("2", 3.0, 4.0, 30.0, 40.0, enabled=False))
+    fields_after_add = layer.fields().names()
+    from dataclasses import replace
+    store.update(replace(on, enabled=False))
+    return {"fields": fields_after_add, "enabled": [g.enabled for g in store.gcps()], "off_fid": off.fid >= 0}
 
 
 if __name__ == "__main__":

@@ -179,7 +179,7 @@ def test_table_and_residuals_match_fotogeo_orient(picked, data_dir, step, gpkg):
         assert (r["dx_map"], r["dy_map"]) == pytest.approx((p["dx_ground"], p["dy_ground"]), abs=1e-6)
         assert r["role"] == p["role"] and r["z_source"] == "dem"
     assert fit["rms"]["control_px"] == pytest.approx(rep["control"]["rms_xy_px"], abs=1e-9)
-    if step == "role":  # GCP 2 unchecked in the table: a check point, measured but not fitted
+    if step == "role":  # GCP 2 made a check point in the table's role column: measured but not fitted
         assert rows["2"]["role"] == "check" and fit["rms"]["n_check"] == 1
         assert fit["rms"]["check_px"] == pytest.approx(rep["check"]["rms_xy_px"], abs=1e-9)
     else:  # the table shows the same numbers
@@ -188,6 +188,24 @@ def test_table_and_residuals_match_fotogeo_orient(picked, data_dir, step, gpkg):
             assert table[str(p["id"])]["dx px"] == f"{p['dx_px']:.3f}"
             assert table[str(p["id"])]["dy map"] == f"{p['dy_ground']:.3f}"
         assert f"{rep['control']['rms_xy_px']:.3f} px" in state[step]["summary"]
+
+
+def test_unticked_on_disables_a_point_as_the_georeferencer(picked, data_dir):
+    """'on' unticked: GCP 3 is ignored (neither control nor check; orient reading the layer leaves it out too)
+    but keeps its role for when it is ticked again; its residual to the model is still shown."""
+    state, _, tmp = picked
+    d = state["disabled"]
+    g3 = _by_id(d["gcps"])["3"]
+    assert g3["enabled"] is False and g3["role"] == "control"
+    row = _by_id(d["fit"]["points"])["3"]
+    assert row["role"] == "disabled" and row["residual_px"] is not None
+    assert d["fit"]["rms"]["n_control"] == 8 and d["fit"]["rms"]["n_check"] == 1  # of 10: GCP 2 check, GCP 3 off
+    t = _by_id(d["table"])["3"]
+    assert t["on"] is False and t["role"] == "control"
+    rep = _orient(data_dir, tmp / "with_disabled.gpkg", tmp / "disabled.json")
+    assert "3" not in {str(p["id"]) for p in rep["points"]} and len(rep["points"]) == 9
+    assert d["fit"]["rms"]["control_px"] == pytest.approx(rep["control"]["rms_xy_px"], abs=1e-9)
+    assert _by_id(state["enabled_again"])["3"]["enabled"] is True  # undo
 
 
 def test_layer_round_trips_through_points_file(picked):

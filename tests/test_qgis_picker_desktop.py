@@ -12,8 +12,10 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_qgis_picker import truth_gcps
+from test_qgis_picker_preview import template_shift
 from test_qgis_real_programs import _env, config, inputs  # noqa: F401 - fixtures: the installed plugin, copied data
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,6 +60,17 @@ def test_desktop_picker_picks_and_shows_the_fit(config, inputs, data_dir, tmp_pa
     assert state["propose_error"] is None and state["proposals"] == 30
     accepted = state["accepted_fit"]
     assert accepted["ok"] and accepted["rms"]["n_check"] == 10 and accepted["rms"]["check_px"] < 1.0
+    # the live preview: none with 5 GCPs, DLT's minimum is 6; from the sixth on the frame warped onto the map
+    assert not state["preview_below_minimum"]["drawn"]
+    at_min = state["preview_at_minimum"]
+    assert at_min["drawn"] and at_min["ok"] and at_min["model"] == "dlt" and at_min["covered"] > 0.2
+    # GCP 7 dragged by (30, -20) screen px on the map: the picture around it moves along (DLT on 10 control points
+    # follows one of them part of the way)
+    d = state["drag"]
+    assert state["preview_after_drag"]["drawn"] and np.hypot(*d["moved_map"]) > 0
+    moved, best = template_shift(out / "preview_before.png", out / "preview_after.png", d["screen"], d["canvas"][0])
+    along = float(np.dot(moved, d["by"]) / np.hypot(*d["by"]))
+    assert best > 0.6 and 5 < along < np.hypot(*d["by"]) + 2, (moved, best)
     for png in ("picker_dock.png", "picker_table.png", "picker_proposals.png", "picker_accepted.png"):
         assert (out / png).stat().st_size > 20_000, png
         if os.environ.get("FOTOGEO_UPDATE_SCREENSHOTS"):

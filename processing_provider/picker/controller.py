@@ -133,6 +133,13 @@ class PickerController(QObject):
         if gcp is not None and gcp.role != role:
             self.undo_stack.push(UpdateGcp(self.store, gcp, replace(gcp, role=role), f"GCP {gcp_id}: {role}"))
 
+    def set_enabled(self, gcp_id: str, enabled: bool):
+        """Enable (used, with its role) or disable (ignored, the Georeferencer's unticked 'enable') a GCP."""
+        gcp = self.gcp(gcp_id)
+        if gcp is not None and gcp.enabled != enabled:
+            self.undo_stack.push(UpdateGcp(self.store, gcp, replace(gcp, enabled=enabled),
+                                           f"GCP {gcp_id}: {'enabled' if enabled else 'disabled'}"))
+
     def set_height(self, gcp_id: str, z):
         gcp = self.gcp(gcp_id)
         if gcp is not None and gcp.z != z:
@@ -236,7 +243,7 @@ class PickerController(QObject):
             elif side == MAP and r.get("dx_map") is not None:
                 k = self.exaggeration
                 arrow = self.layer_to_map(g.x + k * r["dx_map"], g.y + k * r["dy_map"])
-            marks.append(Mark(g.id, at, g.role, bool(r.get("flag")), arrow))
+            marks.append(Mark(g.id, at, g.role if g.enabled else "disabled", bool(r.get("flag")), arrow))
         return marks
 
     def _overlay(self, side: str) -> Overlay:

@@ -152,6 +152,7 @@ class PickerDock(DockActions, QDockWidget):
         self.summary.setWordWrap(True)
         layout.addWidget(self.summary)
         self.table = GcpTable()
+        self.table.enabled_changed.connect(self.controller.set_enabled)
         self.table.role_changed.connect(self.controller.set_role)
         self.table.height_changed.connect(self.controller.set_height)
         self.table.gcp_selected.connect(self.controller.select)

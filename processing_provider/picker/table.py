@@ -1,7 +1,8 @@
 """The picker's GCP table: one row per GCP with its residuals in pixels and map units.
 
-Columns: id, *on* (checked = control point, unchecked = check point: QGIS's enable/disable),
-col, row (px, corner convention), x, y (layer CRS), z and where it came from (field, DEM,
+Columns: id, *on* (the Georeferencer's *enable*: ticked = used, unticked = disabled, ignored by
+the fit and the RMS though its residual is still shown), *role* (``control`` fits the model,
+``check`` measures it; double-click to choose), col, row (px, corner convention), x, y (layer CRS), z and where it came from (field, DEM,
 constant), dx, dy, residual in px and in map units (model minus measurement, the same numbers
 ``fotogeo orient`` reports), the standardised residual w of data snooping (Baarda 1968) and the
 flag (blunder, no height, ...). Selecting a row highlights the GCP on both canvases; the z cell can
@@ -12,16 +13,17 @@ from __future__ import annotations
 
 from qgis.PyQt.QtCore import Qt, pyqtSignal
 from qgis.PyQt.QtGui import QColor, QKeySequence
-from qgis.PyQt.QtWidgets import QAbstractItemView, QTableWidget, QTableWidgetItem
+from qgis.PyQt.QtWidgets import QAbstractItemView, QComboBox, QStyledItemDelegate, QTableWidget, QTableWidgetItem
 
 #: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
-COLUMNS = ("id", "on", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "col", "row", "x", "y",
+COLUMNS = ("id", "on", "role", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "col", "row", "x", "y",
            "z", "z from")
 #: header tooltips: what each column means, "on" against the Georeferencer's "enable"
 TOOLTIPS = {
-    "on": "Ticked: control point, used in the fit. Unticked: check point, left out of the fit and measured against "
-          "it (the Georeferencer's unticked 'enable' means only 'not used'; here the point still reports its "
-          "residual).",
+    "on": "Ticked: the point is used (as its role says). Unticked: disabled, ignored by the fit and the RMS, as the "
+          "Georeferencer's unticked 'enable' (its residual to the model is still shown)",
+    "role": "control: fits the model. check: left out of the fit and measured against it (check RMS). "
+            "Double-click to change",
     "w": "Standardised residual (data snooping); empty where the redundancy cannot test the point",
     "flag": "blunder: |w| above the critical value for this redundancy; not testable: too little redundancy",
     "res px": "Residual in image pixels (model − measured)", "res map": "Residual on the ground, map units",
@@ -35,10 +37,29 @@ def _text(value, decimals: int) -> str:
     return "" if value is None else f"{value:.{decimals}f}"
 
 
-class GcpTable(QTableWidget):
-    """The table (module docstring); ``role_changed(id, role)``, ``height_changed(id, z)``, ``gcp_selected(id)``
-    and ``delete_requested([id, ...])`` go to the controller."""
+ROLE_CHOICES = ("control", "check")
 
+
+class RoleDelegate(QStyledItemDelegate):
+    """The role cell's editor: a combo box of :data:`ROLE_CHOICES`."""
+
+    def createEditor(self, parent, option, index):  # noqa: N802 - Qt's name
+        combo = QComboBox(parent)
+        combo.addItems(ROLE_CHOICES)
+        return combo
+
+    def setEditorData(self, editor, index):  # noqa: N802 - Qt's name
+        editor.setCurrentText(index.data())
+
+    def setModelData(self, editor, model, index):  # noqa: N802 - Qt's name
+        model.setData(index, editor.currentText())
+
+
+class GcpTable(QTableWidget):
+    """The table (module docstring); ``enabled_changed(id, on)``, ``role_changed(id, role)``, ``height_changed(id, z)``,
+    ``gcp_selected(id)`` and ``delete_requested([id, ...])`` go to the controller."""
+
+    enabled_changed = pyqtSignal(str, bool)
     role_changed = pyqtSignal(str, str)
     height_changed = pyqtSignal(str, object)  # id, float or None
     gcp_selected = pyqtSignal(str)
@@ -54,6 +75,8 @@ class GcpTable(QTableWidget):
         self.setSelectionMode(QAbstractItemView.ExtendedSelection)
         self.setEditTriggers(QAbstractItemView.DoubleClicked | QAbstractItemView.EditKeyPressed)
         self.verticalHeader().setVisible(False)
+        self.role_delegate = RoleDelegate(self)
+        self.setItemDelegateForColumn(COLUMNS.index("role"), self.role_delegate)
         self._filling = False
         self.itemChanged.connect(self._item_changed)
         self.itemSelectionChanged.connect(self._selection_changed)
@@ -68,17 +91,20 @@ class GcpTable(QTableWidget):
                 r = rows.get(g.id, {})
                 values = {"id": g.id, "col": _text(g.col, 2), "row": _text(g.row, 2), "x": _text(g.x, 3),
                           "y": _text(g.y, 3), "z": _text(r.get("z", g.z), 2), "z from": r.get("z_source", ""),
-                          "flag": r.get("flag", "")}
+                          "flag": r.get("flag", ""), "role": g.role}
                 values.update({c: _text(r.get(k), d) for c, (k, d) in RESULT_COLUMNS.items()})
                 for j, name in enumerate(COLUMNS):
                     item = QTableWidgetItem("" if name == "on" else str(values.get(name, "")))
                     item.setData(Qt.UserRole, g.id)
                     if name == "on":
                         item.setFlags(Qt.ItemIsUserCheckable | Qt.ItemIsEnabled | Qt.ItemIsSelectable)
-                        item.setCheckState(Qt.Checked if g.role == "control" else Qt.Unchecked)
+                        item.setCheckState(Qt.Checked if g.enabled else Qt.Unchecked)
                     else:
-                        item.setFlags(Qt.ItemIsEnabled | Qt.ItemIsSelectable | (Qt.ItemIsEditable if name == "z" else 0))
-                    if name not in ("id", "on"):
+                        editable = Qt.ItemIsEditable if name in ("z", "role") else 0
+                        item.setFlags(Qt.ItemIsEnabled | Qt.ItemIsSelectable | editable)
+                    if not g.enabled and name != "on":
+                        item.setForeground(QColor(140, 140, 140))  # disabled: greyed, as its marks
+                    if name not in ("id", "on", "role"):
                         item.setTextAlignment(Qt.AlignRight | Qt.AlignVCenter)
                     if r.get("flag"):
                         item.setBackground(QColor(255, 220, 160))
@@ -113,7 +139,11 @@ class GcpTable(QTableWidget):
             return
         column, gcp_id = COLUMNS[item.column()], item.data(Qt.UserRole)
         if column == "on":
-            self.role_changed.emit(gcp_id, "control" if item.checkState() == Qt.Checked else "check")
+            self.enabled_changed.emit(gcp_id, item.checkState() == Qt.Checked)
+        elif column == "role":
+            role = item.text().strip().lower()
+            if role in ROLE_CHOICES:
+                self.role_changed.emit(gcp_id, role)
         elif column == "z":
             text = item.text().strip().replace(",", ".")
             try:
