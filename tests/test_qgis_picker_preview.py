@@ -1,6 +1,7 @@
 """The picker's live preview in a real, headless QGIS (tests/picker_preview_script.py): none below the model's
 minimum, the image warped onto the map canvas from the minimum on, redrawn when a GCP is dragged — the picture
-around the dragged GCP moves with it —, switched off and on, gone again below the minimum; and the enabled field added to a GCP layer made elsewhere when a point is disabled."""
+around the dragged GCP moves with it —, switched off and on, gone again below the minimum; and the ``enabled``
+field added to a GCP layer made elsewhere when one of its points is disabled."""
 from __future__ import annotations
 
 import cv2
