@@ -2,8 +2,9 @@
 
 Opens the dock through the plugin's menu action, picks GCPs by simulated clicks on the image canvas and on
 QGIS's map canvas (over the reference orthophoto) — the live preview looked at one point before DLT's minimum
-and at it —, makes two of them check points, moves the cursor to show the prediction, grabs screenshots, then
-drags a GCP on the map and saves the preview's pictures and the canvas before and after; optionally runs
+and at it, where a GCP is dragged on the map (the preview's pictures and the canvas saved before and after, the
+drag undone) —, makes two of them check points, moves the cursor to show the prediction, grabs screenshots
+(one with the orthophoto hidden: the preview alone); optionally runs
 *Propose GCPs* and grabs the proposals. Writes ``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
 """
 import json
@@ -32,6 +33,7 @@ def start():
     window.resize(1600, 1000)
     project = QgsProject.instance()
     ortho = QgsRasterLayer(ARGS["ortho"], "reference orthophoto")
+    KEEP["ortho"] = ortho
     dem = QgsRasterLayer(ARGS["dem"], "DEM")
     project.addMapLayer(dem, False)  # listed in the dock, not drawn over the map
     project.addMapLayer(ortho)
@@ -86,7 +88,32 @@ def picking():
 @guard
 def minimum():
     pick(KEEP["dock"], ARGS["gcps"][5], image_first=False)
-    when_previewed(guard(lambda: (STATE.update(preview_at_minimum=preview_state()), the_rest())))
+    when_previewed(guard(lambda: (STATE.update(preview_at_minimum=preview_state()), dragging())))
+
+
+@guard
+def dragging():
+    """At DLT's minimum, the control point farthest inside the image dragged on the map: the preview is redrawn;
+    its pictures and the canvas before and after saved; the drag undone."""
+    dock, canvas = KEEP["dock"], iface.mapCanvas()
+    STATE["preview_before_drag"] = preview_state("preview_before.png")
+    grab(canvas, "canvas_before.png")
+    w, h = dock.image.width, dock.image.height
+    g = max((g for g in dock.controller.store.gcps() if g.role == "control"),
+            key=lambda g: min(g.col, w - g.col, g.row, h - g.row))  # the farthest from the image's edges
+    start = map_screen(dock, g.x, g.y)
+    STATE["drag"] = {"gcp": g.id, "screen": [start.x(), start.y()], "by": [15, -10],
+                     "canvas": [canvas.width(), canvas.height()]}
+    drag(dock.tools[MAP], start, start + QPoint(15, -10))
+    moved = dock.controller.gcp(g.id)
+    STATE["drag"]["moved_map"] = [moved.x - g.x, moved.y - g.y]
+
+    def after():
+        STATE["preview_after_drag"] = preview_state("preview_after.png")
+        grab(canvas, "canvas_after.png")
+        dock.controller.undo_stack.undo()
+        when_previewed(the_rest)
+    when_previewed(guard(lambda: QTimer.singleShot(1000, guard(after))))
 
 
 @guard
@@ -103,25 +130,20 @@ def the_rest():
     # the cursor over the image: the map shows where the model puts that pixel
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, 330, -560), Qt.NoButton)
     QTimer.singleShot(2500, guard(lambda: when_previewed(guard(lambda: (
-        grab(iface.mainWindow(), "picker_dock.png", 1280), grab(dock, "picker_table.png"), dragging())))))
+        grab(iface.mainWindow(), "picker_dock.png", 1280), grab(dock, "picker_table.png"), preview_alone())))))
 
 
 @guard
-def dragging():
-    """GCP 7 dragged on the map: the preview is redrawn; its pictures and the canvas before and after saved."""
-    dock = KEEP["dock"]
-    STATE["preview_before_drag"] = preview_state("preview_before.png")
-    grab(iface.mapCanvas(), "canvas_before.png")
-    g = dock.controller.gcp("7")
-    start = map_screen(dock, g.x, g.y)
-    STATE["drag"] = {"gcp": "7", "screen": [start.x(), start.y()], "by": [30, -20],
-                     "canvas": [iface.mapCanvas().width(), iface.mapCanvas().height()]}
-    drag(dock.tools[MAP], start, start + QPoint(30, -20))
-    moved = dock.controller.gcp("7")
-    STATE["drag"]["moved_map"] = [moved.x - g.x, moved.y - g.y]
-    when_previewed(guard(lambda: (STATE.update(preview_after_drag=preview_state("preview_after.png")),
-                                  QTimer.singleShot(1000, guard(lambda: (grab(iface.mapCanvas(), "canvas_after.png"),
-                                                                         proposals()))))))
+def preview_alone():
+    """The orthophoto hidden: the live preview alone on the map (a screenshot), then shown again."""
+    node = QgsProject.instance().layerTreeRoot().findLayer(KEEP["ortho"].id())
+    node.setItemVisibilityChecked(False)
+
+    def shot():
+        grab(iface.mainWindow(), "picker_preview.png", 1280)
+        node.setItemVisibilityChecked(True)
+        QTimer.singleShot(1500, proposals)
+    QTimer.singleShot(2000, guard(shot))
 
 
 @guard

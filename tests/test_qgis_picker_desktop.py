@@ -63,15 +63,20 @@ def test_desktop_picker_picks_and_shows_the_fit(config, inputs, data_dir, tmp_pa
     # the live preview: none with 5 GCPs, DLT's minimum is 6; from the sixth on the frame warped onto the map
     assert not state["preview_below_minimum"]["drawn"]
     at_min = state["preview_at_minimum"]
-    assert at_min["drawn"] and at_min["ok"] and at_min["model"] == "dlt" and at_min["covered"] > 0.2
-    # GCP 7 dragged by (30, -20) screen px on the map: the picture around it moves along (DLT on 10 control points
-    # follows one of them part of the way)
+    assert at_min["drawn"] and at_min["ok"] and at_min["model"] == "dlt" and at_min["covered"] > 0.05
+    # at the minimum, the control point farthest inside the image dragged by (15, -10) screen px on the map: the
+    # picture around it moves along (DLT on 6 points, redundancy 1, follows it, overshooting a little)
     d = state["drag"]
     assert state["preview_after_drag"]["drawn"] and np.hypot(*d["moved_map"]) > 0
-    moved, best = template_shift(out / "preview_before.png", out / "preview_after.png", d["screen"], d["canvas"][0])
+    # (the fit also turns and stretches the picture: the match is found where the point went, far better than where
+    # it was, not perfect)
+    moved, best, where = template_shift(out / "preview_before.png", out / "preview_after.png", d["screen"],
+                                        d["canvas"][0])
     along = float(np.dot(moved, d["by"]) / np.hypot(*d["by"]))
-    assert best > 0.6 and 5 < along < np.hypot(*d["by"]) + 2, (moved, best)
-    for png in ("picker_dock.png", "picker_table.png", "picker_proposals.png", "picker_accepted.png"):
+    assert best > 0.45 and best > where + 0.25, (best, where)
+    assert 0.5 * np.hypot(*d["by"]) < along < 2 * np.hypot(*d["by"]), moved
+    for png in ("picker_dock.png", "picker_table.png", "picker_preview.png", "picker_proposals.png",
+                "picker_accepted.png"):
         assert (out / png).stat().st_size > 20_000, png
         if os.environ.get("FOTOGEO_UPDATE_SCREENSHOTS"):
             shutil.copy(out / png, ROOT / "docs" / png)

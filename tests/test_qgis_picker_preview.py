@@ -31,8 +31,9 @@ def test_preview_appears_at_the_models_minimum_and_goes_below_it(previewed):
 
 
 def template_shift(before_png, after_png, screen_xy, canvas_width, half=20, reach=60):
-    """``(shift in screen pixels (2,), match score)`` of the preview's picture around screen point ``screen_xy``
-    from ``before_png`` to ``after_png`` (normalised cross-correlation of a (2·half + 1)² template)."""
+    """``(shift in screen pixels (2,), match score, score where it was)`` of the preview's picture around screen
+    point ``screen_xy`` from ``before_png`` to ``after_png`` (normalised cross-correlation of a (2·half + 1)²
+    template)."""
     before, after = (cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in (before_png, after_png))
     assert before.shape == after.shape and before.shape[2] == 4
     scale = before.shape[1] / canvas_width  # preview pixels per screen pixel
@@ -40,14 +41,15 @@ def template_shift(before_png, after_png, screen_xy, canvas_width, half=20, reac
     assert (before[y - half:y + half + 1, x - half:x + half + 1, 3] == 255).all()  # inside the warped image
     template = cv2.cvtColor(before[y - half:y + half + 1, x - half:x + half + 1], cv2.COLOR_BGRA2GRAY)
     area = cv2.cvtColor(after[y - reach:y + reach + 1, x - reach:x + reach + 1], cv2.COLOR_BGRA2GRAY)
-    _, best, _, (bx, by) = cv2.minMaxLoc(cv2.matchTemplate(area, template, cv2.TM_CCOEFF_NORMED))
-    return np.array([bx - (reach - half), by - (reach - half)]) / scale, best
+    score = cv2.matchTemplate(area, template, cv2.TM_CCOEFF_NORMED)
+    _, best, _, (bx, by) = cv2.minMaxLoc(score)
+    return np.array([bx - (reach - half), by - (reach - half)]) / scale, best, float(score[reach - half, reach - half])
 
 
 def test_preview_moves_with_a_dragged_gcp(previewed):
     """Affine on 3 GCPs fits them exactly: the picture around GCP 3 follows GCP 3's drag on the map."""
     s = previewed
-    moved, best = template_shift(s["three"]["png"], s["dragged"]["png"], s["gcp3_screen"], s["canvas"][0])
+    moved, best, _ = template_shift(s["three"]["png"], s["dragged"]["png"], s["gcp3_screen"], s["canvas"][0])
     assert best > 0.8 and moved == pytest.approx(s["drag"], abs=2.0), (best, moved)
     assert s["dragged"]["extent"] == s["three"]["extent"]  # the same canvas: the picture changed, not the frame
 
