@@ -9,8 +9,8 @@ the image canvas; the fit summary; the table. The handlers of the rows are in
 """
 from __future__ import annotations
 
-from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer,
-                       QgsTask)
+from qgis.core import (Qgis, QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsMessageLog,
+                       QgsProject, QgsRasterLayer, QgsTask)
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QKeySequence
@@ -77,6 +77,7 @@ class PickerDock(DockActions, QDockWidget):
         self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
                       MAP: PickTool(map_canvas, self.controller, MAP)}
         self.preview = LivePreview(map_canvas, preview_session)
+        self.preview.shown.connect(self._preview_shown)
         self._build()
         self.controller.fitted.connect(self._show_fit)
         map_canvas.extentsChanged.connect(self.update_preview)
@@ -203,8 +204,13 @@ class PickerDock(DockActions, QDockWidget):
     def update_preview(self, *_):
         """A new preview for the current fit and canvas (none while the model lacks points)."""
         c = self.controller
-        ok = c.fit.get("ok") and c.store is not None and c.image is not None
+        ok = c.fit.get("ok") and c.store is not None and c.image is not None and self.isVisible()
         self.preview.request(c.settings().request(c.store.gcps()) if ok else None)
+
+    def _preview_shown(self, result: dict):
+        """A preview that failed although the fit worked (an unreadable image, a worker error) says why in the log."""
+        if not result.get("ok") and result.get("message") not in (None, "no preview") and self.controller.fit.get("ok"):
+            QgsMessageLog.logMessage(f"live preview: {result['message']}", "fotogeo picker", Qgis.Warning)
 
     def _action_row(self) -> QWidget:
         stack = self.controller.undo_stack
@@ -327,6 +333,7 @@ class PickerDock(DockActions, QDockWidget):
             overlay.setVisible(True)
         self.preview.set_visible(True)
         self.activate_map_tool()
+        self.update_preview()  # none was computed while the dock was closed
         super().showEvent(event)
 
     def closeEvent(self, event):  # noqa: N802 - Qt's name
