@@ -20,7 +20,7 @@ ARGS = json.loads(open(os.environ["FOTOGEO_PICKER_ARGS"]).read())
 OUT = ARGS["out"]
 sys.path.insert(0, ARGS["tests"])
 from desktop_harness import Harness  # noqa: E402
-from picker_driver import IMAGE, MAP, drag, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
+from picker_driver import IMAGE, MAP, drag, fitted, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
 
 HARNESS = Harness(OUT)
 STATE, finish, guard, grab = HARNESS.state, HARNESS.finish, HARNESS.guard, HARNESS.grab
@@ -124,7 +124,7 @@ def the_rest():
     for gid in ("4", "9"):
         dock.controller.set_role(gid, "check")
     STATE["gcps"] = gcps(dock)
-    STATE["fit"] = {k: v for k, v in dock.controller.fit.items() if k not in ("forward", "inverse")}
+    STATE["fit"] = {k: v for k, v in fitted(dock).items() if k not in ("forward", "inverse")}
     STATE["summary"] = dock.summary.text()
     STATE["table"] = table(dock)
     # the cursor over the image: the map shows where the model puts that pixel
@@ -176,7 +176,7 @@ def accept():
     dock = KEEP["dock"]
     dock.controller.accept_proposals(check_every=3)
     dock.exaggeration_spin.setValue(150)  # sub-pixel residuals: arrows long enough to see
-    fit = dock.controller.fit
+    fit = fitted(dock)
     STATE["accepted_fit"] = {"ok": fit["ok"], "model": fit.get("model"), "rms": fit.get("rms")}
     QTimer.singleShot(2000, guard(lambda: (grab(iface.mainWindow(), "picker_accepted.png", 1280), finish())))
 

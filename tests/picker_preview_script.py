@@ -7,22 +7,20 @@ off and on, a GCP deleted below the minimum (the preview goes). Writes ``ARGS["o
 """
 from __future__ import annotations
 
-import json
 import os
-import sys
 import time
-import traceback
 
 import picker_gui_script as base  # noqa: E402 - its QgsApplication, setup and pump
-from picker_driver import drag, map_screen, pick  # noqa: E402
-from qgis.core import QgsCoordinateReferenceSystem, QgsRectangle  # noqa: E402
+from picker_driver import drag, frame_dock, map_screen, pick, run  # noqa: E402
+from picker_driver import settle as settle_fit  # noqa: E402
 from qgis.PyQt.QtCore import QPoint  # noqa: E402
 
 ARGS, STATE, pump = base.ARGS, base.STATE, base.pump
 
 
 def settled(dock, seconds=60.0) -> dict:
-    """Pump events until the preview has answered the newest request; what it showed."""
+    """Pump events until the fit, then the preview, has answered the newest request; what it showed."""
+    settle_fit(dock)
     start = time.monotonic()
     while time.monotonic() - start < seconds:
         pump(0.05)
@@ -44,15 +42,8 @@ def save(dock, name) -> dict:
 
 
 def main():
-    canvas, dock = base.setup()
-    assert dock.open_image(ARGS["frame"]), dock.last_message
-    dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
-    dock.model_combo.setCurrentText("affine")
+    canvas, dock = frame_dock(base.setup, ARGS, "affine")
     truth = ARGS["gcps"]
-    xs, ys = [g["x"] for g in truth], [g["y"] for g in truth]
-    canvas.setExtent(QgsRectangle(min(xs) - 50, min(ys) - 50, max(xs) + 50, max(ys) + 50))
-    canvas.refresh()
-    pump(0.3)
     STATE["canvas"] = [canvas.width(), canvas.height()]
     for k in range(2):
         pick(dock, truth[k])
@@ -95,11 +86,4 @@ def foreign_layer():
 
 
 if __name__ == "__main__":
-    try:
-        main()
-    except Exception:
-        STATE["error"] = traceback.format_exc()
-    with open(os.path.join(ARGS["out"], "state.json"), "w") as f:
-        json.dump({k: v for k, v in STATE.items() if not k.startswith("_")}, f)
-    sys.stdout.flush()
-    os._exit(0)
+    run(main, STATE, ARGS["out"])

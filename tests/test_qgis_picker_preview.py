@@ -7,17 +7,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from test_qgis_picker import run_script, truth_gcps
+from test_qgis_picker import run_frame_script
 
 pytestmark = [pytest.mark.qgis]
 
 
 @pytest.fixture(scope="module")
 def previewed(data_dir, tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("preview")
-    gcps, crs = truth_gcps(data_dir)
-    args = {"frame": str(data_dir / "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"), "crs": crs, "gcps": gcps}
-    return run_script("picker_preview_script.py", args, tmp)
+    return run_frame_script("picker_preview_script.py", data_dir, tmp_path_factory.mktemp("preview"))
 
 
 def test_preview_appears_at_the_models_minimum_and_goes_below_it(previewed):
