@@ -3,7 +3,7 @@
 Opens the dock through the plugin's menu action, picks GCPs by simulated clicks on the image canvas and on
 QGIS's map canvas (over the reference orthophoto) — the live preview looked at one point before DLT's minimum
 and at it, where a GCP is dragged on the map (the preview's pictures and the canvas saved before and after, the
-drag undone) —, makes two of them check points, moves the cursor to show the prediction, grabs screenshots
+drag undone) —, makes two of them check points, sorts the table by residual, moves the cursor to show the prediction, grabs screenshots
 (one with the orthophoto hidden: the preview alone); optionally runs
 *Propose GCPs* and grabs the proposals. Writes ``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
 """
@@ -20,7 +20,7 @@ ARGS = json.loads(open(os.environ["FOTOGEO_PICKER_ARGS"]).read())
 OUT = ARGS["out"]
 sys.path.insert(0, ARGS["tests"])
 from desktop_harness import Harness  # noqa: E402
-from picker_driver import IMAGE, MAP, drag, fitted, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
+from picker_driver import IMAGE, MAP, drag, fitted, gcps, map_screen, mouse, pick, screen, sort_by, table  # noqa: E402
 
 HARNESS = Harness(OUT)
 STATE, finish, guard, grab = HARNESS.state, HARNESS.finish, HARNESS.guard, HARNESS.grab
@@ -127,6 +127,8 @@ def the_rest():
     STATE["fit"] = {k: v for k, v in fitted(dock).items() if k not in ("forward", "inverse")}
     STATE["summary"] = dock.summary.text()
     STATE["table"] = table(dock)
+    sort_by(dock.table, "res px", Qt.DescendingOrder)  # the largest residual first, as a user checking the fit
+    STATE["sorted_ids"] = [dock.table.item(r, 0).text() for r in range(dock.table.rowCount())]
     # the cursor over the image: the map shows where the model puts that pixel
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, 330, -560), Qt.NoButton)
     QTimer.singleShot(2500, guard(lambda: when_previewed(guard(lambda: (

@@ -19,6 +19,7 @@ import traceback
 from qgis.core import QgsCoordinateReferenceSystem, QgsPointXY, QgsRectangle
 from qgis.gui import QgsMapMouseEvent
 from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPoint, Qt
+from qgis.PyQt.QtTest import QTest
 
 #: the dock's tool keys (processing_provider.picker.map_tools; the desktop imports the plugin under another name)
 IMAGE, MAP = "image", "map"
@@ -65,6 +66,27 @@ def drag(tool, start: QPoint, end: QPoint):
     mouse(tool, QEvent.MouseMove, end)
     mouse(tool, QEvent.MouseButtonRelease, end)
     wait_for_fit(tool.controller)
+
+
+def click_header(t, name: str) -> int:
+    """A mouse click on the table ``t``'s header of column ``name``; its column number."""
+    header = t.horizontalHeader()
+    j = next(k for k in range(header.count()) if t.horizontalHeaderItem(k).text() == name)
+    t.scrollToItem(t.item(0, j))
+    QTest.mouseClick(header.viewport(), Qt.LeftButton, Qt.NoModifier,
+                     QPoint(header.sectionViewportPosition(j) + header.sectionSize(j) // 2, header.height() // 2))
+    QCoreApplication.processEvents()
+    return j
+
+
+def sort_by(t, name: str, order) -> int:
+    """Clicks on the header of ``name`` until the table is sorted in ``order``; the number of clicks (1 or 2)."""
+    for clicks in (1, 2):
+        j = click_header(t, name)
+        header = t.horizontalHeader()
+        if header.sortIndicatorSection() == j and header.sortIndicatorOrder() == order:
+            return clicks
+    raise AssertionError(f"two clicks on {name} did not sort it {order}")
 
 
 def screen(canvas, x, y) -> QPoint:

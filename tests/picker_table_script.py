@@ -9,32 +9,14 @@ the table's geometry in the dock. Writes ``ARGS["out"]/state.json``.
 from __future__ import annotations
 
 import picker_gui_script as base  # noqa: E402 - its QgsApplication, setup and pump
-from picker_driver import fitted, frame_dock, gcps, pick, run, settle, table  # noqa: E402
-from qgis.PyQt.QtCore import QEvent, QPoint, Qt  # noqa: E402
+from picker_driver import fitted, frame_dock, gcps, pick, run, settle, sort_by, table  # noqa: E402
+from qgis.PyQt.QtCore import QEvent, Qt  # noqa: E402
 from qgis.PyQt.QtGui import QKeyEvent  # noqa: E402
 from qgis.PyQt.QtTest import QTest  # noqa: E402
 
 from processing_provider.picker.table import COLUMNS, MIN_ROWS  # noqa: E402
 
 ARGS, STATE, pump = base.ARGS, base.STATE, base.pump
-
-
-def click_header(t, name: str):
-    header = t.horizontalHeader()
-    j = COLUMNS.index(name)
-    t.scrollToItem(t.item(0, j))
-    QTest.mouseClick(header.viewport(), Qt.LeftButton, Qt.NoModifier,
-                     QPoint(header.sectionViewportPosition(j) + header.sectionSize(j) // 2, header.height() // 2))
-    pump(0.1)
-
-
-def sort_by(t, name: str, order) -> int:
-    """Clicks on the header of ``name`` until the table is sorted in ``order``; the number of clicks (1 or 2)."""
-    for clicks in (1, 2):
-        click_header(t, name)
-        if t.horizontalHeader().sortIndicatorOrder() == order:
-            return clicks
-    raise AssertionError(f"two clicks on {name} did not sort it {order}")
 
 
 def click_row(t, row: int):

@@ -56,6 +56,8 @@ def test_desktop_picker_picks_and_shows_the_fit(config, inputs, data_dir, tmp_pa
     assert 0 < fit["rms"]["control_px"] < 3 and 0 < fit["rms"]["check_px"] < 10
     assert [t["id"] for t in state["table"]] == [g["id"] for g in state["gcps"]]
     assert all(t["z from"] == "dem" and t["res px"] for t in state["table"])
+    residual = {t["id"]: float(t["res px"]) for t in state["table"]}  # the header clicked: largest residual first
+    assert [residual[i] for i in state["sorted_ids"]] == sorted(residual.values(), reverse=True)
     # Propose GCPs against the orthophoto in the desktop: the task ran in the plugin's runtime
     assert state["propose_error"] is None and state["proposals"] == 30
     accepted = state["accepted_fit"]
