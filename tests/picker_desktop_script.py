@@ -3,8 +3,8 @@
 Opens the dock through the plugin's menu action, picks GCPs by simulated clicks on the image canvas and on
 QGIS's map canvas (over the reference orthophoto) — the live preview looked at one point before DLT's minimum
 and at it, where a GCP is dragged on the map (the preview's pictures and the canvas saved before and after, the
-drag undone) —, makes two of them check points, sorts the table by residual, moves the cursor to show the prediction, grabs screenshots
-(one with the orthophoto hidden: the preview alone); optionally runs
+drag undone) —, makes two of them check points, sorts the table by residual (header clicks), moves the cursor
+to show the prediction, grabs screenshots (one with the orthophoto hidden: the preview alone); optionally runs
 *Propose GCPs* and grabs the proposals. Writes ``result.json`` into ``FOTOGEO_DESKTOP_OUT`` and quits.
 """
 import json

@@ -2,9 +2,9 @@
 run by tests/test_qgis_picker_table.py as ``python picker_table_script.py ARGS.json``.
 
 Ten GCPs of the NGI frame (affine), GCP 5 clicked 12 screen px off on the map. The header clicked: by id
-descending then ascending (2 before 10), then by residual until descending; a refit with another model (the order changes, the selected GCP
-stays selected); the top row clicked and deleted with the Delete key, undone, redone; a role set in the top row;
-the table's geometry in the dock. Writes ``ARGS["out"]/state.json``.
+descending then ascending (2 before 10), then by residual until descending; a refit with another model (the
+order changes, the selected GCP stays selected); the top row clicked and deleted with the Delete key, undone,
+redone; a role set in the top row; the table's geometry in the dock. Writes ``ARGS["out"]/state.json``.
 """
 from __future__ import annotations
 
@@ -55,7 +55,8 @@ def selected_and_refit(dock, t):
     chosen = t.selected_ids()
     dock.model_combo.setCurrentText("projective")
     ids = column(dock, "id")
-    STATE["refit"] = {"chosen": chosen, "controller": dock.controller.selected, "ids_before": STATE["by_residual"]["ids"],
+    STATE["refit"] = {"chosen": chosen, "controller": dock.controller.selected,
+                      "ids_before": STATE["by_residual"]["ids"],
                       "ids_after": ids, "res_after": column(dock, "res px"), "selected_after": t.selected_ids(),
                       "selected_rows": sorted({i.row() for i in t.selectedIndexes()})}
     dock.model_combo.setCurrentText("affine")

@@ -5,8 +5,8 @@ model, ``auto``, collinearity with a camera file), the height source (a DEM laye
 field or a constant); the arrow exaggeration and the live preview's switch and opacity; the
 proposal row (reference raster, count, Propose / Accept / Reject); the action row (undo, redo,
 import, export, rectify, RPC, report); then a splitter: the image canvas above, the fit summary
-and the table below, the table with the larger share (at least :data:`.table.MIN_ROWS` rows). The handlers of the rows are in
-:mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
+and the table below, the table with the larger share (at least :data:`.table.MIN_ROWS` rows).
+The handlers of the rows are in :mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
 """
 from __future__ import annotations
 
