@@ -69,6 +69,7 @@ TOOLS = {
 SESSION_TOOLS = {
     "fit_gcps": ("fotogeo.tools.gcp_fit", "fit_gcps"),
     "sample_heights": ("fotogeo.tools.gcp_fit", "sample_heights"),
+    "preview_warp": ("fotogeo.tools.gcp_preview", "preview_warp"),
     "read_image_gcps": ("fotogeo.tools.gcp_files", "read_image_gcps"),
     "write_image_gcps": ("fotogeo.tools.gcp_files", "write_image_gcps"),
 }

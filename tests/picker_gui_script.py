@@ -10,7 +10,6 @@ import json
 import os
 import sys
 import time
-import traceback
 
 ARGS = json.loads(open(sys.argv[1]).read())
 sys.path.insert(0, ARGS["root"])
@@ -24,7 +23,7 @@ APP.initQgis()
 from qgis.gui import QgsMapCanvas, QgsMapCanvasSnappingUtils  # noqa: E402
 from qgis.PyQt.QtCore import QEvent, QPoint, Qt  # noqa: E402
 
-from picker_driver import click, drag, gcps, map_screen, mouse, pick, screen, table  # noqa: E402
+from picker_driver import click, drag, fitted, gcps, map_screen, mouse, pick, run, screen, settle, table  # noqa: E402
 from processing_provider.picker.dock import PickerDock  # noqa: E402
 from processing_provider.picker.map_tools import IMAGE, MAP  # noqa: E402
 from processing_provider.picker.table import COLUMNS  # noqa: E402
@@ -145,30 +144,49 @@ def picking(canvas, dock, truth):
     STATE["vertex"] = vertex
     for k in range(3):
         pick(dock, truth[k], image_first=k % 2 == 0)
-    STATE["few"] = {"summary": dock.summary.text(), "fit": dock.controller.fit, "gcps": gcps(dock)}
+    STATE["few"] = {"summary": dock.summary.text(), "fit": fitted(dock), "gcps": gcps(dock)}
     for k in range(3, 10):
         pick(dock, truth[k], image_first=k % 2 == 0)
-    STATE["picked"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock),
+    STATE["picked"] = {"gcps": gcps(dock), "fit": fitted(dock), "table": table(dock),
                        "summary": dock.summary.text()}
     dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "picked.gpkg"))
-    times = []
-    for _ in range(15):  # a refit as the GUI thread sees it: layer read, session round trip, table, overlays
-        start = time.perf_counter()
-        dock.controller.refit()
-        times.append(1000 * (time.perf_counter() - start))
-    STATE["refit_ms"] = sorted(times)
-    request = dock.controller.settings().request(dock.controller.store.gcps())
-    times = []
-    for _ in range(15):  # the session round trip alone
-        start = time.perf_counter()
-        dock.session.call("fit_gcps", **request)
-        times.append(1000 * (time.perf_counter() - start))
-    STATE["call_ms"] = sorted(times)
+    STATE["refit"] = refit_off_the_gui_thread(dock)
     # the cursor over GCP 2's image position: the map canvas shows where the model puts it
     g2 = dock.controller.gcp("2")
     mouse(dock.tools[IMAGE], QEvent.MouseMove, screen(dock.image_canvas, g2.col, -g2.row), Qt.NoButton)
     pred = dock.controller.overlays[MAP].state.predicted
     STATE["predicted"] = [pred.x(), pred.y()] if pred is not None else None
+
+
+def refit_off_the_gui_thread(dock):
+    """One refit whose worker call is held until a 0 ms QTimer has fired in the GUI thread. The timer fires only if
+    refit() returned and the event loop runs while the fit is under way; a fit made in the GUI thread would
+    block the loop in the held call (until the hold's 60 s bound: ``released`` False)."""
+    import threading
+    from qgis.PyQt.QtCore import QTimer
+    controller, gate, seen, fits = dock.controller, threading.Event(), {}, []
+    session = controller.session
+    real_call = session.call
+
+    def held_call(tool, **kwargs):
+        seen.update(thread=threading.get_ident(), released=gate.wait(60))
+        return real_call(tool, **kwargs)
+
+    def on_fit(fit):
+        fits.append(fit)
+    session.call = held_call
+    controller.fitted.connect(on_fit)
+    try:
+        controller.refit()
+        returned = {"busy": controller.busy, "fits": len(fits)}
+        QTimer.singleShot(0, lambda: (seen.update(timer_fits=len(fits)), gate.set()))
+        settle(dock)
+    finally:
+        session.call = real_call
+        controller.fitted.disconnect(on_fit)
+    return {"returned": returned, "timer_fits": seen.get("timer_fits"), "released": seen.get("released"),
+            "gui_thread": seen.get("thread") == threading.get_ident(), "fits": len(fits),
+            "ok": bool(fits) and fits[-1].get("ok")}
 
 
 def editing(dock):
@@ -195,10 +213,15 @@ def editing(dock):
                        "undone_again": gcps(dock), "undo_text": stack.undoText()}
     stack.undo()  # and both moves: back to the clicked points
     stack.undo()
-    STATE["after_undo_moves"] = {"gcps": gcps(dock), "fit": dock.controller.fit, "table": table(dock)}
-    dock.table.item(1, 1).setCheckState(Qt.Unchecked)  # GCP 2: a check point
-    STATE["role"] = {"gcps": gcps(dock), "fit": dock.controller.fit}
+    STATE["after_undo_moves"] = {"gcps": gcps(dock), "fit": fitted(dock), "table": table(dock)}
+    dock.table.item(1, COLUMNS.index("role")).setText("check")  # GCP 2: a check point (the role column)
+    STATE["role"] = {"gcps": gcps(dock), "fit": fitted(dock)}
     dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_check.gpkg"))
+    dock.table.item(2, COLUMNS.index("on")).setCheckState(Qt.Unchecked)  # GCP 3 disabled: ignored
+    STATE["disabled"] = {"gcps": gcps(dock), "fit": fitted(dock), "table": table(dock)}
+    dock.controller.store.export_gpkg(os.path.join(ARGS["out"], "with_disabled.gpkg"))
+    dock.controller.undo_stack.undo()
+    STATE["enabled_again"] = gcps(dock)
 
 
 def delete_key(dock):
@@ -251,22 +274,22 @@ def heights_and_models(dock, dem, small_dem):
     """A constant height (DLT then projective), collinearity with the camera, a DEM missing some GCPs."""
     dock.height_combo.setCurrentText("constant")
     dock.height_spin.setValue(300.0)
-    STATE["constant_dlt"] = dock.controller.fit  # one height for all: coplanar points, DLT cannot be fitted
+    STATE["constant_dlt"] = fitted(dock)  # one height for all: coplanar points, DLT cannot be fitted
     dock.model_combo.setCurrentText("projective")
-    STATE["constant"] = dock.controller.fit
+    STATE["constant"] = fitted(dock)
     dock.height_combo.setCurrentText("field")
     dock.table.item(0, COLUMNS.index("z")).setText("123.5")  # z of GCP 1 typed into the table
-    z_typed, row = dock.controller.gcp("1").z, dock.controller.fit["points"][0]
+    z_typed, row = dock.controller.gcp("1").z, fitted(dock)["points"][0]
     dock.controller.undo_stack.undo()
     STATE["typed_height"] = {"typed": z_typed, "row": row, "undone": dock.controller.gcp("1").z,
-                             "row_undone": dock.controller.fit["points"][0]}
+                             "row_undone": fitted(dock)["points"][0]}
     dock.height_combo.setCurrentText("dem")
     dock.camera_file.setFilePath(ARGS["camera"])
     dock.model_combo.setCurrentText("collinearity")
-    STATE["collinearity"] = {"fit": dock.controller.fit, "summary": dock.summary.text()}
+    STATE["collinearity"] = {"fit": fitted(dock), "summary": dock.summary.text()}
     dock.model_combo.setCurrentText("dlt")
     dock.dem_combo.setLayer(small_dem)
-    STATE["small_dem"] = {"fit": dock.controller.fit, "table": table(dock), "summary": dock.summary.text()}
+    STATE["small_dem"] = {"fit": fitted(dock), "table": table(dock), "summary": dock.summary.text()}
     dock.dem_combo.setLayer(dem)
 
 
@@ -338,7 +361,7 @@ def propose():
     click(dock.tools[MAP], map_screen(dock, second["x"], second["y"]), Qt.RightButton)
     STATE["clicked"] = {"gcps": gcps(dock), "left": len(dock.controller.proposals)}
     STATE["accepted"] = len(dock.controller.accept_proposals(check_every=3))
-    STATE["fit"] = dock.controller.fit
+    STATE["fit"] = fitted(dock)
     STATE["summary"] = dock.summary.text()
     STATE["gcps"] = gcps(dock)
     # the tools on the accepted GCPs: orient's report and the orthorectified frame (DEM), each in a task
@@ -360,7 +383,7 @@ def propose():
     while "dlt" not in rpc and time.monotonic() - start < 600:
         pump(0.2)
     dock.model_combo.setCurrentText("rfm")
-    STATE["rfm_fit"] = {k: v for k, v in dock.controller.fit.items() if k in ("ok", "model", "rms", "message")}
+    STATE["rfm_fit"] = {k: v for k, v in fitted(dock).items() if k in ("ok", "model", "rms", "message")}
     dock.run_orient("rpc", os.path.join(ARGS["out"], "rpc.tif"), on_done=lambda ok, r, e: rpc.update(rfm=[ok, e]))
     while "rfm" not in rpc and time.monotonic() - start < 600:
         pump(0.2)
@@ -369,11 +392,4 @@ def propose():
 
 
 if __name__ == "__main__":
-    try:
-        propose() if ARGS.get("mode") == "propose" else main()
-    except Exception:
-        STATE["error"] = traceback.format_exc()
-    with open(os.path.join(ARGS["out"], "state.json"), "w") as f:
-        json.dump({k: v for k, v in STATE.items() if not k.startswith("_")}, f)
-    sys.stdout.flush()
-    os._exit(0)
+    run(propose if ARGS.get("mode") == "propose" else main, STATE, ARGS["out"])

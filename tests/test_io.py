@@ -244,6 +244,18 @@ def test_read_gcps_from_a_geopackage_layer(tmp_path):
         read_gcps(lines)
 
 
+def test_read_gcps_leaves_out_disabled_points(tmp_path):
+    """A layer's ``enabled`` field (the GCP picker's "on"): 0 leaves the point out, empty (NULL) keeps it."""
+    p = tmp_path / "g.gpkg"
+    _layer(p, "gcps", n=4, role=["control", "check", "control", "check"], enabled=[1, 0, None, 0], role_b=["check"] * 4)
+    g = read_gcps(p, layer="gcps")
+    assert g.ids.tolist() == ["1", "3"] and g.role.tolist() == ["control", "control"]
+    assert g.role_sets["b"].tolist() == ["check", "check"]
+    _layer(p, "off", n=2, enabled=[0, 0])
+    with pytest.raises(VectorError, match="no points that are enabled"):
+        read_gcps(p, layer="off")
+
+
 def test_read_gcps_from_a_points_file(tmp_path):
     p = tmp_path / "g.points"
     write_points(p, [[500000.0, 4100000.0], [500100.0, 4100050.0], [500020.0, 4100090.0]],

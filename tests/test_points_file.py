@@ -121,7 +121,7 @@ def test_layer_to_points_orders_by_id_and_maps_roles(tmp_path):
     import shapely
     g = tmp_path / "pts.gpkg"
     gpd.GeoDataFrame({"id": [3, 1, 2], "col": [3.5, 1.5, 2.5], "row": [30.5, 10.5, 20.5],
-                      "role": ["check", "control", "ignore"]},
+                      "role": ["check", "control", "ignore"], "enabled": [1, 1, 1]},
                      geometry=shapely.points([[3, 30], [1, 10], [2, 20]]), crs="EPSG:4326").to_file(g, layer="x")
     q = tmp_path / "o.points"
     layer_to_points(g, q)
@@ -132,6 +132,10 @@ def test_layer_to_points_orders_by_id_and_maps_roles(tmp_path):
     with pytest.raises(OutputError, match="exists"):
         layer_to_points(g, q)
     layer_to_points(g, q, overwrite=True)
+    gpd.GeoDataFrame({"col": [1.5, 2.5], "row": [10.5, 20.5], "role": ["control", "control"], "enabled": [1, 0]},
+                     geometry=shapely.points([[1, 10], [2, 20]]), crs="EPSG:4326").to_file(g, layer="off")
+    layer_to_points(g, q, layer="off", overwrite=True)  # a disabled control point: written disabled (enable 0)
+    np.testing.assert_array_equal(read_points(q).enabled, [True, False])
 
 
 def test_layer_errors_leave_nothing(tmp_path):

@@ -12,8 +12,10 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_qgis_picker import truth_gcps
+from test_qgis_picker_preview import template_shift
 from test_qgis_real_programs import _env, config, inputs  # noqa: F401 - fixtures: the installed plugin, copied data
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,11 +56,29 @@ def test_desktop_picker_picks_and_shows_the_fit(config, inputs, data_dir, tmp_pa
     assert 0 < fit["rms"]["control_px"] < 3 and 0 < fit["rms"]["check_px"] < 10
     assert [t["id"] for t in state["table"]] == [g["id"] for g in state["gcps"]]
     assert all(t["z from"] == "dem" and t["res px"] for t in state["table"])
+    residual = {t["id"]: float(t["res px"]) for t in state["table"]}  # the header clicked: largest residual first
+    assert [residual[i] for i in state["sorted_ids"]] == sorted(residual.values(), reverse=True)
     # Propose GCPs against the orthophoto in the desktop: the task ran in the plugin's runtime
     assert state["propose_error"] is None and state["proposals"] == 30
     accepted = state["accepted_fit"]
     assert accepted["ok"] and accepted["rms"]["n_check"] == 10 and accepted["rms"]["check_px"] < 1.0
-    for png in ("picker_dock.png", "picker_table.png", "picker_proposals.png", "picker_accepted.png"):
+    # the live preview: none with 5 GCPs, DLT's minimum is 6; from the sixth on the frame warped onto the map
+    assert not state["preview_below_minimum"]["drawn"]
+    at_min = state["preview_at_minimum"]
+    assert at_min["drawn"] and at_min["ok"] and at_min["model"] == "dlt" and at_min["covered"] > 0.05
+    # at the minimum, the control point farthest inside the image dragged by (15, -10) screen px on the map: the
+    # picture around it moves along (DLT on 6 points, redundancy 1, follows it, overshooting a little)
+    d = state["drag"]
+    assert state["preview_after_drag"]["drawn"] and np.hypot(*d["moved_map"]) > 0
+    # (the fit also turns and stretches the picture: the match is found where the point went, far better than where
+    # it was, not perfect)
+    moved, best, where = template_shift(out / "preview_before.png", out / "preview_after.png", d["screen"],
+                                        d["canvas"][0])
+    along = float(np.dot(moved, d["by"]) / np.hypot(*d["by"]))
+    assert best > 0.45 and best > where + 0.25, (best, where)
+    assert 0.5 * np.hypot(*d["by"]) < along < 2 * np.hypot(*d["by"]), moved
+    for png in ("picker_dock.png", "picker_table.png", "picker_preview.png", "picker_proposals.png",
+                "picker_accepted.png"):
         assert (out / png).stat().st_size > 20_000, png
         if os.environ.get("FOTOGEO_UPDATE_SCREENSHOTS"):
             shutil.copy(out / png, ROOT / "docs" / png)

@@ -7,7 +7,9 @@ A GCP joins a ground position ``(X, Y[, Z])`` in a map CRS with an image positio
 Accepted inputs (:func:`read_gcps`):
 
 * any point layer GDAL reads (GeoPackage, Shapefile, GeoJSON, …) with fields for the image
-  position (default ``col``, ``row``), optional height ``z``, ``role`` and ``id``;
+  position (default ``col``, ``row``), optional height ``z``, ``role`` and ``id``; a point whose
+  optional ``enabled`` field is 0 (the GCP picker's unticked *on*, the Georeferencer's disabled
+  point) is left out as if absent;
 * a CSV table with map coordinates in columns ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``,
   ``lon``/``lat``) and the same fields; its CRS must be given;
 * a QGIS Georeferencer ``.points`` file (enabled points are control points, disabled ones
@@ -64,13 +66,15 @@ def read_gcps(path, *, layer=None, col="col", row="row", z="z", role="role", id=
     what = f"GCP file {str(p)!r}"
     if not p.exists():
         raise VectorError(f"{what} does not exist")
-    role_sets = {}
+    role_sets, n_disabled = {}, 0
     if p.suffix.lower() == ".points":
         xy, pix, roles, ids, zs, map_crs = _from_points_file(p, what, crs, raster)
     else:
-        xy, pix, roles, ids, zs, map_crs, role_sets = _from_table(p, what, layer, crs, col, row, z, role, id)
+        xy, pix, roles, ids, zs, map_crs, role_sets, n_disabled = _from_table(p, what, layer, crs, col, row, z,
+                                                                              role, id)
     if len(pix) == 0:
-        raise VectorError(f"{what} holds no points")
+        raise VectorError(f"{what} holds no points" + (f" that are enabled (its field 'enabled' is 0 for all "
+                                                       f"{n_disabled}); enable some" if n_disabled else ""))
     ground = np.column_stack([xy, np.full(len(xy), np.nan) if zs is None else zs])
     g = Gcps(ground, pix, np.asarray(roles, dtype=object).astype(str), np.asarray(ids).astype(str), map_crs, str(p),
              role_sets)
@@ -93,8 +97,8 @@ def _from_points_file(p: Path, what: str, crs, raster):
 
 
 def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
-    """``(map xy, pixel, roles, ids, heights or None, CRS, {label: roles})`` of a CSV table or a point layer
-    (the last: the further role columns ``<role>_<label>``)."""
+    """``(map xy, pixel, roles, ids, heights or None, CRS, {label: roles}, number of disabled points)`` of the
+    enabled points of a CSV table or a point layer (the role sets: the further role columns ``<role>_<label>``)."""
     from .tables import find_column, is_layer, numeric_columns, read_table
     table = read_table(p, "GCP file", layer)
     if is_layer(table):
@@ -117,7 +121,22 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
     ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
     zf = find_column(table, z)
     zs = numeric_columns(table, [zf], what, id_field=id)[:, 0] if zf is not None else None
-    return xy, pix, roles, ids, zs, map_crs, role_sets
+    on = enabled_rows(table)
+    if not on.all():  # disabled points: left out as if absent (module docstring)
+        role_sets = {k: v[on] for k, v in role_sets.items()}
+        xy, pix, roles, ids, zs = xy[on], pix[on], roles[on], ids[on], None if zs is None else zs[on]
+    return xy, pix, roles, ids, zs, map_crs, role_sets, int((~on).sum())
+
+
+def enabled_rows(table) -> np.ndarray:
+    """Per row, whether the point is enabled: its ``enabled`` field (any letter case) is not 0 / false / no;
+    every row without the field or with it empty (NULL)."""
+    from .tables import find_column
+    column = find_column(table, "enabled")
+    if column is None:
+        return np.ones(len(table), bool)
+    text = table[column].astype(object).where(table[column].notna(), "1").astype(str).str.strip().str.lower()
+    return ~text.isin(("0", "0.0", "false", "no", "off")).to_numpy()
 
 
 def _roles(table, column, what: str) -> np.ndarray:

@@ -25,6 +25,7 @@ CRS; a point the DEM does not cover gets no height and says so), else ``default_
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,7 +43,7 @@ _CACHE: dict = {}
 _CACHE_SIZE = 8
 
 
-def _cached(kind: str, path, load, extra=""):
+def cached_load(kind: str, path, load, extra=""):
     """``load(path)`` once per file version (path, size, modification time) and ``extra`` key; a few kept."""
     try:
         st = os.stat(path)
@@ -58,7 +59,7 @@ def _cached(kind: str, path, load, extra=""):
 
 def _dem(path):
     from ..io.raster import read_dem
-    d = _cached("dem", path, read_dem)
+    d = cached_load("dem", path, read_dem)
     if d.crs is None:
         raise InputError(f"DEM {str(path)!r} has no CRS; it cannot be matched to the GCPs (assign one with "
                          f"gdal_edit.py -a_srs)")
@@ -69,13 +70,13 @@ def dem_sampler(dem, crs):
     """The DEM file ``dem`` as a height source at points in ``crs`` (:class:`~fotogeo.geometry.dem.DemSampler`:
     one transformer, built once per DEM version and CRS — building it costs more than a refit)."""
     from ..geometry.dem import DemSampler
-    return _cached("sampler", dem, lambda p: DemSampler(_dem(p), crs), extra=crs.to_wkt())
+    return cached_load("sampler", dem, lambda p: DemSampler(_dem(p), crs), extra=crs.to_wkt())
 
 
-def _grid_dem(dem, crs):
+def grid_dem(dem, crs):
     """The DEM on a grid in the map CRS for the prediction grids (:func:`~fotogeo.tools.gcp_grids.dem_on_map_grid`)."""
     from .gcp_grids import dem_on_map_grid
-    return _cached("dem_on_map_grid", dem, lambda p: dem_on_map_grid(_dem(p), crs), extra=crs.to_wkt())
+    return cached_load("dem_on_map_grid", dem, lambda p: dem_on_map_grid(_dem(p), crs), extra=crs.to_wkt())
 
 
 def dem_heights(dem, crs, xy) -> np.ndarray:
@@ -140,7 +141,7 @@ def _heights(xy, z, crs, dem, default_height):
 def _image_size(image, width, height):
     if image:
         from ..io.raster import open_raster
-        info = _cached("image", image, lambda p: open_raster(p, "image"))
+        info = cached_load("image", image, lambda p: open_raster(p, "image"))
         return info.width, info.height
     if width and height:
         return int(width), int(height)
@@ -151,7 +152,7 @@ def _camera(camera, size, image):
     if not camera:
         return None
     from ..io.camera import load_camera
-    cam = _cached("camera", camera, load_camera)
+    cam = cached_load("camera", camera, load_camera)
     if size[0]:
         from .checks import check_camera_size
         check_camera_size(cam, size[0], size[1], image or "the image")
@@ -170,11 +171,28 @@ def _needed(name: str, n_control: int, n_without_height: int) -> tuple[int, str]
     return need, f"{what}: {need} more"
 
 
-@tool()
-def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
-             default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
-    """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
-    (the interface is described in DESIGN.md). JSON types in and out."""
+@dataclass
+class Prepared:
+    """The GCPs of one request, parsed and with their heights: what a fit and the live preview start from."""
+
+    map_crs: object
+    ids: np.ndarray
+    roles: np.ndarray
+    pixel: np.ndarray
+    ground: np.ndarray  # (N, 3), Z NaN where no height
+    z_source: np.ndarray
+    flags: np.ndarray
+    size: tuple
+    camera: object
+    use: np.ndarray  # points that enter the fit (control and check)
+    outside: np.ndarray
+    needed: int
+    message: str
+
+
+def prepare(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
+            default_height=None) -> Prepared:
+    """Parse the picker's GCPs, give them heights and say which are used and how many more are needed."""
     map_crs = parse_crs(crs, "the GCPs' crs")
     ids, roles, pixel, xy, z = parse_gcp_rows(gcps)
     z, z_source, flags = _heights(xy, z, map_crs, dem, default_height)
@@ -186,34 +204,51 @@ def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None,
     if size[0]:
         outside = ~((pixel >= 0).all(axis=1) & (pixel[:, 0] <= size[0]) & (pixel[:, 1] <= size[1]))
         flags[outside] = f"outside the image ({size[0]}x{size[1]} px)"
-    ground = np.column_stack([xy, z])
     three_d = model != "auto" and get_model(model).src_dims == 3
     use = (roles != "disabled") & ~outside & (np.isfinite(z) if three_d else True)
-    control = use & (roles == "control")
     n_no_z = int(((roles == "control") & ~np.isfinite(z)).sum())
-    needed, message = _needed(model, int(control.sum()), n_no_z)
-    result = _empty_result(model, ids, roles, z, z_source, flags, needed, message)
-    if needed:
+    needed, message = _needed(model, int((use & (roles == "control")).sum()), n_no_z)
+    return Prepared(map_crs, ids, roles, pixel, np.column_stack([xy, z]), z_source, flags, size, cam, use, outside,
+                    needed, message)
+
+
+def fit_prepared(p: Prepared, model: str):
+    """``(model name, OrientFit, auto's selection or None)`` of the points ``p.use`` (orient's fitting code)."""
+    name, selection = model, None
+    u = p.use
+    if model == "auto":
+        name, selection = select_model(p.ground[u], p.pixel[u], p.roles[u], p.ids[u], camera=p.camera)
+    fit = fit_orientation(name, p.ground[u], p.pixel[u], p.roles[u], p.ids[u], snooping=False, camera=p.camera)
+    return name, fit, selection
+
+
+@tool()
+def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
+             default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
+    """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
+    (the interface is described in DESIGN.md). JSON types in and out."""
+    p = prepare(gcps, model, crs=crs, image=image, width=width, height=height, dem=dem, camera=camera,
+                default_height=default_height)
+    result = _empty_result(model, p.ids, p.roles, p.ground[:, 2], p.z_source, p.flags, p.needed, p.message)
+    if p.needed:
         return result
     try:
-        name = model
-        if model == "auto":
-            name, selection = select_model(ground[use], pixel[use], roles[use], ids[use], camera=cam)
-            result["model_selection"] = selection
-        fit = fit_orientation(name, ground[use], pixel[use], roles[use], ids[use], snooping=False, camera=cam)
+        name, fit, selection = fit_prepared(p, model)
     except (ModelError, np.linalg.LinAlgError) as e:  # degenerate points: the table says so, no error
         result.update(message=one_line(f"{model}: {e}" if isinstance(e, np.linalg.LinAlgError) else e))
         return result
+    if selection is not None:
+        result["model_selection"] = selection
     result["model"] = name
-    _fill_points(result, fit, name, ground, pixel, map_crs, use, ~outside, cam, snooping)
+    _fill_points(result, fit, name, p.ground, p.pixel, p.map_crs, p.use, ~p.outside, p.camera, snooping)
     result["ok"], result["message"] = True, _summary(name, result["rms"], result["points"])
     if "not testable" in result["blunder_test"]:
         result["message"] += "; " + result["blunder_test"]
     result["warnings"] = fit.warnings
     if grid:
         result["forward"], result["inverse"] = prediction_grids(
-            fit.model, map_crs, ground[use], size, int(grid), dem=_grid_dem(dem, map_crs) if dem else None,
-            default_height=default_height)
+            fit.model, p.map_crs, p.ground[p.use], p.size, int(grid),
+            dem=grid_dem(dem, p.map_crs) if dem else None, default_height=default_height)
     return result
 
 

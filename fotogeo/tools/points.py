@@ -7,6 +7,7 @@ import numpy as np
 
 from ..crs import parse_crs
 from ..errors import InputError, VectorError
+from ..io.gcps import enabled_rows
 from ..io.raster import raster_transform
 from ..io.points import pixel_to_source, read_points, source_to_pixel, write_points
 from .boundary import tool
@@ -105,6 +106,7 @@ def layer_to_points(source, output, *, layer: str | None = None, raster=None, ov
         raise VectorError(f"{what} has empty (NULL) or non-finite col/row values")
     enabled = (gdf[role_field].astype(str).str.lower() == "control").to_numpy() if role_field is not None \
         else np.ones(len(gdf), bool)
+    enabled = enabled & enabled_rows(gdf)  # a disabled point (field enabled = 0) is written disabled whatever its role
     residual = (np.column_stack([gdf[dx_field].to_numpy(float), gdf[dy_field].to_numpy(float)])
                 if dx_field is not None and dy_field is not None else None)
     map_xy = np.column_stack([geom.x.to_numpy(float), geom.y.to_numpy(float)])

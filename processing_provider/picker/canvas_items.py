@@ -19,7 +19,7 @@ from qgis.PyQt.QtGui import QBrush, QColor, QFont, QPen, QPolygonF
 
 COLOURS = {"control": QColor(30, 90, 230), "check": QColor(220, 30, 30), "flag": QColor(255, 140, 0),
            "pending": QColor(250, 220, 0), "predicted": QColor(0, 200, 80), "proposal": QColor(0, 220, 230),
-           "selected": QColor(255, 0, 255)}
+           "selected": QColor(255, 0, 255), "disabled": QColor(150, 150, 150)}
 CROSS = 7  # half size of a GCP cross, screen pixels
 
 

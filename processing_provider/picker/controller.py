@@ -7,9 +7,17 @@ every map click is transformed canvas CRS â†’ layer CRS, every mark layer CRS â†
 A GCP is made of two clicks, one per canvas, in either order: the first one stays *pending*
 (a yellow circle) until the other canvas is clicked. After every change the model is refitted
 (:func:`.fit.fit`), the layer's result fields, the table and both overlays are refreshed.
+
+The refit runs off the GUI thread: :meth:`PickerController.refit` reads the GCPs and the settings,
+hands them to a thread that makes the worker session's call, and returns; the result comes back
+through a queued signal. Each refit has a generation number: only the newest result is applied
+(an older one that arrives later is dropped); while one runs, newer requests replace each other
+and only the last is started when it ends. :attr:`PickerController.busy` says whether a result is
+still to come.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 
 from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsPointXY, QgsProject
@@ -28,6 +36,7 @@ class PickerController(QObject):
 
     fitted = pyqtSignal(dict)
     message = pyqtSignal(str)
+    _fit_done = pyqtSignal(int, dict)  # generation, fit_gcps' result: from the fit thread
 
     def __init__(self, image_canvas, map_canvas, session, settings_fn):
         super().__init__()
@@ -44,6 +53,8 @@ class PickerController(QObject):
         self.proposals: list[dict] = []  # {"col", "row", "x", "y", "score"} (x, y in the layer CRS)
         self.exaggeration = 10.0
         self.selected = None
+        self.generation, self.running, self.pending_fit = 0, False, None
+        self._fit_done.connect(self._fit_finished)
 
     # -- setup ------------------------------------------------------------------------------
     def set_store(self, store: GcpLayer | None):
@@ -133,6 +144,13 @@ class PickerController(QObject):
         if gcp is not None and gcp.role != role:
             self.undo_stack.push(UpdateGcp(self.store, gcp, replace(gcp, role=role), f"GCP {gcp_id}: {role}"))
 
+    def set_enabled(self, gcp_id: str, enabled: bool):
+        """Enable (used, with its role) or disable (ignored, the Georeferencer's unticked 'enable') a GCP."""
+        gcp = self.gcp(gcp_id)
+        if gcp is not None and gcp.enabled != enabled:
+            self.undo_stack.push(UpdateGcp(self.store, gcp, replace(gcp, enabled=enabled),
+                                           f"GCP {gcp_id}: {'enabled' if enabled else 'disabled'}"))
+
     def set_height(self, gcp_id: str, z):
         gcp = self.gcp(gcp_id)
         if gcp is not None and gcp.z != z:
@@ -158,17 +176,55 @@ class PickerController(QObject):
             s = replace(s, crs=self.store.crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED))
         return s
 
+    @property
+    def busy(self) -> bool:
+        """A refit is running or waiting: :attr:`fit` is not yet the current GCPs' one."""
+        return self.running or self.pending_fit is not None
+
+    def current_fit(self) -> dict:
+        """The fit of the GCPs as they are now, for an action that needs it at once (an export, a run): :attr:`fit`,
+        or while a refit is under way one made here."""
+        if not self.busy or self.store is None or self.image is None:
+            return self.fit
+        return fitting.fit(self.session, self.store.gcps(), self.settings())
+
     def refit(self):
-        """Refit the model to the current GCPs; store the residuals; redraw; tell the dock."""
-        if self.store is None or self.image is None:
-            self.fit = {"ok": False, "message": "choose the image and the GCP layer first", "points": [], "rms": {}}
-        else:
-            self.fit = fitting.fit(self.session, self.store.gcps(), self.settings())
-            self.store.write_results(self.fit)
-        self._grids = (fitting.Grid.forward(self.fit), fitting.Grid.inverse(self.fit)) if self.fit.get("ok") \
-            else (None, None)
+        """Refit the model to the current GCPs off the GUI thread (module docstring); the result is applied by
+        :meth:`_apply` (residuals stored, canvases redrawn, ``fitted`` emitted)."""
+        self.generation += 1
+        gcps = self.store.gcps() if self.store is not None and self.image is not None else None
+        if not gcps:  # nothing to send to the worker: the answer is known at once
+            self.pending_fit = None
+            self._apply({"ok": False, "message": "choose the image and the GCP layer first", "points": [],
+                         "rms": {}} if gcps is None else fitting.fit(self.session, gcps, self.settings()))
+            return
+        self.pending_fit = (self.generation, gcps, self.settings())
+        self._start_fit()
+
+    def _start_fit(self):
+        if self.running or self.pending_fit is None:
+            return
+        generation, gcps, settings = self.pending_fit
+        self.pending_fit, self.running = None, True
+        threading.Thread(target=self._fit_in_thread, args=(generation, gcps, settings), daemon=True).start()
+
+    def _fit_in_thread(self, generation: int, gcps, settings):
+        """In the fit thread: the session call only, nothing of the GUI or the layer."""
+        self._fit_done.emit(generation, fitting.fit(self.session, gcps, settings))
+
+    def _fit_finished(self, generation: int, fit: dict):
+        self.running = False
+        if generation == self.generation:  # the newest request: applied; older ones are dropped
+            self._apply(fit)
+        self._start_fit()
+
+    def _apply(self, fit: dict):
+        self.fit = fit
+        if self.store is not None and self.image is not None:
+            self.store.write_results(fit)
+        self._grids = (fitting.Grid.forward(fit), fitting.Grid.inverse(fit)) if fit.get("ok") else (None, None)
         self.show()
-        self.fitted.emit(self.fit)
+        self.fitted.emit(fit)
 
     def nearest(self, side: str, screen_pos, tolerance: float):
         """The id of the GCP drawn within ``tolerance`` screen pixels of ``screen_pos`` on ``side``, or None."""
@@ -236,7 +292,7 @@ class PickerController(QObject):
             elif side == MAP and r.get("dx_map") is not None:
                 k = self.exaggeration
                 arrow = self.layer_to_map(g.x + k * r["dx_map"], g.y + k * r["dy_map"])
-            marks.append(Mark(g.id, at, g.role, bool(r.get("flag")), arrow))
+            marks.append(Mark(g.id, at, g.role if g.enabled else "disabled", bool(r.get("flag")), arrow))
         return marks
 
     def _overlay(self, side: str) -> Overlay:
@@ -289,5 +345,7 @@ class PickerController(QObject):
         self.show()
 
     def close(self):
+        self.generation += 1  # a fit still running is dropped when it arrives
+        self.pending_fit = None
         for overlay in self.overlays.values():
             overlay.remove()

@@ -2,19 +2,21 @@
 
 Layout, top to bottom: the image and GCP-layer choosers; the model (every fotogeo orientation
 model, ``auto``, collinearity with a camera file), the height source (a DEM layer, the ``z``
-field or a constant) and the arrow exaggeration; the proposal row (reference raster, count,
-Propose / Accept / Reject); the action row (undo, redo, import, export, rectify, RPC, report);
-the image canvas; the fit summary; the table. The handlers of the rows are in
-:mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
+field or a constant); the arrow exaggeration and the live preview's switch and opacity; the
+proposal row (reference raster, count, Propose / Accept / Reject); the action row (undo, redo,
+import, export, rectify, RPC, report); then a splitter: the image canvas above, the fit summary
+and the table below, the table with the larger share (at least :data:`.table.MIN_ROWS` rows).
+The handlers of the rows are in :mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
 """
 from __future__ import annotations
 
-from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer,
-                       QgsTask)
+from qgis.core import (Qgis, QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsMessageLog,
+                       QgsProject, QgsRasterLayer, QgsTask)
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QKeySequence
 from qgis.PyQt.QtWidgets import (
+    QCheckBox,
     QComboBox,
     QDockWidget,
     QDoubleSpinBox,
@@ -38,8 +40,11 @@ from .fit import HEIGHT_SOURCES, FitSettings, guess_dem
 from .gcp_layer import GcpLayer
 from .image_source import ImageError, PickerImage
 from .map_tools import IMAGE, MAP, PickTool
+from .preview import OPACITY, LivePreview
 from .table import GcpTable
 
+#: the vertical split between the image canvas and the table (with the fit line above it): the table the larger
+IMAGE_SHARE, TABLE_SHARE = 2, 3
 #: "Accept all" keeps every 4th proposal (25 %, spread as the proposals are) as a check point
 ACCEPT_CHECK_EVERY = 4
 
@@ -60,7 +65,7 @@ class PickerDock(DockActions, QDockWidget):
     """The picker (module docstring). ``map_canvas`` is QGIS's main canvas; ``session`` a
     :class:`~processing_provider.session.WorkerSession` (default: the shared one)."""
 
-    def __init__(self, map_canvas, parent=None, session=None, message_bar=None):
+    def __init__(self, map_canvas, parent=None, session=None, message_bar=None, preview_session=None):
         super().__init__(TITLE, parent)
         self.setObjectName("FotogeoGcpPicker")
         if session is None:
@@ -70,12 +75,15 @@ class PickerDock(DockActions, QDockWidget):
         self.tasks, self.last_message, self.image = [], "", None
         self.image_canvas = QgsMapCanvas()
         self.image_canvas.setCanvasColor(Qt.darkGray)
-        self.image_canvas.setMinimumHeight(260)
+        self.image_canvas.setMinimumHeight(160)
         self.controller = PickerController(self.image_canvas, map_canvas, session, self.fit_settings)
         self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
                       MAP: PickTool(map_canvas, self.controller, MAP)}
+        self.preview = LivePreview(map_canvas, preview_session)
+        self.preview.shown.connect(self._preview_shown)
         self._build()
         self.controller.fitted.connect(self._show_fit)
+        map_canvas.extentsChanged.connect(self.update_preview)
         self.controller.message.connect(self.say)
         self.image_canvas.setMapTool(self.tools[IMAGE])
         self.activate_map_tool()
@@ -136,27 +144,39 @@ class PickerDock(DockActions, QDockWidget):
         form.addRow("GCP layer", _row(self.gcp_combo, new_layer))
         form.addRow("Model", _row(self.model_combo, QLabel("camera"), self.camera_file))
         form.addRow("Heights", _row(self.height_combo, self.dem_combo, self.height_spin))
-        form.addRow("Arrows ×", self.exaggeration_spin)
+        form.addRow("Arrows ×", self._display_row())
         form.addRow("Propose", self._proposal_row())
-        top = QWidget()
-        layout = QVBoxLayout(top)
+        controls = QWidget()
+        layout = QVBoxLayout(controls)
+        layout.setContentsMargins(4, 4, 4, 0)
         layout.addLayout(form)
         layout.addWidget(self._action_row())
-        layout.addWidget(self.image_canvas, 1)
         self.summary = QLabel("choose an image and a GCP layer, then click a point on the image and on the map")
         self.summary.setWordWrap(True)
-        layout.addWidget(self.summary)
         self.table = GcpTable()
+        self.table.enabled_changed.connect(self.controller.set_enabled)
         self.table.role_changed.connect(self.controller.set_role)
         self.table.height_changed.connect(self.controller.set_height)
         self.table.gcp_selected.connect(self.controller.select)
         self.table.delete_requested.connect(self.delete_gcps)
-        splitter = QSplitter(Qt.Vertical)
-        splitter.addWidget(top)
-        splitter.addWidget(self.table)
-        splitter.setStretchFactor(0, 1)  # the table gets as much room as the image: a dozen rows without dragging
-        splitter.setStretchFactor(1, 1)
-        self.setWidget(splitter)
+        results = QWidget()
+        layout = QVBoxLayout(results)
+        layout.setContentsMargins(4, 0, 4, 0)
+        layout.addWidget(self.summary)
+        layout.addWidget(self.table, 1)
+        self.splitter = QSplitter(Qt.Vertical)  # the image and the table share what the controls leave
+        self.splitter.addWidget(self.image_canvas)
+        self.splitter.addWidget(results)
+        self.splitter.setChildrenCollapsible(False)
+        self.splitter.setStretchFactor(0, IMAGE_SHARE)
+        self.splitter.setStretchFactor(1, TABLE_SHARE)
+        self.splitter.setSizes([IMAGE_SHARE * 100, TABLE_SHARE * 100])
+        box = QWidget()
+        layout = QVBoxLayout(box)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(controls)
+        layout.addWidget(self.splitter, 1)
+        self.setWidget(box)
 
     def _proposal_row(self) -> QWidget:
         self.reference_combo = QgsMapLayerComboBox()
@@ -176,6 +196,35 @@ class PickerDock(DockActions, QDockWidget):
             widgets.append(b)
         self.propose_button = widgets[2]
         return _row(*widgets)
+
+    def _display_row(self) -> QWidget:
+        """The arrows' exaggeration, the live preview's switch and its opacity."""
+        self.preview_check = QCheckBox("live preview")
+        self.preview_check.setChecked(True)
+        self.preview_check.setToolTip("After the model's minimum number of control points: the image warped onto "
+                                      "the map with the current fit, redrawn after every change")
+        self.preview_check.toggled.connect(self._preview_toggled)
+        self.opacity_spin = QSpinBox()
+        self.opacity_spin.setRange(0, 100)
+        self.opacity_spin.setSuffix(" % opaque")
+        self.opacity_spin.setValue(round(100 * OPACITY))
+        self.opacity_spin.valueChanged.connect(lambda v: self.preview.set_opacity(v / 100.0))
+        return _row(self.exaggeration_spin, self.preview_check, self.opacity_spin)
+
+    def _preview_toggled(self, on: bool):
+        self.preview.enabled = on
+        self.update_preview()
+
+    def update_preview(self, *_):
+        """A new preview for the current fit and canvas (none while the model lacks points)."""
+        c = self.controller
+        ok = c.fit.get("ok") and c.store is not None and c.image is not None and self.isVisible()
+        self.preview.request(c.settings().request(c.store.gcps()) if ok else None)
+
+    def _preview_shown(self, result: dict):
+        """A preview that failed although the fit worked (an unreadable image, a worker error) says why in the log."""
+        if not result.get("ok") and result.get("message") not in (None, "no preview") and self.controller.fit.get("ok"):
+            QgsMessageLog.logMessage(f"live preview: {result['message']}", "fotogeo picker", Qgis.Warning)
 
     def _action_row(self) -> QWidget:
         stack = self.controller.undo_stack
@@ -277,9 +326,10 @@ class PickerDock(DockActions, QDockWidget):
         self.controller.show()
 
     def delete_gcps(self, ids: list):
-        """Delete the GCPs ``ids`` (the table's selected rows) as one undo step."""
+        """Delete the GCPs ``ids`` (the table's selected rows, in any sort order) as one undo step; taken in the
+        layer's order, so that an undo adds them back in it."""
         store = self.controller.store
-        found = [g for g in (self.controller.gcp(i) for i in ids) if g is not None]
+        found = [g for g in store.gcps() if g.id in set(ids)] if store is not None else []
         if store is not None and found:
             self.controller.undo_stack.push(DeleteGcps(store, found))
 
@@ -287,6 +337,7 @@ class PickerDock(DockActions, QDockWidget):
         store = self.controller.store
         self.table.fill(store.gcps() if store else [], fit)
         self.summary.setText(self.describe_fit(fit))
+        self.update_preview()
 
     def activate_map_tool(self):
         self.map_canvas.setMapTool(self.tools[MAP])
@@ -295,7 +346,9 @@ class PickerDock(DockActions, QDockWidget):
         """Shown again after a close: the marks come back and the map tool picks again."""
         for overlay in self.controller.overlays.values():
             overlay.setVisible(True)
+        self.preview.set_visible(True)
         self.activate_map_tool()
+        self.update_preview()  # none was computed while the dock was closed
         super().showEvent(event)
 
     def closeEvent(self, event):  # noqa: N802 - Qt's name
@@ -303,6 +356,7 @@ class PickerDock(DockActions, QDockWidget):
         self._release_tools()
         for overlay in self.controller.overlays.values():
             overlay.setVisible(False)
+        self.preview.set_visible(False)
         super().closeEvent(event)
 
     def _release_tools(self):
@@ -314,6 +368,8 @@ class PickerDock(DockActions, QDockWidget):
         """The plugin's unload: release the map tools and remove the marks for good."""
         self._release_tools()
         self.controller.close()
+        self.map_canvas.extentsChanged.disconnect(self.update_preview)
+        self.preview.close()
         if self.image is not None:
             self.image_canvas.setLayers([])
             self.image.close()

@@ -118,7 +118,7 @@ class DockActions:
             if path.lower().endswith(".points"):
                 files.export_points(self.session, store, path)
             else:
-                files.export_gcp_list(self.session, store, self.controller.fit, self.image.path, path)
+                files.export_gcp_list(self.session, store, self.controller.current_fit(), self.image.path, path)
         except (files.PickerFileError, SessionError, RuntimeError) as e:
             self.say(str(e), Qgis.Warning)
             return False
@@ -171,8 +171,9 @@ class DockActions:
         """``fotogeo orient`` with output ``kind`` (rectify, rpc, report) written to ``output``, in a task;
         ``extra``: more of orient's keyword arguments (resampling, resolution); ``crs``: the GCPs' (and so the
         output's) CRS."""
-        if self.controller.store is None or self.image is None or not self.controller.fit.get("ok"):
-            self.say(f"{kind}: first pick enough GCPs for the model ({self.controller.fit.get('message', '')})",
+        fit = self.controller.current_fit()
+        if self.controller.store is None or self.image is None or not fit.get("ok"):
+            self.say(f"{kind}: first pick enough GCPs for the model ({fit.get('message', '')})",
                      Qgis.Warning)
             return None
         kwargs = {**self.orient_arguments(crs), **{k: v for k, v in (extra or {}).items() if v is not None},

@@ -3,7 +3,8 @@
 ``.points`` goes through fotogeo's own converters in the worker session (``points_to_layer`` /
 ``layer_to_points``, :mod:`fotogeo.tools.points`), so the picker writes exactly what the
 Processing algorithms and ``fotogeo orient`` read: ``sourceX = col``, ``sourceY = −row``
-(unreferenced convention), ``enable`` 1 for control and 0 for check points, ``#CRS`` the layer's.
+(unreferenced convention), ``enable`` 1 for enabled control points and 0 for check and disabled points (fotogeo
+reads 0 back as a check point, the Georeferencer as a disabled one), ``#CRS`` the layer's.
 
 ODM/OpenSfM ``gcp_list.txt`` goes through fotogeo's reader and writer in the worker session as well
 (``read_image_gcps`` / ``write_image_gcps``, :mod:`fotogeo.tools.gcp_files`; the format and OpenSfM's
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from dataclasses import replace
 
 from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsPointXY, QgsProject, QgsVectorLayer
 
@@ -59,7 +61,7 @@ def _to_crs(gcps: list[Gcp], source: QgsCoordinateReferenceSystem, target: QgsCo
     out = []
     for g in gcps:
         p = t.transform(QgsPointXY(g.x, g.y))
-        out.append(Gcp(g.id, g.col, g.row, p.x(), p.y(), g.z, g.role))
+        out.append(replace(g, x=p.x(), y=p.y()))
     return out
 
 
@@ -74,7 +76,7 @@ def _renumbered(gcps: list[Gcp], store: GcpLayer) -> list[Gcp]:
                 n += 1
             gid = str(n)
         used.add(gid)
-        out.append(Gcp(gid, g.col, g.row, g.x, g.y, g.z, g.role))
+        out.append(replace(g, id=gid, fid=-1))
     return out
 
 
@@ -88,8 +90,11 @@ def import_gcp_list(session, path: str, image_name: str, store: GcpLayer) -> lis
 
 def export_gcp_list(session, store: GcpLayer, fit: dict, image_name: str, path: str) -> int:
     """Write the GCPs as an ODM ``gcp_list.txt`` for ``image_name`` (fotogeo's writer in the worker,
-    ``write_image_gcps``); heightless points take the fit's height (DEM or constant). Returns the count."""
+    ``write_image_gcps``); heightless points take the fit's height (DEM or constant); disabled points are left out
+    (ODM would use them). Returns the count."""
     heights = {p["id"]: p.get("z") for p in (fit or {}).get("points", [])}
-    rows = [dict(g.request(), z=g.z if g.z is not None else heights.get(g.id)) for g in store.gcps()]
+    rows = [dict(g.request(), z=g.z if g.z is not None else heights.get(g.id)) for g in store.gcps() if g.enabled]
+    if not rows:
+        raise PickerFileError("every GCP is disabled: tick 'on' for the ones to write to the gcp_list.txt")
     crs = store.crs.toWkt(QgsCoordinateReferenceSystem.WKT_PREFERRED)
     return session.call("write_image_gcps", gcps=rows, crs=crs, image=image_name, output=path)["count"]

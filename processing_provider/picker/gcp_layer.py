@@ -4,9 +4,9 @@ One feature per GCP: the geometry is the map position (in the layer's CRS), the 
 ``id`` (text), ``col``, ``row`` (image position, GDAL corner convention: (0, 0) is the
 top-left corner of the top-left pixel; the image canvas shows it at x = col, y = −row as the
 Georeferencer and ``.points`` files do), ``z`` (height, NULL when unknown), ``role``
-(``control`` fits the model, ``check`` measures it: enable/disable in the Georeferencer's
-words) and the last fit's ``dx``, ``dy``, ``residual`` (px), ``residual_map`` (map units) and
-``flag``. :func:`fotogeo.io.gcps.read_gcps` reads such a layer directly (a memory layer is
+(``control`` fits the model, ``check`` measures it), ``enabled`` (0: the point is ignored, the
+Georeferencer's disabled point; missing or NULL: enabled) and the last fit's ``dx``, ``dy``,
+``residual`` (px), ``residual_map`` (map units) and ``flag``. :func:`fotogeo.io.gcps.read_gcps` reads such a layer directly (a memory layer is
 written to a GeoPackage first, :meth:`GcpLayer.export_gpkg`), so the Processing algorithms and
 ``fotogeo orient`` take it as it is.
 
@@ -37,7 +37,7 @@ from qgis.PyQt.QtCore import QObject, QVariant, pyqtSignal
 
 ROLES = ("control", "check")
 FIELDS = (("id", QVariant.String), ("col", QVariant.Double), ("row", QVariant.Double), ("z", QVariant.Double),
-          ("role", QVariant.String), ("dx", QVariant.Double), ("dy", QVariant.Double),
+          ("role", QVariant.String), ("enabled", QVariant.Int), ("dx", QVariant.Double), ("dy", QVariant.Double),
           ("residual", QVariant.Double), ("residual_map", QVariant.Double), ("flag", QVariant.String))
 #: the fields a fit writes (:meth:`GcpLayer.write_results`): name in the layer -> key in fit_gcps' point rows
 RESULT_FIELDS = {"dx": "dx_px", "dy": "dy_px", "residual": "residual_px", "residual_map": "residual_map",
@@ -56,11 +56,13 @@ class Gcp:
     z: float | None = None
     role: str = "control"
     fid: int = -1
+    enabled: bool = True
 
     def request(self) -> dict:
-        """The point as the worker's ``fit_gcps`` takes it (:func:`fotogeo.tools.gcp_fit.fit_gcps`)."""
+        """The point as the worker's ``fit_gcps`` takes it (:func:`fotogeo.tools.gcp_fit.fit_gcps`): a disabled
+        point has the role ``disabled`` (left out of the fit and the RMS; its residual still shown)."""
         return {"id": self.id, "col": self.col, "row": self.row, "x": self.x, "y": self.y, "z": self.z,
-                "role": self.role}
+                "role": self.role if self.enabled else "disabled"}
 
 
 def _number(value):
@@ -137,7 +139,8 @@ class GcpLayer(QObject):
             role, gid = self._value(f, "role"), self._value(f, "id")
             role = str(role).lower() if role is not None else "control"
             gid = str(gid) if gid is not None else str(f.id())
-            out.append(Gcp(gid, col, row, p.x(), p.y(), _number(self._value(f, "z")), role, f.id()))
+            enabled = _number(self._value(f, "enabled"))
+            out.append(Gcp(gid, col, row, p.x(), p.y(), _number(self._value(f, "z")), role, f.id(), enabled != 0))
         return out
 
     def _value(self, feature, name: str):
@@ -160,17 +163,27 @@ class GcpLayer(QObject):
         return str(n)
 
     def _feature(self, gcp: Gcp) -> QgsFeature:
+        values = self._attributes(gcp)  # first: it may add a field
         f = QgsFeature(self.layer.fields())
         f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(gcp.x, gcp.y)))
-        for name, value in self._attributes(gcp).items():
+        for name, value in values.items():
             f[name] = value
         return f
 
     def _attributes(self, gcp: Gcp) -> dict:
         """The GCP's field values, for the fields the layer has."""
         values = {"id": gcp.id, "col": gcp.col, "row": gcp.row, "z": NULL if gcp.z is None else gcp.z,
-                  "role": gcp.role}
+                  "role": gcp.role, "enabled": int(gcp.enabled)}
+        if not gcp.enabled:
+            self._ensure_field("enabled", QVariant.Int)
         return {k: v for k, v in values.items() if self.layer.fields().indexOf(k) >= 0}
+
+    def _ensure_field(self, name: str, kind) -> None:
+        """Add field ``name`` to a layer made elsewhere (e.g. by points-to-layer) that lacks it."""
+        if self.layer.fields().indexOf(name) < 0:
+            if not self.layer.dataProvider().addAttributes([QgsField(name, kind)]):
+                raise RuntimeError(f"the GCP layer {self.layer.name()!r} refused a new field {name!r} (read-only?)")
+            self.layer.updateFields()
 
     def add(self, gcp: Gcp) -> Gcp:
         """Add ``gcp``; returns it with its feature id (and the id the layer knows it by)."""
@@ -186,11 +199,12 @@ class GcpLayer(QObject):
         self._touched()
 
     def update(self, gcp: Gcp) -> None:
-        """Write position, height and role of ``gcp`` (by its ``fid``)."""
+        """Write position, height, role and enabled of ``gcp`` (by its ``fid``)."""
+        values = self._attributes(gcp)  # first: it may add a field
         provider, fields = self.layer.dataProvider(), self.layer.fields()
         provider.changeGeometryValues({gcp.fid: QgsGeometry.fromPointXY(QgsPointXY(gcp.x, gcp.y))})
         provider.changeAttributeValues({gcp.fid: {fields.indexOf(name): value for name, value
-                                                  in self._attributes(gcp).items() if name != "id"}})
+                                                  in values.items() if name != "id"}})
         self._touched()
 
     def write_results(self, fit: dict | None) -> None:
