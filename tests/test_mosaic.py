@@ -148,3 +148,50 @@ def test_ngi_frames_mosaic_on_the_orthophoto(data_dir, tmp_path):
               if valid[i:i + 128, j:j + 128].all()]
     assert len(shifts) >= 15
     assert np.median(np.hypot(*np.array(shifts).T)) < 0.6
+
+
+def _grid_of_orthos(folder, rows=3, cols=4, side=120, step=90):
+    """``rows x cols`` orthophotos of one texture, ``side`` pixels, ``step`` apart, each with its own gain."""
+    rng = np.random.default_rng(3)
+    paths = []
+    for i in range(rows):
+        for j in range(cols):
+            x0, y0 = j * step, i * step
+            c, r = np.meshgrid(np.arange(side) + 0.5 + x0, np.arange(side) + 0.5 + y0)
+            v = rng.uniform(0.85, 1.15) * texture(c, r) + rng.uniform(-10, 10)
+            p = folder / f"o_{i}_{j}.tif"
+            with rasterio.open(p, "w", driver="GTiff", width=side, height=side, count=1, dtype="uint8",
+                               crs="EPSG:32635", transform=Affine(1.0, 0, X0 + x0, 0, -1.0, Y1 - y0), nodata=0) as ds:
+                ds.write(np.clip(np.rint(v), 1, 255).astype(np.uint8), 1)
+            paths.append(str(p))
+    return paths
+
+
+def test_tiles_assemble_into_one_cog(tmp_path, monkeypatch):
+    """Twelve orthophotos in a 3 x 4 grid: the mosaic written in 128-pixel tiles (VRT -> COG) equals the one written
+    in a single tile; only neighbours are compared (29 overlapping pairs of 66: 9 + 8 side by side, 12 diagonal), every image keeps a region, and the
+    COG is tiled with overviews."""
+    import fotogeo.tools.mosaic_tiles as mt
+    paths = _grid_of_orthos(tmp_path)
+    one = mosaic(paths, str(tmp_path / "one.tif"))
+    monkeypatch.setattr(mt, "TILE", 128)
+    many = mosaic(paths, str(tmp_path / "many.tif"))
+    assert (one["tiles"], many["tiles"]) == (1, 12)
+    assert many["overlapping_pairs"] == 29 and all(c > 0 for c in many["cells_per_image"])
+    a, _ = _read(tmp_path / "one.tif")
+    b, _ = _read(tmp_path / "many.tif")
+    assert a.shape == (300, 390) and (a > 0).all() and np.array_equal(a, b)
+    with rasterio.open(tmp_path / "many.tif") as ds:
+        assert ds.overviews(1) and ds.profile["tiled"] and ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+
+
+def test_tiles_on_a_local_dask_cluster(tmp_path, monkeypatch):
+    """``workers=1``: the tiles run on a local Dask cluster (register-batch's mechanism) and give the same mosaic."""
+    pytest.importorskip("distributed", reason="Dask (fotogeo[batch]) is not installed")
+    import fotogeo.tools.mosaic_tiles as mt
+    paths = _grid_of_orthos(tmp_path, rows=2, cols=2)
+    monkeypatch.setattr(mt, "TILE", 128)
+    threads = mosaic(paths, str(tmp_path / "threads.tif"))
+    dask = mosaic(paths, str(tmp_path / "dask.tif"), workers=1)
+    assert (threads["executor"], dask["executor"]) == ("threads", "dask") and dask["tiles"] == 4
+    assert np.array_equal(_read(tmp_path / "threads.tif")[0], _read(tmp_path / "dask.tif")[0])

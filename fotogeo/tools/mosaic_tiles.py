@@ -54,20 +54,15 @@ class Blend:
     def window(self, handle, r0: int, c0: int, h: int, w: int) -> np.ndarray:
         """The blended ``(bands, h, w)`` window at ``(r0, c0)``; ``handle(i)`` opens orthophoto ``i``."""
         import cv2
-        from rasterio.windows import from_bounds
         f = self.factor
         mx = ((np.arange(c0, c0 + w) + 0.5) / f - 0.5).astype(np.float32)  # seam-grid coordinates (centres)
         my = ((np.arange(r0, r0 + h) + 0.5) / f - 0.5).astype(np.float32)
         x0, y1 = self.transform * (c0, r0)
-        x1, y0 = self.transform * (c0 + w, r0 + h)
         which = self.reaching(r0, c0, h, w)
         vals, ok, sd = [], np.zeros((len(which), h, w), bool), np.empty((len(which), h, w), np.float32)
         for k, i in enumerate(which):
-            ds = handle(i)
-            win = from_bounds(x0, y0, x1, y1, ds.transform).round_offsets().round_lengths()
-            a = ds.read(window=win, boundless=True, masked=True)
-            vals.append(a.filled(0).astype(np.float32))
-            ok[k] = ~np.ma.getmaskarray(a).all(axis=0)
+            v, ok[k] = read_window(handle(i), x0, y1, h, w)
+            vals.append(v)
             sr, sc = self.origins[i]
             px = np.ascontiguousarray(np.broadcast_to(mx - sc, (h, w)))
             py = np.ascontiguousarray(np.broadcast_to((my - sr)[:, None], (h, w)))
@@ -82,6 +77,23 @@ class Blend:
             out = np.clip(np.rint(out), info.min + (1 if self.nodata == info.min else 0), info.max)
         out[:, ~ok.any(axis=0)] = self.nodata
         return out.astype(self.dtype)
+
+
+def read_window(ds, x0: float, y1: float, h: int, w: int):
+    """``(values (bands, h, w) float32, valid (h, w))`` of the ``h x w`` window of ``ds`` whose top-left corner
+    is the map point ``(x0, y1)`` (on ``ds``'s pixel lattice); only the part inside ``ds`` is read (a boundless
+    read would go through a VRT)."""
+    from rasterio.windows import Window
+    t = ds.transform
+    c_off, r_off = int(round((x0 - t.c) / t.a)), int(round((y1 - t.f) / t.e))
+    vals, ok = np.zeros((ds.count, h, w), np.float32), np.zeros((h, w), bool)
+    a0, a1, b0, b1 = max(0, r_off), min(ds.height, r_off + h), max(0, c_off), min(ds.width, c_off + w)
+    if a0 < a1 and b0 < b1:
+        a = ds.read(window=Window(b0, a0, b1 - b0, a1 - a0), masked=True)
+        rows, cols = slice(a0 - r_off, a1 - r_off), slice(b0 - c_off, b1 - c_off)
+        vals[:, rows, cols] = a.filled(0)
+        ok[rows, cols] = ~np.ma.getmaskarray(a).all(axis=0)
+    return vals, ok
 
 
 def tile_profile(profile: dict, h: int, w: int, transform) -> dict:
