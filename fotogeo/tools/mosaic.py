@@ -166,11 +166,18 @@ def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True
     ``scheduler`` (a running cluster) or ``workers`` (a local cluster of that many processes) is given, else in
     threads of this process."""
     from ..io.warp import default_threads, write_env
-    client, close = (connect(None, scheduler, workers, "mosaic --scheduler/--workers") if scheduler or workers
-                     else (None, lambda: None))
+    client, end = (connect(None, scheduler, workers, "mosaic --scheduler/--workers") if scheduler or workers
+                   else (None, lambda: None))
+    ended = []
+
+    def close():  # once: after the tiles (before the COG copy) or at the end, whichever comes first
+        if not ended:
+            ended.append(True)
+            end()
+
     try:
         with write_env(default_threads(), 1):
-            return _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client)
+            return _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client, close)
     finally:
         close()
 
@@ -184,7 +191,7 @@ def _balance(patches, pairs, bands: int, enabled: bool):
     return gains, offsets
 
 
-def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client) -> dict:
+def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client, release) -> dict:
     from rasterio.coords import BoundingBox
     from rasterio.transform import array_bounds
 
@@ -222,7 +229,8 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
                   tuple(BoundingBox(*array_bounds(i.height, i.width, i.transform)) for i in infos))
     prog(0.4, "blending")
     with AtomicOutputs(overwrite) as out:
-        tiled = write_tiled(paths, blend, out.temp(output), profile, client=client, progress=prog, span=(0.4, 0.97))
+        tiled = write_tiled(paths, blend, out.temp(output), profile, client=client, release=release, progress=prog,
+                            span=(0.4, 0.97))
         names = [Path(p).stem for p in paths]
         write_layers(out.temp(seamlines), _seam_layers(labels, t, names, gains, offsets, pairs), crs,
                      {"seamlines": "fotogeo mosaic seamlines (least-cost paths between Voronoi cells of nadir "

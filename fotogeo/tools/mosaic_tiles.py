@@ -137,10 +137,12 @@ def _completed(futures, client):
     return distributed_module("mosaic on Dask").as_completed(futures)
 
 
-def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, progress=None,
+def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, release=None, progress=None,
                 span=(0.0, 1.0)) -> dict:
     """The mosaic ``dst_path`` (a COG) from tiles blended on ``client`` (a ``dask.distributed.Client``; None:
-    threads of this process), assembled by a VRT; the tiles' folder (beside ``dst_path``) removed at the end."""
+    threads of this process), assembled by a VRT; the tiles' folder (beside ``dst_path``) removed at the end.
+    ``release()`` is called once the tiles are written, before the COG copy (e.g. to end a local Dask cluster,
+    whose idle workers would otherwise hold their memory while this process copies)."""
     dst_path = Path(dst_path)
     folder = Path(tempfile.mkdtemp(prefix=f".{dst_path.stem}.tiles.", dir=dst_path.parent))
     tiles = tile_windows(profile["height"], profile["width"], TILE)
@@ -159,6 +161,9 @@ def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, pr
             if progress is not None:
                 progress(lo + (hi - lo) * 0.8 * (k + 1) / len(futures), f"blended tile {k + 1}/{len(futures)}")
         done.sort(key=lambda d: d["window"])
+        futures = []
+        if release is not None:
+            release()
         vrt = write_vrt(folder / "tiles.vrt", [(d["path"], tuple(d["window"])) for d in done], crs=profile["crs"],
                         transform=profile["transform"], width=profile["width"], height=profile["height"],
                         count=profile["count"], dtype=profile["dtype"], nodata=profile["nodata"])
