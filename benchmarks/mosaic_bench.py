@@ -123,7 +123,8 @@ def run_grid(size: int, grid: int, overlap: int, workers, rng) -> dict:
 
 
 def table(res) -> str:
-    lines = ["| orthophotos | run | wall s | CPU s | peak MB (largest process) | peak MB (process tree) | wall / GDAL |",
+    lines = ["| orthophotos | run | wall s | CPU s | peak MB (largest process) | peak MB (process tree) "
+             "| wall / GDAL |",
              "|---|---|---|---|---|---|---|"]
     for r in res["grids"]:
         for k in [k for k in r if k.startswith("fotogeo")] + ["gdal_total"]:

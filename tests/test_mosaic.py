@@ -169,8 +169,8 @@ def _grid_of_orthos(folder, rows=3, cols=4, side=120, step=90):
 
 def test_tiles_assemble_into_one_cog(tmp_path, monkeypatch):
     """Twelve orthophotos in a 3 x 4 grid: the mosaic written in 128-pixel tiles (VRT -> COG) equals the one written
-    in a single tile; only neighbours are compared (29 overlapping pairs of 66: 9 + 8 side by side, 12 diagonal), every image keeps a region, and the
-    COG is tiled with overviews."""
+    in a single tile; only neighbours are compared (29 overlapping pairs of 66: 9 + 8 side by side, 12 diagonal),
+    every image keeps a region, and the COG is tiled with overviews."""
     import fotogeo.tools.mosaic_tiles as mt
     paths = _grid_of_orthos(tmp_path)
     one = mosaic(paths, str(tmp_path / "one.tif"))

@@ -87,9 +87,9 @@ def _seam_patches(paths, infos, transform, width, height, crs):
     t = transform * transform.scale(f)
     patches = []
     for p, info in zip(paths, infos):
-        c, r = ~transform * (info.transform.c, info.transform.f)
-        c0, r0 = int(round(c)) // f, int(round(r)) // f
-        c1, r1 = min(shape[1], -(-(int(round(c)) + info.width) // f)), min(shape[0], -(-(int(round(r)) + info.height) // f))
+        c, r = (int(round(v)) for v in ~transform * (info.transform.c, info.transform.f))  # its offset (pixels)
+        c0, r0 = c // f, r // f
+        c1, r1 = min(shape[1], -(-(c + info.width) // f)), min(shape[0], -(-(r + info.height) // f))
         v = np.full((info.count, r1 - r0, c1 - c0), np.nan, np.float32)
         with ropen(p) as ds:  # GDAL's warper reads the file in chunks: memory is the patch's
             reproject(rasterio.band(ds, list(range(1, ds.count + 1))), v, dst_transform=t * t.translation(c0, r0),
