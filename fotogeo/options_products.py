@@ -2,7 +2,7 @@
 ``fotogeo:mosaic``), declared as every tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import DEM_HEIGHTS, RESAMPLING, YAML, Option, Table  # noqa: F401
+from .options import DEM_HEIGHTS, REGISTER_BATCH, RESAMPLING, YAML, Option, Table  # noqa: F401
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho)
 ORTHO = Table(
@@ -47,4 +47,8 @@ MOSAIC = Table(
     Option("dsm", "raster", None, "DSM: seamlines avoid above-ground objects (buildings, trees)",
            "DSM: seamlines go around cells more than 2.5 m above the local ground (the DSM's morphological "
            "opening over 40 m)."),
-)
+) + REGISTER_BATCH.only("scheduler", "workers", scheduler={
+    "help": "Blend the tiles on the running Dask scheduler at this address, e.g. tcp://host:8786 (the workers "
+            "must see the same paths) [threads in this process].", "advanced": True}, workers={
+    "label": "Local Dask workers (0 = threads in this process)", "advanced": True,
+    "help": "Blend the tiles on a local Dask cluster of this many worker processes [threads in this process]."})

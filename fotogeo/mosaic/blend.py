@@ -22,15 +22,20 @@ import numpy as np
 from scipy import ndimage
 
 
-def signed_distances(labels, n: int, cell: float) -> np.ndarray:
-    """``(n, rows, cols)`` signed distance (map units) of every cell to the boundary of each label's region."""
-    out = np.empty((n, *labels.shape), np.float32)
-    for i in range(n):
-        region = labels == i
-        inside = ndimage.distance_transform_edt(region)
-        outside = ndimage.distance_transform_edt(~region)
-        out[i] = (np.where(region, inside - 0.5, -(outside - 0.5)) * cell).astype(np.float32)
-    return out
+#: signed distance standing for "no region at all" (an orthophoto every other one hides): weight 0 everywhere
+FAR_OUTSIDE = -1e9
+
+
+def signed_distance(labels, i: int, window, cell: float) -> np.ndarray:
+    """Signed distance (map units) of every cell of ``window`` (of the label grid) to the boundary of label
+    ``i``'s region, which lies inside the window (the window of orthophoto ``i``: it has data nowhere else)."""
+    r0, r1, c0, c1 = window
+    region = np.pad(labels[r0:r1, c0:c1] == i, 1)  # the region ends at the window's edge: a border of "outside"
+    if not region.any():
+        return np.full((r1 - r0, c1 - c0), FAR_OUTSIDE, np.float32)
+    inside = ndimage.distance_transform_edt(region)
+    outside = ndimage.distance_transform_edt(~region)
+    return (np.where(region, inside - 0.5, -(outside - 0.5)) * cell).astype(np.float32)[1:-1, 1:-1]
 
 
 def feather_weights(signed, valid, width: float) -> np.ndarray:
@@ -50,42 +55,45 @@ def feather_weights(signed, valid, width: float) -> np.ndarray:
         return np.where(total > 0, w / total, 0.0).astype(np.float32)
 
 
-def overlap_statistics(values, valid, min_cells: int = 50):
-    """Per pair ``(i, j, cells, m_i, m_j, σ_i, σ_j)`` over their common valid cells (``values``: ``(n, rows, cols)``
-    of one band)."""
+def overlap_statistics(patches, pairs, band: int, min_cells: int = 50):
+    """Per pair of :class:`~fotogeo.mosaic.patches.Patch` ``(i, j, cells, m_i, m_j, σ_i, σ_j)`` of one band over
+    their common valid cells (each pair read over the intersection of the two windows only)."""
+    from .patches import intersection
     stats = []
-    n = len(values)
-    for i in range(n):
-        for j in range(i + 1, n):
-            both = valid[i] & valid[j]
-            k = int(both.sum())
-            if k >= min_cells:
-                a, b = values[i][both].astype(float), values[j][both].astype(float)
-                stats.append((i, j, k, a.mean(), b.mean(), a.std(), b.std()))
+    for i, j in pairs:
+        win = intersection(patches[i].window, patches[j].window)
+        if win is None:
+            continue
+        vi, vj = patches[i].crop(win), patches[j].crop(win)
+        both = np.isfinite(vi).all(axis=0) & np.isfinite(vj).all(axis=0)
+        k = int(both.sum())
+        if k >= min_cells:
+            a, b = vi[band][both].astype(float), vj[band][both].astype(float)
+            stats.append((i, j, k, a.mean(), b.mean(), a.std(), b.std()))
     return stats
 
 
-def balance(values, valid):
-    """``(gains (n,), offsets (n,))`` of one band (module docstring); 1 and 0 without overlaps."""
-    n = len(values)
-    stats = overlap_statistics(values, valid)
+def _gauged_least_squares(stats, n: int, rhs) -> np.ndarray:
+    """``x`` (n,) minimising ``Σ k (x_i − x_j − rhs(i, j))²`` over the pairs, with ``Σ x = 0`` (sparse: one row
+    per overlap, so the size follows the overlaps, not ``n²``)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.linalg import lsqr
+    m = len(stats)
+    w = np.sqrt([k for _, _, k, *_ in stats])
+    rows = np.concatenate([np.repeat(np.arange(m), 2), np.full(n, m)])
+    cols = np.concatenate([np.array([(i, j) for i, j, *_ in stats]).ravel(), np.arange(n)])
+    vals = np.concatenate([np.column_stack([w, -w]).ravel(), np.ones(n)])  # last row: the gauge Σ x = 0
+    y = np.append(w * np.array([rhs(*s) for s in stats]), 0.0)
+    A = coo_matrix((vals, (rows, cols)), shape=(m + 1, n)).tocsr()
+    return lsqr(A, y, atol=1e-14, btol=1e-14, iter_lim=20 * n + 100)[0]
+
+
+def balance(stats, n: int):
+    """``(gains (n,), offsets (n,))`` of one band from its :func:`overlap_statistics` (module docstring); 1 and 0
+    without overlaps."""
     if not stats:
         return np.ones(n), np.zeros(n)
-    A = np.zeros((len(stats) + 1, n))
-    y = np.zeros(len(stats) + 1)
-    for r, (i, j, k, mi, mj, si, sj) in enumerate(stats):
-        w = np.sqrt(k)
-        A[r, i], A[r, j] = w, -w
-        y[r] = w * (np.log(max(sj, 1e-6)) - np.log(max(si, 1e-6)))
-    A[-1] = 1.0  # gauge: Σ log g = 0
-    log_g = np.linalg.lstsq(A, y, rcond=None)[0]
-    g = np.exp(log_g)
-    B = np.zeros_like(A)
-    z = np.zeros_like(y)
-    for r, (i, j, k, mi, mj, si, sj) in enumerate(stats):
-        w = np.sqrt(k)
-        B[r, i], B[r, j] = w, -w
-        z[r] = w * (g[j] * mj - g[i] * mi)
-    B[-1] = 1.0  # gauge: Σ o = 0
-    o = np.linalg.lstsq(B, z, rcond=None)[0]
+    g = np.exp(_gauged_least_squares(stats, n, lambda i, j, k, mi, mj, si, sj:
+                                     np.log(max(sj, 1e-6)) - np.log(max(si, 1e-6))))
+    o = _gauged_least_squares(stats, n, lambda i, j, k, mi, mj, si, sj: g[j] * mj - g[i] * mi)
     return g, o

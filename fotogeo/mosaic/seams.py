@@ -21,23 +21,27 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from .patches import overlapping_pairs, pair_window
+
 #: cost of a cell besides the grey difference (keeps paths short where the images agree)
 EPSILON = 1.0
 
 
-def voronoi_labels(valid, nadirs, transform) -> np.ndarray:
-    """``(rows, cols)`` label of the covering orthophoto with the nearest nadir point (module docstring, 1).
+def voronoi_labels(patches, nadirs, transform, shape) -> np.ndarray:
+    """``shape`` labels of the covering orthophoto with the nearest nadir point (module docstring, 1).
 
-    ``valid``: ``(n, rows, cols)`` bool; ``nadirs``: ``(n, 2)`` map points; ``transform``: the grid's affine."""
-    n, rows, cols = valid.shape
-    c, r = np.meshgrid(np.arange(cols) + 0.5, np.arange(rows) + 0.5)
-    X, Y = transform * (c, r)
-    best = np.full((rows, cols), np.inf)
-    labels = np.full((rows, cols), -1, np.int32)
-    for i, (nx, ny) in enumerate(np.asarray(nadirs, float)):
+    ``patches``: the orthophotos on the seam grid (:class:`~fotogeo.mosaic.patches.Patch`, each visited over its
+    own window only); ``nadirs``: ``(n, 2)`` map points; ``transform``: the grid's affine."""
+    best = np.full(shape, np.inf)
+    labels = np.full(shape, -1, np.int32)
+    for i, (p, (nx, ny)) in enumerate(zip(patches, np.asarray(nadirs, float))):
+        r0, r1, c0, c1 = p.window
+        c, r = np.meshgrid(np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5)
+        X, Y = transform * (c, r)
         d = np.hypot(X - nx, Y - ny)
-        take = valid[i] & (d < best)
-        best[take], labels[take] = d[take], i
+        near, lab = best[r0:r1, c0:c1], labels[r0:r1, c0:c1]  # views: written in place
+        take = p.valid & (d < near)
+        near[take], lab[take] = d[take], i
     return labels
 
 
@@ -120,12 +124,17 @@ def refine_pair(labels, i, j, grey_i, grey_j, valid_i, valid_j, *, band: int = 2
     return out
 
 
-def seam_labels(valid, nadirs, transform, greys, *, band: int = 24, above=None) -> np.ndarray:
-    """Voronoi labels refined pair by pair (every pair of orthophotos sharing a boundary)."""
-    labels = voronoi_labels(valid, nadirs, transform)
-    n = len(valid)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if (valid[i] & valid[j]).any():
-                labels = refine_pair(labels, i, j, greys[i], greys[j], valid[i], valid[j], band=band, above=above)
+def seam_labels(patches, nadirs, transform, shape, *, band: int = 24, above=None) -> np.ndarray:
+    """Voronoi labels refined pair by pair (every pair of orthophotos sharing valid cells), each pair over the
+    intersection of the two windows grown by ``band + 1`` cells: everything :func:`refine_pair` looks at, so the
+    work and memory per pair follow its overlap, not the mosaic."""
+    labels = voronoi_labels(patches, nadirs, transform, shape)
+    for i, j in overlapping_pairs(patches):
+        win = pair_window(patches, i, j, band + 1, shape)
+        if win is None:
+            continue
+        r0, r1, c0, c1 = win
+        gi, gj = patches[i].crop(win, grey=True), patches[j].crop(win, grey=True)
+        labels[r0:r1, c0:c1] = refine_pair(labels[r0:r1, c0:c1], i, j, gi, gj, np.isfinite(gi), np.isfinite(gj),
+                                           band=band, above=None if above is None else above[r0:r1, c0:c1])
     return labels

@@ -46,23 +46,39 @@ def texture(rng, shape) -> np.ndarray:
     return np.clip(img, 0, 255).astype(np.float32)
 
 
+def _extent(sb):
+    """``(x0, y0, x1, y1)``: west, north, east, south edges of the rendered ground (the block's points and a
+    margin of 0.3 frame diagonals)."""
+    xyz = sb.true_xyz
+    margin = 0.3 * np.hypot(*sb.true_camera.image_size) * sb.gsd
+    return xyz[:, 0].min() - margin, xyz[:, 1].max() + margin, xyz[:, 0].max() + margin, xyz[:, 1].min() - margin
+
+
+def _texture(sb, rng, texture_pixel):
+    x0, y0, x1, y1 = _extent(sb)
+    tp = texture_pixel or sb.gsd / 2
+    return texture(rng, (int((y0 - y1) / tp) + 1, int((x1 - x0) / tp) + 1)), Affine(tp, 0, x0, 0, -tp, y0)
+
+
+def ground_texture(sb, *, texture_pixel: float | None = None, seed=0):
+    """``(texture, transform)``: the ground texture :func:`render_block` with the same ``texture_pixel`` and
+    ``seed`` drapes on the terrain — the true orthophoto of the rendered frames (grey values before noise)."""
+    return _texture(sb, np.random.default_rng(seed), texture_pixel)
+
+
 def render_block(sb, *, texture_pixel: float | None = None, noise: float = 2.0, seed=0):
     """``(images, dem)``: one uint8 ``(rows, cols)`` image per frame of ``sb`` and the DEM used
     (module docstring). ``texture_pixel`` (m) defaults to half the ground sample distance."""
     rng = np.random.default_rng(seed)
     cam = sb.true_camera
-    xyz = sb.true_xyz
-    margin = 0.3 * np.hypot(*cam.image_size) * sb.gsd
-    x0, y0 = xyz[:, 0].min() - margin, xyz[:, 1].max() + margin
-    x1, y1 = xyz[:, 0].max() + margin, xyz[:, 1].min() - margin
+    x0, y0, x1, y1 = _extent(sb)
     cell = 4 * sb.gsd
     gx, gy = pixel_centres(int((x1 - x0) / cell) + 1, int((y0 - y1) / cell) + 1)
     dem_t = Affine(cell, 0, x0, 0, -cell, y0)
     XY = np.column_stack([dem_t.c + gx.ravel() * cell, dem_t.f - gy.ravel() * cell])
     dem = Dem(sb.surface(XY).reshape(gx.shape), dem_t)
-    tp = texture_pixel or sb.gsd / 2
-    tex_t = Affine(tp, 0, x0, 0, -tp, y0)
-    tex = texture(rng, (int((y0 - y1) / tp) + 1, int((x1 - x0) / tp) + 1))
+    tex, tex_t = _texture(sb, rng, texture_pixel)
+    tp = tex_t.a
     interior = true_interior(cam, sb.true_distortion, sb.true_additional)
     scale = bj.pixel_scale(cam)
     ideal_cam = FrameCamera(cam.focal_length, cam.sensor_size, cam.image_size, cam.principal_point)

@@ -37,12 +37,10 @@ from ..io import manifest as mf
 from ..options import RegisterOptions
 from ..progress import as_progress
 from .boundary import tool
+from .dask_cluster import SINGLE_THREAD_ENV, connect, distributed_module, missing_dask, pin_threads  # noqa: F401
 
-#: environment of a scene task: one thread for BLAS, GDAL, OpenCV (set separately) and fotogeo's resampling
-SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                     "GDAL_NUM_THREADS": "1", "FOTOGEO_NUM_THREADS": "1"}
 MANIFEST_CSV, MANIFEST_GPKG = "manifest.csv", "manifest.gpkg"
-MISSING_DASK = ("register-batch needs Dask: pip install 'fotogeo[batch]' (or pip install 'dask[distributed]')")
+MISSING_DASK = missing_dask("register-batch")
 
 
 @dataclass(frozen=True)
@@ -60,15 +58,6 @@ class BatchResult:
     def failures(self) -> dict:
         """``{scene: error message}`` of the failed scenes."""
         return {r["scene"]: r["error"] for r in self.rows if r["status"] == "failed"}
-
-
-def distributed_module():
-    """``dask.distributed``, or an :class:`InputError` saying how to install it."""
-    try:
-        import distributed
-    except ImportError:
-        raise InputError(MISSING_DASK) from None
-    return distributed
 
 
 def expand_targets(targets) -> list[Path]:
@@ -118,13 +107,6 @@ def scene_outputs(outdir: Path, scene: str) -> dict:
     return {"output": outdir / f"{scene}.tif", "vectors": outdir / f"{scene}.gpkg", "report": outdir / f"{scene}.json"}
 
 
-def _pin_threads():
-    """One thread for GDAL, OpenCV, BLAS (new pools) and fotogeo's resampling inside this task."""
-    os.environ.update(SINGLE_THREAD_ENV)
-    import cv2
-    cv2.setNumThreads(1)
-
-
 def _footprint_wkt(geo, target) -> str | None:
     """The scene's footprint on the map as a lon/lat polygon WKT (None if the model gives none)."""
     import numpy as np
@@ -155,7 +137,7 @@ def register_scene(reference: str, target: str, scene: str, outdir: str, dem=Non
     Never raises for a failed scene: the row says ``failed`` with the one-line message.
     """
     from .register import register
-    _pin_threads()
+    pin_threads()
     t0 = time.perf_counter()
     outs = scene_outputs(Path(outdir), scene)
     try:
@@ -189,25 +171,6 @@ def _done_before(row: dict | None, scene: str, target: Path, outdir: Path) -> di
     if Path(report.get("target", "")).resolve() != target:
         return None
     return {**scene_row(scene, target, report, outs["output"]), "seconds": None, "worker": None}
-
-
-def _cluster(client, scheduler, workers):
-    """``(client, close)``: the given client, one connected to ``scheduler``, or a local cluster's."""
-    if client is not None:
-        return client, lambda: None
-    distributed = distributed_module()
-    if scheduler:
-        try:
-            c = distributed.Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as e:
-            raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({one_line(str(e))}); is it running "
-                             f"and the address right (tcp://host:8786)?") from None
-        return c, c.close
-    from ..io.warp import default_threads
-    cluster = distributed.LocalCluster(n_workers=workers or default_threads(), threads_per_worker=1, processes=True,
-                                       dashboard_address=None, env=dict(SINGLE_THREAD_ENV))
-    c = distributed.Client(cluster)
-    return c, lambda: (c.close(), cluster.close())
 
 
 class _Manifest:
@@ -281,7 +244,7 @@ def register_batch(reference, targets, outdir, *, client=None, scheduler=None, w
 def _run(book, prog, todo, reference, outdir, dem, options, client, scheduler, workers, total, skipped):
     """Submit one task per scene and record the rows as they complete (any completion order)."""
     distributed = distributed_module()
-    c, close = _cluster(client, scheduler, workers)
+    c, close = connect(client, scheduler, workers)
     batch_id = uuid.uuid4().hex[:8]
     futures = {}
     try:

@@ -26,7 +26,9 @@ class MosaicAlgorithm(FotogeoAlgorithm):
             "cell) and follow, between two orthophotos, the least-cost path through their grey difference, so they "
             "go around what leans differently in the two images (buildings, trees). Each orthophoto gets a gain and "
             "an offset per band from the overlaps (radiometric balancing) and is feathered across its seams.\n\n"
-            "Outputs: the mosaic and a GeoPackage with the layers seamlines (image_a, image_b) and regions (each "
+            "The mosaic is blended in tiles (threads, or a Dask cluster: Advanced) assembled into one Cloud-Optimised "
+            "GeoTIFF; memory stays bounded whatever the number of orthophotos.\n\n"
+            "Outputs: the mosaic (COG) and a GeoPackage with the layers seamlines (image_a, image_b) and regions (each "
             "image's part, gains, offsets).\n\nReferences: Kerschner (2001): seamline detection in colour "
             "ortho-image mosaicking by twin snakes. Pan et al. (2009): seamline network generation.")
 
