@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..pixels import from_centre
+from ..pixels import from_centre, to_centre
 from . import describe, hessian, refine
 
 #: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics,
@@ -234,7 +234,7 @@ def fine_weight(s):
 def _centre_scaled(v, k: float):
     """Centre-convention coordinate ``v`` of an image in that image scaled by ``k`` (the corner
     convention scales: (v + 0.5) k - 0.5); ``v`` itself for k = 1 (bit for bit)."""
-    return v if k == 1 else (v + 0.5) * k - 0.5
+    return v if k == 1 else to_centre(from_centre(v) * k)
 
 
 def _doubled(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
