@@ -1,12 +1,13 @@
 """SURF benchmark (issue 3): fotogeo's SURF vs mahotas SURF, Orfeo ToolBox SURF, OpenCV SIFT.
 
 Run:  .venv/bin/python benchmarks/surf_bench.py [--quick]
-      .venv/bin/python benchmarks/surf_bench.py --protocol [--tiles ...] [--cases ...]
+      .venv/bin/python benchmarks/surf_bench.py --protocol [--jobs N] [--tiles ...] [--cases ...]
 
 ``--protocol`` runs issue 19's protocol instead (held-out tiles, top 1500 keypoints by
 |response|, repeatability within 2.5 px, ratio-0.8 matches correct within 3 px; see
 ``benchmarks/surf_protocol.py``) and the keypoints' localisation error under a known warp;
-a full protocol run stores its rows under ``"protocol"`` in the JSON, keeping the rest.
+a full protocol run stores its rows under ``"protocol"`` in the JSON, keeping the rest;
+``--jobs N`` runs N tiles at once (one process each).
 
 Quality: image A (a real image, robustly stretched to 0..255, uint8) and B = T(A) for a
 known transform T (rotation 15..180 deg, scale 0.5..2, a viewpoint homography, Gaussian
