@@ -1,12 +1,13 @@
 """SURF benchmark (issue 3): fotogeo's SURF vs mahotas SURF, Orfeo ToolBox SURF, OpenCV SIFT.
 
 Run:  .venv/bin/python benchmarks/surf_bench.py [--quick]
-      .venv/bin/python benchmarks/surf_bench.py --protocol [--tiles ...] [--cases ...]
+      .venv/bin/python benchmarks/surf_bench.py --protocol [--jobs N] [--tiles ...] [--cases ...]
 
 ``--protocol`` runs issue 19's protocol instead (held-out tiles, top 1500 keypoints by
 |response|, repeatability within 2.5 px, ratio-0.8 matches correct within 3 px; see
 ``benchmarks/surf_protocol.py``) and the keypoints' localisation error under a known warp;
-a full protocol run stores its rows under ``"protocol"`` in the JSON, keeping the rest.
+a full protocol run stores its rows under ``"protocol"`` in the JSON, keeping the rest;
+``--jobs N`` runs N tiles at once (one process each).
 
 Quality: image A (a real image, robustly stretched to 0..255, uint8) and B = T(A) for a
 known transform T (rotation 15..180 deg, scale 0.5..2, a viewpoint homography, Gaussian
@@ -46,6 +47,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import cv2
@@ -147,10 +149,10 @@ def run_ours_refined(img):
     return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
-def run_ours_upscaled(img):
-    """fotogeo's SURF with surf(upscale=True): the finest blobs from the image upsampled 2x."""
+def run_ours_no_fine(img):
+    """fotogeo's SURF without the fine octave (surf(upscale=False), the default before issue 19)."""
     from fotogeo.features import surf
-    r = surf(img, hessian_threshold=10.0, upscale=True)
+    r = surf(img, hessian_threshold=10.0, upscale=False)
     return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
@@ -463,6 +465,7 @@ def main(argv=None):
                                                             "localisation error under a known warp")
     ap.add_argument("--tiles", help="protocol: comma-separated tile names (default: all of surf_protocol.TILES)")
     ap.add_argument("--cases", help="protocol: comma-separated case labels or families (default: all)")
+    ap.add_argument("--jobs", type=int, default=1, help="protocol: tiles run in this many processes at once")
     ap.add_argument("--images", help=f"comma-separated images: {', '.join(IMAGES)} or RGB paths under the data folder")
     args = ap.parse_args(argv)
     families = args.families.split(",") if args.families else None
@@ -513,7 +516,7 @@ def protocol_main(args):
     """Issue 19's protocol (surf_protocol.py): every tile and case, then the localisation."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import surf_protocol as sp
-    methods = {"fotogeo": run_ours, "fotogeo_upscale": run_ours_upscaled, "sift": run_sift_corrected}
+    methods = {"fotogeo": run_ours, "fotogeo_no_fine": run_ours_no_fine, "sift": run_sift_corrected}
     try:
         import mahotas  # noqa: F401
         methods["mahotas"] = run_mahotas
@@ -526,10 +529,14 @@ def protocol_main(args):
     t0 = time.perf_counter()
     print("protocol (top %d by |response|, repeatability %.1f px, ratio %.1f matches correct within %.0f px):"
           % (sp.N_TOP, sp.REP_TOL, sp.RATIO, sp.MATCH_TOL), flush=True)
-    rows = sp.run(DATA, methods, geometric, rotation_scale, apply_h, inside, tiles, cases)
-    print("localisation under a known warp (200 deg, x0.9, perspective), before LSM:", flush=True)
-    loc = sp.localise(DATA, {"fotogeo": run_ours, "fotogeo_refined": run_ours_refined, **{
-        m: f for m, f in methods.items() if m != "fotogeo"}}, geometric, apply_h, inside, tiles)
+    loc_methods = {"fotogeo": run_ours, "fotogeo_refined": run_ours_refined,
+                   **{m: f for m, f in methods.items() if m != "fotogeo"}}
+    names = [t[0] for t in sp.TILES if not tiles or t[0] in tiles]
+    with ProcessPoolExecutor(max(1, args.jobs)) as pool:    # one tile per task, results in TILES order
+        done = list(pool.map(_protocol_tile, names, [cases] * len(names), [methods] * len(names),
+                             [loc_methods] * len(names)))
+    rows = [r for tile_rows, _ in done for r in tile_rows]
+    loc = [r for _, tile_loc in done for r in tile_loc]
     misses = {m: sp.worst(rows, m) for m in methods if m.startswith("fotogeo")}
     print_protocol(rows, list(methods))
     print("\ntargets missed (tile, case, matching score / SIFT's, repeatability - mahotas'):")
@@ -548,6 +555,14 @@ def protocol_main(args):
     tmp_out.write_text(json.dumps(old, indent=1))
     tmp_out.replace(OUT)
     print(f"wrote {OUT.relative_to(ROOT)} (key 'protocol')")
+
+
+def _protocol_tile(tile, cases, methods, loc_methods):
+    """Protocol rows and localisation of one tile (a process pool task of protocol_main)."""
+    import surf_protocol as sp
+    rows = sp.run(DATA, methods, geometric, rotation_scale, apply_h, inside, [tile], cases)
+    print(f"localisation of {tile} under a known warp (200 deg, x0.9, perspective), before LSM:", flush=True)
+    return rows, sp.localise(DATA, loc_methods, geometric, apply_h, inside, [tile])
 
 
 def print_protocol(rows, methods):

@@ -7,6 +7,7 @@ import pytest
 
 from fotogeo.errors import InputError
 from fotogeo.features import SurfResult, match_descriptors, surf
+from fotogeo.features.surf import fine_weight
 from fotogeo.pixels import from_centre, to_centre
 
 rasterio = pytest.importorskip("rasterio")
@@ -385,24 +386,43 @@ def test_refined_blob_position(cx, cy):
 
 
 @pytest.mark.data
-def test_upscale_finds_the_blobs_a_2x_enlargement_shows(held_out_tile):
-    """surf(upscale=True) under a 2x enlargement (issue 19's weak case): matching score at
-    least 0.8x SIFT's, and clearly above the default's. Measured on this tile: default 0.347,
-    upscale 0.612, SIFT 0.461 (repeatability 0.381 / 0.675 / 0.491)."""
+@pytest.mark.parametrize("scale, min_gain", [(2.0, 1.4), (0.5, 0.8)])
+def test_fine_octave_under_enlargement_and_reduction(held_out_tile, scale, min_gain):
+    """The default's fine octave (issue 19's weak case, scale 2): matching score at least 0.8x
+    SIFT's, clearly above the score without the fine octave at 2x, and not much below it at 0.5x
+    (its weighted responses leave a reduction's strongest keypoints to the usual octaves).
+    Measured on this tile: scale 2: default 0.584, without the fine octave 0.347, SIFT 0.461
+    (repeatability 0.628 / 0.381 / 0.491); scale 0.5: 0.705 / 0.774 / 0.344 (0.841 / 0.888 / 0.457)."""
     a, va = held_out_tile
-    h = np.vstack([cv2.getRotationMatrix2D((0.0, 0.0), 0.0, 2.0), [0, 0, 1]])
+    h = np.vstack([cv2.getRotationMatrix2D((0.0, 0.0), 0.0, scale), [0, 0, 1]])
     b, vb, h = _warp_h(a, va, h)
-    _, ms_default = _protocol(_ours(a), _ours(b), h, va, vb)
-    rep, ms = _protocol(_ours(a, upscale=True), _ours(b, upscale=True), h, va, vb)
+    _, ms_plain = _protocol(_ours(a, upscale=False), _ours(b, upscale=False), h, va, vb)
+    rep, ms = _protocol(_ours(a), _ours(b), h, va, vb)
     _, ms_sift = _protocol(_sift(a), _sift(b), h, va, vb)
-    assert ms >= 0.8 * ms_sift and ms >= 1.4 * ms_default, (ms, ms_sift, ms_default)
+    assert ms >= 0.8 * ms_sift and ms >= min_gain * ms_plain, (ms, ms_sift, ms_plain)
     assert rep >= 0.55, rep
+
+
+def test_fine_octave_weight_puts_a_blob_behind_the_usual_octaves():
+    """fine_weight brings the fine octave's det(H) down to the usual octaves' footing, slightly
+    behind: a Gaussian blob both see (b = 2 px) gets a weighted fine response 0.6-1.0x the usual
+    octaves' (measured 0.74x; unweighted 1.60x, which ranked the finest blobs first)."""
+    img = _blob((96, 96), 48.3, 47.6, 2.0)
+    plain = surf(img, upright=True, upscale=False, hessian_threshold=1.0)
+    doubled = cv2.resize(img.astype(np.float32), (192, 192), interpolation=cv2.INTER_LINEAR)
+    fine = surf(doubled, upright=True, upscale=False, hessian_threshold=1.0, n_octaves=1)
+    r_plain, i = plain.response.max(), np.argmax(fine.response)
+    assert fine.response[i] > 1.4 * r_plain
+    ratio = fine.response[i] * fine_weight(fine.scale[i] / 2) / r_plain
+    assert 0.6 <= ratio <= 1.0, ratio
+    both = surf(img, upright=True, hessian_threshold=1.0)       # the default adds the fine octave
+    assert both.response.max() == pytest.approx(r_plain)
 
 
 def test_upscale_keeps_conventions_and_budget():
     """upscale=True: a blob's position (corner convention) and scale as without it; budget."""
     img = _blob((72, 80), 40.3, 33.6, 2.5)
-    a, b = surf(img, upright=True), surf(img, upright=True, upscale=True)
+    a, b = surf(img, upright=True, upscale=False), surf(img, upright=True, upscale=True)
     assert len(b) >= 1
     i = np.argmin(np.abs(b.scale - a.scale[0]))
     assert np.abs(b.xy[i] - [40.3, 33.6]).max() < 0.15 and abs(b.scale[i] / a.scale[0] - 1) < 0.3

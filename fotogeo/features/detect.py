@@ -17,6 +17,14 @@ from ..pixels import from_centre
 
 SIFT_OFFSET = 0.25
 
+#: ``surf(upscale=...)`` in the registration pipeline: the fine octave (issue 19) is off here.
+#: Measured with register() on the NGI pairs (one run each, load ~10 on 2 cores, CPU seconds):
+#: frame 0182 -> orthophoto 3.25 -> 4.43 s (1.37x; keypoints 5181 -> 7921, the 8000 budget then
+#: nearly full, so matching costs more too), 0184 3.15 -> 4.01 s (1.27x), Sentinel-2 -> orthophoto
+#: 3.83 -> 4.44 s (1.16x; check RMSE 6.16 -> 5.89 m), 0182 terrain-aware 2.64 -> 3.98 s (1.51x;
+#: dense error 2.43 -> 2.29 m): small gains for up to 1.5x the time.
+PIPELINE_FINE_OCTAVE = False
+
 
 def ignore_specks(mask: np.ndarray | None, max_area: int = 64) -> np.ndarray | None:
     """``mask`` with invalid specks of at most ``max_area`` pixels marked valid again.
@@ -56,7 +64,7 @@ def detect(image: np.ndarray, mask: np.ndarray | None, detector: str = "surf", *
     if detector == "surf":
         from . import surf
         kw = {} if hessian_threshold is None else {"hessian_threshold": hessian_threshold}
-        r = surf(image, mask, max_keypoints=max_keypoints, upright=upright, **kw)
+        r = surf(image, mask, max_keypoints=max_keypoints, upright=upright, upscale=PIPELINE_FINE_OCTAVE, **kw)
         return Keypoints(np.asarray(r.xy, float), np.asarray(r.descriptors, np.float32),
                          np.asarray(r.laplacian))
     if detector == "sift":
