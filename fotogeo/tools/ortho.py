@@ -42,6 +42,7 @@ from ..options_products import ORTHO
 from .boundary import tool
 from .checks import check_output_grid
 from .ortho_inputs import holes, image_models, map_crs, require_heights, terrain
+from .ortho_products import dem_sigma_for, frame_covariances, product_paths, write_products
 
 
 #: DEFLATE level of the orthophotos: with the horizontal predictor, level 1 writes ~4x faster than 6 for ~10 %
@@ -199,7 +200,8 @@ def occlusion_surface(heights, dem):
 @tool(ORTHO, rasters={"dem": None, "geoid": None})
 def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-          resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
+          resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
+          view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
     """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
     made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
@@ -208,7 +210,8 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     try:
         return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, height=height, dem_heights=dem_heights,
                       geoid=geoid, occlusion=occlusion, resolution=resolution, dst_crs=dst_crs, resampling=resampling,
-                      cog=cog, overwrite=overwrite, progress=progress)
+                      cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands,
+                      overwrite=overwrite, progress=progress)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()
@@ -217,15 +220,19 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
 
 def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-           resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
+           resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
+           view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
         raise InputError("give at least one image to orthorectify")
     inputs = [*images, dem, camera, eo, geoid]
     paths = output_paths(images, output)
+    extras = product_paths(paths, uncertainty, view_bands)
     for p in paths.values():
         check_output(p, inputs, overwrite, "orthophoto")
+    for p in (q for e in extras.values() for q in e.values()):
+        check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
     crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera)
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
@@ -235,10 +242,14 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
         warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
                       f"cells", FotogeoWarning, stacklevel=2)
+    covs = frame_covariances(eo, ims) if uncertainty else {}
+    sigma_h = dem_sigma_for(dem_sigma, heights) if uncertainty else None
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}
+    if sigma_h is not None:
+        rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
     with AtomicOutputs(overwrite) as out:
         for k, im in enumerate(ims):
             g = grids[im.name]
@@ -256,7 +267,9 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
                 convert_to_cog(tmp, resampling)
             rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, "width": g.width,
                                       "height": g.height, "resolution": g.resolution,
-                                      "transform": list(g.transform)[:6], "dem_coverage": g.coverage, **written}
+                                      "transform": list(g.transform)[:6], "dem_coverage": g.coverage, **written,
+                                      **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
+                                                       sigma_h)}
         out.commit()
     prog(1.0, "done")
     return rep
