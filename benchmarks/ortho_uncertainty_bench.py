@@ -5,8 +5,8 @@ and orthorectified with ``--uncertainty`` onto its DEM plus a stationary height 
 (``tests/rendered_block_uncertainty.py``). Ground check points drawn uniformly over the block are put on the
 ground through each adjusted frame (where the orthophoto shows them); printed and written to
 ``benchmarks/results/ortho_uncertainty_bench.json``: per seed and pooled, the observed planimetric RMS of their
-errors, the predicted RMS (√mean σ², σ read from the raster) and their ratio (issue 21: within 0.7 … 1.4); also the
-orientation alone (exact DEM, σ without the DEM term). No peer writes such a raster: the truth is the reference.
+errors, the predicted RMS (√mean σ², σ read from the raster) and their ratio (issue 21: within 0.7 … 1.4);
+also the orientation alone (exact DEM, σ without the DEM term). No peer writes such a raster: the truth is the reference.
 
     .venv/bin/python benchmarks/ortho_uncertainty_bench.py [--seeds 8] [--dem-sigma 1.0]
 """
@@ -84,7 +84,8 @@ def main() -> None:
         s0 = "" if r is None else f"{r['sigma0']:.3f}"
         ts = "" if r is None else f"{r['ortho_s']:.1f}"
         print(f"{label:>6} {s0:>7} {al['n']:>6} {eo['observed_rms_m']:9.3f} {eo['predicted_rms_m']:9.3f} "
-              f"{eo['ratio']:8.2f} {al['observed_rms_m']:9.3f} {al['predicted_rms_m']:10.3f} {al['ratio']:6.2f} {ts:>7}")
+              f"{eo['ratio']:8.2f} {al['observed_rms_m']:9.3f} {al['predicted_rms_m']:10.3f} {al['ratio']:6.2f} "
+              f"{ts:>7}")
         table.append({"seed": label, "orientation_alone": eo, "with_dem_sigma": al,
                       **({} if r is None else {"sigma0": r["sigma0"], "adjust_s": r["adjust_s"],
                                                "ortho_s": r["ortho_s"]})})

@@ -26,8 +26,8 @@ def _gradient(f, XY, h=0.5):
 
 
 def test_covariance_of_the_intersection_equals_finite_differences_of_it():
-    """Σ_XY = B⁻¹ J_q Σ_q J_qᵀ B⁻ᵀ equals J Σ Jᵀ with J the finite differences of the ray–DEM intersection under
-    each parameter (positions and rotation increments about the OpenCV camera axes), on sloped terrain."""
+    """Σ_XY = B⁻¹ J_q Σ_q J_qᵀ B⁻ᵀ equals J Σ Jᵀ with J the finite differences of the ray–DEM intersection
+    under each parameter (positions and rotation increments about the OpenCV camera axes), on sloped terrain."""
     sb = simulate_block(seed=3, blunder_fraction=0.0, strips=2, frames_per_strip=3)
     r = adjust_block(sb.block)
     e = r.eo[2]

@@ -21,8 +21,8 @@ def command(images, output, overwrite, quiet, **kw):
     Frame cameras: --camera and --eo (fotogeo's 'name X Y Z omega phi kappa' lines, triangulate's outputs,
     OpenSfM/ODM, COLMAP or orthority files). Satellite images: --rpc (the RPC in the GeoTIFF). With
     --occlusion and a DSM as --dem, ground hidden from the camera becomes nodata instead of a double image.
-    --uncertainty writes <name>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
-    --view-bands <name>_view.tif (off-nadir angle, distance).
+    --uncertainty writes <orthophoto>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
+    --view-bands <orthophoto>_view.tif (off-nadir angle, distance).
     """
     from ..tools.ortho import ortho
     bar = ConsoleProgress(quiet)

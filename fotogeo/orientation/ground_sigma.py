@@ -19,8 +19,8 @@ covariance and σ::
 ``Σ_q`` is the adjustment's ``σ₀² S⁻¹`` block of the frame (and of the free interior parameters, with their
 cross-covariance); ``σ_h`` the DEM's height σ, uncorrelated with the orientation. The DEM term is the height
 error mapped through the ray's slope: the ray direction ``d = C − P`` keeps the pixel, ``J_P d = 0``, so on flat
-ground ``−B⁻¹ J_Z = d_XY / d_Z`` and the term is ``σ_h · tan(off-nadir angle)`` (``σ_h |d_XY| / (d_Z − ∇h·d_XY)``
-on a slope). ``σ_P`` is comparable with the planimetric RMSE of check points, ``√(RMSE_X² + RMSE_Y²)``
+ground ``−B⁻¹ J_Z = d_XY / d_Z`` and the term is ``σ_h · tan(off-nadir angle)``
+(``σ_h |d_XY| / (d_Z − ∇h·d_XY)`` on a slope). ``σ_P`` is comparable with the planimetric RMSE of check points, ``√(RMSE_X² + RMSE_Y²)``
 (:mod:`fotogeo.orientation.bundle_result`). First-order error propagation as in Mikhail, Bethel & McGlone (2001).
 """
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Rasters beside each orthophoto of ``fotogeo ortho``, on its grid (one value per output cell, float32, NaN where
 the image does not reach):
 
-* ``<name>_sigma.tif`` (``--uncertainty``) — the predicted planimetric σ (m) of the cell's position,
+* ``<orthophoto>_sigma.tif`` (``--uncertainty``) — the predicted planimetric σ (m) of the cell's position,
   ``σ_P = √(Σ_XX + Σ_YY)`` propagated from the adjustment's covariance of the frame's orientation (and of the
   interior orientation when it was estimated) and the DEM's height σ ``--dem-sigma``
   (:mod:`fotogeo.orientation.ground_sigma`). The covariance is read from triangulate's ``report.json`` beside
@@ -11,7 +11,7 @@ the image does not reach):
   of the orthophoto, so that QGIS shows the orthophoto in its colours and the σ with its own pseudocolour legend
   in metres (``processing_provider/styles/uncertainty.qml``); the cell's σ is for where it is, not whether it is
   seen (occlusion leaves the orthophoto's cell nodata, not the σ).
-* ``<name>_view.tif`` (``--view-bands``) — band 1 the off-nadir angle (degrees) of the line of sight from the
+* ``<orthophoto>_view.tif`` (``--view-bands``) — band 1 the off-nadir angle (degrees) of the line of sight from the
   cell's ground point ``P`` to the sensor, ``atan(|d_XY| / d_Z)``, band 2 the distance ``|C − P|`` (m) to a
   frame's projection centre ``C`` (NaN for an RPC image, which has no centre). ``d`` is
   :func:`fotogeo.geometry.occlusion.line_of_sight` (a frame's ``C − P``).
