@@ -130,3 +130,39 @@ def test_uncertainty_is_refused_without_a_covariance(blocks, tmp_path):
     with pytest.raises(InputError, match="constant height"):
         ortho(r["images"][:1], tmp_path / "o.tif", height=0.0, camera=r["camera"], eo=r["eo"], uncertainty=True,
               dst_crs=CRS)
+
+
+def test_self_calibration_covariance_through_the_report_and_its_interior_terms():
+    """With self-calibration the report carries the interior block and each frame's cross-covariance; read back,
+    the propagation equals finite differences of the intersection under the frame's and the interior's
+    parameters (f, k1, k2) together."""
+    from fotogeo.orientation.ground_sigma import covariance_header, covariances_from_report, frame_covariance_entry
+    sb = simulate_block(seed=2, blunder_fraction=0.0, strips=2, frames_per_strip=4, eo_noise=(0.05, 0.5),
+                        true_focal_length=30.15, true_distortion=(-0.05, 0.01, 0.0, 0.0, 0.0))
+    from fotogeo.orientation.bundle import BundleOptions
+    r = adjust_block(sb.block, BundleOptions(self_calibration=("f", "k1", "k2"), eo_sigma=(0.05, 10.0)))
+    assert r.interior_free == ("f", "k1", "k2") and r.eo_interior_covariance.shape == (8, 6, 3)
+    rep = json.loads(json.dumps({"fotogeo": "triangulate", **covariance_header(r),
+                                 "frames": [{"name": n, **frame_covariance_entry(r, j)}
+                                            for j, n in enumerate(sb.block.frames)]}))
+    cov = covariances_from_report(rep)[sb.block.frames[3]]
+    np.testing.assert_allclose(np.sqrt(np.diag(cov.interior)), [r.interior_sigma[k] for k in r.interior_free])
+    e = r.eo[3]
+    px = np.array([[150.0, 250.0], [1850.0, 2800.0], [1000.0, 1500.0]])
+    m = AdjustedFrame(r.camera, e, r.distortion)
+    G = m.inverse(px, sb.surface)
+    steps = [1e-3] * 3 + [1e-6] * 3 + [1e-5, 1e-6, 1e-6]
+    J = np.zeros((len(px), 2, 9))
+    for k, step in enumerate(steps):
+        q = np.zeros(9)
+        q[k] = step
+        R = e.rotation_cv @ bj.rodrigues(q[3:6])[0]
+        moved = ExteriorOrientation(*(e.centre + q[:3]), *angles_patb(R @ bj.D_CV))
+        cam = r.camera.__class__(r.camera.focal_length + q[6], r.camera.sensor_size, r.camera.image_size,
+                                 r.camera.principal_point)
+        dist = {**r.distortion, "k1": r.distortion["k1"] + q[7], "k2": r.distortion["k2"] + q[8]}
+        J[:, :, k] = (AdjustedFrame(cam, moved, dist).inverse(px, sb.surface)[:, :2] - G[:, :2]) / step
+    P = np.column_stack([G[:, :2], sb.surface(G[:, :2])])
+    got = planimetric_covariance(e.rotation_cv, e.centre, m.interior, m.scale, P, _gradient(sb.surface, G[:, :2]),
+                                 cov)
+    np.testing.assert_allclose(got, J @ cov.matrix() @ J.transpose(0, 2, 1), rtol=2e-3)
