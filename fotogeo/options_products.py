@@ -17,6 +17,9 @@ ORTHO = Table(
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
            "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),
+    Option("model", "file", None, "Fitted orient model (orient's JSON report; one image)",
+           "orient's JSON report (--report R.json): orthorectify the one image through its fitted ground -> image "
+           "model, in the CRS of its GCPs.", file_filter="JSON (*.json);;All files (*)"),
     Option("height", "float", None, "Constant height instead of a DEM",
            "A constant height for every cell, knowingly, instead of a DEM."),
     Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",

@@ -21,6 +21,7 @@ def command(images, output, overwrite, quiet, **kw):
     Frame cameras: --camera and --eo (fotogeo's 'name X Y Z omega phi kappa' lines, triangulate's outputs,
     OpenSfM/ODM, COLMAP or orthority files). Satellite images: --rpc (the RPC in the GeoTIFF). With
     --occlusion and a DSM as --dem, ground hidden from the camera becomes nodata instead of a double image.
+    One image through its fitted orient model: --model (orient's JSON report).
     --uncertainty writes <orthophoto>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
     --view-bands <orthophoto>_view.tif (off-nadir angle, distance).
     """

@@ -198,7 +198,7 @@ def occlusion_surface(heights, dem):
 
 
 @tool(ORTHO, rasters={"dem": None, "geoid": None})
-def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
+def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
           resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
           view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
@@ -208,7 +208,8 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     folder = Path(output) if len(images) > 1 or Path(output).is_dir() else None
     made = folder is not None and not folder.exists()
     try:
-        return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, height=height, dem_heights=dem_heights,
+        return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, model=model, height=height,
+                      dem_heights=dem_heights,
                       geoid=geoid, occlusion=occlusion, resolution=resolution, dst_crs=dst_crs, resampling=resampling,
                       cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands,
                       overwrite=overwrite, progress=progress)
@@ -218,7 +219,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
         raise
 
 
-def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
+def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
            resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
            view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
@@ -226,7 +227,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     prog = as_progress(progress)
     if not images:
         raise InputError("give at least one image to orthorectify")
-    inputs = [*images, dem, camera, eo, geoid]
+    inputs = [*images, dem, camera, eo, geoid, model]
     paths = output_paths(images, output)
     extras = product_paths(paths, uncertainty, view_bands)
     for p in paths.values():
@@ -234,8 +235,8 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     for p in (q for e in extras.values() for q in e.values()):
         check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera)
-    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
+    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model)
+    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
     if dem is not None and not occlusion and holes(_dem_of(heights)[0]) > 0:

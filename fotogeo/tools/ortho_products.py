@@ -13,12 +13,12 @@ the image does not reach):
   seen (occlusion leaves the orthophoto's cell nodata, not the σ).
 * ``<orthophoto>_view.tif`` (``--view-bands``) — band 1 the off-nadir angle (degrees) of the line of sight from the
   cell's ground point ``P`` to the sensor, ``atan(|d_XY| / d_Z)``, band 2 the distance ``|C − P|`` (m) to a
-  frame's projection centre ``C`` (NaN for an RPC image, which has no centre). ``d`` is
+  frame's projection centre ``C`` (NaN for an RPC image, which has no centre; both NaN for a 2-D fitted ``orient``
+  model, which has no line of sight). ``d`` is
   :func:`fotogeo.geometry.occlusion.line_of_sight` (a frame's ``C − P``).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -77,15 +77,8 @@ def frame_covariances(eo, ims) -> dict:
 
 
 def _read_report(path: Path) -> dict:
-    if not path.is_file():
-        return {}
-    try:
-        with open(path, encoding="utf-8") as fh:
-            rep = json.load(fh)
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--uncertainty: cannot read {str(path)!r} ({exc}); give triangulate's report.json "
-                         f"beside --eo", option="uncertainty") from None
-    return rep if isinstance(rep, dict) else {}
+    from ..io.report import read_json
+    return read_json(path, "--uncertainty: triangulate's report") if path.is_file() else {}
 
 
 def dem_sigma_for(dem_sigma, heights) -> tuple:
@@ -141,6 +134,8 @@ class CellGeometry:
         from ..geometry.occlusion import line_of_sight
         P, _, valid = self.points(transform, r0, c0, h, w)
         out = np.full((2, len(P)), np.nan)
+        if getattr(self.model, "src_dims", 3) == 2:  # a 2-D fitted model knows no line of sight
+            return out
         d = line_of_sight(self.model, P[valid])
         out[0, valid] = np.degrees(np.arctan2(np.hypot(d[:, 0], d[:, 1]), d[:, 2]))
         if getattr(self.model, "projection_centre", None) is not None:
