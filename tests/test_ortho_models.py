@@ -11,32 +11,24 @@ import rasterio
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.geometry.dem import Dem
-from fotogeo.io.camera import load_ngi_frame
-from fotogeo.orientation.simulation import make_gcps
 from fotogeo.tools.orient import orient
 from fotogeo.tools.ortho import ortho
 from test_bad_input import assert_one_line_error
 from test_ortho import _tile_shifts
-from test_orient import NAME, _write
+from test_orient import NAME, ngi_gcps  # noqa: F401 - the module fixture the GCPs come from
 
 RES = 5.0
 
 
 @pytest.fixture(scope="module")
-def ngi(data_dir, tmp_path_factory):
-    d = tmp_path_factory.mktemp("models")
-    ngi = data_dir / "ngi"
-    frame, dem = load_ngi_frame(ngi, NAME), Dem.open(ngi / "dem.tif")
-    s = make_gcps(frame, dem, 40, 20, "homogeneous", noise=0.3, seed=3)
-    gcps = d / "gcps.gpkg"
-    _write(gcps, np.vstack([s.gcp_ground, s.check_ground]), np.vstack([s.gcp_pixel, s.check_pixel]),
-           ["control"] * 40 + ["check"] * 20, dem.crs.to_wkt())
-    image = ngi / "frames" / f"{NAME}_RGB.tif"
-    truth = d / "collinearity.tif"
-    ortho([str(image)], str(truth), dem=str(ngi / "dem.tif"), camera=str(ngi / "interior_orientation.yaml"),
-          eo=str(ngi / "exterior_orientation.txt"), resolution=RES, resampling="bilinear")
-    return {"dir": d, "ngi": ngi, "gcps": gcps, "image": image, "truth": truth}
+def ngi(ngi_gcps):  # noqa: F811 - the fixture imported above, requested by name
+    """test_orient's GCPs of frame 0182 and the collinearity orthophoto of its true camera and orientation."""
+    g = ngi_gcps
+    truth = g["dir"] / "collinearity.tif"
+    ortho([str(g["image"])], str(truth), dem=str(g["ngi"] / "dem.tif"),
+          camera=str(g["ngi"] / "interior_orientation.yaml"), eo=str(g["ngi"] / "exterior_orientation.txt"),
+          resolution=RES, resampling="bilinear")
+    return {"ngi": g["ngi"], "gcps": g["path"], "image": g["image"], "truth": truth}
 
 
 def _on_common_grid(a_path, b_path):
@@ -64,7 +56,8 @@ def test_fitted_model_orthophoto_lands_on_the_collinearity_one(ngi, tmp_path, mo
     out = tmp_path / f"{model}.tif"
     rep = ortho([str(ngi["image"])], str(out), model=str(rep_path), dem=str(ngi["ngi"] / "dem.tif"),
                 resolution=RES, resampling="bilinear")
-    assert rep["crs_rule"].startswith("the CRS of the fitted model") and rep["images"][NAME + "_RGB"]["kind"] == "fitted"
+    assert rep["crs_rule"].startswith("the CRS of the fitted model")
+    assert rep["images"][NAME + "_RGB"]["kind"] == "fitted"
     ours, truth = _on_common_grid(out, ngi["truth"])
     valid = (ours > 0) & (truth > 0)
     assert valid.mean() > 0.8
