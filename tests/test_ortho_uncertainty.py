@@ -166,3 +166,32 @@ def test_self_calibration_covariance_through_the_report_and_its_interior_terms()
     got = planimetric_covariance(e.rotation_cv, e.centre, m.interior, m.scale, P, _gradient(sb.surface, G[:, :2]),
                                  cov)
     np.testing.assert_allclose(got, J @ cov.matrix() @ J.transpose(0, 2, 1), rtol=2e-3)
+
+
+def test_sigma_raster_lattice_equals_the_exact_propagation_per_cell():
+    """The σ raster's image terms interpolated from every 8th cell (the slope term exact per cell) against the exact
+    propagation at every cell of 1 m windows over ±40 m hills: within 1 % (measured 0.3 %)."""
+    from affine import Affine
+
+    from fotogeo.geometry.dem import Dem
+    from fotogeo.orientation.ground_sigma import planimetric_sigma
+    from fotogeo.tools.ortho_products import CellGeometry
+    sb = simulate_block(seed=1, blunder_fraction=0.0, strips=2, frames_per_strip=3)
+    r = adjust_block(sb.block)
+    e = r.eo[2]
+    m = AdjustedFrame(r.camera, e, r.distortion)
+    t = Affine(1.0, 0, e.X - 300, 0, -1.0, e.Y + 300)
+    cols, rows = np.meshgrid(np.arange(600) + 0.5, np.arange(600) + 0.5)
+    X, Y = t * (cols, rows)
+    dem = Dem(sb.surface(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape), t)
+    cells = CellGeometry(m, dem, r.camera.image_size)
+    cov = FrameCovariance(r.eo_covariance[2])
+    window = cells.sigma(cov, 1.0)
+    worst = 0.0
+    for r0, c0, h, w in ((0, 0, 256, 256), (256, 300, 200, 37), (500, 500, 99, 99)):
+        got = window(t, r0, c0, h, w)[0]
+        P, g, valid = cells.points(t, r0, c0, h, w)
+        exact = planimetric_sigma(e.rotation_cv, e.centre, m.interior, m.scale, P[valid], g[valid], cov, 1.0)
+        assert valid.mean() > 0.95 and np.isnan(got[~valid]).all()
+        worst = max(worst, float(np.max(np.abs(got[valid] - exact) / exact)))
+    assert worst < 0.01, worst

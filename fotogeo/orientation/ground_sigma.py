@@ -62,29 +62,46 @@ def planimetric_covariance(rotation_cv, centre, interior, scale, P, gradient, co
     ``(h_X, h_Y)`` seen by the frame ``(rotation_cv, centre, interior, scale)`` (the arguments of
     :func:`~fotogeo.orientation.bundle_jacobian.project_with_jacobians`; module docstring). NaN where the
     point is behind the camera or the ray grazes the surface."""
+    J_P, inner = image_terms(rotation_cv, centre, interior, scale, P, cov, dem_sigma)
+    return surface_covariance(J_P, inner, gradient)
+
+
+def image_terms(rotation_cv, centre, interior, scale, P, cov: FrameCovariance, dem_sigma: float = 0.0) -> tuple:
+    """``(J_P (N, 2, 3), J_q Σ_q J_qᵀ + σ_h² J_Z J_Zᵀ (N, 2, 2))`` at ground points ``P`` (module docstring): what
+    does not depend on the surface's slope; ``J_P`` NaN behind the camera."""
     P = np.asarray(P, np.float64).reshape(-1, 3)
-    g = np.asarray(gradient, np.float64).reshape(-1, 2)
-    out = np.full((len(P), 2, 2), np.nan)
+    J_P, inner = np.full((len(P), 2, 3), np.nan), np.full((len(P), 2, 2), np.nan)
     S, cols = cov.matrix(), cov.columns()
     for s in range(0, len(P), CHUNK):
-        out[s:s + CHUNK] = _chunk(rotation_cv, centre, interior, scale, P[s:s + CHUNK], g[s:s + CHUNK], S, cols,
-                                  dem_sigma)
-    return out
+        J_P[s:s + CHUNK], inner[s:s + CHUNK] = _terms(rotation_cv, centre, interior, scale, P[s:s + CHUNK], S, cols,
+                                                      dem_sigma)
+    return J_P, inner
 
 
-def _chunk(R, C, interior, scale, P, g, S, cols, dem_sigma):
+def _terms(R, C, interior, scale, P, S, cols, dem_sigma):
     n = len(P)
     zero = np.zeros(n, np.intp)
+    ebner = any(k >= bj.N_PHYSICAL for k in cols)  # Ebner's columns only when they are estimated
     _, J_eo, J_P, J_int, c = bj.project_with_jacobians(np.asarray(R, float)[None], np.asarray(C, float)[None], P,
-                                                        zero, np.arange(n), np.asarray(interior, float), scale)
+                                                        zero, np.arange(n), np.asarray(interior, float), scale,
+                                                        additional=ebner)
     J_q = np.concatenate([J_eo, J_int[:, :, cols]], axis=2) if cols else J_eo
-    B = J_P[:, :, :2] + J_P[:, :, 2:3] * g[:, None, :]  # J_P T
     inner = J_q @ S @ J_q.transpose(0, 2, 1)
     if dem_sigma:
         Jz = J_P[:, :, 2]
-        inner = inner + dem_sigma ** 2 * Jz[:, :, None] * Jz[:, None, :]
+        inner += dem_sigma ** 2 * Jz[:, :, None] * Jz[:, None, :]
+    J_P[c[:, 2] <= 0] = np.nan
+    return J_P, inner
+
+
+def surface_covariance(J_P, inner, gradient) -> np.ndarray:
+    """``Σ_XY = B⁻¹ inner B⁻ᵀ``, ``B = J_P T`` on a surface of gradient ``(N, 2)`` (module docstring); NaN where
+    the ray grazes the surface (``B`` singular)."""
+    g = np.asarray(gradient, np.float64).reshape(-1, 2)
+    B = J_P[:, :, :2] + J_P[:, :, 2:3] * g[:, None, :]  # J_P T
     det = B[:, 0, 0] * B[:, 1, 1] - B[:, 0, 1] * B[:, 1, 0]
-    ok = (c[:, 2] > 0) & (np.abs(det) > 1e-12 * np.abs(B).max(axis=(1, 2)) ** 2)
+    with np.errstate(invalid="ignore"):
+        ok = np.abs(det) > 1e-12 * np.abs(B).max(axis=(1, 2)) ** 2
     Binv = np.full_like(B, np.nan)
     Binv[ok, 0, 0], Binv[ok, 1, 1] = B[ok, 1, 1] / det[ok], B[ok, 0, 0] / det[ok]
     Binv[ok, 0, 1], Binv[ok, 1, 0] = -B[ok, 0, 1] / det[ok], -B[ok, 1, 0] / det[ok]

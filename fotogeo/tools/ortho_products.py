@@ -31,6 +31,9 @@ from ..io.warp_gdal import centres_to_map
 SIGMA_SUFFIX, VIEW_SUFFIX = "_sigma.tif", "_view.tif"
 #: cells per window of the written rasters
 BLOCK = 256
+#: the σ raster's image terms are computed exactly every LATTICE cells and interpolated between
+#: (:meth:`CellGeometry.sigma`)
+LATTICE = 8
 #: largest difference (m) between the --eo file's projection centres and the report's
 SAME_EO_M = 0.01
 
@@ -117,15 +120,27 @@ class CellGeometry:
         return P, g, valid
 
     def sigma(self, cov, dem_sigma: float):
-        """A window function of :func:`write_cells`: σ_P (module docstring)."""
-        from ..orientation.ground_sigma import planimetric_sigma
+        """A window function of :func:`write_cells`: σ_P (module docstring). The image terms (``J_P`` and
+        ``J_q Σ_q J_qᵀ + σ_h² J_Z J_Zᵀ``, smooth over the ground) are computed exactly on a lattice of every
+        :data:`LATTICE`-th cell (and the window's last row and column) and interpolated bilinearly between; the
+        slope term ``B = J_P T`` and ``B⁻¹ (…) B⁻ᵀ`` per cell, with the DEM's own gradient there."""
+        from ..orientation.ground_sigma import image_terms, surface_covariance
         fr = self.model.frame.eo
 
         def window(transform, r0, c0, h, w):
             P, g, valid = self.points(transform, r0, c0, h, w)
             out = np.full(len(P), np.nan)
-            out[valid] = planimetric_sigma(fr.rotation_cv, fr.centre, self.model.interior, self.model.scale,
-                                           P[valid], g[valid], cov, dem_sigma)
+            if not valid.any():
+                return out[None]
+            rows, cols = _lattice(h), _lattice(w)
+            Pl = P.reshape(h, w, 3)[rows][:, cols].reshape(-1, 3)
+            Pl[~np.isfinite(Pl[:, 2]), 2] = np.mean(P[valid, 2])  # lattice nodes off the DEM: the window's height
+            J_P, inner = image_terms(fr.rotation_cv, fr.centre, self.model.interior, self.model.scale, Pl, cov,
+                                     dem_sigma)
+            terms = np.concatenate([J_P.reshape(-1, 6), inner.reshape(-1, 4)[:, [0, 1, 3]]], axis=1)
+            cell = bilinear(terms.reshape(len(rows), len(cols), 9), rows, cols, h, w).reshape(-1, 9)[valid]
+            S = surface_covariance(cell[:, :6].reshape(-1, 2, 3), cell[:, [6, 7, 7, 8]].reshape(-1, 2, 2), g[valid])
+            out[valid] = np.sqrt(S[:, 0, 0] + S[:, 1, 1])
             return out[None]
         return window
 
@@ -141,6 +156,26 @@ class CellGeometry:
         if getattr(self.model, "projection_centre", None) is not None:
             out[1, valid] = np.linalg.norm(d, axis=1)
         return out
+
+
+def _lattice(n: int) -> np.ndarray:
+    """Every :data:`LATTICE`-th index of ``n`` and the last one."""
+    return np.unique(np.r_[np.arange(0, n, LATTICE), n - 1])
+
+
+def bilinear(values, rows, cols, h: int, w: int) -> np.ndarray:
+    """``values`` ``(len(rows), len(cols), k)`` given at the lattice ``rows`` x ``cols`` (increasing indices from 0
+    to ``h - 1`` / ``w - 1``) interpolated bilinearly to every index of the ``h x w`` window → ``(h, w, k)``."""
+    def along(v, nodes, n, axis):
+        if len(nodes) == 1:
+            return np.repeat(v, n, axis=axis)
+        i = np.clip(np.searchsorted(nodes, np.arange(n), side="right") - 1, 0, len(nodes) - 2)
+        t = (np.arange(n) - nodes[i]) / (nodes[i + 1] - nodes[i])
+        shape = [1] * v.ndim
+        shape[axis] = n
+        t = t.reshape(shape)
+        return np.take(v, i, axis=axis) * (1 - t) + np.take(v, i + 1, axis=axis) * t
+    return along(along(values, cols, w, 1), rows, h, 0)
 
 
 def write_cells(path, window_values, *, crs, transform, width: int, height: int, descriptions, units,
