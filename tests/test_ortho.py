@@ -281,6 +281,9 @@ def _cli(scene, tmp_path, *extra, dem=None, eo=None):
     ("dem without crs", {"dem": "nocrs.tif"}, "has no crs"),
     ("dsm with holes", {"dem": "holes.tif", "args": ["--occlusion"]}, "has nodata holes"),
     ("geographic output", {"args": ["--crs", "EPSG:4326"]}, "is geographic"),
+    ("uncertainty without a covariance", {"args": ["--uncertainty"]}, "carries no covariance"),
+    ("uncertainty of a constant height", {"dem": False, "args": ["--uncertainty", "--height", "100", "--crs",
+                                                                 "EPSG:32635"]}, "give its σ (--dem-sigma"),
 ])
 def test_bad_input_one_line(scene, bad, tmp_path, case, extra, expected):
     kw = {k: (bad / v if isinstance(v, str) else v) for k, v in extra.items() if k != "args"}

@@ -243,8 +243,8 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
         warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
                       f"cells", FotogeoWarning, stacklevel=2)
-    covs = frame_covariances(eo, ims) if uncertainty else {}
     sigma_h = dem_sigma_for(dem_sigma, heights) if uncertainty else None
+    covs = frame_covariances(eo, ims) if uncertainty else {}
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
