@@ -120,6 +120,14 @@ def test_the_report_carries_the_covariance_and_the_sigma_raster_its_units(blocks
     assert 0 < im["sigma"]["min_m"] < im["sigma"]["max_m"] < 5
 
 
+def test_default_dem_sigma_is_half_the_dem_cell(blocks, tmp_path):
+    r, _ = blocks[0]
+    rep = ortho(r["images"][:1], tmp_path / "o.tif", dem=r["dem_path"], camera=r["camera"], eo=r["eo"],
+                uncertainty=True, resolution=6.0)
+    assert rep["dem_sigma_m"] == pytest.approx(0.5 * r["noisy_dem"].transform.a)
+    assert rep["dem_sigma_rule"].startswith("half the DEM's cell")
+
+
 def test_uncertainty_is_refused_without_a_covariance(blocks, tmp_path):
     r, _ = blocks[0]
     eo = tmp_path / "exterior_orientation.txt"

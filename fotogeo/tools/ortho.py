@@ -17,6 +17,10 @@ the heights come from :mod:`fotogeo.tools.ortho_inputs`; then, per image:
    (:mod:`fotogeo.geometry.occlusion`): a hidden ground cell is nodata instead of a copy of whatever hides it
    (the "double image" of a building on a DSM).
 
+Frames can also come from a fitted ``orient`` model (``model``: orient's JSON report, one image). With
+``uncertainty`` and ``view_bands`` each orthophoto gets rasters beside it on its grid: the predicted planimetric σ
+of every cell and its view geometry (:mod:`fotogeo.tools.ortho_products`).
+
 Outputs: one GeoTIFF per image (tiled, DEFLATE, internal overviews; ``cog``: GDAL's COG layout), ``output``
 itself for one image, ``<output>/<name>_ortho.tif`` for several; written through
 :class:`~fotogeo.io.raster.AtomicOutputs` (all or nothing).
@@ -209,8 +213,8 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     made = folder is not None and not folder.exists()
     try:
         return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, model=model, height=height,
-                      dem_heights=dem_heights,
-                      geoid=geoid, occlusion=occlusion, resolution=resolution, dst_crs=dst_crs, resampling=resampling,
+                      dem_heights=dem_heights, geoid=geoid, occlusion=occlusion, resolution=resolution,
+                      dst_crs=dst_crs, resampling=resampling,
                       cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands,
                       overwrite=overwrite, progress=progress)
     except BaseException:
@@ -243,7 +247,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
         warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
                       f"cells", FotogeoWarning, stacklevel=2)
-    sigma_h = dem_sigma_for(dem_sigma, heights) if uncertainty else None
+    sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None
     covs = frame_covariances(eo, ims) if uncertainty else {}
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")

@@ -84,16 +84,20 @@ def _read_report(path: Path) -> dict:
     return read_json(path, "--uncertainty: triangulate's report") if path.is_file() else {}
 
 
-def dem_sigma_for(dem_sigma, heights) -> tuple:
-    """``(σ_h in m, rule)``: the value given, else half the DEM's cell (module docstring); a constant height
-    needs it given."""
+def dem_sigma_for(dem_sigma, heights, crs) -> tuple:
+    """``(σ_h in m, rule)``: the value given, else half the DEM's cell measured in the map CRS ``crs`` (module
+    docstring); a constant height needs it given."""
     if dem_sigma is not None:
         return float(dem_sigma), "given (--dem-sigma)"
     if np.isscalar(heights):
         raise InputError("--uncertainty with a constant height: give its σ (--dem-sigma, m)", option="dem_sigma")
+    from ..crs import pixel_size_in
+    from ..geometry.vertical import horizontal_crs
     from .ortho import _dem_of
     d = _dem_of(heights)[0]
-    cell = float(np.sqrt(abs(d.transform.a * d.transform.e - d.transform.b * d.transform.d)))
+    rows, cols = d.data.shape
+    cell = pixel_size_in(d.transform, horizontal_crs(d.crs), crs, cols / 2, rows / 2) if d.crs is not None else \
+        float(np.sqrt(abs(d.transform.a * d.transform.e - d.transform.b * d.transform.d)))
     return 0.5 * cell, f"half the DEM's cell ({cell:.3g} m)"
 
 
