@@ -34,8 +34,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import FotogeoWarning, InputError, ModelError
-from ..geometry.dem import heights_at
+from ..geometry.dem import heights_at, underlying_dem
 from ..geometry.georeference import Georeference
+from ..geometry.lattice import ground_to_image_on_lattice
 from ..geometry.occlusion import visible_pixels
 from ..io.raster import AtomicOutputs, check_output, open_raster, ropen
 from ..io.warp import grid_covering, warp_to_grid
@@ -81,16 +82,25 @@ class OrthoMapping:
     def grid(self, transform, r0: int, c0: int, h: int, w: int) -> np.ndarray:
         """The same positions for the ``h x w`` cell centres of a window of a north-up ``transform``
         (:func:`fotogeo.io.warp.warp_to_grid`): the DEM sampled once per row and column
-        (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`), the frame's camera coordinates likewise
-        (``forward_grid``)."""
+        (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`); the frame's camera coordinates likewise
+        (``forward_grid``), any other model on a checked lattice
+        (:func:`~fotogeo.geometry.lattice.ground_to_image_on_lattice`: within 0.001 px of the exact positions)."""
         t = transform
         X = t.c + (c0 + HALF + np.arange(w)) * t.a
         Y = t.f + (r0 + HALF + np.arange(h)) * t.e
-        grid_heights = getattr(self.heights, "heights_grid", None)
-        Z = grid_heights(X, Y) if grid_heights is not None and not (t.b or t.d) else None
-        if Z is None or self.surface is not None or not hasattr(self.model, "forward_grid"):
+        Z = self._heights_grid(X, Y) if not (t.b or t.d) else None
+        if Z is None or self.surface is not None:
             return self(centres_to_map(t, r0, c0, h, w))
-        return self.model.forward_grid(X, Y, Z)
+        if hasattr(self.model, "forward_grid"):
+            return self.model.forward_grid(X, Y, Z)
+        return ground_to_image_on_lattice(self.model.forward, X, Y, Z)
+
+    def _heights_grid(self, X, Y):
+        """Heights ``(len(Y), len(X))`` of a north-up window, None when the height source cannot give them so."""
+        if np.isscalar(self.heights):
+            return np.full((len(Y), len(X)), float(self.heights))
+        grid_heights = getattr(self.heights, "heights_grid", None)
+        return grid_heights(X, Y) if grid_heights is not None else None
 
 
 class OrthoGrid(NamedTuple):
@@ -120,18 +130,11 @@ def _z_range(heights) -> tuple:
     return tuple(float(v) for v in heights.z_range)
 
 
-def _dem_of(heights):
-    """``(Dem, sampled from another CRS?)`` behind a height source (:mod:`fotogeo.tools.ortho_inputs`)."""
-    src = getattr(heights, "source", heights)  # ShiftedHeights: the DEM under the geoid shift
-    dem = getattr(src, "dem", src)  # DemSampler: the DEM in its own CRS
-    return dem, dem is not src
-
-
 def _surface_bounds(heights, crs):
     """The DEM's extent in the map CRS ``(x0, y0, x1, y1)``, None for a constant height."""
     if np.isscalar(heights):
         return None
-    dem, sampled = _dem_of(heights)
+    dem, sampled = underlying_dem(heights)
     r, c = dem.shape
     corners = np.array([dem.transform * p for p in ((0, 0), (c, 0), (c, r), (0, r))])
     if sampled:
@@ -191,7 +194,7 @@ def occlusion_surface(heights, dem):
     CRS without geoid shift; else None: every step sampled); a DSM with holes is refused."""
     if dem is None or np.isscalar(heights):
         raise InputError("occlusion masking needs a surface model: give the DSM (--dem)")
-    d = _dem_of(heights)[0]
+    d = underlying_dem(heights)[0]
     share = holes(d)
     if share > 0:
         raise InputError(f"DSM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area): a hole would let "
@@ -243,8 +246,9 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
-    if dem is not None and not occlusion and holes(_dem_of(heights)[0]) > 0:
-        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
+    share = holes(underlying_dem(heights)[0]) if dem is not None and not occlusion else 0.0
+    if share > 0:
+        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
                       f"cells", FotogeoWarning, stacklevel=2)
     sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None

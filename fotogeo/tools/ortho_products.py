@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.lattice import bilinear, lattice
 from ..io.raster import geotiff_profile, ropen
 from ..io.warp import windows_of
 from ..io.warp_gdal import centres_to_map
@@ -92,9 +93,9 @@ def dem_sigma_for(dem_sigma, heights, crs) -> tuple:
     if np.isscalar(heights):
         raise InputError("--uncertainty with a constant height: give its σ (--dem-sigma, m)", option="dem_sigma")
     from ..crs import pixel_size_in
+    from ..geometry.dem import underlying_dem
     from ..geometry.vertical import horizontal_crs
-    from .ortho import _dem_of
-    d = _dem_of(heights)[0]
+    d = underlying_dem(heights)[0]
     rows, cols = d.data.shape
     cell = pixel_size_in(d.transform, horizontal_crs(d.crs), crs, cols / 2, rows / 2) if d.crs is not None else \
         float(np.sqrt(abs(d.transform.a * d.transform.e - d.transform.b * d.transform.d)))
@@ -136,13 +137,14 @@ class CellGeometry:
             out = np.full(len(P), np.nan)
             if not valid.any():
                 return out[None]
-            rows, cols = _lattice(h), _lattice(w)
+            rows, cols = lattice(h, LATTICE), lattice(w, LATTICE)
             Pl = P.reshape(h, w, 3)[rows][:, cols].reshape(-1, 3)
             Pl[~np.isfinite(Pl[:, 2]), 2] = np.mean(P[valid, 2])  # lattice nodes off the DEM: the window's height
             J_P, inner = image_terms(fr.rotation_cv, fr.centre, self.model.interior, self.model.scale, Pl, cov,
                                      dem_sigma)
             terms = np.concatenate([J_P.reshape(-1, 6), inner.reshape(-1, 4)[:, [0, 1, 3]]], axis=1)
-            cell = bilinear(terms.reshape(len(rows), len(cols), 9), rows, cols, h, w).reshape(-1, 9)[valid]
+            cell = bilinear(np.moveaxis(terms.reshape(len(rows), len(cols), 9), 2, 0), rows, cols, h, w
+                            ).reshape(9, -1)[:, valid].T
             S = surface_covariance(cell[:, :6].reshape(-1, 2, 3), cell[:, [6, 7, 7, 8]].reshape(-1, 2, 2), g[valid])
             out[valid] = np.sqrt(S[:, 0, 0] + S[:, 1, 1])
             return out[None]
@@ -160,26 +162,6 @@ class CellGeometry:
         if getattr(self.model, "projection_centre", None) is not None:
             out[1, valid] = np.linalg.norm(d, axis=1)
         return out
-
-
-def _lattice(n: int) -> np.ndarray:
-    """Every :data:`LATTICE`-th index of ``n`` and the last one."""
-    return np.unique(np.r_[np.arange(0, n, LATTICE), n - 1])
-
-
-def bilinear(values, rows, cols, h: int, w: int) -> np.ndarray:
-    """``values`` ``(len(rows), len(cols), k)`` given at the lattice ``rows`` x ``cols`` (increasing indices from 0
-    to ``h - 1`` / ``w - 1``) interpolated bilinearly to every index of the ``h x w`` window → ``(h, w, k)``."""
-    def along(v, nodes, n, axis):
-        if len(nodes) == 1:
-            return np.repeat(v, n, axis=axis)
-        i = np.clip(np.searchsorted(nodes, np.arange(n), side="right") - 1, 0, len(nodes) - 2)
-        t = (np.arange(n) - nodes[i]) / (nodes[i + 1] - nodes[i])
-        shape = [1] * v.ndim
-        shape[axis] = n
-        t = t.reshape(shape)
-        return np.take(v, i, axis=axis) * (1 - t) + np.take(v, i + 1, axis=axis) * t
-    return along(along(values, cols, w, 1), rows, h, 0)
 
 
 def write_cells(path, window_values, *, crs, transform, width: int, height: int, descriptions, units,
