@@ -175,7 +175,7 @@ def _interpolation_maps(sp, plan: Plan, h: int, w: int):
     cr = sp if everywhere else sp[finite.all(axis=1)]
     if not len(cr):
         return None
-    (x_lo, y_lo), (x_hi, y_hi) = cr.min(axis=0), cr.max(axis=0)
+    x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()  # (min(axis=0) is slow)
     c_lo = max(0, int(math.floor(x_lo)) - margin)
     c_hi = min(plan.src_width, int(math.ceil(x_hi)) + margin)
     r_lo = max(0, int(math.floor(y_lo)) - margin)
@@ -184,8 +184,9 @@ def _interpolation_maps(sp, plan: Plan, h: int, w: int):
         return None
     if not everywhere:
         sp = np.where(finite, sp, -1e6)
-    xy = np.empty((h, w, 2), np.float32)  # centre convention (OpenCV) in the window: x - (0.5 + c_lo), exact in float64
-    np.subtract(sp.reshape(h, w, 2), (HALF + c_lo, HALF + r_lo), out=xy, casting="same_kind")
+    # centre convention (OpenCV) in the window: x - (0.5 + c_lo), exact in float64; rows of interleaved (x, y)
+    # (numpy's broadcasting over a last axis of 2, or a cast into its output, is several times slower)
+    xy = (sp.reshape(h, 2 * w) - np.tile((HALF + c_lo, HALF + r_lo), w)).astype(np.float32).reshape(h, w, 2)
     win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
     if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
         return (win, *cv2.convertMaps(xy, None, cv2.CV_16SC2))
