@@ -17,6 +17,9 @@ ORTHO = Table(
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
            "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),
+    Option("model", "file", None, "Fitted orient model (orient's JSON report; one image)",
+           "orient's JSON report (--report R.json): orthorectify the one image through its fitted ground -> image "
+           "model, in the CRS of its GCPs.", file_filter="JSON (*.json);;All files (*)"),
     Option("height", "float", None, "Constant height instead of a DEM",
            "A constant height for every cell, knowingly, instead of a DEM."),
     Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
@@ -36,6 +39,17 @@ ORTHO = Table(
     RESAMPLING,
     Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
            "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
+    Option("uncertainty", "bool", False,
+           "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
+           "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
+           "covariance in triangulate's report.json beside --eo and the DEM's sigma (--dem-sigma)."),
+    Option("dem_sigma", "float", None, "Height σ of the DEM for the uncertainty, m (0 = half the DEM's cell)",
+           "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
+           exclusive_minimum=True, automatic=0.0, advanced=True),
+    Option("view_bands", "bool", False,
+           "View geometry raster: off-nadir angle (°) and distance (m) (<orthophoto>_view.tif)",
+           "Also write <orthophoto>_view.tif: band 1 the off-nadir angle of the line of sight (degrees), band 2 the "
+           "distance from the ground to the projection centre (m; frames only)."),
 )
 #: orthophoto mosaics (``fotogeo mosaic``, fotogeo.tools.mosaic)
 MOSAIC = Table(

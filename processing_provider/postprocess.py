@@ -3,7 +3,9 @@
 ``styles/tie_points.qml`` colours points by ``role`` (control blue, check red);
 and labels each with its id and residual (px); ``styles/error_vectors.qml`` draws error vectors
 as arrows, coloured by ``role`` too, and :func:`show_legend` puts the layer's exaggeration
-sentence (its ``legend`` field) into the legend.
+sentence (its ``legend`` field) into the legend. ``styles/uncertainty.qml`` (rasters of a σ in metres,
+``fotogeo ortho --uncertainty``) is a pseudocolour ramp (viridis) with a continuous legend labelled in
+metres; :func:`stretch_to_data` spreads it over the raster's own minimum … maximum.
 They are set through :class:`QgsProcessingLayerPostProcessorInterface`, which QGIS runs in
 the main thread for every output layer loaded on completion.
 """
@@ -14,6 +16,8 @@ import os
 
 from qgis.core import (
     QgsLayerTreeLayer,
+    QgsRasterBandStats,
+    QgsRasterLayer,
     QgsProcessingContext,
     QgsProcessingLayerPostProcessorInterface,
     QgsProcessingUtils,
@@ -25,7 +29,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QTimer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
-STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints")
+STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints", "uncertainty")
 
 
 def style_path(style: str) -> str:
@@ -99,12 +103,37 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
             show_legend(layer)
             layer.setRenderer(layer.renderer().clone())  # tells the legend (an edit in place would not)
             layer.triggerRepaint()
+        if self.style and isinstance(layer, QgsRasterLayer):
+            message, ok = layer.loadNamedStyle(style_path(self.style))
+            if not ok and feedback is not None:
+                feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
+            stretch_to_data(layer)
+            layer.triggerRepaint()
         if self.run is not None:
             self.run.place(layer, context)
         project = (context.project() if context is not None else None) or QgsProject.instance()
         unique_name(layer, project)
         if isinstance(layer, QgsVectorLayer):
             expand_later(project, layer.id())
+
+
+def stretch_to_data(layer) -> tuple | None:
+    """Spread a pseudocolour raster's ramp over its band 1's minimum … maximum (the style's 0 … 1 is a
+    placeholder); returns that range, None for another renderer or a raster without valid cells."""
+    renderer = layer.renderer()
+    shader = getattr(renderer, "shader", lambda: None)()
+    ramp = shader.rasterShaderFunction() if shader is not None else None
+    stats = layer.dataProvider().bandStatistics(1, QgsRasterBandStats.Min | QgsRasterBandStats.Max)
+    lo, hi = float(stats.minimumValue), float(stats.maximumValue)
+    if ramp is None or not (hi >= lo) or abs(lo) == float("inf") or abs(hi) == float("inf"):
+        return None
+    hi = hi if hi > lo else lo + max(abs(lo), 1.0) * 1e-3
+    ramp.setMinimumValue(lo)
+    ramp.setMaximumValue(hi)
+    ramp.classifyColorRamp(0, -1)
+    renderer.setClassificationMin(lo)
+    renderer.setClassificationMax(hi)
+    return lo, hi
 
 
 def expand_later(project, layer_id: str) -> None:

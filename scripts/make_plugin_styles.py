@@ -8,6 +8,9 @@ gcps.qml: the same symbols, labelled "id: residual px" (small, white buffer): GC
 points-to-layer), a few dozen points each.
 error_vectors.qml: lines drawn as arrows from the reference position, categorised by ``role``.
 error_grid.qml: the registration's mean residual per grid cell, one dark-orange arrow per cell.
+uncertainty.qml: a σ raster in metres (``fotogeo ortho --uncertainty``), pseudocolour (viridis, interpolated) with a
+continuous legend whose labels end in " m" (3 decimals); the ramp's 0 … 1 is a placeholder the plugin stretches
+over each raster's range (``processing_provider.postprocess.stretch_to_data``).
 
 ``--only NAME ...`` regenerates just those styles.
 """
@@ -97,6 +100,43 @@ def error_vectors_renderer():
     return QgsCategorizedSymbolRenderer("role", cats)
 
 
+def uncertainty_style(path: Path) -> None:
+    """Write uncertainty.qml (module docstring) from a small σ raster's pseudocolour renderer."""
+    import tempfile
+
+    import numpy as np
+    import rasterio
+    from affine import Affine
+    from qgis.core import (QgsBasicNumericFormat, QgsColorRampLegendNodeSettings, QgsColorRampShader,
+                           QgsRasterLayer, QgsRasterShader, QgsSingleBandPseudoColorRenderer, QgsStyle)
+    with tempfile.TemporaryDirectory() as tmp:
+        tif = Path(tmp) / "sigma.tif"
+        with rasterio.open(tif, "w", driver="GTiff", width=4, height=4, count=1, dtype="float32", crs="EPSG:32635",
+                           transform=Affine(1, 0, 500000, 0, -1, 4400000), nodata=float("nan")) as ds:
+            ds.write(np.linspace(0, 1, 16, dtype=np.float32).reshape(1, 4, 4))
+        layer = QgsRasterLayer(str(tif), "sigma")
+        ramp = QgsColorRampShader(0.0, 1.0, QgsStyle.defaultStyle().colorRamp("Viridis"),
+                                  QgsColorRampShader.Interpolated, QgsColorRampShader.Continuous)
+        ramp.classifyColorRamp(5, -1)
+        legend = QgsColorRampLegendNodeSettings()
+        legend.setSuffix(" m")
+        legend.setUseContinuousLegend(True)
+        number = QgsBasicNumericFormat()
+        number.setNumberDecimalPlaces(3)
+        legend.setNumericFormat(number)
+        ramp.setLegendSettings(legend)
+        shader = QgsRasterShader()
+        shader.setRasterShaderFunction(ramp)
+        renderer = QgsSingleBandPseudoColorRenderer(layer.dataProvider(), 1, shader)
+        renderer.setClassificationMin(0.0)
+        renderer.setClassificationMax(1.0)
+        layer.setRenderer(renderer)
+        msg, ok = layer.saveNamedStyle(str(path), categories=QgsMapLayer.Symbology)
+    if not ok:
+        sys.exit(f"could not write {path}: {msg}")
+    print(f"wrote {path}")
+
+
 def main():
     only = set(sys.argv[sys.argv.index("--only") + 1:]) if "--only" in sys.argv else None
     app = QgsApplication([], False)
@@ -120,6 +160,8 @@ def main():
         if not ok:
             sys.exit(f"could not write {path}: {msg}")
         print(f"wrote {path}")
+    if only is None or "uncertainty" in only:
+        uncertainty_style(OUT / "uncertainty.qml")
 
 
 if __name__ == "__main__":

@@ -281,6 +281,9 @@ def _cli(scene, tmp_path, *extra, dem=None, eo=None):
     ("dem without crs", {"dem": "nocrs.tif"}, "has no crs"),
     ("dsm with holes", {"dem": "holes.tif", "args": ["--occlusion"]}, "has nodata holes"),
     ("geographic output", {"args": ["--crs", "EPSG:4326"]}, "is geographic"),
+    ("uncertainty without a covariance", {"args": ["--uncertainty"]}, "carries no covariance"),
+    ("uncertainty of a constant height", {"dem": False, "args": ["--uncertainty", "--height", "100", "--crs",
+                                                                 "EPSG:32635"]}, "give its σ (--dem-sigma"),
 ])
 def test_bad_input_one_line(scene, bad, tmp_path, case, extra, expected):
     kw = {k: (bad / v if isinstance(v, str) else v) for k, v in extra.items() if k != "args"}
@@ -334,3 +337,21 @@ def test_rpc_without_dem_needs_a_constant_height(data_dir, tmp_path):
     assert result.exit_code == 0, result.output
     with rasterio.open(out) as ds:
         assert ds.crs.to_epsg() == 32735  # the UTM zone of the image centre
+
+
+def test_view_bands_on_a_nadir_frame_over_flat_ground(scene, tmp_path):
+    """--view-bands on the bare ground under the nadir frame 500 m up: off-nadir angle atan(r / 500) and distance
+    √(r² + 500²) at horizontal distance r from the nadir point; NaN where the image does not reach."""
+    rep = _run(scene, tmp_path / "o.tif", dem=str(scene["dem"]), view_bands=True)
+    path = rep["images"]["frame"]["view"]["path"]
+    with rasterio.open(path) as ds, rasterio.open(tmp_path / "o.tif") as o:
+        assert (ds.count, ds.units, ds.transform) == (2, ("deg", "m"), o.transform)
+        angle, dist, t = ds.read(1), ds.read(2), ds.transform
+    rows, cols = np.mgrid[0:angle.shape[0], 0:angle.shape[1]]
+    X, Y = t * (cols + 0.5, rows + 0.5)
+    r = np.hypot(X - bs.ORIGIN[0], Y - bs.ORIGIN[1])
+    ok = np.isfinite(angle)
+    assert ok.mean() > 0.9 and np.isfinite(dist[ok]).all()
+    np.testing.assert_allclose(angle[ok], np.degrees(np.arctan(r[ok] / bs.FLY)), atol=1e-4)
+    np.testing.assert_allclose(dist[ok], np.hypot(r[ok], bs.FLY), rtol=1e-6)
+    assert angle[ok].max() > 10  # the frame's corners: 0.2 / 1 · √2 off the axis → 15.8°

@@ -580,8 +580,14 @@ def test_ortho_box_scene(qgis_app, tmp_path):
     paths = bs.write_scene(tmp_path)
     out = tmp_path / "out"
     res = run("ortho", {"IMAGES": [str(paths["frame"])], "DEM": str(paths["dsm"]), "CAMERA": str(paths["camera"]),
-                        "EO": str(paths["eo"]), "OCCLUSION": True, "RESOLUTION": 0.5, "OUTDIR": str(out)})
+                        "EO": str(paths["eo"]), "OCCLUSION": True, "RESOLUTION": 0.5, "VIEW_BANDS": True,
+                        "OUTDIR": str(out)})
     assert res["ORTHOPHOTOS"] == 1
+    with rasterio.open(out / "frame_ortho_view.tif") as ds:
+        assert ds.count == 2 and ds.units == ("deg", "m")
+    with pytest.raises(QgsProcessingException, match="carries no covariance"):  # eo.txt has no triangulate report
+        run("ortho", {"IMAGES": [str(paths["frame"])], "DEM": str(paths["dsm"]), "CAMERA": str(paths["camera"]),
+                      "EO": str(paths["eo"]), "UNCERTAINTY": True, "OUTDIR": str(tmp_path / "u")})
     with rasterio.open(out / "frame_ortho.tif") as ds:
         v, t = ds.read(1), ds.transform
     rows, cols = np.mgrid[0:v.shape[0], 0:v.shape[1]]

@@ -94,3 +94,28 @@ def test_run_layers_get_unique_names_and_optional_control(qgis_app, tmp_path):
     hide_categories(tie, ("control",))
     shown = {c.value(): c.renderState() for c in tie.renderer().categories()}
     assert shown["control"] is False and shown["check"] is True
+
+
+def test_uncertainty_raster_legend_in_metres_over_its_range(qgis_app, tmp_path):
+    """The σ raster of ``fotogeo ortho --uncertainty`` loads as a pseudocolour ramp spread over its own values,
+    with a continuous legend whose labels end in metres."""
+    import rasterio
+    from affine import Affine
+    from qgis.core import QgsRasterLayer
+    from processing_provider.postprocess import stretch_to_data
+    path = tmp_path / "frame_sigma.tif"
+    values = np.linspace(0.2, 0.9, 100, dtype=np.float32).reshape(1, 10, 10)
+    values[0, 0, 0] = np.nan
+    with rasterio.open(path, "w", driver="GTiff", width=10, height=10, count=1, dtype="float32", crs="EPSG:32635",
+                       transform=Affine(1, 0, 500000, 0, -1, 4400000), nodata=float("nan")) as ds:
+        ds.write(values)
+    layer = QgsRasterLayer(str(path), "sigma")
+    message, ok = layer.loadNamedStyle(style_path("uncertainty"))
+    assert ok, message
+    lo, hi = stretch_to_data(layer)
+    assert (lo, hi) == pytest.approx((float(np.nanmin(values)), 0.9), abs=1e-6)
+    ramp = layer.renderer().shader().rasterShaderFunction()
+    assert layer.renderer().type() == "singlebandpseudocolor"
+    assert ramp.legendSettings().suffix() == " m" and ramp.legendSettings().useContinuousLegend()
+    items = ramp.colorRampItemList()
+    assert items[0].value == pytest.approx(lo) and items[-1].value == pytest.approx(hi)

@@ -168,3 +168,28 @@ def test_triangulate_through_qgis_process(config, block_files, tmp_path):
     assert res["CHECK_RMSE_Z"] == pytest.approx(direct["statistics"]["check"]["rmse_z_m"], rel=1e-6)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
         ["exterior_orientation.txt", "block.gpkg", "report.json", "report.html"])
+
+
+def test_ortho_uncertainty_of_triangulate_outputs_loads_with_a_legend_in_metres(qgis_app, block_files, tmp_path):
+    """fotogeo:ortho with UNCERTAINTY on triangulate's own output folder: the σ raster of each frame loads as a
+    pseudocolour layer stretched over its values, its legend labelled in metres."""
+    import processing
+    folder, frames, _, _ = block_files
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    params = {"IMAGES": [str(frames[0])], "CAMERA": str(folder / "camera.yaml"),
+              "EO": str(folder / "direct" / "exterior_orientation.txt"), "HEIGHT": 0.0, "DEM_SIGMA": 2.0,
+              "CRS": "EPSG:32635", "UNCERTAINTY": True, "OUTDIR": str(tmp_path / "o")}
+    processing.runAndLoadResults("fotogeo:ortho", params, feedback=Recorder(), context=context)
+    layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
+    sigma = [lyr for name, lyr in layers.items() if name.endswith("σ (m)")]
+    assert len(sigma) == 1, sorted(layers)
+    renderer = sigma[0].renderer()
+    assert renderer.type() == "singlebandpseudocolor"
+    ramp = renderer.shader().rasterShaderFunction()
+    assert ramp.legendSettings().suffix() == " m"
+    lo, hi = ramp.minimumValue(), ramp.maximumValue()
+    assert 0 < lo < hi < 50  # the raster's own range, not the style's 0 … 1 placeholder
+    assert (lo, hi) != (0.0, 1.0)

@@ -21,6 +21,9 @@ def command(images, output, overwrite, quiet, **kw):
     Frame cameras: --camera and --eo (fotogeo's 'name X Y Z omega phi kappa' lines, triangulate's outputs,
     OpenSfM/ODM, COLMAP or orthority files). Satellite images: --rpc (the RPC in the GeoTIFF). With
     --occlusion and a DSM as --dem, ground hidden from the camera becomes nodata instead of a double image.
+    One image through its fitted orient model: --model (orient's JSON report).
+    --uncertainty writes <orthophoto>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
+    --view-bands <orthophoto>_view.tif (off-nadir angle, distance).
     """
     from ..tools.ortho import ortho
     bar = ConsoleProgress(quiet)
@@ -33,3 +36,8 @@ def command(images, output, overwrite, quiet, **kw):
         cover = "" if r["dem_coverage"] >= 0.999 else f", DEM covers {100 * r['dem_coverage']:.0f} % of it"
         click.echo(f"{name}: {r['width']}x{r['height']} px at {r['resolution']:.4g} m, "
                    f"{r['valid_pixels']} valid{cover} -> {r['path']}")
+        if "sigma" in r:
+            click.echo(f"  predicted planimetric sigma {r['sigma']['min_m']:.3g} to {r['sigma']['max_m']:.3g} m "
+                       f"(DEM sigma {rep['dem_sigma_m']:.3g} m, {rep['dem_sigma_rule']}) -> {r['sigma']['path']}")
+        if "view" in r:
+            click.echo(f"  off-nadir angle and distance -> {r['view']['path']}")

@@ -249,3 +249,12 @@ class DemSampler:
         gx = (self.heights(XY + [step, 0]) - self.heights(XY - [step, 0])) / (2 * step)
         gy = (self.heights(XY + [0, step]) - self.heights(XY - [0, step])) / (2 * step)
         return h, gx, gy
+
+
+def underlying_dem(heights) -> tuple:
+    """``(Dem, queried from another CRS?)`` behind a height source: a :class:`Dem` itself, the DEM a
+    :class:`DemSampler` queries from another CRS, the DEM under a geoid shift
+    (:class:`~fotogeo.geometry.vertical.ShiftedHeights`, its ``source``)."""
+    source = getattr(heights, "source", heights)
+    dem = getattr(source, "dem", source)
+    return dem, dem is not source

@@ -38,3 +38,16 @@ def write_json(path, data: dict) -> None:
         f.write(text)
         f.flush()
         os.fsync(f.fileno())
+
+
+def read_json(path, what: str) -> dict:
+    """A JSON report (one of fotogeo's): a dict, or one :class:`~fotogeo.errors.InputError` line naming ``what``."""
+    from ..errors import InputError
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{what} {str(path)!r} cannot be read as JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise InputError(f"{what} {str(path)!r} is not a fotogeo report (no JSON object)")
+    return data

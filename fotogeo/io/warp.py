@@ -165,26 +165,32 @@ def _nearest_maps(sp, plan: Plan, h: int, w: int):
 
 
 def _interpolation_maps(sp, plan: Plan, h: int, w: int):
-    """Source window (positions plus the kernel's margin) and float32 OpenCV maps (centre
-    convention, computed in float64 then rounded) for bilinear and cubic. None when nothing is inside."""
+    """Source window (positions plus the kernel's margin) and OpenCV maps (centre convention, computed in
+    float64, rounded to float32 in the same pass) for bilinear and cubic: converted once to OpenCV's fixed-point
+    maps (``convertMaps``, the rounding ``remap`` applies to float maps itself) when the window fits in int16,
+    so that the mask's and the bands' ``remap`` share them. None when nothing is inside."""
     margin = _MARGIN[plan.resampling]
     finite = np.isfinite(sp)
     everywhere = bool(finite.all())
     cr = sp if everywhere else sp[finite.all(axis=1)]
     if not len(cr):
         return None
-    c_lo = max(0, int(math.floor(cr[:, 0].min())) - margin)
-    c_hi = min(plan.src_width, int(math.ceil(cr[:, 0].max())) + margin)
-    r_lo = max(0, int(math.floor(cr[:, 1].min())) - margin)
-    r_hi = min(plan.src_height, int(math.ceil(cr[:, 1].max())) + margin)
+    x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()  # (min(axis=0) is slow)
+    c_lo = max(0, int(math.floor(x_lo)) - margin)
+    c_hi = min(plan.src_width, int(math.ceil(x_hi)) + margin)
+    r_lo = max(0, int(math.floor(y_lo)) - margin)
+    r_hi = min(plan.src_height, int(math.ceil(y_hi)) + margin)
     if c_hi <= c_lo or r_hi <= r_lo:
         return None
     if not everywhere:
         sp = np.where(finite, sp, -1e6)
-    # centre convention (OpenCV) in the window: (x - 0.5) - c_lo
-    mx = (sp[:, 0] - HALF - c_lo).reshape(h, w).astype(np.float32)
-    my = (sp[:, 1] - HALF - r_lo).reshape(h, w).astype(np.float32)
-    return Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo), mx, my
+    # centre convention (OpenCV) in the window: x - (0.5 + c_lo), exact in float64; rows of interleaved (x, y)
+    # (numpy's broadcasting over a last axis of 2, or a cast into its output, is several times slower)
+    xy = (sp.reshape(h, 2 * w) - np.tile((HALF + c_lo, HALF + r_lo), w)).astype(np.float32).reshape(h, w, 2)
+    win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
+    if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
+        return (win, *cv2.convertMaps(xy, None, cv2.CV_16SC2))
+    return win, xy, None
 
 
 def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):

@@ -36,7 +36,7 @@ import warnings
 import numpy as np
 
 from ..errors import IllPosedWarning, InputError, ModelError
-from ..geometry.dem import as_height_source, is_height_source
+from ..geometry.dem import heights_at, is_height_source
 from ..geometry.georeference import intersect_terrain
 from .base import Model, Normalisation, check_pairs, newton_2d, register_model
 from .threads import blas_threads_for
@@ -132,11 +132,13 @@ class FittedModel(Model):
         if not is_height_source(heights):
             z = np.broadcast_to(np.asarray(heights, dtype=np.float64), (len(dst),))
             return self._inverse_at(dst, z, iterations, tol)
-        return self._intersect(dst, as_height_source(heights), iterations, tol, tol_z)
+        return self._intersect(dst, heights, iterations, tol, tol_z)
 
     def _intersect(self, dst, src, iterations, tol, tol_z):
         """Ray–DEM intersection by fixed point on ``Z``, iterating only the points still moving
-        (:func:`fotogeo.geometry.georeference.intersect_terrain`).
+        (:func:`fotogeo.geometry.georeference.intersect_terrain`); ``src`` is sampled for heights only
+        (:func:`~fotogeo.geometry.dem.heights_at`: no gradient, which a callable's central differences would
+        cost four more samplings each).
 
         Step k: ``Z_k = h(XY_{k-1})``, ``XY_k`` = the inverse at ``Z_k`` (Newton, started at
         ``XY_{k-1}``). A point converges at the step where ``|Z_k − Z_{k-1}| < tol_z`` (or ``Z_k``
@@ -144,7 +146,7 @@ class FittedModel(Model):
         """
         z0 = np.full(len(dst), float(self.src_norm.offset[2]))
         return intersect_terrain(lambda idx, z, start: self._inverse_at(dst[idx], z, iterations, tol, start=start),
-                                 lambda XY: src.heights_and_gradient(XY)[0], z0, iterations, tol_z)
+                                 lambda XY: heights_at(src, XY), z0, iterations, tol_z)
 
     def _inverse_at(self, dst, z, iterations, tol, start=None):
         d = self.dst_norm.normalise(dst)

@@ -122,6 +122,14 @@ class BundleResult:
     blunders: tuple  # {observation, frame, point, w, residual_px, round}
     iterations: int
     timings: dict = field(default_factory=dict)
+    #: σ₀²·(S⁻¹) blocks (:mod:`fotogeo.orientation.bundle_result`): per frame ``(m, 6, 6)`` in the order
+    #: X0, Y0, Z0 (m), δθ about the OpenCV camera axes (rad); the free interior parameters ``(k, k)``
+    #: (:attr:`interior_free`, units of :data:`~fotogeo.orientation.bundle_jacobian.INTERIOR_NAMES`) and their
+    #: cross-covariance with each frame ``(m, 6, k)``
+    eo_covariance: np.ndarray | None = None
+    interior_covariance: np.ndarray | None = None
+    eo_interior_covariance: np.ndarray | None = None
+    interior_free: tuple = ()
 
 
 def _robust_weights(pb, s, opts):

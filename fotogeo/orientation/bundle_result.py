@@ -3,9 +3,14 @@
 Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from ``R·diag(1, −1, −1)``);
 σ of the orientation are ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
 degrees, as :mod:`fotogeo.models.collinearity` reports them), σ of the points
-``σ₀ √diag(Σ_bb,i)``. Statistics: σ₀, the image RMS of the used observations (px), and per role
-the RMSE of ``adjusted − known`` per axis, planimetric ``√(RMSE_X² + RMSE_Y²)`` and in height,
-in metres: control (residuals of the weighted coordinates: how far their σ let them move), check
+``σ₀ √diag(Σ_bb,i)``. The full covariance of each frame's orientation is the ``6 × 6`` diagonal block
+``σ₀² (S⁻¹)_jj`` in the unknowns' order ``X0, Y0, Z0`` (m, map axes) then ``δθ`` (rad), the rotation
+increment about the OpenCV camera axes (x right, y down, z forward) of the bundle's update
+``R_j ← R_j·exp([δθ]×)`` (:mod:`fotogeo.orientation.bundle_jacobian`); with self-calibration also the
+free interior parameters' block and their cross-covariance with each frame (what
+:mod:`fotogeo.orientation.ground_sigma` propagates to the ground). Statistics: σ₀, the image RMS of the used
+observations (px), and per role the RMSE of ``adjusted − known`` per axis, planimetric
+``√(RMSE_X² + RMSE_Y²)`` and in height, in metres: control (residuals of the weighted coordinates: how far their σ let them move), check
 (true errors) and ``control_images`` (the control points placed by their rays alone,
 :mod:`fotogeo.orientation.bundle_control`: errors in metres comparable to the check points').
 """
@@ -29,6 +34,15 @@ def _rmse(d: np.ndarray) -> dict:
             "rmse_planimetric_m": float(np.hypot(r[0], r[1])),
             "max_planimetric_m": float(np.max(np.hypot(d[:, 0], d[:, 1]))),
             "max_z_m": float(np.max(np.abs(d[:, 2])))}
+
+
+def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
+    """``(per frame (m, 6, 6), interior (k, k), frame-interior (m, 6, k))`` of ``σ₀² S⁻¹`` (module docstring):
+    the blocks the banded inverse holds (each frame's own and the interior rows)."""
+    Q = sigma0 ** 2 * S_inv
+    idx = 6 * np.arange(m)[:, None] + np.arange(6)
+    frames = Q[idx[:, :, None], idx[:, None, :]]
+    return frames, Q[6 * m:, 6 * m:].copy(), Q[:6 * m, 6 * m:].reshape(m, 6, -1).copy()
 
 
 def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
@@ -75,7 +89,8 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
                           psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
-                          tuple(blunders), run.iterations, timings)
+                          tuple(blunders), run.iterations, timings, *covariance_blocks(post.S_inv, s0, m),
+                          tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior))
     errors = images_only_errors(result, block)
     stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
     return result

@@ -17,6 +17,10 @@ the heights come from :mod:`fotogeo.tools.ortho_inputs`; then, per image:
    (:mod:`fotogeo.geometry.occlusion`): a hidden ground cell is nodata instead of a copy of whatever hides it
    (the "double image" of a building on a DSM).
 
+Frames can also come from a fitted ``orient`` model (``model``: orient's JSON report, one image). With
+``uncertainty`` and ``view_bands`` each orthophoto gets rasters beside it on its grid: the predicted planimetric σ
+of every cell and its view geometry (:mod:`fotogeo.tools.ortho_products`).
+
 Outputs: one GeoTIFF per image (tiled, DEFLATE, internal overviews; ``cog``: GDAL's COG layout), ``output``
 itself for one image, ``<output>/<name>_ortho.tif`` for several; written through
 :class:`~fotogeo.io.raster.AtomicOutputs` (all or nothing).
@@ -30,8 +34,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import FotogeoWarning, InputError, ModelError
-from ..geometry.dem import heights_at
+from ..geometry.dem import heights_at, underlying_dem
 from ..geometry.georeference import Georeference
+from ..geometry.lattice import ground_to_image_on_lattice
 from ..geometry.occlusion import visible_pixels
 from ..io.raster import AtomicOutputs, check_output, open_raster, ropen
 from ..io.warp import grid_covering, warp_to_grid
@@ -42,6 +47,7 @@ from ..options_products import ORTHO
 from .boundary import tool
 from .checks import check_output_grid
 from .ortho_inputs import holes, image_models, map_crs, require_heights, terrain
+from .ortho_products import dem_sigma_for, frame_covariances, product_paths, write_products
 
 
 #: DEFLATE level of the orthophotos: with the horizontal predictor, level 1 writes ~4x faster than 6 for ~10 %
@@ -76,16 +82,25 @@ class OrthoMapping:
     def grid(self, transform, r0: int, c0: int, h: int, w: int) -> np.ndarray:
         """The same positions for the ``h x w`` cell centres of a window of a north-up ``transform``
         (:func:`fotogeo.io.warp.warp_to_grid`): the DEM sampled once per row and column
-        (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`), the frame's camera coordinates likewise
-        (``forward_grid``)."""
+        (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`); the frame's camera coordinates likewise
+        (``forward_grid``), any other model on a checked lattice
+        (:func:`~fotogeo.geometry.lattice.ground_to_image_on_lattice`: within 0.001 px of the exact positions)."""
         t = transform
         X = t.c + (c0 + HALF + np.arange(w)) * t.a
         Y = t.f + (r0 + HALF + np.arange(h)) * t.e
-        grid_heights = getattr(self.heights, "heights_grid", None)
-        Z = grid_heights(X, Y) if grid_heights is not None and not (t.b or t.d) else None
-        if Z is None or self.surface is not None or not hasattr(self.model, "forward_grid"):
+        Z = self._heights_grid(X, Y) if not (t.b or t.d) else None
+        if Z is None or self.surface is not None:
             return self(centres_to_map(t, r0, c0, h, w))
-        return self.model.forward_grid(X, Y, Z)
+        if hasattr(self.model, "forward_grid"):
+            return self.model.forward_grid(X, Y, Z)
+        return ground_to_image_on_lattice(self.model.forward, X, Y, Z)
+
+    def _heights_grid(self, X, Y):
+        """Heights ``(len(Y), len(X))`` of a north-up window, None when the height source cannot give them so."""
+        if np.isscalar(self.heights):
+            return np.full((len(Y), len(X)), float(self.heights))
+        grid_heights = getattr(self.heights, "heights_grid", None)
+        return grid_heights(X, Y) if grid_heights is not None else None
 
 
 class OrthoGrid(NamedTuple):
@@ -115,18 +130,11 @@ def _z_range(heights) -> tuple:
     return tuple(float(v) for v in heights.z_range)
 
 
-def _dem_of(heights):
-    """``(Dem, sampled from another CRS?)`` behind a height source (:mod:`fotogeo.tools.ortho_inputs`)."""
-    src = getattr(heights, "source", heights)  # ShiftedHeights: the DEM under the geoid shift
-    dem = getattr(src, "dem", src)  # DemSampler: the DEM in its own CRS
-    return dem, dem is not src
-
-
 def _surface_bounds(heights, crs):
     """The DEM's extent in the map CRS ``(x0, y0, x1, y1)``, None for a constant height."""
     if np.isscalar(heights):
         return None
-    dem, sampled = _dem_of(heights)
+    dem, sampled = underlying_dem(heights)
     r, c = dem.shape
     corners = np.array([dem.transform * p for p in ((0, 0), (c, 0), (c, r), (0, r))])
     if sampled:
@@ -186,7 +194,7 @@ def occlusion_surface(heights, dem):
     CRS without geoid shift; else None: every step sampled); a DSM with holes is refused."""
     if dem is None or np.isscalar(heights):
         raise InputError("occlusion masking needs a surface model: give the DSM (--dem)")
-    d = _dem_of(heights)[0]
+    d = underlying_dem(heights)[0]
     share = holes(d)
     if share > 0:
         raise InputError(f"DSM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area): a hole would let "
@@ -197,48 +205,60 @@ def occlusion_surface(heights, dem):
 
 
 @tool(ORTHO, rasters={"dem": None, "geoid": None})
-def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
+def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-          resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
+          resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
+          view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
     """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
     made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
     folder = Path(output) if len(images) > 1 or Path(output).is_dir() else None
     made = folder is not None and not folder.exists()
     try:
-        return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, height=height, dem_heights=dem_heights,
-                      geoid=geoid, occlusion=occlusion, resolution=resolution, dst_crs=dst_crs, resampling=resampling,
-                      cog=cog, overwrite=overwrite, progress=progress)
+        return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, model=model, height=height,
+                      dem_heights=dem_heights, geoid=geoid, occlusion=occlusion, resolution=resolution,
+                      dst_crs=dst_crs, resampling=resampling,
+                      cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands,
+                      overwrite=overwrite, progress=progress)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()
         raise
 
 
-def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, height=None,
+def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-           resampling: str = "nearest", cog: bool = False, overwrite: bool = False, progress=None) -> dict:
+           resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
+           view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
         raise InputError("give at least one image to orthorectify")
-    inputs = [*images, dem, camera, eo, geoid]
+    inputs = [*images, dem, camera, eo, geoid, model]
     paths = output_paths(images, output)
+    extras = product_paths(paths, uncertainty, view_bands)
     for p in paths.values():
         check_output(p, inputs, overwrite, "orthophoto")
+    for p in (q for e in extras.values() for q in e.values()):
+        check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera)
-    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc)
+    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model)
+    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
-    if dem is not None and not occlusion and holes(_dem_of(heights)[0]) > 0:
-        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * holes(_dem_of(heights)[0]):.2g} % of its area under "
+    share = holes(underlying_dem(heights)[0]) if dem is not None and not occlusion else 0.0
+    if share > 0:
+        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area under "
                       f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
                       f"cells", FotogeoWarning, stacklevel=2)
+    sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None
+    covs = frame_covariances(eo, ims) if uncertainty else {}
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}
+    if sigma_h is not None:
+        rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
     with AtomicOutputs(overwrite) as out:
         for k, im in enumerate(ims):
             g = grids[im.name]
@@ -256,7 +276,9 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
                 convert_to_cog(tmp, resampling)
             rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, "width": g.width,
                                       "height": g.height, "resolution": g.resolution,
-                                      "transform": list(g.transform)[:6], "dem_coverage": g.coverage, **written}
+                                      "transform": list(g.transform)[:6], "dem_coverage": g.coverage, **written,
+                                      **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
+                                                       sigma_h)}
         out.commit()
     prog(1.0, "done")
     return rep

@@ -8,9 +8,13 @@
   COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
   triangulate's :class:`~fotogeo.tools.triangulate_ortho.AdjustedFrame` (collinearity with Brown's distortion);
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
-  corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`.
+  corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
+* a fitted ``orient`` model (``--model``: orient's JSON report, one image) — used as fitted, ground → image in
+  the CRS of its GCPs (:class:`FittedGroundModel`; a 2-D model ignores the heights); a model fitted image →
+  ground (``*-i2g``) is refused.
 
-**Map CRS** (:func:`map_crs`): ``--crs``; else the DEM's horizontal CRS when projected; else the CRS of the
+**Map CRS** (:func:`map_crs`): a fitted model's, the CRS of its GCPs (another ``--crs`` is refused); ``--crs``;
+else the DEM's horizontal CRS when projected; else the CRS of the
 orientation file (SfM); else the UTM zone of the image centre (RPC). Frame orientations from a ``.txt`` file
 are in the map CRS; an orientation file in another CRS than the one given is refused (mixed CRSs).
 
@@ -49,12 +53,53 @@ class OrthoImage:
     height_reference: str | None = None  # what the orientation states for its Z (frames), "ellipsoid" for RPC
 
 
-def image_models(images, crs, *, camera=None, eo=None, rpc=False) -> list:
+class FittedGroundModel:
+    """A fitted ``orient`` model (ground → image, :mod:`fotogeo.models`) taking map ``(X, Y, Z)`` whatever its own
+    dimensionality: a 2-D model sees ``(X, Y)`` only."""
+
+    def __init__(self, model):
+        self.model, self.src_dims = model, model.src_dims
+
+    def forward(self, XYZ) -> np.ndarray:
+        return self.model.forward(np.asarray(XYZ, np.float64)[:, :self.src_dims])
+
+    def inverse(self, pixel, heights=None, **kw) -> np.ndarray:
+        return self.model.inverse(pixel, heights, **kw) if self.src_dims == 3 else self.model.inverse(pixel)
+
+
+def read_fitted_model(path) -> tuple:
+    """``(model, CRS text)`` of orient's JSON report ``path``; anything else, or a model fitted image → ground,
+    refused in one line."""
+    from ..io.report import read_json
+    from ..models.base import model_from_dict
+    rep = read_json(path, "--model")
+    if rep.get("fotogeo") != "orient" or not isinstance(rep.get("model"), dict) or not rep.get("crs"):
+        raise InputError(f"--model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
+                         f"fitted model and the GCPs' CRS)", option="model")
+    try:
+        model = model_from_dict(rep["model"])
+    except (KeyError, ValueError, TypeError) as exc:
+        raise InputError(f"--model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
+    if getattr(model, "direction", "ground-to-image") != "ground-to-image":
+        raise InputError(f"--model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
+                         f"ground → image model (refit with orient --model {model.name.replace('-i2g', '')})",
+                         option="model")
+    return model, rep["crs"]
+
+
+def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None) -> list:
     """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named."""
     names = [frame_key(p) for p in images]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise InputError(f"images: the names {', '.join(dup)} occur twice; every image needs its own file name")
+    if model is not None:
+        if rpc or camera is not None or eo is not None or len(images) != 1:
+            raise InputError("--model orthorectifies one image through its fitted orient model: give one image and "
+                             "no --camera, --eo or --rpc", option="model")
+        info = open_raster(images[0], "image")
+        return [OrthoImage(str(images[0]), names[0], FittedGroundModel(read_fitted_model(model)[0]), "fitted",
+                           info.width, info.height)]
     if rpc:
         if camera is not None or eo is not None:
             raise InputError("give either --rpc (images carrying RPC metadata) or --camera/--eo (frame cameras), "
@@ -129,8 +174,15 @@ def _frame_images(images, names, camera, eo, crs) -> list:
     return out
 
 
-def map_crs(dst_crs, dem, eo, images, rpc, camera=None) -> tuple:
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None) -> tuple:
     """``(projected CRS, rule)`` of the module docstring."""
+    if model is not None:
+        c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model")
+        given = None if not dst_crs or str(dst_crs).strip().lower() == "auto" else parse_crs(dst_crs, "--crs")
+        if given is not None and not horizontal_crs(given).equals(c):
+            raise InputError(f"--crs differs from the CRS of the fitted model's GCPs ({c.name}): the model takes "
+                             f"map coordinates in that CRS; leave --crs out", option="dst_crs")
+        return c, "the CRS of the fitted model's GCPs (--model)"
     if dst_crs and str(dst_crs).strip().lower() != "auto":
         c = parse_crs(dst_crs, "--crs")
         return require_projected(horizontal_crs(c), "output CRS (--crs)"), "given (--crs)"
@@ -252,8 +304,13 @@ def _as_map_source(d, crs):
 
 
 def holes(d) -> float:
-    """Fraction of a DEM's cells that are nodata *inside* its valid area (holes, not the outer margin)."""
-    from scipy.ndimage import binary_fill_holes
-    valid = np.isfinite(d.data)
-    filled = binary_fill_holes(valid)
-    return float((filled & ~valid).sum()) / max(1, int(filled.sum()))
+    """Fraction of a DEM's cells that are nodata *inside* its valid area (holes, not the outer margin): the nodata
+    regions (4-connected, as ``scipy.ndimage.binary_fill_holes`` fills) that do not touch the array's edge."""
+    import cv2
+    invalid = (~np.isfinite(d.data)).astype(np.uint8)
+    if not invalid.any():
+        return 0.0
+    _, labels = cv2.connectedComponents(invalid, connectivity=4)
+    outer = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    inside = (labels > 0) & ~np.isin(labels, outer[outer > 0])
+    return float(inside.sum()) / max(1, int(invalid.size - invalid.sum() + inside.sum()))

@@ -96,6 +96,7 @@ def block_layers(result, block) -> dict:
 def report(result, block, crs, inputs: dict) -> dict:
     """The JSON report of one adjustment."""
     from ..crs import short_name
+    from ..orientation.ground_sigma import covariance_header, frame_covariance_entry
     cam = result.camera
     return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs), "crs_name": short_name(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
@@ -105,8 +106,10 @@ def report(result, block, crs, inputs: dict) -> dict:
             "fixed_parameters": list(result.fixed), "correlations": list(result.correlations),
             "blunders": list(result.blunders),
             "frames": [{"name": n, "X": e.X, "Y": e.Y, "Z": e.Z, "omega": e.omega, "phi": e.phi, "kappa": e.kappa,
-                        "sigma": dict(zip(("X0", "Y0", "Z0", "rx_deg", "ry_deg", "rz_deg"), map(float, s)))}
-                       for n, e, s in zip(block.frames, result.eo, result.eo_sigma)],
+                        "sigma": dict(zip(("X0", "Y0", "Z0", "rx_deg", "ry_deg", "rz_deg"), map(float, s))),
+                        **frame_covariance_entry(result, j)}
+                       for j, (n, e, s) in enumerate(zip(block.frames, result.eo, result.eo_sigma))],
+            **covariance_header(result),
             "iterations": result.iterations, "timings_s": result.timings}
 
 

@@ -34,7 +34,12 @@ class OrthoAlgorithm(FotogeoAlgorithm):
             "is refused unless geoid undulations are given or its heights declared.\n\n"
             "<b>Occlusion masking</b> (with a DSM as the DEM): every cell's line of sight is traced through the "
             "surface and ground hidden from the camera becomes nodata instead of a double image of what hides "
-            "it.\n\nReferences: Amhar, Jansa & Ries (1998): the generation of true orthophotos using a 3D "
+            "it.\n\n<b>Uncertainty</b> (frames adjusted by triangulate: its exterior_orientation.txt with "
+            "report.json beside it): &lt;name&gt;_ortho_sigma.tif, the predicted planimetric σ (m) of every cell, "
+            "propagated from the adjustment's covariance of the frame's orientation and the DEM's height σ (default "
+            "half its cell); loaded with a legend in metres. <b>View bands</b>: &lt;name&gt;_ortho_view.tif, the "
+            "off-nadir angle (°) and the distance to the projection centre (m) of every cell.\n\n"
+            "References: Amhar, Jansa & Ries (1998): the generation of true orthophotos using a 3D "
             "building model in conjunction with a conventional DTM. Grodecki & Dial (2003): RPC block adjustment.")
 
     OPTIONS = (ORTHO,)
@@ -63,4 +68,13 @@ class OrthoAlgorithm(FotogeoAlgorithm):
             if run is not None:
                 load_on_completion(context, r["path"], f"{name} {tr('ortho')}", self.OUTDIR, None, raster=True,
                                    run=run)
+            if "sigma" in r:
+                feedback.pushInfo(f"{name}: predicted planimetric σ {r['sigma']['min_m']:.3g} … "
+                                  f"{r['sigma']['max_m']:.3g} m (DEM σ {rep['dem_sigma_m']:.3g} m, "
+                                  f"{rep['dem_sigma_rule']})")
+            for key, label, style in (("sigma", tr("σ (m)"), "uncertainty"),
+                                      ("view", tr("view angle, distance"), None)):
+                if key in r and run is not None:
+                    load_on_completion(context, r[key]["path"], f"{name} {label}", self.OUTDIR, style, raster=True,
+                                       run=run)
         return {self.OUTDIR: outdir, self.COUNT: len(rep["images"])}
