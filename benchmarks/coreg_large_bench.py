@@ -157,6 +157,7 @@ def fotogeo_coreg(ref, tgt, tmp: Path, threads: int, E) -> dict:
 def large_case(args, tmp: Path) -> dict:
     print(f"\n== {args.size} x {args.size}, fotogeo {args.tool}, grid {GRID}, window {WINDOW}, "
           f"{args.threads} core(s); building the scene in {tmp}", flush=True)
+    started = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
     t0 = time.perf_counter()
     ref, tgt, E = build_large(tmp, args.size)
     print(f"built in {time.perf_counter() - t0:.0f} s", flush=True)
@@ -165,7 +166,7 @@ def large_case(args, tmp: Path) -> dict:
     print(f"fotogeo: {fg['wall_s']:.0f} s (CPU {fg['cpu_s']:.0f} s), peak {fg['peak_mb']} MB, windows {fg.get('windows')}, "
           f"field vs truth {fg.get('field_vs_truth_px')} {fg.get('error') or ''}", flush=True)
     row = {"size": args.size, "grid": GRID, "window": WINDOW, "warp": WARP, "fotogeo": fg,
-           "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
+           "started": started}
     if args.arosics:
         aro = cb.arosics(args.arosics, ref, tgt, tmp / "large_arosics.tif", GRID, WINDOW, args.threads,
                          timeout=args.arosics_timeout)
