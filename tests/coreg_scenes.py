@@ -62,6 +62,30 @@ def true_field(E, x, y, iterations: int = 60):
     return dx, dy
 
 
+def misregistration(reference, raster, spacing: int = 32, window: int = 64) -> dict:
+    """The shifts (px) a grid of windows measures between ``reference`` and ``raster``, nothing corrected:
+    ``coregister``'s ``before`` (n, median, rms, ce90 ...)."""
+    from fotogeo.tools.coreg import coregister
+    return coregister(reference, raster, None, grid_spacing=spacing, window=window, iterations=1)["before"]
+
+
+def time_series(folder, dates: int = 3, size: int = 320):
+    """One area on several dates, each under its own smooth local distortion: ``(reference, {target: E})``.
+
+    The reference is a ``size``² corner of band 1 of the Sentinel-2 scene (:func:`s2_crop`); date
+    ``k`` is the same area, same grid, with another gain, offset and noise (σ 2) and warped by a
+    sinusoid of its own amplitude (1.2–2 px), wavelength and offset (:func:`sinusoid`)."""
+    src = s2_crop()[:size, :size]
+    ref = write_geotiff(Path(folder) / "reference.tif", src, dtype="uint8")
+    targets = {}
+    for k in range(dates):
+        E = sinusoid(amplitude=1.2 + 0.4 * k, wavelength=240.0 + 60 * k, offset=(0.3 + 0.2 * k, -0.4 + 0.3 * k))
+        noise = np.random.default_rng(k).normal(0, 2.0, src.shape)
+        targets[write_geotiff(Path(folder) / f"date_{k}.tif", warp(src * (0.8 + 0.15 * k) + 15 * k + noise, E),
+                              dtype="uint8")] = E
+    return ref, targets
+
+
 def s2_crop() -> np.ndarray:
     """Band 1 of the Sentinel-2 scene of the NGI valley (797 x 1361, 10 m), float64."""
     with rasterio.open(S2_CROP) as ds:

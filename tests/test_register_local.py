@@ -11,7 +11,6 @@ from click.testing import CliRunner
 import coreg_scenes as cs
 from fotogeo.cli import main
 from fotogeo.errors import InputError, MatchingError
-from fotogeo.tools.coreg import coregister
 from fotogeo.tools.register import register
 
 
@@ -23,11 +22,6 @@ def seasonal(data_dir, tmp_path_factory):
     ref_a, tgt_a, E = cs.seasonal_landsat()
     return (cs.write_geotiff(folder / "ref.tif", ref_a, dtype="uint8"),
             cs.write_geotiff(folder / "tgt.tif", tgt_a, dtype="uint8"))
-
-
-def _misregistration(reference, raster) -> dict:
-    """The shifts a grid of windows measures between ``reference`` and ``raster`` (px), nothing corrected."""
-    return coregister(reference, raster, None, grid_spacing=32, window=64, iterations=1)["before"]
 
 
 def test_seasonal_pair_registers_through_windows_and_the_local_field_removes_the_ripple(seasonal, tmp_path):
@@ -42,7 +36,7 @@ def test_seasonal_pair_registers_through_windows_and_the_local_field_removes_the
     assert local.report["local"]["windows"]["reliable"] >= 50
     assert (tmp_path / "local_field.tif").is_file()
     assert "local_windows" in {name for name, _ in pyogrio.list_layers(tmp_path / "local.gpkg")}
-    before, after = _misregistration(ref, tmp_path / "plain.tif"), _misregistration(ref, tmp_path / "local.tif")
+    before, after = cs.misregistration(ref, tmp_path / "plain.tif"), cs.misregistration(ref, tmp_path / "local.tif")
     # the projective model leaves the ripple (~1 px: median 0.95 px measured); the field takes it out
     # (median 0.07 px measured; nearest-neighbour resampling alone leaves ~0.25 px)
     assert before["median"] > 0.7, before

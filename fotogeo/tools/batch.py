@@ -18,12 +18,14 @@ scenes, and N scenes on N cores do not oversubscribe them.
 A failing scene never stops the batch: its row says ``failed`` with the one-line message.
 A worker that dies mid-scene (killed, out of memory) loses its task; the scheduler runs it
 again on another worker (Dask's ``distributed.scheduler.allowed-failures`` times). With
-``resume`` (the default) a scene whose manifest row says ``ok`` and whose three outputs
-exist is skipped — so is one whose outputs and report exist though the manifest missed it
-(a crash between the two); anything else is registered again, its outputs replaced.
+``resume`` (the default) a scene whose manifest row says ``ok`` and whose outputs exist
+(raster, GeoPackage, report; with ``local`` its displacement field ``<scene>_field.tif`` too)
+is skipped — so is one whose outputs and report exist though the manifest missed it (a crash
+between the two); anything else is registered again, its outputs replaced.
 """
 from __future__ import annotations
 
+import collections
 import glob
 import os
 import socket
@@ -103,8 +105,10 @@ def scene_names(targets: list[Path]) -> list[str]:
     return names
 
 
-def scene_outputs(outdir: Path, scene: str) -> dict:
-    return {"output": outdir / f"{scene}.tif", "vectors": outdir / f"{scene}.gpkg", "report": outdir / f"{scene}.json"}
+def scene_outputs(outdir: Path, scene: str, local: bool = False) -> dict:
+    """A scene's output paths; with ``local`` also its displacement field (``<scene>_field.tif``)."""
+    outs = {"output": outdir / f"{scene}.tif", "vectors": outdir / f"{scene}.gpkg", "report": outdir / f"{scene}.json"}
+    return {**outs, "field": outdir / f"{scene}_field.tif"} if local else outs
 
 
 def _footprint_wkt(geo, target) -> str | None:
@@ -139,10 +143,10 @@ def register_scene(reference: str, target: str, scene: str, outdir: str, dem=Non
     from .register import register
     pin_threads()
     t0 = time.perf_counter()
-    outs = scene_outputs(Path(outdir), scene)
+    outs = scene_outputs(Path(outdir), scene, bool((options or {}).get("local")))
     try:
         r = register(reference, target, outs["output"], vectors=outs["vectors"], report=outs["report"],
-                     overwrite=True, dem=dem, **(options or {}))
+                     field=outs.get("field"), overwrite=True, dem=dem, **(options or {}))
         try:
             wkt = _footprint_wkt(r.georeference, target)
         except Exception:  # noqa: BLE001 - the footprint is informative; the scene itself succeeded
@@ -156,10 +160,11 @@ def register_scene(reference: str, target: str, scene: str, outdir: str, dem=Non
     return row
 
 
-def _done_before(row: dict | None, scene: str, target: Path, outdir: Path) -> dict | None:
-    """The row of a scene a previous run finished (manifest ``ok`` + outputs, or outputs + report)."""
+def _done_before(row: dict | None, scene: str, target: Path, outdir: Path, local: bool) -> dict | None:
+    """The row of a scene a previous run finished (manifest ``ok`` + outputs, or outputs + report;
+    with ``local`` its field too: a scene registered without it is registered again)."""
     import json
-    outs = scene_outputs(outdir, scene)
+    outs = scene_outputs(outdir, scene, local)
     if not all(p.is_file() for p in outs.values()):
         return None
     if row and row.get("status") == "ok" and row.get("target") == str(target):
@@ -217,14 +222,20 @@ def register_batch(reference, targets, outdir, *, client=None, scheduler=None, w
     paths = expand_targets(targets)
     names = scene_names(paths)
     inputs = {*paths, reference, *([Path(dem)] if isinstance(dem, str) else [])}
-    clash = [str(p) for n in names for p in scene_outputs(outdir, n).values() if p in inputs]
+    local = bool(register_options.get("local"))
+    every = [p for n in names for p in scene_outputs(outdir, n, local).values()]
+    twice = [str(p) for p, k in collections.Counter(every).items() if k > 1]
+    if twice:
+        raise InputError(f"two scenes would write {twice[0]!r} (a scene's field is <scene>_field.tif); rename "
+                         f"the target that ends in _field")
+    clash = [str(p) for p in every if p in inputs]
     if clash:
         raise InputError(f"the output {clash[0]!r} would replace an input; choose an outdir other than the "
                          f"targets' folder")
     previous = {r["scene"]: r for r in mf.read_csv(outdir / MANIFEST_CSV)} if resume else {}
     rows, todo = [], []
     for scene, target in zip(names, paths):
-        done = _done_before(previous.get(scene), scene, target, outdir) if resume else None
+        done = _done_before(previous.get(scene), scene, target, outdir, local) if resume else None
         rows.append(done or {"scene": scene, "target": str(target), "status": "pending"})
         if done is None:
             todo.append((scene, target))
