@@ -15,8 +15,8 @@ from fotogeo.errors import InputError, MatchingError
 from fotogeo.geometry.camera import OrientedFrame
 from fotogeo.geometry.dem import Dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
-from fotogeo.tools.triangulate_control import automatic_control
-from fotogeo.tools.triangulate_match import thin_to_budget
+from fotogeo.tools.triangulate.control import automatic_control
+from fotogeo.tools.triangulate.match import thin_to_budget
 from ngi_truth import FRAMES
 
 NAMES = [f"{name}_RGB" for name, _ in FRAMES]

@@ -13,7 +13,7 @@ from fotogeo.geometry.camera import FrameCamera, OrientedFrame
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.tools.triangulate_match import block_tie_points, image_regions, matched_observations, refine_tracks
+from fotogeo.tools.triangulate.match import block_tie_points, image_regions, matched_observations, refine_tracks
 from rendered_block_ties import with_ties, write_frames
 
 
@@ -100,7 +100,7 @@ def test_each_frame_is_detected_once_and_the_tie_points_stay_the_same(rendered, 
     """The keypoint cache (fotogeo.tools.match.FeatureCache) changes the number of detections only:
     matching every pair with fresh detections of both frames gives the same tracks and observations."""
     import fotogeo.tools.match as match
-    import fotogeo.tools.triangulate_match as triangulate_match
+    import fotogeo.tools.triangulate.match as triangulate_match
     sb, _, paths, height, *_ = rendered
     detections = []
     detect = match.detect

@@ -38,7 +38,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
-    from ..tools.triangulate_outputs import accuracy_lines
+    from ..tools.triangulate.outputs import accuracy_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,

@@ -123,7 +123,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
-        from fotogeo.tools.triangulate_outputs import accuracy_lines
+        from fotogeo.tools.triangulate.outputs import accuracy_lines
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}

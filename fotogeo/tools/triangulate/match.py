@@ -41,19 +41,19 @@ import dataclasses
 
 import numpy as np
 
-from ..errors import MatchingError
-from ..geometry.camera import OrientedFrame
-from ..io.raster import open_raster, read_decimated
-from ..options import RegisterOptions
-from ..pixels import outline
-from ..progress import as_progress
-from .match import FeatureCache, find_tie_points
+from ...errors import MatchingError
+from ...geometry.camera import OrientedFrame
+from ...io.raster import open_raster, read_decimated
+from ...options import RegisterOptions
+from ...pixels import outline
+from ...progress import as_progress
+from ..match import FeatureCache, find_tie_points
 
 
 def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05, *, round_footprints: bool = False) -> list:
     """``[(i, j), ...]`` (i < j) of frames whose footprints at ``height`` overlap (module docstring).
 
-    ``round_footprints``: κ is not known yet (:mod:`fotogeo.tools.triangulate_start`), so each footprint is
+    ``round_footprints``: κ is not known yet (:mod:`fotogeo.tools.triangulate.start`), so each footprint is
     the circle through its corners around the image centre's ground point, whatever the frame's heading."""
     from shapely.geometry import Point, Polygon
     w, h = camera.image_size
@@ -220,7 +220,7 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
 
     Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
     """
-    from ..matching import lsm_many
+    from ...matching import lsm_many
     prog = as_progress(prog)
     n = len(frame)
     track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
@@ -279,14 +279,14 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
     no thinning), LSM at full resolution (``lsm``; σ None without it).
 
-    ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate_start`) measures
+    ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     level = detection_level(camera) if level is None else int(level)
     if height is None:
-        from .triangulate_start import provisional_height
+        from .start import provisional_height
         height = provisional_height(eos, camera)
     pairs = overlapping_pairs(camera, eos, height, round_footprints=start is not None)
     alone = sorted(set(range(len(frames))) - {i for p in pairs for i in p})
@@ -325,7 +325,7 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
 def matched_observations(frames, names, camera, eos, height: float, **kwargs):
     """``(ImageObservations, report)``: :func:`block_tie_points` as the table the bundle adjustment reads
     (frame keys ``names``, point ids ``tie<track>``, each observation's LSM σ)."""
-    from ..io.block import ImageObservations
+    from ...io.block import ImageObservations
     frame, track, pixel, sigma, report = block_tie_points(frames, camera, eos, height, **kwargs)
     obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
                             np.array([f"tie{t}" for t in track], dtype=object), pixel, sigma)

@@ -19,12 +19,12 @@ import warnings
 
 import numpy as np
 
-from ..errors import FotogeoWarning, InputError, ModelError
-from ..geometry.camera import OrientedFrame
-from ..geometry.dem import is_height_source
-from ..geometry.georeference import Georeference
-from ..orientation import bundle_jacobian as bj
-from ..pixels import as_points
+from ...errors import FotogeoWarning, InputError, ModelError
+from ...geometry.camera import OrientedFrame
+from ...geometry.dem import is_height_source
+from ...geometry.georeference import Georeference
+from ...orientation import bundle_jacobian as bj
+from ...pixels import as_points
 
 
 class AdjustedFrame:
@@ -95,7 +95,7 @@ def frame_models(result, block) -> list:
 def terrain(dem, crs, result):
     """The height source: the DEM in the map CRS, else the mean height of the adjusted points."""
     if dem is not None:
-        from .rectify import dem_heights
+        from ..rectify import dem_heights
         return dem_heights(dem, crs)
     z = result.point_xyz[:, 2]
     return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
@@ -121,8 +121,8 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
     the mean height of the adjusted points); nothing is resampled yet. A frame whose grid cannot be made (e.g.
     off the DEM) gets the reason instead (a string): it is reported and skipped, never losing the adjustment's
     outputs."""
-    from ..io.raster import open_raster
-    from .rectify import rectify_grid
+    from ...io.raster import open_raster
+    from ..rectify import rectify_grid
     points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
     ground = points if len(points) else np.zeros((1, 3))
     grids = {}
@@ -138,8 +138,8 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
 
 def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
-    from ..io.raster import open_raster
-    from .rectify import rectify_image
+    from ...io.raster import open_raster
+    from ..rectify import rectify_image
     out = {}
     for k, (path, name) in enumerate(zip(frames, block.frames)):
         stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")

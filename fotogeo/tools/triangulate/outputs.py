@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..crs import crs_text
+from ...crs import crs_text
 
 FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
 CAMERA_FILE = "camera.yaml"  # written with self-calibration
@@ -28,12 +28,12 @@ def output_paths(folder, *, names, self_calibration, orthorectify) -> dict:
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
                   progress) -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file)."""
-    from ..io.block import write_exterior_orientation, write_interior_orientation
-    from ..io.raster import AtomicOutputs
-    from ..io.report import write_json
-    from ..io.vector import write_layers
-    from .triangulate_ortho import footprints, ortho_grids, orthorectify, terrain
-    from .triangulate_report import write_html
+    from ...io.block import write_exterior_orientation, write_interior_orientation
+    from ...io.raster import AtomicOutputs
+    from ...io.report import write_json
+    from ...io.vector import write_layers
+    from .ortho import footprints, ortho_grids, orthorectify, terrain
+    from .report import write_html
     crs = block.crs
     feet = footprints(result, block, terrain(dem, crs, result), crs)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
@@ -95,7 +95,7 @@ def block_layers(result, block) -> dict:
 
 def report(result, block, crs, inputs: dict) -> dict:
     """The JSON report of one adjustment."""
-    from ..crs import short_name
+    from ...crs import short_name
     cam = result.camera
     return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs), "crs_name": short_name(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
@@ -137,7 +137,7 @@ def accuracy_lines(rep: dict) -> list:
 
 def crs_summary(text: str) -> str:
     """The report's CRS in one short phrase (its EPSG code or name; never a whole WKT)."""
-    from ..crs import parse_crs, short_name
+    from ...crs import parse_crs, short_name
     try:
         return short_name(parse_crs(text, "CRS"))
     except Exception:  # noqa: BLE001 - a summary, never a failure

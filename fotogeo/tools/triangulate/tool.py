@@ -10,10 +10,10 @@
 * ``eo`` — the approximate exterior orientation, ``name X Y Z omega phi kappa`` lines in the
   map CRS (metres, PATB degrees), e.g. from GNSS/INS; optional with control: a frame it lacks
   (or every frame, ``eo=None``) is resected against its ≥ 4 GCPs
-  (:mod:`fotogeo.tools.triangulate_inputs`);
+  (:mod:`fotogeo.tools.triangulate.inputs`);
 * ``observations`` — the image measurements of the tie points, a table ``frame, point, col,
   row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
-  frames are matched (:mod:`fotogeo.tools.triangulate_match`: footprints at the mean GCP
+  frames are matched (:mod:`fotogeo.tools.triangulate.match`: footprints at the mean GCP
   height, SURF on pyramid level 1, epipolar RANSAC, multi-ray tracks thinned to Gruber positions,
   LSM transfer at full resolution with each observation's σ);
 * ``gcps`` — ground control: ODM/OpenSfM's ``gcp_list.txt`` (:func:`fotogeo.io.block.read_gcp_list`)
@@ -22,12 +22,12 @@
   CRS; check points: the ``role`` field, the names in ``check_points`` and a seeded spread
   hold-out of ``check_fraction`` of the control;
 * ``reference`` (with ``dem``) — orthophoto(s) on which control is found automatically
-  (:func:`fotogeo.tools.triangulate_control.automatic_control`), merged with ``gcps`` and weighted
+  (:func:`fotogeo.tools.triangulate.control.automatic_control`), merged with ``gcps`` and weighted
   with ``reference_sigma_xy`` / ``reference_sigma_z``;
 
 runs :func:`fotogeo.orientation.bundle.adjust_block` in the map CRS (projected, metric) and
 writes into ``folder``, as one set (nothing on an error or a cancel;
-:mod:`fotogeo.tools.triangulate_outputs`):
+:mod:`fotogeo.tools.triangulate.outputs`):
 
 * ``exterior_orientation.txt`` — the adjusted orientations, in the input's format;
 * ``camera.yaml`` — with ``self_calibration``: the adjusted interior orientation (orthority's
@@ -36,10 +36,10 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
   angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel,
   residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
-  the DEM or the mean height, :mod:`fotogeo.tools.triangulate_ortho`);
+  the DEM or the mean height, :mod:`fotogeo.tools.triangulate.ortho`);
 * ``report.json`` — σ₀, image RMS, control/check RMSE per axis, interior parameters estimated,
   held fixed and why, blunders culled, timings; ``report.html`` — the same with plots
-  (:mod:`fotogeo.tools.triangulate_report`);
+  (:mod:`fotogeo.tools.triangulate.report`);
 * with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation.
 """
 from __future__ import annotations
@@ -50,18 +50,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FotogeoWarning, InputError, ModelError, OutputError
-from ..io.block import frame_key, read_image_observations
-from ..io.raster import check_output
-from ..orientation.bundle import Block, BundleOptions, adjust_block
-from ..progress import as_progress
-from .boundary import tool
-from ..io.block import split_check_points
-from .triangulate_control import reference_sigmas
-from .triangulate_inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
+from ...errors import FotogeoWarning, InputError, ModelError, OutputError
+from ...io.block import frame_key, read_image_observations
+from ...io.raster import check_output
+from ...orientation.bundle import Block, BundleOptions, adjust_block
+from ...progress import as_progress
+from ..boundary import tool
+from ...io.block import split_check_points
+from .control import reference_sigmas
+from .inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
                                  read_block_control, read_camera)
-from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
-from .triangulate_sources import block_start
+from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
+from .sources import block_start
 
 __all__ = ["CAMERA_FILE", "FILES", "triangulate"]
 
@@ -99,9 +99,9 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
 
 def _matched(frames, names, cam, eos, height, start, match, prog):
     """Image observations (with LSM's σ) from matching the overlapping frames
-    (:func:`fotogeo.tools.triangulate_match.matched_observations`); ``(obs, report, eos, height)``, the
+    (:func:`fotogeo.tools.triangulate.match.matched_observations`); ``(obs, report, eos, height)``, the
     orientations and height measured on the images when ``start`` asks for them."""
-    from .triangulate_match import matched_observations
+    from .match import matched_observations
     obs, rep = matched_observations(frames, names, cam, eos, height, start=start, progress=prog, **match)
     st = rep.get("start") or {}
     eos, height = st.pop("eos", eos), st.pop("height", height)
@@ -188,15 +188,15 @@ def _control(frames, start, kw, prog):
     """``(frames, names, control GcpList or None, map CRS, approximate orientations, check-point names, automatic
     control names, frames dropped)``: the surveyed control, the approximate orientation (the start's, else
     resection where ``eo`` lacks a frame, else registration to ``reference``,
-    :mod:`fotogeo.tools.triangulate_register`), the automatic control from ``reference``
-    (:mod:`fotogeo.tools.triangulate_inputs`) and the check points."""
+    :mod:`fotogeo.tools.triangulate.register`), the automatic control from ``reference``
+    (:mod:`fotogeo.tools.triangulate.inputs`) and the check points."""
     cam, names = start.camera, start.names
     gcp, map_crs, given_checks = read_block_control(kw["gcps"], start.crs, kw["gcp_crs"], cam, names,
                                                     kw["check_points"])
     auto, dropped = set(), []
     reference, dem = _as_list(kw["reference"]), kw["dem"]
     if start.registration is not None:
-        from .triangulate_register import registration_start
+        from .register import registration_start
         reg = registration_start(frames, names, cam, reference, dem, map_crs, undetermined=kw["undetermined"],
                                  progress=prog)
         frames, names, eos, gcp, dropped = reg.frames, reg.names, reg.eos, reg.control, reg.dropped
@@ -219,11 +219,11 @@ def _control(frames, start, kw, prog):
 def start_height(gcp, dem, crs, eos, camera):
     """The terrain height for footprints and the LSM start: the mean GCP height, else the mean DEM height
     under the frames' image centres, else None (measured on the images,
-    :mod:`fotogeo.tools.triangulate_start`)."""
+    :mod:`fotogeo.tools.triangulate.start`)."""
     if gcp is not None:
         return float(np.mean(gcp.ground[:, 2]))
     if dem is not None:
-        from .triangulate_ortho import terrain
+        from .ortho import terrain
         src = terrain(dem, crs, None)
         if src is not None and not isinstance(src, (int, float)):
             xy = np.array([[e.X, e.Y] for e in eos])
@@ -262,7 +262,7 @@ def adjust_determined(block, opts, kw, prog):
     """``(result, block, FrameQuality, dropped)``: the adjustment, every frame checked
     (:mod:`fotogeo.orientation.bundle_quality`); an undetermined frame fails the run, or with
     ``undetermined="drop"`` is dropped and the block adjusted again."""
-    from ..orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
+    from ...orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
     dropped = []
     while True:
         try:
@@ -298,7 +298,7 @@ def adjust_determined(block, opts, kw, prog):
 
 def _angle_prior(eo_sigma, m: int) -> np.ndarray:
     """``(m,)`` True where the frame's angles have a prior (:func:`~fotogeo.orientation.bundle_problem.eo_weights`)."""
-    from ..orientation.bundle_problem import eo_weights
+    from ...orientation.bundle_problem import eo_weights
     return (eo_weights(eo_sigma, m)[:, 3:] > 0).all(axis=1)
 
 
@@ -327,6 +327,6 @@ def _as_list(paths) -> list:
 
 def _resected(eo, names) -> list:
     """The frames whose approximate orientation came from space resection (not in ``eo``)."""
-    from ..io.camera import read_exterior_orientation
+    from ...io.camera import read_exterior_orientation
     table = read_exterior_orientation(eo) if eo else {}
     return [n for n in names if n not in table]
