@@ -35,7 +35,7 @@ import json
 import sys
 from pathlib import Path
 
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,7 +47,7 @@ def add_registration(ngi, rows) -> dict:
     """Dense RMSE of the single-frame terrain-aware registration (independent of the seed)."""
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     reg = {}
     for n in NAMES:
         px, truth = dense_grid(cam, true[n], dem)

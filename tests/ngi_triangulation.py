@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from fotogeo.geometry.camera import OrientedFrame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 from fotogeo.orientation.bundle import Block, BundleOptions, adjust_block
 from fotogeo.pixels import pixel_centres
@@ -122,7 +122,7 @@ def through_tool(ngi, approx, crs) -> tuple:
 def run_seed(ngi, seed: int, level: int, perturb=(20.0, 0.5), tool: bool = False, start: str = "perturbed") -> dict:
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     rng = np.random.default_rng(seed)
     approx = starting_orientation(ngi, true, rng, start, perturb)
     frames = [ngi / "frames" / f"{n}.tif" for n in NAMES]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pytest
 
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 from ngi_triangulation import NAMES, dense_grid, registration_rmse, run_seed
 
@@ -37,7 +37,7 @@ def test_dense_ground_accuracy_beats_single_frame_registration(data_dir, adjuste
     ngi = data_dir / "ngi"
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     for name in NAMES:
         d = adjusted["frames"][name]["dense_rmse_m"]
         assert d["approx"] > 15.0 and d["truth"] < 1e-6, d
