@@ -97,12 +97,13 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
             np.concatenate(px), np.concatenate(s_obs))
 
 
-def _matched(frames, names, cam, eos, height, start, match, prog):
+def _matched(frames, names, cam, eos, height, start, match, prog, distortion=None):
     """Image observations (with LSM's σ) from matching the overlapping frames
     (:func:`fotogeo.tools.triangulate.match.matched_observations`); ``(obs, report, eos, height)``, the
     orientations and height measured on the images when ``start`` asks for them."""
     from .match import matched_observations
-    obs, rep = matched_observations(frames, names, cam, eos, height, start=start, progress=prog, **match)
+    obs, rep = matched_observations(frames, names, cam, eos, height, start=start, distortion=distortion,
+                                    progress=prog, **match)
     st = rep.get("start") or {}
     eos, height = st.pop("eos", eos), st.pop("height", height)
     return obs, rep, tuple(eos), height
@@ -152,7 +153,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         obs, matching, eos, height = _matched(
             frames, names, cam, eos, height, start.measure(height),
             _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
-            prog.stage(0.2, 0.5, "matching the frames"))
+            prog.stage(0.2, 0.5, "matching the frames"), distortion)
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
