@@ -357,6 +357,8 @@ def matched_observations(frames, names, camera, eos, height: float, **kwargs):
     (frame keys ``names``, point ids ``tie<track>``, each observation's LSM σ)."""
     from ...io.block import ImageObservations
     frame, track, pixel, sigma, report = block_tie_points(frames, camera, eos, height, **kwargs)
+    for p in report["pairs"]:
+        p["frames"] = [str(names[i]) for i in p["pair"]]
     obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
                             np.array([f"tie{t}" for t in track], dtype=object), pixel, sigma)
     return obs, report

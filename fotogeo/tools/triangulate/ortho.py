@@ -116,11 +116,19 @@ def footprints(result, block, heights, crs) -> dict:
             "on_terrain": np.array(complete), "area_m2": np.array([p.area for p in polys])}
 
 
-def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dict:
+def common_resolution(grids: dict) -> float | None:
+    """One pixel size for every orthophoto of a mosaic (``fotogeo mosaic`` needs one lattice): the median of the
+    frames' ground sample distances (their grids' resolutions), rounded to 3 significant digits; None when no
+    frame has a grid."""
+    res = [g.resolution for g in grids.values() if not isinstance(g, str)]
+    return float(f"{np.median(res):.3g}") if res else None
+
+
+def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution, quiet: bool = False) -> dict:
     """Per frame, the checked output grid of its orthorectification (:func:`fotogeo.tools.rectify.rectify_grid`,
     the mean height of the adjusted points); nothing is resampled yet. A frame whose grid cannot be made (e.g.
     off the DEM) gets the reason instead (a string): it is reported and skipped, never losing the adjustment's
-    outputs."""
+    outputs (``quiet``: without the warning)."""
     from ...io.raster import open_raster
     from ..rectify import rectify_grid
     points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
@@ -132,7 +140,8 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
                                        resolution)
         except (ModelError, InputError) as exc:
             grids[name] = f"not orthorectified: {str(exc)[:300]}; check that the DEM covers the frame's footprint"
-            warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
+            if not quiet:
+                warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
     return grids
 
 
@@ -147,4 +156,13 @@ def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, 
             out[name] = {"error": grids.get(name, "no grid")}
             continue
         out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
+        _tag_nadir(temp_paths[name], grids[name].geo.model)
     return out
+
+
+def _tag_nadir(path, frame) -> None:
+    """``FOTOGEO_NADIR`` (X Y of the projection centre, the ground point without relief displacement), as
+    ``fotogeo ortho`` writes it: ``fotogeo mosaic`` starts its seamlines there."""
+    from ...io.raster import ropen
+    with ropen(path, "r+") as ds:
+        ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in frame.projection_centre[:2]))

@@ -34,13 +34,19 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
   YAML, :func:`fotogeo.io.block.write_interior_orientation`);
 * ``block.gpkg`` — layers ``tie_points`` (3-D, σ, rays), ``control`` (control and check points
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
-  angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel,
-  residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
+  angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel, adjusted
+  pixel, residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
   the DEM or the mean height, :mod:`fotogeo.tools.triangulate.ortho`);
 * ``report.json`` — σ₀, image RMS, control/check RMSE per axis, interior parameters estimated,
-  held fixed and why, blunders culled, timings; ``report.html`` — the same with plots
+  held fixed and why, blunders culled, image residuals sorted by size with the adjusted image
+  coordinates, mean σX σY σZ per point type, matching statistics, the timings of every stage
+  (:mod:`fotogeo.tools.triangulate.statistics`); ``report.html`` — the same with plots
   (:mod:`fotogeo.tools.triangulate.report`);
-* with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation.
+* with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation;
+* with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
+  by :func:`fotogeo.tools.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
+  else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
+  (``report.json`` ``mosaic.error``, a warning) and loses none of them.
 """
 from __future__ import annotations
 
@@ -120,8 +126,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
-                dem=None, orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
-                reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
+                dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None,
+                resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
                 overwrite: bool = False, progress=None) -> dict:
@@ -137,23 +143,27 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
 def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
     finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=kw["self_calibration"],
-                          orthorectify=kw["orthorectify"])
+                          orthorectify=kw["orthorectify"], mosaic=kw["mosaic"])
     for path in finals.values():
         check_output(path, inputs, kw["overwrite"], "output")
-    start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
-                        kw["geoinfo"])
+    with prog.timed("inputs"):
+        start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
+                            kw["geoinfo"])
     cam, distortion = start.camera, start.distortion
-    frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
-                                                                          prog.stage(0.0, 0.2, "control"))
+    with prog.timed("control"):
+        frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
+                                                                              prog.stage(0.0, 0.2, "control"))
     matching = None
     if observations is not None:
-        obs = read_image_observations(observations)
+        with prog.timed("inputs"):
+            obs = read_image_observations(observations)
     else:
-        height = start_height(gcp, kw["dem"], map_crs, eos, cam)
-        obs, matching, eos, height = _matched(
-            frames, names, cam, eos, height, start.measure(height),
-            _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
-            prog.stage(0.2, 0.5, "matching the frames"), distortion)
+        with prog.timed("matching"):
+            height = start_height(gcp, kw["dem"], map_crs, eos, cam)
+            obs, matching, eos, height = _matched(
+                frames, names, cam, eos, height, start.measure(height),
+                _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
+                prog.stage(0.2, 0.5, "matching the frames"), distortion)
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
@@ -166,8 +176,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
-                                                                                       "bundle adjustment"))
+    with prog.timed("adjustment"):
+        result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
+                                                                                           "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
@@ -177,7 +188,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "automatic_control_sigma_m": {"xy": ref_sigma[0], "z": ref_sigma[1]},
                                          "matching": matching, "resected_frames": start.resected,
                                          "start": start.summary(), "frame_quality": quality.rows(),
-                                         "dropped_frames": dropped + undetermined})
+                                         "dropped_frames": dropped + undetermined}, stages=dict(prog.timings))
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
