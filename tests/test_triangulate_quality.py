@@ -76,3 +76,14 @@ def test_clustered_points_fail_the_spread_test(sb):
     result = adjust_block(block, BundleOptions(snooping=False))
     bad = undetermined_frames(frame_quality(result, block))
     assert sb.block.frames[2] in bad and "cover" in bad[sb.block.frames[2]]
+
+
+def test_a_frame_without_angle_sigma_is_never_passed_by_its_prior(sb):
+    """A NaN angle σ (a singular reduced system; seen on a rendered oblique block with rays meeting at 1.3°)
+    fails the frame even when its angles have a prior — it was passed as determined before."""
+    result = adjust_block(sb.block, BundleOptions(snooping=False))
+    q = frame_quality(result, sb.block)
+    sigma = q.angle_sigma.copy()
+    sigma[2] = np.nan
+    bad = undetermined_frames(dataclasses.replace(q, angle_sigma=sigma), angle_prior=np.ones(len(sigma), bool))
+    assert list(bad) == [sb.block.frames[2]] and "no angle σ" in bad[sb.block.frames[2]]

@@ -105,7 +105,9 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
             why.append(f"{q.points[j]} points (needs {min_points})")
         if q.spread[j] < min_spread:
             why.append(f"points cover {100 * q.spread[j]:.1f}% of the frame (needs {100 * min_spread:.0f}%)")
-        if not q.angle_sigma[j] <= max_angle_sigma and (why or not prior[j]):
+        if not np.isfinite(q.angle_sigma[j]):  # never held by a prior: the adjustment has no covariance for it
+            why.append("no angle σ (the normal equations are singular there: near-parallel rays or no datum)")
+        elif not q.angle_sigma[j] <= max_angle_sigma and (why or not prior[j]):
             why.append(f"angle σ {q.angle_sigma[j]:.3g}° (limit {max_angle_sigma:g}°)")
         if why:
             out[name] = ", ".join(why)
