@@ -28,7 +28,6 @@ import cv2
 import numpy as np
 
 from fotogeo.geometry.camera import OrientedFrame
-from fotogeo.tools.triangulate import match
 from fotogeo.tools.triangulate.match import block_tie_points, ideal_pixels
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -123,12 +122,8 @@ def run(seed: int) -> list:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=2)
-    ap.add_argument("--min-pair-inliers", type=int, default=0,
-                    help="pairs with fewer RANSAC inliers are not used [0: every pair, the RANSAC's counts alone; "
-                         "the tool uses fotogeo.tools.triangulate.match.MIN_PAIR_INLIERS]")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "triangulate_undistort_bench.json"))
     a = ap.parse_args(argv)
-    match.MIN_PAIR_INLIERS = a.min_pair_inliers
     rows = [r for seed in range(a.seeds) for r in run(seed)]
     head = ("seed", "variant", "pairs", "matches", "inliers", "right_inliers", "median_inliers_per_pair",
             "min_inliers_per_pair", "tracks", "track_pairs_right", "track_pairs_wrong", "match_s")

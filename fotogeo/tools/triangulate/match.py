@@ -19,11 +19,7 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   corners; ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
   inliers on the true epipolar line (< 2 px) 5 530 → 5 536 and 6 338 → 6 345 (seeds 0, 1) — at level 1
   the 2 px threshold and the fundamental matrix's own freedom absorb most of this distortion; the step
-  makes the model right, not the counts larger. The same measurement showed why a pair needs
-  ``MIN_PAIR_INLIERS`` = 15 inliers to be used: of the inliers of pairs with fewer, 19–23 % lay on the
-  true epipolar line (136 of 736, 154 of 666), of pairs with 15–30 inliers 80 %, with more 92–96 %; the
-  wrong ones joined right tracks into inconsistent ones (a frame of the rendered oblique block lost its
-  tie points that way). Each frame is read, fused and detected once
+  makes the model right, not the counts larger. Each frame is read, fused and detected once
   (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images).
@@ -128,11 +124,6 @@ def ideal_pixels(camera, distortion):
     return ideal
 
 
-#: a pair whose RANSAC keeps fewer inliers is left out (module docstring): a fundamental matrix (7 degrees of
-#: freedom) fits almost any 9 matches
-MIN_PAIR_INLIERS = 15
-
-
 def _epipolar_inliers(xy1, xy2, threshold):
     import cv2
     if len(xy1) < 8:
@@ -204,9 +195,7 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, ideal=None):
                     cache.forget(infos[f])
         keep = _epipolar_inliers(*((xy_i, xy_j) if ideal is None else (ideal(xy_i), ideal(xy_j))),
                                  epipolar_px * 2 ** level)
-        used = bool(keep.sum() >= MIN_PAIR_INLIERS)
-        per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum()), "used": used})
-        keep &= used
+        per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
         inliers.append((i, j, xy_i[keep], xy_j[keep]))
         for a, b in zip(xy_i[keep], xy_j[keep]):
             na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
