@@ -16,9 +16,9 @@ from fotogeo.tools.triangulate.outputs import block_layers, report
 from fotogeo.tools.triangulate.report import write_html
 from fotogeo.tools.triangulate.statistics import LARGEST
 
-MATCHING = {"pairs": [{"pair": [0, 1], "frames": ["a", "b"], "matches": 90, "inliers": 70, "used": True},
-                      {"pair": [1, 2], "frames": ["b", "c"], "matches": 40, "inliers": 12, "used": False},
-                      {"pair": [0, 2], "frames": ["a", "c"], "matches": 5, "inliers": 0, "used": False}],
+MATCHING = {"pairs": [{"pair": [0, 1], "frames": ["a", "b"], "matches": 90, "inliers": 70},
+                      {"pair": [1, 2], "frames": ["b", "c"], "matches": 40, "inliers": 12},
+                      {"pair": [0, 2], "frames": ["a", "c"], "matches": 5, "inliers": 0}],
             "detection_level": 1, "tracks": 81, "rays_per_track": {"2": 70, "3": 11}}
 STAGES = {"inputs": 0.5, "control": 1.25, "matching": 3.0, "adjustment": 2.0}
 
@@ -63,7 +63,7 @@ def test_mean_point_sigma_per_point_type(adjusted):
 def test_matching_statistics_and_stage_timings(adjusted):
     _, result, rep = adjusted
     m = rep["matching_summary"]
-    assert (m["pairs_tried"], m["pairs_matched"], m["pairs_used"]) == (3, 2, 1)
+    assert (m["pairs_tried"], m["pairs_matched"]) == (3, 2)
     assert m["inliers_per_pair"] == {"min": 0, "median": 12.0, "max": 70, "total": 82}
     tie = (result.roles == "tie") & np.isfinite(result.point_xyz).all(axis=1)
     assert sum(m["rays_per_tie_point_adjusted"].values()) == tie.sum()

@@ -68,7 +68,6 @@ def matching_section(summary: dict | None, matching: dict | None) -> str:
     ipp = summary["inliers_per_pair"] or {}
     head = [("pairs tried (footprints overlap)", summary["pairs_tried"]),
             ("pairs matched (≥ 1 epipolar inlier)", summary["pairs_matched"]),
-            ("pairs used (enough inliers to trust their epipolar geometry)", summary.get("pairs_used", "–")),
             ("inliers per pair: min / median / max", f"{ipp.get('min', '–')} / {fmt(ipp.get('median'), 1)} / "
                                                      f"{ipp.get('max', '–')}"),
             ("detection pyramid level", (matching or {}).get("detection_level", "–")),
@@ -78,13 +77,12 @@ def matching_section(summary: dict | None, matching: dict | None) -> str:
     keys = sorted({*after, *adjusted}, key=int)
     rays = [(k, after.get(k, 0), adjusted.get(k, 0)) for k in keys]
     pairs = sorted((matching or {}).get("pairs", []), key=lambda p: p["inliers"])[:PAIR_ROWS]
-    pair_rows = [(" – ".join(p.get("frames", map(str, p["pair"]))), p["matches"], p["inliers"],
-                  "yes" if p.get("used", True) else "no") for p in pairs]
+    pair_rows = [(" – ".join(p.get("frames", map(str, p["pair"]))), p["matches"], p["inliers"]) for p in pairs]
     return ("<h2>Tie-point matching</h2>" + table(head, ("", "value"))
             + "<h3>Rays per track</h3>" + table(rays, ("rays", "tracks after matching", "tie points adjusted"))
             + f"<h3>Inliers per pair</h3><p>The {len(pair_rows)} weakest of {summary['pairs_tried']} pairs (fewest "
               f"epipolar inliers first); report.json lists every pair.</p>"
-            + table(pair_rows, ("pair", "matches", "epipolar inliers", "used")))
+            + table(pair_rows, ("pair", "matches", "epipolar inliers")))
 
 
 def mosaic_section(mosaic: dict | None, resolution) -> str:

@@ -8,8 +8,7 @@ adjusted points per point type, the tie-point matching statistics and the timing
   ``residuals`` layer of ``block.gpkg`` every one (with ``col_adjusted``, ``row_adjusted``).
 * **Mean σ per point type**: for tie, control, check (and rejected control) points the mean of the adjusted
   points' a-posteriori σX, σY, σZ (m; σ₀-scaled covariance of the adjustment), and their RMS.
-* **Matching**: pairs tried (footprints overlap), matched (≥ 1 epipolar inlier) and used (enough inliers,
-  :data:`fotogeo.tools.triangulate.match.MIN_PAIR_INLIERS`), inliers per pair (min,
+* **Matching**: pairs tried (footprints overlap) and matched (≥ 1 epipolar inlier), inliers per pair (min,
   median, max, and each pair with its frames), rays per track after matching and after the adjustment (tie
   points with their used observations).
 * **Timings**: wall-clock seconds of the stages (inputs, control, matching, adjustment, outputs, mosaic) and of the
@@ -69,12 +68,10 @@ def matching_summary(matching: dict | None, result) -> dict | None:
     if not matching:
         return None
     inliers = np.array([p["inliers"] for p in matching.get("pairs", [])], dtype=np.int64)
-    used = [p.get("used", p["inliers"] > 0) for p in matching.get("pairs", [])]
     tie = (result.roles == "tie") & np.isfinite(result.point_xyz).all(axis=1)
     rays = np.asarray(result.point_rays)[tie].astype(np.int64)
     counts = np.unique(rays, return_counts=True)
     return {"pairs_tried": int(len(inliers)), "pairs_matched": int(np.count_nonzero(inliers)),
-            "pairs_used": int(sum(used)),
             "inliers_per_pair": ({"min": int(inliers.min()), "median": float(np.median(inliers)),
                                   "max": int(inliers.max()), "total": int(inliers.sum())} if len(inliers) else None),
             "rays_per_track_matched": matching.get("rays_per_track"),
