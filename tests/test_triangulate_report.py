@@ -83,3 +83,13 @@ def test_report_html_lists_them(adjusted, tmp_path):
     first = rep["residuals_by_size"][0]
     assert re.search(rf"<td>{re.escape(first['frame'])}</td><td>{re.escape(first['point'])}</td>", text)
     assert text.index("<td>a – c</td>") < text.index("<td>b – c</td>") < text.index("<td>a – b</td>")  # weakest first
+
+
+def test_the_accuracy_lines_import_without_the_readers():
+    """The QGIS plugin imports outputs.accuracy_lines in QGIS's own process, where rasterio is not importable:
+    the package must not load the tool (and io.raster) with it."""
+    import subprocess
+    import sys
+    code = ("import sys; import fotogeo.tools.triangulate.outputs as o; o.accuracy_lines; "
+            "assert 'rasterio' not in sys.modules and 'fotogeo.tools.triangulate.tool' not in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -13,7 +13,14 @@
 * :mod:`.outputs` — the output set; :mod:`.report` — ``report.html`` with plots.
 
 Imports inside the package go from :mod:`.tool` down to the others; none of them imports :mod:`.tool`.
+The package's own names are loaded on first use (PEP 562): importing one module of it (the QGIS plugin's
+in-process ``outputs.accuracy_lines``, without rasterio) does not import the tool and its readers.
 """
-from .tool import CAMERA_FILE, FILES, adjust_determined, start_height, triangulate
-
 __all__ = ["CAMERA_FILE", "FILES", "adjust_determined", "start_height", "triangulate"]
+
+
+def __getattr__(name):
+    if name in __all__:
+        from . import tool
+        return getattr(tool, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
