@@ -14,7 +14,7 @@ from fotogeo.errors import ModelError
 from fotogeo.geometry.camera import FrameCamera
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.orientation.bundle_quality import frame_quality, undetermined_frames
+from fotogeo.orientation.bundle_quality import frame_quality, prior_contradicted_frames, undetermined_frames
 from fotogeo.tools.triangulate import adjust_determined
 
 CAMERA = FrameCamera(6.0, (4.0, 6.0), (400, 600))
@@ -87,3 +87,34 @@ def test_a_frame_without_angle_sigma_is_never_passed_by_its_prior(sb):
     sigma[2] = np.nan
     bad = undetermined_frames(dataclasses.replace(q, angle_sigma=sigma), angle_prior=np.ones(len(sigma), bool))
     assert list(bad) == [sb.block.frames[2]] and "no angle σ" in bad[sb.block.frames[2]]
+
+
+def _held_by_truth(sb, frame_index: int, kappa_error: float, angle_sigma: float = 2.0):
+    """``sb``'s block started from the true orientations, frame ``frame_index``'s κ off by ``kappa_error``°,
+    with ``(block, options)`` holding every frame's angles by a prior of ``angle_sigma``° (positions free)."""
+    eo = list(sb.true_eo)
+    eo[frame_index] = dataclasses.replace(eo[frame_index], kappa=eo[frame_index].kappa + kappa_error)
+    sigma = np.tile([np.inf, np.inf, np.inf, angle_sigma, angle_sigma, angle_sigma], (len(eo), 1))
+    return dataclasses.replace(sb.block, eo=tuple(eo)), BundleOptions(snooping=False, eo_sigma=sigma)
+
+
+def test_a_frame_its_ties_turn_far_from_its_attitude_prior_is_named(sb):
+    """The prior test (Baarda's w on the prior's residual): 20° between the adjusted attitude and a 2° prior is
+    named; the block whose priors agree with its ties passes it."""
+    block, opts = _held_by_truth(sb, 3, 20.0)
+    result = adjust_block(block, opts)
+    bad = prior_contradicted_frames(result, block, opts.eo_sigma)
+    assert list(bad) == [sb.block.frames[3]], bad
+    assert "adjusted attitude 20" in bad[sb.block.frames[3]] and "disagree" in bad[sb.block.frames[3]]
+    block, opts = _held_by_truth(sb, 3, 0.0)
+    assert prior_contradicted_frames(adjust_block(block, opts), block, opts.eo_sigma) == {}
+
+
+def test_the_tool_refuses_a_contradicted_frame_or_drops_it_alone(sb):
+    block, opts = _held_by_truth(sb, 3, 20.0)
+    with pytest.raises(ModelError, match=f"frame\\(s\\) {sb.block.frames[3]}: adjusted attitude.*check their "
+                                         f"attitude.*--undetermined drop"):
+        adjust_determined(block, opts, KW, None)
+    result, kept, q, dropped = adjust_determined(block, opts, {**KW, "undetermined": "drop"}, None)
+    assert [d["name"] for d in dropped] == [sb.block.frames[3]]
+

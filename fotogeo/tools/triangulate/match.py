@@ -11,15 +11,17 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
   ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
   resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
-  keeps the pairs that fit the two-view geometry. A fundamental matrix holds for a pinhole camera only, so
-  the RANSAC sees each keypoint with the camera's distortion removed (:func:`ideal_pixels`: the ray of
-  :func:`fotogeo.orientation.bundle_jacobian.undistort_rays` put back through the pinhole,
-  ``x_ideal = f·scale·(u, v) + pp``); the matches keep their measured pixels for the adjustment, which
-  models the distortion itself. Measured on the rendered oblique drone block (k1 −0.06, ~14 px at the
-  corners; ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
+  keeps the pairs that fit the two-view geometry. The RANSAC sees the measured pixels, distortion
+  included: a fundamental matrix holds for a pinhole camera only, but removing the distortion first
+  (``distortion=``, :func:`ideal_pixels`: the ray of :func:`fotogeo.orientation.bundle_jacobian.undistort_rays`
+  put back through the pinhole, ``x_ideal = f·scale·(u, v) + pp``) gained nothing measurable and is off in
+  the tool. Measured on the rendered oblique drone block (k1 −0.06, ~14 px at the corners;
+  ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
   inliers on the true epipolar line (< 2 px) 5 530 → 5 536 and 6 338 → 6 345 (seeds 0, 1) — at level 1
-  the 2 px threshold and the fundamental matrix's own freedom absorb most of this distortion; the step
-  makes the model right, not the counts larger. Each frame is read, fused and detected once
+  the 2 px threshold and the fundamental matrix's own freedom absorb this distortion; through the whole
+  tool (the gimbal case of ``tests/test_triangulate_oblique.py``) it changed which marginal frames keep
+  wrong ties: seed 0 lost DJI_401 (2.1 % coverage) and DJI_405 turned 20° from its gimbal prior, seed 2
+  DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
   (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images).

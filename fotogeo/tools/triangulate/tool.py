@@ -103,13 +103,13 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
             np.concatenate(px), np.concatenate(s_obs))
 
 
-def _matched(frames, names, cam, eos, height, start, match, prog, distortion=None):
+def _matched(frames, names, cam, eos, height, start, match, prog):
     """Image observations (with LSM's σ) from matching the overlapping frames
     (:func:`fotogeo.tools.triangulate.match.matched_observations`); ``(obs, report, eos, height)``, the
-    orientations and height measured on the images when ``start`` asks for them."""
+    orientations and height measured on the images when ``start`` asks for them. The epipolar RANSAC sees
+    the measured pixels, distortion included (why: :mod:`fotogeo.tools.triangulate.match`)."""
     from .match import matched_observations
-    obs, rep = matched_observations(frames, names, cam, eos, height, start=start, distortion=distortion,
-                                    progress=prog, **match)
+    obs, rep = matched_observations(frames, names, cam, eos, height, start=start, progress=prog, **match)
     st = rep.get("start") or {}
     eos, height = st.pop("eos", eos), st.pop("height", height)
     return obs, rep, tuple(eos), height
@@ -163,7 +163,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
             obs, matching, eos, height = _matched(
                 frames, names, cam, eos, height, start.measure(height),
                 _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
-                prog.stage(0.2, 0.5, "matching the frames"), distortion)
+                prog.stage(0.2, 0.5, "matching the frames"))
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
@@ -274,7 +274,8 @@ def adjust_determined(block, opts, kw, prog):
     """``(result, block, FrameQuality, dropped)``: the adjustment, every frame checked
     (:mod:`fotogeo.orientation.bundle_quality`); an undetermined frame fails the run, or with
     ``undetermined="drop"`` is dropped and the block adjusted again."""
-    from ...orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
+    from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
+                                               undetermined_frames)
     dropped = []
     while True:
         try:
@@ -291,6 +292,10 @@ def adjust_determined(block, opts, kw, prog):
         prior = _angle_prior(opts.eo_sigma, len(block.frames))
         bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
                                   angle_prior=prior)
+        contradicted = prior_contradicted_frames(result, block, opts.eo_sigma)
+        drop = set(bad) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
+        for n, why in contradicted.items():
+            bad[n] = f"{bad[n]}; {why}" if n in bad else why
         if not bad:
             held = prior_held_frames(quality, kw["max_angle_sigma"])
             if held:
@@ -300,12 +305,12 @@ def adjust_determined(block, opts, kw, prog):
                               FotogeoWarning, stacklevel=2)
             return result, block, quality, dropped
         text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
-        if kw["undetermined"] != "drop" or len(block.frames) - len(bad) < 2:
+        if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
             raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
-                             f"add tie points or GCPs there, give their attitude (--eo, gimbal data, "
-                             f"--eo-sigma-angle), or leave them out (--undetermined drop)")
-        dropped += [{"name": n, "reason": why} for n, why in bad.items()]
-        block, opts = _without_frames(block, opts, set(bad))
+                             f"add tie points or GCPs there, give or check their attitude and position (--eo, "
+                             f"gimbal and GPS tags, --eo-sigma-angle), or leave them out (--undetermined drop)")
+        dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
+        block, opts = _without_frames(block, opts, drop)
 
 
 def _angle_prior(eo_sigma, m: int) -> np.ndarray:
