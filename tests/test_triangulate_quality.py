@@ -118,3 +118,22 @@ def test_the_tool_refuses_a_contradicted_frame_or_drops_it_alone(sb):
     result, kept, q, dropped = adjust_determined(block, opts, {**KW, "undetermined": "drop"}, None)
     assert [d["name"] for d in dropped] == [sb.block.frames[3]]
 
+
+def test_the_worst_frame_line_never_prints_nan(monkeypatch, tmp_path):
+    """A σ that is not finite ranks the frame worst and reads 'undetermined' (it printed 'nan' and, NaN never
+    comparing larger, was not even the frame named)."""
+    from click.testing import CliRunner
+
+    import fotogeo.tools.triangulate as package
+    from fotogeo.cli import main
+    stats = {"n_frames": 2, "n_points": 9, "n_observations": 18, "image_rms_px": 0.1, "n_blunders": 0,
+             "check": {}, "control": {}}
+    rows = [{"name": "A", "angle_sigma_deg": 0.2, "position_sigma_m": 0.1, "points": 9, "multi_ray_points": 0},
+            {"name": "B", "angle_sigma_deg": float("nan"), "position_sigma_m": float("nan"), "points": 9,
+             "multi_ray_points": 0}]
+    rep = {"statistics": stats, "sigma0": 1.0, "frame_quality": rows, "fixed_parameters": [], "folder": "out"}
+    monkeypatch.setattr(package, "triangulate", lambda *a, **k: rep)
+    res = CliRunner().invoke(main, ["triangulate", "a.tif", "b.tif", "-o", str(tmp_path / "o"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert "worst frame B: angle sigma undetermined deg, position sigma undetermined m" in res.output
+    assert "nan" not in res.output
