@@ -47,12 +47,12 @@ GDAL = {"gdal-poly1": "poly1", "gdal-poly2": "poly2", "gdal-poly3": "poly3"}
 
 
 def gcp_set(n_gcp: int, n_check: int):
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
     from fotogeo.orientation.simulation import make_gcps
 
     frame = load_ngi_frame(DATA / "ngi", FRAME)
-    return frame, make_gcps(frame, Dem.open(DATA / "ngi" / "dem.tif"), n_gcp, n_check, "homogeneous",
+    return frame, make_gcps(frame, read_dem(DATA / "ngi" / "dem.tif"), n_gcp, n_check, "homogeneous",
                             noise=0.3, seed=0)
 
 

@@ -252,7 +252,7 @@ def run_real_pair(rng, n):
         import rasterio
 
         from fotogeo.io.camera import load_ngi_frame
-        from fotogeo.geometry.dem import Dem
+        from fotogeo.io.raster import read_dem
         from fotogeo.pixels import pixel_to_map
     except ImportError as exc:
         return {"skipped": f"needs fotogeo.geometry.camera / fotogeo.dem: {exc}"}
@@ -268,7 +268,7 @@ def run_real_pair(rng, n):
     ortho, T = grey(DATA / "ngi/ortho/ngi_rgb_byte_1.tif")
     frame_img, _ = grey(DATA / "ngi/frames/3324c_2015_1004_05_0182_RGB.tif")
     frame = load_ngi_frame(DATA / "ngi", "3324c_2015_1004_05_0182")
-    dem = Dem.open(DATA / "ngi/dem.tif")
+    dem = read_dem(DATA / "ngi/dem.tif")
 
     def to_frame(xy):
         XY = pixel_to_map(T, xy)

@@ -42,7 +42,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from fotogeo.io.camera import load_ngi_frame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.errors import FotogeoError
 from fotogeo.orientation.simulation import make_gcps
 from fotogeo.models import MODELS, IllPosedWarning
@@ -103,7 +103,7 @@ def splits_of(name, table):
 
 def run(frames, split_table, spreads, trials, noise, all_models, data, clusters=3, cluster_radius=0.1):
     ngi = data / "ngi"
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     rows = []
     every = list(dict.fromkeys(s for m in all_models for s in splits_of(m, split_table)))
     for fname in frames:

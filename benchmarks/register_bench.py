@@ -142,10 +142,10 @@ class Truth:
         elif self.kind == "ngi":
             from pyproj import CRS
             from fotogeo.io.camera import load_ngi_frame
-            from fotogeo.geometry.dem import Dem
+            from fotogeo.io.raster import read_dem
             from ngi_truth import truth_points  # tests/ngi_truth.py, shared with the tests
             ngi = DATA / "ngi"
-            self.dem = Dem.open(ngi / "dem.tif")
+            self.dem = read_dem(ngi / "dem.tif")
             self.frame = load_ngi_frame(ngi, t["frame"])
             self.src_crs, self.dst_crs = CRS.from_wkt(self.dem.crs.to_wkt()), CRS.from_epsg(32735)
             self.crs = "EPSG:32735"

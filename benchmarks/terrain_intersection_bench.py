@@ -29,7 +29,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from ngi_truth import FRAMES, truth_points  # noqa: E402
 
-from fotogeo.geometry.dem import Dem, DemSampler  # noqa: E402
+from fotogeo.geometry.dem import DemSampler  # noqa: E402
+from fotogeo.io.raster import read_dem  # noqa: E402
 from fotogeo.geometry.georeference import Georeference  # noqa: E402
 from fotogeo.models import MODELS  # noqa: E402
 from fotogeo.pixels import pixel_centres  # noqa: E402
@@ -57,7 +58,7 @@ def main():
     ngi = args.data / "ngi"
     px, ground = truth_points(ngi, FRAMES[0][0], step=10)
     idx = np.random.default_rng(0).choice(len(px), 200, replace=False)
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     heights = dem if CRS.from_wkt(dem.crs.to_wkt()) == MAP_CRS else DemSampler(dem, MAP_CRS)
     w, h = px.max(axis=0) + 1
     x, y = pixel_centres(25, 25)

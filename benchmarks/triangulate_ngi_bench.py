@@ -7,9 +7,9 @@ professional aerial triangulation (the truth). Per seed:
 1. the approximate orientation is the true one perturbed (Gaussian, 20 m per axis, 0.5° per angle),
    or (``--start registration``) each frame's own terrain-aware registration to its orthophoto
    (collinearity with the camera): no orientation given at all;
-2. automatic control (:func:`fotogeo.tools.triangulate_control.automatic_control`): each frame
+2. automatic control (:func:`fotogeo.tools.triangulate.control.automatic_control`): each frame
    matched to the orthophoto tiles, DEM heights, robust terrain fit, thinned to 90 per frame;
-3. tie points between the frames (:func:`fotogeo.tools.triangulate_match.matched_observations`:
+3. tie points between the frames (:func:`fotogeo.tools.triangulate.match.matched_observations`:
    pyramid level ``--level``, Gruber thinning, LSM with σ);
 4. bundle adjustment (:func:`fotogeo.orientation.bundle.adjust_block`): control σ 2.5 m in plan
    (half a 5 m orthophoto pixel, the measured reprojection noise of the automatic control) and
@@ -35,7 +35,7 @@ import json
 import sys
 from pathlib import Path
 
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,7 +47,7 @@ def add_registration(ngi, rows) -> dict:
     """Dense RMSE of the single-frame terrain-aware registration (independent of the seed)."""
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     reg = {}
     for n in NAMES:
         px, truth = dense_grid(cam, true[n], dem)

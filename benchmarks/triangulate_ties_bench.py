@@ -2,7 +2,7 @@
 
 A block of rendered frames (:func:`fotogeo.orientation.block_render.render_block`: texture on the
 terrain, every frame through its true camera) is matched by
-:func:`fotogeo.tools.triangulate_match.block_tie_points` in several configurations and adjusted
+:func:`fotogeo.tools.triangulate.match.block_tie_points` in several configurations and adjusted
 with the block's simulated control (:func:`fotogeo.orientation.bundle.adjust_block`):
 
 * ``before`` — the first version: SURF on the full-resolution frames, every epipolar inlier, no
@@ -32,7 +32,7 @@ from fotogeo.geometry.camera import FrameCamera
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.tools.triangulate_match import block_tie_points
+from fotogeo.tools.triangulate.match import block_tie_points
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from rendered_block_ties import with_ties, write_frames  # noqa: E402

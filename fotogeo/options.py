@@ -269,9 +269,13 @@ TRIANGULATE = Table(
            "DEM for the footprints and --orthorectify [the mean height of the adjusted points]."),
     Option("orthorectify", "bool", False, "Orthorectify every frame with its adjusted orientation",
            "Write <frame>_ortho.tif: every frame orthorectified with its adjusted orientation and the DEM."),
+    Option("mosaic", "bool", False, "Mosaic the orthorectified frames (mosaic.tif, seamlines in mosaic.gpkg)",
+           "Write mosaic.tif: the frames orthorectified (implies --orthorectify) and mosaicked as fotogeo mosaic "
+           "does (seamlines, balancing, feathering), its seamlines in mosaic.gpkg; one pixel size for all [the "
+           "median GSD of the frames]. A failing mosaic is reported and leaves the other outputs."),
     Option("resolution", "float", None, "Orthophoto pixel size (0 = each frame's ground sample distance)",
-           "Pixel size of the orthorectified frames [each frame's GSD].", minimum=0.0, exclusive_minimum=True,
-           automatic=0.0, advanced=True),
+           "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
+           exclusive_minimum=True, automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
     Option("reference_sigma_xy", "float", None, "σ of automatic control X, Y (m; empty = half the orthophoto's "
            "pixel)", "σ of the X, Y of control found on the reference orthophoto (--reference), m [half its "

@@ -2,8 +2,8 @@
 
 One seed of the pipeline (:func:`run_seed`): a starting orientation (the professional EO perturbed,
 or each frame's own terrain-aware registration), automatic control from the orthophotos + DEM
-(:func:`fotogeo.tools.triangulate_control.automatic_control`), tie points
-(:func:`fotogeo.tools.triangulate_match.matched_observations`), bundle adjustment; the adjusted
+(:func:`fotogeo.tools.triangulate.control.automatic_control`), tie points
+(:func:`fotogeo.tools.triangulate.match.matched_observations`), bundle adjustment; the adjusted
 orientations against the truth and the dense-grid ground RMSE (:func:`dense_grid`,
 :func:`ground_rmse`), beside the single-frame registration (:func:`registration_rmse`).
 
@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from fotogeo.geometry.camera import OrientedFrame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 from fotogeo.orientation.bundle import Block, BundleOptions, adjust_block
 from fotogeo.pixels import pixel_centres
-from fotogeo.tools.triangulate_control import automatic_control
-from fotogeo.tools.triangulate_match import matched_observations
+from fotogeo.tools.triangulate.control import automatic_control
+from fotogeo.tools.triangulate.match import matched_observations
 
 NAMES = ("3324c_2015_1004_05_0182_RGB", "3324c_2015_1004_05_0184_RGB")
 ORTHO = {NAMES[0]: "ngi_rgb_byte_1.tif", NAMES[1]: "ngi_rgb_byte_2.tif"}
@@ -122,7 +122,7 @@ def through_tool(ngi, approx, crs) -> tuple:
 def run_seed(ngi, seed: int, level: int, perturb=(20.0, 0.5), tool: bool = False, start: str = "perturbed") -> dict:
     cam = load_camera(ngi / "interior_orientation.yaml")
     true = read_exterior_orientation(ngi / "exterior_orientation.txt")
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     rng = np.random.default_rng(seed)
     approx = starting_orientation(ngi, true, rng, start, perturb)
     frames = [ngi / "frames" / f"{n}.tif" for n in NAMES]

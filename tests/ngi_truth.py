@@ -6,7 +6,7 @@ import numpy as np
 from pyproj import CRS
 
 from fotogeo.io.camera import load_ngi_frame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.crs import transform_points
 from fotogeo.pixels import pixel_centres
 
@@ -16,7 +16,7 @@ FRAMES = [("3324c_2015_1004_05_0182", "ngi_rgb_byte_1.tif"), ("3324c_2015_1004_0
 def truth_points(ngi, name, step=10, crs=32735):
     """Frame pixels on a dense grid (every ``step`` px) and their true ground points
     ``(X, Y, Z)``, X and Y in EPSG:``crs``."""
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     frame = load_ngi_frame(ngi, name)
     w, h = frame.camera.image_size
     x, y = pixel_centres(w // step, h // step)

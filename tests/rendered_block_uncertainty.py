@@ -29,9 +29,9 @@ from fotogeo.io.report import write_json
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
-from fotogeo.tools.triangulate_match import matched_observations
-from fotogeo.tools.triangulate_ortho import AdjustedFrame
-from fotogeo.tools.triangulate_outputs import report
+from fotogeo.tools.triangulate.match import matched_observations
+from fotogeo.tools.triangulate.ortho import AdjustedFrame
+from fotogeo.tools.triangulate.outputs import report
 from rendered_block_ties import with_ties, write_frames
 
 CRS = "EPSG:32635"  # the simulated block's coordinates start at (500000, 4420000)

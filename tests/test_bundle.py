@@ -206,3 +206,17 @@ def test_residuals_within_their_a_priori_sigma_are_never_blunders():
     r = adjust_block(dataclasses.replace(b, obs_pixel=px))
     assert [x["observation"] for x in r.blunders] == [planted]
     assert r.status[planted] == "blunder"
+
+
+def test_points_whose_rays_meet_at_a_grazing_angle_are_found():
+    """_narrow_rays: two rays meeting at 1° (below MIN_RAY_ANGLE_DEG) mark their point, at 5° not; a point with one
+    active ray (a control point's) is never marked."""
+    from fotogeo.orientation.bundle import MIN_RAY_ANGLE_DEG, _narrow_rays
+    d = 100.0
+    C = np.array([[0.0, 0.0, d], [d * np.tan(np.radians(1.0)), 0.0, d], [d * np.tan(np.radians(5.0)), 0.0, d]])
+    X = np.zeros((3, 3))  # three points at the origin
+    frame = np.array([0, 1, 0, 2, 0, 1])
+    point = np.array([0, 0, 1, 1, 2, 2])
+    active = np.array([True, True, True, True, True, False])
+    assert MIN_RAY_ANGLE_DEG > 1.0
+    assert _narrow_rays(X, C, frame, point, active, 3).tolist() == [True, False, False]

@@ -10,6 +10,7 @@ from affine import Affine
 from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, rotation_patb
 from fotogeo.io.camera import load_ngi_frame, read_exterior_orientation, read_interior_orientation
 from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError
 from fotogeo.pixels import pixel_centres, to_centre
 
@@ -100,7 +101,7 @@ def test_dem_open_errors(tmp_path):
     from fotogeo.errors import RasterError
 
     with pytest.raises(RasterError, match="cannot read DEM"):
-        Dem.open(tmp_path / "missing.tif")
+        read_dem(tmp_path / "missing.tif")
 
 
 def test_readers(tmp_path):
@@ -130,7 +131,7 @@ def test_load_ngi_frame(data_dir):
 
 def test_ngi_round_trip_with_dem(data_dir):
     f = load_ngi_frame(data_dir / "ngi", "3324c_2015_1004_05_0182")
-    dem = Dem.open(data_dir / "ngi" / "dem.tif")
+    dem = read_dem(data_dir / "ngi" / "dem.tif")
     xy = np.random.default_rng(4).uniform([0, 0], [640, 1152], (20000, 2))
     P = f.pixel_to_world(xy, dem)
     assert np.isfinite(P).all()
@@ -173,7 +174,7 @@ def _ortho_shifts(frame, dem, ortho_path, frame_path, pixel_offset=(0.0, 0.0), w
 def test_true_geometry_agrees_with_orthophoto(data_dir, name, ortho):
     """README: frame resampled with the true geometry matches its orthophoto, 0.8 px RMSE, median 0.46."""
     ngi = data_dir / "ngi"
-    frame, dem = load_ngi_frame(ngi, name), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, name), read_dem(ngi / "dem.tif")
     s = _ortho_shifts(frame, dem, ngi / "ortho" / ortho, ngi / "frames" / f"{name}_RGB.tif")
     d = np.hypot(*s.T)
     assert len(s) > 500
@@ -186,7 +187,7 @@ def test_orthophoto_check_detects_errors(data_dir):
     """The check above can fail: a 10 m shifted camera, or a half-pixel convention slip."""
     ngi = data_dir / "ngi"
     name, ortho = FRAMES[0]
-    frame, dem = load_ngi_frame(ngi, name), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, name), read_dem(ngi / "dem.tif")
     e = frame.eo
     moved = OrientedFrame(frame.camera, ExteriorOrientation(e.X + 10, e.Y, e.Z, e.omega, e.phi, e.kappa))
     s = _ortho_shifts(moved, dem, ngi / "ortho" / ortho, ngi / "frames" / f"{name}_RGB.tif")

@@ -174,12 +174,12 @@ def test_disabled_points_get_the_models_prediction_but_stay_out_of_the_fit(ngi, 
 
 def test_prediction_grids_follow_the_true_geometry(ngi, truth):
     from fotogeo.crs import transform_points
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
     gcps = pick(truth, 20, 0, seed=6, noise_px=0.0)
     fit = fit_gcps(gcps, "dlt", crs=MAP_CRS, image=str(ngi / "frames" / f"{FRAME}_RGB.tif"),
                    dem=str(ngi / "dem.tif"), grid=9)
-    frame, dem = load_ngi_frame(ngi, FRAME), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, FRAME), read_dem(ngi / "dem.tif")
     dem_crs = CRS.from_wkt(dem.crs.to_wkt())
     fw = fit["forward"]
     assert fw["cols"][0] == 0 and fw["cols"][-1] == 640 and fw["rows"][-1] == 1152

@@ -38,7 +38,7 @@ def run_worker(request: dict, timeout=600) -> dict:
 
 def test_proposals_on_the_ngi_frame_give_a_dlt_below_one_pixel(data_dir):
     from fotogeo.crs import transform_points
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
     from fotogeo.tools.gcp_fit import fit_gcps
     ngi = data_dir / "ngi"
@@ -59,7 +59,7 @@ def test_proposals_on_the_ngi_frame_give_a_dlt_below_one_pixel(data_dir):
     fit = fit_gcps(gcps, "dlt", crs=out["crs"], image=str(image), dem=str(dem))
     assert fit["ok"] and fit["rms"]["n_check"] >= 12 and fit["rms"]["check_px"] < 1.0
     # against the frame's true geometry (camera + exterior orientation + DEM), not only self-consistency
-    frame, d = load_ngi_frame(ngi, FRAME), Dem.open(dem)
+    frame, d = load_ngi_frame(ngi, FRAME), read_dem(dem)
     XY = transform_points(CRS.from_wkt(out["crs"]), CRS.from_wkt(d.crs.to_wkt()), [[c["x"], c["y"]] for c in cands])
     true_px = frame.world_to_pixel(np.column_stack([XY, d.heights(XY)]))
     assert np.median(np.hypot(*(true_px - px).T)) < 1.0
@@ -82,13 +82,13 @@ def test_bad_input(tmp_path, data_dir):
 
 def test_proposals_without_a_dem_use_the_planar_robust_fit(data_dir):
     from fotogeo.crs import transform_points
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
     from fotogeo.tools.gcp_propose import propose_gcps
     ngi = data_dir / "ngi"
     out = propose_gcps(ngi / "frames" / f"{FRAME}_RGB.tif", ngi / "ortho" / "ngi_rgb_byte_1.tif", count=12)
     assert out["model"] == "projective" and len(out["candidates"]) == 12 and "z" not in out["candidates"][0]
-    frame, d = load_ngi_frame(ngi, FRAME), Dem.open(ngi / "dem.tif")
+    frame, d = load_ngi_frame(ngi, FRAME), read_dem(ngi / "dem.tif")
     XY = transform_points(CRS.from_wkt(out["crs"]), CRS.from_wkt(d.crs.to_wkt()),
                           [[c["x"], c["y"]] for c in out["candidates"]])
     true_px = frame.world_to_pixel(np.column_stack([XY, d.heights(XY)]))

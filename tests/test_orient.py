@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from fotogeo.io.camera import load_ngi_frame, read_interior_orientation
 from fotogeo.cli import main
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError, ModelError, VectorError
 from fotogeo.orientation.simulation import make_gcps
 from fotogeo.tools.compare import compare_models
@@ -30,7 +30,7 @@ def _write(path, ground, pixel, role, crs, with_z=True):
 def ngi_gcps(data_dir, tmp_path_factory):
     d = tmp_path_factory.mktemp("gcps")
     ngi = data_dir / "ngi"
-    frame, dem = load_ngi_frame(ngi, NAME), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, NAME), read_dem(ngi / "dem.tif")
     s = make_gcps(frame, dem, 40, 20, "homogeneous", noise=0.3, seed=3)
     ground = np.vstack([s.gcp_ground, s.check_ground])
     pixel = np.vstack([s.gcp_pixel, s.check_pixel])

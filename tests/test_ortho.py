@@ -103,7 +103,7 @@ def test_grid_paths_equal_the_general_ones(scene):
     from fotogeo.io.raster import read_dem
     from fotogeo.io.warp_gdal import centres_to_map
     from fotogeo.tools.ortho import OrthoMapping
-    from fotogeo.tools.triangulate_ortho import AdjustedFrame
+    from fotogeo.tools.triangulate.ortho import AdjustedFrame
     f = bs.frame()
     dem = read_dem(scene["dsm"])
     t = Affine(0.5, 0, bs.ORIGIN[0] - 100, 0, -0.5, bs.ORIGIN[1] + 100)

@@ -14,7 +14,7 @@ from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
 from fotogeo.orientation.ground_sigma import FrameCovariance, planimetric_covariance
 from fotogeo.tools.ortho import ortho
-from fotogeo.tools.triangulate_ortho import AdjustedFrame
+from fotogeo.tools.triangulate.ortho import AdjustedFrame
 from rendered_block_uncertainty import CRS, check_points, realisation, rms_ratio, sample_raster
 
 DEM_SIGMA = 1.0

@@ -84,10 +84,10 @@ def _gcps(data_dir, path):
     import shapely
 
     from fotogeo.io.camera import load_ngi_frame
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.orientation.simulation import make_gcps
     ngi = data_dir / "ngi"
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     s = make_gcps(load_ngi_frame(ngi, "3324c_2015_1004_05_0182"), dem, 40, 20, "homogeneous", noise=0.3, seed=5)
     pixel = np.vstack([s.gcp_pixel, s.check_pixel])
     gpd.GeoDataFrame({"id": [f"P{i}" for i in range(60)], "col": pixel[:, 0], "row": pixel[:, 1],

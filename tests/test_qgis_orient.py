@@ -44,10 +44,10 @@ def gcps(qgis_app, data_dir, tmp_path_factory):
     import shapely
 
     from fotogeo.io.camera import load_ngi_frame
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.orientation.simulation import make_gcps
     ngi = data_dir / "ngi"
-    frame, dem = load_ngi_frame(ngi, NAME), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, NAME), read_dem(ngi / "dem.tif")
     s = make_gcps(frame, dem, 40, 20, "homogeneous", noise=0.3, seed=3)
     ground = np.vstack([s.gcp_ground, s.check_ground])
     pixel = np.vstack([s.gcp_pixel, s.check_pixel])

@@ -24,11 +24,11 @@ pytestmark = [pytest.mark.qgis]
 
 def truth_gcps(data_dir, n=20):
     """``n`` GCPs of NGI frame 0182 from its true geometry (exact pixels, ground on the DEM)."""
-    from fotogeo.geometry.dem import Dem
+    from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
     from fotogeo.orientation.simulation import make_gcps
     ngi = data_dir / "ngi"
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     s = make_gcps(load_ngi_frame(ngi, "3324c_2015_1004_05_0182"), dem, n, 0, "homogeneous", noise=0.0, seed=3)
     return [{"col": float(p[0]), "row": float(p[1]), "x": float(g[0]), "y": float(g[1])}
             for p, g in zip(s.gcp_pixel, s.gcp_ground)], dem.crs.to_wkt()

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fotogeo.io.camera import load_ngi_frame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError, OutputError
 from fotogeo.models import MODELS
 from fotogeo.orientation.rpc import Rpc, frame_rpc
@@ -21,7 +21,7 @@ FRAME = "3324c_2015_1004_05_0182"
 @pytest.fixture(scope="module")
 def ngi_rpc(data_dir):
     ngi = data_dir / "ngi"
-    frame, dem = load_ngi_frame(ngi, FRAME), Dem.open(ngi / "dem.tif")
+    frame, dem = load_ngi_frame(ngi, FRAME), read_dem(ngi / "dem.tif")
     rpc, model = frame_rpc(frame, NGI_CRS, dem.z_range)
     rng = np.random.default_rng(5)
     px = rng.uniform([0, 0], [640, 1152], (300, 2))

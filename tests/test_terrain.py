@@ -8,7 +8,7 @@ import rasterio
 from pyproj import CRS
 
 from fotogeo.io.camera import load_ngi_frame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError, RasterError
 from fotogeo.crs import transform_points
 from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
@@ -56,7 +56,7 @@ def test_terrain_registration_within_one_ortho_pixel(data_dir, tmp_path, name, o
 def _compare_with_true_orthophoto(ngi, name, out):
     """The output against an orthophoto rendered from the true geometry on the same grid:
     local shifts by phase correlation in 64x64 windows must be below 1 pixel RMSE."""
-    dem = Dem.open(ngi / "dem.tif")
+    dem = read_dem(ngi / "dem.tif")
     frame = load_ngi_frame(ngi, name)
     ngi_crs = CRS.from_wkt(dem.crs.to_wkt())
     with rasterio.open(out) as ds:

@@ -178,7 +178,7 @@ def test_triangulate_matches_rendered_frames(tmp_path):
 
 def test_a_frame_that_overlaps_no_other_is_named(tmp_path, small_block):
     from fotogeo.errors import MatchingError
-    from fotogeo.tools.triangulate_match import block_tie_points
+    from fotogeo.tools.triangulate.match import block_tie_points
     b = small_block.block
     eos = list(b.eo)
     eos[3] = dataclasses.replace(eos[3], X=eos[3].X + 30000.0)

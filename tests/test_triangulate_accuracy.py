@@ -11,9 +11,9 @@ from fotogeo.io.block import GcpList
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
 from fotogeo.orientation.bundle_control import images_only_errors
-from fotogeo.tools.triangulate_control import reference_sigmas
-from fotogeo.tools.triangulate_inputs import check_fraction_for
-from fotogeo.tools.triangulate_outputs import accuracy_lines
+from fotogeo.tools.triangulate.control import reference_sigmas
+from fotogeo.tools.triangulate.inputs import check_fraction_for
+from fotogeo.tools.triangulate.outputs import accuracy_lines
 
 
 def test_images_only_errors_show_what_the_control_sigma_hides():
@@ -80,8 +80,8 @@ def test_report_html_reads(tmp_path):
     import cv2
     from pyproj import CRS
 
-    from fotogeo.tools.triangulate_outputs import report
-    from fotogeo.tools.triangulate_report import write_html
+    from fotogeo.tools.triangulate.outputs import report
+    from fotogeo.tools.triangulate.report import write_html
     sb = simulate_block(seed=1, strips=1, frames_per_strip=3)
     r = adjust_block(sb.block)
     wkt = CRS.from_proj4("+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84").to_wkt()

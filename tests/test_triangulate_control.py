@@ -13,10 +13,10 @@ import pytest
 
 from fotogeo.errors import InputError, MatchingError
 from fotogeo.geometry.camera import OrientedFrame
-from fotogeo.geometry.dem import Dem
+from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
-from fotogeo.tools.triangulate_control import automatic_control
-from fotogeo.tools.triangulate_match import thin_to_budget
+from fotogeo.tools.triangulate.control import automatic_control
+from fotogeo.tools.triangulate.match import thin_to_budget
 from ngi_truth import FRAMES
 
 NAMES = [f"{name}_RGB" for name, _ in FRAMES]
@@ -35,7 +35,7 @@ def ngi_inputs(data_dir):
     rng = np.random.default_rng(3)
     return {"ngi": ngi, "frames": [ngi / "frames" / f"{n}.tif" for n in NAMES],
             "camera": load_camera(ngi / "interior_orientation.yaml"), "true": [true[n] for n in NAMES],
-            "approx": [perturbed(true[n], rng) for n in NAMES], "dem": Dem.open(ngi / "dem.tif"),
+            "approx": [perturbed(true[n], rng) for n in NAMES], "dem": read_dem(ngi / "dem.tif"),
             "tiles": sorted((ngi / "ortho").glob("ngi_rgb_byte_*.tif"))}
 
 

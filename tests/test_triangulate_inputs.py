@@ -206,7 +206,7 @@ def test_orthorectify_puts_each_frame_on_the_ground(tmp_path, small_block):
 def test_reference_adds_automatic_control(tmp_path, small_block, monkeypatch):
     """--reference: the frames, their approximate orientation, the DEM and the map CRS go to
     automatic_control; its points join the surveyed control with their own σ; no DEM is refused."""
-    import fotogeo.tools.triangulate_control as tc
+    import fotogeo.tools.triangulate.control as tc
     from fotogeo.io.block import GcpList
     frames, checks = write_block(tmp_path, small_block)
     b = small_block.block

@@ -14,7 +14,7 @@ from fotogeo.errors import ModelError
 from fotogeo.geometry.camera import FrameCamera
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.orientation.bundle_quality import frame_quality, undetermined_frames
+from fotogeo.orientation.bundle_quality import frame_quality, prior_contradicted_frames, undetermined_frames
 from fotogeo.tools.triangulate import adjust_determined
 
 CAMERA = FrameCamera(6.0, (4.0, 6.0), (400, 600))
@@ -76,3 +76,64 @@ def test_clustered_points_fail_the_spread_test(sb):
     result = adjust_block(block, BundleOptions(snooping=False))
     bad = undetermined_frames(frame_quality(result, block))
     assert sb.block.frames[2] in bad and "cover" in bad[sb.block.frames[2]]
+
+
+def test_a_frame_without_angle_sigma_is_never_passed_by_its_prior(sb):
+    """A NaN angle σ (a singular reduced system; seen on a rendered oblique block with rays meeting at 1.3°)
+    fails the frame even when its angles have a prior — it was passed as determined before."""
+    result = adjust_block(sb.block, BundleOptions(snooping=False))
+    q = frame_quality(result, sb.block)
+    sigma = q.angle_sigma.copy()
+    sigma[2] = np.nan
+    bad = undetermined_frames(dataclasses.replace(q, angle_sigma=sigma), angle_prior=np.ones(len(sigma), bool))
+    assert list(bad) == [sb.block.frames[2]] and "no angle σ" in bad[sb.block.frames[2]]
+
+
+def _held_by_truth(sb, frame_index: int, kappa_error: float, angle_sigma: float = 2.0):
+    """``sb``'s block started from the true orientations, frame ``frame_index``'s κ off by ``kappa_error``°,
+    with ``(block, options)`` holding every frame's angles by a prior of ``angle_sigma``° (positions free)."""
+    eo = list(sb.true_eo)
+    eo[frame_index] = dataclasses.replace(eo[frame_index], kappa=eo[frame_index].kappa + kappa_error)
+    sigma = np.tile([np.inf, np.inf, np.inf, angle_sigma, angle_sigma, angle_sigma], (len(eo), 1))
+    return dataclasses.replace(sb.block, eo=tuple(eo)), BundleOptions(snooping=False, eo_sigma=sigma)
+
+
+def test_a_frame_its_ties_turn_far_from_its_attitude_prior_is_named(sb):
+    """The prior test (Baarda's w on the prior's residual): 20° between the adjusted attitude and a 2° prior is
+    named; the block whose priors agree with its ties passes it."""
+    block, opts = _held_by_truth(sb, 3, 20.0)
+    result = adjust_block(block, opts)
+    bad = prior_contradicted_frames(result, block, opts.eo_sigma)
+    assert list(bad) == [sb.block.frames[3]], bad
+    assert "adjusted attitude 20" in bad[sb.block.frames[3]] and "disagree" in bad[sb.block.frames[3]]
+    block, opts = _held_by_truth(sb, 3, 0.0)
+    assert prior_contradicted_frames(adjust_block(block, opts), block, opts.eo_sigma) == {}
+
+
+def test_the_tool_refuses_a_contradicted_frame_or_drops_it_alone(sb):
+    block, opts = _held_by_truth(sb, 3, 20.0)
+    with pytest.raises(ModelError, match=f"frame\\(s\\) {sb.block.frames[3]}: adjusted attitude.*check their "
+                                         f"attitude.*--undetermined drop"):
+        adjust_determined(block, opts, KW, None)
+    result, kept, q, dropped = adjust_determined(block, opts, {**KW, "undetermined": "drop"}, None)
+    assert [d["name"] for d in dropped] == [sb.block.frames[3]]
+
+
+def test_the_worst_frame_line_never_prints_nan(monkeypatch, tmp_path):
+    """A σ that is not finite ranks the frame worst and reads 'undetermined' (it printed 'nan' and, NaN never
+    comparing larger, was not even the frame named)."""
+    from click.testing import CliRunner
+
+    import fotogeo.tools.triangulate as package
+    from fotogeo.cli import main
+    stats = {"n_frames": 2, "n_points": 9, "n_observations": 18, "image_rms_px": 0.1, "n_blunders": 0,
+             "check": {}, "control": {}}
+    rows = [{"name": "A", "angle_sigma_deg": 0.2, "position_sigma_m": 0.1, "points": 9, "multi_ray_points": 0},
+            {"name": "B", "angle_sigma_deg": float("nan"), "position_sigma_m": float("nan"), "points": 9,
+             "multi_ray_points": 0}]
+    rep = {"statistics": stats, "sigma0": 1.0, "frame_quality": rows, "fixed_parameters": [], "folder": "out"}
+    monkeypatch.setattr(package, "triangulate", lambda *a, **k: rep)
+    res = CliRunner().invoke(main, ["triangulate", "a.tif", "b.tif", "-o", str(tmp_path / "o"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert "worst frame B: angle sigma undetermined deg, position sigma undetermined m" in res.output
+    assert "nan" not in res.output

@@ -1,5 +1,5 @@
 """``fotogeo triangulate`` with ``--reference`` orthophotos and ``--dem`` but neither ``--eo`` nor ``--gcps``
-(issue 20): every frame registered to the reference gives the start (:mod:`fotogeo.tools.triangulate_register`).
+(issue 20): every frame registered to the reference gives the start (:mod:`fotogeo.tools.triangulate.register`).
 
 Real data: the NGI frames 0182/0184 (no GPS, an approximate georeference in the files) against the two
 orthophoto tiles and the DEM; truth: ``ngi/exterior_orientation.txt`` from a professional aerial
@@ -18,8 +18,8 @@ from fotogeo.errors import MatchingError
 from fotogeo.geometry.camera import ExteriorOrientation
 from fotogeo.io.camera import read_exterior_orientation
 from fotogeo.tools.triangulate import triangulate
-from fotogeo.tools.triangulate_control import FrameFit
-from fotogeo.tools.triangulate_register import pose_problem
+from fotogeo.tools.triangulate.control import FrameFit
+from fotogeo.tools.triangulate.register import pose_problem
 from ngi_triangulation import NAMES, orientation_errors
 
 

@@ -13,7 +13,7 @@ from fotogeo.geometry.camera import FrameCamera, OrientedFrame
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.tools.triangulate_match import block_tie_points, image_regions, matched_observations, refine_tracks
+from fotogeo.tools.triangulate.match import block_tie_points, image_regions, matched_observations, refine_tracks
 from rendered_block_ties import with_ties, write_frames
 
 
@@ -100,7 +100,7 @@ def test_each_frame_is_detected_once_and_the_tie_points_stay_the_same(rendered, 
     """The keypoint cache (fotogeo.tools.match.FeatureCache) changes the number of detections only:
     matching every pair with fresh detections of both frames gives the same tracks and observations."""
     import fotogeo.tools.match as match
-    import fotogeo.tools.triangulate_match as triangulate_match
+    import fotogeo.tools.triangulate.match as triangulate_match
     sb, _, paths, height, *_ = rendered
     detections = []
     detect = match.detect
@@ -116,3 +116,22 @@ def test_each_frame_is_detected_once_and_the_tie_points_stay_the_same(rendered, 
     for a, b in zip(cached[:3], fresh[:3]):  # frame, track, pixel
         np.testing.assert_array_equal(a, b)
     assert cached[4] == fresh[4]
+
+
+def test_epipolar_ransac_sees_the_pixels_of_the_distortion_free_camera():
+    """ideal_pixels: a pixel measured through Brown's distortion (the adjustment's projection) maps to the pixel
+    of the same ground point in the pinhole camera; no distortion: no mapping (the RANSAC sees the pixels)."""
+    from fotogeo.geometry.camera import ExteriorOrientation
+    from fotogeo.tools.triangulate.match import ideal_pixels
+    from fotogeo.tools.triangulate.ortho import AdjustedFrame
+    cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (321.5, 238.0))
+    eo = ExteriorOrientation(0.0, 0.0, 80.0, 10.0, -5.0, 30.0)
+    k = (-0.06, 0.02, 0.0, 0.0004, -0.0003)  # k1, k2, k3, p1, p2: ~14 px at the corners
+    ground = np.column_stack([np.random.default_rng(0).uniform(-40, 40, (200, 2)), np.zeros(200)])
+    measured = AdjustedFrame(cam, eo, dict(zip(("k1", "k2", "k3", "p1", "p2"), k))).forward(ground)
+    pinhole = OrientedFrame(cam, eo).world_to_pixel(ground)
+    inside = ((measured >= 0) & (measured < [640, 480])).all(axis=1)
+    assert inside.sum() > 50 and np.abs(measured - pinhole)[inside].max() > 3.0
+    np.testing.assert_allclose(ideal_pixels(cam, k)(measured[inside]), pinhole[inside], atol=1e-6)
+    assert ideal_pixels(cam, dict(zip(("k1", "k2"), k))) is not None
+    assert ideal_pixels(cam, (0.0,) * 5) is None and ideal_pixels(cam, None) is None

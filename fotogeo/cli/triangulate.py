@@ -1,6 +1,8 @@
 """``fotogeo triangulate FRAMES... [--camera C.yaml] [--eo EO.txt] [--observations OBS.csv] [--gcps GCPS] -o OUTDIR``."""
 from __future__ import annotations
 
+import math
+
 import click
 
 from ..options import TRIANGULATE
@@ -38,7 +40,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
-    from ..tools.triangulate_outputs import accuracy_lines
+    from ..tools.triangulate.outputs import accuracy_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -51,10 +53,12 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
     for line in accuracy_lines(rep):
         click.echo(line)
-    worst = max(rep.get("frame_quality") or [{}], key=lambda q: q.get("angle_sigma_deg", 0.0))
-    if worst:
-        click.echo(f"worst frame {worst['name']}: angle sigma {worst['angle_sigma_deg']:.3g} deg, position sigma "
-                   f"{worst['position_sigma_m']:.3g} m, {worst['points']} points ({worst['multi_ray_points']} with 3+ rays)")
+    quality = rep.get("frame_quality") or []
+    if quality:  # a σ that is not finite ranks worst and reads "undetermined", never "nan"
+        worst = max(quality, key=lambda q: _rank(q.get("angle_sigma_deg")))
+        click.echo(f"worst frame {worst['name']}: angle sigma {_sigma(worst.get('angle_sigma_deg'))} deg, position "
+                   f"sigma {_sigma(worst.get('position_sigma_m'))} m, {worst['points']} points "
+                   f"({worst['multi_ray_points']} with 3+ rays)")
     for d in rep.get("dropped_frames") or []:
         click.echo(f"dropped (undetermined): {d['name']}: {d['reason']}")
     start = rep.get("start") or {}
@@ -74,3 +78,13 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     for f in rep["fixed_parameters"]:
         click.echo(f"held fixed: {f['reason']}")
     click.echo(f"wrote {rep['folder']}")
+
+
+def _rank(sigma) -> float:
+    """A σ for ranking frames: one that is missing or not finite (undetermined) ranks above every number."""
+    return sigma if sigma is not None and math.isfinite(sigma) else math.inf
+
+
+def _sigma(sigma) -> str:
+    """A σ for the console: 3 significant digits, or "undetermined" when missing or not finite."""
+    return f"{sigma:.3g}" if sigma is not None and math.isfinite(sigma) else "undetermined"

@@ -20,6 +20,8 @@ array (one per point), or a :class:`HeightSource` — anything with
 ``heights_and_gradient(XY)`` (a :class:`Dem`, a :class:`DemSampler`, a constant from
 :func:`as_height_source`). Numbers and arrays are heights already; a height source is
 sampled where the ground point turns out to be, so a model's inverse intersects the terrain.
+A file becomes a :class:`Dem` through :func:`fotogeo.io.raster.read_dem` (the io layer imports this one, never
+the other way round).
 """
 from __future__ import annotations
 
@@ -81,13 +83,6 @@ class Dem:
         if d.ndim != 2 or min(d.shape) < 2:
             raise InputError(f"DEM array must be 2-D with at least 2x2 cells; got shape {d.shape}")
         object.__setattr__(self, "data", d)
-
-    @classmethod
-    def open(cls, path, band: int = 1) -> Dem:
-        """Read band ``band`` of a raster file: :func:`fotogeo.io.raster.read_dem` (the reader lives
-        in the io layer; this is a shortcut for interactive use)."""
-        from ..io.raster import read_dem
-        return read_dem(path, band)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -16,6 +16,7 @@ from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.windows import Window
 
 from ..errors import InputError, OutputError, RasterError
+from ..geometry.dem import Dem
 
 
 @contextlib.contextmanager
@@ -328,9 +329,9 @@ def raster_transform(raster):
 def read_dem(path, band: int = 1):
     """A :class:`~fotogeo.geometry.dem.Dem` from band ``band`` of a raster; nodata becomes NaN.
 
-    Refuses a raster without georeference (identity transform): heights need map positions.
+    Refuses a raster without georeference (identity transform): heights need map positions. The one
+    DEM reader: the file-format layer builds the array-layer ``Dem`` (imports go down the layers).
     """
-    from ..geometry.dem import Dem
     try:
         with ropen(path) as ds:
             if ds.transform.is_identity:

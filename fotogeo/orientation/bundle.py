@@ -50,6 +50,10 @@ from .bundle_problem import active_points, build_problem, check_block, initial_p
 from .bundle_robust import huber_weights, interior_correlations, largest_w, posterior, worst_per_point
 
 ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
+#: tie and check points whose rays meet at a smaller angle are dropped: their depth is undetermined and their
+#: 3x3 normal block so close to singular that the reduced system loses its positive definiteness (a rendered
+#: oblique block: two rays at 1.3° from frames 7 m apart turned every σ into NaN); COLMAP's default is 1.5° too
+MIN_RAY_ANGLE_DEG = 1.5
 
 
 @dataclass(frozen=True)
@@ -165,7 +169,8 @@ class _Run:
 
     def drop_unusable(self):
         """Drop tie and check points whose rays do not meet in front of their cameras, or meet 10x
-        farther than the median point (near-parallel rays of a wrong match drift to infinity)."""
+        farther than the median point (near-parallel rays of a wrong match drift to infinity), or meet at
+        less than :data:`MIN_RAY_ANGLE_DEG` (every ray within half of it from the rays' mean direction)."""
         b = self.block
         Xs = np.nan_to_num(self.X)
         z = bj.camera_coordinates(self.R, self.C, Xs, b.obs_frame, b.obs_point)[:, 2]
@@ -174,6 +179,7 @@ class _Run:
                                  | ~np.isfinite(self.X[b.obs_point]).all(axis=1))
         bad = np.zeros(len(b.point_ids), bool)
         bad[b.obs_point[bad_obs]] = True
+        bad |= _narrow_rays(Xs, self.C, b.obs_frame, b.obs_point, self.active, len(b.point_ids))
         bad &= b.role != "control"
         self.unusable += int(np.count_nonzero(bad & active_points(b, self.active)))
         self.active &= ~bad[b.obs_point]
@@ -186,6 +192,20 @@ class _Run:
     def keep(self, pb, s):
         self.R, self.C, self.interior = s.R, s.C, s.interior
         self.X[pb.point_ids] = s.X
+
+
+def _narrow_rays(X, C, obs_frame, obs_point, active, n_points) -> np.ndarray:
+    """``(P,)`` True for points whose active rays all lie within ``MIN_RAY_ANGLE_DEG / 2`` of their mean
+    direction (for two rays: they meet at less than ``MIN_RAY_ANGLE_DEG``); points with one ray are not."""
+    d = X[obs_point[active]] - C[obs_frame[active]]
+    u = d / np.maximum(np.linalg.norm(d, axis=1), 1e-12)[:, None]
+    mean = np.zeros((n_points, 3))
+    np.add.at(mean, obs_point[active], u)
+    rays = np.bincount(obs_point[active], minlength=n_points)
+    mean /= np.maximum(np.linalg.norm(mean, axis=1), 1e-12)[:, None]
+    spread = np.zeros(n_points)
+    np.maximum.at(spread, obs_point[active], np.arccos(np.clip(np.sum(u * mean[obs_point[active]], axis=1), -1, 1)))
+    return (rays >= 2) & (spread < np.radians(MIN_RAY_ANGLE_DEG) / 2)
 
 
 def adjust_block(block: Block, options: BundleOptions | None = None, *, progress=None) -> BundleResult:

@@ -10,7 +10,7 @@
    DLT: the same prefilter, then a robust 3-D fit on DEM heights, so relief displacement is
    not mistaken for a mismatch);
 3. a spread over the image: the image is cut into about ``count`` cells and each cell gives
-   its best consistent pair first (:func:`fotogeo.tools.triangulate_match.thin_to_budget`),
+   its best consistent pair first (:func:`fotogeo.tools.triangulate.match.thin_to_budget`),
    so the candidates cover the frame rather than its most textured part;
 4. the chosen image positions refined by least-squares matching (Gruen 1985;
    :func:`fotogeo.tools.match.refine_lsm`, ``refine="lsm"`` by default), then scored anew.
@@ -36,7 +36,7 @@ from ..pixels import pixel_to_map
 from ..progress import as_progress
 from .boundary import tool
 from .match import find_tie_points
-from .triangulate_match import thin_to_budget
+from .triangulate.match import thin_to_budget
 
 
 def grid_shape(width: int, height: int, count: int) -> tuple[int, int]:

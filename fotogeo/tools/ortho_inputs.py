@@ -6,7 +6,7 @@
   ``--eo``: fotogeo's ``name X Y Z omega phi kappa`` lines (triangulate's ``exterior_orientation.txt``) or any
   file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
   COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
-  triangulate's :class:`~fotogeo.tools.triangulate_ortho.AdjustedFrame` (collinearity with Brown's distortion);
+  triangulate's :class:`~fotogeo.tools.triangulate.ortho.AdjustedFrame` (collinearity with Brown's distortion);
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
   corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
 * a fitted ``orient`` model (``--model``: orient's JSON report, one image) — used as fitted, ground → image in
@@ -143,7 +143,7 @@ def orientation_block(eo, crs, camera):
 
 def _frame_images(images, names, camera, eo, crs) -> list:
     from ..io.camera import read_camera_with_distortion, read_exterior_orientation
-    from .triangulate_ortho import AdjustedFrame
+    from .triangulate.ortho import AdjustedFrame
     block = orientation_block(eo, crs, camera)
     if block is None:
         if camera is None:

@@ -7,7 +7,7 @@ the image does not reach):
   (:mod:`fotogeo.orientation.ground_sigma`). The covariance is read from triangulate's ``report.json`` beside
   the ``--eo`` file (its ``exterior_orientation.txt``); an orientation without one is refused. Default DEM σ:
   half the DEM's cell, the rule of triangulate's automatic control
-  (:func:`fotogeo.tools.triangulate_control.reference_sigmas`). A separate single-band raster rather than a band
+  (:func:`fotogeo.tools.triangulate.control.reference_sigmas`). A separate single-band raster rather than a band
   of the orthophoto, so that QGIS shows the orthophoto in its colours and the σ with its own pseudocolour legend
   in metres (``processing_provider/styles/uncertainty.qml``); the cell's σ is for where it is, not whether it is
   seen (occlusion leaves the orthophoto's cell nodata, not the σ).

@@ -63,8 +63,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             "left empty to match the overlapping frames (SURF, epipolar RANSAC, multi-ray tracks).\n\n"
             "Outputs in the folder: exterior_orientation.txt, camera.yaml (self-calibration), block.gpkg (tie "
             "points, control with residuals and role, frames, image residuals, footprints), report.json, "
-            "report.html (residual vectors per frame, histogram, control layout) and, with Orthorectify, "
-            "&lt;frame&gt;_ortho.tif.\n\n"
+            "report.html (residual vectors per frame, histogram, control layout, residuals sorted by size, mean "
+            "σ per point type, matching statistics, timings) and, with Orthorectify, &lt;frame&gt;_ortho.tif; "
+            "with Mosaic, mosaic.tif and its seamlines mosaic.gpkg.\n\n"
             f"References: Brown (1971): close-range camera calibration. Baarda (1968): a testing procedure for "
             f"use in geodetic networks. Triggs et al. (2000): bundle adjustment — a modern synthesis. "
             f"{REFERENCES['surf']} {REFERENCES['ransac']}")
@@ -123,7 +124,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
-        from fotogeo.tools.triangulate_outputs import accuracy_lines
+        from fotogeo.tools.triangulate.outputs import accuracy_lines
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
@@ -174,6 +175,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             for frame in rep.get("orthorectified") or {}:
                 load_on_completion(context, os.path.join(outdir, f"{frame}_ortho.tif"), f"{frame} {tr('ortho')}",
                                    self.OUTDIR, None, raster=True, run=run)
+            if (rep.get("mosaic") or {}).get("output"):  # --mosaic: above the orthophotos it is made of
+                load_on_completion(context, rep["mosaic"]["output"], tr("mosaic"), self.OUTDIR, None, raster=True,
+                                   run=run)
             for _, name, label, style in LAYERS:
                 load_on_completion(context, result[name], tr(label), name, style, run=run)
         return result

@@ -6,9 +6,9 @@ Every source ends in one :class:`~fotogeo.geometry.approx_block.ApproximateBlock
 * nothing given: what the images carry — EXIF GPS, XMP attitude and calibration
   (:func:`fotogeo.io.exif_block.read_exif_block`), with senseFly's ``geoinfo.txt`` (``--geoinfo``) for
   the autopilot's attitude;
-* a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate_inputs`);
+* a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate.inputs`);
 * no ``--eo``, no ``--gcps``, frames without GPS, and ``--reference`` with ``--dem``: every frame is
-  registered to the reference and its pose taken from that fit (:mod:`fotogeo.tools.triangulate_register`;
+  registered to the reference and its pose taken from that fit (:mod:`fotogeo.tools.triangulate.register`;
   ``registration`` holds every frame's registration after the control step).
 
 **The map CRS** (:func:`map_crs_rule`): ``--crs``; else the ground control's own CRS; else the
@@ -17,7 +17,7 @@ rule used is stated in the report (``start.crs_rule``).
 
 **Unknown attitude**: frames start level (ω = φ = 0) with κ along the flight direction
 (capture order), and κ and the terrain height are then measured on the matched pairs
-(:mod:`fotogeo.tools.triangulate_start`) before least-squares matching.
+(:mod:`fotogeo.tools.triangulate.start`) before least-squares matching.
 
 **GNSS weights** (:meth:`BlockStart.eo_sigma`): σ given on the command line win
 (``--eo-sigma-position`` horizontal, ``--eo-sigma-height`` vertical, ``--eo-sigma-angle``); else
@@ -31,10 +31,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..crs import parse_crs, require_projected
-from ..errors import InputError
-from ..geometry.camera import ExteriorOrientation
-from ..io.block import frame_key
+from ...crs import parse_crs, require_projected
+from ...errors import InputError
+from ...geometry.camera import ExteriorOrientation
+from ...io.block import frame_key
 
 #: σ (horizontal, vertical) in metres of a GPS position without accuracy tags (consumer receiver)
 GNSS_SIGMA = (5.0, 10.0)
@@ -60,12 +60,12 @@ class BlockStart:
     registration: list | None = None  # the frames' registration rows when the start comes from the reference
 
     def measure(self, height):
-        """The ``start`` callable of :func:`~fotogeo.tools.triangulate_match.block_tie_points`, or None when
+        """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
         the orientations and the terrain height are known."""
         unknown_kappa = any(self.level.get(n) for n in self.names)
         if not unknown_kappa and height is not None:
             return None
-        from .triangulate_start import start_from_pairs
+        from .start import start_from_pairs
 
         def measure(eos, inliers):
             eos = tuple(eos)
@@ -104,7 +104,7 @@ def _finite(x):
 
 def _projected_crs_of(path, what):
     """The CRS of a raster when it is projected, else None."""
-    from ..io.raster import open_raster
+    from ...io.raster import open_raster
     info = open_raster(path, what)
     return info.crs if info.crs is not None and info.crs.is_projected else None
 
@@ -128,8 +128,8 @@ def map_crs_rule(crs, gcps, reference, dem, approx_crs) -> tuple:
 def _from_images(frames, crs, geoinfo, need_position: bool):
     """The ApproximateBlock of what the images carry (EXIF/XMP, and ``geoinfo``); frames without a GPS
     position are refused first when ``need_position`` (no --eo, no --gcps) and no geoinfo can give one."""
-    from ..io.exif import read_image_metadata
-    from ..io.exif_block import read_exif_block
+    from ...io.exif import read_image_metadata
+    from ...io.exif_block import read_exif_block
     if need_position and geoinfo is None:
         missing = [frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None]
         if missing:
@@ -140,7 +140,7 @@ def _from_images(frames, crs, geoinfo, need_position: bool):
 
 def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo) -> BlockStart:
     """Read the camera and the approximate orientation (module docstring)."""
-    from .triangulate_inputs import frame_names, read_camera
+    from .inputs import frame_names, read_camera
     names = [frame_key(f) for f in frames]
     if reference and dem is None:
         raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
@@ -182,7 +182,7 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
 
 def _all_have_gps(frames) -> bool:
     """Whether every frame's EXIF carries a GPS position."""
-    from ..io.exif import read_image_metadata
+    from ...io.exif import read_image_metadata
     return all(read_image_metadata(str(f)).lon is not None for f in frames)
 
 
@@ -215,7 +215,7 @@ def _require_gps(names, approx) -> None:
 def _start_from_images(start: BlockStart, approx, map_crs) -> None:
     """Orientations from the images' GPS and attitude; frames with unknown attitude start level, κ along
     the flight direction (module docstring)."""
-    from .triangulate_start import flight_kappa
+    from .start import flight_kappa
     _require_gps(start.names, approx)
     if approx.crs is not None and map_crs is not None and not approx.crs.equals(map_crs):
         raise InputError(f"the images' positions are in {approx.crs.to_string()} but the map CRS is "
@@ -245,16 +245,16 @@ def _from_orientation_file(eo, crs, reference, dem, camera):
     """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`), or None."""
     from pathlib import Path
 
-    from ..io.orientation_file import read_orientation_file
+    from ...io.orientation_file import read_orientation_file
     if Path(eo).suffix.lower() == ".txt" and Path(eo).name.lower() not in ("images.txt", "cameras.txt"):
-        return None  # fotogeo's own EO lines: read by triangulate_inputs.orientations
+        return None  # fotogeo's own EO lines: read by inputs.orientations
     given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
     return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera)
 
 
 def _start_from_file(frames, names, camera, approx, crs, gcps, reference, dem, source) -> BlockStart:
     """The start from an SfM/orthority orientation file: its cameras (unless --camera), its poses, its CRS."""
-    from .triangulate_inputs import frame_names, read_camera
+    from .inputs import frame_names, read_camera
     map_crs, rule = map_crs_rule(crs, gcps, reference, dem, approx.crs)
     map_crs = map_crs or approx.crs
     if not approx.crs.equals(map_crs):

@@ -7,7 +7,7 @@
   any CRS), transformed into the map CRS (``crs``, else the control's own CRS; it must be
   projected). Measurements outside their frame are refused by name.
 * **Automatic control** (``reference`` orthophoto(s) and ``dem``): the GCPs that
-  :func:`fotogeo.tools.triangulate_control.automatic_control` finds by matching every frame to the
+  :func:`fotogeo.tools.triangulate.control.automatic_control` finds by matching every frame to the
   reference (named ``auto…``), merged with the surveyed ones; they need the approximate
   orientation of every frame (the ``--eo`` file or resection against surveyed GCPs).
 * **Check points**: the file's ``check`` roles, the names given, and a seeded, spread hold-out
@@ -24,12 +24,12 @@ import warnings
 
 import numpy as np
 
-from ..crs import parse_crs, require_projected
-from ..errors import FotogeoWarning, InputError, ModelError
-from ..io.block import GcpList, control_in, frame_key, read_control, split_check_points
-from ..io.camera import read_camera_with_distortion, read_exterior_orientation
-from ..io.raster import open_raster
-from .checks import check_camera_size
+from ...crs import parse_crs, require_projected
+from ...errors import FotogeoWarning, InputError, ModelError
+from ...io.block import GcpList, control_in, frame_key, read_control, split_check_points
+from ...io.camera import read_camera_with_distortion, read_exterior_orientation
+from ...io.raster import open_raster
+from ..checks import check_camera_size
 
 #: the order of ``Block.distortion``
 DISTORTION_ORDER = ("k1", "k2", "k3", "p1", "p2")
@@ -96,7 +96,7 @@ def add_automatic_control(gcp, frames, names, camera, eos, reference, dem, map_c
     """``gcp`` (or None) plus the automatic control from ``reference`` and ``dem`` (module docstring)."""
     from dataclasses import replace
 
-    from .triangulate_control import automatic_control
+    from .control import automatic_control
     if dem is None:
         raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
     refs = [reference] if isinstance(reference, (str, bytes)) or not hasattr(reference, "__iter__") else list(reference)
@@ -187,8 +187,8 @@ def check_orientation_near_control(table, names, gcp: GcpList, eo, ratio: float 
 
 def resect(camera, distortion, ground, pixel, name):
     """The exterior orientation of one frame from ≥ 4 control points (module docstring)."""
-    from ..models.collinearity import Collinearity
-    from ..orientation import bundle_jacobian as bj
+    from ...models.collinearity import Collinearity
+    from ...orientation import bundle_jacobian as bj
     interior = np.array([camera.focal_length, *camera.principal_point, *distortion], dtype=np.float64)
     rays = bj.undistort_rays(np.asarray(pixel, np.float64), interior, bj.pixel_scale(camera))
     pinhole = rays @ camera.K[:2].T  # K·(u, v, 1): the pixel a distortion-free camera would see

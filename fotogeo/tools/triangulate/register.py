@@ -2,7 +2,7 @@
 
 ``fotogeo triangulate FRAMES --camera C --reference ORTHO... --dem DEM`` with neither ``--eo`` nor
 ``--gcps`` (and frames without GPS) has no approximate orientation. It does not need one: the
-automatic control (:func:`fotogeo.tools.triangulate_control.control_and_fits`) matches every frame to
+automatic control (:func:`fotogeo.tools.triangulate.control.control_and_fits`) matches every frame to
 the reference tiles under its footprint — the frame raster's own approximate georeference, else
 every tile — gives the matches their DEM heights and fits the registration's terrain model with the
 camera (``register --dem --model collinearity``: homography RANSAC, Tukey refit, DLT relief filter,
@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import MatchingError
+from ...errors import MatchingError
 
 #: the largest angle σ (degrees) of a registration pose that can start the adjustment
 MAX_ANGLE_SIGMA = 1.0
@@ -41,7 +41,7 @@ class RegistrationStart:
 
 
 def pose_problem(fit, dem) -> str:
-    """Why a frame's registration (:class:`~fotogeo.tools.triangulate_control.FrameFit`) cannot start the
+    """Why a frame's registration (:class:`~fotogeo.tools.triangulate.control.FrameFit`) cannot start the
     adjustment, or ``""`` (module docstring)."""
     if fit is None:
         return "not registered to the reference"
@@ -76,9 +76,9 @@ def registration_start(frames, names, camera, reference, dem, crs, *, undetermin
                        progress=None) -> RegistrationStart:
     """Every frame's pose from its registration to ``reference`` with ``dem``, and the block's control
     (module docstring); frames that fail are refused, or dropped with ``undetermined="drop"``."""
-    from ..geometry.dem import Dem, DemSampler
-    from ..io.raster import read_dem
-    from .triangulate_control import control_and_fits
+    from ...geometry.dem import Dem, DemSampler
+    from ...io.raster import read_dem
+    from .control import control_and_fits
     d = dem if isinstance(dem, Dem) else read_dem(dem)
     gcp, fits = control_and_fits(frames, names, camera, [None] * len(names), reference, d, crs, progress=progress)
     sampler = DemSampler(d, crs)

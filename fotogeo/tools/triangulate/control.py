@@ -41,7 +41,7 @@ residual). Thinning (Gruber's positions, generalised): every frame is cut into `
 cells`` regions with a budget of ``per_frame / cells²`` points each; candidates are taken in
 order of (more frames first, smaller fit residual), and one is kept while any of its
 measurements falls in a region still below its budget
-(:func:`fotogeo.tools.triangulate_match.thin_to_budget`) — so the control is spread over
+(:func:`fotogeo.tools.triangulate.match.thin_to_budget`) — so the control is spread over
 every frame and multi-ray points come first.
 """
 from __future__ import annotations
@@ -50,17 +50,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..crs import parse_crs, pixel_size_in, require_projected, transform_points
-from ..errors import FotogeoError, InputError, MatchingError
-from ..geometry.camera import OrientedFrame
-from ..geometry.dem import Dem, DemSampler
-from ..io.block import GcpList
-from ..io.raster import open_raster, read_dem
-from ..options import RegisterOptions
-from ..pixels import outline, pixel_to_map
-from ..progress import as_progress
-from .match import find_tie_points
-from .triangulate_match import image_regions, thin_to_budget
+from ...crs import parse_crs, pixel_size_in, require_projected, transform_points
+from ...errors import FotogeoError, InputError, MatchingError
+from ...geometry.camera import OrientedFrame
+from ...geometry.dem import Dem, DemSampler
+from ...io.block import GcpList
+from ...io.raster import open_raster, read_dem
+from ...options import RegisterOptions
+from ...pixels import outline, pixel_to_map
+from ...progress import as_progress
+from ..match import find_tie_points
+from .match import image_regions, thin_to_budget
 
 
 def _references(reference) -> list:
@@ -115,7 +115,7 @@ def _frame_matches(frame_info, tiles, tile_ids, crs, heights, opts, prog):
 def _robust_fit(px, xyz, camera, step, opts):
     """The registration's terrain fit (module docstring, step 3): its inliers, their residuals (px), the
     fitted collinearity model (the frame's pose)."""
-    from ..orientation.terrain import fit_terrain
+    from ...orientation.terrain import fit_terrain
     fit = fit_terrain(px, xyz, model="collinearity", camera=camera, threshold_m=opts.ransac_threshold * step,
                       min_sigma_m=step, check_fraction=0.0, rng=opts.seed)
     return fit.inliers, np.hypot(*fit.residual_px.T), fit.model
@@ -219,7 +219,7 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
 def control_and_fits(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
                      options: RegisterOptions | None = None, progress=None) -> tuple:
     """``(GcpList, {name: FrameFit})``: :func:`automatic_control` and every frame's registration to the
-    reference (its fitted pose, :mod:`fotogeo.tools.triangulate_register`). An ``eos`` entry None: the frame's
+    reference (its fitted pose, :mod:`fotogeo.tools.triangulate.register`). An ``eos`` entry None: the frame's
     tiles are chosen by its raster's own georeference, or all when it has none."""
     prog = as_progress(progress)
     if per_frame < cells * cells:

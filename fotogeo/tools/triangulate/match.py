@@ -11,7 +11,17 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
   ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
   resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
-  keeps the pairs that fit the two-view geometry. Each frame is read, fused and detected once
+  keeps the pairs that fit the two-view geometry. The RANSAC sees the measured pixels, distortion
+  included: a fundamental matrix holds for a pinhole camera only, but removing the distortion first
+  (``distortion=``, :func:`ideal_pixels`: the ray of :func:`fotogeo.orientation.bundle_jacobian.undistort_rays`
+  put back through the pinhole, ``x_ideal = f·scale·(u, v) + pp``) gained nothing measurable and is off in
+  the tool. Measured on the rendered oblique drone block (k1 −0.06, ~14 px at the corners;
+  ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
+  inliers on the true epipolar line (< 2 px) 5 530 → 5 536 and 6 338 → 6 345 (seeds 0, 1) — at level 1
+  the 2 px threshold and the fundamental matrix's own freedom absorb this distortion; through the whole
+  tool (the gimbal case of ``tests/test_triangulate_oblique.py``) it changed which marginal frames keep
+  wrong ties: seed 0 lost DJI_401 (2.1 % coverage) and DJI_405 turned 20° from its gimbal prior, seed 2
+  DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
   (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images).
@@ -41,19 +51,19 @@ import dataclasses
 
 import numpy as np
 
-from ..errors import MatchingError
-from ..geometry.camera import OrientedFrame
-from ..io.raster import open_raster, read_decimated
-from ..options import RegisterOptions
-from ..pixels import outline
-from ..progress import as_progress
-from .match import FeatureCache, find_tie_points
+from ...errors import MatchingError
+from ...geometry.camera import OrientedFrame
+from ...io.raster import open_raster, read_decimated
+from ...options import RegisterOptions
+from ...pixels import outline
+from ...progress import as_progress
+from ..match import FeatureCache, find_tie_points
 
 
 def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05, *, round_footprints: bool = False) -> list:
     """``[(i, j), ...]`` (i < j) of frames whose footprints at ``height`` overlap (module docstring).
 
-    ``round_footprints``: κ is not known yet (:mod:`fotogeo.tools.triangulate_start`), so each footprint is
+    ``round_footprints``: κ is not known yet (:mod:`fotogeo.tools.triangulate.start`), so each footprint is
     the circle through its corners around the image centre's ground point, whatever the frame's heading."""
     from shapely.geometry import Point, Polygon
     w, h = camera.image_size
@@ -95,6 +105,25 @@ class _UnionFind:
         ra, rb = self.find(a), self.find(b)
         if ra != rb:
             self.parent[rb] = ra
+
+
+def ideal_pixels(camera, distortion):
+    """``xy (n, 2) -> (n, 2)``: measured pixels → the pixels of the distortion-free pinhole camera
+    (module docstring), or None when ``distortion`` is empty or all 0 (the pixels are ideal already).
+    ``distortion``: ``(k1, k2, k3, p1, p2)`` (:class:`fotogeo.orientation.bundle.Block`'s) or a dict of them."""
+    from ...orientation import bundle_jacobian as bj
+    if isinstance(distortion, dict):
+        distortion = [distortion.get(k, 0.0) for k in bj.INTERIOR_NAMES[3:bj.N_PHYSICAL]]
+    terms = [float(t) for t in (distortion or ())]
+    if not any(terms):
+        return None
+    interior = np.array([camera.focal_length, *camera.principal_point, *terms])
+    scale = bj.pixel_scale(camera)
+
+    def ideal(xy):
+        uv = bj.undistort_rays(np.asarray(xy, dtype=np.float64).reshape(-1, 2), interior, scale)[:, :2]
+        return uv * camera.focal_length * scale[:2] + np.asarray(camera.principal_point)
+    return ideal
 
 
 def _epipolar_inliers(xy1, xy2, threshold):
@@ -148,9 +177,10 @@ def _detection_options(opts, info, level: int):
     return dataclasses.replace(opts, max_match_pixels=min(opts.max_match_pixels, target))
 
 
-def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
+def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, ideal=None):
     """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers)``
-    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels)."""
+    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels as measured); ``ideal``
+    (:func:`ideal_pixels`) maps them for the RANSAC."""
     uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
     det = _detection_options(opts, infos[0], level)
     cache, last_pair = FeatureCache(), {f: k for k, pair in enumerate(pairs) for f in pair}
@@ -165,7 +195,8 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog):
             for f in (i, j):
                 if last_pair[f] == k:
                     cache.forget(infos[f])
-        keep = _epipolar_inliers(xy_i, xy_j, epipolar_px * 2 ** level)
+        keep = _epipolar_inliers(*((xy_i, xy_j) if ideal is None else (ideal(xy_i), ideal(xy_j))),
+                                 epipolar_px * 2 ** level)
         per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
         inliers.append((i, j, xy_i[keep], xy_j[keep]))
         for a, b in zip(xy_i[keep], xy_j[keep]):
@@ -220,7 +251,7 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
 
     Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
     """
-    from ..matching import lsm_many
+    from ...matching import lsm_many
     prog = as_progress(prog)
     n = len(frame)
     track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
@@ -273,20 +304,21 @@ def detection_level(camera) -> int:
 
 def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
-                     options=None, start=None, progress=None):
+                     options=None, distortion=None, start=None, progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
     block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
-    no thinning), LSM at full resolution (``lsm``; σ None without it).
+    no thinning), LSM at full resolution (``lsm``; σ None without it). ``distortion``: the camera's Brown
+    terms ``(k1, k2, k3, p1, p2)``, removed before the epipolar RANSAC (:func:`ideal_pixels`).
 
-    ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate_start`) measures
+    ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     level = detection_level(camera) if level is None else int(level)
     if height is None:
-        from .triangulate_start import provisional_height
+        from .start import provisional_height
         height = provisional_height(eos, camera)
     pairs = overlapping_pairs(camera, eos, height, round_footprints=start is not None)
     alone = sorted(set(range(len(frames))) - {i for p in pairs for i in p})
@@ -296,7 +328,7 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
                             f"orientation file or remove them")
     infos = [open_raster(f, "frame") for f in frames]
     uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
-                                               prog.stage(0.0, 0.7, "matching"))
+                                               prog.stage(0.0, 0.7, "matching"), ideal_pixels(camera, distortion))
     frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
     report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
               "dropped_inconsistent_tracks": dropped}
@@ -325,8 +357,10 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
 def matched_observations(frames, names, camera, eos, height: float, **kwargs):
     """``(ImageObservations, report)``: :func:`block_tie_points` as the table the bundle adjustment reads
     (frame keys ``names``, point ids ``tie<track>``, each observation's LSM σ)."""
-    from ..io.block import ImageObservations
+    from ...io.block import ImageObservations
     frame, track, pixel, sigma, report = block_tie_points(frames, camera, eos, height, **kwargs)
+    for p in report["pairs"]:
+        p["frames"] = [str(names[i]) for i in p["pair"]]
     obs = ImageObservations(np.array([names[f] for f in frame], dtype=object),
                             np.array([f"tie{t}" for t in track], dtype=object), pixel, sigma)
     return obs, report

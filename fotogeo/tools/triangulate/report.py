@@ -14,7 +14,9 @@ Three plots, drawn with OpenCV (no plotting library needed), embedded as base64 
 Captions and legends are HTML under each plot (they wrap; text drawn into a plot was cut at its
 edge). The tables beside them repeat ``report.json``: σ₀, image RMS, check RMSE, control placed by
 the images alone and the σ-weighted control residuals per axis, interior parameters held fixed and
-why, blunders, the adjusted orientations with their σ. The CRS is named in one line, its WKT folded
+why, blunders; then (:mod:`fotogeo.tools.triangulate.report_tables`) the adjusted orientations with the σ
+of position and angles, the mean σ of the adjusted points per type, the largest image residuals with the
+adjusted image coordinates, the matching statistics and the timings of every stage. The CRS is named in one line, its WKT folded
 and wrapped.
 """
 from __future__ import annotations
@@ -24,6 +26,8 @@ import html
 
 import cv2
 import numpy as np
+
+from . import report_tables as rt
 
 GRID = 12  # cells per image side of the per-frame residual panels
 BLACK, GREY, RED, GREEN, BLUE = (0, 0, 0), (170, 170, 170), (0, 0, 220), (0, 150, 0), (200, 90, 0)  # BGR
@@ -150,16 +154,6 @@ def control_layout(result, block, footprints, size: int = 640) -> tuple:
     return img, caption
 
 
-def _table(rows, head) -> str:
-    cells = "".join(f"<th>{html.escape(str(h))}</th>" for h in head)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
-    return f"<table><tr>{cells}</tr>{body}</table>"
-
-
-def _fmt(x, digits=3):
-    return f"{x:.{digits}f}" if isinstance(x, (int, float)) and np.isfinite(x) else "–"
-
-
 def _accuracy_rows(st: dict) -> list:
     """Rows of the accuracy table: check points, control placed by the images alone, σ-weighted control."""
     rows = []
@@ -168,13 +162,13 @@ def _accuracy_rows(st: dict) -> list:
                        ("control", "control adjusted − given (σ-weighted)")):
         s = st.get(key) or {}
         if s.get("n"):
-            rows.append((label, s["n"], *(_fmt(s.get(f"rmse_{a}_m")) for a in ("x", "y", "z", "planimetric"))))
+            rows.append((label, s["n"], *(rt.fmt(s.get(f"rmse_{a}_m")) for a in ("x", "y", "z", "planimetric"))))
     return rows
 
 
 def _crs_block(text: str) -> str:
     """The CRS named in one line, its full text folded and wrapped."""
-    from .triangulate_outputs import crs_summary
+    from .outputs import crs_summary
     return (f"<p>CRS {html.escape(crs_summary(text))} <details><summary>full definition</summary>"
             f"<pre class='wrap'>{html.escape(text)}</pre></details></p>")
 
@@ -185,16 +179,23 @@ STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-c
          "figure{margin:1em 0}img{max-width:100%;height:auto}figcaption{max-width:800px;color:#333}")
 
 
+def _tables(rep: dict, st: dict) -> list:
+    """The sections after the plots (:mod:`fotogeo.tools.triangulate.report_tables`)."""
+    return [rt.frames_section(rep["frames"]), rt.point_sigma_section(rep.get("point_sigma_by_role") or {}),
+            rt.residuals_section(rep.get("residuals_by_size") or [], st["n_observations"]),
+            rt.matching_section(rep.get("matching_summary"), rep.get("matching")),
+            rt.mosaic_section(rep.get("mosaic"), rep.get("mosaic_resolution_m")),
+            rt.timings_section(rep.get("timings_s") or {})]
+
+
 def write_html(path, rep: dict, result, block, footprints) -> None:
     """``report.html`` (module docstring) from the report dict and the adjusted block."""
     st = rep["statistics"]
     summary = [("frames", st["n_frames"]), ("points", st["n_points"]), ("observations", st["n_observations"]),
-               ("σ0", _fmt(rep["sigma0"])), ("image RMS (px)", _fmt(st["image_rms_px"])),
+               ("σ0", rt.fmt(rep["sigma0"])), ("image RMS (px)", rt.fmt(st["image_rms_px"])),
                ("blunders culled", st["n_blunders"]), ("control points rejected", st.get("n_control_rejected", 0))]
     accuracy = _accuracy_rows(st)
     fixed = [(f.get("parameter", ""), f.get("reason", "")) for f in rep["fixed_parameters"]]
-    frames = [(f["name"], _fmt(f["X"]), _fmt(f["Y"]), _fmt(f["Z"]), _fmt(f["omega"], 5), _fmt(f["phi"], 5),
-               _fmt(f["kappa"], 5), _fmt(f["sigma"]["X0"]), _fmt(f["sigma"]["Z0"])) for f in rep["frames"]]
     hist = (histogram(result), f"lengths |v| of the {int(np.count_nonzero(result.status == 'used'))} used image "
                                f"residuals, px")
     plots = [("Residual vectors per frame", residual_panels(result, block)), ("Residual histogram", hist),
@@ -202,15 +203,14 @@ def write_html(path, rep: dict, result, block, footprints) -> None:
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>fotogeo triangulate</title><style>{STYLE}"
              "</style></head><body>",
              f"<h1>Aerial triangulation: {html.escape(str(rep.get('folder', '')))}</h1>", _crs_block(rep["crs"]),
-             f"<p>{html.escape(rep['units'])}</p>", _table(summary, ("", "value")),
+             f"<p>{html.escape(rep['units'])}</p>", rt.table(summary, ("", "value")),
              "<h2>Accuracy (RMSE, m)</h2>",
-             _table(accuracy, ("", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>no control</p>",
+             rt.table(accuracy, ("", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>no control</p>",
              "<p>Check points and control placed by the images alone are errors in metres; the σ-weighted control "
              "residuals say only how far the control's σ let the points move.</p>",
-             "<h2>Interior parameters held fixed</h2>", _table(fixed, ("parameter", "why")) if fixed else "<p>none</p>"]
+             "<h2>Interior parameters held fixed</h2>", rt.table(fixed, ("parameter", "why")) if fixed else "<p>none</p>"]
     parts += [f"<h2>{t}</h2><figure><img alt='{t}' src='data:image/png;base64,{_png(img)}'>"
               f"<figcaption>{caption}</figcaption></figure>" for t, (img, caption) in plots]
-    parts += ["<h2>Adjusted exterior orientation</h2>",
-              _table(frames, ("frame", "X", "Y", "Z", "ω°", "φ°", "κ°", "σX0 m", "σZ0 m")), "</body></html>"]
+    parts += _tables(rep, st) + ["</body></html>"]
     from pathlib import Path
     Path(path).write_text("\n".join(parts), encoding="utf-8")

@@ -6,37 +6,47 @@ from pathlib import Path
 
 import numpy as np
 
-from ..crs import crs_text
+from ...crs import crs_text
+from .statistics import LARGEST, adjusted_pixels, matching_summary, point_sigma_by_role, residuals_by_size, stage_timings
 
 FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
 CAMERA_FILE = "camera.yaml"  # written with self-calibration
 ORTHO_SUFFIX = "_ortho.tif"  # <frame>_ortho.tif with orthorectify
+MOSAIC_FILES = ("mosaic.tif", "mosaic.gpkg")  # with mosaic: the mosaic and its seamlines (fotogeo mosaic's layers)
 
 
-def output_paths(folder, *, names, self_calibration, orthorectify) -> dict:
-    """The final paths: ``eo``, ``gpkg``, ``json``, ``html``, ``camera`` (self-calibration) and
-    ``ortho:<frame>`` (orthorectify)."""
+def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False) -> dict:
+    """The final paths: ``eo``, ``gpkg``, ``json``, ``html``, ``camera`` (self-calibration),
+    ``ortho:<frame>`` (orthorectify or mosaic) and ``mosaic``, ``seamlines`` (mosaic)."""
     folder = Path(folder)
     paths = dict(zip(("eo", "gpkg", "json", "html"), (folder / f for f in FILES)))
     if self_calibration:
         paths["camera"] = folder / CAMERA_FILE
-    if orthorectify:
+    if orthorectify or mosaic:
         paths.update({f"ortho:{n}": folder / f"{n}{ORTHO_SUFFIX}" for n in names})
+    if mosaic:
+        paths.update(zip(("mosaic", "seamlines"), (folder / f for f in MOSAIC_FILES)))
     return paths
 
 
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
                   progress) -> None:
-    """Write every output of :func:`output_paths` (the orthophoto grids checked before any file)."""
-    from ..io.block import write_exterior_orientation, write_interior_orientation
-    from ..io.raster import AtomicOutputs
-    from ..io.report import write_json
-    from ..io.vector import write_layers
-    from .triangulate_ortho import footprints, ortho_grids, orthorectify, terrain
-    from .triangulate_report import write_html
+    """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
+    the mosaic of the orthophotos (:func:`mosaic_outputs`), whose failure leaves that set in place. The seconds
+    spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``)."""
+    import time
+    t0 = time.perf_counter()
+    from ...io.block import write_exterior_orientation, write_interior_orientation
+    from ...io.raster import AtomicOutputs
+    from ...io.vector import write_layers
+    from .ortho import common_resolution, footprints, ortho_grids, orthorectify, terrain
     crs = block.crs
     feet = footprints(result, block, terrain(dem, crs, result), crs)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
+    if "mosaic" in paths:  # the mosaic needs one pixel lattice
+        if resolution is None:
+            resolution = common_resolution(ortho_grids(ortho, result, block, frames, dem, crs, None, quiet=True))
+        rep["mosaic_resolution_m"] = resolution
     grids = ortho_grids(ortho, result, block, frames, dem, crs, resolution) if ortho else {}
     layers = {**block_layers(result, block), "footprints": feet}
     with AtomicOutputs(overwrite) as out:
@@ -50,9 +60,53 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
             rep["orthorectified"] = orthorectify(temps, grids, frames, block, crs, resampling,
                                                  progress.stage(0.0, 0.9, "orthorectifying"))
         write_layers(out.temp(paths["gpkg"]), layers, crs)
-        write_json(out.temp(paths["json"]), rep)
-        write_html(out.temp(paths["html"]), rep, result, block, feet)
+        _timing(rep, "outputs", time.perf_counter() - t0)
+        _write_reports(out, paths, rep, result, block, feet)
         out.commit()
+    if "mosaic" in paths:
+        t0 = time.perf_counter()
+        rep["mosaic"] = mosaic_outputs(paths, rep.get("orthorectified") or {}, overwrite, progress.stage(0.9, 1.0,
+                                                                                                      "mosaic"))
+        _timing(rep, "mosaic", time.perf_counter() - t0)
+        with AtomicOutputs(True) as out:  # the reports again, with the mosaic's outcome
+            _write_reports(out, paths, rep, result, block, feet)
+            out.commit()
+
+
+def _write_reports(out, paths, rep, result, block, feet) -> None:
+    from ...io.report import write_json
+    from .report import write_html
+    write_json(out.temp(paths["json"]), rep)
+    write_html(out.temp(paths["html"]), rep, result, block, feet)
+
+
+def _timing(rep: dict, stage: str, seconds: float) -> None:
+    """``rep["timings_s"][stage]`` set and the total recomputed (a report with stage timings only)."""
+    timings = rep.get("timings_s")
+    if isinstance(timings, dict) and "adjustment_steps" in timings:
+        timings[stage] = seconds
+        timings.update(stage_timings(timings, timings["adjustment_steps"]))
+
+
+def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress) -> dict:
+    """``fotogeo mosaic`` (:func:`fotogeo.tools.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``,
+    seamlines into ``paths["seamlines"]``; its report, or ``{"error": ...}`` (warned) when it fails or fewer than
+    two frames were orthorectified — the adjustment's outputs are written already and stay."""
+    import warnings
+
+    from ...errors import Cancelled, FotogeoError, FotogeoWarning
+    from ..mosaic import mosaic
+    done = [paths[f"ortho:{n}"] for n, r in orthorectified.items() if "error" not in r]
+    try:
+        if len(done) < 2:
+            raise FotogeoError(f"{len(done)} frame(s) orthorectified; a mosaic needs two")
+        return mosaic(done, paths["mosaic"], seamlines=paths["seamlines"], overwrite=overwrite, progress=progress)
+    except Cancelled:
+        raise
+    except FotogeoError as exc:
+        message = f"no mosaic: {exc}; the orientations and orthophotos are written (mosaic them with fotogeo mosaic)"
+        warnings.warn(message, FotogeoWarning, stacklevel=2)
+        return {"error": message}
 
 
 def _points3d(xyz):
@@ -70,6 +124,7 @@ def block_layers(result, block) -> dict:
     d = result.point_xyz[known] - block.point_xyz[known]
     eo = np.array([[e.X, e.Y, e.Z, e.omega, e.phi, e.kappa] for e in result.eo])
     o_live = live[block.obs_point]
+    adjusted = adjusted_pixels(result, block)
     n_used = np.bincount(block.obs_frame[result.status == "used"], minlength=len(block.frames))
     return {
         "tie_points": {"geometry": _points3d(result.point_xyz[tie]), "id": ids[tie].astype(str),
@@ -88,15 +143,17 @@ def block_layers(result, block) -> dict:
                       "frame": np.array(block.frames, dtype=object)[block.obs_frame[o_live]].astype(str),
                       "point": ids[block.obs_point[o_live]].astype(str),
                       "col": block.obs_pixel[o_live, 0], "row": block.obs_pixel[o_live, 1],
+                      "col_adjusted": adjusted[o_live, 0], "row_adjusted": adjusted[o_live, 1],
                       "dx_px": result.residuals[o_live, 0], "dy_px": result.residuals[o_live, 1],
                       "status": result.status[o_live], "w": result.w_test[o_live]},
     }
 
 
-def report(result, block, crs, inputs: dict) -> dict:
-    """The JSON report of one adjustment."""
-    from ..crs import short_name
-    from ..orientation.ground_sigma import covariance_header, frame_covariance_entry
+def report(result, block, crs, inputs: dict, stages: dict | None = None) -> dict:
+    """The JSON report of one adjustment; ``stages``: seconds of the run's stages so far
+    (:func:`~fotogeo.tools.triangulate.statistics.stage_timings`; the outputs' are added when written)."""
+    from ...crs import short_name
+    from ...orientation.ground_sigma import covariance_header, frame_covariance_entry
     cam = result.camera
     return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs), "crs_name": short_name(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
@@ -110,7 +167,17 @@ def report(result, block, crs, inputs: dict) -> dict:
                         **frame_covariance_entry(result, j)}
                        for j, (n, e, s) in enumerate(zip(block.frames, result.eo, result.eo_sigma))],
             **covariance_header(result),
-            "iterations": result.iterations, "timings_s": result.timings}
+            "iterations": result.iterations,
+            "timings_s": stage_timings(stages, result.timings) if stages is not None else dict(result.timings),
+            "point_sigma_by_role": point_sigma_by_role(result),
+            "matching_summary": matching_summary(inputs.get("matching"), result),
+            "residuals_by_size": residuals_by_size(result, block),
+            "notes": {"residuals_by_size": f"image residuals v = projected − measured of the observations still in "
+                                           f"the block, largest |v| first (px), with the adjusted image coordinate "
+                                           f"measured + v; the largest {LARGEST} here, every one in block.gpkg "
+                                           f"(layer residuals)",
+                      "point_sigma_by_role": "mean a-posteriori σ of the adjusted points per type (m) and their RMS",
+                      "timings_s": "wall-clock seconds of the run's stages; adjustment_steps: the adjustment's own"}}
 
 
 def _rmse_text(s: dict) -> str:
@@ -140,7 +207,7 @@ def accuracy_lines(rep: dict) -> list:
 
 def crs_summary(text: str) -> str:
     """The report's CRS in one short phrase (its EPSG code or name; never a whole WKT)."""
-    from ..crs import parse_crs, short_name
+    from ...crs import parse_crs, short_name
     try:
         return short_name(parse_crs(text, "CRS"))
     except Exception:  # noqa: BLE001 - a summary, never a failure

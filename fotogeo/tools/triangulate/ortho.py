@@ -19,12 +19,12 @@ import warnings
 
 import numpy as np
 
-from ..errors import FotogeoWarning, InputError, ModelError
-from ..geometry.camera import OrientedFrame
-from ..geometry.dem import is_height_source
-from ..geometry.georeference import Georeference
-from ..orientation import bundle_jacobian as bj
-from ..pixels import as_points
+from ...errors import FotogeoWarning, InputError, ModelError
+from ...geometry.camera import OrientedFrame
+from ...geometry.dem import is_height_source
+from ...geometry.georeference import Georeference
+from ...orientation import bundle_jacobian as bj
+from ...pixels import as_points
 
 
 class AdjustedFrame:
@@ -95,7 +95,7 @@ def frame_models(result, block) -> list:
 def terrain(dem, crs, result):
     """The height source: the DEM in the map CRS, else the mean height of the adjusted points."""
     if dem is not None:
-        from .rectify import dem_heights
+        from ..rectify import dem_heights
         return dem_heights(dem, crs)
     z = result.point_xyz[:, 2]
     return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
@@ -116,13 +116,21 @@ def footprints(result, block, heights, crs) -> dict:
             "on_terrain": np.array(complete), "area_m2": np.array([p.area for p in polys])}
 
 
-def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dict:
+def common_resolution(grids: dict) -> float | None:
+    """One pixel size for every orthophoto of a mosaic (``fotogeo mosaic`` needs one lattice): the median of the
+    frames' ground sample distances (their grids' resolutions), rounded to 3 significant digits; None when no
+    frame has a grid."""
+    res = [g.resolution for g in grids.values() if not isinstance(g, str)]
+    return float(f"{np.median(res):.3g}") if res else None
+
+
+def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution, quiet: bool = False) -> dict:
     """Per frame, the checked output grid of its orthorectification (:func:`fotogeo.tools.rectify.rectify_grid`,
     the mean height of the adjusted points); nothing is resampled yet. A frame whose grid cannot be made (e.g.
     off the DEM) gets the reason instead (a string): it is reported and skipped, never losing the adjustment's
-    outputs."""
-    from ..io.raster import open_raster
-    from .rectify import rectify_grid
+    outputs (``quiet``: without the warning)."""
+    from ...io.raster import open_raster
+    from ..rectify import rectify_grid
     points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
     ground = points if len(points) else np.zeros((1, 3))
     grids = {}
@@ -132,14 +140,15 @@ def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution) -> dic
                                        resolution)
         except (ModelError, InputError) as exc:
             grids[name] = f"not orthorectified: {str(exc)[:300]}; check that the DEM covers the frame's footprint"
-            warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
+            if not quiet:
+                warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
     return grids
 
 
 def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
-    from ..io.raster import open_raster
-    from .rectify import rectify_image
+    from ...io.raster import open_raster
+    from ..rectify import rectify_image
     out = {}
     for k, (path, name) in enumerate(zip(frames, block.frames)):
         stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
@@ -147,4 +156,13 @@ def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, 
             out[name] = {"error": grids.get(name, "no grid")}
             continue
         out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
+        _tag_nadir(temp_paths[name], grids[name].geo.model)
     return out
+
+
+def _tag_nadir(path, frame) -> None:
+    """``FOTOGEO_NADIR`` (X Y of the projection centre, the ground point without relief displacement), as
+    ``fotogeo ortho`` writes it: ``fotogeo mosaic`` starts its seamlines there."""
+    from ...io.raster import ropen
+    with ropen(path, "r+") as ds:
+        ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in frame.projection_centre[:2]))

@@ -3,7 +3,7 @@
 A drone user has images with GPS positions, perhaps gimbal or autopilot angles, perhaps nothing
 about the attitude at all. Before least-squares matching and the bundle adjustment need it,
 two things the GPS does not give are measured on the images (after the pairs are matched on a
-pyramid level, :mod:`fotogeo.tools.triangulate_match`):
+pyramid level, :mod:`fotogeo.tools.triangulate.match`):
 
 * **κ (the heading of the image)**. For each matched pair ``(i, j)`` a similarity
   ``x_j ≈ S(x_i)`` is fitted to the epipolar inliers (``cv2.estimateAffinePartial2D``, RANSAC).

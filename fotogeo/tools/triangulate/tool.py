@@ -10,10 +10,10 @@
 * ``eo`` — the approximate exterior orientation, ``name X Y Z omega phi kappa`` lines in the
   map CRS (metres, PATB degrees), e.g. from GNSS/INS; optional with control: a frame it lacks
   (or every frame, ``eo=None``) is resected against its ≥ 4 GCPs
-  (:mod:`fotogeo.tools.triangulate_inputs`);
+  (:mod:`fotogeo.tools.triangulate.inputs`);
 * ``observations`` — the image measurements of the tie points, a table ``frame, point, col,
   row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
-  frames are matched (:mod:`fotogeo.tools.triangulate_match`: footprints at the mean GCP
+  frames are matched (:mod:`fotogeo.tools.triangulate.match`: footprints at the mean GCP
   height, SURF on pyramid level 1, epipolar RANSAC, multi-ray tracks thinned to Gruber positions,
   LSM transfer at full resolution with each observation's σ);
 * ``gcps`` — ground control: ODM/OpenSfM's ``gcp_list.txt`` (:func:`fotogeo.io.block.read_gcp_list`)
@@ -22,25 +22,31 @@
   CRS; check points: the ``role`` field, the names in ``check_points`` and a seeded spread
   hold-out of ``check_fraction`` of the control;
 * ``reference`` (with ``dem``) — orthophoto(s) on which control is found automatically
-  (:func:`fotogeo.tools.triangulate_control.automatic_control`), merged with ``gcps`` and weighted
+  (:func:`fotogeo.tools.triangulate.control.automatic_control`), merged with ``gcps`` and weighted
   with ``reference_sigma_xy`` / ``reference_sigma_z``;
 
 runs :func:`fotogeo.orientation.bundle.adjust_block` in the map CRS (projected, metric) and
 writes into ``folder``, as one set (nothing on an error or a cancel;
-:mod:`fotogeo.tools.triangulate_outputs`):
+:mod:`fotogeo.tools.triangulate.outputs`):
 
 * ``exterior_orientation.txt`` — the adjusted orientations, in the input's format;
 * ``camera.yaml`` — with ``self_calibration``: the adjusted interior orientation (orthority's
   YAML, :func:`fotogeo.io.block.write_interior_orientation`);
 * ``block.gpkg`` — layers ``tie_points`` (3-D, σ, rays), ``control`` (control and check points
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
-  angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel,
-  residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
-  the DEM or the mean height, :mod:`fotogeo.tools.triangulate_ortho`);
+  angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel, adjusted
+  pixel, residual vector in px, status, standardised residual) and ``footprints`` (frame outlines on
+  the DEM or the mean height, :mod:`fotogeo.tools.triangulate.ortho`);
 * ``report.json`` — σ₀, image RMS, control/check RMSE per axis, interior parameters estimated,
-  held fixed and why, blunders culled, timings; ``report.html`` — the same with plots
-  (:mod:`fotogeo.tools.triangulate_report`);
-* with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation.
+  held fixed and why, blunders culled, image residuals sorted by size with the adjusted image
+  coordinates, mean σX σY σZ per point type, matching statistics, the timings of every stage
+  (:mod:`fotogeo.tools.triangulate.statistics`); ``report.html`` — the same with plots
+  (:mod:`fotogeo.tools.triangulate.report`);
+* with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation;
+* with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
+  by :func:`fotogeo.tools.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
+  else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
+  (``report.json`` ``mosaic.error``, a warning) and loses none of them.
 """
 from __future__ import annotations
 
@@ -50,18 +56,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FotogeoWarning, InputError, ModelError, OutputError
-from ..io.block import frame_key, read_image_observations
-from ..io.raster import check_output
-from ..orientation.bundle import Block, BundleOptions, adjust_block
-from ..progress import as_progress
-from .boundary import tool
-from ..io.block import split_check_points
-from .triangulate_control import reference_sigmas
-from .triangulate_inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
+from ...errors import FotogeoWarning, InputError, ModelError, OutputError
+from ...io.block import frame_key, read_image_observations
+from ...io.raster import check_output
+from ...orientation.bundle import Block, BundleOptions, adjust_block
+from ...progress import as_progress
+from ..boundary import tool
+from ...io.block import split_check_points
+from .control import reference_sigmas
+from .inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
                                  read_block_control, read_camera)
-from .triangulate_outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
-from .triangulate_sources import block_start
+from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
+from .sources import block_start
 
 __all__ = ["CAMERA_FILE", "FILES", "triangulate"]
 
@@ -99,9 +105,10 @@ def _points(names, obs, gcp, check_ids, sigma_xy, sigma_z, image_sigma):
 
 def _matched(frames, names, cam, eos, height, start, match, prog):
     """Image observations (with LSM's σ) from matching the overlapping frames
-    (:func:`fotogeo.tools.triangulate_match.matched_observations`); ``(obs, report, eos, height)``, the
-    orientations and height measured on the images when ``start`` asks for them."""
-    from .triangulate_match import matched_observations
+    (:func:`fotogeo.tools.triangulate.match.matched_observations`); ``(obs, report, eos, height)``, the
+    orientations and height measured on the images when ``start`` asks for them. The epipolar RANSAC sees
+    the measured pixels, distortion included (why: :mod:`fotogeo.tools.triangulate.match`)."""
+    from .match import matched_observations
     obs, rep = matched_observations(frames, names, cam, eos, height, start=start, progress=prog, **match)
     st = rep.get("start") or {}
     eos, height = st.pop("eos", eos), st.pop("height", height)
@@ -119,8 +126,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
-                dem=None, orthorectify: bool = False, resolution=None, resampling: str = "nearest", reference=None,
-                reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
+                dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None,
+                resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
                 overwrite: bool = False, progress=None) -> dict:
@@ -136,23 +143,27 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
 def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
     finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=kw["self_calibration"],
-                          orthorectify=kw["orthorectify"])
+                          orthorectify=kw["orthorectify"], mosaic=kw["mosaic"])
     for path in finals.values():
         check_output(path, inputs, kw["overwrite"], "output")
-    start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
-                        kw["geoinfo"])
+    with prog.timed("inputs"):
+        start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
+                            kw["geoinfo"])
     cam, distortion = start.camera, start.distortion
-    frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
-                                                                          prog.stage(0.0, 0.2, "control"))
+    with prog.timed("control"):
+        frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
+                                                                              prog.stage(0.0, 0.2, "control"))
     matching = None
     if observations is not None:
-        obs = read_image_observations(observations)
+        with prog.timed("inputs"):
+            obs = read_image_observations(observations)
     else:
-        height = start_height(gcp, kw["dem"], map_crs, eos, cam)
-        obs, matching, eos, height = _matched(
-            frames, names, cam, eos, height, start.measure(height),
-            _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
-            prog.stage(0.2, 0.5, "matching the frames"))
+        with prog.timed("matching"):
+            height = start_height(gcp, kw["dem"], map_crs, eos, cam)
+            obs, matching, eos, height = _matched(
+                frames, names, cam, eos, height, start.measure(height),
+                _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
+                prog.stage(0.2, 0.5, "matching the frames"))
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])
     automatic = np.isin(np.array(ids, dtype=object), list(auto)) & (role == "control")
@@ -165,8 +176,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
-                                                                                       "bundle adjustment"))
+    with prog.timed("adjustment"):
+        result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
+                                                                                           "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
@@ -176,7 +188,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "automatic_control_sigma_m": {"xy": ref_sigma[0], "z": ref_sigma[1]},
                                          "matching": matching, "resected_frames": start.resected,
                                          "start": start.summary(), "frame_quality": quality.rows(),
-                                         "dropped_frames": dropped + undetermined})
+                                         "dropped_frames": dropped + undetermined}, stages=dict(prog.timings))
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
@@ -188,15 +200,15 @@ def _control(frames, start, kw, prog):
     """``(frames, names, control GcpList or None, map CRS, approximate orientations, check-point names, automatic
     control names, frames dropped)``: the surveyed control, the approximate orientation (the start's, else
     resection where ``eo`` lacks a frame, else registration to ``reference``,
-    :mod:`fotogeo.tools.triangulate_register`), the automatic control from ``reference``
-    (:mod:`fotogeo.tools.triangulate_inputs`) and the check points."""
+    :mod:`fotogeo.tools.triangulate.register`), the automatic control from ``reference``
+    (:mod:`fotogeo.tools.triangulate.inputs`) and the check points."""
     cam, names = start.camera, start.names
     gcp, map_crs, given_checks = read_block_control(kw["gcps"], start.crs, kw["gcp_crs"], cam, names,
                                                     kw["check_points"])
     auto, dropped = set(), []
     reference, dem = _as_list(kw["reference"]), kw["dem"]
     if start.registration is not None:
-        from .triangulate_register import registration_start
+        from .register import registration_start
         reg = registration_start(frames, names, cam, reference, dem, map_crs, undetermined=kw["undetermined"],
                                  progress=prog)
         frames, names, eos, gcp, dropped = reg.frames, reg.names, reg.eos, reg.control, reg.dropped
@@ -219,11 +231,11 @@ def _control(frames, start, kw, prog):
 def start_height(gcp, dem, crs, eos, camera):
     """The terrain height for footprints and the LSM start: the mean GCP height, else the mean DEM height
     under the frames' image centres, else None (measured on the images,
-    :mod:`fotogeo.tools.triangulate_start`)."""
+    :mod:`fotogeo.tools.triangulate.start`)."""
     if gcp is not None:
         return float(np.mean(gcp.ground[:, 2]))
     if dem is not None:
-        from .triangulate_ortho import terrain
+        from .ortho import terrain
         src = terrain(dem, crs, None)
         if src is not None and not isinstance(src, (int, float)):
             xy = np.array([[e.X, e.Y] for e in eos])
@@ -262,7 +274,8 @@ def adjust_determined(block, opts, kw, prog):
     """``(result, block, FrameQuality, dropped)``: the adjustment, every frame checked
     (:mod:`fotogeo.orientation.bundle_quality`); an undetermined frame fails the run, or with
     ``undetermined="drop"`` is dropped and the block adjusted again."""
-    from ..orientation.bundle_quality import frame_quality, prior_held_frames, undetermined_frames
+    from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
+                                               undetermined_frames)
     dropped = []
     while True:
         try:
@@ -279,6 +292,10 @@ def adjust_determined(block, opts, kw, prog):
         prior = _angle_prior(opts.eo_sigma, len(block.frames))
         bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
                                   angle_prior=prior)
+        contradicted = prior_contradicted_frames(result, block, opts.eo_sigma)
+        drop = set(bad) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
+        for n, why in contradicted.items():
+            bad[n] = f"{bad[n]}; {why}" if n in bad else why
         if not bad:
             held = prior_held_frames(quality, kw["max_angle_sigma"])
             if held:
@@ -288,17 +305,17 @@ def adjust_determined(block, opts, kw, prog):
                               FotogeoWarning, stacklevel=2)
             return result, block, quality, dropped
         text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
-        if kw["undetermined"] != "drop" or len(block.frames) - len(bad) < 2:
+        if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
             raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
-                             f"add tie points or GCPs there, give their attitude (--eo, gimbal data, "
-                             f"--eo-sigma-angle), or leave them out (--undetermined drop)")
-        dropped += [{"name": n, "reason": why} for n, why in bad.items()]
-        block, opts = _without_frames(block, opts, set(bad))
+                             f"add tie points or GCPs there, give or check their attitude and position (--eo, "
+                             f"gimbal and GPS tags, --eo-sigma-angle), or leave them out (--undetermined drop)")
+        dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
+        block, opts = _without_frames(block, opts, drop)
 
 
 def _angle_prior(eo_sigma, m: int) -> np.ndarray:
     """``(m,)`` True where the frame's angles have a prior (:func:`~fotogeo.orientation.bundle_problem.eo_weights`)."""
-    from ..orientation.bundle_problem import eo_weights
+    from ...orientation.bundle_problem import eo_weights
     return (eo_weights(eo_sigma, m)[:, 3:] > 0).all(axis=1)
 
 
@@ -327,6 +344,6 @@ def _as_list(paths) -> list:
 
 def _resected(eo, names) -> list:
     """The frames whose approximate orientation came from space resection (not in ``eo``)."""
-    from ..io.camera import read_exterior_orientation
+    from ...io.camera import read_exterior_orientation
     table = read_exterior_orientation(eo) if eo else {}
     return [n for n in names if n not in table]
