@@ -96,11 +96,11 @@ def match_pair(path_i: str, path_j: str, features_i, features_j, det, threshold:
 
 
 def _detections(client, paths, pairs, det, run: str):
-    """``({(frame, role): future}, [(feature key of i, of j), ...])``: one detection task per frame and nodata
-    override, in the role of its first pair (as :class:`FeatureCache` keys and fills it); the second list
-    names each pair's two detections."""
+    """``({(frame, nodata override): future}, [(key of i, key of j), ...])``: one detection task per frame and
+    nodata override, in the role of its first pair (as :class:`FeatureCache` keys and fills it); the second
+    list names each pair's two detections."""
     futures, keys, which = {}, {}, []
-    for k, (i, j) in enumerate(pairs):
+    for i, j in pairs:
         pair_keys = []
         for f, role in ((i, "reference"), (j, "target")):
             key = (f, getattr(det, f"{role}_nodata"))
