@@ -73,6 +73,11 @@ EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration 
                       advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
 YAML = "YAML (*.yaml *.yml)"
+#: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.batch._cluster)
+SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
+                   "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine].")
+WORKERS = Option("workers", "int", None, "Local Dask workers (0 = one per CPU)", "Workers of the local cluster [one "
+                 "per CPU].", minimum=0, automatic=0)
 
 # -- the tools ------------------------------------------------------------------------------
 #: registration settings, in the field order of :class:`RegisterOptions` (and of the report's "options")
@@ -310,6 +315,12 @@ TRIANGULATE = Table(
     Option("lsm_window", "int", 21, "Least-squares matching window (px, odd)",
            "Side of the least-squares matching window of the tie points (px).", minimum=7, maximum=101,
            advanced=True),
+    replace(SCHEDULER, label="Dask scheduler address for the pair matching (empty = local)",
+            help="Match the frame pairs as tasks on this Dask scheduler, e.g. tcp://host:8786 [this process].",
+            advanced=True),
+    replace(WORKERS, label="Local Dask workers for the pair matching (0 = none: this process)",
+            help="Match the frame pairs as tasks on a local Dask cluster of N processes [0: in this process].",
+            advanced=True),
 )
 #: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior)
 INTERIOR = Table(
@@ -336,10 +347,7 @@ INTERIOR = Table(
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)
 REGISTER_BATCH = Table(
-    Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
-           "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine]."),
-    Option("workers", "int", None, "Local Dask workers (0 = one per CPU)", "Workers of the local cluster [one per CPU].",
-           minimum=0, automatic=0),
+    SCHEDULER, WORKERS,
     Option("resume", "bool", True, "Skip scenes already registered (manifest and outputs)",
            "Skip scenes whose outputs and manifest row say they are done."),
 )

@@ -199,3 +199,24 @@ def test_self_calibration_writes_the_adjusted_camera(tmp_path, small_block):
     cam = next(iter(read_interior_orientation(out / "camera.yaml").values()))  # pinhole: no distortion estimated
     assert cam.principal_point == pytest.approx(tuple(rep["camera"]["principal_point"]), abs=1e-9)
     assert cam.focal_length == 3.0
+
+
+def test_the_dask_options_reach_the_pair_matching(tmp_path, small_block, monkeypatch):
+    """--scheduler / --workers (register-batch's options) go to the tie-point matching; without them it runs in
+    this process (client, scheduler and workers None)."""
+    from fotogeo.cli import main
+    from fotogeo.errors import MatchingError
+    from fotogeo.tools.triangulate import match
+    seen = []
+
+    def stop(*a, **k):
+        seen.append({n: k[n] for n in ("client", "scheduler", "workers") if n in k})
+        raise MatchingError("stopped after the options were seen")
+    monkeypatch.setattr(match, "block_tie_points", stop)
+    frames, checks = write_block(tmp_path, small_block)
+    common = ["triangulate", *map(str, frames), "--camera", str(tmp_path / "camera.yaml"), "--eo",
+              str(tmp_path / "eo.txt"), "--gcps", str(tmp_path / "gcp_list.txt"), "-q"]
+    for extra in (["--scheduler", "tcp://127.0.0.1:8786", "--workers", "2"], []):
+        res = CliRunner().invoke(main, [*common, *extra, "-o", str(tmp_path / f"out{len(extra)}")])
+        assert res.exit_code != 0 and "stopped after the options were seen" in res.output, res.output
+    assert seen == [{"scheduler": "tcp://127.0.0.1:8786", "workers": 2}, {"scheduler": None, "workers": None}]

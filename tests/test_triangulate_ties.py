@@ -135,3 +135,33 @@ def test_epipolar_ransac_sees_the_pixels_of_the_distortion_free_camera():
     np.testing.assert_allclose(ideal_pixels(cam, k)(measured[inside]), pinhole[inside], atol=1e-6)
     assert ideal_pixels(cam, dict(zip(("k1", "k2"), k))) is not None
     assert ideal_pixels(cam, (0.0,) * 5) is None and ideal_pixels(cam, None) is None
+
+
+def test_pairs_as_dask_tasks_give_the_same_tie_points(rendered):
+    """--scheduler / --workers (fotogeo.tools.triangulate.pairs): one detection task per frame, one matching
+    task per pair, one LSM task per frame pair, gathered in order — the tracks, pixels, σ and report of the
+    in-process path, to the bit."""
+    distributed = pytest.importorskip("distributed")
+    import os
+
+    import cv2
+
+    from fotogeo.tools.batch import SINGLE_THREAD_ENV
+    sb, _, paths, height, *_ = rendered
+    local = block_tie_points(paths, sb.block.camera, sb.block.eo, height)
+    env, threads = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}, cv2.getNumThreads()
+    try:  # the tasks pin the threads of this process (the worker runs in it): restored afterwards
+        with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                      dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+            tasks = block_tie_points(paths, sb.block.camera, sb.block.eo, height, client=client)
+    finally:
+        cv2.setNumThreads(threads)
+        for k, v in env.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    assert tasks[4]["pairs"] == local[4]["pairs"] and sum(p["inliers"] for p in local[4]["pairs"]) > 0
+    for a, b in zip(local[:4], tasks[:4]):  # frame, track, pixel, sigma
+        np.testing.assert_array_equal(a, b)
+    assert tasks[4] == local[4]

@@ -24,7 +24,10 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
   (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
-  whose first pair has run are held (keypoints and descriptors only, never the images).
+  whose first pair has run are held (keypoints and descriptors only, never the images). For large
+  blocks the pairs run as Dask tasks instead (``--scheduler`` / ``--workers``, as ``register-batch``;
+  :mod:`fotogeo.tools.triangulate.pairs`): one detection task per frame, one matching task per pair,
+  joined in pair order — the same tie points.
 * **Tracks**: a keypoint is the same in every pair of its frame (the detector is deterministic),
   so matches are joined into multi-ray tracks by union–find on (frame, keypoint position); a
   track that holds two different keypoints of one frame is inconsistent and dropped.
@@ -53,11 +56,13 @@ import numpy as np
 
 from ...errors import MatchingError
 from ...geometry.camera import OrientedFrame
-from ...io.raster import open_raster, read_decimated
+from ...io.raster import open_raster
 from ...options import RegisterOptions
 from ...pixels import outline
 from ...progress import as_progress
 from ..match import FeatureCache, find_tie_points
+from .pairs import (dask_client, dask_lsm_results, dask_pair_results, epipolar_kept, grey, ideal_pixels,
+                    lsm_group)
 
 
 def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05, *, round_footprints: bool = False) -> list:
@@ -107,34 +112,6 @@ class _UnionFind:
             self.parent[rb] = ra
 
 
-def ideal_pixels(camera, distortion):
-    """``xy (n, 2) -> (n, 2)``: measured pixels → the pixels of the distortion-free pinhole camera
-    (module docstring), or None when ``distortion`` is empty or all 0 (the pixels are ideal already).
-    ``distortion``: ``(k1, k2, k3, p1, p2)`` (:class:`fotogeo.orientation.bundle.Block`'s) or a dict of them."""
-    from ...orientation import bundle_jacobian as bj
-    if isinstance(distortion, dict):
-        distortion = [distortion.get(k, 0.0) for k in bj.INTERIOR_NAMES[3:bj.N_PHYSICAL]]
-    terms = [float(t) for t in (distortion or ())]
-    if not any(terms):
-        return None
-    interior = np.array([camera.focal_length, *camera.principal_point, *terms])
-    scale = bj.pixel_scale(camera)
-
-    def ideal(xy):
-        uv = bj.undistort_rays(np.asarray(xy, dtype=np.float64).reshape(-1, 2), interior, scale)[:, :2]
-        return uv * camera.focal_length * scale[:2] + np.asarray(camera.principal_point)
-    return ideal
-
-
-def _epipolar_inliers(xy1, xy2, threshold):
-    import cv2
-    if len(xy1) < 8:
-        return np.zeros(len(xy1), bool)
-    _, mask = cv2.findFundamentalMat(xy1.astype(np.float64), xy2.astype(np.float64), cv2.FM_RANSAC, threshold,
-                                     0.999)
-    return np.zeros(len(xy1), bool) if mask is None else mask.ravel().astype(bool)
-
-
 def thin_to_budget(point, frame, region, score, budget: int) -> np.ndarray:
     """Points to keep (sorted unique ids of ``point``) so that each (frame, region) gets up to ``budget``.
 
@@ -177,33 +154,50 @@ def _detection_options(opts, info, level: int):
     return dataclasses.replace(opts, max_match_pixels=min(opts.max_match_pixels, target))
 
 
-def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, ideal=None):
+def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None):
     """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers)``
-    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels as measured); ``ideal``
-    (:func:`ideal_pixels`) maps them for the RANSAC."""
-    uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
+    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels as measured); the RANSAC sees them
+    through :func:`ideal_pixels` of ``camera`` and ``distortion``. With a Dask ``client`` the pairs are its tasks
+    (:func:`fotogeo.tools.triangulate.pairs.dask_pair_results`), else they run in this process.
+    The pairs are joined in pair order either way: the same tracks."""
     det = _detection_options(opts, infos[0], level)
+    threshold = epipolar_px * 2 ** level
+    if client is None:
+        found = _local_pair_results(infos, pairs, det, threshold, ideal_pixels(camera, distortion), prog)
+    else:
+        found = dask_pair_results(client, [info.path for info in infos], pairs, det, threshold, camera, distortion,
+                                  prog)
+    uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
+    for (i, j), result in zip(pairs, found):
+        if result is None:
+            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
+            continue
+        n_matches, xy_i, xy_j = result
+        per_pair.append({"pair": [i, j], "matches": n_matches, "inliers": int(len(xy_i))})
+        inliers.append((i, j, xy_i, xy_j))
+        for a, b in zip(xy_i, xy_j):
+            na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
+            pos[na], pos[nb] = a, b
+            uf.union(na, nb)
+    return uf, pos, per_pair, inliers
+
+
+def _local_pair_results(infos, pairs, det, threshold, ideal, prog):
+    """:func:`~fotogeo.tools.triangulate.pairs.epipolar_kept` of each pair in turn (None where the descriptors
+    do not match), each frame detected once (:class:`FeatureCache`, dropped after its last pair)."""
     cache, last_pair = FeatureCache(), {f: k for k, pair in enumerate(pairs) for f in pair}
     for k, (i, j) in enumerate(pairs):
         try:
             stage = prog.stage(k / len(pairs), (k + 1) / len(pairs), f"matching pair {k + 1}/{len(pairs)}")
             xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], det, stage, cache=cache)
         except MatchingError:
-            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
+            yield None
             continue
         finally:
             for f in (i, j):
                 if last_pair[f] == k:
                     cache.forget(infos[f])
-        keep = _epipolar_inliers(*((xy_i, xy_j) if ideal is None else (ideal(xy_i), ideal(xy_j))),
-                                 epipolar_px * 2 ** level)
-        per_pair.append({"pair": [i, j], "matches": int(len(keep)), "inliers": int(keep.sum())})
-        inliers.append((i, j, xy_i[keep], xy_j[keep]))
-        for a, b in zip(xy_i[keep], xy_j[keep]):
-            na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
-            pos[na], pos[nb] = a, b
-            uf.union(na, nb)
-    return uf, pos, per_pair, inliers
+        yield epipolar_kept(xy_i, xy_j, ideal, threshold)
 
 
 def _tracks(uf, pos, n_frames):
@@ -218,14 +212,6 @@ def _tracks(uf, pos, n_frames):
     ok = ~np.isin(track, dup_tracks)
     _, track = np.unique(track[ok], return_inverse=True)
     return frame[ok], track.ravel(), pixel[ok], int(len(dup_tracks))
-
-
-def _grey(info) -> np.ndarray:
-    """The frame at full resolution as one float32 band (mean of the bands), NaN where nodata."""
-    bands, mask, _ = read_decimated(info, info.width * info.height + 1, "frame")
-    img = bands.astype(np.float32).mean(axis=0)
-    img[~mask] = np.nan
-    return img
 
 
 def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
@@ -245,13 +231,13 @@ def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
 
 
 def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
-                  min_sigma: float = 0.1, prog=None):
+                  min_sigma: float = 0.1, client=None, prog=None):
     """LSM transfer of each track's anchor window into its other frames (module docstring), frame pair by
-    frame pair (at most two full-resolution frames in memory).
+    frame pair (at most two full-resolution frames in memory); with a Dask ``client``, one task per frame
+    pair (:func:`fotogeo.tools.triangulate.pairs.dask_lsm_results`; the same results).
 
     Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
     """
-    from ...matching import lsm_many
     prog = as_progress(prog)
     n = len(frame)
     track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
@@ -266,21 +252,12 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
     key = frame[anchor[others]].astype(np.int64) * len(eos) + frame[others]
     others = others[np.argsort(key, kind="stable")]
     groups = np.split(others, np.flatnonzero(np.diff(np.sort(key))) + 1) if len(others) else []
-    cache: dict = {}
-    for g, m in enumerate(groups):
-        fa, fb = int(frame[anchor[m[0]]]), int(frame[m[0]])
-        prog(g / len(groups), f"least-squares matching {g + 1}/{len(groups)}")
-        cache = {k: v for k, v in cache.items() if k in (fa, fb)}  # the anchor frame stays while its groups run
-        for f in (fa, fb):
-            if f not in cache:
-                cache[f] = _grey(infos[f])
-        J = local_affinity(camera, eos[fa], eos[fb], pixel[anchor[m]], height)
-        res = lsm_many(cache[fa], cache[fb], pixel[anchor[m]], pixel[m], half_window=half_window,
-                       approx_jacobian=J, max_shift=max_shift)
-        good = res.ok
-        out[m[good]] = res.xy[good]
-        sigma[m[good]] = np.maximum(np.sqrt(np.mean(res.sigma[good] ** 2, axis=1)), min_sigma)
-        ok[m[good]] = True
+    jobs = [(int(frame[anchor[m[0]]]), int(frame[m[0]]), pixel[anchor[m]], pixel[m]) for m in groups]
+    jobs = [(fa, fb, a, xy, local_affinity(camera, eos[fa], eos[fb], a, height)) for fa, fb, a, xy in jobs]
+    found = (_local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog) if client is None else
+             dask_lsm_results(client, [info.path for info in infos], jobs, half_window, max_shift, min_sigma, prog))
+    for m, (good, xy, s) in zip(groups, found):
+        out[m[good]], sigma[m[good]], ok[m[good]] = xy, s, True
     transfers = ok & ~is_anchor
     n_ok = np.bincount(track[transfers], minlength=len(anchor_of))
     ok &= n_ok[track] >= 1  # the anchor and at least one transfer
@@ -295,6 +272,19 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
     return ok, out, sigma, summary
 
 
+def _local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog):
+    """:func:`~fotogeo.tools.triangulate.pairs.lsm_group` of each job in turn, in this process (the anchor
+    frame stays in memory while its jobs run)."""
+    cache: dict = {}
+    for g, (fa, fb, anchors, xy, jac) in enumerate(jobs):
+        prog(g / len(jobs), f"least-squares matching {g + 1}/{len(jobs)}")
+        cache = {k: v for k, v in cache.items() if k in (fa, fb)}
+        for f in (fa, fb):
+            if f not in cache:
+                cache[f] = grey(infos[f])
+        yield lsm_group(cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift, min_sigma)
+
+
 def detection_level(camera) -> int:
     """The pyramid level of detection for frames of this size: 1 (the measured default), or the level that
     brings a frame to at most 4 Mpx."""
@@ -304,16 +294,28 @@ def detection_level(camera) -> int:
 
 def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
-                     options=None, distortion=None, start=None, progress=None):
+                     options=None, distortion=None, start=None, client=None, scheduler=None, workers=None,
+                     progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
     block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
     no thinning), LSM at full resolution (``lsm``; σ None without it). ``distortion``: the camera's Brown
-    terms ``(k1, k2, k3, p1, p2)``, removed before the epipolar RANSAC (:func:`ideal_pixels`).
+    terms ``(k1, k2, k3, p1, p2)``, removed before the epipolar RANSAC (:func:`ideal_pixels`). ``client``
+    (a ``dask.distributed.Client``), ``scheduler`` (its address) or ``workers`` (> 0: a local cluster of so
+    many processes): the pairs are matched and the tracks followed by LSM as Dask tasks
+    (:mod:`fotogeo.tools.triangulate.pairs`; the same tie points), else in this process.
 
     ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints)."""
+    with dask_client(client, scheduler, workers) as client:
+        return _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window,
+                                 options, distortion, start, client, progress)
+
+
+def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window, options,
+                      distortion, start, client, progress):
+    """:func:`block_tie_points` on the Dask ``client`` (None: in this process)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     level = detection_level(camera) if level is None else int(level)
@@ -328,7 +330,7 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
                             f"orientation file or remove them")
     infos = [open_raster(f, "frame") for f in frames]
     uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
-                                               prog.stage(0.0, 0.7, "matching"), ideal_pixels(camera, distortion))
+                                               prog.stage(0.0, 0.7, "matching"), camera, distortion, client)
     frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
     report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
               "dropped_inconsistent_tracks": dropped}
@@ -346,6 +348,7 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     if lsm and len(track):
         ok, pixel, sigma, report["lsm"] = refine_tracks(infos, frame, track, pixel, camera, eos, height,
                                                         max_shift=2.0 ** level + 1.5, half_window=half_window,
+                                                        client=client,
                                                         prog=prog.stage(0.7, 1.0, "least-squares matching"))
         frame, pixel, sigma = frame[ok], pixel[ok], sigma[ok]
         track = np.unique(track[ok], return_inverse=True)[1].ravel()

@@ -15,7 +15,8 @@
   row[, sigma]`` (:func:`fotogeo.io.block.read_image_observations`); ``None``: the overlapping
   frames are matched (:mod:`fotogeo.tools.triangulate.match`: footprints at the mean GCP
   height, SURF on pyramid level 1, epipolar RANSAC, multi-ray tracks thinned to Gruber positions,
-  LSM transfer at full resolution with each observation's σ);
+  LSM transfer at full resolution with each observation's σ; the pairs as Dask tasks with ``scheduler``
+  or ``workers``, :mod:`fotogeo.tools.triangulate.pairs`);
 * ``gcps`` — ground control: ODM/OpenSfM's ``gcp_list.txt`` (:func:`fotogeo.io.block.read_gcp_list`)
   or a point layer / CSV in any CRS, one row per (point, frame) measurement with ``id, frame,
   col, row, z[, role]`` (:func:`fotogeo.io.block.read_control_table`), transformed into the map
@@ -115,10 +116,11 @@ def _matched(frames, names, cam, eos, height, start, match, prog):
     return obs, rep, tuple(eos), height
 
 
-def _match_options(detection_level, gruber_cells, points_per_region, lsm_window) -> dict:
+def _match_options(detection_level, gruber_cells, points_per_region, lsm_window, scheduler=None,
+                   workers=None) -> dict:
     """The tie-point matching settings of the option table as :func:`block_tie_points` arguments."""
     return {"level": detection_level, "cells": int(gruber_cells), "per_region": points_per_region or None,
-            "half_window": int(lsm_window) // 2}
+            "half_window": int(lsm_window) // 2, "scheduler": scheduler or None, "workers": workers or None}
 
 
 @tool("TRIANGULATE", outputs=("folder",))
@@ -130,7 +132,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
-                overwrite: bool = False, progress=None) -> dict:
+                scheduler=None, workers=None, overwrite: bool = False, progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
     prog = as_progress(progress).with_own_timings()
     frames = [Path(f) for f in ([frames] if isinstance(frames, (str, Path)) else frames)]
@@ -162,7 +164,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
             height = start_height(gcp, kw["dem"], map_crs, eos, cam)
             obs, matching, eos, height = _matched(
                 frames, names, cam, eos, height, start.measure(height),
-                _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"]),
+                _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"],
+                               kw["scheduler"], kw["workers"]),
                 prog.stage(0.2, 0.5, "matching the frames"))
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])

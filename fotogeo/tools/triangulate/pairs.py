@@ -1,0 +1,198 @@
+"""One pair of a block's frames matched or least-squares matched, and every pair as Dask tasks (the tool layer of
+``fotogeo triangulate``).
+
+A pair's matches (:func:`fotogeo.tools.match.find_tie_points`) are kept when they fit the two-view geometry:
+a RANSAC fundamental matrix (Fischler & Bolles 1981) on the keypoints with the camera's distortion removed
+(:func:`ideal_pixels`; a fundamental matrix holds for a pinhole camera only), :func:`epipolar_kept`.
+
+**Pairs as Dask tasks** (:func:`dask_pair_results`; ``--scheduler`` / ``--workers``, the options and the
+cluster of ``register-batch``, :func:`fotogeo.tools.dask_cluster.connect`): one task per frame detects its
+keypoints (:func:`frame_features`; read, fused and detected once, as :class:`fotogeo.tools.match.FeatureCache`
+does in one process), one task per pair matches the descriptors of its two frames' tasks and runs the
+RANSAC (:func:`match_pair`); after the tracks are built and thinned (in the calling process), one task per
+frame pair transfers the tracks anchored in one frame into the other by least-squares matching
+(:func:`lsm_task`, :func:`lsm_group`; Gruen 1985). Tasks take paths (every worker must see the frames: a
+shared file system) and run with GDAL, OpenCV and BLAS pinned to one thread; a frame's keypoints are
+released by the scheduler once its last pair has run. The results are gathered in pair order, so the tracks built from them (and the LSM
+results written into them) are the ones of the in-process path, whatever order the workers finish in.
+"""
+from __future__ import annotations
+
+import uuid
+from contextlib import contextmanager
+
+import numpy as np
+
+from ...errors import Cancelled, MatchingError
+from ...io.raster import open_raster, read_decimated
+from ...progress import as_progress
+from ..match import FeatureCache, find_tie_points
+
+
+def ideal_pixels(camera, distortion):
+    """``xy (n, 2) -> (n, 2)``: measured pixels → the pixels of the distortion-free pinhole camera
+    (the ray of :func:`fotogeo.orientation.bundle_jacobian.undistort_rays` put back through the pinhole,
+    ``x_ideal = f·scale·(u, v) + pp``), or None when ``distortion`` is empty or all 0 (the pixels are ideal
+    already). ``distortion``: ``(k1, k2, k3, p1, p2)`` (:class:`fotogeo.orientation.bundle.Block`'s) or a dict."""
+    from ...orientation import bundle_jacobian as bj
+    if isinstance(distortion, dict):
+        distortion = [distortion.get(k, 0.0) for k in bj.INTERIOR_NAMES[3:bj.N_PHYSICAL]]
+    terms = [float(t) for t in (distortion or ())]
+    if not any(terms):
+        return None
+    interior = np.array([camera.focal_length, *camera.principal_point, *terms])
+    scale = bj.pixel_scale(camera)
+
+    def ideal(xy):
+        uv = bj.undistort_rays(np.asarray(xy, dtype=np.float64).reshape(-1, 2), interior, scale)[:, :2]
+        return uv * camera.focal_length * scale[:2] + np.asarray(camera.principal_point)
+    return ideal
+
+
+def _epipolar_inliers(xy1, xy2, threshold):
+    import cv2
+    if len(xy1) < 8:
+        return np.zeros(len(xy1), bool)
+    _, mask = cv2.findFundamentalMat(xy1.astype(np.float64), xy2.astype(np.float64), cv2.FM_RANSAC, threshold,
+                                     0.999)
+    return np.zeros(len(xy1), bool) if mask is None else mask.ravel().astype(bool)
+
+
+def epipolar_kept(xy_i, xy_j, ideal, threshold: float):
+    """``(matches, xy_i, xy_j)``: the number of matches and the measured pixels of those that fit the
+    fundamental matrix within ``threshold`` px (RANSAC on ``ideal(xy)`` when ``ideal`` is given)."""
+    keep = _epipolar_inliers(*((xy_i, xy_j) if ideal is None else (ideal(xy_i), ideal(xy_j))), threshold)
+    return int(len(keep)), xy_i[keep], xy_j[keep]
+
+
+class _Detected:
+    """:func:`find_tie_points`' cache for a pair whose frames were detected by other tasks."""
+
+    def __init__(self, reference, target):
+        self.by_role = {"reference": reference, "target": target}
+
+    def features(self, info, role, opts, prog):
+        return self.by_role[role]
+
+
+def frame_features(path: str, role: str, det):
+    """The Dask task detecting one frame: ``(keypoints, factor, explained)`` as the in-process cache has them."""
+    from ..dask_cluster import pin_threads
+    pin_threads()
+    return FeatureCache().features(open_raster(path, "frame"), role, det, as_progress(None))
+
+
+def match_pair(path_i: str, path_j: str, features_i, features_j, det, threshold: float, camera, distortion):
+    """The Dask task matching one pair: :func:`epipolar_kept`'s ``(matches, xy_i, xy_j)``, or None when the
+    descriptors do not match (:class:`MatchingError`)."""
+    from ..dask_cluster import pin_threads
+    pin_threads()
+    try:
+        xy_j, xy_i, _ = find_tie_points(open_raster(path_i, "frame"), open_raster(path_j, "frame"), det,
+                                        cache=_Detected(features_i, features_j))
+    except MatchingError:
+        return None
+    return epipolar_kept(xy_i, xy_j, ideal_pixels(camera, distortion), threshold)
+
+
+def _detections(client, paths, pairs, det, run: str):
+    """``({(frame, nodata override): future}, [(key of i, key of j), ...])``: one detection task per frame and
+    nodata override, in the role of its first pair (as :class:`FeatureCache` keys and fills it); the second
+    list names each pair's two detections."""
+    futures, keys, which = {}, {}, []
+    for i, j in pairs:
+        pair_keys = []
+        for f, role in ((i, "reference"), (j, "target")):
+            key = (f, getattr(det, f"{role}_nodata"))
+            if key not in keys:
+                keys[key] = len(keys)
+                futures[key] = client.submit(frame_features, str(paths[f]), role, det, pure=False,
+                                             key=f"fotogeo-frame-{f}-{keys[key]}-{run}")
+            pair_keys.append(key)
+        which.append(tuple(pair_keys))
+    return futures, which
+
+
+@contextmanager
+def dask_client(client=None, scheduler=None, workers=None):
+    """The ``dask.distributed.Client`` the tasks run on — ``client``, one of the scheduler at ``scheduler`` or
+    of a local cluster of ``workers`` processes (:func:`fotogeo.tools.dask_cluster.connect`, closed on exit) — or
+    None when none is given (everything in this process)."""
+    if client is None and not scheduler and not workers:
+        yield None
+        return
+    from ..dask_cluster import connect
+    c, close = connect(client, scheduler, workers, what="triangulate --workers")
+    try:
+        yield c
+    finally:
+        close()
+
+
+def _gathered(futures: dict, prog, what: str) -> list:
+    """The results of ``{future: index}`` in index order, as they complete; a cancel cancels the rest."""
+    from ..dask_cluster import distributed_module
+    distributed = distributed_module("triangulate --workers")
+    results = [None] * len(futures)
+    try:
+        for n, fut in enumerate(distributed.as_completed(list(futures)), 1):
+            results[futures[fut]] = fut.result()
+            prog(n / len(results), f"{what} {n}/{len(results)} (Dask)")
+        return results
+    except (Cancelled, KeyboardInterrupt):
+        for fut in futures:
+            fut.cancel()
+        raise
+    finally:
+        futures.clear()
+
+
+def dask_pair_results(client, paths, pairs, det, threshold: float, camera, distortion, progress=None) -> list:
+    """:func:`epipolar_kept` of every pair (None where the descriptors do not match), in pair order, computed
+    as Dask tasks on ``client`` (module docstring)."""
+    run = uuid.uuid4().hex[:8]
+    features, which = _detections(client, paths, pairs, det, run)
+    futures = {client.submit(match_pair, str(paths[i]), str(paths[j]), features[ki], features[kj], det, threshold,
+                             camera, distortion, pure=False, key=f"fotogeo-pair-{i}-{j}-{run}"): k
+               for k, ((i, j), (ki, kj)) in enumerate(zip(pairs, which))}
+    features.clear()  # the scheduler keeps a frame's keypoints until its last pair has run
+    return _gathered(futures, as_progress(progress), "matched pair")
+
+
+def grey(info) -> np.ndarray:
+    """The frame at full resolution as one float32 band (mean of the bands), NaN where nodata."""
+    bands, mask, _ = read_decimated(info, info.width * info.height + 1, "frame")
+    img = bands.astype(np.float32).mean(axis=0)
+    img[~mask] = np.nan
+    return img
+
+
+def lsm_group(image_a, image_b, anchors, xy, jacobian, half_window: int, max_shift: float, min_sigma: float):
+    """``(ok (n,), xy (k, 2), sigma (k,))``: least-squares matching of the ``anchors`` windows of frame a into
+    frame b from ``xy`` and the local affinity ``jacobian`` (:func:`fotogeo.matching.lsm_many`); the refined
+    pixels and σ ``= max(sqrt((σx² + σy²) / 2), min_sigma)`` of the ``k`` that converged."""
+    from ...matching import lsm_many
+    res = lsm_many(image_a, image_b, anchors, xy, half_window=half_window, approx_jacobian=jacobian,
+                   max_shift=max_shift)
+    good = res.ok
+    return good, res.xy[good], np.maximum(np.sqrt(np.mean(res.sigma[good] ** 2, axis=1)), min_sigma)
+
+
+def lsm_task(path_a: str, path_b: str, anchors, xy, jacobian, half_window: int, max_shift: float,
+             min_sigma: float):
+    """The Dask task of :func:`lsm_group` on two frames read from their paths."""
+    from ..dask_cluster import pin_threads
+    pin_threads()
+    return lsm_group(grey(open_raster(path_a, "frame")), grey(open_raster(path_b, "frame")), anchors, xy, jacobian,
+                     half_window, max_shift, min_sigma)
+
+
+def dask_lsm_results(client, paths, groups, half_window: int, max_shift: float, min_sigma: float,
+                     progress=None) -> list:
+    """:func:`lsm_group` of every ``(frame a, frame b, anchors, xy, jacobian)`` of ``groups``, in order, as
+    Dask tasks on ``client``."""
+    run = uuid.uuid4().hex[:8]
+    futures = {client.submit(lsm_task, str(paths[fa]), str(paths[fb]), anchors, xy, jac, half_window, max_shift,
+                             min_sigma, pure=False, key=f"fotogeo-lsm-{fa}-{fb}-{run}"): k
+               for k, (fa, fb, anchors, xy, jac) in enumerate(groups)}
+    return _gathered(futures, as_progress(progress), "least-squares matching")
