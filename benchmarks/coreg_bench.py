@@ -1,7 +1,7 @@
 """Area-based co-registration (issue 19, part 2): fotogeo ``coregister`` beside AROSICS ``COREG_LOCAL``.
 
 Run:  .venv/bin/python benchmarks/coreg_bench.py [--cases s2_pair,landsat,ngi] [--threads 1]
-      [--arosics /work/arosics-venv/bin/python]
+      [--arosics ../arosics-venv/bin/python]
 
 AROSICS (Scheffler et al. 2017) is installed in its own venv (``../shared/peers/arosics/install.sh
 VENV``). Both tools run on the same pair with the same grid (spacing, window), each in a fresh
@@ -279,7 +279,7 @@ def main():
     ap.add_argument("--cases", default="s2_pair,landsat,ngi")
     ap.add_argument("--representations", action="store_true", help="also compare the four representations")
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--arosics", default="/work/arosics-venv/bin/python")
+    ap.add_argument("--arosics", default=str(ROOT.parent / "arosics-venv" / "bin" / "python"))
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "coreg_bench.json"))
     args = ap.parse_args()
     if args.arosics and not Path(args.arosics).exists():

@@ -2,7 +2,7 @@
 
 NGI frame 0182 (truth: camera + exterior orientation + DEM, tests/ngi_truth.py): models fitted on
 200 truth points, then ``Georeference.pixel_to_map`` of a 25 x 25 pixel grid on the DEM
-(``/work/shared/data/ngi/dem.tif``, sampled in EPSG:32735):
+(``../shared/data/ngi/dem.tif``, sampled in EPSG:32735):
 
 * ``rfm-i2g`` (image -> ground: ``XY = f(col, row, Z)``, ``Z = h(XY)`` by fixed point);
 * ``dlt``, ``rfm`` (ground -> image: Newton inverse at ``Z``, ``Z = h(XY)`` by fixed point).
