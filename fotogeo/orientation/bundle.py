@@ -129,7 +129,7 @@ class BundleResult:
     stats: dict
     fixed: tuple  # interior parameters held fixed: {parameter, multiple_correlation, partner, ...}
     correlations: tuple  # of the free interior parameters at the end
-    blunders: tuple  # {observation, frame, point, w, residual_px, round}
+    blunders: tuple  # {observation, frame, point, w, residual_px, round}; round 0: skipped by the robust phase
     iterations: int
     timings: dict = field(default_factory=dict)
     #: σ₀²·(S⁻¹) blocks (:mod:`fotogeo.orientation.bundle_result`): per frame ``(m, 6, 6)`` in the order
