@@ -16,10 +16,10 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
 * Levenberg–Marquardt on the reduced normal equations (points eliminated by the Schur
   complement; :mod:`~fotogeo.orientation.bundle_normals`, :mod:`~fotogeo.orientation.bundle_lm`)
   with analytic Jacobians vectorised over the observations;
-* robust in three phases (:mod:`~fotogeo.orientation.bundle_robust`): Huber's (1964) cost
-  from the approximate orientation, its weights renewed at every iteration and observations beyond
-  ``skip_c`` robust σ of the start skipped (:mod:`~fotogeo.orientation.bundle_lm`; removed before
-  data snooping); then the multiple correlation of every free
+* robust in three phases (:mod:`~fotogeo.orientation.bundle_robust`): Huber (1964)
+  reweighting from the approximate orientation (weights frozen per round, the first round unweighted),
+  observations beyond ``skip_c`` robust σ of the start skipped at every iteration
+  (:mod:`~fotogeo.orientation.bundle_lm`; removed before data snooping); then the multiple correlation of every free
   interior parameter with the exterior orientations — a parameter the block cannot determine
   (ϱ > ``max_correlation``, e.g. a free focal length against the flying heights over flat
   ground, nadir frames) is held fixed and reported — and its precision companion for Ebner's
@@ -97,7 +97,7 @@ class BundleOptions:
     eo_sigma: tuple | None = None
     robust_rounds: int = 3
     huber_k: float = 2.0
-    #: robust phase: observations beyond ``skip_c`` robust σ of the start are skipped
+    #: robust phase: observations beyond ``skip_c`` robust σ of the start (at least ``skip_c`` a-priori σ) are skipped
     #: (:mod:`~fotogeo.orientation.bundle_lm`), and removed before data snooping
     skip_c: float = 10.0
     snooping: bool = True
@@ -227,11 +227,14 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     pb, s = run.problem()
     with prog.timed("robust"):
         skip = skipped_huber(pb, s, opts.huber_k, opts.skip_c).skip  # gross against the start, every round
+        p = pb.p0
         for k in range(max(1, opts.robust_rounds)):
-            s, it = _solve(pb, s, pb.p0, opts, prog.stage(k / opts.robust_rounds * 0.4,
-                                                          (k + 1) / opts.robust_rounds * 0.4, "robust reweighting"),
-                           "reweighting", skipped_huber(pb, s, opts.huber_k, opts.skip_c, skip))
+            h = skipped_huber(pb, s, np.inf, opts.skip_c, skip)  # Huber's weights frozen in p, gross ones skipped
+            s, it = _solve(pb, s, p, opts, prog.stage(k / opts.robust_rounds * 0.4,
+                                                      (k + 1) / opts.robust_rounds * 0.4, "robust reweighting"),
+                           "reweighting", h)
             run.iterations += it
+            p = _robust_weights(pb, s, opts)
         run.keep(pb, s)
         blunders = _cull_skipped(run, pb, s, skipped_huber(pb, s, opts.huber_k, opts.skip_c, skip))
         pb, s = run.problem()

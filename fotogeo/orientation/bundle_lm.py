@@ -95,7 +95,7 @@ class Huber:
 
     def cost(self, v: np.ndarray, p: np.ndarray) -> float:
         e = np.minimum(self.normalised(v, p), self.skip / self.scale)
-        return float(np.sum(self.scale ** 2 * np.where(e > self.k, 2 * self.k * e - self.k ** 2, e * e)))
+        return float(np.sum(self.scale ** 2 * (e * e - np.maximum(e - self.k, 0.0) ** 2)))  # 2ke − k² beyond k
 
 
 def cost(pb: Problem, s: State, p: np.ndarray, huber: Huber | None = None) -> float:
