@@ -39,7 +39,7 @@ from fotogeo.geometry.camera import FrameCamera, OrientedFrame
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.tools.batch import _cluster
+from fotogeo.tools.dask_cluster import connect
 from fotogeo.tools.triangulate import match as tri_match
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -141,7 +141,7 @@ def run(sb, paths, name, workers, adjust=True):
     pids, client, close = {"main": os.getpid()}, None, lambda: None
     t_cluster = time.perf_counter()
     if workers:
-        client, close = _cluster(None, None, workers)
+        client, close = connect(workers=workers, what="the Dask runs")
         pids.update({f"worker{k + 1}": pid for k, pid in enumerate(sorted(client.run(os.getpid).values()))})
     t_cluster = time.perf_counter() - t_cluster
     try:

@@ -17,7 +17,9 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
   complement; :mod:`~fotogeo.orientation.bundle_normals`, :mod:`~fotogeo.orientation.bundle_lm`)
   with analytic Jacobians vectorised over the observations;
 * robust in three phases (:mod:`~fotogeo.orientation.bundle_robust`): Huber (1964)
-  reweighting from the approximate orientation; then the multiple correlation of every free
+  reweighting from the approximate orientation (weights frozen per round, the first round unweighted),
+  observations beyond ``skip_c`` robust σ of the start skipped at every iteration
+  (:mod:`~fotogeo.orientation.bundle_lm`; removed before data snooping); then the multiple correlation of every free
   interior parameter with the exterior orientations — a parameter the block cannot determine
   (ϱ > ``max_correlation``, e.g. a free focal length against the flying heights over flat
   ground, nadir frames) is held fixed and reported — and its precision companion for Ebner's
@@ -47,7 +49,8 @@ from ..progress import as_progress
 from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
-from .bundle_robust import huber_weights, interior_correlations, largest_w, posterior, worst_per_point
+from .bundle_robust import (huber_weights, interior_correlations, largest_w, posterior, skipped, skipped_huber,
+                            worst_per_point)
 
 ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
 #: tie and check points whose rays meet at a smaller angle are dropped: their depth is undetermined and their
@@ -94,6 +97,9 @@ class BundleOptions:
     eo_sigma: tuple | None = None
     robust_rounds: int = 3
     huber_k: float = 2.0
+    #: robust phase: observations beyond ``skip_c`` robust σ of the start (at least ``skip_c`` a-priori σ) are skipped
+    #: (:mod:`~fotogeo.orientation.bundle_lm`), and removed before data snooping
+    skip_c: float = 10.0
     snooping: bool = True
     critical_w: float = 3.29
     max_snooping_rounds: int = 10
@@ -123,7 +129,7 @@ class BundleResult:
     stats: dict
     fixed: tuple  # interior parameters held fixed: {parameter, multiple_correlation, partner, ...}
     correlations: tuple  # of the free interior parameters at the end
-    blunders: tuple  # {observation, frame, point, w, residual_px, round}
+    blunders: tuple  # {observation, frame, point, w, residual_px, round}; round 0: skipped by the robust phase
     iterations: int
     timings: dict = field(default_factory=dict)
     #: σ₀²·(S⁻¹) blocks (:mod:`fotogeo.orientation.bundle_result`): per frame ``(m, 6, 6)`` in the order
@@ -141,8 +147,8 @@ def _robust_weights(pb, s, opts):
     return pb.p0 * huber_weights(v, pb.p0, opts.huber_k)
 
 
-def _solve(pb, s, p, opts, prog, label):
-    s, info = levenberg_marquardt(pb, s, p, max_iterations=opts.max_iterations, progress=prog)
+def _solve(pb, s, p, opts, prog, label, huber=None):
+    s, info = levenberg_marquardt(pb, s, p, max_iterations=opts.max_iterations, progress=prog, huber=huber)
     v = np.linalg.norm(bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel,
                        axis=1)
     med = float(np.median(v))
@@ -219,20 +225,25 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     run = _Run(block, opts)
     t0 = time.perf_counter()
     pb, s = run.problem()
-    p = pb.p0
     with prog.timed("robust"):
+        skip = skipped_huber(pb, s, opts.huber_k, opts.skip_c).skip  # gross against the start, every round
+        p = pb.p0
         for k in range(max(1, opts.robust_rounds)):
-            s, it = _solve(pb, s, p, opts, prog.stage(k / opts.robust_rounds * 0.4, (k + 1) / opts.robust_rounds * 0.4,
-                                                      "robust reweighting"), "reweighting")
+            h = skipped_huber(pb, s, np.inf, opts.skip_c, skip)  # Huber's weights frozen in p, gross ones skipped
+            s, it = _solve(pb, s, p, opts, prog.stage(k / opts.robust_rounds * 0.4,
+                                                      (k + 1) / opts.robust_rounds * 0.4, "robust reweighting"),
+                           "reweighting", h)
             run.iterations += it
             p = _robust_weights(pb, s, opts)
-    run.keep(pb, s)
+        run.keep(pb, s)
+        blunders = _cull_skipped(run, pb, s, skipped_huber(pb, s, opts.huber_k, opts.skip_c, skip))
+        pb, s = run.problem()
+        p = _robust_weights(pb, s, opts)
     fixed = []
     with prog.timed("correlations"):
         pb, s, p = _correlation_rule(run, pb, s, p, opts, prog, fixed)
     with prog.timed("significance"):
         pb, s, p = _significance_rule(run, pb, s, p, opts, prog, fixed)
-    blunders = []
     with prog.timed("snooping"):
         for rnd in range(opts.max_snooping_rounds + 1):
             pb, s = run.problem()
@@ -252,6 +263,18 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)
     return result
+
+
+def _cull_skipped(run, pb, s, huber) -> list:
+    """Deactivate the tie and check observations the robust phase skipped at its solution
+    (:func:`~fotogeo.orientation.bundle_robust.skipped`); their blunder records (round 0)."""
+    block = run.block
+    skip, e, v = skipped(pb, s, huber, block.role[pb.point_ids[pb.st.point]] == "control")
+    run.active[pb.obs_ids[skip]] = False
+    obs = pb.obs_ids[skip]
+    return [{"observation": int(o), "kind": "image", "frame": block.frames[block.obs_frame[o]],
+             "point": block.point_ids[block.obs_point[o]], "w": float(e[a]), "residual_px": float(np.hypot(*v[a])),
+             "round": 0} for o, a in zip(obs, skip)]
 
 
 def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:

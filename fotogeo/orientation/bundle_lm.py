@@ -14,6 +14,18 @@ normal equations (:mod:`fotogeo.orientation.bundle_normals`, factorised as a ban
 rejects it (``λ ← 4λ``; a step putting a point behind a camera is rejected too), and stops when
 ``E`` changes by less than ``tol`` relatively (1e-7: ``E`` is a χ², so the parameters then move
 by far less than their σ), or ``λ`` exceeds ``1e10`` (no step decreases ``E``: a minimum).
+
+With a :class:`Huber` cost (the robust phase) ``p_a |v_a|²`` is replaced by ``σ̂_a² ρ(e_a)``,
+``e_a = |v_a| √p_a / σ̂_a``, Huber's (1964) ``ρ(e) = e²`` for ``e ≤ k`` and ``2ke − k²`` beyond, and skipped
+(constant) where ``|v_a| √p_a`` exceeds ``s_a`` — a redescending M-estimator (Hampel 1974): a gross error
+has no pull on the solution at all. Every linearisation weighs the observations ``p_a min(1, k/e_a)``,
+``10⁻⁶ p_a`` where skipped, at the current state (iteratively reweighted Gauss–Newton; the step descends on
+``ρ``, and a skipped observation comes back once the solution reaches it). ``σ̂_a`` and ``s_a`` are fixed
+for the run (:func:`fotogeo.orientation.bundle.adjust_block` sets ``s_a`` once, from the residuals at the
+approximate orientation). Huber's bounded influence alone is not enough: on a rendered 3 × 5 block 20
+observations of 385–635 px at the start (0.6 %; wrong matches) pulled the minimum of the Huber cost 180 m
+and 14° away from the truth — the adjustment reached it from the truth too — while skipping them
+converges to 1.4 m in 5 iterations.
 """
 from __future__ import annotations
 
@@ -64,12 +76,35 @@ def _eo_prior_residual(pb: Problem, s: State) -> np.ndarray:
     return np.concatenate([s.C - pb.eo_C, ang], axis=1)
 
 
-def cost(pb: Problem, s: State, p: np.ndarray) -> float:
-    """The objective ``E`` (module docstring); ``inf`` when a point is behind a camera."""
+@dataclass(frozen=True)
+class Huber:
+    """The skipped Huber cost of the image residuals: threshold ``k``, scale ``scale`` and skip limit ``skip``
+    of ``|v| √p`` (each a number or one per observation; module docstring)."""
+
+    k: float
+    scale: np.ndarray
+    skip: np.ndarray
+
+    def normalised(self, v: np.ndarray, p: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(v, axis=1) * np.sqrt(p) / self.scale
+
+    def weights(self, v: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``p·min(1, k/e)``, ``10⁻⁶ p`` where skipped: the weights of the linearisation at residuals ``v``."""
+        e = self.normalised(v, p)
+        return p * np.where(e * self.scale > self.skip, 1e-6, np.where(e > self.k, self.k / np.maximum(e, 1e-300), 1.0))
+
+    def cost(self, v: np.ndarray, p: np.ndarray) -> float:
+        e = np.minimum(self.normalised(v, p), self.skip / self.scale)
+        return float(np.sum(self.scale ** 2 * (e * e - np.maximum(e - self.k, 0.0) ** 2)))  # 2ke − k² beyond k
+
+
+def cost(pb: Problem, s: State, p: np.ndarray, huber: Huber | None = None) -> float:
+    """The objective ``E`` (module docstring; Huber's when ``huber`` is given); ``inf`` when a point is
+    behind a camera."""
     v, z = residuals(pb, s)
     if np.any(z <= 0) or not np.isfinite(v).all():
         return float("inf")
-    e = float(np.sum(p * np.sum(v * v, axis=1)))
+    e = huber.cost(v, p) if huber is not None else float(np.sum(p * np.sum(v * v, axis=1)))
     e += float(np.sum(pb.ctrl_w * (s.X - pb.ctrl_xyz) ** 2))
     if pb.eo_w.any():
         e += float(np.sum(pb.eo_w * _eo_prior_residual(pb, s) ** 2))
@@ -122,28 +157,32 @@ class LmInfo:
 
 
 def levenberg_marquardt(pb: Problem, s: State, p: np.ndarray, *, max_iterations: int = 50,
-                        tol: float = 1e-7, lam: float = 1e-4, progress=None) -> tuple[State, LmInfo]:
-    """Minimise ``E`` from ``s`` (module docstring); raises :class:`ModelError` when the start
-    puts points behind a camera."""
-    e = cost(pb, s, p)
+                        tol: float = 1e-7, lam: float = 1e-4, progress=None,
+                        huber: Huber | None = None) -> tuple[State, LmInfo]:
+    """Minimise ``E`` from ``s`` (module docstring; Huber's cost with ``huber``); raises :class:`ModelError`
+    when the start puts points behind a camera."""
+    def normals(s):
+        return linearise(pb, s, p if huber is None else huber.weights(residuals(pb, s)[0], p))[0]
+
+    e = cost(pb, s, p, huber)
     if not np.isfinite(e):
         raise ModelError("bundle adjustment: with the approximate exterior orientation some points lie behind "
                          "their camera; check the orientation file (angles in degrees, PATB ω φ κ, heights)")
     it, converged = 0, False
-    nm = linearise(pb, s, p)[0]
+    nm = normals(s)
     while it < max_iterations:
         it += 1
         if progress is not None:
             progress(it / max_iterations, f"bundle adjustment: iteration {it}, cost {e:.6g}")
         trial = solve_step(pb, s, nm, lam)
-        e_new = cost(pb, trial, p) if trial is not None else float("inf")
+        e_new = cost(pb, trial, p, huber) if trial is not None else float("inf")
         if e_new <= e:
             small = e - e_new <= tol * max(e, 1e-300)
             s, e, lam = trial, e_new, max(lam / 10.0, 1e-12)
             if small:
                 converged = True
                 break
-            nm = linearise(pb, s, p)[0]
+            nm = normals(s)
         else:
             lam *= 4.0
             if lam > 1e10:
