@@ -7,7 +7,6 @@ import cv2
 import numpy as np
 import pytest
 import rasterio
-from rasterio.transform import from_origin
 from test_gcp_fit import FRAME, MAP_CRS, ngi, pick, truth  # noqa: F401 - fixtures
 
 from fotogeo.tools.gcp_preview import output_size, preview_warp

@@ -32,7 +32,6 @@ def command(reference, target, output, shifts, field, report, overwrite, quiet, 
     """
     from pathlib import Path
 
-    from ..io.report import write_json
     from ..tools.coreg import coregister
     if output is not None:
         out = Path(output)

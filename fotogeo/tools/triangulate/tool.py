@@ -65,8 +65,7 @@ from ...progress import as_progress
 from ..boundary import tool
 from ...io.block import split_check_points
 from .control import reference_sigmas
-from .inputs import (add_automatic_control, check_fraction_for, frame_names, orientations,
-                                 read_block_control, read_camera)
+from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .sources import block_start
 
