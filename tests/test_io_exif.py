@@ -174,8 +174,13 @@ def test_geoinfo_parsing_and_mixed_height_references(tmp_path):
     b = read_exif_block([write_image(tmp_path / "a.jpg", {**DJI_TAGS, "EXIF_Make": "ACME"})], geoinfo=geo)
     assert b.shots["a"].position[2] == 110.0 and b.shots["a"].height_reference == "geoid"
     rtk = write_image(tmp_path / "r.jpg", DJI_TAGS, DJI_XMP)  # DJI RTK: ellipsoidal
-    with pytest.raises(InputError, match="ellipsoidal height but 'a' a geoid"):
+    with pytest.raises(InputError, match=r"'r' has an ellipsoidal height \(DJI drone-dji:AbsoluteAltitude\) but 'a' "
+                                         r"a geoid \(sea-level\) height \(geoinfo altitude_amsl\)"):
         read_exif_block([tmp_path / "a.jpg", rtk], geoinfo=geo)
+    plain = write_image(tmp_path / "p.jpg", {**DJI_TAGS, "EXIF_Make": "ACME"})  # no vendor rule: unknown
+    with pytest.warns(FotogeoWarning, match=r"ellipsoid but those of p \(ACME EXIF GPSAltitude\) have an unknown"):
+        b = read_exif_block([plain, rtk])
+    assert b.shots["p"].height_reference is None and any("reference is unknown" in n for n in b.notes)
     geo.write_text("fileName\tlatitude\n")
     with pytest.raises(InputError, match="geoinfo.txt.* lacks longitude"):
         read_geoinfo(geo)

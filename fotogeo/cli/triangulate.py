@@ -71,6 +71,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                    f"({low['name']}), largest angle sigma {max(r['angle_sigma_deg'] for r in registered):.3g} deg")
     if start.get("crs_rule"):
         click.echo(f"map CRS {rep.get('crs_name') or rep['crs']}: {start['crs_rule']}")
+    if start.get("heights"):
+        click.echo(f"GPS heights: {start['heights']}")
     if rep.get("resected_frames"):
         click.echo(f"resected from their GCPs (no --eo line): {', '.join(rep['resected_frames'])}")
     if rep.get("automatic_control"):

@@ -177,8 +177,9 @@ def read_image_metadata(path) -> ImageMetadata:
         try:
             xmp = parse_xmp(packet)
         except ET.ParseError as e:
-            warnings.warn(f"image {str(p)!r}: its XMP packet is not valid XML ({e}); XMP ignored, EXIF used",
-                          FotogeoWarning, stacklevel=2)
+            warnings.warn(f"image {str(p)!r}: its XMP packet is not valid XML ({e}); XMP ignored (attitude, GPS "
+                          f"accuracy and calibration tags lost), EXIF used; repair the packet or give the attitude "
+                          f"another way (--geoinfo, --eo)", FotogeoWarning, stacklevel=2)
     low = {k.lower(): v for k, v in xmp.items()}
     get = lambda name: low.get(name.lower())  # noqa: E731
     lon, lat = _gps(tags, get)

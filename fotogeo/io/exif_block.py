@@ -41,11 +41,12 @@ columns (GDAL ignores the EXIF ``Orientation`` flag): the attitude conventions r
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FotogeoWarning, InputError
 from ..geometry.approx_block import DISTORTION_TERMS, ApproxCamera, ApproximateBlock, ApproxShot
 from ..geometry.attitude import patb_in_map, rotation_from_body_ypr, rotation_from_ypr
 from ..geometry.camera import FrameCamera
@@ -178,18 +179,31 @@ def _position(meta, rec):
     return meta.lon, meta.lat, meta.altitude, ref, meta.altitude_tag or "EXIF"
 
 
-def _one_reference(refs: dict, notes: list) -> str | None:
-    """The block's height reference from ``{name: reference}``; ellipsoid mixed with geoid is refused."""
+def _height_source(meta: ImageMetadata, rec) -> str:
+    """Where an image's Z comes from, in the words of the files: ``geoinfo altitude_amsl``, ``senseFly EXIF GPSAltitude``."""
+    if rec is not None:
+        return "geoinfo " + ("altitude_wgs84" if rec.altitude_wgs84 is not None else "altitude_amsl")
+    return f"{meta.vendor} {meta.altitude_tag or 'EXIF'}"
+
+
+def _one_reference(refs: dict, sources: dict, notes: list) -> str | None:
+    """The block's height reference from ``{name: reference}`` (``sources``: ``{name: where its Z comes from}``);
+    ellipsoid mixed with geoid is refused, a known reference mixed with an unknown one warned about."""
     known = {r for r in refs.values() if r is not None}
     if len(known) > 1:
         e = next(n for n, r in refs.items() if r == "ellipsoid")
         g = next(n for n, r in refs.items() if r == "geoid")
-        raise InputError(f"image {e!r} has an ellipsoidal height but {g!r} a geoid (sea-level) height; "
-                         f"give positions in one height reference (e.g. the geoinfo's altitude_wgs84 for all)")
+        raise InputError(f"image {e!r} has an ellipsoidal height ({sources[e]}) but {g!r} a geoid (sea-level) "
+                         f"height ({sources[g]}); give every image's position in one height reference (e.g. a "
+                         f"geoinfo with altitude_wgs84 for all, or --eo)")
     if known and None in refs.values():
         unknown = sorted(n for n, r in refs.items() if r is None)
-        notes.append(f"heights of {len(refs) - len(unknown)} image(s) are {known.pop()} but those of "
-                     f"{', '.join(unknown[:5])} have an unknown reference: the block's height reference is unknown")
+        text = (f"heights of {len(refs) - len(unknown)} image(s) are {known.pop()} but those of "
+                f"{', '.join(unknown[:5])}{' …' if len(unknown) > 5 else ''} ({sources[unknown[0]]}) have an unknown "
+                f"reference: the block's height reference is unknown; give their positions in the same reference "
+                f"(--geoinfo, --eo) or check the heights of the DEM and control")
+        warnings.warn(text, FotogeoWarning, stacklevel=3)
+        notes.append(text)
         return None
     return known.pop() if known else None
 
@@ -247,7 +261,8 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     map_crs, crs_note = block_crs(crs, mean)
     notes = [crs_note]
     cameras, ids = _cameras(metas, notes)
-    ref = _one_reference({n: p[3] for n, p in located.items()}, notes)
+    ref = _one_reference({n: p[3] for n, p in located.items()},
+                         {m.name: _height_source(m, geoinfo.get(m.name)) for m in metas}, notes)
     to_map = Transformer.from_crs("EPSG:4326", map_crs, always_xy=True) if map_crs is not None else None
     shots, sources = {}, {}
     for m in metas:

@@ -71,6 +71,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             f"{REFERENCES['surf']} {REFERENCES['ransac']}")
 
     OPTIONS = (TRIANGULATE,)
+    WORDS = {"--camera": "Camera", "--eo": "Approximate exterior orientation", "--gcps": "Ground control",
+             "--reference": "Reference orthophoto(s)", "--observations": "Tie-point table"}
     FRAMES, CAMERA, EO, OBSERVATIONS, GCPS, REFERENCE, OUTDIR = ("FRAMES", "CAMERA", "EO", "OBSERVATIONS", "GCPS",
                                                                  "REFERENCE", "OUTDIR")
     GCP_LAYER_IN = "GCP_LAYER_INPUT"  # the name orient and comparemodels give their GCP point layer

@@ -149,8 +149,10 @@ def control_layout(result, block, footprints, size: int = 640) -> tuple:
         else:
             cv2.drawMarker(img, p, RED, cv2.MARKER_TILTED_CROSS, 10, 2)
     caption = (f"{_swatch('#aaaaaa', '□')} frame footprints, {_swatch('#009600', '▲')} control, "
-               f"{_swatch('#005ac8', '○')} check, {_swatch('#dc0000', '✕')} rejected control; black vectors: "
-               f"adjusted − given in X, Y, drawn ×{scale:.0f}")
+               f"{_swatch('#005ac8', '○')} check, {_swatch('#dc0000', '✕')} rejected control; " +
+               (f"black vectors: adjusted − given in X, Y, drawn ×{scale:.0f}" if np.nanmax(dl, initial=0.0) > 0 else
+                "no control or check point: the footprints alone" if not known.any() else
+                "every adjusted point on its given position"))
     return img, caption
 
 
@@ -208,7 +210,8 @@ def write_html(path, rep: dict, result, block, footprints) -> None:
              rt.table(accuracy, ("", "n", "X", "Y", "Z", "planimetric")) if accuracy else "<p>no control</p>",
              "<p>Check points and control placed by the images alone are errors in metres; the σ-weighted control "
              "residuals say only how far the control's σ let the points move.</p>",
-             "<h2>Interior parameters held fixed</h2>", rt.table(fixed, ("parameter", "why")) if fixed else "<p>none</p>"]
+             "<h2>Interior parameters held fixed</h2>", rt.table(fixed, ("parameter", "why")) if fixed else "<p>none</p>",
+             rt.start_section(rep.get("start") or {}, rep.get("dropped_frames") or [])]
     parts += [f"<h2>{t}</h2><figure><img alt='{t}' src='data:image/png;base64,{_png(img)}'>"
               f"<figcaption>{caption}</figcaption></figure>" for t, (img, caption) in plots]
     parts += _tables(rep, st) + ["</body></html>"]

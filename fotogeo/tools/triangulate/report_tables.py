@@ -29,6 +29,19 @@ def fmt(x, digits=3) -> str:
     return f"{x:.{digits}f}" if isinstance(x, (int, float)) and np.isfinite(x) else "–"
 
 
+def start_section(start: dict, dropped: list) -> str:
+    """Where the block's start came from (orientation, map CRS, GPS heights, the readers' notes) and the frames
+    left out as undetermined, with why (``report.json`` ``start`` and ``dropped_frames``)."""
+    rows = [(k, start[key]) for k, key in (("approximate orientation", "source"), ("map CRS", "crs_rule"),
+                                           ("GPS heights", "heights")) if start.get(key)]
+    notes = "".join(f"<li>{html.escape(str(n))}</li>" for n in start.get("notes") or [])
+    out = "<h2>Start</h2>" + (table(rows, ("", "from")) if rows else "") + (f"<ul>{notes}</ul>" if notes else "")
+    if dropped:
+        out += ("<h2>Frames left out (undetermined)</h2>"
+                + table([(d.get("name", ""), d.get("reason", "")) for d in dropped], ("frame", "why")))
+    return out
+
+
 def frames_section(frames: list) -> str:
     """The adjusted exterior orientation with the σ of the centre (m) and of the rotations about the camera
     axes (°, the ``frames`` layer's ``sigma_rx_deg`` …)."""

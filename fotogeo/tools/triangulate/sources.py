@@ -58,6 +58,7 @@ class BlockStart:
     resected: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     registration: list | None = None  # the frames' registration rows when the start comes from the reference
+    heights: str = ""  # the GPS heights' reference and why, when the start comes from the images' GPS
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -95,6 +96,8 @@ class BlockStart:
                "gnss_sigma_m": {n: list(map(_finite, self.sigmas[n][:2])) for n in self.names if n in self.sigmas}}
         if self.registration is not None:
             out["registration"] = self.registration
+        if self.heights:
+            out["heights"] = self.heights
         return out
 
 
@@ -131,10 +134,7 @@ def _from_images(frames, crs, geoinfo, need_position: bool):
     from ...io.exif import read_image_metadata
     from ...io.exif_block import read_exif_block
     if need_position and geoinfo is None:
-        missing = [frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None]
-        if missing:
-            raise InputError(f"frame(s) {', '.join(missing[:10])} carry no GPS position in their EXIF; give the "
-                             f"approximate exterior orientation (--eo) or ground control (--gcps) to resect them")
+        _refuse_without_gps([frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None])
     return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo)
 
 
@@ -206,10 +206,17 @@ def _single_camera(approx):
 
 def _require_gps(names, approx) -> None:
     """Refuse frames whose files carry no GPS position, naming them and what to give instead."""
-    missing = [n for n in names if approx.shots.get(n) is None or approx.shots[n].position is None]
+    _refuse_without_gps([n for n in names if approx.shots.get(n) is None or approx.shots[n].position is None])
+
+
+def _refuse_without_gps(missing) -> None:
+    """The one error for frames without a start of their own: named, with every way to give one."""
     if missing:
-        raise InputError(f"frame(s) {', '.join(missing[:10])} carry no GPS position in their EXIF; give the "
-                         f"approximate exterior orientation (--eo) or ground control (--gcps) to resect them")
+        more = f" and {len(missing) - 10} more" if len(missing) > 10 else ""
+        raise InputError(f"frame(s) {', '.join(missing[:10])}{more} carry no GPS position in their EXIF/XMP; give "
+                         f"their positions (--geoinfo, or --eo with an approximate exterior orientation), ground "
+                         f"control to resect them (--gcps), or a reference orthophoto with its DEM to register "
+                         f"them (--reference, --dem)")
 
 
 def _start_from_images(start: BlockStart, approx, map_crs) -> None:
@@ -229,7 +236,9 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
     if len(refs) > 1:
         raise InputError(f"the images' GPS heights mix references ({', '.join(sorted(map(str, refs)))}); give --eo "
                          f"with heights in one reference")
-    start.notes.append(f"GPS heights: {refs.pop() or 'reference not stated by the camera'}")
+    ref = refs.pop() or "reference not stated by the camera"
+    start.notes.append(f"GPS heights: {ref}")
+    start.heights = next((n.split(": ", 1)[1] for n in start.notes if n.startswith("height reference:")), ref)
     for n, s, k in zip(start.names, shots, kappa):
         angles = s.angles if s.angles is not None else (0.0, 0.0, float(k))
         start.level[n] = s.angles is None

@@ -1,0 +1,73 @@
+"""Edit the metadata of a real JPEG's bytes for bad-input tests: the XMP packet (APP1 ``http://ns.adobe.com/xap/1.0/``),
+an IFD0 tag of the EXIF segment (APP1 ``Exif``), an EXIF text. The image data is never touched, so the copy
+is still the camera's file but for the one fact changed. No exiftool or piexif needed: the segments are
+walked by their markers (JPEG, ITU-T T.81 B.1.1.2) and the EXIF IFD0 by its TIFF header (EXIF 2.3 §4.5)."""
+from __future__ import annotations
+
+import shutil
+import struct
+from pathlib import Path
+
+XMP_ID = b"http://ns.adobe.com/xap/1.0/\x00"
+
+
+def _app1(data: bytes, ident: bytes) -> tuple[int, int]:
+    """``(start of the payload, end of the segment)`` of the APP1 segment whose payload starts with ``ident``."""
+    i = 2  # after SOI
+    while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:  # up to the scan
+        length = struct.unpack(">H", data[i + 2:i + 4])[0]
+        if data[i + 1] == 0xE1 and data[i + 4:i + 4 + len(ident)] == ident:
+            return i + 4, i + 2 + length
+        i += 2 + length
+    raise ValueError(f"no APP1 {ident[:20]!r} segment")
+
+
+def xmp_of(path) -> str:
+    data = Path(path).read_bytes()
+    start, end = _app1(data, XMP_ID)
+    return data[start + len(XMP_ID):end].decode("utf-8")
+
+
+def write_xmp(path, packet: str) -> None:
+    """Replace the XMP packet of the JPEG ``path`` (the segment's length updated)."""
+    data = Path(path).read_bytes()
+    start, end = _app1(data, XMP_ID)
+    payload = XMP_ID + packet.encode("utf-8")
+    head = start - 4
+    Path(path).write_bytes(data[:head] + b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload + data[end:])
+
+
+def rename_ifd0_tag(path, tag: int, new_tag: int) -> None:
+    """Give the IFD0 entry ``tag`` the number ``new_tag`` (e.g. GPSInfo 0x8825 -> a private tag: no GPS)."""
+    data = bytearray(Path(path).read_bytes())
+    start, _ = _app1(bytes(data), b"Exif\x00\x00")
+    tiff = start + 6
+    order = "<" if data[tiff:tiff + 2] == b"II" else ">"
+    ifd = tiff + struct.unpack(order + "I", data[tiff + 4:tiff + 8])[0]
+    count = struct.unpack(order + "H", data[ifd:ifd + 2])[0]
+    for k in range(count):
+        at = ifd + 2 + 12 * k
+        if struct.unpack(order + "H", data[at:at + 2])[0] == tag:
+            data[at:at + 2] = struct.pack(order + "H", new_tag)
+            Path(path).write_bytes(bytes(data))
+            return
+    raise ValueError(f"{path}: no IFD0 tag 0x{tag:04x}")
+
+
+def replace_exif_text(path, old: str, new: str) -> None:
+    """Replace every ``old`` in the EXIF segment by ``new`` of the same length (e.g. the camera model)."""
+    if len(old) != len(new):
+        raise ValueError("same length only: the EXIF offsets stay valid")
+    data = Path(path).read_bytes()
+    start, end = _app1(data, b"Exif\x00\x00")
+    seg = data[start:end]
+    if old.encode() not in seg:
+        raise ValueError(f"{path}: {old!r} not in its EXIF")
+    Path(path).write_bytes(data[:start] + seg.replace(old.encode(), new.encode()) + data[end:])
+
+
+def copy_frames(src_folder, names, dst_folder) -> list[Path]:
+    """Copies of the JPEGs ``names`` (stems) of ``src_folder`` in ``dst_folder`` (never edit the shared data)."""
+    dst = Path(dst_folder)
+    dst.mkdir(parents=True, exist_ok=True)
+    return [Path(shutil.copy(Path(src_folder) / f"{n}.JPG", dst / f"{n}.JPG")) for n in names]
