@@ -4,7 +4,8 @@ The eight frames come as three groups that do not overlap each other (a 3-frame 
 and the last/first frames of two strips at a turn). Everything comes from the files: the camera from
 EXIF FocalLength x FocalPlaneXResolution, the positions from the EXIF GPS (UTM 54N chosen), the σ from
 senseFly's GPSXYAccuracy/GPSZAccuracy, the attitude from senseFly's XMP. The turn pair overlaps in a
-sliver (its points cover < 2 % of each frame): it is refused by name, and dropped on request.
+sliver (its points cover < 2 % of each frame): it is refused by name, and dropped on request. The same
+with senseFly's geoinfo.txt (the autopilot's attitude from the file instead of the XMP: the same values).
 There is no ground truth: the adjusted centres are judged against the GPS and its σ.
 """
 from __future__ import annotations
@@ -22,22 +23,51 @@ from fotogeo.io.exif_block import read_exif_block
 pytestmark = [pytest.mark.data, pytest.mark.slow]
 
 
-def test_drone_block_from_the_files_alone(tmp_path, data_dir):
-    frames = sorted(str(p) for p in (data_dir / "drone_snowpeak" / "img").glob("*.JPG"))
+@pytest.mark.parametrize("geoinfo", [False, True], ids=["exif", "geoinfo"])
+def test_drone_block_from_the_files_alone(tmp_path, data_dir, geoinfo):
+    src = data_dir / "drone_snowpeak"
+    frames = sorted(str(p) for p in (src / "img").glob("*.JPG"))
     out = tmp_path / "new" / "out"  # the folder is created
-    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out), "-q",
-                                                    "--undetermined", "drop"])
+    extra = ["--geoinfo", str(src / "snowpea1_geoinfo.txt")] if geoinfo else []
+    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out), "-q", "--undetermined", "drop", *extra])
     assert res.exit_code == 0, res.output
     rep = json.loads((out / "report.json").read_text())
     assert sorted(d["name"] for d in rep["dropped_frames"]) == ["IMG_2212", "IMG_2213"]
     assert rep["crs"] == "EPSG:32654" and "GPS" in rep["start"]["crs_rule"]
-    assert rep["matching"]["rays_per_track"].get("3", 0) > 0  # tracks of 3 rays in the 3-frame strips
+    attitude = "geoinfo heading/pitch/roll" if geoinfo else "sensefly:Yaw/Pitch/Roll"
+    assert any(n.startswith(f"attitude: 8 image(s) from {attitude}") for n in rep["start"]["notes"]), rep["start"]
+    assert rep["start"]["heights"].startswith("ellipsoid")
+    rays = {int(k): v for k, v in rep["matching"]["rays_per_track"].items()}
+    assert rays.get(3, 0) > 0 and sum(rays.values()) == rep["matching"]["tracks"]  # 3-ray tracks in the strips
     assert 0.5 < rep["sigma0"] < 10 and rep["statistics"]["image_rms_px"] < 0.5
     for q in rep["frame_quality"]:
-        assert q["points"] >= 20 and q["spread"] > 0.1, q  # measured: 27-91 points, 15-40 % of the frame
+        assert q["points"] >= 20 and q["spread"] > 0.1, q  # measured: 27-123 points, 15-59 % of the frame
     gps = read_exif_block(frames).shots
     adjusted = read_exterior_orientation(out / "exterior_orientation.txt")
+    assert sorted(adjusted) == ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
     for name, e in adjusted.items():
         d = np.array([e.X, e.Y, e.Z]) - gps[name].position
         assert np.hypot(d[0], d[1]) < 3 * gps[name].sigma_h and abs(d[2]) < 3 * gps[name].sigma_v, (name, d)
-    assert "IMG_2188" in res.output and "worst frame" in res.output
+        assert np.abs(d).max() > 1e-3, name  # adjusted, not the GPS copied through
+    worst = max(rep["frame_quality"], key=lambda q: q["angle_sigma_deg"])
+    assert f"worst frame {worst['name']}" in res.output and "GPS heights: ellipsoid" in res.output
+    assert "Warning:" in res.stderr and "rests on its prior" in res.stderr  # the strips cannot fix their roll
+    page = (out / "report.html").read_text()
+    for text in ("IMG_2212", "points cover", "the UTM zone of the images&#x27; GPS positions", "GPS heights",
+                 "Rays per track", "no control or check point"):
+        assert text in page, text
+    assert "drawn ×" not in page.split("Control layout")[1].split("</figure>")[0]
+
+
+def test_the_turn_pair_alone_is_refused_by_name(tmp_path, data_dir):
+    """IMG_2212/2213 overlap in a sliver: the block does not determine them — one line naming both, why and the fix,
+    exit code 2, nothing written (the output folder is not even created)."""
+    from test_bad_input import assert_one_line_error
+    img = data_dir / "drone_snowpeak" / "img"
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["triangulate", str(img / "IMG_2212.JPG"), str(img / "IMG_2213.JPG"), "-o",
+                                    str(out), "-q"], terminal_width=200)
+    assert_one_line_error(res, "the block does not determine frame(s) IMG_2212")
+    error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
+    assert "IMG_2213" in error and "points cover" in error and "--undetermined drop" in error and "GCPs" in error
+    assert not out.exists()
