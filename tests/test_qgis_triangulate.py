@@ -193,3 +193,32 @@ def test_ortho_uncertainty_of_triangulate_outputs_loads_with_a_legend_in_metres(
     lo, hi = ramp.minimumValue(), ramp.maximumValue()
     assert 0 < lo < hi < 50  # the raster's own range, not the style's 0 … 1 placeholder
     assert (lo, hi) != (0.0, 1.0)
+
+
+@pytest.mark.data
+@pytest.mark.skipif(not os.path.exists(QGIS_PROCESS), reason="Debian's qgis package is not installed")
+def test_drone_frames_through_qgis_process_need_no_crs(config, data_dir, tmp_path):
+    """The real eBee JPEGs through qgis_process with the frames alone (issue 20): no CRS, no camera, no orientation
+    given — the UTM zone, the camera and the start come from the files as on the command line — and a block it
+    refuses says so in the dialog's words (the option's label, not its command-line flag)."""
+    import shutil
+    import subprocess
+
+    from fotogeo.options import TRIANGULATE
+    from test_qgis_real_programs import _env
+    src = data_dir / "drone_snowpeak" / "img"
+    if not src.is_dir():
+        pytest.skip(f"real test data not found at {src} (an older ../shared/data without drone_snowpeak)")
+    frames = [shutil.copy(src / f"{n}.JPG", tmp_path) for n in ("IMG_2280", "IMG_2281", "IMG_2282", "IMG_2212",
+                                                                 "IMG_2213")]
+    res = qgis_process(config, "triangulate", FRAMES=frames[:3], OUTDIR=tmp_path / "strip")
+    rep = json.loads((tmp_path / "strip" / "report.json").read_text())
+    assert rep["crs"] == "EPSG:32654" and rep["start"]["crs_rule"] == "the UTM zone of the images' GPS positions"
+    assert res["SIGMA0"] == pytest.approx(rep["sigma0"]) and len(rep["frames"]) == 3
+    r = subprocess.run([QGIS_PROCESS, "--json", "run", "fotogeo:triangulate", "--", *[f"FRAMES={f}" for f in frames[3:]],
+                        f"OUTDIR={tmp_path / 'turn'}"], capture_output=True, text=True, timeout=180, env=_env(config))
+    text = r.stdout + r.stderr
+    assert r.returncode != 0 and "does not determine frame(s) IMG_2212" in text, text[-3000:]
+    assert f"“{TRIANGULATE['undetermined'].label}” drop" in text and "--undetermined" not in text, text[-3000:]
+    assert "Traceback" not in text
+    assert not (tmp_path / "turn").exists() or not any((tmp_path / "turn").iterdir())  # QGIS makes the folder
