@@ -55,7 +55,8 @@ CASES = {
     "table without heights": ({"--gcps": "noz.csv", "--crs": "EPSG:32635"}, "lacks the field(s) z"),
     "unknown role": ({"--gcps": "badrole.csv", "--crs": "EPSG:32635"}, "role values must be 'control' or 'check'"),
     "neither orientation nor control": ({"--eo": None, "--gcps": None, "--crs": "EPSG:32635"},
-                                        "give the approximate exterior orientation (--eo) or ground control"),
+                                        "none of the 10 frames carries a GPS position in the EXIF/XMP; give their "
+                                        "positions (--geoinfo, or --eo"),
     "check points without control": ({"--gcps": None, "--crs": "EPSG:32635", "--check-points": "p1"},
                                      "names given but no ground control"),
     "geographic map CRS": ({"--crs": "EPSG:4326"}, "map CRS of the block"),

@@ -43,7 +43,7 @@ def _refused(result, out, *expected):
 def test_a_frame_without_gps_is_named_with_every_way_to_start_it(snowpeak, tmp_path):
     frames = copy_frames(snowpeak / "img", STRIP, tmp_path / "img")
     rename_ifd0_tag(frames[1], GPS_INFO, PRIVATE_TAG)
-    error = _refused(_run(frames, tmp_path / "out"), tmp_path / "out", "frame(s) IMG_2281 carry no GPS position",
+    error = _refused(_run(frames, tmp_path / "out"), tmp_path / "out", "frame(s) IMG_2281 carry no GPS position in the EXIF/XMP",
                      "--geoinfo", "--eo", "--gcps", "--reference", "--dem")
     assert "IMG_2280" not in error and "IMG_2282" not in error
     # the flight's geoinfo.txt is such a start: the frame gets its position from it

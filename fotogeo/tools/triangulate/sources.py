@@ -134,7 +134,7 @@ def _from_images(frames, crs, geoinfo, need_position: bool):
     from ...io.exif import read_image_metadata
     from ...io.exif_block import read_exif_block
     if need_position and geoinfo is None:
-        _refuse_without_gps([frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None])
+        _refuse_without_gps([frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None], len(frames))
     return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo)
 
 
@@ -206,17 +206,19 @@ def _single_camera(approx):
 
 def _require_gps(names, approx) -> None:
     """Refuse frames whose files carry no GPS position, naming them and what to give instead."""
-    _refuse_without_gps([n for n in names if approx.shots.get(n) is None or approx.shots[n].position is None])
+    _refuse_without_gps([n for n in names if approx.shots.get(n) is None or approx.shots[n].position is None],
+                        len(names))
 
 
-def _refuse_without_gps(missing) -> None:
-    """The one error for frames without a start of their own: named, with every way to give one."""
+def _refuse_without_gps(missing, n_frames: int) -> None:
+    """The one error for frames without a start of their own: named (or "none of the N"), with every way to give one."""
     if missing:
         more = f" and {len(missing) - 10} more" if len(missing) > 10 else ""
-        raise InputError(f"frame(s) {', '.join(missing[:10])}{more} carry no GPS position in their EXIF/XMP; give "
-                         f"their positions (--geoinfo, or --eo with an approximate exterior orientation), ground "
-                         f"control to resect them (--gcps), or a reference orthophoto with its DEM to register "
-                         f"them (--reference, --dem)")
+        which = (f"none of the {n_frames} frames carries a" if len(missing) == n_frames > 1 else
+                 f"frame(s) {', '.join(missing[:10])}{more} carry no")
+        raise InputError(f"{which} GPS position in the EXIF/XMP; give their positions (--geoinfo, or --eo with an "
+                         f"approximate exterior orientation), ground control to resect them (--gcps), or a reference "
+                         f"orthophoto with its DEM to register them (--reference, --dem)")
 
 
 def _start_from_images(start: BlockStart, approx, map_crs) -> None:
