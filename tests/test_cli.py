@@ -1,7 +1,11 @@
 """The command line as a user meets it: options generated from the option table, exit codes, messages."""
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -136,9 +140,29 @@ def test_progress_never_goes_back_and_writes_plain_lines_into_a_log():
     lines = log.text.splitlines()
     assert "\r" not in log.text and lines == ["  2.3% target: reading", "  2.3% reference: keypoints",
                                               " 11.2% matching", " 50.0% matching", "100.0% done"]
+    log = _Stream(tty=False)  # a message that differs only in its counts: one line per 10 % step
+    bar = common.ConsoleProgress(stream=log)
+    for i in range(60):
+        bar(0.5 + 0.001 * i, f"bundle adjustment: iteration {i + 1}, cost {6606.3 - i * 0.01:g}")
+    bar(0.56, "matching pair 1/7")
+    bar(0.57, "matching pair 2/7")
+    assert log.text.splitlines() == [" 50.0% bundle adjustment: iteration 1, cost 6606.3", " 56.0% matching pair 1/7"]
     term = _Stream(tty=True)
     bar = common.ConsoleProgress(stream=term)
     for f, m in steps:
         bar(f, m)
     shown = [float(p) for p in re.findall(r"\] +([\d.]+)%", term.text)]
     assert shown == sorted(shown) and term.text.startswith("\r[")
+
+
+def test_python_m_fotogeo_cli_is_the_command(tmp_path):
+    """``python -m fotogeo.cli`` runs the same command group as the ``fotogeo`` script (a user without the
+    script on the PATH); a bad input is the same one ``Error:`` line and exit code 2."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    r = subprocess.run([sys.executable, "-m", "fotogeo.cli", "--help"], capture_output=True, text=True, env=env,
+                       timeout=120)
+    assert r.returncode == 0 and "triangulate" in r.stdout and "Usage: fotogeo" in r.stdout, r.stderr
+    r = subprocess.run([sys.executable, "-m", "fotogeo.cli", "triangulate", str(tmp_path / "missing.JPG"), "-o",
+                        str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 2 and r.stderr.count("Error:") == 1 and "missing.JPG" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "out").exists()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import re
 import signal
 import sys
 import threading
@@ -75,6 +76,9 @@ def flag_of(name: str | None) -> str | None:
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
 
+_NUMBER = re.compile(r"\d+(?:\.\d+)?(?:e[+-]?\d+)?")
+
+
 class ConsoleProgress:
     """A progress callback on stderr (silent when ``quiet``): on a terminal one updating line (``\\r``); into a
     log (not a terminal) a plain line per new step or 10 %. The percentage shown never goes back: nested
@@ -101,11 +105,13 @@ class ConsoleProgress:
         return True
 
     def _plain(self, message: str) -> bool:
-        step = int(self.top * 10)
-        if (message, step) != self.logged and (message != self.logged[0] or step > self.logged[1]):
+        """A line when the message changes — counts apart ("iteration 7, cost 4305.2" is the message of
+        "iteration 6, …": 60 iterations were 60 lines) — or a new 10 % step is reached."""
+        step, kind = int(self.top * 10), _NUMBER.sub("#", message)
+        if (kind, step) != self.logged and (kind != self.logged[0] or step > self.logged[1]):
             self.stream.write(f"{self.top * 100:5.1f}% {message}\n")
             self.stream.flush()
-            self.logged = (message, step)
+            self.logged = (kind, step)
         return True
 
     def close(self):
