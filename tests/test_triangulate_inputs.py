@@ -232,3 +232,28 @@ def test_reference_adds_automatic_control(tmp_path, small_block, monkeypatch):
     with pytest.raises(InputError, match="needs the DEM"):
         _run(tmp_path, frames=frames, gcps=tmp_path / "gcp_list.txt", reference=[tmp_path / "ortho.tif"],
              overwrite=True)
+
+
+def test_the_map_crs_comes_from_what_carries_one(tmp_path):
+    """No --crs needed (issue 20): the GCPs' CRS, else a projected reference's, else a projected DEM's, else the
+    UTM zone of the GPS; ``--crs auto`` is no CRS given; a geographic one is refused by its flag."""
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from fotogeo.tools.triangulate.sources import map_crs_rule
+
+    def raster(name, crs):
+        with rasterio.open(tmp_path / name, "w", driver="GTiff", width=32, height=32, count=1, dtype="uint8", crs=crs,
+                           transform=from_origin(500000, 4420000, 10, 10)) as ds:
+            ds.write(np.zeros((1, 32, 32), np.uint8))
+        return tmp_path / name
+    ref_geo, ref_utm, dem = raster("ref_geo.tif", "EPSG:4326"), raster("ref.tif", "EPSG:32635"), raster("dem.tif",
+                                                                                                        "EPSG:32634")
+    gps = CRS.from_epsg(32654)
+    assert map_crs_rule(None, None, [ref_utm], dem, gps) == (CRS.from_epsg(32635), "the reference orthophoto's CRS "
+                                                                                   "(--reference)")
+    assert map_crs_rule("auto", None, [ref_geo], dem, gps) == (CRS.from_epsg(32634), "the DEM's CRS (--dem)")
+    assert map_crs_rule(None, None, [ref_geo], None, gps) == (gps, "the UTM zone of the images' GPS positions")
+    assert map_crs_rule(None, "gcps.txt", [ref_utm], dem, gps) == (None, "the ground control's CRS (--gcps)")
+    assert map_crs_rule("EPSG:32633", None, [ref_utm], dem, gps)[1] == "given (--crs)"
+    assert map_crs_rule(None, None, None, None, None) == (None, "")

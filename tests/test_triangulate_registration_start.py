@@ -55,6 +55,7 @@ def runs(data_dir, tmp_path_factory):
 def test_the_start_comes_from_registration_and_is_reported(runs):
     start = runs["json"]["start"]
     assert "registering every frame to the reference" in start["source"]
+    assert start["crs_rule"] == "the reference orthophoto's CRS (--reference)"  # no --crs given: the reference's
     rows = {r["name"]: r for r in start["registration"]}
     assert set(rows) == set(NAMES) and all(r["status"] == "start" for r in rows.values())
     for n, r in rows.items():
