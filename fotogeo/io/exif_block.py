@@ -246,7 +246,7 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     names them; the caller decides whether exterior orientations or GCPs make up for them); angles of
     images without GPS use the block's mean position for the meridian convergence. One height
     reference per block: ellipsoid mixed with geoid is an :class:`InputError`; a known reference
-    mixed with an unknown one makes the block's unknown (a note says so).
+    mixed with an unknown one makes the block's unknown (a warning and a note say so).
     """
     from pyproj import Transformer
     if isinstance(geoinfo, (str, Path)):
