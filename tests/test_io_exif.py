@@ -175,12 +175,19 @@ def test_geoinfo_parsing_and_mixed_height_references(tmp_path):
     assert b.shots["a"].position[2] == 110.0 and b.shots["a"].height_reference == "geoid"
     rtk = write_image(tmp_path / "r.jpg", DJI_TAGS, DJI_XMP)  # DJI RTK: ellipsoidal
     with pytest.raises(InputError, match=r"'r' has an ellipsoidal height \(DJI drone-dji:AbsoluteAltitude\) but 'a' "
-                                         r"a geoid \(sea-level\) height \(geoinfo altitude_amsl\)"):
+                                         r"a geoid \(sea-level\) height \(geoinfo altitude_amsl\)"), \
+            pytest.warns(FotogeoWarning, match="no line for 1 image"):  # r is not in the geoinfo
         read_exif_block([tmp_path / "a.jpg", rtk], geoinfo=geo)
     plain = write_image(tmp_path / "p.jpg", {**DJI_TAGS, "EXIF_Make": "ACME"})  # no vendor rule: unknown
     with pytest.warns(FotogeoWarning, match=r"ellipsoid but those of p \(ACME EXIF GPSAltitude\) have an unknown"):
         b = read_exif_block([plain, rtk])
     assert b.shots["p"].height_reference is None and any("reference is unknown" in n for n in b.notes)
+    with pytest.raises(InputError, match=r"geoinfo.txt' lists none of the images \(r; it lists a …\); give the geoinfo"):
+        read_exif_block([rtk], geoinfo=geo)  # another flight's file: refused, not ignored in silence
+    with pytest.warns(FotogeoWarning, match=r"geoinfo.txt' has no line for 1 image\(s\) \(r\): their own EXIF/XMP"), \
+            pytest.warns(FotogeoWarning, match="geoid but those of r .* unknown reference"):
+        read_exif_block([tmp_path / "a.jpg", write_image(tmp_path / "r.jpg", {**DJI_TAGS, "EXIF_Make": "ACME"})],
+                        geoinfo=geo)
     geo.write_text("fileName\tlatitude\n")
     with pytest.raises(InputError, match="geoinfo.txt.* lacks longitude"):
         read_geoinfo(geo)

@@ -92,6 +92,16 @@ def test_ellipsoidal_and_geoid_heights_are_never_mixed(snowpeak, tmp_path):
     assert any(n.startswith("height reference: ellipsoid (geoinfo: ellipsoid heights)") for n in block.notes)
 
 
+def test_a_geoinfo_of_another_flight_is_refused(snowpeak, tmp_path):
+    """--geoinfo naming none of the frames (another flight's, or renamed images) is refused, never ignored."""
+    frames = copy_frames(snowpeak / "img", STRIP, tmp_path / "img")
+    geo = tmp_path / "other_geoinfo.txt"
+    geo.write_text((snowpeak / "snowpea1_geoinfo.txt").read_text().replace("IMG_2", "DSC_2"))
+    _refused(_run(frames, tmp_path / "out", "--geoinfo", str(geo)), tmp_path / "out",
+             "other_geoinfo.txt' lists none of the images (IMG_2280, IMG_2281, IMG_2282; it lists DSC_2166",
+             "give the geoinfo.txt of this flight")
+
+
 @pytest.mark.slow
 def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp_path):
     """IMG_2281's XMP cut: its attitude and GPS accuracy are lost (one warning naming the file), it starts level

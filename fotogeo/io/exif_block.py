@@ -235,6 +235,18 @@ def _cameras(metas, notes: list) -> tuple[dict, dict]:
     return cameras, ids
 
 
+def _geoinfo_covers(geoinfo: dict, names: list, source: str) -> None:
+    """A geoinfo that lists none of the images is another flight's (refused); images it lacks keep their own
+    EXIF/XMP (warned, named)."""
+    lacking = [n for n in names if n not in geoinfo]
+    if len(lacking) == len(names):
+        raise InputError(f"{source} lists none of the images ({', '.join(names[:3])}{' …' if len(names) > 3 else ''}; "
+                         f"it lists {', '.join(sorted(geoinfo)[:3])} …); give the geoinfo.txt of this flight")
+    if lacking:
+        warnings.warn(f"{source} has no line for {len(lacking)} image(s) ({', '.join(lacking[:5])}"
+                      f"{' …' if len(lacking) > 5 else ''}): their own EXIF/XMP is used", FotogeoWarning, stacklevel=3)
+
+
 def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     """The :class:`ApproximateBlock` of drone images (module docstring).
 
@@ -249,11 +261,14 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     mixed with an unknown one makes the block's unknown (a warning and a note say so).
     """
     from pyproj import Transformer
+    source = f"geoinfo file {str(geoinfo)!r}" if isinstance(geoinfo, (str, Path)) else "the geoinfo"
     if isinstance(geoinfo, (str, Path)):
         from .geoinfo import read_geoinfo
         geoinfo = read_geoinfo(geoinfo)
     geoinfo = geoinfo or {}
     metas = _read_all(paths)
+    if geoinfo:
+        _geoinfo_covers(geoinfo, [m.name for m in metas], source)
     pos = {m.name: _position(m, geoinfo.get(m.name)) for m in metas}
     located = {n: p for n, p in pos.items() if p[0] is not None and p[2] is not None}
     lonlats = [p[:2] for p in pos.values() if p[0] is not None]
