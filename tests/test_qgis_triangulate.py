@@ -222,3 +222,26 @@ def test_drone_frames_through_qgis_process_need_no_crs(config, data_dir, tmp_pat
     assert f"“{TRIANGULATE['undetermined'].label}” drop" in text and "--undetermined" not in text, text[-3000:]
     assert "Traceback" not in text
     assert not (tmp_path / "turn").exists() or not any((tmp_path / "turn").iterdir())  # QGIS makes the folder
+
+
+@pytest.mark.data
+def test_drone_frame_without_gps_is_refused_in_the_dialogs_words(qgis_app, data_dir, tmp_path):
+    """A copy of an eBee JPEG without its GPS: the refusal names the frame and every way to start it by the
+    parameter labels of the dialog (no command-line flag left), and writes nothing."""
+    import processing
+    from fotogeo.options import TRIANGULATE
+    from jpeg_metadata import copy_frames, rename_ifd0_tag
+    src = data_dir / "drone_snowpeak" / "img"
+    if not src.is_dir():
+        pytest.skip(f"real test data not found at {src} (an older ../shared/data without drone_snowpeak)")
+    frames = copy_frames(src, ["IMG_2280", "IMG_2281"], tmp_path / "img")
+    rename_ifd0_tag(frames[1], 0x8825, 0xC7FF)  # GPSInfo -> a private tag: no GPS
+    with pytest.raises(QgsProcessingException) as err:
+        processing.run("fotogeo:triangulate", {"FRAMES": [str(f) for f in frames], "OUTDIR": str(tmp_path / "out")},
+                       feedback=Recorder())
+    text = str(err.value)
+    assert "IMG_2281 carry no GPS position" in text and "--" not in text, text
+    for label in (TRIANGULATE["geoinfo"].label, "Approximate exterior orientation", "Ground control",
+                  "Reference orthophoto(s)", TRIANGULATE["dem"].label):
+        assert f"“{label}”" in text, (label, text)
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
