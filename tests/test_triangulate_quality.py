@@ -177,7 +177,7 @@ def test_a_frame_whose_pair_scale_is_free_is_refused_by_its_position_sigma(sb, t
 
 def test_a_gnss_prior_holds_a_position_the_images_do_not(sb):
     """The same frame with GNSS priors (σ 20 m, above the 9.1 m bound) passes: its position is as good as its
-    GPS — the drone block's frames, σ 5.8 m at ~100 m, are held so."""
+    GPS — the eBee frames (tests/test_triangulate_drone.py), σ 15–23 m against bounds of 0.8–1.0 m, are held so."""
     block = _pair_only(sb, 3, 2)
     opts = BundleOptions(snooping=False, eo_sigma=(20.0, np.inf))
     result = adjust_block(block, opts)

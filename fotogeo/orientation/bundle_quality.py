@@ -27,10 +27,11 @@ After the adjustment every frame is therefore checked (:func:`frame_quality`,
   position as precisely as the angle limit asks the attitude. It catches the frame whose angles are
   determined while its position is not — the end frame of a strip whose points have only two rays, its own
   and its neighbour's: the pair's scale is free, the frame slides along the base with every observation
-  unchanged (measured: a rendered 100-frame block passed two frames with position σ 126 m and 789 km on
-  their angle σ). A frame with a position prior (GNSS) is not failed by this test alone: its position is as
-  good as the prior (a drone frame held by a 5.8 m GPS σ at 100 m above ground exceeds the bound and is
-  right).
+  unchanged (a simulated 2 × 4 block with such an end frame: angle σ 0.15°, position undetermined — it read
+  σ 0 m before :mod:`~fotogeo.orientation.bundle_result` gave a singular direction NaN —, and with one third ray
+  measured to 50 px σ 81.7 m against a 9.1 m bound; both passed on their angle σ before). A frame with a
+  position prior (GNSS) is not tested: its position is as good as the prior (the eBee frames of
+  tests/test_triangulate_drone.py: σ 15–23 m at σ₀ 4.4 against bounds of 0.8–1.0 m, held by their GPS).
 
 * **its own tie points**: the share of its observations that data snooping rejected as blunders; at most
   ``max_blunder_share`` (default 25 %). A frame the adjustment turned the wrong way keeps the minority of
@@ -156,8 +157,8 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
     ``angle_prior`` ``(m,)`` bool marks frames whose angles have a prior (INS, gimbal, autopilot): for them an
     angle σ above the limit alone is not a failure — the images hold the frame (points and spread pass), its
     absolute attitude is as good as the prior (a strip of a few frames cannot fix its own roll); see
-    :func:`prior_held_frames`. ``position_prior`` likewise for the position σ against
-    ``D̄ · tan(max_angle_sigma)`` (GNSS). ``in_block`` marks frames without an attitude prior whose attitude is
+    :func:`prior_held_frames`. ``position_prior`` marks frames with a position prior (GNSS): the position test
+    is not theirs (their position is as good as the prior; a frame the images do not hold fails the others). ``in_block`` marks frames without an attitude prior whose attitude is
     to rest on the block's (re-started frames, :mod:`fotogeo.tools.triangulate.determinacy`): their angle σ given
     the rest of the block must pass the limit instead of the absolute one."""
     out = {}
@@ -178,7 +179,7 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
             why.append(f"angle σ {q.angle_sigma[j]:.3g}° (limit {max_angle_sigma:g}°)")
         if held[j] and not q.angle_sigma_in_block[j] <= max_angle_sigma:
             why.append(f"angle σ within the block {q.angle_sigma_in_block[j]:.3g}° (limit {max_angle_sigma:g}°)")
-        if np.isfinite(q.angle_sigma[j]) and not q.position_sigma[j] <= limit[j] and (why or not gnss[j]):
+        if np.isfinite(q.angle_sigma[j]) and not gnss[j] and not q.position_sigma[j] <= limit[j]:
             why.append(f"position σ {_metres(q.position_sigma[j])} (limit {_metres(limit[j])}: its points "
                        f"{q.distance[j]:.4g} m away × tan {max_angle_sigma:g}°; the images do not hold its position, "
                        f"e.g. its points have no third ray and its pair's scale is free: tie it to more frames or "
