@@ -163,7 +163,8 @@ def test_a_frame_whose_pair_scale_is_free_is_refused_by_its_position_sigma(sb, t
     """Issue 20: the end frame of a strip whose points have only two rays, its own and its neighbour's — the pair's
     scale is free, the frame slides along the base. Its angles are determined (σ 0.15°, under the 0.5° limit), so
     it passed before: its position σ read 0 m (a negative diagonal of the singular system clipped to 0); with one
-    third ray measured to 50 px it reads 81.7 m. The position test (σ ≤ D̄ · tan 0.5°, 9.1 m at 1 040 m) refuses it."""
+    third ray measured to 50 px it reads 81.7 m. The position test (σ ≤ D̄ · tan 0.5°, 9.1 m at 1 040 m) refuses
+    it."""
     block = _pair_only(sb, 3, 2, third_ray_sigma)
     result = adjust_block(block, BundleOptions(snooping=False))
     q = frame_quality(result, block)
@@ -177,7 +178,8 @@ def test_a_frame_whose_pair_scale_is_free_is_refused_by_its_position_sigma(sb, t
 
 def test_a_gnss_prior_holds_a_position_the_images_do_not(sb):
     """The same frame with GNSS priors (σ 20 m, above the 9.1 m bound) passes: its position is as good as its
-    GPS — the eBee frames (tests/test_triangulate_drone.py), σ 15–23 m against bounds of 0.8–1.0 m, are held so."""
+    GPS — the eBee frames (tests/test_triangulate_drone.py), σ 15–23 m against bounds of 0.8–1.0 m, are held
+    so."""
     block = _pair_only(sb, 3, 2)
     opts = BundleOptions(snooping=False, eo_sigma=(20.0, np.inf))
     result = adjust_block(block, opts)

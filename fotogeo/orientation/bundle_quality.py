@@ -158,9 +158,10 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
     angle σ above the limit alone is not a failure — the images hold the frame (points and spread pass), its
     absolute attitude is as good as the prior (a strip of a few frames cannot fix its own roll); see
     :func:`prior_held_frames`. ``position_prior`` marks frames with a position prior (GNSS): the position test
-    is not theirs (their position is as good as the prior; a frame the images do not hold fails the others). ``in_block`` marks frames without an attitude prior whose attitude is
-    to rest on the block's (re-started frames, :mod:`fotogeo.tools.triangulate.determinacy`): their angle σ given
-    the rest of the block must pass the limit instead of the absolute one."""
+    is not theirs (their position is as good as the prior; a frame the images do not hold fails the others).
+    ``in_block`` marks frames without an attitude prior whose attitude is to rest on the block's (re-started
+    frames, :mod:`fotogeo.tools.triangulate.determinacy`): their angle σ given the rest of the block must pass
+    the limit instead of the absolute one."""
     out = {}
     m = len(q.frames)
     held = np.zeros(m, bool) if in_block is None else np.asarray(in_block, bool)
@@ -262,12 +263,14 @@ def prior_contradicted_frames(result, block, eo_sigma) -> dict:
     tests = prior_tests(result, block, eo_sigma)
     out, excess = {}, {}
     for name, failed in tests.items():
-        why = [f"adjusted {what} {size:.3g}{unit} from its prior (σ {sv:.3g}{unit}, test {np.sqrt(t):.2f} > "
-               f"{np.sqrt(crit):.2f})" for what, (size, sv, t, crit) in failed.items()
-               for unit in ([" m"] if what == "position" else ["°"])]
+        why = [f"adjusted {what} {size:.3g}{_UNIT[what]} from its prior (σ {sv:.3g}{_UNIT[what]}, test "
+               f"{np.sqrt(t):.2f} > {np.sqrt(crit):.2f})" for what, (size, sv, t, crit) in failed.items()]
         out[name] = "; ".join(why) + ": its tie points and its prior disagree (wrong ties or a wrong GPS/gimbal tag)"
         excess[name] = max(t / crit for _, _, t, crit in failed.values())
     return {n: out[n] for n in sorted(out, key=excess.get, reverse=True)}
+
+
+_UNIT = {"attitude": "°", "position": " m"}
 
 
 def prior_tests(result, block, eo_sigma) -> dict:

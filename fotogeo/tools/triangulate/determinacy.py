@@ -77,7 +77,8 @@ def _checked(result, block, opts, kw, restarted):
     quality = frame_quality(result, block)
     m = len(block.frames)
     own = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
-                              angle_prior=_has_prior(opts.eo_sigma, m, 3), position_prior=_has_prior(opts.eo_sigma, m, 0),
+                              angle_prior=_has_prior(opts.eo_sigma, m, 3),
+                              position_prior=_has_prior(opts.eo_sigma, m, 0),
                               in_block=np.isin(block.frames, [r["name"] for r in restarted]))
     return quality, own, prior_contradicted_frames(result, block, opts.eo_sigma), prior_tests(result, block,
                                                                                            opts.eo_sigma)
