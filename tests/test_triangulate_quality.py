@@ -14,7 +14,8 @@ from fotogeo.errors import ModelError
 from fotogeo.geometry.camera import FrameCamera
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
-from fotogeo.orientation.bundle_quality import frame_quality, prior_contradicted_frames, undetermined_frames
+from fotogeo.orientation.bundle_quality import (frame_quality, position_limits, prior_contradicted_frames,
+                                               undetermined_frames)
 from fotogeo.tools.triangulate import adjust_determined
 
 CAMERA = FrameCamera(6.0, (4.0, 6.0), (400, 600))
@@ -60,7 +61,7 @@ def test_a_frame_tied_by_three_points_is_refused_by_name(sb):
 
 def test_an_undetermined_frame_is_dropped_on_request_and_the_rest_adjusted(sb):
     block = _starved(sb, 5, 3, kappa_error=25.0)
-    result, kept, q, dropped = adjust_determined(block, BundleOptions(snooping=False), {**KW, "undetermined": "drop"},
+    result, kept, q, dropped, _ = adjust_determined(block, BundleOptions(snooping=False), {**KW, "undetermined": "drop"},
                                                  None)
     assert [d["name"] for d in dropped] == [sb.block.frames[5]]
     assert sb.block.frames[5] not in kept.frames and len(kept.frames) == len(sb.block.frames) - 1
@@ -89,12 +90,15 @@ def test_a_frame_without_angle_sigma_is_never_passed_by_its_prior(sb):
     assert list(bad) == [sb.block.frames[2]] and "no angle σ" in bad[sb.block.frames[2]]
 
 
-def _held_by_truth(sb, frame_index: int, kappa_error: float, angle_sigma: float = 2.0):
-    """``sb``'s block started from the true orientations, frame ``frame_index``'s κ off by ``kappa_error``°,
-    with ``(block, options)`` holding every frame's angles by a prior of ``angle_sigma``° (positions free)."""
+def _held_by_truth(sb, frame_index: int, kappa_error: float, angle_sigma: float = 2.0, shift: float = 0.0,
+                   position_sigma: float = np.inf):
+    """``sb``'s block started from the true orientations, frame ``frame_index``'s κ off by ``kappa_error``° and its
+    X by ``shift`` m, with ``(block, options)`` holding every frame's angles by a prior of ``angle_sigma``° and its
+    position by ``position_sigma`` m (free by default)."""
     eo = list(sb.true_eo)
-    eo[frame_index] = dataclasses.replace(eo[frame_index], kappa=eo[frame_index].kappa + kappa_error)
-    sigma = np.tile([np.inf, np.inf, np.inf, angle_sigma, angle_sigma, angle_sigma], (len(eo), 1))
+    eo[frame_index] = dataclasses.replace(eo[frame_index], kappa=eo[frame_index].kappa + kappa_error,
+                                          X=eo[frame_index].X + shift)
+    sigma = np.tile([position_sigma] * 3 + [angle_sigma] * 3, (len(eo), 1))
     return dataclasses.replace(sb.block, eo=tuple(eo)), BundleOptions(snooping=False, eo_sigma=sigma)
 
 
@@ -110,13 +114,80 @@ def test_a_frame_its_ties_turn_far_from_its_attitude_prior_is_named(sb):
     assert prior_contradicted_frames(adjust_block(block, opts), block, opts.eo_sigma) == {}
 
 
-def test_the_tool_refuses_a_contradicted_frame_or_drops_it_alone(sb):
+def test_a_frame_whose_attitude_prior_alone_is_contradicted_is_restarted_from_the_block(sb):
+    """A wrong attitude tag (20° in κ) under right ties: the frame is re-oriented by resection from the block, its
+    attitude prior dropped, and kept — adjusted to the truth — because it then passes every check. It was refused
+    before (the prior test cannot tell a wrong tag from wrong ties)."""
     block, opts = _held_by_truth(sb, 3, 20.0)
-    with pytest.raises(ModelError, match=f"frame\\(s\\) {sb.block.frames[3]}: adjusted attitude.*check their "
-                                         f"attitude.*--undetermined drop"):
+    result, kept, q, dropped, restarted = adjust_determined(block, opts, KW, None)
+    name = sb.block.frames[3]
+    assert dropped == [] and [r["name"] for r in restarted] == [name], restarted
+    assert "re-oriented by resection" in restarted[0]["reason"] and 19.5 < restarted[0]["prior_offset_deg"] < 20.5
+    assert restarted[0]["angle_sigma_in_block_deg"] < KW["max_angle_sigma"]
+    truth = dict(zip(sb.block.frames, sb.true_eo))
+    for n, e in zip(kept.frames, result.eo):
+        assert abs((e.kappa - truth[n].kappa + 180) % 360 - 180) < 0.1, n
+    assert np.isfinite(opts.eo_sigma[3, 3:]).all()  # the caller's priors are not changed
+
+
+def test_a_frame_contradicted_in_position_too_is_refused_or_dropped_alone(sb):
+    """Wrong ties pull a frame's centre from its GNSS as well (the rendered oblique block, seed 1): a frame whose
+    position is contradicted is never re-started — refused by name, or dropped alone."""
+    block, opts = _held_by_truth(sb, 3, 20.0, shift=30.0, position_sigma=1.0)
+    with pytest.raises(ModelError, match=f"frame\\(s\\) {sb.block.frames[3]}: adjusted attitude.*adjusted "
+                                         f"position.*check their attitude.*--undetermined drop"):
         adjust_determined(block, opts, KW, None)
-    result, kept, q, dropped = adjust_determined(block, opts, {**KW, "undetermined": "drop"}, None)
-    assert [d["name"] for d in dropped] == [sb.block.frames[3]]
+    result, kept, q, dropped, restarted = adjust_determined(block, opts, {**KW, "undetermined": "drop"}, None)
+    assert [d["name"] for d in dropped] == [sb.block.frames[3]] and restarted == []
+
+
+def _pair_only(sb, j: int, k: int, third_ray_sigma=None):
+    """``sb``'s block with frame ``j`` tied only to frame ``k``: its points lose every other ray (its control
+    points are gone), except — with ``third_ray_sigma`` (px) — one tie point keeping its other rays at that σ."""
+    b = sb.block
+    mine = np.unique(b.obs_point[b.obs_frame == j])
+    ties = mine[b.role[mine] == "tie"]
+    keep = ~np.isin(b.obs_point, mine) | (np.isin(b.obs_point, ties) & np.isin(b.obs_frame, [j, k]))
+    sigma = b.obs_sigma.copy()
+    if third_ray_sigma is not None:
+        third = next(p for p in ties if np.count_nonzero(b.obs_point == p) >= 3)
+        other = (b.obs_point == third) & ~np.isin(b.obs_frame, [j, k])
+        keep |= other
+        sigma[other] = third_ray_sigma
+    return dataclasses.replace(b, obs_frame=b.obs_frame[keep], obs_point=b.obs_point[keep],
+                               obs_pixel=b.obs_pixel[keep], obs_sigma=sigma[keep])
+
+
+@pytest.mark.parametrize("third_ray_sigma, shown", [(None, "position σ undetermined"), (50.0, "position σ 8")])
+def test_a_frame_whose_pair_scale_is_free_is_refused_by_its_position_sigma(sb, third_ray_sigma, shown):
+    """Issue 20: the end frame of a strip whose points have only two rays, its own and its neighbour's — the pair's
+    scale is free, the frame slides along the base. Its angles are determined (σ 0.15°, under the 0.5° limit), so
+    it passed before: its position σ read 0 m (a negative diagonal of the singular system clipped to 0); with one
+    third ray measured to 50 px it reads 81.7 m. The position test (σ ≤ D̄ · tan 0.5°, 9.1 m at 1 040 m) refuses
+    it."""
+    block = _pair_only(sb, 3, 2, third_ray_sigma)
+    result = adjust_block(block, BundleOptions(snooping=False))
+    q = frame_quality(result, block)
+    assert q.angle_sigma[3] < 0.5 and q.points[3] >= 20 and q.spread[3] > 0.3  # every older test passes
+    bad = undetermined_frames(q)
+    assert list(bad) == [sb.block.frames[3]] and bad[sb.block.frames[3]].startswith(shown), bad
+    assert "× tan 0.5°" in bad[sb.block.frames[3]] and "--eo-sigma-position" in bad[sb.block.frames[3]]
+    with pytest.raises(ModelError, match=f"frame\\(s\\) {sb.block.frames[3]}: position σ"):
+        adjust_determined(block, BundleOptions(snooping=False), KW, None)
+
+
+def test_a_gnss_prior_holds_a_position_the_images_do_not(sb):
+    """The same frame with GNSS priors (σ 20 m, above the 9.1 m bound) passes: its position is as good as its
+    GPS — the eBee frames (tests/test_triangulate_drone.py), σ 15–23 m against bounds of 0.8–1.0 m, are held
+    so."""
+    block = _pair_only(sb, 3, 2)
+    opts = BundleOptions(snooping=False, eo_sigma=(20.0, np.inf))
+    result = adjust_block(block, opts)
+    q = frame_quality(result, block)
+    assert q.position_sigma[3] > position_limits(q)[3]
+    assert undetermined_frames(q) != {}
+    assert undetermined_frames(q, position_prior=np.ones(8, bool)) == {}
+    assert adjust_determined(block, opts, KW, None)[3] == []
 
 
 def test_the_worst_frame_line_never_prints_nan(monkeypatch, tmp_path):

@@ -61,6 +61,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                    f"({worst['multi_ray_points']} with 3+ rays)")
     for d in rep.get("dropped_frames") or []:
         click.echo(f"dropped (undetermined): {d['name']}: {d['reason']}")
+    for r in rep.get("restarted_frames") or []:
+        click.echo(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}")
     start = rep.get("start") or {}
     if start.get("source"):
         click.echo(f"start: {start['source']}")

@@ -140,6 +140,9 @@ class BundleResult:
     interior_covariance: np.ndarray | None = None
     eo_interior_covariance: np.ndarray | None = None
     interior_free: tuple = ()
+    #: (m, 6) σ of each orientation given every other frame and the interior (σ₀ √diag((S_jj)⁻¹), as eo_sigma):
+    #: what its own rays (and priors) hold within the block, the block's datum aside (bundle_result)
+    eo_sigma_in_block: np.ndarray | None = None
 
 
 def _robust_weights(pb, s, opts):

@@ -20,6 +20,18 @@ After the adjustment every frame is therefore checked (:func:`frame_quality`,
   rotation the GPS noise gives the block); at most ``max_angle_sigma`` (default 0.5°). With
   angle priors (``eo_sigma``, INS/gimbal) a frame the images do not determine keeps about the
   prior's σ and fails the same test.
+* **position precision**: the largest a-posteriori σ of its projection centre ``σ_C = max(σX, σY, σZ)``
+  (m, scaled by ``max(σ₀, 1)`` as the angle σ) at most ``D̄ · tan(max_angle_sigma)``, ``D̄`` the mean
+  distance from the adjusted centre to the adjusted points it observes. A centre displaced by ``δ`` turns the
+  rays to ground at distance ``D`` by ``δ / D`` rad, as a rotation of that angle would: the bound asks the
+  position as precisely as the angle limit asks the attitude. It catches the frame whose angles are
+  determined while its position is not — the end frame of a strip whose points have only two rays, its own
+  and its neighbour's: the pair's scale is free, the frame slides along the base with every observation
+  unchanged (a simulated 2 × 4 block with such an end frame: angle σ 0.15°, position undetermined — it read
+  σ 0 m before :mod:`~fotogeo.orientation.bundle_result` gave a singular direction NaN —, and with one third ray
+  measured to 50 px σ 81.7 m against a 9.1 m bound; both passed on their angle σ before). A frame with a
+  position prior (GNSS) is not tested: its position is as good as the prior (the eBee frames of
+  tests/test_triangulate_drone.py: σ 15–23 m at σ₀ 4.4 against bounds of 0.8–1.0 m, held by their GPS).
 
 * **its own tie points**: the share of its observations that data snooping rejected as blunders; at most
   ``max_blunder_share`` (default 25 %). A frame the adjustment turned the wrong way keeps the minority of
@@ -57,8 +69,9 @@ MIN_POINTS, MIN_SPREAD, MAX_ANGLE_SIGMA, MAX_BLUNDER_SHARE = 6, 0.05, 0.5, 0.25
 @dataclass(frozen=True)
 class FrameQuality:
     """Per frame ``(m,)``: points observed, points with ≥ 3 rays, hull fraction of the frame,
-    largest angle σ (°), largest position σ (m), image RMS of its observations (px), observations and the
-    share of them rejected as blunders."""
+    largest angle σ (°), largest position σ (m), image RMS of its observations (px), observations, the
+    share of them rejected as blunders, the mean distance from its centre to its points (m) and the largest angle
+    σ given the rest of the block (°, :func:`~fotogeo.orientation.bundle_result.sigma_in_block`)."""
 
     frames: tuple
     points: np.ndarray
@@ -69,15 +82,17 @@ class FrameQuality:
     image_rms: np.ndarray
     observations: np.ndarray
     blunder_share: np.ndarray
+    distance: np.ndarray
+    angle_sigma_in_block: np.ndarray
 
     def rows(self) -> list:
         """One dict per frame (the report's ``frame_quality``)."""
         return [{"name": n, "points": int(p), "multi_ray_points": int(r), "spread": round(float(s), 4),
                  "angle_sigma_deg": float(a), "position_sigma_m": float(q), "image_rms_px": float(v),
-                 "blunder_share": round(float(b), 4)}
-                for n, p, r, s, a, q, v, b in zip(self.frames, self.points, self.multi_ray_points, self.spread,
-                                                   self.angle_sigma, self.position_sigma, self.image_rms,
-                                                   self.blunder_share)]
+                 "blunder_share": round(float(b), 4), "object_distance_m": round(float(d), 3)}
+                for n, p, r, s, a, q, v, b, d in zip(self.frames, self.points, self.multi_ray_points, self.spread,
+                                                      self.angle_sigma, self.position_sigma, self.image_rms,
+                                                      self.blunder_share, self.distance)]
 
 
 def _hull_fraction(px: np.ndarray, area: float) -> float:
@@ -100,6 +115,7 @@ def frame_quality(result, block) -> FrameQuality:
     multi = np.zeros(m, int)
     spread = np.zeros(m)
     rms = np.full(m, np.nan)
+    distance = _object_distances(result, block, f, p)
     for j in range(m):
         sel = f == j
         pts = np.unique(p[sel])
@@ -109,24 +125,49 @@ def frame_quality(result, block) -> FrameQuality:
         if sel.any():
             rms[j] = float(np.sqrt(np.nanmean(result.residuals[used][sel] ** 2)))
     s0 = float(result.sigma0)
-    sig = np.asarray(result.eo_sigma, float) * (max(s0, 1.0) / s0 if s0 > 0 else 1.0)
+    scale = max(s0, 1.0) / s0 if s0 > 0 else 1.0
+    sig = np.asarray(result.eo_sigma, float) * scale
+    inner = (np.full((m, 6), np.nan) if result.eo_sigma_in_block is None
+             else np.asarray(result.eo_sigma_in_block, float) * scale)
     n_obs = np.bincount(block.obs_frame, minlength=m)
     blunders = np.bincount(block.obs_frame[result.status == "blunder"], minlength=m)
     return FrameQuality(tuple(block.frames), points, multi, spread, np.max(sig[:, 3:], axis=1),
-                        np.max(sig[:, :3], axis=1), rms, n_obs, blunders / np.maximum(n_obs, 1))
+                        np.max(sig[:, :3], axis=1), rms, n_obs, blunders / np.maximum(n_obs, 1), distance,
+                        np.max(inner[:, 3:], axis=1))
+
+
+def _object_distances(result, block, f: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``(m,)`` mean distance (m) from each frame's adjusted centre to the adjusted points of its used
+    observations ``f``, ``p``; NaN for a frame without any."""
+    m = len(block.frames)
+    centres = np.array([e.centre for e in result.eo], float).reshape(m, 3)
+    d = np.linalg.norm(np.asarray(result.point_xyz, float)[p] - centres[f], axis=1)
+    ok = np.isfinite(d)
+    total = np.bincount(f[ok], weights=d[ok], minlength=m)
+    count = np.bincount(f[ok], minlength=m)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / count, np.nan)
 
 
 def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_spread: float = MIN_SPREAD,
-                        max_angle_sigma: float = MAX_ANGLE_SIGMA, angle_prior=None,
-                        max_blunder_share: float = MAX_BLUNDER_SHARE) -> dict:
+                        max_angle_sigma: float = MAX_ANGLE_SIGMA, angle_prior=None, position_prior=None,
+                        in_block=None, max_blunder_share: float = MAX_BLUNDER_SHARE) -> dict:
     """``{frame: reason}`` of the frames that fail a test of the module docstring (empty: all determined).
 
     ``angle_prior`` ``(m,)`` bool marks frames whose angles have a prior (INS, gimbal, autopilot): for them an
     angle σ above the limit alone is not a failure — the images hold the frame (points and spread pass), its
     absolute attitude is as good as the prior (a strip of a few frames cannot fix its own roll); see
-    :func:`prior_held_frames`."""
+    :func:`prior_held_frames`. ``position_prior`` marks frames with a position prior (GNSS): the position test
+    is not theirs (their position is as good as the prior; a frame the images do not hold fails the others).
+    ``in_block`` marks frames without an attitude prior whose attitude is to rest on the block's (re-started
+    frames, :mod:`fotogeo.tools.triangulate.determinacy`): their angle σ given the rest of the block must pass
+    the limit instead of the absolute one."""
     out = {}
-    prior = np.zeros(len(q.frames), bool) if angle_prior is None else np.asarray(angle_prior, bool)
+    m = len(q.frames)
+    held = np.zeros(m, bool) if in_block is None else np.asarray(in_block, bool)
+    prior = (np.zeros(m, bool) if angle_prior is None else np.asarray(angle_prior, bool)) | held
+    gnss = np.zeros(m, bool) if position_prior is None else np.asarray(position_prior, bool)
+    limit = position_limits(q, max_angle_sigma)
     for j, name in enumerate(q.frames):
         why = []
         if q.points[j] < min_points:
@@ -137,6 +178,13 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
             why.append("no angle σ (the normal equations are singular there: near-parallel rays or no datum)")
         elif not q.angle_sigma[j] <= max_angle_sigma and (why or not prior[j]):
             why.append(f"angle σ {q.angle_sigma[j]:.3g}° (limit {max_angle_sigma:g}°)")
+        if held[j] and not q.angle_sigma_in_block[j] <= max_angle_sigma:
+            why.append(f"angle σ within the block {q.angle_sigma_in_block[j]:.3g}° (limit {max_angle_sigma:g}°)")
+        if np.isfinite(q.angle_sigma[j]) and not gnss[j] and not q.position_sigma[j] <= limit[j]:
+            why.append(f"position σ {_metres(q.position_sigma[j])} (limit {_metres(limit[j])}: its points "
+                       f"{q.distance[j]:.4g} m away × tan {max_angle_sigma:g}°; the images do not hold its position, "
+                       f"e.g. its points have no third ray and its pair's scale is free: tie it to more frames or "
+                       f"give its GPS position, --eo-sigma-position)")
         if q.blunder_share[j] > max_blunder_share:
             why.append(f"{round(q.blunder_share[j] * q.observations[j])} of its {q.observations[j]} observations "
                        f"({100 * q.blunder_share[j]:.0f}%) rejected as blunders (limit "
@@ -144,6 +192,19 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
         if why:
             out[name] = ", ".join(why)
     return out
+
+
+def position_limits(q: FrameQuality, max_angle_sigma: float = MAX_ANGLE_SIGMA) -> np.ndarray:
+    """``(m,)`` the largest position σ (m) a frame may keep: ``D̄ · tan(max_angle_sigma)`` (module docstring);
+    NaN (every σ fails) for a frame without points."""
+    return np.asarray(q.distance, float) * np.tan(np.radians(max_angle_sigma))
+
+
+def _metres(value: float) -> str:
+    """A length for a message: ``0.873 m``, ``126 m``, ``4.83 km``, ``undetermined``."""
+    if not np.isfinite(value):
+        return "undetermined"
+    return f"{value / 1000:.3g} km" if value >= 1000 else f"{value:.3g} m"
 
 
 def prior_held_frames(q: FrameQuality, max_angle_sigma: float = MAX_ANGLE_SIGMA) -> dict:
@@ -187,7 +248,8 @@ def prior_contradicted_frames(result, block, eo_sigma) -> dict:
     """``{frame: reason}`` of the frames whose adjusted attitude or position departs from its prior more than
     the prior's σ allows: their tie points pull them where the GNSS/INS/gimbal says they are not. Which of
     the two is wrong the test cannot tell (measured on the rendered oblique block, seed 2: DJI_205 and DJI_405
-    right, their gimbal tags 21.2° and 18.4° from the truth — refused as well).
+    right, their gimbal tags 21.2° and 18.4° from the truth — named as well; the tool re-starts such a frame
+    without its attitude prior, :mod:`fotogeo.tools.triangulate.determinacy`).
 
     Per frame and per group (position, attitude) the standardised residuals of :func:`prior_residuals` give
     ``T = Σ (v_k / σ_v,k)²`` over the components with a prior, χ²-distributed with as many degrees of freedom
@@ -198,21 +260,34 @@ def prior_contradicted_frames(result, block, eo_sigma) -> dict:
     ``√T`` = 9.44 for its position; it exited 0 about 20° wrong before). The frames come most contradicted first (``T`` over its critical value):
     one wrong frame pulls its neighbours too, so a caller dropping frames drops the first and adjusts again
     (data snooping removes one observation at a time)."""
-    v, sv = prior_residuals(result, block, eo_sigma)
+    tests = prior_tests(result, block, eo_sigma)
     out, excess = {}, {}
+    for name, failed in tests.items():
+        why = [f"adjusted {what} {size:.3g}{_UNIT[what]} from its prior (σ {sv:.3g}{_UNIT[what]}, test "
+               f"{np.sqrt(t):.2f} > {np.sqrt(crit):.2f})" for what, (size, sv, t, crit) in failed.items()]
+        out[name] = "; ".join(why) + ": its tie points and its prior disagree (wrong ties or a wrong GPS/gimbal tag)"
+        excess[name] = max(t / crit for _, _, t, crit in failed.values())
+    return {n: out[n] for n in sorted(out, key=excess.get, reverse=True)}
+
+
+_UNIT = {"attitude": "°", "position": " m"}
+
+
+def prior_tests(result, block, eo_sigma) -> dict:
+    """``{frame: {"attitude" | "position": (size of v (° or m), largest σ_v, T, χ²_crit)}}`` of the groups that
+    fail the prior test of :func:`prior_contradicted_frames` (frames that pass are left out)."""
+    v, sv = prior_residuals(result, block, eo_sigma)
+    out = {}
     for j, name in enumerate(block.frames):
-        why, worst = [], 0.0
-        for cols, what, unit, fmt in (((3, 4, 5), "attitude", "°", ".3g"), ((0, 1, 2), "position", " m", ".3g")):
+        failed = {}
+        for cols, what in (((3, 4, 5), "attitude"), ((0, 1, 2), "position")):
             ok = [k for k in cols if np.isfinite(sv[j, k])]
             if not ok:
                 continue
             t = float(np.sum((v[j, ok] / sv[j, ok]) ** 2))
             if t > PRIOR_CRITICAL_CHI2[len(ok)]:
-                worst = max(worst, t / PRIOR_CRITICAL_CHI2[len(ok)])
-                size = float(np.linalg.norm(v[j, list(cols)]))
-                why.append(f"adjusted {what} {size:{fmt}}{unit} from its prior (σ {float(np.max(sv[j, ok])):{fmt}}"
-                           f"{unit}, test {np.sqrt(t):.2f} > {np.sqrt(PRIOR_CRITICAL_CHI2[len(ok)]):.2f})")
-        if why:
-            out[name], excess[name] = "; ".join(why) + ": its tie points and its prior disagree (wrong ties or a " \
-                                                       "wrong GPS/gimbal tag)", worst
-    return {n: out[n] for n in sorted(out, key=excess.get, reverse=True)}
+                failed[what] = (float(np.linalg.norm(v[j, list(cols)])), float(np.max(sv[j, ok])), t,
+                                PRIOR_CRITICAL_CHI2[len(ok)])
+        if failed:
+            out[name] = failed
+    return out

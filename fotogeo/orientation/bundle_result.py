@@ -2,7 +2,8 @@
 
 Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from ``R·diag(1, −1, −1)``);
 σ of the orientation are ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
-degrees, as :mod:`fotogeo.models.collinearity` reports them), σ of the points
+degrees, as :mod:`fotogeo.models.collinearity` reports them; NaN where the diagonal is negative, a singular
+system), given the rest of the block ``σ₀ √diag((S_jj)⁻¹)`` (:func:`sigma_in_block`), σ of the points
 ``σ₀ √diag(Σ_bb,i)``. The full covariance of each frame's orientation is the ``6 × 6`` diagonal block
 ``σ₀² (S⁻¹)_jj`` in the unknowns' order ``X0, Y0, Z0`` (m, map axes) then ``δθ`` (rad), the rotation
 increment about the OpenCV camera axes (x right, y down, z forward) of the bundle's update
@@ -45,13 +46,37 @@ def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
     return frames, Q[6 * m:, 6 * m:].copy(), Q[:6 * m, 6 * m:].reshape(m, 6, -1).copy()
 
 
+def _root(variance: np.ndarray) -> np.ndarray:
+    """``√variance``, NaN where it is negative: a singular reduced system (a parameter nothing determines)
+    inverts with a negative diagonal there; clipped to 0 it read as a perfect σ (the free position of a frame
+    whose points have no third ray came out σ 0 m)."""
+    with np.errstate(invalid="ignore"):
+        return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.nan)
+
+
+def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
+    """``(m, 6)`` σ of every frame's orientation with every other unknown held: ``σ₀ √diag((S_jj)⁻¹)``, ``S_jj``
+    its 6 × 6 block of the reduced camera matrix (its rays through their points and its priors); positions in
+    m, rotations in degrees; NaN where the block is singular. The difference to ``eo_sigma`` is the block's own
+    uncertainty (its datum: a block without GCPs turned by the noise of its GNSS positions)."""
+    out = np.full((m, 6), np.nan)
+    for j in range(m):
+        block = S[6 * j:6 * j + 6, 6 * j:6 * j + 6]
+        try:
+            out[j] = s0 * _root(np.diag(np.linalg.inv(block)))
+        except np.linalg.LinAlgError:
+            continue
+    out[:, 3:] = np.degrees(out[:, 3:])
+    return out
+
+
 def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``."""
     from .bundle import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
     s0 = post.sigma0
     eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
-    sd = s0 * np.sqrt(np.maximum(np.diag(post.S_inv), 0.0))
+    sd = s0 * _root(np.diag(post.S_inv))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
@@ -90,7 +115,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
                           psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
                           tuple(blunders), run.iterations, timings, *covariance_blocks(post.S_inv, s0, m),
-                          tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior))
+                          tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(post.S, s0, m))
     errors = images_only_errors(result, block)
     stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
     return result

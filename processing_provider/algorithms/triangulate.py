@@ -134,6 +134,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(f"start: {start['source']}")
         for d in rep.get("dropped_frames") or []:
             feedback.pushWarning(f"dropped: {d['name']}: {d['reason']}")
+        for r in rep.get("restarted_frames") or []:
+            feedback.pushWarning(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}")
         for f in rep["fixed_parameters"]:
             feedback.pushWarning(f"held fixed: {f['reason']}")
         return self._outputs(rep, outdir, context)

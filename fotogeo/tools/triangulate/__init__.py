@@ -1,7 +1,8 @@
 """Aerial triangulation of a block of frames (``fotogeo triangulate``), one capability in several modules.
 
 * :mod:`.tool` — :func:`triangulate`, the tool (paths in, folder out; its docstring lists inputs and outputs),
-  and :func:`adjust_determined` (the adjustment with every frame's determinacy checked);
+  and :mod:`.determinacy`, :func:`adjust_determined` (the adjustment with every frame's determinacy checked, a
+  frame whose attitude prior its ties contradict re-started from the block);
 * :mod:`.sources` — camera, approximate orientation, map CRS and GNSS σ from any source;
 * :mod:`.inputs` — camera with distortion, control in any CRS, check split, space resection;
 * :mod:`.start` — κ and terrain height measured on the matched pairs;

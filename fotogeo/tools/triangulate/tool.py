@@ -51,20 +51,20 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 """
 from __future__ import annotations
 
-import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError, ModelError, OutputError
+from ...errors import InputError, OutputError
 from ...io.block import frame_key, read_image_observations
 from ...io.raster import check_output
-from ...orientation.bundle import Block, BundleOptions, adjust_block
+from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
 from ..boundary import tool
 from ...io.block import split_check_points
 from .control import reference_sigmas
+from .determinacy import adjust_determined
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .sources import block_start
@@ -179,8 +179,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
     with prog.timed("adjustment"):
-        result, block, quality, undetermined = adjust_determined(block, opts, kw, prog.stage(0.5, 0.8,
-                                                                                           "bundle adjustment"))
+        result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
+            0.5, 0.8, "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
@@ -190,7 +190,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "automatic_control_sigma_m": {"xy": ref_sigma[0], "z": ref_sigma[1]},
                                          "matching": matching, "resected_frames": start.resected,
                                          "start": start.summary(), "frame_quality": quality.rows(),
-                                         "dropped_frames": dropped + undetermined}, stages=dict(prog.timings))
+                                         "dropped_frames": dropped + undetermined,
+                                         "restarted_frames": restarted}, stages=dict(prog.timings))
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
@@ -270,71 +271,6 @@ def _output_folder(folder: Path):
             except OSError:
                 break
         raise
-
-
-def adjust_determined(block, opts, kw, prog):
-    """``(result, block, FrameQuality, dropped)``: the adjustment, every frame checked
-    (:mod:`fotogeo.orientation.bundle_quality`); an undetermined frame fails the run, or with
-    ``undetermined="drop"`` is dropped and the block adjusted again."""
-    from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
-                                               undetermined_frames)
-    dropped = []
-    while True:
-        try:
-            result = adjust_block(block, opts, progress=prog)
-        except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
-            lonely = set(getattr(e, "frames", ()))
-            if not lonely or kw["undetermined"] != "drop" or len(block.frames) - len(lonely) < 2:
-                raise
-            dropped += [{"name": n, "reason": "reached by no tie point (or fewer than 3 observations)"}
-                        for n in sorted(lonely)]
-            block, opts = _without_frames(block, opts, lonely)
-            continue
-        quality = frame_quality(result, block)
-        prior = _angle_prior(opts.eo_sigma, len(block.frames))
-        bad = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
-                                  angle_prior=prior)
-        contradicted = prior_contradicted_frames(result, block, opts.eo_sigma)
-        drop = set(bad) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
-        for n, why in contradicted.items():
-            bad[n] = f"{bad[n]}; {why}" if n in bad else why
-        if not bad:
-            held = prior_held_frames(quality, kw["max_angle_sigma"])
-            if held:
-                warnings.warn(f"{len(held)} frame(s) keep an angle σ above {kw['max_angle_sigma']:g}° (up to "
-                              f"{max(held.values()):.3g}°): the images tie them but their absolute attitude rests on "
-                              f"its prior (e.g. a short strip cannot fix its roll); add GCPs or cross strips",
-                              FotogeoWarning, stacklevel=2)
-            return result, block, quality, dropped
-        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
-        if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
-            raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
-                             f"add tie points or GCPs there, give or check their attitude and position (--eo, "
-                             f"gimbal and GPS tags, --eo-sigma-angle), or leave them out (--undetermined drop)")
-        dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
-        block, opts = _without_frames(block, opts, drop)
-
-
-def _angle_prior(eo_sigma, m: int) -> np.ndarray:
-    """``(m,)`` True where the frame's angles have a prior (:func:`~fotogeo.orientation.bundle_problem.eo_weights`)."""
-    from ...orientation.bundle_problem import eo_weights
-    return (eo_weights(eo_sigma, m)[:, 3:] > 0).all(axis=1)
-
-
-def _without_frames(block, opts, names):
-    """The block and options without the frames ``names`` (their observations and EO priors)."""
-    from dataclasses import replace
-    keep_f = np.array([f not in names for f in block.frames])
-    new_index = np.cumsum(keep_f) - 1
-    keep_o = keep_f[block.obs_frame]
-    block = replace(block, frames=tuple(f for f, k in zip(block.frames, keep_f) if k),
-                    eo=tuple(e for e, k in zip(block.eo, keep_f) if k), obs_frame=new_index[block.obs_frame[keep_o]],
-                    obs_point=block.obs_point[keep_o], obs_pixel=block.obs_pixel[keep_o],
-                    obs_sigma=None if block.obs_sigma is None else np.asarray(block.obs_sigma)[keep_o])
-    sig = opts.eo_sigma
-    if sig is not None and np.ndim(sig) == 2:
-        opts = replace(opts, eo_sigma=np.asarray(sig)[keep_f])
-    return block, opts
 
 
 def _as_list(paths) -> list:

@@ -1,0 +1,192 @@
+"""The adjustment with every frame's determinacy checked (:func:`adjust_determined`): a frame the block does not
+determine fails the run by name, or with ``undetermined="drop"`` is dropped and the block adjusted again; a frame
+whose attitude prior its tie points contradict is first re-started from the block.
+
+* **The checks** (:mod:`fotogeo.orientation.bundle_quality`): points, spread, angle σ, position σ against
+  ``D̄ · tan(max_angle_sigma)``, share of blunders, and the agreement of every frame with its GNSS/attitude
+  priors (Baarda's test on the prior residuals).
+* **Re-start of a contradicted attitude**: a frame failed only because its adjusted attitude departs from its
+  attitude prior (the position agrees with its GNSS, every other check passes) may carry a wrong gimbal/INS tag
+  rather than wrong ties — the test cannot tell them apart (the rendered oblique block, seed 2: DJI_205 and
+  DJI_405 carry gimbal tags 21.2° and 18.4° from the truth, their ties are right). Such a frame, the most
+  contradicted first, is re-oriented by single-frame space resection (:func:`~.inputs.resect`) from its used
+  observations of points the other frames determine (≥ 2 rays without it) at their adjusted coordinates, its
+  attitude prior is dropped (its position prior kept, the start's centre unchanged), and the block adjusted
+  again. The re-start is kept only if that frame then passes every check — now without the prior's exemption:
+  the images alone must hold its attitude to ``max_angle_sigma``, and its position must still agree with its GNSS;
+  otherwise the first adjustment stands and the frame is refused or dropped as before. Wrong ties that turn a
+  frame also pull its centre from the GNSS (seed 1: DJI_301 25.7 m from its GPS): a frame whose position is
+  contradicted is never re-started.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from ...errors import FotogeoWarning, InputError, ModelError
+from ...orientation.bundle import adjust_block
+from ...orientation.bundle_problem import eo_weights
+from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
+                                           prior_tests, undetermined_frames)
+
+#: points a re-started frame's resection needs (each determined by ≥ 2 other frames)
+MIN_RESECTION_POINTS = 6
+
+
+def adjust_determined(block, opts, kw, prog):
+    """``(result, block, FrameQuality, dropped, restarted)``: the adjustment, every frame checked (module
+    docstring); an undetermined frame fails the run, or with ``undetermined="drop"`` is dropped and the block
+    adjusted again. ``dropped`` and ``restarted`` are lists of ``{"name", "reason"}``."""
+    dropped, restarted = [], []
+    while True:
+        try:
+            result = adjust_block(block, opts, progress=prog)
+        except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
+            lonely = set(getattr(e, "frames", ()))
+            if not lonely or kw["undetermined"] != "drop" or len(block.frames) - len(lonely) < 2:
+                raise
+            dropped += [{"name": n, "reason": "reached by no tie point (or fewer than 3 observations)"}
+                        for n in sorted(lonely)]
+            block, opts = without_frames(block, opts, lonely)
+            continue
+        checks = _checked(result, block, opts, kw, restarted)
+        again = _restart(result, block, opts, kw, prog, checks, restarted)
+        if again is not None:
+            block, opts, result, checks = again
+        quality, own, contradicted, _ = checks
+        bad = _merged(own, contradicted)
+        drop = set(own) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
+        if not bad:
+            _warn_prior_held(quality, kw["max_angle_sigma"])
+            return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
+        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
+        if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
+            raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
+                             f"add tie points or GCPs there, give or check their attitude and position (--eo, "
+                             f"gimbal and GPS tags, --eo-sigma-angle, --eo-sigma-position), or leave them out "
+                             f"(--undetermined drop)")
+        dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
+        block, opts = without_frames(block, opts, drop)
+
+
+def _checked(result, block, opts, kw, restarted):
+    """``(FrameQuality, {frame: reason} of the determinacy checks, {frame: reason} of the prior test (most
+    contradicted first), {frame: failed prior groups})``."""
+    quality = frame_quality(result, block)
+    m = len(block.frames)
+    own = undetermined_frames(quality, min_points=kw["min_frame_points"], max_angle_sigma=kw["max_angle_sigma"],
+                              angle_prior=_has_prior(opts.eo_sigma, m, 3),
+                              position_prior=_has_prior(opts.eo_sigma, m, 0),
+                              in_block=np.isin(block.frames, [r["name"] for r in restarted]))
+    return quality, own, prior_contradicted_frames(result, block, opts.eo_sigma), prior_tests(result, block,
+                                                                                           opts.eo_sigma)
+
+
+def _merged(own: dict, contradicted: dict) -> dict:
+    """``{frame: every reason}`` of the frames failing any check."""
+    bad = dict(own)
+    for n, why in contradicted.items():
+        bad[n] = f"{bad[n]}; {why}" if n in bad else why
+    return bad
+
+
+def _warn_prior_held(quality, max_angle_sigma: float) -> None:
+    held = prior_held_frames(quality, max_angle_sigma)
+    if held:
+        warnings.warn(f"{len(held)} frame(s) keep an angle σ above {max_angle_sigma:g}° (up to "
+                      f"{max(held.values()):.3g}°): the images tie them but their absolute attitude rests on "
+                      f"its prior (e.g. a short strip cannot fix its roll); add GCPs or cross strips",
+                      FotogeoWarning, stacklevel=3)
+
+
+def _restart(result, block, opts, kw, prog, checks, restarted):
+    """The block adjusted again with the most contradicted re-startable frame re-oriented by resection and its
+    attitude prior dropped (module docstring), ``(block, opts, result, checks)``, repeated while frames qualify;
+    None when none qualifies or the first re-start fails its checks (a later failing one is not kept either)."""
+    done = {r["name"] for r in restarted}
+    out = None
+    while True:
+        _, own, contradicted, tests = checks
+        name = next((n for n in contradicted if n not in done and n not in own and set(tests[n]) == {"attitude"}),
+                    None)
+        if name is None:
+            return out
+        done.add(name)
+        try:
+            new_block, new_opts = restarted_frame(block, opts, result, name)
+            new_result = adjust_block(new_block, new_opts, progress=prog)
+        except (InputError, ModelError):
+            return out
+        new_checks = _checked(new_result, new_block, new_opts, kw, [*restarted, {"name": name}])
+        if name in new_checks[1] or name in new_checks[2]:
+            return out
+        size, sigma, t, crit = tests[name]["attitude"]
+        j = new_block.frames.index(name)
+        tag = _angle_between(block.eo[j], new_result.eo[j])
+        inner = float(new_checks[0].angle_sigma_in_block[j])
+        restarted.append({"name": name, "reason": f"its attitude prior contradicted (adjusted {size:.3g}° from it, σ "
+                                                  f"{sigma:.3g}°, test {np.sqrt(t):.2f} > {np.sqrt(crit):.2f}); "
+                                                  f"re-oriented by resection from the block and adjusted without that "
+                                                  f"prior, it passes every check: {tag:.3g}° from the prior, angle σ "
+                                                  f"in the block {inner:.2g}°", "prior_offset_deg": tag,
+                          "angle_sigma_deg": float(new_checks[0].angle_sigma[j]), "angle_sigma_in_block_deg": inner})
+        block, opts, result, checks = new_block, new_opts, new_result, new_checks
+        out = (block, opts, result, checks)
+
+
+def _angle_between(a, b) -> float:
+    """The angle (°) of the rotation between two orientations."""
+    R = a.rotation.T @ b.rotation
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))))
+
+
+def restarted_frame(block, opts, result, name):
+    """``(block, opts)`` with frame ``name``'s approximate attitude from space resection against the points the
+    other frames determine (adjusted coordinates; its centre kept, the prior of its position) and its attitude
+    prior dropped; InputError when fewer than :data:`MIN_RESECTION_POINTS` such points or no fit."""
+    from .inputs import resect
+    j = block.frames.index(name)
+    used = result.status == "used"
+    others = np.bincount(block.obs_point[used & (block.obs_frame != j)], minlength=len(block.point_ids))
+    own = np.flatnonzero(used & (block.obs_frame == j))
+    own = own[(others[block.obs_point[own]] >= 2) & np.isfinite(result.point_xyz[block.obs_point[own]]).all(axis=1)]
+    if len(own) < MIN_RESECTION_POINTS:
+        raise InputError(f"frame {name}: {len(own)} points determined by the other frames")
+    eo = resect(block.camera, block.distortion, result.point_xyz[block.obs_point[own]], block.obs_pixel[own], name)
+    start = list(block.eo)
+    start[j] = replace(start[j], omega=eo.omega, phi=eo.phi, kappa=eo.kappa)
+    sigma = prior_sigmas(opts.eo_sigma, len(block.frames))
+    sigma[j, 3:] = np.inf
+    return replace(block, eo=tuple(start)), replace(opts, eo_sigma=sigma)
+
+
+def prior_sigmas(eo_sigma, m: int) -> np.ndarray:
+    """``(m, 6)`` σ of the orientation priors (m, °; inf: free), as :func:`eo_weights` reads ``eo_sigma``."""
+    w = eo_weights(eo_sigma, m)
+    with np.errstate(divide="ignore"):
+        s = np.where(w > 0, 1.0 / np.sqrt(np.where(w > 0, w, 1.0)), np.inf)
+    s[:, 3:] = np.degrees(s[:, 3:])
+    return s
+
+
+def _has_prior(eo_sigma, m: int, first: int) -> np.ndarray:
+    """``(m,)`` True where the frame's angles (``first`` 3) or position (``first`` 0) have a prior
+    (:func:`~fotogeo.orientation.bundle_problem.eo_weights`)."""
+    return (eo_weights(eo_sigma, m)[:, first:first + 3] > 0).all(axis=1)
+
+
+def without_frames(block, opts, names):
+    """The block and options without the frames ``names`` (their observations and EO priors)."""
+    keep_f = np.array([f not in names for f in block.frames])
+    new_index = np.cumsum(keep_f) - 1
+    keep_o = keep_f[block.obs_frame]
+    block = replace(block, frames=tuple(f for f, k in zip(block.frames, keep_f) if k),
+                    eo=tuple(e for e, k in zip(block.eo, keep_f) if k), obs_frame=new_index[block.obs_frame[keep_o]],
+                    obs_point=block.obs_point[keep_o], obs_pixel=block.obs_pixel[keep_o],
+                    obs_sigma=None if block.obs_sigma is None else np.asarray(block.obs_sigma)[keep_o])
+    sig = opts.eo_sigma
+    if sig is not None and np.ndim(sig) == 2:
+        opts = replace(opts, eo_sigma=np.asarray(sig)[keep_f])
+    return block, opts
