@@ -71,3 +71,17 @@ def test_the_turn_pair_alone_is_refused_by_name(tmp_path, data_dir):
     error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
     assert "IMG_2213" in error and "points cover" in error and "--undetermined drop" in error and "GCPs" in error
     assert not out.exists()
+
+
+def test_dropping_the_turn_pair_would_leave_no_block_and_says_so(tmp_path, data_dir):
+    """With ``--undetermined drop`` given, the refusal says that dropping both frames would leave fewer than two,
+    instead of advising the option the user already gave."""
+    from test_bad_input import assert_one_line_error
+    img = data_dir / "drone_snowpeak" / "img"
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main, ["triangulate", str(img / "IMG_2212.JPG"), str(img / "IMG_2213.JPG"), "-o",
+                                    str(out), "-q", "--undetermined", "drop"], terminal_width=200)
+    assert_one_line_error(res, "the block does not determine frame(s) IMG_2212")
+    error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
+    assert "would leave 0 frame(s), fewer than the 2 a block needs" in error and "leave them out" not in error
+    assert not out.exists()

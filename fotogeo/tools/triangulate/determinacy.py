@@ -63,12 +63,20 @@ def adjust_determined(block, opts, kw, prog):
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
         text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
         if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
-            raise ModelError(f"the block does not determine frame(s) {text} — their orientation cannot be trusted; "
-                             f"add tie points or GCPs there, give or check their attitude and position (--eo, "
-                             f"gimbal and GPS tags, --eo-sigma-angle, --eo-sigma-position), or leave them out "
-                             f"(--undetermined drop)")
+            raise ModelError(_undetermined_message(text, kw["undetermined"] == "drop", len(block.frames) - len(drop)))
         dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
         block, opts = without_frames(block, opts, drop)
+
+
+def _undetermined_message(text: str, dropping: bool, left: int) -> str:
+    """The refusal of undetermined frames; with ``--undetermined drop`` given, why dropping cannot help."""
+    fix = ("add tie points or GCPs there, give or check their attitude and position (--eo, gimbal and GPS tags, "
+           "--eo-sigma-angle, --eo-sigma-position)")
+    if dropping:
+        return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted, and dropping "
+                f"them (--undetermined drop) would leave {left} frame(s), fewer than the 2 a block needs; {fix}")
+    return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted; {fix}, or leave "
+            f"them out (--undetermined drop)")
 
 
 def _checked(result, block, opts, kw, restarted):
