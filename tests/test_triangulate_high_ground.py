@@ -5,9 +5,9 @@ The rendered 100-frame block of ``benchmarks/triangulate_block_bench.py`` lost i
 (391 in strip 2, 10 in strip 10) and strips 7–10 came out undetermined. The matching was not the cause: its
 terrain (hills of ``relief`` 40 m) rises from 40 to 267 m across the block, every frame was flown 1000 m above
 the datum, so the 60/30 % overlaps shrank to 46/7 % at the ground of the last strips — no ground point in three
-frames of a strip, and even the simulation's own error-free tie points left frame s10_07 36 m wrong. Flown
-1000 m above each strip's terrain (``simulate_block(above_terrain=True)``), every strip keeps its overlaps.
-Here a 3 x 5 block whose first strip lies about 150 m above the datum (seed 10, ``relief`` 80).
+frames of a strip, and even the simulation's own blunder-free tie points (25 m grid) left frame s10_07 36 m
+wrong. Flown 1000 m above each strip's terrain (``simulate_block(above_terrain=True)``), every strip keeps its
+overlaps. Here a 3 x 5 block whose first strip lies about 140 m above the datum (seed 10, ``relief`` 80).
 """
 from __future__ import annotations
 
