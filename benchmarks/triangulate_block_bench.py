@@ -1,6 +1,9 @@
 """A rendered 500-frame block end to end (tie-point matching + adjustment), in this process and on Dask (issue 20).
 
-A block of 25 strips x 20 frames of 600 x 400 px (60 % forward, 30 % side overlap, 40 m relief;
+A block of 25 strips x 20 frames of 600 x 400 px (60 % forward, 30 % side overlap at the ground, each strip
+flown 1000 m above the mean terrain under it — ``above_terrain``; hills of ``relief`` 40 m, which add up to a
+terrain spanning about 230 m over a 10 x 10 block; ``--datum-height``: every frame 1000 m above the datum, the
+block of the first runs, whose overlaps shrink to 46/7 % over the high ground;
 :func:`fotogeo.orientation.block_simulation.simulate_block` and
 :func:`fotogeo.orientation.block_render.render_block`) is matched by
 :func:`fotogeo.tools.triangulate.match.block_tie_points` (pyramid level 1, epipolar RANSAC, tracks, Gruber
@@ -16,7 +19,9 @@ process either way) and of the adjustment; the peak resident memory of this proc
 process (psutil, sampled every 0.1 s); whether the tie points equal the local run's (they must); and the
 accuracy against the truth the frames were rendered from: the tie points' true transfer error (first run;
 :func:`true_transfer_errors`), RMSE of the adjusted projection centres (m) and angles (°), the worst frame,
-check points (m), σ₀. Printed as a table and written to
+check points (m), σ₀, the frames the frame check (:mod:`fotogeo.orientation.bundle_quality`) refuses; per
+strip the pairs (by their first frame), their epipolar inliers, the tracks and the tracks of 3 or more rays
+(``per_strip``). Printed as a table and written to
 ``benchmarks/results/triangulate_block_bench.json`` with the machine's load average (the times depend on it).
 
     .venv/bin/python benchmarks/triangulate_block_bench.py [--strips 25 --per-strip 20] [--work DIR]
@@ -39,6 +44,7 @@ from fotogeo.geometry.camera import FrameCamera, OrientedFrame
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
+from fotogeo.orientation.bundle_quality import frame_quality, undetermined_frames
 from fotogeo.tools.dask_cluster import connect
 from fotogeo.tools.triangulate import match as tri_match
 
@@ -75,10 +81,11 @@ class PeakMemory:
         self._thread.join()
 
 
-def rendered_block(work: Path, strips: int, per_strip: int):
-    """The simulated block and its frames in ``work`` (rendered once; the same seed renders the same frames)."""
+def rendered_block(work: Path, strips: int, per_strip: int, above_terrain: bool = True):
+    """The simulated block and its frames in ``work`` (rendered once; the same seed and flight render the same
+    frames — a folder rendered with the other flight must not be reused)."""
     sb = simulate_block(seed=3, strips=strips, frames_per_strip=per_strip, camera=CAMERA, point_spacing=80.0,
-                        blunder_fraction=0.0, margin=5.0, n_control=9, n_check=40)
+                        blunder_fraction=0.0, margin=5.0, n_control=9, n_check=40, above_terrain=above_terrain)
     paths = [work / f"{n}.tif" for n in sb.block.frames]
     if not all(p.is_file() for p in paths):
         t0 = time.perf_counter()
@@ -149,7 +156,8 @@ def run(sb, paths, name, workers, adjust=True):
             t0 = time.perf_counter()
             ties = tri_match.block_tie_points(paths, b.camera, b.eo, height, client=client)
             t1 = time.perf_counter()
-            res = adjust_block(with_ties(sb, *ties[:4], 0.3), BundleOptions()) if adjust else None
+            blk = with_ties(sb, *ties[:4], 0.3)
+            res = adjust_block(blk, BundleOptions()) if adjust else None
             t2 = time.perf_counter()
     finally:
         close()
@@ -159,8 +167,23 @@ def run(sb, paths, name, workers, adjust=True):
            "cluster_start_s": t_cluster, **spent, "ties_s": t1 - t0, "adjust_s": (t2 - t1) if adjust else None,
            "total_s": (t2 - t0) if adjust else None, "peak_rss_mb": {k: round(v, 1) for k, v in mem.peak.items()}}
     if adjust:
-        row.update(adjust_timings=res.timings, iterations=res.iterations, **accuracy(sb, res))
+        row.update(adjust_timings=res.timings, iterations=res.iterations, **accuracy(sb, res),
+                   undetermined_frames=sorted(undetermined_frames(frame_quality(res, blk))))
     return row, ties
+
+
+def per_strip(sb, per_strip_frames: int, frame, track, pairs) -> list:
+    """Per strip: pairs whose first frame is in it, their epipolar inliers, tracks observed in it and those of
+    3 or more rays."""
+    rays = np.bincount(track)[track]
+    rows = []
+    for s in range(len(sb.block.frames) // per_strip_frames):
+        mine = [p for p in pairs if p["pair"][0] // per_strip_frames == s]
+        seen = frame // per_strip_frames == s
+        rows.append({"strip": s + 1, "pairs": len(mine), "inliers": int(sum(p["inliers"] for p in mine)),
+                     "tracks": int(len(np.unique(track[seen]))),
+                     "tracks_3_rays": int(len(np.unique(track[seen & (rays >= 3)])))})
+    return rows
 
 
 def true_transfer_errors(sb, frame, track, pixel) -> dict:
@@ -227,13 +250,16 @@ def main(argv=None):
     ap.add_argument("--runs", default="local,dask-1,dask-2", help="comma-separated: local, dask-N")
     ap.add_argument("--adjust", choices=("all", "first"), default="all",
                     help="adjust in every run, or in the first only (the tie points are the same, so is the adjustment)")
+    ap.add_argument("--datum-height", action="store_true",
+                    help="fly every frame 1000 m above the datum (the first runs' block) instead of each strip "
+                         "1000 m above its terrain")
     ap.add_argument("--work", help="folder for the rendered frames (kept; reused when present) [a temporary one]")
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "triangulate_block_bench.json"))
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(a.work or tmp)
         work.mkdir(parents=True, exist_ok=True)
-        sb, paths = rendered_block(work, a.strips, a.per_strip)
+        sb, paths = rendered_block(work, a.strips, a.per_strip, above_terrain=not a.datum_height)
         rows, reference = [], None
         for name in a.runs.split(","):
             load = os.getloadavg()
@@ -243,6 +269,7 @@ def main(argv=None):
             row.update(same_ties(ties, reference))
             if len(rows) == 0:
                 row["tie_truth"] = true_transfer_errors(sb, *ties[:3])
+                row["per_strip"] = per_strip(sb, a.per_strip, ties[0], ties[1], ties[4]["pairs"])
             row["load_average_1_5_15"] = [round(x, 2) for x in load]
             rows.append(row)
             print(f"{name}: {json.dumps({k: v for k, v in row.items() if k != 'adjust_timings'})}", flush=True)
@@ -250,7 +277,9 @@ def main(argv=None):
             Path(a.out).write_text(json.dumps({  # after every run: a long benchmark keeps what it measured
                 "note": "wall times on a shared 2-core machine (load average per run)", "cpus": os.cpu_count(),
                 "frame_size": list(CAMERA.image_size), "strips": a.strips, "frames_per_strip": a.per_strip,
-                "gsd_m": sb.gsd, "rows": rows}, indent=1))
+                "gsd_m": sb.gsd, "above_terrain": not a.datum_height,
+                "terrain_m": [round(float(sb.true_xyz[:, 2].min()), 1), round(float(sb.true_xyz[:, 2].max()), 1)],
+                "rows": rows}, indent=1))
 
 
 if __name__ == "__main__":
