@@ -1,0 +1,64 @@
+"""``fotogeo triangulate`` with frames that carry GPS but no attitude, and ``--reference`` with ``--dem``
+(issue 20): every frame is registered to the reference around its GPS position and starts from the GPS
+position with the registration's attitude (:mod:`fotogeo.tools.triangulate.register`), not level.
+
+The block (tests/rendered_oblique.py): 4 strips × 5 frames, gimbal −60° (30° off nadir), four look
+directions, Brown distortion, ±8 m relief under 80 m, EXIF GPS with 2 m noise and no attitude in the files;
+the reference is the ground texture the frames were rendered from at twice their nadir GSD, and the DEM they
+were rendered on. Measured (seed 0): every frame within 0.049° and 0.10 m of the truth, 1075 tie tracks;
+the level start (κ from the images) that the tool used before on the same files and reference ended
+0.20° and 0.28 m off with 530 tracks (its level footprints chose fewer of the overlapping pairs).
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from fotogeo.cli import main
+from fotogeo.geometry.camera import ExteriorOrientation
+from fotogeo.io.camera import read_exterior_orientation
+from fotogeo.tools.triangulate.register import CONTRADICTED_DEG, with_registered_attitude
+from rendered_oblique import angle_error, oblique_block, write_reference
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("gps_reg")
+    block = oblique_block(tmp / "block", seed=0)
+    ortho, dem = write_reference(block, tmp / "reference")
+    out = tmp / "out"
+    res = CliRunner().invoke(main, ["triangulate", *map(str, block["nadir"]), "--reference", str(ortho), "--dem",
+                                    str(dem), "-o", str(out), "-q"])
+    return block, res, out
+
+
+@pytest.mark.slow
+def test_gps_frames_without_attitude_start_from_their_registration(run):
+    block, res, out = run
+    assert res.exit_code == 0, res.output
+    assert "attitude from registering the frames to the reference (--reference, --dem) for 20 of 20" in res.output
+    start = json.loads((out / "report.json").read_text())["start"]
+    assert "attitude from registering" in start["source"] and not start["level_start_frames"]
+    rows = start["registration"]
+    assert len(rows) == 20 and all(r["attitude"].startswith("registration") for r in rows)
+    assert all(r["gps_offset_m"] < 10.0 for r in rows)  # the GPS (2 m noise) and the registration agree
+    eos = read_exterior_orientation(out / "exterior_orientation.txt")
+    for n, e in eos.items():
+        # measured: at most 0.049° and 0.10 m (the level start before: 0.20° and 0.28 m)
+        assert angle_error(e, block["truth"][n]) < 0.1, n
+        assert np.linalg.norm(e.centre - block["truth"][n].centre) < 0.2, n
+
+
+def test_an_attitude_tag_is_kept_unless_the_registration_contradicts_it():
+    gps = ExteriorOrientation(100.0, 200.0, 380.0, 1.0, 2.0, 30.0)
+    near = ExteriorOrientation(101.0, 199.0, 381.0, 1.5, 2.5, 33.0)
+    far = ExteriorOrientation(101.0, 199.0, 381.0, 1.5, 2.5, 30.0 + CONTRADICTED_DEG + 5.0)
+    assert with_registered_attitude(gps, near, False) == (gps, "")
+    eo, why = with_registered_attitude(gps, far, False)
+    assert eo.centre.tolist() == gps.centre.tolist() and eo.kappa == far.kappa and "from it" in why
+    eo, why = with_registered_attitude(gps, near, True)  # no attitude in the files: the registration's, GPS position
+    assert (eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa) == (100.0, 200.0, 380.0, 1.5, 2.5, 33.0)
+    assert "no attitude" in why
