@@ -62,3 +62,33 @@ def test_an_attitude_tag_is_kept_unless_the_registration_contradicts_it():
     eo, why = with_registered_attitude(gps, near, True)  # no attitude in the files: the registration's, GPS position
     assert (eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa) == (100.0, 200.0, 380.0, 1.5, 2.5, 33.0)
     assert "no attitude" in why
+
+
+def test_a_frame_the_reference_cannot_place_keeps_its_gps_level_start():
+    from fotogeo.tools.triangulate.control import FrameFit
+    from fotogeo.tools.triangulate.register import _over_gps, _row
+    from fotogeo.tools.triangulate.sources import BlockStart
+
+    class Model:  # a registration's fitted pose
+        def __init__(self, eo):
+            self.frame = type("F", (), {"eo": eo})()
+            self.info = {"std": [1.0, 1.0, 1.0, 0.05, 0.05, 0.05], "sigma0": 0.4}
+
+    names = ["a", "b"]
+    gps = {"a": ExteriorOrientation(0.0, 0.0, 400.0, 0.0, 0.0, 90.0),
+           "b": ExteriorOrientation(30.0, 0.0, 400.0, 0.0, 0.0, 90.0)}
+    fits = {"a": FrameFit("a", Model(ExteriorOrientation(1.0, 2.0, 401.0, 3.0, -29.0, 178.0)), 200, 150),
+            "b": FrameFit("b", reason="no matches with the reference")}
+    problems = {"a": "", "b": "not registered to the reference (no matches with the reference)"}
+    rows = [_row(n, fits[n], problems[n]) for n in names]
+    reg = _over_gps(["a.tif", "b.tif"], names, [gps[n] for n in names], [True, True], fits, problems, rows, None)
+    start = BlockStart(None, (0.0,) * 5, list(names), dict(gps), None, "", "--camera; orientation from the images' GPS",
+                       sigmas={n: (5.0, 10.0, None) for n in names}, level={"a": True, "b": True}, registration=[],
+                       over_gps=True)
+    start.take_registration(reg)
+    a, b = start.eos["a"], start.eos["b"]
+    assert (a.X, a.Y, a.Z, a.omega, a.phi, a.kappa) == (0.0, 0.0, 400.0, 3.0, -29.0, 178.0)  # GPS centre, its attitude
+    assert b == gps["b"] and start.level == {"a": False, "b": True}  # b: level, κ measured on the images
+    assert reg.names == names and not reg.dropped  # nothing refused for b
+    assert "for 1 of 2" in start.source and "not registered, level start with κ from the images: b" in start.source
+    assert [r["status"] for r in start.registration] == ["start", "gps"]

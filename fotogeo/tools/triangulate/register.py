@@ -123,12 +123,12 @@ def registration_start(frames, names, camera, reference, dem, crs, *, undetermin
 def with_registered_attitude(gps_eo, pose, level: bool) -> tuple:
     """``(start, why or "")``: the GPS position with the registration's attitude when the frame's files carry
     none (``level``) or their tag is more than :data:`CONTRADICTED_DEG` from it; else the GPS start as it is."""
+    registered = replace(gps_eo, omega=pose.omega, phi=pose.phi, kappa=pose.kappa)
     if level:
-        return replace(gps_eo, omega=pose.omega, phi=pose.phi, kappa=pose.kappa), "registration (no attitude in the files)"
+        return registered, "registration (no attitude in the files)"
     turn = _rotation_angle(gps_eo.rotation, pose.rotation)
     if turn > CONTRADICTED_DEG:
-        return (replace(gps_eo, omega=pose.omega, phi=pose.phi, kappa=pose.kappa),
-                f"registration (the files' attitude is {turn:.1f}° from it)")
+        return registered, f"registration (the files' attitude is {turn:.1f}° from it)"
     return gps_eo, ""
 
 

@@ -116,9 +116,10 @@ class BlockStart:
             self.sigmas[n] = (sh, sv, None)
         self.registration[:] = reg.rows
         base = self.source.split("; orientation", 1)[0]
+        n_reg = len(took) + len(contradicted)
         parts = [f"orientation from the images' GPS; attitude from registering the frames to the reference "
-                 f"(--reference, --dem) for {len(took) + len(contradicted)} of {len(self.names)}" if took or contradicted
-                 else "orientation from the images' GPS and attitude tags (their registration to the reference agrees)"]
+                 f"(--reference, --dem) for {n_reg} of {len(self.names)}" if n_reg else
+                 "orientation from the images' GPS and attitude tags (their registration to the reference agrees)"]
         if contradicted:
             parts.append(f"their attitude tags contradicted by it: {', '.join(contradicted[:6])}")
         left = [n for n in self.names if self.level.get(n)]
