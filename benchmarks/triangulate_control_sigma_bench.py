@@ -61,7 +61,8 @@ def _wrapped_block(kind, dem_path):
         if kind == "curvature":
             XY = xyz[auto, :2]
             h, gx, gy = sampler.heights_and_gradient(XY)
-            curv = sum(np.abs(sampler.heights(XY + d) - 2 * h + sampler.heights(XY - d)) for d in ([step, 0], [0, step]))
+            curv = sum(np.abs(sampler.heights(XY + d) - 2 * h + sampler.heights(XY - d))
+                       for d in ([step, 0], [0, step]))
             sig[auto, 2] = np.hypot(curv / 8.0, np.hypot(gx, gy) * sig[auto, 0])
         else:
             s_obs[np.isin(p_obs, np.flatnonzero(auto))] = 0.3
@@ -82,9 +83,9 @@ def run_model(ngi, label, kw, wrap) -> dict:
     try:
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            rep = tool_module.triangulate([ngi / "frames" / f"{n}.tif" for n in NAMES], ngi / "interior_orientation.yaml",
-                                          None, None, Path(tmp) / "out", reference=sorted((ngi / "ortho").glob("*.tif")),
-                                          dem=ngi / "dem.tif", **kw)
+            frames = [ngi / "frames" / f"{n}.tif" for n in NAMES]
+            rep = tool_module.triangulate(frames, ngi / "interior_orientation.yaml", None, None, Path(tmp) / "out",
+                                          reference=sorted((ngi / "ortho").glob("*.tif")), dem=ngi / "dem.tif", **kw)
             seconds = time.perf_counter() - t0
             got = read_exterior_orientation(Path(tmp) / "out" / "exterior_orientation.txt")
     finally:
