@@ -134,7 +134,29 @@ def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sig
             path = folder / kind / f"{name}.tif"
             _write(path, img, *_tags(gps, noisy, kind == "gimbal"))
             paths[kind].append(path)
-    return {**paths, "truth": truth, "names": [n for n, *_ in shots], "gsd": gsd, "dem": dem, "camera": cam}
+    return {**paths, "truth": truth, "names": [n for n, *_ in shots], "gsd": gsd, "dem": dem, "camera": cam, "sb": sb,
+            "seed": seed}
+
+
+def write_reference(block, folder, *, factor: int = 4) -> tuple:
+    """``(orthophoto, DEM)`` GeoTIFF paths in ``folder`` (EPSG:32633): the ground texture the frames were
+    rendered from, averaged over ``factor`` × ``factor`` cells (``factor`` 4: twice the nadir GSD of the
+    frames, a reference coarser than the frames as a real one is), and the DEM they were rendered on."""
+    import cv2
+    from fotogeo.orientation.block_render import ground_texture
+    tex, t = ground_texture(block["sb"], seed=block["seed"])
+    rows, cols = tex.shape[0] // factor, tex.shape[1] // factor
+    img = cv2.resize(tex[:rows * factor, :cols * factor], (cols, rows), interpolation=cv2.INTER_AREA)
+    folder.mkdir(parents=True, exist_ok=True)
+    ortho, dem_path = folder / "ortho.tif", folder / "dem.tif"
+    with rasterio.open(ortho, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="uint8", crs=CRS,
+                       transform=t * t.scale(factor)) as ds:
+        ds.write(np.clip(np.round(img), 1, 255).astype(np.uint8)[None])
+    dem = block["dem"]
+    with rasterio.open(dem_path, "w", driver="GTiff", width=dem.data.shape[1], height=dem.data.shape[0], count=1,
+                       dtype="float32", crs=CRS, transform=dem.transform) as ds:
+        ds.write(dem.data.astype(np.float32)[None])
+    return ortho, dem_path
 
 
 def angle_error(a: ExteriorOrientation, b: ExteriorOrientation) -> float:

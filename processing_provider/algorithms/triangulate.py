@@ -85,8 +85,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                                                      "the images' EXIF/XMP)"),
                                                      fileFilter=YAML, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = resect "
-                                                                 "from the GCPs, else the images' GPS, else register "
-                                                                 "each frame to the reference)"),
+                                                                 "from the GCPs, else the images' GPS with the "
+                                                                 "attitude from the reference where they lack one, "
+                                                                 "else register each frame to the reference)"),
                                                      fileFilter=TEXT_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
                                                      fileFilter=CONTROL_FILTER, optional=True))

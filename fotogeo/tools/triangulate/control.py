@@ -166,12 +166,30 @@ class FrameFit:
     reason: str = ""
 
 
-def _near_tiles(info, camera, eo, mean_h, outlines, crs) -> list:
-    """The reference tiles a frame overlaps: its footprint under ``eo``; ``eo`` None: under the frame raster's
-    own approximate georeference, and every tile when it has none or it meets none."""
+#: a frame of unknown attitude may be tilted up to this (degrees): its tiles are those within reach of such a view
+MAX_UNKNOWN_TILT = 45.0
+
+
+def reach_disc(camera, eo, mean_h):
+    """Where a camera at ``eo``'s projection centre but of unknown attitude can see the plane at ``mean_h``: the
+    disc of radius ``(Z − h)·tan(θ + t)`` about its nadir, ``θ`` the half field of view along the image diagonal
+    and ``t`` :data:`MAX_UNKNOWN_TILT` (shapely polygon), or None below the plane."""
+    from shapely.geometry import Point
+    w, h = camera.image_size
+    theta = np.arctan(0.5 * np.hypot(w, h) / float(camera.fx))
+    height = eo.Z - mean_h
+    if not height > 0:
+        return None
+    return Point(eo.X, eo.Y).buffer(height * np.tan(min(theta + np.radians(MAX_UNKNOWN_TILT), np.radians(85.0))))
+
+
+def _near_tiles(info, camera, eo, mean_h, outlines, crs, level: bool = False) -> list:
+    """The reference tiles a frame overlaps: its footprint under ``eo`` (``level``: its attitude unknown, the
+    :func:`reach_disc` of its position); ``eo`` None: under the frame raster's own approximate georeference,
+    and every tile when it has none or it meets none."""
     from shapely.geometry import Polygon
     if eo is not None:
-        foot = _footprint(camera, eo, mean_h)
+        foot = reach_disc(camera, eo, mean_h) if level else _footprint(camera, eo, mean_h)
         return [k for k, o in enumerate(outlines) if foot is not None and o.intersects(foot)]
     near = []
     if info.georeferenced:
@@ -180,7 +198,7 @@ def _near_tiles(info, camera, eo, mean_h, outlines, crs) -> list:
     return near or list(range(len(outlines)))
 
 
-def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, prog, fits):
+def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, prog, fits, level):
     """Inlier matches of every frame with its reference tiles: ``(frame, px, XYZ, tile, ref px, residual px)``;
     every frame's :class:`FrameFit` goes into ``fits``."""
     outlines = [_tile_outline(info, crs) for info in tiles]
@@ -188,7 +206,7 @@ def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, p
     for i, f in enumerate(frames):
         stage = prog.stage(i / len(frames), (i + 1) / len(frames), f"control for frame {names[i]}")
         info = open_raster(f, "frame")
-        near = _near_tiles(info, camera, eos[i], mean_h, outlines, crs)
+        near = _near_tiles(info, camera, eos[i], mean_h, outlines, crs, bool(level and level[i]))
         got = _frame_matches(info, [tiles[k] for k in near], near, crs, heights, opts, stage) if near else None
         used = tuple(tiles[k].path.name for k in near)
         if got is None:
@@ -217,10 +235,11 @@ def automatic_control(frames, names, camera, eos, reference, dem, crs, *, per_fr
 
 
 def control_and_fits(frames, names, camera, eos, reference, dem, crs, *, per_frame: int = 90, cells: int = 3,
-                     options: RegisterOptions | None = None, progress=None) -> tuple:
+                     options: RegisterOptions | None = None, progress=None, level=None) -> tuple:
     """``(GcpList, {name: FrameFit})``: :func:`automatic_control` and every frame's registration to the
     reference (its fitted pose, :mod:`fotogeo.tools.triangulate.register`). An ``eos`` entry None: the frame's
-    tiles are chosen by its raster's own georeference, or all when it has none."""
+    tiles are chosen by its raster's own georeference, or all when it has none; ``level[i]`` True: frame
+    ``i``'s attitude is unknown (a GPS position only), its tiles are those in its :func:`reach_disc`."""
     prog = as_progress(progress)
     if per_frame < cells * cells:
         raise InputError(f"per_frame must be at least {cells * cells} (one point per region); got {per_frame}")
@@ -232,7 +251,7 @@ def control_and_fits(frames, names, camera, eos, reference, dem, crs, *, per_fra
     fits = {}
     frame, px, xyz, tile, ref_xy, res = _candidates(frames, names, camera, eos, tiles, crs, DemSampler(d, crs),
                                                     float(np.nanmean(d.data)), options or RegisterOptions(), prog,
-                                                    fits)
+                                                    fits, level)
     point = merge_points(frame, px, tile, ref_xy)
     first = np.lexsort((res, frame, point))  # one measurement per (point, frame): the smallest residual
     once = first[np.r_[True, (np.diff(point[first]) != 0) | (np.diff(frame[first]) != 0)]]

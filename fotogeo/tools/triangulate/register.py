@@ -15,6 +15,17 @@ camera lies above the terrain under it. A frame that fails is named with the rea
 or dropped with ``undetermined="drop"`` (``--undetermined drop``) while ≥ 2 frames remain; every
 frame's registration (tiles, matches, inliers, σ0, position and angle σ) is reported under
 ``start.registration`` of ``report.json``.
+
+**Frames with GPS** (``--reference`` and ``--dem``, no ``--eo``, no ``--gcps``): the GPS gives a position
+but often no attitude (or a gimbal/autopilot tag that can be wrong). Every frame is registered the
+same way, its tiles chosen around its GPS position (its footprint when the files carry an attitude,
+else every tile a camera tilted up to 45° there could see,
+:func:`fotogeo.tools.triangulate.control.reach_disc`), and the start becomes the GPS position with the
+registration's attitude (:func:`with_registered_attitude`) — for a frame whose files carry no attitude,
+and for one whose tag the registration contradicts by more than :data:`CONTRADICTED_DEG` (its attitude
+prior is then dropped). The position stays the GPS's, so its GNSS prior keeps meaning what it says. A
+frame the reference cannot place keeps its GPS start (level, κ measured on the images) and is named
+in its row; nothing is refused for it.
 """
 from __future__ import annotations
 
@@ -26,6 +37,9 @@ from ...errors import MatchingError
 
 #: the largest angle σ (degrees) of a registration pose that can start the adjustment
 MAX_ANGLE_SIGMA = 1.0
+#: a frame's attitude tag further than this (degrees, the rotation between the two) from its registration's
+#: attitude is contradicted: three times the σ of a gimbal or autopilot tag (sources.ATTITUDE_SIGMA)
+CONTRADICTED_DEG = 15.0
 
 
 @dataclass(frozen=True)
@@ -73,17 +87,23 @@ def _row(name, fit, problem) -> dict:
 
 
 def registration_start(frames, names, camera, reference, dem, crs, *, undetermined: str = "fail",
-                       progress=None) -> RegistrationStart:
+                       progress=None, gps=None) -> RegistrationStart:
     """Every frame's pose from its registration to ``reference`` with ``dem``, and the block's control
-    (module docstring); frames that fail are refused, or dropped with ``undetermined="drop"``."""
+    (module docstring); frames that fail are refused, or dropped with ``undetermined="drop"``. ``gps``:
+    ``(eos, level)`` of the images' GPS start — the tiles are chosen around it, the start is
+    :func:`with_registered_attitude` and a frame that fails keeps its GPS start."""
     from ...geometry.dem import Dem, DemSampler
     from ...io.raster import read_dem
     from .control import control_and_fits
     d = dem if isinstance(dem, Dem) else read_dem(dem)
-    gcp, fits = control_and_fits(frames, names, camera, [None] * len(names), reference, d, crs, progress=progress)
+    hints, level = gps if gps is not None else ([None] * len(names), None)
+    gcp, fits = control_and_fits(frames, names, camera, list(hints), reference, d, crs, progress=progress,
+                                 level=level)
     sampler = DemSampler(d, crs)
     problems = {n: pose_problem(fits.get(n), sampler) for n in names}
     rows = [_row(n, fits.get(n), problems[n]) for n in names]
+    if gps is not None:
+        return _over_gps(frames, names, hints, level, fits, problems, rows, gcp)
     bad = {n: p for n, p in problems.items() if p}
     if bad and (undetermined != "drop" or len(names) - len(bad) < 2):
         text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
@@ -98,3 +118,37 @@ def registration_start(frames, names, camera, reference, dem, crs, *, undetermin
     return RegistrationStart([frames[k] for k in keep], [names[k] for k in keep],
                              tuple(fits[names[k]].model.frame.eo for k in keep), gcp, rows,
                              [{"name": n, "reason": why} for n, why in bad.items()])
+
+
+def with_registered_attitude(gps_eo, pose, level: bool) -> tuple:
+    """``(start, why or "")``: the GPS position with the registration's attitude when the frame's files carry
+    none (``level``) or their tag is more than :data:`CONTRADICTED_DEG` from it; else the GPS start as it is."""
+    registered = replace(gps_eo, omega=pose.omega, phi=pose.phi, kappa=pose.kappa)
+    if level:
+        return registered, "registration (no attitude in the files)"
+    turn = _rotation_angle(gps_eo.rotation, pose.rotation)
+    if turn > CONTRADICTED_DEG:
+        return registered, f"registration (the files' attitude is {turn:.1f}° from it)"
+    return gps_eo, ""
+
+
+def _rotation_angle(Ra, Rb) -> float:
+    """The angle (degrees) of the rotation between two rotation matrices."""
+    c = (np.trace(np.asarray(Ra).T @ np.asarray(Rb)) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def _over_gps(frames, names, hints, level, fits, problems, rows, gcp) -> RegistrationStart:
+    """The GPS start with the registrations' attitudes (:func:`with_registered_attitude`); every frame kept."""
+    eos = []
+    for k, (n, row) in enumerate(zip(names, rows)):
+        if problems[n]:
+            eos.append(hints[k])
+            row.update(status="gps", attitude="level start (κ from the images)" if level[k] else "the files' tags")
+            continue
+        pose = fits[n].model.frame.eo
+        eo, why = with_registered_attitude(hints[k], pose, bool(level[k]))
+        eos.append(eo)
+        row.update(attitude=why or "the files' tags (the registration agrees)",
+                   gps_offset_m=round(float(np.linalg.norm(pose.centre - hints[k].centre)), 2))
+    return RegistrationStart(list(frames), list(names), tuple(eos), gcp, rows, [])

@@ -9,7 +9,10 @@ Every source ends in one :class:`~fotogeo.geometry.approx_block.ApproximateBlock
 * a frame without a start and ≥ 4 GCPs is resected (:mod:`fotogeo.tools.triangulate.inputs`);
 * no ``--eo``, no ``--gcps``, frames without GPS, and ``--reference`` with ``--dem``: every frame is
   registered to the reference and its pose taken from that fit (:mod:`fotogeo.tools.triangulate.register`;
-  ``registration`` holds every frame's registration after the control step).
+  ``registration`` holds every frame's registration after the control step);
+* the same with frames that carry GPS: every frame is registered around its GPS position, and a frame
+  whose files carry no attitude (or one the registration contradicts) starts from the GPS position with
+  the registration's attitude (``over_gps``; :meth:`BlockStart.take_registration`).
 
 **The map CRS** (:func:`map_crs_rule`): ``--crs``; else the ground control's own CRS; else the
 reference orthophoto's, then the DEM's, when projected; else the UTM zone of the images' GPS. The
@@ -59,6 +62,7 @@ class BlockStart:
     notes: list = field(default_factory=list)
     registration: list | None = None  # the frames' registration rows when the start comes from the reference
     heights: str = ""  # the GPS heights' reference and why, when the start comes from the images' GPS
+    over_gps: bool = False  # registration around the images' GPS start (attitude from the reference)
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -89,6 +93,40 @@ class BlockStart:
             sh, sv, sa = self.sigmas.get(n, (np.inf, np.inf, None))
             rows.append([sh, sh, sv] + [sa if sa is not None else np.inf] * 3)
         return np.array(rows, dtype=float)
+
+    def gps_hints(self):
+        """``(eos, level)`` in frame order: the GPS start that chooses each frame's reference tiles, or None
+        when the start has no GPS (the registration alone places the frames)."""
+        if not self.over_gps:
+            return None
+        return [self.eos[n] for n in self.names], [bool(self.level.get(n)) for n in self.names]
+
+    def take_registration(self, reg) -> None:
+        """The GPS start with the attitudes the registration gave (:func:`~fotogeo.tools.triangulate.register.
+        registration_start` with ``gps``): no longer level where it gave one, and no attitude prior where it
+        contradicted the files' tag; the source says which frames."""
+        rows = {r["name"]: r for r in reg.rows}
+        took, contradicted = [], []
+        for n, eo in zip(reg.names, reg.eos):
+            why = rows[n].get("attitude", "")
+            if not why.startswith("registration"):
+                continue
+            (took if self.level.get(n) else contradicted).append(n)
+            self.eos[n], self.level[n] = eo, False
+            sh, sv, _ = self.sigmas.get(n, (GNSS_SIGMA[0], GNSS_SIGMA[1], None))
+            self.sigmas[n] = (sh, sv, None)
+        self.registration[:] = reg.rows
+        base = self.source.split("; orientation", 1)[0]
+        n_reg = len(took) + len(contradicted)
+        parts = [f"orientation from the images' GPS; attitude from registering the frames to the reference "
+                 f"(--reference, --dem) for {n_reg} of {len(self.names)}" if n_reg else
+                 "orientation from the images' GPS and attitude tags (their registration to the reference agrees)"]
+        if contradicted:
+            parts.append(f"their attitude tags contradicted by it: {', '.join(contradicted[:6])}")
+        left = [n for n in self.names if self.level.get(n)]
+        if left:
+            parts.append(f"not registered, level start with κ from the images: {', '.join(left[:6])}")
+        self.source = "; ".join([base, *parts])
 
     def summary(self) -> dict:
         out = {"source": self.source, "crs_rule": self.crs_rule, "notes": list(self.notes),
@@ -175,6 +213,8 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
         start.source += "; orientation from registering every frame to the reference (--reference, --dem)"
     elif eo is None and approx is not None and not gcps:
         _start_from_images(start, approx, map_crs)
+        if reference and dem is not None:  # the reference gives what the GPS lacks (module docstring)
+            start.registration, start.over_gps = [], True
     else:
         start.source += f"; orientation from --eo {eo}" if eo is not None else "; orientation by resection on --gcps"
     return start

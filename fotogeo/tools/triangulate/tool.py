@@ -213,8 +213,10 @@ def _control(frames, start, kw, prog):
     if start.registration is not None:
         from .register import registration_start
         reg = registration_start(frames, names, cam, reference, dem, map_crs, undetermined=kw["undetermined"],
-                                 progress=prog)
+                                 progress=prog, gps=start.gps_hints())
         frames, names, eos, gcp, dropped = reg.frames, reg.names, reg.eos, reg.control, reg.dropped
+        if start.over_gps:
+            start.take_registration(reg)
         start.registration[:], start.names = reg.rows, list(names)
         auto, reference = set(gcp.name), []
     elif start.eos:
