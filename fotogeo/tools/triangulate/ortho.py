@@ -76,7 +76,8 @@ class AdjustedFrame:
                     c[k] *= s
                     c[k] += pp
                     px[:, k] = c[k].ravel()
-        px[behind] = np.nan
+        if behind.any():
+            px[behind] = np.nan
         return px
 
     def inverse(self, pixel, heights=None, **_) -> np.ndarray:
