@@ -72,6 +72,15 @@ EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration 
                       "readable, see the report) or a number.", minimum=0.0, exclusive_minimum=True, choices=("auto",),
                       advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
+#: the planimetric σ raster beside each orthophoto (``fotogeo ortho`` and ``triangulate --orthorectify``) and the
+#: DEM's height σ it adds (fotogeo.tools.ortho_products)
+UNCERTAINTY = Option("uncertainty", "bool", False,
+                     "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
+                     "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
+                     "covariance in triangulate's report.json beside --eo and the DEM's sigma (--dem-sigma).")
+DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the uncertainty, m (0 = half the DEM's cell)",
+                   "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
+                   exclusive_minimum=True, automatic=0.0, advanced=True)
 YAML = "YAML (*.yaml *.yml)"
 #: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.batch._cluster)
 SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
@@ -282,6 +291,12 @@ TRIANGULATE = Table(
            "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
            exclusive_minimum=True, automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
+    replace(UNCERTAINTY, label="Uncertainty rasters beside the orthophotos (<frame>_ortho_sigma.tif)",
+            help="Also write <frame>_ortho_sigma.tif beside each orthophoto (with --orthorectify or --mosaic): the "
+                 "predicted planimetric sigma (m) of every cell, from this adjustment's covariance and the DEM's "
+                 "sigma (--dem-sigma), as fotogeo ortho --uncertainty writes it."),
+    replace(DEM_SIGMA, help="Height sigma of the DEM (m) for --uncertainty [half the DEM's cell; required without "
+                            "--dem]."),
     Option("reference_sigma_xy", "float", None, "σ of automatic control X, Y (m; empty = half the orthophoto's "
            "pixel)", "σ of the X, Y of control found on the reference orthophoto (--reference), m [half its "
            "pixel].", minimum=0.0, exclusive_minimum=True, advanced=True),

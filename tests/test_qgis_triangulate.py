@@ -193,3 +193,21 @@ def test_ortho_uncertainty_of_triangulate_outputs_loads_with_a_legend_in_metres(
     lo, hi = ramp.minimumValue(), ramp.maximumValue()
     assert 0 < lo < hi < 50  # the raster's own range, not the style's 0 … 1 placeholder
     assert (lo, hi) != (0.0, 1.0)
+
+
+def test_triangulate_uncertainty_loads_each_sigma_raster_with_a_legend_in_metres(qgis_app, block_files, tmp_path):
+    """fotogeo:triangulate with ORTHORECTIFY and UNCERTAINTY: beside each orthophoto its σ raster, loaded as
+    fotogeo:ortho loads it (pseudocolour, legend in metres)."""
+    import processing
+    folder, frames, checks, _ = block_files
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    params = {**_params(folder, frames, checks, tmp_path / "out"), "ORTHORECTIFY": True, "UNCERTAINTY": True,
+              "DEM_SIGMA": 2.0}
+    processing.runAndLoadResults("fotogeo:triangulate", params, feedback=Recorder(), context=context)
+    sigma = [lyr for lyr in project.mapLayers().values() if lyr.name().endswith("σ (m)")]
+    assert len(sigma) == 10 and all(lyr.source().endswith("_ortho_sigma.tif") for lyr in sigma)
+    assert {lyr.renderer().type() for lyr in sigma} == {"singlebandpseudocolor"}
+    assert sigma[0].renderer().shader().rasterShaderFunction().legendSettings().suffix() == " m"

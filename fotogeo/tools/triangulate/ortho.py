@@ -8,7 +8,11 @@ placed on the terrain by :class:`fotogeo.geometry.georeference.Georeference`:
   plane at the mean height of the adjusted points when there is no DEM;
 * **orthorectified frames** — the terrain rectification of ``fotogeo orient --rectify`` (the
   north-up grid at the frame's ground sample distance, checked for its size, then every output
-  cell's centre → its DEM height → the image pixel, resampled by :func:`fotogeo.io.warp.warp_to_grid`).
+  cell's centre → its DEM height → the image pixel, resampled by :func:`fotogeo.io.warp.warp_to_grid`);
+* **uncertainty rasters** (``uncertainty``) — beside each orthophoto ``<frame>_ortho_sigma.tif``, the predicted
+  planimetric σ of every cell from this adjustment's covariance (the report's ``frames[].covariance``) and the
+  DEM's σ: the raster ``fotogeo ortho --uncertainty`` writes from the same report
+  (:mod:`fotogeo.tools.ortho_products`, :mod:`fotogeo.orientation.ground_sigma`).
 
 The inverse (pixel → ground) removes the distortion by the fixed-point iteration of
 :func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`, then intersects the pinhole ray.
@@ -159,6 +163,50 @@ def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, 
         out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
         _tag_nadir(temp_paths[name], grids[name].geo.model)
     return out
+
+
+def sigma_paths(ortho_paths: dict, uncertainty: bool) -> dict:
+    """``sigma:<frame>`` → ``<frame>_ortho_sigma.tif`` beside each orthophoto path of ``ortho_paths``
+    (``ortho:<frame>`` keys) with ``uncertainty``; refused without orthophotos to put them beside."""
+    if not uncertainty:
+        return {}
+    if not ortho_paths:
+        raise InputError("--uncertainty writes a σ raster beside each orthophoto: give --orthorectify (or --mosaic)",
+                         option="uncertainty")
+    from ..ortho_products import product_paths
+    names = {k.split(":", 1)[1]: p for k, p in ortho_paths.items()}
+    return {f"sigma:{n}": d["sigma"] for n, d in product_paths(names, True, False).items()}
+
+
+def sigma_of_dem(paths: dict, heights, dem_sigma, crs):
+    """``(σ_h m, rule)`` of the height source ``heights`` (:func:`terrain`) when ``paths`` has σ rasters
+    (:func:`sigma_paths`), else None; checked before anything is written (a constant height needs ``dem_sigma``:
+    :func:`fotogeo.tools.ortho_products.dem_sigma_for`)."""
+    if not any(k.startswith("sigma:") for k in paths):
+        return None
+    from ..ortho_products import dem_sigma_for
+    return dem_sigma_for(dem_sigma, heights, crs)
+
+
+def write_sigma_rasters(out, paths: dict, grids: dict, done: dict, rep: dict, heights, crs, size, sigma_h) -> None:
+    """Each orthorectified frame's σ raster (:func:`sigma_paths`) written through ``out``
+    (:class:`~fotogeo.io.raster.AtomicOutputs`) on its orthophoto's grid, from the covariances of the report
+    ``rep`` (as ``fotogeo ortho --uncertainty`` reads them from report.json), ``heights`` and the image ``size``
+    ``(width, height)``; its entry goes into ``done[frame]`` (the report's ``orthorectified``), the DEM's σ
+    into ``rep``."""
+    from types import SimpleNamespace
+
+    from ...orientation.ground_sigma import covariances_from_report
+    from ..ortho_products import write_products
+    covs = covariances_from_report(rep)
+    rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
+    for name, entry in done.items():
+        if "error" in entry or f"sigma:{name}" not in paths:
+            continue
+        g = grids[name]
+        im = SimpleNamespace(model=g.geo.model, width=size[0], height=size[1])
+        entry.update(write_products(out, {"sigma": paths[f"sigma:{name}"]}, im, heights, g, crs, covs[name],
+                                    sigma_h))
 
 
 def _tag_nadir(path, frame) -> None:
