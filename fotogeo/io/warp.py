@@ -175,12 +175,15 @@ def _interpolation_maps(sp, plan: Plan, h: int, w: int):
     (then the mask's remap, all 255, is skipped where the window's mask is all valid). None when nothing is
     inside."""
     margin = _MARGIN[plan.resampling]
-    finite = np.isfinite(sp)
-    everywhere = bool(finite.all())
-    cr = sp if everywhere else sp[finite.all(axis=1)]
-    if not len(cr):
-        return None
-    x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()  # (min(axis=0) is slow)
+    # (min(axis=0) is slow); a NaN or an infinity anywhere makes one of them non-finite
+    x_lo, x_hi, y_lo, y_hi = sp[:, 0].min(), sp[:, 0].max(), sp[:, 1].min(), sp[:, 1].max()
+    everywhere = bool(np.isfinite((x_lo, x_hi, y_lo, y_hi)).all())
+    if not everywhere:
+        finite = np.isfinite(sp)
+        cr = sp[finite.all(axis=1)]
+        if not len(cr):
+            return None
+        x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()
     c_lo = max(0, int(math.floor(x_lo)) - margin)
     c_hi = min(plan.src_width, int(math.ceil(x_hi)) + margin)
     r_lo = max(0, int(math.floor(y_lo)) - margin)
