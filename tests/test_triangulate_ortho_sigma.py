@@ -47,25 +47,31 @@ def _overlap(a_path, b_path):
                 for d in (a, b)]
 
 
-def test_orthophotos_carry_the_sigma_raster_of_fotogeo_ortho(tmp_path, block):
+@pytest.mark.parametrize("dem_sigma,self_calibration", [(1.5, None), (None, ("f", "k1"))])
+def test_orthophotos_carry_the_sigma_raster_of_fotogeo_ortho(tmp_path, block, dem_sigma, self_calibration):
+    """Given DEM σ and a fixed camera; the default DEM σ (half its 5 m cell) and a self-calibrated camera (the
+    interior block of the covariance, ortho reading triangulate's camera.yaml)."""
     frames, _ = write_block(tmp_path, block)
     dem = _write_dem(tmp_path / "dem.tif", block)
-    rep, out = _triangulate(tmp_path, frames, orthorectify=True, uncertainty=True, dem=dem, dem_sigma=1.5)
+    rep, out = _triangulate(tmp_path, frames, orthorectify=True, uncertainty=True, dem=dem, dem_sigma=dem_sigma,
+                            self_calibration=self_calibration, eo_sigma_position=5.0 if self_calibration else None)
     name = block.block.frames[1]
     entry = rep["orthorectified"][name]["sigma"]
     sigma = out / f"{name}_ortho_sigma.tif"
-    assert entry["path"] == str(sigma) and sigma.is_file() and rep["dem_sigma_m"] == 1.5
+    assert entry["path"] == str(sigma) and sigma.is_file() and rep["dem_sigma_m"] == (dem_sigma or 2.5)
     assert json.loads((out / "report.json").read_text())["orthorectified"][name]["sigma"]["max_m"] == entry["max_m"]
     with rasterio.open(sigma) as s, rasterio.open(out / f"{name}_ortho.tif") as o:
         assert (s.width, s.height, s.transform, s.crs) == (o.width, o.height, o.transform, o.crs)
         assert s.units == ("m",) and s.dtypes == ("float32",)
     # the same raster as fotogeo ortho --uncertainty from triangulate's EO and report.json
-    rep2 = ortho([frames[1]], tmp_path / "ortho.tif", dem=dem, camera=tmp_path / "camera.yaml",
-                 eo=out / "exterior_orientation.txt", uncertainty=True, dem_sigma=1.5, resolution=RES)
+    camera = out / "camera.yaml" if self_calibration else tmp_path / "camera.yaml"
+    rep2 = ortho([frames[1]], tmp_path / "ortho.tif", dem=dem, camera=camera, eo=out / "exterior_orientation.txt",
+                 uncertainty=True, dem_sigma=dem_sigma, resolution=RES)
+    assert rep2["dem_sigma_m"] == rep["dem_sigma_m"]
     a, b = _overlap(sigma, rep2["images"][name]["sigma"]["path"])
     both = np.isfinite(a) & np.isfinite(b)
     assert both.sum() > 0.9 * max(np.isfinite(a).sum(), np.isfinite(b).sum()) > 1000
-    np.testing.assert_allclose(a[both], b[both], rtol=1e-6)  # measured: 2.4e-7, float32 rounding
+    np.testing.assert_allclose(a[both], b[both], rtol=1e-6)  # measured: 2.4e-7 in both cases, float32 rounding
     assert 0 < np.nanmin(a) < np.nanmax(a) < 10
 
 
