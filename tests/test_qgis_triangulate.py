@@ -211,3 +211,17 @@ def test_triangulate_uncertainty_loads_each_sigma_raster_with_a_legend_in_metres
     assert len(sigma) == 10 and all(lyr.source().endswith("_ortho_sigma.tif") for lyr in sigma)
     assert {lyr.renderer().type() for lyr in sigma} == {"singlebandpseudocolor"}
     assert sigma[0].renderer().shader().rasterShaderFunction().legendSettings().suffix() == " m"
+
+
+def test_only_the_orthophotos_written_are_loaded(qgis_app, tmp_path):
+    """A frame that was not orthorectified (its report entry an error, e.g. off the DEM) has no
+    ``<frame>_ortho.tif``: the algorithm loads the orthophotos written and that one not."""
+    from processing_provider.algorithms.triangulate import TriangulateAlgorithm
+    rep = {"sigma0": 1.0, "statistics": {"check": {}, "image_rms_px": 0.3, "n_blunders": 0},
+           "orthorectified": {"a": {"width": 10, "height": 10},
+                              "b": {"error": "not orthorectified: the DEM does not cover it"}}}
+    context = QgsProcessingContext()
+    context.setProject(QgsProject.instance())
+    TriangulateAlgorithm()._outputs(rep, str(tmp_path), context)
+    loaded = {os.path.basename(uri) for uri in context.layersToLoadOnCompletion()}
+    assert "a_ortho.tif" in loaded and "b_ortho.tif" not in loaded

@@ -173,6 +173,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
             for frame, done in (rep.get("orthorectified") or {}).items():
+                if "error" in done:  # not orthorectified (e.g. off the DEM): no file to load
+                    continue
                 load_on_completion(context, os.path.join(outdir, f"{frame}_ortho.tif"), f"{frame} {tr('ortho')}",
                                    self.OUTDIR, None, raster=True, run=run)
                 if "sigma" in done:  # --uncertainty: the σ with its legend in metres, as fotogeo:ortho loads it
