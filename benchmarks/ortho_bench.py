@@ -23,7 +23,8 @@ after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fot
 overlap of two outputs,
 128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
 of each tile in output pixels (median, 95th percentile and largest length) and the mean absolute grey-level
-difference. Writes benchmarks/results/ortho_bench.json and prints a table.
+difference. Writes benchmarks/results/ortho_bench.json (with the load average at the start and the end: the
+machine may be shared) and prints a table.
 """
 from __future__ import annotations
 
@@ -194,7 +195,8 @@ def main(argv=None):
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
     import rasterio
     results = {"gdal_cli": subprocess.run(["gdalinfo", "--version"], capture_output=True, text=True).stdout.strip(),
-               "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)), "cases": {}}
+               "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)),
+               "load_average_start": [round(v, 2) for v in os.getloadavg()], "cases": {}}
     with tempfile.TemporaryDirectory(prefix="ortho_bench_") as tmp:
         for case in a.cases.split(","):
             results["cases"][case] = {}
@@ -206,7 +208,9 @@ def main(argv=None):
                      else qb2_case(work, res, a.repeat))
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
+    results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
     print(table(results))
+    print(f"load average (1, 5, 15 min): start {results['load_average_start']}, end {results['load_average_end']}")
     OUT.write_text(json.dumps(results, indent=1))
     print(f"wrote {OUT.relative_to(ROOT)}")
 

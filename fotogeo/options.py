@@ -72,6 +72,15 @@ EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration 
                       "readable, see the report) or a number.", minimum=0.0, exclusive_minimum=True, choices=("auto",),
                       advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
+#: the planimetric σ raster beside each orthophoto (``fotogeo ortho`` and ``triangulate --orthorectify``) and the
+#: DEM's height σ it adds (fotogeo.tools.ortho_products)
+UNCERTAINTY = Option("uncertainty", "bool", False,
+                     "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
+                     "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
+                     "covariance in triangulate's report.json beside --eo and the DEM's sigma (--dem-sigma).")
+DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the uncertainty, m (0 = half the DEM's cell)",
+                   "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
+                   exclusive_minimum=True, automatic=0.0, advanced=True)
 YAML = "YAML (*.yaml *.yml)"
 #: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.batch._cluster)
 SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
@@ -282,6 +291,12 @@ TRIANGULATE = Table(
            "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
            exclusive_minimum=True, automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
+    replace(UNCERTAINTY, label="Uncertainty rasters beside the orthophotos (<frame>_ortho_sigma.tif)",
+            help="Also write <frame>_ortho_sigma.tif beside each orthophoto (with --orthorectify or --mosaic): the "
+                 "predicted planimetric sigma (m) of every cell, from this adjustment's covariance and the DEM's "
+                 "sigma (--dem-sigma), as fotogeo ortho --uncertainty writes it."),
+    replace(DEM_SIGMA, help="Height sigma of the DEM (m) for --uncertainty [half the DEM's cell; required without "
+                            "--dem]."),
     Option("reference_sigma_xy", "float", None, "σ of automatic control X, Y (m; empty = half the orthophoto's "
            "pixel)", "σ of the X, Y of control found on the reference orthophoto (--reference), m [half its "
            "pixel].", minimum=0.0, exclusive_minimum=True, advanced=True),
@@ -322,28 +337,6 @@ TRIANGULATE = Table(
             help="Match the frame pairs as tasks on a local Dask cluster of N processes [0: in this process].",
             advanced=True),
 )
-#: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior)
-INTERIOR = Table(
-    Option("model", "choice", "affine", "Pixel -> photo transform", "Pixel -> photo-coordinate transform: affine (>= 3 "
-           "marks) or projective (>= 4).", choices=("affine", "projective")),
-    Option("scan_pixel_um", "float", None, "Scan pixel size in µm (empty = the TIFF's resolution tags)",
-           "Scan pixel size (µm) [from the TIFF's resolution tags].", minimum=0.0, exclusive_minimum=True),
-    Option("rotation", "choice", "auto", "Scan rotation (auto = tried in 90° steps)",
-           "Rotation of the scan against the photo, clockwise, in 90° steps: auto tries all four (a layout "
-           "symmetric under the rotation cannot tell them apart: give it).", choices=("auto", "0", "90", "180", "270")),
-    Option("search_mm", "float", 10.0, "Search radius around each predicted mark (mm on the photo)",
-           "Marks are looked for within this radius (mm) of where the report's layout puts them.", minimum=0.0,
-           exclusive_minimum=True, advanced=True),
-    Option("max_residual_px", "float", 1.0, "Largest mark residual accepted (scan px)",
-           "A mark whose residual exceeds this (scan pixels) refuses the scan: damaged mark or wrong report.",
-           minimum=0.0, exclusive_minimum=True),
-    Option("min_fiducials", "int", 4, "Fewest marks found", "Fewest fiducial marks that must be found.", minimum=3),
-    Option("resample", "bool", False, "Resample to the standard frame (with its camera YAML)",
-           "Write <output>_frame.tif resampled to the standard frame (square pixels, principal point at the "
-           "centre) and <output>_camera.yaml for orient and triangulate."),
-    Option("resample_pixel_um", "float", None, "Standard-frame pixel size in µm (empty = the scan's)",
-           "Pixel size (µm) of the standard frame [the scan's].", minimum=0.0, exclusive_minimum=True, advanced=True),
-)
 #: batch co-registration (``register_batch``): where the scenes run and resuming; each scene takes
 #: the options of :data:`REGISTER` and :data:`REGISTER_TERRAIN` (a DEM: terrain-aware)
 REGISTER_BATCH = Table(
@@ -379,8 +372,9 @@ def find_option(name: str) -> Option | None:
     ('--half-window', None)
     """
     from .options_coreg import COREG  # declared apart (this module's size); they import this one
+    from .options_interior import INTERIOR
     from .options_products import MOSAIC, ORTHO
-    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG, ORTHO, MOSAIC]:
+    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG, ORTHO, MOSAIC, INTERIOR]:
         if name in table:
             return table[name]
     return None

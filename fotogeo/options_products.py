@@ -2,7 +2,8 @@
 ``fotogeo:mosaic``), declared as every tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import DEM_HEIGHTS, REGISTER_BATCH, RESAMPLING, YAML, Option, Table  # noqa: F401
+from .options import (DEM_HEIGHTS, DEM_SIGMA, REGISTER_BATCH, RESAMPLING, UNCERTAINTY, YAML, Option,  # noqa: F401
+                      Table)
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho)
 ORTHO = Table(
@@ -39,13 +40,8 @@ ORTHO = Table(
     RESAMPLING,
     Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
            "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
-    Option("uncertainty", "bool", False,
-           "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
-           "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
-           "covariance in triangulate's report.json beside --eo and the DEM's sigma (--dem-sigma)."),
-    Option("dem_sigma", "float", None, "Height σ of the DEM for the uncertainty, m (0 = half the DEM's cell)",
-           "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
-           exclusive_minimum=True, automatic=0.0, advanced=True),
+    UNCERTAINTY,
+    DEM_SIGMA,
     Option("view_bands", "bool", False,
            "View geometry raster: off-nadir angle (°) and distance (m) (<orthophoto>_view.tif)",
            "Also write <orthophoto>_view.tif: band 1 the off-nadir angle of the line of sight (degrees), band 2 the "

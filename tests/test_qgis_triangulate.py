@@ -245,3 +245,35 @@ def test_drone_frame_without_gps_is_refused_in_the_dialogs_words(qgis_app, data_
                   "Reference orthophoto(s)", TRIANGULATE["dem"].label):
         assert f"“{label}”" in text, (label, text)
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_triangulate_uncertainty_loads_each_sigma_raster_with_a_legend_in_metres(qgis_app, block_files, tmp_path):
+    """fotogeo:triangulate with ORTHORECTIFY and UNCERTAINTY: beside each orthophoto its σ raster, loaded as
+    fotogeo:ortho loads it (pseudocolour, legend in metres)."""
+    import processing
+    folder, frames, checks, _ = block_files
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    context = QgsProcessingContext()
+    context.setProject(project)
+    params = {**_params(folder, frames, checks, tmp_path / "out"), "ORTHORECTIFY": True, "UNCERTAINTY": True,
+              "DEM_SIGMA": 2.0}
+    processing.runAndLoadResults("fotogeo:triangulate", params, feedback=Recorder(), context=context)
+    sigma = [lyr for lyr in project.mapLayers().values() if lyr.name().endswith("σ (m)")]
+    assert len(sigma) == 10 and all(lyr.source().endswith("_ortho_sigma.tif") for lyr in sigma)
+    assert {lyr.renderer().type() for lyr in sigma} == {"singlebandpseudocolor"}
+    assert sigma[0].renderer().shader().rasterShaderFunction().legendSettings().suffix() == " m"
+
+
+def test_only_the_orthophotos_written_are_loaded(qgis_app, tmp_path):
+    """A frame that was not orthorectified (its report entry an error, e.g. off the DEM) has no
+    ``<frame>_ortho.tif``: the algorithm loads the orthophotos written and that one not."""
+    from processing_provider.algorithms.triangulate import TriangulateAlgorithm
+    rep = {"sigma0": 1.0, "statistics": {"check": {}, "image_rms_px": 0.3, "n_blunders": 0},
+           "orthorectified": {"a": {"width": 10, "height": 10},
+                              "b": {"error": "not orthorectified: the DEM does not cover it"}}}
+    context = QgsProcessingContext()
+    context.setProject(QgsProject.instance())
+    TriangulateAlgorithm()._outputs(rep, str(tmp_path), context)
+    loaded = {os.path.basename(uri) for uri in context.layersToLoadOnCompletion()}
+    assert "a_ortho.tif" in loaded and "b_ortho.tif" not in loaded

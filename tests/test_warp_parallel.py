@@ -145,3 +145,27 @@ def test_tiled_warp_is_pixel_identical(tmp_path, executor):
     with rasterio.open(tmp_path / "cog.tif") as ds:
         assert ds.transform == t and ds.crs.to_epsg() == 32635 and ds.profile["tiled"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cog.tif", "one.tif", "s.tif"]
+
+
+@pytest.mark.parametrize("resampling", ["nearest", "bilinear", "cubic"])
+@pytest.mark.parametrize("nodata,holes", [(None, False), (0, True)])
+def test_windows_inside_a_valid_source_skip_the_mask_remap_with_the_same_pixels(tmp_path, monkeypatch, resampling,
+                                                                                 nodata, holes):
+    """A window whose kernels all lie inside an all-valid source window skips the mask's remap (all 255 there):
+    the output equals the one with every mask remapped, at the source's edges, its nodata holes and inside."""
+    import fotogeo.io.warp as warp
+    src = tmp_path / "src.tif"
+    _source(src, nodata=nodata, holes=holes)
+    _warp(src, tmp_path / "skip.tif", 1, resampling, block=32)
+    skipped = []
+    for name in ("_nearest_maps", "_interpolation_maps"):
+        def never_within(*a, _f=getattr(warp, name)):
+            r = _f(*a)
+            if r is not None:
+                skipped.append(r[-1])
+            return None if r is None else (*r[:-1], False)
+        monkeypatch.setattr(warp, name, never_within)
+    _warp(src, tmp_path / "remap.tif", 1, resampling, block=32)
+    assert any(skipped) and not all(skipped)  # both kinds of window occur
+    a, b = _read(tmp_path / "skip.tif")[0], _read(tmp_path / "remap.tif")[0]
+    np.testing.assert_array_equal(a, b)

@@ -141,8 +141,10 @@ class Dem:
         h = step[i - lo] if len(step) else np.zeros((len(i), len(j)))
         h *= t[:, None]
         h += along[i - lo]
-        h[~in_r, :] = np.nan
-        h[:, ~in_c] = np.nan
+        if not in_r.all():
+            h[~in_r, :] = np.nan
+        if not in_c.all():
+            h[:, ~in_c] = np.nan
         return h
 
     def heights_and_gradient(self, XY):

@@ -148,7 +148,9 @@ def _source_mask(src, plan: Plan, win: Window, data):
 def _nearest_maps(sp, plan: Plan, h: int, w: int):
     """Source window and OpenCV maps holding the exact integer source pixels (GDAL's rule, see
     :func:`nearest_source_pixels`): ``CV_16SC2`` maps (no rounding left to OpenCV) when the window
-    fits in int16, else integer-valued float32 maps (exact below 2²⁴). None when nothing is inside."""
+    fits in int16, else integer-valued float32 maps (exact below 2²⁴); and whether every position is inside
+    the source (then the mask's remap is skipped where the window's mask is all valid). None when nothing is
+    inside."""
     col, row, inside = nearest_source_pixels(sp, plan.src_width, plan.src_height)
     if not inside.any():
         return None
@@ -157,25 +159,31 @@ def _nearest_maps(sp, plan: Plan, h: int, w: int):
     r_lo, r_hi = int(np.where(inside, row, plan.src_height).min()), int(row.max()) + 1
     win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
     lc, lr = np.where(inside, col - c_lo, -1), np.where(inside, row - r_lo, -1)
+    within = bool(inside.all())
     if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
         xy = np.empty((h * w, 2), np.int16)
         xy[:, 0], xy[:, 1] = lc, lr
-        return win, xy.reshape(h, w, 2), None
-    return win, lc.astype(np.float32).reshape(h, w), lr.astype(np.float32).reshape(h, w)
+        return win, xy.reshape(h, w, 2), None, within
+    return win, lc.astype(np.float32).reshape(h, w), lr.astype(np.float32).reshape(h, w), within
 
 
 def _interpolation_maps(sp, plan: Plan, h: int, w: int):
     """Source window (positions plus the kernel's margin) and OpenCV maps (centre convention, computed in
     float64, rounded to float32 in the same pass) for bilinear and cubic: converted once to OpenCV's fixed-point
     maps (``convertMaps``, the rounding ``remap`` applies to float maps itself) when the window fits in int16,
-    so that the mask's and the bands' ``remap`` share them. None when nothing is inside."""
+    so that the mask's and the bands' ``remap`` share them; and whether every position's kernel lies in the window
+    (then the mask's remap, all 255, is skipped where the window's mask is all valid). None when nothing is
+    inside."""
     margin = _MARGIN[plan.resampling]
-    finite = np.isfinite(sp)
-    everywhere = bool(finite.all())
-    cr = sp if everywhere else sp[finite.all(axis=1)]
-    if not len(cr):
-        return None
-    x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()  # (min(axis=0) is slow)
+    # (min(axis=0) is slow); a NaN or an infinity anywhere makes one of them non-finite
+    x_lo, x_hi, y_lo, y_hi = sp[:, 0].min(), sp[:, 0].max(), sp[:, 1].min(), sp[:, 1].max()
+    everywhere = bool(np.isfinite((x_lo, x_hi, y_lo, y_hi)).all())
+    if not everywhere:
+        finite = np.isfinite(sp)
+        cr = sp[finite.all(axis=1)]
+        if not len(cr):
+            return None
+        x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()
     c_lo = max(0, int(math.floor(x_lo)) - margin)
     c_hi = min(plan.src_width, int(math.ceil(x_hi)) + margin)
     r_lo = max(0, int(math.floor(y_lo)) - margin)
@@ -188,9 +196,13 @@ def _interpolation_maps(sp, plan: Plan, h: int, w: int):
     # (numpy's broadcasting over a last axis of 2, or a cast into its output, is several times slower)
     xy = (sp.reshape(h, 2 * w) - np.tile((HALF + c_lo, HALF + r_lo), w)).astype(np.float32).reshape(h, w, 2)
     win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
+    # the mask's bilinear neighbours of every position in the window: x - c_lo - 0.5 in [0, width - 2] (the
+    # float32 maps and OpenCV's 1/32-px fixed point round monotonically, so they stay in it); NaN ones are not
+    within = everywhere and x_lo - HALF - c_lo >= 0 and x_hi - HALF - c_lo <= c_hi - c_lo - 2 \
+        and y_lo - HALF - r_lo >= 0 and y_hi - HALF - r_lo <= r_hi - r_lo - 2
     if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
-        return (win, *cv2.convertMaps(xy, None, cv2.CV_16SC2))
-    return win, xy, None
+        return (win, *cv2.convertMaps(xy, None, cv2.CV_16SC2), within)
+    return win, xy, None, within
 
 
 def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
@@ -208,11 +220,14 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     located = (_nearest_maps if nearest else _interpolation_maps)(sp, plan, h, w)
     if located is None:
         return out, 0, 0
-    win, map1, map2 = located
+    win, map1, map2, within = located
     mask, data = _source_mask(src, plan, win, src.read(window=win))
-    m = cv2.remap(mask, map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
-                  borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    good = m > 0 if nearest else m >= 255
+    if within and mask.min() == 255:  # the mask's remap would be all 255
+        good = None
+    else:
+        m = cv2.remap(mask, map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        good = m > 0 if nearest else m >= 255
     interp = RESAMPLING[plan.resampling]
     work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
     per_band = nearest and plan.band_nodata is not None and plan.band_nodata != plan.nodata
@@ -226,7 +241,9 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     for b, res in enumerate(bands):
         if per_band:  # a band at the source's nodata is that band's nodata in the output (GDAL)
             res[res == plan.band_nodata] = plan.nodata
-        np.copyto(out[b], res.astype(plan.dtype, copy=False), where=good)
+        np.copyto(out[b], res.astype(plan.dtype, copy=False), where=True if good is None else good)
+    if good is None:
+        return out, h * w, 0 if plan.floating else int(np.count_nonzero((out == plan.nodata).all(axis=0)))
     collisions = 0 if plan.floating else int(((out == plan.nodata).all(axis=0) & good).sum())
     return out, int(good.sum()), collisions
 

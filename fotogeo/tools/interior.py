@@ -27,6 +27,7 @@ from ..io.calibration_report import read_calibration_report
 from ..io.interior_json import interior_record
 from ..io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ..matching.fiducials import MarkShape, mark_template, measure_marks, predict
+from ..options_interior import INTERIOR
 from ..orientation.interior import fit_interior
 from ..progress import as_progress
 from .boundary import tool
@@ -36,7 +37,7 @@ from .interior_frame import write_standard_frame
 MIXED_RESOLUTION = 0.01
 
 
-@tool("INTERIOR")
+@tool(INTERIOR)
 def interior(scans, camera_report, output, *, model: str = "affine", scan_pixel_um=None, rotation: str = "auto",
              search_mm: float = 10.0, max_residual_px: float = 1.0, min_fiducials: int = 4, resample: bool = False,
              resample_pixel_um=None, overwrite: bool = False, progress=None) -> list[dict]:

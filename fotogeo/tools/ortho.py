@@ -23,7 +23,8 @@ of every cell and its view geometry (:mod:`fotogeo.tools.ortho_products`).
 
 Outputs: one GeoTIFF per image (tiled, DEFLATE, internal overviews; ``cog``: GDAL's COG layout), ``output``
 itself for one image, ``<output>/<name>_ortho.tif`` for several; written through
-:class:`~fotogeo.io.raster.AtomicOutputs` (all or nothing).
+:class:`~fotogeo.io.raster.AtomicOutputs` (all or nothing). :func:`plan_grid` and :func:`write_orthophoto` are
+also ``triangulate --orthorectify``'s (:mod:`fotogeo.tools.triangulate.ortho`): one orthorectification.
 """
 from __future__ import annotations
 
@@ -182,7 +183,7 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
 
 def nadir_point(im, heights, crs):
     """``(X, Y)`` of the image's nadir: under a frame's projection centre, else the ground of its centre pixel."""
-    centre = getattr(im.model, "centre", None)
+    centre = getattr(im.model, "projection_centre", None)
     if centre is not None:
         return tuple(float(v) for v in centre[:2])
     return tuple(float(v) for v in Georeference(im.model, heights=heights, crs=crs).pixel_to_map(
@@ -202,6 +203,38 @@ def occlusion_surface(heights, dem):
                          f"without occlusion masking")
     from ..geometry.occlusion import MaxPyramid
     return heights, 0.5 * min(abs(d.transform.a), abs(d.transform.e)), MaxPyramid(d) if heights is d else None
+
+
+def warn_dem_holes(dem, heights) -> None:
+    """A warning naming the share of nodata holes of the DEM under the images (their orthophotos are nodata there);
+    nothing for a constant height."""
+    share = holes(underlying_dem(heights)[0]) if dem is not None and not np.isscalar(heights) else 0.0
+    if share > 0:
+        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area under "
+                      f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
+                      f"cells", FotogeoWarning, stacklevel=3)
+
+
+def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, progress, *,
+                     occlusion=(None, 1.0, None), cog: bool = False) -> dict:
+    """Resample the image ``im`` (:class:`~fotogeo.tools.ortho_inputs.OrthoImage`) onto ``grid``
+    (:func:`plan_grid`) into ``path`` (module docstring, step 2), tagged ``FOTOGEO_NADIR`` (:func:`nadir_point`:
+    ``fotogeo mosaic`` starts its seamlines where relief displacement vanishes); ``occlusion``: the
+    ``(surface, step, pyramid)`` of :func:`occlusion_surface`, ``cog``: GDAL's COG layout instead of internal
+    overviews. The report entry: the grid's size, resolution, transform, DEM coverage and what was written.
+    The one orthorectification of frames and RPC images (``fotogeo ortho`` and ``triangulate --orthorectify``)."""
+    surface, step, pyramid = occlusion
+    mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
+    written = warp_to_grid(im.path, path, mapping, crs=crs, transform=grid.transform, width=grid.width,
+                           height=grid.height, resampling=resampling, progress=progress, overviews=not cog,
+                           zlevel=ZLEVEL)
+    with ropen(path, "r+") as ds:
+        ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs)))
+    if cog:
+        from ..io.cog import convert_to_cog
+        convert_to_cog(path, resampling)
+    return {"width": grid.width, "height": grid.height, "resolution": grid.resolution,
+            "transform": list(grid.transform)[:6], "dem_coverage": grid.coverage, **written}
 
 
 @tool(ORTHO, rasters={"dem": None, "geoid": None})
@@ -246,11 +279,8 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
-    share = holes(underlying_dem(heights)[0]) if dem is not None and not occlusion else 0.0
-    if share > 0:
-        warnings.warn(f"DEM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area under "
-                      f"the images): the orthophotos are nodata there; fill them (gdal_fillnodata.py) to keep those "
-                      f"cells", FotogeoWarning, stacklevel=2)
+    if not occlusion:
+        warn_dem_holes(dem, heights)
     sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None
     covs = frame_covariances(eo, ims) if uncertainty else {}
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
@@ -264,19 +294,9 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
             g = grids[im.name]
             stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims),
                                f"orthorectifying {im.name}")
-            tmp = out.temp(paths[im.name])
-            mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
-            written = warp_to_grid(im.path, tmp, mapping, crs=crs, transform=g.transform, width=g.width,
-                                   height=g.height, resampling=resampling, progress=stage, overviews=not cog,
-                                   zlevel=ZLEVEL)
-            with ropen(tmp, "r+") as ds:  # where relief displacement vanishes: the mosaic's seams start there
-                ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs)))
-            if cog:
-                from ..io.cog import convert_to_cog
-                convert_to_cog(tmp, resampling)
-            rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, "width": g.width,
-                                      "height": g.height, "resolution": g.resolution,
-                                      "transform": list(g.transform)[:6], "dem_coverage": g.coverage, **written,
+            entry = write_orthophoto(out.temp(paths[im.name]), im, heights, crs, g, resampling, stage,
+                                     occlusion=(surface, step, pyramid), cog=cog)
+            rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, **entry,
                                       **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
                                                        sigma_h)}
         out.commit()

@@ -4,9 +4,9 @@
 model or an oversized output stops a run before it writes anything); :func:`rectify_image` then
 resamples the image onto it, window by window: each output cell's centre (X, Y), its height (a DEM,
 a constant, or the control's mean height — 2-D models ignore it), the model's image position, the
-pixel resampled there (:func:`fotogeo.io.warp.warp_to_grid`). Shared by ``orient`` (one image
-through its GCP model, also the GCP picker's *Rectify*) and ``triangulate`` (every frame of an
-adjusted block, :mod:`fotogeo.tools.triangulate.ortho`).
+pixel resampled there (:func:`fotogeo.io.warp.warp_to_grid`). Used by ``orient`` (one image
+through its GCP model, also the GCP picker's *Rectify*); ``triangulate`` orthorectifies its frames as
+``fotogeo ortho`` does (:mod:`fotogeo.tools.triangulate.ortho`).
 
 :func:`check_terrain_heights` is the one check of the heights an image is put on the ground with
 (orient, triangulate and ``register --dem``): a 3-D model only knows the heights of its control, so

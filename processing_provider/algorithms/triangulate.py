@@ -177,9 +177,14 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             result[name] = f"{gpkg}|layername={layer}"
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
-            for frame in rep.get("orthorectified") or {}:
+            for frame, done in (rep.get("orthorectified") or {}).items():
+                if "error" in done:  # not orthorectified (e.g. off the DEM): no file to load
+                    continue
                 load_on_completion(context, os.path.join(outdir, f"{frame}_ortho.tif"), f"{frame} {tr('ortho')}",
                                    self.OUTDIR, None, raster=True, run=run)
+                if "sigma" in done:  # --uncertainty: the σ with its legend in metres, as fotogeo:ortho loads it
+                    load_on_completion(context, done["sigma"]["path"], f"{frame} {tr('σ (m)')}", self.OUTDIR,
+                                       "uncertainty", raster=True, run=run)
             if (rep.get("mosaic") or {}).get("output"):  # --mosaic: above the orthophotos it is made of
                 load_on_completion(context, rep["mosaic"]["output"], tr("mosaic"), self.OUTDIR, None, raster=True,
                                    run=run)

@@ -6,9 +6,16 @@ placed on the terrain by :class:`fotogeo.geometry.georeference.Georeference`:
 
 * **footprints** — the image outline (33 points per edge) intersected with the DEM, or with the
   plane at the mean height of the adjusted points when there is no DEM;
-* **orthorectified frames** — the terrain rectification of ``fotogeo orient --rectify`` (the
-  north-up grid at the frame's ground sample distance, checked for its size, then every output
-  cell's centre → its DEM height → the image pixel, resampled by :func:`fotogeo.io.warp.warp_to_grid`).
+* **orthorectified frames** — ``fotogeo ortho``'s orthophotos, through its own code
+  (:func:`fotogeo.tools.ortho.plan_grid`, :func:`fotogeo.tools.ortho.write_orthophoto`): the DEM under the frames,
+  the north-up grid aligned to the resolution (the frame's ground sample distance unless given) and clipped to the
+  DEM where the frame leaves it, cells without a height nodata, internal overviews, ``FOTOGEO_NADIR`` for
+  ``fotogeo mosaic``; a frame's heights are first checked against those of the adjusted points
+  (:func:`fotogeo.tools.rectify.check_terrain_heights`);
+* **uncertainty rasters** (``uncertainty``) — beside each orthophoto ``<frame>_ortho_sigma.tif``, the predicted
+  planimetric σ of every cell from this adjustment's covariance (the report's ``frames[].covariance``) and the
+  DEM's σ: the raster ``fotogeo ortho --uncertainty`` writes from the same report
+  (:mod:`fotogeo.tools.ortho_products`, :mod:`fotogeo.orientation.ground_sigma`).
 
 The inverse (pixel → ground) removes the distortion by the fixed-point iteration of
 :func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`, then intersects the pinhole ray.
@@ -76,7 +83,8 @@ class AdjustedFrame:
                     c[k] *= s
                     c[k] += pp
                     px[:, k] = c[k].ravel()
-        px[behind] = np.nan
+        if behind.any():
+            px[behind] = np.nan
         return px
 
     def inverse(self, pixel, heights=None, **_) -> np.ndarray:
@@ -92,13 +100,27 @@ def frame_models(result, block) -> list:
     return [AdjustedFrame(result.camera, e, result.distortion, n) for n, e in zip(block.frames, result.eo)]
 
 
-def terrain(dem, crs, result):
-    """The height source: the DEM in the map CRS, else the mean height of the adjusted points."""
+def terrain(dem, crs, result, images=()):
+    """The height source: the DEM in the map CRS (with the frames ``images``, :func:`frame_images`, the part under
+    them, as ``fotogeo ortho`` reads it: :func:`fotogeo.tools.ortho_inputs.terrain`), else the mean height of the
+    adjusted points."""
+    if dem is not None and images:
+        from ..ortho_inputs import terrain as ortho_terrain
+        return ortho_terrain(dem, None, crs, images)[0]
     if dem is not None:
         from ..rectify import dem_heights
         return dem_heights(dem, crs)
     z = result.point_xyz[:, 2]
     return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
+
+
+def frame_images(result, block, frames) -> list:
+    """The adjusted frames as the images ``fotogeo ortho`` orthorectifies
+    (:class:`~fotogeo.tools.ortho_inputs.OrthoImage`, model :class:`AdjustedFrame`)."""
+    from ..ortho_inputs import OrthoImage
+    w, h = block.camera.image_size
+    return [OrthoImage(str(p), n, m, "frame", int(w), int(h))
+            for p, n, m in zip(frames, block.frames, frame_models(result, block))]
 
 
 def footprints(result, block, heights, crs) -> dict:
@@ -124,45 +146,82 @@ def common_resolution(grids: dict) -> float | None:
     return float(f"{np.median(res):.3g}") if res else None
 
 
-def ortho_grids(paths: dict, result, block, frames, dem, crs, resolution, quiet: bool = False) -> dict:
-    """Per frame, the checked output grid of its orthorectification (:func:`fotogeo.tools.rectify.rectify_grid`,
-    the mean height of the adjusted points); nothing is resampled yet. A frame whose grid cannot be made (e.g.
-    off the DEM) gets the reason instead (a string): it is reported and skipped, never losing the adjustment's
-    outputs (``quiet``: without the warning)."""
-    from ...io.raster import open_raster
-    from ..rectify import rectify_grid
-    points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
-    ground = points if len(points) else np.zeros((1, 3))
+def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quiet: bool = False) -> dict:
+    """Per frame (``images``: :func:`frame_images`), the checked output grid of its orthophoto — ``fotogeo ortho``'s
+    (:func:`fotogeo.tools.ortho.plan_grid`: clipped to the DEM where the frame leaves it) once its heights pass
+    :func:`fotogeo.tools.rectify.check_terrain_heights` against those of the adjusted points ``ground``; nothing is
+    resampled yet. A frame whose grid cannot be made (e.g. off the DEM) gets the reason instead (a string): it
+    is reported and skipped, never losing the adjustment's outputs (``quiet``: without the warnings)."""
+    from ..ortho import plan_grid
+    from ..rectify import check_terrain_heights
+    where = f"the DEM {str(dem)!r}" if dem is not None else f"the mean height {heights:.1f} of the adjusted points"
     grids = {}
-    for model, path, name in zip(frame_models(result, block), frames, block.frames):
-        try:
-            grids[name] = rectify_grid(paths[name], open_raster(path, "frame"), model, crs, ground, dem, None,
-                                       resolution)
-        except (ModelError, InputError) as exc:
-            grids[name] = f"not orthorectified: {str(exc)[:300]}; check that the DEM covers the frame's footprint"
-            if not quiet:
-                warnings.warn(f"frame {name!r} {grids[name]}", FotogeoWarning, stacklevel=2)
+    for im in images:
+        with warnings.catch_warnings():
+            if quiet:
+                warnings.simplefilter("ignore", FotogeoWarning)
+            try:
+                check_terrain_heights(Georeference(im.model, heights=heights, crs=crs), im.width, im.height,
+                                      ground[:, 2], where, "the adjusted points")
+                grids[im.name] = plan_grid(im, heights, crs, resolution, paths[im.name], str(dem))
+            except (ModelError, InputError) as exc:
+                grids[im.name] = f"not orthorectified: {str(exc)[:300]}"
+                if not quiet:
+                    warnings.warn(f"frame {im.name!r} {grids[im.name]}", FotogeoWarning, stacklevel=2)
     return grids
 
 
-def orthorectify(temp_paths: dict, grids: dict, frames, block, crs, resampling, progress) -> dict:
-    """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths``; a summary per frame."""
-    from ...io.raster import open_raster
-    from ..rectify import rectify_image
+def orthorectify(temp_paths: dict, grids: dict, images, heights, crs, resampling, progress) -> dict:
+    """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths`` through
+    :func:`fotogeo.tools.ortho.write_orthophoto`, ``fotogeo ortho``'s own; a summary per frame."""
+    from ..ortho import write_orthophoto
     out = {}
-    for k, (path, name) in enumerate(zip(frames, block.frames)):
-        stage = progress.stage(k / len(frames), (k + 1) / len(frames), f"orthorectifying {name}")
-        if isinstance(grids.get(name), str) or name not in temp_paths:  # no grid: the frame is reported, the other outputs are still written
-            out[name] = {"error": grids.get(name, "no grid")}
+    for k, im in enumerate(images):
+        stage = progress.stage(k / len(images), (k + 1) / len(images), f"orthorectifying {im.name}")
+        if isinstance(grids.get(im.name), str) or im.name not in temp_paths:  # reported; the rest is still written
+            out[im.name] = {"error": grids.get(im.name, "no grid")}
             continue
-        out[name] = rectify_image(temp_paths[name], open_raster(path, "frame"), crs, grids[name], resampling, stage)
-        _tag_nadir(temp_paths[name], grids[name].geo.model)
+        out[im.name] = write_orthophoto(temp_paths[im.name], im, heights, crs, grids[im.name], resampling, stage)
     return out
 
 
-def _tag_nadir(path, frame) -> None:
-    """``FOTOGEO_NADIR`` (X Y of the projection centre, the ground point without relief displacement), as
-    ``fotogeo ortho`` writes it: ``fotogeo mosaic`` starts its seamlines there."""
-    from ...io.raster import ropen
-    with ropen(path, "r+") as ds:
-        ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in frame.projection_centre[:2]))
+def sigma_paths(ortho_paths: dict, uncertainty: bool) -> dict:
+    """``sigma:<frame>`` → ``<frame>_ortho_sigma.tif`` beside each orthophoto path of ``ortho_paths``
+    (``ortho:<frame>`` keys) with ``uncertainty``; refused without orthophotos to put them beside."""
+    if not uncertainty:
+        return {}
+    if not ortho_paths:
+        raise InputError("--uncertainty writes a σ raster beside each orthophoto: give --orthorectify (or --mosaic)",
+                         option="uncertainty")
+    from ..ortho_products import product_paths
+    names = {k.split(":", 1)[1]: p for k, p in ortho_paths.items()}
+    return {f"sigma:{n}": d["sigma"] for n, d in product_paths(names, True, False).items()}
+
+
+def sigma_of_dem(paths: dict, heights, dem_sigma, crs):
+    """``(σ_h m, rule)`` of the height source ``heights`` (:func:`terrain`) when ``paths`` has σ rasters
+    (:func:`sigma_paths`), else None; checked before anything is written (a constant height needs ``dem_sigma``:
+    :func:`fotogeo.tools.ortho_products.dem_sigma_for`)."""
+    if not any(k.startswith("sigma:") for k in paths):
+        return None
+    from ..ortho_products import dem_sigma_for
+    return dem_sigma_for(dem_sigma, heights, crs)
+
+
+def write_sigma_rasters(out, paths: dict, grids: dict, done: dict, rep: dict, heights, crs, images,
+                        sigma_h) -> None:
+    """Each orthorectified frame's σ raster (:func:`sigma_paths`) written through ``out``
+    (:class:`~fotogeo.io.raster.AtomicOutputs`) on its orthophoto's grid, from the covariances of the report
+    ``rep`` (as ``fotogeo ortho --uncertainty`` reads them from report.json), ``heights`` and the frames
+    ``images`` (:func:`frame_images`); its entry goes into ``done[frame]`` (the report's ``orthorectified``),
+    the DEM's σ into ``rep``."""
+    from ...orientation.ground_sigma import covariances_from_report
+    from ..ortho_products import write_products
+    covs = covariances_from_report(rep)
+    rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
+    for im in images:
+        entry = done.get(im.name, {})
+        if "error" in entry or f"sigma:{im.name}" not in paths:
+            continue
+        entry.update(write_products(out, {"sigma": paths[f"sigma:{im.name}"]}, im, heights, grids[im.name], crs,
+                                    covs[im.name], sigma_h))

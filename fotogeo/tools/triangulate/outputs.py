@@ -15,22 +15,25 @@ ORTHO_SUFFIX = "_ortho.tif"  # <frame>_ortho.tif with orthorectify
 MOSAIC_FILES = ("mosaic.tif", "mosaic.gpkg")  # with mosaic: the mosaic and its seamlines (fotogeo mosaic's layers)
 
 
-def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False) -> dict:
+def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False, uncertainty=False) -> dict:
     """The final paths: ``eo``, ``gpkg``, ``json``, ``html``, ``camera`` (self-calibration),
-    ``ortho:<frame>`` (orthorectify or mosaic) and ``mosaic``, ``seamlines`` (mosaic)."""
+    ``ortho:<frame>`` (orthorectify or mosaic), ``sigma:<frame>`` (uncertainty) and ``mosaic``, ``seamlines``
+    (mosaic)."""
+    from .ortho import sigma_paths
     folder = Path(folder)
     paths = dict(zip(("eo", "gpkg", "json", "html"), (folder / f for f in FILES)))
     if self_calibration:
         paths["camera"] = folder / CAMERA_FILE
     if orthorectify or mosaic:
         paths.update({f"ortho:{n}": folder / f"{n}{ORTHO_SUFFIX}" for n in names})
+    paths.update(sigma_paths({k: p for k, p in paths.items() if k.startswith("ortho:")}, uncertainty))
     if mosaic:
         paths.update(zip(("mosaic", "seamlines"), (folder / f for f in MOSAIC_FILES)))
     return paths
 
 
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
-                  progress) -> None:
+                  progress, dem_sigma=None) -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
     the mosaic of the orthophotos (:func:`mosaic_outputs`), whose failure leaves that set in place. The seconds
     spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``)."""
@@ -39,15 +42,13 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     from ...io.block import write_exterior_orientation, write_interior_orientation
     from ...io.raster import AtomicOutputs
     from ...io.vector import write_layers
-    from .ortho import common_resolution, footprints, ortho_grids, orthorectify, terrain
+    from .ortho import footprints, frame_images, orthorectify, sigma_of_dem, write_sigma_rasters
     crs = block.crs
-    feet = footprints(result, block, terrain(dem, crs, result), crs)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
-    if "mosaic" in paths:  # the mosaic needs one pixel lattice
-        if resolution is None:
-            resolution = common_resolution(ortho_grids(ortho, result, block, frames, dem, crs, None, quiet=True))
-        rep["mosaic_resolution_m"] = resolution
-    grids = ortho_grids(ortho, result, block, frames, dem, crs, resolution) if ortho else {}
+    images = frame_images(result, block, frames) if ortho else []
+    heights, grids = _terrain_and_grids(ortho, images, result, block, dem, resolution, rep, "mosaic" in paths)
+    sigma_h = sigma_of_dem(paths, heights, dem_sigma, crs)
+    feet = footprints(result, block, heights, crs)
     layers = {**block_layers(result, block), "footprints": feet}
     with AtomicOutputs(overwrite) as out:
         write_exterior_orientation(out.temp(paths["eo"]), block.frames, result.eo,
@@ -57,8 +58,10 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
             write_interior_orientation(out.temp(paths["camera"]), "adjusted", result.camera, result.distortion)
         if ortho:
             temps = {n: out.temp(p) for n, p in ortho.items() if not isinstance(grids.get(n), str)}
-            rep["orthorectified"] = orthorectify(temps, grids, frames, block, crs, resampling,
+            rep["orthorectified"] = orthorectify(temps, grids, images, heights, crs, resampling,
                                                  progress.stage(0.0, 0.9, "orthorectifying"))
+            if sigma_h is not None:
+                write_sigma_rasters(out, paths, grids, rep["orthorectified"], rep, heights, crs, images, sigma_h)
         write_layers(out.temp(paths["gpkg"]), layers, crs)
         _timing(rep, "outputs", time.perf_counter() - t0)
         _write_reports(out, paths, rep, result, block, feet)
@@ -71,6 +74,27 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         with AtomicOutputs(True) as out:  # the reports again, with the mosaic's outcome
             _write_reports(out, paths, rep, result, block, feet)
             out.commit()
+
+
+def _terrain_and_grids(ortho: dict, images, result, block, dem, resolution, rep: dict, mosaic: bool) -> tuple:
+    """The heights (:func:`~fotogeo.tools.triangulate.ortho.terrain`) and the grids
+    (:func:`~fotogeo.tools.triangulate.ortho.ortho_grids`) of the orthophotos ``ortho`` of the frames ``images``,
+    the DEM's holes warned of as ``fotogeo ortho`` does. A ``mosaic`` needs one pixel lattice: without
+    ``resolution``, the frames' common one; it goes into ``rep["mosaic_resolution_m"]``."""
+    from ..ortho import warn_dem_holes
+    from .ortho import common_resolution, ortho_grids, terrain
+    heights = terrain(dem, block.crs, result, images)
+    if not ortho:
+        return heights, {}
+    warn_dem_holes(dem, heights)
+    points = result.point_xyz[np.isfinite(result.point_xyz).all(axis=1)]
+    ground = points if len(points) else np.zeros((1, 3))
+    if mosaic:
+        if resolution is None:
+            resolution = common_resolution(ortho_grids(ortho, images, heights, block.crs, dem, ground, None,
+                                                       quiet=True))
+        rep["mosaic_resolution_m"] = resolution
+    return heights, ortho_grids(ortho, images, heights, block.crs, dem, ground, resolution)
 
 
 def _write_reports(out, paths, rep, result, block, feet) -> None:

@@ -127,7 +127,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
-                dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None,
+                dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None, uncertainty: bool = False,
+                dem_sigma=None,
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
@@ -144,7 +145,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
 def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
     finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=kw["self_calibration"],
-                          orthorectify=kw["orthorectify"], mosaic=kw["mosaic"])
+                          orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
     for path in finals.values():
         check_output(path, inputs, kw["overwrite"], "output")
     with prog.timed("inputs"):
@@ -194,7 +195,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "restarted_frames": restarted}, stages=dict(prog.timings))
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
-                  overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"))
+                  overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"])
     prog(1.0, "done")
     return rep
 
