@@ -68,6 +68,16 @@ _CV_IN_GIMBAL = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 _CV_IN_BODY = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
 
+def rotation_angle(Ra, Rb) -> float:
+    """The angle (degrees) of the rotation between two rotation matrices: ``arccos((tr(Raᵀ Rb) − 1) / 2)``.
+
+    >>> round(rotation_angle(np.eye(3), _rz(np.radians(30))), 9)
+    30.0
+    """
+    c = (np.trace(np.asarray(Ra).T @ np.asarray(Rb)) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
 def _rx(a):
     c, s = math.cos(a), math.sin(a)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])

@@ -26,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import FotogeoWarning, InputError, ModelError
+from ...geometry.attitude import rotation_angle
 from ...orientation.bundle import adjust_block
 from ...orientation.bundle_problem import eo_weights
 from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
@@ -132,7 +133,7 @@ def _restart(result, block, opts, kw, prog, checks, restarted):
             return out
         size, sigma, t, crit = tests[name]["attitude"]
         j = new_block.frames.index(name)
-        tag = _angle_between(block.eo[j], new_result.eo[j])
+        tag = rotation_angle(block.eo[j].rotation, new_result.eo[j].rotation)
         inner = float(new_checks[0].angle_sigma_in_block[j])
         restarted.append({"name": name, "reason": f"its attitude prior contradicted (adjusted {size:.3g}° from it, σ "
                                                   f"{sigma:.3g}°, test {np.sqrt(t):.2f} > {np.sqrt(crit):.2f}); "
@@ -142,12 +143,6 @@ def _restart(result, block, opts, kw, prog, checks, restarted):
                           "angle_sigma_deg": float(new_checks[0].angle_sigma[j]), "angle_sigma_in_block_deg": inner})
         block, opts, result, checks = new_block, new_opts, new_result, new_checks
         out = (block, opts, result, checks)
-
-
-def _angle_between(a, b) -> float:
-    """The angle (°) of the rotation between two orientations."""
-    R = a.rotation.T @ b.rotation
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1.0, 1.0))))
 
 
 def restarted_frame(block, opts, result, name):

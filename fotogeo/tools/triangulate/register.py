@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import MatchingError
+from ...geometry.attitude import rotation_angle
 
 #: the largest angle σ (degrees) of a registration pose that can start the adjustment
 MAX_ANGLE_SIGMA = 1.0
@@ -126,16 +127,10 @@ def with_registered_attitude(gps_eo, pose, level: bool) -> tuple:
     registered = replace(gps_eo, omega=pose.omega, phi=pose.phi, kappa=pose.kappa)
     if level:
         return registered, "registration (no attitude in the files)"
-    turn = _rotation_angle(gps_eo.rotation, pose.rotation)
+    turn = rotation_angle(gps_eo.rotation, pose.rotation)
     if turn > CONTRADICTED_DEG:
         return registered, f"registration (the files' attitude is {turn:.1f}° from it)"
     return gps_eo, ""
-
-
-def _rotation_angle(Ra, Rb) -> float:
-    """The angle (degrees) of the rotation between two rotation matrices."""
-    c = (np.trace(np.asarray(Ra).T @ np.asarray(Rb)) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
 
 
 def _over_gps(frames, names, hints, level, fits, problems, rows, gcp) -> RegistrationStart:
