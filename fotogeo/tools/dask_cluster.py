@@ -15,6 +15,12 @@ from ..errors import InputError, one_line
 #: environment of a task: one thread for BLAS, GDAL, OpenCV (set separately) and fotogeo's resampling
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                      "GDAL_NUM_THREADS": "1", "FOTOGEO_NUM_THREADS": "1"}
+#: glibc malloc of a local worker. Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_=65536`` (to hand freed memory back),
+#: and setting any malloc tunable turns off glibc's dynamic mmap threshold: every array above 128 KiB was then
+#: mmap'ed and unmapped, its pages faulted in afresh (the 500-frame block's LSM tasks spent half their time in
+#: the kernel: 16 000 mmap/munmap per 10 s). Arrays up to 32 MiB come from the heap, and the heap is trimmed
+#: above 64 MiB free — a worker still gives memory back, in larger steps.
+WORKER_MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(32 << 20), "MALLOC_TRIM_THRESHOLD_": str(64 << 20)}
 
 
 def missing_dask(what: str) -> str:
@@ -51,7 +57,10 @@ def connect(client=None, scheduler=None, workers=None, what: str = "register-bat
                              f"and the address right (tcp://host:8786)?") from None
         return c, c.close
     from ..io.warp import default_threads
-    cluster = distributed.LocalCluster(n_workers=workers or default_threads(), threads_per_worker=1, processes=True,
-                                       dashboard_address=None, env=dict(SINGLE_THREAD_ENV))
+    import dask
+    spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_MALLOC_ENV}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):  # read by the worker's malloc at start
+        cluster = distributed.LocalCluster(n_workers=workers or default_threads(), threads_per_worker=1,
+                                           processes=True, dashboard_address=None, env=dict(SINGLE_THREAD_ENV))
     c = distributed.Client(cluster)
     return c, lambda: (c.close(), cluster.close())
