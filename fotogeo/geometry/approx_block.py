@@ -93,12 +93,15 @@ class ApproxShot:
 
 @dataclass(frozen=True)
 class ApproximateBlock:
-    """Cameras by id, shots by image name, the map CRS (a ``pyproj.CRS`` or ``None``) and notes."""
+    """Cameras by id, shots by image name, the map CRS (a ``pyproj.CRS`` or ``None``), notes, and
+    ``heights``: the positions' height reference and where it was read (the images' EXIF/XMP; "" when the
+    source does not say)."""
 
     cameras: dict
     shots: dict
     crs: object = None
     notes: tuple = ()
+    heights: str = ""
 
     def __post_init__(self):
         missing = sorted({s.camera_id for s in self.shots.values()} - set(self.cameras))

@@ -293,9 +293,10 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
         sources[asrc] = sources.get(asrc, 0) + 1
     notes.append("attitude: " + ", ".join(f"{n} image(s) from {s}" for s, n in sources.items()))
     why = {height_reference(m)[1] if m.name not in geoinfo else f"geoinfo: {pos[m.name][3]} heights" for m in metas}
-    notes.append(f"height reference: {ref or 'unknown'} ({'; '.join(sorted(why))})")
+    heights = f"{ref or 'unknown'} ({'; '.join(sorted(why))})"
+    notes.append(f"height reference: {heights}")
     missing = sorted(n for n in pos if n not in located)
     if missing:
         notes.append(f"images without a GPS position: {', '.join(missing[:10])}"
                      f"{' …' if len(missing) > 10 else ''}; give --eo or --gcps for them")
-    return ApproximateBlock(cameras, shots, map_crs, tuple(notes))
+    return ApproximateBlock(cameras, shots, map_crs, tuple(notes), heights)

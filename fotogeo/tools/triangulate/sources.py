@@ -280,7 +280,7 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
                          f"with heights in one reference")
     ref = refs.pop() or "reference not stated by the camera"
     start.notes.append(f"GPS heights: {ref}")
-    start.heights = next((n.split(": ", 1)[1] for n in start.notes if n.startswith("height reference:")), ref)
+    start.heights = approx.heights or ref
     for n, s, k in zip(start.names, shots, kappa):
         angles = s.angles if s.angles is not None else (0.0, 0.0, float(k))
         start.level[n] = s.angles is None
