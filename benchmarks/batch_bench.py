@@ -5,7 +5,7 @@ Run:  .venv/bin/python benchmarks/batch_bench.py [--scenes 40] [--workers 1,2]
 Scenes: Landsat RGB (``../shared/data/landsat_rgb``) as the reference; each target a 320² crop
 of it under a known similarity-plus-perspective warp (rotation, scale and position vary with the
 scene number; tests/batch_scenes.py), re-banded and noisy, without georeference. Every run
-registers all scenes with :func:`fotogeo.tools.batch.register_batch` (SIFT, 2000 keypoints, the
+registers all scenes with :func:`fotogeo.tools.register.batch.register_batch` (SIFT, 2000 keypoints, the
 reference's CRS) on ``LocalCluster(n_workers=W, threads_per_worker=1, processes=True)``; the
 cluster start is timed apart. Each result is checked against its known warp (RMS over a dense
 grid of the target, reference pixels; correct = below 0.5 px). Throughput = scenes / batch time;
@@ -34,7 +34,7 @@ def run(workers: int, scenes: dict, folder: Path) -> dict:
     import distributed
     from batch_scenes import model_error_px
     from fotogeo.io.manifest import read_csv
-    from fotogeo.tools.batch import SINGLE_THREAD_ENV, register_batch
+    from fotogeo.tools.register.batch import SINGLE_THREAD_ENV, register_batch
     t0 = time.perf_counter()
     with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                   env=dict(SINGLE_THREAD_ENV)) as cluster, distributed.Client(cluster) as client:

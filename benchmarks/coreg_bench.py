@@ -47,7 +47,7 @@ LIMITS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR
 FOTOGEO_RUN = """
 import json, sys, cv2
 cv2.setNumThreads({threads})
-from fotogeo.tools.coreg import coregister
+from fotogeo.tools.coreg.tool import coregister
 kw = json.loads(sys.argv[1])
 rep = coregister(**kw)
 print("RESULT " + json.dumps(rep))
@@ -137,7 +137,7 @@ def arosics(python, ref, tgt, out, grid, window, threads, timeout=None, nodata=(
 def neutral(ref, corrected, grid, window, representation, **extra) -> dict:
     """Raw window shifts of ``corrected`` against ``ref`` (fotogeo's matcher, one pass, no field)."""
     from fotogeo.errors import MatchingError
-    from fotogeo.tools.coreg import coregister
+    from fotogeo.tools.coreg.tool import coregister
     try:
         rep = coregister(ref, corrected, None, grid_spacing=grid, window=window, representation=representation,
                          iterations=1, smoothing=1e6, **extra)
@@ -175,7 +175,7 @@ def landsat_case(tmp: Path):
 
 def feature_registration(ref, tgt, tmp: Path) -> dict:
     from fotogeo.errors import FotogeoError
-    from fotogeo.tools.register import register
+    from fotogeo.tools.register.tool import register
     out = {}
     for det in ("surf", "sift"):
         try:
@@ -190,7 +190,7 @@ def representations(name, ref, tgt, grid, window, tmp: Path, truth=None, nodata=
     """fotogeo with each representation (in this process): windows kept, what the field leaves,
     and the output measured by the neutral measures (truth where there is one)."""
     from fotogeo.errors import MatchingError
-    from fotogeo.tools.coreg import coregister
+    from fotogeo.tools.coreg.tool import coregister
     rows = {}
     for rep in ("orientation", "gradient", "rank", "intensity"):
         out = tmp / f"{name}_{rep}.tif"

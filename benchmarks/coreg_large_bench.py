@@ -53,7 +53,7 @@ REGISTER_RUN = """
 import json, sys, time, cv2
 cv2.setNumThreads({threads})
 sys.path[:0] = {paths!r}
-from fotogeo.tools.register import register
+from fotogeo.tools.register.tool import register
 from coreg_large_bench import register_residual
 kw = json.loads(sys.argv[1])
 t = time.perf_counter()

@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 from film_scans import CORNERS, RC_LIKE, RMK_LIKE, render_scan, report_yaml  # noqa: E402
-from fotogeo.tools.interior import interior  # noqa: E402
+from fotogeo.tools.interior.tool import interior  # noqa: E402
 from test_interior import write_scan  # noqa: E402
 
 CASES = [("rc", RC_LIKE, "x"), ("rc", RC_LIKE, "dot"), ("rmk", RMK_LIKE, "cross"), ("rc-corners", CORNERS, "corner")]

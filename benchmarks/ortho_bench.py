@@ -47,7 +47,7 @@ RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0}}
 
 FOTOGEO_RUN = """
 import json, sys, time
-from fotogeo.tools.ortho import ortho
+from fotogeo.tools.ortho.tool import ortho
 kw = json.loads(sys.argv[1])
 t = time.perf_counter()
 ortho(**kw)

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from fotogeo.orientation.ground_sigma import FrameCovariance, planimetric_sigma
-from fotogeo.tools.ortho import ortho
-from fotogeo.tools.triangulate.ortho import AdjustedFrame
+from fotogeo.tools.ortho.tool import ortho
+from fotogeo.orientation.adjusted_frame import AdjustedFrame
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from rendered_block_uncertainty import check_points, realisation, rms_ratio, sample_raster  # noqa: E402

@@ -9,7 +9,7 @@
    dock's route: JSON over the pipe of one long-lived ``python -m fotogeo.worker --session``):
    the first call (process start and imports) and the warm round trips (median, 90th percentile);
    the same call in-process gives the share of the pipe and JSON.
-2. the live preview (``preview_warp``, :mod:`fotogeo.tools.gcp_preview`): with the same GCPs and DEM, the refit
+2. the live preview (``preview_warp``, :mod:`fotogeo.tools.gcp.preview`): with the same GCPs and DEM, the refit
    and the warp of the frame onto a 1024 x 768 px canvas over the GCPs' extent in the preview's own session,
    plus what the dock then does in QGIS (the raw RGBA read into a QImage, drawn onto a canvas-sized image at
    60 % opacity), ``--calls`` times per model: median and 90th percentile of the whole (target: < 200 ms),
@@ -58,7 +58,7 @@ def bench_session(n_gcps: int, calls: int, models: list[str]) -> dict:
     os.environ.setdefault("FOTOGEO_PYTHON", sys.executable)
     from qgis.core import QgsApplication
     _KEEP["app"] = QgsApplication.instance() or QgsApplication([], False)  # the session reads QGIS settings
-    from fotogeo.tools.gcp_fit import fit_gcps
+    from fotogeo.tools.gcp.fit import fit_gcps
     from processing_provider.session import WorkerSession
     ngi = DATA / "ngi"
     kwargs = dict(gcps=gcps_of_frame(n_gcps), crs="EPSG:32735", image=str(ngi / "frames" / f"{FRAME}_RGB.tif"),
@@ -90,7 +90,7 @@ def bench_preview(n_gcps: int, calls: int, models: list[str], tmp: Path) -> dict
     from qgis.PyQt.QtCore import QRectF
     from qgis.PyQt.QtGui import QImage, QPainter
 
-    from fotogeo.tools.gcp_preview import preview_warp
+    from fotogeo.tools.gcp.preview import preview_warp
     from processing_provider.picker.preview import read_rgba
     from processing_provider.session import WorkerSession
     ngi = DATA / "ngi"
@@ -129,7 +129,7 @@ def bench_preview(n_gcps: int, calls: int, models: list[str], tmp: Path) -> dict
 
 
 def bench_propose() -> dict:
-    from fotogeo.tools.gcp_propose import propose_gcps
+    from fotogeo.tools.gcp.propose import propose_gcps
     ngi = DATA / "ngi"
     out = {}
     for label, dem in (("with_dem", str(ngi / "dem.tif")), ("without_dem", None)):

@@ -12,7 +12,7 @@ centred), each pixel area-sampled (8x8), blurred by a Gaussian PSF (σ 0.5 px), 
 targets bright (200) on a dark plate (50), quantised to 8 bits; at three image scales (the arm 2 mm wide
 is 2, 3 and 4 px: the paper's CCD frame of ~512 px across the plate is about the first one) and two
 noise levels. The targets are measured with ``measure-targets``
-(:func:`fotogeo.tools.targets.measure_targets`, from approximations off by up to ±2 px, LSM window
+(:func:`fotogeo.tools.points.targets.measure_targets`, from approximations off by up to ±2 px, LSM window
 ``2h+1`` with ``h`` the arms' reach along x and y), and the edge method alone (step 1 of the same
 measurement) beside it. Per case: targets measured, RMS error against the rendered truth (x, y; px), the
 largest error, and the RMS residuals of the affine fitted to all measured targets (what the paper
@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 
 from fotogeo.matching import measure_target  # noqa: E402
 from fotogeo.models import Affine  # noqa: E402
-from fotogeo.tools.targets import measure_targets  # noqa: E402
+from fotogeo.tools.points.targets import measure_targets  # noqa: E402
 
 ROWS, COLS, SPACING_MM, ARM_MM, WIDTH_MM = 10, 15, 30.0, 14.0, 2.0
 #: paper (Büyüksalih), affine RMSE mx / my: SUBPIX on the CCD and on the thermal image, MSDPW by hand

@@ -3,7 +3,7 @@
 Run:  .venv/bin/python benchmarks/register_bench.py [--quick] [--no-otb] [--no-big]
 
 Every method goes through the SAME RANSAC, robust fit, check-point hold-out, geo step,
-resampling and outputs of :func:`fotogeo.tools.register.register` (seed 0, default options unless
+resampling and outputs of :func:`fotogeo.tools.register.tool.register` (seed 0, default options unless
 the case says otherwise):
 
 - ``surf`` — fotogeo's default pipeline (``register(ref, tgt, out)``);
@@ -23,7 +23,7 @@ the case says otherwise):
 Pairs: NGI frames 0182 / 0184 -> orthophoto tiles 1 / 2 (truth = camera + exterior orientation
 + DEM, ``truth_points`` of tests/ngi_truth.py); Sentinel-2 (10 m) -> NGI orthophoto 1
 (5 m); s2_pair (two dates, nodata 0, affine); Landsat RGB under the known synthetic warp of
-tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.tools.demo``).
+tests/test_register.py (exact truth); the synthetic demo scene (``fotogeo.tools.demo.tool``).
 
 Reported per pair and method: keypoints (reference/target), descriptor matches, inliers,
 check-point RMSE (m and reference px), for cases with truth the dense-grid RMSE of the fitted
@@ -97,7 +97,7 @@ def make_landsat_pair(folder: Path):
 
 
 def build_cases(tmp: Path, quick: bool):
-    from fotogeo.tools.demo import make_scene
+    from fotogeo.tools.demo.tool import make_scene
     ngi = DATA / "ngi"
     cases = []
     for key, (name, ortho) in NGI_FRAMES.items():
@@ -167,11 +167,11 @@ class Truth:
             self.grid = np.column_stack([x.ravel(), y.ravel()]) * 10
             self.truth = self(self.grid)
         elif self.kind == "demo":
-            from fotogeo.tools.demo import make_scene
+            from fotogeo.tools.demo.tool import make_scene
             from fotogeo.pixels import pixel_centres
             self.scene = make_scene(tmp / "demo_truth", seed=t["seed"])
             self.crs = "EPSG:32635"
-            x, y = pixel_centres(90, 70)  # as fotogeo.tools.demo.truth_comparison (step 10)
+            x, y = pixel_centres(90, 70)  # as fotogeo.tools.demo.tool.truth_comparison (step 10)
             grid = np.column_stack([x.ravel(), y.ravel()]) * 10
             truth = self(grid)
             ok = np.isfinite(truth).all(axis=1)
@@ -234,7 +234,7 @@ def matching_image(info, role, opts):
     """The single-band image and validity mask register's matching step hands to the detector,
     and the decimation factor: fotogeo's own ``_features`` runs with ``detect`` intercepted (so the
     benchmark follows any change of the read / fusion / contrast steps)."""
-    import fotogeo.tools.match as fr
+    import fotogeo.tools.register.match as fr
     from fotogeo.progress import as_progress
     from fotogeo.features.detect import Keypoints
     seen = {}
@@ -309,8 +309,8 @@ def worker(spec_path: str):
     import cv2  # noqa: F401 - imports first, so that the baseline memory includes them
     import rasterio  # noqa: F401
     from fotogeo.errors import FotogeoError
-    from fotogeo.tools.register import RegisterOptions, register
-    from fotogeo.tools.match import find_tie_points
+    from fotogeo.tools.register.tool import RegisterOptions, register
+    from fotogeo.tools.register.match import find_tie_points
     from fotogeo.io.raster import open_raster
     work = Path(spec["work"])
     method = spec["method"]

@@ -73,7 +73,7 @@ from known_warps import IMAGES, WARPS, known_warp  # noqa: E402 - tests/known_wa
 def run_register(reference, target, tmp: Path, options: dict, repeat: int):
     """``(registration, best total seconds, error)`` of ``repeat`` runs with ``options``."""
     from fotogeo.errors import FotogeoError
-    from fotogeo.tools.register import register
+    from fotogeo.tools.register.tool import register
     best, r = None, None
     for k in range(repeat):
         out = tmp / f"out_{k}.tif"

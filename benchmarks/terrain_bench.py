@@ -30,7 +30,7 @@ from ngi_truth import FRAMES, truth_points  # noqa: E402
 
 from fotogeo.crs import transform_points  # noqa: E402
 from fotogeo.models import Projective  # noqa: E402
-from fotogeo.tools.register import register  # noqa: E402
+from fotogeo.tools.register.tool import register  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 #: the CRS of ngi_truth.truth_points (its default); the output's map coordinates are compared in it

@@ -45,7 +45,7 @@ from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
 from fotogeo.orientation.bundle_quality import frame_quality, undetermined_frames
-from fotogeo.tools.dask_cluster import connect
+from fotogeo.tools.common.dask_cluster import connect
 from fotogeo.tools.triangulate import match as tri_match
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))

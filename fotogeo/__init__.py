@@ -76,13 +76,13 @@ from .errors import (  # noqa: F401
 __version__ = "0.1.0"
 
 #: public tool functions: name -> module under fotogeo.tools
-_TOOLS = {"register": "register", "match_images": "match", "orient": "orient", "compare_models": "compare",
-          "fuse_raster": "fuse", "transfer_gcps": "transfer", "measure_targets": "targets",
-          "points_to_layer": "points", "layer_to_points": "points", "run_demo": "demo", "rpc_bias": "rpc_bias",
-          "register_batch": "batch", "triangulate": "triangulate", "interior": "interior",
-          "ortho": "ortho", "mosaic": "mosaic"}
+_TOOLS = {"register": "register.tool", "match_images": "register.match", "orient": "orient.tool",
+          "compare_models": "orient.compare", "fuse_raster": "register.fuse", "transfer_gcps": "points.transfer",
+          "measure_targets": "points.targets", "points_to_layer": "points.layers", "layer_to_points": "points.layers",
+          "run_demo": "demo.tool", "rpc_bias": "orient.rpc_bias", "register_batch": "register.batch",
+          "triangulate": "triangulate", "interior": "interior.tool", "ortho": "ortho.tool", "mosaic": "ortho.mosaic"}
 #: public classes loaded on first use: name -> module under fotogeo
-_CLASSES = {"Registration": "tools.results", "Orientation": "tools.results", "RegisterOptions": "options",
+_CLASSES = {"Registration": "tools.common.results", "Orientation": "tools.common.results", "RegisterOptions": "options",
             "Georeference": "geometry.georeference"}
 
 __all__ = ["__version__", "FotogeoError", "FotogeoWarning", "InputError", "RasterError", "VectorError",

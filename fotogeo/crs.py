@@ -199,3 +199,12 @@ def check_lonlat_range(crs: CRS, xy, what: str):
         raise InputError(f"{what} are labelled {_name(crs)} (degrees) but their coordinates reach "
                          f"({np.abs(p[:, 0]).max():.6g}, {np.abs(p[:, 1]).max():.6g}), which are not longitudes and "
                          f"latitudes — probably metres: give their real CRS (e.g. the UTM zone, EPSG:326zz)")
+
+
+def crs_summary(text: str) -> str:
+    """A CRS given as text (WKT, EPSG code …) in one short phrase for reports (:func:`short_name`; never a
+    whole WKT); the text's first 60 characters when it does not parse."""
+    try:
+        return short_name(parse_crs(text, "CRS"))
+    except Exception:  # noqa: BLE001 - a summary, never a failure
+        return str(text)[:60]

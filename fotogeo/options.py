@@ -41,7 +41,7 @@ ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dl
                       "rfm-common-plain", "rfm-i2g", "rfm-plain", "rfm-plain-i2g", "rfm-poly", "rfm-poly-i2g",
                       "rfm-poly-plain", "similarity")
 #: tie-point refinement: ``auto`` = ``lsm`` for the 2-D registration, ``none`` with a DEM
-#: (fotogeo.tools.register_points.refine_mode)
+#: (fotogeo.tools.register.points.refine_mode)
 REFINES = ("none", "lsm", "auto")
 POLARITIES = ("auto", "bright", "dark")
 SPREADS = ("homogeneous", "heterogeneous")
@@ -73,7 +73,7 @@ EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration 
                       advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
 #: the planimetric σ raster beside each orthophoto (``fotogeo ortho`` and ``triangulate --orthorectify``) and the
-#: DEM's height σ it adds (fotogeo.tools.ortho_products)
+#: DEM's height σ it adds (fotogeo.tools.ortho.products)
 UNCERTAINTY = Option("uncertainty", "bool", False,
                      "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
                      "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
@@ -82,7 +82,7 @@ DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the unc
                    "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
                    exclusive_minimum=True, automatic=0.0, advanced=True)
 YAML = "YAML (*.yaml *.yml)"
-#: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.batch._cluster)
+#: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.register.batch._cluster)
 SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
                    "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine].")
 WORKERS = Option("workers", "int", None, "Local Dask workers (0 = one per CPU)", "Workers of the local cluster [one "
@@ -360,7 +360,7 @@ RegisterOptions = make_dataclass(
                          field(default=o.default))
                         for o in REGISTER.values()],
     frozen=True, namespace={"validate": _validate,
-                            "__doc__": "Parameters of :func:`fotogeo.tools.register.register` (declared in "
+                            "__doc__": "Parameters of :func:`fotogeo.tools.register.tool.register` (declared in "
                                        ":data:`fotogeo.options.REGISTER`; CLI flags of the same names)."})
 RegisterOptions.__module__ = __name__
 

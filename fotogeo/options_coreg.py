@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .options import COREG_REPRESENTATIONS, RESAMPLINGS, SEED, Option, Table
 
-#: area-based co-registration (``fotogeo.tools.coreg.coregister``): the grid of windows, the
+#: area-based co-registration (``fotogeo.tools.coreg.tool.coregister``): the grid of windows, the
 #: matching, the outlier filters and the field (see :mod:`fotogeo.coreg`)
 COREG = Table(
     Option("grid_spacing", "int", 64, "Window grid spacing (target pixels)",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .options import Option, Table
 
-#: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior)
+#: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior.tool)
 INTERIOR = Table(
     Option("model", "choice", "affine", "Pixel -> photo transform", "Pixel -> photo-coordinate transform: affine (>= 3 "
            "marks) or projective (>= 4).", choices=("affine", "projective")),

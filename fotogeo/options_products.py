@@ -5,7 +5,7 @@ from __future__ import annotations
 from .options import (DEM_HEIGHTS, DEM_SIGMA, REGISTER_BATCH, RESAMPLING, UNCERTAINTY, YAML, Option,  # noqa: F401
                       Table)
 
-#: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho)
+#: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho.tool)
 ORTHO = Table(
     Option("dem", "raster", None, "DEM or DSM (heights of the output cells)",
            "DEM, or DSM for occlusion masking: the height of every output cell (bilinear)."),
@@ -47,7 +47,7 @@ ORTHO = Table(
            "Also write <orthophoto>_view.tif: band 1 the off-nadir angle of the line of sight (degrees), band 2 the "
            "distance from the ground to the projection centre (m; frames only)."),
 )
-#: orthophoto mosaics (``fotogeo mosaic``, fotogeo.tools.mosaic)
+#: orthophoto mosaics (``fotogeo mosaic``, fotogeo.tools.ortho.mosaic)
 MOSAIC = Table(
     Option("feather", "float", None, "Feather width across seams (map units; 0 = automatic)",
            "Width of the blending ramp across each seamline, in map units [16 pixels or two seam cells].",

@@ -1,5 +1,5 @@
 """The bad input files of the bad-input matrix (:mod:`test_bad_input`, :mod:`test_qgis_bad_input`), written
-beside a small synthetic scene (:func:`fotogeo.tools.demo.make_scene`), and their fingerprints."""
+beside a small synthetic scene (:func:`fotogeo.tools.demo.tool.make_scene`), and their fingerprints."""
 from __future__ import annotations
 
 import hashlib

@@ -65,7 +65,7 @@ def true_field(E, x, y, iterations: int = 60):
 def misregistration(reference, raster, spacing: int = 32, window: int = 64) -> dict:
     """The shifts (px) a grid of windows measures between ``reference`` and ``raster``, nothing corrected:
     ``coregister``'s ``before`` (n, median, rms, ce90 ...)."""
-    from fotogeo.tools.coreg import coregister
+    from fotogeo.tools.coreg.tool import coregister
     return coregister(reference, raster, None, grid_spacing=spacing, window=window, iterations=1)["before"]
 
 

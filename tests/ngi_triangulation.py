@@ -83,7 +83,7 @@ def orientation_errors(eo, true) -> dict:
 
 def registered(ngi, name, model):
     """The single-frame terrain-aware registration of a frame to its orthophoto (``fotogeo register --dem``)."""
-    from fotogeo.tools.register import register
+    from fotogeo.tools.register.tool import register
     with tempfile.TemporaryDirectory() as tmp:
         return register(ngi / "ortho" / ORTHO[name], ngi / "frames" / f"{name}.tif", Path(tmp) / "r.tif",
                         dem=ngi / "dem.tif", camera=ngi / "interior_orientation.yaml", model=model, seed=0)

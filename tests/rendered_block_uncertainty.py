@@ -30,7 +30,7 @@ from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
 from fotogeo.tools.triangulate.match import matched_observations
-from fotogeo.tools.triangulate.ortho import AdjustedFrame
+from fotogeo.orientation.adjusted_frame import AdjustedFrame
 from fotogeo.tools.triangulate.outputs import report
 from rendered_block_ties import with_ties, write_frames
 

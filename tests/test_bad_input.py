@@ -3,7 +3,7 @@
 Each case asserts the promise of issue 12: exit code 2 (or the FotogeoError the Python API
 raises), one ``Error: ...`` line naming the problem (no traceback, no WKT), nothing left in
 the output folder, and the inputs untouched (same sha256, no new side files such as
-``.aux.xml``). The inputs are a small synthetic scene (:func:`fotogeo.tools.demo.make_scene`)
+``.aux.xml``). The inputs are a small synthetic scene (:func:`fotogeo.tools.demo.tool.make_scene`)
 and bad files written beside it once per module.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ from click.testing import CliRunner
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import FotogeoError, InputError, OutputError, VectorError
-from fotogeo.tools.demo import make_scene
+from fotogeo.tools.demo.tool import make_scene
 from bad_input_files import _snapshot, _write_bad_inputs, write_round_two_inputs
 
 
@@ -244,7 +244,7 @@ def _failing_json(error):
     (errno.EROFS, OutputError, "permission denied"),
 ])
 def test_write_fault_names_the_final_output(env, out, monkeypatch, code, kind, expected):
-    import fotogeo.tools.orient as orient_tool
+    import fotogeo.tools.orient.tool as orient_tool
     monkeypatch.setattr(orient_tool, "write_json",
                         _failing_json(lambda p: OSError(code, os.strerror(code), str(p))))
     with pytest.raises(kind) as info:
@@ -254,7 +254,7 @@ def test_write_fault_names_the_final_output(env, out, monkeypatch, code, kind, e
 
 
 def test_cli_disk_full_message(env, out, monkeypatch):
-    import fotogeo.tools.orient as orient_tool
+    import fotogeo.tools.orient.tool as orient_tool
     monkeypatch.setattr(orient_tool, "write_json",
                         _failing_json(lambda p: OSError(errno.ENOSPC, "No space left on device", str(p))))
     result = CliRunner().invoke(main, ["orient", str(env["dir"] / "target.tif"), str(env["dir"] / "gcps.gpkg"),
@@ -296,7 +296,7 @@ def test_real_disk_full(env, full_disk, args, output):
 # -- warnings on success: one line each ------------------------------------------------------------------------
 
 def test_cli_prints_library_warnings_as_one_line(env, out, monkeypatch):
-    import fotogeo.tools.fuse as fuse_tool
+    import fotogeo.tools.register.fuse as fuse_tool
     real = fuse_tool.pca_fuse
 
     def noisy(*args, **kwargs):
@@ -315,7 +315,7 @@ def test_cli_says_library_warnings_in_fotogeo_words(env, out, monkeypatch):
     """numpy's and rasterio's notes (issue 24) are silenced or translated; fotogeo's own pass as they are."""
     from rasterio.errors import NodataShadowWarning, NotGeoreferencedWarning
 
-    import fotogeo.tools.fuse as fuse_tool
+    import fotogeo.tools.register.fuse as fuse_tool
     from fotogeo.errors import IllPosedWarning
     real = fuse_tool.pca_fuse
 

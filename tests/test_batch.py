@@ -20,7 +20,7 @@ import coreg_scenes as cs  # noqa: E402
 from batch_scenes import make_scene, make_unmatchable, model_error_px  # noqa: E402
 from fotogeo.errors import InputError  # noqa: E402
 from fotogeo.io.manifest import read_csv  # noqa: E402
-from fotogeo.tools.batch import register_batch  # noqa: E402
+from fotogeo.tools.register.batch import register_batch  # noqa: E402
 
 SIZE = 320
 OPTIONS = {"detector": "sift", "max_keypoints": 2000, "dst_crs": "EPSG:32618"}

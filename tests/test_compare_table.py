@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from fotogeo.cli import main
 from fotogeo.errors import InputError
 from fotogeo.orientation.comparison import compare, parse_counts
-from fotogeo.tools.compare import compare_models
+from fotogeo.tools.orient.compare import compare_models
 
 W, H = 900, 800
 

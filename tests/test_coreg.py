@@ -1,4 +1,4 @@
-"""Area-based co-registration (fotogeo.coreg, fotogeo.tools.coreg): known fields removed,
+"""Area-based co-registration (fotogeo.coreg, fotogeo.tools.coreg.tool): known fields removed,
 seasonal and multi-sensor pairs registered, bad input refused in one line.
 
 Scenes with a known field come from tests/coreg_scenes.py: ``target(q) = source(q + E(q))``
@@ -18,7 +18,7 @@ from fotogeo.coreg import (ArraySource, CoregOptions, coregister_strips, fit_fie
                            phase_correlate, represent, window_grid)
 from fotogeo.errors import Cancelled, InputError, MatchingError, OutputError
 from fotogeo.models import get_model
-from fotogeo.tools.coreg import coregister
+from fotogeo.tools.coreg.tool import coregister
 
 
 def _read_field(path):

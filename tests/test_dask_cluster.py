@@ -1,8 +1,8 @@
-"""The one local Dask cluster (:func:`fotogeo.tools.dask_cluster.connect`) that register-batch, mosaic and
+"""The one local Dask cluster (:func:`fotogeo.tools.common.dask_cluster.connect`) that register-batch, mosaic and
 triangulate run their tasks on."""
 import pytest
 
-from fotogeo.tools.dask_cluster import SINGLE_THREAD_ENV, WORKER_MALLOC_ENV, connect
+from fotogeo.tools.common.dask_cluster import SINGLE_THREAD_ENV, WORKER_MALLOC_ENV, connect
 
 
 def _worker_environment():

@@ -3,8 +3,8 @@ then a rendered aerial block, triangulated and checked against its truth."""
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.tools.demo import run_demo
-from fotogeo.tools.demo_block import FRAMES_DIR, OUTPUT_DIR
+from fotogeo.tools.demo.tool import run_demo
+from fotogeo.tools.demo.block import FRAMES_DIR, OUTPUT_DIR
 
 from auto_choice import assert_auto_choice
 

@@ -1,11 +1,11 @@
-"""The GCP picker's gcp_list.txt tools (fotogeo.tools.gcp_files): fotogeo's own reader and writer, JSON rows."""
+"""The GCP picker's gcp_list.txt tools (fotogeo.tools.gcp.files): fotogeo's own reader and writer, JSON rows."""
 from __future__ import annotations
 
 import pytest
 
 from fotogeo.errors import InputError
 from fotogeo.io.block import read_gcp_list
-from fotogeo.tools.gcp_files import read_image_gcps, write_image_gcps
+from fotogeo.tools.gcp.files import read_image_gcps, write_image_gcps
 
 TMERC = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m +no_defs"
 ROWS = [{"id": "a", "col": 10.5, "row": 20.25, "x": -55000.125, "y": -3727000.5, "z": 512.25, "role": "control"},

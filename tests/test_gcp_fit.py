@@ -1,4 +1,4 @@
-"""The GCP picker's refit (fotogeo.tools.gcp_fit.fit_gcps): the same residuals and RMS as
+"""The GCP picker's refit (fotogeo.tools.gcp.fit.fit_gcps): the same residuals and RMS as
 ``fotogeo orient`` on the same points, heights from the field / DEM / a constant, data-snooping
 flags, "needs N more", a DEM that misses a point, and the prediction grids against the NGI
 frame's true geometry (tests/ngi_truth.py)."""
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from pyproj import CRS
 
-from fotogeo.tools.gcp_fit import NO_DEM_HEIGHT, fit_gcps
-from fotogeo.tools.orient import orient
+from fotogeo.tools.gcp.fit import NO_DEM_HEIGHT, fit_gcps
+from fotogeo.tools.orient.tool import orient
 from ngi_truth import FRAMES, truth_points
 
 MAP_CRS = "EPSG:32735"

@@ -1,4 +1,4 @@
-"""The GCP picker's live preview (fotogeo.tools.gcp_preview.preview_warp): an affine case against the exact
+"""The GCP picker's live preview (fotogeo.tools.gcp.preview.preview_warp): an affine case against the exact
 inverse mapping, transparency where the image does not reach, "needs N more", and the NGI frame warped with
 DLT on the DEM against its orthophoto (the right GCPs agree with it, shifted GCPs do not)."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 import rasterio
 from test_gcp_fit import FRAME, MAP_CRS, ngi, pick, truth  # noqa: F401 - fixtures
 
-from fotogeo.tools.gcp_preview import output_size, preview_warp
+from fotogeo.tools.gcp.preview import output_size, preview_warp
 
 
 def affine_case(tmp_path):

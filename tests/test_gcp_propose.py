@@ -1,4 +1,4 @@
-"""GCP proposals (fotogeo.tools.gcp_propose): the NGI frame 0182 against its orthophoto, through the
+"""GCP proposals (fotogeo.tools.gcp.propose): the NGI frame 0182 against its orthophoto, through the
 worker as the QGIS dock runs it; accepted candidates give a DLT whose check RMS is below 1 px."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 import rasterio
 from pyproj import CRS
 
-from fotogeo.tools.gcp_propose import grid_shape, image_cells, spread_best
+from fotogeo.tools.gcp.propose import grid_shape, image_cells, spread_best
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAME = "3324c_2015_1004_05_0182"
@@ -40,7 +40,7 @@ def test_proposals_on_the_ngi_frame_give_a_dlt_below_one_pixel(data_dir):
     from fotogeo.crs import transform_points
     from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
-    from fotogeo.tools.gcp_fit import fit_gcps
+    from fotogeo.tools.gcp.fit import fit_gcps
     ngi = data_dir / "ngi"
     image, dem = ngi / "frames" / f"{FRAME}_RGB.tif", ngi / "dem.tif"
     answer = run_worker({"tool": "propose_gcps", "args": [str(image), str(ngi / "ortho" / "ngi_rgb_byte_1.tif")],
@@ -67,7 +67,7 @@ def test_proposals_on_the_ngi_frame_give_a_dlt_below_one_pixel(data_dir):
 
 def test_bad_input(tmp_path, data_dir):
     from fotogeo.errors import InputError
-    from fotogeo.tools.gcp_propose import propose_gcps
+    from fotogeo.tools.gcp.propose import propose_gcps
     plain = tmp_path / "plain.tif"
     with rasterio.open(plain, "w", driver="GTiff", width=64, height=64, count=1, dtype="uint8") as ds:
         ds.write(np.zeros((1, 64, 64), np.uint8))
@@ -84,7 +84,7 @@ def test_proposals_without_a_dem_use_the_planar_robust_fit(data_dir):
     from fotogeo.crs import transform_points
     from fotogeo.io.raster import read_dem
     from fotogeo.io.camera import load_ngi_frame
-    from fotogeo.tools.gcp_propose import propose_gcps
+    from fotogeo.tools.gcp.propose import propose_gcps
     ngi = data_dir / "ngi"
     out = propose_gcps(ngi / "frames" / f"{FRAME}_RGB.tif", ngi / "ortho" / "ngi_rgb_byte_1.tif", count=12)
     assert out["model"] == "projective" and len(out["candidates"]) == 12 and "z" not in out["candidates"][0]

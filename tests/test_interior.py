@@ -17,7 +17,7 @@ from fotogeo.errors import InputError
 from fotogeo.io.camera import load_camera
 from fotogeo.io.interior_json import read_interior
 from fotogeo.matching.targets import measure_target
-from fotogeo.tools.interior import interior
+from fotogeo.tools.interior.tool import interior
 from film_scans import CORNERS, RC_LIKE, RMK_LIKE, render_scan, report_yaml
 
 PIXEL_UM = 150.0

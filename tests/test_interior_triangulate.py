@@ -19,7 +19,7 @@ import rasterio
 from scipy.spatial.transform import Rotation
 
 from fotogeo.io.camera import load_camera, read_exterior_orientation
-from fotogeo.tools.interior import interior
+from fotogeo.tools.interior.tool import interior
 from fotogeo.tools.triangulate import triangulate
 from film_scans import RC_LIKE, render_scan, report_yaml
 from ngi_triangulation import NAMES

@@ -45,6 +45,6 @@ def test_the_checker_sees_a_lazy_upward_import(tmp_path):
     """The AST reader finds an import inside a function, relative or absolute (the old ``Dem.open``)."""
     fake = tmp_path / "fotogeo" / "geometry" / "x.py"
     fake.parent.mkdir(parents=True)
-    fake.write_text("def f():\n    from ..io.raster import read_dem\n    import fotogeo.tools.rectify\n"
+    fake.write_text("def f():\n    from ..io.raster import read_dem\n    import fotogeo.tools.orient.rectify\n"
                     "    from . import camera\n")
     assert _imported(fake, tmp_path / "fotogeo") == {"io", "tools", "geometry"}

@@ -8,8 +8,8 @@ from click.testing import CliRunner
 from fotogeo.cli import main
 from synthetic_images import x_target_scene
 from fotogeo.errors import OutputError, VectorError
-from fotogeo.tools.targets import measure_targets
-from fotogeo.tools.transfer import transfer_gcps
+from fotogeo.tools.points.targets import measure_targets
+from fotogeo.tools.points.transfer import transfer_gcps
 
 
 def _write(path, img):

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 from fotogeo.options import GCP, ORIENT, REGISTER, REGISTER_TERRAIN, in_labels
-from fotogeo.tools.match import HINT
-from fotogeo.tools.register_report import hint_lines
+from fotogeo.tools.register.match import HINT
+from fotogeo.tools.register.report import hint_lines
 
 
 def test_every_flag_of_the_register_hint_becomes_its_label():

@@ -10,7 +10,7 @@ from affine import Affine
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.tools.mosaic import mosaic
+from fotogeo.tools.ortho.mosaic import mosaic
 from test_bad_input import assert_one_line_error
 
 X0, Y1 = 500000.0, 4400000.0
@@ -126,7 +126,7 @@ def test_ngi_frames_mosaic_on_the_orthophoto(data_dir, tmp_path):
     import cv2
     from rasterio.warp import Resampling, reproject
 
-    from fotogeo.tools.ortho import ortho
+    from fotogeo.tools.ortho.tool import ortho
     ngi = data_dir / "ngi"
     frames = sorted(str(p) for p in (ngi / "frames").glob("*.tif"))
     ortho(frames, str(tmp_path / "orthos"), dem=str(ngi / "dem.tif"), camera=str(ngi / "interior_orientation.yaml"),
@@ -171,7 +171,7 @@ def test_tiles_assemble_into_one_cog(tmp_path, monkeypatch):
     """Twelve orthophotos in a 3 x 4 grid: the mosaic written in 128-pixel tiles (VRT -> COG) equals the one written
     in a single tile; only neighbours are compared (29 overlapping pairs of 66: 9 + 8 side by side, 12 diagonal),
     every image keeps a region, and the COG is tiled with overviews."""
-    import fotogeo.tools.mosaic_tiles as mt
+    import fotogeo.tools.ortho.mosaic_tiles as mt
     paths = _grid_of_orthos(tmp_path)
     one = mosaic(paths, str(tmp_path / "one.tif"))
     monkeypatch.setattr(mt, "TILE", 128)
@@ -188,7 +188,7 @@ def test_tiles_assemble_into_one_cog(tmp_path, monkeypatch):
 def test_tiles_on_a_local_dask_cluster(tmp_path, monkeypatch):
     """``workers=1``: the tiles run on a local Dask cluster (register-batch's mechanism) and give the same mosaic."""
     pytest.importorskip("distributed", reason="Dask (fotogeo[batch]) is not installed")
-    import fotogeo.tools.mosaic_tiles as mt
+    import fotogeo.tools.ortho.mosaic_tiles as mt
     paths = _grid_of_orthos(tmp_path, rows=2, cols=2)
     monkeypatch.setattr(mt, "TILE", 128)
     threads = mosaic(paths, str(tmp_path / "threads.tif"))
@@ -224,7 +224,7 @@ def rendered_block_mosaic(folder):
     from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
     from fotogeo.orientation.block_render import ground_texture, render_block
     from fotogeo.orientation.block_simulation import simulate_block
-    from fotogeo.tools.ortho import ortho
+    from fotogeo.tools.ortho.tool import ortho
     from rendered_block_ties import write_frames
     sb = simulate_block(seed=1, strips=2, frames_per_strip=3, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
                         point_spacing=80.0, blunder_fraction=0.0, margin=5.0)

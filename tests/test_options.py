@@ -32,7 +32,7 @@ def test_imports_only_the_standard_library():
 
 
 def test_register_options_are_the_table():
-    from fotogeo.tools.register import RegisterOptions
+    from fotogeo.tools.register.tool import RegisterOptions
     assert RegisterOptions is fo.RegisterOptions
     f = dataclasses.fields(RegisterOptions)
     assert [x.name for x in f] == list(fo.REGISTER)
@@ -82,7 +82,7 @@ def test_choice_lists_are_defined_once():
     from fotogeo.image import contrast
     from fotogeo.io import warp
     from fotogeo.orientation import terrain
-    from fotogeo.tools import register
+    from fotogeo.tools.register import tool as register
     assert detect.DETECTORS is fo.DETECTORS and contrast.CONTRASTS is fo.CONTRASTS
     assert terrain.TERRAIN_MODELS is fo.TERRAIN_MODELS and register.PLANAR_MODELS is fo.PLANAR_MODELS
     assert tuple(warp.RESAMPLING) == fo.RESAMPLINGS
@@ -119,21 +119,21 @@ def test_declaration_errors():
 
 #: tool -> (option tables, keyword-only arguments knowingly not options: outputs, internals)
 TOOLS = {
-    "tools.register.register": ((fo.REGISTER_TERRAIN,), {"vectors", "field", "report", "options", "tie_points"}),
-    "tools.orient.orient": ((fo.ORIENT, fo.GCP), {"report", "vectors", "plot", "points", "rpc", "gcp_tiff",
+    "tools.register.tool.register": ((fo.REGISTER_TERRAIN,), {"vectors", "field", "report", "options", "tie_points"}),
+    "tools.orient.tool.orient": ((fo.ORIENT, fo.GCP), {"report", "vectors", "plot", "points", "rpc", "gcp_tiff",
                                                   "rectify"}),
-    "tools.compare.compare_models": ((fo.COMPARE, fo.GCP), {"table", "markdown", "html", "plots"}),
-    "tools.fuse.fuse_raster": ((fo.FUSE,), {"sample_pixels", "block_rows"}),
-    "tools.transfer.transfer_gcps": ((fo.TRANSFER,), set()),
-    "tools.targets.measure_targets": ((fo.TARGETS,), set()),
-    "tools.points.points_to_layer": ((fo.POINTS_TO_LAYER,), {"layer"}),
-    "tools.points.layer_to_points": ((fo.LAYER_TO_POINTS,), {"layer"}),
-    "tools.demo.run_demo": ((fo.DEMO,), set()),
-    "tools.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
+    "tools.orient.compare.compare_models": ((fo.COMPARE, fo.GCP), {"table", "markdown", "html", "plots"}),
+    "tools.register.fuse.fuse_raster": ((fo.FUSE,), {"sample_pixels", "block_rows"}),
+    "tools.points.transfer.transfer_gcps": ((fo.TRANSFER,), set()),
+    "tools.points.targets.measure_targets": ((fo.TARGETS,), set()),
+    "tools.points.layers.points_to_layer": ((fo.POINTS_TO_LAYER,), {"layer"}),
+    "tools.points.layers.layer_to_points": ((fo.LAYER_TO_POINTS,), {"layer"}),
+    "tools.demo.tool.run_demo": ((fo.DEMO,), set()),
+    "tools.orient.rpc_bias.rpc_bias": ((fo.RPC_BIAS,), {"report"}),
     "tools.triangulate.triangulate": ((fo.TRIANGULATE,), {"gcps", "reference"}),
-    "tools.coreg.coregister": ((COREG,), {"shifts", "field", "report"}),
-    "tools.ortho.ortho": ((ORTHO,), set()),
-    "tools.mosaic.mosaic": ((MOSAIC,), {"seamlines"}),
+    "tools.coreg.tool.coregister": ((COREG,), {"shifts", "field", "report"}),
+    "tools.ortho.tool.ortho": ((ORTHO,), set()),
+    "tools.ortho.mosaic.mosaic": ((MOSAIC,), {"seamlines"}),
 }
 
 

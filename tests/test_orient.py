@@ -13,8 +13,8 @@ from fotogeo.cli import main
 from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError, ModelError, VectorError
 from fotogeo.orientation.simulation import make_gcps
-from fotogeo.tools.compare import compare_models
-from fotogeo.tools.orient import orient
+from fotogeo.tools.orient.compare import compare_models
+from fotogeo.tools.orient.tool import orient
 
 NAME = "3324c_2015_1004_05_0182"
 

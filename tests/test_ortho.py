@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 import box_scene as bs
 from fotogeo.cli import main
-from fotogeo.tools.ortho import ortho
+from fotogeo.tools.ortho.tool import ortho
 from test_bad_input import assert_one_line_error
 
 
@@ -102,8 +102,8 @@ def test_grid_paths_equal_the_general_ones(scene):
 
     from fotogeo.io.raster import read_dem
     from fotogeo.io.warp_gdal import centres_to_map
-    from fotogeo.tools.ortho import OrthoMapping
-    from fotogeo.tools.triangulate.ortho import AdjustedFrame
+    from fotogeo.tools.ortho.tool import OrthoMapping
+    from fotogeo.orientation.adjusted_frame import AdjustedFrame
     f = bs.frame()
     dem = read_dem(scene["dsm"])
     t = Affine(0.5, 0, bs.ORIGIN[0] - 100, 0, -0.5, bs.ORIGIN[1] + 100)
@@ -178,7 +178,7 @@ def test_dem_read_under_the_images_only(data_dir):
     """Only the DEM window under a frame is read (memory bounded by the frame's ground area), with the heights
     of the whole DEM there."""
     from fotogeo.io.raster import read_dem
-    from fotogeo.tools.ortho_inputs import image_models, map_crs, read_dem_under
+    from fotogeo.tools.ortho.inputs import image_models, map_crs, read_dem_under
     ngi = data_dir / "ngi"
     frame = str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif")
     crs, _ = map_crs("auto", str(ngi / "dem.tif"), str(ngi / "exterior_orientation.txt"), [frame], False)
@@ -201,7 +201,7 @@ def test_qb2_rpc_against_gdal_transformer(data_dir, tmp_path):
     with pytest.raises(InputError, match="geoid heights but the RPC needs ellipsoid heights"):
         ortho([str(img)], str(tmp_path / "x.tif"), dem=str(dem), rpc=True)
     assert not (tmp_path / "x.tif").exists()
-    from fotogeo.tools.ortho_inputs import image_models, map_crs, terrain
+    from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
     crs, _ = map_crs("auto", str(dem), None, [str(img)], True)
     ims = image_models([str(img)], crs, rpc=True)
     heights, ref, _ = terrain(str(dem), None, crs, ims, dem_heights="ellipsoid")
@@ -222,7 +222,7 @@ def test_geoid_heights_made_ellipsoidal(data_dir, tmp_path):
     lon/lat raster), and --geoid on a DEM said to be ellipsoidal is refused."""
     from affine import Affine
     from fotogeo.errors import InputError
-    from fotogeo.tools.ortho_inputs import image_models, map_crs, terrain
+    from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
     geoid = tmp_path / "n.tif"
     with rasterio.open(geoid, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32", crs="EPSG:4326",
                        transform=Affine(0.05, 0, 23.5, 0, -0.05, -32.7)) as ds:

@@ -11,8 +11,8 @@ import rasterio
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.tools.orient import orient
-from fotogeo.tools.ortho import ortho
+from fotogeo.tools.orient.tool import orient
+from fotogeo.tools.ortho.tool import ortho
 from test_bad_input import assert_one_line_error
 from test_ortho import _tile_shifts
 from test_orient import NAME, ngi_gcps  # noqa: F401 - the module fixture the GCPs come from

@@ -13,8 +13,8 @@ from fotogeo.orientation import bundle_jacobian as bj
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
 from fotogeo.orientation.ground_sigma import FrameCovariance, planimetric_covariance
-from fotogeo.tools.ortho import ortho
-from fotogeo.tools.triangulate.ortho import AdjustedFrame
+from fotogeo.tools.ortho.tool import ortho
+from fotogeo.orientation.adjusted_frame import AdjustedFrame
 from rendered_block_uncertainty import CRS, check_points, realisation, rms_ratio, sample_raster
 
 DEM_SIGMA = 1.0
@@ -183,7 +183,7 @@ def test_sigma_raster_lattice_equals_the_exact_propagation_per_cell():
 
     from fotogeo.geometry.dem import Dem
     from fotogeo.orientation.ground_sigma import planimetric_sigma
-    from fotogeo.tools.ortho_products import CellGeometry
+    from fotogeo.tools.ortho.products import CellGeometry
     sb = simulate_block(seed=1, blunder_fraction=0.0, strips=2, frames_per_strip=3)
     r = adjust_block(sb.block)
     e = r.eo[2]

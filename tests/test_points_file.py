@@ -6,7 +6,7 @@ import pytest
 
 from fotogeo.errors import InputError, OutputError, VectorError
 from fotogeo.io.points import HEADER, pixel_to_source, read_points, source_to_pixel, write_points
-from fotogeo.tools.points import layer_to_points, points_to_layer
+from fotogeo.tools.points.layers import layer_to_points, points_to_layer
 
 gpd = pytest.importorskip("geopandas")
 

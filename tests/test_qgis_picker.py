@@ -167,7 +167,7 @@ def test_prediction_follows_the_model(picked):
 
 
 def _orient(data_dir, gpkg, report):
-    from fotogeo.tools.orient import orient
+    from fotogeo.tools.orient.tool import orient
     orient(data_dir / FRAME, gpkg, model="dlt", dem=data_dir / "ngi" / "dem.tif", layer="gcps", report=report)
     return json.loads(Path(report).read_text())
 

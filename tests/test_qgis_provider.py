@@ -175,7 +175,7 @@ def test_parameters_read_back_as_the_tools_arguments(qgis_app):
 def test_pcafusion_same_as_the_tool(qgis_app, data_dir, tmp_path):
     import rasterio
 
-    from fotogeo.tools.fuse import fuse_raster
+    from fotogeo.tools.register.fuse import fuse_raster
     src = data_dir / LANDSAT
     fb = Recorder()
     out = tmp_path / "pc1.tif"
@@ -497,7 +497,7 @@ def test_demo_loads_styled_results(qgis_app, tmp_path):
     assert {"Demo reference", "Demo registered", "Demo tie points", "Demo error vectors"} <= set(layers)
     assert layers["Demo registered"].crs().authid() == "EPSG:32635"
     assert layers["Demo tie points"].renderer().type() == "categorizedSymbol"
-    if res["ORTHORECTIFIED"]:  # fotogeo.tools.demo also runs the terrain-aware registration with the scene's DEM
+    if res["ORTHORECTIFIED"]:  # fotogeo.tools.demo.tool also runs the terrain-aware registration with the scene's DEM
         assert res["TERRAIN_TRUTH_RMSE_M"] < res["TRUTH_RMSE_M"]
         assert layers["Demo orthorectified"].crs().authid() == "EPSG:32635"
     # the rendered aerial block, triangulated: check points near the noise level, its layers loaded
@@ -545,19 +545,19 @@ def test_register_in_a_background_task_and_cancel_it(qgis_app, data_dir, tmp_pat
 
 
 @pytest.mark.parametrize("alg_id, module, func, skip, rename", [
-    ("pcafusion", "tools.fuse", "fuse_raster", {"source", "output", "sample_pixels", "block_rows"},
+    ("pcafusion", "tools.register.fuse", "fuse_raster", {"source", "output", "sample_pixels", "block_rows"},
      {"source": "INPUT"}),
-    ("orient", "tools.orient", "orient", {"image", "gcps", "fields"}, {}),
-    ("comparemodels", "tools.compare", "compare_models", {"image", "gcps", "fields"}, {}),
-    ("transferpoints", "tools.transfer", "transfer_gcps", {"reference", "search", "points", "output"},
+    ("orient", "tools.orient.tool", "orient", {"image", "gcps", "fields"}, {}),
+    ("comparemodels", "tools.orient.compare", "compare_models", {"image", "gcps", "fields"}, {}),
+    ("transferpoints", "tools.points.transfer", "transfer_gcps", {"reference", "search", "points", "output"},
      {"ref_fields": "REF_COL_FIELD", "approx_fields": "COL_FIELD"}),
-    ("measuretargets", "tools.targets", "measure_targets", {"image", "points", "output"},
+    ("measuretargets", "tools.points.targets", "measure_targets", {"image", "points", "output"},
      {"approx_fields": "COL_FIELD"}),
-    ("register", "tools.register", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
+    ("register", "tools.register.tool", "register", {"reference", "target", "output", "options", "tie_points"}, {}),
     ("triangulate", "tools.triangulate", "triangulate", set(), {}),
-    ("interior", "tools.interior", "interior", {"scans", "camera_report", "output"}, {}),
-    ("ortho", "tools.ortho", "ortho", set(), {"dst_crs": "CRS"}),
-    ("mosaic", "tools.mosaic", "mosaic", set(), {}),
+    ("interior", "tools.interior.tool", "interior", {"scans", "camera_report", "output"}, {}),
+    ("ortho", "tools.ortho.tool", "ortho", set(), {"dst_crs": "CRS"}),
+    ("mosaic", "tools.ortho.mosaic", "mosaic", set(), {}),
 ])
 def test_every_tool_option_has_a_parameter(qgis_app, alg_id, module, func, skip, rename):
     """The tools grow options: each keyword of the tool is a parameter of its algorithm (or knowingly not)."""

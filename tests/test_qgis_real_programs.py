@@ -215,7 +215,7 @@ def test_qgis_process_itself_writes_statistics_beside_raster_inputs(config, tmp_
     """What QGIS does, not fotogeo (README, issue 24): qgis_process loads every raster parameter as a layer before
     the provider's code runs, and GDAL saves that layer's statistics as ``<input>.aux.xml`` beside the input;
     ``GDAL_PAM_ENABLED=NO`` in qgis_process's environment prevents it. fotogeo adds no other file."""
-    from fotogeo.tools.demo import make_scene
+    from fotogeo.tools.demo.tool import make_scene
     runs = {}
     for pam in ("YES", "NO"):
         folder = tmp_path / pam

@@ -8,7 +8,7 @@ import rasterio
 
 from fotogeo.errors import Cancelled, InputError, MatchingError, ModelError, OutputError, RasterError
 from fotogeo.pixels import pixel_centres, pixel_to_map
-from fotogeo.tools.register import register
+from fotogeo.tools.register.tool import register
 from synthetic_pair import apply_h, make_landsat_pair
 
 DETECTOR = "surf"

@@ -10,8 +10,8 @@ from click.testing import CliRunner
 
 from fotogeo.errors import FotogeoWarning, InputError
 from fotogeo.image.fusion import band_content, pca_fuse
-from fotogeo.tools.match import band_numbers, match_images, select_bands
-from fotogeo.tools.register import register
+from fotogeo.tools.register.match import band_numbers, match_images, select_bands
+from fotogeo.tools.register.tool import register
 from synthetic_pair import make_landsat_pair
 
 

@@ -1,5 +1,5 @@
 """Area-based matching inside the registration: tie points from windows when feature matching fails,
-and ``local``, the displacement field on top of the model (fotogeo.tools.register_local)."""
+and ``local``, the displacement field on top of the model (fotogeo.tools.register.local)."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,7 +11,7 @@ from click.testing import CliRunner
 import coreg_scenes as cs
 from fotogeo.cli import main
 from fotogeo.errors import InputError, MatchingError
-from fotogeo.tools.register import register
+from fotogeo.tools.register.tool import register
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from pyproj import CRS
 from fotogeo.crs import transform_points
 from fotogeo.models import Projective
 from fotogeo.pixels import pixel_centres
-from fotogeo.tools.register import register
+from fotogeo.tools.register.tool import register
 from ngi_truth import FRAMES, truth_points
 
 

@@ -7,8 +7,8 @@ import geopandas as gpd
 import numpy as np
 import pytest
 
-from fotogeo.tools.demo import make_scene
-from fotogeo.tools.register import register
+from fotogeo.tools.demo.tool import make_scene
+from fotogeo.tools.register.tool import register
 from known_warps import known_warp
 
 #: issue 19: the dense error of the fitted model against the exact warp, reference pixels

@@ -38,7 +38,7 @@ from fotogeo.models.robust import fit_tie_points
 from fotogeo.orientation import adjustment
 from fotogeo.pixels import map_to_pixel, pixel_to_map
 from fotogeo.progress import as_progress
-from fotogeo.tools.demo import make_scene
+from fotogeo.tools.demo.tool import make_scene
 
 SIZE, PIXEL, EPSG = 800, 6.0, 32635
 
@@ -325,7 +325,7 @@ def test_register_refuses_a_crs_that_is_not_a_map_in_metres(scene, tmp_path, crs
 def _forbid_matching(monkeypatch):
     """Make the registration's matching step fail loudly: a refusal that must come before it is checked
     by what ran, not by how long it took."""
-    import fotogeo.tools.register_points as register_points
+    import fotogeo.tools.register.points as register_points
 
     def matching(*args, **kwargs):
         raise AssertionError("the matching ran before the refusal")
@@ -410,7 +410,7 @@ def test_demo_refuses_to_overwrite_and_is_atomic(tmp_path, monkeypatch):
     code, err, _ = _cli(["demo", "-o", tmp_path / "a", "-q"])
     _one_error_line(code, err, "exists")
     assert [p.name for p in (tmp_path / "a").iterdir()] == ["registered.tif"]
-    import fotogeo.tools.register as reg
+    import fotogeo.tools.register.tool as reg
 
     def broken(*args, **kwargs):
         raise ModelError("simulated failure in the terrain-aware registration")

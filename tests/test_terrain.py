@@ -12,7 +12,7 @@ from fotogeo.io.raster import read_dem
 from fotogeo.errors import InputError, RasterError
 from fotogeo.crs import transform_points
 from fotogeo.pixels import pixel_centres, pixel_to_map, to_centre
-from fotogeo.tools.register import register
+from fotogeo.tools.register.tool import register
 from auto_choice import assert_auto_choice
 from ngi_truth import truth_points
 

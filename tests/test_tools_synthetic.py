@@ -1,6 +1,6 @@
 """Every tool on the embedded synthetic scene (no ../shared/data needed), against its known truth.
 
-The scene (:func:`fotogeo.tools.demo.make_scene`, small: an 800² orthophoto of 6 m pixels,
+The scene (:func:`fotogeo.tools.demo.tool.make_scene`, small: an 800² orthophoto of 6 m pixels,
 ±30 m of relief) is made once; a ground point's true target pixel is the scene's camera
 applied to the point on its DEM (``frame.world_to_pixel``), so no tolerance below hides a
 modelling shortcut. The tools are called through their public names on :mod:`fotogeo`.
@@ -25,7 +25,7 @@ from auto_choice import assert_auto_choice
 from fotogeo.matching import synthetic_x_target
 from fotogeo.models import Projective
 from fotogeo.pixels import map_to_pixel, pixel_centres, pixel_to_map, to_centre
-from fotogeo.tools.demo import make_scene
+from fotogeo.tools.demo.tool import make_scene
 
 #: orthophoto of 800 x 800 pixels of 6 m: 4.8 km, the whole target footprint with its DEM
 SIZE, PIXEL = 800, 6.0  # the target: 900 x 700 pixels of about 3.5 m

@@ -96,7 +96,7 @@ def test_triangulate_mosaics_its_orthophotos(data_dir, tmp_path):
 def test_a_failing_mosaic_keeps_the_adjustment_outputs(data_dir, tmp_path, monkeypatch):
     import json
 
-    import fotogeo.tools.mosaic as mosaic_tool
+    import fotogeo.tools.ortho.mosaic as mosaic_tool
     from fotogeo.errors import FotogeoError, FotogeoWarning
 
     def broken(*a, **k):

@@ -1,5 +1,5 @@
 """``fotogeo triangulate --orthorectify`` writes ``fotogeo ortho``'s orthophotos: the same code
-(:func:`fotogeo.tools.ortho.plan_grid`, :func:`fotogeo.tools.ortho.write_orthophoto`), so the same grid, pixels,
+(:func:`fotogeo.tools.ortho.tool.plan_grid`, :func:`fotogeo.tools.ortho.tool.write_orthophoto`), so the same grid, pixels,
 nodata, overviews and ``FOTOGEO_NADIR``; a frame partly off the DEM is clipped to it, as ortho clips."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import rasterio
 
 from fotogeo.errors import FotogeoWarning
 from fotogeo.io.camera import read_exterior_orientation
-from fotogeo.tools.ortho import ortho
+from fotogeo.tools.ortho.tool import ortho
 from fotogeo.tools.triangulate import triangulate
 
 from test_triangulate_ortho_sigma import RES, _triangulate, block  # noqa: F401 - block: the module's fixture

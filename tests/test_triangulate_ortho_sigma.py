@@ -12,7 +12,7 @@ from rasterio.windows import from_bounds
 
 from fotogeo.errors import FotogeoWarning, InputError
 from fotogeo.orientation.block_simulation import simulate_block
-from fotogeo.tools.ortho import ortho
+from fotogeo.tools.ortho.tool import ortho
 from fotogeo.tools.triangulate import triangulate
 
 from test_triangulate import CAMERA, write_block

@@ -11,7 +11,7 @@ from pyproj import CRS
 
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import adjust_block
-from fotogeo.tools.triangulate.ortho import AdjustedFrame
+from fotogeo.orientation.adjusted_frame import AdjustedFrame
 from fotogeo.tools.triangulate.outputs import block_layers, report
 from fotogeo.tools.triangulate.report import write_html
 from fotogeo.tools.triangulate.statistics import LARGEST

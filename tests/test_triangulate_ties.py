@@ -97,9 +97,9 @@ def test_a_frame_that_overlaps_no_other_is_still_named(rendered):
 
 
 def test_each_frame_is_detected_once_and_the_tie_points_stay_the_same(rendered, monkeypatch):
-    """The keypoint cache (fotogeo.tools.match.FeatureCache) changes the number of detections only:
+    """The keypoint cache (fotogeo.tools.register.match.FeatureCache) changes the number of detections only:
     matching every pair with fresh detections of both frames gives the same tracks and observations."""
-    import fotogeo.tools.match as match
+    import fotogeo.tools.register.match as match
     import fotogeo.tools.triangulate.match as triangulate_match
     sb, _, paths, height, *_ = rendered
     detections = []
@@ -123,7 +123,7 @@ def test_epipolar_ransac_sees_the_pixels_of_the_distortion_free_camera():
     of the same ground point in the pinhole camera; no distortion: no mapping (the RANSAC sees the pixels)."""
     from fotogeo.geometry.camera import ExteriorOrientation
     from fotogeo.tools.triangulate.match import ideal_pixels
-    from fotogeo.tools.triangulate.ortho import AdjustedFrame
+    from fotogeo.orientation.adjusted_frame import AdjustedFrame
     cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (321.5, 238.0))
     eo = ExteriorOrientation(0.0, 0.0, 80.0, 10.0, -5.0, 30.0)
     k = (-0.06, 0.02, 0.0, 0.0004, -0.0003)  # k1, k2, k3, p1, p2: ~14 px at the corners
@@ -146,7 +146,7 @@ def test_pairs_as_dask_tasks_give_the_same_tie_points(rendered):
 
     import cv2
 
-    from fotogeo.tools.batch import SINGLE_THREAD_ENV
+    from fotogeo.tools.register.batch import SINGLE_THREAD_ENV
     sb, _, paths, height, *_ = rendered
     local = block_tie_points(paths, sb.block.camera, sb.block.eo, height)
     env, threads = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}, cv2.getNumThreads()

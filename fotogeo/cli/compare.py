@@ -22,7 +22,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 def command(image, gcps, quiet, **kw):
     """Compare orientation models on control/check sets (random or the file's roles) at check points:
     the paper's Table 1 (Öztürk, Karşlı & Dihkan) for your GCPs."""
-    from ..tools.compare import compare_models, markdown_table
+    from ..tools.orient.compare import compare_models, markdown_table
     bar = ConsoleProgress(quiet)
     try:
         rows = compare_models(image, gcps, progress=bar, **tool_arguments(kw, COMPARE, GCP), **kw)

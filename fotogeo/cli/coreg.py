@@ -32,7 +32,7 @@ def command(reference, target, output, shifts, field, report, overwrite, quiet, 
     """
     from pathlib import Path
 
-    from ..tools.coreg import coregister
+    from ..tools.coreg.tool import coregister
     if output is not None:
         out = Path(output)
         shifts = shifts or out.with_suffix(".gpkg")

@@ -22,7 +22,7 @@ def command(output, overwrite, quiet, **options):
     orthophoto, and print the accuracy against the known truth; then render a small aerial block
     (2 strips of 4 frames over relief), triangulate it with matched tie points and 5 GCPs, and print
     its check-point errors against the truth. No download."""
-    from ..tools.demo import run_demo
+    from ..tools.demo.tool import run_demo
     t0 = time.perf_counter()
     bar = ConsoleProgress(quiet)
     try:
@@ -49,7 +49,7 @@ def command(output, overwrite, quiet, **options):
 
 def _echo_block(output, block):
     """The aerial-triangulation part of the demo: the block, its adjustment, its errors against the truth."""
-    from ..tools.demo_block import FRAMES_DIR, OUTPUT_DIR
+    from ..tools.demo.block import FRAMES_DIR, OUTPUT_DIR
     rep, t = block["report"], block["truth"]
     st, m = rep["statistics"], rep["matching"]
     click.echo(f"aerial triangulation: {len(rep['frames'])} rendered frames in 2 strips (60 %/30 % overlap, "

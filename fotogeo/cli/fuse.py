@@ -16,7 +16,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @run_tool
 def command(source, output, overwrite, quiet, **options):
     """First principal component of all bands of SOURCE (nodata excluded), georeference kept."""
-    from ..tools.fuse import fuse_raster
+    from ..tools.register.fuse import fuse_raster
     bar = ConsoleProgress(quiet)
     try:
         r = fuse_raster(source, output, overwrite=overwrite, progress=bar, **options)

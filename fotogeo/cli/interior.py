@@ -19,7 +19,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @run_tool
 def command(scans, camera_report, output, overwrite, quiet, **kw):
     """Find the fiducial marks of each scanned film frame and fit its pixel -> photo-coordinate transform."""
-    from ..tools.interior import interior
+    from ..tools.interior.tool import interior
     bar = ConsoleProgress(quiet)
     try:
         records = interior(list(scans), camera_report, output, overwrite=overwrite, progress=bar,

@@ -17,7 +17,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @run_tool
 def command(reference, target, output, overwrite, quiet, **options):
     """Tie points between TARGET and REFERENCE (PCA fusion, SURF, ratio test), with an inlier flag."""
-    from ..tools.match import match_images
+    from ..tools.register.match import match_images
     bar = ConsoleProgress(quiet)
     try:
         r = match_images(reference, target, output, overwrite=overwrite, progress=bar, **options)

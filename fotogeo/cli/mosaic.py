@@ -19,7 +19,7 @@ def command(orthos, output, seamlines, overwrite, quiet, **kw):
     """Mosaic orthophotos on one pixel lattice (fotogeo ortho at one --resolution): seamlines along low-contrast
     paths between Voronoi cells of nadir distance, feathered blending, a gain and offset per image. Blended in
     tiles (threads; on Dask with --workers N or --scheduler ADDRESS) assembled into one Cloud-Optimised GeoTIFF."""
-    from ..tools.mosaic import mosaic
+    from ..tools.ortho.mosaic import mosaic
     bar = ConsoleProgress(quiet)
     try:
         rep = mosaic(list(orthos), output, seamlines=seamlines, overwrite=overwrite, progress=bar,

@@ -27,7 +27,7 @@ def command(image, gcps, quiet, **kw):
 
     --model auto fits every model the GCPs allow and keeps the simplest within 5 % of the best
     check RMSE (the candidates and the reason are printed and in the report)."""
-    from ..tools.orient import orient
+    from ..tools.orient.tool import orient
     bar = ConsoleProgress(quiet)
     try:
         rep = orient(image, gcps, progress=bar, **tool_arguments(kw, ORIENT, GCP), **kw)

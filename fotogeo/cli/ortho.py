@@ -25,7 +25,7 @@ def command(images, output, overwrite, quiet, **kw):
     --uncertainty writes <orthophoto>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
     --view-bands <orthophoto>_view.tif (off-nadir angle, distance).
     """
-    from ..tools.ortho import ortho
+    from ..tools.ortho.tool import ortho
     bar = ConsoleProgress(quiet)
     try:
         rep = ortho(list(images), output, overwrite=overwrite, progress=bar, **tool_arguments(kw, ORTHO))

@@ -17,7 +17,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @run_tool
 def to_layer(points, output, layer, overwrite, quiet, **options):
     """Convert a QGIS Georeferencer .points file into a GCP point layer (fields id, col, row, role, ...)."""
-    from ..tools.points import points_to_layer
+    from ..tools.points.layers import points_to_layer
     bar = ConsoleProgress(quiet)
     try:
         r = points_to_layer(points, output, layer=layer, overwrite=overwrite, progress=bar, **options)
@@ -36,7 +36,7 @@ def to_layer(points, output, layer, overwrite, quiet, **options):
 @run_tool
 def to_points(source, output, layer, overwrite, quiet, **options):
     """Convert a GCP point layer (fields col, row, role; or a register tie_points layer) into a .points file."""
-    from ..tools.points import layer_to_points
+    from ..tools.points.layers import layer_to_points
     bar = ConsoleProgress(quiet)
     try:
         r = layer_to_points(source, output, layer=layer, overwrite=overwrite, progress=bar, **options)

@@ -28,14 +28,14 @@ def command(reference, target, output, vectors, report, field, overwrite, quiet,
     (report). Output CRS: the reference's when it is projected (on its pixel grid), else the UTM
     zone of its centre; --crs utm / reference / EPSG:xxxx to choose.
     """
-    from ..tools.register import register
+    from ..tools.register.tool import register
     bar = ConsoleProgress(quiet)
     try:
         r = register(reference, target, output, vectors=vectors, report=report, field=field, overwrite=overwrite,
                      progress=bar, **options)
     finally:
         bar.close()
-    for line in r.report["summary"]:  # fotogeo.tools.register_report.summary_lines: units and choices named
+    for line in r.report["summary"]:  # fotogeo.tools.register.report.summary_lines: units and choices named
         click.echo(line)
     field = r.report.get("local", {}).get("field")
     click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}" + (f", {field}" if field else ""))

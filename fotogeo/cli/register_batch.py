@@ -33,7 +33,7 @@ def command(reference, targets, outdir, quiet, **options):
     OUTDIR/manifest.gpkg (layer scenes: footprint, status, inliers, check RMSE, time, error).
     Exit code 1 when some scenes failed.
     """
-    from ..tools.batch import register_batch
+    from ..tools.register.batch import register_batch
     bar = ConsoleProgress(quiet)
     try:
         r = register_batch(reference, list(targets), outdir, progress=bar, **options)

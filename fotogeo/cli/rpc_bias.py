@@ -24,7 +24,7 @@ def command(image, gcps, output, report, overwrite, quiet, **kw):
     the image are skipped with a warning. Writes a copy of IMAGE whose GDAL RPC metadata is the
     corrected RPC (gdalwarp -rpc and QGIS use it) and a JSON report.
     """
-    from ..tools.rpc_bias import rpc_bias
+    from ..tools.orient.rpc_bias import rpc_bias
     bar = ConsoleProgress(quiet)
     try:
         rep = rpc_bias(image, gcps, output, report=report, overwrite=overwrite, progress=bar,

@@ -17,7 +17,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @run_tool
 def command(image, points, output, overwrite, quiet, **kw):
     """Measure X-shaped fiducial/calibration targets near the approximate col/row of POINTS."""
-    from ..tools.targets import measure_targets
+    from ..tools.points.targets import measure_targets
     bar = ConsoleProgress(quiet)
     try:
         r = measure_targets(image, points, output, overwrite=overwrite, progress=bar, **tool_arguments(kw, TARGETS))

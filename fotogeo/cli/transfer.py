@@ -19,7 +19,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 def command(reference, search, points, output, overwrite, quiet, **kw):
     """Transfer POINTS (ref_col/ref_row, approximate col/row) from REFERENCE into SEARCH by
     pyramid NCC + least-squares matching; sub-pixel positions with σ per point."""
-    from ..tools.transfer import transfer_gcps
+    from ..tools.points.transfer import transfer_gcps
     bar = ConsoleProgress(quiet)
     try:
         r = transfer_gcps(reference, search, points, output, overwrite=overwrite, progress=bar,

@@ -1,7 +1,7 @@
 """Area-based co-registration: a grid of windows, phase correlation and LSM on a
 radiometry-robust representation, outlier filters, and a smooth displacement field.
 
-Arrays in, arrays out (no file I/O; ``fotogeo.tools.coreg`` reads and writes the files):
+Arrays in, arrays out (no file I/O; ``fotogeo.tools.coreg.tool`` reads and writes the files):
 
 - :mod:`~fotogeo.coreg.representation` — gradient-orientation, gradient, rank and intensity representations;
 - :mod:`~fotogeo.coreg.phase` — phase correlation of window stacks (Kuglin & Hines 1975);

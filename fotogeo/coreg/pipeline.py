@@ -4,7 +4,7 @@ A *strip source* is any callable ``source(row0, row1, col0, col1, field) -> (ref
 target)`` returning two float32 arrays of the pixel block ``[row0:row1, col0:col1]`` of the
 target's grid (NaN outside the images and at nodata), the target deformed by ``field``
 (``target(p + D(p))``, :func:`deform`) when ``field`` is not None. :class:`ArraySource` serves
-arrays in memory; ``fotogeo.tools.coreg`` reads files window by window. So this module
+arrays in memory; ``fotogeo.tools.coreg.tool`` reads files window by window. So this module
 holds the method and no file I/O, and memory is bounded by one strip.
 
 :func:`coregister_strips` runs ``iterations`` passes over the window grid
@@ -52,7 +52,7 @@ EARLY_STIFFNESS = 10.0
 
 @dataclass(frozen=True)
 class CoregOptions:
-    """The method's settings (see :func:`fotogeo.tools.coreg.coregister` for each)."""
+    """The method's settings (see :func:`fotogeo.tools.coreg.tool.coregister` for each)."""
 
     grid_spacing: int = 64
     window: int = 128
@@ -163,7 +163,7 @@ def measure(grid: WindowGrid, source, opts: CoregOptions, field: DisplacementFie
 
     Strips are matched by ``opts.workers`` threads (numpy, OpenCV and the FFTs release the
     GIL); the source must be safe to call from several threads (:class:`ArraySource` is,
-    ``fotogeo.tools.coreg_io.RasterStrips`` locks its reads)."""
+    ``fotogeo.tools.coreg.files.RasterStrips`` locks its reads)."""
     m = strip_margin(opts.window, opts.max_shift)
     x0, x1 = int(grid.xy[:, 0].min()) - opts.window // 2 - m, int(grid.xy[:, 0].max()) + opts.window // 2 + m
     rows = max(1, (opts.strip_pixels // max(x1 - x0, 1) - opts.window - 2 * m) // grid.spacing + 1)

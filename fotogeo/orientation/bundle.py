@@ -38,7 +38,7 @@ The datum comes from ≥ 3 control points or from priors on the approximate orie
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -48,11 +48,12 @@ from ..options import EBNER_PARAMETERS
 from ..progress import as_progress
 from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
+from .bundle_types import ROLES, BundleResult  # noqa: F401 (part of this module's API)
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
+from .bundle_result import make_result
 from .bundle_robust import (huber_weights, interior_correlations, largest_w, posterior, skipped, skipped_huber,
                             worst_per_point)
 
-ROLES = ("tie", "control", "check")  # a control point that fails the test becomes "rejected"
 #: tie and check points whose rays meet at a smaller angle are dropped: their depth is undetermined and their
 #: 3x3 normal block so close to singular that the reduced system loses its positive definiteness (a rendered
 #: oblique block: two rays at 1.3° from frames 7 m apart turned every σ into NaN); COLMAP's default is 1.5° too
@@ -107,42 +108,6 @@ class BundleOptions:
     significance: float = 3.0
     max_iterations: int = 60
     max_residual_px: float = 10.0
-
-
-@dataclass(frozen=True)
-class BundleResult:
-    frames: tuple
-    roles: np.ndarray  # (P,) final roles: the block's, with "rejected" for control points that failed the test
-    eo: tuple  # adjusted ExteriorOrientation per frame, map CRS
-    eo_sigma: np.ndarray  # (m, 6): X0, Y0, Z0 (m), rotations about the camera axes (°)
-    camera: FrameCamera  # adjusted f and principal point
-    distortion: dict  # k1, k2, k3, p1, p2 (and Ebner's b1 … b12 in px when estimated)
-    interior_sigma: dict  # σ of the free interior parameters
-    point_xyz: np.ndarray  # (P, 3) adjusted, NaN for points dropped
-    point_sigma: np.ndarray  # (P, 3)
-    point_rays: np.ndarray  # (P,) observations used
-    residuals: np.ndarray  # (n, 2) projected − measured, px (NaN where the point was dropped)
-    status: np.ndarray  # (n,) "used", "blunder" or "dropped"
-    redundancy: np.ndarray  # (n, 2) redundancy numbers (NaN unless used)
-    w_test: np.ndarray  # (n,) largest standardised residual (NaN unless used)
-    sigma0: float
-    stats: dict
-    fixed: tuple  # interior parameters held fixed: {parameter, multiple_correlation, partner, ...}
-    correlations: tuple  # of the free interior parameters at the end
-    blunders: tuple  # {observation, frame, point, w, residual_px, round}; round 0: skipped by the robust phase
-    iterations: int
-    timings: dict = field(default_factory=dict)
-    #: σ₀²·(S⁻¹) blocks (:mod:`fotogeo.orientation.bundle_result`): per frame ``(m, 6, 6)`` in the order
-    #: X0, Y0, Z0 (m), δθ about the OpenCV camera axes (rad); the free interior parameters ``(k, k)``
-    #: (:attr:`interior_free`, units of :data:`~fotogeo.orientation.bundle_jacobian.INTERIOR_NAMES`) and their
-    #: cross-covariance with each frame ``(m, 6, k)``
-    eo_covariance: np.ndarray | None = None
-    interior_covariance: np.ndarray | None = None
-    eo_interior_covariance: np.ndarray | None = None
-    interior_free: tuple = ()
-    #: (m, 6) σ of each orientation given every other frame and the interior (σ₀ √diag((S_jj)⁻¹), as eo_sigma):
-    #: what its own rays (and priors) hold within the block, the block's datum aside (bundle_result)
-    eo_sigma_in_block: np.ndarray | None = None
 
 
 def _robust_weights(pb, s, opts):
@@ -261,7 +226,6 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
             if not _snoop_round(run, pb, post, opts, rnd, blunders):
                 break
     prog.timings["total"] = time.perf_counter() - t0
-    from .bundle_result import make_result
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
     result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)

@@ -44,7 +44,7 @@ def active_points(block, active) -> np.ndarray:
 
 def check_block(block, opts) -> None:
     """Refuse a block that cannot be adjusted, naming what is wrong and the fix."""
-    from .bundle import ROLES
+    from .bundle_types import ROLES
     from .bundle_jacobian import INTERIOR_NAMES
     m, n, P = len(block.frames), len(block.obs_frame), len(block.point_ids)
     if len(block.eo) != m or m < 2:

@@ -72,7 +72,7 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
 
 def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``."""
-    from .bundle import BundleResult
+    from .bundle_types import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
     s0 = post.sigma0
     eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))

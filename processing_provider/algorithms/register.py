@@ -103,7 +103,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         result = self.run_tool("register", reference, target, output, vectors=vectors, report=report, field=field,
                                overwrite=True, feedback=feedback, **options)
         rep = result["report"]
-        for line in rep["summary"]:  # the command line's lines (fotogeo.tools.register_report.summary_lines)
+        for line in rep["summary"]:  # the command line's lines (fotogeo.tools.register.report.summary_lines)
             if line.startswith("hint:"):  # advice, in the dialog's words (the DEM parameter's label)
                 feedback.pushWarning(self.in_words(line))
             else:

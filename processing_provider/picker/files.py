@@ -1,13 +1,13 @@
 """Import and export of the picker's GCPs: QGIS Georeferencer ``.points`` and ODM ``gcp_list.txt``.
 
 ``.points`` goes through fotogeo's own converters in the worker session (``points_to_layer`` /
-``layer_to_points``, :mod:`fotogeo.tools.points`), so the picker writes exactly what the
+``layer_to_points``, :mod:`fotogeo.tools.points.layers`), so the picker writes exactly what the
 Processing algorithms and ``fotogeo orient`` read: ``sourceX = col``, ``sourceY = −row``
 (unreferenced convention), ``enable`` 1 for enabled control points and 0 for check and disabled points (fotogeo
 reads 0 back as a check point, the Georeferencer as a disabled one), ``#CRS`` the layer's.
 
 ODM/OpenSfM ``gcp_list.txt`` goes through fotogeo's reader and writer in the worker session as well
-(``read_image_gcps`` / ``write_image_gcps``, :mod:`fotogeo.tools.gcp_files`; the format and OpenSfM's
+(``read_image_gcps`` / ``write_image_gcps``, :mod:`fotogeo.tools.gcp.files`; the format and OpenSfM's
 pixel-centre convention: :mod:`fotogeo.io.block`). Only lines of the picker's image are imported.
 A heightless GCP cannot be written to it (ODM needs Z): the fit's heights (DEM or constant) are used.
 """

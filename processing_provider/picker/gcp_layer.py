@@ -59,7 +59,7 @@ class Gcp:
     enabled: bool = True
 
     def request(self) -> dict:
-        """The point as the worker's ``fit_gcps`` takes it (:func:`fotogeo.tools.gcp_fit.fit_gcps`): a disabled
+        """The point as the worker's ``fit_gcps`` takes it (:func:`fotogeo.tools.gcp.fit.fit_gcps`): a disabled
         point has the role ``disabled`` (left out of the fit and the RMS; its residual still shown)."""
         return {"id": self.id, "col": self.col, "row": self.row, "x": self.x, "y": self.y, "z": self.z,
                 "role": self.role if self.enabled else "disabled"}

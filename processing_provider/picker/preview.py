@@ -2,7 +2,7 @@
 
 After every refit that gives a model (and after every pan or zoom of the map canvas) the dock asks
 :class:`LivePreview` for a new picture; a background thread sends the GCPs, the fit settings and
-the canvas's extent, CRS and size to fotogeo's ``preview_warp`` (:mod:`fotogeo.tools.gcp_preview`)
+the canvas's extent, CRS and size to fotogeo's ``preview_warp`` (:mod:`fotogeo.tools.gcp.preview`)
 in a worker session of its own (a second process: the picker's refits never wait behind a warp)
 and reads the raw RGBA it writes into a :class:`QImage`. :class:`PreviewItem` draws it over the
 map at the extent it was computed for, with the dock's opacity, under the picker's marks.

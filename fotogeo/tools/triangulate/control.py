@@ -24,7 +24,7 @@ Per frame:
 
 1. the frame's footprint (approximate orientation, plane of the DEM's mean height) selects the
    reference tiles it overlaps; each is matched to the frame with
-   :func:`fotogeo.tools.match.find_tie_points` (PCA fusion, SURF, ratio test, mutual check);
+   :func:`fotogeo.tools.register.match.find_tie_points` (PCA fusion, SURF, ratio test, mutual check);
 2. reference pixels -> reference map -> ``crs`` (:func:`fotogeo.crs.transform_points`), heights
    from the DEM (:class:`fotogeo.geometry.dem.DemSampler`, bilinear); matches without a height
    are dropped;
@@ -59,7 +59,7 @@ from ...io.raster import open_raster, read_dem
 from ...options import RegisterOptions
 from ...pixels import outline, pixel_to_map
 from ...progress import as_progress
-from ..match import find_tie_points
+from ..register.match import find_tie_points
 from .match import image_regions, thin_to_budget
 
 

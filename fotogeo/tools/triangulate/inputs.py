@@ -29,7 +29,7 @@ from ...errors import FotogeoWarning, InputError, ModelError
 from ...io.block import GcpList, control_in, frame_key, read_control, split_check_points
 from ...io.camera import read_camera_with_distortion, read_exterior_orientation
 from ...io.raster import open_raster
-from ..checks import check_camera_size
+from ..common.checks import check_camera_size
 
 #: the order of ``Block.distortion``
 DISTORTION_ORDER = ("k1", "k2", "k3", "p1", "p2")

@@ -7,7 +7,7 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   overlap when their footprints share more than ``min_overlap`` of the smaller one — along and
   across strips.
 * **Detection on a pyramid level**: every overlapping pair goes through
-  :func:`fotogeo.tools.match.find_tie_points` (PCA, SURF, ratio test and mutual check, as the
+  :func:`fotogeo.tools.register.match.find_tie_points` (PCA, SURF, ratio test and mutual check, as the
   registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
   ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
   resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
@@ -22,7 +22,7 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   tool (the gimbal case of ``tests/test_triangulate_oblique.py``) it changed which marginal frames keep
   wrong ties: seed 0 lost DJI_401 (2.1 % coverage) and DJI_405 turned 20° from its gimbal prior, seed 2
   DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
-  (:class:`fotogeo.tools.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
+  (:class:`fotogeo.tools.register.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images). For large
   blocks the pairs run as Dask tasks instead (``--scheduler`` / ``--workers``, as ``register-batch``;
@@ -60,7 +60,7 @@ from ...io.raster import open_raster
 from ...options import RegisterOptions
 from ...pixels import outline
 from ...progress import as_progress
-from ..match import FeatureCache, find_tie_points
+from ..register.match import FeatureCache, find_tie_points
 from .pairs import (dask_client, dask_lsm_results, dask_pair_results, epipolar_kept, grey, ideal_pixels,
                     lsm_group)
 

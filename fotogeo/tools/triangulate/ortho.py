@@ -1,24 +1,22 @@
 """Frames on the ground after a bundle adjustment: footprints and orthorectified frames.
 
-Each adjusted frame becomes a ground → image model (:class:`AdjustedFrame`: the bundle
+Each adjusted frame becomes a ground → image model
+(:class:`fotogeo.orientation.adjusted_frame.AdjustedFrame`: the bundle
 adjustment's collinearity with Brown's distortion, :mod:`fotogeo.orientation.bundle_jacobian`)
 placed on the terrain by :class:`fotogeo.geometry.georeference.Georeference`:
 
 * **footprints** — the image outline (33 points per edge) intersected with the DEM, or with the
   plane at the mean height of the adjusted points when there is no DEM;
 * **orthorectified frames** — ``fotogeo ortho``'s orthophotos, through its own code
-  (:func:`fotogeo.tools.ortho.plan_grid`, :func:`fotogeo.tools.ortho.write_orthophoto`): the DEM under the frames,
+  (:func:`fotogeo.tools.ortho.tool.plan_grid`, :func:`fotogeo.tools.ortho.tool.write_orthophoto`): the DEM under the frames,
   the north-up grid aligned to the resolution (the frame's ground sample distance unless given) and clipped to the
   DEM where the frame leaves it, cells without a height nodata, internal overviews, ``FOTOGEO_NADIR`` for
   ``fotogeo mosaic``; a frame's heights are first checked against those of the adjusted points
-  (:func:`fotogeo.tools.rectify.check_terrain_heights`);
+  (:func:`fotogeo.tools.orient.rectify.check_terrain_heights`);
 * **uncertainty rasters** (``uncertainty``) — beside each orthophoto ``<frame>_ortho_sigma.tif``, the predicted
   planimetric σ of every cell from this adjustment's covariance (the report's ``frames[].covariance``) and the
   DEM's σ: the raster ``fotogeo ortho --uncertainty`` writes from the same report
-  (:mod:`fotogeo.tools.ortho_products`, :mod:`fotogeo.orientation.ground_sigma`).
-
-The inverse (pixel → ground) removes the distortion by the fixed-point iteration of
-:func:`~fotogeo.orientation.bundle_jacobian.undistort_rays`, then intersects the pinhole ray.
+  (:mod:`fotogeo.tools.ortho.products`, :mod:`fotogeo.orientation.ground_sigma`).
 """
 from __future__ import annotations
 
@@ -27,72 +25,8 @@ import warnings
 import numpy as np
 
 from ...errors import FotogeoWarning, InputError, ModelError
-from ...geometry.camera import OrientedFrame
-from ...geometry.dem import is_height_source
 from ...geometry.georeference import Georeference
-from ...orientation import bundle_jacobian as bj
-from ...pixels import as_points
-
-
-class AdjustedFrame:
-    """Ground ``(X, Y, Z)`` → pixel of one adjusted frame, distortion included (module docstring)."""
-
-    src_dims = 3
-
-    def __init__(self, camera, eo, distortion: dict, name: str = ""):
-        self.frame = OrientedFrame(camera, eo, name)
-        self.interior = np.array([camera.focal_length, *camera.principal_point,
-                                  *(float(distortion.get(k, 0.0)) for k in bj.INTERIOR_NAMES[3:])])
-        self.scale = bj.pixel_scale(camera)
-
-    @property
-    def projection_centre(self) -> np.ndarray:
-        """The adjusted projection centre ``(X, Y, Z)``: every line of sight ends there
-        (:mod:`fotogeo.geometry.occlusion`)."""
-        return self.frame.eo.centre
-
-    def forward(self, XYZ) -> np.ndarray:
-        c = self.frame.world_to_camera(as_points(XYZ, 3, "ground points"))
-        px = bj.project_camera(c, self.interior, self.scale)
-        px[c[:, 2] <= 0] = np.nan
-        return px
-
-    def forward_grid(self, X, Y, Z) -> np.ndarray:
-        """:meth:`forward` of the grid points ``(X[col], Y[row], Z[row, col])`` (``Z`` ``(len(Y), len(X))``),
-        row by row ``(N, 2)``: the camera coordinates ``c_k = Σ M_ik (P_i − C_i)`` (``M`` = ``R·D``) are built
-        from one term per column, one per row and one per point; a camera without distortion skips Brown's
-        terms."""
-        M, C = self.frame.eo.rotation_cv, self.frame.eo.centre
-        dx, dy = np.asarray(X, float) - C[0], np.asarray(Y, float) - C[1]
-        Z = np.asarray(Z, float)
-        c = []
-        for k in range(3):  # in place: c_k = M_2k·Z + (M_0k·dx − M_2k·Z0) per column + M_1k·dy per row
-            v = np.multiply(Z, M[2, k])
-            v += (dx * M[0, k] - C[2] * M[2, k])[None, :]
-            v += (dy * M[1, k])[:, None]
-            c.append(v)
-        behind = (c[2] <= 0).ravel()
-        with np.errstate(invalid="ignore", divide="ignore"):
-            if np.any(self.interior[3:]):
-                px = bj.project_camera(np.column_stack([v.ravel() for v in c]), self.interior, self.scale)
-            else:  # pinhole: col = f·sx·x/z + ppx, row = f·sy·y/z + ppy
-                f, ppx, ppy = self.interior[:3]
-                px = np.empty((c[0].size, 2))
-                for k, (s, pp) in enumerate(((f * self.scale[0], ppx), (f * self.scale[1], ppy))):
-                    np.divide(c[k], c[2], out=c[k])
-                    c[k] *= s
-                    c[k] += pp
-                    px[:, k] = c[k].ravel()
-        if behind.any():
-            px[behind] = np.nan
-        return px
-
-    def inverse(self, pixel, heights=None, **_) -> np.ndarray:
-        rays = bj.undistort_rays(as_points(pixel, 2, "pixels"), self.interior, self.scale)
-        pinhole = rays @ self.frame.camera.K[:2].T
-        if is_height_source(heights):
-            return self.frame.pixel_to_world(pinhole, heights)
-        return self.frame.pixel_to_world_at(pinhole, heights)
+from ...orientation.adjusted_frame import AdjustedFrame
 
 
 def frame_models(result, block) -> list:
@@ -102,13 +36,13 @@ def frame_models(result, block) -> list:
 
 def terrain(dem, crs, result, images=()):
     """The height source: the DEM in the map CRS (with the frames ``images``, :func:`frame_images`, the part under
-    them, as ``fotogeo ortho`` reads it: :func:`fotogeo.tools.ortho_inputs.terrain`), else the mean height of the
+    them, as ``fotogeo ortho`` reads it: :func:`fotogeo.tools.ortho.inputs.terrain`), else the mean height of the
     adjusted points."""
     if dem is not None and images:
-        from ..ortho_inputs import terrain as ortho_terrain
+        from ..ortho.inputs import terrain as ortho_terrain
         return ortho_terrain(dem, None, crs, images)[0]
     if dem is not None:
-        from ..rectify import dem_heights
+        from ..orient.rectify import dem_heights
         return dem_heights(dem, crs)
     z = result.point_xyz[:, 2]
     return float(np.nanmean(z)) if np.isfinite(z).any() else 0.0
@@ -116,8 +50,8 @@ def terrain(dem, crs, result, images=()):
 
 def frame_images(result, block, frames) -> list:
     """The adjusted frames as the images ``fotogeo ortho`` orthorectifies
-    (:class:`~fotogeo.tools.ortho_inputs.OrthoImage`, model :class:`AdjustedFrame`)."""
-    from ..ortho_inputs import OrthoImage
+    (:class:`~fotogeo.tools.ortho.inputs.OrthoImage`, model :class:`AdjustedFrame`)."""
+    from ..ortho.inputs import OrthoImage
     w, h = block.camera.image_size
     return [OrthoImage(str(p), n, m, "frame", int(w), int(h))
             for p, n, m in zip(frames, block.frames, frame_models(result, block))]
@@ -148,12 +82,12 @@ def common_resolution(grids: dict) -> float | None:
 
 def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quiet: bool = False) -> dict:
     """Per frame (``images``: :func:`frame_images`), the checked output grid of its orthophoto — ``fotogeo ortho``'s
-    (:func:`fotogeo.tools.ortho.plan_grid`: clipped to the DEM where the frame leaves it) once its heights pass
-    :func:`fotogeo.tools.rectify.check_terrain_heights` against those of the adjusted points ``ground``; nothing is
+    (:func:`fotogeo.tools.ortho.tool.plan_grid`: clipped to the DEM where the frame leaves it) once its heights pass
+    :func:`fotogeo.tools.orient.rectify.check_terrain_heights` against those of the adjusted points ``ground``; nothing is
     resampled yet. A frame whose grid cannot be made (e.g. off the DEM) gets the reason instead (a string): it
     is reported and skipped, never losing the adjustment's outputs (``quiet``: without the warnings)."""
-    from ..ortho import plan_grid
-    from ..rectify import check_terrain_heights
+    from ..ortho.tool import plan_grid
+    from ..orient.rectify import check_terrain_heights
     where = f"the DEM {str(dem)!r}" if dem is not None else f"the mean height {heights:.1f} of the adjusted points"
     grids = {}
     for im in images:
@@ -173,8 +107,8 @@ def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quie
 
 def orthorectify(temp_paths: dict, grids: dict, images, heights, crs, resampling, progress) -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths`` through
-    :func:`fotogeo.tools.ortho.write_orthophoto`, ``fotogeo ortho``'s own; a summary per frame."""
-    from ..ortho import write_orthophoto
+    :func:`fotogeo.tools.ortho.tool.write_orthophoto`, ``fotogeo ortho``'s own; a summary per frame."""
+    from ..ortho.tool import write_orthophoto
     out = {}
     for k, im in enumerate(images):
         stage = progress.stage(k / len(images), (k + 1) / len(images), f"orthorectifying {im.name}")
@@ -193,7 +127,7 @@ def sigma_paths(ortho_paths: dict, uncertainty: bool) -> dict:
     if not ortho_paths:
         raise InputError("--uncertainty writes a σ raster beside each orthophoto: give --orthorectify (or --mosaic)",
                          option="uncertainty")
-    from ..ortho_products import product_paths
+    from ..ortho.products import product_paths
     names = {k.split(":", 1)[1]: p for k, p in ortho_paths.items()}
     return {f"sigma:{n}": d["sigma"] for n, d in product_paths(names, True, False).items()}
 
@@ -201,10 +135,10 @@ def sigma_paths(ortho_paths: dict, uncertainty: bool) -> dict:
 def sigma_of_dem(paths: dict, heights, dem_sigma, crs):
     """``(σ_h m, rule)`` of the height source ``heights`` (:func:`terrain`) when ``paths`` has σ rasters
     (:func:`sigma_paths`), else None; checked before anything is written (a constant height needs ``dem_sigma``:
-    :func:`fotogeo.tools.ortho_products.dem_sigma_for`)."""
+    :func:`fotogeo.tools.ortho.products.dem_sigma_for`)."""
     if not any(k.startswith("sigma:") for k in paths):
         return None
-    from ..ortho_products import dem_sigma_for
+    from ..ortho.products import dem_sigma_for
     return dem_sigma_for(dem_sigma, heights, crs)
 
 
@@ -216,7 +150,7 @@ def write_sigma_rasters(out, paths: dict, grids: dict, done: dict, rep: dict, he
     ``images`` (:func:`frame_images`); its entry goes into ``done[frame]`` (the report's ``orthorectified``),
     the DEM's σ into ``rep``."""
     from ...orientation.ground_sigma import covariances_from_report
-    from ..ortho_products import write_products
+    from ..ortho.products import write_products
     covs = covariances_from_report(rep)
     rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
     for im in images:

@@ -81,7 +81,7 @@ def _terrain_and_grids(ortho: dict, images, result, block, dem, resolution, rep:
     (:func:`~fotogeo.tools.triangulate.ortho.ortho_grids`) of the orthophotos ``ortho`` of the frames ``images``,
     the DEM's holes warned of as ``fotogeo ortho`` does. A ``mosaic`` needs one pixel lattice: without
     ``resolution``, the frames' common one; it goes into ``rep["mosaic_resolution_m"]``."""
-    from ..ortho import warn_dem_holes
+    from ..ortho.tool import warn_dem_holes
     from .ortho import common_resolution, ortho_grids, terrain
     heights = terrain(dem, block.crs, result, images)
     if not ortho:
@@ -113,13 +113,13 @@ def _timing(rep: dict, stage: str, seconds: float) -> None:
 
 
 def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress) -> dict:
-    """``fotogeo mosaic`` (:func:`fotogeo.tools.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``,
+    """``fotogeo mosaic`` (:func:`fotogeo.tools.ortho.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``,
     seamlines into ``paths["seamlines"]``; its report, or ``{"error": ...}`` (warned) when it fails or fewer than
     two frames were orthorectified — the adjustment's outputs are written already and stay."""
     import warnings
 
     from ...errors import Cancelled, FotogeoError, FotogeoWarning
-    from ..mosaic import mosaic
+    from ..ortho.mosaic import mosaic
     done = [paths[f"ortho:{n}"] for n, r in orthorectified.items() if "error" not in r]
     try:
         if len(done) < 2:
@@ -227,12 +227,3 @@ def accuracy_lines(rep: dict) -> list:
         lines.append(f"control adjusted − given (σ-weighted: as far as their σ let them move{held}): "
                      f"{_rmse_text(st['control'])}")
     return lines
-
-
-def crs_summary(text: str) -> str:
-    """The report's CRS in one short phrase (its EPSG code or name; never a whole WKT)."""
-    from ...crs import parse_crs, short_name
-    try:
-        return short_name(parse_crs(text, "CRS"))
-    except Exception:  # noqa: BLE001 - a summary, never a failure
-        return str(text)[:60]

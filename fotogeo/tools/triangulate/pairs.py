@@ -1,13 +1,13 @@
 """One pair of a block's frames matched or least-squares matched, and every pair as Dask tasks (the tool layer of
 ``fotogeo triangulate``).
 
-A pair's matches (:func:`fotogeo.tools.match.find_tie_points`) are kept when they fit the two-view geometry:
+A pair's matches (:func:`fotogeo.tools.register.match.find_tie_points`) are kept when they fit the two-view geometry:
 a RANSAC fundamental matrix (Fischler & Bolles 1981) on the keypoints with the camera's distortion removed
 (:func:`ideal_pixels`; a fundamental matrix holds for a pinhole camera only), :func:`epipolar_kept`.
 
 **Pairs as Dask tasks** (:func:`dask_pair_results`; ``--scheduler`` / ``--workers``, the options and the
-cluster of ``register-batch``, :func:`fotogeo.tools.dask_cluster.connect`): one task per frame detects its
-keypoints (:func:`frame_features`; read, fused and detected once, as :class:`fotogeo.tools.match.FeatureCache`
+cluster of ``register-batch``, :func:`fotogeo.tools.common.dask_cluster.connect`): one task per frame detects its
+keypoints (:func:`frame_features`; read, fused and detected once, as :class:`fotogeo.tools.register.match.FeatureCache`
 does in one process), one task per pair matches the descriptors of its two frames' tasks and runs the
 RANSAC (:func:`match_pair`); after the tracks are built and thinned (in the calling process), one task per
 frame pair transfers the tracks anchored in one frame into the other by least-squares matching
@@ -26,7 +26,7 @@ import numpy as np
 from ...errors import Cancelled, MatchingError
 from ...io.raster import open_raster, read_decimated
 from ...progress import as_progress
-from ..match import FeatureCache, find_tie_points
+from ..register.match import FeatureCache, find_tie_points
 
 
 def ideal_pixels(camera, distortion):
@@ -88,7 +88,7 @@ class _Detected:
 
 def frame_features(path: str, role: str, det):
     """The Dask task detecting one frame: ``(keypoints, factor, explained)`` as the in-process cache has them."""
-    from ..dask_cluster import pin_threads
+    from ..common.dask_cluster import pin_threads
     pin_threads()
     return FeatureCache().features(open_raster(path, "frame"), role, det, as_progress(None))
 
@@ -96,7 +96,7 @@ def frame_features(path: str, role: str, det):
 def match_pair(path_i: str, path_j: str, features_i, features_j, det, threshold: float, camera, distortion):
     """The Dask task matching one pair: :func:`epipolar_kept`'s ``(matches, xy_i, xy_j)``, or None when the
     descriptors do not match (:class:`MatchingError`)."""
-    from ..dask_cluster import pin_threads
+    from ..common.dask_cluster import pin_threads
     pin_threads()
     try:
         xy_j, xy_i, _ = find_tie_points(open_raster(path_i, "frame"), open_raster(path_j, "frame"), det,
@@ -127,12 +127,12 @@ def _detections(client, paths, pairs, det, run: str):
 @contextmanager
 def dask_client(client=None, scheduler=None, workers=None):
     """The ``dask.distributed.Client`` the tasks run on — ``client``, one of the scheduler at ``scheduler`` or
-    of a local cluster of ``workers`` processes (:func:`fotogeo.tools.dask_cluster.connect`, closed on exit) — or
+    of a local cluster of ``workers`` processes (:func:`fotogeo.tools.common.dask_cluster.connect`, closed on exit) — or
     None when none is given (everything in this process)."""
     if client is None and not scheduler and not workers:
         yield None
         return
-    from ..dask_cluster import connect
+    from ..common.dask_cluster import connect
     c, close = connect(client, scheduler, workers, what="triangulate --workers")
     try:
         yield c
@@ -142,7 +142,7 @@ def dask_client(client=None, scheduler=None, workers=None):
 
 def _gathered(futures: dict, prog, what: str) -> list:
     """The results of ``{future: index}`` in index order, as they complete; a cancel cancels the rest."""
-    from ..dask_cluster import distributed_module
+    from ..common.dask_cluster import distributed_module
     distributed = distributed_module("triangulate --workers")
     results = [None] * len(futures)
     try:
@@ -192,7 +192,7 @@ def lsm_group(image_a, image_b, anchors, xy, jacobian, half_window: int, max_shi
 def lsm_task(path_a: str, path_b: str, anchors, xy, jacobian, half_window: int, max_shift: float,
              min_sigma: float):
     """The Dask task of :func:`lsm_group` on two frames read from their paths."""
-    from ..dask_cluster import pin_threads
+    from ..common.dask_cluster import pin_threads
     pin_threads()
     return lsm_group(grey(open_raster(path_a, "frame")), grey(open_raster(path_b, "frame")), anchors, xy, jacobian,
                      half_window, max_shift, min_sigma)

@@ -170,7 +170,7 @@ def _accuracy_rows(st: dict) -> list:
 
 def _crs_block(text: str) -> str:
     """The CRS named in one line, its full text folded and wrapped."""
-    from .outputs import crs_summary
+    from ...crs import crs_summary
     return (f"<p>CRS {html.escape(crs_summary(text))} <details><summary>full definition</summary>"
             f"<pre class='wrap'>{html.escape(text)}</pre></details></p>")
 

@@ -45,7 +45,7 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
   (:mod:`fotogeo.tools.triangulate.report`);
 * with ``orthorectify``: ``<frame>_ortho.tif``, each frame on the DEM through its adjusted orientation;
 * with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
-  by :func:`fotogeo.tools.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
+  by :func:`fotogeo.tools.ortho.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
   else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
   (``report.json`` ``mosaic.error``, a warning) and loses none of them.
 """
@@ -61,7 +61,7 @@ from ...io.block import frame_key, read_image_observations
 from ...io.raster import check_output
 from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
-from ..boundary import tool
+from ..common.boundary import tool
 from ...io.block import split_check_points
 from .control import reference_sigmas
 from .determinacy import adjust_determined

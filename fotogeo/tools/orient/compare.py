@@ -1,0 +1,103 @@
+"""The model-comparison tool: GCPs (path) → Table 1 of Öztürk, Karşlı & Dihkan for every model × set × layout.
+
+Sets (:mod:`fotogeo.orientation.comparison`): ``sets="random"`` draws control points per trial
+by count and spread; ``sets="roles"`` takes the GCP file's role column and every column named
+``role_<label>`` (e.g. ``role_homogeneous_20``) as fixed sets. Outputs (:mod:`.compare_report`):
+CSV, Markdown, HTML in the paper's layout and a folder of error-vector plots per model and layout.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ...errors import InputError
+from ...io.camera import load_camera
+from ...io.gcps import check_inside, read_gcps
+from ...io.raster import AtomicOutputs, check_output, open_raster
+from ...models import get_model
+from ...orientation.comparison import compare, parse_counts
+from . import compare_report as report
+from ..common.boundary import OUTPUTS, tool
+from ..common.checks import check_camera_size, check_gcp_crs
+
+#: the default models: the paper's (affine with height, bilinear, projective, DLT, the RFMs solved as the
+#: paper did and regularised, both directions) and fotogeo's other 2-D models and collinearity
+DEFAULT_MODELS = ("similarity", "affine", "projective", "poly2", "poly3", "affine-height", "bilinear", "dlt",
+                  "rfm-plain", "rfm-common-plain", "rfm-poly-plain", "rfm-plain-i2g", "rfm", "rfm-common", "rfm-poly",
+                  "rfm-i2g", "collinearity")
+
+
+@tool("COMPARE", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("html", "plots"))
+def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random",
+                   spreads=("homogeneous", "heterogeneous"), trials: int = 5, seed: int = 0, scan_pixel_um=None,
+                   table=None, markdown=None, html=None, plots=None, dem=None, height=None, crs=None, layer=None,
+                   fields=None, camera=None, overwrite: bool = False, progress=None) -> list[dict]:
+    """Every model × set × layout on one GCP file (module docstring); returns the rows.
+
+    ``counts``: None (the paper's 40 … 6 for classical models, 60 … 40 for RFMs), integers, or
+    text ``"[model=]N[/M],..."`` (:func:`~fotogeo.orientation.comparison.parse_counts`).
+    ``scan_pixel_um`` adds mm on the photo. ``plots``: a folder for ``<model>_<layout>.png``.
+    """
+    info = open_raster(image, "image")
+    if sets == "random":
+        parse_counts(counts)  # a bad counts text is refused before any file is read
+    for p in (table, markdown, html):
+        if p:
+            check_output(p, [image, gcps], overwrite, "table")
+    if plots and Path(plots).exists() and not Path(plots).is_dir():
+        raise InputError(f"plots {str(plots)!r} is a file; give a folder for the error-vector plots")
+    g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
+                  height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
+    camera = load_camera(camera)
+    check_camera_size(camera, info.width, info.height, image)
+    check_inside(g, info.width, info.height, f"{gcps}")
+    role_sets = _role_sets(g, gcps) if sets == "roles" else None
+    models = list(models or DEFAULT_MODELS)
+    usable = [m for m in models if get_model(m).src_dims == 2 or g.has_heights]
+    scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
+    rows = compare(usable, g.ground, g.pixel, counts=counts, spreads=spreads, trials=trials, seed=seed, camera=camera,
+                   role_sets=role_sets, scale_mm=scale_mm, progress=progress)
+    for m in models:
+        if m not in usable:
+            rows.append({"model": m, "note": "3-D model: GCPs have no heights (give a height field, DEM or constant)"})
+    _write(rows, table, markdown, html, plots, overwrite, info)
+    return [{k: v for k, v in r.items() if k != "vectors"} for r in rows]
+
+
+def _role_sets(g, gcps) -> dict:
+    """The fixed sets of ``sets="roles"``: every ``role_<label>`` column, and the role column unless it
+    is all control with such columns present (it then repeats the all-control row)."""
+    found = dict(g.role_sets)
+    if not found or (g.role == "check").any():
+        found = {"file": g.role, **found}
+    empty = [k for k, v in found.items() if not (v == "control").any()]
+    if empty:
+        raise InputError(f"GCP file {str(gcps)!r}: role column(s) {', '.join(empty)} mark no control point; set "
+                         "role to 'control' for the points of each set, or use sets='random'")
+    return found
+
+
+def _write(rows, table, markdown, html, plots, overwrite, info) -> None:
+    with AtomicOutputs(overwrite) as out:
+        if table:
+            report.write_csv(rows, out.temp(table))
+        if markdown:
+            Path(out.temp(markdown)).write_text(report.markdown_table(rows))
+        if html:
+            Path(out.temp(html)).write_text(report.html_table(rows))
+        if plots:
+            Path(plots).mkdir(parents=True, exist_ok=True)
+            for model in dict.fromkeys(r["model"] for r in rows):
+                for layout in dict.fromkeys(r.get("spread") for r in rows if r["model"] == model and r.get("spread")):
+                    final = Path(plots) / report.plot_name(model, layout)
+                    if not any(r.get("vectors") for r in rows if r["model"] == model and r.get("spread") == layout):
+                        continue
+                    if final.exists() and not overwrite:
+                        raise InputError(f"plot {str(final)!r} exists; give overwrite (--overwrite) or another folder")
+                    report.plot_vectors(rows, model, layout, out.temp(final), width=info.width, height=info.height)
+        out.commit()
+
+
+def markdown_table(rows) -> str:
+    """The rows in the paper's layout (Markdown), as the command line prints them."""
+    return report.markdown_table(rows)

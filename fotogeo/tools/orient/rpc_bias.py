@@ -1,0 +1,90 @@
+"""The RPC bias tool: an image with a vendor RPC + GCPs (paths) → a copy carrying the corrected RPC.
+
+``rpc_bias(image, gcps, output)`` reads the RPC00B of ``image`` (GDAL's RPC metadata), the
+GCPs (:func:`fotogeo.io.gcps.read_gcps`: ground X, Y, h in any CRS + their pixels), fits the
+image-space correction of Grodecki & Dial (2003) on the control points
+(:func:`fotogeo.orientation.bias.estimate_bias`: a shift, or an affinity), builds it into the
+RPC (:func:`fotogeo.orientation.bias.corrected_rpc`) and writes:
+
+* ``output`` — a GeoTIFF copy of ``image`` whose GDAL RPC metadata is the corrected RPC, so
+  ``gdalwarp -rpc -to RPC_DEM=dem.tif`` and QGIS orthorectify it onto the GCPs;
+* ``report`` (JSON, default ``output`` with ``.json``) — the correction, the residuals before
+  and after at control and check points, leave-one-out residuals, the GCPs skipped and why.
+
+Heights are taken as given: RPC00B heights are ellipsoidal (WGS 84), so give ellipsoidal GCP
+heights (or a DEM in the same vertical datum as the one ``gdalwarp`` will use). GCPs whose
+pixel lies outside the image are skipped with a warning (a vendor scene is often cropped).
+"""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ...crs import to_lonlat
+from ...errors import FotogeoWarning, InputError
+from ...io.gcps import read_gcps
+from ...io.raster import AtomicOutputs, check_output, open_raster
+from ...io.report import write_json
+from ...io.rpc import rpc_from_raster, write_rpc_geotiff
+from ...models.stats import residual_stats
+from ...orientation.bias import corrected_rpc, estimate_bias
+from ...pixels import from_centre
+from ...progress import as_progress
+from ..common.boundary import tool
+from ..common.checks import check_gcp_crs
+
+
+@tool("RPC_BIAS", rasters={"image": None, "dem": None})
+def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=None, crs=None, dem=None,
+             height=None, fields=None, overwrite: bool = False, progress=None) -> dict:
+    """Correct the vendor RPC of ``image`` with ``gcps``; write ``output`` and the report (module doc).
+
+    Returns the report dict (``correction``, ``control``/``check`` statistics before and after
+    in pixels, ``skipped`` GCP ids, ``refit_max_px``).
+    """
+    prog = as_progress(progress)
+    if method not in ("shift", "affine"):
+        raise InputError(f"method {method!r} unknown; choose 'shift' or 'affine'")
+    output = Path(output)
+    report = Path(report) if report else output.with_suffix(".json")
+    if output.resolve() == report.resolve():
+        raise InputError("the output raster and the report must be two different paths")
+    for path, role in ((output, "output raster"), (report, "report")):
+        check_output(path, [image, gcps, dem], overwrite, role)
+    info = open_raster(image, "image")
+    rpc = rpc_from_raster(image)
+    g = read_gcps(gcps, layer=layer, crs=crs, dem=dem, height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
+    if not g.has_heights:
+        raise InputError(f"GCP file {str(gcps)!r}: every GCP needs a height for an RPC (a z field, a DEM or a "
+                         f"constant height)")
+    inside = ((g.pixel >= 0) & (g.pixel <= [info.width, info.height])).all(axis=1)
+    skipped = [str(i) for i in g.ids[~inside]]
+    if skipped:
+        warnings.warn(f"{len(skipped)} GCP(s) outside the image ({info.width}x{info.height} px) skipped: "
+                      f"{', '.join(skipped[:10])}", FotogeoWarning, stacklevel=2)
+    lonlat = to_lonlat(g.crs, g.ground[:, :2])
+    ground = np.column_stack([lonlat, g.ground[:, 2]])
+    control, check = inside & (g.role == "control"), inside & (g.role == "check")
+    prog(0.2, "GCPs read")
+    bias = estimate_bias(rpc, ground[control], g.pixel[control], method)
+    new, refit_max = corrected_rpc(rpc, bias)
+    prog(0.5, "correction fitted")
+    rep = {"fotogeo": "rpc-bias", "image": str(image), "gcps": str(gcps), "output": str(output),
+           "report": str(report), "method": method, "correction": bias.summary(), "refit_max_px": refit_max, "skipped": skipped,
+           "units": "pixels (corner convention); residual = measured − projected",
+           "rpc": new.to_gdal_metadata()}
+    for role, sel in (("control", control), ("check", check)):
+        before = g.pixel[sel] - from_centre(rpc.project(*ground[sel].T))
+        after = g.pixel[sel] - from_centre(new.project(*ground[sel].T))
+        rep[role] = {"ids": [str(i) for i in g.ids[sel]], "before": residual_stats(before),
+                     "after": residual_stats(after)}
+    with AtomicOutputs(overwrite) as out:
+        write_rpc_geotiff(image, out.temp(output), new)
+        prog(0.9, "corrected copy written")
+        write_json(out.temp(report), rep)
+        out.commit()
+    prog(1.0, "done")
+    return rep

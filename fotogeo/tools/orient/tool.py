@@ -1,0 +1,276 @@
+"""The orientation tools: GCPs + image (paths) → fitted model, report, error vectors, exports,
+rectified raster; and the model comparison table.
+
+``orient(image, gcps, model=...)`` reads the GCPs (:mod:`fotogeo.io.gcps`), fits the model on
+the control points with data snooping (:mod:`fotogeo.orientation`), and writes what is asked.
+``model="auto"`` fits every candidate the GCPs allow and keeps the simplest within 5 % of the
+best check RMSE (:func:`fotogeo.orientation.adjustment.select_model`; the report's
+``model_selection`` lists the candidates and says why). It returns an
+:class:`~fotogeo.tools.common.results.Orientation` (which reads like the report dict) and writes:
+
+* ``report`` — JSON: model and coefficients, ``control`` / ``check`` statistics
+  (``n``, ``rms_x_px``, ``rms_y_px``, ``rms_xy_px``, min, max, median; ``*_mm`` with a scan
+  pixel size), per-point residuals, blunders, warnings; a path ending in ``.html`` gets the same as one
+  readable page (:mod:`fotogeo.tools.orient.report`);
+* ``vectors`` — GeoPackage, layers ``gcps`` (points with residuals) and ``error_vectors``
+  (lines from each GCP to where the model puts its measured image point on the ground,
+  with ``dx``, ``dy``, ``length`` in map units and ``dx_px``, ``dy_px``; ``exaggeration`` and
+  ``legend``, :mod:`fotogeo.io.vector`: ``auto`` draws one image pixel of residual as 3 % of the
+  GCPs' extent, the same factor for every model fitted to the same GCPs);
+* ``plot`` — PNG: the residual vectors over the image, coloured by role, labelled with the GCP
+  ids, drawn with the same exaggeration as the vectors, with a scale bar of the residuals;
+* ``points`` — QGIS Georeferencer ``.points`` file with the residuals;
+* ``rpc`` — for the RFM models: a GeoTIFF copy of the image carrying the model as GDAL RPC
+  metadata (RPC00B, refitted in lon/lat/h), usable by ``gdalwarp -rpc`` and QGIS;
+* ``gcp_tiff`` — for ``poly1``–``poly3``: a GeoTIFF copy of the image carrying the control
+  points as GDAL GCPs, so that ``gdalwarp -order N`` / QGIS reproduce the fitted polynomial
+  (GDAL fits the same least-squares polynomial of total degree N to the same points);
+* ``rectify`` — the image resampled to a map grid in the GCPs' CRS through the model,
+  heights from ``dem`` or ``height`` for 3-D models, window by window (:mod:`fotogeo.tools.orient.rectify`).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ...errors import InputError
+from ...io.camera import load_camera
+from ...io.gcps import check_inside, read_gcps
+from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.report import write_json
+from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal_scale, write_layers
+from ...geometry.georeference import Georeference
+from ...models import get_model
+from ...orientation.adjustment import fit_orientation, select_model
+from ...progress import as_progress
+from ..common.checks import check_camera_size, check_gcp_crs
+from ..common.boundary import OUTPUTS, tool
+from .rectify import mean_height, rectify_grid, rectify_image
+from ..common.results import Orientation
+
+
+
+@tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
+def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
+           gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
+           remove_blunders: bool = False, exaggeration="auto", resolution=None,
+           resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,
+           progress=None) -> Orientation:
+    """Fit ``model`` (a name, or ``"auto"``) to the GCPs of ``image`` and write the requested
+    outputs; returns an :class:`~fotogeo.tools.common.results.Orientation` (``result["check"]`` reads the report).
+
+    ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera` or an interior-orientation YAML file)
+    is needed by ``collinearity`` only.
+    """
+    prog = as_progress(progress)
+    camera = load_camera(camera)
+    if model != "auto":
+        get_model(model).options_from(camera=camera)  # fails early, naming a missing camera
+    outs = {k: v for k, v in dict(report=report, vectors=vectors, plot=plot, points=points, rpc=rpc,
+                                  gcp_tiff=gcp_tiff, rectify=rectify).items() if v}
+    _check_outputs(model, outs, [image, gcps, dem], overwrite)
+    info = open_raster(image, "image")
+    g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
+                  height=height, **(fields or {}))
+    check_gcp_crs(g, gcps)
+    check_camera_size(camera, info.width, info.height, image)
+    check_inside(g, info.width, info.height, f"{gcps}")
+    prog(0.1, "GCPs read")
+    scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
+    selection = None
+    if model == "auto":
+        model, selection = select_model(g.ground, g.pixel, g.role, g.ids, camera=camera,
+                                        progress=prog.stage(0.1, 0.2, "choosing the model"))
+    fit = fit_orientation(model, g.ground, g.pixel, g.role, g.ids, snooping=snooping,
+                          remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera,
+                          progress=prog.stage(0.2, 0.3, "fitting the model"))
+    prog(0.3, "model fitted")
+    on_ground, d_ground = ground_residuals(fit.model, g.ground, g.pixel, g.crs)
+    rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
+    if selection:
+        rep["model_selection"] = selection
+    rep["exaggeration"] = _exaggeration(exaggeration, g)
+    rep["notes"] = _notes(rep)
+    grid = rectify_grid(rectify, info, fit.model, g.crs, g.ground, dem, height, resolution) if rectify else None
+    with AtomicOutputs(overwrite) as out:
+        if vectors:
+            _write_vectors(out.temp(vectors), g, fit, on_ground, d_ground, rep["exaggeration"])
+        if plot:
+            _plot(out.temp(plot), info, g, fit, rep["exaggeration"])
+        if points:
+            from ...io.points import pixel_to_source, write_points
+            src = pixel_to_source(g.pixel, info.transform if info.georeferenced else None)
+            write_points(out.temp(points), g.ground[:, :2], src, enabled=fit.role == "control",
+                         residual=fit.residual, crs=g.crs.to_wkt())
+        if rpc:
+            from ...io.rpc import write_rpc_geotiff
+            from ...orientation.rpc import fit_rpc
+            ctrl = fit.role == "control"
+            rpc_model, _ = fit_rpc(g.ground[ctrl], g.pixel[ctrl], g.crs, model=model)
+            tmp = out.temp(rpc)
+            write_rpc_geotiff(image, tmp, rpc_model)
+            rep["rpc"] = {"path": str(rpc), **rpc_model.to_gdal_metadata()}
+        if gcp_tiff:
+            ctrl = fit.role == "control"
+            _write_gcp_tiff(image, out.temp(gcp_tiff), g.pixel[ctrl], g.ground[ctrl], g.ids[ctrl], g.crs)
+            rep["gcp_tiff"] = {"path": str(gcp_tiff), "order": int(model[-1]), "gcps": int(ctrl.sum())}
+        prog(0.4, "vectors and exports written")
+        if rectify:
+            rep["rectified"] = rectify_image(out.temp(rectify), info, g.crs, grid, resampling,
+                                             prog.stage(0.4, 0.98, "rectifying"))
+        if report and str(report).lower().endswith((".html", ".htm")):
+            from .report import write_report_html
+            write_report_html(out.temp(report), rep)
+        elif report:
+            write_json(out.temp(report), rep)
+        prog(1.0, "done")
+        out.commit()
+    geo = Georeference(fit.model, heights=mean_height(g.ground), crs=g.crs)
+    return Orientation(fit.model, geo, rep, {k: Path(v) for k, v in outs.items()})
+
+
+def ground_residuals(model, ground, pixel, crs):
+    """``(on_ground, d_ground)``: where ``model`` (ground → image) puts each measured image point
+    ``pixel`` on the ground at the GCP's own height ``ground[:, 2]`` (2-D models ignore it), and
+    that minus the GCP's map position (map units; NaN where the model gives no ground point)."""
+    on_ground = Georeference(model, heights=ground[:, 2], crs=crs).pixel_to_map(pixel)
+    return on_ground, on_ground - ground[:, :2]
+
+
+def _check_outputs(model: str, outs: dict, inputs: list, overwrite: bool) -> None:
+    """Refuse, before any work, exports the model cannot give and output paths that clash or exist."""
+    if model == "auto" and ("gcp_tiff" in outs or "rpc" in outs):
+        raise InputError("--gcp-tiff and --rpc export one model kind (polynomials, RFMs): name the model instead "
+                         "of 'auto'")
+    if "gcp_tiff" in outs and model not in ("poly1", "poly2", "poly3"):
+        raise InputError(f"a GCP GeoTIFF reproduces polynomial models only (poly1, poly2, poly3 = gdalwarp -order "
+                         f"1-3); model {model!r} is not one")
+    for k, v in outs.items():
+        check_output(v, inputs, overwrite, k)
+    if len({Path(v).resolve() for v in outs.values()}) < len(outs):
+        raise InputError("two outputs have the same path; give each its own")
+    if "rpc" in outs and (not model.startswith("rfm") or model.endswith("-i2g")):
+        raise InputError(f"--rpc exports a ground-to-image RFM; model {model!r} is not one (use rfm, rfm-common, "
+                         f"rfm-poly)")
+
+
+def _exaggeration(option, g) -> dict:
+    """The report's ``exaggeration``: k for the error vectors and the plot, the same for every model
+    fitted to these GCPs — ``auto`` takes one image pixel on the ground (the GCPs' own scale,
+    spread of ground over spread of pixels) as the typical vector."""
+    ground, pixel = g.ground[:, :2], g.pixel
+    spread_px = float(np.sqrt(np.var(pixel, axis=0).sum()))
+    gsd = float(np.sqrt(np.var(ground, axis=0).sum())) / spread_px if spread_px > 0 else 0.0
+    k, how = exaggeration_value(option, gsd, ground)
+    scale = nominal_scale(ground)
+    return {"factor": k, "chosen": how, "ground_per_pixel": gsd, "map_scale": scale,
+            "legend": legend_text(k, scale, "ground units" if g.crs.is_geographic else "m")}
+
+
+def _notes(rep) -> dict:
+    """What each number of the orientation report means."""
+    return {
+        "residual": "model(ground) minus the measured image position, in image pixels (corner convention); "
+                    "dx_ground, dy_ground: where the model puts the measured pixel on the ground minus the GCP",
+        "control": "residuals at the GCPs the model was fitted to: an optimistic measure",
+        "check": "residuals at GCPs held out of the fit: the accuracy estimate, including the GCPs' own "
+                 "measurement errors (image and map)",
+        "blunder": "control points flagged by data snooping (Baarda 1968) and removed",
+        "exaggeration": f"error vectors and plot drawn {rep['exaggeration']['legend']} ({rep['exaggeration']['chosen']})",
+        **({"model_selection": f"auto: {rep['model_selection']['because']}"} if "model_selection" in rep else {}),
+    }
+
+
+def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
+    scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
+    return {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
+            "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
+            "warnings": fit.warnings, "model": fit.model.to_dict(),
+            "model_info": {k: v for k, v in getattr(fit.model, "info", {}).items()
+                           if isinstance(v, (int, float, str, list, bool))},
+            "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
+            "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
+                        "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
+                        **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
+                       for i, r, p, v, dg in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground)]}
+
+
+def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
+    """Copy ``src_path`` with GDAL GCPs (pixel/line in the corner convention, as GDAL's are)."""
+    from rasterio.control import GroundControlPoint
+    from rasterio.crs import CRS as RioCRS
+
+    from ...io.raster import geotiff_profile, ropen
+    gcps = [GroundControlPoint(row=float(p[1]), col=float(p[0]), x=float(q[0]), y=float(q[1]),
+                               z=float(q[2]) if np.isfinite(q[2]) else 0.0, id=str(i))
+            for p, q, i in zip(pixel, ground, ids)]
+    with ropen(src_path) as src:
+        prof = geotiff_profile(src.profile)
+        for k in ("transform", "crs", "photometric", "jpeg_quality", "jpegtablesmode"):
+            prof.pop(k, None)
+        if src.count == 3 and src.dtypes[0] == "uint8":
+            prof["photometric"] = "RGB"
+        with ropen(dst_path, "w", **prof, gcps=gcps, crs=RioCRS.from_wkt(crs.to_wkt())) as dst:
+            for _, win in src.block_windows(1):
+                dst.write(src.read(window=win), window=win)
+
+
+def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
+    import shapely
+    k, legend = exaggeration["factor"], exaggeration["legend"]
+    d_px = fit.residual
+    common = {"id": g.ids.astype(object), "role": fit.role.astype(object), "col": g.pixel[:, 0],
+              "row": g.pixel[:, 1], "z": g.ground[:, 2], "dx_px": d_px[:, 0], "dy_px": d_px[:, 1],
+              "residual_px": np.hypot(*d_px.T)}
+    layers = {"gcps": {**common, "geometry": shapely.points(g.ground[:, :2])},
+              "error_vectors": {**common, "dx": d_ground[:, 0], "dy": d_ground[:, 1],
+                                "length": np.hypot(*d_ground.T), "exaggeration": np.full(len(g), k),
+                                "legend": [legend] * len(g),
+                                "geometry": error_vectors(g.ground[:, :2], on_ground, k)}}
+    write_layers(path, layers, g.crs.to_wkt(), {"error_vectors": f"Error vectors drawn {legend}."})
+
+
+def _plot(path, info, g, fit, exaggeration: dict, size: int = 1000):
+    """PNG of the residual vectors over a grey thumbnail of the image: drawn ``exaggeration``
+    times (the factor of the error-vector layer, the same for every model on these GCPs),
+    coloured by role, each labelled with its GCP id; a scale bar gives the residual length."""
+    bands, _, (fx, fy) = read_decimated(info, size * size, "image")
+    img = bands[:3].mean(axis=0)
+    lo, hi = np.percentile(img, [1, 99])
+    grey = np.clip((img - lo) / max(hi - lo, 1e-9) * 200 + 30, 0, 255).astype(np.uint8)
+    canvas = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    k = exaggeration["factor"]
+    colours = {"control": (40, 160, 40), "check": (30, 30, 220), "blunder": (200, 0, 200)}
+    font, aa = cv2.FONT_HERSHEY_SIMPLEX, cv2.LINE_AA
+    for p, v, r, i in zip(g.pixel, fit.residual, fit.role, g.ids):
+        a = (p[0] / fx, p[1] / fy)
+        b = (a[0] + k * v[0] / fx, a[1] + k * v[1] / fy)
+        colour = colours.get(r, (0, 0, 0))
+        cv2.circle(canvas, (int(a[0]), int(a[1])), 3, colour, -1, aa)
+        cv2.arrowedLine(canvas, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), colour, 2, aa, tipLength=0.25)
+        cv2.putText(canvas, str(i), (int(a[0]) + 5, int(a[1]) - 5), font, 0.4, colour, 1, aa)
+    _scale_bar(canvas, k, fx, exaggeration.get("ground_per_pixel"))
+    cv2.putText(canvas, f"vectors x{k:g}  green control, red check, magenta blunder",
+                (10, 25), font, 0.6, (0, 0, 0), 2, aa)
+    if not cv2.imwrite(str(path) if str(path).endswith(".png") else str(path) + ".png", canvas):
+        raise InputError(f"could not write the plot {path}")
+    if not str(path).endswith(".png"):
+        Path(str(path) + ".png").replace(path)
+
+
+def _scale_bar(canvas, k: float, fx: float, ground_per_pixel=None):
+    """A bar in the bottom-left corner: the drawn length of a residual of L image pixels (L from
+    the 1-2-5 series, the bar about a tenth of the plot wide)."""
+    from ...io.vector import nice_number
+    h, w = canvas.shape[:2]
+    L = nice_number(0.1 * w * fx / k)
+    length = int(round(L * k / fx))
+    x0, y0 = 15, h - 20
+    cv2.rectangle(canvas, (x0 - 5, y0 - 28), (x0 + length + 5, y0 + 8), (255, 255, 255), -1)
+    cv2.line(canvas, (x0, y0), (x0 + length, y0), (0, 0, 0), 3)
+    for x in (x0, x0 + length):
+        cv2.line(canvas, (x, y0 - 6), (x, y0 + 6), (0, 0, 0), 2)
+    text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
+    cv2.putText(canvas, text, (x0, y0 - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)

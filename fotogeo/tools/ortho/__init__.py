@@ -1,0 +1,20 @@
+"""Orthophotos and mosaics (``fotogeo ortho``, ``fotogeo mosaic``).
+
+* :mod:`.tool` — :func:`ortho`, images with a known orientation onto a DEM (occlusion, uncertainty);
+* :mod:`.inputs` — each image's ground → image model, the map CRS and the heights;
+* :mod:`.products` — the rasters beside each orthophoto (σ, visibility);
+* :mod:`.mosaic` — :func:`mosaic`, seamlines, feathering and balancing;
+* :mod:`.mosaic_tiles` — the mosaic's blending in tiles (threads or Dask tasks).
+
+The names above are loaded on first use (PEP 562): importing one module of the package does not import
+the others."""
+
+__all__ = ['mosaic', 'ortho']
+_MODULES = {'ortho': 'tool', 'mosaic': 'mosaic'}
+
+
+def __getattr__(name):
+    if name in _MODULES:
+        import importlib
+        return getattr(importlib.import_module(f".{_MODULES[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,316 @@
+"""What ``fotogeo ortho`` reads: each image's ground → image model, the map CRS and the heights.
+
+**Models** (:func:`image_models`), one per image, all taking map ``(X, Y, Z)`` → pixel (corner convention):
+
+* frame cameras — ``--camera`` (orthority YAML, ``pinhole`` or ``brown``: triangulate's ``camera.yaml``) and
+  ``--eo``: fotogeo's ``name X Y Z omega phi kappa`` lines (triangulate's ``exterior_orientation.txt``) or any
+  file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
+  COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
+  triangulate's :class:`~fotogeo.tools.triangulate.ortho.AdjustedFrame` (collinearity with Brown's distortion);
+* RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
+  corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
+* a fitted ``orient`` model (``--model``: orient's JSON report, one image) — used as fitted, ground → image in
+  the CRS of its GCPs (:class:`FittedGroundModel`; a 2-D model ignores the heights); a model fitted image →
+  ground (``*-i2g``) is refused.
+
+**Map CRS** (:func:`map_crs`): a fitted model's, the CRS of its GCPs (another ``--crs`` is refused); ``--crs``;
+else the DEM's horizontal CRS when projected; else the CRS of the
+orientation file (SfM); else the UTM zone of the image centre (RPC). Frame orientations from a ``.txt`` file
+are in the map CRS; an orientation file in another CRS than the one given is refused (mixed CRSs).
+
+**Heights** (:func:`terrain`): the DEM (or a constant ``--height``), bilinear, queried in the map CRS. Its
+height reference is what ``--dem-heights`` says, else what its CRS states
+(:func:`fotogeo.geometry.vertical.crs_height_reference`). An RPC needs ellipsoidal heights: a DEM of geoid
+heights is shifted by ``--geoid`` (undulations ``N``, ``h = H + N``) or refused; a DEM that does not state its
+reference is used as ellipsoidal with a warning. Frame orientations are used in the DEM's own vertical frame
+unless their file states another reference (then the same rule).
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...crs import parse_crs, require_projected, utm_crs_for
+from ...errors import FotogeoWarning, InputError
+from ...geometry.vertical import ShiftedHeights, crs_height_reference, horizontal_crs
+from ...io.block import frame_key
+from ...io.raster import open_raster, read_dem
+from ..common.checks import check_camera_size
+
+
+@dataclass(frozen=True)
+class OrthoImage:
+    """One image to orthorectify: its path, name (file stem), ground → image model and size."""
+    path: str
+    name: str
+    model: object
+    kind: str  # "frame" or "rpc"
+    width: int
+    height: int
+    height_reference: str | None = None  # what the orientation states for its Z (frames), "ellipsoid" for RPC
+
+
+class FittedGroundModel:
+    """A fitted ``orient`` model (ground → image, :mod:`fotogeo.models`) taking map ``(X, Y, Z)`` whatever its own
+    dimensionality: a 2-D model sees ``(X, Y)`` only."""
+
+    def __init__(self, model):
+        self.model, self.src_dims = model, model.src_dims
+
+    def forward(self, XYZ) -> np.ndarray:
+        return self.model.forward(np.asarray(XYZ, np.float64)[:, :self.src_dims])
+
+    def inverse(self, pixel, heights=None, **kw) -> np.ndarray:
+        return self.model.inverse(pixel, heights, **kw) if self.src_dims == 3 else self.model.inverse(pixel)
+
+
+def read_fitted_model(path) -> tuple:
+    """``(model, CRS text)`` of orient's JSON report ``path``; anything else, or a model fitted image → ground,
+    refused in one line."""
+    from ...io.report import read_json
+    from ...models.base import model_from_dict
+    rep = read_json(path, "--model")
+    if rep.get("fotogeo") != "orient" or not isinstance(rep.get("model"), dict) or not rep.get("crs"):
+        raise InputError(f"--model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
+                         f"fitted model and the GCPs' CRS)", option="model")
+    try:
+        model = model_from_dict(rep["model"])
+    except (KeyError, ValueError, TypeError) as exc:
+        raise InputError(f"--model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
+    if getattr(model, "direction", "ground-to-image") != "ground-to-image":
+        raise InputError(f"--model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
+                         f"ground → image model (refit with orient --model {model.name.replace('-i2g', '')})",
+                         option="model")
+    return model, rep["crs"]
+
+
+def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None) -> list:
+    """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named."""
+    names = [frame_key(p) for p in images]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"images: the names {', '.join(dup)} occur twice; every image needs its own file name")
+    if model is not None:
+        if rpc or camera is not None or eo is not None or len(images) != 1:
+            raise InputError("--model orthorectifies one image through its fitted orient model: give one image and "
+                             "no --camera, --eo or --rpc", option="model")
+        info = open_raster(images[0], "image")
+        return [OrthoImage(str(images[0]), names[0], FittedGroundModel(read_fitted_model(model)[0]), "fitted",
+                           info.width, info.height)]
+    if rpc:
+        if camera is not None or eo is not None:
+            raise InputError("give either --rpc (images carrying RPC metadata) or --camera/--eo (frame cameras), "
+                             "not both")
+        return [_rpc_image(p, n, crs) for p, n in zip(images, names)]
+    if eo is None:
+        raise InputError(f"no orientation for the image(s) {', '.join(names[:10])}: give the exterior orientation "
+                         f"(--eo, with --camera) of frame cameras, or --rpc for images carrying an RPC")
+    return _frame_images(images, names, camera, eo, crs)
+
+
+def _rpc_image(path, name, crs) -> OrthoImage:
+    from ...geometry.lonlat_model import LonLatModel
+    from ...io.rpc import rpc_from_raster
+    info = open_raster(path, "image")
+    rpc = rpc_from_raster(path)
+    return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid")
+
+
+def orientation_block(eo, crs, camera):
+    """The :class:`~fotogeo.geometry.approx_block.ApproximateBlock` of an SfM/orthority ``eo`` file, None for
+    fotogeo's ``.txt`` lines; a file in another CRS than ``crs`` is refused (mixed CRSs). orthority's files may
+    state their CRS (``world_crs``, a ``.prj`` beside a CSV): it is read first, never overridden by ``crs``;
+    OpenSfM and COLMAP positions are expressed in ``crs``."""
+    from ...io.orientation_file import read_orientation_file
+    block = None
+    if Path(eo).suffix.lower() in (".geojson", ".csv") and camera is not None:
+        try:
+            block = read_orientation_file(eo, crs=None, camera=camera)  # the file's own CRS, if it states one
+        except InputError as exc:
+            if "states no CRS" not in str(exc):
+                raise
+    block = block or read_orientation_file(eo, crs=crs, camera=camera)
+    if block is not None and crs is not None and block.crs is not None and not block.crs.equals(crs):
+        from ...crs import short_name
+        raise InputError(f"--eo {str(eo)!r} is in {short_name(block.crs)} but the map CRS is {short_name(crs)}; "
+                         f"give --crs {short_name(block.crs)} (and a DEM in it or any CRS) or an orientation file in "
+                         f"the map CRS")
+    return block
+
+
+def _frame_images(images, names, camera, eo, crs) -> list:
+    from ...io.camera import read_camera_with_distortion, read_exterior_orientation
+    from ...orientation.adjusted_frame import AdjustedFrame
+    block = orientation_block(eo, crs, camera)
+    if block is None:
+        if camera is None:
+            raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
+        table = read_exterior_orientation(eo)
+        cam, dist = read_camera_with_distortion(camera)
+        poses = {n: (table.get(n), cam, dist, None) for n in names}
+    else:
+        given = read_camera_with_distortion(camera) if camera is not None else None
+        poses = {}
+        for n in names:
+            shot = block.shots.get(n)
+            if shot is None or shot.exterior is None:
+                poses[n] = (None, None, None, None)
+                continue
+            cam, dist = given or (block.camera_of(n).camera, block.camera_of(n).distortion)
+            poses[n] = (shot.exterior, cam, dist, shot.height_reference)
+    missing = [n for n in names if poses[n][0] is None]
+    if missing:
+        raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
+                         f"file with one pose per image, named by the image file's name without extension")
+    out = []
+    for path, n in zip(images, names):
+        ext, cam, dist, ref = poses[n]
+        info = open_raster(path, "image")
+        check_camera_size(cam, info.width, info.height, path)
+        out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref))
+    return out
+
+
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None) -> tuple:
+    """``(projected CRS, rule)`` of the module docstring."""
+    if model is not None:
+        c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model")
+        given = None if not dst_crs or str(dst_crs).strip().lower() == "auto" else parse_crs(dst_crs, "--crs")
+        if given is not None and not horizontal_crs(given).equals(c):
+            raise InputError(f"--crs differs from the CRS of the fitted model's GCPs ({c.name}): the model takes "
+                             f"map coordinates in that CRS; leave --crs out", option="dst_crs")
+        return c, "the CRS of the fitted model's GCPs (--model)"
+    if dst_crs and str(dst_crs).strip().lower() != "auto":
+        c = parse_crs(dst_crs, "--crs")
+        return require_projected(horizontal_crs(c), "output CRS (--crs)"), "given (--crs)"
+    if dem is not None:
+        info = open_raster(dem, "DEM")
+        if info.crs is None:
+            raise InputError(f"DEM {str(dem)!r} has no CRS; assign one (gdal_edit.py -a_srs) so that it can be "
+                             f"placed under the images")
+        h = horizontal_crs(info.crs)
+        if h.is_projected:
+            return h, "the DEM's CRS (--dem)"
+    if eo is not None and not rpc:
+        block = orientation_block(eo, None, camera) if Path(eo).suffix.lower() != ".txt" else None
+        if block is not None and block.crs is not None:
+            return block.crs, f"the CRS of --eo {str(eo)!r}"
+        raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
+                         "projected CRS")
+    if rpc and images:
+        from ...io.rpc import rpc_from_raster
+        r = rpc_from_raster(images[0])
+        return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
+    raise InputError("no map CRS: give --crs (a projected CRS) or a DEM in a projected CRS")
+
+
+def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
+    """``(height source or number, height reference used, notes)`` (module docstring)."""
+    kinds = {im.kind for im in images}
+    if dem is None:
+        require_heights([im.name for im in images], dem, height, "rpc" in kinds)
+        return float(height), None, [f"constant height {float(height):g}"]
+    d = read_dem_under(dem, images, crs)
+    source = _as_map_source(d, crs)
+    stated = crs_height_reference(d.crs)
+    ref = stated if dem_heights in (None, "auto") else dem_heights
+    wanted = {im.height_reference for im in images} - {None}
+    if len(wanted) > 1:
+        raise InputError(f"the orientations mix height references ({', '.join(sorted(wanted))}); orthorectify "
+                         f"the images of each reference separately")
+    notes = [f"DEM heights: {ref or 'reference not stated'}" + (" (from its CRS)" if ref == stated and ref else "")]
+    if not wanted:
+        return source, ref, notes + ["DEM heights used as they are, in the vertical frame of the orientations"]
+    target = wanted.pop()
+    if geoid is not None and ref != "geoid":
+        raise InputError(f"--geoid {str(geoid)!r} is given but the heights of DEM {str(dem)!r} are "
+                         f"{ref or 'of unstated reference'}; give --dem-heights geoid if they are geoid heights")
+    if ref is None:
+        warnings.warn(f"DEM {str(dem)!r} does not state its height reference; its heights are taken as {target} "
+                      f"heights, as the {'RPC needs' if 'rpc' in kinds else 'orientation states'} (give --dem-heights "
+                      f"to state it)", FotogeoWarning, stacklevel=3)
+        return source, target, notes + [f"DEM heights assumed {target}"]
+    if ref == target:
+        return source, ref, notes
+    if ref == "geoid" and target == "ellipsoid" and geoid is not None:
+        und = _as_map_source(read_dem(geoid), crs)
+        return ShiftedHeights(source, und), "ellipsoid", notes + [f"geoid undulations of {str(geoid)!r} added"]
+    need = "the RPC needs" if "rpc" in kinds else "the orientations are in"
+    raise InputError(f"DEM {str(dem)!r} holds {ref} heights but {need} {target} heights: give the geoid "
+                     f"undulations (--geoid, e.g. PROJ's egm96_15.gtx) or --dem-heights {target} if the DEM's "
+                     f"heights are in fact {target}")
+
+
+#: pixels of the decimated read that bounds a DEM's heights before its window is chosen
+_RANGE_PIXELS = 1_000_000
+
+
+def read_dem_under(path, images, crs):
+    """The part of the DEM ``path`` under the images, as a :class:`~fotogeo.geometry.dem.Dem` (memory bounded by
+    the images' ground area, not the DEM's): the heights' range from a decimated read (padded by 10 % and the
+    100 m a geoid shift may add), each image's outline on the planes of the lowest and highest height (every line
+    of sight between them lies inside their bounding box), that box in the DEM's CRS plus two cells."""
+    import math
+
+    from rasterio.windows import Window
+
+    from ...crs import transform_points
+    from ...geometry.dem import Dem
+    from ...io.raster import ropen
+    from ...pixels import outline
+    with ropen(path) as ds:
+        if ds.crs is None:
+            raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
+        f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
+        small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
+        z = small.compressed().astype(float)
+        z = z[np.isfinite(z)]
+        if not z.size:
+            raise InputError(f"DEM {str(path)!r} holds no valid height")
+        pad = 0.1 * float(z.max() - z.min()) + 100.0
+        corners = []
+        for im in images:
+            for h in (float(z.min()) - pad, float(z.max()) + pad):
+                xy = im.model.inverse(outline(im.width, im.height, 9), h)[:, :2]
+                corners.append(xy[np.isfinite(xy).all(axis=1)])
+        xy = transform_points(crs, horizontal_crs(ds.crs), np.vstack(corners))
+        if not len(xy):
+            return read_dem(path)
+        inv = ~ds.transform
+        cr = np.array([inv * tuple(p) for p in xy])
+        c0, r0 = np.floor(cr.min(axis=0)).astype(int) - 2
+        c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
+        c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
+        win = Window(c0, r0, c1 - c0, r1 - r0) if c1 - c0 >= 2 and r1 - r0 >= 2 else Window(0, 0, 2, 2)
+        data = ds.read(1, window=win, masked=True).astype(np.float64)
+        return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
+
+
+def require_heights(names, dem, height, rpc: bool) -> None:
+    """Refuse images without heights: no DEM and no constant height (asked for knowingly)."""
+    if dem is None and height is None:
+        what = "RPC image(s)" if rpc else "frame(s)"
+        raise InputError(f"{what} {', '.join(names[:5])}: orthorectification needs heights: give a DEM (--dem) or, "
+                         f"knowingly, a constant height (--height)")
+
+
+def _as_map_source(d, crs):
+    """The Dem ``d`` as a height source at points in ``crs`` (itself when its horizontal CRS is ``crs``)."""
+    from ...geometry.dem import DemSampler
+    return d if horizontal_crs(d.crs).equals(crs) else DemSampler(d, crs)
+
+
+def holes(d) -> float:
+    """Fraction of a DEM's cells that are nodata *inside* its valid area (holes, not the outer margin): the nodata
+    regions (4-connected, as ``scipy.ndimage.binary_fill_holes`` fills) that do not touch the array's edge."""
+    import cv2
+    invalid = (~np.isfinite(d.data)).astype(np.uint8)
+    if not invalid.any():
+        return 0.0
+    _, labels = cv2.connectedComponents(invalid, connectivity=4)
+    outer = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    inside = (labels > 0) & ~np.isin(labels, outer[outer > 0])
+    return float(inside.sum()) / max(1, int(invalid.size - invalid.sum() + inside.sum()))

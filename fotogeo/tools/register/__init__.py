@@ -1,0 +1,23 @@
+"""Registration of an image to a georeferenced reference (``fotogeo register``, ``match``, ``fuse``,
+``register-batch``): PCA band fusion, feature matching, robust model fit, sub-pixel refinement.
+
+* :mod:`.tool` — :func:`register`, the tool (reference + target → georeferenced raster, vectors, report);
+* :mod:`.points` — the tie points: matched, refined by least-squares matching, weighted;
+* :mod:`.local` — area-based windows inside the registration (the co-registration's engine);
+* :mod:`.report` — the registration report and its summary lines;
+* :mod:`.match` — :func:`match_images`, matching only (keypoints, descriptors, optional LSM);
+* :mod:`.fuse` — :func:`fuse_raster`, PCA band fusion of a multi-band raster;
+* :mod:`.batch` — :func:`register_batch`, many scenes to one reference as Dask tasks.
+
+The names above are loaded on first use (PEP 562): importing one module of the package does not import
+the others."""
+
+__all__ = ['fuse_raster', 'match_images', 'register', 'register_batch']
+_MODULES = {'register': 'tool', 'match_images': 'match', 'fuse_raster': 'fuse', 'register_batch': 'batch'}
+
+
+def __getattr__(name):
+    if name in _MODULES:
+        import importlib
+        return getattr(importlib.import_module(f".{_MODULES[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,284 @@
+"""The registration's tie points: matched, refined by least-squares matching, weighted, written.
+
+Features give the approximation, LSM the precision (as in the source papers). With ``refine``
+``"lsm"`` (``"auto"``, the default, is lsm for the 2-D registration and none with a DEM:
+:func:`refine_mode`):
+
+1. the matches consistent with a robust homography between the two pixel sets (RANSAC + Tukey,
+   the fit's own first step) are the candidates; at most :func:`lsm_budget` of them, spread over
+   the target, are refined (time: LSM costs about as much per point as detection per 1000 pixels);
+2. :func:`fotogeo.tools.register.match.lsm_tie_points` refines each on the fused images as matched (affine
+   geometry from the homography's Jacobian, bicubic, 15x15 window); on decimated images
+   (``max_match_pixels``) each converged point is refined again at full resolution on windows
+   read from the files (:func:`full_resolution_lsm`);
+3. the fit takes the converged points only (a failed LSM says the keypoint position is doubtful),
+   unless too few converged (then every match, as without LSM; the report says which), with the
+   robust scale's floor lowered to a tenth of a reference pixel (wrong convergences are rejected)
+   and weights ``balance / (σ² + s0²)`` (:func:`fit_points`).
+
+Measured on known warps of real images (benchmarks/register_precision_bench.py): the dense error of
+the model 0.003-0.03 reference px against 0.06-0.53 px without LSM and 0.015-0.13 px with SIFT
+keypoints, at 1.0-1.25x the time.
+
+The ``tie_points`` layer of ``OUT.gpkg`` carries per point its role, positions, residual and,
+with LSM, ``sigma`` / ``sigma_px`` (the radial σ of its refined position, output CRS units and
+reference pixels) and ``lsm_status``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...errors import InputError, MatchingError, ModelError
+from ...io.vector import error_vectors, exaggeration_value, grid_means, legend_text, nominal_scale, write_layers
+from ...matching import CONVERGED
+from ...models import Projective
+from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
+from .match import find_tie_points, lsm_tie_points
+
+#: at least this many converged LSM points (and this share of those tried) for the fit to use
+#: converged points only
+MIN_CONVERGED = 20
+MIN_CONVERGED_SHARE = 0.25
+#: LSM refines at most this many consistent tie points per megapixel matched (reference + target),
+#: within [MIN_LSM_POINTS, MAX_LSM_POINTS], spread over the target; the others are left out of the
+#: fit. Detection and description cost about 0.7 µs per pixel, LSM about 0.6 ms per point: this
+#: keeps LSM near a third of the matching time (benchmarks/register_precision_bench.py)
+LSM_POINTS_PER_MPX = 330
+MIN_LSM_POINTS, MAX_LSM_POINTS = 150, 600
+#: LSM window half size (window (2h+1)² pixels), step tolerance (px) and largest move (px)
+LSM_HALF_WINDOW = 7
+LSM_TOLERANCE = 1e-2
+LSM_MAX_SHIFT = 3.0
+#: status of consistent tie points beyond the MAX_LSM_POINTS refined
+NOT_PICKED = "not refined (enough points refined)"
+#: status of matches the approximate homography calls mismatches
+INCONSISTENT = "not refined (inconsistent with the approximate homography)"
+
+
+@dataclass(frozen=True)
+class TiePoints:
+    """Tie points of a registration (row i = match i), full-resolution pixels, corner convention."""
+
+    src: np.ndarray  # (N, 2) target pixels: refined where LSM converged
+    ref_xy: np.ndarray  # (N, 2) reference pixels
+    counts: dict  # keypoints, matches, PCA, bands, "lsm" summary: report entries
+    sigma_px: np.ndarray | None = None  # (N,) radial σ of the refined position, reference pixels (NaN: none)
+    status: np.ndarray | None = None  # (N,) LSM status
+    usable: np.ndarray | None = None  # (N,) bool: may take part in the fit (None: all)
+
+    def subset(self, keep) -> "TiePoints":
+        """The tie points ``keep`` (a boolean mask), ``usable`` reset."""
+        return replace(self, usable=None, **{k: None if getattr(self, k) is None else getattr(self, k)[keep]
+                                             for k in ("src", "ref_xy", "sigma_px", "status")})
+
+
+def refine_mode(refine: str, terrain: bool) -> str:
+    """The refinement a registration uses: ``refine`` itself, or for ``"auto"`` ``"lsm"`` in 2-D and
+    ``"none"`` terrain-aware (with precise tie points the automatic 3-D model choice prefers rational
+    functions whose check RMSE is lower but whose error away from the tie points is larger: on NGI
+    frame 0182, 3.38 m against DLT's 2.43 m without LSM).
+
+    >>> refine_mode("auto", False), refine_mode("auto", True), refine_mode("lsm", True)
+    ('lsm', 'none', 'lsm')
+    """
+    return refine if refine != "auto" else ("none" if terrain else "lsm")
+
+
+def tie_points(opts, ref, tgt, prog, given=None, refine: str | None = None) -> TiePoints:
+    """Matched (and with ``refine`` (:func:`refine_mode`) ``"lsm"`` refined) tie points, or the
+    ``given`` ones ``(target_xy, reference_xy)`` as they are."""
+    if given is not None:
+        src, ref_xy = (np.asarray(a, float).reshape(-1, 2) for a in given)
+        if len(src) != len(ref_xy):
+            raise InputError("tie_points must be two (N, 2) arrays of equal length: target and reference pixels")
+        counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
+                  "pca_explained_variance": None, "tie_points_given": True}
+        return TiePoints(src, ref_xy, counts)
+    lsm = (refine or refine_mode(opts.refine, False)) == "lsm"
+    found = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.5 if lsm else 0.55, "matching"), images=lsm)
+    if not lsm:
+        return TiePoints(*found)
+    src, ref_xy, counts, (fu_ref, fu_tgt, f_ref, f_tgt) = found
+    prog(0.5, "least-squares matching of the tie points")
+    with prog.timed("refine_lsm"):
+        return _refine(src, ref_xy, counts, (ref, tgt), fu_ref, fu_tgt, np.asarray(f_ref, float),
+                       np.asarray(f_tgt, float), opts)
+
+
+def lsm_budget(pixels: int) -> int:
+    """How many tie points LSM refines when ``pixels`` (reference + target) were matched.
+
+    >>> lsm_budget(300 * 300 * 2), lsm_budget(640 * 600 + 791 * 718), lsm_budget(16_000_000)
+    (150, 314, 600)
+    """
+    return int(np.clip(round(LSM_POINTS_PER_MPX * pixels / 1e6), MIN_LSM_POINTS, MAX_LSM_POINTS))
+
+
+def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> TiePoints:
+    """LSM of the consistent matches (module docstring), at most :data:`MAX_LSM_POINTS` of them; on
+    decimated images a second LSM at full resolution from the first one's result."""
+    t_m, r_m = src / f_tgt, ref_xy / f_ref  # in the pixels of the images matched
+    n = len(src)
+    status = np.full(n, INCONSISTENT, dtype=object)
+    try:  # the consistent matches: RANSAC homography + Tukey refit, as the fit's own first step
+        sel = select_tie_points(Projective, r_m, t_m, threshold=opts.ransac_threshold, min_sigma=1.0,
+                                check_fraction=0.0, rng=opts.seed)
+    except (MatchingError, ModelError):
+        counts["lsm"] = {"refined": 0, "of": n, "note": "too few consistent matches to start LSM from",
+                         "fit_uses": "every match"}
+        return TiePoints(src, ref_xy, counts)
+    cand = sel.inliers
+    pick = cand.copy()
+    budget = lsm_budget(fu_ref.image.size + fu_tgt.image.size)
+    if cand.sum() > budget:
+        idx = np.flatnonzero(cand)
+        pick[idx] = spread_split(t_m[idx], budget / len(idx), opts.seed)
+    status[cand & ~pick] = NOT_PICKED
+    pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=sel.ransac.model, prefilter=np.inf,
+                         half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
+    status[pick] = pts.status
+    xy, sigma_px = t_m.copy(), np.full(n, np.nan)
+    xy[pick] = pts.xy
+    sigma_px[pick] = pts.sigma / pts.scale * float(np.mean(f_ref))  # target px matched -> reference px
+    ok = status == CONVERGED
+    full = None
+    if max(f_ref.max(), f_tgt.max()) > 1.0 + 1e-6 and ok.any():  # decimated: again at full resolution
+        idx = np.flatnonzero(ok)
+        J = pts.jacobian[ok[pick]] * f_tgt[None, :, None] / f_ref[None, None, :]
+        fr = full_resolution_lsm(infos, opts, (fu_ref, fu_tgt), ref_xy[idx], xy[idx] * f_tgt, J)
+        better = fr.converged
+        xy[idx[better]] = fr.xy[better] / f_tgt
+        sigma_px[idx[better]] = fr.sigma[better] / fr.scale[better]
+        full = {"refined": int(better.sum()), "of": int(len(idx)),
+                "median_sigma_px": float(np.median(sigma_px[idx[better]])) if better.any() else None,
+                "note": "the others keep the position and σ of the LSM on the decimated images"}
+    enough = ok.sum() >= max(MIN_CONVERGED, MIN_CONVERGED_SHARE * pick.sum())
+    words, k = np.unique(status.astype(str), return_counts=True)
+    moved = np.hypot(*(xy[ok] - t_m[ok]).T) * float(np.mean(f_tgt))
+    counts["lsm"] = {
+        "refined": int(ok.sum()), "of": int(n), "tried": int(pick.sum()), "consistent": int(cand.sum()),
+        "budget": budget,
+        "status": dict(zip(words.tolist(), k.tolist())),
+        "median_sigma_px": float(np.median(sigma_px[ok])) if ok.any() else None,
+        "median_shift_target_px": float(np.median(moved)) if ok.any() else None,
+        "half_window": LSM_HALF_WINDOW, "matched_at_factor": {"reference": float(np.mean(f_ref)),
+                                                              "target": float(np.mean(f_tgt))},
+        **({"full_resolution": full} if full else {}),
+        "fit_uses": "the converged points" if enough else
+                    f"every match: only {int(ok.sum())} of {int(pick.sum())} LSM runs converged"}
+    return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+
+
+def full_resolution_lsm(infos, opts, fused, ref_xy, tgt_xy, jacobian):
+    """LSM of ``ref_xy`` -> ``tgt_xy`` (N, 2, full-resolution pixels, ``tgt_xy`` already within a
+    fraction of a pixel) on full-resolution windows of the two files, fused as the decimated images
+    were (:func:`fotogeo.tools.register.match.fused_windows`), laid out side by side in one image per file
+    (NaN gutters) so that :func:`fotogeo.matching.lsm_many` refines them all at once."""
+    from ...matching import lsm_many
+    from .match import LsmPoints, fused_windows
+    h = LSM_HALF_WINDOW
+    stretch = float(np.clip(np.nanmax(np.linalg.norm(jacobian, ord=2, axis=(1, 2))), 1.0, 8.0))
+    rr, rt = h + 4, int(np.ceil((h + 4) * stretch + LSM_MAX_SHIFT + 3))
+    o_ref, o_tgt = np.floor(ref_xy).astype(int) - rr, np.floor(tgt_xy).astype(int) - rt
+    a_ref, off_ref = _side_by_side(fused_windows(infos[0], "reference", opts, fused[0], o_ref, 2 * rr + 1))
+    a_tgt, off_tgt = _side_by_side(fused_windows(infos[1], "target", opts, fused[1], o_tgt, 2 * rt + 1))
+    res = lsm_many(a_ref, a_tgt, ref_xy - o_ref + off_ref, tgt_xy - o_tgt + off_tgt, half_window=h,
+                   approx_jacobian=np.nan_to_num(jacobian, nan=1.0), max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
+    A = res.affine[:, :, :2]
+    return LsmPoints(res.xy - off_tgt + o_tgt, np.hypot(*res.sigma.T),
+                     np.sqrt(np.abs(A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0])), res.status, A)
+
+
+def _side_by_side(chips: np.ndarray):
+    """``(image, offsets)``: the (N, s, s) ``chips`` on a grid with one NaN pixel between them; chip k's
+    pixel (col, row) is the image's ``(col, row) + offsets[k]``."""
+    n, s = chips.shape[0], chips.shape[1]
+    cols = max(1, int(np.ceil(np.sqrt(n))))
+    rows = int(np.ceil(n / cols))
+    img = np.full((rows * (s + 1) + 1, cols * (s + 1) + 1), np.nan, np.float32)
+    k = np.arange(n)
+    off = np.column_stack([1 + (k % cols) * (s + 1), 1 + (k // cols) * (s + 1)])
+    for (x, y), chip in zip(off, chips):
+        img[y:y + s, x:x + s] = chip
+    return img, off.astype(float)
+
+
+#: floor of the model's own scatter s0 in the σ weights (reference pixels)
+MIN_S0_PX = 0.01
+
+
+#: with LSM-refined tie points, the robust scale's floor is this share of ``min_sigma`` (1 reference px)
+PRECISE_MIN_SIGMA = 0.1
+
+
+def fit_points(model_cls, src, dst, sigma, *, threshold, min_sigma, check_fraction, rng, is_valid, precise=False,
+               unit=""):
+    """The 2-D registration's fit: :func:`fotogeo.models.robust.select_tie_points` (RANSAC, Tukey,
+    spread check points), then least squares on the control points with the spatial balance
+    weights — divided, when LSM gave each point its σ (``sigma`` (N,), output CRS units), by
+    ``σᵢ² + s0²``: s0² is the scatter the σ do not explain (residual scale of the balanced fit
+    squared minus the median σᵢ², at least (:data:`MIN_S0_PX` reference px)²), so a precise point
+    counts more than a doubtful one, and where the model's misfit dominates (relief) the weights
+    stay the balance weights. Returns ``(TieFit, weights entry of the report or None)``."""
+    floor = min_sigma * (PRECISE_MIN_SIGMA if precise else 1.0)
+    sel = select_tie_points(model_cls, src, dst, threshold=threshold, min_sigma=floor,
+                            check_fraction=check_fraction, rng=rng, is_valid=is_valid, unit=unit)
+    c = sel.control
+    w = balance_weights(src[c])
+    model = model_cls.estimate(src[c], dst[c], w)
+    info = None
+    if sigma is not None and np.isfinite(sigma[c]).all():
+        r = np.hypot(*(model.forward(src[c]) - dst[c]).T)
+        s2 = sigma[c] ** 2
+        floor = MIN_S0_PX * min_sigma
+        s0 = float(np.sqrt(max((1.4826 * np.median(r)) ** 2 - np.median(s2), floor ** 2)))
+        w = w / (s2 + s0 ** 2)
+        model = model_cls.estimate(src[c], dst[c], w)
+        info = {"by": "spatial balance / (σ² + s0²)", "s0_px": s0 / min_sigma,
+                "max_over_median": float(np.max(w) / np.median(w))}
+    resid = model.forward(src) - dst
+    return TieFit(model, sel.inliers, sel.role.astype(str), resid, int(sel.ransac.inliers.sum()), sel.ransac.trials,
+                  sel.sigma), info
+
+
+def write_vectors(path, fit, pts: TiePoints, dst, ref_px, crs, exaggeration) -> dict:
+    """The GeoPackage of tie points, error vectors and the mean-residual grid; returns the
+    exaggeration entry of the report (k, how it was chosen, the legend sentence)."""
+    import shapely
+    src, ref_xy = pts.src, pts.ref_xy
+    keep = fit.inliers
+    idx = np.flatnonzero(keep)
+    d = fit.residual_m[keep]
+    xy = dst[keep]
+    length = np.hypot(d[:, 0], d[:, 1])
+    k, how = exaggeration_value(exaggeration, float(np.median(length)) if len(length) else 0.0, xy)
+    scale = nominal_scale(xy)
+    legend = legend_text(k, scale)
+    common = {"id": idx.astype(np.int64), "role": fit.role[keep],
+              "ref_x": xy[:, 0], "ref_y": xy[:, 1], "ref_col": ref_xy[keep, 0], "ref_row": ref_xy[keep, 1],
+              "target_col": src[keep, 0], "target_row": src[keep, 1]}
+    if fit.z is not None:
+        common["z"] = fit.z[keep]
+    lsm = {}
+    if pts.status is not None:
+        lsm = {"sigma": pts.sigma_px[keep] * ref_px, "sigma_px": pts.sigma_px[keep],
+               "lsm_status": pts.status[keep].astype(str)}
+    g = grid_means(xy, d)
+    layers = {
+        "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
+                       "residual_px": length / ref_px, **lsm, "geometry": shapely.points(xy)},
+        "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
+                          "length": length, "exaggeration": np.full(len(idx), k), "legend": [legend] * len(idx),
+                          "geometry": error_vectors(xy, xy + d, k)},
+        "error_grid": {**{c: g[c] for c in ("cell_col", "cell_row", "n", "mean_dx", "mean_dy", "length", "rms")},
+                       "exaggeration": np.full(len(g["n"]), k), "legend": [legend] * len(g["n"]),
+                       "geometry": error_vectors(np.column_stack([g["x"], g["y"]]).reshape(-1, 2),
+                                                 np.column_stack([g["x"] + g["mean_dx"], g["y"] + g["mean_dy"]])
+                                                 .reshape(-1, 2), k)},
+    }
+    what = f"Error vectors drawn {legend}"
+    write_layers(path, layers, crs.to_wkt(), {"error_vectors": what + ".",
+                                              "error_grid": f"Mean residual per grid cell, {what}."})
+    return {"factor": k, "chosen": how, "map_scale": scale, "legend": legend, "grid_cells": int(len(g["n"]))}
