@@ -17,7 +17,7 @@ from fotogeo.cli import main
 from fotogeo.cli import common
 from fotogeo.options import (COMPARE, DEMO, FUSE, GCP, LAYER_TO_POINTS, MATCH, ORIENT, POINTS_TO_LAYER,
                              REGISTER, REGISTER_TERRAIN, RPC_BIAS, TARGETS, TRANSFER)
-from fotogeo.options_products import MOSAIC, ORTHO
+from fotogeo.options.products import MOSAIC, ORTHO
 
 #: command -> the option tables it is generated from
 COMMANDS = {"register": (REGISTER_TERRAIN, REGISTER), "match": (MATCH,), "fuse": (FUSE,), "demo": (DEMO,),

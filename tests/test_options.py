@@ -1,4 +1,4 @@
-"""The option table (fotogeo/options.py): pure Python, the one source of the tools' options."""
+"""The option table (the fotogeo.options package): pure Python, the one source of the tools' options."""
 from __future__ import annotations
 
 import dataclasses
@@ -10,8 +10,8 @@ import sys
 import pytest
 
 from fotogeo import options as fo
-from fotogeo.options_coreg import COREG
-from fotogeo.options_products import MOSAIC, ORTHO
+from fotogeo.options.coreg import COREG
+from fotogeo.options.products import MOSAIC, ORTHO
 from fotogeo.errors import InputError
 
 THIRD_PARTY = ("numpy", "click", "rasterio", "cv2", "pyproj", "shapely", "geopandas", "pyogrio", "qgis")
@@ -97,7 +97,7 @@ def test_models_refuse_to_import_when_the_list_differs():
             "o.ORIENTATION_MODELS = o.ORIENTATION_MODELS[:-1]\n"
             "import fotogeo.models\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert r.returncode != 0 and "ImportError" in r.stderr and "update the list in fotogeo/options.py" in r.stderr
+    assert r.returncode != 0 and "ImportError" in r.stderr and "update the list in fotogeo/options/shared.py" in r.stderr
 
 
 def test_groups_gather_field_options():

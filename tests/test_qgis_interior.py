@@ -22,7 +22,7 @@ def run(params):
 
 
 def test_interior_in_qgis(qgis_app, tmp_path):
-    from fotogeo.options_interior import INTERIOR
+    from fotogeo.options.interior import INTERIOR
     scan = render_scan(RMK_LIKE, kind="cross", theta=1.0)
     path = write_scan(tmp_path / "scan.tif", scan)
     (tmp_path / "cal.yaml").write_text(report_yaml(RMK_LIKE, kind="cross"))

@@ -96,7 +96,7 @@ def test_provider_registered_with_all_algorithms(qgis_app):
 
 
 def _expected_default(option):
-    """What the QGIS parameter's default must be for ``option`` (see fotogeo/options.py)."""
+    """What the QGIS parameter's default must be for ``option`` (see the fotogeo.options package)."""
     if option.kind == "choice":
         return 0 if option.nullable else option.qgis_choices.index(option.default)
     if option.kind == "choices":

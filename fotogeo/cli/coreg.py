@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from ..options_coreg import COREG
+from ..options.coreg import COREG
 from .common import ConsoleProgress, options_from, run_tool
 
 

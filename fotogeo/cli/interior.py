@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from ..options_interior import INTERIOR
+from ..options.interior import INTERIOR
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 

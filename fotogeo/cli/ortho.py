@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from ..options_products import ORTHO
+from ..options.products import ORTHO
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 

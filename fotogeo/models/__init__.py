@@ -20,4 +20,4 @@ from ..options import ORIENTATION_MODELS  # noqa: E402
 
 if tuple(sorted(MODELS)) != ORIENTATION_MODELS:
     raise ImportError(f"fotogeo.options.ORIENTATION_MODELS {ORIENTATION_MODELS} differs from the registered models "
-                      f"{tuple(sorted(MODELS))}: update the list in fotogeo/options.py")
+                      f"{tuple(sorted(MODELS))}: update the list in fotogeo/options/shared.py")

@@ -12,7 +12,7 @@ from qgis.core import (
     QgsProcessingParameterRasterLayer,
 )
 
-from fotogeo.options_coreg import COREG
+from fotogeo.options.coreg import COREG
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
 from .base import FotogeoAlgorithm, tr

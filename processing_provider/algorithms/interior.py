@@ -10,7 +10,7 @@ from qgis.core import (
     QgsProcessingParameterMultipleLayers,
 )
 
-from fotogeo.options_interior import INTERIOR
+from fotogeo.options.interior import INTERIOR
 
 from .base import FotogeoAlgorithm, tr
 from .triangulate import _layer_paths

@@ -10,7 +10,7 @@ from qgis.core import (
     QgsProcessingParameterRasterDestination,
 )
 
-from fotogeo.options_products import MOSAIC
+from fotogeo.options.products import MOSAIC
 
 from ..postprocess import load_on_completion
 from .base import FotogeoAlgorithm, tr

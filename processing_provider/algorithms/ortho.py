@@ -11,7 +11,7 @@ from qgis.core import (
     QgsProcessingParameterMultipleLayers,
 )
 
-from fotogeo.options_products import ORTHO
+from fotogeo.options.products import ORTHO
 
 from ..postprocess import LoadedRun, load_on_completion
 from .base import FotogeoAlgorithm, tr

@@ -28,7 +28,7 @@ from ...errors import InputError, MatchingError, RasterError
 from ...io.report import write_json
 from ...io.raster import AtomicOutputs, check_output, gdal_env, open_raster
 from ...io.warp import default_nodata
-from ...options_coreg import COREG
+from ...options.coreg import COREG
 from ...pixels import map_to_pixel, outline, pixel_to_map
 from ...progress import as_progress
 from ..common.boundary import OUTPUTS, tool

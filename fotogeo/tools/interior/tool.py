@@ -27,7 +27,7 @@ from ...io.calibration_report import read_calibration_report
 from ...io.interior_json import interior_record
 from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ...matching.fiducials import MarkShape, mark_template, measure_marks, predict
-from ...options_interior import INTERIOR
+from ...options.interior import INTERIOR
 from ...orientation.interior import fit_interior
 from ...progress import as_progress
 from ..common.boundary import tool

@@ -41,7 +41,7 @@ from ...mosaic.blend import overlap_statistics, signed_distance
 from ...mosaic.patches import Patch, overlapping_pairs
 from ...mosaic.seams import seam_labels
 from ...progress import as_progress
-from ...options_products import MOSAIC
+from ...options.products import MOSAIC
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..common.dask_cluster import connect

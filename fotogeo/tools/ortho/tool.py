@@ -44,7 +44,7 @@ from ...io.warp import grid_covering, warp_to_grid
 from ...io.warp_gdal import centres_to_map
 from ...pixels import HALF, outline
 from ...progress import as_progress
-from ...options_products import ORTHO
+from ...options.products import ORTHO
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from .inputs import holes, image_models, map_crs, require_heights, terrain

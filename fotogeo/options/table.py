@@ -11,7 +11,7 @@ import numbers
 import re
 from dataclasses import dataclass, replace
 
-from .errors import InputError
+from ..errors import InputError
 
 
 #: ``kind`` of an option: the Python value, the click type and the QGIS parameter it becomes

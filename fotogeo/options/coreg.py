@@ -2,7 +2,8 @@
 tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import COREG_REPRESENTATIONS, RESAMPLINGS, SEED, Option, Table
+from .shared import COREG_REPRESENTATIONS, RESAMPLINGS, SEED
+from .table import Option, Table
 
 #: area-based co-registration (``fotogeo.tools.coreg.tool.coregister``): the grid of windows, the
 #: matching, the outlier filters and the field (see :mod:`fotogeo.coreg`)

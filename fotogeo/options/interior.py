@@ -2,7 +2,7 @@
 :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import Option, Table
+from .table import Option, Table
 
 #: interior orientation of scanned film frames (``fotogeo interior``, fotogeo.tools.interior.tool)
 INTERIOR = Table(

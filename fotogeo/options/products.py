@@ -2,8 +2,9 @@
 ``fotogeo:mosaic``), declared as every tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import (DEM_HEIGHTS, DEM_SIGMA, REGISTER_BATCH, RESAMPLING, UNCERTAINTY, YAML, Option,  # noqa: F401
-                      Table)
+from .register import REGISTER_BATCH
+from .shared import DEM_HEIGHTS, DEM_SIGMA, RESAMPLING, UNCERTAINTY, YAML
+from .table import Option, Table
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho.tool)
 ORTHO = Table(

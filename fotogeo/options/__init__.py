@@ -1,0 +1,58 @@
+"""Every tool option, declared once: the command line and the QGIS parameters are generated from here
+(the mechanism, :class:`Option` and :class:`Table`, is in :mod:`fotogeo.options.table`; the shared
+choice lists and options in :mod:`.shared`; each capability's tables in its own module: :mod:`.register`,
+:mod:`.orient`, :mod:`.triangulate`, :mod:`.coreg`, :mod:`.interior`, :mod:`.products`). The modules of the
+package import :mod:`.table` and :mod:`.shared` (and a sibling's table they extend), never this aggregator.
+
+An :class:`Option` is one keyword argument of a tool (``fotogeo/tools/<tool>.py``): its name,
+kind, default, valid range or choices, the command-line help and flag, the QGIS parameter
+label and name, and whether QGIS shows it under *Advanced*. A :class:`Table` is the ordered
+set of options of one tool. From a table,
+
+- ``fotogeo.cli.common.options_from(table)`` makes the click options of the ``fotogeo``
+  command (flag ``--name-with-dashes``, default shown in ``--help``);
+- ``processing_provider/algorithms/base.py`` adds the QGIS Processing parameters
+  (``NAME`` in upper case) and reads them back into the tool's keyword arguments;
+- :class:`RegisterOptions` (the registration settings) is a frozen dataclass built from
+  :data:`REGISTER`, whose ``validate()`` checks types, ranges and choices against the table.
+
+Conventions of the QGIS side, where a number or an enum cannot be empty: an option whose
+default is ``None`` is an optional parameter (empty = ``None``), unless it has an
+``automatic`` value — the number standing for ``None`` ("0 = automatic") — or a
+``none_choice`` — the enum entry, listed first, standing for ``None`` ("default").
+
+The choice lists (:data:`DETECTORS`, :data:`CONTRASTS`, :data:`RESAMPLINGS`,
+:data:`PLANAR_MODELS`, :data:`TERRAIN_MODELS`, :data:`ORIENTATION_MODELS`, ...) live in
+:mod:`.shared` and the array and tool modules import them, so there is one list of each. The package
+imports the standard library only: the QGIS plugin reads it when it loads, before it knows
+whether numpy and the other dependencies are installed.
+"""
+from __future__ import annotations
+
+from .coreg import COREG  # noqa: F401
+from .interior import INTERIOR  # noqa: F401
+from .orient import (COMPARE, COMPARE_SETS, GCP, LAYER_TO_POINTS, ORIENT, POINTS_TO_LAYER, RPC_BIAS,  # noqa: F401
+                     TARGETS, TRANSFER)
+from .products import MOSAIC, ORTHO  # noqa: F401
+from .register import (DEMO, FUSE, MATCH, REGISTER, REGISTER_BATCH, REGISTER_TERRAIN,  # noqa: F401
+                       RegisterOptions)
+from .shared import *  # noqa: F401,F403
+from .table import KINDS, Option, Table, field_options, in_labels  # noqa: F401
+from .triangulate import TRIANGULATE  # noqa: F401
+
+
+#: every tool's table, in the order :func:`find_option` searches them
+_TABLES = (REGISTER, REGISTER_TERRAIN, MATCH, FUSE, DEMO, GCP, ORIENT, COMPARE, TRANSFER, TARGETS, RPC_BIAS,
+           POINTS_TO_LAYER, LAYER_TO_POINTS, TRIANGULATE, REGISTER_BATCH, COREG, ORTHO, MOSAIC, INTERIOR)
+
+
+def find_option(name: str) -> Option | None:
+    """The first option declared as ``name`` in the tools' tables (for a message's flag or label), or None.
+
+    >>> find_option("half_window").cli_flag, find_option("nope")
+    ('--half-window', None)
+    """
+    for table in _TABLES:
+        if name in table:
+            return table[name]
+    return None
