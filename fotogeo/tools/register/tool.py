@@ -107,20 +107,7 @@ def register(reference, target, output, *, vectors=None, report=None, field=None
     prog = as_progress(progress).with_own_timings()
     output, vectors, report = _check_outputs(opts, reference, target, output, vectors, report, dem, overwrite)
     field = _field_path(opts, output, field, [reference, target], overwrite)
-    ref = open_raster(reference, "reference")
-    tgt = open_raster(target, "target")
-    for info, role in ((ref, "reference"), (tgt, "target")):
-        select_bands(getattr(opts, f"{role}_bands"), info.count, role)  # out of range: refused before any work
-    if not ref.georeferenced:
-        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
-                         f"register against a georeferenced orthophoto, or georeference it first")
-    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
-    crs, crs_rule = choose_output_crs(opts.dst_crs, ref.crs, centre)
-    require_projected(crs, "output CRS", tuple(to_lonlat(ref.crs, centre)[0]))
-    if dem is not None and camera is not None:
-        from ...io.camera import load_camera
-        camera = load_camera(camera)
-        check_camera_size(camera, tgt.width, tgt.height, target)
+    ref, tgt, crs, crs_rule, camera = _open_inputs(opts, reference, target, dem, camera)
     with AtomicOutputs(overwrite) as out:
         with prog.timed("total"):
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
@@ -181,6 +168,27 @@ def register(reference, target, output, *, vectors=None, report=None, field=None
         prog(1.0, "done")
         out.commit()
     return Registration(output, vectors, report, gf.model, rep, gf.georeference)
+
+
+
+def _open_inputs(opts, reference, target, dem, camera):
+    """Both rasters opened and checked (bands in range, a georeferenced reference), the output CRS by its rule
+    and the camera read: ``(ref, tgt, crs, crs_rule, camera)``, every refusal before any heavy work."""
+    ref = open_raster(reference, "reference")
+    tgt = open_raster(target, "target")
+    for info, role in ((ref, "reference"), (tgt, "target")):
+        select_bands(getattr(opts, f"{role}_bands"), info.count, role)  # out of range: refused before any work
+    if not ref.georeferenced:
+        raise InputError(f"reference {str(reference)!r} has no georeference (CRS and geotransform); "
+                         f"register against a georeferenced orthophoto, or georeference it first")
+    centre = pixel_to_map(ref.transform, [[ref.width / 2, ref.height / 2]])
+    crs, crs_rule = choose_output_crs(opts.dst_crs, ref.crs, centre)
+    require_projected(crs, "output CRS", tuple(to_lonlat(ref.crs, centre)[0]))
+    if dem is not None and camera is not None:
+        from ...io.camera import load_camera
+        camera = load_camera(camera)
+        check_camera_size(camera, tgt.width, tgt.height, target)
+    return ref, tgt, crs, crs_rule, camera
 
 
 def _north_up(ref, crs) -> bool:
