@@ -2,8 +2,8 @@
 ``fotogeo:mosaic``), declared as every tool's are in :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .options import (DEM_HEIGHTS, DEM_SIGMA, REGISTER_BATCH, RESAMPLING, UNCERTAINTY, YAML, Option,  # noqa: F401
-                      Table)
+from .options import (DEM_HEIGHTS, DEM_SIGMA, REGISTER_BATCH, RESAMPLING, SFM_FRAME, UNCERTAINTY, YAML,  # noqa: F401
+                      Option, Table)
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho)
 ORTHO = Table(
@@ -16,6 +16,7 @@ ORTHO = Table(
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
            "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+    SFM_FRAME,
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
            "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),
     Option("model", "file", None, "Fitted orient model (orient's JSON report; one image)",
