@@ -53,6 +53,11 @@ class FotogeoWarning(UserWarning):
     """Base class of fotogeo's warnings: a result was produced but deserves caution."""
 
 
+class InputNote(FotogeoWarning):
+    """How an input was read when the file leaves a choice that changes the result (e.g. the local frame of an
+    SfM reconstruction): shown among the run's first lines (the command line prints it as ``Note:``)."""
+
+
 class IllPosedWarning(FotogeoWarning):
     """A model was estimated but is poorly determined (flat terrain, too few or clustered points)."""
 

@@ -40,7 +40,7 @@ def _camera() -> FrameCamera:
     return FrameCamera(FOCAL_PX, (float(w), float(h)), SIZE, (w / 2 + PP_OFFSET[0], h / 2 + PP_OFFSET[1]))
 
 
-def flight(rng, per_strip: int = 5, base: float = 28.0, height: float = 80.0, pitch: float = -60.0):
+def flight(rng, per_strip: int = 5, base: float = 28.0, height: float = 80.0, pitch: float = -60.0, origin=ORIGIN):
     """``[(name, heading, centre (3,), (yaw, pitch, roll))]``: each strip passes the area's centre, its frames
     looking ahead; the true gimbal angles deviate from the nominal by 1–2°."""
     shots = []
@@ -50,16 +50,16 @@ def flight(rng, per_strip: int = 5, base: float = 28.0, height: float = 80.0, pi
         side = np.array([d[1], -d[0]]) * 12.0
         for k in range(per_strip):
             along = (k - (per_strip - 1) / 2) * base - lead
-            xy = np.array(ORIGIN) + side + d * along + rng.normal(0, 1.0, 2)
+            xy = np.array(origin) + side + d * along + rng.normal(0, 1.0, 2)
             ypr = (heading + rng.normal(0, 2.0), pitch + rng.normal(0, 1.5), rng.normal(0, 1.0))
             shots.append((f"DJI_{s + 1}{k + 1:02d}", heading, np.array([*xy, GROUND + height + rng.normal(0, 1.0)]),
                           ypr))
     return shots
 
 
-def _lonlat(xy):
+def _lonlat(xy, crs=CRS):
     from pyproj import Transformer
-    return Transformer.from_crs(CRS, "EPSG:4326", always_xy=True).transform(*xy)
+    return Transformer.from_crs(crs, "EPSG:4326", always_xy=True).transform(*xy)
 
 
 def _dms(value: float) -> str:
@@ -76,13 +76,16 @@ def _xmp(body: str) -> str:
             f"{body}</rdf:Description></rdf:RDF></x:xmpmeta>\n<?xpacket end='w'?>")
 
 
-def _tags(centre, ypr, gimbal: bool):
-    lon, lat = _lonlat(centre[:2])
+def _tags(centre, ypr, gimbal: bool, crs=CRS, rtk=None):
+    lon, lat = _lonlat(centre[:2], crs)
     tags = {"EXIF_Make": "DJI", "EXIF_Model": "FC-render", "EXIF_GPSLatitude": _dms(lat),
             "EXIF_GPSLatitudeRef": "N" if lat >= 0 else "S", "EXIF_GPSLongitude": _dms(lon),
             "EXIF_GPSLongitudeRef": "E" if lon >= 0 else "W", "EXIF_GPSAltitude": f"({centre[2]:.3f})",
             "EXIF_GPSAltitudeRef": "0x00"}
     attrs = f" drone-dji:AbsoluteAltitude='{centre[2]:+.3f}'"
+    if rtk is not None:  # a DJI RTK aircraft's fix and its standard deviations
+        attrs += (f" drone-dji:RtkFlag='50' drone-dji:RtkStdLon='{rtk:.4f}' drone-dji:RtkStdLat='{rtk:.4f}'"
+                  f" drone-dji:RtkStdHgt='{1.5 * rtk:.4f}'")
     if gimbal:
         attrs += (f" drone-dji:GimbalYawDegree='{ypr[0]:+.2f}' drone-dji:GimbalPitchDegree='{ypr[1]:+.2f}'"
                   f" drone-dji:GimbalRollDegree='{ypr[2]:+.2f}'")
@@ -103,18 +106,21 @@ def _write(path, img, tags, xmp):
 
 
 def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sigma: float = 5.0,
-                  per_strip: int = 5):
+                  per_strip: int = 5, place=None, rtk=None):
     """Render the block and write it twice (module docstring): ``folder/gimbal`` with the gimbal angles in the
     XMP, ``folder/nadir`` without (the same pixels, GPS and calibration); returns ``{"gimbal": paths, "nadir":
-    paths, "truth": {name: EO}, "names", "gsd", "dem", "camera"}``."""
+    paths, "truth": {name: EO}, "names", "gsd", "dem", "camera", "crs"}``. ``place``: ``(CRS, origin)`` elsewhere than
+    the default's; ``rtk``: the GPS σ (m) of a DJI RTK fix, written in the XMP (then ``gps_sigma`` is that)."""
+    crs, origin = place or (CRS, ORIGIN)
+    gps_sigma = gps_sigma if rtk is None else rtk
     rng = np.random.default_rng(seed)
     cam = _camera()
-    shots = flight(rng, per_strip)
+    shots = flight(rng, per_strip, origin=origin)
     truth = {}
     for name, _, centre, ypr in shots:
-        lon, lat = _lonlat(centre[:2])
-        truth[name] = ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, CRS))
-    surface = terrain(rng, ORIGIN, (260.0, 260.0), GROUND, 8.0)
+        lon, lat = _lonlat(centre[:2], crs)
+        truth[name] = ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, crs))
+    surface = terrain(rng, origin, (260.0, 260.0), GROUND, 8.0)
     frames = [OrientedFrame(cam, truth[n]) for n, *_ in shots]
     corners = np.array([[0, 0], [SIZE[0], 0], [SIZE[0], SIZE[1]], [0, SIZE[1]]], dtype=float)
     extent = np.vstack([f.pixel_to_world_at(corners, GROUND) for f in frames])
@@ -132,10 +138,10 @@ def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sig
         noisy = tuple(np.asarray(ypr) + rng.normal(0, attitude_sigma, 3))
         for kind in paths:
             path = folder / kind / f"{name}.tif"
-            _write(path, img, *_tags(gps, noisy, kind == "gimbal"))
+            _write(path, img, *_tags(gps, noisy, kind == "gimbal", crs, rtk))
             paths[kind].append(path)
     return {**paths, "truth": truth, "names": [n for n, *_ in shots], "gsd": gsd, "dem": dem, "camera": cam, "sb": sb,
-            "seed": seed}
+            "seed": seed, "crs": crs}
 
 
 def write_reference(block, folder, *, factor: int = 4) -> tuple:
@@ -149,12 +155,13 @@ def write_reference(block, folder, *, factor: int = 4) -> tuple:
     img = cv2.resize(tex[:rows * factor, :cols * factor], (cols, rows), interpolation=cv2.INTER_AREA)
     folder.mkdir(parents=True, exist_ok=True)
     ortho, dem_path = folder / "ortho.tif", folder / "dem.tif"
-    with rasterio.open(ortho, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="uint8", crs=CRS,
+    crs = block.get("crs", CRS)
+    with rasterio.open(ortho, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="uint8", crs=crs,
                        transform=t * t.scale(factor)) as ds:
         ds.write(np.clip(np.round(img), 1, 255).astype(np.uint8)[None])
     dem = block["dem"]
     with rasterio.open(dem_path, "w", driver="GTiff", width=dem.data.shape[1], height=dem.data.shape[0], count=1,
-                       dtype="float32", crs=CRS, transform=dem.transform) as ds:
+                       dtype="float32", crs=crs, transform=dem.transform) as ds:
         ds.write(dem.data.astype(np.float32)[None])
     return ortho, dem_path
 

@@ -79,11 +79,12 @@ def test_opensfm_round_trip_picks_the_frame_from_exif_gps(tmp_path, block, frame
     assert all(s.height_reference is None for s in got.shots.values())
 
 
-def test_opensfm_without_exif_defaults_to_topocentric_and_says_so(tmp_path, block):
+def test_opensfm_without_exif_or_images_is_refused_naming_sfm_frame(tmp_path, block):
     path = tmp_path / "reconstruction.json"
     write_opensfm(path, block, REF, frame="grid", exif=False)
-    got = read_opensfm(path)
-    assert any("read as topocentric" in n and "cannot tell" in n for n in got.notes)
+    with pytest.raises(InputError, match="sfm_frame topocentric .* or grid") as err:
+        read_opensfm(path)
+    assert err.value.option == "sfm_frame" and "no exif/<image>.exif" in str(err.value)
     # the same file read as ODM's grid offsets gives the block back
     _check_same(read_opensfm(path, frame="grid"), block, 1e-6, 1e-9)
 
@@ -157,8 +158,8 @@ def test_opensfm_hand_written_grid_reading(tmp_path):
 
 def test_opensfm_hand_written_topocentric_kappa_is_the_grid_convergence(tmp_path):
     path, _ = _hand_written(tmp_path)
-    got = read_opensfm(path)
-    assert any("read as topocentric" in n and "no gps_position" in n for n in got.notes)
+    got = read_opensfm(path, frame="topocentric")
+    assert got.frame_reading.startswith("OpenSfM local frame read as topocentric") and "as told" in got.frame_reading
     # the nadir camera is straight above the reference: same lon/lat, h = 1300; its image top points
     # to true north, whose grid bearing comes from a finite difference along the meridian
     t = Transformer.from_crs(4326, UTM35S, always_xy=True)
@@ -220,7 +221,7 @@ def test_opensfm_topocentric_projection_within_the_map_scale(tmp_path):
 
     from fotogeo.geometry.local_frames import topocentric_to_lonlath
     path, rec = _hand_written(tmp_path)
-    got = read_opensfm(path)
+    got = read_opensfm(path, frame="topocentric")
     ground = np.array([[30.0, -20.0, 5.0], [-80.0, 140.0, -10.0], [200.0, 50.0, 0.0]])
     llh = topocentric_to_lonlath(ground, REF)
     xy = np.column_stack(Transformer.from_crs(4326, UTM35S, always_xy=True).transform(llh[:, 0], llh[:, 1]))
@@ -235,8 +236,8 @@ def test_opensfm_topocentric_projection_within_the_map_scale(tmp_path):
 
 def test_opensfm_gps_position_without_exif_cannot_decide(tmp_path):
     path, _ = _hand_written(tmp_path, with_gps=True)
-    got = read_opensfm(path)
-    assert any("cannot tell" in n for n in got.notes)
+    with pytest.raises(InputError, match="sfm_frame"):
+        read_opensfm(path)
 
 
 def test_opensfm_reference_beside_and_several_reconstructions(tmp_path):

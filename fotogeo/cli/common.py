@@ -12,7 +12,7 @@ import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError, in_callers_words, warning_line
+from ..errors import Cancelled, FotogeoError, InputNote, in_callers_words, warning_line
 from ..options import Option, Table, find_option
 
 #: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
@@ -60,7 +60,8 @@ def warnings_as_lines():
         text = warning_line(message, category)  # translated or silenced (fotogeo.errors)
         if text is not None and text not in shown:
             shown.add(text)
-            click.echo(f"Warning: {text}", err=True)
+            label = "Note" if isinstance(category, type) and issubclass(category, InputNote) else "Warning"
+            click.echo(f"{label}: {text}", err=True)
 
     with warnings.catch_warnings():
         warnings.showwarning = show

@@ -66,6 +66,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     start = rep.get("start") or {}
     if start.get("source"):
         click.echo(f"start: {start['source']}")
+    if start.get("sfm_frame"):
+        click.echo(f"--eo {start['sfm_frame']}")
     registered = [r for r in start.get("registration") or [] if r["status"] == "start"]
     if registered:
         low = min(registered, key=lambda r: r["inliers"])

@@ -95,13 +95,15 @@ class ApproxShot:
 class ApproximateBlock:
     """Cameras by id, shots by image name, the map CRS (a ``pyproj.CRS`` or ``None``), notes, and
     ``heights``: the positions' height reference and where it was read (the images' EXIF/XMP; "" when the
-    source does not say)."""
+    source does not say) and ``frame_reading``: how a source's local frame was read and why, when it needed a
+    choice (OpenSfM's topocentric or ODM's grid reading, :mod:`fotogeo.io.sfm_frame`; "" otherwise)."""
 
     cameras: dict
     shots: dict
     crs: object = None
     notes: tuple = ()
     heights: str = ""
+    frame_reading: str = ""
 
     def __post_init__(self):
         missing = sorted({s.camera_id for s in self.shots.values()} - set(self.cameras))

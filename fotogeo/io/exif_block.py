@@ -66,7 +66,7 @@ def height_reference(meta: ImageMetadata) -> tuple[str | None, str]:
     return None, f"{v}: the reference of EXIF GPSAltitude is not documented; height reference unknown"
 
 
-def _sigmas(meta: ImageMetadata):
+def position_sigmas(meta: ImageMetadata):
     """``(σ_h, σ_v)`` of the position (m) from RTK or GNSS accuracy tags, None where absent."""
     if meta.xs("drone-dji:RtkFlag") is not None:
         lo, la, sv = (meta.x(f"drone-dji:RtkStd{k}") for k in ("Lon", "Lat", "Hgt"))
@@ -288,7 +288,7 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
         angles = patb_in_map(R, *at, map_crs) if R is not None and at and map_crs is not None else None
         asrc = asrc if angles else "none"
         source = f"position: {psrc if position else 'none'}; angles: {asrc}"
-        shots[m.name] = ApproxShot(m.name, ids[m.name], position, angles, *_sigmas(m), None,
+        shots[m.name] = ApproxShot(m.name, ids[m.name], position, angles, *position_sigmas(m), None,
                                    ref if position else None, source)
         sources[asrc] = sources.get(asrc, 0) + 1
     notes.append("attitude: " + ", ".join(f"{n} image(s) from {s}" for s, n in sources.items()))

@@ -23,11 +23,11 @@ gps_position, gps_dop, ...}}`` and ``reference_lla`` ``{latitude, longitude, alt
   ``"topocentric"`` (local -> ECEF -> lon/lat/h -> map CRS; the angles turned by the frame change
   between the reference and the camera and by the map's grid convergence, :func:`fotogeo.geometry.local_frames.grid_angle`) and
   ``"grid"`` (UTM offsets; angles turned only when the map CRS is not that UTM zone). ``"auto"``
-  decides from the shots' ``gps_position`` (local coordinates of the image GPS): compared with the
-  absolute GPS of OpenSfM's ``exif/<image>.exif`` files beside the reconstruction, converted both
-  ways, the reading that reproduces ``gps_position`` wins. Without those files ``gps_position``
-  cannot tell (both readings convert it exactly like the centres) and the topocentric reading
-  is used; the block's notes say which reading was used and why.
+  decides from evidence (:mod:`fotogeo.io.sfm_frame`): the shots' ``gps_position`` against the
+  images' own GPS (given by the caller) or OpenSfM's ``exif/<image>.exif`` beside the reconstruction,
+  else the camera centres against the images' own GPS; ``gps_position`` alone cannot tell (both
+  readings convert it exactly like the centres). When nothing decides and the readings differ here,
+  the file is refused naming ``sfm_frame``; the reading and why are the block's ``frame_reading``.
 * **Heights**: ``Z = altitude + z`` as OpenSfM stores them (the GPS altitude, above the ellipsoid
   or the geoid as the camera wrote it): ``height_reference`` is left unknown.
 
@@ -171,44 +171,58 @@ def _is_xyz(v) -> bool:
             and bool(np.isfinite(v).all()))
 
 
-def _choose_frame(frame: str, shots: dict, folder: Path, ref, crs) -> tuple[str, str]:
-    """The reading of the local frame (module docstring) and the note saying why."""
+def _choose_frame(frame: str, shots: dict, centres: dict, folder: Path, ref, crs, gps, where: str) -> tuple:
+    """``(reading, sentence)`` of the local frame (:mod:`fotogeo.io.sfm_frame`): as told, else from the
+    evidence; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ."""
+    from . import sfm_frame as sf
     if frame != "auto":
-        return frame, f"OpenSfM local frame read as {frame} (frame={frame!r})"
-    gps = {n: s["gps_position"] for n, s in shots.items() if isinstance(s, dict) and _is_xyz(s.get("gps_position"))}
-    if not gps:
-        return "topocentric", "OpenSfM local frame read as topocentric (OpenSfM's own): the shots have no gps_position"
-    exif = _exif_gps(folder, gps)
-    if not exif:
-        return "topocentric", ("OpenSfM local frame read as topocentric (OpenSfM's own): gps_position alone cannot tell "
-                               "it from ODM's UTM-grid offsets and no exif/<image>.exif with the absolute GPS is beside "
-                               "the reconstruction; give frame='grid' for ODM's reading")
-    names = sorted(exif)
-    stored = np.array([gps[n] for n in names], float)[:, :2]
-    llh = np.array([exif[n] for n in names])
-    rms = {k: float(np.sqrt(np.mean(np.sum((LocalFrame(k, ref, crs).from_lonlath(llh)[:, :2] - stored) ** 2, axis=1))))
-           for k in ("topocentric", "grid")}
-    best = min(rms, key=rms.get)
-    other = "grid" if best == "topocentric" else "topocentric"
-    return best, (f"OpenSfM local frame read as {best}: the shots' gps_position reproduce the exif GPS of {len(names)} "
-                  f"image(s) to {rms[best]:.3f} m RMS horizontally that way, {rms[other]:.3f} m read as {other} "
-                  f"(topocentric = OpenSfM's frame, grid = ODM's UTM offsets)")
+        return frame, f"OpenSfM local frame read as {frame} ({sf._WHAT[frame]}), as told (sfm_frame {frame})"
+    gp = {frame_key(n): s["gps_position"] for n, s in shots.items()
+          if isinstance(s, dict) and _is_xyz(s.get("gps_position"))}
+    steps = []
+    if gps:
+        steps.append((gp, {n: (g.lon, g.lat, sf.TAG_SIGMA) for n, g in gps.items()},
+                      "shots' gps_position vs the images' own EXIF GPS"))
+    exif = {frame_key(n): (g[0], g[1], sf.TAG_SIGMA) for n, g in _exif_gps(folder, [n for n in shots]).items()}
+    if exif:
+        steps.append((gp, exif, "shots' gps_position vs the GPS of the exif/<image>.exif beside it"))
+    if gps:
+        steps.append((centres, {n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()},
+                      "camera centres vs the images' own EXIF GPS"))
+    reasons = []
+    for local, evidence, source in steps:
+        if not local:
+            continue
+        kind, why = sf.decide(local, evidence, ref, crs, source)
+        if kind is not None:
+            return kind, f"OpenSfM local frame {why}"
+        reasons.append(why)
+    sep = sf.separation(ref, crs, np.array(list(centres.values()), float))
+    if sf.immaterial(sep):
+        return "topocentric", (f"OpenSfM local frame read as topocentric: the topocentric and grid readings place "
+                               f"every camera within {sep[0]:.3f} m and {sep[1]:.5f}° of each other here")
+    if not steps:
+        reasons.append("no exif/<image>.exif is beside it and the images' own GPS is not at hand"
+                       + ("" if gp else " (nor do its shots carry gps_position)"))
+    raise sf.refusal(where, "; ".join(reasons) or "no image GPS matches its shots", sep)
 
 
 def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str = "auto",
-                 reconstruction: int = 0) -> ApproximateBlock:
+                 reconstruction: int = 0, gps=None) -> ApproximateBlock:
     """Read an OpenSfM/ODM reconstruction into an :class:`ApproximateBlock` (module docstring).
 
     ``cameras_json``: ODM's ``cameras.json`` (camera dicts by id), which overrides or provides the
     cameras; ``crs``: the map CRS (projected), by default the UTM zone of ``reference_lla``;
-    ``frame``: ``"auto"``, ``"topocentric"`` or ``"grid"``; ``reconstruction``: which one of the list
-    (OpenSfM puts the largest first). Shots are keyed by the image's stem.
+    ``frame``: ``"auto"``, ``"topocentric"`` or ``"grid"`` (the tools' ``sfm_frame``); ``gps``: the
+    images' own GPS ``{frame key: GpsFix}`` (:func:`fotogeo.io.sfm_frame.images_gps`), evidence for
+    ``"auto"``; ``reconstruction``: which one of the list (OpenSfM puts the largest first). Shots are
+    keyed by the image's stem. The reading and why are the block's ``frame_reading`` (and a note).
     """
     from ..crs import parse_crs, require_projected, utm_crs_for
     path = Path(reconstruction_json)
     where = f"OpenSfM reconstruction {str(path)!r}"
     if frame not in FRAMES:
-        raise InputError(f"frame {frame!r} is not one of {', '.join(FRAMES)}")
+        raise InputError(f"sfm_frame {frame!r} is not one of {', '.join(FRAMES)}", option="sfm_frame")
     data = load_json(path, "OpenSfM reconstruction", _FIX)
     if isinstance(data, dict):
         data = [data]
@@ -237,13 +251,15 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
                else utm_crs_for(ref[1], ref[0]))
     if crs is None:
         notes.append(f"map CRS EPSG:{map_crs.to_epsg()}: the UTM zone of reference_lla")
-    kind, why = _choose_frame(frame, shots, path.parent, ref, map_crs)
+    parsed = _shots(path, shots, cams)
+    kind, why = _choose_frame(frame, shots, dict(zip(parsed[0], parsed[2])), path.parent, ref, map_crs, gps, where)
     notes += [why, "heights: reference_lla altitude + local z, in the vertical reference of the GPS altitudes "
                    "(OpenSfM does not record it)"]
-    return _block(path, shots, cams, LocalFrame(kind, ref, map_crs), map_crs, notes)
+    return _block(parsed, LocalFrame(kind, ref, map_crs), map_crs, notes, why)
 
 
-def _block(path: Path, shots, cams, fr: LocalFrame, map_crs, notes) -> ApproximateBlock:
+def _shots(path: Path, shots, cams) -> tuple:
+    """``(names, camera ids, local centres, PATB rotations camera -> local, cameras)`` of the shots."""
     from scipy.spatial.transform import Rotation
     where = f"OpenSfM reconstruction {str(path)!r}"
     names, cids, centres, rots, cameras = [], [], [], [], {}
@@ -252,6 +268,7 @@ def _block(path: Path, shots, cams, fr: LocalFrame, map_crs, notes) -> Approxima
             if not isinstance(s, dict):
                 raise ValueError("a shot must be a JSON object")
             R = Rotation.from_rotvec(_vector(s, "rotation")).as_matrix()
+            t = _vector(s, "translation")
             cid = str(s.get("camera"))
             if cid not in cams:
                 raise ValueError(f"camera {cid!r} is not among the cameras ({', '.join(map(repr, list(cams)[:5]))})")
@@ -264,16 +281,21 @@ def _block(path: Path, shots, cams, fr: LocalFrame, map_crs, notes) -> Approxima
             raise InputError(one_line(f"{where}: shot {name!r}: {exc}")) from None
         names.append(frame_key(name))
         cids.append(cid)
-        centres.append(-R.T @ _vector(s, "translation"))
+        centres.append(-R.T @ t)
         rots.append(R.T @ _D)  # PATB camera -> local
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise InputError(f"{where}: images {', '.join(dup[:5])} differ only by extension or folder; fotogeo keys "
                          f"frames by file stem: rename them")
+    return names, cids, centres, rots, cameras
+
+
+def _block(parsed, fr: LocalFrame, map_crs, notes, why: str) -> ApproximateBlock:
+    names, cids, centres, rots, cameras = parsed
     xyz, M = fr.to_map(np.array(centres))
     out = {n: ApproxShot(n, c, tuple(p), angles_patb(m @ r), source="OpenSfM reconstruction")
            for n, c, p, m, r in zip(names, cids, xyz, M, rots)}
-    return ApproximateBlock(cameras, out, map_crs, tuple(notes))
+    return ApproximateBlock(cameras, out, map_crs, tuple(notes), frame_reading=why)
 
 
 # -- writing --------------------------------------------------------------------------------------

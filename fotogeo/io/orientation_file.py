@@ -9,18 +9,38 @@
 * ``*.geojson`` / ``*.csv`` — orthority's exterior parameters (:func:`fotogeo.io.orthority.read_orthority`) with
   the interior parameters of ``camera`` (orthority's YAML).
 
-Each returns the one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`.
+Each returns the one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`. With the ``images`` themselves,
+their own EXIF GPS is evidence (:mod:`fotogeo.io.sfm_frame`): it decides the local frame of an OpenSfM/ODM
+reconstruction (``sfm_frame`` ``auto``), and every file's camera centres must agree with it within 3σ
+horizontally, else the file is refused by name. An OpenSfM reading is shown as an :class:`~fotogeo.errors.InputNote`.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, InputNote
 
 
-def read_orientation_file(path, crs=None, camera=None):
+def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto", images=()):
     """The :class:`ApproximateBlock` of ``path`` (module docstring), or None for a ``.txt`` EO file."""
+    from .sfm_frame import check_gps, images_gps
     p = Path(path)
+    gps = images_gps(images) if images else {}
+    block = _read(p, crs, camera, sfm_frame, gps)
+    if block is None:
+        return None
+    is_sfm = p.suffix.lower() == ".json" and not p.is_dir()
+    agree = check_gps(block, gps, f"orientation file {str(p)!r}", "sfm_frame" if is_sfm else None) if gps else ""
+    if agree:
+        block = block.with_notes(agree)
+    if is_sfm:
+        warnings.warn(f"orientation file {str(p)!r}: {block.frame_reading}" + (f"; {agree}" if agree else ""),
+                      InputNote, stacklevel=2)
+    return block
+
+
+def _read(p: Path, crs, camera, sfm_frame: str, gps):
     suffix = p.suffix.lower()
     if p.is_dir() or p.name.lower() in ("images.txt", "cameras.txt"):
         from .colmap import read_colmap
@@ -30,7 +50,8 @@ def read_orientation_file(path, crs=None, camera=None):
     if suffix == ".json":
         from .opensfm import read_opensfm
         cams = p.parent / "cameras.json"
-        return read_opensfm(p, cams if cams.exists() and cams != p else None, crs=crs)
+        return read_opensfm(p, cams if cams.exists() and cams != p else None, crs=crs, frame=sfm_frame or "auto",
+                            gps=gps)
     if suffix in (".geojson", ".csv"):
         if camera is None:
             raise InputError(f"orthority exterior parameters {str(p)!r} need their interior parameters: give the "

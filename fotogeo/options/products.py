@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .register import REGISTER_BATCH
-from .shared import DEM_HEIGHTS, DEM_SIGMA, RESAMPLING, UNCERTAINTY, YAML
+from .shared import DEM_HEIGHTS, DEM_SIGMA, RESAMPLING, SFM_FRAME, UNCERTAINTY, YAML
 from .table import Option, Table
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho.tool)
@@ -17,6 +17,7 @@ ORTHO = Table(
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
            "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+    SFM_FRAME,
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
            "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),
     Option("model", "file", None, "Fitted orient model (orient's JSON report; one image)",

@@ -56,6 +56,11 @@ DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the unc
                    "Height sigma of the DEM (m) for --uncertainty [half the DEM's cell].", minimum=0.0,
                    exclusive_minimum=True, automatic=0.0, advanced=True)
 YAML = "YAML (*.yaml *.yml)"
+#: the local frame of an OpenSfM/ODM reconstruction.json given as --eo (fotogeo.io.sfm_frame)
+SFM_FRAME = Option("sfm_frame", "choice", "auto", "Local frame of an OpenSfM/ODM reconstruction (auto = from the "
+                   "images' GPS)", "Local frame of an OpenSfM/ODM reconstruction.json (--eo): topocentric (OpenSfM) or "
+                   "grid (ODM's offsets along the UTM grid) [auto: decided by the images' own GPS or exif/; refused "
+                   "when nothing decides].", choices=("auto", "topocentric", "grid"), advanced=True)
 #: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.register.batch._cluster)
 SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
                    "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine].")

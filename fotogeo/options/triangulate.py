@@ -3,7 +3,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .shared import (DEM_SIGMA, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, UNCERTAINTY, UNDETERMINED, WORKERS)
+from .shared import (DEM_SIGMA, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, SFM_FRAME, UNCERTAINTY,
+                     UNDETERMINED, WORKERS)
 from .table import Option, Table
 
 #: aerial triangulation (``fotogeo triangulate``, fotogeo.tools.triangulate)
@@ -68,6 +69,7 @@ TRIANGULATE = Table(
     Option("eo_sigma_height", "float", None, "σ of the approximate projection-centre heights (m; empty = as X, Y)",
            "σ of the approximate projection-centre heights, e.g. GNSS vertical (m) [--eo-sigma-position, or the "
            "images' own GNSS accuracy tags].", minimum=0.0, exclusive_minimum=True, advanced=True),
+    SFM_FRAME,
     Option("geoinfo", "file", None, "senseFly geoinfo.txt (GPS and autopilot attitude per image)",
            "senseFly geotag file (fileName latitude longitude altitude heading pitch roll) giving the approximate "
            "orientation of images without --eo.", file_filter="Text files (*.txt);;All files (*)"),

@@ -6,7 +6,7 @@
   ``--eo``: fotogeo's ``name X Y Z omega phi kappa`` lines (triangulate's ``exterior_orientation.txt``) or any
   file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
   COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
-  triangulate's :class:`~fotogeo.tools.triangulate.ortho.AdjustedFrame` (collinearity with Brown's distortion);
+  triangulate's :class:`~fotogeo.orientation.adjusted_frame.AdjustedFrame` (collinearity with Brown's distortion);
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
   corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
 * a fitted ``orient`` model (``--model``: orient's JSON report, one image) — used as fitted, ground → image in
@@ -87,8 +87,9 @@ def read_fitted_model(path) -> tuple:
     return model, rep["crs"]
 
 
-def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None) -> list:
-    """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named."""
+def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sfm_frame="auto", said=None) -> list:
+    """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named. How an
+    SfM ``eo`` file was read (:mod:`fotogeo.io.sfm_frame`) is appended to the list ``said``."""
     names = [frame_key(p) for p in images]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -108,7 +109,7 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None) ->
     if eo is None:
         raise InputError(f"no orientation for the image(s) {', '.join(names[:10])}: give the exterior orientation "
                          f"(--eo, with --camera) of frame cameras, or --rpc for images carrying an RPC")
-    return _frame_images(images, names, camera, eo, crs)
+    return _frame_images(images, names, camera, eo, crs, sfm_frame, said)
 
 
 def _rpc_image(path, name, crs) -> OrthoImage:
@@ -119,20 +120,21 @@ def _rpc_image(path, name, crs) -> OrthoImage:
     return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid")
 
 
-def orientation_block(eo, crs, camera):
+def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
     """The :class:`~fotogeo.geometry.approx_block.ApproximateBlock` of an SfM/orthority ``eo`` file, None for
     fotogeo's ``.txt`` lines; a file in another CRS than ``crs`` is refused (mixed CRSs). orthority's files may
     state their CRS (``world_crs``, a ``.prj`` beside a CSV): it is read first, never overridden by ``crs``;
-    OpenSfM and COLMAP positions are expressed in ``crs``."""
+    OpenSfM and COLMAP positions are expressed in ``crs``; the ``images``' own GPS is evidence for the reading of an
+    OpenSfM file (``sfm_frame``) and a check of every file (:mod:`fotogeo.io.orientation_file`)."""
     from ...io.orientation_file import read_orientation_file
     block = None
     if Path(eo).suffix.lower() in (".geojson", ".csv") and camera is not None:
         try:
-            block = read_orientation_file(eo, crs=None, camera=camera)  # the file's own CRS, if it states one
+            block = read_orientation_file(eo, crs=None, camera=camera, images=images)  # the file's own CRS
         except InputError as exc:
             if "states no CRS" not in str(exc):
                 raise
-    block = block or read_orientation_file(eo, crs=crs, camera=camera)
+    block = block or read_orientation_file(eo, crs=crs, camera=camera, sfm_frame=sfm_frame, images=images)
     if block is not None and crs is not None and block.crs is not None and not block.crs.equals(crs):
         from ...crs import short_name
         raise InputError(f"--eo {str(eo)!r} is in {short_name(block.crs)} but the map CRS is {short_name(crs)}; "
@@ -141,10 +143,12 @@ def orientation_block(eo, crs, camera):
     return block
 
 
-def _frame_images(images, names, camera, eo, crs) -> list:
+def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -> list:
     from ...io.camera import read_camera_with_distortion, read_exterior_orientation
     from ...orientation.adjusted_frame import AdjustedFrame
-    block = orientation_block(eo, crs, camera)
+    block = orientation_block(eo, crs, camera, sfm_frame, images)
+    if block is not None and said is not None:
+        said += [n for n in block.notes if ("local frame" in n or "own GPS" in n) and n not in said]
     if block is None:
         if camera is None:
             raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
@@ -174,7 +178,7 @@ def _frame_images(images, names, camera, eo, crs) -> list:
     return out
 
 
-def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None) -> tuple:
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto") -> tuple:
     """``(projected CRS, rule)`` of the module docstring."""
     if model is not None:
         c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model")
@@ -195,7 +199,7 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None) -> tuple:
         if h.is_projected:
             return h, "the DEM's CRS (--dem)"
     if eo is not None and not rpc:
-        block = orientation_block(eo, None, camera) if Path(eo).suffix.lower() != ".txt" else None
+        block = orientation_block(eo, None, camera, sfm_frame, images) if Path(eo).suffix.lower() != ".txt" else None
         if block is not None and block.crs is not None:
             return block.crs, f"the CRS of --eo {str(eo)!r}"
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "

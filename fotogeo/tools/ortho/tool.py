@@ -241,7 +241,7 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
 def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
           resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
-          view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
+          view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False, progress=None) -> dict:
     """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
     made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
@@ -251,7 +251,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
         return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, model=model, height=height,
                       dem_heights=dem_heights, geoid=geoid, occlusion=occlusion, resolution=resolution,
                       dst_crs=dst_crs, resampling=resampling,
-                      cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands,
+                      cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands, sfm_frame=sfm_frame,
                       overwrite=overwrite, progress=progress)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
@@ -262,7 +262,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
 def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
            resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
-           view_bands: bool = False, overwrite: bool = False, progress=None) -> dict:
+           view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False, progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
@@ -275,8 +275,9 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     for p in (q for e in extras.values() for q in e.values()):
         check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model)
-    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model)
+    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model, sfm_frame)
+    said = []
+    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model, sfm_frame=sfm_frame, said=said)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
     if not occlusion:
@@ -287,6 +288,8 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}
+    if said:
+        rep["orientation"] = said
     if sigma_h is not None:
         rep["dem_sigma_m"], rep["dem_sigma_rule"] = sigma_h
     with AtomicOutputs(overwrite) as out:

@@ -63,6 +63,7 @@ class BlockStart:
     registration: list | None = None  # the frames' registration rows when the start comes from the reference
     heights: str = ""  # the GPS heights' reference and why, when the start comes from the images' GPS
     over_gps: bool = False  # registration around the images' GPS start (attitude from the reference)
+    frame_reading: str = ""  # how an SfM --eo file's local frame was read and why (fotogeo.io.sfm_frame)
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -136,6 +137,8 @@ class BlockStart:
             out["registration"] = self.registration
         if self.heights:
             out["heights"] = self.heights
+        if self.frame_reading:
+            out["sfm_frame"] = self.frame_reading
         return out
 
 
@@ -176,7 +179,7 @@ def _from_images(frames, crs, geoinfo, need_position: bool):
     return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo)
 
 
-def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo) -> BlockStart:
+def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo, sfm_frame="auto") -> BlockStart:
     """Read the camera and the approximate orientation (module docstring)."""
     from .inputs import frame_names, read_camera
     names = [frame_key(f) for f in frames]
@@ -184,7 +187,7 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo)
         raise InputError("automatic control (--reference) needs the DEM (--dem) for the heights of its points")
     approx = None
     by_registration = eo is None and not gcps and bool(reference) and geoinfo is None and not _all_have_gps(frames)
-    sfm = _from_orientation_file(eo, crs, reference, dem, camera) if eo is not None else None
+    sfm = _from_orientation_file(eo, crs, reference, dem, camera, frames, sfm_frame) if eo is not None else None
     if sfm is not None:
         return _start_from_file(frames, names, camera, sfm, crs, gcps, reference, dem, str(eo))
     if camera is None or (eo is None and not gcps and not by_registration):
@@ -292,15 +295,17 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
                                                               " (attitude unknown: level start, κ from the images)")
 
 
-def _from_orientation_file(eo, crs, reference, dem, camera):
-    """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`), or None."""
+def _from_orientation_file(eo, crs, reference, dem, camera, frames=(), sfm_frame="auto"):
+    """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`; the frames' own
+    GPS decides an OpenSfM file's local frame and checks every file), or None."""
     from pathlib import Path
 
     from ...io.orientation_file import read_orientation_file
     if Path(eo).suffix.lower() == ".txt" and Path(eo).name.lower() not in ("images.txt", "cameras.txt"):
         return None  # fotogeo's own EO lines: read by inputs.orientations
     given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
-    return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera)
+    return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera, sfm_frame=sfm_frame,
+                                 images=frames)
 
 
 def _start_from_file(frames, names, camera, approx, crs, gcps, reference, dem, source) -> BlockStart:
@@ -319,5 +324,6 @@ def _start_from_file(frames, names, camera, approx, crs, gcps, reference, dem, s
     cam, dist = read_camera(camera) if camera is not None else _single_camera(type(approx)(approx.cameras, sub))
     frame_names(frames, cam)
     start = BlockStart(cam, dist, list(names), {n: sub[n].exterior for n in names}, map_crs,
-                       rule or f"the CRS of --eo {source!r}", f"--eo {source}", notes=list(approx.notes))
+                       rule or f"the CRS of --eo {source!r}", f"--eo {source}", notes=list(approx.notes),
+                       frame_reading=approx.frame_reading)
     return start

@@ -130,7 +130,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None, uncertainty: bool = False,
                 dem_sigma=None,
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
-                undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
+                sfm_frame: str = "auto", undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
                 scheduler=None, workers=None, overwrite: bool = False, progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
@@ -150,7 +150,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         check_output(path, inputs, kw["overwrite"], "output")
     with prog.timed("inputs"):
         start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
-                            kw["geoinfo"])
+                            kw["geoinfo"], kw["sfm_frame"])
     cam, distortion = start.camera, start.distortion
     with prog.timed("control"):
         frames, names, gcp, map_crs, eos, check_ids, auto, dropped = _control(frames, start, kw,
