@@ -252,3 +252,25 @@ def test_image_rpc_refusals(data_dir, tmp_path):
     (tmp_path / "x.xml").write_text("<isd><IMD/></isd>")
     with pytest.raises(InputError, match="no RPB/IMAGE"):
         read_rpc(tmp_path / "x.xml")
+
+
+@pytest.mark.data
+def test_ortho_reads_a_crop_with_its_geom(data_dir, tmp_path):
+    """``ortho --rpc`` on an OTB/CARS crop: the .geom beside it, moved into the crop's pixels (UTM from the RPC)."""
+    from fotogeo.crs import to_lonlat
+    from fotogeo.tools.ortho_inputs import image_models, map_crs
+
+    v = data_dir / "rpc" / "ventoux"
+    for f in ("left_image.tif", "left_image.geom"):
+        shutil.copy(v / f, tmp_path)
+    img = str(tmp_path / "left_image.tif")
+    crs, why = map_crs("auto", None, None, [img], True)
+    assert "UTM" in why and crs.to_epsg() == 32631
+    model = image_models([img], crs, rpc=True)[0].model
+    llh, px = _grid(v / "GRID_PHR1B_P_201308051042194_SEN_690908101-001.tif")
+    inside = np.all((px >= 5000) & (px < 5500), axis=1)
+    from pyproj import Transformer
+    xy = np.column_stack(Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(*llh[inside, :2].T))
+    assert np.allclose(to_lonlat(crs, xy), llh[inside, :2], atol=1e-9)
+    d = model.forward(np.column_stack([xy, llh[inside, 2]])) - (px[inside] - 5000.0)
+    assert np.abs(d).max() < 0.01
