@@ -137,7 +137,7 @@ def _config(img1, img2, geom1, geom2, dem, out, margins, resolution):
             "subsampling": {"advanced": {"resolutions": [1]}}}
     if margins is not None:
         conf["tie_points"] = {"applications": {"all": {"sparse_matching": {"disparity_bounds_estimation": {
-            "lower_margin": margins, "upper_margin": margins}}}}}
+            "lower_margin": int(margins), "upper_margin": int(margins)}}}}}  # CARS checks for int
     return conf
 
 
@@ -263,7 +263,7 @@ def main(argv=None) -> int:
     ap.add_argument("--geom1")
     ap.add_argument("--geom2")
     ap.add_argument("--initial-height", type=float)
-    ap.add_argument("--margins", type=float, help="disparity margins in metres (CARS default: 500 below, 1000 above)")
+    ap.add_argument("--margins", type=int, help="disparity margins in metres (CARS default: 500 below, 1000 above)")
     ap.add_argument("--json", default=str(ROOT / "benchmarks" / "results" / "peers_cars.json"))
     a = ap.parse_args(argv)
     r = run_cars(a.img1, a.img2, a.out_dir, geom1=a.geom1, geom2=a.geom2, initial_height=a.initial_height,
