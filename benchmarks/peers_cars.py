@@ -166,7 +166,7 @@ def _completeness(out_dir: Path, dsm: Path) -> dict:
     import numpy as np
     import rasterio
     import yaml
-    from pyproj import Transformer
+    from pyproj import CRS, Transformer
     from rasterio.features import geometry_mask
     from shapely.geometry import shape
     from shapely.ops import transform
@@ -175,7 +175,7 @@ def _completeness(out_dir: Path, dsm: Path) -> dict:
         a = ds.read(1)
         valid = np.isfinite(a) & ((a != ds.nodata) if ds.nodata is not None else True)
         res = {"valid_fraction": float(valid.mean()), "width": ds.width, "height": ds.height,
-               "crs": ds.crs.to_string(), "h_median_m": float(np.median(a[valid])) if valid.any() else None}
+               "crs": CRS.from_wkt(ds.crs.to_wkt()).name, "h_median_m": float(np.median(a[valid])) if valid.any() else None}
         try:
             meta = yaml.safe_load((out_dir / "metadata.yaml").read_text())
 
@@ -195,6 +195,25 @@ def _completeness(out_dir: Path, dsm: Path) -> dict:
         except Exception as exc:  # noqa: BLE001 -- another CARS version's metadata layout
             res["overlap_error"] = repr(exc)
     return res
+
+
+def cars_facts(out_dir) -> dict:
+    """What CARS measured on the pair, from its ``metadata.yaml``: the epipolar error of its sparse matches before
+    its grid correction (mean, std, max in px: the pair's relative pointing error across the epipolar lines), the
+    matches kept, its disparity range (px) and the epipolar disparity-to-altitude ratio (m per px)."""
+    import yaml
+
+    try:
+        meta = yaml.safe_load((Path(out_dir) / "metadata.yaml").read_text())
+        apps = meta["surface_modeling"]["1"]["applications"]
+        mf, dr = apps["match_filtering"]["left_right"], apps["disparity_range_computation"]["left_right"]
+        return {"epipolar_error_before_correction_px": {k: mf.get(f"before_correction_epi_error_{k}")
+                                                        for k in ("mean", "std", "max")},
+                "matches_kept": mf.get("number_matches"), "matches_raw": mf.get("raw_number_matches"),
+                "disparity_range_px": [dr.get("minimum_disparity"), dr.get("maximum_disparity")],
+                "disp_to_alt_ratio_m_per_px": apps["grid_generation"]["left_right"].get("disp_to_alt_ratio")}
+    except (OSError, KeyError, TypeError, yaml.YAMLError) as exc:  # another CARS version's layout
+        return {"metadata_error": repr(exc)}
 
 
 def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None, margins=None,
@@ -250,6 +269,7 @@ def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None
         return rec | {"error": "CARS failed or wrote no DSM", "log_tail": "\n".join(lines[-20:])}
     rec["dsm"] = str(dsm)
     rec.update(_completeness(out_dir / "out", dsm))
+    rec["cars_measured"] = cars_facts(out_dir / "out")
     warn = [ln for ln in log.read_text(errors="replace").splitlines() if re.search(r"WARNING|shift|disparity", ln)]
     rec["log_notes"] = warn[-30:]
     return rec
