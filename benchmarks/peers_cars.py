@@ -165,11 +165,11 @@ def _completeness(out_dir: Path, dsm: Path) -> dict:
     """Valid share of the DSM raster and inside the two images' footprint overlap (CARS' envelopes)."""
     import numpy as np
     import rasterio
+    import shapely
     import yaml
     from pyproj import CRS, Transformer
     from rasterio.features import geometry_mask
     from shapely.geometry import shape
-    from shapely.ops import transform
 
     with rasterio.open(dsm) as ds:
         a = ds.read(1)
@@ -187,8 +187,9 @@ def _completeness(out_dir: Path, dsm: Path) -> dict:
                         yield from find(v, key)
             env = [shape(list(find(meta, k))[-1]["features"][0]["geometry"]) for k in ("left_envelope",
                                                                                        "right_envelope")]
-            poly = transform(Transformer.from_crs("EPSG:4326", ds.crs, always_xy=True).transform,
-                             env[0].intersection(env[1]))
+            tr = Transformer.from_crs("EPSG:4326", ds.crs, always_xy=True)
+            poly = shapely.transform(env[0].intersection(env[1]),
+                                     lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])))
             inside = ~geometry_mask([poly], a.shape, ds.transform)
             res["footprint_overlap_m2"] = float(poly.area)
             res["valid_fraction_in_overlap"] = float((valid & inside).sum() / max(inside.sum(), 1))
