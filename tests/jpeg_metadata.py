@@ -37,21 +37,51 @@ def write_xmp(path, packet: str) -> None:
     Path(path).write_bytes(data[:head] + b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload + data[end:])
 
 
-def rename_ifd0_tag(path, tag: int, new_tag: int) -> None:
-    """Give the IFD0 entry ``tag`` the number ``new_tag`` (e.g. GPSInfo 0x8825 -> a private tag: no GPS)."""
+def _ifd_entries(data, order: str, tiff: int, ifd: int):
+    """``(tag, offset of the entry)`` of the IFD at ``ifd`` (offset in ``data``)."""
+    count = struct.unpack(order + "H", data[ifd:ifd + 2])[0]
+    for k in range(count):
+        at = ifd + 2 + 12 * k
+        yield struct.unpack(order + "H", data[at:at + 2])[0], at
+
+
+def rename_ifd0_tag(path, tag: int, new_tag: int, *, exif_ifd: bool = False) -> None:
+    """Give the IFD0 entry ``tag`` the number ``new_tag`` (e.g. GPSInfo 0x8825 -> a private tag: no GPS); with
+    ``exif_ifd``, the entry of the Exif sub-IFD (pointed to by IFD0's 0x8769; e.g. PixelXDimension 0xA002)."""
     data = bytearray(Path(path).read_bytes())
     start, _ = _app1(bytes(data), b"Exif\x00\x00")
     tiff = start + 6
     order = "<" if data[tiff:tiff + 2] == b"II" else ">"
     ifd = tiff + struct.unpack(order + "I", data[tiff + 4:tiff + 8])[0]
-    count = struct.unpack(order + "H", data[ifd:ifd + 2])[0]
-    for k in range(count):
-        at = ifd + 2 + 12 * k
-        if struct.unpack(order + "H", data[at:at + 2])[0] == tag:
+    if exif_ifd:
+        at = next(a for t, a in _ifd_entries(data, order, tiff, ifd) if t == 0x8769)
+        ifd = tiff + struct.unpack(order + "I", data[at + 8:at + 12])[0]
+    for t, at in _ifd_entries(data, order, tiff, ifd):
+        if t == tag:
             data[at:at + 2] = struct.pack(order + "H", new_tag)
             Path(path).write_bytes(bytes(data))
             return
-    raise ValueError(f"{path}: no IFD0 tag 0x{tag:04x}")
+    raise ValueError(f"{path}: no {'Exif IFD' if exif_ifd else 'IFD0'} tag 0x{tag:04x}")
+
+
+def resized_copy(src, dst, factor: float) -> Path:
+    """``src`` downsampled by ``factor`` (OpenCV, area averaging) into the JPEG ``dst`` with the original's APP1
+    segments (EXIF, XMP) as they were — what a resizing tool that keeps the metadata leaves: the EXIF
+    PixelXDimension and the calibration tags still describe the full-resolution frame."""
+    import cv2
+    import numpy as np
+    data = Path(src).read_bytes()
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    small = cv2.resize(img, (round(img.shape[1] / factor), round(img.shape[0] / factor)), interpolation=cv2.INTER_AREA)
+    ok, enc = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, 95])
+    segments, i = [], 2
+    while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
+        length = struct.unpack(">H", data[i + 2:i + 4])[0]
+        if data[i + 1] == 0xE1:
+            segments.append(data[i:i + 2 + length])
+        i += 2 + length
+    Path(dst).write_bytes(b"\xff\xd8" + b"".join(segments) + enc.tobytes()[2:])
+    return Path(dst)
 
 
 def replace_exif_text(path, old: str, new: str) -> None:

@@ -220,3 +220,27 @@ def test_points_whose_rays_meet_at_a_grazing_angle_are_found():
     active = np.array([True, True, True, True, True, False])
     assert MIN_RAY_ANGLE_DEG > 1.0
     assert _narrow_rays(X, C, frame, point, active, 3).tolist() == [True, False, False]
+
+
+def test_covariances_are_never_scaled_below_the_a_priori_precision():
+    """σ0 < 1 (residuals smaller than their stated σ) keeps the a-priori precision: every σ and covariance is
+    scaled by max(σ0, 1), and both are stated; σ0 > 1 scales them up as before. Every stated σ (images and
+    control) times k leaves the solution as it is and multiplies the cofactors by k²."""
+    import dataclasses
+
+    def stated(k):  # no culling, no Huber weights: they see the stated σ, and the solution would differ
+        b = sb.block
+        return adjust_block(dataclasses.replace(b, obs_sigma=b.obs_sigma * k, point_sigma=b.point_sigma * k),
+                            BundleOptions(snooping=False, huber_k=1e9, skip_c=1e9))
+    sb = simulate_block(seed=5, strips=2, frames_per_strip=5, blunder_fraction=0.0)
+    honest, pessimistic, optimistic = stated(1.0), stated(3.0), stated(0.5)
+    assert 0.8 < honest.sigma0 < 1.2 and 0.25 < pessimistic.sigma0 < 0.4 and 1.6 < optimistic.sigma0 < 2.4
+    assert pessimistic.stats["covariance_scale"] == 1.0 and "not by sigma0" in pessimistic.stats["covariance_rule"]
+    assert optimistic.stats["covariance_scale"] == optimistic.sigma0
+    cofactor = honest.eo_sigma / max(honest.sigma0, 1.0)  # √diag(Q) of the honest statement
+    # the pessimistic statement's σ are its own a-priori precision, 3 x the cofactor's (scaled by σ0 they would be
+    # σ0 x 3 x √Q, the honest σ: a claim the stated σ of the observations never backed)
+    np.testing.assert_allclose(pessimistic.eo_sigma, 3.0 * cofactor, rtol=1e-6)
+    np.testing.assert_allclose(optimistic.eo_sigma, optimistic.sigma0 * 0.5 * cofactor, rtol=1e-6)
+    cov = np.sqrt(np.diagonal(pessimistic.eo_covariance, axis1=1, axis2=2))
+    np.testing.assert_allclose(cov[:, :3], pessimistic.eo_sigma[:, :3], rtol=1e-9)

@@ -91,10 +91,20 @@ def test_random_sets_counts_per_model_all_control_and_mm(files):
     assert r["control_rms_y_mm"] == pytest.approx(r["control_rms_y_px"] * 0.021)
 
 
-def test_counts_beyond_the_points_are_named(files):
-    rows = compare_models(files["image"], files["gcps"], models=["dlt"], crs="EPSG:32735", counts="dlt=70,20",
-                          spreads=("homogeneous",), trials=1)
-    assert [r["note"] for r in rows if r["set"] == "70"] == ["70 needs 70 points; the file has 60"]
+def test_counts_beyond_the_points_and_too_few_gcps_are_refused(files):
+    with pytest.raises(InputError, match="counts 70 ask for more control .. check. points than the 60") as err:
+        compare_models(files["image"], files["gcps"], models=["dlt"], crs="EPSG:32735", counts="dlt=70,20",
+                       spreads=("homogeneous",), trials=1)
+    assert err.value.option == "counts"
+    d = files["dir"]
+    r = CliRunner().invoke(main, ["compare-models", str(files["image"]), str(files["gcps"]), "--crs", "EPSG:32735",
+                                  "--models", "dlt", "--counts", "20/50", "--table", str(d / "c.csv")])
+    assert r.exit_code == 2 and "--counts 20/50 ask for more" in r.output and not (d / "c.csv").exists()
+    pd.read_csv(files["gcps"]).head(2).to_csv(d / "two.csv", index=False)
+    with pytest.raises(InputError, match="holds 2 point.s.: dlt needs 6; give more GCPs or leave those out"):
+        compare_models(files["image"], d / "two.csv", models=["dlt"], crs="EPSG:32735")
+    with pytest.raises(InputError, match="holds 2 point.s.: .*give more GCPs$"):  # the default models: none fits
+        compare_models(files["image"], d / "two.csv", crs="EPSG:32735")
 
 
 def test_the_papers_plain_rfm_beside_the_regularised_one_and_image_to_ground():

@@ -117,6 +117,10 @@ def test_exif_only_image_refs_units_and_35mm(tmp_path):
     # focal plane resolution in centimetres: 5 mm x 1000 px/cm / 10 = 500 px
     tags.update(EXIF_FocalPlaneXResolution="(1000)", EXIF_FocalPlaneYResolution="(1000)",
                 EXIF_FocalPlaneResolutionUnit="3")
+    # ... which contradicts the 35 mm equivalent (44 px): named, not arbitrated
+    with pytest.raises(InputError, match="500 px but FocalLengthIn35mmFilm 24 mm gives 44 px"):
+        read_exif_block([write_image(tmp_path / "c.tif", tags)])
+    tags.pop("EXIF_FocalLengthIn35mmFilm")
     b = read_exif_block([write_image(tmp_path / "b.tif", tags)])
     assert next(iter(b.cameras.values())).camera.fx == pytest.approx(500.0)
 
@@ -124,6 +128,7 @@ def test_exif_only_image_refs_units_and_35mm(tmp_path):
 def test_parrot_and_pix4d_camera_tags(tmp_path):
     base = {**DJI_TAGS, "EXIF_Make": "Parrot", "EXIF_Model": "Anafi", "EXIF_FocalPlaneXResolution": "(200)",
             "EXIF_FocalPlaneResolutionUnit": "4"}
+    base.pop("EXIF_FocalLengthIn35mmFilm")  # 24 mm on a 64 x 48 file would contradict the 1760 px (refused)
     parrot = xmp_packet("><drone-parrot:CameraYawDegree>30</drone-parrot:CameraYawDegree>"
                         "<drone-parrot:CameraPitchDegree>-90</drone-parrot:CameraPitchDegree>"
                         "<drone-parrot:CameraRollDegree>0</drone-parrot:CameraRollDegree>",

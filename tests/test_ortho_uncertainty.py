@@ -99,9 +99,13 @@ def test_predicted_sigma_agrees_with_the_check_point_errors(blocks):
     n = sum(len(e) for e in all_err)
     assert n > 3000 and np.isfinite(np.concatenate(all_sig)).mean() > 0.95
     eo_ratio, ratio = rms_ratio(eo_err, eo_sig), rms_ratio(all_err, all_sig)
-    # measured on seeds 1-3: 1.10 (orientation alone) and 1.05 (with the DEM's 1 m)
-    assert 0.7 <= eo_ratio <= 1.4, eo_ratio
-    assert 0.7 <= ratio <= 1.4, ratio
+    # σ0 < 1 (LSM's σ of the tie points are pessimistic here): the covariances keep the a-priori precision
+    # (never scaled below it), so the prediction is conservative by up to 1/σ0 and never optimistic
+    s0 = min(1.0, float(np.sqrt(np.mean([r["result"].sigma0 ** 2 for r, _ in blocks]))))
+    # measured on seeds 1-3: σ0 0.70; observed/predicted 0.69 (orientation alone) and 0.87 (with the DEM's 1 m);
+    # scaled by σ0 as before they read 1.10 and 1.05
+    assert 0.7 * s0 <= eo_ratio <= 1.4, (eo_ratio, s0)
+    assert 0.7 * s0 <= ratio <= 1.4, (ratio, s0)
 
 
 def test_the_report_carries_the_covariance_and_the_sigma_raster_its_units(blocks):

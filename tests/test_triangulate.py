@@ -183,8 +183,9 @@ def test_a_frame_that_overlaps_no_other_is_named(tmp_path, small_block):
     eos = list(b.eo)
     eos[3] = dataclasses.replace(eos[3], X=eos[3].X + 30000.0)
     frames, _ = write_block(tmp_path, small_block)
-    with pytest.raises(MatchingError, match=f"{b.frames[3]}.tif.*overlap no other frame"):
+    with pytest.raises(MatchingError, match=f"{b.frames[3]}.tif.*overlap no other frame") as err:
         block_tie_points(frames, CAMERA, eos, 0.0)
+    assert "orientation file" not in str(err.value)  # none was given: the caller's advice names what was
 
 
 def test_self_calibration_writes_the_adjusted_camera(tmp_path, small_block):

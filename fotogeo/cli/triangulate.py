@@ -51,6 +51,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     st = rep["statistics"]
     click.echo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
+    if st.get("covariance_rule"):
+        click.echo(f"sigma of the results: {st['covariance_rule']}")
     for line in accuracy_lines(rep):
         click.echo(line)
     quality = rep.get("frame_quality") or []

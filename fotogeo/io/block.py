@@ -217,8 +217,12 @@ def write_gcp_list(path, crs_line: str, gcp: GcpList) -> None:
 
 
 def write_exterior_orientation(path, names, eos, header: str = "") -> None:
-    """``name X Y Z omega phi kappa`` lines (module docstring); ``header`` becomes ``#`` comments."""
+    """``name X Y Z omega phi kappa`` lines (module docstring); ``header`` becomes ``#`` comments. A name holding
+    spaces, quotes, ``#`` or backslashes is quoted as the shell quotes it (``shlex.quote``), which
+    :func:`fotogeo.io.camera.read_exterior_orientation` reads back."""
+    import shlex
     out = [f"# {h}" for h in header.splitlines()] if header else []
+    names = [n if re.fullmatch(r"[^\s#'\"\\]+", str(n)) else shlex.quote(str(n)) for n in names]
     out += [f"{n} {e.X:.4f} {e.Y:.4f} {e.Z:.4f} {e.omega:.8f} {e.phi:.8f} {e.kappa:.8f}" for n, e in zip(names, eos)]
     Path(path).write_text("\n".join(out) + "\n", encoding="utf-8")
 

@@ -168,21 +168,43 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
 
 
 def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
-    """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments allowed)."""
+    """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments at a line's start or after a
+    space). A name may hold spaces: quoted as the shell quotes (what :func:`fotogeo.io.block.write_exterior_orientation`
+    writes), or bare — the last six values are the numbers and the rest of the line is the name."""
     path = Path(path)
     out = {}
     text = read_text_file(path, "exterior orientation file", hint="give the text file of 'name X Y Z omega phi kappa' lines")
     for lineno, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("#", 1)[0].split()
-        if not line:
+        parts = _eo_fields(raw)
+        if parts is None:
             continue
-        if len(line) != 7:
+        if len(parts) != 7:
             raise InputError(one_line(f"{path}, line {lineno}: expected 'name X Y Z omega phi kappa'; got {raw!r}"))
         try:
-            out[line[0]] = ExteriorOrientation(*(float(v) for v in line[1:]))
+            out[parts[0]] = ExteriorOrientation(*(float(v) for v in parts[1:]))
         except ValueError:
             raise InputError(one_line(f"{path}, line {lineno}: non-numeric orientation value in {raw!r}")) from None
     return out
+
+
+def _eo_fields(raw: str):
+    """``[name, six values]`` of one line (:func:`read_exterior_orientation`), None for a blank or comment line;
+    fewer fields when the line has fewer."""
+    import re
+    import shlex
+    text = raw.strip()
+    if not text or text.startswith("#"):
+        return None
+    if text[0] in "'\"":
+        try:
+            return shlex.split(text, comments=True)
+        except ValueError:  # an unclosed quote
+            return [text]
+    fields = re.split(r"\s#", text, maxsplit=1)[0].split()
+    if len(fields) <= 7:
+        return fields
+    name = re.match(r"^(.*?)\s+" + r"\s+".join([r"\S+"] * 6) + r"\s*$", re.split(r"\s#", text, maxsplit=1)[0])
+    return [name.group(1), *fields[-6:]]
 
 
 def load_ngi_frame(ngi_dir, name: str) -> OrientedFrame:

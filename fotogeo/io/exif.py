@@ -90,8 +90,8 @@ class ImageMetadata:
     """The raw facts of one image (degrees, metres, millimetres; ``None`` where absent).
 
     ``altitude`` is the camera's Z as written (``altitude_tag`` names the tag);
-    ``focal_plane_ppmm`` is (x, y) pixels per millimetre on the sensor; ``xmp`` holds every XMP
-    property as ``"prefix:Name": "text"`` (:func:`parse_xmp`).
+    ``focal_plane_ppmm`` is (x, y) pixels per millimetre on the sensor (at the camera's full resolution,
+    ``pixel_dimension``); ``xmp`` holds every XMP property as ``"prefix:Name": "text"`` (:func:`parse_xmp`).
     """
 
     path: str
@@ -110,6 +110,7 @@ class ImageMetadata:
     focal_35mm: float | None = None
     focal_plane_ppmm: tuple | None = None
     xmp: dict = field(default_factory=dict)
+    pixel_dimension: tuple | None = None  # EXIF PixelXDimension, PixelYDimension: the size the camera wrote
 
     def x(self, *names) -> float | None:
         """The first of the XMP ``names`` (case-insensitive ``prefix:Name``) that is a number."""
@@ -188,6 +189,11 @@ def read_image_metadata(path) -> ImageMetadata:
     return ImageMetadata(str(p), frame_key(p), int(w), int(h), text("EXIF_Make"), text("EXIF_Model"), lon, lat, z,
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
-                         _ppmm(tags), xmp)
+                         _ppmm(tags), xmp, _pixel_dimension(tags))
+
+
+def _pixel_dimension(tags):
+    x, y = _first(tags.get("EXIF_PixelXDimension")), _first(tags.get("EXIF_PixelYDimension"))
+    return (int(x), int(y)) if x and y and x > 0 and y > 0 else None
 
 

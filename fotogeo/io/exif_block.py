@@ -33,7 +33,9 @@ image is already undistorted and the k, p are not used); DJI ``CalibratedFocalLe
 ``Camera:PerspectiveFocalLength`` (mm) over the pixel pitch; EXIF ``FocalLength`` over the pixel
 pitch from ``FocalPlaneXResolution`` (unit ``FocalPlaneResolutionUnit``: 2 inch — the EXIF
 default —, 3 cm, 4 mm, 5 µm; square pixels); ``FocalLengthIn35mmFilm``, defined on the diagonal:
-``f_px = f35 · hypot(w, h) / 43.27`` (43.27 mm = the 36×24 mm diagonal). Without distortion terms
+``f_px = f35 · hypot(w, h) / 43.27`` (43.27 mm = the 36×24 mm diagonal). The calibrations written in
+full-resolution pixels are scaled to a resized file and cross-checked against the 35 mm equivalent
+(:mod:`fotogeo.io.exif_camera`; a contradiction is refused by name). Without distortion terms
 the camera's are 0. One camera per id ``"<make> <model> <w>x<h> <focal>"`` (the model alone when it
 starts with the make); mixed cameras give several ids. Pixels are the file's stored rows and
 columns (GDAL ignores the EXIF ``Orientation`` flag): the attitude conventions refer to them.
@@ -51,7 +53,7 @@ from ..geometry.approx_block import DISTORTION_TERMS, ApproxCamera, ApproximateB
 from ..geometry.attitude import patb_in_map, rotation_from_body_ypr, rotation_from_ypr
 from ..geometry.camera import FrameCamera
 
-from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers, read_image_metadata
+from .exif import ImageMetadata, read_image_metadata
 
 
 def height_reference(meta: ImageMetadata) -> tuple[str | None, str]:
@@ -93,23 +95,10 @@ def attitude_rotation(meta: ImageMetadata, geo_record=None):
 
 
 def _focal(meta: ImageMetadata):
-    """``(fx, fy, principal point or None, distortion, source)`` of the first camera source present."""
-    w, h = meta.width, meta.height
-    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
-    if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
-        dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
-        return vals[0], vals[1], (w / 2 + vals[2], h / 2 + vals[3]), dist, "drone-dji:DewarpData"
-    if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
-        cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
-        return f, f, ((cx, cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"
-    if meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
-        ppmm = meta.focal_plane_ppmm[0]
-        return f * ppmm, f * ppmm, None, {}, f"{f:g} mm x FocalPlaneXResolution ({ppmm:.2f} px/mm)"
-    if meta.focal_35mm:
-        f = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
-        return f, f, None, {}, f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm (diagonal 43.27 mm)"
-    raise InputError(f"image {meta.path!r}: no focal length in its EXIF/XMP (FocalLength with FocalPlaneXResolution, "
-                     f"FocalLengthIn35mmFilm, DJI CalibratedFocalLength); give a camera file")
+    """``(fx, fy, principal point or None, distortion, source)`` of the first camera source present, in the
+    file's pixels (:func:`fotogeo.io.exif_camera.focal_of`: full-resolution calibrations scaled to a resized file)."""
+    from .exif_camera import focal_of
+    return focal_of(meta)
 
 
 def camera_of(meta: ImageMetadata) -> tuple[str, ApproxCamera]:

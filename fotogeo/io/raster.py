@@ -180,8 +180,9 @@ def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolu
 
 def check_space(folder, nbytes: float, what: str):
     """Refuse when the free space of ``folder`` is clearly too little for ``nbytes`` uncompressed
-    output (less than ``nbytes / BEST_COMPRESSION`` plus 16 MB)."""
-    need = float(nbytes) / BEST_COMPRESSION + 16 * 2 ** 20
+    output (less than ``nbytes / BEST_COMPRESSION`` plus 1 MB for the headers and side files: a margin that
+    does not refuse a small output on a small disk)."""
+    need = float(nbytes) / BEST_COMPRESSION + 2 ** 20
     try:
         free = shutil.disk_usage(folder).free
     except OSError:

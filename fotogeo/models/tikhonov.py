@@ -20,6 +20,9 @@ CRITERION = "loo"
 #: take the largest λ whose criterion is ≤ min + SE_FACTOR · (its standard error) + TOLERANCE · min
 TOLERANCE = 0.05
 SE_FACTOR = 1.0
+#: criteria within this relative difference are equal (their last bits depend on the BLAS at hand): among equal
+#: minima the larger λ is the minimum, and a criterion equal to the limit is within it
+TIE = 1e-9
 
 
 def tikhonov_cv(A, l, Lmat, grid=_LOG_GRID, accept=None, row_blocks=None):
@@ -77,11 +80,28 @@ def _tikhonov_cv(A, l, Lmat, grid, accept, row_blocks):
     if not cands:
         raise ModelError("RFM: no regularisation parameter gives a solution; the points leave the first-"
                          "order terms undetermined (e.g. all at one height); add points or use a 2-D model")
-    imin = min(range(len(cands)), key=lambda i: cands[i][0])
-    gmin = cands[imin][0]
-    limit = gmin + cands[imin][5] * SE_FACTOR + TOLERANCE * gmin
-    best = max((c for c in cands if c[0] <= limit or not np.isfinite(gmin)), key=lambda c: c[2])
+    best = cands[choose(np.array([c[0] for c in cands]), np.array([c[5] for c in cands]),
+                        np.array([c[2] for c in cands]))]
     return best[1], best[2] * smax, best[3], best[4], diagnostics
+
+
+def choose(score, se, lam) -> int:
+    """The index of the λ chosen (module constants): the largest ``lam`` whose ``score`` is ≤ the minimum plus
+    ``SE_FACTOR`` times the minimum's standard error ``se`` plus ``TOLERANCE`` times the minimum; scores within
+    :data:`TIE` of each other are equal, the larger λ being the minimum among equal ones — so that the choice
+    does not hang on the last bits of a BLAS.
+
+    >>> int(choose(np.array([2.0, 1.0, 1.0 + 1e-12, 3.0]), np.array([0.1, 0.1, 0.2, 0.1]), np.array([1, 2, 3, 4])))
+    2
+    """
+    gmin = float(np.min(score))
+    if not np.isfinite(gmin):
+        return int(np.argmax(lam))
+    equal = np.flatnonzero(score <= gmin + TIE * abs(gmin))
+    imin = equal[np.argmax(lam[equal])]
+    limit = gmin + se[imin] * SE_FACTOR + TOLERANCE * gmin
+    within = np.flatnonzero(score <= limit + TIE * abs(limit))
+    return int(within[np.argmax(lam[within])])
 
 
 def tikhonov_at(A, l, Lmat, lambda_rel, row_blocks=None):

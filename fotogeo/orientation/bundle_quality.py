@@ -124,11 +124,9 @@ def frame_quality(result, block) -> FrameQuality:
         spread[j] = _hull_fraction(block.obs_pixel[used][sel], float(w * h))
         if sel.any():
             rms[j] = float(np.sqrt(np.nanmean(result.residuals[used][sel] ** 2)))
-    s0 = float(result.sigma0)
-    scale = max(s0, 1.0) / s0 if s0 > 0 else 1.0
-    sig = np.asarray(result.eo_sigma, float) * scale
+    sig = np.asarray(result.eo_sigma, float)  # scaled by max(σ0, 1) (fotogeo.orientation.bundle_result)
     inner = (np.full((m, 6), np.nan) if result.eo_sigma_in_block is None
-             else np.asarray(result.eo_sigma_in_block, float) * scale)
+             else np.asarray(result.eo_sigma_in_block, float))
     n_obs = np.bincount(block.obs_frame, minlength=m)
     blunders = np.bincount(block.obs_frame[result.status == "blunder"], minlength=m)
     return FrameQuality(tuple(block.frames), points, multi, spread, np.max(sig[:, 3:], axis=1),
@@ -236,8 +234,8 @@ def prior_residuals(result, block, eo_sigma):
     R = np.stack([e.rotation_cv for e in result.eo])
     v = np.concatenate([np.stack([e.centre for e in result.eo]) - np.stack([e.centre for e in block.eo]),
                         np.degrees(log_rotation(np.transpose(R0, (0, 2, 1)) @ R))], axis=1)
-    s0 = float(result.sigma0)
-    post = np.asarray(result.eo_sigma, float) / (s0 if s0 > 0 else 1.0)
+    from .bundle_result import covariance_scale
+    post = np.asarray(result.eo_sigma, float) / covariance_scale(float(result.sigma0))[0]
     with np.errstate(invalid="ignore"):
         var = prior_sigma ** 2 - post ** 2
         sigma_v = np.where(var > (0.01 * prior_sigma) ** 2, np.sqrt(np.maximum(var, 0.0)), np.nan)

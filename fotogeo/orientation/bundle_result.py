@@ -1,7 +1,11 @@
 """The frozen result of a bundle adjustment: map coordinates, precision and statistics (array layer).
 
 Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from ``R·diag(1, −1, −1)``);
-σ of the orientation are ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
+every σ and covariance below is scaled by ``σ̂ = max(σ₀, 1)`` (:func:`covariance_scale`), written ``σ₀`` there: a
+block whose residuals are smaller than their a-priori σ (σ₀ < 1) keeps the a-priori precision — σ₀ < 1 says
+the a-priori σ were pessimistic or the redundancy is small, not that the orientation is better than its
+observations allow (the same floor as the data snooping's, :mod:`fotogeo.orientation.bundle_robust`); σ of the orientation are
+``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
 degrees, as :mod:`fotogeo.models.collinearity` reports them; NaN where the diagonal is negative, a singular
 system), given the rest of the block ``σ₀ √diag((S_jj)⁻¹)`` (:func:`sigma_in_block`), σ of the points
 ``σ₀ √diag(Σ_bb,i)``. The full covariance of each frame's orientation is the ``6 × 6`` diagonal block
@@ -37,6 +41,20 @@ def _rmse(d: np.ndarray) -> dict:
             "max_z_m": float(np.max(np.abs(d[:, 2])))}
 
 
+def covariance_scale(sigma0: float) -> tuple[float, str]:
+    """``(σ̂, rule)``: the factor of every σ and covariance (module docstring) and the sentence stating it.
+
+    >>> covariance_scale(0.33)[0], covariance_scale(2.5)[0], covariance_scale(float("nan"))[0]
+    (1.0, 2.5, 1.0)
+    """
+    if not np.isfinite(sigma0):
+        return 1.0, "covariances scaled by 1 (the a-priori precision): sigma0 is undefined (no redundancy)"
+    if sigma0 < 1.0:
+        return 1.0, (f"covariances scaled by 1 (the a-priori precision), not by sigma0 {sigma0:.3g}: residuals "
+                     f"below their a-priori sigma do not make the orientation more precise than its observations")
+    return float(sigma0), f"covariances scaled by sigma0 {sigma0:.3g} (residuals above their a-priori sigma)"
+
+
 def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
     """``(per frame (m, 6, 6), interior (k, k), frame-interior (m, 6, k))`` of ``σ₀² S⁻¹`` (module docstring):
     the blocks the banded inverse holds (each frame's own and the interior rows)."""
@@ -46,12 +64,25 @@ def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
     return frames, Q[6 * m:, 6 * m:].copy(), Q[:6 * m, 6 * m:].reshape(m, 6, -1).copy()
 
 
-def _root(variance: np.ndarray) -> np.ndarray:
-    """``√variance``, NaN where it is negative: a singular reduced system (a parameter nothing determines)
-    inverts with a negative diagonal there; clipped to 0 it read as a perfect σ (the free position of a frame
-    whose points have no third ray came out σ 0 m)."""
+#: a parameter whose variance inflation ``S_ii·(S⁻¹)_ii`` exceeds this is undetermined (NaN σ): its multiple
+#: correlation with the others is above 1 − 1e-8, i.e. the system is singular in it to within rounding. The
+#: inverse's ridge (1e-12 on the unit diagonal, :func:`fotogeo.orientation.bundle_robust._inverse`) puts an
+#: exactly singular direction near 1e12 — or, after rounding in the BLAS at hand, at any sign and size: the test
+#: is on the relative size, so it reads "undetermined" on every machine.
+UNDETERMINED_INFLATION = 1e8
+
+
+def _root(variance: np.ndarray, inflation=None) -> np.ndarray:
+    """``√variance``, NaN where it is negative or where its ``inflation`` (``S_ii·(S⁻¹)_ii``) is above
+    :data:`UNDETERMINED_INFLATION`: a singular reduced system (a parameter nothing determines) inverts with a
+    diagonal of any sign and size there; clipped to 0 it read as a perfect σ (the free position of a frame whose
+    points have no third ray came out σ 0 m), on another BLAS as 5e3 km."""
+    variance = np.asarray(variance, float)
+    ok = variance >= 0
+    if inflation is not None:
+        ok &= np.isfinite(inflation) & (np.asarray(inflation, float) <= UNDETERMINED_INFLATION)
     with np.errstate(invalid="ignore"):
-        return np.where(variance >= 0, np.sqrt(np.abs(variance)), np.nan)
+        return np.where(ok, np.sqrt(np.abs(variance)), np.nan)
 
 
 def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
@@ -63,7 +94,8 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
     for j in range(m):
         block = S[6 * j:6 * j + 6, 6 * j:6 * j + 6]
         try:
-            out[j] = s0 * _root(np.diag(np.linalg.inv(block)))
+            inv = np.diag(np.linalg.inv(block))
+            out[j] = s0 * _root(inv, inv * np.diag(block))
         except np.linalg.LinAlgError:
             continue
     out[:, 3:] = np.degrees(out[:, 3:])
@@ -74,9 +106,9 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``."""
     from .bundle_types import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
-    s0 = post.sigma0
+    s0, rule = covariance_scale(post.sigma0)
     eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
-    sd = s0 * _root(np.diag(post.S_inv))
+    sd = s0 * _root(np.diag(post.S_inv), np.diag(post.S_inv) * np.diag(post.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
@@ -103,7 +135,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     red[pb.obs_ids] = post.r
     w = np.full(n, np.nan)
     w[pb.obs_ids] = largest_w(post.w)  # NaN: not testable
-    stats = {"sigma0": s0, "redundancy": int(post.redundancy), "n_frames": m,
+    stats = {"sigma0": post.sigma0, "covariance_scale": s0, "covariance_rule": rule, "redundancy": int(post.redundancy), "n_frames": m,
              "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
              "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
              "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r))}
@@ -113,7 +145,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     stats["n_blunders"] = sum(1 for b in blunders if b.get("kind") == "image")
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
-                          psig, rays, res, status.astype(str), red, w, s0, stats, tuple(fixed), tuple(correlations),
+                          psig, rays, res, status.astype(str), red, w, post.sigma0, stats, tuple(fixed), tuple(correlations),
                           tuple(blunders), run.iterations, timings, *covariance_blocks(post.S_inv, s0, m),
                           tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(post.S, s0, m))
     errors = images_only_errors(result, block)

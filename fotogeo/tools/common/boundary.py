@@ -264,11 +264,20 @@ def _disk_full_error(call: _Call, file, is_output: bool, folder: str, free: int 
                                 f"{left} or write the outputs to another disk; nothing was written"))
 
 
+def _denied(exc: BaseException, text: str) -> bool:
+    """Whether ``exc`` is a refused write or read (permissions, a read-only file system), whatever the free space:
+    a read-only disk that is also small is not a full one."""
+    low = text.lower()
+    return (getattr(exc, "errno", None) in (errno.EACCES, errno.EPERM, errno.EROFS) or any(s in low for s in _DENIED)
+            or "is not writable" in low)
+
+
 def translate_own(exc: FotogeoError, call: _Call) -> FotogeoError | None:
     """``exc`` in one line with final paths; a failed write on a full disk says so. None: unchanged."""
     text = one_line(call.final_paths(str(exc)))
     about_space = text.lower().startswith("disk full") or "free space" in text.lower()
-    if isinstance(exc, OSError) and not isinstance(exc, (InputError, ModelError)) and not about_space:
+    denied = _denied(exc, text)
+    if isinstance(exc, OSError) and not isinstance(exc, (InputError, ModelError)) and not about_space and not denied:
         file = call.file_in(exc)
         role, is_output = call.role_of(file)
         low = _full_disk(call, file) if is_output or "writ" in text.lower() else None
@@ -292,10 +301,12 @@ def translate(exc: BaseException, call: _Call) -> FotogeoError | None:
     if code == errno.ENOSPC or any(s in low for s in _NO_SPACE):
         folder = Path(file).parent if file else next(iter(call.outputs.values()), Path("x")).parent
         return _disk_full_error(call, file, is_output, str(folder), _free_bytes(folder))
-    full = _full_disk(call, file) if writing and (lib == "rasterio" or isinstance(exc, OSError)) else None
+    denied = _denied(exc, text)
+    full = (_full_disk(call, file) if writing and not denied and (lib == "rasterio" or isinstance(exc, OSError))
+            else None)
     if full:
         return _disk_full_error(call, file, is_output, *full, text)
-    if code in (errno.EACCES, errno.EPERM, errno.EROFS) or any(s in low for s in _DENIED):
+    if denied:
         if is_output or not file:
             return OutputError(one_line(f"cannot write {about or call.out_list()}: permission denied; choose a "
                                         f"folder you can write to"))

@@ -52,8 +52,10 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
     check_camera_size(camera, info.width, info.height, image)
     check_inside(g, info.width, info.height, f"{gcps}")
     role_sets = _role_sets(g, gcps) if sets == "roles" else None
+    chosen = bool(models)
     models = list(models or DEFAULT_MODELS)
     usable = [m for m in models if get_model(m).src_dims == 2 or g.has_heights]
+    _enough_points(usable, chosen, len(g.pixel), counts if sets == "random" else None, gcps)
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     rows = compare(usable, g.ground, g.pixel, counts=counts, spreads=spreads, trials=trials, seed=seed, camera=camera,
                    role_sets=role_sets, scale_mm=scale_mm, progress=progress)
@@ -62,6 +64,24 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
             rows.append({"model": m, "note": "3-D model: GCPs have no heights (give a height field, DEM or constant)"})
     _write(rows, table, markdown, html, plots, overwrite, info)
     return [{k: v for k, v in r.items() if k != "vectors"} for r in rows]
+
+
+def _enough_points(models, chosen: bool, n: int, counts, gcps) -> None:
+    """Refuse a GCP file with fewer points than a chosen model needs (or than every default model needs), and
+    ``counts`` asking for more control + check points than the file holds."""
+    from ..orientation.comparison import FAMILY_COUNTS
+    short = [(m, get_model(m).min_points) for m in models if get_model(m).min_points > n]
+    if short and (chosen or len(short) == len(models)):
+        need = ", ".join(f"{m} needs {k}" for m, k in short[:6])
+        raise InputError(f"GCP file {str(gcps)!r} holds {n} point(s): {need}; give more GCPs"
+                         + (" or leave those out of models" if chosen else ""), option="models" if chosen else None)
+    if counts is None:
+        return
+    given = {k: v for k, v in parse_counts(counts).items() if v is not FAMILY_COUNTS.get(k)}
+    over = [f"{c}/{k}" if k is not None else str(c) for items in given.values() for c, k in items if c + (k or 0) > n]
+    if over:
+        raise InputError(f"counts {', '.join(over[:6])} ask for more control (+ check) points than the {n} of GCP file "
+                         f"{str(gcps)!r}; give counts up to {n}", option="counts")
 
 
 def _role_sets(g, gcps) -> dict:

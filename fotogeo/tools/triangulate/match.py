@@ -295,7 +295,7 @@ def detection_level(camera) -> int:
 def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
                      options=None, distortion=None, start=None, client=None, scheduler=None, workers=None,
-                     progress=None):
+                     advice: str = "check the approximate orientation", progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
     block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
@@ -307,14 +307,15 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
 
     ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
-    height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints)."""
+    height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints).
+    ``advice``: what to check, in the caller's words, when a frame overlaps no other."""
     with dask_client(client, scheduler, workers) as client:
         return _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window,
-                                 options, distortion, start, client, progress)
+                                 options, distortion, start, client, progress, advice)
 
 
 def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window, options,
-                      distortion, start, client, progress):
+                      distortion, start, client, progress, advice="check the approximate orientation"):
     """:func:`block_tie_points` on the Dask ``client`` (None: in this process)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
@@ -326,8 +327,8 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
     alone = sorted(set(range(len(frames))) - {i for p in pairs for i in p})
     if alone:
         raise MatchingError(f"frame(s) {', '.join(repr(str(frames[i])) for i in alone[:10])} overlap no other frame "
-                            f"with the approximate orientation (footprints at height {height:.1f}); check the "
-                            f"orientation file or remove them")
+                            f"with the approximate orientation (footprints at height {height:.1f}); {advice}, or "
+                            f"remove them")
     infos = [open_raster(f, "frame") for f in frames]
     uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
                                                prog.stage(0.0, 0.7, "matching"), camera, distortion, client)

@@ -181,7 +181,8 @@ def report(result, block, crs, inputs: dict, stages: dict | None = None) -> dict
     cam = result.camera
     return {"fotogeo": "triangulate", **inputs, "crs": crs_text(crs), "crs_name": short_name(crs),
             "units": "ground: metres in crs; image: pixels (corner convention); residual = projected − measured",
-            "sigma0": result.sigma0, "statistics": result.stats,
+            "sigma0": result.sigma0, "covariance_scale": result.stats.get("covariance_scale"),
+            "statistics": result.stats,
             "camera": {"focal_length": cam.focal_length, "principal_point": list(cam.principal_point),
                        **result.distortion, "sigma": result.interior_sigma},
             "fixed_parameters": list(result.fixed), "correlations": list(result.correlations),

@@ -122,6 +122,16 @@ def _match_options(detection_level, gruber_cells, points_per_region, lsm_window,
             "half_window": int(lsm_window) // 2, "scheduler": scheduler or None, "workers": workers or None}
 
 
+def _overlap_advice(eo, camera, gcp) -> str:
+    """What to check when a frame's approximate footprint overlaps no other: the source the orientation came from."""
+    if eo is not None:
+        return f"check the orientation file (--eo {eo})"
+    if camera is not None:
+        return "check the camera (--camera) and the images' GPS and attitude" + (" or the GCPs" if gcp else "")
+    return ("check the camera read from the images' EXIF/XMP (its focal length; or give --camera) and their GPS and "
+            "attitude")
+
+
 @tool("TRIANGULATE", outputs=("folder",))
 def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None, gcp_crs=None, check_points=None,
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
@@ -165,7 +175,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
             obs, matching, eos, height = _matched(
                 frames, names, cam, eos, height, start.measure(height),
                 _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"],
-                               kw["scheduler"], kw["workers"]),
+                               kw["scheduler"], kw["workers"]) | {"advice": _overlap_advice(eo, camera, gcp)},
                 prog.stage(0.2, 0.5, "matching the frames"))
     ids, xyz, sig, role, f_obs, p_obs, px, s_obs = _points(names, obs, gcp, check_ids, kw["control_sigma_xy"],
                                                           kw["control_sigma_z"], kw["image_sigma"])

@@ -1,0 +1,96 @@
+"""The camera an image's EXIF/XMP describe, in the pixels of the file as it is (resized copies included).
+
+Calibration tags are written by the camera for its full-resolution frame: DJI ``DewarpData`` (fx, fy,
+principal-point offsets in pixels), ``CalibratedFocalLength`` / ``CalibratedOpticalCenterX/Y`` (pixels) and
+EXIF ``FocalPlaneXResolution`` (pixels per unit on the sensor). A copy downsampled after capture keeps them,
+so they are scaled to the file: ``s = width / PixelXDimension`` (EXIF ``PixelXDimension``/``PixelYDimension``,
+the size the camera wrote). Sources that contradict each other are named, never arbitrated:
+
+* ``PixelXDimension × PixelYDimension`` not the file's size times one factor (cropped, rotated or resized
+  unevenly): the calibration cannot be carried over;
+* DJI ``CalibratedOpticalCenterX/Y`` (written as the full frame's centre, w/2, h/2) implying another full
+  size than ``PixelXDimension`` does (tags edited by the resizing tool);
+* the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
+  (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
+  (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
+"""
+from __future__ import annotations
+
+import math
+
+from ..errors import InputError
+from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers
+
+#: relative difference tolerated between a calibrated focal length and the 35 mm equivalent's
+F35_TOLERANCE = 0.15
+#: relative difference tolerated between the two axes' scale factors and between full sizes
+SIZE_TOLERANCE = 0.01
+
+
+def _fix(meta: ImageMetadata) -> str:
+    return (f"image {meta.path!r} ({meta.width}x{meta.height} px)")
+
+
+def size_scale(meta: ImageMetadata) -> tuple[float, str]:
+    """``(s, note)``: the factor from the camera's full-resolution pixels to the file's (module docstring)."""
+    w, h = meta.width, meta.height
+    full = meta.pixel_dimension
+    s = 1.0
+    if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
+        sx, sy = w / full[0], h / full[1]
+        if abs(sx / sy - 1.0) > SIZE_TOLERANCE:
+            raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension x PixelYDimension is {full[0]}x{full[1]}, not "
+                             f"the file's size times one factor (cropped, rotated or resized unevenly): its camera "
+                             f"calibration cannot be carried over; give the camera (--camera)")
+        s = math.sqrt(sx * sy)
+    cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
+    if cx and cy and cx > 0 and cy > 0:
+        implied = (2 * cx, 2 * cy)
+        expect = (w / s, h / s)
+        if max(abs(implied[0] / expect[0] - 1), abs(implied[1] / expect[1] - 1)) > 0.05:
+            said = (f"its EXIF PixelXDimension says {full[0]}x{full[1]}" if full else
+                    f"the file is {w}x{h} and carries no EXIF PixelXDimension")
+            raise InputError(f"{_fix(meta)}: DJI CalibratedOpticalCenterX/Y ({cx:g}, {cy:g}) belong to a "
+                             f"{implied[0]:.0f}x{implied[1]:.0f} frame but {said}: the image was resized and its "
+                             f"tags edited; give the camera (--camera)")
+    note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
+                               f"{full[0]}x{full[1]})"
+    return s, note
+
+
+def focal_of(meta: ImageMetadata):
+    """``(fx, fy, principal point or None, distortion, source)`` of the first camera source present, in the
+    file's pixels (module docstring; the sources' order is :mod:`fotogeo.io.exif_block`'s)."""
+    w, h = meta.width, meta.height
+    s, note = size_scale(meta)
+    got = _full_resolution(meta, w, h, s)
+    if got is None:
+        if meta.focal_35mm:
+            f = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
+            return f, f, None, {}, f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm (diagonal 43.27 mm)"
+        raise InputError(f"image {meta.path!r}: no focal length in its EXIF/XMP (FocalLength with "
+                         f"FocalPlaneXResolution, FocalLengthIn35mmFilm, DJI CalibratedFocalLength); give a camera file")
+    fx, fy, pp, dist, src = got
+    if meta.focal_35mm:
+        f35 = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
+        if abs(fx / f35 - 1.0) > F35_TOLERANCE:
+            scaled = f" scaled by {s:.4g} for its size" if s != 1.0 else ""
+            raise InputError(f"{_fix(meta)}: the focal length from {src} is {fx:.0f} px{scaled} but "
+                             f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm gives {f35:.0f} px: the image was resized "
+                             f"or its tags edited; give the camera (--camera)")
+    return fx, fy, pp, dist, src + (f"; {note}" if note else "")
+
+
+def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float):
+    """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none."""
+    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
+    if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
+        dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
+        return s * vals[0], s * vals[1], (w / 2 + s * vals[2], h / 2 + s * vals[3]), dist, "drone-dji:DewarpData"
+    if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
+        cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
+        return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"
+    if meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
+        ppmm = meta.focal_plane_ppmm[0] * s
+        return f * ppmm, f * ppmm, None, {}, f"{f:g} mm x FocalPlaneXResolution ({ppmm:.2f} px/mm)"
+    return None

@@ -1,0 +1,60 @@
+"""Frames whose names hold spaces (or quotes, ``#``): the exterior orientation fotogeo writes is read back, by the
+reader and by ``fotogeo ortho``; bare names with spaces written before are read too."""
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import box_scene as bs
+from fotogeo.errors import InputError
+from fotogeo.geometry.camera import ExteriorOrientation
+from fotogeo.io.block import write_exterior_orientation
+from fotogeo.io.camera import read_exterior_orientation
+
+NAMES = ["plain", "DJI 0001", "two  spaces", "it's", 'say "x"', "a#b", "back\\slash", "tab\there"]
+
+
+def test_names_round_trip(tmp_path):
+    eos = [ExteriorOrientation(1000.0 + k, 2000.0, 300.0, 0.5, -0.25, 90.0 + k) for k in range(len(NAMES))]
+    write_exterior_orientation(tmp_path / "eo.txt", NAMES, eos, "adjusted\nsecond line")
+    got = read_exterior_orientation(tmp_path / "eo.txt")
+    assert list(got) == NAMES
+    for n, e in zip(NAMES, eos):
+        assert got[n] == pytest.approx(e)
+    assert (tmp_path / "eo.txt").read_text().splitlines()[2] == "plain 1000.0000 2000.0000 300.0000 0.50000000 " \
+                                                               "-0.25000000 90.00000000"
+
+
+def test_bare_names_with_spaces_and_comments(tmp_path):
+    (tmp_path / "eo.txt").write_text("# a comment\nframe 01 1 2 3 4 5 6  # trailing comment\nf2 1 2 3 4 5 6\n"
+                                     "  spaced   name   7 8 9 10 11 12\n")
+    got = read_exterior_orientation(tmp_path / "eo.txt")
+    assert list(got) == ["frame 01", "f2", "spaced   name"] and got["spaced   name"].kappa == 12.0
+    (tmp_path / "bad.txt").write_text("frame 01 1 2 x 4 5 6\n")
+    with pytest.raises(InputError, match="line 1: non-numeric"):
+        read_exterior_orientation(tmp_path / "bad.txt")
+    (tmp_path / "short.txt").write_text("'unclosed 1 2 3 4 5 6\nf 1 2 3\n")
+    with pytest.raises(InputError, match="line 1: expected 'name X Y Z omega phi kappa'"):
+        read_exterior_orientation(tmp_path / "short.txt")
+
+
+def test_ortho_reads_back_the_orientation_of_a_frame_named_with_spaces(tmp_path):
+    from fotogeo.cli import main
+    paths = bs.write_scene(tmp_path)
+    frame = tmp_path / "frame 01 'a'.tif"
+    shutil.copy(paths["frame"], frame)
+    eo = read_exterior_orientation(paths["eo"])["frame"]
+    write_exterior_orientation(tmp_path / "eo written.txt", [frame.stem], [eo])
+    run = CliRunner().invoke(main, ["ortho", str(frame), "--camera", str(paths["camera"]), "--eo",
+                                    str(tmp_path / "eo written.txt"), "--dem", str(paths["dem"]), "-o",
+                                    str(tmp_path / "o.tif"), "-q"])
+    assert run.exit_code == 0, run.output
+    ref = CliRunner().invoke(main, ["ortho", str(paths["frame"]), "--camera", str(paths["camera"]), "--eo",
+                                    str(paths["eo"]), "--dem", str(paths["dem"]), "-o", str(tmp_path / "r.tif"), "-q"])
+    assert ref.exit_code == 0, ref.output
+    import rasterio
+    with rasterio.open(tmp_path / "o.tif") as a, rasterio.open(tmp_path / "r.tif") as b:
+        assert a.transform.almost_equals(b.transform) and np.array_equal(a.read(), b.read())

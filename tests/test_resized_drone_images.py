@@ -1,0 +1,123 @@
+"""Images downsampled after capture keep the camera's full-resolution calibration tags: the camera read from
+them is scaled to the file (fotogeo.io.exif_camera), and sources that contradict each other are named.
+
+DJI-like files (DewarpData, CalibratedFocalLength/OpticalCenter, FocalLengthIn35mmFilm, PixelXDimension) written
+at a reduced size, and the real eBee JPEGs (Canon: FocalLength x FocalPlaneXResolution, PixelXDimension 4608)
+resized by OpenCV with their EXIF/XMP segments kept as they were.
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import jpeg_metadata as jm
+from fotogeo.errors import InputError
+from fotogeo.io.exif_block import read_exif_block
+from test_io_exif import write_image, xmp_packet
+
+FULL, FX, OFF = (640, 480), 520.0, (1.5, -2.0)
+DEWARP = "2024-01-01;520,521,1.5,-2,-0.06,0.02,0.0004,-0.0003,0"
+BASE = {"EXIF_Make": "DJI", "EXIF_Model": "FC-render", "EXIF_GPSLatitude": "(46) (30) (0)",
+        "EXIF_GPSLatitudeRef": "N", "EXIF_GPSLongitude": "(7) (15) (0)", "EXIF_GPSLongitudeRef": "E",
+        "EXIF_GPSAltitude": "(1300)", "EXIF_GPSAltitudeRef": "0x00"}
+F35 = FX * 43.2666 / math.hypot(*FULL)  # the 35 mm equivalent of the full frame
+
+
+def _dim(w, h):
+    return {"EXIF_PixelXDimension": str(w), "EXIF_PixelYDimension": str(h)}
+
+
+def _camera(path):
+    return next(iter(read_exif_block([path]).cameras.values()))
+
+
+@pytest.mark.parametrize("factor", [2, 4, 5])
+def test_dewarp_data_is_scaled_to_a_downsampled_file(tmp_path, factor):
+    size = (FULL[0] // factor, FULL[1] // factor)
+    tags = {**BASE, **_dim(*FULL), "EXIF_FocalLengthIn35mmFilm": f"{round(F35)}"}
+    cam = _camera(write_image(tmp_path / "a.tif", tags, xmp_packet(f"><drone-dji:DewarpData>{DEWARP}"
+                                                                   f"</drone-dji:DewarpData>"), size=size))
+    s = 1.0 / factor
+    assert cam.camera.image_size == size
+    assert (cam.camera.fx, cam.camera.fy) == pytest.approx((520 * s, 521 * s), rel=1e-12)
+    assert cam.camera.principal_point == pytest.approx((size[0] / 2 + 1.5 * s, size[1] / 2 - 2.0 * s), rel=1e-12)
+    assert cam.distortion["k1"] == -0.06 and cam.distortion["p2"] == -0.0003  # normalised: unchanged
+    assert f"scaled by {s:.4g}" in cam.source and "PixelXDimension 640x480" in cam.source
+    # the full-resolution file is read as written
+    full = _camera(write_image(tmp_path / "b.tif", tags, xmp_packet(f"><drone-dji:DewarpData>{DEWARP}"
+                                                                    f"</drone-dji:DewarpData>"), size=FULL))
+    assert full.camera.fx == 520.0 and "scaled" not in full.source
+
+
+def test_calibrated_focal_length_and_optical_centre_are_scaled(tmp_path):
+    xmp = xmp_packet(" drone-dji:CalibratedFocalLength='520' drone-dji:CalibratedOpticalCenterX='320'"
+                     " drone-dji:CalibratedOpticalCenterY='240'>")
+    cam = _camera(write_image(tmp_path / "a.tif", {**BASE, **_dim(*FULL)}, xmp, size=(160, 120)))
+    assert cam.camera.fx == pytest.approx(130.0) and cam.camera.principal_point == pytest.approx((80.0, 60.0))
+
+
+def test_contradicting_sources_are_named(tmp_path):
+    dewarp = xmp_packet(f"><drone-dji:DewarpData>{DEWARP}</drone-dji:DewarpData>")
+    # the resizing tool updated PixelXDimension but not the calibration: the 35 mm equivalent contradicts it
+    tags = {**BASE, **_dim(160, 120), "EXIF_FocalLengthIn35mmFilm": f"{round(F35)}"}
+    with pytest.raises(InputError, match=r"DewarpData is 520 px but FocalLengthIn35mmFilm 28 mm gives 129 px"):
+        read_exif_block([write_image(tmp_path / "a.tif", tags, dewarp, size=(160, 120))])
+    # the optical centre belongs to a 640 x 480 frame, the file is 160 x 120 and says nothing of its size
+    xmp = xmp_packet(" drone-dji:CalibratedFocalLength='520' drone-dji:CalibratedOpticalCenterX='320'"
+                     " drone-dji:CalibratedOpticalCenterY='240'>")
+    with pytest.raises(InputError, match=r"CalibratedOpticalCenterX/Y \(320, 240\) belong to a 640x480 frame"):
+        read_exif_block([write_image(tmp_path / "b.tif", BASE, xmp, size=(160, 120))])
+    # resized unevenly (or cropped): no single factor
+    with pytest.raises(InputError, match=r"PixelYDimension is 640x480, not the file's size times one factor"):
+        read_exif_block([write_image(tmp_path / "c.tif", {**BASE, **_dim(*FULL)}, dewarp, size=(160, 100))])
+
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_resized_real_frames_triangulate_from_their_files(tmp_path, data_dir):
+    """Three consecutive eBee frames at a quarter of their size: the camera scaled by PixelXDimension, the strip
+    adjusted from the files alone, its centres within 3σ of the GPS; the same copies without PixelXDimension (nothing
+    tells they were resized) get the full-size focal length and the run is refused."""
+    src = data_dir / "drone_snowpeak" / "img"
+    names = ["IMG_2280", "IMG_2281", "IMG_2282"]
+    (tmp_path / "small").mkdir()
+    frames = [jm.resized_copy(src / f"{n}.JPG", tmp_path / "small" / f"{n}.JPG", 4) for n in names]
+    full_fx = _camera(src / "IMG_2280.JPG").camera.fx
+    small = _camera(frames[0])
+    assert small.camera.image_size == (1152, 864) and small.camera.fx == pytest.approx(full_fx / 4, rel=1e-12)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(out), "-q"])
+    assert res.exit_code == 0, res.output
+    rep = json.loads((out / "report.json").read_text())
+    gps = read_exif_block(frames).shots
+    from fotogeo.io.camera import read_exterior_orientation
+    for n, e in read_exterior_orientation(out / "exterior_orientation.txt").items():
+        d = np.array([e.X, e.Y, e.Z]) - gps[n].position
+        assert np.hypot(d[0], d[1]) < 3 * gps[n].sigma_h and abs(d[2]) < 3 * gps[n].sigma_v, (n, d)
+    assert rep["statistics"]["image_rms_px"] < 0.5
+    # without PixelXDimension nothing says the file was resized: the focal length is 4x too long
+    for f in frames:
+        jm.rename_ifd0_tag(f, 0xA002, 0xA0F2, exif_ifd=True)
+    assert _camera(frames[0]).camera.fx == pytest.approx(full_fx, rel=1e-12)
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "o2"), "-q"])
+    assert res.exit_code != 0 and "does not determine" in res.output, res.output  # refused, not silently off
+
+
+def test_a_frame_overlapping_none_gets_advice_on_the_source_given():
+    """"check the orientation file" only when one was given (--eo)."""
+    from fotogeo.tools.triangulate.tool import _overlap_advice
+    assert _overlap_advice("eo.json", None, None) == "check the orientation file (--eo eo.json)"
+    for camera in (None, "cam.yaml"):
+        said = _overlap_advice(None, camera, None)
+        assert "orientation file" not in said and "GPS and attitude" in said
+    assert "camera read from the images' EXIF/XMP" in _overlap_advice(None, None, None)
+
+
+def main_cli():
+    from fotogeo.cli import main
+    return main
