@@ -22,8 +22,8 @@ Usage = namedtuple("Usage", "total used free")
 
 @pytest.mark.parametrize("code", [errno.EROFS, errno.EACCES])
 def test_a_refused_write_on_a_small_disk_is_not_a_full_disk(env, out, monkeypatch, code):  # noqa: F811
-    import fotogeo.tools.boundary as boundary
-    import fotogeo.tools.orient as orient_tool
+    import fotogeo.tools.common.boundary as boundary
+    import fotogeo.tools.orient.tool as orient_tool
     monkeypatch.setattr(boundary, "_free_bytes", lambda folder: 300 * 1024)  # a tiny disk
     monkeypatch.setattr(orient_tool, "write_json",
                         _failing_json(lambda p: OSError(code, os.strerror(code), str(p))))

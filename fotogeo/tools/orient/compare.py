@@ -69,7 +69,7 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
 def _enough_points(models, chosen: bool, n: int, counts, gcps) -> None:
     """Refuse a GCP file with fewer points than a chosen model needs (or than every default model needs), and
     ``counts`` asking for more control + check points than the file holds."""
-    from ..orientation.comparison import FAMILY_COUNTS
+    from ...orientation.comparison import FAMILY_COUNTS
     short = [(m, get_model(m).min_points) for m in models if get_model(m).min_points > n]
     if short and (chosen or len(short) == len(models)):
         need = ", ".join(f"{m} needs {k}" for m, k in short[:6])
