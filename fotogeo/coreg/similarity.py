@@ -81,17 +81,26 @@ def similarity_matrix(scale: float, angle_deg: float, shift) -> np.ndarray:
     return np.array([[scale * c, -scale * s, shift[0]], [scale * s, scale * c, shift[1]], [0.0, 0.0, 1.0]])
 
 
-def _decimated(img: np.ndarray, factor: float) -> np.ndarray:
-    """``img`` (NaN = nodata) reduced by ``factor`` ≥ 1 (area average; NaN where mostly invalid)."""
+def _decimated(img: np.ndarray, factor: float) -> tuple[np.ndarray, np.ndarray]:
+    """``img`` (NaN = nodata) reduced by ``factor`` ≥ 1 (area average; NaN where mostly invalid) and
+    the matrix from its pixels to ``img``'s (corner convention)."""
     if factor <= 1.0 + 1e-9:
-        return img.astype(np.float32)
+        return img.astype(np.float32), np.eye(3)
     valid = np.isfinite(img).astype(np.float32)
     filled = np.where(valid > 0, img, 0).astype(np.float32)
     size = (max(8, int(round(img.shape[1] / factor))), max(8, int(round(img.shape[0] / factor))))
     s = cv2.resize(filled, size, interpolation=cv2.INTER_AREA)
     w = cv2.resize(valid, size, interpolation=cv2.INTER_AREA)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(w > 0.5, s / w, np.nan).astype(np.float32)
+        out = np.where(w > 0.5, s / w, np.nan).astype(np.float32)
+    return out, np.diag([img.shape[1] / size[0], img.shape[0] / size[1], 1.0])
+
+
+def opencv_matrix(M: np.ndarray) -> np.ndarray:
+    """The 2x3 matrix OpenCV's warps take (pixel centres at integers) for the corner-convention
+    ``M`` ``x' = A x + t``: ``[A, t + (A − I)·½]``."""
+    A = M[:2, :2]
+    return np.hstack([A, (M[:2, 2] + (A - np.eye(2)) @ [0.5, 0.5])[:, None]])
 
 
 def _circular_taper(n: int) -> np.ndarray:
@@ -156,7 +165,8 @@ def translation(ref: np.ndarray, tgt: np.ndarray, matrix: np.ndarray) -> tuple[n
     A = matrix[:2, :2]
     centre_t = np.array([tgt.shape[1] / 2, tgt.shape[0] / 2])
     centre_r = np.array([w / 2, h / 2])
-    M = np.hstack([A, (centre_r - A @ centre_t)[:, None]])  # target centre on reference centre
+    M = np.vstack([np.hstack([A, (centre_r - A @ centre_t)[:, None]]), [0, 0, 1]])  # centre on centre
+    M = cv2.invertAffineTransform(opencv_matrix(np.linalg.inv(M)))
     valid = cv2.warpAffine(np.isfinite(tgt).astype(np.float32), M, (w, h), flags=cv2.INTER_LINEAR)
     warped = cv2.warpAffine(np.nan_to_num(tgt), M, (w, h), flags=cv2.INTER_LINEAR)
     warped[valid < 0.99] = np.nan
@@ -208,13 +218,12 @@ def estimate_similarity(reference: np.ndarray, target: np.ndarray, *, min_confid
     reference = np.asarray(reference, np.float32)
     target = np.asarray(target, np.float32)
     k = max(1.0, max(target.shape) / COARSE_SIDE)
-    ref_c, tgt_c = _decimated(reference, k), _decimated(target, k)
+    (ref_c, K_r), (tgt_c, K_t) = _decimated(reference, k), _decimated(target, k)
     conf, M, ratio = _solve(ref_c, tgt_c, max(tgt_c.shape))
     if M is None or conf < min_confidence:
         raise MatchingError(f"no rotation/scale/offset of {name} matches the reference (Fourier–Mellin: best peak "
                             f"ratio {conf:.2f} < {min_confidence}); the images may not show the same area")
-    K = np.diag([k, k, 1.0])
-    M = K @ M @ np.linalg.inv(K)  # full-resolution pixels
+    M = K_r @ M @ np.linalg.inv(K_t)  # full-resolution pixels
     M, conf, ratio, level = _refine(reference, target, M, conf, ratio, k)
     scale = float(np.sqrt(abs(np.linalg.det(M[:2, :2]))))
     angle = float(np.degrees(np.arctan2(M[1, 0], M[0, 0])))
@@ -227,13 +236,12 @@ def _refine(reference, target, M, conf, ratio, k_coarse):
     k = max(1.0, max(target.shape) / FINE_SIDE)
     if k >= k_coarse - 1e-9:
         return M, conf, ratio, k_coarse
-    tgt = _decimated(target, k)
-    K = np.diag([k, k, 1.0])
-    Mk = np.linalg.inv(K) @ M @ K  # target px (level) -> reference px (level)
-    ref = _decimated(reference, k)
+    (tgt, K_t), (ref, K_r) = _decimated(target, k), _decimated(reference, k)
+    Mk = np.linalg.inv(K_r) @ M @ K_t  # target px (level) -> reference px (level)
     h, w = tgt.shape
-    on_tgt = cv2.warpAffine(np.nan_to_num(ref, nan=0), Mk[:2], (w, h), flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR)
-    ok = cv2.warpAffine(np.isfinite(ref).astype(np.float32), Mk[:2], (w, h),
+    cv_m = opencv_matrix(Mk)
+    on_tgt = cv2.warpAffine(np.nan_to_num(ref, nan=0), cv_m, (w, h), flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR)
+    ok = cv2.warpAffine(np.isfinite(ref).astype(np.float32), cv_m, (w, h),
                         flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR)
     on_tgt[ok < 0.99] = np.nan
     scale, angle, r2 = rotation_scale(on_tgt, tgt)
@@ -247,4 +255,4 @@ def _refine(reference, target, M, conf, ratio, k_coarse):
             best = (c, similarity_matrix(scale, a, t))
     if best[1] is None or best[0] < conf:
         return M, conf, ratio, k_coarse
-    return K @ Mk @ best[1] @ np.linalg.inv(K), best[0], r2, k
+    return K_r @ Mk @ best[1] @ np.linalg.inv(K_t), best[0], r2, k
