@@ -5,7 +5,7 @@ The reference is a real georeferenced scene (or a crop of it); the target is a s
 date's image under the similarity ``H`` (target pixel -> reference pixel, corner convention: rotation,
 scale, the chip centre at ``centre`` (fractions of the reference)), bicubic, Gaussian pre-filtered when
 coarser, then given another radiometry: a gamma, a band mix, Gaussian noise and optionally clouds
-(bright smooth blobs), written without georeference (no CRS, identity transform). ``s2_pair`` uses the
+(bright smooth blobs) and an inverted contrast, written without georeference (no CRS, identity transform). ``s2_pair`` uses the
 real second date (the AROSICS pair, co-registered to about a pixel) for the chip.
 """
 from __future__ import annotations
@@ -41,6 +41,7 @@ class Case:
     mix: float = 0.0  # share of the next band mixed into each band
     noise: float = 2.0  # grey levels (of 255)
     clouds: float = 0.0  # fraction of the chip under clouds
+    invert: bool = False  # contrast inverted (a band whose vegetation turns from dark to bright)
 
 
 #: name -> case; TUNE were used to choose the method's constants, HELD_OUT were not
@@ -55,6 +56,10 @@ HELD_OUT = {
     "s2_r-70_s1.15_clouds": Case("s2", -70, 1.15, 300, (0.45, 0.55), gamma=0.8, mix=0.3, noise=3, clouds=0.2),
     "s2_r200_s0.85": Case("s2", 200, 0.85, 400, (0.55, 0.5), gamma=1.2, mix=0.4, noise=2),
     "s2pair_r25_s1.1": Case("s2_pair", 25, 1.1, 400, (0.5, 0.5), noise=0),
+    "landsat_r40_s1.2_inverted": Case("landsat", 40, 1.2, 280, (0.55, 0.55), gamma=0.9, mix=0.2, noise=3,
+                                      invert=True),
+    "s2_r150_s0.95_inverted": Case("s2", 150, 0.95, 340, (0.4, 0.4), gamma=1.1, mix=0.3, noise=2, clouds=0.1,
+                                   invert=True),
     "s2pair_r75_s1.2_clouds": Case("s2_pair", 75, 1.2, 380, (0.6, 0.4), gamma=0.8, noise=1, clouds=0.15),
 }
 CASES = {**TUNE, **HELD_OUT}
@@ -124,6 +129,7 @@ def make_case(data: Path, name: str, folder: Path, seed: int = 0):
     bands = np.stack(bands) / top
     mixed = (1 - case.mix) * bands + case.mix * np.roll(bands, 1, axis=0)
     out = np.clip(mixed, 0, 1) ** case.gamma
+    out = 1 - out if case.invert else out
     cloud = _clouds(case.size, case.clouds, rng)
     out = out * (1 - cloud) + 0.95 * cloud + rng.normal(0, case.noise / 255, out.shape)
     out = np.clip(np.round(out * 254) + 1, 1, 255).astype(np.uint8)
