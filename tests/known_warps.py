@@ -118,3 +118,62 @@ def known_warp(data: Path, name: str, warp: str, folder: Path):
     tgt = Path(folder) / f"{name}_{warp}.tif"
     grid = dense_grid(warped_target(ref, H, size, scale, tgt))
     return ref, tgt, grid, pixel_to_map(t_ref, apply_h(H, grid))
+
+
+#: band sets (other sensors' band counts) built from a real RGB image's bands R, G, B (float): name ->
+#: (reference bands, target bands); the extra bands are fixed combinations of the real ones, as a
+#: multispectral sensor's NIR, red-edge or SWIR bands relate to the visible (not the same PCA as RGB)
+BAND_SETS = {
+    "ref8_tgt3": ("rgb8", "rgb"),
+    "ref4_tgt1": ("rgbn", "pan"),
+    "ref3_tgt2": ("rgb", "ng"),
+}
+
+
+def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
+    """The bands ``kind`` from ``rgb`` (3, rows, cols) float: ``rgb``; ``rgbn`` + a NIR-like band;
+    ``rgb8`` + five more; ``pan`` their mean; ``ng`` the NIR-like band and G."""
+    R, G, B = rgb
+    nir = np.clip(1.8 * R - 0.9 * B + 0.4 * G + 20, 0, 255)
+    if kind == "rgb":
+        return rgb
+    if kind == "pan":
+        return ((R + G + B) / 3)[None]
+    if kind == "ng":
+        return np.stack([nir, G])
+    if kind == "rgbn":
+        return np.stack([R, G, B, nir])
+    return np.stack([R, G, B, nir, 255 - G, np.sqrt(R * G), np.clip(3 * np.abs(R - G), 0, 255),
+                     np.clip(0.5 * (R + B) + 0.8 * (nir - R), 0, 255)])
+
+
+def _write_like(path: Path, like: Path, bands: np.ndarray) -> Path:
+    import rasterio
+    with rasterio.open(like) as ds:
+        profile = ds.profile.copy()
+        nodata_px = (ds.read() == ds.nodata).all(axis=0) if ds.nodata is not None else None
+    out = np.clip(np.round(bands), 1 if nodata_px is not None else 0, 255).astype(np.uint8)
+    if nodata_px is not None:
+        out[:, nodata_px] = profile["nodata"]
+    profile.update(driver="GTiff", count=len(out), dtype="uint8")
+    with rasterio.open(path, "w", **profile) as ds:
+        ds.write(out)
+    return path
+
+
+def known_warp_bands(data: Path, name: str, warp: str, band_set: str, folder: Path):
+    """:func:`known_warp` with the reference and the target in the bands of ``BAND_SETS[band_set]``."""
+    import rasterio
+    from fotogeo.pixels import pixel_to_map
+    rgb_ref = reference_image(data, name, folder)
+    with rasterio.open(rgb_ref) as ds:
+        rgb, t_ref, rw, rh = ds.read()[:3].astype(np.float64), ds.transform, ds.width, ds.height
+    kinds = BAND_SETS[band_set]
+    ref = _write_like(Path(folder) / f"{name}_{band_set}_reference.tif", rgb_ref, derived_bands(rgb, kinds[0]))
+    source = _write_like(Path(folder) / f"{name}_{band_set}_source.tif", rgb_ref, derived_bands(rgb, kinds[1]))
+    size = IMAGES[name][2]
+    deg, scale, persp = WARPS[warp]
+    H = warp_matrix(deg, scale, persp, size, (rw / 2, rh / 2))
+    tgt = Path(folder) / f"{name}_{band_set}_{warp}.tif"
+    grid = dense_grid(warped_target(source, H, size, scale, tgt))
+    return ref, tgt, grid, pixel_to_map(t_ref, apply_h(H, grid))

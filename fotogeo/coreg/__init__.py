@@ -10,7 +10,9 @@ Arrays in, arrays out (no file I/O; ``fotogeo.tools.coreg.tool`` reads and write
 - :mod:`~fotogeo.coreg.grid` — the window grid over the overlap and its strips;
 - :mod:`~fotogeo.coreg.filter` — outliers against the global model (fotogeo's RANSAC) and the neighbours;
 - :mod:`~fotogeo.coreg.field` — the global model plus a smoothing thin-plate spline on a coarse grid;
-- :mod:`~fotogeo.coreg.pipeline` — the passes (iterative window deformation) on strips from a source.
+- :mod:`~fotogeo.coreg.pipeline` — the passes (iterative window deformation) on strips from a source;
+- :mod:`~fotogeo.coreg.similarity` — a coarse similarity of any rotation and scale (Fourier–Mellin, Reddy &
+  Chatterji 1996) for images without a georeference to start from.
 
 Shifts are ``(dx, dy)`` in target pixels with ``target = reference + shift``; the field
 ``D`` gives ``corrected(p) = target(p + D(p))`` (corner convention, :mod:`fotogeo.pixels`).

@@ -64,9 +64,10 @@ REGISTER = Table(
     Option("local_window", "int", 128, "Local matching window size (output pixels, even)",
            "Size of the --local matching windows (output pixels, even).", minimum=16, maximum=4096, advanced=True),
     Option("area_fallback", "bool", True, "Match a grid of windows when feature matching fails",
-           "When feature matching finds too few matches or inliers and the target is georeferenced within a few "
-           "pixels, match a grid of windows (area-based, robust to seasonal change) for the tie points instead; "
-           "the report says so.", advanced=True),
+           "When feature matching finds too few matches or inliers (or keeps fewer than 12), match a grid of windows "
+           "(area-based, robust to seasonal change) for the tie points instead, on the target's georeference or, "
+           "for an unreferenced target, on a Fourier-Mellin pre-alignment (any rotation, scale 0.4-2.5; refused "
+           "when not credible); the report says so.", advanced=True),
 )
 #: registration inputs besides the two images: terrain-aware registration
 REGISTER_TERRAIN = Table(

@@ -4,6 +4,8 @@
 * :mod:`.tool` — :func:`register`, the tool (reference + target → georeferenced raster, vectors, report);
 * :mod:`.points` — the tie points: matched, refined by least-squares matching, weighted;
 * :mod:`.local` — area-based windows inside the registration (the co-registration's engine);
+* :mod:`.coarse` — an unreferenced target pre-aligned by a Fourier–Mellin similarity for those windows;
+* :mod:`.bands` — the images LSM refines on, made to correspond across band sets;
 * :mod:`.report` — the registration report and its summary lines;
 * :mod:`.match` — :func:`match_images`, matching only (keypoints, descriptors, optional LSM);
 * :mod:`.fuse` — :func:`fuse_raster`, PCA band fusion of a multi-band raster;

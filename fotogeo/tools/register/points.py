@@ -35,6 +35,7 @@ from ...io.vector import error_vectors, exaggeration_value, grid_means, legend_t
 from ...matching import CONVERGED
 from ...models import Projective
 from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
+from .bands import matched_fusions
 from .match import find_tie_points, lsm_tie_points
 
 #: at least this many converged LSM points (and this share of those tried) for the fit to use
@@ -130,6 +131,7 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
                          "fit_uses": "every match"}
         return TiePoints(src, ref_xy, counts)
     cand = sel.inliers
+    fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model)
     pick = cand.copy()
     budget = lsm_budget(fu_ref.image.size + fu_tgt.image.size)
     if cand.sum() > budget:
@@ -163,7 +165,7 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         "status": dict(zip(words.tolist(), k.tolist())),
         "median_sigma_px": float(np.median(sigma_px[ok])) if ok.any() else None,
         "median_shift_target_px": float(np.median(moved)) if ok.any() else None,
-        "half_window": LSM_HALF_WINDOW, "matched_at_factor": {"reference": float(np.mean(f_ref)),
+        "half_window": LSM_HALF_WINDOW, "bands": bands, "matched_at_factor": {"reference": float(np.mean(f_ref)),
                                                               "target": float(np.mean(f_tgt))},
         **({"full_resolution": full} if full else {}),
         "fit_uses": "the converged points" if enough else

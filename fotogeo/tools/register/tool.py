@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ...crs import choose_output_crs, pixel_size_in, require_projected, short_name, to_lonlat, transform_points
-from ...errors import InputError, MatchingError, ModelError
+from ...errors import InputError, ModelError
 from ...geometry.georeference import Georeference
 from ...io.raster import AtomicOutputs, check_output, open_raster, read_dem
 from ...io.report import write_json
@@ -41,11 +41,11 @@ from ...orientation.terrain import TERRAIN_MODELS
 from ...pixels import map_to_pixel, outline, pixel_to_map
 from ...progress import as_progress
 from ..common.checks import check_camera_size, check_output_grid
-from .match import HINT, band_numbers, select_bands
+from .match import band_numbers, select_bands
 from ..common.boundary import tool
 from .points import fit_points, refine_mode, tie_points as find_points, write_vectors
 from ..coreg.tool import check_window
-from .local import area_tie_points, local_correction
+from .local import local_correction, matched_and_fitted
 from .report import build_report, notes, precision, summary_lines
 from ..common.results import Registration
 
@@ -114,16 +114,9 @@ def register(reference, target, output, *, vectors=None, report=None, field=None
             res = opts.resolution or _reference_step(ref, crs) or ref_px
             refine = refine_mode(opts.refine, dem is not None)
             fit = _fitter(opts, ref, ref_px, tgt, crs, res, dem, camera, prog)
-            try:
-                pts = find_points(opts, ref, tgt, prog, tie_points, refine)
-                pts, dst, gf = fit(pts)
-            except MatchingError as e:
-                if tie_points is not None or not opts.area_fallback:
-                    raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
-                refine = "area-based windows (feature matching failed)"
-                pts = area_tie_points(reference, target, ref, tgt, opts, str(e),
-                                      prog.stage(0.0, 0.55, "feature matching failed: matching windows"))
-                pts, dst, gf = fit(pts)
+            pts, dst, gf, refine = matched_and_fitted(
+                reference, target, ref, tgt, opts, prog, lambda: find_points(opts, ref, tgt, prog, tie_points, refine),
+                fit, tie_points, refine)
             counts = pts.counts
             check_output_grid(output, gf.width, gf.height, bands=tgt.count, dtype=tgt.dtype,
                               source_pixels=tgt.width * tgt.height, resolution=res,

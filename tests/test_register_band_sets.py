@@ -1,0 +1,59 @@
+"""Sub-pixel registration across band sets: LSM on one image's bands combined to match the other's fusion
+(fotogeo.image.band_match, fotogeo.tools.register.bands), measured on known warps of real images with other
+band counts (tests/known_warps.py BAND_SETS)."""
+import warnings
+
+import numpy as np
+import pytest
+import rasterio
+
+from fotogeo.image.band_match import combined_fusion, fit_combination
+from fotogeo.image.fusion import pca_fuse
+from fotogeo.tools.register.tool import register
+from known_warps import known_warp_bands
+
+
+class _Shift:
+    """A pure translation as the homography (reference px -> other px)."""
+
+    def __init__(self, d):
+        self.d = np.asarray(d, float)
+
+    def forward(self, xy):
+        return np.asarray(xy, float) + self.d
+
+
+def test_the_combination_of_bands_that_predicts_the_other_image_is_found(rng):
+    base = rng.normal(100, 30, (3, 120, 130))
+    bands = np.concatenate([base, [255 - base[1]], [0.5 * base[0] + 0.5 * base[2]]])  # collinear extras
+    other_img = np.clip(0.6 * base[0] + 0.3 * base[1] + 0.1 * base[2] + 10, 0, 255)
+    other = pca_fuse(other_img[None])
+    other = other.__class__(**{**other.__dict__, "image": np.roll(other_img, (3, 2), axis=(0, 1)).astype(np.float32)})
+    own = pca_fuse(bands)
+    comb = fit_combination(bands, own.mask, own, _Shift((2, 3)).forward, other)
+    assert comb.correlation > 0.999 and comb.better
+    fu = combined_fusion(bands, own.mask, own, comb)
+    inner = np.s_[5:-5, 5:-5]
+    assert np.allclose(fu.image[inner], np.clip(other_img, 0, 255)[inner], atol=0.05)
+    # full-resolution windows are fused as (v·(b − μ) − lo)·255/(hi − lo): the same image
+    lo, hi = fu.stretch
+    pc = np.tensordot(fu.component, bands - fu.mean[:, None, None], axes=1)
+    assert np.allclose(np.clip((pc - lo) * 255 / (hi - lo), 0, 255)[inner], fu.image[inner], atol=1e-3)
+
+
+@pytest.mark.parametrize("image, band_set", [("landsat", "ref8_tgt3"), ("s2", "ref4_tgt1")])
+def test_default_is_sub_pixel_and_beats_sift_across_band_sets(data_dir, tmp_path, image, band_set):
+    ref, tgt, grid, truth = known_warp_bands(data_dir, image, "r30_s0.85_p", band_set, tmp_path)
+    with rasterio.open(ref) as ds:
+        px = abs(ds.transform.a)
+    err = {}
+    for method, opts in (("default", {}), ("sift", dict(detector="sift", refine="none"))):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = register(ref, tgt, tmp_path / f"{method}.tif", overwrite=True, seed=0, **opts)
+        err[method] = float(np.sqrt(np.mean(np.hypot(*(r.model.forward(grid) - truth).T) ** 2))) / px
+        if method == "default":
+            bands = r.report["lsm"]["bands"]
+    assert err["default"] <= 0.05 and err["default"] <= err["sift"], err
+    if band_set == "ref8_tgt3":
+        assert bands["combined"] == "reference" and bands["correlation_combined"] > bands["correlation_pca"]
