@@ -120,9 +120,11 @@ def describe_libraries(check: dict) -> str:
 
 
 def worker_environment(environ=None) -> dict:
-    """The worker's environment: ``environ`` without QGIS's library variables, fotogeo on ``PYTHONPATH``."""
+    """The worker's environment: ``environ`` without QGIS's library variables, fotogeo on ``PYTHONPATH``,
+    GDAL's PAM off (the worker never writes an ``.aux.xml`` beside an input: :mod:`.side_files`)."""
     env = {k: v for k, v in (os.environ if environ is None else environ).items() if k not in DROPPED_VARIABLES}
     env["PYTHONPATH"] = str(PLUGIN_ROOT)
+    env["GDAL_PAM_ENABLED"] = "NO"
     env["PYTHONNOUSERSITE"] = "1"
     return env
 
