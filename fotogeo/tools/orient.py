@@ -47,6 +47,7 @@ from ..orientation.adjustment import fit_orientation, select_model
 from ..progress import as_progress
 from .checks import check_camera_size, check_gcp_crs
 from .boundary import OUTPUTS, tool
+from .gcp_style import legend_class
 from .rectify import mean_height, rectify_grid, rectify_image
 from .results import Orientation
 
@@ -55,14 +56,15 @@ from .results import Orientation
 @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
 def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
            gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
-           remove_blunders: bool = False, exaggeration="auto", resolution=None,
+           remove_blunders: bool = False, image_sigma=None, exaggeration="auto", resolution=None,
            resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,
            progress=None) -> Orientation:
     """Fit ``model`` (a name, or ``"auto"``) to the GCPs of ``image`` and write the requested
     outputs; returns an :class:`~fotogeo.tools.results.Orientation` (``result["check"]`` reads the report).
 
     ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera` or an interior-orientation YAML file)
-    is needed by ``collinearity`` only.
+    is needed by ``collinearity`` only. ``image_sigma``: the a priori σ of the GCPs' image positions (the
+    click precision, px) for the blunder test (:mod:`fotogeo.orientation.blunders`); None: estimated.
     """
     prog = as_progress(progress)
     camera = load_camera(camera)
@@ -85,7 +87,7 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
                                         progress=prog.stage(0.1, 0.2, "choosing the model"))
     fit = fit_orientation(model, g.ground, g.pixel, g.role, g.ids, snooping=snooping,
                           remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera,
-                          progress=prog.stage(0.2, 0.3, "fitting the model"))
+                          image_sigma=image_sigma, progress=prog.stage(0.2, 0.3, "fitting the model"))
     prog(0.3, "model fitted")
     on_ground, d_ground = ground_residuals(fit.model, g.ground, g.pixel, g.crs)
     rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
@@ -177,7 +179,11 @@ def _notes(rep) -> dict:
         "control": "residuals at the GCPs the model was fitted to: an optimistic measure",
         "check": "residuals at GCPs held out of the fit: the accuracy estimate, including the GCPs' own "
                  "measurement errors (image and map)",
-        "blunder": "control points flagged by data snooping (Baarda 1968) and removed",
+        "blunder": "control points data snooping (Baarda 1968) removed (remove_blunders)",
+        "flag": "the blunder test of each control point: 'blunder' (|w| above the critical value), 'suspect' (above "
+                "it, but the redundancy is too low to call it a blunder), 'not testable' (its own redundancy too low)",
+        "w": "standardised residual of the point (its residual over its standard deviation, both directions)",
+        "redundancy": "the point's redundancy number (0: the fit follows it wherever it is, 1: fully checked)",
         "exaggeration": f"error vectors and plot drawn {rep['exaggeration']['legend']} ({rep['exaggeration']['chosen']})",
         **({"model_selection": f"auto: {rep['model_selection']['because']}"} if "model_selection" in rep else {}),
     }
@@ -187,14 +193,21 @@ def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     return {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
             "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
+            "blunder_test": fit.blunder_test,
             "warnings": fit.warnings, "model": fit.model.to_dict(),
             "model_info": {k: v for k, v in getattr(fit.model, "info", {}).items()
                            if isinstance(v, (int, float, str, list, bool))},
             "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
             "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
                         "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
+                        "w": _num(w), "redundancy": _num(rn), "flag": fl,
                         **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
-                       for i, r, p, v, dg in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground)]}
+                       for i, r, p, v, dg, w, rn, fl in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground, fit.w,
+                                                            fit.redundancy, fit.flag)]}
+
+
+def _num(v):
+    return float(v) if np.isfinite(v) else None
 
 
 def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
@@ -223,7 +236,8 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     d_px = fit.residual
     common = {"id": g.ids.astype(object), "role": fit.role.astype(object), "col": g.pixel[:, 0],
               "row": g.pixel[:, 1], "z": g.ground[:, 2], "dx_px": d_px[:, 0], "dy_px": d_px[:, 1],
-              "residual_px": np.hypot(*d_px.T)}
+              "residual_px": np.hypot(*d_px.T), "w": fit.w, "redundancy": fit.redundancy,
+              "flag": fit.flag.astype(object), "class": legend_class(fit.role, fit.flag).astype(object)}
     layers = {"gcps": {**common, "geometry": shapely.points(g.ground[:, :2])},
               "error_vectors": {**common, "dx": d_ground[:, 0], "dy": d_ground[:, 1],
                                 "length": np.hypot(*d_ground.T), "exaggeration": np.full(len(g), k),
