@@ -123,14 +123,11 @@ class _Fit:
         P = np.einsum("nak,kl,nbl->nab", J, Ninv, J)  # J_i N⁻¹ J_iᵀ, (n, 2, 2)
         R = np.where(inside[:, None, None], np.eye(2) - P, np.eye(2) + P)
         lam, vec = np.linalg.eigh(R)
-        self.r = np.where(inside, lam.mean(axis=1), np.nan)
+        self.r = np.where(inside, lam.mean(axis=1), (1.0 / lam).mean(axis=1))  # outside: R with it = (I + P)⁻¹
         ok = lam >= MIN_POINT_REDUNDANCY
         proj = np.einsum("nab,na->nb", vec, self.v)  # components along R's eigenvectors
-        self.T = np.where(ok.all(axis=1) | (~inside), np.sum(np.where(ok, proj ** 2 / lam, 0.0), axis=1), np.nan)
-        if inside.any():  # a point inside whose redundancy is too low in one direction: not testable
-            low = inside & ~ok.all(axis=1)
-            self.T[low] = np.nan
-            self.r[inside & ok.all(axis=1)] = lam[inside & ok.all(axis=1)].mean(axis=1)
+        self.T = np.sum(np.where(ok, proj ** 2 / lam, 0.0), axis=1)
+        self.T[inside & ~ok.all(axis=1)] = np.nan  # too little redundancy in one direction: not testable
 
     def _by_refits(self, cls, src, pix, inside, fit_options):
         ssr = float(np.sum(self.v[inside] ** 2))

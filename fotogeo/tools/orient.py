@@ -246,28 +246,43 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     write_layers(path, layers, g.crs.to_wkt(), {"error_vectors": f"Error vectors drawn {legend}."})
 
 
+#: the plot's colours (BGR) per legend class (:func:`fotogeo.tools.gcp_style.legend_class`) and their names
+PLOT_COLOURS = {"control": ((40, 160, 40), "green"), "check": ((30, 30, 220), "red"),
+                "suspect": ((0, 140, 255), "orange"), "blunder": ((200, 0, 200), "magenta")}
+_HEADER_PX = 34
+
+
 def _plot(path, info, g, fit, exaggeration: dict, size: int = 1000):
     """PNG of the residual vectors over a grey thumbnail of the image: drawn ``exaggeration``
     times (the factor of the error-vector layer, the same for every model on these GCPs),
-    coloured by role, each labelled with its GCP id; a scale bar gives the residual length."""
+    coloured by legend class (a flagged point in its class's colour, whatever its role), each labelled
+    with its GCP id; the legend in a white band above the image (nothing under it), a scale bar below."""
     bands, _, (fx, fy) = read_decimated(info, size * size, "image")
     img = bands[:3].mean(axis=0)
     lo, hi = np.percentile(img, [1, 99])
     grey = np.clip((img - lo) / max(hi - lo, 1e-9) * 200 + 30, 0, 255).astype(np.uint8)
-    canvas = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    image = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
     k = exaggeration["factor"]
-    colours = {"control": (40, 160, 40), "check": (30, 30, 220), "blunder": (200, 0, 200)}
     font, aa = cv2.FONT_HERSHEY_SIMPLEX, cv2.LINE_AA
-    for p, v, r, i in zip(g.pixel, fit.residual, fit.role, g.ids):
+    classes = legend_class(fit.role, fit.flag)
+    for p, v, c, i in zip(g.pixel, fit.residual, classes, g.ids):
         a = (p[0] / fx, p[1] / fy)
         b = (a[0] + k * v[0] / fx, a[1] + k * v[1] / fy)
-        colour = colours.get(r, (0, 0, 0))
-        cv2.circle(canvas, (int(a[0]), int(a[1])), 3, colour, -1, aa)
-        cv2.arrowedLine(canvas, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), colour, 2, aa, tipLength=0.25)
-        cv2.putText(canvas, str(i), (int(a[0]) + 5, int(a[1]) - 5), font, 0.4, colour, 1, aa)
-    _scale_bar(canvas, k, fx, exaggeration.get("ground_per_pixel"))
-    cv2.putText(canvas, f"vectors x{k:g}  green control, red check, magenta blunder",
-                (10, 25), font, 0.6, (0, 0, 0), 2, aa)
+        colour = PLOT_COLOURS.get(c, ((0, 0, 0), ""))[0]
+        cv2.circle(image, (int(a[0]), int(a[1])), 3, colour, -1, aa)
+        cv2.arrowedLine(image, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), colour, 2, aa, tipLength=0.25)
+        cv2.putText(image, str(i), (int(a[0]) + 5, int(a[1]) - 5), font, 0.4, colour, 1, aa)
+    _scale_bar(image, k, fx, exaggeration.get("ground_per_pixel"))
+    canvas = np.full((image.shape[0] + _HEADER_PX, max(image.shape[1], 420), 3), 255, np.uint8)
+    canvas[_HEADER_PX:, :image.shape[1]] = image
+    x = 10
+    cv2.putText(canvas, f"vectors x{k:g}", (x, 22), font, 0.5, (0, 0, 0), 1, aa)
+    x += 110
+    for c in [c for c in PLOT_COLOURS if c in set(classes)]:  # only the classes drawn: no empty legend entry
+        colour = PLOT_COLOURS[c][0]
+        cv2.circle(canvas, (x + 5, 17), 5, colour, -1, aa)
+        cv2.putText(canvas, c, (x + 14, 22), font, 0.5, colour, 1, aa)
+        x += 24 + 10 * len(c)
     if not cv2.imwrite(str(path) if str(path).endswith(".png") else str(path) + ".png", canvas):
         raise InputError(f"could not write the plot {path}")
     if not str(path).endswith(".png"):
@@ -282,9 +297,10 @@ def _scale_bar(canvas, k: float, fx: float, ground_per_pixel=None):
     L = nice_number(0.1 * w * fx / k)
     length = int(round(L * k / fx))
     x0, y0 = 15, h - 20
-    cv2.rectangle(canvas, (x0 - 5, y0 - 28), (x0 + length + 5, y0 + 8), (255, 255, 255), -1)
+    text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
+    (tw, _), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+    cv2.rectangle(canvas, (x0 - 5, y0 - 28), (x0 + max(length, tw) + 5, y0 + 8), (255, 255, 255), -1)
     cv2.line(canvas, (x0, y0), (x0 + length, y0), (0, 0, 0), 3)
     for x in (x0, x0 + length):
         cv2.line(canvas, (x, y0 - 6), (x, y0 + 6), (0, 0, 0), 2)
-    text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
     cv2.putText(canvas, text, (x0, y0 - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
