@@ -30,10 +30,10 @@ ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = "fotogeo_qgis"
 EXCLUDE_DIRS = {"__pycache__", ".pytest_cache"}
 EXCLUDE_FOTOGEO = {"cli"}  # command line only (click); the plugin calls the tools directly
-# what QGIS needs to install and load a plugin from a ZIP or a profile folder; the official plugin
-# repository also wants email, homepage, repository and tracker, which fotogeo (no public site yet) omits
-REQUIRED_METADATA = ("name", "qgisMinimumVersion", "description", "about", "version", "author",
-                     "hasProcessingProvider", "license")
+# what QGIS needs to install and load a plugin, and what plugins.qgis.org requires of an upload
+# (tests/test_plugin_metadata.py checks the repository's rules)
+REQUIRED_METADATA = ("name", "qgisMinimumVersion", "qgisMaximumVersion", "description", "about", "version",
+                     "author", "email", "repository", "tracker", "hasProcessingProvider", "license")
 PLACEHOLDER_HOSTS = ("example.org", "example.com")
 
 ENTRY = '''"""fotogeo QGIS plugin (built by scripts/build_plugin.py from the fotogeo repository).
