@@ -92,6 +92,19 @@ test-plain: $(PLAIN_VENV)/.installed
 	$(PLAIN_VENV)/bin/python -c "import fotogeo, numpy, cv2, rasterio; print('plain venv: fotogeo', fotogeo.__version__, 'numpy', numpy.__version__, 'opencv', cv2.__version__, 'rasterio', rasterio.__version__)"
 	$(PLAIN_VENV)/bin/pytest -q -p no:cacheprovider -m "not qgis" $(PLAIN_TESTS)
 
+# The documentation site (MkDocs-Material + mkdocstrings + mkdocs-click) from docs/ into site/, warnings as
+# errors. A venv of its own (the docs extra on today's wheels), fotogeo installed editable so that mkdocs-click
+# imports the commands and mkdocstrings reads the docstrings of this checkout.
+DOCS_VENV ?= .venv-docs
+$(DOCS_VENV)/.installed: pyproject.toml
+	@test -n "$(PLAIN_PY)" || { echo "fotogeo: docs needs python3.10-3.13 on PATH (or PLAIN_PY=...)"; exit 1; }
+	$(PLAIN_PY) -m venv --clear $(DOCS_VENV)
+	$(DOCS_VENV)/bin/python -m pip --disable-pip-version-check -q install -e ".[docs]"
+	touch $@
+
+docs: $(DOCS_VENV)/.installed
+	$(DOCS_VENV)/bin/mkdocs build --strict
+
 bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/register_bench.py
 	$(PY) benchmarks/surf_bench.py
@@ -100,7 +113,7 @@ bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/matching_bench.py
 
 clean:
-	rm -rf $(VENV) $(PLAIN_VENV) out dist build site *.egg-info
+	rm -rf $(VENV) $(PLAIN_VENV) $(DOCS_VENV) out dist build site *.egg-info
 
 # The installable QGIS plugin: dist/fotogeo_qgis.zip (standard library only, no venv needed).
 plugin:
