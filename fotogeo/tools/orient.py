@@ -247,8 +247,8 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
 
 
 #: the plot's colours (BGR) per legend class (:func:`fotogeo.tools.gcp_style.legend_class`) and their names
-PLOT_COLOURS = {"control": ((40, 160, 40), "green"), "check": ((30, 30, 220), "red"),
-                "suspect": ((0, 140, 255), "orange"), "blunder": ((200, 0, 200), "magenta")}
+PLOT_COLOURS = {"control": ((180, 120, 31), "blue"), "check": ((28, 26, 227), "red"),
+                "suspect": ((0, 140, 255), "orange"), "blunder": ((200, 0, 200), "magenta")}  # the QGIS style's
 _HEADER_PX = 34
 
 
