@@ -16,7 +16,7 @@ APT_TEST := $(APT_QGIS) gdal-bin xvfb xauth
 QGIS_PROFILE ?= $(HOME)/.local/share/QGIS/QGIS3/profiles/default
 APT_BENCH := $(APT_TEST) otb-bin
 
-.PHONY: demo test bench plugin qgis-install clean system-base system-qgis system-test system-bench
+.PHONY: demo test test-plain docs bench plugin qgis-install clean system-base system-qgis system-test system-bench
 
 define apt_install
 	@missing=""; for p in $(1); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -63,6 +63,47 @@ test: system-test $(VENV)/.installed
 	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
 	for n in 1 2; do echo "fitting tests on $$n BLAS thread(s)"; \
 	  OPENBLAS_NUM_THREADS=$$n $(PY) -m pytest -q -p no:cacheprovider $(FIT_TESTS) || exit 1; done
+	$(MAKE) test-plain
+
+# The pip user's world: a plain venv (no system site-packages, no constraints.txt) from a non-Debian Python,
+# `pip install .[test]` on today's wheels (numpy 2, OpenCV 5, rasterio 1.4), and the installed wheel tested
+# (the pytest script, not `python -m pytest`, so the checkout's fotogeo/ is not on sys.path).
+# A representative subset, not the whole suite (which runs above in the Debian venv): file formats, models,
+# register, orient, the command line, ortho, the camera/option files and the packaging checks; the QGIS tests
+# need Debian's python3-qgis and are not part of it.
+PLAIN_PY ?= $(shell for p in $$(pyenv root 2>/dev/null)/versions/3.12*/bin/python3.12 python3.12 python3.13 \
+	python3.11 python3.10; do "$$p" -c "import sys, venv; assert sys.version_info >= (3, 10)" >/dev/null 2>&1 \
+	&& { command -v "$$p"; break; }; done)
+PLAIN_VENV ?= .venv-plain
+PLAIN_TESTS := tests/test_io.py tests/test_io_exif.py tests/test_camera.py tests/test_options.py \
+	tests/test_models.py tests/test_models_lambda.py tests/test_models_spatial.py \
+	tests/test_register.py tests/test_register_bands.py tests/test_orient.py tests/test_compare_table.py \
+	tests/test_cli.py tests/test_ortho.py tests/test_packaging.py tests/test_qt6_idioms.py
+
+$(PLAIN_VENV)/.installed: pyproject.toml
+	@test -n "$(PLAIN_PY)" || { echo "fotogeo: test-plain needs python3.10-3.13 on PATH (pyenv install 3.12, or PLAIN_PY=...)"; exit 1; }
+	$(PLAIN_PY) -m venv --clear $(PLAIN_VENV)
+	$(PLAIN_VENV)/bin/python -m pip --disable-pip-version-check -q install -U pip
+	$(PLAIN_VENV)/bin/python -m pip --disable-pip-version-check -q install ".[test]"
+	touch $@
+
+test-plain: $(PLAIN_VENV)/.installed
+	$(PLAIN_VENV)/bin/python -m pip --disable-pip-version-check -q install --no-deps --force-reinstall .
+	$(PLAIN_VENV)/bin/python -c "import fotogeo, numpy, cv2, rasterio; print('plain venv: fotogeo', fotogeo.__version__, 'numpy', numpy.__version__, 'opencv', cv2.__version__, 'rasterio', rasterio.__version__)"
+	$(PLAIN_VENV)/bin/pytest -q -p no:cacheprovider -m "not qgis" $(PLAIN_TESTS)
+
+# The documentation site (MkDocs-Material + mkdocstrings + mkdocs-click) from docs/ into site/, warnings as
+# errors. A venv of its own (the docs extra on today's wheels), fotogeo installed editable so that mkdocs-click
+# imports the commands and mkdocstrings reads the docstrings of this checkout.
+DOCS_VENV ?= .venv-docs
+$(DOCS_VENV)/.installed: pyproject.toml
+	@test -n "$(PLAIN_PY)" || { echo "fotogeo: docs needs python3.10-3.13 on PATH (or PLAIN_PY=...)"; exit 1; }
+	$(PLAIN_PY) -m venv --clear $(DOCS_VENV)
+	$(DOCS_VENV)/bin/python -m pip --disable-pip-version-check -q install -e ".[docs]"
+	touch $@
+
+docs: $(DOCS_VENV)/.installed
+	$(DOCS_VENV)/bin/mkdocs build --strict
 
 bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/register_bench.py
@@ -72,7 +113,7 @@ bench: system-bench $(VENV)/.bench
 	$(PY) benchmarks/matching_bench.py
 
 clean:
-	rm -rf $(VENV) out dist build *.egg-info
+	rm -rf $(VENV) $(PLAIN_VENV) $(DOCS_VENV) out dist build site *.egg-info
 
 # The installable QGIS plugin: dist/fotogeo_qgis.zip (standard library only, no venv needed).
 plugin:

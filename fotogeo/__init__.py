@@ -73,7 +73,9 @@ from .errors import (  # noqa: F401
     VectorError,
 )
 
-__version__ = "0.1.0"
+from ._version import version as _read_version
+
+__version__ = _read_version()
 
 #: public tool functions: name -> module under fotogeo.tools
 _TOOLS = {"register": "register.tool", "match_images": "register.match", "orient": "orient.tool",

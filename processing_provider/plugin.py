@@ -52,7 +52,7 @@ class FotogeoPlugin:
             from .picker.dock import PickerDock
             self.picker = PickerDock(self.iface.mapCanvas(), self.iface.mainWindow(),
                                      message_bar=self.iface.messageBar())
-            self.iface.addDockWidget(Qt.RightDockWidgetArea, self.picker)
+            self.iface.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.picker)
         self.picker.show()
         self.picker.raise_()
         return self.picker

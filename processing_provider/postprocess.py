@@ -1,6 +1,7 @@
 """Styles applied to fotogeo outputs when Processing loads them into the project.
 
-``styles/tie_points.qml`` colours points by ``role`` (control blue, check red);
+``styles/tie_points.qml`` colours points by ``role`` (control blue, check red; by ``class`` where a layer has it:
+suspect orange, blunder magenta, :func:`by_legend_class`; categories without a feature are dropped);
 and labels each with its id and residual (px); ``styles/error_vectors.qml`` draws error vectors
 as arrows, coloured by ``role`` too, and :func:`show_legend` puts the layer's exaggeration
 sentence (its ``legend`` field) into the legend. ``styles/uncertainty.qml`` (rasters of a σ in metres,
@@ -99,6 +100,8 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
             message, ok = layer.loadNamedStyle(style_path(self.style))
             if not ok and feedback is not None:
                 feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
+            by_legend_class(layer)
+            drop_empty_categories(layer)
             hide_categories(layer, self.hidden)
             show_legend(layer)
             layer.setRenderer(layer.renderer().clone())  # tells the legend (an edit in place would not)
@@ -146,6 +149,36 @@ def expand_later(project, layer_id: str) -> None:
             node.setExpanded(True)
     expand()
     QTimer.singleShot(0, expand)
+
+
+def by_legend_class(layer) -> bool:
+    """Categorise by the ``class`` field where the layer has one (fotogeo.tools.gcp_style: a point's role, or
+    ``blunder`` / ``suspect`` where the blunder test flagged it) instead of ``role``; returns whether it did."""
+    renderer = layer.renderer()
+    if getattr(renderer, "classAttribute", lambda: None)() != "role" or layer.fields().indexOf("class") < 0:
+        return False
+    renderer.setClassAttribute("class")
+    return True
+
+
+def drop_empty_categories(layer) -> list:
+    """Remove the categories no feature of ``layer`` falls in (an empty "other", a blunder class without a
+    blunder): the legend lists what the map shows. Returns the values removed."""
+    renderer = layer.renderer()
+    categories = getattr(renderer, "categories", lambda: [])()
+    index = layer.fields().indexOf(getattr(renderer, "classAttribute", lambda: "")())
+    if not categories or index < 0:
+        return []
+    present = {str(v) if v is not None else "" for v in layer.uniqueValues(index)}
+    named = {str(c.value()) for c in categories if str(c.value()) != ""}
+    removed = []
+    for i in reversed(range(len(categories))):
+        value = str(categories[i].value())
+        empty = not (present - named) if value == "" else value not in present
+        if empty:
+            renderer.deleteCategory(i)
+            removed.append(value)
+    return removed
 
 
 def hide_categories(layer, values) -> None:

@@ -8,6 +8,7 @@ from qgis.PyQt.QtGui import QIcon
 
 from .algorithms import ALGORITHMS
 from . import runner
+from .side_files import guard_qgis_process
 
 PROVIDER_ID = "fotogeo"
 ICON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "icon.svg")
@@ -42,6 +43,7 @@ class FotogeoProvider(QgsProcessingProvider):
         return ICON
 
     def loadAlgorithms(self):
+        guard_qgis_process()  # qgis_process loads raster inputs as layers before an algorithm runs
         for cls in ALGORITHMS:
             self.addAlgorithm(cls())
         ok, why = runner.runtime_status(refresh=True)

@@ -33,6 +33,11 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+try:  # a module of the plugin package, or a script run from its folder (python3 runtime.py install)
+    from . import platforms
+except ImportError:
+    import platforms
+
 PACKAGE_DIR = Path(__file__).resolve().parent
 #: the folder holding ``processing_provider/`` and the bundled ``fotogeo/`` package
 PLUGIN_ROOT = PACKAGE_DIR.parent
@@ -40,18 +45,19 @@ REQUIREMENTS = PACKAGE_DIR / "runtime-requirements.txt"
 STAMP = "fotogeo-runtime.json"
 ENV_FOLDER = "fotogeo-env"
 SETTING = "fotogeo/runtime"
+#: the operating system (``sys.platform``); the path and message logic lives in platforms.py, tested per platform
+PLATFORM = sys.platform
 #: variables of QGIS's process that would make the worker's wheels load or read QGIS's libraries and data
-DROPPED_VARIABLES = ("LD_LIBRARY_PATH", "LD_PRELOAD", "PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "GDAL_DATA",
-                     "GDAL_DRIVER_PATH", "PROJ_LIB", "PROJ_DATA", "GEOS_LIBRARY_PATH", "VIRTUAL_ENV")
+DROPPED_VARIABLES = platforms.dropped_variables(PLATFORM)
 
 
 class RuntimeInstallError(RuntimeError):
     """The runtime could not be built; the message names what is missing and the fix."""
 
 
-def system_python() -> str:
-    """Debian's Python, which makes the venv (inside QGIS ``sys.executable`` is QGIS itself)."""
-    return "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else (shutil.which("python3") or "python3")
+def system_python() -> str | None:
+    """QGIS's own Python, which makes the venv (inside QGIS ``sys.executable`` is QGIS itself): platforms.py."""
+    return platforms.base_python(PLATFORM, sys.executable, sys.base_prefix, os.environ, os.path.exists, shutil.which)
 
 
 def requirements_digest() -> str:
@@ -80,23 +86,29 @@ def resolve(profile_dir=None, configured=None) -> Runtime:
         return Runtime(Path(os.environ["FOTOGEO_PYTHON"]))
     folder = os.environ.get("FOTOGEO_RUNTIME") or configured
     if not folder:
-        base = Path(profile_dir) if profile_dir else Path.home() / ".local/share/QGIS/QGIS3/profiles/default"
+        base = Path(profile_dir) if profile_dir else Path(str(platforms.default_profile(PLATFORM, str(Path.home()),
+                                                                                      os.environ)))
         folder = base / "python" / ENV_FOLDER
     folder = Path(folder).expanduser()
-    return Runtime(folder / "bin" / "python", folder)
+    return Runtime(Path(str(platforms.venv_python(folder, PLATFORM))), folder)
 
 
 def fix_command(runtime: Runtime) -> str:
-    """The one terminal command that (re)builds ``runtime``."""
-    return f"{system_python()} '{PACKAGE_DIR / 'runtime.py'}' install '{runtime.folder}'"
+    """The one command that (re)builds ``runtime``, quoted for the platform's terminal (platforms.py)."""
+    py = system_python() or ("python" if platforms.is_windows(PLATFORM) else "python3")
+    return platforms.terminal_command([py, str(PACKAGE_DIR / "runtime.py"), "install", str(runtime.folder)], PLATFORM)
+
+
+def _in_terminal() -> str:
+    return f"or in {platforms.terminal_name(PLATFORM)}"
 
 
 def status(runtime: Runtime) -> tuple[bool, str]:
     """``(usable, message)`` without starting a process: the stamp says what the last check found."""
     if not runtime.python.exists():
         where = f"fotogeo's runtime {runtime.folder}" if runtime.managed else f"FOTOGEO_PYTHON {runtime.python}"
-        return False, (f"{where} is not installed. Fix: menu fotogeo > Install / repair runtime, or in a "
-                       f"terminal: {fix_command(runtime) if runtime.managed else 'unset FOTOGEO_PYTHON'}")
+        return False, (f"{where} is not installed. Fix: menu fotogeo > Install / repair runtime, "
+                       f"{_in_terminal()}: {fix_command(runtime) if runtime.managed else 'unset FOTOGEO_PYTHON'}")
     if not runtime.managed:
         return True, f"fotogeo runs in {runtime.python} (FOTOGEO_PYTHON)"
     try:
@@ -106,7 +118,7 @@ def status(runtime: Runtime) -> tuple[bool, str]:
     if stamp.get("requirements") != requirements_digest():
         why = "was never completed" if not stamp else "was built for other requirements (the plugin was updated)"
         return False, (f"fotogeo's runtime {runtime.folder} {why}. Fix: menu fotogeo > Install / repair "
-                       f"runtime, or in a terminal: {fix_command(runtime)}")
+                       f"runtime, {_in_terminal()}: {fix_command(runtime)}")
     check = stamp.get("check", {})
     if not check.get("ok"):
         return False, (f"fotogeo's runtime {runtime.folder} failed its check: {'; '.join(check.get('problems', []))}"
@@ -120,9 +132,11 @@ def describe_libraries(check: dict) -> str:
 
 
 def worker_environment(environ=None) -> dict:
-    """The worker's environment: ``environ`` without QGIS's library variables, fotogeo on ``PYTHONPATH``."""
+    """The worker's environment: ``environ`` without QGIS's library variables, fotogeo on ``PYTHONPATH``,
+    GDAL's PAM off (the worker never writes an ``.aux.xml`` beside an input: :mod:`.side_files`)."""
     env = {k: v for k, v in (os.environ if environ is None else environ).items() if k not in DROPPED_VARIABLES}
     env["PYTHONPATH"] = str(PLUGIN_ROOT)
+    env["GDAL_PAM_ENABLED"] = "NO"
     env["PYTHONNOUSERSITE"] = "1"
     return env
 
@@ -205,9 +219,10 @@ def install(runtime: Runtime, log=print, progress=None) -> dict:
                                   f"runtime; unset FOTOGEO_PYTHON to let fotogeo manage its own")
     progress = progress or (lambda f, m: True)
     py = system_python()
+    if py is None:
+        raise RuntimeInstallError(platforms.missing_python_fix(PLATFORM))
     if subprocess.run([py, "-c", "import ensurepip, venv"], capture_output=True).returncode != 0:
-        raise RuntimeInstallError("Debian's python3-venv package is missing (it makes the runtime's venv). "
-                                  "Fix: sudo apt install python3-venv — then run Install / repair runtime again")
+        raise RuntimeInstallError(platforms.missing_venv_fix(PLATFORM))
     folder = runtime.folder
     healthy = runtime.python.exists() and subprocess.run(
         [str(runtime.python), "-c", "import pip"], capture_output=True).returncode == 0

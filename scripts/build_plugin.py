@@ -6,7 +6,8 @@ The zip holds one top-level folder ``fotogeo_qgis/`` (the plugin's package name)
 
 - ``__init__.py`` — the plugin entry (``classFactory``), which puts the folder on
   ``sys.path`` so that the vendored ``fotogeo`` package imports as ``fotogeo``;
-- ``metadata.txt`` — from the repository root (its version must equal fotogeo's);
+- ``metadata.txt`` — from the repository root, its ``version`` written from pyproject.toml (the one
+  version source; tests/test_packaging.py checks that the checkout's metadata.txt agrees);
 - ``processing_provider/`` — the provider, its algorithms and ``styles/*.qml``;
 - ``fotogeo/`` — the pure-Python fotogeo package, without its command line (``cli``, which
   needs click), so the plugin works with only the third-party packages installed
@@ -29,10 +30,10 @@ ROOT = Path(__file__).resolve().parents[1]
 PLUGIN = "fotogeo_qgis"
 EXCLUDE_DIRS = {"__pycache__", ".pytest_cache"}
 EXCLUDE_FOTOGEO = {"cli"}  # command line only (click); the plugin calls the tools directly
-# what QGIS needs to install and load a plugin from a ZIP or a profile folder; the official plugin
-# repository also wants email, homepage, repository and tracker, which fotogeo (no public site yet) omits
-REQUIRED_METADATA = ("name", "qgisMinimumVersion", "description", "about", "version", "author",
-                     "hasProcessingProvider", "license")
+# what QGIS needs to install and load a plugin, and what plugins.qgis.org requires of an upload
+# (tests/test_plugin_metadata.py checks the repository's rules)
+REQUIRED_METADATA = ("name", "qgisMinimumVersion", "qgisMaximumVersion", "description", "about", "version",
+                     "author", "email", "repository", "tracker", "hasProcessingProvider", "license")
 PLACEHOLDER_HOSTS = ("example.org", "example.com")
 
 ENTRY = '''"""fotogeo QGIS plugin (built by scripts/build_plugin.py from the fotogeo repository).
@@ -56,11 +57,20 @@ def classFactory(iface):  # noqa: N802 - the name QGIS looks for
 
 
 def fotogeo_version() -> str:
-    text = (ROOT / "fotogeo" / "__init__.py").read_text(encoding="utf-8")
-    m = re.search(r'^__version__\s*=\s*["\']([^"\']+)["\']', text, re.MULTILINE)
+    """``version`` of pyproject.toml's ``[project]`` table."""
+    text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    table = re.search(r"^\[project\]\s*$(.*?)(?=^\[|\Z)", text, re.MULTILINE | re.DOTALL)
+    m = table and re.search(r'^version\s*=\s*["\']([^"\']+)["\']', table.group(1), re.MULTILINE)
     if not m:
-        sys.exit("build_plugin: no __version__ in fotogeo/__init__.py")
+        sys.exit("build_plugin: no version in pyproject.toml's [project] table")
     return m.group(1)
+
+
+def metadata_with_version(text: str, version: str) -> str:
+    """metadata.txt with its ``version=`` line set to *version* (added when missing)."""
+    if re.search(r"^version\s*=.*$", text, re.MULTILINE):
+        return re.sub(r"^version\s*=.*$", f"version={version}", text, count=1, flags=re.MULTILINE)
+    return text.replace("[general]\n", f"[general]\nversion={version}\n", 1)
 
 
 def check_metadata(path: Path) -> configparser.ConfigParser:
@@ -75,9 +85,6 @@ def check_metadata(path: Path) -> configparser.ConfigParser:
     placeholders = [k for k, v in cp["general"].items() if any(h in v for h in PLACEHOLDER_HOSTS)]
     if placeholders:
         sys.exit(f"build_plugin: {path} has placeholder values in {', '.join(placeholders)}")
-    if cp["general"]["version"] != fotogeo_version():
-        sys.exit(f"build_plugin: metadata.txt version {cp['general']['version']} != fotogeo "
-                 f"{fotogeo_version()}; update metadata.txt")
     return cp
 
 
@@ -95,7 +102,9 @@ def plugin_files() -> list[tuple[str, bytes]]:
     """``(path in the zip, bytes)`` of every file of the plugin, sorted (``fotogeo_qgis/...``)."""
     check_metadata(ROOT / "metadata.txt")
     entries: list[tuple[str, bytes]] = [(f"{PLUGIN}/__init__.py", ENTRY.encode()),
-                                        (f"{PLUGIN}/metadata.txt", (ROOT / "metadata.txt").read_bytes())]
+                                        (f"{PLUGIN}/metadata.txt", metadata_with_version(
+                                            (ROOT / "metadata.txt").read_text(encoding="utf-8"),
+                                            fotogeo_version()).encode("utf-8"))]
     for p, rel in _walk(ROOT / "processing_provider"):
         entries.append((f"{PLUGIN}/processing_provider/{rel.as_posix()}", p.read_bytes()))
     for p, rel in _walk(ROOT / "fotogeo", EXCLUDE_FOTOGEO):
@@ -124,7 +133,14 @@ def build(output: Path) -> Path:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--output", type=Path, default=ROOT / "dist" / f"{PLUGIN}.zip")
+    ap.add_argument("--sync-metadata", action="store_true",
+                    help="write pyproject.toml's version into the checkout's metadata.txt and stop")
     args = ap.parse_args(argv)
+    if args.sync_metadata:
+        path = ROOT / "metadata.txt"
+        path.write_text(metadata_with_version(path.read_text(encoding="utf-8"), fotogeo_version()), encoding="utf-8")
+        print(f"{path}: version={fotogeo_version()}")
+        return 0
     out = build(args.output)
     with zipfile.ZipFile(out) as z:
         n = len(z.namelist())

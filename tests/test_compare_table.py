@@ -147,3 +147,15 @@ def test_bad_counts_and_role_sets_write_nothing(files):
     with pytest.raises(InputError, match="role column.s. empty mark no control point"):
         compare_models(files["image"], d / "bad.csv", sets="roles", crs="EPSG:32735", table=d / "y.csv")
     assert not (d / "y.csv").exists()
+
+
+def test_plots_without_matplotlib_refused_before_anything_is_written(files, monkeypatch):
+    """A pip install without the ``plots`` extra: one line naming the extra, no traceback, no folder, no table."""
+    import sys
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # find_spec -> None, as when it is not installed
+    d = files["dir"]
+    r = CliRunner().invoke(main, ["compare-models", str(files["image"]), str(files["gcps"]), "--crs", "EPSG:32735",
+                                  "--sets", "roles", "--table", str(d / "t.csv"), "--plots", str(d / "plots")])
+    assert r.exit_code != 0 and "pip install 'fotogeo[plots]'" in r.output, r.output
+    assert "Traceback" not in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert not (d / "plots").exists() and not (d / "t.csv").exists()

@@ -70,6 +70,35 @@ def test_blunder_is_found_and_removed(ngi_gcps, tmp_path):
     assert rep["blunder"]["n"] == 1 and rep["check"]["rms_xy_px"] < 0.45
 
 
+def test_a_flagged_blunder_is_in_every_output_and_drawn_as_the_legend_says(ngi_gcps, tmp_path):
+    """Flagged, not removed: the report, both GeoPackage layers (flag, w, redundancy, class) and the plot, which
+    draws it in the legend's magenta below a legend band that covers no point."""
+    import cv2
+
+    from fotogeo.tools.orient import PLOT_COLOURS
+    g = ngi_gcps
+    pixel = g["pixel"].copy()
+    pixel[5] += [6.0, -4.0]
+    path = tmp_path / "blunder.gpkg"
+    _write(path, g["ground"], pixel, g["role"], g["crs"])
+    rep = orient(g["image"], path, model="dlt", image_sigma=0.3, vectors=tmp_path / "v.gpkg", plot=tmp_path / "p.png",
+                 report=tmp_path / "r.json")
+    assert [f["id"] for f in rep["snooping"]] == ["P5"] and rep["snooping"][0]["flag"] == "blunder"
+    assert rep["blunder_test"].startswith("blunder test: |w| >") and "σ = 0.30 px given" in rep["blunder_test"]
+    for layer in ("gcps", "error_vectors"):
+        t = gpd.read_file(tmp_path / "v.gpkg", layer=layer).set_index("id")
+        assert t.loc["P5", "flag"] == "blunder" and t.loc["P5", "class"] == "blunder" and t.loc["P5", "role"] == "control"
+        assert t.loc["P5", "w"] > 5 and 0 < t.loc["P5", "redundancy"] < 1
+        assert (t.drop("P5")["class"].isin(["control", "check"])).all() and t.loc[[f"P{i}" for i in range(40, 60)], "w"].isna().all()
+    img = cv2.imread(str(tmp_path / "p.png"))
+    magenta = np.all(img == PLOT_COLOURS["blunder"][0], axis=2)
+    assert magenta[40:].sum() > 20  # the point and its arrow, below the legend band
+    y, x = np.nonzero(magenta[40:])
+    h, w = img.shape[:2]
+    col, row = pixel[5] * np.array([w, h - 34]) / np.array([640, 1152])
+    assert np.hypot(x - col, y - row).min() < 4
+
+
 def test_rectify_and_exports(ngi_gcps, tmp_path):
     g = ngi_gcps
     out = tmp_path / "rect.tif"

@@ -31,7 +31,7 @@ def run_desktop(config, tmp_path, args: dict, timeout=400) -> dict:  # noqa: F81
     out.mkdir()
     args_file = tmp_path / "picker_args.json"
     args_file.write_text(json.dumps({**args, "out": str(out), "tests": str(ROOT / "tests")}))
-    env = {**_env(config), "FOTOGEO_PICKER_ARGS": str(args_file)}
+    env = {**_env(config, pam="NO"), "FOTOGEO_PICKER_ARGS": str(args_file)}
     env.pop("QT_QPA_PLATFORM")
     subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", QGIS_DESKTOP, "--nologo", "--noversioncheck",
                     "--code", str(ROOT / "tests" / "picker_desktop_script.py")], capture_output=True, text=True,

@@ -5,8 +5,9 @@ before QGIS's and so cannot see what a user meets. Here a fresh profile
 (``QGIS_CUSTOM_CONFIG_PATH``) is set up by the install command (``scripts/qgis_install.py``, what
 ``make qgis-install`` runs) and Debian's own binaries run the algorithms: QGIS loads its GDAL 3.6,
 the plugin runs fotogeo in its runtime. The runtime is kept in ``build/qgis-test-runtime``
-between runs (the first run downloads the wheels, ~40 s). Inputs are copied to tmp and
-``GDAL_PAM_ENABLED=NO`` keeps QGIS from writing ``.aux.xml`` files.
+between runs (the first run downloads the wheels, ~40 s). Inputs are copied to tmp; qgis_process
+runs with GDAL's PAM on, as a user's does, and every run through :func:`qgis_process` fails when it
+leaves a file beside one of its inputs (``<input>.aux.xml`` …) or modifies one.
 
 ``FOTOGEO_UPDATE_SCREENSHOTS=1`` copies the desktop screenshots to ``docs/`` (shown in the README).
 """
@@ -49,18 +50,44 @@ def config(tmp_path_factory):
     return config
 
 
-def _env(config) -> dict:
+def _env(config, pam: str = "YES") -> dict:
+    """qgis_process's environment: the fresh profile, GDAL's PAM as a user has it (on) unless ``pam``."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("FOTOGEO_") and k != "PYTHONPATH"}
-    env.update(QGIS_CUSTOM_CONFIG_PATH=str(config), GDAL_PAM_ENABLED="NO", QT_QPA_PLATFORM="offscreen")
+    env.update(QGIS_CUSTOM_CONFIG_PATH=str(config), GDAL_PAM_ENABLED=pam, QT_QPA_PLATFORM="offscreen")
     return env
 
 
+def input_files(params) -> dict:
+    """The existing files among parameter values (a layer URI's path before ``|``) → (size, mtime)."""
+    out = {}
+    for vs in params.values():
+        for v in (vs if isinstance(vs, list) else [vs]):
+            path = Path(str(v).split("|")[0])
+            if path.is_file():
+                out[path] = (path.stat().st_size, path.stat().st_mtime_ns)
+    return out
+
+
+def beside_inputs(before: dict) -> list:
+    """What a run left beside or did to the inputs ``before`` (see :func:`input_files`): side files named
+    after an input (``<input>.aux.xml``, ``.ovr``, ``-wal`` …) that were not there, inputs changed."""
+    problems = [f"{p} was modified" for p, stamp in before.items()
+                if not p.is_file() or (p.stat().st_size, p.stat().st_mtime_ns) != stamp]
+    for p in before:
+        problems += [f"{q} appeared beside the input {p.name}" for q in p.parent.iterdir()
+                     if q.name.startswith(p.name) and q != p and q not in before]
+    return problems
+
+
 def qgis_process(config, alg, **params) -> dict:
-    # a list value repeats the parameter (a multiple-layer input)
+    """Run ``fotogeo:<alg>`` in qgis_process (a list value repeats the parameter: a multiple-layer input);
+    fails when it leaves anything beside its inputs."""
     args = [QGIS_PROCESS, "--json", "run", f"fotogeo:{alg}", "--"] + [
         f"{k}={v}" for k, vs in params.items() for v in (vs if isinstance(vs, list) else [vs])]
+    before = input_files(params)
     r = subprocess.run(args, capture_output=True, text=True, timeout=180, env=_env(config))
     assert r.returncode == 0, f"{alg}: exit {r.returncode}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    assert not beside_inputs(before), f"{alg}: {beside_inputs(before)}"
     return json.loads(r.stdout[r.stdout.index("{"):])["results"]
 
 
@@ -211,23 +238,34 @@ def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
     assert "is also an input; choose another output path" in text and "Traceback" not in text
 
 
-def test_qgis_process_itself_writes_statistics_beside_raster_inputs(config, tmp_path):
-    """What QGIS does, not fotogeo (README, issue 24): qgis_process loads every raster parameter as a layer before
-    the provider's code runs, and GDAL saves that layer's statistics as ``<input>.aux.xml`` beside the input;
-    ``GDAL_PAM_ENABLED=NO`` in qgis_process's environment prevents it. fotogeo adds no other file."""
+def test_qgis_process_leaves_nothing_beside_raster_inputs(config, tmp_path):
+    """qgis_process loads every raster parameter as a layer before the provider's code runs, and with GDAL's PAM
+    on (a user's default) GDAL would save that layer's statistics as ``<input>.aux.xml`` beside the input: the
+    provider turns PAM off in a qgis_process that runs a fotogeo algorithm, for a single raster (pcafusion) and a
+    multiple-layer input (interior's scans); a QGIS algorithm in the same program keeps QGIS's behaviour."""
+    from film_scans import RMK_LIKE, render_scan, report_yaml
+    from test_interior import write_scan
+
+    from fotogeo.options.interior import INTERIOR
     from fotogeo.tools.demo.tool import make_scene
-    runs = {}
-    for pam in ("YES", "NO"):
-        folder = tmp_path / pam
-        make_scene(folder, seed=3, size=200, pixel=20.0)
-        (folder / "out").mkdir()
-        env = {**_env(config), "GDAL_PAM_ENABLED": pam}
-        r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:pcafusion", "--", f"INPUT={folder / 'reference.tif'}",
-                            f"OUTPUT={folder / 'out' / 'f.tif'}"], capture_output=True, text=True, timeout=180, env=env)
-        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
-        runs[pam] = sorted(p.name for p in folder.iterdir() if p.is_file())
-    assert runs["YES"] == ["dem.tif", "reference.tif", "reference.tif.aux.xml", "target.tif"], runs
-    assert runs["NO"] == ["dem.tif", "reference.tif", "target.tif"], runs
+    folder = tmp_path / "in"
+    make_scene(folder, seed=3, size=200, pixel=20.0)
+    write_scan(folder / "scan.tif", render_scan(RMK_LIKE, kind="cross", theta=1.0))
+    (folder / "cal.yaml").write_text(report_yaml(RMK_LIKE, kind="cross"))
+    names = sorted(p.name for p in folder.iterdir())
+    (tmp_path / "out").mkdir()
+    res = qgis_process(config, "pcafusion", INPUT=folder / "reference.tif", OUTPUT=tmp_path / "out" / "f.tif")
+    assert 0.5 < res["EXPLAINED"] <= 1
+    res = qgis_process(config, "interior", SCANS=[folder / "scan.tif"], CAMERA_REPORT=folder / "cal.yaml",
+                       SCAN_PIXEL_UM=150.0, ROTATION=INTERIOR["rotation"].qgis_choices.index("0"),
+                       OUTDIR=tmp_path / "interior")
+    assert res["SCANS_DONE"] == 1
+    assert sorted(p.name for p in folder.iterdir()) == names
+    # the control: QGIS's own algorithm on a raster, same program and environment, writes its statistics
+    r = subprocess.run([QGIS_PROCESS, "run", "native:rasterlayerstatistics", "--", f"INPUT={folder / 'target.tif'}",
+                        "BAND=1"], capture_output=True, text=True, timeout=120, env=_env(config))
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    assert (folder / "target.tif.aux.xml").is_file()
 
 
 DESKTOP_SCRIPT = r'''
@@ -303,7 +341,7 @@ def test_desktop_qgis_runs_register_from_its_dialog(config, inputs, tmp_path):
     script.write_text(DESKTOP_SCRIPT)
     out = tmp_path / "desktop"
     out.mkdir()
-    env = {**_env(config), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_REF": str(inputs / Path(ORTHO).name),
+    env = {**_env(config, pam="NO"), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_REF": str(inputs / Path(ORTHO).name),
            "FOTOGEO_DESKTOP_TGT": str(inputs / Path(FRAME).name),
            "FOTOGEO_DESKTOP_TESTS": str(Path(__file__).resolve().parent)}
     env.pop("QT_QPA_PLATFORM")

@@ -119,3 +119,27 @@ def test_uncertainty_raster_legend_in_metres_over_its_range(qgis_app, tmp_path):
     assert ramp.legendSettings().suffix() == " m" and ramp.legendSettings().useContinuousLegend()
     items = ramp.colorRampItemList()
     assert items[0].value == pytest.approx(lo) and items[-1].value == pytest.approx(hi)
+
+
+def test_one_legend_with_a_blunder_class_and_no_empty_class(qgis_app, tmp_path):
+    """orient's GCP layer (a ``class`` field): categorised by class, a flagged blunder in the blunder class
+    whatever its role; only the classes present are listed — no empty "other", no blunder class without one."""
+    import shapely
+
+    from processing_provider.postprocess import StylePostProcessor
+    layer = _layer(tmp_path, "gcps", shapely.points([[0, 0], [10, 10], [20, 5]]),
+                   {"id": ["P1", "P2", "P3"], "role": ["control", "check", "control"],
+                    "class": ["control", "check", "blunder"], "flag": ["", "", "blunder"], "w": [0.5, np.nan, 6.1]})
+    StylePostProcessor("gcps").postProcessLayer(layer, None, None)
+    renderer = layer.renderer()
+    assert renderer.classAttribute() == "class"
+    assert [c.value() for c in renderer.categories()] == ["control", "check", "blunder"]
+    colour = {c.value(): c.symbol().color().name() for c in renderer.categories()}
+    assert colour["blunder"] == "#c800c8"  # the magenta orient's plot draws it in
+    from fotogeo.tools.orient import PLOT_COLOURS
+    assert tuple(reversed(PLOT_COLOURS["blunder"][0])) == (200, 0, 200)
+    # a tie-point layer (no class field): by role, its empty classes dropped, an unmatched role still drawn
+    tie = _layer(tmp_path, "tie", shapely.points([[0, 0], [1, 1]]), {"id": ["T1", "T2"], "role": ["control", "outlier"]})
+    StylePostProcessor("tie_points").postProcessLayer(tie, None, None)
+    assert tie.renderer().classAttribute() == "role"
+    assert [c.value() for c in tie.renderer().categories()] == ["control", ""]

@@ -82,7 +82,7 @@ def test_triangulate_dialog_runs_first_time_with_orthophotos_and_dem(config, dat
     script.write_text(SCRIPT)
     out = tmp_path / "desktop"
     out.mkdir()
-    env = {**_env(config), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_DATA": str(data),
+    env = {**_env(config, pam="NO"), "FOTOGEO_DESKTOP_OUT": str(out), "FOTOGEO_DESKTOP_DATA": str(data),
            "FOTOGEO_DESKTOP_TESTS": str(Path(__file__).resolve().parent)}
     env.pop("QT_QPA_PLATFORM")
     subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", QGIS_DESKTOP, "--nologo", "--noversioncheck",

@@ -46,8 +46,9 @@ def command(image, gcps, quiet, **kw):
             mm = f"  ({s['rms_x_mm']:.4f} / {s['rms_y_mm']:.4f} mm)" if "rms_x_mm" in s else ""
             click.echo(f"{role:8s} n={s['n']:4d}  RMS x {s['rms_x_px']:.3f}  y {s['rms_y_px']:.3f}  "
                        f"xy {s['rms_xy_px']:.3f} px  max {s['max_px']:.3f}{mm}")
+    click.echo(rep["blunder_test"])
     for f in rep["snooping"]:
-        click.echo(f"blunder? GCP {f['id']}: {f['reason']}{' — removed' if f['removed'] else ''}")
+        click.echo(f"{f['flag']}: GCP {f['id']}: {f['reason']}{' — removed' if f['removed'] else ''}")
     for w in rep["warnings"]:
         click.echo(f"warning: {w}")
     if kw.get("vectors") or kw.get("plot"):

@@ -20,8 +20,8 @@ which is the data README's ``col = fx·x/z + (w−1)/2`` (centre convention) plu
 ``X(λ) = C + λ·R·D·((col−ppx)/fx, (row−ppy)/fy, 1)``, λ > 0, and
 :meth:`OrientedFrame.pixel_to_world` intersects it with a DEM.
 
-NGI data readers: :func:`read_interior_orientation` (the small orthority-style YAML, parsed
-here without PyYAML), :func:`read_exterior_orientation` (``name X Y Z omega phi kappa``
+NGI data readers: :func:`read_interior_orientation` (the orthority-style YAML, read
+through PyYAML), :func:`read_exterior_orientation` (``name X Y Z omega phi kappa``
 lines) and :func:`load_ngi_frame`.
 """
 from __future__ import annotations

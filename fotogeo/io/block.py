@@ -36,6 +36,7 @@ import numpy as np
 from ..errors import InputError, one_line
 from ..pixels import from_centre, to_centre
 from .tables import numeric_columns, read_table, require_columns
+from .yaml_file import yaml_key
 
 
 def frame_key(name) -> str:
@@ -233,7 +234,7 @@ def write_interior_orientation(path, name: str, camera, distortion: dict | None 
     m = max(w, h)
     d = {k: float(v) for k, v in (distortion or {}).items()}
     brown = any(v != 0.0 for v in d.values())
-    lines = [f"{name}:", f"    type: {'brown' if brown else 'pinhole'}", f"    im_size: [{int(w)}, {int(h)}]",
+    lines = [f"{yaml_key(name)}:", f"    type: {'brown' if brown else 'pinhole'}", f"    im_size: [{int(w)}, {int(h)}]",
              f"    focal_len: {camera.focal_length!r}",
              f"    sensor_size: [{camera.sensor_size[0]!r}, {camera.sensor_size[1]!r}]",
              f"    cx: {(camera.principal_point[0] - w / 2.0) / m!r}", f"    cy: {(camera.principal_point[1] - h / 2.0) / m!r}"]

@@ -1,6 +1,6 @@
 """Camera calibration reports of film cameras (``interior --camera-report CAL.yaml``).
 
-The YAML subset of the interior-orientation files (:func:`fotogeo.io.camera._parse_simple_yaml`)::
+A YAML file (read by :func:`fotogeo.io.yaml_file.read_yaml_mapping`)::
 
     camera: RC30-like                # optional name
     focal_mm: 153.12                 # calibrated focal length
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError, one_line
-from .camera import _parse_simple_yaml
+from .yaml_file import read_yaml_mapping
 from .text import read_text_file
 
 MARKS = ("x", "cross", "dot", "corner")
@@ -65,7 +65,7 @@ def read_calibration_report(path) -> CalibrationReport:
     path = Path(path)
     what = f"camera report {str(path)!r}"
     text = read_text_file(path, "camera report", hint="give the calibration report YAML")
-    data, _ = _parse_simple_yaml(text, f"{what}, ")
+    data, _ = read_yaml_mapping(text, f"{what}, ")
     try:
         fid = data.get("fiducials_mm")
         if not isinstance(fid, dict) or not fid:

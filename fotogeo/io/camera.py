@@ -1,8 +1,8 @@
 """Camera files: orthority-style interior orientation YAML, ``name X Y Z omega phi kappa``
 exterior orientation text, and the NGI frames built from both.
 
-:func:`read_interior_orientation` parses the small YAML subset itself (no PyYAML needed);
-the principal point convention is explained there.
+:func:`read_interior_orientation` reads the YAML through :func:`fotogeo.io.yaml_file.read_yaml_mapping`
+(PyYAML's safe loader); the principal point convention is explained there.
 """
 from __future__ import annotations
 
@@ -12,64 +12,7 @@ from pathlib import Path
 from ..errors import InputError, one_line
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
 from .text import read_text_file
-
-
-#: lists inside lists deeper than this are refused (the files hold flat lists such as ``[w, h]``)
-MAX_LIST_DEPTH = 2
-
-
-def _list_depth(text: str) -> int:
-    """How many ``[`` open ``text`` before anything else (``"[[1, 2]]"`` → 2)."""
-    stripped = text.lstrip("[ \t")
-    return text[:len(text) - len(stripped)].count("[")
-
-
-def _parse_value(text: str, depth: int = 0):
-    """A number, a string or a (flat) list; ValueError for lists nested deeper than :data:`MAX_LIST_DEPTH`."""
-    text = text.strip()
-    if text.startswith("[") and text.endswith("]"):
-        if depth + _list_depth(text) > MAX_LIST_DEPTH:
-            raise ValueError(f"a list nested {_list_depth(text)} deep; write a flat list such as [900, 700]")
-        return [_parse_value(t, depth + 1) for t in text[1:-1].split(",") if t.strip()]
-    for conv in (int, float):
-        try:
-            return conv(text)
-        except ValueError:
-            pass
-    return text.strip("'\"")
-
-
-def _parse_simple_yaml(text: str, where: str = "") -> tuple[dict, dict]:
-    """Parse the two-level ``key: value`` YAML subset of orthority interior-orientation files.
-
-    Returns ``(data, lines)``: the nested dict and the line number of each top-level key.
-    ``where`` (the file) starts the message of the :class:`InputError` for a malformed line.
-    """
-    out: dict = {}
-    lines: dict = {}
-    stack = [(-1, out)]
-    for lineno, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("#", 1)[0].rstrip()
-        if not line.strip():
-            continue
-        indent = len(line) - len(line.lstrip())
-        key, sep, value = line.strip().partition(":")
-        if not sep or not key.strip():
-            raise InputError(one_line(f"{where}line {lineno}: expected 'key: value', got {raw!r}"))
-        while indent <= stack[-1][0]:
-            stack.pop()
-        parent = stack[-1][1]
-        if parent is out:
-            lines[key.strip()] = lineno
-        if value.strip():
-            try:
-                parent[key.strip()] = _parse_value(value)
-            except ValueError as exc:
-                raise InputError(one_line(f"{where}line {lineno}: {key.strip()}: {exc}")) from None
-        else:
-            parent[key.strip()] = child = {}
-            stack.append((indent, child))
-    return out, lines
+from .yaml_file import read_yaml_mapping
 
 
 def _number(d: dict, key: str, kind=float, default=None):
@@ -102,7 +45,7 @@ BROWN_TERMS = ("k1", "k2", "p1", "p2", "k3")
 def _frame_camera(d, types=("pinhole",)) -> FrameCamera:
     """A pinhole :class:`FrameCamera` from one camera's dict; ValueError says which value is wrong."""
     if not isinstance(d, dict):
-        raise ValueError("a camera must be a block of indented 'key: value' lines")
+        raise ValueError(f"a camera must be a block of indented 'key: value' lines; got {str(d)[:40]!r}")
     if d.get("type", "pinhole") not in types:
         raise ValueError(f"type {str(d.get('type'))[:40]!r} is not supported here; only "
                          f"{' or '.join(map(repr, types))} {'is' if len(types) == 1 else 'are'}"
@@ -128,7 +71,7 @@ def read_interior_orientation(path) -> dict[str, FrameCamera]:
     """
     path = Path(path)
     text = read_text_file(path, "interior orientation file", hint="give the YAML file")
-    data, lines = _parse_simple_yaml(text, f"interior orientation {str(path)!r}, ")
+    data, lines = read_yaml_mapping(text, f"interior orientation {str(path)!r}, ")
     cams = {}
     for cid, d in data.items():
         try:
@@ -151,7 +94,7 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
     """
     path = Path(path)
     text = read_text_file(path, "interior orientation file", hint="give the YAML file")
-    data, lines = _parse_simple_yaml(text, f"interior orientation {str(path)!r}, ")
+    data, lines = read_yaml_mapping(text, f"interior orientation {str(path)!r}, ")
     if not data:
         raise InputError(f"camera file {str(path)!r} defines no camera")
     cid, d = next(iter(data.items()))

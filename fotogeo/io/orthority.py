@@ -40,7 +40,8 @@ from ..errors import InputError, one_line
 from ..geometry.approx_block import ApproxCamera, ApproximateBlock, ApproxShot
 from ..geometry.camera import FrameCamera
 from .block import frame_key
-from .camera import _number, _pair, _parse_simple_yaml
+from .camera import _number, _pair
+from .yaml_file import read_yaml_mapping
 from .opensfm import load_json, pixel_camera
 from .text import read_text_file
 
@@ -87,11 +88,11 @@ def read_orthority_interior(path) -> dict:
     """An orthority interior-parameter YAML -> ``{camera id: ApproxCamera}`` (module docstring)."""
     path = Path(path)
     text = read_text_file(path, "orthority interior parameters", hint="give the YAML file")
-    data, lines = _parse_simple_yaml(text, f"orthority interior parameters {str(path)!r}, ")
+    data, lines = read_yaml_mapping(text, f"orthority interior parameters {str(path)!r}, ")
     cams = {}
     for cid, d in data.items():
         try:
-            cams[str(cid).strip("'\"")] = orthority_camera(d, f"orthority camera {cid!r} of {str(path)!r}")
+            cams[cid] = orthority_camera(d, f"orthority camera {cid!r} of {str(path)!r}")
         except (ValueError, TypeError, OverflowError, ZeroDivisionError, InputError) as exc:
             raise InputError(one_line(f"orthority interior parameters {str(path)!r}, line {lines[cid]}: camera "
                                       f"{cid!r}: {exc}")) from None

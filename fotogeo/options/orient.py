@@ -26,6 +26,9 @@ ORIENT = Table(
            "check RMSE is kept.", choices=ORIENTATION_MODELS + ("auto",)),  # last: QGIS enum indices keep their meaning
     Option("snooping", "bool", True, "Data snooping (flag blunders)", "Data snooping for blunders."),
     Option("remove_blunders", "bool", False, "Remove flagged blunders and refit", "Drop flagged blunders and refit."),
+    Option("image_sigma", "float", None, "Image σ of the GCPs in px, the click precision (empty = estimated)",
+           "A priori σ of the GCPs' image positions (click precision, px) for the blunder test [estimated from "
+           "the residuals].", minimum=0.0, exclusive_minimum=True),
     Option("scan_pixel_um", "float", None, "Scan pixel size in µm (report residuals in mm on the photo)",
            "Scan pixel size (µm) to report residuals in mm on the photo.", minimum=0.0, advanced=True),
     EXAGGERATION,

@@ -68,8 +68,13 @@ class OrientFit:
     residual: np.ndarray  # (N, 2) model(ground) - pixel, all points
     role: np.ndarray  # (N,) control / check / blunder
     stats: dict  # {"control": {...}, "check": {...}}
-    snooping: list = field(default_factory=list)  # [{id, w, removed}]
+    snooping: list = field(default_factory=list)  # [{id, w, redundancy, flag, removed, reason}]
     warnings: list = field(default_factory=list)
+    #: per point (N,): the blunder test's w, redundancy number and flag (:mod:`.blunders`; NaN / "" untested)
+    w: np.ndarray | None = None
+    redundancy: np.ndarray | None = None
+    flag: np.ndarray | None = None
+    blunder_test: str = "blunder test off"
 
 
 def model_src(model_cls, ground: np.ndarray) -> np.ndarray:
@@ -258,13 +263,16 @@ def snoop(model_cls, src, pix, control, ids, *, remove: bool = False, max_fracti
 
 def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool = True,
                     remove_blunders: bool = False, scale_mm: float | None = None, camera=None,
-                    progress=None) -> OrientFit:
-    """Fit ``model_name`` on the control points, evaluate it on control and check points
-    (``progress`` goes to :func:`snoop`).
+                    image_sigma: float | None = None, progress=None) -> OrientFit:
+    """Fit ``model_name`` on the control points, evaluate it on control and check points.
 
+    With ``snooping`` every control point is tested for a blunder (:func:`.blunders.detect_blunders`,
+    with the a priori ``image_sigma`` in pixels when given); ``remove_blunders`` leaves the points
+    flagged "blunder" (not the mere suspects) out of the fit, their role then ``blunder``.
     ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera`) is passed to the models that
     take it as a fit option (collinearity, see :meth:`~fotogeo.models.base.Model.options_from`).
     """
+    from ..progress import as_progress
     cls = get_model(model_name)
     fit_options = cls.options_from(camera=camera)
     ground, pixel = np.asarray(ground, float), np.asarray(pixel, float)
@@ -273,11 +281,19 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     control = role == "control"
     if control.sum() < cls.min_points:
         raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} control points; got {int(control.sum())}")
-    findings = []
+    n = len(role)
+    w, red, flag = np.full(n, np.nan), np.full(n, np.nan), np.full(n, "", object)
+    findings, note = [], "blunder test off"
     if snooping:
-        control, findings = snoop(cls, src, dst, control, np.asarray(ids), remove=remove_blunders,
-                                  fit_options=fit_options, progress=progress,
-                                  unit="ground units" if image_to_ground(cls) else "px")
+        as_progress(progress)(0.0, "testing the control points for blunders")
+        test, findings = _blunder_test(cls, src, dst, control, np.asarray(ids), image_sigma, fit_options,
+                                       "ground units" if image_to_ground(cls) else "px")
+        idx = np.flatnonzero(control)
+        w[idx], red[idx], flag[idx], note = test.w, test.redundancy, test.flag, test.note()
+        if remove_blunders:
+            for f in findings:
+                f["removed"] = f["flag"] == "blunder"
+            control[idx[test.flag == "blunder"]] = False
     model, warns = _fit(cls, src, dst, control, fit_options)
     res = image_residuals(model, ground, pixel)
     role = role.copy()
@@ -285,7 +301,26 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     stats = {r: role_stats(res[role == r], scale_mm) for r in ("control", "check")}
     if (role == "blunder").any():
         stats["blunder"] = role_stats(res[role == "blunder"], scale_mm)
-    return OrientFit(model, res, role.astype(str), stats, findings, warns)
+    return OrientFit(model, res, role.astype(str), stats, findings, warns, w, red, flag.astype(str), note)
+
+
+def _blunder_test(cls, src, dst, control, ids, image_sigma, fit_options, unit):
+    """:func:`.blunders.detect_blunders` on the control points and its findings (the flagged points)."""
+    from .blunders import detect_blunders
+    idx = np.flatnonzero(control)
+    sigma = None if image_to_ground(cls) else image_sigma  # an image → ground fit's residuals are on the ground
+    test = detect_blunders(cls, src[idx], dst[idx], sigma=sigma, fit_options=fit_options)
+    findings = []
+    for j in np.argsort(-np.nan_to_num(test.w, nan=-1.0)):
+        if test.flag[j] not in ("blunder", "suspect"):
+            continue
+        why = "" if test.flag[j] == "blunder" else " — too little redundancy to call it a blunder"
+        findings.append({"id": str(ids[idx[j]]), "w": float(test.w[j]), "flag": str(test.flag[j]),
+                         "redundancy": None if not np.isfinite(test.redundancy[j]) else float(test.redundancy[j]),
+                         "removed": False,
+                         "reason": f"|w| = {test.w[j]:.2f} > {test.critical:.2f} (residual "
+                                   f"{np.hypot(*test.residual[j]):.3f} {unit}){why}"})
+    return test, findings
 
 
 #: candidates of ``orient --model auto``: 2-D, then 3-D (heights needed), each fitted if the GCPs allow it

@@ -27,6 +27,7 @@ from qgis.core import (
     QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterFile,
+    QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterNumber,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
@@ -41,6 +42,7 @@ from fotogeo.options import Option, Table, in_labels  # standard library only: l
 from fotogeo.errors import in_callers_words  # standard library only
 
 from .. import runner
+from ..side_files import no_side_files
 
 ICONS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "icons")
 REFERENCES = {
@@ -56,6 +58,17 @@ REFERENCES = {
 def _is_file(value) -> bool:
     """Whether a parameter value is the path of an existing file (not a layer id, URI or layer object)."""
     return isinstance(value, str) and os.path.isfile(value)
+
+
+def _all_files(value) -> bool:
+    """Whether a multiple-layer value is a non-empty list of existing file paths (one path: a list of one)."""
+    values = value if isinstance(value, (list, tuple)) else [value]
+    return bool(values) and all(_is_file(v) for v in values)
+
+
+def layer_source_path(layer) -> str:
+    """The file path of a GDAL raster layer (its source without the provider's options)."""
+    return QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
 
 
 def tr(text: str) -> str:
@@ -177,14 +190,19 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
 
     # -- checking the parameters ---------------------------------------------------------
     def checkParameterValues(self, parameters, context):
-        """QGIS's check of every parameter, except that a raster given as an existing file path is not
-        loaded as a layer to be checked (QGIS's own check would: the layer computes statistics and GDAL
-        saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks that file itself."""
+        """QGIS's check of every parameter, except that rasters given as existing file paths (one or a list)
+        are not loaded as layers to be checked (QGIS's own check would: the layer computes statistics and
+        GDAL saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks those files itself.
+        What is loaded still loads without GDAL side files (:mod:`processing_provider.side_files`)."""
         for definition in self.parameterDefinitions():
             name = definition.name()
             if isinstance(definition, QgsProcessingParameterRasterLayer) and _is_file(parameters.get(name)):
                 continue
-            if not definition.checkValueIsAcceptable(parameters.get(name), context):
+            if isinstance(definition, QgsProcessingParameterMultipleLayers) and _all_files(parameters.get(name)):
+                continue
+            with no_side_files():
+                acceptable = definition.checkValueIsAcceptable(parameters.get(name), context)
+            if not acceptable:
                 if isinstance(definition, QgsProcessingParameterRasterLayer):
                     return False, self.invalidRasterError(parameters, name)
                 return False, tr(f"Incorrect parameter value for {name}")
@@ -218,15 +236,26 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         given = parameters.get(name)
         if _is_file(given):
             return given
-        layer = self.parameterAsRasterLayer(parameters, name, context)
+        with no_side_files():
+            layer = self.parameterAsRasterLayer(parameters, name, context)
         if layer is None or not isinstance(layer, QgsRasterLayer):
             raise QgsProcessingException(self.invalidRasterError(parameters, name))
         if layer.providerType() != "gdal":
             raise QgsProcessingException(
                 f"{name}: layer {layer.name()!r} comes from the {layer.providerType()!r} provider, not from a "
                 f"raster file; save it as a GeoTIFF (Export > Save As) and use that file")
-        parts = QgsProviderRegistry.instance().decodeUri("gdal", layer.source())
-        return parts.get("path") or layer.source()
+        return layer_source_path(layer)
+
+    def layer_paths(self, parameters, name: str, context) -> list:
+        """File paths of a multiple-layer parameter: paths given as text are taken as they are (never
+        loaded, see :meth:`raster_path`); layers of the project and URIs give their sources' paths."""
+        given = parameters.get(name)
+        if given in (None, "", []):
+            return []
+        if _all_files(given):
+            return [str(v) for v in (given if isinstance(given, (list, tuple)) else [given])]
+        with no_side_files():
+            return [layer_source_path(layer) for layer in self.parameterAsLayerList(parameters, name, context)]
 
     def raster_output(self, parameters, name: str, context) -> str:
         """Path of a raster destination parameter; fotogeo writes GeoTIFF, so it must end in .tif/.tiff."""
@@ -250,7 +279,10 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         """The name a run's layers start with: the output file's stem, or — for a temporary output
         (``OUTPUT.tif`` in Processing's temporary folder) — the name of the ``source`` input layer."""
         temporary = os.path.abspath(path).startswith(os.path.abspath(QgsProcessingUtils.tempFolder()))
-        layer = self.parameterAsLayer(parameters, source, context) if temporary else None
+        if temporary and _is_file(parameters.get(source)):  # a path is not loaded (see raster_path)
+            return os.path.splitext(os.path.basename(parameters[source]))[0]
+        with no_side_files():
+            layer = self.parameterAsLayer(parameters, source, context) if temporary else None
         return layer.name() if layer is not None else os.path.splitext(os.path.basename(path))[0]
 
     def add_options(self, table: Table):

@@ -13,7 +13,6 @@ from qgis.core import (
 from fotogeo.options.interior import INTERIOR
 
 from .base import FotogeoAlgorithm, tr
-from .triangulate import _layer_paths
 
 YAML = "YAML (*.yaml *.yml)"
 
@@ -48,7 +47,7 @@ class InteriorAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.WORST, tr("Largest mark residual (px)")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        scans = _layer_paths(self.parameterAsLayerList(parameters, self.SCANS, context))
+        scans = self.layer_paths(parameters, self.SCANS, context)
         if not scans:
             raise QgsProcessingException("SCANS: give the scanned frames")
         outdir = self.parameterAsString(parameters, self.OUTDIR, context)

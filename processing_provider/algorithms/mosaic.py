@@ -14,7 +14,6 @@ from fotogeo.options.products import MOSAIC
 
 from ..postprocess import load_on_completion
 from .base import FotogeoAlgorithm, tr
-from .triangulate import _layer_paths
 
 
 class MosaicAlgorithm(FotogeoAlgorithm):
@@ -46,7 +45,7 @@ class MosaicAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputVectorLayer(self.SEAMS_LAYER, tr("Seamlines")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        orthos = _layer_paths(self.parameterAsLayerList(parameters, self.ORTHOS, context))
+        orthos = self.layer_paths(parameters, self.ORTHOS, context)
         if len(orthos) < 2:
             raise QgsProcessingException("ORTHOS: give at least two orthophotos")
         output = self.raster_output(parameters, self.OUTPUT, context)

@@ -152,7 +152,7 @@ class OrientAlgorithm(_GcpAlgorithm):
                 feedback.pushInfo(f"{role}: n={s['n']}, RMS x {s['rms_x_px']:.3f} px, y {s['rms_y_px']:.3f} px, "
                                   f"xy {s['rms_xy_px']:.3f} px, max {s['max_px']:.3f} px")
         for f in rep.get("snooping", []):
-            feedback.pushWarning(f"blunder? GCP {f['id']}: {f['reason']}{' (removed)' if f['removed'] else ''}")
+            feedback.pushWarning(f"{f.get('flag', 'blunder')}: GCP {f['id']}: {f['reason']}{' (removed)' if f['removed'] else ''}")
         for w in rep.get("warnings", []):
             feedback.pushWarning(w)
         nan = float("nan")

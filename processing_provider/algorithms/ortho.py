@@ -15,7 +15,6 @@ from fotogeo.options.products import ORTHO
 
 from ..postprocess import LoadedRun, load_on_completion
 from .base import FotogeoAlgorithm, tr
-from .triangulate import _layer_paths
 
 
 class OrthoAlgorithm(FotogeoAlgorithm):
@@ -53,7 +52,7 @@ class OrthoAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COUNT, tr("Orthophotos written")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        images = _layer_paths(self.parameterAsLayerList(parameters, self.IMAGES, context))
+        images = self.layer_paths(parameters, self.IMAGES, context)
         if not images:
             raise QgsProcessingException("IMAGES: give the images to orthorectify")
         outdir = self.parameterAsString(parameters, self.OUTDIR, context)

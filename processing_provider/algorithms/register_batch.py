@@ -9,7 +9,6 @@ from qgis.core import (
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterRasterLayer,
-    QgsProviderRegistry,
 )
 
 from fotogeo.options import REGISTER, REGISTER_BATCH, REGISTER_TERRAIN
@@ -50,11 +49,9 @@ class RegisterBatchAlgorithm(FotogeoAlgorithm):
 
     def processAlgorithm(self, parameters, context, feedback):
         reference = self.raster_path(parameters, self.REFERENCE, context)
-        layers = self.parameterAsLayerList(parameters, self.TARGETS, context)
-        if not layers:
+        targets = self.layer_paths(parameters, self.TARGETS, context)
+        if not targets:
             raise QgsProcessingException("TARGETS: give at least one target image")
-        targets = [QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
-                   for layer in layers]
         outdir = self.parameterAsString(parameters, self.OUTDIR, context)
         result = self.run_tool("register_batch", reference, targets, outdir, feedback=feedback,
                                **self.option_arguments(parameters, context))

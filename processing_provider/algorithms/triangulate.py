@@ -13,7 +13,6 @@ from qgis.core import (
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
     QgsProcessingParameterMultipleLayers,
-    QgsProviderRegistry,
 )
 
 from fotogeo.options import TRIANGULATE, YAML
@@ -28,12 +27,6 @@ TEXT_FILTER = "Text (*.txt);;All files (*.*)"
 LAYERS = (("footprints", "FOOTPRINTS", "Frame footprints", "footprints"),  # outlines, below the points
           ("tie_points", "TIE_POINTS", "Tie points", None),
           ("control", "CONTROL", "Control and check points", "tie_points"))  # tie_points.qml: by role
-
-
-def _layer_paths(layers) -> list:
-    """File paths of raster layers (their GDAL sources)."""
-    return [QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
-            for layer in layers]
 
 
 def _layer_count(path: str) -> int:
@@ -111,10 +104,10 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             self.addOutput(QgsProcessingOutputNumber(name, tr(label)))
 
     def processAlgorithm(self, parameters, context, feedback):
-        frames = _layer_paths(self.parameterAsLayerList(parameters, self.FRAMES, context))
+        frames = self.layer_paths(parameters, self.FRAMES, context)
         if not frames:
             raise QgsProcessingException("FRAMES: give the frames of the block")
-        reference = _layer_paths(self.parameterAsLayerList(parameters, self.REFERENCE, context)) or None
+        reference = self.layer_paths(parameters, self.REFERENCE, context) or None
         files = {k: self.parameterAsFile(parameters, k, context) or None
                  for k in (self.CAMERA, self.EO, self.OBSERVATIONS)}
         gcps = self._control_path(parameters, context, feedback)

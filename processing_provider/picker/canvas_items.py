@@ -111,13 +111,13 @@ class PickerOverlay(QgsMapCanvasItem):
         right = QPointF(end.x() - head * ux - head * 0.5 * uy, end.y() - head * uy + head * 0.5 * ux)
         painter.setBrush(QBrush(colour))
         painter.drawPolygon(QPolygonF([end, left, right]))
-        painter.setBrush(Qt.NoBrush)
+        painter.setBrush(Qt.BrushStyle.NoBrush)
 
     @staticmethod
     def _circle(painter, p: QPointF, colour: QColor, radius: float, dashed: bool = False):
         pen = QPen(colour, 3)
         if dashed:
-            pen.setStyle(Qt.DashLine)
+            pen.setStyle(Qt.PenStyle.DashLine)
         painter.setPen(pen)
         painter.drawEllipse(p, radius, radius)
         painter.drawPoint(p)

@@ -74,7 +74,7 @@ class PickerDock(DockActions, QDockWidget):
         self.map_canvas, self.session, self.message_bar = map_canvas, session, message_bar
         self.tasks, self.last_message, self.image = [], "", None
         self.image_canvas = QgsMapCanvas()
-        self.image_canvas.setCanvasColor(Qt.darkGray)
+        self.image_canvas.setCanvasColor(Qt.GlobalColor.darkGray)
         self.image_canvas.setMinimumHeight(160)
         self.controller = PickerController(self.image_canvas, map_canvas, session, self.fit_settings)
         self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
@@ -164,7 +164,7 @@ class PickerDock(DockActions, QDockWidget):
         layout.setContentsMargins(4, 0, 4, 0)
         layout.addWidget(self.summary)
         layout.addWidget(self.table, 1)
-        self.splitter = QSplitter(Qt.Vertical)  # the image and the table share what the controls leave
+        self.splitter = QSplitter(Qt.Orientation.Vertical)  # the image and the table share what the controls leave
         self.splitter.addWidget(self.image_canvas)
         self.splitter.addWidget(results)
         self.splitter.setChildrenCollapsible(False)
@@ -235,10 +235,10 @@ class PickerDock(DockActions, QDockWidget):
         stack.canRedoChanged.connect(self.redo_button.setEnabled)
         self.undo_button.setEnabled(False)
         self.redo_button.setEnabled(False)
-        for action, keys in ((stack.createUndoAction(self), QKeySequence.Undo),
-                             (stack.createRedoAction(self), QKeySequence.Redo)):
+        for action, keys in ((stack.createUndoAction(self), QKeySequence.StandardKey.Undo),
+                             (stack.createRedoAction(self), QKeySequence.StandardKey.Redo)):
             action.setShortcut(keys)  # Ctrl+Z / Ctrl+Shift+Z while the dock has the focus
-            action.setShortcutContext(Qt.WidgetWithChildrenShortcut)
+            action.setShortcutContext(Qt.ShortcutContext.WidgetWithChildrenShortcut)
             self.addAction(action)
         widgets = [self.undo_button, self.redo_button]
         for text, slot in (("Import…", self.import_dialog), ("Export…", self.export_dialog),

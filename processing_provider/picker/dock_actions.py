@@ -142,7 +142,7 @@ class DockActions:
         store = self.controller.store
         dlg = RectifyDialog(self, self._image_path(), store.layer.crs() if store is not None else
                             self.map_canvas.mapSettings().destinationCrs())
-        if dlg.exec_() != dlg.Accepted or not dlg.choices()["path"]:
+        if not dlg.exec() or not dlg.choices()["path"]:
             return None
         c = dlg.choices()
         remember(c["path"])

@@ -32,7 +32,7 @@ class PickTool(QgsMapTool):
         self.controller, self.side = controller, side
         self.snap_indicator = QgsSnapIndicator(canvas) if side == MAP else None
         self.dragging = None  # (gcp id, press position on screen)
-        self.setCursor(Qt.CrossCursor)
+        self.setCursor(Qt.CursorShape.CrossCursor)
 
     def _position(self, event):
         """The event's position in canvas coordinates; snapped on the map canvas (QGIS's settings)."""
@@ -45,20 +45,20 @@ class PickTool(QgsMapTool):
 
     def canvasPressEvent(self, event):  # noqa: N802 - QGIS's name
         proposal = self.controller.nearest_proposal(self.side, event.pos(), GRAB_TOLERANCE_PX)
-        if proposal is not None and event.button() in (Qt.LeftButton, Qt.RightButton):
-            if event.button() == Qt.LeftButton:
+        if proposal is not None and event.button() in (Qt.MouseButton.LeftButton, Qt.MouseButton.RightButton):
+            if event.button() == Qt.MouseButton.LeftButton:
                 self.controller.accept_proposals([proposal])
             else:
                 self.controller.reject_proposals([proposal])
             return
         near = self.controller.nearest(self.side, event.pos(), GRAB_TOLERANCE_PX)
-        if event.button() == Qt.RightButton:
+        if event.button() == Qt.MouseButton.RightButton:
             if near is not None:
                 self.controller.delete(near)
             else:
                 self.controller.cancel_pending()
             return
-        if event.button() != Qt.LeftButton:
+        if event.button() != Qt.MouseButton.LeftButton:
             return
         if near is not None:
             self.dragging = (near, event.pos())

@@ -66,7 +66,7 @@ def read_rgba(result: dict) -> QImage:
     with open(result["output"], "rb") as f:
         data = f.read()
     w, h = int(result["width"]), int(result["height"])
-    return QImage(data, w, h, 4 * w, QImage.Format_RGBA8888).copy()
+    return QImage(data, w, h, 4 * w, QImage.Format.Format_RGBA8888).copy()
 
 
 class LivePreview(QObject):

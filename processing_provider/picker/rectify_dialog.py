@@ -69,7 +69,7 @@ class RectifyDialog(QDialog):
         self.crs = QgsProjectionSelectionWidget()
         self.crs.setCrs(crs)
         form.addRow("Output CRS", self.crs)
-        buttons = QDialogButtonBox(QDialogButtonBox.Ok | QDialogButtonBox.Cancel)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
         form.addRow(buttons)

@@ -22,7 +22,7 @@ from qgis.PyQt.QtWidgets import QAbstractItemView, QComboBox, QStyledItemDelegat
 
 #: rows the table shows without scrolling at its minimum height
 MIN_ROWS = 10
-SORT_KEY = Qt.UserRole + 1
+SORT_KEY = Qt.ItemDataRole.UserRole + 1
 
 #: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
 COLUMNS = ("id", "on", "role", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "col", "row", "x", "y",
@@ -98,16 +98,16 @@ class GcpTable(QTableWidget):
         for j, name in enumerate(COLUMNS):
             if name in TOOLTIPS:
                 self.horizontalHeaderItem(j).setToolTip(TOOLTIPS[name])
-        self.setSelectionBehavior(QAbstractItemView.SelectRows)
-        self.setSelectionMode(QAbstractItemView.ExtendedSelection)
-        self.setEditTriggers(QAbstractItemView.DoubleClicked | QAbstractItemView.EditKeyPressed)
+        self.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.setSelectionMode(QAbstractItemView.SelectionMode.ExtendedSelection)
+        self.setEditTriggers(QAbstractItemView.EditTrigger.DoubleClicked | QAbstractItemView.EditTrigger.EditKeyPressed)
         self.verticalHeader().setVisible(False)
         row_height = self.fontMetrics().height() + 6  # compact rows, as the Georeferencer's table
         self.verticalHeader().setDefaultSectionSize(row_height)
         self.setMinimumHeight(MIN_ROWS * row_height + self.horizontalHeader().sizeHint().height()
                               + self.horizontalScrollBar().sizeHint().height() + 2 * self.frameWidth())
         self.setSortingEnabled(True)
-        self.sortByColumn(COLUMNS.index("id"), Qt.AscendingOrder)
+        self.sortByColumn(COLUMNS.index("id"), Qt.SortOrder.AscendingOrder)
         self.role_delegate = RoleDelegate(self)
         self.setItemDelegateForColumn(COLUMNS.index("role"), self.role_delegate)
         self._filling = False
@@ -142,18 +142,18 @@ class GcpTable(QTableWidget):
         items = []
         for name in COLUMNS:
             item = GcpItem("" if name == "on" else str(values.get(name, "")))
-            item.setData(Qt.UserRole, g.id)
+            item.setData(Qt.ItemDataRole.UserRole, g.id)
             item.setData(SORT_KEY, (0, float(g.enabled)) if name == "on" else sort_key(item.text()))
             if name == "on":
-                item.setFlags(Qt.ItemIsUserCheckable | Qt.ItemIsEnabled | Qt.ItemIsSelectable)
-                item.setCheckState(Qt.Checked if g.enabled else Qt.Unchecked)
+                item.setFlags(Qt.ItemFlag.ItemIsUserCheckable | Qt.ItemFlag.ItemIsEnabled | Qt.ItemFlag.ItemIsSelectable)
+                item.setCheckState(Qt.CheckState.Checked if g.enabled else Qt.CheckState.Unchecked)
             else:
-                editable = Qt.ItemIsEditable if name in ("z", "role") else 0
-                item.setFlags(Qt.ItemIsEnabled | Qt.ItemIsSelectable | editable)
+                editable = Qt.ItemFlag.ItemIsEditable if name in ("z", "role") else Qt.ItemFlag.NoItemFlags
+                item.setFlags(Qt.ItemFlag.ItemIsEnabled | Qt.ItemFlag.ItemIsSelectable | editable)
             if not g.enabled and name != "on":
                 item.setForeground(QColor(140, 140, 140))  # disabled: greyed, as its marks
             if name not in ("id", "on", "role"):
-                item.setTextAlignment(Qt.AlignRight | Qt.AlignVCenter)
+                item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
             if r.get("flag"):
                 item.setBackground(QColor(255, 220, 160))
             items.append(item)
@@ -163,26 +163,26 @@ class GcpTable(QTableWidget):
         """Select the rows of the GCPs ``ids`` (wherever the sort put them), nothing else."""
         selection = QItemSelection()
         for r in range(self.rowCount()):
-            if self.item(r, 0) is not None and self.item(r, 0).data(Qt.UserRole) in ids:
+            if self.item(r, 0) is not None and self.item(r, 0).data(Qt.ItemDataRole.UserRole) in ids:
                 selection.select(self.model().index(r, 0), self.model().index(r, len(COLUMNS) - 1))
-        self.selectionModel().select(selection, QItemSelectionModel.ClearAndSelect)
+        self.selectionModel().select(selection, QItemSelectionModel.SelectionFlag.ClearAndSelect)
 
     def row_values(self, row: int) -> dict:
         """The texts of one row by column name (tests and the report)."""
-        return {name: self.item(row, j).text() if name != "on" else self.item(row, j).checkState() == Qt.Checked
+        return {name: self.item(row, j).text() if name != "on" else self.item(row, j).checkState() == Qt.CheckState.Checked
                 for j, name in enumerate(COLUMNS)}
 
     def selected_ids(self) -> list[str]:
         """Ids of the selected rows, in table order."""
         rows = sorted({index.row() for index in self.selectedIndexes()})
-        return [self.item(r, 0).data(Qt.UserRole) for r in rows if self.item(r, 0) is not None]
+        return [self.item(r, 0).data(Qt.ItemDataRole.UserRole) for r in rows if self.item(r, 0) is not None]
 
     def keyPressEvent(self, event):  # noqa: N802 - Qt's name
         """Delete (the platform's delete key sequence too) deletes the selected rows; other keys as usual.
 
         While a cell is being edited the key goes to the editor, not here."""
         ids = self.selected_ids()
-        if ids and (event.key() == Qt.Key_Delete or event.matches(QKeySequence.Delete)):
+        if ids and (event.key() == Qt.Key.Key_Delete or event.matches(QKeySequence.StandardKey.Delete)):
             self.delete_requested.emit(ids)
             event.accept()
             return
@@ -191,9 +191,9 @@ class GcpTable(QTableWidget):
     def _item_changed(self, item):
         if self._filling:
             return
-        column, gcp_id = COLUMNS[item.column()], item.data(Qt.UserRole)
+        column, gcp_id = COLUMNS[item.column()], item.data(Qt.ItemDataRole.UserRole)
         if column == "on":
-            self.enabled_changed.emit(gcp_id, item.checkState() == Qt.Checked)
+            self.enabled_changed.emit(gcp_id, item.checkState() == Qt.CheckState.Checked)
         elif column == "role":
             role = item.text().strip().lower()
             if role in ROLE_CHOICES:
@@ -210,4 +210,4 @@ class GcpTable(QTableWidget):
             return
         items = self.selectedItems()
         if items:
-            self.gcp_selected.emit(items[0].data(Qt.UserRole))
+            self.gcp_selected.emit(items[0].data(Qt.ItemDataRole.UserRole))

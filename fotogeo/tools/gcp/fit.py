@@ -10,13 +10,12 @@ a row's residuals and the RMS are exactly what ``fotogeo orient`` reports for th
 Conventions (``orient``'s): pixels ``(col, row)`` in the corner convention; residual
 ``v = model(ground) − measured pixel``; ``dx_map, dy_map`` = where the model puts the measured
 pixel on the ground (at the point's height) minus the GCP; RMS = ``sqrt(mean(dx² + dy²))``
-per role. ``w`` is Baarda's (1968) standardised residual of a control point,
-``max(|w_x|, |w_y|)`` (:func:`~fotogeo.orientation.adjustment.standardised_residuals`);
-``|w|`` above the critical value for the fit's redundancy (:func:`~fotogeo.orientation.adjustment.critical_w`,
-3.29 at large redundancy) flags a blunder (the user then disables or fixes the point: nothing is
-removed automatically, as ``orient`` without ``--remove-blunders``). Where the redundancy does not
-support the test — ``2n − u`` too small, or a point's own redundancy number too small — the point's
-flag says "not testable" and no blunder is claimed.
+per role. ``w`` is the standardised residual of a control point and ``redundancy`` its redundancy number,
+from ``orient``'s blunder test (:mod:`fotogeo.orientation.blunders`: a robust start, then Baarda's (1968) test of
+each point against the critical value for the fit's redundancy, with the a priori ``image_sigma`` — the click
+precision — when given); a point's ``flag`` says "blunder", "suspect" (flagged where the redundancy is too low to
+call it a blunder) or "not testable". Nothing is removed automatically (the user disables or fixes the point), as
+``orient`` without ``--remove-blunders``.
 
 Heights, per point: the given ``z`` (``"field"``), else bilinear from ``dem`` (``"dem"``, any
 CRS; a point the DEM does not cover gets no height and says so), else ``default_height``
@@ -32,8 +31,7 @@ import numpy as np
 from ...crs import parse_crs
 from ...errors import InputError, ModelError, one_line
 from ...models import get_model
-from ...orientation.adjustment import (critical_w, fit_data, fit_orientation, image_residuals, select_model,
-                                      standardised_residuals)
+from ...orientation.adjustment import fit_orientation, image_residuals, select_model
 from ..common.boundary import tool
 from .grids import prediction_grids
 
@@ -212,35 +210,38 @@ def prepare(gcps, model, *, crs, image=None, width=None, height=None, dem=None, 
                     needed, message)
 
 
-def fit_prepared(p: Prepared, model: str):
-    """``(model name, OrientFit, auto's selection or None)`` of the points ``p.use`` (orient's fitting code)."""
+def fit_prepared(p: Prepared, model: str, *, snooping: bool = False, image_sigma=None):
+    """``(model name, OrientFit, auto's selection or None)`` of the points ``p.use`` (orient's fitting code,
+    its blunder test with ``snooping``)."""
     name, selection = model, None
     u = p.use
     if model == "auto":
         name, selection = select_model(p.ground[u], p.pixel[u], p.roles[u], p.ids[u], camera=p.camera)
-    fit = fit_orientation(name, p.ground[u], p.pixel[u], p.roles[u], p.ids[u], snooping=False, camera=p.camera)
+    fit = fit_orientation(name, p.ground[u], p.pixel[u], p.roles[u], p.ids[u], snooping=snooping, camera=p.camera,
+                          image_sigma=image_sigma)
     return name, fit, selection
 
 
 @tool()
 def fit_gcps(gcps, model, *, crs, image=None, width=None, height=None, dem=None, camera=None,
-             default_height=None, snooping: bool = True, grid: int = 25, progress=None) -> dict:
+             default_height=None, snooping: bool = True, image_sigma=None, grid: int = 25, progress=None) -> dict:
     """Fit ``model`` to the picker's GCPs; residuals per point, RMS per role and prediction grids
-    (the interface is described in DESIGN.md). JSON types in and out."""
+    (the interface is described in DESIGN.md; ``image_sigma``: the click precision in px, or None to
+    estimate it). JSON types in and out."""
     p = prepare(gcps, model, crs=crs, image=image, width=width, height=height, dem=dem, camera=camera,
                 default_height=default_height)
     result = _empty_result(model, p.ids, p.roles, p.ground[:, 2], p.z_source, p.flags, p.needed, p.message)
     if p.needed:
         return result
     try:
-        name, fit, selection = fit_prepared(p, model)
+        name, fit, selection = fit_prepared(p, model, snooping=snooping, image_sigma=image_sigma)
     except (ModelError, np.linalg.LinAlgError) as e:  # degenerate points: the table says so, no error
         result.update(message=one_line(f"{model}: {e}" if isinstance(e, np.linalg.LinAlgError) else e))
         return result
     if selection is not None:
         result["model_selection"] = selection
     result["model"] = name
-    _fill_points(result, fit, name, p.ground, p.pixel, p.map_crs, p.use, ~p.outside, p.camera, snooping)
+    _fill_points(result, fit, name, p.ground, p.pixel, p.map_crs, p.use, ~p.outside)
     result["ok"], result["message"] = True, _summary(name, result["rms"], result["points"])
     if "not testable" in result["blunder_test"]:
         result["message"] += "; " + result["blunder_test"]
@@ -256,20 +257,19 @@ def _empty_result(model, ids, roles, z, z_source, flags, needed, message) -> dic
     nan = None
     points = [{"id": i, "role": r, "z": float(h) if np.isfinite(h) else None, "z_source": s, "dx_px": nan,
                "dy_px": nan, "residual_px": nan, "dx_map": nan, "dy_map": nan, "residual_map": nan, "w": nan,
-               "flag": f} for i, r, h, s, f in zip(ids, roles, z, z_source, flags)]
+               "redundancy": nan, "flag": f} for i, r, h, s, f in zip(ids, roles, z, z_source, flags)]
     rms = {"control_px": nan, "control_map": nan, "check_px": nan, "check_map": nan, "n_control": 0, "n_check": 0}
     return {"model": model, "ok": False, "message": message, "needed": int(needed), "points": points,
             "rms": rms, "forward": None, "inverse": None}
 
 
-def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snooping):
-    """Residuals (pixels, map), w and flags of every row: orient's numbers for the points used;
+def _fill_points(result, fit, name, ground, pixel, crs, use, inside):
+    """Residuals (pixels, map), w, redundancy and flags of every row: orient's numbers for the points used;
     the fitted model's prediction for disabled rows that have what the model needs."""
     from ..orient.tool import ground_residuals
     cls = get_model(name)
     has = np.isfinite(ground[:, 2]) if cls.src_dims == 3 else np.ones(len(ground), bool)
     shown = use | (inside & has)
-    control = use & (np.array([p["role"] for p in result["points"]]) == "control")
     res = np.full((len(ground), 2), np.nan)
     res[use] = fit.residual
     other = shown & ~use
@@ -277,32 +277,16 @@ def _fill_points(result, fit, name, ground, pixel, crs, use, inside, cam, snoopi
         res[other] = image_residuals(fit.model, ground[other], pixel[other])
     d_map = np.full((len(ground), 2), np.nan)
     d_map[shown] = ground_residuals(fit.model, ground[shown], pixel[shown], crs)[1]
-    w = np.full(len(ground), np.nan)
-    n, u = int(control.sum()), cls.n_params
-    critical = critical_w(2 * n - u) if snooping and n - 1 >= cls.min_points else None
-    if critical is not None:
-        w[control] = standardised_residuals(cls, *fit_data(cls, ground[use], pixel[use]), control[use],
-                                            fit_options=cls.options_from(camera=cam))[1]
-    result["blunder_test"] = _test_note(snooping, critical, 2 * n - u)
+    w, red, flags = np.full(len(ground), np.nan), np.full(len(ground), np.nan), np.full(len(ground), "", object)
+    w[use], red[use], flags[use] = fit.w, fit.redundancy, fit.flag
+    result["blunder_test"] = fit.blunder_test
     for k, p in enumerate(result["points"]):
         p.update(dx_px=_num(res[k, 0]), dy_px=_num(res[k, 1]), residual_px=_num(np.hypot(*res[k])),
                  dx_map=_num(d_map[k, 0]), dy_map=_num(d_map[k, 1]), residual_map=_num(np.hypot(*d_map[k])),
-                 w=_num(w[k]))
-        flag = None
-        if critical is not None and control[k]:
-            flag = ("blunder" if w[k] > critical else None) if np.isfinite(w[k]) else "not testable"
-        if flag:
-            p["flag"] = flag + (f"; {p['flag']}" if p["flag"] else "")
+                 w=_num(w[k]), redundancy=_num(red[k]))
+        if flags[k]:
+            p["flag"] = flags[k] + (f"; {p['flag']}" if p["flag"] else "")
     result["rms"] = _rms(fit.stats, d_map, fit.role, use)
-
-
-def _test_note(snooping: bool, critical, f: int) -> str:
-    """What the blunder test did, for the dock's status and tooltips."""
-    if not snooping:
-        return "blunder test off"
-    if critical is None:
-        return f"blunder test: not testable (redundancy 2n − u = {f}; needs ≥ 6 and a point to spare)"
-    return f"blunder test: |w| > {critical:.2f} (redundancy {f}, α = 0.1 %)"
 
 
 def _num(v):
@@ -328,7 +312,8 @@ def _summary(name, rms, points) -> str:
     text = f"{name}: control RMS {rms['control_px']:.3f} px ({rms['n_control']} points)"
     if rms["n_check"]:
         text += f", check RMS {rms['check_px']:.3f} px ({rms['n_check']})"
-    blunders = [p["id"] for p in points if p["flag"].startswith("blunder")]
-    if blunders:
-        text += f"; blunder suspected at {', '.join(blunders[:5])}"
+    for flag in ("blunder", "suspect"):
+        found = [p["id"] for p in points if p["flag"].startswith(flag)]
+        if found:
+            text += f"; {flag} at {', '.join(found[:5])}"
     return text

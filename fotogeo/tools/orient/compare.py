@@ -45,6 +45,8 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
             check_output(p, [image, gcps], overwrite, "table")
     if plots and Path(plots).exists() and not Path(plots).is_dir():
         raise InputError(f"plots {str(plots)!r} is a file; give a folder for the error-vector plots")
+    if plots:
+        report.require_plotting()
     g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
                   height=height, **(fields or {}))
     check_gcp_crs(g, gcps)

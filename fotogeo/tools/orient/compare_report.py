@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import csv
 import html
+import importlib.util
 
 import numpy as np
 
+from ...errors import InputError
 from ...orientation.comparison import STAT_KEYS
 
 #: the model names as the paper's table prints them (the others print as they are)
@@ -95,6 +97,13 @@ def html_table(rows, title: str = "Orientation models compared") -> str:
         parts.append("</table>")
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def require_plotting() -> None:
+    """Refuse plots before any file is written when matplotlib (the ``plots`` extra) is not installed."""
+    if importlib.util.find_spec("matplotlib") is None:
+        raise InputError("plots (--plots) need matplotlib, which is not installed: pip install 'fotogeo[plots]' "
+                         "(or leave out plots)")
 
 
 def plot_name(model: str, layout: str) -> str:

@@ -47,6 +47,7 @@ from ...orientation.adjustment import fit_orientation, select_model
 from ...progress import as_progress
 from ..common.checks import check_camera_size, check_gcp_crs
 from ..common.boundary import OUTPUTS, tool
+from ..gcp_style import legend_class
 from .rectify import mean_height, rectify_grid, rectify_image
 from ..common.results import Orientation
 
@@ -55,14 +56,15 @@ from ..common.results import Orientation
 @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
 def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
            gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
-           remove_blunders: bool = False, exaggeration="auto", resolution=None,
+           remove_blunders: bool = False, image_sigma=None, exaggeration="auto", resolution=None,
            resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,
            progress=None) -> Orientation:
     """Fit ``model`` (a name, or ``"auto"``) to the GCPs of ``image`` and write the requested
     outputs; returns an :class:`~fotogeo.tools.common.results.Orientation` (``result["check"]`` reads the report).
 
     ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera` or an interior-orientation YAML file)
-    is needed by ``collinearity`` only.
+    is needed by ``collinearity`` only. ``image_sigma``: the a priori σ of the GCPs' image positions (the
+    click precision, px) for the blunder test (:mod:`fotogeo.orientation.blunders`); None: estimated.
     """
     prog = as_progress(progress)
     camera = load_camera(camera)
@@ -85,7 +87,7 @@ def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot
                                         progress=prog.stage(0.1, 0.2, "choosing the model"))
     fit = fit_orientation(model, g.ground, g.pixel, g.role, g.ids, snooping=snooping,
                           remove_blunders=remove_blunders, scale_mm=scale_mm, camera=camera,
-                          progress=prog.stage(0.2, 0.3, "fitting the model"))
+                          image_sigma=image_sigma, progress=prog.stage(0.2, 0.3, "fitting the model"))
     prog(0.3, "model fitted")
     on_ground, d_ground = ground_residuals(fit.model, g.ground, g.pixel, g.crs)
     rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
@@ -177,7 +179,11 @@ def _notes(rep) -> dict:
         "control": "residuals at the GCPs the model was fitted to: an optimistic measure",
         "check": "residuals at GCPs held out of the fit: the accuracy estimate, including the GCPs' own "
                  "measurement errors (image and map)",
-        "blunder": "control points flagged by data snooping (Baarda 1968) and removed",
+        "blunder": "control points data snooping (Baarda 1968) removed (remove_blunders)",
+        "flag": "the blunder test of each control point: 'blunder' (|w| above the critical value), 'suspect' (above "
+                "it, but the redundancy is too low to call it a blunder), 'not testable' (its own redundancy too low)",
+        "w": "standardised residual of the point (its residual over its standard deviation, both directions)",
+        "redundancy": "the point's redundancy number (0: the fit follows it wherever it is, 1: fully checked)",
         "exaggeration": f"error vectors and plot drawn {rep['exaggeration']['legend']} ({rep['exaggeration']['chosen']})",
         **({"model_selection": f"auto: {rep['model_selection']['because']}"} if "model_selection" in rep else {}),
     }
@@ -187,14 +193,21 @@ def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     return {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
             "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
+            "blunder_test": fit.blunder_test,
             "warnings": fit.warnings, "model": fit.model.to_dict(),
             "model_info": {k: v for k, v in getattr(fit.model, "info", {}).items()
                            if isinstance(v, (int, float, str, list, bool))},
             "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
             "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
                         "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
+                        "w": _num(w), "redundancy": _num(rn), "flag": fl,
                         **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
-                       for i, r, p, v, dg in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground)]}
+                       for i, r, p, v, dg, w, rn, fl in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground, fit.w,
+                                                            fit.redundancy, fit.flag)]}
+
+
+def _num(v):
+    return float(v) if np.isfinite(v) else None
 
 
 def _write_gcp_tiff(src_path, dst_path, pixel, ground, ids, crs):
@@ -223,7 +236,8 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     d_px = fit.residual
     common = {"id": g.ids.astype(object), "role": fit.role.astype(object), "col": g.pixel[:, 0],
               "row": g.pixel[:, 1], "z": g.ground[:, 2], "dx_px": d_px[:, 0], "dy_px": d_px[:, 1],
-              "residual_px": np.hypot(*d_px.T)}
+              "residual_px": np.hypot(*d_px.T), "w": fit.w, "redundancy": fit.redundancy,
+              "flag": fit.flag.astype(object), "class": legend_class(fit.role, fit.flag).astype(object)}
     layers = {"gcps": {**common, "geometry": shapely.points(g.ground[:, :2])},
               "error_vectors": {**common, "dx": d_ground[:, 0], "dy": d_ground[:, 1],
                                 "length": np.hypot(*d_ground.T), "exaggeration": np.full(len(g), k),
@@ -232,28 +246,43 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     write_layers(path, layers, g.crs.to_wkt(), {"error_vectors": f"Error vectors drawn {legend}."})
 
 
+#: the plot's colours (BGR) per legend class (:func:`fotogeo.tools.gcp_style.legend_class`) and their names
+PLOT_COLOURS = {"control": ((180, 120, 31), "blue"), "check": ((28, 26, 227), "red"),
+                "suspect": ((0, 140, 255), "orange"), "blunder": ((200, 0, 200), "magenta")}  # the QGIS style's
+_HEADER_PX = 34
+
+
 def _plot(path, info, g, fit, exaggeration: dict, size: int = 1000):
     """PNG of the residual vectors over a grey thumbnail of the image: drawn ``exaggeration``
     times (the factor of the error-vector layer, the same for every model on these GCPs),
-    coloured by role, each labelled with its GCP id; a scale bar gives the residual length."""
+    coloured by legend class (a flagged point in its class's colour, whatever its role), each labelled
+    with its GCP id; the legend in a white band above the image (nothing under it), a scale bar below."""
     bands, _, (fx, fy) = read_decimated(info, size * size, "image")
     img = bands[:3].mean(axis=0)
     lo, hi = np.percentile(img, [1, 99])
     grey = np.clip((img - lo) / max(hi - lo, 1e-9) * 200 + 30, 0, 255).astype(np.uint8)
-    canvas = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    image = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
     k = exaggeration["factor"]
-    colours = {"control": (40, 160, 40), "check": (30, 30, 220), "blunder": (200, 0, 200)}
     font, aa = cv2.FONT_HERSHEY_SIMPLEX, cv2.LINE_AA
-    for p, v, r, i in zip(g.pixel, fit.residual, fit.role, g.ids):
+    classes = legend_class(fit.role, fit.flag)
+    for p, v, c, i in zip(g.pixel, fit.residual, classes, g.ids):
         a = (p[0] / fx, p[1] / fy)
         b = (a[0] + k * v[0] / fx, a[1] + k * v[1] / fy)
-        colour = colours.get(r, (0, 0, 0))
-        cv2.circle(canvas, (int(a[0]), int(a[1])), 3, colour, -1, aa)
-        cv2.arrowedLine(canvas, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), colour, 2, aa, tipLength=0.25)
-        cv2.putText(canvas, str(i), (int(a[0]) + 5, int(a[1]) - 5), font, 0.4, colour, 1, aa)
-    _scale_bar(canvas, k, fx, exaggeration.get("ground_per_pixel"))
-    cv2.putText(canvas, f"vectors x{k:g}  green control, red check, magenta blunder",
-                (10, 25), font, 0.6, (0, 0, 0), 2, aa)
+        colour = PLOT_COLOURS.get(c, ((0, 0, 0), ""))[0]
+        cv2.circle(image, (int(a[0]), int(a[1])), 3, colour, -1, aa)
+        cv2.arrowedLine(image, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), colour, 2, aa, tipLength=0.25)
+        cv2.putText(image, str(i), (int(a[0]) + 5, int(a[1]) - 5), font, 0.4, colour, 1, aa)
+    _scale_bar(image, k, fx, exaggeration.get("ground_per_pixel"))
+    canvas = np.full((image.shape[0] + _HEADER_PX, max(image.shape[1], 420), 3), 255, np.uint8)
+    canvas[_HEADER_PX:, :image.shape[1]] = image
+    x = 10
+    cv2.putText(canvas, f"vectors x{k:g}", (x, 22), font, 0.5, (0, 0, 0), 1, aa)
+    x += 110
+    for c in [c for c in PLOT_COLOURS if c in set(classes)]:  # only the classes drawn: no empty legend entry
+        colour = PLOT_COLOURS[c][0]
+        cv2.circle(canvas, (x + 5, 17), 5, colour, -1, aa)
+        cv2.putText(canvas, c, (x + 14, 22), font, 0.5, colour, 1, aa)
+        x += 24 + 10 * len(c)
     if not cv2.imwrite(str(path) if str(path).endswith(".png") else str(path) + ".png", canvas):
         raise InputError(f"could not write the plot {path}")
     if not str(path).endswith(".png"):
@@ -268,9 +297,10 @@ def _scale_bar(canvas, k: float, fx: float, ground_per_pixel=None):
     L = nice_number(0.1 * w * fx / k)
     length = int(round(L * k / fx))
     x0, y0 = 15, h - 20
-    cv2.rectangle(canvas, (x0 - 5, y0 - 28), (x0 + length + 5, y0 + 8), (255, 255, 255), -1)
+    text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
+    (tw, _), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+    cv2.rectangle(canvas, (x0 - 5, y0 - 28), (x0 + max(length, tw) + 5, y0 + 8), (255, 255, 255), -1)
     cv2.line(canvas, (x0, y0), (x0 + length, y0), (0, 0, 0), 3)
     for x in (x0, x0 + length):
         cv2.line(canvas, (x, y0 - 6), (x, y0 + 6), (0, 0, 0), 2)
-    text = f"{L:g} px residual" + (f" (~{L * ground_per_pixel:.3g} ground units)" if ground_per_pixel else "")
     cv2.putText(canvas, text, (x0, y0 - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
