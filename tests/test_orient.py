@@ -75,7 +75,7 @@ def test_a_flagged_blunder_is_in_every_output_and_drawn_as_the_legend_says(ngi_g
     draws it in the legend's magenta below a legend band that covers no point."""
     import cv2
 
-    from fotogeo.tools.orient import PLOT_COLOURS
+    from fotogeo.tools.orient.tool import PLOT_COLOURS
     g = ngi_gcps
     pixel = g["pixel"].copy()
     pixel[5] += [6.0, -4.0]

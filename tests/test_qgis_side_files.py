@@ -30,7 +30,7 @@ def pam_on():
 
 
 def _scene(folder):
-    from fotogeo.tools.demo import make_scene
+    from fotogeo.tools.demo.tool import make_scene
     make_scene(folder, seed=3, size=120, pixel=20.0)
     return folder / "reference.tif", folder / "target.tif"
 

@@ -136,7 +136,7 @@ def test_one_legend_with_a_blunder_class_and_no_empty_class(qgis_app, tmp_path):
     assert [c.value() for c in renderer.categories()] == ["control", "check", "blunder"]
     colour = {c.value(): c.symbol().color().name() for c in renderer.categories()}
     assert colour["blunder"] == "#c800c8"  # the magenta orient's plot draws it in
-    from fotogeo.tools.orient import PLOT_COLOURS
+    from fotogeo.tools.orient.tool import PLOT_COLOURS
     assert tuple(reversed(PLOT_COLOURS["blunder"][0])) == (200, 0, 200)
     # a tie-point layer (no class field): by role, its empty classes dropped, an unmatched role still drawn
     tie = _layer(tmp_path, "tie", shapely.points([[0, 0], [1, 1]]), {"id": ["T1", "T2"], "role": ["control", "outlier"]})
