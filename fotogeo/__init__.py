@@ -80,7 +80,7 @@ _TOOLS = {"register": "register", "match_images": "match", "orient": "orient", "
           "fuse_raster": "fuse", "transfer_gcps": "transfer", "measure_targets": "targets",
           "points_to_layer": "points", "layer_to_points": "points", "run_demo": "demo", "rpc_bias": "rpc_bias",
           "register_batch": "batch", "triangulate": "triangulate", "interior": "interior",
-          "ortho": "ortho", "mosaic": "mosaic"}
+          "ortho": "ortho", "mosaic": "mosaic", "dsm": "dsm"}
 #: public classes loaded on first use: name -> module under fotogeo
 _CLASSES = {"Registration": "tools.results", "Orientation": "tools.results", "RegisterOptions": "options",
             "Georeference": "geometry.georeference"}

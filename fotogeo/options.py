@@ -373,8 +373,9 @@ def find_option(name: str) -> Option | None:
     """
     from .options_coreg import COREG  # declared apart (this module's size); they import this one
     from .options_interior import INTERIOR
+    from .options_dsm import DSM
     from .options_products import MOSAIC, ORTHO
-    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG, ORTHO, MOSAIC, INTERIOR]:
+    for table in [v for v in globals().values() if isinstance(v, Table)] + [COREG, ORTHO, MOSAIC, INTERIOR, DSM]:
         if name in table:
             return table[name]
     return None

@@ -1,0 +1,111 @@
+"""Points of several stereo pairs onto one north-up grid.
+
+The grid: ``width x height`` cells of ``resolution`` map units, its top-left corner at ``(x0, y0)``; the cell of a
+point ``(X, Y)`` is ``col = floor((X − x0) / res)``, ``row = floor((y0 − Y) / res)``.
+
+Per pair (:class:`PairLayer`), the mean height of the pair's points in each cell; across the pairs
+(:func:`fuse`), per cell:
+
+* **height** — the median of the pairs' means (one pair: its mean), NaN where no pair has a point;
+* **count** — how many pairs gave a height;
+* **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs
+  (``sqrt(Σz²/n − (Σz/n)²)``): the surface's roughness and the matching noise at once.
+
+Holes stay NaN; :func:`fill_holes` fills them only when asked (OpenCV's Telea inpainting, 2004, on the heights)
+and returns the mask of what it filled.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A north-up grid: top-left corner ``(x0, y0)``, cell size, ``width`` columns, ``height`` rows."""
+    x0: float
+    y0: float
+    resolution: float
+    width: int
+    height: int
+
+    def cells(self, XY) -> tuple:
+        """``(flat cell index, inside)`` of points ``(N, 2)``."""
+        XY = np.asarray(XY, float)
+        with np.errstate(invalid="ignore"):
+            col = np.floor((XY[:, 0] - self.x0) / self.resolution)
+            row = np.floor((self.y0 - XY[:, 1]) / self.resolution)
+            inside = (col >= 0) & (col < self.width) & (row >= 0) & (row < self.height)
+        idx = np.where(inside, row * self.width + col, 0).astype(np.int64)
+        return idx, inside
+
+    def centres(self) -> tuple:
+        """Cell centres ``(X (width,), Y (height,))``."""
+        return (self.x0 + (np.arange(self.width) + 0.5) * self.resolution,
+                self.y0 - (np.arange(self.height) + 0.5) * self.resolution)
+
+
+class PairLayer:
+    """Sums of one pair's points per cell: count, Σz, Σz²."""
+
+    def __init__(self, grid: GridSpec):
+        self.grid = grid
+        n = grid.width * grid.height
+        self.n = np.zeros(n, np.int32)
+        self.s = np.zeros(n, np.float64)
+        self.s2 = np.zeros(n, np.float64)
+
+    def add(self, XYZ) -> int:
+        """Add points ``(N, 3)`` (NaN rows ignored); returns how many fell on the grid."""
+        XYZ = np.asarray(XYZ, float)
+        ok = np.isfinite(XYZ).all(axis=1)
+        idx, inside = self.grid.cells(XYZ[:, :2])
+        ok &= inside
+        idx, z = idx[ok], XYZ[ok, 2]
+        n = len(self.n)
+        self.n += np.bincount(idx, minlength=n).astype(np.int32)
+        self.s += np.bincount(idx, weights=z, minlength=n)
+        self.s2 += np.bincount(idx, weights=z * z, minlength=n)
+        return int(ok.sum())
+
+    def mean(self) -> np.ndarray:
+        """Mean height per cell ``(height, width)`` float32, NaN where no point."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(self.n > 0, self.s / self.n, np.nan)
+        return m.reshape(self.grid.height, self.grid.width).astype(np.float32)
+
+
+def fuse(layers) -> tuple:
+    """``(height, count, spread)`` ``(rows, cols)`` of the :class:`PairLayer` s (module docstring)."""
+    layers = list(layers)
+    means = np.stack([ly.mean() for ly in layers])
+    count = np.isfinite(means).sum(axis=0).astype(np.int16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        height = np.nanmedian(means, axis=0).astype(np.float32)
+    n = sum(ly.n.astype(np.float64) for ly in layers)
+    s = sum(ly.s for ly in layers)
+    s2 = sum(ly.s2 for ly in layers)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = np.maximum(s2 / n - (s / n) ** 2, 0.0)
+    spread = np.where(n > 0, np.sqrt(var), np.nan).reshape(height.shape).astype(np.float32)
+    return height, count, spread
+
+
+def fill_holes(height, radius: int = 8) -> tuple:
+    """``(filled heights, mask)``: the NaN cells of ``height`` inside the hull of its valid cells filled by
+    Telea inpainting (``radius`` cells), ``mask`` uint8 1 where filled. Cells outside every valid cell's
+    reach stay NaN."""
+    valid = np.isfinite(height)
+    if valid.all() or not valid.any():
+        return height.copy(), np.zeros(height.shape, np.uint8)
+    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
+    span = max(hi - lo, 1e-6)
+    norm = np.where(valid, (height - lo) / span, 0).astype(np.float32)
+    holes = (~valid).astype(np.uint8)
+    filled = cv2.inpaint(norm, holes, radius, cv2.INPAINT_TELEA) * span + lo
+    out = np.where(valid, height, filled).astype(np.float32)
+    return out, holes
