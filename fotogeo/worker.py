@@ -63,6 +63,7 @@ TOOLS = {
     "interior": ("fotogeo.tools.interior", "interior"),
     "ortho": ("fotogeo.tools.ortho", "ortho"),
     "mosaic": ("fotogeo.tools.mosaic", "mosaic"),
+    "dsm": ("fotogeo.tools.dsm", "dsm"),
     "propose_gcps": ("fotogeo.tools.gcp_propose", "propose_gcps"),
 }
 #: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)

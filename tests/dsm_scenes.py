@@ -75,6 +75,22 @@ def make_scene(kind: str, folder) -> dict:
     raise ValueError(kind)
 
 
+def write_dem(sc: dict, path, *, cell: float = 20.0, margin: float = 1500.0) -> Path:
+    """A DEM GeoTIFF of the scene's true surface (``cell`` m) over its projection centres ± ``margin``."""
+    from rasterio.transform import from_origin
+    xy = np.array([[float(v) for v in line.split()[1:3]] for line in Path(sc["eo"]).read_text().splitlines()
+                   if line and not line.startswith("#")])
+    x0, y1 = xy.min(axis=0) - margin
+    x1, y0 = xy.max(axis=0) + margin
+    cols, rows = int((x1 - x0) / cell), int((y0 - y1) / cell)
+    X, Y = np.meshgrid(x0 + (np.arange(cols) + 0.5) * cell, y0 - (np.arange(rows) + 0.5) * cell)
+    z = sc["surface"](np.column_stack([X.ravel(), Y.ravel()])).reshape(rows, cols)
+    with rasterio.open(path, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32", crs=sc["crs"],
+                       transform=from_origin(x0, y0, cell, cell)) as ds:
+        ds.write(z.astype(np.float32)[None])
+    return Path(path)
+
+
 def compare(dsm_path, surface, *, edge: int = 0) -> dict:
     """Heights of the DSM against the true ``surface`` at its cell centres: RMSE, NMAD, median, the share within
     1 and 2 GSD is left to the caller; ``n`` the valid cells, ``cells`` all cells."""

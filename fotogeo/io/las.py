@@ -27,6 +27,15 @@ def _laspy():
     return laspy
 
 
+def check_writable(path) -> None:
+    """Refuse, before any work, a point cloud this environment cannot write (laspy missing; ``.laz`` without a
+    LAZ backend)."""
+    laspy = _laspy()
+    if Path(path).suffix.lower() == ".laz" and not laspy.LazBackend.detect_available():
+        raise InputError(f"cannot write the compressed point cloud {str(path)!r}: no LAZ backend is installed; "
+                         f"write .las instead, or install lazrs (pip install lazrs)")
+
+
 class LasWriter:
     """``with LasWriter(path, crs, compress=None) as w: w.write(xyz, rgb)`` (module docstring); ``path`` may be a
     temporary name (``compress``: True/False, or None for the path's suffix)."""

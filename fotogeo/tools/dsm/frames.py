@@ -59,7 +59,8 @@ def sparse_check(rp: RectifiedPair, views, greys, max_features: int = 4000) -> d
     sift = cv2.SIFT_create(nfeatures=max_features)
     k1, d1 = sift.detectAndCompute(imgs[0][0], imgs[0][1].astype(np.uint8))
     k2, d2 = sift.detectAndCompute(imgs[1][0], imgs[1][1].astype(np.uint8))
-    empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "points": np.zeros((0, 3)), "miss": np.zeros(0)}
+    empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "points": np.zeros((0, 3)), "miss": np.zeros(0),
+             "dy_median": 0.0, "dy_spread": 0.0}
     if d1 is None or d2 is None or len(k1) < 8 or len(k2) < 8:
         return empty
     pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
@@ -69,13 +70,31 @@ def sparse_check(rp: RectifiedPair, views, greys, max_features: int = 4000) -> d
     p1 = np.array([k1[m.queryIdx].pt for m in good]) + HALF
     p2 = np.array([k2[m.trainIdx].pt for m in good]) + HALF
     dy = p1[:, 1] - p2[:, 1]
-    med = np.median(dy)
-    keep = np.abs(dy - med) < max(3.0, 5 * 1.4826 * np.median(np.abs(dy - med)))
+    med = float(np.median(dy))
+    spread = float(1.4826 * np.median(np.abs(dy - med)))
+    keep = np.abs(dy - med) <= max(2.0, 3.0 * spread)
     p1, p2, dy = p1[keep], p2[keep], dy[keep]
     P, miss = closest_points(rp.centres[0], rp.rays(p1[:, 0], p1[:, 1], 0), rp.centres[1],
                              rp.rays(p2[:, 0], p2[:, 1], 1))
     ok = np.isfinite(miss)
-    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "points": P[ok], "miss": miss[ok]}
+    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "points": P[ok], "miss": miss[ok],
+            "dy_median": med, "dy_spread": spread}
+
+
+def sparse_problem(sp, max_px: float) -> str:
+    """Why the sparse matches of a pair cannot be trusted ("" when they can): they disagree among themselves (the
+    images do not show the same ground, or the orientation is wrong), or agree on rows ``max_px`` apart (the
+    orientation does not fit the images)."""
+    if sp["n"] < 8:
+        return ""
+    if sp["dy_spread"] > 3.0:
+        return (f"its sparse matches disagree (their row differences spread {sp['dy_spread']:.0f} px): the images "
+                f"may not show the same ground, or their orientation is wrong")
+    if abs(sp["dy_median"]) > max_px:
+        return (f"the orientation does not fit the images: sparse matches lie {abs(sp['dy_median']):.1f} px off "
+                f"their epipolar lines (rays miss by {np.median(sp['miss']):.2f} m); refine the orientation "
+                f"(fotogeo triangulate)")
+    return ""
 
 
 def dense_points(rp: RectifiedPair, views, greys, colours, lo: float, hi: float, zlim: tuple, stats: dict):

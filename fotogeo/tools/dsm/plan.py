@@ -39,15 +39,16 @@ def nearest_pair(views) -> tuple:
     return int(min(i, j)), int(max(i, j))
 
 
-def sparse_heights(views, greys, sparse_check) -> tuple:
+def sparse_heights(views, greys, sparse_check, sparse_problem, max_px) -> tuple:
     """``(low, high)`` heights of the sparse matches of the nearest pair (1st and 99th percentile), refused when
-    they do not match."""
+    they are too few or cannot be trusted."""
     i, j = nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = sparse_check(rp, (views[i], views[j]), (greys[i], greys[j]))
-    if sp["n"] < 20:
-        raise InputError(f"images {views[i].name!r} and {views[j].name!r}: only {sp['n']} sparse matches, too few to "
-                         f"bound the heights; give a coarse DEM of the area (--dem)")
+    why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
+    if why:
+        raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "
+                         f"cannot be bounded from them: give a coarse DEM of the area (--dem)")
     z = sp["points"][:, 2]
     return float(np.percentile(z, 1)), float(np.percentile(z, 99))
 

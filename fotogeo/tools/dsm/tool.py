@@ -47,6 +47,9 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
             check_output(p, inputs, overwrite, role)
     if point_cloud is not None and Path(point_cloud).suffix.lower() not in (".las", ".laz"):
         raise InputError(f"--point-cloud {str(point_cloud)!r}: give a .las or .laz file name", option="point_cloud")
+    if point_cloud is not None:
+        from ...io.las import check_writable
+        check_writable(point_cloud)
     if rpc:
         from .rpc_pairs import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
@@ -68,7 +71,7 @@ def _heights(ims, views, greys, dem, dem_heights, crs) -> tuple:
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
         return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
-    zlo, zhi = plan.sparse_heights(views, greys, frames.sparse_check)
+    zlo, zhi = plan.sparse_heights(views, greys, frames.sparse_check, frames.sparse_problem, MAX_EPIPOLAR_PX)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
@@ -101,10 +104,9 @@ def _pair_setup(p, views, greys, zlo, zhi, use_dem, scale) -> tuple:
                                              "p95": float(np.percentile(np.abs(sp["dy"]), 95))},
                        ray_miss_m={"median": float(np.median(sp["miss"])),
                                    "p95": float(np.percentile(sp["miss"], 95))})
-        if np.median(np.abs(sp["dy"])) > MAX_EPIPOLAR_PX:
-            return rp, None, None, (f"the orientation does not fit the images: sparse matches lie "
-                              f"{np.median(np.abs(sp['dy'])):.1f} px off their epipolar lines (rays miss by "
-                              f"{np.median(sp['miss']):.2f} m); refine the orientation (fotogeo triangulate)")
+    why = frames.sparse_problem(sp, MAX_EPIPOLAR_PX)
+    if why:
+        return rp, None, None, why
     if use_dem:
         return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None
     if sp["n"] < 20:
