@@ -10,7 +10,8 @@ only where:
   connected regions smaller than ``speckle_window`` pixels whose disparities vary by at most ``speckle_range`` —
   removed);
 * the two agree within ``lr_tolerance`` px (left–right consistency: ``|d_L(x) − d_R(x − d_L(x))| ≤ tol``);
-* both the pixel and its match lie inside their source images (``valid`` masks).
+* both the pixel and its match lie inside their source images (``valid`` masks, eroded by the block size: a
+  block that reaches outside an image matches its border, not the scene).
 
 Disparities follow :mod:`fotogeo.stereo.rectify`: ``d = u_left − u_right`` (float32, NaN where none).
 Grey values are stretched to 8 bits between the 0.5 and 99.5 percentiles of each image's valid pixels.
@@ -65,6 +66,9 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
               lr_tolerance: float = 1.0) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring)."""
+    k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
+    valid_left = cv2.erode(valid_left.astype(np.uint8), k).astype(bool)
+    valid_right = cv2.erode(valid_right.astype(np.uint8), k).astype(bool)
     L, R = to_uint8(left, valid_left), to_uint8(right, valid_right)
     dmin, ndisp = disparity_range(lo, hi)
     m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range)

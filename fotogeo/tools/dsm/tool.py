@@ -51,7 +51,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         from ...io.las import check_writable
         check_writable(point_cloud)
     if rpc:
-        from .rpc_pairs import rpc_dsm
+        from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                        crs=crs, bounds=parse_bounds(bounds), fill=fill, point_cloud=point_cloud, report=report,
                        overwrite=overwrite, prog=prog, t0=t0)
