@@ -13,7 +13,7 @@ from fotogeo.orientation.rpc import Rpc
 from fotogeo.io.rpc import read_rpc, read_rpc_text
 
 FILES = ["rpc_IKONOS.txt", "rpc_PLANET_L1A.txt", "rpc_PLANET_L1B.txt", "rpc_PLEIADES.xml", "rpc_SPOT6.xml",
-         "20191015_073816_ssc1d3_0011_basic_l1a_panchromatic_dn_RPC.TXT"]
+         "rpc_WV2.xml", "20191015_073816_ssc1d3_0011_basic_l1a_panchromatic_dn_RPC.TXT"]
 
 
 def sample(rpc: Rpc, n: int, rng):

@@ -1,26 +1,33 @@
-"""RPC files: RPC00B text (``_RPC.TXT``), Pleiades DIMAP XML, GDAL RPC metadata of a raster, and
-GeoTIFF copies of an image carrying a fitted RPC as GDAL metadata (``gdalwarp -rpc`` reads it).
+"""RPC files and rasters: the one entry point :func:`read_rpc` for RPC files of every vendor format, the RPC
+of a raster's GDAL metadata (:func:`rpc_from_raster`) and GeoTIFF copies of an image carrying an RPC as GDAL
+metadata (:func:`write_rpc_geotiff`; ``gdalwarp -rpc`` reads it).
+
+One reader per format, all returning :class:`~fotogeo.orientation.rpc.Rpc` in the RPC00B pixel convention
+(the *centre* of the first pixel is (0, 0), as in GDAL's RPC metadata; vendor conventions are converted by
+their reader): ``KEY: value`` text here (:func:`read_rpc_text`), DIMAP and DigitalGlobe XML in
+:mod:`fotogeo.io.rpc_xml`, OSSIM ``.geom`` and ``.RPB`` in :mod:`fotogeo.io.rpc_keywords`; the RPC of an
+image with its sidecar files: :func:`fotogeo.io.rpc_image.image_rpc`.
 """
 from __future__ import annotations
 
 import dataclasses
 import re
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, OutputError, RasterError, one_line
+from ..errors import InputError, OutputError, RasterError
 from ..orientation.rpc import Rpc
 from .text import read_text_file
 
 
-def _read_text(path: Path, what: str) -> str:
-    """The text of ``path`` (undecodable bytes replaced; :func:`~fotogeo.io.text.read_text_file`)."""
-    return read_text_file(path, what, hint="give the RPC file (_RPC.TXT or DIMAP RPC XML)", errors="replace")
+def read_rpc_file_text(path: Path) -> str:
+    """The text of RPC file ``path`` (undecodable bytes replaced; :func:`~fotogeo.io.text.read_text_file`)."""
+    return read_text_file(path, "RPC file", hint="give the RPC file (_RPC.TXT, .RPB, .geom or RPC XML)",
+                          errors="replace")
 
 
-def _checked(rpc: Rpc, source: str) -> Rpc:
+def checked_rpc(rpc: Rpc, source: str) -> Rpc:
     """``rpc`` if every value is finite, the scales non-zero and the denominators not all zero."""
     for f in dataclasses.fields(rpc):
         value = np.asarray(getattr(rpc, f.name), dtype=np.float64)
@@ -37,42 +44,39 @@ def read_rpc_text(path) -> Rpc:
     """Read a ``KEY: value [unit]`` RPC text file (IKONOS ``_rpc.txt``, Planet/SkySat ``_RPC.TXT``)."""
     path = Path(path)
     d = {}
-    for line in _read_text(path, "RPC file").splitlines():
+    for line in read_rpc_file_text(path).splitlines():
         key, sep, value = line.partition(":")
         if sep and value.split():
             d[key.strip().upper()] = value.split()[0]
     source = f"RPC file {str(path)!r}"
-    return _checked(Rpc.from_mapping(d, source), source)
-
-
-def read_rpc_dimap(path) -> Rpc:
-    """Read the ground -> image ``Inverse_Model`` of a DIMAP v2 RPC XML (Pleiades, SPOT 6/7)."""
-    path = Path(path)
-    source = f"RPC file {str(path)!r}"
-    _read_text(path, "RPC file")  # a folder or a missing file: a clear message
-    try:
-        root = ET.parse(path).getroot()
-    except (ET.ParseError, ValueError, LookupError, UnicodeError) as exc:
-        raise InputError(one_line(f"{source}: not valid XML ({exc}); give a DIMAP RPC XML or an RPC text file")) from None
-    except OSError as exc:
-        raise InputError(one_line(f"cannot read {source}: {exc}")) from None
-    inv = root.find(".//Inverse_Model")
-    valid = root.find(".//RFM_Validity")
-    if inv is None or valid is None:
-        raise InputError(f"{source}: no DIMAP Inverse_Model / RFM_Validity; unsupported RPC file")
-    d = {el.tag: el.text for el in list(inv) + list(valid) if el.text and el.text.strip()}
-    return _checked(Rpc.from_mapping(d, source), source)
+    return checked_rpc(Rpc.from_mapping(d, source), source)
 
 
 def read_rpc(path) -> Rpc:
-    """Read an RPC text or DIMAP XML file (by content)."""
+    """Read an RPC file, its format told by its content (one reader per format):
+
+    * XML: DIMAP (Pleiades, SPOT 6/7, Pleiades Neo) or DigitalGlobe ``<isd>`` — :mod:`fotogeo.io.rpc_xml`;
+    * OSSIM/OTB ``.geom`` keyword list (``line_num_coeff_00:``) and ``.RPB`` (``lineOffset = …;``) —
+      :mod:`fotogeo.io.rpc_keywords`;
+    * ``KEY: value`` text (IKONOS ``_rpc.txt``, Planet/SkySat ``_RPC.TXT``) — :func:`read_rpc_text`.
+
+    :meth:`~fotogeo.orientation.rpc.Rpc.to_model` moves the result to fotogeo's corner convention.
+    """
+    from .rpc_keywords import read_rpc_ossim, read_rpc_rpb
+    from .rpc_xml import read_rpc_xml
+
     path = Path(path)
-    head = _read_text(path, "RPC file")[:2000]
+    head = read_rpc_file_text(path)[:20000]
     if head.lstrip().startswith("<"):
-        return read_rpc_dimap(path)
+        return read_rpc_xml(path)
+    if re.search(r"^\s*line_num_coeff_00\s*:", head, re.MULTILINE):
+        return read_rpc_ossim(path)
+    if re.search(r"^\s*lineOffset\s*=", head, re.MULTILINE | re.IGNORECASE):
+        return read_rpc_rpb(path)
     if re.search(r"^\s*LINE_OFF\s*:", head, re.MULTILINE):
         return read_rpc_text(path)
-    raise InputError(f"RPC file {str(path)!r}: unsupported RPC format (expected 'LINE_OFF: ...' text or DIMAP XML)")
+    raise InputError(f"RPC file {str(path)!r}: unsupported RPC format (expected DIMAP or DigitalGlobe XML, an "
+                     f"OSSIM .geom, an .RPB or 'LINE_OFF: ...' text)")
 
 
 def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) -> Path:

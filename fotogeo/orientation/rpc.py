@@ -12,11 +12,11 @@ Line/sample are in the RPC's own pixel convention: the *centre* of the first pix
 (0, 0) (checked: GDAL's RPC transformer reports ``(samp, line) + 0.5``), so fotogeo's GDAL-corner
 pixels are ``(samp, line) + 0.5`` (:func:`fotogeo.pixels.from_centre`). :meth:`Rpc.project`
 returns RPC-convention values; :meth:`Rpc.to_model` and :meth:`Rpc.from_model` convert to and
-from fotogeo models in the corner convention. (Pleiades DIMAP files are 1-based; they are read
-as they are.)
+from fotogeo models in the corner convention. Vendor files in another convention are converted by
+their reader (DIMAP numbers pixels from 1: :mod:`fotogeo.io.rpc_xml` subtracts 1 from its offsets).
 
-Readers: :func:`read_rpc_text` (``KEY: value`` files of IKONOS, Planet, SkySat; units after
-the value are ignored) and :func:`read_rpc_dimap` (Pleiades/SPOT DIMAP v2 ``Inverse_Model``).
+Readers (one per format, :func:`fotogeo.io.rpc.read_rpc` picks by content): ``KEY: value`` text
+(IKONOS, Planet, SkySat), DIMAP and DigitalGlobe XML, OSSIM ``.geom``, ``.RPB``, GDAL RPC metadata.
 :meth:`Rpc.to_model` gives a :class:`fotogeo.models.rfm.RFM` with ``src = (lon, lat, h)`` ->
 ``dst = (samp, line)`` that evaluates identically (and inverts with ``inverse(dst, heights)``), and
 :meth:`Rpc.from_model` goes back.

@@ -1,6 +1,7 @@
 """The RPC bias tool: an image with a vendor RPC + GCPs (paths) → a copy carrying the corrected RPC.
 
-``rpc_bias(image, gcps, output)`` reads the RPC00B of ``image`` (GDAL's RPC metadata), the
+``rpc_bias(image, gcps, output)`` reads the RPC00B of ``image`` (GDAL's RPC metadata, else an RPC file beside
+it: :func:`fotogeo.io.rpc_image.image_rpc`, which also moves a product's RPC into a crop's pixels), the
 GCPs (:func:`fotogeo.io.gcps.read_gcps`: ground X, Y, h in any CRS + their pixels), fits the
 image-space correction of Grodecki & Dial (2003) on the control points
 (:func:`fotogeo.orientation.bias.estimate_bias`: a shift, or an affinity), builds it into the
@@ -27,7 +28,8 @@ from ..errors import FotogeoWarning, InputError
 from ..io.gcps import read_gcps
 from ..io.raster import AtomicOutputs, check_output, open_raster
 from ..io.report import write_json
-from ..io.rpc import rpc_from_raster, write_rpc_geotiff
+from ..io.rpc import write_rpc_geotiff
+from ..io.rpc_image import image_rpc
 from ..models.stats import residual_stats
 from ..orientation.bias import corrected_rpc, estimate_bias
 from ..pixels import from_centre
@@ -54,7 +56,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     for path, role in ((output, "output raster"), (report, "report")):
         check_output(path, [image, gcps, dem], overwrite, role)
     info = open_raster(image, "image")
-    rpc = rpc_from_raster(image)
+    rpc = image_rpc(image).rpc
     g = read_gcps(gcps, layer=layer, crs=crs, dem=dem, height=height, **(fields or {}))
     check_gcp_crs(g, gcps)
     if not g.has_heights:

@@ -1,0 +1,104 @@
+"""The RPC of an image: from a given RPC file, the image's GDAL RPC metadata, or an RPC file beside it.
+
+:func:`image_rpc` returns the ground -> image RPC00B of the *image's own pixels* (centre of its first pixel
+(0, 0); :meth:`~fotogeo.orientation.rpc.Rpc.to_model` gives fotogeo's corner convention), looking in order at
+
+1. ``rpc``, an RPC file given by the caller (any format :func:`fotogeo.io.rpc.read_rpc` reads);
+2. the raster's GDAL ``RPC`` metadata (GeoTIFF RPC tags, and what GDAL reads beside the image itself:
+   ``.RPB``, ``_RPC.TXT``, DIMAP ``RPC_*.XML`` next to ``IMG_*`` with its tile offsets, DigitalGlobe ``.XML``);
+3. a file beside the image, first found of ``<stem>.geom`` (OSSIM/OTB), ``<stem>.RPB``, ``<stem>_RPC.TXT``,
+   ``<stem>_rpc.txt``, ``RPC_<name>.XML`` for an ``IMG_<name>_R<i>C<j>`` image, ``<stem>.XML``.
+
+An RPC file (1 or 3) describes the whole product. An image cut out of it by OTB, shareloc or CARS keeps the RPC
+file and carries its place in the product as its geotransform, with no CRS: full-product pixel (corner
+convention) ``X = a·col + c``, ``Y = e·row + f`` (``a, e > 0``, no rotation). Such a geotransform is applied
+to the file's RPC (exactly: ``samp' = (samp + ½ − c) / a − ½`` on the offset, ``SAMP_SCALE / a`` on the scale,
+the same for lines), and reported as ``product_window``. GDAL's own RPC metadata (2) already describes the
+dataset's pixels and is used as it is. A georeferenced image (a CRS) with a separate RPC file is refused: its
+pixels are not the sensor's.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ..errors import InputError, RasterError
+from ..orientation.rpc import Rpc
+from .rpc import read_rpc, rpc_from_raster
+
+
+@dataclass(frozen=True)
+class ImageRpc:
+    """An image's RPC (in its own pixels), where it came from and the product window applied."""
+
+    rpc: Rpc
+    source: str  # the RPC file, or "GDAL RPC metadata"
+    product_window: tuple | None = None  # (a, c, e, f) of the geotransform applied, or None
+
+
+def sidecar_rpc_files(image) -> list[Path]:
+    """Existing RPC files beside ``image``, in the order of the module docstring (step 3)."""
+    image = Path(image)
+    stem, folder = image.stem, image.parent
+    names = [f"{stem}.geom", f"{stem}.GEOM", f"{stem}.RPB", f"{stem}.rpb", f"{stem}_RPC.TXT", f"{stem}_rpc.txt"]
+    m = re.fullmatch(r"IMG_(.+?)(_R\d+C\d+)?", stem, re.IGNORECASE)
+    if m:
+        names += [f"RPC_{m.group(1)}.XML", f"RPC_{m.group(1)}.xml"]
+    names += [f"{stem}.XML", f"{stem}.xml"]
+    seen, out = set(), []
+    for n in names:
+        p = folder / n
+        if p.is_file() and p.resolve() not in seen:
+            seen.add(p.resolve())
+            out.append(p)
+    return out
+
+
+def _pixel_geotransform(image) -> tuple | None:
+    """``(a, c, e, f)`` of the image's geotransform when it has no CRS (identity: None)."""
+    from .raster import ropen
+    try:
+        with ropen(image) as ds:
+            crs, t = ds.crs, ds.transform
+    except Exception as exc:  # noqa: BLE001 -- any GDAL failure is a bad input raster
+        raise RasterError(f"cannot read raster {str(image)!r}: {exc}") from None
+    if crs is not None:
+        return "georeferenced"
+    if t.b != 0 or t.d != 0 or t.a <= 0 or t.e <= 0:
+        raise InputError(f"image {str(image)!r}: its geotransform {tuple(t)[:6]} has no CRS and is not a sensor "
+                         f"window (positive pixel steps, no rotation); remove it or give the image GDAL RPC tags")
+    if (t.a, t.c, t.e, t.f) == (1.0, 0.0, 1.0, 0.0):
+        return None
+    return (t.a, t.c, t.e, t.f)
+
+
+def in_window(rpc: Rpc, a: float, c: float, e: float, f: float) -> Rpc:
+    """``rpc`` of a full product moved to an image whose pixel (corner) ``(col, row)`` is the product's
+    ``(a·col + c, e·row + f)`` (module docstring; exact)."""
+    return replace(rpc, samp_off=(rpc.samp_off + 0.5 - c) / a - 0.5, samp_scale=rpc.samp_scale / a,
+                   line_off=(rpc.line_off + 0.5 - f) / e - 0.5, line_scale=rpc.line_scale / e)
+
+
+def image_rpc(image, rpc=None) -> ImageRpc:
+    """The RPC of ``image`` in its own pixels (module docstring), from ``rpc`` (a file) or found."""
+    image = Path(image)
+    if rpc is None:
+        try:
+            return ImageRpc(rpc_from_raster(image), "GDAL RPC metadata")
+        except RasterError as exc:
+            if "carries no RPC" not in str(exc):
+                raise
+        found = sidecar_rpc_files(image)
+        if not found:
+            raise InputError(f"image {str(image)!r} has no RPC: no GDAL RPC metadata and no .geom, .RPB, _RPC.TXT "
+                             f"or RPC XML beside it; give the RPC file")
+        rpc = found[0]
+    model = read_rpc(rpc)
+    window = _pixel_geotransform(image)
+    if window == "georeferenced":
+        raise InputError(f"image {str(image)!r} is georeferenced (it has a CRS): its pixels are not those of the "
+                         f"RPC {str(rpc)!r}; give the sensor-geometry image")
+    if window is not None:
+        model = in_window(model, *window)
+    return ImageRpc(model, str(rpc), window)
