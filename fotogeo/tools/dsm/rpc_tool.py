@@ -16,7 +16,7 @@ from ...io.raster import AtomicOutputs
 from ...stereo.fusion import PairLayer, fill_holes, fuse
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..checks import check_output_grid
-from ..ortho_inputs import image_models, map_crs, terrain
+from ..ortho_inputs import map_crs, terrain
 from . import plan
 from . import rpc_pairs as rp
 from .inputs import read_image, read_pairs
@@ -94,11 +94,37 @@ def _pair_setup(p, ims, imgs, zlo, zhi, dem_source) -> dict:
     return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
 
 
+def rpc_images(images, crs, dem) -> tuple:
+    """``(OrthoImage list, map CRS, rule)``: each image's RPC wherever it is (:func:`fotogeo.io.rpc_image.image_rpc`:
+    GDAL RPC metadata, else a .geom/.RPB/_RPC.TXT/XML beside it, moved into a crop's pixels) in the map CRS of
+    ``ortho``'s rule (:func:`~fotogeo.tools.ortho_inputs.map_crs`; else the UTM zone of the first image's RPC)."""
+    from ...crs import utm_crs_for
+    from ...geometry.lonlat_model import LonLatModel
+    from ...io.block import frame_key
+    from ...io.raster import open_raster
+    from ...io.rpc_image import image_rpc
+    from ..ortho_inputs import OrthoImage
+    rpcs = [image_rpc(p).rpc for p in images]
+    map_c, rule = utm_crs_for(rpcs[0].long_off, rpcs[0].lat_off), "the UTM zone of the image centre (RPC)"
+    given = crs and str(crs).strip().lower() != "auto"
+    if given or dem is not None:
+        try:
+            map_c, rule = map_crs(crs, dem, None, [], False)
+        except InputError:
+            if given:
+                raise  # a DEM in geographic coordinates: the UTM zone stays
+    out = []
+    for p, r in zip(images, rpcs):
+        info = open_raster(p, "image")
+        out.append(OrthoImage(str(p), frame_key(p), LonLatModel(r.to_model(), map_c), "rpc", info.width, info.height,
+                              "ellipsoid"))
+    return out, map_c, rule
+
+
 def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, fill, point_cloud, report,
             overwrite, prog, t0) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s."""
-    map_c, rule = map_crs(crs, dem, None, images, True)
-    ims = image_models(images, map_c, rpc=True)
+    ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
     dem_source, notes, ref = None, ["heights above the ellipsoid (RPC)"], "ellipsoid"
