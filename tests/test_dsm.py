@@ -66,7 +66,7 @@ def test_fusion_median_count_and_spread():
     assert h[0, 0] == pytest.approx(3.0) and n[0, 0] == 3  # median of the pairs' means 2, 3, 11
     assert s[0, 0] == pytest.approx(np.std([1, 3, 2, 4, 10, 12]), rel=1e-5)
     assert h[4, 5] == 4.0 and n[4, 5] == 1 and np.isnan(h[9, 9]) and n[9, 9] == 0
-    filled, mask = fill_holes(h)
+    filled, mask = fill_holes(h, everywhere=True)
     assert np.isfinite(filled).all() and mask[9, 9] == 1 and mask[0, 0] == 0 and filled[0, 0] == h[0, 0]
 
 
@@ -165,3 +165,62 @@ def test_bad_input_is_one_line_naming_the_images(tmp_path):
     with pytest.raises(InputError, match=r"no stereo pair.*s1_01 and s2_01.*overlap 0 %"):
         dsm(far, tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], dem=dem)
     assert not (tmp_path / "a.tif").exists() and not list(tmp_path.glob(".a.*"))
+
+
+# -- RPC pairs (Pleiades crops of ventoux, OSSIM .geom beside the images) -------------------------------------------
+
+def _ventoux(data_dir, folder: Path, right_geom: str, edit=None) -> list:
+    import shutil
+    v = data_dir / "rpc" / "ventoux"
+    folder.mkdir()
+    for name, src in (("left.tif", "left_image.tif"), ("left.geom", "left_image.geom"),
+                      ("right.tif", "right_image.tif"), ("right.geom", right_geom)):
+        shutil.copy(v / src, folder / name)
+    if edit:
+        p = folder / "right.geom"
+        p.write_text(edit(p.read_text()))
+    return [folder / "left.tif", folder / "right.tif"]
+
+
+@pytest.mark.data
+def test_ventoux_rpc_pair_and_its_biased_twin(data_dir, tmp_path):
+    """The Pleiades pair fills most of its overlap (CARS 1.3: 42 % with wide margins) with a small relative
+    pointing correction; with the right RPC about 60 px off, fotogeo measures the across-line part, warns that
+    absolute heights need a DEM or GCPs, and its surface comes out higher, as CARS's did."""
+    from fotogeo.errors import FotogeoWarning
+    from fotogeo.tools.dsm import dsm
+    good = dsm(_ventoux(data_dir, tmp_path / "a", "right_image.geom"), tmp_path / "a.tif", rpc=True, resolution=0.5,
+               report=tmp_path / "a.json")
+    p = good["pairs"][0]
+    assert good["completeness"] > 0.6 and good["height_reference"] == "ellipsoid"
+    assert np.hypot(*p["relative_pointing_px"]) < 10 and p["epipolar_residual_px"]["after"] < 0.5
+    with pytest.warns(FotogeoWarning, match=r"relative pointing error of the RPCs was large .*absolute heights need "
+                                            r"a reference DEM or GCPs"):
+        bad = dsm(_ventoux(data_dir, tmp_path / "b", "right_image_bias.geom"), tmp_path / "b.tif", rpc=True,
+                  resolution=0.5)
+    q = bad["pairs"][0]
+    assert q["relative_pointing_large"] and np.hypot(*q["relative_pointing_px"]) > 15
+    assert bad["heights"]["median"] - good["heights"]["median"] > 40
+
+
+@pytest.mark.data
+def test_rpc_without_a_usable_height_range_is_refused(data_dir, tmp_path):
+    import re
+
+    from fotogeo.tools.dsm import dsm
+    images = _ventoux(data_dir, tmp_path / "a", "right_image.geom",
+                      edit=lambda t: re.sub(r"height_scale:\s*\S+", "height_scale:  90000", t))
+    with pytest.raises(InputError, match=r"image 'right'.*no usable height range.*--dem"):
+        dsm(images, tmp_path / "a.tif", rpc=True)
+
+
+def test_cli_one_line_error(tmp_path):
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    img = tmp_path / "a.tif"
+    import rasterio
+    with rasterio.open(img, "w", driver="GTiff", width=32, height=32, count=1, dtype="uint8") as ds:
+        ds.write(np.zeros((1, 32, 32), np.uint8))
+    r = CliRunner().invoke(main, ["dsm", str(img), "-o", str(tmp_path / "d.tif")])
+    assert r.exit_code == 2 and r.output.strip().splitlines()[-1].startswith("Error:") and "at least two" in r.output

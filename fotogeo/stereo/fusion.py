@@ -11,8 +11,10 @@ Per pair (:class:`PairLayer`), the mean height of the pair's points in each cell
 * **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs
   (``sqrt(Σz²/n − (Σz/n)²)``): the surface's roughness and the matching noise at once.
 
-Holes stay NaN; :func:`fill_holes` fills them only when asked (OpenCV's Telea inpainting, 2004, on the heights)
-and returns the mask of what it filled.
+:func:`remove_speckles` then drops small islands of heights (fewer than ``max_cells`` cells connected by steps of at
+most ``max_step``): isolated mismatches, which a cell seen by one pair cannot outvote. Holes stay NaN;
+:func:`fill_holes` fills them only when asked (OpenCV's Telea inpainting, 2004, on the heights, inside the
+convex hull of the heights) and returns the mask of what it filled.
 """
 from __future__ import annotations
 
@@ -95,17 +97,38 @@ def fuse(layers) -> tuple:
     return height, count, spread
 
 
-def fill_holes(height, radius: int = 8) -> tuple:
-    """``(filled heights, mask)``: the NaN cells of ``height`` inside the hull of its valid cells filled by
-    Telea inpainting (``radius`` cells), ``mask`` uint8 1 where filled. Cells outside every valid cell's
-    reach stay NaN."""
+def remove_speckles(height, max_cells: int, max_step: float) -> tuple:
+    """``(heights, removed)``: ``height`` without its islands (module docstring; OpenCV's ``filterSpeckles`` on the
+    heights quantised to int16), ``removed`` the number of cells set to NaN."""
+    valid = np.isfinite(height)
+    if not valid.any():
+        return height, 0
+    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
+    step = max((hi - lo) / 60000.0, 1e-4)
+    q = np.full(height.shape, -32768, np.int16)
+    q[valid] = np.round((height[valid] - lo) / step - 30000).astype(np.int16)
+    cv2.filterSpeckles(q, -32768, int(max_cells), max(1, int(round(max_step / step))))
+    gone = valid & (q == -32768)
+    out = height.copy()
+    out[gone] = np.nan
+    return out, int(gone.sum())
+
+
+def fill_holes(height, radius: int = 8, everywhere: bool = False) -> tuple:
+    """``(filled heights, mask)``: the NaN cells of ``height`` inside the convex hull of its valid cells (all of
+    them with ``everywhere``) filled by Telea inpainting (``radius`` cells), ``mask`` uint8 1 where filled."""
     valid = np.isfinite(height)
     if valid.all() or not valid.any():
         return height.copy(), np.zeros(height.shape, np.uint8)
     lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
     span = max(hi - lo, 1e-6)
     norm = np.where(valid, (height - lo) / span, 0).astype(np.float32)
-    holes = (~valid).astype(np.uint8)
-    filled = cv2.inpaint(norm, holes, radius, cv2.INPAINT_TELEA) * span + lo
-    out = np.where(valid, height, filled).astype(np.float32)
-    return out, holes
+    holes = ~valid
+    if not everywhere:
+        hull = np.zeros(height.shape, np.uint8)
+        rc = np.column_stack(np.nonzero(valid))[:, ::-1].astype(np.int32)
+        cv2.fillConvexPoly(hull, cv2.convexHull(rc), 1)
+        holes &= hull.astype(bool)
+    filled = cv2.inpaint(norm, holes.astype(np.uint8), radius, cv2.INPAINT_TELEA) * span + lo
+    out = np.where(holes, filled, height).astype(np.float32)
+    return out, holes.astype(np.uint8)

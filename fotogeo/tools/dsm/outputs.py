@@ -11,6 +11,10 @@ import numpy as np
 from affine import Affine
 
 NODATA = -32767.0
+#: islands of the fused heights smaller than this many cells, joined by steps of at most SPECKLE_STEP cells'
+#: widths, are mismatches and removed (:func:`fotogeo.stereo.fusion.remove_speckles`)
+SPECKLE_CELLS = 64
+SPECKLE_STEP = 4.0
 BANDS = ("height", "pairs", "spread", "filled")
 
 
@@ -22,7 +26,8 @@ def _pair_entry(p, names) -> dict:
 
 def pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi, overlap, t0,
                  timings) -> dict:
-    """The report (without the output paths): pairs, grid, completeness, heights, timings."""
+    """The report (without the output paths): pairs, grid, completeness (the share of the cells both images of a
+    kept pair see, ``overlap``, that got a height), heights, timings."""
     valid = np.isfinite(height) if filled is None else np.isfinite(height) & (filled == 0)
     inside = int(overlap.sum())
     return {
@@ -33,7 +38,7 @@ def pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, no
         "grid": {"width": grid.width, "height": grid.height, "resolution": grid.resolution,
                  "transform": list(transform_of(grid))[:6]},
         "completeness": round(float((valid & overlap).sum()) / max(1, inside), 4),
-        "overlap_cells": inside,
+        "stereo_cells": inside,
         "filled_cells": int(filled.sum()) if filled is not None else 0,
         "heights": ({"min": float(np.nanmin(height)), "median": float(np.nanmedian(height)),
                      "max": float(np.nanmax(height))} if np.isfinite(height).any() else None),

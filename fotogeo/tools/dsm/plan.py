@@ -103,6 +103,31 @@ def grid_for(polygons, resolution: float, bounds=None) -> GridSpec:
     return GridSpec(x0, y1, r, max(1, int(round((x1 - x0) / r))), max(1, int(round((y1 - y0) / r))))
 
 
+def stereo_mask(grid: GridSpec, height, pairs, ims, rows_per_block: int = 256) -> np.ndarray:
+    """Cells of ``grid`` that both images of some pair see (bool ``(rows, cols)``): the cell centre at its height
+    (``height``, holes filled by interpolation) projects inside both images; cells without any height False."""
+    from ...stereo.fusion import fill_holes
+    filled = fill_holes(height, everywhere=True)[0]
+    X, Y = grid.centres()
+    seen = np.zeros(filled.shape, bool)
+    for r0 in range(0, grid.height, rows_per_block):
+        z = filled[r0:r0 + rows_per_block]
+        xx, yy = np.meshgrid(X, Y[r0:r0 + rows_per_block])
+        P = np.column_stack([xx.ravel(), yy.ravel(), z.ravel()])
+        ok = np.isfinite(P).all(axis=1)
+        hit = np.zeros(len(P), bool)
+        for p in pairs:
+            both = ok.copy()
+            for im in (ims[p.i], ims[p.j]):
+                px = np.full((len(P), 2), np.nan)
+                px[both] = im.model.forward(P[both])
+                with np.errstate(invalid="ignore"):
+                    both &= (px[:, 0] >= 0) & (px[:, 0] <= im.width) & (px[:, 1] >= 0) & (px[:, 1] <= im.height)
+            hit |= both
+        seen[r0:r0 + rows_per_block] = hit.reshape(z.shape)
+    return seen
+
+
 def overlap_mask(grid: GridSpec, polygons) -> np.ndarray:
     """Cells of ``grid`` inside any of the overlap polygons (bool ``(rows, cols)``)."""
     import cv2

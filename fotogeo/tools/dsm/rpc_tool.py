@@ -13,14 +13,14 @@ import numpy as np
 
 from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs
-from ...stereo.fusion import PairLayer, fill_holes, fuse
+from ...stereo.fusion import PairLayer, fill_holes, fuse, remove_speckles
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..checks import check_output_grid
 from ..ortho_inputs import map_crs, terrain
 from . import plan
 from . import rpc_pairs as rp
 from .inputs import read_image, read_pairs
-from .outputs import pair_summary, write_dsm
+from .outputs import SPECKLE_CELLS, SPECKLE_STEP, pair_summary, write_dsm
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
 ORBIT = 700_000.0
@@ -30,7 +30,7 @@ def _views(ims, z):
     """``(centres, axes, footprints)`` of RPC images for :func:`choose_pairs` (module docstring)."""
     centres, axes, fps = [], [], []
     for im in ims:
-        c = np.array([[im.width / 2, im.height / 2]])
+        c = np.array([[im.width / 2, im.height / 2]] * 2)  # two points: pyproj's path for arrays, not scalars
         lo, hi = im.model.inverse(c, z)[0], im.model.inverse(c, z + 1000.0)[0]
         up = (hi - lo) / np.linalg.norm(hi - lo)
         centres.append(lo + ORBIT * up)
@@ -188,13 +188,16 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
             timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
             layers.append(layer)
         height, count, spread = fuse(layers)
+        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
+        count[~np.isfinite(height)] = 0
         filled = None
         if fill:
             height, filled = fill_holes(height)
         if cloud is not None:
             cloud.close()
         rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
-                           plan.overlap_mask(grid, polys), t0, timings)
+                           plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
+        rep["speckle_cells_removed"] = speckles
         if not np.isfinite(height).any():
             raise InputError("no height was matched in any pair: the images may be textureless or cloud-covered")
         write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)

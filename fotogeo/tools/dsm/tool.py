@@ -11,7 +11,7 @@ from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs, check_output
 from ...options_dsm import DSM
 from ...progress import as_progress
-from ...stereo.fusion import PairLayer, fill_holes, fuse
+from ...stereo.fusion import PairLayer, fill_holes, fuse, remove_speckles
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ...stereo.rectify import rectify
 from ..boundary import tool
@@ -19,7 +19,7 @@ from ..checks import check_output_grid
 from ..ortho_inputs import image_models, map_crs, terrain
 from . import frames, plan
 from .inputs import orientation_files, parse_bounds, read_image, read_pairs
-from .outputs import pair_summary, write_dsm
+from .outputs import SPECKLE_CELLS, SPECKLE_STEP, pair_summary, write_dsm
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -152,13 +152,16 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
             raise InputError("no pair could be matched: " + "; ".join(
                 f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
         height, count, spread = fuse(layers)
+        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
+        count[~np.isfinite(height)] = 0
         filled = None
         if fill:
             height, filled = fill_holes(height)
         if cloud is not None:
             cloud.close()
         rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
-                           plan.overlap_mask(grid, [p.extra["overlap_polygon"] for p in kept]), t0, timings)
+                           plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
+        rep["speckle_cells_removed"] = speckles
         write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)
         out.commit()
     prog(1.0, "done")
