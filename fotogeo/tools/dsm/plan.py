@@ -105,9 +105,13 @@ def grid_for(polygons, resolution: float, bounds=None) -> GridSpec:
 
 def stereo_mask(grid: GridSpec, height, pairs, ims, rows_per_block: int = 256) -> np.ndarray:
     """Cells of ``grid`` that both images of some pair see (bool ``(rows, cols)``): the cell centre at its height
-    (``height``, holes filled by interpolation) projects inside both images; cells without any height False."""
-    from ...stereo.fusion import fill_holes
-    filled = fill_holes(height, everywhere=True)[0]
+    (``height``; a hole takes the height of the nearest cell with one) projects inside both images."""
+    from scipy.ndimage import distance_transform_edt
+    valid = np.isfinite(height)
+    if not valid.any():
+        return np.zeros(height.shape, bool)
+    idx = distance_transform_edt(~valid, return_distances=False, return_indices=True)
+    filled = height[idx[0], idx[1]]
     X, Y = grid.centres()
     seen = np.zeros(filled.shape, bool)
     for r0 in range(0, grid.height, rows_per_block):
