@@ -3,7 +3,9 @@
 ``dsm(images, output, camera=..., eo=... | orientation=... | rpc=True, ...)`` — what it offers, step by step:
 
 1. **orientation**: frame cameras from ``--camera``/``--eo`` (the formats ``fotogeo ortho`` reads,
-   :mod:`fotogeo.tools.ortho_inputs`) or triangulate's output folder (``--orientation``);
+   :mod:`fotogeo.tools.ortho_inputs`) or triangulate's output folder (``--orientation``); or ``--rpc``: each
+   image's RPC (GDAL metadata, or a .geom/.RPB/_RPC.TXT/XML beside it), matched in locally epipolar tiles after a
+   relative pointing correction (:mod:`.rpc_pairs`, :mod:`.rpc_tool`);
 2. **pairs** (:mod:`.plan`, :mod:`fotogeo.stereo.pairs`): chosen from the footprints, the overlap, the
    base-to-height ratio and the angle between the views, or given (``--pairs``); the report says why each pair
    was kept or left out;
@@ -20,7 +22,7 @@
    and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings).
 
 Heights are in the vertical frame of the orientation (the DEM's when one is given and the orientation states
-none).
+none); RPC heights are ellipsoidal.
 """
 from .tool import dsm
 
