@@ -224,3 +224,31 @@ def test_cli_one_line_error(tmp_path):
         ds.write(np.zeros((1, 32, 32), np.uint8))
     r = CliRunner().invoke(main, ["dsm", str(img), "-o", str(tmp_path / "d.tif")])
     assert r.exit_code == 2 and r.output.strip().splitlines()[-1].startswith("Error:") and "at least two" in r.output
+
+
+def test_small_base_and_textureless_pairs_are_named(tmp_path):
+    """A pair whose centres stand 20 m apart at 1000 m is refused for its base-to-height ratio; two blank frames
+    (nothing to match) with a DEM bounding the search give no height and say so, naming the pair."""
+    import rasterio
+
+    from fotogeo.tools.dsm import dsm
+    sc = make_scene("nadir", tmp_path / "scene")
+    imgs = [p for p in sc["images"] if Path(p).stem in ("s1_01", "s1_02")]
+    lines = Path(sc["eo"]).read_text().splitlines()
+    a = next(x.split() for x in lines if x.startswith("s1_01"))
+    near = tmp_path / "near.txt"
+    near.write_text("\n".join(x if not x.startswith("s1_02") else
+                              " ".join(["s1_02", str(float(a[1]) + 20.0), *a[2:]]) for x in lines) + "\n")
+    dem = write_dem(sc, tmp_path / "dem.tif")
+    with pytest.raises(InputError, match=r"no stereo pair.*s1_01 and s1_02.*base-to-height ratio 0.019"):
+        dsm(imgs, tmp_path / "a.tif", camera=sc["camera"], eo=near, dem=dem)
+    blank = []
+    for p in imgs:
+        q = tmp_path / Path(p).name
+        with rasterio.open(p) as src:
+            prof = src.profile
+        with rasterio.open(q, "w", **prof) as dst:
+            dst.write(np.full((1, prof["height"], prof["width"]), 128, np.uint8))
+        blank.append(q)
+    with pytest.raises(InputError, match=r"no height was matched in any pair \(s1_01-s1_02\).*textureless"):
+        dsm(blank, tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], dem=dem)
