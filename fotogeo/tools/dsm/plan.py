@@ -6,8 +6,8 @@ disparity range and the output grid.
 * **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, then pairs whose base
   line points into either image (the epipole inside the frame: forward motion) are left out;
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
-  highest height (from the DEM, or the sparse matches' 1st–99th percentiles padded by a quarter of their span),
-  plus ``PAD_PX``;
+  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles padded by half their span and
+  10 m), plus ``PAD_PX``;
 * **grid**: ``--bounds``, else the union of the kept pairs' overlaps, its edges multiples of the resolution.
 """
 from __future__ import annotations

@@ -41,7 +41,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     if len(images) < 2:
         raise InputError("a surface model needs at least two overlapping images; give two or more")
     camera, eo = orientation_files(orientation, camera, eo)
-    inputs = [*images, camera, eo, dem, pairs]
+    inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
     for p, role in ((output, "DSM"), (point_cloud, "point cloud"), (report, "report")):
         if p is not None:
             check_output(p, inputs, overwrite, role)
@@ -112,11 +112,12 @@ def _pair_setup(p, views, greys, zlo, zhi, use_dem, scale) -> tuple:
     if sp["n"] < 20:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search")
-    lo, hi = np.percentile(sp["d"], [1, 99])
     z0, z1 = np.percentile(sp["points"][:, 2], [1, 99])
-    span, zspan = hi - lo, z1 - z0
-    return (rp, (float(lo - 0.25 * span - plan.PAD_PX), float(hi + 0.25 * span + plan.PAD_PX)),
-            (float(z0 - 0.5 * zspan - 10.0), float(z1 + 0.5 * zspan + 10.0)), None)
+    zspan = z1 - z0
+    zlim = (float(z0 - 0.5 * zspan - 10.0), float(z1 + 0.5 * zspan + 10.0))
+    # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
+    # the image, and the sparse matches need not reach its edges
+    return rp, plan.disparity_bounds(rp, *zlim), zlim, None
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, fill, point_cloud, report,
