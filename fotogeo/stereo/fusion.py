@@ -4,7 +4,7 @@ The grid: ``width x height`` cells of ``resolution`` map units, its top-left cor
 point ``(X, Y)`` is ``col = floor((X − x0) / res)``, ``row = floor((y0 − Y) / res)``.
 
 Per pair (:class:`PairLayer`), the mean height of the pair's points in each cell; across the pairs
-(:func:`fuse`), per cell:
+(:class:`Fusion`, pair by pair: 4 bytes per cell and pair once a pair is done; :func:`fuse`), per cell:
 
 * **height** — the median of the pairs' means (one pair: its mean), NaN where no pair has a point;
 * **count** — how many pairs gave a height;
@@ -80,21 +80,47 @@ class PairLayer:
         return m.reshape(self.grid.height, self.grid.width).astype(np.float32)
 
 
+class Fusion:
+    """The pairs' layers as they come (:meth:`add`): each pair's mean heights kept as float32 (4 bytes per cell
+    and pair), the points' counts and sums pooled in one set; :meth:`result` gives :func:`fuse`'s bands."""
+
+    def __init__(self, grid: GridSpec):
+        self.grid, self.means = grid, []
+        n = grid.width * grid.height
+        self.n, self.s, self.s2 = np.zeros(n, np.int64), np.zeros(n), np.zeros(n)
+
+    def add(self, layer: PairLayer) -> None:
+        self.means.append(layer.mean())
+        self.n += layer.n
+        self.s += layer.s
+        self.s2 += layer.s2
+
+    def result(self, rows_per_block: int = 512) -> tuple:
+        """``(height, count, spread)`` (module docstring), the median taken in blocks of rows."""
+        shape = (self.grid.height, self.grid.width)
+        height, count = np.full(shape, np.nan, np.float32), np.zeros(shape, np.int16)
+        for r0 in range(0, shape[0], rows_per_block):
+            block = np.stack([m[r0:r0 + rows_per_block] for m in self.means]) if self.means else None
+            if block is None:
+                break
+            count[r0:r0 + rows_per_block] = np.isfinite(block).sum(axis=0)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                height[r0:r0 + rows_per_block] = np.nanmedian(block, axis=0)
+        n = self.n.astype(np.float64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            var = np.maximum(self.s2 / n - (self.s / n) ** 2, 0.0)
+        spread = np.where(n > 0, np.sqrt(var), np.nan).reshape(shape).astype(np.float32)
+        return height, count, spread
+
+
 def fuse(layers) -> tuple:
     """``(height, count, spread)`` ``(rows, cols)`` of the :class:`PairLayer` s (module docstring)."""
     layers = list(layers)
-    means = np.stack([ly.mean() for ly in layers])
-    count = np.isfinite(means).sum(axis=0).astype(np.int16)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        height = np.nanmedian(means, axis=0).astype(np.float32)
-    n = sum(ly.n.astype(np.float64) for ly in layers)
-    s = sum(ly.s for ly in layers)
-    s2 = sum(ly.s2 for ly in layers)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        var = np.maximum(s2 / n - (s / n) ** 2, 0.0)
-    spread = np.where(n > 0, np.sqrt(var), np.nan).reshape(height.shape).astype(np.float32)
-    return height, count, spread
+    f = Fusion(layers[0].grid)
+    for ly in layers:
+        f.add(ly)
+    return f.result()
 
 
 def remove_speckles(height, max_cells: int, max_step: float) -> tuple:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs
-from ...stereo.fusion import PairLayer, fill_holes, fuse, remove_speckles
+from ...stereo.fusion import Fusion, PairLayer, fill_holes, remove_speckles
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..checks import check_output_grid
 from ..ortho_inputs import map_crs, terrain
@@ -164,7 +164,7 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
-    layers, timings, cloud = [], {}, None
+    fusion, timings, cloud = Fusion(grid), {}, None
     with AtomicOutputs(overwrite) as out:
         if point_cloud is not None:
             from ...io.las import LasWriter
@@ -186,8 +186,8 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
                            ray_miss_px=({"median": round(float(np.median(m)), 4),
                                          "p95": round(float(np.percentile(m, 95)), 4)} if len(m) else None))
             timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
-            layers.append(layer)
-        height, count, spread = fuse(layers)
+            fusion.add(layer)
+        height, count, spread = fusion.result()
         height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
         count[~np.isfinite(height)] = 0
         filled = None

@@ -11,7 +11,7 @@ from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs, check_output
 from ...options_dsm import DSM
 from ...progress import as_progress
-from ...stereo.fusion import PairLayer, fill_holes, fuse, remove_speckles
+from ...stereo.fusion import Fusion, PairLayer, fill_holes, remove_speckles
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ...stereo.rectify import rectify
 from ..boundary import tool
@@ -137,7 +137,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
-    layers, timings = [], {}
+    fusion, timings = Fusion(grid), {}
     cloud = None
     with AtomicOutputs(overwrite) as out:
         if point_cloud is not None:
@@ -148,11 +148,11 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
                                f"matching {names[p.i]} with {names[p.j]}")
             layer = _match_pair(p, views, images, grid, zlo, zhi, dem is not None, gsd, res, cloud, stage, timings)
             if layer is not None:
-                layers.append(layer)
-        if not layers:
+                fusion.add(layer)
+        if not fusion.means:
             raise InputError("no pair could be matched: " + "; ".join(
                 f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
-        height, count, spread = fuse(layers)
+        height, count, spread = fusion.result()
         if not np.isfinite(height).any():
             raise InputError("no height was matched in any pair (" + ", ".join(
                 f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept) + "): the images may be textureless or "
