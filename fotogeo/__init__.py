@@ -82,7 +82,8 @@ _TOOLS = {"register": "register.tool", "match_images": "register.match", "orient
           "compare_models": "orient.compare", "fuse_raster": "register.fuse", "transfer_gcps": "points.transfer",
           "measure_targets": "points.targets", "points_to_layer": "points.layers", "layer_to_points": "points.layers",
           "run_demo": "demo.tool", "rpc_bias": "orient.rpc_bias", "register_batch": "register.batch",
-          "triangulate": "triangulate", "interior": "interior.tool", "ortho": "ortho.tool", "mosaic": "ortho.mosaic"}
+          "triangulate": "triangulate", "interior": "interior.tool", "ortho": "ortho.tool", "mosaic": "ortho.mosaic",
+          "dsm": "dsm.tool"}
 #: public classes loaded on first use: name -> module under fotogeo
 _CLASSES = {"Registration": "tools.common.results", "Orientation": "tools.common.results", "RegisterOptions": "options",
             "Georeference": "geometry.georeference"}

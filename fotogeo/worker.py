@@ -63,6 +63,7 @@ TOOLS = {
     "interior": ("fotogeo.tools.interior.tool", "interior"),
     "ortho": ("fotogeo.tools.ortho.tool", "ortho"),
     "mosaic": ("fotogeo.tools.ortho.mosaic", "mosaic"),
+    "dsm": ("fotogeo.tools.dsm.tool", "dsm"),
     "propose_gcps": ("fotogeo.tools.gcp.propose", "propose_gcps"),
 }
 #: the GCP picker's quick functions, callable in a session only (JSON in, JSON out, milliseconds)

@@ -17,13 +17,15 @@ from fotogeo.cli import main
 from fotogeo.cli import common
 from fotogeo.options import (COMPARE, DEMO, FUSE, GCP, LAYER_TO_POINTS, MATCH, ORIENT, POINTS_TO_LAYER,
                              REGISTER, REGISTER_TERRAIN, RPC_BIAS, TARGETS, TRANSFER)
+from fotogeo.options.dsm import DSM
 from fotogeo.options.products import MOSAIC, ORTHO
 
 #: command -> the option tables it is generated from
 COMMANDS = {"register": (REGISTER_TERRAIN, REGISTER), "match": (MATCH,), "fuse": (FUSE,), "demo": (DEMO,),
             "orient": (ORIENT, GCP), "compare-models": (COMPARE, GCP), "transfer-points": (TRANSFER,),
             "measure-targets": (TARGETS,), "rpc-bias": (RPC_BIAS,), "points-to-layer": (POINTS_TO_LAYER,),
-            "layer-to-points": (LAYER_TO_POINTS,), "ortho": (ORTHO,), "mosaic": (MOSAIC,)}
+            "layer-to-points": (LAYER_TO_POINTS,), "ortho": (ORTHO,), "mosaic": (MOSAIC,),
+            "dsm": (DSM,)}
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "fotogeo"
-ARRAY_LAYERS = ("image", "geometry", "features", "matching", "mosaic", "coreg", "models", "orientation")
+ARRAY_LAYERS = ("image", "geometry", "features", "matching", "mosaic", "coreg", "models", "orientation", "stereo")
 ABOVE_ARRAYS = ("io", "tools", "cli", "worker")
 
 

@@ -17,7 +17,7 @@ import pytest
 from qgis_env import need_qgis
 
 #: every algorithm of the provider, sorted
-ALGORITHM_IDS = ["fotogeo:comparemodels", "fotogeo:coreg", "fotogeo:demo", "fotogeo:interior", "fotogeo:layertopoints",
+ALGORITHM_IDS = ["fotogeo:comparemodels", "fotogeo:coreg", "fotogeo:demo", "fotogeo:dsm", "fotogeo:interior", "fotogeo:layertopoints",
                  "fotogeo:matchfeatures", "fotogeo:measuretargets", "fotogeo:mosaic", "fotogeo:orient", "fotogeo:ortho",
                  "fotogeo:pcafusion", "fotogeo:pointstolayer", "fotogeo:register", "fotogeo:registerbatch",
                  "fotogeo:rpcbias", "fotogeo:transferpoints", "fotogeo:triangulate"]

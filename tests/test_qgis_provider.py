@@ -608,6 +608,19 @@ def test_mosaic_two_orthos(qgis_app, tmp_path):
     assert layer.isValid() and layer.featureCount() == 1
 
 
+def test_dsm_ngi_frames(qgis_app, data_dir, tmp_path):
+    """fotogeo:dsm on the NGI frames with their orientation: a DSM where the 24 m DEM is, its report beside it."""
+    import rasterio
+    ngi = data_dir / "ngi"
+    frames = [str(ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif") for n in ("0182", "0184")]
+    res = run("dsm", {"IMAGES": frames, "CAMERA": str(ngi / "interior_orientation.yaml"),
+                      "EO": str(ngi / "exterior_orientation.txt"), "DEM": str(ngi / "dem.tif"),
+                      "OUTPUT": str(tmp_path / "dsm.tif")})
+    assert res["REPORT"] == str(tmp_path / "dsm.json") and res["COMPLETENESS"] > 0.8
+    with rasterio.open(tmp_path / "dsm.tif") as ds:
+        assert ds.count == 3 and ds.descriptions[:2] == ("height", "pairs")
+
+
 def test_matchfeatures_layer(qgis_app, data_dir, tmp_path):
     """Detect and match only: a tie-point layer at the reference map positions, with inlier flags."""
     out = tmp_path / "tp.gpkg"

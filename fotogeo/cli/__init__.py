@@ -17,7 +17,7 @@ from .. import __version__
 #: modules of this package that each define ``command`` (a click command, or a list of them).
 COMMAND_MODULES = ("register", "match", "fuse", "demo", "orient", "compare", "transfer", "targets", "points",
                    "rpc_bias", "register_batch", "triangulate", "coreg", "interior",
-                   "ortho", "mosaic")
+                   "ortho", "mosaic", "dsm")
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

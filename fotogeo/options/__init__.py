@@ -1,7 +1,7 @@
 """Every tool option, declared once: the command line and the QGIS parameters are generated from here
 (the mechanism, :class:`Option` and :class:`Table`, is in :mod:`fotogeo.options.table`; the shared
 choice lists and options in :mod:`.shared`; each capability's tables in its own module: :mod:`.register`,
-:mod:`.orient`, :mod:`.triangulate`, :mod:`.coreg`, :mod:`.interior`, :mod:`.products`). The modules of the
+:mod:`.orient`, :mod:`.triangulate`, :mod:`.coreg`, :mod:`.interior`, :mod:`.products`, :mod:`.dsm`). The modules of the
 package import :mod:`.table` and :mod:`.shared` (and a sibling's table they extend), never this aggregator.
 
 An :class:`Option` is one keyword argument of a tool (``fotogeo/tools/<tool>.py``): its name,
@@ -30,6 +30,7 @@ whether numpy and the other dependencies are installed.
 from __future__ import annotations
 
 from .coreg import COREG  # noqa: F401
+from .dsm import DSM  # noqa: F401
 from .interior import INTERIOR  # noqa: F401
 from .orient import (COMPARE, COMPARE_SETS, GCP, LAYER_TO_POINTS, ORIENT, POINTS_TO_LAYER, RPC_BIAS,  # noqa: F401
                      TARGETS, TRANSFER)
@@ -43,7 +44,7 @@ from .triangulate import TRIANGULATE  # noqa: F401
 
 #: every tool's table, in the order :func:`find_option` searches them
 _TABLES = (REGISTER, REGISTER_TERRAIN, MATCH, FUSE, DEMO, GCP, ORIENT, COMPARE, TRANSFER, TARGETS, RPC_BIAS,
-           POINTS_TO_LAYER, LAYER_TO_POINTS, TRIANGULATE, REGISTER_BATCH, COREG, ORTHO, MOSAIC, INTERIOR)
+           POINTS_TO_LAYER, LAYER_TO_POINTS, TRIANGULATE, REGISTER_BATCH, COREG, ORTHO, MOSAIC, INTERIOR, DSM)
 
 
 def find_option(name: str) -> Option | None:

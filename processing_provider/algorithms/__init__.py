@@ -3,6 +3,7 @@ and ``fotogeo/cli/``), each a thin call of that tool."""
 from .compare import CompareModelsAlgorithm
 from .coreg import CoregAlgorithm
 from .demo import DemoAlgorithm
+from .dsm import DsmAlgorithm
 from .fuse import PcaFusionAlgorithm
 from .interior import InteriorAlgorithm
 from .match import MatchFeaturesAlgorithm
@@ -21,4 +22,4 @@ from .triangulate import TriangulateAlgorithm
 ALGORITHMS = (PcaFusionAlgorithm, MatchFeaturesAlgorithm, RegisterAlgorithm, OrientAlgorithm, CompareModelsAlgorithm,
               TransferPointsAlgorithm, MeasureTargetsAlgorithm, PointsToLayerAlgorithm, LayerToPointsAlgorithm,
               RpcBiasAlgorithm, DemoAlgorithm, RegisterBatchAlgorithm, TriangulateAlgorithm, CoregAlgorithm,
-              InteriorAlgorithm, OrthoAlgorithm, MosaicAlgorithm)
+              InteriorAlgorithm, OrthoAlgorithm, MosaicAlgorithm, DsmAlgorithm)

@@ -1,0 +1,168 @@
+"""Surface models (``fotogeo dsm``) against truths and a peer.
+
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,ngi,ventoux] [--cars]
+
+* ``rendered`` — the three rendered blocks of ``tests/dsm_scenes.py`` (``nadir``: 2 x 4 frames 1000 m above
+  ±40 m; ``oblique``: the DJI-like block, 30° off nadir, Brown distortion; ``held_out``: 3 x 3 frames with
+  distortion, never used while tuning), no DEM given: RMSE, NMAD, median of DSM − truth at the cell centres,
+  the share of valid cells within 1 and 2 GSD of the frames, the completeness the report states (cells with a
+  height in the pairs' overlap), CPU and wall time of the call;
+* ``ngi`` — frames 0182/0184 with their EO, without and with the 24 m DEM (``--dem`` bounds the search): DSM −
+  DEM (bilinear, at the DSM cells) median and NMAD, completeness;
+* ``ventoux`` — the Pleiades pair with its RPCs (``--rpc``; OSSIM ``.geom`` beside the images), at 0.5 m, with
+  ``right_image.geom`` and with ``right_image_bias.geom`` (RPC about 60 px off): completeness of the footprints'
+  overlap, median height, the relative pointing correction measured, whether the warning came, CPU and wall.
+  With ``--cars``, CARS on the same pair through ``benchmarks/peers_cars.py`` (its own venv; skipped with the
+  reason when it is not installed): its completeness, CPU, wall and memory, and the height differences
+  (median, NMAD) where both DSMs have a value.
+
+Prints a table and writes benchmarks/results/dsm_bench.json (with the machine's load average).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
+DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
+NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
+
+
+def _timed(func, *a, **kw):
+    c, w = time.process_time(), time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = func(*a, **kw)
+    return out, time.process_time() - c, time.perf_counter() - w, [str(x.message) for x in caught]
+
+
+def _stats(d) -> dict:
+    med = float(np.median(d))
+    return {"median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "rmse": float(np.sqrt(np.mean(d ** 2)))}
+
+
+def rendered(tmp: Path) -> list:
+    from dsm_scenes import compare, make_scene
+
+    from fotogeo.tools.dsm import dsm
+    rows = []
+    for kind in ("nadir", "oblique", "held_out"):
+        sc = make_scene(kind, tmp / kind)
+        rep, cpu, wall, _ = _timed(dsm, sc["images"], tmp / f"{kind}.tif", camera=sc["camera"], eo=sc["eo"],
+                                   crs=sc["crs"])
+        c, g = compare(tmp / f"{kind}.tif", sc["surface"]), sc["gsd"]
+        rows.append({"case": f"rendered {kind}", "gsd_m": g, "resolution_m": rep["grid"]["resolution"],
+                     "pairs": rep["pairs_kept"], "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / g, "nmad_m": c["nmad"],
+                     "median_m": c["median"], "within_1gsd": float((c["abs"] <= g).mean()),
+                     "within_2gsd": float((c["abs"] <= 2 * g).mean()), "completeness": rep["completeness"],
+                     "cpu_s": cpu, "wall_s": wall})
+    return rows
+
+
+def _against(dsm_path, ref_path) -> np.ndarray:
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+    with rasterio.open(dsm_path) as a, rasterio.open(ref_path) as b:
+        h = a.read(1)
+        ref = np.full(h.shape, np.nan, np.float32)
+        reproject(rasterio.band(b, 1), ref, dst_transform=a.transform, dst_crs=a.crs, resampling=Resampling.bilinear,
+                  dst_nodata=np.nan)
+        v = (h != a.nodata) & np.isfinite(ref)
+    return (h[v] - ref[v]).astype(float)
+
+
+def ngi(tmp: Path) -> list:
+    from fotogeo.tools.dsm import dsm
+    d = DATA / "ngi"
+    frames = [d / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif" for n in ("0182", "0184")]
+    rows = []
+    for label, kw in (("no DEM", {}), ("--dem (search range)", {"dem": d / "dem.tif"})):
+        out = tmp / f"ngi_{len(kw)}.tif"
+        rep, cpu, wall, _ = _timed(dsm, frames, out, camera=d / "interior_orientation.yaml",
+                                   eo=d / "exterior_orientation.txt", crs=NGI_CRS, **kw)
+        s = _stats(_against(out, d / "dem.tif"))
+        rows.append({"case": f"NGI 0182/0184, {label}", "resolution_m": rep["grid"]["resolution"],
+                     "vs_dem_median_m": s["median"], "vs_dem_nmad_m": s["nmad"], "completeness": rep["completeness"],
+                     "cpu_s": cpu, "wall_s": wall})
+    return rows
+
+
+def ventoux(tmp: Path, cars: bool) -> list:
+    from fotogeo.tools.dsm import dsm
+    v = DATA / "rpc" / "ventoux"
+    rows, outs = [], {}
+    for right in ("right_image.geom", "right_image_bias.geom"):
+        folder = tmp / right.split(".")[0]
+        folder.mkdir()
+        for name, src in (("left.tif", "left_image.tif"), ("left.geom", "left_image.geom"),
+                          ("right.tif", "right_image.tif"), ("right.geom", right)):
+            shutil.copy(v / src, folder / name)
+        out = folder / "dsm.tif"
+        rep, cpu, wall, said = _timed(dsm, [folder / "left.tif", folder / "right.tif"], out, rpc=True, resolution=0.5)
+        p = rep["pairs"][0]
+        outs[right] = out
+        rows.append({"case": f"ventoux fotogeo ({right})", "resolution_m": 0.5, "completeness": rep["completeness"],
+                     "median_height_m": rep["heights"]["median"], "pointing_px": p.get("relative_pointing_px"),
+                     "warned_large_pointing": any("relative pointing error" in m for m in said),
+                     "cpu_s": cpu, "wall_s": wall})
+    if cars:
+        rows += _cars(tmp, v, outs)
+    else:
+        rows.append({"case": "ventoux CARS", "skipped": "not run (pass --cars; ~470 s and ~3 GB)"})
+    return rows
+
+
+def _cars(tmp: Path, v: Path, outs: dict) -> list:
+    try:
+        from peers_cars import run_cars
+    except ImportError:
+        return [{"case": "ventoux CARS", "skipped": "benchmarks/peers_cars.py is not in this checkout"}]
+    rows = []
+    for right in ("right_image.geom", "right_image_bias.geom"):
+        r = run_cars(v / "left_image.tif", v / "right_image.tif", tmp / f"cars_{right}", geom1=v / "left_image.geom",
+                     geom2=v / right, margins=100)
+        if "skipped" in r:
+            return [{"case": "ventoux CARS", "skipped": r["skipped"]}]
+        d = _against(outs[right], r["dsm"])
+        rows.append({"case": f"ventoux CARS ({right})", "completeness": r.get("valid_fraction_in_overlap"),
+                     "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
+                     "fotogeo_minus_cars": _stats(d) if d.size else None})
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="rendered,ngi,ventoux")
+    ap.add_argument("--cars", action="store_true", help="also run CARS on ventoux (benchmarks/peers_cars.py)")
+    args = ap.parse_args()
+    os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
+    rows, load0 = [], os.getloadavg()
+    with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
+        tmp = Path(t)
+        for case in args.cases.split(","):
+            if case != "rendered" and not DATA.is_dir():
+                rows.append({"case": case, "skipped": f"no data at {DATA}"})
+                continue
+            (tmp / case).mkdir()
+            rows += {"rendered": lambda: rendered(tmp / case), "ngi": lambda: ngi(tmp / case),
+                     "ventoux": lambda: ventoux(tmp / case, args.cars)}[case]()
+    for r in rows:
+        print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
+    out = ROOT / "benchmarks" / "results" / "dsm_bench.json"
+    out.write_text(json.dumps({"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()],
+                               "rows": rows}, indent=1, default=str) + "\n")
+    print(f"-> {out}")
+
+
+if __name__ == "__main__":
+    main()

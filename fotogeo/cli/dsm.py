@@ -1,0 +1,49 @@
+"""``fotogeo dsm IMAGES... [--camera C.yaml --eo EO | --orientation OUT/ | --rpc] -o DSM.tif`` — a surface
+model from oriented images."""
+from __future__ import annotations
+
+import click
+
+from ..options.dsm import DSM
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+
+
+@click.command("dsm")
+@click.argument("images", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="The DSM (GeoTIFF, COG layout: heights, pair count, spread[, filled]).")
+@options_from(DSM)
+@click.option("--point-cloud", type=click.Path(dir_okay=False), default=None,
+              help="Also write every triangulated point (LAS 1.4 .las, or .laz), coloured from the images.")
+@click.option("--report", type=click.Path(dir_okay=False), default=None,
+              help="JSON report: pairs kept and left out and why, disparity ranges, match density, epipolar "
+                   "residuals and ray miss distances, completeness, timings.")
+@click.option("--overwrite", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True)
+@run_tool
+def command(images, output, point_cloud, report, overwrite, quiet, **kw):
+    """Match overlapping oriented IMAGES pair by pair into a digital surface model.
+
+    Frame cameras: --camera and --eo (the formats ortho reads) or triangulate's output folder (--orientation).
+    Pairs are chosen from the footprints, overlap and base-to-height ratio (or --pairs); each is rectified with
+    the lens distortion removed, matched by semi-global matching with left-right checks, triangulated and fused
+    onto one north-up grid (median of the pairs). Holes stay nodata unless --fill.
+    """
+    from ..tools.dsm import dsm
+    bar = ConsoleProgress(quiet)
+    try:
+        rep = dsm(list(images), output, point_cloud=point_cloud, report=report, overwrite=overwrite, progress=bar,
+                  **tool_arguments(kw, DSM))
+    finally:
+        bar.close()
+    click.echo(f"map CRS {rep['crs']}: {rep['crs_rule']}; heights: {'; '.join(rep['notes'])}")
+    for p in rep["pairs"]:
+        if p["kept"] or len(rep["pairs"]) <= 12:
+            what = (f"{100 * p.get('match_density', 0):.0f} % matched, {p.get('points', 0)} points" if p["kept"]
+                    else f"left out: {p['reason']}")
+            click.echo(f"pair {p['images'][0]}-{p['images'][1]}: B/H {p['base_to_height']:.2f}, {what}")
+    g = rep["grid"]
+    click.echo(f"DSM {g['width']}x{g['height']} cells at {g['resolution']:g}, {100 * rep['completeness']:.1f} % of "
+               f"the overlap with a height -> {rep['outputs']['dsm']}")
+    if "point_cloud" in rep["outputs"]:
+        click.echo(f"{rep['points_written']} points -> {rep['outputs']['point_cloud']}")

@@ -1,0 +1,41 @@
+"""The surface-model tool's options (``fotogeo dsm``, QGIS ``fotogeo:dsm``), declared as every tool's are in
+:mod:`fotogeo.options` (standard library only, like it)."""
+from __future__ import annotations
+
+from .shared import DEM_HEIGHTS, YAML
+from .table import Option, Table
+
+#: dense matching of oriented images to a surface model (``fotogeo dsm``, fotogeo.tools.dsm)
+DSM = Table(
+    Option("camera", "file", None, "Camera (interior orientation YAML; empty = from the orientation file)",
+           "Interior orientation YAML (pinhole, or brown: triangulate's camera.yaml) [the --eo file's cameras].",
+           file_filter=YAML),
+    Option("eo", "file", None, "Exterior orientation (name X Y Z omega phi kappa, OpenSfM, COLMAP, orthority)",
+           "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
+           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
+           file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+    Option("orientation", "file", None, "triangulate's output folder (its camera.yaml and exterior_orientation.txt)",
+           "triangulate's output folder: its exterior_orientation.txt (and camera.yaml when self-calibrated) "
+           "instead of --eo/--camera."),
+    Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata, RPB/XML/.geom beside them)",
+           "The images carry an RPC (GeoTIFF RPC tags, RPC/RPB/XML files or an OSSIM .geom beside them)."),
+    Option("dem", "raster", None, "Reference DEM (disparity search range; empty = from sparse matches)",
+           "A coarse DEM/DSM (e.g. SRTM) bounding the heights searched [from sparse matches of each pair]."),
+    Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
+           "Height reference of the DEM: auto (what its CRS states), ellipsoid or geoid.", choices=DEM_HEIGHTS,
+           advanced=True),
+    Option("pairs", "file", None, "Pairs to match (text: two image names per line; empty = chosen automatically)",
+           "A text file of the pairs to match, two image names (file names without extension) per line [chosen "
+           "from footprints, overlap and base-to-height ratio].", file_filter="Text (*.txt);;All files (*)"),
+    Option("resolution", "float", None, "Cell size (0 = twice the images' ground sample distance)",
+           "Cell size of the DSM in map units [twice the median ground sample distance of the pairs].",
+           minimum=0.0, exclusive_minimum=True, automatic=0.0),
+    Option("crs", "crs", "auto", "Output CRS (empty = the DEM's when projected, else the orientation's)",
+           "Output CRS: auto = the DEM's when projected, else the orientation file's, else the UTM zone (RPC); "
+           "or EPSG:xxxx, WKT, PROJ. Orientations from .txt lines are in it.", param="CRS"),
+    Option("bounds", "str", None, "Extent (xmin,ymin,xmax,ymax in the output CRS; empty = the pairs' overlap)",
+           "Extent of the DSM 'xmin,ymin,xmax,ymax' in the output CRS [the union of the pairs' overlaps]."),
+    Option("fill", "bool", False, "Fill holes (interpolated cells are marked in a mask band)",
+           "Fill the holes by interpolation (Telea); a fourth band marks the filled cells (1). Default: holes "
+           "stay nodata."),
+)

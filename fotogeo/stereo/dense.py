@@ -1,0 +1,87 @@
+"""Dense matching of a rectified pair: semi-global matching and its filters.
+
+:func:`disparity` runs OpenCV's ``StereoSGBM`` (Hirschmüller 2008: a pixel-wise Birchfield–Tomasi cost on a
+small block, aggregated along several image paths with penalties ``P1`` for disparity steps of one pixel and
+``P2`` for larger ones; the sub-pixel disparity from a parabola through the costs of the best disparity and its
+neighbours, in 1/16 px) twice — left → right and, on the mirrored images, right → left — and keeps a disparity
+only where:
+
+* both matchers found one (OpenCV's own filters: the best cost beats the second by ``uniqueness`` %, speckles —
+  connected regions smaller than ``speckle_window`` pixels whose disparities vary by at most ``speckle_range`` —
+  removed);
+* the two agree within ``lr_tolerance`` px (left–right consistency: ``|d_L(x) − d_R(x − d_L(x))| ≤ tol``);
+* both the pixel and its match lie inside their source images (``valid`` masks, eroded by the block size: a
+  block that reaches outside an image matches its border, not the scene).
+
+Disparities follow :mod:`fotogeo.stereo.rectify`: ``d = u_left − u_right`` (float32, NaN where none).
+Grey values are stretched to 8 bits between the 0.5 and 99.5 percentiles of each image's valid pixels.
+"""
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+
+def to_uint8(img, valid) -> np.ndarray:
+    """``img`` stretched to 1..255 between the 0.5 and 99.5 percentiles of its ``valid`` pixels, 0 outside."""
+    img = np.asarray(img, np.float32)
+    v = img[valid]
+    if v.size == 0:
+        return np.zeros(img.shape, np.uint8)
+    lo, hi = np.percentile(v, [0.5, 99.5])
+    out = np.clip(1 + 254 * (img - lo) / max(float(hi - lo), 1e-6), 1, 255)
+    out[~valid] = 0
+    return out.astype(np.uint8)
+
+
+def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int):
+    return cv2.StereoSGBM_create(minDisparity=dmin, numDisparities=ndisp, blockSize=block,
+                                 P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=-1,
+                                 uniquenessRatio=uniqueness, speckleWindowSize=speckle_window,
+                                 speckleRange=speckle_range, preFilterCap=63, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY)
+
+
+def _sgbm(matcher, left, right, dmin: int, ndisp: int) -> np.ndarray:
+    """Disparities of ``left`` (float32, NaN where none); both images padded on the left so that every column
+    has its full disparity range."""
+    pad = max(0, dmin + ndisp)
+    lp = cv2.copyMakeBorder(left, 0, 0, pad, 0, cv2.BORDER_CONSTANT, value=0)
+    rp = cv2.copyMakeBorder(right, 0, 0, pad, 0, cv2.BORDER_CONSTANT, value=0)
+    d = matcher.compute(lp, rp)[:, pad:].astype(np.float32) / 16.0
+    d[d < dmin] = np.nan
+    return d
+
+
+def disparity_range(lo: float, hi: float) -> tuple:
+    """``(minDisparity, numDisparities)`` covering ``[lo, hi]`` px (``numDisparities`` a multiple of 16)."""
+    dmin = int(math.floor(lo))
+    n = int(math.ceil((math.ceil(hi) - dmin + 1) / 16.0)) * 16
+    return dmin, max(16, n)
+
+
+def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
+              uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
+              lr_tolerance: float = 1.0) -> np.ndarray:
+    """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
+    docstring)."""
+    k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
+    valid_left = cv2.erode(valid_left.astype(np.uint8), k).astype(bool)
+    valid_right = cv2.erode(valid_right.astype(np.uint8), k).astype(bool)
+    L, R = to_uint8(left, valid_left), to_uint8(right, valid_right)
+    dmin, ndisp = disparity_range(lo, hi)
+    m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range)
+    dl = _sgbm(m, L, R, dmin, ndisp)
+    dr = _sgbm(m, R[:, ::-1].copy(), L[:, ::-1].copy(), dmin, ndisp)[:, ::-1]
+    rows, cols = dl.shape
+    x = np.arange(cols, dtype=np.float32)[None, :]
+    with np.errstate(invalid="ignore"):
+        xr = np.rint(x - dl)
+        inside = (xr >= 0) & (xr < cols)
+        xi = np.where(inside, xr, 0).astype(np.intp)
+        back = np.take_along_axis(dr, xi, axis=1)
+        vr = np.take_along_axis(valid_right, xi, axis=1)
+        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr
+    dl[~ok] = np.nan
+    return dl

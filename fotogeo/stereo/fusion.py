@@ -1,0 +1,160 @@
+"""Points of several stereo pairs onto one north-up grid.
+
+The grid: ``width x height`` cells of ``resolution`` map units, its top-left corner at ``(x0, y0)``; the cell of a
+point ``(X, Y)`` is ``col = floor((X − x0) / res)``, ``row = floor((y0 − Y) / res)``.
+
+Per pair (:class:`PairLayer`), the mean height of the pair's points in each cell; across the pairs
+(:class:`Fusion`, pair by pair: 4 bytes per cell and pair once a pair is done; :func:`fuse`), per cell:
+
+* **height** — the median of the pairs' means (one pair: its mean), NaN where no pair has a point;
+* **count** — how many pairs gave a height;
+* **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs
+  (``sqrt(Σz²/n − (Σz/n)²)``): the surface's roughness and the matching noise at once.
+
+:func:`remove_speckles` then drops small islands of heights (fewer than ``max_cells`` cells connected by steps of at
+most ``max_step``): isolated mismatches, which a cell seen by one pair cannot outvote. Holes stay NaN;
+:func:`fill_holes` fills them only when asked (OpenCV's Telea inpainting, 2004, on the heights, inside the
+convex hull of the heights) and returns the mask of what it filled.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A north-up grid: top-left corner ``(x0, y0)``, cell size, ``width`` columns, ``height`` rows."""
+    x0: float
+    y0: float
+    resolution: float
+    width: int
+    height: int
+
+    def cells(self, XY) -> tuple:
+        """``(flat cell index, inside)`` of points ``(N, 2)``."""
+        XY = np.asarray(XY, float)
+        with np.errstate(invalid="ignore"):
+            col = np.floor((XY[:, 0] - self.x0) / self.resolution)
+            row = np.floor((self.y0 - XY[:, 1]) / self.resolution)
+            inside = (col >= 0) & (col < self.width) & (row >= 0) & (row < self.height)
+        idx = np.where(inside, row * self.width + col, 0).astype(np.int64)
+        return idx, inside
+
+    def centres(self) -> tuple:
+        """Cell centres ``(X (width,), Y (height,))``."""
+        return (self.x0 + (np.arange(self.width) + 0.5) * self.resolution,
+                self.y0 - (np.arange(self.height) + 0.5) * self.resolution)
+
+
+class PairLayer:
+    """Sums of one pair's points per cell: count, Σz, Σz²."""
+
+    def __init__(self, grid: GridSpec):
+        self.grid = grid
+        n = grid.width * grid.height
+        self.n = np.zeros(n, np.int32)
+        self.s = np.zeros(n, np.float64)
+        self.s2 = np.zeros(n, np.float64)
+
+    def add(self, XYZ) -> int:
+        """Add points ``(N, 3)`` (NaN rows ignored); returns how many fell on the grid."""
+        XYZ = np.asarray(XYZ, float)
+        ok = np.isfinite(XYZ).all(axis=1)
+        idx, inside = self.grid.cells(XYZ[:, :2])
+        ok &= inside
+        idx, z = idx[ok], XYZ[ok, 2]
+        n = len(self.n)
+        self.n += np.bincount(idx, minlength=n).astype(np.int32)
+        self.s += np.bincount(idx, weights=z, minlength=n)
+        self.s2 += np.bincount(idx, weights=z * z, minlength=n)
+        return int(ok.sum())
+
+    def mean(self) -> np.ndarray:
+        """Mean height per cell ``(height, width)`` float32, NaN where no point."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(self.n > 0, self.s / self.n, np.nan)
+        return m.reshape(self.grid.height, self.grid.width).astype(np.float32)
+
+
+class Fusion:
+    """The pairs' layers as they come (:meth:`add`): each pair's mean heights kept as float32 (4 bytes per cell
+    and pair), the points' counts and sums pooled in one set; :meth:`result` gives :func:`fuse`'s bands."""
+
+    def __init__(self, grid: GridSpec):
+        self.grid, self.means = grid, []
+        n = grid.width * grid.height
+        self.n, self.s, self.s2 = np.zeros(n, np.int64), np.zeros(n), np.zeros(n)
+
+    def add(self, layer: PairLayer) -> None:
+        self.means.append(layer.mean())
+        self.n += layer.n
+        self.s += layer.s
+        self.s2 += layer.s2
+
+    def result(self, rows_per_block: int = 512) -> tuple:
+        """``(height, count, spread)`` (module docstring), the median taken in blocks of rows."""
+        shape = (self.grid.height, self.grid.width)
+        height, count = np.full(shape, np.nan, np.float32), np.zeros(shape, np.int16)
+        for r0 in range(0, shape[0], rows_per_block):
+            block = np.stack([m[r0:r0 + rows_per_block] for m in self.means]) if self.means else None
+            if block is None:
+                break
+            count[r0:r0 + rows_per_block] = np.isfinite(block).sum(axis=0)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                height[r0:r0 + rows_per_block] = np.nanmedian(block, axis=0)
+        n = self.n.astype(np.float64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            var = np.maximum(self.s2 / n - (self.s / n) ** 2, 0.0)
+        spread = np.where(n > 0, np.sqrt(var), np.nan).reshape(shape).astype(np.float32)
+        return height, count, spread
+
+
+def fuse(layers) -> tuple:
+    """``(height, count, spread)`` ``(rows, cols)`` of the :class:`PairLayer` s (module docstring)."""
+    layers = list(layers)
+    f = Fusion(layers[0].grid)
+    for ly in layers:
+        f.add(ly)
+    return f.result()
+
+
+def remove_speckles(height, max_cells: int, max_step: float) -> tuple:
+    """``(heights, removed)``: ``height`` without its islands (module docstring; OpenCV's ``filterSpeckles`` on the
+    heights quantised to int16), ``removed`` the number of cells set to NaN."""
+    valid = np.isfinite(height)
+    if not valid.any():
+        return height, 0
+    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
+    step = max((hi - lo) / 60000.0, 1e-4)
+    q = np.full(height.shape, -32768, np.int16)
+    q[valid] = np.round((height[valid] - lo) / step - 30000).astype(np.int16)
+    cv2.filterSpeckles(q, -32768, int(max_cells), max(1, int(round(max_step / step))))
+    gone = valid & (q == -32768)
+    out = height.copy()
+    out[gone] = np.nan
+    return out, int(gone.sum())
+
+
+def fill_holes(height, radius: int = 8, everywhere: bool = False) -> tuple:
+    """``(filled heights, mask)``: the NaN cells of ``height`` inside the convex hull of its valid cells (all of
+    them with ``everywhere``) filled by Telea inpainting (``radius`` cells), ``mask`` uint8 1 where filled."""
+    valid = np.isfinite(height)
+    if valid.all() or not valid.any():
+        return height.copy(), np.zeros(height.shape, np.uint8)
+    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
+    span = max(hi - lo, 1e-6)
+    norm = np.where(valid, (height - lo) / span, 0).astype(np.float32)
+    holes = ~valid
+    if not everywhere:
+        hull = np.zeros(height.shape, np.uint8)
+        rc = np.column_stack(np.nonzero(valid))[:, ::-1].astype(np.int32)
+        cv2.fillConvexPoly(hull, cv2.convexHull(rc), 1)
+        holes &= hull.astype(bool)
+    filled = cv2.inpaint(norm, holes.astype(np.uint8), radius, cv2.INPAINT_TELEA) * span + lo
+    out = np.where(holes, filled, height).astype(np.float32)
+    return out, holes.astype(np.uint8)

@@ -1,0 +1,134 @@
+"""Which images to match: stereo pairs from footprints, overlap and the base-to-height ratio.
+
+For two images with projection centres (or, for RPC images, points far along their lines of sight) ``C1``,
+``C2`` and ground footprints ``F1``, ``F2`` (the outlines on the terrain's mean height):
+
+* **overlap** = area(F1 ∩ F2) / min(area F1, area F2);
+* **base-to-height ratio** ``B/H = |C1 − C2| / ½(|C1 − G| + |C2 − G|)`` with ``G`` the centroid of the overlap:
+  a height error is about ``σ_px · GSD · H/B`` (Kraus 2007), so a small ratio gives noisy heights;
+* **convergence angle** — the angle between the two lines of sight to ``G``;
+* **view angle** — the angle between the two optical axes (obliques looking different ways cannot be matched).
+
+A candidate pair is kept when its overlap, B/H and view angle pass the limits; then each image keeps at most
+``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.6)`` first. Every pair left out carries its reason.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The pair limits of the module docstring."""
+    min_overlap: float = 0.2
+    min_base_height: float = 0.08
+    max_base_height: float = 2.0
+    max_view_angle: float = 45.0
+    per_image: int = 3
+
+
+@dataclass
+class PairChoice:
+    """One candidate pair: the image indices, the measures, kept or not and why."""
+    i: int
+    j: int
+    overlap: float
+    base_height: float
+    convergence: float
+    view_angle: float
+    centroid: tuple = ()
+    kept: bool = False
+    reason: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def as_dict(self, names) -> dict:
+        return {"images": [names[self.i], names[self.j]], "kept": self.kept, "reason": self.reason,
+                "overlap": round(self.overlap, 4), "base_to_height": round(self.base_height, 4),
+                "convergence_deg": round(self.convergence, 3), "view_angle_deg": round(self.view_angle, 3),
+                **{k: v for k, v in self.extra.items() if k != "distance"}}
+
+
+def _area(poly) -> float:
+    p = np.asarray(poly, float).reshape(-1, 2)
+    return float(abs(cv2.contourArea(np.ascontiguousarray(p - p.mean(axis=0), np.float32)))) if len(p) >= 3 else 0.0
+
+
+def _hull_area(outline) -> float:
+    p = np.asarray(outline, float)[:, :2]
+    return _area(cv2.convexHull(np.ascontiguousarray(p - p.mean(axis=0), np.float32)))
+
+
+def overlap_polygon(fi, fj) -> np.ndarray:
+    """The intersection ``(K, 2)`` of the convex hulls of two outlines ``(N, 2+)`` (empty when they are apart)."""
+    fi, fj = np.asarray(fi, float)[:, :2], np.asarray(fj, float)[:, :2]
+    ref = np.vstack([fi, fj]).mean(axis=0)
+    a = cv2.convexHull(np.ascontiguousarray(fi - ref, np.float32))
+    b = cv2.convexHull(np.ascontiguousarray(fj - ref, np.float32))
+    area, poly = cv2.intersectConvexConvex(a, b)
+    if poly is None or area <= 0:
+        return np.zeros((0, 2))
+    return poly.reshape(-1, 2).astype(float) + ref
+
+
+def measure(i, j, centres, axes, footprints) -> PairChoice:
+    """The measures of pair ``(i, j)`` (module docstring); footprints ``(N, 3)`` outlines ``(X, Y, Z)`` on the
+    ground."""
+    poly = overlap_polygon(footprints[i], footprints[j])
+    small = min(_hull_area(f) for f in (footprints[i], footprints[j]))
+    overlap = _area(poly) / small if small > 0 and len(poly) >= 3 else 0.0
+    if overlap <= 0:
+        return PairChoice(i, j, 0.0, 0.0, 0.0, 0.0)
+    g = poly.mean(axis=0)
+    ci, cj = np.asarray(centres[i], float), np.asarray(centres[j], float)
+    G = np.array([g[0], g[1], footprints_height(footprints, i, j)])
+    ri, rj = ci - G, cj - G
+    h = 0.5 * (np.linalg.norm(ri) + np.linalg.norm(rj))
+    conv = math.degrees(math.acos(np.clip(ri @ rj / (np.linalg.norm(ri) * np.linalg.norm(rj)), -1, 1)))
+    view = math.degrees(math.acos(np.clip(np.dot(axes[i], axes[j]) / (np.linalg.norm(axes[i]) *
+                                                                      np.linalg.norm(axes[j])), -1, 1)))
+    return PairChoice(i, j, overlap, float(np.linalg.norm(ci - cj) / h), conv, view, (float(g[0]), float(g[1])),
+                      extra={"distance": float(h)})
+
+
+def footprints_height(footprints, i, j) -> float:
+    """The height the footprints were drawn on (their third column when given, else 0)."""
+    f = np.vstack([footprints[i], footprints[j]])
+    return float(np.nanmean(f[:, 2])) if f.shape[1] > 2 else 0.0
+
+
+def _reason(p: PairChoice, lim: Limits) -> str:
+    if p.overlap < lim.min_overlap:
+        return f"overlap {100 * p.overlap:.0f} % below {100 * lim.min_overlap:.0f} %"
+    if p.base_height < lim.min_base_height:
+        return (f"base-to-height ratio {p.base_height:.3f} below {lim.min_base_height:g}: heights would be too "
+                f"noisy (about {1 / max(p.base_height, 1e-3):.0f} x the matching error)")
+    if p.base_height > lim.max_base_height:
+        return f"base-to-height ratio {p.base_height:.2f} above {lim.max_base_height:g}: the views differ too much"
+    if p.view_angle > lim.max_view_angle:
+        return f"the views differ by {p.view_angle:.0f} degrees (above {lim.max_view_angle:g})"
+    return ""
+
+
+def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None) -> list:
+    """Every candidate :class:`PairChoice` of the images (all pairs, or only ``given`` index pairs), kept or
+    left out with a reason (module docstring)."""
+    n = len(centres)
+    cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
+    out = [measure(i, j, centres, axes, footprints) for i, j in cand]
+    for p in out:
+        p.reason = _reason(p, limits)
+    ok = sorted((p for p in out if not p.reason),
+                key=lambda p: -p.overlap * min(1.0, p.base_height / 0.6))
+    used = np.zeros(n, int)
+    for p in ok:
+        if given is None and used[p.i] >= limits.per_image and used[p.j] >= limits.per_image:
+            p.reason = f"both images already have {limits.per_image} better partners"
+            continue
+        p.kept, p.reason = True, "kept"
+        used[p.i] += 1
+        used[p.j] += 1
+    return out

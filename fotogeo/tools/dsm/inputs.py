@@ -1,0 +1,97 @@
+"""What ``fotogeo dsm`` reads besides the orientation (which :mod:`fotogeo.tools.ortho.inputs` reads, as for
+``ortho``): triangulate's output folder, the pairs file, the bounds, and the images' grey values and colours."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import InputError
+from ...io.raster import gdal_env, open_raster, ropen
+
+
+def orientation_files(orientation, camera, eo) -> tuple:
+    """``(camera, eo)``: from triangulate's output folder ``orientation`` (its exterior_orientation.txt, and
+    camera.yaml when it self-calibrated; else ``camera``), or as given."""
+    if orientation is None:
+        return camera, eo
+    from ..triangulate.outputs import CAMERA_FILE, FILES
+    folder = Path(orientation)
+    if eo is not None:
+        raise InputError("give either --orientation (triangulate's output folder) or --eo, not both",
+                         option="orientation")
+    eo_path = folder / FILES[0]
+    if not folder.is_dir() or not eo_path.is_file():
+        raise InputError(f"--orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
+                         f"{FILES[0]} in it)", option="orientation")
+    cam = folder / CAMERA_FILE
+    if cam.is_file():
+        camera = cam
+    if camera is None:
+        raise InputError(f"--orientation {str(orientation)!r} holds no {CAMERA_FILE} (triangulate did not "
+                         f"self-calibrate): give the camera (--camera)", option="camera")
+    return camera, eo_path
+
+
+def read_pairs(pairs, names) -> list | None:
+    """Index pairs from ``pairs``: a text file of two image names per line (``#`` comments), or a sequence of
+    name pairs; None for automatic choice. Unknown names are refused, naming the line."""
+    if pairs is None:
+        return None
+    if isinstance(pairs, (str, Path)):
+        path = Path(pairs)
+        if not path.is_file():
+            raise InputError(f"--pairs {str(pairs)!r} does not exist", option="pairs")
+        rows = [(k + 1, line.split("#")[0].replace(",", " ").split())
+                for k, line in enumerate(path.read_text(encoding="utf-8").splitlines())]
+        rows = [(k, r) for k, r in rows if r]
+    else:
+        rows = [(k + 1, list(p)) for k, p in enumerate(pairs)]
+    index = {n: i for i, n in enumerate(names)}
+    out = []
+    for line, r in rows:
+        r = [Path(str(x)).stem for x in r]
+        if len(r) != 2 or r[0] == r[1] or any(x not in index for x in r):
+            raise InputError(f"--pairs {str(pairs)!r} line {line}: expected two different image names among "
+                             f"{', '.join(names[:6])}{' ...' if len(names) > 6 else ''}; got {' '.join(r)!r}",
+                             option="pairs")
+        out.append(tuple(sorted((index[r[0]], index[r[1]]))))
+    if not out:
+        raise InputError(f"--pairs {str(pairs)!r} names no pair", option="pairs")
+    return sorted(set(out))
+
+
+def parse_bounds(bounds) -> tuple | None:
+    """``(xmin, ymin, xmax, ymax)`` from 'xmin,ymin,xmax,ymax' (or a sequence), None when not given."""
+    if bounds is None:
+        return None
+    try:
+        v = [float(x) for x in (bounds.replace(" ", ",").split(",") if isinstance(bounds, str) else bounds) if x != ""]
+    except ValueError:
+        v = []
+    if len(v) != 4 or not (v[2] > v[0] and v[3] > v[1]) or not np.isfinite(v).all():
+        raise InputError(f"--bounds {bounds!r}: give 'xmin,ymin,xmax,ymax' in the output CRS with xmax > xmin and "
+                         f"ymax > ymin", option="bounds")
+    return tuple(v)
+
+
+def _to_uint8(a) -> np.ndarray:
+    if a.dtype == np.uint8:
+        return a
+    v = a[a > 0] if (a > 0).any() else a.ravel()
+    lo, hi = np.percentile(v, [0.5, 99.5])
+    return np.clip((a.astype(np.float32) - lo) * 255.0 / max(float(hi - lo), 1e-6), 0, 255).astype(np.uint8)
+
+
+def read_image(path) -> tuple:
+    """``(grey float32 (h, w), colours [3 x uint8 (h, w)])`` of an image: grey the mean of its first three bands
+    (or its one band), colours its first three bands stretched to 8 bits (or the grey three times)."""
+    info = open_raster(path, "image")
+    with gdal_env(), ropen(path) as ds:
+        data = ds.read(indexes=list(range(1, min(3, info.count) + 1)))
+    grey = data.astype(np.float32).mean(axis=0)
+    if len(data) >= 3:
+        cols = [_to_uint8(b) for b in data[:3]]
+    else:
+        cols = [_to_uint8(data[0])] * 3
+    return grey, cols

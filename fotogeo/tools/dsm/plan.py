@@ -1,0 +1,144 @@
+"""The plan of a ``fotogeo dsm`` run before any dense matching: the terrain's heights, the pairs, each pair's
+disparity range and the output grid.
+
+* **Heights**: a DEM's range (``--dem``), else the heights of sparse matches of the pair of images whose centres
+  are nearest (:func:`sparse_heights`);
+* **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, then pairs whose base
+  line points into either image (the epipole inside the frame: forward motion) are left out;
+* **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
+  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles padded by half their span and
+  10 m), plus ``PAD_PX``;
+* **grid**: ``--bounds``, else the union of the kept pairs' overlaps, its edges multiples of the resolution.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...errors import InputError
+from ...pixels import outline
+from ...stereo.fusion import GridSpec
+from ...stereo.rectify import epipole_angle, rectify
+
+PAD_PX = 8.0
+
+
+def footprint(im, z: float) -> np.ndarray:
+    """The outline of image ``im`` on the plane of height ``z``, ``(N, 3)`` (rays that miss it dropped)."""
+    xyz = im.model.inverse(outline(im.width, im.height, 9), z)
+    xyz = np.column_stack([xyz[:, :2], np.full(len(xyz), z)])
+    return xyz[np.isfinite(xyz).all(axis=1)]
+
+
+def nearest_pair(views) -> tuple:
+    """The two views whose projection centres are closest."""
+    C = np.array([v.centre for v in views])
+    d = np.linalg.norm(C[:, None] - C[None], axis=2) + np.eye(len(C)) * 1e300
+    i, j = np.unravel_index(np.argmin(d), d.shape)
+    return int(min(i, j)), int(max(i, j))
+
+
+def sparse_heights(views, greys, sparse_check, sparse_problem, max_px) -> tuple:
+    """``(low, high)`` heights of the sparse matches of the nearest pair (1st and 99th percentile), refused when
+    they are too few or cannot be trusted."""
+    i, j = nearest_pair(views)
+    rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
+    sp = sparse_check(rp, (views[i], views[j]), (greys[i], greys[j]))
+    why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
+    if why:
+        raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "
+                         f"cannot be bounded from them: give a coarse DEM of the area (--dem)")
+    z = sp["points"][:, 2]
+    return float(np.percentile(z, 1)), float(np.percentile(z, 99))
+
+
+def fov_half_angle(view) -> float:
+    """Half the diagonal field of view of a frame (degrees)."""
+    return math.degrees(math.atan(0.5 * math.hypot(*view.size) / view.focal))
+
+
+def leave_out_forward(choices, views) -> None:
+    """Pairs whose base line points into either image (module docstring) are left out, with the reason."""
+    for p in choices:
+        if not p.kept:
+            continue
+        a = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
+        if a < fov_half_angle(views[p.i]) + 5.0:
+            p.kept = False
+            p.reason = (f"the base line is {a:.0f} degrees from a view direction (the epipole lies in the image): "
+                        f"forward motion cannot be rectified")
+
+
+def disparity_bounds(rp, zlo: float, zhi: float) -> tuple:
+    """``(low, high)`` disparities of the heights ``[zlo, zhi]`` over the rectified left image (module
+    docstring)."""
+    w, h = rp.size
+    u, v = np.meshgrid(np.linspace(0, w, 17), np.linspace(0, h, 17))
+    d = rp.rays(u, v, 0)
+    ds = []
+    for z in (zlo, zhi):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = (z - rp.centres[0][2]) / d[:, 2]
+        P = rp.centres[0] + lam[:, None] * d
+        P = P[lam > 0]
+        ds.append(rp.disparity(P))
+    d = np.concatenate(ds)
+    d = d[np.isfinite(d)]
+    if not d.size:
+        raise InputError("no disparity range: the heights lie behind the cameras; check the orientation")
+    return float(d.min()) - PAD_PX, float(d.max()) + PAD_PX
+
+
+def grid_for(polygons, resolution: float, bounds=None) -> GridSpec:
+    """The output grid (module docstring); ``polygons`` the kept pairs' overlaps ``(K, 2)``."""
+    if bounds is not None:
+        x0, y0, x1, y1 = bounds
+    else:
+        xy = np.vstack([p for p in polygons if len(p)])
+        (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    r = float(resolution)
+    x0, y0 = math.floor(x0 / r) * r, math.floor(y0 / r) * r
+    x1, y1 = math.ceil(x1 / r) * r, math.ceil(y1 / r) * r
+    return GridSpec(x0, y1, r, max(1, int(round((x1 - x0) / r))), max(1, int(round((y1 - y0) / r))))
+
+
+def stereo_mask(grid: GridSpec, height, pairs, ims, rows_per_block: int = 256) -> np.ndarray:
+    """Cells of ``grid`` that both images of some pair see (bool ``(rows, cols)``): the cell centre at its height
+    (``height``; a hole takes the height of the nearest cell with one) projects inside both images."""
+    from scipy.ndimage import distance_transform_edt
+    valid = np.isfinite(height)
+    if not valid.any():
+        return np.zeros(height.shape, bool)
+    idx = distance_transform_edt(~valid, return_distances=False, return_indices=True)
+    filled = height[idx[0], idx[1]]
+    X, Y = grid.centres()
+    seen = np.zeros(filled.shape, bool)
+    for r0 in range(0, grid.height, rows_per_block):
+        z = filled[r0:r0 + rows_per_block]
+        xx, yy = np.meshgrid(X, Y[r0:r0 + rows_per_block])
+        P = np.column_stack([xx.ravel(), yy.ravel(), z.ravel()])
+        ok = np.isfinite(P).all(axis=1)
+        hit = np.zeros(len(P), bool)
+        for p in pairs:
+            both = ok.copy()
+            for im in (ims[p.i], ims[p.j]):
+                px = np.full((len(P), 2), np.nan)
+                px[both] = im.model.forward(P[both])
+                with np.errstate(invalid="ignore"):
+                    both &= (px[:, 0] >= 0) & (px[:, 0] <= im.width) & (px[:, 1] >= 0) & (px[:, 1] <= im.height)
+            hit |= both
+        seen[r0:r0 + rows_per_block] = hit.reshape(z.shape)
+    return seen
+
+
+def overlap_mask(grid: GridSpec, polygons) -> np.ndarray:
+    """Cells of ``grid`` inside any of the overlap polygons (bool ``(rows, cols)``)."""
+    import cv2
+    mask = np.zeros((grid.height, grid.width), np.uint8)
+    for p in polygons:
+        if len(p) < 3:
+            continue
+        px = np.column_stack([(p[:, 0] - grid.x0) / grid.resolution, (grid.y0 - p[:, 1]) / grid.resolution])
+        cv2.fillConvexPoly(mask, np.round(px * 16).astype(np.int32), 1, shift=4)
+    return mask.astype(bool)

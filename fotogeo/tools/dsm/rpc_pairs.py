@@ -1,0 +1,202 @@
+"""``fotogeo dsm --rpc``: pairs of images with RPCs, locally epipolar tile by tile (s2p, de Franchis et al. 2014).
+
+Per pair (left = the first image, right = the second):
+
+1. **heights**: the DEM's range (``--dem``), else the RPCs' own range (``HEIGHT_OFF ± HEIGHT_SCALE``) narrowed by
+   sparse matches;
+2. **relative pointing correction** (:func:`fotogeo.stereo.affine_epipolar.pointing_correction`): SIFT tie points
+   of the two whole images, their offsets from the epipolar curves, one translation of the right image; its size
+   is reported and, when large, named in a warning: the same error along the epipolar lines is invisible to the
+   images and moves every height, so absolute heights then need a reference DEM or GCPs;
+3. **tiles** of ``TILE`` left pixels: correspondences of a 3-D grid (the tile's pixels at three heights)
+   through both models give the tile's rectifying similarities, the rectified tiles are matched
+   (:func:`fotogeo.stereo.dense.disparity`) and every matched pixel is triangulated through the RPCs: its height
+   is where the right pixel lies on the epipolar curve of the left pixel (linear between two heights, refined
+   once), its ground point the left pixel's line of sight at that height; the distance of the right pixel from
+   the curve is its **miss distance** (pixels).
+
+Heights are ellipsoidal (RPC00B).
+"""
+from __future__ import annotations
+
+import time
+import warnings
+
+import cv2
+import numpy as np
+
+from ...errors import FotogeoWarning, InputError
+from ...pixels import HALF
+from ...stereo import affine_epipolar as ae
+from ...stereo.dense import disparity, to_uint8
+
+TILE = 512
+#: a relative pointing correction above this many pixels is reported as large (a few pixels are usual for
+#: vendor RPCs without ground control)
+LARGE_POINTING_PX = 10.0
+
+
+def rpc_height_range(ims) -> tuple:
+    """``(low, high)``: the union of the RPCs' ``HEIGHT_OFF ± HEIGHT_SCALE``, refused when unusable."""
+    lo, hi = [], []
+    for im in ims:
+        norm = getattr(getattr(im.model, "model", None), "src_norm", None)
+        off, scale = (float(norm.offset[2]), float(norm.scale[2])) if norm is not None else (np.nan, np.nan)
+        if not (np.isfinite(off) and np.isfinite(scale) and 0 < scale < 10000 and -1000 < off < 9000):
+            raise InputError(f"image {im.name!r}: its RPC states no usable height range (HEIGHT_OFF {off:g}, "
+                             f"HEIGHT_SCALE {scale:g}); give a DEM of the area (--dem)")
+        lo.append(off - scale)
+        hi.append(off + scale)
+    return max(-500.0, min(lo)), min(9000.0, max(hi))
+
+
+def _models(m1, m2, tau):
+    """``(q(p1, z))``: the right pixel of left pixels ``p1`` at heights ``z`` (corrected by ``tau``)."""
+    def q(p1, z):
+        P = m1.inverse(p1, z)
+        return m2.forward(P) + tau, P
+    return q
+
+
+def tie_points(g1, g2, max_features: int = 5000) -> tuple:
+    """``(p1, p2)`` ratio-tested SIFT matches (corner convention) of two grey images."""
+    sift = cv2.SIFT_create(nfeatures=max_features)
+    k1, d1 = sift.detectAndCompute(to_uint8(g1, g1 > 0), None)
+    k2, d2 = sift.detectAndCompute(to_uint8(g2, g2 > 0), None)
+    if d1 is None or d2 is None or len(k1) < 8 or len(k2) < 8:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    good = [m[0] for m in cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
+            if len(m) == 2 and m[0].distance < 0.8 * m[1].distance]
+    return (np.array([k1[m.queryIdx].pt for m in good]).reshape(-1, 2) + HALF,
+            np.array([k2[m.trainIdx].pt for m in good]).reshape(-1, 2) + HALF)
+
+
+def pointing(m1, m2, g1, g2, zlo, zhi) -> dict:
+    """The relative pointing correction and the tie points' heights (module docstring, steps 1–2)."""
+    p1, p2 = tie_points(g1, g2)
+    if len(p1) < 10:
+        raise InputError(f"only {len(p1)} tie points between the images: they may not overlap, or be textureless "
+                         f"or cloud-covered; give images that show the same ground")
+    q = _models(m1, m2, np.zeros(2))
+    q_lo, P_lo = q(p1, zlo)
+    q_hi, _ = q(p1, zhi)
+    ok = np.isfinite(q_lo).all(axis=1) & np.isfinite(q_hi).all(axis=1)
+    p1, p2, q_lo, q_hi = p1[ok], p2[ok], q_lo[ok], q_hi[ok]
+    tau, inl, res = ae.pointing_correction(p2, q_lo, q_hi)
+    before = ae.curve_offsets(p2, q_lo, q_hi)[0]
+    along = ae.curve_offsets(p2 - tau, q_lo, q_hi)[2]
+    z = zlo + along * (zhi - zlo)
+    return {"tau": tau, "n": int(inl.sum()), "before_px": float(np.median(np.abs(before[inl]))),
+            "after_px": float(np.median(np.abs(res[inl]))), "z": z[inl], "p1": p1[inl]}
+
+
+def triangulate(m1, m2, tau, p1, p2, zlo, zhi) -> tuple:
+    """``(ground points (N, 3), miss distances (N,) px)`` of matched pixels (module docstring, step 3)."""
+    q = _models(m1, m2, tau)
+    q_lo, _ = q(p1, zlo)
+    q_hi, _ = q(p1, zhi)
+    _, _, t = ae.curve_offsets(p2, q_lo, q_hi)
+    z = zlo + t * (zhi - zlo)
+    q_z, _ = q(p1, z)
+    off, _, t2 = ae.curve_offsets(p2, q_lo, q_z)
+    with np.errstate(invalid="ignore"):
+        z2 = zlo + t2 * (z - zlo)
+    P = m1.inverse(p1, z2)
+    P = np.column_stack([P[:, :2], z2])
+    return P, np.abs(off)
+
+
+def tile_correspondences(m1, q, tile, zs) -> tuple:
+    """Left pixels of a 5 x 5 grid over ``tile`` (c0, r0, c1, r1) at heights ``zs``, their right pixels and the
+    mask of the middle height."""
+    c0, r0, c1, r1 = tile
+    u, v = np.meshgrid(np.linspace(c0, c1, 5), np.linspace(r0, r1, 5))
+    g = np.column_stack([u.ravel(), v.ravel()])
+    p1 = np.vstack([g] * len(zs))
+    p2 = np.vstack([q(g, z)[0] for z in zs])
+    mid = np.repeat(np.arange(len(zs)) == len(zs) // 2, len(g))
+    ok = np.isfinite(p2).all(axis=1)
+    return p1[ok], p2[ok], mid[ok]
+
+
+def _rectified(img, A, u0, v0, w, h):
+    """Rectified image ``(h, w)`` of window ``(u0, v0)`` through the affine map ``A`` (raw → rectified) and its
+    validity mask."""
+    Ai = ae.invert(A)
+    u, v = np.meshgrid(u0 + np.arange(w) + HALF, v0 + np.arange(h) + HALF)
+    raw = ae.apply(Ai, np.column_stack([u.ravel(), v.ravel()])) - HALF
+    mx, my = raw[:, 0].reshape(h, w).astype(np.float32), raw[:, 1].reshape(h, w).astype(np.float32)
+    H, W = img.shape
+    valid = (mx >= 0) & (my >= 0) & (mx <= W - 1) & (my <= H - 1)
+    return cv2.remap(img, mx, my, cv2.INTER_CUBIC, borderMode=cv2.BORDER_CONSTANT, borderValue=0), valid
+
+
+def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats) -> tuple:
+    """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3)."""
+    q = _models(m1, m2, tau)
+    p1g, p2g, mid = tile_correspondences(m1, q, tile, (zlo, 0.5 * (zlo + zhi), zhi))
+    A1, A2 = ae.rectifying_maps(p1g, p2g, mid)
+    d = ae.apply(A1, p1g)[:, 0] - ae.apply(A2, p2g)[:, 0]
+    lo, hi = float(d.min()) - 4.0, float(d.max()) + 4.0
+    c0, r0, c1, r1 = tile
+    corners = ae.apply(A1, np.array([[c0, r0], [c1, r0], [c1, r1], [c0, r1]], float))
+    D = int(np.ceil(max(abs(lo), abs(hi)))) + 16
+    u0, v0 = int(np.floor(corners[:, 0].min())) - D, int(np.floor(corners[:, 1].min())) - 16
+    w, h = int(np.ceil(corners[:, 0].max())) + D - u0, int(np.ceil(corners[:, 1].max())) + 16 - v0
+    L, vl = _rectified(imgs[0], A1, u0, v0, w, h)
+    R, vr = _rectified(imgs[1], A2, u0, v0, w, h)
+    disp = disparity(L, R, vl, vr, lo, hi)
+    rows, cols = np.nonzero(np.isfinite(disp))
+    u, v = u0 + cols + HALF, v0 + rows + HALF
+    p1 = ae.apply(ae.invert(A1), np.column_stack([u, v]))
+    p2 = ae.apply(ae.invert(A2), np.column_stack([u - disp[rows, cols], v]))
+    inside = (p1[:, 0] >= c0) & (p1[:, 0] < c1) & (p1[:, 1] >= r0) & (p1[:, 1] < r1)
+    shift = int(round(0.5 * (lo + hi)))  # matchable: valid left pixels whose partner at the middle disparity is
+    partner = np.zeros_like(vr)           # valid in the right image, inside the tile
+    if abs(shift) < w:
+        partner[:, max(0, shift):w + min(0, shift)] = vr[:, max(0, -shift):w - max(0, shift)]
+    rr, cc = np.nonzero(vl & partner)
+    m = ae.apply(ae.invert(A1), np.column_stack([u0 + cc + HALF, v0 + rr + HALF]))
+    stats["matchable"] = stats.get("matchable", 0) + int(((m[:, 0] >= c0) & (m[:, 0] < c1) & (m[:, 1] >= r0) &
+                                                          (m[:, 1] < r1)).sum())
+    stats["matched"] = stats.get("matched", 0) + int(inside.sum())
+    stats.setdefault("disparity_ranges_px", []).append([round(lo, 2), round(hi, 2)])
+    return p1[inside], p2[inside]
+
+
+def pair_points(m1, m2, imgs, colours, zlo, zhi, tau, stats, progress=None):
+    """Yield ``(points (N, 3), colours (N, 3), miss px (N,))`` tile by tile over the left image."""
+    H, W = imgs[0].shape
+    tiles = [(c, r, min(W, c + TILE), min(H, r + TILE)) for r in range(0, H, TILE) for c in range(0, W, TILE)]
+    for k, tile in enumerate(tiles):
+        p1, p2 = match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats)
+        if progress is not None:
+            progress((k + 1) / len(tiles), f"tile {k + 1} of {len(tiles)}")
+        if not len(p1):
+            continue
+        P, miss = triangulate(m1, m2, tau, p1, p2, zlo, zhi)
+        ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlo) & (P[:, 2] <= zhi)
+        c, r = np.clip(p1[:, 0].astype(int), 0, W - 1), np.clip(p1[:, 1].astype(int), 0, H - 1)
+        rgb = np.stack([ch[r, c] for ch in colours], axis=1)
+        yield P[ok], rgb[ok], miss[ok]
+
+
+def pointing_warning(name, pt: dict, have_dem: bool) -> str:
+    """The warning about a large relative pointing error ("" when small)."""
+    size = float(np.hypot(*pt["tau"]))
+    if size <= LARGE_POINTING_PX:
+        return ""
+    fix = ("compare the heights with the DEM in the report" if have_dem else
+           "give a reference DEM (--dem) or correct the RPCs with GCPs (fotogeo rpc-bias)")
+    return (f"pair {name}: the relative pointing error of the RPCs was large ({size:.1f} px across the epipolar "
+            f"lines, corrected from {pt['n']} tie points); the same error along the lines cannot be seen in the "
+            f"images and shifts every height, so absolute heights need a reference DEM or GCPs: {fix}")
+
+
+def warn(text: str) -> None:
+    if text:
+        warnings.warn(text, FotogeoWarning, stacklevel=5)
+
+
+def now() -> float:
+    return time.perf_counter()

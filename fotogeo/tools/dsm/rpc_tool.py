@@ -1,0 +1,209 @@
+"""The run of ``fotogeo dsm --rpc`` (:mod:`.rpc_pairs` says what each pair goes through).
+
+Pairs: two images make one pair; more are chosen as frames are (:mod:`fotogeo.stereo.pairs`), each image's
+"centre" a point 700 km up its line of sight at the scene centre (so the base-to-height ratio is that of the
+views). The grid: ``--bounds``, else the union of the pairs' overlaps (their footprints on the plane of the tie
+points' median height); the default cell twice the left images' ground sample distance.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ...errors import FotogeoWarning, InputError
+from ...io.raster import AtomicOutputs
+from ...stereo.fusion import Fusion, PairLayer, fill_holes, remove_speckles
+from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
+from ..common.checks import check_output_grid
+from ..ortho.inputs import map_crs, terrain
+from . import plan
+from . import rpc_pairs as rp
+from .inputs import read_image, read_pairs
+from .outputs import SPECKLE_CELLS, SPECKLE_STEP, pair_summary, write_dsm
+
+#: the distance up the line of sight standing for a satellite's position in the pair choice (m)
+ORBIT = 700_000.0
+
+
+def _views(ims, z):
+    """``(centres, axes, footprints)`` of RPC images for :func:`choose_pairs` (module docstring)."""
+    centres, axes, fps = [], [], []
+    for im in ims:
+        c = np.array([[im.width / 2, im.height / 2]] * 2)  # two points: pyproj's path for arrays, not scalars
+        lo, hi = im.model.inverse(c, z)[0], im.model.inverse(c, z + 1000.0)[0]
+        up = (hi - lo) / np.linalg.norm(hi - lo)
+        centres.append(lo + ORBIT * up)
+        axes.append(-up)
+        fps.append(plan.footprint(im, z))
+    return centres, axes, fps
+
+
+def _choose(ims, names, zlo, zhi, pairs) -> list:
+    """The pairs, measured at the height of the RPCs' range where the images overlap most (a small scene may
+    overlap at its own height only)."""
+    given = read_pairs(pairs, names)
+    best = None
+    for z in np.linspace(zlo, zhi, 13):
+        centres, axes, fps = _views(ims, z)
+        choices = choose_pairs(centres, axes, fps, Limits(min_base_height=0.05), given=given)
+        score = sum(p.overlap for p in choices)
+        if best is None or score > best[0]:
+            best = (score, choices)
+    choices = best[1]
+    if not any(p.kept for p in choices):
+        best = max(choices, key=lambda p: p.overlap)
+        raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
+                         f"overlapping): {best.reason}; give images of the same ground seen from different angles")
+    return choices
+
+
+def _dem_heights(dem, dem_heights, crs, ims):
+    source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
+    from ...geometry.dem import heights_at, underlying_dem
+    d = underlying_dem(source)[0]
+    zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
+    return source, zlo - 0.1 * (zhi - zlo) - 30.0, zhi + 0.1 * (zhi - zlo) + 30.0, notes, heights_at
+
+
+def _pair_setup(p, ims, imgs, zlo, zhi, dem_source) -> dict:
+    """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`) with the DEM check."""
+    a, b = ims[p.i], ims[p.j]
+    pt = rp.pointing(a.model, b.model, imgs[p.i][0], imgs[p.j][0], zlo, zhi)
+    name = f"{a.name}-{b.name}"
+    entry = {"tie_points": pt["n"], "relative_pointing_px": [round(float(v), 3) for v in pt["tau"]],
+             "epipolar_residual_px": {"before": round(pt["before_px"], 3), "after": round(pt["after_px"], 3)}}
+    z0, z1 = np.percentile(pt["z"], [1, 99])
+    if dem_source is None:
+        span = z1 - z0
+        zlo, zhi = max(zlo, z0 - 0.5 * span - 30.0), min(zhi, z1 + 0.5 * span + 30.0)
+    else:
+        from ...geometry.dem import heights_at
+        ground = a.model.inverse(pt["p1"], pt["z"])
+        dz = pt["z"] - heights_at(dem_source, ground[:, :2])
+        dz = dz[np.isfinite(dz)]
+        if dz.size:
+            entry["tie_heights_minus_dem_m"] = {"median": round(float(np.median(dz)), 3),
+                                                "nmad": round(float(1.4826 * np.median(np.abs(dz - np.median(dz)))), 3)}
+            if abs(np.median(dz)) > 10.0:
+                rp.warn(f"pair {name}: its tie points lie {np.median(dz):+.1f} m from the DEM (median): the RPCs' "
+                        f"absolute pointing is off; correct them with GCPs (fotogeo rpc-bias) before trusting "
+                        f"absolute heights")
+    rp.warn(rp.pointing_warning(name, pt, dem_source is not None))
+    entry["relative_pointing_large"] = bool(np.hypot(*pt["tau"]) > rp.LARGE_POINTING_PX)
+    return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
+
+
+def rpc_images(images, crs, dem) -> tuple:
+    """``(OrthoImage list, map CRS, rule)``: each image's RPC wherever it is (:func:`fotogeo.io.rpc_image.image_rpc`:
+    GDAL RPC metadata, else a .geom/.RPB/_RPC.TXT/XML beside it, moved into a crop's pixels) in the map CRS of
+    ``ortho``'s rule (:func:`~fotogeo.tools.ortho.inputs.map_crs`; else the UTM zone of the first image's RPC)."""
+    from ...crs import utm_crs_for
+    from ...geometry.lonlat_model import LonLatModel
+    from ...io.block import frame_key
+    from ...io.raster import open_raster
+    from ...io.rpc_image import image_rpc
+    from ..ortho.inputs import OrthoImage
+    rpcs = [image_rpc(p).rpc for p in images]
+    map_c, rule = utm_crs_for(rpcs[0].long_off, rpcs[0].lat_off), "the UTM zone of the image centre (RPC)"
+    given = crs and str(crs).strip().lower() != "auto"
+    if given or dem is not None:
+        try:
+            map_c, rule = map_crs(crs, dem, None, [], False)
+        except InputError:
+            if given:
+                raise  # a DEM in geographic coordinates: the UTM zone stays
+    out = []
+    for p, r in zip(images, rpcs):
+        info = open_raster(p, "image")
+        out.append(OrthoImage(str(p), frame_key(p), LonLatModel(r.to_model(), map_c), "rpc", info.width, info.height,
+                              "ellipsoid"))
+    return out, map_c, rule
+
+
+def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, fill, point_cloud, report,
+            overwrite, prog, t0) -> dict:
+    """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s."""
+    ims, map_c, rule = rpc_images(images, crs, dem)
+    names = [im.name for im in ims]
+    zlo, zhi = rp.rpc_height_range(ims)
+    dem_source, notes, ref = None, ["heights above the ellipsoid (RPC)"], "ellipsoid"
+    if dem is not None:
+        dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
+        notes += more + ["height range from the DEM"]
+    imgs = [read_image(im.path) for im in ims]
+    choices = _choose(ims, names, zlo, zhi, pairs)
+    kept = [p for p in choices if p.kept]
+    setups = {}
+    for p in kept:
+        setups[(p.i, p.j)] = s = _pair_setup(p, ims, imgs, zlo, zhi, dem_source)
+        p.extra.update(s["entry"], height_range=[round(s["zlo"], 2), round(s["zhi"], 2)])
+    prog(0.1, "pointing corrected")
+    return _match_and_write(ims, imgs, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
+                            resolution=resolution, bounds=bounds, fill=fill, point_cloud=point_cloud, report=report,
+                            overwrite=overwrite, prog=prog, t0=t0)
+
+
+def _gsd(im, z) -> float:
+    c = np.array([[im.width / 2, im.height / 2], [im.width / 2 + 1, im.height / 2], [im.width / 2, im.height / 2 + 1]])
+    g = im.model.inverse(c, z)[:, :2]
+    u, v = g[1] - g[0], g[2] - g[0]
+    return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
+
+
+def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
+                     resolution, bounds, fill, point_cloud, report, overwrite, prog, t0) -> dict:
+    gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
+    res = float(resolution or float(f"{2 * gsd:.2g}"))
+    polys = []
+    for p in kept:  # the pair's overlap: the two footprints on the plane of its tie points' median height
+        z = setups[(p.i, p.j)]["zmed"]
+        polys.append(overlap_polygon(plan.footprint(ims[p.i], z), plan.footprint(ims[p.j], z)))
+        p.extra["overlap_polygon"] = polys[-1]
+    grid = plan.grid_for(polys, res, bounds)
+    check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
+                      source_pixels=sum(im.width * im.height for im in ims), resolution=res,
+                      what=f"the DSM {str(output)!r}")
+    fusion, timings, cloud = Fusion(grid), {}, None
+    with AtomicOutputs(overwrite) as out:
+        if point_cloud is not None:
+            from ...io.las import LasWriter
+            cloud = LasWriter(out.temp(point_cloud), crs)
+        for k, p in enumerate(kept):
+            t, s, stats, miss = rp.now(), setups[(p.i, p.j)], {}, []
+            stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
+                               f"matching {names[p.i]} with {names[p.j]}")
+            layer = PairLayer(grid)
+            for P, rgb, m in rp.pair_points(ims[p.i].model, ims[p.j].model, (imgs[p.i][0], imgs[p.j][0]),
+                                            imgs[p.i][1], s["zlo"], s["zhi"], s["tau"], stats, stage):
+                layer.add(P)
+                miss.append(m)
+                if cloud is not None:
+                    cloud.write(P, rgb)
+            m = np.concatenate(miss) if miss else np.zeros(0)
+            p.extra.update(match_density=round(stats.get("matched", 0) / max(1, stats.get("matchable", 0)), 4),
+                           points=int(len(m)), disparity_ranges_px=stats.get("disparity_ranges_px", []),
+                           ray_miss_px=({"median": round(float(np.median(m)), 4),
+                                         "p95": round(float(np.percentile(m, 95)), 4)} if len(m) else None))
+            timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
+            fusion.add(layer)
+        height, count, spread = fusion.result()
+        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
+        count[~np.isfinite(height)] = 0
+        filled = None
+        if fill:
+            height, filled = fill_holes(height)
+        if cloud is not None:
+            cloud.close()
+        rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
+                           plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
+        rep["speckle_cells_removed"] = speckles
+        if not np.isfinite(height).any():
+            raise InputError("no height was matched in any pair: the images may be textureless or cloud-covered")
+        write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)
+        out.commit()
+    prog(1.0, "done")
+    if rep["completeness"] < 0.5:
+        warnings.warn(f"only {100 * rep['completeness']:.0f} % of the overlap got a height (textureless, "
+                      f"cloud-covered or changed areas?)", FotogeoWarning, stacklevel=3)
+    return rep

@@ -1,0 +1,108 @@
+"""Rendered frame blocks with a known surface, written as ``fotogeo dsm`` reads them (frames, camera YAML, the
+true exterior orientation), and the comparison of a DSM with the truth.
+
+Three renders that differ (:data:`SCENES`): ``nadir`` — the demo's block (2 strips x 4 frames, 400 x 600 px,
+1000 m above ±40 m of relief, no distortion); ``oblique`` — the DJI-like block of
+:mod:`tests.rendered_oblique` (30° off nadir, Brown distortion, three frames per strip, four headings);
+``held_out`` — a block never used while building the pipeline (3 strips x 3 frames, 520 x 390 px, 700 m above
+±60 m, 70 % forward overlap, Brown distortion, another seed).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import rasterio
+
+from fotogeo.geometry.camera import FrameCamera
+from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
+
+SCENES = ("nadir", "oblique", "held_out")
+
+
+def _write_frames(folder: Path, names, images) -> list:
+    paths = []
+    for name, img in zip(names, images):
+        p = folder / f"{name}.tif"
+        with rasterio.open(p, "w", driver="GTiff", width=img.shape[1], height=img.shape[0], count=1,
+                           dtype="uint8") as ds:
+            ds.write(img[None])
+        paths.append(p)
+    return paths
+
+
+def _distortion(t) -> dict:
+    k1, k2, k3, p1, p2 = t
+    return {"k1": k1, "k2": k2, "k3": k3, "p1": p1, "p2": p2}
+
+
+def _simulated(folder: Path, **kw) -> dict:
+    from fotogeo.orientation.block_render import render_block
+    from fotogeo.orientation.block_simulation import simulate_block
+    sb = simulate_block(blunder_fraction=0.0, n_control=4, n_check=4, **kw)
+    images, _ = render_block(sb, seed=kw.get("seed", 0))
+    names = sb.block.frames
+    paths = _write_frames(folder, names, images)
+    cam, eo = folder / "camera.yaml", folder / "eo.txt"
+    write_interior_orientation(cam, "cam", sb.true_camera, _distortion(sb.true_distortion))
+    write_exterior_orientation(eo, names, sb.true_eo)
+    return {"images": paths, "camera": cam, "eo": eo, "surface": sb.surface, "gsd": sb.gsd, "crs": "EPSG:32635"}
+
+
+def _oblique(folder: Path) -> dict:
+    from tests.rendered_oblique import CRS, DEWARP, oblique_block
+    b = oblique_block(folder, seed=0, per_strip=3)
+    cam, eo = folder / "camera.yaml", folder / "eo.txt"
+    k1, k2, p1, p2, k3 = DEWARP
+    write_interior_orientation(cam, "dji", b["camera"], {"k1": k1, "k2": k2, "k3": k3, "p1": p1, "p2": p2})
+    write_exterior_orientation(eo, b["names"], [b["truth"][n] for n in b["names"]])
+    return {"images": b["nadir"], "camera": cam, "eo": eo, "surface": b["sb"].surface, "gsd": b["gsd"], "crs": CRS}
+
+
+def make_scene(kind: str, folder) -> dict:
+    """Write the scene ``kind`` into ``folder``: ``{"images", "camera", "eo", "surface" (XY → Z), "gsd", "crs"}``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    if kind == "nadir":
+        return _simulated(folder, seed=7, strips=2, frames_per_strip=4, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
+                          point_spacing=80.0, relief=40.0, margin=5.0)
+    if kind == "oblique":
+        return _oblique(folder)
+    if kind == "held_out":
+        return _simulated(folder, seed=11, strips=3, frames_per_strip=3, forward_overlap=0.7, side_overlap=0.35,
+                          camera=FrameCamera(5.2, (5.2, 3.9), (520, 390)), flying_height=700.0, relief=60.0,
+                          point_spacing=60.0, margin=5.0, true_distortion=(-0.04, 0.01, 0.0, 0.0003, -0.0002))
+    raise ValueError(kind)
+
+
+def write_dem(sc: dict, path, *, cell: float = 20.0, margin: float = 1500.0) -> Path:
+    """A DEM GeoTIFF of the scene's true surface (``cell`` m) over its projection centres ± ``margin``."""
+    from rasterio.transform import from_origin
+    xy = np.array([[float(v) for v in line.split()[1:3]] for line in Path(sc["eo"]).read_text().splitlines()
+                   if line and not line.startswith("#")])
+    x0, y1 = xy.min(axis=0) - margin
+    x1, y0 = xy.max(axis=0) + margin
+    cols, rows = int((x1 - x0) / cell), int((y0 - y1) / cell)
+    X, Y = np.meshgrid(x0 + (np.arange(cols) + 0.5) * cell, y0 - (np.arange(rows) + 0.5) * cell)
+    z = sc["surface"](np.column_stack([X.ravel(), Y.ravel()])).reshape(rows, cols)
+    with rasterio.open(path, "w", driver="GTiff", width=cols, height=rows, count=1, dtype="float32", crs=sc["crs"],
+                       transform=from_origin(x0, y0, cell, cell)) as ds:
+        ds.write(z.astype(np.float32)[None])
+    return Path(path)
+
+
+def compare(dsm_path, surface, *, edge: int = 0) -> dict:
+    """Heights of the DSM against the true ``surface`` at its cell centres: RMSE, NMAD, median, the share within
+    1 and 2 GSD is left to the caller; ``n`` the valid cells, ``cells`` all cells."""
+    with rasterio.open(dsm_path) as ds:
+        h = ds.read(1).astype(float)
+        t, nod = ds.transform, ds.nodata
+    rows, cols = np.indices(h.shape)
+    X = t.c + (cols + 0.5) * t.a
+    Y = t.f + (rows + 0.5) * t.e
+    valid = h != nod
+    truth = surface(np.column_stack([X[valid], Y[valid]]))
+    d = h[valid] - truth
+    med = float(np.median(d))
+    return {"n": int(valid.sum()), "cells": int(h.size), "rmse": float(np.sqrt(np.mean(d ** 2))),
+            "median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "abs": np.abs(d)}
