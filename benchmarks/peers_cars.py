@@ -15,6 +15,7 @@ Used by ``benchmarks/dsm_bench.py``::
                  margins=100)
     if "skipped" in r: print(r["skipped"])
     else: print(r["dsm"], r["cpu_s"], r["wall_s"], r["peak_rss_mib"], r["valid_fraction_in_overlap"])
+    compare_dsms("fotogeo_dsm.tif", r["dsm"])   # dz median / NMAD / mean on CARS' grid
 
 or from the shell (writes ``benchmarks/results/peers_cars.json`` unless ``--json``)::
 
@@ -215,6 +216,33 @@ def cars_facts(out_dir) -> dict:
                 "disp_to_alt_ratio_m_per_px": apps["grid_generation"]["left_right"].get("disp_to_alt_ratio")}
     except (OSError, KeyError, TypeError, yaml.YAMLError) as exc:  # another CARS version's layout
         return {"metadata_error": repr(exc)}
+
+
+def compare_dsms(test, ref) -> dict:
+    """``dz = test − ref`` where both DSMs are valid, ``test`` resampled (nearest) onto ``ref``'s grid: count,
+    median, NMAD (1.4826 · median |dz − median|), mean, share with |dz| < 1 m."""
+    import numpy as np
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+
+    def read(path):
+        with rasterio.open(path) as ds:
+            a = ds.read(1).astype(np.float64)
+            if ds.nodata is not None:
+                a[a == ds.nodata] = np.nan
+            return a, ds.transform, ds.crs
+    a, ta, ca = read(test)
+    b, tb, cb = read(ref)
+    on_ref = np.full(b.shape, np.nan)
+    reproject(a, on_ref, src_transform=ta, src_crs=ca, dst_transform=tb, dst_crs=cb, src_nodata=np.nan,
+              dst_nodata=np.nan, resampling=Resampling.nearest)
+    both = np.isfinite(on_ref) & np.isfinite(b)
+    dz = (on_ref - b)[both]
+    if not dz.size:
+        return {"n": 0}
+    med = float(np.median(dz))
+    return {"n": int(both.sum()), "dz_median_m": med, "dz_nmad_m": float(1.4826 * np.median(np.abs(dz - med))),
+            "dz_mean_m": float(dz.mean()), "share_abs_dz_below_1m": float(np.mean(np.abs(dz) < 1.0))}
 
 
 def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None, margins=None,
