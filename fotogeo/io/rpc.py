@@ -4,52 +4,21 @@ metadata (:func:`write_rpc_geotiff`; ``gdalwarp -rpc`` reads it).
 
 One reader per format, all returning :class:`~fotogeo.orientation.rpc.Rpc` in the RPC00B pixel convention
 (the *centre* of the first pixel is (0, 0), as in GDAL's RPC metadata; vendor conventions are converted by
-their reader): ``KEY: value`` text here (:func:`read_rpc_text`), DIMAP and DigitalGlobe XML in
+their reader): ``KEY: value`` text in :mod:`fotogeo.io.rpc_text` (:func:`read_rpc_text`, with the checks every
+reader shares), DIMAP and DigitalGlobe XML in
 :mod:`fotogeo.io.rpc_xml`, OSSIM ``.geom`` and ``.RPB`` in :mod:`fotogeo.io.rpc_keywords`; the RPC of an
 image with its sidecar files: :func:`fotogeo.io.rpc_image.image_rpc`.
 """
 from __future__ import annotations
 
-import dataclasses
 import re
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import InputError, OutputError, RasterError
 from ..orientation.rpc import Rpc
-from .text import read_text_file
-
-
-def read_rpc_file_text(path: Path) -> str:
-    """The text of RPC file ``path`` (undecodable bytes replaced; :func:`~fotogeo.io.text.read_text_file`)."""
-    return read_text_file(path, "RPC file", hint="give the RPC file (_RPC.TXT, .RPB, .geom or RPC XML)",
-                          errors="replace")
-
-
-def checked_rpc(rpc: Rpc, source: str) -> Rpc:
-    """``rpc`` if every value is finite, the scales non-zero and the denominators not all zero."""
-    for f in dataclasses.fields(rpc):
-        value = np.asarray(getattr(rpc, f.name), dtype=np.float64)
-        if not np.isfinite(value).all():
-            raise InputError(f"{source}: {f.name.upper()} is not finite; the RPC file is damaged")
-        if f.name.endswith("_scale") and value == 0:
-            raise InputError(f"{source}: {f.name.upper()} is 0; the RPC file is damaged")
-        if f.name.endswith("_den") and not value.any():
-            raise InputError(f"{source}: {f.name.upper()}_COEFF are all 0; the RPC file is damaged")
-    return rpc
-
-
-def read_rpc_text(path) -> Rpc:
-    """Read a ``KEY: value [unit]`` RPC text file (IKONOS ``_rpc.txt``, Planet/SkySat ``_RPC.TXT``)."""
-    path = Path(path)
-    d = {}
-    for line in read_rpc_file_text(path).splitlines():
-        key, sep, value = line.partition(":")
-        if sep and value.split():
-            d[key.strip().upper()] = value.split()[0]
-    source = f"RPC file {str(path)!r}"
-    return checked_rpc(Rpc.from_mapping(d, source), source)
+from .rpc_keywords import read_rpc_ossim, read_rpc_rpb
+from .rpc_xml import read_rpc_xml
+from .rpc_text import checked_rpc, read_rpc_file_text, read_rpc_text  # noqa: F401 (this module's API)
 
 
 def read_rpc(path) -> Rpc:
@@ -62,9 +31,6 @@ def read_rpc(path) -> Rpc:
 
     :meth:`~fotogeo.orientation.rpc.Rpc.to_model` moves the result to fotogeo's corner convention.
     """
-    from .rpc_keywords import read_rpc_ossim, read_rpc_rpb
-    from .rpc_xml import read_rpc_xml
-
     path = Path(path)
     head = read_rpc_file_text(path)[:20000]
     if head.lstrip().startswith("<"):

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..orientation.rpc import Rpc
-from .rpc import checked_rpc, read_rpc_file_text
+from .rpc_text import checked_rpc, read_rpc_file_text
 
 _OSSIM_SCALARS = ("line_off", "samp_off", "lat_off", "long_off", "height_off", "line_scale", "samp_scale",
                   "lat_scale", "long_scale", "height_scale")

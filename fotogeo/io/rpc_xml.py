@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import InputError, one_line
 from ..orientation.rpc import Rpc
-from .rpc import checked_rpc, read_rpc_file_text
+from .rpc_text import checked_rpc, read_rpc_file_text
 
 _DIMAP_V2 = ("PHR_SENSOR", "S6_SENSOR", "S7_SENSOR")
 _DG_SCALARS = {"LINE_OFF": "LINEOFFSET", "SAMP_OFF": "SAMPOFFSET", "LAT_OFF": "LATOFFSET",

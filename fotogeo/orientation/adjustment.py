@@ -39,6 +39,7 @@ import numpy as np
 from ..errors import FotogeoError, ModelError
 from ..models import get_model
 from ..models.stats import residual_stats
+from .design import free_directions, jacobian  # noqa: F401 (also this module's API)
 
 CRITICAL_W = 3.29  # the large-redundancy limit of critical_w
 ALPHA = 0.001
@@ -126,35 +127,6 @@ def _fit(model_cls, src, pix, mask, fit_options):
         warnings.simplefilter("always")
         m = model_cls.estimate(src[mask], pix[mask], **fit_options)
     return m, [str(w.message) for w in caught]
-
-
-def free_directions(model):
-    """``(len(params), u)`` basis of the model's free parameters in its stored ``params``, or
-    None when the closed form does not apply (a regularised fit: the RFMs).
-
-    A model may say it with ``param_directions()`` (the similarity: 4 free directions in its
-    3x3 matrix); otherwise the first ``n_params`` stored parameters are the free ones and the
-    rest are fixed (the matrix models' ``h33 = 1``, the DLT's ``L12 = 1``, the camera of the
-    collinearity model).
-    """
-    if hasattr(model, "param_directions"):
-        return model.param_directions()
-    if model.name.startswith("rfm"):
-        return None
-    return np.eye(len(model.params))[:, :model.n_params]
-
-
-def jacobian(model, src: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """``(2n, u)`` derivative of ``forward(src)`` (x, y interleaved) along ``directions``, by central differences."""
-    from dataclasses import replace
-    p0 = model.params
-    cols = []
-    for d in directions.T:
-        h = 1e-6 * max(1.0, float(np.abs(p0 @ d)) if np.any(d) else 1.0)
-        fp = replace(model, params=p0 + h * d).forward(src)
-        fm = replace(model, params=p0 - h * d).forward(src)
-        cols.append(((fp - fm) / (2 * h)).reshape(-1))
-    return np.column_stack(cols)
 
 
 def _redundancy_blocks(model, src: np.ndarray):

@@ -81,7 +81,7 @@ def _geometric(model, src, pix, weights, dirs, iterations: int = 6):
     solution in image pixels, along the model's free parameter directions; the statistics assume it."""
     from dataclasses import replace
 
-    from .adjustment import jacobian
+    from .design import jacobian
     sw = np.ones(len(src)) if weights is None else np.sqrt(np.asarray(weights, float))
     v = (model.forward(src) - pix) * sw[:, None]
     ssr = float(np.sum(v ** 2))
@@ -104,7 +104,7 @@ class _Fit:
     """One LS fit on ``inside`` (bool over the points) with the deletion statistic ``T`` of every point."""
 
     def __init__(self, cls, src, pix, inside, weights, fit_options):
-        from .adjustment import free_directions, jacobian
+        from .design import free_directions, jacobian
         w = None if weights is None else weights[inside]
         self.model = cls.estimate(src[inside], pix[inside], w, **fit_options)
         dirs = free_directions(self.model)
