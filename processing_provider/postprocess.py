@@ -152,7 +152,7 @@ def expand_later(project, layer_id: str) -> None:
 
 
 def by_legend_class(layer) -> bool:
-    """Categorise by the ``class`` field where the layer has one (fotogeo.tools.gcp_style: a point's role, or
+    """Categorise by the ``class`` field where the layer has one (fotogeo.tools.common.gcp_style: a point's role, or
     ``blunder`` / ``suspect`` where the blunder test flagged it) instead of ``role``; returns whether it did."""
     renderer = layer.renderer()
     if getattr(renderer, "classAttribute", lambda: None)() != "role" or layer.fields().indexOf("class") < 0:

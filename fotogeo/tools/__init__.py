@@ -8,6 +8,7 @@
 * :mod:`.interior` — interior orientation of film scans;
 * :mod:`.triangulate` — aerial triangulation of a block;
 * :mod:`.ortho` — orthophotos and mosaics;
+* :mod:`.dsm` — surface models and point clouds by dense matching;
 * :mod:`.demo` — the embedded default run;
 * :mod:`.common` — what they share: the tool boundary, checks, result objects, the Dask cluster.
 """

@@ -47,7 +47,7 @@ from ...orientation.adjustment import fit_orientation, select_model
 from ...progress import as_progress
 from ..common.checks import check_camera_size, check_gcp_crs
 from ..common.boundary import OUTPUTS, tool
-from ..gcp_style import legend_class
+from ..common.gcp_style import legend_class
 from .rectify import mean_height, rectify_grid, rectify_image
 from ..common.results import Orientation
 
@@ -246,7 +246,7 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     write_layers(path, layers, g.crs.to_wkt(), {"error_vectors": f"Error vectors drawn {legend}."})
 
 
-#: the plot's colours (BGR) per legend class (:func:`fotogeo.tools.gcp_style.legend_class`) and their names
+#: the plot's colours (BGR) per legend class (:func:`fotogeo.tools.common.gcp_style.legend_class`) and their names
 PLOT_COLOURS = {"control": ((180, 120, 31), "blue"), "check": ((28, 26, 227), "red"),
                 "suspect": ((0, 140, 255), "orange"), "blunder": ((200, 0, 200), "magenta")}  # the QGIS style's
 _HEADER_PX = 34
