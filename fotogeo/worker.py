@@ -171,9 +171,12 @@ class _Job:
 def _warning_hook(channel: _Channel):
     from .errors import warning_line
 
+    shown = set()
+
     def show(message, category, filename, lineno, file=None, line=None):
         text = warning_line(message, category)  # translated or silenced, as on the command line
-        if text is not None:
+        if text is not None and text not in shown:  # a repeated message once, as on the command line
+            shown.add(text)
             channel.send(type="warning", message=text)
     return show
 

@@ -110,6 +110,9 @@ def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp
     write_xmp(frames[1], xmp_of(frames[1]).replace("</rdf:Description>", "</rdf:Descr", 1))
     result = _run(frames, tmp_path / "out")
     _refused(result, tmp_path / "out", "does not determine frame(s) IMG_2281", "--undetermined drop")
-    warned = [line for line in result.stderr.splitlines() if "XMP" in line]
+    warned = [line for line in result.stderr.splitlines() if "XMP" in line and not line.startswith("Error:")]
     assert len(warned) == 1 and warned[0].startswith("Warning: image") and "IMG_2281.JPG" in warned[0], result.stderr
     assert "--geoinfo" in warned[0]
+    # the refusal says what the unreadable packet cost the frame
+    assert "IMG_2281: its XMP packet is not valid XML" in result.output and "attitude" in result.output.split(
+        "IMG_2281: its XMP")[1], result.output

@@ -83,6 +83,11 @@ def test_adjusted_block_is_as_good_as_the_eo_given_run(runs, data_dir):
         # ... within the precision the run states (σ scaled by max(σ0, 1): 6.37 / 6.03 m, 0.071 / 0.068°)
         assert e["position_m"] < 1.5 * stated[n]["position_sigma_m"], (n, e, stated[n])
         assert e["angle_deg"] < 1.5 * stated[n]["angle_sigma_deg"], (n, e, stated[n])
+        # report.json's σ (what ortho --uncertainty propagates) is the same honest one: σ0 < 1 no longer scales it
+        # below the a-priori precision (it read 2.0 m / 0.021° with σ0 0.33)
+        sigma = next(f["sigma"] for f in runs["rep"]["frames"] if f["name"] == n)
+        assert max(sigma["X0"], sigma["Y0"], sigma["Z0"]) == pytest.approx(stated[n]["position_sigma_m"], rel=1e-9)
+        assert runs["rep"]["covariance_scale"] == max(runs["rep"]["sigma0"], 1.0)
         # ... and on the ground as the professional orientation: every 10th pixel on its true height,
         # 1.08 / 1.54 m RMSE in plan (0.17 / 0.24 of a frame pixel; the first run: 1.19 / 1.51 m)
         px, truth = dense_grid(cam, runs["true"][n], dem)

@@ -96,7 +96,8 @@ class ApproximateBlock:
     """Cameras by id, shots by image name, the map CRS (a ``pyproj.CRS`` or ``None``), notes, and
     ``heights``: the positions' height reference and where it was read (the images' EXIF/XMP; "" when the
     source does not say) and ``frame_reading``: how a source's local frame was read and why, when it needed a
-    choice (OpenSfM's topocentric or ODM's grid reading, :mod:`fotogeo.io.sfm_frame`; "" otherwise)."""
+    choice (OpenSfM's topocentric or ODM's grid reading, :mod:`fotogeo.io.sfm_frame`; "" otherwise) and ``lost``:
+    per frame, what of its metadata could not be read (an XMP packet that is not XML), for the errors that follow."""
 
     cameras: dict
     shots: dict
@@ -104,6 +105,7 @@ class ApproximateBlock:
     notes: tuple = ()
     heights: str = ""
     frame_reading: str = ""
+    lost: dict = field(default_factory=dict)  # frame -> what of its metadata could not be read and was lost
 
     def __post_init__(self):
         missing = sorted({s.camera_id for s in self.shots.values()} - set(self.cameras))

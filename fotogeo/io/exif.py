@@ -111,6 +111,7 @@ class ImageMetadata:
     focal_plane_ppmm: tuple | None = None
     xmp: dict = field(default_factory=dict)
     pixel_dimension: tuple | None = None  # EXIF PixelXDimension, PixelYDimension: the size the camera wrote
+    xmp_error: str | None = None  # why the XMP packet was ignored (not valid XML), None when it was read
 
     def x(self, *names) -> float | None:
         """The first of the XMP ``names`` (case-insensitive ``prefix:Name``) that is a number."""
@@ -173,11 +174,12 @@ def read_image_metadata(path) -> ImageMetadata:
     except (RasterioError, OSError) as e:
         raise RasterError(one_line(f"image {str(p)!r} cannot be read by GDAL ({e}); is it a JPEG/TIFF "
                                    f"and not truncated?")) from None
-    xmp = {}
+    xmp, xmp_error = {}, None
     if packet:
         try:
             xmp = parse_xmp(packet)
         except ET.ParseError as e:
+            xmp_error = f"its XMP packet is not valid XML ({e})"
             warnings.warn(f"image {str(p)!r}: its XMP packet is not valid XML ({e}); XMP ignored (attitude, GPS "
                           f"accuracy and calibration tags lost), EXIF used; repair the packet or give the attitude "
                           f"another way (--geoinfo, --eo)", FotogeoWarning, stacklevel=2)
@@ -189,7 +191,7 @@ def read_image_metadata(path) -> ImageMetadata:
     return ImageMetadata(str(p), frame_key(p), int(w), int(h), text("EXIF_Make"), text("EXIF_Model"), lon, lat, z,
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
-                         _ppmm(tags), xmp, _pixel_dimension(tags))
+                         _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error)
 
 
 def _pixel_dimension(tags):

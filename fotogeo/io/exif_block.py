@@ -284,8 +284,12 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     why = {height_reference(m)[1] if m.name not in geoinfo else f"geoinfo: {pos[m.name][3]} heights" for m in metas}
     heights = f"{ref or 'unknown'} ({'; '.join(sorted(why))})"
     notes.append(f"height reference: {heights}")
+    lost = {m.name: f"{m.xmp_error.split(' (')[0]}: its attitude, GPS accuracy and calibration tags were lost"
+            for m in metas if m.xmp_error}
+    if lost:
+        notes.append(f"XMP unreadable, attitude, GPS accuracy and calibration lost: {', '.join(sorted(lost)[:10])}")
     missing = sorted(n for n in pos if n not in located)
     if missing:
         notes.append(f"images without a GPS position: {', '.join(missing[:10])}"
                      f"{' …' if len(missing) > 10 else ''}; give --eo or --gcps for them")
-    return ApproximateBlock(cameras, shots, map_crs, tuple(notes), heights)
+    return ApproximateBlock(cameras, shots, map_crs, tuple(notes), heights, lost=lost)

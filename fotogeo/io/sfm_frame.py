@@ -69,8 +69,8 @@ def images_gps(paths) -> dict:
 
 
 def _map_xy(crs, lon, lat) -> np.ndarray:
-    from ..geometry.local_frames import _apply
-    return np.column_stack(_apply(4326, crs, np.asarray(lon, float), np.asarray(lat, float)))
+    from ..crs import transform_points
+    return transform_points("EPSG:4326", crs, np.column_stack([np.asarray(lon, float), np.asarray(lat, float)]))
 
 
 def _chi2(res, sigma) -> float:

@@ -64,6 +64,7 @@ class BlockStart:
     heights: str = ""  # the GPS heights' reference and why, when the start comes from the images' GPS
     over_gps: bool = False  # registration around the images' GPS start (attitude from the reference)
     frame_reading: str = ""  # how an SfM --eo file's local frame was read and why (fotogeo.io.sfm_frame)
+    lost: dict = field(default_factory=dict)  # frame -> what of its files' metadata could not be read
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -210,7 +211,8 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo,
         source = "the images' EXIF/XMP"
     frame_names(frames, cam)
     start = BlockStart(cam, dist, names, {}, map_crs, rule, source,
-                       notes=list(approx.notes) if approx is not None else [])
+                       notes=list(approx.notes) if approx is not None else [],
+                       lost=dict(approx.lost) if approx is not None else {})
     if by_registration:
         start.registration = []
         start.source += "; orientation from registering every frame to the reference (--reference, --dem)"

@@ -51,12 +51,13 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 """
 from __future__ import annotations
 
+import re
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError, OutputError
+from ...errors import InputError, ModelError, OutputError
 from ...io.block import frame_key, read_image_observations
 from ...io.raster import check_output
 from ...orientation.bundle import Block, BundleOptions
@@ -120,6 +121,20 @@ def _match_options(detection_level, gruber_cells, points_per_region, lsm_window,
     """The tie-point matching settings of the option table as :func:`block_tie_points` arguments."""
     return {"level": detection_level, "cells": int(gruber_cells), "per_region": points_per_region or None,
             "half_window": int(lsm_window) // 2, "scheduler": scheduler or None, "workers": workers or None}
+
+
+@contextmanager
+def _saying_what_was_lost(lost: dict):
+    """A refusal naming frames whose files' metadata could not be read says what was lost (their attitude…)."""
+    try:
+        yield
+    except (ModelError, InputError) as exc:
+        named = [n for n in lost if re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", str(exc))]
+        if not named:
+            raise
+        said = "; ".join(f"{n}: {lost[n]}" for n in named[:5])  # first: a long refusal is cut at its end
+        raise type(exc)(f"{said} (repair the files or give the attitude another way: --geoinfo, --eo); {exc}",
+                        option=exc.option) from None
 
 
 def _overlap_advice(eo, camera, gcp) -> str:
@@ -189,7 +204,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    with prog.timed("adjustment"):
+    with prog.timed("adjustment"), _saying_what_was_lost(start.lost):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
