@@ -132,6 +132,13 @@ _TRANSLATED = {
 }
 
 
+#: library warnings (by a piece of their text) that carry information, in fotogeo's words
+_TRANSLATED_TEXT = {
+    "'crs' was not provided": "a vector output has no CRS because its input has none; assign one (QGIS: Layer "
+                              "Properties > Source, or ogr2ogr -a_srs) before overlaying it on a map",
+}
+
+
 def warning_line(message, category) -> str | None:
     """The one line a user is shown for a warning (fotogeo's own as they are, a library's translated into
     fotogeo's words or silenced: None). The one rule of the command line and the QGIS worker.
@@ -149,4 +156,4 @@ def warning_line(message, category) -> str | None:
     text = one_line(str(message))
     if any(s in text for s in _SILENCED):
         return None
-    return text
+    return next((v for k, v in _TRANSLATED_TEXT.items() if k in text), text)

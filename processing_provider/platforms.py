@@ -16,6 +16,7 @@ Inside QGIS ``sys.executable`` is QGIS itself, not a Python:
 from __future__ import annotations
 
 import os
+import re
 from pathlib import PurePath, PurePosixPath, PureWindowsPath
 
 
@@ -100,10 +101,15 @@ def dropped_variables(platform: str) -> tuple[str, ...]:
 
 
 def quote(arg: str, platform: str) -> str:
-    """One shell argument as the platform's terminal takes it (cmd.exe: double quotes; POSIX: single)."""
+    """One shell argument as the platform's terminal takes it: as it is when it holds only safe characters,
+    else in double quotes (cmd.exe) or single quotes (POSIX shells)."""
+    text = str(arg)
+    safe = r"[\w@+=:,./\\-]+" if is_windows(platform) else r"[\w@+=:,./-]+"  # a backslash is a path on Windows
+    if re.fullmatch(safe, text):
+        return text
     if is_windows(platform):
-        return '"' + str(arg).replace('"', '""') + '"'
-    return "'" + str(arg).replace("'", "'\\''") + "'"
+        return '"' + text.replace('"', '""') + '"'
+    return "'" + text.replace("'", "'\\''") + "'"
 
 
 def terminal_command(args, platform: str) -> str:

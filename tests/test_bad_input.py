@@ -50,9 +50,11 @@ def _expand(args, d: Path, out: Path) -> list[str]:
 
 
 def assert_one_line_error(result, expected: str):
-    """Exit code 2, exactly one ``Error:`` line containing ``expected``, no traceback, no WKT."""
+    """Exit code 1 (the run failed) or 2 (an option's value: a usage error), exactly one ``Error:`` line containing
+    ``expected``, no traceback, no WKT."""
     text = result.stderr
-    assert result.exit_code == 2, (result.exit_code, result.output, result.exception)
+    assert result.exit_code in (1, 2) and isinstance(result.exception, SystemExit), \
+        (result.exit_code, result.output, result.exception)
     assert "Traceback" not in result.output, result.output
     errors = [line for line in text.splitlines() if line.startswith("Error:")]
     assert len(errors) == 1, text

@@ -83,14 +83,14 @@ def test_cancel_exits_130_with_one_line(small_rgb, tmp_path, monkeypatch):
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rgb.tif"]
 
 
-def test_fuse_runs_and_errors_exit_2(small_rgb, tmp_path):
+def test_fuse_runs_and_errors_exit_1(small_rgb, tmp_path):
     out = tmp_path / "pc1.tif"
     r = invoke("fuse", small_rgb, "-o", out, "--no-stretch", "--seed", 4, "-q")
     assert r.exit_code == 0, r.output
     with rasterio.open(out) as ds:
         assert ds.dtypes[0] == "float32" and ds.crs.to_epsg() == 32635
-    r = invoke("fuse", small_rgb, "-o", out, "-q")  # exists, no --overwrite
-    assert r.exit_code == 2 and r.stderr.startswith("Error: ") and len(r.stderr.strip().splitlines()) == 1
+    r = invoke("fuse", small_rgb, "-o", out, "-q")  # exists, no --overwrite: the run fails (exit 1)
+    assert r.exit_code == 1 and r.stderr.startswith("Error: ") and len(r.stderr.strip().splitlines()) == 1
 
 
 @pytest.mark.parametrize("args, message", [
@@ -159,12 +159,12 @@ def test_progress_never_goes_back_and_writes_plain_lines_into_a_log():
 
 def test_python_m_fotogeo_cli_is_the_command(tmp_path):
     """``python -m fotogeo.cli`` runs the same command group as the ``fotogeo`` script (a user without the
-    script on the PATH); a bad input is the same one ``Error:`` line and exit code 2."""
+    script on the PATH); a bad input is the same one ``Error:`` line and exit code 1 (a failed run)."""
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     r = subprocess.run([sys.executable, "-m", "fotogeo.cli", "--help"], capture_output=True, text=True, env=env,
                        timeout=120)
     assert r.returncode == 0 and "triangulate" in r.stdout and "Usage: fotogeo" in r.stdout, r.stderr
     r = subprocess.run([sys.executable, "-m", "fotogeo.cli", "triangulate", str(tmp_path / "missing.JPG"), "-o",
                         str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=120)
-    assert r.returncode == 2 and r.stderr.count("Error:") == 1 and "missing.JPG" in r.stderr, r.stderr
+    assert r.returncode == 1 and r.stderr.count("Error:") == 1 and "missing.JPG" in r.stderr, r.stderr
     assert "Traceback" not in r.stderr and not (tmp_path / "out").exists()

@@ -366,7 +366,7 @@ def test_missing_runtime_gives_clear_message(qgis_app, data_dir, tmp_path, monke
         alg = QgsApplication.processingRegistry().algorithmById("fotogeo:pcafusion")
         ok, message = alg.canExecute()
         assert not ok and "no-runtime" in message and "Install / repair runtime" in message
-        assert "runtime.py' install" in message and "Not runnable yet" in alg.shortHelpString()
+        assert "runtime.py install" in message and "Not runnable yet" in alg.shortHelpString()
         out = tmp_path / "out"
         out.mkdir()
         with pytest.raises(QgsProcessingException, match="is not installed. Fix: menu fotogeo"):

@@ -106,9 +106,10 @@ def _cli(args):
     return r.exit_code, r.stderr if hasattr(r, "stderr") else r.output, r
 
 
-def _one_error_line(code, err, fragment, exit_code=2):
-    """Exit code 2, one ``Error:`` line containing ``fragment``, no traceback (progress bar lines aside)."""
-    assert code == exit_code, err
+def _one_error_line(code, err, fragment):
+    """Exit code 1 (a failed run) or 2 (an option's value), one ``Error:`` line containing ``fragment``, no
+    traceback (progress bar lines aside)."""
+    assert code in (1, 2), err
     lines = [ln for ln in err.replace("\r", "\n").splitlines() if ln.strip() and not ln.startswith("[")]
     assert len(lines) == 1 and lines[0].startswith("Error: ") and "Traceback" not in err, err
     assert fragment in err, err

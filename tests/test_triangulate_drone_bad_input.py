@@ -1,6 +1,6 @@
 """fotogeo triangulate on the real eBee JPEGs (../shared/data/drone_snowpeak) made wrong one fact at a time (issue 20,
 "Bad input"): copies in tmp_path whose EXIF/XMP bytes are edited (:mod:`jpeg_metadata`; the pixels stay the
-camera's). Each refusal is one ``Error:`` line naming the frame(s) or the option and the fix, exit code 2, no
+camera's). Each refusal is one ``Error:`` line naming the frame(s) or the option and the fix, exit code 1 or 2, no
 traceback, and no output folder (nothing half-written)."""
 from __future__ import annotations
 

@@ -94,7 +94,7 @@ def test_from_the_gimbal_angles_it_refuses_or_every_frame_is_right(blocks, seed,
     block = blocks(seed)
     res, adjusted = _run(block["gimbal"], tmp_path / "out", "--undetermined", mode)
     if res.exit_code != 0:
-        assert res.exit_code == 2 and res.stderr.startswith("Error: ") and res.stderr.count("\n") == 1, res.stderr
+        assert res.exit_code in (1, 2) and res.stderr.startswith("Error: ") and res.stderr.count("\n") == 1, res.stderr
         assert "frame(s) DJI_" in res.stderr, res.stderr
         assert not (tmp_path / "out" / "exterior_orientation.txt").exists()
         return
@@ -150,6 +150,6 @@ def test_from_a_level_start_it_converges_within_a_degree_or_refuses(block, tmp_p
         worst = max(_errors(block, adjusted).items(), key=lambda kv: kv[1])
         assert worst[1] < 1.0, (worst, res.output)
     else:
-        assert res.exit_code == 2 and res.stderr.startswith("Error: ") and res.stderr.count("\n") == 1, res.stderr
+        assert res.exit_code in (1, 2) and res.stderr.startswith("Error: ") and res.stderr.count("\n") == 1, res.stderr
         assert "does not determine frame(s) DJI_" in res.stderr or "reached by no tie point" in res.stderr
         assert not (tmp_path / "out" / "exterior_orientation.txt").exists()

@@ -14,9 +14,11 @@ import click
 
 from ..errors import Cancelled, FotogeoError, InputNote, in_callers_words, warning_line
 from ..options import Option, Table, find_option
+from . import conventions
+from .conventions import EXIT_FAILED, EXIT_USAGE
 
-#: exit code of a FotogeoError (bad input, unmatched images, ...): one ``Error: ...`` line
-EXIT_ERROR = 2
+#: exit code of a FotogeoError about an option's value (a usage error, as click's own): one ``Error: ...`` line
+EXIT_ERROR = EXIT_USAGE
 #: exit code of a cancel (the progress callback said stop) or Ctrl-C: 128 + SIGINT, the shell's code for an interrupted job
 EXIT_CANCELLED = 130
 #: exit code after SIGTERM (``kill``): 128 + SIGTERM, what a shell reports for a terminated job
@@ -58,7 +60,7 @@ def warnings_as_lines():
 
     def show(message, category, filename, lineno, file=None, line=None):
         text = warning_line(message, category)  # translated or silenced (fotogeo.errors)
-        if text is not None and text not in shown:
+        if text is not None and text not in shown and not conventions.SETTINGS.quiet:
             shown.add(text)
             label = "Note" if isinstance(category, type) and issubclass(category, InputNote) else "Warning"
             click.echo(f"{label}: {text}", err=True)
@@ -86,10 +88,11 @@ class ConsoleProgress:
     stages report their own fractions, which are not always in step with the whole."""
 
     def __init__(self, quiet: bool = False, width: int = 30, stream=None):
-        self.quiet, self.width, self.last = quiet, width, ""
+        self.quiet, self.width, self.last = quiet or conventions.SETTINGS.quiet, width, ""
         self.stream = stream or sys.stderr
         self.top, self.logged = 0.0, (None, -1)
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        # -v: a plain line per step, as into a log, instead of the updating bar
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)()) and not conventions.SETTINGS.verbose
 
     def __call__(self, fraction: float, message: str) -> bool:
         if self.quiet:
@@ -122,7 +125,8 @@ class ConsoleProgress:
 
 
 def run_tool(func):
-    """Decorator for command bodies: a fotogeo error becomes one line on stderr and an exit code.
+    """Decorator for command bodies: a fotogeo error becomes one line on stderr and an exit code
+    (:mod:`fotogeo.cli.conventions`); with ``--json`` the command's return value is printed as JSON.
 
     - :class:`~fotogeo.errors.Cancelled` (the progress callback returned False): one line
       ``Cancelled: <message>`` and exit code 130 (:data:`EXIT_CANCELLED`, 128 + SIGINT, what a
@@ -130,26 +134,40 @@ def run_tool(func):
     - Ctrl-C (SIGINT): ``Cancelled: interrupted`` and exit code 130; SIGTERM: ``Cancelled:
       terminated by signal SIGTERM`` and exit code 143 (:data:`EXIT_TERMINATED`, 128 +
       SIGTERM). Both unwind as exceptions, so no temporary output is left behind;
-    - any other :class:`~fotogeo.errors.FotogeoError`: ``Error: <message>`` and exit code 2
-      (:data:`EXIT_ERROR`), without a traceback.
+    - a :class:`~fotogeo.errors.FotogeoError` about an option's value (it names the flag): ``Error: <message>``
+      and exit code 2 (:data:`EXIT_USAGE`), as click's own usage errors;
+    - any other :class:`~fotogeo.errors.FotogeoError` (the run failed): ``Error: <message>`` and exit code 1
+      (:data:`EXIT_FAILED`), without a traceback.
     """
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
+        as_json = bool(kwargs.pop("json_output", False)) or conventions.SETTINGS.json
+        ctx = click.get_current_context(silent=True)
+        name = ctx.info_name if ctx is not None else func.__name__
+        stdout = sys.stdout
+
+        def stop(code: int, line: str):
+            click.echo(line, err=True)
+            if as_json:
+                conventions.print_json({"command": name, "exit_code": code, "error": line}, stdout)
+            sys.exit(code)
+
         try:
-            with terminate_as_exception(), warnings_as_lines():
-                return func(*args, **kwargs)
+            with terminate_as_exception(), warnings_as_lines(), \
+                    (contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()):
+                result = func(*args, **kwargs)
         except Terminated as e:
-            click.echo(f"Cancelled: {e}; no output was written", err=True)
-            sys.exit(EXIT_TERMINATED)
+            stop(EXIT_TERMINATED, f"Cancelled: {e}; no output was written")
         except KeyboardInterrupt:
-            click.echo("Cancelled: interrupted (Ctrl-C); no output was written", err=True)
-            sys.exit(EXIT_CANCELLED)
+            stop(EXIT_CANCELLED, "Cancelled: interrupted (Ctrl-C); no output was written")
         except Cancelled as e:
-            click.echo(f"Cancelled: {e}", err=True)
-            sys.exit(EXIT_CANCELLED)
+            stop(EXIT_CANCELLED, f"Cancelled: {e}")
         except FotogeoError as e:
-            click.echo(f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}", err=True)
-            sys.exit(EXIT_ERROR)
+            stop(EXIT_USAGE if e.option else EXIT_FAILED,
+                 f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}")
+        if as_json:
+            conventions.print_json({"command": name, "exit_code": 0, "result": result}, stdout)
+        return result
     return wrapper
 
 

@@ -29,3 +29,4 @@ def command(image, gcps, quiet, **kw):
     finally:
         bar.close()
     click.echo(markdown_table(rows))
+    return rows

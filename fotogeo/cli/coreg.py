@@ -48,3 +48,4 @@ def command(reference, target, output, shifts, field, report, overwrite, quiet, 
         click.echo(line)
     written = [str(p) for p in (output, shifts, field, report) if p]
     click.echo(f"wrote {', '.join(written)}" if written else "measured only (give -o to write the corrected target)")
+    return rep

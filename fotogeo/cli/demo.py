@@ -45,6 +45,7 @@ def command(output, overwrite, quiet, **options):
         click.echo(f"  wrote {r.output} (+ .gpkg, .json)")
     _echo_block(output, res["block"])
     click.echo(f"done in {time.perf_counter() - t0:.1f} s")
+    return res
 
 
 def _echo_block(output, block):

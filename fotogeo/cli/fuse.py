@@ -24,3 +24,4 @@ def command(source, output, overwrite, quiet, **options):
         bar.close()
     click.echo(f"PC1 explains {100 * r['explained']:.1f}% of the variance; component "
                f"{', '.join(f'{c:.3f}' for c in r['component'])}; wrote {r['output']}")
+    return r

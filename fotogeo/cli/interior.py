@@ -32,3 +32,4 @@ def command(scans, camera_report, output, overwrite, quiet, **kw):
                    f"{r['rotation_deg']:.2f}°")
         for w in r["warnings"]:
             click.echo(f"Warning: {w}", err=True)
+    return records

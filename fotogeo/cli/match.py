@@ -25,3 +25,4 @@ def command(reference, target, output, overwrite, quiet, **options):
         bar.close()
     click.echo(f"keypoints {r['keypoints']['target']} / {r['keypoints']['reference']}, matches {r['matches']}, "
                f"homography inliers {r['inliers']}; wrote {r['output']}")
+    return r

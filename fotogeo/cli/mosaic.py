@@ -29,3 +29,4 @@ def command(orthos, output, seamlines, overwrite, quiet, **kw):
     for name, g, o in zip(rep["images"], rep["gains"], rep["offsets"]):
         click.echo(f"{name}: gain {' '.join(f'{v:.3f}' for v in g)}, offset {' '.join(f'{v:+.1f}' for v in o)}")
     click.echo(f"wrote {rep['output']} ({rep['width']}x{rep['height']}) and {rep['seamlines']}")
+    return rep

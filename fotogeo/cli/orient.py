@@ -53,3 +53,4 @@ def command(image, gcps, quiet, **kw):
         click.echo(f"warning: {w}")
     if kw.get("vectors") or kw.get("plot"):
         click.echo(f"error vectors {rep['exaggeration']['legend']}")
+    return rep

@@ -41,3 +41,4 @@ def command(images, output, overwrite, quiet, **kw):
                        f"(DEM sigma {rep['dem_sigma_m']:.3g} m, {rep['dem_sigma_rule']}) -> {r['sigma']['path']}")
         if "view" in r:
             click.echo(f"  off-nadir angle and distance -> {r['view']['path']}")
+    return rep

@@ -24,6 +24,7 @@ def to_layer(points, output, layer, overwrite, quiet, **options):
     finally:
         bar.close()
     click.echo(f"{r['points']} points ({r['enabled']} enabled = control) -> {r['output']} layer {r['layer']}")
+    return r
 
 
 @click.command("layer-to-points")
@@ -43,6 +44,7 @@ def to_points(source, output, layer, overwrite, quiet, **options):
     finally:
         bar.close()
     click.echo(f"{r['points']} points -> {r['output']}")
+    return r
 
 
 command = [to_layer, to_points]

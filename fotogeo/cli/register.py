@@ -39,3 +39,4 @@ def command(reference, target, output, vectors, report, field, overwrite, quiet,
         click.echo(line)
     field = r.report.get("local", {}).get("field")
     click.echo(f"wrote {r.output}, {r.vectors}, {r.report_path}" + (f", {field}" if field else ""))
+    return r

@@ -17,7 +17,7 @@ EXIT_SOME_FAILED = 1
 @click.command("register-batch")
 @click.argument("reference", type=click.Path(dir_okay=False))
 @click.argument("targets", nargs=-1, required=True)
-@click.option("-o", "--outdir", required=True, type=click.Path(file_okay=False),
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False),
               help="Output folder: <scene>.tif/.gpkg/.json per scene, manifest.csv and manifest.gpkg.")
 @options_from(REGISTER_BATCH, REGISTER_TERRAIN, REGISTER)
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
@@ -45,3 +45,4 @@ def command(reference, targets, outdir, quiet, **options):
         click.echo(f"failed {scene}: {error}", err=True)
     if r.failed:
         sys.exit(EXIT_SOME_FAILED)
+    return r

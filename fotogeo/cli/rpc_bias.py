@@ -44,3 +44,4 @@ def command(image, gcps, output, report, overwrite, quiet, **kw):
     if rep["skipped"]:
         click.echo(f"skipped (outside the image): {', '.join(rep['skipped'])}")
     click.echo(f"wrote {rep['output']} (RPC refit max deviation {rep['refit_max_px']:.2g} px)")
+    return rep

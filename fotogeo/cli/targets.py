@@ -24,3 +24,4 @@ def command(image, points, output, overwrite, quiet, **kw):
     finally:
         bar.close()
     click.echo(f"{r['measured']} of {r['targets']} targets measured; wrote {r['output']}")
+    return r

@@ -28,3 +28,4 @@ def command(reference, search, points, output, overwrite, quiet, **kw):
         bar.close()
     click.echo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "
                f"statuses {r['statuses']}; wrote {r['output']}")
+    return r

@@ -86,6 +86,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     for f in rep["fixed_parameters"]:
         click.echo(f"held fixed: {f['reason']}")
     click.echo(f"wrote {rep['folder']}")
+    return rep
 
 
 def _rank(sigma) -> float:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import tempfile
 import warnings
@@ -15,7 +16,7 @@ from rasterio.enums import Resampling
 from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.windows import Window
 
-from ..errors import InputError, OutputError, RasterError
+from ..errors import InputError, OutputError, RasterError, one_line
 from ..geometry.dem import Dem
 
 
@@ -31,7 +32,7 @@ def ropen(path, mode: str = "r", **kwargs):
 
 @dataclass(frozen=True)
 class RasterInfo:
-    path: Path
+    path: Path | str  # text for a GDAL virtual path or URL (is_virtual_path)
     width: int
     height: int
     count: int
@@ -45,10 +46,30 @@ class RasterInfo:
         return self.crs is not None and not self.transform.is_identity
 
 
+#: GDAL virtual file systems (``/vsizip/``, ``/vsicurl/``, ``/vsis3/``, ...) and URL schemes rasterio opens
+_URL = re.compile(r"^(?:[a-z][a-z0-9+.-]*)://", re.IGNORECASE)
+
+
+def is_virtual_path(path) -> bool:
+    """True for a GDAL virtual path (``/vsizip//data/a.zip/b.tif``, ``/vsicurl/https://...``) or a URL
+    (``https://...``, ``s3://...``, ``zip+file://...``): GDAL reads it, the local file system does not know it,
+    so it is kept as text (``Path`` would fold ``//``) and not checked for existence."""
+    text = str(path)
+    return text.startswith("/vsi") or bool(_URL.match(text))
+
+
+def raster_path(path):
+    """``path`` as fotogeo keeps a raster input: text for a virtual path or URL, else a ``Path``."""
+    return str(path) if is_virtual_path(path) else Path(path)
+
+
 def open_raster(path, role: str = "raster") -> RasterInfo:
-    """Open ``path`` and describe it; a clear :class:`RasterError` if it cannot be read."""
-    p = Path(path)
-    if not p.exists():
+    """Open ``path`` and describe it; a clear :class:`RasterError` if it cannot be read.
+
+    ``path`` may be a GDAL virtual path or a URL (:func:`is_virtual_path`), read through GDAL as rasterio
+    reads it (``rio info /vsizip/...``); its :attr:`RasterInfo.path` then stays text."""
+    p = raster_path(path)
+    if not isinstance(p, str) and not p.exists():
         raise RasterError(f"{role} {str(p)!r} does not exist")
     try:
         with ropen(p) as ds:
@@ -56,6 +77,9 @@ def open_raster(path, role: str = "raster") -> RasterInfo:
             crs = CRS.from_wkt(ds.crs.to_wkt()) if ds.crs else None
             info = RasterInfo(p, ds.width, ds.height, ds.count, ds.dtypes[0], crs, ds.transform, ds.nodata)
     except RasterioIOError as e:
+        if isinstance(p, str):
+            raise RasterError(one_line(f"{role} {p!r} cannot be read through GDAL ({e}); check the virtual path "
+                                       f"(e.g. /vsizip//folder/archive.zip/image.tif) or the URL")) from None
         raise RasterError(f"{role} {str(p)!r} cannot be read as a raster ({e}); is it a GeoTIFF "
                           f"or another GDAL-readable image, and not truncated?") from None
     if info.width < 16 or info.height < 16:

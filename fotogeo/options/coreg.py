@@ -40,8 +40,9 @@ COREG = Table(
     Option("min_windows", "int", 10, "Fewest reliable windows (else refused)",
            "Fewest reliable windows; fewer are refused, never a wild field.", minimum=3, advanced=True),
     Option("reference_band", "int", 1, "Reference band (1-based)", "Band of the reference matched (1-based).",
-           minimum=1),
-    Option("target_band", "int", 1, "Target band (1-based)", "Band of the target matched (1-based).", minimum=1),
+           minimum=1, flag="--reference-bands"),  # spelt as register's (one band here)
+    Option("target_band", "int", 1, "Target band (1-based)", "Band of the target matched (1-based).", minimum=1,
+           flag="--target-bands"),
     Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)",
            "Nodata value of the reference (overrides the file's).", advanced=True),
     Option("target_nodata", "float", None, "Target nodata value (empty = the file's)",

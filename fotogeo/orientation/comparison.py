@@ -67,22 +67,23 @@ def parse_counts(spec) -> dict:
         key, _, values = item.rpartition("=")
         out[key.strip()] = tuple(_count_item(v, item) for v in values.split(",") if v.strip())
         if not out[key.strip()]:
-            raise InputError(f"counts {item!r}: no control-point count after '='")
+            raise InputError(f"counts {item!r}: no control-point count after '='", option="counts")
     if not out:
-        raise InputError("counts: give at least one control-point count, e.g. 40,20,10")
+        raise InputError("counts: give at least one control-point count, e.g. 40,20,10", option="counts")
     return out if "" in out else {**FAMILY_COUNTS, **out}
 
 
 def _count_item(text: str, item: str):
     m = re.fullmatch(r"\s*(\d+)\s*(?:/\s*(\d+)\s*)?", text)
     if not m:
-        raise InputError(f"counts {item!r}: {text.strip()!r} is not N or N/M (control/check points), e.g. 20 or 20/20")
+        raise InputError(f"counts {item!r}: {text.strip()!r} is not N or N/M (control/check points), e.g. 20 or 20/20",
+                         option="counts")
     return _positive(int(m.group(1)), item), None if m.group(2) is None else int(m.group(2))
 
 
 def _positive(n, spec):
     if int(n) < 1:
-        raise InputError(f"counts {spec!r}: a control-point count must be at least 1; got {n}")
+        raise InputError(f"counts {spec!r}: a control-point count must be at least 1; got {n}", option="counts")
     return int(n)
 
 

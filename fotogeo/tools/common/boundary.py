@@ -45,6 +45,7 @@ from pathlib import Path
 
 from ...errors import (Cancelled, FotogeoError, InputError, ModelError, OutputError, RasterError, VectorError,
                       one_line)
+from ..io.raster import is_virtual_path
 
 #: argument names of the tools that name files written; any other path argument is read
 OUTPUTS = ("output", "vectors", "report", "plot", "rpc", "gcp_tiff", "rectify", "table", "markdown", "folder")
@@ -145,7 +146,7 @@ def check_rasters(values: dict, rasters: dict) -> None:
     """
     for name, nodata_option in rasters.items():
         path = values.get(name)
-        if not isinstance(path, (str, Path)) or not Path(path).is_file():
+        if not isinstance(path, (str, Path)) or not (is_virtual_path(path) or Path(path).is_file()):
             continue
         dtype = _raster_dtype(path)
         if dtype is None:

@@ -52,10 +52,12 @@ def band_numbers(value, option: str) -> tuple[int, ...] | None:
         whole = all(isinstance(t, (int, np.integer)) and not isinstance(t, bool) for t in items)
         numbers = tuple(int(t) for t in items) if whole else None
     if numbers is None or any(n < 1 for n in numbers):
-        raise InputError(f"{flag} {value!r}: give band numbers from 1, separated by commas (e.g. 1,2,3)")
+        raise InputError(f"{flag} {value!r}: give band numbers from 1, separated by commas (e.g. 1,2,3)",
+                         option=option)
     if len(set(numbers)) != len(numbers):
         twice = sorted({n for n in numbers if numbers.count(n) > 1})
-        raise InputError(f"{flag} {value!r}: band {', '.join(map(str, twice))} given twice; give each band once")
+        raise InputError(f"{flag} {value!r}: band {', '.join(map(str, twice))} given twice; give each band once",
+                         option=option)
     return numbers or None
 
 
@@ -76,7 +78,7 @@ def select_bands(value, count: int, role: str) -> tuple[int, ...]:
         flag = REGISTER[option].cli_flag if option in REGISTER else option
         given = value if isinstance(value, str) else ",".join(map(str, numbers))
         raise InputError(f"{flag} {given}: the {role} has {count} band{'s' if count > 1 else ''} "
-                         f"({'1' if count == 1 else f'1-{count}'}); give band numbers in that range")
+                         f"({'1' if count == 1 else f'1-{count}'}); give band numbers in that range", option=option)
     return numbers
 
 
