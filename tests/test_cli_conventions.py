@@ -70,7 +70,7 @@ def test_exit_codes(rgb, tmp_path):
 
 
 def test_ctrl_c_exits_130(rgb, tmp_path, monkeypatch):
-    import fotogeo.tools.fuse as fuse
+    import fotogeo.tools.register.fuse as fuse
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
@@ -121,7 +121,7 @@ def test_library_log_records_become_one_warning_line(capsys):
 
 def test_library_warnings_are_fotogeo_lines(rgb, tmp_path, monkeypatch):
     """A library's warning inside a run is one ``Warning:`` line in fotogeo's words, or silenced."""
-    import fotogeo.tools.fuse as fuse
+    import fotogeo.tools.register.fuse as fuse
     real = fuse.fuse_raster
 
     def noisy(*a, **k):

@@ -45,7 +45,7 @@ from pathlib import Path
 
 from ...errors import (Cancelled, FotogeoError, InputError, ModelError, OutputError, RasterError, VectorError,
                       one_line)
-from ..io.raster import is_virtual_path
+from ...io.raster import is_virtual_path
 
 #: argument names of the tools that name files written; any other path argument is read
 OUTPUTS = ("output", "vectors", "report", "plot", "rpc", "gcp_tiff", "rectify", "table", "markdown", "folder")
