@@ -13,7 +13,6 @@ from qgis.core import (
 from fotogeo.options.dsm import DSM
 
 from .base import FotogeoAlgorithm, tr
-from .triangulate import _layer_paths
 
 
 class DsmAlgorithm(FotogeoAlgorithm):
@@ -51,7 +50,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
         self.addOutput(QgsProcessingOutputNumber(self.COMPLETENESS, tr("Share of the overlap with a height")))
 
     def processAlgorithm(self, parameters, context, feedback):
-        images = _layer_paths(self.parameterAsLayerList(parameters, self.IMAGES, context))
+        images = self.layer_paths(parameters, self.IMAGES, context)
         if len(images) < 2:
             raise QgsProcessingException("IMAGES: give at least two overlapping oriented images")
         output = self.raster_output(parameters, self.OUTPUT, context)
