@@ -29,3 +29,5 @@ def command(image, gcps, quiet, **kw):
     finally:
         bar.close()
     click.echo(markdown_table(rows))
+    from ..tools.compare_rank import ranking
+    click.echo(ranking(rows)[1])
