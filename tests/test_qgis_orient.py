@@ -155,7 +155,7 @@ def test_orient_collinearity_layers_loaded_and_styled(gcps, tmp_path):
                  for src, lyr in loaded.items()}
     assert renderers["error_vectors"].categories()[0].symbol().symbolLayer(0).layerType() == "ArrowLine"
     gl = renderers.get("first") or renderers.get("gcps")
-    assert gl.type() == "categorizedSymbol" and gl.classAttribute() == "role"
+    assert gl.type() == "categorizedSymbol" and gl.classAttribute() == "class"  # role, or blunder / suspect
 
 
 def test_compare_models(gcps, tmp_path):
