@@ -91,6 +91,10 @@ def main():
     assert dock.open_image(ARGS["frame"]), dock.last_message
     sample_image(dock)
     store = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    dock.controller.place("image", QgsPointXY(100.5, -200.5))  # a first click: the status says what comes next
+    STATE["first_click"] = dock.last_message
+    dock.controller.pending = None
+    dock.controller.show()
     dock.model_combo.setCurrentText("dlt")
     dock.height_combo.setCurrentText("dem")
     dem, small_dem = QgsRasterLayer(ARGS["dem"], "dem"), QgsRasterLayer(ARGS["small_dem"], "small dem")
