@@ -102,6 +102,7 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
                 feedback.reportError(f"fotogeo: could not apply style {self.style!r}: {message}")
             by_legend_class(layer)
             drop_empty_categories(layer)
+            draw_shown_only(layer)
             hide_categories(layer, self.hidden)
             show_legend(layer)
             layer.setRenderer(layer.renderer().clone())  # tells the legend (an edit in place would not)
@@ -158,6 +159,23 @@ def by_legend_class(layer) -> bool:
     if getattr(renderer, "classAttribute", lambda: None)() != "role" or layer.fields().indexOf("class") < 0:
         return False
     renderer.setClassAttribute("class")
+    return True
+
+
+def draw_shown_only(layer) -> bool:
+    """Draw only the features whose ``shown`` field is 1 (error vectors thinned to one arrow per cell of the
+    extent, fotogeo.io.vector.readable_subset; the others stay in the layer and its table). Returns whether the
+    layer has the field."""
+    from qgis.core import QgsProperty, QgsSymbolLayer
+    if layer.fields().indexOf("shown") < 0:
+        return False
+    enabled = QgsProperty.fromExpression('coalesce("shown", 1) = 1')
+    renderer = layer.renderer()
+    for i, category in enumerate(getattr(renderer, "categories", lambda: [])()):
+        symbol = category.symbol().clone()  # categories() gives copies: change and set back
+        for symbol_layer in symbol.symbolLayers():
+            symbol_layer.setDataDefinedProperty(QgsSymbolLayer.PropertyLayerEnabled, enabled)
+        renderer.updateCategorySymbol(i, symbol)
     return True
 
 

@@ -82,9 +82,19 @@ def snapping_layer(canvas, vertex):
 def main():
     canvas, dock = setup()
     STATE["not_raster"] = [dock.open_image(ARGS["not_raster"]), dock.last_message]
+    dock.last_message = ""
+    for k in range(len(ARGS["frame"]) - 4, len(ARGS["frame"])):  # typing the last characters: "….ti", "….tif"
+        dock.image_file.setFilePath(ARGS["frame"][:k])
+    typing = [dock.last_message, dock.image is not None]
+    dock.image_file.lineEdit().editingFinished.emit()  # typing ended on an unfinished name
+    STATE["typing"] = typing + [dock.last_message]
     assert dock.open_image(ARGS["frame"]), dock.last_message
     sample_image(dock)
     store = dock.new_gcp_layer(QgsCoordinateReferenceSystem.fromWkt(ARGS["crs"]))
+    dock.controller.place("image", QgsPointXY(100.5, -200.5))  # a first click: the status says what comes next
+    STATE["first_click"] = dock.last_message
+    dock.controller.pending = None
+    dock.controller.show()
     dock.model_combo.setCurrentText("dlt")
     dock.height_combo.setCurrentText("dem")
     dem, small_dem = QgsRasterLayer(ARGS["dem"], "dem"), QgsRasterLayer(ARGS["small_dem"], "small dem")

@@ -251,3 +251,20 @@ def test_cancel_leaves_no_output(data_dir, tmp_path):
         coregister(ref, tgt, tmp_path / "out.tif", grid_spacing=64, window=128, field=tmp_path / "f.tif",
                    progress=lambda f, m: calls.append(f) or f < 0.9)
     assert calls and sorted(p.name for p in tmp_path.iterdir()) == ["ref.tif", "tgt.tif"]
+
+
+def test_refusal_hints_stay_within_the_image_and_speak_the_dialogs_words(tmp_path):
+    """A 400 px image: window 256 is not told to double to 512 but to try the image's 400; the QGIS dialog reads
+    the options by their labels (no API names such as min_peak_ratio)."""
+    from fotogeo.options.table import in_labels
+    from fotogeo.options.coreg import COREG
+    flat = np.full((400, 400), 100.0)
+    ref = cs.write_geotiff(tmp_path / "ref.tif", flat + np.random.default_rng(1).normal(0, 5, flat.shape))
+    tgt = cs.write_geotiff(tmp_path / "tgt.tif", flat + np.random.default_rng(2).normal(0, 5, flat.shape))
+    with pytest.raises(MatchingError) as e:
+        coregister(ref, tgt, tmp_path / "out.tif", grid_spacing=64, window=256)
+    msg = str(e.value)
+    assert "larger windows (--window 400, the image's size)" in msg and "512" not in msg
+    assert "--grid-spacing 32, now 64" in msg and "min_peak_ratio" not in msg
+    dialog = in_labels(msg, COREG)
+    assert "--" not in dialog and f"“{COREG['window'].label}”" in dialog

@@ -33,6 +33,7 @@ provider = FotogeoProvider()
 QgsApplication.processingRegistry().addProvider(provider)
 import processing
 from processing.gui.AlgorithmDialog import AlgorithmDialog
+from fotogeo.options import ORIENT
 res = {}
 values = {
     "pcafusion": {"INPUT": f"{data}/landsat_rgb/RGB.byte.tif", "OUTPUT": f"{out}/pc1.tif"},
@@ -41,7 +42,8 @@ values = {
     "pointstolayer": {"INPUT": f"{out}/in.points", "OUTPUT": f"{out}/gcps.gpkg"},
     "layertopoints": {"INPUT": f"{out}/gcps.gpkg", "OUTPUT": f"{out}/back.points"},
     "orient": {"IMAGE": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "GCPS": gcps,
-               "DEM": f"{data}/ngi/dem.tif", "MODEL": 4, "REPORT": f"{out}/orient.json",
+               "DEM": f"{data}/ngi/dem.tif", "MODEL": ORIENT["model"].qgis_choices.index("dlt"),
+               "REPORT": f"{out}/orient.json",
                "VECTORS": f"{out}/orient.gpkg"},
     "comparemodels": {"IMAGE": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "GCPS": gcps,
                       "DEM": f"{data}/ngi/dem.tif", "MODELS": [0, 4], "COUNTS": "20", "TRIALS": 1,
@@ -125,3 +127,56 @@ def test_every_algorithm_runs_from_its_dialog(tmp_path, data_dir):
     assert (tmp_path / "orient.json").exists() and (tmp_path / "orient.gpkg").exists()
     assert res["comparemodels"]["result"]["ROWS"] == 4 and (tmp_path / "table.csv").exists()
     assert (tmp_path / "back.points").read_text().splitlines()[2:] == ["1,2,3.5,-4.5,1,0,0,0", "5,6,7.5,-8.5,0,0,0,0"]
+
+
+DEFAULTS_SCRIPT = r'''
+import json, os, sys
+root, data = sys.argv[1:3]
+sys.path.append("/usr/share/qgis/python/plugins")
+sys.path.insert(0, root)
+from qgis.core import QgsApplication, QgsProject, QgsRasterLayer
+app = QgsApplication([], True)
+app.initQgis()
+from processing.core.Processing import Processing
+Processing.initialize()
+from processing_provider.provider import FotogeoProvider
+provider = FotogeoProvider()
+QgsApplication.processingRegistry().addProvider(provider)
+from processing.gui.AlgorithmDialog import AlgorithmDialog
+project = QgsProject.instance()
+# as a user has them: the frame, the orthophoto, and the DEM added last (on top of the layer tree)
+for path, name in ((f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "frame 0182"),
+                   (f"{data}/ngi/ortho/ngi_rgb_byte_1.tif", "orthophoto"), (f"{data}/ngi/dem.tif", "dem")):
+    project.addMapLayer(QgsRasterLayer(path, name))
+res = {}
+for alg_id, names in (("fotogeo:register", ("REFERENCE", "TARGET", "DEM")), ("fotogeo:coreg", ("REFERENCE", "TARGET"))):
+    alg = QgsApplication.processingRegistry().algorithmById(alg_id)
+    panel = AlgorithmDialog(alg.create(), False, None).mainWidget()
+    values = {}
+    for n in names:
+        w = panel.wrappers[n]
+        v = w.parameterValue() if hasattr(w, "parameterValue") else w.value()
+        layer = project.mapLayer(v) if isinstance(v, str) else v
+        values[n] = layer.name() if layer is not None else None
+    res[alg_id] = values
+print("RESULT " + json.dumps(res))
+sys.stdout.flush()
+os._exit(0)
+'''
+
+
+def test_dialogs_prefill_layers_by_their_role(tmp_path, data_dir):
+    """A DEM on top of the layer tree: register's Reference and Target start on two different images, neither the
+    DEM, and its DEM input on the DEM; co-register's Reference and Target on two different images."""
+    need_qgis()
+    script = tmp_path / "defaults.py"
+    script.write_text(DEFAULTS_SCRIPT)
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"), GDAL_PAM_ENABLED="NO")
+    r = subprocess.run([sys.executable, str(script), str(ROOT), str(data_dir)], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=180)
+    lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
+    assert lines, f"dialog script failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    res = json.loads(lines[-1][7:])
+    reg, coreg = res["fotogeo:register"], res["fotogeo:coreg"]
+    assert reg["DEM"] == "dem" and {reg["REFERENCE"], reg["TARGET"]} == {"orthophoto", "frame 0182"}, reg
+    assert {coreg["REFERENCE"], coreg["TARGET"]} == {"orthophoto", "frame 0182"}, coreg

@@ -26,6 +26,7 @@ ORIENT_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dlt", "
                  "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
                  "rfm-common-plain", "rfm-i2g", "rfm-plain", "rfm-plain-i2g", "rfm-poly", "rfm-poly-i2g",
                  "rfm-poly-plain", "similarity")
+ORIENT_CHOICES = ("auto",) + ORIENT_MODELS  # orient's MODEL: auto first, its default
 
 
 def run(alg, params, feedback=None, context=None):
@@ -72,7 +73,7 @@ def base(g, **kw):
 
 def test_orient_dlt_all_outputs(gcps, tmp_path):
     from fotogeo.io.points import read_points
-    model = ORIENT_MODELS.index("dlt")
+    model = ORIENT_CHOICES.index("dlt")
     out = {"REPORT": str(tmp_path / "r.json"), "VECTORS": str(tmp_path / "v.gpkg"), "PLOT": str(tmp_path / "p.png"),
            "POINTS": str(tmp_path / "g.points"), "RECTIFY": str(tmp_path / "rect.tif")}
     res = run("orient", base(gcps, MODEL=model, RESOLUTION=10.0, **out))
@@ -101,13 +102,13 @@ def test_orient_from_points_file_and_rpc_export(gcps, tmp_path):
     from fotogeo.io.points import read_points
     pts = tmp_path / "g.points"
     gtif = tmp_path / "gcp.tif"
-    run("orient", base(gcps, MODEL=ORIENT_MODELS.index("poly1"), POINTS=str(pts), GCP_TIFF=str(gtif)))
+    run("orient", base(gcps, MODEL=ORIENT_CHOICES.index("poly1"), POINTS=str(pts), GCP_TIFF=str(gtif)))
     with rasterio.open(gtif) as ds:  # the control points as GDAL GCPs, for gdalwarp -order 1 / QGIS
         gcp_list, gcp_crs = ds.gcps
         assert len(gcp_list) == read_points(pts).enabled.sum() and gcp_crs is not None
     rpc = tmp_path / "rpc.tif"
     res = run("orient", {"IMAGE": gcps["image"], "GCPS": str(pts), "DEM": gcps["dem"],
-                         "MODEL": ORIENT_MODELS.index("rfm"), "RPC": str(rpc), "VECTORS": None, "REPORT": None,
+                         "MODEL": ORIENT_CHOICES.index("rfm"), "RPC": str(rpc), "VECTORS": None, "REPORT": None,
                          "SNOOPING": False})  # snooping refits the RFM once per GCP: slow, not tested here
     assert res["MODEL_NAME"] == "rfm" and res["RPC"] == str(rpc) and res["GCP_LAYER"] is None
     with rasterio.open(rpc) as ds:
@@ -118,9 +119,9 @@ def test_orient_from_points_file_and_rpc_export(gcps, tmp_path):
 
 def test_orient_errors_and_cancel(gcps, tmp_path):
     with pytest.raises(QgsProcessingException, match="needs the interior orientation"):
-        run("orient", base(gcps, MODEL=ORIENT_MODELS.index("collinearity"), REPORT=str(tmp_path / "a.json")))
+        run("orient", base(gcps, MODEL=ORIENT_CHOICES.index("collinearity"), REPORT=str(tmp_path / "a.json")))
     with pytest.raises(QgsProcessingException, match="is not one"):
-        run("orient", base(gcps, MODEL=ORIENT_MODELS.index("poly1"), RPC=str(tmp_path / "x.tif")))
+        run("orient", base(gcps, MODEL=ORIENT_CHOICES.index("poly1"), RPC=str(tmp_path / "x.tif")))
     with pytest.raises(QgsProcessingException, match=r"lacks the field\(s\) col"):
         run("orient", {"IMAGE": gcps["image"], "GCPS": gcps["path"], "REPORT": str(tmp_path / "b.json")})
     assert files(tmp_path) == []
@@ -132,7 +133,7 @@ def test_orient_errors_and_cancel(gcps, tmp_path):
 
     fb = CancelAt()
     with pytest.raises(QgsProcessingException, match="cancelled"):
-        run("orient", base(gcps, MODEL=ORIENT_MODELS.index("dlt"), RECTIFY=str(tmp_path / "r.tif"),
+        run("orient", base(gcps, MODEL=ORIENT_CHOICES.index("dlt"), RECTIFY=str(tmp_path / "r.tif"),
                            RESOLUTION=5.0, REPORT=str(tmp_path / "r.json"), VECTORS=str(tmp_path / "v.gpkg")), fb)
     assert fb.isCanceled() and files(tmp_path) == []
 
@@ -144,7 +145,7 @@ def test_orient_collinearity_layers_loaded_and_styled(gcps, tmp_path):
     import processing
     vec = tmp_path / "coll.gpkg"
     res = processing.runAndLoadResults(
-        "fotogeo:orient", base(gcps, MODEL=ORIENT_MODELS.index("collinearity"), CAMERA=gcps["camera"],
+        "fotogeo:orient", base(gcps, MODEL=ORIENT_CHOICES.index("collinearity"), CAMERA=gcps["camera"],
                                VECTORS=QgsProcessingOutputLayerDefinition(str(vec), project)),
         feedback=QgsProcessingFeedback(), context=context)
     assert res["CHECK_RMS_XY_PX"] < 0.6
@@ -154,7 +155,7 @@ def test_orient_collinearity_layers_loaded_and_styled(gcps, tmp_path):
                  for src, lyr in loaded.items()}
     assert renderers["error_vectors"].categories()[0].symbol().symbolLayer(0).layerType() == "ArrowLine"
     gl = renderers.get("first") or renderers.get("gcps")
-    assert gl.type() == "categorizedSymbol" and gl.classAttribute() == "role"
+    assert gl.type() == "categorizedSymbol" and gl.classAttribute() == "class"  # role, or blunder / suspect
 
 
 def test_compare_models(gcps, tmp_path):
@@ -184,7 +185,7 @@ def test_orient_from_a_project_layer(gcps, tmp_path):
     layer = QgsVectorLayer(gcps["path"], "gcps", "ogr").materialize(QgsFeatureRequest())
     assert layer.providerType() == "memory" and layer.featureCount() == 60
     params = {"IMAGE": gcps["image"], "DEM": gcps["dem"], "COL_FIELD": "c", "ROW_FIELD": "r",
-              "MODEL": ORIENT_MODELS.index("dlt")}
+              "MODEL": ORIENT_CHOICES.index("dlt")}
     from_layer = run("orient", {**params, "GCP_LAYER_INPUT": layer, "REPORT": str(tmp_path / "a.json")})
     from_file = run("orient", {**params, "GCPS": gcps["path"], "REPORT": str(tmp_path / "b.json")})
     assert from_layer["CHECK_RMS_XY_PX"] == pytest.approx(from_file["CHECK_RMS_XY_PX"], rel=1e-9)

@@ -93,6 +93,10 @@ def test_dock_rejects_a_file_that_is_not_a_raster(picked):
     state, _, tmp = picked
     opened, message = state["not_raster"]
     assert opened is False and "notes.txt" in message and "is not a raster GDAL can read" in message
+    # a path typed is not judged per keystroke: nothing said while it names no file, one line when typing ends
+    while_typing, opened, ended = state["typing"]
+    assert while_typing == "" and not opened and "does not exist" in ended and ended.count("\n") == 0
+    assert state["first_click"] == "(100.5, 200.5) px on the image noted: now click the same point on the map"
 
 
 def test_image_canvas_shows_pixels_at_x_col_y_minus_row(picked):

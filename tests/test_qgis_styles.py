@@ -143,3 +143,33 @@ def test_one_legend_with_a_blunder_class_and_no_empty_class(qgis_app, tmp_path):
     StylePostProcessor("tie_points").postProcessLayer(tie, None, None)
     assert tie.renderer().classAttribute() == "role"
     assert [c.value() for c in tie.renderer().categories()] == ["control", ""]
+
+
+def test_error_vectors_draw_one_arrow_per_cell_at_full_extent(qgis_app, tmp_path):
+    """637 check arrows (the NGI registration's count) thinned to one per cell: the others are in the layer and
+    its table but not drawn; the exaggeration lowered so that the arrows drawn fit their cells."""
+    import shapely
+
+    from fotogeo.io.vector import error_vectors, fitting_exaggeration, readable_subset
+    from processing_provider.postprocess import StylePostProcessor
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(0, 3000, (637, 2))
+    d = rng.normal(0, 2.0, (637, 2))
+    shown = readable_subset(xy)
+    assert 150 <= shown.sum() <= 17 * 17 and shown.sum() < 637 / 2
+    k = fitting_exaggeration(500.0, np.hypot(*d[shown].T), xy)
+    cell = 3000 / 16
+    assert k < 500 and np.percentile(k * np.hypot(*d[shown].T), 90) <= 0.8 * cell * 1.01
+    layer = _layer(tmp_path, "error_vectors", error_vectors(xy, xy + d, k),
+                   {"role": ["check"] * 637, "shown": shown.astype(int), "legend": ["x10"] * 637})
+    StylePostProcessor("error_vectors").postProcessLayer(layer, None, None)
+    from qgis.core import QgsExpressionContext, QgsExpressionContextUtils, QgsSymbolLayer
+    categories = layer.renderer().categories()  # kept: a category's symbol lives as long as the list
+    symbol = categories[0].symbol().clone()
+    prop = symbol.symbolLayer(0).dataDefinedProperties().property(QgsSymbolLayer.PropertyLayerEnabled)
+    ctx = QgsExpressionContext(QgsExpressionContextUtils.globalProjectLayerScopes(layer))
+    drawn = 0
+    for feature in layer.getFeatures():
+        ctx.setFeature(feature)
+        drawn += bool(prop.valueAsBool(ctx, True)[0])
+    assert layer.featureCount() == 637 and drawn == shown.sum()

@@ -23,7 +23,7 @@ from rasterio.transform import from_origin
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import Cancelled, InputError
-from fotogeo.io.vector import VISIBLE_FRACTION, auto_exaggeration
+from fotogeo.io.vector import VISIBLE_FRACTION, auto_exaggeration, fitting_exaggeration
 from fotogeo.models import get_model
 
 TMERC25 = "+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m +no_defs"
@@ -148,11 +148,13 @@ def test_error_vectors_auto_exaggeration_legend_and_grid(scene):
     ev = gpd.read_file(r.vectors, layer="error_vectors")
     k = float(ev.exaggeration.iloc[0])
     pts = np.column_stack([ev.geometry.apply(lambda g: g.coords[0][0]), ev.geometry.apply(lambda g: g.coords[0][1])])
-    assert k == auto_exaggeration(float(np.median(ev["length"])), pts) and k > 1
+    auto = auto_exaggeration(float(np.median(ev["length"])), pts)
+    shown = ev["shown"].to_numpy() == 1  # one arrow per cell and role drawn at full extent
+    assert 0 < shown.sum() <= len(ev) and k == fitting_exaggeration(auto, ev["length"][shown], pts) and 1 < k <= auto
     assert np.allclose(ev.geometry.length, k * ev["length"])
     diag = np.hypot(*(pts.max(axis=0) - pts.min(axis=0)))
     drawn = k * float(np.median(ev["length"])) / diag  # the 1-2-5 rounding keeps it within a factor 1.6
-    assert VISIBLE_FRACTION / 1.6 < drawn < VISIBLE_FRACTION * 1.6, drawn
+    assert drawn < VISIBLE_FRACTION * 1.6 and (k < auto or VISIBLE_FRACTION / 1.6 < drawn), drawn
     legend = r.report["exaggeration"]["legend"]
     assert legend.startswith(f"x{k:g}; 1 mm on the map = ") and (ev.legend == legend).all()
     assert legend in _gpkg_description(r.vectors, "error_vectors")

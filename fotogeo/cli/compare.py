@@ -29,4 +29,6 @@ def command(image, gcps, quiet, **kw):
     finally:
         bar.close()
     click.echo(markdown_table(rows))
+    from ..tools.orient.compare_rank import ranking
+    click.echo(ranking(rows)[1])
     return rows

@@ -207,31 +207,54 @@ def status_counts(status) -> str:
     return ", ".join(f"{n} {s}" for s, n in Counter(np.asarray(status).tolist()).most_common())
 
 
-def refuse(windows: WindowShifts, status, opts: CoregOptions, why: str = ""):
-    """The one-line :class:`MatchingError` for too few reliable windows."""
+def refuse(windows: WindowShifts, status, opts: CoregOptions, why: str = "", size=None):
+    """The one-line :class:`MatchingError` for too few reliable windows, with the options to try in the
+    caller's words (command-line flags; the QGIS dialog shows its labels) and bounded by the image ``size``
+    (width, height): a window is never suggested larger than the image."""
     n, valid, reliable = len(windows), int(windows.ok.sum()), int((np.asarray(status) == "ok").sum())
     need = max(opts.min_windows, get_model(opts.model).min_points + 2)
     raise MatchingError(
         f"co-registration refused: only {reliable} reliable windows of {n} ({valid} valid after phase correlation "
-        f"and LSM; {status_counts(status)}){why}; at least {need} are needed — try larger windows "
-        f"(window {opts.window * 2}), a smaller grid spacing (now {opts.grid_spacing}), another band, or a lower "
-        f"min_peak_ratio / min_correlation")
+        f"and LSM; {status_counts(status)}){why}; at least {need} are needed — try {', '.join(retry_hints(opts, size))}")
+
+
+def retry_hints(opts: CoregOptions, size=None) -> list:
+    """What to try after a refusal, each option by its flag with a value that fits the image ``size``.
+
+    >>> retry_hints(CoregOptions(window=512, grid_spacing=64), (448, 448))[0]
+    'a window no larger than the image (--window 448, now 512)'
+    >>> retry_hints(CoregOptions(window=128, grid_spacing=64), (448, 448))[0]
+    'larger windows (--window 256)'
+    """
+    side = int(min(size)) - int(min(size)) % 2 if size else None
+    if side is None or opts.window * 2 <= side:
+        hints = [f"larger windows (--window {opts.window * 2})"]
+    elif opts.window < side:
+        hints = [f"larger windows (--window {side}, the image's size)"]
+    elif opts.window > side:
+        hints = [f"a window no larger than the image (--window {side}, now {opts.window})"]
+    else:
+        hints = []
+    if opts.grid_spacing > 8:
+        hints.append(f"a smaller grid spacing (--grid-spacing {max(8, opts.grid_spacing // 2)}, now {opts.grid_spacing})")
+    return hints + ["another band", f"a lower --min-peak-ratio (now {opts.min_peak_ratio:g}) or --min-correlation (now "
+                                    f"{opts.min_correlation:g})"]
 
 
 def filter_and_fit(grid: WindowGrid, windows: WindowShifts, opts: CoregOptions, width: int, height: int):
     """The outlier filters and the field of one pass: ``(Filtered, DisplacementField)``."""
     need = max(opts.min_windows, get_model(opts.model).min_points + 2)
     if windows.ok.sum() < need:
-        refuse(windows, windows.status, opts)
+        refuse(windows, windows.status, opts, size=(width, height))
     try:
         flt = reject_outliers(windows.position, windows.shift, windows.status, grid.index, grid.shape,
                               model=opts.model, threshold=opts.ransac_threshold, radius=opts.neighbour_radius,
                               tolerance=opts.neighbour_tolerance, seed=opts.seed)
     except MatchingError as e:
-        refuse(windows, windows.status, opts, f" — {e}")
+        refuse(windows, windows.status, opts, f" — {e}", size=(width, height))
     keep = flt.status == "ok"
     if keep.sum() < need:
-        refuse(windows, flt.status, opts)
+        refuse(windows, flt.status, opts, size=(width, height))
     fld, w = fit_field(flt.model, windows.position[keep], windows.shift[keep], windows.reliability[keep],
                        width=width, height=height, spacing=grid.spacing, smoothing=opts.smoothing,
                        step=opts.field_step)

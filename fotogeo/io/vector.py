@@ -71,6 +71,49 @@ def auto_exaggeration(typical_length: float, points) -> float:
     return max(1.0, nice_number(VISIBLE_FRACTION * diag / typical_length))
 
 
+def readable_subset(points, cells: int = 16) -> np.ndarray:
+    """``(N,)`` mask of the arrows drawn at full extent: in each cell of a grid of about ``cells`` x ``cells``
+    over the points' extent (square cells), the point nearest the cell's centre — one arrow per cell, so that
+    hundreds of check points do not cover the map (the others stay in the layer, not drawn).
+
+    >>> xy = np.array([[0, 0], [1, 1], [50, 50], [99, 99], [100, 100]], float)
+    >>> readable_subset(xy, cells=2).tolist()
+    [False, True, False, True, True]
+    """
+    p = np.asarray(points, float).reshape(-1, 2)
+    ok = np.isfinite(p).all(axis=1)
+    shown = np.zeros(len(p), bool)
+    if not ok.any():
+        return shown
+    lo, hi = p[ok].min(axis=0), p[ok].max(axis=0)
+    size = max(float(np.max(hi - lo)) / cells, 1e-12)
+    ij = np.floor((p[ok] - lo) / size).astype(np.int64)
+    centre = lo + (ij + 0.5) * size
+    dist = np.hypot(*(p[ok] - centre).T)
+    key = ij[:, 0] * (cells + 2) + ij[:, 1]
+    order = np.lexsort((dist, key))
+    first = order[np.r_[True, key[order][1:] != key[order][:-1]]]
+    shown[np.flatnonzero(ok)[first]] = True
+    return shown
+
+
+def fitting_exaggeration(k: float, lengths, points, cells: int = 16) -> float:
+    """``k`` lowered (1-2-5 series, never below 1) until the 90th percentile of the drawn arrows ``k·lengths``
+    fits in 80 % of a :func:`readable_subset` cell, so that the arrows drawn do not run into each other.
+
+    >>> fitting_exaggeration(500.0, [1.0, 1.0], [[0, 0], [1600, 0]])  # cells of 100: an arrow of 80 at most
+    50.0
+    """
+    lengths = np.asarray(lengths, float)
+    lengths = lengths[np.isfinite(lengths)]
+    cell = extent_diagonal(points) / (cells * math.sqrt(2)) if len(lengths) else 0.0
+    typical = float(np.percentile(lengths, 90)) if len(lengths) else 0.0
+    while k > 1.0 and typical > 0 and cell > 0 and k * typical > 0.8 * cell:
+        smaller = nice_number(k / 2.0)
+        k = max(1.0, smaller if smaller < k else k / 2.0)
+    return k
+
+
 def exaggeration_value(option, typical_length: float, points) -> tuple[float, str]:
     """The exaggeration ``option`` (``"auto"``, a number or a numeric text) as ``(k, how)``."""
     if option is None or str(option).strip().lower() == "auto":

@@ -21,9 +21,9 @@ GCP = Table(
     groups={"fields": {n: f"{n}_field" for n in ("col", "row", "z", "role", "id")}},
 )
 ORIENT = Table(
-    Option("model", "choice", "poly1", "Model (auto = the simplest candidate the GCPs support, see the report)",
-           "Model name, or auto: every candidate the GCPs allow is fitted and the simplest within 5 % of the best "
-           "check RMSE is kept.", choices=ORIENTATION_MODELS + ("auto",)),  # last: QGIS enum indices keep their meaning
+    Option("model", "choice", "auto", "Model (auto = the simplest candidate the GCPs support, see the report)",
+           "Model name, or auto (the default): every candidate the GCPs allow is fitted and the simplest within 5 % "
+           "of the best check RMSE is kept.", choices=("auto",) + ORIENTATION_MODELS),
     Option("snooping", "bool", True, "Data snooping (flag blunders)", "Data snooping for blunders."),
     Option("remove_blunders", "bool", False, "Remove flagged blunders and refit", "Drop flagged blunders and refit."),
     Option("image_sigma", "float", None, "Image σ of the GCPs in px, the click precision (empty = estimated)",

@@ -60,11 +60,8 @@ class CompareModelsAlgorithm(_GcpAlgorithm):
         rows = self.run_tool("compare_models", image, gcps, table=table, markdown=markdown, html=html, plots=plots,
                              overwrite=True,
                              feedback=feedback, **options, **self.gcp_arguments(parameters, context, gcp_layer))
-        fitted = [r for r in rows if r.get("check_rms_xy_px") is not None]
-        if fitted:
-            best = min(fitted, key=lambda r: r["check_rms_xy_px"])
-            feedback.pushInfo(f"{len(rows)} rows; lowest check RMS xy: {best['model']} ({best['spread']}, "
-                              f"{best['n_control']} control points) {best['check_rms_xy_px']:.3f} px")
+        from fotogeo.tools.orient.compare_rank import ranking  # standard library only
+        feedback.pushInfo(f"{len(rows)} rows; {ranking(rows)[1]}")
         if context.project() is not None:  # the table opens in QGIS (Open Attribute Table), not as text in the log
             load_on_completion(context, f"{table}|option:AUTODETECT_TYPE=YES", tr("Orientation models compared"),
                                self.TABLE, None)

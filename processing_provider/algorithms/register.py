@@ -15,7 +15,7 @@ from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
 from .base import REFERENCES, FotogeoAlgorithm, tr
-from .widgets import OtherLayer
+from .widgets import layer_roles
 
 
 class RegisterAlgorithm(FotogeoAlgorithm):
@@ -61,13 +61,13 @@ class RegisterAlgorithm(FotogeoAlgorithm):
     INLIERS, CONTROL_RMSE, CHECK_RMSE, OUTPUT_CRS = "INLIERS", "CONTROL_RMSE_M", "CHECK_RMSE_M", "OUTPUT_CRS"
 
     def initAlgorithm(self, config=None):
+        # the dialog starts Reference and Target on two different layers, neither a DEM, and DEM on a layer that
+        # looks like one (widgets.OtherLayer)
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
-        target = QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register"))
-        # the dialog starts Target on another layer than Reference (widgets.OtherLayer)
-        target.setMetadata({"widget_wrapper": {"class": OtherLayer, "other": self.REFERENCE}})
-        self.addParameter(target)
+        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
         for table in self.OPTIONS:
             self.add_options(table)
+        layer_roles(self, {self.REFERENCE: ("", "image"), self.TARGET: (self.REFERENCE, "image"), "DEM": ("", "dem")})
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Registered raster")))
         # optional: left empty they are written beside the raster (OUT.gpkg, OUT.json), as the CLI does
         self.addParameter(QgsProcessingParameterFileDestination(

@@ -1,24 +1,52 @@
-"""Dialog defaults Processing cannot declare: a raster input that starts on another layer than a sibling input.
+"""Dialog defaults Processing cannot declare: raster inputs pre-filled by the role of a layer.
 
 QGIS opens every required layer input of an algorithm dialog on the active layer, so *Target*
-would start equal to *Reference* (and Run registers the orthophoto to itself). A parameter with
-``metadata={"widget_wrapper": {"class": OtherLayer, "other": "REFERENCE"}}`` gets a layer combo box
-that, once all the dialog's widgets exist, moves off the ``other`` input's layer to the next raster
-layer of the project (top of the layer tree first) — or to empty when there is none. Only the
-desktop dialog reads this metadata; ``qgis_process`` and scripts are unaffected.
+would start equal to *Reference* (and Run registers the orthophoto to itself), and a DEM that happens
+to be active would become the reference image. A parameter with
+``metadata={"widget_wrapper": {"class": OtherLayer, "other": "REFERENCE", "role": "image"}}`` gets a
+layer combo box that, once all the dialog's widgets exist, moves off the ``other`` input's layer and —
+with ``role="image"`` — off a layer that looks like a DEM (:func:`looks_like_dem`) to the next raster
+layer of the project (top of the layer tree first), or to empty when there is none; ``role="dem"``
+(an optional DEM input) starts on the first layer that looks like a DEM. Only the desktop dialog reads
+this metadata; ``qgis_process`` and scripts are unaffected.
 """
 from __future__ import annotations
 
+import re
 import warnings
 
 
-def other_layer(layers, taken):
-    """The first layer of ``layers`` (in layer-tree order) that is not ``taken``, or None.
+#: words of a layer's name that say it holds heights
+DEM_WORDS = {"dem", "dsm", "dtm", "elev", "elevation", "height", "heights", "srtm", "lidar"}
+
+
+def looks_like_dem(name: str, bands: int) -> bool:
+    """Whether a raster layer looks like a DEM: one band, and a word of its name says heights (dem, dsm, dtm,
+    elev… — a word, so that "demo" is not one). The band's type does not decide: DEMs come as float and as
+    16-bit integers (SRTM).
+
+    >>> looks_like_dem("dem", 1), looks_like_dem("ngi_dsm_5m", 1), looks_like_dem("DTM 2015", 1)
+    (True, True, True)
+    >>> looks_like_dem("orthophoto", 3), looks_like_dem("frame 0182", 1), looks_like_dem("demo_scene", 1)
+    (False, False, False)
+    """
+    return bands == 1 and bool(DEM_WORDS & set(re.split(r"[^a-z]+", name.lower())))
+
+
+def other_layer(layers, taken, avoid=lambda layer: False):
+    """The first layer of ``layers`` (in layer-tree order) that is not ``taken`` and not ``avoid``-ed, or None.
 
     >>> other_layer(["a", "b", "c"], "a"), other_layer(["a"], "a"), other_layer([], None)
     ('b', None, None)
+    >>> other_layer(["dem", "b", "c"], "b", lambda name: name == "dem")
+    'c'
     """
-    return next((layer for layer in layers if layer != taken), None)
+    return next((layer for layer in layers if layer != taken and not avoid(layer)), None)
+
+
+def layer_is_dem(layer) -> bool:
+    """:func:`looks_like_dem` of a QGIS raster layer."""
+    return layer is not None and looks_like_dem(layer.name(), layer.bandCount())
 
 
 def _wrapper_value(wrapper):
@@ -44,6 +72,16 @@ def _raster_layers():
             if isinstance(node.layer(), QgsRasterLayer)]
 
 
+def layer_roles(algorithm, roles: dict) -> None:
+    """Give the algorithm's raster parameters ``{name: (other, role)}`` their :class:`OtherLayer` defaults
+    (a name the algorithm does not have is skipped)."""
+    for name, (other, role) in roles.items():
+        definition = algorithm.parameterDefinition(name)
+        if definition is not None:
+            definition.setMetadata({**definition.metadata(), "widget_wrapper": {"class": OtherLayer, "other": other,
+                                                                                "role": role}})
+
+
 class OtherLayer:
     """``widget_wrapper`` class of a raster input that must not start on the ``other`` input's layer.
 
@@ -51,7 +89,7 @@ class OtherLayer:
     itself subclasses Processing's raster wrapper, imported only when a dialog is built.
     """
 
-    def __new__(cls, param, dialog, row=0, col=0, other: str = "", **kwargs):
+    def __new__(cls, param, dialog, row=0, col=0, other: str = "", role: str = "", **kwargs):
         with warnings.catch_warnings():  # the Python raster wrapper is deprecated for QGIS 4; 3.22 is the target
             warnings.simplefilter("ignore", DeprecationWarning)
             from processing.gui.wrappers import RasterWidgetWrapper
@@ -59,11 +97,16 @@ class OtherLayer:
             class _Wrapper(RasterWidgetWrapper):
                 def postInitialize(self, wrappers):  # noqa: N802 - QGIS API
                     super().postInitialize(wrappers)
+                    mine = _layer_of(self.value())
+                    if role == "dem":
+                        if mine is None:
+                            self.combo.setLayer(next((lay for lay in _raster_layers() if layer_is_dem(lay)), None))
+                        return
                     sibling = next((w for w in wrappers if w.parameterDefinition().name() == other), None)
                     taken = _layer_of(_wrapper_value(sibling)) if sibling is not None else None
-                    mine = _layer_of(self.value())
-                    if taken is None or mine is None or mine.id() != taken.id():
-                        return
-                    self.combo.setLayer(other_layer(_raster_layers(), taken))
+                    avoid = layer_is_dem if role == "image" else (lambda layer: False)
+                    same = taken is not None and mine is not None and mine.id() == taken.id()
+                    if mine is not None and (same or avoid(mine)):
+                        self.combo.setLayer(other_layer(_raster_layers(), taken, avoid))
 
             return _Wrapper(param, dialog, row, col, **kwargs)

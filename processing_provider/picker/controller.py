@@ -112,6 +112,8 @@ class PickerController(QObject):
         if self.pending is None or self.pending[0] == side:
             self.pending = (side, here)
             self.show()
+            where = f"({here[0]:.1f}, {here[1]:.1f}) px on the image" if side == IMAGE else "the map point"
+            self.message.emit(f"{where} noted: now click the same point on the {'map' if side == IMAGE else 'image'}")
             return
         other = self.pending[1]
         (col, row), (x, y) = (here, other) if side == IMAGE else (other, here)

@@ -10,6 +10,8 @@ The handlers of the rows are in :mod:`.dock_actions`. The picking itself: :mod:`
 """
 from __future__ import annotations
 
+import os
+
 from qgis.core import (Qgis, QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsMessageLog,
                        QgsProject, QgsRasterLayer, QgsTask)
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
@@ -106,7 +108,10 @@ class PickerDock(DockActions, QDockWidget):
         self.image_combo.layerChanged.connect(lambda layer: layer is not None and self.open_image(layer.source()))
         self.image_file = QgsFileWidget()
         self.image_file.setFilter("Images (*.tif *.tiff *.jpg *.jpeg *.png *.jp2 *.img *.vrt);;All files (*)")
-        self.image_file.fileChanged.connect(lambda path: path and self.open_image(path))
+        # typing a path: open it once it names a file (no "…RGB.ti is not a raster" per keystroke); a path that
+        # names no file is reported when the typing ends
+        self.image_file.fileChanged.connect(lambda path: path and os.path.isfile(path) and self.open_image(path))
+        self.image_file.lineEdit().editingFinished.connect(self._image_path_typed)
         self.gcp_combo = QgsMapLayerComboBox()
         self.gcp_combo.setFilters(QgsMapLayerProxyModel.PointLayer)
         self.gcp_combo.setAllowEmptyLayer(True)
@@ -256,6 +261,11 @@ class PickerDock(DockActions, QDockWidget):
         return FitSettings(model=self.model_combo.currentText(), height_source=self.height_combo.currentText(),
                            dem=dem.source() if dem is not None else None, height=self.height_spin.value(),
                            camera=camera)
+
+    def _image_path_typed(self):
+        path = self.image_file.filePath()
+        if path and not os.path.isfile(path):
+            self.say(f"image {path!r} does not exist; choose an image file (… button) or a raster layer")
 
     def open_image(self, path: str) -> bool:
         """Show ``path`` on the image canvas in pixel units; False (and the reason shown) if it cannot."""

@@ -4,7 +4,7 @@
 Every public tool function (``fotogeo/tools/<tool>.py``) is decorated with :func:`tool`::
 
     @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
-    def orient(image, gcps, *, model="poly1", ...): ...
+    def orient(image, gcps, *, model="auto", ...): ...
 
 Before the tool runs, each keyword argument declared in the tool's option tables
 (:mod:`fotogeo.options`) is checked against its kind, range and choices — the same check for

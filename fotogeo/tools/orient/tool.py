@@ -54,7 +54,7 @@ from ..common.results import Orientation
 
 
 @tool("ORIENT", "GCP", rasters={"image": None, "dem": None}, outputs=OUTPUTS + ("points",))
-def orient(image, gcps, *, model: str = "poly1", report=None, vectors=None, plot=None, points=None, rpc=None,
+def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=None, points=None, rpc=None,
            gcp_tiff=None, rectify=None, dem=None, height=None, scan_pixel_um=None, snooping: bool = True,
            remove_blunders: bool = False, image_sigma=None, exaggeration="auto", resolution=None,
            resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,

@@ -31,7 +31,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import InputError, MatchingError, ModelError
-from ...io.vector import error_vectors, exaggeration_value, grid_means, legend_text, nominal_scale, write_layers
+from ...io.vector import (error_vectors, exaggeration_value, fitting_exaggeration, grid_means, legend_text,
+                          nominal_scale, readable_subset, write_layers)
 from ...matching import CONVERGED
 from ...models import Projective
 from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
@@ -256,6 +257,11 @@ def write_vectors(path, fit, pts: TiePoints, dst, ref_px, crs, exaggeration) -> 
     xy = dst[keep]
     length = np.hypot(d[:, 0], d[:, 1])
     k, how = exaggeration_value(exaggeration, float(np.median(length)) if len(length) else 0.0, xy)
+    shown = np.zeros(len(xy), bool)  # per role, one arrow per cell drawn at full extent; the grid: the mean field
+    for r in np.unique(fit.role[keep]):
+        shown[fit.role[keep] == r] = readable_subset(xy[fit.role[keep] == r])
+    if how == "auto":
+        k = fitting_exaggeration(k, length[shown], xy)
     scale = nominal_scale(xy)
     legend = legend_text(k, scale)
     common = {"id": idx.astype(np.int64), "role": fit.role[keep],
@@ -272,7 +278,8 @@ def write_vectors(path, fit, pts: TiePoints, dst, ref_px, crs, exaggeration) -> 
         "tie_points": {**common, "dx": d[:, 0], "dy": d[:, 1], "residual": length,
                        "residual_px": length / ref_px, **lsm, "geometry": shapely.points(xy)},
         "error_vectors": {"id": common["id"], "role": common["role"], "dx": d[:, 0], "dy": d[:, 1],
-                          "length": length, "exaggeration": np.full(len(idx), k), "legend": [legend] * len(idx),
+                          "length": length, "shown": shown.astype(np.int64), "exaggeration": np.full(len(idx), k),
+                          "legend": [legend] * len(idx),
                           "geometry": error_vectors(xy, xy + d, k)},
         "error_grid": {**{c: g[c] for c in ("cell_col", "cell_row", "n", "mean_dx", "mean_dy", "length", "rms")},
                        "exaggeration": np.full(len(g["n"]), k), "legend": [legend] * len(g["n"]),
@@ -283,4 +290,5 @@ def write_vectors(path, fit, pts: TiePoints, dst, ref_px, crs, exaggeration) -> 
     what = f"Error vectors drawn {legend}"
     write_layers(path, layers, crs.to_wkt(), {"error_vectors": what + ".",
                                               "error_grid": f"Mean residual per grid cell, {what}."})
-    return {"factor": k, "chosen": how, "map_scale": scale, "legend": legend, "grid_cells": int(len(g["n"]))}
+    return {"factor": k, "chosen": how, "map_scale": scale, "legend": legend, "grid_cells": int(len(g["n"])),
+            "arrows_drawn": int(shown.sum())}
