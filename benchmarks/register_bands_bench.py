@@ -48,7 +48,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     if a.pca_only:
         import fotogeo.tools.register.points as points
-        points.matched_fusions = lambda infos, opts, fu_ref, fu_tgt, h: (fu_ref, fu_tgt, {"lsm_on": "PCA fusions"})
+        points.matched_fusions = lambda infos, opts, fu_ref, fu_tgt, *_: (fu_ref, fu_tgt, {"lsm_on": "PCA fusions"})
     import rasterio
     import fotogeo
     rows = []
