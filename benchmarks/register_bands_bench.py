@@ -11,6 +11,8 @@ target, an RGB reference against a 2-band (NIR-like, G) target. Reported per cas
 RMSE of the model against the exact warp (reference pixels; 20x20 grid), its maximum, inliers, LSM
 converged. Target: the default ≤ 0.05 px and ≤ ``sift`` on every case.
 
+``--pca-only`` runs LSM on the PCA fusions as before the band combination (the 'before' table).
+
 Writes benchmarks/results/register_bands_bench.json (or ``--output``) and prints a table.
 """
 from __future__ import annotations
@@ -40,8 +42,13 @@ def main(argv=None):
     ap.add_argument("--band-sets", default=",".join(BAND_SETS))
     ap.add_argument("--warps", default=",".join(list(WARPS)[:2]))
     ap.add_argument("--methods", default="surf+lsm,sift")
+    ap.add_argument("--pca-only", action="store_true",
+                    help="LSM on the PCA fusions (the behaviour before the band combination: 'before' tables)")
     ap.add_argument("--output", default=str(OUT))
     a = ap.parse_args(argv)
+    if a.pca_only:
+        import fotogeo.tools.register.points as points
+        points.matched_fusions = lambda infos, opts, fu_ref, fu_tgt, *_: (fu_ref, fu_tgt, {"lsm_on": "PCA fusions"})
     import rasterio
     import fotogeo
     rows = []

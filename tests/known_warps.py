@@ -124,7 +124,7 @@ def known_warp(data: Path, name: str, warp: str, folder: Path):
 #: (reference bands, target bands); the extra bands are fixed combinations of the real ones, as a
 #: multispectral sensor's NIR, red-edge or SWIR bands relate to the visible (not the same PCA as RGB)
 BAND_SETS = {
-    "ref8_tgt3": ("rgb8", "rgb"),
+    "ref8_tgt3": ("rgb8", "rgb"),  # the 8-band reference's bands 2-4 are the target's 3 (reversed)
     "ref4_tgt1": ("rgbn", "pan"),
     "ref3_tgt2": ("rgb", "ng"),
 }
@@ -132,9 +132,13 @@ BAND_SETS = {
 
 def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
     """The bands ``kind`` from ``rgb`` (3, rows, cols) float: ``rgb``; ``rgbn`` + a NIR-like band;
-    ``rgb8`` + five more; ``pan`` their mean; ``ng`` the NIR-like band and G."""
+    ``rgb8`` as an 8-band sensor (coastal, B, G, R, red edge, NIR, SWIR 1, SWIR 2); ``pan`` the mean of
+    R, G, B; ``ng`` the NIR-like band and G. The NIR-like band is bright where green exceeds red
+    (vegetation) and dark where blue exceeds green (water): not a monotone function of the brightness,
+    as real NIR is not, so the 8-band PCA is not the RGB one."""
     R, G, B = rgb
-    nir = np.clip(1.8 * R - 0.9 * B + 0.4 * G + 20, 0, 255)
+    nir = np.clip(60 + R + 3.0 * (G - R) - 2.0 * np.maximum(B - G, 0), 0, 255)
+    swir1 = np.clip(30 + 0.9 * R + 0.3 * G - 1.5 * np.maximum(B - G, 0), 0, 255)
     if kind == "rgb":
         return rgb
     if kind == "pan":
@@ -143,8 +147,7 @@ def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
         return np.stack([nir, G])
     if kind == "rgbn":
         return np.stack([R, G, B, nir])
-    return np.stack([R, G, B, nir, 255 - G, np.sqrt(R * G), np.clip(3 * np.abs(R - G), 0, 255),
-                     np.clip(0.5 * (R + B) + 0.8 * (nir - R), 0, 255)])
+    return np.stack([np.clip(0.8 * B + 25, 0, 255), B, G, R, 0.5 * (R + nir), nir, swir1, 0.7 * swir1 + 10])
 
 
 def _write_like(path: Path, like: Path, bands: np.ndarray) -> Path:

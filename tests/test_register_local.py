@@ -54,7 +54,9 @@ def test_field_without_local_and_odd_local_window_are_refused(seasonal, tmp_path
     assert not list(tmp_path.iterdir())
 
 
-def test_a_target_without_georeference_gets_the_reason_not_a_guess(seasonal, tmp_path):
+def test_a_target_without_georeference_is_pre_aligned_not_guessed(seasonal, tmp_path):
+    """The same target without its georeference: the Fourier–Mellin pre-alignment gives the windows their
+    start, and the registration agrees with the georeferenced target's (fotogeo.tools.register.coarse)."""
     ref, tgt = seasonal
     with rasterio.open(tgt) as ds:
         data = ds.read(1)
@@ -62,8 +64,15 @@ def test_a_target_without_georeference_gets_the_reason_not_a_guess(seasonal, tmp
     with rasterio.open(raw, "w", driver="GTiff", width=data.shape[1], height=data.shape[0], count=1,
                        dtype=data.dtype) as ds:
         ds.write(data, 1)
-    with pytest.raises(MatchingError, match="no georeference"):
-        register(ref, raw, tmp_path / "o.tif")
+    geo = register(ref, tgt, tmp_path / "geo.tif")
+    r = register(ref, raw, tmp_path / "o.tif")
+    assert r.report["area_based"]["pre_alignment"]["confidence_peak_ratio"] >= 3
+    with rasterio.open(ref) as ds:
+        px = abs(ds.transform.a)
+    g = np.stack(np.meshgrid(np.linspace(10, data.shape[1] - 10, 9), np.linspace(10, data.shape[0] - 10, 9)), -1)
+    g = g.reshape(-1, 2)
+    d = np.hypot(*(r.model.forward(g) - geo.model.forward(g)).T) / px
+    assert np.sqrt(np.mean(d ** 2)) < 0.5, d
 
 
 def test_coreg_command_writes_its_outputs_and_refuses_in_one_line(seasonal, tmp_path):

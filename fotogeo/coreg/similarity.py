@@ -52,6 +52,9 @@ MIN_RADIUS = 3.0
 MIN_CONFIDENCE = 3.0
 #: scales outside this range (target px in reference px) are not searched
 SCALE_RANGE = (0.4, 2.5)
+#: the refinement's residual rotation (degrees) and scale beyond which it is not trusted (the search's kept)
+REFINE_MAX_ANGLE = 20.0
+REFINE_SCALES = (0.8, 1.25)
 
 
 @dataclass(frozen=True)
@@ -247,7 +250,7 @@ def _refine(reference, target, M, conf, ratio, k_coarse):
     scale, angle, r2 = rotation_scale(on_tgt, tgt)
     best = (0.0, None)
     for a in (angle, angle + 180.0):
-        if abs(((a + 180) % 360) - 180) > 20 or not 0.8 < scale < 1.25:
+        if abs(((a + 180) % 360) - 180) > REFINE_MAX_ANGLE or not REFINE_SCALES[0] < scale < REFINE_SCALES[1]:
             continue
         D = similarity_matrix(scale, a, (0.0, 0.0))
         t, c = translation(on_tgt, tgt, D)

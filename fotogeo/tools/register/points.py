@@ -53,6 +53,8 @@ MIN_LSM_POINTS, MAX_LSM_POINTS = 150, 600
 LSM_HALF_WINDOW = 7
 LSM_TOLERANCE = 1e-2
 LSM_MAX_SHIFT = 3.0
+#: tie points LSM runs on to choose between the PCA fusions and the combined bands (:mod:`.bands`)
+TRIAL_POINTS = 60
 #: status of consistent tie points beyond the MAX_LSM_POINTS refined
 NOT_PICKED = "not refined (enough points refined)"
 #: status of matches the approximate homography calls mismatches
@@ -132,7 +134,8 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
                          "fit_uses": "every match"}
         return TiePoints(src, ref_xy, counts)
     cand = sel.inliers
-    fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model)
+    fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model,
+                                            _lsm_trial(r_m[cand], t_m[cand], sel.ransac.model, opts.seed))
     pick = cand.copy()
     budget = lsm_budget(fu_ref.image.size + fu_tgt.image.size)
     if cand.sum() > budget:
@@ -172,6 +175,19 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         "fit_uses": "the converged points" if enough else
                     f"every match: only {int(ok.sum())} of {int(pick.sum())} LSM runs converged"}
     return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+
+
+def _lsm_trial(r_m, t_m, homography, seed):
+    """``trial(fu_ref, fu_tgt) -> (converged, median σ px)``: LSM of at most :data:`TRIAL_POINTS` of the
+    consistent matches ``r_m -> t_m`` (spread over the target) on the fused images given."""
+    idx = np.flatnonzero(spread_split(t_m, min(1.0, TRIAL_POINTS / max(len(t_m), 1)), seed))
+
+    def trial(fu_ref, fu_tgt):
+        pts = lsm_tie_points(fu_ref, fu_tgt, r_m[idx], t_m[idx], homography=homography, prefilter=np.inf,
+                             half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
+        ok = pts.status == CONVERGED
+        return int(ok.sum()), (float(np.median(pts.sigma[ok])) if ok.any() else None)
+    return trial
 
 
 def full_resolution_lsm(infos, opts, fused, ref_xy, tgt_xy, jacobian):
