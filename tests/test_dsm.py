@@ -157,6 +157,11 @@ def test_bad_input_is_one_line_naming_the_images(tmp_path):
         dsm(imgs[:1], tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"])
     with pytest.raises(InputError, match="no orientation"):
         dsm(imgs[:2], tmp_path / "a.tif", crs=sc["crs"])
+    out = tmp_path / "triangulated"
+    out.mkdir()
+    (out / "exterior_orientation.txt").write_text(Path(sc["eo"]).read_text())
+    with pytest.raises(InputError, match=r"--orientation .* holds no camera.yaml .*--camera"):
+        dsm(imgs[:2], tmp_path / "a.tif", orientation=out, crs=sc["crs"])
     # s1_01 and s2_01 lie at opposite ends of the two strips: they share no ground
     far = [p for p in imgs if Path(p).stem in ("s1_01", "s2_01")]
     with pytest.raises(InputError, match=r"s1_01.*s2_01.*may not show the same ground.*--dem"):
