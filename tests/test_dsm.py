@@ -102,8 +102,10 @@ def test_las_writer_round_trip(tmp_path):
 
 # -- the tool on rendered blocks (known surface) ----------------------------------------------------------------
 
-#: scene -> (RMSE bound in GSD, completeness bound): "held_out" was never run while the pipeline was tuned
-BOUNDS = {"nadir": (1.0, 0.9), "oblique": (1.0, 0.9), "held_out": (1.0, 0.9)}
+#: scene -> (RMSE bound in GSD of the frames, completeness bound); "held_out" was never run while the pipeline
+#: was tuned. Completeness: the share of the cells both images of a kept pair see that got a height (the rest is
+#: a rim a block wide along the images' borders, where SGBM cannot match)
+BOUNDS = {"nadir": (1.0, 0.95), "oblique": (1.0, 0.95), "held_out": (1.0, 0.95)}
 
 
 @pytest.mark.slow
