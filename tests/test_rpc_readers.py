@@ -252,3 +252,60 @@ def test_image_rpc_refusals(data_dir, tmp_path):
     (tmp_path / "x.xml").write_text("<isd><IMD/></isd>")
     with pytest.raises(InputError, match="no RPB/IMAGE"):
         read_rpc(tmp_path / "x.xml")
+
+
+@pytest.mark.data
+def test_ortho_reads_a_crop_with_its_geom(data_dir, tmp_path):
+    """``ortho --rpc`` on an OTB/CARS crop: the .geom beside it, moved into the crop's pixels (UTM from the RPC)."""
+    from fotogeo.crs import to_lonlat
+    from fotogeo.tools.ortho_inputs import image_models, map_crs
+
+    v = data_dir / "rpc" / "ventoux"
+    for f in ("left_image.tif", "left_image.geom"):
+        shutil.copy(v / f, tmp_path)
+    img = str(tmp_path / "left_image.tif")
+    crs, why = map_crs("auto", None, None, [img], True)
+    assert "UTM" in why and crs.to_epsg() == 32631
+    model = image_models([img], crs, rpc=True)[0].model
+    llh, px = _grid(v / "GRID_PHR1B_P_201308051042194_SEN_690908101-001.tif")
+    inside = np.all((px >= 5000) & (px < 5500), axis=1)
+    from pyproj import Transformer
+    xy = np.column_stack(Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(*llh[inside, :2].T))
+    assert np.allclose(to_lonlat(crs, xy), llh[inside, :2], atol=1e-9)
+    d = model.forward(np.column_stack([xy, llh[inside, 2]])) - (px[inside] - 5000.0)
+    assert np.abs(d).max() < 0.01
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name, edit, expected", [
+    ("rpc_WV2.xml", ("1.594159000000000e-03 ", ""), "LINE_NUM_COEFF must have 20 values; got 19"),
+    ("rpc_WV2.xml", ("1.594159000000000e-03", "abc"), "LINENUMCOEF holds a non-numeric value"),
+    ("rpc_WV2.xml", ("<SPECID>RPC00B</SPECID>", "<SPECID>RPC00A</SPECID>"), "SPECID RPC00A is not supported"),
+    ("rpc_WV2.xml", ("<LINEOFFSET>10108</LINEOFFSET>", ""), "missing RPC00B key LINE_OFF"),
+    ("rpc_PLEIADES.xml", ("<RFM_Validity>", "<RFM_Validity><ImagetoGround_Validity_Domain><FIRST_COL>x"
+                          "</FIRST_COL></ImagetoGround_Validity_Domain>"), None),
+])
+def test_xml_refused(data_dir, tmp_path, name, edit, expected):
+    text = (data_dir / "rpc" / "rpcm" / name).read_text()
+    assert edit[0] in text
+    if expected is None:  # DIMAP v3 with a damaged FIRST_COL
+        text = text.replace("Inverse_Model>", "GroundtoImage_Values>")
+        expected = "FIRST_COL 'x' is not a number"
+    path = tmp_path / name
+    path.write_text(text.replace(edit[0], edit[1]))
+    with pytest.raises(InputError, match=expected) as info:
+        read_rpc(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("lineOffset = 5;\nsampOffset = (1, 2;\n", "sampOffset = '\\(1, 2' is not a single value"),
+    ("lineOffset = 5;\nlineNumCoef = 3;\n", "lineNumCoef = '3' is not a list"),
+    ("lineOffset = 5;\n", "missing RPC00B key SAMP_OFF"),
+])
+def test_rpb_refused(tmp_path, text, expected):
+    path = tmp_path / "x.RPB"
+    path.write_text(text)
+    with pytest.raises(InputError, match=expected) as info:
+        read_rpc(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)

@@ -20,8 +20,9 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 def command(image, gcps, output, report, overwrite, quiet, **kw):
     """Correct the vendor RPC of IMAGE with the GCPs (Grodecki & Dial 2003 bias compensation).
 
-    GCPS: ground X, Y and (ellipsoidal) height in any CRS with their image col/row; GCPs outside
-    the image are skipped with a warning. Writes a copy of IMAGE whose GDAL RPC metadata is the
+    IMAGE's RPC: its GDAL RPC metadata, else an RPC file beside it (.geom, .RPB, _RPC.TXT, DIMAP or
+    DigitalGlobe XML). GCPS: ground X, Y and (ellipsoidal) height in any CRS with their image col/row;
+    GCPs outside the image are skipped with a warning. Writes a copy of IMAGE whose GDAL RPC metadata is the
     corrected RPC (gdalwarp -rpc and QGIS use it) and a JSON report.
     """
     from ..tools.rpc_bias import rpc_bias

@@ -78,12 +78,16 @@ def read_rpc_rpb(path) -> Rpc:
     path = Path(path)
     source = f"RPC file {str(path)!r}"
     d = {}
-    for name, value in _RPB_STATEMENT.findall(read_rpc_file_text(path)):
-        key = name.lower()
+    for stmt, value in _RPB_STATEMENT.findall(read_rpc_file_text(path)):
+        key = stmt.lower()
         if key == "specid" and value.strip().strip('"').upper() not in ("RPC00B", ""):
             raise InputError(f"{source}: SpecId {value.strip()} is not supported (only RPC00B term order)")
         if key in _RPB_NAMES:
-            d[_RPB_NAMES[key]] = [v for v in re.split(r"[\s,()]+", value) if v] if "(" in value else value.strip()
+            name = _RPB_NAMES[key]
+            if name.endswith("_COEFF") != ("(" in value):
+                raise InputError(f"{source}: {stmt} = {value.strip()[:40]!r} is not a "
+                                 f"{'list (...)' if name.endswith('_COEFF') else 'single value'}; the file is damaged")
+            d[name] = [v for v in re.split(r"[\s,()]+", value) if v] if "(" in value else value.strip()
     try:
         d = {k: np.asarray(v, dtype=np.float64) if isinstance(v, list) else v for k, v in d.items()}
     except ValueError:

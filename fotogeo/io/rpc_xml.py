@@ -64,8 +64,12 @@ def _dimap_mapping(root: ET.Element, source: str) -> dict:
     if inv is None:  # DIMAP v3 (Pleiades Neo)
         inv = root.find(".//GroundtoImage_Values")
         domain = root.find(".//ImagetoGround_Validity_Domain")
-        if domain is not None and domain.findtext("FIRST_COL"):
-            first = float(domain.findtext("FIRST_COL"))
+        text = domain.findtext("FIRST_COL") if domain is not None else None
+        if text:
+            try:
+                first = float(text)
+            except ValueError:
+                raise InputError(f"{source}: FIRST_COL {text!r} is not a number; the RPC file is damaged") from None
     if inv is None or valid is None:
         raise InputError(f"{source}: no DIMAP Inverse_Model / GroundtoImage_Values with RFM_Validity "
                          f"(METADATA_PROFILE {profile or 'missing'}); unsupported RPC file")

@@ -70,9 +70,11 @@ class Rpc:
                 if a.size != 20:
                     raise InputError(f"{source}: {k} must have 20 values; got {a.size}")
                 arrs.append(a)
+        except InputError:
+            raise
         except KeyError as exc:
             raise InputError(f"{source}: missing RPC00B key {exc.args[0]}; is this an RPC file?") from None
-        except ValueError as exc:
+        except (ValueError, TypeError) as exc:
             raise InputError(f"{source}: non-numeric RPC value ({exc})") from None
         return cls(*scal, *arrs)
 

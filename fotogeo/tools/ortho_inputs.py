@@ -113,9 +113,9 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None) ->
 
 def _rpc_image(path, name, crs) -> OrthoImage:
     from ..geometry.lonlat_model import LonLatModel
-    from ..io.rpc import rpc_from_raster
+    from ..io.rpc_image import image_rpc
     info = open_raster(path, "image")
-    rpc = rpc_from_raster(path)
+    rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
     return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid")
 
 
@@ -201,8 +201,8 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None) -> tuple:
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
                          "projected CRS")
     if rpc and images:
-        from ..io.rpc import rpc_from_raster
-        r = rpc_from_raster(images[0])
+        from ..io.rpc_image import image_rpc
+        r = image_rpc(images[0]).rpc
         return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
     raise InputError("no map CRS: give --crs (a projected CRS) or a DEM in a projected CRS")
 
