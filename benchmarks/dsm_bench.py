@@ -16,7 +16,11 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,ng
   reason when it is not installed): its completeness, CPU, wall and memory, and the height differences
   (median, NMAD) where both DSMs have a value.
 
-Prints a table and writes benchmarks/results/dsm_bench.json (with the machine's load average).
+Without ``--cars``, CARS's runs recorded on this machine by ``benchmarks/peers_cars.py``
+(``results/peers_cars.json``, margins ±100 m) are read and fotogeo's DSMs compared with their DSMs.
+
+Prints a table and writes benchmarks/results/dsm_bench.json: per case group its latest run (command, the
+machine's load average at the start and the end, rows).
 """
 from __future__ import annotations
 
@@ -35,6 +39,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
+#: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
+PREFIX = {"rendered": "rendered", "ngi": "NGI", "ventoux": "ventoux"}
 NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
 
 
@@ -115,10 +121,37 @@ def ventoux(tmp: Path, cars: bool) -> list:
                      "median_height_m": rep["heights"]["median"], "pointing_px": p.get("relative_pointing_px"),
                      "warned_large_pointing": any("relative pointing error" in m for m in said),
                      "cpu_s": cpu, "wall_s": wall})
-    if cars:
-        rows += _cars(tmp, v, outs)
-    else:
-        rows.append({"case": "ventoux CARS", "skipped": "not run (pass --cars; ~470 s and ~3 GB)"})
+    rows += _cars(tmp, v, outs) if cars else _cars_recorded(outs)
+    return rows
+
+
+def _valid_area(path) -> float:
+    import rasterio
+    with rasterio.open(path) as ds:
+        h = ds.read(1)
+        return float((h != ds.nodata).sum() * abs(ds.transform.a * ds.transform.e))
+
+
+def _cars_recorded(outs: dict) -> list:
+    """CARS's runs recorded by ``benchmarks/peers_cars.py`` on this machine (``results/peers_cars.json``): its
+    figures, and fotogeo's DSM against CARS's where both have a height; fotogeo's valid area over the same
+    footprint overlap CARS's completeness is measured on."""
+    rec = ROOT / "benchmarks" / "results" / "peers_cars.json"
+    if not rec.is_file():
+        return [{"case": "ventoux CARS", "skipped": "no recorded run (benchmarks/peers_cars.py; or pass --cars)"}]
+    from peers_cars import compare_dsms
+    d = json.loads(rec.read_text())
+    rows = []
+    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom")):
+        r = d.get(key, {})
+        if not r.get("dsm") or not Path(r["dsm"]).is_file():
+            rows.append({"case": f"ventoux CARS ({right})", "skipped": f"recorded DSM of {key} not found"})
+            continue
+        rows.append({"case": f"ventoux CARS ({right}, recorded, margins 100 m)",
+                     "completeness": r.get("valid_fraction_in_overlap"), "median_height_m": r.get("h_median_m"),
+                     "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
+                     "fotogeo_in_cars_overlap": _valid_area(outs[right]) / r["footprint_overlap_m2"],
+                     "fotogeo_minus_cars": compare_dsms(outs[right], r["dsm"])})
     return rows
 
 
@@ -159,8 +192,12 @@ def main():
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     out = ROOT / "benchmarks" / "results" / "dsm_bench.json"
-    out.write_text(json.dumps({"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()],
-                               "rows": rows}, indent=1, default=str) + "\n")
+    runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
+    ran = {PREFIX[c] for c in args.cases.split(",")}
+    runs = [r for r in runs if r["case_group"] not in ran]  # the cases run now replace their earlier rows
+    runs += [{"case_group": PREFIX[c], "command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()],
+              "rows": [r for r in rows if r["case"].startswith(PREFIX[c])]} for c in args.cases.split(",")]
+    out.write_text(json.dumps({"runs": runs}, indent=1, default=str) + "\n")
     print(f"-> {out}")
 
 

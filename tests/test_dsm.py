@@ -102,8 +102,10 @@ def test_las_writer_round_trip(tmp_path):
 
 # -- the tool on rendered blocks (known surface) ----------------------------------------------------------------
 
-#: scene -> (RMSE bound in GSD, completeness bound): "held_out" was never run while the pipeline was tuned
-BOUNDS = {"nadir": (1.0, 0.9), "oblique": (1.0, 0.9), "held_out": (1.0, 0.9)}
+#: scene -> (RMSE bound in GSD of the frames, completeness bound); "held_out" was never run while the pipeline
+#: was tuned. Completeness: the share of the cells both images of a kept pair see that got a height (the rest is
+#: a rim a block wide along the images' borders, where SGBM cannot match)
+BOUNDS = {"nadir": (1.0, 0.95), "oblique": (1.0, 0.95), "held_out": (1.0, 0.95)}
 
 
 @pytest.mark.slow
@@ -157,6 +159,11 @@ def test_bad_input_is_one_line_naming_the_images(tmp_path):
         dsm(imgs[:1], tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"])
     with pytest.raises(InputError, match="no orientation"):
         dsm(imgs[:2], tmp_path / "a.tif", crs=sc["crs"])
+    out = tmp_path / "triangulated"
+    out.mkdir()
+    (out / "exterior_orientation.txt").write_text(Path(sc["eo"]).read_text())
+    with pytest.raises(InputError, match=r"--orientation .* holds no camera.yaml .*--camera"):
+        dsm(imgs[:2], tmp_path / "a.tif", orientation=out, crs=sc["crs"])
     # s1_01 and s2_01 lie at opposite ends of the two strips: they share no ground
     far = [p for p in imgs if Path(p).stem in ("s1_01", "s2_01")]
     with pytest.raises(InputError, match=r"s1_01.*s2_01.*may not show the same ground.*--dem"):

@@ -217,6 +217,8 @@ def click_option(option: Option):
                   callback=lambda ctx, param, values: ";".join(values or ()) or None)
     elif option.kind in ("file", "raster"):
         kw.update(type=click.Path(dir_okay=False), default=option.default)
+    elif option.kind == "folder":
+        kw.update(type=click.Path(file_okay=False), default=option.default)
     else:
         kw.update(type=_CLICK_TYPES[option.kind], default=option.default)
     return click.option(*decls, **kw)

@@ -14,7 +14,7 @@ DSM = Table(
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
            "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
-    Option("orientation", "file", None, "triangulate's output folder (its camera.yaml and exterior_orientation.txt)",
+    Option("orientation", "folder", None, "triangulate's output folder (its camera.yaml and exterior_orientation.txt)",
            "triangulate's output folder: its exterior_orientation.txt (and camera.yaml when self-calibrated) "
            "instead of --eo/--camera."),
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata, RPB/XML/.geom beside them)",

@@ -18,6 +18,7 @@ from ..errors import InputError
 KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
          "str": "text / String", "choice": "one of choices / Enum", "choices": "comma list / multiple Enum",
          "ints": "comma list of int / String", "crs": "CRS text / CRS", "file": "path / File",
+         "folder": "path of a folder / File (folder)",
          "raster": "path / raster layer"}
 
 

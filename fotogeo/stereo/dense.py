@@ -11,7 +11,10 @@ only where:
   removed);
 * the two agree within ``lr_tolerance`` px (left–right consistency: ``|d_L(x) − d_R(x − d_L(x))| ≤ tol``);
 * both the pixel and its match lie inside their source images (``valid`` masks, eroded by the block size: a
-  block that reaches outside an image matches its border, not the scene).
+  block that reaches outside an image matches its border, not the scene);
+* the left pixel has texture: the grey values' standard deviation over its ``TEXTURE_WINDOW`` neighbourhood
+  reaches ``min_texture`` levels (of the 8-bit stretch). SGM's paths carry costs from textured places into flat
+  ones, where they would give a smooth, plausible and unmeasured surface; there a hole is the honest answer.
 
 Disparities follow :mod:`fotogeo.stereo.rectify`: ``d = u_left − u_right`` (float32, NaN where none).
 Grey values are stretched to 8 bits between the 0.5 and 99.5 percentiles of each image's valid pixels.
@@ -34,6 +37,18 @@ def to_uint8(img, valid) -> np.ndarray:
     out = np.clip(1 + 254 * (img - lo) / max(float(hi - lo), 1e-6), 1, 255)
     out[~valid] = 0
     return out.astype(np.uint8)
+
+
+#: the window (pixels) of the texture test
+TEXTURE_WINDOW = 7
+
+
+def texture(img8) -> np.ndarray:
+    """The grey values' local standard deviation over ``TEXTURE_WINDOW`` x ``TEXTURE_WINDOW`` pixels."""
+    g = img8.astype(np.float32)
+    k = (TEXTURE_WINDOW, TEXTURE_WINDOW)
+    m = cv2.blur(g, k)
+    return np.sqrt(np.maximum(cv2.blur(g * g, k) - m * m, 0.0))
 
 
 def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int):
@@ -63,7 +78,7 @@ def disparity_range(lo: float, hi: float) -> tuple:
 
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
-              lr_tolerance: float = 1.0) -> np.ndarray:
+              lr_tolerance: float = 1.0, min_texture: float = 2.0) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring)."""
     k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
@@ -82,6 +97,6 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
         xi = np.where(inside, xr, 0).astype(np.intp)
         back = np.take_along_axis(dr, xi, axis=1)
         vr = np.take_along_axis(valid_right, xi, axis=1)
-        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr
+        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr & (texture(L) >= min_texture)
     dl[~ok] = np.nan
     return dl

@@ -10,7 +10,9 @@ For two images with projection centres (or, for RPC images, points far along the
 * **view angle** — the angle between the two optical axes (obliques looking different ways cannot be matched).
 
 A candidate pair is kept when its overlap, B/H and view angle pass the limits; then each image keeps at most
-``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.6)`` first. Every pair left out carries its reason.
+``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first:
+a wide base helps the heights up to B/H 0.4, views that differ make the images differ and the matching fail.
+Every pair left out carries its reason.
 """
 from __future__ import annotations
 
@@ -122,7 +124,7 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
     for p in out:
         p.reason = _reason(p, limits)
     ok = sorted((p for p in out if not p.reason),
-                key=lambda p: -p.overlap * min(1.0, p.base_height / 0.6))
+                key=lambda p: -p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / limits.max_view_angle))
     used = np.zeros(n, int)
     for p in ok:
         if given is None and used[p.i] >= limits.per_image and used[p.j] >= limits.per_image:

@@ -116,6 +116,8 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
         p = QgsProcessingParameterCrs(name, label, optional=True)
     elif kind == "file":
         p = QgsProcessingParameterFile(name, label, optional=True, fileFilter=option.file_filter)
+    elif kind == "folder":
+        p = QgsProcessingParameterFile(name, label, behavior=QgsProcessingParameterFile.Folder, optional=True)
     else:  # raster
         p = QgsProcessingParameterRasterLayer(name, label, optional=True)
     if option.advanced:
@@ -318,7 +320,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if kind == "crs":
             crs = self.parameterAsCrs(parameters, name, context)
             return crs_spec(crs) if crs.isValid() else option.default
-        if kind == "file":
+        if kind in ("file", "folder"):
             return self.parameterAsFile(parameters, name, context) or None
         return self.raster_path(parameters, name, context) if parameters.get(name) else None  # raster
 

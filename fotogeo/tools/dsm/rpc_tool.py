@@ -189,6 +189,8 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
             fusion.add(layer)
         height, count, spread = fusion.result()
         height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
+        if not np.isfinite(height).any():
+            raise InputError("no height was matched in any pair: the images may be textureless or cloud-covered")
         count[~np.isfinite(height)] = 0
         filled = None
         if fill:
@@ -198,8 +200,6 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
         rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
                            plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
         rep["speckle_cells_removed"] = speckles
-        if not np.isfinite(height).any():
-            raise InputError("no height was matched in any pair: the images may be textureless or cloud-covered")
         write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)
         out.commit()
     prog(1.0, "done")

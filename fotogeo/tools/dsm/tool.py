@@ -153,11 +153,11 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
             raise InputError("no pair could be matched: " + "; ".join(
                 f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
         height, count, spread = fusion.result()
+        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
         if not np.isfinite(height).any():
             raise InputError("no height was matched in any pair (" + ", ".join(
                 f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept) + "): the images may be textureless or "
                 "cloud-covered where they overlap")
-        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
         count[~np.isfinite(height)] = 0
         filled = None
         if fill:
