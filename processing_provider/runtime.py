@@ -33,9 +33,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-try:  # a module of the plugin package, or a script run from its folder (python3 runtime.py install)
+try:  # a module of the plugin package, or a script or a file loaded from its folder (python3 runtime.py install)
     from . import platforms
 except ImportError:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
     import platforms
 
 PACKAGE_DIR = Path(__file__).resolve().parent

@@ -126,7 +126,7 @@ CLI_CASES = {
     "orient camera latin-1": (ORI + [G, "--model", "collinearity", "--camera", "{d}/latin1.yaml"], "latin1.yaml"),
     "orient camera missing": (ORI + [G, "--model", "collinearity", "--camera", "{d}/nope.yaml"], "nope.yaml"),
     "orient gcp-tiff with dlt": (ORI + [G, "--model", "dlt", "--gcp-tiff", "{out}/g.tif"], "polynomial models only"),
-    "orient rpc with poly1": (ORI + [G, "--rpc", "{out}/r.tif"], "--rpc exports"),
+    "orient rpc with poly1": (ORI + [G, "--model", "poly1", "--rpc", "{out}/r.tif"], "--rpc exports"),
     "orient gcps missing": (ORI + ["{d}/nope.gpkg", "--report", "{out}/r.json"], "does not exist"),
     "orient complex image": (["orient", "{d}/complex.tif", G], "complex"),
     # compare-models

@@ -50,7 +50,7 @@ CASES = {
     "orient camera malformed": ("orient", {"IMAGE": T, "GCPS": G, "MODEL": "collinearity", "CAMERA": "{d}/bad.yaml",
                                            "REPORT": "{out}/r.json"},
                                 ["orient", T, G, "--model", "collinearity", "--camera", "{d}/bad.yaml", "--report",
-                                 "{out}/r.json"], "line 2"),
+                                 "{out}/r.json"], "line 1: camera 'cam'"),
     "transfer nan row": ("transferpoints", {"REFERENCE": T, "SEARCH": T, "POINTS": "{d}/nan_row.csv",
                                             "OUTPUT": "{out}/t.csv"},
                          ["transfer-points", T, T, "{d}/nan_row.csv", "-o", "{out}/t.csv"], "point 'B'"),

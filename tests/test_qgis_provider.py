@@ -28,7 +28,7 @@ from qgis.core import (  # noqa: E402
 
 ALG_IDS = {"pcafusion", "matchfeatures", "register", "orient", "comparemodels", "transferpoints", "measuretargets", "pointstolayer",
            "layertopoints", "rpcbias", "demo", "registerbatch", "triangulate", "coreg", "interior", "ortho",
-           "mosaic"}
+           "mosaic", "dsm"}
 FRAME = "ngi/frames/3324c_2015_1004_05_0182_RGB.tif"
 ORTHO = "ngi/ortho/ngi_rgb_byte_1.tif"
 
@@ -109,7 +109,7 @@ def _expected_default(option):
 
 
 def _expected_optional(option) -> bool:
-    if option.kind in ("crs", "file", "raster"):
+    if option.kind in ("crs", "file", "folder", "raster"):
         return True
     if option.kind in ("str", "choices"):
         return option.nullable

@@ -30,6 +30,8 @@ def command(images, output, point_cloud, report, overwrite, quiet, **kw):
     onto one north-up grid (median of the pairs). Holes stay nodata unless --fill.
     """
     from ..tools.dsm import dsm
+    if len(images) < 2:
+        raise click.UsageError("a surface model needs at least two overlapping images; give two or more IMAGES")
     bar = ConsoleProgress(quiet)
     try:
         rep = dsm(list(images), output, point_cloud=point_cloud, report=report, overwrite=overwrite, progress=bar,

@@ -257,9 +257,8 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     w, red, flag = np.full(n, np.nan), np.full(n, np.nan), np.full(n, "", object)
     findings, note = [], "blunder test off"
     if snooping:
-        as_progress(progress)(0.0, "testing the control points for blunders")
         test, findings = _blunder_test(cls, src, dst, control, np.asarray(ids), image_sigma, fit_options,
-                                       "ground units" if image_to_ground(cls) else "px")
+                                       "ground units" if image_to_ground(cls) else "px", as_progress(progress))
         idx = np.flatnonzero(control)
         w[idx], red[idx], flag[idx], note = test.w, test.redundancy, test.flag, test.note()
         if remove_blunders:
@@ -276,12 +275,12 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     return OrientFit(model, res, role.astype(str), stats, findings, warns, w, red, flag.astype(str), note)
 
 
-def _blunder_test(cls, src, dst, control, ids, image_sigma, fit_options, unit):
+def _blunder_test(cls, src, dst, control, ids, image_sigma, fit_options, unit, progress):
     """:func:`.blunders.detect_blunders` on the control points and its findings (the flagged points)."""
     from .blunders import detect_blunders
     idx = np.flatnonzero(control)
     sigma = None if image_to_ground(cls) else image_sigma  # an image → ground fit's residuals are on the ground
-    test = detect_blunders(cls, src[idx], dst[idx], sigma=sigma, fit_options=fit_options)
+    test = detect_blunders(cls, src[idx], dst[idx], sigma=sigma, fit_options=fit_options, progress=progress)
     findings = []
     for j in np.argsort(-np.nan_to_num(test.w, nan=-1.0)):
         if test.flag[j] not in ("blunder", "suspect"):

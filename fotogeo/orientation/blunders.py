@@ -174,9 +174,12 @@ def _robust_start(cls, src, pix, sigma, fit_options, iterations: int = 12):
 
 
 def detect_blunders(cls, src, pix, *, sigma: float | None = None, alpha: float = ALPHA,
-                    max_fraction: float = 0.3, fit_options: dict | None = None) -> BlunderTest:
+                    max_fraction: float = 0.3, fit_options: dict | None = None, progress=None) -> BlunderTest:
     """Test every point of ``src``/``pix`` (the control points: ground → image pairs of model class
-    ``cls``); see the module docstring. ``sigma``: the a priori image σ (pixels) or None."""
+    ``cls``); see the module docstring. ``sigma``: the a priori image σ (pixels) or None. ``progress``
+    (:func:`fotogeo.progress.as_progress`) is told each round and may cancel."""
+    from ..progress import as_progress
+    progress = as_progress(progress)
     fit_options = fit_options or {}
     src, pix = np.asarray(src, float), np.asarray(pix, float)
     n, u = len(src), cls.n_params
@@ -188,7 +191,8 @@ def detect_blunders(cls, src, pix, *, sigma: float | None = None, alpha: float =
     budget = max(0, min(int(max_fraction * n), n - cls.min_points, (2 * n - u - (1 if sigma else 3)) // 2))
     if (~inside).sum() > budget:
         inside[:] = True
-    for _ in range(2 * n):
+    for k in range(2 * n):
+        progress(k / (k + 1), f"testing the control points for blunders (round {k + 1})")  # rounds: unknown
         fit, p, s, f, m = _evaluate(cls, src, pix, inside, sigma, fit_options)
         bad = np.isfinite(p) & (p < alpha / m)
         if (bad & inside).any() and (~inside).sum() < budget:
@@ -199,6 +203,7 @@ def detect_blunders(cls, src, pix, *, sigma: float | None = None, alpha: float =
             break
     else:
         fit, p, s, f, m = _evaluate(cls, src, pix, inside, sigma, fit_options)
+    progress(1.0, "blunder test done")
     return _result(fit, inside, p, s, f, sigma, alpha, m)
 
 

@@ -10,12 +10,8 @@ prediction grids, the live preview, automatic candidates, ODM ``gcp_list.txt`` f
 The names above are loaded on first use (PEP 562): importing one module of the package does not import
 the others."""
 
-__all__ = ['fit_gcps', 'preview_warp', 'propose_gcps', 'read_image_gcps', 'sample_heights', 'write_image_gcps']
+from ..common.lazy import lazy_getattr
+
 _MODULES = {'fit_gcps': 'fit', 'sample_heights': 'fit', 'preview_warp': 'preview', 'propose_gcps': 'propose', 'read_image_gcps': 'files', 'write_image_gcps': 'files'}
-
-
-def __getattr__(name):
-    if name in _MODULES:
-        import importlib
-        return getattr(importlib.import_module(f".{_MODULES[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__all__ = sorted(_MODULES)
+__getattr__ = lazy_getattr(__name__, _MODULES)

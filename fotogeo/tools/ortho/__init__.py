@@ -9,12 +9,8 @@
 The names above are loaded on first use (PEP 562): importing one module of the package does not import
 the others."""
 
-__all__ = ['mosaic', 'ortho']
+from ..common.lazy import lazy_getattr
+
 _MODULES = {'ortho': 'tool', 'mosaic': 'mosaic'}
-
-
-def __getattr__(name):
-    if name in _MODULES:
-        import importlib
-        return getattr(importlib.import_module(f".{_MODULES[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__all__ = sorted(_MODULES)
+__getattr__ = lazy_getattr(__name__, _MODULES)
