@@ -8,6 +8,6 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {'coregister': 'tool'}
+_MODULES = {"coregister": "tool"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)

@@ -8,6 +8,6 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {'run_demo': 'tool'}
+_MODULES = {"run_demo": "tool"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)

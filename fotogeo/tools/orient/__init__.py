@@ -13,6 +13,6 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {'orient': 'tool', 'compare_models': 'compare', 'rpc_bias': 'rpc_bias'}
+_MODULES = {"orient": "tool", "compare_models": "compare", "rpc_bias": "rpc_bias"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)

@@ -11,6 +11,6 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {'ortho': 'tool', 'mosaic': 'mosaic'}
+_MODULES = {"ortho": "tool", "mosaic": "mosaic"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)

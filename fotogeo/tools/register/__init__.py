@@ -16,6 +16,6 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {'register': 'tool', 'match_images': 'match', 'fuse_raster': 'fuse', 'register_batch': 'batch'}
+_MODULES = {"register": "tool", "match_images": "match", "fuse_raster": "fuse", "register_batch": "batch"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)
