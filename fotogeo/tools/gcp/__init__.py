@@ -12,6 +12,7 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {"fit_gcps": "fit", "sample_heights": "fit", "preview_warp": "preview", "propose_gcps": "propose", "read_image_gcps": "files", "write_image_gcps": "files"}
+_MODULES = {"fit_gcps": "fit", "sample_heights": "fit", "preview_warp": "preview", "propose_gcps": "propose",
+            "read_image_gcps": "files", "write_image_gcps": "files"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)

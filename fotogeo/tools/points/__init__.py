@@ -9,6 +9,7 @@ the others."""
 
 from ..common.lazy import lazy_getattr
 
-_MODULES = {"transfer_gcps": "transfer", "measure_targets": "targets", "points_to_layer": "layers", "layer_to_points": "layers"}
+_MODULES = {"transfer_gcps": "transfer", "measure_targets": "targets", "points_to_layer": "layers",
+            "layer_to_points": "layers"}
 __all__ = sorted(_MODULES)
 __getattr__ = lazy_getattr(__name__, _MODULES)
