@@ -89,7 +89,7 @@ def _shorten_wkt(text: str) -> str:
 def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
     """``text`` as one line for an error message: whitespace collapsed, WKT CRS definitions
     shortened to their names, quoted values longer than ``value_limit`` and the whole text
-    longer than ``limit`` characters cut with "…".
+    longer than ``limit`` characters cut with "…" — before the last " — " (the fix), when the fix is short.
 
     >>> one_line('CRS PROJCS["WGS 84 / UTM zone 35N",GEOGCS["WGS 84",DATUM["x"]]] is\\n  projected')
     'CRS PROJCS["WGS 84 / UTM zone 35N"] is projected'
@@ -100,7 +100,12 @@ def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
     text = " ".join(_shorten_wkt(str(text)).split())
     half = value_limit // 2
     text = re.sub(r"(?<!\w)'([^']{%d,})'(?!\w)" % (value_limit + 1), lambda m: f"'{m.group(1)[:half]}…{m.group(1)[-8:]}'", text)
-    return text if len(text) <= limit else text[:limit - 1] + "…"
+    if len(text) <= limit:
+        return text
+    head, sep, fix = text.rpartition(" — ")  # the fix comes last: cut the detail before it, never the fix
+    if sep and len(fix) < limit // 2:
+        return text[:limit - len(fix) - len(sep) - 1] + "…" + sep + fix
+    return text[:limit - 1] + "…"
 
 
 def in_callers_words(message: str, option: str | None, words: str | None) -> str:
