@@ -86,7 +86,7 @@ def _shorten_wkt(text: str) -> str:
     return "".join(out) + text[pos:]
 
 
-def one_line(text, limit: int = 500, value_limit: int = 120) -> str:
+def one_line(text, limit: int = 800, value_limit: int = 120) -> str:
     """``text`` as one line for an error message: whitespace collapsed, WKT CRS definitions
     shortened to their names, quoted values longer than ``value_limit`` and the whole text
     longer than ``limit`` characters cut with "…" — before the last " — " (the fix), when the fix is short.
