@@ -2,18 +2,13 @@
 :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
-from .shared import DEM_HEIGHTS, YAML
+from .products import ORTHO
+from .shared import DEM_HEIGHTS
 from .table import Option, Table
 
 #: dense matching of oriented images to a surface model (``fotogeo dsm``, fotogeo.tools.dsm)
 DSM = Table(
-    Option("camera", "file", None, "Camera (interior orientation YAML; empty = from the orientation file)",
-           "Interior orientation YAML (pinhole, or brown: triangulate's camera.yaml) [the --eo file's cameras].",
-           file_filter=YAML),
-    Option("eo", "file", None, "Exterior orientation (name X Y Z omega phi kappa, OpenSfM, COLMAP, orthority)",
-           "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
-           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
-           file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+    *ORTHO.only("camera", "eo").values(),  # the orientation files ortho reads, declared once
     Option("orientation", "folder", None, "triangulate's output folder (its camera.yaml and exterior_orientation.txt)",
            "triangulate's output folder: its exterior_orientation.txt (and camera.yaml when self-calibrated) "
            "instead of --eo/--camera."),
