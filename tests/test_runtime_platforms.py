@@ -4,9 +4,23 @@ from __future__ import annotations
 
 from pathlib import PureWindowsPath
 
+import importlib.util
+from pathlib import Path
+
 import pytest
 
-from processing_provider import platforms as pf
+
+def _load_platforms():
+    """platforms.py from its file, as the plugin's runtime and scripts/qgis_install.py load it: the checkout root
+    is not on sys.path in a plain venv where fotogeo is installed from a wheel."""
+    path = Path(__file__).resolve().parents[1] / "processing_provider" / "platforms.py"
+    spec = importlib.util.spec_from_file_location("fotogeo_plugin_platforms", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+pf = _load_platforms()
 
 WIN_EXE = r"C:\OSGeo4W\bin\qgis-bin.exe"
 WIN_PREFIX = r"C:\OSGeo4W\apps\Python312"
