@@ -16,7 +16,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
 def command(orthos, output, seamlines, overwrite, quiet, **kw):
-    """Mosaic orthophotos on one pixel lattice (fotogeo ortho at one --resolution): seamlines along low-contrast
+    """Mosaic orthophotos of one CRS (others' pixel grids resampled onto the finest): seamlines along low-contrast
     paths between Voronoi cells of nadir distance, feathered blending, a gain and offset per image. Blended in
     tiles (threads; on Dask with --workers N or --scheduler ADDRESS) assembled into one Cloud-Optimised GeoTIFF."""
     from ..tools.ortho.mosaic import mosaic
