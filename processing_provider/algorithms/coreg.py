@@ -47,7 +47,7 @@ class CoregAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference image (georeferenced)")))
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to correct (georeferenced)")))
         self.add_options(COREG)
-        layer_roles(self, {self.REFERENCE: ("", "image"), self.TARGET: (self.REFERENCE, "image")})  # two layers, no DEM
+        layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image")})  # two layers, no DEM
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Corrected target")))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.SHIFTS, tr("Window shifts (GeoPackage) [beside the raster]"), "GeoPackage (*.gpkg)", optional=True,

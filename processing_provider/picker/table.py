@@ -21,7 +21,7 @@ from qgis.PyQt.QtGui import QColor, QKeySequence
 from qgis.PyQt.QtWidgets import QAbstractItemView, QComboBox, QStyledItemDelegate, QTableWidget, QTableWidgetItem
 
 #: rows the table shows without scrolling at its minimum height
-MIN_ROWS = 10
+MIN_ROWS = 6
 SORT_KEY = Qt.ItemDataRole.UserRole + 1
 
 #: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
