@@ -42,6 +42,7 @@ def main():
     for sigma in (1.0, 10.0, 0.0):
         dock.sigma_spin.setValue(sigma)
         STATE[f"sigma_{sigma:g}"] = flags(dock)
+        STATE[f"sigma_{sigma:g}"]["orange_marks"] = [m.label for m in dock.controller._marks("map") if m.flagged]
     dock.sigma_spin.setValue(1.0)
     STATE["orient_sigma"] = dock.orient_arguments().get("image_sigma")
     put(dock, ARGS["clean"])

@@ -26,6 +26,7 @@ def test_click_sigma_drives_the_blunder_flags(data_dir, tmp_path):
     at_1 = state["sigma_1"]
     assert at_1["ok"] and flagged(at_1) == ["7"] and "blunder" in at_1["flags"]["7"], at_1
     assert "1 suspected blunder" in at_1["summary"]
+    assert at_1["orange_marks"] == ["7"]  # drawn as flagged on the map: the blunder, not the "not testable" points
     assert state["sigma_10"]["ok"] and not flagged(state["sigma_10"]), state["sigma_10"]
     assert abs(state["sigma_1"]["w"]["7"]) > 5 * abs(state["sigma_10"]["w"]["7"]) * 0.9  # w scales with 1/σ
     assert state["orient_sigma"] == 1.0

@@ -66,6 +66,19 @@ def fit(session, gcps, settings: FitSettings, timeout: float = 20) -> dict:
         return {"ok": False, "message": str(e), "needed": None, "points": [], "rms": {}}
 
 
+#: the flag of a point the others cannot check (its redundancy is too low): a fact about the geometry, no alarm
+NOT_TESTABLE = "not testable"
+
+
+def alarming(flag) -> bool:
+    """Whether a point's flag is a warning to act on (a blunder, a suspect, no height) rather than "not testable".
+
+    >>> alarming("blunder"), alarming("suspect"), alarming("not testable"), alarming(None)
+    (True, True, False, False)
+    """
+    return bool(flag) and flag != NOT_TESTABLE
+
+
 def _number(v):
     return float(v) if v is not None and isinstance(v, (int, float)) and math.isfinite(v) else None
 
