@@ -357,7 +357,7 @@ class PickerDock(DockActions, QDockWidget):
         super().showEvent(event)
         if not getattr(self, "_split", False):  # the first show, laid out: the split by the shares, not the minima
             self._split = True
-            QTimer.singleShot(0, self._share_split)
+            QTimer.singleShot(200, self._share_split)  # after the main window has sized the dock
 
     def _share_split(self):
         total = sum(self.splitter.sizes())
