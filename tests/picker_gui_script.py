@@ -262,7 +262,7 @@ def delete_key(dock):
     stack.redo()
     redone = gcps(dock)
     stack.undo()
-    pump(0.3)
+    settle(dock)  # the table fills from the refit: waited for, not a fixed time
     STATE["delete_key"] = {"before": before, "unselected": unselected, "last_two": last_two, "selected": selected, "deleted": deleted,
                            "steps": steps, "undo_text": text, "undone": undone, "redone": redone,
                            "table_ids": [t.item(r, 0).text() for r in range(t.rowCount())]}

@@ -125,13 +125,13 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
         if start.get("source"):
-            feedback.pushInfo(f"start: {start['source']}")
+            feedback.pushInfo(self.in_words(f"start: {start['source']}"))  # the dialog's labels, not the flags
         for d in rep.get("dropped_frames") or []:
-            feedback.pushWarning(f"dropped: {d['name']}: {d['reason']}")
+            feedback.pushWarning(self.in_words(f"dropped: {d['name']}: {d['reason']}"))
         for r in rep.get("restarted_frames") or []:
-            feedback.pushWarning(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}")
+            feedback.pushWarning(self.in_words(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}"))
         for f in rep["fixed_parameters"]:
-            feedback.pushWarning(f"held fixed: {f['reason']}")
+            feedback.pushWarning(self.in_words(f"held fixed: {f['reason']}"))
         return self._outputs(rep, outdir, context)
 
     def _control_path(self, parameters, context, feedback) -> str | None:

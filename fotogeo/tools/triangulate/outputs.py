@@ -32,6 +32,17 @@ def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False,
     return paths
 
 
+def adjusted_only(paths: dict, frames) -> dict:
+    """``paths`` without the per-frame outputs (``ortho:``, ``sigma:``) of frames not in ``frames``: a frame dropped
+    from the block (``undetermined="drop"``) gets no orthophoto.
+
+    >>> sorted(adjusted_only({"eo": "eo.txt", "ortho:a": "a_ortho.tif", "ortho:b": "b_ortho.tif",
+    ...                       "sigma:b": "b_ortho_sigma.tif"}, ("a",)))
+    ['eo', 'ortho:a']
+    """
+    return {k: p for k, p in paths.items() if not k.startswith(("ortho:", "sigma:")) or k.split(":", 1)[1] in frames}
+
+
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
                   progress, dem_sigma=None) -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
@@ -44,6 +55,7 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     from ...io.vector import write_layers
     from .ortho import footprints, frame_images, orthorectify, sigma_of_dem, write_sigma_rasters
     crs = block.crs
+    paths = adjusted_only(paths, block.frames)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
     images = frame_images(result, block, frames) if ortho else []
     heights, grids = _terrain_and_grids(ortho, images, result, block, dem, resolution, rep, "mosaic" in paths)
