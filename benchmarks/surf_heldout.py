@@ -16,7 +16,8 @@ repeatability >= mahotas' and matching score >= 0.8x OpenCV SIFT's (SIFT with fo
 4000 points.
 
 Peers' scores do not depend on fotogeo: ``--cache FILE`` keeps them between runs.
-Writes ``benchmarks/results/surf_heldout.json`` for a full run of a split (no --tiles/--cases).
+Writes ``benchmarks/results/surf_heldout.json`` (a run's tiles replace their earlier rows there;
+a run with --cases only prints).
 """
 from __future__ import annotations
 
@@ -37,7 +38,9 @@ from surf_bench import (DATA, apply_h, geometric, inside, rotation_scale, run_ma
 
 OUT = HERE / "results" / "surf_heldout.json"
 
-#: (name, path under the data folder, crop (row0, col0, rows, cols) or None)
+#: (name, path under the data folder, crop (row0, col0, rows, cols) or None[, cases]); a tile
+#: larger than 4 Mpx (where fotogeo's fine octave used to be off) runs three cases only.
+BIG_CASES = ("scale0.7", "rot45_scale1.3", "rot30_scale0.7")
 DEV = [
     ("ngi_frame_0182", "ngi/frames/3324c_2015_1004_05_0182_RGB.tif", None),
     ("qb2_top", "qb2/qb2_basic1b.tif", (0, 0, 700, 850)),
@@ -52,17 +55,19 @@ HELDOUT = [
     ("drone_2212", "drone_snowpeak/img/IMG_2212.JPG", (400, 400, 800, 800)),
     ("s2_ref_north", "s2_pair/ref_S2A_20160608T153121_T33UUU_sub.jp2", (100, 1400, 800, 800)),
     ("s2_tgt_south", "s2_pair/tgt_S2A_20160529T153631_T33UUU_sub.jp2", (2400, 200, 700, 800)),
+    ("drone_2280_big", "drone_snowpeak/img/IMG_2280.JPG", (600, 1000, 2200, 2200), BIG_CASES),
 ]
 PEERS = {"sift": run_sift_corrected, "mahotas": run_mahotas}
 
 
-def tile_rows(name, rel, crop, cases, cache, log=print):
-    """Protocol rows of one tile: fotogeo computed, peers from ``cache`` when present."""
+def tile_rows(name, rel, crop, cases, cache, log=print, only=None):
+    """Protocol rows of one tile: fotogeo computed, peers from ``cache`` when present; ``only``:
+    the tile's own case list."""
     a, va = sp.load_tile(DATA, rel, crop)
     fa, peers_a = run_ours(a), {}
     rows = []
     for fam, label, deg, s in sp.CASES:
-        if cases and label not in cases and fam not in cases:
+        if (cases and label not in cases and fam not in cases) or (only and label not in only):
             continue
         b, vb, hm = geometric(a, va, rotation_scale(deg, s))
         row = {"image": name, "family": fam, "case": label}
@@ -123,22 +128,26 @@ def main(argv=None):
     cases = args.cases.split(",") if args.cases else None
     cache = json.loads(args.cache.read_text()) if args.cache and args.cache.exists() else {}
     rows = []
-    for name, rel, crop in tiles:
+    for name, rel, crop, *only in tiles:
         if names and name not in names:
             continue
-        rows += tile_rows(name, rel, crop, cases, cache)
+        rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None)
         if args.cache:
             args.cache.write_text(json.dumps(cache))
-    split = {s: report([r for r in rows if r["image"] in {t[0] for t in tl}], log=lambda *a, **k: None)
-             for s, tl in (("dev", DEV), ("heldout", HELDOUT))}
-    summary = report(rows)
-    if names or cases:
+    report(rows)
+    if cases:       # a partial case list is printed only
         return
+    # rows of the tiles run replace their earlier rows; each split's summary covers its stored rows
     old = json.loads(OUT.read_text()) if OUT.exists() else {}
-    for s in ("dev", "heldout"):
-        if split[s]:
-            old[s] = {"tiles": [list(t) for t in (DEV if s == "dev" else HELDOUT)], "rows": [r for r in rows if
-                      r["image"] in {t[0] for t in (DEV if s == "dev" else HELDOUT)}], "summary": split[s],
+    for s, tl in (("dev", DEV), ("heldout", HELDOUT)):
+        mine = {t[0] for t in tl}
+        new = [r for r in rows if r["image"] in mine]
+        if new:
+            done = {r["image"] for r in new}
+            kept = [r for r in old.get(s, {}).get("rows", []) if r["image"] not in done] + new
+            order = [t[0] for t in tl]
+            kept.sort(key=lambda r: (order.index(r["image"]), [c[1] for c in sp.CASES].index(r["case"])))
+            old[s] = {"tiles": [list(t) for t in tl], "rows": kept, "summary": report(kept, log=lambda *a, **k: None),
                       "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     old["protocol"] = {"n_top": sp.N_TOP, "repeatability_px": sp.REP_TOL, "match_px": sp.MATCH_TOL,
                        "ratio": sp.RATIO, "fotogeo_threshold": 10.0}
@@ -146,7 +155,7 @@ def main(argv=None):
     tmp = OUT.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(old, indent=1))
     tmp.replace(OUT)
-    print(f"wrote {OUT.relative_to(HERE.parent)} ({summary['pairs']} pairs)")
+    print(f"wrote {OUT.relative_to(HERE.parent)} ({len(rows)} pairs of this run)")
 
 
 if __name__ == "__main__":
