@@ -46,6 +46,8 @@ DEV = [
     ("qb2_top", "qb2/qb2_basic1b.tif", (0, 0, 700, 850)),
     ("pleiades_left", "rpc/ventoux/left_image.tif", None),
     ("drone_2186", "drone_snowpeak/img/IMG_2186.JPG", (1300, 1900, 800, 800)),
+    ("drone_2186_big", "drone_snowpeak/img/IMG_2186.JPG", (0, 0, 2200, 2200), BIG_CASES),
+    ("drone_2188_big", "drone_snowpeak/img/IMG_2188.JPG", (600, 1000, 2200, 2200), BIG_CASES),
 ]
 HELDOUT = [
     ("ngi_frame_0184", "ngi/frames/3324c_2015_1004_05_0184_RGB.tif", None),
