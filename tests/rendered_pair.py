@@ -4,7 +4,8 @@ whole in memory): the large-image case of ``fotogeo dsm`` (benchmarks/dsm_memory
 The pair: ``size x size`` pixels (8 bits, tiled GeoTIFF, no georeference), focal length ``size`` pixels (a 53°
 field of view), 0.1 m ground sample distance, 60 % forward overlap (base-to-height ratio 0.4), small attitude
 angles; the terrain ±16 m of sines (:func:`terrain`); the ground a fractal texture
-(:func:`fotogeo.orientation.block_render.texture`, one 4096² tile repeated, half a ground pixel per texel) with
+(:func:`fotogeo.orientation.block_render.texture`: one tile wider than the pair's ground, half a ground pixel
+per texel) with
 Gaussian grey noise of 2 levels. Each pixel's ray meets the terrain by fixed-point iteration on the height.
 """
 from __future__ import annotations
@@ -34,7 +35,10 @@ def render(folder: Path, size: int, seed: int = 0) -> dict:
     from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
     from fotogeo.orientation.block_render import texture
     rng = np.random.default_rng(seed)
-    tex = texture(rng, (TILE, TILE))
+    # one texture tile wider than the pair's ground (a repeated texture would give repeated matches)
+    texel = GSD / 2
+    tile = max(TILE, int(1.6 * size * GSD / texel))
+    tex = texture(rng, (tile, tile))
     f = float(size)  # focal length in pixels: a 53° field of view
     H = f * GSD
     base = (1 - OVERLAP) * size * GSD
@@ -57,8 +61,8 @@ def render(folder: Path, size: int, seed: int = 0) -> dict:
                     t = (z - eo.Z) / d[..., 2]
                     x, y = eo.X + t * d[..., 0] - ORIGIN[0], eo.Y + t * d[..., 1] - ORIGIN[1]
                     z = terrain(x, y)
-                mx = (x / (GSD / 2) - 0.5).astype(np.float32)
-                my = (-y / (GSD / 2) - 0.5).astype(np.float32)
+                mx = (x / texel - 0.5).astype(np.float32)
+                my = (-y / texel - 0.5).astype(np.float32)
                 img = cv2.remap(tex, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
                 img = img + rng.normal(0, 2.0, img.shape).astype(np.float32)
                 ds.write(np.clip(np.round(img), 1, 255).astype(np.uint8)[None], window=Window(0, r0, size, rows))
