@@ -22,6 +22,7 @@ from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
 from ...stereo.dense import disparity, to_uint8
 from ...stereo.rays import closest_points
+from ...stereo.refine import refine as refine_disparities
 from ...stereo.rectify import FrameView, RectifiedPair
 
 STRIP = 384
@@ -140,10 +141,11 @@ def sparse_problem(sp, max_px: float) -> str:
 
 
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
-                 colours: bool = False):
+                 colours: bool = False, refine: bool = False):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
     left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the disparity range, ``zlim`` the heights
-    kept; ``stats`` gets the matched and matchable pixel counts. Each strip is matched with ``MARGIN`` more rows
+    kept; ``stats`` gets the matched and matchable pixel counts; ``refine``: the disparities refined by
+    least-squares matching (:func:`fotogeo.stereo.refine.refine`). Each strip is matched with ``MARGIN`` more rows
     and columns on either side (and the right image's columns the disparity range needs), its source pixels read
     by windows: memory follows the strip, not the images."""
     w, h = rp.size
@@ -160,6 +162,8 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         if not v1m.any() or not v2m.any():
             continue
         d = disparity(g1, g2, v1m, v2m, lo, hi)
+        if refine:
+            d = refine_disparities(g1, g2, d)
         core = (slice(r0 - a, min(v1, r0 + STRIP) - a), slice(u0 - ca, u1 - ca))
         shift = int(round(0.5 * (lo + hi)))  # matchable: the partner at the middle disparity lies in the image
         partner = np.zeros_like(v2m)

@@ -32,14 +32,15 @@ BOX_PAD = 2
 @dataclass
 class PairMatch:
     """One kept pair ready to match: its :class:`~fotogeo.tools.dsm.plan` choice ``pair``, rectified pair ``rp``,
-    disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, and what its
-    tiles gave (pixel counts, points, seconds)."""
+    disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, whether to refine
+    its disparities (:func:`fotogeo.stereo.refine.refine`), and what its tiles gave (pixel counts, points, seconds)."""
     pair: object
     rp: object
     drange: tuple
     zlim: tuple
     views: tuple
     sources: tuple
+    refine: bool = False
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -81,7 +82,7 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
             continue
         t, layer = time.perf_counter(), PairLayer(sub)
         for P, rgb in frames.dense_points(m.rp, m.views, m.sources, *m.drange, m.zlim, m.stats, box,
-                                          colours=cloud is not None):
+                                          colours=cloud is not None, refine=m.refine):
             layer.add(P)
             inside = core.cells(P[:, :2])[1]
             m.points += int(inside.sum())

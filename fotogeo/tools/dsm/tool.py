@@ -29,8 +29,8 @@ LOW_DENSITY = 0.5
 
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
-        dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, fill: bool = False,
-        point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+        dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
+        fill: bool = False, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report."""
@@ -49,6 +49,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
+    if rpc and refine:
+        raise InputError("--refine is for frame pairs (measured there only); drop --refine or --rpc", option="refine")
     if rpc:
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
@@ -57,7 +59,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                   bounds=parse_bounds(bounds), fill=fill, point_cloud=point_cloud, report=report,
+                   bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
                    overwrite=overwrite, prog=prog, t0=t0)
 
 
@@ -119,7 +121,7 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale) -> tuple:
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None
 
 
-def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, fill, point_cloud, report,
+def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
             overwrite, prog, t0) -> dict:
     """The frame pipeline (package docstring)."""
     names = [im.name for im in ims]
@@ -146,7 +148,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
             warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=3)
         else:
             setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, (views[p.i], views[p.j]),
-                                                    (sources[p.i], sources[p.j]))
+                                                    (sources[p.i], sources[p.j]), refine)
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
