@@ -10,7 +10,7 @@ compared with the terrain at its cell centres (RMSE, NMAD, median) and the repor
 
 ``--code DIR`` measures the fotogeo of another checkout (its root on the child's PYTHONPATH), e.g. the main
 branch's whole-image version, on the same renders. Prints a table and writes
-benchmarks/results/dsm_memory.json (the latest run per code label).
+benchmarks/results/dsm_memory.json (per code label, the latest row of each size with its command and load).
 """
 from __future__ import annotations
 
@@ -44,7 +44,8 @@ print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter(
 
 
 def run(sc: dict, folder: Path, code: Path) -> dict:
-    args = {**sc, "crs": CRS, "out": str(folder / "dsm.tif"), "report": str(folder / "report.json")}
+    tag = "" if code == ROOT else f"_{code.name}"  # another checkout's outputs beside, not over, this one's
+    args = {**sc, "crs": CRS, "out": str(folder / f"dsm{tag}.tif"), "report": str(folder / f"report{tag}.json")}
     env = dict(os.environ, PYTHONPATH=str(code), GDAL_PAM_ENABLED="NO", OMP_NUM_THREADS="1")
     r = subprocess.run([sys.executable, "-c", CHILD, json.dumps(args)], env=env, capture_output=True, text=True)
     if r.returncode:
@@ -77,14 +78,21 @@ def main() -> None:
             rows.append({"size_px": size, "image_mb": round(2 * size * size / 2 ** 20, 1),
                          "dsm_cells": f"{g['width']}x{g['height']}", "render_s": round(render_s, 1), **r})
             print(rows[-1], flush=True)
+            _save(label, rows, load0)  # after every size: a long run stopped half way keeps what it measured
     head = ("size_px", "image_mb", "dsm_cells", "peak_rss_mb", "cpu_s", "wall_s", "rmse_m", "nmad_m", "completeness")
     print(" | ".join(head))
     for r in rows:
         print(" | ".join(f"{r[k]:.3f}" if isinstance(r[k], float) else str(r[k]) for k in head))
+
+
+def _save(label: str, rows: list, load0) -> None:
     res = ROOT / "benchmarks" / "results" / "dsm_memory.json"
     old = json.loads(res.read_text()) if res.is_file() else {}
-    old[label] = {"command": "benchmarks/dsm_memory.py " + " ".join(sys.argv[1:]), "gsd_m": GSD,
-                  "load_average": [load0[0], os.getloadavg()[0]], "rows": rows}
+    sizes = {r["size_px"] for r in rows}  # rows of other sizes from earlier runs stay, each with its command
+    kept = [r for r in old.get(label, {}).get("rows", []) if r["size_px"] not in sizes]
+    now = {"command": "benchmarks/dsm_memory.py " + " ".join(sys.argv[1:]),
+           "load_average": [round(load0[0], 1), round(os.getloadavg()[0], 1)]}
+    old[label] = {"gsd_m": GSD, "rows": sorted(kept + [{**r, **now} for r in rows], key=lambda r: r["size_px"])}
     res.write_text(json.dumps(old, indent=1))
 
 

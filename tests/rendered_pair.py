@@ -25,6 +25,21 @@ def terrain(x, y):
             + 4.0 * np.sin(2 * np.pi * (x + y) / 90.0))
 
 
+def _texture(rng, n: int) -> np.ndarray:
+    """An ``n x n`` ground texture with the statistics per texel of
+    :func:`fotogeo.orientation.block_render.texture` on a ``TILE``² tile (the same one for ``n = TILE``): finer
+    fractal octaves and patches of the same size in texels on a larger tile."""
+    from fotogeo.orientation.block_render import _fractal
+    octaves = 8 + max(0, int(round(np.log2(n / TILE))))
+    img = 128 + 40 * _fractal(rng, (n, n), octaves=octaves)
+    side = max(5, min(n, TILE) // 60)
+    for _ in range(n * n // 2000):
+        r, c = rng.integers(0, n), rng.integers(0, n)
+        h, w = rng.integers(4, side), rng.integers(4, side)
+        img[r:r + h, c:c + w] += rng.choice([-60.0, 60.0])
+    return np.clip(img, 0, 255).astype(np.float32)
+
+
 def render(folder: Path, size: int, seed: int = 0) -> dict:
     """Write the pair (module docstring) into ``folder``: ``{"images", "camera", "eo"}``."""
     import cv2
@@ -33,12 +48,10 @@ def render(folder: Path, size: int, seed: int = 0) -> dict:
 
     from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera
     from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
-    from fotogeo.orientation.block_render import texture
     rng = np.random.default_rng(seed)
     # one texture tile wider than the pair's ground (a repeated texture would give repeated matches)
     texel = GSD / 2
-    tile = max(TILE, int(1.6 * size * GSD / texel))
-    tex = texture(rng, (tile, tile))
+    tex = _texture(rng, max(TILE, int(1.6 * size * GSD / texel)))
     f = float(size)  # focal length in pixels: a 53° field of view
     H = f * GSD
     base = (1 - OVERLAP) * size * GSD
