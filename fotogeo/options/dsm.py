@@ -31,7 +31,7 @@ DSM = Table(
     Option("bounds", "str", None, "Extent (xmin,ymin,xmax,ymax in the output CRS; empty = the pairs' overlap)",
            "Extent of the DSM 'xmin,ymin,xmax,ymax' in the output CRS [the union of the pairs' overlaps]."),
     Option("refine", "bool", False, "Least-squares refinement of the disparities (frames; slower)",
-           "Refine the sub-pixel disparities of frame pairs by least-squares matching over 7 x 7 windows (shift "
+           "Refine the sub-pixel disparities of frame pairs by least-squares matching over 11 x 11 windows (shift "
            "along the epipolar line, radiometric offset and gain; Gruen 1985). Slower; not with --rpc.",
            advanced=True),
     Option("fill", "bool", False, "Fill holes (interpolated cells are marked in a mask band)",

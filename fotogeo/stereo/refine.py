@@ -27,7 +27,7 @@ def _box(a, window: int) -> np.ndarray:
     return cv2.boxFilter(a, cv2.CV_64F, (window, window), normalize=False, borderType=cv2.BORDER_REFLECT)
 
 
-def refine(left, right, d, *, window: int = 7, iterations: int = 3, max_shift: float = 1.0,
+def refine(left, right, d, *, window: int = 11, iterations: int = 3, max_shift: float = 1.0,
            min_gradient: float = 1.0) -> np.ndarray:
     """Refined disparities of the rectified ``left`` against ``right`` (float grey images, same shape), starting
     from ``d`` (module docstring); NaN stays NaN."""
