@@ -168,6 +168,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                   self.BLUNDERS: int(rep["statistics"]["n_blunders"])}
         for layer, name, _, _ in LAYERS:
             result[name] = f"{gpkg}|layername={layer}"
+        surface = (rep.get("dsm") or {}).get("outputs", {}).get("dsm")
+        if surface:  # --dsm: the destination parameter's output (QGIS loads it as it loads every destination)
+            result["DSM"] = surface
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
             for frame, done in (rep.get("orthorectified") or {}).items():

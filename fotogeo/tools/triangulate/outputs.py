@@ -44,10 +44,11 @@ def adjusted_only(paths: dict, frames) -> dict:
 
 
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
-                  progress, dem_sigma=None) -> None:
+                  progress, dem_sigma=None, surface=None) -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
-    the mosaic of the orthophotos (:func:`mosaic_outputs`), whose failure leaves that set in place. The seconds
-    spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``)."""
+    the mosaic of the orthophotos (:func:`mosaic_outputs`) and the surface model (``surface(frames, progress)``,
+    :func:`fotogeo.tools.triangulate.surface.block_dsm`), whose failures leave that set in place. The seconds
+    spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``, ``dsm``)."""
     import time
     t0 = time.perf_counter()
     from ...io.block import write_exterior_orientation, write_interior_orientation
@@ -83,7 +84,12 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         rep["mosaic"] = mosaic_outputs(paths, rep.get("orthorectified") or {}, overwrite, progress.stage(0.9, 1.0,
                                                                                                       "mosaic"))
         _timing(rep, "mosaic", time.perf_counter() - t0)
-        with AtomicOutputs(True) as out:  # the reports again, with the mosaic's outcome
+    if surface is not None:
+        t0 = time.perf_counter()
+        rep["dsm"] = surface(frames, progress.stage(0.9, 1.0, "surface model"))
+        _timing(rep, "dsm", time.perf_counter() - t0)
+    if "mosaic" in paths or surface is not None:
+        with AtomicOutputs(True) as out:  # the reports again, with the mosaic's and the surface model's outcome
             _write_reports(out, paths, rep, result, block, feet)
             out.commit()
 
