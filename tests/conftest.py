@@ -31,5 +31,5 @@ def pytest_collection_modifyitems(config, items):
     QgsApplication per process, and the desktop tests' ``xvfb-run -a`` picks its display racily when two start at
     once. Without xdist the marker is inert."""
     for item in items:
-        if item.module.__name__.startswith("test_qgis"):
+        if item.path.name.startswith("test_qgis"):  # one install of build/qgis-test-runtime at a time, too
             item.add_marker(pytest.mark.xdist_group("qgis"))
