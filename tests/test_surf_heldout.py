@@ -12,7 +12,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from fotogeo.features import fine, surf
-from fotogeo.pixels import from_centre, to_centre
+from fotogeo.pixels import from_centre
+from test_surf import _protocol  # the protocol's scoring, one copy
 
 rasterio = pytest.importorskip("rasterio")
 
@@ -81,39 +82,6 @@ def _warp(a, deg, scale):
     return b, vb, h
 
 
-def _scores(fa, fb, h, va, vb, n_top=1500):
-    """Issue 19's protocol (benchmarks/surf_protocol.py): repeatability within 2.5 px and the
-    matching score (ratio-0.8 nearest neighbours correct within 3 px), per min(n_A, n_B)."""
-    def top(f):
-        i = np.argsort(-np.abs(f[2]), kind="stable")[:n_top]
-        return f[0][i], f[1][i].astype(np.float32), None if f[3] is None else f[3][i]
-
-    def to_b(m, xy):
-        q = np.column_stack([to_centre(xy), np.ones(len(xy))]) @ m.T
-        return from_centre(q[:, :2] / q[:, 2:])
-
-    def inside(valid, xy):
-        er = cv2.erode(valid.astype(np.uint8), np.ones((33, 33), np.uint8)) > 0
-        c = np.floor(xy).astype(int)
-        ok = (c >= 0).all(1) & (c[:, 0] < valid.shape[1]) & (c[:, 1] < valid.shape[0])
-        ok[ok] = er[c[ok, 1], c[ok, 0]]
-        return ok
-    (xa, da, la), (xb, db, lb) = top(fa), top(fb)
-    ia = inside(vb, to_b(h, xa)) & inside(va, xa)
-    ib = inside(va, to_b(np.linalg.inv(h), xb)) & inside(vb, xb)
-    xa, da, xb, db = xa[ia], da[ia], xb[ib], db[ib]
-    n = min(len(xa), len(xb))
-    d2 = ((to_b(h, xa)[:, None] - xb[None]) ** 2).sum(-1)
-    rep = min((d2 <= 2.5 ** 2).any(1).sum(), (d2 <= 2.5 ** 2).any(0).sum()) / n
-    dd = (da * da).sum(1)[:, None] + (db * db).sum(1)[None] - 2 * da @ db.T
-    if la is not None:
-        dd[la[ia][:, None] != lb[ib][None]] = np.inf
-    nn = dd.argmin(1)
-    first, second = np.sqrt(np.maximum(np.partition(dd, 1, axis=1)[:, :2], 0)).T
-    ok = (first < 0.8 * second) & (d2[np.arange(len(xa)), nn] <= 9.0)
-    return rep, ok.sum() / n
-
-
 def _ours(img):
     r = surf(img, hessian_threshold=10.0)
     return r.xy, r.descriptors, r.response, r.laplacian
@@ -137,8 +105,8 @@ def test_protocol_on_held_out_tiles_of_other_sensors(data_dir, path, crop, deg, 
     a = _tile(data_dir / path, crop)
     va = np.ones(a.shape, bool)
     b, vb, h = _warp(a, deg, scale)
-    rep, ms = _scores(_ours(a), _ours(b), h, va, vb)
-    _, ms_sift = _scores(_sift(a), _sift(b), h, va, vb)
+    rep, ms = _protocol(_ours(a), _ours(b), h, va, vb)
+    _, ms_sift = _protocol(_sift(a), _sift(b), h, va, vb)
     print(f"rep {rep:.3f} ms {ms:.3f} sift {ms_sift:.3f}")
     assert rep >= min_rep, rep
     assert ms >= 0.8 * ms_sift, (ms, ms_sift)
@@ -149,6 +117,6 @@ def test_protocol_on_held_out_tiles_of_other_sensors(data_dir, path, crop, deg, 
     def _mahotas(img):
         p = ms_surf.surf(img.astype(np.float64), max_points=4000)
         return p[:, [1, 0]] + 0.5, p[:, 6:], p[:, 3], np.sign(p[:, 4])
-    rep_mahotas, _ = _scores(_mahotas(a), _mahotas(b), h, va, vb)
+    rep_mahotas, _ = _protocol(_mahotas(a), _mahotas(b), h, va, vb)
     print(f"mahotas rep {rep_mahotas:.3f}")
     assert rep >= rep_mahotas, (rep, rep_mahotas)
