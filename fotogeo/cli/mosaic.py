@@ -28,5 +28,7 @@ def command(orthos, output, seamlines, overwrite, quiet, **kw):
         bar.close()
     for name, g, o in zip(rep["images"], rep["gains"], rep["offsets"]):
         click.echo(f"{name}: gain {' '.join(f'{v:.3f}' for v in g)}, offset {' '.join(f'{v:+.1f}' for v in o)}")
+    if rep["resampled_onto_lattice"]:
+        click.echo(f"resampled onto the mosaic's pixel grid (bilinear): {', '.join(rep['resampled_onto_lattice'])}")
     click.echo(f"wrote {rep['output']} ({rep['width']}x{rep['height']}) and {rep['seamlines']}")
     return rep
