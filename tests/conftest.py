@@ -25,11 +25,3 @@ def data_dir() -> Path:
 def rng():
     return np.random.default_rng(12345)
 
-
-def pytest_collection_modifyitems(config, items):
-    """Under pytest-xdist (``make test`` runs ``-n 2 --dist loadgroup``) every QGIS test runs in one worker: one
-    QgsApplication per process, and the desktop tests' ``xvfb-run -a`` picks its display racily when two start at
-    once. Without xdist the marker is inert."""
-    for item in items:
-        if item.path.name.startswith("test_qgis"):  # one install of build/qgis-test-runtime at a time, too
-            item.add_marker(pytest.mark.xdist_group("qgis"))
