@@ -15,6 +15,8 @@ from xml.sax.saxutils import escape
 
 from affine import Affine
 
+from .raster import is_virtual_path
+
 #: GDAL's VRT data type names for numpy dtype names
 _VRT_TYPES = {"uint8": "Byte", "int8": "Int8", "uint16": "UInt16", "int16": "Int16", "uint32": "UInt32",
               "int32": "Int32", "float32": "Float32", "float64": "Float64"}
@@ -53,7 +55,7 @@ def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bil
     nodata = info.nodata
     nd = "" if nodata is None else f"<NoDataValue>{nodata!r}</NoDataValue>"
     snd = "" if nodata is None else f"<NODATA>{nodata!r}</NODATA>"
-    name = escape(str(Path(source).resolve()) if not str(source).startswith("/vsi") else str(source))
+    name = escape(str(source) if is_virtual_path(source) else str(Path(source).resolve()))
     bands = "".join(
         f'<VRTRasterBand dataType="{vtype}" band="{b}">{nd}<ComplexSource resampling="{resampling}">'
         f'<SourceFilename relativeToVRT="0">{name}</SourceFilename><SourceBand>{b}</SourceBand>'
