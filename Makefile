@@ -59,8 +59,12 @@ demo: $(VENV)/.installed
 FIT_TESTS := tests/test_models.py tests/test_models_lambda.py tests/test_models_spatial.py \
 	tests/test_models_threads.py tests/test_rpc_refit.py
 
+# the suite in TEST_WORKERS processes (pytest-xdist; the QGIS tests together in one of them: the scheduler in
+# tests/conftest.py)
+TEST_WORKERS ?= 2
+
 test: system-test $(VENV)/.installed
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest -q -n $(TEST_WORKERS)
 	for n in 1 2; do echo "fitting tests on $$n BLAS thread(s)"; \
 	  OPENBLAS_NUM_THREADS=$$n $(PY) -m pytest -q -p no:cacheprovider $(FIT_TESTS) || exit 1; done
 	$(MAKE) test-plain
@@ -96,7 +100,7 @@ $(PLAIN_VENV)/.installed: pyproject.toml
 test-plain: $(PLAIN_VENV)/.installed
 	$(PLAIN_VENV)/bin/python -m pip --disable-pip-version-check -q install --no-deps --force-reinstall .
 	$(PLAIN_VENV)/bin/python -c "import fotogeo, numpy, cv2, rasterio; print('plain venv: fotogeo', fotogeo.__version__, 'numpy', numpy.__version__, 'opencv', cv2.__version__, 'rasterio', rasterio.__version__)"
-	$(PLAIN_VENV)/bin/pytest -q -p no:cacheprovider -m "not qgis" $(PLAIN_DESELECT) $(PLAIN_TESTS)
+	$(PLAIN_VENV)/bin/pytest -q -p no:cacheprovider -n $(TEST_WORKERS) -m "not qgis" $(PLAIN_DESELECT) $(PLAIN_TESTS)
 
 # The documentation site (MkDocs-Material + mkdocstrings + mkdocs-click) from docs/ into site/, warnings as
 # errors. A venv of its own (the docs extra on today's wheels), fotogeo installed editable so that mkdocs-click

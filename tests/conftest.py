@@ -25,3 +25,19 @@ def data_dir() -> Path:
 def rng():
     return np.random.default_rng(12345)
 
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Under pytest-xdist (``make test`` runs ``-n 2``) every QGIS test runs in one worker: one install of
+    ``build/qgis-test-runtime`` at a time, and the desktop tests' ``xvfb-run -a`` picks its display racily when two
+    start at once. A scope scheduler whose scope is "qgis" for the ``test_qgis*`` files and the test itself for every
+    other test (xdist's own ``--dist loadgroup`` cannot be used: it renames node ids through an attribute pytest 9 no
+    longer reads). Without xdist this hook is never called."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class QgisTogether(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return "qgis" if Path(nodeid.split("::")[0]).name.startswith("test_qgis") else nodeid
+
+    return QgisTogether(config, log)

@@ -104,7 +104,8 @@ def test_every_algorithm_runs_from_its_dialog(tmp_path, data_dir):
     script = tmp_path / "dialogs.py"
     script.write_text(SCRIPT)
     gcps = _gcps(data_dir, tmp_path / "ngi_gcps.gpkg")
-    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"))
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"),
+               FOTOGEO_PYTHON=sys.executable)
     r = subprocess.run([sys.executable, str(script), str(ROOT), str(data_dir), str(tmp_path), str(gcps)],
                        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=180)
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
