@@ -104,24 +104,35 @@ def _hull_fraction(px: np.ndarray, area: float) -> float:
     return float(cv2.contourArea(hull)) / area
 
 
-def frame_quality(result, block) -> FrameQuality:
-    """:class:`FrameQuality` of every frame of the adjusted ``block`` (module docstring)."""
+def coverage(block, used=None):
+    """``(points, multi_ray_points, spread)`` per frame ``(m,)`` from the observations ``used`` (bool mask; all when
+    None): distinct points observed, those with ≥ 3 rays, and the convex hull of the observations as a fraction of
+    the frame."""
     m = len(block.frames)
-    used = result.status == "used"
-    f, p = block.obs_frame[used], block.obs_point[used]
+    used = np.ones(len(block.obs_frame), bool) if used is None else used
+    f, p, px = block.obs_frame[used], block.obs_point[used], block.obs_pixel[used]
     rays = np.bincount(p, minlength=len(block.point_ids))
     w, h = block.camera.image_size
-    points = np.zeros(m, int)
-    multi = np.zeros(m, int)
-    spread = np.zeros(m)
-    rms = np.full(m, np.nan)
-    distance = _object_distances(result, block, f, p)
+    points, multi, spread = np.zeros(m, int), np.zeros(m, int), np.zeros(m)
     for j in range(m):
         sel = f == j
         pts = np.unique(p[sel])
         points[j] = len(pts)
         multi[j] = int(np.count_nonzero(rays[pts] >= 3))
-        spread[j] = _hull_fraction(block.obs_pixel[used][sel], float(w * h))
+        spread[j] = _hull_fraction(px[sel], float(w * h))
+    return points, multi, spread
+
+
+def frame_quality(result, block) -> FrameQuality:
+    """:class:`FrameQuality` of every frame of the adjusted ``block`` (module docstring)."""
+    m = len(block.frames)
+    used = result.status == "used"
+    f, p = block.obs_frame[used], block.obs_point[used]
+    points, multi, spread = coverage(block, used)
+    rms = np.full(m, np.nan)
+    distance = _object_distances(result, block, f, p)
+    for j in range(m):
+        sel = f == j
         if sel.any():
             rms[j] = float(np.sqrt(np.nanmean(result.residuals[used][sel] ** 2)))
     sig = np.asarray(result.eo_sigma, float)  # scaled by max(σ0, 1) (fotogeo.orientation.bundle_result)
@@ -167,11 +178,7 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
     gnss = np.zeros(m, bool) if position_prior is None else np.asarray(position_prior, bool)
     limit = position_limits(q, max_angle_sigma)
     for j, name in enumerate(q.frames):
-        why = []
-        if q.points[j] < min_points:
-            why.append(f"{q.points[j]} points (needs {min_points})")
-        if q.spread[j] < min_spread:
-            why.append(f"points cover {100 * q.spread[j]:.1f}% of the frame (needs {100 * min_spread:.0f}%)")
+        why = _coverage_reasons(q.points[j], q.spread[j], min_points, min_spread)
         if not np.isfinite(q.angle_sigma[j]):  # never held by a prior: the adjustment has no covariance for it
             why.append("no angle σ (the normal equations are singular there: near-parallel rays or no datum)")
         elif not q.angle_sigma[j] <= max_angle_sigma and (why or not prior[j]):
@@ -187,6 +194,28 @@ def undetermined_frames(q: FrameQuality, *, min_points: int = MIN_POINTS, min_sp
             why.append(f"{round(q.blunder_share[j] * q.observations[j])} of its {q.observations[j]} observations "
                        f"({100 * q.blunder_share[j]:.0f}%) rejected as blunders (limit "
                        f"{100 * max_blunder_share:.0f}%): its orientation contradicts its own tie points")
+        if why:
+            out[name] = ", ".join(why)
+    return out
+
+
+def _coverage_reasons(points: int, spread: float, min_points: int, min_spread: float) -> list:
+    why = []
+    if points < min_points:
+        why.append(f"{points} points (needs {min_points})")
+    if spread < min_spread:
+        why.append(f"points cover {100 * spread:.1f}% of the frame (needs {100 * min_spread:.0f}%)")
+    return why
+
+
+def sparse_frames(block, *, min_points: int = MIN_POINTS, min_spread: float = MIN_SPREAD) -> dict:
+    """``{frame: reason}`` of the frames whose observations, all of them, are too few or cover too little of the
+    frame — known before any adjustment. The adjustment only removes observations (as blunders), so such a frame
+    would fail :func:`undetermined_frames` after it too: a run can refuse (or drop) it without adjusting first."""
+    points, _, spread = coverage(block)
+    out = {}
+    for j, name in enumerate(block.frames):
+        why = _coverage_reasons(int(points[j]), float(spread[j]), min_points, min_spread)
         if why:
             out[name] = ", ".join(why)
     return out

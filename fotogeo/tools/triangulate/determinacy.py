@@ -30,7 +30,7 @@ from ...geometry.attitude import rotation_angle
 from ...orientation.bundle import adjust_block
 from ...orientation.bundle_problem import eo_weights
 from ...orientation.bundle_quality import (frame_quality, prior_contradicted_frames, prior_held_frames,
-                                           prior_tests, undetermined_frames)
+                                           prior_tests, sparse_frames, undetermined_frames)
 
 #: points a re-started frame's resection needs (each determined by ≥ 2 other frames)
 MIN_RESECTION_POINTS = 6
@@ -39,8 +39,13 @@ MIN_RESECTION_POINTS = 6
 def adjust_determined(block, opts, kw, prog):
     """``(result, block, FrameQuality, dropped, restarted)``: the adjustment, every frame checked (module
     docstring); an undetermined frame fails the run, or with ``undetermined="drop"`` is dropped and the block
-    adjusted again. ``dropped`` and ``restarted`` are lists of ``{"name", "reason"}``."""
+    adjusted again. Frames whose observations are too few or too clustered even before any is rejected
+    (:func:`~fotogeo.orientation.bundle_quality.sparse_frames`) are refused or dropped before the first adjustment,
+    in seconds rather than after it. ``dropped`` and ``restarted`` are lists of ``{"name", "reason"}``."""
     dropped, restarted = [], []
+    sparse = sparse_frames(block, min_points=kw["min_frame_points"])
+    if sparse:  # refused (or dropped) before adjusting: no adjustment can give them points
+        block, opts = _refused_or_dropped(sparse, set(sparse), block, opts, kw, dropped)
     while True:
         try:
             result = adjust_block(block, opts, progress=prog)
@@ -62,11 +67,17 @@ def adjust_determined(block, opts, kw, prog):
         if not bad:
             _warn_prior_held(quality, kw["max_angle_sigma"])
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
-        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
-        if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
-            raise ModelError(_undetermined_message(text, kw["undetermined"] == "drop", len(block.frames) - len(drop)))
-        dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
-        block, opts = without_frames(block, opts, drop)
+        block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped)
+
+
+def _refused_or_dropped(bad: dict, drop: set, block, opts, kw, dropped: list):
+    """The block and options without the frames ``drop`` (appended to ``dropped`` with their reasons from ``bad``),
+    or the refusal naming the frames ``bad`` when ``undetermined`` is not "drop" or fewer than 2 frames would stay."""
+    text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
+    if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
+        raise ModelError(_undetermined_message(text, kw["undetermined"] == "drop", len(block.frames) - len(drop)))
+    dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
+    return without_frames(block, opts, drop)
 
 
 def _undetermined_message(text: str, dropping: bool, left: int) -> str:
