@@ -278,7 +278,7 @@ def noncentrality(level: float, df: int | None, beta: float = BETA) -> float:
     χ²(2) (σ given, ``df`` None) or F(2, ``df``) (σ estimated).
 
     >>> round(noncentrality(0.01 / 15, None), 1)
-    20.5
+    20.7
     """
     from scipy.optimize import brentq
     from scipy.stats import chi2, ncf, ncx2
