@@ -76,6 +76,8 @@ class OrientFit:
     redundancy: np.ndarray | None = None
     flag: np.ndarray | None = None
     blunder_test: str = "blunder test off"
+    #: per point (N,): the minimal detectable blunder in pixels (:mod:`.blunders`; NaN untested)
+    mdb: np.ndarray | None = None
 
 
 def model_src(model_cls, ground: np.ndarray) -> np.ndarray:
@@ -254,13 +256,15 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     if control.sum() < cls.min_points:
         raise ModelError(f"model {cls.name!r} needs at least {cls.min_points} control points; got {int(control.sum())}")
     n = len(role)
-    w, red, flag = np.full(n, np.nan), np.full(n, np.nan), np.full(n, "", object)
+    w, red, flag, mdb = np.full(n, np.nan), np.full(n, np.nan), np.full(n, "", object), np.full(n, np.nan)
     findings, note = [], "blunder test off"
     if snooping:
         test, findings = _blunder_test(cls, src, dst, control, np.asarray(ids), image_sigma, fit_options,
                                        "ground units" if image_to_ground(cls) else "px", as_progress(progress))
         idx = np.flatnonzero(control)
         w[idx], red[idx], flag[idx], note = test.w, test.redundancy, test.flag, test.note()
+        if test.mdb is not None and not image_to_ground(cls):
+            mdb[idx] = test.mdb
         if remove_blunders:
             for f in findings:
                 f["removed"] = f["flag"] == "blunder"
@@ -272,7 +276,7 @@ def fit_orientation(model_name: str, ground, pixel, role, ids, *, snooping: bool
     stats = {r: role_stats(res[role == r], scale_mm) for r in ("control", "check")}
     if (role == "blunder").any():
         stats["blunder"] = role_stats(res[role == "blunder"], scale_mm)
-    return OrientFit(model, res, role.astype(str), stats, findings, warns, w, red, flag.astype(str), note)
+    return OrientFit(model, res, role.astype(str), stats, findings, warns, w, red, flag.astype(str), note, mdb)
 
 
 def _blunder_test(cls, src, dst, control, ids, image_sigma, fit_options, unit, progress):

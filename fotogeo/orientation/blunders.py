@@ -27,9 +27,18 @@ point outside fails. Those are the flagged points: ``"blunder"`` where the test 
 say so (``f ≥`` :data:`MIN_REDUNDANCY_BLUNDER`, the point's own redundancy number at least
 :data:`MIN_POINT_REDUNDANCY_BLUNDER`, σ known or ``f − 2 ≥ 4``), else ``"suspect"``. A point whose
 redundancy is below :data:`MIN_POINT_REDUNDANCY` cannot show its error: ``"not testable"``.
+
+The test's power per point is Baarda's (1968) minimal detectable bias (internal reliability): a blunder ``b``
+moves ``T_i / σ²`` to a non-central χ²(2) (or ``T_i / (2 s_i²)`` to a non-central F) with non-centrality
+``λ = bᵀ R_i b / σ²``; ``λ₀`` is the non-centrality the test finds with probability ``1 − β`` (:data:`BETA`) at
+its critical value, so ``mdb_i = σ̂ √(λ₀ / r_min)`` with ``r_min`` the smaller eigenvalue of ``R_i`` (the least
+favourable direction): a blunder at point ``i`` smaller than ``mdb_i`` may go unnoticed. With σ given, the global
+test ``SSR / σ² ~ χ²(f)`` of the final fit says when the residuals disagree with it (:meth:`BlunderTest.note`):
+a σ given too large weakens the test, one too small makes clean points look like blunders.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +46,10 @@ import numpy as np
 from ..errors import FotogeoError
 
 ALPHA = 0.01
+#: the probability of missing a blunder of the size :attr:`BlunderTest.mdb` (power 1 − BETA)
+BETA = 0.2
+#: the two-sided level of the global test of a given σ against the residuals
+ALPHA_GLOBAL = 0.01
 DANISH_C = 2.5
 MIN_POINT_REDUNDANCY = 0.1
 MIN_POINT_REDUNDANCY_BLUNDER = 0.2
@@ -50,7 +63,9 @@ class BlunderTest:
     p-value, ``residual`` (n, 2) under the final LS fit, ``redundancy`` (mean of the point's two redundancy numbers in the final fit, or of the fit
     with it for a point left out), ``flag`` ("", "blunder", "suspect", "not testable"), ``outside``
     (left out of the final LS); ``critical`` the ``w`` a point with σ known / the median ``s_i`` must
-    exceed, ``f`` the final fit's redundancy, ``sigma`` (given or estimated) and ``alpha``."""
+    exceed, ``f`` the final fit's redundancy, ``sigma`` (given or estimated) and ``alpha``; ``mdb`` (n,) the
+    minimal detectable blunder in pixels (module docstring; NaN: not known), ``sigma_fit`` the σ̂ of the final LS
+    fit's residuals and ``sigma_fit_p`` the global test's two-sided p-value of a given σ (NaN without one)."""
     w: np.ndarray
     p: np.ndarray
     residual: np.ndarray
@@ -62,14 +77,26 @@ class BlunderTest:
     sigma: float
     sigma_given: bool
     alpha: float
+    mdb: np.ndarray | None = None
+    sigma_fit: float = float("nan")
+    sigma_fit_p: float = float("nan")
 
     def note(self) -> str:
         """What the test did, in one line."""
         if self.critical is None:
             return f"blunder test: not testable (redundancy 2n − u = {self.f})"
         s = f"σ = {self.sigma:.2f} px given" if self.sigma_given else f"σ̂ = {self.sigma:.2f} px estimated"
-        return (f"blunder test: |w| > {self.critical:.2f} ({s}, redundancy {self.f}, {100 * self.alpha:g} % false "
+        text = (f"blunder test: |w| > {self.critical:.2f} ({s}, redundancy {self.f}, {100 * self.alpha:g} % false "
                 f"alarms per fit)")
+        mdb = np.array([]) if self.mdb is None else self.mdb[np.isfinite(self.mdb)]
+        if mdb.size:
+            text += (f"; blunders above {np.median(mdb):.1f} px (median point; {mdb.min():.1f}–{mdb.max():.1f} px) "
+                     f"are found with {100 * (1 - BETA):g} % probability")
+        if self.sigma_given and self.sigma_fit_p < ALPHA_GLOBAL:
+            which = "large: the test is weaker than it could be" if self.sigma_fit < self.sigma else \
+                "small: clean points may be flagged"
+            text += f"; the residuals say σ̂ = {self.sigma_fit:.2f} px, the σ given looks too {which}"
+        return text
 
 
 def _danish(z: np.ndarray, c: float = DANISH_C) -> np.ndarray:
@@ -111,6 +138,7 @@ class _Fit:
         n = len(src)
         self.T = np.full(n, np.nan)
         self.r = np.full(n, np.nan)
+        self.rmin = np.full(n, np.nan)
         if dirs is None:  # a regularised model: the statistic by refits
             self.v = self.model.forward(src) - pix
             self._by_refits(cls, src, pix, inside, fit_options)
@@ -122,8 +150,11 @@ class _Fit:
         Ninv = np.linalg.pinv(Ji.T @ Ji, rcond=1e-10)
         P = np.einsum("nak,kl,nbl->nab", J, Ninv, J)  # J_i N⁻¹ J_iᵀ, (n, 2, 2)
         R = np.where(inside[:, None, None], np.eye(2) - P, np.eye(2) + P)
+        self.R = R.copy()  # the point's 2x2 block of I − H in the fit with it
+        self.R[~inside] = np.linalg.inv(R[~inside])
         lam, vec = np.linalg.eigh(R)
         self.r = np.where(inside, lam.mean(axis=1), (1.0 / lam).mean(axis=1))  # outside: R with it = (I + P)⁻¹
+        self.rmin = np.where(inside, lam.min(axis=1), 1.0 / lam.max(axis=1))
         ok = lam >= MIN_POINT_REDUNDANCY
         proj = np.einsum("nab,na->nb", vec, self.v)  # components along R's eigenvectors
         self.T = np.sum(np.where(ok, proj ** 2 / lam, 0.0), axis=1)
@@ -230,5 +261,51 @@ def _result(fit, inside, p, s, f, sigma, alpha, m) -> BlunderTest:
     flag[bad] = "blunder" if sure else "suspect"
     low = bad & (np.nan_to_num(redundancy, nan=1.0) < MIN_POINT_REDUNDANCY_BLUNDER)
     flag[low] = "suspect"
+    ssr = float(np.sum(fit.v[inside] ** 2))
+    sigma_fit = float(np.sqrt(ssr / f)) if f > 0 else float("nan")
+    p_global = float("nan")
+    if sigma is not None and f > 0:
+        c = chi2.cdf(ssr / sigma ** 2, f)
+        p_global = float(2 * min(c, 1 - c))
+    mdb = minimal_detectable(fit.rmin, s, np.where(inside, f - 2, f), sigma is not None, alpha / m)
+    mdb[~np.isfinite(w)] = np.nan
     return BlunderTest(w, p, fit.v, redundancy, flag, ~inside, critical, f, float(sigma if sigma else np.nanmedian(s)),
-                       sigma is not None, alpha)
+                       sigma is not None, alpha, mdb, sigma_fit, p_global)
+
+
+def noncentrality(level: float, df: int | None, beta: float = BETA) -> float:
+    """``λ₀``: the non-centrality at which the point test of size ``level`` (per point) has power ``1 − beta``;
+    χ²(2) (σ given, ``df`` None) or F(2, ``df``) (σ estimated).
+
+    >>> round(noncentrality(0.01 / 15, None), 1)
+    20.7
+    """
+    from scipy.optimize import brentq
+    from scipy.stats import chi2, ncf, ncx2
+    from scipy.stats import f as fisher
+    if df is None:
+        c = chi2.isf(level, 2)
+        power = lambda lam: ncx2.sf(c, 2, lam) - (1 - beta)  # noqa: E731
+    else:
+        c = fisher.isf(level, 2, df)
+        power = lambda lam: ncf.sf(c, 2, df, lam) - (1 - beta)  # noqa: E731
+    hi = 64.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # scipy's non-central F at extreme arguments
+        while power(hi) < 0 and hi < 1e6:
+            hi *= 2
+        return float(brentq(power, 1e-6, hi)) if power(hi) >= 0 else float("inf")
+
+
+def minimal_detectable(rmin, s, df, sigma_given: bool, level: float, beta: float = BETA) -> np.ndarray:
+    """Per point ``σ̂ √(λ₀ / r_min)`` (module docstring); NaN where ``r_min`` is below :data:`MIN_POINT_REDUNDANCY`."""
+    rmin, s, df = np.asarray(rmin, float), np.asarray(s, float), np.asarray(df)
+    out = np.full(len(rmin), np.nan)
+    ok = np.isfinite(rmin) & (rmin >= MIN_POINT_REDUNDANCY) & np.isfinite(s) & (sigma_given | (df >= 1))
+    cache = {}
+    for i in np.flatnonzero(ok):
+        key = None if sigma_given else int(df[i])
+        if key not in cache:
+            cache[key] = noncentrality(level, key, beta)
+        out[i] = s[i] * np.sqrt(cache[key] / rmin[i])
+    return out

@@ -39,10 +39,10 @@ ROLES = ("control", "check")
 FIELDS = (("id", QVariant.String), ("col", QVariant.Double), ("row", QVariant.Double), ("z", QVariant.Double),
           ("role", QVariant.String), ("enabled", QVariant.Int), ("dx", QVariant.Double), ("dy", QVariant.Double),
           ("residual", QVariant.Double), ("residual_map", QVariant.Double), ("flag", QVariant.String),
-          ("w", QVariant.Double), ("redundancy", QVariant.Double))
+          ("w", QVariant.Double), ("redundancy", QVariant.Double), ("mdb", QVariant.Double))
 #: the fields a fit writes (:meth:`GcpLayer.write_results`): name in the layer -> key in fit_gcps' point rows
 RESULT_FIELDS = {"dx": "dx_px", "dy": "dy_px", "residual": "residual_px", "residual_map": "residual_map",
-                 "flag": "flag", "w": "w", "redundancy": "redundancy"}
+                 "flag": "flag", "w": "w", "redundancy": "redundancy", "mdb": "mdb_px"}
 
 
 @dataclass(frozen=True)

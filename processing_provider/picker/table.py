@@ -27,8 +27,8 @@ MIN_ROWS = 6
 SORT_KEY = Qt.ItemDataRole.UserRole + 1
 
 #: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
-COLUMNS = ("id", "on", "role", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "col", "row", "x", "y",
-           "z", "z from")
+COLUMNS = ("id", "on", "role", "res px", "w", "flag", "dx px", "dy px", "res map", "dx map", "dy map", "mdb px", "col",
+           "row", "x", "y", "z", "z from")
 #: header tooltips: what each column means, "on" against the Georeferencer's "enable"
 TOOLTIPS = {
     "on": "Ticked: the point is used (as its role says). Unticked: disabled, ignored by the fit and the RMS, as the "
@@ -37,11 +37,14 @@ TOOLTIPS = {
             "Double-click to change",
     "w": "Standardised residual (data snooping); empty where the redundancy cannot test the point",
     "flag": "blunder: |w| above the critical value for this redundancy; not testable: too little redundancy",
+    "mdb px": "Minimal detectable blunder: a click error this large (pixels) at this point is flagged with 80 % "
+              "probability; a smaller one may go unnoticed (Baarda 1968)",
     "res px": "Residual in image pixels (model − measured)", "res map": "Residual on the ground, map units",
     "z from": "Where the height comes from: field, dem, constant or none"}
 #: table column -> (key in fit_gcps' point rows, decimals)
 RESULT_COLUMNS = {"dx px": ("dx_px", 3), "dy px": ("dy_px", 3), "res px": ("residual_px", 3),
-                  "dx map": ("dx_map", 3), "dy map": ("dy_map", 3), "res map": ("residual_map", 3), "w": ("w", 2)}
+                  "dx map": ("dx_map", 3), "dy map": ("dy_map", 3), "res map": ("residual_map", 3), "w": ("w", 2),
+                  "mdb px": ("mdb_px", 1)}
 
 
 def _text(value, decimals: int) -> str:

@@ -257,7 +257,7 @@ def _empty_result(model, ids, roles, z, z_source, flags, needed, message) -> dic
     nan = None
     points = [{"id": i, "role": r, "z": float(h) if np.isfinite(h) else None, "z_source": s, "dx_px": nan,
                "dy_px": nan, "residual_px": nan, "dx_map": nan, "dy_map": nan, "residual_map": nan, "w": nan,
-               "redundancy": nan, "flag": f} for i, r, h, s, f in zip(ids, roles, z, z_source, flags)]
+               "redundancy": nan, "mdb_px": nan, "flag": f} for i, r, h, s, f in zip(ids, roles, z, z_source, flags)]
     rms = {"control_px": nan, "control_map": nan, "check_px": nan, "check_map": nan, "n_control": 0, "n_check": 0}
     return {"model": model, "ok": False, "message": message, "needed": int(needed), "points": points,
             "rms": rms, "forward": None, "inverse": None}
@@ -279,11 +279,14 @@ def _fill_points(result, fit, name, ground, pixel, crs, use, inside):
     d_map[shown] = ground_residuals(fit.model, ground[shown], pixel[shown], crs)[1]
     w, red, flags = np.full(len(ground), np.nan), np.full(len(ground), np.nan), np.full(len(ground), "", object)
     w[use], red[use], flags[use] = fit.w, fit.redundancy, fit.flag
+    mdb = np.full(len(ground), np.nan)
+    if fit.mdb is not None:
+        mdb[use] = fit.mdb
     result["blunder_test"] = fit.blunder_test
     for k, p in enumerate(result["points"]):
         p.update(dx_px=_num(res[k, 0]), dy_px=_num(res[k, 1]), residual_px=_num(np.hypot(*res[k])),
                  dx_map=_num(d_map[k, 0]), dy_map=_num(d_map[k, 1]), residual_map=_num(np.hypot(*d_map[k])),
-                 w=_num(w[k]), redundancy=_num(red[k]))
+                 w=_num(w[k]), redundancy=_num(red[k]), mdb_px=_num(mdb[k]))
         if flags[k]:
             p["flag"] = flags[k] + (f"; {p['flag']}" if p["flag"] else "")
     result["rms"] = _rms(fit.stats, d_map, fit.role, use)

@@ -205,6 +205,8 @@ def _notes(rep) -> dict:
                 "it, but the redundancy is too low to call it a blunder), 'not testable' (its own redundancy too low)",
         "w": "standardised residual of the point (its residual over its standard deviation, both directions)",
         "redundancy": "the point's redundancy number (0: the fit follows it wherever it is, 1: fully checked)",
+        "mdb_px": "minimal detectable blunder (Baarda 1968): an error of the point's image position this large (pixels, "
+                  "least favourable direction) is flagged with 80 % probability; a smaller one may go unnoticed",
         "exaggeration": f"error vectors and plot drawn {rep['exaggeration']['legend']} ({rep['exaggeration']['chosen']})",
         **({"model_selection": f"auto: {rep['model_selection']['because']}"} if "model_selection" in rep else {}),
     }
@@ -221,10 +223,14 @@ def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
             "scan_pixel_um": scan_pixel_um, "units": "pixels (corner convention); ground units of the GCP CRS",
             "points": [{"id": i, "role": r, "col": float(p[0]), "row": float(p[1]), "dx_px": float(v[0]),
                         "dy_px": float(v[1]), "dx_ground": float(dg[0]), "dy_ground": float(dg[1]),
-                        "w": _num(w), "redundancy": _num(rn), "flag": fl,
+                        "w": _num(w), "redundancy": _num(rn), "mdb_px": _num(mb), "flag": fl,
                         **({"dx_mm": float(v[0] * scale_mm), "dy_mm": float(v[1] * scale_mm)} if scale_mm else {})}
-                       for i, r, p, v, dg, w, rn, fl in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground, fit.w,
-                                                            fit.redundancy, fit.flag)]}
+                       for i, r, p, v, dg, w, rn, fl, mb in zip(g.ids, fit.role, g.pixel, fit.residual, d_ground, fit.w,
+                                                                fit.redundancy, fit.flag, _mdb(fit))]}
+
+
+def _mdb(fit) -> np.ndarray:
+    return fit.mdb if fit.mdb is not None else np.full(len(fit.role), np.nan)
 
 
 def _num(v):
@@ -258,7 +264,7 @@ def _write_vectors(path, g, fit, on_ground, d_ground, exaggeration: dict):
     common = {"id": g.ids.astype(object), "role": fit.role.astype(object), "col": g.pixel[:, 0],
               "row": g.pixel[:, 1], "z": g.ground[:, 2], "dx_px": d_px[:, 0], "dy_px": d_px[:, 1],
               "residual_px": np.hypot(*d_px.T), "w": fit.w, "redundancy": fit.redundancy,
-              "flag": fit.flag.astype(object), "class": legend_class(fit.role, fit.flag).astype(object)}
+              "mdb_px": _mdb(fit), "flag": fit.flag.astype(object), "class": legend_class(fit.role, fit.flag).astype(object)}
     layers = {"gcps": {**common, "geometry": shapely.points(g.ground[:, :2])},
               "error_vectors": {**common, "dx": d_ground[:, 0], "dy": d_ground[:, 1],
                                 "length": np.hypot(*d_ground.T), "exaggeration": np.full(len(g), k),
