@@ -49,13 +49,11 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
-    if rpc and refine:
-        raise InputError("--refine is for frame pairs (measured there only); drop --refine or --rpc", option="refine")
     if rpc:
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                       crs=crs, bounds=parse_bounds(bounds), fill=fill, point_cloud=point_cloud, report=report,
-                       overwrite=overwrite, prog=prog, t0=t0)
+                       crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
+                       report=report, overwrite=overwrite, prog=prog, t0=t0)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
