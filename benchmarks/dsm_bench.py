@@ -12,7 +12,7 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,re
 * ``ngi`` — frames 0182/0184 with their EO, without and with the 24 m DEM (``--dem`` bounds the search): DSM −
   DEM (bilinear, at the DSM cells) median and NMAD, completeness;
 * ``ventoux`` — the Pleiades pair with its RPCs (``--rpc``; OSSIM ``.geom`` beside the images), at 0.5 m, with
-  ``right_image.geom`` and with ``right_image_bias.geom`` (RPC about 60 px off): completeness of the footprints'
+  ``right_image.geom`` (also with ``--refine``) and with ``right_image_bias.geom`` (RPC about 60 px off): completeness of the footprints'
   overlap, median height, the relative pointing correction measured, whether the warning came, CPU and wall.
   With ``--cars``, CARS on the same pair through ``benchmarks/peers_cars.py`` (its own venv; skipped with the
   reason when it is not installed): its completeness, CPU, wall and memory, and the height differences
@@ -109,15 +109,17 @@ def ventoux(tmp: Path, cars: bool) -> list:
     from fotogeo.tools.dsm import dsm
     v = DATA / "rpc" / "ventoux"
     rows, outs = [], {}
-    for right in ("right_image.geom", "right_image_bias.geom"):
-        folder = tmp / right.split(".")[0]
+    for right, refine in (("right_image.geom", False), ("right_image_bias.geom", False), ("right_image.geom", True)):
+        folder = tmp / (right.split(".")[0] + ("_refine" if refine else ""))
         folder.mkdir()
         for name, src in (("left.tif", "left_image.tif"), ("left.geom", "left_image.geom"),
                           ("right.tif", "right_image.tif"), ("right.geom", right)):
             shutil.copy(v / src, folder / name)
         out = folder / "dsm.tif"
-        rep, cpu, wall, said = _timed(dsm, [folder / "left.tif", folder / "right.tif"], out, rpc=True, resolution=0.5)
+        rep, cpu, wall, said = _timed(dsm, [folder / "left.tif", folder / "right.tif"], out, rpc=True, resolution=0.5,
+                                      refine=refine)
         p = rep["pairs"][0]
+        right = right + (", --refine" if refine else "")
         outs[right] = out
         rows.append({"case": f"ventoux fotogeo ({right})", "resolution_m": 0.5, "completeness": rep["completeness"],
                      "median_height_m": rep["heights"]["median"], "pointing_px": p.get("relative_pointing_px"),
@@ -144,12 +146,13 @@ def _cars_recorded(outs: dict) -> list:
     from peers_cars import compare_dsms
     d = json.loads(rec.read_text())
     rows = []
-    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom")):
+    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom"),
+                       ("cars_ventoux_m100", "right_image.geom, --refine")):
         r = d.get(key, {})
         if not r.get("dsm") or not Path(r["dsm"]).is_file():
             rows.append({"case": f"ventoux CARS ({right})", "skipped": f"recorded DSM of {key} not found"})
             continue
-        rows.append({"case": f"ventoux CARS ({right}, recorded, margins 100 m)",
+        rows.append({"case": f"ventoux CARS ({right.split(',')[0]}, recorded, margins 100 m) vs fotogeo ({right})",
                      "completeness": r.get("valid_fraction_in_overlap"), "median_height_m": r.get("h_median_m"),
                      "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
                      "fotogeo_in_cars_overlap": _valid_area(outs[right]) / r["footprint_overlap_m2"],

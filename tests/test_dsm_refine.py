@@ -8,7 +8,6 @@ import cv2
 import numpy as np
 import pytest
 
-from fotogeo.errors import InputError
 from fotogeo.orientation.block_render import texture
 from fotogeo.stereo.dense import disparity
 from fotogeo.stereo.refine import refine
@@ -48,12 +47,6 @@ def test_flat_places_keep_their_disparity():
     d[5, 5] = np.nan
     r = refine(left, left, d)
     assert np.isnan(r[5, 5]) and np.all(r[:, :30][np.isfinite(r[:, :30])] == 2.0)
-
-
-def test_refine_is_refused_with_rpc(tmp_path):
-    from fotogeo.tools.dsm import dsm
-    with pytest.raises(InputError, match="--refine"):
-        dsm([tmp_path / "a.tif", tmp_path / "b.tif"], tmp_path / "d.tif", rpc=True, refine=True)
 
 
 def test_the_pipeline_with_refinement_stays_within_a_gsd(tmp_path):

@@ -12,7 +12,11 @@ centre of the top-left pixel at (0.5, 0.5)); the disparity OpenCV's matchers mea
 
 The rectified image is resampled by following each rectified pixel's ray into the original image through the
 camera's own ground → image model (``forward``): the lens distortion is removed exactly as the model states it,
-whatever its parameters. ``cv2.remap`` takes centre-convention maps (corner − 0.5).
+whatever its parameters. ``cv2.remap`` takes centre-convention maps (corner − 0.5). The model is followed
+exactly at every ``MAP_STEP``-th rectified pixel (nodes at multiples of ``MAP_STEP`` in the whole rectified
+image, so that a window's map is the window of the whole map) and the maps between the nodes are interpolated
+by Keys's (1981) cubic convolution (``a = −½``, third-order accurate): the maps are smooth (a homography composed
+with the lens distortion). Where a node's ray misses the image, the window is followed exactly pixel by pixel.
 """
 from __future__ import annotations
 
@@ -25,6 +29,8 @@ import numpy as np
 from ..errors import ModelError
 from ..pixels import HALF, outline
 
+#: the spacing (rectified pixels) of the nodes where the resampling maps follow the camera model exactly
+MAP_STEP = 8
 #: the rectified image's pixels a pair may have (both images), a guard before anything is allocated
 MAX_RECTIFIED_PIXELS = 200_000_000
 
@@ -117,13 +123,43 @@ class RectifiedPair:
         whole source image) of rows ``r0:r1`` and columns ``c0:c1`` (default: all) of rectified image ``i``;
         pixels whose ray misses the image get −1 (outside)."""
         c1 = self.size[0] if c1 is None else c1
-        u, v = np.meshgrid(np.arange(c0, c1) + HALF, np.arange(r0, r1) + HALF)
-        d = self.rays(u, v, i)
-        P = self.centres[i] + 1000.0 * d
-        px = view.forward(P) - HALF
-        px[~np.isfinite(px).all(axis=1)] = -1.0
-        shape = (r1 - r0, c1 - c0)
-        return px[:, 0].reshape(shape).astype(np.float32), px[:, 1].reshape(shape).astype(np.float32)
+        g = MAP_STEP
+        ka, kb, la, lb = c0 // g - 1, -(-c1 // g) + 2, r0 // g - 1, -(-r1 // g) + 2  # nodes around the window
+        nx, ny = self._exact_maps(view, i, np.arange(la, lb + 1) * g, np.arange(ka, kb + 1) * g)
+        if not (np.isfinite(nx).all() and np.isfinite(ny).all()):
+            mx, my = self._exact_maps(view, i, np.arange(r0, r1), np.arange(c0, c1))
+        else:
+            wx, kx = _keys_weights(np.arange(c0, c1) / g - ka)
+            wy, ky = _keys_weights(np.arange(r0, r1) / g - la)
+            mx, my = (_separable(n, wx, kx, wy, ky) for n in (nx, ny))
+        mx, my = np.where(np.isfinite(mx), mx, -1.0), np.where(np.isfinite(my), my, -1.0)
+        return mx.astype(np.float32), my.astype(np.float32)
+
+    def _exact_maps(self, view: FrameView, i: int, rows, cols) -> tuple:
+        """The maps of :meth:`maps` (float64, NaN where a ray misses) at rectified pixels ``rows`` x ``cols``,
+        each through the camera model."""
+        u, v = np.meshgrid(np.asarray(cols) + HALF, np.asarray(rows) + HALF)
+        px = view.forward(self.centres[i] + 1000.0 * self.rays(u, v, i)) - HALF
+        px[~np.isfinite(px).all(axis=1)] = np.nan
+        return px[:, 0].reshape(u.shape), px[:, 1].reshape(u.shape)
+
+
+def _keys_weights(t) -> tuple:
+    """``(weights (4, N), k (N,))``: Keys's cubic convolution (``a = −½``) at node coordinates ``t``, the weights
+    of nodes ``k − 1 … k + 2`` (``k = ⌊t⌋``)."""
+    k = np.floor(t).astype(np.intp)
+    f = t - k
+    f2, f3 = f * f, f * f * f
+    w = np.array([-0.5 * f3 + f2 - 0.5 * f, 1.5 * f3 - 2.5 * f2 + 1.0, -1.5 * f3 + 2.0 * f2 + 0.5 * f,
+                  0.5 * f3 - 0.5 * f2])
+    return w, k
+
+
+def _separable(nodes, wx, kx, wy, ky) -> np.ndarray:
+    """The node values interpolated along the rows, then the columns (weights of :func:`_keys_weights`)."""
+    t = wx[0] * nodes[:, kx - 1] + wx[1] * nodes[:, kx] + wx[2] * nodes[:, kx + 1] + wx[3] * nodes[:, kx + 2]
+    return (wy[0][:, None] * t[ky - 1] + wy[1][:, None] * t[ky] + wy[2][:, None] * t[ky + 1]
+            + wy[3][:, None] * t[ky + 2])
 
 
 def _normalised_outline(view: FrameView, R) -> np.ndarray:

@@ -2,10 +2,11 @@
 
 :func:`frame_view` gives a frame's :class:`~fotogeo.stereo.rectify.FrameView` from its ground → image model
 (triangulate's :class:`~fotogeo.tools.triangulate.ortho.AdjustedFrame`: collinearity with Brown's distortion).
-:func:`sparse_check` matches SIFT features on the rectified pair (Lowe 2004, ratio 0.8; a pair longer than
-``SPARSE_SIDE`` pixels on a coarser copy, resampled from source pixels averaged to its size): their row differences
-are the pair's epipolar residuals (the orientation's relative error, in rectified pixels), their rays' miss
-distances its error in metres, their disparities the search range when no DEM bounds it. :func:`dense_points` then
+:func:`sparse_check` matches SIFT features of the two source images (Lowe 2004, ratio 0.8; detected once per image,
+images longer than ``SPARSE_SIDE`` pixels on a copy of averaged source pixels) and follows them into the rectified
+pair through the camera models: their row differences are the pair's epipolar residuals (the orientation's
+relative error, in rectified pixels), their rays' miss distances its error in metres, their disparities the search
+range when no DEM bounds it. :func:`dense_points` then
 matches a box of the rectified pair (an output tile's, :mod:`.matching`) strip by strip
 (:func:`fotogeo.stereo.dense.disparity`, strips of ``STRIP`` rows and the box's columns, with ``MARGIN`` more on
 every side) and triangulates every matched pixel (:func:`fotogeo.stereo.rays.closest_points`), yielding
@@ -77,50 +78,58 @@ def rectified(rp: RectifiedPair, view, i: int, src, r0: int, r1: int, c0: int = 
     return grey, valid, rgb
 
 
-#: the longest side of the rectified pair the sparse check matches (a coarser copy of larger pairs)
+#: the longest side of the copy of a source image the sparse check detects features on (larger images: a copy of
+#: source pixels averaged to that size)
 SPARSE_SIDE = 1500
-#: rows of the rectified image resampled at once
-ROWS = 256
+#: OpenCV's SIFT places keypoints a quarter pixel right of and below where they are (its first octave is the
+#: image doubled by ``cv2.resize``, whose pixel ``i`` has its centre at source ``(i + ½) / 2 − ½``, and the
+#: keypoint is ``i / 2``): in rectified pairs the offset cancels, between differently turned images it does not
+SIFT_OFFSET = -0.25
 
 
-def _whole(rp, view, i, src):
-    """The whole rectified image ``i`` (uint8 stretch, valid mask), resampled ``ROWS`` rows at a time from source
-    pixels averaged to about the rectified pixel's size."""
-    k = max(1, int(view.focal / rp.focal))
-    parts = [rectified(rp, view, i, src, r, min(rp.size[1], r + ROWS), k=k)[:2] for r in range(0, rp.size[1], ROWS)]
-    g, valid = np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
-    return to_uint8(g, valid), valid
+def _features(i: int, view, src, cache: dict, max_features: int) -> tuple:
+    """``(pixels (N, 2) corner convention, descriptors)`` of SIFT features (Lowe 2004) of source image ``src``,
+    once per image (``cache`` keyed by ``i``), on a copy at most ``SPARSE_SIDE`` pixels a side."""
+    if i not in cache:
+        w, h = src.width, src.height
+        g = src.grey(0, 0, w, h, max(1, -(-max(w, h) // SPARSE_SIDE)))
+        img8 = to_uint8(g, g > 0)  # 0: nodata
+        kp, desc = cv2.SIFT_create(nfeatures=max_features).detectAndCompute(img8, (img8 > 0).astype(np.uint8))
+        px = np.array([k.pt for k in kp], float).reshape(-1, 2) + HALF + SIFT_OFFSET
+        cache[i] = (px * [w / g.shape[1], h / g.shape[0]], desc)
+    return cache[i]
 
 
-def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000) -> dict:
-    """Sparse matches of the whole rectified pair (module docstring; pairs longer than ``SPARSE_SIDE`` on a
-    coarser copy, the row differences given in ``rp``'s pixels): ``{"n", "dy" (px), "d" (px), "points", "miss"
-    (m)}``; ``n`` 0 when nothing matched."""
-    s = min(1.0, SPARSE_SIDE / max(rp.size))
-    rps = rp.scaled(s) if s < 1.0 else rp
-    imgs = [_whole(rps, views[i], i, sources[i]) for i in (0, 1)]
-    sift = cv2.SIFT_create(nfeatures=max_features)
-    k1, d1 = sift.detectAndCompute(imgs[0][0], imgs[0][1].astype(np.uint8))
-    k2, d2 = sift.detectAndCompute(imgs[1][0], imgs[1][1].astype(np.uint8))
+def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000, cache: dict | None = None,
+                 ids: tuple = (0, 1)) -> dict:
+    """Sparse matches of the pair (module docstring): SIFT features of each source image (once per image and
+    ``cache``, keyed by ``ids``), matched with Lowe's ratio test, their pixels followed into ``rp``'s rectified
+    images: ``{"n", "dy" (px), "d" (px), "points", "miss" (m)}``; ``n`` 0 when nothing matched."""
+    cache = {} if cache is None else cache
+    (x1, d1), (x2, d2) = (_features(ids[i], views[i], sources[i], cache, max_features) for i in (0, 1))
     empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "points": np.zeros((0, 3)), "miss": np.zeros(0),
              "dy_median": 0.0, "dy_spread": 0.0}
-    if d1 is None or d2 is None or len(k1) < 8 or len(k2) < 8:
+    if d1 is None or d2 is None or len(x1) < 8 or len(x2) < 8:
         return empty
     pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
     good = [m[0] for m in pairs if len(m) == 2 and m[0].distance < 0.8 * m[1].distance]
     if len(good) < 8:
         return empty
-    p1 = np.array([k1[m.queryIdx].pt for m in good]) + HALF
-    p2 = np.array([k2[m.trainIdx].pt for m in good]) + HALF
-    dy = (p1[:, 1] - p2[:, 1]) / s
+    p1 = rp.project(views[0].centre + views[0].rays(x1[[m.queryIdx for m in good]]), 0)
+    p2 = rp.project(views[1].centre + views[1].rays(x2[[m.trainIdx for m in good]]), 1)
+    seen = np.isfinite(p1).all(axis=1) & np.isfinite(p2).all(axis=1)
+    if seen.sum() < 8:
+        return empty
+    p1, p2 = p1[seen], p2[seen]
+    dy = p1[:, 1] - p2[:, 1]
     med = float(np.median(dy))
     spread = float(1.4826 * np.median(np.abs(dy - med)))
     keep = np.abs(dy - med) <= max(2.0, 3.0 * spread)
     p1, p2, dy = p1[keep], p2[keep], dy[keep]
-    P, miss = closest_points(rps.centres[0], rps.rays(p1[:, 0], p1[:, 1], 0), rps.centres[1],
-                             rps.rays(p2[:, 0], p2[:, 1], 1))
+    P, miss = closest_points(rp.centres[0], rp.rays(p1[:, 0], p1[:, 1], 0), rp.centres[1],
+                             rp.rays(p2[:, 0], p2[:, 1], 1))
     ok = np.isfinite(miss)
-    return {"n": int(ok.sum()), "dy": dy[ok], "d": ((p1[:, 0] - p2[:, 0]) / s)[ok], "points": P[ok],
+    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "points": P[ok],
             "miss": miss[ok], "dy_median": med, "dy_spread": spread}
 
 

@@ -44,7 +44,7 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tupl
     they are too few or cannot be trusted."""
     i, j = nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
-    sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]))
+    sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), ids=(i, j))
     why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
     if why:
         raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "

@@ -12,8 +12,15 @@ Per pair (left = the first image, right = the second):
    through both models give the tile's rectifying similarities, the rectified tiles are matched
    (:func:`fotogeo.stereo.dense.disparity`) and every matched pixel is triangulated through the RPCs: its height
    is where the right pixel lies on the epipolar curve of the left pixel (linear between two heights, refined
-   once), its ground point the left pixel's line of sight at that height; the distance of the right pixel from
-   the curve is its **miss distance** (pixels).
+   once); the distance of the right pixel from the curve is its **miss distance** (pixels). With ``refine``
+   the disparities are first refined by least-squares matching (:func:`fotogeo.stereo.refine.refine`).
+4. **planimetry halfway between the images**: the correction ``τ`` says how far the two RPCs disagree, not
+   which one is wrong. The left pixel's line of sight at the height ``z`` gives ``X_L``; the right pixel's,
+   uncorrected, ``X_R = X_L + Δ`` (``Δ`` the ground offset ``τ`` makes at ``z``); the point is put at
+   ``X_L + Δ/2``. With independent pointing errors of equal size in the two images this halves the variance of
+   the planimetric error against either image alone, and it is where a midpoint triangulation of the two
+   measured rays puts the point (as CARS does); the height is unchanged (``τ`` has no component along the
+   epipolar lines).
 
 Heights are ellipsoidal (RPC00B).
 """
@@ -29,6 +36,7 @@ from ...errors import FotogeoWarning, InputError
 from ...pixels import HALF
 from ...stereo import affine_epipolar as ae
 from ...stereo.dense import disparity, to_uint8
+from ...stereo.refine import refine as refine_disparities
 
 TILE = 512
 #: a relative pointing correction above this many pixels is reported as large (a few pixels are usual for
@@ -103,6 +111,10 @@ def triangulate(m1, m2, tau, p1, p2, zlo, zhi) -> tuple:
         z2 = zlo + t2 * (z - zlo)
     P = m1.inverse(p1, z2)
     P = np.column_stack([P[:, :2], z2])
+    ok = np.isfinite(P).all(axis=1)
+    if ok.any() and np.any(tau):  # halfway between the two images' geolocations (module docstring, step 4)
+        half = m2.inverse(p2[ok], z2[ok])[:, :2] - m2.inverse(p2[ok] - tau, z2[ok])[:, :2]
+        P[ok, :2] += 0.5 * half
     return P, np.abs(off)
 
 
@@ -131,7 +143,7 @@ def _rectified(img, A, u0, v0, w, h):
     return cv2.remap(img, mx, my, cv2.INTER_CUBIC, borderMode=cv2.BORDER_CONSTANT, borderValue=0), valid
 
 
-def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats) -> tuple:
+def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine: bool = False) -> tuple:
     """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3)."""
     q = _models(m1, m2, tau)
     p1g, p2g, mid = tile_correspondences(m1, q, tile, (zlo, 0.5 * (zlo + zhi), zhi))
@@ -146,6 +158,8 @@ def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats) -> tuple:
     L, vl = _rectified(imgs[0], A1, u0, v0, w, h)
     R, vr = _rectified(imgs[1], A2, u0, v0, w, h)
     disp = disparity(L, R, vl, vr, lo, hi)
+    if refine:
+        disp = refine_disparities(L, R, disp)
     rows, cols = np.nonzero(np.isfinite(disp))
     u, v = u0 + cols + HALF, v0 + rows + HALF
     p1 = ae.apply(ae.invert(A1), np.column_stack([u, v]))
@@ -164,12 +178,13 @@ def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats) -> tuple:
     return p1[inside], p2[inside]
 
 
-def pair_points(m1, m2, imgs, colours, zlo, zhi, tau, stats, progress=None):
-    """Yield ``(points (N, 3), colours (N, 3), miss px (N,))`` tile by tile over the left image."""
+def pair_points(m1, m2, imgs, colours, zlo, zhi, tau, stats, progress=None, refine: bool = False):
+    """Yield ``(points (N, 3), colours (N, 3), miss px (N,))`` tile by tile over the left image (``refine``:
+    module docstring, step 3)."""
     H, W = imgs[0].shape
     tiles = [(c, r, min(W, c + TILE), min(H, r + TILE)) for r in range(0, H, TILE) for c in range(0, W, TILE)]
     for k, tile in enumerate(tiles):
-        p1, p2 = match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats)
+        p1, p2 = match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine)
         if progress is not None:
             progress((k + 1) / len(tiles), f"tile {k + 1} of {len(tiles)}")
         if not len(p1):

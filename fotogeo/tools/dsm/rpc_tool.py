@@ -121,13 +121,14 @@ def rpc_images(images, crs, dem) -> tuple:
     return out, map_c, rule
 
 
-def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, fill, point_cloud, report,
+def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
             overwrite, prog, t0) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s."""
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
-    dem_source, notes, ref = None, ["heights above the ellipsoid (RPC)"], "ellipsoid"
+    dem_source, ref = None, "ellipsoid"
+    notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
     if dem is not None:
         dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
         notes += more + ["height range from the DEM"]
@@ -140,8 +141,8 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
         p.extra.update(s["entry"], height_range=[round(s["zlo"], 2), round(s["zhi"], 2)])
     prog(0.1, "pointing corrected")
     return _match_and_write(ims, imgs, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
-                            resolution=resolution, bounds=bounds, fill=fill, point_cloud=point_cloud, report=report,
-                            overwrite=overwrite, prog=prog, t0=t0)
+                            resolution=resolution, bounds=bounds, refine=refine, fill=fill, point_cloud=point_cloud,
+                            report=report, overwrite=overwrite, prog=prog, t0=t0)
 
 
 def _gsd(im, z) -> float:
@@ -151,12 +152,12 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
-def _match(p, ims, imgs, s, grid, cloud, stage, timings, names) -> PairLayer:
+def _match(p, ims, imgs, s, grid, cloud, stage, timings, names, refine) -> PairLayer:
     """One pair's points on the grid (:func:`.rpc_pairs.pair_points`), its entry in the report updated."""
     t, stats, miss = rp.now(), {}, []
     layer = PairLayer(grid)
     for P, rgb, m in rp.pair_points(ims[p.i].model, ims[p.j].model, (imgs[p.i][0], imgs[p.j][0]), imgs[p.i][1],
-                                    s["zlo"], s["zhi"], s["tau"], stats, stage):
+                                    s["zlo"], s["zhi"], s["tau"], stats, stage, refine):
         layer.add(P)
         miss.append(m)
         if cloud is not None:
@@ -171,7 +172,7 @@ def _match(p, ims, imgs, s, grid, cloud, stage, timings, names) -> PairLayer:
 
 
 def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
-                     resolution, bounds, fill, point_cloud, report, overwrite, prog, t0) -> dict:
+                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
     polys = []
@@ -191,7 +192,8 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
             for k, p in enumerate(kept):
                 stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
                                    f"matching {names[p.i]} with {names[p.j]}")
-                fusion.add(_match(p, ims, imgs, setups[(p.i, p.j)], grid, products.cloud, stage, timings, names))
+                fusion.add(_match(p, ims, imgs, setups[(p.i, p.j)], grid, products.cloud, stage, timings, names,
+                                  refine))
             whole = (0, 0, grid.height, grid.width)
             products.add(whole, whole, *fusion.result())
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "

@@ -1,6 +1,7 @@
 """``fotogeo dsm``: a surface model from oriented images (the run; the package docstring says what it does)."""
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from pathlib import Path
@@ -49,13 +50,11 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
-    if rpc and refine:
-        raise InputError("--refine is for frame pairs (measured there only); drop --refine or --rpc", option="refine")
     if rpc:
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                       crs=crs, bounds=parse_bounds(bounds), fill=fill, point_cloud=point_cloud, report=report,
-                       overwrite=overwrite, prog=prog, t0=t0)
+                       crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
+                       report=report, overwrite=overwrite, prog=prog, t0=t0)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
@@ -63,7 +62,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                    overwrite=overwrite, prog=prog, t0=t0)
 
 
-def _heights(ims, views, sources, dem, dem_heights, crs) -> tuple:
+def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
     """``(zlo, zhi, height reference, notes)`` of the terrain (plan module docstring)."""
     if dem is not None:
         source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
@@ -72,7 +71,8 @@ def _heights(ims, views, sources, dem, dem_heights, crs) -> tuple:
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
         return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
-    zlo, zhi = plan.sparse_heights(views, sources, frames.sparse_check, frames.sparse_problem, MAX_EPIPOLAR_PX)
+    check = functools.partial(frames.sparse_check, cache=features)
+    zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
@@ -94,11 +94,12 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     return choices
 
 
-def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale) -> tuple:
+def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     """``(rectified pair, disparity range, height range, None)`` of one kept pair, or ``(…, reason)`` to leave
-    it out."""
+    it out; ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
     rp = rectify(views[p.i], views[p.j], scale)
-    sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]))
+    sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
+                             ids=(p.i, p.j))
     p.extra.update(sparse_matches=sp["n"])
     if sp["n"] >= 8:
         p.extra.update(epipolar_residual_px={"median": float(np.median(np.abs(sp["dy"]))),
@@ -127,7 +128,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     sources = [SourceImage(im.path) for im in ims]
-    zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs)
+    features = {}
+    zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
     choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs)
     kept = [p for p in choices if p.kept]
@@ -141,7 +143,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     for k, p in enumerate(kept):
         prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
         t = time.perf_counter()
-        rp, drange, zlim, why = _pair_setup(p, views, sources, zlo, zhi, dem is not None, min(1.0, 2.0 * gsd / res))
+        rp, drange, zlim, why = _pair_setup(p, views, sources, zlo, zhi, dem is not None, min(1.0, 2.0 * gsd / res),
+                                            features)
         timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
         if why:
             p.kept, p.reason = False, why
