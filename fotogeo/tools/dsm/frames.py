@@ -19,6 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ...features.detect import detect
 from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
 from ...stereo.dense import disparity, to_uint8
@@ -81,10 +82,6 @@ def rectified(rp: RectifiedPair, view, i: int, src, r0: int, r1: int, c0: int = 
 #: the longest side of the copy of a source image the sparse check detects features on (larger images: a copy of
 #: source pixels averaged to that size)
 SPARSE_SIDE = 1500
-#: OpenCV's SIFT places keypoints a quarter pixel right of and below where they are (its first octave is the
-#: image doubled by ``cv2.resize``, whose pixel ``i`` has its centre at source ``(i + ½) / 2 − ½``, and the
-#: keypoint is ``i / 2``): in rectified pairs the offset cancels, between differently turned images it does not
-SIFT_OFFSET = -0.25
 
 
 def _features(i: int, view, src, cache: dict, max_features: int) -> tuple:
@@ -94,9 +91,8 @@ def _features(i: int, view, src, cache: dict, max_features: int) -> tuple:
         w, h = src.width, src.height
         g = src.grey(0, 0, w, h, max(1, -(-max(w, h) // SPARSE_SIDE)))
         img8 = to_uint8(g, g > 0)  # 0: nodata
-        kp, desc = cv2.SIFT_create(nfeatures=max_features).detectAndCompute(img8, (img8 > 0).astype(np.uint8))
-        px = np.array([k.pt for k in kp], float).reshape(-1, 2) + HALF + SIFT_OFFSET
-        cache[i] = (px * [w / g.shape[1], h / g.shape[0]], desc)
+        kp = detect(img8.astype(np.float32), img8 > 0, "sift", max_keypoints=max_features)
+        cache[i] = (kp.xy * [w / g.shape[1], h / g.shape[0]], kp.descriptors)
     return cache[i]
 
 

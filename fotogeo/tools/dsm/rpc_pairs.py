@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from ...errors import FotogeoWarning, InputError
+from ...features.detect import detect
 from ...pixels import HALF
 from ...stereo import affine_epipolar as ae
 from ...stereo.dense import disparity, to_uint8
@@ -68,15 +69,13 @@ def _models(m1, m2, tau):
 
 def tie_points(g1, g2, max_features: int = 5000) -> tuple:
     """``(p1, p2)`` ratio-tested SIFT matches (corner convention) of two grey images."""
-    sift = cv2.SIFT_create(nfeatures=max_features)
-    k1, d1 = sift.detectAndCompute(to_uint8(g1, g1 > 0), None)
-    k2, d2 = sift.detectAndCompute(to_uint8(g2, g2 > 0), None)
-    if d1 is None or d2 is None or len(k1) < 8 or len(k2) < 8:
+    k1, k2 = (detect(to_uint8(g, g > 0).astype(np.float32), None, "sift", max_keypoints=max_features)
+              for g in (g1, g2))
+    if len(k1) < 8 or len(k2) < 8:
         return np.zeros((0, 2)), np.zeros((0, 2))
-    good = [m[0] for m in cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
+    good = [m[0] for m in cv2.BFMatcher(cv2.NORM_L2).knnMatch(k1.descriptors, k2.descriptors, k=2)
             if len(m) == 2 and m[0].distance < 0.8 * m[1].distance]
-    return (np.array([k1[m.queryIdx].pt for m in good]).reshape(-1, 2) + HALF,
-            np.array([k2[m.trainIdx].pt for m in good]).reshape(-1, 2) + HALF)
+    return (k1.xy[[m.queryIdx for m in good]].reshape(-1, 2), k2.xy[[m.trainIdx for m in good]].reshape(-1, 2))
 
 
 def pointing(m1, m2, g1, g2, zlo, zhi) -> dict:
