@@ -1,7 +1,7 @@
 """Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
 
 Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
-      [--cases ngi,qb2] [--resolutions native,fine]
+      [--cases ngi,qb2,drone] [--resolutions native,fine] [--drone-dir DIR]
 
 * ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
@@ -13,8 +13,15 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   ellipsoid``, GDAL ``RPC_DEM_APPLY_VDATUM_SHIFT=FALSE``): the DEM states EGM2008 heights, whose grid is not
   installed here, and the comparison needs the same heights on both sides.
 
+* ``drone`` — held out from the code's tuning: the eBee frames IMG_2188 and IMG_2281 (4608 x 3456 JPEG, two strips)
+  with the camera (Brown: k1, k2, p2 estimated) and exterior orientation that ``fotogeo triangulate`` adjusts from
+  the six strip frames (``--self-calibration k1,k2,p1,p2``, run once into ``--drone-dir``, about 2 minutes), on a
+  2 m surface gridded from its tie points (``gdal_grid`` inverse distance; the flight has no published DEM), through
+  fotogeo and orthority (``-c EPSG:32654``; orthority's full remap, i.e. the distortion in every cell's position).
+
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
-(NGI 1 m, qb2 2 m: 25x and 9x more output cells, where the work rather than the start-up dominates).
+drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
+(NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates).
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
 command as a user runs it, interpreter start and imports included), CPU time (user + system: steadier than the
@@ -43,7 +50,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
-RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0}}
+RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
+       "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1}}
+DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
+DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
 FOTOGEO_RUN = """
 import json, sys, time
@@ -118,21 +128,49 @@ def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
             "mean_abs_diff": round(float(np.abs(A - B)[valid].mean()), 3), "overlap_px": int(valid.sum())}
 
 
-def ngi_case(work: Path, res: float, oty_py, n: int) -> dict:
+def drone_inputs(folder: Path) -> dict:
+    """The drone case's camera, orientation and surface in ``folder``, made once (module docstring)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    tri, dem = folder / "triangulate", folder / "dem.tif"
+    img = DATA / "drone_snowpeak" / "img"
+    if not (tri / "camera.yaml").exists():
+        cmd = [sys.executable, "-m", "fotogeo", "triangulate", *(str(img / f"{n}.JPG") for n in DRONE_STRIPS),
+               "-o", str(tri), "--self-calibration", "k1,k2,p1,p2", "-q", "--overwrite"]
+        subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT), "GDAL_PAM_ENABLED": "NO"})
+    if not dem.exists():
+        subprocess.run(["gdal_grid", "-q", "-a", "invdist:power=2.0:smoothing=20:max_points=24", "-txe", "326900",
+                        "327560", "-tye", "4157320", "4156740", "-outsize", "330", "290", "-ot", "Float32",
+                        "-a_srs", "EPSG:32654", "-l", "tie_points", str(tri / "block.gpkg"), str(dem)], check=True)
+    lines = [ln.split() for ln in (tri / "exterior_orientation.txt").read_text().splitlines()
+             if ln.strip() and not ln.startswith("#")]
+    ext = folder / "ext.csv"  # orthority's CSV: the same fields, comma-separated
+    ext.write_text("".join(",".join(f) + "\n" for f in lines))
+    return {"frames": [str(img / f"{n}.JPG") for n in DRONE_FRAMES], "dem": str(dem),
+            "camera": str(tri / "camera.yaml"), "eo": str(tri / "exterior_orientation.txt"), "ext": str(ext),
+            "crs": ["-c", "EPSG:32654"]}
+
+
+def ngi_inputs(work: Path) -> dict:
     ngi = DATA / "ngi"
-    frames = sorted(str(p) for p in (ngi / "frames").glob("*.tif"))
     ext = work / "ext.csv"  # orthority reads the same lines as CSV
     shutil.copy(ngi / "exterior_orientation.txt", ext)
+    return {"frames": sorted(str(p) for p in (ngi / "frames").glob("*.tif")), "dem": str(ngi / "dem.tif"),
+            "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
+            "ext": str(ext), "crs": []}
+
+
+def frame_case(work: Path, res: float, oty_py, n: int, inp: dict) -> dict:
+    """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``."""
+    frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
-    kw = {"images": frames, "output": str(fg_dir), "dem": str(ngi / "dem.tif"),
-          "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
+    kw = {"images": frames, "output": str(fg_dir), "dem": inp["dem"], "camera": inp["camera"], "eo": inp["eo"],
           "resolution": res, "resampling": "bilinear", "overwrite": True}
     env = {"PYTHONPATH": str(ROOT)}
     out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env=env)}
     if oty_py:
-        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", str(ngi / "dem.tif"), "-ip",
-               str(ngi / "interior_orientation.yaml"), "-ep", str(ext), "-r", str(res), "-ap", "-i", "bilinear",
-               "-di", "bilinear", "-cm", "deflate", "-nwm", "-od", str(oty_dir), "-o", *frames]
+        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
+               *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
+               "-od", str(oty_dir), "-o", *frames]
         oty_dir.mkdir(exist_ok=True)
         out["orthority"] = repeat(cmd, n)
         out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
@@ -164,7 +202,7 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
 
 
 def table(results: dict) -> str:
-    rows = ["case  res  tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
+    rows = ["case  res   tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
     for case, by_res in results["cases"].items():
         for res, r in by_res.items():
             fg = r["fotogeo"]
@@ -177,7 +215,7 @@ def table(results: dict) -> str:
                     if ag else ""
                 rw = fg["wall_s"] / t["wall_s"]
                 rc = fg["cpu_s"] / t["cpu_s"]
-                rows.append(f"{case:<5} {res:<4} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
+                rows.append(f"{case:<5} {res:<5} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
                             f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
                             f"{shift}")
     return "\n".join(rows)
@@ -188,8 +226,11 @@ def main(argv=None):
     ap.add_argument("--orthority-python", default=os.environ.get("ORTHORITY_PYTHON"),
                     help="python of a venv with orthority installed [$ORTHORITY_PYTHON; none: orthority skipped]")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--cases", default="ngi,qb2")
-    ap.add_argument("--resolutions", default="native,fine")
+    ap.add_argument("--cases", default="ngi,qb2,drone")
+    ap.add_argument("--resolutions", default="native,fine",
+                    help="comma-separated levels among native, fine (and coarse: drone only)")
+    ap.add_argument("--drone-dir", type=Path,
+                    help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
     a = ap.parse_args(argv)
     if not DATA.exists():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
@@ -201,11 +242,16 @@ def main(argv=None):
         for case in a.cases.split(","):
             results["cases"][case] = {}
             for level in a.resolutions.split(","):
+                if level not in RES[case]:
+                    continue
                 res = RES[case][level]
                 work = Path(tmp) / f"{case}_{level}"
                 work.mkdir()
-                r = (ngi_case(work, res, a.orthority_python, a.repeat) if case == "ngi"
-                     else qb2_case(work, res, a.repeat))
+                if case == "qb2":
+                    r = qb2_case(work, res, a.repeat)
+                else:
+                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(a.drone_dir or Path(tmp) / "drone")
+                    r = frame_case(work, res, a.orthority_python, a.repeat, inp)
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
