@@ -24,7 +24,8 @@ drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
 (NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates).
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
-command as a user runs it, interpreter start and imports included), CPU time (user + system: steadier than the
+command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through its click entry point —, interpreter
+start and imports included), CPU time (user + system: steadier than the
 wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
 after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the
 overlap of two outputs,
@@ -56,12 +57,13 @@ DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG
 DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
 FOTOGEO_RUN = """
-import json, sys, time
-from fotogeo.tools.ortho.tool import ortho
-kw = json.loads(sys.argv[1])
+import sys, time
+from fotogeo.cli import main
 t = time.perf_counter()
-ortho(**kw)
-print("WORK", time.perf_counter() - t)
+try:
+    main.main(sys.argv[1:], standalone_mode=False)
+finally:
+    print("WORK", time.perf_counter() - t)
 """
 
 ORTHORITY_RUN = """
@@ -163,10 +165,10 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict) -> dict:
     """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``."""
     frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
-    kw = {"images": frames, "output": str(fg_dir), "dem": inp["dem"], "camera": inp["camera"], "eo": inp["eo"],
-          "resolution": res, "resampling": "bilinear", "overwrite": True}
-    env = {"PYTHONPATH": str(ROOT)}
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env=env)}
+    args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
+            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+    fg_dir.mkdir(exist_ok=True)
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env={"PYTHONPATH": str(ROOT)})}
     if oty_py:
         cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
                *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
@@ -181,9 +183,9 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict) -> dict:
 def qb2_case(work: Path, res: float, n: int) -> dict:
     img, dem = DATA / "qb2" / "qb2_basic1b.tif", DATA / "ngi" / "dem.tif"
     fg = work / "fotogeo_qb2.tif"
-    kw = {"images": [str(img)], "output": str(fg), "dem": str(dem), "rpc": True, "dem_heights": "ellipsoid",
-          "resolution": res, "resampling": "bilinear", "overwrite": True}
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env={"PYTHONPATH": str(ROOT)})}
+    args = ["ortho", str(img), "-o", str(fg), "--dem", str(dem), "--rpc", "--dem-heights", "ellipsoid",
+            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env={"PYTHONPATH": str(ROOT)})}
     import rasterio
     with rasterio.open(dem) as d:
         from pyproj import CRS

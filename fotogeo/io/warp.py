@@ -41,7 +41,7 @@ from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixels  # noqa: F401 - re-exported
 from .warp_gdal import nearest_pixels_xy
 from .warp_source import CV_DTYPES as _CV_DTYPES
-from .warp_source import in_order, source_handles, validity, whole_source
+from .warp_source import in_order, opencv_threads, source_handles, validity, whole_source
 
 #: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
 RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
@@ -280,7 +280,8 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
             for win in windows:
                 yield win, job(win)
             return
-        yield from in_order(job, windows, threads, "fotogeo-warp")
+        with opencv_threads(1):
+            yield from in_order(job, windows, threads, "fotogeo-warp")
 
 
 def write_env(threads: int, zlevel: int | None = None):
@@ -319,10 +320,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
         colorinterp = src.colorinterp
     summary = write_windows(src_path, dst_path, plan, windows, crs=crs, width=width, height=height, threads=threads,
                             colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0,
-                            zlevel=zlevel)
-    if overviews:
-        with write_env(threads, zlevel), ropen(dst_path, "r+") as dst:
-            add_overviews(dst, width, height, resampling)
+                            zlevel=zlevel, overviews=overviews)
     progress(1.0, "resampled")
     if summary["nodata_collisions"] and np.dtype(plan.dtype).kind == "i":
         warnings.warn(f"{summary['nodata_collisions']} valid pixels of {src_path} equal the output nodata value "
@@ -332,9 +330,12 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
 
 
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
-                  progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None) -> dict:
+                  progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None,
+                  overviews: bool = False) -> dict:
     """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height``
-    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`."""
+    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`. ``overviews``
+    (:func:`add_overviews`) are built before the file is closed, from the tiles GDAL still holds in its cache (the
+    same values as from the file reopened, without decompressing what was just compressed)."""
     progress = progress or Progress()
     r_off, c_off = offset
     profile = geotiff_profile(width=width, height=height, count=plan.count, dtype=plan.dtype,
@@ -355,12 +356,15 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
             valid += n_valid
             collisions += n_coll
             progress((k + 1) / len(windows) * share, f"resampling window {k + 1}/{len(windows)}")
+        if overviews:
+            with write_env(threads, zlevel):
+                add_overviews(dst, width, height, plan.resampling)
     nd = plan.nodata
     return {"valid_pixels": valid, "nodata": None if nd != nd else nd, "nodata_collisions": collisions}
 
 
 def add_overviews(dst, width: int, height: int, resampling: str) -> None:
-    """Internal overviews of an open (``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
+    """Internal overviews of an open (``w`` or ``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
     pixels on its short side; nearest for nearest-neighbour outputs, else average."""
     factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= 128]
     if factors:

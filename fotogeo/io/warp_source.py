@@ -8,6 +8,11 @@ or any band is NaN/±inf; floating data get 0 there (never data, as in fuse). No
 **Threads**: :func:`source_handles` (one GDAL handle per thread) and :func:`in_order` (a bounded pool whose
 results come back in order).
 
+**Freed memory** (:func:`keep_freed_memory`, for a command-line process): every window allocates and frees
+arrays of a few MB; glibc returns such blocks to the system when they are freed and the next window faults its
+pages in again (a sixth of an orthophoto's CPU time, most of it in the kernel). Raising glibc's trim threshold
+keeps them in the process for reuse.
+
 **Whole source** (:func:`whole_source`): a source of at most :data:`WHOLE_SOURCE_BYTES` (pixels and mask) of an
 OpenCV type with 1 to 4 bands is read once, pixel-interleaved (``(rows, cols, bands)``, the layout ``cv2.remap``
 takes), its mask beside it; every window is then a view of it instead of a read and an interleaving copy of its
@@ -19,6 +24,7 @@ from __future__ import annotations
 import collections
 import concurrent.futures as cf
 import contextlib
+import ctypes
 import queue
 
 import numpy as np
@@ -101,3 +107,32 @@ def in_order(job, items, threads: int, name: str):
             yield item, fut.result()
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+#: :func:`keep_freed_memory`: glibc's ``M_TRIM_THRESHOLD`` and ``M_MMAP_THRESHOLD`` (its largest allowed value)
+KEEP_FREED_BYTES, MMAP_THRESHOLD_BYTES = 64 * 2 ** 20, 32 * 2 ** 20
+
+
+def keep_freed_memory() -> bool:
+    """Let the process keep up to :data:`KEEP_FREED_BYTES` of freed memory and serve allocations below
+    :data:`MMAP_THRESHOLD_BYTES` from its heap (glibc ``mallopt``; module docstring). A process-wide setting, for a
+    command-line run (never called by the library itself); False where the C library has no ``mallopt``."""
+    try:
+        mallopt = ctypes.CDLL("libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    return bool(mallopt(m_mmap_threshold, MMAP_THRESHOLD_BYTES)) & bool(mallopt(m_trim_threshold, KEEP_FREED_BYTES))
+
+
+@contextlib.contextmanager
+def opencv_threads(n: int):
+    """OpenCV's own thread count set to ``n`` for the block (restored after): fotogeo's window threads each call
+    ``cv2.remap``, whose inner parallel loop would only add its threads' spinning to theirs."""
+    import cv2
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(n)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
