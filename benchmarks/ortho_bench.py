@@ -7,6 +7,9 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
   both ``--aligned-pixels`` grids of the same resolution (so their cells coincide), bilinear image and DEM
   interpolation, DEFLATE;
+  With ``--orthority-compression both`` orthority also runs with fotogeo's creation options (``-co``: 256² tiles,
+  DEFLATE level 1, horizontal predictor; row ``orthority_z1``): the same compression on both sides. Both build
+  average overviews inside the file (orthority down to 256 px, fotogeo to 128 px: one level more);
 * ``qb2`` — the QuickBird Basic-1B image with its vendor RPC on the same DEM through fotogeo ``--rpc`` and
   ``gdalwarp -rpc -to RPC_DEM=…`` (``-tap``, bilinear, GDAL's default transformer error 0.125 px, and
   ``-et 0``; all CPUs). Both take the DEM's values as ellipsoidal heights (fotogeo ``--dem-heights
@@ -53,6 +56,9 @@ DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
 RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
        "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1}}
+#: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
+FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMPRESS=DEFLATE", "ZLEVEL=1",
+                          "PREDICTOR=2") for a in ("-co", o)]
 DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
 DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
@@ -161,8 +167,9 @@ def ngi_inputs(work: Path) -> dict:
             "ext": str(ext), "crs": []}
 
 
-def frame_case(work: Path, res: float, oty_py, n: int, inp: dict) -> dict:
-    """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``."""
+def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False) -> dict:
+    """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``;
+    ``same``: orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`)."""
     frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
     args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
@@ -175,6 +182,9 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict) -> dict:
                "-od", str(oty_dir), "-o", *frames]
         oty_dir.mkdir(exist_ok=True)
         out["orthority"] = repeat(cmd, n)
+        if same:
+            at = cmd.index("-cm")
+            out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
         out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
                                                       oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
     return out
@@ -231,6 +241,9 @@ def main(argv=None):
     ap.add_argument("--cases", default="ngi,qb2,drone")
     ap.add_argument("--resolutions", default="native,fine",
                     help="comma-separated levels among native, fine (and coarse: drone only)")
+    ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
+                    help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
+                         "creation options (row orthority_z1)")
     ap.add_argument("--drone-dir", type=Path,
                     help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
     a = ap.parse_args(argv)
@@ -253,7 +266,7 @@ def main(argv=None):
                     r = qb2_case(work, res, a.repeat)
                 else:
                     inp = ngi_inputs(work) if case == "ngi" else drone_inputs(a.drone_dir or Path(tmp) / "drone")
-                    r = frame_case(work, res, a.orthority_python, a.repeat, inp)
+                    r = frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both")
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]

@@ -84,8 +84,8 @@ class AdjustedFrame:
         planes ``(2, len(Y), len(X))``: column, row. The camera coordinates ``c_k = Σ M_ik (P_i − C_i)`` (``M`` =
         ``R·D``) are built from one term per column, one per row and one per point, then ``u = c_0/c_2``,
         ``v = c_1/c_2`` and Brown's terms (:func:`~fotogeo.orientation.bundle_jacobian.project_camera`: radial
-        ``ρ = 1 + k1 r² + k2 r⁴ + k3 r⁶``, decentring ``p1``, ``p2``), the same values to rounding; a block of rows at a
-        time, so that the temporaries stay in the processor's cache. Points behind the camera are NaN."""
+        ``ρ = 1 + k1 r² + k2 r⁴ + k3 r⁶``, decentring ``p1``, ``p2``), the same values to rounding; a block of rows
+        at a time, so that the temporaries stay in the processor's cache. Points behind the camera are NaN."""
         M, C = self.frame.eo.rotation_cv, self.frame.eo.centre
         dx, dy = np.asarray(X, float) - C[0], np.asarray(Y, float) - C[1]
         Z = np.asarray(Z, float)
