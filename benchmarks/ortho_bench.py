@@ -28,8 +28,8 @@ drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
 command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through its click entry point —, interpreter
-start and imports included), CPU time (user + system: steadier than the
-wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
+start and imports included; fotogeo's bytecode compiled beforehand, as an installed package's is), CPU time
+(user + system: steadier than the wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
 after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the
 overlap of two outputs,
 128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
@@ -59,6 +59,10 @@ RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
 #: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
 FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMPRESS=DEFLATE", "ZLEVEL=1",
                           "PREDICTOR=2") for a in ("-co", o)]
+#: fotogeo's environment in the timed runs: this checkout, whose bytecode main() compiles once (``__pycache__``,
+#: ignored by git) as pip compiles an installed package's (with PYTHONDONTWRITEBYTECODE set nothing else would, and
+#: every run would compile ~200 modules)
+FOTOGEO_ENV = {"PYTHONPATH": str(ROOT)}
 DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
 DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
@@ -175,7 +179,7 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
     args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
             "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
     fg_dir.mkdir(exist_ok=True)
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env={"PYTHONPATH": str(ROOT)})}
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env=FOTOGEO_ENV)}
     if oty_py:
         cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
                *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
@@ -195,7 +199,7 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
     fg = work / "fotogeo_qb2.tif"
     args = ["ortho", str(img), "-o", str(fg), "--dem", str(dem), "--rpc", "--dem-heights", "ellipsoid",
             "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env={"PYTHONPATH": str(ROOT)})}
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env=FOTOGEO_ENV)}
     import rasterio
     with rasterio.open(dem) as d:
         from pyproj import CRS
@@ -254,6 +258,8 @@ def main(argv=None):
                "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)),
                "load_average_start": [round(v, 2) for v in os.getloadavg()], "cases": {}}
     with tempfile.TemporaryDirectory(prefix="ortho_bench_") as tmp:
+        subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "fotogeo")], check=True,
+                       env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})
         for case in a.cases.split(","):
             results["cases"][case] = {}
             for level in a.resolutions.split(","):
