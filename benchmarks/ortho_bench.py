@@ -31,9 +31,9 @@ command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through 
 start and imports included; fotogeo's bytecode compiled beforehand, as an installed package's is), CPU time
 (user + system: steadier than the wall time on a shared machine) and peak resident memory; the Python tools also
 report their in-process time after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo
-faster). Agreement: on the overlap of two outputs, 128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
-of each tile in output pixels (median, 95th percentile and largest length) and the mean absolute grey-level
-difference. Writes benchmarks/results/ortho_bench.json (with the load average at the start and the end: the
+faster). Agreement: on the overlap of two outputs, 128 x 128 tiles fully valid in both are phase-correlated
+(OpenCV, Hanning window) on band 1: the local shift of each tile in output pixels (median, 95th percentile and
+largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (with the load average at the start and the end: the
 machine may be shared) and prints a table.
 """
 from __future__ import annotations
