@@ -33,8 +33,8 @@ start and imports included; fotogeo's bytecode compiled beforehand, as an instal
 report their in-process time after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo
 faster). Agreement: on the overlap of two outputs, 128 x 128 tiles fully valid in both are phase-correlated
 (OpenCV, Hanning window) on band 1: the local shift of each tile in output pixels (median, 95th percentile and
-largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (with the load average at the start and the end: the
-machine may be shared) and prints a table.
+largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (with the
+load average at the start and the end: the machine may be shared) and prints a table.
 """
 from __future__ import annotations
 
