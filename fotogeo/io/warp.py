@@ -16,8 +16,10 @@ per thread in flight; the calling thread writes them in order (so the file is th
 whatever the thread count), GDAL compresses the tiles in its own threads (the GTiff
 ``NUM_THREADS`` creation option) and builds the overviews with ``GDAL_NUM_THREADS``. A
 window's pixels depend only on its position in the grid, never on the thread count:
-outputs are pixel-identical to the one-thread run. :func:`fotogeo.io.warp_tiles.warp_tiled`
-splits a large grid into tiles written by separate tasks (threads or Dask workers).
+outputs are pixel-identical to the one-thread run. A source small enough is read once, pixel-interleaved, and
+the windows are views of it (:func:`fotogeo.io.warp_source.whole_source`); the overviews are built before the file
+is closed. :func:`fotogeo.io.warp_tiles.warp_tiled` splits a large grid into tiles written by separate tasks
+(threads or Dask workers).
 """
 from __future__ import annotations
 
