@@ -1,30 +1,40 @@
 """Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
 
 Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
-      [--cases ngi,qb2] [--resolutions native,fine]
+      [--cases ngi,qb2,drone] [--resolutions native,fine] [--drone-dir DIR]
 
 * ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
   both ``--aligned-pixels`` grids of the same resolution (so their cells coincide), bilinear image and DEM
   interpolation, DEFLATE;
+  With ``--orthority-compression both`` orthority also runs with fotogeo's creation options (``-co``: 256² tiles,
+  DEFLATE level 1, horizontal predictor; row ``orthority_z1``): the same compression on both sides. Both build
+  average overviews inside the file (orthority down to 256 px, fotogeo to 128 px: one level more);
 * ``qb2`` — the QuickBird Basic-1B image with its vendor RPC on the same DEM through fotogeo ``--rpc`` and
   ``gdalwarp -rpc -to RPC_DEM=…`` (``-tap``, bilinear, GDAL's default transformer error 0.125 px, and
   ``-et 0``; all CPUs). Both take the DEM's values as ellipsoidal heights (fotogeo ``--dem-heights
   ellipsoid``, GDAL ``RPC_DEM_APPLY_VDATUM_SHIFT=FALSE``): the DEM states EGM2008 heights, whose grid is not
   installed here, and the comparison needs the same heights on both sides.
 
+* ``drone`` — held out from the code's tuning: the eBee frames IMG_2188 and IMG_2281 (4608 x 3456 JPEG, two strips)
+  with the camera (Brown: k1, k2, p2 estimated) and exterior orientation that ``fotogeo triangulate`` adjusts from
+  the six strip frames (``--self-calibration k1,k2,p1,p2``, run once into ``--drone-dir``, about 2 minutes), on a
+  2 m surface gridded from its tie points (``gdal_grid`` inverse distance; the flight has no published DEM), through
+  fotogeo and orthority (``-c EPSG:32654``; orthority's full remap, i.e. the distortion in every cell's position).
+
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
-(NGI 1 m, qb2 2 m: 25x and 9x more output cells, where the work rather than the start-up dominates).
+drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
+(NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates).
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
-command as a user runs it, interpreter start and imports included), CPU time (user + system: steadier than the
-wall time on a shared machine) and peak resident memory; the Python tools also report their in-process time
-after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo faster). Agreement: on the
-overlap of two outputs,
-128 x 128 tiles fully valid in both are phase-correlated (OpenCV, Hanning window) on band 1: the local shift
-of each tile in output pixels (median, 95th percentile and largest length) and the mean absolute grey-level
-difference. Writes benchmarks/results/ortho_bench.json (with the load average at the start and the end: the
-machine may be shared) and prints a table.
+command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through its click entry point —, interpreter
+start and imports included; fotogeo's bytecode compiled beforehand, as an installed package's is), CPU time
+(user + system: steadier than the wall time on a shared machine) and peak resident memory; the Python tools also
+report their in-process time after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo
+faster). Agreement: on the overlap of two outputs, 128 x 128 tiles fully valid in both are phase-correlated
+(OpenCV, Hanning window) on band 1: the local shift of each tile in output pixels (median, 95th percentile and
+largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (with the
+load average at the start and the end: the machine may be shared) and prints a table.
 """
 from __future__ import annotations
 
@@ -43,15 +53,26 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
-RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0}}
+RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
+       "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1}}
+#: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
+FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMPRESS=DEFLATE", "ZLEVEL=1",
+                          "PREDICTOR=2") for a in ("-co", o)]
+#: fotogeo's environment in the timed runs: this checkout, whose bytecode main() compiles once (``__pycache__``,
+#: ignored by git) as pip compiles an installed package's (with PYTHONDONTWRITEBYTECODE set nothing else would, and
+#: every run would compile ~200 modules)
+FOTOGEO_ENV = {"PYTHONPATH": str(ROOT)}
+DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
+DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
 FOTOGEO_RUN = """
-import json, sys, time
-from fotogeo.tools.ortho.tool import ortho
-kw = json.loads(sys.argv[1])
+import sys, time
+from fotogeo.cli import main
 t = time.perf_counter()
-ortho(**kw)
-print("WORK", time.perf_counter() - t)
+try:
+    main.main(sys.argv[1:], standalone_mode=False)
+finally:
+    print("WORK", time.perf_counter() - t)
 """
 
 ORTHORITY_RUN = """
@@ -118,23 +139,55 @@ def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
             "mean_abs_diff": round(float(np.abs(A - B)[valid].mean()), 3), "overlap_px": int(valid.sum())}
 
 
-def ngi_case(work: Path, res: float, oty_py, n: int) -> dict:
+def drone_inputs(folder: Path) -> dict:
+    """The drone case's camera, orientation and surface in ``folder``, made once (module docstring)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    tri, dem = folder / "triangulate", folder / "dem.tif"
+    img = DATA / "drone_snowpeak" / "img"
+    if not (tri / "camera.yaml").exists():
+        cmd = [sys.executable, "-m", "fotogeo", "triangulate", *(str(img / f"{n}.JPG") for n in DRONE_STRIPS),
+               "-o", str(tri), "--self-calibration", "k1,k2,p1,p2", "-q", "--overwrite"]
+        subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT), "GDAL_PAM_ENABLED": "NO"})
+    if not dem.exists():
+        subprocess.run(["gdal_grid", "-q", "-a", "invdist:power=2.0:smoothing=20:max_points=24", "-txe", "326900",
+                        "327560", "-tye", "4157320", "4156740", "-outsize", "330", "290", "-ot", "Float32",
+                        "-a_srs", "EPSG:32654", "-l", "tie_points", str(tri / "block.gpkg"), str(dem)], check=True)
+    lines = [ln.split() for ln in (tri / "exterior_orientation.txt").read_text().splitlines()
+             if ln.strip() and not ln.startswith("#")]
+    ext = folder / "ext.csv"  # orthority's CSV: the same fields, comma-separated
+    ext.write_text("".join(",".join(f) + "\n" for f in lines))
+    return {"frames": [str(img / f"{n}.JPG") for n in DRONE_FRAMES], "dem": str(dem),
+            "camera": str(tri / "camera.yaml"), "eo": str(tri / "exterior_orientation.txt"), "ext": str(ext),
+            "crs": ["-c", "EPSG:32654"]}
+
+
+def ngi_inputs(work: Path) -> dict:
     ngi = DATA / "ngi"
-    frames = sorted(str(p) for p in (ngi / "frames").glob("*.tif"))
     ext = work / "ext.csv"  # orthority reads the same lines as CSV
     shutil.copy(ngi / "exterior_orientation.txt", ext)
+    return {"frames": sorted(str(p) for p in (ngi / "frames").glob("*.tif")), "dem": str(ngi / "dem.tif"),
+            "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
+            "ext": str(ext), "crs": []}
+
+
+def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False) -> dict:
+    """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``;
+    ``same``: orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`)."""
+    frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
-    kw = {"images": frames, "output": str(fg_dir), "dem": str(ngi / "dem.tif"),
-          "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
-          "resolution": res, "resampling": "bilinear", "overwrite": True}
-    env = {"PYTHONPATH": str(ROOT)}
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env=env)}
+    args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
+            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+    fg_dir.mkdir(exist_ok=True)
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env=FOTOGEO_ENV)}
     if oty_py:
-        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", str(ngi / "dem.tif"), "-ip",
-               str(ngi / "interior_orientation.yaml"), "-ep", str(ext), "-r", str(res), "-ap", "-i", "bilinear",
-               "-di", "bilinear", "-cm", "deflate", "-nwm", "-od", str(oty_dir), "-o", *frames]
+        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
+               *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
+               "-od", str(oty_dir), "-o", *frames]
         oty_dir.mkdir(exist_ok=True)
         out["orthority"] = repeat(cmd, n)
+        if same:
+            at = cmd.index("-cm")
+            out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
         out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
                                                       oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
     return out
@@ -143,9 +196,9 @@ def ngi_case(work: Path, res: float, oty_py, n: int) -> dict:
 def qb2_case(work: Path, res: float, n: int) -> dict:
     img, dem = DATA / "qb2" / "qb2_basic1b.tif", DATA / "ngi" / "dem.tif"
     fg = work / "fotogeo_qb2.tif"
-    kw = {"images": [str(img)], "output": str(fg), "dem": str(dem), "rpc": True, "dem_heights": "ellipsoid",
-          "resolution": res, "resampling": "bilinear", "overwrite": True}
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, json.dumps(kw)], n, env={"PYTHONPATH": str(ROOT)})}
+    args = ["ortho", str(img), "-o", str(fg), "--dem", str(dem), "--rpc", "--dem-heights", "ellipsoid",
+            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env=FOTOGEO_ENV)}
     import rasterio
     with rasterio.open(dem) as d:
         from pyproj import CRS
@@ -164,7 +217,7 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
 
 
 def table(results: dict) -> str:
-    rows = ["case  res  tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
+    rows = ["case  res   tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
     for case, by_res in results["cases"].items():
         for res, r in by_res.items():
             fg = r["fotogeo"]
@@ -177,7 +230,7 @@ def table(results: dict) -> str:
                     if ag else ""
                 rw = fg["wall_s"] / t["wall_s"]
                 rc = fg["cpu_s"] / t["cpu_s"]
-                rows.append(f"{case:<5} {res:<4} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
+                rows.append(f"{case:<5} {res:<5} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
                             f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
                             f"{shift}")
     return "\n".join(rows)
@@ -188,8 +241,14 @@ def main(argv=None):
     ap.add_argument("--orthority-python", default=os.environ.get("ORTHORITY_PYTHON"),
                     help="python of a venv with orthority installed [$ORTHORITY_PYTHON; none: orthority skipped]")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--cases", default="ngi,qb2")
-    ap.add_argument("--resolutions", default="native,fine")
+    ap.add_argument("--cases", default="ngi,qb2,drone")
+    ap.add_argument("--resolutions", default="native,fine",
+                    help="comma-separated levels among native, fine (and coarse: drone only)")
+    ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
+                    help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
+                         "creation options (row orthority_z1)")
+    ap.add_argument("--drone-dir", type=Path,
+                    help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
     a = ap.parse_args(argv)
     if not DATA.exists():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
@@ -198,14 +257,21 @@ def main(argv=None):
                "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)),
                "load_average_start": [round(v, 2) for v in os.getloadavg()], "cases": {}}
     with tempfile.TemporaryDirectory(prefix="ortho_bench_") as tmp:
+        subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "fotogeo")], check=True,
+                       env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})
         for case in a.cases.split(","):
             results["cases"][case] = {}
             for level in a.resolutions.split(","):
+                if level not in RES[case]:
+                    continue
                 res = RES[case][level]
                 work = Path(tmp) / f"{case}_{level}"
                 work.mkdir()
-                r = (ngi_case(work, res, a.orthority_python, a.repeat) if case == "ngi"
-                     else qb2_case(work, res, a.repeat))
+                if case == "qb2":
+                    r = qb2_case(work, res, a.repeat)
+                else:
+                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(a.drone_dir or Path(tmp) / "drone")
+                    r = frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both")
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]

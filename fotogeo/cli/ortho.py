@@ -25,7 +25,9 @@ def command(images, output, overwrite, quiet, **kw):
     --uncertainty writes <orthophoto>_sigma.tif (predicted planimetric sigma, m; triangulate's outputs only),
     --view-bands <orthophoto>_view.tif (off-nadir angle, distance).
     """
+    from ..io.warp_source import keep_freed_memory
     from ..tools.ortho.tool import ortho
+    keep_freed_memory()  # the windows' temporaries are reused instead of faulted in again
     bar = ConsoleProgress(quiet)
     try:
         rep = ortho(list(images), output, overwrite=overwrite, progress=bar, **tool_arguments(kw, ORTHO))

@@ -138,9 +138,9 @@ class Dem:
         z = self.data[lo:int(i.max()) + 2 if len(i) else 0]
         along = z[:, j] + u * (z[:, j + 1] - z[:, j])  # each DEM row needed, interpolated along the columns
         step = along[1:] - along[:-1]  # bottom − top of each pair of DEM rows (the same values as per cell)
-        h = step[i - lo] if len(step) else np.zeros((len(i), len(j)))
-        h *= t[:, None]
-        h += along[i - lo]
+        k = i - lo
+        h = np.multiply(step[k], t[:, None]) if len(step) else np.zeros((len(i), len(j)))  # (faster than in place)
+        h += along[k]
         if not in_r.all():
             h[~in_r, :] = np.nan
         if not in_c.all():

@@ -16,17 +16,16 @@ per thread in flight; the calling thread writes them in order (so the file is th
 whatever the thread count), GDAL compresses the tiles in its own threads (the GTiff
 ``NUM_THREADS`` creation option) and builds the overviews with ``GDAL_NUM_THREADS``. A
 window's pixels depend only on its position in the grid, never on the thread count:
-outputs are pixel-identical to the one-thread run. :func:`fotogeo.io.warp_tiles.warp_tiled`
-splits a large grid into tiles written by separate tasks (threads or Dask workers).
+outputs are pixel-identical to the one-thread run. A source small enough is read once, pixel-interleaved, and
+the windows are views of it (:func:`fotogeo.io.warp_source.whole_source`); the overviews are built before the file
+is closed. :func:`fotogeo.io.warp_tiles.warp_tiled` splits a large grid into tiles written by separate tasks
+(threads or Dask workers).
 """
 from __future__ import annotations
 
-import collections
-import concurrent.futures as cf
-import contextlib
+import dataclasses
 import math
 import os
-import queue
 import warnings
 from dataclasses import dataclass
 
@@ -42,12 +41,14 @@ from ..pixels import HALF
 from ..progress import Progress
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixels  # noqa: F401 - re-exported
+from .warp_gdal import nearest_pixels_xy
+from .warp_source import CV_DTYPES as _CV_DTYPES
+from .warp_source import in_order, opencv_threads, source_handles, validity, whole_source
 
 #: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
 RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
               for n in RESAMPLINGS}
 _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
-_CV_DTYPES = {"uint8", "uint16", "int16", "float32", "float64"}
 _INT16_MAX = 32767
 #: environment variable bounding fotogeo's resampling threads (the batch sets it to 1 in its tasks)
 THREADS_ENV = "FOTOGEO_NUM_THREADS"
@@ -109,6 +110,8 @@ class Plan:
     band_nodata: object  # the file's nodata value when its masks come from it (per band), else None
     src_width: int
     src_height: int
+    pixels: object = None  # the whole source in memory (fotogeo.io.warp_source.whole_source), else None
+    pixel_mask: object = None  # its validity mask (None: all valid)
 
     @property
     def floating(self) -> bool:
@@ -126,32 +129,28 @@ def make_plan(src, inverse_map, transform, resampling="nearest", nodata=None, sr
                 band_nodata, src.width, src.height)
 
 
-def _source_mask(src, plan: Plan, win: Window, data):
-    """uint8 validity (255 valid) of a source window: the file's masks, the nodata override, finiteness.
-    A pixel is valid where any band's mask is (a nodata value is per band, as in GDAL's warper: a
-    dark RGB pixel with one channel at 0 stays), invalid where every band equals the override
-    ``src_nodata`` or any band is NaN/±inf. Returns ``(mask, data)`` — floating data with NaN/±inf
-    replaced by 0 (never data, as in fuse)."""
-    if plan.all_valid:
-        mask = np.full(data.shape[1:], 255, np.uint8)
-    else:
-        mask = src.read_masks(window=win).max(axis=0)
-    if plan.src_nodata is not None:
-        mask[(data == plan.src_nodata).all(axis=0)] = 0
-    if plan.floating:
-        finite = np.isfinite(data)
-        mask[~finite.all(axis=0)] = 0
-        data = np.where(finite, data, 0)
-    return mask, data
+def _source_window(src, plan: Plan, win: Window):
+    """``(mask, data, interleaved)`` of a source window: the mask (:func:`~fotogeo.io.warp_source.validity`, None
+    when all valid) and the pixels, a view of the whole source when it is in memory (then ``(h, w, bands)`` for
+    2-4 bands, ``interleaved`` True), else read (``(bands, h, w)``)."""
+    rows, cols = slice(win.row_off, win.row_off + win.height), slice(win.col_off, win.col_off + win.width)
+    if plan.pixels is not None:
+        mask = None if plan.pixel_mask is None else plan.pixel_mask[rows, cols]
+        if plan.pixels.ndim == 3 and plan.pixels.shape[0] == 1 and plan.count == 1:
+            return mask, plan.pixels[:, rows, cols], False
+        return mask, plan.pixels[rows, cols], True
+    data = src.read(window=win)
+    mask = None if plan.all_valid else src.read_masks(window=win).max(axis=0)
+    return (*validity(mask, data, plan), False)
 
 
-def _nearest_maps(sp, plan: Plan, h: int, w: int):
-    """Source window and OpenCV maps holding the exact integer source pixels (GDAL's rule, see
-    :func:`nearest_source_pixels`): ``CV_16SC2`` maps (no rounding left to OpenCV) when the window
-    fits in int16, else integer-valued float32 maps (exact below 2²⁴); and whether every position is inside
-    the source (then the mask's remap is skipped where the window's mask is all valid). None when nothing is
+def _nearest_maps(x, y, plan: Plan, h: int, w: int):
+    """Source window and OpenCV maps holding the exact integer source pixels of the positions ``x``, ``y``
+    (``(h, w)`` each; GDAL's rule, see :func:`nearest_source_pixels`): ``CV_16SC2`` maps (no rounding left to OpenCV)
+    when the window fits in int16, else integer-valued float32 maps (exact below 2²⁴); and whether every position is
+    inside the source (then the mask's remap is skipped where the window's mask is all valid). None when nothing is
     inside."""
-    col, row, inside = nearest_source_pixels(sp, plan.src_width, plan.src_height)
+    col, row, inside = nearest_pixels_xy(x.ravel(), y.ravel(), plan.src_width, plan.src_height)
     if not inside.any():
         return None
     # (numpy's masked reductions and copies are slow: np.where with a sentinel instead)
@@ -167,23 +166,23 @@ def _nearest_maps(sp, plan: Plan, h: int, w: int):
     return win, lc.astype(np.float32).reshape(h, w), lr.astype(np.float32).reshape(h, w), within
 
 
-def _interpolation_maps(sp, plan: Plan, h: int, w: int):
-    """Source window (positions plus the kernel's margin) and OpenCV maps (centre convention, computed in
-    float64, rounded to float32 in the same pass) for bilinear and cubic: converted once to OpenCV's fixed-point
-    maps (``convertMaps``, the rounding ``remap`` applies to float maps itself) when the window fits in int16,
-    so that the mask's and the bands' ``remap`` share them; and whether every position's kernel lies in the window
-    (then the mask's remap, all 255, is skipped where the window's mask is all valid). None when nothing is
-    inside."""
+def _interpolation_maps(x, y, plan: Plan, h: int, w: int):
+    """Source window (the positions ``x``, ``y`` (``(h, w)`` each) plus the kernel's margin) and OpenCV maps (centre
+    convention, computed in float64 and rounded to float32 in the same pass) for bilinear and cubic: converted once
+    to OpenCV's fixed-point maps (``convertMaps``, the rounding ``remap`` applies to float maps itself) when the
+    window fits in int16, so that the mask's and the bands' ``remap`` share them; and whether every position's
+    kernel lies in the window (then the mask's remap, all 255, is skipped where the window's mask is all valid).
+    None when nothing is inside."""
     margin = _MARGIN[plan.resampling]
-    # (min(axis=0) is slow); a NaN or an infinity anywhere makes one of them non-finite
-    x_lo, x_hi, y_lo, y_hi = sp[:, 0].min(), sp[:, 0].max(), sp[:, 1].min(), sp[:, 1].max()
+    # a NaN or an infinity anywhere makes one of them non-finite
+    x_lo, x_hi, y_lo, y_hi = x.min(), x.max(), y.min(), y.max()
     everywhere = bool(np.isfinite((x_lo, x_hi, y_lo, y_hi)).all())
     if not everywhere:
-        finite = np.isfinite(sp)
-        cr = sp[finite.all(axis=1)]
-        if not len(cr):
+        fx, fy = np.isfinite(x), np.isfinite(y)
+        both = fx & fy
+        if not both.any():
             return None
-        x_lo, x_hi, y_lo, y_hi = cr[:, 0].min(), cr[:, 0].max(), cr[:, 1].min(), cr[:, 1].max()
+        x_lo, x_hi, y_lo, y_hi = x[both].min(), x[both].max(), y[both].min(), y[both].max()
     c_lo = max(0, int(math.floor(x_lo)) - margin)
     c_hi = min(plan.src_width, int(math.ceil(x_hi)) + margin)
     r_lo = max(0, int(math.floor(y_lo)) - margin)
@@ -191,18 +190,30 @@ def _interpolation_maps(sp, plan: Plan, h: int, w: int):
     if c_hi <= c_lo or r_hi <= r_lo:
         return None
     if not everywhere:
-        sp = np.where(finite, sp, -1e6)
-    # centre convention (OpenCV) in the window: x - (0.5 + c_lo), exact in float64; rows of interleaved (x, y)
-    # (numpy's broadcasting over a last axis of 2, or a cast into its output, is several times slower)
-    xy = (sp.reshape(h, 2 * w) - np.tile((HALF + c_lo, HALF + r_lo), w)).astype(np.float32).reshape(h, w, 2)
+        x, y = np.where(fx, x, -1e6), np.where(fy, y, -1e6)
+    # centre convention (OpenCV) in the window: x - (0.5 + c_lo), exact in float64, cast to float32 on output
+    mx, my = np.empty((h, w), np.float32), np.empty((h, w), np.float32)
+    np.subtract(x, HALF + c_lo, out=mx, casting="unsafe")
+    np.subtract(y, HALF + r_lo, out=my, casting="unsafe")
     win = Window(c_lo, r_lo, c_hi - c_lo, r_hi - r_lo)
     # the mask's bilinear neighbours of every position in the window: x - c_lo - 0.5 in [0, width - 2] (the
     # float32 maps and OpenCV's 1/32-px fixed point round monotonically, so they stay in it); NaN ones are not
     within = everywhere and x_lo - HALF - c_lo >= 0 and x_hi - HALF - c_lo <= c_hi - c_lo - 2 \
         and y_lo - HALF - r_lo >= 0 and y_hi - HALF - r_lo <= r_hi - r_lo - 2
     if max(c_hi - c_lo, r_hi - r_lo) <= _INT16_MAX:
-        return (win, *cv2.convertMaps(xy, None, cv2.CV_16SC2), within)
-    return win, xy, None, within
+        return (win, *cv2.convertMaps(mx, my, cv2.CV_16SC2), within)
+    return win, mx, my, within
+
+
+def _positions(plan: Plan, r0: int, c0: int, h: int, w: int):
+    """Source positions ``(x, y)`` (``(h, w)`` each, corner convention) of the window's cell centres: the mapping's
+    ``grid`` (``(2, h, w)`` planes or ``(h·w, 2)`` rows) if it has one, else the mapping of the centres."""
+    grid = getattr(plan.inverse_map, "grid", None)  # the window's rows and columns, for separable work
+    sp = np.asarray(grid(plan.transform, r0, c0, h, w) if grid is not None else
+                    plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
+    if sp.ndim == 3:
+        return sp[0], sp[1]
+    return sp[:, 0].reshape(h, w), sp[:, 1].reshape(h, w)
 
 
 def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
@@ -212,19 +223,17 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     Nearest neighbour takes, for each output centre, the source pixel GDAL's warper takes
     (:func:`nearest_source_pixels`), so with :class:`GeotransformInverse` the pixels equal
     ``gdalwarp -r near -et 0``'s, exact half-pixel ties included."""
-    grid = getattr(plan.inverse_map, "grid", None)  # the window's rows and columns, for separable work
-    sp = np.asarray(grid(plan.transform, r0, c0, h, w) if grid is not None else
-                    plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
     out = np.full((plan.count, h, w), plan.nodata, dtype=plan.dtype)
     nearest = plan.resampling == "nearest"
-    located = (_nearest_maps if nearest else _interpolation_maps)(sp, plan, h, w)
+    located = (_nearest_maps if nearest else _interpolation_maps)(*_positions(plan, r0, c0, h, w), plan, h, w)
     if located is None:
         return out, 0, 0
     win, map1, map2, within = located
-    mask, data = _source_mask(src, plan, win, src.read(window=win))
-    if within and mask.min() == 255:  # the mask's remap would be all 255
+    mask, data, interleaved = _source_window(src, plan, win)
+    if within and (mask is None or mask.min() == 255):  # the mask's remap would be all 255
         good = None
     else:
+        mask = np.full((win.height, win.width), 255, np.uint8) if mask is None else mask
         m = cv2.remap(mask, map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
                       borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         good = m > 0 if nearest else m >= 255
@@ -232,8 +241,8 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     work_dtype = plan.dtype if plan.dtype in _CV_DTYPES else "float64"
     per_band = nearest and plan.band_nodata is not None and plan.band_nodata != plan.nodata
     if 1 < plan.count <= 4 and work_dtype == plan.dtype:  # one call for all bands: OpenCV's per-channel
-        stacked = cv2.remap(np.ascontiguousarray(np.moveaxis(data, 0, -1)), map1, map2, interp,  # arithmetic is
-                            borderMode=cv2.BORDER_REPLICATE)                                   # the same
+        stacked = cv2.remap(data if interleaved else np.ascontiguousarray(np.moveaxis(data, 0, -1)),  # arithmetic
+                            map1, map2, interp, borderMode=cv2.BORDER_REPLICATE)                   # is the same
         bands = [stacked[..., b] for b in range(plan.count)]
     else:
         bands = [cv2.remap(data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype), map1, map2, interp,
@@ -257,27 +266,11 @@ def windows_of(height: int, width: int, block: int, r_off: int = 0, c_off: int =
             for r in range(r_off, r_off + rows, block) for c in range(c_off, c_off + cols, block)]
 
 
-@contextlib.contextmanager
-def _source_handles(path, n: int):
-    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared)."""
-    handles = queue.Queue()
-    opened = []
-    try:
-        for _ in range(n):
-            cm = ropen(path)
-            opened.append(cm)
-            handles.put(cm.__enter__())
-        yield handles
-    finally:
-        for cm in opened:
-            cm.__exit__(None, None, None)
-
-
 def resampled_windows(src_path, plan: Plan, windows, threads: int):
     """Yield ``(window, (array, valid, collisions))`` for each of ``windows`` in order, computed by
     ``threads`` threads with at most two windows per thread in flight (memory stays bounded)."""
     threads = max(1, min(int(threads), len(windows) or 1))
-    with _source_handles(src_path, threads) as handles:
+    with source_handles(src_path, threads) as handles:
         def job(win):
             src = handles.get()
             try:
@@ -289,28 +282,8 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
             for win in windows:
                 yield win, job(win)
             return
-        yield from in_order(job, windows, threads, "fotogeo-warp")
-
-
-def in_order(job, items, threads: int, name: str):
-    """Yield ``(item, job(item))`` for each of ``items`` in order, ``job`` run by ``threads`` threads
-    with at most two items per thread in flight (memory stays bounded). Leaving early (an error, a
-    cancel, a closed generator) cancels what has not started and waits for what has."""
-    pool = cf.ThreadPoolExecutor(max(1, threads), thread_name_prefix=name)
-    try:
-        pending, todo = collections.deque(), iter(items)
-        for item in todo:
-            pending.append((item, pool.submit(job, item)))
-            if len(pending) >= 2 * max(1, threads):
-                break
-        while pending:
-            item, fut = pending.popleft()
-            nxt = next(todo, None)
-            if nxt is not None:
-                pending.append((nxt, pool.submit(job, nxt)))
-            yield item, fut.result()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        with opencv_threads(1):
+            yield from in_order(job, windows, threads, "fotogeo-warp")
 
 
 def write_env(threads: int, zlevel: int | None = None):
@@ -343,13 +316,13 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     windows = windows_of(height, width, block)
     with write_env(threads), ropen(src_path) as src:
         plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
+        whole = whole_source(src, plan)
+        if whole is not None:
+            plan = dataclasses.replace(plan, pixels=whole[0], pixel_mask=whole[1])
         colorinterp = src.colorinterp
     summary = write_windows(src_path, dst_path, plan, windows, crs=crs, width=width, height=height, threads=threads,
                             colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0,
-                            zlevel=zlevel)
-    if overviews:
-        with write_env(threads, zlevel), ropen(dst_path, "r+") as dst:
-            add_overviews(dst, width, height, resampling)
+                            zlevel=zlevel, overviews=overviews)
     progress(1.0, "resampled")
     if summary["nodata_collisions"] and np.dtype(plan.dtype).kind == "i":
         warnings.warn(f"{summary['nodata_collisions']} valid pixels of {src_path} equal the output nodata value "
@@ -359,9 +332,12 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
 
 
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
-                  progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None) -> dict:
+                  progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None,
+                  overviews: bool = False) -> dict:
     """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height``
-    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`."""
+    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`. ``overviews``
+    (:func:`add_overviews`) are built before the file is closed, from the tiles GDAL still holds in its cache (the
+    same values as from the file reopened, without decompressing what was just compressed)."""
     progress = progress or Progress()
     r_off, c_off = offset
     profile = geotiff_profile(width=width, height=height, count=plan.count, dtype=plan.dtype,
@@ -382,12 +358,15 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
             valid += n_valid
             collisions += n_coll
             progress((k + 1) / len(windows) * share, f"resampling window {k + 1}/{len(windows)}")
+        if overviews:
+            with write_env(threads, zlevel):
+                add_overviews(dst, width, height, plan.resampling)
     nd = plan.nodata
     return {"valid_pixels": valid, "nodata": None if nd != nd else nd, "nodata_collisions": collisions}
 
 
 def add_overviews(dst, width: int, height: int, resampling: str) -> None:
-    """Internal overviews of an open (``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
+    """Internal overviews of an open (``w`` or ``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
     pixels on its short side; nearest for nearest-neighbour outputs, else average."""
     factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= 128]
     if factors:

@@ -97,9 +97,14 @@ def nearest_source_pixels(sp, width: int, height: int):
     >>> col.tolist(), row.tolist(), inside.tolist()
     ([2, 2, 1, -1, -1, -1], [0, 0, 2, -1, -1, -1], [True, True, True, False, False, False])
     """
-    x, y = sp[:, 0] + GDAL_EDGE_EPSILON, sp[:, 1] + GDAL_EDGE_EPSILON  # contiguous copies, floored in place
+    return nearest_pixels_xy(sp[:, 0], sp[:, 1], width, height)
+
+
+def nearest_pixels_xy(px, py, width: int, height: int):
+    """:func:`nearest_source_pixels` of the positions' columns ``px`` and rows ``py`` (``(N,)`` each)."""
+    x, y = px + GDAL_EDGE_EPSILON, py + GDAL_EDGE_EPSILON  # contiguous copies, floored in place
     with np.errstate(invalid="ignore"):
-        inside = (sp[:, 0] >= 0) & (sp[:, 1] >= 0) & (x <= width) & (y <= height)
+        inside = (px >= 0) & (py >= 0) & (x <= width) & (y <= height)
         col = np.where(inside, np.minimum(np.floor(x, out=x), width - 1.0, out=x), -1.0).astype(np.int32)
         row = np.where(inside, np.minimum(np.floor(y, out=y), height - 1.0, out=y), -1.0).astype(np.int32)
     return col, row, inside

@@ -14,6 +14,47 @@ from ..geometry.dem import is_height_source
 from ..pixels import as_points
 from . import bundle_jacobian as bj
 
+#: rows of a grid window computed together by :meth:`AdjustedFrame.forward_grid` (their temporaries fit in cache)
+_ROWS = 32
+
+
+def _pixels(c, interior, scale, col, row) -> None:
+    """Pixels of the camera coordinates ``c`` (three arrays, overwritten) into ``col``, ``row``: pinhole, then Brown's
+    radial and decentring terms where they are not 0 (:meth:`AdjustedFrame.forward_grid`)."""
+    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:bj.N_PHYSICAL]
+    fx, fy = f * scale[0], f * scale[1]
+    behind = c[2] <= 0
+    u, v = np.divide(c[0], c[2], out=c[0]), np.divide(c[1], c[2], out=c[1])
+    if not (k1 or k2 or k3 or p1 or p2):  # pinhole: col = fx·u + ppx, row = fy·v + ppy
+        np.multiply(u, fx, out=col)
+        np.multiply(v, fy, out=row)
+    else:
+        uu, vv, uv = u * u, v * v, u * v
+        r2 = np.add(uu, vv, out=c[2])
+        rho = r2 * k3
+        rho += k2
+        rho *= r2
+        rho += k1
+        rho *= r2
+        rho += 1.0
+        np.multiply(u, rho, out=col)  # u' = u ρ + 2 p1 u v + p2 (r² + 2 u²)
+        np.multiply(v, rho, out=row)  # v' = v ρ + p1 (r² + 2 v²) + 2 p2 u v
+        for out, sq, twice, same in ((col, uu, p1, p2), (row, vv, p2, p1)):
+            if twice:
+                out += (2 * twice) * uv
+            if same:
+                sq *= 2.0
+                sq += r2
+                sq *= same
+                out += sq
+        col *= fx
+        row *= fy
+    col += ppx
+    row += ppy
+    if behind.any():
+        col[behind] = np.nan
+        row[behind] = np.nan
+
 
 class AdjustedFrame:
     """Ground ``(X, Y, Z)`` → pixel of one adjusted frame, distortion included (module docstring)."""
@@ -39,34 +80,33 @@ class AdjustedFrame:
         return px
 
     def forward_grid(self, X, Y, Z) -> np.ndarray:
-        """:meth:`forward` of the grid points ``(X[col], Y[row], Z[row, col])`` (``Z`` ``(len(Y), len(X))``),
-        row by row ``(N, 2)``: the camera coordinates ``c_k = Σ M_ik (P_i − C_i)`` (``M`` = ``R·D``) are built
-        from one term per column, one per row and one per point; a camera without distortion skips Brown's
-        terms."""
+        """:meth:`forward` of the grid points ``(X[col], Y[row], Z[row, col])`` (``Z`` ``(len(Y), len(X))``) as two
+        planes ``(2, len(Y), len(X))``: column, row. The camera coordinates ``c_k = Σ M_ik (P_i − C_i)`` (``M`` =
+        ``R·D``) are built from one term per column, one per row and one per point, then ``u = c_0/c_2``,
+        ``v = c_1/c_2`` and Brown's terms (:func:`~fotogeo.orientation.bundle_jacobian.project_camera`: radial
+        ``ρ = 1 + k1 r² + k2 r⁴ + k3 r⁶``, decentring ``p1``, ``p2``), the same values to rounding; a block of rows
+        at a time, so that the temporaries stay in the processor's cache. Points behind the camera are NaN."""
         M, C = self.frame.eo.rotation_cv, self.frame.eo.centre
         dx, dy = np.asarray(X, float) - C[0], np.asarray(Y, float) - C[1]
         Z = np.asarray(Z, float)
-        c = []
-        for k in range(3):  # in place: c_k = M_2k·Z + (M_0k·dx − M_2k·Z0) per column + M_1k·dy per row
-            v = np.multiply(Z, M[2, k])
-            v += (dx * M[0, k] - C[2] * M[2, k])[None, :]
-            v += (dy * M[1, k])[:, None]
-            c.append(v)
-        behind = (c[2] <= 0).ravel()
-        with np.errstate(invalid="ignore", divide="ignore"):
-            if np.any(self.interior[3:]):
-                px = bj.project_camera(np.column_stack([v.ravel() for v in c]), self.interior, self.scale)
-            else:  # pinhole: col = f·sx·x/z + ppx, row = f·sy·y/z + ppy
-                f, ppx, ppy = self.interior[:3]
-                px = np.empty((c[0].size, 2))
-                for k, (s, pp) in enumerate(((f * self.scale[0], ppx), (f * self.scale[1], ppy))):
-                    np.divide(c[k], c[2], out=c[k])
-                    c[k] *= s
-                    c[k] += pp
-                    px[:, k] = c[k].ravel()
-        if behind.any():
-            px[behind] = np.nan
-        return px
+        if np.any(self.interior[bj.N_PHYSICAL:]):  # Ebner's additional parameters: the per-point model
+            XX, YY = np.meshgrid(np.asarray(X, float), np.asarray(Y, float))
+            px = self.forward(np.column_stack([XX.ravel(), YY.ravel(), Z.ravel()]))
+            return np.stack([px[:, 0].reshape(Z.shape), px[:, 1].reshape(Z.shape)])
+        col = [dx * M[0, k] - C[2] * M[2, k] for k in range(3)]  # c_k = M_2k·Z + (M_0k·dx − M_2k·Z0) + M_1k·dy
+        row = [(dy * M[1, k])[:, None] for k in range(3)]
+        out = np.empty((2, *Z.shape))
+        for r0 in range(0, Z.shape[0], _ROWS):
+            r1 = min(Z.shape[0], r0 + _ROWS)
+            c = []
+            for k in range(3):
+                v = np.multiply(Z[r0:r1], M[2, k])
+                v += col[k]
+                v += row[k][r0:r1]
+                c.append(v)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                _pixels(c, self.interior, self.scale, out[0, r0:r1], out[1, r0:r1])
+        return out
 
     def inverse(self, pixel, heights=None, **_) -> np.ndarray:
         rays = bj.undistort_rays(as_points(pixel, 2, "pixels"), self.interior, self.scale)

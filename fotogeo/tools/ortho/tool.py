@@ -84,7 +84,8 @@ class OrthoMapping:
         """The same positions for the ``h x w`` cell centres of a window of a north-up ``transform``
         (:func:`fotogeo.io.warp.warp_to_grid`): the DEM sampled once per row and column
         (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`); the frame's camera coordinates likewise
-        (``forward_grid``), any other model on a checked lattice
+        (``forward_grid``: two planes ``(2, h, w)``, column and row), any other model (rows ``(h·w, 2)``) on a
+        checked lattice
         (:func:`~fotogeo.geometry.lattice.ground_to_image_on_lattice`: within 0.001 px of the exact positions)."""
         t = transform
         X = t.c + (c0 + HALF + np.arange(w)) * t.a

@@ -1,0 +1,98 @@
+"""The fast paths of orthorectification give the values of the plain ones: a frame's positions on a window's grid
+(two planes, Brown's terms a block of rows at a time) equal its per-point model; a source read whole into memory
+gives the windowed reads' pixels; overviews built before the file is closed equal those built on the reopened file."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+
+import fotogeo.io.warp_source as warp_source
+from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera
+from fotogeo.io.warp import add_overviews
+from fotogeo.orientation.adjusted_frame import AdjustedFrame
+from test_warp_parallel import _read, _source, _warp
+
+BROWN = {"k1": -0.21, "k2": 0.09, "k3": -0.012, "p1": 0.0017, "p2": -0.0023}
+
+
+def _frame(distortion):
+    camera = FrameCamera(focal_length=8.8, sensor_size=(13.2, 8.8), image_size=(5472, 3648))
+    eo = ExteriorOrientation(500100.0, 4200050.0, 260.0, 4.0, -7.0, 33.0)
+    return AdjustedFrame(camera, eo, distortion)
+
+
+@pytest.mark.parametrize("distortion", [{}, BROWN, {"k1": -0.05}, {"p2": 0.004}, {**BROWN, "b3": 1e-5}],
+                         ids=["pinhole", "brown", "k1", "p2", "ebner"])
+def test_grid_positions_equal_the_per_point_model(distortion):
+    m = _frame(distortion)
+    rng = np.random.default_rng(3)
+    X = 500100.0 - 90 + 0.25 * np.arange(700)  # 700 x 75 cells: several row blocks and a partial one
+    Y = 4200050.0 + 10 - 0.4 * np.arange(75)
+    Z = 150 + 30 * rng.random((75, 700))
+    Z[5, 7] = 900.0  # above the camera: behind it
+    g = m.forward_grid(X, Y, Z)
+    XX, YY = np.meshgrid(X, Y)
+    ref = m.forward(np.column_stack([XX.ravel(), YY.ravel(), Z.ravel()]))
+    assert g.shape == (2, 75, 700)
+    assert np.isnan(g[:, 5, 7]).all() and np.isnan(ref[5 * 700 + 7]).all()
+    ok = np.isfinite(ref[:, 0])
+    assert ok.sum() == ref.shape[0] - 1
+    np.testing.assert_allclose(g.reshape(2, -1).T[ok], ref[ok], rtol=0, atol=1e-9)
+    assert np.ptp(ref[ok, 0]) > 1000  # the window spans much of the frame, where the distortion is large
+
+
+@pytest.mark.parametrize("dtype,bands,nodata,holes", [("uint8", 3, None, False), ("uint8", 3, 0, True),
+                                                       ("int16", 1, -9, True), ("float32", 2, None, True),
+                                                       ("uint16", 4, None, False)])
+@pytest.mark.parametrize("resampling", ["nearest", "bilinear", "cubic"])
+def test_whole_source_in_memory_gives_the_windowed_pixels(tmp_path, monkeypatch, dtype, bands, nodata, holes,
+                                                          resampling):
+    src = tmp_path / "s.tif"
+    _source(src, dtype, bands=bands, nodata=nodata, holes=holes)
+    read = []
+    real = warp_source.whole_source
+
+    def spy(*a, **k):
+        r = real(*a, **k)
+        read.append(r is not None)
+        return r
+
+    monkeypatch.setattr("fotogeo.io.warp.whole_source", spy)
+    whole = _warp(src, tmp_path / "whole.tif", 2, resampling, block=64)
+    monkeypatch.setattr("fotogeo.io.warp.whole_source", lambda *a, **k: None)
+    windowed = _warp(src, tmp_path / "windowed.tif", 2, resampling, block=64)
+    assert read == [True] and whole == windowed
+    a, b = _read(tmp_path / "whole.tif"), _read(tmp_path / "windowed.tif")
+    np.testing.assert_array_equal(a[0], b[0])
+    assert repr(a[1]) == repr(b[1]) and a[2] == b[2]
+
+
+def test_a_source_above_the_budget_is_read_window_by_window(tmp_path):
+    _source(tmp_path / "s.tif", "uint8", bands=3, size=(300, 260))
+    with rasterio.open(tmp_path / "s.tif") as src:
+        from fotogeo.io.warp import make_plan
+        plan = make_plan(src, lambda xy: xy, src.transform)
+        assert warp_source.whole_source(src, plan, budget=300 * 260 * 3 - 1) is None
+        pixels, mask = warp_source.whole_source(src, plan, budget=300 * 260 * 3)
+        assert pixels.shape == (300, 260, 3) and mask is None
+        np.testing.assert_array_equal(np.moveaxis(pixels, 2, 0), src.read())
+
+
+@pytest.mark.parametrize("resampling", ["nearest", "bilinear"])
+def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_path, resampling):
+    _source(tmp_path / "s.tif", "uint8", nodata=0, holes=True, size=(600, 520))
+    _warp(tmp_path / "s.tif", tmp_path / "open.tif", 2, resampling, block=64)
+    _warp(tmp_path / "s.tif", tmp_path / "later.tif", 2, resampling, block=64, overviews=False)
+    with rasterio.open(tmp_path / "later.tif", "r+") as ds:
+        add_overviews(ds, ds.width, ds.height, resampling)
+    with rasterio.open(tmp_path / "open.tif") as a, rasterio.open(tmp_path / "later.tif") as b:
+        assert a.overviews(1) == b.overviews(1) and len(a.overviews(1)) >= 1
+        for level in range(len(a.overviews(1))):
+            h, w = a.height // a.overviews(1)[level], a.width // a.overviews(1)[level]
+            np.testing.assert_array_equal(a.read(out_shape=(a.count, h, w)), b.read(out_shape=(b.count, h, w)))
+        np.testing.assert_array_equal(a.read(), b.read())
+
+
+def test_keep_freed_memory_is_a_process_setting_that_reports_itself():
+    assert warp_source.keep_freed_memory() is True  # glibc (Linux): mallopt accepts both values
