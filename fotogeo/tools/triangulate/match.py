@@ -154,32 +154,47 @@ def _detection_options(opts, info, level: int):
     return dataclasses.replace(opts, max_match_pixels=min(opts.max_match_pixels, target))
 
 
-def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None):
-    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers)``
+def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None, guide=None):
+    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers, height)``
     with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels as measured); the RANSAC sees them
     through :func:`ideal_pixels` of ``camera`` and ``distortion``. With a Dask ``client`` the pairs are its tasks
     (:func:`fotogeo.tools.triangulate.pairs.dask_pair_results`), else they run in this process.
-    The pairs are joined in pair order either way: the same tracks."""
+    The pairs are joined in pair order either way: the same tracks. ``guide`` ``(eos, height)``: pairs with few
+    inliers are matched on the ground plane too (:func:`fotogeo.tools.triangulate.guided.guided_results`; ``height``:
+    the terrain height it measured, else None)."""
     det = _detection_options(opts, infos[0], level)
     threshold = epipolar_px * 2 ** level
     if client is None:
-        found = _local_pair_results(infos, pairs, det, threshold, ideal_pixels(camera, distortion), prog)
+        found = _local_pair_results(infos, pairs, det, threshold, ideal_pixels(camera, distortion),
+                                    prog.stage(0.0, 0.6, "matching"))
     else:
         found = dask_pair_results(client, [info.path for info in infos], pairs, det, threshold, camera, distortion,
-                                  prog)
+                                  prog.stage(0.0, 0.6, "matching"))
+    found = list(found)
+    plain = [None if r is None else (r[0], len(r[1])) for r in found]
+    guided, measured = {}, None
+    if guide is not None:
+        from .guided import guided_results
+        found, tried, measured = guided_results(infos, pairs, found, camera, distortion, *guide, det, threshold,
+                                                ideal_pixels(camera, distortion),
+                                                max(det.max_match_pixels, min(infos[0].width * infos[0].height, 10 ** 6)),
+                                                prog.stage(0.6, 1.0, "matching on the ground plane"))
+        guided = {tuple(g.pop("pair")): g for g in tried}
     uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
-    for (i, j), result in zip(pairs, found):
+    for (i, j), result, first in zip(pairs, found, plain):
+        row = {"pair": [i, j], "matches": 0 if first is None else first[0], "inliers": 0 if first is None else first[1]}
+        if (i, j) in guided:
+            row["guided"] = guided[(i, j)]
+        per_pair.append(row)
         if result is None:
-            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
             continue
         n_matches, xy_i, xy_j = result
-        per_pair.append({"pair": [i, j], "matches": n_matches, "inliers": int(len(xy_i))})
         inliers.append((i, j, xy_i, xy_j))
         for a, b in zip(xy_i, xy_j):
             na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
             pos[na], pos[nb] = a, b
             uf.union(na, nb)
-    return uf, pos, per_pair, inliers
+    return uf, pos, per_pair, inliers, measured
 
 
 def _local_pair_results(infos, pairs, det, threshold, ideal, prog):
@@ -295,7 +310,7 @@ def detection_level(camera) -> int:
 def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
                      options=None, distortion=None, start=None, client=None, scheduler=None, workers=None,
-                     advice: str = "check the approximate orientation", progress=None):
+                     advice: str = "check the approximate orientation", guided: bool = True, progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
     block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
@@ -308,18 +323,20 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints).
-    ``advice``: what to check, in the caller's words, when a frame overlaps no other."""
+    ``advice``: what to check, in the caller's words, when a frame overlaps no other. ``guided``: pairs with few
+    inliers are matched again on the ground plane (:mod:`fotogeo.tools.triangulate.guided`)."""
     with dask_client(client, scheduler, workers) as client:
         return _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window,
-                                 options, distortion, start, client, progress, advice)
+                                 options, distortion, start, client, progress, advice, guided)
 
 
 def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window, options,
-                      distortion, start, client, progress, advice="check the approximate orientation"):
+                      distortion, start, client, progress, advice="check the approximate orientation", guided=True):
     """:func:`block_tie_points` on the Dask ``client`` (None: in this process)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     level = detection_level(camera) if level is None else int(level)
+    given = height is not None
     if height is None:
         from .start import provisional_height
         height = provisional_height(eos, camera)
@@ -330,14 +347,25 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
                             f"with the approximate orientation (footprints at height {height:.1f}); {advice}, or "
                             f"remove them")
     infos = [open_raster(f, "frame") for f in frames]
-    uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
-                                               prog.stage(0.0, 0.7, "matching"), camera, distortion, client)
+    guided = guided and not getattr(start, "estimates_kappa", False)  # the ground plane needs the attitude
+
+    def matched(pairs, height):
+        return _pair_matches(infos, pairs, opts, level, epipolar_px, prog.stage(0.0, 0.7, "matching"), camera,
+                             distortion, client, guide=(eos, height) if guided else None)
+    uf, pos, per_pair, inliers, measured = matched(pairs, height)
+    if measured is not None and not given:  # the ground plane's height measured on the frames: the pairs at it
+        more = overlapping_pairs(camera, eos, measured, round_footprints=start is not None)
+        if set(more) - set(pairs):
+            pairs = sorted(set(pairs) | set(more))
+            uf, pos, per_pair, inliers, measured = matched(pairs, measured)
     frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
     report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
               "dropped_inconsistent_tracks": dropped}
+    if measured is not None and not given:
+        height = report["ground_plane_height"] = measured
     if start is not None:
         eos, new_height, report["start"] = start(eos, inliers)
-        height = height if new_height is None else new_height
+        height = height if new_height is None or (measured is not None and not given) else new_height
         report["start"].update(eos=tuple(eos), height=float(height))
     if per_region is not None and len(track):
         rays = np.bincount(track)[track].astype(float)
