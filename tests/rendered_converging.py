@@ -137,10 +137,12 @@ def write_jpeg(path: Path, img, tags: dict, xmp: str) -> Path:
 
 
 def converging_block(folder, *, off_nadir: float = 30.0, size=(600, 400), kind: str = "fractal", seed: int = 0,
-                     relief: float = 3.0, resize: int = 0, gps_sigma: float = 0.02, attitude_sigma: float = 3.0):
+                     relief: float = 3.0, resize: int = 0, gps_sigma: float = 0.02, attitude_sigma: float = 3.0,
+                     unrelated: str | None = None):
     """Render and write the four frames (module docstring) in ``folder``; with ``resize`` > 1 also their copies
     downsampled by that factor (EXIF/XMP kept: ``PixelXDimension`` and ``DewarpData`` at full size) in
-    ``folder/resized``. Returns ``{"full": paths, "resized": paths, "truth": {name: EO}, "names", "camera"}``."""
+    ``folder/resized``. ``unrelated``: the view (``"E"``…) whose pixels are replaced by grey noise (a frame over
+    ground no other frame shows: nothing to tie). Returns ``{"full": paths, "resized": paths, "truth": {name: EO}, "names", "camera"}``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -164,6 +166,8 @@ def converging_block(folder, *, off_nadir: float = 30.0, size=(600, 400), kind: 
     images = render_views(cam, [truth[n] for n, *_ in sh], dem, tex, tex_t, (k1, k2, k3, p1, p2), rng)
     full, small = [], []
     for (name, centre, ypr), img in zip(sh, images):
+        if unrelated and name.endswith(f"_{unrelated}"):
+            img = np.clip(rng.normal(128, 40, img.shape), 1, 255).astype(np.uint8)
         gps = centre + rng.normal(0, gps_sigma, 3)
         att = np.asarray(ypr) + rng.normal(0, attitude_sigma, 3)
         path = write_jpeg(folder / f"{name}.JPG", img, *_tags(cam, size, gps, att, gps_sigma))

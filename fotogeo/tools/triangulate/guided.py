@@ -199,7 +199,7 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
     ``guided`` one dict per pair tried (``{"pair", "matches", "inliers", "used", "height_m"}``); ``height``
     the median of the pairs' measured heights (None when none measured one). Pairs tried: fewer than
     :data:`GUIDED_BELOW` plain inliers or optical axes more than :data:`CONVERGING_DEG` apart; first on the plane
-    ``height`` (:func:`measured_pair`), then those
+    of the median height the pairs before measured (``height`` until one did) (:func:`measured_pair`), then those
     still short of it once more on the plane of the measured height."""
     prog = as_progress(progress)
     found, rows = list(found), {}
@@ -207,13 +207,15 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
             or axes_angle(eos[pairs[k][0]], eos[pairs[k][1]]) > CONVERGING_DEG]
     frames = _Frames(infos)
     dist = _distortion_terms(distortion)
+    heights = []
     for n, k in enumerate(todo):
         i, j = pairs[k]
         prog(n / max(len(todo), 1) / 2, f"matching pair {k + 1} on the ground plane")
-        got, z = _safe(measured_pair, frames.pair(i, j), camera, dist, (eos[i], eos[j]), height, opts, threshold,
+        plane = float(np.median(heights)) if heights else height  # the height measured so far
+        got, z = _safe(measured_pair, frames.pair(i, j), camera, dist, (eos[i], eos[j]), plane, opts, threshold,
                        ideal, max_pixels)
         rows[k] = _take(found, k, got, pairs[k], z)
-    heights = [r["height_m"] for r in rows.values() if r["height_m"] is not None]
+        heights += [] if z is None else [z]
     measured = float(np.median(heights)) if heights else None
     if measured is not None and abs(measured - height) > 1e-3:
         again = [k for k in todo if rows[k]["height_m"] is None]
