@@ -5,7 +5,7 @@ Converging obliques — a camera 30–45° off nadir looking east, south, west a
 same ground turned by up to 180°, scaled by up to 2–3× and sheared: a detector's rotation and scale invariance
 covers the first two only in part, and the descriptors of one patch seen from two sides differ too much for the
 ratio test. Guided matching removes the viewpoint with the approximate orientation before matching, as
-orthorectification does (a "ground-plane rectification"; Yang et al. 2013 match rectified obliques the same way):
+orthorectification does (each frame resampled onto one ground plane):
 
 * the **window**: each frame's pixels (a grid of samples) projected onto the plane ``Z = h0`` (the block's
   terrain height) through its approximate orientation, rays reaching farther than :data:`REACH` × the
@@ -14,7 +14,8 @@ orthorectification does (a "ground-plane rectification"; Yang et al. 2013 match 
   sample ``(Z0 − h0) / f``;
 * each frame **resampled onto that grid**: a cell centre ``(X, Y, h0)`` goes through the camera (distortion
   included, :func:`fotogeo.orientation.bundle_jacobian.project_camera`) to its pixel, the frame is sampled
-  there (bilinear; ``cv2.remap``); cells whose ray misses the frame are invalid. Over flat ground the two
+  there (bilinear; ``cv2.remap``; a frame finer than the grid by ``s`` frame pixels per cell is low-passed first,
+  Gaussian σ = ``0.5·sqrt(s² − 1)``); cells whose ray misses the frame are invalid. Over flat ground the two
   resampled images differ by a translation of the orientation error and the relief parallax only;
 * **detection and matching** as for every pair (the options' detector, ratio test and mutual check:
   :func:`fotogeo.features.detect.detect`, :func:`fotogeo.features.match.match_descriptors`);
@@ -25,9 +26,16 @@ orthorectification does (a "ground-plane rectification"; Yang et al. 2013 match 
 
 :func:`guided_results` runs it for the pairs whose plain matching kept fewer than :data:`GUIDED_BELOW`
 inliers, or whose optical axes differ by more than :data:`CONVERGING_DEG` (converging views: the plain matches
-there are fewer and more of them wrong), and keeps, per pair, whichever kept more inliers. The grid has at most
-``max_pixels`` cells, at least a frame's (up to 1 Mpx): a frame reduced to a pyramid level is detected there, the
-ground-plane images are new images.
+there are fewer and more of them wrong), and keeps, per pair, whichever kept more inliers. The caller's
+``max_pixels`` bounds the grid (``fotogeo triangulate``: the larger of the pyramid level's budget and a frame's
+pixels up to 1 Mpx).
+
+**The plane's height.** With a DEM or control the caller gives it; otherwise the first pairs start on the
+provisional height of the pair selection (:func:`fotogeo.tools.triangulate.start.provisional_height`, often tens of
+metres off for a drone) and each pair's inliers measure it: the median height of the midpoints of their rays'
+shortest segments (:func:`ray_heights`) through the approximate orientations; a pair whose inliers put the plane
+more than a tenth of the camera height away is matched once more on the measured plane, and the next pairs start
+on the median of the heights measured so far (:func:`measured_pair`).
 """
 from __future__ import annotations
 
@@ -107,6 +115,10 @@ def resampled(image, camera, distortion, eo, height: float, window):
     inside = np.isfinite(px).all(axis=1) & (px[:, 0] >= 0) & (px[:, 0] <= w) & (px[:, 1] >= 0) & (px[:, 1] <= h)
     m = np.where(inside[:, None], px - 0.5, -10.0).astype(np.float32)  # cv2: pixel centres at integers
     src = np.nan_to_num(image, nan=0.0).astype(np.float32)
+    step = np.hypot(*np.diff(px.reshape(rows, cols, 2), axis=1).reshape(-1, 2).T)  # frame pixels per cell
+    step = float(np.nanmedian(step)) if np.isfinite(step).any() else 1.0
+    if step > 1.2:  # a frame finer than the grid: low-passed first (no aliasing)
+        src = cv2.GaussianBlur(src, (0, 0), 0.5 * math.sqrt(step * step - 1.0))
     out = cv2.remap(src, m[:, 0].reshape(rows, cols), m[:, 1].reshape(rows, cols), cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     valid = inside.reshape(rows, cols)
