@@ -15,19 +15,16 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   included: a fundamental matrix holds for a pinhole camera only, but removing the distortion first
   (``distortion=``, :func:`ideal_pixels`: the ray of :func:`fotogeo.orientation.bundle_jacobian.undistort_rays`
   put back through the pinhole, ``x_ideal = f·scale·(u, v) + pp``) gained nothing measurable and is off in
-  the tool. Measured on the rendered oblique drone block (k1 −0.06, ~14 px at the corners;
-  ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
-  inliers on the true epipolar line (< 2 px) 5 530 → 5 536 and 6 338 → 6 345 (seeds 0, 1) — at level 1
-  the 2 px threshold and the fundamental matrix's own freedom absorb this distortion; through the whole
-  tool (the gimbal case of ``tests/test_triangulate_oblique.py``) it changed which marginal frames keep
-  wrong ties: seed 0 lost DJI_401 (2.1 % coverage) and DJI_405 turned 20° from its gimbal prior, seed 2
-  DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
-  (:class:`fotogeo.tools.register.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
+  the tool (measured: docs/benchmarks/triangulation.md, "Distortion before the epipolar RANSAC"). Each frame is
+  read, fused and detected once (:class:`fotogeo.tools.register.match.FeatureCache`; a frame in a 60/30 block is in
+  6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images). For large
   blocks the pairs run as Dask tasks instead (``--scheduler`` / ``--workers``, as ``register-batch``;
   :mod:`fotogeo.tools.triangulate.pairs`): one detection task per frame, one matching task per pair,
   joined in pair order — the same tie points.
+* **Converging views** (obliques looking different ways): pairs whose optical axes differ by more than 20°, or
+  with few inliers, are matched on the ground plane too (:mod:`fotogeo.tools.triangulate.guided`).
 * **Tracks**: a keypoint is the same in every pair of its frame (the detector is deterministic),
   so matches are joined into multi-ray tracks by union–find on (frame, keypoint position); a
   track that holds two different keypoints of one frame is inconsistent and dropped.
@@ -183,8 +180,10 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
     uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
     for (i, j), result, first in zip(pairs, found, plain):
         row = {"pair": [i, j], "matches": 0 if first is None else first[0], "inliers": 0 if first is None else first[1]}
-        if (i, j) in guided:
-            row["guided"] = guided[(i, j)]
+        if (i, j) in guided:  # matches, inliers: those the pair's ties came from; both methods' counts beside
+            g = guided[(i, j)]
+            row = {**row, "plain": {"matches": row["matches"], "inliers": row["inliers"]}, "guided": g}
+            row.update({"matches": g["matches"], "inliers": g["inliers"]} if g["used"] else {})
         per_pair.append(row)
         if result is None:
             continue

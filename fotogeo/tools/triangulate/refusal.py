@@ -20,26 +20,18 @@ from ...errors import InputError, MatchingError, ModelError
 SHOWN = 6
 
 
-def _kept(row: dict) -> tuple[int, int]:
-    """``(matches, inliers)`` a pair's tie points came from: the ground plane's where it was used."""
-    g = row.get("guided") or {}
-    if g.get("used"):
-        return int(g["matches"]), int(g["inliers"])
-    return int(row["matches"]), int(row["inliers"])
-
-
 def pair_summary(matching: dict, names) -> str:
     """``"pairs tried (matches/inliers): A–B 89/65, C–D 54/40 plain, 124/120 on the ground plane, …"``: the
     :data:`SHOWN` pairs with the fewest inliers kept, and how many more there are."""
-    rows = sorted(matching.get("pairs") or [], key=lambda r: (_kept(r)[1], r["pair"]))
+    rows = sorted(matching.get("pairs") or [], key=lambda r: (r["inliers"], r["pair"]))
     if not rows:
         return "no pair of frames overlapped"
     parts = []
     for r in rows[:SHOWN]:
         a, b = (names[k] for k in r["pair"])
-        text = f"{a}–{b} {r['matches']}/{r['inliers']}"
-        if r.get("guided"):
-            g = r["guided"]
+        plain, g = r.get("plain", r), r.get("guided")
+        text = f"{a}–{b} {plain['matches']}/{plain['inliers']}"
+        if g:
             text += f" plain, {g['matches']}/{g['inliers']} on the ground plane"
         parts.append(text)
     more = f", {len(rows) - SHOWN} more" if len(rows) > SHOWN else ""
