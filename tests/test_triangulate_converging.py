@@ -27,6 +27,8 @@ from fotogeo.io.camera import read_exterior_orientation
 from rendered_converging import converging_block
 from rendered_oblique import angle_error
 
+pytestmark = pytest.mark.slow  # four 600 x 400 frames matched, six pairs twice, per run
+
 CENTRE_M, ANGLE_DEG = 0.10, 0.25
 
 
