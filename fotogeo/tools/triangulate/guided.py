@@ -49,10 +49,13 @@ from ...progress import as_progress
 from .pairs import epipolar_kept, grey
 
 #: pairs whose plain matching kept fewer epipolar inliers than this are matched on the ground plane too
-GUIDED_BELOW = 50
+GUIDED_BELOW = 12
 #: pairs whose optical axes differ by more than this (degrees) are matched on the ground plane whatever the plain
 #: matching found
 CONVERGING_DEG = 20.0
+#: each frame takes part in at most this many ground-plane pairs (those with the fewest plain inliers first):
+#: a frame tied to three partners on the ground plane is placed, and the cost stays linear in the frames
+GUIDED_PER_FRAME = 3
 #: rays meeting the plane farther than this many camera heights from the nadir point are left out
 REACH = 4.0
 #: samples across a frame (cols, rows) for its ground box
@@ -210,13 +213,13 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
     order) with the result of the ground-plane matching in place of a pair's where it kept more inliers;
     ``guided`` one dict per pair tried (``{"pair", "matches", "inliers", "used", "height_m"}``); ``height``
     the median of the pairs' measured heights (None when none measured one). Pairs tried: fewer than
-    :data:`GUIDED_BELOW` plain inliers or optical axes more than :data:`CONVERGING_DEG` apart; first on the plane
+    :data:`GUIDED_BELOW` plain inliers or optical axes more than :data:`CONVERGING_DEG` apart, each frame in at
+    most :data:`GUIDED_PER_FRAME` (:func:`_pairs_to_guide`); first on the plane
     of the median height the pairs before measured (``height`` until one did) (:func:`measured_pair`), then those
     still short of it once more on the plane of the measured height."""
     prog = as_progress(progress)
     found, rows = list(found), {}
-    todo = [k for k, r in enumerate(found) if r is None or len(r[1]) < GUIDED_BELOW
-            or axes_angle(eos[pairs[k][0]], eos[pairs[k][1]]) > CONVERGING_DEG]
+    todo = _pairs_to_guide(found, pairs, eos)
     frames = _Frames(infos)
     dist = _distortion_terms(distortion)
     heights = []
@@ -239,6 +242,23 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
             if got is not None and len(got[1]) > rows[k]["inliers"]:
                 rows[k] = _take(found, k, got, pairs[k], measured)
     return found, [rows[k] for k in todo], measured
+
+
+def _pairs_to_guide(found, pairs, eos) -> list:
+    """Indices of the pairs to match on the ground plane: fewer than :data:`GUIDED_BELOW` plain inliers or axes
+    more than :data:`CONVERGING_DEG` apart, the fewest plain inliers first, each frame in at most
+    :data:`GUIDED_PER_FRAME` of them; returned in pair order."""
+    def plain(k):
+        return 0 if found[k] is None else len(found[k][1])
+    wanted = [k for k in range(len(found)) if plain(k) < GUIDED_BELOW
+              or axes_angle(eos[pairs[k][0]], eos[pairs[k][1]]) > CONVERGING_DEG]
+    used, todo = {}, []
+    for k in sorted(wanted, key=plain):
+        i, j = pairs[k]
+        if used.get(i, 0) < GUIDED_PER_FRAME and used.get(j, 0) < GUIDED_PER_FRAME:
+            todo.append(k)
+            used[i], used[j] = used.get(i, 0) + 1, used.get(j, 0) + 1
+    return sorted(todo)
 
 
 def axes_angle(eo_i, eo_j) -> float:
