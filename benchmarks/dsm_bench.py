@@ -1,12 +1,14 @@
 """Surface models (``fotogeo dsm``) against truths and a peer.
 
-Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,ngi,ventoux] [--cars]
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,refine,ngi,ventoux] [--cars]
 
 * ``rendered`` — the three rendered blocks of ``tests/dsm_scenes.py`` (``nadir``: 2 x 4 frames 1000 m above
   ±40 m; ``oblique``: the DJI-like block, 30° off nadir, Brown distortion; ``held_out``: 3 x 3 frames with
   distortion, never used while tuning), no DEM given: RMSE, NMAD, median of DSM − truth at the cell centres,
   the share of valid cells within 1 and 2 GSD of the frames, the completeness the report states (cells with a
   height in the pairs' overlap), CPU and wall time of the call;
+* ``refine`` — ``nadir`` and ``held_out`` again with ``--refine`` (least-squares refinement of the disparities;
+  the oblique block left out for its run time);
 * ``ngi`` — frames 0182/0184 with their EO, without and with the 24 m DEM (``--dem`` bounds the search): DSM −
   DEM (bilinear, at the DSM cells) median and NMAD, completeness;
 * ``ventoux`` — the Pleiades pair with its RPCs (``--rpc``; OSSIM ``.geom`` beside the images), at 0.5 m, with
@@ -40,7 +42,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
-PREFIX = {"rendered": "rendered", "ngi": "NGI", "ventoux": "ventoux"}
+PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux"}
 NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
 
 
@@ -57,17 +59,17 @@ def _stats(d) -> dict:
     return {"median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "rmse": float(np.sqrt(np.mean(d ** 2)))}
 
 
-def rendered(tmp: Path) -> list:
+def rendered(tmp: Path, refine: bool = False) -> list:
     from dsm_scenes import compare, make_scene
 
     from fotogeo.tools.dsm import dsm
     rows = []
-    for kind in ("nadir", "oblique", "held_out"):
+    for kind in ("nadir", "held_out") if refine else ("nadir", "oblique", "held_out"):
         sc = make_scene(kind, tmp / kind)
         rep, cpu, wall, _ = _timed(dsm, sc["images"], tmp / f"{kind}.tif", camera=sc["camera"], eo=sc["eo"],
-                                   crs=sc["crs"])
+                                   crs=sc["crs"], refine=refine)
         c, g = compare(tmp / f"{kind}.tif", sc["surface"]), sc["gsd"]
-        rows.append({"case": f"rendered {kind}", "gsd_m": g, "resolution_m": rep["grid"]["resolution"],
+        rows.append({"case": f"refined {kind} (--refine)" if refine else f"rendered {kind}", "gsd_m": g, "resolution_m": rep["grid"]["resolution"],
                      "pairs": rep["pairs_kept"], "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / g, "nmad_m": c["nmad"],
                      "median_m": c["median"], "within_1gsd": float((c["abs"] <= g).mean()),
                      "within_2gsd": float((c["abs"] <= 2 * g).mean()), "completeness": rep["completeness"],
@@ -183,11 +185,12 @@ def main():
     with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
         tmp = Path(t)
         for case in args.cases.split(","):
-            if case != "rendered" and not DATA.is_dir():
+            if case not in ("rendered", "refine") and not DATA.is_dir():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
-            rows += {"rendered": lambda: rendered(tmp / case), "ngi": lambda: ngi(tmp / case),
+            rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
+                     "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))

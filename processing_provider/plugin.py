@@ -46,13 +46,21 @@ class FotogeoPlugin:
             self.iface.addToolBarIcon(self.picker_action)
 
     def open_picker(self):
-        """Show the GCP picker dock (created at the first call) on the right of the main window."""
+        """Show the GCP picker dock (created at the first call) on the right of the main window: as a tab beside
+        a dock already there (the Processing toolbox), so that it gets the area's full height, not half of it."""
         if self.picker is None:
-            from qgis.PyQt.QtCore import Qt
+            from qgis.PyQt.QtCore import Qt, QTimer
+            from qgis.PyQt.QtWidgets import QDockWidget
             from .picker.dock import PickerDock
-            self.picker = PickerDock(self.iface.mapCanvas(), self.iface.mainWindow(),
-                                     message_bar=self.iface.messageBar())
+            window = self.iface.mainWindow()
+            self.picker = PickerDock(self.iface.mapCanvas(), window, message_bar=self.iface.messageBar())
+            right = [d for d in window.findChildren(QDockWidget) if d.isVisible() and not d.isFloating()
+                     and window.dockWidgetArea(d) == Qt.DockWidgetArea.RightDockWidgetArea]
             self.iface.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.picker)
+            if right:  # the tallest: the toolbox rather than a viewer below it
+                window.tabifyDockWidget(max(right, key=lambda d: d.height()), self.picker)
+            # a dock below it (the Results Viewer) keeps what it needs, the picker gets the rest of the height
+            QTimer.singleShot(0, lambda: window.resizeDocks([self.picker], [window.height()], Qt.Orientation.Vertical))
         self.picker.show()
         self.picker.raise_()
         return self.picker

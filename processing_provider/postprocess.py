@@ -6,7 +6,9 @@ and labels each with its id and residual (px); ``styles/error_vectors.qml`` draw
 as arrows, coloured by ``role`` too, and :func:`show_legend` puts the layer's exaggeration
 sentence (its ``legend`` field) into the legend. ``styles/uncertainty.qml`` (rasters of a σ in metres,
 ``fotogeo ortho --uncertainty``) is a pseudocolour ramp (viridis) with a continuous legend labelled in
-metres; :func:`stretch_to_data` spreads it over the raster's own minimum … maximum.
+metres; :func:`stretch_to_data` spreads it over the raster's own minimum … maximum. ``styles/coreg_windows.qml``
+draws co-registration windows: a reliable one (status ``ok``) as a green dot with an arrowhead along its shift,
+any other as a small grey cross.
 They are set through :class:`QgsProcessingLayerPostProcessorInterface`, which QGIS runs in
 the main thread for every output layer loaded on completion.
 """
@@ -30,7 +32,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QTimer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
-STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints", "uncertainty")
+STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints", "uncertainty", "coreg_windows")
 
 
 def style_path(style: str) -> str:

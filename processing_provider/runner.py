@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import queue
+import re
 import signal
 import subprocess
 import tempfile
@@ -56,15 +57,22 @@ def _message(line: str):
     return message if isinstance(message, dict) else None
 
 
+#: a progress text that differs from the last logged one only in its numbers ("iteration 12, cost 4875.1") is
+#: logged again after this many seconds at the earliest: the log keeps the stages, not every iteration
+REPEAT_S = 15.0
+
+
 def _apply(message: dict, feedback, last: list, words=str):
-    """Progress and warnings (in the user's ``words``) to the feedback; returns the final message, or None."""
+    """Progress and warnings (in the user's ``words``) to the feedback; returns the final message, or None.
+    ``last``: ``[text, its numbers-free stem, when]`` of the last progress text logged."""
     kind = message.get("type")
     if kind == "progress":
         if feedback is not None:
             feedback.setProgress(100.0 * min(max(float(message.get("fraction", 0.0)), 0.0), 1.0))
             text = message.get("message") or ""
-            if text and text != last[0]:
-                last[0] = text
+            stem, now = re.sub(r"[-+.,e\d]*\d", "#", text), time.monotonic()
+            if text and text != last[0] and (stem != last[1] or now - last[2] >= REPEAT_S):
+                last[:] = [text, stem, now]
                 feedback.setProgressText(text)
         return None
     if kind == "warning":
@@ -130,7 +138,7 @@ def _follow(proc, feedback, words=str):
     """Read the worker's lines until its final message; SIGTERM it on cancel, kill it if it hangs."""
     lines: queue.Queue = queue.Queue()
     threading.Thread(target=_reader, args=(proc.stdout, lines), daemon=True).start()
-    last, final, cancelled_at = [None], None, None
+    last, final, cancelled_at = [None, None, 0.0], None, None
     while True:
         if cancelled_at is None and feedback is not None and feedback.isCanceled():
             cancelled_at = time.monotonic()

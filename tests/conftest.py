@@ -24,3 +24,4 @@ def data_dir() -> Path:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+

@@ -262,7 +262,10 @@ def delete_key(dock):
     stack.redo()
     redone = gcps(dock)
     stack.undo()
-    pump(0.3)
+    end = time.monotonic() + 60  # the table fills from the refit, which may not have started yet: wait for it
+    while time.monotonic() < end and t.rowCount() != len(gcps(dock)):
+        settle(dock)
+        pump(0.05)
     STATE["delete_key"] = {"before": before, "unselected": unselected, "last_two": last_two, "selected": selected, "deleted": deleted,
                            "steps": steps, "undo_text": text, "undone": undone, "redone": redone,
                            "table_ids": [t.item(r, 0).text() for r in range(t.rowCount())]}

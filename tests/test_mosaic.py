@@ -106,17 +106,41 @@ def test_dsm_keeps_seams_off_buildings(tmp_path):
     assert crossed == {"with": False, "without": True}
 
 
-def test_lattice_mismatch_refused(pair, tmp_path):
-    d = tmp_path
-    with rasterio.open(pair[1]) as ds:
-        prof, z = ds.profile, ds.read()
-    prof["transform"] = prof["transform"] * Affine.translation(0.5, 0)
-    with rasterio.open(d / "shifted.tif", "w", **prof) as ds:
-        ds.write(z)
-    out = d / "m.tif"
-    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(d / "shifted.tif"), "-o", str(out), "-q"])
-    assert_one_line_error(result, "is not on the pixel lattice")
-    assert not out.exists()
+def _ortho_on(path, x0, x1, pixel, shift, gain=1.0, offset=0.0, crs="EPSG:32635"):
+    """The scene's texture between ``x0`` and ``x1`` (m) on a grid of ``pixel`` metres whose origin is ``shift``
+    metres off the whole-metre lattice of :func:`_ortho` (as frames registered to neighbouring reference tiles)."""
+    w, h = int((x1 - x0) / pixel), int(200 / pixel)
+    t = Affine(pixel, 0, X0 + x0 + shift, 0, -pixel, Y1 - shift)
+    c, r = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    v = gain * texture(c * pixel + x0 + shift, r * pixel + shift) + offset
+    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8", crs=crs,
+                       transform=t, nodata=0) as ds:
+        ds.write(np.clip(np.rint(v), 1, 255).astype(np.uint8), 1)
+    return path
+
+
+def test_orthophotos_on_other_lattices_are_resampled_onto_the_finest(pair, tmp_path):
+    """A neighbour on a 1.25 m grid shifted 0.3 m (another reference tile's lattice) is resampled on the fly onto
+    the finest lattice (1 m, the first's): its part of the mosaic keeps its values (bilinear on a smooth texture)
+    and the run says which file was resampled."""
+    b = _ortho_on(tmp_path / "coarse.tif", 180, 480, 1.25, 0.3, GAIN, OFFSET)
+    rep = mosaic([str(pair[0]), str(b)], str(tmp_path / "m.tif"), balance=False)
+    assert rep["resampled_onto_lattice"] == ["coarse.tif"]
+    m, t = _read(tmp_path / "m.tif")
+    assert (t.a, t.e) == (1.0, -1.0) and ((t.c - X0) % 1.0, (t.f - Y1) % 1.0) == (0.0, 0.0)
+    c, r = np.meshgrid(np.arange(m.shape[1]) + 0.5, np.arange(m.shape[0]) + 0.5)
+    x, y = c + (t.c - X0), r + (Y1 - t.f)
+    only_b = (x > 340) & (x < 470) & (y > 5) & (y < 190)
+    err = np.abs(m - np.clip(np.rint(GAIN * texture(x, y) + OFFSET), 1, 255))[only_b]
+    assert np.median(err) <= 1.0 and np.percentile(err, 99) <= 4.0, (np.median(err), np.percentile(err, 99))
+
+
+def test_another_crs_is_refused(pair, tmp_path):
+    b = _ortho_on(tmp_path / "other.tif", 180, 480, 1.0, 0.0, crs="EPSG:32634")
+    out = tmp_path / "m.tif"
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(b), "-o", str(out), "-q"])
+    assert_one_line_error(result, "is in another CRS")
+    assert not out.exists() and not list(tmp_path.glob("m.*"))
 
 
 def test_ngi_frames_mosaic_on_the_orthophoto(data_dir, tmp_path):

@@ -144,21 +144,24 @@ provider = FotogeoProvider()
 QgsApplication.processingRegistry().addProvider(provider)
 from processing.gui.AlgorithmDialog import AlgorithmDialog
 project = QgsProject.instance()
-# as a user has them: the frame, the orthophoto, and the DEM added last (on top of the layer tree)
-for path, name in ((f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif", "frame 0182"),
-                   (f"{data}/ngi/ortho/ngi_rgb_byte_1.tif", "orthophoto"), (f"{data}/ngi/dem.tif", "dem")):
-    project.addMapLayer(QgsRasterLayer(path, name))
+layers = {"frame 0182": f"{data}/ngi/frames/3324c_2015_1004_05_0182_RGB.tif",
+          "orthophoto": f"{data}/ngi/ortho/ngi_rgb_byte_1.tif", "dem": f"{data}/ngi/dem.tif"}
 res = {}
-for alg_id, names in (("fotogeo:register", ("REFERENCE", "TARGET", "DEM")), ("fotogeo:coreg", ("REFERENCE", "TARGET"))):
-    alg = QgsApplication.processingRegistry().algorithmById(alg_id)
-    panel = AlgorithmDialog(alg.create(), False, None).mainWidget()
-    values = {}
-    for n in names:
-        w = panel.wrappers[n]
-        v = w.parameterValue() if hasattr(w, "parameterValue") else w.value()
-        layer = project.mapLayer(v) if isinstance(v, str) else v
-        values[n] = layer.name() if layer is not None else None
-    res[alg_id] = values
+# as users have them: the DEM added last (on top of the layer tree); the raw frame added last
+for order in (("frame 0182", "orthophoto", "dem"), ("orthophoto", "dem", "frame 0182")):
+    project.removeAllMapLayers()
+    for name in order:
+        project.addMapLayer(QgsRasterLayer(layers[name], name))
+    for alg_id, names in (("fotogeo:register", ("REFERENCE", "TARGET", "DEM")), ("fotogeo:coreg", ("REFERENCE", "TARGET"))):
+        alg = QgsApplication.processingRegistry().algorithmById(alg_id)
+        panel = AlgorithmDialog(alg.create(), False, None).mainWidget()
+        values = {}
+        for n in names:
+            w = panel.wrappers[n]
+            v = w.parameterValue() if hasattr(w, "parameterValue") else w.value()
+            layer = project.mapLayer(v) if isinstance(v, str) else v
+            values[n] = layer.name() if layer is not None else None
+        res[f"{alg_id} {order[-1]}"] = values
 print("RESULT " + json.dumps(res))
 sys.stdout.flush()
 os._exit(0)
@@ -166,8 +169,9 @@ os._exit(0)
 
 
 def test_dialogs_prefill_layers_by_their_role(tmp_path, data_dir):
-    """A DEM on top of the layer tree: register's Reference and Target start on two different images, neither the
-    DEM, and its DEM input on the DEM; co-register's Reference and Target on two different images."""
+    """A DEM on top of the layer tree, or the raw frame: register's Reference starts on the orthophoto (never the DEM,
+    never an image without georeference), Target on the frame, its DEM input on the DEM; co-register's Reference and
+    Target on two different images, the reference the georeferenced one."""
     need_qgis()
     script = tmp_path / "defaults.py"
     script.write_text(DEFAULTS_SCRIPT)
@@ -177,6 +181,7 @@ def test_dialogs_prefill_layers_by_their_role(tmp_path, data_dir):
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
     assert lines, f"dialog script failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     res = json.loads(lines[-1][7:])
-    reg, coreg = res["fotogeo:register"], res["fotogeo:coreg"]
-    assert reg["DEM"] == "dem" and {reg["REFERENCE"], reg["TARGET"]} == {"orthophoto", "frame 0182"}, reg
-    assert {coreg["REFERENCE"], coreg["TARGET"]} == {"orthophoto", "frame 0182"}, coreg
+    for last in ("dem", "frame 0182"):
+        reg, coreg = res[f"fotogeo:register {last}"], res[f"fotogeo:coreg {last}"]
+        assert reg == {"REFERENCE": "orthophoto", "TARGET": "frame 0182", "DEM": "dem"}, (last, reg)
+        assert coreg == {"REFERENCE": "orthophoto", "TARGET": "frame 0182"}, (last, coreg)

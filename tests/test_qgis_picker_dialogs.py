@@ -40,3 +40,28 @@ def test_rectify_dialog_offers_resampling_resolution_and_crs(no_last_folder, tmp
     dlg.crs.setCrs(QgsCoordinateReferenceSystem("EPSG:32734"))
     c = dlg.choices()
     assert c["resolution"] == 2.5 and c["crs"].authid() == "EPSG:32734"
+
+
+def test_rectify_defaults_the_maps_horizontal_crs_and_a_round_pixel_size(no_last_folder, tmp_path, data_dir):
+    import rasterio
+    with rasterio.open(data_dir / "ngi" / "dem.tif") as ds:  # "Lo25 WGS84 + EGM2008 height": a compound CRS
+        compound = QgsCoordinateReferenceSystem.fromWkt(ds.crs.to_wkt(version="WKT2_2019"))
+    assert compound.toWkt(QgsCoordinateReferenceSystem.WKT2_2019).startswith("COMPOUNDCRS")
+    dlg = rd.RectifyDialog(None, str(tmp_path / "f1.tif"), compound, resolution=5.7523)
+    c = dlg.choices()
+    wkt = c["crs"].toWkt(QgsCoordinateReferenceSystem.WKT2_2019)
+    assert wkt.startswith("PROJCRS") and "VERTCRS" not in wkt and "+lon_0=25" in c["crs"].toProj()
+    assert c["resolution"] == 6.0
+    dlg.crs.setCrs(QgsCoordinateReferenceSystem("EPSG:4326"))  # degrees: the metre pixel size no longer applies
+    assert dlg.choices()["resolution"] is None
+
+
+def test_ground_resolution_of_a_fit_grid():
+    # 10 px per grid step, the ground 5.75 m per pixel along both axes, rotated 30°
+    import math
+    a = math.radians(30)
+    cols, rows = [0, 10, 20], [0, 10]
+    x = [[5.75 * (c * math.cos(a) - r * math.sin(a)) for c in cols] for r in rows]
+    y = [[5.75 * (c * math.sin(a) + r * math.cos(a)) for c in cols] for r in rows]
+    assert abs(rd.ground_resolution({"forward": {"cols": cols, "rows": rows, "x": x, "y": y}}) - 5.75) < 1e-9
+    assert rd.ground_resolution({}) is None

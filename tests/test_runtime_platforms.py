@@ -5,22 +5,24 @@ from __future__ import annotations
 from pathlib import PureWindowsPath
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
 
 
-def _load_platforms():
-    """platforms.py from its file, as the plugin's runtime and scripts/qgis_install.py load it: the checkout root
-    is not on sys.path in a plain venv where fotogeo is installed from a wheel."""
-    path = Path(__file__).resolve().parents[1] / "processing_provider" / "platforms.py"
-    spec = importlib.util.spec_from_file_location("fotogeo_plugin_platforms", path)
+def _load_plugin_module(name):
+    """A module of processing_provider/ from its file, as scripts/qgis_install.py loads the runtime: the checkout
+    root is not on sys.path in a plain venv where fotogeo is installed from a wheel."""
+    path = Path(__file__).resolve().parents[1] / "processing_provider" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"fotogeo_plugin_{name}", path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 
 
-pf = _load_platforms()
+pf = _load_plugin_module("platforms")
 
 WIN_EXE = r"C:\OSGeo4W\bin\qgis-bin.exe"
 WIN_PREFIX = r"C:\OSGeo4W\apps\Python312"
@@ -101,7 +103,7 @@ def test_fixes_name_the_platforms_remedy(platform, must, must_not):
 
 def test_runtime_uses_the_platform_layer(monkeypatch, tmp_path):
     """runtime.resolve / fix_command follow PLATFORM: a Windows runtime is Scripts\\python.exe."""
-    from processing_provider import runtime as rt
+    rt = _load_plugin_module("runtime")
     monkeypatch.delenv("FOTOGEO_PYTHON", raising=False)
     monkeypatch.delenv("FOTOGEO_RUNTIME", raising=False)
     monkeypatch.setattr(rt, "PLATFORM", "win32")

@@ -215,7 +215,7 @@ def click_option(option: Option):
     elif option.repeat:
         kw.update(multiple=True, default=None, show_default=False,
                   callback=lambda ctx, param, values: ";".join(values or ()) or None)
-    elif option.kind in ("file", "raster"):
+    elif option.kind in ("file", "raster", "raster_out"):
         kw.update(type=click.Path(dir_okay=False), default=option.default)
     elif option.kind == "folder":
         kw.update(type=click.Path(file_okay=False), default=option.default)

@@ -16,7 +16,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
 def command(orthos, output, seamlines, overwrite, quiet, **kw):
-    """Mosaic orthophotos on one pixel lattice (fotogeo ortho at one --resolution): seamlines along low-contrast
+    """Mosaic orthophotos of one CRS (others' pixel grids resampled onto the finest): seamlines along low-contrast
     paths between Voronoi cells of nadir distance, feathered blending, a gain and offset per image. Blended in
     tiles (threads; on Dask with --workers N or --scheduler ADDRESS) assembled into one Cloud-Optimised GeoTIFF."""
     from ..tools.ortho.mosaic import mosaic
@@ -28,5 +28,7 @@ def command(orthos, output, seamlines, overwrite, quiet, **kw):
         bar.close()
     for name, g, o in zip(rep["images"], rep["gains"], rep["offsets"]):
         click.echo(f"{name}: gain {' '.join(f'{v:.3f}' for v in g)}, offset {' '.join(f'{v:+.1f}' for v in o)}")
+    if rep["resampled_onto_lattice"]:
+        click.echo(f"resampled onto the mosaic's pixel grid (bilinear): {', '.join(rep['resampled_onto_lattice'])}")
     click.echo(f"wrote {rep['output']} ({rep['width']}x{rep['height']}) and {rep['seamlines']}")
     return rep

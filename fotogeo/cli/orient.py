@@ -8,8 +8,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 
 
 @click.command("orient")
-@click.argument("image", type=click.Path(dir_okay=False))
-@click.argument("gcps", type=click.Path(dir_okay=False))
+@click.argument("paths", nargs=-1, required=True, metavar="[IMAGE] GCPS", type=click.Path(dir_okay=False))
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report.")
 @click.option("--vectors", type=click.Path(dir_okay=False), help="GeoPackage: gcps and error_vectors layers.")
 @click.option("--plot", type=click.Path(dir_okay=False), help="PNG of the residual vectors over the image.")
@@ -22,12 +21,18 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
-def command(image, gcps, quiet, **kw):
+def command(paths, quiet, **kw):
     """Fit an orientation model (ground → image) to the GCPs of IMAGE; check points measure it.
+
+    Without IMAGE (GCPS only, with --camera) it is a numbers-only resection: the GCPs' pixel positions and the
+    camera, whose image size is the image's.
 
     --model auto fits every model the GCPs allow and keeps the simplest within 5 % of the best
     check RMSE (the candidates and the reason are printed and in the report)."""
     from ..tools.orient.tool import orient
+    if len(paths) > 2:
+        raise click.UsageError(f"give IMAGE and GCPS (or GCPS alone with --camera), not {len(paths)} paths")
+    image, gcps = (None, paths[0]) if len(paths) == 1 else paths
     bar = ConsoleProgress(quiet)
     try:
         rep = orient(image, gcps, progress=bar, **tool_arguments(kw, ORIENT, GCP), **kw)

@@ -85,6 +85,12 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         click.echo(f"{rep['automatic_control']} control points found on the reference")
     for f in rep["fixed_parameters"]:
         click.echo(f"held fixed: {f['reason']}")
+    surface = rep.get("dsm")
+    if surface:
+        click.echo(surface["error"] if "error" in surface else
+                   f"DSM {surface['grid']['width']} x {surface['grid']['height']} cells of "
+                   f"{surface['grid']['resolution']:g} m, {100 * surface['completeness']:.0f} % of the overlap with a "
+                   f"height -> {surface['outputs']['dsm']}")
     click.echo(f"wrote {rep['folder']}")
     return rep
 

@@ -20,8 +20,8 @@ import cv2
 import numpy as np
 
 from ..errors import InputError
-from ..pixels import from_centre, to_centre
-from . import describe, hessian, refine
+from ..pixels import from_centre
+from . import describe, fine, hessian, refine
 
 #: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics,
 #: but measured after the light pre-smoothing below, which lowers fine-detail responses).
@@ -59,12 +59,6 @@ UPSCALE_CUT = 1.6
 
 #: Pre-smoothing (pixels of the image) of the doubled image: PRESMOOTH_SIGMA there is half of it here.
 FINE_PRESMOOTH = PRESMOOTH_SIGMA / 2
-
-#: ``surf(upscale=None)`` (the default) adds the fine octave to images of at most this many
-#: pixels. It detects on 4x the pixels (about 2x the time of the usual octaves, whose first one
-#: dominates) and holds a doubled copy and its integral image (12 bytes per doubled pixel):
-#: at the pipeline's 16 Mpx matching limit that would be 0.8 GB more. Measured: README, SURF.
-UPSCALE_MAX_PIXELS = 4_000_000
 
 #: Radius, in units of the scale s, that the descriptor window (20s square rotated
 #: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
@@ -116,7 +110,7 @@ class SurfResult:
 
 def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_octaves: int = 4,
          upright: bool = False, extended: bool = False, max_keypoints: int | None = None,
-         refine_positions: bool = REFINE_POSITIONS, upscale: bool | None = None) -> SurfResult:
+         refine_positions: bool = REFINE_POSITIONS, upscale: bool = True) -> SurfResult:
     """Detect and describe SURF keypoints in a 2-D image.
 
     Parameters
@@ -155,8 +149,10 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
         Add a finer octave detected on the image upsampled 2x (as SIFT doubles its input,
         Lowe 2004 sec. 3.3): blobs finer than s = :data:`UPSCALE_CUT` come from it, the rest
         from the usual octaves; its responses are weighted by :func:`fine_weight`. Finds the
-        fine blobs a 2x enlarged copy of the image shows. None (default): for images of at
-        most :data:`UPSCALE_MAX_PIXELS` pixels.
+        fine blobs a 2x enlarged copy of the image shows. On at every image size (default):
+        the doubled image is processed in strips (:mod:`fotogeo.features.fine`), so memory
+        stays bounded and a tile gives the same keypoints alone or inside a larger image;
+        detection costs about twice the time without it.
 
     Returns
     -------
@@ -177,29 +173,31 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     rows, cols = img.shape
     if rows < 24 or cols < 24 or not valid.any() or max_keypoints == 0:
         return SurfResult.empty(extended)
-    if upscale is None:
-        upscale = rows * cols <= UPSCALE_MAX_PIXELS
     n_octaves = min(n_octaves, _usable_octaves(rows, cols))
     prep = _prepared(img, valid)
     # one integral image at a time: detection and description each walk the octaves
     # (hessian.octave_integrals), the second time with room for the descriptor windows
     kp = hessian.detect(prep, hessian_threshold, n_octaves, blur=PRESMOOTH_SIGMA)
-    up = None
-    if upscale:
-        up = _prepared(_doubled(img, valid), np.ones((2 * rows, 2 * cols), bool))
-        kp = _with_fine(kp, hessian.detect(up, hessian_threshold, 1, blur=PRESMOOTH_SIGMA), hessian_threshold)
+    filled = _filled(img, valid) if upscale else None
+    if upscale:     # the doubled image strip by strip (fine.py): same keypoints at any image size
+        kp = _with_fine(kp, fine.detect(filled, hessian_threshold, PRESMOOTH_SIGMA), hessian_threshold)
     idx = _selected(kp, valid, max_keypoints)
     if not len(idx):
         return SurfResult.empty(extended)
     x, y, s = kp["x"][idx], kp["y"][idx], hessian.scale_of_size(kp["size"][idx])
     theta, desc = np.zeros(len(idx)), np.zeros((len(idx), 128 if extended else 64), np.float32)
     octave = kp["octave"][idx]
-    for sel, image, k in ((octave >= 0, prep, 1.0), (octave < 0, up, 2.0)):
-        if sel.any():    # the fine octave's keypoints are described on the doubled image (octave 0 there)
-            xs, ys = _centre_scaled(x[sel], k), _centre_scaled(y[sel], k)
-            theta[sel], desc[sel], xs, ys = _described(image, xs, ys, k * s[sel], np.maximum(octave[sel], 0),
-                                                       upright, extended, refine_positions)
-            x[sel], y[sel] = _centre_scaled(xs, 1 / k), _centre_scaled(ys, 1 / k)
+    if (octave >= 0).any():
+        sel = octave >= 0
+        theta[sel], desc[sel], x[sel], y[sel] = _described(prep, x[sel], y[sel], s[sel], octave[sel], upright,
+                                                           extended, refine_positions)
+    if (octave < 0).any():   # described on the doubled image (octave 0 there), strip by strip
+        sel = octave < 0
+
+        def fn(up, xs, ys, ss):
+            return _described(up, xs, ys, ss, np.zeros(len(xs), np.int64), upright, extended, refine_positions)
+        theta[sel], desc[sel], x[sel], y[sel] = fine.describe(filled, x[sel], y[sel], s[sel], PRESMOOTH_SIGMA,
+                                                              fn, desc.shape[1])
     return SurfResult(xy=from_centre(np.column_stack([x, y])), scale=s,
                       angle=np.degrees(theta) % 360.0, response=kp["response"][idx],
                       laplacian=kp["laplacian"][idx].astype(np.int8), descriptors=desc)
@@ -231,27 +229,19 @@ def fine_weight(s):
     return (s2 / (s2 + PRESMOOTH_SIGMA ** 2 - FINE_PRESMOOTH ** 2)) ** 2
 
 
-def _centre_scaled(v, k: float):
-    """Centre-convention coordinate ``v`` of an image in that image scaled by ``k`` (the corner
-    convention scales: (v + 0.5) k - 0.5); ``v`` itself for k = 1 (bit for bit)."""
-    return v if k == 1 else to_centre(from_centre(v) * k)
-
-
-def _doubled(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """The image upsampled 2x (bilinear, pixel areas aligned), nodata filled by the valid mean first."""
-    rows, cols = img.shape
+def _filled(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """float32 copy of the image with nodata filled by the valid mean (the fine octave's input)."""
     filled = img.astype(np.float32, copy=True)
     filled[~valid] = filled[valid].mean()
-    return cv2.resize(filled, (2 * cols, 2 * rows), interpolation=cv2.INTER_LINEAR)
+    return filled
 
 
 def _with_fine(kp: dict, kf: dict, threshold: float) -> dict:
     """Detections ``kp`` of scale s >= :data:`UPSCALE_CUT` and those ``kf`` of the doubled image
-    finer than it, in the image's pixels, with octave -1 and response x :func:`fine_weight` (kept
-    when that still exceeds ``threshold``)."""
+    (:func:`fine.detect`, in the image's pixels) finer than it, with octave -1 and response x
+    :func:`fine_weight` (kept when that still exceeds ``threshold``)."""
     coarse = hessian.scale_of_size(kp["size"]) >= UPSCALE_CUT
-    kf = {k: v for k, v in kf.items()}
-    kf["x"], kf["y"], kf["size"] = _centre_scaled(kf["x"], 0.5), _centre_scaled(kf["y"], 0.5), kf["size"] / 2
+    kf = dict(kf)
     kf["response"] = kf["response"] * fine_weight(hessian.scale_of_size(kf["size"]))
     fine = (hessian.scale_of_size(kf["size"]) < UPSCALE_CUT) & (kf["response"] > threshold)
     kf["octave"] = np.full(len(kf["x"]), -1, np.int8)

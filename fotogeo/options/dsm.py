@@ -30,6 +30,10 @@ DSM = Table(
            "or EPSG:xxxx, WKT, PROJ. Orientations from .txt lines are in it.", param="CRS"),
     Option("bounds", "str", None, "Extent (xmin,ymin,xmax,ymax in the output CRS; empty = the pairs' overlap)",
            "Extent of the DSM 'xmin,ymin,xmax,ymax' in the output CRS [the union of the pairs' overlaps]."),
+    Option("refine", "bool", False, "Least-squares refinement of the disparities (frames; slower)",
+           "Refine the sub-pixel disparities of frame pairs by least-squares matching over 11 x 11 windows (shift "
+           "along the epipolar line, radiometric offset and gain; Gruen 1985). Slower; not with --rpc.",
+           advanced=True),
     Option("fill", "bool", False, "Fill holes (interpolated cells are marked in a mask band)",
            "Fill the holes by interpolation (Telea); a fourth band marks the filled cells (1). Default: holes "
            "stay nodata."),

@@ -19,7 +19,7 @@ KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool"
          "str": "text / String", "choice": "one of choices / Enum", "choices": "comma list / multiple Enum",
          "ints": "comma list of int / String", "crs": "CRS text / CRS", "file": "path / File",
          "folder": "path of a folder / File (folder)",
-         "raster": "path / raster layer"}
+         "raster": "path / raster layer", "raster_out": "path of a raster to write / raster destination"}
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,10 @@ TRIANGULATE = Table(
            "Write mosaic.tif: the frames orthorectified (implies --orthorectify) and mosaicked as fotogeo mosaic "
            "does (seamlines, balancing, feathering), its seamlines in mosaic.gpkg; one pixel size for all [the "
            "median GSD of the frames]. A failing mosaic is reported and leaves the other outputs."),
+    Option("dsm", "raster_out", None, "Surface model (DSM) of the adjusted frames",
+           "Also write a DSM (GeoTIFF) here: the adjusted frames matched and fused as fotogeo dsm does "
+           "(its default pairs and resolution; --dem bounds the heights searched). A failing DSM is reported and "
+           "leaves the other outputs."),
     Option("resolution", "float", None, "Orthophoto pixel size (0 = each frame's ground sample distance)",
            "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
            exclusive_minimum=True, automatic=0.0, advanced=True),

@@ -44,6 +44,20 @@ class GridSpec:
         idx = np.where(inside, row * self.width + col, 0).astype(np.int64)
         return idx, inside
 
+    def sub(self, r0: int, c0: int, rows: int, cols: int) -> "GridSpec":
+        """The ``rows x cols`` cells from row ``r0``, column ``c0`` as a grid of their own."""
+        return GridSpec(self.x0 + c0 * self.resolution, self.y0 - r0 * self.resolution, self.resolution, cols, rows)
+
+    def tiles(self, size: int, margin: int = 0):
+        """Yield ``(core, expanded)`` windows ``(r0, c0, rows, cols)`` covering the grid in tiles of at most
+        ``size`` cells a side, each expanded by ``margin`` cells (clipped to the grid)."""
+        for r0 in range(0, self.height, size):
+            for c0 in range(0, self.width, size):
+                rows, cols = min(size, self.height - r0), min(size, self.width - c0)
+                R0, C0 = max(0, r0 - margin), max(0, c0 - margin)
+                R1, C1 = min(self.height, r0 + rows + margin), min(self.width, c0 + cols + margin)
+                yield (r0, c0, rows, cols), (R0, C0, R1 - R0, C1 - C0)
+
     def centres(self) -> tuple:
         """Cell centres ``(X (width,), Y (height,))``."""
         return (self.x0 + (np.arange(self.width) + 0.5) * self.resolution,

@@ -106,16 +106,23 @@ class RectifiedPair:
         """``d = u1 − u2`` of world points ``(N, 3)``."""
         return self.project(XYZ, 0)[:, 0] - self.project(XYZ, 1)[:, 0]
 
-    def maps(self, view: FrameView, i: int, r0: int, r1: int) -> tuple:
-        """``(map_x, map_y)`` float32 ``(r1 − r0, w)`` for ``cv2.remap`` (centre convention) of rows ``r0:r1`` of
-        rectified image ``i``; pixels whose ray misses the image get −1 (outside)."""
-        w = self.size[0]
-        u, v = np.meshgrid(np.arange(w) + HALF, np.arange(r0, r1) + HALF)
+    def scaled(self, s: float) -> "RectifiedPair":
+        """The same pair on a grid ``s`` times as fine (``s < 1``: coarser): rectified pixels ``u' = s·u``."""
+        w, h = self.size
+        return RectifiedPair(self.rotation, self.focal * s, (self.cx[0] * s, self.cx[1] * s), self.cy * s,
+                             (max(1, int(math.ceil(w * s))), max(1, int(math.ceil(h * s)))), self.centres)
+
+    def maps(self, view: FrameView, i: int, r0: int, r1: int, c0: int = 0, c1: int | None = None) -> tuple:
+        """``(map_x, map_y)`` float32 ``(r1 − r0, c1 − c0)`` for ``cv2.remap`` (centre convention, pixels of the
+        whole source image) of rows ``r0:r1`` and columns ``c0:c1`` (default: all) of rectified image ``i``;
+        pixels whose ray misses the image get −1 (outside)."""
+        c1 = self.size[0] if c1 is None else c1
+        u, v = np.meshgrid(np.arange(c0, c1) + HALF, np.arange(r0, r1) + HALF)
         d = self.rays(u, v, i)
         P = self.centres[i] + 1000.0 * d
         px = view.forward(P) - HALF
         px[~np.isfinite(px).all(axis=1)] = -1.0
-        shape = (r1 - r0, w)
+        shape = (r1 - r0, c1 - c0)
         return px[:, 0].reshape(shape).astype(np.float32), px[:, 1].reshape(shape).astype(np.float32)
 
 

@@ -29,6 +29,7 @@ from qgis.core import (
     QgsProcessingParameterFile,
     QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterDestination,
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
     QgsProcessingUtils,
@@ -118,6 +119,8 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
         p = QgsProcessingParameterFile(name, label, optional=True, fileFilter=option.file_filter)
     elif kind == "folder":
         p = QgsProcessingParameterFile(name, label, behavior=QgsProcessingParameterFile.Folder, optional=True)
+    elif kind == "raster_out":
+        p = QgsProcessingParameterRasterDestination(name, label, optional=True, createByDefault=False)
     else:  # raster
         p = QgsProcessingParameterRasterLayer(name, label, optional=True)
     if option.advanced:
@@ -322,6 +325,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
             return crs_spec(crs) if crs.isValid() else option.default
         if kind in ("file", "folder"):
             return self.parameterAsFile(parameters, name, context) or None
+        if kind == "raster_out":
+            return self.parameterAsOutputLayer(parameters, name, context) or None if parameters.get(name) else None
         return self.raster_path(parameters, name, context) if parameters.get(name) else None  # raster
 
     def option_arguments(self, parameters, context, *tables: Table) -> dict:

@@ -47,7 +47,7 @@ class CoregAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference image (georeferenced)")))
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to correct (georeferenced)")))
         self.add_options(COREG)
-        layer_roles(self, {self.REFERENCE: ("", "image"), self.TARGET: (self.REFERENCE, "image")})  # two layers, no DEM
+        layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image")})  # two layers, no DEM
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Corrected target")))
         self.addParameter(QgsProcessingParameterFileDestination(
             self.SHIFTS, tr("Window shifts (GeoPackage) [beside the raster]"), "GeoPackage (*.gpkg)", optional=True,
@@ -78,10 +78,10 @@ class CoregAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(line)
         uri = f"{shifts}|layername=windows"
         if context.willLoadLayerOnCompletion(output):
-            stem = os.path.splitext(os.path.basename(output))[0]
+            stem = os.path.splitext(os.path.basename(target))[0]  # the layers named after the image corrected
             run = LoadedRun()
-            style_output(context, output, None, run)
-            load_on_completion(context, uri, f"{stem} {tr('window shifts')}", self.WINDOWS, None, run=run)
+            style_output(context, output, None, run, name=f"{stem} {tr('co-registered')}")
+            load_on_completion(context, uri, f"{stem} {tr('window shifts')}", self.WINDOWS, "coreg_windows", run=run)
         nan = float("nan")
         return {self.OUTPUT: output, self.SHIFTS: shifts, self.FIELD: field, self.REPORT: report, self.WINDOWS: uri,
                 self.RELIABLE: int(rep["windows"]["reliable"]),

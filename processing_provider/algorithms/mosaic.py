@@ -20,7 +20,8 @@ class MosaicAlgorithm(FotogeoAlgorithm):
     ALG_ID = "mosaic"
     DISPLAY = "Mosaic orthophotos (seamlines, feathering, balancing)"
     GROUP = ("orientation", "Orientation")
-    HELP = ("Mosaics orthophotos that share a pixel lattice (fotogeo ortho at one resolution) into one raster. "
+    HELP = ("Mosaics orthophotos of one CRS into one raster (on the finest pixel grid among them; the others are "
+            "resampled onto it on the fly). "
             "Seamlines start as the Voronoi cells of each orthophoto's nadir point (the most vertical view of every "
             "cell) and follow, between two orthophotos, the least-cost path through their grey difference, so they "
             "go around what leans differently in the two images (buildings, trees). Each orthophoto gets a gain and "

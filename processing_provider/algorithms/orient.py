@@ -19,7 +19,7 @@ from qgis.core import (
 
 from fotogeo.options import GCP, ORIENT
 
-from ..postprocess import load_on_completion, style_output
+from ..postprocess import LoadedRun, load_on_completion, style_output
 from .base import FotogeoAlgorithm, tr
 
 GCP_FILTER = "GCP files (*.gpkg *.points *.csv *.geojson *.shp);;All files (*.*)"
@@ -163,6 +163,11 @@ class OrientAlgorithm(_GcpAlgorithm):
                           ("gcp_tiff", self.GCP_TIFF), ("rectify", self.RECTIFY), ("vectors", self.VECTORS)):
             result[name] = outputs.get(key)
         result[self.GCP_LAYER] = result[self.ERROR_VECTORS] = None
+        run = LoadedRun()  # the GCPs and error vectors stay above the rectified image, not under it
+        stem = os.path.splitext(os.path.basename(image))[0]
+        for key, label in (("rectify", tr("rectified")), ("rpc", tr("with RPC")), ("gcp_tiff", tr("with GCPs"))):
+            if key in outputs:
+                style_output(context, outputs[key], None, run, name=f"{stem} {label} ({rep['model_name']})")
         if "vectors" in outputs:
             vec = outputs["vectors"]
             result[self.GCP_LAYER] = f"{vec}|layername=gcps"
@@ -170,7 +175,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
                 name = f"{os.path.splitext(os.path.basename(vec))[0]} {rep['model_name']}"
                 context.layerToLoadOnCompletionDetails(vec).name = f"{name} {tr('GCPs')}"
-                style_output(context, vec, "gcps")
+                style_output(context, vec, "gcps", run)
                 load_on_completion(context, result[self.ERROR_VECTORS], f"{name} {tr('error vectors')}",
-                                   self.ERROR_VECTORS, "error_vectors")
+                                   self.ERROR_VECTORS, "error_vectors", run=run)
         return result

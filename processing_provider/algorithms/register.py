@@ -67,7 +67,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
         for table in self.OPTIONS:
             self.add_options(table)
-        layer_roles(self, {self.REFERENCE: ("", "image"), self.TARGET: (self.REFERENCE, "image"), "DEM": ("", "dem")})
+        layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image"),
+                           "DEM": ("", "dem")})
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Registered raster")))
         # optional: left empty they are written beside the raster (OUT.gpkg, OUT.json), as the CLI does
         self.addParameter(QgsProcessingParameterFileDestination(

@@ -125,13 +125,13 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
         if start.get("source"):
-            feedback.pushInfo(f"start: {start['source']}")
+            feedback.pushInfo(self.in_words(f"start: {start['source']}"))  # the dialog's labels, not the flags
         for d in rep.get("dropped_frames") or []:
-            feedback.pushWarning(f"dropped: {d['name']}: {d['reason']}")
+            feedback.pushWarning(self.in_words(f"dropped: {d['name']}: {d['reason']}"))
         for r in rep.get("restarted_frames") or []:
-            feedback.pushWarning(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}")
+            feedback.pushWarning(self.in_words(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}"))
         for f in rep["fixed_parameters"]:
-            feedback.pushWarning(f"held fixed: {f['reason']}")
+            feedback.pushWarning(self.in_words(f"held fixed: {f['reason']}"))
         return self._outputs(rep, outdir, context)
 
     def _control_path(self, parameters, context, feedback) -> str | None:
@@ -168,6 +168,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                   self.BLUNDERS: int(rep["statistics"]["n_blunders"])}
         for layer, name, _, _ in LAYERS:
             result[name] = f"{gpkg}|layername={layer}"
+        surface = (rep.get("dsm") or {}).get("outputs", {}).get("dsm")
+        if surface:  # --dsm: the destination parameter's output (QGIS loads it as it loads every destination)
+            result["DSM"] = surface
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
             for frame, done in (rep.get("orthorectified") or {}).items():

@@ -6,7 +6,9 @@ to be active would become the reference image. A parameter with
 ``metadata={"widget_wrapper": {"class": OtherLayer, "other": "REFERENCE", "role": "image"}}`` gets a
 layer combo box that, once all the dialog's widgets exist, moves off the ``other`` input's layer and —
 with ``role="image"`` — off a layer that looks like a DEM (:func:`looks_like_dem`) to the next raster
-layer of the project (top of the layer tree first), or to empty when there is none; ``role="dem"``
+layer of the project (top of the layer tree first), or to empty when there is none; ``role="reference"`` moves
+off a DEM and off an image that is not a map product too (no georeference, or a rotated one: a raw frame with an
+approximate georeference; orthophotos and map-geometry scenes are north-up); ``role="dem"``
 (an optional DEM input) starts on the first layer that looks like a DEM. Only the desktop dialog reads
 this metadata; ``qgis_process`` and scripts are unaffected.
 """
@@ -47,6 +49,22 @@ def other_layer(layers, taken, avoid=lambda layer: False):
 def layer_is_dem(layer) -> bool:
     """:func:`looks_like_dem` of a QGIS raster layer."""
     return layer is not None and looks_like_dem(layer.name(), layer.bandCount())
+
+
+def layer_is_not_a_map(layer) -> bool:
+    """A raster layer that is no map product: without a geotransform (QGIS places it in pixel units, (0, −height)
+    to (width, 0)), or with a rotated one (a raw frame's approximate georeference)."""
+    from qgis.core import QgsRectangle
+    if layer is None:
+        return False
+    if layer.extent() == QgsRectangle(0, -layer.height(), layer.width(), 0):
+        return True
+    if layer.providerType() != "gdal":
+        return False
+    from osgeo import gdal
+    ds = gdal.OpenEx(layer.source().split("|")[0], gdal.OF_RASTER | gdal.OF_READONLY)
+    gt = ds.GetGeoTransform() if ds is not None else None
+    return gt is not None and (gt[2] != 0 or gt[4] != 0)
 
 
 def _wrapper_value(wrapper):
@@ -104,9 +122,11 @@ class OtherLayer:
                         return
                     sibling = next((w for w in wrappers if w.parameterDefinition().name() == other), None)
                     taken = _layer_of(_wrapper_value(sibling)) if sibling is not None else None
-                    avoid = layer_is_dem if role == "image" else (lambda layer: False)
+                    avoid = {"image": layer_is_dem,
+                             "reference": lambda layer: layer_is_dem(layer) or layer_is_not_a_map(layer)}.get(
+                        role, lambda layer: False)
                     same = taken is not None and mine is not None and mine.id() == taken.id()
-                    if mine is not None and (same or avoid(mine)):
+                    if mine is None or same or avoid(mine):
                         self.combo.setLayer(other_layer(_raster_layers(), taken, avoid))
 
             return _Wrapper(param, dialog, row, col, **kwargs)

@@ -15,12 +15,13 @@ from dataclasses import dataclass, field
 from qgis.core import QgsPointXY
 from qgis.gui import QgsMapCanvasItem
 from qgis.PyQt.QtCore import QPointF, QRectF, Qt
-from qgis.PyQt.QtGui import QBrush, QColor, QFont, QPen, QPolygonF
+from qgis.PyQt.QtGui import QBrush, QColor, QFont, QPainter, QPen, QPolygonF
 
 COLOURS = {"control": QColor(30, 90, 230), "check": QColor(220, 30, 30), "flag": QColor(255, 140, 0),
            "pending": QColor(250, 220, 0), "predicted": QColor(0, 200, 80), "proposal": QColor(0, 220, 230),
            "selected": QColor(255, 0, 255), "disabled": QColor(150, 150, 150)}
-CROSS = 7  # half size of a GCP cross, screen pixels
+CROSS = 8  # half size of a GCP cross, screen pixels: a 16 px mark, as QGIS's vertex markers
+HALO = QColor(255, 255, 255, 230)  # drawn under every mark, so it stands out on dark and bright imagery alike
 
 
 @dataclass
@@ -65,7 +66,8 @@ class PickerOverlay(QgsMapCanvasItem):
         return self.toCanvasCoordinates(point) - self.pos()
 
     def paint(self, painter, option=None, widget=None):
-        painter.setRenderHint(painter.Antialiasing, True)
+        painter.setRenderHint(QPainter.RenderHint.Antialiasing, True)
+        painter.setBrush(Qt.BrushStyle.NoBrush)
         font = QFont(painter.font())
         font.setPointSize(9)
         font.setBold(True)
@@ -85,16 +87,21 @@ class PickerOverlay(QgsMapCanvasItem):
         if mark.arrow_to is not None:
             self._arrow(painter, p, self._screen(mark.arrow_to), colour)
         selected = self.state.selected == mark.label
-        painter.setPen(QPen(COLOURS["selected"] if selected else colour, 3 if selected else 2))
-        painter.drawLine(QPointF(p.x() - CROSS, p.y()), QPointF(p.x() + CROSS, p.y()))
-        painter.drawLine(QPointF(p.x(), p.y() - CROSS), QPointF(p.x(), p.y() + CROSS))
+        width = 4 if selected else 3
+        for pen in (QPen(HALO, width + 3), QPen(COLOURS["selected"] if selected else colour, width)):
+            pen.setCapStyle(Qt.PenCapStyle.RoundCap)
+            painter.setPen(pen)  # the halo, then the cross and its ring
+            painter.drawLine(QPointF(p.x() - CROSS, p.y()), QPointF(p.x() + CROSS, p.y()))
+            painter.drawLine(QPointF(p.x(), p.y() - CROSS), QPointF(p.x(), p.y() + CROSS))
+            painter.drawEllipse(p, CROSS * 0.6, CROSS * 0.6)
         self._label(painter, p, mark.label, colour)
 
     @staticmethod
     def _label(painter, p: QPointF, text: str, colour: QColor):
         where = QPointF(p.x() + CROSS + 2, p.y() - CROSS)
-        painter.setPen(QPen(QColor(255, 255, 255), 3))
-        painter.drawText(where, text)  # a light halo first, then the text
+        painter.setPen(QPen(HALO, 3))
+        for dx, dy in ((-1, 0), (1, 0), (0, -1), (0, 1)):  # a light halo first, then the text
+            painter.drawText(where + QPointF(dx, dy), text)
         painter.setPen(QPen(colour, 1))
         painter.drawText(where, text)
 
@@ -103,6 +110,8 @@ class PickerOverlay(QgsMapCanvasItem):
         length = math.hypot(end.x() - start.x(), end.y() - start.y())
         if length < 1.0:
             return
+        painter.setPen(QPen(HALO, 4))
+        painter.drawLine(start, end)
         painter.setPen(QPen(colour, 2))
         painter.drawLine(start, end)
         ux, uy = (end.x() - start.x()) / length, (end.y() - start.y()) / length
@@ -115,16 +124,17 @@ class PickerOverlay(QgsMapCanvasItem):
 
     @staticmethod
     def _circle(painter, p: QPointF, colour: QColor, radius: float, dashed: bool = False):
-        pen = QPen(colour, 3)
-        if dashed:
-            pen.setStyle(Qt.PenStyle.DashLine)
-        painter.setPen(pen)
-        painter.drawEllipse(p, radius, radius)
-        painter.drawPoint(p)
+        for pen in (QPen(HALO, 5), QPen(colour, 3)):
+            if dashed:
+                pen.setStyle(Qt.PenStyle.DashLine)
+            painter.setPen(pen)
+            painter.drawEllipse(p, radius, radius)
+            painter.drawPoint(p)
 
     def _square(self, painter, p: QPointF, colour: QColor, label: str):
-        painter.setPen(QPen(colour, 2))
-        painter.drawRect(QRectF(p.x() - 6, p.y() - 6, 12, 12))
+        for pen in (QPen(HALO, 5), QPen(colour, 2)):
+            painter.setPen(pen)
+            painter.drawRect(QRectF(p.x() - 7, p.y() - 7, 14, 14))
         self._label(painter, p, label, colour)
 
     def remove(self):

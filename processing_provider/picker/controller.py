@@ -294,7 +294,7 @@ class PickerController(QObject):
             elif side == MAP and r.get("dx_map") is not None:
                 k = self.exaggeration
                 arrow = self.layer_to_map(g.x + k * r["dx_map"], g.y + k * r["dy_map"])
-            marks.append(Mark(g.id, at, g.role if g.enabled else "disabled", bool(r.get("flag")), arrow))
+            marks.append(Mark(g.id, at, g.role if g.enabled else "disabled", fitting.alarming(r.get("flag")), arrow))
         return marks
 
     def _overlay(self, side: str) -> Overlay:

@@ -5,7 +5,7 @@ model, ``auto``, collinearity with a camera file), the height source (a DEM laye
 field or a constant); the arrow exaggeration and the live preview's switch and opacity; the
 proposal row (reference raster, count, Propose / Accept / Reject); the action row (undo, redo,
 import, export, rectify, RPC, report); then a splitter: the image canvas above, the fit summary
-and the table below, the table with the larger share (at least :data:`.table.MIN_ROWS` rows).
+and the table below, the image with the larger share (the table at least :data:`.table.MIN_ROWS` rows).
 The handlers of the rows are in :mod:`.dock_actions`. The picking itself: :mod:`.map_tools` and :mod:`.controller`.
 """
 from __future__ import annotations
@@ -13,16 +13,15 @@ from __future__ import annotations
 import os
 
 from qgis.core import (Qgis, QgsApplication, QgsCoordinateReferenceSystem, QgsMapLayerProxyModel, QgsMessageLog,
-                       QgsProject, QgsRasterLayer, QgsTask)
+                       QgsProject, QgsTask)
 from qgis.gui import QgsFileWidget, QgsMapCanvas, QgsMapLayerComboBox
-from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtGui import QKeySequence
 from qgis.PyQt.QtWidgets import (
     QCheckBox,
     QComboBox,
     QDockWidget,
     QDoubleSpinBox,
-    QFileDialog,
     QFormLayout,
     QHBoxLayout,
     QLabel,
@@ -38,17 +37,22 @@ from fotogeo.options import ORIENTATION_MODELS  # standard library only
 from .commands import DeleteGcps
 from .controller import PickerController
 from .dock_actions import DockActions
-from .fit import HEIGHT_SOURCES, FitSettings, guess_dem
+from .fit import HEIGHT_SOURCES, FitSettings
 from .gcp_layer import GcpLayer
 from .image_source import ImageError, PickerImage
 from .map_tools import IMAGE, MAP, PickTool
 from .preview import OPACITY, LivePreview
 from .table import GcpTable
 
-#: the vertical split between the image canvas and the table (with the fit line above it): the table the larger
-IMAGE_SHARE, TABLE_SHARE = 2, 3
+#: the vertical split between the image canvas and the table (with the fit line above it): the image the larger,
+#: it is where the user clicks
+IMAGE_SHARE, TABLE_SHARE = 2, 1
+#: the image canvas's smallest height (px): enough to find a point at a glance
+MIN_IMAGE_HEIGHT = 260
 #: "Accept all" keeps every 4th proposal (25 %, spread as the proposals are) as a check point
 ACCEPT_CHECK_EVERY = 4
+#: the click precision the dock assumes at first (px, 1σ): a careful click on a sharp point
+CLICK_SIGMA = 1.0
 
 MODELS = ("auto",) + ORIENTATION_MODELS
 TITLE = "fotogeo GCP picker"
@@ -77,7 +81,7 @@ class PickerDock(DockActions, QDockWidget):
         self.tasks, self.last_message, self.image = [], "", None
         self.image_canvas = QgsMapCanvas()
         self.image_canvas.setCanvasColor(Qt.GlobalColor.darkGray)
-        self.image_canvas.setMinimumHeight(160)
+        self.image_canvas.setMinimumHeight(MIN_IMAGE_HEIGHT)
         self.controller = PickerController(self.image_canvas, map_canvas, session, self.fit_settings)
         self.tools = {IMAGE: PickTool(self.image_canvas, self.controller, IMAGE),
                       MAP: PickTool(map_canvas, self.controller, MAP)}
@@ -107,6 +111,7 @@ class PickerDock(DockActions, QDockWidget):
         form.addRow("GCP layer", _row(self.gcp_combo, self.new_layer_button))
         form.addRow("Model", _row(self.model_combo, QLabel("camera"), self.camera_file))
         form.addRow("Heights", _row(self.height_combo, self.dem_combo, self.height_spin))
+        form.addRow("Click σ", self.sigma_spin)
         form.addRow("Arrows ×", self._display_row())
         form.addRow("Propose", self._proposal_row())
         controls = QWidget()
@@ -182,6 +187,15 @@ class PickerDock(DockActions, QDockWidget):
             (w.currentTextChanged if isinstance(w, QComboBox) and not isinstance(w, QgsMapLayerComboBox)
              else w.layerChanged).connect(lambda *_: self.controller.refit())
         self.height_spin.valueChanged.connect(lambda _v: self.controller.refit())
+        self.sigma_spin = QDoubleSpinBox()  # the blunder test's a priori σ of a click (0: estimated from the fit)
+        self.sigma_spin.setRange(0.0, 50.0)
+        self.sigma_spin.setSingleStep(0.1)
+        self.sigma_spin.setValue(CLICK_SIGMA)
+        self.sigma_spin.setSuffix(" px")
+        self.sigma_spin.setSpecialValueText("estimated from the fit")
+        self.sigma_spin.setToolTip("How precisely you click (px, 1σ): the blunder test flags a point whose residual "
+                                   "is too large for it; 0 estimates it from the residuals")
+        self.sigma_spin.valueChanged.connect(lambda _v: self.controller.refit())
         self.exaggeration_spin = QDoubleSpinBox()
         self.exaggeration_spin.setRange(0.0, 100000.0)
         self.exaggeration_spin.setValue(self.controller.exaggeration)
@@ -264,7 +278,7 @@ class PickerDock(DockActions, QDockWidget):
         camera = self.camera_file.filePath() or None
         return FitSettings(model=self.model_combo.currentText(), height_source=self.height_combo.currentText(),
                            dem=dem.source() if dem is not None else None, height=self.height_spin.value(),
-                           camera=camera)
+                           camera=camera, image_sigma=self.sigma_spin.value() or None)
 
     def _image_path_typed(self):
         path = self.image_file.filePath()
@@ -301,29 +315,6 @@ class PickerDock(DockActions, QDockWidget):
         store = GcpLayer.create_gpkg(path, crs, name) if path else GcpLayer.create(crs, name)
         self.gcp_combo.setLayer(store.layer)
         return store
-
-    def new_layer_dialog(self):
-        from .rectify_dialog import remember, suggested
-        path, _ = QFileDialog.getSaveFileName(self, "New GCP GeoPackage (cancel: a memory layer)",
-                                              suggested(self.image.path if self.image is not None else None,
-                                                        "_gcps.gpkg"), "GeoPackage (*.gpkg)")
-        remember(path)
-        try:
-            self.new_gcp_layer(path=path or None)
-        except ValueError as e:
-            self.say(str(e))
-
-    def _heights_chosen(self, source: str) -> None:
-        """Heights = dem with no DEM chosen yet: preselect the project's likeliest DEM layer (fit.guess_dem)."""
-        if source != "dem" or self.dem_combo.currentLayer() is not None:
-            return
-        image = self.image_combo.currentLayer()
-        layers = [node.layer() for node in QgsProject.instance().layerTreeRoot().findLayers()
-                  if isinstance(node.layer(), QgsRasterLayer)]
-        name = guess_dem([(lay.name(), lay.bandCount()) for lay in layers],
-                         exclude=(image.name(),) if image is not None else ())
-        if name is not None:
-            self.dem_combo.setLayer(next(lay for lay in layers if lay.name() == name))
 
     def _gcp_layer_chosen(self, layer):
         if layer is None:
@@ -364,6 +355,14 @@ class PickerDock(DockActions, QDockWidget):
         self.activate_map_tool()
         self.update_preview()  # none was computed while the dock was closed
         super().showEvent(event)
+        if not getattr(self, "_split", False):  # the first show, laid out: the split by the shares, not the minima
+            self._split = True
+            QTimer.singleShot(200, self._share_split)  # after the main window has sized the dock
+
+    def _share_split(self):
+        total = sum(self.splitter.sizes())
+        self.splitter.setSizes([total * IMAGE_SHARE // (IMAGE_SHARE + TABLE_SHARE),
+                                total * TABLE_SHARE // (IMAGE_SHARE + TABLE_SHARE)])
 
     def closeEvent(self, event):  # noqa: N802 - Qt's name
         """Closed (the dock's X): the main canvas gets its tool back, the marks are hidden, the state kept."""

@@ -17,11 +17,12 @@ import shutil
 import tempfile
 
 from qgis.core import Qgis, QgsMessageLog, QgsProject, QgsRasterLayer
+from qgis.gui import QgsMessageBarItem
 from qgis.PyQt.QtWidgets import QFileDialog
 
 from . import fit as fitting
 from . import files, tasks
-from .rectify_dialog import RectifyDialog, remember, start_folder, suggested
+from .rectify_dialog import RectifyDialog, ground_resolution, remember, start_folder, suggested
 
 #: orient's output keyword and the file filter of each run button
 RUNS = {"rectify": ("rectify", "GeoTIFF (*.tif)"), "rpc": ("rpc", "GeoTIFF with RPC (*.tif)"),
@@ -32,12 +33,21 @@ class DockActions:
     """Mixed into :class:`~.dock.PickerDock` (needs its controller, session, combos and ``say``)."""
 
     def say(self, text: str, level=Qgis.Info):
-        """Show ``text`` under the canvas (and on QGIS's message bar when there is one)."""
+        """Show ``text`` under the canvas and on QGIS's message bar when there is one: a hint (info) replaces the
+        previous hint there, so the step-by-step hints of every click do not stack up; warnings stay."""
         self.last_message = text
         self.summary.setText(text)
         QgsMessageLog.logMessage(text, "fotogeo picker", level)
         if self.message_bar is not None:
-            self.message_bar.pushMessage("fotogeo picker", text, level, 8)
+            old = getattr(self, "_hint", None)
+            if old is not None:
+                try:
+                    self.message_bar.popWidget(old)
+                except RuntimeError:  # already gone (its timeout): Qt deleted it
+                    pass
+            item = QgsMessageBarItem("fotogeo picker", text, level, 8)
+            self.message_bar.pushItem(item)
+            self._hint = item if level == Qgis.Info else None
 
     @staticmethod
     def describe_fit(fit: dict) -> str:
@@ -45,6 +55,28 @@ class DockActions:
         if not fit.get("ok") and fit.get("needed"):
             line = f"{line} (the table fills once the model has enough control points)"
         return line
+
+    def new_layer_dialog(self):
+        path, _ = QFileDialog.getSaveFileName(self, "New GCP GeoPackage (cancel: a memory layer)",
+                                              suggested(self.image.path if self.image is not None else None,
+                                                        "_gcps.gpkg"), "GeoPackage (*.gpkg)")
+        remember(path)
+        try:
+            self.new_gcp_layer(path=path or None)
+        except ValueError as e:
+            self.say(str(e))
+
+    def _heights_chosen(self, source: str) -> None:
+        """Heights = dem with no DEM chosen yet: preselect the project's likeliest DEM layer (fit.guess_dem)."""
+        if source != "dem" or self.dem_combo.currentLayer() is not None:
+            return
+        image = self.image_combo.currentLayer()
+        layers = [node.layer() for node in QgsProject.instance().layerTreeRoot().findLayers()
+                  if isinstance(node.layer(), QgsRasterLayer)]
+        name = fitting.guess_dem([(lay.name(), lay.bandCount()) for lay in layers],
+                                 exclude=(image.name(),) if image is not None else ())
+        if name is not None:
+            self.dem_combo.setLayer(next(lay for lay in layers if lay.name() == name))
 
     # -- proposals ----------------------------------------------------------------------------
     def propose(self, reference: str | None = None, count: int | None = None):
@@ -140,8 +172,11 @@ class DockActions:
     def rectify_dialog(self):
         """Rectify's options (output, resampling, pixel size, CRS), then the run."""
         store = self.controller.store
-        dlg = RectifyDialog(self, self._image_path(), store.layer.crs() if store is not None else
-                            self.map_canvas.mapSettings().destinationCrs())
+        fit = self.controller.fit
+        map_crs = self.map_canvas.mapSettings().destinationCrs()
+        gsd = ground_resolution(fit) if fit.get("ok") and store is not None and \
+            store.layer.crs().mapUnits() == map_crs.mapUnits() else None  # the fit's grid is in the layer's CRS
+        dlg = RectifyDialog(self, self._image_path(), map_crs, resolution=gsd)
         if not dlg.exec() or not dlg.choices()["path"]:
             return None
         c = dlg.choices()
@@ -165,6 +200,8 @@ class DockActions:
             kwargs["height"] = s.height
         if s.camera:
             kwargs["camera"] = s.camera
+        if s.image_sigma:
+            kwargs["image_sigma"] = s.image_sigma  # the report's blunder flags as the dock's
         return kwargs
 
     def run_orient(self, kind: str, output: str, on_done=None, extra: dict | None = None, crs=None):

@@ -36,6 +36,7 @@ class FitSettings:
     image: str | None = None
     width: int | None = None
     height_px: int | None = None
+    image_sigma: float | None = None  # the click precision (px): the blunder test's a priori σ; None: estimated
 
     def request(self, gcps) -> dict:
         """The keyword arguments of ``fit_gcps`` for ``gcps`` (a list of :class:`~.gcp_layer.Gcp`)."""
@@ -43,7 +44,7 @@ class FitSettings:
         if self.height_source != "field":
             points = [{**p, "z": None} for p in points]
         kwargs = {"gcps": points, "model": self.model, "crs": self.crs, "image": self.image,
-                  "width": self.width, "height": self.height_px}
+                  "width": self.width, "height": self.height_px, "image_sigma": self.image_sigma or None}
         if self.height_source == "dem" and self.dem:
             kwargs["dem"] = self.dem
         if self.height_source == "constant" and self.height is not None:
@@ -63,6 +64,19 @@ def fit(session, gcps, settings: FitSettings, timeout: float = 20) -> dict:
         return session.call("fit_gcps", timeout=timeout, **settings.request(gcps))
     except SessionError as e:
         return {"ok": False, "message": str(e), "needed": None, "points": [], "rms": {}}
+
+
+#: the flag of a point the others cannot check (its redundancy is too low): a fact about the geometry, no alarm
+NOT_TESTABLE = "not testable"
+
+
+def alarming(flag) -> bool:
+    """Whether a point's flag is a warning to act on (a blunder, a suspect, no height) rather than "not testable".
+
+    >>> alarming("blunder"), alarming("suspect"), alarming("not testable"), alarming(None)
+    (True, True, False, False)
+    """
+    return bool(flag) and flag != NOT_TESTABLE
 
 
 def _number(v):

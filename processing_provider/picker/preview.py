@@ -110,7 +110,8 @@ class LivePreview(QObject):
             self.last = {"ok": False, "message": "no preview", "generation": self.generation}
             self.shown.emit(self.last)
             return
-        kwargs = {**fit_kwargs, **self.canvas_request(), "output": os.path.join(self.folder, "preview.rgba")}
+        kwargs = {**{k: v for k, v in fit_kwargs.items() if k != "image_sigma"},  # the blunder test's: not a warp's
+                  **self.canvas_request(), "output": os.path.join(self.folder, "preview.rgba")}
         self.pending = (self.generation, kwargs)
         self._start_next()
 

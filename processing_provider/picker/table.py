@@ -20,8 +20,10 @@ from qgis.PyQt.QtCore import QItemSelection, QItemSelectionModel, Qt, pyqtSignal
 from qgis.PyQt.QtGui import QColor, QKeySequence
 from qgis.PyQt.QtWidgets import QAbstractItemView, QComboBox, QStyledItemDelegate, QTableWidget, QTableWidgetItem
 
+from .fit import alarming
+
 #: rows the table shows without scrolling at its minimum height
-MIN_ROWS = 10
+MIN_ROWS = 6
 SORT_KEY = Qt.ItemDataRole.UserRole + 1
 
 #: what a user reads first (residual, w, flag) next to the id, without scrolling; coordinates after
@@ -154,7 +156,7 @@ class GcpTable(QTableWidget):
                 item.setForeground(QColor(140, 140, 140))  # disabled: greyed, as its marks
             if name not in ("id", "on", "role"):
                 item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
-            if r.get("flag"):
+            if alarming(r.get("flag")):  # a blunder, a suspect, no height: orange; "not testable" stays plain
                 item.setBackground(QColor(255, 220, 160))
             items.append(item)
         return items

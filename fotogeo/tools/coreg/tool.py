@@ -79,13 +79,33 @@ def _options(values: dict) -> CoregOptions:
     return CoregOptions(**{k: v for k, v in values.items() if k in names}, workers=int(values["threads"]))
 
 
-def _grid(strips: RasterStrips, opts: CoregOptions, reference, target):
+def _grid(strips: RasterStrips, opts: CoregOptions, reference, target, window_option=None):
     box = overlap_box(strips)
     grid = window_grid(box, opts.grid_spacing, opts.window) if box else None
     if grid is None or not len(grid):
         raise MatchingError(f"reference {str(reference)!r} and target {str(target)!r} do not overlap: 0 valid windows "
                             f"of 0; check that both cover the same area (CRS, georeference)")
+    if window_option:
+        check_window_fits(opts.window, box, window_option)
     return grid, box
+
+
+def check_window_fits(window: int, box, name: str) -> None:
+    """Refuse a matching window larger than the overlap ``box`` (target pixels) before any matching: such windows
+    are mostly nodata and every one of them fails. ``name``: the option, named in the caller's words.
+
+    >>> check_window_fits(512, (0, 0, 448.0, 600.0), "window")
+    Traceback (most recent call last):
+    ...
+    fotogeo.errors.InputError: window 512 is larger than the overlap of reference and target (448 × 600 target pixels); use 448 or less (e.g. 256)
+    """
+    w, h = int(box[2] - box[0]), int(box[3] - box[1])
+    side = min(w, h) - min(w, h) % 2
+    if window > side:
+        example = 2 ** int(np.log2(max(side, 2)))  # the largest power of two that fits
+        raise InputError(f"{name} {window} is larger than the overlap of reference and target ({w} × {h} target "
+                         f"pixels); use {side} or less" + (f" (e.g. {example})" if 16 <= example < side else ""),
+                         option=name)
 
 
 def _report(res: Coregistration, grid, box, opts: CoregOptions, strips: RasterStrips, paths: dict, timings) -> dict:
@@ -130,15 +150,16 @@ class CoregRun:
 
 def run_coregistration(reference, target, opts: CoregOptions, *, output=None, field=None, resampling="cubic",
                        reference_band=1, target_band=1, reference_nodata=None, target_nodata=None,
-                       progress=None) -> CoregRun:
+                       progress=None, window_option: str | None = None) -> CoregRun:
     """Match the windows and fit the field; write ``output`` (the corrected target) and ``field``
     to the paths given, as they are (the caller makes them atomic). The core of :func:`coregister`
-    and of ``register(local=True)``."""
+    and of ``register(local=True)``. ``window_option``: the option that set the window size, when it is the
+    user's: a window larger than the overlap is then refused up front, naming it."""
     prog = as_progress(progress)
     t0 = time.perf_counter()
     with gdal_env(), RasterStrips(reference, target, reference_band=reference_band, target_band=target_band,
                                   reference_nodata=reference_nodata, target_nodata=target_nodata) as strips:
-        grid, box = _grid(strips, opts, reference, target)
+        grid, box = _grid(strips, opts, reference, target, window_option)
         H, W = strips.shape
         res = coregister_strips(grid, strips, W, H, opts, progress=prog.stage(0.0, 0.85, "matching windows"))
         timings = {"matching": time.perf_counter() - t0, **res.timings}
@@ -199,7 +220,8 @@ def coregister(reference, target, output=None, *, grid_spacing: int = 64, window
         run = run_coregistration(reference, target, opts, output=output and atomic.temp(output),
                                  field=field and atomic.temp(field), resampling=resampling,
                                  reference_band=reference_band, target_band=target_band,
-                                 reference_nodata=reference_nodata, target_nodata=target_nodata, progress=prog)
+                                 reference_nodata=reference_nodata, target_nodata=target_nodata, progress=prog,
+                                 window_option="window")
         if shifts is not None:
             run.write_shifts(atomic.temp(shifts))
         rep = run.report

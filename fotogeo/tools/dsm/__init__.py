@@ -13,10 +13,11 @@
    (:mod:`fotogeo.stereo.rectify`), a sparse check of the orientation (epipolar residuals, rays' miss distances),
    the disparity range from the heights (``--dem``, else sparse matches), semi-global matching with sub-pixel
    disparities and left–right, uniqueness and speckle filters (:mod:`fotogeo.stereo.dense`) strip by strip, and
-   triangulation of every matched pixel (:mod:`fotogeo.stereo.rays`);
+   triangulation of every matched pixel (:mod:`fotogeo.stereo.rays`) — by output tiles (:mod:`.matching`): each
+   tile's pixels matched from the windows of the images they need, so memory is bounded by the tile;
 4. **fusion** (:mod:`fotogeo.stereo.fusion`): the pairs' points on one north-up grid (``--resolution``,
    ``--crs``, ``--bounds``), the median of the pairs, a count and a spread band; holes stay nodata unless
-   ``--fill`` (then marked in a fourth band);
+   ``--fill`` (then marked in a fourth band); tile by tile for frames, the whole grid at once for RPC pairs;
 5. **outputs** (:mod:`.outputs`), all or nothing: the DSM (COG layout), ``--point-cloud`` (LAS 1.4 with the CRS
    as WKT and the left image's colours, :mod:`fotogeo.io.las`) and ``--report`` (JSON: pairs kept and left out
    and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings).

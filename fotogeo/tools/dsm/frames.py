@@ -2,12 +2,16 @@
 
 :func:`frame_view` gives a frame's :class:`~fotogeo.stereo.rectify.FrameView` from its ground → image model
 (triangulate's :class:`~fotogeo.tools.triangulate.ortho.AdjustedFrame`: collinearity with Brown's distortion).
-:func:`sparse_check` matches SIFT features on the rectified pair (Lowe 2004, ratio 0.8): their row differences are
-the pair's epipolar residuals (the orientation's relative error, in rectified pixels), their rays' miss distances
-its error in metres, their disparities the search range when no DEM bounds it. :func:`dense_points` then matches
-the rectified pair strip by strip (:func:`fotogeo.stereo.dense.disparity`, strips of ``STRIP`` rows overlapping by
-``MARGIN``: memory bounded by the strip, not the image) and triangulates every matched pixel
-(:func:`fotogeo.stereo.rays.closest_points`), yielding ``(points, colours)`` per strip.
+:func:`sparse_check` matches SIFT features on the rectified pair (Lowe 2004, ratio 0.8; a pair longer than
+``SPARSE_SIDE`` pixels on a coarser copy, resampled from source pixels averaged to its size): their row differences
+are the pair's epipolar residuals (the orientation's relative error, in rectified pixels), their rays' miss
+distances its error in metres, their disparities the search range when no DEM bounds it. :func:`dense_points` then
+matches a box of the rectified pair (an output tile's, :mod:`.matching`) strip by strip
+(:func:`fotogeo.stereo.dense.disparity`, strips of ``STRIP`` rows and the box's columns, with ``MARGIN`` more on
+every side) and triangulates every matched pixel (:func:`fotogeo.stereo.rays.closest_points`), yielding
+``(points, colours)`` per strip. Every rectified strip is resampled (:func:`rectified`) from the window of the
+source image its pixels need (:class:`~fotogeo.tools.dsm.inputs.SourceImage`): memory follows the strip, not
+the images.
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
 from ...stereo.dense import disparity, to_uint8
 from ...stereo.rays import closest_points
+from ...stereo.refine import refine as refine_disparities
 from ...stereo.rectify import FrameView, RectifiedPair
 
 STRIP = 384
@@ -40,22 +45,60 @@ def _remap(img, mx, my, interpolation=cv2.INTER_LINEAR):
     return cv2.remap(img, mx, my, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
 
-def rectified(rp: RectifiedPair, view, i: int, grey, r0: int, r1: int) -> tuple:
-    """``(grey float32, valid bool, maps)`` of rows ``r0:r1`` of rectified image ``i``."""
-    mx, my = rp.maps(view, i, r0, r1)
-    h, w = grey.shape
+def _source_window(mx, my, valid, size, pad: int = 3) -> tuple | None:
+    """``(x0, y0, x1, y1)``: the source pixels the maps' valid pixels need (with ``pad`` for the cubic kernel)."""
+    if not valid.any():
+        return None
+    w, h = size
+    x, y = mx[valid], my[valid]
+    return (max(0, int(np.floor(x.min())) - pad), max(0, int(np.floor(y.min())) - pad),
+            min(w, int(np.ceil(x.max())) + pad + 1), min(h, int(np.ceil(y.max())) + pad + 1))
+
+
+def rectified(rp: RectifiedPair, view, i: int, src, r0: int, r1: int, c0: int = 0, c1: int | None = None,
+              k: int = 1, colours: bool = False) -> tuple:
+    """``(grey float32, valid bool, colours or None)`` of rows ``r0:r1``, columns ``c0:c1`` of rectified image
+    ``i``, read from the :class:`~fotogeo.tools.dsm.inputs.SourceImage` ``src`` by the window those pixels need
+    (averaged over ``k x k`` source pixels when ``k > 1``); ``colours`` (three uint8 bands, bilinear) when asked."""
+    mx, my = rp.maps(view, i, r0, r1, c0, c1)
+    w, h = src.width, src.height
     valid = (mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1)
-    return _remap(grey, mx, my, cv2.INTER_CUBIC), valid, (mx, my)
+    win = _source_window(mx, my, valid, (w, h))
+    if win is None:
+        return np.zeros(mx.shape, np.float32), valid, None
+    x0, y0, x1, y1 = win
+    g = src.grey(x0, y0, x1, y1, k)
+    sx, sy = (x1 - x0) / g.shape[1], (y1 - y0) / g.shape[0]
+    gx, gy = (mx + HALF - x0) / sx - HALF, (my + HALF - y0) / sy - HALF  # centre convention, window pixels
+    grey = _remap(g, gx.astype(np.float32), gy.astype(np.float32), cv2.INTER_CUBIC)
+    rgb = None
+    if colours:
+        rgb = [_remap(c, mx - x0, my - y0) for c in src.colours(x0, y0, x1, y1)]
+    return grey, valid, rgb
 
 
-def sparse_check(rp: RectifiedPair, views, greys, max_features: int = 4000) -> dict:
-    """Sparse matches of the whole rectified pair (module docstring): ``{"n", "dy" (px), "d" (px), "points",
-    "miss" (m)}``; ``n`` 0 when nothing matched."""
-    h = rp.size[1]
-    imgs = []
-    for i in (0, 1):
-        g, valid, _ = rectified(rp, views[i], i, greys[i], 0, h)
-        imgs.append((to_uint8(g, valid), valid))
+#: the longest side of the rectified pair the sparse check matches (a coarser copy of larger pairs)
+SPARSE_SIDE = 1500
+#: rows of the rectified image resampled at once
+ROWS = 256
+
+
+def _whole(rp, view, i, src):
+    """The whole rectified image ``i`` (uint8 stretch, valid mask), resampled ``ROWS`` rows at a time from source
+    pixels averaged to about the rectified pixel's size."""
+    k = max(1, int(view.focal / rp.focal))
+    parts = [rectified(rp, view, i, src, r, min(rp.size[1], r + ROWS), k=k)[:2] for r in range(0, rp.size[1], ROWS)]
+    g, valid = np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
+    return to_uint8(g, valid), valid
+
+
+def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000) -> dict:
+    """Sparse matches of the whole rectified pair (module docstring; pairs longer than ``SPARSE_SIDE`` on a
+    coarser copy, the row differences given in ``rp``'s pixels): ``{"n", "dy" (px), "d" (px), "points", "miss"
+    (m)}``; ``n`` 0 when nothing matched."""
+    s = min(1.0, SPARSE_SIDE / max(rp.size))
+    rps = rp.scaled(s) if s < 1.0 else rp
+    imgs = [_whole(rps, views[i], i, sources[i]) for i in (0, 1)]
     sift = cv2.SIFT_create(nfeatures=max_features)
     k1, d1 = sift.detectAndCompute(imgs[0][0], imgs[0][1].astype(np.uint8))
     k2, d2 = sift.detectAndCompute(imgs[1][0], imgs[1][1].astype(np.uint8))
@@ -69,16 +112,16 @@ def sparse_check(rp: RectifiedPair, views, greys, max_features: int = 4000) -> d
         return empty
     p1 = np.array([k1[m.queryIdx].pt for m in good]) + HALF
     p2 = np.array([k2[m.trainIdx].pt for m in good]) + HALF
-    dy = p1[:, 1] - p2[:, 1]
+    dy = (p1[:, 1] - p2[:, 1]) / s
     med = float(np.median(dy))
     spread = float(1.4826 * np.median(np.abs(dy - med)))
     keep = np.abs(dy - med) <= max(2.0, 3.0 * spread)
     p1, p2, dy = p1[keep], p2[keep], dy[keep]
-    P, miss = closest_points(rp.centres[0], rp.rays(p1[:, 0], p1[:, 1], 0), rp.centres[1],
-                             rp.rays(p2[:, 0], p2[:, 1], 1))
+    P, miss = closest_points(rps.centres[0], rps.rays(p1[:, 0], p1[:, 1], 0), rps.centres[1],
+                             rps.rays(p2[:, 0], p2[:, 1], 1))
     ok = np.isfinite(miss)
-    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "points": P[ok], "miss": miss[ok],
-            "dy_median": med, "dy_spread": spread}
+    return {"n": int(ok.sum()), "dy": dy[ok], "d": ((p1[:, 0] - p2[:, 0]) / s)[ok], "points": P[ok],
+            "miss": miss[ok], "dy_median": med, "dy_spread": spread}
 
 
 def sparse_problem(sp, max_px: float) -> str:
@@ -97,31 +140,46 @@ def sparse_problem(sp, max_px: float) -> str:
     return ""
 
 
-def dense_points(rp: RectifiedPair, views, greys, colours, lo: float, hi: float, zlim: tuple, stats: dict):
-    """Yield ``(points (N, 3), colours (N, 3) uint8)`` strip by strip (module docstring); ``[lo, hi]`` the
-    disparity range, ``zlim`` the heights kept; ``stats`` gets the matched and matchable pixel counts."""
+def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
+                 colours: bool = False, refine: bool = False):
+    """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
+    left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the disparity range, ``zlim`` the heights
+    kept; ``stats`` gets the matched and matchable pixel counts; ``refine``: the disparities refined by
+    least-squares matching (:func:`fotogeo.stereo.refine.refine`). Each strip is matched with ``MARGIN`` more rows
+    and columns on either side (and the right image's columns the disparity range needs), its source pixels read
+    by windows: memory follows the strip, not the images."""
     w, h = rp.size
-    stats.update(matched=0, matchable=0)
-    for r0 in range(0, h, STRIP):
+    u0, v0, u1, v1 = box or (0, 0, w, h)
+    ca = max(0, min(u0, u0 - int(np.ceil(hi))) - MARGIN)
+    cb = min(w, max(u1, u1 - int(np.floor(lo))) + MARGIN)
+    wc = cb - ca
+    stats.setdefault("matched", 0)
+    stats.setdefault("matchable", 0)
+    for r0 in range(v0, v1, STRIP):
         a, b = max(0, r0 - MARGIN), min(h, r0 + STRIP + MARGIN)
-        g1, v1, maps1 = rectified(rp, views[0], 0, greys[0], a, b)
-        g2, v2, _ = rectified(rp, views[1], 1, greys[1], a, b)
-        d = disparity(g1, g2, v1, v2, lo, hi)
-        core = slice(r0 - a, min(h, r0 + STRIP) - a)
+        g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
+        g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca, cb)
+        if not v1m.any() or not v2m.any():
+            continue
+        d = disparity(g1, g2, v1m, v2m, lo, hi)
+        if refine:
+            d = refine_disparities(g1, g2, d)
+        core = (slice(r0 - a, min(v1, r0 + STRIP) - a), slice(u0 - ca, u1 - ca))
         shift = int(round(0.5 * (lo + hi)))  # matchable: the partner at the middle disparity lies in the image
-        partner = np.zeros_like(v2)
-        if abs(shift) < w:
-            partner[:, max(0, shift):w + min(0, shift)] = v2[:, max(0, -shift):w - max(0, shift)]
-        d, v1 = d[core], (v1 & partner)[core]
-        mx, my = maps1[0][core], maps1[1][core]
+        partner = np.zeros_like(v2m)
+        if abs(shift) < wc:
+            partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
+        d, vm = d[core], (v1m & partner)[core]
         rows, cols = np.nonzero(np.isfinite(d))
-        stats["matchable"] += int(v1.sum())
+        stats["matchable"] += int(vm.sum())
         stats["matched"] += len(rows)
         if not len(rows):
             continue
-        u = cols + HALF
+        u = cols + u0 + HALF
         v = rows + r0 + HALF
         P, _ = closest_points(rp.centres[0], rp.rays(u, v, 0), rp.centres[1], rp.rays(u - d[rows, cols], v, 1))
         ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlim[0]) & (P[:, 2] <= zlim[1])
-        rgb = np.stack([_remap(c, mx, my)[rows, cols] for c in colours], axis=1)
-        yield P[ok], rgb[ok]
+        rgb = None
+        if rgb1 is not None:
+            rgb = np.stack([c[core][rows, cols] for c in rgb1], axis=1)[ok]
+        yield P[ok], rgb

@@ -95,3 +95,59 @@ def read_image(path) -> tuple:
     else:
         cols = [_to_uint8(data[0])] * 3
     return grey, cols
+
+
+#: the longest side of the decimated read that gives an image's colour stretch
+STRETCH_SIDE = 1024
+
+
+class SourceImage:
+    """An image read window by window (memory: the window, never the image): grey values (the mean of its first
+    three bands, or its one band) and colours (its first three bands, or the grey three times, stretched to 8 bits
+    between the 0.5 and 99.5 percentiles of the whole image, taken from a read decimated to at most
+    ``STRETCH_SIDE`` pixels a side)."""
+
+    def __init__(self, path):
+        info = open_raster(path, "image")
+        self.path, self.width, self.height = str(path), info.width, info.height
+        self.bands = list(range(1, min(3, info.count) + 1))
+        self._stretch = None
+
+    def read(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
+        """Bands ``(b, rows, cols)`` of the pixels ``[x0, x1) x [y0, y1)``, averaged over ``k x k`` blocks when
+        ``k > 1`` (``ceil(size / k)`` pixels)."""
+        from rasterio.enums import Resampling
+        from rasterio.windows import Window
+        w, h = x1 - x0, y1 - y0
+        shape = (len(self.bands), -(-h // k), -(-w // k))
+        with gdal_env(), ropen(self.path) as ds:
+            return ds.read(indexes=self.bands, window=Window(x0, y0, w, h), out_shape=shape,
+                           resampling=Resampling.average if k > 1 else Resampling.nearest)
+
+    def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
+        return self.read(x0, y0, x1, y1, k).astype(np.float32).mean(axis=0)
+
+    def _stretches(self) -> list:
+        if self._stretch is None:
+            k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
+            data = self.read(0, 0, self.width, self.height, k)
+            self._stretch = []
+            for b in data:
+                if b.dtype == np.uint8:
+                    self._stretch.append(None)
+                    continue
+                v = b[b > 0] if (b > 0).any() else b.ravel()
+                self._stretch.append(tuple(float(x) for x in np.percentile(v, [0.5, 99.5])))
+        return self._stretch
+
+    def colours(self, x0: int, y0: int, x1: int, y1: int) -> list:
+        """Three uint8 ``(rows, cols)`` colour bands of the window (class docstring)."""
+        data = self.read(x0, y0, x1, y1)
+        out = []
+        for b, s in zip(data, self._stretches()):
+            if s is None:
+                out.append(b)
+            else:
+                lo, hi = s
+                out.append(np.clip((b.astype(np.float32) - lo) * 255.0 / max(hi - lo, 1e-6), 0, 255).astype(np.uint8))
+        return out if len(out) >= 3 else [out[0]] * 3

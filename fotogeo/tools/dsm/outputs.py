@@ -1,21 +1,37 @@
-"""What ``fotogeo dsm`` writes: the DSM GeoTIFF (COG layout), the JSON report and the point cloud's place in it.
+"""What ``fotogeo dsm`` writes, shared by the frame and the RPC runs: the DSM GeoTIFF (COG layout) written tile by
+tile, the point cloud, and the JSON report.
 
 The DSM has float32 bands: 1 the height (nodata :data:`NODATA`), 2 the number of pairs that gave it, 3 the
 spread (standard deviation) of the points' heights in the cell, and with ``fill`` 4 the filled cells (1).
+
+:class:`Products` takes the fused heights of one output tile at a time (:meth:`Products.add`), over the tile
+expanded by a margin of cells: there it removes the speckles (islands smaller than :data:`SPECKLE_CELLS` cells,
+:func:`fotogeo.stereo.fusion.remove_speckles` — a margin of that many cells sees every island that touches the
+tile whole, so tiles give the result of the whole grid), fills the holes with ``fill`` (inside the expanded tile),
+writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
+the report and turns the GeoTIFF into a COG. Memory: the tile, never the grid.
 """
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 from affine import Affine
+
+from ...errors import InputError
+from ...stereo.fusion import fill_holes, remove_speckles
 
 NODATA = -32767.0
 #: islands of the fused heights smaller than this many cells, joined by steps of at most SPECKLE_STEP cells'
 #: widths, are mismatches and removed (:func:`fotogeo.stereo.fusion.remove_speckles`)
 SPECKLE_CELLS = 64
 SPECKLE_STEP = 4.0
+#: the margin of cells around an output tile (module docstring)
+TILE_MARGIN = SPECKLE_CELLS
 BANDS = ("height", "pairs", "spread", "filled")
+#: at most about this many heights are kept for the report's median (a regular sample of each tile beyond it)
+HEIGHT_SAMPLE = 4_000_000
 
 
 def _pair_entry(p, names) -> dict:
@@ -24,55 +40,101 @@ def _pair_entry(p, names) -> dict:
     return d
 
 
-def pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi, overlap, t0,
-                 timings) -> dict:
-    """The report (without the output paths): pairs, grid, completeness (the share of the cells both images of a
-    kept pair see, ``overlap``, that got a height), heights, timings."""
-    valid = np.isfinite(height) if filled is None else np.isfinite(height) & (filled == 0)
-    inside = int(overlap.sum())
-    return {
-        "fotogeo": "dsm", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
-        "height_search_range": [round(zlo, 3), round(zhi, 3)],
-        "pairs": [_pair_entry(p, names) for p in choices],
-        "pairs_kept": sum(p.kept for p in choices),
-        "grid": {"width": grid.width, "height": grid.height, "resolution": grid.resolution,
-                 "transform": list(transform_of(grid))[:6]},
-        "completeness": round(float((valid & overlap).sum()) / max(1, inside), 4),
-        "stereo_cells": inside,
-        "filled_cells": int(filled.sum()) if filled is not None else 0,
-        "heights": ({"min": float(np.nanmin(height)), "median": float(np.nanmedian(height)),
-                     "max": float(np.nanmax(height))} if np.isfinite(height).any() else None),
-        "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
-                      "wall": round(time.perf_counter() - t0[1], 3)},
-    }
-
-
 def transform_of(grid) -> Affine:
     return Affine(grid.resolution, 0.0, grid.x0, 0.0, -grid.resolution, grid.y0)
 
 
-def write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud) -> None:
-    """Write the DSM (and the report) through the :class:`~fotogeo.io.raster.AtomicOutputs` ``out``; the report
-    gets the outputs' paths."""
-    from ...io.cog import convert_to_cog
-    from ...io.raster import geotiff_profile, ropen
-    bands = [np.where(np.isfinite(height), height, NODATA), count.astype(np.float32),
-             np.where(np.isfinite(spread), spread, NODATA)]
-    if filled is not None:
-        bands.append(filled.astype(np.float32))
-    tmp = out.temp(output)
-    profile = geotiff_profile(width=grid.width, height=grid.height, count=len(bands), dtype="float32",
-                              crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA, predictor=True)
-    with ropen(tmp, "w", **profile) as ds:
-        ds.write(np.stack(bands).astype(np.float32))
-        for k, name in enumerate(BANDS[:len(bands)]):
-            ds.set_band_description(k + 1, name)
-    convert_to_cog(tmp, "average")
-    rep["outputs"] = {"dsm": str(output)}
-    if cloud is not None:
-        rep["outputs"]["point_cloud"] = str(point_cloud)
-        rep["points_written"] = cloud.count
-    if report is not None:
-        from ...io.report import write_json
-        rep["outputs"]["report"] = str(report)
-        write_json(out.temp(report), rep)
+class Products:
+    """The outputs of one run inside the :class:`~fotogeo.io.raster.AtomicOutputs` ``out`` (module docstring);
+    ``seen(grid, height)`` gives the cells of a (sub-)grid that both images of a kept pair see."""
+
+    def __init__(self, out, output, grid, crs, *, fill: bool, point_cloud=None, report=None, seen=None):
+        import rasterio
+
+        from ...io.raster import geotiff_profile
+        self.out, self.output, self.grid, self.crs, self.fill = out, output, grid, crs, fill
+        self.point_cloud, self.report, self.seen = point_cloud, report, seen
+        self.cloud = None
+        if point_cloud is not None:
+            from ...io.las import LasWriter
+            self.cloud = LasWriter(out.temp(point_cloud), crs, compress=Path(point_cloud).suffix.lower() == ".laz")
+        self.tmp = out.temp(output)
+        profile = geotiff_profile(width=grid.width, height=grid.height, count=4 if fill else 3, dtype="float32",
+                                  crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA, predictor=True)
+        self.ds = rasterio.open(self.tmp, "w", **profile)
+        for k, name in enumerate(BANDS[:profile["count"]]):
+            self.ds.set_band_description(k + 1, name)
+        self.stride = max(1, int(grid.width * grid.height // HEIGHT_SAMPLE))
+        self.valid = self.inside = self.filled = self.speckles = 0
+        self.sample, self.lo, self.hi = [], np.inf, -np.inf
+
+    def add(self, core, expanded, height, count, spread) -> None:
+        """The fused ``height``, ``count``, ``spread`` of the window ``expanded`` ``(r0, c0, rows, cols)``; the
+        window ``core`` inside it is written."""
+        from rasterio.windows import Window
+        before = np.isfinite(height)
+        height, _ = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * self.grid.resolution)
+        gone = before & ~np.isfinite(height)
+        filled = None
+        if self.fill and np.isfinite(height).any():
+            height, filled = fill_holes(height)
+        r, c = core[0] - expanded[0], core[1] - expanded[1]
+        cut = (slice(r, r + core[2]), slice(c, c + core[3]))
+        height, count, spread = height[cut], count[cut].copy(), spread[cut]
+        gone = gone[cut]
+        valid = np.isfinite(height) if filled is None else np.isfinite(height) & (filled[cut] == 0)
+        count[~np.isfinite(height)] = 0
+        self.speckles += int(gone.sum())
+        if np.isfinite(height).any():
+            overlap = self.seen(self.grid.sub(*core), height)
+            self.valid += int((valid & overlap).sum())
+            self.inside += int(overlap.sum())
+            v = height[np.isfinite(height)]
+            self.lo, self.hi = min(self.lo, float(v.min())), max(self.hi, float(v.max()))
+            self.sample.append(v[::self.stride])
+        bands = [np.where(np.isfinite(height), height, NODATA), count.astype(np.float32),
+                 np.where(np.isfinite(spread), spread, NODATA)]
+        if self.fill:
+            self.filled += int(filled[cut].sum()) if filled is not None else 0
+            bands.append(filled[cut].astype(np.float32) if filled is not None else np.zeros(height.shape, np.float32))
+        self.ds.write(np.stack(bands).astype(np.float32), window=Window(core[1], core[0], core[3], core[2]))
+
+    def finish(self, choices, names, rule, ref, notes, zlo, zhi, t0, timings, empty: str) -> dict:
+        """Close the outputs and return the report (written with ``report``); ``empty`` the refusal when no cell
+        got a height."""
+        from ...io.cog import convert_to_cog
+        if not self.sample:
+            raise InputError(empty)
+        self.ds.close()
+        convert_to_cog(self.tmp, "average")
+        heights = np.concatenate(self.sample)
+        g = self.grid
+        rep = {
+            "fotogeo": "dsm", "crs": self.crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
+            "height_search_range": [round(zlo, 3), round(zhi, 3)],
+            "pairs": [_pair_entry(p, names) for p in choices],
+            "pairs_kept": sum(p.kept for p in choices),
+            "grid": {"width": g.width, "height": g.height, "resolution": g.resolution,
+                     "transform": list(transform_of(g))[:6]},
+            "completeness": round(self.valid / max(1, self.inside), 4),
+            "stereo_cells": self.inside, "filled_cells": self.filled,
+            "heights": {"min": self.lo, "median": float(np.median(heights)), "max": self.hi},
+            "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
+                          "wall": round(time.perf_counter() - t0[1], 3)},
+            "speckle_cells_removed": self.speckles,
+            "outputs": {"dsm": str(self.output)},
+        }
+        if self.cloud is not None:
+            self.cloud.close()
+            rep["outputs"]["point_cloud"] = str(self.point_cloud)
+            rep["points_written"] = self.cloud.count
+        if self.report is not None:
+            from ...io.report import write_json
+            rep["outputs"]["report"] = str(self.report)
+            write_json(self.out.temp(self.report), rep)
+        return rep
+
+    def close(self) -> None:
+        """Release the files (after :meth:`finish`, or on an error: AtomicOutputs then deletes them)."""
+        if not self.ds.closed:
+            self.ds.close()

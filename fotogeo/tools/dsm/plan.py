@@ -39,12 +39,12 @@ def nearest_pair(views) -> tuple:
     return int(min(i, j)), int(max(i, j))
 
 
-def sparse_heights(views, greys, sparse_check, sparse_problem, max_px) -> tuple:
+def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tuple:
     """``(low, high)`` heights of the sparse matches of the nearest pair (1st and 99th percentile), refused when
     they are too few or cannot be trusted."""
     i, j = nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
-    sp = sparse_check(rp, (views[i], views[j]), (greys[i], greys[j]))
+    sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]))
     why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
     if why:
         raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "

@@ -13,14 +13,14 @@ import numpy as np
 
 from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs
-from ...stereo.fusion import Fusion, PairLayer, fill_holes, remove_speckles
+from ...stereo.fusion import Fusion, PairLayer
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..common.checks import check_output_grid
 from ..ortho.inputs import map_crs, terrain
 from . import plan
 from . import rpc_pairs as rp
 from .inputs import read_image, read_pairs
-from .outputs import SPECKLE_CELLS, SPECKLE_STEP, pair_summary, write_dsm
+from .outputs import Products
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
 ORBIT = 700_000.0
@@ -151,6 +151,25 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
+def _match(p, ims, imgs, s, grid, cloud, stage, timings, names) -> PairLayer:
+    """One pair's points on the grid (:func:`.rpc_pairs.pair_points`), its entry in the report updated."""
+    t, stats, miss = rp.now(), {}, []
+    layer = PairLayer(grid)
+    for P, rgb, m in rp.pair_points(ims[p.i].model, ims[p.j].model, (imgs[p.i][0], imgs[p.j][0]), imgs[p.i][1],
+                                    s["zlo"], s["zhi"], s["tau"], stats, stage):
+        layer.add(P)
+        miss.append(m)
+        if cloud is not None:
+            cloud.write(P, rgb)
+    m = np.concatenate(miss) if miss else np.zeros(0)
+    p.extra.update(match_density=round(stats.get("matched", 0) / max(1, stats.get("matchable", 0)), 4),
+                   points=int(len(m)), disparity_ranges_px=stats.get("disparity_ranges_px", []),
+                   ray_miss_px=({"median": round(float(np.median(m)), 4),
+                                 "p95": round(float(np.percentile(m, 95)), 4)} if len(m) else None))
+    timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
+    return layer
+
+
 def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
                      resolution, bounds, fill, point_cloud, report, overwrite, prog, t0) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
@@ -164,43 +183,21 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
-    fusion, timings, cloud = Fusion(grid), {}, None
+    fusion, timings = Fusion(grid), {}
+    seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
-        if point_cloud is not None:
-            from ...io.las import LasWriter
-            cloud = LasWriter(out.temp(point_cloud), crs)
-        for k, p in enumerate(kept):
-            t, s, stats, miss = rp.now(), setups[(p.i, p.j)], {}, []
-            stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
-                               f"matching {names[p.i]} with {names[p.j]}")
-            layer = PairLayer(grid)
-            for P, rgb, m in rp.pair_points(ims[p.i].model, ims[p.j].model, (imgs[p.i][0], imgs[p.j][0]),
-                                            imgs[p.i][1], s["zlo"], s["zhi"], s["tau"], stats, stage):
-                layer.add(P)
-                miss.append(m)
-                if cloud is not None:
-                    cloud.write(P, rgb)
-            m = np.concatenate(miss) if miss else np.zeros(0)
-            p.extra.update(match_density=round(stats.get("matched", 0) / max(1, stats.get("matchable", 0)), 4),
-                           points=int(len(m)), disparity_ranges_px=stats.get("disparity_ranges_px", []),
-                           ray_miss_px=({"median": round(float(np.median(m)), 4),
-                                         "p95": round(float(np.percentile(m, 95)), 4)} if len(m) else None))
-            timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
-            fusion.add(layer)
-        height, count, spread = fusion.result()
-        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
-        if not np.isfinite(height).any():
-            raise InputError("no height was matched in any pair: the images may be textureless or cloud-covered")
-        count[~np.isfinite(height)] = 0
-        filled = None
-        if fill:
-            height, filled = fill_holes(height)
-        if cloud is not None:
-            cloud.close()
-        rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
-                           plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
-        rep["speckle_cells_removed"] = speckles
-        write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)
+        products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
+        try:
+            for k, p in enumerate(kept):
+                stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
+                                   f"matching {names[p.i]} with {names[p.j]}")
+                fusion.add(_match(p, ims, imgs, setups[(p.i, p.j)], grid, products.cloud, stage, timings, names))
+            whole = (0, 0, grid.height, grid.width)
+            products.add(whole, whole, *fusion.result())
+            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
+                                  "in any pair: the images may be textureless or cloud-covered")
+        finally:
+            products.close()
         out.commit()
     prog(1.0, "done")
     if rep["completeness"] < 0.5:

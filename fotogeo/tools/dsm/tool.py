@@ -11,15 +11,14 @@ from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs, check_output
 from ...options.dsm import DSM
 from ...progress import as_progress
-from ...stereo.fusion import Fusion, PairLayer, fill_holes, remove_speckles
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
-from . import frames, plan
-from .inputs import orientation_files, parse_bounds, read_image, read_pairs
-from .outputs import SPECKLE_CELLS, SPECKLE_STEP, pair_summary, write_dsm
+from . import frames, matching, plan
+from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
+from .outputs import Products
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -30,8 +29,8 @@ LOW_DENSITY = 0.5
 
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
-        dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, fill: bool = False,
-        point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+        dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
+        fill: bool = False, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report."""
@@ -50,6 +49,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
+    if rpc and refine:
+        raise InputError("--refine is for frame pairs (measured there only); drop --refine or --rpc", option="refine")
     if rpc:
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
@@ -58,11 +59,11 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                   bounds=parse_bounds(bounds), fill=fill, point_cloud=point_cloud, report=report,
+                   bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
                    overwrite=overwrite, prog=prog, t0=t0)
 
 
-def _heights(ims, views, greys, dem, dem_heights, crs) -> tuple:
+def _heights(ims, views, sources, dem, dem_heights, crs) -> tuple:
     """``(zlo, zhi, height reference, notes)`` of the terrain (plan module docstring)."""
     if dem is not None:
         source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
@@ -71,7 +72,7 @@ def _heights(ims, views, greys, dem, dem_heights, crs) -> tuple:
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
         return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
-    zlo, zhi = plan.sparse_heights(views, greys, frames.sparse_check, frames.sparse_problem, MAX_EPIPOLAR_PX)
+    zlo, zhi = plan.sparse_heights(views, sources, frames.sparse_check, frames.sparse_problem, MAX_EPIPOLAR_PX)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
@@ -93,11 +94,11 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     return choices
 
 
-def _pair_setup(p, views, greys, zlo, zhi, use_dem, scale) -> tuple:
+def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale) -> tuple:
     """``(rectified pair, disparity range, height range, None)`` of one kept pair, or ``(…, reason)`` to leave
     it out."""
     rp = rectify(views[p.i], views[p.j], scale)
-    sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (greys[p.i], greys[p.j]))
+    sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]))
     p.extra.update(sparse_matches=sp["n"])
     if sp["n"] >= 8:
         p.extra.update(epipolar_residual_px={"median": float(np.median(np.abs(sp["dy"]))),
@@ -120,14 +121,13 @@ def _pair_setup(p, views, greys, zlo, zhi, use_dem, scale) -> tuple:
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None
 
 
-def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, fill, point_cloud, report,
+def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
             overwrite, prog, t0) -> dict:
     """The frame pipeline (package docstring)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
-    images = [read_image(im.path) for im in ims]
-    greys = [g for g, _ in images]
-    zlo, zhi, ref, notes = _heights(ims, views, greys, dem, dem_heights, crs)
+    sources = [SourceImage(im.path) for im in ims]
+    zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
     choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs)
     kept = [p for p in choices if p.kept]
@@ -137,66 +137,33 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
-    fusion, timings = Fusion(grid), {}
-    cloud = None
+    setups, timings = {}, {}
+    for k, p in enumerate(kept):
+        prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
+        t = time.perf_counter()
+        rp, drange, zlim, why = _pair_setup(p, views, sources, zlo, zhi, dem is not None, min(1.0, 2.0 * gsd / res))
+        timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
+        if why:
+            p.kept, p.reason = False, why
+            warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=3)
+        else:
+            setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, (views[p.i], views[p.j]),
+                                                    (sources[p.i], sources[p.j]), refine)
+    if not setups:
+        raise InputError("no pair could be matched: " + "; ".join(
+            f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
+    seen = lambda g, h: plan.stereo_mask(g, h, [p for p in kept if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
-        if point_cloud is not None:
-            from ...io.las import LasWriter
-            cloud = LasWriter(out.temp(point_cloud), crs, compress=Path(point_cloud).suffix.lower() == ".laz")
-        for k, p in enumerate(kept):
-            stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
-                               f"matching {names[p.i]} with {names[p.j]}")
-            layer = _match_pair(p, views, images, grid, zlo, zhi, dem is not None, gsd, res, cloud, stage, timings)
-            if layer is not None:
-                fusion.add(layer)
-        if not fusion.means:
-            raise InputError("no pair could be matched: " + "; ".join(
-                f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
-        height, count, spread = fusion.result()
-        height, speckles = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
-        if not np.isfinite(height).any():
-            raise InputError("no height was matched in any pair (" + ", ".join(
-                f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept) + "): the images may be textureless or "
-                "cloud-covered where they overlap")
-        count[~np.isfinite(height)] = 0
-        filled = None
-        if fill:
-            height, filled = fill_holes(height)
-        if cloud is not None:
-            cloud.close()
-        rep = pair_summary(choices, names, grid, height, count, filled, crs, rule, ref, notes, zlo, zhi,
-                           plan.stereo_mask(grid, height, [p for p in kept if p.kept], ims), t0, timings)
-        rep["speckle_cells_removed"] = speckles
-        write_dsm(out, output, grid, crs, height, count, spread, filled, rep, report, cloud, point_cloud)
+        products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
+        try:
+            matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings)
+            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
+                                  "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept)
+                                  + "): the images may be textureless or cloud-covered where they overlap")
+        finally:
+            products.close()
         out.commit()
+    for m in setups.values():
+        m.report(LOW_DENSITY)
     prog(1.0, "done")
     return rep
-
-
-def _match_pair(p, views, images, grid, zlo, zhi, use_dem, gsd, res, cloud, stage, timings):
-    """Match one kept pair onto a :class:`PairLayer` (None: left out, the reason in ``p``)."""
-    t = time.perf_counter()
-    scale = min(1.0, 2.0 * gsd / res)
-    rp, drange, zlim, why = _pair_setup(p, views, [g for g, _ in images], zlo, zhi, use_dem, scale)
-    if why:
-        p.kept, p.reason = False, why
-        warnings.warn(f"pair {views[p.i].name}-{views[p.j].name} left out: {why}", FotogeoWarning, stacklevel=4)
-        return None
-    stage(0.2, "dense matching")
-    layer, stats = PairLayer(grid), {}
-    n = 0
-    for P, rgb in frames.dense_points(rp, (views[p.i], views[p.j]), (images[p.i][0], images[p.j][0]),
-                                      images[p.i][1], drange[0], drange[1], zlim, stats):
-        n += layer.add(P)
-        if cloud is not None:
-            cloud.write(P, rgb)
-    density = stats["matched"] / max(1, stats["matchable"])
-    p.extra.update(disparity_range_px=[round(drange[0], 2), round(drange[1], 2)],
-                   height_range=[round(zlim[0], 2), round(zlim[1], 2)], rectified_size=list(rp.size),
-                   rectified_scale=round(scale, 4), match_density=round(density, 4), points=n)
-    timings[f"{views[p.i].name}-{views[p.j].name}"] = round(time.perf_counter() - t, 3)
-    if density < LOW_DENSITY:
-        warnings.warn(f"pair {views[p.i].name}-{views[p.j].name}: only {100 * density:.0f} % of the overlap "
-                      f"matched (textureless, cloud-covered or changed areas?); its holes stay nodata",
-                      FotogeoWarning, stacklevel=4)
-    return layer

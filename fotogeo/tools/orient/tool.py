@@ -34,11 +34,12 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from affine import Affine
 
 from ...errors import InputError
 from ...io.camera import load_camera
 from ...io.gcps import check_inside, read_gcps
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.raster import AtomicOutputs, RasterInfo, check_output, open_raster, read_decimated
 from ...io.report import write_json
 from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal_scale, write_layers
 from ...geometry.georeference import Georeference
@@ -60,7 +61,8 @@ def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=
            resampling: str = "nearest", crs=None, layer=None, fields=None, camera=None, overwrite: bool = False,
            progress=None) -> Orientation:
     """Fit ``model`` (a name, or ``"auto"``) to the GCPs of ``image`` and write the requested
-    outputs; returns an :class:`~fotogeo.tools.common.results.Orientation` (``result["check"]`` reads the report).
+    outputs; ``image`` None is a numbers-only resection (GCPs' pixel positions + ``camera``, whose image size is
+    the image's; no plot, RPC/GCP copies or rectified raster); returns an :class:`~fotogeo.tools.common.results.Orientation` (``result["check"]`` reads the report).
 
     ``camera`` (a :class:`~fotogeo.geometry.camera.FrameCamera` or an interior-orientation YAML file)
     is needed by ``collinearity`` only. ``image_sigma``: the a priori σ of the GCPs' image positions (the
@@ -72,12 +74,13 @@ def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=
         get_model(model).options_from(camera=camera)  # fails early, naming a missing camera
     outs = {k: v for k, v in dict(report=report, vectors=vectors, plot=plot, points=points, rpc=rpc,
                                   gcp_tiff=gcp_tiff, rectify=rectify).items() if v}
-    _check_outputs(model, outs, [image, gcps, dem], overwrite)
-    info = open_raster(image, "image")
+    _check_outputs(model, outs, [p for p in (image, gcps, dem) if p is not None], overwrite)
+    info = open_raster(image, "image") if image is not None else _image_from_camera(camera, outs)
     g = read_gcps(gcps, layer=layer, crs=crs, raster=image if info.georeferenced else None, dem=dem,
                   height=height, **(fields or {}))
     check_gcp_crs(g, gcps)
-    check_camera_size(camera, info.width, info.height, image)
+    if image is not None:
+        check_camera_size(camera, info.width, info.height, image)
     check_inside(g, info.width, info.height, f"{gcps}")
     prog(0.1, "GCPs read")
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
@@ -141,6 +144,24 @@ def ground_residuals(model, ground, pixel, crs):
     return on_ground, on_ground - ground[:, :2]
 
 
+#: outputs drawn over or copied from the image raster: not available in a numbers-only resection
+RASTER_OUTPUTS = ("plot", "rpc", "gcp_tiff", "rectify")
+
+
+def _image_from_camera(camera, outs: dict) -> RasterInfo:
+    """A numbers-only resection (no image raster): the image's size from ``camera``, no georeference."""
+    if camera is None:
+        raise InputError("give the image (IMAGE before GCPS), or --camera for a numbers-only resection (the image "
+                         "size is the camera's)")
+    needing = [k for k in RASTER_OUTPUTS if k in outs]
+    if needing:
+        flags = ", ".join("--" + k.replace("_", "-") for k in needing)
+        raise InputError(f"{flags} {'needs' if len(needing) == 1 else 'need'} the image raster; give IMAGE before GCPS (a numbers-only resection writes "
+                         f"--report, --vectors and --points)")
+    w, h = (int(v) for v in camera.image_size)
+    return RasterInfo(None, w, h, 0, "uint8", None, Affine.identity(), None)
+
+
 def _check_outputs(model: str, outs: dict, inputs: list, overwrite: bool) -> None:
     """Refuse, before any work, exports the model cannot give and output paths that clash or exist."""
     if model == "auto" and ("gcp_tiff" in outs or "rpc" in outs):
@@ -191,7 +212,7 @@ def _notes(rep) -> dict:
 
 def _report(image, gcps, model, g, fit, d_ground, scan_pixel_um) -> dict:
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
-    return {"fotogeo": "orient", "image": str(image), "gcps": str(gcps), "model_name": model,
+    return {"fotogeo": "orient", "image": str(image) if image is not None else None, "gcps": str(gcps), "model_name": model,
             "crs": g.crs.to_string(), "n_gcps": len(g), **fit.stats, "snooping": fit.snooping,
             "blunder_test": fit.blunder_test,
             "warnings": fit.warnings, "model": fit.model.to_dict(),

@@ -1,7 +1,9 @@
 """``fotogeo mosaic``: one orthophoto mosaic from many, with seamlines, feathering and balancing (issue 21).
 
-``mosaic(orthos, output, seamlines=None)`` — the orthophotos must share a CRS and a pixel lattice (same pixel size,
-origins a whole number of pixels apart: what ``fotogeo ortho`` writes at one ``--resolution``). Then:
+``mosaic(orthos, output, seamlines=None)`` — the orthophotos must share a CRS. The mosaic's pixel lattice is the
+finest pixel size among them with the origin of the first that has it; one on another lattice (pixel size, or an
+origin a fraction of a pixel off) is read through a VRT that resamples it onto the lattice
+(:func:`fotogeo.io.vrt.lattice_vrt`, bilinear). Then:
 
 1. **seam grid** — the mosaic's extent on a grid of at most :data:`SEAM_PIXELS` cells (every ``f``-th pixel):
    each orthophoto's band values there (GDAL average; NaN off it), held over its own window of the grid only
@@ -52,29 +54,46 @@ SEAM_PIXELS = 4_000_000
 
 
 def _lattice(infos, paths):
-    """The common CRS, pixel size and the union grid ``(transform, width, height)``; mismatches refused."""
-    from affine import Affine
+    """The mosaic's CRS and pixel lattice: the finest pixel size among the orthophotos, with the origin of the
+    first one that has it. Another CRS, a rotated grid or another band set is refused."""
     first = infos[0]
-    res = (first.transform.a, first.transform.e)
-    bounds = []
     for info, p in zip(infos, paths):
-        t = info.transform
         if info.crs != first.crs:
             raise InputError(f"orthophoto {str(p)!r} is in another CRS than {str(paths[0])!r}; make every "
-                             f"orthophoto in one CRS (fotogeo ortho --crs)")
-        off = ((t.c - first.transform.c) / res[0], (t.f - first.transform.f) / res[1])
-        if (t.a, t.e) != res or t.b or t.d or any(abs(o - round(o)) > 1e-6 for o in off):
-            raise InputError(f"orthophoto {str(p)!r} is not on the pixel lattice of {str(paths[0])!r} (pixel size "
-                             f"or origin); make them with one --resolution (fotogeo ortho aligns every grid)")
+                             f"orthophoto in one CRS (--crs of fotogeo ortho or register, or gdalwarp -t_srs)")
+        if info.transform.b or info.transform.d:
+            raise InputError(f"orthophoto {str(p)!r} has a rotated grid; make it north-up first "
+                             f"(gdalwarp -t_srs with its own CRS)")
         if (info.count, info.dtype) != (first.count, first.dtype):
             raise InputError(f"orthophoto {str(p)!r} has {info.count} bands of {info.dtype}, {str(paths[0])!r} "
                              f"{first.count} of {first.dtype}; mosaic orthophotos of one kind")
-        bounds.append((t.c, t.f + t.e * info.height, t.c + t.a * info.width, t.f))
-    b = np.array(bounds)
-    x0, y1 = b[:, 0].min(), b[:, 3].max()
-    width = int(round((b[:, 2].max() - x0) / res[0]))
-    height = int(round((y1 - b[:, 1].min()) / -res[1]))
-    return first.crs, Affine(res[0], 0, x0, 0, res[1], y1), width, height
+    finest = min(infos, key=lambda i: abs(i.transform.a * i.transform.e))
+    return first.crs, finest.transform
+
+
+def _union_grid(infos, lattice):
+    """The grid ``(transform, width, height)`` of ``lattice`` covering every orthophoto (all on the lattice)."""
+    from affine import Affine
+    bounds = np.array([(i.transform.c, i.transform.f + i.transform.e * i.height,
+                        i.transform.c + i.transform.a * i.width, i.transform.f) for i in infos])
+    x0, y1 = bounds[:, 0].min(), bounds[:, 3].max()
+    width = int(round((bounds[:, 2].max() - x0) / lattice.a))
+    height = int(round((y1 - bounds[:, 1].min()) / -lattice.e))
+    return Affine(lattice.a, 0, x0, 0, lattice.e, y1), width, height
+
+
+def _onto_lattice(paths, infos, lattice, folder):
+    """Each orthophoto off ``lattice`` replaced, for reading, by a VRT resampling it onto the lattice in ``folder``
+    (:func:`fotogeo.io.vrt.lattice_vrt`); returns the paths to read, their descriptions and the names resampled."""
+    from ...io.raster import open_raster
+    from ...io.vrt import lattice_vrt, on_lattice
+    read, described, resampled = list(paths), list(infos), []
+    for i, (p, info) in enumerate(zip(paths, infos)):
+        if not on_lattice(info.transform, lattice):
+            read[i] = str(lattice_vrt(p, info, lattice, Path(folder) / f"{i}.vrt"))
+            described[i] = open_raster(read[i], "orthophoto")
+            resampled.append(Path(p).name)
+    return read, described, resampled
 
 
 def _seam_patches(paths, infos, transform, width, height, crs):
@@ -192,11 +211,9 @@ def _balance(patches, pairs, bands: int, enabled: bool):
 
 
 def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client, release) -> dict:
-    from rasterio.coords import BoundingBox
-    from rasterio.transform import array_bounds
+    import tempfile
 
     from ...io.raster import open_raster
-    from ...io.vector import write_layers
     prog = as_progress(progress)
     paths = [str(p) for p in orthos]
     if len(paths) < 2:
@@ -206,11 +223,29 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
     for p, role in ((output, "mosaic"), (seamlines, "seamlines")):
         check_output(p, paths, overwrite, role)
     infos = [open_raster(p, "orthophoto") for p in paths]
-    crs, transform, width, height = _lattice(infos, paths)
+    crs, lattice = _lattice(infos, paths)
+    with tempfile.TemporaryDirectory(prefix="fotogeo-mosaic-") as folder:
+        read, infos, resampled = _onto_lattice(paths, infos, lattice, folder)
+        if resampled:
+            prog(0.01, f"resampled onto the mosaic's pixel lattice ({abs(lattice.a):g} × {abs(lattice.e):g}): "
+                       + ", ".join(resampled))
+        result = _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feather, balance, dsm,
+                                    overwrite, prog, client, release)
+    return {**result, "resampled_onto_lattice": resampled}
+
+
+def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feather, balance, dsm, overwrite, prog,
+                       client, release) -> dict:
+    """The mosaic of orthophotos ``paths`` all on one pixel ``lattice``, their pixels read from ``read``."""
+    from rasterio.coords import BoundingBox
+    from rasterio.transform import array_bounds
+
+    from ...io.vector import write_layers
+    transform, width, height = _union_grid(infos, lattice)
     first = infos[0]
     check_output_grid(output, width, height, bands=first.count, dtype=first.dtype,
                       source_pixels=sum(i.width * i.height for i in infos), what=f"the mosaic {str(output)!r}")
-    patches, t, f, shape = _seam_patches(paths, infos, transform, width, height, crs)
+    patches, t, f, shape = _seam_patches(read, infos, transform, width, height, crs)
     prog(0.2, "seam grid read")
     above = above_ground(dsm, t, shape, crs) if dsm is not None else None
     labels = seam_labels(patches, _nadirs(paths, patches, t), t, shape, above=above)
@@ -229,7 +264,7 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
                   tuple(BoundingBox(*array_bounds(i.height, i.width, i.transform)) for i in infos))
     prog(0.4, "blending")
     with AtomicOutputs(overwrite) as out:
-        tiled = write_tiled(paths, blend, out.temp(output), profile, client=client, release=release, progress=prog,
+        tiled = write_tiled(read, blend, out.temp(output), profile, client=client, release=release, progress=prog,
                             span=(0.4, 0.97))
         names = [Path(p).stem for p in paths]
         write_layers(out.temp(seamlines), _seam_layers(labels, t, names, gains, offsets, pairs), crs,

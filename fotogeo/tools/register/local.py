@@ -140,7 +140,7 @@ def local_correction(reference, raster, corrected, field, opts, progress=None) -
                                   resampling=opts.resampling,
                                   reference_band=first_band(opts.reference_bands),
                                   target_band=first_band(opts.target_bands), reference_nodata=opts.reference_nodata,
-                                  progress=progress)
+                                  progress=progress, window_option="local_window")
     except MatchingError as e:
         raise MatchingError(f"local co-registration (--local) refused: {e}; register without --local, or try a "
                             f"larger --local-window / --local-grid-spacing") from None

@@ -32,11 +32,23 @@ def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False,
     return paths
 
 
+def adjusted_only(paths: dict, frames) -> dict:
+    """``paths`` without the per-frame outputs (``ortho:``, ``sigma:``) of frames not in ``frames``: a frame dropped
+    from the block (``undetermined="drop"``) gets no orthophoto.
+
+    >>> sorted(adjusted_only({"eo": "eo.txt", "ortho:a": "a_ortho.tif", "ortho:b": "b_ortho.tif",
+    ...                       "sigma:b": "b_ortho_sigma.tif"}, ("a",)))
+    ['eo', 'ortho:a']
+    """
+    return {k: p for k, p in paths.items() if not k.startswith(("ortho:", "sigma:")) or k.split(":", 1)[1] in frames}
+
+
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
-                  progress, dem_sigma=None) -> None:
+                  progress, dem_sigma=None, surface=None) -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
-    the mosaic of the orthophotos (:func:`mosaic_outputs`), whose failure leaves that set in place. The seconds
-    spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``)."""
+    the mosaic of the orthophotos (:func:`mosaic_outputs`) and the surface model (``surface(frames, progress)``,
+    :func:`fotogeo.tools.triangulate.surface.block_dsm`), whose failures leave that set in place. The seconds
+    spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``, ``dsm``)."""
     import time
     t0 = time.perf_counter()
     from ...io.block import write_exterior_orientation, write_interior_orientation
@@ -44,6 +56,7 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     from ...io.vector import write_layers
     from .ortho import footprints, frame_images, orthorectify, sigma_of_dem, write_sigma_rasters
     crs = block.crs
+    paths = adjusted_only(paths, block.frames)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
     images = frame_images(result, block, frames) if ortho else []
     heights, grids = _terrain_and_grids(ortho, images, result, block, dem, resolution, rep, "mosaic" in paths)
@@ -71,7 +84,12 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         rep["mosaic"] = mosaic_outputs(paths, rep.get("orthorectified") or {}, overwrite, progress.stage(0.9, 1.0,
                                                                                                       "mosaic"))
         _timing(rep, "mosaic", time.perf_counter() - t0)
-        with AtomicOutputs(True) as out:  # the reports again, with the mosaic's outcome
+    if surface is not None:
+        t0 = time.perf_counter()
+        rep["dsm"] = surface(frames, progress.stage(0.9, 1.0, "surface model"))
+        _timing(rep, "dsm", time.perf_counter() - t0)
+    if "mosaic" in paths or surface is not None:
+        with AtomicOutputs(True) as out:  # the reports again, with the mosaic's and the surface model's outcome
             _write_reports(out, paths, rep, result, block, feet)
             out.commit()
 

@@ -47,12 +47,15 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 * with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
   by :func:`fotogeo.tools.ortho.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
   else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
-  (``report.json`` ``mosaic.error``, a warning) and loses none of them.
+  (``report.json`` ``mosaic.error``, a warning) and loses none of them;
+* with ``dsm`` (a path): the surface model of the adjusted frames, made as ``fotogeo dsm`` makes it
+  (:mod:`fotogeo.tools.triangulate.surface`), written last in the same way (``report.json`` ``dsm``).
 """
 from __future__ import annotations
 
 import re
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +73,7 @@ from .inputs import add_automatic_control, check_fraction_for, orientations, rea
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .refusal import reporting_refusal
 from .sources import block_start
+from .surface import block_dsm
 
 __all__ = ["CAMERA_FILE", "FILES", "triangulate"]
 
@@ -153,7 +157,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
-                dem=None, orthorectify: bool = False, mosaic: bool = False, resolution=None, uncertainty: bool = False,
+                dem=None, orthorectify: bool = False, mosaic: bool = False, dsm=None, resolution=None,
+                uncertainty: bool = False,
                 dem_sigma=None,
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 sfm_frame: str = "auto", undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
@@ -174,6 +179,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                           orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
     for path in finals.values():
         check_output(path, inputs, kw["overwrite"], "output")
+    if kw["dsm"] is not None:
+        check_output(kw["dsm"], inputs + list(finals.values()), kw["overwrite"], "DSM")
     with prog.timed("inputs"):
         start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
                             kw["geoinfo"], kw["sfm_frame"])
@@ -223,7 +230,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                          "restarted_frames": restarted}, stages=dict(prog.timings))
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
-                  overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"])
+                  overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"],
+                  surface=None if kw["dsm"] is None else partial(block_dsm, kw["dsm"], finals, result, block.crs, kw["dem"],
+                                                                 kw["overwrite"]))
     prog(1.0, "done")
     return rep
 

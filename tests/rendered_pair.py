@@ -1,0 +1,100 @@
+"""A rendered pair of nadir frames of any size over a known smooth terrain, written row block by row block (never
+whole in memory): the large-image case of ``fotogeo dsm`` (benchmarks/dsm_memory.py) and its small twin in the tests.
+
+The pair: ``size x size`` pixels (8 bits, tiled GeoTIFF, no georeference), focal length ``size`` pixels (a 53°
+field of view), 0.1 m ground sample distance, 60 % forward overlap (base-to-height ratio 0.4), small attitude
+angles; the terrain ±16 m of sines (:func:`terrain`); the ground a fractal texture
+(:func:`fotogeo.orientation.block_render.texture`: one tile wider than the pair's ground, half a ground pixel
+per texel) with
+Gaussian grey noise of 2 levels. Each pixel's ray meets the terrain by fixed-point iteration on the height.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+GSD, OVERLAP, TILE = 0.1, 0.6, 4096
+ORIGIN = np.array([500000.0, 4420000.0])
+CRS = "EPSG:32635"
+
+
+def terrain(x, y):
+    """Heights (m) of the rendered terrain at map ``x``, ``y`` (offsets from the scene origin)."""
+    return (12.0 * np.sin(2 * np.pi * x / 300.0) * np.cos(2 * np.pi * y / 250.0)
+            + 4.0 * np.sin(2 * np.pi * (x + y) / 90.0))
+
+
+def _texture(rng, n: int) -> np.ndarray:
+    """An ``n x n`` ground texture with the statistics per texel of
+    :func:`fotogeo.orientation.block_render.texture` on a ``TILE``² tile (the same one for ``n = TILE``): finer
+    fractal octaves and patches of the same size in texels on a larger tile."""
+    from fotogeo.orientation.block_render import _fractal
+    octaves = 8 + max(0, int(round(np.log2(n / TILE))))
+    img = 128 + 40 * _fractal(rng, (n, n), octaves=octaves)
+    side = max(5, min(n, TILE) // 60)
+    for _ in range(n * n // 2000):
+        r, c = rng.integers(0, n), rng.integers(0, n)
+        h, w = rng.integers(4, side), rng.integers(4, side)
+        img[r:r + h, c:c + w] += rng.choice([-60.0, 60.0])
+    return np.clip(img, 0, 255).astype(np.float32)
+
+
+def render(folder: Path, size: int, seed: int = 0) -> dict:
+    """Write the pair (module docstring) into ``folder``: ``{"images", "camera", "eo"}``."""
+    import cv2
+    import rasterio
+    from rasterio.windows import Window
+
+    from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera
+    from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
+    rng = np.random.default_rng(seed)
+    # one texture tile wider than the pair's ground (a repeated texture would give repeated matches)
+    texel = GSD / 2
+    tex = _texture(rng, max(TILE, int(1.6 * size * GSD / texel)))
+    f = float(size)  # focal length in pixels: a 53° field of view
+    H = f * GSD
+    base = (1 - OVERLAP) * size * GSD
+    cam = FrameCamera(f * 0.005, (size * 0.005, size * 0.005), (size, size))
+    eos = [ExteriorOrientation(*ORIGIN, H, 0.4, -0.3, 1.5),
+           ExteriorOrientation(ORIGIN[0] + base, ORIGIN[1] + 0.02 * base, H + 3.0, -0.3, 0.5, 0.8)]
+    names = [f"r{size}_a", f"r{size}_b"]
+    paths = []
+    for name, eo in zip(names, eos):
+        p = folder / f"{name}.tif"
+        M = eo.rotation_cv
+        with rasterio.open(p, "w", driver="GTiff", width=size, height=size, count=1, dtype="uint8", tiled=True,
+                           blockxsize=256, blockysize=256, compress="deflate") as ds:
+            for r0 in range(0, size, 256):
+                rows = min(256, size - r0)
+                u, v = np.meshgrid(np.arange(size) + 0.5, np.arange(r0, r0 + rows) + 0.5)
+                d = np.stack([(u - size / 2) / f, (v - size / 2) / f, np.ones_like(u)], -1) @ M.T
+                z = np.zeros(u.shape)
+                for _ in range(15):  # the ray's point at the terrain's height there (a contraction: slopes < 1)
+                    t = (z - eo.Z) / d[..., 2]
+                    x, y = eo.X + t * d[..., 0] - ORIGIN[0], eo.Y + t * d[..., 1] - ORIGIN[1]
+                    z = terrain(x, y)
+                mx = (x / texel - 0.5).astype(np.float32)
+                my = (-y / texel - 0.5).astype(np.float32)
+                img = cv2.remap(tex, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+                img = img + rng.normal(0, 2.0, img.shape).astype(np.float32)
+                ds.write(np.clip(np.round(img), 1, 255).astype(np.uint8)[None], window=Window(0, r0, size, rows))
+        paths.append(str(p))
+    camera, eo_path = folder / "camera.yaml", folder / "eo.txt"
+    write_interior_orientation(camera, "cam", cam, {})
+    write_exterior_orientation(eo_path, names, eos)
+    return {"images": paths, "camera": str(camera), "eo": str(eo_path)}
+
+
+def accuracy(dsm_path) -> dict:
+    """DSM − terrain at the cell centres where the DSM has a height."""
+    import rasterio
+    with rasterio.open(dsm_path) as ds:
+        h, t = ds.read(1), ds.transform
+        ok = h != ds.nodata
+    rows, cols = np.nonzero(ok)
+    x, y = t * (cols + 0.5, rows + 0.5)
+    d = h[rows, cols] - terrain(np.asarray(x) - ORIGIN[0], np.asarray(y) - ORIGIN[1])
+    med = float(np.median(d))
+    return {"rmse_m": float(np.sqrt(np.mean(d ** 2))), "nmad_m": float(1.4826 * np.median(np.abs(d - med))),
+            "median_m": med, "cells_with_height": int(ok.sum())}

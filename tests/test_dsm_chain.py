@@ -1,0 +1,59 @@
+"""``fotogeo triangulate … --dsm DSM.tif``: the surface model of the adjusted frames, made by fotogeo dsm's
+pipeline, where the user said; a DSM that cannot be made leaves the adjustment's outputs and says why."""
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+
+from fotogeo.errors import OutputError
+
+from rendered_pair import CRS, GSD, accuracy, render
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    return render(tmp_path_factory.mktemp("pair"), 400, seed=4)
+
+
+def _triangulate(pair, folder, **kw):
+    from fotogeo.tools.triangulate import triangulate
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rep = triangulate(pair["images"], pair["camera"], pair["eo"], None, folder, crs=CRS, eo_sigma_position=0.05,
+                          eo_sigma_angle=0.01, **kw)
+    return rep, [str(w.message) for w in caught]
+
+
+def test_triangulate_writes_the_dsm_of_the_adjusted_frames(pair, tmp_path):
+    out = tmp_path / "surface" / "dsm.tif"
+    out.parent.mkdir()
+    rep, _ = _triangulate(pair, tmp_path / "block", dsm=out)
+    assert out.is_file() and "error" not in rep["dsm"], rep["dsm"]
+    acc = accuracy(out)
+    assert acc["rmse_m"] <= GSD and rep["dsm"]["completeness"] >= 0.9, (acc, rep["dsm"]["completeness"])
+    assert rep["dsm"]["pairs_kept"] == 1 and rep["dsm"]["outputs"]["dsm"] == str(out)
+    assert json.loads((tmp_path / "block" / "report.json").read_text())["dsm"]["completeness"] == \
+        rep["dsm"]["completeness"]
+    # the camera held fixed was handed over in a temporary file, gone again
+    assert sorted(p.name for p in (tmp_path / "block").iterdir()) == sorted(
+        ["block.gpkg", "exterior_orientation.txt", "report.html", "report.json"])
+
+
+def test_a_dsm_that_cannot_be_made_leaves_the_adjustment(pair, tmp_path, monkeypatch):
+    """No epipolar residual tolerated: no pair can be trusted, the DSM is refused, the orientation stays."""
+    from fotogeo.tools.dsm import tool
+    monkeypatch.setattr(tool, "MAX_EPIPOLAR_PX", 0.0)
+    out = tmp_path / "dsm.tif"
+    rep, messages = _triangulate(pair, tmp_path / "block", dsm=out)
+    assert rep["dsm"]["error"].startswith("no DSM: ") and "does not fit the images" in rep["dsm"]["error"]
+    assert any(m.startswith("no DSM: ") and "fotogeo dsm" in m for m in messages)
+    assert (tmp_path / "block" / "exterior_orientation.txt").is_file() and not out.exists()
+    assert "error" in json.loads((tmp_path / "block" / "report.json").read_text())["dsm"]
+
+
+def test_the_dsm_path_is_checked_before_the_adjustment(pair, tmp_path):
+    with pytest.raises(OutputError, match="DSM .* is also an input"):
+        _triangulate(pair, tmp_path / "block", dsm=pair["images"][0])
+    assert not (tmp_path / "block").exists()
