@@ -171,10 +171,10 @@ def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
     plain = [None if r is None else (r[0], len(r[1])) for r in found]
     guided, measured = {}, None
     if guide is not None:
-        from .guided import guided_results
+        from .guided import guided_results, tile_pixels
         found, tried, measured = guided_results(infos, pairs, found, camera, distortion, *guide, det, threshold,
                                                 ideal_pixels(camera, distortion),
-                                                max(det.max_match_pixels, min(infos[0].width * infos[0].height, 10 ** 6)),
+                                                tile_pixels(det, infos[0]),
                                                 prog.stage(0.6, 1.0, "matching on the ground plane"))
         guided = {tuple(g.pop("pair")): g for g in tried}
     uf, pos, per_pair, inliers = _UnionFind(), {}, [], []

@@ -31,7 +31,9 @@ def pair_summary(matching: dict, names) -> str:
         a, b = (names[k] for k in r["pair"])
         plain, g = r.get("plain", r), r.get("guided")
         text = f"{a}–{b} {plain['matches']}/{plain['inliers']}"
-        if g:
+        if g and g.get("skipped"):
+            text += f" plain, not on the ground plane ({g['skipped']})"
+        elif g:
             text += f" plain, {g['matches']}/{g['inliers']} on the ground plane"
         parts.append(text)
     more = f", {len(rows) - SHOWN} more" if len(rows) > SHOWN else ""
