@@ -94,13 +94,36 @@ def grid_to_pixels(camera, distortion, eo, height: float, window, xy) -> np.ndar
     return px
 
 
+#: the exact projection of :func:`resampled` on every this-many cells, bilinear between
+_LATTICE = 4
+
+
+def _pixel_map(camera, distortion, eo, height: float, window) -> np.ndarray:
+    """``(rows * cols, 2)`` frame pixels of the cell centres of ``window``: :func:`grid_to_pixels` on every
+    :data:`_LATTICE`-th cell (and the last), interpolated bilinearly between (the projection is smooth over a
+    few cells; NaN spreads to the cells next to a ray behind the camera)."""
+    import cv2
+    cols, rows = window[3], window[4]
+    cx = np.append(np.arange(0, cols, _LATTICE), cols - 1).astype(float)
+    cy = np.append(np.arange(0, rows, _LATTICE), rows - 1).astype(float)
+    gx, gy = np.meshgrid(cx + 0.5, cy + 0.5)
+    coarse = grid_to_pixels(camera, distortion, eo, height, window, np.column_stack([gx.ravel(), gy.ravel()]))
+    coarse = coarse.reshape(len(cy), len(cx), 2).astype(np.float32)
+    # the fractional lattice index of every cell (the last lattice step may be shorter)
+    fx = np.interp(np.arange(cols), cx, np.arange(len(cx))).astype(np.float32)
+    fy = np.interp(np.arange(rows), cy, np.arange(len(cy))).astype(np.float32)
+    mx, my = np.meshgrid(fx, fy)
+    out = [cv2.remap(np.ascontiguousarray(coarse[..., k]), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+           for k in range(2)]
+    return np.column_stack([out[0].ravel(), out[1].ravel()]).astype(np.float64)
+
+
 def resampled(image, camera, distortion, eo, height: float, window):
     """``(image float32, valid bool)``: the frame ``image`` (full resolution, NaN = nodata) on the grid of
     ``window`` (module docstring)."""
     import cv2
     cols, rows = window[3], window[4]
-    gx, gy = np.meshgrid(np.arange(cols) + 0.5, np.arange(rows) + 0.5)
-    px = grid_to_pixels(camera, distortion, eo, height, window, np.column_stack([gx.ravel(), gy.ravel()]))
+    px = _pixel_map(camera, distortion, eo, height, window)
     h, w = image.shape
     inside = np.isfinite(px).all(axis=1) & (px[:, 0] >= 0) & (px[:, 0] <= w) & (px[:, 1] >= 0) & (px[:, 1] <= h)
     m = np.where(inside[:, None], px - 0.5, -10.0).astype(np.float32)  # cv2: pixel centres at integers

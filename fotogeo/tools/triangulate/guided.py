@@ -56,10 +56,16 @@ MIN_GROUND_OVERLAP = 0.15
 TILE_FACTOR = 2.0
 
 
+#: ... and at least this many (small frames: the cost is small, and a coarse tile loses the detector's finest scale)
+TILE_MIN = 2 ** 17
+
+
 def tile_pixels(det, info) -> int:
     """The valid cells of a frame's tile on the ground grid: :data:`TILE_FACTOR` × the pixels of the frame at the
-    plain matching's pyramid level (``det.max_match_pixels``), at most the frame's own pixels."""
-    return int(min(TILE_FACTOR * min(det.max_match_pixels, info.width * info.height), info.width * info.height))
+    plain matching's pyramid level (``det.max_match_pixels``), at least :data:`TILE_MIN`, at most the frame's own
+    pixels."""
+    frame = info.width * info.height
+    return int(min(max(TILE_FACTOR * min(det.max_match_pixels, frame), TILE_MIN), frame))
 
 
 def choose_pairs(pairs, found, eos, footprints) -> tuple:
@@ -95,13 +101,16 @@ def _on(features, fp, grid, grow: float):
     return np.flatnonzero(shapely.contains_xy(fp.buffer(grow), X, Y))
 
 
-def ground_pair(feats, fps, camera, distortion, eos, height: float, grid, opts, threshold: float, ideal):
+def ground_pair(feats, fps, camera, distortion, eos, height: float, grid, opts, threshold: float, ideal,
+                near: bool = True):
     """``(matches, xy_i, xy_j)`` of one pair matched on the ground grid (module docstring; ``feats``, ``fps``,
     ``eos``: the two frames' :class:`~fotogeo.tools.triangulate.ground.GroundFeatures`, footprints and
-    orientations), the epipolar inliers in frame pixels."""
+    orientations), the epipolar inliers in frame pixels. ``near``: only the keypoints on the other frame's
+    footprint (a plane nobody measured can put the common ground far from where both footprints meet)."""
     from ...features.match import match_descriptors
     grow = 0.1 * math.sqrt(min(fp.area for fp in fps))
-    sel = [_on(feats[0], fps[1], grid, grow), _on(feats[1], fps[0], grid, grow)]
+    sel = ([_on(feats[0], fps[1], grid, grow), _on(feats[1], fps[0], grid, grow)] if near else
+           [np.arange(len(feats[0].xy)), np.arange(len(feats[1].xy))])
     if min(len(s) for s in sel) < 2:
         return 0, np.zeros((0, 2)), np.zeros((0, 2))
     lap = [None if f.laplacian is None else f.laplacian[s] for f, s in zip(feats, sel)]
@@ -125,9 +134,9 @@ def _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts, p
     return out
 
 
-def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, ideal, max_pixels, prog):
+def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, ideal, max_pixels, prog, near):
     """``(rows, results)`` of one pass on the plane ``height``: :func:`choose_pairs`' rows and ``{k: result}`` of
-    the pairs matched (:func:`ground_pair`)."""
+    the pairs matched (:func:`ground_pair`, ``near``: the plane was measured)."""
     fps = [footprint(camera, eo, height) for eo in eos]
     todo, rows = choose_pairs(pairs, found, eos, fps)
     frames = sorted({f for k in todo for f in pairs[k]})
@@ -141,7 +150,7 @@ def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, i
             rows[k]["skipped"] = "a frame's footprint holds too few of its pixels"
         else:
             results[k] = ground_pair((feats[i], feats[j]), (fps[i], fps[j]), camera, dist, (eos[i], eos[j]), height,
-                                     grid, opts, threshold, ideal)
+                                     grid, opts, threshold, ideal, near)
     return rows, results
 
 
@@ -155,30 +164,49 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
     prog = as_progress(progress)
     found, dist = list(found), _distortion_terms(distortion)
     plane = _plain_height(camera, eos, pairs, found)
-    plane = height if plane is None else plane
-    rows, results = _on_plane(infos, pairs, found, camera, dist, eos, plane, opts, threshold, ideal, max_pixels,
-                              prog.stage(0.0, 0.5, "matching on the ground plane"))
-    z = _pairs_height(camera, eos, pairs, results)
+    tries = [(plane, True)] if plane is not None else [(z, False) for z in (axes_height(eos), height) if z is not None]
+    for n, (plane, near) in enumerate(tries):  # an unmeasured plane: where the axes meet, else the caller's height
+        rows, results = _on_plane(infos, pairs, found, camera, dist, eos, plane, opts, threshold, ideal, max_pixels,
+                                  prog.stage(n / len(tries) / 2, (n + 1) / len(tries) / 2, "matching on the ground "
+                                             "plane"), near)
+        z = _pairs_height(camera, eos, pairs, results)
+        if z is not None:
+            break
     above = float(np.median([e.Z for e in eos])) - plane
     if z is not None and abs(z - plane) > 0.1 * max(above, 1e-6):
         rows2, again = _on_plane(infos, pairs, found, camera, dist, eos, z, opts, threshold, ideal, max_pixels,
-                                 prog.stage(0.5, 1.0, "matching on the measured ground plane"))
+                                 prog.stage(0.5, 1.0, "matching on the measured ground plane"), True)
         better = {k: r for k, r in again.items() if k not in results or len(r[1]) > len(results[k][1])}
         results.update(better)
         rows.update({k: rows2[k] for k in better})
         plane, z = z, _pairs_height(camera, eos, pairs, results)
     for k, got in results.items():
         _take(found, k, got, rows[k], _median_height(camera, (eos[pairs[k][0]], eos[pairs[k][1]]), got))
-    return found, [rows[k] for k in sorted(rows)], (z if z is not None else (None if plane == height else plane))
+    return found, [rows[k] for k in sorted(rows)], (z if z is not None else (plane if tries[0][1] else None))
 
 
 def _plain_height(camera, eos, pairs, found):
-    """The median over the near-parallel plain pairs (axes within :data:`CONVERGING_DEG`, at least
-    ``MIN_PAIR_INLIERS`` inliers) of their inliers' median ray height; None when there is none."""
-    z = [_median_height(camera, (eos[i], eos[j]), r) for (i, j), r in zip(pairs, found)
-         if r is not None and axes_angle(eos[i], eos[j]) <= CONVERGING_DEG]
+    """The median over the plain pairs with at least ``MIN_PAIR_INLIERS`` inliers of their inliers' median ray
+    height; None when there is none."""
+    z = [_median_height(camera, (eos[i], eos[j]), r) for (i, j), r in zip(pairs, found)]
     z = [v for v in z if v is not None]
     return float(np.median(z)) if z else None
+
+
+def axes_height(eos):
+    """The height of the point nearest to every frame's optical axis (least squares: ``Σ (I − d dᵀ)(p − C) = 0``
+    over the centres ``C`` and axes ``d``), where converging views aim; None when the axes are near parallel (the
+    smallest eigenvalue of ``Σ (I − d dᵀ) / n`` below 0.05, about 13° of spread) or the point is not below every
+    camera."""
+    A, b = np.zeros((3, 3)), np.zeros(3)
+    for eo in eos:
+        d = eo.rotation[:, 2] / np.linalg.norm(eo.rotation[:, 2])
+        M = np.eye(3) - np.outer(d, d)
+        A, b = A + M, b + M @ np.asarray(eo.centre, float)
+    if np.linalg.eigvalsh(A / len(eos))[0] < 0.05:
+        return None
+    p = np.linalg.solve(A, b)
+    return float(p[2]) if p[2] < min(e.Z for e in eos) else None
 
 
 def _pairs_height(camera, eos, pairs, results):
