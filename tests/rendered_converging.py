@@ -40,6 +40,8 @@ GROUND = 300.0
 DEWARP = (-0.05, 0.015, 0.0003, -0.0002, 0.0)  # k1, k2, p1, p2, k3
 VIEWS = (("E", 90.0), ("S", 180.0), ("W", 270.0), ("N", 0.0))
 NGI_ORTHO = DATA / "ngi" / "ortho" / "ngi_rgb_byte_1.tif"
+#: the grounds taken from real images (the ``kind`` of :func:`ground`); ``qb2``: a QuickBird chip, another sensor
+REAL_GROUNDS = {"ngi": NGI_ORTHO, "qb2": DATA / "qb2" / "qb2_basic1b.tif"}
 
 
 def camera(size) -> FrameCamera:
@@ -62,14 +64,15 @@ def shots(rng, off_nadir: float, height: float = 60.0):
 
 
 def ground(kind: str, rng, extent: float, texel: float):
-    """``(texture float32, Affine)`` centred on the target: ``"fractal"`` or ``"ngi"`` (module docstring)."""
+    """``(texture float32, Affine)`` centred on the target: ``"fractal"``, or a chip of a real image (``"ngi"``,
+    ``"qb2"``: :data:`REAL_GROUNDS`; module docstring)."""
     from affine import Affine
     n = int(2 * extent / texel)
     t = Affine(texel, 0, TARGET[0] - extent, 0, -texel, TARGET[1] + extent)
     if kind == "fractal":
         return texture(rng, (n, n)), t
     import cv2
-    with rasterio.open(NGI_ORTHO) as ds:
+    with rasterio.open(REAL_GROUNDS[kind]) as ds:
         img = ds.read().astype(np.float32).mean(axis=0)
     r0, c0 = img.shape[0] // 4, img.shape[1] // 8
     chip = img[r0:r0 + 600, c0:c0 + 600]
