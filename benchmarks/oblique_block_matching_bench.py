@@ -7,6 +7,7 @@ summed over its pairs (plain; with the ground plane). Printed and written to
 ``benchmarks/results/oblique_block_matching.json``.
 
     PYTHONPATH=. .venv/bin/python benchmarks/oblique_block_matching_bench.py [--seeds 0 1] [--per-strip 5]
+    PYTHONPATH=<checkout> .venv/bin/python benchmarks/oblique_block_matching_bench.py --whole  # the whole run
 """
 from __future__ import annotations
 
@@ -62,12 +63,41 @@ def one(seed: int, per_strip: int, tmp: Path) -> dict:
     return out
 
 
+def whole_run(seed: int, per_strip: int, tmp: Path) -> dict:
+    """``fotogeo.triangulate`` on the block's files (gimbal angles in the XMP): wall and CPU seconds, the frames
+    kept and the worst frame's angle error (°) once the block's one rotation is removed; runs on any checkout
+    (``PYTHONPATH=<checkout>``), to compare one branch with another."""
+    import numpy as np
+    from fotogeo.errors import FotogeoError
+    from fotogeo.io.camera import read_exterior_orientation
+    from fotogeo.tools.triangulate import triangulate
+    from test_triangulate_oblique import _inner_errors
+    block = oblique_block(tmp / f"w{seed}_{per_strip}", seed=seed, per_strip=per_strip)
+    t, cpu = time.perf_counter(), time.process_time()
+    try:
+        triangulate(block["gimbal"], None, None, None, tmp / f"out{seed}_{per_strip}")
+    except FotogeoError as e:
+        return {"seed": seed, "exit": str(e)[:200]}
+    out = {"seed": seed, "exit": "ok", "wall_s": round(time.perf_counter() - t, 1),
+           "cpu_s": round(time.process_time() - cpu, 1)}
+    adj = read_exterior_orientation(tmp / f"out{seed}_{per_strip}" / "exterior_orientation.txt")
+    inner = _inner_errors(block, adj)
+    out.update(frames=len(adj), worst_inner_deg=round(float(np.max(list(inner.values()))), 3))
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0])
     ap.add_argument("--per-strip", type=int, default=5)
+    ap.add_argument("--whole", action="store_true", help="time the whole triangulate run instead (any checkout)")
     args = ap.parse_args(argv)
     rows = []
+    if args.whole:
+        with tempfile.TemporaryDirectory() as tmp:
+            for seed in args.seeds:
+                print(whole_run(seed, args.per_strip, Path(tmp)), flush=True)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         for seed in args.seeds:
             r = one(seed, args.per_strip, Path(tmp))
