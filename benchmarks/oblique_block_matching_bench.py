@@ -75,14 +75,15 @@ def whole_run(seed: int, per_strip: int, tmp: Path) -> dict:
     block = oblique_block(tmp / f"w{seed}_{per_strip}", seed=seed, per_strip=per_strip)
     t, cpu = time.perf_counter(), time.process_time()
     try:
-        triangulate(block["gimbal"], None, None, None, tmp / f"out{seed}_{per_strip}")
+        rep = triangulate(block["gimbal"], None, None, None, tmp / f"out{seed}_{per_strip}")
     except FotogeoError as e:
         return {"seed": seed, "exit": str(e)[:200]}
     out = {"seed": seed, "exit": "ok", "wall_s": round(time.perf_counter() - t, 1),
            "cpu_s": round(time.process_time() - cpu, 1)}
     adj = read_exterior_orientation(tmp / f"out{seed}_{per_strip}" / "exterior_orientation.txt")
     inner = _inner_errors(block, adj)
-    out.update(frames=len(adj), worst_inner_deg=round(float(np.max(list(inner.values()))), 3))
+    out.update(frames=len(adj), worst_inner_deg=round(float(np.max(list(inner.values()))), 3),
+               stages_s=rep.get("timings_s") if isinstance(rep, dict) else None)
     return out
 
 

@@ -53,11 +53,11 @@ MIN_GROUND_OVERLAP = 0.15
 
 
 #: a frame's tile on the ground holds about this many times the pixels the plain matching detects the frame on
-TILE_FACTOR = 2.0
+TILE_FACTOR = 1.5
 
 
-#: ... and at least this many (small frames: the cost is small, and a coarse tile loses the detector's finest scale)
-TILE_MIN = 2 ** 17
+#: ... and at least this many cells (small frames: the cost is small, and a coarse tile loses the finest scale)
+TILE_MIN = 2 ** 16
 
 
 def tile_pixels(det, info) -> int:
