@@ -56,8 +56,9 @@ def one(seed: int, per_strip: int, tmp: Path) -> dict:
         out[f"{method}_cpu_s"] = round(time.process_time() - cpu, 2)
         out[f"{method}_per_frame"] = per_frame(st.names, per_pair)
         if guide is not None:
-            tried = [r for r in per_pair if "guided" in r]
-            out["tried"] = len(tried)
+            considered = [r for r in per_pair if "guided" in r]
+            tried = [r for r in considered if "skipped" not in r["guided"]]
+            out["tried"], out["skipped"] = len(tried), len(considered) - len(tried)
             out["used"] = sum(r["guided"]["used"] for r in tried)
             out["height_m"] = measured
     return out
@@ -106,7 +107,7 @@ def main(argv=None):
             low = min(r["guided_per_frame"].items(), key=lambda kv: kv[1])
             print(f"seed {seed}: {r['frames']} frames, {r['pairs']} pairs | plain {r['plain_s']:.1f} s "
                   f"(CPU {r['plain_cpu_s']:.1f} s) | plain + ground plane {r['guided_s']:.1f} s (CPU "
-                  f"{r['guided_cpu_s']:.1f} s), {r['tried']} tried, {r['used']} used | "
+                  f"{r['guided_cpu_s']:.1f} s), {r['tried']} tried, {r['used']} used, {r['skipped']} skipped | "
                   f"weakest frame {low[0]} {low[1]} inliers (plain {r['plain_per_frame'][low[0]]})", flush=True)
     OUT.parent.mkdir(exist_ok=True)
     OUT.write_text(json.dumps({"runs": rows}, indent=1))

@@ -164,7 +164,8 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
     prog = as_progress(progress)
     found, dist = list(found), _distortion_terms(distortion)
     plane = _plain_height(camera, eos, pairs, found)
-    tries = [(plane, True)] if plane is not None else [(z, False) for z in (axes_height(eos), height) if z is not None]
+    tries = ([(plane, True)] if plane is not None else
+             [(z, False) for z in (axes_height(eos), height) if z is not None] or [(height, False)])
     for n, (plane, near) in enumerate(tries):  # an unmeasured plane: where the axes meet, else the caller's height
         rows, results = _on_plane(infos, pairs, found, camera, dist, eos, plane, opts, threshold, ideal, max_pixels,
                                   prog.stage(n / len(tries) / 2, (n + 1) / len(tries) / 2, "matching on the ground "
