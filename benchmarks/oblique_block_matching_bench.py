@@ -2,9 +2,10 @@
 -60°) with and without ground-plane matching (:mod:`fotogeo.tools.triangulate.guided`).
 
 Per seed: the pairs the footprints give, the seconds (wall and CPU: the machine may be shared) of the plain matching
-(every pair, each frame detected once) and of the plain matching followed by the ground-plane stage, the pairs it tried / used / skipped, and per frame the epipolar inliers
-summed over its pairs (plain; with the ground plane). Printed and written to
-``benchmarks/results/oblique_block_matching.json``.
+(every pair, each frame detected once) and of the plain matching followed by the ground-plane stage, the pairs it
+tried / used / skipped, and per frame the epipolar inliers summed over its pairs (plain; with the ground plane).
+Printed and written to ``benchmarks/results/oblique_block_matching.json``. ``--whole`` times the whole triangulate
+run instead (any checkout: main's against this one).
 
     PYTHONPATH=. .venv/bin/python benchmarks/oblique_block_matching_bench.py [--seeds 0 1] [--per-strip 5]
     PYTHONPATH=<checkout> .venv/bin/python benchmarks/oblique_block_matching_bench.py --whole  # the whole run

@@ -12,8 +12,8 @@ triangulate``; the pairs are matched in :mod:`fotogeo.tools.triangulate.guided`)
 * **Resampled once** (:func:`resampled`): a cell centre ``(X, Y, h0)`` goes through the camera (distortion
   included, :func:`fotogeo.orientation.bundle_jacobian.project_camera`) to its pixel, the frame is sampled there
   (bilinear; ``cv2.remap``; a frame finer than the grid by ``s`` frame pixels per cell is low-passed first, Gaussian
-  σ = ``0.5·sqrt(s² − 1)``); cells whose ray misses the frame are invalid. Over flat ground two frames' tiles differ
-  by a translation of the orientation error and the relief parallax only.
+  σ = ``0.5·sqrt(s² − 1)``); cells whose ray misses the frame are invalid. Over flat ground two frames' tiles
+  differ by a translation of the orientation error and the relief parallax only.
 * **Detected once** (:func:`ground_features`): the tile stretched (1st–99th percentiles) and detected with the
   options' detector (:func:`fotogeo.features.detect.detect`); the keypoints kept in grid coordinates.
 * **Back to the frame** (:func:`grid_to_pixels`): a grid position goes back through the same projection (exact,

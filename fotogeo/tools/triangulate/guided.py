@@ -141,7 +141,8 @@ def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, i
     todo, rows = choose_pairs(pairs, found, eos, fps)
     frames = sorted({f for k in todo for f in pairs[k]})
     grid = block_grid(camera, [eos[f] for f in frames], [fps[f] for f in frames], height, max_pixels)
-    feats = _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts, prog.stage(0.0, 0.8, "frames on the ground plane"))
+    feats = _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts,
+                            prog.stage(0.0, 0.8, "frames on the ground plane"))
     results = {}
     for n, k in enumerate(todo):
         i, j = pairs[k]
@@ -159,8 +160,9 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
     """``(found, guided, height)``: ``found`` (the plain pairs' ``(matches, xy_i, xy_j)`` or None, in pair
     order) with the result of the ground-plane matching in place of a pair's where it kept more inliers;
     ``guided`` one dict per pair considered (``{"pair", "why", "ground_overlap", "matches", "inliers", "used",
-    "height_m"}``, ``"skipped"`` when not matched); ``height`` the plane's height measured on the ties (None when
-    none measured it). Module docstring: which pairs, which plane, the second pass."""
+    "height_m"}``, ``"skipped"`` when not matched); ``height`` the plane's height measured on the ground-plane ties
+    (None when none did: the block's height is then left as it was). Module docstring: which pairs, which plane,
+    the second pass."""
     prog = as_progress(progress)
     found, dist = list(found), _distortion_terms(distortion)
     plane = _plain_height(camera, eos, pairs, found)
@@ -183,7 +185,7 @@ def guided_results(infos, pairs, found, camera, distortion, eos, height: float, 
         plane, z = z, _pairs_height(camera, eos, pairs, results)
     for k, got in results.items():
         _take(found, k, got, rows[k], _median_height(camera, (eos[pairs[k][0]], eos[pairs[k][1]]), got))
-    return found, [rows[k] for k in sorted(rows)], (z if z is not None else (plane if tries[0][1] else None))
+    return found, [rows[k] for k in sorted(rows)], z  # a height the ground-plane ties measured, else None
 
 
 def _plain_height(camera, eos, pairs, found):
