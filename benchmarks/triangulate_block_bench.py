@@ -98,7 +98,7 @@ def rendered_block(work: Path, strips: int, per_strip: int, above_terrain: bool 
 class StepTimes:
     """Times the pair matching and the LSM of block_tie_points (module functions wrapped while in use)."""
 
-    STEPS = {"_pair_matches": "pairs_s", "refine_tracks": "lsm_s"}
+    STEPS = {"_pair_results": "pairs_s", "refine_tracks": "lsm_s"}
 
     def __enter__(self):
         self.spent, self.originals = {}, {name: getattr(tri_match, name) for name in self.STEPS}
@@ -112,7 +112,7 @@ class StepTimes:
             try:
                 return original(*a, **k)
             finally:
-                self.spent[key] = time.perf_counter() - t0
+                self.spent[key] = self.spent.get(key, 0.0) + time.perf_counter() - t0
         return wrapper
 
     def __exit__(self, *exc):

@@ -61,7 +61,7 @@ def test_drone_block_from_the_files_alone(tmp_path, data_dir, geoinfo):
 
 def test_the_turn_pair_alone_is_refused_by_name(tmp_path, data_dir):
     """IMG_2212/2213 overlap in a sliver: the block does not determine them — one line naming both, why and the fix,
-    exit code 2, nothing written (the output folder is not even created)."""
+    exit code 2; the pair tried and its counts in the line and in report.json, the one file written."""
     from test_bad_input import assert_one_line_error
     img = data_dir / "drone_snowpeak" / "img"
     out = tmp_path / "out"
@@ -70,7 +70,10 @@ def test_the_turn_pair_alone_is_refused_by_name(tmp_path, data_dir):
     assert_one_line_error(res, "the block does not determine frame(s) IMG_2212")
     error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
     assert "IMG_2213" in error and "points cover" in error and "--undetermined drop" in error and "GCPs" in error
-    assert not out.exists()
+    assert "IMG_2212–IMG_2213" in error and "matches/epipolar inliers" in error and "report.json" in error
+    assert sorted(p.name for p in out.iterdir()) == ["report.json"]
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["refused"].startswith("the block does not determine") and len(rep["matching"]["pairs"]) == 1
 
 
 def test_dropping_the_turn_pair_would_leave_no_block_and_says_so(tmp_path, data_dir):
@@ -84,4 +87,4 @@ def test_dropping_the_turn_pair_would_leave_no_block_and_says_so(tmp_path, data_
     assert_one_line_error(res, "the block does not determine frame(s) IMG_2212")
     error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
     assert "would leave 0 frame(s), fewer than the 2 a block needs" in error and "leave them out" not in error
-    assert not out.exists()
+    assert sorted(p.name for p in out.iterdir()) == ["report.json"]  # the refusal's report: the pair tried

@@ -31,11 +31,16 @@ def _run(frames, out, *extra):
                               terminal_width=200)
 
 
-def _refused(result, out, *expected):
+def _refused(result, out, *expected, report: bool = False):
+    """One line with ``expected``; nothing written — or, for a refusal after matching (``report``), report.json
+    alone (the pairs tried)."""
     assert_one_line_error(result, expected[0])
     error = next(line for line in result.stderr.splitlines() if line.startswith("Error:"))
     for text in expected[1:]:
         assert text in error, (text, error)
+    if report:
+        assert sorted(p.name for p in out.iterdir()) == ["report.json"] and "pair(s) tried" in error
+        return error
     assert not out.exists(), sorted(out.iterdir())
     return error
 
@@ -109,7 +114,7 @@ def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp
     frames = copy_frames(snowpeak / "img", STRIP, tmp_path / "img")
     write_xmp(frames[1], xmp_of(frames[1]).replace("</rdf:Description>", "</rdf:Descr", 1))
     result = _run(frames, tmp_path / "out")
-    _refused(result, tmp_path / "out", "does not determine frame(s) IMG_2281", "--undetermined drop")
+    _refused(result, tmp_path / "out", "does not determine frame(s) IMG_2281", "--undetermined drop", report=True)
     warned = [line for line in result.stderr.splitlines() if "XMP" in line and not line.startswith("Error:")]
     assert len(warned) == 1 and warned[0].startswith("Warning: image") and "IMG_2281.JPG" in warned[0], result.stderr
     assert "--geoinfo" in warned[0]

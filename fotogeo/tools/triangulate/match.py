@@ -15,19 +15,16 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   included: a fundamental matrix holds for a pinhole camera only, but removing the distortion first
   (``distortion=``, :func:`ideal_pixels`: the ray of :func:`fotogeo.orientation.bundle_jacobian.undistort_rays`
   put back through the pinhole, ``x_ideal = f·scale·(u, v) + pp``) gained nothing measurable and is off in
-  the tool. Measured on the rendered oblique drone block (k1 −0.06, ~14 px at the corners;
-  ``benchmarks/triangulate_undistort_bench.py``, 190 pairs): inliers 6 575 → 6 579 and 7 335 → 7 336,
-  inliers on the true epipolar line (< 2 px) 5 530 → 5 536 and 6 338 → 6 345 (seeds 0, 1) — at level 1
-  the 2 px threshold and the fundamental matrix's own freedom absorb this distortion; through the whole
-  tool (the gimbal case of ``tests/test_triangulate_oblique.py``) it changed which marginal frames keep
-  wrong ties: seed 0 lost DJI_401 (2.1 % coverage) and DJI_405 turned 20° from its gimbal prior, seed 2
-  DJI_205 and DJI_405 18–20°, where without it seeds 0 and 2 come out right. Each frame is read, fused and detected once
-  (:class:`fotogeo.tools.register.match.FeatureCache`; a frame in a 60/30 block is in 6–8 pairs); its
+  the tool (measured: docs/benchmarks/triangulation.md, "Distortion before the epipolar RANSAC"). Each frame is
+  read, fused and detected once (:class:`fotogeo.tools.register.match.FeatureCache`; a frame in a 60/30 block is in
+  6–8 pairs); its
   keypoints are dropped after its last pair, so at most the frames of the pairs still to come
   whose first pair has run are held (keypoints and descriptors only, never the images). For large
   blocks the pairs run as Dask tasks instead (``--scheduler`` / ``--workers``, as ``register-batch``;
   :mod:`fotogeo.tools.triangulate.pairs`): one detection task per frame, one matching task per pair,
   joined in pair order — the same tie points.
+* **Converging views** (obliques looking different ways): pairs whose optical axes differ by more than 20°, or
+  with few inliers, are matched on the ground plane too (:mod:`fotogeo.tools.triangulate.guided`).
 * **Tracks**: a keypoint is the same in every pair of its frame (the detector is deterministic),
   so matches are joined into multi-ray tracks by union–find on (frame, keypoint position); a
   track that holds two different keypoints of one frame is inconsistent and dropped.
@@ -61,8 +58,7 @@ from ...options import RegisterOptions
 from ...pixels import outline
 from ...progress import as_progress
 from ..register.match import FeatureCache, find_tie_points
-from .pairs import (dask_client, dask_lsm_results, dask_pair_results, epipolar_kept, grey, ideal_pixels,
-                    lsm_group)
+from .pairs import dask_client, dask_pair_results, epipolar_kept, ideal_pixels, refine_tracks
 
 
 def overlapping_pairs(camera, eos, height: float, min_overlap: float = 0.05, *, round_footprints: bool = False) -> list:
@@ -154,32 +150,65 @@ def _detection_options(opts, info, level: int):
     return dataclasses.replace(opts, max_match_pixels=min(opts.max_match_pixels, target))
 
 
-def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None):
-    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers)``
-    with ``inliers`` ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels as measured); the RANSAC sees them
-    through :func:`ideal_pixels` of ``camera`` and ``distortion``. With a Dask ``client`` the pairs are its tasks
-    (:func:`fotogeo.tools.triangulate.pairs.dask_pair_results`), else they run in this process.
-    The pairs are joined in pair order either way: the same tracks."""
+def _pair_matches(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None, guide=None):
+    """Union–find over the epipolar inliers of every pair; ``(uf, positions, per-pair report, inliers, height)``
+    (:func:`_pair_results`, then :func:`_joined`)."""
+    found, per_pair, measured = _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera, distortion,
+                                              client, guide)
+    uf, pos, inliers = _joined(pairs, found)
+    return uf, pos, per_pair, inliers, measured
+
+
+def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, distortion=None, client=None,
+                  guide=None):
+    """``(found, per-pair report, height)``: each pair's epipolar inliers ``(matches, xy_i, xy_j)`` (full-resolution
+    pixels as measured; None where none), the RANSAC seeing them through :func:`ideal_pixels` of ``camera`` and
+    ``distortion``. With a Dask ``client`` the pairs are its tasks
+    (:func:`fotogeo.tools.triangulate.pairs.dask_pair_results`), else they run in this process. ``guide`` ``(eos,
+    height)``: pairs with few inliers are matched on the ground plane too
+    (:func:`fotogeo.tools.triangulate.guided.guided_results`; ``height``: the terrain height it measured, else None)."""
     det = _detection_options(opts, infos[0], level)
     threshold = epipolar_px * 2 ** level
     if client is None:
-        found = _local_pair_results(infos, pairs, det, threshold, ideal_pixels(camera, distortion), prog)
+        found = _local_pair_results(infos, pairs, det, threshold, ideal_pixels(camera, distortion),
+                                    prog.stage(0.0, 0.6, "matching"))
     else:
         found = dask_pair_results(client, [info.path for info in infos], pairs, det, threshold, camera, distortion,
-                                  prog)
-    uf, pos, per_pair, inliers = _UnionFind(), {}, [], []
+                                  prog.stage(0.0, 0.6, "matching"))
+    found = list(found)
+    plain = [None if r is None else (r[0], len(r[1])) for r in found]
+    guided, measured = {}, None
+    if guide is not None:
+        from .guided import guided_results, tile_pixels
+        found, tried, measured = guided_results(infos, pairs, found, camera, distortion, *guide, det, threshold,
+                                                ideal_pixels(camera, distortion), tile_pixels(det, infos[0]),
+                                                prog.stage(0.6, 1.0, "matching on the ground plane"))
+        guided = {tuple(g.pop("pair")): g for g in tried}
+    per_pair = []
+    for (i, j), first in zip(pairs, plain):
+        row = {"pair": [i, j], "matches": 0 if first is None else first[0], "inliers": 0 if first is None else first[1]}
+        if (i, j) in guided:  # matches, inliers: those the pair's ties came from; both methods' counts beside
+            g = guided[(i, j)]
+            row = {**row, "plain": {"matches": row["matches"], "inliers": row["inliers"]}, "guided": g}
+            row.update({"matches": g["matches"], "inliers": g["inliers"]} if g["used"] else {})
+        per_pair.append(row)
+    return found, per_pair, measured
+
+
+def _joined(pairs, found):
+    """``(uf, positions, inliers)``: union–find over the inliers ``found`` of ``pairs``, joined in pair order (the
+    same tracks whichever way the pairs ran); ``inliers`` ``[(i, j, xy_i, xy_j), ...]``."""
+    uf, pos, inliers = _UnionFind(), {}, []
     for (i, j), result in zip(pairs, found):
         if result is None:
-            per_pair.append({"pair": [i, j], "matches": 0, "inliers": 0})
             continue
         n_matches, xy_i, xy_j = result
-        per_pair.append({"pair": [i, j], "matches": n_matches, "inliers": int(len(xy_i))})
         inliers.append((i, j, xy_i, xy_j))
         for a, b in zip(xy_i, xy_j):
             na, nb = (i, round(a[0], 3), round(a[1], 3)), (j, round(b[0], 3), round(b[1], 3))
             pos[na], pos[nb] = a, b
             uf.union(na, nb)
-    return uf, pos, per_pair, inliers
+    return uf, pos, inliers
 
 
 def _local_pair_results(infos, pairs, det, threshold, ideal, prog):
@@ -214,77 +243,6 @@ def _tracks(uf, pos, n_frames):
     return frame[ok], track.ravel(), pixel[ok], int(len(dup_tracks))
 
 
-def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
-    """``(n, 2, 2)`` Jacobians ``J[:, :, k] = ∂x_to / ∂(axis k of x_from)`` of the transfer of frame pixels
-    ``xy`` through the plane at ``height`` with the approximate orientations (identity where undefined)."""
-    a, b = OrientedFrame(camera, eo_from), OrientedFrame(camera, eo_to)
-
-    def transfer(p):
-        return b.world_to_pixel(a.pixel_to_world_at(p, height))
-    e = 0.5
-    jx = (transfer(xy + [e, 0]) - transfer(xy - [e, 0])) / (2 * e)
-    jy = (transfer(xy + [0, e]) - transfer(xy - [0, e])) / (2 * e)
-    J = np.stack([jx, jy], axis=2)
-    bad = ~np.isfinite(J).all(axis=(1, 2))
-    J[bad] = np.eye(2)
-    return J
-
-
-def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
-                  min_sigma: float = 0.1, client=None, prog=None):
-    """LSM transfer of each track's anchor window into its other frames (module docstring), frame pair by
-    frame pair (at most two full-resolution frames in memory); with a Dask ``client``, one task per frame
-    pair (:func:`fotogeo.tools.triangulate.pairs.dask_lsm_results`; the same results).
-
-    Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
-    """
-    prog = as_progress(prog)
-    n = len(frame)
-    track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
-    order = np.lexsort((frame, track))
-    is_anchor = np.zeros(n, bool)
-    is_anchor[order[np.r_[True, np.diff(track[order]) != 0]]] = True
-    anchor_of = np.empty(int(track.max()) + 1 if n else 0, np.intp)
-    anchor_of[track[is_anchor]] = np.flatnonzero(is_anchor)
-    anchor = anchor_of[track]
-    out, sigma, ok = pixel.copy(), np.full(n, np.nan), is_anchor.copy()
-    others = np.flatnonzero(~is_anchor)
-    key = frame[anchor[others]].astype(np.int64) * len(eos) + frame[others]
-    others = others[np.argsort(key, kind="stable")]
-    groups = np.split(others, np.flatnonzero(np.diff(np.sort(key))) + 1) if len(others) else []
-    jobs = [(int(frame[anchor[m[0]]]), int(frame[m[0]]), pixel[anchor[m]], pixel[m]) for m in groups]
-    jobs = [(fa, fb, a, xy, local_affinity(camera, eos[fa], eos[fb], a, height)) for fa, fb, a, xy in jobs]
-    found = (_local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog) if client is None else
-             dask_lsm_results(client, [info.path for info in infos], jobs, half_window, max_shift, min_sigma, prog))
-    for m, (good, xy, s) in zip(groups, found):
-        out[m[good]], sigma[m[good]], ok[m[good]] = xy, s, True
-    transfers = ok & ~is_anchor
-    n_ok = np.bincount(track[transfers], minlength=len(anchor_of))
-    ok &= n_ok[track] >= 1  # the anchor and at least one transfer
-    s2 = np.bincount(track[transfers], weights=sigma[transfers] ** 2, minlength=len(anchor_of))
-    has = n_ok >= 1  # the anchor: the RMS σ of its track's transfers
-    sigma[anchor_of[has]] = np.sqrt(s2[has] / n_ok[has])
-    moved = np.hypot(*(out[transfers] - pixel[transfers]).T)
-    summary = {"transfers": int((~is_anchor).sum()), "converged": int(transfers.sum()),
-               "median_shift_px": float(np.median(moved)) if len(moved) else None,
-               "median_sigma_px": float(np.median(sigma[transfers])) if transfers.any() else None,
-               "observations_dropped": int(n - ok.sum())}
-    return ok, out, sigma, summary
-
-
-def _local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog):
-    """:func:`~fotogeo.tools.triangulate.pairs.lsm_group` of each job in turn, in this process (the anchor
-    frame stays in memory while its jobs run)."""
-    cache: dict = {}
-    for g, (fa, fb, anchors, xy, jac) in enumerate(jobs):
-        prog(g / len(jobs), f"least-squares matching {g + 1}/{len(jobs)}")
-        cache = {k: v for k, v in cache.items() if k in (fa, fb)}
-        for f in (fa, fb):
-            if f not in cache:
-                cache[f] = grey(infos[f])
-        yield lsm_group(cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift, min_sigma)
-
-
 def detection_level(camera) -> int:
     """The pyramid level of detection for frames of this size: 1 (the measured default), or the level that
     brings a frame to at most 4 Mpx."""
@@ -295,7 +253,7 @@ def detection_level(camera) -> int:
 def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float = 1.0, level: int | None = 1,
                      cells: int = 3, per_region: int | None = 25, lsm: bool = True, half_window: int = 10,
                      options=None, distortion=None, start=None, client=None, scheduler=None, workers=None,
-                     advice: str = "check the approximate orientation", progress=None):
+                     advice: str = "check the approximate orientation", guided: bool = True, progress=None):
     """``(frame (n,), track (n,), pixel (n, 2), sigma (n,) px or None, report)`` of the tie points of the
     block (module docstring): detection on pyramid ``level`` (None: :func:`detection_level`), epipolar
     RANSAC, tracks, thinning to ``per_region`` tracks in each of ``cells x cells`` regions per frame (None:
@@ -308,18 +266,20 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     ``start(eos, pair_inliers) -> (eos, height, report)`` (:mod:`fotogeo.tools.triangulate.start`) measures
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints).
-    ``advice``: what to check, in the caller's words, when a frame overlaps no other."""
+    ``advice``: what to check, in the caller's words, when a frame overlaps no other. ``guided``: pairs with few
+    inliers are matched again on the ground plane (:mod:`fotogeo.tools.triangulate.guided`)."""
     with dask_client(client, scheduler, workers) as client:
         return _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window,
-                                 options, distortion, start, client, progress, advice)
+                                 options, distortion, start, client, progress, advice, guided)
 
 
 def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window, options,
-                      distortion, start, client, progress, advice="check the approximate orientation"):
+                      distortion, start, client, progress, advice="check the approximate orientation", guided=True):
     """:func:`block_tie_points` on the Dask ``client`` (None: in this process)."""
     prog = as_progress(progress)
     opts = options or RegisterOptions()
     level = detection_level(camera) if level is None else int(level)
+    given = height is not None
     if height is None:
         from .start import provisional_height
         height = provisional_height(eos, camera)
@@ -330,14 +290,28 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
                             f"with the approximate orientation (footprints at height {height:.1f}); {advice}, or "
                             f"remove them")
     infos = [open_raster(f, "frame") for f in frames]
-    uf, pos, per_pair, inliers = _pair_matches(infos, pairs, opts, level, epipolar_px,
-                                               prog.stage(0.0, 0.7, "matching"), camera, distortion, client)
+    guided = guided and not getattr(start, "estimates_kappa", False)  # the ground plane needs the attitude
+
+    def matched(pairs, height, part):
+        return _pair_results(infos, pairs, opts, level, epipolar_px, prog.stage(*part, "matching"), camera,
+                             distortion, client, guide=(eos, height) if guided else None)
+    found, per_pair, measured = matched(pairs, height, (0.0, 0.6))
+    if measured is not None and not given:  # the ground plane's height measured on the frames: the pairs it adds
+        more = sorted(set(overlapping_pairs(camera, eos, measured, round_footprints=start is not None)) - set(pairs))
+        if more:
+            found2, per_pair2, _ = matched(more, measured, (0.6, 0.7))
+            order = sorted(range(len(pairs) + len(more)), key=lambda k: (pairs + more)[k])
+            pairs, found, per_pair = ([x[k] for k in order] for x in (pairs + more, found + found2,
+                                                                      per_pair + per_pair2))
+    uf, pos, inliers = _joined(pairs, found)
     frame, track, pixel, dropped = _tracks(uf, pos, len(frames))
     report = {"pairs": per_pair, "detection_level": int(level), "tracks_matched": int(len(np.unique(track))),
               "dropped_inconsistent_tracks": dropped}
+    if measured is not None and not given:
+        height = report["ground_plane_height"] = measured
     if start is not None:
         eos, new_height, report["start"] = start(eos, inliers)
-        height = height if new_height is None else new_height
+        height = height if new_height is None or (measured is not None and not given) else new_height
         report["start"].update(eos=tuple(eos), height=float(height))
     if per_region is not None and len(track):
         rays = np.bincount(track)[track].astype(float)

@@ -24,6 +24,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from ...errors import Cancelled, MatchingError
+from ...geometry.camera import OrientedFrame
 from ...io.raster import open_raster, read_decimated
 from ...progress import as_progress
 from ..register.match import FeatureCache, find_tie_points
@@ -207,3 +208,74 @@ def dask_lsm_results(client, paths, groups, half_window: int, max_shift: float, 
                              min_sigma, pure=False, key=f"fotogeo-lsm-{fa}-{fb}-{run}"): k
                for k, (fa, fb, anchors, xy, jac) in enumerate(groups)}
     return _gathered(futures, as_progress(progress), "least-squares matching")
+
+
+def local_affinity(camera, eo_from, eo_to, xy, height: float) -> np.ndarray:
+    """``(n, 2, 2)`` Jacobians ``J[:, :, k] = ∂x_to / ∂(axis k of x_from)`` of the transfer of frame pixels
+    ``xy`` through the plane at ``height`` with the approximate orientations (identity where undefined)."""
+    a, b = OrientedFrame(camera, eo_from), OrientedFrame(camera, eo_to)
+
+    def transfer(p):
+        return b.world_to_pixel(a.pixel_to_world_at(p, height))
+    e = 0.5
+    jx = (transfer(xy + [e, 0]) - transfer(xy - [e, 0])) / (2 * e)
+    jy = (transfer(xy + [0, e]) - transfer(xy - [0, e])) / (2 * e)
+    J = np.stack([jx, jy], axis=2)
+    bad = ~np.isfinite(J).all(axis=(1, 2))
+    J[bad] = np.eye(2)
+    return J
+
+
+def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift: float, half_window: int = 10,
+                  min_sigma: float = 0.1, client=None, prog=None):
+    """LSM transfer of each track's anchor window into its other frames (module docstring), frame pair by
+    frame pair (at most two full-resolution frames in memory); with a Dask ``client``, one task per frame
+    pair (:func:`fotogeo.tools.triangulate.pairs.dask_lsm_results`; the same results).
+
+    Returns ``(keep (n,) bool, pixel (n, 2), sigma (n,), summary)``.
+    """
+    prog = as_progress(prog)
+    n = len(frame)
+    track = np.unique(track, return_inverse=True)[1].ravel()  # 0 .. T-1
+    order = np.lexsort((frame, track))
+    is_anchor = np.zeros(n, bool)
+    is_anchor[order[np.r_[True, np.diff(track[order]) != 0]]] = True
+    anchor_of = np.empty(int(track.max()) + 1 if n else 0, np.intp)
+    anchor_of[track[is_anchor]] = np.flatnonzero(is_anchor)
+    anchor = anchor_of[track]
+    out, sigma, ok = pixel.copy(), np.full(n, np.nan), is_anchor.copy()
+    others = np.flatnonzero(~is_anchor)
+    key = frame[anchor[others]].astype(np.int64) * len(eos) + frame[others]
+    others = others[np.argsort(key, kind="stable")]
+    groups = np.split(others, np.flatnonzero(np.diff(np.sort(key))) + 1) if len(others) else []
+    jobs = [(int(frame[anchor[m[0]]]), int(frame[m[0]]), pixel[anchor[m]], pixel[m]) for m in groups]
+    jobs = [(fa, fb, a, xy, local_affinity(camera, eos[fa], eos[fb], a, height)) for fa, fb, a, xy in jobs]
+    found = (_local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog) if client is None else
+             dask_lsm_results(client, [info.path for info in infos], jobs, half_window, max_shift, min_sigma, prog))
+    for m, (good, xy, s) in zip(groups, found):
+        out[m[good]], sigma[m[good]], ok[m[good]] = xy, s, True
+    transfers = ok & ~is_anchor
+    n_ok = np.bincount(track[transfers], minlength=len(anchor_of))
+    ok &= n_ok[track] >= 1  # the anchor and at least one transfer
+    s2 = np.bincount(track[transfers], weights=sigma[transfers] ** 2, minlength=len(anchor_of))
+    has = n_ok >= 1  # the anchor: the RMS σ of its track's transfers
+    sigma[anchor_of[has]] = np.sqrt(s2[has] / n_ok[has])
+    moved = np.hypot(*(out[transfers] - pixel[transfers]).T)
+    summary = {"transfers": int((~is_anchor).sum()), "converged": int(transfers.sum()),
+               "median_shift_px": float(np.median(moved)) if len(moved) else None,
+               "median_sigma_px": float(np.median(sigma[transfers])) if transfers.any() else None,
+               "observations_dropped": int(n - ok.sum())}
+    return ok, out, sigma, summary
+
+
+def _local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog):
+    """:func:`~fotogeo.tools.triangulate.pairs.lsm_group` of each job in turn, in this process (the anchor
+    frame stays in memory while its jobs run)."""
+    cache: dict = {}
+    for g, (fa, fb, anchors, xy, jac) in enumerate(jobs):
+        prog(g / len(jobs), f"least-squares matching {g + 1}/{len(jobs)}")
+        cache = {k: v for k, v in cache.items() if k in (fa, fb)}
+        for f in (fa, fb):
+            if f not in cache:
+                cache[f] = grey(infos[f])
+        yield lsm_group(cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift, min_sigma)

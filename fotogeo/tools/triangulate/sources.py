@@ -78,6 +78,7 @@ class BlockStart:
             eos = tuple(eos)
             return start_from_pairs(eos, self.camera, inliers, estimate_kappa=unknown_kappa,
                                     estimate_height=height is None)
+        measure.estimates_kappa = unknown_kappa  # no attitude yet: no matching on the ground plane
         return measure
 
     def eo_sigma(self, position, height, angle):

@@ -71,6 +71,7 @@ from .control import reference_sigmas
 from .determinacy import adjust_determined
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
+from .refusal import reporting_refusal
 from .sources import block_start
 from .surface import block_dsm
 
@@ -211,7 +212,9 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     opts = BundleOptions(self_calibration=tuple(kw["self_calibration"] or ()), eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
-    with prog.timed("adjustment"), _saying_what_was_lost(start.lost):
+    refused = reporting_refusal(finals["json"], matching, names, {"frames": [str(f) for f in frames],
+                                                                   "folder": str(folder)})
+    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,

@@ -1,0 +1,269 @@
+"""Tie points between frames seen from very different directions, matched on the ground plane (the tool layer of
+``fotogeo triangulate``).
+
+Converging obliques — a camera 30–45° off nadir looking east, south, west and north at one place — see the
+same ground turned by up to 180°, scaled by up to 2–3× and sheared: a detector's rotation and scale invariance
+covers the first two only in part, and the descriptors of one patch seen from two sides differ too much for the
+ratio test. Guided matching removes the viewpoint with the approximate orientation before matching, as
+orthorectification does: every frame that needs it is resampled **once** onto one ground grid of the block and
+detected there (:mod:`fotogeo.tools.triangulate.ground`), so that the cost grows with the frames, not the pairs;
+then, per pair:
+
+* **which pairs** (:func:`choose_pairs`): those whose plain matching kept fewer than :data:`GUIDED_BELOW`
+  epipolar inliers, or whose optical axes differ by more than :data:`CONVERGING_DEG` (converging views: the plain
+  matches there are fewer and more of them wrong) — nadir pairs with good plain ties are never re-matched — and of
+  these only those whose footprints on the plane (:func:`fotogeo.tools.triangulate.ground.footprint`) share at
+  least :data:`MIN_GROUND_OVERLAP` of the smaller one; each row of the report says why the pair was tried or
+  skipped;
+* **matching** (:func:`ground_pair`): the keypoints of each frame that fall on the other's footprint (grown by a
+  tenth of its size, the orientation error) matched with the options' ratio test and mutual check
+  (:func:`fotogeo.features.match.match_descriptors`); each match's grid position goes back to each frame's pixels
+  exactly (:func:`fotogeo.tools.triangulate.ground.grid_to_pixels`) and the pair's **one RANSAC**, the epipolar
+  test of the plain pairs (:func:`fotogeo.tools.triangulate.pairs.epipolar_kept`), keeps those that fit the
+  two-view geometry on the frames' own pixels — a wrong approximate orientation makes fewer matches, never wrong
+  ones. A pair keeps whichever of its plain and ground-plane results kept more inliers.
+
+**The plane's height.** The median height of the plain pairs' inliers (pairs with at least
+:data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
+midpoints of their rays' shortest segments through the approximate orientations, :func:`ray_heights`), else the
+caller's ``height`` (a DEM's, the control's, or the provisional height of the pair selection,
+:func:`fotogeo.tools.triangulate.start.provisional_height`, often tens of metres off for a drone). The ground-plane
+pairs' inliers measure it again; when that is more than a tenth of the cameras' height above the plane away, the
+frames are resampled and matched once more on the measured plane (each pair keeping its better run).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...errors import FotogeoError
+from ...geometry.camera import OrientedFrame
+from ...progress import as_progress
+from .ground import block_grid, footprint, grid_to_pixels, ground_features
+from .pairs import MIN_PAIR_INLIERS, epipolar_kept, grey
+
+#: pairs whose plain matching kept fewer epipolar inliers than this are matched on the ground plane too
+GUIDED_BELOW = 12
+#: pairs whose optical axes differ by more than this (degrees) are matched on the ground plane whatever the plain
+#: matching found
+CONVERGING_DEG = 20.0
+#: pairs whose footprints on the plane share less than this fraction of the smaller one are not matched there
+MIN_GROUND_OVERLAP = 0.15
+
+
+#: a frame's tile on the ground holds about this many times the pixels the plain matching detects the frame on
+TILE_FACTOR = 1.5
+
+
+#: ... and at least this many cells (small frames: the cost is small, and a coarse tile loses the finest scale)
+TILE_MIN = 2 ** 16
+
+
+def tile_pixels(det, info) -> int:
+    """The valid cells of a frame's tile on the ground grid: :data:`TILE_FACTOR` × the pixels of the frame at the
+    plain matching's pyramid level (``det.max_match_pixels``), at least :data:`TILE_MIN`, at most the frame's own
+    pixels."""
+    frame = info.width * info.height
+    return int(min(max(TILE_FACTOR * min(det.max_match_pixels, frame), TILE_MIN), frame))
+
+
+def choose_pairs(pairs, found, eos, footprints) -> tuple:
+    """``(todo, rows)``: the indices of the pairs to match on the ground plane (module docstring), the largest
+    ground overlap first; ``rows`` ``{k: report row}`` for every pair considered, tried or skipped, with
+    ``why`` (what made it a candidate), ``ground_overlap`` and, when skipped, ``skipped`` (why not)."""
+    todo, rows = [], {}
+    for k, (i, j) in enumerate(pairs):
+        plain = 0 if found[k] is None else len(found[k][1])
+        angle = axes_angle(eos[i], eos[j])
+        if angle > CONVERGING_DEG:
+            why = f"optical axes {angle:.0f}° apart (> {CONVERGING_DEG:.0f}°)"
+        elif plain < GUIDED_BELOW:
+            why = f"{plain} plain inliers (< {GUIDED_BELOW})"
+        else:
+            continue
+        a, b = footprints[i], footprints[j]
+        share = 0.0 if a is None or b is None else a.intersection(b).area / min(a.area, b.area)
+        rows[k] = {"pair": [i, j], "why": why, "ground_overlap": round(float(share), 3), "matches": 0, "inliers": 0,
+                   "used": False, "height_m": None}
+        if share < MIN_GROUND_OVERLAP:
+            rows[k]["skipped"] = f"footprints on the ground share {share:.0%} (< {MIN_GROUND_OVERLAP:.0%})"
+        else:
+            todo.append(k)
+    return sorted(todo, key=lambda k: -rows[k]["ground_overlap"]), rows
+
+
+def _on(features, fp, grid, grow: float):
+    """Indices of ``features``' keypoints whose ground point lies on the footprint ``fp`` grown by ``grow`` m."""
+    import shapely
+    x0, y0, cell = grid
+    X, Y = x0 + features.xy[:, 0] * cell, y0 - features.xy[:, 1] * cell
+    return np.flatnonzero(shapely.contains_xy(fp.buffer(grow), X, Y))
+
+
+def ground_pair(feats, fps, camera, distortion, eos, height: float, grid, opts, threshold: float, ideal,
+                near: bool = True):
+    """``(matches, xy_i, xy_j)`` of one pair matched on the ground grid (module docstring; ``feats``, ``fps``,
+    ``eos``: the two frames' :class:`~fotogeo.tools.triangulate.ground.GroundFeatures`, footprints and
+    orientations), the epipolar inliers in frame pixels. ``near``: only the keypoints on the other frame's
+    footprint (a plane nobody measured can put the common ground far from where both footprints meet)."""
+    from ...features.match import match_descriptors
+    grow = 0.1 * math.sqrt(min(fp.area for fp in fps))
+    sel = ([_on(feats[0], fps[1], grid, grow), _on(feats[1], fps[0], grid, grow)] if near else
+           [np.arange(len(feats[0].xy)), np.arange(len(feats[1].xy))])
+    if min(len(s) for s in sel) < 2:
+        return 0, np.zeros((0, 2)), np.zeros((0, 2))
+    lap = [None if f.laplacian is None else f.laplacian[s] for f, s in zip(feats, sel)]
+    m = match_descriptors(feats[0].descriptors[sel[0]], feats[1].descriptors[sel[1]], ratio=opts.ratio,
+                          mutual=opts.mutual, laplacian1=lap[0], laplacian2=lap[1])
+    xy_i = grid_to_pixels(camera, distortion, eos[0], height, grid, feats[0].xy[sel[0][m.pairs[:, 0]]])
+    xy_j = grid_to_pixels(camera, distortion, eos[1], height, grid, feats[1].xy[sel[1][m.pairs[:, 1]]])
+    ok = np.isfinite(xy_i).all(axis=1) & np.isfinite(xy_j).all(axis=1)
+    return epipolar_kept(xy_i[ok], xy_j[ok], ideal, threshold)
+
+
+def _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts, prog) -> dict:
+    """``{frame: GroundFeatures or None}``: each of ``frames`` read, resampled and detected once."""
+    out = {}
+    for n, f in enumerate(frames):
+        prog(n / max(len(frames), 1), f"frame {n + 1}/{len(frames)} on the ground plane")
+        try:
+            out[f] = ground_features(grey(infos[f]), camera, dist, eos[f], height, grid, fps[f], opts)
+        except FotogeoError:
+            out[f] = None
+    return out
+
+
+def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, ideal, max_pixels, prog, near):
+    """``(rows, results)`` of one pass on the plane ``height``: :func:`choose_pairs`' rows and ``{k: result}`` of
+    the pairs matched (:func:`ground_pair`, ``near``: the plane was measured)."""
+    fps = [footprint(camera, eo, height) for eo in eos]
+    todo, rows = choose_pairs(pairs, found, eos, fps)
+    frames = sorted({f for k in todo for f in pairs[k]})
+    grid = block_grid(camera, [eos[f] for f in frames], [fps[f] for f in frames], height, max_pixels)
+    feats = _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts,
+                            prog.stage(0.0, 0.8, "frames on the ground plane"))
+    results = {}
+    for n, k in enumerate(todo):
+        i, j = pairs[k]
+        prog(0.8 + 0.2 * n / len(todo), f"matching pair {k + 1} on the ground plane")
+        if feats[i] is None or feats[j] is None:
+            rows[k]["skipped"] = "a frame's footprint holds too few of its pixels"
+        else:
+            results[k] = ground_pair((feats[i], feats[j]), (fps[i], fps[j]), camera, dist, (eos[i], eos[j]), height,
+                                     grid, opts, threshold, ideal, near)
+    return rows, results
+
+
+def guided_results(infos, pairs, found, camera, distortion, eos, height: float, opts, threshold: float, ideal,
+                   max_pixels: int, progress=None):
+    """``(found, guided, height)``: ``found`` (the plain pairs' ``(matches, xy_i, xy_j)`` or None, in pair
+    order) with the result of the ground-plane matching in place of a pair's where it kept more inliers;
+    ``guided`` one dict per pair considered (``{"pair", "why", "ground_overlap", "matches", "inliers", "used",
+    "height_m"}``, ``"skipped"`` when not matched); ``height`` the plane's height measured on the ground-plane ties
+    (None when none did: the block's height is then left as it was). Module docstring: which pairs, which plane,
+    the second pass."""
+    prog = as_progress(progress)
+    found, dist = list(found), _distortion_terms(distortion)
+    plane = _plain_height(camera, eos, pairs, found)
+    tries = ([(plane, True)] if plane is not None else
+             [(z, False) for z in (axes_height(eos), height) if z is not None] or [(height, False)])
+    for n, (plane, near) in enumerate(tries):  # an unmeasured plane: where the axes meet, else the caller's height
+        rows, results = _on_plane(infos, pairs, found, camera, dist, eos, plane, opts, threshold, ideal, max_pixels,
+                                  prog.stage(n / len(tries) / 2, (n + 1) / len(tries) / 2, "matching on the ground "
+                                             "plane"), near)
+        z = _pairs_height(camera, eos, pairs, results)
+        if z is not None:
+            break
+    above = float(np.median([e.Z for e in eos])) - plane
+    if z is not None and abs(z - plane) > 0.1 * max(above, 1e-6):
+        rows2, again = _on_plane(infos, pairs, found, camera, dist, eos, z, opts, threshold, ideal, max_pixels,
+                                 prog.stage(0.5, 1.0, "matching on the measured ground plane"), True)
+        better = {k: r for k, r in again.items() if k not in results or len(r[1]) > len(results[k][1])}
+        results.update(better)
+        rows.update({k: rows2[k] for k in better})
+        plane, z = z, _pairs_height(camera, eos, pairs, results)
+    for k, got in results.items():
+        _take(found, k, got, rows[k], _median_height(camera, (eos[pairs[k][0]], eos[pairs[k][1]]), got))
+    return found, [rows[k] for k in sorted(rows)], z  # a height the ground-plane ties measured, else None
+
+
+def _plain_height(camera, eos, pairs, found):
+    """The median over the plain pairs with at least ``MIN_PAIR_INLIERS`` inliers of their inliers' median ray
+    height; None when there is none."""
+    z = [_median_height(camera, (eos[i], eos[j]), r) for (i, j), r in zip(pairs, found)]
+    z = [v for v in z if v is not None]
+    return float(np.median(z)) if z else None
+
+
+def axes_height(eos):
+    """The height of the point nearest to every frame's optical axis (least squares: ``Σ (I − d dᵀ)(p − C) = 0``
+    over the centres ``C`` and axes ``d``), where converging views aim; None when the axes are near parallel (the
+    smallest eigenvalue of ``Σ (I − d dᵀ) / n`` below 0.05, about 13° of spread) or the point is not below every
+    camera."""
+    A, b = np.zeros((3, 3)), np.zeros(3)
+    for eo in eos:
+        d = eo.rotation[:, 2] / np.linalg.norm(eo.rotation[:, 2])
+        M = np.eye(3) - np.outer(d, d)
+        A, b = A + M, b + M @ np.asarray(eo.centre, float)
+    if np.linalg.eigvalsh(A / len(eos))[0] < 0.05:
+        return None
+    p = np.linalg.solve(A, b)
+    return float(p[2]) if p[2] < min(e.Z for e in eos) else None
+
+
+def _pairs_height(camera, eos, pairs, results):
+    """The median over the ground-plane pairs of their inliers' median ray height; None when none has one."""
+    z = [_median_height(camera, (eos[pairs[k][0]], eos[pairs[k][1]]), r) for k, r in results.items()]
+    z = [v for v in z if v is not None]
+    return float(np.median(z)) if z else None
+
+
+def axes_angle(eo_i, eo_j) -> float:
+    """The angle (degrees) between two frames' optical axes."""
+    a, b = eo_i.rotation[:, 2], eo_j.rotation[:, 2]
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(a @ b)))))
+
+
+def _take(found, k, got, row, z) -> None:
+    """Pair ``k``'s ground-plane result ``got`` into its report ``row``, and into ``found[k]`` when it kept more
+    inliers than the plain matching."""
+    plain = 0 if found[k] is None else len(found[k][1])
+    used = len(got[1]) > plain
+    if used:
+        found[k] = got
+    row.update(matches=int(got[0]), inliers=int(len(got[1])), used=bool(used),
+               height_m=None if z is None else round(float(z), 2))
+
+
+def _median_height(camera, eos, result):
+    """The median ray height of a pair's inliers; None with fewer than ``MIN_PAIR_INLIERS`` of them."""
+    if result is None or len(result[1]) < MIN_PAIR_INLIERS:
+        return None
+    z = ray_heights(camera, eos, result[1], result[2])
+    z = z[np.isfinite(z)]
+    return float(np.median(z)) if len(z) else None
+
+
+def _distortion_terms(distortion) -> tuple:
+    """``(k1, k2, k3, p1, p2)`` of a Block's tuple or a camera file's dict (zeros when absent)."""
+    if isinstance(distortion, dict):
+        return tuple(float(distortion.get(k, 0.0)) for k in ("k1", "k2", "k3", "p1", "p2"))
+    return tuple(float(t) for t in (distortion or ())[:5])
+
+
+def ray_heights(camera, eos, xy_i, xy_j) -> np.ndarray:
+    """Heights of the midpoints of the shortest segments between the rays of ``xy_i`` in frame i and ``xy_j``
+    in frame j (approximate orientations ``eos``); NaN where the rays are parallel or meet behind a camera."""
+    a, b = OrientedFrame(camera, eos[0]), OrientedFrame(camera, eos[1])
+    ca, da = a._rays(xy_i)
+    cb, db = b._rays(xy_j)
+    w = ca - cb
+    aa, bb, cc = np.sum(da * da, 1), np.sum(da * db, 1), np.sum(db * db, 1)
+    dd, ee = np.sum(da * w, 1), np.sum(db * w, 1)
+    den = aa * cc - bb * bb
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s, t = (bb * ee - cc * dd) / den, (aa * ee - bb * dd) / den
+    z = 0.5 * ((ca[2] + s * da[:, 2]) + (cb[2] + t * db[:, 2]))
+    z[~((s > 0) & (t > 0) & (np.abs(den) > 1e-12 * aa * cc))] = np.nan
+    return z

@@ -1,0 +1,71 @@
+"""The ground grid of guided matching (fotogeo/tools/triangulate/ground.py, guided.py) without rendering: which pairs
+are matched on the ground and why, where converging axes meet, and that a tile's cells go back to the frame's
+pixels. Fast: orientations only (the rendered sets are in test_triangulate_converging.py)."""
+from __future__ import annotations
+
+import numpy as np
+
+from fotogeo.geometry.attitude import patb_in_map, rotation_from_ypr
+from fotogeo.geometry.camera import ExteriorOrientation
+from fotogeo.tools.triangulate import ground, guided
+from rendered_converging import CRS, GROUND, camera, shots
+from rendered_oblique import _lonlat
+
+DIST = (-0.05, 0.015, 0.0, 0.0003, -0.0002)
+
+
+def _eo(centre, ypr):
+    lon, lat = _lonlat(centre[:2], CRS)
+    return ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, CRS))
+
+
+def _converging(off_nadir=30.0, seed=0):
+    return [_eo(c, ypr) for _, c, ypr in shots(np.random.default_rng(seed), off_nadir)]
+
+
+def _nadir(xs):
+    return [_eo(np.array([500000.0 + x, 4420000.0, GROUND + 60.0]), (0.0, -90.0, 0.0)) for x in xs]
+
+
+def test_converging_axes_meet_on_the_ground_and_parallel_ones_nowhere():
+    for off in (30.0, 38.0, 45.0):
+        assert abs(guided.axes_height(_converging(off)) - GROUND) < 3.0
+    assert abs(guided.axes_height(_converging(30.0)[:3]) - GROUND) < 3.0  # three views
+    assert guided.axes_height(_nadir([0.0, 20.0, 40.0])) is None
+
+
+def test_pairs_are_matched_on_the_ground_by_overlap_and_the_report_says_why():
+    cam = camera((600, 400))
+    eos = _converging(30.0) + _nadir([0.0, 15.0]) + _nadir([900.0])
+    pairs = [(0, 1), (0, 2), (1, 3), (4, 5), (4, 6), (0, 6)]
+    good = (60, np.zeros((40, 2)), np.zeros((40, 2)))
+    found = [None, (30, np.zeros((20, 2)), np.zeros((20, 2))), None, good, None, None]
+    fps = [ground.footprint(cam, eo, GROUND) for eo in eos]
+    todo, rows = guided.choose_pairs(pairs, found, eos, fps)
+    assert 3 not in rows  # a nadir pair with 40 plain inliers is left alone
+    assert {pairs[k] for k in todo} == {(0, 1), (0, 2), (1, 3)}
+    assert all("optical axes" in rows[k]["why"] for k in todo)
+    assert [rows[k]["ground_overlap"] for k in todo] == sorted((rows[k]["ground_overlap"] for k in todo),
+                                                              reverse=True)
+    for k in (4, 5):  # far apart on the ground: considered, not matched, and said so
+        assert "plain inliers" in rows[k]["why"] or "optical axes" in rows[k]["why"]
+        assert rows[k]["ground_overlap"] < guided.MIN_GROUND_OVERLAP and "share" in rows[k]["skipped"]
+
+
+def test_a_tile_is_a_window_of_the_block_grid_and_its_cells_go_back_to_the_frame():
+    cam = camera((600, 400))
+    eos = _converging(45.0)
+    fps = [ground.footprint(cam, eo, GROUND) for eo in eos]
+    grid = ground.block_grid(cam, eos, fps, GROUND, 2 ** 17)
+    xy = np.random.default_rng(1).uniform(0, 300, (50, 2))
+    for eo, fp in zip(eos, fps):
+        window, offset = ground.tile(grid, fp)
+        own = ground.grid_to_pixels(cam, DIST, eo, GROUND, window, xy)
+        assert np.allclose(own, ground.grid_to_pixels(cam, DIST, eo, GROUND, grid, xy + offset), atol=1e-6)
+        # the lattice map of the resampling agrees with the exact projection inside the frame
+        cols, rows = window[3], window[4]
+        gx, gy = np.meshgrid(np.arange(cols) + 0.5, np.arange(rows) + 0.5)
+        exact = ground.grid_to_pixels(cam, DIST, eo, GROUND, window, np.column_stack([gx.ravel(), gy.ravel()]))
+        inside = np.isfinite(exact).all(1) & (exact >= 0).all(1) & (exact < cam.image_size).all(1)
+        err = np.hypot(*(ground._pixel_map(cam, DIST, eo, GROUND, window)[inside] - exact[inside]).T)
+        assert inside.sum() > 0.2 * cols * rows and np.nanmax(err) < 0.15, np.nanmax(err)
