@@ -16,14 +16,17 @@ from pathlib import Path
 
 from ...errors import InputError, MatchingError, ModelError
 
-#: pairs named in the error's line (the weakest first); every pair is in the report
-SHOWN = 6
+#: pairs named in the error's line (those of the refused frames first, the weakest first); every pair is in the report
+SHOWN = 3
 
 
-def pair_summary(matching: dict, names) -> str:
+def pair_summary(matching: dict, names, refused=()) -> str:
     """``"pairs tried (matches/inliers): A–B 89/65, C–D 54/40 plain, 124/120 on the ground plane, …"``: the
-    :data:`SHOWN` pairs with the fewest inliers kept, and how many more there are."""
-    rows = sorted(matching.get("pairs") or [], key=lambda r: (r["inliers"], r["pair"]))
+    :data:`SHOWN` pairs — those of the frames ``refused`` first, then the fewest inliers kept — and how many more
+    there are."""
+    refused = set(refused)
+    rows = sorted(matching.get("pairs") or [],
+                  key=lambda r: (not refused & {names[k] for k in r["pair"]}, r["inliers"], r["pair"]))
     if not rows:
         return "no pair of frames overlapped"
     parts = []
@@ -65,10 +68,12 @@ def reporting_refusal(path: Path, matching, names, inputs: dict):
             raise
         head, sep, fix = str(exc).rpartition(" — ")  # the pairs go with the detail, before the fix
         head, sep, fix = (head, sep, fix) if sep else (fix, "", "")
-        message = f"{head}; {pair_summary(matching, names)}{sep}{fix}"
-        try:
-            write_refusal_report(path, f"{message}; every pair in {str(path)!r}", matching, names, inputs)
-            message += f"; every pair in {str(path)!r}"
+        refused = [n for n in map(str, names) if n in head]
+        message = f"{head}; {pair_summary(matching, names, refused)}{sep}{fix}"
+        try:  # the line names the report by its folder and name (the full path would crowd the one line)
+            line = f"{message}; every pair in {Path(path).parent.name}/{Path(path).name}"
+            write_refusal_report(path, line, matching, names, inputs)
+            message = line
         except OSError:
             pass
         raise type(exc)(message, option=exc.option) from None
