@@ -36,7 +36,6 @@ from fotogeo.errors import FotogeoError  # noqa: E402
 from fotogeo.geometry.camera import FrameCamera, OrientedFrame  # noqa: E402
 from fotogeo.io.camera import read_exterior_orientation  # noqa: E402
 from fotogeo.orientation import bundle_jacobian as bj  # noqa: E402
-from fotogeo.tools.triangulate.match import block_tie_points  # noqa: E402
 from fotogeo.tools.triangulate.sources import block_start  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
