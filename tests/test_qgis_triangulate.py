@@ -205,6 +205,7 @@ def test_drone_frames_through_qgis_process_need_no_crs(config, data_dir, tmp_pat
     import subprocess
 
     from fotogeo.options import TRIANGULATE
+    from fotogeo.options.shared import UNDETERMINED
     from test_qgis_real_programs import _env
     src = data_dir / "drone_snowpeak" / "img"
     if not src.is_dir():
@@ -216,7 +217,8 @@ def test_drone_frames_through_qgis_process_need_no_crs(config, data_dir, tmp_pat
     assert rep["crs"] == "EPSG:32654" and rep["start"]["crs_rule"] == "the UTM zone of the images' GPS positions"
     assert res["SIGMA0"] == pytest.approx(rep["sigma0"]) and len(rep["frames"]) == 3
     r = subprocess.run([QGIS_PROCESS, "--json", "run", "fotogeo:triangulate", "--", *[f"FRAMES={f}" for f in frames[3:]],
-                        f"OUTDIR={tmp_path / 'turn'}"], capture_output=True, text=True, timeout=180, env=_env(config))
+                        f"OUTDIR={tmp_path / 'turn'}", f"UNDETERMINED={UNDETERMINED.index('fail')}"],
+                       capture_output=True, text=True, timeout=180, env=_env(config))
     text = r.stdout + r.stderr
     assert r.returncode != 0 and "does not determine frame(s) IMG_2212" in text, text[-3000:]
     assert f"“{TRIANGULATE['undetermined'].label}” drop" in text and "--undetermined" not in text, text[-3000:]

@@ -104,7 +104,8 @@ def test_resized_real_frames_triangulate_from_their_files(tmp_path, data_dir):
     for f in frames:
         jm.rename_ifd0_tag(f, 0xA002, 0xA0F2, exif_ifd=True)
     assert _camera(frames[0]).camera.fx == pytest.approx(full_fx, rel=1e-12)
-    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "o2"), "-q"])
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "o2"), "-q",
+                                          "--undetermined", "fail"])
     assert res.exit_code != 0 and "does not determine" in res.output, res.output  # refused, not silently off
 
 

@@ -29,10 +29,12 @@ def test_drone_block_from_the_files_alone(tmp_path, data_dir, geoinfo):
     frames = sorted(str(p) for p in (src / "img").glob("*.JPG"))
     out = tmp_path / "new" / "out"  # the folder is created
     extra = ["--geoinfo", str(src / "snowpea1_geoinfo.txt")] if geoinfo else []
-    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out), "-q", "--undetermined", "drop", *extra])
+    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out), "-q", *extra])  # drop: the default
     assert res.exit_code == 0, res.output
     rep = json.loads((out / "report.json").read_text())
     assert sorted(d["name"] for d in rep["dropped_frames"]) == ["IMG_2212", "IMG_2213"]
+    assert res.stdout.startswith("2 of 8 frames dropped (undetermined): IMG_221"), res.stdout  # loud, first
+    assert "--undetermined fail stops the run instead" in res.stdout.splitlines()[0]
     assert rep["crs"] == "EPSG:32654" and "GPS" in rep["start"]["crs_rule"]
     attitude = "geoinfo heading/pitch/roll" if geoinfo else "sensefly:Yaw/Pitch/Roll"
     assert any(n.startswith(f"attitude: 8 image(s) from {attitude}") for n in rep["start"]["notes"]), rep["start"]
@@ -66,7 +68,7 @@ def test_the_turn_pair_alone_is_refused_by_name(tmp_path, data_dir):
     img = data_dir / "drone_snowpeak" / "img"
     out = tmp_path / "out"
     res = CliRunner().invoke(main, ["triangulate", str(img / "IMG_2212.JPG"), str(img / "IMG_2213.JPG"), "-o",
-                                    str(out), "-q"], terminal_width=200)
+                                    str(out), "-q", "--undetermined", "fail"], terminal_width=200)
     assert_one_line_error(res, "the block does not determine frame(s) IMG_2212")
     error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
     assert "IMG_2213" in error and "points cover" in error and "--undetermined drop" in error and "GCPs" in error

@@ -113,7 +113,7 @@ def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp
     with κ from the flight direction, and the two others cannot hold its attitude: refused by name."""
     frames = copy_frames(snowpeak / "img", STRIP, tmp_path / "img")
     write_xmp(frames[1], xmp_of(frames[1]).replace("</rdf:Description>", "</rdf:Descr", 1))
-    result = _run(frames, tmp_path / "out")
+    result = _run(frames, tmp_path / "out", "--undetermined", "fail")
     _refused(result, tmp_path / "out", "does not determine frame(s) IMG_2281", "--undetermined drop", report=True)
     warned = [line for line in result.stderr.splitlines() if "XMP" in line and not line.startswith("Error:")]
     assert len(warned) == 1 and warned[0].startswith("Warning: image") and "IMG_2281.JPG" in warned[0], result.stderr

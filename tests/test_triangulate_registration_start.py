@@ -117,7 +117,7 @@ def with_noise_frame(data_dir, tmp_path_factory):
 def test_a_frame_the_reference_cannot_place_is_named_and_refused(with_noise_frame):
     ngi, tmp, frames = with_noise_frame
     with pytest.raises(MatchingError, match=r"no approximate orientation for frame\(s\) noise_frame: .*--undetermined drop"):
-        _run(frames, ngi, tmp / "refused")
+        _run(frames, ngi, tmp / "refused", undetermined="fail")
     assert not (tmp / "refused").exists()
 
 

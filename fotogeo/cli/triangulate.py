@@ -40,7 +40,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
-    from ..tools.triangulate.outputs import accuracy_lines
+    from ..tools.triangulate.outputs import accuracy_lines, dropped_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -48,6 +48,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                           progress=bar, **tool_arguments(kw, TRIANGULATE))
     finally:
         bar.close()
+    for line in dropped_lines(rep):  # first: a frame left out is never a footnote
+        click.echo(line)
     st = rep["statistics"]
     click.echo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
@@ -61,8 +63,6 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         click.echo(f"worst frame {worst['name']}: angle sigma {_sigma(worst.get('angle_sigma_deg'))} deg, position "
                    f"sigma {_sigma(worst.get('position_sigma_m'))} m, {worst['points']} points "
                    f"({worst['multi_ray_points']} with 3+ rays)")
-    for d in rep.get("dropped_frames") or []:
-        click.echo(f"dropped (undetermined): {d['name']}: {d['reason']}")
     for r in rep.get("restarted_frames") or []:
         click.echo(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}")
     start = rep.get("start") or {}

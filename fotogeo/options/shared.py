@@ -25,7 +25,7 @@ INTERIOR_PARAMETERS = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
 EBNER_PARAMETERS = tuple(f"b{i}" for i in range(1, 13))
 SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner",)
 #: what triangulate does with a frame the block does not determine
-UNDETERMINED = ("fail", "drop")
+UNDETERMINED = ("drop", "fail")
 #: height references a DEM may be given in (fotogeo.geometry.vertical); auto = what its CRS states
 DEM_HEIGHTS = ("auto", "ellipsoid", "geoid")
 #: image representations of the area-based co-registration (fotogeo.coreg.representation)

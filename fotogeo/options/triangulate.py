@@ -77,9 +77,10 @@ TRIANGULATE = Table(
     Option("geoinfo", "file", None, "senseFly geoinfo.txt (GPS and autopilot attitude per image)",
            "senseFly geotag file (fileName latitude longitude altitude heading pitch roll) giving the approximate "
            "orientation of images without --eo.", file_filter="Text files (*.txt);;All files (*)"),
-    Option("undetermined", "choice", "fail", "A frame the block does not determine: fail the run, or drop it",
+    Option("undetermined", "choice", "drop", "Undetermined frames (drop = leave out, reported; fail = stop the run)",
            "What to do with a frame the adjustment does not determine (too few or clustered points, angle σ "
-           "above --max-angle-sigma): fail (default) or drop it, re-adjust and report it.",
+           "above --max-angle-sigma): drop it, re-adjust and report it (default; refused when fewer than 2 "
+           "frames or less than half of them would remain), or fail the run.",
            choices=UNDETERMINED),
     Option("max_angle_sigma", "float", 0.5, "Largest angle σ of a determined frame (°)",
            "A frame whose adjusted ω, φ, κ have a σ above this (degrees) is undetermined.", minimum=0.0,

@@ -116,18 +116,18 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
                             outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True,
                             **self.option_arguments(parameters, context))
+        from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines
+        for line in dropped_lines(rep):  # first, as a warning: the flag named by the dialog's label
+            feedback.pushWarning(self.in_words(line))
         st = rep["statistics"]
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
-        from fotogeo.tools.triangulate.outputs import accuracy_lines
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
         if start.get("source"):
             feedback.pushInfo(self.in_words(f"start: {start['source']}"))  # the dialog's labels, not the flags
-        for d in rep.get("dropped_frames") or []:
-            feedback.pushWarning(self.in_words(f"dropped: {d['name']}: {d['reason']}"))
         for r in rep.get("restarted_frames") or []:
             feedback.pushWarning(self.in_words(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}"))
         for f in rep["fixed_parameters"]:

@@ -1,6 +1,12 @@
 """The adjustment with every frame's determinacy checked (:func:`adjust_determined`): a frame the block does not
-determine fails the run by name, or with ``undetermined="drop"`` is dropped and the block adjusted again; a frame
-whose attitude prior its tie points contradict is first re-started from the block.
+determine is dropped and the block adjusted again (``undetermined="drop"``, the default), or fails the run by name
+(``undetermined="fail"``); a frame whose attitude prior its tie points contradict is first re-started from the block.
+
+* **Dropping, and when it is refused**: as photogrammetric packages leave unaligned cameras out, an undetermined
+  frame is left out by default — named with its reason in the report and the console, never silently. Dropping is
+  refused (the run fails naming the frames) when fewer than 2 frames would remain, or when more than half of the
+  frames given (:data:`MAX_DROPPED_SHARE`) would be dropped: a flight mostly undetermined is a failed flight, not a
+  smaller block to be delivered as a success.
 
 * **The checks** (:mod:`fotogeo.orientation.bundle_quality`): points, spread, angle σ, position σ against
   ``D̄ · tan(max_angle_sigma)``, share of blunders, and the agreement of every frame with its GNSS/attitude
@@ -34,28 +40,46 @@ from ...orientation.bundle_quality import (frame_quality, prior_contradicted_fra
 
 #: points a re-started frame's resection needs (each determined by ≥ 2 other frames)
 MIN_RESECTION_POINTS = 6
+#: the largest share of the frames given that a run may drop as undetermined; beyond it the run is refused
+MAX_DROPPED_SHARE = 0.5
+#: the reason of a frame that lost every tie point
+LONELY = "reached by no tie point (or fewer than 3 observations)"
 
 
-def adjust_determined(block, opts, kw, prog):
+def why_not_dropped(total: int, left: int) -> str | None:
+    """Why dropping cannot help when ``left`` of the ``total`` frames given would remain (fewer than 2, or more
+    than :data:`MAX_DROPPED_SHARE` of them dropped), as the clause of a refusal; None when dropping may go on."""
+    if left < 2:
+        return (f"dropping them (--undetermined drop) would leave {left} frame(s), fewer than the 2 a block "
+                f"needs")
+    if total - left > MAX_DROPPED_SHARE * total:
+        return (f"dropping them (--undetermined drop) would leave {left} of the {total} frames: with more than "
+                f"half of the frames undetermined the rest is no block to trust")
+    return None
+
+
+def adjust_determined(block, opts, kw, prog, dropped_before: int = 0):
     """``(result, block, FrameQuality, dropped, restarted)``: the adjustment, every frame checked (module
-    docstring); an undetermined frame fails the run, or with ``undetermined="drop"`` is dropped and the block
-    adjusted again. Frames whose observations are too few or too clustered even before any is rejected
+    docstring); an undetermined frame is dropped and the block adjusted again (``undetermined="drop"``), or fails
+    the run. Frames whose observations are too few or too clustered even before any is rejected
     (:func:`~fotogeo.orientation.bundle_quality.sparse_frames`) are refused or dropped before the first adjustment,
-    in seconds rather than after it. ``dropped`` and ``restarted`` are lists of ``{"name", "reason"}``."""
+    in seconds rather than after it. ``dropped_before``: frames of the flight already left out (e.g. by the
+    registration start), counted in the share that may be dropped. ``dropped`` and ``restarted`` are lists of
+    ``{"name", "reason"}``."""
     dropped, restarted = [], []
+    total = len(block.frames) + dropped_before
     sparse = sparse_frames(block, min_points=kw["min_frame_points"])
     if sparse:  # refused (or dropped) before adjusting: no adjustment can give them points
-        block, opts = _refused_or_dropped(sparse, set(sparse), block, opts, kw, dropped)
+        block, opts = _refused_or_dropped(sparse, set(sparse), block, opts, kw, dropped, total)
     while True:
         try:
             result = adjust_block(block, opts, progress=prog)
         except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
             lonely = set(getattr(e, "frames", ()))
-            if not lonely or kw["undetermined"] != "drop" or len(block.frames) - len(lonely) < 2:
+            if not lonely or kw["undetermined"] != "drop":
                 raise
-            dropped += [{"name": n, "reason": "reached by no tie point (or fewer than 3 observations)"}
-                        for n in sorted(lonely)]
-            block, opts = without_frames(block, opts, lonely)
+            block, opts = _refused_or_dropped({n: LONELY for n in sorted(lonely)}, lonely, block, opts, kw, dropped,
+                                              total)
             continue
         checks = _checked(result, block, opts, kw, restarted)
         again = _restart(result, block, opts, kw, prog, checks, restarted)
@@ -67,26 +91,40 @@ def adjust_determined(block, opts, kw, prog):
         if not bad:
             _warn_prior_held(quality, kw["max_angle_sigma"])
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
-        block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped)
+        block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped, total)
 
 
-def _refused_or_dropped(bad: dict, drop: set, block, opts, kw, dropped: list):
+def _refused_or_dropped(bad: dict, drop: set, block, opts, kw, dropped: list, total: int):
     """The block and options without the frames ``drop`` (appended to ``dropped`` with their reasons from ``bad``),
-    or the refusal naming the frames ``bad`` when ``undetermined`` is not "drop" or fewer than 2 frames would stay."""
-    text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
-    if kw["undetermined"] != "drop" or len(block.frames) - len(drop) < 2:
-        raise ModelError(_undetermined_message(text, kw["undetermined"] == "drop", len(block.frames) - len(drop)))
+    or the refusal naming the frames ``bad`` when ``undetermined`` is not "drop" or dropping would leave too few of
+    the ``total`` frames given (:func:`why_not_dropped`)."""
+    text = frames_text(bad)
+    left = len(block.frames) - len(drop)
+    refusal = why_not_dropped(total, left) if kw["undetermined"] == "drop" else None
+    if kw["undetermined"] != "drop" or refusal:
+        if refusal and dropped:  # the frames dropped before count too: name them
+            refusal += f" (dropped already: {', '.join(d['name'] for d in dropped)})"
+        raise ModelError(_undetermined_message(text, refusal))
     dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
     return without_frames(block, opts, drop)
 
 
-def _undetermined_message(text: str, dropping: bool, left: int) -> str:
-    """The refusal of undetermined frames; with ``--undetermined drop`` given, why dropping cannot help."""
+def frames_text(bad: dict, reasons: int = 3) -> str:
+    """``{frame: reason}`` for a one-line refusal: the first ``reasons`` frames with their reasons, every further
+    one by name (a flight mostly refused is named whole, its line still short)."""
+    items = list(bad.items())
+    text = "; ".join(f"{n}: {why}" for n, why in items[:reasons])
+    rest = [n for n, _ in items[reasons:]]
+    return text + (f"; and {len(rest)} more: {', '.join(rest)}" if rest else "")
+
+
+def _undetermined_message(text: str, why_not_dropped: str | None) -> str:
+    """The refusal of undetermined frames; when dropping them was refused, why (:func:`why_not_dropped`)."""
     fix = ("add tie points or GCPs there, give or check their attitude and position (--eo, gimbal and GPS tags, "
            "--eo-sigma-angle, --eo-sigma-position)")
-    if dropping:
-        return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted, and dropping "
-                f"them (--undetermined drop) would leave {left} frame(s), fewer than the 2 a block needs; {fix}")
+    if why_not_dropped:
+        return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted, and "
+                f"{why_not_dropped}; {fix}")
     return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted; {fix}, or leave "
             f"them out (--undetermined drop)")
 

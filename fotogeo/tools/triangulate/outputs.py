@@ -246,3 +246,16 @@ def accuracy_lines(rep: dict) -> list:
         lines.append(f"control adjusted − given (σ-weighted: as far as their σ let them move{held}): "
                      f"{_rmse_text(st['control'])}")
     return lines
+
+
+def dropped_lines(rep: dict) -> list:
+    """The frames left out as undetermined (``report.json`` ``dropped_frames``, the default
+    ``undetermined="drop"``), loudly: one headline "N of M frames dropped (undetermined): name — reason; …" with
+    how to stop the run instead, for the first lines of the command line's summary and a warning in the QGIS log
+    (whose caller's words turn the flag into the dialog's label). Empty when no frame was dropped."""
+    dropped = rep.get("dropped_frames") or []
+    if not dropped:
+        return []
+    which = "; ".join(f"{d['name']} — {d['reason']}" for d in dropped)
+    return [f"{len(dropped)} of {rep['statistics']['n_frames'] + len(dropped)} frames dropped (undetermined): "
+            f"{which}; --undetermined fail stops the run instead"]

@@ -11,8 +11,9 @@ block's control, so nothing is matched twice.
 
 A pose is a start only when the registration determines it (:func:`pose_problem`): the fit
 succeeded, its angle σ (from the resection's covariance) is at most :data:`MAX_ANGLE_SIGMA`, and the
-camera lies above the terrain under it. A frame that fails is named with the reason and refused,
-or dropped with ``undetermined="drop"`` (``--undetermined drop``) while ≥ 2 frames remain; every
+camera lies above the terrain under it. A frame that fails is named with the reason and dropped
+(``undetermined="drop"``, the default, while the rest can be a block:
+:func:`~fotogeo.tools.triangulate.determinacy.why_not_dropped`), or refused (``"fail"``); every
 frame's registration (tiles, matches, inliers, σ0, position and angle σ) is reported under
 ``start.registration`` of ``report.json``.
 
@@ -35,6 +36,7 @@ import numpy as np
 
 from ...errors import MatchingError
 from ...geometry.attitude import rotation_angle
+from .determinacy import frames_text, why_not_dropped
 
 #: the largest angle σ (degrees) of a registration pose that can start the adjustment
 MAX_ANGLE_SIGMA = 1.0
@@ -87,10 +89,10 @@ def _row(name, fit, problem) -> dict:
     return row
 
 
-def registration_start(frames, names, camera, reference, dem, crs, *, undetermined: str = "fail",
+def registration_start(frames, names, camera, reference, dem, crs, *, undetermined: str = "drop",
                        progress=None, gps=None) -> RegistrationStart:
     """Every frame's pose from its registration to ``reference`` with ``dem``, and the block's control
-    (module docstring); frames that fail are refused, or dropped with ``undetermined="drop"``. ``gps``:
+    (module docstring); frames that fail are dropped (``undetermined="drop"``), or refused. ``gps``:
     ``(eos, level)`` of the images' GPS start — the tiles are chosen around it, the start is
     :func:`with_registered_attitude` and a frame that fails keeps its GPS start."""
     from ...geometry.dem import Dem, DemSampler
@@ -106,11 +108,13 @@ def registration_start(frames, names, camera, reference, dem, crs, *, undetermin
     if gps is not None:
         return _over_gps(frames, names, hints, level, fits, problems, rows, gcp)
     bad = {n: p for n, p in problems.items() if p}
-    if bad and (undetermined != "drop" or len(names) - len(bad) < 2):
-        text = "; ".join(f"{n}: {why}" for n, why in list(bad.items())[:6])
+    refusal = why_not_dropped(len(names), len(names) - len(bad)) if undetermined == "drop" else None
+    if bad and (undetermined != "drop" or refusal):
+        text = frames_text(bad)
         raise MatchingError(f"no approximate orientation for frame(s) {text} — the start comes from registering "
-                            f"each frame to the reference (no --eo, no --gcps); check that the orthophoto and the "
-                            f"DEM cover them, give their --eo lines or GCPs, or leave them out (--undetermined drop)")
+                            f"each frame to the reference (no --eo, no --gcps){f', and {refusal}' if refusal else ''}; "
+                            f"check that the orthophoto and the DEM cover them, give their --eo lines or GCPs"
+                            f"{'' if refusal else ', or leave them out (--undetermined drop)'}")
     keep = [k for k, n in enumerate(names) if n not in bad]
     kept = {names[k] for k in keep}
     sel = np.array([f in kept for f in gcp.frame], dtype=bool)

@@ -161,7 +161,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 uncertainty: bool = False,
                 dem_sigma=None,
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
-                sfm_frame: str = "auto", undetermined: str = "fail", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
+                sfm_frame: str = "auto", undetermined: str = "drop", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
                 scheduler=None, workers=None, overwrite: bool = False, progress=None) -> dict:
     """Adjust the block (module docstring); returns the report dict."""
@@ -216,7 +216,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                                                    "folder": str(folder)})
     with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
-            0.5, 0.8, "bundle adjustment"))
+            0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
