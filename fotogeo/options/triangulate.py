@@ -77,7 +77,7 @@ TRIANGULATE = Table(
     Option("geoinfo", "file", None, "senseFly geoinfo.txt (GPS and autopilot attitude per image)",
            "senseFly geotag file (fileName latitude longitude altitude heading pitch roll) giving the approximate "
            "orientation of images without --eo.", file_filter="Text files (*.txt);;All files (*)"),
-    Option("undetermined", "choice", "drop", "Undetermined frames (drop = leave out, reported; fail = stop the run)",
+    Option("undetermined", "choice", "drop", "Undetermined frames",
            "What to do with a frame the adjustment does not determine (too few or clustered points, angle σ "
            "above --max-angle-sigma): drop it, re-adjust and report it (default; refused when fewer than 2 "
            "frames or less than half of them would remain), or fail the run.",

@@ -184,6 +184,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             if (rep.get("mosaic") or {}).get("output"):  # --mosaic: above the orthophotos it is made of
                 load_on_completion(context, rep["mosaic"]["output"], tr("mosaic"), self.OUTDIR, None, raster=True,
                                    run=run)
-            for _, name, label, style in LAYERS:
+            st = rep["statistics"]
+            for layer, name, label, style in LAYERS:
+                if layer == "control" and not (st["control"].get("n") or st["check"].get("n")):
+                    continue  # no ground control (a drone flight on its GPS): an empty table, not a layer to show
                 load_on_completion(context, result[name], tr(label), name, style, run=run)
         return result
