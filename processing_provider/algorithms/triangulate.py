@@ -59,6 +59,10 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             "report.html (residual vectors per frame, histogram, control layout, residuals sorted by size, mean "
             "σ per point type, matching statistics, timings) and, with Orthorectify, &lt;frame&gt;_ortho.tif; "
             "with Mosaic, mosaic.tif and its seamlines mosaic.gpkg.\n\n"
+            "Undetermined frames (too few or clustered tie points, an angle σ above the limit, a prior its ties "
+            "contradict) are dropped by default and named with the reason in a warning heading the log's summary "
+            "and in report.json; 'fail' stops the run instead. A run that would drop more than half of the frames, or "
+            "leave fewer than 2, is refused.\n\n"
             f"References: Brown (1971): close-range camera calibration. Baarda (1968): a testing procedure for "
             f"use in geodetic networks. Triggs et al. (2000): bundle adjustment — a modern synthesis. "
             f"{REFERENCES['surf']} {REFERENCES['ransac']}")
