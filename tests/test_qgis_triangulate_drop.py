@@ -1,7 +1,8 @@
 """fotogeo:triangulate in headless QGIS on a block with an undetermined frame and on one without ground control:
 the dropped frame is a warning in the log in the dialog's words (first among the summary lines), and a block
 without control or check points loads no empty "Control and check points" table (a drone flight on its GPS: it
-loaded a layer without geometry, and QGIS reported it in red as "not correctly generated")."""
+loaded a layer without geometry, and QGIS reported it in red as "not correctly generated"); the log says the
+block's map CRS and why, as the command line does."""
 from __future__ import annotations
 
 import pytest
@@ -69,4 +70,7 @@ def test_a_block_without_control_loads_no_empty_control_layer(qgis_app, sb, tmp_
                         "OUTDIR": str(tmp_path / "out")})
     assert "Tie points" in layers and "Frame footprints" in layers
     assert "Control and check points" not in layers, layers
+    # the block's CRS and why, in the dialog's words (a drone flight gives none: the log must say which)
+    assert ("info", "map CRS EPSG:32635: given (“Map CRS of the block (empty = the GCPs', else the orthophotos', "
+                    "the DEM's or the GPS's UTM zone)”)") in log.lines, log.lines
     assert not log.errors, log.errors

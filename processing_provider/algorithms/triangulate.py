@@ -132,6 +132,10 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         start = rep.get("start") or {}
         if start.get("source"):
             feedback.pushInfo(self.in_words(f"start: {start['source']}"))  # the dialog's labels, not the flags
+        if start.get("crs_rule"):  # a drone flight gives no CRS: say which one the block is in, and why
+            feedback.pushInfo(self.in_words(f"map CRS {rep.get('crs_name') or rep['crs']}: {start['crs_rule']}"))
+        if start.get("heights"):
+            feedback.pushInfo(f"GPS heights: {start['heights']}")
         for r in rep.get("restarted_frames") or []:
             feedback.pushWarning(self.in_words(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}"))
         for f in rep["fixed_parameters"]:
