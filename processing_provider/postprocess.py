@@ -121,6 +121,9 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
         unique_name(layer, project)
         if isinstance(layer, QgsVectorLayer):
             expand_later(project, layer.id())
+        elif isinstance(layer, QgsRasterLayer) and layer.renderer() is not None and \
+                layer.renderer().type() == "multibandcolor":  # an RGB orthophoto's Band 1/2/3 legend says nothing
+            expand_later(project, layer.id(), expanded=False)
 
 
 def stretch_to_data(layer) -> tuple | None:
@@ -142,14 +145,15 @@ def stretch_to_data(layer) -> tuple | None:
     return lo, hi
 
 
-def expand_later(project, layer_id: str) -> None:
-    """Expand the layer's node once the legend has been rebuilt (the tree view collapses a node whose legend
-    it refreshes, while the node still says expanded: toggled, the view follows)."""
+def expand_later(project, layer_id: str, expanded: bool = True) -> None:
+    """Expand (or collapse) the layer's node once the legend has been rebuilt (the tree view collapses a node
+    whose legend it refreshes, while the node still says expanded: toggled, the view follows; left alone, the
+    six orthophotos of a drone block came out expanded and collapsed in turn)."""
     def expand():
         node = project.layerTreeRoot().findLayer(layer_id)
         if node is not None:
-            node.setExpanded(False)
-            node.setExpanded(True)
+            node.setExpanded(not expanded)
+            node.setExpanded(expanded)
     expand()
     QTimer.singleShot(0, expand)
 

@@ -2,7 +2,8 @@
 the dropped frame is a warning in the log in the dialog's words (first among the summary lines), and a block
 without control or check points loads no empty "Control and check points" table (a drone flight on its GPS: it
 loaded a layer without geometry, and QGIS reported it in red as "not correctly generated"); the log says the
-block's map CRS and why, as the command line does."""
+block's map CRS and why, as the command line does; an RGB orthophoto's node is collapsed (its Band 1/2/3 legend,
+expanded on every other orthophoto of the eBee block, only lengthened the layer list)."""
 from __future__ import annotations
 
 import pytest
@@ -74,3 +75,24 @@ def test_a_block_without_control_loads_no_empty_control_layer(qgis_app, sb, tmp_
     assert ("info", "map CRS EPSG:32635: given (“Map CRS of the block (empty = the GCPs', else the orthophotos', "
                     "the DEM's or the GPS's UTM zone)”)") in log.lines, log.lines
     assert not log.errors, log.errors
+
+
+def test_an_rgb_orthophoto_loads_collapsed(qgis_app, tmp_path):  # noqa: F811
+    import numpy as np
+    import rasterio
+    from qgis.core import QgsRasterLayer
+
+    from processing_provider.postprocess import StylePostProcessor
+    path = tmp_path / "IMG_1_ortho.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=64, height=48, count=3, dtype="uint8", crs="EPSG:32654",
+                       transform=rasterio.transform.from_origin(500000, 4150000, 0.03, 0.03)) as ds:
+        ds.write(np.random.default_rng(0).integers(0, 255, (3, 48, 64), dtype=np.uint8))
+    project = QgsProject.instance()
+    project.removeAllMapLayers()
+    layer = QgsRasterLayer(str(path), "IMG_1 ortho")
+    assert layer.isValid() and layer.renderer().type() == "multibandcolor"
+    project.addMapLayer(layer)
+    node = project.layerTreeRoot().findLayer(layer.id())
+    node.setExpanded(True)
+    StylePostProcessor(None).postProcessLayer(layer, None, None)
+    assert not node.isExpanded()
