@@ -60,6 +60,7 @@ def test_a_dropped_frame_is_the_first_warning_in_the_dialogs_words(qgis_app, sb,
     assert first.endswith(f"; “{TRIANGULATE['undetermined'].label}” fail stops the run instead"), first
     assert "--undetermined" not in first
     assert summary[1][1].startswith("9 frames, ")  # the statistics come after it
+    assert summary[2][1].startswith("σ of the results: covariances scaled by "), summary  # as the CLI says
     assert "Control and check points" in layers
 
 

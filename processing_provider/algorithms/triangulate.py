@@ -127,6 +127,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         feedback.pushInfo(f"{st['n_frames']} frames, {st['n_points']} points, {st['n_observations']} observations: "
                           f"σ0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, "
                           f"{st['n_blunders']} blunders culled")
+        if st.get("covariance_rule"):  # whether σ0 widens the σ reported, as the command line says
+            feedback.pushInfo(f"σ of the results: {st['covariance_rule']}")
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
