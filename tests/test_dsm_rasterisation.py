@@ -33,7 +33,9 @@ def test_points_as_sparse_as_the_cells_leave_no_pinholes_and_keep_the_plane():
     assert own < 0.8                                  # without the splat a fifth of the cells would be empty
     assert np.isfinite(h[inner]).mean() > 0.98         # measured 0.992 (a few two-cell gaps stay)
     err = (h - truth)[inner]
-    assert np.nanmax(np.abs(err)) < 0.1               # the weighted mean of points on a plane stays on it
+    reach = 0.36 * 1.5 * g.resolution                 # the plane's slope times the farthest a point can weigh in
+    assert np.nanmax(np.abs(err)) < reach             # the weighted mean of points on a plane stays near it
+    assert abs(np.nanmean(err)) < 0.01 and np.sqrt(np.nanmean(err ** 2)) < 0.06
 
 
 def test_a_hole_wider_than_the_reach_stays_open_and_one_point_does_not_spread():
