@@ -3,13 +3,21 @@
 The grid: ``width x height`` cells of ``resolution`` map units, its top-left corner at ``(x0, y0)``; the cell of a
 point ``(X, Y)`` is ``col = floor((X − x0) / res)``, ``row = floor((y0 − Y) / res)``.
 
-Per pair (:class:`PairLayer`), the mean height of the pair's points in each cell; across the pairs
+Per pair (:class:`PairLayer`), the **rasterisation**: a cell's height is the mean of the pair's points in its 3 x 3
+neighbourhood, each cell's points weighted by ``exp(−d² / 2σ²)`` with ``d`` the distance between the cell centres
+in cells and σ = :data:`SPLAT_SIGMA` (own cell 1, side 0.14, corner 0.02: a Gaussian splat of radius one cell,
+as CARS rasterises its points). A cell without a point of its own gets a height only when at least
+:data:`SPLAT_MIN_CELLS` cells of its neighbourhood hold points: where the grid is as fine as the points (a
+satellite product resampled finer than its ground sample distance, a slope turned away from a view) single cells
+fall between points, and those are gaps of the sampling, not unmeasured surface; a hole wider than that stays NaN
+(its border cells get one cell's reach at most). Across the pairs
 (:class:`Fusion`, pair by pair: 4 bytes per cell and pair once a pair is done; :func:`fuse`), per cell:
 
-* **height** — the median of the pairs' means (one pair: its mean), NaN where no pair has a point;
+* **height** — the median of the pairs' heights (one pair: its height), NaN where no pair has one;
 * **count** — how many pairs gave a height;
-* **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs
-  (``sqrt(Σz²/n − (Σz/n)²)``): the surface's roughness and the matching noise at once.
+* **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs and weighted as
+  the rasterisation weighs them (``sqrt(Σwz²/Σw − (Σwz/Σw)²)``): the surface's roughness and the matching noise
+  at once.
 
 :func:`remove_speckles` then drops small islands of heights (fewer than ``max_cells`` cells connected by steps of at
 most ``max_step``): isolated mismatches, which a cell seen by one pair cannot outvote. Holes stay NaN;
@@ -64,6 +72,14 @@ class GridSpec:
                 self.y0 - (np.arange(self.height) + 0.5) * self.resolution)
 
 
+#: the Gaussian weights' standard deviation (cells) of the rasterisation (module docstring)
+SPLAT_SIGMA = 0.5
+#: a cell without a point of its own gets a height when at least this many cells of its 3 x 3 neighbourhood hold one
+SPLAT_MIN_CELLS = 4
+#: squared distances (cells) from the centre of a 3 x 3 neighbourhood
+_RING2 = np.array([[2.0, 1.0, 2.0], [1.0, 0.0, 1.0], [2.0, 1.0, 2.0]])
+
+
 class PairLayer:
     """Sums of one pair's points per cell: count, Σz, Σz²."""
 
@@ -88,10 +104,28 @@ class PairLayer:
         return int(ok.sum())
 
     def mean(self) -> np.ndarray:
-        """Mean height per cell ``(height, width)`` float32, NaN where no point."""
+        """The pair's height per cell ``(height, width)`` float32 (module docstring, *rasterisation*), NaN where
+        neither the cell nor enough of its neighbours hold a point."""
+        shape = (self.grid.height, self.grid.width)
+        n = self.n.reshape(shape)
         with np.errstate(invalid="ignore", divide="ignore"):
-            m = np.where(self.n > 0, self.s / self.n, np.nan)
-        return m.reshape(self.grid.height, self.grid.width).astype(np.float32)
+            m = np.where(reached(n), splat(self.s.reshape(shape)) / splat(n), np.nan)
+        return m.astype(np.float32)
+
+
+def splat(a) -> np.ndarray:
+    """``a`` (per-cell sums) summed over each cell's 3 x 3 neighbourhood with the rasterisation's Gaussian weights
+    (module docstring), float64."""
+    w = np.exp(-_RING2 / (2.0 * SPLAT_SIGMA ** 2))
+    return cv2.filter2D(np.asarray(a, np.float64), -1, w, borderType=cv2.BORDER_CONSTANT)
+
+
+def reached(n) -> np.ndarray:
+    """Cells that get a height from the point counts ``n`` (per cell): their own points, or points in at least
+    :data:`SPLAT_MIN_CELLS` cells of their 3 x 3 neighbourhood."""
+    held = cv2.filter2D((np.asarray(n) > 0).astype(np.float32), -1, np.ones((3, 3), np.float32),
+                        borderType=cv2.BORDER_CONSTANT)
+    return (np.asarray(n) > 0) | (held >= SPLAT_MIN_CELLS)
 
 
 class Fusion:
@@ -121,10 +155,10 @@ class Fusion:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 height[r0:r0 + rows_per_block] = np.nanmedian(block, axis=0)
-        n = self.n.astype(np.float64)
+        n, s, s2 = (splat(a.reshape(shape)) for a in (self.n, self.s, self.s2))
         with np.errstate(invalid="ignore", divide="ignore"):
-            var = np.maximum(self.s2 / n - (self.s / n) ** 2, 0.0)
-        spread = np.where(n > 0, np.sqrt(var), np.nan).reshape(shape).astype(np.float32)
+            var = np.maximum(s2 / n - (s / n) ** 2, 0.0)
+        spread = np.where(np.isfinite(height), np.sqrt(var), np.nan).astype(np.float32)
         return height, count, spread
 
 
