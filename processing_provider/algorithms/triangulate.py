@@ -196,7 +196,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                    run=run)
             st = rep["statistics"]
             for layer, name, label, style in LAYERS:
-                if layer == "control" and not (st["control"].get("n") or st["check"].get("n")):
+                if layer == "control" and not ((st.get("control") or {}).get("n") or (st.get("check") or {}).get("n")):
                     continue  # no ground control (a drone flight on its GPS): an empty table, not a layer to show
                 load_on_completion(context, result[name], tr(label), name, style, run=run)
         return result
