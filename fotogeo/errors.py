@@ -14,11 +14,15 @@ class FotogeoError(Exception):
     ``option``: the name of the tool option the message is about (e.g. ``"half_window"``), when it is
     one; the command line then names it by its flag and QGIS by its parameter's label
     (:func:`in_callers_words`), the Python API keeps the keyword.
+
+    ``frames``: the names of the images (frames) the message refuses, when it is about some of a block's: a caller
+    that adds context (e.g. the pairs tried by a refused triangulation) puts theirs first without reading the text.
     """
 
-    def __init__(self, *args, option: str | None = None):
+    def __init__(self, *args, option: str | None = None, frames=()):
         super().__init__(*args)
         self.option = option
+        self.frames = tuple(map(str, frames))
 
 
 class InputError(FotogeoError, ValueError):

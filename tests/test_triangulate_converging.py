@@ -32,8 +32,9 @@ pytestmark = pytest.mark.slow  # four 600 x 400 frames matched, six pairs twice,
 CENTRE_M, ANGLE_DEG = 0.10, 0.25
 
 
-def _run(frames, out):
-    return CliRunner().invoke(main, ["triangulate", *map(str, frames), "-o", str(out), "-q"], terminal_width=200)
+def _run(frames, out, *more):
+    return CliRunner().invoke(main, ["triangulate", *map(str, frames), "-o", str(out), "-q", *more],
+                              terminal_width=200)
 
 
 def _errors(block, out):
@@ -75,7 +76,7 @@ def test_a_frame_nothing_ties_is_refused_with_the_pairs_tried(tmp_path):
     from test_bad_input import assert_one_line_error
     block = converging_block(tmp_path / "blank", off_nadir=30.0, unrelated="W")
     out = tmp_path / "out"
-    res = _run(block["full"], out)
+    res = _run(block["full"], out, "--undetermined", "fail")  # the default drops it, loudly (test_triangulate_drop_default)
     assert_one_line_error(res, "DJI_0003_W")
     error = next(line for line in res.stderr.splitlines() if line.startswith("Error:"))
     assert "6 pair(s) tried (matches/epipolar inliers)" in error and "on the ground plane" in error, error

@@ -104,7 +104,7 @@ def _refused_or_dropped(bad: dict, drop: set, block, opts, kw, dropped: list, to
     if kw["undetermined"] != "drop" or refusal:
         if refusal and dropped:  # the frames dropped before count too: name them
             refusal += f" (dropped already: {', '.join(d['name'] for d in dropped)})"
-        raise ModelError(_undetermined_message(text, refusal))
+        raise ModelError(_undetermined_message(text, refusal), frames=bad)
     dropped += [{"name": n, "reason": why} for n, why in bad.items() if n in drop]
     return without_frames(block, opts, drop)
 

@@ -53,6 +53,7 @@ import numpy as np
 
 from ...errors import MatchingError
 from ...geometry.camera import OrientedFrame
+from ...io.block import frame_key
 from ...io.raster import open_raster
 from ...options import RegisterOptions
 from ...pixels import outline
@@ -288,7 +289,7 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
     if alone:
         raise MatchingError(f"frame(s) {', '.join(repr(str(frames[i])) for i in alone[:10])} overlap no other frame "
                             f"with the approximate orientation (footprints at height {height:.1f}); {advice}, or "
-                            f"remove them")
+                            f"remove them", frames=[frame_key(frames[i]) for i in alone])
     infos = [open_raster(f, "frame") for f in frames]
     guided = guided and not getattr(start, "estimates_kappa", False)  # the ground plane needs the attitude
 

@@ -68,12 +68,11 @@ def reporting_refusal(path: Path, matching, names, inputs: dict):
             raise
         head, sep, fix = str(exc).rpartition(" — ")  # the pairs go with the detail, before the fix
         head, sep, fix = (head, sep, fix) if sep else (fix, "", "")
-        refused = [n for n in map(str, names) if n in head]
-        message = f"{head}; {pair_summary(matching, names, refused)}{sep}{fix}"
+        message = f"{head}; {pair_summary(matching, names, exc.frames)}{sep}{fix}"
         try:  # the line names the report by its folder and name (the full path would crowd the one line)
             line = f"{message}; every pair in {Path(path).parent.name}/{Path(path).name}"
             write_refusal_report(path, line, matching, names, inputs)
             message = line
         except OSError:
             pass
-        raise type(exc)(message, option=exc.option) from None
+        raise type(exc)(message, option=exc.option, frames=exc.frames) from None

@@ -114,7 +114,7 @@ def registration_start(frames, names, camera, reference, dem, crs, *, undetermin
         raise MatchingError(f"no approximate orientation for frame(s) {text} — the start comes from registering "
                             f"each frame to the reference (no --eo, no --gcps){f', and {refusal}' if refusal else ''}; "
                             f"check that the orthophoto and the DEM cover them, give their --eo lines or GCPs"
-                            f"{'' if refusal else ', or leave them out (--undetermined drop)'}")
+                            f"{'' if refusal else ', or leave them out (--undetermined drop)'}", frames=bad)
     keep = [k for k, n in enumerate(names) if n not in bad]
     kept = {names[k] for k in keep}
     sel = np.array([f in kept for f in gcp.frame], dtype=bool)

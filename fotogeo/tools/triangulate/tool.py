@@ -134,12 +134,13 @@ def _saying_what_was_lost(lost: dict):
     try:
         yield
     except (ModelError, InputError) as exc:
-        named = [n for n in lost if re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", str(exc))]
+        named = [n for n in lost if n in exc.frames] if exc.frames else \
+            [n for n in lost if re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", str(exc))]
         if not named:
             raise
         said = "; ".join(f"{n}: {lost[n]}" for n in named[:5])  # first: a long refusal is cut at its end
         raise type(exc)(f"{said} (repair the files or give the attitude another way: --geoinfo, --eo); {exc}",
-                        option=exc.option) from None
+                        option=exc.option, frames=exc.frames) from None
 
 
 def _overlap_advice(eo, camera, gcp) -> str:
