@@ -65,6 +65,7 @@ def test_relative_inputs_and_outputs_are_the_callers(config, tmp_path):  # noqa:
     r = _run(config, user, "pcafusion", "INPUT=img/frame 1.JPG", "OUTPUT=out/pc1.tif")
     results = json.loads(r.stdout[r.stdout.index("{"):])["results"]
     assert 0.5 < results["EXPLAINED"] <= 1 and (user / "out" / "pc1.tif").is_file()
+    assert NO_TRANSFORM not in r.stdout + r.stderr  # the JPEG has no georeference, and that is no error
     # several rasters (a multiple-layer input) and an output with a file beside it, relative
     _run(config, user, "mosaic", "ORTHOS=tiles/a.tif", "ORTHOS=tiles/b.tif", "OUTPUT=out/mosaic.tif")
     assert (user / "out" / "mosaic.tif").is_file() and (user / "out" / "mosaic.gpkg").is_file()
@@ -77,3 +78,15 @@ def test_relative_inputs_and_outputs_are_the_callers(config, tmp_path):  # noqa:
     plugin = config / "profiles" / "default" / "python" / "plugins" / "fotogeo_qgis"
     assert not list(plugin.glob("out")) and not list(plugin.rglob("*.tif"))
 
+
+
+def test_frames_without_georeference_make_no_gdal_noise(config, tmp_path):  # noqa: F811
+    """A list of rasters with a JPEG frame in it: checked by qgis_process without loading them as layers, so the
+    console shows fotogeo's refusal (a mosaic needs orthophotos) and nothing from GDAL about the frame."""
+    _inputs(tmp_path)
+    r = subprocess.run([QGIS_PROCESS, "run", "fotogeo:mosaic", "--", "ORTHOS=img/frame 1.JPG", "ORTHOS=tiles/a.tif",
+                        "OUTPUT=mosaic.tif"], cwd=tmp_path, capture_output=True, text=True, timeout=180,
+                       env=_env(config))
+    console = r.stdout + r.stderr
+    assert r.returncode != 0 and "frame 1.JPG" in console and not (tmp_path / "mosaic.tif").exists()
+    assert NO_TRANSFORM not in console and "ERROR 1" not in console and "Traceback" not in console

@@ -67,6 +67,31 @@ def _all_files(value) -> bool:
     return bool(values) and all(_is_file(v) for v in values)
 
 
+class RasterFileParameter(QgsProcessingParameterRasterLayer):
+    """A raster-layer parameter whose value, when it is the path of an existing file, is acceptable without
+    loading it as a QGIS layer: ``qgis_process`` checks every value itself before the algorithm runs, and a
+    layer that loads computes statistics (GDAL's PAM saves them beside the file) and, for a frame without a
+    georeference (a drone JPEG, a scanned photo), makes GDAL print "ERROR 1: Unable to compute a
+    transformation …" on the user's console. fotogeo's worker checks the file itself (:meth:`raster_path`)."""
+
+    def checkValueIsAcceptable(self, value, context=None):  # noqa: N802 - QGIS API
+        if _is_file(value):
+            return True
+        with no_side_files():
+            return super().checkValueIsAcceptable(value, context)
+
+
+class RasterFilesParameter(QgsProcessingParameterMultipleLayers):
+    """A multiple-layer parameter of rasters whose value, a list of existing files, is acceptable without
+    loading them (see :class:`RasterFileParameter`)."""
+
+    def checkValueIsAcceptable(self, value, context=None):  # noqa: N802 - QGIS API
+        if _all_files(value):
+            return True
+        with no_side_files():
+            return super().checkValueIsAcceptable(value, context)
+
+
 def layer_source_path(layer) -> str:
     """The file path of a GDAL raster layer (its source without the provider's options)."""
     return QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
@@ -122,7 +147,7 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
     elif kind == "raster_out":
         p = QgsProcessingParameterRasterDestination(name, label, optional=True, createByDefault=False)
     else:  # raster
-        p = QgsProcessingParameterRasterLayer(name, label, optional=True)
+        p = RasterFileParameter(name, label, optional=True)
     if option.advanced:
         p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
     return p
@@ -195,16 +220,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
 
     # -- checking the parameters ---------------------------------------------------------
     def checkParameterValues(self, parameters, context):
-        """QGIS's check of every parameter, except that rasters given as existing file paths (one or a list)
-        are not loaded as layers to be checked (QGIS's own check would: the layer computes statistics and
-        GDAL saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks those files itself.
-        What is loaded still loads without GDAL side files (:mod:`processing_provider.side_files`)."""
+        """QGIS's check of every parameter; rasters given as existing file paths (one or a list) are not loaded
+        as layers to be checked (:class:`RasterFileParameter`, :class:`RasterFilesParameter`); what is loaded
+        loads without GDAL side files (:mod:`processing_provider.side_files`)."""
         for definition in self.parameterDefinitions():
             name = definition.name()
-            if isinstance(definition, QgsProcessingParameterRasterLayer) and _is_file(parameters.get(name)):
-                continue
-            if isinstance(definition, QgsProcessingParameterMultipleLayers) and _all_files(parameters.get(name)):
-                continue
             with no_side_files():
                 acceptable = definition.checkValueIsAcceptable(parameters.get(name), context)
             if not acceptable:

@@ -8,13 +8,12 @@ from qgis.core import (
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, tr
 from .widgets import layer_roles
 
 
@@ -63,8 +62,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
     def initAlgorithm(self, config=None):
         # the dialog starts Reference and Target on two different layers, neither a DEM, and DEM on a layer that
         # looks like one (widgets.OtherLayer)
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
+        self.addParameter(RasterFileParameter(self.TARGET, tr("Target image to register")))
         for table in self.OPTIONS:
             self.add_options(table)
         layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image"),

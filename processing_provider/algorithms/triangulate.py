@@ -12,13 +12,12 @@ from qgis.core import (
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterMultipleLayers,
 )
 
 from fotogeo.options import TRIANGULATE, YAML
 
 from ..postprocess import LoadedRun, load_on_completion
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFilesParameter, tr
 
 CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files (*.*)"
 TABLE_FILTER = "Tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
@@ -77,7 +76,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                                                    "CHECK_RMSE_XY", "CHECK_RMSE_Z", "BLUNDERS")
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
         self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Camera (interior orientation YAML; empty = "
                                                                      "the images' EXIF/XMP)"),
                                                      fileFilter=YAML, optional=True))
@@ -91,7 +90,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterFeatureSource(
             self.GCP_LAYER_IN, tr("… or a ground-control point layer of the project (id, frame, col, row, z, role)"),
             [QgsProcessing.TypeVectorPoint], optional=True))
-        self.addParameter(QgsProcessingParameterMultipleLayers(
+        self.addParameter(RasterFilesParameter(
             self.REFERENCE, tr("Reference orthophoto(s) for automatic control (with the DEM)"),
             QgsProcessing.TypeRaster, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.OBSERVATIONS, tr("Tie-point table (empty = match the "
