@@ -153,6 +153,14 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
     return p
 
 
+def with_help(definition: QgsProcessingParameterDefinition, text: str) -> QgsProcessingParameterDefinition:
+    """``definition`` with ``text`` as its help (QGIS shows it in the parameter's tooltip): where a label's
+    detail goes, so that the label reads at a glance."""
+    if text:
+        definition.setHelp(tr(text))
+    return definition
+
+
 def _whole_numbers(option: Option, text: str) -> tuple:
     """The comma-separated whole numbers of an ``ints`` option, or a clear exception."""
     try:
@@ -311,9 +319,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         return layer.name() if layer is not None else os.path.splitext(os.path.basename(path))[0]
 
     def add_options(self, table: Table):
-        """Add the parameters of the options of ``table``, in table order."""
+        """Add the parameters of the options of ``table``, in table order; each with its option's help (the
+        command-line help in the dialog's words, :meth:`in_words`) as the help QGIS shows in its tooltip — the
+        detail a short label leaves out."""
         for option in table.values():
-            self.addParameter(parameter(option))
+            self.addParameter(with_help(parameter(option), self.in_words(option.help or "")))
 
     def option_value(self, parameters, option: Option, context):
         """The value of ``option``'s parameter as the tool takes it (None for empty / automatic)."""

@@ -13,7 +13,7 @@ from qgis.core import (
 from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
-from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, tr, with_help
 from .widgets import layer_roles
 
 
@@ -76,9 +76,9 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterFileDestination(
             self.REPORT, tr("Report (JSON) [beside the raster]"), "JSON (*.json)", optional=True,
             createByDefault=True))
-        self.addParameter(QgsProcessingParameterFileDestination(
-            self.FIELD, tr("Local displacement field (GeoTIFF, with local co-registration) [beside the raster]"),
-            "GeoTIFF (*.tif)", optional=True, createByDefault=False))
+        self.addParameter(with_help(QgsProcessingParameterFileDestination(
+            self.FIELD, tr("Local displacement field (GeoTIFF) [beside the raster]"), "GeoTIFF (*.tif)", optional=True,
+            createByDefault=False), "Written with the local co-registration only: the shift of every cell."))
         self.addOutput(QgsProcessingOutputVectorLayer(self.TIE_POINTS, tr("Tie points")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_GRID, tr("Mean error per grid cell")))
