@@ -172,7 +172,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             result[self.GCP_LAYER] = f"{vec}|layername=gcps"
             result[self.ERROR_VECTORS] = f"{vec}|layername=error_vectors"
             if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
-                name = f"{os.path.splitext(os.path.basename(vec))[0]} {rep['model_name']}"
+                name = f"{self.layer_stem(vec, parameters, self.IMAGE, context)} {rep['model_name']}"  # not "VECTORS"
                 context.layerToLoadOnCompletionDetails(vec).name = f"{name} {tr('GCPs')}"
                 style_output(context, vec, "gcps", run)
                 load_on_completion(context, result[self.ERROR_VECTORS], f"{name} {tr('error vectors')}",
