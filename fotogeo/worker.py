@@ -9,7 +9,8 @@ rasterio reporting GDAL 3.6.2). In a process of its own each wheel loads its own
 
 Protocol (one request per process, JSON lines, UTF-8):
 
-- stdin: one line ``{"tool": NAME, "args": [...], "kwargs": {...}}`` (NAME from :data:`TOOLS`);
+- stdin: one line ``{"tool": NAME, "args": [...], "kwargs": {...}, "cwd": FOLDER}`` (NAME from :data:`TOOLS`;
+  FOLDER, optional, the caller's working folder, against which relative paths in args and kwargs resolve);
   afterwards a line ``cancel`` asks the tool to stop at its next progress report.
 - stdout: any number of ``{"type": "progress", "fraction": f, "message": m}`` and
   ``{"type": "warning", "message": m}`` lines, then exactly one
@@ -189,6 +190,8 @@ def run_request(request: dict, job: _Job):
         raise ValueError(f"unknown tool {name!r}; one of {', '.join(TOOLS)}")
     module, attr = TOOLS[name]
     func = getattr(importlib.import_module(module), attr)
+    if request.get("cwd"):  # the caller's folder (the worker starts in the plugin's, see runner.start_worker)
+        os.chdir(request["cwd"])
     job.running = True
     try:
         result = func(*request.get("args", []), progress=job.progress, **request.get("kwargs", {}))

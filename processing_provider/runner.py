@@ -10,6 +10,7 @@ atomic outputs delete what they had started; a worker that does not stop within
 from __future__ import annotations
 
 import json
+import os
 import queue
 import re
 import signal
@@ -101,12 +102,24 @@ def start_worker(stderr, *worker_args: str, error=QgsProcessingException, **pope
                     f"Install / repair runtime") from None
 
 
+def callers_folder() -> str | None:
+    """The folder QGIS runs in (``qgis_process``: the user's shell's), against which the worker resolves the
+    relative paths of a request: it starts in the plugin's folder (:func:`start_worker`), so that no module of
+    the user's folder shadows fotogeo's, and changes to this one before running the tool. None when the folder
+    has gone."""
+    try:
+        return os.getcwd()
+    except OSError:
+        return None
+
+
 def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
     """Call fotogeo's ``tool`` (a name of ``fotogeo.worker.TOOLS``) in the runtime; its JSON result.
 
     ``words(message)`` puts the tool's warnings and error in the caller's words (command-line flags →
-    parameter labels, :func:`fotogeo.options.in_labels`)."""
-    request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs}) + "\n"
+    parameter labels, :func:`fotogeo.options.in_labels`). Relative paths among ``args`` and ``kwargs`` are the
+    caller's (:func:`callers_folder`), as ``qgis_process run … --FRAMES=img/a.JPG`` means them."""
+    request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs, "cwd": callers_folder()}) + "\n"
     with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
         proc = start_worker(stderr)
         proc.stdin.write(request)

@@ -73,8 +73,8 @@ def test_a_block_without_control_loads_no_empty_control_layer(qgis_app, sb, tmp_
     assert "Tie points" in layers and "Frame footprints" in layers
     assert "Control and check points" not in layers, layers
     # the block's CRS and why, in the dialog's words (a drone flight gives none: the log must say which)
-    assert ("info", "map CRS EPSG:32635: given (“Map CRS of the block (empty = the GCPs', else the orthophotos', "
-                    "the DEM's or the GPS's UTM zone)”)") in log.lines, log.lines
+    assert ("info", "map CRS EPSG:32635: given (“Map CRS of the block (empty = from the GCPs, orthophotos, DEM or "
+                    "GPS)”)") in log.lines, log.lines
     assert not log.errors, log.errors
 
 

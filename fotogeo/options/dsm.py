@@ -9,7 +9,7 @@ from .table import Option, Table
 #: dense matching of oriented images to a surface model (``fotogeo dsm``, fotogeo.tools.dsm)
 DSM = Table(
     *ORTHO.only("camera", "eo").values(),  # the orientation files ortho reads, declared once
-    Option("orientation", "folder", None, "triangulate's output folder (its camera.yaml and exterior_orientation.txt)",
+    Option("orientation", "folder", None, "triangulate's output folder (its camera and orientation)",
            "triangulate's output folder: its exterior_orientation.txt (and camera.yaml when self-calibrated) "
            "instead of --eo/--camera."),
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata, RPB/XML/.geom beside them)",
@@ -19,7 +19,7 @@ DSM = Table(
     Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
            "Height reference of the DEM: auto (what its CRS states), ellipsoid or geoid.", choices=DEM_HEIGHTS,
            advanced=True),
-    Option("pairs", "file", None, "Pairs to match (text: two image names per line; empty = chosen automatically)",
+    Option("pairs", "file", None, "Pairs to match (text file; empty = chosen automatically)",
            "A text file of the pairs to match, two image names (file names without extension) per line [chosen "
            "from footprints, overlap and base-to-height ratio].", file_filter="Text (*.txt);;All files (*)"),
     Option("resolution", "float", None, "Cell size (0 = twice the images' ground sample distance)",
@@ -28,7 +28,7 @@ DSM = Table(
     Option("crs", "crs", "auto", "Output CRS (empty = the DEM's when projected, else the orientation's)",
            "Output CRS: auto = the DEM's when projected, else the orientation file's, else the UTM zone (RPC); "
            "or EPSG:xxxx, WKT, PROJ. Orientations from .txt lines are in it.", param="CRS"),
-    Option("bounds", "str", None, "Extent (xmin,ymin,xmax,ymax in the output CRS; empty = the pairs' overlap)",
+    Option("bounds", "str", None, "Extent (xmin,ymin,xmax,ymax; empty = the pairs' overlap)",
            "Extent of the DSM 'xmin,ymin,xmax,ymax' in the output CRS [the union of the pairs' overlaps]."),
     Option("refine", "bool", False, "Least-squares refinement of the disparities (slower)",
            "Refine the sub-pixel disparities by least-squares matching over 11 x 11 windows (shift along the "

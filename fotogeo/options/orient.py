@@ -10,7 +10,7 @@ from .table import Option, Table, field_options
 #: where GCPs, their heights and the camera come from (orient, compare)
 GCP = Table(
     Option("layer", "str", None, "Layer of a multi-layer GCP file", "Layer of a multi-layer GCP file."),
-    Option("crs", "crs", None, "Map CRS of the GCPs (for CSV, .points without #CRS, layers without CRS)",
+    Option("crs", "crs", None, "Map CRS of the GCPs (when their file or layer has none)",
            "Map CRS of the GCPs (needed for CSV, .points without #CRS, layers without CRS)."),
     Option("dem", "raster", None, "DEM for GCPs without height", "Heights for GCPs without a z value (bilinear)."),
     Option("height", "float", None, "Constant height for GCPs without height",
@@ -40,15 +40,14 @@ ORIENT = Table(
 #: how compare-models forms its control/check sets (fotogeo.orientation.comparison)
 COMPARE_SETS = ("random", "roles")
 COMPARE = Table(
-    Option("models", "choices", None, "Models (none = the paper's, both RFM solutions and directions, and more)",
+    Option("models", "choices", None, "Models (none = the paper's and more)",
            "Comma-separated model names [the paper's models, its plain RFMs beside the regularised ones, image->ground "
            "RFMs, similarity, affine, poly2/3, collinearity].", choices=ORIENTATION_MODELS),
     Option("sets", "choice", "random", "Control/check sets: random draws, or the GCP file's role columns",
            "random: control points drawn per trial by --counts and --spreads; roles: the file's role column and "
            "every role_<label> column as fixed sets (the label's trailing _<number> dropped names the layout).",
            choices=COMPARE_SETS),
-    Option("counts", "str", None, "Control points per set: N or N/M (control/check), per model as dlt=6,10;rfm=40,50 "
-           "(empty = the paper's)",
+    Option("counts", "str", None, "Control points per set: N or N/M (empty = the paper's)",
            "Control-point counts per set: N (the rest are check points) or N/M (a spread pool of N+M points), for "
            "every model (40,20,10) or per model or name prefix (dlt=6,10,15 rfm=40,50,60; repeat the flag) "
            "[the paper's: 40,20,15,10,6 classical, 60,55,50,45,40 RFMs]. N = all points: the all-control row.",

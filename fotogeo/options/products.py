@@ -13,7 +13,7 @@ ORTHO = Table(
     Option("camera", "file", None, "Camera (interior orientation YAML; empty = from the orientation file)",
            "Interior orientation YAML (pinhole, or brown: triangulate's camera.yaml) [the --eo file's cameras].",
            file_filter=YAML),
-    Option("eo", "file", None, "Exterior orientation (name X Y Z omega phi kappa, OpenSfM, COLMAP, orthority)",
+    Option("eo", "file", None, "Exterior orientation (text, OpenSfM, COLMAP or orthority)",
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
            "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
            file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
@@ -45,7 +45,7 @@ ORTHO = Table(
     UNCERTAINTY,
     DEM_SIGMA,
     Option("view_bands", "bool", False,
-           "View geometry raster: off-nadir angle (°) and distance (m) (<orthophoto>_view.tif)",
+           "View geometry raster: off-nadir angle and distance (*_view.tif)",
            "Also write <orthophoto>_view.tif: band 1 the off-nadir angle of the line of sight (degrees), band 2 the "
            "distance from the ground to the projection centre (m; frames only)."),
 )

@@ -25,7 +25,7 @@ REGISTER = Table(
     Option("resolution", "float", None, "Output pixel size in output CRS units (0 = the reference's)",
            "Output pixel size in output CRS units [the reference's].", minimum=0.0, exclusive_minimum=True,
            automatic=0.0),
-    Option("dst_crs", "crs", "auto", "Output CRS (empty = the reference's if projected, else the UTM zone of its centre)",
+    Option("dst_crs", "crs", "auto", "Output CRS (empty = the reference's, or UTM if it is geographic)",
            "Output CRS: 'auto' = 'reference' if the reference's CRS is projected, else 'utm'; 'reference'; 'utm' "
            "(UTM zone of the reference centre, the source paper's rule); or EPSG:xxxx, WKT, PROJ.", flag="--crs",
            param="CRS"),
@@ -38,8 +38,7 @@ REGISTER = Table(
     Option("contrast", "choice", "adaptive", "Contrast of the fused images for matching",
            "Contrast of the fused images for matching (adaptive = equalize + CLAHE).", choices=CONTRASTS,
            advanced=True),
-    Option("refine", "choice", "auto", "Refine tie points before the fit (lsm = least-squares matching; "
-           "auto = lsm without a DEM)",
+    Option("refine", "choice", "auto", "Refine tie points before the fit (auto = lsm without a DEM)",
            "Refine tie points by least-squares matching before the fit: auto = lsm for the 2-D registration, "
            "none with --dem.", choices=REFINES, advanced=True),
     Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)",

@@ -49,7 +49,7 @@ RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RES
 #: the planimetric σ raster beside each orthophoto (``fotogeo ortho`` and ``triangulate --orthorectify``) and the
 #: DEM's height σ it adds (fotogeo.tools.ortho.products)
 UNCERTAINTY = Option("uncertainty", "bool", False,
-                     "Uncertainty raster: predicted planimetric σ (m) per cell (<orthophoto>_sigma.tif)",
+                     "Uncertainty raster: planimetric σ per cell (<orthophoto>_sigma.tif)",
                      "Also write <orthophoto>_sigma.tif: the predicted planimetric sigma (m) of every cell, from the "
                      "covariance in triangulate's report.json beside --eo and the DEM's sigma (--dem-sigma).")
 DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the uncertainty, m (0 = half the DEM's cell)",
@@ -57,8 +57,7 @@ DEM_SIGMA = Option("dem_sigma", "float", None, "Height σ of the DEM for the unc
                    exclusive_minimum=True, automatic=0.0, advanced=True)
 YAML = "YAML (*.yaml *.yml)"
 #: the local frame of an OpenSfM/ODM reconstruction.json given as --eo (fotogeo.io.sfm_frame)
-SFM_FRAME = Option("sfm_frame", "choice", "auto", "Local frame of an OpenSfM/ODM reconstruction (auto = from the "
-                   "images' GPS)", "Local frame of an OpenSfM/ODM reconstruction.json (--eo): topocentric (OpenSfM) or "
+SFM_FRAME = Option("sfm_frame", "choice", "auto", "OpenSfM/ODM local frame (auto = from the images' GPS)", "Local frame of an OpenSfM/ODM reconstruction.json (--eo): topocentric (OpenSfM) or "
                    "grid (ODM's offsets along the UTM grid) [auto: decided by the images' own GPS or exif/; refused "
                    "when nothing decides].", choices=("auto", "topocentric", "grid"), advanced=True)
 #: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.register.batch._cluster)

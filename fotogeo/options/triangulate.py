@@ -9,8 +9,7 @@ from .table import Option, Table
 
 #: aerial triangulation (``fotogeo triangulate``, fotogeo.tools.triangulate)
 TRIANGULATE = Table(
-    Option("crs", "crs", None, "Map CRS of the block (empty = the GCPs', else the orthophotos', the DEM's or the "
-           "GPS's UTM zone)", "Projected map CRS of the block [the GCPs' CRS, else the reference orthophoto's, the "
+    Option("crs", "crs", None, "Map CRS of the block (empty = from the GCPs, orthophotos, DEM or GPS)", "Projected map CRS of the block [the GCPs' CRS, else the reference orthophoto's, the "
            "DEM's, or the UTM zone of the images' GPS]."),
     Option("gcp_crs", "crs", None, "CRS of the GCP file's ground X, Y (empty = its own, else the map CRS)",
            "CRS of the GCPs' ground x, y when the file carries none (CSV) or to override it [the map CRS]."),
@@ -36,17 +35,16 @@ TRIANGULATE = Table(
     Option("max_correlation", "float", 0.999, "Hold fixed interior parameters correlated above",
            "Interior parameters whose multiple correlation exceeds this are held fixed.", minimum=0.5, maximum=1.0,
            advanced=True),
-    Option("check_fraction", "float", None, "Fraction of the control held out as check points (empty = 0.2 "
-           "with ≥ 10 points in 2+ frames)",
+    Option("check_fraction", "float", None, "Fraction of the control held out as check points (empty = auto)",
            "Fraction of the control points held out as check points, spread over the block (seeded) [0.2 when "
            "no check points are named and >= 10 control points are measured in two frames or more, else 0].",
            minimum=0.0, maximum=0.9),
     replace(SEED, label="Random seed (check-point hold-out)"),
-    Option("dem", "raster", None, "DEM (footprints and orthorectification; empty = mean height of the points)",
+    Option("dem", "raster", None, "DEM (footprints, orthophotos; empty = mean height of the points)",
            "DEM for the footprints and --orthorectify [the mean height of the adjusted points]."),
     Option("orthorectify", "bool", False, "Orthorectify every frame with its adjusted orientation",
            "Write <frame>_ortho.tif: every frame orthorectified with its adjusted orientation and the DEM."),
-    Option("mosaic", "bool", False, "Mosaic the orthorectified frames (mosaic.tif, seamlines in mosaic.gpkg)",
+    Option("mosaic", "bool", False, "Mosaic the orthorectified frames (mosaic.tif)",
            "Write mosaic.tif: the frames orthorectified (implies --orthorectify) and mosaicked as fotogeo mosaic "
            "does (seamlines, balancing, feathering), its seamlines in mosaic.gpkg; one pixel size for all [the "
            "median GSD of the frames]. A failing mosaic is reported and leaves the other outputs."),
@@ -90,7 +88,7 @@ TRIANGULATE = Table(
     Option("detection_level", "int", None, "Pyramid level of tie-point detection (empty = from the frame size)",
            "Pyramid level on which tie points are detected (0 = full resolution) [1, or the level that brings a "
            "frame to ≤ 4 Mpx].", minimum=0, maximum=6, advanced=True),
-    Option("gruber_cells", "int", 3, "Regions per frame side for tie-point thinning (3 = Gruber's 9 positions)",
+    Option("gruber_cells", "int", 3, "Tie-point thinning: regions per frame side (3 = Gruber's 9)",
            "Each frame is cut into N x N regions for tie-point thinning (3: Gruber's nine positions).", minimum=1,
            maximum=12, advanced=True),
     Option("points_per_region", "int", 25, "Tie points kept per region (0 = all)",

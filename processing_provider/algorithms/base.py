@@ -67,6 +67,31 @@ def _all_files(value) -> bool:
     return bool(values) and all(_is_file(v) for v in values)
 
 
+class RasterFileParameter(QgsProcessingParameterRasterLayer):
+    """A raster-layer parameter whose value, when it is the path of an existing file, is acceptable without
+    loading it as a QGIS layer: ``qgis_process`` checks every value itself before the algorithm runs, and a
+    layer that loads computes statistics (GDAL's PAM saves them beside the file) and, for a frame without a
+    georeference (a drone JPEG, a scanned photo), makes GDAL print "ERROR 1: Unable to compute a
+    transformation …" on the user's console. fotogeo's worker checks the file itself (:meth:`raster_path`)."""
+
+    def checkValueIsAcceptable(self, value, context=None):  # noqa: N802 - QGIS API
+        if _is_file(value):
+            return True
+        with no_side_files():
+            return super().checkValueIsAcceptable(value, context)
+
+
+class RasterFilesParameter(QgsProcessingParameterMultipleLayers):
+    """A multiple-layer parameter of rasters whose value, a list of existing files, is acceptable without
+    loading them (see :class:`RasterFileParameter`)."""
+
+    def checkValueIsAcceptable(self, value, context=None):  # noqa: N802 - QGIS API
+        if _all_files(value):
+            return True
+        with no_side_files():
+            return super().checkValueIsAcceptable(value, context)
+
+
 def layer_source_path(layer) -> str:
     """The file path of a GDAL raster layer (its source without the provider's options)."""
     return QgsProviderRegistry.instance().decodeUri("gdal", layer.source()).get("path") or layer.source()
@@ -122,10 +147,18 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
     elif kind == "raster_out":
         p = QgsProcessingParameterRasterDestination(name, label, optional=True, createByDefault=False)
     else:  # raster
-        p = QgsProcessingParameterRasterLayer(name, label, optional=True)
+        p = RasterFileParameter(name, label, optional=True)
     if option.advanced:
         p.setFlags(p.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
     return p
+
+
+def with_help(definition: QgsProcessingParameterDefinition, text: str) -> QgsProcessingParameterDefinition:
+    """``definition`` with ``text`` as its help (QGIS shows it in the parameter's tooltip): where a label's
+    detail goes, so that the label reads at a glance."""
+    if text:
+        definition.setHelp(tr(text))
+    return definition
 
 
 def _whole_numbers(option: Option, text: str) -> tuple:
@@ -195,16 +228,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
 
     # -- checking the parameters ---------------------------------------------------------
     def checkParameterValues(self, parameters, context):
-        """QGIS's check of every parameter, except that rasters given as existing file paths (one or a list)
-        are not loaded as layers to be checked (QGIS's own check would: the layer computes statistics and
-        GDAL saves them in an ``.aux.xml`` beside the input); fotogeo's worker checks those files itself.
-        What is loaded still loads without GDAL side files (:mod:`processing_provider.side_files`)."""
+        """QGIS's check of every parameter; rasters given as existing file paths (one or a list) are not loaded
+        as layers to be checked (:class:`RasterFileParameter`, :class:`RasterFilesParameter`); what is loaded
+        loads without GDAL side files (:mod:`processing_provider.side_files`)."""
         for definition in self.parameterDefinitions():
             name = definition.name()
-            if isinstance(definition, QgsProcessingParameterRasterLayer) and _is_file(parameters.get(name)):
-                continue
-            if isinstance(definition, QgsProcessingParameterMultipleLayers) and _all_files(parameters.get(name)):
-                continue
             with no_side_files():
                 acceptable = definition.checkValueIsAcceptable(parameters.get(name), context)
             if not acceptable:
@@ -291,9 +319,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         return layer.name() if layer is not None else os.path.splitext(os.path.basename(path))[0]
 
     def add_options(self, table: Table):
-        """Add the parameters of the options of ``table``, in table order."""
+        """Add the parameters of the options of ``table``, in table order; each with its option's help (the
+        command-line help in the dialog's words, :meth:`in_words`) as the help QGIS shows in its tooltip — the
+        detail a short label leaves out."""
         for option in table.values():
-            self.addParameter(parameter(option))
+            self.addParameter(with_help(parameter(option), self.in_words(option.help or "")))
 
     def option_value(self, parameters, option: Option, context):
         """The value of ``option``'s parameter as the tool takes it (None for empty / automatic)."""

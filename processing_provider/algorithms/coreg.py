@@ -9,14 +9,13 @@ from qgis.core import (
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options.coreg import COREG
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
 from .widgets import layer_roles
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFileParameter, tr
 
 
 class CoregAlgorithm(FotogeoAlgorithm):
@@ -44,8 +43,8 @@ class CoregAlgorithm(FotogeoAlgorithm):
     WINDOWS, RELIABLE, RMS_BEFORE, RMS_AFTER = "WINDOWS", "RELIABLE", "MEDIAN_SHIFT_BEFORE_PX", "RMS_AFTER_PX"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference image (georeferenced)")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to correct (georeferenced)")))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference image (georeferenced)")))
+        self.addParameter(RasterFileParameter(self.TARGET, tr("Target image to correct (georeferenced)")))
         self.add_options(COREG)
         layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image")})  # two layers, no DEM
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Corrected target")))

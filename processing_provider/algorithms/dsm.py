@@ -6,13 +6,12 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterRasterDestination,
 )
 
 from fotogeo.options.dsm import DSM
 
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 
 class DsmAlgorithm(FotogeoAlgorithm):
@@ -39,7 +38,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
     IMAGES, OUTPUT, CLOUD, REPORT, COMPLETENESS = "IMAGES", "OUTPUT", "POINT_CLOUD", "REPORT", "COMPLETENESS"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.IMAGES, tr("Images"), QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.IMAGES, tr("Images"), QgsProcessing.TypeRaster))
         self.add_options(DSM)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Surface model (DSM)")))
         self.addParameter(QgsProcessingParameterFileDestination(

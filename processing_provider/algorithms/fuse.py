@@ -4,12 +4,11 @@ from __future__ import annotations
 from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import FUSE
 
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFileParameter, tr
 
 
 class PcaFusionAlgorithm(FotogeoAlgorithm):
@@ -30,7 +29,7 @@ class PcaFusionAlgorithm(FotogeoAlgorithm):
     INPUT, OUTPUT, EXPLAINED = "INPUT", "OUTPUT", "EXPLAINED"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.INPUT, tr("Multi-band raster")))
+        self.addParameter(RasterFileParameter(self.INPUT, tr("Multi-band raster")))
         self.add_options(FUSE)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("First principal component")))
         self.addOutput(QgsProcessingOutputNumber(self.EXPLAINED, tr("Explained variance (fraction)")))

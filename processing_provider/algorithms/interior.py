@@ -7,12 +7,11 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterMultipleLayers,
 )
 
 from fotogeo.options.interior import INTERIOR
 
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 YAML = "YAML (*.yaml *.yml)"
 
@@ -37,8 +36,8 @@ class InteriorAlgorithm(FotogeoAlgorithm):
     SCANS, REPORT, OUTDIR, SCANS_DONE, WORST = "SCANS", "CAMERA_REPORT", "OUTDIR", "SCANS_DONE", "MAX_RESIDUAL_PX"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.SCANS, tr("Scanned frames"),
-                                                               QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.SCANS, tr("Scanned frames"),
+                                               QgsProcessing.TypeRaster))
         self.addParameter(QgsProcessingParameterFile(self.REPORT, tr("Camera calibration report (YAML)"),
                                                      fileFilter=YAML))
         self.add_options(INTERIOR)

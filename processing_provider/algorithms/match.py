@@ -7,14 +7,13 @@ from qgis.core import (
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
-    QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorDestination,
 )
 
 from fotogeo.options import MATCH
 
 from ..postprocess import style_output
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, tr
 
 
 class MatchFeaturesAlgorithm(FotogeoAlgorithm):
@@ -35,8 +34,8 @@ class MatchFeaturesAlgorithm(FotogeoAlgorithm):
     REFERENCE, TARGET, OUTPUT, MATCHES, INLIERS = "REFERENCE", "TARGET", "OUTPUT", "MATCHES", "INLIERS"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference raster")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target raster")))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference raster")))
+        self.addParameter(RasterFileParameter(self.TARGET, tr("Target raster")))
         self.add_options(MATCH)
         self.addParameter(QgsProcessingParameterVectorDestination(self.OUTPUT, tr("Tie points (GeoPackage)"),
                                                                   QgsProcessing.TypeVectorPoint))

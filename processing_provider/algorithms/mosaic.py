@@ -6,14 +6,13 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterMultipleLayers,
     QgsProcessingParameterRasterDestination,
 )
 
 from fotogeo.options.products import MOSAIC
 
 from ..postprocess import load_on_completion
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 
 class MosaicAlgorithm(FotogeoAlgorithm):
@@ -36,8 +35,8 @@ class MosaicAlgorithm(FotogeoAlgorithm):
     ORTHOS, OUTPUT, SEAMLINES, SEAMS_LAYER = "ORTHOS", "OUTPUT", "SEAMLINES", "SEAMLINES_LAYER"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.ORTHOS, tr("Orthophotos"),
-                                                               QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.ORTHOS, tr("Orthophotos"),
+                                               QgsProcessing.TypeRaster))
         self.add_options(MOSAIC)
         self.addParameter(QgsProcessingParameterRasterDestination(self.OUTPUT, tr("Mosaic")))
         self.addParameter(QgsProcessingParameterFileDestination(

@@ -13,14 +13,13 @@ from qgis.core import (
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
     QgsProcessingParameterVectorDestination,
 )
 
 from fotogeo.options import GCP, ORIENT
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFileParameter, tr
 
 GCP_FILTER = "GCP files (*.gpkg *.points *.csv *.geojson *.shp);;All files (*.*)"
 
@@ -43,7 +42,7 @@ class _GcpAlgorithm(FotogeoAlgorithm):
 
     def add_gcp_parameters(self, image_label: str = "Image", table=GCP):
         """The image, the GCPs (a file, or a point layer of the project) and the options of ``table``."""
-        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr(image_label)))
+        self.addParameter(RasterFileParameter(self.IMAGE, tr(image_label)))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("GCP file (layer, CSV or .points)"),
                                                      fileFilter=GCP_FILTER, optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource(
@@ -173,7 +172,7 @@ class OrientAlgorithm(_GcpAlgorithm):
             result[self.GCP_LAYER] = f"{vec}|layername=gcps"
             result[self.ERROR_VECTORS] = f"{vec}|layername=error_vectors"
             if context.willLoadLayerOnCompletion(vec):  # the GeoPackage opens on its first layer: gcps
-                name = f"{os.path.splitext(os.path.basename(vec))[0]} {rep['model_name']}"
+                name = f"{self.layer_stem(vec, parameters, self.IMAGE, context)} {rep['model_name']}"  # not "VECTORS"
                 context.layerToLoadOnCompletionDetails(vec).name = f"{name} {tr('GCPs')}"
                 style_output(context, vec, "gcps", run)
                 load_on_completion(context, result[self.ERROR_VECTORS], f"{name} {tr('error vectors')}",

@@ -8,13 +8,12 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterMultipleLayers,
 )
 
 from fotogeo.options.products import ORTHO
 
 from ..postprocess import LoadedRun, load_on_completion
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 
 class OrthoAlgorithm(FotogeoAlgorithm):
@@ -45,7 +44,7 @@ class OrthoAlgorithm(FotogeoAlgorithm):
     IMAGES, OUTDIR, COUNT = "IMAGES", "OUTDIR", "ORTHOPHOTOS"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.IMAGES, tr("Images"), QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.IMAGES, tr("Images"), QgsProcessing.TypeRaster))
         self.add_options(ORTHO)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTDIR, tr("Output folder "
                                                                                   "(<name>_ortho.tif per image)")))

@@ -8,13 +8,12 @@ from qgis.core import (
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterRasterDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import REGISTER, REGISTER_TERRAIN
 
 from ..postprocess import LoadedRun, load_on_completion, style_output
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, tr, with_help
 from .widgets import layer_roles
 
 
@@ -63,8 +62,8 @@ class RegisterAlgorithm(FotogeoAlgorithm):
     def initAlgorithm(self, config=None):
         # the dialog starts Reference and Target on two different layers, neither a DEM, and DEM on a layer that
         # looks like one (widgets.OtherLayer)
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.TARGET, tr("Target image to register")))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
+        self.addParameter(RasterFileParameter(self.TARGET, tr("Target image to register")))
         for table in self.OPTIONS:
             self.add_options(table)
         layer_roles(self, {self.REFERENCE: ("", "reference"), self.TARGET: (self.REFERENCE, "image"),
@@ -77,9 +76,9 @@ class RegisterAlgorithm(FotogeoAlgorithm):
         self.addParameter(QgsProcessingParameterFileDestination(
             self.REPORT, tr("Report (JSON) [beside the raster]"), "JSON (*.json)", optional=True,
             createByDefault=True))
-        self.addParameter(QgsProcessingParameterFileDestination(
-            self.FIELD, tr("Local displacement field (GeoTIFF, with local co-registration) [beside the raster]"),
-            "GeoTIFF (*.tif)", optional=True, createByDefault=False))
+        self.addParameter(with_help(QgsProcessingParameterFileDestination(
+            self.FIELD, tr("Local displacement field (GeoTIFF) [beside the raster]"), "GeoTIFF (*.tif)", optional=True,
+            createByDefault=False), "Written with the local co-registration only: the shift of every cell."))
         self.addOutput(QgsProcessingOutputVectorLayer(self.TIE_POINTS, tr("Tie points")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_VECTORS, tr("Error vectors")))
         self.addOutput(QgsProcessingOutputVectorLayer(self.ERROR_GRID, tr("Mean error per grid cell")))

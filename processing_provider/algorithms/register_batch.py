@@ -7,13 +7,11 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputVectorLayer,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterMultipleLayers,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import REGISTER, REGISTER_BATCH, REGISTER_TERRAIN
 
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFileParameter, RasterFilesParameter, tr
 
 
 class RegisterBatchAlgorithm(FotogeoAlgorithm):
@@ -36,9 +34,9 @@ class RegisterBatchAlgorithm(FotogeoAlgorithm):
     MANIFEST, OK, FAILED, SKIPPED = "MANIFEST", "OK", "FAILED", "SKIPPED"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.TARGETS, tr("Target images"),
-                                                               QgsProcessing.TypeRaster))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference orthophoto (georeferenced)")))
+        self.addParameter(RasterFilesParameter(self.TARGETS, tr("Target images"),
+                                               QgsProcessing.TypeRaster))
         for table in self.OPTIONS:
             self.add_options(table)
         self.addParameter(QgsProcessingParameterFolderDestination(self.OUTDIR, tr("Output folder")))

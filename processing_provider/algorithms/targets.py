@@ -5,12 +5,11 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import TARGETS as TARGET_OPTIONS
 
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFileParameter, tr
 from .transfer import OUTPUT_FILTER, TABLE_FILTER, table_output
 
 
@@ -31,7 +30,7 @@ class MeasureTargetsAlgorithm(FotogeoAlgorithm):
     IMAGE, POINTS, OUTPUT, TARGETS, MEASURED = "IMAGE", "POINTS", "OUTPUT", "TARGETS", "MEASURED"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.IMAGE, tr("Image")))
+        self.addParameter(RasterFileParameter(self.IMAGE, tr("Image")))
         self.addParameter(QgsProcessingParameterFile(self.POINTS, tr("Approximate target positions"),
                                                      fileFilter=TABLE_FILTER))
         self.add_options(TARGET_OPTIONS)

@@ -8,12 +8,11 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
-    QgsProcessingParameterRasterLayer,
 )
 
 from fotogeo.options import TRANSFER
 
-from .base import FotogeoAlgorithm, tr
+from .base import FotogeoAlgorithm, RasterFileParameter, tr
 
 TABLE_FILTER = "Point tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
 OUTPUT_FILTER = "CSV (*.csv);;GeoPackage (*.gpkg)"
@@ -50,8 +49,8 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
     COUNT, CONVERGED, MEDIAN_SIGMA = "COUNT", "CONVERGED", "MEDIAN_SIGMA_PX"
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterRasterLayer(self.REFERENCE, tr("Reference image")))
-        self.addParameter(QgsProcessingParameterRasterLayer(self.SEARCH, tr("Search image")))
+        self.addParameter(RasterFileParameter(self.REFERENCE, tr("Reference image")))
+        self.addParameter(RasterFileParameter(self.SEARCH, tr("Search image")))
         self.addParameter(QgsProcessingParameterFile(self.POINTS, tr("Point table"), fileFilter=TABLE_FILTER))
         self.add_options(TRANSFER)
         self.addParameter(QgsProcessingParameterFileDestination(self.OUTPUT, tr("Transferred points"), OUTPUT_FILTER))

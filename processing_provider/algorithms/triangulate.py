@@ -12,13 +12,12 @@ from qgis.core import (
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFolderDestination,
-    QgsProcessingParameterMultipleLayers,
 )
 
 from fotogeo.options import TRIANGULATE, YAML
 
 from ..postprocess import LoadedRun, load_on_completion
-from .base import REFERENCES, FotogeoAlgorithm, tr
+from .base import REFERENCES, FotogeoAlgorithm, RasterFilesParameter, tr, with_help
 
 CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files (*.*)"
 TABLE_FILTER = "Tables (*.csv *.gpkg *.geojson *.shp);;All files (*.*)"
@@ -77,21 +76,23 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                                                                    "CHECK_RMSE_XY", "CHECK_RMSE_Z", "BLUNDERS")
 
     def initAlgorithm(self, config=None):
-        self.addParameter(QgsProcessingParameterMultipleLayers(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
+        self.addParameter(RasterFilesParameter(self.FRAMES, tr("Frames"), QgsProcessing.TypeRaster))
         self.addParameter(QgsProcessingParameterFile(self.CAMERA, tr("Camera (interior orientation YAML; empty = "
                                                                      "the images' EXIF/XMP)"),
                                                      fileFilter=YAML, optional=True))
-        self.addParameter(QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = resect "
-                                                                 "from the GCPs, else the images' GPS with the "
-                                                                 "attitude from the reference where they lack one, "
-                                                                 "else register each frame to the reference)"),
-                                                     fileFilter=TEXT_FILTER, optional=True))
+        self.addParameter(with_help(
+            QgsProcessingParameterFile(self.EO, tr("Approximate exterior orientation (empty = GCPs, GPS or reference)"),
+                                       fileFilter=TEXT_FILTER, optional=True),
+            "Lines 'name X Y Z omega phi kappa' (map CRS, degrees). Empty: each frame resected from its GCPs, else "
+            "the images' GPS with the attitude from the reference where they lack one, else each frame registered "
+            "to the reference."))
         self.addParameter(QgsProcessingParameterFile(self.GCPS, tr("Ground control (gcp_list.txt, layer or CSV)"),
                                                      fileFilter=CONTROL_FILTER, optional=True))
-        self.addParameter(QgsProcessingParameterFeatureSource(
-            self.GCP_LAYER_IN, tr("… or a ground-control point layer of the project (id, frame, col, row, z, role)"),
-            [QgsProcessing.TypeVectorPoint], optional=True))
-        self.addParameter(QgsProcessingParameterMultipleLayers(
+        self.addParameter(with_help(QgsProcessingParameterFeatureSource(
+            self.GCP_LAYER_IN, tr("… or a ground-control point layer of the project"), [QgsProcessing.TypeVectorPoint],
+            optional=True), "One point per (point, frame) measurement with the fields id, frame, col, row (corner "
+                            "convention), z and optionally role (control / check)."))
+        self.addParameter(RasterFilesParameter(
             self.REFERENCE, tr("Reference orthophoto(s) for automatic control (with the DEM)"),
             QgsProcessing.TypeRaster, optional=True))
         self.addParameter(QgsProcessingParameterFile(self.OBSERVATIONS, tr("Tie-point table (empty = match the "
