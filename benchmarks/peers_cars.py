@@ -220,7 +220,8 @@ def cars_facts(out_dir) -> dict:
 
 def compare_dsms(test, ref) -> dict:
     """``dz = test − ref`` where both DSMs are valid, ``test`` resampled (nearest) onto ``ref``'s grid: count,
-    median, NMAD (1.4826 · median |dz − median|), mean, share with |dz| < 1 m."""
+    median, NMAD (1.4826 · median |dz − median|), mean, share with |dz| < 1 m, and the share of ``ref``'s valid
+    cells where ``test`` has a value."""
     import numpy as np
     import rasterio
     from rasterio.warp import Resampling, reproject
@@ -242,7 +243,8 @@ def compare_dsms(test, ref) -> dict:
         return {"n": 0}
     med = float(np.median(dz))
     return {"n": int(both.sum()), "dz_median_m": med, "dz_nmad_m": float(1.4826 * np.median(np.abs(dz - med))),
-            "dz_mean_m": float(dz.mean()), "share_abs_dz_below_1m": float(np.mean(np.abs(dz) < 1.0))}
+            "dz_mean_m": float(dz.mean()), "share_abs_dz_below_1m": float(np.mean(np.abs(dz) < 1.0)),
+            "share_of_ref_area": float(both.sum() / max(1, np.isfinite(b).sum()))}
 
 
 def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None, margins=None,
