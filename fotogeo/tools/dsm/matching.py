@@ -1,4 +1,5 @@
-"""Dense matching of the kept pairs (frames, and RPC pairs through :class:`.rpc_pairs.RpcPairMatch`) by output tiles: memory bounded by the tile, not by the images or the DSM.
+"""Dense matching of the kept pairs (frames, and RPC pairs through :class:`.rpc_pairs.RpcPairMatch`) by output
+tiles: memory bounded by the tile, not by the images or the DSM.
 
 The output grid is cut into tiles of ``TILE_CELLS`` cells a side, each expanded by
 :data:`~fotogeo.tools.dsm.outputs.TILE_MARGIN` cells (:meth:`fotogeo.stereo.fusion.GridSpec.tiles`). For each
@@ -105,8 +106,8 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
 
 def match_tiles(grid: GridSpec, matches, products, stage, timings: dict) -> None:
     """Match ``matches`` (:class:`PairMatch`, or RPC pairs' :class:`.rpc_pairs.RpcPairMatch`: anything with
-    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``) tile by tile onto ``grid`` and hand each tile to ``products``
-    (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds."""
+    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``) tile by tile onto ``grid`` and hand
+    each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds."""
     tiles = list(grid.tiles(TILE_CELLS, TILE_MARGIN if TILE_CELLS < max(grid.width, grid.height) else 0))
     for k, (core, expanded) in enumerate(tiles):
         stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")

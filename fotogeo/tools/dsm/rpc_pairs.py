@@ -12,9 +12,11 @@ Per pair (left = the first image, right = the second):
 3. **tiles** of ``TILE`` left pixels: correspondences of a 3-D grid (the tile's pixels at three heights)
    through both models give the tile's rectifying similarities, the rectified tiles are matched
    (:func:`fotogeo.stereo.dense.disparity`) and every matched pixel is triangulated through the RPCs: its height
-   is where the right pixel lies on the epipolar curve of the left pixel (linear between two heights, refined
-   once); the distance of the right pixel from the curve is its **miss distance** (pixels). With ``refine``
-   the disparities are first refined by least-squares matching (:func:`fotogeo.stereo.refine.refine`).
+   is where the right pixel lies on the epipolar curve of the left pixel (the secant method along the curve:
+   linear between the lowest and highest height, then between the last two estimates, ``SECANT_STEPS`` times;
+   exact for an affine camera at once, and to well below a pixel's height for a perspective one, e.g. an RPC
+   fitted to an aerial frame); the distance of the right pixel from the curve is its **miss distance** (pixels).
+   With ``refine`` the disparities are first refined by least-squares matching (:func:`fotogeo.stereo.refine.refine`).
    Tiles follow the output grid (:class:`RpcPairMatch`, :func:`.matching.match_tiles`, as frame pairs do):
    each output tile's left pixels (its corners at the lowest and highest height through the left RPC) are cut
    into ``TILE`` pixel tiles, each rectified with its own local epipolar geometry from windows read from disk.
@@ -44,6 +46,8 @@ from ...stereo.dense import disparity, to_uint8
 from ...stereo.refine import refine as refine_disparities
 
 TILE = 512
+#: refinements of a matched pixel's height along the epipolar curve (module docstring, step 3)
+SECANT_STEPS = 2
 #: tie points are found on copies of the images at most this many pixels a side (larger images: averaged)
 TIE_SIDE = 3000
 #: left pixels added around an output tile's box
@@ -124,14 +128,18 @@ def pointing(m1, m2, sources, zlo, zhi) -> dict:
 def triangulate(m1, m2, tau, p1, p2, zlo, zhi) -> tuple:
     """``(ground points (N, 3), miss distances (N,) px)`` of matched pixels (module docstring, step 3)."""
     q = _models(m1, m2, tau)
-    q_lo, _ = q(p1, zlo)
-    q_hi, _ = q(p1, zhi)
-    _, _, t = ae.curve_offsets(p2, q_lo, q_hi)
-    z = zlo + t * (zhi - zlo)
-    q_z, _ = q(p1, z)
-    off, _, t2 = ae.curve_offsets(p2, q_lo, q_z)
-    with np.errstate(invalid="ignore"):
-        z2 = zlo + t2 * (z - zlo)
+    za, qa = np.full(len(p1), float(zlo)), q(p1, zlo)[0]
+    zb, qb = np.full(len(p1), float(zhi)), q(p1, zhi)[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for _ in range(SECANT_STEPS):  # the secant along the curve: linear between the last two heights
+            _, _, t = ae.curve_offsets(p2, qa, qb)
+            z = za + t * (zb - za)
+            move = np.abs(z - zb) > 1e-4  # a converged pixel keeps its (non-degenerate) last segment
+            za[move], qa[move] = zb[move], qb[move]
+            zb[move] = z[move]
+            qb[move] = q(p1[move], zb[move])[0]
+        off, _, t = ae.curve_offsets(p2, qa, qb)
+        z2 = za + t * (zb - za)
     P = m1.inverse(p1, z2)
     P = np.column_stack([P[:, :2], z2])
     ok = np.isfinite(P).all(axis=1)
@@ -222,7 +230,8 @@ def _at_least(a: int, b: int, n: int) -> tuple:
 def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None, miss px (N,))`` of the left pixels ``box``
     ``(c0, r0, c1, r1)`` (widened to at least ``TILE`` pixels a side: the context of a small box), in equal locally
-    epipolar tiles of at most ``TILE`` pixels a side (module docstring, step 3; ``refine`` too); ``colours``: the left image's, read by the window of the tile's matched pixels."""
+    epipolar tiles of at most ``TILE`` pixels a side (module docstring, step 3; ``refine`` too); ``colours``: the
+    left image's, read by the window of the tile's matched pixels."""
     W, H = sources[0].width, sources[0].height
     (c0, c1), (r0, r1) = _at_least(box[0], box[2], W), _at_least(box[1], box[3], H)
     nc, nr = -(-(c1 - c0) // TILE), -(-(r1 - r0) // TILE)
