@@ -8,9 +8,10 @@ Each case is a pair of ``size x size`` pixels rendered over a known terrain by `
 ground sample distance, ±16 m of relief): ``--kind frames`` (default) nadir frames with their camera and exterior
 orientation files (base-to-height ratio 0.4); ``--kind rpc`` a converging pair seen from high up through a narrow
 view (base-to-height ratio 0.25) whose images carry RPCs fitted to the frames (``dsm --rpc``). The DSM is made in a
-child process (default resolution 2 GSD, or ``--resolution``: a fine one gives a large output grid from a small
-pair) whose peak resident memory (``ru_maxrss``), CPU and wall time are measured; the DSM is then compared with
-the terrain at its cell centres (RMSE, NMAD, median; read by blocks) and the report's completeness is read.
+child process (default resolution 2 GSD, or ``--resolution``; ``--bounds``: a grid larger than the pair, nodata
+beyond it, which measures what the output grid alone costs) whose peak resident memory (``ru_maxrss``), CPU and
+wall time are measured; the DSM is then compared with the terrain at its cell centres (RMSE, NMAD, median; read
+by blocks) and the report's completeness is read.
 
 ``--code DIR`` measures the fotogeo of another checkout (its root on the child's PYTHONPATH), e.g. the main
 branch's whole-image version, on the same renders. Prints a table and writes
@@ -40,17 +41,17 @@ c, w = time.process_time(), time.perf_counter()
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
     rep = dsm(a["images"], a["out"], camera=a.get("camera"), eo=a.get("eo"), rpc="camera" not in a, crs=a["crs"],
-              report=a["report"], resolution=a.get("resolution"), overwrite=True)
+              report=a["report"], resolution=a.get("resolution"), bounds=a.get("bounds"), overwrite=True)
 print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter() - w,
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
                   "completeness": rep["completeness"], "grid": rep["grid"]}))
 """
 
 
-def run(sc: dict, folder: Path, code: Path, resolution=None) -> dict:
+def run(sc: dict, folder: Path, code: Path, resolution=None, bounds=None) -> dict:
     tag = "" if code == ROOT else f"_{code.name}"  # another checkout's outputs beside, not over, this one's
-    tag += f"_{resolution:g}m" if resolution else ""
-    args = {**sc, "crs": CRS, "resolution": resolution, "out": str(folder / f"dsm{tag}.tif"),
+    tag += (f"_{resolution:g}m" if resolution else "") + ("_bounds" if bounds else "")
+    args = {**sc, "crs": CRS, "resolution": resolution, "bounds": bounds, "out": str(folder / f"dsm{tag}.tif"),
             "report": str(folder / f"report{tag}.json")}
     env = dict(os.environ, PYTHONPATH=str(code), GDAL_PAM_ENABLED="NO", OMP_NUM_THREADS="1")
     r = subprocess.run([sys.executable, "-c", CHILD, json.dumps(args)], env=env, capture_output=True, text=True)
@@ -67,6 +68,8 @@ def main() -> None:
     ap.add_argument("--keep", default=None, help="render into (and reuse) this folder")
     ap.add_argument("--kind", default="frames", choices=("frames", "rpc"))
     ap.add_argument("--resolution", type=float, default=None, help="DSM cell size (m) [2 GSD]")
+    ap.add_argument("--bounds", default=None, help="DSM extent 'xmin,ymin,xmax,ymax' in EPSG:32635 [the overlap]: "
+                    "a grid larger than the pair (nodata beyond it) measures the memory of the output grid alone")
     a = ap.parse_args()
     code = Path(a.code).resolve()
     label = ("this checkout" if code == ROOT else str(code)) + ("" if a.kind == "frames" else f" ({a.kind})")
@@ -81,9 +84,9 @@ def main() -> None:
                   else (render if a.kind == "frames" else render_rpc)(folder, size))
             (folder / "scene.json").write_text(json.dumps(sc))
             render_s = time.perf_counter() - t
-            r = run({k: v for k, v in sc.items() if k != "rpc_fit_px"}, folder, code, a.resolution)
+            r = run({k: v for k, v in sc.items() if k != "rpc_fit_px"}, folder, code, a.resolution, a.bounds)
             g = r.pop("grid")
-            rows.append({"size_px": size, "resolution_m": g["resolution"],
+            rows.append({"size_px": size, "resolution_m": g["resolution"], "bounds": a.bounds,
                          "image_mb": round(2 * size * size / 2 ** 20, 1), "dsm_cells": f"{g['width']}x{g['height']}",
                          "dsm_mcells": round(g["width"] * g["height"] / 1e6, 1), "render_s": round(render_s, 1), **r})
             print(rows[-1], flush=True)
@@ -98,7 +101,7 @@ def main() -> None:
 def _save(label: str, rows: list, load0) -> None:
     res = ROOT / "benchmarks" / "results" / "dsm_memory.json"
     old = json.loads(res.read_text()) if res.is_file() else {}
-    key = lambda r: (r["size_px"], r.get("resolution_m"))  # noqa: E731
+    key = lambda r: (r["size_px"], r.get("resolution_m"), r.get("bounds"))  # noqa: E731
     sizes = {key(r) for r in rows}  # rows of other sizes from earlier runs stay, each with its command
     kept = [r for r in old.get(label, {}).get("rows", []) if key(r) not in sizes]
     now = {"command": "benchmarks/dsm_memory.py " + " ".join(sys.argv[1:]),

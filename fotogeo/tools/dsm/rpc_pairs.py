@@ -44,12 +44,14 @@ from ...pixels import HALF
 from ...stereo import affine_epipolar as ae
 from ...stereo.dense import disparity, to_uint8
 from ...stereo.refine import refine as refine_disparities
+from .frames import SPARSE_SIDE
 
 TILE = 512
 #: refinements of a matched pixel's height along the epipolar curve (module docstring, step 3)
 SECANT_STEPS = 2
-#: tie points are found on copies of the images at most this many pixels a side (larger images: averaged)
-TIE_SIDE = 3000
+#: tie points are found on copies of the images at most this many pixels a side (larger images: averaged), as the
+#: frames' sparse check does: SIFT's scale space on a larger copy would outgrow the matching tiles' memory
+TIE_SIDE = SPARSE_SIDE
 #: left pixels added around an output tile's box
 BOX_PAD = 48
 #: at most this many miss distances of each matched tile are kept for the report's median and 95th percentile
