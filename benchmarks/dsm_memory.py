@@ -2,16 +2,17 @@
 or the output grid.
 
 Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_memory.py [--sizes 2000,4000,6000] [--kind frames|rpc]
-      [--resolution M] [--code DIR] [--keep DIR]
+      [--resolution M] [--bounds XMIN,YMIN,XMAX,YMAX] [--code DIR] [--keep DIR]
 
 Each case is a pair of ``size x size`` pixels rendered over a known terrain by ``tests/rendered_pair.py`` (0.1 m
 ground sample distance, ±16 m of relief): ``--kind frames`` (default) nadir frames with their camera and exterior
 orientation files (base-to-height ratio 0.4); ``--kind rpc`` a converging pair seen from high up through a narrow
 view (base-to-height ratio 0.25) whose images carry RPCs fitted to the frames (``dsm --rpc``). The DSM is made in a
 child process (default resolution 2 GSD, or ``--resolution``; ``--bounds``: a grid larger than the pair, nodata
-beyond it, which measures what the output grid alone costs) whose peak resident memory (``ru_maxrss``), CPU and
-wall time are measured; the DSM is then compared with the terrain at its cell centres (RMSE, NMAD, median; read
-by blocks) and the report's completeness is read.
+beyond it, which measures what the output grid alone costs) whose peak resident memory (``VmHWM``: its own, not
+``ru_maxrss``, which on Linux keeps the peak of the parent that rendered the pair), CPU and wall time are measured;
+the DSM is then compared with the terrain at its cell centres (RMSE, NMAD, median; read by blocks) and the
+report's completeness is read.
 
 ``--code DIR`` measures the fotogeo of another checkout (its root on the child's PYTHONPATH), e.g. the main
 branch's whole-image version, on the same renders. Prints a table and writes
@@ -36,6 +37,18 @@ from rendered_pair import CRS, GSD, accuracy, render, render_rpc  # noqa: E402
 CHILD = r"""
 import json, resource, sys, time, warnings
 a = json.loads(sys.argv[1])
+
+
+def peak_mb():
+    # VmHWM: this process's own peak; Linux's ru_maxrss keeps the parent's peak across fork + exec, so a child
+    # of a parent that rendered a large pair would report the parent's memory
+    try:
+        with open("/proc/self/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:")) / 1024.0
+    except (OSError, StopIteration):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 from fotogeo.tools.dsm import dsm
 c, w = time.process_time(), time.perf_counter()
 with warnings.catch_warnings():
@@ -43,7 +56,7 @@ with warnings.catch_warnings():
     rep = dsm(a["images"], a["out"], camera=a.get("camera"), eo=a.get("eo"), rpc="camera" not in a, crs=a["crs"],
               report=a["report"], resolution=a.get("resolution"), bounds=a.get("bounds"), overwrite=True)
 print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter() - w,
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+                  "peak_rss_mb": peak_mb(),
                   "completeness": rep["completeness"], "grid": rep["grid"]}))
 """
 
