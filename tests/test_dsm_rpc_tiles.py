@@ -39,7 +39,7 @@ def test_rendered_rpc_pair_against_its_terrain(pair, tmp_path):
     assert rep["completeness"] > 0.9 and rep["grid"]["resolution"] == pytest.approx(2 * GSD)
     p = rep["pairs"][0]
     assert np.hypot(*p["relative_pointing_px"]) < 0.1
-    assert p["ray_miss_px"]["median"] < 0.2
+    assert p["ray_miss_px"]["median"] < 0.3
     # every point once in the cloud: those of each output tile's core
     assert rep["points_written"] == p["points"] > 0.5 * acc["cells_with_height"]
 
