@@ -20,16 +20,21 @@ COG_OPTIONS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BLOCKSIZE": 512, "OVE
 
 
 def convert_to_cog(path, resampling: str = "nearest") -> Path:
-    """Rewrite the GeoTIFF ``path`` as a Cloud Optimized GeoTIFF (overviews by ``resampling``)."""
+    """Rewrite the GeoTIFF ``path`` as a Cloud Optimized GeoTIFF (overviews by ``resampling``), under fotogeo's
+    bounded GDAL block cache (:func:`~fotogeo.io.raster.gdal_env`; GDAL's default, 5 % of RAM, holds blocks of a
+    large grid while its overviews are built)."""
     import rasterio.shutil
     from rasterio.errors import RasterioError
+
+    from .raster import gdal_env
 
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".cog.tif", dir=path.parent)
     os.close(fd)
     os.unlink(tmp)
     try:
-        rasterio.shutil.copy(path, tmp, driver="COG", OVERVIEW_RESAMPLING=resampling.upper(), **COG_OPTIONS)
+        with gdal_env():
+            rasterio.shutil.copy(path, tmp, driver="COG", OVERVIEW_RESAMPLING=resampling.upper(), **COG_OPTIONS)
         os.replace(tmp, path)
     except (RasterioError, OSError) as e:
         raise OutputError(f"could not write the Cloud Optimized GeoTIFF {str(path)!r}: {e}") from None

@@ -17,7 +17,8 @@
    tile's pixels matched from the windows of the images they need, so memory is bounded by the tile;
 4. **fusion** (:mod:`fotogeo.stereo.fusion`): the pairs' points on one north-up grid (``--resolution``,
    ``--crs``, ``--bounds``), the median of the pairs, a count and a spread band; holes stay nodata unless
-   ``--fill`` (then marked in a fourth band); tile by tile for frames, the whole grid at once for RPC pairs;
+   ``--fill`` (then marked in a fourth band); output tile by output tile for frames and RPC pairs alike
+   (:mod:`.matching`), so memory is bounded by the tile, not the images or the grid;
 5. **outputs** (:mod:`.outputs`), all or nothing: the DSM (COG layout), ``--point-cloud`` (LAS 1.4 with the CRS
    as WKT and the left image's colours, :mod:`fotogeo.io.las`) and ``--report`` (JSON: pairs kept and left out
    and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings).

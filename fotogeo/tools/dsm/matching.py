@@ -1,4 +1,5 @@
-"""Dense matching of the kept frame pairs by output tiles: memory bounded by the tile, not by the images or the DSM.
+"""Dense matching of the kept pairs (frames, and RPC pairs through :class:`.rpc_pairs.RpcPairMatch`) by output
+tiles: memory bounded by the tile, not by the images or the DSM.
 
 The output grid is cut into tiles of ``TILE_CELLS`` cells a side, each expanded by
 :data:`~fotogeo.tools.dsm.outputs.TILE_MARGIN` cells (:meth:`fotogeo.stereo.fusion.GridSpec.tiles`). For each
@@ -59,6 +60,16 @@ class PairMatch:
         u1, v1 = min(w, math.ceil(px[:, 0].max()) + BOX_PAD), min(h, math.ceil(px[:, 1].max()) + BOX_PAD)
         return (u0, v0, u1, v1) if u1 > u0 and v1 > v0 else None
 
+    @property
+    def name(self) -> str:
+        return f"{self.views[0].name}-{self.views[1].name}"
+
+    def dense(self, box, colours: bool = False):
+        """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
+        (:func:`.frames.dense_points`)."""
+        yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
+                                       colours=colours, refine=self.refine)
+
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""
         p, (a, b) = self.pair, (v.name for v in self.views)
@@ -81,8 +92,7 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
         if box is None:
             continue
         t, layer = time.perf_counter(), PairLayer(sub)
-        for P, rgb in frames.dense_points(m.rp, m.views, m.sources, *m.drange, m.zlim, m.stats, box,
-                                          colours=cloud is not None, refine=m.refine):
+        for P, rgb in m.dense(box, colours=cloud is not None):
             layer.add(P)
             inside = core.cells(P[:, :2])[1]
             m.points += int(inside.sum())
@@ -95,13 +105,13 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
 
 
 def match_tiles(grid: GridSpec, matches, products, stage, timings: dict) -> None:
-    """Match ``matches`` (:class:`PairMatch`) tile by tile onto ``grid`` and hand each tile to ``products``
-    (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds."""
+    """Match ``matches`` (:class:`PairMatch`, or RPC pairs' :class:`.rpc_pairs.RpcPairMatch`: anything with
+    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``) tile by tile onto ``grid`` and hand
+    each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds."""
     tiles = list(grid.tiles(TILE_CELLS, TILE_MARGIN if TILE_CELLS < max(grid.width, grid.height) else 0))
     for k, (core, expanded) in enumerate(tiles):
         stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")
         fusion = _tile(matches, grid.sub(*expanded), grid.sub(*core), products.cloud)
         products.add(core, expanded, *fusion.result())
     for m in matches:
-        name = f"{m.views[0].name}-{m.views[1].name}"
-        timings[name] = round(timings.get(name, 0.0) + m.seconds, 3)
+        timings[m.name] = round(timings.get(m.name, 0.0) + m.seconds, 3)

@@ -51,7 +51,7 @@ class Products:
     def __init__(self, out, output, grid, crs, *, fill: bool, point_cloud=None, report=None, seen=None):
         import rasterio
 
-        from ...io.raster import geotiff_profile
+        from ...io.raster import gdal_env, geotiff_profile
         self.out, self.output, self.grid, self.crs, self.fill = out, output, grid, crs, fill
         self.point_cloud, self.report, self.seen = point_cloud, report, seen
         self.cloud = None
@@ -61,7 +61,8 @@ class Products:
         self.tmp = out.temp(output)
         profile = geotiff_profile(width=grid.width, height=grid.height, count=4 if fill else 3, dtype="float32",
                                   crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA, predictor=True)
-        self.ds = rasterio.open(self.tmp, "w", **profile)
+        with gdal_env():
+            self.ds = rasterio.open(self.tmp, "w", **profile)
         for k, name in enumerate(BANDS[:profile["count"]]):
             self.ds.set_band_description(k + 1, name)
         self.stride = max(1, int(grid.width * grid.height // HEIGHT_SAMPLE))
@@ -72,6 +73,8 @@ class Products:
         """The fused ``height``, ``count``, ``spread`` of the window ``expanded`` ``(r0, c0, rows, cols)``; the
         window ``core`` inside it is written."""
         from rasterio.windows import Window
+
+        from ...io.raster import gdal_env
         before = np.isfinite(height)
         height, _ = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * self.grid.resolution)
         gone = before & ~np.isfinite(height)
@@ -97,7 +100,8 @@ class Products:
         if self.fill:
             self.filled += int(filled[cut].sum()) if filled is not None else 0
             bands.append(filled[cut].astype(np.float32) if filled is not None else np.zeros(height.shape, np.float32))
-        self.ds.write(np.stack(bands).astype(np.float32), window=Window(core[1], core[0], core[3], core[2]))
+        with gdal_env():  # the bounded block cache: GDAL's default would hold a large grid's written blocks
+            self.ds.write(np.stack(bands).astype(np.float32), window=Window(core[1], core[0], core[3], core[2]))
 
     def finish(self, choices, names, rule, ref, notes, zlo, zhi, t0, timings, empty: str) -> dict:
         """Close the outputs and return the report (written with ``report``); ``empty`` the refusal when no cell

@@ -5,15 +5,21 @@ Per pair (left = the first image, right = the second):
 1. **heights**: the DEM's range (``--dem``), else the RPCs' own range (``HEIGHT_OFF ± HEIGHT_SCALE``) narrowed by
    sparse matches;
 2. **relative pointing correction** (:func:`fotogeo.stereo.affine_epipolar.pointing_correction`): SIFT tie points
-   of the two whole images, their offsets from the epipolar curves, one translation of the right image; its size
-   is reported and, when large, named in a warning: the same error along the epipolar lines is invisible to the
+   of the two images (whole up to ``TIE_SIDE`` pixels a side, else on copies averaged to that size), their
+   offsets from the epipolar curves, one translation of the right image; its size is reported and, when large,
+   named in a warning: the same error along the epipolar lines is invisible to the
    images and moves every height, so absolute heights then need a reference DEM or GCPs;
 3. **tiles** of ``TILE`` left pixels: correspondences of a 3-D grid (the tile's pixels at three heights)
    through both models give the tile's rectifying similarities, the rectified tiles are matched
    (:func:`fotogeo.stereo.dense.disparity`) and every matched pixel is triangulated through the RPCs: its height
-   is where the right pixel lies on the epipolar curve of the left pixel (linear between two heights, refined
-   once); the distance of the right pixel from the curve is its **miss distance** (pixels). With ``refine``
-   the disparities are first refined by least-squares matching (:func:`fotogeo.stereo.refine.refine`).
+   is where the right pixel lies on the epipolar curve of the left pixel (the secant method along the curve:
+   linear between the lowest and highest height, then between the last two estimates, ``SECANT_STEPS`` times;
+   exact for an affine camera at once, and to well below a pixel's height for a perspective one, e.g. an RPC
+   fitted to an aerial frame); the distance of the right pixel from the curve is its **miss distance** (pixels).
+   With ``refine`` the disparities are first refined by least-squares matching (:func:`fotogeo.stereo.refine.refine`).
+   Tiles follow the output grid (:class:`RpcPairMatch`, :func:`.matching.match_tiles`, as frame pairs do):
+   each output tile's left pixels (its corners at the lowest and highest height through the left RPC) are cut
+   into ``TILE`` pixel tiles, each rectified with its own local epipolar geometry from windows read from disk.
 4. **planimetry halfway between the images**: the correction ``τ`` says how far the two RPCs disagree, not
    which one is wrong. The left pixel's line of sight at the height ``z`` gives ``X_L``; the right pixel's,
    uncorrected, ``X_R = X_L + Δ`` (``Δ`` the ground offset ``τ`` makes at ``z``); the point is put at
@@ -38,8 +44,20 @@ from ...pixels import HALF
 from ...stereo import affine_epipolar as ae
 from ...stereo.dense import disparity, to_uint8
 from ...stereo.refine import refine as refine_disparities
+from .frames import SPARSE_SIDE
 
 TILE = 512
+#: refinements of a matched pixel's height along the epipolar curve (module docstring, step 3)
+SECANT_STEPS = 2
+#: tie points are found on copies of the images at most this many pixels a side (larger images: averaged), as the
+#: frames' sparse check does: SIFT's scale space on a larger copy would outgrow the matching tiles' memory
+TIE_SIDE = SPARSE_SIDE
+#: left pixels added around an output tile's box
+BOX_PAD = 48
+#: at most this many miss distances of each matched tile are kept for the report's median and 95th percentile
+MISS_SAMPLE = 4096
+#: the report lists at most this many tiles' disparity ranges
+MAX_RANGES = 64
 #: a relative pointing correction above this many pixels is reported as large (a few pixels are usual for
 #: vendor RPCs without ground control)
 LARGE_POINTING_PX = 10.0
@@ -78,9 +96,21 @@ def tie_points(g1, g2, max_features: int = 5000) -> tuple:
     return (k1.xy[[m.queryIdx for m in good]].reshape(-1, 2), k2.xy[[m.trainIdx for m in good]].reshape(-1, 2))
 
 
-def pointing(m1, m2, g1, g2, zlo, zhi) -> dict:
-    """The relative pointing correction and the tie points' heights (module docstring, steps 1–2)."""
+def overview(src) -> tuple:
+    """``(grey, (sx, sy))``: image ``src`` (a :class:`~fotogeo.tools.dsm.inputs.SourceImage`) whole when its
+    longer side is at most ``TIE_SIDE`` pixels, else averaged over blocks to about that size; ``(sx, sy)`` its
+    pixels' size in source pixels."""
+    k = max(1, -(-max(src.width, src.height) // TIE_SIDE))
+    g = src.grey(0, 0, src.width, src.height, k)
+    return g, (src.width / g.shape[1], src.height / g.shape[0])
+
+
+def pointing(m1, m2, sources, zlo, zhi) -> dict:
+    """The relative pointing correction and the tie points' heights (module docstring, steps 1–2), the tie
+    points found on :func:`overview` s of the two images."""
+    (g1, s1), (g2, s2) = overview(sources[0]), overview(sources[1])
     p1, p2 = tie_points(g1, g2)
+    p1, p2 = p1 * s1, p2 * s2
     if len(p1) < 10:
         raise InputError(f"only {len(p1)} tie points between the images: they may not overlap, or be textureless "
                          f"or cloud-covered; give images that show the same ground")
@@ -100,14 +130,18 @@ def pointing(m1, m2, g1, g2, zlo, zhi) -> dict:
 def triangulate(m1, m2, tau, p1, p2, zlo, zhi) -> tuple:
     """``(ground points (N, 3), miss distances (N,) px)`` of matched pixels (module docstring, step 3)."""
     q = _models(m1, m2, tau)
-    q_lo, _ = q(p1, zlo)
-    q_hi, _ = q(p1, zhi)
-    _, _, t = ae.curve_offsets(p2, q_lo, q_hi)
-    z = zlo + t * (zhi - zlo)
-    q_z, _ = q(p1, z)
-    off, _, t2 = ae.curve_offsets(p2, q_lo, q_z)
-    with np.errstate(invalid="ignore"):
-        z2 = zlo + t2 * (z - zlo)
+    za, qa = np.full(len(p1), float(zlo)), q(p1, zlo)[0]
+    zb, qb = np.full(len(p1), float(zhi)), q(p1, zhi)[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for _ in range(SECANT_STEPS):  # the secant along the curve: linear between the last two heights
+            _, _, t = ae.curve_offsets(p2, qa, qb)
+            z = za + t * (zb - za)
+            move = np.abs(z - zb) > 1e-4  # a converged pixel keeps its (non-degenerate) last segment
+            za[move], qa[move] = zb[move], qb[move]
+            zb[move] = z[move]
+            qb[move] = q(p1[move], zb[move])[0]
+        off, _, t = ae.curve_offsets(p2, qa, qb)
+        z2 = za + t * (zb - za)
     P = m1.inverse(p1, z2)
     P = np.column_stack([P[:, :2], z2])
     ok = np.isfinite(P).all(axis=1)
@@ -130,20 +164,30 @@ def tile_correspondences(m1, q, tile, zs) -> tuple:
     return p1[ok], p2[ok], mid[ok]
 
 
-def _rectified(img, A, u0, v0, w, h):
+def _rectified(src, A, u0, v0, w, h):
     """Rectified image ``(h, w)`` of window ``(u0, v0)`` through the affine map ``A`` (raw → rectified) and its
-    validity mask."""
+    validity mask, resampled from the window of the :class:`~fotogeo.tools.dsm.inputs.SourceImage` ``src`` its
+    pixels need (never the whole image)."""
     Ai = ae.invert(A)
     u, v = np.meshgrid(u0 + np.arange(w) + HALF, v0 + np.arange(h) + HALF)
     raw = ae.apply(Ai, np.column_stack([u.ravel(), v.ravel()])) - HALF
-    mx, my = raw[:, 0].reshape(h, w).astype(np.float32), raw[:, 1].reshape(h, w).astype(np.float32)
-    H, W = img.shape
+    mx, my = raw[:, 0].reshape(h, w), raw[:, 1].reshape(h, w)
+    W, H = src.width, src.height
     valid = (mx >= 0) & (my >= 0) & (mx <= W - 1) & (my <= H - 1)
-    return cv2.remap(img, mx, my, cv2.INTER_CUBIC, borderMode=cv2.BORDER_CONSTANT, borderValue=0), valid
+    if not valid.any():
+        return np.zeros((h, w), np.float32), valid
+    x0, y0 = max(0, int(np.floor(mx[valid].min())) - 3), max(0, int(np.floor(my[valid].min())) - 3)
+    x1, y1 = min(W, int(np.ceil(mx[valid].max())) + 4), min(H, int(np.ceil(my[valid].max())) + 4)
+    g = src.grey(x0, y0, x1, y1)
+    out = cv2.remap(g, (mx - x0).astype(np.float32), (my - y0).astype(np.float32), cv2.INTER_CUBIC,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return out, valid
 
 
-def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine: bool = False) -> tuple:
-    """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3)."""
+def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False) -> tuple:
+    """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3), the
+    rectified tiles read from the windows of the two :class:`~fotogeo.tools.dsm.inputs.SourceImage` s
+    ``sources`` they need."""
     q = _models(m1, m2, tau)
     p1g, p2g, mid = tile_correspondences(m1, q, tile, (zlo, 0.5 * (zlo + zhi), zhi))
     A1, A2 = ae.rectifying_maps(p1g, p2g, mid)
@@ -154,8 +198,8 @@ def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine: bool = False) -
     D = int(np.ceil(max(abs(lo), abs(hi)))) + 16
     u0, v0 = int(np.floor(corners[:, 0].min())) - D, int(np.floor(corners[:, 1].min())) - 16
     w, h = int(np.ceil(corners[:, 0].max())) + D - u0, int(np.ceil(corners[:, 1].max())) + 16 - v0
-    L, vl = _rectified(imgs[0], A1, u0, v0, w, h)
-    R, vr = _rectified(imgs[1], A2, u0, v0, w, h)
+    L, vl = _rectified(sources[0], A1, u0, v0, w, h)
+    R, vr = _rectified(sources[1], A2, u0, v0, w, h)
     disp = disparity(L, R, vl, vr, lo, hi)
     if refine:
         disp = refine_disparities(L, R, disp)
@@ -177,22 +221,84 @@ def match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine: bool = False) -
     return p1[inside], p2[inside]
 
 
-def pair_points(m1, m2, imgs, colours, zlo, zhi, tau, stats, progress=None, refine: bool = False):
-    """Yield ``(points (N, 3), colours (N, 3), miss px (N,))`` tile by tile over the left image (``refine``:
-    module docstring, step 3)."""
-    H, W = imgs[0].shape
-    tiles = [(c, r, min(W, c + TILE), min(H, r + TILE)) for r in range(0, H, TILE) for c in range(0, W, TILE)]
-    for k, tile in enumerate(tiles):
-        p1, p2 = match_tile(m1, m2, tau, imgs, tile, zlo, zhi, stats, refine)
-        if progress is not None:
-            progress((k + 1) / len(tiles), f"tile {k + 1} of {len(tiles)}")
-        if not len(p1):
-            continue
-        P, miss = triangulate(m1, m2, tau, p1, p2, zlo, zhi)
-        ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlo) & (P[:, 2] <= zhi)
-        c, r = np.clip(p1[:, 0].astype(int), 0, W - 1), np.clip(p1[:, 1].astype(int), 0, H - 1)
-        rgb = np.stack([ch[r, c] for ch in colours], axis=1)
-        yield P[ok], rgb[ok], miss[ok]
+def _at_least(a: int, b: int, n: int) -> tuple:
+    """``[a, b)`` widened about its middle to at least ``TILE`` (or ``n``) pixels, inside ``[0, n)``."""
+    grow = max(0, min(TILE, n) - (b - a))
+    a = max(0, a - grow // 2)
+    b = min(n, max(b, a + min(TILE, n)))
+    return max(0, min(a, b - min(TILE, n))), b
+
+
+def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False):
+    """Yield ``(points (N, 3), colours (N, 3) uint8 or None, miss px (N,))`` of the left pixels ``box``
+    ``(c0, r0, c1, r1)`` (widened to at least ``TILE`` pixels a side: the context of a small box), in equal locally
+    epipolar tiles of at most ``TILE`` pixels a side (module docstring, step 3; ``refine`` too); ``colours``: the
+    left image's, read by the window of the tile's matched pixels."""
+    W, H = sources[0].width, sources[0].height
+    (c0, c1), (r0, r1) = _at_least(box[0], box[2], W), _at_least(box[1], box[3], H)
+    nc, nr = -(-(c1 - c0) // TILE), -(-(r1 - r0) // TILE)
+    cs, rs = np.linspace(c0, c1, nc + 1).round().astype(int), np.linspace(r0, r1, nr + 1).round().astype(int)
+    for rt, rt1 in zip(rs[:-1], rs[1:]):
+        for ct, ct1 in zip(cs[:-1], cs[1:]):
+            tile = (int(ct), int(rt), int(ct1), int(rt1))
+            p1, p2 = match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine)
+            if not len(p1):
+                continue
+            P, miss = triangulate(m1, m2, tau, p1, p2, zlo, zhi)
+            ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlo) & (P[:, 2] <= zhi)
+            rgb = None
+            if colours:
+                src = sources[0]
+                c = np.clip(p1[:, 0].astype(int), 0, src.width - 1)
+                r = np.clip(p1[:, 1].astype(int), 0, src.height - 1)
+                x0, y0 = int(c.min()), int(r.min())
+                rgb = np.stack([ch[r - y0, c - x0] for ch in src.colours(x0, y0, int(c.max()) + 1,
+                                                                         int(r.max()) + 1)], axis=1)[ok]
+            yield P[ok], rgb, miss[ok]
+
+
+class RpcPairMatch:
+    """One RPC pair ready to match tile by tile (the interface of :class:`.matching.PairMatch`): the left and right
+    models ``m1``, ``m2`` (map coordinates ↔ pixels), :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, the
+    height range, the relative pointing correction ``tau``, and what its tiles gave (pixel counts, points, a
+    sample of the miss distances, seconds)."""
+
+    def __init__(self, pair, name: str, models, sources, zlim, tau, refine: bool = False):
+        self.pair, self.name, self.models, self.sources = pair, name, models, sources
+        self.zlim, self.tau, self.refine = (float(zlim[0]), float(zlim[1])), np.asarray(tau, float), refine
+        self.stats, self.points, self.seconds, self.miss = {}, 0, 0.0, []
+
+    def box(self, sub) -> tuple | None:
+        """``(c0, r0, c1, r1)``: the left pixels whose points may fall in the grid ``sub``: a 3 x 3 grid over it
+        at the lowest and highest height through the left RPC, padded by ``BOX_PAD`` pixels; None outside."""
+        xs = sub.x0 + sub.resolution * sub.width * np.array([0.0, 0.5, 1.0])
+        ys = sub.y0 - sub.resolution * sub.height * np.array([0.0, 0.5, 1.0])
+        P = np.array([(x, y, z) for x in xs for y in ys for z in self.zlim], float)
+        px = self.models[0].forward(P)
+        px = px[np.isfinite(px).all(axis=1)]
+        src = self.sources[0]
+        if not len(px):
+            return None
+        c0, r0 = (max(0, int(np.floor(v)) - BOX_PAD) for v in px.min(axis=0))
+        c1, r1 = min(src.width, int(np.ceil(px[:, 0].max())) + BOX_PAD), min(src.height,
+                                                                            int(np.ceil(px[:, 1].max())) + BOX_PAD)
+        return (c0, r0, c1, r1) if c1 > c0 and r1 > r0 else None
+
+    def dense(self, box, colours: bool = False):
+        """Yield ``(points (N, 3), colours or None)`` of the left pixels ``box`` (:func:`box_points`)."""
+        for P, rgb, miss in box_points(*self.models, self.sources, *self.zlim, self.tau, self.stats, box, colours,
+                                       self.refine):
+            self.miss.append(miss[::max(1, len(miss) // MISS_SAMPLE)])
+            yield P, rgb
+
+    def report(self) -> None:
+        """The pair's entry in the report (match density, points, disparity ranges, miss distances)."""
+        m = np.concatenate(self.miss) if self.miss else np.zeros(0)
+        self.pair.extra.update(
+            match_density=round(self.stats.get("matched", 0) / max(1, self.stats.get("matchable", 0)), 4),
+            points=self.points, disparity_ranges_px=self.stats.get("disparity_ranges_px", [])[:MAX_RANGES],
+            ray_miss_px=({"median": round(float(np.median(m)), 4), "p95": round(float(np.percentile(m, 95)), 4)}
+                         if len(m) else None))
 
 
 def pointing_warning(name, pt: dict, have_dem: bool) -> str:

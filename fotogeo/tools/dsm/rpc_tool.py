@@ -13,13 +13,12 @@ import numpy as np
 
 from ...errors import FotogeoWarning, InputError
 from ...io.raster import AtomicOutputs
-from ...stereo.fusion import Fusion, PairLayer
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..common.checks import check_output_grid
 from ..ortho.inputs import map_crs, terrain
-from . import plan
+from . import matching, plan
 from . import rpc_pairs as rp
-from .inputs import read_image, read_pairs
+from .inputs import SourceImage, read_pairs
 from .outputs import Products
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
@@ -66,10 +65,10 @@ def _dem_heights(dem, dem_heights, crs, ims):
     return source, zlo - 0.1 * (zhi - zlo) - 30.0, zhi + 0.1 * (zhi - zlo) + 30.0, notes, heights_at
 
 
-def _pair_setup(p, ims, imgs, zlo, zhi, dem_source) -> dict:
+def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
     """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`) with the DEM check."""
     a, b = ims[p.i], ims[p.j]
-    pt = rp.pointing(a.model, b.model, imgs[p.i][0], imgs[p.j][0], zlo, zhi)
+    pt = rp.pointing(a.model, b.model, (sources[p.i], sources[p.j]), zlo, zhi)
     name = f"{a.name}-{b.name}"
     entry = {"tie_points": pt["n"], "relative_pointing_px": [round(float(v), 3) for v in pt["tau"]],
              "epipolar_residual_px": {"before": round(pt["before_px"], 3), "after": round(pt["after_px"], 3)}}
@@ -132,15 +131,15 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
     if dem is not None:
         dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
         notes += more + ["height range from the DEM"]
-    imgs = [read_image(im.path) for im in ims]
+    sources = [SourceImage(im.path) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
     kept = [p for p in choices if p.kept]
     setups = {}
     for p in kept:
-        setups[(p.i, p.j)] = s = _pair_setup(p, ims, imgs, zlo, zhi, dem_source)
+        setups[(p.i, p.j)] = s = _pair_setup(p, ims, sources, zlo, zhi, dem_source)
         p.extra.update(s["entry"], height_range=[round(s["zlo"], 2), round(s["zhi"], 2)])
     prog(0.1, "pointing corrected")
-    return _match_and_write(ims, imgs, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
+    return _match_and_write(ims, sources, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
                             resolution=resolution, bounds=bounds, refine=refine, fill=fill, point_cloud=point_cloud,
                             report=report, overwrite=overwrite, prog=prog, t0=t0)
 
@@ -152,26 +151,7 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
-def _match(p, ims, imgs, s, grid, cloud, stage, timings, names, refine) -> PairLayer:
-    """One pair's points on the grid (:func:`.rpc_pairs.pair_points`), its entry in the report updated."""
-    t, stats, miss = rp.now(), {}, []
-    layer = PairLayer(grid)
-    for P, rgb, m in rp.pair_points(ims[p.i].model, ims[p.j].model, (imgs[p.i][0], imgs[p.j][0]), imgs[p.i][1],
-                                    s["zlo"], s["zhi"], s["tau"], stats, stage, refine):
-        layer.add(P)
-        miss.append(m)
-        if cloud is not None:
-            cloud.write(P, rgb)
-    m = np.concatenate(miss) if miss else np.zeros(0)
-    p.extra.update(match_density=round(stats.get("matched", 0) / max(1, stats.get("matchable", 0)), 4),
-                   points=int(len(m)), disparity_ranges_px=stats.get("disparity_ranges_px", []),
-                   ray_miss_px=({"median": round(float(np.median(m)), 4),
-                                 "p95": round(float(np.percentile(m, 95)), 4)} if len(m) else None))
-    timings[f"{names[p.i]}-{names[p.j]}"] = round(rp.now() - t, 3)
-    return layer
-
-
-def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
+def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
                      resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
@@ -184,18 +164,17 @@ def _match_and_write(ims, imgs, names, choices, kept, setups, output, crs, rule,
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
-    fusion, timings = Fusion(grid), {}
+    timings = {}
+    matches = [rp.RpcPairMatch(p, f"{names[p.i]}-{names[p.j]}", (ims[p.i].model, ims[p.j].model),
+                               (sources[p.i], sources[p.j]), (setups[(p.i, p.j)]["zlo"], setups[(p.i, p.j)]["zhi"]),
+                               setups[(p.i, p.j)]["tau"], refine) for p in kept]
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
         try:
-            for k, p in enumerate(kept):
-                stage = prog.stage(0.1 + 0.8 * k / len(kept), 0.1 + 0.8 * (k + 1) / len(kept),
-                                   f"matching {names[p.i]} with {names[p.j]}")
-                fusion.add(_match(p, ims, imgs, setups[(p.i, p.j)], grid, products.cloud, stage, timings, names,
-                                  refine))
-            whole = (0, 0, grid.height, grid.width)
-            products.add(whole, whole, *fusion.result())
+            matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings)
+            for m in matches:
+                m.report()
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
                                   "in any pair: the images may be textureless or cloud-covered")
         finally:
