@@ -75,17 +75,34 @@ def test_gps_far_off_its_sigma_is_named_though_the_global_sigma0_looks_right(sb,
     assert "sigma0 is driven by the GPS positions" in lines[1] and "--eo-sigma-position" in lines[1]
 
 
-def test_image_points_weighted_too_strongly_drive_sigma0_and_their_measured_sigma_is_said(sb):
+def test_image_points_weighted_too_strongly_get_their_sigma_estimated(sb):
+    """Tie points given 0.1 px for 0.3 px of noise: their σ is estimated (variance component) and the block
+    adjusted with it — the σ of what the images hold and of what a prior holds as with the right σ given, where
+    the global σ0 of 3 scaled the prior-held ones three times too wide."""
+    right = _adjust(_gps(sb, 0.5, 4), 0.5, 5.0)
     result = _adjust(_gps(sb, 0.5, 4, image_sigma=0.1), 0.5, 5.0)
-    groups = result.stats["variance_components"]
-    assert groups["image"]["a_priori_px"] == pytest.approx(0.1)
-    assert 2.5 < groups["image"]["sigma0"] < 3.5  # 0.3 px of noise given 0.1 px
-    assert groups["position_prior"]["sigma0"] < 1.8 and groups["attitude_prior"]["sigma0"] < 1.8
+    image = result.stats["variance_components"]["image"]
+    assert 2.5 < image["sigma0_given"] < 3.5 and image["factor"] == pytest.approx(image["sigma0_given"], rel=0.05)
+    assert image["sigma0"] == pytest.approx(1.0, abs=0.05) and 0.25 < image["a_priori_px"] < 0.35
+    assert result.stats["sigma0"] == pytest.approx(1.0, abs=0.1)
+    assert np.allclose(result.eo_sigma, right.eo_sigma, rtol=0.15)  # positions, and the angles the images hold
+    assert "not checked" not in right.stats["variance_components"]  # sanity: the reference fits its σ
+    assert "factor" not in right.stats["variance_components"]["image"]  # nothing estimated where σ was right
     lines = variance_lines({"statistics": result.stats, "sigma0": result.stats["sigma0"]})
-    measured = groups["image"]["sigma0"] * 0.1
-    assert 0.25 < measured < 0.35
-    assert f"image points {groups['image']['sigma0']:.2f} (a priori 0.1 px, measured ~{measured:.3g} px)" in lines[0]
-    assert "driven by the image points" in lines[1] and "formal sigma" in lines[1]
+    assert "image points' sigma estimated from their residuals: 0.1 px given" in lines[1], lines
+    assert f"weighted as {image['a_priori_px']:.3g} px instead" in lines[1]
+
+
+def test_a_strip_held_by_its_attitude_prior_is_not_inflated_by_the_images_sigma0():
+    """A single 3-frame strip (the eBee case): its roll rests on a 5° attitude prior. Tie points given a σ three
+    times too small once inflated that angle σ threefold; estimated, it matches the one with the right σ."""
+    strip = simulate_block(seed=13, strips=1, frames_per_strip=3, camera=CAMERA, point_spacing=40.0, margin=3.0,
+                           blunder_fraction=0.0, n_check=0, n_control=0)
+    right = _adjust(_gps(strip, 2.0, 7), 2.0, 5.0)
+    small = _adjust(_gps(strip, 2.0, 7, image_sigma=0.1), 2.0, 5.0)
+    held = np.nanmax(right.eo_sigma[:, 3:])
+    assert held > 0.5  # the prior holds it (the strip does not)
+    assert np.nanmax(small.eo_sigma[:, 3:]) == pytest.approx(held, rel=0.15)
 
 
 def test_a_group_the_images_cannot_check_says_so(sb):

@@ -295,6 +295,13 @@ def variance_lines(rep: dict) -> list:
         else:
             parts.append(f"{name} {s0:.2f}")
     lines = ["sigma0 by observation group: " + "; ".join(parts)]
+    image = groups.get("image") or {}
+    if image.get("factor"):
+        given = image.get("a_priori_px", 0.0) / image["factor"]
+        lines.append(f"image points' sigma estimated from their residuals: {given:.3g} px given (least-squares "
+                     f"matching's formal sigma for matched tie points) gave them a sigma0 of "
+                     f"{image['sigma0_given']:.2f}; weighted as {image.get('a_priori_px', 0.0):.3g} px instead "
+                     f"(variance component), so a prior's sigma is not scaled by it")
     top = dominant_group(groups)
     if top is not None:
         s0 = groups[top]["sigma0"]
