@@ -126,3 +126,14 @@ def test_the_console_names_the_group(tmp_path):
     said = [line for line in res.stdout.splitlines() if line.startswith("sigma0 ")]
     assert said[0].startswith("sigma0 by observation group: image points ")
     assert "sigma0 is driven by the GPS positions" in said[1] and "--eo-sigma-position" in said[1], res.stdout
+
+
+def test_the_estimate_can_be_turned_off_and_then_the_global_rule_scales_every_sigma(sb):
+    """``estimate_image_sigma=False``: σ0 ≈ 3 scales every σ by 3 (the global rule of
+    :func:`fotogeo.orientation.bundle_result.covariance_scale`), nothing estimated."""
+    block = _gps(sb, 0.5, 4, image_sigma=0.1)
+    sigma = np.tile([0.5] * 3 + [5.0] * 3, (len(block.frames), 1))
+    off = adjust_block(block, BundleOptions(snooping=False, eo_sigma=sigma, estimate_image_sigma=False))
+    assert 2.5 < off.sigma0 < 3.5 and off.stats["covariance_scale"] == off.sigma0
+    assert "factor" not in off.stats["variance_components"]["image"]
+    assert "driven by the image points" in variance_lines({"statistics": off.stats, "sigma0": off.sigma0})[1]

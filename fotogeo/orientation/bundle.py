@@ -109,6 +109,8 @@ class BundleOptions:
     significance: float = 3.0
     max_iterations: int = 60
     max_residual_px: float = 10.0
+    #: estimate the image points' σ as a variance component when they drive σ₀ (:func:`_image_variance`)
+    estimate_image_sigma: bool = True
 
 
 def _robust_weights(pb, s, opts):
@@ -245,7 +247,7 @@ def _image_variance(run, pb, s, post, opts, prog):
     longer inflated by the images' σ₀. Only ever widens the image σ; ``estimate`` None when not applied, else
     ``{"sigma0_given", "factor"}`` (the σ₀ of the image group with the given σ, the factor applied to it)."""
     groups = post.groups
-    if dominant_group(groups) != "image":
+    if not opts.estimate_image_sigma or dominant_group(groups) != "image":
         return pb, s, post, None
     given, factor = groups["image"]["sigma0"], 1.0
     for _ in range(3):
