@@ -131,7 +131,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         if st.get("covariance_rule"):  # whether σ0 widens the σ reported, as the command line says
             feedback.pushInfo(f"σ of the results: {st['covariance_rule']}")
         for line in variance_lines(rep):  # which observations drive σ0, and what to do
-            feedback.pushInfo(self.in_words(line.replace("sigma", "σ")))
+            feedback.pushInfo(self.in_words(line).replace("sigma", "σ"))  # flags first, then σ
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}
