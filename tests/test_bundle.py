@@ -231,8 +231,8 @@ def test_covariances_are_never_scaled_below_the_a_priori_precision():
     def stated(k):  # no culling, no Huber weights: they see the stated σ, and the solution would differ
         b = sb.block
         return adjust_block(dataclasses.replace(b, obs_sigma=b.obs_sigma * k, point_sigma=b.point_sigma * k),
-                            BundleOptions(snooping=False, huber_k=1e9, skip_c=1e9))
-    sb = simulate_block(seed=5, strips=2, frames_per_strip=5, blunder_fraction=0.0)
+                            BundleOptions(snooping=False, huber_k=1e9, skip_c=1e9, estimate_image_sigma=False))
+    sb = simulate_block(seed=5, strips=2, frames_per_strip=5, blunder_fraction=0.0)  # the global σ0 rule alone
     honest, pessimistic, optimistic = stated(1.0), stated(3.0), stated(0.5)
     assert 0.8 < honest.sigma0 < 1.2 and 0.25 < pessimistic.sigma0 < 0.4 and 1.6 < optimistic.sigma0 < 2.4
     assert pessimistic.stats["covariance_scale"] == 1.0 and "not by sigma0" in pessimistic.stats["covariance_rule"]

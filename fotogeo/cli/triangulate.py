@@ -40,7 +40,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
-    from ..tools.triangulate.outputs import accuracy_lines, dropped_lines
+    from ..tools.triangulate.outputs import accuracy_lines, dropped_lines, variance_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -55,6 +55,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
     if st.get("covariance_rule"):
         click.echo(f"sigma of the results: {st['covariance_rule']}")
+    for line in variance_lines(rep):
+        click.echo(line)
     for line in accuracy_lines(rep):
         click.echo(line)
     quality = rep.get("frame_quality") or []

@@ -51,6 +51,7 @@ from .bundle_lm import State, levenberg_marquardt
 from .bundle_types import ROLES, BundleResult  # noqa: F401 (part of this module's API)
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
 from .bundle_result import make_result
+from .bundle_variance import dominant_group
 from .bundle_robust import (huber_weights, interior_correlations, largest_w, posterior, skipped, skipped_huber,
                             worst_per_point)
 
@@ -108,6 +109,8 @@ class BundleOptions:
     significance: float = 3.0
     max_iterations: int = 60
     max_residual_px: float = 10.0
+    #: estimate the image points' σ as a variance component when they drive σ₀ (:func:`_image_variance`)
+    estimate_image_sigma: bool = True
 
 
 def _robust_weights(pb, s, opts):
@@ -225,11 +228,39 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
                 break
             if not _snoop_round(run, pb, post, opts, rnd, blunders):
                 break
+    pb, s, post, factor = _image_variance(run, pb, s, post, opts, prog)
     prog.timings["total"] = time.perf_counter() - t0
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
     result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+    if factor is not None:
+        result.stats["variance_components"]["image"].update(factor)
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)
     return result
+
+
+def _image_variance(run, pb, s, post, opts, prog):
+    """``(pb, s, post, estimate)``: when the image points drive σ₀ (:func:`~fotogeo.orientation.bundle_variance.
+    dominant_group`: their a-priori σ too small, e.g. least-squares matching's formal σ), their σ is estimated
+    as a variance component (Förstner 1979): every image weight divided by ``σ̂_image²`` and the block solved
+    again, at most three times, until ``σ̂_image ≤ 1.05``. A parameter the images determine keeps its σ (its
+    cofactor grows by ``σ̂²`` as σ₀ falls by ``σ̂``); one a prior holds (the attitude of a short strip) is no
+    longer inflated by the images' σ₀. Only ever widens the image σ; ``estimate`` None when not applied, else
+    ``{"sigma0_given", "factor"}`` (the σ₀ of the image group with the given σ, the factor applied to it)."""
+    groups = post.groups
+    if not opts.estimate_image_sigma or dominant_group(groups) != "image":
+        return pb, s, post, None
+    given, factor = groups["image"]["sigma0"], 1.0
+    for _ in range(3):
+        g = post.groups["image"]["sigma0"]
+        if not np.isfinite(g) or g <= 1.05:
+            break
+        factor *= g
+        pb = replace(pb, p0=pb.p0 / g ** 2)
+        s, it = _solve(pb, s, pb.p0, opts, prog.stage(0.95, 1.0, "image variance component"), "image variance")
+        run.iterations += it
+        run.keep(pb, s)
+        post = posterior(pb, s, pb.p0)
+    return pb, s, post, {"sigma0_given": float(given), "factor": float(factor)}
 
 
 def _cull_skipped(run, pb, s, huber) -> list:

@@ -71,7 +71,7 @@ def residuals(pb: Problem, s: State) -> tuple[np.ndarray, np.ndarray]:
     return bj.project_camera(c, s.interior, pb.scale) - pb.pixel, c[:, 2]
 
 
-def _eo_prior_residual(pb: Problem, s: State) -> np.ndarray:
+def eo_prior_residual(pb: Problem, s: State) -> np.ndarray:
     ang = bj.log_rotation(np.einsum("mji,mjk->mik", pb.eo_R, s.R))
     return np.concatenate([s.C - pb.eo_C, ang], axis=1)
 
@@ -107,7 +107,7 @@ def cost(pb: Problem, s: State, p: np.ndarray, huber: Huber | None = None) -> fl
     e = huber.cost(v, p) if huber is not None else float(np.sum(p * np.sum(v * v, axis=1)))
     e += float(np.sum(pb.ctrl_w * (s.X - pb.ctrl_xyz) ** 2))
     if pb.eo_w.any():
-        e += float(np.sum(pb.eo_w * _eo_prior_residual(pb, s) ** 2))
+        e += float(np.sum(pb.eo_w * eo_prior_residual(pb, s) ** 2))
     return e
 
 
@@ -120,7 +120,7 @@ def linearise(pb: Problem, s: State, p: np.ndarray):
     J_c = np.concatenate([J_eo, J_int[:, :, st.free_interior]], axis=2)
     k = len(st.free_interior)
     U_prior = np.concatenate([pb.eo_w.reshape(-1), np.zeros(k)])
-    g_prior = np.concatenate([(pb.eo_w * _eo_prior_residual(pb, s)).reshape(-1), np.zeros(k)]) \
+    g_prior = np.concatenate([(pb.eo_w * eo_prior_residual(pb, s)).reshape(-1), np.zeros(k)]) \
         if pb.eo_w.any() else np.zeros(st.n_camera)
     nm = assemble(st, J_c, J_p, v, p, U_prior=U_prior, g_prior=g_prior, V_prior=pb.ctrl_w,
                   g_b_prior=pb.ctrl_w * (s.X - pb.ctrl_xyz))

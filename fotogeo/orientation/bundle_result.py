@@ -139,7 +139,8 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     stats = {"sigma0": post.sigma0, "covariance_scale": s0, "covariance_rule": rule, "redundancy": int(post.redundancy), "n_frames": m,
              "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
              "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
-             "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r))}
+             "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r)),
+             "variance_components": post.groups}
     for role in ("control", "check"):
         sel = (block.role == role) & np.isfinite(xyz).all(axis=1)
         stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])

@@ -29,16 +29,17 @@ over flat ground against the flying heights) and it is held fixed.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import lapack
 
 from . import bundle_jacobian as bj
-from .bundle_lm import Huber, Problem, State, cost, linearise
+from .bundle_lm import Huber, Problem, State, eo_prior_residual, cost, linearise
 from .bundle_banded import selected_inverse
 from .bundle_inverse import inverse_blocks, observation_cofactors
 from .bundle_normals import reduced_system
+from .bundle_variance import variance_components
 
 CRITICAL_W = 3.29
 #: a residual axis whose redundancy number is below this is not testable (``w`` NaN): an error there
@@ -102,6 +103,7 @@ class Posterior:
     w: np.ndarray  # (n, 2) standardised residuals (NaN: not testable)
     v: np.ndarray  # (n, 2) image residuals
     w_control: np.ndarray  # (P, 3) standardised residuals of the control coordinates (NaN elsewhere, not testable)
+    groups: dict = field(default_factory=dict)  # σ̂ per observation group (fotogeo.orientation.bundle_variance)
 
 
 def _inverse(S: np.ndarray, st=None) -> np.ndarray:
@@ -139,7 +141,8 @@ def _dense_inverse(Sn):
 
 
 def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
-    """σ₀, the inverse blocks, redundancy numbers and standardised residuals at ``s``."""
+    """σ₀, the inverse blocks, redundancy numbers and standardised residuals at ``s``; σ̂ per observation group
+    (:mod:`fotogeo.orientation.bundle_variance`)."""
     nm, J_c, J_p, v = linearise(pb, s, p)
     S, _, Vinv = reduced_system(pb.st, nm, 0.0)
     S_inv = _inverse(S, pb.st)
@@ -160,7 +163,10 @@ def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
         qc = np.where(ctrl, 1.0 / pb.ctrl_w - np.diagonal(S_bb, axis1=1, axis2=2), np.nan)
         r_c = qc * pb.ctrl_w
         w_c = np.abs(s.X - pb.ctrl_xyz) / (s_t * np.sqrt(np.maximum(qc, 1e-12 / np.maximum(pb.ctrl_w, 1e-300))))
-    return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v, np.where(ctrl & (r_c >= MIN_REDUNDANCY), w_c, np.nan))
+    groups = variance_components(p, v, r, pb.ctrl_w, s.X - pb.ctrl_xyz, np.diagonal(S_bb, axis1=1, axis2=2),
+                                 pb.eo_w, eo_prior_residual(pb, s), np.diag(S_inv))
+    return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v, np.where(ctrl & (r_c >= MIN_REDUNDANCY), w_c, np.nan),
+                     groups)
 
 
 def largest_w(w: np.ndarray) -> np.ndarray:

@@ -121,7 +121,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
                             outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True,
                             **self.option_arguments(parameters, context))
-        from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines
+        from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines, variance_lines
         for line in dropped_lines(rep):  # first, as a warning: the flag named by the dialog's label
             feedback.pushWarning(self.in_words(line))
         st = rep["statistics"]
@@ -130,6 +130,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
                           f"{st['n_blunders']} blunders culled")
         if st.get("covariance_rule"):  # whether σ0 widens the σ reported, as the command line says
             feedback.pushInfo(f"σ of the results: {st['covariance_rule']}")
+        for line in variance_lines(rep):  # which observations drive σ0, and what to do
+            feedback.pushInfo(self.in_words(line).replace("sigma", "σ"))  # flags first, then σ
         for line in accuracy_lines(rep):
             feedback.pushInfo(line)
         start = rep.get("start") or {}

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ...crs import crs_text
+from ...orientation.bundle_variance import dominant_group
 from .statistics import LARGEST, adjusted_pixels, matching_summary, point_sigma_by_role, residuals_by_size, stage_timings
 
 FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
@@ -259,3 +260,57 @@ def dropped_lines(rep: dict) -> list:
     which = "; ".join(f"{d['name']} — {d['reason']}" for d in dropped)
     return [f"{len(dropped)} of {rep['statistics']['n_frames'] + len(dropped)} frames dropped (undetermined): "
             f"{which}; --undetermined fail stops the run instead"]
+
+
+#: the observation groups of :mod:`fotogeo.orientation.bundle_variance` in words, with the unit of their σ
+_GROUPS = {"image": ("image points", "px"), "control": ("control coordinates", "m"),
+           "position_prior": ("GPS positions", "m"), "attitude_prior": ("attitude priors", "deg")}
+#: what to do when a group drives σ0, in the command line's words
+_DRIVEN = {"image": "the image points' a-priori sigma is too small (matched tie points carry least-squares "
+                    "matching's formal sigma, which is optimistic)",
+           "control": "the control coordinates' sigma is too small or a control point is wrong: check the GCPs or "
+                      "give --control-sigma-xy/--control-sigma-z",
+           "position_prior": "the GPS positions are further off than their sigma says: give a realistic "
+                             "--eo-sigma-position/--eo-sigma-height, or control points",
+           "attitude_prior": "the attitude priors are further off than their sigma says: give a realistic "
+                             "--eo-sigma-angle"}
+
+
+def variance_lines(rep: dict) -> list:
+    """σ0 per observation group (``statistics.variance_components``, :mod:`fotogeo.orientation.bundle_variance`)
+    in words: each group's σ0 and what its observations measure in their unit, a group the images cannot check
+    said so; and, when one group drives σ0, which one, what it does to the σ reported and what to do."""
+    st = rep.get("statistics") or {}
+    groups = st.get("variance_components") or {}
+    if not groups:
+        return []
+    parts = []
+    for key, g in groups.items():
+        name, unit = _GROUPS.get(key, (key, ""))
+        s0, prior = g.get("sigma0"), g.get("a_priori", g.get("a_priori_px"))
+        if s0 is None or not np.isfinite(s0):
+            parts.append(f"{name} not checked by the other observations (redundancy {g['redundancy']:.1f})")
+        elif prior:
+            parts.append(f"{name} {s0:.2f} (a priori {prior:.3g} {unit}, measured ~{s0 * prior:.3g} {unit})")
+        else:
+            parts.append(f"{name} {s0:.2f}")
+    lines = ["sigma0 by observation group: " + "; ".join(parts)]
+    image = groups.get("image") or {}
+    if image.get("factor"):
+        given = image.get("a_priori_px", 0.0) / image["factor"]
+        lines.append(f"image points' sigma estimated from their residuals: {given:.3g} px given (least-squares "
+                     f"matching's formal sigma for matched tie points) gave them a sigma0 of "
+                     f"{image['sigma0_given']:.2f}; weighted as {image.get('a_priori_px', 0.0):.3g} px instead "
+                     f"(variance component), so a prior's sigma is not scaled by it")
+    top = dominant_group(groups)
+    if top is not None:
+        s0 = groups[top]["sigma0"]
+        lines.append(f"sigma0 is driven by the {_GROUPS.get(top, (top,))[0]} ({s0:.2f}): {_DRIVEN.get(top, '')}; "
+                     f"every sigma reported is scaled by sigma0 {float(rep.get('sigma0', s0)):.3g}, so what the other "
+                     f"observations hold (e.g. an attitude held by its prior) may read up to that many times less "
+                     f"precise than it is")
+        unchecked = [_GROUPS.get(k, (k,))[0] for k, g in groups.items()
+                     if g.get("sigma0") is None or not np.isfinite(g["sigma0"])]
+        if unchecked:  # an error in a group nothing checks shows in the others
+            lines[-1] += f" (or the {', '.join(unchecked)}, which nothing checks, are wrong)"
+    return lines
