@@ -24,6 +24,12 @@ left (bicubic, ``L'(x) = L(x + ¼)``, ``R'(x) = R(x − ¼)``: the disparity bec
 disparity plus ½ agrees with the first within ``lr_tolerance`` the two are averaged: their biases, half a period
 apart, cancel to first order. The second matching is checked against the first, not left–right again.
 
+**Median filter** (as Pandora/CARS filter their disparity maps, CNES 2020–2024): each kept disparity becomes
+the median of the kept disparities in its ``median`` x ``median`` neighbourhood (pixels without one ignored,
+none added: a hole stays a hole). SGM's sub-pixel disparities scatter from pixel to pixel by a fraction of a
+pixel with occasional larger errors; the median removes both without blurring a step of the surface by more
+than the window's half width (a median preserves edges that a mean smears).
+
 Disparities follow :mod:`fotogeo.stereo.rectify`: ``d = u_left − u_right`` (float32, NaN where none).
 Grey values are stretched to 8 bits between the 0.5 and 99.5 percentiles of each image's valid pixels.
 """
@@ -99,11 +105,38 @@ def _cancel_subpixel_error(m, L, R, dl, dmin: int, ndisp: int, tolerance: float)
     return np.where(both, 0.5 * (dl + ds), dl)
 
 
+#: rows of disparities median-filtered at once (bounds the filter's stack of ``median²`` shifted copies)
+MEDIAN_ROWS = 128
+
+
+def median_filter(d, size: int) -> np.ndarray:
+    """``d`` (float32, NaN where none) with each finite value replaced by the median of the finite values in its
+    ``size`` x ``size`` neighbourhood (the even count's two middle values averaged); NaN stays NaN."""
+    if size <= 1:
+        return d
+    r = size // 2
+    rows = d.shape[0]
+    pad = np.pad(np.asarray(d, np.float32), r, constant_values=np.nan)
+    out = np.array(d, np.float32, copy=True)
+    for a in range(0, rows, MEDIAN_ROWS):
+        b = min(rows, a + MEDIAN_ROWS)
+        stack = np.stack([pad[a + i:b + i, j:j + d.shape[1]] for i in range(size) for j in range(size)])
+        stack.sort(axis=0)  # NaN sorts last
+        n = np.isfinite(stack).sum(axis=0)
+        lo = np.take_along_axis(stack, np.maximum(n - 1, 0)[None] // 2, axis=0)[0]
+        hi = np.take_along_axis(stack, (n // 2)[None], axis=0)[0]
+        keep = np.isfinite(d[a:b])
+        out[a:b][keep] = (0.5 * (lo + hi))[keep]
+    return out
+
+
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
-              lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True) -> np.ndarray:
+              lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
+              median: int = 5) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
-    docstring; ``half_shift``: the sub-pixel error cancellation)."""
+    docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
+    none)."""
     k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
     valid_left = cv2.erode(valid_left.astype(np.uint8), k).astype(bool)
     valid_right = cv2.erode(valid_right.astype(np.uint8), k).astype(bool)
@@ -124,4 +157,4 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
     dl[~ok] = np.nan
     if half_shift:
         dl = _cancel_subpixel_error(m, L, R, dl, dmin, ndisp, lr_tolerance)
-    return dl
+    return median_filter(dl, median)
