@@ -24,6 +24,15 @@ left (bicubic, ``L'(x) = L(x + ¼)``, ``R'(x) = R(x − ¼)``: the disparity bec
 disparity plus ½ agrees with the first within ``lr_tolerance`` the two are averaged: their biases, half a period
 apart, cancel to first order. The second matching is checked against the first, not left–right again.
 
+**Penalties scaled to the contrast.** SGBM's matching cost of a pixel grows with the grey-value gradients of
+the images (its Birchfield–Tomasi cost is taken on the row derivative clipped to ``preFilterCap``), while the
+penalties ``P1``, ``P2`` are constants: on images of strong local contrast the data term outweighs the
+smoothness term and the disparities turn rough and fail the left–right check where the cost is ambiguous (steep
+slopes, shadows). The penalties are OpenCV's suggested ``8·block²`` and ``32·block²`` times
+``max(1, c / CONTRAST_REF)``, ``c`` the median clipped row gradient (3 x 3 Sobel, as SGBM's pre-filter) of the
+left image's valid pixels: the ratio of smoothness to data term stays that of images of ``CONTRAST_REF``
+(the gradient of the rendered test blocks the defaults were chosen on) and is never weaker than OpenCV's.
+
 **Median filter** (as Pandora/CARS filter their disparity maps, CNES 2020–2024): each kept disparity becomes
 the median of the kept disparities in its ``median`` x ``median`` neighbourhood (pixels without one ignored,
 none added: a hole stays a hole). SGM's sub-pixel disparities scatter from pixel to pixel by a fraction of a
@@ -65,11 +74,28 @@ def texture(img8) -> np.ndarray:
     return np.sqrt(np.maximum(cv2.blur(g * g, k) - m * m, 0.0))
 
 
-def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int):
+#: SGBM's pre-filter clips the row derivative to this (``preFilterCap``)
+PREFILTER_CAP = 63
+#: the median clipped row gradient (grey levels, 3 x 3 Sobel of the 8-bit stretch) at which OpenCV's suggested
+#: penalties hold (module docstring)
+CONTRAST_REF = 32.0
+
+
+def contrast(img8, valid) -> float:
+    """The median of ``|∂x|`` (3 x 3 Sobel, clipped at ``PREFILTER_CAP``) over the ``valid`` pixels of ``img8``."""
+    if not valid.any():
+        return CONTRAST_REF
+    g = np.abs(cv2.Sobel(img8, cv2.CV_32F, 1, 0, ksize=3))
+    return float(np.median(np.minimum(g[valid], PREFILTER_CAP)))
+
+
+def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int,
+             scale: float = 1.0):
     return cv2.StereoSGBM_create(minDisparity=dmin, numDisparities=ndisp, blockSize=block,
-                                 P1=8 * block * block, P2=32 * block * block, disp12MaxDiff=-1,
+                                 P1=int(round(8 * block * block * scale)), P2=int(round(32 * block * block * scale)),
+                                 disp12MaxDiff=-1,
                                  uniquenessRatio=uniqueness, speckleWindowSize=speckle_window,
-                                 speckleRange=speckle_range, preFilterCap=63, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY)
+                                 speckleRange=speckle_range, preFilterCap=PREFILTER_CAP, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY)
 
 
 def _sgbm(matcher, left, right, dmin: int, ndisp: int) -> np.ndarray:
@@ -133,16 +159,17 @@ def median_filter(d, size: int) -> np.ndarray:
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
-              median: int = 5) -> np.ndarray:
+              median: int = 5, scale_penalties: bool = True) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
-    none)."""
+    none; ``scale_penalties``: P1, P2 scaled to the contrast)."""
     k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
     valid_left = cv2.erode(valid_left.astype(np.uint8), k).astype(bool)
     valid_right = cv2.erode(valid_right.astype(np.uint8), k).astype(bool)
     L, R = to_uint8(left, valid_left), to_uint8(right, valid_right)
     dmin, ndisp = disparity_range(lo, hi)
-    m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range)
+    scale = max(1.0, contrast(L, valid_left) / CONTRAST_REF) if scale_penalties else 1.0
+    m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range, scale)
     dl = _sgbm(m, L, R, dmin, ndisp)
     dr = _sgbm(m, R[:, ::-1].copy(), L[:, ::-1].copy(), dmin, ndisp)[:, ::-1]
     rows, cols = dl.shape
