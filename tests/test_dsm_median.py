@@ -58,3 +58,29 @@ def test_median_cuts_the_scatter_of_a_noisy_pair(seed, shift, slope):
     assert _nmad(e1) <= 0.92 * _nmad(e0), (_nmad(e0), _nmad(e1))
     assert np.sqrt(np.mean(e1 ** 2)) <= 0.92 * np.sqrt(np.mean(e0 ** 2))
     assert abs(np.median(e1)) < 0.03
+
+
+def test_penalties_follow_the_contrast():
+    """``contrast`` is the median clipped row gradient: a sharp texture reads above ``CONTRAST_REF``, a smooth one
+    below; SGBM's P1/P2 grow with it above the reference and stay OpenCV's below."""
+    from fotogeo.stereo import dense
+    rng = np.random.default_rng(2)
+    img = texture(rng, (120, 160)).astype(np.float32)
+    ok = np.ones(img.shape, bool)
+    sharp = dense.contrast(dense.to_uint8(img, ok), ok)
+    smooth = dense.contrast(dense.to_uint8(cv2.GaussianBlur(img, (0, 0), 2.0), ok), ok)
+    assert smooth < dense.CONTRAST_REF < sharp <= dense.PREFILTER_CAP
+    m1 = dense._matcher(0, 16, 5, 10, 100, 2, 1.0)
+    m2 = dense._matcher(0, 16, 5, 10, 100, 2, 2.0)
+    assert (m1.getP1(), m1.getP2()) == (200, 800) and (m2.getP1(), m2.getP2()) == (400, 1600)
+
+
+@pytest.mark.data
+def test_ventoux_fills_more_of_its_overlap(data_dir, tmp_path):
+    """The Pleiades pair (strong local contrast: the penalties about doubled) gets a height on more of its
+    overlap than with OpenCV's constant penalties (measured: 86.3 % before, 88.3 % with the scaled penalties
+    and the median filter)."""
+    from fotogeo.tools.dsm import dsm
+    from test_dsm import _ventoux
+    rep = dsm(_ventoux(data_dir, tmp_path / "a", "right_image.geom"), tmp_path / "a.tif", rpc=True, resolution=0.5)
+    assert rep["completeness"] > 0.875, rep["completeness"]
