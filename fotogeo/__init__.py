@@ -73,9 +73,6 @@ from .errors import (  # noqa: F401
     VectorError,
 )
 
-from ._version import version as _read_version
-
-__version__ = _read_version()
 
 #: public tool functions: name -> module under fotogeo.tools
 _TOOLS = {"register": "register.tool", "match_images": "register.match", "orient": "orient.tool",
@@ -93,6 +90,10 @@ __all__ = ["__version__", "FotogeoError", "FotogeoWarning", "InputError", "Raste
 
 
 def __getattr__(name: str):
+    if name == "__version__":  # read on first use (an installed package's costs importlib.metadata's import)
+        from ._version import version
+        globals()[name] = value = version()
+        return value
     if name in _TOOLS or name in _CLASSES:
         module = f".tools.{_TOOLS[name]}" if name in _TOOLS else f".{_CLASSES[name]}"
         value = getattr(importlib.import_module(module, __name__), name)

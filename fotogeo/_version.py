@@ -8,11 +8,12 @@ Looked up in this order:
 3. the ``metadata.txt`` beside the package in the QGIS plugin zip, whose version
    ``scripts/build_plugin.py`` writes from pyproject.toml;
 4. ``0+unknown`` when none of them is there.
+
+``importlib.metadata`` (with ``email``, ``zipfile``, ``csv``) is imported only when step 2 is reached.
 """
 from __future__ import annotations
 
 import re
-from importlib import metadata
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
@@ -44,6 +45,7 @@ def version() -> str:
     found = _from_pyproject(_HERE.parent / "pyproject.toml")
     if found:
         return found
+    from importlib import metadata
     try:
         return metadata.version("fotogeo")
     except metadata.PackageNotFoundError:

@@ -6,6 +6,10 @@ options are generated from the tool's table in :mod:`fotogeo.options`
 :class:`fotogeo.errors.FotogeoError` are printed as one clear line without a traceback
 (:func:`fotogeo.cli.common.run_tool`). Exit codes, ``-v``/``-q`` logging, ``--json`` and deprecated
 option spellings: :mod:`fotogeo.cli.conventions`.
+
+A run imports only the module of the sub-command it runs (:data:`COMMANDS`; ``--help`` and ``main.commands``
+load them all) and reads the version only for ``--version``: a short ``ortho`` run's CPU time is mostly its
+imports.
 """
 from __future__ import annotations
 
@@ -13,32 +17,71 @@ import importlib
 
 import click
 
-from .. import __version__
 from . import conventions
 
-#: modules of this package that each define ``command`` (a click command, or a list of them).
-COMMAND_MODULES = ("register", "match", "fuse", "demo", "orient", "compare", "transfer", "targets", "points",
-                   "rpc_bias", "register_batch", "triangulate", "coreg", "interior",
-                   "ortho", "mosaic", "dsm")
+#: sub-command name -> the module of this package that defines it (``command``: a click command, or a list of
+#: them); ``tests/test_cli_lazy.py`` checks that this is what the modules define.
+COMMANDS = {"register": "register", "match": "match", "fuse": "fuse", "demo": "demo", "orient": "orient",
+            "compare-models": "compare", "transfer-points": "transfer", "measure-targets": "targets",
+            "points-to-layer": "points", "layer-to-points": "points", "rpc-bias": "rpc_bias",
+            "register-batch": "register_batch", "triangulate": "triangulate", "coreg": "coreg",
+            "interior": "interior", "ortho": "ortho", "mosaic": "mosaic", "dsm": "dsm"}
+#: the modules, in the order the commands were registered
+COMMAND_MODULES = tuple(dict.fromkeys(COMMANDS.values()))
 
 
 class _Group(click.Group):
     """The ``fotogeo`` group: every sub-command also takes ``--json``; deprecated option spellings are
-    rewritten (with a warning) before the sub-command parses them."""
+    rewritten (with a warning) before the sub-command parses them; a sub-command's module is imported when the
+    command is first looked up (:data:`COMMANDS`), all of them when ``commands`` is read."""
+
+    @property
+    def commands(self):
+        for module in COMMAND_MODULES:
+            self._load(module)
+        return self._loaded
+
+    @commands.setter
+    def commands(self, value):  # click.Group.__init__ sets it
+        self._loaded, self._modules = dict(value or {}), set()
+
+    def _load(self, module: str) -> None:
+        if module not in self._modules:
+            self._modules.add(module)
+            cmd = importlib.import_module(f"{__name__}.{module}").command
+            for c in (cmd if isinstance(cmd, list) else [cmd]):
+                self.add_command(c)
 
     def add_command(self, cmd, name=None):
         if isinstance(cmd, click.Command) and not any(p.name == "json_output" for p in cmd.params):
             cmd.params.append(click.Option(["--json", "json_output"], is_flag=True,
                                            help="Print the run's summary as JSON on stdout (human lines go to stderr)."))
-        super().add_command(cmd, name)
+        self._loaded[name or cmd.name] = cmd
+
+    def get_command(self, ctx, cmd_name):
+        if cmd_name in COMMANDS:
+            self._load(COMMANDS[cmd_name])
+        return self._loaded.get(cmd_name)
+
+    def list_commands(self, ctx):
+        return sorted(set(COMMANDS) | set(self._loaded))
 
     def resolve_command(self, ctx, args):
         name, cmd, rest = super().resolve_command(ctx, args)
         return name, cmd, conventions.rewrite_deprecated(cmd.name if cmd else name, rest)
 
 
+def _print_version(ctx, _param, value):
+    """``--version``: click's ``version_option`` message, the version read only when asked for."""
+    if value and not ctx.resilient_parsing:
+        from .. import __version__
+        click.echo(f"fotogeo, version {__version__}", color=ctx.color)
+        ctx.exit()
+
+
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="fotogeo")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
+              help="Show the version and exit.")
 @click.option("-v", "--verbose", count=True, help="Say more: -v each step, -vv debugging detail (logging).")
 @click.option("-q", "--quiet", is_flag=True, help="Errors only: no progress, no warnings.")
 @click.option("--json", "json_output", is_flag=True,
@@ -51,9 +94,3 @@ def main(verbose, quiet, json_output):
     """
     conventions.settings(verbose=verbose, quiet=quiet, json=json_output)
     conventions.setup_logging(verbose, quiet)
-
-
-for _name in COMMAND_MODULES:
-    _cmd = importlib.import_module(f"{__name__}.{_name}").command
-    for _c in (_cmd if isinstance(_cmd, list) else [_cmd]):
-        main.add_command(_c)

@@ -73,12 +73,16 @@ def whole_source(src, plan, budget: int = WHOLE_SOURCE_BYTES):
 
 
 @contextlib.contextmanager
-def source_handles(path, n: int):
-    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared)."""
+def source_handles(path, n: int, held: bool = False):
+    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared); ``held``: the
+    source is in memory (:func:`whole_source`), nothing is opened and the queue holds ``n`` Nones."""
     handles = queue.Queue()
     opened = []
     try:
         for _ in range(n):
+            if held:
+                handles.put(None)
+                continue
             cm = ropen(path)
             opened.append(cm)
             handles.put(cm.__enter__())

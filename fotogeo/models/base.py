@@ -133,19 +133,33 @@ def weighted_lstsq(A: np.ndarray, b: np.ndarray, w: np.ndarray, name: str) -> np
     return x
 
 
+#: :func:`newton_2d` evaluates a point and its four Jacobian neighbours in one call of ``apply`` up to this many points
+#: (a call's fixed cost dominates small sets; larger ones are evaluated in five calls, bounding the temporaries)
+NEWTON_BATCH_POINTS = 2 ** 16
+_NEWTON_STEPS = np.array([[0.0, 0.0], [1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+
+
 def newton_2d(apply: Callable[[np.ndarray], np.ndarray], d: np.ndarray, s: np.ndarray,
-              iterations: int, tol: float, eps: float = 1e-6) -> np.ndarray:
+              iterations: int, tol: float, eps: float = 1e-6, extra: np.ndarray | None = None) -> np.ndarray:
     """Solve ``apply(s) = d`` for ``s`` ``(N, 2)`` by Newton's method, starting from ``s``.
 
-    ``apply`` maps ``(N, 2)`` to ``(N, 2)``; its 2x2 Jacobian ``J = [jx jy]`` comes from central
-    differences with step ``eps``, and each step is ``Δs = J⁻¹ (apply(s) − d)`` by Cramer's
+    ``apply`` maps ``(M, 2)`` to ``(M, 2)`` (``(M, 2 + k)`` with ``extra``, per-point columns ``(N, k)`` such as
+    a fixed height, appended to every evaluation of that point); its 2x2 Jacobian ``J = [jx jy]`` comes from
+    central differences with step ``eps``, and each step is ``Δs = J⁻¹ (apply(s) − d)`` by Cramer's
     rule. Stops when every ``|Δs| < tol`` or after ``iterations``; points whose Jacobian is
-    singular (``|det J| ≤ 1e-15``) become NaN.
+    singular (``|det J| ≤ 1e-15``) become NaN. Up to :data:`NEWTON_BATCH_POINTS` points, ``s`` and its four
+    neighbours ``s ± eps`` go through ``apply`` in one call (the same positions as five calls).
     """
+    steps = _NEWTON_STEPS * eps
     for _ in range(iterations):
-        f = apply(s) - d
-        jx = (apply(s + [eps, 0]) - apply(s - [eps, 0])) / (2 * eps)
-        jy = (apply(s + [0, eps]) - apply(s - [0, eps])) / (2 * eps)
+        if len(s) <= NEWTON_BATCH_POINTS:
+            at = (s[None] + steps[:, None]).reshape(-1, 2)
+            v = apply(at if extra is None else np.column_stack([at, np.tile(extra, (5, 1))])).reshape(5, len(s), 2)
+        else:
+            v = [apply(p if extra is None else np.column_stack([p, extra])) for p in s[None] + steps[:, None]]
+        f = v[0] - d
+        jx = (v[1] - v[2]) / (2 * eps)
+        jy = (v[3] - v[4]) / (2 * eps)
         det = jx[:, 0] * jy[:, 1] - jy[:, 0] * jx[:, 1]
         det = np.where(np.abs(det) > 1e-15, det, np.nan)
         ds = np.column_stack([(jy[:, 1] * f[:, 0] - jy[:, 0] * f[:, 1]) / det,

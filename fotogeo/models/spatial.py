@@ -153,7 +153,7 @@ class FittedModel(Model):
         zn = (z - self.src_norm.offset[2]) / self.src_norm.scale[2]
         s0 = np.zeros((len(d), 2)) if start is None else self.src_norm.normalise(start)[:, :2]
         s0 = np.where(np.isfinite(s0), s0, 0.0)
-        s = newton_2d(lambda s2: self._apply(np.column_stack([s2, zn])), d, s0, iterations, tol)
+        s = newton_2d(self._apply, d, s0, iterations, tol, extra=zn[:, None])
         return self.src_norm.denormalise(np.column_stack([s, zn]))
 
 

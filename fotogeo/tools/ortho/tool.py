@@ -39,7 +39,7 @@ from ...geometry.dem import heights_at, underlying_dem
 from ...geometry.georeference import Georeference
 from ...geometry.lattice import ground_to_image_on_lattice
 from ...geometry.occlusion import visible_pixels
-from ...io.raster import AtomicOutputs, check_output, open_raster, ropen
+from ...io.raster import AtomicOutputs, check_output, open_raster
 from ...io.warp import grid_covering, warp_to_grid
 from ...io.warp_gdal import centres_to_map
 from ...pixels import HALF, outline
@@ -226,11 +226,10 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
     The one orthorectification of frames and RPC images (``fotogeo ortho`` and ``triangulate --orthorectify``)."""
     surface, step, pyramid = occlusion
     mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
+    nadir = " ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs))
     written = warp_to_grid(im.path, path, mapping, crs=crs, transform=grid.transform, width=grid.width,
                            height=grid.height, resampling=resampling, progress=progress, overviews=not cog,
-                           zlevel=ZLEVEL)
-    with ropen(path, "r+") as ds:
-        ds.update_tags(FOTOGEO_NADIR=" ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs)))
+                           zlevel=ZLEVEL, tags={"FOTOGEO_NADIR": nadir})
     if cog:
         from ...io.cog import convert_to_cog
         convert_to_cog(path, resampling)
