@@ -152,6 +152,7 @@ def main(argv=None):
     ap.add_argument("--tiles", help="comma-separated tile names of the split")
     ap.add_argument("--cases", help="comma-separated case labels or families (default: all 14)")
     ap.add_argument("--cache", type=Path, help="JSON file keeping the peers' scores between runs")
+    ap.add_argument("--out", type=Path, default=OUT, help=f"results JSON (default {OUT.relative_to(HERE.parent)})")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"surf_heldout: real data not found at {DATA} (set FOTOGEO_DATA)")
@@ -170,7 +171,8 @@ def main(argv=None):
     if cases:       # a partial case list is printed only
         return
     # rows of the tiles run replace their earlier rows; each split's summary covers its stored rows
-    old = json.loads(OUT.read_text()) if OUT.exists() else {}
+    out = args.out
+    old = json.loads(out.read_text()) if out.exists() else {}
     for s, tl in SPLITS.items():
         mine = {t[0] for t in tl}
         new = [r for r in rows if r["image"] in mine]
@@ -183,11 +185,11 @@ def main(argv=None):
                       "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     old["protocol"] = {"n_top": sp.N_TOP, "repeatability_px": sp.REP_TOL, "match_px": sp.MATCH_TOL,
                        "ratio": sp.RATIO, "fotogeo_threshold": 10.0}
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    tmp = OUT.with_suffix(".json.tmp")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(old, indent=1))
-    tmp.replace(OUT)
-    print(f"wrote {OUT.relative_to(HERE.parent)} ({len(rows)} pairs of this run)")
+    tmp.replace(out)
+    print(f"wrote {out} ({len(rows)} pairs of this run)")
 
 
 if __name__ == "__main__":
