@@ -19,6 +19,8 @@ repeatability >= mahotas' and matching score >= 0.8x OpenCV SIFT's (SIFT with fo
 4000 points.
 
 Peers' scores do not depend on fotogeo: ``--cache FILE`` keeps them between runs.
+``--gaussian``: fotogeo with ``surf(gaussian=True)`` (Gaussian-derivative Hessian), rows stored
+under ``<split>+gaussian``.
 Writes ``benchmarks/results/surf_heldout.json`` (a run's tiles replace their earlier rows there;
 a run with --cases only prints).
 """
@@ -92,9 +94,16 @@ SPLITS = {"dev": DEV, "heldout": HELDOUT, "heldout2": HELDOUT2, "heldout3": HELD
 PEERS = {"sift": run_sift_corrected, "mahotas": run_mahotas}
 
 
-def tile_rows(name, rel, crop, cases, cache, log=print, only=None):
-    """Protocol rows of one tile: fotogeo computed, peers from ``cache`` when present; ``only``:
-    the tile's own case list."""
+def run_gaussian(img):
+    """fotogeo's SURF with the Gaussian-derivative Hessian (``surf(gaussian=True)``)."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, gaussian=True)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
+def tile_rows(name, rel, crop, cases, cache, log=print, only=None, run_ours=run_ours):
+    """Protocol rows of one tile: fotogeo (``run_ours``) computed, peers from ``cache`` when
+    present; ``only``: the tile's own case list."""
     a, va = sp.load_tile(DATA, rel, crop)
     fa, peers_a = run_ours(a), {}
     rows = []
@@ -152,6 +161,8 @@ def main(argv=None):
     ap.add_argument("--tiles", help="comma-separated tile names of the split")
     ap.add_argument("--cases", help="comma-separated case labels or families (default: all 14)")
     ap.add_argument("--cache", type=Path, help="JSON file keeping the peers' scores between runs")
+    ap.add_argument("--gaussian", action="store_true",
+                    help="fotogeo with surf(gaussian=True); its rows are stored under '<split>+gaussian'")
     ap.add_argument("--out", type=Path, default=OUT, help=f"results JSON (default {OUT.relative_to(HERE.parent)})")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
@@ -164,7 +175,8 @@ def main(argv=None):
     for name, rel, crop, *only in tiles:
         if names and name not in names:
             continue
-        rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None)
+        rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None,
+                          run_ours=run_gaussian if args.gaussian else run_ours)
         if args.cache:
             args.cache.write_text(json.dumps(cache))
     report(rows)
@@ -173,7 +185,8 @@ def main(argv=None):
     # rows of the tiles run replace their earlier rows; each split's summary covers its stored rows
     out = args.out
     old = json.loads(out.read_text()) if out.exists() else {}
-    for s, tl in SPLITS.items():
+    for split, tl in SPLITS.items():
+        s = split + ("+gaussian" if args.gaussian else "")
         mine = {t[0] for t in tl}
         new = [r for r in rows if r["image"] in mine]
         if new:
