@@ -1,6 +1,6 @@
 """SURF on tiles of other sensors (issue 32): issue 19's protocol beyond its seven tiles.
 
-Run:  .venv/bin/python benchmarks/surf_heldout.py [--split dev|heldout|heldout2|all] [--tiles ...] [--cases ...]
+Run:  .venv/bin/python benchmarks/surf_heldout.py [--split dev|heldout|heldout2|heldout3|all] [--tiles ...] [--cases ...]
 
 The protocol of ``benchmarks/surf_protocol.py`` (top 1500 keypoints by |response|,
 repeatability within 2.5 px, ratio-0.8 matches correct within 3 px, all per min(n_A, n_B) in
@@ -11,12 +11,16 @@ area. Every image is the band mean stretched 1-99 % to 0..255 uint8 (``surf_prot
 
 The tiles are split: ``DEV`` tiles were used while changing SURF; ``HELDOUT`` tiles were run
 only once the changes were fixed; ``HELDOUT2`` tiles were chosen after ``HELDOUT`` had been
-looked at (and SURF changed for its misses), and run only once those changes were fixed. Targets (issue 32): on every tile and case, fotogeo's
+looked at (and SURF changed for its misses), and run only once those changes were fixed;
+``HELDOUT3`` tiles were fixed and run once with SURF unchanged before the work on
+``HELDOUT2``'s misses, and are the check of what that work changed. Targets (issue 32): on every tile and case, fotogeo's
 repeatability >= mahotas' and matching score >= 0.8x OpenCV SIFT's (SIFT with fotogeo's
 -0.25 px correction). fotogeo runs at threshold 10 (as in the protocol); mahotas 1.4.19 with
 4000 points.
 
 Peers' scores do not depend on fotogeo: ``--cache FILE`` keeps them between runs.
+``--gaussian``: fotogeo with ``surf(gaussian=True)`` (Gaussian-derivative Hessian), rows stored
+under ``<split>+gaussian``.
 Writes ``benchmarks/results/surf_heldout.json`` (a run's tiles replace their earlier rows there;
 a run with --cases only prints).
 """
@@ -72,13 +76,34 @@ HELDOUT2 = [
     ("drone_2189_big", "drone_snowpeak/img/IMG_2189.JPG", (1000, 2000, 2200, 2200), BIG_CASES),
     ("drone_2282_big", "drone_snowpeak/img/IMG_2282.JPG", (1100, 300, 2200, 2200), BIG_CASES),
 ]
-SPLITS = {"dev": DEV, "heldout": HELDOUT, "heldout2": HELDOUT2}
+#: A third held-out split, fixed (and run once with SURF unchanged) before any change aimed at
+#: the second one's misses: crops no split had used, none overlapping an earlier crop of the same
+#: frame or scene (drone frames IMG_2280, IMG_2281 (car park), IMG_2282 (road), IMG_2188,
+#: IMG_2213; Sentinel-2 crops of both dates west / north-east of every earlier one).
+HELDOUT3 = [
+    ("drone_2280_east", "drone_snowpeak/img/IMG_2280.JPG", (1200, 3300, 800, 800)),
+    ("drone_2281_carpark", "drone_snowpeak/img/IMG_2281.JPG", (2600, 1400, 800, 800)),
+    ("drone_2282_south", "drone_snowpeak/img/IMG_2282.JPG", (2400, 2700, 800, 800)),
+    ("drone_2188_east", "drone_snowpeak/img/IMG_2188.JPG", (1000, 3300, 800, 800)),
+    ("drone_2213_north", "drone_snowpeak/img/IMG_2213.JPG", (200, 3000, 800, 800)),
+    ("s2_ref_west", "s2_pair/ref_S2A_20160608T153121_T33UUU_sub.jp2", (1000, 200, 800, 800)),
+    ("s2_tgt_northeast", "s2_pair/tgt_S2A_20160529T153631_T33UUU_sub.jp2", (300, 1150, 800, 800)),
+    ("drone_2212_big", "drone_snowpeak/img/IMG_2212.JPG", (1256, 2408, 2200, 2200), BIG_CASES),
+]
+SPLITS = {"dev": DEV, "heldout": HELDOUT, "heldout2": HELDOUT2, "heldout3": HELDOUT3}
 PEERS = {"sift": run_sift_corrected, "mahotas": run_mahotas}
 
 
-def tile_rows(name, rel, crop, cases, cache, log=print, only=None):
-    """Protocol rows of one tile: fotogeo computed, peers from ``cache`` when present; ``only``:
-    the tile's own case list."""
+def run_gaussian(img):
+    """fotogeo's SURF with the Gaussian-derivative Hessian (``surf(gaussian=True)``)."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, gaussian=True)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
+def tile_rows(name, rel, crop, cases, cache, log=print, only=None, run_ours=run_ours):
+    """Protocol rows of one tile: fotogeo (``run_ours``) computed, peers from ``cache`` when
+    present; ``only``: the tile's own case list."""
     a, va = sp.load_tile(DATA, rel, crop)
     fa, peers_a = run_ours(a), {}
     rows = []
@@ -136,10 +161,13 @@ def main(argv=None):
     ap.add_argument("--tiles", help="comma-separated tile names of the split")
     ap.add_argument("--cases", help="comma-separated case labels or families (default: all 14)")
     ap.add_argument("--cache", type=Path, help="JSON file keeping the peers' scores between runs")
+    ap.add_argument("--gaussian", action="store_true",
+                    help="fotogeo with surf(gaussian=True); its rows are stored under '<split>+gaussian'")
+    ap.add_argument("--out", type=Path, default=OUT, help=f"results JSON (default {OUT.relative_to(HERE.parent)})")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"surf_heldout: real data not found at {DATA} (set FOTOGEO_DATA)")
-    tiles = DEV + HELDOUT + HELDOUT2 if args.split == "all" else SPLITS[args.split]
+    tiles = [t for tl in SPLITS.values() for t in tl] if args.split == "all" else SPLITS[args.split]
     names = args.tiles.split(",") if args.tiles else None
     cases = args.cases.split(",") if args.cases else None
     cache = json.loads(args.cache.read_text()) if args.cache and args.cache.exists() else {}
@@ -147,15 +175,18 @@ def main(argv=None):
     for name, rel, crop, *only in tiles:
         if names and name not in names:
             continue
-        rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None)
+        rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None,
+                          run_ours=run_gaussian if args.gaussian else run_ours)
         if args.cache:
             args.cache.write_text(json.dumps(cache))
     report(rows)
     if cases:       # a partial case list is printed only
         return
     # rows of the tiles run replace their earlier rows; each split's summary covers its stored rows
-    old = json.loads(OUT.read_text()) if OUT.exists() else {}
-    for s, tl in SPLITS.items():
+    out = args.out
+    old = json.loads(out.read_text()) if out.exists() else {}
+    for split, tl in SPLITS.items():
+        s = split + ("+gaussian" if args.gaussian else "")
         mine = {t[0] for t in tl}
         new = [r for r in rows if r["image"] in mine]
         if new:
@@ -167,11 +198,11 @@ def main(argv=None):
                       "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     old["protocol"] = {"n_top": sp.N_TOP, "repeatability_px": sp.REP_TOL, "match_px": sp.MATCH_TOL,
                        "ratio": sp.RATIO, "fotogeo_threshold": 10.0}
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    tmp = OUT.with_suffix(".json.tmp")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(old, indent=1))
-    tmp.replace(OUT)
-    print(f"wrote {OUT.relative_to(HERE.parent)} ({len(rows)} pairs of this run)")
+    tmp.replace(out)
+    print(f"wrote {out} ({len(rows)} pairs of this run)")
 
 
 if __name__ == "__main__":

@@ -25,6 +25,11 @@ SIFT_OFFSET = 0.25
 #: dense error 2.43 -> 2.29 m): small gains for up to 1.5x the time.
 PIPELINE_FINE_OCTAVE = False
 
+#: ``surf(gaussian=...)`` in the registration pipeline: box filters, as before the Gaussian layers;
+#: the pipeline's keypoints stay those its benchmarks measured (the Gaussian layers were measured on
+#: the SURF protocol only, docs/benchmarks/matching.md).
+PIPELINE_GAUSSIAN = False
+
 
 def ignore_specks(mask: np.ndarray | None, max_area: int = 64) -> np.ndarray | None:
     """``mask`` with invalid specks of at most ``max_area`` pixels marked valid again.
@@ -64,7 +69,8 @@ def detect(image: np.ndarray, mask: np.ndarray | None, detector: str = "surf", *
     if detector == "surf":
         from . import surf
         kw = {} if hessian_threshold is None else {"hessian_threshold": hessian_threshold}
-        r = surf(image, mask, max_keypoints=max_keypoints, upright=upright, upscale=PIPELINE_FINE_OCTAVE, **kw)
+        r = surf(image, mask, max_keypoints=max_keypoints, upright=upright, upscale=PIPELINE_FINE_OCTAVE,
+                 gaussian=PIPELINE_GAUSSIAN, **kw)
         return Keypoints(np.asarray(r.xy, float), np.asarray(r.descriptors, np.float32),
                          np.asarray(r.laplacian))
     if detector == "sift":

@@ -62,12 +62,14 @@ def _interior(y, r0, r1):
     return (y >= r0 - 0.5) & (y < r1 - 0.5)
 
 
-def detect(filled: np.ndarray, threshold: float, presmooth: float) -> dict:
-    """Octave 0 of :func:`hessian.detect` on the doubled image, in image coordinates: ``x``, ``y``
-    (centre convention), ``size`` (filter size / 2, image pixels) and the other fields as there."""
+def detect(filled: np.ndarray, threshold: float, presmooth: float, gaussian: bool = False) -> dict:
+    """Octave 0 of :func:`hessian.detect` (``gaussian`` as there) on the doubled image, in image
+    coordinates: ``x``, ``y`` (centre convention), ``size`` (filter size / 2, image pixels) and the
+    other fields as there."""
     parts = []
     for r0, r1, a0, a1 in strips(*filled.shape):
-        kf = hessian.detect(doubled(filled, a0, a1, presmooth), threshold, 1, blur=presmooth)
+        kf = hessian.detect(doubled(filled, a0, a1, presmooth), threshold, 1, blur=presmooth,
+                            gaussian=gaussian)
         y = _from_strip(kf["y"], a0)
         keep = _interior(y, r0, r1)
         kf = {k: v[keep] for k, v in kf.items()}
