@@ -210,6 +210,8 @@ def _dask_tiles(client, grid, matches, tiles, products, stage) -> None:
     ahead = AHEAD_PER_WORKER * max(1, len(client.scheduler_info().get("workers", {})))
     folder = None
     if products.cloud is not None:
+        for src in {id(s): s for m in light for s in m.sources}.values():
+            src.stretches()  # once here, sent with the pairs: not once per task
         out = Path(products.output)
         folder = Path(tempfile.mkdtemp(prefix=f".{out.stem}.points.", dir=out.parent))
     pending, nxt = deque(), 0
