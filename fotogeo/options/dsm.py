@@ -2,8 +2,10 @@
 :mod:`fotogeo.options` (standard library only, like it)."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from .products import ORTHO
-from .shared import DEM_HEIGHTS
+from .shared import DEM_HEIGHTS, SCHEDULER, WORKERS
 from .table import Option, Table
 
 #: dense matching of oriented images to a surface model (``fotogeo dsm``, fotogeo.tools.dsm)
@@ -37,4 +39,10 @@ DSM = Table(
     Option("fill", "bool", False, "Fill holes (interpolated cells are marked in a mask band)",
            "Fill the holes by interpolation (Telea); a fourth band marks the filled cells (1). Default: holes "
            "stay nodata."),
+    replace(SCHEDULER, label="Dask scheduler address for the output tiles (empty = this process)",
+            help="Match the output tiles as tasks on this Dask scheduler, e.g. tcp://host:8786 (the workers must "
+                 "see the same paths) [this process].", advanced=True),
+    replace(WORKERS, label="Local Dask workers for the output tiles (0 = none: this process)",
+            help="Match the output tiles as tasks on a local Dask cluster of N processes [0: in this process].",
+            advanced=True),
 )

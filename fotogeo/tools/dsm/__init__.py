@@ -18,7 +18,9 @@
 4. **fusion** (:mod:`fotogeo.stereo.fusion`): the pairs' points on one north-up grid (``--resolution``,
    ``--crs``, ``--bounds``), the median of the pairs, a count and a spread band; holes stay nodata unless
    ``--fill`` (then marked in a fourth band); output tile by output tile for frames and RPC pairs alike
-   (:mod:`.matching`), so memory is bounded by the tile, not the images or the grid;
+   (:mod:`.matching`), so memory is bounded by the tile, not the images or the grid; the tiles run in this
+   process or, with ``--workers``/``--scheduler``, as Dask tasks on the cluster of ``triangulate`` and ``mosaic``
+   (each task reads its own windows; this process writes the returned tiles);
 5. **outputs** (:mod:`.outputs`), all or nothing: the DSM (COG layout), ``--point-cloud`` (LAS 1.4 with the CRS
    as WKT and the left image's colours, :mod:`fotogeo.io.las`) and ``--report`` (JSON: pairs kept and left out
    and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings).

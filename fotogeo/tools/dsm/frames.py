@@ -31,16 +31,26 @@ STRIP = 384
 MARGIN = 48
 
 
+class FrameRays:
+    """The map-frame ray directions of source pixels (corner convention) of a frame: the pixels undistorted
+    (:func:`fotogeo.orientation.bundle_jacobian.undistort_rays`) and turned by the rotation ``M`` (camera → map).
+    A class, not a closure, so that a pair's views pickle into a Dask task."""
+
+    def __init__(self, interior, scale, M):
+        self.interior, self.scale, self.M = interior, scale, M
+
+    def __call__(self, px) -> np.ndarray:
+        return bj.undistort_rays(np.asarray(px, float), self.interior, self.scale) @ self.M.T
+
+
 def frame_view(im) -> FrameView:
-    """The :class:`FrameView` of an :class:`~fotogeo.tools.ortho.inputs.OrthoImage` of a frame."""
+    """The :class:`FrameView` of an :class:`~fotogeo.tools.ortho.inputs.OrthoImage` of a frame (picklable: its
+    model's ``forward`` and a :class:`FrameRays`)."""
     m = im.model
     M = m.frame.eo.rotation_cv
     cam = m.frame.camera
-
-    def rays(px):
-        return bj.undistort_rays(np.asarray(px, float), m.interior, m.scale) @ M.T
-
-    return FrameView(im.name, m.frame.eo.centre, M, 0.5 * (cam.fx + cam.fy), (im.width, im.height), m.forward, rays)
+    return FrameView(im.name, m.frame.eo.centre, M, 0.5 * (cam.fx + cam.fy), (im.width, im.height), m.forward,
+                     FrameRays(m.interior, m.scale, M))
 
 
 def _remap(img, mx, my, interpolation=cv2.INTER_LINEAR):

@@ -127,7 +127,8 @@ class SourceImage:
     def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
         return self.read(x0, y0, x1, y1, k).astype(np.float32).mean(axis=0)
 
-    def _stretches(self) -> list:
+    def stretches(self) -> list:
+        """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""
         if self._stretch is None:
             k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
             data = self.read(0, 0, self.width, self.height, k)
@@ -144,7 +145,7 @@ class SourceImage:
         """Three uint8 ``(rows, cols)`` colour bands of the window (class docstring)."""
         data = self.read(x0, y0, x1, y1)
         out = []
-        for b, s in zip(data, self._stretches()):
+        for b, s in zip(data, self.stretches()):
             if s is None:
                 out.append(b)
             else:

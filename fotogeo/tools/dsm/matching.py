@@ -9,13 +9,27 @@ the two planes onto the convex hull of its corners' images); :func:`.frames.dens
 by strip, reading only the source windows it needs. The points land on the tile's own grid (one
 :class:`~fotogeo.stereo.fusion.PairLayer` per pair), the pairs are fused there, and :class:`.outputs.Products`
 writes the tile. The point cloud gets each point once: those whose cell lies in the tile's core.
+
+**Tiles as Dask tasks** (``scheduler`` / ``workers``: the options and the cluster of ``triangulate`` and
+``mosaic``, :func:`fotogeo.tools.common.dask_cluster.connect`): each task gets the pairs as they are matched
+here — paths of the images and the small parameters of their models and rectifications, never an open dataset or
+an array — reads its windows from disk, and returns the fused tile (height, count, spread over the expanded tile)
+with the pairs' counters; its points, when a point cloud is asked for, go to a file beside the output that this
+process copies into the cloud. This process only removes speckles from, fills and writes the returned tiles, in
+tile order (the in-process order: the same DSM, the same point cloud), with at most a few tiles in flight per
+worker: its memory stays that of a tile whatever the grid.
 """
 from __future__ import annotations
 
+import copy
 import math
+import shutil
+import tempfile
 import time
 import warnings
+from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -104,14 +118,120 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
     return fusion
 
 
-def match_tiles(grid: GridSpec, matches, products, stage, timings: dict) -> None:
+def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None) -> None:
     """Match ``matches`` (:class:`PairMatch`, or RPC pairs' :class:`.rpc_pairs.RpcPairMatch`: anything with
-    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``) tile by tile onto ``grid`` and hand
-    each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds."""
+    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``, ``stats``) tile by tile onto
+    ``grid`` and hand each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets
+    each pair's seconds. With ``scheduler`` or ``workers`` the tiles are Dask tasks (module docstring)."""
     tiles = list(grid.tiles(TILE_CELLS, TILE_MARGIN if TILE_CELLS < max(grid.width, grid.height) else 0))
-    for k, (core, expanded) in enumerate(tiles):
-        stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")
-        fusion = _tile(matches, grid.sub(*expanded), grid.sub(*core), products.cloud)
-        products.add(core, expanded, *fusion.result())
+    if scheduler or workers:
+        from ..common.dask_cluster import connect
+        client, close = connect(None, scheduler, workers, what="dsm --scheduler/--workers")
+        try:
+            _dask_tiles(client, grid, matches, tiles, products, stage)
+        finally:
+            close()
+    else:
+        for k, (core, expanded) in enumerate(tiles):
+            stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")
+            fusion = _tile(matches, grid.sub(*expanded), grid.sub(*core), products.cloud)
+            products.add(core, expanded, *fusion.result())
     for m in matches:
         timings[m.name] = round(timings.get(m.name, 0.0) + m.seconds, 3)
+
+
+#: tiles in flight per Dask worker (their results wait on the workers, not here)
+AHEAD_PER_WORKER = 2
+
+
+def _fresh(m):
+    """A copy of the pair ``m`` for one task: what matching needs, without its report entry, counters at zero."""
+    c = copy.copy(m)
+    c.pair, c.stats, c.points, c.seconds = None, {}, 0, 0.0
+    if hasattr(c, "miss"):
+        c.miss = []
+    return c
+
+
+def _merge(m, counters) -> None:
+    """Add a task's ``counters`` of the pair (:func:`tile_task`) to ``m``'s, as the in-process tiles would have."""
+    stats, points, seconds, miss = counters
+    for k, v in stats.items():
+        if isinstance(v, list):
+            m.stats.setdefault(k, []).extend(v)
+        else:
+            m.stats[k] = m.stats.get(k, 0) + v
+    m.points += points
+    m.seconds += seconds
+    if miss is not None:
+        m.miss.extend(miss)
+
+
+class _PointFile:
+    """A task's points (the in-process cloud's ``write`` calls), saved as one ``.npz`` of numbered chunks."""
+
+    def __init__(self, path: str):
+        self.path, self.chunks = path, {}
+
+    def write(self, xyz, rgb) -> None:
+        k = len(self.chunks) // 2
+        self.chunks[f"p{k}"], self.chunks[f"c{k}"] = xyz, rgb
+
+    def save(self) -> str | None:
+        if not self.chunks:
+            return None
+        np.savez(self.path, **self.chunks)
+        return self.path
+
+
+def tile_task(matches, grid: GridSpec, core, expanded, cloud_path=None) -> tuple:
+    """One output tile on a Dask worker: ``((height, count, spread), counters per pair, points file or None)``
+    (module docstring); one thread for GDAL, OpenCV and BLAS."""
+    from ..common.dask_cluster import pin_threads
+    pin_threads()
+    ms = [_fresh(m) for m in matches]  # a worker's copies are shared by its tasks: each task counts its own
+    cloud = _PointFile(cloud_path) if cloud_path else None
+    fusion = _tile(ms, grid.sub(*expanded), grid.sub(*core), cloud)
+    counters = [(m.stats, m.points, m.seconds, getattr(m, "miss", None)) for m in ms]
+    return fusion.result(), counters, cloud.save() if cloud else None
+
+
+def _copy_points(path, cloud) -> None:
+    """The task's points file into the point cloud, chunk by chunk, then deleted."""
+    with np.load(path) as z:
+        for k in range(len(z.files) // 2):
+            cloud.write(z[f"p{k}"], z[f"c{k}"])
+    Path(path).unlink()
+
+
+def _dask_tiles(client, grid, matches, tiles, products, stage) -> None:
+    """The tiles as Dask tasks on ``client``, their results written in tile order (module docstring)."""
+    light = [_fresh(m) for m in matches]
+    ahead = AHEAD_PER_WORKER * max(1, len(client.scheduler_info().get("workers", {})))
+    folder = None
+    if products.cloud is not None:
+        for src in {id(s): s for m in light for s in m.sources}.values():
+            src.stretches()  # once here, sent with the pairs: not once per task
+        out = Path(products.output)
+        folder = Path(tempfile.mkdtemp(prefix=f".{out.stem}.points.", dir=out.parent))
+    pending, nxt = deque(), 0
+    try:
+        for k, (core, expanded) in enumerate(tiles):
+            stage(k / len(tiles), f"tile {k + 1} of {len(tiles)} (Dask)")
+            while nxt < len(tiles) and nxt <= k + ahead:
+                path = str(folder / f"tile_{nxt:06d}.npz") if folder else None
+                pending.append(client.submit(tile_task, light, grid, *tiles[nxt], path, pure=False))
+                nxt += 1
+            bands, counters, points = pending.popleft().result()
+            for m, c in zip(matches, counters):
+                _merge(m, c)
+            if points:
+                _copy_points(points, products.cloud)
+            products.add(core, expanded, *bands)
+    except BaseException:
+        for fut in pending:
+            fut.cancel()
+        raise
+    finally:
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)

@@ -121,8 +121,9 @@ def rpc_images(images, crs, dem) -> tuple:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0) -> dict:
-    """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s."""
+            overwrite, prog, t0, dask=(None, None)) -> dict:
+    """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
+    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
@@ -141,7 +142,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
     prog(0.1, "pointing corrected")
     return _match_and_write(ims, sources, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
                             resolution=resolution, bounds=bounds, refine=refine, fill=fill, point_cloud=point_cloud,
-                            report=report, overwrite=overwrite, prog=prog, t0=t0)
+                            report=report, overwrite=overwrite, prog=prog, t0=t0, dask=dask)
 
 
 def _gsd(im, z) -> float:
@@ -152,7 +153,7 @@ def _gsd(im, z) -> float:
 
 
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
-                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0) -> dict:
+                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
     polys = []
@@ -172,7 +173,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
         try:
-            matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings)
+            matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:
                 m.report()
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "

@@ -31,10 +31,13 @@ LOW_DENSITY = 0.5
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+        fill: bool = False, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
+        progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
-    filled cells); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report."""
+    filled cells); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report. The
+    output tiles run as Dask tasks with ``scheduler`` (a running cluster) or ``workers`` (a local cluster of that
+    many processes), else in this process (:mod:`.matching`)."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
     prog = as_progress(progress)
     t0 = time.process_time(), time.perf_counter()
@@ -54,12 +57,12 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                        crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
-                       report=report, overwrite=overwrite, prog=prog, t0=t0)
+                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
-                   overwrite=overwrite, prog=prog, t0=t0)
+                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
 
 
 def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
@@ -123,8 +126,8 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0) -> dict:
-    """The frame pipeline (package docstring)."""
+            overwrite, prog, t0, dask=(None, None)) -> dict:
+    """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     sources = [SourceImage(im.path) for im in ims]
@@ -159,7 +162,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
         try:
-            matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings)
+            matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
+                                 *dask)
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
                                   "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept)
                                   + "): the images may be textureless or cloud-covered where they overlap")
