@@ -61,13 +61,17 @@ def test_the_dsm_path_is_checked_before_the_adjustment(pair, tmp_path):
 
 def test_the_triangulate_folder_alone_orients_the_dsm(pair, tmp_path):
     """A user who triangulated with a camera held fixed (given, or from EXIF/XMP) makes the DSM from the output
-    folder alone: ``dsm IMAGES --orientation OUT/`` finds the camera there (it used to ask for --camera)."""
+    folder alone: ``dsm IMAGES --orientation OUT/`` finds the camera there (it used to ask for --camera) and the
+    map CRS in the orientation file's header (it used to ask for --crs); another --crs is refused by name."""
     from click.testing import CliRunner
 
     from fotogeo.cli import main
     _triangulate(pair, tmp_path / "block")
     out = tmp_path / "dsm.tif"
-    res = CliRunner().invoke(main, ["dsm", *map(str, pair["images"]), "--orientation", str(tmp_path / "block"),
-                                    "--crs", CRS, "-o", str(out)])
+    args = ["dsm", *map(str, pair["images"]), "--orientation", str(tmp_path / "block"), "-o", str(out)]
+    res = CliRunner().invoke(main, args)
     assert res.exit_code == 0, res.output
     assert accuracy(out)["rmse_m"] <= GSD
+    res = CliRunner().invoke(main, [*args, "--crs", "EPSG:32636", "--overwrite"])
+    assert res.exit_code != 0 and "exterior_orientation.txt' is in" in res.output and "--crs" in res.output, \
+        res.output
