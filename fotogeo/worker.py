@@ -190,13 +190,14 @@ def run_request(request: dict, job: _Job):
         raise ValueError(f"unknown tool {name!r}; one of {', '.join(TOOLS)}")
     module, attr = TOOLS[name]
     func = getattr(importlib.import_module(module), attr)
-    if request.get("cwd"):  # the caller's folder (the worker starts in the plugin's, see runner.start_worker)
-        os.chdir(request["cwd"])
+    previous = os.getcwd()  # relative paths are the caller's (the worker starts in the plugin's folder)
+    os.chdir(request.get("cwd") or previous)
     job.running = True
     try:
         result = func(*request.get("args", []), progress=job.progress, **request.get("kwargs", {}))
     finally:
         job.running = False
+        os.chdir(previous)  # per request: a worker serving another request starts from its own folder again
     return to_json(result)
 
 

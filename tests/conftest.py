@@ -21,6 +21,17 @@ def data_dir() -> Path:
     return DATA
 
 
+@pytest.fixture(scope="session")
+def blunder_scene():
+    """The synthetic relief scene of benchmarks/blunder_bench.py: the true models and a pool of 1500 points on its
+    DEM, shared by the blunder tests (built once per test process)."""
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from blunder_bench import pool, relief_dem, truths
+    dem = relief_dem()
+    return truths(dem), pool(dem, 1500)
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

@@ -16,7 +16,7 @@ from scipy.stats import chi2
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from blunder_bench import Scene, flagged, one_set, pool, relief_dem, truths  # noqa: E402
+from blunder_bench import Scene, flagged, one_set, pool, truths  # noqa: E402
 
 from fotogeo.models import get_model  # noqa: E402
 from fotogeo.orientation.blunders import BETA, _Fit, detect_blunders, noncentrality  # noqa: E402
@@ -24,19 +24,13 @@ from fotogeo.orientation.blunders import BETA, _Fit, detect_blunders, noncentral
 NOISE = 0.8
 
 
-@pytest.fixture(scope="module")
-def synthetic():
-    dem = relief_dem()
-    return truths(dem), pool(dem, 1500)
-
-
-def test_a_blunder_of_the_mdb_is_found_with_the_stated_power(synthetic):
+def test_a_blunder_of_the_mdb_is_found_with_the_stated_power(blunder_scene):
     """Plant a blunder of exactly the point's MDB in its least favourable direction: the point test (χ²(2), σ
     given, the Bonferroni level of 15 points) finds it in 1 − β = 80 % of 2000 noise draws (± 3 %). The model is
     linear (affine with height), so the deletion statistic of every draw is ``v_kᵀ R_k⁻¹ v_k`` with ``v = (I − H) y``
     (its equality with the drop of the sum of squares is tests/test_blunders.py's)."""
     from fotogeo.orientation.design import free_directions, jacobian
-    truth, points = synthetic
+    truth, points = blunder_scene
     cls = get_model("affine-height")
     ground, clean, _ = one_set(points, truth["affine-height"], 15, 0.0, 0.0, np.random.default_rng(7))
     test = detect_blunders(cls, ground, clean + np.random.default_rng(8).normal(0, NOISE, clean.shape), sigma=NOISE)
@@ -53,8 +47,8 @@ def test_a_blunder_of_the_mdb_is_found_with_the_stated_power(synthetic):
     assert np.mean(T / NOISE ** 2 > chi2.isf(0.01 / 15, 2)) == pytest.approx(1 - BETA, abs=0.03)
 
 
-def test_the_note_says_when_the_given_sigma_disagrees_with_the_residuals(synthetic):
-    truth, points = synthetic
+def test_the_note_says_when_the_given_sigma_disagrees_with_the_residuals(blunder_scene):
+    truth, points = blunder_scene
     cls = get_model("dlt")
     ground, pix, _ = one_set(points, truth["dlt"], 20, 0.0, NOISE, np.random.default_rng(21))
     right = detect_blunders(cls, ground, pix, sigma=NOISE)
@@ -66,9 +60,9 @@ def test_the_note_says_when_the_given_sigma_disagrees_with_the_residuals(synthet
     assert "the σ given looks too small" in too_small.note()
 
 
-def test_without_sigma_the_mdb_is_larger_than_with_it(synthetic):
+def test_without_sigma_the_mdb_is_larger_than_with_it(blunder_scene):
     """Estimating σ costs power: the F test's MDB exceeds the χ² test's at every point (same σ scale)."""
-    truth, points = synthetic
+    truth, points = blunder_scene
     cls = get_model("dlt")
     ground, pix, _ = one_set(points, truth["dlt"], 15, 0.0, NOISE, np.random.default_rng(22))
     given, estimated = detect_blunders(cls, ground, pix, sigma=NOISE), detect_blunders(cls, ground, pix)

@@ -13,19 +13,13 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from blunder_bench import flagged, one_set, pool, relief_dem, truths  # noqa: E402
+from blunder_bench import flagged, one_set  # noqa: E402
 
 from fotogeo.models import get_model  # noqa: E402
 from fotogeo.orientation.adjustment import fit_orientation  # noqa: E402
 from fotogeo.orientation.blunders import _Fit, detect_blunders  # noqa: E402
 
 NOISE = 0.8
-
-
-@pytest.fixture(scope="module")
-def scene():
-    dem = relief_dem()
-    return truths(dem), pool(dem, 1500)
 
 
 def _rates(scene, name, n, blunder, seed, trials, sigma=NOISE):
@@ -42,27 +36,27 @@ def _rates(scene, name, n, blunder, seed, trials, sigma=NOISE):
 
 
 @pytest.mark.parametrize("name", ["dlt", "affine-height", "projective"])
-def test_eight_clean_gcps_flag_nothing(scene, name):
+def test_eight_clean_gcps_flag_nothing(blunder_scene, name):
     """Measured false-alarm rates 0-1 % (σ given); at most 2 of 40 here."""
-    anything, _ = _rates(scene, name, 8, 0.0, seed=20261, trials=40)
+    anything, _ = _rates(blunder_scene, name, 8, 0.0, seed=20261, trials=40)
     assert anything <= 2 / 40
 
 
 @pytest.mark.parametrize("name", ["dlt", "affine-height"])
-def test_a_5px_blunder_among_15_is_flagged_alone(scene, name):
+def test_a_5px_blunder_among_15_is_flagged_alone(blunder_scene, name):
     """Measured: flagged alone in most sets (see the README's table); at least 27 of 40 here."""
-    _, alone = _rates(scene, name, 15, 5.0, seed=20262, trials=40)
+    _, alone = _rates(blunder_scene, name, 15, 5.0, seed=20262, trials=40)
     assert alone >= 27 / 40
 
 
-def test_a_10px_blunder_among_20_is_flagged_alone_without_a_given_sigma(scene):
-    _, alone = _rates(scene, "dlt", 20, 10.0, seed=20263, trials=25, sigma=None)
+def test_a_10px_blunder_among_20_is_flagged_alone_without_a_given_sigma(blunder_scene):
+    _, alone = _rates(blunder_scene, "dlt", 20, 10.0, seed=20263, trials=25, sigma=None)
     assert alone >= 22 / 25
 
 
-def test_the_deletion_statistic_is_the_drop_of_the_sum_of_squares(scene):
+def test_the_deletion_statistic_is_the_drop_of_the_sum_of_squares(blunder_scene):
     """For a linear model (affine-height) the closed form T_i equals SSR − SSR without point i (refits)."""
-    truth, points = scene
+    truth, points = blunder_scene
     cls = get_model("affine-height")
     ground, pix, _ = one_set(points, truth["affine-height"], 12, 4.0, NOISE, np.random.default_rng(3))
     inside = np.ones(12, bool)
@@ -79,9 +73,9 @@ def test_the_deletion_statistic_is_the_drop_of_the_sum_of_squares(scene):
     assert out.T[4] == pytest.approx(fit.T[4], rel=1e-6)
 
 
-def test_low_redundancy_says_suspect_not_blunder(scene):
+def test_low_redundancy_says_suspect_not_blunder(blunder_scene):
     """A 10 px blunder among 8 DLT GCPs without a given σ (2n − u = 5): flagged, but as a suspect."""
-    truth, points = scene
+    truth, points = blunder_scene
     cls = get_model("dlt")
     rng = np.random.default_rng(11)
     seen = []
@@ -92,8 +86,8 @@ def test_low_redundancy_says_suspect_not_blunder(scene):
     assert seen and set(seen) == {"suspect"}
 
 
-def test_orient_fit_removes_blunders_not_suspects(scene):
-    truth, points = scene
+def test_orient_fit_removes_blunders_not_suspects(blunder_scene):
+    truth, points = blunder_scene
     ground, pix, k = one_set(points, truth["dlt"], 15, 10.0, NOISE, np.random.default_rng(5))
     ids = np.array([f"g{i}" for i in range(15)])
     fit = fit_orientation("dlt", ground, pix, np.full(15, "control"), ids, remove_blunders=True, image_sigma=NOISE)

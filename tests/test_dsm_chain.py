@@ -36,9 +36,9 @@ def test_triangulate_writes_the_dsm_of_the_adjusted_frames(pair, tmp_path):
     assert rep["dsm"]["pairs_kept"] == 1 and rep["dsm"]["outputs"]["dsm"] == str(out)
     assert json.loads((tmp_path / "block" / "report.json").read_text())["dsm"]["completeness"] == \
         rep["dsm"]["completeness"]
-    # the camera held fixed was handed over in a temporary file, gone again
+    # the camera held fixed is written beside the orientation, so the folder alone serves dsm --orientation
     assert sorted(p.name for p in (tmp_path / "block").iterdir()) == sorted(
-        ["block.gpkg", "exterior_orientation.txt", "report.html", "report.json"])
+        ["block.gpkg", "camera.yaml", "exterior_orientation.txt", "report.html", "report.json"])
 
 
 def test_a_dsm_that_cannot_be_made_leaves_the_adjustment(pair, tmp_path, monkeypatch):
@@ -57,3 +57,21 @@ def test_the_dsm_path_is_checked_before_the_adjustment(pair, tmp_path):
     with pytest.raises(OutputError, match="DSM .* is also an input"):
         _triangulate(pair, tmp_path / "block", dsm=pair["images"][0])
     assert not (tmp_path / "block").exists()
+
+
+def test_the_triangulate_folder_alone_orients_the_dsm(pair, tmp_path):
+    """A user who triangulated with a camera held fixed (given, or from EXIF/XMP) makes the DSM from the output
+    folder alone: ``dsm IMAGES --orientation OUT/`` finds the camera there (it used to ask for --camera) and the
+    map CRS in the orientation file's header (it used to ask for --crs); another --crs is refused by name."""
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    _triangulate(pair, tmp_path / "block")
+    out = tmp_path / "dsm.tif"
+    args = ["dsm", *map(str, pair["images"]), "--orientation", str(tmp_path / "block"), "-o", str(out)]
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    assert accuracy(out)["rmse_m"] <= GSD
+    res = CliRunner().invoke(main, [*args, "--crs", "EPSG:32636", "--overwrite"])
+    assert res.exit_code != 0 and "exterior_orientation.txt' is in" in res.output and "--crs" in res.output, \
+        res.output

@@ -58,7 +58,8 @@ def test_triangulate_through_the_provider_loads_styled_layers(qgis_app, block_fi
     assert res["CHECK_RMSE_XY"] == pytest.approx(direct["statistics"]["check"]["rmse_planimetric_m"], rel=1e-6)
     assert res["SIGMA0"] == pytest.approx(direct["sigma0"], rel=1e-6) and res["BLUNDERS"] >= 0
     assert os.path.exists(res["REPORT_HTML"])
-    assert not (tmp_path / "out" / "camera.yaml").exists()  # no self-calibration asked (an unset SELF_CALIBRATION)
+    # no self-calibration asked (an unset SELF_CALIBRATION): the camera written is the one given, held fixed
+    assert "fixed:" in (tmp_path / "out" / "camera.yaml").read_text()
     layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
     assert {"Frame footprints", "Tie points", "Control and check points"} <= set(layers)
     control = layers["Control and check points"]
@@ -167,7 +168,7 @@ def test_triangulate_through_qgis_process(config, block_files, tmp_path):
     assert res["CHECK_RMSE_XY"] == pytest.approx(direct["statistics"]["check"]["rmse_planimetric_m"], rel=1e-6)
     assert res["CHECK_RMSE_Z"] == pytest.approx(direct["statistics"]["check"]["rmse_z_m"], rel=1e-6)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(
-        ["exterior_orientation.txt", "block.gpkg", "report.json", "report.html"])
+        ["exterior_orientation.txt", "camera.yaml", "block.gpkg", "report.json", "report.html"])
 
 
 def test_ortho_uncertainty_of_triangulate_outputs_loads_with_a_legend_in_metres(qgis_app, block_files, tmp_path):

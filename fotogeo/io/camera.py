@@ -130,6 +130,23 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     return out
 
 
+def exterior_orientation_crs(path):
+    """The CRS a fotogeo-written orientation file states in its header (``# fotogeo …, CRS EPSG:32654``, what
+    triangulate writes), or None when it states none (lines from elsewhere: the caller's CRS applies)."""
+    import re
+
+    from ..crs import parse_crs
+    text = read_text_file(Path(path), "exterior orientation file",
+                          hint="give the text file of 'name X Y Z omega phi kappa' lines")
+    for raw in text.splitlines():
+        if raw.strip() and not raw.lstrip().startswith("#"):
+            return None  # the header is above the first orientation line
+        found = re.match(r"^\s*#\s*fotogeo\b.*,\s*CRS\s+(\S.*?)\s*$", raw)
+        if found:
+            return parse_crs(found.group(1), f"the CRS written in {path}")
+    return None
+
+
 def _eo_fields(raw: str):
     """``[name, six values]`` of one line (:func:`read_exterior_orientation`), None for a blank or comment line;
     fewer fields when the line has fewer."""

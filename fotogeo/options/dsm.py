@@ -12,8 +12,8 @@ from .table import Option, Table
 DSM = Table(
     *ORTHO.only("camera", "eo").values(),  # the orientation files ortho reads, declared once
     Option("orientation", "folder", None, "triangulate's output folder (its camera and orientation)",
-           "triangulate's output folder: its exterior_orientation.txt (and camera.yaml when self-calibrated) "
-           "instead of --eo/--camera."),
+           "triangulate's output folder: its exterior_orientation.txt and camera.yaml instead of --eo "
+           "(and of --camera unless given)."),
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata, RPB/XML/.geom beside them)",
            "The images carry an RPC (GeoTIFF RPC tags, RPC/RPB/XML files or an OSSIM .geom beside them)."),
     Option("dem", "raster", None, "Reference DEM (disparity search range; empty = from sparse matches)",

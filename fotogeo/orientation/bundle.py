@@ -51,7 +51,7 @@ from .bundle_lm import State, levenberg_marquardt
 from .bundle_types import ROLES, BundleResult  # noqa: F401 (part of this module's API)
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
 from .bundle_result import make_result
-from .bundle_variance import dominant_group
+from .bundle_variance import images_too_strong
 from .bundle_robust import (huber_weights, interior_correlations, largest_w, posterior, skipped, skipped_huber,
                             worst_per_point)
 
@@ -239,15 +239,15 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
 
 
 def _image_variance(run, pb, s, post, opts, prog):
-    """``(pb, s, post, estimate)``: when the image points drive σ₀ (:func:`~fotogeo.orientation.bundle_variance.
-    dominant_group`: their a-priori σ too small, e.g. least-squares matching's formal σ), their σ is estimated
+    """``(pb, s, post, estimate)``: when the image points' σ̂ is the largest (:func:`~fotogeo.orientation.
+    bundle_variance.images_too_strong`: their a-priori σ too small, e.g. least-squares matching's formal σ), their σ is estimated
     as a variance component (Förstner 1979): every image weight divided by ``σ̂_image²`` and the block solved
     again, at most three times, until ``σ̂_image ≤ 1.05``. A parameter the images determine keeps its σ (its
     cofactor grows by ``σ̂²`` as σ₀ falls by ``σ̂``); one a prior holds (the attitude of a short strip) is no
     longer inflated by the images' σ₀. Only ever widens the image σ; ``estimate`` None when not applied, else
     ``{"sigma0_given", "factor"}`` (the σ₀ of the image group with the given σ, the factor applied to it)."""
     groups = post.groups
-    if not opts.estimate_image_sigma or dominant_group(groups) != "image":
+    if not opts.estimate_image_sigma or not images_too_strong(groups):
         return pb, s, post, None
     given, factor = groups["image"]["sigma0"], 1.0
     for _ in range(3):

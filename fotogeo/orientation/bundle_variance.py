@@ -84,3 +84,34 @@ def dominant_group(groups: dict) -> str | None:
     if finite[top] > DOMINANT_SIGMA0 and all(finite[top] > DOMINANT_RATIO * s for s in others):
         return top
     return None
+
+
+def images_too_strong(groups: dict, level: float = 0.95) -> bool:
+    """True when the image points' σ should be estimated: their σ̂ above :data:`DOMINANT_SIGMA0` and no other
+    group's σ̂ significantly larger (one-sided F-test at ``level``, ``F = σ̂_g² / σ̂_image²`` on ``(r_g, r_image)``
+    degrees of freedom). Unlike :func:`dominant_group` no margin over the others is asked: the image points hold
+    nearly all the redundancy, and weighted too strongly they push their misfit into the small groups — 8 control
+    points at centimetres then read σ̂ 2–4 on 2–4 of redundancy beside the images' 3, which says nothing about the
+    control's own σ. After the images' σ is estimated a group whose own σ is wrong keeps σ̂ > 1 and is named; one
+    that only carried the images' misfit falls to ≈ 1.
+
+    >>> images_too_strong({"image": {"sigma0": 2.9, "redundancy": 1e4},
+    ...                    "control": {"sigma0": 3.8, "redundancy": 2.4}})
+    True
+    >>> images_too_strong({"image": {"sigma0": 1.7, "redundancy": 300},
+    ...                    "position_prior": {"sigma0": 3.2, "redundancy": 20}})
+    False
+    """
+    from scipy.stats import f as f_distribution
+    image = groups.get("image") or {}
+    s_image = image.get("sigma0")
+    if s_image is None or not np.isfinite(s_image) or s_image <= DOMINANT_SIGMA0:
+        return False
+    r_image = float(image.get("redundancy") or np.inf)
+    for name, g in groups.items():
+        s = g.get("sigma0")
+        if name == "image" or s is None or not np.isfinite(s) or s <= s_image:
+            continue
+        if (s / s_image) ** 2 > f_distribution.ppf(level, float(g.get("redundancy") or np.inf), r_image):
+            return False
+    return True

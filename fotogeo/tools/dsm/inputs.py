@@ -11,8 +11,8 @@ from ...io.raster import gdal_env, open_raster, ropen
 
 
 def orientation_files(orientation, camera, eo) -> tuple:
-    """``(camera, eo)``: from triangulate's output folder ``orientation`` (its exterior_orientation.txt, and
-    camera.yaml when it self-calibrated; else ``camera``), or as given."""
+    """``(camera, eo)``: from triangulate's output folder ``orientation`` (its exterior_orientation.txt and
+    camera.yaml; ``camera``, when given, instead of the folder's), or as given."""
     if orientation is None:
         return camera, eo
     from ..triangulate.outputs import CAMERA_FILE, FILES
@@ -25,11 +25,10 @@ def orientation_files(orientation, camera, eo) -> tuple:
         raise InputError(f"--orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
                          f"{FILES[0]} in it)", option="orientation")
     cam = folder / CAMERA_FILE
-    if cam.is_file():
-        camera = cam
-    if camera is None:
-        raise InputError(f"--orientation {str(orientation)!r} holds no {CAMERA_FILE} (triangulate did not "
-                         f"self-calibrate): give the camera (--camera)", option="camera")
+    if camera is None and not cam.is_file():
+        raise InputError(f"--orientation {str(orientation)!r} holds no {CAMERA_FILE} (an older fotogeo's triangulate "
+                         f"wrote it only when self-calibrating): give the camera (--camera)", option="camera")
+    camera = camera if camera is not None else cam
     return camera, eo_path
 
 

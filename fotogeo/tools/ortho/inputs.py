@@ -15,8 +15,8 @@
 
 **Map CRS** (:func:`map_crs`): a fitted model's, the CRS of its GCPs (another ``--crs`` is refused); ``--crs``;
 else the DEM's horizontal CRS when projected; else the CRS of the
-orientation file (SfM); else the UTM zone of the image centre (RPC). Frame orientations from a ``.txt`` file
-are in the map CRS; an orientation file in another CRS than the one given is refused (mixed CRSs).
+orientation file (SfM, orthority, or the ``# fotogeo …, CRS …`` header triangulate writes); else the UTM zone of the image centre (RPC). Frame orientations from a ``.txt`` file
+without that header are in the map CRS; an orientation file in another CRS than the one given is refused (mixed CRSs).
 
 **Heights** (:func:`terrain`): the DEM (or a constant ``--height``), bilinear, queried in the map CRS. Its
 height reference is what ``--dem-heights`` says, else what its CRS states
@@ -37,6 +37,7 @@ from ...crs import parse_crs, require_projected, utm_crs_for
 from ...errors import FotogeoWarning, InputError
 from ...geometry.vertical import ShiftedHeights, crs_height_reference, horizontal_crs
 from ...io.block import frame_key
+from ...io.camera import exterior_orientation_crs
 from ...io.raster import open_raster, read_dem
 from ..common.checks import check_camera_size
 
@@ -135,10 +136,11 @@ def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
             if "states no CRS" not in str(exc):
                 raise
     block = block or read_orientation_file(eo, crs=crs, camera=camera, sfm_frame=sfm_frame, images=images)
-    if block is not None and crs is not None and block.crs is not None and not block.crs.equals(crs):
+    stated = block.crs if block is not None else exterior_orientation_crs(eo)
+    if crs is not None and stated is not None and not stated.equals(crs):
         from ...crs import short_name
-        raise InputError(f"--eo {str(eo)!r} is in {short_name(block.crs)} but the map CRS is {short_name(crs)}; "
-                         f"give --crs {short_name(block.crs)} (and a DEM in it or any CRS) or an orientation file in "
+        raise InputError(f"--eo {str(eo)!r} is in {short_name(stated)} but the map CRS is {short_name(crs)}; "
+                         f"give --crs {short_name(stated)} (and a DEM in it or any CRS) or an orientation file in "
                          f"the map CRS")
     return block
 
@@ -199,9 +201,11 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         if h.is_projected:
             return h, "the DEM's CRS (--dem)"
     if eo is not None and not rpc:
-        block = orientation_block(eo, None, camera, sfm_frame, images) if Path(eo).suffix.lower() != ".txt" else None
-        if block is not None and block.crs is not None:
-            return block.crs, f"the CRS of --eo {str(eo)!r}"
+        txt = Path(eo).suffix.lower() == ".txt"
+        stated = exterior_orientation_crs(eo) if txt else getattr(orientation_block(eo, None, camera, sfm_frame,
+                                                                                    images), "crs", None)
+        if stated is not None:
+            return require_projected(horizontal_crs(stated), f"CRS of --eo {str(eo)!r}"), f"the CRS of --eo {str(eo)!r}"
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
                          "projected CRS")
     if rpc and images:

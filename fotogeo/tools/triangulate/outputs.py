@@ -10,21 +10,19 @@ from ...crs import crs_text
 from ...orientation.bundle_variance import dominant_group
 from .statistics import LARGEST, adjusted_pixels, matching_summary, point_sigma_by_role, residuals_by_size, stage_timings
 
-FILES = ("exterior_orientation.txt", "block.gpkg", "report.json", "report.html")
-CAMERA_FILE = "camera.yaml"  # written with self-calibration
+FILES = ("exterior_orientation.txt", "camera.yaml", "block.gpkg", "report.json", "report.html")
+CAMERA_FILE = FILES[1]  # the camera the adjustment used: adjusted (self-calibration), given, or from EXIF/XMP
 ORTHO_SUFFIX = "_ortho.tif"  # <frame>_ortho.tif with orthorectify
 MOSAIC_FILES = ("mosaic.tif", "mosaic.gpkg")  # with mosaic: the mosaic and its seamlines (fotogeo mosaic's layers)
 
 
-def output_paths(folder, *, names, self_calibration, orthorectify, mosaic=False, uncertainty=False) -> dict:
-    """The final paths: ``eo``, ``gpkg``, ``json``, ``html``, ``camera`` (self-calibration),
+def output_paths(folder, *, names, orthorectify, mosaic=False, uncertainty=False) -> dict:
+    """The final paths: ``eo``, ``camera``, ``gpkg``, ``json``, ``html``,
     ``ortho:<frame>`` (orthorectify or mosaic), ``sigma:<frame>`` (uncertainty) and ``mosaic``, ``seamlines``
     (mosaic)."""
     from .ortho import sigma_paths
     folder = Path(folder)
-    paths = dict(zip(("eo", "gpkg", "json", "html"), (folder / f for f in FILES)))
-    if self_calibration:
-        paths["camera"] = folder / CAMERA_FILE
+    paths = dict(zip(("eo", "camera", "gpkg", "json", "html"), (folder / f for f in FILES)))
     if orthorectify or mosaic:
         paths.update({f"ortho:{n}": folder / f"{n}{ORTHO_SUFFIX}" for n in names})
     paths.update(sigma_paths({k: p for k, p in paths.items() if k.startswith("ortho:")}, uncertainty))
@@ -68,8 +66,8 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         write_exterior_orientation(out.temp(paths["eo"]), block.frames, result.eo,
                                    f"fotogeo triangulate: adjusted exterior orientation, CRS {crs_text(crs)}\n"
                                    f"name X Y Z omega phi kappa (metres, PATB degrees)")
-        if "camera" in paths:
-            write_interior_orientation(out.temp(paths["camera"]), "adjusted", result.camera, result.distortion)
+        write_interior_orientation(out.temp(paths["camera"]), "adjusted" if result.interior_sigma else "fixed",
+                                   result.camera, result.distortion)
         if ortho:
             temps = {n: out.temp(p) for n, p in ortho.items() if not isinstance(grids.get(n), str)}
             rep["orthorectified"] = orthorectify(temps, grids, images, heights, crs, resampling,

@@ -1,33 +1,24 @@
 """``fotogeo triangulate … --dsm DSM.tif``: the surface model of the block, made from the adjusted frames by the
 pipeline of ``fotogeo dsm`` (:func:`fotogeo.tools.dsm.dsm`: pairs, rectification, matching and fusion by tiles)
-with the orientation this run wrote (``exterior_orientation.txt``, and the adjusted camera), in the block's map
+with the orientation this run wrote (``exterior_orientation.txt`` and ``camera.yaml``), in the block's map
 CRS, its heights searched within the ``--dem`` when one was given. It runs after the adjustment's outputs are
 written: a DSM that cannot be made is reported (``report.json`` ``dsm.error``, a warning naming the fix) and
 leaves them in place, as a failing mosaic does.
 """
 from __future__ import annotations
 
-import os
-import tempfile
 import warnings
 from pathlib import Path
 
 
-def block_dsm(path, paths: dict, result, crs, dem, overwrite: bool, frames, progress) -> dict:
+def block_dsm(path, paths: dict, crs, dem, overwrite: bool, frames, progress) -> dict:
     """The DSM of the adjusted ``frames`` written to ``path`` (module docstring); ``paths`` the run's outputs
     (:func:`~fotogeo.tools.triangulate.outputs.output_paths`), ``crs`` the block's map CRS. Returns the DSM's report, or ``{"error": ...}``."""
     from ...errors import Cancelled, FotogeoError, FotogeoWarning
-    from ...io.block import write_interior_orientation
     from ..dsm import dsm
     folder = Path(paths["eo"]).parent
-    camera, temp = paths.get("camera"), None
     try:
-        if camera is None:  # the camera held fixed: written beside the orientation for the DSM's reader, then removed
-            fd, temp = tempfile.mkstemp(prefix=".camera.", suffix=".yaml", dir=folder)
-            os.close(fd)
-            write_interior_orientation(temp, "adjusted", result.camera, result.distortion)
-            camera = temp
-        return dsm([str(f) for f in frames], path, camera=camera, eo=paths["eo"], crs=crs.to_wkt(),
+        return dsm([str(f) for f in frames], path, camera=paths["camera"], eo=paths["eo"], crs=crs.to_wkt(),
                    dem=dem, overwrite=overwrite, progress=progress)
     except Cancelled:
         raise
@@ -36,6 +27,3 @@ def block_dsm(path, paths: dict, result, crs, dem, overwrite: bool, frames, prog
                    f"--orientation {folder})")
         warnings.warn(message, FotogeoWarning, stacklevel=2)
         return {"error": message}
-    finally:
-        if temp is not None and os.path.exists(temp):
-            os.unlink(temp)

@@ -31,8 +31,9 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 :mod:`fotogeo.tools.triangulate.outputs`):
 
 * ``exterior_orientation.txt`` — the adjusted orientations, in the input's format;
-* ``camera.yaml`` — with ``self_calibration``: the adjusted interior orientation (orthority's
-  YAML, :func:`fotogeo.io.block.write_interior_orientation`);
+* ``camera.yaml`` — the interior orientation the adjustment used, adjusted with ``self_calibration``, else the
+  given or EXIF/XMP camera (orthority's YAML, :func:`fotogeo.io.block.write_interior_orientation`), so that the
+  folder alone orients the frames for ``dsm --orientation`` and ``ortho``;
 * ``block.gpkg`` — layers ``tie_points`` (3-D, σ, rays), ``control`` (control and check points
   at their adjusted position, ``adjusted − given`` and role), ``frames`` (projection centres,
   angles, σ), ``residuals`` (every image observation at its ground point: frame, pixel, adjusted
@@ -176,7 +177,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
 
 def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
-    finals = output_paths(folder, names=[frame_key(f) for f in frames], self_calibration=kw["self_calibration"],
+    finals = output_paths(folder, names=[frame_key(f) for f in frames],
                           orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
     for path in finals.values():
         check_output(path, inputs, kw["overwrite"], "output")
@@ -232,7 +233,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"],
-                  surface=None if kw["dsm"] is None else partial(block_dsm, kw["dsm"], finals, result, block.crs, kw["dem"],
+                  surface=None if kw["dsm"] is None else partial(block_dsm, kw["dsm"], finals, block.crs, kw["dem"],
                                                                  kw["overwrite"]))
     prog(1.0, "done")
     return rep
