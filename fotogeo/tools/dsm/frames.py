@@ -17,14 +17,14 @@ the images.
 **Local disparity ranges** (:func:`local_range`; the approach of s2p, de Franchis et al. 2014, and CARS,
 Youssefi et al. 2020): the cost of semi-global matching is pixels x disparities, and a pair's range covers every
 height of the whole overlap. Each strip searches only the disparities of the heights around it: the heights of
-the pair's sparse matches within ``LOCAL_NEAR`` rectified pixels of the strip's core, their span widened by half
-itself and ``LOCAL_PAD_M`` metres on each side (the pair range's rule, :mod:`.plan`, on the strip's
-neighbourhood: relief between the matches — a roof, a tree, a steeper slope — rises above or dips below the
-matched heights by about the relief seen around, and the fixed metres cover a flat neighbourhood with one object
-the matches missed), turned into disparities over the strip's own pixels
-(:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an oblique pair one height's disparity varies across the
-image) plus ``PAD_PX``, and kept inside the pair's range. Fewer than ``LOCAL_MIN`` matches near a strip, or a DEM
-given (``--dem``), and the strip searches the pair's range.
+the pair's sparse matches within ``LOCAL_NEAR`` rectified pixels of the strip, their span widened by half itself
+and ``LOCAL_PAD_M`` metres on each side (the pair range's rule, :mod:`.plan`, on the strip's neighbourhood: relief
+between the matches — a roof, a tree, a steeper slope — rises above or dips below the matched heights by about
+the relief seen around, and the fixed metres cover a flat neighbourhood with an object the matches missed),
+turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an
+oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
+Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
+searches the DEM's range.
 """
 from __future__ import annotations
 
@@ -42,8 +42,8 @@ from .plan import disparity_bounds
 
 STRIP = 384
 MARGIN = 48
-#: a strip's local disparity range (module docstring): the sparse matches within this many rectified pixels of its
-#: core, at least ``LOCAL_MIN`` of them, their heights' span padded by half itself and ``LOCAL_PAD_M`` metres
+#: a strip's local disparity range (module docstring): the sparse matches within this many rectified pixels of
+#: it, at least ``LOCAL_MIN`` of them, their heights' span padded by half itself and ``LOCAL_PAD_M`` metres
 LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
@@ -197,6 +197,51 @@ def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
     return (a, b, True) if b > a else (lo, hi, False)
 
 
+def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
+           refine: bool):
+    """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
+    the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
+    columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
+    follow the width of the range, not its offset); None when nothing matched. ``stats`` as :func:`dense_points`."""
+    w, h = rp.size
+    u0, r0, u1, r1 = core_box
+    s = int(np.floor(rng[0]))  # the right image's window starts s columns left of the left's: search [sa, sb]
+    sa, sb, local = rng[0] - s, rng[1] - s, rng[2]
+    ca = max(0, min(u0, u0 - int(np.ceil(sb))) - MARGIN)
+    cb = min(w, max(u1, u1 - int(np.floor(sa))) + MARGIN)
+    wc = cb - ca
+    a, b = max(0, r0 - MARGIN), min(h, r1 + MARGIN)
+    g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
+    g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s)
+    if not v1m.any() or not v2m.any():
+        return None
+    stats["strips"] += 1
+    stats["local_strips"] += int(local)
+    stats["searched"] += g1.size * disparity_range(sa, sb)[1]
+    stats["searched_pixels"] += g1.size
+    d = disparity(g1, g2, v1m, v2m, sa, sb)
+    if refine:
+        d = refine_disparities(g1, g2, d)
+    core = (slice(r0 - a, r1 - a), slice(u0 - ca, u1 - ca))
+    shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
+    partner = np.zeros_like(v2m)
+    if abs(shift) < wc:
+        partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
+    d, vm = d[core] + s, (v1m & partner)[core]
+    rows, cols = np.nonzero(np.isfinite(d))
+    stats["matchable"] += int(vm.sum())
+    stats["matched"] += len(rows)
+    if not len(rows):
+        return None
+    u, v = cols + u0 + HALF, rows + r0 + HALF
+    P, _ = closest_points(rp.centres[0], rp.rays(u, v, 0), rp.centres[1], rp.rays(u - d[rows, cols], v, 1))
+    ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlim[0]) & (P[:, 2] <= zlim[1])
+    rgb = None
+    if rgb1 is not None:
+        rgb = np.stack([c[core][rows, cols] for c in rgb1], axis=1)[ok]
+    return P[ok], rgb
+
+
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
                  colours: bool = False, refine: bool = False, near=None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
@@ -204,46 +249,16 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
     sparse matches (:func:`guides`; None: every strip searches ``[lo, hi]``), ``zlim`` the heights kept;
     ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
     disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
-    matching (:func:`fotogeo.stereo.refine.refine`). Each strip is matched with ``MARGIN`` more rows and columns on
-    either side (and the right image's columns its disparity range needs), its source pixels read by windows:
-    memory follows the strip, not the images."""
+    matching (:func:`fotogeo.stereo.refine.refine`). The box is cut into strips of ``STRIP`` rows and its
+    columns, each matched by :func:`_strip` with its source pixels read by windows: memory follows the strip, not
+    the images."""
     w, h = rp.size
     u0, v0, u1, v1 = box or (0, 0, w, h)
     for k in ("matched", "matchable", "strips", "local_strips", "searched", "searched_pixels"):
         stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
-        sa, sb, local = local_range(rp, near, (u0, r0, u1, min(v1, r0 + STRIP)), lo, hi)
-        ca = max(0, min(u0, u0 - int(np.ceil(sb))) - MARGIN)
-        cb = min(w, max(u1, u1 - int(np.floor(sa))) + MARGIN)
-        wc = cb - ca
-        a, b = max(0, r0 - MARGIN), min(h, r0 + STRIP + MARGIN)
-        g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
-        g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca, cb)
-        if not v1m.any() or not v2m.any():
-            continue
-        stats["strips"] += 1
-        stats["local_strips"] += int(local)
-        stats["searched"] += g1.size * disparity_range(sa, sb)[1]
-        stats["searched_pixels"] += g1.size
-        d = disparity(g1, g2, v1m, v2m, sa, sb)
-        if refine:
-            d = refine_disparities(g1, g2, d)
-        core = (slice(r0 - a, min(v1, r0 + STRIP) - a), slice(u0 - ca, u1 - ca))
-        shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
-        partner = np.zeros_like(v2m)
-        if abs(shift) < wc:
-            partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
-        d, vm = d[core], (v1m & partner)[core]
-        rows, cols = np.nonzero(np.isfinite(d))
-        stats["matchable"] += int(vm.sum())
-        stats["matched"] += len(rows)
-        if not len(rows):
-            continue
-        u = cols + u0 + HALF
-        v = rows + r0 + HALF
-        P, _ = closest_points(rp.centres[0], rp.rays(u, v, 0), rp.centres[1], rp.rays(u - d[rows, cols], v, 1))
-        ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlim[0]) & (P[:, 2] <= zlim[1])
-        rgb = None
-        if rgb1 is not None:
-            rgb = np.stack([c[core][rows, cols] for c in rgb1], axis=1)[ok]
-        yield P[ok], rgb
+        core_box = (u0, r0, u1, min(v1, r0 + STRIP))
+        out = _strip(rp, views, sources, local_range(rp, near, core_box, lo, hi), zlim, stats, core_box, colours,
+                     refine)
+        if out is not None:
+            yield out
