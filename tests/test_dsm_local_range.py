@@ -55,12 +55,12 @@ def test_rendered_pair_searches_local_ranges_with_the_same_accuracy(tmp_path, mo
     used, strips = (int(x) for x in pair["local_range_strips"].split(" of "))
     lo, hi = pair["disparity_range_px"]
     assert strips >= 5 and used >= 0.8 * strips, pair["local_range_strips"]
-    assert pair["disparities_searched"] < 0.8 * (hi - lo), (pair["disparities_searched"], lo, hi)
     monkeypatch.setattr(frames, "LOCAL_MIN", 10 ** 9)
     rep_g, whole = _run(sc, tmp_path / "pair.tif", tmp_path / "pair.json")
     pair_g = next(p for p in rep_g["pairs"] if p["kept"])
     assert pair_g["local_range_strips"] == f"0 of {strips}"
     assert pair_g["disparities_searched"] >= hi - lo
+    assert pair["disparities_searched"] <= 0.85 * pair_g["disparities_searched"], (pair, pair_g)
     assert local["rmse"] <= max(1.05 * whole["rmse"], whole["rmse"] + 0.1 * sc["gsd"]), (local, whole)
     assert local["rmse"] <= sc["gsd"]
     assert rep["completeness"] >= rep_g["completeness"] - 0.01
