@@ -13,6 +13,18 @@ every side) and triangulates every matched pixel (:func:`fotogeo.stereo.rays.clo
 ``(points, colours)`` per strip. Every rectified strip is resampled (:func:`rectified`) from the window of the
 source image its pixels need (:class:`~fotogeo.tools.dsm.inputs.SourceImage`): memory follows the strip, not
 the images.
+
+**Local disparity ranges** (:func:`local_range`; the approach of s2p, de Franchis et al. 2014, and CARS,
+Youssefi et al. 2020): the cost of semi-global matching is pixels x disparities, and a pair's range covers every
+height of the whole overlap. Each strip searches only the disparities of the heights around it: the heights of
+the pair's sparse matches within ``LOCAL_NEAR`` rectified pixels of the strip, their span widened by half itself
+and ``LOCAL_PAD_M`` metres on each side (the pair range's rule, :mod:`.plan`, on the strip's neighbourhood: relief
+between the matches — a roof, a tree, a steeper slope — rises above or dips below the matched heights by about
+the relief seen around, and the fixed metres cover a flat neighbourhood with an object the matches missed),
+turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an
+oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
+Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
+searches the DEM's range.
 """
 from __future__ import annotations
 
@@ -22,13 +34,19 @@ import numpy as np
 from ...features.detect import detect
 from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
-from ...stereo.dense import disparity, to_uint8
+from ...stereo.dense import disparity, disparity_range, to_uint8
 from ...stereo.rays import closest_points
 from ...stereo.refine import refine as refine_disparities
 from ...stereo.rectify import FrameView, RectifiedPair
+from .plan import disparity_bounds
 
 STRIP = 384
 MARGIN = 48
+#: a strip's local disparity range (module docstring): the sparse matches within this many rectified pixels of
+#: it, at least ``LOCAL_MIN`` of them, their heights' span padded by half itself and ``LOCAL_PAD_M`` metres
+LOCAL_NEAR = 192
+LOCAL_MIN = 8
+LOCAL_PAD_M = 5.0
 
 
 class FrameRays:
@@ -110,11 +128,12 @@ def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000, ca
                  ids: tuple = (0, 1)) -> dict:
     """Sparse matches of the pair (module docstring): SIFT features of each source image (once per image and
     ``cache``, keyed by ``ids``), matched with Lowe's ratio test, their pixels followed into ``rp``'s rectified
-    images: ``{"n", "dy" (px), "d" (px), "points", "miss" (m)}``; ``n`` 0 when nothing matched."""
+    images: ``{"n", "dy" (px), "d" (px), "uv" (rectified left pixels), "points", "miss" (m)}``; ``n`` 0 when
+    nothing matched."""
     cache = {} if cache is None else cache
     (x1, d1), (x2, d2) = (_features(ids[i], views[i], sources[i], cache, max_features) for i in (0, 1))
-    empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "points": np.zeros((0, 3)), "miss": np.zeros(0),
-             "dy_median": 0.0, "dy_spread": 0.0}
+    empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "uv": np.zeros((0, 2)), "points": np.zeros((0, 3)),
+             "miss": np.zeros(0), "dy_median": 0.0, "dy_spread": 0.0}
     if d1 is None or d2 is None or len(x1) < 8 or len(x2) < 8:
         return empty
     pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
@@ -135,7 +154,7 @@ def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000, ca
     P, miss = closest_points(rp.centres[0], rp.rays(p1[:, 0], p1[:, 1], 0), rp.centres[1],
                              rp.rays(p2[:, 0], p2[:, 1], 1))
     ok = np.isfinite(miss)
-    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "points": P[ok],
+    return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "uv": p1[ok], "points": P[ok],
             "miss": miss[ok], "dy_median": med, "dy_spread": spread}
 
 
@@ -155,46 +174,91 @@ def sparse_problem(sp, max_px: float) -> str:
     return ""
 
 
+def guides(sp) -> np.ndarray:
+    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`sparse_check`: what
+    :func:`local_range` reads (small and picklable, kept with the pair)."""
+    return np.column_stack([sp["uv"], sp["points"][:, 2]]).astype(float)
+
+
+def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
+    """``(low, high, local)``: the disparity range of the rectified left pixels ``box`` ``(u0, v0, u1, v1)`` from
+    the sparse matches ``near`` (:func:`guides`) around it (module docstring), inside the pair's ``[lo, hi]``;
+    ``(lo, hi, False)`` when too few matches lie near the box."""
+    if near is None or len(near) < LOCAL_MIN:
+        return lo, hi, False
+    u0, v0, u1, v1 = box
+    u, v, z = near[:, 0], near[:, 1], near[:, 2]
+    z = z[(u >= u0 - LOCAL_NEAR) & (u <= u1 + LOCAL_NEAR) & (v >= v0 - LOCAL_NEAR) & (v <= v1 + LOCAL_NEAR)]
+    if len(z) < LOCAL_MIN:
+        return lo, hi, False
+    pad = 0.5 * (z.max() - z.min()) + LOCAL_PAD_M
+    a, b = disparity_bounds(rp, z.min() - pad, z.max() + pad, box, n=5)
+    a, b = max(lo, a), min(hi, b)
+    return (a, b, True) if b > a else (lo, hi, False)
+
+
+def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
+           refine: bool):
+    """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
+    the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
+    columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
+    follow the width of the range, not its offset); None when nothing matched. ``stats`` as :func:`dense_points`."""
+    w, h = rp.size
+    u0, r0, u1, r1 = core_box
+    s = int(np.floor(rng[0]))  # the right image's window starts s columns left of the left's: search [sa, sb]
+    sa, sb, local = rng[0] - s, rng[1] - s, rng[2]
+    ca = max(0, min(u0, u0 - int(np.ceil(sb))) - MARGIN)
+    cb = min(w, max(u1, u1 - int(np.floor(sa))) + MARGIN)
+    wc = cb - ca
+    a, b = max(0, r0 - MARGIN), min(h, r1 + MARGIN)
+    g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
+    g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s)
+    if not v1m.any() or not v2m.any():
+        return None
+    stats["strips"] += 1
+    stats["local_strips"] += int(local)
+    stats["searched"] += g1.size * disparity_range(sa, sb)[1]
+    stats["searched_pixels"] += g1.size
+    d = disparity(g1, g2, v1m, v2m, sa, sb)
+    if refine:
+        d = refine_disparities(g1, g2, d)
+    core = (slice(r0 - a, r1 - a), slice(u0 - ca, u1 - ca))
+    shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
+    partner = np.zeros_like(v2m)
+    if abs(shift) < wc:
+        partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
+    d, vm = d[core] + s, (v1m & partner)[core]
+    rows, cols = np.nonzero(np.isfinite(d))
+    stats["matchable"] += int(vm.sum())
+    stats["matched"] += len(rows)
+    if not len(rows):
+        return None
+    u, v = cols + u0 + HALF, rows + r0 + HALF
+    P, _ = closest_points(rp.centres[0], rp.rays(u, v, 0), rp.centres[1], rp.rays(u - d[rows, cols], v, 1))
+    ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlim[0]) & (P[:, 2] <= zlim[1])
+    rgb = None
+    if rgb1 is not None:
+        rgb = np.stack([c[core][rows, cols] for c in rgb1], axis=1)[ok]
+    return P[ok], rgb
+
+
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
-                 colours: bool = False, refine: bool = False):
+                 colours: bool = False, refine: bool = False, near=None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
-    left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the disparity range, ``zlim`` the heights
-    kept; ``stats`` gets the matched and matchable pixel counts; ``refine``: the disparities refined by
-    least-squares matching (:func:`fotogeo.stereo.refine.refine`). Each strip is matched with ``MARGIN`` more rows
-    and columns on either side (and the right image's columns the disparity range needs), its source pixels read
-    by windows: memory follows the strip, not the images."""
+    left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the pair's disparity range, ``near`` its
+    sparse matches (:func:`guides`; None: every strip searches ``[lo, hi]``), ``zlim`` the heights kept;
+    ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
+    disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
+    matching (:func:`fotogeo.stereo.refine.refine`). The box is cut into strips of ``STRIP`` rows and its
+    columns, each matched by :func:`_strip` with its source pixels read by windows: memory follows the strip, not
+    the images."""
     w, h = rp.size
     u0, v0, u1, v1 = box or (0, 0, w, h)
-    ca = max(0, min(u0, u0 - int(np.ceil(hi))) - MARGIN)
-    cb = min(w, max(u1, u1 - int(np.floor(lo))) + MARGIN)
-    wc = cb - ca
-    stats.setdefault("matched", 0)
-    stats.setdefault("matchable", 0)
+    for k in ("matched", "matchable", "strips", "local_strips", "searched", "searched_pixels"):
+        stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
-        a, b = max(0, r0 - MARGIN), min(h, r0 + STRIP + MARGIN)
-        g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
-        g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca, cb)
-        if not v1m.any() or not v2m.any():
-            continue
-        d = disparity(g1, g2, v1m, v2m, lo, hi)
-        if refine:
-            d = refine_disparities(g1, g2, d)
-        core = (slice(r0 - a, min(v1, r0 + STRIP) - a), slice(u0 - ca, u1 - ca))
-        shift = int(round(0.5 * (lo + hi)))  # matchable: the partner at the middle disparity lies in the image
-        partner = np.zeros_like(v2m)
-        if abs(shift) < wc:
-            partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
-        d, vm = d[core], (v1m & partner)[core]
-        rows, cols = np.nonzero(np.isfinite(d))
-        stats["matchable"] += int(vm.sum())
-        stats["matched"] += len(rows)
-        if not len(rows):
-            continue
-        u = cols + u0 + HALF
-        v = rows + r0 + HALF
-        P, _ = closest_points(rp.centres[0], rp.rays(u, v, 0), rp.centres[1], rp.rays(u - d[rows, cols], v, 1))
-        ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlim[0]) & (P[:, 2] <= zlim[1])
-        rgb = None
-        if rgb1 is not None:
-            rgb = np.stack([c[core][rows, cols] for c in rgb1], axis=1)[ok]
-        yield P[ok], rgb
+        core_box = (u0, r0, u1, min(v1, r0 + STRIP))
+        out = _strip(rp, views, sources, local_range(rp, near, core_box, lo, hi), zlim, stats, core_box, colours,
+                     refine)
+        if out is not None:
+            yield out

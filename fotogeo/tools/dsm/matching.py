@@ -48,7 +48,9 @@ BOX_PAD = 2
 class PairMatch:
     """One kept pair ready to match: its :class:`~fotogeo.tools.dsm.plan` choice ``pair``, rectified pair ``rp``,
     disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, whether to refine
-    its disparities (:func:`fotogeo.stereo.refine.refine`), and what its tiles gave (pixel counts, points, seconds)."""
+    its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that bound each strip's
+    disparities (:func:`.frames.guides`, :func:`.frames.local_range`; None: the pair's range everywhere), and what
+    its tiles gave (pixel counts, points, seconds)."""
     pair: object
     rp: object
     drange: tuple
@@ -56,6 +58,7 @@ class PairMatch:
     views: tuple
     sources: tuple
     refine: bool = False
+    near: object = None
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -82,13 +85,16 @@ class PairMatch:
         """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
-                                       colours=colours, refine=self.refine)
+                                       colours=colours, refine=self.refine, near=self.near)
 
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""
         p, (a, b) = self.pair, (v.name for v in self.views)
         density = self.stats.get("matched", 0) / max(1, self.stats.get("matchable", 0))
+        st = self.stats
         p.extra.update(disparity_range_px=[round(self.drange[0], 2), round(self.drange[1], 2)],
+                       disparities_searched=round(st.get("searched", 0) / max(1, st.get("searched_pixels", 0)), 1),
+                       local_range_strips=f"{st.get('local_strips', 0)} of {st.get('strips', 0)}",
                        height_range=[round(self.zlim[0], 2), round(self.zlim[1], 2)],
                        rectified_size=list(self.rp.size),
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),

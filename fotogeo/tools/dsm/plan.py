@@ -83,11 +83,11 @@ def leave_out_forward(choices, views) -> None:
                         f"forward motion cannot be rectified")
 
 
-def disparity_bounds(rp, zlo: float, zhi: float) -> tuple:
-    """``(low, high)`` disparities of the heights ``[zlo, zhi]`` over the rectified left image (module
-    docstring)."""
-    w, h = rp.size
-    u, v = np.meshgrid(np.linspace(0, w, 17), np.linspace(0, h, 17))
+def disparity_bounds(rp, zlo: float, zhi: float, box=None, n: int = 17) -> tuple:
+    """``(low, high)`` disparities of the heights ``[zlo, zhi]`` over the rectified left image, or over its pixels
+    ``box`` ``(u0, v0, u1, v1)`` (module docstring; an ``n`` x ``n`` grid of rays)."""
+    u0, v0, u1, v1 = box or (0, 0, *rp.size)
+    u, v = np.meshgrid(np.linspace(u0, u1, n), np.linspace(v0, v1, n))
     d = rp.rays(u, v, 0)
     ds = []
     for z in (zlo, zhi):

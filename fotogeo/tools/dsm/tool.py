@@ -98,8 +98,9 @@ def _choose(ims, views, names, zmid, pairs) -> list:
 
 
 def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
-    """``(rectified pair, disparity range, height range, None)`` of one kept pair, or ``(…, reason)`` to leave
-    it out; ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
+    """``(rectified pair, disparity range, height range, None, sparse matches)`` of one kept pair (the matches
+    that bound each strip's range, :func:`.frames.local_range`, None with a DEM), or ``(…, reason, None)`` to
+    leave it out; ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
     rp = rectify(views[p.i], views[p.j], scale)
     sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
                              ids=(p.i, p.j))
@@ -111,19 +112,19 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
                                    "p95": float(np.percentile(sp["miss"], 95))})
     why = frames.sparse_problem(sp, MAX_EPIPOLAR_PX)
     if why:
-        return rp, None, None, why
+        return rp, None, None, why, None
     if use_dem:
-        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None
+        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, None
     if sp["n"] < 20:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
-                                f"the images?); give a coarse DEM (--dem) to bound the search")
+                                f"the images?); give a coarse DEM (--dem) to bound the search"), None
     ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
     z0, z1 = plan.matched_heights(sp["points"][:, 2], ceiling)
     zspan = z1 - z0
     zlim = (float(z0 - 0.5 * zspan - 10.0), float(min(z1 + 0.5 * zspan + 10.0, z1 + 0.5 * (ceiling - z1))))
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
-    return rp, plan.disparity_bounds(rp, *zlim), zlim, None
+    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, frames.guides(sp)
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
@@ -147,15 +148,15 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     for k, p in enumerate(kept):
         prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
         t = time.perf_counter()
-        rp, drange, zlim, why = _pair_setup(p, views, sources, zlo, zhi, dem is not None, min(1.0, 2.0 * gsd / res),
-                                            features)
+        rp, drange, zlim, why, near = _pair_setup(p, views, sources, zlo, zhi, dem is not None,
+                                                  min(1.0, 2.0 * gsd / res), features)
         timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
         if why:
             p.kept, p.reason = False, why
             warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=3)
         else:
             setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, (views[p.i], views[p.j]),
-                                                    (sources[p.i], sources[p.j]), refine)
+                                                    (sources[p.i], sources[p.j]), refine, near)
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
@@ -165,13 +166,13 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
                                  *dask)
+            for m in setups.values():  # the pairs' entries before the report is written
+                m.report(LOW_DENSITY)
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
                                   "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept)
                                   + "): the images may be textureless or cloud-covered where they overlap")
         finally:
             products.close()
         out.commit()
-    for m in setups.values():
-        m.report(LOW_DENSITY)
     prog(1.0, "done")
     return rep
