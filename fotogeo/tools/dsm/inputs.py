@@ -2,6 +2,9 @@
 ``ortho``): triangulate's output folder, the pairs file, the bounds, and the images' grey values and colours."""
 from __future__ import annotations
 
+import os
+import threading
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -98,25 +101,87 @@ def read_image(path) -> tuple:
 
 #: the longest side of the decimated read that gives an image's colour stretch
 STRETCH_SIDE = 1024
+#: an untiled source image is decoded whole once when its bands take at most this many bytes (:class:`SourceImage`)
+CACHE_IMAGE_BYTES = 256 * 2 ** 20
+#: the decoded images this process keeps at most (bytes; the least recently used dropped first): two of the largest
+#: cached images, a pair, always fit
+CACHE_BYTES = 2 * CACHE_IMAGE_BYTES
+
+
+class _Decoded:
+    """The process's decoded untiled images (:class:`SourceImage`), keyed by path, modification time, size and
+    bands; least recently used dropped beyond ``CACHE_BYTES``. Module state, never an instance's: a
+    :class:`SourceImage` pickled into a Dask task carries its path, and each worker process decodes for itself."""
+
+    def __init__(self):
+        self.images, self.lock = OrderedDict(), threading.Lock()
+
+    def get(self, key, decode) -> np.ndarray:
+        with self.lock:  # one decode per image even when a worker's threads ask at once
+            if key in self.images:
+                self.images.move_to_end(key)
+                return self.images[key]
+            a = decode()
+            self.images[key] = a
+            while sum(x.nbytes for x in self.images.values()) > CACHE_BYTES and len(self.images) > 1:
+                self.images.popitem(last=False)
+            return a
+
+    def clear(self) -> None:
+        with self.lock:
+            self.images.clear()
+
+
+DECODED = _Decoded()
 
 
 class SourceImage:
-    """An image read window by window (memory: the window, never the image): grey values (the mean of its first
-    three bands, or its one band) and colours (its first three bands, or the grey three times, stretched to 8 bits
-    between the 0.5 and 99.5 percentiles of the whole image, taken from a read decimated to at most
-    ``STRETCH_SIDE`` pixels a side)."""
+    """An image read window by window: grey values (the mean of its first three bands, or its one band) and
+    colours (its first three bands, or the grey three times, stretched to 8 bits between the 0.5 and 99.5
+    percentiles of the whole image, taken from a read decimated to at most ``STRETCH_SIDE`` pixels a side).
+
+    **Memory and decoding.** A tiled image (a GeoTIFF with internal tiles) is read by windows: memory follows the
+    window, never the image. An untiled one (JPEG, PNG, a GeoTIFF in strips: its blocks are whole rows) whose
+    bands take at most ``CACHE_IMAGE_BYTES`` is decoded whole at its first full-resolution read and kept in the
+    process (:class:`_Decoded`, at most ``CACHE_BYTES``): each window is then a slice of it, the same pixels a
+    windowed read gives, without decoding the compressed rows above the window again for every strip. Reads
+    averaged over blocks (``k > 1``) always go through GDAL, which may use the format's reduced decoding."""
 
     def __init__(self, path):
         info = open_raster(path, "image")
         self.path, self.width, self.height = str(path), info.width, info.height
         self.bands = list(range(1, min(3, info.count) + 1))
         self._stretch = None
+        self.key = self._cache_key(info)
+
+    def _cache_key(self, info):
+        """The :data:`DECODED` key of an untiled local image small enough to decode whole, else None."""
+        if isinstance(info.path, str):  # a GDAL virtual path or URL: windows, as GDAL fetches them
+            return None
+        size = self.width * self.height * len(self.bands) * np.dtype(info.dtype).itemsize
+        with gdal_env(), ropen(self.path) as ds:
+            untiled = all(b[1] >= self.width for b in ds.block_shapes)
+        if not untiled or size > CACHE_IMAGE_BYTES:
+            return None
+        st = os.stat(self.path)
+        return self.path, st.st_mtime_ns, st.st_size, tuple(self.bands)
+
+    def _decode(self) -> np.ndarray:
+        with gdal_env(), ropen(self.path) as ds:
+            return ds.read(indexes=self.bands)
 
     def read(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
         """Bands ``(b, rows, cols)`` of the pixels ``[x0, x1) x [y0, y1)``, averaged over ``k x k`` blocks when
-        ``k > 1`` (``ceil(size / k)`` pixels)."""
+        ``k > 1`` (``ceil(size / k)`` pixels); a copy the caller may change."""
+        return self._window(x0, y0, x1, y1, k, copy=True)
+
+    def _window(self, x0: int, y0: int, x1: int, y1: int, k: int, copy: bool) -> np.ndarray:
+        """:meth:`read`; without ``copy`` a decoded image's window is a view of it, not to be changed."""
         from rasterio.enums import Resampling
         from rasterio.windows import Window
+        if k == 1 and self.key is not None and 0 <= x0 < x1 <= self.width and 0 <= y0 < y1 <= self.height:
+            a = DECODED.get(self.key, self._decode)[:, y0:y1, x0:x1]
+            return a.copy() if copy else a
         w, h = x1 - x0, y1 - y0
         shape = (len(self.bands), -(-h // k), -(-w // k))
         with gdal_env(), ropen(self.path) as ds:
@@ -124,7 +189,7 @@ class SourceImage:
                            resampling=Resampling.average if k > 1 else Resampling.nearest)
 
     def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
-        return self.read(x0, y0, x1, y1, k).astype(np.float32).mean(axis=0)
+        return self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32).mean(axis=0)
 
     def stretches(self) -> list:
         """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""
