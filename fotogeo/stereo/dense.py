@@ -31,7 +31,9 @@ smoothness term and the disparities turn rough and fail the left–right check w
 slopes, shadows). The penalties are OpenCV's suggested ``8·block²`` and ``32·block²`` times
 ``max(1, c / CONTRAST_REF)``, ``c`` the median clipped row gradient (3 x 3 Sobel, as SGBM's pre-filter) of the
 left image's valid pixels: the ratio of smoothness to data term stays that of images of ``CONTRAST_REF``
-(the gradient of the rendered test blocks the defaults were chosen on) and is never weaker than OpenCV's.
+(the gradient of the rendered test blocks the defaults were chosen on) and is never weaker than OpenCV's. A pair
+matched in pieces (strips) takes one factor for all of them (:func:`penalty_scale`, over rows spread across its
+left image): a piece's own would change the penalties from piece to piece with what the piece shows.
 
 **Median filter** (as Pandora/CARS filter their disparity maps, CNES 2020–2024): each kept disparity becomes
 the median of the kept disparities in its ``median`` x ``median`` neighbourhood (pixels without one ignored,
@@ -50,13 +52,14 @@ import cv2
 import numpy as np
 
 
-def to_uint8(img, valid) -> np.ndarray:
-    """``img`` stretched to 1..255 between the 0.5 and 99.5 percentiles of its ``valid`` pixels, 0 outside."""
+def to_uint8(img, valid, bounds=None) -> np.ndarray:
+    """``img`` stretched to 1..255 between the 0.5 and 99.5 percentiles of its ``valid`` pixels (or ``bounds``
+    ``(low, high)``), 0 outside."""
     img = np.asarray(img, np.float32)
     v = img[valid]
     if v.size == 0:
         return np.zeros(img.shape, np.uint8)
-    lo, hi = np.percentile(v, [0.5, 99.5])
+    lo, hi = np.percentile(v, [0.5, 99.5]) if bounds is None else bounds
     out = np.clip(1 + 254 * (img - lo) / max(float(hi - lo), 1e-6), 1, 255)
     out[~valid] = 0
     return out.astype(np.uint8)
@@ -81,12 +84,36 @@ PREFILTER_CAP = 63
 CONTRAST_REF = 32.0
 
 
+def _gradients(img8, valid) -> np.ndarray:
+    """``|∂x|`` (3 x 3 Sobel, clipped at ``PREFILTER_CAP``) at the ``valid`` pixels of ``img8``."""
+    return np.minimum(np.abs(cv2.Sobel(img8, cv2.CV_32F, 1, 0, ksize=3))[valid], PREFILTER_CAP)
+
+
 def contrast(img8, valid) -> float:
     """The median of ``|∂x|`` (3 x 3 Sobel, clipped at ``PREFILTER_CAP``) over the ``valid`` pixels of ``img8``."""
     if not valid.any():
         return CONTRAST_REF
-    g = np.abs(cv2.Sobel(img8, cv2.CV_32F, 1, 0, ksize=3))
-    return float(np.median(np.minimum(g[valid], PREFILTER_CAP)))
+    return float(np.median(_gradients(img8, valid)))
+
+
+def _eroded(valid, block: int) -> np.ndarray:
+    """``valid`` without the pixels whose matching block reaches outside it."""
+    k = np.ones((block + 2, block + 2), np.uint8)
+    return cv2.erode(np.asarray(valid).astype(np.uint8), k).astype(bool)
+
+
+def penalty_scale(lefts, valids, block: int = 5) -> float:
+    """The penalties' factor ``max(1, c / CONTRAST_REF)`` (module docstring) of one pair, ``c`` the median clipped
+    row gradient over pieces of its rectified left image (``lefts``, ``valids``: e.g. rows spread over it) stretched
+    together to 8 bits: one factor for all the pair's strips, so that P1 and P2 do not change from strip to strip
+    with the strips' contents."""
+    valids = [_eroded(v, block) for v in valids]
+    values = np.concatenate([np.asarray(g, np.float32)[v] for g, v in zip(lefts, valids)])
+    if not values.size:
+        return 1.0
+    bounds = tuple(np.percentile(values, [0.5, 99.5]))
+    grads = np.concatenate([_gradients(to_uint8(g, v, bounds), v) for g, v in zip(lefts, valids)])
+    return max(1.0, float(np.median(grads)) / CONTRAST_REF)
 
 
 def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int,
@@ -159,16 +186,19 @@ def median_filter(d, size: int) -> np.ndarray:
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
-              median: int = 5, scale_penalties: bool = True) -> np.ndarray:
+              median: int = 5, scale_penalties: bool = True, penalty: float | None = None) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
-    none; ``scale_penalties``: P1, P2 scaled to the contrast)."""
-    k = np.ones((block + 2, block + 2), np.uint8)  # no match whose block reaches outside an image
-    valid_left = cv2.erode(valid_left.astype(np.uint8), k).astype(bool)
-    valid_right = cv2.erode(valid_right.astype(np.uint8), k).astype(bool)
+    none; ``scale_penalties``: P1, P2 scaled to the contrast — the pair's factor ``penalty``
+    (:func:`penalty_scale`) when given, else this image's)."""
+    valid_left = _eroded(valid_left, block)  # no match whose block reaches outside an image
+    valid_right = _eroded(valid_right, block)
     L, R = to_uint8(left, valid_left), to_uint8(right, valid_right)
     dmin, ndisp = disparity_range(lo, hi)
-    scale = max(1.0, contrast(L, valid_left) / CONTRAST_REF) if scale_penalties else 1.0
+    if not scale_penalties:
+        scale = 1.0
+    else:
+        scale = penalty if penalty is not None else max(1.0, contrast(L, valid_left) / CONTRAST_REF)
     m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range, scale)
     dl = _sgbm(m, L, R, dmin, ndisp)
     dr = _sgbm(m, R[:, ::-1].copy(), L[:, ::-1].copy(), dmin, ndisp)[:, ::-1]

@@ -34,7 +34,7 @@ import numpy as np
 from ...features.detect import detect
 from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
-from ...stereo.dense import disparity, disparity_range, to_uint8
+from ...stereo.dense import disparity, disparity_range, penalty_scale, to_uint8
 from ...stereo.rays import closest_points
 from ...stereo.refine import refine as refine_disparities
 from ...stereo.rectify import FrameView, RectifiedPair
@@ -197,8 +197,23 @@ def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
     return (a, b, True) if b > a else (lo, hi, False)
 
 
+#: the pair's penalty factor (:func:`pair_penalty`) is measured on this many bands of this many rectified rows
+PENALTY_BANDS = 8
+PENALTY_ROWS = 32
+
+
+def pair_penalty(rp: RectifiedPair, views, sources) -> float:
+    """SGBM's penalty factor of the pair (:func:`fotogeo.stereo.dense.penalty_scale`), measured on
+    ``PENALTY_BANDS`` bands of ``PENALTY_ROWS`` rows of the rectified left image spread evenly over its height
+    (their whole width): every strip of the pair matches with the same P1 and P2."""
+    w, h = rp.size
+    starts = np.unique(np.linspace(0, max(0, h - PENALTY_ROWS), PENALTY_BANDS).round().astype(int))
+    pieces = [rectified(rp, views[0], 0, sources[0], int(r), min(h, int(r) + PENALTY_ROWS))[:2] for r in starts]
+    return penalty_scale([g for g, _ in pieces], [v for _, v in pieces])
+
+
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
-           refine: bool):
+           refine: bool, penalty: float | None = None):
     """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
     the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
     columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
@@ -219,7 +234,7 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
     stats["local_strips"] += int(local)
     stats["searched"] += g1.size * disparity_range(sa, sb)[1]
     stats["searched_pixels"] += g1.size
-    d = disparity(g1, g2, v1m, v2m, sa, sb)
+    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
     if refine:
         d = refine_disparities(g1, g2, d)
     core = (slice(r0 - a, r1 - a), slice(u0 - ca, u1 - ca))
@@ -243,13 +258,14 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
 
 
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
-                 colours: bool = False, refine: bool = False, near=None):
+                 colours: bool = False, refine: bool = False, near=None, penalty: float | None = None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
     left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the pair's disparity range, ``near`` its
     sparse matches (:func:`guides`; None: every strip searches ``[lo, hi]``), ``zlim`` the heights kept;
     ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
     disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
-    matching (:func:`fotogeo.stereo.refine.refine`). The box is cut into strips of ``STRIP`` rows and its
+    matching (:func:`fotogeo.stereo.refine.refine`); ``penalty`` the pair's penalty factor (:func:`pair_penalty`;
+    None: each strip's own). The box is cut into strips of ``STRIP`` rows and its
     columns, each matched by :func:`_strip` with its source pixels read by windows: memory follows the strip, not
     the images."""
     w, h = rp.size
@@ -259,6 +275,6 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
     for r0 in range(v0, v1, STRIP):
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
         out = _strip(rp, views, sources, local_range(rp, near, core_box, lo, hi), zlim, stats, core_box, colours,
-                     refine)
+                     refine, penalty)
         if out is not None:
             yield out

@@ -49,8 +49,9 @@ class PairMatch:
     """One kept pair ready to match: its :class:`~fotogeo.tools.dsm.plan` choice ``pair``, rectified pair ``rp``,
     disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, whether to refine
     its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that bound each strip's
-    disparities (:func:`.frames.guides`, :func:`.frames.local_range`; None: the pair's range everywhere), and what
-    its tiles gave (pixel counts, points, seconds)."""
+    disparities (:func:`.frames.guides`, :func:`.frames.local_range`; None: the pair's range everywhere), its SGBM
+    penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), and what its tiles gave (pixel counts,
+    points, seconds)."""
     pair: object
     rp: object
     drange: tuple
@@ -59,6 +60,7 @@ class PairMatch:
     sources: tuple
     refine: bool = False
     near: object = None
+    penalty: float | None = None
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -85,7 +87,7 @@ class PairMatch:
         """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
-                                       colours=colours, refine=self.refine, near=self.near)
+                                       colours=colours, refine=self.refine, near=self.near, penalty=self.penalty)
 
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""
@@ -98,6 +100,7 @@ class PairMatch:
                        height_range=[round(self.zlim[0], 2), round(self.zlim[1], 2)],
                        rectified_size=list(self.rp.size),
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),
+                       penalty_scale=None if self.penalty is None else round(self.penalty, 4),
                        match_density=round(density, 4), points=self.points)
         if density < low_density:
             warnings.warn(f"pair {a}-{b}: only {100 * density:.0f} % of the overlap matched (textureless, "

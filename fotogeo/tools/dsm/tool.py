@@ -155,8 +155,9 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
             p.kept, p.reason = False, why
             warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=3)
         else:
-            setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, (views[p.i], views[p.j]),
-                                                    (sources[p.i], sources[p.j]), refine, near)
+            pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
+            setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near,
+                                                    frames.pair_penalty(rp, pv, ps))
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
