@@ -1,5 +1,6 @@
 """What a frame pair of fotogeo dsm fixes once for all its strips: SGBM's contrast-scaled penalties (not one per
-strip)."""
+strip), and its sparse matches without their mismatches — one filter for the pair's height range and for the
+strips' local ranges."""
 from __future__ import annotations
 
 import cv2
@@ -7,9 +8,12 @@ import numpy as np
 
 from fotogeo.orientation.block_render import texture
 from fotogeo.stereo import dense
+from fotogeo.stereo.rectify import rectify
 from fotogeo.tools.dsm import frames
+from fotogeo.tools.dsm.plan import disparity_bounds, plausible_heights
 
 from rendered_pair import CRS, render
+from test_dsm_tiles import _views
 
 
 def test_one_penalty_factor_whatever_the_piece(monkeypatch):
@@ -43,3 +47,30 @@ def test_every_strip_of_a_pair_matches_with_the_pairs_penalties(tmp_path, monkey
     pair = next(p for p in rep["pairs"] if p["kept"])
     assert len(seen) >= 5 and len(set(seen)) == 1 and seen[0] is not None
     assert pair["penalty_scale"] == round(seen[0], 4) >= 1.0
+
+
+def test_guides_drop_the_mismatches_the_pair_range_drops():
+    """A planted ray meeting 400 m below the ground among matches at 100 ± 2 m: dropped from the strips' guides as
+    from the pair's range, so the strip near it searches the ground's heights, not down to the mismatch."""
+    rp = rectify(*_views())
+    w, h = rp.size
+    rng = np.random.default_rng(9)
+    uv = np.column_stack([rng.uniform(0, w, 300), rng.uniform(0, h, 300)])
+    z = rng.normal(100.0, 2.0, 300)
+    z[7] = -300.0
+    sp = {"uv": uv, "points": np.column_stack([uv, z])}
+    near = frames.guides(sp, ceiling=300.0)  # the cameras 300 m up
+    assert len(near) == 299 and near[:, 2].min() > 90.0
+    assert np.array_equal(plausible_heights(z, 300.0), z > 0)
+    lo, hi = disparity_bounds(rp, -400.0, 250.0)
+    u, v = uv[7]
+    box = (max(0, int(u) - 20), max(0, int(v) - 20), min(w, int(u) + 20), min(h, int(v) + 20))
+    clean = np.column_stack([uv, z])[z > 0]
+    assert frames.local_range(rp, near, box, lo, hi) == frames.local_range(rp, clean, box, lo, hi)
+    ground = disparity_bounds(rp, 95.0, 105.0, box, n=5)
+    a, b, _ = frames.local_range(rp, near, box, lo, hi)
+    assert a <= ground[0] and ground[1] <= b
+    # the raw heights: the range widened by the mismatch reaches above the cameras, where no height has a
+    # disparity, and the strip would search only the depths below the ground
+    a_raw, b_raw, _ = frames.local_range(rp, np.column_stack([uv, z]), box, lo, hi)
+    assert b_raw < ground[0]

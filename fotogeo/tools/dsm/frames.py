@@ -17,7 +17,8 @@ the images.
 **Local disparity ranges** (:func:`local_range`; the approach of s2p, de Franchis et al. 2014, and CARS,
 Youssefi et al. 2020): the cost of semi-global matching is pixels x disparities, and a pair's range covers every
 height of the whole overlap. Each strip searches only the disparities of the heights around it: the heights of
-the pair's sparse matches within ``LOCAL_NEAR`` rectified pixels of the strip, their span widened by half itself
+the pair's sparse matches (without the mismatches the pair's range drops, :func:`guides`) within ``LOCAL_NEAR``
+rectified pixels of the strip, their span widened by half itself
 and ``LOCAL_PAD_M`` metres on each side (the pair range's rule, :mod:`.plan`, on the strip's neighbourhood: relief
 between the matches — a roof, a tree, a steeper slope — rises above or dips below the matched heights by about
 the relief seen around, and the fixed metres cover a flat neighbourhood with an object the matches missed),
@@ -38,7 +39,7 @@ from ...stereo.dense import disparity, disparity_range, penalty_scale, to_uint8
 from ...stereo.rays import closest_points
 from ...stereo.refine import refine as refine_disparities
 from ...stereo.rectify import FrameView, RectifiedPair
-from .plan import disparity_bounds
+from .plan import disparity_bounds, plausible_heights
 
 STRIP = 384
 MARGIN = 48
@@ -174,10 +175,13 @@ def sparse_problem(sp, max_px: float) -> str:
     return ""
 
 
-def guides(sp) -> np.ndarray:
-    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`sparse_check`: what
-    :func:`local_range` reads (small and picklable, kept with the pair)."""
-    return np.column_stack([sp["uv"], sp["points"][:, 2]]).astype(float)
+def guides(sp, ceiling: float) -> np.ndarray:
+    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`sparse_check` that is
+    not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter; ``ceiling`` the
+    lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
+    z = sp["points"][:, 2]
+    keep = plausible_heights(z, ceiling) if len(z) else np.zeros(0, bool)
+    return np.column_stack([sp["uv"], z])[keep].astype(float)
 
 
 def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:

@@ -52,18 +52,26 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tupl
     return matched_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))
 
 
-def matched_heights(z, ceiling: float) -> tuple:
-    """``(low, high)`` heights of sparse matches ``z`` (1st and 99th percentile) without their mismatches: a
-    height further from the median than ``max(6 NMAD, ½ of the cameras' height above it)`` is dropped (a few
-    rays that meet hundreds of metres below the ground set the 1st percentile on a drone pair, and a height range
-    reaching above a camera has no disparity); ``ceiling`` the lower camera's height. The high end stays below
-    the median plus ¾ of the camera's height above it."""
+def plausible_heights(z, ceiling: float) -> np.ndarray:
+    """Which sparse matches' heights ``z`` are not mismatches (bool): those within ``max(6 NMAD, ½ of the cameras'
+    height above the median)`` of the median (a few rays that meet hundreds of metres below the ground set the 1st
+    percentile on a drone pair); ``ceiling`` the lower camera's height. The one filter of the pair's range
+    (:func:`matched_heights`) and of its strips' local ranges (:func:`.frames.guides`)."""
     z = np.asarray(z, float)
     med = float(np.median(z))
-    above = max(float(ceiling) - med, 1.0)
-    window = max(6.0 * 1.4826 * float(np.median(np.abs(z - med))), 0.5 * above)
-    kept = z[np.abs(z - med) <= window]
-    return float(np.percentile(kept, 1)), min(float(np.percentile(kept, 99)), med + 0.75 * above)
+    window = max(6.0 * 1.4826 * float(np.median(np.abs(z - med))), 0.5 * max(float(ceiling) - med, 1.0))
+    return np.abs(z - med) <= window
+
+
+def matched_heights(z, ceiling: float) -> tuple:
+    """``(low, high)`` heights of sparse matches ``z`` (1st and 99th percentile) without their mismatches
+    (:func:`plausible_heights`; a height range reaching above a camera has no disparity); ``ceiling`` the lower
+    camera's height. The high end stays below the median plus ¾ of the camera's height above it."""
+    z = np.asarray(z, float)
+    med = float(np.median(z))
+    kept = z[plausible_heights(z, ceiling)]
+    high = min(float(np.percentile(kept, 99)), med + 0.75 * max(float(ceiling) - med, 1.0))
+    return float(np.percentile(kept, 1)), high
 
 
 def fov_half_angle(view) -> float:

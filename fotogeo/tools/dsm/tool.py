@@ -124,7 +124,7 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     zlim = (float(z0 - 0.5 * zspan - 10.0), float(min(z1 + 0.5 * zspan + 10.0, z1 + 0.5 * (ceiling - z1))))
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
-    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, frames.guides(sp)
+    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, frames.guides(sp, ceiling)
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
