@@ -1,6 +1,6 @@
 """What a frame pair of fotogeo dsm fixes once for all its strips: SGBM's contrast-scaled penalties (not one per
 strip), and its sparse matches without their mismatches — one filter for the pair's height range and for the
-strips' local ranges."""
+strips' local ranges; the range's high end capped once, below the cameras."""
 from __future__ import annotations
 
 import cv2
@@ -10,7 +10,7 @@ from fotogeo.orientation.block_render import texture
 from fotogeo.stereo import dense
 from fotogeo.stereo.rectify import rectify
 from fotogeo.tools.dsm import frames
-from fotogeo.tools.dsm.plan import disparity_bounds, plausible_heights
+from fotogeo.tools.dsm.plan import disparity_bounds, matched_heights, plausible_heights
 
 from rendered_pair import CRS, render
 from test_dsm_tiles import _views
@@ -74,3 +74,14 @@ def test_guides_drop_the_mismatches_the_pair_range_drops():
     # disparity, and the strip would search only the depths below the ground
     a_raw, b_raw, _ = frames.local_range(rp, np.column_stack([uv, z]), box, lo, hi)
     assert b_raw < ground[0]
+
+
+def test_the_widened_range_is_capped_once_below_the_cameras():
+    rng = np.random.default_rng(10)
+    z = rng.normal(150.0, 1.0, 500)
+    p1, p99 = np.percentile(z, [1, 99])
+    grow = 0.5 * (p99 - p1) + 10.0
+    assert np.allclose(matched_heights(z, 400.0, widen=0.5, pad=10.0), (p1 - grow, p99 + grow))  # far below: as is
+    z = np.concatenate([np.full(60, 100.0), np.linspace(100.0, 180.0, 40)])  # relief reaching towards the cameras
+    low, high = matched_heights(z, 200.0, widen=0.5, pad=10.0)
+    assert high == 100.0 + 0.75 * 100.0 < 200.0 and low < 100.0

@@ -6,8 +6,8 @@ disparity range and the output grid.
 * **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, then pairs whose base
   line points into either image (the epipole inside the frame: forward motion) are left out;
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
-  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles padded by half their span and
-  10 m), plus ``PAD_PX``;
+  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
+  padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
 * **grid**: ``--bounds``, else the union of the kept pairs' overlaps, its edges multiples of the resolution.
 """
 from __future__ import annotations
@@ -63,15 +63,17 @@ def plausible_heights(z, ceiling: float) -> np.ndarray:
     return np.abs(z - med) <= window
 
 
-def matched_heights(z, ceiling: float) -> tuple:
-    """``(low, high)`` heights of sparse matches ``z`` (1st and 99th percentile) without their mismatches
-    (:func:`plausible_heights`; a height range reaching above a camera has no disparity); ``ceiling`` the lower
-    camera's height. The high end stays below the median plus ¾ of the camera's height above it."""
+def matched_heights(z, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> tuple:
+    """``(low, high)`` heights of sparse matches ``z`` without their mismatches (:func:`plausible_heights`): the
+    1st and 99th percentiles of the rest, each moved out by ``widen`` times their span plus ``pad`` metres. The
+    high end stays below the median plus ¾ of the cameras' height above it (``ceiling`` the lower camera's
+    height): a height range reaching above a camera has no disparity."""
     z = np.asarray(z, float)
     med = float(np.median(z))
     kept = z[plausible_heights(z, ceiling)]
-    high = min(float(np.percentile(kept, 99)), med + 0.75 * max(float(ceiling) - med, 1.0))
-    return float(np.percentile(kept, 1)), high
+    lo, hi = float(np.percentile(kept, 1)), float(np.percentile(kept, 99))
+    grow = widen * (hi - lo) + pad
+    return lo - grow, min(hi + grow, med + 0.75 * max(float(ceiling) - med, 1.0))
 
 
 def fov_half_angle(view) -> float:

@@ -119,9 +119,7 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search"), None
     ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
-    z0, z1 = plan.matched_heights(sp["points"][:, 2], ceiling)
-    zspan = z1 - z0
-    zlim = (float(z0 - 0.5 * zspan - 10.0), float(min(z1 + 0.5 * zspan + 10.0, z1 + 0.5 * (ceiling - z1))))
+    zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None, frames.guides(sp, ceiling)
