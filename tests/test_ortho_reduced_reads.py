@@ -128,16 +128,18 @@ def test_other_sizes_and_masked_sources_read_the_full_resolution(tmp_path):
         assert reduction_factor(src, make_plan(src, lambda XY: XY, t, "cubic", src_nodata=0), 300, 200) is None
 
 
-def test_a_tiff_reads_its_own_overviews_and_lies_where_the_full_resolution_does(tmp_path):
+@pytest.mark.parametrize("scale,factor", [(2.6, 2), (4.5, 4)])
+def test_a_tiff_reads_its_own_overviews_and_lies_where_the_full_resolution_does(tmp_path, scale, factor):
     src_path = tmp_path / "s.tif"
     rcopy(_jpeg(tmp_path / "s.jpg", 1024, 768), src_path, driver="GTiff")
     with rasterio.open(src_path, "r+") as ds:
         ds.build_overviews([2, 4], rasterio.enums.Resampling.average)
     c, s = np.cos(0.2), np.sin(0.2)
 
-    def inverse(XY):  # map -> source pixel: a rotation and 2.6 source pixels per map unit
+    def inverse(XY):  # map -> source pixel: a rotation and `scale` source pixels per map unit
         XY = np.asarray(XY, float) - [150.0, 100.0]
-        return np.column_stack([2.6 * (c * XY[:, 0] - s * XY[:, 1]) + 512, 2.6 * (s * XY[:, 0] + c * XY[:, 1]) + 384])
+        return np.column_stack([scale * (c * XY[:, 0] - s * XY[:, 1]) + 512,
+                                scale * (s * XY[:, 0] + c * XY[:, 1]) + 384])
 
     t, out = Affine(1.0, 0, 0, 0, 1.0, 0), {}
     for reduce in (True, False):
@@ -145,7 +147,7 @@ def test_a_tiff_reads_its_own_overviews_and_lies_where_the_full_resolution_does(
                                width=300, height=200, resampling="bilinear", reduce=reduce, overviews=False)
         with rasterio.open(tmp_path / f"{reduce}.tif") as ds:
             out[reduce] = (summary, ds.read(1).astype(np.float32), ds.read_masks(1) > 0)
-    assert out[True][0]["source_factor"] == 2 and "source_factor" not in out[False][0]
+    assert out[True][0]["source_factor"] == factor and "source_factor" not in out[False][0]
     both = out[True][2] & out[False][2]
     assert both.sum() > 0.9 * out[False][2].sum()
     assert np.abs(_shift(out[True][1], out[False][1], both)).max() < 0.01
