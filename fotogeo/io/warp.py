@@ -27,6 +27,7 @@ import dataclasses
 import math
 import os
 import warnings
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import cv2
@@ -42,6 +43,7 @@ from ..progress import Progress
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixels  # noqa: F401 - re-exported
 from .warp_gdal import nearest_pixels_xy
+from .warp_levels import reduced_plan
 from .warp_source import CV_DTYPES as _CV_DTYPES
 from .warp_source import in_order, opencv_threads, source_handles, validity, whole_source
 
@@ -112,6 +114,8 @@ class Plan:
     src_height: int
     pixels: object = None  # the whole source in memory (fotogeo.io.warp_source.whole_source), else None
     pixel_mask: object = None  # its validity mask (None: all valid)
+    level: object = None  # the source's overview level read (fotogeo.io.warp_levels), None: full resolution
+    factor: int = 1  # that level's reduction
 
     @property
     def floating(self) -> bool:
@@ -270,7 +274,7 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
     """Yield ``(window, (array, valid, collisions))`` for each of ``windows`` in order, computed by
     ``threads`` threads with at most two windows per thread in flight (memory stays bounded)."""
     threads = max(1, min(int(threads), len(windows) or 1))
-    with source_handles(src_path, threads, held=plan.pixels is not None) as handles:
+    with source_handles(src_path, threads, held=plan.pixels is not None, level=plan.level) as handles:
         def job(win):
             src = handles.get()
             try:
@@ -296,7 +300,7 @@ def write_env(threads: int, zlevel: int | None = None):
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
                  resampling: str = "nearest", nodata=None, src_nodata=None, block: int = 512,
                  progress: Progress | None = None, overviews: bool = True, threads: int | None = None,
-                 zlevel: int | None = None, tags: dict | None = None) -> dict:
+                 zlevel: int | None = None, tags: dict | None = None, reduce: bool = False) -> dict:
     """Resample ``src_path`` onto the grid (crs, transform, width, height) into ``dst_path``.
 
     ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); one
@@ -308,7 +312,8 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     (a pixel is invalid when every band equals it). ``zlevel`` sets the DEFLATE level of the file and its
     overviews (GDAL's default 6 when None; 1 writes imagery with the horizontal predictor about 4x faster
     for 10 % more bytes, measured on the NGI orthophotos). ``tags``: GDAL metadata items of the file, written with
-    it. Returns a small summary (valid pixel count).
+    it. ``reduce``: read the source's reduced level where the output samples it coarsely
+    (:mod:`fotogeo.io.warp_levels`). Returns a small summary (valid pixel count, the level's ``source_factor``).
     ``dst_path`` is written in place: callers give a temporary path (see
     :class:`fotogeo.io.raster.AtomicOutputs`).
     """
@@ -317,7 +322,9 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     windows = windows_of(height, width, block)
     with write_env(threads), ropen(src_path) as src:
         plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
-        whole = whole_source(src, plan)
+        plan = reduced_plan(src_path, src, plan, width, height) if reduce else plan
+        with ropen(src_path, overview_level=plan.level) if plan.level is not None else nullcontext(src) as lvl:
+            whole = whole_source(lvl, plan)
         if whole is not None:
             plan = dataclasses.replace(plan, pixels=whole[0], pixel_mask=whole[1])
         colorinterp = src.colorinterp
@@ -329,7 +336,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
         warnings.warn(f"{summary['nodata_collisions']} valid pixels of {src_path} equal the output nodata value "
                       f"{plan.nodata} and will read as nodata; give the source a nodata value outside its data",
                       FotogeoWarning, stacklevel=2)
-    return summary
+    return {**summary, "source_factor": plan.factor} if reduce else summary
 
 
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,

@@ -73,9 +73,10 @@ def whole_source(src, plan, budget: int = WHOLE_SOURCE_BYTES):
 
 
 @contextlib.contextmanager
-def source_handles(path, n: int, held: bool = False):
-    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared); ``held``: the
-    source is in memory (:func:`whole_source`), nothing is opened and the queue holds ``n`` Nones."""
+def source_handles(path, n: int, held: bool = False, level=None):
+    """A queue of ``n`` open handles on ``path`` (one per thread: a GDAL handle is not shared), on its overview
+    ``level`` if not None; ``held``: the source is in memory (:func:`whole_source`), nothing is opened and the
+    queue holds ``n`` Nones."""
     handles = queue.Queue()
     opened = []
     try:
@@ -83,7 +84,7 @@ def source_handles(path, n: int, held: bool = False):
             if held:
                 handles.put(None)
                 continue
-            cm = ropen(path)
+            cm = ropen(path) if level is None else ropen(path, overview_level=level)
             opened.append(cm)
             handles.put(cm.__enter__())
         yield handles

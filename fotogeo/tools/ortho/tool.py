@@ -229,7 +229,7 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
     nadir = " ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs))
     written = warp_to_grid(im.path, path, mapping, crs=crs, transform=grid.transform, width=grid.width,
                            height=grid.height, resampling=resampling, progress=progress, overviews=not cog,
-                           zlevel=ZLEVEL, tags={"FOTOGEO_NADIR": nadir})
+                           zlevel=ZLEVEL, tags={"FOTOGEO_NADIR": nadir}, reduce=True)
     if cog:
         from ...io.cog import convert_to_cog
         convert_to_cog(path, resampling)
