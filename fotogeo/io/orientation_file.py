@@ -24,8 +24,10 @@ from ..errors import InputError, InputNote
 
 def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto", images=()):
     """The :class:`ApproximateBlock` of ``path`` (module docstring), or None for a ``.txt`` EO file."""
-    from .sfm_frame import check_gps, images_gps
     p = Path(path)
+    if p.suffix.lower() == ".txt" and not p.is_dir() and p.name.lower() not in ("images.txt", "cameras.txt"):
+        return None  # fotogeo's lines, read by the caller: no block, so the images' GPS is not read either
+    from .sfm_frame import check_gps, images_gps  # function level: EXIF and the SfM frames only for a block file
     gps = images_gps(images) if images else {}
     block = _read(p, crs, camera, sfm_frame, gps)
     if block is None:
