@@ -65,9 +65,8 @@ FINE_PRESMOOTH = PRESMOOTH_SIGMA / 2
 #: are not rotation covariant: on fine texture (a drone frame of asphalt and lane marks) their
 #: maxima move under rotations off multiples of 90 degrees; the Gaussian layers meet the held-out
 #: protocol where they do not (docs/benchmarks/matching.md, SURF). A blob seen by two adjacent
-#: octaves keeps one keypoint (:mod:`fotogeo.features.octaves`). Off until the held-out splits are
-#: measured again with that.
-GAUSSIAN_HESSIAN = False
+#: octaves keeps one keypoint (:mod:`fotogeo.features.octaves`). ``gaussian=False``: box filters.
+GAUSSIAN_HESSIAN = True
 
 #: Radius, in units of the scale s, that the descriptor window (20s square rotated
 #: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
