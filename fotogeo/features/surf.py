@@ -197,7 +197,8 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
         kp = _with_fine(kp, fine.detect(filled, hessian_threshold, PRESMOOTH_SIGMA, gaussian), hessian_threshold)
     if gaussian:    # one keypoint per blob across octaves (octaves.py)
         blur = octaves.octave_blur(kp["octave"], PRESMOOTH_SIGMA, hessian.OCTAVE_BLUR, FINE_PRESMOOTH)
-        kp = {k: v[octaves.drop_duplicates(kp, hessian.scale_of_size(kp["size"]), blur)] for k, v in kp.items()}
+        one = octaves.drop_duplicates(kp, hessian.scale_of_size(kp["size"]), blur)
+        kp = {k: v[one] for k, v in kp.items()}
     idx = _selected(kp, valid, max_keypoints)
     if not len(idx):
         return SurfResult.empty(extended)
