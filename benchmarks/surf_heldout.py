@@ -19,8 +19,9 @@ repeatability >= mahotas' and matching score >= 0.8x OpenCV SIFT's (SIFT with fo
 4000 points.
 
 Peers' scores do not depend on fotogeo: ``--cache FILE`` keeps them between runs.
-``--gaussian``: fotogeo with ``surf(gaussian=True)`` (Gaussian-derivative Hessian), rows stored
-under ``<split>+gaussian``.
+``--gaussian``: fotogeo with ``surf(gaussian=True)`` (Gaussian-derivative Hessian, the default
+since it keeps one keypoint per blob across octaves), rows stored under ``<split>+gaussian``;
+without it, box filters (``surf(gaussian=False)``), rows under ``<split>``.
 Writes ``benchmarks/results/surf_heldout.json`` (a run's tiles replace their earlier rows there;
 a run with --cases only prints).
 """
@@ -39,7 +40,7 @@ sys.path.insert(0, str(HERE))
 
 import surf_protocol as sp  # noqa: E402
 from surf_bench import (DATA, apply_h, geometric, inside, rotation_scale, run_mahotas,  # noqa: E402
-                        run_ours, run_sift_corrected)
+                        run_sift_corrected)
 
 OUT = HERE / "results" / "surf_heldout.json"
 
@@ -101,7 +102,14 @@ def run_gaussian(img):
     return r.xy, r.scale, r.descriptors, r.response, r.laplacian
 
 
-def tile_rows(name, rel, crop, cases, cache, log=print, only=None, run_ours=run_ours):
+def run_box(img):
+    """fotogeo's SURF with Bay et al.'s box filters (``surf(gaussian=False)``)."""
+    from fotogeo.features import surf
+    r = surf(img, hessian_threshold=10.0, gaussian=False)
+    return r.xy, r.scale, r.descriptors, r.response, r.laplacian
+
+
+def tile_rows(name, rel, crop, cases, cache, log=print, only=None, run_ours=run_box):
     """Protocol rows of one tile: fotogeo (``run_ours``) computed, peers from ``cache`` when
     present; ``only``: the tile's own case list."""
     a, va = sp.load_tile(DATA, rel, crop)
@@ -162,7 +170,7 @@ def main(argv=None):
     ap.add_argument("--cases", help="comma-separated case labels or families (default: all 14)")
     ap.add_argument("--cache", type=Path, help="JSON file keeping the peers' scores between runs")
     ap.add_argument("--gaussian", action="store_true",
-                    help="fotogeo with surf(gaussian=True); its rows are stored under '<split>+gaussian'")
+                    help="fotogeo with surf(gaussian=True) (else box filters); rows stored under '<split>+gaussian'")
     ap.add_argument("--out", type=Path, default=OUT, help=f"results JSON (default {OUT.relative_to(HERE.parent)})")
     args = ap.parse_args(argv)
     if not DATA.is_dir():
@@ -176,7 +184,7 @@ def main(argv=None):
         if names and name not in names:
             continue
         rows += tile_rows(name, rel, crop, cases, cache, only=only[0] if only else None,
-                          run_ours=run_gaussian if args.gaussian else run_ours)
+                          run_ours=run_gaussian if args.gaussian else run_box)
         if args.cache:
             args.cache.write_text(json.dumps(cache))
     report(rows)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fotogeo.features import hessian, surf
-from fotogeo.features.detect import PIPELINE_GAUSSIAN
+from fotogeo.features.surf import GAUSSIAN_HESSIAN
 
 
 def _blob(deg, n=64, sx=1.6, sy=2.6):
@@ -68,12 +68,12 @@ def test_keypoints_follow_a_rotation_of_fine_texture():
     assert np.median(d) < 0.1, np.median(d)
 
 
-def test_box_filters_stay_available_and_in_the_pipeline():
-    """``gaussian=False`` is Bay et al.'s box detector (the default, and the registration
-    pipeline's)."""
+def test_box_filters_stay_available():
+    """``gaussian=False`` is Bay et al.'s box detector; the Gaussian layers are the default."""
     img = _blob(20, n=96)
-    box = surf(img, upright=True)
-    gau = surf(img, gaussian=True, upright=True)
-    assert PIPELINE_GAUSSIAN is False
+    box = surf(img, upright=True, gaussian=False)
+    gau = surf(img, upright=True)
+    assert GAUSSIAN_HESSIAN is True
     assert len(box) >= 1 and len(gau) >= 1
     assert not np.allclose(box.response.max(), gau.response.max())
+    np.testing.assert_array_equal(gau.response, surf(img, upright=True, gaussian=True).response)

@@ -36,12 +36,13 @@ def _nearest(ra, rb):
 @pytest.mark.data
 def test_fine_octave_strips_give_the_keypoints_of_the_whole_image(data_dir, monkeypatch):
     """Several strips of the doubled image give the keypoints of one strip: same count, positions
-    and scales to float32 rounding of the box sums (measured: <= 0.021 px on a 700 x 850 tile)."""
+    and scales to float32 rounding of the box sums (measured: <= 0.021 px on a 700 x 850 tile).
+    Threshold 8: more than 500 keypoints with the Gaussian layers (536; 443 at 10, box filters 538)."""
     img = _tile(data_dir / "qb2" / "qb2_basic1b.tif", (750, 0, 300, 420))
-    whole = surf(img, hessian_threshold=10.0)
+    whole = surf(img, hessian_threshold=8.0)
     monkeypatch.setattr(fine, "STRIP_PIXELS", 128 * 420)
     assert len(fine.strips(*img.shape)) == 3
-    parts = surf(img, hessian_threshold=10.0)
+    parts = surf(img, hessian_threshold=8.0)
     assert len(parts) == len(whole) > 500
     d, j = _nearest(whole, parts)
     assert d.max() < 0.05, d.max()

@@ -25,9 +25,9 @@ SIFT_OFFSET = 0.25
 #: dense error 2.43 -> 2.29 m): small gains for up to 1.5x the time.
 PIPELINE_FINE_OCTAVE = False
 
-#: ``surf(gaussian=...)`` in the registration pipeline: box filters, as before the Gaussian layers;
-#: the pipeline's keypoints stay those its benchmarks measured (the Gaussian layers were measured on
-#: the SURF protocol only, docs/benchmarks/matching.md).
+#: ``surf(gaussian=...)`` in the registration pipeline: box filters, although ``surf()`` defaults to
+#: the Gaussian layers; the pipeline's keypoints stay those its benchmarks measured (the Gaussian
+#: layers were measured on the SURF protocol only, docs/benchmarks/matching.md).
 PIPELINE_GAUSSIAN = False
 
 

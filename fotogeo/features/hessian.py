@@ -41,7 +41,9 @@ With ``gaussian=True`` (:func:`detect`; the default of :func:`fotogeo.features.s
 layer's Dxx, Dyy, Dxy are instead the derivatives of a Gaussian of sigma s = 1.2 L / 9 on the
 same smoothed octave image, taken every 2^o pixels (:func:`_gauss_layer`): the scale-normalised
 det(H) of Lindeberg (1998), rotation covariant where the boxes are not; scales, sampling,
-maxima and refinement are unchanged.
+maxima and refinement are unchanged. That size cut does not separate the Gaussian layers'
+octaves (octave o's image is smoothed to 2^o, so one blob peaks at a larger s the coarser the
+octave): :mod:`fotogeo.features.octaves` drops the second copy.
 
 The response maps are computed in bands of sample rows (with a one-row halo for the
 non-maximum suppression), so memory stays bounded on large images; each row belongs to

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..pixels import from_centre
-from . import describe, fine, hessian, refine
+from . import describe, fine, hessian, octaves, refine
 
 #: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics,
 #: but measured after the light pre-smoothing below, which lowers fine-detail responses).
@@ -63,12 +63,10 @@ FINE_PRESMOOTH = PRESMOOTH_SIGMA / 2
 #: Default of ``surf(gaussian=...)``: the Hessian's second derivatives from Gaussian kernels of
 #: sigma s (:func:`fotogeo.features.hessian._gauss_layer`) instead of box filters. The box filters
 #: are not rotation covariant: on fine texture (a drone frame of asphalt and lane marks) their
-#: maxima move under rotations off multiples of 90 degrees, and the Gaussian layers meet the
-#: held-out protocol where they do not (docs/benchmarks/matching.md, SURF). Off by default for
-#: now: an isolated blob of sigma 2.5 px is then found twice, at s 2.9 in octave 0 and 3.6 in
-#: octave 1 (the octaves' scale cut does not follow the octave smoothing the Gaussian scales
-#: include), which the ratio test would reject both copies of.
-GAUSSIAN_HESSIAN = False
+#: maxima move under rotations off multiples of 90 degrees; the Gaussian layers meet the held-out
+#: protocol where they do not (docs/benchmarks/matching.md, SURF). A blob seen by two adjacent
+#: octaves keeps one keypoint (:mod:`fotogeo.features.octaves`). ``gaussian=False``: box filters.
+GAUSSIAN_HESSIAN = True
 
 #: Radius, in units of the scale s, that the descriptor window (20s square rotated
 #: arbitrarily, plus the 2s Haar wavelets: 9.5 sqrt(2) s + s) can reach from the centre.
@@ -167,7 +165,8 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     gaussian : bool, optional
         det(H) from Gaussian derivatives of sigma s (Lindeberg 1998) at every layer instead of
         Bay et al.'s box filters: the same scales, sampling, maxima, orientation and descriptors,
-        but a response that turns with the image (see :data:`GAUSSIAN_HESSIAN`).
+        but a response that turns with the image, and one keypoint per blob across octaves
+        (:func:`fotogeo.features.octaves.drop_duplicates`; see :data:`GAUSSIAN_HESSIAN`).
 
     Returns
     -------
@@ -196,6 +195,10 @@ def surf(image, mask=None, *, hessian_threshold: float = DEFAULT_THRESHOLD, n_oc
     filled = _filled(img, valid) if upscale else None
     if upscale:     # the doubled image strip by strip (fine.py): same keypoints at any image size
         kp = _with_fine(kp, fine.detect(filled, hessian_threshold, PRESMOOTH_SIGMA, gaussian), hessian_threshold)
+    if gaussian:    # one keypoint per blob across octaves (octaves.py)
+        blur = octaves.octave_blur(kp["octave"], PRESMOOTH_SIGMA, hessian.OCTAVE_BLUR, FINE_PRESMOOTH)
+        one = octaves.drop_duplicates(kp, hessian.scale_of_size(kp["size"]), blur)
+        kp = {k: v[one] for k, v in kp.items()}
     idx = _selected(kp, valid, max_keypoints)
     if not len(idx):
         return SurfResult.empty(extended)
