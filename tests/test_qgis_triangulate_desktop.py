@@ -8,6 +8,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -71,9 +72,12 @@ QTimer.singleShot(3000, dialog)
 '''
 
 
-def test_triangulate_dialog_runs_first_time_with_orthophotos_and_dem(config, data_dir, tmp_path):  # noqa: F811
+def test_triangulate_dialog_runs_first_time_with_orthophotos_and_dem(config, data_dir, tmp_path, request):  # noqa: F811
     ngi = data_dir / "ngi"
-    data = tmp_path / "data"
+    # a short folder as a user's survey folder: the dialog's screenshot in the docs shows its path
+    survey = Path(tempfile.mkdtemp(prefix="survey-"))
+    request.addfinalizer(lambda: shutil.rmtree(survey, ignore_errors=True))
+    data = survey / "data"
     data.mkdir()
     for src in [ngi / "frames" / f for f in FRAMES] + [ngi / "ortho" / f for f in ORTHOS] + [
             ngi / "dem.tif", ngi / "interior_orientation.yaml", ngi / "exterior_orientation.txt"]:

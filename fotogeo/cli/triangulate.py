@@ -77,6 +77,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         low = min(registered, key=lambda r: r["inliers"])
         click.echo(f"registered to the reference: {len(registered)} frames, fewest inliers {low['inliers']} "
                    f"({low['name']}), largest angle sigma {max(r['angle_sigma_deg'] for r in registered):.3g} deg")
+    if start.get("self_calibration"):
+        click.echo(f"camera: {start['self_calibration']}")
     if start.get("crs_rule"):
         click.echo(f"map CRS {rep.get('crs_name') or rep['crs']}: {start['crs_rule']}")
     if start.get("heights"):

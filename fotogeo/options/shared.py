@@ -23,7 +23,11 @@ SPREADS = ("homogeneous", "heterogeneous")
 INTERIOR_PARAMETERS = ("f", "ppx", "ppy", "k1", "k2", "k3", "p1", "p2")
 #: Ebner's (1976) 12 additional parameters (fotogeo.orientation.bundle_jacobian); "ebner" names all of them
 EBNER_PARAMETERS = tuple(f"b{i}" for i in range(1, 13))
-SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner",)
+SELF_CALIBRATION = INTERIOR_PARAMETERS + EBNER_PARAMETERS + ("ebner", "none")
+#: what an empty --self-calibration estimates for a camera guessed from the images' EXIF (no calibration in
+#: their files), as ODM and Metashape refine a camera by default; parameters the block cannot tell from the
+#: orientation are then held fixed (fotogeo.orientation.bundle's correlation rule)
+AUTO_SELF_CALIBRATION = ("f", "ppx", "ppy", "k1", "k2", "p1", "p2")
 #: what triangulate does with a frame the block does not determine
 UNDETERMINED = ("drop", "fail")
 #: height references a DEM may be given in (fotogeo.geometry.vertical); auto = what its CRS states

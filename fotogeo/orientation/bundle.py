@@ -52,13 +52,17 @@ from .bundle_types import ROLES, BundleResult  # noqa: F401 (part of this module
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
 from .bundle_result import make_result
 from .bundle_variance import images_too_strong
-from .bundle_robust import (huber_weights, interior_correlations, largest_w, posterior, skipped, skipped_huber,
-                            worst_per_point)
+from .bundle_robust import huber_weights, interior_correlations, posterior, skipped_huber
+from .bundle_snooping import cull_skipped, snoop_round
 
 #: tie and check points whose rays meet at a smaller angle are dropped: their depth is undetermined and their
 #: 3x3 normal block so close to singular that the reduced system loses its positive definiteness (a rendered
 #: oblique block: two rays at 1.3° from frames 7 m apart turned every σ into NaN); COLMAP's default is 1.5° too
 MIN_RAY_ANGLE_DEG = 1.5
+#: tie and check points nearer to one of their cameras than this fraction of the block's median ray length are
+#: dropped: the two rays of a wrong match can pull its point onto a projection centre, where the collinearity
+#: derivatives grow without bound and the reduced system loses its positive definiteness (every σ undetermined)
+NEAR_FRACTION = 0.05
 
 
 @dataclass(frozen=True)
@@ -144,22 +148,29 @@ class _Run:
         self.unusable = 0
         self.drop_unusable()
 
-    def drop_unusable(self):
+    def drop_unusable(self, near_only: bool = False) -> int:
         """Drop tie and check points whose rays do not meet in front of their cameras, or meet 10x
-        farther than the median point (near-parallel rays of a wrong match drift to infinity), or meet at
-        less than :data:`MIN_RAY_ANGLE_DEG` (every ray within half of it from the rays' mean direction)."""
+        farther than the median point (near-parallel rays of a wrong match drift to infinity) or nearer than
+        :data:`NEAR_FRACTION` of it, or meet at less than :data:`MIN_RAY_ANGLE_DEG` (every ray within half of
+        it from the rays' mean direction); with ``near_only`` only the points nearer than :data:`NEAR_FRACTION`.
+        The number of points dropped."""
         b = self.block
         Xs = np.nan_to_num(self.X)
-        z = bj.camera_coordinates(self.R, self.C, Xs, b.obs_frame, b.obs_point)[:, 2]
         dist = np.linalg.norm(Xs[b.obs_point] - self.C[b.obs_frame], axis=1)
-        bad_obs = self.active & ((z <= 0) | (dist > 10 * np.median(dist[self.active]))
-                                 | ~np.isfinite(self.X[b.obs_point]).all(axis=1))
+        median = np.median(dist[self.active])
+        bad_obs = self.active & (dist < NEAR_FRACTION * median)
+        if not near_only:
+            z = bj.camera_coordinates(self.R, self.C, Xs, b.obs_frame, b.obs_point)[:, 2]
+            bad_obs |= self.active & ((z <= 0) | (dist > 10 * median) | ~np.isfinite(self.X[b.obs_point]).all(axis=1))
         bad = np.zeros(len(b.point_ids), bool)
         bad[b.obs_point[bad_obs]] = True
-        bad |= _narrow_rays(Xs, self.C, b.obs_frame, b.obs_point, self.active, len(b.point_ids))
+        if not near_only:
+            bad |= _narrow_rays(Xs, self.C, b.obs_frame, b.obs_point, self.active, len(b.point_ids))
         bad &= b.role != "control"
-        self.unusable += int(np.count_nonzero(bad & active_points(b, self.active)))
+        dropped = int(np.count_nonzero(bad & active_points(b, self.active)))
+        self.unusable += dropped
         self.active &= ~bad[b.obs_point]
+        return dropped
 
     def problem(self):
         self.drop_unusable()
@@ -207,7 +218,7 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
             run.iterations += it
             p = _robust_weights(pb, s, opts)
         run.keep(pb, s)
-        blunders = _cull_skipped(run, pb, s, skipped_huber(pb, s, opts.huber_k, opts.skip_c, skip))
+        blunders = cull_skipped(run, pb, s, skipped_huber(pb, s, opts.huber_k, opts.skip_c, skip))
         pb, s = run.problem()
         p = _robust_weights(pb, s, opts)
     fixed = []
@@ -219,14 +230,12 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
         for rnd in range(opts.max_snooping_rounds + 1):
             pb, s = run.problem()
             if rnd > 0 or not opts.snooping:  # the first test is made at the robust solution
-                s, it = _solve(pb, s, pb.p0, opts, prog.stage(0.5 + 0.05 * min(rnd, 9), 0.55 + 0.05 * min(rnd, 9),
-                                                              "data snooping"), "data snooping")
-                run.iterations += it
-                run.keep(pb, s)
+                pb, s, _ = _solved(run, pb, s, opts, prog.stage(0.5 + 0.05 * min(rnd, 9), 0.55 + 0.05 * min(rnd, 9),
+                                                              "data snooping"), "data snooping", lambda pb, s: pb.p0)
             post = posterior(pb, s, pb.p0)
             if not opts.snooping or rnd == opts.max_snooping_rounds:
                 break
-            if not _snoop_round(run, pb, post, opts, rnd, blunders):
+            if not snoop_round(run, pb, post, opts, rnd, blunders):
                 break
     pb, s, post, factor = _image_variance(run, pb, s, post, opts, prog)
     prog.timings["total"] = time.perf_counter() - t0
@@ -263,44 +272,6 @@ def _image_variance(run, pb, s, post, opts, prog):
     return pb, s, post, {"sigma0_given": float(given), "factor": float(factor)}
 
 
-def _cull_skipped(run, pb, s, huber) -> list:
-    """Deactivate the tie and check observations the robust phase skipped at its solution
-    (:func:`~fotogeo.orientation.bundle_robust.skipped`); their blunder records (round 0)."""
-    block = run.block
-    skip, e, v = skipped(pb, s, huber, block.role[pb.point_ids[pb.st.point]] == "control")
-    run.active[pb.obs_ids[skip]] = False
-    obs = pb.obs_ids[skip]
-    return [{"observation": int(o), "kind": "image", "frame": block.frames[block.obs_frame[o]],
-             "point": block.point_ids[block.obs_point[o]], "w": float(e[a]), "residual_px": float(np.hypot(*v[a])),
-             "round": 0} for o, a in zip(obs, skip)]
-
-
-def _snoop_round(run, pb, post, opts, rnd, blunders) -> bool:
-    """One round of data snooping (:mod:`~fotogeo.orientation.bundle_robust`): demote the worst
-    flagged control point, or cull the worst flagged observation of every point (a flagged tie or
-    check point left with < 3 rays is dropped); True when something changed."""
-    block = run.block
-    wc = np.where(np.isfinite(post.w_control), post.w_control, -np.inf).max(axis=1)
-    n_ctrl = int(np.count_nonzero(np.isfinite(wc)))
-    if n_ctrl and wc.max() > opts.critical_w and (n_ctrl > 3 or opts.eo_sigma is not None):
-        i = int(np.argmax(wc))
-        pid = int(pb.point_ids[i])
-        role = block.role.astype(object)
-        role[pid] = "rejected"
-        run.block = replace(block, role=role.astype(str))
-        blunders.append({"point": block.point_ids[pid], "kind": "control", "w": float(wc[i]),
-                         "residual_m": [float(x) for x in pb.ctrl_xyz[i] - run.X[pid]], "round": rnd + 1})
-        return True
-    worst, cull = worst_per_point(pb, post.w, opts.critical_w, block.role[pb.point_ids] != "control")
-    for a in worst:
-        o = int(pb.obs_ids[a])
-        blunders.append({"observation": o, "kind": "image", "frame": block.frames[block.obs_frame[o]],
-                         "point": block.point_ids[block.obs_point[o]], "w": float(largest_w(post.w[a:a + 1])[0]),
-                         "residual_px": float(np.hypot(*post.v[a])), "round": rnd + 1})
-    run.active[pb.obs_ids[cull]] = False
-    return worst.size > 0
-
-
 def expand_self_calibration(names) -> tuple:
     """The free interior parameters in :data:`INTERIOR_NAMES` order, ``"ebner"`` standing for ``b1 … b12``
     (unknown names are kept, for :func:`check_block` to name them)."""
@@ -322,10 +293,22 @@ def _resolve(run, opts, prog, label):
     """The problem rebuilt after a parameter was held fixed, its robust weights anew (it may have lost
     points) and its solution."""
     pb, s = run.problem()
-    p = _robust_weights(pb, s, opts)
-    s, it = _solve(pb, s, p, opts, prog.stage(0.4, 0.5, "re-solving"), label)
-    run.iterations += it
-    run.keep(pb, s)
+    return _solved(run, pb, s, opts, prog.stage(0.4, 0.5, "re-solving"), label,
+                   lambda pb, s: _robust_weights(pb, s, opts))
+
+
+def _solved(run, pb, s, opts, prog, label, weights):
+    """``(pb, s, p)``: ``pb`` solved from ``s`` with the weights ``p = weights(pb, s)`` and kept; when points
+    were pulled onto a projection centre at the solution (:meth:`_Run.drop_unusable`, ``near_only``) the problem
+    is rebuilt without them and solved again (at most twice), so that no statistic is computed with them."""
+    for _ in range(3):
+        p = weights(pb, s)
+        s, it = _solve(pb, s, p, opts, prog, label)
+        run.iterations += it
+        run.keep(pb, s)
+        if not run.drop_unusable(near_only=True):
+            break
+        pb, s = run.problem()
     return pb, s, p
 
 

@@ -64,6 +64,12 @@ DOMINANT_SIGMA0 = 1.5
 DOMINANT_RATIO = 1.5
 
 
+def _finite_sigmas(groups: dict) -> dict:
+    """``{group: σ̂}`` of the groups whose σ̂ is known (None is NaN read back from JSON)."""
+    return {k: float(g["sigma0"]) for k, g in groups.items()
+            if g.get("sigma0") is not None and np.isfinite(g["sigma0"])}
+
+
 def dominant_group(groups: dict) -> str | None:
     """The group whose σ̂ drives σ₀ (above :data:`DOMINANT_SIGMA0` and :data:`DOMINANT_RATIO` times every other
     finite group's), or None.
@@ -75,8 +81,7 @@ def dominant_group(groups: dict) -> str | None:
     >>> dominant_group({"image": {"sigma0": 1.7}, "position_prior": {"sigma0": None}})
     'image'
     """
-    finite = {k: float(g["sigma0"]) for k, g in groups.items()
-              if g.get("sigma0") is not None and np.isfinite(g["sigma0"])}  # None: NaN read back from JSON
+    finite = _finite_sigmas(groups)
     if not finite:
         return None
     top = max(finite, key=finite.get)
@@ -103,15 +108,13 @@ def images_too_strong(groups: dict, level: float = 0.95) -> bool:
     False
     """
     from scipy.stats import f as f_distribution
-    image = groups.get("image") or {}
-    s_image = image.get("sigma0")
-    if s_image is None or not np.isfinite(s_image) or s_image <= DOMINANT_SIGMA0:
+    finite = _finite_sigmas(groups)
+    s_image = finite.pop("image", None)
+    if s_image is None or s_image <= DOMINANT_SIGMA0:
         return False
-    r_image = float(image.get("redundancy") or np.inf)
-    for name, g in groups.items():
-        s = g.get("sigma0")
-        if name == "image" or s is None or not np.isfinite(s) or s <= s_image:
-            continue
-        if (s / s_image) ** 2 > f_distribution.ppf(level, float(g.get("redundancy") or np.inf), r_image):
+    r_image = float(groups["image"].get("redundancy") or np.inf)
+    for name, s in finite.items():
+        r = float(groups[name].get("redundancy") or np.inf)
+        if s > s_image and (s / s_image) ** 2 > f_distribution.ppf(level, r, r_image):
             return False
     return True

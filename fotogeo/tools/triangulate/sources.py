@@ -38,11 +38,14 @@ from ...crs import parse_crs, require_projected
 from ...errors import InputError
 from ...geometry.camera import ExteriorOrientation
 from ...io.block import frame_key
+from ...options import AUTO_SELF_CALIBRATION
 
 #: σ (horizontal, vertical) in metres of a GPS position without accuracy tags (consumer receiver)
 GNSS_SIGMA = (5.0, 10.0)
 #: σ in degrees of an attitude read from a gimbal or an autopilot
 ATTITUDE_SIGMA = 5.0
+#: the start's source when the camera comes from the images' files
+EXIF_SOURCE = "the images' EXIF/XMP"
 
 
 @dataclass
@@ -64,6 +67,7 @@ class BlockStart:
     heights: str = ""  # the GPS heights' reference and why, when the start comes from the images' GPS
     over_gps: bool = False  # registration around the images' GPS start (attitude from the reference)
     frame_reading: str = ""  # how an SfM --eo file's local frame was read and why (fotogeo.io.sfm_frame)
+    interior_rule: str = ""  # which interior parameters the adjustment estimates and why (interior_to_estimate)
     lost: dict = field(default_factory=dict)  # frame -> what of its files' metadata could not be read
 
     def measure(self, height):
@@ -131,6 +135,30 @@ class BlockStart:
             parts.append(f"not registered, level start with κ from the images: {', '.join(left[:6])}")
         self.source = "; ".join([base, *parts])
 
+    def interior_to_estimate(self, given, n_frames: int) -> tuple:
+        """``(parameters, rule)``: the interior parameters the adjustment estimates — ``given`` (``none``: the
+        camera fixed); without it, :data:`~fotogeo.options.AUTO_SELF_CALIBRATION` for a camera guessed from
+        the images' EXIF (no calibration in their files) in a block of 3 frames or more, else none."""
+        parameters, self.interior_rule = self._interior(tuple(given or ()), n_frames)
+        return parameters, self.interior_rule
+
+    def _interior(self, names: tuple, n_frames: int) -> tuple:
+        if "none" in names:
+            if len(names) > 1:
+                raise InputError("--self-calibration none holds the camera fixed; give it alone, or the "
+                                 "parameters to estimate without it")
+            return (), "fixed (--self-calibration none)"
+        if names:
+            return names, "given (--self-calibration)"
+        if not self.source.startswith(EXIF_SOURCE):
+            return (), f"fixed: the camera of {self.source.split(';')[0]} (--self-calibration f,k1,... estimates it)"
+        if any(self.distortion):
+            return (), "fixed: the calibration the images carry (--self-calibration f,k1,... estimates it)"
+        if n_frames < 3:
+            return (), f"fixed: {n_frames} frames are too few to calibrate the camera from the images' EXIF"
+        return AUTO_SELF_CALIBRATION, ("estimated: the camera is guessed from the images' EXIF (no calibration in "
+                                       "their files); --self-calibration none holds it fixed")
+
     def summary(self) -> dict:
         out = {"source": self.source, "crs_rule": self.crs_rule, "notes": list(self.notes),
                "level_start_frames": [n for n in self.names if self.level.get(n)],
@@ -141,6 +169,8 @@ class BlockStart:
             out["heights"] = self.heights
         if self.frame_reading:
             out["sfm_frame"] = self.frame_reading
+        if self.interior_rule:
+            out["self_calibration"] = self.interior_rule
         return out
 
 
@@ -209,7 +239,7 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo,
         source = "--camera"
     else:
         cam, dist = _single_camera(approx)
-        source = "the images' EXIF/XMP"
+        source = EXIF_SOURCE
     frame_names(frames, cam)
     start = BlockStart(cam, dist, names, {}, map_crs, rule, source,
                        notes=list(approx.notes) if approx is not None else [],
