@@ -15,8 +15,8 @@ TRIANGULATE = Table(
            "CRS of the GCPs' ground x, y when the file carries none (CSV) or to override it [the map CRS]."),
     Option("check_points", "str", None, "GCP names used as check points (comma-separated)",
            "Comma-separated GCP names held out as check points."),
-    Option("self_calibration", "choices", None, "Interior parameters to estimate (empty = automatic; none = fixed "
-           "camera)", "Comma-separated interior parameters to estimate (ebner: Ebner's 12 additional parameters "
+    Option("self_calibration", "choices", None, "Interior parameters to estimate (empty = auto; none = fixed)",
+           "Comma-separated interior parameters to estimate (ebner: Ebner's 12 additional parameters "
            "b1-b12; none: the camera held fixed) [a camera read from the images' EXIF without a calibration in "
            "their files: f,ppx,ppy,k1,k2,p1,p2 with 3 frames or more; a --camera file, an SfM file's camera or a "
            "calibration the images carry (DJI DewarpData): fixed].", choices=SELF_CALIBRATION),

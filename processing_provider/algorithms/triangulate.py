@@ -42,8 +42,9 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
     ICON = "triangulation"
     GROUP = ("orientation", "Orientation")
     HELP = ("Orients a block of overlapping frames together: a bundle block adjustment with the collinearity "
-            "equations (Levenberg–Marquardt on the reduced normal equations), ground control with its σ, optional "
-            "self-calibration (f, principal point, Brown's k1–k3, p1–p2) with correlated parameters held fixed, "
+            "equations (Levenberg–Marquardt on the reduced normal equations), ground control with its σ, "
+            "self-calibration (f, principal point, Brown's k1–k3, p1–p2; by default for a camera guessed from the "
+            "images' EXIF) with correlated parameters held fixed, "
             "Huber reweighting and Baarda's data snooping — the digital aerial triangulation of Yastıklı.\n\n"
             "Inputs: the frames; the camera (orthority YAML: pinhole, or brown with distortion — the camera.yaml "
             "a self-calibrating run writes); the approximate exterior orientation (name X Y Z omega phi kappa "
