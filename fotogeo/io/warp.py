@@ -13,8 +13,8 @@ the output nodata value. Results go to a tiled, DEFLATE-compressed GeoTIFF with 
 Speed (issue 15): the windows are computed by a pool of threads (``cv2.remap``, numpy and
 GDAL's reads release the GIL), each with its own handle on the source, at most two windows
 per thread in flight; the calling thread writes them in order (so the file is the same
-whatever the thread count), GDAL compresses the tiles in its own threads (the GTiff
-``NUM_THREADS`` creation option) and builds the overviews with ``GDAL_NUM_THREADS``. A
+whatever the thread count), GDAL compresses the tiles (the GTiff ``NUM_THREADS`` creation option:
+:func:`compress_threads`, half as many as resample) and builds the overviews with ``GDAL_NUM_THREADS``. A
 window's pixels depend only on its position in the grid, never on the thread count:
 outputs are pixel-identical to the one-thread run. A source small enough is read once, pixel-interleaved, and
 the windows are views of it (:func:`fotogeo.io.warp_source.whole_source`); the overviews are built before the file
@@ -290,6 +290,17 @@ def resampled_windows(src_path, plan: Plan, windows, threads: int):
             yield from in_order(job, windows, threads, "fotogeo-warp")
 
 
+def compress_threads(threads: int) -> int:
+    """GDAL's tile-compressing threads beside ``threads`` resampling ones: half as many, at least 1 (then the
+    writing thread compresses each tile itself, while the pool resamples the next windows).
+
+    The pool already keeps every CPU busy, and resampling a window (positions and ``cv2.remap``) costs more than
+    compressing its tiles (DEFLATE level 1), so half as many compressing threads keep pace with it; more only add
+    hand-offs (each tile copied into a job, threads woken and put to sleep) and CPU time. With 2 CPUs the writing
+    thread alone keeps pace (measured in docs/benchmarks/products.md)."""
+    return max(1, int(threads) // 2)
+
+
 def write_env(threads: int, zlevel: int | None = None):
     """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for
     compressing tiles and computing overviews, and the overviews' DEFLATE level ``zlevel``."""
@@ -353,7 +364,7 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
                               crs=crs.to_wkt() if hasattr(crs, "to_wkt") else crs,
                               transform=plan.transform * plan.transform.translation(c_off, r_off) if any(offset)
                               else plan.transform,
-                              nodata=plan.nodata, predictor=True, num_threads=str(threads),
+                              nodata=plan.nodata, predictor=True, num_threads=str(compress_threads(threads)),
                               **({"zlevel": int(zlevel)} if zlevel else {}))
     valid = collisions = 0
     with write_env(threads), ropen(dst_path, "w", **profile) as dst:
