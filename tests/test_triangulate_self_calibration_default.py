@@ -23,23 +23,9 @@ from fotogeo.io.camera import read_exterior_orientation
 pytestmark = pytest.mark.slow
 
 
-def _without_calibration(monkeypatch):
-    """The block's files written with FocalLengthIn35mmFilm and without DewarpData."""
-    tags_of = ro._tags
-
-    def tags(*args, **kw):
-        tags, xmp = tags_of(*args, **kw)
-        xmp = xmp.split("><drone-dji:DewarpData>")[0] + "></rdf:Description></rdf:RDF></x:xmpmeta>\n" \
-                                                        "<?xpacket end='w'?>"
-        return {**tags, "EXIF_FocalLengthIn35mmFilm": "28"}, xmp
-    monkeypatch.setattr(ro, "_tags", tags)
-
-
 @pytest.fixture(scope="module")
 def uncalibrated(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as mp:
-        _without_calibration(mp)
-        return ro.oblique_block(tmp_path_factory.mktemp("exif_only"), seed=0, rtk=0.02)
+    return ro.oblique_block(tmp_path_factory.mktemp("exif_only"), seed=0, rtk=0.02, calibration=False)
 
 
 def _run(block, out, *extra):
