@@ -49,7 +49,8 @@ def test_a_camera_guessed_from_exif_is_calibrated_by_default(uncalibrated, tmp_p
     assert abs(f - ro.FOCAL_PX) < 2.0, camera  # 520 px; the EXIF's 28 mm gives 517.7
     ppx, ppy = (float(camera.split(f"{c}:")[1].split()[0]) * max(ro.SIZE) for c in ("cx", "cy"))
     assert abs(ppx - ro.PP_OFFSET[0]) < 0.5 and abs(ppy - ro.PP_OFFSET[1]) < 0.5, camera  # (1.5, −2.0) px
-    _assert_oriented(uncalibrated, tmp_path / "auto", 0.05, 0.08, 0.05, 0.1)  # measured 0.020 / 0.041 m, 0.017 / 0.042°
+    # every frame (measured 0.020 / 0.041 m, 0.017 / 0.042°; with the principal point held fixed 15 of 20, 0.27°)
+    _assert_oriented(uncalibrated, tmp_path / "auto", 0.05, 0.08, 0.05, 0.1)
 
 
 def _assert_oriented(block, out, position_median, position_max, angle_median, angle_max):

@@ -390,5 +390,6 @@ def _initial_interior(block):
 def _fix_reason(c, limit):
     return (f"{c['parameter']} cannot be told from the exterior orientation: its multiple correlation with "
             f"the other unknowns is {c['multiple_correlation']:.4f} > {limit} (largest: "
-            f"{c['correlation']:+.3f} with {c['partner']}) and its σ moves the image points by {c['sigma_px']:.3g} px, "
-            f"more than {max(DETERMINED_PX, c['image_sigma_px']):.3g} px; held fixed at its initial value")
+            f"{c['correlation']:+.3f} with {c['partner']}) and its σ moves the image points by "
+            f"{c['sigma_px']:.3g} px, more than {max(DETERMINED_PX, c['image_sigma_px']):.3g} px; held fixed at its "
+            f"initial value")
