@@ -87,8 +87,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         click.echo(f"resected from their GCPs (no --eo line): {', '.join(rep['resected_frames'])}")
     if rep.get("automatic_control"):
         click.echo(f"{rep['automatic_control']} control points found on the reference")
-    for f in rep["fixed_parameters"]:
-        click.echo(f"held fixed: {f['reason']}")
+    if rep["fixed_parameters"]:
+        click.echo(held_fixed_line(rep["fixed_parameters"]))
     surface = rep.get("dsm")
     if surface:
         click.echo(surface["error"] if "error" in surface else
@@ -107,3 +107,19 @@ def _rank(sigma) -> float:
 def _sigma(sigma) -> str:
     """A σ for the console: 3 significant digits, or "undetermined" when missing or not finite."""
     return f"{sigma:.3g}" if sigma is not None and math.isfinite(sigma) else "undetermined"
+
+
+def held_fixed_line(fixed) -> str:
+    """One line for the interior parameters the adjustment held fixed, each with why in short: its multiple
+    correlation and largest partner (the correlation rule), or its t (not significant); the report has the
+    full reasons."""
+    parts = []
+    for f in fixed:
+        if "multiple_correlation" in f:
+            parts.append(f"{f['parameter']} (correlation {f['multiple_correlation']:.4f}, most with {f['partner']} "
+                         f"{f['correlation']:+.2f})")
+        elif "t" in f:
+            parts.append(f"{f['parameter']} (not significant, {f['t']:.2g} sigma)")
+        else:
+            parts.append(f["parameter"])
+    return f"held fixed (report.html says why): {', '.join(parts)}"

@@ -21,8 +21,10 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
   observations beyond ``skip_c`` robust σ of the start skipped at every iteration
   (:mod:`~fotogeo.orientation.bundle_lm`; removed before data snooping); then the multiple correlation of every free
   interior parameter with the exterior orientations — a parameter the block cannot determine
-  (ϱ > ``max_correlation``, e.g. a free focal length against the flying heights over flat
-  ground, nadir frames) is held fixed and reported — and its precision companion for Ebner's
+  (ϱ > ``max_correlation`` *and* its a-posteriori σ moving the image points by more than half a pixel,
+  e.g. a free focal length against the flying heights over flat ground, nadir frames) is held
+  fixed and reported; a correlated parameter that many rays determine nevertheless (the principal
+  point against the attitudes and the decentering terms) stays free — and its precision companion for Ebner's
   (1976) additional parameters (``self_calibration=("ebner",)``,
   :mod:`~fotogeo.orientation.bundle_ebner`): one not significant (``|b| < significance·σ_b``)
   is held fixed at 0 and reported; then Baarda's (1968) data snooping with
@@ -351,11 +353,16 @@ def _significance_rule(run, pb, s, p, opts, prog, fixed):
     return pb, s, p
 
 
+#: an interior parameter whose a-posteriori σ moves the image points by at most this (px) is determined,
+#: however correlated: half a pixel, well within what a camera guessed from EXIF is off by
+DETERMINED_PX = 0.5
+
+
 def _to_fix(corr, limit):
     """The interior parameter to hold fixed, or None: the one of largest multiple correlation above
     ``limit`` — unless its strongest partner is a higher-order free interior term (k2 for k1), which
     goes first (the lower-order term carries most of the effect)."""
-    over = {c["parameter"]: c for c in corr if c["multiple_correlation"] > limit}
+    over = {c["parameter"]: c for c in corr if c["multiple_correlation"] > limit and not _determined(c)}
     if not over:
         return None
     worst = max(over.values(), key=lambda c: c["multiple_correlation"])
@@ -363,6 +370,15 @@ def _to_fix(corr, limit):
     if partner in over and bj.INTERIOR_NAMES.index(partner) > bj.INTERIOR_NAMES.index(worst["parameter"]):
         return over[partner]
     return worst
+
+
+def _determined(c) -> bool:
+    """Whether the block determines an interior parameter in spite of its correlation: its σ moves the image
+    points by at most :data:`DETERMINED_PX` or their σ if larger (``σ_px``,
+    :func:`~fotogeo.orientation.bundle_robust.interior_correlations`) — a principal point against the
+    attitudes and the decentering terms (a shift of it is a tilt of the camera but for terms of second order
+    in the image coordinates, which many rays determine)."""
+    return bool(c.get("sigma_px", np.inf) <= max(DETERMINED_PX, c.get("image_sigma_px", 0.0)))
 
 
 def _initial_interior(block):
@@ -374,4 +390,6 @@ def _initial_interior(block):
 def _fix_reason(c, limit):
     return (f"{c['parameter']} cannot be told from the exterior orientation: its multiple correlation with "
             f"the other unknowns is {c['multiple_correlation']:.4f} > {limit} (largest: "
-            f"{c['correlation']:+.3f} with {c['partner']}); held fixed at its initial value")
+            f"{c['correlation']:+.3f} with {c['partner']}) and its σ moves the image points by "
+            f"{c['sigma_px']:.3g} px, more than {max(DETERMINED_PX, c['image_sigma_px']):.3g} px; held fixed at its "
+            f"initial value")

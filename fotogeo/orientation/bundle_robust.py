@@ -25,7 +25,13 @@ round (a flagged tie point left with < 3 rays is dropped whole), and the block i
 ``k`` the multiple correlation with all other camera-side unknowns (points eliminated) is
 ``ϱ_k = √(1 − 1/(S_kk (S⁻¹)_kk))`` (``S`` the reduced camera matrix); ``ϱ_k`` close to 1 means
 the block cannot tell the parameter from the exterior orientations (a free focal length
-over flat ground against the flying heights) and it is held fixed.
+over flat ground against the flying heights) — unless the block determines it nevertheless:
+its a-posteriori σ ``σ̂₀ √Q_kk`` times the RMS of ``|∂pixel/∂b_k|`` over the observations (``σ_px``,
+what its uncertainty moves the image points by) within half a pixel, or the image σ ``σ̂₀ · median(1/√p)``
+when larger (:data:`fotogeo.orientation.bundle.DETERMINED_PX`). A
+principal-point shift is a tilt of the camera but for terms of second order in the image
+coordinates, which the decentering terms take only in part: its ϱ comes close to 1,
+yet many rays determine it. A parameter correlated and imprecise is held fixed.
 """
 from __future__ import annotations
 
@@ -104,6 +110,8 @@ class Posterior:
     v: np.ndarray  # (n, 2) image residuals
     w_control: np.ndarray  # (P, 3) standardised residuals of the control coordinates (NaN elsewhere, not testable)
     groups: dict = field(default_factory=dict)  # σ̂ per observation group (fotogeo.orientation.bundle_variance)
+    interior_px: np.ndarray = field(default_factory=lambda: np.zeros(0))  # RMS |∂pixel/∂b| of each free interior b
+    image_sigma: float = float("nan")  # median a-priori σ of the image observations (px)
 
 
 def _inverse(S: np.ndarray, st=None) -> np.ndarray:
@@ -165,8 +173,9 @@ def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:
         w_c = np.abs(s.X - pb.ctrl_xyz) / (s_t * np.sqrt(np.maximum(qc, 1e-12 / np.maximum(pb.ctrl_w, 1e-300))))
     groups = variance_components(p, v, r, pb.ctrl_w, s.X - pb.ctrl_xyz, np.diagonal(S_bb, axis1=1, axis2=2),
                                  pb.eo_w, eo_prior_residual(pb, s), np.diag(S_inv))
+    interior_px = np.sqrt(np.mean(np.sum(J_c[:, :, 6:] ** 2, axis=1), axis=0)) if len(v) else np.zeros(0)
     return Posterior(sigma0, dof, S, S_inv, S_bb, r, w, v, np.where(ctrl & (r_c >= MIN_REDUNDANCY), w_c, np.nan),
-                     groups)
+                     groups, interior_px, float(np.median(1.0 / np.sqrt(np.maximum(p, 1e-300)))) if len(p) else 1.0)
 
 
 def largest_w(w: np.ndarray) -> np.ndarray:
@@ -199,12 +208,15 @@ def worst_per_point(pb: Problem, w: np.ndarray, critical: float = CRITICAL_W, ti
 
 def interior_correlations(pb: Problem, post: Posterior, frame_names, interior_names) -> list[dict]:
     """For each free interior parameter: its multiple correlation ``ϱ`` with all other
-    camera-side unknowns and its largest pairwise correlation and partner (module docstring)."""
+    camera-side unknowns, its largest pairwise correlation and partner, and its a-posteriori σ in its
+    unit and in pixels, ``σ_px = σ̂₀ √Q_kk · RMS|∂pixel/∂b_k|`` over the observations, with the image σ
+    ``σ̂₀ σ_image`` it is compared with (module docstring)."""
     m = pb.st.n_frames
     S, Si = post.S, post.S_inv
     names = [f"{frame_names[j]}.{a}" for j in range(m) for a in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
     names += [interior_names[k] for k in pb.st.free_interior]
     sd = np.sqrt(np.maximum(np.diag(Si), 1e-300))
+    s0 = post.sigma0 if np.isfinite(post.sigma0) else 1.0
     out = []
     for q, k in enumerate(pb.st.free_interior):
         i = 6 * m + q
@@ -213,6 +225,8 @@ def interior_correlations(pb: Problem, post: Posterior, frame_names, interior_na
         corr = Si[i] / (sd[i] * sd)
         corr[i] = 0.0
         j = int(np.argmax(np.abs(corr)))
+        px = float(post.interior_px[q]) if q < len(post.interior_px) else float("nan")
         out.append({"parameter": interior_names[k], "multiple_correlation": rho,
-                    "partner": names[j], "correlation": float(corr[j])})
+                    "partner": names[j], "correlation": float(corr[j]), "sigma": float(s0 * sd[i]),
+                    "sigma_px": float(s0 * sd[i] * px), "image_sigma_px": float(s0 * post.image_sigma)})
     return out

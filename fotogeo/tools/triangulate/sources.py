@@ -136,11 +136,12 @@ class BlockStart:
         self.source = "; ".join([base, *parts])
 
     def interior_to_estimate(self, given, n_frames: int) -> tuple:
-        """``(parameters, rule)``: the interior parameters the adjustment estimates — ``given`` (``none``: the
-        camera fixed); without it, :data:`~fotogeo.options.AUTO_SELF_CALIBRATION` for a camera guessed from
-        the images' EXIF (no calibration in their files) in a block of 3 frames or more, else none."""
+        """The interior parameters the adjustment estimates — ``given`` (``none``: the camera fixed); without
+        it, :data:`~fotogeo.options.AUTO_SELF_CALIBRATION` for a camera guessed from the images' EXIF (no
+        calibration in their files) in a block of 3 frames or more, else none. Why is kept in
+        ``interior_rule`` (the report's ``start.self_calibration``)."""
         parameters, self.interior_rule = self._interior(tuple(given or ()), n_frames)
-        return parameters, self.interior_rule
+        return parameters
 
     def _interior(self, names: tuple, n_frames: int) -> tuple:
         if "none" in names:

@@ -211,7 +211,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     block = Block(cam, tuple(names), eos, f_obs, p_obs, px, ids, xyz, sig, role, s_obs, distortion=distortion,
                   crs=map_crs)
     eo_sigma = start.eo_sigma(kw["eo_sigma_position"], kw["eo_sigma_height"], kw["eo_sigma_angle"])
-    interior, _ = start.interior_to_estimate(kw["self_calibration"], len(names))
+    interior = start.interior_to_estimate(kw["self_calibration"], len(names))
     opts = BundleOptions(self_calibration=interior, eo_sigma=eo_sigma,
                          snooping=kw["snooping"], max_correlation=kw["max_correlation"])
     prog(0.5, "inputs read")
