@@ -6,7 +6,7 @@ The 3 x 5 block of ``benchmarks/triangulate_block_bench.py`` (600 x 400 px frame
 to 635 px at the start. Adjusted with plain Huber weights (no skipping in the robust phase) and no ray-angle rule,
 corner frame s3_01 came out 266 m and 14° wrong with σ 2.3 m / 0.11° — and passed points, spread and precision
 (with the box-filter SURF; with the Gaussian-derivative layers no frame turns in that adjustment, so the frame check
-is tested on a built scene instead).
+is tested on a built scene, whatever the detector: tests/test_frame_check_blunders.py).
 """
 from __future__ import annotations
 
