@@ -6,7 +6,7 @@ The scene is built, not matched, so that it holds whatever the detector: a simul
 (the centre 30 m off, κ turned 5°) puts them — as wrong matches on a repeated pattern would — and the rest where they
 are. The wrong observations agree with each other, so the adjustment follows them: the frame comes out 29 m wrong
 with enough points, spread and a small σ (0.33°, limit 0.5°), and only the share of its observations rejected as
-blunders (20 of 69, limit 25 %) tells that it is wrong. Measured over 4 seeds of the choice and noise: 29–38 m wrong,
+blunders (20 of 69, limit 25 %) tells that it is wrong. Measured over 4 seeds of the choice and noise: 28–38 m wrong,
 refused on the blunder share alone in 3, on its angle σ in the fourth.
 """
 from __future__ import annotations
