@@ -27,10 +27,10 @@ PIPELINE_FINE_OCTAVE = False
 
 #: ``surf(gaussian=...)`` in the registration pipeline: box filters, although ``surf()`` defaults to
 #: the Gaussian layers. Measured through the pipeline both ways (docs/benchmarks/registration.md,
-#: "The pipeline's SURF with Gaussian-derivative layers"): the Gaussian layers give more inliers and
-#: a smaller check error, but a larger dense-grid error of the terrain-aware registration to the
-#: orthophoto -- the error against the true geometry, on which the pipeline's accuracy goal is set;
-#: the default model choice on one frame then exceeds that goal.
+#: "The pipeline's SURF with Gaussian-derivative layers"): the Gaussian layers give more and more
+#: accurate tie points and a smaller check error, but a larger dense-grid error of the terrain-aware
+#: registration to the orthophoto -- the error against the true geometry, on which the pipeline's
+#: accuracy goal is set; the default model choice on one frame then exceeds that goal.
 PIPELINE_GAUSSIAN = False
 
 
