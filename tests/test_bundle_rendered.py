@@ -1,10 +1,12 @@
-"""The adjustment of a rendered block with matched tie points (issue 20): gross wrong matches must neither turn a
-frame the wrong way nor, if they do, pass the frame check.
+"""The adjustment of a rendered block with matched tie points (issue 20): gross wrong matches must not turn a
+frame the wrong way (a frame that they do turn must not pass the frame check: tests/test_frame_check_blunders.py).
 
 The 3 x 5 block of ``benchmarks/triangulate_block_bench.py`` (600 x 400 px frames, 60/30 overlap, ±40 m relief,
 9 GCPs, the start 5 m / 0.5° off): its tie points are 99 % right against the truth, the rest wrong matches of up
 to 635 px at the start. Adjusted with plain Huber weights (no skipping in the robust phase) and no ray-angle rule,
-corner frame s3_01 came out 266 m and 14° wrong with σ 2.3 m / 0.11° — and passed points, spread and precision.
+corner frame s3_01 came out 266 m and 14° wrong with σ 2.3 m / 0.11° — and passed points, spread and precision
+(with the box-filter SURF; with the Gaussian-derivative layers no frame turns in that adjustment, so the frame check
+is tested on a built scene, whatever the detector: tests/test_frame_check_blunders.py).
 """
 from __future__ import annotations
 
@@ -12,7 +14,6 @@ import numpy as np
 import pytest
 
 from fotogeo.geometry.camera import FrameCamera
-from fotogeo.orientation import bundle
 from fotogeo.orientation.block_render import render_block
 from fotogeo.orientation.block_simulation import simulate_block
 from fotogeo.orientation.bundle import BundleOptions, adjust_block
@@ -43,16 +44,3 @@ def test_wrong_matches_do_not_turn_a_frame(block):
     err = centre_errors(sb, res)
     assert max(err.values()) < 5.0, err  # 3.3 GSD at 1000 m; 2.2 m measured
     assert undetermined_frames(frame_quality(res, blk)) == {}
-
-
-def test_frame_check_refuses_a_frame_that_rejects_its_own_tie_points(block, monkeypatch):
-    sb, blk = block
-    monkeypatch.setattr(bundle, "MIN_RAY_ANGLE_DEG", 0.0)
-    res = adjust_block(blk, BundleOptions(skip_c=np.inf))  # gross errors only down-weighted: a frame turns
-    err = centre_errors(sb, res)
-    wrong = {n for n, d in err.items() if d > 20.0}
-    assert wrong, err  # the block this test is about (s3_01 266 m measured); if none, the test shows nothing
-    bad = undetermined_frames(frame_quality(res, blk))
-    assert wrong <= set(bad), (err, bad)
-    assert all("rejected as blunders" in bad[n] for n in wrong)
-    assert not set(bad) - wrong - {n for n, d in err.items() if d > 5.0}  # no right frame refused

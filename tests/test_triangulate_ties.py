@@ -42,14 +42,38 @@ def true_transfer_error(sb, dem, frame, track, pixel):
     return np.hypot(*e[np.isfinite(e).all(axis=1)].T)
 
 
+def region_overlap(sb, height: float, step: int = 10) -> np.ndarray:
+    """``(frames, 9)`` share of each Gruber region of each frame that another frame sees (true orientations,
+    the plane at ``height``): where a tie point can be at all."""
+    cam = sb.true_camera
+    w, h = cam.image_size
+    yy, xx = np.mgrid[step // 2:h:step, step // 2:w:step]
+    px = np.column_stack([xx.ravel(), yy.ravel()]).astype(float)
+    region = image_regions(px, cam)
+    out = []
+    for f, eo in enumerate(sb.true_eo):
+        ground = OrientedFrame(cam, eo).pixel_to_world_at(px, height)
+        seen = np.zeros(len(px), bool)
+        for o in set(range(len(sb.true_eo))) - {f}:
+            q = OrientedFrame(cam, sb.true_eo[o]).world_to_pixel(ground)
+            seen |= (q[:, 0] > 0) & (q[:, 0] < w) & (q[:, 1] > 0) & (q[:, 1] < h)
+        out.append(np.bincount(region, weights=seen, minlength=9) / np.bincount(region, minlength=9))
+    return np.array(out)
+
+
 def test_detection_on_level_one_is_thinned_to_gruber_positions(rendered):
-    sb, _, _, _, frame, track, pixel, rep = rendered
+    sb, _, _, height, frame, track, pixel, rep = rendered
     assert rep["detection_level"] == 1 and rep["tracks"] < rep["tracks_matched"]
     cam = sb.block.camera
     region = image_regions(pixel, cam)
+    overlap = region_overlap(sb, height)
     for f in range(len(sb.block.frames)):
         counts = np.bincount(region[frame == f], minlength=9)
-        assert (counts > 0).sum() >= 8, (f, counts)
+        # every region another frame sees holds tie points; the first and last frames of a strip have a third
+        # or two of a row of regions that no frame sees (s2_01's lower left: 0 % and 14 %), where none can be
+        # (measured: 17 or more with the box filters, 18 with the Gaussian layers, in each region at least half seen)
+        assert (counts[overlap[f] >= 0.5] >= 10).all(), (f, counts, overlap[f].round(2))
+        assert (overlap[f] >= 0.5).sum() >= 6, overlap[f]  # the block's layout: the test sees most regions
         # a track kept for one frame's region also counts in the others: bounded, not exact
         assert counts.max() <= 3 * 25, (f, counts)
     assert max(int(k) for k in rep["rays_per_track"]) >= 3  # multi-ray tracks where the overlaps allow

@@ -24,10 +24,11 @@ from ..pixels import from_centre
 from . import describe, fine, hessian, octaves, refine
 
 #: Default Hessian threshold, on det(H) of an image in grey levels 0..255 (OpenCV semantics,
-#: but measured after the light pre-smoothing below, which lowers fine-detail responses).
-#: After a 1-99 % stretch, 50 gives 2264 keypoints on NGI frame 0182, 2508 on orthophoto
-#: tile 1 and 375 on the Landsat clip (100 gives 1083, 1211, 244; without pre-smoothing,
-#: 100 gave 1525 on the frame).
+#: but measured after the light pre-smoothing below, which lowers fine-detail responses). Chosen
+#: on the box filters' counts; the Gaussian layers' gain (``hessian.GAUSSIAN_GAIN``) keeps their
+#: counts close to the box filters' (a few fewer on the aerial images, more on the coarse Landsat
+#: clip): both, with and without the fine octave, in docs/benchmarks/matching.md
+#: (``benchmarks/surf_counts.py``).
 DEFAULT_THRESHOLD = 50.0
 
 #: Gaussian pre-smoothing (pixels) applied before the integral image. The 9x9 box filters
