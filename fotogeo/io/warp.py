@@ -248,11 +248,12 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
         stacked = cv2.remap(data if interleaved else np.ascontiguousarray(np.moveaxis(data, 0, -1)),  # arithmetic
                             map1, map2, interp, borderMode=cv2.BORDER_REPLICATE)                   # is the same
         bands = [stacked[..., b] for b in range(plan.count)] if per_band else []
-        for b, part in enumerate([] if per_band else cv2.split(stacked, list(out))):  # de-interleaved by OpenCV
-            if not np.may_share_memory(part, out[b]):  # into the output's bands (unless it allocated its own)
-                out[b] = part
-        if not per_band and good is not None:  # then the invalid cells get nodata
-            np.copyto(out, out.dtype.type(plan.nodata), where=~good)
+        if not per_band:  # de-interleaved by OpenCV into the output's bands, then the invalid cells get nodata
+            for b, part in enumerate(cv2.split(stacked, list(out))):
+                if not np.may_share_memory(part, out[b]):  # OpenCV allocated its own
+                    out[b] = part
+            if good is not None:
+                np.copyto(out, out.dtype.type(plan.nodata), where=~good)
     else:
         bands = [cv2.remap(data[b] if work_dtype == plan.dtype else data[b].astype(work_dtype), map1, map2, interp,
                            borderMode=cv2.BORDER_REPLICATE) for b in range(plan.count)]
@@ -299,9 +300,8 @@ def compress_threads(threads: int) -> int:
     """GDAL's tile-compressing threads beside ``threads`` resampling ones: half as many, at least 1 (then the
     writing thread compresses each tile itself, while the pool resamples the next windows).
 
-    The pool keeps every CPU busy, and resampling a window costs more than compressing its tiles (DEFLATE level
-    1), so half as many compressing threads keep pace; more only add hand-offs (each tile copied into a job, threads
-    woken and put to sleep) and CPU time (measured in docs/benchmarks/products.md)."""
+    The pool keeps every CPU busy and resampling a window costs more than compressing its tiles (DEFLATE level 1):
+    half as many keep pace; more only add hand-offs and CPU time (measured in docs/benchmarks/products.md)."""
     return max(1, int(threads) // 2)
 
 
