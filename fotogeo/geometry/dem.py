@@ -148,6 +148,19 @@ class Dem:
             h[:, ~in_c] = np.nan
         return h
 
+    def cells_grid(self, X, Y):
+        """The bilinear cell of each column ``X`` and each row ``Y`` of a north-up grid: ``(cols (len(X),),
+        rows (len(Y),))``, the index of the DEM cell whose four centres interpolate the height there, -1 off the DEM
+        (None for a rotated DEM). Within one cell the heights of :meth:`heights_grid` are smooth (bilinear); they
+        have a kink where the index changes."""
+        a, b, c0, d, e, f0 = self._inverse()
+        if b != 0 or d != 0:
+            return None
+        rows, cols = self.data.shape
+        j, _, in_c = _axis_weights(to_centre(a * np.asarray(X, float) + c0), cols)
+        i, _, in_r = _axis_weights(to_centre(e * np.asarray(Y, float) + f0), rows)
+        return np.where(in_c, j, -1), np.where(in_r, i, -1)
+
     def heights_and_gradient(self, XY):
         """Bilinear heights and their map-coordinate gradient ``(h, dh/dX, dh/dY)``, each ``(N,)``."""
         i, j, t, u, inside = self._index(XY)

@@ -23,6 +23,13 @@ import numpy as np
 
 #: lattice step (cells) of the ground → image positions, and its error bound (image pixels)
 MODEL_STEP, MODEL_TOL_PX = 16, 1e-3
+#: :func:`piecewise_on_lattice` interpolates only where its exact lattice is at most this fraction's inverse of the
+#: window's cells: denser, interpolating and checking cost about what computing every cell costs
+SPARSE = 12
+#: share of the threshold a check of :func:`piecewise_on_lattice` may use: between two nodes the error of a smooth
+#: piece is ``x (L − x) (a + b x)``, largest at the middle when ``b = 0``, and off it by 2.6 % of that at most while
+#: ``|b| L <= |a|`` (the quadratic term dominates); the middle cell may also be half a cell off the middle
+CHECK_MARGIN = 0.95
 
 
 def lattice(n: int, step: int) -> np.ndarray:
@@ -101,3 +108,111 @@ def _interpolated(forward, X, Y, Z, finite, step: int, tol: float):
     out = np.empty((h * w, 2))
     out[:, 0], out[:, 1] = px[0].ravel(), px[1].ravel()
     return out
+
+
+def piece_nodes(pieces, step: int) -> np.ndarray:
+    """Lattice nodes along one axis of cells labelled by ``pieces`` (equal labels: one smooth piece): the first and
+    last cell of every run of equal labels, and inside a run longer than ``step`` cells evenly spaced nodes at most
+    ``step`` apart, so that no lattice interval crosses from one piece into the next.
+
+    >>> piece_nodes([0] * 5 + [1] * 12, 4).tolist()
+    [0, 4, 5, 8, 12, 16]
+    """
+    p = np.asarray(pieces)
+    ends = np.r_[np.flatnonzero(p[1:] != p[:-1]), len(p) - 1]
+    starts = np.r_[0, ends[:-1] + 1]
+    span = ends - starts
+    k = np.maximum(1, -(-span // step))  # intervals of each run
+    run = np.repeat(np.arange(len(starts)), k + 1)
+    j = np.arange(len(run)) - np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)  # 0..k within each run
+    return np.unique(starts[run] + (j * span[run]) // k[run])
+
+
+def _midpoints(nodes) -> np.ndarray:
+    """The middle cell of each lattice interval, -1 where the interval has no cell between its nodes."""
+    a, b = nodes[:-1], nodes[1:]
+    return np.where(b - a >= 2, (a + b) // 2, -1)
+
+
+def _fractions(nodes, n: int):
+    """The lattice interval of each index of ``range(n)`` (the last node's is the last interval) and the index's
+    fraction of the way along it."""
+    i = np.clip(np.searchsorted(nodes, np.arange(n), side="right") - 1, 0, len(nodes) - 2)
+    return i, (np.arange(n) - nodes[i]) / (nodes[i + 1] - nodes[i])
+
+
+def bilinear32(values, rows, cols, h: int, w: int) -> np.ndarray:
+    """:func:`bilinear` of two planes ``(2, len(rows), len(cols))`` into float32 planes ``(2, h, w)``: along the
+    columns in float64 at the lattice rows, then along the rows in float32, each lattice interval of rows at once
+    (the full-size planes are what costs: float32 halves them). Each value is within two float32 spacings of the
+    float64 interpolation."""
+    i, f = _fractions(cols, w)
+    v = np.asarray(values, np.float64)
+    top = np.take(np.diff(v, axis=2), i, axis=2)
+    top *= f
+    top += np.take(v, i, axis=2)  # (2, len(rows), w)
+    step, top = np.diff(top, axis=1).astype(np.float32), top.astype(np.float32)  # the rows' pass in float32
+    out = np.empty((2, h, w), np.float32)
+    k, g = _fractions(rows, h)
+    g = g.astype(np.float32)
+    bounds = np.r_[0, np.flatnonzero(np.diff(k)) + 1, h]
+    for a, b in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+        for p in range(2):
+            np.multiply(g[a:b, None], step[p, k[a]], out=out[p, a:b])
+            out[p, a:b] += top[p, k[a]]
+    return out
+
+
+def piecewise_on_lattice(exact, row_pieces, col_pieces, *, tol: float, step: int = MODEL_STEP):
+    """Positions ``(2, h, w)`` of a window whose exact values ``exact(rows, cols) -> (2, len(rows), len(cols))``
+    (index arrays, the separable sub-grid) are smooth inside each piece — a rectangle of equal ``row_pieces`` ``(h,)``
+    and ``col_pieces`` ``(w,)`` labels, e.g. one DEM cell, inside which the heights are bilinear — and may have a
+    kink between pieces.
+
+    The lattice (:func:`piece_nodes`) has nodes on both sides of every piece boundary, so each of its rectangles
+    lies inside one piece; ``exact`` at the nodes is interpolated bilinearly into float32 (:func:`bilinear32`) and
+    checked against ``exact`` at the middle of every lattice edge and at every rectangle's centre: where bilinear
+    interpolation of a smooth function errs most (for a quadratic, exactly there). A rectangle where one of its
+    checks is more than :data:`CHECK_MARGIN` ``· tol`` away (Euclidean; less two float32 spacings of the largest
+    position, which the cells' own rounding may add) or not finite, or with a corner without a value, takes ``exact`` at
+    every cell; so does the whole window (float64) when that is more than a quarter of the rectangles or when the
+    lattice with its check points holds more than 1/:data:`SPARSE` of the window's cells (pieces of a few cells).
+    The idea of GDAL's approximate transformer (``gdalwarp -et``, checked at the middle of each interpolated line),
+    on a 2-D lattice that follows the surface's cells."""
+    h, w = len(row_pieces), len(col_pieces)
+    rows, cols = piece_nodes(row_pieces, step), piece_nodes(col_pieces, step)
+    rm, cm = _midpoints(rows), _midpoints(cols)
+    vr, hc = np.flatnonzero(rm >= 0), np.flatnonzero(cm >= 0)
+    R, C = np.union1d(rows, rm[vr]), np.union1d(cols, cm[hc])  # nodes and check points: one call
+    if tol <= 0 or min(len(rows), len(cols)) < 2 or len(R) * len(C) * SPARSE > h * w:
+        return exact(np.arange(h), np.arange(w))
+    E = exact(R, C)
+    at_r, at_c = np.searchsorted(R, rows), np.searchsorted(C, cols)
+    v = E[:, at_r][:, :, at_c]
+    fin = np.isfinite(v).all(axis=0)
+    px = bilinear32(np.where(fin, v, 0.0), rows, cols, h, w)
+    bad = ~(fin[:-1, :-1] & fin[1:, :-1] & fin[:-1, 1:] & fin[1:, 1:])
+    # the checks leave room for what the cells between them may add: a largest error off the middle (CHECK_MARGIN)
+    # and their own float32 rounding (two spacings at the largest position)
+    bound = CHECK_MARGIN * tol - 2 * float(np.spacing(np.float32(np.abs(v[:, fin]).max()))) if fin.any() else 0.0
+
+    def off(r, c):
+        d = E[:, np.searchsorted(R, r)[:, None], np.searchsorted(C, c)[None, :]] - px[:, r[:, None], c[None, :]]
+        with np.errstate(invalid="ignore"):
+            return ~(np.hypot(d[0], d[1]) <= bound)
+
+    if hc.size:  # the middles of the lattice's horizontal edges: both rectangles beside the edge
+        f = off(rows, cm[hc])
+        bad[:, hc] |= f[:-1] | f[1:]
+    if vr.size:  # of its vertical edges
+        f = off(rm[vr], cols)
+        bad[vr, :] |= f[:, :-1] | f[:, 1:]
+    if vr.size and hc.size:  # the rectangles' centres
+        bad[np.ix_(vr, hc)] |= off(rm[vr], cm[hc])
+    if bad.mean() > 0.25:
+        return exact(np.arange(h), np.arange(w))
+    for i in np.flatnonzero(bad.any(axis=1)):  # the failed rectangles of each row of the lattice: one call
+        r = np.arange(rows[i], rows[i + 1] + 1)
+        c = np.unique(np.concatenate([np.arange(cols[j], cols[j + 1] + 1) for j in np.flatnonzero(bad[i])]))
+        px[:, r[:, None], c[None, :]] = exact(r, c)
+    return px

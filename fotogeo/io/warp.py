@@ -6,20 +6,19 @@ then to *source pixel* coordinates by ``inverse_map`` (map XY → source col/row
 source window that those coordinates touch (plus a margin for the interpolation kernel)
 is read, and ``cv2.remap`` samples it; memory therefore stays bounded by the block size
 whatever the raster sizes. Nearest neighbour takes GDAL's source pixel, computed in float64
-(:mod:`fotogeo.io.warp_gdal`), and hands OpenCV exact integer maps: with
-:class:`~fotogeo.io.warp_gdal.GeotransformInverse` the output equals ``gdalwarp -r near -et 0``'s. Source nodata (mask) and positions outside the source become
-the output nodata value. Results go to a tiled, DEFLATE-compressed GeoTIFF with overviews.
+(:mod:`fotogeo.io.warp_gdal`; float32 positions, a mapping's interpolated ones, are taken as they are), and hands
+OpenCV exact integer maps: with :class:`~fotogeo.io.warp_gdal.GeotransformInverse` the output equals
+``gdalwarp -r near -et 0``'s. Source nodata (mask) and positions outside the source become the output nodata value.
+Results go to a tiled, DEFLATE-compressed GeoTIFF with overviews.
 
-Speed (issue 15): the windows are computed by a pool of threads (``cv2.remap``, numpy and
-GDAL's reads release the GIL), each with its own handle on the source, at most two windows
-per thread in flight; the calling thread writes them in order (so the file is the same
-whatever the thread count), GDAL compresses the tiles (the GTiff ``NUM_THREADS`` creation option:
-:func:`compress_threads`, half as many as resample) and builds the overviews with ``GDAL_NUM_THREADS``. A
-window's pixels depend only on its position in the grid, never on the thread count:
-outputs are pixel-identical to the one-thread run. A source small enough is read once, pixel-interleaved, and
-the windows are views of it (:func:`fotogeo.io.warp_source.whole_source`); the overviews are built before the file
-is closed. :func:`fotogeo.io.warp_tiles.warp_tiled` splits a large grid into tiles written by separate tasks
-(threads or Dask workers).
+Speed: the windows are computed by a pool of threads (``cv2.remap``, numpy and GDAL's reads release the GIL), each
+with its own handle on the source, at most two windows per thread in flight; the calling thread writes them in order
+(so the file is the same whatever the thread count), GDAL compresses the tiles (the GTiff ``NUM_THREADS`` creation
+option: :func:`compress_threads`, half as many as resample) and builds the overviews with ``GDAL_NUM_THREADS``. A
+window's pixels depend only on its position in the grid, never on the thread count: outputs are pixel-identical to
+the one-thread run. A source small enough is read once, pixel-interleaved, and the windows are views of it
+(:func:`fotogeo.io.warp_source.whole_source`); the overviews are built before the file is closed.
+:func:`fotogeo.io.warp_tiles.warp_tiled` splits a large grid into tiles written by tasks (threads or Dask workers).
 """
 from __future__ import annotations
 
@@ -210,11 +209,12 @@ def _interpolation_maps(x, y, plan: Plan, h: int, w: int):
 
 
 def _positions(plan: Plan, r0: int, c0: int, h: int, w: int):
-    """Source positions ``(x, y)`` (``(h, w)`` each, corner convention) of the window's cell centres: the mapping's
-    ``grid`` (``(2, h, w)`` planes or ``(h·w, 2)`` rows) if it has one, else the mapping of the centres."""
-    grid = getattr(plan.inverse_map, "grid", None)  # the window's rows and columns, for separable work
+    """Source positions ``(x, y)`` (``(h, w)`` each, corner convention; float32 if interpolated, else float64) of the
+    window's cell centres: the mapping's ``grid`` (``(2, h, w)`` or ``(h·w, 2)``) if it has one, else of the centres."""
+    grid = getattr(plan.inverse_map, "grid", None)
     sp = np.asarray(grid(plan.transform, r0, c0, h, w) if grid is not None else
-                    plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)), dtype=np.float64)
+                    plan.inverse_map(centres_to_map(plan.transform, r0, c0, h, w)))
+    sp = sp if sp.dtype == np.float32 else sp.astype(np.float64, copy=False)
     if sp.ndim == 3:
         return sp[0], sp[1]
     return sp[:, 0].reshape(h, w), sp[:, 1].reshape(h, w)

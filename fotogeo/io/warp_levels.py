@@ -47,7 +47,10 @@ class ReducedMapping:
         return np.asarray(self.inverse_map(XY), np.float64) / self.factor
 
     def _grid(self, transform, r0: int, c0: int, h: int, w: int) -> np.ndarray:
-        return np.asarray(self.inverse_map.grid(transform, r0, c0, h, w), np.float64) / self.factor
+        g = np.asarray(self.inverse_map.grid(transform, r0, c0, h, w))
+        if g.dtype == np.float32:  # interpolated positions (fotogeo.geometry.lattice.bilinear32): kept so
+            return np.divide(g, np.float32(self.factor), out=g)
+        return np.asarray(g, np.float64) / self.factor
 
 
 def cell_scale(inverse_map, transform, width: int, height: int, src_width: int, src_height: int,

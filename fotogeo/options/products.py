@@ -40,6 +40,9 @@ ORTHO = Table(
            "Output CRS: auto = the DEM's when projected, else the orientation file's, else the UTM zone (RPC); "
            "or EPSG:xxxx, WKT, PROJ. Orientations from .txt lines are in it.", flag="--crs", param="CRS"),
     RESAMPLING,
+    Option("error_threshold", "float", 0.125, "Error threshold of the interpolated cell positions (px; 0 = exact)",
+           "Largest distance (image pixels) of a frame's cell positions interpolated on a checked lattice from the "
+           "exact ones, like gdalwarp -et; 0 computes every cell exactly.", minimum=0.0, advanced=True),
     Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
            "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
     UNCERTAINTY,

@@ -37,7 +37,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError
 from ...geometry.dem import heights_at, underlying_dem
 from ...geometry.georeference import Georeference
-from ...geometry.lattice import ground_to_image_on_lattice
+from ...geometry.lattice import ground_to_image_on_lattice, piecewise_on_lattice
 from ...geometry.occlusion import visible_pixels
 from ...io.raster import AtomicOutputs, check_output, open_raster
 from ...io.warp import grid_covering, warp_to_grid
@@ -61,10 +61,12 @@ class OrthoMapping:
 
     ``surface``: the height source the occlusion test traces through (None: no test), ``step`` its
     horizontal step (map units), ``pyramid`` its :class:`~fotogeo.geometry.occlusion.MaxPyramid` (or None),
-    ``tol`` its height margin; ``size`` the image's ``(width, height)``."""
+    ``tol`` its height margin; ``size`` the image's ``(width, height)``; ``error_threshold``: the largest
+    distance (image pixels) of a frame's interpolated positions from the exact ones in :meth:`grid` (0: exact)."""
 
-    def __init__(self, model, heights, size, surface=None, step: float = 1.0, tol: float = 0.05, pyramid=None):
-        self.model, self.heights, self.size = model, heights, size
+    def __init__(self, model, heights, size, surface=None, step: float = 1.0, tol: float = 0.05, pyramid=None,
+                 error_threshold: float = 0.0):
+        self.model, self.heights, self.size, self.error_threshold = model, heights, size, float(error_threshold)
         self.surface, self.step, self.tol, self.pyramid = surface, step, tol, pyramid
 
     def __call__(self, XY) -> np.ndarray:
@@ -84,18 +86,37 @@ class OrthoMapping:
         """The same positions for the ``h x w`` cell centres of a window of a north-up ``transform``
         (:func:`fotogeo.io.warp.warp_to_grid`): the DEM sampled once per row and column
         (:meth:`~fotogeo.geometry.dem.Dem.heights_grid`); the frame's camera coordinates likewise
-        (``forward_grid``: two planes ``(2, h, w)``, column and row), any other model (rows ``(h·w, 2)``) on a
-        checked lattice
-        (:func:`~fotogeo.geometry.lattice.ground_to_image_on_lattice`: within 0.001 px of the exact positions)."""
+        (``forward_grid``: two planes ``(2, h, w)``, column and row) — with ``error_threshold`` > 0 exactly only on
+        a lattice that follows the DEM's cells, interpolated between and checked
+        (:func:`~fotogeo.geometry.lattice.piecewise_on_lattice`: within ``error_threshold`` image pixels at the
+        middles of the lattice's edges and rectangles, else exact there) —, any other model (rows ``(h·w, 2)``) on
+        a checked lattice (:func:`~fotogeo.geometry.lattice.ground_to_image_on_lattice`: within 0.001 px of the
+        exact positions)."""
         t = transform
         X = t.c + (c0 + HALF + np.arange(w)) * t.a
         Y = t.f + (r0 + HALF + np.arange(h)) * t.e
-        Z = self._heights_grid(X, Y) if not (t.b or t.d) else None
-        if Z is None or self.surface is not None:
+        if t.b or t.d or self.surface is not None:
             return self(centres_to_map(t, r0, c0, h, w))
-        if hasattr(self.model, "forward_grid"):
+        framed = hasattr(self.model, "forward_grid")
+        pieces = self._pieces(X, Y) if framed and self.error_threshold > 0 else None
+        if pieces is not None:
+            def exact(r, c):
+                return self.model.forward_grid(X[c], Y[r], self._heights_grid(X[c], Y[r]))
+            return piecewise_on_lattice(exact, pieces[1], pieces[0], tol=self.error_threshold)
+        Z = self._heights_grid(X, Y)
+        if Z is None:
+            return self(centres_to_map(t, r0, c0, h, w))
+        if framed:
             return self.model.forward_grid(X, Y, Z)
         return ground_to_image_on_lattice(self.model.forward, X, Y, Z)
+
+    def _pieces(self, X, Y):
+        """``(columns, rows)`` labels of the height source's smooth pieces (the DEM's bilinear cells; one piece for
+        a constant height), None when it cannot say."""
+        if np.isscalar(self.heights):
+            return np.zeros(len(X), int), np.zeros(len(Y), int)
+        cells = getattr(self.heights, "cells_grid", None)
+        return cells(X, Y) if cells is not None else None
 
     def _heights_grid(self, X, Y):
         """Heights ``(len(Y), len(X))`` of a north-up window, None when the height source cannot give them so."""
@@ -217,15 +238,18 @@ def warn_dem_holes(dem, heights) -> None:
 
 
 def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, progress, *,
-                     occlusion=(None, 1.0, None), cog: bool = False) -> dict:
+                     occlusion=(None, 1.0, None), cog: bool = False,
+                     error_threshold: float = ORTHO["error_threshold"].default) -> dict:
     """Resample the image ``im`` (:class:`~fotogeo.tools.ortho.inputs.OrthoImage`) onto ``grid``
     (:func:`plan_grid`) into ``path`` (module docstring, step 2), tagged ``FOTOGEO_NADIR`` (:func:`nadir_point`:
     ``fotogeo mosaic`` starts its seamlines where relief displacement vanishes); ``occlusion``: the
     ``(surface, step, pyramid)`` of :func:`occlusion_surface`, ``cog``: GDAL's COG layout instead of internal
-    overviews. The report entry: the grid's size, resolution, transform, DEM coverage and what was written.
+    overviews; ``error_threshold``: :class:`OrthoMapping`'s. The report entry: the grid's size, resolution,
+    transform, DEM coverage and what was written.
     The one orthorectification of frames and RPC images (``fotogeo ortho`` and ``triangulate --orthorectify``)."""
     surface, step, pyramid = occlusion
-    mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid)
+    mapping = OrthoMapping(im.model, heights, (im.width, im.height), surface, step, pyramid=pyramid,
+                           error_threshold=error_threshold)
     nadir = " ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs))
     written = warp_to_grid(im.path, path, mapping, crs=crs, transform=grid.transform, width=grid.width,
                            height=grid.height, resampling=resampling, progress=progress, overviews=not cog,
@@ -240,8 +264,9 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
 @tool(ORTHO, rasters={"dem": None, "geoid": None})
 def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-          resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
-          view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False, progress=None) -> dict:
+          resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
+          dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False,
+          progress=None) -> dict:
     """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
     made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
@@ -250,7 +275,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
     try:
         return _ortho(images, output, dem=dem, camera=camera, eo=eo, rpc=rpc, model=model, height=height,
                       dem_heights=dem_heights, geoid=geoid, occlusion=occlusion, resolution=resolution,
-                      dst_crs=dst_crs, resampling=resampling,
+                      dst_crs=dst_crs, resampling=resampling, error_threshold=error_threshold,
                       cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands, sfm_frame=sfm_frame,
                       overwrite=overwrite, progress=progress)
     except BaseException:
@@ -261,8 +286,9 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
 
 def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
-           resampling: str = "nearest", cog: bool = False, uncertainty: bool = False, dem_sigma=None,
-           view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False, progress=None) -> dict:
+           resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
+           dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False,
+          progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
@@ -298,7 +324,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
             stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims),
                                f"orthorectifying {im.name}")
             entry = write_orthophoto(out.temp(paths[im.name]), im, heights, crs, g, resampling, stage,
-                                     occlusion=(surface, step, pyramid), cog=cog)
+                                     occlusion=(surface, step, pyramid), cog=cog, error_threshold=error_threshold)
             rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, **entry,
                                       **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
                                                        sigma_h)}
