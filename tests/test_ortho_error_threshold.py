@@ -145,3 +145,25 @@ def test_negative_threshold_is_one_line(rendered, tmp_path):
                                        "--error-threshold", "-0.1"])
     assert_one_line_error(result, "error-threshold")
     assert not out.exists()
+
+
+def test_dem_breaks_are_its_cell_centre_lines_and_edges():
+    """The kinks a window's lattice follows: the grid crosses the DEM's lines of cell centres and its edges there, and
+    between two of them the heights are linear along the row (bilinear in the cell)."""
+    from fotogeo.geometry.dem import Dem
+    rng = np.random.default_rng(1)
+    dem = Dem(rng.random((6, 8)) * 50, Affine(2.0, 0, 100.0, 0, -2.0, 200.0))
+    X = 99.3 + 0.13 * np.arange(140)  # from west of the DEM to east of it
+    Y = 199.1 - 0.07 * np.arange(3)
+    cols, rows = dem.breaks_grid(X, Y)
+    Xb = 99.3 + 0.13 * cols
+    expected = 100.0 + 2.0 * np.r_[0.0, np.arange(8) + 0.5, 8.0]  # west edge, the 8 centre lines, east edge
+    np.testing.assert_allclose(Xb, expected, atol=1e-9)
+    assert rows.size == 1 and abs(199.1 - 0.07 * rows[0] - 199.0) < 1e-9  # the first row of centres
+    z = dem.heights_grid(X, Y)[1]
+    inside = np.isfinite(z)
+    between = np.searchsorted(cols, np.arange(140))
+    for k in np.unique(between[inside]):
+        seg = z[(between == k) & inside]
+        if len(seg) >= 3:
+            np.testing.assert_allclose(np.diff(seg, 2), 0, atol=1e-9)

@@ -148,18 +148,17 @@ class Dem:
             h[:, ~in_c] = np.nan
         return h
 
-    def cells_grid(self, X, Y):
-        """The bilinear cell of each column ``X`` and each row ``Y`` of a north-up grid: ``(cols (len(X),),
-        rows (len(Y),))``, the index of the DEM cell whose four centres interpolate the height there, -1 off the DEM
-        (None for a rotated DEM). Within one cell the heights of :meth:`heights_grid` are smooth (bilinear); they
-        have a kink where the index changes."""
+    def breaks_grid(self, X, Y):
+        """Where the heights of :meth:`heights_grid` at the grid ``X`` (columns) × ``Y`` (rows), both evenly spaced,
+        may have a kink: the fractional column and row indices at which ``X`` and ``Y`` cross a line of DEM cell
+        centres (between two such lines the heights are bilinear) or the DEM's edge — ``(columns, rows)``; None for a
+        rotated DEM."""
         a, b, c0, d, e, f0 = self._inverse()
         if b != 0 or d != 0:
             return None
         rows, cols = self.data.shape
-        j, _, in_c = _axis_weights(to_centre(a * np.asarray(X, float) + c0), cols)
-        i, _, in_r = _axis_weights(to_centre(e * np.asarray(Y, float) + f0), rows)
-        return np.where(in_c, j, -1), np.where(in_r, i, -1)
+        return (_crossings(to_centre(a * np.asarray(X, float) + c0), cols),
+                _crossings(to_centre(e * np.asarray(Y, float) + f0), rows))
 
     def heights_and_gradient(self, XY):
         """Bilinear heights and their map-coordinate gradient ``(h, dh/dX, dh/dY)``, each ``(N,)``."""
@@ -187,6 +186,17 @@ def _axis_weights(p, n: int):
     p = np.clip(np.where(inside, p, 0.0), 0.0, n - 1.0)
     k = np.minimum(np.floor(p).astype(np.intp), n - 2)
     return k, p - k, inside
+
+
+def _crossings(p, n: int) -> np.ndarray:
+    """Fractional indices at which the centre-convention coordinates ``p`` (linear in the index) cross ``-0.5``,
+    ``0, 1, …, n - 1`` or ``n - 0.5``: the kinks of :func:`_axis_weights`' interpolation along an axis of ``n``
+    cells (and its edges)."""
+    if len(p) < 2 or p[1] == p[0]:
+        return np.empty(0)
+    lines = np.r_[-0.5, np.arange(n), n - 0.5]
+    lines = lines[(lines > min(p[0], p[-1])) & (lines < max(p[0], p[-1]))]
+    return np.sort((lines - p[0]) / (p[1] - p[0]))
 
 
 def as_height_source(dem) -> HeightSource:

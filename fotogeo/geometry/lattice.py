@@ -110,28 +110,28 @@ def _interpolated(forward, X, Y, Z, finite, step: int, tol: float):
     return out
 
 
-def piece_nodes(pieces, step: int) -> np.ndarray:
-    """Lattice nodes along one axis of cells labelled by ``pieces`` (equal labels: one smooth piece): the first and
-    last cell of every run of equal labels, and inside a run longer than ``step`` cells evenly spaced nodes at most
-    ``step`` apart, so that no lattice interval crosses from one piece into the next.
+def break_nodes(breaks, n: int, step: int) -> np.ndarray:
+    """Lattice nodes (fractional indices) along an axis of ``n`` cells whose values may have a kink at ``breaks``
+    (fractional indices): the first and last cell, every break between them, and evenly spaced nodes splitting each
+    longer interval into parts at most ``step`` cells long — so that no interval crosses a kink.
 
-    >>> piece_nodes([0] * 5 + [1] * 12, 4).tolist()
-    [0, 4, 5, 8, 12, 16]
+    >>> break_nodes([4.5], 17, 8).tolist()
+    [0.0, 4.5, 10.25, 16.0]
     """
-    p = np.asarray(pieces)
-    ends = np.r_[np.flatnonzero(p[1:] != p[:-1]), len(p) - 1]
-    starts = np.r_[0, ends[:-1] + 1]
-    span = ends - starts
-    k = np.maximum(1, -(-span // step))  # intervals of each run
-    run = np.repeat(np.arange(len(starts)), k + 1)
-    j = np.arange(len(run)) - np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)  # 0..k within each run
-    return np.unique(starts[run] + (j * span[run]) // k[run])
+    b = np.asarray(breaks, float)
+    b = np.unique(np.r_[0.0, b[(b > 0) & (b < n - 1)], float(n - 1)])
+    span = np.diff(b)
+    k = np.maximum(1, np.ceil(span / step)).astype(int)  # parts of each interval
+    run = np.repeat(np.arange(len(span)), k)
+    j = np.arange(len(run)) - np.repeat(np.cumsum(k) - k, k)  # 0..k-1 within each interval
+    return np.r_[b[:-1][run] + j * (span / k)[run], b[-1]]
 
 
 def _midpoints(nodes) -> np.ndarray:
-    """The middle cell of each lattice interval, -1 where the interval has no cell between its nodes."""
+    """The cell nearest the middle of each lattice interval, -1 where no cell lies strictly between its nodes."""
     a, b = nodes[:-1], nodes[1:]
-    return np.where(b - a >= 2, (a + b) // 2, -1)
+    m = np.round(0.5 * (a + b))
+    return np.where((m > a) & (m < b), m, -1.0)
 
 
 def _fractions(nodes, n: int):
@@ -163,32 +163,34 @@ def bilinear32(values, rows, cols, h: int, w: int) -> np.ndarray:
     return out
 
 
-def piecewise_on_lattice(exact, row_pieces, col_pieces, *, tol: float, step: int = MODEL_STEP):
+def piecewise_on_lattice(exact, row_breaks, col_breaks, h: int, w: int, *, tol: float, step: int = MODEL_STEP):
     """Positions ``(2, h, w)`` of a window whose exact values ``exact(rows, cols) -> (2, len(rows), len(cols))``
-    (index arrays, the separable sub-grid) are smooth inside each piece — a rectangle of equal ``row_pieces`` ``(h,)``
-    and ``col_pieces`` ``(w,)`` labels, e.g. one DEM cell, inside which the heights are bilinear — and may have a
-    kink between pieces.
+    (fractional row and column indices, the separable sub-grid) are smooth but for kinks along the rows
+    ``row_breaks`` and the columns ``col_breaks`` (fractional indices: a DEM's cell boundaries, inside which its
+    heights are bilinear, and its edges).
 
-    The lattice (:func:`piece_nodes`) has nodes on both sides of every piece boundary, so each of its rectangles
-    lies inside one piece; ``exact`` at the nodes is interpolated bilinearly into float32 (:func:`bilinear32`) and
-    checked against ``exact`` at the middle of every lattice edge and at every rectangle's centre: where bilinear
+    The lattice (:func:`break_nodes`) has a node on every break, so each of its rectangles lies inside one smooth
+    piece; ``exact`` at the nodes is interpolated bilinearly into float32 (:func:`bilinear32`) and checked against
+    ``exact`` at the middle of every lattice edge and at the cell nearest every rectangle's centre: where bilinear
     interpolation of a smooth function errs most (for a quadratic, exactly there). A rectangle where one of its
     checks is more than :data:`CHECK_MARGIN` ``· tol`` away (Euclidean; less two float32 spacings of the largest
-    position, which the cells' own rounding may add) or not finite, or with a corner without a value, takes ``exact`` at
-    every cell; so does the whole window (float64) when that is more than a quarter of the rectangles or when the
+    position, which the cells' own rounding may add) or not finite, or with a corner without a value, takes ``exact``
+    at every cell; so does the whole window (float64) when that is more than a quarter of the rectangles or when the
     lattice with its check points holds more than 1/:data:`SPARSE` of the window's cells (pieces of a few cells).
     The idea of GDAL's approximate transformer (``gdalwarp -et``, checked at the middle of each interpolated line),
     on a 2-D lattice that follows the surface's cells."""
-    h, w = len(row_pieces), len(col_pieces)
-    rows, cols = piece_nodes(row_pieces, step), piece_nodes(col_pieces, step)
+    rows, cols = break_nodes(row_breaks, h, step), break_nodes(col_breaks, w, step)
     rm, cm = _midpoints(rows), _midpoints(cols)
     vr, hc = np.flatnonzero(rm >= 0), np.flatnonzero(cm >= 0)
     R, C = np.union1d(rows, rm[vr]), np.union1d(cols, cm[hc])  # nodes and check points: one call
     if tol <= 0 or min(len(rows), len(cols)) < 2 or len(R) * len(C) * SPARSE > h * w:
         return exact(np.arange(h), np.arange(w))
     E = exact(R, C)
-    at_r, at_c = np.searchsorted(R, rows), np.searchsorted(C, cols)
-    v = E[:, at_r][:, :, at_c]
+
+    def at(r, c):
+        return E[:, np.searchsorted(R, r)[:, None], np.searchsorted(C, c)[None, :]]
+
+    v = at(rows, cols)
     fin = np.isfinite(v).all(axis=0)
     px = bilinear32(np.where(fin, v, 0.0), rows, cols, h, w)
     bad = ~(fin[:-1, :-1] & fin[1:, :-1] & fin[:-1, 1:] & fin[1:, 1:])
@@ -196,23 +198,27 @@ def piecewise_on_lattice(exact, row_pieces, col_pieces, *, tol: float, step: int
     # and their own float32 rounding (two spacings at the largest position)
     bound = CHECK_MARGIN * tol - 2 * float(np.spacing(np.float32(np.abs(v[:, fin]).max()))) if fin.any() else 0.0
 
-    def off(r, c):
-        d = E[:, np.searchsorted(R, r)[:, None], np.searchsorted(C, c)[None, :]] - px[:, r[:, None], c[None, :]]
+    def far(d):
         with np.errstate(invalid="ignore"):
             return ~(np.hypot(d[0], d[1]) <= bound)
 
-    if hc.size:  # the middles of the lattice's horizontal edges: both rectangles beside the edge
-        f = off(rows, cm[hc])
-        bad[:, hc] |= f[:-1] | f[1:]
+    if hc.size:  # the middles of the lattice's horizontal edges (the interpolation along the node rows)
+        f = (cm[hc] - cols[hc]) / (cols[hc + 1] - cols[hc])
+        f = far(at(rows, cm[hc]) - (v[:, :, hc] + f * (v[:, :, hc + 1] - v[:, :, hc])))
+        bad[:, hc] |= f[:-1] | f[1:]  # both rectangles beside the edge
     if vr.size:  # of its vertical edges
-        f = off(rm[vr], cols)
+        f = ((rm[vr] - rows[vr]) / (rows[vr + 1] - rows[vr]))[:, None]
+        f = far(at(rm[vr], cols) - (v[:, vr] + f * (v[:, vr + 1] - v[:, vr])))
         bad[vr, :] |= f[:, :-1] | f[:, 1:]
-    if vr.size and hc.size:  # the rectangles' centres
-        bad[np.ix_(vr, hc)] |= off(rm[vr], cm[hc])
+    if vr.size and hc.size:  # the cells at the rectangles' centres
+        r, c = rm[vr].astype(int), cm[hc].astype(int)
+        bad[np.ix_(vr, hc)] |= far(at(rm[vr], cm[hc]) - px[:, r[:, None], c[None, :]])
     if bad.mean() > 0.25:
         return exact(np.arange(h), np.arange(w))
-    for i in np.flatnonzero(bad.any(axis=1)):  # the failed rectangles of each row of the lattice: one call
-        r = np.arange(rows[i], rows[i + 1] + 1)
-        c = np.unique(np.concatenate([np.arange(cols[j], cols[j + 1] + 1) for j in np.flatnonzero(bad[i])]))
-        px[:, r[:, None], c[None, :]] = exact(r, c)
+    for i in np.flatnonzero(bad.any(axis=1)):  # the cells of the failed rectangles of each lattice row: one call
+        r = np.arange(int(np.ceil(rows[i])), int(np.floor(rows[i + 1])) + 1)
+        c = np.unique(np.concatenate([np.arange(int(np.ceil(cols[j])), int(np.floor(cols[j + 1])) + 1)
+                                      for j in np.flatnonzero(bad[i])]))
+        if r.size and c.size:
+            px[:, r[:, None], c[None, :]] = exact(r, c)
     return px

@@ -98,11 +98,12 @@ class OrthoMapping:
         if t.b or t.d or self.surface is not None:
             return self(centres_to_map(t, r0, c0, h, w))
         framed = hasattr(self.model, "forward_grid")
-        pieces = self._pieces(X, Y) if framed and self.error_threshold > 0 else None
-        if pieces is not None:
-            def exact(r, c):
-                return self.model.forward_grid(X[c], Y[r], self._heights_grid(X[c], Y[r]))
-            return piecewise_on_lattice(exact, pieces[1], pieces[0], tol=self.error_threshold)
+        breaks = self._breaks(X, Y) if framed and self.error_threshold > 0 else None
+        if breaks is not None:
+            def exact(r, c):  # at fractional rows and columns of the window
+                Xc, Yr = t.c + (c0 + HALF + c) * t.a, t.f + (r0 + HALF + r) * t.e
+                return self.model.forward_grid(Xc, Yr, self._heights_grid(Xc, Yr))
+            return piecewise_on_lattice(exact, breaks[1], breaks[0], h, w, tol=self.error_threshold)
         Z = self._heights_grid(X, Y)
         if Z is None:
             return self(centres_to_map(t, r0, c0, h, w))
@@ -110,13 +111,13 @@ class OrthoMapping:
             return self.model.forward_grid(X, Y, Z)
         return ground_to_image_on_lattice(self.model.forward, X, Y, Z)
 
-    def _pieces(self, X, Y):
-        """``(columns, rows)`` labels of the height source's smooth pieces (the DEM's bilinear cells; one piece for
-        a constant height), None when it cannot say."""
+    def _breaks(self, X, Y):
+        """``(columns, rows)``: the fractional indices where the height source's heights may have a kink (the DEM's
+        cell boundaries and edges; none for a constant height), None when it cannot say."""
         if np.isscalar(self.heights):
-            return np.zeros(len(X), int), np.zeros(len(Y), int)
-        cells = getattr(self.heights, "cells_grid", None)
-        return cells(X, Y) if cells is not None else None
+            return np.empty(0), np.empty(0)
+        breaks = getattr(self.heights, "breaks_grid", None)
+        return breaks(X, Y) if breaks is not None else None
 
     def _heights_grid(self, X, Y):
         """Heights ``(len(Y), len(X))`` of a north-up window, None when the height source cannot give them so."""
