@@ -15,7 +15,10 @@ cell and interpolated between.
   with the interpolated position; above ``tol`` pixels (or a node without a position, e.g. behind a camera) the
   lattice is refined (``step / 4``) and then given up for the exact model at every cell. This is the idea of
   GDAL's approximate transformer (``gdalwarp -et``: interpolation along each output line, checked at its middle),
-  on a 2-D lattice and with the DEM's heights kept per cell.
+  on a 2-D lattice and with the DEM's heights kept per cell;
+* :func:`piecewise_on_lattice` — values smooth but for kinks along known lines (a frame's positions over a DEM,
+  which kinks at its cells' boundaries): a lattice with a node on every kink, interpolated in float32 and checked
+  against a threshold (``ortho --error-threshold``), exact where a check fails.
 """
 from __future__ import annotations
 

@@ -1,0 +1,101 @@
+"""``fotogeo ortho --error-threshold``: exact cell positions (0) against the interpolated ones (default 0.125 px)
+and orthority, in alternating rounds on the drone case of ``ortho_bench.py`` (eBee IMG_2188 and IMG_2281 on the
+triangulated block's 2-m surface, bilinear).
+
+Run:  .venv/bin/python benchmarks/ortho_threshold_bench.py --orthority-python ORTHORITY/bin/python --drone-dir DIR
+      [--resolutions 0.1,0.2] [--rounds 8] [--thresholds 0,0.125]
+
+Each round runs fotogeo at every threshold and then orthority, each a fresh process under ``/usr/bin/time``
+(``ortho_bench.timed``: CPU = user + system, steadier than the wall time on a shared machine). Per resolution it
+prints the median CPU seconds, the median over the rounds of each round's own ratio to orthority's CPU time (and
+their range), and the agreement of the last round's outputs (``ortho_bench.tile_shifts``: 128² tiles
+phase-correlated, shifts in output pixels) with orthority's and with the exact run's. Writes
+benchmarks/results/ortho_threshold_bench.json.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from ortho_bench import (DATA, FOTOGEO_ENV, FOTOGEO_RUN, ORTHORITY_RUN, ROOT, drone_inputs, tile_shifts,
+                         timed)
+
+OUT = ROOT / "benchmarks" / "results" / "ortho_threshold_bench.json"
+
+
+def one_resolution(work: Path, inp: dict, res: float, thresholds, rounds: int, oty_py: str) -> dict:
+    frames, runs = inp["frames"], {f"et{t:g}": [] for t in thresholds} | {"orthority": []}
+    oty_dir = work / "orthority"
+    oty_dir.mkdir(parents=True, exist_ok=True)
+    for _ in range(rounds):
+        for t in thresholds:
+            out = work / f"et{t:g}"
+            out.mkdir(exist_ok=True)
+            args = ["ortho", *frames, "-o", str(out), "--dem", inp["dem"], "--camera", inp["camera"], "--eo",
+                    inp["eo"], "--resolution", str(res), "--resampling", "bilinear", "--error-threshold", str(t),
+                    "--overwrite", "-q"]
+            runs[f"et{t:g}"].append(timed([sys.executable, "-c", FOTOGEO_RUN, *args], FOTOGEO_ENV))
+        runs["orthority"].append(timed([oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"],
+                                        "-ep", inp["ext"], *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear",
+                                        "-di", "bilinear", "-cm", "deflate", "-nwm", "-od", str(oty_dir), "-o",
+                                        *frames]))
+    oty = [r["cpu_s"] for r in runs["orthority"]]
+    out = {"rounds": rounds, "cpu_s": {k: round(statistics.median(r["cpu_s"] for r in v), 3) for k, v in runs.items()},
+           "wall_s": {k: round(statistics.median(r["wall_s"] for r in v), 3) for k, v in runs.items()}}
+    for t in thresholds:
+        ratios = [r["cpu_s"] / o for r, o in zip(runs[f"et{t:g}"], oty)]
+        out[f"cpu_ratio_et{t:g}"] = {"median": round(statistics.median(ratios), 3), "min": round(min(ratios), 3),
+                                     "max": round(max(ratios), 3)}
+        stems = [Path(f).stem for f in frames]
+        out[f"agreement_et{t:g}"] = {s: tile_shifts(work / f"et{t:g}" / f"{s}_ortho.tif", oty_dir / f"{s}_ORTHO.tif")
+                                     for s in stems}
+        if t != thresholds[0]:
+            out[f"vs_et{thresholds[0]:g}_et{t:g}"] = {
+                s: tile_shifts(work / f"et{t:g}" / f"{s}_ortho.tif", work / f"et{thresholds[0]:g}" / f"{s}_ortho.tif")
+                for s in stems}
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--orthority-python", required=True)
+    ap.add_argument("--drone-dir", type=Path, required=True, help="ortho_bench.py's --drone-dir (made if absent)")
+    ap.add_argument("--resolutions", default="0.1,0.2")
+    ap.add_argument("--thresholds", default="0,0.125")
+    ap.add_argument("--rounds", type=int, default=8)
+    a = ap.parse_args(argv)
+    if not DATA.exists():
+        sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
+    thresholds = [float(t) for t in a.thresholds.split(",")]
+    results = {"load_average_start": [round(v, 2) for v in os.getloadavg()], "resolutions": {}}
+    inp = drone_inputs(a.drone_dir)
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "fotogeo")], check=True,
+                   env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})  # as ortho_bench.py: an installed package's
+    with tempfile.TemporaryDirectory(prefix="ortho_threshold_") as tmp:
+        for res in (float(r) for r in a.resolutions.split(",")):
+            r = one_resolution(Path(tmp) / f"{res:g}", inp, res, thresholds, a.rounds, a.orthority_python)
+            results["resolutions"][f"{res:g}"] = r
+            print(json.dumps({f"{res:g}": r}), flush=True)
+    results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
+    print(f"{'res':>5} {'run':>10} {'cpu s':>6} {'ratio (range)':>20}  shift to orthority med dx/dy, p95 (px)")
+    for res, r in results["resolutions"].items():
+        for k, cpu in r["cpu_s"].items():
+            ratio = r.get(f"cpu_ratio_{k}")
+            agree = r.get(f"agreement_{k}", {})
+            shifts = "; ".join(f"{v['median_dx']:+.4f}/{v['median_dy']:+.4f}, {v['p95_px']:.3f}"
+                               for v in agree.values() if v.get("tiles"))
+            rtxt = f"{ratio['median']:.3f} ({ratio['min']:.2f}-{ratio['max']:.2f})" if ratio else ""
+            print(f"{res:>5} {k:>10} {cpu:>6.2f} {rtxt:>20}  {shifts}")
+    print(f"load average: start {results['load_average_start']}, end {results['load_average_end']}")
+    OUT.write_text(json.dumps(results, indent=1))
+    print(f"wrote {OUT.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
