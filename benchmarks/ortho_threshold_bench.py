@@ -9,8 +9,9 @@ Each round runs fotogeo at every threshold and then orthority, each a fresh proc
 (``ortho_bench.timed``: CPU = user + system, steadier than the wall time on a shared machine). Per resolution it
 prints the median CPU seconds, the median over the rounds of each round's own ratio to orthority's CPU time (and
 their range), and the agreement of the last round's outputs (``ortho_bench.tile_shifts``: 128² tiles
-phase-correlated, shifts in output pixels) with orthority's and with the exact run's. Writes
-benchmarks/results/ortho_threshold_bench.json.
+phase-correlated, shifts in output pixels) with orthority's and with the exact run's. Also the interpolated
+positions against the exact ones over every window (image pixels; ``--rounds 0``: only those). Writes
+benchmarks/results/ortho_threshold_bench.json (``--rounds 0``: ortho_threshold_positions.json).
 """
 from __future__ import annotations
 
@@ -62,13 +63,44 @@ def one_resolution(work: Path, inp: dict, res: float, thresholds, rounds: int, o
     return out
 
 
+def position_errors(inp: dict, res: float, tol: float) -> dict:
+    """Per frame, the interpolated positions (``error_threshold=tol``) against the exact ones, every window of the
+    grid at ``res`` (image pixels): largest, 99th percentile and mean distance, and CPU seconds of each."""
+    import time
+
+    import numpy as np
+
+    from fotogeo.io.warp import windows_of
+    from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
+    from fotogeo.tools.ortho.tool import OrthoMapping, plan_grid
+    frames = inp["frames"]
+    crs = map_crs("auto", inp["dem"], inp["eo"], frames, False, inp["camera"], None, "auto")[0]
+    ims = image_models(frames, crs, camera=inp["camera"], eo=inp["eo"], rpc=False, model=None, sfm_frame="auto",
+                       said=[])
+    heights = terrain(inp["dem"], None, crs, ims)[0]
+    out = {}
+    for im in ims:
+        g = plan_grid(im, heights, crs, res, "unused.tif", inp["dem"])
+        wins = windows_of(g.height, g.width, 512)
+        grids, cpu = {}, {}
+        for t in (0.0, tol):
+            m = OrthoMapping(im.model, heights, (im.width, im.height), error_threshold=t)
+            c = time.process_time()
+            grids[t] = [np.asarray(m.grid(g.transform, *w), np.float64) for w in wins]
+            cpu[t] = round(time.process_time() - c, 3)
+        err = np.concatenate([np.hypot(*(a - e)).ravel() for a, e in zip(grids[tol], grids[0.0])])
+        out[im.name] = {"max_px": round(float(np.nanmax(err)), 4), "p99_px": round(float(np.nanpercentile(err, 99)), 4),
+                        "mean_px": round(float(np.nanmean(err)), 4), "cpu_s_exact": cpu[0.0], "cpu_s": cpu[tol]}
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--orthority-python", required=True)
     ap.add_argument("--drone-dir", type=Path, required=True, help="ortho_bench.py's --drone-dir (made if absent)")
     ap.add_argument("--resolutions", default="0.1,0.2")
     ap.add_argument("--thresholds", default="0,0.125")
-    ap.add_argument("--rounds", type=int, default=8)
+    ap.add_argument("--rounds", type=int, default=8, help="0: only the positions' errors")
     a = ap.parse_args(argv)
     if not DATA.exists():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
@@ -79,7 +111,9 @@ def main(argv=None):
                    env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})  # as ortho_bench.py: an installed package's
     with tempfile.TemporaryDirectory(prefix="ortho_threshold_") as tmp:
         for res in (float(r) for r in a.resolutions.split(",")):
-            r = one_resolution(Path(tmp) / f"{res:g}", inp, res, thresholds, a.rounds, a.orthority_python)
+            r = one_resolution(Path(tmp) / f"{res:g}", inp, res, thresholds, a.rounds, a.orthority_python) \
+                if a.rounds else {"cpu_s": {}}
+            r["positions"] = {f"et{t:g}": position_errors(inp, res, t) for t in thresholds if t > 0}
             results["resolutions"][f"{res:g}"] = r
             print(json.dumps({f"{res:g}": r}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
@@ -92,9 +126,15 @@ def main(argv=None):
                                for v in agree.values() if v.get("tiles"))
             rtxt = f"{ratio['median']:.3f} ({ratio['min']:.2f}-{ratio['max']:.2f})" if ratio else ""
             print(f"{res:>5} {k:>10} {cpu:>6.2f} {rtxt:>20}  {shifts}")
+    for res, r in results["resolutions"].items():
+        for k, frames in r["positions"].items():
+            print(f"{res:>5} {k:>10} positions vs exact: " + "; ".join(
+                f"{n} max {v['max_px']:.4f} p99 {v['p99_px']:.4f} mean {v['mean_px']:.4f} px"
+                for n, v in frames.items()))
     print(f"load average: start {results['load_average_start']}, end {results['load_average_end']}")
-    OUT.write_text(json.dumps(results, indent=1))
-    print(f"wrote {OUT.relative_to(ROOT)}")
+    out = OUT if a.rounds else OUT.with_name("ortho_threshold_positions.json")
+    out.write_text(json.dumps(results, indent=1))
+    print(f"wrote {out.relative_to(ROOT)}")
 
 
 if __name__ == "__main__":
