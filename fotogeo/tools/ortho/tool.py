@@ -12,8 +12,8 @@ the heights come from :mod:`fotogeo.tools.ortho.inputs`; then, per image:
    below 100 % the orthophoto is clipped to the DEM and the coverage is named in a warning;
 2. **resampling** (:func:`fotogeo.io.warp.warp_to_grid`, window by window in threads, memory bounded by the
    block size): each output cell centre ``(X, Y)`` → ``Z = DEM(X, Y)`` (bilinear) → pixel = model(X, Y, Z)
-   (:class:`OrthoMapping`) → nearest / bilinear / cubic; cells without a height or outside the image are
-   nodata. With ``occlusion`` the cell's line of sight is traced through the same surface
+   (:class:`OrthoMapping`; ``error_threshold`` > 0: a frame's positions interpolated on a checked lattice, like
+   ``gdalwarp -et``) → nearest / bilinear / cubic; cells without a height or outside the image are nodata. With ``occlusion`` the cell's line of sight is traced through the same surface
    (:mod:`fotogeo.geometry.occlusion`): a hidden ground cell is nodata instead of a copy of whatever hides it
    (the "double image" of a building on a DSM).
 
