@@ -181,7 +181,8 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
                          f"check the DEM's extent and that the orientation and the DEM are in the same CRS "
                          f"({crs.to_string()})")
     if coverage < 0.999:
-        warnings.warn(f"DEM {dem_name!r} covers {100 * coverage:.0f} % of image {im.name!r}: the orthophoto is "
+        pct = f"{100 * coverage:.0f}" if coverage < 0.995 else f"{min(100 * coverage, 99.9):.1f}"
+        warnings.warn(f"DEM {dem_name!r} covers {pct} % of image {im.name!r}: the orthophoto is "
                       f"clipped to the DEM", FotogeoWarning, stacklevel=3)
     zmean = float(np.nanmean(ground[hit, 2])) if ground.shape[1] > 2 and np.isfinite(ground[hit, 2]).any() \
         else 0.5 * (zlo + zhi)
