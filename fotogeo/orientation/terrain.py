@@ -142,7 +142,8 @@ _LABELS = {"blocked_cv_rmse_px": ("blocked cross-validation RMSE",
            "control_rmse_px": ("control RMSE", "no check points")}
 
 
-def choose_parsimonious(candidates: list, key: str, tolerance: float = 0.05, label: str | None = None) -> tuple[str, str]:
+def choose_parsimonious(candidates: list, key: str, tolerance: float = 0.05,
+                        label: str | None = None) -> tuple[str, str]:
     """The simplest candidate whose ``key`` RMSE is within ``tolerance`` of the best, and why.
 
     ``candidates`` are dicts in order of simplicity (``model``, ``key``, ``ill_posed``); those
