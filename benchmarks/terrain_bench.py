@@ -10,7 +10,7 @@ truth from the camera, exterior orientation and DEM on a dense grid of frame pix
   terrain-aware).
 
 Dense RMSE: the model's ground position of each grid pixel (at its true height) against the
-truth, in metres. Run: ``.venv/bin/python benchmarks/terrain_bench.py`` (about 3 minutes);
+truth, in metres. Run: ``.venv/bin/python benchmarks/terrain_bench.py [--surf-layers box|gaussian]`` (3-6 min);
 writes ``benchmarks/results/terrain_bench.json``.
 """
 from __future__ import annotations
@@ -45,7 +45,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=DATA)
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "terrain_bench.json")
+    ap.add_argument("--surf-layers", choices=("pipeline", "box", "gaussian"), default="pipeline",
+                    help="SURF's layers in the pipeline: its default (detect.PIPELINE_GAUSSIAN), box or Gaussian")
     args = ap.parse_args()
+    if args.surf_layers != "pipeline":
+        from fotogeo.features import detect
+        detect.PIPELINE_GAUSSIAN = args.surf_layers == "gaussian"
     ngi = args.data / "ngi"
     cam = ngi / "interior_orientation.yaml"
     rows = []
@@ -77,13 +82,15 @@ def main():
                                  "model": r.report.get("terrain", {}).get("chosen", m.name),
                                  "dense_rmse_m": rms(on - truth[:, :2]), "best_homography_m": best,
                                  "check_rmse_m": r.report["check"].get("rmse_m"), "inliers": r.report["inliers"],
+                                 "because": r.report.get("terrain", {}).get("chosen_because"),
                                  "seconds": time.perf_counter() - t0})
                     x = rows[-1]
                     print(f"{name[-4:]} {ref_name:16s} {label:17s} {x['model']:13s} dense {x['dense_rmse_m']:7.2f} m"
                           f"  best H {best:6.2f} m  check {x['check_rmse_m']:6.2f} m  inl {x['inliers']:5d}"
                           f"  {x['seconds']:5.1f} s", flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"benchmark": "terrain_bench", "rows": rows}, indent=2))
+    args.out.write_text(json.dumps({"benchmark": "terrain_bench", "surf_layers": args.surf_layers, "rows": rows},
+                                   indent=2))
     print(f"wrote {args.out}")
 
 

@@ -3,8 +3,9 @@
 DESIGN and :mod:`fotogeo.orientation.terrain`: every candidate is fitted on the control
 points; among the fits without ill-posedness warnings (all fits if every one has a warning)
 the chosen model is the *simplest* — in the order collinearity, DLT, RFM-poly, RFM-common,
-RFM — whose check RMSE (control RMSE when no check points were held out) is within 5 % of
-the best. The report lists the candidates in that order.
+RFM — whose compared RMSE (the report's ``compared``: the blocked cross-validation RMSE, or the
+check RMSE with too few control points, or the control RMSE without check points) is within 5 %
+of the best. The report lists the candidates in that order.
 """
 from __future__ import annotations
 
@@ -19,8 +20,9 @@ def assert_auto_choice(terrain: dict, check_n: int):
     cands = terrain["candidates"]
     names = [c["model"] for c in cands]
     assert names == [m for m in SIMPLEST_FIRST if m in names], names  # listed simplest first
-    key = "check_rmse_px" if check_n else "control_rmse_px"
-    fitted = [c for c in cands if key in c]
+    key = terrain["compared"]
+    assert key in ("blocked_cv_rmse_px", "check_rmse_px" if check_n else "control_rmse_px"), key
+    fitted = [c for c in cands if c.get(key) is not None and c[key] < float("inf")]
     eligible = [c for c in fitted if not c["ill_posed"]] or fitted
     best = min(c[key] for c in eligible)
     chosen = next(c for c in cands if c["model"] == terrain["chosen"])

@@ -380,7 +380,7 @@ def _terrain(opts, src, dst, ref_px, tgt, crs, res, dem, camera, prog=None) -> G
     info = getattr(fit.model, "info", {})
     details = {"terrain": {"dem": str(d.path), "tie_points_without_height": int(len(z) - n_h),
                            "prefilter_inliers": fit.prefilter_inliers, "candidates": fit.candidates,
-                           "chosen": fit.model.name, "chosen_because": fit.chosen_because,
+                           "chosen": fit.model.name, "chosen_because": fit.chosen_because, "compared": fit.compared,
                            "robust_sigma_px": fit.sigma_px,
                            "control_rmse_target_px": rmse(fit.residual_px[fit.role == "control"], None),
                            "check_rmse_target_px": rmse(fit.residual_px[fit.role == "check"], None),
