@@ -67,13 +67,13 @@ def test_refine_none_keeps_the_keypoints_and_no_sigma(data_dir, tmp_path):
     assert "sigma" not in tp.columns and "lsm_status" not in tp.columns
 
 
-def test_auto_refines_the_2d_registration_only(tmp_path):
-    """With a DEM, ``auto`` keeps the keypoints: with precise tie points the automatic 3-D model choice
-    preferred rational functions that are worse away from the tie points (module register_points)."""
+def test_auto_refines_the_terrain_aware_registration_too(tmp_path):
+    """With a DEM, ``auto`` refines the tie points by LSM as in 2-D (the 3-D model is chosen by blocked
+    cross-validation, which precise tie points do not mislead); ``none`` keeps the keypoints."""
     s = make_scene(tmp_path / "scene", seed=7, size=500, pixel=8.0)
-    r = register(s.reference, s.target, tmp_path / "o.tif", dem=s.dem_path, model="dlt", seed=0)
+    r = register(s.reference, s.target, tmp_path / "o.tif", dem=s.dem_path, model="dlt", seed=0, refine="none")
     assert r.report["refine"] == "none" and "lsm" not in r.report
-    r = register(s.reference, s.target, tmp_path / "l.tif", dem=s.dem_path, model="dlt", seed=0, refine="lsm")
+    r = register(s.reference, s.target, tmp_path / "l.tif", dem=s.dem_path, model="dlt", seed=0)
     assert r.report["refine"] == "lsm" and r.report["lsm"]["refined"] > 50
     tp = gpd.read_file(tmp_path / "l.gpkg", layer="tie_points")
     assert {"z", "sigma_px", "lsm_status"} <= set(tp.columns)

@@ -38,9 +38,8 @@ REGISTER = Table(
     Option("contrast", "choice", "adaptive", "Contrast of the fused images for matching",
            "Contrast of the fused images for matching (adaptive = equalize + CLAHE).", choices=CONTRASTS,
            advanced=True),
-    Option("refine", "choice", "auto", "Refine tie points before the fit (auto = lsm without a DEM)",
-           "Refine tie points by least-squares matching before the fit: auto = lsm for the 2-D registration, "
-           "none with --dem.", choices=REFINES, advanced=True),
+    Option("refine", "choice", "auto", "Refine tie points before the fit (auto = lsm)",
+           "Refine tie points by least-squares matching before the fit: auto = lsm, with or without --dem.", choices=REFINES, advanced=True),
     Option("reference_nodata", "float", None, "Reference nodata value (empty = the file's)",
            "Nodata value of the reference (overrides the file's).", advanced=True),
     Option("target_nodata", "float", None, "Target nodata value (empty = the file's)",

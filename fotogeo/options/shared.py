@@ -14,8 +14,7 @@ ORIENTATION_MODELS = ("affine", "affine-height", "bilinear", "collinearity", "dl
                       "poly3d-1", "poly3d-2", "poly3d-3", "projective", "rfm", "rfm-common", "rfm-common-i2g",
                       "rfm-common-plain", "rfm-i2g", "rfm-plain", "rfm-plain-i2g", "rfm-poly", "rfm-poly-i2g",
                       "rfm-poly-plain", "similarity")
-#: tie-point refinement: ``auto`` = ``lsm`` for the 2-D registration, ``none`` with a DEM
-#: (fotogeo.tools.register.points.refine_mode)
+#: tie-point refinement: ``auto`` = ``lsm`` (fotogeo.tools.register.points.refine_mode)
 REFINES = ("none", "lsm", "auto")
 POLARITIES = ("auto", "bright", "dark")
 SPREADS = ("homogeneous", "heterogeneous")

@@ -30,7 +30,7 @@ class RegisterAlgorithm(FotogeoAlgorithm):
             "(homography), affine or similarity model; a share of the inliers held out as check points; "
             "resampling of every band onto the output grid (nearest neighbour by default). Advanced: "
             "contrast of the fused images (adaptive = histogram equalisation + CLAHE), least-squares "
-            "refinement of the tie points (lsm; auto = lsm without a DEM), the bands fused for matching, nodata "
+            "refinement of the tie points (auto = lsm), the bands fused for matching, nodata "
             "overrides, "
             "keypoint budget, seed.\n\n"
             "Outputs: the registered GeoTIFF; a GeoPackage with the layers <i>tie_points</i> (field "

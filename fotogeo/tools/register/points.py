@@ -1,7 +1,7 @@
 """The registration's tie points: matched, refined by least-squares matching, weighted, written.
 
 Features give the approximation, LSM the precision (as in the source papers). With ``refine``
-``"lsm"`` (``"auto"``, the default, is lsm for the 2-D registration and none with a DEM:
+``"lsm"`` (``"auto"``, the default, is lsm for the 2-D and the terrain-aware registration:
 :func:`refine_mode`):
 
 1. the matches consistent with a robust homography between the two pixel sets (RANSAC + Tukey,
@@ -78,16 +78,15 @@ class TiePoints:
                                              for k in ("src", "ref_xy", "sigma_px", "status")})
 
 
-def refine_mode(refine: str, terrain: bool) -> str:
-    """The refinement a registration uses: ``refine`` itself, or for ``"auto"`` ``"lsm"`` in 2-D and
-    ``"none"`` terrain-aware (with precise tie points the automatic 3-D model choice prefers rational
-    functions whose check RMSE is lower but whose error away from the tie points is larger: on NGI
-    frame 0182, 3.38 m against DLT's 2.43 m without LSM).
+def refine_mode(refine: str) -> str:
+    """The refinement a registration uses: ``refine`` itself, ``"lsm"`` for ``"auto"`` — for the 2-D and the
+    terrain-aware registration alike (the 3-D model is chosen by blocked cross-validation, which precise tie
+    points do not mislead: ``fotogeo.orientation.terrain``).
 
-    >>> refine_mode("auto", False), refine_mode("auto", True), refine_mode("lsm", True)
+    >>> refine_mode("auto"), refine_mode("none"), refine_mode("lsm")
     ('lsm', 'none', 'lsm')
     """
-    return refine if refine != "auto" else ("none" if terrain else "lsm")
+    return "lsm" if refine == "auto" else refine
 
 
 def tie_points(opts, ref, tgt, prog, given=None, refine: str | None = None) -> TiePoints:
@@ -100,7 +99,7 @@ def tie_points(opts, ref, tgt, prog, given=None, refine: str | None = None) -> T
         counts = {"keypoints": {"reference": None, "target": None}, "matches": len(src),
                   "pca_explained_variance": None, "tie_points_given": True}
         return TiePoints(src, ref_xy, counts)
-    lsm = (refine or refine_mode(opts.refine, False)) == "lsm"
+    lsm = (refine or refine_mode(opts.refine)) == "lsm"
     found = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.5 if lsm else 0.55, "matching"), images=lsm)
     if not lsm:
         return TiePoints(*found)

@@ -103,7 +103,7 @@ def notes(rep: dict, terrain: bool) -> dict:
                      "check points (RMSE, CE90, CE95); model_rmse: the check RMSE with the tie points' σ taken out, "
                      "an estimate of the model's own error",
         "refine": "how the tie points were refined before the fit: lsm (least-squares matching) or none; "
-                  "options.refine auto = lsm for the 2-D registration, none with a DEM",
+                  "options.refine auto = lsm",
         "residual": "model position of the target pixel on the map minus the reference's map position of the "
                     "same feature (dx, dy), in the output CRS",
         "output_crs": f"{rep['output_crs_rule']} (options.dst_crs = {rep['options']['dst_crs']!r})",

@@ -6,7 +6,7 @@
 1. read both images (decimated to ``max_match_pixels`` for matching), PCA fusion of the bands
    ``reference_bands`` / ``target_bands`` (all by default; empty or constant ones left out);
 2. keypoints + descriptors (SURF by default), SSD matching with the ratio test; with ``refine``
-   ``lsm`` (``auto``, the default, is lsm without a DEM) the consistent matches are refined by
+   ``lsm`` (``auto``, the default) the consistent matches are refined by
    least-squares matching, each with its σ and status (:mod:`fotogeo.tools.register.points`);
 3. tie points: target pixels ↔ reference map coordinates, transformed into the output CRS
    (``"auto"`` = the reference's CRS when it is projected, else the UTM zone of the reference
@@ -112,7 +112,7 @@ def register(reference, target, output, *, vectors=None, report=None, field=None
         with prog.timed("total"):
             ref_px = pixel_size_in(ref.transform, ref.crs, crs, ref.width / 2, ref.height / 2)
             res = opts.resolution or _reference_step(ref, crs) or ref_px
-            refine = refine_mode(opts.refine, dem is not None)
+            refine = refine_mode(opts.refine)
             fit = _fitter(opts, ref, ref_px, tgt, crs, res, dem, camera, prog)
             pts, dst, gf, refine = matched_and_fitted(
                 reference, target, ref, tgt, opts, prog, lambda: find_points(opts, ref, tgt, prog, tie_points, refine),
