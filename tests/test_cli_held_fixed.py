@@ -1,5 +1,5 @@
-"""The console names the interior parameters held fixed on one line, each with why in short."""
-from fotogeo.cli.triangulate import held_fixed_line
+"""The console and the QGIS log name the interior parameters held fixed on one line, each with why in short."""
+from fotogeo.tools.triangulate.outputs import held_fixed_line
 
 
 def test_one_line_with_the_correlation_and_partner_or_the_significance():

@@ -40,7 +40,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     estimated or held fixed (and why).
     """
     from ..tools.triangulate import triangulate
-    from ..tools.triangulate.outputs import accuracy_lines, dropped_lines, variance_lines
+    from ..tools.triangulate.outputs import accuracy_lines, dropped_lines, held_fixed_line, variance_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -107,19 +107,3 @@ def _rank(sigma) -> float:
 def _sigma(sigma) -> str:
     """A σ for the console: 3 significant digits, or "undetermined" when missing or not finite."""
     return f"{sigma:.3g}" if sigma is not None and math.isfinite(sigma) else "undetermined"
-
-
-def held_fixed_line(fixed) -> str:
-    """One line for the interior parameters the adjustment held fixed, each with why in short: its multiple
-    correlation and largest partner (the correlation rule), or its t (not significant); the report has the
-    full reasons."""
-    parts = []
-    for f in fixed:
-        if "multiple_correlation" in f:
-            parts.append(f"{f['parameter']} (correlation {f['multiple_correlation']:.4f}, most with {f['partner']} "
-                         f"{f['correlation']:+.2f})")
-        elif "t" in f:
-            parts.append(f"{f['parameter']} (not significant, {f['t']:.2g} sigma)")
-        else:
-            parts.append(f["parameter"])
-    return f"held fixed (report.html says why): {', '.join(parts)}"

@@ -20,7 +20,8 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
   reweighting from the approximate orientation (weights frozen per round, the first round unweighted),
   observations beyond ``skip_c`` robust σ of the start skipped at every iteration
   (:mod:`~fotogeo.orientation.bundle_lm`; removed before data snooping); then the multiple correlation of every free
-  interior parameter with the exterior orientations — a parameter the block cannot determine
+  interior parameter with the exterior orientations (:mod:`~fotogeo.orientation.bundle_rules`) — a parameter the
+  block cannot determine
   (ϱ > ``max_correlation`` *and* its a-posteriori σ moving the image points by more than half a pixel,
   e.g. a free focal length against the flying heights over flat ground, nadir frames) is held
   fixed and reported; a correlated parameter that many rays determine nevertheless (the principal
@@ -29,7 +30,9 @@ digital aerial triangulation, solved as in Triggs et al. (2000):
   :mod:`~fotogeo.orientation.bundle_ebner`): one not significant (``|b| < significance·σ_b``)
   is held fixed at 0 and reported; then Baarda's (1968) data snooping with
   redundancy numbers in closed form, culling the worst observation of every flagged point and
-  solving again until nothing is flagged;
+  solving again until nothing is flagged; when it culled anything and a parameter was held fixed, the rules are
+  taken again on the cleaned block (every parameter freed, least-squares weights) and snooping resumes — before it,
+  σ̂₀ still carries the blunders the robust phase did not skip, and a parameter's σ with it;
 * precision: σ₀ (in px with the default a priori image σ of 1 px; ≈ 1 when the a priori σ are
   right) and the image RMS in px, and the a-posteriori σ of every orientation
   parameter, interior parameter and point, from the inverse blocks of the reduced system.
@@ -55,6 +58,8 @@ from .bundle_problem import active_points, build_problem, check_block, initial_p
 from .bundle_result import make_result
 from .bundle_variance import images_too_strong
 from .bundle_robust import huber_weights, interior_correlations, posterior, skipped_huber
+from .bundle_rules import DETERMINED_PX, _to_fix  # noqa: F401 (part of this module's API)
+from .bundle_rules import correlation_rule, initial_interior, release, significance_rule
 from .bundle_snooping import cull_skipped, snoop_round
 
 #: tie and check points whose rays meet at a smaller angle are dropped: their depth is undetermined and their
@@ -142,7 +147,7 @@ class _Run:
     def __init__(self, block, opts):
         self.block, self.opts = block, opts
         self.origin, self.R, self.C = local_frame(block)
-        self.interior = _initial_interior(block)
+        self.interior = initial_interior(block)
         self.free = [bj.INTERIOR_NAMES.index(n) for n in opts.self_calibration]
         self.active = np.ones(len(block.obs_frame), bool)
         self.X = initial_points(block, self.origin, self.R, self.C, self.interior)
@@ -224,21 +229,14 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
         pb, s = run.problem()
         p = _robust_weights(pb, s, opts)
     fixed = []
-    with prog.timed("correlations"):
-        pb, s, p = _correlation_rule(run, pb, s, p, opts, prog, fixed)
-    with prog.timed("significance"):
-        pb, s, p = _significance_rule(run, pb, s, p, opts, prog, fixed)
+    pb, s, p = _rules(run, pb, s, p, opts, prog, fixed, lambda pb, s: _robust_weights(pb, s, opts))
     with prog.timed("snooping"):
-        for rnd in range(opts.max_snooping_rounds + 1):
-            pb, s = run.problem()
-            if rnd > 0 or not opts.snooping:  # the first test is made at the robust solution
-                pb, s, _ = _solved(run, pb, s, opts, prog.stage(0.5 + 0.05 * min(rnd, 9), 0.55 + 0.05 * min(rnd, 9),
-                                                              "data snooping"), "data snooping", lambda pb, s: pb.p0)
-            post = posterior(pb, s, pb.p0)
-            if not opts.snooping or rnd == opts.max_snooping_rounds:
-                break
-            if not snoop_round(run, pb, post, opts, rnd, blunders):
-                break
+        pb, s, post, rnd = _snooping(run, pb, s, opts, prog, blunders, 0)
+    if fixed and any(b["round"] > 0 for b in blunders):  # the rules again, with the σ̂₀ of the cleaned block
+        release(run, fixed)
+        pb, s, p = _rules(run, *run.problem(), None, opts, prog, fixed, lambda pb, s: pb.p0)
+        with prog.timed("snooping"):
+            pb, s, post, rnd = _snooping(run, pb, s, opts, prog, blunders, min(rnd + 1, opts.max_snooping_rounds))
     pb, s, post, factor = _image_variance(run, pb, s, post, opts, prog)
     prog.timings["total"] = time.perf_counter() - t0
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
@@ -247,6 +245,39 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
         result.stats["variance_components"]["image"].update(factor)
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)
     return result
+
+
+def _rules(run, pb, s, p, opts, prog, fixed, weights):
+    """``(pb, s, p)``: the correlation and the significance rule (:mod:`~fotogeo.orientation.bundle_rules`) taken
+    at ``s`` with the weights ``p``, each re-solve weighted by ``weights(pb, s)``; ``p`` None: ``s`` solved with
+    them first (after :func:`~fotogeo.orientation.bundle_rules.release`)."""
+    def resolve(label):
+        return _resolve(run, opts, prog, label, weights)
+    if p is None:
+        pb, s, p = _solved(run, pb, s, opts, prog.stage(0.4, 0.5, "re-solving"), "the rules again", weights)
+    with prog.timed("correlations"):
+        pb, s, p = correlation_rule(run, pb, s, p, opts, resolve, fixed)
+    with prog.timed("significance"):
+        pb, s, p = significance_rule(run, pb, s, p, opts, resolve, fixed)
+    return pb, s, p
+
+
+def _snooping(run, pb, s, opts, prog, blunders, first: int):
+    """``(pb, s, post, round)``: data snooping (:func:`~fotogeo.orientation.bundle_snooping.snoop_round`) from round
+    ``first`` until nothing is flagged or ``opts.max_snooping_rounds``; the first test of round 0 is made at ``s``
+    (the robust solution), every other after a least-squares solve."""
+    rnd = first
+    for rnd in range(first, opts.max_snooping_rounds + 1):
+        pb, s = run.problem()
+        if rnd > 0 or not opts.snooping:
+            pb, s, _ = _solved(run, pb, s, opts, prog.stage(0.5 + 0.05 * min(rnd, 9), 0.55 + 0.05 * min(rnd, 9),
+                                                          "data snooping"), "data snooping", lambda pb, s: pb.p0)
+        post = posterior(pb, s, pb.p0)
+        if not opts.snooping or rnd == opts.max_snooping_rounds:
+            break
+        if not snoop_round(run, pb, post, opts, rnd, blunders):
+            break
+    return pb, s, post, rnd
 
 
 def _image_variance(run, pb, s, post, opts, prog):
@@ -284,19 +315,11 @@ def expand_self_calibration(names) -> tuple:
     return tuple(known + [n for n in dict.fromkeys(names) if n not in known])
 
 
-def _hold_fixed(run, name, entry, fixed):
-    k = bj.INTERIOR_NAMES.index(name)
-    run.free.remove(k)
-    run.interior[k] = _initial_interior(run.block)[k]
-    fixed.append(entry)
-
-
-def _resolve(run, opts, prog, label):
-    """The problem rebuilt after a parameter was held fixed, its robust weights anew (it may have lost
-    points) and its solution."""
+def _resolve(run, opts, prog, label, weights):
+    """The problem rebuilt after a parameter was held fixed, its weights ``weights(pb, s)`` anew (it may have
+    lost points) and its solution."""
     pb, s = run.problem()
-    return _solved(run, pb, s, opts, prog.stage(0.4, 0.5, "re-solving"), label,
-                   lambda pb, s: _robust_weights(pb, s, opts))
+    return _solved(run, pb, s, opts, prog.stage(0.4, 0.5, "re-solving"), label, weights)
 
 
 def _solved(run, pb, s, opts, prog, label, weights):
@@ -312,84 +335,3 @@ def _solved(run, pb, s, opts, prog, label, weights):
             break
         pb, s = run.problem()
     return pb, s, p
-
-
-def _correlation_rule(run, pb, s, p, opts, prog, fixed):
-    """Hold fixed, one at a time, the interior parameters the block cannot tell from the exterior
-    orientation (module docstring), solving again after each."""
-    while run.free:
-        corr = interior_correlations(pb, posterior(pb, s, p), run.block.frames, bj.INTERIOR_NAMES)
-        worst = _to_fix(corr, opts.max_correlation)
-        if worst is None:
-            break
-        _hold_fixed(run, worst["parameter"], {**worst, "reason": _fix_reason(worst, opts.max_correlation)}, fixed)
-        pb, s, p = _resolve(run, opts, prog, "after fixing a parameter")
-    return pb, s, p
-
-
-def _significance_rule(run, pb, s, p, opts, prog, fixed):
-    """The precision companion of the correlation rule, for Ebner's additional parameters: one whose
-    change from its initial value is below ``opts.significance`` times its a-posteriori σ
-    (``|b − b₀| < t·σ_b``: the block does not show that error) is held fixed as not significant
-    (Gruen 1985: additional parameters are kept only where the block determines them); all such
-    parameters at once, then the block is solved and tested again."""
-    initial = _initial_interior(run.block)
-    while opts.significance > 0 and any(bj.INTERIOR_NAMES[k] in EBNER_PARAMETERS for k in run.free):
-        post = posterior(pb, s, p)
-        sd = post.sigma0 * np.sqrt(np.maximum(np.diag(post.S_inv)[6 * pb.st.n_frames:], 0.0))
-        weak = []
-        for q, k in enumerate(pb.st.free_interior):
-            name, value = bj.INTERIOR_NAMES[k], float(run.interior[k])
-            t = abs(value - initial[k]) / sd[q] if sd[q] > 0 else 0.0
-            if name in EBNER_PARAMETERS and t < opts.significance:
-                weak.append({"parameter": name, "value_px": value, "sigma_px": float(sd[q]), "t": float(t),
-                             "reason": f"{name} is not significant: |{name}| = {abs(value):.3g} px < "
-                                       f"{opts.significance:g} σ (σ = {sd[q]:.3g} px); held fixed at 0"})
-        if not weak:
-            break
-        for entry in weak:
-            _hold_fixed(run, entry["parameter"], entry, fixed)
-        pb, s, p = _resolve(run, opts, prog, "after fixing non-significant parameters")
-    return pb, s, p
-
-
-#: an interior parameter whose a-posteriori σ moves the image points by at most this (px) is determined,
-#: however correlated: half a pixel, well within what a camera guessed from EXIF is off by
-DETERMINED_PX = 0.5
-
-
-def _to_fix(corr, limit):
-    """The interior parameter to hold fixed, or None: the one of largest multiple correlation above
-    ``limit`` — unless its strongest partner is a higher-order free interior term (k2 for k1), which
-    goes first (the lower-order term carries most of the effect)."""
-    over = {c["parameter"]: c for c in corr if c["multiple_correlation"] > limit and not _determined(c)}
-    if not over:
-        return None
-    worst = max(over.values(), key=lambda c: c["multiple_correlation"])
-    partner = worst["partner"]
-    if partner in over and bj.INTERIOR_NAMES.index(partner) > bj.INTERIOR_NAMES.index(worst["parameter"]):
-        return over[partner]
-    return worst
-
-
-def _determined(c) -> bool:
-    """Whether the block determines an interior parameter in spite of its correlation: its σ moves the image
-    points by at most :data:`DETERMINED_PX` or their σ if larger (``σ_px``,
-    :func:`~fotogeo.orientation.bundle_robust.interior_correlations`) — a principal point against the
-    attitudes and the decentering terms (a shift of it is a tilt of the camera but for terms of second order
-    in the image coordinates, which many rays determine)."""
-    return bool(c.get("sigma_px", np.inf) <= max(DETERMINED_PX, c.get("image_sigma_px", 0.0)))
-
-
-def _initial_interior(block):
-    """``(f, ppx, ppy, k1, k2, k3, p1, p2, b1 … b12)`` of the block's camera (Ebner's terms start at 0)."""
-    return np.array([block.camera.focal_length, *block.camera.principal_point, *block.distortion,
-                     *np.zeros(len(EBNER_PARAMETERS))], dtype=np.float64)
-
-
-def _fix_reason(c, limit):
-    return (f"{c['parameter']} cannot be told from the exterior orientation: its multiple correlation with "
-            f"the other unknowns is {c['multiple_correlation']:.4f} > {limit} (largest: "
-            f"{c['correlation']:+.3f} with {c['partner']}) and its σ moves the image points by "
-            f"{c['sigma_px']:.3g} px, more than {max(DETERMINED_PX, c['image_sigma_px']):.3g} px; held fixed at its "
-            f"initial value")

@@ -28,7 +28,7 @@ the block cannot tell the parameter from the exterior orientations (a free focal
 over flat ground against the flying heights) — unless the block determines it nevertheless:
 its a-posteriori σ ``σ̂₀ √Q_kk`` times the RMS of ``|∂pixel/∂b_k|`` over the observations (``σ_px``,
 what its uncertainty moves the image points by) within half a pixel, or the image σ ``σ̂₀ · median(1/√p)``
-when larger (:data:`fotogeo.orientation.bundle.DETERMINED_PX`). A
+when larger (:data:`fotogeo.orientation.bundle_rules.DETERMINED_PX`). A
 principal-point shift is a tilt of the camera but for terms of second order in the image
 coordinates, which the decentering terms take only in part: its ϱ comes close to 1,
 yet many rays determine it. A parameter correlated and imprecise is held fixed.

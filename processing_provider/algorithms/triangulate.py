@@ -122,7 +122,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
                             outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True,
                             **self.option_arguments(parameters, context))
-        from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines, variance_lines
+        from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines, held_fixed_line, variance_lines
         for line in dropped_lines(rep):  # first, as a warning: the flag named by the dialog's label
             feedback.pushWarning(self.in_words(line))
         st = rep["statistics"]
@@ -144,8 +144,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(f"GPS heights: {start['heights']}")
         for r in rep.get("restarted_frames") or []:
             feedback.pushWarning(self.in_words(f"re-started (attitude prior contradicted): {r['name']}: {r['reason']}"))
-        for f in rep["fixed_parameters"]:
-            feedback.pushWarning(self.in_words(f"held fixed: {f['reason']}"))
+        if rep["fixed_parameters"]:  # one line, as the console's; the reasons in full are in report.html
+            feedback.pushWarning(self.in_words(held_fixed_line(rep["fixed_parameters"])))
         return self._outputs(rep, outdir, context)
 
     def _control_path(self, parameters, context, feedback) -> str | None:

@@ -312,3 +312,19 @@ def variance_lines(rep: dict) -> list:
         if unchecked:  # an error in a group nothing checks shows in the others
             lines[-1] += f" (or the {', '.join(unchecked)}, which nothing checks, are wrong)"
     return lines
+
+
+def held_fixed_line(fixed) -> str:
+    """One line for the interior parameters the adjustment held fixed, each with why in short: its multiple
+    correlation and largest partner (the correlation rule), or its t (not significant); the report has the
+    full reasons (the console's and the QGIS log's line)."""
+    parts = []
+    for f in fixed:
+        if "multiple_correlation" in f:
+            parts.append(f"{f['parameter']} (correlation {f['multiple_correlation']:.4f}, most with {f['partner']} "
+                         f"{f['correlation']:+.2f})")
+        elif "t" in f:
+            parts.append(f"{f['parameter']} (not significant, {f['t']:.2g} sigma)")
+        else:
+            parts.append(f["parameter"])
+    return f"held fixed (report.html says why): {', '.join(parts)}"
