@@ -1,0 +1,112 @@
+"""Coarse-to-fine disparity search: the disparities of a coarse copy of a rectified pair bound, pixel by pixel,
+the narrow band the full-resolution matching searches.
+
+Semi-global matching costs pixels x disparities, and over a slope or a relief the disparities of one piece of a
+rectified pair span hundreds of pixels while each pixel's own lies within a few of its neighbours'. As the
+hierarchical matchers do (MicMac's pyramid, Pierrot-Deseilligny & Paparoditis 2006; the coarse-to-fine SGM of
+Rothermel et al. 2012, SURE), the pair is first matched on copies ``FACTOR`` times smaller (pixel areas averaged),
+over the whole range divided by ``FACTOR`` (:func:`coarse_disparity`: ``FACTOR³`` times less work); then
+:func:`guide` turns the coarse disparities into an offset ``D0(x, y)`` and one half-width ``R`` for the piece:
+
+* the coarse holes are filled by push-pull interpolation (:func:`fill_holes`: averages over ever coarser
+  levels, then pulled back down; Gortler et al. 1996), so that a pixel without a coarse match gets the surface of
+  its surroundings;
+* a pixel's coarse envelope is the lowest and the highest (filled) coarse disparity within ``RADIUS`` coarse
+  pixels of it (a step of the surface — a roof edge, a tree — lies within the envelope of the pixels beside it);
+  ``D0`` is the envelope's middle, ``R`` the 99th percentile over the piece of its half-width, plus ``PAD``
+  coarse pixels (the coarse disparities' own error), times ``FACTOR``.
+
+The full-resolution right image is resampled along its rows by the offset, ``R'(x', y) = R(x' − D0(x', y), y)``
+(rows stay epipolar), and matched against the left image within ``[−R, R]``; a disparity ``d'`` found in that
+frame is the disparity ``d = d' + D0(x − d', y)`` of the pair (:func:`resolve`: the left pixel ``x`` meets
+``x' = x − d'`` of ``R'``, i.e. ``x' − D0(x')`` of ``R``). The left–right check, the sub-pixel error
+cancellation and the filters of :func:`fotogeo.stereo.dense.disparity` work in that frame unchanged.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .dense import disparity
+
+#: the coarse copies are this many times smaller per side
+FACTOR = 4
+#: coarse pixels around a pixel whose disparities make its envelope
+RADIUS = 2
+#: coarse pixels added to the envelope's half-width (the coarse disparities' error)
+PAD = 1.5
+#: ranges narrower than this (full-resolution pixels) are searched whole: the coarse step would not pay
+MIN_RANGE = 96
+#: fewer coarse disparities than this share of the coarse left pixels and the piece is searched whole
+MIN_MATCHED = 0.02
+
+
+def shrink(img, factor: int) -> np.ndarray:
+    """``img`` averaged over ``factor x factor`` pixels (the rows and columns beyond a multiple dropped)."""
+    h, w = (s // factor for s in img.shape[:2])
+    a = np.asarray(img, np.float32)[:h * factor, :w * factor]
+    return a.reshape(h, factor, w, factor).mean(axis=(1, 3))
+
+
+def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int = FACTOR,
+                     penalty: float | None = None) -> np.ndarray:
+    """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` times within ``[lo, hi]`` full
+    pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the sub-pixel cancellation."""
+    vl = shrink(valid_left, factor) >= 1.0
+    vr = shrink(valid_right, factor) >= 1.0
+    return disparity(shrink(left, factor), shrink(right, factor), vl, vr, lo / factor, hi / factor,
+                     half_shift=False, penalty=penalty)
+
+
+def fill_holes(d) -> np.ndarray:
+    """``d`` (NaN where none) with its holes filled by push-pull interpolation: NaN-aware 2 x 2 averages down to
+    a level without holes, each level's holes then filled from the next coarser one (bilinear); all NaN stays
+    all NaN."""
+    d = np.asarray(d, np.float32)
+    ok = np.isfinite(d)
+    if ok.all() or not ok.any():
+        return d.copy()
+    w = ok.astype(np.float32)
+    v = np.where(ok, d, 0.0).astype(np.float32)
+    h, wd = d.shape
+    hp, wp = -(-h // 2) * 2, -(-wd // 2) * 2
+    v2 = np.pad(v, ((0, hp - h), (0, wp - wd)))
+    w2 = np.pad(w, ((0, hp - h), (0, wp - wd)))
+    sv = v2.reshape(hp // 2, 2, wp // 2, 2).sum(axis=(1, 3))
+    sw = w2.reshape(hp // 2, 2, wp // 2, 2).sum(axis=(1, 3))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coarse = fill_holes(np.where(sw > 0, sv / sw, np.nan))
+    up = cv2.resize(coarse, (wp, hp), interpolation=cv2.INTER_LINEAR)[:h, :wd]
+    return np.where(ok, d, up).astype(np.float32)
+
+
+def guide(dc, shape: tuple, valid_left, factor: int = FACTOR) -> tuple | None:
+    """``(D0 (rows, cols) float32, R)``: the offset and the band's half-width (full-resolution pixels) of a piece
+    of ``shape`` from its coarse disparities ``dc`` (module docstring); None when too few coarse pixels matched
+    (the piece is then searched whole)."""
+    vl = shrink(valid_left, factor) >= 1.0
+    ok = np.isfinite(dc)
+    if ok.sum() < max(1, MIN_MATCHED * vl.sum()):
+        return None
+    f = fill_holes(dc)
+    k = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
+    lower, upper = cv2.erode(f, k), cv2.dilate(f, k)
+    half = 0.5 * (upper - lower)
+    inside = vl if vl.any() else np.ones_like(vl)
+    R = factor * (float(np.percentile(half[inside], 99)) + PAD)
+    mid = 0.5 * (upper + lower)
+    h, w = shape
+    D0 = cv2.resize(factor * mid, (mid.shape[1] * factor, mid.shape[0] * factor), interpolation=cv2.INTER_LINEAR)
+    D0 = np.pad(D0, ((0, h - D0.shape[0]), (0, w - D0.shape[1])), mode="edge")
+    return D0.astype(np.float32), R
+
+
+def resolve(dprime, D0) -> np.ndarray:
+    """The pair's disparities ``d = d' + D0(x − d', y)`` (module docstring) of disparities ``dprime`` found
+    against the right image resampled by ``D0`` (NaN stays NaN; ``D0`` linear between columns, held at the
+    edges)."""
+    rows, cols = dprime.shape
+    x = np.arange(cols, dtype=np.float32)[None, :] - np.nan_to_num(dprime)
+    y = np.repeat(np.arange(rows, dtype=np.float32)[:, None], cols, axis=1)
+    at = cv2.remap(D0, np.clip(x, 0, cols - 1).astype(np.float32), y, cv2.INTER_LINEAR)
+    return dprime + at
