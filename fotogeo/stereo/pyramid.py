@@ -35,8 +35,16 @@ FACTOR = 4
 RADIUS = 2
 #: coarse pixels added to the envelope's half-width (the coarse disparities' error)
 PAD = 1.5
+#: the standard deviation (coarse pixels) of the Gaussian that smooths the envelope's middle into the offset
+SMOOTH = 2.0
+#: the percentile of the envelope's half-width over the piece that sets the band
+PERCENTILE = 99.0
+#: full-resolution disparities this close to the band's ends are dropped (the pixel's may lie beyond the band)
+EDGE = 1.0
 #: ranges narrower than this (full-resolution pixels) are searched whole: the coarse step would not pay
 MIN_RANGE = 96
+#: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
+COARSE_FILTERS: dict = {}
 #: fewer coarse disparities than this share of the coarse left pixels and the piece is searched whole
 MIN_MATCHED = 0.02
 
@@ -48,14 +56,16 @@ def shrink(img, factor: int) -> np.ndarray:
     return a.reshape(h, factor, w, factor).mean(axis=(1, 3))
 
 
-def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int = FACTOR,
+def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int | None = None,
                      penalty: float | None = None) -> np.ndarray:
-    """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` times within ``[lo, hi]`` full
-    pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the sub-pixel cancellation."""
+    """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` (default ``FACTOR``) times
+    within ``[lo, hi]`` full pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the
+    sub-pixel cancellation."""
+    factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
     return disparity(shrink(left, factor), shrink(right, factor), vl, vr, lo / factor, hi / factor,
-                     half_shift=False, penalty=penalty)
+                     half_shift=False, penalty=penalty, **COARSE_FILTERS)
 
 
 def fill_holes(d) -> np.ndarray:
@@ -80,10 +90,11 @@ def fill_holes(d) -> np.ndarray:
     return np.where(ok, d, up).astype(np.float32)
 
 
-def guide(dc, shape: tuple, valid_left, factor: int = FACTOR) -> tuple | None:
+def guide(dc, shape: tuple, valid_left, factor: int | None = None) -> tuple | None:
     """``(D0 (rows, cols) float32, R)``: the offset and the band's half-width (full-resolution pixels) of a piece
-    of ``shape`` from its coarse disparities ``dc`` (module docstring); None when too few coarse pixels matched
-    (the piece is then searched whole)."""
+    of ``shape`` from its coarse disparities ``dc`` (shrunk ``factor`` times, default ``FACTOR``; module
+    docstring); None when too few coarse pixels matched (the piece is then searched whole)."""
+    factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     ok = np.isfinite(dc)
     if ok.sum() < max(1, MIN_MATCHED * vl.sum()):
@@ -91,13 +102,15 @@ def guide(dc, shape: tuple, valid_left, factor: int = FACTOR) -> tuple | None:
     f = fill_holes(dc)
     k = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
     lower, upper = cv2.erode(f, k), cv2.dilate(f, k)
-    half = 0.5 * (upper - lower)
+    mid = cv2.GaussianBlur(0.5 * (upper + lower), (0, 0), SMOOTH)
+    reach = np.maximum(upper - mid, mid - lower)
     inside = vl if vl.any() else np.ones_like(vl)
-    R = factor * (float(np.percentile(half[inside], 99)) + PAD)
-    mid = 0.5 * (upper + lower)
+    R = factor * (float(np.percentile(reach[inside], PERCENTILE)) + PAD)
     h, w = shape
     D0 = cv2.resize(factor * mid, (mid.shape[1] * factor, mid.shape[0] * factor), interpolation=cv2.INTER_LINEAR)
     D0 = np.pad(D0, ((0, h - D0.shape[0]), (0, w - D0.shape[1])), mode="edge")
+    x = np.arange(w, dtype=np.float32)[None, :]
+    D0 = x - np.maximum.accumulate(x - D0, axis=1)  # x' − D0(x') never decreasing: the resampling never folds
     return D0.astype(np.float32), R
 
 

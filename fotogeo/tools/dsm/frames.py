@@ -240,10 +240,12 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
     if pyramid and sb - sa >= pyr.MIN_RANGE:
         dc = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
         gd = pyr.guide(dc, g1.shape, v1m)
-        if gd is not None:
+        if gd is not None and gd[1] < MARGIN:  # a band wider than the margin: its last columns go unmatched
             D0, R = gd
             g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=_warped_maps(maps2, D0))
             dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
+            with np.errstate(invalid="ignore"):
+                dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
             coarse = disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
             return pyr.resolve(dp, D0), v2w, disparity_range(-R, R)[1] + coarse, True
     wc = g1.shape[1]
