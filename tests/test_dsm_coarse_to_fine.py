@@ -68,13 +68,14 @@ def _run(sc, out, report):
 
 
 def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, monkeypatch):
-    """Two frames of the held-out block (±60 m of relief), every strip coarse to fine (no minimum range: by
-    default ranges this narrow are searched whole), against the same run over the strips' whole ranges: fewer
+    """Two frames of the held-out block (±60 m of relief), every strip coarse to fine (switched on, no minimum
+    range: by default ranges this narrow are searched whole), against the same run over the strips' whole ranges: fewer
     disparities searched, the RMSE within a tenth of a GSD of it and within a GSD. Completeness is allowed 8
     points less: the coarse copies of these 400-px frames match under half of their pixels, and at the rectified
     image's right border the band's last columns go unmatched (docs/howto/dsm.md)."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(pyramid, "MIN_RANGE", 0)
+    monkeypatch.setattr(frames, "COARSE_TO_FINE", True)
     rep, ctf = _run(sc, tmp_path / "ctf.tif", tmp_path / "ctf.json")
     pair = next(p for p in rep["pairs"] if p["kept"])
     used, strips = (int(x) for x in pair["coarse_to_fine_strips"].split(" of "))

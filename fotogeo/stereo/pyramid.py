@@ -13,14 +13,17 @@ over the whole range divided by ``FACTOR`` (:func:`coarse_disparity`: ``FACTOR³
   its surroundings;
 * a pixel's coarse envelope is the lowest and the highest (filled) coarse disparity within ``RADIUS`` coarse
   pixels of it (a step of the surface — a roof edge, a tree — lies within the envelope of the pixels beside it);
-  ``D0`` is the envelope's middle, ``R`` the 99th percentile over the piece of its half-width, plus ``PAD``
-  coarse pixels (the coarse disparities' own error), times ``FACTOR``.
+  ``D0`` is the envelope's middle smoothed by a Gaussian of ``SMOOTH`` coarse pixels and, at full resolution,
+  kept so that ``x − D0(x)`` never decreases along a row (a step of the coarse surface would otherwise fold the
+  resampled image onto itself); ``R`` is the ``PERCENTILE`` th percentile over the piece of the envelope's reach
+  from the smoothed middle, plus ``PAD`` coarse pixels (the coarse disparities' own error), times ``FACTOR``.
 
 The full-resolution right image is resampled along its rows by the offset, ``R'(x', y) = R(x' − D0(x', y), y)``
 (rows stay epipolar), and matched against the left image within ``[−R, R]``; a disparity ``d'`` found in that
 frame is the disparity ``d = d' + D0(x − d', y)`` of the pair (:func:`resolve`: the left pixel ``x`` meets
 ``x' = x − d'`` of ``R'``, i.e. ``x' − D0(x')`` of ``R``). The left–right check, the sub-pixel error
-cancellation and the filters of :func:`fotogeo.stereo.dense.disparity` work in that frame unchanged.
+cancellation and the filters of :func:`fotogeo.stereo.dense.disparity` work in that frame unchanged; the caller
+drops disparities within ``EDGE`` px of the band's ends (the pixel's own may lie beyond the band).
 """
 from __future__ import annotations
 

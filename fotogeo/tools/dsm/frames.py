@@ -26,6 +26,12 @@ turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.p
 oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
 Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
 searches the DEM's range.
+
+**Coarse to fine** (``COARSE_TO_FINE``, off by default; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
+per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
+on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
+coarse disparities: the right image read again through its rectification maps resampled along the rows by the
+coarse offset.
 """
 from __future__ import annotations
 
@@ -49,8 +55,9 @@ MARGIN = 48
 LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
-#: strips whose range is wide enough search coarse to fine (:mod:`fotogeo.stereo.pyramid`); False: the whole range
-COARSE_TO_FINE = True
+#: True: strips whose range is wide enough search coarse to fine (:mod:`fotogeo.stereo.pyramid`). Off by default:
+#: on the rendered oblique block it adds gross errors whose cause is not found yet (docs/howto/dsm.md)
+COARSE_TO_FINE = False
 
 
 class FrameRays:
