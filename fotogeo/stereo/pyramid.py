@@ -30,7 +30,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .dense import disparity
+from .dense import disparity, disparity_range
 
 #: the coarse copies are this many times smaller per side
 FACTOR = 4
@@ -46,6 +46,9 @@ PERCENTILE = 99.0
 EDGE = 1.0
 #: ranges narrower than this (full-resolution pixels) are searched whole: the coarse step would not pay
 MIN_RANGE = 96
+#: a fine disparity is kept only if the coarse disparity of the right pixel it meets lies within this many
+#: coarse pixels of it (:func:`witnessed`)
+WITNESS = 2.0
 #: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
 COARSE_FILTERS: dict = {}
 #: fewer coarse disparities than this share of the coarse left pixels and the piece is searched whole
@@ -60,15 +63,54 @@ def shrink(img, factor: int) -> np.ndarray:
 
 
 def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int | None = None,
-                     penalty: float | None = None) -> np.ndarray:
+                     penalty: float | None = None, right_too: bool = False):
     """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` (default ``FACTOR``) times
     within ``[lo, hi]`` full pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the
-    sub-pixel cancellation."""
+    sub-pixel cancellation. ``right_too``: ``(left's, right's)``, the right image's the same matching with the
+    images' roles and rows mirrored (a right pixel ``x`` meets the left pixel ``x + d``)."""
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
-    return disparity(shrink(left, factor), shrink(right, factor), vl, vr, lo / factor, hi / factor,
-                     half_shift=False, penalty=penalty, **COARSE_FILTERS)
+    L, R = shrink(left, factor), shrink(right, factor)
+    kw = dict(half_shift=False, penalty=penalty, **COARSE_FILTERS)
+    lo, hi = lo / factor, hi / factor
+    # SGBM leaves a matched image's first max(dmax, 0) columns and last max(-dmin, 0) without a disparity: padded
+    # with invalid columns there, every column of the copy is searched (partners in the padding are refused)
+    dmin, n = disparity_range(lo, hi)
+    a, b = max(dmin + n, 0) + 1, max(-dmin, 0) + 1
+    pad = lambda m: np.pad(m, ((0, 0), (a, b)))
+    dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, **kw)[:, a:a + L.shape[1]]
+    if not right_too:
+        return dl
+    pad = lambda m: np.pad(m, ((0, 0), (b, a)))
+    dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
+    return dl, np.ascontiguousarray(dr[:, b:b + R.shape[1]])
+
+
+def _at(dc, x, factor: int) -> np.ndarray:
+    """The coarse disparities ``dc`` (full-resolution pixels) of the blocks holding the full-resolution columns
+    ``x`` (rows ``0, 1, …`` of ``x``); NaN outside ``dc`` or where ``x`` is NaN."""
+    hc, wc = dc.shape
+    with np.errstate(invalid="ignore"):
+        inside = np.isfinite(x) & (x >= 0) & (x < wc * factor)
+        bx = (np.where(inside, x, 0) // factor).astype(np.intp)
+    by = np.minimum(np.arange(x.shape[0]) // factor, hc - 1)[:, None]
+    return np.where(inside, factor * dc[np.broadcast_to(by, x.shape), bx], np.nan)
+
+
+def witnessed(d, dc_left, dc_right, factor: int | None = None) -> np.ndarray:
+    """``d`` (full-resolution disparities of the left pixels) with NaN where the coarse matching over the whole
+    range, an independent witness, disagrees by more than ``WITNESS`` coarse pixels: the coarse disparity of
+    the right pixel ``x − d`` meets, or where that has none, the left pixel's own; NaN where both have none
+    (module docstring)."""
+    factor = factor or FACTOR
+    x = np.arange(d.shape[1], dtype=np.float32)[None, :]
+    with np.errstate(invalid="ignore"):
+        wr = _at(dc_right, np.rint(x - d), factor)
+        wl = _at(dc_left, np.broadcast_to(x, d.shape), factor)
+        tol = factor * WITNESS
+        ok = np.where(np.isfinite(wr), np.abs(wr - d) <= tol, np.abs(wl - d) <= tol)
+    return np.where(ok, d, np.nan).astype(np.float32)
 
 
 def fill_holes(d) -> np.ndarray:

@@ -245,7 +245,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
     (:mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled by the coarse offset,
     one interpolation of the source as before), else the whole range."""
     if pyramid and sb - sa >= pyr.MIN_RANGE:
-        dc = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
+        dc, dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, right_too=True)
         gd = pyr.guide(dc, g1.shape, v1m)
         if gd is not None and gd[1] < MARGIN:  # a band wider than the margin: its last columns go unmatched
             D0, R = gd
@@ -254,7 +254,10 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
             with np.errstate(invalid="ignore"):
                 dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
             coarse = disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
-            return pyr.resolve(dp, D0), v2w, disparity_range(-R, R)[1] + coarse, True
+            d = pyr.witnessed(pyr.resolve(dp, D0), dc, dcr)
+            with np.errstate(invalid="ignore"):
+                d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
+            return d, v2w, disparity_range(-R, R)[1] + coarse, True
     wc = g1.shape[1]
     d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
     shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
