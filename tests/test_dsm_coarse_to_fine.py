@@ -3,6 +3,7 @@ disparities found against the resampled right image turned back into the pair's,
 coarse to fine as accurately as over its whole range."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from fotogeo.stereo import pyramid
@@ -59,6 +60,40 @@ def test_guide_follows_a_slope_with_a_narrow_band():
     assert band - 0.2 <= R <= band + f * step  # the smoothing bends the ramp at the piece's borders a little
     assert 2 * R < 0.15 * f * 37.5
     assert pyramid.guide(np.full_like(dc, np.nan), (rows, cols), valid) is None
+
+
+def test_witness_refuses_a_match_the_right_pixels_coarse_match_contradicts():
+    """Left pixels matched within a band: one whose right pixel's coarse disparity (the whole range's) agrees is
+    kept, one it contradicts or whose right pixel has no coarse disparity is refused."""
+    f = pyramid.FACTOR
+    rows, cols = 8, 80
+    dc_right = np.full((rows // f, cols // f), 5.0, np.float32)  # coarse px: 20 full px everywhere
+    d = np.full((rows, cols), 20.0, np.float32)
+    d[0, 40] = 20.0 + 2 * f * pyramid.WITNESS + 1  # a wrong match: its right pixel's coarse match says 20
+    d[0, 50] = 21.0
+    dc_right[1, 5] = np.nan  # no coarse match for the right pixels 20..23 of rows 4..7 (met from x 40..43)
+    out = pyramid.witnessed(d, dc_right)
+    assert np.isnan(out[0, 40]) and out[0, 50] == 21.0 and out[0, 60] == 20.0
+    assert np.isnan(out[4, 40]) and out[4, 44] == 20.0
+    assert np.isnan(pyramid.witnessed(np.full((rows, cols), np.nan, np.float32), dc_right)).all()
+
+
+def test_fill_unsupported_matches_the_needing_pixels_over_the_whole_range():
+    """A textured pair shifted by 37 px: the needing pixels get the whole range's disparity, the others stay."""
+    rng = np.random.default_rng(3)
+    rows, cols, shift = 96, 260, 37
+    right = cv2.GaussianBlur(rng.uniform(0, 255, (rows, cols + shift)).astype(np.float32), (0, 0), 1.2)
+    left, right = right[:, :cols].copy(), right[:, shift:].copy()  # left(x) = right(x - shift)
+    valid = np.ones((rows, cols), bool)
+    d = np.full((rows, cols), np.nan, np.float32)
+    d[:, :100] = 5.0
+    need = np.zeros((rows, cols), bool)
+    need[40:70, 150:200] = True
+    out, searched = pyramid.fill_unsupported(d, left, right, valid, valid, need, 0.0, 100.0)
+    assert np.array_equal(out[:, :100], d[:, :100]) and np.isnan(out[:, 200:]).all()
+    got = out[need]
+    assert np.isfinite(got).mean() > 0.9 and np.nanmax(np.abs(got - shift)) < 1.0
+    assert 0 < searched < rows * cols * 112
 
 
 def _run(sc, out, report):

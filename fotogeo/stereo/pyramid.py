@@ -49,10 +49,16 @@ MIN_RANGE = 96
 #: a fine disparity is kept only if the coarse disparity of the right pixel it meets lies within this many
 #: coarse pixels of it (:func:`witnessed`)
 WITNESS = 2.0
+#: the pixels the coarse matching does not support are matched over the whole range in blocks of this many
+#: rows, with this many more rows and columns around (:func:`fill_unsupported`)
+FILL_ROWS = 64
+FILL_CONTEXT = 48
 #: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
 COARSE_FILTERS: dict = {}
-#: fewer coarse disparities than this share of the coarse left pixels and the piece is searched whole
+#: fewer coarse disparities than this share of the coarse left pixels, or than ``MIN_COARSE``, and the piece is
+#: searched whole (a sliver of overlap: its coarse copy's matches agree both ways and yet may all be wrong)
 MIN_MATCHED = 0.02
+MIN_COARSE = 2000
 
 
 def shrink(img, factor: int) -> np.ndarray:
@@ -98,19 +104,50 @@ def _at(dc, x, factor: int) -> np.ndarray:
     return np.where(inside, factor * dc[np.broadcast_to(by, x.shape), bx], np.nan)
 
 
-def witnessed(d, dc_left, dc_right, factor: int | None = None) -> np.ndarray:
+def witnessed(d, dc_right, factor: int | None = None) -> np.ndarray:
     """``d`` (full-resolution disparities of the left pixels) with NaN where the coarse matching over the whole
-    range, an independent witness, disagrees by more than ``WITNESS`` coarse pixels: the coarse disparity of
-    the right pixel ``x − d`` meets, or where that has none, the left pixel's own; NaN where both have none
-    (module docstring)."""
+    range, an independent witness, does not confirm it: the right pixel ``x − d`` meets has no coarse disparity
+    or one more than ``WITNESS`` coarse pixels from ``d`` (module docstring)."""
     factor = factor or FACTOR
     x = np.arange(d.shape[1], dtype=np.float32)[None, :]
     with np.errstate(invalid="ignore"):
-        wr = _at(dc_right, np.rint(x - d), factor)
-        wl = _at(dc_left, np.broadcast_to(x, d.shape), factor)
-        tol = factor * WITNESS
-        ok = np.where(np.isfinite(wr), np.abs(wr - d) <= tol, np.abs(wl - d) <= tol)
+        ok = np.abs(_at(dc_right, np.rint(x - d), factor) - d) <= factor * WITNESS
     return np.where(ok, d, np.nan).astype(np.float32)
+
+
+def unsupported(dc_left, dc_right, D0, factor: int | None = None) -> np.ndarray:
+    """Pixels (bool, ``D0``'s shape) the coarse matching does not support: no coarse disparity of their own or
+    of the right pixel ``x − D0`` the offset sends them to (:func:`fill_unsupported` matches them)."""
+    factor = factor or FACTOR
+    x = np.arange(D0.shape[1], dtype=np.float32)[None, :]
+    return ~np.isfinite(_at(dc_left, np.broadcast_to(x, D0.shape), factor)) | \
+        ~np.isfinite(_at(dc_right, np.rint(x - D0), factor))
+
+
+def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,
+                     penalty: float | None = None) -> tuple:
+    """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched over the whole range ``[lo, hi]``
+    (:func:`~fotogeo.stereo.dense.disparity`) in blocks of ``FILL_ROWS`` rows, each block's runs of needing
+    columns (gaps under ``2 FILL_CONTEXT`` joined) matched on a window with ``FILL_CONTEXT`` more rows and
+    columns around and the range's width more columns on either side (the right pixels the left–right check
+    reads keep every left pixel they may meet); the others untouched."""
+    rows, cols = d.shape
+    dmin, n = disparity_range(lo, hi)
+    ctx, searched, d = FILL_CONTEXT, 0, d.copy()
+    for r0 in range(0, rows, FILL_ROWS):
+        r1 = min(rows, r0 + FILL_ROWS)
+        cs = np.flatnonzero(need[r0:r1].any(axis=0))
+        for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
+            a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
+            c0, c1 = max(0, run[0] - max(dmin + n, 0) - ctx), min(cols, run[-1] + 1 + ctx + max(dmin + n, 0))
+            win = (slice(a, b), slice(c0, c1))
+            dd = disparity(left[win], right[win], valid_left[win], valid_right[win], lo, hi, penalty=penalty)
+            searched += dd.size * n
+            core = (slice(r0, r1), slice(run[0], run[-1] + 1))
+            got = dd[r0 - a:r1 - a, run[0] - c0:run[-1] + 1 - c0]
+            take = need[core] & np.isfinite(got)
+            d[core][take] = got[take]
+    return d, searched
 
 
 def fill_holes(d) -> np.ndarray:
@@ -142,7 +179,7 @@ def guide(dc, shape: tuple, valid_left, factor: int | None = None) -> tuple | No
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     ok = np.isfinite(dc)
-    if ok.sum() < max(1, MIN_MATCHED * vl.sum()):
+    if ok.sum() < max(MIN_COARSE, MIN_MATCHED * vl.sum()):
         return None
     f = fill_holes(dc)
     k = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)

@@ -254,10 +254,12 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
             with np.errstate(invalid="ignore"):
                 dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
             coarse = disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
-            d = pyr.witnessed(pyr.resolve(dp, D0), dc, dcr)
+            d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
             with np.errstate(invalid="ignore"):
                 d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
-            return d, v2w, disparity_range(-R, R)[1] + coarse, True
+            need = v1m & v2w & np.isnan(d) & pyr.unsupported(dc, dcr, D0)
+            d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty)
+            return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
     wc = g1.shape[1]
     d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
     shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
