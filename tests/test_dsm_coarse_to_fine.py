@@ -110,6 +110,7 @@ def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, m
     image's right border the band's last columns go unmatched (docs/howto/dsm.md)."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(pyramid, "MIN_RANGE", 0)
+    monkeypatch.setattr(pyramid, "MIN_COARSE", 0)
     monkeypatch.setattr(frames, "COARSE_TO_FINE", True)
     rep, ctf = _run(sc, tmp_path / "ctf.tif", tmp_path / "ctf.json")
     pair = next(p for p in rep["pairs"] if p["kept"])

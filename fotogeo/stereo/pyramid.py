@@ -24,6 +24,13 @@ frame is the disparity ``d = d' + D0(x − d', y)`` of the pair (:func:`resolve`
 ``x' = x − d'`` of ``R'``, i.e. ``x' − D0(x')`` of ``R``). The left–right check, the sub-pixel error
 cancellation and the filters of :func:`fotogeo.stereo.dense.disparity` work in that frame unchanged; the caller
 drops disparities within ``EDGE`` px of the band's ends (the pixel's own may lie beyond the band).
+
+Within the band both directions of that left–right check are held to the band, so a left pixel without a partner
+(beyond the overlap's edge, where the coarse copy has no match and ``D0`` is extrapolated) can meet a wrong right
+pixel that meets it back. The coarse matching over the whole range is the independent witness
+(:func:`witnessed`): the right image's coarse disparities (the same matching, images mirrored) must put the right
+pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``. The pixels the coarse matching does not support near
+the images' borders (:func:`unsupported`) are matched over the whole range (:func:`fill_unsupported`).
 """
 from __future__ import annotations
 
@@ -53,6 +60,8 @@ WITNESS = 2.0
 #: rows, with this many more rows and columns around (:func:`fill_unsupported`)
 FILL_ROWS = 64
 FILL_CONTEXT = 48
+#: coarse pixels from an invalid coarse pixel within which an unsupported pixel is matched over the whole range
+BORDER = 6
 #: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
 COARSE_FILTERS: dict = {}
 #: fewer coarse disparities than this share of the coarse left pixels, or than ``MIN_COARSE``, and the piece is
@@ -115,13 +124,21 @@ def witnessed(d, dc_right, factor: int | None = None) -> np.ndarray:
     return np.where(ok, d, np.nan).astype(np.float32)
 
 
-def unsupported(dc_left, dc_right, D0, factor: int | None = None) -> np.ndarray:
-    """Pixels (bool, ``D0``'s shape) the coarse matching does not support: no coarse disparity of their own or
-    of the right pixel ``x − D0`` the offset sends them to (:func:`fill_unsupported` matches them)."""
+def unsupported(dc_left, dc_right, D0, valid_left, valid_right, factor: int | None = None) -> np.ndarray:
+    """Pixels (bool, ``D0``'s shape) near an image's border that the coarse matching does not support: within
+    ``BORDER`` coarse pixels of an invalid coarse pixel of the left image, or their right pixel ``x − D0`` of the
+    right's, and without a coarse disparity of their own or of that right pixel (:func:`fill_unsupported`
+    matches them; elsewhere the coarse copy saw the pixel and found nothing, as the whole range would)."""
     factor = factor or FACTOR
-    x = np.arange(D0.shape[1], dtype=np.float32)[None, :]
-    return ~np.isfinite(_at(dc_left, np.broadcast_to(x, D0.shape), factor)) | \
-        ~np.isfinite(_at(dc_right, np.rint(x - D0), factor))
+    k = np.ones((2 * BORDER + 1, 2 * BORDER + 1), np.uint8)
+    near_l, near_r = (cv2.dilate((shrink(v, factor) < 1.0).astype(np.uint8), k).astype(np.float32)
+                      for v in (valid_left, valid_right))
+    x = np.broadcast_to(np.arange(D0.shape[1], dtype=np.float32)[None, :], D0.shape)
+    xr = np.rint(x - D0)
+    with np.errstate(invalid="ignore"):
+        near = ~(_at(near_l, x, factor) < 1.0) | ~(_at(near_r, xr, factor) < 1.0)  # NaN: outside
+        bare = ~np.isfinite(_at(dc_left, x, factor)) | ~np.isfinite(_at(dc_right, xr, factor))
+    return near & bare
 
 
 def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,

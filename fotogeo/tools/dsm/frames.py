@@ -56,7 +56,8 @@ LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
 #: True: strips whose range is wide enough search coarse to fine (:mod:`fotogeo.stereo.pyramid`). Off by default:
-#: on the rendered oblique block it adds gross errors whose cause is not found yet (docs/howto/dsm.md)
+#: as accurate as the whole range only with the whole-range fill of the unsupported pixels near the images'
+#: borders, which costs more than the band saves (docs/howto/dsm.md)
 COARSE_TO_FINE = False
 
 
@@ -257,7 +258,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
             d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
             with np.errstate(invalid="ignore"):
                 d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
-            need = v1m & v2w & np.isnan(d) & pyr.unsupported(dc, dcr, D0)
+            need = v1m & v2w & np.isnan(d) & pyr.unsupported(dc, dcr, D0, v1m, v2m)
             d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty)
             return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
     wc = g1.shape[1]
