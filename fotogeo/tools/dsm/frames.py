@@ -254,7 +254,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
             dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
             with np.errstate(invalid="ignore"):
                 dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
-            coarse = disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
+            coarse = 2 * disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2  # left and right
             d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
             with np.errstate(invalid="ignore"):
                 d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
