@@ -60,6 +60,9 @@ WITNESS = 2.0
 #: rows, with this many more rows and columns around (:func:`fill_unsupported`)
 FILL_ROWS = 64
 FILL_CONTEXT = 48
+#: a run's fill searches the coarse disparities within FILL_NEAR coarse pixels of it, FILL_PAD px wider
+FILL_NEAR = 8
+FILL_PAD = 32
 #: coarse pixels from an invalid coarse pixel within which an unsupported pixel is matched over the whole range
 BORDER = 6
 #: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
@@ -141,24 +144,52 @@ def unsupported(dc_left, dc_right, D0, valid_left, valid_right, factor: int | No
     return near & bare
 
 
+def _columns(a, c0: int, c1: int) -> np.ndarray:
+    """Columns ``c0:c1`` of ``a``, zeros (invalid) where they fall outside it."""
+    out = np.zeros((a.shape[0], c1 - c0), a.dtype)
+    i0, i1 = max(c0, 0), min(c1, a.shape[1])
+    if i1 > i0:
+        out[:, i0 - c0:i1 - c0] = a[:, i0:i1]
+    return out
+
+
+def _run_range(dc, rows: slice, run, lo: float, hi: float, factor: int) -> tuple:
+    """The disparities (full px) the coarse matches within ``FILL_NEAR`` coarse pixels of a run span, widened by
+    ``FILL_PAD`` px and kept inside ``[lo, hi]``; ``(lo, hi)`` without any."""
+    r0, r1 = max(0, rows.start // factor - FILL_NEAR), rows.stop // factor + FILL_NEAR + 1
+    c0, c1 = max(0, run[0] // factor - FILL_NEAR), run[-1] // factor + FILL_NEAR + 1
+    near = dc[r0:r1, c0:c1]
+    near = near[np.isfinite(near)]
+    if not near.size:
+        return lo, hi
+    a, b = max(lo, factor * float(near.min()) - FILL_PAD), min(hi, factor * float(near.max()) + FILL_PAD)
+    return (a, b) if b > a else (lo, hi)
+
+
 def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,
-                     penalty: float | None = None) -> tuple:
-    """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched over the whole range ``[lo, hi]``
-    (:func:`~fotogeo.stereo.dense.disparity`) in blocks of ``FILL_ROWS`` rows, each block's runs of needing
-    columns (gaps under ``2 FILL_CONTEXT`` joined) matched on a window with ``FILL_CONTEXT`` more rows and
+                     penalty: float | None = None, dc=None, factor: int | None = None) -> tuple:
+    """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
+    :func:`~fotogeo.stereo.dense.disparity` in blocks of ``FILL_ROWS`` rows, each block's runs of needing columns
+    (gaps under ``2 FILL_CONTEXT`` joined) over the range the coarse disparities ``dc`` near the run span
+    (:func:`_run_range`; ``[lo, hi]`` without ``dc`` or any near), on a window with ``FILL_CONTEXT`` more rows and
     columns around and the range's width more columns on either side (the right pixels the left–right check
-    reads keep every left pixel they may meet); the others untouched."""
+    reads keep every left pixel they may meet), the right window shifted by the range's low end; the others
+    untouched."""
+    factor = factor or FACTOR
     rows, cols = d.shape
-    dmin, n = disparity_range(lo, hi)
     ctx, searched, d = FILL_CONTEXT, 0, d.copy()
     for r0 in range(0, rows, FILL_ROWS):
         r1 = min(rows, r0 + FILL_ROWS)
         cs = np.flatnonzero(need[r0:r1].any(axis=0))
         for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
             a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
-            c0, c1 = max(0, run[0] - max(dmin + n, 0) - ctx), min(cols, run[-1] + 1 + ctx + max(dmin + n, 0))
-            win = (slice(a, b), slice(c0, c1))
-            dd = disparity(left[win], right[win], valid_left[win], valid_right[win], lo, hi, penalty=penalty)
+            ra, rb = (lo, hi) if dc is None else _run_range(dc, slice(r0, r1), run, lo, hi, factor)
+            t = int(np.floor(ra))  # the right window starts t columns left of the left one's
+            dmin, n = disparity_range(ra - t, rb - t)
+            c0, c1 = max(0, run[0] - (dmin + n) - ctx), min(cols, run[-1] + 1 + ctx + dmin + n)
+            L, R = left[a:b, c0:c1], _columns(right[a:b], c0 - t, c1 - t)
+            dd = disparity(L, R, valid_left[a:b, c0:c1], _columns(valid_right[a:b], c0 - t, c1 - t), ra - t, rb - t,
+                           penalty=penalty) + t
             searched += dd.size * n
             core = (slice(r0, r1), slice(run[0], run[-1] + 1))
             got = dd[r0 - a:r1 - a, run[0] - c0:run[-1] + 1 - c0]

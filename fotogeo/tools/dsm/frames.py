@@ -259,7 +259,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
             with np.errstate(invalid="ignore"):
                 d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
             need = v1m & v2w & np.isnan(d) & pyr.unsupported(dc, dcr, D0, v1m, v2m)
-            d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty)
+            d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty, dc)
             return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
     wc = g1.shape[1]
     d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
