@@ -56,8 +56,8 @@ LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
 #: True: strips whose range is wide enough search coarse to fine (:mod:`fotogeo.stereo.pyramid`). Off by default:
-#: as accurate as the whole range only with the whole-range fill of the unsupported pixels near the images'
-#: borders, which costs more than the band saves (docs/howto/dsm.md)
+#: with its guards against the gross errors at the overlap's borders the rendered oblique block is not yet quite as
+#: accurate as over the whole range (docs/howto/dsm.md)
 COARSE_TO_FINE = False
 
 
