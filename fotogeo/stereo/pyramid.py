@@ -65,6 +65,9 @@ FILL_NEAR = 8
 FILL_PAD = 32
 #: coarse pixels from an invalid coarse pixel within which an unsupported pixel is matched over the whole range
 BORDER = 6
+#: a piece is matched coarse to fine only if the disparities that would search (the band, the coarse copies and the
+#: fill, :func:`fill_cost`) are at most this share of its whole range's; else it is searched whole
+GAIN = 0.5
 #: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
 COARSE_FILTERS: dict = {}
 #: fewer coarse disparities than this share of the coarse left pixels, or than ``MIN_COARSE``, and the piece is
@@ -166,6 +169,32 @@ def _run_range(dc, rows: slice, run, lo: float, hi: float, factor: int) -> tuple
     return (a, b) if b > a else (lo, hi)
 
 
+def fill_windows(need, lo: float, hi: float, dc=None, factor: int | None = None):
+    """Yield the windows :func:`fill_unsupported` matches the ``need`` pixels in: ``(core, rows, cols, t, ra, rb,
+    n)`` — the core (slices) whose needing pixels a window fills, its rows and columns (slices of the left image),
+    the right window's shift ``t`` (it starts ``t`` columns left of the left one's), the range ``[ra, rb]`` and
+    the disparities ``n`` it searches (:func:`fill_unsupported`)."""
+    factor = factor or FACTOR
+    rows, cols = need.shape
+    ctx = FILL_CONTEXT
+    for r0 in range(0, rows, FILL_ROWS):
+        r1 = min(rows, r0 + FILL_ROWS)
+        cs = np.flatnonzero(need[r0:r1].any(axis=0))
+        for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
+            a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
+            ra, rb = (lo, hi) if dc is None else _run_range(dc, slice(r0, r1), run, lo, hi, factor)
+            t = int(np.floor(ra))
+            dmin, n = disparity_range(ra - t, rb - t)
+            c0, c1 = max(0, run[0] - (dmin + n) - ctx), min(cols, run[-1] + 1 + ctx + dmin + n)
+            yield (slice(r0, r1), slice(run[0], run[-1] + 1)), slice(a, b), slice(c0, c1), t, ra, rb, n
+
+
+def fill_cost(need, lo: float, hi: float, dc=None, factor: int | None = None) -> int:
+    """The disparities :func:`fill_unsupported` would search (window pixels x their ranges), summed."""
+    return sum((w[1].stop - w[1].start) * (w[2].stop - w[2].start) * w[6]
+               for w in fill_windows(need, lo, hi, dc, factor))
+
+
 def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,
                      penalty: float | None = None, dc=None, factor: int | None = None) -> tuple:
     """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
@@ -173,28 +202,17 @@ def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, h
     (gaps under ``2 FILL_CONTEXT`` joined) over the range the coarse disparities ``dc`` near the run span
     (:func:`_run_range`; ``[lo, hi]`` without ``dc`` or any near), on a window with ``FILL_CONTEXT`` more rows and
     columns around and the range's width more columns on either side (the right pixels the left–right check
-    reads keep every left pixel they may meet), the right window shifted by the range's low end; the others
-    untouched."""
-    factor = factor or FACTOR
-    rows, cols = d.shape
-    ctx, searched, d = FILL_CONTEXT, 0, d.copy()
-    for r0 in range(0, rows, FILL_ROWS):
-        r1 = min(rows, r0 + FILL_ROWS)
-        cs = np.flatnonzero(need[r0:r1].any(axis=0))
-        for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
-            a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
-            ra, rb = (lo, hi) if dc is None else _run_range(dc, slice(r0, r1), run, lo, hi, factor)
-            t = int(np.floor(ra))  # the right window starts t columns left of the left one's
-            dmin, n = disparity_range(ra - t, rb - t)
-            c0, c1 = max(0, run[0] - (dmin + n) - ctx), min(cols, run[-1] + 1 + ctx + dmin + n)
-            L, R = left[a:b, c0:c1], _columns(right[a:b], c0 - t, c1 - t)
-            dd = disparity(L, R, valid_left[a:b, c0:c1], _columns(valid_right[a:b], c0 - t, c1 - t), ra - t, rb - t,
-                           penalty=penalty) + t
-            searched += dd.size * n
-            core = (slice(r0, r1), slice(run[0], run[-1] + 1))
-            got = dd[r0 - a:r1 - a, run[0] - c0:run[-1] + 1 - c0]
-            take = need[core] & np.isfinite(got)
-            d[core][take] = got[take]
+    reads keep every left pixel they may meet), the right window shifted by the range's low end
+    (:func:`fill_windows`); the others untouched."""
+    searched, d = 0, d.copy()
+    for core, rs, cs, t, ra, rb, n in fill_windows(need, lo, hi, dc, factor):
+        L, R = left[rs, cs], _columns(right[rs], cs.start - t, cs.stop - t)
+        dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), ra - t,
+                       rb - t, penalty=penalty) + t
+        searched += dd.size * n
+        got = dd[core[0].start - rs.start:core[0].stop - rs.start, core[1].start - cs.start:core[1].stop - cs.start]
+        take = need[core] & np.isfinite(got)
+        d[core][take] = got[take]
     return d, searched
 
 

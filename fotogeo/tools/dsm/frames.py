@@ -244,21 +244,28 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
     """``(d, partner valid, disparities searched per pixel, coarse)`` of a strip's windows (window columns, the
     right window's as read): with ``pyramid`` and a range of ``pyramid.MIN_RANGE`` px or more, coarse to fine
     (:mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled by the coarse offset,
-    one interpolation of the source as before), else the whole range."""
+    one interpolation of the source as before) where that searches at most ``pyramid.GAIN`` of the whole range's
+    disparities (the band, the coarse copies and the fill of the pixels they do not support), else the whole range."""
+    coarse = 0.0  # disparities per pixel the coarse copies searched
     if pyramid and sb - sa >= pyr.MIN_RANGE:
         dc, dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, right_too=True)
         gd = pyr.guide(dc, g1.shape, v1m)
+        coarse = 2 * disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2  # left and right
         if gd is not None and gd[1] < MARGIN:  # a band wider than the margin: its last columns go unmatched
             D0, R = gd
-            g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=_warped_maps(maps2, D0))
+            wm = _warped_maps(maps2, D0)
+            unsup = v1m & pyr.unsupported(dc, dcr, D0, v1m, v2m) & (wm[0] >= 0) & (wm[1] >= 0) & \
+                (wm[0] <= sources[1].width - 1) & (wm[1] <= sources[1].height - 1)  # its partner in the image
+            cost = disparity_range(-R, R)[1] + coarse + pyr.fill_cost(unsup, sa, sb, dc) / g1.size
+        if gd is not None and gd[1] < MARGIN and cost <= pyr.GAIN * disparity_range(sa, sb)[1]:
+            g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
             dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
             with np.errstate(invalid="ignore"):
                 dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
-            coarse = 2 * disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2  # left and right
             d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
             with np.errstate(invalid="ignore"):
                 d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
-            need = v1m & v2w & np.isnan(d) & pyr.unsupported(dc, dcr, D0, v1m, v2m)
+            need = v1m & v2w & np.isnan(d) & unsup
             d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty, dc)
             return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
     wc = g1.shape[1]
@@ -267,7 +274,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
     partner = np.zeros_like(v2m)
     if abs(shift) < wc:
         partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
-    return d, partner, disparity_range(sa, sb)[1], False
+    return d, partner, disparity_range(sa, sb)[1] + coarse, False
 
 
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
