@@ -55,7 +55,7 @@ EDGE = 1.0
 MIN_RANGE = 96
 #: a fine disparity is kept only if the coarse disparity of the right pixel it meets lies within this many
 #: coarse pixels of it (:func:`witnessed`)
-WITNESS = 2.0
+WITNESS = 1.0
 #: the pixels the coarse matching does not support are matched over the whole range in blocks of this many
 #: rows, with this many more rows and columns around (:func:`fill_unsupported`)
 FILL_ROWS = 64

@@ -27,11 +27,12 @@ oblique pair one height's disparity varies across the image) plus ``PAD_PX``, an
 Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
 searches the DEM's range.
 
-**Coarse to fine** (``COARSE_TO_FINE``, off by default; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
+**Coarse to fine** (``COARSE_TO_FINE``; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
 per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
 on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
 coarse disparities: the right image read again through its rectification maps resampled along the rows by the
-coarse offset.
+coarse offset — where the band, the coarse copies and the whole-range fill of the pixels the coarse copies do not
+support search at most ``pyramid.GAIN`` of the whole range's disparities; else the strip searches its whole range.
 """
 from __future__ import annotations
 
@@ -55,10 +56,9 @@ MARGIN = 48
 LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
-#: True: strips whose range is wide enough search coarse to fine (:mod:`fotogeo.stereo.pyramid`). Off by default:
-#: with its guards against the gross errors at the overlap's borders the rendered oblique block is not yet quite as
-#: accurate as over the whole range (docs/howto/dsm.md)
-COARSE_TO_FINE = False
+#: True: strips whose range is wide enough search coarse to fine where that pays (:func:`_match`,
+#: :mod:`fotogeo.stereo.pyramid`); False: every strip searches its whole range
+COARSE_TO_FINE = True
 
 
 class FrameRays:
