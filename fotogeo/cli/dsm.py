@@ -16,8 +16,9 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("--point-cloud", type=click.Path(dir_okay=False), default=None,
               help="Also write every triangulated point (LAS 1.4 .las, or .laz), coloured from the images.")
 @click.option("--report", type=click.Path(dir_okay=False), default=None,
-              help="JSON report: pairs kept and left out and why, disparity ranges, match density, epipolar "
-                   "residuals and ray miss distances, completeness, timings.")
+              help="JSON report: pairs kept and left out and why, disparity ranges, disparities searched and the "
+                   "strips matched coarse to fine, match density, epipolar residuals and ray miss distances, "
+                   "completeness, timings.")
 @click.option("--overwrite", is_flag=True)
 @click.option("-q", "--quiet", is_flag=True)
 @run_tool
@@ -26,8 +27,9 @@ def command(images, output, point_cloud, report, overwrite, quiet, **kw):
 
     Frame cameras: --camera and --eo (the formats ortho reads) or triangulate's output folder (--orientation).
     Pairs are chosen from the footprints, overlap and base-to-height ratio (or --pairs); each is rectified with
-    the lens distortion removed, matched by semi-global matching with left-right checks, triangulated and fused
-    onto one north-up grid (median of the pairs). Holes stay nodata unless --fill.
+    the lens distortion removed, matched by semi-global matching with left-right checks (frames: coarse to fine
+    where a strip's disparity range is wide enough for that to halve the search), triangulated and fused onto one
+    north-up grid (median of the pairs). Holes stay nodata unless --fill.
     """
     from ..tools.dsm import dsm
     if len(images) < 2:

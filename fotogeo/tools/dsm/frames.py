@@ -26,6 +26,13 @@ turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.p
 oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
 Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
 searches the DEM's range.
+
+**Coarse to fine** (``COARSE_TO_FINE``; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
+per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
+on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
+coarse disparities: the right image read again through its rectification maps resampled along the rows by the
+coarse offset — where the band, the coarse copies and the whole-range fill of the pixels the coarse copies do not
+support search at most ``pyramid.GAIN`` of the whole range's disparities; else the strip searches its whole range.
 """
 from __future__ import annotations
 
@@ -35,6 +42,7 @@ import numpy as np
 from ...features.detect import detect
 from ...orientation import bundle_jacobian as bj
 from ...pixels import HALF
+from ...stereo import pyramid as pyr
 from ...stereo.dense import disparity, disparity_range, penalty_scale, to_uint8
 from ...stereo.rays import closest_points
 from ...stereo.refine import refine as refine_disparities
@@ -48,6 +56,9 @@ MARGIN = 48
 LOCAL_NEAR = 192
 LOCAL_MIN = 8
 LOCAL_PAD_M = 5.0
+#: True: strips whose range is wide enough search coarse to fine where that pays (:func:`_match`,
+#: :mod:`fotogeo.stereo.pyramid`); False: every strip searches its whole range
+COARSE_TO_FINE = True
 
 
 class FrameRays:
@@ -87,11 +98,12 @@ def _source_window(mx, my, valid, size, pad: int = 3) -> tuple | None:
 
 
 def rectified(rp: RectifiedPair, view, i: int, src, r0: int, r1: int, c0: int = 0, c1: int | None = None,
-              k: int = 1, colours: bool = False) -> tuple:
+              k: int = 1, colours: bool = False, maps: tuple | None = None) -> tuple:
     """``(grey float32, valid bool, colours or None)`` of rows ``r0:r1``, columns ``c0:c1`` of rectified image
     ``i``, read from the :class:`~fotogeo.tools.dsm.inputs.SourceImage` ``src`` by the window those pixels need
-    (averaged over ``k x k`` source pixels when ``k > 1``); ``colours`` (three uint8 bands, bilinear) when asked."""
-    mx, my = rp.maps(view, i, r0, r1, c0, c1)
+    (averaged over ``k x k`` source pixels when ``k > 1``); ``colours`` (three uint8 bands, bilinear) when asked;
+    ``maps`` the source pixels to read (``rp.maps``'s, or resampled from them) instead of the window's."""
+    mx, my = rp.maps(view, i, r0, r1, c0, c1) if maps is None else maps
     w, h = src.width, src.height
     valid = (mx >= 0) & (my >= 0) & (mx <= w - 1) & (my <= h - 1)
     win = _source_window(mx, my, valid, (w, h))
@@ -216,36 +228,84 @@ def pair_penalty(rp: RectifiedPair, views, sources) -> float:
     return penalty_scale([g for g, _ in pieces], [v for _, v in pieces])
 
 
+def _warped_maps(maps, D0) -> tuple:
+    """The source maps of the right window resampled along its rows at ``x' − D0(x', y)`` (:mod:`~fotogeo.stereo.
+    pyramid`; linear between the maps' columns, −1 outside the window)."""
+    mx, my = maps
+    rows, cols = mx.shape
+    x = np.arange(cols, dtype=np.float32)[None, :] - D0
+    y = np.repeat(np.arange(rows, dtype=np.float32)[:, None], cols, axis=1)
+    out = (x < 0) | (x > cols - 1)
+    return tuple(np.where(out, -1.0, cv2.remap(m, x.astype(np.float32), y, cv2.INTER_LINEAR)).astype(np.float32)
+                 for m in maps)
+
+
+def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, pyramid: bool) -> tuple:
+    """``(d, partner valid, disparities searched per pixel, coarse)`` of a strip's windows (window columns, the
+    right window's as read): with ``pyramid`` and a range of ``pyramid.MIN_RANGE`` px or more, coarse to fine
+    (:mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled by the coarse offset,
+    one interpolation of the source as before) where that searches at most ``pyramid.GAIN`` of the whole range's
+    disparities (the band, the coarse copies and the fill of the pixels they do not support), else the whole range."""
+    coarse = 0.0  # disparities per pixel the coarse copies searched
+    if pyramid and sb - sa >= pyr.MIN_RANGE:
+        dc, dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, right_too=True)
+        gd = pyr.guide(dc, g1.shape, v1m)
+        coarse = 2 * disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2  # left and right
+        if gd is not None and gd[1] < MARGIN:  # a band wider than the margin: its last columns go unmatched
+            D0, R = gd
+            wm = _warped_maps(maps2, D0)
+            unsup = v1m & pyr.unsupported(dc, dcr, D0, v1m, v2m) & (wm[0] >= 0) & (wm[1] >= 0) & \
+                (wm[0] <= sources[1].width - 1) & (wm[1] <= sources[1].height - 1)  # its partner in the image
+            cost = disparity_range(-R, R)[1] + coarse + pyr.fill_cost(unsup, sa, sb, dc) / g1.size
+        if gd is not None and gd[1] < MARGIN and cost <= pyr.GAIN * disparity_range(sa, sb)[1]:
+            g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
+            dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
+            with np.errstate(invalid="ignore"):
+                dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
+            d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
+            with np.errstate(invalid="ignore"):
+                d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
+            need = v1m & v2w & np.isnan(d) & unsup
+            d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty, dc)
+            return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
+    wc = g1.shape[1]
+    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
+    shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
+    partner = np.zeros_like(v2m)
+    if abs(shift) < wc:
+        partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
+    return d, partner, disparity_range(sa, sb)[1] + coarse, False
+
+
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
            refine: bool, penalty: float | None = None):
     """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
     the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
     columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
-    follow the width of the range, not its offset); None when nothing matched. ``stats`` as :func:`dense_points`."""
+    follow the width of the range, not its offset), coarse to fine with ``COARSE_TO_FINE`` (:func:`_match`); None when
+    nothing matched. ``stats`` as :func:`dense_points`."""
     w, h = rp.size
     u0, r0, u1, r1 = core_box
     s = int(np.floor(rng[0]))  # the right image's window starts s columns left of the left's: search [sa, sb]
     sa, sb, local = rng[0] - s, rng[1] - s, rng[2]
     ca = max(0, min(u0, u0 - int(np.ceil(sb))) - MARGIN)
     cb = min(w, max(u1, u1 - int(np.floor(sa))) + MARGIN)
-    wc = cb - ca
     a, b = max(0, r0 - MARGIN), min(h, r1 + MARGIN)
     g1, v1m, rgb1 = rectified(rp, views[0], 0, sources[0], a, b, ca, cb, colours=colours)
-    g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s)
+    maps2 = rp.maps(views[1], 1, a, b, ca - s, cb - s)
+    g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s, maps=maps2)
     if not v1m.any() or not v2m.any():
         return None
+    d, partner, searched, coarse = _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty,
+                                          COARSE_TO_FINE)
     stats["strips"] += 1
     stats["local_strips"] += int(local)
-    stats["searched"] += g1.size * disparity_range(sa, sb)[1]
+    stats["coarse_strips"] += int(coarse)
+    stats["searched"] += g1.size * searched
     stats["searched_pixels"] += g1.size
-    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
     if refine:
         d = refine_disparities(g1, g2, d)
     core = (slice(r0 - a, r1 - a), slice(u0 - ca, u1 - ca))
-    shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
-    partner = np.zeros_like(v2m)
-    if abs(shift) < wc:
-        partner[:, max(0, shift):wc + min(0, shift)] = v2m[:, max(0, -shift):wc - max(0, shift)]
     d, vm = d[core] + s, (v1m & partner)[core]
     rows, cols = np.nonzero(np.isfinite(d))
     stats["matchable"] += int(vm.sum())
@@ -274,7 +334,7 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
     the images."""
     w, h = rp.size
     u0, v0, u1, v1 = box or (0, 0, w, h)
-    for k in ("matched", "matchable", "strips", "local_strips", "searched", "searched_pixels"):
+    for k in ("matched", "matchable", "strips", "local_strips", "coarse_strips", "searched", "searched_pixels"):
         stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))

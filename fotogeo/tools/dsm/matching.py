@@ -97,6 +97,7 @@ class PairMatch:
         p.extra.update(disparity_range_px=[round(self.drange[0], 2), round(self.drange[1], 2)],
                        disparities_searched=round(st.get("searched", 0) / max(1, st.get("searched_pixels", 0)), 1),
                        local_range_strips=f"{st.get('local_strips', 0)} of {st.get('strips', 0)}",
+                       coarse_to_fine_strips=f"{st.get('coarse_strips', 0)} of {st.get('strips', 0)}",
                        height_range=[round(self.zlim[0], 2), round(self.zlim[1], 2)],
                        rectified_size=list(self.rp.size),
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),

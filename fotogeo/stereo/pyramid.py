@@ -1,0 +1,273 @@
+"""Coarse-to-fine disparity search: the disparities of a coarse copy of a rectified pair bound, pixel by pixel,
+the narrow band the full-resolution matching searches.
+
+Semi-global matching costs pixels x disparities, and over a slope or a relief the disparities of one piece of a
+rectified pair span hundreds of pixels while each pixel's own lies within a few of its neighbours'. As the
+hierarchical matchers do (MicMac's pyramid, Pierrot-Deseilligny & Paparoditis 2006; the coarse-to-fine SGM of
+Rothermel et al. 2012, SURE), the pair is first matched on copies ``FACTOR`` times smaller (pixel areas averaged),
+over the whole range divided by ``FACTOR`` (:func:`coarse_disparity`: ``FACTOR³`` times less work); then
+:func:`guide` turns the coarse disparities into an offset ``D0(x, y)`` and one half-width ``R`` for the piece:
+
+* the coarse holes are filled by push-pull interpolation (:func:`fill_holes`: averages over ever coarser
+  levels, then pulled back down; Gortler et al. 1996), so that a pixel without a coarse match gets the surface of
+  its surroundings;
+* a pixel's coarse envelope is the lowest and the highest (filled) coarse disparity within ``RADIUS`` coarse
+  pixels of it (a step of the surface — a roof edge, a tree — lies within the envelope of the pixels beside it);
+  ``D0`` is the envelope's middle smoothed by a Gaussian of ``SMOOTH`` coarse pixels and, at full resolution,
+  kept so that ``x − D0(x)`` never decreases along a row (a step of the coarse surface would otherwise fold the
+  resampled image onto itself); ``R`` is the ``PERCENTILE`` th percentile over the piece of the envelope's reach
+  from the smoothed middle, plus ``PAD`` coarse pixels (the coarse disparities' own error), times ``FACTOR``.
+
+The full-resolution right image is resampled along its rows by the offset, ``R'(x', y) = R(x' − D0(x', y), y)``
+(rows stay epipolar), and matched against the left image within ``[−R, R]``; a disparity ``d'`` found in that
+frame is the disparity ``d = d' + D0(x − d', y)`` of the pair (:func:`resolve`: the left pixel ``x`` meets
+``x' = x − d'`` of ``R'``, i.e. ``x' − D0(x')`` of ``R``). The left–right check, the sub-pixel error
+cancellation and the filters of :func:`fotogeo.stereo.dense.disparity` work in that frame unchanged; the caller
+drops disparities within ``EDGE`` px of the band's ends (the pixel's own may lie beyond the band).
+
+Within the band both directions of that left–right check are held to the band, so a left pixel without a partner
+(beyond the overlap's edge, where the coarse copy has no match and ``D0`` is extrapolated) can meet a wrong right
+pixel that meets it back. The coarse matching over the whole range is the independent witness
+(:func:`witnessed`): the right image's coarse disparities (the same matching, images mirrored) must put the right
+pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``. The pixels the coarse matching does not support near
+the images' borders (:func:`unsupported`) are matched over the whole range (:func:`fill_unsupported`).
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .dense import disparity, disparity_range
+
+#: the coarse copies are this many times smaller per side
+FACTOR = 4
+#: coarse pixels around a pixel whose disparities make its envelope
+RADIUS = 2
+#: coarse pixels added to the envelope's half-width (the coarse disparities' error)
+PAD = 1.5
+#: the standard deviation (coarse pixels) of the Gaussian that smooths the envelope's middle into the offset
+SMOOTH = 2.0
+#: the percentile of the envelope's half-width over the piece that sets the band
+PERCENTILE = 99.0
+#: full-resolution disparities this close to the band's ends are dropped (the pixel's may lie beyond the band)
+EDGE = 1.0
+#: ranges narrower than this (full-resolution pixels) are searched whole: the coarse step would not pay
+MIN_RANGE = 96
+#: a fine disparity is kept only if the coarse disparity of the right pixel it meets lies within this many
+#: coarse pixels of it (:func:`witnessed`)
+WITNESS = 1.0
+#: the pixels the coarse matching does not support are matched over the whole range in blocks of this many
+#: rows, with this many more rows and columns around (:func:`fill_unsupported`)
+FILL_ROWS = 64
+FILL_CONTEXT = 48
+#: a run's fill searches the coarse disparities within FILL_NEAR coarse pixels of it, FILL_PAD px wider
+FILL_NEAR = 8
+FILL_PAD = 32
+#: coarse pixels from an invalid coarse pixel within which an unsupported pixel is matched over the whole range
+BORDER = 6
+#: a piece is matched coarse to fine only if the disparities that would search (the band, the coarse copies and the
+#: fill, :func:`fill_cost`) are at most this share of its whole range's; else it is searched whole
+GAIN = 0.5
+#: the coarse matching's filters (:func:`~fotogeo.stereo.dense.disparity`'s keywords)
+COARSE_FILTERS: dict = {}
+#: fewer coarse disparities than this share of the coarse left pixels, or than ``MIN_COARSE``, and the piece is
+#: searched whole (a sliver of overlap: its coarse copy's matches agree both ways and yet may all be wrong)
+MIN_MATCHED = 0.02
+MIN_COARSE = 2000
+
+
+def shrink(img, factor: int) -> np.ndarray:
+    """``img`` averaged over ``factor x factor`` pixels (the rows and columns beyond a multiple dropped)."""
+    h, w = (s // factor for s in img.shape[:2])
+    a = np.asarray(img, np.float32)[:h * factor, :w * factor]
+    return a.reshape(h, factor, w, factor).mean(axis=(1, 3))
+
+
+def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int | None = None,
+                     penalty: float | None = None, right_too: bool = False):
+    """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` (default ``FACTOR``) times
+    within ``[lo, hi]`` full pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the
+    sub-pixel cancellation. ``right_too``: ``(left's, right's)``, the right image's the same matching with the
+    images' roles and rows mirrored (a right pixel ``x`` meets the left pixel ``x + d``)."""
+    factor = factor or FACTOR
+    vl = shrink(valid_left, factor) >= 1.0
+    vr = shrink(valid_right, factor) >= 1.0
+    L, R = shrink(left, factor), shrink(right, factor)
+    kw = dict(half_shift=False, penalty=penalty, **COARSE_FILTERS)
+    lo, hi = lo / factor, hi / factor
+    # SGBM leaves a matched image's first max(dmax, 0) columns and last max(-dmin, 0) without a disparity: padded
+    # with invalid columns there, every column of the copy is searched (partners in the padding are refused)
+    dmin, n = disparity_range(lo, hi)
+    a, b = max(dmin + n, 0) + 1, max(-dmin, 0) + 1
+    pad = lambda m: np.pad(m, ((0, 0), (a, b)))
+    dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, **kw)[:, a:a + L.shape[1]]
+    if not right_too:
+        return dl
+    pad = lambda m: np.pad(m, ((0, 0), (b, a)))
+    dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
+    return dl, np.ascontiguousarray(dr[:, b:b + R.shape[1]])
+
+
+def _at(dc, x, factor: int) -> np.ndarray:
+    """The coarse disparities ``dc`` (full-resolution pixels) of the blocks holding the full-resolution columns
+    ``x`` (rows ``0, 1, …`` of ``x``); NaN outside ``dc`` or where ``x`` is NaN."""
+    hc, wc = dc.shape
+    with np.errstate(invalid="ignore"):
+        inside = np.isfinite(x) & (x >= 0) & (x < wc * factor)
+        bx = (np.where(inside, x, 0) // factor).astype(np.intp)
+    by = np.minimum(np.arange(x.shape[0]) // factor, hc - 1)[:, None]
+    return np.where(inside, factor * dc[np.broadcast_to(by, x.shape), bx], np.nan)
+
+
+def witnessed(d, dc_right, factor: int | None = None) -> np.ndarray:
+    """``d`` (full-resolution disparities of the left pixels) with NaN where the coarse matching over the whole
+    range, an independent witness, does not confirm it: the right pixel ``x − d`` meets has no coarse disparity
+    or one more than ``WITNESS`` coarse pixels from ``d`` (module docstring)."""
+    factor = factor or FACTOR
+    x = np.arange(d.shape[1], dtype=np.float32)[None, :]
+    with np.errstate(invalid="ignore"):
+        ok = np.abs(_at(dc_right, np.rint(x - d), factor) - d) <= factor * WITNESS
+    return np.where(ok, d, np.nan).astype(np.float32)
+
+
+def unsupported(dc_left, dc_right, D0, valid_left, valid_right, factor: int | None = None) -> np.ndarray:
+    """Pixels (bool, ``D0``'s shape) near an image's border that the coarse matching does not support: within
+    ``BORDER`` coarse pixels of an invalid coarse pixel of the left image, or their right pixel ``x − D0`` of the
+    right's, and without a coarse disparity of their own or of that right pixel (:func:`fill_unsupported`
+    matches them; elsewhere the coarse copy saw the pixel and found nothing, as the whole range would)."""
+    factor = factor or FACTOR
+    k = np.ones((2 * BORDER + 1, 2 * BORDER + 1), np.uint8)
+    near_l, near_r = (cv2.dilate((shrink(v, factor) < 1.0).astype(np.uint8), k).astype(np.float32)
+                      for v in (valid_left, valid_right))
+    x = np.broadcast_to(np.arange(D0.shape[1], dtype=np.float32)[None, :], D0.shape)
+    xr = np.rint(x - D0)
+    with np.errstate(invalid="ignore"):
+        near = ~(_at(near_l, x, factor) < 1.0) | ~(_at(near_r, xr, factor) < 1.0)  # NaN: outside
+        bare = ~np.isfinite(_at(dc_left, x, factor)) | ~np.isfinite(_at(dc_right, xr, factor))
+    return near & bare
+
+
+def _columns(a, c0: int, c1: int) -> np.ndarray:
+    """Columns ``c0:c1`` of ``a``, zeros (invalid) where they fall outside it."""
+    out = np.zeros((a.shape[0], c1 - c0), a.dtype)
+    i0, i1 = max(c0, 0), min(c1, a.shape[1])
+    if i1 > i0:
+        out[:, i0 - c0:i1 - c0] = a[:, i0:i1]
+    return out
+
+
+def _run_range(dc, rows: slice, run, lo: float, hi: float, factor: int) -> tuple:
+    """The disparities (full px) the coarse matches within ``FILL_NEAR`` coarse pixels of a run span, widened by
+    ``FILL_PAD`` px and kept inside ``[lo, hi]``; ``(lo, hi)`` without any."""
+    r0, r1 = max(0, rows.start // factor - FILL_NEAR), rows.stop // factor + FILL_NEAR + 1
+    c0, c1 = max(0, run[0] // factor - FILL_NEAR), run[-1] // factor + FILL_NEAR + 1
+    near = dc[r0:r1, c0:c1]
+    near = near[np.isfinite(near)]
+    if not near.size:
+        return lo, hi
+    a, b = max(lo, factor * float(near.min()) - FILL_PAD), min(hi, factor * float(near.max()) + FILL_PAD)
+    return (a, b) if b > a else (lo, hi)
+
+
+def fill_windows(need, lo: float, hi: float, dc=None, factor: int | None = None):
+    """Yield the windows :func:`fill_unsupported` matches the ``need`` pixels in: ``(core, rows, cols, t, ra, rb,
+    n)`` — the core (slices) whose needing pixels a window fills, its rows and columns (slices of the left image),
+    the right window's shift ``t`` (it starts ``t`` columns left of the left one's), the range ``[ra, rb]`` and
+    the disparities ``n`` it searches (:func:`fill_unsupported`)."""
+    factor = factor or FACTOR
+    rows, cols = need.shape
+    ctx = FILL_CONTEXT
+    for r0 in range(0, rows, FILL_ROWS):
+        r1 = min(rows, r0 + FILL_ROWS)
+        cs = np.flatnonzero(need[r0:r1].any(axis=0))
+        for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
+            a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
+            ra, rb = (lo, hi) if dc is None else _run_range(dc, slice(r0, r1), run, lo, hi, factor)
+            t = int(np.floor(ra))
+            dmin, n = disparity_range(ra - t, rb - t)
+            c0, c1 = max(0, run[0] - (dmin + n) - ctx), min(cols, run[-1] + 1 + ctx + dmin + n)
+            yield (slice(r0, r1), slice(run[0], run[-1] + 1)), slice(a, b), slice(c0, c1), t, ra, rb, n
+
+
+def fill_cost(need, lo: float, hi: float, dc=None, factor: int | None = None) -> int:
+    """The disparities :func:`fill_unsupported` would search (window pixels x their ranges), summed."""
+    return sum((w[1].stop - w[1].start) * (w[2].stop - w[2].start) * w[6]
+               for w in fill_windows(need, lo, hi, dc, factor))
+
+
+def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,
+                     penalty: float | None = None, dc=None, factor: int | None = None) -> tuple:
+    """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
+    :func:`~fotogeo.stereo.dense.disparity` in blocks of ``FILL_ROWS`` rows, each block's runs of needing columns
+    (gaps under ``2 FILL_CONTEXT`` joined) over the range the coarse disparities ``dc`` near the run span
+    (:func:`_run_range`; ``[lo, hi]`` without ``dc`` or any near), on a window with ``FILL_CONTEXT`` more rows and
+    columns around and the range's width more columns on either side (the right pixels the left–right check
+    reads keep every left pixel they may meet), the right window shifted by the range's low end
+    (:func:`fill_windows`); the others untouched."""
+    searched, d = 0, d.copy()
+    for core, rs, cs, t, ra, rb, n in fill_windows(need, lo, hi, dc, factor):
+        L, R = left[rs, cs], _columns(right[rs], cs.start - t, cs.stop - t)
+        dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), ra - t,
+                       rb - t, penalty=penalty) + t
+        searched += dd.size * n
+        got = dd[core[0].start - rs.start:core[0].stop - rs.start, core[1].start - cs.start:core[1].stop - cs.start]
+        take = need[core] & np.isfinite(got)
+        d[core][take] = got[take]
+    return d, searched
+
+
+def fill_holes(d) -> np.ndarray:
+    """``d`` (NaN where none) with its holes filled by push-pull interpolation: NaN-aware 2 x 2 averages down to
+    a level without holes, each level's holes then filled from the next coarser one (bilinear); all NaN stays
+    all NaN."""
+    d = np.asarray(d, np.float32)
+    ok = np.isfinite(d)
+    if ok.all() or not ok.any():
+        return d.copy()
+    w = ok.astype(np.float32)
+    v = np.where(ok, d, 0.0).astype(np.float32)
+    h, wd = d.shape
+    hp, wp = -(-h // 2) * 2, -(-wd // 2) * 2
+    v2 = np.pad(v, ((0, hp - h), (0, wp - wd)))
+    w2 = np.pad(w, ((0, hp - h), (0, wp - wd)))
+    sv = v2.reshape(hp // 2, 2, wp // 2, 2).sum(axis=(1, 3))
+    sw = w2.reshape(hp // 2, 2, wp // 2, 2).sum(axis=(1, 3))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coarse = fill_holes(np.where(sw > 0, sv / sw, np.nan))
+    up = cv2.resize(coarse, (wp, hp), interpolation=cv2.INTER_LINEAR)[:h, :wd]
+    return np.where(ok, d, up).astype(np.float32)
+
+
+def guide(dc, shape: tuple, valid_left, factor: int | None = None) -> tuple | None:
+    """``(D0 (rows, cols) float32, R)``: the offset and the band's half-width (full-resolution pixels) of a piece
+    of ``shape`` from its coarse disparities ``dc`` (shrunk ``factor`` times, default ``FACTOR``; module
+    docstring); None when too few coarse pixels matched (the piece is then searched whole)."""
+    factor = factor or FACTOR
+    vl = shrink(valid_left, factor) >= 1.0
+    ok = np.isfinite(dc)
+    if ok.sum() < max(MIN_COARSE, MIN_MATCHED * vl.sum()):
+        return None
+    f = fill_holes(dc)
+    k = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
+    lower, upper = cv2.erode(f, k), cv2.dilate(f, k)
+    mid = cv2.GaussianBlur(0.5 * (upper + lower), (0, 0), SMOOTH)
+    reach = np.maximum(upper - mid, mid - lower)
+    inside = vl if vl.any() else np.ones_like(vl)
+    R = factor * (float(np.percentile(reach[inside], PERCENTILE)) + PAD)
+    h, w = shape
+    D0 = cv2.resize(factor * mid, (mid.shape[1] * factor, mid.shape[0] * factor), interpolation=cv2.INTER_LINEAR)
+    D0 = np.pad(D0, ((0, h - D0.shape[0]), (0, w - D0.shape[1])), mode="edge")
+    x = np.arange(w, dtype=np.float32)[None, :]
+    D0 = x - np.maximum.accumulate(x - D0, axis=1)  # x' − D0(x') never decreasing: the resampling never folds
+    return D0.astype(np.float32), R
+
+
+def resolve(dprime, D0) -> np.ndarray:
+    """The pair's disparities ``d = d' + D0(x − d', y)`` (module docstring) of disparities ``dprime`` found
+    against the right image resampled by ``D0`` (NaN stays NaN; ``D0`` linear between columns, held at the
+    edges)."""
+    rows, cols = dprime.shape
+    x = np.arange(cols, dtype=np.float32)[None, :] - np.nan_to_num(dprime)
+    y = np.repeat(np.arange(rows, dtype=np.float32)[:, None], cols, axis=1)
+    at = cv2.remap(D0, np.clip(x, 0, cols - 1).astype(np.float32), y, cv2.INTER_LINEAR)
+    return dprime + at
