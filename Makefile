@@ -53,7 +53,7 @@ $(VENV)/.bench: $(VENV)/.installed
 	touch $@
 
 demo: $(VENV)/.installed
-	$(VENV)/bin/fotogeo demo --output $(DEMO_OUT)
+	$(VENV)/bin/fotogeo demo --output $(DEMO_OUT) --overwrite
 
 # the fitting tests again on 1 and 2 BLAS threads: a fit must not depend on the caller's threads (issue 24)
 FIT_TESTS := tests/test_models.py tests/test_models_lambda.py tests/test_models_spatial.py \
