@@ -492,13 +492,13 @@ def test_demo_loads_styled_results(qgis_app, tmp_path):
     assert {"reference.tif", "registered.gpkg", "registered.json", "registered.tif", "target.tif"} <= \
         set(files(tmp_path / "demo"))
     # a good registration of the generated frame: near the best any homography can do against the truth
-    assert res["TRUTH_RMSE_M"] < 1.5 * res["BEST_HOMOGRAPHY_RMSE_M"]
+    assert res["TRUTH_RMSE_M"] < 1.3 * res["BEST_HOMOGRAPHY_RMSE_M"]  # (the bound qgis_process's demo run had)
     layers = {lyr.name(): lyr for lyr in project.mapLayers().values()}
     assert {"Demo reference", "Demo registered", "Demo tie points", "Demo error vectors"} <= set(layers)
     assert layers["Demo registered"].crs().authid() == "EPSG:32635"
     assert layers["Demo tie points"].renderer().type() == "categorizedSymbol"
     if res["ORTHORECTIFIED"]:  # fotogeo.tools.demo.tool also runs the terrain-aware registration with the scene's DEM
-        assert res["TERRAIN_TRUTH_RMSE_M"] < res["TRUTH_RMSE_M"]
+        assert res["TERRAIN_TRUTH_RMSE_M"] < min(res["TRUTH_RMSE_M"], 2.0)
         assert layers["Demo orthorectified"].crs().authid() == "EPSG:32635"
     # the rendered aerial block, triangulated: check points near the noise level, its layers loaded
     assert 0 < res["BLOCK_CHECK_RMSE_PLAN_M"] < 1.2 and 0 < res["BLOCK_CHECK_RMSE_Z_M"] < 2.5  # GSD 1.67 m

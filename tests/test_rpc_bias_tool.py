@@ -61,18 +61,22 @@ def _ellipsoidal_dem(data_dir, rows, dst):
 
 
 def _ortho_positions(coords, dem, tmp_path, rows, name):
-    """Image (col, row) that gdalwarp -rpc with the DEM gives at each GCP's ground position."""
+    """Image (col, row) that gdalwarp -rpc with the DEM gives at each GCP's ground position (one small
+    orthoimage, 100 m square, around each GCP: the GCPs' surroundings only)."""
     import rasterio
     from pyproj import Transformer
-    ortho = tmp_path / f"{name}_ortho.tif"
     t = Transformer.from_crs("EPSG:4326", "EPSG:32735", always_xy=True)
     xy = np.array([t.transform(r["geometry"].x, r["geometry"].y) for r in rows])
-    lo, hi = np.floor(xy.min(axis=0) - 50), np.ceil(xy.max(axis=0) + 50)  # the GCPs' surroundings only
-    subprocess.run([GDALWARP, "-q", "-rpc", "-to", f"RPC_DEM={dem}", "-t_srs", "EPSG:32735", "-tr", "0.5", "0.5",
-                    "-te", *(str(v) for v in (*lo, *hi)), "-r", "bilinear", "-dstnodata", "-1", str(coords),
-                    str(ortho)], check=True, env={"GDAL_PAM_ENABLED": "NO", "PATH": "/usr/bin:/bin"})
-    with rasterio.open(ortho) as ds:
-        return np.array([v for v in ds.sample(xy)], float)
+    out = []
+    for k, p in enumerate(xy):
+        ortho = tmp_path / f"{name}_ortho_{k}.tif"
+        lo, hi = np.floor(p - 50), np.ceil(p + 50)
+        subprocess.run([GDALWARP, "-q", "-rpc", "-to", f"RPC_DEM={dem}", "-t_srs", "EPSG:32735", "-tr", "0.5", "0.5",
+                        "-te", *(str(v) for v in (*lo, *hi)), "-r", "bilinear", "-dstnodata", "-1", str(coords),
+                        str(ortho)], check=True, env={"GDAL_PAM_ENABLED": "NO", "PATH": "/usr/bin:/bin"})
+        with rasterio.open(ortho) as ds:
+            out.append(next(ds.sample([p])))
+    return np.array(out, float)
 
 
 @pytest.mark.skipif(GDALWARP is None, reason="gdalwarp (Debian package gdal-bin) is not installed")
