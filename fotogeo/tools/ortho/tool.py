@@ -13,7 +13,8 @@ the heights come from :mod:`fotogeo.tools.ortho.inputs`; then, per image:
 2. **resampling** (:func:`fotogeo.io.warp.warp_to_grid`, window by window in threads, memory bounded by the
    block size): each output cell centre ``(X, Y)`` → ``Z = DEM(X, Y)`` (bilinear) → pixel = model(X, Y, Z)
    (:class:`OrthoMapping`; ``error_threshold`` > 0: a frame's positions interpolated on a checked lattice, like
-   ``gdalwarp -et``) → nearest / bilinear / cubic; cells without a height or outside the image are nodata. With ``occlusion`` the cell's line of sight is traced through the same surface
+   ``gdalwarp -et``) → nearest / bilinear / cubic; cells without a height or outside the image are nodata.
+   With ``occlusion`` the cell's line of sight is traced through the same surface
    (:mod:`fotogeo.geometry.occlusion`): a hidden ground cell is nodata instead of a copy of whatever hides it
    (the "double image" of a building on a DSM).
 
@@ -290,7 +291,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
            resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
            dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False,
-          progress=None) -> dict:
+           progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
