@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import FotogeoError, InputError, MatchingError, ModelError
 from ..models import DLT, Projective, get_model, robust_refit
-from ..models.robust import select_tie_points
+from ..models.robust import cell_ids, select_tie_points
 from ..models.stats import rmse
 from ..options import TERRAIN_MODELS
 
@@ -202,7 +202,6 @@ def blocked_cv_rmse(cls, ground, src, options=None, blocks: int = BLOCKS) -> flo
     fitted, or a prediction that is not finite (a denominator vanishing outside the fitted points), makes
     the result infinite: such a model is not trusted away from its points.
     """
-    from ..models.robust import cell_ids
     ground, src = np.asarray(ground, float), np.asarray(src, float)
     cell = cell_ids(src, blocks)
     sq = np.empty(len(src))
