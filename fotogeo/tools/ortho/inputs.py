@@ -267,14 +267,14 @@ def read_dem_under(path, images, crs):
 
     from ...crs import transform_points
     from ...geometry.dem import Dem
-    from ...io.raster import ropen
+    from ...io.raster import dem_height_scale, ropen
     from ...pixels import outline
     with ropen(path) as ds:
         if ds.crs is None:
             raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
         f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
         small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
-        z = small.compressed().astype(float)
+        z = small.compressed().astype(float) * dem_height_scale(ds)
         z = z[np.isfinite(z)]
         if not z.size:
             raise InputError(f"DEM {str(path)!r} holds no valid height")
@@ -293,7 +293,7 @@ def read_dem_under(path, images, crs):
         c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
         win = Window(c0, r0, c1 - c0, r1 - r0) if c1 - c0 >= 2 and r1 - r0 >= 2 else Window(0, 0, 2, 2)
-        data = ds.read(1, window=win, masked=True).astype(np.float64)
+        data = ds.read(1, window=win, masked=True).astype(np.float64) * dem_height_scale(ds)
         return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
 
 
