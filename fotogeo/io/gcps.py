@@ -10,8 +10,9 @@ Accepted inputs (:func:`read_gcps`):
   position (default ``col``, ``row``), optional height ``z``, ``role`` and ``id``; a point whose
   optional ``enabled`` field is 0 (the GCP picker's unticked *on*, the Georeferencer's disabled
   point) is left out as if absent;
-* a CSV table with map coordinates in columns ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``,
-  ``lon``/``lat``) and the same fields; its CRS must be given;
+* a CSV table (``,``, ``;`` or tab separated; decimal commas with ``;`` or tab) with map coordinates in columns
+  ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``, ``lon``/``lat``, ``easting``/``northing``) and the same fields
+  (the height: ``z``, else a column named as in :data:`Z_NAMES`); its CRS must be given;
 * a QGIS Georeferencer ``.points`` file (enabled points are control points, disabled ones
   check points; see :mod:`fotogeo.io.points`).
 
@@ -56,6 +57,8 @@ class Gcps:
 #: Accepted names of the map-coordinate columns of a CSV table (any letter case).
 X_NAMES = ("x", "mapx", "lon", "easting")
 Y_NAMES = ("y", "mapy", "lat", "northing")
+#: Names the height column is found by when the default ``z`` field is absent (any letter case).
+Z_NAMES = ("z", "height", "elevation", "elev", "alt", "altitude", "h")
 _FIELD_HINT = "name the right one with the field options"
 
 
@@ -107,7 +110,9 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
         xcol = next((c for c in table.columns if str(c).lower() in X_NAMES), None)
         ycol = next((c for c in table.columns if str(c).lower() in Y_NAMES), None)
         if xcol is None or ycol is None:
-            raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
+            fields = ", ".join(str(c) for c in table.columns)
+            raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat, "
+                              f"easting/northing); its columns: {fields}")
         if not crs:
             raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
         xy, map_crs = numeric_columns(table, [xcol, ycol], what, id_field=id), parse_crs(crs, what)
@@ -120,6 +125,8 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
     idf = find_column(table, id)
     ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
     zf = find_column(table, z)
+    if zf is None and z == "z":  # the default field absent: the usual names of a height column
+        zf = next((c for c in table.columns if str(c).lower() in Z_NAMES), None)
     zs = numeric_columns(table, [zf], what, id_field=id)[:, 0] if zf is not None else None
     on = enabled_rows(table)
     if not on.all():  # disabled points: left out as if absent (module docstring)
