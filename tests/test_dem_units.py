@@ -54,3 +54,18 @@ def test_ortho_dem_window_in_metres_from_a_feet_dem(data_dir, tmp_path):
     metres, feet = read_dem_under(ngi / "dem.tif", [im], crs), read_dem_under(ft, [im], crs)
     assert feet.data.shape == metres.data.shape
     assert np.nanmax(np.abs(feet.data - metres.data)) < 1e-3
+
+
+def test_dem_in_feet_queried_from_a_metric_crs_gives_metres(tmp_path):
+    """A NY State Plane DEM (ftUS axes, heights in ftUS) sampled at UTM 18N points: heights in metres. On main
+    they came back in feet (NGI's DEM in a feet TM under a metric --crs: orthophoto > 1.5 px off, NCC 0.556)."""
+    from pyproj import Transformer
+
+    from fotogeo.geometry.dem import Dem, DemSampler
+    x0, y0 = 985000.0, 200000.0  # ftUS, Manhattan
+    dem = Dem(np.full((3, 3), 328.0833), from_origin(x0, y0, 100, 100), "EPSG:2263")
+    centre = Transformer.from_crs("EPSG:2263", "EPSG:32618", always_xy=True).transform(x0 + 150, y0 - 150)
+    s = DemSampler(dem, "EPSG:32618")
+    assert s.heights(np.array([centre]))[0] == pytest.approx(100.0, abs=1e-3)
+    assert s.z_range == pytest.approx((100.0, 100.0), abs=1e-3)
+    assert DemSampler(dem, "EPSG:2263").heights(np.array([[x0 + 150, y0 - 150]]))[0] == pytest.approx(328.0833)

@@ -94,8 +94,7 @@ def height_scale(crs, band_unit: str | None, source: str = "DEM") -> float:
         return 1.0
     c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
     vertical = next((s for s in c.sub_crs_list if s.is_vertical), None) if c.is_compound else None
-    h = horizontal_crs(c)
-    xy_m = 1.0 if h.is_geographic or not h.axis_info else float(h.axis_info[0].unit_conversion_factor)
+    xy_m = length_unit_m(c)
     unit = (band_unit or "").strip().lower()
     if unit in _LENGTH_UNITS:
         z_m = _LENGTH_UNITS[unit]
@@ -104,3 +103,16 @@ def height_scale(crs, band_unit: str | None, source: str = "DEM") -> float:
     else:
         return 1.0
     return z_m / xy_m
+
+
+def length_unit_m(crs) -> float:
+    """Metres per unit of the horizontal axes of ``crs`` (0.3048 for a CRS in feet); 1 for a geographic CRS, whose
+    heights are metres.
+
+    >>> length_unit_m("EPSG:32735"), round(length_unit_m("EPSG:2263"), 7), length_unit_m("EPSG:4326")
+    (1.0, 0.3048006, 1.0)
+    """
+    from pyproj import CRS
+    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    h = horizontal_crs(c)
+    return 1.0 if h.is_geographic or not h.axis_info else float(h.axis_info[0].unit_conversion_factor)
