@@ -58,3 +58,13 @@ def test_ortho_reads_back_the_orientation_of_a_frame_named_with_spaces(tmp_path)
     import rasterio
     with rasterio.open(tmp_path / "o.tif") as a, rasterio.open(tmp_path / "r.tif") as b:
         assert a.transform.almost_equals(b.transform) and np.array_equal(a.read(), b.read())
+
+
+def test_comma_and_semicolon_separated_lines(tmp_path):
+    """A spreadsheet's export of the same lines (',' or ';' between the seven fields, names with spaces) reads as the
+    space-separated file; on main it was refused ("expected 'name X Y Z omega phi kappa'")."""
+    (tmp_path / "eo.txt").write_text("# name,X,Y,Z,omega,phi,kappa\nframe 01,1,2,3,4,5,6\nf2 ; 7;8;9;10;11;12\n")
+    got = read_exterior_orientation(tmp_path / "eo.txt")
+    assert list(got) == ["frame 01", "f2"]
+    assert got["frame 01"] == pytest.approx(ExteriorOrientation(1, 2, 3, 4, 5, 6))
+    assert got["f2"] == pytest.approx(ExteriorOrientation(7, 8, 9, 10, 11, 12))

@@ -7,6 +7,7 @@ exterior orientation text, and the NGI frames built from both.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 from ..errors import InputError, one_line
@@ -113,7 +114,8 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
 def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments at a line's start or after a
     space). A name may hold spaces: quoted as the shell quotes (what :func:`fotogeo.io.block.write_exterior_orientation`
-    writes), or bare — the last six values are the numbers and the rest of the line is the name."""
+    writes), or bare — the last six values are the numbers and the rest of the line is the name. Lines of seven
+    comma- or semicolon-separated fields are read too (they were refused as not 'name X Y Z omega phi kappa')."""
     path = Path(path)
     out = {}
     text = read_text_file(path, "exterior orientation file", hint="give the text file of 'name X Y Z omega phi kappa' lines")
@@ -121,6 +123,8 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
         parts = _eo_fields(raw)
         if parts is None:
             continue
+        if len(parts) != 7:  # comma or semicolon separated (a spreadsheet's export): the same seven fields
+            parts = [p.strip() for p in re.split(r"[,;]", raw.split(" #")[0].strip())]
         if len(parts) != 7:
             raise InputError(one_line(f"{path}, line {lineno}: expected 'name X Y Z omega phi kappa'; got {raw!r}"))
         try:
