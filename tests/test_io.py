@@ -223,7 +223,7 @@ def test_read_gcps_csv_errors(tmp_path):
 
 
 @pytest.mark.parametrize("text", [
-    "id;x;y;z;col;row\nA;500000,5;4100000,25;100,5;10,5;90\nB;500100;4100000;;110,5;90,75\n",   # spreadsheet, decimal commas
+    "id;x;y;z;col;row\nA;500000,5;4100000,25;100,5;10,5;90\nB;500100;4100000;;110,5;90,75\n",  # decimal commas
     "id\tx\ty\tz\tcol\trow\nA\t500000.5\t4100000.25\t100.5\t10.5\t90\nB\t500100\t4100000\t\t110.5\t90.75\n",
     "name,row,col,easting,northing,height\nA,90,10.5,500000.5,4100000.25,100.5\nB,90.75,110.5,500100,4100000,\n",
 ])
