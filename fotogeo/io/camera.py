@@ -154,7 +154,6 @@ def exterior_orientation_crs(path):
 def _eo_fields(raw: str):
     """``[name, six values]`` of one line (:func:`read_exterior_orientation`), None for a blank or comment line;
     fewer fields when the line has fewer."""
-    import re
     import shlex
     text = raw.strip()
     if not text or text.startswith("#"):
