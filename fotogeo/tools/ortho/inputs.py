@@ -292,9 +292,22 @@ def read_dem_under(path, images, crs):
         c0, r0 = np.floor(cr.min(axis=0)).astype(int) - 2
         c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
-        win = Window(c0, r0, c1 - c0, r1 - r0) if c1 - c0 >= 2 and r1 - r0 >= 2 else Window(0, 0, 2, 2)
+        if c1 - c0 < 2 or r1 - r0 < 2:
+            raise InputError(_not_under(path, images, ds.crs, "the images' ground lies outside it"))
+        win = Window(c0, r0, c1 - c0, r1 - r0)
         data = ds.read(1, window=win, masked=True).astype(np.float64) * dem_height_scale(ds)
+        if not np.isfinite(data.filled(np.nan)).any():
+            raise InputError(_not_under(path, images, ds.crs, "it holds no height under the images"))
         return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
+
+
+def _not_under(path, images, dem_crs, why: str) -> str:
+    """The one-line refusal of a DEM that misses every image (dsm took the NaN heights into a traceback)."""
+    names = ", ".join(repr(im.name) for im in images[:3]) + (" …" if len(images) > 3 else "")
+    crs = horizontal_crs(dem_crs)
+    return (f"DEM {str(path)!r} does not cover image{'s' if len(images) > 1 else ''} {names}: {why}; check the "
+            f"DEM's extent and that the orientation and the DEM are in the same CRS "
+            f"({crs.to_string() if crs.to_epsg() else crs.name})")
 
 
 def require_heights(names, dem, height, rpc: bool) -> None:
