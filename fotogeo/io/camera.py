@@ -134,6 +134,23 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     return out
 
 
+#: file extensions an orientation line may keep on an image's name (``IMG_0001.JPG``: Pix4D, Metashape exports)
+IMAGE_SUFFIXES = (".tif", ".tiff", ".jpg", ".jpeg", ".png", ".jp2", ".dng")
+
+
+def exterior_for(table: dict, name: str):
+    """The pose of image ``name`` (its file name without extension) in ``table`` (:func:`read_exterior_orientation`):
+    the line named ``name``, else the one line named ``name`` plus an image extension (any case); None otherwise.
+
+    >>> exterior_for({"IMG_1.JPG": 1, "IMG_2": 2}, "IMG_1"), exterior_for({"IMG_2": 2}, "IMG_1")
+    (1, None)
+    """
+    if name in table:
+        return table[name]
+    hits = [v for k, v in table.items() if Path(k).stem == name and Path(k).suffix.lower() in IMAGE_SUFFIXES]
+    return hits[0] if len(hits) == 1 else None
+
+
 def exterior_orientation_crs(path):
     """The CRS a fotogeo-written orientation file states in its header (``# fotogeo …, CRS EPSG:32654``, what
     triangulate writes), or None when it states none (lines from elsewhere: the caller's CRS applies)."""

@@ -146,7 +146,7 @@ def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
 
 
 def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -> list:
-    from ...io.camera import read_camera_with_distortion, read_exterior_orientation
+    from ...io.camera import exterior_for, read_camera_with_distortion, read_exterior_orientation
     from ...orientation.adjusted_frame import AdjustedFrame
     block = orientation_block(eo, crs, camera, sfm_frame, images)
     if block is not None and said is not None:
@@ -156,7 +156,7 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
         table = read_exterior_orientation(eo)
         cam, dist = read_camera_with_distortion(camera)
-        poses = {n: (table.get(n), cam, dist, None) for n in names}
+        poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
     else:
         given = read_camera_with_distortion(camera) if camera is not None else None
         poses = {}
@@ -170,7 +170,7 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
     missing = [n for n in names if poses[n][0] is None]
     if missing:
         raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
-                         f"file with one pose per image, named by the image file's name without extension")
+                         f"file with one pose per image, named by the image file's name (with or without its extension)")
     out = []
     for path, n in zip(images, names):
         ext, cam, dist, ref = poses[n]
