@@ -245,3 +245,12 @@ def test_time_series_local_field_on_a_given_client(dates, thread_client, tmp_pat
     twin.write_bytes(paths[0].read_bytes())
     with pytest.raises(InputError, match="two scenes would write"):
         register_batch(ref, [paths[0], twin], tmp_path / "o2", client=thread_client, **opts)
+
+
+def test_manifest_names_the_2d_model():
+    """A 2-D registration's report stores the model as Model.to_dict() ({"model": "projective", ...}): the manifest's
+    model column was empty for every such scene (register-batch on NGI tile 1, 2 scenes ok)."""
+    from fotogeo.tools.register.batch import scene_row
+    row = scene_row("s", "t.tif", {"model": {"model": "projective", "params": [1.0] * 9}}, "o.tif")
+    assert row["model"] == "projective"
+    assert scene_row("s", "t.tif", {"terrain": {"chosen": "dlt"}, "model": {"model": "dlt"}}, "o.tif")["model"] == "dlt"

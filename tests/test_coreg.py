@@ -270,3 +270,16 @@ def test_refusal_hints_stay_within_the_image_and_speak_the_dialogs_words(tmp_pat
     assert "--grid-spacing 32, now 64" in msg and "min_peak_ratio" not in msg
     dialog = in_labels(msg, COREG)
     assert "--" not in dialog and f"“{COREG['window'].label}”" in dialog
+
+
+def test_georeferences_farther_apart_than_max_shift_are_told_max_shift(data_dir, tmp_path):
+    """A target whose georeference is 7 px off (s2_pair crop, --max-shift 5): the refusal names --max-shift with a
+    value that works (10) instead of only window sizes, bands and thresholds, which change nothing here."""
+    src = cs.s2_crop()[:400, :400]
+    ref = cs.write_geotiff(tmp_path / "ref.tif", src)
+    tgt = cs.write_geotiff(tmp_path / "tgt.tif", src, transform=Affine(10.0, 0.0, 400070.0, 0.0, -10.0, 5800000.0))
+    with pytest.raises(MatchingError) as e:
+        coregister(ref, tgt, tmp_path / "out.tif", grid_spacing=64, window=128)
+    assert "\n" not in str(e.value) and "--max-shift 10, now 5" in str(e.value)
+    rep = coregister(ref, tgt, tmp_path / "out.tif", grid_spacing=64, window=128, max_shift=10)
+    assert abs(rep["before"]["mean_dx"] - 7) < 0.1 and abs(rep["before"]["mean_dy"]) < 0.1

@@ -1,5 +1,7 @@
 """The one local Dask cluster (:func:`fotogeo.tools.common.dask_cluster.connect`) that register-batch, mosaic and
 triangulate run their tasks on."""
+import logging
+
 import pytest
 
 from fotogeo.tools.common.dask_cluster import SINGLE_THREAD_ENV, WORKER_MALLOC_ENV, connect
@@ -21,3 +23,16 @@ def test_local_workers_start_with_one_thread_and_heap_allocations():
     finally:
         close()
     assert env == {**SINGLE_THREAD_ENV, **WORKER_MALLOC_ENV}
+
+
+def test_a_batch_run_keeps_the_command_lines_log_level():
+    """Importing distributed sets its logger to INFO: register-batch printed ~20 lines of cluster chatter ("State
+    start", "Start Nanny at", ...) though the command line had set WARNING. The level set before the import stays."""
+    import subprocess
+    import sys
+    pytest.importorskip("distributed")
+    code = ("import logging; from fotogeo.cli.conventions import setup_logging; setup_logging(0, False); "
+            "from fotogeo.tools.common.dask_cluster import distributed_module; distributed_module(); "
+            "print(logging.getLogger('distributed').getEffectiveLevel())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split()[-1] == str(logging.WARNING), out

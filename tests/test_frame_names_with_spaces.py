@@ -58,3 +58,30 @@ def test_ortho_reads_back_the_orientation_of_a_frame_named_with_spaces(tmp_path)
     import rasterio
     with rasterio.open(tmp_path / "o.tif") as a, rasterio.open(tmp_path / "r.tif") as b:
         assert a.transform.almost_equals(b.transform) and np.array_equal(a.read(), b.read())
+
+
+def test_comma_and_semicolon_separated_lines(tmp_path):
+    """A spreadsheet's export of the same lines (',' or ';' between the seven fields, names with spaces) reads as the
+    space-separated file; on main it was refused ("expected 'name X Y Z omega phi kappa'")."""
+    (tmp_path / "eo.txt").write_text("# name,X,Y,Z,omega,phi,kappa\nframe 01,1,2,3,4,5,6\nf2 ; 7;8;9;10;11;12\n")
+    got = read_exterior_orientation(tmp_path / "eo.txt")
+    assert list(got) == ["frame 01", "f2"]
+    assert got["frame 01"] == pytest.approx(ExteriorOrientation(1, 2, 3, 4, 5, 6))
+    assert got["f2"] == pytest.approx(ExteriorOrientation(7, 8, 9, 10, 11, 12))
+
+
+def test_orientation_lines_named_with_the_image_extension(data_dir, tmp_path):
+    """NGI's exterior orientation with the frames named 'name.tif' (as Pix4D and Metashape write them) orients the
+    frames as the stems do; on main ortho refused it ("has no orientation for the image(s)")."""
+    from fotogeo.tools.ortho.inputs import image_models, map_crs
+    ngi = data_dir / "ngi"
+    eo = tmp_path / "eo.txt"
+    eo.write_text("".join(line.replace("_RGB ", "_RGB.TIF ", 1) + "\n"
+                          for line in (ngi / "exterior_orientation.txt").read_text().splitlines()))
+    frame = str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif")
+    crs, _ = map_crs("auto", str(ngi / "dem.tif"), str(eo), [frame], False)
+    cam = str(ngi / "interior_orientation.yaml")
+    ours = image_models([frame], crs, camera=cam, eo=str(eo))[0]
+    theirs = image_models([frame], crs, camera=cam, eo=str(ngi / "exterior_orientation.txt"))[0]
+    px = np.array([[0.0, 0.0], [320.0, 576.0], [640.0, 1152.0]])
+    np.testing.assert_array_equal(ours.model.inverse(px, 500.0), theirs.model.inverse(px, 500.0))

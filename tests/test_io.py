@@ -222,6 +222,23 @@ def test_read_gcps_csv_errors(tmp_path):
         read_gcps(tmp_path / "no.csv", crs="EPSG:32635")
 
 
+@pytest.mark.parametrize("text", [
+    "id;x;y;z;col;row\nA;500000,5;4100000,25;100,5;10,5;90\nB;500100;4100000;;110,5;90,75\n",  # decimal commas
+    "id\tx\ty\tz\tcol\trow\nA\t500000.5\t4100000.25\t100.5\t10.5\t90\nB\t500100\t4100000\t\t110.5\t90.75\n",
+    "name,row,col,easting,northing,height\nA,90,10.5,500000.5,4100000.25,100.5\nB,90.75,110.5,500100,4100000,\n",
+])
+def test_read_gcps_csv_dialects_and_column_names(tmp_path, text):
+    """A ';' table with decimal commas, a tab table, and easting/northing/height columns in another order read as the
+    plain CSV: on main the first two were refused ("needs map coordinate columns x and y") and the third silently lost
+    its heights (only 2-D models fitted: NGI frame 0182's 25 GCPs gave bilinear, 4.9 px, instead of DLT, 0.18 px)."""
+    p = tmp_path / "g.csv"
+    p.write_text(text)
+    g = read_gcps(p, crs="EPSG:32635")
+    np.testing.assert_array_equal(g.ground[:, :2], [[500000.5, 4100000.25], [500100, 4100000]])
+    np.testing.assert_array_equal(g.pixel, [[10.5, 90.0], [110.5, 90.75]])
+    np.testing.assert_array_equal(g.ground[:, 2], [100.5, np.nan])
+
+
 def test_read_gcps_from_a_geopackage_layer(tmp_path):
     p = tmp_path / "g.gpkg"
     _layer(p, "other", n=2)

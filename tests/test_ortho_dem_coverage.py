@@ -29,3 +29,25 @@ def test_a_small_hole_is_not_reported_as_full_coverage(rendered, tmp_path):  # n
         plan_grid(im, heights, crs, 0.2, str(tmp_path / "unused.tif"), dem)
     said = [str(w.message) for w in caught if "covers" in str(w.message)]
     assert len(said) == 1 and "covers 99." in said[0] and "100 %" not in said[0], said
+
+
+def test_dem_missing_every_frame_is_one_line_for_dsm_and_ortho(data_dir, tmp_path):
+    """The NGI DEM warped to UTM 35S while the orientations are in the Lo25 TM: the frames' ground lies outside it.
+    dsm crashed in OpenCV (intersectConvexConvex on NaN footprints from the NaN height range); both tools now
+    refuse in one line naming the DEM, the images and the CRS to check."""
+    import subprocess
+
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    from test_bad_input import assert_one_line_error
+    ngi = data_dir / "ngi"
+    dem = tmp_path / "dem_utm.tif"
+    subprocess.run(["gdalwarp", "-q", "-t_srs", "EPSG:32735", str(ngi / "dem.tif"), str(dem)], check=True)
+    frames = [str(ngi / "frames" / f"3324c_2015_1004_05_018{k}_RGB.tif") for k in (2, 4)]
+    common = ["--camera", str(ngi / "interior_orientation.yaml"), "--eo", str(ngi / "exterior_orientation.txt"),
+              "--dem", str(dem), "-q"]
+    for tool, out in (("dsm", "dsm.tif"), ("ortho", "ortho")):
+        result = CliRunner().invoke(main, [tool, *frames, *common, "-o", str(tmp_path / out)])
+        assert_one_line_error(result, "does not cover images '3324c_2015_1004_05_0182_RGB'")
+        assert "same CRS (EPSG:32735)" in result.stderr and not (tmp_path / out).exists()

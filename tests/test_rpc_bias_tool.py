@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from fotogeo.cli import main
+from fotogeo.errors import VectorError
 
 pytest.importorskip("geopandas")
 GDALWARP = shutil.which("gdalwarp")
@@ -133,3 +134,21 @@ def test_rpc_bias_bad_input(data_dir, tmp_path):
     with pytest.raises(FotogeoError, match="method"):
         rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "gcps.gpkg", tmp_path / "x.tif", method="poly")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gcps.gpkg"]
+
+
+def test_orthority_gcp_geojson_reads_as_its_converted_layer(data_dir, tmp_path):
+    """qb2's gcps.geojson (orthority's GCP format: 'ji' = [col, row], centres at integers; 3-D points) is read as
+    it is — on main it was refused ("lacks the field(s) col, row") — and equals the layer converted by hand."""
+    from fotogeo.io.gcps import read_gcps
+    qb2 = data_dir / "qb2"
+    rows = _gcp_layer(qb2, tmp_path / "g.gpkg")
+    g = read_gcps(qb2 / "gcps.geojson")
+    assert g.crs.to_epsg() == 4979 and g.ids.tolist() == [r["id"] for r in rows]  # GeoJSON 3-D: WGS 84 (lon, lat, h)
+    np.testing.assert_allclose(g.pixel, [[r["col"], r["row"]] for r in rows], atol=1e-9)
+    np.testing.assert_allclose(g.ground[:, 2], [r["z"] for r in rows], atol=1e-9)
+    np.testing.assert_allclose(g.ground[:, :2], [[r["geometry"].x, r["geometry"].y] for r in rows], atol=1e-12)
+    two = json.loads((qb2 / "gcps.geojson").read_text())
+    two["features"][0]["properties"]["filename"] = "other.tif"
+    (tmp_path / "two.geojson").write_text(json.dumps(two))
+    with pytest.raises(VectorError, match=r"holds GCPs of 2 images \(other.tif, qb2_basic1b.tif\)"):
+        read_gcps(tmp_path / "two.geojson")

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from ..errors import MatchingError
+from ..matching.status import SHIFT_BEYOND_WINDOW
 from ..models import get_model
 from ..pixels import to_centre
 from .field import DisplacementField, fit_field
@@ -215,7 +216,25 @@ def refuse(windows: WindowShifts, status, opts: CoregOptions, why: str = "", siz
     need = max(opts.min_windows, get_model(opts.model).min_points + 2)
     raise MatchingError(
         f"co-registration refused: only {reliable} reliable windows of {n} ({valid} valid after phase correlation "
-        f"and LSM; {status_counts(status)}){why}; at least {need} are needed — try {', '.join(retry_hints(opts, size))}")
+        f"and LSM; {status_counts(status)}){why}; at least {need} are needed — try "
+        f"{', '.join(shift_hint(status, opts) + retry_hints(opts, size))}")
+
+
+def shift_hint(status, opts: CoregOptions) -> list:
+    """``[--max-shift hint]`` when most windows moved farther than ``--max-shift``: the georeferences disagree
+    by more than it, which no window size, band or threshold changes (a target georeferenced 7.6 px off was
+    told to try larger windows).
+
+    >>> shift_hint(["shift beyond window"] * 3 + ["ambiguous"], CoregOptions(max_shift=5.0))
+    ['a larger --max-shift (--max-shift 10, now 5: most windows moved farther; the georeferences disagree by more)']
+    >>> shift_hint(["ambiguous"] * 3 + ["shift beyond window"], CoregOptions(max_shift=5.0))
+    []
+    """
+    st = np.asarray(status)
+    if st.size and 2 * int((st == SHIFT_BEYOND_WINDOW).sum()) > st.size:
+        return [f"a larger --max-shift (--max-shift {2 * opts.max_shift:g}, now {opts.max_shift:g}: most windows "
+                f"moved farther; the georeferences disagree by more)"]
+    return []
 
 
 def retry_hints(opts: CoregOptions, size=None) -> list:

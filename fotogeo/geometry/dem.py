@@ -247,22 +247,27 @@ class _Sampled:
 class DemSampler:
     """Heights of a :class:`~fotogeo.geometry.dem.Dem` at points given in another CRS (bilinear).
 
-    ``heights_and_gradient`` makes it usable wherever fotogeo takes a height source.
+    ``heights_and_gradient`` makes it usable wherever fotogeo takes a height source. The DEM's heights are in
+    its CRS's length unit (:func:`fotogeo.io.raster.read_dem`); they are returned in ``crs``'s:
+    ``h · m(DEM unit) / m(crs unit)`` (a DEM in US feet queried from UTM: × 0.3048006).
     """
 
     def __init__(self, dem, crs):
+        from .vertical import length_unit_m
         self.dem = dem
         if dem.crs is None:
             raise InputError(f"DEM {dem.path!r} has no CRS; assign one (gdal_edit.py -a_srs) before using it")
         dcrs = CRS.from_user_input(dem.crs)
         self._t = None if dcrs == CRS.from_user_input(crs) else Transformer.from_crs(crs, dcrs, always_xy=True)
-        self.z_range = dem.z_range
+        self.z_scale = length_unit_m(dcrs) / length_unit_m(crs)
+        self.z_range = tuple(z * self.z_scale for z in dem.z_range)
 
     def heights(self, XY) -> np.ndarray:
         XY = np.asarray(XY, float)
         if self._t is not None:
             XY = np.column_stack(self._t.transform(XY[:, 0], XY[:, 1]))
-        return self.dem.heights(XY)
+        h = self.dem.heights(XY)
+        return h * self.z_scale if self.z_scale != 1.0 else h
 
     def heights_and_gradient(self, XY, step: float = 1.0):
         XY = np.asarray(XY, float)

@@ -63,3 +63,56 @@ class ShiftedHeights:
         h, gx, gy = self.source.heights_and_gradient(XY)
         n, nx, ny = self.undulation.heights_and_gradient(XY)
         return h + n, gx + nx, gy + ny
+
+
+#: metres per unit of the length units GDAL writes as a band's unit type (``gdalinfo``'s "Unit Type";
+#: lower case, "us survey foot" = 1200/3937 m exactly)
+_LENGTH_UNITS = {
+    "m": 1.0, "metre": 1.0, "meter": 1.0, "metres": 1.0, "meters": 1.0,
+    "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "international foot": 0.3048,
+    "us-ft": 1200 / 3937, "ftus": 1200 / 3937, "us survey foot": 1200 / 3937, "us_survey_foot": 1200 / 3937,
+    "foot_us": 1200 / 3937, "survey foot": 1200 / 3937, "cm": 0.01, "mm": 0.001, "km": 1000.0,
+}
+
+
+def height_scale(crs, band_unit: str | None, source: str = "DEM") -> float:
+    """The factor that brings a DEM's heights into the length unit of its horizontal CRS.
+
+    The camera models compute in one length unit, the map CRS's (metres for a geographic CRS; an RPC's
+    heights are metres), so a height stated in another unit is converted:
+    ``h = z · m(height unit) / m(horizontal unit)`` (``m`` = metres per unit). The height unit is the band's
+    unit type when it names a length (GDAL ``SetUnitType``: ``ft``, ``US survey foot``, ``m`` …), else the
+    vertical axis of a compound CRS; neither stated: the horizontal unit (factor 1, the DEM taken as it is).
+    A 24 m DEM in a metric CRS whose band says ``ft`` thus gets ``0.3048``; a US State Plane (ftUS) DEM with
+    heights in ``ftUS``, ``1``.
+
+    >>> height_scale("EPSG:32735", "ft"), height_scale("EPSG:32735", "metre"), height_scale("EPSG:32735", "")
+    (0.3048, 1.0, 1.0)
+    """
+    from pyproj import CRS
+    if crs is None:
+        return 1.0
+    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    vertical = next((s for s in c.sub_crs_list if s.is_vertical), None) if c.is_compound else None
+    xy_m = length_unit_m(c)
+    unit = (band_unit or "").strip().lower()
+    if unit in _LENGTH_UNITS:
+        z_m = _LENGTH_UNITS[unit]
+    elif vertical is not None and vertical.axis_info:
+        z_m = float(vertical.axis_info[0].unit_conversion_factor)
+    else:
+        return 1.0
+    return z_m / xy_m
+
+
+def length_unit_m(crs) -> float:
+    """Metres per unit of the horizontal axes of ``crs`` (0.3048 for a CRS in feet); 1 for a geographic CRS, whose
+    heights are metres.
+
+    >>> length_unit_m("EPSG:32735"), round(length_unit_m("EPSG:2263"), 7), length_unit_m("EPSG:4326")
+    (1.0, 0.3048006, 1.0)
+    """
+    from pyproj import CRS
+    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    h = horizontal_crs(c)
+    return 1.0 if h.is_geographic or not h.axis_info else float(h.axis_info[0].unit_conversion_factor)

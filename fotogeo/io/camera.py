@@ -7,6 +7,7 @@ exterior orientation text, and the NGI frames built from both.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 from ..errors import InputError, one_line
@@ -113,7 +114,8 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
 def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
     """Read ``name X Y Z omega phi kappa`` lines (metres, degrees; ``#`` comments at a line's start or after a
     space). A name may hold spaces: quoted as the shell quotes (what :func:`fotogeo.io.block.write_exterior_orientation`
-    writes), or bare — the last six values are the numbers and the rest of the line is the name."""
+    writes), or bare — the last six values are the numbers and the rest of the line is the name. Lines of seven
+    comma- or semicolon-separated fields are read too (they were refused as not 'name X Y Z omega phi kappa')."""
     path = Path(path)
     out = {}
     text = read_text_file(path, "exterior orientation file", hint="give the text file of 'name X Y Z omega phi kappa' lines")
@@ -121,6 +123,8 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
         parts = _eo_fields(raw)
         if parts is None:
             continue
+        if len(parts) != 7:  # comma or semicolon separated (a spreadsheet's export): the same seven fields
+            parts = [p.strip() for p in re.split(r"[,;]", raw.split(" #")[0].strip())]
         if len(parts) != 7:
             raise InputError(one_line(f"{path}, line {lineno}: expected 'name X Y Z omega phi kappa'; got {raw!r}"))
         try:
@@ -128,6 +132,23 @@ def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:
         except ValueError:
             raise InputError(one_line(f"{path}, line {lineno}: non-numeric orientation value in {raw!r}")) from None
     return out
+
+
+#: file extensions an orientation line may keep on an image's name (``IMG_0001.JPG``: Pix4D, Metashape exports)
+IMAGE_SUFFIXES = (".tif", ".tiff", ".jpg", ".jpeg", ".png", ".jp2", ".dng")
+
+
+def exterior_for(table: dict, name: str):
+    """The pose of image ``name`` (its file name without extension) in ``table`` (:func:`read_exterior_orientation`):
+    the line named ``name``, else the one line named ``name`` plus an image extension (any case); None otherwise.
+
+    >>> exterior_for({"IMG_1.JPG": 1, "IMG_2": 2}, "IMG_1"), exterior_for({"IMG_2": 2}, "IMG_1")
+    (1, None)
+    """
+    if name in table:
+        return table[name]
+    hits = [v for k, v in table.items() if Path(k).stem == name and Path(k).suffix.lower() in IMAGE_SUFFIXES]
+    return hits[0] if len(hits) == 1 else None
 
 
 def exterior_orientation_crs(path):
@@ -150,7 +171,6 @@ def exterior_orientation_crs(path):
 def _eo_fields(raw: str):
     """``[name, six values]`` of one line (:func:`read_exterior_orientation`), None for a blank or comment line;
     fewer fields when the line has fewer."""
-    import re
     import shlex
     text = raw.strip()
     if not text or text.startswith("#"):

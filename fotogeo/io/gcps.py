@@ -10,8 +10,11 @@ Accepted inputs (:func:`read_gcps`):
   position (default ``col``, ``row``), optional height ``z``, ``role`` and ``id``; a point whose
   optional ``enabled`` field is 0 (the GCP picker's unticked *on*, the Georeferencer's disabled
   point) is left out as if absent;
-* a CSV table with map coordinates in columns ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``,
-  ``lon``/``lat``) and the same fields; its CRS must be given;
+* a CSV table (``,``, ``;`` or tab separated; decimal commas with ``;`` or tab) with map coordinates in columns
+  ``x``, ``y`` (or ``X``/``Y``, ``mapX``/``mapY``, ``lon``/``lat``, ``easting``/``northing``) and the same fields
+  (the height: ``z``, else a column named as in :data:`Z_NAMES`); its CRS must be given;
+* orthority's GCP GeoJSON (property ``ji`` = ``[col, row]``, pixel centres at integers; 3-D points: lon,
+  lat, height), one image's;
 * a QGIS Georeferencer ``.points`` file (enabled points are control points, disabled ones
   check points; see :mod:`fotogeo.io.points`).
 
@@ -56,6 +59,8 @@ class Gcps:
 #: Accepted names of the map-coordinate columns of a CSV table (any letter case).
 X_NAMES = ("x", "mapx", "lon", "easting")
 Y_NAMES = ("y", "mapy", "lat", "northing")
+#: Names the height column is found by when the default ``z`` field is absent (any letter case).
+Z_NAMES = ("z", "height", "elevation", "elev", "alt", "altitude", "h")
 _FIELD_HINT = "name the right one with the field options"
 
 
@@ -107,11 +112,14 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
         xcol = next((c for c in table.columns if str(c).lower() in X_NAMES), None)
         ycol = next((c for c in table.columns if str(c).lower() in Y_NAMES), None)
         if xcol is None or ycol is None:
-            raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat)")
+            fields = ", ".join(str(c) for c in table.columns)
+            raise VectorError(f"{what} needs map coordinate columns x and y (or mapX/mapY, lon/lat, "
+                              f"easting/northing); its columns: {fields}")
         if not crs:
             raise VectorError(f"{what}: a CSV carries no CRS; give the map CRS (crs=/--crs)")
         xy, map_crs = numeric_columns(table, [xcol, ycol], what, id_field=id), parse_crs(crs, what)
-    pix = numeric_columns(table, [col, row], what, _FIELD_HINT, id_field=id)
+    ji = _orthority_ji(table, what) if is_layer(table) and (col, row) == ("col", "row") else None
+    pix = ji if ji is not None else numeric_columns(table, [col, row], what, _FIELD_HINT, id_field=id)
     rf = find_column(table, role)
     roles = _roles(table, rf, what)
     prefix = f"{rf or role}_".lower()
@@ -120,7 +128,11 @@ def _from_table(p: Path, what: str, layer, crs, col, row, z, role, id):
     idf = find_column(table, id)
     ids = table[idf].astype(str).to_numpy() if idf else np.array([str(i + 1) for i in range(len(table))])
     zf = find_column(table, z)
+    if zf is None and z == "z":  # the default field absent: the usual names of a height column
+        zf = next((c for c in table.columns if str(c).lower() in Z_NAMES and c != "geometry"), None)
     zs = numeric_columns(table, [zf], what, id_field=id)[:, 0] if zf is not None else None
+    if zs is None and is_layer(table) and len(table) and table.geometry.has_z.all():  # 3-D points: their z
+        zs = table.geometry.z.to_numpy(float)
     on = enabled_rows(table)
     if not on.all():  # disabled points: left out as if absent (module docstring)
         role_sets = {k: v[on] for k, v in role_sets.items()}
@@ -147,6 +159,26 @@ def _roles(table, column, what: str) -> np.ndarray:
     if bad:
         raise VectorError(f"{what}: {column or 'role'} values must be 'control', 'check' or 'blunder'; found {bad}")
     return roles
+
+
+def _orthority_ji(table, what: str):
+    """Pixel positions ``(N, 2)`` of orthority's GCP GeoJSON (property ``ji`` = ``[col, row]`` with pixel centres at
+    integers, so ``+ 0.5`` in the corner convention; the geometry lon, lat, height), or None without ``ji``. A file
+    holding GCPs of several images (``filename``) is refused: which rows belong to this image is not said."""
+    from .tables import find_column
+    jc = find_column(table, "ji")
+    if jc is None:
+        return None
+    fc = find_column(table, "filename")
+    names = sorted({str(v) for v in table[fc]}) if fc is not None else []
+    if len(names) > 1:
+        raise VectorError(f"{what} holds GCPs of {len(names)} images ({', '.join(names[:5])}); keep the rows of "
+                          f"this image (e.g. ogr2ogr -where \"filename = '{names[0]}'\")")
+    try:
+        ji = np.array([np.asarray(v, float).reshape(2) for v in table[jc]], float).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise VectorError(f"{what}: its 'ji' values must be [col, row] pairs (orthority's GCP format)") from None
+    return ji + 0.5
 
 
 def _layer_positions(table, what: str, crs, id: str | None = "id"):

@@ -355,13 +355,23 @@ def read_dem(path, band: int = 1):
     """A :class:`~fotogeo.geometry.dem.Dem` from band ``band`` of a raster; nodata becomes NaN.
 
     Refuses a raster without georeference (identity transform): heights need map positions. The one
-    DEM reader: the file-format layer builds the array-layer ``Dem`` (imports go down the layers).
+    DEM reader: the file-format layer builds the array-layer ``Dem`` (imports go down the layers). Heights
+    stated in another length unit than the CRS's (a band unit ``ft`` under metres) are converted to it
+    (:func:`dem_height_scale`).
     """
     try:
         with ropen(path) as ds:
             if ds.transform.is_identity:
                 raise RasterError(f"DEM {path}: has no georeference (identity transform); georeference it first")
-            z = ds.read(band, masked=True).astype(np.float64)
+            z = ds.read(band, masked=True).astype(np.float64) * dem_height_scale(ds, band)
             return Dem(z.filled(np.nan), ds.transform, ds.crs, str(path))
     except RasterioIOError as exc:
         raise RasterError(f"cannot read DEM {path}: {exc}") from None
+
+
+def dem_height_scale(ds, band: int = 1) -> float:
+    """The factor bringing the heights of band ``band`` of the open raster ``ds`` into its CRS's length unit:
+    :func:`~fotogeo.geometry.vertical.height_scale` of its CRS and the band's unit type (1 when unstated)."""
+    from ..geometry.vertical import height_scale
+    units = ds.units or ()
+    return height_scale(ds.crs, units[band - 1] if len(units) >= band else None)

@@ -30,12 +30,36 @@ def read_table(path, what: str, layer: str | None = None):
     try:
         if csv:
             import pandas as pd
-            return pd.read_csv(p)
+            return pd.read_csv(p, **csv_dialect(p))
         import geopandas as gpd
         return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
     except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
         kind = "CSV" if csv else "a vector layer" + (f" (layer {layer!r})" if layer else "")
         raise VectorError(one_line(f"{what} {str(p)!r} cannot be read as {kind}: {e}")) from None
+
+
+def csv_dialect(path) -> dict:
+    r"""``pandas.read_csv`` keywords for the CSV ``path``: the separator among ``,`` ``;`` and tab that splits the
+    header line into the most fields, and a decimal comma when the separator is not a comma and the first data
+    lines write numbers as ``12,5`` (a spreadsheet's CSV in a locale with decimal commas). A ``;`` table with
+    decimal commas was refused as "needs map coordinate columns x and y", its one column being ``id;x;y;z;col;row``.
+
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> (d / "a.csv").write_text("id;x;y\ng1;259692,922;6272527,29\n") and csv_dialect(d / "a.csv")
+    {'sep': ';', 'decimal': ','}
+    >>> (d / "b.csv").write_text("id,x,y\ng1,259692.922,6272527.29\n") and csv_dialect(d / "b.csv")
+    {}
+    """
+    import re
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        lines = [f.readline() for _ in range(6)]
+    header = lines[0]
+    sep = max((",", ";", "\t"), key=lambda c: (header.count(c), c == ","))
+    if sep == "," or not header.count(sep):
+        return {}
+    body = "".join(lines[1:])
+    return {"sep": sep, "decimal": ","} if re.search(r"\d,\d", body) else {"sep": sep}
 
 
 def is_layer(table) -> bool:

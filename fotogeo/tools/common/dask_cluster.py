@@ -28,11 +28,18 @@ def missing_dask(what: str) -> str:
 
 
 def distributed_module(what: str = "register-batch"):
-    """``dask.distributed``, or an :class:`InputError` saying how to install it."""
+    """``dask.distributed``, or an :class:`InputError` saying how to install it. Importing it sets its logger to
+    INFO; the level the command line had set (``-q``/``-v``; WARNING by default) is put back, or every batch run
+    printed some 20 lines of cluster chatter ("State start", "Start Nanny at", ...) on stderr."""
+    import logging
+    log = logging.getLogger("distributed")
+    level = log.level
     try:
         import distributed
     except ImportError:
         raise InputError(missing_dask(what)) from None
+    if level:
+        log.setLevel(level)
     return distributed
 
 

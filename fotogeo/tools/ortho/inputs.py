@@ -146,7 +146,7 @@ def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
 
 
 def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -> list:
-    from ...io.camera import read_camera_with_distortion, read_exterior_orientation
+    from ...io.camera import exterior_for, read_camera_with_distortion, read_exterior_orientation
     from ...orientation.adjusted_frame import AdjustedFrame
     block = orientation_block(eo, crs, camera, sfm_frame, images)
     if block is not None and said is not None:
@@ -156,7 +156,7 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
         table = read_exterior_orientation(eo)
         cam, dist = read_camera_with_distortion(camera)
-        poses = {n: (table.get(n), cam, dist, None) for n in names}
+        poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
     else:
         given = read_camera_with_distortion(camera) if camera is not None else None
         poses = {}
@@ -170,7 +170,7 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
     missing = [n for n in names if poses[n][0] is None]
     if missing:
         raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
-                         f"file with one pose per image, named by the image file's name without extension")
+                         f"file with one pose per image, named by the image file's name (with or without its extension)")
     out = []
     for path, n in zip(images, names):
         ext, cam, dist, ref = poses[n]
@@ -267,14 +267,14 @@ def read_dem_under(path, images, crs):
 
     from ...crs import transform_points
     from ...geometry.dem import Dem
-    from ...io.raster import ropen
+    from ...io.raster import dem_height_scale, ropen
     from ...pixels import outline
     with ropen(path) as ds:
         if ds.crs is None:
             raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
         f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
         small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
-        z = small.compressed().astype(float)
+        z = small.compressed().astype(float) * dem_height_scale(ds)
         z = z[np.isfinite(z)]
         if not z.size:
             raise InputError(f"DEM {str(path)!r} holds no valid height")
@@ -292,9 +292,22 @@ def read_dem_under(path, images, crs):
         c0, r0 = np.floor(cr.min(axis=0)).astype(int) - 2
         c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
-        win = Window(c0, r0, c1 - c0, r1 - r0) if c1 - c0 >= 2 and r1 - r0 >= 2 else Window(0, 0, 2, 2)
-        data = ds.read(1, window=win, masked=True).astype(np.float64)
+        if c1 - c0 < 2 or r1 - r0 < 2:
+            raise InputError(_not_under(path, images, ds.crs, "the images' ground lies outside it"))
+        win = Window(c0, r0, c1 - c0, r1 - r0)
+        data = ds.read(1, window=win, masked=True).astype(np.float64) * dem_height_scale(ds)
+        if not np.isfinite(data.filled(np.nan)).any():
+            raise InputError(_not_under(path, images, ds.crs, "it holds no height under the images"))
         return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
+
+
+def _not_under(path, images, dem_crs, why: str) -> str:
+    """The one-line refusal of a DEM that misses every image (dsm took the NaN heights into a traceback)."""
+    names = ", ".join(repr(im.name) for im in images[:3]) + (" …" if len(images) > 3 else "")
+    crs = horizontal_crs(dem_crs)
+    return (f"DEM {str(path)!r} does not cover image{'s' if len(images) > 1 else ''} {names}: {why}; check the "
+            f"DEM's extent and that the orientation and the DEM are in the same CRS "
+            f"({crs.to_string() if crs.to_epsg() else crs.name})")
 
 
 def require_heights(names, dem, height, rpc: bool) -> None:

@@ -128,7 +128,8 @@ def _footprint_wkt(geo, target) -> str | None:
 def scene_row(scene: str, target, report: dict, output, footprint_wkt=None) -> dict:
     """The manifest row of a registered scene, from its report."""
     check, control = report.get("check", {}), report.get("control", {})
-    model = report.get("terrain", {}).get("chosen") or report.get("model", {}).get("name")
+    fitted = report.get("model") or {}  # Model.to_dict(): its name under "model" (2-D registrations)
+    model = report.get("terrain", {}).get("chosen") or fitted.get("name") or fitted.get("model")
     return {"scene": scene, "target": str(target), "status": "ok", "inliers": report.get("inliers"),
             "check_n": check.get("n"), "check_rmse_m": check.get("rmse_m"), "check_rmse_px": check.get("rmse_px"),
             "control_rmse_m": control.get("rmse_m"), "model": model, "output_crs": report.get("output_crs"),
