@@ -89,13 +89,36 @@ def test_fill_unsupported_matches_the_needing_pixels_over_the_whole_range():
     d[:, :100] = 5.0
     need = np.zeros((rows, cols), bool)
     need[40:70, 150:200] = True
-    out, searched = pyramid.fill_unsupported(d, left, right, valid, valid, need, 0.0, 100.0)
+    windows = pyramid.fill_windows(need, 0.0, 100.0)
+    out, searched = pyramid.fill_unsupported(d, left, right, valid, valid, need, windows)
     assert np.array_equal(out[:, :100], d[:, :100]) and np.isnan(out[:, 200:]).all()
     got = out[need]
     assert np.isfinite(got).mean() > 0.9 and np.nanmax(np.abs(got - shift)) < 1.0
     assert searched > 0 and searched % 112 == 0  # window pixels x the range's 112 disparities
-    assert pyramid.fill_cost(need, 0.0, 100.0) == searched  # the estimate the choice of the search reads
-    assert pyramid.fill_cost(np.zeros_like(need), 0.0, 100.0) == 0
+    assert pyramid.fill_cost(windows) == searched  # the estimate the choice of the search reads
+    assert pyramid.fill_windows(np.zeros_like(need), 0.0, 100.0) == []
+    # the windows derived once for more pixels than end up needing a fill: those without any are not matched
+    same, none = pyramid.fill_unsupported(d, left, right, valid, valid, np.zeros_like(need), windows)
+    assert none == 0 and np.array_equal(same, d, equal_nan=True)
+
+
+def test_fill_windows_join_a_band_down_the_border_into_one_window():
+    """Needing pixels in a band 30 columns wide down 384 rows (an image's border): the blocks' runs are joined
+    into one window whose core holds every needing pixel, costing less than a window per block; two bands far
+    apart stay two windows (a window over both would search the columns between)."""
+    rows, cols = 384, 900
+    need = np.zeros((rows, cols), bool)
+    need[:, 100:130] = True
+    windows = pyramid.fill_windows(need, 0.0, 100.0)
+    assert len(windows) == 1
+    covered = np.zeros_like(need)
+    for r, c in windows[0].cores:
+        covered[r, c] = True
+    assert np.array_equal(covered & need, need)
+    per_block = pyramid.FillWindow([], (0, pyramid.FILL_ROWS, 100, 130), 0.0, 100.0, need.shape)
+    assert pyramid.fill_cost(windows) < (rows // pyramid.FILL_ROWS) * per_block.cost
+    need[:, 700:730] = True
+    assert len(pyramid.fill_windows(need, 0.0, 100.0)) == 2
 
 
 def _run(sc, out, report):
