@@ -30,7 +30,9 @@ Within the band both directions of that left–right check are held to the band,
 pixel that meets it back. The coarse matching over the whole range is the independent witness
 (:func:`witnessed`): the right image's coarse disparities (the same matching, images mirrored) must put the right
 pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``. The pixels the coarse matching does not support near
-the images' borders (:func:`unsupported`) are matched over the whole range (:func:`fill_unsupported`).
+the images' borders (:func:`unsupported`) are matched over the range of the coarse disparities around them
+(:func:`fill_unsupported`), in windows derived once (:func:`fill_windows`: what the choice of the search reads is
+what is matched) and joined down a border where that costs less.
 """
 from __future__ import annotations
 
