@@ -176,11 +176,12 @@ def _run_range(dc, rows: slice, run, lo: float, hi: float, factor: int) -> tuple
 
 class FillWindow:
     """A window :func:`fill_unsupported` matches: ``cores`` (pairs of slices) whose needing pixels it fills,
-    within ``span`` ``(r0, r1, c0, c1)`` (the rows and columns the cores cover); the range ``[ra, rb]`` it searches. Its rows
-    and columns (slices of the left image: ``FILL_CONTEXT`` more rows and columns around the cores, and the
-    range's width more columns on either side, so that the right pixels the left–right check reads keep every
-    left pixel they may meet), the right window's shift ``t`` (it starts ``t`` columns left of the left one's),
-    the disparities ``n`` and ``cost`` (window pixels x ``n``) follow from those and the image's ``shape``."""
+    within ``span`` ``(r0, r1, c0, c1)`` (the rows and columns the cores cover); the range ``[ra, rb]`` it
+    searches. Its rows and columns (slices of the left image: ``FILL_CONTEXT`` more rows and columns around the
+    cores, and the range's width more columns on either side, so that the right pixels the left–right check reads
+    keep every left pixel they may meet), the right window's shift ``t`` (it starts ``t`` columns left of the left
+    one's), the disparities ``n`` and ``cost`` (window pixels x ``n``) follow from those and the image's
+    ``shape``."""
 
     def __init__(self, cores: list, span: tuple, ra: float, rb: float, shape: tuple):
         self.cores, self.span, self.ra, self.rb, self.shape = cores, span, ra, rb, shape
