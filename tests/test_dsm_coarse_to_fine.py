@@ -154,15 +154,19 @@ def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, m
 
 
 def test_a_strip_where_coarse_to_fine_would_not_pay_is_searched_whole(tmp_path, monkeypatch):
-    """With the gate shut (``GAIN = 0``: no search is small enough) every strip goes through the coarse step and
-    is then matched over its whole range: the DSM is the switched-off one byte for byte, and the report counts
-    the coarse search on top of the whole range's."""
+    """With the gate shut (``GAIN = 0``: no search is small enough) every strip goes through the coarse step (the
+    left image's copy only: its band alone fails the gate) and is then matched over its whole range: the DSM is the
+    switched-off one byte for byte, and the report counts the coarse search on top of the whole range's."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(pyramid, "MIN_RANGE", 0)
     monkeypatch.setattr(pyramid, "MIN_COARSE", 0)
     monkeypatch.setattr(pyramid, "GAIN", 0.0)
     monkeypatch.setattr(frames, "COARSE_TO_FINE", True)
+    sides, coarse = [], pyramid.coarse_disparity
+    monkeypatch.setattr(pyramid, "coarse_disparity", lambda *a, **k: sides.append(  # main's: right_too=True
+        "both" if k.get("right_too") else k.get("side", "left")) or coarse(*a, **k))
     rep, _ = _run(sc, tmp_path / "gated.tif", tmp_path / "gated.json")
+    assert sides and set(sides) == {"left"}  # the band alone fails the gate: the right copy is never matched
     monkeypatch.setattr(frames, "COARSE_TO_FINE", False)
     rep_w, _ = _run(sc, tmp_path / "whole.tif", tmp_path / "whole.json")
     pair, pair_w = (next(p for p in r["pairs"] if p["kept"]) for r in (rep, rep_w))
