@@ -89,13 +89,36 @@ def test_fill_unsupported_matches_the_needing_pixels_over_the_whole_range():
     d[:, :100] = 5.0
     need = np.zeros((rows, cols), bool)
     need[40:70, 150:200] = True
-    out, searched = pyramid.fill_unsupported(d, left, right, valid, valid, need, 0.0, 100.0)
+    windows = pyramid.fill_windows(need, 0.0, 100.0)
+    out, searched = pyramid.fill_unsupported(d, left, right, valid, valid, need, windows)
     assert np.array_equal(out[:, :100], d[:, :100]) and np.isnan(out[:, 200:]).all()
     got = out[need]
     assert np.isfinite(got).mean() > 0.9 and np.nanmax(np.abs(got - shift)) < 1.0
     assert searched > 0 and searched % 112 == 0  # window pixels x the range's 112 disparities
-    assert pyramid.fill_cost(need, 0.0, 100.0) == searched  # the estimate the choice of the search reads
-    assert pyramid.fill_cost(np.zeros_like(need), 0.0, 100.0) == 0
+    assert pyramid.fill_cost(windows) == searched  # the estimate the choice of the search reads
+    assert pyramid.fill_windows(np.zeros_like(need), 0.0, 100.0) == []
+    # the windows derived once for more pixels than end up needing a fill: those without any are not matched
+    same, none = pyramid.fill_unsupported(d, left, right, valid, valid, np.zeros_like(need), windows)
+    assert none == 0 and np.array_equal(same, d, equal_nan=True)
+
+
+def test_fill_windows_join_a_band_down_the_border_into_one_window():
+    """Needing pixels in a band 30 columns wide down 384 rows (an image's border): the blocks' runs are joined
+    into one window whose core holds every needing pixel, costing less than a window per block; two bands far
+    apart stay two windows (a window over both would search the columns between)."""
+    rows, cols = 384, 900
+    need = np.zeros((rows, cols), bool)
+    need[:, 100:130] = True
+    windows = pyramid.fill_windows(need, 0.0, 100.0)
+    assert len(windows) == 1
+    covered = np.zeros_like(need)
+    for r, c in windows[0].cores:
+        covered[r, c] = True
+    assert np.array_equal(covered & need, need)
+    per_block = pyramid.FillWindow([], (0, pyramid.FILL_ROWS, 100, 130), 0.0, 100.0, need.shape)
+    assert pyramid.fill_cost(windows) < (rows // pyramid.FILL_ROWS) * per_block.cost
+    need[:, 700:730] = True
+    assert len(pyramid.fill_windows(need, 0.0, 100.0)) == 2
 
 
 def _run(sc, out, report):
@@ -131,15 +154,19 @@ def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, m
 
 
 def test_a_strip_where_coarse_to_fine_would_not_pay_is_searched_whole(tmp_path, monkeypatch):
-    """With the gate shut (``GAIN = 0``: no search is small enough) every strip goes through the coarse step and
-    is then matched over its whole range: the DSM is the switched-off one byte for byte, and the report counts
-    the coarse search on top of the whole range's."""
+    """With the gate shut (``GAIN = 0``: no search is small enough) every strip goes through the coarse step (the
+    left image's copy only: its band alone fails the gate) and is then matched over its whole range: the DSM is the
+    switched-off one byte for byte, and the report counts the coarse search on top of the whole range's."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(pyramid, "MIN_RANGE", 0)
     monkeypatch.setattr(pyramid, "MIN_COARSE", 0)
     monkeypatch.setattr(pyramid, "GAIN", 0.0)
     monkeypatch.setattr(frames, "COARSE_TO_FINE", True)
+    sides, coarse = [], pyramid.coarse_disparity
+    monkeypatch.setattr(pyramid, "coarse_disparity", lambda *a, **k: sides.append(  # main's: right_too=True
+        "both" if k.get("right_too") else k.get("side", "left")) or coarse(*a, **k))
     rep, _ = _run(sc, tmp_path / "gated.tif", tmp_path / "gated.json")
+    assert sides and set(sides) == {"left"}  # the band alone fails the gate: the right copy is never matched
     monkeypatch.setattr(frames, "COARSE_TO_FINE", False)
     rep_w, _ = _run(sc, tmp_path / "whole.tif", tmp_path / "whole.json")
     pair, pair_w = (next(p for p in r["pairs"] if p["kept"]) for r in (rep, rep_w))

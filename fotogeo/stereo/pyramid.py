@@ -30,7 +30,9 @@ Within the band both directions of that left–right check are held to the band,
 pixel that meets it back. The coarse matching over the whole range is the independent witness
 (:func:`witnessed`): the right image's coarse disparities (the same matching, images mirrored) must put the right
 pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``. The pixels the coarse matching does not support near
-the images' borders (:func:`unsupported`) are matched over the whole range (:func:`fill_unsupported`).
+the images' borders (:func:`unsupported`) are matched over the range of the coarse disparities around them
+(:func:`fill_unsupported`), in windows derived once (:func:`fill_windows`: what the choice of the search reads is
+what is matched) and joined down a border where that costs less.
 """
 from __future__ import annotations
 
@@ -84,11 +86,12 @@ def shrink(img, factor: int) -> np.ndarray:
 
 
 def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int | None = None,
-                     penalty: float | None = None, right_too: bool = False):
+                     penalty: float | None = None, side: str = "left"):
     """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` (default ``FACTOR``) times
     within ``[lo, hi]`` full pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the
-    sub-pixel cancellation. ``right_too``: ``(left's, right's)``, the right image's the same matching with the
-    images' roles and rows mirrored (a right pixel ``x`` meets the left pixel ``x + d``)."""
+    sub-pixel cancellation; of the left image's pixels (``side="left"``), of the right image's (``"right"``: the
+    same matching with the images' roles and rows mirrored, a right pixel ``x`` meets the left pixel ``x + d``),
+    or ``(left's, right's)`` (``"both"``)."""
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
@@ -99,13 +102,15 @@ def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float,
     # with invalid columns there, every column of the copy is searched (partners in the padding are refused)
     dmin, n = disparity_range(lo, hi)
     a, b = max(dmin + n, 0) + 1, max(-dmin, 0) + 1
-    pad = lambda m: np.pad(m, ((0, 0), (a, b)))
-    dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, **kw)[:, a:a + L.shape[1]]
-    if not right_too:
-        return dl
-    pad = lambda m: np.pad(m, ((0, 0), (b, a)))
-    dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
-    return dl, np.ascontiguousarray(dr[:, b:b + R.shape[1]])
+    dl = dr = None
+    if side in ("left", "both"):
+        pad = lambda m: np.pad(m, ((0, 0), (a, b)))
+        dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, **kw)[:, a:a + L.shape[1]]
+    if side in ("right", "both"):
+        pad = lambda m: np.pad(m, ((0, 0), (b, a)))
+        dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
+        dr = np.ascontiguousarray(dr[:, b:b + R.shape[1]])
+    return {"left": dl, "right": dr, "both": (dl, dr)}[side]
 
 
 def _at(dc, x, factor: int) -> np.ndarray:
@@ -169,50 +174,96 @@ def _run_range(dc, rows: slice, run, lo: float, hi: float, factor: int) -> tuple
     return (a, b) if b > a else (lo, hi)
 
 
-def fill_windows(need, lo: float, hi: float, dc=None, factor: int | None = None):
-    """Yield the windows :func:`fill_unsupported` matches the ``need`` pixels in: ``(core, rows, cols, t, ra, rb,
-    n)`` — the core (slices) whose needing pixels a window fills, its rows and columns (slices of the left image),
-    the right window's shift ``t`` (it starts ``t`` columns left of the left one's), the range ``[ra, rb]`` and
-    the disparities ``n`` it searches (:func:`fill_unsupported`)."""
+class FillWindow:
+    """A window :func:`fill_unsupported` matches: ``cores`` (pairs of slices) whose needing pixels it fills,
+    within ``span`` ``(r0, r1, c0, c1)`` (the rows and columns the cores cover); the range ``[ra, rb]`` it
+    searches. Its rows and columns (slices of the left image: ``FILL_CONTEXT`` more rows and columns around the
+    cores, and the range's width more columns on either side, so that the right pixels the left–right check reads
+    keep every left pixel they may meet), the right window's shift ``t`` (it starts ``t`` columns left of the left
+    one's), the disparities ``n`` and ``cost`` (window pixels x ``n``) follow from those and the image's
+    ``shape``."""
+
+    def __init__(self, cores: list, span: tuple, ra: float, rb: float, shape: tuple):
+        self.cores, self.span, self.ra, self.rb, self.shape = cores, span, ra, rb, shape
+        (r0, r1, c0, c1), (rows, cols), ctx = span, shape, FILL_CONTEXT
+        self.t = int(np.floor(ra))
+        dmin, self.n = disparity_range(ra - self.t, rb - self.t)
+        self.rows = slice(max(0, r0 - ctx), min(rows, r1 + ctx))
+        self.cols = slice(max(0, c0 - (dmin + self.n) - ctx), min(cols, c1 + ctx + dmin + self.n))
+        self.cost = (self.rows.stop - self.rows.start) * (self.cols.stop - self.cols.start) * self.n
+
+    def merged(self, other) -> "FillWindow":
+        """One window holding both windows' cores, over their spans' and ranges' union."""
+        a, b = self.span, other.span
+        span = (min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3]))
+        return FillWindow(self.cores + other.cores, span, min(self.ra, other.ra), max(self.rb, other.rb), self.shape)
+
+
+def _join(above: list, w: FillWindow) -> FillWindow:
+    """``w`` joined with the window of ``above`` (the block above's) whose columns it meets within
+    ``2 FILL_CONTEXT`` and whose joining saves the most disparities (that one taken out of ``above``: None in
+    its place); ``w`` itself when none saves any."""
+    best, gain = None, 0
+    for k, u in enumerate(above):
+        if u is None or u.span[2] - 2 * FILL_CONTEXT > w.span[3] or w.span[2] > u.span[3] + 2 * FILL_CONTEXT:
+            continue
+        m = u.merged(w)
+        if u.cost + w.cost - m.cost > gain:
+            best, gain = (k, m), u.cost + w.cost - m.cost
+    if best is None:
+        return w
+    above[best[0]] = None
+    return best[1]
+
+
+def fill_windows(need, lo: float, hi: float, dc=None, factor: int | None = None) -> list:
+    """The :class:`FillWindow` s :func:`fill_unsupported` matches the ``need`` pixels in: per block of
+    ``FILL_ROWS`` rows, each run of needing columns (gaps under ``2 FILL_CONTEXT`` joined) over the range the
+    coarse disparities ``dc`` near it span (:func:`_run_range`; ``[lo, hi]`` without ``dc`` or any near). A run
+    joins the window of the blocks above whose columns it meets when the joined window costs less than the two
+    (a band of needing pixels down an image's border is then one window, its rows' context paid once)."""
     factor = factor or FACTOR
-    rows, cols = need.shape
-    ctx = FILL_CONTEXT
-    for r0 in range(0, rows, FILL_ROWS):
-        r1 = min(rows, r0 + FILL_ROWS)
+    shape, ctx = need.shape, FILL_CONTEXT
+    done, above = [], []
+    for r0 in range(0, shape[0], FILL_ROWS):
+        r1 = min(shape[0], r0 + FILL_ROWS)
         cs = np.flatnonzero(need[r0:r1].any(axis=0))
+        here = []
         for run in np.split(cs, np.flatnonzero(np.diff(cs) > 2 * ctx) + 1) if len(cs) else []:
-            a, b = max(0, r0 - ctx), min(rows, r1 + ctx)
             ra, rb = (lo, hi) if dc is None else _run_range(dc, slice(r0, r1), run, lo, hi, factor)
-            t = int(np.floor(ra))
-            dmin, n = disparity_range(ra - t, rb - t)
-            c0, c1 = max(0, run[0] - (dmin + n) - ctx), min(cols, run[-1] + 1 + ctx + dmin + n)
-            yield (slice(r0, r1), slice(run[0], run[-1] + 1)), slice(a, b), slice(c0, c1), t, ra, rb, n
+            w = FillWindow([(slice(r0, r1), slice(run[0], run[-1] + 1))], (r0, r1, run[0], run[-1] + 1), ra, rb,
+                           shape)
+            here.append(_join(above, w))
+        done += [u for u in above if u is not None]
+        above = here
+    return done + above
 
 
-def fill_cost(need, lo: float, hi: float, dc=None, factor: int | None = None) -> int:
-    """The disparities :func:`fill_unsupported` would search (window pixels x their ranges), summed."""
-    return sum((w[1].stop - w[1].start) * (w[2].stop - w[2].start) * w[6]
-               for w in fill_windows(need, lo, hi, dc, factor))
+def fill_cost(windows) -> int:
+    """The disparities :func:`fill_unsupported` would search in ``windows`` (:func:`fill_windows`) if each had a
+    pixel to fill: window pixels x their ranges, summed (what the choice of the search reads: an upper bound)."""
+    return sum(w.cost for w in windows)
 
 
-def fill_unsupported(d, left, right, valid_left, valid_right, need, lo: float, hi: float,
-                     penalty: float | None = None, dc=None, factor: int | None = None) -> tuple:
+def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, penalty: float | None = None) -> tuple:
     """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
-    :func:`~fotogeo.stereo.dense.disparity` in blocks of ``FILL_ROWS`` rows, each block's runs of needing columns
-    (gaps under ``2 FILL_CONTEXT`` joined) over the range the coarse disparities ``dc`` near the run span
-    (:func:`_run_range`; ``[lo, hi]`` without ``dc`` or any near), on a window with ``FILL_CONTEXT`` more rows and
-    columns around and the range's width more columns on either side (the right pixels the left–right check
-    reads keep every left pixel they may meet), the right window shifted by the range's low end
-    (:func:`fill_windows`); the others untouched."""
+    :func:`~fotogeo.stereo.dense.disparity` in the ``windows`` (:func:`fill_windows` of these or more pixels,
+    derived once: a window whose cores hold no needing pixel is skipped), the right window shifted by its range's
+    low end; the others untouched."""
     searched, d = 0, d.copy()
-    for core, rs, cs, t, ra, rb, n in fill_windows(need, lo, hi, dc, factor):
+    for w in windows:
+        if not any(need[core].any() for core in w.cores):
+            continue
+        rs, cs, t = w.rows, w.cols, w.t
         L, R = left[rs, cs], _columns(right[rs], cs.start - t, cs.stop - t)
-        dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), ra - t,
-                       rb - t, penalty=penalty) + t
-        searched += dd.size * n
-        got = dd[core[0].start - rs.start:core[0].stop - rs.start, core[1].start - cs.start:core[1].stop - cs.start]
-        take = need[core] & np.isfinite(got)
-        d[core][take] = got[take]
+        dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), w.ra - t,
+                       w.rb - t, penalty=penalty) + t
+        searched += dd.size * w.n
+        for core in w.cores:
+            got = dd[core[0].start - rs.start:core[0].stop - rs.start,
+                     core[1].start - cs.start:core[1].stop - cs.start]
+            take = need[core] & np.isfinite(got)
+            d[core][take] = got[take]
     return d, searched
 
 

@@ -240,34 +240,50 @@ def _warped_maps(maps, D0) -> tuple:
                  for m in maps)
 
 
+def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty) -> tuple:
+    """``(result or None, coarse disparities searched per pixel)``: the strip's windows matched coarse to fine
+    (:func:`_match`'s result) if that pays, None if not. The left image's coarse copy is matched first: when its
+    band alone (with both coarse copies' search) would already exceed ``pyramid.GAIN`` of the whole range's
+    disparities, the right image's copy is not matched; else the pixels the copies do not support and their fill
+    windows (:func:`fotogeo.stereo.pyramid.fill_windows`, derived once and matched as derived) complete the cost."""
+    whole, per = disparity_range(sa, sb)[1], disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
+    dc = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
+    gd = pyr.guide(dc, g1.shape, v1m)
+    # a band wider than the margin: its last columns go unmatched
+    if gd is None or gd[1] >= MARGIN or disparity_range(-gd[1], gd[1])[1] + 2 * per > pyr.GAIN * whole:
+        return None, per
+    (D0, R), band = gd, disparity_range(-gd[1], gd[1])[1]
+    dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, side="right")
+    wm = _warped_maps(maps2, D0)
+    unsup = v1m & pyr.unsupported(dc, dcr, D0, v1m, v2m) & (wm[0] >= 0) & (wm[1] >= 0) & \
+        (wm[0] <= sources[1].width - 1) & (wm[1] <= sources[1].height - 1)  # its partner in the image
+    windows = pyr.fill_windows(unsup, sa, sb, dc)
+    if band + 2 * per + pyr.fill_cost(windows) / g1.size > pyr.GAIN * whole:
+        return None, 2 * per
+    g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
+    dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
+    with np.errstate(invalid="ignore"):
+        dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
+    d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
+    with np.errstate(invalid="ignore"):
+        d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
+    need = v1m & v2w & np.isnan(d) & unsup
+    d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, windows, penalty)
+    return (d, v2w, band + 2 * per + extra / g1.size, True), 2 * per
+
+
 def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, pyramid: bool) -> tuple:
     """``(d, partner valid, disparities searched per pixel, coarse)`` of a strip's windows (window columns, the
     right window's as read): with ``pyramid`` and a range of ``pyramid.MIN_RANGE`` px or more, coarse to fine
-    (:mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled by the coarse offset,
-    one interpolation of the source as before) where that searches at most ``pyramid.GAIN`` of the whole range's
-    disparities (the band, the coarse copies and the fill of the pixels they do not support), else the whole range."""
+    (:func:`_coarse_to_fine`, :mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled
+    by the coarse offset, one interpolation of the source as before) where that searches at most ``pyramid.GAIN``
+    of the whole range's disparities (the band, the coarse copies and the fill of the pixels they do not support),
+    else the whole range (plus the coarse search already made)."""
     coarse = 0.0  # disparities per pixel the coarse copies searched
     if pyramid and sb - sa >= pyr.MIN_RANGE:
-        dc, dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, right_too=True)
-        gd = pyr.guide(dc, g1.shape, v1m)
-        coarse = 2 * disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2  # left and right
-        if gd is not None and gd[1] < MARGIN:  # a band wider than the margin: its last columns go unmatched
-            D0, R = gd
-            wm = _warped_maps(maps2, D0)
-            unsup = v1m & pyr.unsupported(dc, dcr, D0, v1m, v2m) & (wm[0] >= 0) & (wm[1] >= 0) & \
-                (wm[0] <= sources[1].width - 1) & (wm[1] <= sources[1].height - 1)  # its partner in the image
-            cost = disparity_range(-R, R)[1] + coarse + pyr.fill_cost(unsup, sa, sb, dc) / g1.size
-        if gd is not None and gd[1] < MARGIN and cost <= pyr.GAIN * disparity_range(sa, sb)[1]:
-            g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
-            dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
-            with np.errstate(invalid="ignore"):
-                dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
-            d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
-            with np.errstate(invalid="ignore"):
-                d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
-            need = v1m & v2w & np.isnan(d) & unsup
-            d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, sa, sb, penalty, dc)
-            return d, v2w, disparity_range(-R, R)[1] + coarse + extra / g1.size, True
+        got, coarse = _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty)
+        if got is not None:
+            return got
     wc = g1.shape[1]
     d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
     shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
