@@ -259,3 +259,20 @@ def test_small_base_and_textureless_pairs_are_named(tmp_path):
         blank.append(q)
     with pytest.raises(InputError, match=r"no height was matched in any pair \(s1_01-s1_02\).*textureless"):
         dsm(blank, tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], dem=dem)
+
+
+def test_images_without_any_orientation_are_told_what_is_missing(tmp_path):
+    """Two images and no --eo / --orientation / --rpc / --crs: the orientation is what is missing (a user with an RPC
+    pair who forgot --rpc was told "no map CRS: give --crs", which does not help)."""
+    from click.testing import CliRunner
+
+    import rasterio
+    from fotogeo.cli import main
+    paths = [tmp_path / f"{n}.tif" for n in ("left", "right")]
+    for p in paths:
+        with rasterio.open(p, "w", driver="GTiff", width=32, height=32, count=1, dtype="uint8") as ds:
+            ds.write(np.zeros((1, 32, 32), np.uint8))
+    r = CliRunner().invoke(main, ["dsm", *map(str, paths), "-o", str(tmp_path / "d.tif")])
+    last = r.output.strip().splitlines()[-1]
+    assert r.exit_code == 1 and last.startswith("Error: no orientation for the image(s) left, right"), r.output
+    assert "--rpc" in last and "--eo" in last and not (tmp_path / "d.tif").exists()

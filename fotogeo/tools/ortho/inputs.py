@@ -108,9 +108,14 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
                              "not both")
         return [_rpc_image(p, n, crs) for p, n in zip(images, names)]
     if eo is None:
-        raise InputError(f"no orientation for the image(s) {', '.join(names[:10])}: give the exterior orientation "
-                         f"(--eo, with --camera) of frame cameras, or --rpc for images carrying an RPC")
+        _no_orientation(names)
     return _frame_images(images, names, camera, eo, crs, sfm_frame, said)
+
+
+def _no_orientation(names) -> None:
+    """Refuse images given without any orientation (no ``--eo``, ``--rpc`` or ``--model``)."""
+    raise InputError(f"no orientation for the image(s) {', '.join(names[:10])}: give the exterior orientation "
+                     f"(--eo, with --camera) of frame cameras, or --rpc for images carrying an RPC")
 
 
 def _rpc_image(path, name, crs) -> OrthoImage:
@@ -212,6 +217,8 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         from ...io.rpc_image import image_rpc
         r = image_rpc(images[0]).rpc
         return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
+    if eo is None and not rpc and images:  # what is missing is the orientation, not the CRS
+        _no_orientation([frame_key(p) for p in images])
     raise InputError("no map CRS: give --crs (a projected CRS) or a DEM in a projected CRS")
 
 
