@@ -117,3 +117,24 @@ def test_a_frame_the_reference_cannot_place_keeps_its_gps_level_start():
     assert reg.names == names and not reg.dropped  # nothing refused for b
     assert "for 1 of 2" in start.source and "not registered, level start with κ from the images: b" in start.source
     assert [r["status"] for r in start.registration] == ["start", "gps"]
+
+
+def test_the_images_kappa_moves_only_the_frames_whose_attitude_is_unknown():
+    """One frame left level (unregistered) must not turn the registered ones: κ measured on the pairs assumes a
+    level camera. On main every frame's κ was replaced when any was level — on the 12-frame block of seed 0
+    DJI_103's and DJI_303's registered κ by 113° and 106°, and the bundle dropped both; here frame 0 (30° off
+    nadir, registered) took −99.4° for its −90°."""
+    from fotogeo.geometry.camera import FrameCamera, OrientedFrame
+    from fotogeo.tools.triangulate.start import start_from_pairs
+    cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (320.0, 240.0))
+    registered = ExteriorOrientation(0.0, 0.0, 80.0, 0.0, -30.0, -90.0)  # looking west
+    level_truth = ExteriorOrientation(-20.0, 5.0, 80.0, 0.0, 0.0, 60.0)  # nadir, started at κ 0
+    rng = np.random.default_rng(0)
+    xyz = np.column_stack([rng.uniform(-60, 20, 400), rng.uniform(-30, 40, 400), np.zeros(400)])
+    p0, p1 = (OrientedFrame(cam, e).world_to_pixel(xyz) for e in (registered, level_truth))
+    seen = np.all((p0 >= 0) & (p0 < [640, 480]) & (p1 >= 0) & (p1 < [640, 480]), axis=1)
+    start = (registered, ExteriorOrientation(-20.0, 5.0, 80.0, 0.0, 0.0, 0.0))
+    eos, _, report = start_from_pairs(start, cam, [(0, 1, p0[seen], p1[seen])], estimate_kappa=[False, True],
+                                      estimate_height=False)
+    assert eos[0] == registered and report["kappa_from_images_deg"][0] is None
+    assert abs(eos[1].kappa - 60.0) < 15.0  # measured 50.4° (the level assumption, frame 0 tilted)
