@@ -13,8 +13,16 @@ Gimbal tags that are wrong are contradicted by the registration and replaced: on
 (DJI_205's and DJI_405's tags 21.2° and 18.4° from the truth) the run ended with every frame within 0.030° and
 0.069 m, where it refused those two frames before (their adjusted attitude 18–21° from the prior). The test runs
 the smaller block of seed 3 (4 strips × 3 frames, half the run time): DJI_303's tag is 21.3° from the truth, every
-other tag within 12°; measured: DJI_303 replaced, every frame within 0.022° and 0.063 m. (The 12-frame block of
-seed 0 without attitude does not do for the first test: it dropped two frames and left one unregistered.)
+other tag within 12°; measured: DJI_303 replaced, every frame within 0.022° and 0.063 m.
+
+The 12-frame block of seed 0 without attitude (issue 32) dropped DJI_103 and DJI_303 and left DJI_202
+unregistered: DJI_202's resection started from a DLT 119 px off on the nearly flat ground and diverged
+(:mod:`fotogeo.models.collinearity` now starts from the better of the DLT and SQPnP), and its level start then
+had κ measured on the pairs replace the registered κ of every frame (DJI_103's by 113°, DJI_303's by 106°;
+:func:`~fotogeo.tools.triangulate.start.start_from_pairs` now moves only the frames whose attitude is unknown).
+Measured with both fixes: 12 of 12 registered, every frame within 0.040° and 0.069 m; with the κ fix alone
+(DJI_202 level-started): within 0.029° and 0.051 m. Each cause is checked alone, fast: by the last test here
+and by ``test_collinearity_resection_of_an_oblique_frame_over_nearly_flat_ground`` (tests/test_models_spatial.py).
 """
 from __future__ import annotations
 
@@ -117,3 +125,24 @@ def test_a_frame_the_reference_cannot_place_keeps_its_gps_level_start():
     assert reg.names == names and not reg.dropped  # nothing refused for b
     assert "for 1 of 2" in start.source and "not registered, level start with κ from the images: b" in start.source
     assert [r["status"] for r in start.registration] == ["start", "gps"]
+
+
+def test_the_images_kappa_moves_only_the_frames_whose_attitude_is_unknown():
+    """One frame left level (unregistered) must not turn the registered ones: κ measured on the pairs assumes a
+    level camera. On main every frame's κ was replaced when any was level — on the 12-frame block of seed 0
+    DJI_103's and DJI_303's registered κ by 113° and 106°, and the bundle dropped both; here frame 0 (30° off
+    nadir, registered) took −99.4° for its −90°."""
+    from fotogeo.geometry.camera import FrameCamera, OrientedFrame
+    from fotogeo.tools.triangulate.start import start_from_pairs
+    cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (320.0, 240.0))
+    registered = ExteriorOrientation(0.0, 0.0, 80.0, 0.0, -30.0, -90.0)  # looking west
+    level_truth = ExteriorOrientation(-20.0, 5.0, 80.0, 0.0, 0.0, 60.0)  # nadir, started at κ 0
+    rng = np.random.default_rng(0)
+    xyz = np.column_stack([rng.uniform(-60, 20, 400), rng.uniform(-30, 40, 400), np.zeros(400)])
+    p0, p1 = (OrientedFrame(cam, e).world_to_pixel(xyz) for e in (registered, level_truth))
+    seen = np.all((p0 >= 0) & (p0 < [640, 480]) & (p1 >= 0) & (p1 < [640, 480]), axis=1)
+    start = (registered, ExteriorOrientation(-20.0, 5.0, 80.0, 0.0, 0.0, 0.0))
+    eos, _, report = start_from_pairs(start, cam, [(0, 1, p0[seen], p1[seen])], estimate_kappa=[False, True],
+                                      estimate_height=False)
+    assert eos[0] == registered and report["kappa_from_images_deg"][0] is None
+    assert abs(eos[1].kappa - 60.0) < 15.0  # measured 50.4° (the level assumption, frame 0 tilted)

@@ -80,7 +80,8 @@ class BlockStart:
 
         def measure(eos, inliers):
             eos = tuple(eos)
-            return start_from_pairs(eos, self.camera, inliers, estimate_kappa=unknown_kappa,
+            return start_from_pairs(eos, self.camera, inliers, estimate_kappa=[bool(self.level.get(n))
+                                                                                 for n in self.names],
                                     estimate_height=height is None)
         measure.estimates_kappa = unknown_kappa  # no attitude yet: no matching on the ground plane
         return measure

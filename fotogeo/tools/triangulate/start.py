@@ -13,8 +13,11 @@ pyramid level, :mod:`fotogeo.tools.triangulate.match`):
   ``Rz(κ)``, the camera axes are ``x`` = right (+col), ``y`` = up (−row), so a map vector
   ``D`` appears in the image as ``(col, −row) = Rz(κ)ᵀ D``; written with complex numbers
   ``m̄ = D·e^{−iκ}`` (``m̄ = m_col + i·(−m_row)`` is the complex conjugate of ``m_col + i·m_row``),
-  hence ``κ = arg(D) − arg(m̄)``. Every frame takes the circular mean of its pairs' estimates
-  weighted by the baseline in pixels; with a known attitude (gimbal, INS) this only checks it.
+  hence ``κ = arg(D) − arg(m̄)``. Every frame whose attitude is unknown takes the circular mean of its
+  pairs' estimates weighted by the baseline in pixels; a frame with a known attitude (gimbal, INS, its
+  registration to a reference) keeps its κ — the level camera's κ is not a tilted camera's: on a rendered
+  oblique block (30° off nadir) where one frame of twelve was level, overwriting the others' registered κ
+  with it turned them by up to 113° and two of them were dropped by the bundle.
 * **the terrain height**, when neither a DEM nor control gives it: the same similarity gives the
   image scale — the camera moved ``|D|`` metres and ``|m|`` pixels, so the ground sample
   distance is ``|D| / |m|`` and the camera was ``f·|D| / |m|`` above the ground
@@ -59,10 +62,11 @@ def kappa_from_motion(m: np.ndarray, D: np.ndarray) -> float:
     return math.degrees(math.atan2(D[1], D[0]) - math.atan2(m_bar.imag, m_bar.real))
 
 
-def start_from_pairs(eos, camera, pair_points, *, estimate_kappa: bool, estimate_height: bool):
+def start_from_pairs(eos, camera, pair_points, *, estimate_kappa, estimate_height: bool):
     """``(eos, height or None, report)``: κ and the terrain height measured on the matched pairs.
 
-    ``pair_points`` is ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels, epipolar inliers).
+    ``pair_points`` is ``[(i, j, xy_i, xy_j), ...]`` (full-resolution pixels, epipolar inliers);
+    ``estimate_kappa``: one bool per frame (True: its attitude is unknown, κ is measured), or one for all.
     """
     m_frames = len(eos)
     votes = [[] for _ in range(m_frames)]
@@ -80,10 +84,11 @@ def start_from_pairs(eos, camera, pair_points, *, estimate_kappa: bool, estimate
         heights.append(0.5 * (eos[i].Z + eos[j].Z) - f_px * float(np.hypot(*D[:2])) / w)
     report = {}
     out = list(eos)
-    if estimate_kappa:
+    unknown = np.broadcast_to(np.asarray(estimate_kappa, dtype=bool), (m_frames,))
+    if unknown.any():
         kappas = []
         for j, v in enumerate(votes):
-            if v:
+            if v and unknown[j]:
                 ang = np.radians([a for a, _ in v])
                 w = np.array([b for _, b in v])
                 k = math.degrees(math.atan2(np.sum(w * np.sin(ang)), np.sum(w * np.cos(ang))))
