@@ -120,8 +120,8 @@ def frames_text(bad: dict, reasons: int = 3) -> str:
 
 def _undetermined_message(text: str, why_not_dropped: str | None) -> str:
     """The refusal of undetermined frames; when dropping them was refused, why (:func:`why_not_dropped`)."""
-    fix = ("add tie points or GCPs there, give or check their attitude and position (--eo, gimbal and GPS tags, "
-           "--eo-sigma-angle, --eo-sigma-position)")
+    fix = ("add tie points or GCPs there, give or check their attitude and position (--eo, --geoinfo, gimbal and GPS "
+           "tags, --eo-sigma-angle, --eo-sigma-position)")
     if why_not_dropped:
         return (f"the block does not determine frame(s) {text} — their orientation cannot be trusted, and "
                 f"{why_not_dropped}; {fix}")
