@@ -1,6 +1,6 @@
 """Surface models (``fotogeo dsm``) against truths and a peer.
 
-Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,refine,ngi,ventoux] [--cars]
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,refine,ngi,ventoux,rendered_rpc] [--cars]
 
 * ``rendered`` — the three rendered blocks of ``tests/dsm_scenes.py`` (``nadir``: 2 x 4 frames 1000 m above
   ±40 m; ``oblique``: the DJI-like block, 30° off nadir, Brown distortion; ``held_out``: 3 x 3 frames with
@@ -17,6 +17,14 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,re
   With ``--cars``, CARS on the same pair through ``benchmarks/peers_cars.py`` (its own venv; skipped with the
   reason when it is not installed): its completeness, CPU, wall and memory, and the height differences
   (median, NMAD) where both DSMs have a value.
+* ``rendered_rpc`` — the rendered satellite pairs of ``tests/rendered_rpc_pair.py`` (pushbroom views from 700 km,
+  0.7 m GSD, uint16 12-bit, RPCs fitted to the exact geometry, hills, roughness and buildings; never used while
+  tuning): ``fotogeo dsm A B --rpc -o DSM.tif --report r.json --resolution 0.5`` run as a user runs it (a child
+  process under ``/usr/bin/time -v``: its user + system CPU and peak memory) on 1024² pairs with B/H 0.4 and 0.15,
+  each also with a 3 px relative pointing error in the second RPC, the RPCs in DIMAP XML and ``.RPB`` files
+  beside the images, and a 2048² pair: RMSE, NMAD, median of DSM − truth (with the pointing error: the median
+  the error must give, and the NMAD again after the horizontal shift it gives), the share within 1 m, the share
+  of the cells both images see that have a height.
 
 Without ``--cars``, CARS's runs recorded on this machine by ``benchmarks/peers_cars.py``
 (``results/peers_cars.json``, margins ±100 m) are read and fotogeo's DSMs compared with their DSMs.
@@ -42,7 +50,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
-PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux"}
+PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux",
+          "rendered_rpc": "rendered_rpc"}
+#: rendered_rpc cases: name -> (image size, base-to-height ratio, pointing error (col, row) px, RPC format)
+RPC_CASES = {"B/H 0.4": (1024, 0.4, (0, 0), "gdal"), "B/H 0.4, 3 px pointing": (1024, 0.4, (1.8, 2.4), "gdal"),
+             "B/H 0.15": (1024, 0.15, (0, 0), "gdal"), "B/H 0.15, 3 px pointing": (1024, 0.15, (1.8, 2.4), "gdal"),
+             "B/H 0.4, DIMAP XML": (1024, 0.4, (0, 0), "dimap"), "B/H 0.4, .RPB": (1024, 0.4, (0, 0), "rpb"),
+             "B/H 0.4, 2048²": (2048, 0.4, (0, 0), "gdal")}
 NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
 
 
@@ -74,6 +88,49 @@ def rendered(tmp: Path, refine: bool = False) -> list:
                      "median_m": c["median"], "within_1gsd": float((c["abs"] <= g).mean()),
                      "within_2gsd": float((c["abs"] <= 2 * g).mean()), "completeness": rep["completeness"],
                      "cpu_s": cpu, "wall_s": wall})
+    return rows
+
+
+def _time_v(cmd: list) -> dict:
+    """Run ``cmd`` under ``/usr/bin/time -v`` (its own small process: the child's peak is not the parent's):
+    user + system CPU (s), peak resident memory (MiB), wall (s)."""
+    import re
+    import subprocess
+    w = time.perf_counter()
+    r = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    if r.returncode:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr[-3000:]}")
+    num = {k: float(re.search(rf"{k}.*: ([\d.]+)", r.stderr).group(1))
+           for k in ("User time", "System time", "Maximum resident set size")}
+    return {"cpu_s": num["User time"] + num["System time"], "peak_rss_mib": num["Maximum resident set size"] / 1024,
+            "wall_s": time.perf_counter() - w}
+
+
+def rendered_rpc(tmp: Path) -> list:
+    from rendered_rpc_pair import compare, pointing_height_bias, render_rpc_pair, with_pointing
+    rows, scenes = [], {}
+    for name, (size, bh, pointing, fmt) in RPC_CASES.items():
+        folder = tmp / name.replace("/", "").replace(" ", "_").replace(",", "")
+        if fmt == "gdal" and (size, bh) in scenes:  # the same images, the second RPC off by ``pointing``
+            sc = with_pointing(scenes[size, bh], folder / "in", pointing)
+        else:
+            sc = render_rpc_pair(folder / "in", size, base_height=bh, pointing=pointing, rpc_format=fmt)
+            scenes.setdefault((size, bh), sc) if fmt == "gdal" else None
+        out, rep = folder / "DSM.tif", folder / "r.json"
+        cmd = [sys.executable, "-m", "fotogeo", "dsm", *sc["images"], "--rpc", "-o", str(out), "--report", str(rep),
+               "--resolution", "0.5", "-q"]
+        t = _time_v(cmd)
+        r, bias = json.loads(rep.read_text()), pointing_height_bias(sc)
+        c = compare(out, sc, bias, shift=any(pointing))
+        raw = compare(out, sc, bias) if any(pointing) else c
+        p = r["pairs"][0]
+        rows.append({"case": f"rendered_rpc {size}², {name}", "command": "fotogeo " + " ".join(cmd[3:]),
+                     "rpc_check_px": sc["rpc_check_px"], "rmse_m": raw["rmse_m"], "nmad_m": raw["nmad_m"],
+                     "median_m": c["median_m"], "expected_median_m": bias, "shift_m": c.get("shift_m"),
+                     "nmad_after_shift_m": c["nmad_m"] if any(pointing) else None, "within_1m": c["within_1m"],
+                     "completeness": c["completeness"], "report_completeness": r["completeness"],
+                     "pointing_px": p.get("relative_pointing_px"), "base_to_height": p.get("base_to_height"), **t})
     return rows
 
 
@@ -188,13 +245,14 @@ def main():
     with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
         tmp = Path(t)
         for case in args.cases.split(","):
-            if case not in ("rendered", "refine") and not DATA.is_dir():
+            if case not in ("rendered", "refine", "rendered_rpc") and not DATA.is_dir():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
             rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
-                     "ventoux": lambda: ventoux(tmp / case, args.cars)}[case]()
+                     "ventoux": lambda: ventoux(tmp / case, args.cars),
+                     "rendered_rpc": lambda: rendered_rpc(tmp / case)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     out = ROOT / "benchmarks" / "results" / "dsm_bench.json"
@@ -202,7 +260,7 @@ def main():
     ran = {PREFIX[c] for c in args.cases.split(",")}
     runs = [r for r in runs if r["case_group"] not in ran]  # the cases run now replace their earlier rows
     runs += [{"case_group": PREFIX[c], "command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()],
-              "rows": [r for r in rows if r["case"].startswith(PREFIX[c])]} for c in args.cases.split(",")]
+              "rows": [r for r in rows if r["case"].startswith(PREFIX[c] + " ")]} for c in args.cases.split(",")]
     out.write_text(json.dumps({"runs": runs}, indent=1, default=str) + "\n")
     print(f"-> {out}")
 
