@@ -123,8 +123,10 @@ def pointing(m1, m2, sources, zlo, zhi) -> dict:
     before = ae.curve_offsets(p2, q_lo, q_hi)[0]
     along = ae.curve_offsets(p2 - tau, q_lo, q_hi)[2]
     z = zlo + along * (zhi - zlo)
+    m_per_px = (zhi - zlo) / np.hypot(*(q_hi - q_lo)[inl].T)  # the height of one pixel along the epipolar curve
     return {"tau": tau, "n": int(inl.sum()), "before_px": float(np.median(np.abs(before[inl]))),
-            "after_px": float(np.median(np.abs(res[inl]))), "z": z[inl], "p1": p1[inl]}
+            "after_px": float(np.median(np.abs(res[inl]))), "z": z[inl], "p1": p1[inl],
+            "m_per_px": float(np.median(m_per_px))}
 
 
 def triangulate(m1, m2, tau, p1, p2, zlo, zhi) -> tuple:
@@ -310,7 +312,8 @@ def pointing_warning(name, pt: dict, have_dem: bool) -> str:
            "give a reference DEM (--dem) or correct the RPCs with GCPs (fotogeo rpc-bias)")
     return (f"pair {name}: the relative pointing error of the RPCs was large ({size:.1f} px across the epipolar "
             f"lines, corrected from {pt['n']} tie points); the same error along the lines cannot be seen in the "
-            f"images and shifts every height, so absolute heights need a reference DEM or GCPs: {fix}")
+            f"images and shifts every height by {pt['m_per_px']:.2g} m per pixel, so absolute heights need a "
+            f"reference DEM or GCPs: {fix}")
 
 
 def warn(text: str) -> None:

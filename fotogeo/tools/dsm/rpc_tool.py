@@ -71,7 +71,8 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
     pt = rp.pointing(a.model, b.model, (sources[p.i], sources[p.j]), zlo, zhi)
     name = f"{a.name}-{b.name}"
     entry = {"tie_points": pt["n"], "relative_pointing_px": [round(float(v), 3) for v in pt["tau"]],
-             "epipolar_residual_px": {"before": round(pt["before_px"], 3), "after": round(pt["after_px"], 3)}}
+             "epipolar_residual_px": {"before": round(pt["before_px"], 3), "after": round(pt["after_px"], 3)},
+             "height_per_px_along_epipolar_m": round(pt["m_per_px"], 3)}
     z0, z1 = np.percentile(pt["z"], [1, 99])
     if dem_source is None:
         span = z1 - z0
