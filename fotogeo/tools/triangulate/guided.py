@@ -26,9 +26,9 @@ then, per pair:
 **Frames whose attitude is unknown** (``known``: the level start of :mod:`fotogeo.tools.triangulate.start`, κ measured
 on the images after matching) have no orientation to resample with: a pair holding one is matched plainly only (its
 row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude (tags, registration,
-``--eo``) are guided as ever. On the rendered 12-frame oblique block of seed 0 without tags, where the registration
-gave 11 frames their attitude, switching the ground plane off for the whole block because of the twelfth cut the tie
-inliers from 11,418 to 4,503.
+``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
+rendered 12-frame oblique block of seed 0 without tags, its reference zeroed under one frame (4 frames left level),
+the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangulate.md, *Frames left level*).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
