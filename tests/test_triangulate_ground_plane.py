@@ -4,6 +4,7 @@ pixels. Fast: orientations only (the rendered sets are in test_triangulate_conve
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from fotogeo.geometry.attitude import patb_in_map, rotation_from_ypr
 from fotogeo.geometry.camera import ExteriorOrientation
@@ -69,3 +70,50 @@ def test_a_tile_is_a_window_of_the_block_grid_and_its_cells_go_back_to_the_frame
         inside = np.isfinite(exact).all(1) & (exact >= 0).all(1) & (exact < cam.image_size).all(1)
         err = np.hypot(*(ground._pixel_map(cam, DIST, eo, GROUND, window)[inside] - exact[inside]).T)
         assert inside.sum() > 0.2 * cols * rows and np.nanmax(err) < 0.15, np.nanmax(err)
+
+
+def _partly_level(names, eos, unknown):
+    """A start whose frames ``unknown`` start level (attitude unknown, κ from the images), the others registered."""
+    from fotogeo.tools.triangulate.sources import BlockStart
+    return BlockStart(camera((600, 400)), (0.0,) * 5, list(names), dict(zip(names, eos)), CRS, "", "the images' GPS",
+                      level={n: n in unknown for n in names})
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")  # frames carry no geotransform
+def test_a_level_frame_keeps_only_its_own_pairs_off_the_ground_plane(tmp_path, monkeypatch):
+    """Issue 32: a frame left level (unregistered, κ measured on the images) switched the ground plane off for the
+    whole block (on the rendered 12-frame oblique block of seed 0 with 4 frames left level: 4,503 tie inliers, 6,877
+    per pair). Now the decision is per pair: the start's own record of the level frames reaches the guided
+    matching, which skips (and says why) the pairs holding one, and measures its plane on the others only."""
+    import rasterio
+    from fotogeo.tools.triangulate import match
+    cam, eos = camera((600, 400)), _converging(30.0)
+    names = [f"f{k}" for k in range(len(eos))]
+    frames = []
+    for n in names:
+        frames.append(tmp_path / f"{n}.tif")
+        with rasterio.open(frames[-1], "w", driver="GTiff", width=600, height=400, count=1, dtype="uint8") as ds:
+            ds.write(np.zeros((1, 400, 600), np.uint8))
+    seen = {}
+
+    def no_matches(infos, pairs, *args, guide=None):
+        seen["pairs"], seen["guide"] = pairs, guide
+        return [None] * len(pairs), [], None
+    monkeypatch.setattr(match, "_pair_results", no_matches)
+    match.block_tie_points(frames, cam, eos, GROUND, start=_partly_level(names, eos, {"f1"}).measure(GROUND))
+    assert seen["guide"] is not None, "the ground plane was switched off for the whole block"  # so on int16
+    known = seen["guide"][2]
+    assert known == [True, False, True, True]
+
+    pairs, found = seen["pairs"], [None] * len(seen["pairs"])
+    fps = [ground.footprint(cam, eo, GROUND) for eo in eos]
+    todo, rows = guided.choose_pairs(pairs, found, eos, fps, known)
+    assert {pairs[k] for k in todo} == {p for p in pairs if 1 not in p} and len(todo) == 3
+    for k in set(rows) - set(todo):
+        assert pairs[k][0] == 1 or pairs[k][1] == 1
+        assert rows[k]["skipped"] == "attitude unknown (level start, κ from the images): frame 1"
+    # every candidate pair holds the level frame: nothing is resampled, the plain results stay, no plane measured
+    level_pairs = [p for p in pairs if 1 in p]
+    out, tried, z = guided.guided_results(None, level_pairs, [None] * len(level_pairs), cam, None, eos, GROUND, None,
+                                          1.0, None, 2 ** 16, known=known)
+    assert out == [None] * len(level_pairs) and z is None and all("attitude unknown" in r["skipped"] for r in tried)

@@ -23,6 +23,13 @@ then, per pair:
   two-view geometry on the frames' own pixels — a wrong approximate orientation makes fewer matches, never wrong
   ones. A pair keeps whichever of its plain and ground-plane results kept more inliers.
 
+**Frames whose attitude is unknown** (``known``: the level start of :mod:`fotogeo.tools.triangulate.start`, κ measured
+on the images after matching) have no orientation to resample with: a pair holding one is matched plainly only (its
+row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude (tags, registration,
+``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
+rendered 12-frame oblique block of seed 0 without tags, its reference zeroed under one frame (4 frames left level),
+the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangulate.md, *Frames left level*).
+
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
 midpoints of their rays' shortest segments through the approximate orientations, :func:`ray_heights`), else the
@@ -68,11 +75,13 @@ def tile_pixels(det, info) -> int:
     return int(min(max(TILE_FACTOR * min(det.max_match_pixels, frame), TILE_MIN), frame))
 
 
-def choose_pairs(pairs, found, eos, footprints) -> tuple:
+def choose_pairs(pairs, found, eos, footprints, known=None) -> tuple:
     """``(todo, rows)``: the indices of the pairs to match on the ground plane (module docstring), the largest
     ground overlap first; ``rows`` ``{k: report row}`` for every pair considered, tried or skipped, with
-    ``why`` (what made it a candidate), ``ground_overlap`` and, when skipped, ``skipped`` (why not)."""
+    ``why`` (what made it a candidate), ``ground_overlap`` and, when skipped, ``skipped`` (why not). ``known``: one
+    bool per frame, False where its attitude is unknown (a pair holding such a frame is skipped; None: all known)."""
     todo, rows = [], {}
+    known = _known(known, eos)
     for k, (i, j) in enumerate(pairs):
         plain = 0 if found[k] is None else len(found[k][1])
         angle = axes_angle(eos[i], eos[j])
@@ -86,11 +95,19 @@ def choose_pairs(pairs, found, eos, footprints) -> tuple:
         share = 0.0 if a is None or b is None else a.intersection(b).area / min(a.area, b.area)
         rows[k] = {"pair": [i, j], "why": why, "ground_overlap": round(float(share), 3), "matches": 0, "inliers": 0,
                    "used": False, "height_m": None}
-        if share < MIN_GROUND_OVERLAP:
+        if not (known[i] and known[j]):
+            rows[k]["skipped"] = "attitude unknown (level start, κ from the images): frame " + \
+                ", ".join(str(f) for f in (i, j) if not known[f])
+        elif share < MIN_GROUND_OVERLAP:
             rows[k]["skipped"] = f"footprints on the ground share {share:.0%} (< {MIN_GROUND_OVERLAP:.0%})"
         else:
             todo.append(k)
     return sorted(todo, key=lambda k: -rows[k]["ground_overlap"]), rows
+
+
+def _known(known, eos) -> list:
+    """One bool per frame of ``eos``: its attitude is known (``known`` None: every frame's)."""
+    return [True] * len(eos) if known is None else [bool(k) for k in known]
 
 
 def _on(features, fp, grid, grow: float):
@@ -134,11 +151,11 @@ def _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts, p
     return out
 
 
-def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, ideal, max_pixels, prog, near):
+def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, ideal, max_pixels, prog, near, known):
     """``(rows, results)`` of one pass on the plane ``height``: :func:`choose_pairs`' rows and ``{k: result}`` of
-    the pairs matched (:func:`ground_pair`, ``near``: the plane was measured)."""
+    the pairs matched (:func:`ground_pair`, ``near``: the plane was measured; ``known``: :func:`choose_pairs`)."""
     fps = [footprint(camera, eo, height) for eo in eos]
-    todo, rows = choose_pairs(pairs, found, eos, fps)
+    todo, rows = choose_pairs(pairs, found, eos, fps, known)
     frames = sorted({f for k in todo for f in pairs[k]})
     grid = block_grid(camera, [eos[f] for f in frames], [fps[f] for f in frames], height, max_pixels)
     feats = _frame_features(infos, frames, camera, dist, eos, height, grid, fps, opts,
@@ -156,29 +173,32 @@ def _on_plane(infos, pairs, found, camera, dist, eos, height, opts, threshold, i
 
 
 def guided_results(infos, pairs, found, camera, distortion, eos, height: float, opts, threshold: float, ideal,
-                   max_pixels: int, progress=None):
+                   max_pixels: int, progress=None, known=None):
     """``(found, guided, height)``: ``found`` (the plain pairs' ``(matches, xy_i, xy_j)`` or None, in pair
     order) with the result of the ground-plane matching in place of a pair's where it kept more inliers;
     ``guided`` one dict per pair considered (``{"pair", "why", "ground_overlap", "matches", "inliers", "used",
     "height_m"}``, ``"skipped"`` when not matched); ``height`` the plane's height measured on the ground-plane ties
     (None when none did: the block's height is then left as it was). Module docstring: which pairs, which plane,
-    the second pass."""
+    the second pass. ``known``: one bool per frame, False where its attitude is unknown (module docstring; None:
+    every frame's is known)."""
     prog = as_progress(progress)
-    found, dist = list(found), _distortion_terms(distortion)
-    plane = _plain_height(camera, eos, pairs, found)
+    found, dist, known = list(found), _distortion_terms(distortion), _known(known, eos)
+    sure = [k for k, (i, j) in enumerate(pairs) if known[i] and known[j]]  # the pairs whose rays measure a height
+    plane = _plain_height(camera, eos, [pairs[k] for k in sure], [found[k] for k in sure])
+    axes = axes_height([eo for eo, k in zip(eos, known) if k])
     tries = ([(plane, True)] if plane is not None else
-             [(z, False) for z in (axes_height(eos), height) if z is not None] or [(height, False)])
+             [(z, False) for z in (axes, height) if z is not None] or [(height, False)])
     for n, (plane, near) in enumerate(tries):  # an unmeasured plane: where the axes meet, else the caller's height
         rows, results = _on_plane(infos, pairs, found, camera, dist, eos, plane, opts, threshold, ideal, max_pixels,
                                   prog.stage(n / len(tries) / 2, (n + 1) / len(tries) / 2, "matching on the ground "
-                                             "plane"), near)
+                                             "plane"), near, known)
         z = _pairs_height(camera, eos, pairs, results)
         if z is not None:
             break
     above = float(np.median([e.Z for e in eos])) - plane
     if z is not None and abs(z - plane) > 0.1 * max(above, 1e-6):
         rows2, again = _on_plane(infos, pairs, found, camera, dist, eos, z, opts, threshold, ideal, max_pixels,
-                                 prog.stage(0.5, 1.0, "matching on the measured ground plane"), True)
+                                 prog.stage(0.5, 1.0, "matching on the measured ground plane"), True, known)
         better = {k: r for k, r in again.items() if k not in results or len(r[1]) > len(results[k][1])}
         results.update(better)
         rows.update({k: rows2[k] for k in better})
@@ -200,7 +220,9 @@ def axes_height(eos):
     """The height of the point nearest to every frame's optical axis (least squares: ``Σ (I − d dᵀ)(p − C) = 0``
     over the centres ``C`` and axes ``d``), where converging views aim; None when the axes are near parallel (the
     smallest eigenvalue of ``Σ (I − d dᵀ) / n`` below 0.05, about 13° of spread) or the point is not below every
-    camera."""
+    camera (or fewer than two frames are given)."""
+    if len(eos) < 2:
+        return None
     A, b = np.zeros((3, 3)), np.zeros(3)
     for eo in eos:
         d = eo.rotation[:, 2] / np.linalg.norm(eo.rotation[:, 2])

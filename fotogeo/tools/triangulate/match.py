@@ -166,7 +166,8 @@ def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
     pixels as measured; None where none), the RANSAC seeing them through :func:`ideal_pixels` of ``camera`` and
     ``distortion``. With a Dask ``client`` the pairs are its tasks
     (:func:`fotogeo.tools.triangulate.pairs.dask_pair_results`), else they run in this process. ``guide`` ``(eos,
-    height)``: pairs with few inliers are matched on the ground plane too
+    height[, known])``: pairs with few inliers are matched on the ground plane too, those of two frames with a known
+    attitude (``known``, one bool per frame; absent or None: all)
     (:func:`fotogeo.tools.triangulate.guided.guided_results`; ``height``: the terrain height it measured, else None)."""
     det = _detection_options(opts, infos[0], level)
     threshold = epipolar_px * 2 ** level
@@ -181,9 +182,10 @@ def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
     guided, measured = {}, None
     if guide is not None:
         from .guided import guided_results, tile_pixels
-        found, tried, measured = guided_results(infos, pairs, found, camera, distortion, *guide, det, threshold,
+        found, tried, measured = guided_results(infos, pairs, found, camera, distortion, *guide[:2], det, threshold,
                                                 ideal_pixels(camera, distortion), tile_pixels(det, infos[0]),
-                                                prog.stage(0.6, 1.0, "matching on the ground plane"))
+                                                prog.stage(0.6, 1.0, "matching on the ground plane"),
+                                                known=guide[2] if len(guide) > 2 else None)
         guided = {tuple(g.pop("pair")): g for g in tried}
     per_pair = []
     for (i, j), first in zip(pairs, plain):
@@ -268,7 +270,8 @@ def block_tie_points(frames, camera, eos, height: float, *, epipolar_px: float =
     what the approximate orientation lacks on the matched pairs before LSM needs it; the orientations and
     height used are then ``report["start"]["eos"]`` and ``["height"]`` (pairs chosen on round footprints).
     ``advice``: what to check, in the caller's words, when a frame overlaps no other. ``guided``: pairs with few
-    inliers are matched again on the ground plane (:mod:`fotogeo.tools.triangulate.guided`)."""
+    inliers are matched again on the ground plane (:mod:`fotogeo.tools.triangulate.guided`), those whose two frames
+    have a known attitude (``start.level``, one bool per frame: True where the frame starts level, its κ measured)."""
     with dask_client(client, scheduler, workers) as client:
         return _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, per_region, lsm, half_window,
                                  options, distortion, start, client, progress, advice, guided)
@@ -291,11 +294,12 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
                             f"with the approximate orientation (footprints at height {height:.1f}); {advice}, or "
                             f"remove them", frames=[frame_key(frames[i]) for i in alone])
     infos = [open_raster(f, "frame") for f in frames]
-    guided = guided and not getattr(start, "estimates_kappa", False)  # the ground plane needs the attitude
+    unknown = getattr(start, "level", None)  # the frames that start level: the ground plane needs the attitude
+    known = None if unknown is None else [not u for u in unknown]
 
     def matched(pairs, height, part):
         return _pair_results(infos, pairs, opts, level, epipolar_px, prog.stage(*part, "matching"), camera,
-                             distortion, client, guide=(eos, height) if guided else None)
+                             distortion, client, guide=(eos, height, known) if guided else None)
     found, per_pair, measured = matched(pairs, height, (0.0, 0.6))
     if measured is not None and not given:  # the ground plane's height measured on the frames: the pairs it adds
         more = sorted(set(overlapping_pairs(camera, eos, measured, round_footprints=start is not None)) - set(pairs))

@@ -73,17 +73,15 @@ class BlockStart:
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
         the orientations and the terrain height are known."""
-        unknown_kappa = any(self.level.get(n) for n in self.names)
-        if not unknown_kappa and height is not None:
+        level = [bool(self.level.get(n)) for n in self.names]
+        if not any(level) and height is not None:
             return None
         from .start import start_from_pairs
 
         def measure(eos, inliers):
-            eos = tuple(eos)
-            return start_from_pairs(eos, self.camera, inliers, estimate_kappa=[bool(self.level.get(n))
-                                                                                 for n in self.names],
+            return start_from_pairs(tuple(eos), self.camera, inliers, estimate_kappa=level,
                                     estimate_height=height is None)
-        measure.estimates_kappa = unknown_kappa  # no attitude yet: no matching on the ground plane
+        measure.level = level  # per frame: no attitude yet, so none of its pairs is matched on the ground plane
         return measure
 
     def eo_sigma(self, position, height, angle):
