@@ -120,11 +120,16 @@ def in_callers_words(message: str, option: str | None, words: str | None) -> str
     '--half-window 5000 is too large'
     >>> in_callers_words("nothing to rename", None, "--x")
     'nothing to rename'
+
+    A switch given as ``option=True`` is the flag alone:
+
+    >>> in_callers_words("'o.tif' exists; pass overwrite=True to replace it", "overwrite", "--overwrite")
+    "'o.tif' exists; pass --overwrite to replace it"
     """
     import re
     if not option or not words:
         return message
-    return re.sub(r"(?<![\w-])%s(?!\w)" % re.escape(option), lambda m: words, message, count=1)
+    return re.sub(r"(?<![\w-])%s(?:=True)?(?!\w)" % re.escape(option), lambda m: words, message, count=1)
 
 
 #: library warnings that tell a user nothing to act on, silenced: numpy's floating-point and empty/NaN-slice

@@ -91,6 +91,7 @@ def test_fuse_runs_and_errors_exit_1(small_rgb, tmp_path):
         assert ds.dtypes[0] == "float32" and ds.crs.to_epsg() == 32635
     r = invoke("fuse", small_rgb, "-o", out, "-q")  # exists, no --overwrite: the run fails (exit 1)
     assert r.exit_code == 1 and r.stderr.startswith("Error: ") and len(r.stderr.strip().splitlines()) == 1
+    assert r.stderr.strip().endswith("exists; pass --overwrite to replace it"), r.stderr  # the flag, not the keyword
 
 
 @pytest.mark.parametrize("args, message", [

@@ -12,7 +12,7 @@ import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError, InputNote, in_callers_words, warning_line
+from ..errors import Cancelled, FotogeoError, InputNote, OutputError, in_callers_words, warning_line
 from ..options import Option, Table, find_option
 from . import conventions
 from .conventions import EXIT_FAILED, EXIT_USAGE
@@ -70,10 +70,14 @@ def warnings_as_lines():
         yield
 
 
+#: switches every command that writes has, outside the option table
+_SWITCHES = {"overwrite": "--overwrite"}
+
+
 def flag_of(name: str | None) -> str | None:
     """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``), None if none."""
     option = find_option(name) if name else None
-    return option.cli_flag if option else None
+    return option.cli_flag if option else _SWITCHES.get(name)
 
 
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
@@ -135,7 +139,8 @@ def run_tool(func):
       terminated by signal SIGTERM`` and exit code 143 (:data:`EXIT_TERMINATED`, 128 +
       SIGTERM). Both unwind as exceptions, so no temporary output is left behind;
     - a :class:`~fotogeo.errors.FotogeoError` about an option's value (it names the flag): ``Error: <message>``
-      and exit code 2 (:data:`EXIT_USAGE`), as click's own usage errors;
+      and exit code 2 (:data:`EXIT_USAGE`), as click's own usage errors — but an output that exists
+      (:class:`~fotogeo.errors.OutputError` naming ``--overwrite``) is the file system's state: exit code 1;
     - any other :class:`~fotogeo.errors.FotogeoError` (the run failed): ``Error: <message>`` and exit code 1
       (:data:`EXIT_FAILED`), without a traceback.
     """
@@ -163,7 +168,8 @@ def run_tool(func):
         except Cancelled as e:
             stop(EXIT_CANCELLED, f"Cancelled: {e}")
         except FotogeoError as e:
-            stop(EXIT_USAGE if e.option else EXIT_FAILED,
+            # an output that exists names --overwrite but is the file system's state, not a bad value: exit 1
+            stop(EXIT_USAGE if e.option and not isinstance(e, OutputError) else EXIT_FAILED,
                  f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}")
         if as_json:
             conventions.print_json({"command": name, "exit_code": 0, "result": result}, stdout)

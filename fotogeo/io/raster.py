@@ -168,7 +168,7 @@ def check_output(path, inputs, overwrite: bool, role: str = "output") -> Path:
     if p.is_dir():
         raise OutputError(f"{role} {str(path)!r} is a folder; give a file name")
     if p.exists() and not overwrite:
-        raise OutputError(f"{role} {str(path)!r} exists; pass overwrite=True (--overwrite) to replace it")
+        raise OutputError(f"{role} {str(path)!r} exists; pass overwrite=True to replace it", option="overwrite")
     if not p.parent.is_dir():
         raise OutputError(f"folder of {role} {str(path)!r} does not exist; create it first")
     try:
@@ -327,13 +327,13 @@ def _claim(tmp: Path, final: Path):
         os.link(tmp, final)
     except FileExistsError:
         raise OutputError(f"{str(final)!r} appeared while fotogeo was working (another run?); it was not "
-                          f"replaced — pass overwrite=True (--overwrite) to replace it") from None
+                          f"replaced — pass overwrite=True to replace it", option="overwrite") from None
     except OSError:  # no hard links here (e.g. FAT, some network shares): claim the name with O_EXCL
         try:
             os.close(os.open(final, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644))
         except FileExistsError:
             raise OutputError(f"{str(final)!r} appeared while fotogeo was working (another run?); it was not "
-                              f"replaced — pass overwrite=True (--overwrite) to replace it") from None
+                              f"replaced — pass overwrite=True to replace it", option="overwrite") from None
         try:
             os.replace(tmp, final)
         except OSError:

@@ -60,7 +60,7 @@ def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) 
 
     src_path, dst_path = Path(src_path), Path(dst_path)
     if dst_path.exists() and not overwrite:
-        raise OutputError(f"{dst_path} exists; pass overwrite=True or choose another output path")
+        raise OutputError(f"{dst_path} exists; pass overwrite=True or choose another output path", option="overwrite")
     if dst_path.exists() and dst_path.resolve() == src_path.resolve():
         raise OutputError(f"output {dst_path} equals the input raster; choose another output path")
     if not dst_path.parent.is_dir():

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...errors import InputError
+from ...errors import InputError, OutputError
 from ...io.camera import load_camera
 from ...io.gcps import check_inside, read_gcps
 from ...io.raster import AtomicOutputs, check_output, open_raster
@@ -115,7 +115,8 @@ def _write(rows, table, markdown, html, plots, overwrite, info) -> None:
                     if not any(r.get("vectors") for r in rows if r["model"] == model and r.get("spread") == layout):
                         continue
                     if final.exists() and not overwrite:
-                        raise InputError(f"plot {str(final)!r} exists; give overwrite (--overwrite) or another folder")
+                        raise OutputError(f"plot {str(final)!r} exists; pass overwrite=True or give another folder",
+                                         option="overwrite")
                     report.plot_vectors(rows, model, layout, out.temp(final), width=info.width, height=info.height)
         out.commit()
 
