@@ -31,8 +31,8 @@ searches the DEM's range.
 per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
 on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
 coarse disparities: the right image read again through its rectification maps resampled along the rows by the
-coarse offset — where the band, the coarse copies and the whole-range fill of the pixels the coarse copies do not
-support search at most ``pyramid.GAIN`` of the whole range's disparities; else the strip searches its whole range.
+coarse offset — where the band, the coarse copies and the fill of the pixels the coarse copies do not support
+(``pyramid.fill_windows``, each window over its own run's range) search at most ``pyramid.GAIN`` of the whole range's disparities; else the strip searches its whole range.
 """
 from __future__ import annotations
 
