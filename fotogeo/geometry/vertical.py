@@ -26,10 +26,9 @@ def crs_height_reference(crs) -> str | None:
     >>> crs_height_reference("EPSG:32735+3855"), crs_height_reference("EPSG:4979"), crs_height_reference("EPSG:32735")
     ('geoid', 'ellipsoid', None)
     """
-    from pyproj import CRS
     if crs is None:
         return None
-    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    c = as_pyproj(crs)
     if c.is_compound:
         return "geoid" if any(s.is_vertical for s in c.sub_crs_list) else None
     if c.is_vertical:
@@ -39,8 +38,7 @@ def crs_height_reference(crs) -> str | None:
 
 def horizontal_crs(crs):
     """The horizontal part of a compound CRS (the CRS itself otherwise), as a pyproj CRS."""
-    from pyproj import CRS
-    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    c = as_pyproj(crs)
     if c.is_compound:
         return next(s for s in c.sub_crs_list if not s.is_vertical)
     return c
@@ -89,10 +87,9 @@ def height_scale(crs, band_unit: str | None, source: str = "DEM") -> float:
     >>> height_scale("EPSG:32735", "ft"), height_scale("EPSG:32735", "metre"), height_scale("EPSG:32735", "")
     (0.3048, 1.0, 1.0)
     """
-    from pyproj import CRS
     if crs is None:
         return 1.0
-    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    c = as_pyproj(crs)
     vertical = next((s for s in c.sub_crs_list if s.is_vertical), None) if c.is_compound else None
     xy_m = length_unit_m(c)
     unit = (band_unit or "").strip().lower()
@@ -112,7 +109,12 @@ def length_unit_m(crs) -> float:
     >>> length_unit_m("EPSG:32735"), round(length_unit_m("EPSG:2263"), 7), length_unit_m("EPSG:4326")
     (1.0, 0.3048006, 1.0)
     """
-    from pyproj import CRS
-    c = CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
+    c = as_pyproj(crs)
     h = horizontal_crs(c)
     return 1.0 if h.is_geographic or not h.axis_info else float(h.axis_info[0].unit_conversion_factor)
+
+
+def as_pyproj(crs):
+    """``crs`` (a pyproj or rasterio CRS, or anything ``pyproj.CRS.from_user_input`` takes) as a pyproj CRS."""
+    from pyproj import CRS
+    return CRS.from_user_input(crs.to_wkt() if hasattr(crs, "to_wkt") and not isinstance(crs, CRS) else crs)
