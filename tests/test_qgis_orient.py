@@ -193,3 +193,26 @@ def test_orient_from_a_project_layer(gcps, tmp_path):
         run("orient", {**params, "GCPS": gcps["path"], "GCP_LAYER_INPUT": layer})
     with pytest.raises(QgsProcessingException, match="not both and not neither"):
         run("orient", params)
+
+
+def test_orient_skips_a_gcp_outside_the_image_and_says_where_the_heights_came_from(gcps, tmp_path):
+    """The CLI's policy in QGIS (one mechanism, fotogeo.io.gcps.inside_image): the GCP typed outside the image is
+    named with its pixel in the log and the report's 'skipped', the rest fitted; the DEM's heights are stated."""
+    import geopandas as gpd
+    table = gpd.read_file(gcps["path"])
+    table.loc[3, "c"] = 5000.0
+    table.to_file(tmp_path / "typo.gpkg")
+    warnings = []
+
+    class Log(QgsProcessingFeedback):
+        def pushWarning(self, warning):
+            warnings.append(warning)
+            super().pushWarning(warning)
+
+    res = run("orient", base(gcps, GCPS=str(tmp_path / "typo.gpkg"), MODEL=ORIENT_CHOICES.index("dlt"),
+                             REPORT=str(tmp_path / "r.json")), feedback=Log())
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert [s["id"] for s in rep["skipped"]] == ["P3"] and rep["n_gcps"] == 59 and res["CHECK_RMS_XY_PX"] < 0.6
+    assert any("P3 (col 5000.0, row" in w and "skipped" in w for w in warnings), warnings
+    assert any("heights of 60 of 60 GCPs" in w and "dem.tif" in w for w in warnings), warnings
+    assert rep["heights"]["dem"] == 60

@@ -92,13 +92,14 @@ def test_corrected_rpc_orthorectifies_onto_the_gcps(data_dir, tmp_path, capsys):
         main(["rpc-bias", str(image), str(tmp_path / "gcps.gpkg"), "-o", str(out), "-q"])
     assert e.value.code == 0
     text = capsys.readouterr().out
-    assert "skipped (outside the image): house-swcnr-90b, grasnek-roadjunction1-50" in text
+    assert ("skipped (outside the image (850x1450 px)): house-swcnr-90b (col 1132.4, row -35.9), "
+            "grasnek-roadjunction1-50 (col -184.7, row 11.9)") in text
     rep = json.loads(out.with_suffix(".json").read_text())
     assert rep["refit_max_px"] == 0.0 and rep["control"]["before"]["rms_xy"] > 3.0
     assert rep["control"]["after"]["rms_xy"] < 0.15  # measured 0.096 px (2 parameters, 3 GCPs)
     assert image.read_bytes() == before
 
-    inside = [r for r in rows if r["id"] not in rep["skipped"]]
+    inside = [r for r in rows if r["id"] not in {k["id"] for k in rep["skipped"]}]
     measured = np.array([[r["col"], r["row"]] for r in inside])
     dem = tmp_path / "dem_ellipsoidal.tif"
     assert 27.0 < _ellipsoidal_dem(data_dir, inside, dem) < 30.0
@@ -119,10 +120,31 @@ def test_affine_correction_is_refitted_and_read_by_gdal(data_dir, tmp_path):
                        method="affine")
     assert rep["refit_max_px"] < 1e-3  # the affinity is not exact in RPC00B form: refitted, measured 1.1e-7 px
     rpc = rpc_from_raster(tmp_path / "a.tif")  # GDAL metadata round trip
-    inside = [r for r in rows if r["id"] not in rep["skipped"]]
+    inside = [r for r in rows if r["id"] not in {k["id"] for k in rep["skipped"]}]
     g = np.array([[r["geometry"].x, r["geometry"].y, r["z"]] for r in inside])
     px = rpc.project(*g.T) + 0.5
     np.testing.assert_allclose(px, [[r["col"], r["row"]] for r in inside], atol=1e-3)  # 3 GCPs, 6 parameters
+
+
+def test_too_few_gcps_inside_the_image_are_refused_naming_the_skipped(data_dir, tmp_path):
+    """The policy orient shares (fotogeo.io.gcps.inside_image): qb2's 2 GCPs outside the crop are skipped while
+    enough remain; an affine correction (3 needed) left with 2 control points is refused naming them and their
+    pixels, where main said only '... needs at least 3 GCPs ...; got 2'."""
+    import geopandas as gpd
+    from fotogeo import rpc_bias
+    from fotogeo.errors import InputError
+    rows = _gcp_layer(data_dir / "qb2", tmp_path / "gcps.gpkg")
+    table = gpd.read_file(tmp_path / "gcps.gpkg")
+    table["role"] = ["check" if r["id"] == rows[0]["id"] else "control" for r in rows]  # rows[0] lies inside
+    table.to_file(tmp_path / "roles.gpkg")
+    with pytest.raises(InputError, match=r"house-swcnr-90b \(col 1132.4, row -35.9\).* outside the image "
+                                         r"\(850x1450 px\): 2 control point\(s\) remain, the affine correction needs 3"):
+        rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "roles.gpkg", tmp_path / "a.tif", method="affine")
+    assert not (tmp_path / "a.tif").exists()
+    with pytest.warns(UserWarning, match="2 GCP.* skipped, the other 3 used"):
+        rep = rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "roles.gpkg", tmp_path / "s.tif")
+    assert rep["check"]["ids"] == [rows[0]["id"]] and len(rep["control"]["ids"]) == 2
+    assert rep["heights"] == {"file": 5, "dem": 0, "constant": 0, "missing": 0}
 
 
 def test_rpc_bias_bad_input(data_dir, tmp_path):

@@ -245,3 +245,13 @@ def tool_arguments(kw: dict, *tables: Table) -> dict:
     for table in tables:
         out.update(table.arguments({name: kw.pop(name) for name in table}))
     return out
+
+
+def skipped_line(rep: dict) -> str | None:
+    """The summary line of the GCPs a tool skipped (its report's ``skipped``: ``{id, col, row, reason}``,
+    :func:`fotogeo.io.gcps.inside_image`), or None: printed even with ``--quiet``, which hides the warning."""
+    skipped = rep.get("skipped") or []
+    if not skipped:
+        return None
+    return (f"skipped ({skipped[0]['reason']}): "
+            + ", ".join(f"{s['id']} (col {s['col']:.1f}, row {s['row']:.1f})" for s in skipped))

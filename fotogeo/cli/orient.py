@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import GCP, ORIENT
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments
 
 
 @click.command("orient")
@@ -28,7 +28,12 @@ def command(paths, quiet, **kw):
     camera, whose image size is the image's.
 
     --model auto fits every model the GCPs allow and keeps the simplest within 5 % of the best
-    check RMSE (the candidates and the reason are printed and in the report)."""
+    check RMSE (the candidates and the reason are printed and in the report).
+
+    GCPs whose pixel lies outside IMAGE are skipped with a warning naming each (and listed in the report); too
+    few left for the model is an error. GCPs without a z value take their heights from --dem (or --height)
+    when given, which opens the 3-D models (dlt, rfm, collinearity); without heights only 2-D models are
+    fitted, and a hint names --dem when their residuals suggest relief."""
     from ..tools.orient.tool import orient
     if len(paths) > 2:
         raise click.UsageError(f"give IMAGE and GCPS (or GCPS alone with --camera), not {len(paths)} paths")
@@ -39,6 +44,8 @@ def command(paths, quiet, **kw):
     finally:
         bar.close()
     click.echo(f"model {rep['model_name']}: {rep['n_gcps']} GCPs")
+    if skipped_line(rep):
+        click.echo(skipped_line(rep))
     if "model_selection" in rep:
         sel = rep["model_selection"]
         key = sel["compared"]

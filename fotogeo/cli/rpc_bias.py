@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import RPC_BIAS
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments
 
 
 @click.command("rpc-bias")
@@ -22,8 +22,9 @@ def command(image, gcps, output, report, overwrite, quiet, **kw):
 
     IMAGE's RPC: its GDAL RPC metadata, else an RPC file beside it (.geom, .RPB, _RPC.TXT, DIMAP or
     DigitalGlobe XML). GCPS: ground X, Y and (ellipsoidal) height in any CRS with their image col/row;
-    GCPs outside the image are skipped with a warning. Writes a copy of IMAGE whose GDAL RPC metadata is the
-    corrected RPC (gdalwarp -rpc and QGIS use it) and a JSON report.
+    GCPs outside the image are skipped with a warning naming each (as orient does; too few left is an error).
+    Writes a copy of IMAGE whose GDAL RPC metadata is the corrected RPC (gdalwarp -rpc and QGIS use it) and a
+    JSON report.
     """
     from ..tools.orient.rpc_bias import rpc_bias
     bar = ConsoleProgress(quiet)
@@ -41,7 +42,7 @@ def command(image, gcps, output, report, overwrite, quiet, **kw):
     if chk["before"].get("n"):
         click.echo(f"check points n={chk['before']['n']}: {chk['before']['rms_xy']:.3f} -> "
                    f"{chk['after']['rms_xy']:.3f} px")
-    if rep["skipped"]:
-        click.echo(f"skipped (outside the image): {', '.join(rep['skipped'])}")
+    if skipped_line(rep):
+        click.echo(skipped_line(rep))
     click.echo(f"wrote {rep['output']} (RPC refit max deviation {rep['refit_max_px']:.2g} px)")
     return rep

@@ -23,6 +23,7 @@ CRS as needed), else a constant; otherwise they stay NaN and only 2-D models can
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -30,7 +31,7 @@ import numpy as np
 from pyproj import CRS
 
 from ..crs import parse_crs, transform_points
-from ..errors import InputError, VectorError
+from ..errors import FotogeoWarning, InputError, InputNote, VectorError
 
 #: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
 #: and of the statistics when such a layer is read back
@@ -51,9 +52,17 @@ class Gcps:
     def __len__(self) -> int:
         return len(self.pixel)
 
+    #: where the heights came from: ``{"file": n, "dem": n, "constant": n, "missing": n}`` (+ ``"dem_path"``)
+    heights: dict = field(default_factory=dict)
+
     @property
     def has_heights(self) -> bool:
         return bool(np.isfinite(self.ground[:, 2]).all())
+
+    def subset(self, keep: np.ndarray) -> "Gcps":
+        """The GCPs where the boolean ``keep`` is true (their role sets too)."""
+        return replace(self, ground=self.ground[keep], pixel=self.pixel[keep], role=self.role[keep],
+                       ids=self.ids[keep], role_sets={k: np.asarray(v)[keep] for k, v in self.role_sets.items()})
 
 
 #: Accepted names of the map-coordinate columns of a CSV table (any letter case).
@@ -203,8 +212,12 @@ def _layer_positions(table, what: str, crs, id: str | None = "id"):
 
 
 def _fill_heights(g: Gcps, dem, height) -> Gcps:
+    """The heights of the GCPs without one (no z value) from ``dem`` (bilinear, in the DEM's CRS), else the constant
+    ``height``; ``heights`` counts the sources, and an :class:`~fotogeo.errors.InputNote` states a DEM's or constant's
+    use (a 3-D model then rests on heights the file did not give)."""
     z = g.ground[:, 2].copy()
     missing = ~np.isfinite(z)
+    counts = {"file": int((~missing).sum()), "dem": 0, "constant": 0, "missing": int(missing.sum())}
     if missing.any() and dem is not None:
         from ..geometry.dem import Dem
         from .raster import read_dem
@@ -218,9 +231,16 @@ def _fill_heights(g: Gcps, dem, height) -> Gcps:
             raise InputError(f"DEM {d.path!r} does not cover GCP(s) {', '.join(bad[:10])}"
                              f"{' …' if len(bad) > 10 else ''}; use a DEM covering all GCPs or give heights")
         z[missing] = h
+        counts.update(dem=counts.pop("missing"), missing=0, dem_path=str(d.path))
+        source = f"the DEM {str(d.path)!r} (bilinear)"
     elif missing.any() and height is not None:
         z[missing] = float(height)
-    return replace(g, ground=np.column_stack([g.ground[:, :2], z]))
+        counts.update(constant=counts.pop("missing"), missing=0)
+        source = f"the constant height {float(height):g}"
+    if missing.any() and counts["missing"] == 0:
+        warnings.warn(f"heights of {int(missing.sum())} of {len(z)} GCPs (those without a z value) taken from "
+                      f"{source}", InputNote, stacklevel=4)
+    return replace(g, ground=np.column_stack([g.ground[:, :2], z]), heights=counts)
 
 
 def _validate(g: Gcps, what: str):
@@ -238,24 +258,44 @@ def _validate(g: Gcps, what: str):
         raise InputError(f"{what}: GCP id(s) {', '.join(dup_ids[:10])} are used more than once")
 
 
-def check_inside(g: Gcps, width: int, height: int, what: str):
-    """Raise :class:`InputError` naming the GCPs whose image position lies outside the image.
+def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model"):
+    """``(kept, skipped)``: the GCPs whose image position lies inside the ``width`` x ``height`` image, and one
+    record ``{"id", "col", "row", "reason"}`` per GCP left out — the one policy of every tool fitting to GCPs.
 
-    For a ``.points`` file the message explains its source-coordinate convention, the usual
-    cause: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive
-    ``sourceY`` values put the points above the image.
+    A GCP whose pixel lies outside the raster is almost always a typo in col/row or a GCP of another image
+    (or of the uncropped scene): it is skipped with one :class:`~fotogeo.errors.FotogeoWarning` naming each id
+    and pixel, and the rest is fitted. When the skipping leaves fewer than ``needed`` control points
+    (``needed_by`` names what needs them; too few in the file as well is the model's own error), or none at all,
+    the GCPs are refused by an :class:`InputError` naming the skipped ones and the likely fix; for a ``.points``
+    file it explains the file's source-coordinate convention, the usual cause when most points fall
+    outside: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive ``sourceY`` values put
+    them above the image.
     """
     out = ~((g.pixel[:, 0] >= 0) & (g.pixel[:, 0] <= width) & (g.pixel[:, 1] >= 0) & (g.pixel[:, 1] <= height))
     if not out.any():
-        return
-    head = f"GCP(s) {', '.join(g.ids[out][:10])} of {what} lie outside the image ({width}x{height} px)"
+        return g, []
+    reason = f"outside the image ({width}x{height} px)"
+    skipped = [{"id": str(i), "col": float(c), "row": float(r), "reason": reason}
+               for i, (c, r) in zip(g.ids[out], g.pixel[out])]
+    def named(most):
+        return (", ".join(f"{s['id']} (col {s['col']:.1f}, row {s['row']:.1f})" for s in skipped[:most])
+                + (f" and {len(skipped) - most} more" if len(skipped) > most else ""))
+    kept = g.subset(~out)
+    n_control = int((kept.role == "control").sum())
+    if len(kept) and (n_control >= needed or (g.role == "control").sum() < needed):  # too few anyway: the model says
+        warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other {len(kept)} used: "
+                      f"{named(10)} (a typo in col/row, or a GCP of another image?)", FotogeoWarning, stacklevel=3)
+        return kept, skipped
+    head = (f"GCP(s) {named(5)} of {what} lie {reason}: {n_control} control point(s) remain, {needed_by} needs "
+            f"{needed}")
     if not str(g.source).lower().endswith(".points"):
-        raise InputError(f"{head}: check the col/row fields (corner convention) or remove them")
+        raise InputError(f"{head}; check the col/row fields (corner convention) and that the GCPs were measured "
+                         f"on this image")
     if (g.pixel[out, 1] < 0).all() and (g.pixel[out, 1] >= -height).all() and (g.pixel[out, 0] >= 0).all():
-        raise InputError(f"{head}: their rows come out negative because the file's sourceY values are positive. "
+        raise InputError(f"{head}. Their rows come out negative because the file's sourceY values are positive. "
                          f"For an unreferenced raster QGIS writes sourceY = -row (y up from the top-left corner), "
                          f"so this file uses the opposite sign: negate its sourceY column, or, if the points were "
                          f"measured on a georeferenced copy of the image, give that raster (raster=/--raster)")
-    raise InputError(f"{head}: a .points file holds sourceX = col, sourceY = -row for an unreferenced raster, "
+    raise InputError(f"{head}. A .points file holds sourceX = col, sourceY = -row for an unreferenced raster, "
                      f"or the raster's map coordinates for a georeferenced one; check that the file was measured "
                      f"on this image (and on its georeferenced or unreferenced version as used here)")

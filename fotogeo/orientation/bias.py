@@ -51,13 +51,17 @@ def _fit(method, p, m):
     return Affine.estimate(p, m).world_matrix()[:2]
 
 
+#: control points each correction needs
+MIN_GCPS = {"shift": 1, "affine": 3}
+
+
 def estimate_bias(rpc: Rpc, lonlath, pixels, method: str = "shift") -> RpcBias:
     """Fit the image-space correction of ``rpc`` from GCPs (lon, lat, h) ↔ pixels (corner convention)."""
     if method not in ("shift", "affine"):
         raise InputError(f"method must be 'shift' or 'affine'; got {method!r}")
     g = np.asarray(lonlath, float).reshape(-1, 3)
     m = np.asarray(pixels, float).reshape(-1, 2)
-    need = 1 if method == "shift" else 3
+    need = MIN_GCPS[method]
     if len(g) < need or len(g) != len(m) or not (np.isfinite(g).all() and np.isfinite(m).all()):
         raise InputError(f"{method} bias compensation needs at least {need} GCPs with finite ground and pixel "
                          f"coordinates; got {len(g)}")

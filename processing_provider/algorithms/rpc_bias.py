@@ -48,7 +48,5 @@ class RpcBiasAlgorithm(_GcpAlgorithm):
         c = rep["correction"]
         feedback.pushInfo(f"{rep['method']} correction {c['shift_px'][0]:+.3f} {c['shift_px'][1]:+.3f} px (col, row); "
                           f"RMS at control points {c['rms_before_px']:.3f} -> {c['rms_after_px']:.3f} px")
-        if rep["skipped"]:
-            feedback.pushWarning(f"GCPs outside the image, skipped: {', '.join(rep['skipped'])}")
         return {self.OUTPUT: output, self.REPORT: report or rep.get("report"),
                 self.RMS_BEFORE: float(c["rms_before_px"]), self.RMS_AFTER: float(c["rms_after_px"])}

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ...errors import InputError, OutputError
 from ...io.camera import load_camera
-from ...io.gcps import check_inside, read_gcps
+from ...io.gcps import inside_image, read_gcps
 from ...io.raster import AtomicOutputs, check_output, open_raster
 from ...models import get_model
 from ...orientation.comparison import compare, parse_counts
@@ -52,7 +52,8 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
     check_gcp_crs(g, gcps)
     camera = load_camera(camera)
     check_camera_size(camera, info.width, info.height, image)
-    check_inside(g, info.width, info.height, f"{gcps}")
+    g, _ = inside_image(g, info.width, info.height, f"{gcps}", get_model("similarity").min_points,
+                        "the simplest model (similarity)")
     role_sets = _role_sets(g, gcps) if sets == "roles" else None
     chosen = bool(models)
     models = list(models or DEFAULT_MODELS)

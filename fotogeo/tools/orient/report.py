@@ -60,7 +60,10 @@ def _points(rep: dict) -> str:
 
 def write_report_html(path, rep: dict) -> None:
     """``rep`` (orient's report dict) as one readable HTML page (module docstring)."""
-    notes = [*(rep.get("warnings") or []), *(f.get("reason", "") for f in rep.get("snooping") or [])]
+    notes = [*(f"GCP {s['id']} skipped: {s['reason']} (col {s['col']:.1f}, row {s['row']:.1f})"
+               for s in rep.get("skipped") or []),
+             *(rep.get("warnings") or []), *(rep.get("hints") or []),
+             *(f.get("reason", "") for f in rep.get("snooping") or [])]
     parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>fotogeo orient</title><style>{STYLE}</style>"
              "</head><body>", f"<h1>Orientation of {html.escape(Path(str(rep.get('image', ''))).name)}</h1>",
              f"<p>model <b>{html.escape(str(rep.get('model_name', '')))}</b>, {rep.get('n_gcps', 0)} GCPs, CRS "

@@ -14,24 +14,25 @@ RPC (:func:`fotogeo.orientation.bias.corrected_rpc`) and writes:
 
 Heights are taken as given: RPC00B heights are ellipsoidal (WGS 84), so give ellipsoidal GCP
 heights (or a DEM in the same vertical datum as the one ``gdalwarp`` will use). GCPs whose
-pixel lies outside the image are skipped with a warning (a vendor scene is often cropped).
+pixel lies outside the image are skipped with a warning naming each (a vendor scene is often cropped), and
+listed in the report's ``skipped`` (:func:`fotogeo.io.gcps.inside_image`, the policy ``orient`` shares); too few
+left for the correction is an error.
 """
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 from ...crs import to_lonlat
-from ...errors import FotogeoWarning, InputError
-from ...io.gcps import read_gcps
+from ...errors import InputError
+from ...io.gcps import inside_image, read_gcps
 from ...io.raster import AtomicOutputs, check_output, open_raster
 from ...io.report import write_json
 from ...io.rpc import write_rpc_geotiff
 from ...io.rpc_image import image_rpc
 from ...models.stats import residual_stats
-from ...orientation.bias import corrected_rpc, estimate_bias
+from ...orientation.bias import MIN_GCPS, corrected_rpc, estimate_bias
 from ...pixels import from_centre
 from ...progress import as_progress
 from ..common.boundary import tool
@@ -44,7 +45,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     """Correct the vendor RPC of ``image`` with ``gcps``; write ``output`` and the report (module doc).
 
     Returns the report dict (``correction``, ``control``/``check`` statistics before and after
-    in pixels, ``skipped`` GCP ids, ``refit_max_px``).
+    in pixels, ``skipped`` GCPs ``{id, col, row, reason}``, ``heights`` sources, ``refit_max_px``).
     """
     prog = as_progress(progress)
     if method not in ("shift", "affine"):
@@ -62,20 +63,18 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     if not g.has_heights:
         raise InputError(f"GCP file {str(gcps)!r}: every GCP needs a height for an RPC (a z field, a DEM or a "
                          f"constant height)")
-    inside = ((g.pixel >= 0) & (g.pixel <= [info.width, info.height])).all(axis=1)
-    skipped = [str(i) for i in g.ids[~inside]]
-    if skipped:
-        warnings.warn(f"{len(skipped)} GCP(s) outside the image ({info.width}x{info.height} px) skipped: "
-                      f"{', '.join(skipped[:10])}", FotogeoWarning, stacklevel=2)
+    g, skipped = inside_image(g, info.width, info.height, f"{gcps}", MIN_GCPS[method],
+                              f"the {method} correction")
     lonlat = to_lonlat(g.crs, g.ground[:, :2])
     ground = np.column_stack([lonlat, g.ground[:, 2]])
-    control, check = inside & (g.role == "control"), inside & (g.role == "check")
+    control, check = g.role == "control", g.role == "check"
     prog(0.2, "GCPs read")
     bias = estimate_bias(rpc, ground[control], g.pixel[control], method)
     new, refit_max = corrected_rpc(rpc, bias)
     prog(0.5, "correction fitted")
     rep = {"fotogeo": "rpc-bias", "image": str(image), "gcps": str(gcps), "output": str(output),
-           "report": str(report), "method": method, "correction": bias.summary(), "refit_max_px": refit_max, "skipped": skipped,
+           "report": str(report), "method": method, "correction": bias.summary(), "refit_max_px": refit_max,
+           "skipped": skipped, "heights": g.heights,
            "units": "pixels (corner convention); residual = measured − projected",
            "rpc": new.to_gdal_metadata()}
     for role, sel in (("control", control), ("check", check)):

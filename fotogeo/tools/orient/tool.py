@@ -30,15 +30,16 @@ best check RMSE (:func:`fotogeo.orientation.adjustment.select_model`; the report
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import cv2
 import numpy as np
 from affine import Affine
 
-from ...errors import InputError
+from ...errors import FotogeoWarning, InputError
 from ...io.camera import load_camera
-from ...io.gcps import check_inside, read_gcps
+from ...io.gcps import inside_image, read_gcps
 from ...io.raster import AtomicOutputs, RasterInfo, check_output, open_raster, read_decimated
 from ...io.report import write_json
 from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal_scale, write_layers
@@ -81,7 +82,7 @@ def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=
     check_gcp_crs(g, gcps)
     if image is not None:
         check_camera_size(camera, info.width, info.height, image)
-    check_inside(g, info.width, info.height, f"{gcps}")
+    g, skipped = inside_image(g, info.width, info.height, f"{gcps}", *_needed(model))
     prog(0.1, "GCPs read")
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     selection = None
@@ -94,6 +95,9 @@ def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=
     prog(0.3, "model fitted")
     on_ground, d_ground = ground_residuals(fit.model, g.ground, g.pixel, g.crs)
     rep = _report(image, gcps, model, g, fit, d_ground, scan_pixel_um)
+    rep.update(skipped=skipped, heights=g.heights, hints=_height_hint(g, fit, camera, image_sigma))
+    for h in rep["hints"]:
+        warnings.warn(h, FotogeoWarning, stacklevel=2)
     if selection:
         rep["model_selection"] = selection
     rep["exaggeration"] = _exaggeration(exaggeration, g)
@@ -146,6 +150,40 @@ def ground_residuals(model, ground, pixel, crs):
 
 #: outputs drawn over or copied from the image raster: not available in a numbers-only resection
 RASTER_OUTPUTS = ("plot", "rpc", "gcp_tiff", "rectify")
+
+
+def _needed(model: str) -> tuple[int, str]:
+    """How many control points ``model`` needs and its name, for refusing GCPs that leave too few inside."""
+    if model == "auto":
+        return get_model("similarity").min_points, "the simplest model (similarity)"
+    return get_model(model).min_points, f"model {model!r}"
+
+
+#: a 2-D model's RMSE above this many times the GCPs' image σ (given, else :data:`NOMINAL_SIGMA_PX`) is a
+#: hint of relief the model cannot follow
+HINT_FACTOR = 3.0
+#: the click precision (px) assumed for that hint when ``image_sigma`` is not given
+NOMINAL_SIGMA_PX = 0.5
+
+
+def _height_hint(g, fit, camera, image_sigma) -> list[str]:
+    """One line naming ``--dem`` when the GCPs have no heights and a 2-D model was fitted although a 3-D one
+    may be called for: a frame camera was given (a perspective image over relief), or the model's error (check
+    RMSE, else control RMSE) exceeds :data:`HINT_FACTOR` × the GCPs' image σ — relief displacement left in
+    the residuals, which a DEM (or a height column) lets a 3-D model (DLT, RFM, collinearity) take up."""
+    if g.has_heights or fit.model.src_dims != 2:
+        return []
+    rms = fit.stats.get("check", {}).get("rms_xy_px") or fit.stats.get("control", {}).get("rms_xy_px")
+    limit = HINT_FACTOR * (image_sigma or NOMINAL_SIGMA_PX)
+    if camera is None and not (rms and rms > limit):
+        return []
+    which = "check" if fit.stats.get("check", {}).get("rms_xy_px") else "control"
+    why = ("a frame camera was given" if camera is not None else
+           f"its {which} RMSE {rms:.2f} px > {HINT_FACTOR:g} × the GCPs' image σ "
+           f"{image_sigma or NOMINAL_SIGMA_PX:g} px{'' if image_sigma else ' (assumed; --image-sigma)'}")
+    return [f"the GCPs have no heights, so a 2-D model was fitted ({why}): relief displacement may be left in "
+            f"its residuals; a DEM (--dem) or a height column (--z-field) gives the GCPs heights for a 3-D model "
+            f"(dlt, rfm, collinearity)"]
 
 
 def _image_from_camera(camera, outs: dict) -> RasterInfo:
