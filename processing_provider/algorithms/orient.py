@@ -31,7 +31,9 @@ GCP_HELP = ("GCPs: a point layer of the project, or a point layer file (GeoPacka
             "row (GDAL corner convention: 0,0 = top-left corner of the top-left pixel), optional z, role "
             "(control / check) and id; a CSV with map columns x, y (CRS parameter needed); or a QGIS "
             "Georeferencer .points file (enabled = control, disabled = check). The field names can be changed "
-            "under Advanced. Heights for 3-D models: the z field, else the DEM, else the constant height.")
+            "under Advanced. Heights for 3-D models: the z field, else the DEM, else the constant height (the "
+            "log says how many came from the DEM). A GCP whose image position lies outside the image is skipped "
+            "with a warning naming it (and listed in the report); too few left for the model is an error.")
 
 
 class _GcpAlgorithm(FotogeoAlgorithm):
