@@ -19,7 +19,9 @@ Accepted inputs (:func:`read_gcps`):
   check points; see :mod:`fotogeo.io.points`).
 
 Heights come from the height field, else from a DEM (bilinear, transformed into the DEM's
-CRS as needed), else a constant; otherwise they stay NaN and only 2-D models can be fitted.
+CRS as needed), else a constant (an :class:`~fotogeo.errors.InputNote` says how many; ``Gcps.heights`` counts
+each source); otherwise they stay NaN and only 2-D models can be fitted. :func:`inside_image` is the one rule of
+the tools for GCPs whose pixel lies outside the image: skipped by name, refused only when too few are left.
 """
 from __future__ import annotations
 
@@ -48,12 +50,11 @@ class Gcps:
     source: str = ""
     #: further role columns ``role_<label>`` of a table, by label: fixed control/check sets (compare-models)
     role_sets: dict = field(default_factory=dict)
+    #: where the heights came from: ``{"file": n, "dem": n, "constant": n, "missing": n}`` (+ ``"dem_path"``)
+    heights: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.pixel)
-
-    #: where the heights came from: ``{"file": n, "dem": n, "constant": n, "missing": n}`` (+ ``"dem_path"``)
-    heights: dict = field(default_factory=dict)
 
     @property
     def has_heights(self) -> bool:
@@ -277,9 +278,11 @@ def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, n
     reason = f"outside the image ({width}x{height} px)"
     skipped = [{"id": str(i), "col": float(c), "row": float(r), "reason": reason}
                for i, (c, r) in zip(g.ids[out], g.pixel[out])]
+
     def named(most):
         return (", ".join(f"{s['id']} (col {s['col']:.1f}, row {s['row']:.1f})" for s in skipped[:most])
                 + (f" and {len(skipped) - most} more" if len(skipped) > most else ""))
+
     kept = g.subset(~out)
     n_control = int((kept.role == "control").sum())
     if len(kept) and (n_control >= needed or (g.role == "control").sum() < needed):  # too few anyway: the model says
