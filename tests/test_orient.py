@@ -138,6 +138,8 @@ def test_gcps_outside_the_image_are_skipped_by_name_or_refused_when_too_few_rema
     assert rep["n_gcps"] == 58 and rep["control"]["n"] + rep.get("blunder", {"n": 0})["n"] == 39
     assert rep["check"]["n"] == 19 and rep["check"]["rms_xy_px"] < 0.45
     assert json.loads((tmp_path / "r.json").read_text())["skipped"][1]["id"] == "P45"
+    orient(g["image"], p, model="dlt", report=tmp_path / "r.html")
+    assert "GCP P3 skipped: outside the image (640x1152 px) (col 5000.0, row 10.0)" in (tmp_path / "r.html").read_text()
     r = CliRunner().invoke(main, ["orient", str(g["image"]), str(p), "--model", "dlt", "-q"])
     assert r.exit_code == 0 and "skipped (outside the image (640x1152 px)): P3 (col 5000.0, row 10.0)" in r.output
     pix[5:39] = [-10.0, 5.0]  # 5 control points left inside (P0-P2, P4, P39), the DLT needs 6
