@@ -137,8 +137,8 @@ def test_too_few_gcps_inside_the_image_are_refused_naming_the_skipped(data_dir, 
     table = gpd.read_file(tmp_path / "gcps.gpkg")
     table["role"] = ["check" if r["id"] == rows[0]["id"] else "control" for r in rows]  # rows[0] lies inside
     table.to_file(tmp_path / "roles.gpkg")
-    with pytest.raises(InputError, match=r"house-swcnr-90b \(col 1132.4, row -35.9\).* outside the image "
-                                         r"\(850x1450 px\): 2 control point\(s\) remain, the affine correction needs 3"):
+    with pytest.raises(InputError, match=r"house-swcnr-90b \(col 1132.4, row -35.9\).* outside the image \(850x1450 "
+                                         r"px\): 2 control point\(s\) remain, the affine correction needs 3"):
         rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "roles.gpkg", tmp_path / "a.tif", method="affine")
     assert not (tmp_path / "a.tif").exists()
     with pytest.warns(UserWarning, match="2 GCP.* skipped, the other 3 used"):
