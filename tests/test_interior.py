@@ -4,6 +4,7 @@ the pixel → photo transform, the standard frame, and the refusals: marks cut o
 another layout, mixed scan resolutions."""
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -65,6 +66,23 @@ def test_rotation_found_when_the_layout_tells_it(tmp_path):
     rec = interior(path, cal, tmp_path / "io.json", scan_pixel_um=PIXEL_UM)[0]
     assert rec["rotation_deg"] == pytest.approx(181.0, abs=0.05) and rec["warnings"] == []
 
+
+
+@pytest.mark.parametrize("k90", [0, 2])
+def test_a_mirror_image_scan_is_refused_not_fitted_mirrored(tmp_path, k90):
+    """Film scanned through its base: the scan is the mirror image of the photo. The four marks on the axes
+    map onto themselves under the mirror, so a fit under a rotation used to succeed (exit 0, "rotation
+    ambiguous") with every photo coordinate mirrored; the asymmetric fifth mark tells the mirror. Fails on main."""
+    scan = render_scan(ASYMMETRIC, kind="cross", k90=k90, theta=1.0, seed=1)
+    flipped = dataclasses.replace(scan, image=scan.image[:, ::-1].copy())
+    path = write_scan(tmp_path / "flipped.tif", flipped)
+    (tmp_path / "cal.yaml").write_text(report_yaml(ASYMMETRIC, kind="cross"))
+    with pytest.raises(InputError, match=r"mirror image .* 5 of 5 fiducial marks, unflipped 4; flip the scan"):
+        interior(path, tmp_path / "cal.yaml", tmp_path / "io.json", scan_pixel_um=PIXEL_UM)
+    assert not (tmp_path / "io.json").exists()
+    # the same scan unflipped: all five marks, no refusal
+    interior(write_scan(tmp_path / "scan.tif", scan), tmp_path / "cal.yaml", tmp_path / "io.json",
+             scan_pixel_um=PIXEL_UM)
 
 def test_a_symmetric_layout_says_its_rotation_is_ambiguous(tmp_path):
     _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=1, theta=0.5)

@@ -125,17 +125,17 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
     ids = list(report.fiducials_mm)
     mm = np.array([report.fiducials_mm[i] for i in ids], float)
     shape = MarkShape(report.mark, report.mark_size_mm / p, report.mark_width_mm / p)
-    size = (img.shape[1], img.shape[0])
     warnings = []
+    thetas = [0.0, 90.0, 180.0, 270.0] if rotation == "auto" else [float(rotation)]
+    reach = max(3, int(round(search_mm / p)))
     tried = []
-    for th in ([0.0, 90.0, 180.0, 270.0] if rotation == "auto" else [float(rotation)]):
-        res = measure_marks(img, predict(mm, p, size, th), _templates(report, shape, mm, th, report.polarity),
-                            max(3, int(round(search_mm / p))), report.mark)
-        ok = [r.ok for r in res]
-        tried.append((sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, th, res))
-        prog(len(tried) / 5.0, f"rotation {th:g}°: {sum(ok)} marks")
+    for th in thetas:
+        tried.append(_hypothesis(img, report, shape, mm, p, th, reach))
+        prog(len(tried) / 5.0, f"rotation {th:g}°: {tried[-1][0]} marks")
     tried.sort(key=lambda t: (-t[0], -t[1], t[2]))
     n, rho, theta, res = tried[0]
+    if n < len(ids):
+        _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n)
     ties = [t[2] for t in tried[1:] if t[0] == n and abs(t[1] - rho) < 0.01]
     if ties and n:
         warnings.append(f"rotation ambiguous: the layout looks the same turned by {', '.join(f'{t:g}' for t in ties)}°;"
@@ -161,6 +161,28 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
                         f"from the {p * 1000:g} µm given: check the scan resolution and that the report is this camera's")
     prog(1.0, f"{len(use)} marks, RMS {io.rms_px:.3f} px")
     return interior_record(scan, report, io, marks, missing, warnings), io, img
+
+
+def _hypothesis(img, report, shape, mm, p, theta, reach):
+    """``(marks found, their mean NCC, theta, results)`` of the marks measured where the layout ``mm`` puts them
+    on a scan turned by ``theta``."""
+    res = measure_marks(img, predict(mm, p, (img.shape[1], img.shape[0]), theta),
+                        _templates(report, shape, mm, theta, report.polarity), reach, report.mark)
+    ok = [r.ok for r in res]
+    return sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, theta, res
+
+
+def _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n):
+    """Refuse a mirror-image scan (film scanned through its base): the layout flipped left-right finds more marks
+    than the best unflipped rotation's ``n``. A mirror cannot be told from a rotation by a layout symmetric under
+    it, and the transform fitted to a mirrored scan's marks under a rotation would mirror every photo
+    coordinate, so such a scan is refused rather than fitted."""
+    flipped = mm * np.array([-1.0, 1.0])
+    m = max(_hypothesis(img, report, shape, flipped, p, th, reach)[0] for th in thetas)
+    if m > n:
+        raise InputError(f"scan {str(scan)!r} is a mirror image (film scanned through its base?): the report's "
+                         f"layout flipped left-right finds {m} of {len(mm)} fiducial marks, unflipped {n}; flip the "
+                         "scan left-right (an image editor's 'flip horizontal') and run again")
 
 
 def _check_found(scan, model, marks, missing, min_fiducials):
