@@ -173,16 +173,16 @@ def _hypothesis(img, report, shape, mm, p, theta, reach):
 
 
 def _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n):
-    """Refuse a mirror-image scan (film scanned through its base): the layout flipped left-right finds more marks
-    than the best unflipped rotation's ``n``. A mirror cannot be told from a rotation by a layout symmetric under
-    it, and the transform fitted to a mirrored scan's marks under a rotation would mirror every photo
+    """Refuse a mirror-image scan (film scanned through its base): the layout flipped left-right finds more
+    marks than the best unflipped rotation's ``n``. A layout symmetric under the flip cannot tell it from a
+    rotation, and the transform fitted to a mirrored scan's marks under a rotation would mirror every photo
     coordinate, so such a scan is refused rather than fitted."""
     flipped = mm * np.array([-1.0, 1.0])
     m = max(_hypothesis(img, report, shape, flipped, p, th, reach)[0] for th in thetas)
     if m > n:
-        raise InputError(f"scan {str(scan)!r} is a mirror image (film scanned through its base?): the report's "
-                         f"layout flipped left-right finds {m} of {len(mm)} fiducial marks, unflipped {n}; flip the "
-                         "scan left-right (an image editor's 'flip horizontal') and run again")
+        raise InputError(f"scan {str(scan)!r} is a mirror image (film scanned through its base?): the "
+                         f"report's layout flipped left-right finds {m} of {len(mm)} fiducial marks, unflipped {n}; "
+                         "flip the scan left-right (an image editor's 'flip horizontal') and run again")
 
 
 def _check_found(scan, model, marks, missing, min_fiducials):
