@@ -277,3 +277,27 @@ def test_rendered_block_mosaic_agrees_with_the_truth(tmp_path):
     assert np.median(d) <= 0.5 and np.percentile(d, 95) <= 0.5, (np.median(d), np.percentile(d, 95))
     assert rep["overlapping_pairs"] >= 7 and all(c > 0 for c in rep["cells_per_image"])
     assert all(0.9 < g < 1.1 for gains in rep["gains"] for g in gains)
+
+
+def test_flipped_unreferenced_inputs_and_a_dsm_elsewhere_are_named(pair, tmp_path):
+    """The sweep's cases (issue 32), each failing on main: a south-up orthophoto was refused naming a temporary
+    VRT ('…/fotogeo-mosaic-…/1.vrt … Invalid dataset dimensions'); a PNG without georeference was 'in another
+    CRS'; a DSM of another area left the seamlines as without it, exit 0, nothing said."""
+    with rasterio.open(pair[1]) as ds:
+        img, prof, t = ds.read(), ds.profile, ds.transform
+    prof.update(transform=Affine(t.a, 0, t.c, 0, -t.e, t.f + t.e * img.shape[1]))
+    with rasterio.open(tmp_path / "south up.tif", "w", **prof) as ds:
+        ds.write(img[:, ::-1])
+    png = tmp_path / "b.png"
+    with rasterio.open(png, "w", driver="PNG", width=img.shape[2], height=img.shape[1], count=1, dtype="uint8") as ds:
+        ds.write(img)
+    with rasterio.open(tmp_path / "dsm.tif", "w", driver="GTiff", width=50, height=50, count=1, dtype="float32",
+                       crs="EPSG:32635", transform=Affine(2.0, 0, X0 + 5000, 0, -2.0, Y1)) as ds:
+        ds.write(np.full((1, 50, 50), 300.0, np.float32))
+    out = tmp_path / "m.tif"
+    for second, extra, words in ((tmp_path / "south up.tif", [], "south up.tif' is stored south-up"),
+                                 (png, [], "b.png' has no georeference"),
+                                 (pair[1], ["--dsm", str(tmp_path / "dsm.tif")], "covers none of the mosaic")):
+        result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(second), "-o", str(out), "-q", *extra])
+        assert_one_line_error(result, words)
+        assert not out.exists() and not list(tmp_path.glob("m.*"))
