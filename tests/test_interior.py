@@ -160,3 +160,15 @@ def test_command_line_one_scan_and_a_bad_report(tmp_path):
                                   str(tmp_path / "b.json"), "--scan-pixel-um", "150"])
     assert r.exit_code == 1 and "mark must be one of x, cross, dot, corner; got 'star'" in r.output  # a file's value: failed run
     assert not (tmp_path / "b.json").exists()
+
+
+def test_a_scan_without_resolution_tags_names_the_option_once(tmp_path):
+    """The fix names the option in the caller's words only: on main the line read 'scan_pixel_um /
+    --scan-pixel-um' on the command line and 'scan_pixel_um / “Scan pixel size in µm …”' in QGIS."""
+    _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=0, theta=1.0)
+    with pytest.raises(InputError, match="carries no resolution tags") as err:
+        interior(path, cal, tmp_path / "o.json")
+    assert err.value.option == "scan_pixel_um"
+    r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json")])
+    assert r.exit_code == 2 and "give its pixel size: --scan-pixel-um (e.g. 21" in r.output
+    assert "scan_pixel_um" not in r.output and not (tmp_path / "o.json").exists()

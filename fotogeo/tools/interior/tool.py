@@ -95,8 +95,8 @@ def scan_pixel_mm(scan, given_um) -> float:
         per = 0.0
     if per > 1.0 and (unit.startswith("2") or unit.startswith("3")):
         return (25.4 if unit.startswith("2") else 10.0) / per
-    raise InputError(f"scan {str(scan)!r} carries no resolution tags; give its pixel size (scan_pixel_um / "
-                     "--scan-pixel-um, e.g. 21 for a 1200 dpi scan)")
+    raise InputError(f"scan {str(scan)!r} carries no resolution tags; give its pixel size: scan_pixel_um (e.g. 21 "
+                     "for a 1200 dpi scan)", option="scan_pixel_um")
 
 
 def _read_grey(scan) -> np.ndarray:
