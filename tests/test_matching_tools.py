@@ -59,3 +59,30 @@ def test_measure_targets_cli(tmp_path):
     assert np.abs(m[["col", "row"]].to_numpy() - centres).max() < 0.05
     r = measure_targets(tmp_path / "t.tif", tmp_path / "approx.csv", tmp_path / "m.gpkg")
     assert r["measured"] == 3
+
+
+def _crop(src, dst, window):
+    from rasterio.windows import Window
+    with rasterio.open(src) as ds:
+        prof = ds.profile
+        prof.update(width=window[2], height=window[3], transform=ds.window_transform(Window(*window)))
+        with rasterio.open(dst, "w", **prof) as out:
+            out.write(ds.read(window=Window(*window)))
+    return dst
+
+
+def test_match_flags_no_chance_inliers_between_unrelated_images(data_dir, tmp_path):
+    """The NGI valley against the Bahamas (Landsat): 215 ratio-0.95 matches, all wrong. On main RANSAC's
+    5-point minimum flagged 6 of them homography inliers (exit 0, a plausible tie-point layer); now fewer than
+    12 agreeing matches flag none, and a warning names both files."""
+    import warnings
+    from fotogeo.errors import FotogeoWarning
+    from fotogeo.tools.register.match import match_images
+    a = _crop(data_dir / "ngi" / "ortho" / "ngi_rgb_byte_1.tif", tmp_path / "a.tif", (200, 300, 500, 500))
+    b = _crop(data_dir / "landsat_rgb" / "RGB.byte.tif", tmp_path / "b.tif", (150, 100, 500, 500))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = match_images(a, b, tmp_path / "t.gpkg", ratio=0.95)
+    assert r["matches"] > 100 and r["inliers"] == 0
+    said = [str(w.message) for w in caught if issubclass(w.category, FotogeoWarning)]
+    assert any("agree on one homography" in m and "a.tif" in m and "b.tif" in m for m in said), said
