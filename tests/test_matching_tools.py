@@ -86,3 +86,13 @@ def test_match_flags_no_chance_inliers_between_unrelated_images(data_dir, tmp_pa
     assert r["matches"] > 100 and r["inliers"] == 0
     said = [str(w.message) for w in caught if issubclass(w.category, FotogeoWarning)]
     assert any("agree on one homography" in m and "a.tif" in m and "b.tif" in m for m in said), said
+
+
+def test_point_tables_named_for_another_format_are_refused(tmp_path):
+    """measure-targets -o t.txt wrote a GeoPackage named .txt on main (exit 0); CSV or GeoPackage by name now."""
+    centres = np.array([[60.3, 50.7], [150.55, 120.25]])
+    _write(tmp_path / "t.tif", x_target_scene(centres).astype(np.float32))
+    pd.DataFrame({"col": centres[:, 0], "row": centres[:, 1]}).to_csv(tmp_path / "approx.csv", index=False)
+    with pytest.raises(OutputError, match="fotogeo writes it as CSV or GeoPackage; give a file name ending in .csv"):
+        measure_targets(tmp_path / "t.tif", tmp_path / "approx.csv", tmp_path / "m.txt")
+    assert not (tmp_path / "m.txt").exists()

@@ -301,3 +301,14 @@ def test_flipped_unreferenced_inputs_and_a_dsm_elsewhere_are_named(pair, tmp_pat
         result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(second), "-o", str(out), "-q", *extra])
         assert_one_line_error(result, words)
         assert not out.exists() and not list(tmp_path.glob("m.*"))
+
+
+@pytest.mark.parametrize("names,words", [(("m.jpg", None), "writes it as GeoTIFF; give a file name ending in .tif"),
+                                         (("m.tif", "s.shp"), "writes it as GeoPackage; give a file name ending")])
+def test_outputs_named_for_another_format_are_refused(pair, tmp_path, names, words):
+    """On main a COG was written as m.jpg and a GeoPackage as s.shp (exit 0): files that what their names
+    promise (a JPEG viewer, a Shapefile reader) read wrongly or not at all."""
+    seams = ["--seamlines", str(tmp_path / names[1])] if names[1] else []
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(pair[1]), "-o", str(tmp_path / names[0]), *seams])
+    assert_one_line_error(result, words)
+    assert not list(tmp_path.iterdir())

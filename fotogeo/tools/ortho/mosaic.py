@@ -229,8 +229,8 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
         raise InputError("give at least two orthophotos to mosaic")
     output = Path(output)
     seamlines = Path(seamlines) if seamlines else output.with_suffix(".gpkg")
-    for p, role in ((output, "mosaic"), (seamlines, "seamlines")):
-        check_output(p, paths, overwrite, role)
+    for p, role, kind in ((output, "mosaic", (".tif", ".tiff")), (seamlines, "seamlines", (".gpkg",))):
+        check_output(p, paths, overwrite, role, kind)
     infos = [open_raster(p, "orthophoto") for p in paths]
     crs, lattice = _lattice(infos, paths)
     with tempfile.TemporaryDirectory(prefix="fotogeo-mosaic-") as folder:

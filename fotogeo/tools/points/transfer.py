@@ -44,7 +44,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     ``col``, ``row`` (refined), ``sigma_x``, ``sigma_y``, ``ncc``, ``status`` and the approximation.
     """
     prog = as_progress(progress)
-    check_output(output, [reference, search, points], overwrite)
+    check_output(output, [reference, search, points], overwrite, suffixes=(".csv", ".gpkg"))
     table = read_table(points, "point table")
     check_has_points(table, f"point table {str(points)!r}", (id_field, *ref_fields, *approx_fields))
     ref_info, search_info = open_raster(reference, "reference"), open_raster(search, "search")

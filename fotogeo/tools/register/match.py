@@ -366,7 +366,7 @@ def match_images(reference, target, output, *, overwrite: bool = False, progress
     opts = RegisterOptions(**options)
     opts.validate()
     prog = as_progress(progress)
-    check_output(output, [reference, target], overwrite, "tie-point layer")
+    check_output(output, [reference, target], overwrite, "tie-point layer", (".gpkg",))
     ref, tgt = open_raster(reference, "reference"), open_raster(target, "target")
     src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.9, "matching"))
     try:
