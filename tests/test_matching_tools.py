@@ -96,3 +96,24 @@ def test_point_tables_named_for_another_format_are_refused(tmp_path):
     with pytest.raises(OutputError, match="fotogeo writes it as CSV or GeoPackage; give a file name ending in .csv"):
         measure_targets(tmp_path / "t.tif", tmp_path / "approx.csv", tmp_path / "m.txt")
     assert not (tmp_path / "m.txt").exists()
+
+
+def test_transfer_into_a_turned_search_image_says_none_converged(tmp_path):
+    """A search image turned 90° (as a user's other-date frame may be): no point converges. On main the run
+    printed 'median σ None px' and nothing else; now a warning says what area-based matching needs, and the
+    σ of a good run reads in three decimals."""
+    rng = np.random.default_rng(3)
+    from scipy.ndimage import gaussian_filter
+    ref = gaussian_filter(rng.normal(0, 1, (200, 200)), 2.0).astype(np.float32)
+    _write(tmp_path / "ref.tif", ref)
+    _write(tmp_path / "turned.tif", np.rot90(ref, -1).copy())
+    pts = rng.uniform(50, 150, (8, 2))
+    pd.DataFrame({"id": range(8), "ref_col": pts[:, 0], "ref_row": pts[:, 1], "col": pts[:, 0],
+                  "row": pts[:, 1]}).to_csv(tmp_path / "pts.csv", index=False)
+    r = CliRunner().invoke(main, ["transfer-points", str(tmp_path / "ref.tif"), str(tmp_path / "turned.tif"),
+                                  str(tmp_path / "pts.csv"), "-o", str(tmp_path / "t.csv"), "-q"])
+    assert r.exit_code == 0 and "0 of 8 points converged (no σ)" in r.output, r.output
+    assert "none of the 8 points converged in" in r.stderr and "orientation and scale" in r.stderr
+    r = CliRunner().invoke(main, ["transfer-points", str(tmp_path / "ref.tif"), str(tmp_path / "ref.tif"),
+                                  str(tmp_path / "pts.csv"), "-o", str(tmp_path / "same.csv"), "-q"])
+    assert r.exit_code == 0 and "8 of 8 points converged (median σ 0.0" in r.output, r.output
