@@ -172,3 +172,12 @@ def test_a_scan_without_resolution_tags_names_the_option_once(tmp_path):
     r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json")])
     assert r.exit_code == 2 and "give its pixel size: --scan-pixel-um (e.g. 21" in r.output
     assert "scan_pixel_um" not in r.output and not (tmp_path / "o.json").exists()
+
+
+def test_more_fiducials_asked_than_the_report_has_is_an_option_error(tmp_path):
+    """On main: '5 of 5 fiducial marks found (…), at least 9 needed; not found: .' after measuring the scan."""
+    _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=0, theta=1.0)
+    r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json"),
+                                  "--scan-pixel-um", "150", "--min-fiducials", "9"])
+    assert r.exit_code == 2 and "--min-fiducials 9 asks for more marks than the 4 of the camera report" in r.output
+    assert not (tmp_path / "o.json").exists()

@@ -312,3 +312,16 @@ def test_outputs_named_for_another_format_are_refused(pair, tmp_path, names, wor
     result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(pair[1]), "-o", str(tmp_path / names[0]), *seams])
     assert_one_line_error(result, words)
     assert not list(tmp_path.iterdir())
+
+
+def test_another_band_set_names_the_gdal_fix(pair, tmp_path):
+    """An RGBA neighbour of an RGB orthophoto (here: two bands against one) was refused with 'mosaic
+    orthophotos of one kind' on main, which says no way out."""
+    with rasterio.open(pair[1]) as ds:
+        img, prof = ds.read(), ds.profile
+    prof.update(count=2)
+    with rasterio.open(tmp_path / "two.tif", "w", **prof) as ds:
+        ds.write(np.concatenate([img, np.full_like(img, 255)]))
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(tmp_path / "two.tif"), "-o", str(tmp_path / "m.tif")])
+    assert_one_line_error(result, "has 2 bands of uint8")
+    assert "gdal_translate -b to keep the same bands, -ot to convert" in result.stderr

@@ -48,6 +48,9 @@ def interior(scans, camera_report, output, *, model: str = "affine", scan_pixel_
     if not scans:
         raise InputError("give at least one scan")
     report = read_calibration_report(camera_report)
+    if min_fiducials > len(report.fiducials_mm):
+        raise InputError(f"min_fiducials {min_fiducials} asks for more marks than the {len(report.fiducials_mm)} of "
+                         f"the camera report; give at most {len(report.fiducials_mm)}", option="min_fiducials")
     targets = _targets(scans, output, [camera_report, *scans], overwrite)
     results = []
     for k, scan in enumerate(scans):

@@ -72,7 +72,8 @@ def _lattice(infos, paths):
                              f"north-up first (gdalwarp -t_srs with its own CRS)")
         if (info.count, info.dtype) != (first.count, first.dtype):
             raise InputError(f"orthophoto {str(p)!r} has {info.count} bands of {info.dtype}, {str(paths[0])!r} "
-                             f"{first.count} of {first.dtype}; mosaic orthophotos of one kind")
+                             f"{first.count} of {first.dtype}; mosaic orthophotos of one band set and data type "
+                             "(gdal_translate -b to keep the same bands, -ot to convert)")
     finest = min(infos, key=lambda i: abs(i.transform.a * i.transform.e))
     return first.crs, finest.transform
 
