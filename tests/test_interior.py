@@ -181,3 +181,12 @@ def test_more_fiducials_asked_than_the_report_has_is_an_option_error(tmp_path):
                                   "--scan-pixel-um", "150", "--min-fiducials", "9"])
     assert r.exit_code == 2 and "--min-fiducials 9 asks for more marks than the 4 of the camera report" in r.output
     assert not (tmp_path / "o.json").exists()
+
+
+def test_several_scans_into_a_json_name_are_refused(tmp_path):
+    """On main 'interior a.tif b.tif -o two.json' made a folder named two.json holding a.json and b.json."""
+    _, a, cal = setup(tmp_path, RMK_LIKE, "cross", name="a", k90=0, theta=1.0)
+    _, b, _ = setup(tmp_path, RMK_LIKE, "cross", name="b", k90=0, theta=1.0)
+    with pytest.raises(InputError, match="names a JSON file, but 2 scans need a folder"):
+        interior([a, b], cal, tmp_path / "two.json", scan_pixel_um=PIXEL_UM, rotation="0")
+    assert not (tmp_path / "two.json").exists()

@@ -76,6 +76,9 @@ def _targets(scans, output, inputs, overwrite) -> list[Path]:
         return [output]
     if output.exists() and not output.is_dir():
         raise InputError(f"output {str(output)!r} is a file; several scans need a folder (one JSON per scan)")
+    if output.suffix.lower() == ".json" and not output.is_dir():  # not a folder named like a file
+        raise InputError(f"output {str(output)!r} names a JSON file, but {len(scans)} scans need a folder (one "
+                         "<scan>.json each); give a folder, or one scan per run")
     stems = [Path(s).stem for s in scans]
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
