@@ -120,9 +120,8 @@ def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
     parameter labels, :func:`fotogeo.options.in_labels`). Relative paths among ``args`` and ``kwargs`` are the
     caller's (:func:`callers_folder`), as ``qgis_process run … --FRAMES=img/a.JPG`` means them."""
     request = json.dumps({"tool": tool, "args": list(args), "kwargs": kwargs, "cwd": callers_folder()}) + "\n"
-    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr:
-        proc = start_worker(stderr)
-        proc.stdin.write(request)
+    with tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace") as stderr, start_worker(stderr) as proc:
+        proc.stdin.write(request)  # the pipes are closed on leaving (qgis_process printed ResourceWarnings)
         proc.stdin.flush()
         final = _follow(proc, feedback, words)
         proc.wait()

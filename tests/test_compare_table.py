@@ -107,6 +107,23 @@ def test_counts_beyond_the_points_and_too_few_gcps_are_refused(files):
         compare_models(files["image"], d / "two.csv", crs="EPSG:32735")
 
 
+
+def test_one_gcp_without_height_is_named_not_every_3d_model_dropped(files):
+    """One empty z cell of 60 used to drop the heights of all (has_heights is all-or-nothing): the DLT row
+    vanished into "GCPs have no heights" and affine ranked first, 17.6 px instead of DLT's 0.3 (exit 0).
+    Fails on main; a constant height for the one point fits again."""
+    d = files["dir"]
+    table = pd.read_csv(files["gcps"])
+    table.loc[3, "z"] = np.nan
+    table.to_csv(d / "one_empty.csv", index=False)
+    with pytest.raises(InputError, match=r"GCP\(s\) p3 have no height while the other 59 have one") as err:
+        compare_models(files["image"], d / "one_empty.csv", models=["affine", "dlt"], crs="EPSG:32735", counts="20",
+                       spreads=("homogeneous",), trials=1)
+    assert err.value.option == "dem"
+    rows = compare_models(files["image"], d / "one_empty.csv", models=["dlt"], crs="EPSG:32735", counts="20",
+                          spreads=("homogeneous",), trials=1, height=150.0)
+    assert rows[0]["model"] == "dlt" and "note" not in rows[0]
+
 def test_the_papers_plain_rfm_beside_the_regularised_one_and_image_to_ground():
     """40 control points for 78 parameters: the plain solve interpolates the control points (its control
     errors far below the noise) and errs at the check points; the regularised RFM does not (measured

@@ -4,6 +4,7 @@ the pixel → photo transform, the standard frame, and the refusals: marks cut o
 another layout, mixed scan resolutions."""
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -65,6 +66,23 @@ def test_rotation_found_when_the_layout_tells_it(tmp_path):
     rec = interior(path, cal, tmp_path / "io.json", scan_pixel_um=PIXEL_UM)[0]
     assert rec["rotation_deg"] == pytest.approx(181.0, abs=0.05) and rec["warnings"] == []
 
+
+
+@pytest.mark.parametrize("k90", [0, 2])
+def test_a_mirror_image_scan_is_refused_not_fitted_mirrored(tmp_path, k90):
+    """Film scanned through its base: the scan is the mirror image of the photo. The four marks on the axes
+    map onto themselves under the mirror, so a fit under a rotation used to succeed (exit 0, "rotation
+    ambiguous") with every photo coordinate mirrored; the asymmetric fifth mark tells the mirror. Fails on main."""
+    scan = render_scan(ASYMMETRIC, kind="cross", k90=k90, theta=1.0, seed=1)
+    flipped = dataclasses.replace(scan, image=scan.image[:, ::-1].copy())
+    path = write_scan(tmp_path / "flipped.tif", flipped)
+    (tmp_path / "cal.yaml").write_text(report_yaml(ASYMMETRIC, kind="cross"))
+    with pytest.raises(InputError, match=r"mirror image .* 5 of 5 fiducial marks, unflipped 4; flip the"):
+        interior(path, tmp_path / "cal.yaml", tmp_path / "io.json", scan_pixel_um=PIXEL_UM)
+    assert not (tmp_path / "io.json").exists()
+    # the same scan unflipped: all five marks, no refusal
+    interior(write_scan(tmp_path / "scan.tif", scan), tmp_path / "cal.yaml", tmp_path / "io.json",
+             scan_pixel_um=PIXEL_UM)
 
 def test_a_symmetric_layout_says_its_rotation_is_ambiguous(tmp_path):
     _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=1, theta=0.5)
@@ -142,3 +160,33 @@ def test_command_line_one_scan_and_a_bad_report(tmp_path):
                                   str(tmp_path / "b.json"), "--scan-pixel-um", "150"])
     assert r.exit_code == 1 and "mark must be one of x, cross, dot, corner; got 'star'" in r.output  # a file's value: failed run
     assert not (tmp_path / "b.json").exists()
+
+
+def test_a_scan_without_resolution_tags_names_the_option_once(tmp_path):
+    """The fix names the option in the caller's words only: on main the line read 'scan_pixel_um /
+    --scan-pixel-um' on the command line and 'scan_pixel_um / “Scan pixel size in µm …”' in QGIS."""
+    _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=0, theta=1.0)
+    with pytest.raises(InputError, match="carries no resolution tags") as err:
+        interior(path, cal, tmp_path / "o.json")
+    assert err.value.option == "scan_pixel_um"
+    r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json")])
+    assert r.exit_code == 2 and "give its pixel size: --scan-pixel-um (e.g. 21" in r.output
+    assert "scan_pixel_um" not in r.output and not (tmp_path / "o.json").exists()
+
+
+def test_more_fiducials_asked_than_the_report_has_is_an_option_error(tmp_path):
+    """On main: '5 of 5 fiducial marks found (…), at least 9 needed; not found: .' after measuring the scan."""
+    _, path, cal = setup(tmp_path, RMK_LIKE, "cross", k90=0, theta=1.0)
+    r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json"),
+                                  "--scan-pixel-um", "150", "--min-fiducials", "9"])
+    assert r.exit_code == 2 and "--min-fiducials 9 asks for more marks than the 4 of the camera report" in r.output
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_several_scans_into_a_json_name_are_refused(tmp_path):
+    """On main 'interior a.tif b.tif -o two.json' made a folder named two.json holding a.json and b.json."""
+    _, a, cal = setup(tmp_path, RMK_LIKE, "cross", name="a", k90=0, theta=1.0)
+    _, b, _ = setup(tmp_path, RMK_LIKE, "cross", name="b", k90=0, theta=1.0)
+    with pytest.raises(InputError, match="names a JSON file, but 2 scans need a folder"):
+        interior([a, b], cal, tmp_path / "two.json", scan_pixel_um=PIXEL_UM, rotation="0")
+    assert not (tmp_path / "two.json").exists()

@@ -277,3 +277,51 @@ def test_rendered_block_mosaic_agrees_with_the_truth(tmp_path):
     assert np.median(d) <= 0.5 and np.percentile(d, 95) <= 0.5, (np.median(d), np.percentile(d, 95))
     assert rep["overlapping_pairs"] >= 7 and all(c > 0 for c in rep["cells_per_image"])
     assert all(0.9 < g < 1.1 for gains in rep["gains"] for g in gains)
+
+
+def test_flipped_unreferenced_inputs_and_a_dsm_elsewhere_are_named(pair, tmp_path):
+    """The sweep's cases (issue 32), each failing on main: a south-up orthophoto was refused naming a temporary
+    VRT ('…/fotogeo-mosaic-…/1.vrt … Invalid dataset dimensions'); a PNG without georeference was 'in another
+    CRS'; a DSM of another area left the seamlines as without it, exit 0, nothing said."""
+    with rasterio.open(pair[1]) as ds:
+        img, prof, t = ds.read(), ds.profile, ds.transform
+    prof.update(transform=Affine(t.a, 0, t.c, 0, -t.e, t.f + t.e * img.shape[1]))
+    with rasterio.open(tmp_path / "south up.tif", "w", **prof) as ds:
+        ds.write(img[:, ::-1])
+    png = tmp_path / "b.png"
+    with rasterio.open(png, "w", driver="PNG", width=img.shape[2], height=img.shape[1], count=1, dtype="uint8") as ds:
+        ds.write(img)
+    with rasterio.open(tmp_path / "dsm.tif", "w", driver="GTiff", width=50, height=50, count=1, dtype="float32",
+                       crs="EPSG:32635", transform=Affine(2.0, 0, X0 + 5000, 0, -2.0, Y1)) as ds:
+        ds.write(np.full((1, 50, 50), 300.0, np.float32))
+    out = tmp_path / "m.tif"
+    for second, extra, words in ((tmp_path / "south up.tif", [], "south up.tif' is stored south-up"),
+                                 (png, [], "b.png' has no georeference"),
+                                 (pair[1], ["--dsm", str(tmp_path / "dsm.tif")], "covers none of the mosaic")):
+        result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(second), "-o", str(out), "-q", *extra])
+        assert_one_line_error(result, words)
+        assert not out.exists() and not list(tmp_path.glob("m.*"))
+
+
+@pytest.mark.parametrize("names,words", [(("m.jpg", None), "writes it as GeoTIFF; give a file name ending in .tif"),
+                                         (("m.tif", "s.shp"), "writes it as GeoPackage; give a file name ending")])
+def test_outputs_named_for_another_format_are_refused(pair, tmp_path, names, words):
+    """On main a COG was written as m.jpg and a GeoPackage as s.shp (exit 0): files that what their names
+    promise (a JPEG viewer, a Shapefile reader) read wrongly or not at all."""
+    seams = ["--seamlines", str(tmp_path / names[1])] if names[1] else []
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(pair[1]), "-o", str(tmp_path / names[0]), *seams])
+    assert_one_line_error(result, words)
+    assert not list(tmp_path.iterdir())
+
+
+def test_another_band_set_names_the_gdal_fix(pair, tmp_path):
+    """An RGBA neighbour of an RGB orthophoto (here: two bands against one) was refused with 'mosaic
+    orthophotos of one kind' on main, which says no way out."""
+    with rasterio.open(pair[1]) as ds:
+        img, prof = ds.read(), ds.profile
+    prof.update(count=2)
+    with rasterio.open(tmp_path / "two.tif", "w", **prof) as ds:
+        ds.write(np.concatenate([img, np.full_like(img, 255)]))
+    result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(tmp_path / "two.tif"), "-o", str(tmp_path / "m.tif")])
+    assert_one_line_error(result, "has 2 bands of uint8")
+    assert "gdal_translate -b to keep the same bands, -ot to convert" in result.stderr

@@ -183,3 +183,13 @@ def test_georeferenced_raster_and_register_tie_points(tmp_path, data_dir):
     gp = read_points(q)
     np.testing.assert_array_equal(gp.source_xy, [[5.5, -7.5], [6.5, -8.5]])
     np.testing.assert_array_equal(gp.enabled, [True, False])
+
+
+def test_a_layer_named_for_another_format_is_refused(tmp_path):
+    """points-to-layer -o gcps.shp wrote a GeoPackage named .shp on main (exit 0), which a Shapefile reader
+    cannot open; refused before the points are read."""
+    p = tmp_path / "a.points"
+    p.write_text("#CRS: EPSG:32735\n" + HEADER + "\n500100.5,6200200.25,120.5,-80.25,1,0,0,0\n")
+    with pytest.raises(OutputError, match="fotogeo writes it as GeoPackage; give a file name ending in .gpkg"):
+        points_to_layer(p, tmp_path / "gcps.shp")
+    assert not (tmp_path / "gcps.shp").exists()

@@ -52,6 +52,7 @@ def _run(config, folder: Path, alg: str, *params: str) -> subprocess.CompletedPr
     r = subprocess.run([QGIS_PROCESS, "--json", "run", f"fotogeo:{alg}", "--", *params], cwd=folder,
                        capture_output=True, text=True, timeout=180, env=_env(config))
     assert r.returncode == 0, f"{alg}: exit {r.returncode}\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
+    assert "ResourceWarning" not in r.stdout + r.stderr, r.stderr[-3000:]  # the worker's pipes closed (main: 4)
     assert not beside_inputs(before), beside_inputs(before)
     return r
 

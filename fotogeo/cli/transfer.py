@@ -26,6 +26,7 @@ def command(reference, search, points, output, overwrite, quiet, **kw):
                           **tool_arguments(kw, TRANSFER))
     finally:
         bar.close()
-    click.echo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "
-               f"statuses {r['statuses']}; wrote {r['output']}")
+    sigma = f"median σ {r['median_sigma_px']:.3f} px" if r["median_sigma_px"] is not None else "no σ"
+    click.echo(f"{r['converged']} of {r['points']} points converged ({sigma}); statuses {r['statuses']}; "
+               f"wrote {r['output']}")
     return r

@@ -158,9 +158,19 @@ MAX_GRID_UPSAMPLING = 100
 BEST_COMPRESSION = 4
 
 
-def check_output(path, inputs, overwrite: bool, role: str = "output") -> Path:
-    """Refuse an output that equals an input, exists without ``overwrite``, is a folder, or whose
-    folder is missing or not writable (a temporary file is actually created there and removed)."""
+#: what fotogeo writes under a suffix (the formats are chosen by the tools, not by the name)
+WRITTEN_AS = {".tif": "GeoTIFF", ".tiff": "GeoTIFF", ".gpkg": "GeoPackage", ".csv": "CSV"}
+
+
+def check_output(path, inputs, overwrite: bool, role: str = "output", suffixes: tuple | None = None) -> Path:
+    """Refuse an output that equals an input, exists without ``overwrite``, is a folder, whose
+    folder is missing or not writable (a temporary file is actually created there and removed), or,
+    with ``suffixes``, whose name ends otherwise (a GeoTIFF named ``.jpg`` or a GeoPackage named
+    ``.shp`` would be read wrongly by what the name promises)."""
+    if suffixes and Path(path).suffix.lower() not in suffixes:
+        kinds = " or ".join(dict.fromkeys(WRITTEN_AS.get(x, x) for x in suffixes))
+        raise OutputError(f"{role} {str(path)!r}: fotogeo writes it as {kinds}; give a file name ending in "
+                          f"{' or '.join(suffixes)}")
     p = Path(path).resolve()
     for i in inputs:
         if i is not None and Path(i).resolve() == p:

@@ -64,8 +64,8 @@ class TransferPointsAlgorithm(FotogeoAlgorithm):
             "transfer_gcps", self.raster_path(parameters, self.REFERENCE, context),
             self.raster_path(parameters, self.SEARCH, context), self.parameterAsFile(parameters, self.POINTS, context),
             output, overwrite=True, feedback=feedback, **self.option_arguments(parameters, context))
-        feedback.pushInfo(f"{r['converged']} of {r['points']} points converged (median σ {r['median_sigma_px']} px); "
-                          f"statuses {r['statuses']}")
         sigma = r["median_sigma_px"]
+        said = f"median σ {sigma:.3f} px" if sigma is not None else "no σ"
+        feedback.pushInfo(f"{r['converged']} of {r['points']} points converged ({said}); statuses {r['statuses']}")
         return {self.OUTPUT: output, self.COUNT: r["points"], self.CONVERGED: r["converged"],
                 self.MEDIAN_SIGMA: float("nan") if sigma is None else float(sigma)}

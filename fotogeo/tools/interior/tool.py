@@ -48,6 +48,9 @@ def interior(scans, camera_report, output, *, model: str = "affine", scan_pixel_
     if not scans:
         raise InputError("give at least one scan")
     report = read_calibration_report(camera_report)
+    if min_fiducials > len(report.fiducials_mm):
+        raise InputError(f"min_fiducials {min_fiducials} asks for more marks than the {len(report.fiducials_mm)} of "
+                         f"the camera report; give at most {len(report.fiducials_mm)}", option="min_fiducials")
     targets = _targets(scans, output, [camera_report, *scans], overwrite)
     results = []
     for k, scan in enumerate(scans):
@@ -73,6 +76,9 @@ def _targets(scans, output, inputs, overwrite) -> list[Path]:
         return [output]
     if output.exists() and not output.is_dir():
         raise InputError(f"output {str(output)!r} is a file; several scans need a folder (one JSON per scan)")
+    if output.suffix.lower() == ".json" and not output.is_dir():  # not a folder named like a file
+        raise InputError(f"output {str(output)!r} names a JSON file, but {len(scans)} scans need a folder (one "
+                         "<scan>.json each); give a folder, or one scan per run")
     stems = [Path(s).stem for s in scans]
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
@@ -95,8 +101,8 @@ def scan_pixel_mm(scan, given_um) -> float:
         per = 0.0
     if per > 1.0 and (unit.startswith("2") or unit.startswith("3")):
         return (25.4 if unit.startswith("2") else 10.0) / per
-    raise InputError(f"scan {str(scan)!r} carries no resolution tags; give its pixel size (scan_pixel_um / "
-                     "--scan-pixel-um, e.g. 21 for a 1200 dpi scan)")
+    raise InputError(f"scan {str(scan)!r} carries no resolution tags; give its pixel size: scan_pixel_um (e.g. 21 "
+                     "for a 1200 dpi scan)", option="scan_pixel_um")
 
 
 def _read_grey(scan) -> np.ndarray:
@@ -125,17 +131,17 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
     ids = list(report.fiducials_mm)
     mm = np.array([report.fiducials_mm[i] for i in ids], float)
     shape = MarkShape(report.mark, report.mark_size_mm / p, report.mark_width_mm / p)
-    size = (img.shape[1], img.shape[0])
     warnings = []
+    thetas = [0.0, 90.0, 180.0, 270.0] if rotation == "auto" else [float(rotation)]
+    reach = max(3, int(round(search_mm / p)))
     tried = []
-    for th in ([0.0, 90.0, 180.0, 270.0] if rotation == "auto" else [float(rotation)]):
-        res = measure_marks(img, predict(mm, p, size, th), _templates(report, shape, mm, th, report.polarity),
-                            max(3, int(round(search_mm / p))), report.mark)
-        ok = [r.ok for r in res]
-        tried.append((sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, th, res))
-        prog(len(tried) / 5.0, f"rotation {th:g}°: {sum(ok)} marks")
+    for th in thetas:
+        tried.append(_hypothesis(img, report, shape, mm, p, th, reach))
+        prog(len(tried) / 5.0, f"rotation {th:g}°: {tried[-1][0]} marks")
     tried.sort(key=lambda t: (-t[0], -t[1], t[2]))
     n, rho, theta, res = tried[0]
+    if n < len(ids):
+        _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n)
     ties = [t[2] for t in tried[1:] if t[0] == n and abs(t[1] - rho) < 0.01]
     if ties and n:
         warnings.append(f"rotation ambiguous: the layout looks the same turned by {', '.join(f'{t:g}' for t in ties)}°;"
@@ -161,6 +167,28 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
                         f"from the {p * 1000:g} µm given: check the scan resolution and that the report is this camera's")
     prog(1.0, f"{len(use)} marks, RMS {io.rms_px:.3f} px")
     return interior_record(scan, report, io, marks, missing, warnings), io, img
+
+
+def _hypothesis(img, report, shape, mm, p, theta, reach):
+    """``(marks found, their mean NCC, theta, results)`` of the marks measured where the layout ``mm`` puts them
+    on a scan turned by ``theta``."""
+    res = measure_marks(img, predict(mm, p, (img.shape[1], img.shape[0]), theta),
+                        _templates(report, shape, mm, theta, report.polarity), reach, report.mark)
+    ok = [r.ok for r in res]
+    return sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, theta, res
+
+
+def _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n):
+    """Refuse a mirror-image scan (film scanned through its base): the layout flipped left-right finds more
+    marks than the best unflipped rotation's ``n``. A layout symmetric under the flip cannot tell it from a
+    rotation, and the transform fitted to a mirrored scan's marks under a rotation would mirror every photo
+    coordinate, so such a scan is refused rather than fitted."""
+    flipped = mm * np.array([-1.0, 1.0])
+    m = max(_hypothesis(img, report, shape, flipped, p, th, reach)[0] for th in thetas)
+    if m > n:
+        raise InputError(f"scan {str(scan)!r} is a mirror image (film scanned through its base?): the "
+                         f"report's layout flipped left-right finds {m} of {len(mm)} fiducial marks, unflipped {n}; "
+                         "flip the scan left-right (an image editor's 'flip horizontal') and run again")
 
 
 def _check_found(scan, model, marks, missing, min_fiducials):

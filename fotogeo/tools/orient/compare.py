@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ...errors import InputError, OutputError
 from ...io.camera import load_camera
 from ...io.gcps import inside_image, read_gcps
@@ -54,6 +56,7 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
     check_camera_size(camera, info.width, info.height, image)
     g, _ = inside_image(g, info.width, info.height, f"{gcps}", get_model("similarity").min_points,
                         "the simplest model (similarity)")
+    _check_partial_heights(g, gcps)
     role_sets = _role_sets(g, gcps) if sets == "roles" else None
     chosen = bool(models)
     models = list(models or DEFAULT_MODELS)
@@ -85,6 +88,17 @@ def _enough_points(models, chosen: bool, n: int, counts, gcps) -> None:
     if over:
         raise InputError(f"counts {', '.join(over[:6])} ask for more control (+ check) points than the {n} of GCP file "
                          f"{str(gcps)!r}; give counts up to {n}", option="counts")
+
+
+def _check_partial_heights(g, gcps) -> None:
+    """Refuse GCPs of which some have a height and some not: the 3-D models would be left out for all of them
+    (a table without its DLT/RFM rows, "GCPs have no heights") because of one empty cell."""
+    missing = ~np.isfinite(g.ground[:, 2])
+    if missing.any() and not missing.all():
+        ids = ", ".join(g.ids[missing][:10]) + (" …" if missing.sum() > 10 else "")
+        raise InputError(f"GCP file {str(gcps)!r}: GCP(s) {ids} have no height while the other "
+                         f"{int((~missing).sum())} have one; fill their z field, or give dem (a DEM their heights "
+                         "are read from) or a constant height", option="dem")
 
 
 def _role_sets(g, gcps) -> dict:

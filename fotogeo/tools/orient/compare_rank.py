@@ -20,9 +20,16 @@ def ranking(rows, min_check: int = MIN_CHECK_POINTS):
     'lowest check RMS xy among the 1 rows with >= 5 check points: affine (homogeneous, 20 control, 20 check) 4.200 px'
     >>> ranking(rows[:1])[1]
     'no ranking: no row has 5 check points (a check RMS of fewer says little); hold more points out as check points'
+    >>> ranking([{"model": "collinearity", "spread": "homogeneous", "n_control": 20, "n_check": 40,
+    ...           "note": "model 'collinearity' needs the interior orientation"}])[1]
+    'no ranking: collinearity fitted no set; the notes in the table say why'
     """
     fitted = [r for r in rows if r.get("check_rms_xy_px") is not None]
     ranked = [r for r in fitted if (r.get("n_check") or 0) >= min_check]
+    waiting = [r for r in rows if (r.get("n_check") or 0) >= min_check and r not in fitted]
+    if not ranked and waiting:  # check points enough, no check RMS: the models did not fit (their notes say why)
+        models = ", ".join(dict.fromkeys(r["model"] for r in waiting))
+        return None, f"no ranking: {models} fitted no set; the notes in the table say why"
     if not ranked:
         return None, (f"no ranking: no row has {min_check} check points (a check RMS of fewer says little); hold more "
                       f"points out as check points")

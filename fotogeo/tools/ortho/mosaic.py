@@ -58,15 +58,22 @@ def _lattice(infos, paths):
     first one that has it. Another CRS, a rotated grid or another band set is refused."""
     first = infos[0]
     for info, p in zip(infos, paths):
+        if not info.georeferenced:
+            raise InputError(f"orthophoto {str(p)!r} has no georeference (no CRS or geotransform); mosaic "
+                             "orthophotos (fotogeo ortho or register writes them), or georeference it first")
         if info.crs != first.crs:
             raise InputError(f"orthophoto {str(p)!r} is in another CRS than {str(paths[0])!r}; make every "
                              f"orthophoto in one CRS (--crs of fotogeo ortho or register, or gdalwarp -t_srs)")
         if info.transform.b or info.transform.d:
             raise InputError(f"orthophoto {str(p)!r} has a rotated grid; make it north-up first "
                              f"(gdalwarp -t_srs with its own CRS)")
+        if info.transform.e > 0 or info.transform.a < 0:
+            raise InputError(f"orthophoto {str(p)!r} is stored south-up or east-left (a flipped grid); make it "
+                             f"north-up first (gdalwarp -t_srs with its own CRS)")
         if (info.count, info.dtype) != (first.count, first.dtype):
             raise InputError(f"orthophoto {str(p)!r} has {info.count} bands of {info.dtype}, {str(paths[0])!r} "
-                             f"{first.count} of {first.dtype}; mosaic orthophotos of one kind")
+                             f"{first.count} of {first.dtype}; mosaic orthophotos of one band set and data type "
+                             "(gdal_translate -b to keep the same bands, -ot to convert)")
     finest = min(infos, key=lambda i: abs(i.transform.a * i.transform.e))
     return first.crs, finest.transform
 
@@ -135,6 +142,9 @@ def above_ground(dsm, t, shape, crs) -> np.ndarray:
         if ds.crs is None:
             raise InputError(f"DSM {str(dsm)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
         reproject(rasterio.band(ds, 1), z, dst_transform=t, dst_crs=crs, resampling=Resampling.max, dst_nodata=np.nan)
+    if not np.isfinite(z).any():
+        raise InputError(f"DSM {str(dsm)!r} covers none of the mosaic (another area, or another CRS without its "
+                         "own); give the DSM of the orthophotos' area, or no dsm", option="dsm")
     size = max(3, int(round(OBJECT_SIZE_M / abs(t.a))) | 1)
     filled = np.where(np.isfinite(z), z, np.nanmin(z) if np.isfinite(z).any() else 0.0)
     ground = grey_opening(filled, size=(size, size))
@@ -220,8 +230,8 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
         raise InputError("give at least two orthophotos to mosaic")
     output = Path(output)
     seamlines = Path(seamlines) if seamlines else output.with_suffix(".gpkg")
-    for p, role in ((output, "mosaic"), (seamlines, "seamlines")):
-        check_output(p, paths, overwrite, role)
+    for p, role, kind in ((output, "mosaic", (".tif", ".tiff")), (seamlines, "seamlines", (".gpkg",))):
+        check_output(p, paths, overwrite, role, kind)
     infos = [open_raster(p, "orthophoto") for p in paths]
     crs, lattice = _lattice(infos, paths)
     with tempfile.TemporaryDirectory(prefix="fotogeo-mosaic-") as folder:

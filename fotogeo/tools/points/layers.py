@@ -32,7 +32,7 @@ def points_to_layer(points, output, *, raster=None, crs=None, layer: str = DEFAU
     from ...progress import as_progress
 
     prog = as_progress(progress)
-    check_output(output, [points, raster], overwrite, "output GeoPackage")
+    check_output(output, [points, raster], overwrite, "output GeoPackage", (".gpkg",))
     if not layer or not str(layer).strip():
         raise InputError("layer name must not be empty")
     gp = read_points(points)

@@ -17,7 +17,7 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
                     approx_fields=("col", "row"), id_field="id", overwrite: bool = False, progress=None) -> dict:
     """Measure X-targets near the approximate positions of table ``points``; write ``output``."""
     prog = as_progress(progress)
-    check_output(output, [image, points], overwrite)
+    check_output(output, [image, points], overwrite, suffixes=(".csv", ".gpkg"))
     if polarity not in ("auto", "bright", "dark"):
         raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
     table = read_table(points, "point table")

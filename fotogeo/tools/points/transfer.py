@@ -13,9 +13,11 @@ or GeoPackage by their suffix. Pixel coordinates follow the GDAL corner conventi
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ...errors import VectorError
+from ...errors import FotogeoWarning, VectorError
 from ...image.fusion import pca_fuse
 from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
 from ...io.tables import find_column, is_layer, numeric_columns, read_table, write_table
@@ -44,7 +46,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     ``col``, ``row`` (refined), ``sigma_x``, ``sigma_y``, ``ncc``, ``status`` and the approximation.
     """
     prog = as_progress(progress)
-    check_output(output, [reference, search, points], overwrite)
+    check_output(output, [reference, search, points], overwrite, suffixes=(".csv", ".gpkg"))
     table = read_table(points, "point table")
     check_has_points(table, f"point table {str(points)!r}", (id_field, *ref_fields, *approx_fields))
     ref_info, search_info = open_raster(reference, "reference"), open_raster(search, "search")
@@ -77,6 +79,10 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
         write_table(out.temp(output), cols, None, np.where(np.isfinite(res.xy), res.xy, approx))
         out.commit()
     ok = np.asarray(res.status) == CONVERGED
+    if not ok.any():
+        warnings.warn(f"none of the {len(ok)} points converged in {str(search)!r}: area-based matching needs the "
+                      "search image at about the reference's orientation and scale, and approximate positions within "
+                      "the search radius of the points", FotogeoWarning, stacklevel=2)
     prog(1.0, "done")
     return {"output": str(output), "points": len(ok), "converged": int(ok.sum()),
             "median_sigma_px": float(np.median(np.hypot(*res.sigma[ok].T))) if ok.any() else None,

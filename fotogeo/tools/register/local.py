@@ -30,6 +30,7 @@ from ...errors import MatchingError, ModelError
 from ...pixels import map_to_pixel, pixel_to_map
 from ..coreg.tool import CoregRun, coreg_options, run_coregistration
 from .coarse import pre_align
+from . import match
 from .match import HINT, band_numbers
 from .points import TiePoints
 
@@ -37,7 +38,7 @@ from .points import TiePoints
 #: three windows across their shorter side
 MIN_FALLBACK_WINDOW = 32
 #: a feature fit with fewer inliers is checked by the windows (:func:`matched_and_fitted`)
-WEAK_INLIERS = 12
+WEAK_INLIERS = match.WEAK_INLIERS
 
 
 def first_band(bands: str | None) -> int:

@@ -13,11 +13,12 @@ of the PCA with a warning (:func:`fotogeo.image.fusion.pca_fuse`).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import FotogeoError, InputError, MatchingError
+from ...errors import FotogeoError, FotogeoWarning, InputError, MatchingError
 from ...features.detect import detect
 from ...features.match import match_descriptors
 from ...image.contrast import apply_contrast
@@ -29,6 +30,13 @@ from ...options import REGISTER, RegisterOptions
 from ...pixels import pixel_to_map
 from ...progress import as_progress
 from ..common.boundary import tool
+
+
+#: fewer homography inliers than this are what chance gives among unrelated matches (the disjoint Landsat / NGI
+#: pair: 5 of 32; triangulate's pairs: 9–10 inliers 28 % right matches, 30 or more 98 %,
+#: :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS`): the registration checks such a fit by windows
+#: (``local.WEAK_INLIERS``), ``match`` flags no inlier and says so
+WEAK_INLIERS = 12
 
 
 def band_numbers(value, option: str) -> tuple[int, ...] | None:
@@ -358,13 +366,17 @@ def match_images(reference, target, output, *, overwrite: bool = False, progress
     opts = RegisterOptions(**options)
     opts.validate()
     prog = as_progress(progress)
-    check_output(output, [reference, target], overwrite, "tie-point layer")
+    check_output(output, [reference, target], overwrite, "tie-point layer", (".gpkg",))
     ref, tgt = open_raster(reference, "reference"), open_raster(target, "target")
     src, ref_xy, counts = find_tie_points(ref, tgt, opts, prog.stage(0.0, 0.9, "matching"))
     try:
-        inl = ransac(Projective, src, ref_xy, opts.ransac_threshold, rng=opts.seed).inliers
+        inl = ransac(Projective, src, ref_xy, opts.ransac_threshold, rng=opts.seed,
+                     min_inliers=WEAK_INLIERS).inliers
     except FotogeoError:
         inl = np.zeros(len(src), bool)
+        warnings.warn(f"fewer than {WEAK_INLIERS} of the {len(src)} matches agree on one homography, so none is "
+                      f"flagged an inlier: check that {str(reference)!r} and {str(target)!r} overlap",
+                      FotogeoWarning, stacklevel=2)
     pts = pixel_to_map(ref.transform, ref_xy) if ref.georeferenced else ref_xy
     layer = {"id": np.arange(len(src), dtype=np.int64), "target_col": src[:, 0], "target_row": src[:, 1],
              "ref_col": ref_xy[:, 0], "ref_row": ref_xy[:, 1], "inlier": inl.astype(np.int64),
