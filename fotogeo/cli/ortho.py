@@ -1,6 +1,8 @@
 """``fotogeo ortho IMAGE... [--camera C.yaml --eo EO | --rpc] --dem DEM -o OUT`` — orthophotos of oriented images."""
 from __future__ import annotations
 
+import gc
+
 import click
 
 from ..options.products import ORTHO
@@ -28,6 +30,7 @@ def command(images, output, overwrite, quiet, **kw):
     from ..io.warp_source import keep_freed_memory
     from ..tools.ortho.tool import ortho
     keep_freed_memory()  # the windows' temporaries are reused instead of faulted in again
+    gc.freeze()  # the imported modules' objects live until the process exits: no collection traverses them again
     bar = ConsoleProgress(quiet)
     try:
         rep = ortho(list(images), output, overwrite=overwrite, progress=bar, **tool_arguments(kw, ORTHO))
