@@ -1,6 +1,8 @@
 """The command line imports what the sub-command it runs uses: ``fotogeo ortho`` run in a fresh process on a
 rendered scene leaves the other sub-commands' modules and their heavy dependencies out of ``sys.modules``; the
-name → module table of the lazy group is what the modules define; ``--version`` still answers."""
+name → module table of the lazy group is what the modules define; ``--version`` still answers. ``ortho`` freezes
+what is left at the process's exit (``gc.freeze`` in an ``atexit`` handler), not during the run: the interpreter's
+last collections skip it (docs/benchmarks/products.md, *The process's exit*)."""
 from __future__ import annotations
 
 import importlib
@@ -19,12 +21,14 @@ from fotogeo.cli import COMMANDS, main
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: run the CLI in-process, then print the modules it imported (JSON) on the last line
+#: run the CLI in-process, then print the modules it imported (JSON), and at the process's exit, after the handlers
+#: the run registered (last in, first out), the count of frozen objects (JSON) on the last line
 RUN = """
-import json, sys
+import atexit, gc, json, sys
+atexit.register(lambda: print(json.dumps(gc.get_freeze_count())))
 from fotogeo.cli import main
 main.main(sys.argv[1:], standalone_mode=False)
-print(json.dumps(sorted(sys.modules)))
+print(json.dumps([sorted(sys.modules), gc.get_freeze_count()]))
 """
 
 #: modules ``ortho`` never uses: other sub-commands, their tools and heavy libraries (``importlib.metadata`` is not
@@ -59,9 +63,14 @@ def test_ortho_imports_only_what_it_uses(tmp_path):
            "GDAL_PAM_ENABLED": "NO"}
     p = subprocess.run([sys.executable, "-c", RUN, *args], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
-    modules = set(json.loads(p.stdout.strip().splitlines()[-1]))
+    *_, run, at_exit = p.stdout.strip().splitlines()
+    imported, during = json.loads(run)
+    frozen = json.loads(at_exit)
+    modules = set(imported)
     assert {"fotogeo.cli.ortho", "fotogeo.tools.ortho.tool", "cv2", "rasterio"} <= modules
     loaded = [m for m in NOT_ON_ORTHO if m in modules or any(n.startswith(m + ".") for n in modules)]
     assert loaded == [], f"fotogeo ortho imported {loaded}"
+    assert during == 0, "fotogeo ortho froze objects during the run: a process running it again would keep them"
+    assert frozen > 10000, f"fotogeo ortho froze {frozen} objects at exit: its imports' (tens of thousands) expected"
     with rasterio.open(out) as ds:  # the nadir tag, written with the file
         assert len(ds.tags()["FOTOGEO_NADIR"].split()) == 2 and ds.overviews(1)
