@@ -153,16 +153,22 @@ def witnessed(d, dc_right, factor: int | None = None, near_border=None) -> np.nd
     disparity is required (the envelope is not read): at the overlap's edge a left pixel without a partner can
     meet a wrong right pixel that meets it back within the band (module docstring)."""
     factor = factor or FACTOR
-    x = np.arange(d.shape[1], dtype=np.float32)[None, :]
-    xr = np.rint(x - d)
+    r, c = np.nonzero(np.isfinite(d))  # the matched pixels only
+    dv = d[r, c]
+    xr = np.rint(c.astype(np.float32) - dv)
+    hc, wc = dc_right.shape
+    inside = (xr >= 0) & (xr < wc * factor)
+    by, bx = np.minimum(r // factor, hc - 1), (np.where(inside, xr, 0) // factor).astype(np.intp)
     lo, hi = witness_envelope(dc_right)
-    own = _at(dc_right, xr, factor)
-    a, b = _at(lo, xr, factor), _at(hi, xr, factor)
+    a, b = factor * lo[by, bx], factor * hi[by, bx]
     if near_border is not None:
-        a, b = np.where(near_border, own, a), np.where(near_border, own, b)
+        nb, own = near_border[r, c], factor * dc_right[by, bx]
+        a, b = np.where(nb, own, a), np.where(nb, own, b)
     with np.errstate(invalid="ignore"):
-        ok = (d >= a - factor * WITNESS) & (d <= b + factor * WITNESS)
-    return np.where(ok, d, np.nan).astype(np.float32)
+        keep = inside & (dv >= a - factor * WITNESS) & (dv <= b + factor * WITNESS)
+    out = np.full(d.shape, np.nan, np.float32)
+    out[r[keep], c[keep]] = dv[keep]
+    return out
 
 
 def near_border(D0, valid_left, valid_right, factor: int | None = None) -> np.ndarray:
