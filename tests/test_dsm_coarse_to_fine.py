@@ -64,17 +64,27 @@ def test_guide_follows_a_slope_with_a_narrow_band():
 
 def test_witness_refuses_a_match_the_right_pixels_coarse_match_contradicts():
     """Left pixels matched within a band: one whose right pixel's coarse disparity (the whole range's) agrees is
-    kept, one it contradicts or whose right pixel has no coarse disparity is refused."""
+    kept, one it contradicts is refused; a right pixel without a coarse disparity is witnessed by its neighbours'
+    (kept where ``d`` lies within their envelope, refused beyond it or without any near), and near a border
+    (``near_border``) by its own only."""
     f = pyramid.FACTOR
-    rows, cols = 8, 80
+    rows, cols = 16, 160
     dc_right = np.full((rows // f, cols // f), 5.0, np.float32)  # coarse px: 20 full px everywhere
     d = np.full((rows, cols), 20.0, np.float32)
     d[0, 40] = 20.0 + 2 * f * pyramid.WITNESS + 1  # a wrong match: its right pixel's coarse match says 20
     d[0, 50] = 21.0
     dc_right[1, 5] = np.nan  # no coarse match for the right pixels 20..23 of rows 4..7 (met from x 40..43)
+    d[5, 41] = 20.0 + 2 * f * pyramid.WITNESS + 1  # in that hole, beyond its neighbours' envelope
+    dc_right[:, 25:] = np.nan  # right pixels 100.. without a coarse match: a gap as wide as the image's rest
     out = pyramid.witnessed(d, dc_right)
     assert np.isnan(out[0, 40]) and out[0, 50] == 21.0 and out[0, 60] == 20.0
-    assert np.isnan(out[4, 40]) and out[4, 44] == 20.0
+    assert out[4, 40] == 20.0 and out[4, 44] == 20.0 and np.isnan(out[5, 41])
+    n = pyramid.WITNESS_NEAR
+    assert out[0, 120 + 4 * n - 1] == 20.0 and np.isnan(out[0, 120 + 4 * n])  # right pixel 100 + 4 n: none near
+    border = np.zeros((rows, cols), bool)
+    border[4:8, :] = True
+    strict = pyramid.witnessed(d, dc_right, near_border=border)
+    assert np.isnan(strict[4, 40]) and strict[4, 44] == 20.0 and strict[0, 50] == 21.0
     assert np.isnan(pyramid.witnessed(np.full((rows, cols), np.nan, np.float32), dc_right)).all()
 
 

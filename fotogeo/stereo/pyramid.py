@@ -29,10 +29,13 @@ Within the band both directions of that left–right check are held to the band,
 (beyond the overlap's edge, where the coarse copy has no match and ``D0`` is extrapolated) can meet a wrong right
 pixel that meets it back. The coarse matching over the whole range is the independent witness
 (:func:`witnessed`): the right image's coarse disparities (the same matching, images mirrored) must put the right
-pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``. The pixels the coarse matching does not support near
-the images' borders (:func:`unsupported`) are matched over the range of the coarse disparities around them
-(:func:`fill_unsupported`), in windows derived once (:func:`fill_windows`: what the choice of the search reads is
-what is matched) and joined down a border where that costs less.
+pixel ``x − d`` within ``WITNESS`` coarse pixels of ``d``; where the right pixel has none (a hole of the coarse
+right matching: low texture, an occlusion, a speckle removed), ``d`` must lie within ``WITNESS`` of the envelope of
+those within ``WITNESS_NEAR`` coarse pixels of it (:func:`witness_envelope`), except near a border
+(:func:`near_border`), where the wrong matches come from and the right pixel's own is required. The pixels the
+coarse matching does not support near the images' borders (:func:`unsupported`) are matched over the range of the
+coarse disparities around them (:func:`fill_unsupported`), in windows derived once (:func:`fill_windows`: what the
+choice of the search reads is what is matched) and joined down a border where that costs less.
 """
 from __future__ import annotations
 
@@ -58,6 +61,9 @@ MIN_RANGE = 96
 #: a fine disparity is kept only if the coarse disparity of the right pixel it meets lies within this many
 #: coarse pixels of it (:func:`witnessed`)
 WITNESS = 1.0
+#: a right pixel without a coarse disparity is witnessed by those within this many coarse pixels of it
+#: (:func:`witness_envelope`)
+WITNESS_NEAR = 2
 #: the pixels the coarse matching does not support are matched over the whole range in blocks of this many
 #: rows, with this many more rows and columns around (:func:`fill_unsupported`)
 FILL_ROWS = 64
@@ -124,31 +130,68 @@ def _at(dc, x, factor: int) -> np.ndarray:
     return np.where(inside, factor * dc[np.broadcast_to(by, x.shape), bx], np.nan)
 
 
-def witnessed(d, dc_right, factor: int | None = None) -> np.ndarray:
+def witness_envelope(dc_right) -> tuple:
+    """``(low, high)`` (coarse pixels, ``dc_right``'s shape): the right image's coarse disparity where it has one;
+    where it has none, the lowest and the highest of those within ``WITNESS_NEAR`` coarse pixels (the coverage gap
+    bounded by its neighbours, :func:`witnessed`); NaN where none lies that near."""
+    ok = np.isfinite(dc_right)
+    k = np.ones((2 * WITNESS_NEAR + 1, 2 * WITNESS_NEAR + 1), np.uint8)
+    lo = cv2.erode(np.where(ok, dc_right, np.inf).astype(np.float32), k, borderValue=np.inf)
+    hi = cv2.dilate(np.where(ok, dc_right, -np.inf).astype(np.float32), k, borderValue=-np.inf)
+    near = np.isfinite(lo) & np.isfinite(hi)
+    lo, hi = np.where(ok, dc_right, np.where(near, lo, np.nan)), np.where(ok, dc_right, np.where(near, hi, np.nan))
+    return lo.astype(np.float32), hi.astype(np.float32)
+
+
+def witnessed(d, dc_right, factor: int | None = None, near_border=None) -> np.ndarray:
     """``d`` (full-resolution disparities of the left pixels) with NaN where the coarse matching over the whole
-    range, an independent witness, does not confirm it: the right pixel ``x − d`` meets has no coarse disparity
-    or one more than ``WITNESS`` coarse pixels from ``d`` (module docstring)."""
+    range, an independent witness, does not confirm it: the right pixel ``x − d`` meets has a coarse disparity
+    more than ``WITNESS`` coarse pixels from ``d``, or none and ``d`` lies more than ``WITNESS`` beyond the
+    envelope of the coarse disparities within ``WITNESS_NEAR`` of it (:func:`witness_envelope`: a hole of the
+    coarse right matching — low texture, an occlusion, a speckle removed — is bounded by the surface around it),
+    or none and none near. Where ``near_border`` (bool, ``d``'s shape) is True the right pixel's own coarse
+    disparity is required (the envelope is not read): at the overlap's edge a left pixel without a partner can
+    meet a wrong right pixel that meets it back within the band (module docstring)."""
     factor = factor or FACTOR
-    x = np.arange(d.shape[1], dtype=np.float32)[None, :]
+    r, c = np.nonzero(np.isfinite(d))  # the matched pixels only
+    dv = d[r, c]
+    xr = np.rint(c.astype(np.float32) - dv)
+    hc, wc = dc_right.shape
+    inside = (xr >= 0) & (xr < wc * factor)
+    by, bx = np.minimum(r // factor, hc - 1), (np.where(inside, xr, 0) // factor).astype(np.intp)
+    lo, hi = witness_envelope(dc_right)
+    a, b = factor * lo[by, bx], factor * hi[by, bx]
+    if near_border is not None:
+        nb, own = near_border[r, c], factor * dc_right[by, bx]
+        a, b = np.where(nb, own, a), np.where(nb, own, b)
     with np.errstate(invalid="ignore"):
-        ok = np.abs(_at(dc_right, np.rint(x - d), factor) - d) <= factor * WITNESS
-    return np.where(ok, d, np.nan).astype(np.float32)
+        keep = inside & (dv >= a - factor * WITNESS) & (dv <= b + factor * WITNESS)
+    out = np.full(d.shape, np.nan, np.float32)
+    out[r[keep], c[keep]] = dv[keep]
+    return out
 
 
-def unsupported(dc_left, dc_right, D0, valid_left, valid_right, factor: int | None = None) -> np.ndarray:
-    """Pixels (bool, ``D0``'s shape) near an image's border that the coarse matching does not support: within
-    ``BORDER`` coarse pixels of an invalid coarse pixel of the left image, or their right pixel ``x − D0`` of the
-    right's, and without a coarse disparity of their own or of that right pixel (:func:`fill_unsupported`
-    matches them; elsewhere the coarse copy saw the pixel and found nothing, as the whole range would)."""
+def near_border(D0, valid_left, valid_right, factor: int | None = None) -> np.ndarray:
+    """Pixels (bool, ``D0``'s shape) within ``BORDER`` coarse pixels of an invalid coarse pixel of the left image,
+    or whose right pixel ``x − D0`` is of the right's (or outside it)."""
     factor = factor or FACTOR
     k = np.ones((2 * BORDER + 1, 2 * BORDER + 1), np.uint8)
     near_l, near_r = (cv2.dilate((shrink(v, factor) < 1.0).astype(np.uint8), k).astype(np.float32)
                       for v in (valid_left, valid_right))
     x = np.broadcast_to(np.arange(D0.shape[1], dtype=np.float32)[None, :], D0.shape)
-    xr = np.rint(x - D0)
     with np.errstate(invalid="ignore"):
-        near = ~(_at(near_l, x, factor) < 1.0) | ~(_at(near_r, xr, factor) < 1.0)  # NaN: outside
-        bare = ~np.isfinite(_at(dc_left, x, factor)) | ~np.isfinite(_at(dc_right, xr, factor))
+        return ~(_at(near_l, x, factor) < 1.0) | ~(_at(near_r, np.rint(x - D0), factor) < 1.0)  # NaN: outside
+
+
+def unsupported(dc_left, dc_right, D0, near, factor: int | None = None) -> np.ndarray:
+    """Pixels (bool, ``D0``'s shape) ``near`` an image's border (:func:`near_border`) that the coarse matching does
+    not support: without a coarse disparity of their own or of their right pixel ``x − D0``
+    (:func:`fill_unsupported` matches them; elsewhere the coarse copy saw the pixel and found nothing, as the whole
+    range would)."""
+    factor = factor or FACTOR
+    x = np.broadcast_to(np.arange(D0.shape[1], dtype=np.float32)[None, :], D0.shape)
+    with np.errstate(invalid="ignore"):
+        bare = ~np.isfinite(_at(dc_left, x, factor)) | ~np.isfinite(_at(dc_right, np.rint(x - D0), factor))
     return near & bare
 
 

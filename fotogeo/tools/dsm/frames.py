@@ -32,8 +32,10 @@ per strip cannot follow a slope across it, so a strip whose range is ``pyramid.M
 on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
 coarse disparities: the right image read again through its rectification maps resampled along the rows by the
 coarse offset — where the band, the coarse copies and the fill of the pixels the coarse copies do not support
-(``pyramid.fill_windows``, each window over its own run's range) search at most ``pyramid.GAIN`` of the whole range's disparities; else the strip searches its whole range.
-"""
+(``pyramid.fill_windows``, each window over its own run's range) search at most ``pyramid.GAIN`` of the whole
+range's disparities; else the strip searches its whole range. A fine disparity is kept where the right image's
+coarse disparities witness it (``pyramid.witnessed``: the right pixel's own, or where it has none away from the
+borders, the envelope of its neighbours')."""
 from __future__ import annotations
 
 import cv2
@@ -255,7 +257,8 @@ def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: 
     (D0, R), band = gd, disparity_range(-gd[1], gd[1])[1]
     dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, side="right")
     wm = _warped_maps(maps2, D0)
-    unsup = v1m & pyr.unsupported(dc, dcr, D0, v1m, v2m) & (wm[0] >= 0) & (wm[1] >= 0) & \
+    near = pyr.near_border(D0, v1m, v2m)
+    unsup = v1m & pyr.unsupported(dc, dcr, D0, near) & (wm[0] >= 0) & (wm[1] >= 0) & \
         (wm[0] <= sources[1].width - 1) & (wm[1] <= sources[1].height - 1)  # its partner in the image
     windows = pyr.fill_windows(unsup, sa, sb, dc)
     if band + 2 * per + pyr.fill_cost(windows) / g1.size > pyr.GAIN * whole:
@@ -264,7 +267,7 @@ def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: 
     dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
     with np.errstate(invalid="ignore"):
         dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
-    d = pyr.witnessed(pyr.resolve(dp, D0), dcr)
+    d = pyr.witnessed(pyr.resolve(dp, D0), dcr, near_border=near)
     with np.errstate(invalid="ignore"):
         d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
     need = v1m & v2w & np.isnan(d) & unsup
