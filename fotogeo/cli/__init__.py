@@ -13,6 +13,8 @@ imports.
 """
 from __future__ import annotations
 
+import atexit
+import gc
 import importlib
 
 import click
@@ -94,3 +96,7 @@ def main(verbose, quiet, json_output):
     """
     conventions.settings(verbose=verbose, quiet=quiet, json=json_output)
     conventions.setup_logging(verbose, quiet)
+    # once, however many runs a process makes: at the process's exit what is left is frozen, so the interpreter's
+    # last collections skip the imports' ~44k objects (0.09 -> 0.03 CPU s; docs/benchmarks/products.md)
+    atexit.unregister(gc.freeze)
+    atexit.register(gc.freeze)

@@ -1,9 +1,6 @@
 """``fotogeo ortho IMAGE... [--camera C.yaml --eo EO | --rpc] --dem DEM -o OUT`` — orthophotos of oriented images."""
 from __future__ import annotations
 
-import atexit
-import gc
-
 import click
 
 from ..options.products import ORTHO
@@ -31,8 +28,6 @@ def command(images, output, overwrite, quiet, **kw):
     from ..io.warp_source import keep_freed_memory
     from ..tools.ortho.tool import ortho
     keep_freed_memory()  # the windows' temporaries are reused instead of faulted in again
-    atexit.unregister(gc.freeze)  # once, however many runs a process makes: at its exit, what is left is frozen and
-    atexit.register(gc.freeze)  # the interpreter's last collections skip it (docs/benchmarks/products.md)
     bar = ConsoleProgress(quiet)
     try:
         rep = ortho(list(images), output, overwrite=overwrite, progress=bar, **tool_arguments(kw, ORTHO))
