@@ -1,6 +1,6 @@
 """The command line imports what the sub-command it runs uses: ``fotogeo ortho`` run in a fresh process on a
 rendered scene leaves the other sub-commands' modules and their heavy dependencies out of ``sys.modules``; the
-name → module table of the lazy group is what the modules define; ``--version`` still answers. every command freezes
+name → module table of the lazy group is what the modules define; ``--version`` still answers. Every command freezes
 what is left at the process's exit (``gc.freeze`` in an ``atexit`` handler), not during the run: the interpreter's
 last collections skip it (docs/benchmarks/products.md, *The process's exit*)."""
 from __future__ import annotations
