@@ -24,13 +24,17 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,re
   each also with a 3 px relative pointing error in the second RPC, the RPCs in DIMAP XML and ``.RPB`` files
   beside the images, and a 2048² pair: RMSE, NMAD, median of DSM − truth (with the pointing error: the median
   the error must give, and the NMAD again after the horizontal shift it gives), the share within 1 m, the share
-  of the cells both images see that have a height.
+  of the cells both images see that have a height. ``--rpc-cases`` picks some of them (names of ``RPC_CASES``
+  separated by ``;``). With ``--cars``, CARS runs on the ``B/H 0.4`` pair (GeoTIFF RPC tags, margins ±100 m as on
+  ventoux) in the same run: the same statistics against the truth on its own grid, its CPU and peak memory,
+  fotogeo − CARS, and fotogeo's CPU, memory, NMAD and completeness as ratios of CARS's.
 
 Without ``--cars``, CARS's runs recorded on this machine by ``benchmarks/peers_cars.py``
 (``results/peers_cars.json``, margins ±100 m) are read and fotogeo's DSMs compared with their DSMs.
 
 Prints a table and writes benchmarks/results/dsm_bench.json: per case group its latest run (command, the
-machine's load average at the start and the end, rows).
+machine's load average at the start and the end, rows). A row run now replaces the row of the same name; the
+group's other rows stay, each with the command and load average of the run that measured it (``run``).
 """
 from __future__ import annotations
 
@@ -107,10 +111,15 @@ def _time_v(cmd: list) -> dict:
             "wall_s": time.perf_counter() - w}
 
 
-def rendered_rpc(tmp: Path) -> list:
+def rendered_rpc(tmp: Path, names=None, cars: bool = False) -> list:
     from rendered_rpc_pair import compare, pointing_height_bias, render_rpc_pair, with_pointing
     rows, scenes = [], {}
+    unknown = set(names or ()) - set(RPC_CASES)
+    if unknown:
+        raise SystemExit(f"--rpc-cases: unknown {sorted(unknown)}; choose among {list(RPC_CASES)}")
     for name, (size, bh, pointing, fmt) in RPC_CASES.items():
+        if names and name not in names:
+            continue
         folder = tmp / name.replace("/", "").replace(" ", "_").replace(",", "")
         if fmt == "gdal" and (size, bh) in scenes:  # the same images, the second RPC off by ``pointing``
             sc = with_pointing(scenes[size, bh], folder / "in", pointing)
@@ -131,7 +140,30 @@ def rendered_rpc(tmp: Path) -> list:
                      "nmad_after_shift_m": c["nmad_m"] if any(pointing) else None, "within_1m": c["within_1m"],
                      "completeness": c["completeness"], "report_completeness": r["completeness"],
                      "pointing_px": p.get("relative_pointing_px"), "base_to_height": p.get("base_to_height"), **t})
+        if cars and name == "B/H 0.4":
+            rows.append(_cars_rendered(folder, sc, out, rows[-1]))
     return rows
+
+
+def _cars_rendered(folder: Path, sc: dict, ours: Path, row: dict) -> dict:
+    """CARS on a rendered pair (its GeoTIFF RPC tags, margins ±100 m): against the truth as fotogeo's row,
+    fotogeo − CARS, and fotogeo's CPU, peak memory, NMAD and completeness as ratios of CARS's."""
+    from peers_cars import compare_dsms, run_cars
+    from rendered_rpc_pair import compare
+    case = row["case"].replace("rendered_rpc", "rendered_rpc CARS 1.3", 1)
+    r = run_cars(sc["images"][0], sc["images"][1], folder / "cars", margins=100)
+    if "skipped" in r or "error" in r:
+        return {"case": case, "skipped": r.get("skipped") or r.get("error"), "log_tail": r.get("log_tail")}
+    c = compare(r["dsm"], sc)
+    return {"case": case, "config": "GeoTIFF RPC tags, margins 100 m, 1 worker, full resolution only, 0.5 m",
+            "rmse_m": c["rmse_m"], "nmad_m": c["nmad_m"], "median_m": c["median_m"], "within_1m": c["within_1m"],
+            "completeness": c["completeness"], "cpu_s": r["cpu_s"], "wall_s": r["wall_s"],
+            "peak_rss_mib": r["peak_rss_mib"], "max_rss_single_mib": r["max_rss_single_mib"],
+            "valid_fraction_in_overlap": r.get("valid_fraction_in_overlap"), "cars_measured": r.get("cars_measured"),
+            "initial_height": r.get("initial_height"), "fotogeo_minus_cars": compare_dsms(ours, r["dsm"]),
+            "fotogeo_over_cars": {"cpu": row["cpu_s"] / r["cpu_s"], "peak_memory": row["peak_rss_mib"] /
+                                  r["peak_rss_mib"], "nmad": row["nmad_m"] / c["nmad_m"],
+                                  "completeness": row["completeness"] / c["completeness"]}}
 
 
 def _against(dsm_path, ref_path) -> np.ndarray:
@@ -235,11 +267,26 @@ def _cars(tmp: Path, v: Path, outs: dict) -> list:
     return rows
 
 
+def _merge(runs: list, group: str, new: list, run: dict) -> list:
+    """``runs`` with ``group``'s rows of the same names replaced by ``new`` (each with ``run``: command, load);
+    its other rows stay in their order with the run that measured them."""
+    old = next((r for r in runs if r["case_group"] == group), {"rows": []})
+    names = {r["case"] for r in new}
+    kept = [{**r, "run": r.get("run", {k: old[k] for k in ("command", "load_average")})}
+            for r in old["rows"] if r["case"] not in names]
+    order = {r["case"]: i for i, r in enumerate(old["rows"])}
+    rows = sorted(kept + [{**r, "run": run} for r in new], key=lambda r: order.get(r["case"], len(order)))
+    return [r for r in runs if r["case_group"] != group] + [{"case_group": group, **run, "rows": rows}]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="rendered,ngi,ventoux")
-    ap.add_argument("--cars", action="store_true", help="also run CARS on ventoux (benchmarks/peers_cars.py)")
+    ap.add_argument("--cars", action="store_true",
+                    help="also run CARS on ventoux and the rendered B/H 0.4 pair (benchmarks/peers_cars.py)")
+    ap.add_argument("--rpc-cases", help="rendered_rpc: only these RPC_CASES names, separated by ';'")
     args = ap.parse_args()
+    rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
     rows, load0 = [], os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
@@ -252,15 +299,14 @@ def main():
             rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars),
-                     "rendered_rpc": lambda: rendered_rpc(tmp / case)}[case]()
+                     "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     out = ROOT / "benchmarks" / "results" / "dsm_bench.json"
     runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
-    ran = {PREFIX[c] for c in args.cases.split(",")}
-    runs = [r for r in runs if r["case_group"] not in ran]  # the cases run now replace their earlier rows
-    runs += [{"case_group": PREFIX[c], "command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()],
-              "rows": [r for r in rows if r["case"].startswith(PREFIX[c] + " ")]} for c in args.cases.split(",")]
+    run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}
+    for c in args.cases.split(","):
+        runs = _merge(runs, PREFIX[c], [r for r in rows if r["case"].startswith(PREFIX[c] + " ")], run)
     out.write_text(json.dumps({"runs": runs}, indent=1, default=str) + "\n")
     print(f"-> {out}")
 

@@ -278,6 +278,14 @@ def pointing_height_bias(scene: dict) -> float:
     return float(-scene["pointing"][1] / rate)
 
 
+def _same_horizontal_crs(crs, expected) -> bool:
+    """``crs`` (a raster's) is ``expected``, or a compound CRS of it and a vertical CRS (CARS writes UTM + WGS 84
+    ellipsoidal height)."""
+    from pyproj import CRS as PCRS
+    c = PCRS.from_wkt(crs.to_wkt())
+    return (c.sub_crs_list[0] if c.is_compound else c).equals(PCRS.from_user_input(expected))
+
+
 def compare(dsm_path, scene: dict, bias: float = 0.0, shift: bool = False) -> dict:
     """DSM − truth at the DSM's cell centres (the truth sampled bilinearly): RMSE, NMAD, median (m), the share
     within 1 m of ``bias`` (:func:`pointing_height_bias`), cells with a height, and ``completeness``: the share of
@@ -287,7 +295,7 @@ def compare(dsm_path, scene: dict, bias: float = 0.0, shift: bool = False) -> di
     returned as ``shift_m`` — what a relative pointing error moves a surface by."""
     import rasterio
     with rasterio.open(dsm_path) as ds:
-        if ds.crs != rasterio.crs.CRS.from_user_input(scene["crs"]):
+        if not _same_horizontal_crs(ds.crs, scene["crs"]):
             raise ValueError(f"DSM CRS {ds.crs} is not the scene's {scene['crs']}")
         h = ds.read(1).astype(np.float32)
         h[h == ds.nodata] = np.nan

@@ -26,7 +26,7 @@ def test_rendered_satellite_pair_against_its_truth(scene, tmp_path, pointing):
     epipolar lines are a height to any relative orientation); the pointing correction measures the 1.8 px across
     them. With the pointing error the surface also moves sideways (0.41 m measured, within 1 m asked): it is
     compared after that shift (NMAD 0.54 m before, 0.42 m after). The report gives the height of one pixel along
-    the epipolar lines (GSD / (B/H))."""
+    the epipolar lines (GSD / (B/H)) and the height an along-line error as large as the across one would give."""
     from fotogeo.tools.dsm import dsm
     assert scene["rpc_check_px"] < 0.05
     sc = with_pointing(scene, tmp_path / "in", pointing) if any(pointing) else scene
@@ -40,3 +40,7 @@ def test_rendered_satellite_pair_against_its_truth(scene, tmp_path, pointing):
     assert measured == pytest.approx(pointing[0], abs=0.3), rep["pairs"][0]
     # the report's height of one pixel along the epipolar lines: GSD / (B/H) = 0.7 / 0.4 = 1.75 m
     assert rep["pairs"][0]["height_per_px_along_epipolar_m"] == pytest.approx(0.7 / 0.4, rel=0.05), rep["pairs"][0]
+    # and the height an along-line error as large as the measured across one gives: 1.78 px x 1.78 m = 3.2 m for
+    # the 4.24 m the (1.8, 2.4) px error gives (its along part is the larger), ~0 without a pointing error
+    shift = rep["pairs"][0]["height_shift_if_along_as_across_m"]
+    assert (0.6 * bias < shift < bias) if any(pointing) else shift < 0.1, (shift, bias)

@@ -48,9 +48,11 @@ def read_rpc(path) -> Rpc:
 def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) -> Path:
     """Copy raster ``src_path`` to the GeoTIFF ``dst_path`` with ``rpc`` as GDAL RPC metadata.
 
-    The copy keeps pixels and any georeference; ``gdalwarp -rpc`` / ``gdaltransform -rpc`` and
-    QGIS's RPC option then use the RPC. Written to a temporary file beside ``dst_path`` and
-    renamed when complete.
+    ``rpc`` describes the copy's own pixels (as GDAL reads RPC tags). The copy keeps pixels and a
+    georeference with a CRS; a CRS-less geotransform (a crop's place in its product) is dropped, since
+    beside RPC tags it is ambiguous (:func:`fotogeo.io.rpc_image.image_rpc` refuses it). ``gdalwarp -rpc`` /
+    ``gdaltransform -rpc`` and QGIS's RPC option then use the RPC. Written to a temporary file beside
+    ``dst_path`` and renamed when complete.
     """
     import rasterio
     import rasterio.shutil
@@ -72,6 +74,9 @@ def write_rpc_geotiff(src_path, dst_path, rpc: Rpc, *, overwrite: bool = False) 
         rasterio.shutil.copy(str(src_path), str(tmp), **geotiff_profile())
         with rasterio.open(tmp, "r+") as ds:
             ds.update_tags(ns="RPC", **rpc.to_gdal_metadata())
+            if ds.crs is None and not ds.transform.is_identity:
+                from affine import Affine
+                ds.transform = Affine.identity()
         tmp.replace(dst_path)
     except RasterioError as exc:
         raise OutputError(f"cannot write {dst_path} from {src_path}: {exc}") from None

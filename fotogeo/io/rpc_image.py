@@ -13,12 +13,17 @@ An RPC file (1 or 3) describes the whole product. An image cut out of it by OTB,
 file and carries its place in the product as its geotransform, with no CRS: full-product pixel (corner
 convention) ``X = a·col + c``, ``Y = e·row + f`` (``a, e > 0``, no rotation). Such a geotransform is applied
 to the file's RPC (exactly: ``samp' = (samp + ½ − c) / a − ½`` on the offset, ``SAMP_SCALE / a`` on the scale,
-the same for lines), and reported as ``product_window``. GDAL's own RPC metadata (2) already describes the
-dataset's pixels and is used as it is. A georeferenced image (a CRS) with a separate RPC file is refused: its
-pixels are not the sensor's.
+the same for lines), and reported as ``product_window``. GDAL's own RPC metadata (2) describes the dataset's
+pixels (GDAL's RPC transformer ignores any geotransform, and ``gdal_translate -srcwin`` shifts ``LINE_OFF`` and
+``SAMP_OFF`` into the window) and is used as it is. Two inputs are refused, each with the fix: a georeferenced image
+(a CRS) with a separate RPC file (its pixels are not the sensor's), and RPC tags beside a CRS-less geotransform that
+is not the identity. That file says two things the reader cannot tell apart: tags already in the window's pixels
+(GDAL's reading) or a cut-out that kept the full product's tags (read as GDAL reads them, every pixel lands
+``(c, f)`` px off: a DSM kilometres from its place for a window deep in a product, with no error).
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -73,6 +78,20 @@ def _pixel_geotransform(image) -> tuple | None:
     return (t.a, t.c, t.e, t.f)
 
 
+def _refuse_tags_with_window(image: Path) -> None:
+    """Refuse GDAL RPC tags beside a CRS-less geotransform that is not the identity (module docstring)."""
+    from .raster import ropen
+    with ropen(image) as ds:
+        crs, t = ds.crs, ds.transform
+    if crs is not None or (t.a, t.b, t.c, t.d, t.e, t.f) == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0):
+        return
+    raise InputError(f"image {str(image)!r} has GDAL RPC tags and a geotransform without a CRS (its pixel (0, 0) at "
+                     f"({t.c:g}, {t.f:g}) of the product): GDAL ignores that geotransform, but a cut-out that kept the "
+                     f"full product's tags would be {math.hypot(t.c, t.f):.0f} px off; if the tags are this image's own, "
+                     f"remove the geotransform (gdal_edit.py -unsetgt {image.name}), if they are the product's, cut "
+                     f"the image from the product with gdal_translate -srcwin (it shifts LINE_OFF/SAMP_OFF)")
+
+
 def in_window(rpc: Rpc, a: float, c: float, e: float, f: float) -> Rpc:
     """``rpc`` of a full product moved to an image whose pixel (corner) ``(col, row)`` is the product's
     ``(a·col + c, e·row + f)`` (module docstring; exact)."""
@@ -85,10 +104,13 @@ def image_rpc(image, rpc=None) -> ImageRpc:
     image = Path(image)
     if rpc is None:
         try:
-            return ImageRpc(rpc_from_raster(image), "GDAL RPC metadata")
+            tags = rpc_from_raster(image)
         except RasterError as exc:
             if "carries no RPC" not in str(exc):
                 raise
+        else:
+            _refuse_tags_with_window(image)
+            return ImageRpc(tags, "GDAL RPC metadata")
         found = sidecar_rpc_files(image)
         if not found:
             raise InputError(f"image {str(image)!r} has no RPC: no GDAL RPC metadata and no .geom, .RPB, _RPC.TXT "
