@@ -25,8 +25,8 @@ then, per pair:
 
 **Frames whose attitude is unknown** (``known``: the level start of :mod:`fotogeo.tools.triangulate.start`, κ measured
 on the images after matching) have no orientation to resample with: in the first pass a pair holding one is matched
-plainly only (its row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude (tags, registration,
-``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
+plainly only (its row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude
+(tags, registration, ``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
 rendered 12-frame oblique block of seed 0 without tags, its reference zeroed under one frame (4 frames left level),
 the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangulate.md, *Frames left level*).
 
