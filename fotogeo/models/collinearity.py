@@ -6,15 +6,16 @@ Ground ``(X, Y, Z)`` -> pixel ``(col, row)`` through a pinhole camera (see
     (x, y, z) = (R(ω, φ, κ)·diag(1, −1, −1))ᵀ (X − C),   col = fx x/z + ppx,   row = fy y/z + ppy
 
 The 6 exterior-orientation unknowns ``C = (X0, Y0, Z0)``, ``ω, φ, κ`` (degrees) are estimated
-from ≥ 4 GCPs by Gauss-Newton on the weighted image error Σ w |pixel − f(X)|², with the
-rotation updated multiplicatively (``R ← R·exp([δθ]×)``), starting from the 3-D DLT
+from ≥ 4 GCPs by Levenberg–Marquardt on the weighted image error Σ w |pixel − f(X)|² (a step is taken
+only when it lowers the error with every point in front of the camera), with the rotation updated
+multiplicatively (``R ← R·exp([δθ]×)``), starting from the 3-D DLT
 (:class:`~fotogeo.models.spatial.DLT`, ≥ 6 points, not coplanar) decomposed with the known
 calibration matrix ``K``: ``K⁻¹ P[:, :3] ∝ (R·D)ᵀ`` (nearest rotation by SVD), ``C = −P[:, :3]⁻¹
 P[:, 3]``, or from OpenCV's ``solvePnP`` (SQPnP, Terzakis & Lourakis 2020), whichever has the smaller
 weighted image error with every point in front of the camera. The DLT's 11 parameters are poorly
 determined on nearly flat ground seen obliquely (±8 m of relief 80 m below a camera tilted 30°: its start
-120 px off, the undamped Gauss-Newton from it put points behind the camera), where SQPnP, which needs
-no relief, starts within 2 px; with fewer than 6 points only SQPnP starts.
+120 px off; the undamped Gauss-Newton from it put points behind the camera, the damped one converges),
+where SQPnP, which needs no relief, starts within 2 px; with fewer than 6 points only SQPnP starts.
 
 The interior orientation is fixed: it is the fit option ``camera`` (a
 :class:`~fotogeo.geometry.camera.FrameCamera`) of :meth:`Collinearity.estimate`, which every
@@ -176,31 +177,48 @@ class Collinearity(FittedModel):
         return np.column_stack([K[0, 0] * c[:, 0] / c[:, 2] + K[0, 2], K[1, 1] * c[:, 1] / c[:, 2] + K[1, 2]]), c
 
     @classmethod
+    def _jacobian(cls, s, K, C, Rcv, scale):
+        """∂pixels/∂(C / scale, δθ) by central differences (the rotation perturbed as ``R·exp([δθ]×)``)."""
+        h, cols = 1e-6, []
+        for k in range(6):
+            e = np.zeros(6)
+            e[k] = h
+            pm = [cls._project(s, K, C + sgn * e[:3] * scale, Rcv @ _rodrigues(sgn * e[3:]))[0].reshape(-1)
+                  for sgn in (1, -1)]
+            cols.append((pm[0] - pm[1]) / (2 * h))
+        return np.column_stack(cols)
+
+    @classmethod
     def _gauss_newton(cls, s, d, w, K, C, Rcv, iterations):
+        """Levenberg–Marquardt (Levenberg 1944, Marquardt 1963) on Σ w |pixel − f(X)|²: the step solves
+        ``(JᵀPJ + λ·diag(JᵀPJ)) δ = JᵀP r`` and is taken only when it lowers the cost with every point in front of
+        the camera; λ ÷ 10 after a step taken, × 10 after one refused (λ starts at 1e-3: near the minimum the steps
+        are Gauss–Newton's). Undamped, a start 120 px off (a DLT over flat ground seen 30° off nadir) put points
+        behind the camera."""
         sw = np.sqrt(np.repeat(w, 2))
         scale = float(np.median(np.linalg.norm(s - C, axis=1)))  # distance: balances position and angle
-        it, J, r = 0, None, None
+        cost = cls._start_cost(s, d, w, K, C, Rcv)
+        if not math.isfinite(cost):
+            raise ModelError("collinearity: GCPs fall behind the camera of the start (DLT or SQPnP); "
+                             "check the points (ground/pixel order, units)")
+        lam, it, J = 1e-3, 0, None
         for it in range(1, iterations + 1):
-            px, c = cls._project(s, K, C, Rcv)
-            if np.any(c[:, 2] <= 0):
-                raise ModelError("collinearity: GCPs fall behind the camera during the adjustment; "
-                                 "check the points (ground/pixel order, units)")
-            r = (d - px).reshape(-1)
-            J = np.empty((len(r), 6))
-            h = 1e-6
-            for k in range(6):
-                e = np.zeros(6)
-                e[k] = h
-                cols = []
-                for sgn in (1, -1):
-                    Ck = C + sgn * e[:3] * scale
-                    Rk = Rcv @ _rodrigues(sgn * e[3:])
-                    cols.append(cls._project(s, K, Ck, Rk)[0].reshape(-1))
-                J[:, k] = (cols[0] - cols[1]) / (2 * h)
-            step, *_ = np.linalg.lstsq(J * sw[:, None], r * sw, rcond=None)
-            C = C + step[:3] * scale
-            Rcv = Rcv @ _rodrigues(step[3:])
-            if np.max(np.abs(step)) < 1e-12:
+            px, _ = cls._project(s, K, C, Rcv)
+            J = cls._jacobian(s, K, C, Rcv, scale)
+            Jw, rw = J * sw[:, None], (d - px).reshape(-1) * sw
+            N, g = Jw.T @ Jw, Jw.T @ rw
+            while lam < 1e12:
+                step = np.linalg.lstsq(N + lam * np.diag(np.diag(N)), g, rcond=None)[0]
+                C1, R1 = C + step[:3] * scale, Rcv @ _rodrigues(step[3:])
+                cost1 = cls._start_cost(s, d, w, K, C1, R1)
+                if cost1 <= cost:
+                    break
+                lam *= 10.0
+            else:
+                break  # no step lowers the cost: converged
+            C, Rcv, lam, done = C1, R1, max(lam / 10.0, 1e-12), cost - cost1 <= 1e-15 * cost
+            cost = cost1
+            if np.max(np.abs(step)) < 1e-12 or done:
                 break
         px, _ = cls._project(s, K, C, Rcv)
         v = (d - px).reshape(-1)

@@ -24,11 +24,20 @@ then, per pair:
   ones. A pair keeps whichever of its plain and ground-plane results kept more inliers.
 
 **Frames whose attitude is unknown** (``known``: the level start of :mod:`fotogeo.tools.triangulate.start`, κ measured
-on the images after matching) have no orientation to resample with: a pair holding one is matched plainly only (its
-row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude (tags, registration,
-``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
+on the images after matching) have no orientation to resample with: in the first pass a pair holding one is matched
+plainly only (its row says so), and its rays and axis measure no plane; the pairs of frames with a known attitude
+(tags, registration, ``--eo``) are guided as ever. Before, one level frame switched the ground plane off for the whole block: on the
 rendered 12-frame oblique block of seed 0 without tags, its reference zeroed under one frame (4 frames left level),
 the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangulate.md, *Frames left level*).
+
+**A second pass for the level frames** (:func:`level_pass`, after the start has measured κ): a level frame's whole
+attitude is measured on its plain ties with the frames of known attitude (:func:`measured_attitudes`: those frames'
+rays through the plane give the ground points, and the rotation that best turns the level frame's rays onto the
+directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), and its pairs then go
+through the same ground-plane matching as the others. Left level, a frame of an oblique block starts 30° off: its
+pairs with converging views keep few plain ties, least-squares matching, started from its level affinity, loses most
+of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of seed 0, the reference zeroed under
+DJI_303).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
@@ -41,11 +50,12 @@ frames are resampled and matched once more on the measured plane (each pair keep
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from ...errors import FotogeoError
-from ...geometry.camera import OrientedFrame
+from ...geometry.camera import OrientedFrame, angles_patb
 from ...progress import as_progress
 from .ground import block_grid, footprint, grid_to_pixels, ground_features
 from .pairs import MIN_PAIR_INLIERS, epipolar_kept, grey
@@ -57,6 +67,12 @@ GUIDED_BELOW = 12
 CONVERGING_DEG = 20.0
 #: pairs whose footprints on the plane share less than this fraction of the smaller one are not matched there
 MIN_GROUND_OVERLAP = 0.15
+
+
+#: the rotation of a level frame is measured on at least this many of its ties with frames of known attitude
+MIN_ATTITUDE_TIES = MIN_PAIR_INLIERS
+#: ... keeping those within this many times the median angle between the turned ray and the ground point's direction
+TRIM_FACTOR = 3.0
 
 
 #: a frame's tile on the ground holds about this many times the pixels the plain matching detects the frame on
@@ -289,3 +305,67 @@ def ray_heights(camera, eos, xy_i, xy_j) -> np.ndarray:
     z = 0.5 * ((ca[2] + s * da[:, 2]) + (cb[2] + t * db[:, 2]))
     z[~((s > 0) & (t > 0) & (np.abs(den) > 1e-12 * aa * cc))] = np.nan
     return z
+
+
+def level_pass(infos, pairs, found, camera, distortion, eos, height: float, known, opts, threshold: float, ideal,
+               max_pixels: int, progress=None):
+    """``(found, guided, eos, measured)``: the second pass for the frames whose attitude is unknown (module
+    docstring): ``eos`` with the attitude of each such frame measured on its ties (:func:`measured_attitudes`;
+    ``measured`` one bool per frame), and ``found`` and ``guided`` (:func:`guided_results`' rows) with the pairs that
+    hold a measured frame, and no frame still unknown, matched on the ground plane too."""
+    known = _known(known, eos)
+    eos, measured = measured_attitudes(camera, ideal, eos, pairs, found, known, height)
+    now = [k or m for k, m in zip(known, measured)]
+    redo = [k for k, (i, j) in enumerate(pairs) if (measured[i] or measured[j]) and now[i] and now[j]]
+    if not redo:
+        return list(found), [], eos, measured
+    again, tried, _ = guided_results(infos, [pairs[k] for k in redo], [found[k] for k in redo], camera, distortion,
+                                     eos, height, opts, threshold, ideal, max_pixels, progress, known=now)
+    found = list(found)
+    for k, got in zip(redo, again):
+        found[k] = got
+    return found, tried, eos, measured
+
+
+def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -> tuple:
+    """``(eos, measured)``: each frame whose attitude is unknown (``known`` False) with at least
+    :data:`MIN_ATTITUDE_TIES` ties in its pairs ``found`` with frames of known attitude, turned to the attitude those
+    ties measure (its centre kept): the ties' ground points are the known frames' rays through the plane ``height``,
+    and the rotation ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit
+    directions ``u`` from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
+    measured pixels → distortion-free ones (:func:`fotogeo.tools.triangulate.pairs.ideal_pixels`; None: already)."""
+    undistort = ideal or (lambda xy: np.asarray(xy, dtype=np.float64))
+    out, measured = list(eos), [False] * len(eos)
+    for f in (f for f in range(len(eos)) if not known[f]):
+        d, u = [], []
+        for (i, j), got in zip(pairs, found):
+            g = j if i == f else i if j == f else None
+            if got is None or g is None or not known[g]:
+                continue
+            xy_f, xy_g = (got[1], got[2]) if i == f else (got[2], got[1])
+            d.append(camera.rays(undistort(xy_f)))
+            u.append(OrientedFrame(camera, eos[g]).pixel_to_world_at(undistort(xy_g), height) - eos[f].centre)
+        R = _rotation_to(np.vstack(d), np.vstack(u)) if d else None
+        if R is not None:
+            omega, phi, kappa = angles_patb(R @ np.diag([1.0, -1.0, -1.0]))  # OpenCV camera axes -> PATB
+            out[f], measured[f] = replace(eos[f], omega=omega, phi=phi, kappa=kappa), True
+    return out, measured
+
+
+def _rotation_to(d, u, rounds: int = 2):
+    """The rotation ``R`` (camera axes → world) minimising ``Σ |R d̂ − û|²`` (Wahba 1965): with ``B = Σ û d̂ᵀ = U S
+    Vᵀ``, ``R = U diag(1, 1, det(U Vᵀ)) Vᵀ`` (Kabsch 1976); refitted ``rounds`` times on the pairs within
+    :data:`TRIM_FACTOR` × the median angle (at least 0.5°) of the fit before (wrong ties, relief off the plane).
+    None with fewer than :data:`MIN_ATTITUDE_TIES` finite pairs kept."""
+    ok = np.isfinite(u).all(axis=1)
+    d = d[ok] / np.linalg.norm(d[ok], axis=1, keepdims=True)
+    u = u[ok] / np.linalg.norm(u[ok], axis=1, keepdims=True)
+    keep, R = np.ones(len(d), dtype=bool), None
+    for _ in range(rounds + 1):
+        if np.count_nonzero(keep) < MIN_ATTITUDE_TIES:
+            return None
+        U, _, Vt = np.linalg.svd(u[keep].T @ d[keep])
+        R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+        angle = np.arccos(np.clip(np.sum((d @ R.T) * u, axis=1), -1.0, 1.0))
+        keep = angle <= max(TRIM_FACTOR * float(np.median(angle[keep])), math.radians(0.5))
+    return R

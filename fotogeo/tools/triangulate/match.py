@@ -187,15 +187,35 @@ def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
                                                 prog.stage(0.6, 1.0, "matching on the ground plane"),
                                                 known=guide[2] if len(guide) > 2 else None)
         guided = {tuple(g.pop("pair")): g for g in tried}
-    per_pair = []
-    for (i, j), first in zip(pairs, plain):
-        row = {"pair": [i, j], "matches": 0 if first is None else first[0], "inliers": 0 if first is None else first[1]}
-        if (i, j) in guided:  # matches, inliers: those the pair's ties came from; both methods' counts beside
-            g = guided[(i, j)]
-            row = {**row, "plain": {"matches": row["matches"], "inliers": row["inliers"]}, "guided": g}
+    per_pair = [{"pair": [i, j], "matches": 0 if first is None else first[0],
+                 "inliers": 0 if first is None else first[1]} for (i, j), first in zip(pairs, plain)]
+    return found, _with_guided(per_pair, guided), measured
+
+
+def _with_guided(per_pair, guided) -> list:
+    """The per-pair report rows with ``guided`` (``{(i, j): ground-plane row}``) put in: ``matches``, ``inliers``
+    those the pair's ties came from, the plain matching's counts beside (``plain``, kept from a first pass)."""
+    out = []
+    for row in per_pair:
+        g = guided.get(tuple(row["pair"]))
+        if g is not None:
+            plain = row.get("plain") or {"matches": row["matches"], "inliers": row["inliers"]}
+            row = {**row, "matches": plain["matches"], "inliers": plain["inliers"], "plain": plain, "guided": g}
             row.update({"matches": g["matches"], "inliers": g["inliers"]} if g["used"] else {})
-        per_pair.append(row)
-    return found, per_pair, measured
+        out.append(row)
+    return out
+
+
+def _level_pass(infos, pairs, found, per_pair, camera, distortion, eos, height, known, opts, level, epipolar_px,
+                prog):
+    """``(found, per_pair, eos, measured)`` of :func:`fotogeo.tools.triangulate.guided.level_pass`: the frames left
+    level get their attitude from their ties and their pairs a ground-plane pass; ``measured`` one bool per frame."""
+    from .guided import level_pass, tile_pixels
+    det = _detection_options(opts, infos[0], level)
+    found, tried, eos, measured = level_pass(infos, pairs, found, camera, distortion, eos, height, known, det,
+                                             epipolar_px * 2 ** level, ideal_pixels(camera, distortion),
+                                             tile_pixels(det, infos[0]), prog)
+    return found, _with_guided(per_pair, {tuple(g.pop("pair")): g for g in tried}), eos, measured
 
 
 def _joined(pairs, found):
@@ -317,6 +337,15 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
     if start is not None:
         eos, new_height, report["start"] = start(eos, inliers)
         height = height if new_height is None or (measured is not None and not given) else new_height
+        if guided and known is not None and not all(known):  # the level frames' attitude, then their ground plane
+            found, report["pairs"], eos, took = _level_pass(infos, pairs, found, per_pair, camera, distortion, eos,
+                                                            height, known, opts, level, epipolar_px,
+                                                            prog.stage(0.6, 0.7, "the level frames' pairs"))
+            report["start"]["attitude_from_ties_deg"] = [[round(float(a), 2) for a in (e.omega, e.phi, e.kappa)]
+                                                         if t else None for e, t in zip(eos, took)]
+            uf, pos, _ = _joined(pairs, found)
+            frame, track, pixel, report["dropped_inconsistent_tracks"] = _tracks(uf, pos, len(frames))
+            report["tracks_matched"] = int(len(np.unique(track)))
         report["start"].update(eos=tuple(eos), height=float(height))
     if per_region is not None and len(track):
         rays = np.bincount(track)[track].astype(float)
