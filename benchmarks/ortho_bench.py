@@ -65,8 +65,12 @@ FOTOGEO_ENV = {"PYTHONPATH": str(ROOT)}
 DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
 DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
 
+#: ``python -c`` puts the working folder first on ``sys.path``: run from a checkout, its ``fotogeo`` would shadow the
+#: one ``PYTHONPATH`` names (``--baseline-tree`` of ortho_threshold_bench.py timed this checkout twice), so it is dropped
 FOTOGEO_RUN = """
 import sys, time
+if sys.path[0] == "":
+    del sys.path[0]
 from fotogeo.cli import main
 t = time.perf_counter()
 try:

@@ -104,7 +104,7 @@ class Collinearity(FittedModel):
         K = np.array([[camera.fx, 0, camera.principal_point[0]], [0, camera.fy, camera.principal_point[1]],
                       [0, 0, 1.0]])
         C, Rcv, init = cls._start(s[use], dst[use], w[use], K)
-        C, Rcv, info = cls._gauss_newton(s, dst, w, K, C, Rcv, iterations)
+        C, Rcv, info = cls._levenberg_marquardt(s, dst, w, K, C, Rcv, iterations)
         ang = angles_patb(Rcv @ _D)
         fixed = [camera.focal_length, *camera.sensor_size, *camera.image_size, *camera.principal_point]
         params = np.array([*(C + ctr), *ang, *fixed], dtype=np.float64)
@@ -189,7 +189,7 @@ class Collinearity(FittedModel):
         return np.column_stack(cols)
 
     @classmethod
-    def _gauss_newton(cls, s, d, w, K, C, Rcv, iterations):
+    def _levenberg_marquardt(cls, s, d, w, K, C, Rcv, iterations):
         """Levenberg–Marquardt (Levenberg 1944, Marquardt 1963) on Σ w |pixel − f(X)|²: the step solves
         ``(JᵀPJ + λ·diag(JᵀPJ)) δ = JᵀP r`` and is taken only when it lowers the cost with every point in front of
         the camera; λ ÷ 10 after a step taken, × 10 after one refused (λ starts at 1e-3: near the minimum the steps

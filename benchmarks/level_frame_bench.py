@@ -1,0 +1,115 @@
+"""Rendered oblique blocks whose reference orthophoto is blanked under one frame: frames left level (issue 32).
+
+A frame whose attitude is unknown and that does not register to the reference starts level; the triangulation
+measures its attitude from its ties and gives its pairs a second, ground-plane matching pass
+(:func:`fotogeo.tools.triangulate.guided.measured_attitudes`). Each case renders the oblique block of
+``tests/rendered_oblique.py`` (4 strips flown N/E/S/W, gimbal −60°, ``--per-strip`` frames each; the images
+without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``-``: the
+full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q`` as a user runs it,
+under ``/usr/bin/time -v``, with ``PYTHONPATH`` the tree measured (this checkout, and ``--baseline-tree`` in the
+same run). Per run: frames oriented, the frames started level, the dropped frames, tie inliers, the worst angle
+(°) and centre (m) errors against the rendered truth, CPU = user + system. Printed as lines and written to
+``benchmarks/results/level_frame_bench.json``.
+
+    PYTHONPATH=. .venv/bin/python benchmarks/level_frame_bench.py --seeds 0 --per-strip 5 --zero DJI_303,DJI_202 \\
+        [--baseline-tree ../main] [--work DIR]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+
+def _block(work: Path, seed: int, per: int, zero: str, block=None):
+    """The rendered block (images, truth; ``block`` if given), the reference orthophoto (zeroed under ``zero``)
+    and DEM."""
+    import rasterio
+    from rasterio.features import geometry_mask
+    from rendered_oblique import GROUND, SIZE, oblique_block, write_reference
+    from shapely.geometry import Polygon
+
+    from fotogeo.geometry.camera import OrientedFrame
+    root = work / f"s{seed}_p{per}"
+    if block is None:
+        block = oblique_block(root, seed=seed, per_strip=per)
+        write_reference(block, root / "ref")
+    ortho = root / "ref" / "ortho.tif"
+    if zero != "-":
+        w, h = SIZE
+        corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], float)
+        g = OrientedFrame(block["camera"], block["truth"][zero]).pixel_to_world_at(corners, GROUND)
+        with rasterio.open(ortho) as ds:
+            img, prof = ds.read(), ds.profile
+            m = geometry_mask([Polygon(g[:, :2])], out_shape=img.shape[1:], transform=ds.transform, invert=True)
+        img[:, m] = 0
+        ortho = root / f"ref_zero_{zero}.tif"
+        with rasterio.open(ortho, "w", **prof) as ds:
+            ds.write(img)
+    return block, ortho, root / "ref" / "dem.tif"
+
+
+def _run(tree: Path, block, ortho: Path, dem: Path, out: Path) -> dict:
+    from rendered_oblique import angle_error
+
+    from fotogeo.io.camera import read_exterior_orientation
+    shutil.rmtree(out, ignore_errors=True)
+    cmd = ["/usr/bin/time", "-v", sys.executable, "-m", "fotogeo", "triangulate", *map(str, block["nadir"]),
+           "--reference", str(ortho), "--dem", str(dem), "-o", str(out), "-q"]
+    p = subprocess.run(cmd, env=dict(os.environ, PYTHONPATH=str(tree)), capture_output=True, text=True,
+                       cwd=out.parent)  # not a checkout: `python -m` puts the working folder first on the path
+    cpu = sum(float(line.split(":")[1]) for line in p.stderr.splitlines()
+              if "User time" in line or "System time" in line)
+    res = {"tree": str(tree), "rc": p.returncode, "cpu_s": round(cpu, 1)}
+    eo_file = out / "exterior_orientation.txt"
+    if not eo_file.exists():
+        return {**res, "error": p.stderr.strip().splitlines()[-1:]}
+    eos = read_exterior_orientation(eo_file)
+    ang = {n: angle_error(e, block["truth"][n]) for n, e in eos.items()}
+    cen = {n: float(np.linalg.norm(e.centre - block["truth"][n].centre)) for n, e in eos.items()}
+    rep = json.loads((out / "report.json").read_text())
+    return {**res, "oriented": len(eos), "of": len(block["names"]), "max_angle_deg": round(max(ang.values()), 4),
+            "max_centre_m": round(max(cen.values()), 4), "level": rep.get("start", {}).get("level_start_frames"),
+            "dropped": [d["name"] for d in rep.get("dropped_frames") or []],
+            "tie_inliers": sum(q.get("inliers", 0) for q in rep.get("matching", {}).get("pairs", []))}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", default="0")
+    ap.add_argument("--per-strip", type=int, default=5)
+    ap.add_argument("--zero", default="DJI_303,DJI_202", help="frames to blank the reference under, ',' separated")
+    ap.add_argument("--baseline-tree", type=Path, help="a second checkout measured in the same run")
+    ap.add_argument("--work", type=Path, help="scratch folder (default: a temporary one)")
+    a = ap.parse_args(argv)
+    work = a.work or Path(tempfile.mkdtemp(prefix="level_frame_bench_"))
+    trees = [t for t in (a.baseline_tree, ROOT) if t]
+    rows, blocks = [], {}
+    for seed in map(int, a.seeds.split(",")):
+        for zero in a.zero.split(","):
+            block, ortho, dem = blocks.get(seed) or _block(work, seed, a.per_strip, "-")
+            blocks[seed] = block, ortho, dem
+            if zero != "-":
+                ortho = _block(work, seed, a.per_strip, zero, block)[1]
+            for i, tree in enumerate(trees):
+                r = {"seed": seed, "per_strip": a.per_strip, "zeroed_under": zero,
+                     **_run(tree, block, ortho, dem, work / f"out_{seed}_{zero}_{i}")}
+                print(json.dumps(r), flush=True)
+                rows.append(r)
+    dest = ROOT / "benchmarks" / "results" / "level_frame_bench.json"
+    dest.write_text(json.dumps({"load_average": os.getloadavg(), "rows": rows}, indent=1) + "\n")
+    print("->", dest)
+
+
+if __name__ == "__main__":
+    main()
