@@ -169,3 +169,30 @@ def test_windows_inside_a_valid_source_skip_the_mask_remap_with_the_same_pixels(
     assert any(skipped) and not all(skipped)  # both kinds of window occur
     a, b = _read(tmp_path / "skip.tif")[0], _read(tmp_path / "remap.tif")[0]
     np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("nearest", [False, True])
+def test_remapped_validity_equals_the_mask_remap_cell_for_cell(nearest):
+    """An all-valid source window's validity from the fixed-point maps (only the cells straddling the window's edge
+    remapped) equals ``cv2.remap`` of the whole all-255 mask: positions in 1/32-px steps across every edge, where
+    taps of weight 1-3 of 1024 fall outside, and NaN positions."""
+    import cv2
+
+    from fotogeo.io.warp_source import remapped_validity
+    rng = np.random.default_rng(3)
+    h, w = 37, 53  # the source window
+    x = rng.integers(-3 * 32, (w + 2) * 32, (120, 90)) / 32 + rng.choice([0, 1 / 64, -1 / 64], (120, 90))
+    y = rng.integers(-3 * 32, (h + 2) * 32, (120, 90)) / 32
+    x[:3, :3] = np.nan
+    mx, my = x.astype(np.float32), y.astype(np.float32)
+    if nearest:
+        mx, my = np.round(np.nan_to_num(mx, nan=-1)), np.round(my)
+    map1, map2 = cv2.convertMaps(mx, my, cv2.CV_16SC2)
+    if nearest:
+        map2 = None
+    full = cv2.remap(np.full((h, w), 255, np.uint8), map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    want = full > 0 if nearest else full >= 255
+    got = remapped_validity(map1, map2, h, w)
+    assert want.any() and not want.all() and (nearest or ((full > 0) & (full < 255)).any())  # edges straddled
+    np.testing.assert_array_equal(got, want)

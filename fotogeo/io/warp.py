@@ -44,7 +44,7 @@ from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixel
 from .warp_gdal import nearest_pixels_xy
 from .warp_levels import reduced_plan
 from .warp_source import CV_DTYPES as _CV_DTYPES
-from .warp_source import in_order, opencv_threads, source_handles, validity, whole_source
+from .warp_source import in_order, opencv_threads, remapped_validity, source_handles, validity, whole_source
 
 #: the OpenCV flag of each name of :data:`fotogeo.options.RESAMPLINGS` (a KeyError on import if one lacks a flag)
 RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}[n]
@@ -236,6 +236,8 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
     mask, data, interleaved = _source_window(src, plan, win)
     if within and (mask is None or mask.min() == 255):  # the mask's remap would be all 255
         good = None
+    elif mask is None and map1.dtype == np.int16:  # all valid, fixed-point maps: only the edge's cells remapped
+        good = remapped_validity(map1, map2, win.height, win.width)
     else:
         mask = np.full((win.height, win.width), 255, np.uint8) if mask is None else mask
         m = cv2.remap(mask, map1, map2, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
@@ -263,8 +265,8 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
         np.copyto(out[b], res.astype(plan.dtype, copy=False), where=True if good is None else good)
     if good is None:
         return out, h * w, 0 if plan.floating else int(np.count_nonzero((out == plan.nodata).all(axis=0)))
-    collisions = 0 if plan.floating else int(((out == plan.nodata).all(axis=0) & good).sum())
-    return out, int(good.sum()), collisions
+    collisions = 0 if plan.floating else np.count_nonzero((out == plan.nodata).all(axis=0) & good)
+    return out, np.count_nonzero(good), collisions
 
 
 def windows_of(height: int, width: int, block: int, r_off: int = 0, c_off: int = 0, rows=None, cols=None):

@@ -5,6 +5,15 @@ enough, the whole source held in memory once.
 warper: a dark RGB pixel with one channel at 0 stays), invalid where every band equals the override ``src_nodata``
 or any band is NaN/±inf; floating data get 0 there (never data, as in fuse). None stands for "all valid".
 
+**Remapped validity of an all-valid source** (:func:`remapped_validity`): the cells where ``cv2.remap`` of the
+window's all-255 mask (zero outside it) gives 255 (bilinear) or more than 0 (nearest), computed without remapping
+every cell. With OpenCV's fixed-point maps (``CV_16SC2`` integer pixel ``(i, j)``, and for bilinear a 1/32-px
+fraction index), a bilinear cell reads the taps ``i..i+1``, ``j..j+1`` with integer weights summing to 1024 and
+gives ``(255 · w_in + 512) >> 10``: 255 when all four taps are inside the window, 0 when none is; only the cells
+whose taps straddle the window's edge (``i`` or ``j`` at −1 or at the last column or row) are remapped, by
+OpenCV itself as a ``1 x N`` map (a cell's value depends on its own map entry alone), so the result is the full
+remap's cell for cell. A nearest cell reads the one tap ``(i, j)``: inside or not.
+
 **Threads**: :func:`source_handles` (one GDAL handle per thread) and :func:`in_order` (a bounded pool whose
 results come back in order).
 
@@ -27,6 +36,7 @@ import contextlib
 import ctypes
 import queue
 
+import cv2
 import numpy as np
 
 from .raster import ropen
@@ -70,6 +80,23 @@ def whole_source(src, plan, budget: int = WHOLE_SOURCE_BYTES):
     if mask is not None and mask.min() == 255:
         mask = None
     return pixels, mask
+
+
+def remapped_validity(map1, map2, height: int, width: int):
+    """Boolean ``(rows, cols)``: the cells of the fixed-point maps (``map1`` ``CV_16SC2``, ``map2`` the bilinear
+    fraction indices or None for nearest) where ``cv2.remap`` of a ``height x width`` all-valid mask (255, zero
+    outside: ``BORDER_CONSTANT``) is 255 (bilinear) or above 0 (nearest) — the same cells as that remap's
+    (module docstring)."""
+    if map2 is None:
+        return cv2.inRange(map1, (0, 0), (width - 1, height - 1)) > 0
+    inner = cv2.inRange(map1, (0, 0), (width - 2, height - 2))  # all four taps inside
+    edge = np.flatnonzero(cv2.inRange(map1, (-1, -1), (width - 1, height - 1)) != inner)  # some of them
+    good = inner > 0
+    if edge.size:
+        m = cv2.remap(np.full((height, width), 255, np.uint8), map1.reshape(-1, 2)[edge][None],
+                      map2.reshape(-1)[edge][None], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        good.reshape(-1)[edge] = m[0] >= 255
+    return good
 
 
 @contextlib.contextmanager
