@@ -1,7 +1,7 @@
 """Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
 
 Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
-      [--cases ngi,qb2,drone] [--resolutions native,fine] [--drone-dir DIR]
+      [--cases ngi,qb2,drone,drone_half] [--resolutions native,fine] [--drone-dir DIR] [--out JSON]
 
 * ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
@@ -22,19 +22,27 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   2 m surface gridded from its tie points (``gdal_grid`` inverse distance; the flight has no published DEM), through
   fotogeo and orthority (``-c EPSG:32654``; orthority's full remap, i.e. the distortion in every cell's position).
 
+* ``drone_half`` — the same two frames at half size (4608 x 3456 -> 2304 x 1728, GDAL's average, written as
+  uncompressed TIFFs beside the drone case's folder) with the camera scaled to them (``im_size``, ``focal_len``
+  and ``sensor_size`` halved; the Brown terms and the principal point are normalised, unchanged): another image
+  size and another format (a TIFF without overviews, read whole at full resolution).
+
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
 drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
-(NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates).
+(NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates);
+``coarse`` and ``coarser`` (drone and drone_half 10 and 20 cm: small outputs, where the start-up weighs most).
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
 command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through its click entry point —, interpreter
-start and imports included; fotogeo's bytecode compiled beforehand, as an installed package's is), CPU time
+start and imports included; fotogeo's bytecode compiled beforehand, as an installed package's is), the frame cases
+in alternating rounds (fotogeo, then orthority, ``--repeat`` times; also the median over the rounds of each round's
+own CPU ratio, ``cpu_ratio_rounds``, steadier on a shared machine than the ratio of the medians), CPU time
 (user + system: steadier than the wall time on a shared machine) and peak resident memory; the Python tools also
 report their in-process time after the imports (``work``). Ratios are fotogeo's over the peer's (below 1: fotogeo
 faster). Agreement: on the overlap of two outputs, 128 x 128 tiles fully valid in both are phase-correlated
 (OpenCV, Hanning window) on band 1: the local shift of each tile in output pixels (median, 95th percentile and
-largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (with the
-load average at the start and the end: the machine may be shared) and prints a table.
+largest length) and the mean absolute grey-level difference. Writes benchmarks/results/ortho_bench.json (or
+``--out``; with the load average at the start and the end: the machine may be shared) and prints a table.
 """
 from __future__ import annotations
 
@@ -54,7 +62,8 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
 RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
-       "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1}}
+       "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1, "coarser": 0.2},
+       "drone_half": {"coarse": 0.1, "coarser": 0.2}}
 #: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
 FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMPRESS=DEFLATE", "ZLEVEL=1",
                           "PREDICTOR=2") for a in ("-co", o)]
@@ -108,8 +117,18 @@ def repeat(cmd, n, before=None, env=None) -> dict:
         if before:
             before()
         runs.append(timed(cmd, env))
+    return summary(runs)
+
+
+def summary(runs) -> dict:
+    """Medians of :func:`timed`'s fields over ``runs``."""
     med = {k: statistics.median([r[k] for r in runs]) if runs[0][k] is not None else None for k in runs[0]}
     return {**{k: (round(v, 3) if v is not None else None) for k, v in med.items()}, "runs": len(runs)}
+
+
+def ratio_range(ratios) -> dict:
+    return {"median": round(statistics.median(ratios), 3), "min": round(min(ratios), 3),
+            "max": round(max(ratios), 3)}
 
 
 def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
@@ -165,6 +184,27 @@ def drone_inputs(folder: Path) -> dict:
             "crs": ["-c", "EPSG:32654"]}
 
 
+def half_inputs(inp: dict, folder: Path) -> dict:
+    """The drone case's frames at half size and its camera scaled to them (module docstring), made in ``folder``."""
+    import yaml
+    folder.mkdir(parents=True, exist_ok=True)
+    frames = []
+    for f in inp["frames"]:
+        half = folder / (Path(f).stem + ".tif")
+        if not half.exists():
+            subprocess.run(["gdal_translate", "-q", "-outsize", "50%", "50%", "-r", "average", f, str(half)],
+                           check=True, env={**os.environ, "GDAL_PAM_ENABLED": "NO"})
+        frames.append(str(half))
+    cams = yaml.safe_load(Path(inp["camera"]).read_text())
+    for cam in cams.values():
+        cam["im_size"] = [v // 2 for v in cam["im_size"]]
+        cam["focal_len"] = cam["focal_len"] / 2
+        cam["sensor_size"] = [v / 2 for v in cam["sensor_size"]]
+    camera = folder / "camera.yaml"
+    camera.write_text(yaml.safe_dump(cams, sort_keys=False))
+    return {**inp, "frames": frames, "camera": str(camera)}
+
+
 def ngi_inputs(work: Path) -> dict:
     ngi = DATA / "ngi"
     ext = work / "ext.csv"  # orthority reads the same lines as CSV
@@ -182,18 +222,21 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
     args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
             "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
     fg_dir.mkdir(exist_ok=True)
-    out = {"fotogeo": repeat([sys.executable, "-c", FOTOGEO_RUN, *args], n, env=FOTOGEO_ENV)}
-    if oty_py:
-        cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
-               *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
-               "-od", str(oty_dir), "-o", *frames]
-        oty_dir.mkdir(exist_ok=True)
-        out["orthority"] = repeat(cmd, n)
-        if same:
-            at = cmd.index("-cm")
-            out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
-        out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
-                                                      oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
+    fg_cmd = [sys.executable, "-c", FOTOGEO_RUN, *args]
+    if not oty_py:
+        return {"fotogeo": repeat(fg_cmd, n, env=FOTOGEO_ENV)}
+    cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
+           *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
+           "-od", str(oty_dir), "-o", *frames]
+    oty_dir.mkdir(exist_ok=True)
+    rounds = [(timed(fg_cmd, FOTOGEO_ENV), timed(cmd)) for _ in range(n)]  # alternating: the same load on both
+    out = {"fotogeo": summary([r[0] for r in rounds]), "orthority": summary([r[1] for r in rounds]),
+           "cpu_ratio_rounds": ratio_range([a["cpu_s"] / b["cpu_s"] for a, b in rounds])}
+    if same:
+        at = cmd.index("-cm")
+        out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
+    out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
+                                                  oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
     return out
 
 
@@ -221,11 +264,12 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
 
 
 def table(results: dict) -> str:
-    rows = ["case  res   tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  shift med/p95/max px"]
+    rows = ["case       res   tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  rounds' cpu ratio "
+            "(median, range)  shift med/p95/max px"]
     for case, by_res in results["cases"].items():
         for res, r in by_res.items():
             fg = r["fotogeo"]
-            for tool in [k for k in r if not k.startswith("agreement")]:
+            for tool in [k for k in r if "cpu_s" in r[k]]:
                 t = r[tool]
                 ag = r.get("agreement_" + tool) or (r.get("agreement") if tool == "orthority" else None)
                 if ag and "tiles" not in ag:  # per frame
@@ -234,9 +278,11 @@ def table(results: dict) -> str:
                     if ag else ""
                 rw = fg["wall_s"] / t["wall_s"]
                 rc = fg["cpu_s"] / t["cpu_s"]
-                rows.append(f"{case:<5} {res:<5} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
+                rr = r.get("cpu_ratio_rounds") if tool == "orthority" else None
+                rounds = f"{rr['median']:.3f} ({rr['min']:.3f}-{rr['max']:.3f})" if rr else ""
+                rows.append(f"{case:<10} {res:<5} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
                             f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
-                            f"{shift}")
+                            f"{rounds:<34} {shift}")
     return "\n".join(rows)
 
 
@@ -247,10 +293,12 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--cases", default="ngi,qb2,drone")
     ap.add_argument("--resolutions", default="native,fine",
-                    help="comma-separated levels among native, fine (and coarse: drone only)")
+                    help="comma-separated levels among native, fine, coarse and coarser (the last two: drone and "
+                         "drone_half only); CASE:LEVEL for one case only")
     ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
                     help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
                          "creation options (row orthority_z1)")
+    ap.add_argument("--out", type=Path, default=OUT, help=f"the JSON written [{OUT.relative_to(ROOT)}]")
     ap.add_argument("--drone-dir", type=Path,
                     help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
     a = ap.parse_args(argv)
@@ -266,7 +314,8 @@ def main(argv=None):
         for case in a.cases.split(","):
             results["cases"][case] = {}
             for level in a.resolutions.split(","):
-                if level not in RES[case]:
+                only, _, level = level.rpartition(":")  # "case:level": that case only
+                if level not in RES[case] or only not in ("", case):
                     continue
                 res = RES[case][level]
                 work = Path(tmp) / f"{case}_{level}"
@@ -274,15 +323,17 @@ def main(argv=None):
                 if case == "qb2":
                     r = qb2_case(work, res, a.repeat)
                 else:
-                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(a.drone_dir or Path(tmp) / "drone")
+                    drone = a.drone_dir or Path(tmp) / "drone"
+                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(drone)
+                    inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
                     r = frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both")
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
     print(table(results))
     print(f"load average (1, 5, 15 min): start {results['load_average_start']}, end {results['load_average_end']}")
-    OUT.write_text(json.dumps(results, indent=1))
-    print(f"wrote {OUT.relative_to(ROOT)}")
+    a.out.write_text(json.dumps(results, indent=1))
+    print(f"wrote {a.out}")
 
 
 if __name__ == "__main__":
