@@ -126,6 +126,8 @@ def main(argv=None):
     ap.add_argument("--thresholds", default="0,0.125")
     ap.add_argument("--rounds", type=int, default=8, help="0: only the positions' errors")
     ap.add_argument("--baseline-tree", type=Path, help="another fotogeo checkout (e.g. main) timed in the same rounds")
+    ap.add_argument("--out", type=Path, help="the JSON written [results/ortho_threshold_bench.json; --rounds 0: "
+                                             "results/ortho_threshold_positions.json]")
     a = ap.parse_args(argv)
     if not DATA.exists():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
@@ -165,9 +167,9 @@ def main(argv=None):
                 f" 1/{v.get('source_level')} (narrowest cell {v.get('cell_px_min')} px)"
                 for n, v in frames.items()))
     print(f"load average: start {results['load_average_start']}, end {results['load_average_end']}")
-    out = OUT if a.rounds else OUT.with_name("ortho_threshold_positions.json")
+    out = a.out or (OUT if a.rounds else OUT.with_name("ortho_threshold_positions.json"))
     out.write_text(json.dumps(results, indent=1))
-    print(f"wrote {out.relative_to(ROOT)}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":
