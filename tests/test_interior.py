@@ -190,3 +190,16 @@ def test_several_scans_into_a_json_name_are_refused(tmp_path):
     with pytest.raises(InputError, match="names a JSON file, but 2 scans need a folder"):
         interior([a, b], cal, tmp_path / "two.json", scan_pixel_um=PIXEL_UM, rotation="0")
     assert not (tmp_path / "two.json").exists()
+
+
+def test_quiet_hides_the_warnings_the_json_keeps_them(tmp_path):
+    """A wrong --scan-pixel-um (160 for 150 µm) warns; with -q the line is gone from stderr (on main
+    ``interior -q`` printed it) and stays in the scan's JSON record."""
+    _, path, cal = setup(tmp_path, ASYMMETRIC, "cross", k90=0, theta=1.0)
+    args = ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json"),
+            "--scan-pixel-um", "160", "--rotation", "0"]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0 and "Warning: the marks give a scan pixel of 150" in r.stderr
+    r = CliRunner().invoke(main, [*args, "--overwrite", "-q"])
+    assert r.exit_code == 0 and r.stderr == "" and "5 marks" in r.stdout
+    assert "scan pixel of 150" in json.loads((tmp_path / "o.json").read_text())["warnings"][0]
