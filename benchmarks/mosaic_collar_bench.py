@@ -5,8 +5,8 @@ area is a rectangle turned by ``--angle`` degrees inside a north-up raster, the 
 Run:  cd /tmp && .venv/bin/python benchmarks/mosaic_collar_bench.py [--angle 20] [--data ../shared/data]
 
 The truth is the NGI orthophoto ``ngi/ortho/ngi_rgb_byte_1.tif`` (5 m, RGB; its own outside, nodata 0, becomes
-part of the collar once the tag is dropped). Two inputs cut from it overlap by ``--overlap`` columns; in each, the pixels outside its turned rectangle are set
-to 0 in every band and the nodata tag is dropped. The mosaic is compared with the truth where the truth is valid
+part of the collar once the tag is dropped). Two inputs cut from it overlap by ``--overlap`` columns; in each,
+the pixels outside its rectangle (both turned alike) are set to 0 in every band and the nodata tag is dropped. The mosaic is compared with the truth where the truth is valid
 and at least one input's rectangle covers it, and over the overlap of the two rectangles' bounding boxes (where
 a seamline or a blend could take the other input's collar): mean grey level of mosaic and truth, mean absolute
 difference, and the share of cells darker than the truth by more than 50 grey levels (the collar shows).

@@ -314,7 +314,8 @@ def test_cli_prints_library_warnings_as_one_line(env, out, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(fuse_tool, "pca_fuse", noisy)
-    result = CliRunner().invoke(main, ["fuse", str(env["dir"] / "target.tif"), "-o", str(out / "f.tif")])  # -q hides them
+    # no -q: it hides the warnings
+    result = CliRunner().invoke(main, ["fuse", str(env["dir"] / "target.tif"), "-o", str(out / "f.tif")])
     assert result.exit_code == 0, result.output
     assert not_progress(result.stderr) == ["Warning: a library complains with a second line"], result.stderr
     (out / "f.tif").unlink()

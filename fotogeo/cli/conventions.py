@@ -10,8 +10,8 @@
   ``Note:`` / ``Warning:`` line on stderr; it keeps the final ``Error:`` line and the run's summary on stdout.
   The warnings are not lost: ``--json`` lists them (``warnings``), and a tool's report file keeps those it
   records (orient's ``warnings``/``skipped``, interior's per-scan ``warnings``). A library's log record of
-  WARNING or above (rasterio's GDAL notes, distributed's) is shown as one ``Warning:`` line through :func:`fotogeo.errors.warning_line`,
-  like a Python warning: translated or silenced, never as the library's raw text with its logger's name.
+  WARNING or above (rasterio's GDAL notes, distributed's) is shown as one ``Warning:`` line through
+  :func:`fotogeo.errors.warning_line`, like a Python warning: translated or silenced, never as the library's raw text with its logger's name.
 - ``--json`` on the group or after any sub-command: the run's summary (what the tool returned) as one JSON
   document on stdout; the human lines go to stderr. On an error: ``{"error": ..., "exit_code": ...}``.
 - Deprecated spellings of options (:data:`DEPRECATED`) keep working for one release with a warning (shown
