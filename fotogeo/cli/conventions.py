@@ -33,7 +33,7 @@ EXIT_FAILED = 1
 EXIT_USAGE = 2
 
 #: what ``-q`` / ``--quiet`` does, in every command's ``--help``
-QUIET_HELP = ("Quiet: no progress, notes or warnings on stderr (--json and the report keep the warnings); "
+QUIET_HELP = ("Quiet: no progress, notes or warnings on stderr (--json still lists the warnings); "
               "the summary and a final Error line stay.")
 
 #: sub-command -> {old flag: new flag}: spellings unified across commands, accepted until the next release
