@@ -52,3 +52,21 @@ def pytest_xdist_make_scheduler(config, log):
             return "qgis" if Path(nodeid.split("::")[0]).name.startswith("test_qgis") else nodeid
 
     return QgisTogether(config, log)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _qgis_temp_in_pytest_folder(tmp_path_factory):
+    """QGIS's temporary folders (``QGIS3-XXXXXX``, ``processing_XXXXXX``: Qt's ``QDir::tempPath()``, which reads
+    ``TMPDIR``) under this session's pytest folder instead of ``/tmp``. A QGIS that does not end cleanly — the
+    desktop under Xvfb aborting while quitting, a GUI script ended by ``os._exit``, an xdist worker — never removes
+    them, and dozens piled up in /tmp. Set after pytest has chosen its own base folder (Python's ``tempfile``
+    keeps the folder it found first), so it moves only what Qt and the child processes create; pytest's own
+    retention removes the folder with the session's others."""
+    folder = tmp_path_factory.mktemp("tmpdir")
+    old = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = str(folder)
+    yield folder
+    if old is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = old

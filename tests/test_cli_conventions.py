@@ -154,3 +154,29 @@ def test_one_spelling_for_the_main_output():
         if "-o" in flags:
             assert "--output" in flags, (name, sorted(flags))
         assert not {"--outdir", "--out", "--reference-band", "--target-band"} & flags, (name, sorted(flags))
+
+
+@pytest.mark.parametrize("where", ["group", "command"])
+def test_quiet_silences_warnings_and_json_keeps_them(data_dir, tmp_path, where):
+    """``-q`` is one setting wherever it is given: on main ``orient ... -q`` (the sub-command's flag) still printed
+    the 'Warning: 2 GCP(s) ... outside the image' line; the --json document lists it, the report its GCPs."""
+    qb2 = data_dir / "qb2"
+    args = ["orient", qb2 / "qb2_basic1b.tif", qb2 / "gcps.geojson", "--model", "similarity",
+            "--report", tmp_path / "r.json"]
+    r = invoke(*(["-q", *args] if where == "group" else [*args, "-q"]))
+    assert r.exit_code == 0 and r.stderr == "", r.stderr
+    assert "skipped (outside the image (850x1450 px))" in r.stdout  # the summary stays
+    assert [s["id"] for s in json.loads((tmp_path / "r.json").read_text())["skipped"]] == [
+        "house-swcnr-90b", "grasnek-roadjunction1-50"]
+    r = invoke(*args, "--overwrite", "-q", "--json")
+    doc = json.loads(r.stdout)
+    assert "Warning" not in r.stderr and len(doc["warnings"]) == 1 and "2 GCP(s)" in doc["warnings"][0]
+    r = invoke(*args, "--overwrite")  # without -q the line is shown, once
+    assert r.stderr.count("Warning: 2 GCP(s) of") == 1
+
+
+def test_quiet_keeps_the_final_error(rgb, tmp_path):
+    assert invoke("fuse", rgb, "-o", tmp_path / "o.tif", "-q").exit_code == 0
+    r = invoke("fuse", rgb, "-o", tmp_path / "o.tif", "-q")
+    assert r.exit_code == 1 and r.stderr.startswith("Error: ") and "--overwrite" in r.stderr
+    assert not conventions.SETTINGS.quiet  # a sub-command's -q lasts for its run only

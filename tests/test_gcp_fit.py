@@ -228,3 +228,21 @@ def test_auto_with_eight_gcps_on_dem_heights_chooses_the_3d_model(ngi, truth, se
     sel = fit["model_selection"]
     assert sel["compared"] == "loo_median_px" and fit["model"] == "dlt", sel["candidates"]
     assert fit["rms"]["control_px"] < 1.5
+
+
+def test_the_picker_and_orient_skip_the_same_points_in_the_same_words(ngi, truth, tmp_path):
+    """The picker flags a point outside the image by the rule and wording orient skips it with
+    (fotogeo.io.gcps.outside_image / outside_reason): the points on the border (col = width) stay in both."""
+    from fotogeo.io.gcps import outside_reason
+    gcps = pick(truth, 10, 0)
+    gcps[0] = {**gcps[0], "col": 640.0}  # on the right edge: inside
+    gcps[1] = {**gcps[1], "col": 640.5}  # half a pixel beyond it: outside
+    gcps[2] = {**gcps[2], "row": -0.2}
+    image = ngi / "frames" / f"{FRAME}_RGB.tif"
+    with pytest.warns(UserWarning, match="lie outside the image") as caught:
+        rep = orient(image, write_csv(tmp_path / "g.csv", gcps), model="affine", crs=MAP_CRS)
+    fit = fit_gcps(as_read_by_orient(tmp_path / "g.csv", gcps), "affine", crs=MAP_CRS, image=str(image))
+    flagged = {p["id"]: p["flag"] for p in fit["points"] if p["flag"] and "outside" in p["flag"]}
+    assert flagged == {s["id"]: s["reason"] for s in rep["skipped"]} == {
+        gcps[1]["id"]: outside_reason(640, 1152), gcps[2]["id"]: outside_reason(640, 1152)}
+    assert outside_reason(640, 1152) in str(caught[0].message)

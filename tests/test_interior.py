@@ -190,3 +190,34 @@ def test_several_scans_into_a_json_name_are_refused(tmp_path):
     with pytest.raises(InputError, match="names a JSON file, but 2 scans need a folder"):
         interior([a, b], cal, tmp_path / "two.json", scan_pixel_um=PIXEL_UM, rotation="0")
     assert not (tmp_path / "two.json").exists()
+
+
+def test_quiet_hides_the_warnings_the_json_keeps_them(tmp_path):
+    """A wrong --scan-pixel-um (160 for 150 µm) warns; with -q the line is gone from stderr (on main
+    ``interior -q`` printed it) and stays in the scan's JSON record."""
+    _, path, cal = setup(tmp_path, ASYMMETRIC, "cross", k90=0, theta=1.0)
+    args = ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json"),
+            "--scan-pixel-um", "160", "--rotation", "0"]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0 and "Warning: the marks give a scan pixel of 150" in r.stderr
+    r = CliRunner().invoke(main, [*args, "--overwrite", "-q"])
+    assert r.exit_code == 0 and r.stderr == "" and "5 marks" in r.stdout
+    assert "scan pixel of 150" in json.loads((tmp_path / "o.json").read_text())["warnings"][0]
+
+
+def test_a_rotation_the_marks_contradict_is_refused(tmp_path):
+    """A scan turned 90° with --rotation 0: on main the marks found at 0° (4 of 5) were fitted and the run ended
+    with 'fiducial mark(s) not found: 5' — photo coordinates turned by 90°. Now refused naming --rotation and
+    the rotation the marks show; a layout that looks the same turned (RMK_LIKE) keeps the rotation given."""
+    _, path, cal = setup(tmp_path, ASYMMETRIC, "cross", k90=1, theta=1.0)
+    r = CliRunner().invoke(main, ["interior", str(path), "--camera-report", str(cal), "-o", str(tmp_path / "o.json"),
+                                  "--scan-pixel-um", "150", "--rotation", "0", "-q"])  # -q keeps the error
+    assert r.exit_code == 2 and r.stderr.count("\n") == 1, r.output
+    assert ("Error: --rotation 0° contradicts the fiducial marks of scan" in r.stderr
+            and "turned by 90° the report's layout finds 5 of 5 marks, at 0° 4; give 90 (or auto)" in r.stderr)
+    assert not (tmp_path / "o.json").exists()
+    rec = interior(path, cal, tmp_path / "o.json", scan_pixel_um=PIXEL_UM, rotation="90")[0]
+    assert rec["rotation_deg"] == pytest.approx(91.0, abs=0.05) and rec["warnings"] == []
+    _, path, cal = setup(tmp_path, RMK_LIKE, "cross", name="sym", k90=1, theta=1.0)
+    rec = interior(path, cal, tmp_path / "sym.json", scan_pixel_um=PIXEL_UM, rotation="180")[0]
+    assert rec["rotation_deg"] == pytest.approx(181.0, abs=0.1) and rec["warnings"] == []

@@ -111,9 +111,26 @@ def test_transfer_into_a_turned_search_image_says_none_converged(tmp_path):
     pd.DataFrame({"id": range(8), "ref_col": pts[:, 0], "ref_row": pts[:, 1], "col": pts[:, 0],
                   "row": pts[:, 1]}).to_csv(tmp_path / "pts.csv", index=False)
     r = CliRunner().invoke(main, ["transfer-points", str(tmp_path / "ref.tif"), str(tmp_path / "turned.tif"),
-                                  str(tmp_path / "pts.csv"), "-o", str(tmp_path / "t.csv"), "-q"])
+                                  str(tmp_path / "pts.csv"), "-o", str(tmp_path / "t.csv")])  # no -q: it hides warnings
     assert r.exit_code == 0 and "0 of 8 points converged (no σ)" in r.output, r.output
     assert "none of the 8 points converged in" in r.stderr and "orientation and scale" in r.stderr
     r = CliRunner().invoke(main, ["transfer-points", str(tmp_path / "ref.tif"), str(tmp_path / "ref.tif"),
                                   str(tmp_path / "pts.csv"), "-o", str(tmp_path / "same.csv"), "-q"])
     assert r.exit_code == 0 and "8 of 8 points converged (median σ 0.0" in r.output, r.output
+
+
+@pytest.mark.parametrize("command", ["measure-targets", "transfer-points"])
+def test_duplicate_point_ids_are_refused_by_name(tmp_path, command):
+    """Two rows with id T2 (a copy-paste in the approximate positions): on main both were measured and written
+    under one id, so a join on the id kept one silently; now the table is refused naming the ids, rows and file."""
+    centres = np.array([[60.3, 50.7], [150.55, 120.25], [240.8, 90.4], [100.2, 140.6]])
+    _write(tmp_path / "t.tif", x_target_scene(centres).astype(np.float32))
+    table = pd.DataFrame({"id": ["T1", "T2", "T3", "T2"], "col": np.round(centres[:, 0]),
+                          "row": np.round(centres[:, 1]), "ref_col": centres[:, 0], "ref_row": centres[:, 1]})
+    table.to_csv(tmp_path / "approx.csv", index=False)
+    images = [tmp_path / "t.tif"] * (1 if command == "measure-targets" else 2)
+    r = CliRunner().invoke(main, [command, *map(str, images), str(tmp_path / "approx.csv"),
+                                  "-o", str(tmp_path / "m.csv")])
+    assert r.exit_code == 1 and "approx.csv" in r.stderr, r.output
+    assert "id(s) used more than once in field 'id': 'T2' (rows 2, 4); give each point its own id" in r.stderr
+    assert not (tmp_path / "m.csv").exists()

@@ -2,6 +2,8 @@
 RPC image (real data), the separable fast paths against the general ones, and bad input."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import rasterio
@@ -306,9 +308,9 @@ def test_failed_run_leaves_no_folder(scene, tmp_path):
 
 
 def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):
-    result, out = _cli(scene, tmp_path, dem=bad / "half.tif")
+    result, out = _cli(scene, tmp_path, "--json", dem=bad / "half.tif")  # -q hides the warnings, --json keeps them
     assert result.exit_code == 0, result.output
-    warn = [ln for ln in result.stderr.splitlines() if ln.startswith("Warning:")]
+    warn = json.loads(result.stdout)["warnings"]
     assert any("covers 4" in w or "covers 5" in w for w in warn), warn  # about half the frame
     with rasterio.open(out) as ds, rasterio.open(bad / "half.tif") as dem:
         assert ds.bounds.right <= dem.bounds.right + 0.5
@@ -316,9 +318,9 @@ def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):
 
 def test_dem_holes_without_occlusion_warn(scene, bad, tmp_path):
     """Without occlusion masking a DEM with holes still orthorectifies; the warning says the holes are nodata."""
-    result, out = _cli(scene, tmp_path, "--resolution", "0.5", dem=bad / "holes.tif")
+    result, out = _cli(scene, tmp_path, "--resolution", "0.5", "--json", dem=bad / "holes.tif")
     assert result.exit_code == 0, result.output
-    assert any("has nodata holes" in ln for ln in result.stderr.splitlines() if ln.startswith("Warning:"))
+    assert any("has nodata holes" in ln for ln in json.loads(result.stdout)["warnings"] if ln.startswith("Warning:"))
     v, XY = _cells(out)
     _run(scene, tmp_path / "whole.tif")
     w, XY2 = _cells(tmp_path / "whole.tif")

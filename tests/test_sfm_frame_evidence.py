@@ -21,6 +21,7 @@ from click.testing import CliRunner
 from pyproj import CRS, Transformer
 
 import rendered_oblique as ro
+from test_bad_input import not_progress
 from fotogeo.errors import FotogeoWarning, InputError
 from fotogeo.geometry.approx_block import ApproxCamera, ApproximateBlock, ApproxShot
 from fotogeo.geometry.local_frames import LocalFrame
@@ -215,9 +216,9 @@ def test_ortho_cli_says_the_reading_and_refuses_without_evidence(odm, tmp_path):
     ortho_dem, dem = ro.write_reference(odm["blk"], tmp_path / "ref")
     frames = odm["rtk"][:2]
     run = CliRunner().invoke(main, ["ortho", *map(str, frames), "--eo", str(path), "--dem", str(dem), "--resolution",
-                                    "0.2", "-o", str(tmp_path / "sfm"), "-q"])
+                                    "0.2", "-o", str(tmp_path / "sfm")])  # no -q: it hides the notes
     assert run.exit_code == 0, run.output
-    first = run.stderr.splitlines()[0]
+    first = not_progress(run.stderr)[0]
     assert first.startswith("Note: orientation file") and "read as grid" in first, run.stderr
     # the same orthophotos as from the true orientation written as fotogeo's own files (one pixel size: the
     # GSD of each run would differ in its last digits and snap the grids apart)
@@ -242,9 +243,9 @@ def test_ortho_cli_says_the_reading_and_refuses_without_evidence(odm, tmp_path):
     assert run.exit_code != 0 and "--sfm-frame topocentric (OpenSfM) or grid (ODM)" in run.output
     assert not (tmp_path / "bare").exists()
     run = CliRunner().invoke(main, ["ortho", *map(str, bare), "--eo", str(path), "--dem", str(dem), "--sfm-frame",
-                                    "grid", "-o", str(tmp_path / "bare"), "-q"])
+                                    "grid", "-o", str(tmp_path / "bare"), "-q", "--json"])  # -q: the note in --json
     assert run.exit_code == 0, run.output
-    assert "read as grid (ODM's offsets along the UTM grid), as told" in run.stderr
+    assert "read as grid (ODM's offsets along the UTM grid), as told" in " ".join(json.loads(run.stdout)["warnings"])
 
 
 def test_triangulate_refuses_an_undecided_sfm_start(odm, tmp_path):

@@ -21,6 +21,8 @@ def block(tmp_path_factory):
     first = gcp[0][6]
     outside = [lines[0]] + [" ".join(p[:3] + ["5000", "9000"] + p[5:]) if p[6] == first else " ".join(p) for p in gcp]
     (d / "outside.txt").write_text("\n".join(outside) + "\n")
+    everywhere = [lines[0]] + [" ".join(p[:3] + ["5000", "9000"] + p[5:]) for p in gcp]
+    (d / "all_outside.txt").write_text("\n".join(everywhere) + "\n")
     (d / "elsewhere.txt").write_text("\n".join([lines[0]] + [ln.replace(".JPG", "_x.JPG") for ln in lines[1:]]) + "\n")
     from pyproj import Transformer
     to34 = Transformer.from_crs("EPSG:32635", "EPSG:32634", always_xy=True)
@@ -48,7 +50,7 @@ def _args(d, frames, **kw):
 
 
 CASES = {
-    "control outside every frame": ({"--gcps": "outside.txt"}, "lie outside every frame"),
+    "all control outside the frames": ({"--gcps": "all_outside.txt"}, "0 control point(s) remain, the block needs 1"),
     "control in no frame of the block": ({"--gcps": "elsewhere.txt"}, "no measurement names a frame of the block"),
     "orientation and control in different CRSs": ({"--eo": "eo_utm34.txt"}, "do not fit together"),
     "one id at two places": ({"--gcps": "moved.txt"}, "have different ground coordinates"),
@@ -73,8 +75,8 @@ def test_triangulate_bad_input_is_one_line(block, case):
           for k, v in given.items()}
     result = CliRunner().invoke(main, _args(d, frames, **kw), terminal_width=200)
     assert_one_line_error(result, expected)
-    if case == "control outside every frame":
-        assert first in result.stderr
+    if case == "all control outside the frames":
+        assert f"{first} in " in result.stderr and "lie outside the image (" in result.stderr
     assert not any((d / "out").iterdir())
 
 
@@ -95,7 +97,7 @@ def _run_with_dem(block, tmp_path, dem):
     d, frames, _ = block
     out = tmp_path / "out"
     # the frame check's angle σ scales with max(σ0, 1); this small block sits just above its 0.5° limit
-    args = _args(d, frames, **{"--dem": dem, "--max-angle-sigma": 1.0})
+    args = [a for a in _args(d, frames, **{"--dem": dem, "--max-angle-sigma": 1.0}) if a != "-q"]  # -q hides warnings
     args[args.index("-o") + 1] = str(out)
     return CliRunner().invoke(main, args + ["--orthorectify"], terminal_width=200), out
 
@@ -118,3 +120,23 @@ def test_orthophotos_on_heights_never_seen_are_refused_per_frame(block, tmp_path
     report = json.loads((out / "report.json").read_text())
     assert all("never saw" in v["error"] for v in report["orthorectified"].values())
     assert not list(out.glob("*_ortho.tif")) and (out / "exterior_orientation.txt").is_file()
+
+
+def test_a_point_outside_every_frame_is_skipped_as_orient_skips_it(block):
+    """triangulate's control goes through orient's rule (fotogeo.io.gcps.skip_outside): the measurements outside
+    their frame are skipped by name with the same warning; on main a point outside every frame refused the block."""
+    import warnings
+    from fotogeo.io.block import frame_key, read_control
+    from fotogeo.io.camera import read_camera_with_distortion
+    from fotogeo.tools.triangulate.inputs import _in_frames
+    d, frames, first = block
+    camera = read_camera_with_distortion(d / "camera.yaml")[0]
+    gcp = read_control(d / "outside.txt")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        kept = _in_frames(gcp, [frame_key(f) for f in frames], camera, d / "outside.txt")
+    w, h = camera.image_size
+    text = " ".join(str(c.message) for c in caught)
+    assert first not in set(kept.name) and (gcp.name == first).sum() >= 2
+    assert f"lie outside the image ({w}x{h} px) and are skipped" in text
+    assert text.count(f"{first} in ") == (gcp.name == first).sum(), text  # each measurement named

@@ -28,7 +28,7 @@ def test_drone_block_from_the_files_alone(tmp_path, data_dir):
     src = data_dir / "drone_snowpeak"
     frames = sorted(str(p) for p in (src / "img").glob("*.JPG"))
     out = tmp_path / "new" / "out"  # the folder is created
-    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out), "-q"])  # drop: the default
+    res = CliRunner().invoke(main, ["triangulate", *frames, "-o", str(out)])  # drop: the default; no -q: warnings
     assert res.exit_code == 0, res.output
     rep = json.loads((out / "report.json").read_text())
     assert sorted(d["name"] for d in rep["dropped_frames"]) == ["IMG_2212", "IMG_2213"]

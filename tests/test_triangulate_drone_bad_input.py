@@ -4,6 +4,8 @@ camera's). Each refusal is one ``Error:`` line naming the frame(s) or the option
 traceback, and no output folder (nothing half-written)."""
 from __future__ import annotations
 
+import json
+
 import pytest
 from click.testing import CliRunner
 
@@ -113,9 +115,9 @@ def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp
     with κ from the flight direction, and the two others cannot hold its attitude: refused by name."""
     frames = copy_frames(snowpeak / "img", STRIP, tmp_path / "img")
     write_xmp(frames[1], xmp_of(frames[1]).replace("</rdf:Description>", "</rdf:Descr", 1))
-    result = _run(frames, tmp_path / "out", "--undetermined", "fail")
+    result = _run(frames, tmp_path / "out", "--undetermined", "fail", "--json")  # -q hides it, --json keeps it
     _refused(result, tmp_path / "out", "does not determine frame(s) IMG_2281", "--undetermined drop", report=True)
-    warned = [line for line in result.stderr.splitlines() if "XMP" in line and not line.startswith("Error:")]
+    warned = [line for line in json.loads(result.stdout)["warnings"] if "XMP" in line]
     assert len(warned) == 1 and warned[0].startswith("Warning: image") and "IMG_2281.JPG" in warned[0], result.stderr
     assert "--geoinfo" in warned[0]
     # the refusal says what the unreadable packet cost the frame

@@ -12,7 +12,8 @@ import warnings
 
 import click
 
-from ..errors import Cancelled, FotogeoError, InputNote, OutputError, in_callers_words, warning_line
+from ..errors import (Cancelled, FotogeoError, FotogeoWarning, InputNote, OutputError, in_callers_words,
+                      warning_line)
 from ..options import Option, Table, find_option
 from . import conventions
 from .conventions import EXIT_FAILED, EXIT_USAGE
@@ -52,22 +53,35 @@ def terminate_as_exception():
 
 
 @contextlib.contextmanager
-def warnings_as_lines():
+def warnings_as_lines(recorded: list | None = None):
     """While inside, each warning (fotogeo's or a library's) is one ``Warning: <message>`` line
     on stderr — no file name, line number or source line — and a repeated message is shown once;
-    library notes that mean nothing to a user are translated or silenced (:func:`~fotogeo.errors.warning_line`)."""
+    library notes that mean nothing to a user are translated or silenced (:func:`~fotogeo.errors.warning_line`).
+    With ``-q`` (:data:`conventions.SETTINGS`) nothing is shown; every distinct line is still appended to
+    ``recorded`` (the ``warnings`` of the ``--json`` document)."""
     shown = set()
 
     def show(message, category, filename, lineno, file=None, line=None):
         text = warning_line(message, category)  # translated or silenced (fotogeo.errors)
-        if text is not None and text not in shown and not conventions.SETTINGS.quiet:
-            shown.add(text)
-            label = "Note" if isinstance(category, type) and issubclass(category, InputNote) else "Warning"
+        if text is None or text in shown:
+            return
+        shown.add(text)
+        label = "Note" if isinstance(category, type) and issubclass(category, InputNote) else "Warning"
+        if recorded is not None:
+            recorded.append(f"{label}: {text}")
+        if not conventions.SETTINGS.quiet:
             click.echo(f"{label}: {text}", err=True)
 
     with warnings.catch_warnings():
         warnings.showwarning = show
         yield
+
+
+def warn(text: str) -> None:
+    """A warning a command prints from its tool's report (e.g. ``rep["warnings"]``): through the one
+    mechanism, :func:`warnings_as_lines` — one ``Warning:`` line on stderr, silenced by ``-q``, kept in
+    ``--json``'s ``warnings``."""
+    warnings.warn(text, FotogeoWarning, stacklevel=2)
 
 
 #: switches every command that writes has, outside the option table
@@ -151,14 +165,18 @@ def run_tool(func):
         name = ctx.info_name if ctx is not None else func.__name__
         stdout = sys.stdout
 
+        recorded = []
+
         def stop(code: int, line: str):
-            click.echo(line, err=True)
+            click.echo(line, err=True)  # the final error: shown even with -q
             if as_json:
-                conventions.print_json({"command": name, "exit_code": code, "error": line}, stdout)
+                conventions.print_json({"command": name, "exit_code": code, "error": line}
+                                       | ({"warnings": recorded} if recorded else {}), stdout)
             sys.exit(code)
 
-        try:
-            with terminate_as_exception(), warnings_as_lines(), \
+        try:  # a sub-command's -q is the group's -q (conventions.quieted): one rule for every line
+            with terminate_as_exception(), conventions.quieted(bool(kwargs.get("quiet"))), \
+                    warnings_as_lines(recorded), \
                     (contextlib.redirect_stdout(sys.stderr) if as_json else contextlib.nullcontext()):
                 result = func(*args, **kwargs)
         except Terminated as e:
@@ -172,7 +190,8 @@ def run_tool(func):
             stop(EXIT_USAGE if e.option and not isinstance(e, OutputError) else EXIT_FAILED,
                  f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}")
         if as_json:
-            conventions.print_json({"command": name, "exit_code": 0, "result": result}, stdout)
+            conventions.print_json({"command": name, "exit_code": 0, "result": result}
+                                   | ({"warnings": recorded} if recorded else {}), stdout)
         return result
     return wrapper
 

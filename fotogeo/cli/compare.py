@@ -5,6 +5,7 @@ import click
 
 from ..options import COMPARE, GCP
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("compare-models")
@@ -17,7 +18,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("--plots", type=click.Path(file_okay=False), help="Folder for error-vector plots per model and layout.")
 @options_from(GCP)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(image, gcps, quiet, **kw):
     """Compare orientation models on control/check sets (random or the file's roles) at check points:

@@ -6,15 +6,20 @@
   (128 + SIGINT); 143 SIGTERM.
 - ``fotogeo -v`` / ``-vv`` / ``-q`` on the group: :mod:`logging` levels. fotogeo's loggers (``fotogeo.*``) say
   more with ``-v`` (INFO: each step of the progress) and ``-vv`` (DEBUG, and the libraries' own INFO);
-  ``-q`` keeps errors only and hides the progress bar. A library's log record of WARNING or above (rasterio's
-  GDAL notes, distributed's) is shown as one ``Warning:`` line through :func:`fotogeo.errors.warning_line`,
-  like a Python warning: translated or silenced, never as the library's raw text with its logger's name.
+  ``-q`` (on the group or after any sub-command: one setting, :func:`quieted`) hides the progress bar and every
+  ``Note:`` / ``Warning:`` line on stderr; it keeps the final ``Error:`` line and the run's summary on stdout.
+  The warnings are not lost: ``--json`` lists them (``warnings``), and a tool's report file keeps those it
+  records (orient's ``warnings``/``skipped``, interior's per-scan ``warnings``). A library's log record of
+  WARNING or above (rasterio's GDAL notes, distributed's) is shown as one ``Warning:`` line through
+  :func:`fotogeo.errors.warning_line`, like a Python warning: translated or silenced, never as the library's raw text with its logger's name.
 - ``--json`` on the group or after any sub-command: the run's summary (what the tool returned) as one JSON
   document on stdout; the human lines go to stderr. On an error: ``{"error": ..., "exit_code": ...}``.
-- Deprecated spellings of options (:data:`DEPRECATED`) keep working for one release with a warning.
+- Deprecated spellings of options (:data:`DEPRECATED`) keep working for one release with a warning (shown
+  even with ``-q``: scripts, which run quiet, are where the old spellings live).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import re
@@ -26,6 +31,10 @@ from ..errors import warning_line
 
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+
+#: what ``-q`` / ``--quiet`` does, in every command's ``--help``
+QUIET_HELP = ("Quiet: no progress, notes or warnings on stderr (--json still lists the warnings); "
+              "the summary and a final Error line stay.")
 
 #: sub-command -> {old flag: new flag}: spellings unified across commands, accepted until the next release
 DEPRECATED = {"register-batch": {"--outdir": "--output"},
@@ -114,6 +123,26 @@ def setup_logging(verbose: int = 0, quiet: bool = False) -> None:
                                          (logging.DEBUG if verbose >= 2 else logging.WARNING))
 
 
+@contextlib.contextmanager
+def quieted(quiet: bool):
+    """While inside, a sub-command's own ``-q`` acts as the group's: :data:`SETTINGS` ``.quiet`` and the log
+    levels of :func:`setup_logging` (restored on exit: a process may make several runs)."""
+    if not quiet or SETTINGS.quiet:
+        yield
+        return
+    loggers = [logging.getLogger(n) for n in ("fotogeo", *LIBRARY_LOGGERS)]
+    levels = [g.level for g in loggers]
+    SETTINGS.quiet = True
+    for g in loggers:
+        g.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        SETTINGS.quiet = False
+        for g, level in zip(loggers, levels):
+            g.setLevel(level)
+
+
 def rewrite_deprecated(command: str, args: list[str]) -> list[str]:
     """``args`` with each deprecated flag of ``command`` replaced by its new spelling, warning once per flag."""
     renames = DEPRECATED.get(command, {})
@@ -122,7 +151,7 @@ def rewrite_deprecated(command: str, args: list[str]) -> list[str]:
         flag, eq, value = a.partition("=")
         if flag in renames:
             click.echo(f"Warning: {flag} is deprecated and goes in the next release; use {renames[flag]}",
-                       err=True)
+                       err=True)  # shown even with -q: the script's command line itself stops working
             a = renames[flag] + eq + value
         out.append(a)
     return out

@@ -5,6 +5,7 @@ import click
 
 from ..options.coreg import COREG
 from .common import ConsoleProgress, options_from, run_tool
+from .conventions import QUIET_HELP
 
 
 @click.command("coreg")
@@ -19,7 +20,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report [OUT.json with -o].")
 @options_from(COREG)
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(reference, target, output, shifts, field, report, overwrite, quiet, **options):
     """Co-register TARGET to REFERENCE, two georeferenced images of one area (other dates,

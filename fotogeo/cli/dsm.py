@@ -6,6 +6,7 @@ import click
 
 from ..options.dsm import DSM
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("dsm")
@@ -20,7 +21,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
                    "strips matched coarse to fine, match density, epipolar residuals and ray miss distances, "
                    "completeness, timings.")
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(images, output, point_cloud, report, overwrite, quiet, **kw):
     """Match overlapping oriented IMAGES pair by pair into a digital surface model.

@@ -5,6 +5,7 @@ import click
 
 from ..options import FUSE
 from .common import ConsoleProgress, options_from, run_tool
+from .conventions import QUIET_HELP
 
 
 @click.command("fuse")
@@ -12,7 +13,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False))
 @options_from(FUSE)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(source, output, overwrite, quiet, **options):
     """First principal component of all bands of SOURCE (nodata excluded), georeference kept."""

@@ -4,7 +4,8 @@ from __future__ import annotations
 import click
 
 from ..options.interior import INTERIOR
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .common import ConsoleProgress, options_from, run_tool, tool_arguments, warn
+from .conventions import QUIET_HELP
 
 
 @click.command("interior")
@@ -15,7 +16,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
               help="JSON for one scan; a folder for several (one <scan>.json each).")
 @options_from(INTERIOR)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(scans, camera_report, output, overwrite, quiet, **kw):
     """Find the fiducial marks of each scanned film frame and fit its pixel -> photo-coordinate transform."""
@@ -31,5 +32,5 @@ def command(scans, camera_report, output, overwrite, quiet, **kw):
                    f"{r['max_residual_px']:.3f} px, scan pixel {r['scan_pixel_um']:.3f} µm, rotation "
                    f"{r['rotation_deg']:.2f}°")
         for w in r["warnings"]:
-            click.echo(f"Warning: {w}", err=True)
+            warn(w)
     return records

@@ -5,6 +5,7 @@ import click
 
 from ..options import MATCH
 from .common import ConsoleProgress, options_from, run_tool
+from .conventions import QUIET_HELP
 
 
 @click.command("match")
@@ -13,7 +14,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="GeoPackage (layer tie_points).")
 @options_from(MATCH)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(reference, target, output, overwrite, quiet, **options):
     """Tie points between TARGET and REFERENCE (PCA fusion, SURF, ratio test), with an inlier flag."""

@@ -4,7 +4,8 @@ from __future__ import annotations
 import click
 
 from ..options import GCP, ORIENT
-from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments
+from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments, warn
+from .conventions import QUIET_HELP
 
 
 @click.command("orient")
@@ -19,7 +20,7 @@ from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_
 @click.option("--rectify", type=click.Path(dir_okay=False), help="Rectified GeoTIFF in the GCP CRS.")
 @options_from(ORIENT, GCP)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(paths, quiet, **kw):
     """Fit an orientation model (ground → image) to the GCPs of IMAGE; check points measure it.
@@ -62,7 +63,7 @@ def command(paths, quiet, **kw):
     for f in rep["snooping"]:
         click.echo(f"{f['flag']}: GCP {f['id']}: {f['reason']}{' — removed' if f['removed'] else ''}")
     for w in rep["warnings"]:
-        click.echo(f"warning: {w}")
+        warn(w)
     if kw.get("vectors") or kw.get("plot"):
         click.echo(f"error vectors {rep['exaggeration']['legend']}")
     return rep

@@ -5,6 +5,7 @@ import click
 
 from ..options.products import ORTHO
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("ortho")
@@ -13,7 +14,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
               help="The orthophoto (one image), or a folder for <name>_ortho.tif of each image.")
 @options_from(ORTHO)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(images, output, overwrite, quiet, **kw):
     """Orthorectify IMAGES whose orientation is known onto a DEM.

@@ -5,6 +5,7 @@ import click
 
 from ..options import LAYER_TO_POINTS, POINTS_TO_LAYER
 from .common import ConsoleProgress, options_from, run_tool
+from .conventions import QUIET_HELP
 
 
 @click.command("points-to-layer")
@@ -13,7 +14,7 @@ from .common import ConsoleProgress, options_from, run_tool
 @click.option("--layer", default="gcps", show_default=True, help="Layer name in the GeoPackage.")
 @options_from(POINTS_TO_LAYER)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def to_layer(points, output, layer, overwrite, quiet, **options):
     """Convert a QGIS Georeferencer .points file into a GCP point layer (fields id, col, row, role, ...)."""
@@ -33,7 +34,7 @@ def to_layer(points, output, layer, overwrite, quiet, **options):
 @click.option("--layer", help="Layer of a multi-layer file [the first].")
 @options_from(LAYER_TO_POINTS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def to_points(source, output, layer, overwrite, quiet, **options):
     """Convert a GCP point layer (fields col, row, role; or a register tie_points layer) into a .points file."""

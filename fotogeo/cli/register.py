@@ -5,6 +5,7 @@ import click
 
 from ..options import REGISTER, REGISTER_TERRAIN
 from .common import ConsoleProgress, options_from, run_tool
+from .conventions import QUIET_HELP
 
 
 @click.command("register")
@@ -17,7 +18,7 @@ from .common import ConsoleProgress, options_from, run_tool
               help="With --local: the displacement field, 2-band GeoTIFF dx, dy in output px [OUT_field.tif].")
 @options_from(REGISTER_TERRAIN, REGISTER)
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(reference, target, output, vectors, report, field, overwrite, quiet, **options):
     """Register TARGET (any image of the area) to the georeferenced REFERENCE orthophoto.

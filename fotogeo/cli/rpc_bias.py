@@ -5,6 +5,7 @@ import click
 
 from ..options import RPC_BIAS
 from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("rpc-bias")
@@ -15,7 +16,7 @@ from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report [OUT.json].")
 @options_from(RPC_BIAS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(image, gcps, output, report, overwrite, quiet, **kw):
     """Correct the vendor RPC of IMAGE with the GCPs (Grodecki & Dial 2003 bias compensation).

@@ -5,6 +5,7 @@ import click
 
 from ..options import TARGETS
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("measure-targets")
@@ -13,7 +14,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
 @options_from(TARGETS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(image, points, output, overwrite, quiet, **kw):
     """Measure X-shaped fiducial/calibration targets near the approximate col/row of POINTS."""

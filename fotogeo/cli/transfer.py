@@ -5,6 +5,7 @@ import click
 
 from ..options import TRANSFER
 from .common import ConsoleProgress, options_from, run_tool, tool_arguments
+from .conventions import QUIET_HELP
 
 
 @click.command("transfer-points")
@@ -14,7 +15,7 @@ from .common import ConsoleProgress, options_from, run_tool, tool_arguments
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
 @options_from(TRANSFER)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True)
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @run_tool
 def command(reference, search, points, output, overwrite, quiet, **kw):
     """Transfer POINTS (ref_col/ref_row, approximate col/row) from REFERENCE into SEARCH by

@@ -259,42 +259,64 @@ def _validate(g: Gcps, what: str):
         raise InputError(f"{what}: GCP id(s) {', '.join(dup_ids[:10])} are used more than once")
 
 
+def outside_image(pixel, width: int, height: int) -> np.ndarray:
+    """Boolean mask of the pixel positions ``(N, 2)`` (col, row; corner convention) outside the ``width`` x
+    ``height`` image: ``0 <= col <= width`` and ``0 <= row <= height`` are inside."""
+    pixel = np.asarray(pixel, float).reshape(-1, 2)
+    return ~((pixel[:, 0] >= 0) & (pixel[:, 0] <= width) & (pixel[:, 1] >= 0) & (pixel[:, 1] <= height))
+
+
+def outside_reason(width: int, height: int) -> str:
+    """The one wording of a GCP outside the image (warnings, reports' ``skipped``, the QGIS picker's flag)."""
+    return f"outside the image ({width}x{height} px)"
+
+
 def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model"):
     """``(kept, skipped)``: the GCPs whose image position lies inside the ``width`` x ``height`` image, and one
-    record ``{"id", "col", "row", "reason"}`` per GCP left out — the one policy of every tool fitting to GCPs.
+    record ``{"id", "col", "row", "reason"}`` per GCP left out — the one policy of every tool fitting to GCPs
+    (:func:`skip_outside`)."""
+    keep, skipped = skip_outside(g.ids, g.pixel, g.role, width, height, what, needed, needed_by, g.source)
+    return (g, []) if not skipped else (g.subset(keep), skipped)
+
+
+def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: int = 1,
+                 needed_by: str = "the model", source: str = ""):
+    """``(keep mask, skipped records)`` of GCP measurements ``ids`` at ``pixel`` (``roles``: "control",
+    "check", ...) on a ``width`` x ``height`` image: the one rule of orient, rpc-bias, compare-models and
+    triangulate (whose ids name the frame too).
 
     A GCP whose pixel lies outside the raster is almost always a typo in col/row or a GCP of another image
     (or of the uncropped scene): it is skipped with one :class:`~fotogeo.errors.FotogeoWarning` naming each id
     and pixel, and the rest is fitted. When the skipping leaves fewer than ``needed`` control points
     (``needed_by`` names what needs them; too few in the file as well is the model's own error), or none at all,
     the GCPs are refused by an :class:`InputError` naming the skipped ones and the likely fix; for a ``.points``
-    file it explains the file's source-coordinate convention, the usual cause when most points fall
+    ``source`` it explains the file's source-coordinate convention, the usual cause when most points fall
     outside: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive ``sourceY`` values put
     them above the image.
     """
-    out = ~((g.pixel[:, 0] >= 0) & (g.pixel[:, 0] <= width) & (g.pixel[:, 1] >= 0) & (g.pixel[:, 1] <= height))
+    ids, pixel, roles = np.asarray(ids).astype(str), np.asarray(pixel, float).reshape(-1, 2), np.asarray(roles)
+    out = outside_image(pixel, width, height)
     if not out.any():
-        return g, []
-    reason = f"outside the image ({width}x{height} px)"
+        return ~out, []
+    reason = outside_reason(width, height)
     skipped = [{"id": str(i), "col": float(c), "row": float(r), "reason": reason}
-               for i, (c, r) in zip(g.ids[out], g.pixel[out])]
+               for i, (c, r) in zip(ids[out], pixel[out])]
 
     def named(most):
         return (", ".join(f"{s['id']} (col {s['col']:.1f}, row {s['row']:.1f})" for s in skipped[:most])
                 + (f" and {len(skipped) - most} more" if len(skipped) > most else ""))
 
-    kept = g.subset(~out)
-    n_control = int((kept.role == "control").sum())
-    if len(kept) and (n_control >= needed or (g.role == "control").sum() < needed):  # too few anyway: the model says
-        warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other {len(kept)} used: "
-                      f"{named(10)} (a typo in col/row, or a GCP of another image?)", FotogeoWarning, stacklevel=3)
-        return kept, skipped
+    n_kept, n_control = int((~out).sum()), int((roles[~out] == "control").sum())
+    if n_kept and (n_control >= needed or (roles == "control").sum() < needed):  # too few anyway: the model says
+        warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other {n_kept} used: "
+                      f"{named(10)} (a typo in col/row, or a GCP of another image?)", FotogeoWarning, stacklevel=4)
+        return ~out, skipped
     head = (f"GCP(s) {named(5)} of {what} lie {reason}: {n_control} control point(s) remain, {needed_by} needs "
             f"{needed}")
-    if not str(g.source).lower().endswith(".points"):
+    if not str(source).lower().endswith(".points"):
         raise InputError(f"{head}; check the col/row fields (corner convention) and that the GCPs were measured "
                          f"on this image")
-    if (g.pixel[out, 1] < 0).all() and (g.pixel[out, 1] >= -height).all() and (g.pixel[out, 0] >= 0).all():
+    if (pixel[out, 1] < 0).all() and (pixel[out, 1] >= -height).all() and (pixel[out, 0] >= 0).all():
         raise InputError(f"{head}. Their rows come out negative because the file's sourceY values are positive. "
                          f"For an unreferenced raster QGIS writes sourceY = -row (y up from the top-left corner), "
                          f"so this file uses the opposite sign: negate its sourceY column, or, if the points were "

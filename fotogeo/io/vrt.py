@@ -43,9 +43,11 @@ def covering_grid(transform: Affine, width: int, height: int, lattice: Affine) -
     return grid, c1 - c0, r1 - r0
 
 
-def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bilinear") -> Path:
+def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bilinear", mask=None) -> Path:
     """Write ``path`` (.vrt): raster ``source`` (described by ``info``, a :class:`fotogeo.io.raster.RasterInfo`,
-    north-up) resampled onto ``lattice``'s cells covering its footprint; returns ``path``."""
+    north-up) resampled onto ``lattice``'s cells covering its footprint; returns ``path``. ``mask``: a one-band
+    byte raster on ``source``'s grid (0 invalid, 255 valid), the VRT's dataset mask (nearest), which GDAL's
+    warper and masked reads honour like nodata."""
     vtype = _VRT_TYPES.get(str(info.dtype))
     if vtype is None:
         raise ValueError(f"no VRT data type for {info.dtype}")
@@ -62,6 +64,12 @@ def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bil
         f'<SrcRect xOff="{src[0]!r}" yOff="{src[1]!r}" xSize="{src[2]!r}" ySize="{src[3]!r}"/>'
         f'<DstRect xOff="0" yOff="0" xSize="{width}" ySize="{height}"/>{snd}</ComplexSource></VRTRasterBand>'
         for b in range(1, info.count + 1))
+    if mask is not None:
+        bands += (f'<MaskBand><VRTRasterBand dataType="Byte"><ComplexSource resampling="near">'
+                  f'<SourceFilename relativeToVRT="0">{escape(str(Path(mask).resolve()))}</SourceFilename>'
+                  f'<SourceBand>1</SourceBand><SrcRect xOff="{src[0]!r}" yOff="{src[1]!r}" xSize="{src[2]!r}" '
+                  f'ySize="{src[3]!r}"/><DstRect xOff="0" yOff="0" xSize="{width}" ySize="{height}"/>'
+                  f'</ComplexSource></VRTRasterBand></MaskBand>')
     srs = f"<SRS>{escape(info.crs.to_wkt())}</SRS>" if info.crs is not None else ""
     gt = ", ".join(repr(float(v)) for v in (grid.c, grid.a, 0.0, grid.f, 0.0, grid.e))
     path = Path(path)

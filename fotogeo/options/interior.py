@@ -12,7 +12,8 @@ INTERIOR = Table(
            "Scan pixel size (µm) [from the TIFF's resolution tags].", minimum=0.0, exclusive_minimum=True),
     Option("rotation", "choice", "auto", "Scan rotation (auto = tried in 90° steps)",
            "Rotation of the scan against the photo, clockwise, in 90° steps: auto tries all four (a layout "
-           "symmetric under the rotation cannot tell them apart: give it).", choices=("auto", "0", "90", "180", "270")),
+           "symmetric under the rotation cannot tell them apart: give it; one the marks contradict is refused).",
+           choices=("auto", "0", "90", "180", "270")),
     Option("search_mm", "float", 10.0, "Search radius around each predicted mark (mm on the photo)",
            "Marks are looked for within this radius (mm) of where the report's layout puts them.", minimum=0.0,
            exclusive_minimum=True, advanced=True),

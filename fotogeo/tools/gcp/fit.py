@@ -30,6 +30,7 @@ import numpy as np
 
 from ...crs import parse_crs
 from ...errors import InputError, ModelError, one_line
+from ...io.gcps import outside_image, outside_reason
 from ...models import get_model
 from ...orientation.adjustment import fit_orientation, image_residuals, select_model
 from ..common.boundary import tool
@@ -200,8 +201,8 @@ def prepare(gcps, model, *, crs, image=None, width=None, height=None, dem=None, 
         get_model(model).options_from(camera=cam)  # names a missing camera
     outside = np.zeros(len(ids), bool)
     if size[0]:
-        outside = ~((pixel >= 0).all(axis=1) & (pixel[:, 0] <= size[0]) & (pixel[:, 1] <= size[1]))
-        flags[outside] = f"outside the image ({size[0]}x{size[1]} px)"
+        outside = outside_image(pixel, *size)  # orient's rule and wording; the table shows it per point
+        flags[outside] = outside_reason(*size)
     three_d = model != "auto" and get_model(model).src_dims == 3
     use = (roles != "disabled") & ~outside & (np.isfinite(z) if three_d else True)
     n_no_z = int(((roles == "control") & ~np.isfinite(z)).sum())

@@ -140,6 +140,9 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
         prog(len(tried) / 5.0, f"rotation {th:g}°: {tried[-1][0]} marks")
     tried.sort(key=lambda t: (-t[0], -t[1], t[2]))
     n, rho, theta, res = tried[0]
+    if rotation != "auto":
+        _check_given_rotation(scan, tried[0], [_hypothesis(img, report, shape, mm, p, th, reach)
+                                               for th in (0.0, 90.0, 180.0, 270.0) if th != theta], len(ids), warnings)
     if n < len(ids):
         _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n)
     ties = [t[2] for t in tried[1:] if t[0] == n and abs(t[1] - rho) < 0.01]
@@ -176,6 +179,22 @@ def _hypothesis(img, report, shape, mm, p, theta, reach):
                         _templates(report, shape, mm, theta, report.polarity), reach, report.mark)
     ok = [r.ok for r in res]
     return sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, theta, res
+
+
+def _check_given_rotation(scan, given, others, n_marks: int, warnings: list) -> None:
+    """Refuse a given rotation that the marks contradict: turned by another multiple of 90° the layout finds more
+    marks (the transform fitted at the given one would turn every photo coordinate by a multiple of 90°, with
+    only a "mark not found" note). Under as many marks with a clearly better match (mean NCC 0.01 above, the
+    threshold of an automatic tie) the given rotation is kept with a warning: the marks cannot tell."""
+    n, rho, theta, _ = given
+    best = max(others, key=lambda t: (t[0], t[1]))
+    if best[0] > n:
+        raise InputError(f"rotation {theta:g}° contradicts the fiducial marks of scan {str(scan)!r}: turned by "
+                         f"{best[2]:g}° the report's layout finds {best[0]} of {n_marks} marks, at {theta:g}° "
+                         f"{n}; give {best[2]:g} (or auto)", option="rotation")
+    if best[0] == n and n and best[1] > rho + 0.01:
+        warnings.append(f"rotation ambiguous: turned by {best[2]:g}° the layout finds as many marks ({n}) that "
+                        f"match better (NCC {best[1]:.2f} against {rho:.2f}); {theta:g}° kept as given")
 
 
 def _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n):

@@ -9,7 +9,7 @@ from ...io.tables import numeric_columns, read_table, write_table
 from ...matching.status import CONVERGED
 from ...progress import as_progress
 from ..common.boundary import tool
-from ..common.checks import check_has_points, check_window_fits
+from ..common.checks import check_has_points, check_unique_ids, check_window_fits
 
 
 @tool("TARGETS", rasters={"image": None})
@@ -22,6 +22,7 @@ def measure_targets(image, points, output, *, half_window: int = 12, polarity: s
         raise InputError(f"polarity must be 'auto', 'bright' or 'dark'; got {polarity!r}")
     table = read_table(points, "point table")
     check_has_points(table, f"point table {str(points)!r}", (id_field, *approx_fields))
+    check_unique_ids(table, id_field, f"point table {str(points)!r}")
     approx = numeric_columns(table, approx_fields, f"point table {str(points)!r}", finite=True, id_field=id_field)
     info = open_raster(image, "image")
     check_window_fits(half_window, {"image": info})

@@ -24,7 +24,7 @@ from ...io.tables import find_column, is_layer, numeric_columns, read_table, wri
 from ...matching.status import CONVERGED
 from ...progress import as_progress
 from ..common.boundary import tool
-from ..common.checks import check_has_points, check_window_fits
+from ..common.checks import check_has_points, check_unique_ids, check_window_fits
 
 
 def _fused(info, role):
@@ -49,6 +49,7 @@ def transfer_gcps(reference, search, points, output, *, search_radius: int = 32,
     check_output(output, [reference, search, points], overwrite, suffixes=(".csv", ".gpkg"))
     table = read_table(points, "point table")
     check_has_points(table, f"point table {str(points)!r}", (id_field, *ref_fields, *approx_fields))
+    check_unique_ids(table, id_field, f"point table {str(points)!r}")
     ref_info, search_info = open_raster(reference, "reference"), open_raster(search, "search")
     check_window_fits(half_window, {"reference": ref_info, "search": search_info})
     ref_info, ref_img = _fused(ref_info, "reference")

@@ -5,7 +5,7 @@
   the distortion is the bundle adjustment's starting (or fixed) value.
 * **Control**: :func:`fotogeo.io.block.read_control` (``gcp_list.txt`` or a point layer / CSV in
   any CRS), transformed into the map CRS (``crs``, else the control's own CRS; it must be
-  projected). Measurements outside their frame are refused by name.
+  projected). Measurements outside their frame are skipped by name (orient's rule), refused when none remain.
 * **Automatic control** (``reference`` orthophoto(s) and ``dem``): the GCPs that
   :func:`fotogeo.tools.triangulate.control.automatic_control` finds by matching every frame to the
   reference (named ``auto…``), merged with the surveyed ones; they need the approximate
@@ -28,6 +28,7 @@ from ...crs import parse_crs, require_projected
 from ...errors import FotogeoWarning, InputError, ModelError
 from ...io.block import GcpList, control_in, frame_key, read_control, split_check_points
 from ...io.camera import read_camera_with_distortion, read_exterior_orientation
+from ...io.gcps import skip_outside
 from ...io.raster import open_raster
 from ..common.checks import check_camera_size
 
@@ -114,7 +115,8 @@ def add_automatic_control(gcp, frames, names, camera, eos, reference, dem, map_c
 
 
 def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
-    """Drop (with a warning) measurements in images that are not frames; refuse those outside their frame."""
+    """Drop (with a warning) measurements in images that are not frames, and those outside their frame by the one
+    rule of every GCP tool (:func:`fotogeo.io.gcps.skip_outside`: skipped by name, refused when none remain)."""
     from dataclasses import replace
     inside = np.array([f in set(names) for f in gcp.frame], dtype=bool)
     if not inside.any():
@@ -127,16 +129,11 @@ def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
         gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],
                       frame=gcp.frame[keep], role=None if gcp.role is None else gcp.role[keep])
     w, h = camera.image_size
-    out = ~((gcp.pixel >= 0).all(axis=1) & (gcp.pixel[:, 0] <= w) & (gcp.pixel[:, 1] <= h))
-    nowhere = sorted(set(gcp.name[out]) - set(gcp.name[~out]))
-    if nowhere:
-        raise InputError(f"GCP file {str(path)!r}: point(s) {', '.join(nowhere[:10])} lie outside every frame "
-                         f"({w}x{h} px); check their col, row (corner convention), frame and the camera file")
-    if out.any():
-        bad = [f"{n} in {f}" for n, f in zip(gcp.name[out], gcp.frame[out])]
-        warnings.warn(f"GCP measurement(s) outside their frame ({w}x{h} px) ignored: {', '.join(bad[:6])}",
-                      FotogeoWarning, stacklevel=3)
-        keep = np.flatnonzero(~out)
+    roles = np.full(len(gcp.name), "control", dtype=object) if gcp.role is None else gcp.role
+    keep, skipped = skip_outside([f"{n} in {f}" for n, f in zip(gcp.name, gcp.frame)], gcp.pixel, roles, w, h,
+                                 f"GCP file {str(path)!r}", needed_by="the block")
+    if skipped:
+        keep = np.flatnonzero(keep)
         gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],
                       frame=gcp.frame[keep], role=None if gcp.role is None else gcp.role[keep])
     return gcp
