@@ -88,18 +88,24 @@ def _image_gps(paths):
 
 
 def _odm_file(folder, odm, *, frame="grid", exif=False, gps_position=True, images=None):
-    """The truth as ODM writes it: local offsets in ``frame``, gps_position = the images' GPS in it."""
+    """The truth as ODM writes it: the poses as local offsets in ``frame`` (export_geocoords' grid), each shot's
+    gps_position the image's GPS in the topocentric frame (as OpenSfM wrote it before that export) and, with
+    ``exif``, OpenSfM's exif/ with the image's GPS and its RTK σ as dop (ODM's exif overrides)."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "reconstruction.json"
     write_opensfm(path, odm["truth"], odm["ref"], frame=frame, exif=exif, extension=".tif")
     rec = json.loads(path.read_text())
     gps = _image_gps(images or odm["rtk"])
-    fr = LocalFrame(frame, odm["ref"], UTM33)
+    fr = LocalFrame("topocentric", odm["ref"], UTM33)
     for key, shot in rec[0]["shots"].items():
         if gps_position:
             shot["gps_position"] = fr.from_lonlath(np.array([gps[key[:-4]]]))[0].tolist()
+            shot["gps_dop"] = 2.0
         else:
             shot.pop("gps_position")
+        if exif:
+            e = folder / "exif" / f"{key}.exif"
+            e.write_text(json.dumps({"gps": {**json.loads(e.read_text())["gps"], "dop": 0.02}}))
     path.write_text(json.dumps(rec))
     return path
 

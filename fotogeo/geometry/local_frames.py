@@ -3,7 +3,8 @@
 * **topocentric** (OpenSfM): east-north-up axes at a reference ``(lat, lon, alt)``; positions go
   through ECEF (EPSG:4978) and geodetic lon/lat/h (EPSG:4979), and a vector's axes turn with the
   local ENU frame from the reference to the point;
-* **grid** (ODM): offsets parallel to the UTM grid from the UTM coordinates of the reference;
+* **grid** (ODM): offsets parallel to the UTM grid from the UTM coordinates of the reference (the zone of the
+  reference, or the one ODM chose: ``grid_crs``);
 * into a projected map CRS the local east-north axes turn by the meridian convergence
   (:func:`grid_angle`, from ``pyproj.Proj.get_factors``: a conformal map turns them by this angle).
 
@@ -76,10 +77,10 @@ def _rz(theta) -> np.ndarray:
 class LocalFrame:
     """One reading of an SfM local frame (OpenSfM/ODM): local <-> map positions and the local -> map axis rotations."""
 
-    def __init__(self, kind: str, ref, map_crs):
+    def __init__(self, kind: str, ref, map_crs, grid_crs=None):
         from ..crs import utm_crs_for
         self.kind, self.ref, self.crs = kind, tuple(float(v) for v in ref), map_crs
-        self.utm = utm_crs_for(self.ref[1], self.ref[0])
+        self.utm = grid_crs if grid_crs is not None else utm_crs_for(self.ref[1], self.ref[0])
         self.utm0 = np.array(_transformer(4326, self.utm).transform(self.ref[1], self.ref[0]))
 
     def to_lonlath(self, local) -> np.ndarray:

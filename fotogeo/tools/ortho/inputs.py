@@ -163,7 +163,8 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         cam, dist = read_camera_with_distortion(camera)
         poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
     else:
-        given = read_camera_with_distortion(camera) if camera is not None else None
+        own = Path(eo).suffix.lower() in (".geojson", ".csv")  # orthority's: the block's cameras ARE --camera's
+        given = read_camera_with_distortion(camera) if camera is not None and not own else None
         poses = {}
         for n in names:
             shot = block.shots.get(n)
