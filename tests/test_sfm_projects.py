@@ -135,6 +135,11 @@ def test_orthority_cameras_without_sensor_size_in_ortho(sc, tmp_path):
         ims = image_models(sc["rtk"][:2], parse_crs(sp.TRUTH_CRS), camera=yml, eo=ext)
     assert [im.name for im in ims] == [p.stem for p in sc["rtk"][:2]]
     _right(_read(ext, sc["rtk"][:2], yml, None), sc, {"tool": "orthority", **cam})
+    from fotogeo.tools.triangulate.sources import block_start  # triangulate --eo EXT --camera YAML alike
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = block_start(sc["rtk"][:2], yml, ext, None, None, None, None, None, None)
+    assert start.camera.fx == pytest.approx(c.fx) and start.distortion[0] == pytest.approx(-0.06)
 
 
 def test_odm_grid_zone_from_coords_and_whole_metres(tmp_path):

@@ -25,10 +25,22 @@ from ..errors import InputError, InputNote
 _COLMAP = ("images.txt", "cameras.txt", "images.bin", "cameras.bin")
 
 
+def cameras_from_camera_file(path) -> bool:
+    """Whether the block of ``path`` takes its cameras from the camera file itself (orthority's exterior parameters
+    with their interior YAML): then that file is not to be read again as fotogeo's own camera YAML."""
+    return Path(path).suffix.lower() in (".geojson", ".csv")
+
+
+def is_block_file(path) -> bool:
+    """Whether ``path`` is read into a block (every type but fotogeo's ``name X Y Z omega phi kappa`` lines)."""
+    p = Path(path)
+    return not (p.suffix.lower() == ".txt" and not p.is_dir() and p.name.lower() not in _COLMAP)
+
+
 def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto", images=()):
     """The :class:`ApproximateBlock` of ``path`` (module docstring), or None for a ``.txt`` EO file."""
     p = Path(path)
-    if p.suffix.lower() == ".txt" and not p.is_dir() and p.name.lower() not in _COLMAP:
+    if not is_block_file(p):
         return None  # fotogeo's lines, read by the caller: no block, so the images' GPS is not read either
     from .sfm_frame import check_gps, images_gps  # function level: EXIF and the SfM frames only for a block file
     gps = images_gps(images) if images else {}
@@ -65,4 +77,5 @@ def _read(p: Path, crs, camera, sfm_frame: str, gps, images=()):
         from .orthority import read_orthority
         return read_orthority(p, camera, crs=crs)
     raise InputError(f"orientation file {str(p)!r}: unknown type; give 'name X Y Z omega phi kappa' lines (.txt), "
-                     f"an OpenSfM/ODM reconstruction.json, a COLMAP text model folder or orthority .geojson/.csv")
+                     f"an OpenSfM/ODM reconstruction.json, a COLMAP model (folder, images.txt or images.bin) or "
+                     f"orthority .geojson/.csv")

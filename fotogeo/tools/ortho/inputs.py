@@ -5,7 +5,7 @@
 * frame cameras — ``--camera`` (orthority YAML, ``pinhole`` or ``brown``: triangulate's ``camera.yaml``) and
   ``--eo``: fotogeo's ``name X Y Z omega phi kappa`` lines (triangulate's ``exterior_orientation.txt``) or any
   file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
-  COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
+  a COLMAP model (text or binary), orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
   triangulate's :class:`~fotogeo.orientation.adjusted_frame.AdjustedFrame` (collinearity with Brown's distortion);
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
   corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
@@ -163,7 +163,8 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         cam, dist = read_camera_with_distortion(camera)
         poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
     else:
-        own = Path(eo).suffix.lower() in (".geojson", ".csv")  # orthority's: the block's cameras ARE --camera's
+        from ...io.orientation_file import cameras_from_camera_file
+        own = cameras_from_camera_file(eo)  # orthority's: the block's cameras ARE --camera's
         given = read_camera_with_distortion(camera) if camera is not None and not own else None
         poses = {}
         for n in names:
