@@ -129,6 +129,10 @@ def cases(sc, work: Path) -> list:
              osfm("odm_eb", "bare", coords=False, topocentric_copy=False, **odm)),
             ("odm-rtkdop-bare", "ODM opensfm/ alone, shots' gps_dop 0.02 (RTK); images without GPS",
              osfm("odm_rb", "bare", exif=False, coords=False, topocentric_copy=False, dop=0.02, **odm)),
+            ("odm2021-coords", "ODM of Feb-Jul 2021 (OpenSfM's own reference_lla, UTM offset in coords.txt), "
+                               "consumer GPS images", osfm("odm21c", "consumer", imposed=False, **odm)),
+            ("odm2021-no-coords", "ODM of Feb-Jul 2021 copied without odm_georeferencing/, consumer GPS images",
+             osfm("odm21n", "consumer", imposed=False, coords=False, **odm)),
             ("opensfm-rtk", "OpenSfM project (topocentric, exif/), RTK images", osfm("osfm", odm=False)),
             ("opensfm-json-consumer", "OpenSfM reconstruction.json + reference_lla.json alone; consumer GPS images",
              osfm("osfm_jc", "consumer", odm=False, exif=False)),

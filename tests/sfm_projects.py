@@ -262,9 +262,11 @@ def odm_zone(sc: dict, images) -> tuple:
 
 
 def opensfm_project(folder: Path, sc: dict, images, *, odm: bool, exif=True, coords=True, topocentric_copy=True,
-                    reconstructions=None, reference=True, camera=None, dop=None) -> Path:
+                    reconstructions=None, reference=True, camera=None, dop=None, imposed=True) -> Path:
     """An OpenSfM (``odm`` False) or ODM project of the truth in ``folder`` (module docstring); returns the path of
-    ``opensfm/reconstruction.json``. ``reconstructions``: lists of shot names, one reconstruction each."""
+    ``opensfm/reconstruction.json``. ``reconstructions``: lists of shot names, one reconstruction each;
+    ``imposed`` False: an ODM of February–July 2021, which kept OpenSfM's own reference (the photos' mean GPS)
+    while ``export_geocoords`` subtracted its UTM offset."""
     from scipy.spatial.transform import Rotation
     osfm = folder / "opensfm"
     osfm.mkdir(parents=True, exist_ok=True)
@@ -272,7 +274,8 @@ def opensfm_project(folder: Path, sc: dict, images, *, odm: bool, exif=True, coo
     if odm:
         epsg, off = odm_zone(sc, images)
         lon0, lat0 = _t(epsg, 4326).transform(*off)
-        ref = (lat0, lon0, 0.0)
+        g = np.array(list(gps.values()))
+        ref = (lat0, lon0, 0.0) if imposed else (float(g[:, 1].mean()), float(g[:, 0].mean()), float(g[:, 2].mean()))
     else:
         g = np.array(list(gps.values()))
         ref = (float(g[:, 1].mean()), float(g[:, 0].mean()), float(g[:, 2].mean()))

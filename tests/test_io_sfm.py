@@ -151,7 +151,8 @@ def test_opensfm_hand_written_grid_reading(tmp_path):
             "oblique": ((-50, 60, 200), (30, 0, 0))}
     for name, (local, angles) in want.items():
         s = got.shots[name]
-        np.testing.assert_allclose(s.position, (e0 + local[0], n0 + local[1], REF[2] + local[2]), atol=1e-6)
+        # grid z is the altitude itself: export_geocoords adds the reference's (ODM's is at 0)
+        np.testing.assert_allclose(s.position, (e0 + local[0], n0 + local[1], local[2]), atol=1e-6)
         assert np.max(_angle_diff(s.angles, angles)) < 1e-9, (name, s.angles)
     cam = got.cameras["brown"].camera
     assert cam.fx == pytest.approx(3200.0) and cam.fy == pytest.approx(3240.0)
@@ -200,7 +201,7 @@ def test_opensfm_projection_agrees_with_fotogeo(tmp_path):
     got = read_opensfm(path, frame="grid")
     e0, n0 = _en0()
     ground = np.array([[30.0, -20.0, 5.0], [-80.0, 140.0, -10.0], [60.0, 90.0, 0.0]])
-    to_map = lambda g: np.array([e0 + g[0], n0 + g[1], REF[2] + g[2]])  # noqa: E731
+    to_map = lambda g: np.array([e0 + g[0], n0 + g[1], g[2]])  # noqa: E731 (grid z: the altitude)
     for key, name in (("nadir.JPG", "nadir"), ("oblique.JPG", "oblique"), ("east.JPG", "east")):
         shot, cam_id = rec["shots"][key], rec["shots"][key]["camera"]
         cam = got.cameras[cam_id]

@@ -63,6 +63,20 @@ def test_odm_project_as_odm_leaves_it(sc, tmp_path, images):
     _right(_read(eo.parent / "reconstruction.topocentric.json", sc[images][:2]), sc, _osfm_cam(sc))
 
 
+def test_odm_of_2021_reads_its_offset_from_coords_or_is_refused(sc, tmp_path):
+    """ODM Feb–Jul 2021 kept OpenSfM's reference (altitude and all) while export_geocoords subtracted coords.txt's
+    offset: read with that offset and the altitudes as written; without coords.txt the offset is unknown: refused."""
+    eo = sp.opensfm_project(tmp_path / "a", sc, sc["rtk"], odm=True, imposed=False)
+    block = _read(eo, sc["consumer"][:2])
+    assert "coords.txt" in block.frame_reading
+    got = _right(block, sc, _osfm_cam(sc))
+    assert got["centre_m"] < 0.02
+    eo = sp.opensfm_project(tmp_path / "b", sc, sc["rtk"], odm=True, imposed=False, coords=False)
+    with pytest.raises(InputError, match="offset is not known.*coords.txt") as err:
+        _read(eo, sc["consumer"][:2])
+    assert err.value.option == "sfm_frame"
+
+
 def test_odm_reconstruction_copied_alone_is_decided_by_rtk_gps(sc, tmp_path):
     """Only opensfm/reconstruction.json + reference_lla.json: the images' RTK GPS decides (main refused it), the shots'
     gps_position with an RTK gps_dop too; a consumer GPS cannot tell: refused naming sfm_frame."""
@@ -148,9 +162,9 @@ def test_odm_grid_zone_from_coords_and_whole_metres(tmp_path):
     lon, lat = sp._t(32634, 4326).transform(*off)
     (tmp_path / "opensfm").mkdir()
     path = tmp_path / "opensfm" / "reconstruction.json"
-    assert odm_grid(path, (lat, lon, 0.0))[0].to_epsg() == 32634
-    assert odm_grid(path, (lat, lon, 12.5))[0].to_epsg() == 32633  # not ODM's reference: the reference's zone
+    assert odm_grid(path, (lat, lon, 0.0))[0][0].to_epsg() == 32634
+    assert odm_grid(path, (lat, lon, 12.5))[0][0].to_epsg() == 32633  # not ODM's reference: the reference's zone
     (tmp_path / "odm_georeferencing").mkdir()
     (tmp_path / "odm_georeferencing" / "coords.txt").write_text(f"WGS84 UTM 34N\n{off[0]:.0f} {off[1]:.0f}\n")
-    crs, why = odm_grid(path, (lat, lon, 12.5))
-    assert crs.to_epsg() == 32634 and "coords.txt" in why
+    (crs, origin), why = odm_grid(path, (lat, lon, 12.5))
+    assert crs.to_epsg() == 32634 and "coords.txt" in why and tuple(origin) == tuple(off)

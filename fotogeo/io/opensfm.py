@@ -28,8 +28,9 @@ gps_position, gps_dop, ...}}`` and ``reference_lla`` ``{latitude, longitude, alt
   beside the reconstruction or the shots' ``gps_position`` (topocentric in OpenSfM's and ODM's files
   alike), else ODM's layout. When nothing decides and the readings differ here, the file is refused
   naming ``sfm_frame``; the reading and why are the block's ``frame_reading``.
-* **Heights**: ``Z = altitude + z`` as OpenSfM stores them (the GPS altitude, above the ellipsoid
-  or the geoid as the camera wrote it): ``height_reference`` is left unknown.
+* **Heights**: topocentric ``Z = altitude + z`` as OpenSfM stores them, grid ``Z = z`` (``export_geocoords``
+  adds the reference's altitude; ODM's reference is at 0) — the GPS altitude, above the ellipsoid or the geoid
+  as the camera wrote it: ``height_reference`` is left unknown.
 
 :func:`write_opensfm` writes a block in the real format (tests, round trips).
 """
@@ -201,12 +202,13 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
     parsed = _shots(path, shots, cams)
     from .sfm_frame import choose_reading, odm_grid
     grid, zone = odm_grid(path, ref)
-    kind, why = choose_reading(frame, shots, dict(zip(parsed[0], parsed[2])), path, ref, map_crs, gps, where, grid)
+    kind, why = choose_reading(frame, shots, dict(zip(parsed[0], parsed[2])), path, ref, map_crs, gps, where, grid,
+                               bool(zone))
     if kind == "grid" and zone:
         why += f"; {zone}"
-    notes += [why, "heights: reference_lla altitude + local z, in the vertical reference of the GPS altitudes "
-                   "(OpenSfM does not record it)"]
-    return _block(parsed, LocalFrame(kind, ref, map_crs, grid), map_crs, notes, why)
+    notes += [why, "heights: " + ("local z" if kind == "grid" else "reference_lla altitude + local z") +
+              ", in the vertical reference of the GPS altitudes (OpenSfM does not record it)"]
+    return _block(parsed, LocalFrame(kind, ref, map_crs, *grid), map_crs, notes, why)
 
 
 def _pick(data: list, index, names, where: str) -> tuple:

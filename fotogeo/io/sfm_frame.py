@@ -90,9 +90,9 @@ def _rms(res) -> float:
 
 def separation(ref, crs, centres, grid=None) -> tuple[float, float]:
     """``(metres, degrees)``: the largest distance and turn between the two readings of ``centres`` (local);
-    ``grid``: the UTM CRS of the grid reading (default: the zone of ``ref``)."""
+    ``grid``: ``(UTM CRS, origin)`` of the grid reading (:func:`odm_grid`; default: the zone of ``ref`` at it)."""
     from ..geometry.local_frames import LocalFrame
-    (pa, ma), (pb, mb) = (LocalFrame(k, ref, crs, grid).to_map(centres) for k in READINGS)
+    (pa, ma), (pb, mb) = (LocalFrame(k, ref, crs, *(grid or ())).to_map(centres) for k in READINGS)
     turn = np.einsum("nij,nkj->nik", ma, mb)
     ang = np.degrees(np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)))
     return float(np.max(np.linalg.norm(pa - pb, axis=1))), float(np.max(ang))
@@ -108,7 +108,7 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
     xyz = np.array([local[n] for n in names], float)
     ev = np.array([gps[n] for n in names], float)
     want, sigma = _map_xy(crs, ev[:, 0], ev[:, 1]), ev[:, 2]
-    res = {k: LocalFrame(k, ref, crs, grid).to_map(xyz)[0][:, :2] - want for k in READINGS}
+    res = {k: LocalFrame(k, ref, crs, *(grid or ())).to_map(xyz)[0][:, :2] - want for k in READINGS}
     chi = {k: _chi2(r, sigma) for k, r in res.items()}
     best = min(chi, key=chi.get)
     other = READINGS[1 - READINGS.index(best)]
@@ -156,37 +156,35 @@ def immaterial(sep: tuple) -> bool:
 
 
 def odm_grid(path: Path, ref) -> tuple:
-    """``(UTM CRS, sentence)`` of the grid reading: the zone of ODM's ``odm_georeferencing/coords.txt`` beside the
-    ``opensfm`` folder when its offset is the reference; else, for a reference at altitude 0 (ODM imposes it at its
-    offset), the zone — the reference's or a neighbour — where it falls on whole metres; else the reference's zone
-    (the sentence is then empty)."""
+    """``((UTM CRS, origin or None), sentence)`` of the grid reading: ODM's zone and offset from
+    ``odm_georeferencing/coords.txt`` beside the ``opensfm`` folder (``export_geocoords`` subtracts that offset);
+    else, for a reference at altitude 0 (ODM imposes it at its offset), the zone — the reference's or a neighbour —
+    where it falls on whole metres; else the reference's zone and UTM position (the sentence is then empty)."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import CRSError
 
     from ..crs import utm_crs_for
     from .block import odm_crs
     own = utm_crs_for(ref[1], ref[0])
-
-    def at(crs):
-        return np.array(Transformer.from_crs(4326, crs, always_xy=True).transform(ref[1], ref[0]))
     coords = Path(path).parent.parent / "odm_georeferencing" / "coords.txt"
     if coords.is_file():
         try:
             lines = coords.read_text(encoding="utf-8").splitlines()
             crs, off = CRS.from_user_input(odm_crs(lines[0])), np.array([float(v) for v in lines[1].split()[:2]])
-            if np.all(np.abs(at(crs) - off) < 1.0):
-                return crs, f"the grid of {crs.name}, ODM's zone in {str(coords)!r}"
+            if crs.is_projected and np.isfinite(off).all():
+                return (crs, off), f"the grid of {crs.name} from ODM's offset {off[0]:.0f} {off[1]:.0f} in " \
+                                   f"{str(coords)!r}"
         except (OSError, UnicodeDecodeError, IndexError, ValueError, CRSError):
             pass
     if ref[2] == 0.0:
         zone, south = own.utm_zone[:-1], own.utm_zone.endswith("S")
         for z in (int(zone), int(zone) % 60 + 1, (int(zone) - 2) % 60 + 1):
             crs = CRS.from_epsg((32700 if south else 32600) + z)
-            xy = at(crs)
+            xy = np.array(Transformer.from_crs(4326, crs, always_xy=True).transform(ref[1], ref[0]))
             if np.all(np.abs(xy - np.round(xy)) < 2e-3):
-                return crs, (f"the grid of {crs.name}, where reference_lla falls on whole metres (ODM imposes it "
-                             f"at its UTM offset)")
-    return own, ""
+                return (crs, None), (f"the grid of {crs.name}, where reference_lla falls on whole metres (ODM "
+                                     f"imposes it at its UTM offset)")
+    return (own, None), ""
 
 
 def _exif_gps(folder: Path, names) -> dict:
@@ -232,9 +230,12 @@ def _layout(path: Path):
     return None
 
 
-def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs, gps, where: str, grid=None) -> tuple:
+def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs, gps, where: str, grid=None,
+                   odm_origin: bool = True) -> tuple:
     """``(reading, sentence)`` of an OpenSfM file's local frame (module docstring): as told, else from the evidence,
-    else ODM's layout; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ."""
+    else ODM's layout; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ.
+    ``odm_origin``: whether ODM's grid origin is known (:func:`odm_grid`); an ODM layout without it (a project of
+    the ODM versions that kept OpenSfM's reference, copied without ``odm_georeferencing/coords.txt``) is refused."""
     if frame != "auto":
         return frame, f"OpenSfM local frame read as {frame} ({_WHAT[frame]}), as told (sfm_frame {frame})"
     steps = []
@@ -254,6 +255,11 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
             return kind, f"OpenSfM local frame {why}"
         reasons.append(why)
     layout = _layout(path)
+    if layout is not None and layout[0] == "grid" and not odm_origin:
+        raise InputError(f"{where}: reconstruction.topocentric.json beside it marks ODM's file along the UTM grid, but "
+                         f"its offset is not known (reference_lla is not ODM's offset and no odm_georeferencing/"
+                         f"coords.txt is beside the opensfm folder); copy coords.txt with the project, give the "
+                         f"images with RTK GPS, or read reconstruction.topocentric.json instead", option="sfm_frame")
     if layout is not None:
         return layout[0], f"OpenSfM local frame {layout[1]}" + (f" ({'; '.join(reasons)})" if reasons else "")
     sep = separation(ref, crs, np.array(list(centres.values()), float), grid)
