@@ -134,6 +134,8 @@ def cases(sc, work: Path) -> list:
             ("odm2021-no-coords", "ODM of Feb-Jul 2021 copied without odm_georeferencing/, consumer GPS images",
              osfm("odm21n", "consumer", imposed=False, coords=False, **odm)),
             ("opensfm-rtk", "OpenSfM project (topocentric, exif/), RTK images", osfm("osfm", odm=False)),
+            ("opensfm-consumer", "OpenSfM project with exif/ (OpenSfM's default dop), consumer GPS images",
+             osfm("osfm_c", "consumer", odm=False)),
             ("opensfm-json-consumer", "OpenSfM reconstruction.json + reference_lla.json alone; consumer GPS images",
              osfm("osfm_jc", "consumer", odm=False, exif=False)),
             ("opensfm-no-reference", "OpenSfM reconstruction.json without reference_lla",

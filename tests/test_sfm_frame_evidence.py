@@ -4,7 +4,8 @@ own GPS are refused (fotogeo.io.sfm_frame).
 A rendered oblique drone block at 69.6° N, 2.9° east of UTM 33N's central meridian — where ODM's grid offsets and
 OpenSfM's topocentric frame part most (the meridian convergence is 2.7° there) — with a DJI RTK fix (σ 2 cm) in
 every frame's EXIF/XMP. Its true orientation is written as ODM would (grid offsets from UTM(reference_lla), each
-shot's ``gps_position`` the image's GPS in that frame), with and without OpenSfM's ``exif/`` folder, and read
+shot's ``gps_position`` the image's GPS in the topocentric frame, as export_geocoords leaves it), with and without
+OpenSfM's ``exif/`` folder (the RTK σ as its dop), and read
 with and without the images; a copy of the images without accuracy tags (a consumer receiver, σ 2 m) and one
 without any GPS are the cases where nothing decides.
 """

@@ -92,6 +92,14 @@ def test_odm_reconstruction_copied_alone_is_decided_by_rtk_gps(sc, tmp_path):
     _right(block, sc, _osfm_cam(sc))
 
 
+def test_opensfm_folder_with_consumer_gps_is_read_topocentric(sc, tmp_path):
+    """OpenSfM's own folder (exif/, OpenSfM's default dop, its mean-GPS reference): no ODM mark, so topocentric."""
+    eo = sp.opensfm_project(tmp_path, sc, sc["rtk"], odm=False)
+    block = _read(eo, sc["consumer"][:2])
+    assert "OpenSfM's folder" in block.frame_reading
+    _right(block, sc, _osfm_cam(sc))
+
+
 def test_odm_exif_without_accuracy_is_refused_not_read_topocentric(sc, tmp_path):
     """exif/ beside it with OpenSfM's default dop and images without GPS: nothing decides (main read it as
     topocentric from gps_position: 2.3 m off in silence)."""

@@ -17,8 +17,9 @@ reading is decided by the **camera centres** against an absolute GPS of the same
 
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
 chosen when it fits (``χ²/(2n) ≤ 9``, RMS within 3σ) and the other fits worse by ``Δχ² ≥ 25`` (a 5σ
-separation). Without such evidence, ODM's layout decides (the file named ``reconstruction.topocentric.json``, or
-one beside it); when the two readings place every camera within :data:`SAME_M` and :data:`SAME_DEG` of each
+separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
+topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor ODM's
+reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within :data:`SAME_M` and :data:`SAME_DEG` of each
 other the choice is immaterial (topocentric is taken and said). Otherwise the file is refused, naming the
 option ``sfm_frame``. Heights are not compared (the GPS altitude's reference is often unknown).
 
@@ -219,14 +220,18 @@ def _gps_positions(shots: dict, ref, crs) -> dict:
     return {k: (g[0], g[1], d) for k, g, d in zip(keys, llh, dop)}
 
 
-def _layout(path: Path):
-    """``(reading, sentence)`` from ODM's file layout, or None."""
+def _layout(path: Path, odm: bool):
+    """``(reading, sentence)`` from the file layout, or None; ``odm``: ODM's reference or coords.txt was found."""
     p = Path(path)
     if p.name.lower() == "reconstruction.topocentric.json":
         return "topocentric", "read as topocentric: the file is ODM's copy of OpenSfM's topocentric reconstruction"
     if (p.parent / "reconstruction.topocentric.json").is_file():
         return "grid", ("read as grid: reconstruction.topocentric.json beside it marks ODM's reconstruction.json, "
                         "which export_geocoords wrote along the UTM grid")
+    if not odm and (p.parent / "exif").is_dir():
+        return "topocentric", ("read as topocentric: OpenSfM's folder (exif/ beside it) without "
+                               "reconstruction.topocentric.json, ODM's reference or coords.txt — ODM moves OpenSfM's "
+                               "topocentric file there when it writes its own along the grid")
     return None
 
 
@@ -254,7 +259,7 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
         if kind is not None:
             return kind, f"OpenSfM local frame {why}"
         reasons.append(why)
-    layout = _layout(path)
+    layout = _layout(path, odm_origin)
     if layout is not None and layout[0] == "grid" and not odm_origin:
         raise InputError(f"{where}: reconstruction.topocentric.json beside it marks ODM's file along the UTM grid, but "
                          f"its offset is not known (reference_lla is not ODM's offset and no odm_georeferencing/"
