@@ -137,6 +137,24 @@ def test_colmap_binary_and_ecef_models(sc, tmp_path, kind):
         assert all(s.height_reference == "ellipsoid" for s in block.shots.values())
 
 
+def test_images_resized_after_the_reconstruction_are_refused_naming_the_model(sc, tmp_path):
+    import cv2
+    import rasterio
+    import rendered_oblique as ro
+    folder = sp.colmap_model(tmp_path / "m", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    small = []
+    for p in sc["rtk"][:2]:
+        with rasterio.open(p) as ds:
+            img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+        ro._write(tmp_path / p.name, cv2.resize(img, (320, 240), interpolation=cv2.INTER_AREA), tags, xmp)
+        small.append(tmp_path / p.name)
+    from fotogeo.tools.ortho.inputs import image_models
+    with warnings.catch_warnings(), pytest.raises(InputError, match="camera of --eo .*images.txt' is for images of "
+                                                                    "640x480 .* 320x240 .resized after"):
+        warnings.simplefilter("ignore")
+        image_models(small, parse_crs(sp.TRUTH_CRS), eo=folder / "images.txt")
+
+
 def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
     """Not geo-registered, images without GPS: main read COLMAP's frame as UTM coordinates in silence."""
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)

@@ -161,7 +161,7 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
         table = read_exterior_orientation(eo)
         cam, dist = read_camera_with_distortion(camera)
-        poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
+        poses = {n: (exterior_for(table, n), cam, dist, None, "") for n in names}
     else:
         from ...io.orientation_file import cameras_from_camera_file
         own = cameras_from_camera_file(eo)  # orthority's: the block's cameras ARE --camera's
@@ -170,19 +170,19 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         for n in names:
             shot = block.shots.get(n)
             if shot is None or shot.exterior is None:
-                poses[n] = (None, None, None, None)
+                poses[n] = (None, None, None, None, "")
                 continue
             cam, dist = given or (block.camera_of(n).camera, block.camera_of(n).distortion)
-            poses[n] = (shot.exterior, cam, dist, shot.height_reference)
+            poses[n] = (shot.exterior, cam, dist, shot.height_reference, "" if given else f"--eo {str(eo)!r}")
     missing = [n for n in names if poses[n][0] is None]
     if missing:
         raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
                          f"file with one pose per image, named by the image file's name (with or without its extension)")
     out = []
     for path, n in zip(images, names):
-        ext, cam, dist, ref = poses[n]
+        ext, cam, dist, ref, source = poses[n]
         info = open_raster(path, "image")
-        check_camera_size(cam, info.width, info.height, path)
+        check_camera_size(cam, info.width, info.height, path, source)
         out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref))
     return out
 
