@@ -68,8 +68,11 @@ def _check_same(got: ApproximateBlock, want: ApproximateBlock, tol_m: float, tol
 # measured: topocentric 1.1e-8 m and 3e-14°, grid 1.9e-9 m and 0° (ECEF and UTM conversions in float64)
 @pytest.mark.parametrize("frame, tol_m, tol_deg", [("topocentric", 1e-6, 1e-9), ("grid", 1e-6, 1e-9)])
 def test_opensfm_round_trip_picks_the_frame_from_exif_gps(tmp_path, block, frame, tol_m, tol_deg):
+    """The exif/ GPS with an RTK dop (2 cm) decides: the camera centres fit it in one reading only."""
+    from dataclasses import replace
     path = tmp_path / "reconstruction.json"
-    write_opensfm(path, block, (REF[0] + 0.001, REF[1] - 0.002, 950.0), frame=frame)
+    rtk = replace(block, shots={n: replace(s, sigma_h=0.02) for n, s in block.shots.items()})
+    write_opensfm(path, rtk, (REF[0] + 0.001, REF[1] - 0.002, 950.0), frame=frame)
     assert isinstance(json.loads(path.read_text()), list) and (tmp_path / "exif" / "IMG_0.jpg.exif").is_file()
     got = read_opensfm(path)
     _check_same(got, block, tol_m, tol_deg)
@@ -84,7 +87,8 @@ def test_opensfm_without_exif_or_images_is_refused_naming_sfm_frame(tmp_path, bl
     write_opensfm(path, block, REF, frame="grid", exif=False)
     with pytest.raises(InputError, match="sfm_frame topocentric .* or grid") as err:
         read_opensfm(path)
-    assert err.value.option == "sfm_frame" and "no exif/<image>.exif" in str(err.value)
+    assert err.value.option == "sfm_frame" and "gps_position" in str(err.value)
+    assert "too close to tell" in str(err.value)
     # the same file read as ODM's grid offsets gives the block back
     _check_same(read_opensfm(path, frame="grid"), block, 1e-6, 1e-9)
 
@@ -95,12 +99,12 @@ def test_opensfm_cameras_json_overrides_and_other_map_crs(tmp_path, block):
     cam = opensfm_camera(block.cameras["1"])
     cam["focal_x"] = cam["focal_y"] = 0.9
     (tmp_path / "cameras.json").write_text(json.dumps({"1": cam}))
-    got = read_opensfm(path, tmp_path / "cameras.json")
+    got = read_opensfm(path, tmp_path / "cameras.json", frame="grid")
     assert got.cameras["1"].camera.fx == pytest.approx(0.9 * 4000)
     assert got.cameras["2"].camera.fx == pytest.approx(1500.0)
     # in UTM 34S (outside its zone) the positions are transformed and κ turned by the convergence difference
     utm34 = CRS.from_epsg(32734)
-    other = read_opensfm(path, crs="EPSG:32734")
+    other = read_opensfm(path, crs="EPSG:32734", frame="grid")
     s, o = block.shots["IMG_3"], other.shots["IMG_3"]
     back = Transformer.from_crs(utm34, UTM35S, always_xy=True).transform(*o.position[:2])
     assert np.allclose(back, s.position[:2], atol=1e-6) and o.position[2] == pytest.approx(s.position[2])
@@ -147,7 +151,8 @@ def test_opensfm_hand_written_grid_reading(tmp_path):
             "oblique": ((-50, 60, 200), (30, 0, 0))}
     for name, (local, angles) in want.items():
         s = got.shots[name]
-        np.testing.assert_allclose(s.position, (e0 + local[0], n0 + local[1], REF[2] + local[2]), atol=1e-6)
+        # grid z is the altitude itself: export_geocoords adds the reference's (ODM's is at 0)
+        np.testing.assert_allclose(s.position, (e0 + local[0], n0 + local[1], local[2]), atol=1e-6)
         assert np.max(_angle_diff(s.angles, angles)) < 1e-9, (name, s.angles)
     cam = got.cameras["brown"].camera
     assert cam.fx == pytest.approx(3200.0) and cam.fy == pytest.approx(3240.0)
@@ -196,7 +201,7 @@ def test_opensfm_projection_agrees_with_fotogeo(tmp_path):
     got = read_opensfm(path, frame="grid")
     e0, n0 = _en0()
     ground = np.array([[30.0, -20.0, 5.0], [-80.0, 140.0, -10.0], [60.0, 90.0, 0.0]])
-    to_map = lambda g: np.array([e0 + g[0], n0 + g[1], REF[2] + g[2]])  # noqa: E731
+    to_map = lambda g: np.array([e0 + g[0], n0 + g[1], g[2]])  # noqa: E731 (grid z: the altitude)
     for key, name in (("nadir.JPG", "nadir"), ("oblique.JPG", "oblique"), ("east.JPG", "east")):
         shot, cam_id = rec["shots"][key], rec["shots"][key]["camera"]
         cam = got.cameras[cam_id]
@@ -323,7 +328,9 @@ def test_colmap_bad_input(tmp_path, block):
     _one_line_error(lambda: read_colmap(tmp_path / "m", crs="EPSG:4326"), "geographic")
     (tmp_path / "bin").mkdir()
     (tmp_path / "bin" / "cameras.bin").write_bytes(b"\0")
-    _one_line_error(lambda: read_colmap(tmp_path / "bin", crs=UTM35S), "binary", "model_converter")
+    _one_line_error(lambda: read_colmap(tmp_path / "bin", crs=UTM35S), "images.txt or images.bin")
+    (tmp_path / "bin" / "images.bin").write_bytes(b"\0" * 8)
+    _one_line_error(lambda: read_colmap(tmp_path / "bin", crs=UTM35S), "cameras.bin", "ends early", "model_converter")
     (tmp_path / "m" / "cameras.txt").write_text("1 OPENCV_FISHEYE 100 100 50 50 50 50 0 0 0 0\n")
     _one_line_error(lambda: read_colmap(tmp_path / "m", crs=UTM35S), "OPENCV_FISHEYE", "line 1", "cameras.txt")
     (tmp_path / "m" / "cameras.txt").write_text("1 FULL_OPENCV 100 100 50 50 50 50 0 0 0 0 0 0.1 0 0\n")

@@ -4,7 +4,8 @@ own GPS are refused (fotogeo.io.sfm_frame).
 A rendered oblique drone block at 69.6° N, 2.9° east of UTM 33N's central meridian — where ODM's grid offsets and
 OpenSfM's topocentric frame part most (the meridian convergence is 2.7° there) — with a DJI RTK fix (σ 2 cm) in
 every frame's EXIF/XMP. Its true orientation is written as ODM would (grid offsets from UTM(reference_lla), each
-shot's ``gps_position`` the image's GPS in that frame), with and without OpenSfM's ``exif/`` folder, and read
+shot's ``gps_position`` the image's GPS in the topocentric frame, as export_geocoords leaves it), with and without
+OpenSfM's ``exif/`` folder (the RTK σ as its dop), and read
 with and without the images; a copy of the images without accuracy tags (a consumer receiver, σ 2 m) and one
 without any GPS are the cases where nothing decides.
 """
@@ -89,18 +90,24 @@ def _image_gps(paths):
 
 
 def _odm_file(folder, odm, *, frame="grid", exif=False, gps_position=True, images=None):
-    """The truth as ODM writes it: local offsets in ``frame``, gps_position = the images' GPS in it."""
+    """The truth as ODM writes it: the poses as local offsets in ``frame`` (export_geocoords' grid), each shot's
+    gps_position the image's GPS in the topocentric frame (as OpenSfM wrote it before that export) and, with
+    ``exif``, OpenSfM's exif/ with the image's GPS and its RTK σ as dop (ODM's exif overrides)."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "reconstruction.json"
     write_opensfm(path, odm["truth"], odm["ref"], frame=frame, exif=exif, extension=".tif")
     rec = json.loads(path.read_text())
     gps = _image_gps(images or odm["rtk"])
-    fr = LocalFrame(frame, odm["ref"], UTM33)
+    fr = LocalFrame("topocentric", odm["ref"], UTM33)
     for key, shot in rec[0]["shots"].items():
         if gps_position:
             shot["gps_position"] = fr.from_lonlath(np.array([gps[key[:-4]]]))[0].tolist()
+            shot["gps_dop"] = 2.0
         else:
             shot.pop("gps_position")
+        if exif:
+            e = folder / "exif" / f"{key}.exif"
+            e.write_text(json.dumps({"gps": {**json.loads(e.read_text())["gps"], "dop": 0.02}}))
     path.write_text(json.dumps(rec))
     return path
 

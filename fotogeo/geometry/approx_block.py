@@ -1,7 +1,7 @@
 """The approximate block: what the images and their files say about a block before any adjustment.
 
 Every source of camera and orientation data — EXIF/XMP inside the images, senseFly's
-``geoinfo.txt``, OpenSfM/ODM ``reconstruction.json`` + ``cameras.json``, COLMAP text models,
+``geoinfo.txt``, OpenSfM/ODM ``reconstruction.json`` + ``cameras.json``, COLMAP models,
 orthority's YAML/CSV, fotogeo's own ``camera.yaml`` + ``exterior_orientation.txt`` — is read by one
 small reader in :mod:`fotogeo.io` into this one object (the shape orthority uses: interior
 parameters per camera id, and per image its position, angles and camera id, plus a CRS):

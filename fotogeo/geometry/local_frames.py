@@ -3,7 +3,9 @@
 * **topocentric** (OpenSfM): east-north-up axes at a reference ``(lat, lon, alt)``; positions go
   through ECEF (EPSG:4978) and geodetic lon/lat/h (EPSG:4979), and a vector's axes turn with the
   local ENU frame from the reference to the point;
-* **grid** (ODM): offsets parallel to the UTM grid from the UTM coordinates of the reference;
+* **grid** (ODM, after OpenSfM's ``export_geocoords``): easting and northing as offsets parallel to the UTM grid
+  from an origin — the UTM coordinates of the reference, or ODM's offset (``grid_origin``) — in the reference's
+  zone or the one ODM chose (``grid_crs``); z is the altitude itself (``export_geocoords`` adds the reference's);
 * into a projected map CRS the local east-north axes turn by the meridian convergence
   (:func:`grid_angle`, from ``pyproj.Proj.get_factors``: a conformal map turns them by this angle).
 
@@ -76,11 +78,12 @@ def _rz(theta) -> np.ndarray:
 class LocalFrame:
     """One reading of an SfM local frame (OpenSfM/ODM): local <-> map positions and the local -> map axis rotations."""
 
-    def __init__(self, kind: str, ref, map_crs):
+    def __init__(self, kind: str, ref, map_crs, grid_crs=None, grid_origin=None):
         from ..crs import utm_crs_for
         self.kind, self.ref, self.crs = kind, tuple(float(v) for v in ref), map_crs
-        self.utm = utm_crs_for(self.ref[1], self.ref[0])
-        self.utm0 = np.array(_transformer(4326, self.utm).transform(self.ref[1], self.ref[0]))
+        self.utm = grid_crs if grid_crs is not None else utm_crs_for(self.ref[1], self.ref[0])
+        self.utm0 = (np.array(_transformer(4326, self.utm).transform(self.ref[1], self.ref[0])) if grid_origin is None
+                     else np.asarray(grid_origin, float))
 
     def to_lonlath(self, local) -> np.ndarray:
         local = np.asarray(local, float).reshape(-1, 3)
@@ -88,14 +91,14 @@ class LocalFrame:
             return topocentric_to_lonlath(local, self.ref)
         en = self.utm0 + local[:, :2]
         lon, lat = _apply(self.utm, 4326, en[:, 0], en[:, 1])
-        return np.column_stack([lon, lat, self.ref[2] + local[:, 2]])
+        return np.column_stack([lon, lat, local[:, 2]])
 
     def from_lonlath(self, llh) -> np.ndarray:
         llh = np.asarray(llh, float).reshape(-1, 3)
         if self.kind == "topocentric":
             return lonlath_to_topocentric(llh, self.ref)
         e, n = _apply(4326, self.utm, llh[:, 0], llh[:, 1])
-        return np.column_stack([e - self.utm0[0], n - self.utm0[1], llh[:, 2] - self.ref[2]])
+        return np.column_stack([e - self.utm0[0], n - self.utm0[1], llh[:, 2]])
 
     def to_map(self, local):
         """Map positions ``(n, 3)`` and the rotations ``M`` ``(n, 3, 3)`` with ``R_map = M·R_local``."""

@@ -1,4 +1,4 @@
-"""COLMAP text models (``cameras.txt`` + ``images.txt``) -> :class:`ApproximateBlock`, and back.
+"""COLMAP models (``cameras``/``images`` as ``.txt`` or ``.bin``) -> :class:`ApproximateBlock`, and back.
 
 The format (COLMAP ``doc/format.rst``, ``doc/cameras.rst``, ``src/colmap/sensor/models.h``):
 
@@ -15,10 +15,18 @@ The format (COLMAP ``doc/format.rst``, ``doc/cameras.rst``, ``src/colmap/sensor/
   (possibly empty) ``POINTS2D`` line. The Hamilton quaternion and ``T`` map world to camera,
   ``x_cam = R·X + T``, the centre ``C = −Rᵀ·T``; camera axes x right, y down, z forward, so fotogeo's
   PATB rotation is ``Rᵀ·diag(1, −1, −1)``.
-* COLMAP's world frame is arbitrary unless the model was geo-registered (``colmap model_aligner``
-  with positions in a projected CRS): the reader needs that CRS, and the model's X, Y, Z axes are
-  taken as the CRS's easting, northing and up. ``points3D.txt`` is not read. Binary models (``.bin``)
-  are refused with the conversion command.
+* Binary models (``scripts/python/read_write_model.py``): ``cameras.bin`` is a uint64 count, then per
+  camera int32 id, int32 model id, uint64 width, height and float64 parameters; ``images.bin`` a uint64
+  count, then per image int32 id, float64 QW QX QY QZ TX TY TZ, int32 camera id, the NUL-terminated
+  name, a uint64 count of 2-D points and 24 bytes per point (x, y, point id; skipped). Little-endian.
+* COLMAP's world frame is arbitrary unless the model was geo-registered (``colmap model_aligner``).
+  Aligned to positions in a projected CRS, the reader needs that CRS, and the model's X, Y, Z axes
+  are taken as its easting, northing and up; aligned into ECEF (``--alignment_type ecef``: every
+  centre within :data:`ECEF_BAND` of the Earth's centre and outside the CRS's area of use), the
+  positions go through lon/lat/h into the CRS and the rotations turn from ECEF axes to the local
+  east-north-up axes at each camera and by the grid convergence (:mod:`fotogeo.geometry.local_frames`).
+  Centres outside the CRS's area of use otherwise (a model left in COLMAP's own frame) are refused.
+  ``points3D`` is not read.
 
 :func:`write_colmap` writes a block as a text model (tests, round trips).
 """
@@ -39,6 +47,13 @@ MODELS = {"SIMPLE_PINHOLE": ("f", "cx", "cy"), "PINHOLE": ("fx", "fy", "cx", "cy
           "SIMPLE_RADIAL": ("f", "cx", "cy", "k1"), "RADIAL": ("f", "cx", "cy", "k1", "k2"),
           "OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"),
           "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")}
+#: COLMAP's camera model ids (binary models), ``src/colmap/sensor/models.h``
+MODEL_IDS = {0: "SIMPLE_PINHOLE", 1: "PINHOLE", 2: "SIMPLE_RADIAL", 3: "RADIAL", 4: "OPENCV", 5: "OPENCV_FISHEYE",
+             6: "FULL_OPENCV", 7: "FOV", 8: "SIMPLE_RADIAL_FISHEYE", 9: "RADIAL_FISHEYE", 10: "THIN_PRISM_FISHEYE",
+             11: "RAD_TAN_THIN_PRISM_FISHEYE"}
+_N_PARAMS = {0: 3, 1: 4, 2: 4, 3: 5, 4: 8, 5: 8, 6: 12, 7: 5, 8: 4, 9: 5, 10: 12, 11: 16}
+#: distances (m) from the Earth's centre of centres aligned into ECEF (the ellipsoid −1 km to +12 km)
+ECEF_BAND = (6_355_000.0, 6_390_000.0)
 NO_CRS = ("COLMAP coordinates have no CRS; give the CRS the model was aligned to (e.g. with colmap "
           "model_aligner)")
 
@@ -137,21 +152,73 @@ def read_colmap_images(path) -> list:
 
 
 def _model_file(folder: Path, name: str) -> Path:
-    p = folder / name
-    if p.is_file():
-        return p
-    if (folder / name.replace(".txt", ".bin")).is_file():
-        raise InputError(f"COLMAP model {str(folder)!r} is binary; convert it to text with colmap model_converter "
-                         f"--input_path {folder} --output_path {folder} --output_type TXT")
-    raise InputError(f"COLMAP model {str(folder)!r} has no {name}; give the folder of a COLMAP text model "
-                     f"(cameras.txt, images.txt)")
+    """``folder/name.txt``, else ``folder/name.bin``; refused naming both when neither is there."""
+    for ext in (".txt", ".bin"):
+        if (folder / (name + ext)).is_file():
+            return folder / (name + ext)
+    raise InputError(f"COLMAP model {str(folder)!r} has no {name}.txt or {name}.bin; give the folder of a COLMAP "
+                     f"model (cameras, images)")
+
+
+def _unpack(data: bytes, at: int, fmt: str, where: str):
+    import struct
+    try:
+        return struct.unpack_from("<" + fmt, data, at), at + struct.calcsize("<" + fmt)
+    except struct.error:
+        raise InputError(f"{where} ends early (byte {at}); the binary model is cut short — export it again (colmap "
+                         f"model_converter --output_type BIN or TXT)") from None
+
+
+def read_colmap_cameras_bin(path) -> dict:
+    """``cameras.bin`` -> ``{camera id (str): ApproxCamera}`` (module docstring)."""
+    path = Path(path)
+    where = f"COLMAP cameras {str(path)!r}"
+    data = path.read_bytes()
+    (n,), at = _unpack(data, 0, "Q", where)
+    cams = {}
+    for _ in range(n):
+        (cid, mid, w, h), at = _unpack(data, at, "iiQQ", where)
+        if mid not in _N_PARAMS:
+            raise InputError(f"{where}: camera {cid} has the unknown model id {mid}; give a COLMAP model")
+        params, at = _unpack(data, at, f"{_N_PARAMS[mid]}d", where)
+        try:
+            cams[str(cid)] = _camera([str(cid), MODEL_IDS[mid], str(w), str(h), *map(repr, params)], repr(str(path)))
+        except ValueError as exc:
+            raise InputError(one_line(f"{where}, camera {cid}: {exc}")) from None
+    if not cams:
+        raise InputError(f"{where} defines no camera")
+    return cams
+
+
+def read_colmap_images_bin(path) -> list:
+    """``images.bin`` -> ``[(name, camera id, C (3,), R_wc (3, 3))]`` (module docstring)."""
+    path = Path(path)
+    where = f"COLMAP images {str(path)!r}"
+    data = path.read_bytes()
+    (n,), at = _unpack(data, 0, "Q", where)
+    out = []
+    for _ in range(n):
+        (iid, *pose, cid), at = _unpack(data, at, "i7di", where)
+        end = data.find(b"\x00", at)
+        if end < 0:
+            raise InputError(f"{where}: image {iid} has no NUL-terminated name; the file is damaged")
+        name, at = data[at:end].decode("utf-8", "replace"), end + 1
+        (npts,), at = _unpack(data, at, "Q", where)
+        at += 24 * npts
+        try:
+            out.append(_image([str(iid), *map(repr, pose), str(cid), name]))
+        except ValueError as exc:
+            raise InputError(one_line(f"{where}, image {iid}: {exc}")) from None
+    if not out:
+        raise InputError(f"{where} holds no image; COLMAP registered no image (re-run the mapper)")
+    return out
 
 
 def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> ApproximateBlock:
-    """Read a COLMAP text model geo-registered in ``crs`` (required; a projected CRS) into an
-    :class:`ApproximateBlock` (module docstring); shots are keyed by the image's stem, cameras by
-    COLMAP's ``CAMERA_ID``. ``height_reference`` (``"ellipsoid"``/``"geoid"``) states what Z is above
-    when known (it is whatever the alignment positions were)."""
+    """Read a COLMAP model (text or binary) geo-registered in ``crs`` (required; a projected CRS) or into ECEF
+    (then expressed in ``crs``) into an :class:`ApproximateBlock` (module docstring); shots are keyed by the image's
+    stem, cameras by COLMAP's ``CAMERA_ID``. ``height_reference`` (``"ellipsoid"``/``"geoid"``) states what Z is
+    above when known (it is whatever the alignment positions were; ellipsoidal for ECEF)."""
     from ..crs import parse_crs, require_projected
     folder = Path(model_dir)
     if not folder.is_dir():
@@ -160,9 +227,13 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> 
     if crs is None:
         raise InputError(f"COLMAP model {str(folder)!r}: {NO_CRS}")
     map_crs = require_projected(parse_crs(crs, "COLMAP model CRS"), "COLMAP model CRS")
-    cams = read_colmap_cameras(_model_file(folder, "cameras.txt"))
+    cf, imf = _model_file(folder, "cameras"), _model_file(folder, "images")
+    cams = read_colmap_cameras(cf) if cf.suffix == ".txt" else read_colmap_cameras_bin(cf)
+    images = read_colmap_images(imf) if imf.suffix == ".txt" else read_colmap_images_bin(imf)
+    images, frame = _in_map(images, map_crs, f"COLMAP model {str(folder)!r}")
+    height_reference = "ellipsoid" if frame == "ecef" else height_reference
     shots = {}
-    for name, cid, C, R in read_colmap_images(_model_file(folder, "images.txt")):
+    for name, cid, C, R in images:
         key = frame_key(name)
         if cid not in cams:
             raise InputError(f"COLMAP model {str(folder)!r}: image {name!r} uses camera {cid}, which cameras.txt "
@@ -174,10 +245,48 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> 
                                 height_reference=height_reference, source="COLMAP model")
     used = {s.camera_id for s in shots.values()}
     notes = (f"read from COLMAP model {str(folder)!r}",
-             f"model coordinates taken as {map_crs.name} (X easting, Y northing, Z up)",
+             f"model coordinates taken as {map_crs.name} (X easting, Y northing, Z up)" if frame == "map" else
+             f"model coordinates are ECEF (colmap model_aligner --alignment_type ecef), expressed in {map_crs.name}",
              "heights: " + (f"above the {height_reference}" if height_reference else
                             "in the vertical reference of the alignment positions (not stated)"))
     return ApproximateBlock({c: cams[c] for c in cams if c in used}, shots, map_crs, notes)
+
+
+def _in_map(images: list, map_crs, where: str) -> tuple:
+    """``(images with centres and rotations in map_crs, "map" | "ecef")`` (module docstring: ECEF detected,
+    coordinates outside the CRS's area of use refused)."""
+    C = np.array([c for _, _, c, _ in images], float)
+    if _inside(map_crs, C):
+        return images, "map"
+    r = np.linalg.norm(C, axis=1)
+    if not np.all((r > ECEF_BAND[0]) & (r < ECEF_BAND[1])):
+        e = np.median(C, axis=0)
+        raise InputError(f"{where}: its camera centres (around {e[0]:.6g}, {e[1]:.6g}, {e[2]:.6g}) are not in "
+                         f"{map_crs.name} (outside its area of use) nor in ECEF; the model is in COLMAP's own frame or "
+                         f"another CRS: geo-register it (colmap model_aligner) and give the CRS of its positions "
+                         f"(--crs)")
+    from ..geometry.local_frames import _apply, _enu_to_ecef, _rz, grid_angle
+    lon, lat, h = _apply(4978, 4979, C[:, 0], C[:, 1], C[:, 2])
+    x, y = _apply(4326, map_crs, lon, lat)
+    M = _rz(grid_angle(map_crs, lon, lat)) @ np.swapaxes(_enu_to_ecef(lon, lat), 1, 2)  # ECEF -> map axes
+    out = [(n, cid, np.array([a, b, c]), R @ m.T) for (n, cid, _, R), a, b, c, m in zip(images, x, y, h, M)]
+    return out, "ecef"
+
+
+def _inside(crs, C) -> bool:
+    """Whether the points ``C`` (x, y) lie in ``crs``'s area of use widened by 1° (a block may overhang a zone)."""
+    from ..geometry.local_frames import _apply
+    from pyproj import CRS
+    epsg = crs.to_epsg() if crs.area_of_use is None else None  # a GeoTIFF's WKT may carry no area of use
+    aou = CRS.from_epsg(epsg).area_of_use if epsg else crs.area_of_use
+    with np.errstate(all="ignore"):
+        lon, lat = _apply(crs, 4326, C[:, 0], C[:, 1])
+    if aou is None:
+        return bool(np.isfinite(lon).all() and np.isfinite(lat).all())
+    w, s, e, n = aou.bounds
+    lon = (lon - w + 180.0) % 360.0 - 180.0 + w if e >= w else lon
+    return bool(np.all(np.isfinite(lon) & np.isfinite(lat) & (lon >= w - 1) & (lon <= e + 1) & (lat >= s - 1)
+                       & (lat <= n + 1)))
 
 
 def _colmap_ids(block: ApproximateBlock) -> dict:

@@ -22,14 +22,15 @@ gps_position, gps_dop, ...}}`` and ``reference_lla`` ``{latitude, longitude, alt
   grid from UTM(``reference_lla``) (GUIDE.md §7). Both readings are implemented (``frame=``):
   ``"topocentric"`` (local -> ECEF -> lon/lat/h -> map CRS; the angles turned by the frame change
   between the reference and the camera and by the map's grid convergence, :func:`fotogeo.geometry.local_frames.grid_angle`) and
-  ``"grid"`` (UTM offsets; angles turned only when the map CRS is not that UTM zone). ``"auto"``
-  decides from evidence (:mod:`fotogeo.io.sfm_frame`): the shots' ``gps_position`` against the
-  images' own GPS (given by the caller) or OpenSfM's ``exif/<image>.exif`` beside the reconstruction,
-  else the camera centres against the images' own GPS; ``gps_position`` alone cannot tell (both
-  readings convert it exactly like the centres). When nothing decides and the readings differ here,
-  the file is refused naming ``sfm_frame``; the reading and why are the block's ``frame_reading``.
-* **Heights**: ``Z = altitude + z`` as OpenSfM stores them (the GPS altitude, above the ellipsoid
-  or the geoid as the camera wrote it): ``height_reference`` is left unknown.
+  ``"grid"`` (UTM offsets in ODM's zone, :func:`fotogeo.io.sfm_frame.odm_grid`; angles turned only when
+  the map CRS is not that zone). ``"auto"`` decides from evidence (:mod:`fotogeo.io.sfm_frame`): the
+  camera centres against the images' own GPS (given by the caller), OpenSfM's ``exif/<image>.exif``
+  beside the reconstruction or the shots' ``gps_position`` (topocentric in OpenSfM's and ODM's files
+  alike), else ODM's layout. When nothing decides and the readings differ here, the file is refused
+  naming ``sfm_frame``; the reading and why are the block's ``frame_reading``.
+* **Heights**: topocentric ``Z = altitude + z`` as OpenSfM stores them, grid ``Z = z`` (``export_geocoords``
+  adds the reference's altitude; ODM's reference is at 0) — the GPS altitude, above the ellipsoid or the geoid
+  as the camera wrote it: ``height_reference`` is left unknown.
 
 :func:`write_opensfm` writes a block in the real format (tests, round trips).
 """
@@ -154,69 +155,17 @@ def _reference(rec: dict, path: Path):
         raise InputError(one_line(f"{where}: reference_lla: {exc}; it needs latitude, longitude, altitude")) from None
 
 
-def _exif_gps(folder: Path, names) -> dict:
-    """Absolute GPS (lon, lat, alt) of images from OpenSfM's ``exif/<image>.exif`` files, where readable."""
-    out = {}
-    for name in names:
-        try:
-            g = json.loads((folder / "exif" / f"{name}.exif").read_text(encoding="utf-8"))["gps"]
-            out[name] = (float(g["longitude"]), float(g["latitude"]), float(g.get("altitude", 0.0)))
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-    return out
-
-
-def _is_xyz(v) -> bool:
-    return (isinstance(v, list) and len(v) == 3 and all(isinstance(a, (int, float)) for a in v)
-            and bool(np.isfinite(v).all()))
-
-
-def _choose_frame(frame: str, shots: dict, centres: dict, folder: Path, ref, crs, gps, where: str) -> tuple:
-    """``(reading, sentence)`` of the local frame (:mod:`fotogeo.io.sfm_frame`): as told, else from the
-    evidence; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ."""
-    from . import sfm_frame as sf
-    if frame != "auto":
-        return frame, f"OpenSfM local frame read as {frame} ({sf._WHAT[frame]}), as told (sfm_frame {frame})"
-    gp = {frame_key(n): s["gps_position"] for n, s in shots.items()
-          if isinstance(s, dict) and _is_xyz(s.get("gps_position"))}
-    steps = []
-    if gps:
-        steps.append((gp, {n: (g.lon, g.lat, sf.TAG_SIGMA) for n, g in gps.items()},
-                      "shots' gps_position vs the images' own EXIF GPS"))
-    exif = {frame_key(n): (g[0], g[1], sf.TAG_SIGMA) for n, g in _exif_gps(folder, [n for n in shots]).items()}
-    if exif:
-        steps.append((gp, exif, "shots' gps_position vs the GPS of the exif/<image>.exif beside it"))
-    if gps:
-        steps.append((centres, {n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()},
-                      "camera centres vs the images' own EXIF GPS"))
-    reasons = []
-    for local, evidence, source in steps:
-        if not local:
-            continue
-        kind, why = sf.decide(local, evidence, ref, crs, source)
-        if kind is not None:
-            return kind, f"OpenSfM local frame {why}"
-        reasons.append(why)
-    sep = sf.separation(ref, crs, np.array(list(centres.values()), float))
-    if sf.immaterial(sep):
-        return "topocentric", (f"OpenSfM local frame read as topocentric: the topocentric and grid readings place "
-                               f"every camera within {sep[0]:.3f} m and {sep[1]:.5f}° of each other here")
-    if not steps:
-        reasons.append("no exif/<image>.exif is beside it and the images' own GPS is not at hand"
-                       + ("" if gp else " (nor do its shots carry gps_position)"))
-    raise sf.refusal(where, "; ".join(reasons) or "no image GPS matches its shots", sep)
-
-
 def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str = "auto",
-                 reconstruction: int = 0, gps=None) -> ApproximateBlock:
+                 reconstruction: int | None = None, gps=None, names=()) -> ApproximateBlock:
     """Read an OpenSfM/ODM reconstruction into an :class:`ApproximateBlock` (module docstring).
 
     ``cameras_json``: ODM's ``cameras.json`` (camera dicts by id), which overrides or provides the
     cameras; ``crs``: the map CRS (projected), by default the UTM zone of ``reference_lla``;
     ``frame``: ``"auto"``, ``"topocentric"`` or ``"grid"`` (the tools' ``sfm_frame``); ``gps``: the
     images' own GPS ``{frame key: GpsFix}`` (:func:`fotogeo.io.sfm_frame.images_gps`), evidence for
-    ``"auto"``; ``reconstruction``: which one of the list (OpenSfM puts the largest first). Shots are
-    keyed by the image's stem. The reading and why are the block's ``frame_reading`` (and a note).
+    ``"auto"``; ``reconstruction``: which one of the list, by default the one holding most of the images
+    ``names`` (frame keys), else the largest (:func:`_pick`). Shots are keyed by the image's stem. The reading and
+    why are the block's ``frame_reading`` (and a note).
     """
     from ..crs import parse_crs, require_projected, utm_crs_for
     path = Path(reconstruction_json)
@@ -228,8 +177,7 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
         data = [data]
     if not isinstance(data, list) or not all(isinstance(r, dict) for r in data):
         raise InputError(f"{where} is not a list of reconstructions (objects with cameras and shots); {_FIX}")
-    if not 0 <= reconstruction < len(data):
-        raise InputError(f"{where} holds {len(data)} reconstruction(s); reconstruction={reconstruction} does not exist")
+    reconstruction, picked = _pick(data, reconstruction, names, where)
     rec = data[reconstruction]
     shots = rec.get("shots")
     if not isinstance(shots, dict) or not shots:
@@ -239,7 +187,7 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
     if not isinstance(cams, dict):
         raise InputError(f"{where}: cameras must be an object of camera dicts by id; {_FIX}")
     cams = dict(cams)
-    notes = [f"read from {str(path)!r}" + (f" (reconstruction {reconstruction} of {len(data)})" if len(data) > 1 else "")]
+    notes = [f"read from {str(path)!r}" + (f" ({picked})" if picked else "")]
     if cameras_json is not None:
         extra = load_json(cameras_json, "ODM cameras file", "give ODM's cameras.json (camera dicts by id)")
         if not isinstance(extra, dict):
@@ -252,10 +200,37 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
     if crs is None:
         notes.append(f"map CRS EPSG:{map_crs.to_epsg()}: the UTM zone of reference_lla")
     parsed = _shots(path, shots, cams)
-    kind, why = _choose_frame(frame, shots, dict(zip(parsed[0], parsed[2])), path.parent, ref, map_crs, gps, where)
-    notes += [why, "heights: reference_lla altitude + local z, in the vertical reference of the GPS altitudes "
-                   "(OpenSfM does not record it)"]
-    return _block(parsed, LocalFrame(kind, ref, map_crs), map_crs, notes, why)
+    from .sfm_frame import choose_reading, odm_grid
+    grid, zone = odm_grid(path, ref)
+    kind, why = choose_reading(frame, shots, dict(zip(parsed[0], parsed[2])), path, ref, map_crs, gps, where, grid,
+                               bool(zone))
+    if kind == "grid" and zone:
+        why += f"; {zone}"
+    notes += [why, "heights: " + ("local z" if kind == "grid" else "reference_lla altitude + local z") +
+              ", in the vertical reference of the GPS altitudes (OpenSfM does not record it)"]
+    return _block(parsed, LocalFrame(kind, ref, map_crs, *grid), map_crs, notes, why)
+
+
+def _pick(data: list, index, names, where: str) -> tuple:
+    """``(index, sentence)`` of the reconstruction read: ``index`` when given, else the one holding most of the
+    images ``names``, else the one with most shots; the images in none or split over several are named."""
+    keys = [{frame_key(n) for n in r["shots"]} if isinstance(r.get("shots"), dict) else set() for r in data]
+    if index is not None:
+        if not 0 <= index < len(data):
+            raise InputError(f"{where} holds {len(data)} reconstruction(s); reconstruction={index} does not exist")
+        return index, f"reconstruction {index} of {len(data)}, as told" if len(data) > 1 else ""
+    wanted = set(names or ())
+    best = max(range(len(data)), key=lambda i: (len(keys[i] & wanted), len(keys[i])))
+    if len(data) == 1:
+        return best, ""
+    elsewhere = sorted(n for n in wanted - keys[best] if any(n in k for k in keys))
+    if elsewhere:
+        raise InputError(f"{where}: the images {', '.join(elsewhere[:5])} are oriented in another of its {len(data)} "
+                         f"reconstructions than the rest (OpenSfM could not join them into one block); orthorectify "
+                         f"the images of each reconstruction separately")
+    why = "the one holding the images given" if wanted & keys[best] else "the largest"
+    return best, f"reconstruction {best} of {len(data)} ({len(keys[best])} shots; the others hold " \
+                 f"{', '.join(str(len(k)) for i, k in enumerate(keys) if i != best)}): {why}"
 
 
 def _shots(path: Path, shots, cams) -> tuple:
@@ -312,11 +287,13 @@ def opensfm_camera(cam: ApproxCamera) -> dict:
 
 def write_opensfm(path, block: ApproximateBlock, reference_lla, *, frame: str = "topocentric",
                   extension: str = ".jpg", exif: bool = True) -> None:
-    """Write ``block`` as OpenSfM's ``reconstruction.json`` in the local ``frame`` (``"topocentric"`` or
-    ODM's ``"grid"``) at ``reference_lla`` (``{latitude, longitude, altitude}`` or ``(lat, lon, alt)``),
-    ``reference_lla.json`` beside it and, with ``exif``, OpenSfM's ``exif/<image>.exif`` with each
-    image's GPS (its projection centre); ``gps_position`` is that GPS in the local frame. Image keys are
-    the shot names plus ``extension``. Z is taken as the GPS altitude."""
+    """Write ``block`` as OpenSfM's ``reconstruction.json`` with the poses in the local ``frame``
+    (``"topocentric"``, or ``"grid"``: ODM's after ``export_geocoords``) at ``reference_lla``
+    (``{latitude, longitude, altitude}`` or ``(lat, lon, alt)``), ``reference_lla.json`` beside it and, with
+    ``exif``, OpenSfM's ``exif/<image>.exif`` with each image's GPS (its projection centre) and ``dop`` (the
+    shot's ``sigma_h``, else 5 m); ``gps_position`` is that GPS in the topocentric frame in both cases, as
+    OpenSfM writes it and ``export_geocoords`` leaves it. Image keys are the shot names plus ``extension``.
+    Z is taken as the GPS altitude."""
     from scipy.spatial.transform import Rotation
     if frame not in FRAMES[1:]:
         raise InputError(f"frame {frame!r} is not one of topocentric, grid")
@@ -329,16 +306,17 @@ def write_opensfm(path, block: ApproximateBlock, reference_lla, *, frame: str = 
     fr = LocalFrame(frame, ref, block.crs)
     local, M = fr.from_map(np.array([s.position for s in shots]))
     llh = fr.to_lonlath(local)
+    topo = LocalFrame("topocentric", ref, block.crs).from_lonlath(llh)
     out, folder = {}, Path(path).parent
-    for s, c, m, g in zip(shots, local, M, llh):
+    for s, c, m, g, t in zip(shots, local, M, llh, topo):
         R = (m.T @ rotation_patb(*s.angles) @ _D).T  # world -> camera in the local frame
-        key = s.name + extension
+        key, dop = s.name + extension, s.sigma_h or 5.0
         out[key] = {"rotation": Rotation.from_matrix(R).as_rotvec().tolist(), "translation": (-R @ c).tolist(),
-                    "camera": s.camera_id, "gps_position": c.tolist(), "gps_dop": s.sigma_h or 5.0}
+                    "camera": s.camera_id, "gps_position": t.tolist(), "gps_dop": dop}
         if exif:
             (folder / "exif").mkdir(exist_ok=True)
             (folder / "exif" / f"{key}.exif").write_text(json.dumps(
-                {"gps": {"longitude": g[0], "latitude": g[1], "altitude": g[2], "dop": s.sigma_h or 5.0}}))
+                {"gps": {"longitude": g[0], "latitude": g[1], "altitude": g[2], "dop": dop}}))
     rec = {"cameras": {cid: opensfm_camera(c) for cid, c in block.cameras.items()}, "shots": out, "points": {},
            "reference_lla": dict(zip(("latitude", "longitude", "altitude"), ref))}
     Path(path).write_text(json.dumps([rec], indent=1), encoding="utf-8")

@@ -4,7 +4,8 @@
   the map CRS is the block's), read by the caller: :func:`read_orientation_file` returns None;
 * ``*.json`` — OpenSfM/ODM ``reconstruction.json`` (:func:`fotogeo.io.opensfm.read_opensfm`; ODM's
   ``cameras.json`` beside it is used for the cameras);
-* a folder, or its ``images.txt`` / ``cameras.txt`` — a COLMAP text model (:func:`fotogeo.io.colmap.read_colmap`;
+* a folder, or its ``images.txt`` / ``cameras.txt`` / ``images.bin`` / ``cameras.bin`` — a COLMAP model
+  (:func:`fotogeo.io.colmap.read_colmap`;
   its coordinates are in ``crs``);
 * ``*.geojson`` / ``*.csv`` — orthority's exterior parameters (:func:`fotogeo.io.orthority.read_orthority`) with
   the interior parameters of ``camera`` (orthority's YAML).
@@ -21,15 +22,29 @@ from pathlib import Path
 
 from ..errors import InputError, InputNote
 
+_COLMAP = ("images.txt", "cameras.txt", "images.bin", "cameras.bin")
+
+
+def cameras_from_camera_file(path) -> bool:
+    """Whether the block of ``path`` takes its cameras from the camera file itself (orthority's exterior parameters
+    with their interior YAML): then that file is not to be read again as fotogeo's own camera YAML."""
+    return Path(path).suffix.lower() in (".geojson", ".csv")
+
+
+def is_block_file(path) -> bool:
+    """Whether ``path`` is read into a block (every type but fotogeo's ``name X Y Z omega phi kappa`` lines)."""
+    p = Path(path)
+    return not (p.suffix.lower() == ".txt" and not p.is_dir() and p.name.lower() not in _COLMAP)
+
 
 def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto", images=()):
     """The :class:`ApproximateBlock` of ``path`` (module docstring), or None for a ``.txt`` EO file."""
     p = Path(path)
-    if p.suffix.lower() == ".txt" and not p.is_dir() and p.name.lower() not in ("images.txt", "cameras.txt"):
+    if not is_block_file(p):
         return None  # fotogeo's lines, read by the caller: no block, so the images' GPS is not read either
     from .sfm_frame import check_gps, images_gps  # function level: EXIF and the SfM frames only for a block file
     gps = images_gps(images) if images else {}
-    block = _read(p, crs, camera, sfm_frame, gps)
+    block = _read(p, crs, camera, sfm_frame, gps, images)
     if block is None:
         return None
     is_sfm = p.suffix.lower() == ".json" and not p.is_dir()
@@ -42,9 +57,9 @@ def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto
     return block
 
 
-def _read(p: Path, crs, camera, sfm_frame: str, gps):
+def _read(p: Path, crs, camera, sfm_frame: str, gps, images=()):
     suffix = p.suffix.lower()
-    if p.is_dir() or p.name.lower() in ("images.txt", "cameras.txt"):
+    if p.is_dir() or p.name.lower() in _COLMAP:
         from .colmap import read_colmap
         return read_colmap(p if p.is_dir() else p.parent, crs=crs)
     if suffix == ".txt":
@@ -52,8 +67,9 @@ def _read(p: Path, crs, camera, sfm_frame: str, gps):
     if suffix == ".json":
         from .opensfm import read_opensfm
         cams = p.parent / "cameras.json"
+        from .block import frame_key
         return read_opensfm(p, cams if cams.exists() and cams != p else None, crs=crs, frame=sfm_frame or "auto",
-                            gps=gps)
+                            gps=gps, names=[frame_key(i) for i in images])
     if suffix in (".geojson", ".csv"):
         if camera is None:
             raise InputError(f"orthority exterior parameters {str(p)!r} need their interior parameters: give the "
@@ -61,4 +77,5 @@ def _read(p: Path, crs, camera, sfm_frame: str, gps):
         from .orthority import read_orthority
         return read_orthority(p, camera, crs=crs)
     raise InputError(f"orientation file {str(p)!r}: unknown type; give 'name X Y Z omega phi kappa' lines (.txt), "
-                     f"an OpenSfM/ODM reconstruction.json, a COLMAP text model folder or orthority .geojson/.csv")
+                     f"an OpenSfM/ODM reconstruction.json, a COLMAP model (folder, images.txt or images.bin) or "
+                     f"orthority .geojson/.csv")

@@ -1,21 +1,25 @@
 """Which reading of an SfM local frame the evidence supports, and whether an SfM file agrees with the images' GPS.
 
 An OpenSfM ``reconstruction.json`` holds local coordinates that OpenSfM reads as a topocentric frame and
-ODM as offsets parallel to the UTM grid from UTM(``reference_lla``) (GUIDE.md §7). The two readings agree
-at the reference and part with the distance from it: by the meridian convergence γ (≈ Δλ·sin φ, largest
-at high latitude far from the zone's central meridian) and the grid's scale. Nothing in the file says which
-(``gps_position`` is the image GPS converted by the same reading as the centres), so the reading is
-decided by **evidence**, in this order:
+ODM as offsets parallel to the UTM grid from UTM(``reference_lla``) (GUIDE.md §7): ODM runs OpenSfM's
+``export_geocoords`` (positions ``A·x + b``, rotations ``R·A⁻¹``, A the linear map topocentric -> UTM at the
+reference) and keeps the topocentric file as ``reconstruction.topocentric.json``; it imposes ``reference_lla`` at
+its UTM offset (``odm_georeferencing/coords.txt``: the zone of its first photo and ``floor`` of the photos' mean
+UTM). The two readings agree at the reference and part with the distance from it: by the meridian convergence γ
+(≈ Δλ·sin φ, largest at high latitude far from the zone's central meridian) and the grid's scale. ``export_geocoords``
+leaves each shot's ``gps_position`` as OpenSfM wrote it, topocentric, so it says nothing about the poses' frame: the
+reading is decided by the **camera centres** against an absolute GPS of the same images, in this order:
 
-1. ``gps_position`` of the shots against the absolute GPS of the same images — the images' own EXIF when
-   they are given, else OpenSfM's ``exif/<image>.exif`` beside the reconstruction: both are the same
-   numbers, so the right reading reproduces them to the precision of the EXIF tags (σ :data:`TAG_SIGMA`);
-2. the shots' centres against the images' own EXIF GPS, with the σ of their accuracy tags (DJI RTK,
-   senseFly) or :data:`DEFAULT_SIGMA_H` (a consumer receiver).
+1. the images' own EXIF GPS, with the σ of their accuracy tags (DJI RTK, senseFly) or :data:`DEFAULT_SIGMA_H`
+   (a consumer receiver);
+2. OpenSfM's ``exif/<image>.exif`` beside the reconstruction, with its ``dop`` as σ (ODM writes the RTK σ there);
+3. the shots' ``gps_position`` read as topocentric, with their ``gps_dop`` as σ.
 
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
 chosen when it fits (``χ²/(2n) ≤ 9``, RMS within 3σ) and the other fits worse by ``Δχ² ≥ 25`` (a 5σ
-separation). When the two readings place every camera within :data:`SAME_M` and :data:`SAME_DEG` of each
+separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
+topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor ODM's
+reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within :data:`SAME_M` and :data:`SAME_DEG` of each
 other the choice is immaterial (topocentric is taken and said). Otherwise the file is refused, naming the
 option ``sfm_frame``. Heights are not compared (the GPS altitude's reference is often unknown).
 
@@ -24,8 +28,10 @@ block's centres must agree with the images' own GPS within 3σ horizontally (RMS
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -33,6 +39,8 @@ from ..errors import InputError
 
 #: σ (m) of a consumer receiver's horizontal GPS position, when the image carries no accuracy tag
 DEFAULT_SIGMA_H = 5.0
+#: σ (m) of a GPS position without ``dop``/``gps_dop`` (OpenSfM's default dop)
+OPENSFM_DOP = 15.0
 #: σ (m) to which the same GPS written twice (EXIF rationals, OpenSfM's exif JSON) agrees with itself
 TAG_SIGMA = 0.05
 #: readings closer than these everywhere are the same for every purpose
@@ -81,16 +89,17 @@ def _rms(res) -> float:
     return float(np.sqrt(np.mean(np.sum(res ** 2, axis=1))))
 
 
-def separation(ref, crs, centres) -> tuple[float, float]:
-    """``(metres, degrees)``: the largest distance and turn between the two readings of ``centres`` (local)."""
+def separation(ref, crs, centres, grid=None) -> tuple[float, float]:
+    """``(metres, degrees)``: the largest distance and turn between the two readings of ``centres`` (local);
+    ``grid``: ``(UTM CRS, origin)`` of the grid reading (:func:`odm_grid`; default: the zone of ``ref`` at it)."""
     from ..geometry.local_frames import LocalFrame
-    (pa, ma), (pb, mb) = (LocalFrame(k, ref, crs).to_map(centres) for k in READINGS)
+    (pa, ma), (pb, mb) = (LocalFrame(k, ref, crs, *(grid or ())).to_map(centres) for k in READINGS)
     turn = np.einsum("nij,nkj->nik", ma, mb)
     ang = np.degrees(np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)))
     return float(np.max(np.linalg.norm(pa - pb, axis=1))), float(np.max(ang))
 
 
-def decide(local: dict, gps: dict, ref, crs, source: str):
+def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
     """``(reading, sentence)`` from ``local`` ``{name: local xyz}`` against ``gps`` ``{name: (lon, lat, σ)}``
     (module docstring), or ``(None, sentence)`` when they cannot tell or contradict both readings."""
     from ..geometry.local_frames import LocalFrame
@@ -100,7 +109,7 @@ def decide(local: dict, gps: dict, ref, crs, source: str):
     xyz = np.array([local[n] for n in names], float)
     ev = np.array([gps[n] for n in names], float)
     want, sigma = _map_xy(crs, ev[:, 0], ev[:, 1]), ev[:, 2]
-    res = {k: LocalFrame(k, ref, crs).to_map(xyz)[0][:, :2] - want for k in READINGS}
+    res = {k: LocalFrame(k, ref, crs, *(grid or ())).to_map(xyz)[0][:, :2] - want for k in READINGS}
     chi = {k: _chi2(r, sigma) for k, r in res.items()}
     best = min(chi, key=chi.get)
     other = READINGS[1 - READINGS.index(best)]
@@ -145,3 +154,124 @@ def refusal(where: str, why: str, sep: tuple) -> InputError:
 
 def immaterial(sep: tuple) -> bool:
     return sep[0] <= SAME_M and sep[1] <= SAME_DEG and all(map(math.isfinite, sep))
+
+
+def odm_grid(path: Path, ref) -> tuple:
+    """``((UTM CRS, origin or None), sentence)`` of the grid reading: ODM's zone and offset from
+    ``odm_georeferencing/coords.txt`` beside the ``opensfm`` folder (``export_geocoords`` subtracts that offset);
+    else, for a reference at altitude 0 (ODM imposes it at its offset), the zone — the reference's or a neighbour —
+    where it falls on whole metres; else the reference's zone and UTM position (the sentence is then empty)."""
+    from pyproj import CRS, Transformer
+    from pyproj.exceptions import CRSError
+
+    from ..crs import utm_crs_for
+    from .block import odm_crs
+    own = utm_crs_for(ref[1], ref[0])
+    coords = Path(path).parent.parent / "odm_georeferencing" / "coords.txt"
+    if coords.is_file():
+        try:
+            lines = coords.read_text(encoding="utf-8").splitlines()
+            crs, off = CRS.from_user_input(odm_crs(lines[0])), np.array([float(v) for v in lines[1].split()[:2]])
+            if crs.is_projected and np.isfinite(off).all():
+                return (crs, off), f"the grid of {crs.name} from ODM's offset {off[0]:.0f} {off[1]:.0f} in " \
+                                   f"{str(coords)!r}"
+        except (OSError, UnicodeDecodeError, IndexError, ValueError, CRSError):
+            pass
+    if ref[2] == 0.0:
+        zone, south = own.utm_zone[:-1], own.utm_zone.endswith("S")
+        for z in (int(zone), int(zone) % 60 + 1, (int(zone) - 2) % 60 + 1):
+            crs = CRS.from_epsg((32700 if south else 32600) + z)
+            xy = np.array(Transformer.from_crs(4326, crs, always_xy=True).transform(ref[1], ref[0]))
+            if np.all(np.abs(xy - np.round(xy)) < 2e-3):
+                return (crs, None), (f"the grid of {crs.name}, where reference_lla falls on whole metres (ODM "
+                                     f"imposes it at its UTM offset)")
+    return (own, None), ""
+
+
+def _exif_gps(folder: Path, names) -> dict:
+    """``{frame key: (lon, lat, σ)}`` from OpenSfM's ``exif/<image>.exif`` files (σ their ``dop``), where readable."""
+    from .block import frame_key
+    out = {}
+    for name in names:
+        try:
+            g = json.loads((folder / "exif" / f"{name}.exif").read_text(encoding="utf-8"))["gps"]
+            dop = float(g.get("dop") or OPENSFM_DOP)
+            out[frame_key(name)] = (float(g["longitude"]), float(g["latitude"]), dop if dop > 0 else OPENSFM_DOP)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            continue
+    return out
+
+
+def _gps_positions(shots: dict, ref, crs) -> dict:
+    """``{frame key: (lon, lat, σ)}`` of the shots' ``gps_position`` read as topocentric (σ their ``gps_dop``)."""
+    from ..geometry.local_frames import LocalFrame
+    from .block import frame_key
+    keys, xyz, dop = [], [], []
+    for n, s in shots.items():
+        v = s.get("gps_position") if isinstance(s, dict) else None
+        if isinstance(v, list) and len(v) == 3 and all(isinstance(a, (int, float)) for a in v) and np.isfinite(v).all():
+            d = s.get("gps_dop")
+            keys.append(frame_key(n))
+            xyz.append(v)
+            dop.append(float(d) if isinstance(d, (int, float)) and d > 0 else OPENSFM_DOP)
+    if not keys:
+        return {}
+    llh = LocalFrame("topocentric", ref, crs).to_lonlath(np.array(xyz, float))
+    return {k: (g[0], g[1], d) for k, g, d in zip(keys, llh, dop)}
+
+
+def _layout(path: Path, odm: bool):
+    """``(reading, sentence)`` from the file layout, or None; ``odm``: ODM's reference or coords.txt was found."""
+    p = Path(path)
+    if p.name.lower() == "reconstruction.topocentric.json":
+        return "topocentric", "read as topocentric: the file is ODM's copy of OpenSfM's topocentric reconstruction"
+    if (p.parent / "reconstruction.topocentric.json").is_file():
+        return "grid", ("read as grid: reconstruction.topocentric.json beside it marks ODM's reconstruction.json, "
+                        "which export_geocoords wrote along the UTM grid")
+    if not odm and (p.parent / "exif").is_dir():
+        return "topocentric", ("read as topocentric: OpenSfM's folder (exif/ beside it) without "
+                               "reconstruction.topocentric.json, ODM's reference or coords.txt — ODM moves OpenSfM's "
+                               "topocentric file there when it writes its own along the grid")
+    return None
+
+
+def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs, gps, where: str, grid=None,
+                   odm_origin: bool = True) -> tuple:
+    """``(reading, sentence)`` of an OpenSfM file's local frame (module docstring): as told, else from the evidence,
+    else ODM's layout; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ.
+    ``odm_origin``: whether ODM's grid origin is known (:func:`odm_grid`); an ODM layout without it (a project of
+    the ODM versions that kept OpenSfM's reference, copied without ``odm_georeferencing/coords.txt``) is refused."""
+    if frame != "auto":
+        return frame, f"OpenSfM local frame read as {frame} ({_WHAT[frame]}), as told (sfm_frame {frame})"
+    steps = []
+    if gps:
+        steps.append(({n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()}, "camera centres vs the images' own "
+                                                                              "EXIF GPS"))
+    exif = _exif_gps(Path(path).parent, list(shots))
+    if exif:
+        steps.append((exif, "camera centres vs the GPS of the exif/<image>.exif beside it"))
+    gp = _gps_positions(shots, ref, crs)
+    if gp:
+        steps.append((gp, "camera centres vs the shots' gps_position (topocentric, as OpenSfM writes it)"))
+    reasons = []
+    for evidence, source in steps:
+        kind, why = decide(centres, evidence, ref, crs, source, grid)
+        if kind is not None:
+            return kind, f"OpenSfM local frame {why}"
+        reasons.append(why)
+    layout = _layout(path, odm_origin)
+    if layout is not None and layout[0] == "grid" and not odm_origin:
+        raise InputError(f"{where}: reconstruction.topocentric.json beside it marks ODM's file along the UTM grid, but "
+                         f"its offset is not known (reference_lla is not ODM's offset and no odm_georeferencing/"
+                         f"coords.txt is beside the opensfm folder); copy coords.txt with the project, give the "
+                         f"images with RTK GPS, or read reconstruction.topocentric.json instead", option="sfm_frame")
+    if layout is not None:
+        return layout[0], f"OpenSfM local frame {layout[1]}" + (f" ({'; '.join(reasons)})" if reasons else "")
+    sep = separation(ref, crs, np.array(list(centres.values()), float), grid)
+    if immaterial(sep):
+        return "topocentric", (f"OpenSfM local frame read as topocentric: the topocentric and grid readings place "
+                               f"every camera within {sep[0]:.3f} m and {sep[1]:.5f}° of each other here")
+    if not steps:
+        reasons.append("no exif/<image>.exif is beside it, its shots carry no gps_position and the images' own GPS "
+                       "is not at hand")
+    raise refusal(where, "; ".join(reasons), sep)

@@ -15,8 +15,9 @@ ORTHO = Table(
            file_filter=YAML),
     Option("eo", "file", None, "Exterior orientation (text, OpenSfM, COLMAP or orthority)",
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
-           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, COLMAP text, orthority .geojson/.csv.",
-           file_filter="Orientation (*.txt *.json *.geojson *.csv);;All files (*)"),
+           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, a COLMAP model's images.txt or images.bin, "
+           "orthority .geojson/.csv.",
+           file_filter="Orientation (*.txt *.json *.geojson *.csv *.bin);;All files (*)"),
     SFM_FRAME,
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata: vendor, or rpc-bias's copy)",
            "The images carry an RPC in their GDAL RPC metadata (vendor, or rpc-bias's corrected copy)."),

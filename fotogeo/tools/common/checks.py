@@ -13,15 +13,20 @@ from ...errors import InputError, VectorError
 from ...io.raster import check_grid, check_space, grid_bytes
 
 
-def check_camera_size(camera, width: int, height: int, image) -> None:
+def check_camera_size(camera, width: int, height: int, image, source: str = "") -> None:
     """Refuse a camera whose image size differs from the image's (``width`` x ``height``).
 
     The focal length in pixels is ``f · image_size / sensor_size``: a camera file written for
     another size (a decimated copy, another scan) scales every ray and no model can absorb it.
+    ``source``: the orientation file the camera came from (an SfM project), named in the refusal.
     """
     if camera is None:
         return
     cw, ch = (int(v) for v in camera.image_size)
+    if (cw, ch) != (int(width), int(height)) and source:
+        raise InputError(f"the camera of {source} is for images of {cw}x{ch} pixels but {str(image)!r} is "
+                         f"{width}x{height} (resized after the reconstruction?); give the images it was made from, or "
+                         f"--camera with this size's focal length and principal point")
     if (cw, ch) != (int(width), int(height)):
         raise InputError(f"the camera is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}; "
                          f"give the camera file of this image (or scale its image size and principal point)")

@@ -5,7 +5,7 @@
 * frame cameras — ``--camera`` (orthority YAML, ``pinhole`` or ``brown``: triangulate's ``camera.yaml``) and
   ``--eo``: fotogeo's ``name X Y Z omega phi kappa`` lines (triangulate's ``exterior_orientation.txt``) or any
   file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
-  COLMAP text, orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
+  a COLMAP model (text or binary), orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
   triangulate's :class:`~fotogeo.orientation.adjusted_frame.AdjustedFrame` (collinearity with Brown's distortion);
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
   corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
@@ -161,26 +161,28 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             raise InputError(f"--eo {str(eo)!r} ('name X Y Z omega phi kappa' lines) needs the camera (--camera)")
         table = read_exterior_orientation(eo)
         cam, dist = read_camera_with_distortion(camera)
-        poses = {n: (exterior_for(table, n), cam, dist, None) for n in names}
+        poses = {n: (exterior_for(table, n), cam, dist, None, "") for n in names}
     else:
-        given = read_camera_with_distortion(camera) if camera is not None else None
+        from ...io.orientation_file import cameras_from_camera_file
+        own = cameras_from_camera_file(eo)  # orthority's: the block's cameras ARE --camera's
+        given = read_camera_with_distortion(camera) if camera is not None and not own else None
         poses = {}
         for n in names:
             shot = block.shots.get(n)
             if shot is None or shot.exterior is None:
-                poses[n] = (None, None, None, None)
+                poses[n] = (None, None, None, None, "")
                 continue
             cam, dist = given or (block.camera_of(n).camera, block.camera_of(n).distortion)
-            poses[n] = (shot.exterior, cam, dist, shot.height_reference)
+            poses[n] = (shot.exterior, cam, dist, shot.height_reference, "" if given else f"--eo {str(eo)!r}")
     missing = [n for n in names if poses[n][0] is None]
     if missing:
         raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
                          f"file with one pose per image, named by the image file's name (with or without its extension)")
     out = []
     for path, n in zip(images, names):
-        ext, cam, dist, ref = poses[n]
+        ext, cam, dist, ref, source = poses[n]
         info = open_raster(path, "image")
-        check_camera_size(cam, info.width, info.height, path)
+        check_camera_size(cam, info.width, info.height, path, source)
         out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref))
     return out
 

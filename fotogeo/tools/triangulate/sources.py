@@ -331,10 +331,8 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
 def _from_orientation_file(eo, crs, reference, dem, camera, frames=(), sfm_frame="auto"):
     """The ApproximateBlock of an SfM/orthority ``--eo`` file (:mod:`fotogeo.io.orientation_file`; the frames' own
     GPS decides an OpenSfM file's local frame and checks every file), or None."""
-    from pathlib import Path
-
-    from ...io.orientation_file import read_orientation_file
-    if Path(eo).suffix.lower() == ".txt" and Path(eo).name.lower() not in ("images.txt", "cameras.txt"):
+    from ...io.orientation_file import is_block_file, read_orientation_file
+    if not is_block_file(eo):
         return None  # fotogeo's own EO lines: read by inputs.orientations
     given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
     return read_orientation_file(eo, crs=given or _first_projected(reference, dem), camera=camera, sfm_frame=sfm_frame,
@@ -354,7 +352,9 @@ def _start_from_file(frames, names, camera, approx, crs, gcps, reference, dem, s
         raise InputError(f"--eo {source!r} has no pose for frame(s) {', '.join(lacking[:10])}; give a file that "
                          f"holds every frame (by file name)")
     sub = {n: approx.shots[n] for n in names}
-    cam, dist = read_camera(camera) if camera is not None else _single_camera(type(approx)(approx.cameras, sub))
+    from ...io.orientation_file import cameras_from_camera_file
+    own = camera is None or cameras_from_camera_file(source)  # orthority's cameras come from --camera already
+    cam, dist = _single_camera(type(approx)(approx.cameras, sub)) if own else read_camera(camera)
     frame_names(frames, cam)
     start = BlockStart(cam, dist, list(names), {n: sub[n].exterior for n in names}, map_crs,
                        rule or f"the CRS of --eo {source!r}", f"--eo {source}", notes=list(approx.notes),

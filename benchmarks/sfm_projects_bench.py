@@ -1,0 +1,257 @@
+"""Third-party SfM projects read right or refused by name (issue 32): held-out cases with known truth.
+
+Every case writes the files a user gets from COLMAP, OpenSfM, ODM or orthority for the rendered block of
+``tests/sfm_projects.py`` (60° N on the UTM 33/34 edge), then
+
+* runs ``fotogeo ortho IMG1 IMG2 --eo FILE --dem DEM --resolution 1 -o OUT -q [...]`` as a user runs it (exit code,
+  the run's first note or its one-line error);
+* reads the file as ``ortho`` does (:func:`fotogeo.tools.ortho.inputs.orientation_block`) and measures, for every
+  frame, the orthophoto shift: ground points in view are projected by the tool's own camera equations and the true
+  pose, then back through fotogeo's reading onto the same height; the shift is the horizontal distance (median and
+  p90 over all points of all frames), with the worst centre error (m) and rotation angle (°).
+
+A case passes when it is read within 0.05 m median / 0.10 m p90 or refused naming the option or input to fix.
+
+    PYTHONPATH=. /work/main/.venv/bin/python benchmarks/sfm_projects_bench.py [--only ID,ID] [--table cases.md]
+        [--work DIR]
+
+Results: ``benchmarks/results/sfm_projects_bench.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import sfm_projects as sp  # noqa: E402
+
+MEDIAN_M, P90_M = 0.05, 0.10
+
+
+def _colmap_cams(sc):
+    import rendered_oblique as ro
+    c = sc["camera"]
+    (ppx, ppy), f = c.principal_point, c.fx
+    k1, k2, p1, p2, k3 = ro.DEWARP
+    return {"SIMPLE_PINHOLE": [f, ppx, ppy], "PINHOLE": [f, f * 1.002, ppx, ppy], "SIMPLE_RADIAL": [f, ppx, ppy, k1],
+            "RADIAL": [f, ppx, ppy, k1, k2], "OPENCV": [f, f, ppx, ppy, k1, k2, p1, p2],
+            "FULL_OPENCV": [f, f, ppx, ppy, k1, k2, p1, p2, 0.003, 0.0, 0.0, 0.0],
+            "FULL_OPENCV_k4": [f, f, ppx, ppy, k1, k2, p1, p2, 0.0, 0.01, 0.0, 0.0],
+            "OPENCV_FISHEYE": [f, f, ppx, ppy, 0.01, 0.0, 0.0, 0.0]}
+
+
+def cases(sc, work: Path) -> list:
+    """``[(id, description, build)]``; ``build()`` -> ``dict(eo, images, camera (truth, tool's), args, crs, yaml)``."""
+    out = []
+    cams = _colmap_cams(sc)
+
+    def colmap_case(model, binary=False, **kw):
+        name = model.replace("_k4", "")
+
+        def build():
+            f = sp.colmap_model(work / f"colmap_{model}_{int(binary)}", sc, {1: (name, 640, 480, cams[model])},
+                                binary=binary, **kw)
+            return dict(eo=f / ("images.bin" if binary else "images.txt"), images=sc["rtk"],
+                        camera={"tool": "colmap", "model": name, "params": cams[model]}, args=["--crs", sp.TRUTH_CRS])
+        return build
+    for model in ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV", "FULL_OPENCV_k4",
+                  "OPENCV_FISHEYE"):
+        out.append((f"colmap-txt-{model}", f"COLMAP text model, {model}", colmap_case(model)))
+    for model in ("SIMPLE_RADIAL", "OPENCV", "FULL_OPENCV"):
+        out.append((f"colmap-bin-{model}", f"COLMAP binary model, {model}", colmap_case(model, True)))
+
+    def colmap_frame(transform, images, crs):
+        def build():
+            f = sp.colmap_model(work / f"colmap_{transform.__name__}_{images}", sc, {1: ("OPENCV", 640, 480,
+                                                                                       cams["OPENCV"])},
+                                transform=transform)
+            return dict(eo=f / "images.txt", images=sc[images], camera={"tool": "colmap", "model": "OPENCV",
+                                                                          "params": cams["OPENCV"]},
+                        args=["--crs", crs] if crs else [])
+        return build
+    out += [("colmap-arbitrary-rtk", "COLMAP model not aligned (arbitrary frame), RTK images, --crs UTM 33",
+             colmap_frame(sp.arbitrary_transform, "rtk", sp.TRUTH_CRS)),
+            ("colmap-arbitrary-bare", "COLMAP model not aligned, images without GPS, --crs UTM 33",
+             colmap_frame(sp.arbitrary_transform, "bare", sp.TRUTH_CRS)),
+            ("colmap-ecef-rtk", "COLMAP model_aligner into ECEF, RTK images, --crs UTM 33",
+             colmap_frame(sp.ecef_transform, "rtk", sp.TRUTH_CRS)),
+            ("colmap-ecef-bare", "COLMAP model_aligner into ECEF, images without GPS, no --crs (the DEM's)",
+             colmap_frame(sp.ecef_transform, "bare", None)),
+            ("colmap-utm-consumer", "COLMAP model_aligner into UTM 33, consumer GPS images",
+             colmap_frame(lambda C, R: (C, R), "consumer", sp.TRUTH_CRS))]
+
+    def colmap_misc(kind):
+        def build():
+            names = {n: f"flight1/sub/{n}.JPG" for n in sc["names"]} if kind == "subfolders" else None
+            camset = {1: ("OPENCV", 640, 480, cams["OPENCV"])}
+            if kind == "two-cameras":
+                camset[2] = ("OPENCV", 640, 480, cams["OPENCV"])
+            shots = sc["names"][2:] if kind == "missing" else None
+            f = sp.colmap_model(work / f"colmap_{kind}", sc, camset, names=names, shots=shots)
+            imgs = sc["rtk"]
+            if kind == "resized":
+                imgs = _resized(sc, work / "resized")
+            return dict(eo=f / "images.txt", images=imgs, camera={"tool": "colmap", "model": "OPENCV",
+                                                                   "params": cams["OPENCV"]},
+                        args=["--crs", sp.TRUTH_CRS], scale=0.5 if kind == "resized" else 1.0)
+        return build
+    out += [(f"colmap-{k}", d, colmap_misc(k)) for k, d in (
+        ("subfolders", "COLMAP images named with sub-folders and another extension (flight1/sub/X.JPG)"),
+        ("two-cameras", "COLMAP model with two camera ids"),
+        ("missing", "COLMAP model without the first two images (given on the command line)"),
+        ("resized", "COLMAP model of 640x480 images given the images resized to 320x240"))]
+
+    def osfm(key, images="rtk", **kw):
+        def build():
+            f = sp.opensfm_project(work / key, sc, sc["rtk"], **kw)
+            return dict(eo=f, images=sc[images], camera={"tool": "opensfm", **sp.opensfm_camera(sc["camera"])}, args=[])
+        return build
+    odm = dict(odm=True)
+    out += [("odm-full-rtk", "ODM project as ODM leaves it (geocoords poses, exif/, coords.txt, topocentric copy), RTK",
+             osfm("odm_full", **odm)),
+            ("odm-full-consumer", "ODM project as ODM leaves it, images with consumer GPS", osfm("odm_fc", "consumer",
+                                                                                               **odm)),
+            ("odm-full-bare", "ODM project as ODM leaves it, images without GPS", osfm("odm_fb", "bare", **odm)),
+            ("odm-json-rtk", "ODM opensfm/ copied without exif/, coords.txt, topocentric copy; RTK images",
+             osfm("odm_j", exif=False, coords=False, topocentric_copy=False, **odm)),
+            ("odm-json-consumer", "ODM opensfm/ copied alone; consumer GPS images",
+             osfm("odm_jc", "consumer", exif=False, coords=False, topocentric_copy=False, **odm)),
+            ("odm-json-bare", "ODM opensfm/ copied alone; images without GPS",
+             osfm("odm_jb", "bare", exif=False, coords=False, topocentric_copy=False, **odm)),
+            ("odm-exif-bare", "ODM opensfm/ with exif/ (no coords.txt, no topocentric copy); images without GPS",
+             osfm("odm_eb", "bare", coords=False, topocentric_copy=False, **odm)),
+            ("odm-rtkdop-bare", "ODM opensfm/ alone, shots' gps_dop 0.02 (RTK); images without GPS",
+             osfm("odm_rb", "bare", exif=False, coords=False, topocentric_copy=False, dop=0.02, **odm)),
+            ("odm2021-coords", "ODM of Feb-Jul 2021 (OpenSfM's own reference_lla, UTM offset in coords.txt), "
+                               "consumer GPS images", osfm("odm21c", "consumer", imposed=False, **odm)),
+            ("odm2021-no-coords", "ODM of Feb-Jul 2021 copied without odm_georeferencing/, consumer GPS images",
+             osfm("odm21n", "consumer", imposed=False, coords=False, **odm)),
+            ("opensfm-rtk", "OpenSfM project (topocentric, exif/), RTK images", osfm("osfm", odm=False)),
+            ("opensfm-consumer", "OpenSfM project with exif/ (OpenSfM's default dop), consumer GPS images",
+             osfm("osfm_c", "consumer", odm=False)),
+            ("opensfm-json-consumer", "OpenSfM reconstruction.json + reference_lla.json alone; consumer GPS images",
+             osfm("osfm_jc", "consumer", odm=False, exif=False)),
+            ("opensfm-no-reference", "OpenSfM reconstruction.json without reference_lla",
+             osfm("osfm_nr", odm=False, reference=False, exif=False)),
+            ("opensfm-two-recs", "OpenSfM with two reconstructions, the images given in the smaller (second) one",
+             osfm("osfm_2", odm=False, reconstructions=[sc["names"][2:], sc["names"][:2]])),
+            ("opensfm-fisheye", "OpenSfM fisheye camera", osfm("osfm_f", odm=False, camera={
+                "projection_type": "fisheye", "width": 640, "height": 480, "focal": 0.8, "k1": 0.0, "k2": 0.0}))]
+
+    def tortho(key, cam):
+        def build():
+            ext, yml = sp.orthority_files(work / key, sc, cam)
+            return dict(eo=ext, images=sc["rtk"], camera={"tool": "orthority", **cam}, args=["--camera", str(yml)],
+                        yaml=yml)
+        return build
+    c = sc["camera"]
+    base = {"width": 640, "height": 480, "focal_len": c.fx / 640, "cx": (c.principal_point[0] - 320) / 640,
+            "cy": (c.principal_point[1] - 240) / 640}
+    out += [("orthority-brown", "orthority GeoJSON + brown camera", tortho("ot_b", {**base, "type": "brown",
+                                                                                     "k1": -0.06, "k2": 0.02,
+                                                                                     "p1": 4e-4, "p2": -3e-4,
+                                                                                     "k3": 0.001})),
+            ("orthority-opencv", "orthority GeoJSON + opencv camera (k1-k3, p1, p2)",
+             tortho("ot_o", {**base, "type": "opencv", "k1": -0.06, "k2": 0.02, "p1": 4e-4, "p2": -3e-4})),
+            ("orthority-opencv-k4", "orthority opencv camera with k4", tortho("ot_o4", {**base, "type": "opencv",
+                                                                                      "k1": -0.06, "k4": 0.01})),
+            ("orthority-fisheye", "orthority fisheye camera", tortho("ot_f", {**base, "type": "fisheye",
+                                                                             "k1": 0.01}))]
+    return out
+
+
+def _resized(sc, folder: Path) -> list:
+    import cv2
+    import rasterio
+    import rendered_oblique as ro
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for p in sc["rtk"]:
+        with rasterio.open(p) as ds:
+            img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+        small = cv2.resize(img, (img.shape[1] // 2, img.shape[0] // 2), interpolation=cv2.INTER_AREA)
+        ro._write(folder / p.name, small, tags, xmp)
+        out.append(folder / p.name)
+    return out
+
+
+def run_case(cid, what, build, sc, work: Path) -> dict:
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    from fotogeo.crs import parse_crs
+    from fotogeo.errors import FotogeoError
+    from fotogeo.tools.ortho.inputs import orientation_block
+    b = build()
+    imgs = [str(p) for p in b["images"][:2]]
+    cmd = ["ortho", *imgs, "--eo", str(b["eo"]), "--dem", str(sc["dem"]), "--resolution", "1", "-o",
+           str(work / "out" / cid), "-q", "--overwrite", *b["args"]]
+    run = CliRunner().invoke(main, cmd)
+    lines = [ln for ln in (run.stderr or run.output).splitlines() if ln.strip()]
+    msg = next((ln for ln in lines if ln.startswith("Error") or "error" in ln.lower()[:12]), lines[0] if lines else "")
+    row = {"id": cid, "case": what, "command": "fotogeo " + " ".join(cmd).replace(str(work), "$W"),
+           "exit": run.exit_code, "message": msg.replace(str(work), "$W")}
+    if run.exit_code == 0:
+        crs = sp.TRUTH_CRS
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), "auto", b["images"][:2])
+            row.update(sp.measure(blk, sc, b["camera"], b.get("scale", 1.0)))
+        except FotogeoError as exc:
+            row["read_error"] = str(exc)
+    ok = row["exit"] != 0 and ("--" in row["message"] or "give" in row["message"] or "$W" in row["message"])
+    if row["exit"] == 0:
+        ok = row.get("median_m", 1e9) <= MEDIAN_M and row.get("p90_m", 1e9) <= P90_M
+    row["verdict"] = ("read right" if row["exit"] == 0 and ok else "WRONG IN SILENCE" if row["exit"] == 0
+                      else "refused by name" if ok else "refused, unclear")
+    return row
+
+
+def table(rows) -> str:
+    out = ["| id | case | exit | median / p90 shift (m) | centre (m) / angle (°) | verdict | message |",
+           "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        sh = f"{r['median_m']:.4f} / {r['p90_m']:.4f}" if "median_m" in r else "–"
+        ce = f"{r['centre_m']:.4f} / {r['angle_deg']:.4f}" if "centre_m" in r else "–"
+        msg = r["message"].replace("|", "\\|")[:400]
+        out.append(f"| {r['id']} | {r['case']} | {r['exit']} | {sh} | {ce} | {r['verdict']} | {msg} |")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default="", help="comma-separated case ids (default: all)")
+    ap.add_argument("--table", default=None, help="also write the case table (Markdown) here")
+    ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one)")
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "sfm_projects_bench.json"))
+    a = ap.parse_args(argv)
+    warnings.filterwarnings("ignore", message="Dataset has no geotransform")
+    work = Path(a.work or tempfile.mkdtemp(prefix="sfm_projects_"))
+    sc = sp.scene(work / "scene")
+    wanted = set(filter(None, a.only.split(",")))
+    rows = []
+    for cid, what, build in cases(sc, work):
+        if wanted and cid not in wanted:
+            continue
+        r = run_case(cid, what, build, sc, work)
+        rows.append(r)
+        print(f"{cid:24s} exit {r['exit']}  {r.get('median_m', float('nan')):.4f}/{r.get('p90_m', float('nan')):.4f} m"
+              f"  {r['verdict']}: {r['message'][:160]}", flush=True)
+    if not wanted:
+        Path(a.out).write_text(json.dumps({"place": [sp.LAT, sp.LON], "rows": rows}, indent=1) + "\n")
+    if a.table:
+        Path(a.table).parent.mkdir(parents=True, exist_ok=True)
+        Path(a.table).write_text(table(rows))
+    return 0 if all(r["verdict"] in ("read right", "refused by name") for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

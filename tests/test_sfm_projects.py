@@ -1,0 +1,196 @@
+"""Third-party SfM projects written as each tool writes them, held out from the ones the readers were built on
+(issue 32): read right (orthophoto shift ≤ 0.05 m median, ≤ 0.10 m p90) or refused by name.
+
+The block (``tests/sfm_projects.py``) is rendered at 60° N straddling the 18° E edge of UTM zones 33/34, where ODM's
+grid offsets and OpenSfM's topocentric frame part by the meridian convergence (2.6°) and ODM's zone (of its first
+photo, 34) is not the zone of the reference (33). The full case table: ``benchmarks/sfm_projects_bench.py``.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import sfm_projects as sp
+from fotogeo.crs import parse_crs
+from fotogeo.errors import FotogeoWarning, InputError
+
+MEDIAN_M, P90_M = 0.05, 0.10
+
+
+@pytest.fixture(scope="module")
+def sc(tmp_path_factory):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return sp.scene(tmp_path_factory.mktemp("sfm_projects"), per_strip=2)
+
+
+def _read(eo, images, camera=None, crs=sp.TRUTH_CRS):
+    from fotogeo.tools.ortho.inputs import orientation_block
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FotogeoWarning)
+        return orientation_block(eo, parse_crs(crs) if crs else None, camera, "auto", images)
+
+
+def _right(block, sc, cam):
+    got = sp.measure(block, sc, cam)
+    assert got["median_m"] <= MEDIAN_M and got["p90_m"] <= P90_M, got
+    return got
+
+
+def _osfm_cam(sc):
+    return {"tool": "opensfm", **sp.opensfm_camera(sc["camera"])}
+
+
+def test_the_place_is_where_odm_and_the_reference_zone_part(sc):
+    """Not a test of the reader: ODM's zone (its first photo's) is 34, the reference's 33."""
+    from fotogeo.crs import utm_crs_for
+    epsg, off = sp.odm_zone(sc, sc["rtk"])
+    lon, lat = sp._t(epsg, 4326).transform(*off)
+    assert epsg == 32634 and utm_crs_for(lon, lat).to_epsg() == 32633
+
+
+@pytest.mark.parametrize("images", ["rtk", "consumer", "bare"])
+def test_odm_project_as_odm_leaves_it(sc, tmp_path, images):
+    """export_geocoords' poses, topocentric gps_position, exif/, coords.txt, reconstruction.topocentric.json: read
+    along ODM's zone-34 grid whatever GPS the images carry (main read it as topocentric: 2.3 m median shift)."""
+    eo = sp.opensfm_project(tmp_path, sc, sc["rtk"], odm=True)
+    block = _read(eo, sc[images][:2])
+    assert "read as grid" in block.frame_reading and "UTM zone 34N" in block.frame_reading
+    _right(block, sc, _osfm_cam(sc))
+    # ODM's own topocentric copy is read as topocentric
+    _right(_read(eo.parent / "reconstruction.topocentric.json", sc[images][:2]), sc, _osfm_cam(sc))
+
+
+def test_odm_of_2021_reads_its_offset_from_coords_or_is_refused(sc, tmp_path):
+    """ODM Feb–Jul 2021 kept OpenSfM's reference (altitude and all) while export_geocoords subtracted coords.txt's
+    offset: read with that offset and the altitudes as written; without coords.txt the offset is unknown: refused."""
+    eo = sp.opensfm_project(tmp_path / "a", sc, sc["rtk"], odm=True, imposed=False)
+    block = _read(eo, sc["consumer"][:2])
+    assert "coords.txt" in block.frame_reading
+    got = _right(block, sc, _osfm_cam(sc))
+    assert got["centre_m"] < 0.02
+    eo = sp.opensfm_project(tmp_path / "b", sc, sc["rtk"], odm=True, imposed=False, coords=False)
+    with pytest.raises(InputError, match="offset is not known.*coords.txt") as err:
+        _read(eo, sc["consumer"][:2])
+    assert err.value.option == "sfm_frame"
+
+
+def test_odm_reconstruction_copied_alone_is_decided_by_rtk_gps(sc, tmp_path):
+    """Only opensfm/reconstruction.json + reference_lla.json: the images' RTK GPS decides (main refused it), the shots'
+    gps_position with an RTK gps_dop too; a consumer GPS cannot tell: refused naming sfm_frame."""
+    eo = sp.opensfm_project(tmp_path / "a", sc, sc["rtk"], odm=True, exif=False, coords=False, topocentric_copy=False)
+    _right(_read(eo, sc["rtk"][:2]), sc, _osfm_cam(sc))
+    with pytest.raises(InputError, match="sfm_frame") as err:
+        _read(eo, sc["consumer"][:2])
+    assert err.value.option == "sfm_frame"
+    eo = sp.opensfm_project(tmp_path / "b", sc, sc["rtk"], odm=True, exif=False, coords=False, topocentric_copy=False,
+                            dop=0.02)
+    block = _read(eo, sc["bare"][:2])
+    assert "gps_position" in block.frame_reading
+    _right(block, sc, _osfm_cam(sc))
+
+
+def test_opensfm_folder_with_consumer_gps_is_read_topocentric(sc, tmp_path):
+    """OpenSfM's own folder (exif/, OpenSfM's default dop, its mean-GPS reference): no ODM mark, so topocentric."""
+    eo = sp.opensfm_project(tmp_path, sc, sc["rtk"], odm=False)
+    block = _read(eo, sc["consumer"][:2])
+    assert "OpenSfM's folder" in block.frame_reading
+    _right(block, sc, _osfm_cam(sc))
+
+
+def test_odm_exif_without_accuracy_is_refused_not_read_topocentric(sc, tmp_path):
+    """exif/ beside it with OpenSfM's default dop and images without GPS: nothing decides (main read it as
+    topocentric from gps_position: 2.3 m off in silence)."""
+    eo = sp.opensfm_project(tmp_path, sc, sc["rtk"], odm=True, coords=False, topocentric_copy=False)
+    with pytest.raises(InputError, match="sfm_frame topocentric .OpenSfM. or grid .ODM.") as err:
+        _read(eo, sc["bare"][:2])
+    assert err.value.option == "sfm_frame" and "\n" not in str(err.value)
+
+
+def test_opensfm_images_of_another_reconstruction(sc, tmp_path):
+    """Two reconstructions: the images given pick the one holding them; images split over both are named."""
+    names = sc["names"]
+    eo = sp.opensfm_project(tmp_path, sc, sc["rtk"], odm=False, reconstructions=[names[2:], names[:2]])
+    block = _read(eo, sc["rtk"][:2])
+    assert set(block.shots) == set(names[:2]) and any("reconstruction 1 of 2" in n for n in block.notes)
+    _right(block, sc, _osfm_cam(sc))
+    with pytest.raises(InputError, match="oriented in another of its 2 reconstructions"):
+        _read(eo, sc["rtk"][1:3])
+
+
+def _colmap(sc):
+    c = sc["camera"]
+    return [c.fx, c.fx, *c.principal_point, -0.06, 0.02, 4e-4, -3e-4]
+
+
+@pytest.mark.parametrize("kind", ["binary", "ecef", "ecef-binary"])
+def test_colmap_binary_and_ecef_models(sc, tmp_path, kind):
+    """cameras.bin/images.bin (main refused them) and a model aligned into ECEF (main took ECEF as UTM)."""
+    tf = sp.ecef_transform if kind.startswith("ecef") else None
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, binary="binary" in kind,
+                             transform=tf)
+    block = _read(folder / ("images.bin" if "binary" in kind else "images.txt"), sc["bare"][:2])
+    _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
+    if tf is not None:
+        assert all(s.height_reference == "ellipsoid" for s in block.shots.values())
+
+
+def test_images_resized_after_the_reconstruction_are_refused_naming_the_model(sc, tmp_path):
+    import cv2
+    import rasterio
+    import rendered_oblique as ro
+    folder = sp.colmap_model(tmp_path / "m", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    small = []
+    for p in sc["rtk"][:2]:
+        with rasterio.open(p) as ds:
+            img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+        ro._write(tmp_path / p.name, cv2.resize(img, (320, 240), interpolation=cv2.INTER_AREA), tags, xmp)
+        small.append(tmp_path / p.name)
+    from fotogeo.tools.ortho.inputs import image_models
+    with warnings.catch_warnings(), pytest.raises(InputError, match="camera of --eo .*images.txt' is for images of "
+                                                                    "640x480 .* 320x240 .resized after"):
+        warnings.simplefilter("ignore")
+        image_models(small, parse_crs(sp.TRUTH_CRS), eo=folder / "images.txt")
+
+
+def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
+    """Not geo-registered, images without GPS: main read COLMAP's frame as UTM coordinates in silence."""
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    with pytest.raises(InputError, match="not in WGS 84 / UTM zone 33N .* nor in ECEF.*model_aligner"):
+        _read(folder, sc["bare"][:2])
+
+
+def test_orthority_cameras_without_sensor_size_in_ortho(sc, tmp_path):
+    """orthority's brown camera (focal_len normalised, no sensor_size) given as --camera with its GeoJSON: ortho read
+    the camera again as fotogeo's YAML and refused it on main."""
+    c = sc["camera"]
+    cam = {"width": 640, "height": 480, "type": "brown", "focal_len": c.fx / 640, "cx": (c.principal_point[0] - 320) /
+           640, "cy": (c.principal_point[1] - 240) / 640, "k1": -0.06, "k2": 0.02, "p1": 4e-4, "p2": -3e-4}
+    ext, yml = sp.orthority_files(tmp_path, sc, cam)
+    from fotogeo.tools.ortho.inputs import image_models
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ims = image_models(sc["rtk"][:2], parse_crs(sp.TRUTH_CRS), camera=yml, eo=ext)
+    assert [im.name for im in ims] == [p.stem for p in sc["rtk"][:2]]
+    _right(_read(ext, sc["rtk"][:2], yml, None), sc, {"tool": "orthority", **cam})
+    from fotogeo.tools.triangulate.sources import block_start  # triangulate --eo EXT --camera YAML alike
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = block_start(sc["rtk"][:2], yml, ext, None, None, None, None, None, None)
+    assert start.camera.fx == pytest.approx(c.fx) and start.distortion[0] == pytest.approx(-0.06)
+
+
+def test_odm_grid_zone_from_coords_and_whole_metres(tmp_path):
+    from fotogeo.io.sfm_frame import odm_grid
+    off = np.floor(sp._t(4326, 32634).transform(17.9999, 60.0))  # ODM's offset in zone 34, west of 18° E
+    lon, lat = sp._t(32634, 4326).transform(*off)
+    (tmp_path / "opensfm").mkdir()
+    path = tmp_path / "opensfm" / "reconstruction.json"
+    assert odm_grid(path, (lat, lon, 0.0))[0][0].to_epsg() == 32634
+    assert odm_grid(path, (lat, lon, 12.5))[0][0].to_epsg() == 32633  # not ODM's reference: the reference's zone
+    (tmp_path / "odm_georeferencing").mkdir()
+    (tmp_path / "odm_georeferencing" / "coords.txt").write_text(f"WGS84 UTM 34N\n{off[0]:.0f} {off[1]:.0f}\n")
+    (crs, origin), why = odm_grid(path, (lat, lon, 12.5))
+    assert crs.to_epsg() == 32634 and "coords.txt" in why and tuple(origin) == tuple(off)
