@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError
-from ...io.raster import AtomicOutputs, check_output
+from ...errors import FotogeoWarning, InputError, OutputError
+from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_output
 from ...options.dsm import DSM
 from ...progress import as_progress
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
@@ -45,11 +45,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         raise InputError("a surface model needs at least two overlapping images; give two or more")
     camera, eo = orientation_files(orientation, camera, eo)
     inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
-    for p, role in ((output, "DSM"), (point_cloud, "point cloud"), (report, "report")):
-        if p is not None:
-            check_output(p, inputs, overwrite, role)
-    if point_cloud is not None and Path(point_cloud).suffix.lower() not in (".las", ".laz"):
-        raise InputError(f"--point-cloud {str(point_cloud)!r}: give a .las or .laz file name", option="point_cloud")
+    _check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
+                    (report, "report", None)), inputs, overwrite)
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -63,6 +60,20 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
                    overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+
+
+def _check_outputs(outputs, inputs, overwrite) -> None:
+    """Refuse, before any work, outputs ``(path, role, suffixes)`` that :func:`check_output` refuses, or two of
+    them at one path (the second would be found at the end, "appeared while fotogeo was working")."""
+    seen = {}
+    for p, role, suffixes in outputs:
+        if p is None:
+            continue
+        check_output(p, inputs, overwrite, role, suffixes)
+        key = Path(p).resolve()
+        if key in seen:
+            raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
+        seen[key] = role
 
 
 def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:

