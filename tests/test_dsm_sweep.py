@@ -55,3 +55,10 @@ def test_triangulate_refuses_a_dsm_named_for_another_format(pair, tmp_path):
     with pytest.raises(OutputError, match=r"DSM '.*d\.jpg': fotogeo writes it as GeoTIFF"):
         triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,
                     dsm=tmp_path / "d.jpg")
+
+
+def test_rpc_beside_a_frame_orientation_is_refused(pair, tmp_path):
+    """Before: --rpc with --eo ran the RPC path and ignored --eo without a word."""
+    from fotogeo.tools.dsm import dsm
+    with pytest.raises(InputError, match=r"give either --rpc or the frames' orientation \(--eo\)"):
+        dsm(pair["images"], tmp_path / "d.tif", rpc=True, eo=pair["eo"])

@@ -43,6 +43,10 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     t0 = time.process_time(), time.perf_counter()
     if len(images) < 2:
         raise InputError("a surface model needs at least two overlapping images; give two or more")
+    if rpc and (camera, eo, orientation) != (None, None, None):
+        given = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
+        raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
+                         f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
     inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
     _check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
