@@ -19,7 +19,7 @@ from ..ortho.inputs import map_crs, terrain
 from . import matching, plan
 from . import rpc_pairs as rp
 from .inputs import SourceImage, read_pairs
-from .outputs import Products
+from .outputs import SPECKLE_CELLS, Products
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
 ORBIT = 700_000.0
@@ -165,7 +165,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
         z = setups[(p.i, p.j)]["zmed"]
         polys.append(overlap_polygon(plan.footprint(ims[p.i], z), plan.footprint(ims[p.j], z)))
         p.extra["overlap_polygon"] = polys[-1]
-    grid = plan.grid_for(polys, res, bounds)
+    grid = plan.grid_for(polys, res, bounds, SPECKLE_CELLS)
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")

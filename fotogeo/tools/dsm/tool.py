@@ -19,7 +19,7 @@ from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
 from . import frames, matching, plan
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
-from .outputs import Products
+from .outputs import SPECKLE_CELLS, Products
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -153,7 +153,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     kept = [p for p in choices if p.kept]
     gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
-    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds)
+    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds, SPECKLE_CELLS)
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
