@@ -74,3 +74,12 @@ def test_bounds_off_the_overlap_and_a_grid_too_coarse_are_named(pair, tmp_path):
     with pytest.raises(InputError, match=r"--resolution 1000 makes a DSM of \d x \d cells .*fewer than 64 cells"):
         dsm(pair["images"], tmp_path / "b.tif", resolution=1000, **kw)
     assert not list(tmp_path.iterdir())
+
+
+def test_the_match_density_is_a_share_of_the_matchable_pixels(pair, tmp_path):
+    """Before: pixels matched outside the matchable ones were counted too (the rendered 400² pair: "125 %
+    matched")."""
+    from fotogeo.tools.dsm import dsm
+    rep = dsm(pair["images"], tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS)
+    density = rep["pairs"][0]["match_density"]
+    assert 0.5 < density <= 1.0, density
