@@ -83,3 +83,21 @@ def test_the_match_density_is_a_share_of_the_matchable_pixels(pair, tmp_path):
     rep = dsm(pair["images"], tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS)
     density = rep["pairs"][0]["match_density"]
     assert 0.5 < density <= 1.0, density
+
+
+def test_blank_frames_without_a_dem_are_called_textureless(pair, tmp_path):
+    """Before: "only 0 sparse matches; the heights cannot be bounded from them: give a coarse DEM" — a DEM does
+    not make blank frames match."""
+    import rasterio
+
+    from fotogeo.tools.dsm import dsm
+    blank = []
+    for p in pair["images"]:
+        with rasterio.open(p) as src:
+            prof = src.profile
+        q = tmp_path / Path(p).name
+        with rasterio.open(q, "w", **prof) as dst:
+            dst.write(np.full((1, prof["height"], prof["width"]), 128, np.uint8))
+        blank.append(q)
+    with pytest.raises(InputError, match=r"only 0 sparse matches \(textureless or cloud-covered"):
+        dsm(blank, tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS)

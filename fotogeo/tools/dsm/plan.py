@@ -45,7 +45,9 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tupl
     i, j = nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), ids=(i, j))
-    why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
+    few = (f"only {sp['n']} sparse matches (textureless or cloud-covered where they overlap, or an orientation that "
+           f"does not fit them?)")
+    why = sparse_problem(sp, max_px) or (few if sp["n"] < 20 else "")
     if why:
         raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "
                          f"cannot be bounded from them: give a coarse DEM of the area (--dem)")
