@@ -101,3 +101,21 @@ def test_blank_frames_without_a_dem_are_called_textureless(pair, tmp_path):
         blank.append(q)
     with pytest.raises(InputError, match=r"only 0 sparse matches \(textureless or cloud-covered"):
         dsm(blank, tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS)
+
+
+def test_a_dsm_with_holes_for_occlusion_points_to_dsm_fill(pair, tmp_path):
+    """Before: "fill them first (gdal_fillnodata.py)" — fotogeo's own DSM has holes by default, and ``dsm --fill``
+    is the fill of the chain ``dsm`` → ``ortho --occlusion``."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    from fotogeo.tools.ortho import ortho
+    dem = tmp_path / "dsm.tif"
+    z = np.zeros((60, 60), np.float32)
+    z[30, 30] = -32767.0
+    with rasterio.open(dem, "w", driver="GTiff", width=60, height=60, count=1, dtype="float32", crs=CRS,
+                       transform=from_origin(499980.0, 4420030.0, 1.0, 1.0), nodata=-32767.0) as ds:
+        ds.write(z[None])
+    with pytest.raises(InputError, match=r"has nodata holes .*fill them first \(fotogeo dsm --fill, or "):
+        ortho(pair["images"][:1], tmp_path / "o.tif", camera=pair["camera"], eo=pair["eo"], dem=dem, occlusion=True,
+              dst_crs=CRS)
