@@ -119,3 +119,17 @@ def test_a_dsm_with_holes_for_occlusion_points_to_dsm_fill(pair, tmp_path):
     with pytest.raises(InputError, match=r"has nodata holes .*fill them first \(fotogeo dsm --fill, or "):
         ortho(pair["images"][:1], tmp_path / "o.tif", camera=pair["camera"], eo=pair["eo"], dem=dem, occlusion=True,
               dst_crs=CRS)
+
+
+def test_filled_holes_stay_within_the_heights_around_them():
+    """``--fill``: OpenCV's Telea inpainting on float32 overshot far beyond the data (a 0.5–9.9 m ramp's hole came
+    out −8.8 to 18.4 m, RMSE 8.8 m; the rendered 400² pair's filled cells RMSE 13.4 m, 25 m at worst); in 16 bits
+    the hole follows the ramp (RMSE 0.24 m)."""
+    from fotogeo.stereo.fusion import fill_holes
+    x = np.mgrid[0:100, 0:100][1].astype(np.float32)
+    h = 0.1 * x
+    h[40:60, 40:60] = np.nan
+    out, mask = fill_holes(h)
+    filled = out[mask == 1]
+    assert mask.sum() == 400 and filled.min() >= 0.0 and filled.max() <= 9.9
+    assert np.sqrt(np.mean((filled - 0.1 * x[mask == 1]) ** 2)) < 0.5
