@@ -133,3 +133,15 @@ def test_filled_holes_stay_within_the_heights_around_them():
     filled = out[mask == 1]
     assert mask.sum() == 400 and filled.min() >= 0.0 and filled.max() <= 9.9
     assert np.sqrt(np.mean((filled - 0.1 * x[mask == 1]) ** 2)) < 0.5
+
+
+def test_fill_leaves_the_completeness_of_the_matched_cells(pair, tmp_path):
+    """The cells both images see were found on the filled heights: the rendered 400² pair's completeness was
+    96.0 % without ``--fill`` and 91.4 % with it (79.5 % once the fill stopped overshooting), for the same matched
+    cells."""
+    from fotogeo.tools.dsm import dsm
+    kw = dict(camera=pair["camera"], eo=pair["eo"], crs=CRS)
+    plain = dsm(pair["images"], tmp_path / "a.tif", **kw)
+    filled = dsm(pair["images"], tmp_path / "b.tif", fill=True, **kw)
+    assert filled["filled_cells"] > 0
+    assert filled["completeness"] == plain["completeness"] and filled["stereo_cells"] == plain["stereo_cells"]
