@@ -145,3 +145,25 @@ def test_fill_leaves_the_completeness_of_the_matched_cells(pair, tmp_path):
     filled = dsm(pair["images"], tmp_path / "b.tif", fill=True, **kw)
     assert filled["filled_cells"] > 0
     assert filled["completeness"] == plain["completeness"] and filled["stereo_cells"] == plain["stereo_cells"]
+
+
+@pytest.mark.data
+def test_an_rpc_that_does_not_fit_its_image_is_named_when_nothing_matches(data_dir, tmp_path):
+    """Ventoux's left image turned 90° beside its .geom: a 172 px relative pointing error, then "no height was
+    matched in any pair: the images may be textureless or cloud-covered" — the images are neither."""
+    import shutil
+
+    import rasterio
+
+    from fotogeo.tools.dsm import dsm
+    v = data_dir / "rpc" / "ventoux"
+    with rasterio.open(v / "left_image.tif") as src:
+        prof, a = src.profile, src.read()
+    with rasterio.open(tmp_path / "left.tif", "w", **prof) as dst:
+        dst.write(np.ascontiguousarray(np.rot90(a, axes=(1, 2))))
+    shutil.copy(v / "left_image.geom", tmp_path / "left.geom")
+    shutil.copy(v / "right_image.tif", tmp_path / "right.tif")
+    shutil.copy(v / "right_image.geom", tmp_path / "right.geom")
+    with pytest.raises(InputError, match=r"RPCs may not describe their pixels: the relative pointing error was large "
+                                         r"for left-right \(\d+ px\) \(an image rotated"):
+        dsm([tmp_path / "left.tif", tmp_path / "right.tif"], tmp_path / "d.tif", rpc=True)

@@ -156,6 +156,18 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
+def _empty(kept, names, setups) -> str:
+    """The refusal when no cell got a height; pairs whose relative pointing error was large named (an RPC that does
+    not describe its image's pixels: the image rotated, flipped or resampled after it, matches nothing)."""
+    large = [f"{names[p.i]}-{names[p.j]} ({np.hypot(*setups[(p.i, p.j)]['tau']):.0f} px)" for p in kept
+             if setups[(p.i, p.j)]["entry"]["relative_pointing_large"]]
+    why = "no height was matched in any pair: the images may be textureless or cloud-covered"
+    if large:
+        why += (f", or their RPCs may not describe their pixels: the relative pointing error was large for "
+                f"{', '.join(large)} (an image rotated, flipped, resampled or cut after its RPC was made?)")
+    return why
+
+
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
                      resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
@@ -180,8 +192,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:
                 m.report()
-            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
-                                  "in any pair: the images may be textureless or cloud-covered")
+            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, _empty(kept, names, setups))
         finally:
             products.close()
         out.commit()
