@@ -69,7 +69,8 @@ def test_bounds_off_the_overlap_and_a_grid_too_coarse_are_named(pair, tmp_path):
     textureless or cloud-covered"."""
     from fotogeo.tools.dsm import dsm
     kw = dict(camera=pair["camera"], eo=pair["eo"], crs=CRS)
-    with pytest.raises(InputError, match=r"--bounds 0,0,100,100 lies outside the images' stereo overlap \(4999\d\d\.\d\d,"):
+    with pytest.raises(InputError, match=r"--bounds 0,0,100,100 lies outside the images' stereo overlap "
+                                         r"\(4999\d\d\.\d\d,"):
         dsm(pair["images"], tmp_path / "a.tif", bounds="0,0,100,100", **kw)
     with pytest.raises(InputError, match=r"--resolution 1000 makes a DSM of \d x \d cells .*fewer than 64 cells"):
         dsm(pair["images"], tmp_path / "b.tif", resolution=1000, **kw)
