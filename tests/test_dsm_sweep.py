@@ -168,3 +168,15 @@ def test_an_rpc_that_does_not_fit_its_image_is_named_when_nothing_matches(data_d
     with pytest.raises(InputError, match=r"RPCs may not describe their pixels: the relative pointing error was large "
                                          r"for left-right \(\d+ px\) \(an image rotated"):
         dsm([tmp_path / "left.tif", tmp_path / "right.tif"], tmp_path / "d.tif", rpc=True)
+
+
+@pytest.mark.data
+def test_an_rpc_dsm_refuses_a_crs_with_a_vertical_part(data_dir, tmp_path):
+    """Before: ``--crs EPSG:32631+5773`` (UTM + EGM96 height) gave the ellipsoidal heights under a plain EPSG:32631,
+    exit 0 — about 50 m from the EGM96 heights asked for at Ventoux."""
+    from fotogeo.tools.dsm import dsm
+    v = data_dir / "rpc" / "ventoux"
+    with pytest.raises(InputError, match=r"--crs 'EPSG:32631\+5773' has a vertical part \(EGM96 height\).*above the "
+                                         r"ellipsoid"):
+        dsm([v / "left_image.tif", v / "right_image.tif"], tmp_path / "d.tif", rpc=True, crs="EPSG:32631+5773")
+    assert not list(tmp_path.iterdir())

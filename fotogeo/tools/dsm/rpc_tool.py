@@ -97,6 +97,18 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
     return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
 
 
+def _no_vertical_part(crs) -> None:
+    """Refuse a ``--crs`` with a vertical part: an RPC's heights are above the ellipsoid, and the DSM keeps them so
+    (its CRS is the horizontal part); EPSG:32631+5773 gave ellipsoidal heights under a plain EPSG:32631 without a
+    word, 50 m from the EGM96 heights asked for at Ventoux."""
+    from ...crs import parse_crs
+    c = parse_crs(crs, "--crs")
+    if c.is_compound:
+        raise InputError(f"--crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
+                         f"images are above the ellipsoid and the DSM keeps them so: give the horizontal CRS alone "
+                         f"({c.sub_crs_list[0].name}) and convert the heights afterwards if needed", option="crs")
+
+
 def rpc_images(images, crs, dem) -> tuple:
     """``(OrthoImage list, map CRS, rule)``: each image's RPC wherever it is (:func:`fotogeo.io.rpc_image.image_rpc`:
     GDAL RPC metadata, else a .geom/.RPB/_RPC.TXT/XML beside it, moved into a crop's pixels) in the map CRS of
@@ -110,6 +122,8 @@ def rpc_images(images, crs, dem) -> tuple:
     rpcs = [image_rpc(p).rpc for p in images]
     map_c, rule = utm_crs_for(rpcs[0].long_off, rpcs[0].lat_off), "the UTM zone of the image centre (RPC)"
     given = crs and str(crs).strip().lower() != "auto"
+    if given:
+        _no_vertical_part(crs)
     if given or dem is not None:
         try:
             map_c, rule = map_crs(crs, dem, None, [], False)
