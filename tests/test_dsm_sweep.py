@@ -180,3 +180,14 @@ def test_an_rpc_dsm_refuses_a_crs_with_a_vertical_part(data_dir, tmp_path):
                                          r"ellipsoid"):
         dsm([v / "left_image.tif", v / "right_image.tif"], tmp_path / "d.tif", rpc=True, crs="EPSG:32631+5773")
     assert not list(tmp_path.iterdir())
+
+
+def test_cameras_outside_the_given_crs_area_of_use_are_named(pair, tmp_path):
+    """Before: positions read in a CRS they are not in made a DSM where they then fall, exit 0, without a word (NGI's
+    Lo25 positions as EPSG:32735: −144° E; the rendered pair's UTM 35N positions as Lambert-93: 27° N, south of
+    France)."""
+    from fotogeo.errors import FotogeoWarning
+    from fotogeo.tools.dsm import dsm
+    with pytest.warns(FotogeoWarning, match=r"--crs EPSG:2154: camera 'r256_a' at \(500000, 4420000\) lies at "
+                                            r"1.08° E, 27.16° N, outside the CRS's area of use"):
+        dsm(pair["images"], tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs="EPSG:2154")

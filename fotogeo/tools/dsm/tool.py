@@ -80,6 +80,26 @@ def _check_outputs(outputs, inputs, overwrite) -> None:
         seen[key] = role
 
 
+def _centres_in_area_of_use(views, crs) -> None:
+    """Warn when the cameras given in ``--crs`` lie outside its area of use: the orientation's X, Y are then most
+    likely in another CRS (NGI's Lo25 positions read as EPSG:32735 fall at −144° E, outside the zone's 24–30° E, and
+    the DSM came out at easting −55 km without a word). A warning, not a refusal: a flight may reach a little
+    beyond its zone's edge."""
+    from ...crs import short_name, to_lonlat
+    aou = crs.area_of_use
+    if aou is None:
+        return
+    lon, lat = to_lonlat(crs, np.array([v.centre[:2] for v in views])).T
+    with np.errstate(invalid="ignore"):
+        out = ~((lon >= aou.west) & (lon <= aou.east) & (lat >= aou.south) & (lat <= aou.north))
+    if out.any():
+        k = int(np.argmax(out))
+        warnings.warn(f"--crs {short_name(crs)}: camera {views[k].name!r} at ({views[k].centre[0]:.0f}, "
+                      f"{views[k].centre[1]:.0f}) lies at {lon[k]:.2f}° E, {lat[k]:.2f}° N, outside the CRS's area of "
+                      f"use ({aou.west:g}..{aou.east:g}° E, {aou.south:g}..{aou.north:g}° N): are the orientation's "
+                      f"X, Y in another CRS? The DSM is placed where they say", FotogeoWarning, stacklevel=4)
+
+
 def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
     """``(zlo, zhi, height reference, notes)`` of the terrain (plan module docstring)."""
     if dem is not None:
@@ -145,6 +165,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
+    if rule == "given (--crs)":
+        _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path) for im in ims]
     features = {}
     zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
