@@ -217,6 +217,8 @@ def fill_holes(height, radius: int = 8, everywhere: bool = False) -> tuple:
         rc = np.column_stack(np.nonzero(valid))[:, ::-1].astype(np.int32)
         cv2.fillConvexPoly(hull, cv2.convexHull(rc), 1)
         holes &= hull.astype(bool)
-    filled = cv2.inpaint(norm, holes.astype(np.uint8), radius, cv2.INPAINT_TELEA) * span + lo
+    # in 16 bits: OpenCV 4.11's Telea on float32 extrapolates far beyond the data (ramp 0.5-9.9 m: filled -8.8-18.4)
+    filled = cv2.inpaint((norm * 65535).astype(np.uint16), holes.astype(np.uint8), radius,
+                         cv2.INPAINT_TELEA) / 65535 * span + lo
     out = np.where(holes, filled, height).astype(np.float32)
     return out, holes.astype(np.uint8)

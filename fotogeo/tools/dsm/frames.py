@@ -328,7 +328,7 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
     d, vm = d[core] + s, (v1m & partner)[core]
     rows, cols = np.nonzero(np.isfinite(d))
     stats["matchable"] += int(vm.sum())
-    stats["matched"] += len(rows)
+    stats["matched"] += int((vm & np.isfinite(d)).sum())  # of the matchable pixels: a share of them
     if not len(rows):
         return None
     u, v = cols + u0 + HALF, rows + r0 + HALF

@@ -78,7 +78,7 @@ class Products:
         before = np.isfinite(height)
         height, _ = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * self.grid.resolution)
         gone = before & ~np.isfinite(height)
-        filled = None
+        matched, filled = height, None  # the stereo cells are found on the matched heights, never the filled ones
         if self.fill and np.isfinite(height).any():
             height, filled = fill_holes(height)
         r, c = core[0] - expanded[0], core[1] - expanded[1]
@@ -89,7 +89,7 @@ class Products:
         count[~np.isfinite(height)] = 0
         self.speckles += int(gone.sum())
         if np.isfinite(height).any():
-            overlap = self.seen(self.grid.sub(*core), height)
+            overlap = self.seen(self.grid.sub(*core), matched[cut])
             self.valid += int((valid & overlap).sum())
             self.inside += int(overlap.sum())
             v = height[np.isfinite(height)]

@@ -45,7 +45,9 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tupl
     i, j = nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), ids=(i, j))
-    why = sparse_problem(sp, max_px) or (f"only {sp['n']} sparse matches" if sp["n"] < 20 else "")
+    few = (f"only {sp['n']} sparse matches (textureless or cloud-covered where they overlap, or an orientation that "
+           f"does not fit them?)")
+    why = sparse_problem(sp, max_px) or (few if sp["n"] < 20 else "")
     if why:
         raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "
                          f"cannot be bounded from them: give a coarse DEM of the area (--dem)")
@@ -113,17 +115,31 @@ def disparity_bounds(rp, zlo: float, zhi: float, box=None, n: int = 17) -> tuple
     return float(d.min()) - PAD_PX, float(d.max()) + PAD_PX
 
 
-def grid_for(polygons, resolution: float, bounds=None) -> GridSpec:
-    """The output grid (module docstring); ``polygons`` the kept pairs' overlaps ``(K, 2)``."""
+def grid_for(polygons, resolution: float, bounds=None, min_cells: int = 1) -> GridSpec:
+    """The output grid (module docstring); ``polygons`` the kept pairs' overlaps ``(K, 2)``. Refused: ``bounds``
+    that miss the overlaps' extent, and a grid of fewer than ``min_cells`` cells (the speckle filter removes every
+    island of heights smaller than that, so such a grid could only come out empty)."""
+    xy = np.vstack([p for p in polygons if len(p)])
+    (ox0, oy0), (ox1, oy1) = xy.min(axis=0), xy.max(axis=0)
     if bounds is not None:
         x0, y0, x1, y1 = bounds
+        if x1 <= ox0 or x0 >= ox1 or y1 <= oy0 or y0 >= oy1:
+            raise InputError(f"--bounds {x0:.10g},{y0:.10g},{x1:.10g},{y1:.10g} lies outside the images' stereo "
+                             f"overlap ({ox0:.2f},{oy0:.2f},{ox1:.2f},{oy1:.2f} in the output CRS): give bounds "
+                             f"that overlap it, or none", option="bounds")
     else:
-        xy = np.vstack([p for p in polygons if len(p)])
-        (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+        x0, y0, x1, y1 = ox0, oy0, ox1, oy1
     r = float(resolution)
-    x0, y0 = math.floor(x0 / r) * r, math.floor(y0 / r) * r
-    x1, y1 = math.ceil(x1 / r) * r, math.ceil(y1 / r) * r
-    return GridSpec(x0, y1, r, max(1, int(round((x1 - x0) / r))), max(1, int(round((y1 - y0) / r))))
+    gx0, gy0 = math.floor(x0 / r) * r, math.floor(y0 / r) * r
+    gx1, gy1 = math.ceil(x1 / r) * r, math.ceil(y1 / r) * r
+    grid = GridSpec(gx0, gy1, r, max(1, int(round((gx1 - gx0) / r))), max(1, int(round((gy1 - gy0) / r))))
+    if grid.width * grid.height < min_cells:
+        coarsest = math.sqrt((x1 - x0) * (y1 - y0) / min_cells)
+        raise InputError(f"--resolution {r:g} makes a DSM of {grid.width} x {grid.height} cells over "
+                         f"{x1 - x0:.4g} x {y1 - y0:.4g} map units, fewer than {min_cells} cells (smaller islands of "
+                         f"heights are removed as mismatches): give a resolution of {coarsest:.3g} or finer"
+                         + (" or wider --bounds" if bounds is not None else ""), option="resolution")
+    return grid
 
 
 def stereo_mask(grid: GridSpec, height, pairs, ims, rows_per_block: int = 256) -> np.ndarray:

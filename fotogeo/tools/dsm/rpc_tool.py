@@ -19,7 +19,7 @@ from ..ortho.inputs import map_crs, terrain
 from . import matching, plan
 from . import rpc_pairs as rp
 from .inputs import SourceImage, read_pairs
-from .outputs import Products
+from .outputs import SPECKLE_CELLS, Products
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
 ORBIT = 700_000.0
@@ -97,6 +97,18 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
     return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
 
 
+def _no_vertical_part(crs) -> None:
+    """Refuse a ``--crs`` with a vertical part: an RPC's heights are above the ellipsoid, and the DSM keeps them so
+    (its CRS is the horizontal part); EPSG:32631+5773 gave ellipsoidal heights under a plain EPSG:32631 without a
+    word, 50 m from the EGM96 heights asked for at Ventoux."""
+    from ...crs import parse_crs
+    c = parse_crs(crs, "--crs")
+    if c.is_compound:
+        raise InputError(f"--crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
+                         f"images are above the ellipsoid and the DSM keeps them so: give the horizontal CRS alone "
+                         f"({c.sub_crs_list[0].name}) and convert the heights afterwards if needed", option="crs")
+
+
 def rpc_images(images, crs, dem) -> tuple:
     """``(OrthoImage list, map CRS, rule)``: each image's RPC wherever it is (:func:`fotogeo.io.rpc_image.image_rpc`:
     GDAL RPC metadata, else a .geom/.RPB/_RPC.TXT/XML beside it, moved into a crop's pixels) in the map CRS of
@@ -110,6 +122,8 @@ def rpc_images(images, crs, dem) -> tuple:
     rpcs = [image_rpc(p).rpc for p in images]
     map_c, rule = utm_crs_for(rpcs[0].long_off, rpcs[0].lat_off), "the UTM zone of the image centre (RPC)"
     given = crs and str(crs).strip().lower() != "auto"
+    if given:
+        _no_vertical_part(crs)
     if given or dem is not None:
         try:
             map_c, rule = map_crs(crs, dem, None, [], False)
@@ -156,6 +170,18 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
+def _empty(kept, names, setups) -> str:
+    """The refusal when no cell got a height; pairs whose relative pointing error was large named (an RPC that does
+    not describe its image's pixels: the image rotated, flipped or resampled after it, matches nothing)."""
+    large = [f"{names[p.i]}-{names[p.j]} ({np.hypot(*setups[(p.i, p.j)]['tau']):.0f} px)" for p in kept
+             if setups[(p.i, p.j)]["entry"]["relative_pointing_large"]]
+    why = "no height was matched in any pair: the images may be textureless or cloud-covered"
+    if large:
+        why += (f", or their RPCs may not describe their pixels: the relative pointing error was large for "
+                f"{', '.join(large)} (an image rotated, flipped, resampled or cut after its RPC was made?)")
+    return why
+
+
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
                      resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
@@ -165,7 +191,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
         z = setups[(p.i, p.j)]["zmed"]
         polys.append(overlap_polygon(plan.footprint(ims[p.i], z), plan.footprint(ims[p.j], z)))
         p.extra["overlap_polygon"] = polys[-1]
-    grid = plan.grid_for(polys, res, bounds)
+    grid = plan.grid_for(polys, res, bounds, SPECKLE_CELLS)
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
@@ -180,8 +206,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:
                 m.report()
-            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
-                                  "in any pair: the images may be textureless or cloud-covered")
+            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, _empty(kept, names, setups))
         finally:
             products.close()
         out.commit()

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError
-from ...io.raster import AtomicOutputs, check_output
+from ...errors import FotogeoWarning, InputError, OutputError
+from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_output
 from ...options.dsm import DSM
 from ...progress import as_progress
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
@@ -19,7 +19,7 @@ from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
 from . import frames, matching, plan
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
-from .outputs import Products
+from .outputs import SPECKLE_CELLS, Products
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -43,13 +43,14 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     t0 = time.process_time(), time.perf_counter()
     if len(images) < 2:
         raise InputError("a surface model needs at least two overlapping images; give two or more")
+    if rpc and (camera, eo, orientation) != (None, None, None):
+        given = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
+        raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
+                         f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
     inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
-    for p, role in ((output, "DSM"), (point_cloud, "point cloud"), (report, "report")):
-        if p is not None:
-            check_output(p, inputs, overwrite, role)
-    if point_cloud is not None and Path(point_cloud).suffix.lower() not in (".las", ".laz"):
-        raise InputError(f"--point-cloud {str(point_cloud)!r}: give a .las or .laz file name", option="point_cloud")
+    _check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
+                    (report, "report", None)), inputs, overwrite)
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -63,6 +64,40 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
                    overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+
+
+def _check_outputs(outputs, inputs, overwrite) -> None:
+    """Refuse, before any work, outputs ``(path, role, suffixes)`` that :func:`check_output` refuses, or two of
+    them at one path (the second would be found at the end, "appeared while fotogeo was working")."""
+    seen = {}
+    for p, role, suffixes in outputs:
+        if p is None:
+            continue
+        check_output(p, inputs, overwrite, role, suffixes)
+        key = Path(p).resolve()
+        if key in seen:
+            raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
+        seen[key] = role
+
+
+def _centres_in_area_of_use(views, crs) -> None:
+    """Warn when the cameras given in ``--crs`` lie outside its area of use: the orientation's X, Y are then most
+    likely in another CRS (NGI's Lo25 positions read as EPSG:32735 fall at −144° E, outside the zone's 24–30° E, and
+    the DSM came out at easting −55 km without a word). A warning, not a refusal: a flight may reach a little
+    beyond its zone's edge."""
+    from ...crs import short_name, to_lonlat
+    aou = crs.area_of_use
+    if aou is None:
+        return
+    lon, lat = to_lonlat(crs, np.array([v.centre[:2] for v in views])).T
+    with np.errstate(invalid="ignore"):
+        out = ~((lon >= aou.west) & (lon <= aou.east) & (lat >= aou.south) & (lat <= aou.north))
+    if out.any():
+        k = int(np.argmax(out))
+        warnings.warn(f"--crs {short_name(crs)}: camera {views[k].name!r} at ({views[k].centre[0]:.0f}, "
+                      f"{views[k].centre[1]:.0f}) lies at {lon[k]:.2f}° E, {lat[k]:.2f}° N, outside the CRS's area of "
+                      f"use ({aou.west:g}..{aou.east:g}° E, {aou.south:g}..{aou.north:g}° N): are the orientation's "
+                      f"X, Y in another CRS? The DSM is placed where they say", FotogeoWarning, stacklevel=4)
 
 
 def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
@@ -130,6 +165,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
+    if rule == "given (--crs)":
+        _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path) for im in ims]
     features = {}
     zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
@@ -138,7 +175,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     kept = [p for p in choices if p.kept]
     gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
-    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds)
+    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds, SPECKLE_CELLS)
     check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")

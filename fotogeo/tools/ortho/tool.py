@@ -224,8 +224,8 @@ def occlusion_surface(heights, dem):
     share = holes(d)
     if share > 0:
         raise InputError(f"DSM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area): a hole would let "
-                         f"hidden ground show through; fill them first (gdal_fillnodata.py) or orthorectify "
-                         f"without occlusion masking")
+                         f"hidden ground show through; fill them first (fotogeo dsm --fill, or gdal_fillnodata.py) or "
+                         f"orthorectify without occlusion masking")
     from ...geometry.occlusion import MaxPyramid
     return heights, 0.5 * min(abs(d.transform.a), abs(d.transform.e)), MaxPyramid(d) if heights is d else None
 
