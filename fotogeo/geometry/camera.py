@@ -68,7 +68,8 @@ def nearest_rotation(M) -> np.ndarray:
     (Kabsch 1976; Horn 1987 reaches the same rotation by unit quaternions). The sign on the last axis turns a
     reflection (``det(U Vᵀ) = −1``) into a rotation, so a reflected or noisy input still gives ``det R = +1``.
     Used both to orthonormalise a nearly orthogonal matrix (``M`` itself) and to solve Wahba's (1965) problem
-    ``min Σ |R dᵢ − uᵢ|²`` (``M = Σ uᵢ dᵢᵀ``). The rotation is unique when ``M`` has rank ≥ ``n − 1``.
+    ``min Σ |R dᵢ − uᵢ|²`` (``M = Σ uᵢ dᵢᵀ``). The rotation is unique when ``M`` has rank ≥ ``n − 1``
+    (and its two smallest singular values differ when ``det M < 0``).
     """
     M = np.asarray(M, dtype=np.float64)
     if M.ndim != 2 or M.shape[0] != M.shape[1] or not np.isfinite(M).all():
