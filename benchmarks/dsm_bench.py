@@ -1,6 +1,8 @@
 """Surface models (``fotogeo dsm``) against truths and a peer.
 
-Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,refine,ngi,ventoux,rendered_rpc] [--cars]
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py
+      [--cases rendered,refine,ngi,ventoux,rendered_rpc,ebee,witness] [--cars] [--ebee-resolutions 0.2,0.1]
+      [--baseline-tree OLD] [--rounds 3] [--ebee-dir DIR]
 
 * ``rendered`` — the three rendered blocks of ``tests/dsm_scenes.py`` (``nadir``: 2 x 4 frames 1000 m above
   ±40 m; ``oblique``: the DJI-like block, 30° off nadir, Brown distortion; ``held_out``: 3 x 3 frames with
@@ -29,6 +31,14 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py [--cases rendered,re
   ventoux) in the same run: the same statistics against the truth on its own grid, its CPU and peak memory,
   fotogeo − CARS, and fotogeo's CPU, memory, NMAD and completeness as ratios of CARS's.
 
+* ``ebee`` — the eBee pair IMG_2280/IMG_2281 of ``drone_snowpeak`` (oriented by ``fotogeo triangulate`` of the
+  pair) at ``--ebee-resolutions`` (default 0.2 m), ``fotogeo dsm`` as a user runs it (a child process under
+  ``/usr/bin/time -v``): CPU, peak memory, completeness, disparities searched per pixel, coarse-to-fine strips,
+  the DSM's hash; with ``--baseline-tree OLD`` the same command on that checkout, the two alternated
+  ``--rounds`` times (median CPU), and the largest height difference between the two DSMs.
+* ``witness`` — ``pyramid.witnessed`` and ``pyramid.witness_envelope`` on a synthetic 480 x 2200 strip: median CPU
+  ms per call, this tree's and ``--baseline-tree``'s (each in a child process), and a hash of their outputs.
+
 Without ``--cars``, CARS's runs recorded on this machine by ``benchmarks/peers_cars.py``
 (``results/peers_cars.json``, margins ±100 m) are read and fotogeo's DSMs compared with their DSMs.
 
@@ -55,7 +65,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
 PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux",
-          "rendered_rpc": "rendered_rpc"}
+          "rendered_rpc": "rendered_rpc", "ebee": "eBee", "witness": "witness"}
 #: rendered_rpc cases: name -> (image size, base-to-height ratio, pointing error (col, row) px, RPC format)
 RPC_CASES = {"B/H 0.4": (1024, 0.4, (0, 0), "gdal"), "B/H 0.4, 3 px pointing": (1024, 0.4, (1.8, 2.4), "gdal"),
              "B/H 0.15": (1024, 0.15, (0, 0), "gdal"), "B/H 0.15, 3 px pointing": (1024, 0.15, (1.8, 2.4), "gdal"),
@@ -95,20 +105,113 @@ def rendered(tmp: Path, refine: bool = False) -> list:
     return rows
 
 
-def _time_v(cmd: list) -> dict:
-    """Run ``cmd`` under ``/usr/bin/time -v`` (its own small process: the child's peak is not the parent's):
-    user + system CPU (s), peak resident memory (MiB), wall (s)."""
+def _time_v(cmd: list, cwd=None, tree: Path = ROOT) -> dict:
+    """Run ``cmd`` under ``/usr/bin/time -v`` (its own small process: the child's peak is not the parent's) with
+    ``tree`` on ``PYTHONPATH`` (``cwd`` outside any checkout for ``python -m``): user + system CPU (s), peak
+    resident memory (MiB), wall (s)."""
     import re
     import subprocess
     w = time.perf_counter()
-    r = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True,
-                       env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    r = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True, cwd=cwd,
+                       env=dict(os.environ, PYTHONPATH=str(tree)))
     if r.returncode:
         raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr[-3000:]}")
     num = {k: float(re.search(rf"{k}.*: ([\d.]+)", r.stderr).group(1))
            for k in ("User time", "System time", "Maximum resident set size")}
     return {"cpu_s": num["User time"] + num["System time"], "peak_rss_mib": num["Maximum resident set size"] / 1024,
             "wall_s": time.perf_counter() - w}
+
+
+def ebee(tmp: Path, resolutions: list, rounds: int = 1, baseline=None, keep=None) -> list:
+    """The eBee pair IMG_2280/IMG_2281 (copied): ``fotogeo triangulate`` of the pair once (this tree), then
+    ``fotogeo dsm A B --orientation strip --crs EPSG:32654 --resolution R --report r.json`` per resolution, each a
+    child process under ``/usr/bin/time -v`` run from ``tmp`` (outside any checkout); with ``baseline`` (a tree)
+    the same command with that tree first on ``PYTHONPATH``, alternated with this tree's ``rounds`` times: median
+    CPU of each, completeness, disparities per pixel, coarse-to-fine strips and whether the DSMs are the same
+    bytes (max |difference| where both have a height). ``keep``: a folder keeping the images and the orientation
+    between runs (triangulated when it holds none)."""
+    import hashlib
+
+    import rasterio
+    imgs, strip = _ebee_oriented(tmp, keep)
+    py = [sys.executable, "-m", "fotogeo"]
+    trees = [("this tree", ROOT)] + ([("baseline", Path(baseline).resolve())] if baseline else [])
+    rows = []
+    for res in resolutions:
+        runs = {label: [] for label, _ in trees}
+        for k in range(rounds):
+            for label, tree in trees if k % 2 == 0 else trees[::-1]:
+                out, rep = tmp / f"{label[0]}_{res}.tif", tmp / f"{label[0]}_{res}.json"
+                t = _time_v([*py, "dsm", *map(str, imgs), "--orientation", str(strip), "--crs", "EPSG:32654", "-o",
+                             str(out), "--report", str(rep), "--resolution", str(res), "--overwrite"],
+                            cwd=tmp, tree=tree)
+                runs[label].append({**t, "report": json.loads(rep.read_text()), "out": out})
+        for label, got in runs.items():
+            r, p = got[-1]["report"], got[-1]["report"]["pairs"][0]
+            row = {"case": f"eBee {res} m, {label}", "rounds": rounds,
+                   "cpu_s": float(np.median([g["cpu_s"] for g in got])), "cpu_s_each": [g["cpu_s"] for g in got],
+                   "peak_rss_mib": max(g["peak_rss_mib"] for g in got), "completeness": r["completeness"],
+                   "disparities_searched": p.get("disparities_searched"),
+                   "coarse_to_fine_strips": p.get("coarse_to_fine_strips"),
+                   "dsm_sha256": hashlib.sha256(got[-1]["out"].read_bytes()).hexdigest()[:16]}
+            if label == "baseline":
+                with rasterio.open(runs["this tree"][-1]["out"]) as a, rasterio.open(got[-1]["out"]) as b:
+                    ha, hb = a.read(1, masked=True), b.read(1, masked=True)
+                both = ~(ha.mask | hb.mask)
+                row["same_valid_cells"] = bool((ha.mask == hb.mask).all())
+                row["max_abs_diff_m"] = float(np.abs(ha.data[both] - hb.data[both]).max()) if both.any() else None
+            rows.append(row)
+    return rows
+
+
+def _ebee_oriented(tmp: Path, keep=None) -> tuple:
+    """``(images, orientation folder)`` of the eBee pair in ``keep`` (else ``tmp``), triangulated when absent."""
+    keep = Path(keep) if keep else tmp
+    keep.mkdir(parents=True, exist_ok=True)
+    imgs, strip = [keep / f"{n}.JPG" for n in ("IMG_2280", "IMG_2281")], keep / "strip"
+    if not (strip / "exterior_orientation.txt").is_file():
+        for p in imgs:
+            shutil.copy(DATA / "drone_snowpeak" / "img" / p.name, p)
+        _time_v([sys.executable, "-m", "fotogeo", "triangulate", *map(str, imgs), "-o", str(strip), "--overwrite"],
+                cwd=tmp)
+    return imgs, strip
+
+
+#: the witness timed in a child (cwd outside any checkout; ``PYTHONPATH`` the tree): a synthetic 480 x 2200 strip,
+#: 30 % of its disparities missing, 20 % of the coarse right ones, 5 % of the pixels near a border
+WITNESS_RUN = """
+import hashlib, json, sys, time
+import numpy as np
+from fotogeo.stereo import pyramid as pyr
+rng = np.random.default_rng(0)
+h, w = 480, 2200
+d = (40 + rng.normal(0, 2, (h, w))).astype(np.float32)
+d[rng.random((h, w)) < 0.3] = np.nan
+dcr = (10 + rng.normal(0, 0.5, (h // 4, w // 4))).astype(np.float32)
+dcr[rng.random(dcr.shape) < 0.2] = np.nan
+near = rng.random((h, w)) < 0.05
+def ms(f, n=int(sys.argv[1])):
+    t = []
+    for _ in range(n):
+        c = time.process_time(); f(); t.append(time.process_time() - c)
+    return 1000 * float(np.median(t))
+out = pyr.witnessed(d, dcr, near_border=near).tobytes() + pyr.witnessed(d, dcr).tobytes()
+print(json.dumps({"witnessed_ms": ms(lambda: pyr.witnessed(d, dcr, near_border=near)),
+                  "envelope_ms": ms(lambda: pyr.witness_envelope(dcr)),
+                  "output_sha256": hashlib.sha256(out).hexdigest()[:16]}))
+"""
+
+
+def witness(tmp: Path, rounds: int, baseline=None) -> list:
+    """``pyramid.witnessed`` and its ``witness_envelope`` on :data:`WITNESS_RUN`'s strip: median CPU ms of
+    ``20 x rounds`` calls per tree (this, ``baseline``), and a hash of the outputs (the same: the same bytes)."""
+    import subprocess
+    rows = []
+    for label, tree in [("this tree", ROOT)] + ([("baseline", Path(baseline).resolve())] if baseline else []):
+        r = subprocess.run([sys.executable, "-c", WITNESS_RUN, str(20 * rounds)], capture_output=True, text=True,
+                           cwd=tmp, env=dict(os.environ, PYTHONPATH=str(tree)), check=True)
+        rows.append({"case": f"witness 480 x 2200 strip, {label}", **json.loads(r.stdout)})
+    return rows
 
 
 def rendered_rpc(tmp: Path, names=None, cars: bool = False) -> list:
@@ -285,6 +388,10 @@ def main():
     ap.add_argument("--cars", action="store_true",
                     help="also run CARS on ventoux and the rendered B/H 0.4 pair (benchmarks/peers_cars.py)")
     ap.add_argument("--rpc-cases", help="rendered_rpc: only these RPC_CASES names, separated by ';'")
+    ap.add_argument("--ebee-resolutions", default="0.2", help="ebee: DSM resolutions (m), separated by ','")
+    ap.add_argument("--baseline-tree", help="ebee: also run the dsm commands with this checkout, alternated")
+    ap.add_argument("--rounds", type=int, default=1, help="ebee: runs of each tree per resolution (median CPU)")
+    ap.add_argument("--ebee-dir", help="ebee: a folder keeping the images and their orientation between runs")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -292,14 +399,17 @@ def main():
     with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
         tmp = Path(t)
         for case in args.cases.split(","):
-            if case not in ("rendered", "refine", "rendered_rpc") and not DATA.is_dir():
+            if case not in ("rendered", "refine", "rendered_rpc", "witness") and not DATA.is_dir():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
             rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars),
-                     "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars)}[case]()
+                     "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars),
+                     "ebee": lambda: ebee(tmp / case, [float(r) for r in args.ebee_resolutions.split(",")],
+                                          args.rounds, args.baseline_tree, args.ebee_dir),
+                     "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     out = ROOT / "benchmarks" / "results" / "dsm_bench.json"

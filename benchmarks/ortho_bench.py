@@ -26,6 +26,11 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   uncompressed TIFFs beside the drone case's folder) with the camera scaled to them (``im_size``, ``focal_len``
   and ``sensor_size`` halved; the Brown terms and the principal point are normalised, unchanged): another image
   size and another format (a TIFF without overviews, read whole at full resolution).
+With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's ``fotogeo ortho`` runs N alternating
+pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
+exit's as that less its own CPU at the end of ``main`` (``FOTOGEO_EXIT_RUN``): medians, the median of the pairs'
+differences and whether both trees' outputs have the same pixels (``results/ortho_exit_pairs.json``).
+``--resolutions`` also takes metres (``0.2``).
 
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
 drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
@@ -86,6 +91,20 @@ try:
     main.main(sys.argv[1:], standalone_mode=False)
 finally:
     print("WORK", time.perf_counter() - t)
+"""
+
+#: :data:`FOTOGEO_RUN` that also prints the process's own CPU time (user + system) at the end of ``main``: what it
+#: spends after that is its exit (:func:`exit_pairs`)
+FOTOGEO_EXIT_RUN = """
+import resource, sys
+if sys.path[0] == "":
+    del sys.path[0]
+from fotogeo.cli import main
+try:
+    main.main(sys.argv[1:], standalone_mode=False)
+finally:
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    print("CPU_END", u.ru_utime + u.ru_stime)
 """
 
 ORTHORITY_RUN = """
@@ -240,6 +259,46 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
     return out
 
 
+def _exit_run(cmd, env: dict, cwd: Path) -> dict:
+    """Run ``cmd`` (:data:`FOTOGEO_EXIT_RUN`) as a child: its CPU time (user + system, this process's
+    ``RUSAGE_CHILDREN``, microseconds) and its exit's, the total less what it had used at the end of ``main``."""
+    import resource
+    b = resource.getrusage(resource.RUSAGE_CHILDREN)
+    p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **env}, cwd=cwd)
+    a = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))[:200]} failed: {p.stderr.strip()[-600:]}")
+    total = a.ru_utime - b.ru_utime + a.ru_stime - b.ru_stime
+    end = next(float(ln.split()[1]) for ln in p.stdout.splitlines() if ln.startswith("CPU_END "))
+    return {"cpu_s": total, "exit_cpu_s": total - end}
+
+
+def exit_pairs(work: Path, inp: dict, res: float, n: int, baseline: Path) -> dict:
+    """``fotogeo ortho`` of the frames of ``inp`` at ``res`` by this checkout and by ``baseline``, alternating
+    (``n`` pairs, the order swapped every pair, no other tool between): median CPU and exit CPU of each, the median of
+    the pairs' differences, and whether the two trees' outputs have the same pixels."""
+    import rasterio
+    trees, runs = {"this": ROOT, "baseline": baseline}, {"this": [], "baseline": []}
+    for k in range(n):
+        for label in ("this", "baseline") if k % 2 == 0 else ("baseline", "this"):
+            out = work / label
+            out.mkdir(exist_ok=True)
+            args = ["ortho", *inp["frames"], "-o", str(out), "--dem", inp["dem"], "--camera", inp["camera"], "--eo",
+                    inp["eo"], "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+            runs[label].append(_exit_run([sys.executable, "-c", FOTOGEO_EXIT_RUN, *args],
+                                         {"PYTHONPATH": str(trees[label])}, work))
+    same = True
+    for f in inp["frames"]:
+        with rasterio.open(work / "this" / f"{Path(f).stem}_ortho.tif") as x, \
+                rasterio.open(work / "baseline" / f"{Path(f).stem}_ortho.tif") as y:
+            same &= x.shape == y.shape and x.transform == y.transform and bool((x.read() == y.read()).all())
+    med = {label: {k: round(statistics.median(r[k] for r in rs), 4) for k in ("cpu_s", "exit_cpu_s")}
+           | {"cpu_s_each": [round(r["cpu_s"], 3) for r in rs]} for label, rs in runs.items()}
+    diff = [a["cpu_s"] - b["cpu_s"] for a, b in zip(runs["this"], runs["baseline"])]
+    return {**med, "pairs": n, "baseline_tree": str(baseline), "pair_diff_cpu_s": round(statistics.median(diff), 4),
+            "same_pixels": same}
+
+
 def qb2_case(work: Path, res: float, n: int) -> dict:
     img, dem = DATA / "qb2" / "qb2_basic1b.tif", DATA / "ngi" / "dem.tif"
     fg = work / "fotogeo_qb2.tif"
@@ -301,7 +360,13 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=OUT, help=f"the JSON written [{OUT.relative_to(ROOT)}]")
     ap.add_argument("--drone-dir", type=Path,
                     help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
+    ap.add_argument("--pairs", type=int, help="instead of the peers: this many alternating pairs of fotogeo runs "
+                    "(this checkout, --baseline-tree) per frame case, with each process's exit CPU; "
+                    "writes results/ortho_exit_pairs.json")
+    ap.add_argument("--baseline-tree", type=Path, help="--pairs: the other fotogeo checkout")
     a = ap.parse_args(argv)
+    if a.pairs and not a.baseline_tree:
+        ap.error("--pairs needs --baseline-tree (the checkout to alternate with)")
     if not DATA.exists():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
     import rasterio
@@ -309,15 +374,17 @@ def main(argv=None):
                "fotogeo_gdal": rasterio.__gdal_version__, "cpus": len(os.sched_getaffinity(0)),
                "load_average_start": [round(v, 2) for v in os.getloadavg()], "cases": {}}
     with tempfile.TemporaryDirectory(prefix="ortho_bench_") as tmp:
-        subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "fotogeo")], check=True,
-                       env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})
+        for tree in (ROOT, a.baseline_tree) if a.pairs else (ROOT,):
+            subprocess.run([sys.executable, "-m", "compileall", "-q", str(tree / "fotogeo")], check=True,
+                           env={**os.environ, "PYTHONDONTWRITEBYTECODE": ""})
         for case in a.cases.split(","):
             results["cases"][case] = {}
             for level in a.resolutions.split(","):
                 only, _, level = level.rpartition(":")  # "case:level": that case only
-                if level not in RES[case] or only not in ("", case):
+                numeric = level.replace(".", "", 1).isdigit()
+                if only not in ("", case) or level not in RES[case] and not numeric or a.pairs and case == "qb2":
                     continue
-                res = RES[case][level]
+                res = RES[case].get(level) or float(level)
                 work = Path(tmp) / f"{case}_{level}"
                 work.mkdir()
                 if case == "qb2":
@@ -326,10 +393,20 @@ def main(argv=None):
                     drone = a.drone_dir or Path(tmp) / "drone"
                     inp = ngi_inputs(work) if case == "ngi" else drone_inputs(drone)
                     inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
-                    r = frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both")
+                    r = (exit_pairs(work, inp, res, a.pairs, a.baseline_tree.resolve()) if a.pairs else
+                         frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both"))
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]
+    if a.pairs:
+        out = OUT.with_name("ortho_exit_pairs.json")  # one run per case and resolution: the latest kept
+        runs = json.loads(out.read_text()) if out.is_file() else {}
+        for case, by_res in results.pop("cases").items():
+            for res, r in by_res.items():
+                runs[f"{case} {res}"] = {**r, "command": " ".join(sys.argv), **results}
+        out.write_text(json.dumps(runs, indent=1))
+        print(f"wrote {out.relative_to(ROOT)}")
+        return
     print(table(results))
     print(f"load average (1, 5, 15 min): start {results['load_average_start']}, end {results['load_average_end']}")
     a.out.write_text(json.dumps(results, indent=1))

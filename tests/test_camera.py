@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from affine import Affine
 
-from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, rotation_patb
+from fotogeo.geometry.camera import (ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, nearest_rotation,
+                                     rotation_patb)
 from fotogeo.io.camera import load_ngi_frame, read_exterior_orientation, read_interior_orientation
 from fotogeo.geometry.dem import Dem
 from fotogeo.io.raster import read_dem
@@ -27,6 +28,34 @@ def test_rotation_is_orthonormal_and_angles_round_trip():
     assert np.allclose(angles_patb(R), (-0.35, 0.3, -179.09), atol=1e-10)
     # R = Rx(ω) Ry(φ) Rz(κ): a pure κ rotates camera x towards world y (counter-clockwise)
     assert np.allclose(rotation_patb(0, 0, 90) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
+
+
+def _random_rotations(rng, n):
+    return [rotation_patb(*rng.uniform([-180, -90, -180], [180, 90, 180])) for _ in range(n)]
+
+
+def test_nearest_rotation_keeps_rotations_and_turns_reflections_and_noise_into_the_rotation():
+    rng = np.random.default_rng(7)
+    for R in _random_rotations(rng, 20):
+        assert np.allclose(nearest_rotation(R), R, atol=1e-12)
+        # a reflection with distinct singular values: U Vᵀ has det −1; the nearest rotation is R itself
+        Q = nearest_rotation(R @ np.diag([3.0, 2.0, -1.0]))
+        assert np.isclose(np.linalg.det(Q), 1.0) and np.allclose(Q, R, atol=1e-12)
+        noisy = R + rng.normal(0.0, 0.01, (3, 3))
+        Q = nearest_rotation(noisy)
+        assert np.allclose(Q @ Q.T, np.eye(3), atol=1e-12) and np.isclose(np.linalg.det(Q), 1.0)
+        assert math.degrees(math.acos(np.clip((np.trace(Q.T @ R) - 1) / 2, -1, 1))) < 2.0
+        # no rotation near Q is closer to the noisy input (Frobenius)
+        for S in _random_rotations(rng, 5):
+            W = nearest_rotation(np.eye(3) + 0.05 * (S - np.eye(3)))
+            assert np.linalg.norm(W @ Q - noisy) >= np.linalg.norm(Q - noisy) - 1e-12
+    # Wahba: directions d and their rotated, noisy images u give R from Σ u dᵀ
+    R = _random_rotations(rng, 1)[0]
+    d = rng.normal(size=(50, 3))
+    u = d @ R.T + rng.normal(0.0, 0.01, (50, 3))
+    assert np.allclose(nearest_rotation(u.T @ d), R, atol=5e-3)
+    with pytest.raises(InputError, match="square"):
+        nearest_rotation(np.ones((3, 2)))
 
 
 def test_projection_follows_readme_formula_plus_half_pixel():

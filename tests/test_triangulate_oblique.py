@@ -34,6 +34,7 @@ import pytest
 from click.testing import CliRunner
 
 from fotogeo.cli import main
+from fotogeo.geometry.camera import nearest_rotation
 from fotogeo.io.camera import read_exterior_orientation
 from rendered_oblique import angle_error, oblique_block
 
@@ -59,9 +60,7 @@ def _block_rotation(truth, adjusted, names):
     """The rotation (3x3) that best turns the true centres onto the adjusted ones (Helmert, no scale)."""
     A = np.array([truth[n].centre for n in names])
     B = np.array([adjusted[n].centre for n in names])
-    U, _, Vt = np.linalg.svd((A - A.mean(0)).T @ (B - B.mean(0)))
-    d = np.sign(np.linalg.det(U @ Vt))
-    return (U @ np.diag([1, 1, d]) @ Vt).T
+    return nearest_rotation((A - A.mean(0)).T @ (B - B.mean(0))).T
 
 
 def _errors(block, adjusted):

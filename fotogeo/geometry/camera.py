@@ -60,6 +60,25 @@ def angles_patb(R: np.ndarray) -> tuple[float, float, float]:
     return math.degrees(omega), math.degrees(phi), math.degrees(kappa)
 
 
+def nearest_rotation(M) -> np.ndarray:
+    """The rotation closest to the square matrix ``M`` in the Frobenius norm: ``argmin ‖R − M‖_F`` over
+    ``R`` with ``RᵀR = I`` and ``det R = +1``.
+
+    With ``M = U S Vᵀ`` (SVD), ``R = U diag(1, …, 1, det(U Vᵀ)) Vᵀ``: the maximiser of ``trace(Rᵀ M)``
+    (Kabsch 1976; Horn 1987 reaches the same rotation by unit quaternions). The sign on the last axis turns a
+    reflection (``det(U Vᵀ) = −1``) into a rotation, so a reflected or noisy input still gives ``det R = +1``.
+    Used both to orthonormalise a nearly orthogonal matrix (``M`` itself) and to solve Wahba's (1965) problem
+    ``min Σ |R dᵢ − uᵢ|²`` (``M = Σ uᵢ dᵢᵀ``). The rotation is unique when ``M`` has rank ≥ ``n − 1``
+    (and its two smallest singular values differ when ``det M < 0``).
+    """
+    M = np.asarray(M, dtype=np.float64)
+    if M.ndim != 2 or M.shape[0] != M.shape[1] or not np.isfinite(M).all():
+        raise InputError(f"nearest_rotation: M must be a finite square matrix; got shape {M.shape}")
+    U, _, Vt = np.linalg.svd(M)
+    U[:, -1] *= 1.0 if np.linalg.det(U @ Vt) >= 0 else -1.0
+    return U @ Vt
+
+
 @dataclass(frozen=True)
 class FrameCamera:
     """Pinhole interior orientation (see the module docstring for the equations)."""

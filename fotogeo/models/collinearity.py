@@ -38,7 +38,7 @@ import warnings
 import numpy as np
 
 from ..errors import InputError, ModelError
-from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb
+from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, nearest_rotation
 from ..geometry.dem import is_height_source
 from .base import Normalisation, check_pairs, register_model
 from .spatial import DLT, FittedModel
@@ -147,10 +147,9 @@ class Collinearity(FittedModel):
         M = np.linalg.solve(K, P[:, :3])
         if np.linalg.det(M) < 0:
             M, P = -M, -P
-        U, S, Vt = np.linalg.svd(M)
-        if S[-1] < 1e-9 * S[0]:
+        if np.linalg.cond(M) > 1e9:
             raise ModelError("degenerate DLT")
-        Rt = U @ Vt  # (R·D)ᵀ
+        Rt = nearest_rotation(M)  # (R·D)ᵀ
         C = -np.linalg.solve(P[:, :3], P[:, 3])
         return C, Rt.T
 

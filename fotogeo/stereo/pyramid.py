@@ -153,21 +153,22 @@ def witnessed(d, dc_right, factor: int | None = None, near_border=None) -> np.nd
     disparity is required (the envelope is not read): at the overlap's edge a left pixel without a partner can
     meet a wrong right pixel that meets it back within the band (module docstring)."""
     factor = factor or FACTOR
-    r, c = np.nonzero(np.isfinite(d))  # the matched pixels only
-    dv = d[r, c]
+    i = np.flatnonzero(np.isfinite(d))  # the matched pixels only (flat indices: one gather per array)
+    dv = d.ravel()[i]
+    r, c = np.divmod(i, d.shape[1])
     xr = np.rint(c.astype(np.float32) - dv)
     hc, wc = dc_right.shape
     inside = (xr >= 0) & (xr < wc * factor)
-    by, bx = np.minimum(r // factor, hc - 1), (np.where(inside, xr, 0) // factor).astype(np.intp)
+    cell = np.minimum(r // factor, hc - 1) * wc + np.where(inside, xr, 0).astype(np.intp) // factor  # integer //
     lo, hi = witness_envelope(dc_right)
-    a, b = factor * lo[by, bx], factor * hi[by, bx]
+    a, b = factor * lo.ravel()[cell], factor * hi.ravel()[cell]
     if near_border is not None:
-        nb, own = near_border[r, c], factor * dc_right[by, bx]
-        a, b = np.where(nb, own, a), np.where(nb, own, b)
+        nb = near_border.ravel()[i]
+        a[nb] = b[nb] = factor * dc_right.ravel()[cell[nb]]
     with np.errstate(invalid="ignore"):
         keep = inside & (dv >= a - factor * WITNESS) & (dv <= b + factor * WITNESS)
     out = np.full(d.shape, np.nan, np.float32)
-    out[r[keep], c[keep]] = dv[keep]
+    out.ravel()[i[keep]] = dv[keep]
     return out
 
 

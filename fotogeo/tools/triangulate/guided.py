@@ -55,7 +55,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import FotogeoError
-from ...geometry.camera import OrientedFrame, angles_patb
+from ...geometry.camera import OrientedFrame, angles_patb, nearest_rotation
 from ...progress import as_progress
 from .ground import block_grid, footprint, grid_to_pixels, ground_features
 from .pairs import MIN_PAIR_INLIERS, epipolar_kept, grey
@@ -353,9 +353,10 @@ def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -
 
 
 def _rotation_to(d, u, rounds: int = 2):
-    """The rotation ``R`` (camera axes → world) minimising ``Σ |R d̂ − û|²`` (Wahba 1965): with ``B = Σ û d̂ᵀ = U S
-    Vᵀ``, ``R = U diag(1, 1, det(U Vᵀ)) Vᵀ`` (Kabsch 1976); refitted ``rounds`` times on the pairs within
-    :data:`TRIM_FACTOR` × the median angle (at least 0.5°) of the fit before (wrong ties, relief off the plane).
+    """The rotation ``R`` (camera axes → world) minimising ``Σ |R d̂ − û|²`` (Wahba 1965): the rotation nearest
+    ``B = Σ û d̂ᵀ`` (:func:`~fotogeo.geometry.camera.nearest_rotation`, Kabsch 1976); refitted ``rounds`` times on
+    the pairs within :data:`TRIM_FACTOR` × the median angle (at least 0.5°) of the fit before (wrong ties, relief
+    off the plane).
     None with fewer than :data:`MIN_ATTITUDE_TIES` finite pairs kept."""
     ok = np.isfinite(u).all(axis=1)
     d = d[ok] / np.linalg.norm(d[ok], axis=1, keepdims=True)
@@ -364,8 +365,7 @@ def _rotation_to(d, u, rounds: int = 2):
     for _ in range(rounds + 1):
         if np.count_nonzero(keep) < MIN_ATTITUDE_TIES:
             return None
-        U, _, Vt = np.linalg.svd(u[keep].T @ d[keep])
-        R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+        R = nearest_rotation(u[keep].T @ d[keep])
         angle = np.arccos(np.clip(np.sum((d @ R.T) * u, axis=1), -1.0, 1.0))
         keep = angle <= max(TRIM_FACTOR * float(np.median(angle[keep])), math.radians(0.5))
     return R
