@@ -262,3 +262,13 @@ def test_triangulate_refuses_an_undecided_sfm_start(odm, tmp_path):
         triangulate(odm["bare"], None, path, None, tmp_path / "out")
     assert err.value.option == "sfm_frame"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("altitude", [0.0, 500.0])
+def test_the_readings_are_compared_horizontally(altitude):
+    """A small block near a reference 500 m up: the grid reading takes z as the altitude, the topocentric one adds
+    the reference's, so the 3-D distance was the reference altitude (500 m apart, refused naming ``sfm_frame``)
+    where the readings agree to a millimetre."""
+    local = np.array([[3.0, -2.0, 40.0], [-4.0, 5.0, 41.0]])
+    metres, degrees = separation((15.0, 45.0, altitude), UTM33, local)
+    assert metres < 0.01 and degrees < 1e-3

@@ -6,9 +6,9 @@ ODM as offsets parallel to the UTM grid from UTM(``reference_lla``) (GUIDE.md §
 reference) and keeps the topocentric file as ``reconstruction.topocentric.json``; it imposes ``reference_lla`` at
 its UTM offset (``odm_georeferencing/coords.txt``: the zone of its first photo and ``floor`` of the photos' mean
 UTM). The two readings agree at the reference and part with the distance from it: by the meridian convergence γ
-(≈ Δλ·sin φ, largest at high latitude far from the zone's central meridian) and the grid's scale. ``export_geocoords``
-leaves each shot's ``gps_position`` as OpenSfM wrote it, topocentric, so it says nothing about the poses' frame: the
-reading is decided by the **camera centres** against an absolute GPS of the same images, in this order:
+(≈ Δλ·sin φ, largest at high latitude far from the zone's central meridian) and the grid's scale.
+``export_geocoords`` leaves each shot's ``gps_position`` as OpenSfM wrote it, topocentric, so it says nothing about
+the poses' frame: the reading is decided by the **camera centres** against an absolute GPS of the same images, in this order:
 
 1. the images' own EXIF GPS, with the σ of their accuracy tags (DJI RTK, senseFly) or :data:`DEFAULT_SIGMA_H`
    (a consumer receiver);
@@ -18,10 +18,11 @@ reading is decided by the **camera centres** against an absolute GPS of the same
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
 chosen when it fits (``χ²/(2n) ≤ 9``, RMS within 3σ) and the other fits worse by ``Δχ² ≥ 25`` (a 5σ
 separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
-topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor ODM's
-reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within :data:`SAME_M` and :data:`SAME_DEG` of each
-other the choice is immaterial (topocentric is taken and said). Otherwise the file is refused, naming the
-option ``sfm_frame``. Heights are not compared (the GPS altitude's reference is often unknown).
+topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor
+ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within
+:data:`SAME_M` (horizontally) and :data:`SAME_DEG` of each other the choice is immaterial (topocentric is taken
+and said). Otherwise the file is refused, naming the option ``sfm_frame``. Heights are not compared (the GPS
+altitude's reference is often unknown).
 
 :func:`check_gps` is the same test for any SfM block (COLMAP, orthority, OpenSfM after its reading): the
 block's centres must agree with the images' own GPS within 3σ horizontally (RMS), else it is refused by name.
@@ -90,13 +91,15 @@ def _rms(res) -> float:
 
 
 def separation(ref, crs, centres, grid=None) -> tuple[float, float]:
-    """``(metres, degrees)``: the largest distance and turn between the two readings of ``centres`` (local);
-    ``grid``: ``(UTM CRS, origin)`` of the grid reading (:func:`odm_grid`; default: the zone of ``ref`` at it)."""
+    """``(metres, degrees)``: the largest horizontal distance and turn between the two readings of ``centres``
+    (local); ``grid``: ``(UTM CRS, origin)`` of the grid reading (:func:`odm_grid`; default: the zone of ``ref`` at
+    it). Heights are left out: the grid reading takes z as the altitude (ODM imposes a reference altitude 0), the
+    topocentric one adds the reference's altitude."""
     from ..geometry.local_frames import LocalFrame
     (pa, ma), (pb, mb) = (LocalFrame(k, ref, crs, *(grid or ())).to_map(centres) for k in READINGS)
     turn = np.einsum("nij,nkj->nik", ma, mb)
     ang = np.degrees(np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)))
-    return float(np.max(np.linalg.norm(pa - pb, axis=1))), float(np.max(ang))
+    return float(np.max(np.linalg.norm(pa[:, :2] - pb[:, :2], axis=1))), float(np.max(ang))
 
 
 def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
