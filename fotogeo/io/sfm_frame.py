@@ -8,7 +8,8 @@ its UTM offset (``odm_georeferencing/coords.txt``: the zone of its first photo a
 UTM). The two readings agree at the reference and part with the distance from it: by the meridian convergence γ
 (≈ Δλ·sin φ, largest at high latitude far from the zone's central meridian) and the grid's scale.
 ``export_geocoords`` leaves each shot's ``gps_position`` as OpenSfM wrote it, topocentric, so it says nothing about
-the poses' frame: the reading is decided by the **camera centres** against an absolute GPS of the same images, in this order:
+the poses' frame: the reading is decided by the **camera centres** against an absolute GPS of the same images, in
+this order:
 
 1. the images' own EXIF GPS, with the σ of their accuracy tags (DJI RTK, senseFly) or :data:`DEFAULT_SIGMA_H`
    (a consumer receiver);
