@@ -208,19 +208,23 @@ def fill_holes(height, radius: int = 8, everywhere: bool = False) -> tuple:
     valid = np.isfinite(height)
     if valid.all() or not valid.any():
         return height.copy(), np.zeros(height.shape, np.uint8)
-    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
-    span = max(hi - lo, 1e-6)
-    norm = np.where(valid, (height - lo) / span, 0).astype(np.float32)
     holes = ~valid
     if not everywhere:
         hull = np.zeros(height.shape, np.uint8)
         rc = np.column_stack(np.nonzero(valid))[:, ::-1].astype(np.int32)
         cv2.fillConvexPoly(hull, cv2.convexHull(rc), 1)
         holes &= hull.astype(bool)
-    # in 16 bits: OpenCV 4.11's Telea on float32 extrapolates far beyond the data (ramp 0.5-9.9 m: filled -8.8-18.4);
-    # every NaN cell is in the inpainting mask, so that the cells left unfilled (outside the hull) are never read as
-    # heights (they hold 0, the lowest height: NGI at 12 m, filled cells within 2 cells of data were 77 m off)
-    filled = cv2.inpaint((norm * 65535).astype(np.uint16), (~valid).astype(np.uint8), radius,
+    known = height
+    if (~valid & ~holes).any():  # the cells left unfilled take a nearest height (OpenCV's labels: the valid cells in
+        # raster order), never read as 0, the lowest; kept out of Telea's mask, whose cost grows with its area
+        _, near = cv2.distanceTransformWithLabels((~valid).astype(np.uint8), cv2.DIST_L2, 5,
+                                                  labelType=cv2.DIST_LABEL_PIXEL)
+        known = height[valid][near - 1]
+    lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
+    span = max(hi - lo, 1e-6)
+    norm = np.nan_to_num((known - lo) / span).astype(np.float32)  # the holes: 0, under the mask
+    # in 16 bits: OpenCV 4.11's Telea on float32 extrapolates far beyond the data (ramp 0.5-9.9 m: filled -8.8-18.4)
+    filled = cv2.inpaint((norm * 65535).astype(np.uint16), holes.astype(np.uint8), radius,
                          cv2.INPAINT_TELEA) / 65535 * span + lo
     out = np.where(holes, filled, height).astype(np.float32)
     return out, holes.astype(np.uint8)
