@@ -23,13 +23,12 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     if camera is None:
         return
     cw, ch = (int(v) for v in camera.image_size)
-    if (cw, ch) != (int(width), int(height)) and source:
-        raise InputError(f"the camera of {source} is for images of {cw}x{ch} pixels but {str(image)!r} is "
-                         f"{width}x{height} (resized after the reconstruction?); give the images it was made from, or "
-                         f"--camera with this size's focal length and principal point")
-    if (cw, ch) != (int(width), int(height)):
-        raise InputError(f"the camera is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}; "
-                         f"give the camera file of this image (or scale its image size and principal point)")
+    if (cw, ch) == (int(width), int(height)):
+        return
+    of, fix = ((f" of {source}", " (resized after the reconstruction?); give the images it was made from, or "
+                "--camera with this size's focal length and principal point") if source else
+               ("", "; give the camera file of this image (or scale its image size and principal point)"))
+    raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
 
 
 def check_gcp_crs(gcps, source) -> None:
