@@ -305,3 +305,10 @@ def test_read_gcps_validates_points(tmp_path):
     pd.DataFrame({"x": [], "y": [], "col": [], "row": []}).to_csv(e, index=False)
     with pytest.raises(VectorError, match="holds no points"):
         read_gcps(e, crs="EPSG:32635")
+
+
+def test_duplicate_ids_names_each_repeated_id_and_its_rows():
+    """The one test behind the three refusals of an id given twice (points, GCP files, the picker's GCPs)."""
+    from fotogeo.io.tables import duplicate_ids
+    assert duplicate_ids(["b", "a", "b", 3, "3", "c"]) == {"b": [1, 3], "3": [4, 5]}
+    assert duplicate_ids(["a", "b"]) == {}

@@ -71,15 +71,11 @@ def check_unique_ids(table, id_field: str, what: str) -> None:
     """Refuse a point table whose ``id_field`` names a point twice: its output rows (one per input row) could
     not be told apart, and a join on the id keeps one of them silently. Names each id and its data rows
     (1-based; for a CSV, line = row + 1 after the header)."""
-    from ...io.tables import find_column
+    from ...io.tables import duplicate_ids, find_column
     column = find_column(table, id_field)
     if column is None:
         return
-    ids = table[column].astype(str).to_numpy()
-    seen: dict = {}
-    for k, i in enumerate(ids):
-        seen.setdefault(i, []).append(k + 1)
-    twice = {i: rows for i, rows in seen.items() if len(rows) > 1}
+    twice = duplicate_ids(table[column].astype(str).to_numpy())
     if twice:
         listed = "; ".join(f"{i!r} (rows {', '.join(map(str, rows))})" for i, rows in list(twice.items())[:10])
         raise VectorError(f"{what}: id(s) used more than once in field {str(column)!r}: {listed}"
