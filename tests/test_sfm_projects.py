@@ -162,6 +162,15 @@ def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
         _read(folder, sc["bare"][:2])
 
 
+def test_colmap_images_txt_without_a_crs_is_read_as_a_model_not_as_eo_lines(sc, tmp_path):
+    """ortho without --crs or a projected DEM looked for a fotogeo header in COLMAP's images.txt (a ``.txt``, so
+    taken for ``name X Y Z omega phi kappa`` lines) and asked for the CRS of "the exterior orientation"."""
+    from fotogeo.tools.ortho.inputs import map_crs
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    with pytest.raises(InputError, match=r"COLMAP model .*: COLMAP coordinates have no CRS"):
+        map_crs(None, None, folder / "images.txt", sc["bare"][:2], False)
+
+
 def test_orthority_cameras_without_sensor_size_in_ortho(sc, tmp_path):
     """orthority's brown camera (focal_len normalised, no sensor_size) given as --camera with its GeoJSON: ortho read
     the camera again as fotogeo's YAML and refused it on main."""
