@@ -194,6 +194,20 @@ def check_output(path, inputs, overwrite: bool, role: str = "output", suffixes: 
     return p
 
 
+def check_outputs(outputs, inputs, overwrite: bool) -> None:
+    """:func:`check_output` on every ``(path, role, suffixes)`` of ``outputs`` (a None path is not written), and
+    refuse two of them at one path before any work (the second would be found at the end, "appeared while
+    fotogeo was working", or overwrite the first)."""
+    seen: dict = {}
+    for p, role, suffixes in outputs:
+        if p is None:
+            continue
+        key = check_output(p, inputs, overwrite, role, suffixes)
+        if key in seen:
+            raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
+        seen[key] = role
+
+
 def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolution: float | None = None):
     """Refuse an output grid larger than :data:`MAX_GRID_PIXELS` or than
     :data:`MAX_GRID_UPSAMPLING` times the ``source_pixels`` it is resampled from.

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...io.raster import AtomicOutputs, check_output, geotiff_profile, ropen
+from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs, geotiff_profile, ropen
 from ...mosaic.blend import balance as balance_band
 from ...mosaic.blend import overlap_statistics, signed_distance
 from ...mosaic.patches import Patch, overlapping_pairs
@@ -266,8 +266,7 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
         raise InputError("give at least two orthophotos to mosaic")
     output = Path(output)
     seamlines = Path(seamlines) if seamlines else output.with_suffix(".gpkg")
-    for p, role, kind in ((output, "mosaic", (".tif", ".tiff")), (seamlines, "seamlines", (".gpkg",))):
-        check_output(p, paths, overwrite, role, kind)
+    check_outputs(((output, "mosaic", GEOTIFF_SUFFIXES), (seamlines, "seamlines", (".gpkg",))), paths, overwrite)
     infos = [open_raster(p, "orthophoto") for p in paths]
     crs, lattice = _lattice(infos, paths)
     with tempfile.TemporaryDirectory(prefix="fotogeo-mosaic-") as folder:
