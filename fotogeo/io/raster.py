@@ -195,13 +195,10 @@ def check_output(path, inputs, overwrite: bool, role: str = "output", suffixes: 
 
 
 def check_outputs(outputs, inputs, overwrite: bool) -> None:
-    """:func:`check_output` on every ``(path, role, suffixes)`` of ``outputs`` (a None path is not written), and
-    refuse two of them at one path before any work (the second would be found at the end, "appeared while
-    fotogeo was working", or overwrite the first)."""
+    """:func:`check_output` on every ``(path, role, suffixes)`` of ``outputs`` (None: not written); two of them at
+    one path refused before any work (the second would be found at the end, or overwrite the first)."""
     seen: dict = {}
-    for p, role, suffixes in outputs:
-        if p is None:
-            continue
+    for p, role, suffixes in (o for o in outputs if o[0] is not None):
         key = check_output(p, inputs, overwrite, role, suffixes)
         if key in seen:
             raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
