@@ -201,6 +201,40 @@ def check_lonlat_range(crs: CRS, xy, what: str):
                          f"latitudes — probably metres: give their real CRS (e.g. the UTM zone, EPSG:326zz)")
 
 
+def area_of_use(crs: CRS):
+    """pyproj's ``AreaOfUse`` of ``crs`` (west, south, east, north in degrees), that of its EPSG code when its WKT
+    carries none (a GeoTIFF's often does not), else None."""
+    if crs.area_of_use is not None:
+        return crs.area_of_use
+    epsg = crs.to_epsg()
+    return CRS.from_epsg(epsg).area_of_use if epsg else None
+
+
+def outside_area_of_use(crs: CRS, points, margin_deg: float = 0.0, *, lonlat: bool = False) -> np.ndarray:
+    """Boolean mask of the ``points`` ``(N, 2)`` (in ``crs``, or longitude/latitude when ``lonlat``) outside the
+    area of use of ``crs`` (:func:`area_of_use`) widened by ``margin_deg`` degrees on every side — the one test of
+    "are these coordinates in this CRS at all". Longitudes are compared modulo 360° (an area across the
+    antimeridian has west > east); a point that does not transform (NaN, infinite) is outside; with no known area
+    only such points are.
+
+    >>> outside_area_of_use(CRS.from_epsg(32633), [[500000.0, 6650000.0], [-5e6, 6650000.0]]).tolist()
+    [False, True]
+    """
+    p = np.asarray(points, float).reshape(-1, 2)
+    with np.errstate(all="ignore"):
+        lon, lat = (p if lonlat else to_lonlat(crs, p)).T
+    finite = np.isfinite(lon) & np.isfinite(lat)
+    aou = area_of_use(crs)
+    if aou is None:
+        return ~finite
+    w, s, e, n = aou.bounds
+    east = e - w if e >= w else e - w + 360.0  # the area's width eastwards from w
+    from_w = (lon - (w - margin_deg)) % 360.0  # degrees eastwards from the widened west edge
+    with np.errstate(invalid="ignore"):
+        inside = finite & (from_w <= east + 2 * margin_deg) & (lat >= s - margin_deg) & (lat <= n + margin_deg)
+    return ~inside
+
+
 def crs_summary(text: str) -> str:
     """A CRS given as text (WKT, EPSG code …) in one short phrase for reports (:func:`short_name`; never a
     whole WKT); the text's first 60 characters when it does not parse."""

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import errno
 import os
-import re
 import shutil
 import subprocess
 import warnings
@@ -19,6 +18,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from cli_output import not_progress
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import FotogeoError, InputError, OutputError, VectorError
@@ -48,11 +48,6 @@ def out(env, tmp_path):
 
 def _expand(args, d: Path, out: Path) -> list[str]:
     return [a.format(d=d, out=out) for a in args]
-
-
-def not_progress(stderr: str) -> list:
-    """The lines of ``stderr`` less the progress (off a terminal: ``' 42.0% message'`` lines)."""
-    return [line for line in stderr.splitlines() if not re.match(r"^\s*\d+\.\d% ", line)]
 
 
 def assert_one_line_error(result, expected: str):

@@ -78,8 +78,8 @@ def test_bounds_off_the_overlap_and_a_grid_too_coarse_are_named(pair, tmp_path):
 
 
 def test_the_match_density_is_a_share_of_the_matchable_pixels(pair, tmp_path):
-    """Before: pixels matched outside the matchable ones were counted too (the rendered 400² pair: "125 %
-    matched")."""
+    """Before: pixels matched outside the matchable ones were counted too, so the density could exceed 100 %; now
+    the rendered 256² pair's is a share of its matchable pixels."""
     from fotogeo.tools.dsm import dsm
     rep = dsm(pair["images"], tmp_path / "a.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS)
     density = rep["pairs"][0]["match_density"]
@@ -137,9 +137,8 @@ def test_filled_holes_stay_within_the_heights_around_them():
 
 
 def test_fill_leaves_the_completeness_of_the_matched_cells(pair, tmp_path):
-    """The cells both images see were found on the filled heights: the rendered 400² pair's completeness was
-    96.0 % without ``--fill`` and 91.4 % with it (79.5 % once the fill stopped overshooting), for the same matched
-    cells."""
+    """The cells both images see were found on the filled heights, so the same matched cells gave another
+    completeness with ``--fill`` than without; now both count the cells seen at the matched heights."""
     from fotogeo.tools.dsm import dsm
     kw = dict(camera=pair["camera"], eo=pair["eo"], crs=CRS)
     plain = dsm(pair["images"], tmp_path / "a.tif", **kw)
@@ -173,7 +172,7 @@ def test_an_rpc_that_does_not_fit_its_image_is_named_when_nothing_matches(data_d
 @pytest.mark.data
 def test_an_rpc_dsm_refuses_a_crs_with_a_vertical_part(data_dir, tmp_path):
     """Before: ``--crs EPSG:32631+5773`` (UTM + EGM96 height) gave the ellipsoidal heights under a plain EPSG:32631,
-    exit 0 — about 50 m from the EGM96 heights asked for at Ventoux."""
+    exit 0 — off the EGM96 heights asked for by the geoid's height at Ventoux."""
     from fotogeo.tools.dsm import dsm
     v = data_dir / "rpc" / "ventoux"
     with pytest.raises(InputError, match=r"--crs 'EPSG:32631\+5773' has a vertical part \(EGM96 height\).*above the "
@@ -195,8 +194,8 @@ def test_cameras_outside_the_given_crs_area_of_use_are_named(pair, tmp_path):
 
 def test_cells_outside_the_hull_are_never_read_as_heights():
     """The NaN cells left unfilled (outside the convex hull of the data) were outside the inpainting mask, so Telea
-    read them as the lowest height: the NGI DSM at 12 m (``--fill``) had filled cells within 2 cells of data 77 m off
-    the 24 m DEM (15 m once fixed); here a hole cut by the hull's edge in a 1000–1099 m ramp was pulled down towards 1000."""
+    read them as the lowest height (NGI at 12 m: ``benchmarks/dsm_fill_bench.py``); here a hole cut by the hull's
+    edge in a 1000–1099 m ramp was pulled down towards 1000."""
     from fotogeo.stereo.fusion import fill_holes
     rows, cols = np.mgrid[0:100, 0:100].astype(np.float32)
     h = 1000 + cols

@@ -305,3 +305,25 @@ def test_read_gcps_validates_points(tmp_path):
     pd.DataFrame({"x": [], "y": [], "col": [], "row": []}).to_csv(e, index=False)
     with pytest.raises(VectorError, match="holds no points"):
         read_gcps(e, crs="EPSG:32635")
+
+
+def test_duplicate_ids_names_each_repeated_id_and_its_rows():
+    """The one test behind the three refusals of an id given twice (points, GCP files, the picker's GCPs)."""
+    from fotogeo.io.tables import duplicate_ids
+    assert duplicate_ids(["b", "a", "b", 3, "3", "c"]) == {"b": [1, 3], "3": [4, 5]}
+    assert duplicate_ids(["a", "b"]) == {}
+
+
+def test_outside_area_of_use_widens_wraps_and_refuses_what_does_not_transform():
+    """One test of "these coordinates are not in this CRS" (COLMAP's frame, the GPS against --crs, dsm's cameras):
+    a margin in degrees, longitudes modulo 360° (EPSG:3832 spans the antimeridian), NaN outside."""
+    from pyproj import CRS
+
+    from fotogeo.crs import outside_area_of_use
+    utm33 = CRS.from_epsg(32633)  # 12..18° E
+    assert outside_area_of_use(utm33, [[12.0, 60.0], [18.9, 60.0], [19.1, 60.0], [372.0, 60.0]], 1.0,
+                               lonlat=True).tolist() == [False, False, True, False]
+    assert outside_area_of_use(utm33, [[500000.0, 6650000.0], [-5e6, 6650000.0], [np.nan, 0.0]]).tolist() == \
+        [False, True, True]
+    assert outside_area_of_use(CRS.from_epsg(3832), [[170.0, 0.0], [-170.0, 0.0], [0.0, 0.0]],
+                               lonlat=True).tolist() == [False, False, True]

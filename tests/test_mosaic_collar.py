@@ -4,7 +4,6 @@ to the border as nodata (with a note naming the file and ``gdal_edit -a_nodata``
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +12,10 @@ import rasterio
 from affine import Affine
 from click.testing import CliRunner
 
+from collar_cases import turned_inside
 from fotogeo.cli import main
 from fotogeo.mosaic.collar import MIN_SHARE, border_collar
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from mosaic_collar_bench import turned_inside  # noqa: E402
 
 X0, Y1, H, W, OVERLAP = 500000.0, 4400000.0, 240, 200, 80
 
@@ -75,3 +73,36 @@ def test_the_collar_is_what_reaches_the_border():
     few = scene(100, 120)
     few[:, 0, :int(MIN_SHARE * 12000) - 1] = 255  # fewer white cells on the edge than MIN_SHARE: data
     assert border_collar(few) == (None, None)
+
+
+@pytest.mark.parametrize("value", [0, 255])
+def test_a_cloud_or_lake_reaching_the_edge_is_not_a_collar(value):
+    """Before: any border-connected region of 0 or 255 in every band above 0.1 % of the cells became nodata — a
+    saturated cloud or snowfield (or a black lake) cut by the image's edge was dropped from the mosaic. A warp's
+    or a scan's collar leaves convex data (a turned rectangle); such a bite does not."""
+    bands = scene(100, 120)
+    bands[:, :30, 40:80] = value  # 10 % of the cells, on the top edge
+    assert border_collar(bands, (value,)) == (None, None)
+    turned = scene(100, 120)
+    turned[:, ~turned_inside(100, 120, 20.0, 0.72)] = value
+    mask, got = border_collar(turned, (value,))
+    assert got == value and mask.sum() == (~turned_inside(100, 120, 20.0, 0.72)).sum()
+
+
+def test_a_large_file_is_labelled_decimated(tmp_path, monkeypatch):
+    """Files above MAX_COLLAR_PIXELS are read decimated (average: a cell is collar when every pixel under it is);
+    the mask, grown by one cell, reaches the mosaic through the VRT (nearest). Only a fringe of data along the
+    outer edge, about one decimated cell wide, is given up; no collar pixel is blended (without the growth the
+    collar's edge was feathered into the neighbour's data 10 pixels inside: 37 cells off by more than 50)."""
+    import fotogeo.tools.ortho.mosaic_collar as mc
+    monkeypatch.setattr(mc, "MAX_COLLAR_PIXELS", 4000)  # 240 x 200 inputs: cells of ~3.5 x 3.5 pixels
+    paths, truth, covers = _turned_pair(tmp_path, 0)
+    r = CliRunner().invoke(main, ["mosaic", *map(str, paths), "-o", str(tmp_path / "m.tif"), "--json"])
+    assert r.exit_code == 0, r.output
+    assert set(json.loads(r.stdout)["result"]["collars_taken_as_nodata"]) == {"turned_0.tif", "turned_1.tif"}
+    with rasterio.open(tmp_path / "m.tif") as ds:
+        m = ds.read().astype(float)
+    from scipy import ndimage
+    dark = (np.abs(m - truth).max(axis=0) > 50) & covers
+    near_edge = ndimage.binary_dilation(~covers, iterations=5)
+    assert dark.any() and not (dark & ~near_edge).any(), (dark.sum(), (dark & ~near_edge).sum())

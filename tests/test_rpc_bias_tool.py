@@ -155,6 +155,9 @@ def test_rpc_bias_bad_input(data_dir, tmp_path):
         rpc_bias(data_dir / "landsat_rgb" / "RGB.byte.tif", tmp_path / "gcps.gpkg", tmp_path / "x.tif")
     with pytest.raises(FotogeoError, match="method"):
         rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "gcps.gpkg", tmp_path / "x.tif", method="poly")
+    with pytest.raises(FotogeoError, match=r"report '.*x\.tif' is also the output raster; give each output its own"):
+        rpc_bias(data_dir / "qb2" / "qb2_basic1b.tif", tmp_path / "gcps.gpkg", tmp_path / "x.tif",
+                 report=tmp_path / "x.tif")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["gcps.gpkg"]
 
 

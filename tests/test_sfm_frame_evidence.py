@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from pyproj import CRS, Transformer
 
 import rendered_oblique as ro
-from test_bad_input import not_progress
+from cli_output import not_progress
 from fotogeo.errors import FotogeoWarning, InputError
 from fotogeo.geometry.approx_block import ApproxCamera, ApproximateBlock, ApproxShot
 from fotogeo.geometry.local_frames import LocalFrame

@@ -116,7 +116,8 @@ def test_opensfm_images_of_another_reconstruction(sc, tmp_path):
     block = _read(eo, sc["rtk"][:2])
     assert set(block.shots) == set(names[:2]) and any("reconstruction 1 of 2" in n for n in block.notes)
     _right(block, sc, _osfm_cam(sc))
-    with pytest.raises(InputError, match="oriented in another of its 2 reconstructions"):
+    with pytest.raises(InputError, match="oriented in another of its 2 reconstructions.*run once per "
+                                         "reconstruction, each time with only its images"):
         _read(eo, sc["rtk"][1:3])
 
 
@@ -160,6 +161,15 @@ def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
     with pytest.raises(InputError, match="not in WGS 84 / UTM zone 33N .* nor in ECEF.*model_aligner"):
         _read(folder, sc["bare"][:2])
+
+
+def test_colmap_images_txt_without_a_crs_is_read_as_a_model_not_as_eo_lines(sc, tmp_path):
+    """ortho without --crs or a projected DEM looked for a fotogeo header in COLMAP's images.txt (a ``.txt``, so
+    taken for ``name X Y Z omega phi kappa`` lines) and asked for the CRS of "the exterior orientation"."""
+    from fotogeo.tools.ortho.inputs import map_crs
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    with pytest.raises(InputError, match=r"COLMAP model .*: COLMAP coordinates have no CRS"):
+        map_crs(None, None, folder / "images.txt", sc["bare"][:2], False)
 
 
 def test_orthority_cameras_without_sensor_size_in_ortho(sc, tmp_path):

@@ -85,7 +85,7 @@ def _print_version(ctx, _param, value):
 @click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
               help="Show the version and exit.")
 @click.option("-v", "--verbose", count=True, help="Say more: -v each step, -vv debugging detail (logging).")
-@click.option("-q", "--quiet", is_flag=True, help=conventions.QUIET_HELP)
+@conventions.quiet_option
 @click.option("--json", "json_output", is_flag=True,
               help="Print the run's summary as JSON on stdout (human lines go to stderr).")
 def main(verbose, quiet, json_output):

@@ -16,7 +16,7 @@ from ..errors import (Cancelled, FotogeoError, FotogeoWarning, InputNote, Output
                       warning_line)
 from ..options import Option, Table, find_option
 from . import conventions
-from .conventions import EXIT_FAILED, EXIT_USAGE
+from .conventions import EXIT_FAILED, EXIT_USAGE, quiet_option  # noqa: F401 (the commands' -q)
 
 #: exit code of a FotogeoError about an option's value (a usage error, as click's own): one ``Error: ...`` line
 EXIT_ERROR = EXIT_USAGE
@@ -167,11 +167,13 @@ def run_tool(func):
 
         recorded = []
 
+        def print_json(doc: dict):
+            conventions.print_json({"command": name} | doc | ({"warnings": recorded} if recorded else {}), stdout)
+
         def stop(code: int, line: str):
             click.echo(line, err=True)  # the final error: shown even with -q
             if as_json:
-                conventions.print_json({"command": name, "exit_code": code, "error": line}
-                                       | ({"warnings": recorded} if recorded else {}), stdout)
+                print_json({"exit_code": code, "error": line})
             sys.exit(code)
 
         try:  # a sub-command's -q is the group's -q (conventions.quieted): one rule for every line
@@ -190,8 +192,7 @@ def run_tool(func):
             stop(EXIT_USAGE if e.option and not isinstance(e, OutputError) else EXIT_FAILED,
                  f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}")
         if as_json:
-            conventions.print_json({"command": name, "exit_code": 0, "result": result}
-                                   | ({"warnings": recorded} if recorded else {}), stdout)
+            print_json({"exit_code": 0, "result": result})
         return result
     return wrapper
 

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import COMPARE, GCP
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("compare-models")
@@ -18,7 +17,7 @@ from .conventions import QUIET_HELP
 @click.option("--plots", type=click.Path(file_okay=False), help="Folder for error-vector plots per model and layout.")
 @options_from(GCP)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(image, gcps, quiet, **kw):
     """Compare orientation models on control/check sets (random or the file's roles) at check points:

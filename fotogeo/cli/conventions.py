@@ -11,7 +11,8 @@
   The warnings are not lost: ``--json`` lists them (``warnings``), and a tool's report file keeps those it
   records (orient's ``warnings``/``skipped``, interior's per-scan ``warnings``). A library's log record of
   WARNING or above (rasterio's GDAL notes, distributed's) is shown as one ``Warning:`` line through
-  :func:`fotogeo.errors.warning_line`, like a Python warning: translated or silenced, never as the library's raw text with its logger's name.
+  :func:`fotogeo.errors.warning_line`, like a Python warning: translated or silenced, never as the library's raw
+  text with its logger's name.
 - ``--json`` on the group or after any sub-command: the run's summary (what the tool returned) as one JSON
   document on stdout; the human lines go to stderr. On an error: ``{"error": ..., "exit_code": ...}``.
 - Deprecated spellings of options (:data:`DEPRECATED`) keep working for one release with a warning (shown
@@ -35,6 +36,8 @@ EXIT_USAGE = 2
 #: what ``-q`` / ``--quiet`` does, in every command's ``--help``
 QUIET_HELP = ("Quiet: no progress, notes or warnings on stderr (--json still lists the warnings); "
               "the summary and a final Error line stay.")
+#: ``-q`` / ``--quiet`` on the group and after every sub-command: one setting (:func:`quieted`)
+quiet_option = click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 
 #: sub-command -> {old flag: new flag}: spellings unified across commands, accepted until the next release
 DEPRECATED = {"register-batch": {"--outdir": "--output"},

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options.coreg import COREG
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("coreg")
@@ -20,7 +19,7 @@ from .conventions import QUIET_HELP
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report [OUT.json with -o].")
 @options_from(COREG)
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(reference, target, output, shifts, field, report, overwrite, quiet, **options):
     """Co-register TARGET to REFERENCE, two georeferenced images of one area (other dates,

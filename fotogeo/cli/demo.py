@@ -6,8 +6,7 @@ import time
 import click
 
 from ..options import DEMO
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("demo")
@@ -15,7 +14,7 @@ from .conventions import QUIET_HELP
               help="Folder for the generated scene and the results.")
 @options_from(DEMO)
 @click.option("--overwrite", is_flag=True, help="Replace the files of an earlier demo in the folder.")
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(output, overwrite, quiet, **options):
     """Generate a realistic scene (fractal DEM, textured UTM orthophoto, a frame rendered through a

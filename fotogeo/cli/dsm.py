@@ -5,8 +5,7 @@ from __future__ import annotations
 import click
 
 from ..options.dsm import DSM
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("dsm")
@@ -21,7 +20,7 @@ from .conventions import QUIET_HELP
                    "strips matched coarse to fine, match density, epipolar residuals and ray miss distances, "
                    "completeness, timings.")
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(images, output, point_cloud, report, overwrite, quiet, **kw):
     """Match overlapping oriented IMAGES pair by pair into a digital surface model.

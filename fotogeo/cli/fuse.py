@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import FUSE
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("fuse")
@@ -13,7 +12,7 @@ from .conventions import QUIET_HELP
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False))
 @options_from(FUSE)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(source, output, overwrite, quiet, **options):
     """First principal component of all bands of SOURCE (nodata excluded), georeference kept."""

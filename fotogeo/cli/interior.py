@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options.interior import INTERIOR
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments, warn
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments, warn
 
 
 @click.command("interior")
@@ -16,7 +15,7 @@ from .conventions import QUIET_HELP
               help="JSON for one scan; a folder for several (one <scan>.json each).")
 @options_from(INTERIOR)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(scans, camera_report, output, overwrite, quiet, **kw):
     """Find the fiducial marks of each scanned film frame and fit its pixel -> photo-coordinate transform."""

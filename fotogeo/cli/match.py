@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import MATCH
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("match")
@@ -14,7 +13,7 @@ from .conventions import QUIET_HELP
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="GeoPackage (layer tie_points).")
 @options_from(MATCH)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(reference, target, output, overwrite, quiet, **options):
     """Tie points between TARGET and REFERENCE (PCA fusion, SURF, ratio test), with an inlier flag."""

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options.products import MOSAIC
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("mosaic")
@@ -14,7 +13,7 @@ from .conventions import QUIET_HELP
 @click.option("--seamlines", type=click.Path(dir_okay=False), help="GeoPackage of seamlines and regions [OUT.gpkg].")
 @options_from(MOSAIC)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(orthos, output, seamlines, overwrite, quiet, **kw):
     """Mosaic orthophotos of one CRS (others' pixel grids resampled onto the finest): seamlines along low-contrast

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import GCP, ORIENT
-from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments, warn
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, skipped_line, tool_arguments, warn
 
 
 @click.command("orient")
@@ -20,7 +19,7 @@ from .conventions import QUIET_HELP
 @click.option("--rectify", type=click.Path(dir_okay=False), help="Rectified GeoTIFF in the GCP CRS.")
 @options_from(ORIENT, GCP)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(paths, quiet, **kw):
     """Fit an orientation model (ground → image) to the GCPs of IMAGE; check points measure it.

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options.products import ORTHO
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("ortho")
@@ -14,7 +13,7 @@ from .conventions import QUIET_HELP
               help="The orthophoto (one image), or a folder for <name>_ortho.tif of each image.")
 @options_from(ORTHO)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(images, output, overwrite, quiet, **kw):
     """Orthorectify IMAGES whose orientation is known onto a DEM.

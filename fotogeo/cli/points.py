@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import LAYER_TO_POINTS, POINTS_TO_LAYER
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("points-to-layer")
@@ -14,7 +13,7 @@ from .conventions import QUIET_HELP
 @click.option("--layer", default="gcps", show_default=True, help="Layer name in the GeoPackage.")
 @options_from(POINTS_TO_LAYER)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def to_layer(points, output, layer, overwrite, quiet, **options):
     """Convert a QGIS Georeferencer .points file into a GCP point layer (fields id, col, row, role, ...)."""
@@ -34,7 +33,7 @@ def to_layer(points, output, layer, overwrite, quiet, **options):
 @click.option("--layer", help="Layer of a multi-layer file [the first].")
 @options_from(LAYER_TO_POINTS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def to_points(source, output, layer, overwrite, quiet, **options):
     """Convert a GCP point layer (fields col, row, role; or a register tie_points layer) into a .points file."""

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import REGISTER, REGISTER_TERRAIN
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 
 @click.command("register")
@@ -18,7 +17,7 @@ from .conventions import QUIET_HELP
               help="With --local: the displacement field, 2-band GeoTIFF dx, dy in output px [OUT_field.tif].")
 @options_from(REGISTER_TERRAIN, REGISTER)
 @click.option("--overwrite", is_flag=True, help="Replace existing outputs.")
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(reference, target, output, vectors, report, field, overwrite, quiet, **options):
     """Register TARGET (any image of the area) to the georeferenced REFERENCE orthophoto.

@@ -8,8 +8,7 @@ import sys
 import click
 
 from ..options import REGISTER, REGISTER_BATCH, REGISTER_TERRAIN
-from .common import ConsoleProgress, options_from, run_tool
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool
 
 #: exit code when the batch ran but some scenes failed (their rows in the manifest say why)
 EXIT_SOME_FAILED = 1
@@ -21,7 +20,7 @@ EXIT_SOME_FAILED = 1
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False),
               help="Output folder: <scene>.tif/.gpkg/.json per scene, manifest.csv and manifest.gpkg.")
 @options_from(REGISTER_BATCH, REGISTER_TERRAIN, REGISTER)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(reference, targets, outdir, quiet, **options):
     """Register every TARGET scene to REFERENCE (an orthophoto, a mosaic or a VRT) on Dask.

@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import RPC_BIAS
-from .common import ConsoleProgress, options_from, run_tool, skipped_line, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, skipped_line, tool_arguments
 
 
 @click.command("rpc-bias")
@@ -16,7 +15,7 @@ from .conventions import QUIET_HELP
 @click.option("--report", type=click.Path(dir_okay=False), help="JSON report [OUT.json].")
 @options_from(RPC_BIAS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(image, gcps, output, report, overwrite, quiet, **kw):
     """Correct the vendor RPC of IMAGE with the GCPs (Grodecki & Dial 2003 bias compensation).

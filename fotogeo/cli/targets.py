@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import TARGETS
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("measure-targets")
@@ -14,7 +13,7 @@ from .conventions import QUIET_HELP
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
 @options_from(TARGETS)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(image, points, output, overwrite, quiet, **kw):
     """Measure X-shaped fiducial/calibration targets near the approximate col/row of POINTS."""

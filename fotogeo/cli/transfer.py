@@ -4,8 +4,7 @@ from __future__ import annotations
 import click
 
 from ..options import TRANSFER
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("transfer-points")
@@ -15,7 +14,7 @@ from .conventions import QUIET_HELP
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="CSV or GeoPackage.")
 @options_from(TRANSFER)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(reference, search, points, output, overwrite, quiet, **kw):
     """Transfer POINTS (ref_col/ref_row, approximate col/row) from REFERENCE into SEARCH by

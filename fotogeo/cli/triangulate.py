@@ -6,8 +6,7 @@ import math
 import click
 
 from ..options import TRIANGULATE
-from .common import ConsoleProgress, options_from, run_tool, tool_arguments
-from .conventions import QUIET_HELP
+from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_arguments
 
 
 @click.command("triangulate")
@@ -32,7 +31,7 @@ from .conventions import QUIET_HELP
               help="Folder for exterior_orientation.txt, block.gpkg, report.json and report.html (created).")
 @options_from(TRIANGULATE)
 @click.option("--overwrite", is_flag=True)
-@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@quiet_option
 @run_tool
 def command(frames, camera, eo, observations, gcps, reference, folder, overwrite, quiet, **kw):
     """Orient a block of frames together: bundle block adjustment with GCPs (aerial triangulation).

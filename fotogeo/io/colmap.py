@@ -255,8 +255,9 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> 
 def _in_map(images: list, map_crs, where: str) -> tuple:
     """``(images with centres and rotations in map_crs, "map" | "ecef")`` (module docstring: ECEF detected,
     coordinates outside the CRS's area of use refused)."""
+    from ..crs import outside_area_of_use
     C = np.array([c for _, _, c, _ in images], float)
-    if _inside(map_crs, C):
+    if not outside_area_of_use(map_crs, C[:, :2], 1.0).any():  # widened by 1°: a block may overhang a zone
         return images, "map"
     r = np.linalg.norm(C, axis=1)
     if not np.all((r > ECEF_BAND[0]) & (r < ECEF_BAND[1])):
@@ -271,22 +272,6 @@ def _in_map(images: list, map_crs, where: str) -> tuple:
     M = _rz(grid_angle(map_crs, lon, lat)) @ np.swapaxes(_enu_to_ecef(lon, lat), 1, 2)  # ECEF -> map axes
     out = [(n, cid, np.array([a, b, c]), R @ m.T) for (n, cid, _, R), a, b, c, m in zip(images, x, y, h, M)]
     return out, "ecef"
-
-
-def _inside(crs, C) -> bool:
-    """Whether the points ``C`` (x, y) lie in ``crs``'s area of use widened by 1° (a block may overhang a zone)."""
-    from ..geometry.local_frames import _apply
-    from pyproj import CRS
-    epsg = crs.to_epsg() if crs.area_of_use is None else None  # a GeoTIFF's WKT may carry no area of use
-    aou = CRS.from_epsg(epsg).area_of_use if epsg else crs.area_of_use
-    with np.errstate(all="ignore"):
-        lon, lat = _apply(crs, 4326, C[:, 0], C[:, 1])
-    if aou is None:
-        return bool(np.isfinite(lon).all() and np.isfinite(lat).all())
-    w, s, e, n = aou.bounds
-    lon = (lon - w + 180.0) % 360.0 - 180.0 + w if e >= w else lon
-    return bool(np.all(np.isfinite(lon) & np.isfinite(lat) & (lon >= w - 1) & (lon <= e + 1) & (lat >= s - 1)
-                       & (lat <= n + 1)))
 
 
 def _colmap_ids(block: ApproximateBlock) -> dict:

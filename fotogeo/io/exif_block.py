@@ -133,7 +133,7 @@ def block_crs(crs, lonlat) -> tuple[object, str]:
     37° N: 1.26); an :class:`InputError` naming ``--crs`` and the GPS's UTM zone otherwise."""
     from pyproj import Proj
 
-    from ..crs import parse_crs, require_projected, short_name, utm_crs_for
+    from ..crs import area_of_use, outside_area_of_use, parse_crs, require_projected, short_name, utm_crs_for
     utm = utm_crs_for(*lonlat) if lonlat else None
     if crs is None:
         if utm is None:
@@ -144,9 +144,9 @@ def block_crs(crs, lonlat) -> tuple[object, str]:
     if lonlat is None:
         return c, f"map CRS {short_name(c)} (given)"
     lon, lat = lonlat
-    aou, cm = c.area_of_use, _central_meridian(c)
+    aou, cm = area_of_use(c), _central_meridian(c)
     why = ""
-    if aou is not None and not (aou.west <= lon <= aou.east and aou.south <= lat <= aou.north):
+    if outside_area_of_use(c, [lonlat], lonlat=True)[0]:
         why = f"outside its area of use ({aou.west:g}..{aou.east:g}°E, {aou.south:g}..{aou.north:g}°N)"
     elif cm is not None and "transverse" in (c.coordinate_operation.method_name or "").lower() and \
             abs((lon - cm + 180.0) % 360.0 - 180.0) > 10.0:

@@ -34,6 +34,7 @@ from pyproj import CRS
 
 from ..crs import parse_crs, transform_points
 from ..errors import FotogeoWarning, InputError, InputNote, VectorError
+from .tables import duplicate_ids
 
 #: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
 #: and of the statistics when such a layer is read back
@@ -254,7 +255,7 @@ def _validate(g: Gcps, what: str):
     if (counts > 1).any():
         dup = g.ids[first[counts > 1]]
         raise InputError(f"{what}: duplicated GCP(s) {', '.join(dup[:10])}; remove the copies")
-    dup_ids = [i for i, c in zip(*np.unique(g.ids, return_counts=True)) if c > 1]
+    dup_ids = sorted(duplicate_ids(g.ids))
     if dup_ids:
         raise InputError(f"{what}: GCP id(s) {', '.join(dup_ids[:10])} are used more than once")
 

@@ -226,8 +226,8 @@ def _pick(data: list, index, names, where: str) -> tuple:
     elsewhere = sorted(n for n in wanted - keys[best] if any(n in k for k in keys))
     if elsewhere:
         raise InputError(f"{where}: the images {', '.join(elsewhere[:5])} are oriented in another of its {len(data)} "
-                         f"reconstructions than the rest (OpenSfM could not join them into one block); orthorectify "
-                         f"the images of each reconstruction separately")
+                         f"reconstructions than the rest (OpenSfM could not join them into one block); run once per "
+                         f"reconstruction, each time with only its images")
     why = "the one holding the images given" if wanted & keys[best] else "the largest"
     return best, f"reconstruction {best} of {len(data)} ({len(keys[best])} shots; the others hold " \
                  f"{', '.join(str(len(k)) for i, k in enumerate(keys) if i != best)}): {why}"

@@ -194,6 +194,17 @@ def check_output(path, inputs, overwrite: bool, role: str = "output", suffixes: 
     return p
 
 
+def check_outputs(outputs, inputs, overwrite: bool) -> None:
+    """:func:`check_output` on every ``(path, role, suffixes)`` of ``outputs`` (None: not written); two of them at
+    one path refused before any work (the second would be found at the end, or overwrite the first)."""
+    seen: dict = {}
+    for p, role, suffixes in (o for o in outputs if o[0] is not None):
+        key = check_output(p, inputs, overwrite, role, suffixes)
+        if key in seen:
+            raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
+        seen[key] = role
+
+
 def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolution: float | None = None):
     """Refuse an output grid larger than :data:`MAX_GRID_PIXELS` or than
     :data:`MAX_GRID_UPSAMPLING` times the ``source_pixels`` it is resampled from.

@@ -143,3 +143,12 @@ def write_table(path, columns: dict, crs=None, xy=None) -> None:
         from .vector import write_layers
         geom = shapely.points(xy if xy is not None else np.column_stack([columns["col"], columns["row"]]))
         write_layers(path, {"points": {**columns, "geometry": geom}}, crs)
+
+
+def duplicate_ids(ids) -> dict[str, list[int]]:
+    """``{id: [rows]}`` of the ids given more than once (rows 1-based, in input order; ids in order of first
+    appearance) — the one test behind every refusal of a point or GCP table naming one id twice."""
+    seen: dict[str, list[int]] = {}
+    for k, i in enumerate(ids):
+        seen.setdefault(str(i), []).append(k + 1)
+    return {i: rows for i, rows in seen.items() if len(rows) > 1}

@@ -43,11 +43,12 @@ def covering_grid(transform: Affine, width: int, height: int, lattice: Affine) -
     return grid, c1 - c0, r1 - r0
 
 
-def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bilinear", mask=None) -> Path:
+def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bilinear", mask=None,
+                mask_scale=(1.0, 1.0)) -> Path:
     """Write ``path`` (.vrt): raster ``source`` (described by ``info``, a :class:`fotogeo.io.raster.RasterInfo`,
     north-up) resampled onto ``lattice``'s cells covering its footprint; returns ``path``. ``mask``: a one-band
-    byte raster on ``source``'s grid (0 invalid, 255 valid), the VRT's dataset mask (nearest), which GDAL's
-    warper and masked reads honour like nodata."""
+    byte raster on ``source``'s grid decimated by ``mask_scale`` (its cell ``fx, fy`` source pixels; 0 invalid,
+    255 valid), the VRT's dataset mask (nearest), which GDAL's warper and masked reads honour like nodata."""
     vtype = _VRT_TYPES.get(str(info.dtype))
     if vtype is None:
         raise ValueError(f"no VRT data type for {info.dtype}")
@@ -65,6 +66,8 @@ def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bil
         f'<DstRect xOff="0" yOff="0" xSize="{width}" ySize="{height}"/>{snd}</ComplexSource></VRTRasterBand>'
         for b in range(1, info.count + 1))
     if mask is not None:
+        fx, fy = mask_scale
+        src = (src[0] / fx, src[1] / fy, src[2] / fx, src[3] / fy)
         bands += (f'<MaskBand><VRTRasterBand dataType="Byte"><ComplexSource resampling="near">'
                   f'<SourceFilename relativeToVRT="0">{escape(str(Path(mask).resolve()))}</SourceFilename>'
                   f'<SourceBand>1</SourceBand><SrcRect xOff="{src[0]!r}" yOff="{src[1]!r}" xSize="{src[2]!r}" '

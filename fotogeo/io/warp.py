@@ -40,8 +40,7 @@ from ..options import RESAMPLINGS
 from ..pixels import HALF
 from ..progress import Progress
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
-from .warp_gdal import GeotransformInverse, centres_to_map, nearest_source_pixels  # noqa: F401 - re-exported
-from .warp_gdal import nearest_pixels_xy
+from .warp_gdal import GeotransformInverse, centres_to_map, nearest_pixels_xy, nearest_source_pixels  # noqa: F401
 from .warp_levels import reduced_plan
 from .warp_source import CV_DTYPES as _CV_DTYPES
 from .warp_source import in_order, opencv_threads, remapped_validity, source_handles, validity, whole_source
@@ -263,10 +262,9 @@ def resample_window(src, plan: Plan, r0: int, c0: int, h: int, w: int):
         if per_band:  # a band at the source's nodata is that band's nodata in the output (GDAL)
             res[res == plan.band_nodata] = plan.nodata
         np.copyto(out[b], res.astype(plan.dtype, copy=False), where=True if good is None else good)
-    if good is None:
-        return out, h * w, 0 if plan.floating else int(np.count_nonzero((out == plan.nodata).all(axis=0)))
-    collisions = 0 if plan.floating else np.count_nonzero((out == plan.nodata).all(axis=0) & good)
-    return out, np.count_nonzero(good), collisions
+    at_nodata = False if plan.floating else (out == plan.nodata).all(axis=0)  # valid cells at the nodata value
+    valid = h * w if good is None else int(np.count_nonzero(good))
+    return out, valid, int(np.count_nonzero(at_nodata if good is None else at_nodata & good))
 
 
 def windows_of(height: int, width: int, block: int, r_off: int = 0, c_off: int = 0, rows=None, cols=None):

@@ -114,4 +114,6 @@ class PickerImage:
         return col, -row
 
     def inside(self, col: float, row: float) -> bool:
+        """The click guard: ``not fotogeo.io.gcps.outside_image`` (corners included), which the worker applies to
+        the table's flag; restated here because nothing in this package imports fotogeo's numpy code."""
         return 0 <= col <= self.width and 0 <= row <= self.height

@@ -23,13 +23,12 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     if camera is None:
         return
     cw, ch = (int(v) for v in camera.image_size)
-    if (cw, ch) != (int(width), int(height)) and source:
-        raise InputError(f"the camera of {source} is for images of {cw}x{ch} pixels but {str(image)!r} is "
-                         f"{width}x{height} (resized after the reconstruction?); give the images it was made from, or "
-                         f"--camera with this size's focal length and principal point")
-    if (cw, ch) != (int(width), int(height)):
-        raise InputError(f"the camera is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}; "
-                         f"give the camera file of this image (or scale its image size and principal point)")
+    if (cw, ch) == (int(width), int(height)):
+        return
+    of, fix = ((f" of {source}", " (resized after the reconstruction?); give the images it was made from, or "
+                "--camera with this size's focal length and principal point") if source else
+               ("", "; give the camera file of this image (or scale its image size and principal point)"))
+    raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
 
 
 def check_gcp_crs(gcps, source) -> None:
@@ -72,15 +71,11 @@ def check_unique_ids(table, id_field: str, what: str) -> None:
     """Refuse a point table whose ``id_field`` names a point twice: its output rows (one per input row) could
     not be told apart, and a join on the id keeps one of them silently. Names each id and its data rows
     (1-based; for a CSV, line = row + 1 after the header)."""
-    from ...io.tables import find_column
+    from ...io.tables import duplicate_ids, find_column
     column = find_column(table, id_field)
     if column is None:
         return
-    ids = table[column].astype(str).to_numpy()
-    seen: dict = {}
-    for k, i in enumerate(ids):
-        seen.setdefault(i, []).append(k + 1)
-    twice = {i: rows for i, rows in seen.items() if len(rows) > 1}
+    twice = duplicate_ids(table[column].astype(str).to_numpy())
     if twice:
         listed = "; ".join(f"{i!r} (rows {', '.join(map(str, rows))})" for i, rows in list(twice.items())[:10])
         raise VectorError(f"{what}: id(s) used more than once in field {str(column)!r}: {listed}"

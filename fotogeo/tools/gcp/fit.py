@@ -31,6 +31,7 @@ import numpy as np
 from ...crs import parse_crs
 from ...errors import InputError, ModelError, one_line
 from ...io.gcps import outside_image, outside_reason
+from ...io.tables import duplicate_ids
 from ...models import get_model
 from ...orientation.adjustment import fit_orientation, image_residuals, select_model
 from ..common.boundary import tool
@@ -112,7 +113,7 @@ def parse_gcp_rows(gcps) -> tuple:
         ids.append(gid)
         roles.append(role)
         rows.append(vals + [z])
-    dup = sorted({i for i in ids if ids.count(i) > 1})
+    dup = sorted(duplicate_ids(ids))
     if dup:
         raise InputError(f"GCP id(s) {', '.join(dup[:10])} are used more than once; give each GCP its own id")
     a = np.array(rows, float).reshape(-1, 5)

@@ -35,6 +35,8 @@ from .frame import write_standard_frame
 
 #: relative spread of the scans' pixel sizes above which a set of scans is refused
 MIXED_RESOLUTION = 0.01
+#: the scan rotations tried, degrees (the report's layout turned by each, as --rotation gives them)
+ROTATIONS = (0.0, 90.0, 180.0, 270.0)
 
 
 @tool(INTERIOR)
@@ -132,23 +134,23 @@ def orient_scan(scan, report, *, model="affine", scan_pixel_um=None, rotation="a
     mm = np.array([report.fiducials_mm[i] for i in ids], float)
     shape = MarkShape(report.mark, report.mark_size_mm / p, report.mark_width_mm / p)
     warnings = []
-    thetas = [0.0, 90.0, 180.0, 270.0] if rotation == "auto" else [float(rotation)]
     reach = max(3, int(round(search_mm / p)))
-    tried = []
-    for th in thetas:
+    tried = []  # the four rotations measured once: the choice, the given one's check and the mirror test use them
+    for th in ROTATIONS:
         tried.append(_hypothesis(img, report, shape, mm, p, th, reach))
         prog(len(tried) / 5.0, f"rotation {th:g}°: {tried[-1][0]} marks")
     tried.sort(key=lambda t: (-t[0], -t[1], t[2]))
-    n, rho, theta, res = tried[0]
+    chosen = tried[0] if rotation == "auto" else next(t for t in tried if t[2] == float(rotation) % 360.0)
+    n, rho, theta, res = chosen
+    others = [t for t in tried if t is not chosen]
     if rotation != "auto":
-        _check_given_rotation(scan, tried[0], [_hypothesis(img, report, shape, mm, p, th, reach)
-                                               for th in (0.0, 90.0, 180.0, 270.0) if th != theta], len(ids), warnings)
+        _check_given_rotation(scan, chosen, others, len(ids))
     if n < len(ids):
-        _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n)
-    ties = [t[2] for t in tried[1:] if t[0] == n and abs(t[1] - rho) < 0.01]
-    if ties and n:
-        warnings.append(f"rotation ambiguous: the layout looks the same turned by {', '.join(f'{t:g}' for t in ties)}°;"
-                        f" {theta:g}° kept (give rotation / --rotation)")
+        _check_not_mirrored(scan, img, report, shape, mm, p, ROTATIONS, reach, n)
+    # a rotation as good (auto: as many marks, NCC within 0.01) or, given, clearly better (NCC 0.01 above)
+    alike = [t for t in others if t[0] == n and (t[1] > rho + 0.01 if rotation != "auto" else abs(t[1] - rho) < 0.01)]
+    if alike and n:
+        warnings.append(_ambiguous(theta, alike, n, rho, given=rotation != "auto"))
     found = [k for k, r in enumerate(res) if r.ok]
     if len(found) >= 3:  # refine: templates turned by the fitted rotation, search at the predicted marks
         io0 = fit_interior([ids[k] for k in found], np.array([res[k].xy for k in found]), mm[found], "affine")
@@ -181,20 +183,25 @@ def _hypothesis(img, report, shape, mm, p, theta, reach):
     return sum(ok), float(np.mean([r.ncc for r in res if r.ok])) if any(ok) else 0.0, theta, res
 
 
-def _check_given_rotation(scan, given, others, n_marks: int, warnings: list) -> None:
+def _check_given_rotation(scan, given, others, n_marks: int) -> None:
     """Refuse a given rotation that the marks contradict: turned by another multiple of 90° the layout finds more
     marks (the transform fitted at the given one would turn every photo coordinate by a multiple of 90°, with
     only a "mark not found" note). Under as many marks with a clearly better match (mean NCC 0.01 above, the
-    threshold of an automatic tie) the given rotation is kept with a warning: the marks cannot tell."""
-    n, rho, theta, _ = given
+    threshold of an automatic tie) the given rotation is kept with a warning (:func:`_ambiguous`)."""
+    n, _, theta, _ = given
     best = max(others, key=lambda t: (t[0], t[1]))
     if best[0] > n:
         raise InputError(f"rotation {theta:g}° contradicts the fiducial marks of scan {str(scan)!r}: turned by "
                          f"{best[2]:g}° the report's layout finds {best[0]} of {n_marks} marks, at {theta:g}° "
                          f"{n}; give {best[2]:g} (or auto)", option="rotation")
-    if best[0] == n and n and best[1] > rho + 0.01:
-        warnings.append(f"rotation ambiguous: turned by {best[2]:g}° the layout finds as many marks ({n}) that "
-                        f"match better (NCC {best[1]:.2f} against {rho:.2f}); {theta:g}° kept as given")
+
+
+def _ambiguous(theta, alike, n, rho, given: bool) -> str:
+    """The one warning of a rotation the marks cannot tell: the ``alike`` hypotheses find as many marks ``n`` as
+    the rotation kept, ``theta`` (mean NCC ``rho``)."""
+    turned = ", ".join(f"{t[2]:g}° (NCC {t[1]:.2f})" for t in alike)
+    return (f"rotation ambiguous: turned by {turned} the layout finds as many marks ({n}) as at {theta:g}° "
+            f"(NCC {rho:.2f}); {theta:g}° kept " + ("as given" if given else "(give rotation / --rotation)"))
 
 
 def _check_not_mirrored(scan, img, report, shape, mm, p, thetas, reach, n):

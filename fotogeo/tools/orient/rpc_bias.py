@@ -27,7 +27,7 @@ import numpy as np
 from ...crs import to_lonlat
 from ...errors import InputError
 from ...io.gcps import inside_image, read_gcps
-from ...io.raster import AtomicOutputs, check_output, open_raster
+from ...io.raster import AtomicOutputs, check_outputs, open_raster
 from ...io.report import write_json
 from ...io.rpc import write_rpc_geotiff
 from ...io.rpc_image import image_rpc
@@ -52,10 +52,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
         raise InputError(f"method {method!r} unknown; choose 'shift' or 'affine'")
     output = Path(output)
     report = Path(report) if report else output.with_suffix(".json")
-    if output.resolve() == report.resolve():
-        raise InputError("the output raster and the report must be two different paths")
-    for path, role in ((output, "output raster"), (report, "report")):
-        check_output(path, [image, gcps, dem], overwrite, role)
+    check_outputs(((output, "output raster", None), (report, "report", None)), [image, gcps, dem], overwrite)
     info = open_raster(image, "image")
     rpc = image_rpc(image).rpc
     g = read_gcps(gcps, layer=layer, crs=crs, dem=dem, height=height, **(fields or {}))

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -38,6 +37,7 @@ from ...errors import FotogeoWarning, InputError
 from ...geometry.vertical import ShiftedHeights, crs_height_reference, horizontal_crs
 from ...io.block import frame_key
 from ...io.camera import exterior_orientation_crs
+from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
 from ..common.checks import check_camera_size
 
@@ -134,7 +134,7 @@ def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
     OpenSfM file (``sfm_frame``) and a check of every file (:mod:`fotogeo.io.orientation_file`)."""
     from ...io.orientation_file import read_orientation_file
     block = None
-    if Path(eo).suffix.lower() in (".geojson", ".csv") and camera is not None:
+    if cameras_from_camera_file(eo) and camera is not None:
         try:
             block = read_orientation_file(eo, crs=None, camera=camera, images=images)  # the file's own CRS
         except InputError as exc:
@@ -208,9 +208,8 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         if h.is_projected:
             return h, "the DEM's CRS (--dem)"
     if eo is not None and not rpc:
-        txt = Path(eo).suffix.lower() == ".txt"
-        stated = exterior_orientation_crs(eo) if txt else getattr(orientation_block(eo, None, camera, sfm_frame,
-                                                                                    images), "crs", None)
+        stated = (getattr(orientation_block(eo, None, camera, sfm_frame, images), "crs", None) if is_block_file(eo)
+                  else exterior_orientation_crs(eo))  # fotogeo's lines state it in their header, if at all
         if stated is not None:
             return require_projected(horizontal_crs(stated), f"CRS of --eo {str(eo)!r}"), f"the CRS of --eo {str(eo)!r}"
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "

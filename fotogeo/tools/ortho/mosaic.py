@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...io.raster import AtomicOutputs, check_output, geotiff_profile, ropen
+from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs, geotiff_profile, ropen
 from ...mosaic.blend import balance as balance_band
 from ...mosaic.blend import overlap_statistics, signed_distance
 from ...mosaic.patches import Patch, overlapping_pairs
@@ -47,6 +47,7 @@ from ...options.products import MOSAIC
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..common.dask_cluster import connect
+from .mosaic_collar import collar_masks
 from .mosaic_tiles import Blend, write_tiled
 
 #: cells of the seam grid (seamlines, balancing statistics, feather distances)
@@ -90,9 +91,9 @@ def _union_grid(infos, lattice):
 
 
 def _onto_lattice(paths, infos, lattice, folder, masks=None):
-    """Each orthophoto off ``lattice`` or with a collar mask (``masks``: index -> mask raster,
-    :func:`_collar_masks`) replaced, for reading, by a VRT resampling it onto the lattice in ``folder``
-    (:func:`fotogeo.io.vrt.lattice_vrt`, the mask its dataset mask); returns the paths to read, their
+    """Each orthophoto off ``lattice`` or with a collar mask (``masks``: index -> (mask raster, its cell in
+    pixels), :func:`~.mosaic_collar.collar_masks`) replaced, for reading, by a VRT resampling it onto the lattice
+    in ``folder`` (:func:`fotogeo.io.vrt.lattice_vrt`, the mask its dataset mask); returns the paths to read, their
     descriptions and the names resampled."""
     from ...io.raster import open_raster
     from ...io.vrt import lattice_vrt, on_lattice
@@ -100,43 +101,12 @@ def _onto_lattice(paths, infos, lattice, folder, masks=None):
     for i, (p, info) in enumerate(zip(paths, infos)):
         moved = not on_lattice(info.transform, lattice)
         if moved or i in masks:
-            read[i] = str(lattice_vrt(p, info, lattice, Path(folder) / f"{i}.vrt", mask=masks.get(i)))
+            mask, scale = masks.get(i, (None, (1.0, 1.0)))
+            read[i] = str(lattice_vrt(p, info, lattice, Path(folder) / f"{i}.vrt", mask=mask, mask_scale=scale))
             described[i] = open_raster(read[i], "orthophoto")
         if moved:
             resampled.append(Path(p).name)
     return read, described, resampled
-
-
-def _collar_masks(paths, infos, folder) -> tuple[dict, dict]:
-    """``({index: mask raster}, {name: {value, share}})`` of the orthophotos without nodata, mask or alpha whose
-    border carries a constant collar (:func:`fotogeo.mosaic.collar.border_collar`): the collar becomes nodata
-    through a mask raster in ``folder`` (0 collar, 255 data), with a note naming the file and the fix."""
-    import warnings
-
-    from rasterio.enums import MaskFlags
-
-    from ...errors import InputNote
-    from ...mosaic.collar import border_collar, collar_values
-    masks, found = {}, {}
-    for i, (p, info) in enumerate(zip(paths, infos)):
-        if info.nodata is not None:
-            continue
-        with ropen(p) as ds:
-            if any(flags != [MaskFlags.all_valid] for flags in ds.mask_flag_enums):
-                continue  # its own mask or alpha band says what is data
-            mask, value = border_collar(ds.read(), collar_values(info.dtype))
-            profile = geotiff_profile(width=ds.width, height=ds.height, count=1, dtype="uint8", crs=ds.crs,
-                                      transform=ds.transform)
-        if mask is None:
-            continue
-        masks[i] = Path(folder) / f"{i}_collar.tif"
-        with ropen(masks[i], "w", **profile) as out:
-            out.write(np.where(mask, 0, 255).astype(np.uint8)[None])
-        found[Path(p).name] = {"value": int(value), "share": round(float(mask.mean()), 4)}
-        warnings.warn(f"orthophoto {str(p)!r} has no nodata value and a border of {value} in every band "
-                      f"({mask.mean():.1%} of its pixels): taken as nodata; tag it (gdal_edit -a_nodata {value} "
-                      f"{Path(p).name}) to have it read so without this check", InputNote, stacklevel=2)
-    return masks, found
 
 
 def _seam_patches(paths, infos, transform, width, height, crs):
@@ -266,12 +236,11 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
         raise InputError("give at least two orthophotos to mosaic")
     output = Path(output)
     seamlines = Path(seamlines) if seamlines else output.with_suffix(".gpkg")
-    for p, role, kind in ((output, "mosaic", (".tif", ".tiff")), (seamlines, "seamlines", (".gpkg",))):
-        check_output(p, paths, overwrite, role, kind)
+    check_outputs(((output, "mosaic", GEOTIFF_SUFFIXES), (seamlines, "seamlines", (".gpkg",))), paths, overwrite)
     infos = [open_raster(p, "orthophoto") for p in paths]
     crs, lattice = _lattice(infos, paths)
     with tempfile.TemporaryDirectory(prefix="fotogeo-mosaic-") as folder:
-        masks, collars = _collar_masks(paths, infos, folder)
+        masks, collars = collar_masks(paths, infos, folder)
         read, infos, resampled = _onto_lattice(paths, infos, lattice, folder, masks)
         if resampled:
             prog(0.01, f"resampled onto the mosaic's pixel lattice ({abs(lattice.a):g} × {abs(lattice.e):g}): "

@@ -63,7 +63,7 @@ import numpy as np
 
 from ...errors import InputError, ModelError, OutputError
 from ...io.block import frame_key, read_image_observations
-from ...io.raster import GEOTIFF_SUFFIXES, check_output
+from ...io.raster import GEOTIFF_SUFFIXES, check_outputs
 from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
@@ -179,10 +179,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
     finals = output_paths(folder, names=[frame_key(f) for f in frames],
                           orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
-    for path in finals.values():
-        check_output(path, inputs, kw["overwrite"], "output")
-    if kw["dsm"] is not None:
-        check_output(kw["dsm"], inputs + list(finals.values()), kw["overwrite"], "DSM", GEOTIFF_SUFFIXES)
+    check_outputs([(p, "output", None) for p in finals.values()] + [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES)], inputs,
+                  kw["overwrite"])
     with prog.timed("inputs"):
         start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
                             kw["geoinfo"], kw["sfm_frame"])
