@@ -1,15 +1,15 @@
 """Held-out SfM projects with known truth, written as each tool writes them (issue 32; tests/test_sfm_projects.py,
 benchmarks/sfm_projects_bench.py).
 
-The truth is a rendered oblique drone block (``tests/rendered_oblique.py``) placed where the readings of an SfM local
-frame part: at 60° N straddling the 18° E edge of UTM zones 33/34 (meridian convergence 2.6°), with DJI RTK GPS (σ 2 cm)
-in the images' EXIF/XMP, a consumer copy (GPS 2 m off, no accuracy tags) and a copy without GPS. The files are written
+The truth is a rendered oblique drone block (``tests/rendered_oblique.py``) placed where the readings of an SfM
+local frame part: at 60° N straddling the 18° E edge of UTM zones 33/34 (meridian convergence 2.6°), with DJI RTK
+GPS (σ 2 cm) in the images' EXIF/XMP, a consumer copy (GPS 2 m off, no accuracy tags) and a copy without GPS. The files are written
 from the documented formats, not with fotogeo's writers:
 
 * COLMAP (``doc/format.rst``, ``scripts/python/read_write_model.py``): ``cameras``/``images``/``points3D`` as text or
   binary; ``x_cam = R·X + t`` with R the Hamilton quaternion (QW first); pixels with the top-left corner at (0, 0).
-* OpenSfM (``opensfm/io.py``, ``geo.py``): topocentric poses at ``reference_lla`` (axis-angle world -> camera), cameras
-  normalised by ``max(w, h)`` with the centre of the top-left pixel at ``(-(w-1)/2, -(h-1)/2)/max(w, h)``;
+* OpenSfM (``opensfm/io.py``, ``geo.py``): topocentric poses at ``reference_lla`` (axis-angle world -> camera),
+  cameras normalised by ``max(w, h)`` with the centre of the top-left pixel at ``(-(w-1)/2, -(h-1)/2)/max(w, h)``;
   ``gps_position`` the image GPS in the topocentric frame, ``exif/<image>.exif`` its GPS.
 * ODM (``opendm/location.py``, ``osfm.py``, ``stages/run_opensfm.py``, OpenSfM's ``export_geocoords``): the UTM zone of
   the first photo, the offset ``floor(mean UTM)`` in ``odm_georeferencing/coords.txt``, ``reference_lla`` imposed at
