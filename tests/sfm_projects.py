@@ -3,8 +3,8 @@ benchmarks/sfm_projects_bench.py).
 
 The truth is a rendered oblique drone block (``tests/rendered_oblique.py``) placed where the readings of an SfM
 local frame part: at 60° N straddling the 18° E edge of UTM zones 33/34 (meridian convergence 2.6°), with DJI RTK
-GPS (σ 2 cm) in the images' EXIF/XMP, a consumer copy (GPS 2 m off, no accuracy tags) and a copy without GPS. The files are written
-from the documented formats, not with fotogeo's writers:
+GPS (σ 2 cm) in the images' EXIF/XMP, a consumer copy (GPS 2 m off, no accuracy tags) and a copy without
+GPS. The files are written from the documented formats, not with fotogeo's writers:
 
 * COLMAP (``doc/format.rst``, ``scripts/python/read_write_model.py``): ``cameras``/``images``/``points3D`` as text or
   binary; ``x_cam = R·X + t`` with R the Hamilton quaternion (QW first); pixels with the top-left corner at (0, 0).
