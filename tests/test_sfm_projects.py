@@ -202,5 +202,5 @@ def test_odm_grid_zone_from_coords_and_whole_metres(tmp_path):
     assert odm_grid(path, (lat, lon, 12.5))[0][0].to_epsg() == 32633  # not ODM's reference: the reference's zone
     (tmp_path / "odm_georeferencing").mkdir()
     (tmp_path / "odm_georeferencing" / "coords.txt").write_text(f"WGS84 UTM 34N\n{off[0]:.0f} {off[1]:.0f}\n")
-    (crs, origin), why = odm_grid(path, (lat, lon, 12.5))
-    assert crs.to_epsg() == 32634 and "coords.txt" in why and tuple(origin) == tuple(off)
+    (crs, origin), why, odm = odm_grid(path, (lat, lon, 12.5))
+    assert crs.to_epsg() == 32634 and "coords.txt" in why and tuple(origin) == tuple(off) and odm

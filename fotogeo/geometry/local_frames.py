@@ -75,6 +75,17 @@ def _rz(theta) -> np.ndarray:
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
 
 
+def ecef_to_map(C, map_crs) -> tuple:
+    """ECEF positions ``C`` ``(n, 3)`` in ``map_crs``: ``(positions (n, 3) with ellipsoidal heights, M (n, 3, 3))``,
+    ``M`` the rotation from ECEF axes to the map's (east-north-up at each point, turned by the grid convergence), so
+    that a rotation world -> camera ``R`` in ECEF is ``R·Mᵀ`` in the map."""
+    C = np.asarray(C, float).reshape(-1, 3)
+    lon, lat, h = _apply(4978, 4979, C[:, 0], C[:, 1], C[:, 2])
+    x, y = _apply(4326, map_crs, lon, lat)
+    M = _rz(grid_angle(map_crs, lon, lat)) @ np.swapaxes(_enu_to_ecef(lon, lat), 1, 2)
+    return np.column_stack([x, y, h]), M
+
+
 class LocalFrame:
     """One reading of an SfM local frame (OpenSfM/ODM): local <-> map positions and the local -> map axis rotations."""
 

@@ -266,11 +266,9 @@ def _in_map(images: list, map_crs, where: str) -> tuple:
                          f"{map_crs.name} (outside its area of use) nor in ECEF; the model is in COLMAP's own frame or "
                          f"another CRS: geo-register it (colmap model_aligner) and give the CRS of its positions "
                          f"(--crs)")
-    from ..geometry.local_frames import _apply, _enu_to_ecef, _rz, grid_angle
-    lon, lat, h = _apply(4978, 4979, C[:, 0], C[:, 1], C[:, 2])
-    x, y = _apply(4326, map_crs, lon, lat)
-    M = _rz(grid_angle(map_crs, lon, lat)) @ np.swapaxes(_enu_to_ecef(lon, lat), 1, 2)  # ECEF -> map axes
-    out = [(n, cid, np.array([a, b, c]), R @ m.T) for (n, cid, _, R), a, b, c, m in zip(images, x, y, h, M)]
+    from ..geometry.local_frames import ecef_to_map
+    xyz, M = ecef_to_map(C, map_crs)
+    out = [(n, cid, p, R @ m.T) for (n, cid, _, R), p, m in zip(images, xyz, M)]
     return out, "ecef"
 
 

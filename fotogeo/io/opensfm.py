@@ -201,10 +201,10 @@ def read_opensfm(reconstruction_json, cameras_json=None, crs=None, *, frame: str
         notes.append(f"map CRS EPSG:{map_crs.to_epsg()}: the UTM zone of reference_lla")
     parsed = _shots(path, shots, cams)
     from .sfm_frame import choose_reading, odm_grid
-    grid, zone = odm_grid(path, ref)
+    grid, zone, odm = odm_grid(path, ref)
     kind, why = choose_reading(frame, shots, dict(zip(parsed[0], parsed[2])), path, ref, map_crs, gps, where, grid,
-                               bool(zone))
-    if kind == "grid" and zone:
+                               odm)
+    if kind == "grid" and odm:
         why += f"; {zone}"
     notes += [why, "heights: " + ("local z" if kind == "grid" else "reference_lla altitude + local z") +
               ", in the vertical reference of the GPS altitudes (OpenSfM does not record it)"]

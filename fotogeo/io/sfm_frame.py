@@ -161,10 +161,11 @@ def immaterial(sep: tuple) -> bool:
 
 
 def odm_grid(path: Path, ref) -> tuple:
-    """``((UTM CRS, origin or None), sentence)`` of the grid reading: ODM's zone and offset from
+    """``((UTM CRS, origin or None), sentence, odm)`` of the grid reading: ODM's zone and offset from
     ``odm_georeferencing/coords.txt`` beside the ``opensfm`` folder (``export_geocoords`` subtracts that offset);
     else, for a reference at altitude 0 (ODM imposes it at its offset), the zone — the reference's or a neighbour —
-    where it falls on whole metres; else the reference's zone and UTM position (the sentence is then empty)."""
+    where it falls on whole metres; ``odm`` True for these two (ODM's offset is known); else the reference's zone and
+    UTM position, an empty sentence and ``odm`` False."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import CRSError
 
@@ -177,8 +178,8 @@ def odm_grid(path: Path, ref) -> tuple:
             lines = coords.read_text(encoding="utf-8").splitlines()
             crs, off = CRS.from_user_input(odm_crs(lines[0])), np.array([float(v) for v in lines[1].split()[:2]])
             if crs.is_projected and np.isfinite(off).all():
-                return (crs, off), f"the grid of {crs.name} from ODM's offset {off[0]:.0f} {off[1]:.0f} in " \
-                                   f"{str(coords)!r}"
+                return (crs, off), (f"the grid of {crs.name} from ODM's offset {off[0]:.0f} {off[1]:.0f} in "
+                                    f"{str(coords)!r}"), True
         except (OSError, UnicodeDecodeError, IndexError, ValueError, CRSError):
             pass
     if ref[2] == 0.0:
@@ -188,8 +189,8 @@ def odm_grid(path: Path, ref) -> tuple:
             xy = np.array(Transformer.from_crs(4326, crs, always_xy=True).transform(ref[1], ref[0]))
             if np.all(np.abs(xy - np.round(xy)) < 2e-3):
                 return (crs, None), (f"the grid of {crs.name}, where reference_lla falls on whole metres (ODM "
-                                     f"imposes it at its UTM offset)")
-    return (own, None), ""
+                                     f"imposes it at its UTM offset)"), True
+    return (own, None), "", False
 
 
 def _exif_gps(folder: Path, names) -> dict:
