@@ -110,7 +110,8 @@ def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
         pad = 0.1 * (zhi - zlo) + 20.0
         return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
     check = functools.partial(frames.sparse_check, cache=features)
-    zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX)
+    zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
+                                   Limits().min_overlap)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
