@@ -1,0 +1,45 @@
+"""``fotogeo dsm`` refusals name the actual cause: a DEM whose heights do not fit the orientation (in feet read as
+metres, another datum) rather than the small overlap its wrong heights make of the footprints."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import rasterio
+
+from fotogeo.errors import InputError
+
+from dsm_scenes import make_scene, write_dem
+
+
+def _scaled_dem(src, dst, scale=1.0, shift=0.0) -> Path:
+    with rasterio.open(src) as ds:
+        prof, z = ds.profile, ds.read()
+    with rasterio.open(dst, "w", **prof) as ds:
+        ds.write((z * scale + shift).astype(z.dtype))
+    return Path(dst)
+
+
+def test_a_dem_off_the_orientations_heights_is_named(tmp_path):
+    """The nadir block's DEM 400 m too high: refused naming the DEM, both height ranges and the offset (no feet)."""
+    from fotogeo.tools.dsm import dsm
+    sc = make_scene("nadir", tmp_path / "scene")
+    imgs = [p for p in sc["images"] if Path(p).stem in ("s1_01", "s1_02")]
+    dem = _scaled_dem(write_dem(sc, tmp_path / "dem.tif"), tmp_path / "high.tif", shift=400.0)
+    with pytest.raises(InputError, match=r"DEM '.*high.tif' \(dem\) does not fit the orientation: at \d+ sparse "
+                                         r"matches of 's1_01' and 's1_02' it gives heights .* \+400 m apart; check"):
+        dsm(imgs, tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], dem=dem)
+    assert not (tmp_path / "a.tif").exists()
+
+
+@pytest.mark.data
+def test_ngi_dem_in_feet_is_named_as_such(data_dir, tmp_path):
+    """NGI's DEM times 3.28084 with its metre tag (sweep case n15) was refused as "overlap 17 %"."""
+    from fotogeo.tools.dsm import dsm
+    ngi = data_dir / "ngi"
+    frames = [ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif" for n in ("0182", "0184")]
+    dem = _scaled_dem(ngi / "dem.tif", tmp_path / "dem_ft.tif", scale=3.28084)
+    with pytest.raises(InputError, match=r"dem_ft.tif' \(dem\) does not fit the orientation.*3\.\d\d times theirs: "
+                                         r"are the DEM's heights in feet\? .*A\*0.3048"):
+        dsm(frames, tmp_path / "a.tif", camera=ngi / "interior_orientation.yaml",
+            eo=ngi / "exterior_orientation.txt", dem=dem)
