@@ -43,3 +43,28 @@ def test_ngi_dem_in_feet_is_named_as_such(data_dir, tmp_path):
                                          r"are the DEM's heights in feet\? .*A\*0.3048"):
         dsm(frames, tmp_path / "a.tif", camera=ngi / "interior_orientation.yaml",
             eo=ngi / "exterior_orientation.txt", dem=dem)
+
+
+@pytest.mark.data
+def test_an_rpc_cutout_that_lost_its_place_is_named(data_dir, tmp_path):
+    """Ventoux's left image cut at (60, 40) and written without its geotransform beside the product's .geom (sweep
+    case v05): its pixels are read at the product's corner, km away; the refusal said only "overlap 0 %"."""
+    import shutil
+    import warnings
+
+    from fotogeo.tools.dsm import dsm
+    v = data_dir / "rpc" / "ventoux"
+    with rasterio.open(v / "left_image.tif") as ds:
+        crop = ds.read(window=((40, 440), (60, 460)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # NotGeoreferencedWarning: the point of the case
+        with rasterio.open(tmp_path / "left.tif", "w", driver="GTiff", width=400, height=400, count=crop.shape[0],
+                           dtype=crop.dtype) as ds:
+            ds.write(crop)
+    shutil.copy(v / "left_image.geom", tmp_path / "left.geom")
+    shutil.copy(v / "right_image.tif", tmp_path / "right.tif")
+    shutil.copy(v / "right_image.geom", tmp_path / "right.geom")
+    with pytest.raises(InputError, match=r"overlap 0 % below 20 %; 'left' is 400 x 400 pixels without a geotransform"
+                                         r".*'right' carries its place in that product \(its pixel \(0, 0\) at "
+                                         r"\(4915, 5162\)\).*gdal_edit.py -a_ullr"):
+        dsm([tmp_path / "left.tif", tmp_path / "right.tif"], tmp_path / "a.tif", rpc=True)
