@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import rasterio
 
@@ -68,3 +69,53 @@ def test_an_rpc_cutout_that_lost_its_place_is_named(data_dir, tmp_path):
                                          r".*'right' carries its place in that product \(its pixel \(0, 0\) at "
                                          r"\(4915, 5162\)\).*gdal_edit.py -a_ullr"):
         dsm([tmp_path / "left.tif", tmp_path / "right.tif"], tmp_path / "a.tif", rpc=True)
+
+
+def test_noise_bands_are_left_out_of_the_fusion_and_equal_bands_weigh_alike():
+    """A band of noise louder than the image was the PCA's first component (ventoux band 1 σ 152 beside noise
+    σ 1155: weights -0.0005, 0.35, -0.80, 0.49); it is left out by its neighbour correlation, and three equal
+    bands still weigh 1/3 each (the plain mean the DSM matched before)."""
+    import warnings
+
+    from fotogeo.errors import FotogeoWarning
+    from fotogeo.image.fusion import band_content, band_weights, pca_fuse
+    y, x = np.mgrid[0:120, 0:150]
+    image = 1000 + 150 * np.sin(x / 7.0) * np.cos(y / 11.0)
+    rng = np.random.default_rng(0)
+    bands = np.stack([image, rng.uniform(0, 4000, image.shape), rng.uniform(0, 4000, image.shape)])
+    assert sorted(band_content(bands)) == [2, 3] and band_content(bands)[2].startswith("noise")
+    with pytest.warns(FotogeoWarning, match=r"bands 2 \(noise, neighbour correlation -?0.0\d\), 3 .* fused bands 1"):
+        w = band_weights(bands)
+    assert w.tolist() == [1.0, 0.0, 0.0]
+    with pytest.warns(FotogeoWarning, match="left out of the PCA"):
+        assert pca_fuse(bands).bands == (1,)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.allclose(band_weights(np.stack([image] * 3)), 1 / 3)
+        assert band_content(rng.normal(size=(3, 40, 50))) == {}  # noise only: nothing to tell the image by
+
+
+def test_rendered_pair_with_noise_in_bands_2_and_3_matches(tmp_path):
+    """The rendered frame pair with bands 2-3 uniform noise (sweep case v13's frame twin): its DSM is as accurate
+    as the one-band pair's (matching the mean of the three bands, no height was matched)."""
+    from rendered_pair import accuracy, render
+
+    from fotogeo.errors import FotogeoWarning
+    from fotogeo.tools.dsm import dsm
+    sc = render(tmp_path, 400)
+    rng = np.random.default_rng(5)
+    noisy = []
+    (tmp_path / "noisy").mkdir()
+    for p in sc["images"]:
+        with rasterio.open(p) as ds:
+            prof, a = ds.profile, ds.read(1)
+        prof.update(count=3)
+        q = tmp_path / "noisy" / Path(p).name
+        with rasterio.open(q, "w", **prof) as ds:
+            ds.write(np.stack([a] + [rng.integers(0, 256, a.shape).astype(np.uint8) for _ in range(2)]))
+        noisy.append(q)
+    one = dsm(sc["images"], tmp_path / "one.tif", camera=sc["camera"], eo=sc["eo"], crs="EPSG:32635")
+    with pytest.warns(FotogeoWarning, match=r"noisy/r400_a.tif': bands 2 \(noise.*fused bands 1"):
+        three = dsm(noisy, tmp_path / "three.tif", camera=sc["camera"], eo=sc["eo"], crs="EPSG:32635")
+    a, b = accuracy(tmp_path / "one.tif"), accuracy(tmp_path / "three.tif")
+    assert three["completeness"] >= one["completeness"] - 0.01 and b["rmse_m"] <= a["rmse_m"] + 0.005

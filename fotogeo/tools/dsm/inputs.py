@@ -86,12 +86,12 @@ def _to_uint8(a) -> np.ndarray:
 
 
 def read_image(path) -> tuple:
-    """``(grey float32 (h, w), colours [3 x uint8 (h, w)])`` of an image: grey the mean of its first three bands
-    (or its one band), colours its first three bands stretched to 8 bits (or the grey three times)."""
-    info = open_raster(path, "image")
-    with gdal_env(), ropen(path) as ds:
-        data = ds.read(indexes=list(range(1, min(3, info.count) + 1)))
-    grey = data.astype(np.float32).mean(axis=0)
+    """``(grey float32 (h, w), colours [3 x uint8 (h, w)])`` of an image, whole: grey and colours as
+    :class:`SourceImage` gives them (its first three bands weighted, or its one band; those bands stretched to 8
+    bits, or the grey three times)."""
+    src = SourceImage(path)
+    data = src.read(0, 0, src.width, src.height)
+    grey = np.tensordot(src.weights, data.astype(np.float32), axes=1)
     if len(data) >= 3:
         cols = [_to_uint8(b) for b in data[:3]]
     else:
@@ -136,7 +136,9 @@ DECODED = _Decoded()
 
 
 class SourceImage:
-    """An image read window by window: grey values (the mean of its first three bands, or its one band) and
+    """An image read window by window: grey values (its first three bands weighted by
+    :func:`fotogeo.image.fusion.band_weights`, the PCA fusion's first component scaled to sum 1 without the bands
+    that carry nothing — empty, constant or noise —, computed once from the decimated read; its one band) and
     colours (its first three bands, or the grey three times, stretched to 8 bits between the 0.5 and 99.5
     percentiles of the whole image, taken from a read decimated to at most ``STRETCH_SIDE`` pixels a side).
 
@@ -153,6 +155,16 @@ class SourceImage:
         self.bands = list(range(1, min(3, info.count) + 1))
         self._stretch = None
         self.key = self._cache_key(info)
+        self.weights = self._weights(info.nodata)
+
+    def _weights(self, nodata) -> np.ndarray:
+        """The bands' grey weights (class docstring)."""
+        if len(self.bands) == 1:
+            return np.ones(1, np.float32)
+        from ...image.fusion import band_weights
+        k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
+        return band_weights(self.read(0, 0, self.width, self.height, k), nodata=nodata,
+                            name=f"image {self.path!r}").astype(np.float32)
 
     def _cache_key(self, info):
         """The :data:`DECODED` key of an untiled local image small enough to decode whole, else None."""
@@ -189,7 +201,8 @@ class SourceImage:
                            resampling=Resampling.average if k > 1 else Resampling.nearest)
 
     def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
-        return self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32).mean(axis=0)
+        """Grey values ``(rows, cols)`` float32 of the window (class docstring; :meth:`read`'s arguments)."""
+        return np.tensordot(self.weights, self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32), axes=1)
 
     def stretches(self) -> list:
         """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""
