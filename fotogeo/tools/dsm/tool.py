@@ -125,9 +125,10 @@ def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
 
 def _dem_fits_orientation(dem, source, views, sources, features) -> None:
     """Refuse a DEM whose heights at the nearest pair's sparse matches (:func:`.plan.sparse_heights`'s pair)
-    differ from the heights the orientation gives those matches by more than ``DEM_MISFIT_M`` in the median: a DEM in feet read as metres, or a DEM or an orientation in another vertical datum. Its range
-    would set the footprints' plane and the disparity search, and the run fail later for a wrong cause (a small
-    overlap). Nothing is checked when the matches are too few or cannot be trusted (no evidence either way)."""
+    differ from the heights the orientation gives those matches by more than ``DEM_MISFIT_M`` in the median: a
+    DEM in feet read as metres, or a DEM or an orientation in another vertical datum. Its range would set the
+    footprints' plane and the disparity search, and the run fail later for a wrong cause (a small overlap).
+    Nothing is checked when the matches are too few or cannot be trusted (no evidence either way)."""
     from ...geometry.dem import heights_at
     i, j = plan.nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
