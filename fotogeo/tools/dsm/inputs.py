@@ -135,6 +135,19 @@ class _Decoded:
 DECODED = _Decoded()
 
 
+def _stretches(data) -> list:
+    """Each band's ``(low, high)`` colour stretch of :class:`SourceImage` (None: already 8 bits): the 0.5 and 99.5
+    percentiles of its values above 0 (all of them when none is)."""
+    out = []
+    for b in data:
+        if b.dtype == np.uint8:
+            out.append(None)
+            continue
+        v = b[b > 0] if (b > 0).any() else b.ravel()
+        out.append(tuple(float(x) for x in np.percentile(v, [0.5, 99.5])))
+    return out
+
+
 class SourceImage:
     """An image read window by window: grey values (its first three bands weighted by
     :func:`fotogeo.image.fusion.band_weights`, the PCA fusion's first component scaled to sum 1 without the bands
@@ -162,9 +175,14 @@ class SourceImage:
         if len(self.bands) == 1:
             return np.ones(1, np.float32)
         from ...image.fusion import band_weights
+        data = self._overview()
+        self._stretch = _stretches(data)  # the colours' stretch from the same read
+        return band_weights(data, nodata=nodata, name=f"image {self.path!r}").astype(np.float32)
+
+    def _overview(self) -> np.ndarray:
+        """The whole image read decimated to at most ``STRETCH_SIDE`` pixels a side."""
         k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
-        return band_weights(self.read(0, 0, self.width, self.height, k), nodata=nodata,
-                            name=f"image {self.path!r}").astype(np.float32)
+        return self.read(0, 0, self.width, self.height, k)
 
     def _cache_key(self, info):
         """The :data:`DECODED` key of an untiled local image small enough to decode whole, else None."""
@@ -207,15 +225,7 @@ class SourceImage:
     def stretches(self) -> list:
         """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""
         if self._stretch is None:
-            k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
-            data = self.read(0, 0, self.width, self.height, k)
-            self._stretch = []
-            for b in data:
-                if b.dtype == np.uint8:
-                    self._stretch.append(None)
-                    continue
-                v = b[b > 0] if (b > 0).any() else b.ravel()
-                self._stretch.append(tuple(float(x) for x in np.percentile(v, [0.5, 99.5])))
+            self._stretch = _stretches(self._overview())
         return self._stretch
 
     def colours(self, x0: int, y0: int, x1: int, y1: int) -> list:
