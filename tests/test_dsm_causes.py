@@ -119,3 +119,22 @@ def test_rendered_pair_with_noise_in_bands_2_and_3_matches(tmp_path):
         three = dsm(noisy, tmp_path / "three.tif", camera=sc["camera"], eo=sc["eo"], crs="EPSG:32635")
     a, b = accuracy(tmp_path / "one.tif"), accuracy(tmp_path / "three.tif")
     assert three["completeness"] >= one["completeness"] - 0.01 and b["rmse_m"] <= a["rmse_m"] + 0.005
+
+
+def test_bands_option_picks_the_bands_matched(tmp_path):
+    """``bands`` (``--bands``, QGIS "Bands to match") chooses the bands fused into the grey image; numbers beyond
+    the image's bands and bad syntax are refused naming the option."""
+    from fotogeo.tools.dsm.inputs import SourceImage
+    path = tmp_path / "four.tif"
+    y, x = np.mgrid[0:60, 0:80]
+    data = np.stack([100 + 50 * np.sin(x / 5.0 + k) * np.cos(y / 7.0) for k in range(4)]).astype(np.uint16)
+    with rasterio.open(path, "w", driver="GTiff", width=80, height=60, count=4, dtype="uint16") as ds:
+        ds.write(data)
+    assert SourceImage(path).bands == [1, 2, 3] and SourceImage(path, "4").bands == [4]
+    src = SourceImage(path, "4,2")
+    assert src.bands == [4, 2] and np.allclose(np.abs(src.weights).sum(), 1.0)
+    with pytest.raises(InputError, match=r"bands 5: image '.*four.tif' has 4 bands \(1-4\)") as e:
+        SourceImage(path, 5)
+    assert e.value.option == "bands"
+    with pytest.raises(InputError, match=r"bands '1,a': give band numbers"):
+        SourceImage(path, "1,a")

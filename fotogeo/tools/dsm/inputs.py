@@ -135,6 +135,20 @@ class _Decoded:
 DECODED = _Decoded()
 
 
+def _bands(value, count: int, path: str) -> list:
+    """The band numbers ``value`` of the ``bands`` option (``"4,3,2"``, an int, a sequence; None: the first
+    three) checked against the image's ``count`` bands."""
+    from ..register.match import band_numbers
+    numbers = band_numbers(value, "bands")
+    if numbers is None:
+        return list(range(1, min(3, count) + 1))
+    outside = [n for n in numbers if n > count]
+    if outside:
+        raise InputError(f"bands {','.join(map(str, numbers))}: image {path!r} has {count} band"
+                         f"{'s' if count > 1 else ''} (1-{count}); give band numbers in that range", option="bands")
+    return list(numbers)
+
+
 def _stretches(data) -> list:
     """Each band's ``(low, high)`` colour stretch of :class:`SourceImage` (None: already 8 bits): the 0.5 and 99.5
     percentiles of its values above 0 (all of them when none is)."""
@@ -162,10 +176,10 @@ class SourceImage:
     windowed read gives, without decoding the compressed rows above the window again for every strip. Reads
     averaged over blocks (``k > 1``) always go through GDAL, which may use the format's reduced decoding."""
 
-    def __init__(self, path):
+    def __init__(self, path, bands=None):
         info = open_raster(path, "image")
         self.path, self.width, self.height = str(path), info.width, info.height
-        self.bands = list(range(1, min(3, info.count) + 1))
+        self.bands = _bands(bands, info.count, self.path)
         self._stretch = None
         self.key = self._cache_key(info)
         self.weights = self._weights(info.nodata)

@@ -165,7 +165,7 @@ def rpc_images(images, crs, dem) -> tuple:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None)) -> dict:
+            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
     ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
     ims, map_c, rule = rpc_images(images, crs, dem)
@@ -176,7 +176,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
     if dem is not None:
         dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
         notes += more + ["height range from the DEM"]
-    sources = [SourceImage(im.path) for im in ims]
+    sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
     kept = [p for p in choices if p.kept]
     setups = {}

@@ -36,7 +36,7 @@ FEET = (0.3048, 1200.0 / 3937.0)
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
+        fill: bool = False, bands=None, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
         progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
@@ -63,12 +63,12 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                        crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
-                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
-                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
 
 
 def _check_outputs(outputs, inputs, overwrite) -> None:
@@ -202,13 +202,14 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None)) -> dict:
-    """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles."""
+            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+    """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
+    bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     if rule == "given (--crs)":
         _centres_in_area_of_use(views, crs)
-    sources = [SourceImage(im.path) for im in ims]
+    sources = [SourceImage(im.path, bands) for im in ims]
     features = {}
     zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
