@@ -29,8 +29,8 @@ def test_source_image_reads_windows_and_decimated_windows(tmp_path):
     rng = np.random.default_rng(3)
     data = rng.integers(100, 4000, (3, 70, 90))
     src = SourceImage(_write(tmp_path / "a.tif", data, "uint16"))
-    whole = data.astype(np.float32).mean(axis=0)
-    assert np.allclose(src.grey(10, 5, 50, 45), whole[5:45, 10:50])
+    whole = np.tensordot(src.weights, data.astype(np.float32), axes=1)  # the bands' fusion weights
+    assert np.allclose(np.abs(src.weights).sum(), 1.0) and np.allclose(src.grey(10, 5, 50, 45), whole[5:45, 10:50])
     # k x k block means (GDAL's average resampling) of a window whose size k divides
     k2 = src.grey(10, 4, 50, 44, k=2)
     assert k2.shape == (20, 20)

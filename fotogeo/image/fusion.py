@@ -36,6 +36,12 @@ from ..errors import FotogeoWarning, InputError
 from .contrast import CONTRASTS, apply_contrast
 
 
+#: a band whose adjacent pixels correlate less than this is noise (:func:`band_content`) ...
+NOISE = 0.2
+#: ... when another band's correlate at least this much (an image of the ground: about 0.9 and more)
+STRUCTURED = 0.5
+
+
 @dataclass(frozen=True)
 class Fusion:
     """Result of :func:`pca_fuse`."""
@@ -61,11 +67,15 @@ def valid_mask(bands: np.ndarray, mask=None, nodata=None) -> np.ndarray:
 
 
 def band_content(bands: np.ndarray, mask=None, nodata=None, numbers=None) -> dict:
-    """Bands with nothing to fuse: ``{band number: "empty" | "constant <value>"}``.
+    """Bands with nothing to fuse: ``{band number: "empty" | "constant <value>" | "noise, …"}``.
 
     A band is empty when none of its pixels is finite, not ``nodata`` and allowed by ``mask``
     (``(rows, cols)``, or ``(B, rows, cols)`` per band); constant when its valid values are all
-    equal. ``numbers`` name the bands (default 1..B).
+    equal; noise when its :func:`neighbour_correlation` is below ``NOISE`` while another band's
+    reaches ``STRUCTURED`` (a band of noise louder than the image would otherwise be the first
+    principal component: the variance PCA maximises is not the signal matching needs; Green et
+    al. 1988 order components by signal-to-noise for that reason). ``numbers`` name the bands
+    (default 1..B).
 
     >>> b = np.stack([np.arange(12.0).reshape(3, 4), np.full((3, 4), 7.0), np.zeros((3, 4))])
     >>> band_content(b, nodata=0)
@@ -74,7 +84,7 @@ def band_content(bands: np.ndarray, mask=None, nodata=None, numbers=None) -> dic
     a = np.asarray(bands)
     numbers = range(1, len(a) + 1) if numbers is None else numbers
     allowed = None if mask is None else np.broadcast_to(np.asarray(mask, bool), a.shape)
-    out = {}
+    out, rho = {}, {}
     for i, (n, b) in enumerate(zip(numbers, a)):
         ok = np.isfinite(b) if b.dtype.kind == "f" else np.ones(b.shape, bool)
         if nodata is not None and np.isfinite(nodata):
@@ -86,7 +96,83 @@ def band_content(bands: np.ndarray, mask=None, nodata=None, numbers=None) -> dic
             out[int(n)] = "empty"
         elif values.min() == values.max():
             out[int(n)] = f"constant {values.flat[0]:g}"
-    return out
+        else:
+            rho[int(n)] = neighbour_correlation(b, ok)
+    if rho and max(rho.values()) >= STRUCTURED:
+        out.update({n: f"noise, neighbour correlation {r:.2f}" for n, r in rho.items() if r < NOISE})
+    return dict(sorted(out.items()))
+
+
+def neighbour_correlation(band: np.ndarray, ok=None, max_pairs: int = 1_000_000) -> float:
+    """The correlation of horizontally adjacent valid pixels of ``band`` (``ok`` marks them; rows taken at a
+    stride so that at most about ``max_pairs`` pairs enter): about 1 for an image of the ground, 0 for noise."""
+    step = max(1, int(band.size // max(max_pairs, 1)))
+    b = np.asarray(band[::step], np.float64)
+    ok = np.ones(b.shape, bool) if ok is None else np.asarray(ok[::step], bool)
+    both = ok[:, :-1] & ok[:, 1:]
+    x, y = b[:, :-1][both], b[:, 1:][both]
+    if x.size < 16 or x.std() == 0 or y.std() == 0:
+        return 1.0
+    return float(np.corrcoef(x, y)[0, 1])
+
+
+def _component(bands, mask, nodata, sample, rng, name, numbers) -> tuple:
+    """``(bands kept, band count, keep, valid, sample X, v1, mean, explained, numbers, dropped)`` of the module
+    docstring's first principal component: the part :func:`pca_fuse` and :func:`band_weights` share."""
+    a = np.asarray(bands)
+    if a.ndim == 2:
+        a = a[None]
+    if a.ndim != 3 or min(a.shape) == 0:
+        raise InputError(f"{name}: expected bands of shape (bands, rows, cols); got {np.shape(bands)}")
+    numbers = tuple(int(n) for n in (range(1, a.shape[0] + 1) if numbers is None else numbers))
+    if len(numbers) != a.shape[0]:
+        raise InputError(f"{name}: {len(numbers)} band numbers for {a.shape[0]} bands")
+    dropped = band_content(a, mask, nodata, numbers) if a.shape[0] > 1 else {}
+    keep = np.array([n not in dropped for n in numbers])
+    if not keep.any():
+        empty = all(w == "empty" for w in dropped.values())
+        raise InputError(f"{name}: " + ("no valid pixels in any band (all nodata, NaN or masked); check its nodata "
+                                        "value and mask" if empty else
+                                        f"no band to fuse, every band is constant or empty ({_listing(dropped)}): "
+                                        f"there is no contrast to match; check the band selection and nodata"))
+    if dropped:
+        warnings.warn(f"{name}: band{'s' if len(dropped) > 1 else ''} {_listing(dropped)} left out of the PCA "
+                      f"fusion (nothing to match in {'them' if len(dropped) > 1 else 'it'}); fused bands "
+                      f"{', '.join(str(n) for n, k in zip(numbers, keep) if k)}", FotogeoWarning, stacklevel=3)
+    full = a.shape[0]
+    a = a[keep] if not keep.all() else a
+    if mask is not None and np.ndim(mask) == 3:
+        mask = np.asarray(mask, bool)[keep].all(axis=0)
+    valid = valid_mask(a, mask, nodata)
+    idx = np.flatnonzero(valid)
+    if idx.size < 16:
+        raise InputError(f"{name}: no valid pixels (all nodata, NaN or masked); check its nodata value and mask")
+    if idx.size > sample:
+        idx = np.sort(np.random.default_rng(rng).choice(idx, sample, replace=False))
+    X = a.reshape(a.shape[0], -1)[:, idx].astype(np.float64)
+    mean = X.mean(axis=1)
+    if a.shape[0] == 1:
+        v, explained = np.ones(1), 1.0
+    else:
+        C = np.cov(X)
+        w, V = np.linalg.eigh(C)
+        v = V[:, -1]
+        explained = float(w[-1] / w.sum()) if w.sum() > 0 else 1.0
+        if v.sum() < 0:
+            v = -v
+    return a, full, keep, valid, X, v, mean, explained, numbers, dropped
+
+
+def band_weights(bands, mask=None, *, nodata=None, sample: int = 200_000, rng=0, name: str = "image") -> np.ndarray:
+    """Weights ``(B,)`` of ``bands`` ``(B, rows, cols)``: the first principal component ``v₁`` of the bands kept
+    (module docstring; 0 for the bands left out) divided by ``Σ |v₁|``. ``Σ w_b b_b`` is then a grey image in the
+    bands' own units (the plain mean when the bands are equal; bands that correlate, as an image's do, all weigh
+    positively and sum to 1), with the contrast the PCA finds and without the bands that carry nothing (empty,
+    constant, noise)."""
+    _, full, keep, _, _, v, _, _, _, _ = _component(bands, mask, nodata, sample, rng, name, None)
+    w = np.zeros(full)
+    w[keep] = v / np.abs(v).sum()
+    return w
 
 
 def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
@@ -115,47 +201,8 @@ def pca_fuse(bands, mask=None, *, nodata=None, sample: int = 1_000_000, rng=0,
     """
     if contrast not in CONTRASTS:
         raise InputError(f"contrast {contrast!r} unknown; choose one of {', '.join(CONTRASTS)}")
-    a = np.asarray(bands)
-    if a.ndim == 2:
-        a = a[None]
-    if a.ndim != 3 or min(a.shape) == 0:
-        raise InputError(f"{name}: expected bands of shape (bands, rows, cols); got {np.shape(bands)}")
-    numbers = tuple(int(n) for n in (range(1, a.shape[0] + 1) if numbers is None else numbers))
-    if len(numbers) != a.shape[0]:
-        raise InputError(f"{name}: {len(numbers)} band numbers for {a.shape[0]} bands")
-    dropped = band_content(a, mask, nodata, numbers) if a.shape[0] > 1 else {}
-    keep = np.array([n not in dropped for n in numbers])
-    if not keep.any():
-        empty = all(w == "empty" for w in dropped.values())
-        raise InputError(f"{name}: " + ("no valid pixels in any band (all nodata, NaN or masked); check its nodata "
-                                        "value and mask" if empty else
-                                        f"no band to fuse, every band is constant or empty ({_listing(dropped)}): "
-                                        f"there is no contrast to match; check the band selection and nodata"))
-    if dropped:
-        warnings.warn(f"{name}: band{'s' if len(dropped) > 1 else ''} {_listing(dropped)} left out of the PCA "
-                      f"fusion (nothing to match in {'them' if len(dropped) > 1 else 'it'}); fused bands "
-                      f"{', '.join(str(n) for n, k in zip(numbers, keep) if k)}", FotogeoWarning, stacklevel=2)
-    full = a.shape[0]
-    a = a[keep] if not keep.all() else a
-    if mask is not None and np.ndim(mask) == 3:
-        mask = np.asarray(mask, bool)[keep].all(axis=0)
-    valid = valid_mask(a, mask, nodata)
-    idx = np.flatnonzero(valid)
-    if idx.size < 16:
-        raise InputError(f"{name}: no valid pixels (all nodata, NaN or masked); check its nodata value and mask")
-    if idx.size > sample:
-        idx = np.sort(np.random.default_rng(rng).choice(idx, sample, replace=False))
-    X = a.reshape(a.shape[0], -1)[:, idx].astype(np.float64)
-    mean = X.mean(axis=1)
-    if a.shape[0] == 1:
-        v, explained = np.ones(1), 1.0
-    else:
-        C = np.cov(X)
-        w, V = np.linalg.eigh(C)
-        v = V[:, -1]
-        explained = float(w[-1] / w.sum()) if w.sum() > 0 else 1.0
-        if v.sum() < 0:
-            v = -v
+    a, full, keep, valid, X, v, mean, explained, numbers, dropped = _component(bands, mask, nodata, sample, rng, name,
+                                                                              numbers)
     s = v @ (X - mean[:, None])
     lo, hi = np.percentile(s, percentiles)
     if not hi > lo:

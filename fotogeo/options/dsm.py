@@ -39,6 +39,10 @@ DSM = Table(
     Option("fill", "bool", False, "Fill holes (interpolated cells are marked in a mask band)",
            "Fill the holes by interpolation (Telea); a fourth band marks the filled cells (1). Default: holes "
            "stay nodata."),
+    Option("bands", "str", None, "Bands to match, e.g. 1 or 4,3,2 (empty = the first three)",
+           "Bands of each image fused into the grey image matched, e.g. 1 or 4,3,2 [the first three; empty, "
+           "constant and noise bands left out with a warning]; the point cloud's colours come from them too.",
+           advanced=True),
     replace(SCHEDULER, label="Dask scheduler address for the output tiles (empty = this process)",
             help="Match the output tiles as tasks on this Dask scheduler, e.g. tcp://host:8786 (the workers must "
                  "see the same paths) [this process].", advanced=True),

@@ -76,15 +76,22 @@ def overlap_polygon(fi, fj) -> np.ndarray:
     return poly.reshape(-1, 2).astype(float) + ref
 
 
+def overlap_share(fi, fj) -> float:
+    """The overlap of two outlines ``(N, 2+)``: area(F1 ∩ F2) / min(area F1, area F2) (0 when either is empty)."""
+    if len(fi) < 3 or len(fj) < 3:
+        return 0.0
+    poly = overlap_polygon(fi, fj)
+    small = min(_hull_area(f) for f in (fi, fj))
+    return _area(poly) / small if small > 0 and len(poly) >= 3 else 0.0
+
+
 def measure(i, j, centres, axes, footprints) -> PairChoice:
     """The measures of pair ``(i, j)`` (module docstring); footprints ``(N, 3)`` outlines ``(X, Y, Z)`` on the
     ground."""
-    poly = overlap_polygon(footprints[i], footprints[j])
-    small = min(_hull_area(f) for f in (footprints[i], footprints[j]))
-    overlap = _area(poly) / small if small > 0 and len(poly) >= 3 else 0.0
+    overlap = overlap_share(footprints[i], footprints[j])
     if overlap <= 0:
         return PairChoice(i, j, 0.0, 0.0, 0.0, 0.0)
-    g = poly.mean(axis=0)
+    g = overlap_polygon(footprints[i], footprints[j]).mean(axis=0)
     ci, cj = np.asarray(centres[i], float), np.asarray(centres[j], float)
     G = np.array([g[0], g[1], footprints_height(footprints, i, j)])
     ri, rj = ci - G, cj - G

@@ -86,12 +86,12 @@ def _to_uint8(a) -> np.ndarray:
 
 
 def read_image(path) -> tuple:
-    """``(grey float32 (h, w), colours [3 x uint8 (h, w)])`` of an image: grey the mean of its first three bands
-    (or its one band), colours its first three bands stretched to 8 bits (or the grey three times)."""
-    info = open_raster(path, "image")
-    with gdal_env(), ropen(path) as ds:
-        data = ds.read(indexes=list(range(1, min(3, info.count) + 1)))
-    grey = data.astype(np.float32).mean(axis=0)
+    """``(grey float32 (h, w), colours [3 x uint8 (h, w)])`` of an image, whole: grey and colours as
+    :class:`SourceImage` gives them (its first three bands weighted, or its one band; those bands stretched to 8
+    bits, or the grey three times)."""
+    src = SourceImage(path)
+    data = src.read(0, 0, src.width, src.height)
+    grey = np.tensordot(src.weights, data.astype(np.float32), axes=1)
     if len(data) >= 3:
         cols = [_to_uint8(b) for b in data[:3]]
     else:
@@ -135,8 +135,37 @@ class _Decoded:
 DECODED = _Decoded()
 
 
+def _bands(value, count: int, path: str) -> list:
+    """The band numbers ``value`` of the ``bands`` option (``"4,3,2"``, an int, a sequence; None: the first
+    three) checked against the image's ``count`` bands."""
+    from ..register.match import band_numbers
+    numbers = band_numbers(value, "bands")
+    if numbers is None:
+        return list(range(1, min(3, count) + 1))
+    outside = [n for n in numbers if n > count]
+    if outside:
+        raise InputError(f"bands {','.join(map(str, numbers))}: image {path!r} has {count} band"
+                         f"{'s' if count > 1 else ''} (1-{count}); give band numbers in that range", option="bands")
+    return list(numbers)
+
+
+def _stretches(data) -> list:
+    """Each band's ``(low, high)`` colour stretch of :class:`SourceImage` (None: already 8 bits): the 0.5 and 99.5
+    percentiles of its values above 0 (all of them when none is)."""
+    out = []
+    for b in data:
+        if b.dtype == np.uint8:
+            out.append(None)
+            continue
+        v = b[b > 0] if (b > 0).any() else b.ravel()
+        out.append(tuple(float(x) for x in np.percentile(v, [0.5, 99.5])))
+    return out
+
+
 class SourceImage:
-    """An image read window by window: grey values (the mean of its first three bands, or its one band) and
+    """An image read window by window: grey values (its first three bands weighted by
+    :func:`fotogeo.image.fusion.band_weights`, the PCA fusion's first component scaled to sum 1 without the bands
+    that carry nothing — empty, constant or noise —, computed once from the decimated read; its one band) and
     colours (its first three bands, or the grey three times, stretched to 8 bits between the 0.5 and 99.5
     percentiles of the whole image, taken from a read decimated to at most ``STRETCH_SIDE`` pixels a side).
 
@@ -147,12 +176,27 @@ class SourceImage:
     windowed read gives, without decoding the compressed rows above the window again for every strip. Reads
     averaged over blocks (``k > 1``) always go through GDAL, which may use the format's reduced decoding."""
 
-    def __init__(self, path):
+    def __init__(self, path, bands=None):
         info = open_raster(path, "image")
         self.path, self.width, self.height = str(path), info.width, info.height
-        self.bands = list(range(1, min(3, info.count) + 1))
+        self.bands = _bands(bands, info.count, self.path)
         self._stretch = None
         self.key = self._cache_key(info)
+        self.weights = self._weights(info.nodata)
+
+    def _weights(self, nodata) -> np.ndarray:
+        """The bands' grey weights (class docstring)."""
+        if len(self.bands) == 1:
+            return np.ones(1, np.float32)
+        from ...image.fusion import band_weights
+        data = self._overview()
+        self._stretch = _stretches(data)  # the colours' stretch from the same read
+        return band_weights(data, nodata=nodata, name=f"image {self.path!r}").astype(np.float32)
+
+    def _overview(self) -> np.ndarray:
+        """The whole image read decimated to at most ``STRETCH_SIDE`` pixels a side."""
+        k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
+        return self.read(0, 0, self.width, self.height, k)
 
     def _cache_key(self, info):
         """The :data:`DECODED` key of an untiled local image small enough to decode whole, else None."""
@@ -189,20 +233,13 @@ class SourceImage:
                            resampling=Resampling.average if k > 1 else Resampling.nearest)
 
     def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
-        return self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32).mean(axis=0)
+        """Grey values ``(rows, cols)`` float32 of the window (class docstring; :meth:`read`'s arguments)."""
+        return np.tensordot(self.weights, self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32), axes=1)
 
     def stretches(self) -> list:
         """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""
         if self._stretch is None:
-            k = max(1, -(-max(self.width, self.height) // STRETCH_SIDE))
-            data = self.read(0, 0, self.width, self.height, k)
-            self._stretch = []
-            for b in data:
-                if b.dtype == np.uint8:
-                    self._stretch.append(None)
-                    continue
-                v = b[b > 0] if (b > 0).any() else b.ravel()
-                self._stretch.append(tuple(float(x) for x in np.percentile(v, [0.5, 99.5])))
+            self._stretch = _stretches(self._overview())
         return self._stretch
 
     def colours(self, x0: int, y0: int, x1: int, y1: int) -> list:

@@ -22,6 +22,9 @@ from ...stereo.fusion import GridSpec
 from ...stereo.rectify import epipole_angle, rectify
 
 PAD_PX = 8.0
+#: no ground lies lower than this (m; the Dead Sea shore is at −430 m above the geoid, which departs from the
+#: ellipsoid by at most 106 m): frames whose footprints overlap only below it show different ground
+LOWEST_GROUND = -1000.0
 
 
 def footprint(im, z: float) -> np.ndarray:
@@ -39,10 +42,43 @@ def nearest_pair(views) -> tuple:
     return int(min(i, j)), int(max(i, j))
 
 
-def sparse_heights(views, sources, sparse_check, sparse_problem, max_px) -> tuple:
+def extent_text(fp) -> str:
+    """``"x 10..20, y 30..40"``: the bounding box of a footprint ``(N, 2+)`` (``"nowhere"`` when empty)."""
+    fp = np.asarray(fp, float)
+    if fp.size == 0:
+        return "nowhere"
+    (x0, y0), (x1, y1) = fp[:, :2].min(axis=0), fp[:, :2].max(axis=0)
+    return f"x {x0:.0f}..{x1:.0f}, y {y0:.0f}..{y1:.0f}"
+
+
+def footprints_apart(ims, views, i: int, j: int, min_overlap: float, steps: int = 40) -> str:
+    """Why images ``i`` and ``j`` cannot show the same ground ("" when they may): their footprints overlap by
+    ``min_overlap`` only on planes below ``LOWEST_GROUND`` (scanned from 1 m to 100 km below the lower camera),
+    or on none. They are named on the plane of height 0 (or 1 m below the cameras when these stand lower)."""
+    from ...stereo.pairs import overlap_share
+    zc = min(views[i].centre[2], views[j].centre[2])
+    first = next((zc - h for h in np.geomspace(1.0, 1e5, steps)
+                  if overlap_share(footprint(ims[i], zc - h), footprint(ims[j], zc - h)) >= min_overlap), None)
+    if first is not None and first >= LOWEST_GROUND:
+        return ""
+    z = min(0.0, zc - 1.0)
+    where = (f"only on planes below {first:.0f} m, lower than any ground ({LOWEST_GROUND:g} m)" if first is not None
+             else "on no plane below the cameras")
+    return (f"their footprints overlap by {100 * min_overlap:.0f} % {where}: on the plane of height {z:g}, "
+            f"{views[i].name!r} covers {extent_text(footprint(ims[i], z))} and {views[j].name!r} covers "
+            f"{extent_text(footprint(ims[j], z))}; check the orientation's positions (X, Y) and heights, or give "
+            f"images of the same ground")
+
+
+def sparse_heights(views, sources, sparse_check, sparse_problem, max_px, ims=None, min_overlap=0.2) -> tuple:
     """``(low, high)`` heights of the sparse matches of the nearest pair (1st and 99th percentile), refused when
-    they are too few or cannot be trusted."""
+    the pair's footprints cannot overlap (:func:`footprints_apart`, with ``ims`` the images' models), or its
+    matches are too few or cannot be trusted."""
     i, j = nearest_pair(views)
+    apart = footprints_apart(ims, views, i, j, min_overlap) if ims is not None else ""
+    if apart:
+        raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair) show different ground: "
+                         f"{apart}")
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), ids=(i, j))
     few = (f"only {sp['n']} sparse matches (textureless or cloud-covered where they overlap, or an orientation that "

@@ -52,9 +52,35 @@ def _choose(ims, names, zlo, zhi, pairs) -> list:
     choices = best[1]
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
+        lost = _lost_offset(ims, best.i, best.j) if best.reason.startswith("overlap") else ""
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
-                         f"overlapping): {best.reason}; give images of the same ground seen from different angles")
+                         f"overlapping): {best.reason}; " + (lost or "give images of the same ground seen from "
+                                                                       "different angles"))
     return choices
+
+
+def _lost_offset(ims, i: int, j: int) -> str:
+    """The likely cause of a pair of RPC images that do not overlap, "" when there is none to name: one of them is
+    smaller than half the product its RPC file describes (``2·SCALE`` pixels a side, about) and has no geotransform,
+    so its pixel (0, 0) is read as the product's first (:mod:`fotogeo.io.rpc_image`): a cut-out that lost its place
+    in the product; the other's place, when it carries one, is named as what was expected."""
+    from ...io.rpc_image import image_rpc
+    info = {k: image_rpc(ims[k].path) for k in (i, j)}
+    for k, o in ((i, j), (j, i)):
+        r, im = info[k].rpc, ims[k]
+        if (info[k].product_window is not None or info[k].source == "GDAL RPC metadata"
+                or im.width > r.samp_scale or im.height > r.line_scale):
+            continue
+        w = info[o].product_window
+        there = (f", while {ims[o].name!r} carries its place in that product (its pixel (0, 0) at ({w[1]:g}, {w[3]:g}))"
+                 if w is not None else "")
+        return (f"{im.name!r} is {im.width} x {im.height} pixels without a geotransform, so its pixel (0, 0) is read "
+                f"as the first pixel of the product its RPC file {info[k].source!r} describes (about "
+                f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f} pixels){there}: if it was cut out of that product "
+                f"it lost its place; give it a geotransform without a CRS putting its pixel (0, 0) at its column and "
+                f"row in the product (gdal_edit.py -a_ullr COL ROW COL+{im.width} ROW+{im.height}), or the RPC of its "
+                f"own pixels")
+    return ""
 
 
 def _dem_heights(dem, dem_heights, crs, ims):
@@ -139,7 +165,7 @@ def rpc_images(images, crs, dem) -> tuple:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None)) -> dict:
+            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
     ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
     ims, map_c, rule = rpc_images(images, crs, dem)
@@ -150,7 +176,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
     if dem is not None:
         dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
         notes += more + ["height range from the DEM"]
-    sources = [SourceImage(im.path) for im in ims]
+    sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
     kept = [p for p in choices if p.kept]
     setups = {}

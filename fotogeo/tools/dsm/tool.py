@@ -26,12 +26,17 @@ from .outputs import SPECKLE_CELLS, Products
 MAX_EPIPOLAR_PX = 2.0
 #: below this share of its overlap matched, a pair is named in a warning
 LOW_DENSITY = 0.5
+#: a DEM whose heights at the sparse matches differ from theirs by more than this in the median (m; more than the
+#: geoid departs from the ellipsoid anywhere) is refused (:func:`_dem_fits_orientation`)
+DEM_MISFIT_M = 150.0
+#: metres per foot (international, US survey): a DEM this many times the matches' heights is named as in feet
+FEET = (0.3048, 1200.0 / 3937.0)
 
 
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
+        fill: bool = False, bands=None, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
         progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
@@ -58,12 +63,12 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         from .rpc_tool import rpc_dsm
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                        crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
-                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
-                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers))
+                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
 
 
 def _check_outputs(outputs, inputs, overwrite) -> None:
@@ -108,12 +113,48 @@ def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
         d = underlying_dem(source)[0]
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
+        _dem_fits_orientation(dem, source, views, sources, features)
         return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
     check = functools.partial(frames.sparse_check, cache=features)
-    zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX)
+    zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
+                                   Limits().min_overlap)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
+
+
+def _dem_fits_orientation(dem, source, views, sources, features) -> None:
+    """Refuse a DEM whose heights at the nearest pair's sparse matches (:func:`.plan.sparse_heights`'s pair)
+    differ from the heights the orientation gives those matches by more than ``DEM_MISFIT_M`` in the median: a
+    DEM in feet read as metres, or a DEM or an orientation in another vertical datum. Its range would set the
+    footprints' plane and the disparity search, and the run fail later for a wrong cause (a small overlap).
+    Nothing is checked when the matches are too few or cannot be trusted (no evidence either way)."""
+    from ...geometry.dem import heights_at
+    i, j = plan.nearest_pair(views)
+    rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
+    sp = frames.sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), cache=features, ids=(i, j))
+    if sp["n"] < 20 or frames.sparse_problem(sp, MAX_EPIPOLAR_PX):
+        return
+    P = sp["points"][plan.plausible_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))]
+    h = heights_at(source, P[:, :2])
+    ok = np.isfinite(h)
+    if ok.sum() < 20:
+        return
+    h, z = h[ok], P[ok, 2]
+    dz = h - z
+    med = float(np.median(dz))
+    if abs(med) <= DEM_MISFIT_M:
+        return
+    ratio = float(np.median(h) / np.median(z)) if np.median(z) > 0 else 0.0
+    unit = next((f" ({ratio:.2f} times theirs: are the DEM's heights in feet? convert them to metres, e.g. "
+                 f"gdal_calc.py -A DEM --calc=\"A*{m:.6g}\" --outfile DEM_m.tif)" for m in FEET
+                 if abs(ratio * m - 1.0) < 0.03), "")
+    raise InputError(
+        f"DEM {str(dem)!r} (dem) does not fit the orientation: at {len(z)} sparse matches of {views[i].name!r} and "
+        f"{views[j].name!r} it gives heights {np.percentile(h, 1):.0f} to {np.percentile(h, 99):.0f} (1st-99th "
+        f"percentile) where the orientation puts them at {np.percentile(z, 1):.0f} to {np.percentile(z, 99):.0f}, "
+        f"{med:+.0f} m apart{unit}; check the DEM's vertical unit and reference and the orientation's heights",
+        option="dem")
 
 
 def _choose(ims, views, names, zmid, pairs) -> list:
@@ -161,13 +202,14 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None)) -> dict:
-    """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles."""
+            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+    """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
+    bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     if rule == "given (--crs)":
         _centres_in_area_of_use(views, crs)
-    sources = [SourceImage(im.path) for im in ims]
+    sources = [SourceImage(im.path, bands) for im in ims]
     features = {}
     zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
