@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError, OutputError
-from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_output
+from ...errors import FotogeoWarning, InputError
+from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs
 from ...options.dsm import DSM
 from ...progress import as_progress
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
@@ -36,8 +36,8 @@ FEET = (0.3048, 1200.0 / 3937.0)
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, bands=None, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
-        progress=None) -> dict:
+        fill: bool = False, bands=None, scheduler=None, workers=None, point_cloud=None, report=None,
+        overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report. The
@@ -54,8 +54,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                          f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
     inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
-    _check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
-                    (report, "report", None)), inputs, overwrite)
+    check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
+                   (report, "report", None)), inputs, overwrite)
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -71,32 +71,18 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                    overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
 
 
-def _check_outputs(outputs, inputs, overwrite) -> None:
-    """Refuse, before any work, outputs ``(path, role, suffixes)`` that :func:`check_output` refuses, or two of
-    them at one path (the second would be found at the end, "appeared while fotogeo was working")."""
-    seen = {}
-    for p, role, suffixes in outputs:
-        if p is None:
-            continue
-        check_output(p, inputs, overwrite, role, suffixes)
-        key = Path(p).resolve()
-        if key in seen:
-            raise OutputError(f"{role} {str(p)!r} is also the {seen[key]}; give each output its own file name")
-        seen[key] = role
-
-
 def _centres_in_area_of_use(views, crs) -> None:
     """Warn when the cameras given in ``--crs`` lie outside its area of use: the orientation's X, Y are then most
     likely in another CRS (NGI's Lo25 positions read as EPSG:32735 fall at −144° E, outside the zone's 24–30° E, and
     the DSM came out at easting −55 km without a word). A warning, not a refusal: a flight may reach a little
     beyond its zone's edge."""
-    from ...crs import short_name, to_lonlat
-    aou = crs.area_of_use
+    from ...crs import area_of_use, outside_area_of_use, short_name, to_lonlat
+    aou = area_of_use(crs)
     if aou is None:
         return
-    lon, lat = to_lonlat(crs, np.array([v.centre[:2] for v in views])).T
-    with np.errstate(invalid="ignore"):
-        out = ~((lon >= aou.west) & (lon <= aou.east) & (lat >= aou.south) & (lat <= aou.north))
+    centres = np.array([v.centre[:2] for v in views])
+    out = outside_area_of_use(crs, centres)
+    lon, lat = to_lonlat(crs, centres).T
     if out.any():
         k = int(np.argmax(out))
         warnings.warn(f"--crs {short_name(crs)}: camera {views[k].name!r} at ({views[k].centre[0]:.0f}, "
