@@ -4,8 +4,8 @@ A frame whose attitude is unknown and that does not register to the reference st
 measures its attitude from its ties and gives its pairs a second, ground-plane matching pass
 (:func:`fotogeo.tools.triangulate.guided.measured_attitudes`). Each case renders the oblique block of
 ``tests/rendered_oblique.py`` (4 strips flown N/E/S/W, gimbal −60°, ``--per-strip`` frames each; the images
-without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``-``: the
-full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q`` as a user runs it,
+without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``A+B``: of
+both frames; ``-``: the full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q`` as a user runs it,
 under ``/usr/bin/time -v``, with ``PYTHONPATH`` the tree measured (this checkout, and ``--baseline-tree`` in the
 same run). ``--frames 12`` renders 3 frames per strip instead (``--per-strip``), ``--seeds 0-5`` a range of
 seeds, ``--tags`` runs the copies with the gimbal angles in their XMP instead of those without. Per run: frames
@@ -53,10 +53,12 @@ def _block(work: Path, seed: int, per: int, zero: str, block=None):
     if zero != "-":
         w, h = SIZE
         corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], float)
-        g = OrientedFrame(block["camera"], block["truth"][zero]).pixel_to_world_at(corners, GROUND)
+        gs = [OrientedFrame(block["camera"], block["truth"][z]).pixel_to_world_at(corners, GROUND)
+              for z in zero.split("+")]
         with rasterio.open(ortho) as ds:
             img, prof = ds.read(), ds.profile
-            m = geometry_mask([Polygon(g[:, :2])], out_shape=img.shape[1:], transform=ds.transform, invert=True)
+            m = geometry_mask([Polygon(g[:, :2]) for g in gs], out_shape=img.shape[1:], transform=ds.transform,
+                              invert=True)
         img[:, m] = 0
         ortho = root / f"ref_zero_{zero}.tif"
         with rasterio.open(ortho, "w", **prof) as ds:
@@ -79,7 +81,8 @@ def _run(tree: Path, block, ortho: Path, dem: Path, out: Path, tags: bool = Fals
     res = {"tree": str(tree), "rc": p.returncode, "cpu_s": round(cpu, 1)}
     eo_file = out / "exterior_orientation.txt"
     if not eo_file.exists():
-        return {**res, "error": p.stderr.strip().splitlines()[-1:]}
+        own = p.stderr.split("\tCommand being timed:")[0].strip().splitlines()  # before /usr/bin/time's lines
+        return {**res, "error": own[-1:]}
     eos = read_exterior_orientation(eo_file)
     ang = {n: angle_error(e, block["truth"][n]) for n, e in eos.items()}
     cen = {n: float(np.linalg.norm(e.centre - block["truth"][n].centre)) for n, e in eos.items()}
@@ -111,7 +114,9 @@ def main(argv=None) -> None:
     ap.add_argument("--per-strip", type=int, default=5)
     ap.add_argument("--frames", type=int, help="frames per block (4 strips): sets --per-strip to FRAMES / 4")
     ap.add_argument("--tags", action="store_true", help="the frames with gimbal angles in their XMP")
-    ap.add_argument("--zero", default="DJI_303,DJI_202", help="frames to blank the reference under, ',' separated")
+    ap.add_argument("--zero", default="DJI_303,DJI_202",
+                    help="frames to blank the reference under, ',' separated cases; '+' joins frames blanked in one "
+                         "case (DJI_202+DJI_303); '-' the full reference")
     ap.add_argument("--baseline-tree", type=Path, help="a second checkout measured in the same run")
     ap.add_argument("--work", type=Path, help="scratch folder (default: a temporary one)")
     a = ap.parse_args(argv)
