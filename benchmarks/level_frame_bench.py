@@ -126,7 +126,7 @@ def main(argv=None) -> None:
         a.per_strip = a.frames // 4
     work = a.work or Path(tempfile.mkdtemp(prefix="level_frame_bench_"))
     trees = [t for t in (a.baseline_tree, ROOT) if t]
-    rows, blocks = [], {}
+    blocks = {}
     for seed in _seeds(a.seeds):
         for zero in a.zero.split(","):
             block, ortho, dem = blocks.get(seed) or _block(work, seed, a.per_strip, "-")
@@ -137,15 +137,15 @@ def main(argv=None) -> None:
                 r = {"seed": seed, "per_strip": a.per_strip, "zeroed_under": zero, "tags": a.tags,
                      **_run(tree, block, ortho, dem, work / f"out_{seed}_{zero}_{i}", a.tags)}
                 print(json.dumps(r), flush=True)
-                rows.append(r)
+                _save(r, {"command": " ".join(sys.argv), "load_average": os.getloadavg()})
+
+
+def _save(row: dict, run: dict) -> None:
+    """``row`` merged into the results file as soon as it is measured (a run stopped early keeps its rows)."""
     dest = ROOT / "benchmarks" / "results" / "level_frame_bench.json"
-    run = {"command": " ".join(sys.argv), "load_average": os.getloadavg()}
     saved = json.loads(dest.read_text()) if dest.is_file() else {}
-    old = [{"run": {"load_average": saved.get("load_average")}, **r} for r in saved.get("rows", [])]
-    new = {_key(r) for r in rows}
-    rows = [r for r in old if _key(r) not in new] + [{**r, "run": run} for r in rows]
+    rows = [r for r in saved.get("rows", []) if _key(r) != _key(row)] + [{**row, "run": run}]
     dest.write_text(json.dumps({"rows": rows}, indent=1) + "\n")
-    print("->", dest)
 
 
 if __name__ == "__main__":
