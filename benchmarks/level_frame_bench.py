@@ -5,7 +5,8 @@ measures its attitude from its ties and gives its pairs a second, ground-plane m
 (:func:`fotogeo.tools.triangulate.guided.measured_attitudes`). Each case renders the oblique block of
 ``tests/rendered_oblique.py`` (4 strips flown N/E/S/W, gimbal −60°, ``--per-strip`` frames each; the images
 without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``A+B``: of
-both frames; ``-``: the full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q`` as a user runs it,
+both frames; ``-``: the full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q``
+as a user runs it,
 under ``/usr/bin/time -v``, with ``PYTHONPATH`` the tree measured (this checkout, and ``--baseline-tree`` in the
 same run). ``--frames 12`` renders 3 frames per strip instead (``--per-strip``), ``--seeds 0-5`` a range of
 seeds, ``--tags`` runs the copies with the gimbal angles in their XMP instead of those without. Per run: frames

@@ -34,11 +34,11 @@ the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangula
 attitude is measured on its plain ties with the frames of known attitude (:func:`measured_attitudes`: those frames'
 rays through the plane give the ground points, and the rotation that best turns the level frame's rays onto the
 directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), in rounds: a frame
-whose ties are all with level frames is measured once they are (a reference blanked under several frames leaves
-whole neighbourhoods level); its pairs then go through the same ground-plane matching as the others. Left level, a frame of an oblique block starts 30° off: its
-pairs with converging views keep few plain ties, least-squares matching, started from its level affinity, loses most
-of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of seed 0, the reference zeroed under
-DJI_303).
+whose ties are all with level frames is measured once they are (a reference blanked under several frames leaves whole
+neighbourhoods level); its pairs then go through the same ground-plane matching as the others. Left level, a frame of
+an oblique block starts 30° off: its pairs with converging views keep few plain ties, least-squares matching, started
+from its level affinity, loses most of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of
+seed 0, the reference zeroed under DJI_303).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
