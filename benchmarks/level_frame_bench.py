@@ -4,8 +4,9 @@ A frame whose attitude is unknown and that does not register to the reference st
 measures its attitude from its ties and gives its pairs a second, ground-plane matching pass
 (:func:`fotogeo.tools.triangulate.guided.measured_attitudes`). Each case renders the oblique block of
 ``tests/rendered_oblique.py`` (4 strips flown N/E/S/W, gimbal −60°, ``--per-strip`` frames each; the images
-without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``-``: the
-full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q`` as a user runs it,
+without attitude tags), zeroes the reference orthophoto under the true footprint of the named frame (``A+B``: of
+both frames; ``-``: the full reference) and runs ``fotogeo triangulate FRAMES --reference ORTHO --dem DEM -o OUT -q``
+as a user runs it,
 under ``/usr/bin/time -v``, with ``PYTHONPATH`` the tree measured (this checkout, and ``--baseline-tree`` in the
 same run). ``--frames 12`` renders 3 frames per strip instead (``--per-strip``), ``--seeds 0-5`` a range of
 seeds, ``--tags`` runs the copies with the gimbal angles in their XMP instead of those without. Per run: frames
@@ -53,10 +54,12 @@ def _block(work: Path, seed: int, per: int, zero: str, block=None):
     if zero != "-":
         w, h = SIZE
         corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], float)
-        g = OrientedFrame(block["camera"], block["truth"][zero]).pixel_to_world_at(corners, GROUND)
+        gs = [OrientedFrame(block["camera"], block["truth"][z]).pixel_to_world_at(corners, GROUND)
+              for z in zero.split("+")]
         with rasterio.open(ortho) as ds:
             img, prof = ds.read(), ds.profile
-            m = geometry_mask([Polygon(g[:, :2])], out_shape=img.shape[1:], transform=ds.transform, invert=True)
+            m = geometry_mask([Polygon(g[:, :2]) for g in gs], out_shape=img.shape[1:], transform=ds.transform,
+                              invert=True)
         img[:, m] = 0
         ortho = root / f"ref_zero_{zero}.tif"
         with rasterio.open(ortho, "w", **prof) as ds:
@@ -79,7 +82,8 @@ def _run(tree: Path, block, ortho: Path, dem: Path, out: Path, tags: bool = Fals
     res = {"tree": str(tree), "rc": p.returncode, "cpu_s": round(cpu, 1)}
     eo_file = out / "exterior_orientation.txt"
     if not eo_file.exists():
-        return {**res, "error": p.stderr.strip().splitlines()[-1:]}
+        own = p.stderr.split("\tCommand being timed:")[0].strip().splitlines()  # before /usr/bin/time's lines
+        return {**res, "error": own[-1:]}
     eos = read_exterior_orientation(eo_file)
     ang = {n: angle_error(e, block["truth"][n]) for n, e in eos.items()}
     cen = {n: float(np.linalg.norm(e.centre - block["truth"][n].centre)) for n, e in eos.items()}
@@ -111,7 +115,9 @@ def main(argv=None) -> None:
     ap.add_argument("--per-strip", type=int, default=5)
     ap.add_argument("--frames", type=int, help="frames per block (4 strips): sets --per-strip to FRAMES / 4")
     ap.add_argument("--tags", action="store_true", help="the frames with gimbal angles in their XMP")
-    ap.add_argument("--zero", default="DJI_303,DJI_202", help="frames to blank the reference under, ',' separated")
+    ap.add_argument("--zero", default="DJI_303,DJI_202",
+                    help="frames to blank the reference under, ',' separated cases; '+' joins frames blanked in one "
+                         "case (DJI_202+DJI_303); '-' the full reference")
     ap.add_argument("--baseline-tree", type=Path, help="a second checkout measured in the same run")
     ap.add_argument("--work", type=Path, help="scratch folder (default: a temporary one)")
     a = ap.parse_args(argv)
@@ -121,7 +127,7 @@ def main(argv=None) -> None:
         a.per_strip = a.frames // 4
     work = a.work or Path(tempfile.mkdtemp(prefix="level_frame_bench_"))
     trees = [t for t in (a.baseline_tree, ROOT) if t]
-    rows, blocks = [], {}
+    blocks = {}
     for seed in _seeds(a.seeds):
         for zero in a.zero.split(","):
             block, ortho, dem = blocks.get(seed) or _block(work, seed, a.per_strip, "-")
@@ -132,15 +138,15 @@ def main(argv=None) -> None:
                 r = {"seed": seed, "per_strip": a.per_strip, "zeroed_under": zero, "tags": a.tags,
                      **_run(tree, block, ortho, dem, work / f"out_{seed}_{zero}_{i}", a.tags)}
                 print(json.dumps(r), flush=True)
-                rows.append(r)
+                _save(r, {"command": " ".join(sys.argv), "load_average": os.getloadavg()})
+
+
+def _save(row: dict, run: dict) -> None:
+    """``row`` merged into the results file as soon as it is measured (a run stopped early keeps its rows)."""
     dest = ROOT / "benchmarks" / "results" / "level_frame_bench.json"
-    run = {"command": " ".join(sys.argv), "load_average": os.getloadavg()}
     saved = json.loads(dest.read_text()) if dest.is_file() else {}
-    old = [{"run": {"load_average": saved.get("load_average")}, **r} for r in saved.get("rows", [])]
-    new = {_key(r) for r in rows}
-    rows = [r for r in old if _key(r) not in new] + [{**r, "run": run} for r in rows]
+    rows = [r for r in saved.get("rows", []) if _key(r) != _key(row)] + [{**row, "run": run}]
     dest.write_text(json.dumps({"rows": rows}, indent=1) + "\n")
-    print("->", dest)
 
 
 if __name__ == "__main__":

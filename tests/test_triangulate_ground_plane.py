@@ -143,13 +143,37 @@ def test_a_level_frame_takes_the_attitude_its_ties_with_known_frames_measure():
     truth = ExteriorOrientation(-20.0, 5.0, 80.0, 10.0, -25.0, -70.0)
     level = ExteriorOrientation(-20.0, 5.0, 80.0, 0.0, 0.0, -60.0)  # its κ from the images, 10° off
     p0, p1 = _level_ties(np.random.default_rng(0), cam, known, truth)
-    eos, measured = guided.measured_attitudes(cam, None, [known, level, level], [(0, 1), (1, 2)],
-                                              [(0, p0, p1), (0, p1, p1)], [True, False, False], 0.0)
-    assert measured == [False, True, False]  # frame 2's only pair is with another level frame
-    assert eos[0] == known and eos[2] == level and eos[1].centre.tolist() == level.centre.tolist()
+    eos, measured = guided.measured_attitudes(cam, None, [known, level], [(0, 1)], [(0, p0, p1)], [True, False], 0.0)
+    assert measured == [False, True]
+    assert eos[0] == known and eos[1].centre.tolist() == level.centre.tolist()
     assert angle_error(level, truth) > 25.0 and angle_error(eos[1], truth) < 0.3, angle_error(eos[1], truth)
     few, _ = guided.measured_attitudes(cam, None, [known, level], [(0, 1)], [(0, p0[:8], p1[:8])], [True, False], 0.0)
     assert few[1] == level  # too few ties: left as it was
+
+
+def test_a_level_frame_tied_only_to_level_frames_is_measured_once_they_are():
+    """Issue 32: with the reference blanked under several frames, a level frame's neighbours can all be level
+    too (its ties only with them); it is measured in a second round, on the ties with the frames the first round
+    measured (on int18 it stayed level: one round, ties with frames known from the start only). A third level frame
+    with no ties stays as it was."""
+    from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera
+    from rendered_oblique import angle_error
+    cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (320.0, 240.0))
+    known = ExteriorOrientation(0.0, 0.0, 80.0, 0.0, -30.0, -90.0)
+    first = ExteriorOrientation(-20.0, 5.0, 80.0, 10.0, -25.0, -70.0)
+    second = ExteriorOrientation(-35.0, 12.0, 81.0, 20.0, -5.0, -20.0)
+    rng = np.random.default_rng(2)
+    p0, p1 = _level_ties(rng, cam, known, first)
+    q1, q2 = _level_ties(rng, cam, first, second, wrong=0.1)
+    q1 = q1 + rng.normal(0, 0.5, q1.shape)
+    level = [ExteriorOrientation(e.X, e.Y, e.Z, 0.0, 0.0, e.kappa + 8.0) for e in (first, second, second)]
+    eos, measured = guided.measured_attitudes(cam, None, [known, *level], [(0, 1), (1, 2), (0, 3)],
+                                              [(0, p0, p1), (0, q1, q2), None], [True, False, False, False], 0.0)
+    assert measured == [False, True, True, False] and eos[3] == level[2]
+    assert angle_error(level[1], second) > 20.0
+    assert angle_error(eos[1], first) < 0.3 and angle_error(eos[2], second) < 0.5, \
+        (angle_error(eos[1], first), angle_error(eos[2], second))
+    assert eos[2].centre.tolist() == level[1].centre.tolist()
 
 
 def test_the_pairs_of_a_measured_level_frame_are_matched_on_the_ground_plane(monkeypatch):

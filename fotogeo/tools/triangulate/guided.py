@@ -33,11 +33,12 @@ the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangula
 **A second pass for the level frames** (:func:`level_pass`, after the start has measured κ): a level frame's whole
 attitude is measured on its plain ties with the frames of known attitude (:func:`measured_attitudes`: those frames'
 rays through the plane give the ground points, and the rotation that best turns the level frame's rays onto the
-directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), and its pairs then go
-through the same ground-plane matching as the others. Left level, a frame of an oblique block starts 30° off: its
-pairs with converging views keep few plain ties, least-squares matching, started from its level affinity, loses most
-of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of seed 0, the reference zeroed under
-DJI_303).
+directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), in rounds: a frame
+whose ties are all with level frames is measured once they are (a reference blanked under several frames leaves whole
+neighbourhoods level); its pairs then go through the same ground-plane matching as the others. Left level, a frame of
+an oblique block starts 30° off: its pairs with converging views keep few plain ties, least-squares matching, started
+from its level affinity, loses most of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of
+seed 0, the reference zeroed under DJI_303).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
@@ -330,26 +331,39 @@ def level_pass(infos, pairs, found, camera, distortion, eos, height: float, know
 def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -> tuple:
     """``(eos, measured)``: each frame whose attitude is unknown (``known`` False) with at least
     :data:`MIN_ATTITUDE_TIES` ties in its pairs ``found`` with frames of known attitude, turned to the attitude those
-    ties measure (its centre kept): the ties' ground points are the known frames' rays through the plane ``height``,
+    ties measure (its centre kept); in rounds, the frames measured in one round counting as known in the next, until
+    a round measures none: the ties' ground points are the known frames' rays through the plane ``height``,
     and the rotation ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit
     directions ``u`` from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
     measured pixels → distortion-free ones (:func:`fotogeo.tools.triangulate.pairs.ideal_pixels`; None: already)."""
     undistort = ideal or (lambda xy: np.asarray(xy, dtype=np.float64))
     out, measured = list(eos), [False] * len(eos)
-    for f in (f for f in range(len(eos)) if not known[f]):
-        d, u = [], []
-        for (i, j), got in zip(pairs, found):
-            g = j if i == f else i if j == f else None
-            if got is None or g is None or not known[g]:
-                continue
-            xy_f, xy_g = (got[1], got[2]) if i == f else (got[2], got[1])
-            d.append(camera.rays(undistort(xy_f)))
-            u.append(OrientedFrame(camera, eos[g]).pixel_to_world_at(undistort(xy_g), height) - eos[f].centre)
-        R = _rotation_to(np.vstack(d), np.vstack(u)) if d else None
-        if R is not None:
-            omega, phi, kappa = angles_patb(R @ np.diag([1.0, -1.0, -1.0]))  # OpenCV camera axes -> PATB
-            out[f], measured[f] = replace(eos[f], omega=omega, phi=phi, kappa=kappa), True
-    return out, measured
+    while True:  # rounds: a frame measured in one serves its level neighbours in the next
+        now = [k or m for k, m in zip(known, measured)]
+        took = {}
+        for f in (f for f in range(len(eos)) if not now[f]):
+            R = _rotation_to(*_rays_and_directions(camera, undistort, out, pairs, found, now, f, height))
+            if R is not None:
+                omega, phi, kappa = angles_patb(R @ np.diag([1.0, -1.0, -1.0]))  # OpenCV camera axes -> PATB
+                took[f] = replace(eos[f], omega=omega, phi=phi, kappa=kappa)
+        if not took:
+            return out, measured
+        for f, eo in took.items():
+            out[f], measured[f] = eo, True
+
+
+def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height) -> tuple:
+    """``(d, u)`` of frame ``f`` (:func:`measured_attitudes`): its rays (camera axes) to its ties with the frames
+    ``known``, and the directions from its centre to their ground points; empty arrays when it has none."""
+    d, u = [np.zeros((0, 3))], [np.zeros((0, 3))]
+    for (i, j), got in zip(pairs, found):
+        g = j if i == f else i if j == f else None
+        if got is None or g is None or not known[g]:
+            continue
+        xy_f, xy_g = (got[1], got[2]) if i == f else (got[2], got[1])
+        d.append(camera.rays(undistort(xy_f)))
+        u.append(OrientedFrame(camera, eos[g]).pixel_to_world_at(undistort(xy_g), height) - eos[f].centre)
+    return np.vstack(d), np.vstack(u)
 
 
 def _rotation_to(d, u, rounds: int = 2):
