@@ -415,8 +415,11 @@ def _subset_vs_whole(tmp: Path, sc: dict, whole: Path, py: list) -> dict:
     import rasterio
 
     from dsm_scenes import compare
-    with rasterio.open(out) as a, rasterio.open(whole) as b:
-        x, y = a.read(1).astype(float), b.read(1).astype(float)
+    from rasterio.windows import from_bounds
+    with rasterio.open(out) as a, rasterio.open(whole) as b:  # the subset's cells on the whole's (aligned) grid
+        win = from_bounds(*b.bounds, a.transform).round_offsets().round_lengths()
+        x = a.read(1, window=win, boundless=True, fill_value=a.nodata, out_shape=b.shape).astype(float)
+        y = b.read(1).astype(float)
         ok = (x != a.nodata) & (y != b.nodata)
     c = compare(out, sc["surface"])
     return {**row, **{f"{k}_vs_whole_m": v for k, v in _stats(x[ok] - y[ok]).items()}, "common_cells": int(ok.sum()),
