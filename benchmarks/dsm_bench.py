@@ -65,7 +65,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
 PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux",
-          "rendered_rpc": "rendered_rpc", "ebee": "eBee", "witness": "witness"}
+          "rendered_rpc": "rendered_rpc", "ebee": "eBee", "witness": "witness", "oblique_sets": "oblique_sets"}
 #: rendered_rpc cases: name -> (image size, base-to-height ratio, pointing error (col, row) px, RPC format)
 RPC_CASES = {"B/H 0.4": (1024, 0.4, (0, 0), "gdal"), "B/H 0.4, 3 px pointing": (1024, 0.4, (1.8, 2.4), "gdal"),
              "B/H 0.15": (1024, 0.15, (0, 0), "gdal"), "B/H 0.15, 3 px pointing": (1024, 0.15, (1.8, 2.4), "gdal"),
@@ -370,6 +370,70 @@ def _cars(tmp: Path, v: Path, outs: dict) -> list:
     return rows
 
 
+def oblique_sets(tmp: Path, names=None) -> list:
+    """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
+    IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
+    -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
+    the pairs kept and the reasons of the others; then the first set's first two strips alone against the whole
+    flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height)."""
+    import re
+
+    from dsm_oblique_sets import SETS, make_set
+    from dsm_scenes import compare
+    rows, py = [], [sys.executable, "-m", "fotogeo", "dsm"]
+    for name in names or list(SETS):
+        sc = make_set(name, tmp / name.replace(" ", "_").replace("/", ""))
+        out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
+        row = {"case": f"oblique_sets {name}", "frames": len(sc["images"]), "gsd_m": sc["gsd"]}
+        try:
+            row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
+                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q"], cwd=tmp))
+        except SystemExit as e:  # a refusal: its last line is the row
+            rows.append({**row, "refused": str(e).strip().splitlines()[-1]})
+            continue
+        r, c = json.loads(rep.read_text()), compare(out, sc["surface"])
+        left = {}
+        for p in r["pairs"]:
+            if not p["kept"]:
+                key = re.sub(r"\d+(\.\d+)?", "N", p["reason"].split(" (")[0].split(":")[0])
+                left[key] = left.get(key, 0) + 1
+        rows.append({**row, "resolution_m": r["grid"]["resolution"], "pairs_kept": r["pairs_kept"], "pairs_left": left,
+                     "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
+                     "median_m": c["median"],
+                     "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"]})
+        if name == next(iter(SETS)):  # the whole flight vs its first two strips
+            rows.append(_subset_vs_whole(tmp, sc, out, py))
+    return rows
+
+
+def _subset_vs_whole(tmp: Path, sc: dict, whole: Path, py: list) -> dict:
+    sub = [p for p in sc["images"] if p.stem.startswith(("S1_", "S2_"))]
+    out = tmp / "subset.tif"
+    row = {"case": "oblique_sets first two strips vs the whole flight", "frames": len(sub)}
+    row.update(_time_v([*py, *map(str, sub), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]), "--crs", sc["crs"],
+                        "-o", str(out), "-q", *_grid_of(whole)], cwd=tmp))
+    import rasterio
+
+    from dsm_scenes import compare
+    from rasterio.windows import from_bounds
+    with rasterio.open(out) as a, rasterio.open(whole) as b:  # the subset's cells on the whole's (aligned) grid
+        win = from_bounds(*b.bounds, a.transform).round_offsets().round_lengths()
+        x = a.read(1, window=win, boundless=True, fill_value=a.nodata, out_shape=b.shape).astype(float)
+        y = b.read(1).astype(float)
+        ok = (x != a.nodata) & (y != b.nodata)
+    c = compare(out, sc["surface"])
+    return {**row, **{f"{k}_vs_whole_m": v for k, v in _stats(x[ok] - y[ok]).items()}, "common_cells": int(ok.sum()),
+            "share_of_whole_cells": float(ok.sum() / max(1, (y != b.nodata).sum())), "rmse_m": c["rmse"],
+            "nmad_m": c["nmad"], "median_m": c["median"]}
+
+
+def _grid_of(path) -> list:
+    """``--bounds`` and ``--resolution`` of a DSM: another run on its grid."""
+    import rasterio
+    with rasterio.open(path) as ds:
+        return ["--bounds", ",".join(f"{v:.6f}" for v in ds.bounds), "--resolution", f"{ds.res[0]:.9g}"]
+
+
 def _merge(runs: list, group: str, new: list, run: dict) -> list:
     """``runs`` with ``group``'s rows of the same names replaced by ``new`` (each with ``run``: command, load);
     its other rows stay in their order with the run that measured them."""
@@ -392,6 +456,7 @@ def main():
     ap.add_argument("--baseline-tree", help="ebee: also run the dsm commands with this checkout, alternated")
     ap.add_argument("--rounds", type=int, default=1, help="ebee: runs of each tree per resolution (median CPU)")
     ap.add_argument("--ebee-dir", help="ebee: a folder keeping the images and their orientation between runs")
+    ap.add_argument("--oblique-sets", help="oblique_sets: only these SETS names, separated by ';'")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -399,7 +464,7 @@ def main():
     with tempfile.TemporaryDirectory(prefix="dsm_bench_") as t:
         tmp = Path(t)
         for case in args.cases.split(","):
-            if case not in ("rendered", "refine", "rendered_rpc", "witness") and not DATA.is_dir():
+            if case not in ("rendered", "refine", "rendered_rpc", "witness", "oblique_sets") and not DATA.is_dir():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
@@ -409,13 +474,24 @@ def main():
                      "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars),
                      "ebee": lambda: ebee(tmp / case, [float(r) for r in args.ebee_resolutions.split(",")],
                                           args.rounds, args.baseline_tree, args.ebee_dir),
-                     "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree)}[case]()
+                     "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree),
+                     "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets))}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
-    out = ROOT / "benchmarks" / "results" / "dsm_bench.json"
-    runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}
-    for c in args.cases.split(","):
+    for name in ("dsm_bench", "dsm_oblique_bench"):  # oblique_sets: a file of its own
+        cases = [c for c in args.cases.split(",") if (c == "oblique_sets") == (name == "dsm_oblique_bench")]
+        if cases:
+            _write(ROOT / "benchmarks" / "results" / f"{name}.json", cases, rows, run)
+
+
+def _names(text):
+    return [n.strip() for n in text.split(";")] if text else None
+
+
+def _write(out: Path, cases: list, rows: list, run: dict) -> None:
+    runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
+    for c in cases:
         runs = _merge(runs, PREFIX[c], [r for r in rows if r["case"].startswith(PREFIX[c] + " ")], run)
     out.write_text(json.dumps({"runs": runs}, indent=1, default=str) + "\n")
     print(f"-> {out}")

@@ -192,7 +192,7 @@ def remove_speckles(height, max_cells: int, max_step: float) -> tuple:
     if not valid.any():
         return height, 0
     lo, hi = float(np.nanmin(height)), float(np.nanmax(height))
-    step = max((hi - lo) / 60000.0, 1e-4)
+    step = max((hi - lo) / 60000.0, max_step / 32000.0, 1e-4)  # max_step in steps fits int16: flat tiles kept
     q = np.full(height.shape, -32768, np.int16)
     q[valid] = np.round((height[valid] - lo) / step - 30000).astype(np.int16)
     cv2.filterSpeckles(q, -32768, int(max_cells), max(1, int(round(max_step / step))))

@@ -34,9 +34,9 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import FotogeoWarning
-from ...stereo.fusion import Fusion, GridSpec, PairLayer
+from ...stereo.fusion import Fusion, GridSpec, PairLayer, remove_speckles
 from . import frames
-from .outputs import TILE_MARGIN
+from .outputs import SPECKLE_CELLS, SPECKLE_STEP, TILE_MARGIN
 
 #: output tiles' side (cells)
 TILE_CELLS = 1024
@@ -124,8 +124,20 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
                 cloud.write(P[inside], rgb[inside])
         m.seconds += time.perf_counter() - t
         if layer.n.any():
-            fusion.add(layer)
+            fusion.add(_despeckled(layer))
     return fusion
+
+
+def _despeckled(layer: PairLayer) -> PairLayer:
+    """``layer`` without its islands of heights (:func:`fotogeo.stereo.fusion.remove_speckles`, ``SPECKLE_CELLS``,
+    ``SPECKLE_STEP``): a pair's mismatches are removed before fusion, where they are isolated; after it, islands of
+    two pairs joined by a ramp of small steps outgrow the size limit."""
+    h = layer.mean()
+    out, k = remove_speckles(h, SPECKLE_CELLS, SPECKLE_STEP * layer.grid.resolution)
+    if k:
+        gone = (np.isfinite(h) & ~np.isfinite(out)).ravel()
+        layer.n[gone], layer.s[gone], layer.s2[gone] = 0, 0.0, 0.0
+    return layer
 
 
 def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None) -> None:
