@@ -159,8 +159,7 @@ BEST_COMPRESSION = 4
 
 
 #: what fotogeo writes under a suffix (the formats are chosen by the tools, not by the name)
-WRITTEN_AS = {".tif": "GeoTIFF", ".tiff": "GeoTIFF", ".gpkg": "GeoPackage", ".csv": "CSV", ".las": "LAS",
-              ".laz": "LAZ"}
+WRITTEN_AS = {".tif": "GeoTIFF", ".tiff": "GeoTIFF", ".gpkg": "GeoPackage", ".csv": "CSV", ".las": "LAS", ".laz": "LAZ"}
 #: the names of a GeoTIFF output (``check_output``'s ``suffixes``)
 GEOTIFF_SUFFIXES = (".tif", ".tiff")
 
