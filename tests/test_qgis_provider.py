@@ -109,7 +109,7 @@ def _expected_default(option):
 
 
 def _expected_optional(option) -> bool:
-    if option.kind in ("crs", "file", "folder", "raster", "raster_out"):
+    if option.kind in ("crs", "file", "folder", "path", "raster", "raster_out"):
         return True
     if option.kind in ("str", "choices"):
         return option.nullable

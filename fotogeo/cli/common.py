@@ -245,6 +245,8 @@ def click_option(option: Option):
         kw.update(type=click.Path(dir_okay=False), default=option.default)
     elif option.kind == "folder":
         kw.update(type=click.Path(file_okay=False), default=option.default)
+    elif option.kind == "path":  # a file or a folder (a COLMAP model's folder): the tool tells which it reads
+        kw.update(type=click.Path(), default=option.default)
     else:
         kw.update(type=_CLICK_TYPES[option.kind], default=option.default)
     return click.option(*decls, **kw)

@@ -14,8 +14,10 @@ from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_
 @click.option("--camera", type=click.Path(dir_okay=False),
               help="Interior orientation YAML (pinhole, or brown with k1, k2, p1, p2, k3: a camera.yaml it wrote) "
                    "[the images' EXIF/XMP: focal length and pixel pitch, DJI calibration].")
-@click.option("--eo", type=click.Path(dir_okay=False),
-              help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees) "
+@click.option("--eo", type=click.Path(),
+              help="Approximate exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees), "
+                   "an OpenSfM/ODM reconstruction.json, a COLMAP model (its folder, images.txt or images.bin) or "
+                   "orthority .geojson/.csv "
                    "[frames without a line: space resection against their GCPs; without --gcps: the images' GPS "
                    "and attitude].")
 @click.option("--observations", type=click.Path(dir_okay=False),

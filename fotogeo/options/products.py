@@ -13,9 +13,10 @@ ORTHO = Table(
     Option("camera", "file", None, "Camera (interior orientation YAML; empty = from the orientation file)",
            "Interior orientation YAML (pinhole, or brown: triangulate's camera.yaml) [the --eo file's cameras].",
            file_filter=YAML),
-    Option("eo", "file", None, "Exterior orientation (text, OpenSfM, COLMAP or orthority)",
+    Option("eo", "path", None, "Exterior orientation (text, OpenSfM, COLMAP or orthority)",
            "Exterior orientation: 'name X Y Z omega phi kappa' lines (map CRS, degrees; triangulate's "
-           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, a COLMAP model's images.txt or images.bin, "
+           "exterior_orientation.txt), OpenSfM/ODM reconstruction.json, a COLMAP model (its folder, images.txt or "
+           "images.bin), "
            "orthority .geojson/.csv.",
            file_filter="Orientation (*.txt *.json *.geojson *.csv *.bin);;All files (*)"),
     SFM_FRAME,

@@ -18,7 +18,7 @@ from ..errors import InputError
 KINDS = {"int": "int / Integer number", "float": "float / Double number", "bool": "flag / Boolean",
          "str": "text / String", "choice": "one of choices / Enum", "choices": "comma list / multiple Enum",
          "ints": "comma list of int / String", "crs": "CRS text / CRS", "file": "path / File",
-         "folder": "path of a folder / File (folder)",
+         "folder": "path of a folder / File (folder)", "path": "path of a file or a folder / File",
          "raster": "path / raster layer", "raster_out": "path of a raster to write / raster destination"}
 
 

@@ -140,7 +140,7 @@ def parameter(option: Option) -> QgsProcessingParameterDefinition:
         p = QgsProcessingParameterString(name, label, defaultValue=option.default, optional=option.nullable)
     elif kind == "crs":
         p = QgsProcessingParameterCrs(name, label, optional=True)
-    elif kind == "file":
+    elif kind in ("file", "path"):  # QGIS picks a file; a COLMAP model is given by its images.txt/.bin
         p = QgsProcessingParameterFile(name, label, optional=True, fileFilter=option.file_filter)
     elif kind == "folder":
         p = QgsProcessingParameterFile(name, label, behavior=QgsProcessingParameterFile.Folder, optional=True)
@@ -353,7 +353,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if kind == "crs":
             crs = self.parameterAsCrs(parameters, name, context)
             return crs_spec(crs) if crs.isValid() else option.default
-        if kind in ("file", "folder"):
+        if kind in ("file", "folder", "path"):
             return self.parameterAsFile(parameters, name, context) or None
         if kind == "raster_out":
             return self.parameterAsOutputLayer(parameters, name, context) or None if parameters.get(name) else None
