@@ -25,10 +25,53 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     cw, ch = (int(v) for v in camera.image_size)
     if (cw, ch) == (int(width), int(height)):
         return
-    of, fix = ((f" of {source}", " (resized after the reconstruction?); give the images it was made from, or "
-                "--camera with this size's focal length and principal point") if source else
+    of, fix = ((f" of {source}", " (resized after the reconstruction? only an exact reduction by a whole number "
+                "or an exact enlargement of both sides is scaled; other sizes may be crops); give the images it "
+                "was made from, or --camera with this size's focal length and principal point") if source else
                ("", "; give the camera file of this image (or scale its image size and principal point)"))
     raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
+
+
+#: the largest factor between the size an SfM project's camera was made for and the image's that is scaled
+MAX_RESIZE = 16
+
+
+def resize_factor(camera_size, width: int, height: int):
+    """The exact factor ``s`` (a :class:`~fractions.Fraction`) by which an image of ``camera_size`` became
+    ``width`` x ``height``, or None: ``s`` the same on both sides, and either an enlargement (``1 < s ≤``
+    :data:`MAX_RESIZE`: the reconstruction was made on reduced copies; a crop cannot enlarge) or a reduction by a
+    whole number (``s = 1/k``, ``k ≤`` :data:`MAX_RESIZE`). Another reduction (``s = 15/16``) is also what a crop of
+    the same aspect gives, which the sizes cannot tell from a resize: None."""
+    from fractions import Fraction
+    w0, h0 = (int(v) for v in camera_size)
+    s = Fraction(int(width), w0)
+    if Fraction(int(height), h0) != s or s == 1:
+        return None
+    if 1 < s <= MAX_RESIZE or (s.numerator == 1 and s.denominator <= MAX_RESIZE):
+        return s
+    return None
+
+
+def camera_for_image(camera, width: int, height: int, image, source: str) -> tuple:
+    """``(camera, note)``: the camera of the SfM project ``source`` for an image of ``width`` x ``height``.
+
+    When the image was resized after the reconstruction by an exact factor ``s`` (:func:`resize_factor`), the
+    interior orientation is scaled as ODM's own resize does (``opendm/osfm.py``): a resize maps the image's corner to
+    corner, so in the corner convention every pixel coordinate, the principal point and the focal length in pixels
+    take the factor ``s``, and Brown's distortion, acting on ``(x/z, y/z)``, is unchanged; the sensor size is kept,
+    so ``f_px = f·w/sensor_w`` follows the new width. Any other size (a crop, an aspect change) is refused by
+    :func:`check_camera_size`."""
+    from dataclasses import replace
+    s = resize_factor(camera.image_size, width, height) if source else None
+    if s is None:
+        check_camera_size(camera, width, height, image, source)
+        return camera, ""
+    w0, h0 = (int(v) for v in camera.image_size)
+    pp = tuple(float(v) * float(s) for v in camera.principal_point)
+    note = (f"the camera of {source} is for {w0}x{h0} images; {str(image)!r} (and any image of its size) is "
+            f"{width}x{height}, the same image {'enlarged' if s > 1 else 'reduced'} by exactly {s}: the interior "
+            f"orientation is scaled by {float(s):.6g}")
+    return replace(camera, image_size=(int(width), int(height)), principal_point=pp), note
 
 
 def check_gcp_crs(gcps, source) -> None:

@@ -7,6 +7,8 @@
   file :func:`fotogeo.io.orientation_file.read_orientation_file` reads (OpenSfM/ODM ``reconstruction.json``,
   a COLMAP model (text or binary), orthority ``.geojson``/``.csv``; their cameras unless ``--camera``); the model is
   triangulate's :class:`~fotogeo.orientation.adjusted_frame.AdjustedFrame` (collinearity with Brown's distortion);
+  images resized after the reconstruction by an exact factor take the file's camera scaled
+  (:func:`fotogeo.tools.common.checks.camera_for_image`), with a note;
 * RPC images (``--rpc``) — the RPC00B in the image's GDAL ``RPC`` metadata (a vendor's, or ``rpc-bias``'s
   corrected copy), in ``(lon, lat, h)``, wrapped by :class:`~fotogeo.geometry.lonlat_model.LonLatModel`;
 * a fitted ``orient`` model (``--model``: orient's JSON report, one image) — used as fitted, ground → image in
@@ -33,13 +35,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...crs import parse_crs, require_projected, utm_crs_for
-from ...errors import FotogeoWarning, InputError
+from ...errors import FotogeoWarning, InputError, InputNote
 from ...geometry.vertical import ShiftedHeights, crs_height_reference, horizontal_crs
 from ...io.block import frame_key
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
-from ..common.checks import check_camera_size
+from ..common.checks import camera_for_image
 
 
 @dataclass(frozen=True)
@@ -178,11 +180,17 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
     if missing:
         raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
                          f"file with one pose per image, named by the image file's name (with or without its extension)")
-    out = []
+    out, scaled = [], set()
     for path, n in zip(images, names):
         ext, cam, dist, ref, source = poses[n]
         info = open_raster(path, "image")
-        check_camera_size(cam, info.width, info.height, path, source)
+        size = (tuple(cam.image_size), info.width, info.height)
+        cam, note = camera_for_image(cam, info.width, info.height, path, source)
+        if note and size not in scaled:  # said once per size change, naming its first image
+            scaled.add(size)
+            warnings.warn(note, InputNote, stacklevel=3)
+            if said is not None:
+                said.append(note)
         out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref))
     return out
 
