@@ -76,6 +76,22 @@ def _retag(src: Path, dst: Path, rng, sigma: float) -> Path:
     return dst
 
 
+def shifted_gps(src: Path, dst: Path, dxy) -> Path:
+    """A copy of ``src`` whose EXIF GPS is ``dxy`` metres (east, north) off, its accuracy tags kept (a blunder)."""
+    import rasterio
+    import rendered_oblique as ro
+    from pyproj import Transformer
+    with rasterio.open(src) as ds:
+        img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+    lon, lat, alt = gps_of(src)
+    x, y = Transformer.from_crs(4326, TRUTH_CRS, always_xy=True).transform(lon, lat)
+    t2, _ = ro._tags(np.array([x + dxy[0], y + dxy[1], alt]), (0, -60, 0), False, TRUTH_CRS)
+    tags.update({k: v for k, v in t2.items() if k.startswith("EXIF_GPS")})
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    ro._write(dst, img, tags, xmp)
+    return dst
+
+
 def gps_of(path) -> tuple:
     from fotogeo.io.exif import read_image_metadata
     m = read_image_metadata(str(path))

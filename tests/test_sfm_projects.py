@@ -138,22 +138,71 @@ def test_colmap_binary_and_ecef_models(sc, tmp_path, kind):
         assert all(s.height_reference == "ellipsoid" for s in block.shots.values())
 
 
-def test_images_resized_after_the_reconstruction_are_refused_naming_the_model(sc, tmp_path):
+def _resized_copies(sc, folder, size):
     import cv2
     import rasterio
     import rendered_oblique as ro
-    folder = sp.colmap_model(tmp_path / "m", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
-    small = []
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
     for p in sc["rtk"][:2]:
         with rasterio.open(p) as ds:
             img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
-        ro._write(tmp_path / p.name, cv2.resize(img, (320, 240), interpolation=cv2.INTER_AREA), tags, xmp)
-        small.append(tmp_path / p.name)
+        ro._write(folder / p.name, cv2.resize(img, size, interpolation=cv2.INTER_AREA), tags, xmp)
+        out.append(folder / p.name)
+    return out
+
+
+def test_images_resized_after_the_reconstruction_scale_the_model_camera(sc, tmp_path):
+    """Images halved after the reconstruction (as ODM's resize): main refused them naming --eo; the interior
+    orientation is now scaled by exactly 1/2, with a note, and the orthophoto lands where the truth is."""
+    from fotogeo.errors import InputNote
+    from fotogeo.geometry.camera import OrientedFrame
     from fotogeo.tools.ortho.inputs import image_models
-    with warnings.catch_warnings(), pytest.raises(InputError, match="camera of --eo .*images.txt' is for images of "
-                                                                    "640x480 .* 320x240 .resized after"):
+    folder = sp.colmap_model(tmp_path / "m", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    small = _resized_copies(sc, tmp_path / "half", (320, 240))
+    said = []
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        ims = image_models(small, parse_crs(sp.TRUTH_CRS), eo=folder / "images.txt", said=said)
+    assert any(issubclass(w.category, InputNote) and "reduced by exactly 1/2" in str(w.message) for w in seen)
+    assert sum("reduced by exactly 1/2" in n for n in said) == 1  # once for the two images of one size
+    cam = {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)}
+    g = np.array([[100.0, 80.0], [320.0, 240.0], [600.0, 400.0]])
+    for im in ims:
+        X = OrientedFrame(sc["camera"], sc["truth"][im.name]).pixel_to_world_at(g, sc["ground"])
+        C, R = sp.pose_cv(sc["truth"][im.name])
+        px = sp.tool_pixel(cam, (X - C) @ R.T) * 0.5
+        assert np.abs(im.model.forward(X) - px).max() < 1e-6
+
+
+@pytest.mark.parametrize("size", [(320, 200), (336, 240), (600, 450)])
+def test_images_cropped_after_the_reconstruction_are_refused_naming_the_model(sc, tmp_path, size):
+    """An aspect change, or a reduction that a crop of the same aspect also gives (600x450 = 15/16), is not scaled:
+    refused naming --eo, as before."""
+    from fotogeo.tools.ortho.inputs import image_models
+    folder = sp.colmap_model(tmp_path / "m", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    small = _resized_copies(sc, tmp_path / "c", size)
+    with warnings.catch_warnings(), pytest.raises(InputError, match=f"camera of --eo .*images.txt' is for images of "
+                                                                    f"640x480 .* {size[0]}x{size[1]} .resized after"):
         warnings.simplefilter("ignore")
         image_models(small, parse_crs(sp.TRUTH_CRS), eo=folder / "images.txt")
+
+
+def test_colmap_model_folder_on_the_command_line(sc, tmp_path):
+    """``--eo sparse/0/`` (a COLMAP model's folder): click refused a folder on main; a folder without a model is
+    refused naming it and the models found below it."""
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    folder = sp.colmap_model(tmp_path / "sparse" / "0", sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
+    base = ["ortho", *map(str, sc["rtk"][:2]), "--dem", str(sc["dem"]), "--crs", sp.TRUTH_CRS, "--resolution", "2",
+            "-q", "--overwrite"]
+    run = CliRunner().invoke(main, [*base, "--eo", str(folder) + "/", "-o", str(tmp_path / "out")])
+    assert run.exit_code == 0, run.output
+    assert len(list((tmp_path / "out").glob("*.tif"))) == 2
+    run = CliRunner().invoke(main, [*base, "--eo", str(tmp_path / "sparse"), "-o", str(tmp_path / "out2")])
+    assert run.exit_code != 0 and "has no cameras.txt or cameras.bin" in run.output, run.output
+    assert "sparse/0" in run.output and "Traceback" not in run.output
 
 
 def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
@@ -161,6 +210,40 @@ def test_colmap_model_in_its_own_frame_is_refused(sc, tmp_path):
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
     with pytest.raises(InputError, match="not in WGS 84 / UTM zone 33N .* nor in ECEF.*model_aligner"):
         _read(folder, sc["bare"][:2])
+
+
+def test_colmap_model_in_its_own_frame_is_aligned_to_rtk_gps(sc, tmp_path):
+    """Not geo-registered, every image with RTK GPS (σ 2 cm): aligned as model_aligner does (main refused it), the
+    choice said in the reading, the orthophoto within the done-when shift."""
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    block = _read(folder, sc["rtk"])
+    assert "aligned to the images' own GPS" in block.frame_reading and "expected error" in block.frame_reading
+    got = _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
+    assert got["centre_m"] < 0.1
+
+
+def test_colmap_own_frame_with_consumer_gps_of_a_small_block_is_refused(sc, tmp_path):
+    """8 consumer GPS images (no accuracy tags: σ 5 m, 10 m vertically) over ~70 m: the tilt is not determined
+    (±5.6°); refused naming --crs rather than aligned. The bench's 16 images are aligned with a warning."""
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    with pytest.raises(InputError, match="determines its tilt only to .*model_aligner.*--crs"):
+        _read(folder, sc["consumer"])
+
+
+def test_colmap_own_frame_leaves_out_one_bad_gps_fix(sc, tmp_path):
+    """One image's RTK fix 30 m off: left out (and named), the others align the model right."""
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    imgs = list(sc["rtk"])
+    imgs[3] = sp.shifted_gps(imgs[3], tmp_path / "bad" / imgs[3].name, (30.0, -10.0))
+    block = _read(folder, imgs)
+    assert f"{imgs[3].stem}'s GPS left out" in block.frame_reading
+    _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
+
+
+def test_colmap_own_frame_with_two_gps_images_is_refused(sc, tmp_path):
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    with pytest.raises(InputError, match="model_aligner.*--crs.*at least 3 of its images carrying GPS"):
+        _read(folder, sc["rtk"][:2])
 
 
 def test_colmap_images_txt_without_a_crs_is_read_as_a_model_not_as_eo_lines(sc, tmp_path):

@@ -25,7 +25,9 @@ The format (COLMAP ``doc/format.rst``, ``doc/cameras.rst``, ``src/colmap/sensor/
   centre within :data:`ECEF_BAND` of the Earth's centre and outside the CRS's area of use), the
   positions go through lon/lat/h into the CRS and the rotations turn from ECEF axes to the local
   east-north-up axes at each camera and by the grid convergence (:mod:`fotogeo.geometry.local_frames`).
-  Centres outside the CRS's area of use otherwise (a model left in COLMAP's own frame) are refused.
+  Centres outside the CRS's area of use otherwise (a model left in COLMAP's own frame) are aligned to the images'
+  own GPS as ``model_aligner`` does when at least three of the images given carry it (:mod:`fotogeo.io.colmap_align`),
+  else refused.
   ``points3D`` is not read.
 
 :func:`write_colmap` writes a block as a text model (tests, round trips).
@@ -157,7 +159,19 @@ def _model_file(folder: Path, name: str) -> Path:
         if (folder / (name + ext)).is_file():
             return folder / (name + ext)
     raise InputError(f"COLMAP model {str(folder)!r} has no {name}.txt or {name}.bin; give the folder of a COLMAP "
-                     f"model (cameras, images)")
+                     f"model (cameras, images){_models_below(folder)}")
+
+
+def _models_below(folder: Path) -> str:
+    """The hint naming the COLMAP models (``sparse/0``, ``0``) or OpenSfM files found a level or two below
+    ``folder``, for the refusal of a folder that holds no model itself."""
+    found = []
+    for pattern in ("*/cameras.*", "*/*/cameras.*", "reconstruction.json", "opensfm/reconstruction.json"):
+        found += [p for p in sorted(folder.glob(pattern)) if p.suffix in (".txt", ".bin", ".json")]
+    if not found:
+        return ""
+    shown = sorted({str(p.parent if p.suffix != ".json" else p) for p in found})[:3]
+    return f", e.g. {' or '.join(repr(s) for s in shown)} (found below it)"
 
 
 def _unpack(data: bytes, at: int, fmt: str, where: str):
@@ -214,11 +228,12 @@ def read_colmap_images_bin(path) -> list:
     return out
 
 
-def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> ApproximateBlock:
+def read_colmap(model_dir, crs=None, *, height_reference: str | None = None, gps=None) -> ApproximateBlock:
     """Read a COLMAP model (text or binary) geo-registered in ``crs`` (required; a projected CRS) or into ECEF
     (then expressed in ``crs``) into an :class:`ApproximateBlock` (module docstring); shots are keyed by the image's
     stem, cameras by COLMAP's ``CAMERA_ID``. ``height_reference`` (``"ellipsoid"``/``"geoid"``) states what Z is
-    above when known (it is whatever the alignment positions were; ellipsoidal for ECEF)."""
+    above when known (it is whatever the alignment positions were; ellipsoidal for ECEF). ``gps``: the images' own
+    GPS ``{frame key: GpsFix}``, which aligns a model left in COLMAP's own frame (:mod:`fotogeo.io.colmap_align`)."""
     from ..crs import parse_crs, require_projected
     folder = Path(model_dir)
     if not folder.is_dir():
@@ -230,8 +245,8 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> 
     cf, imf = _model_file(folder, "cameras"), _model_file(folder, "images")
     cams = read_colmap_cameras(cf) if cf.suffix == ".txt" else read_colmap_cameras_bin(cf)
     images = read_colmap_images(imf) if imf.suffix == ".txt" else read_colmap_images_bin(imf)
-    images, frame = _in_map(images, map_crs, f"COLMAP model {str(folder)!r}")
-    height_reference = "ellipsoid" if frame == "ecef" else height_reference
+    images, frame, aligned = _in_map(images, map_crs, f"COLMAP model {str(folder)!r}", gps)
+    height_reference = "ellipsoid" if frame == "ecef" else None if frame == "gps" else height_reference
     shots = {}
     for name, cid, C, R in images:
         key = frame_key(name)
@@ -246,30 +261,35 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None) -> 
     used = {s.camera_id for s in shots.values()}
     notes = (f"read from COLMAP model {str(folder)!r}",
              f"model coordinates taken as {map_crs.name} (X easting, Y northing, Z up)" if frame == "map" else
-             f"model coordinates are ECEF (colmap model_aligner --alignment_type ecef), expressed in {map_crs.name}",
+             f"model coordinates are ECEF (colmap model_aligner --alignment_type ecef), expressed in {map_crs.name}"
+             if frame == "ecef" else f"model aligned into {map_crs.name}: {aligned}",
              "heights: " + (f"above the {height_reference}" if height_reference else
                             "in the vertical reference of the alignment positions (not stated)"))
-    return ApproximateBlock({c: cams[c] for c in cams if c in used}, shots, map_crs, notes)
+    return ApproximateBlock({c: cams[c] for c in cams if c in used}, shots, map_crs, notes, frame_reading=aligned)
 
 
-def _in_map(images: list, map_crs, where: str) -> tuple:
-    """``(images with centres and rotations in map_crs, "map" | "ecef")`` (module docstring: ECEF detected,
-    coordinates outside the CRS's area of use refused)."""
+def _in_map(images: list, map_crs, where: str, gps=None) -> tuple:
+    """``(images with centres and rotations in map_crs, "map" | "ecef" | "gps", sentence)`` (module docstring: ECEF
+    detected; coordinates outside the CRS's area of use aligned to the images' ``gps`` or refused)."""
     from ..crs import outside_area_of_use
     C = np.array([c for _, _, c, _ in images], float)
     if not outside_area_of_use(map_crs, C[:, :2], 1.0).any():  # widened by 1°: a block may overhang a zone
-        return images, "map"
+        return images, "map", ""
     r = np.linalg.norm(C, axis=1)
     if not np.all((r > ECEF_BAND[0]) & (r < ECEF_BAND[1])):
+        from .colmap_align import MIN_IMAGES, align_to_gps
+        aligned = align_to_gps(images, gps, map_crs, where) if gps else None
+        if aligned is not None:
+            return aligned[0], "gps", aligned[1]
         e = np.median(C, axis=0)
         raise InputError(f"{where}: its camera centres (around {e[0]:.6g}, {e[1]:.6g}, {e[2]:.6g}) are not in "
                          f"{map_crs.name} (outside its area of use) nor in ECEF; the model is in COLMAP's own frame or "
                          f"another CRS: geo-register it (colmap model_aligner) and give the CRS of its positions "
-                         f"(--crs)")
+                         f"(--crs), or give at least {MIN_IMAGES} of its images carrying GPS (EXIF) to align it")
     from ..geometry.local_frames import ecef_to_map
     xyz, M = ecef_to_map(C, map_crs)
     out = [(n, cid, p, R @ m.T) for (n, cid, _, R), p, m in zip(images, xyz, M)]
-    return out, "ecef"
+    return out, "ecef", ""
 
 
 def _colmap_ids(block: ApproximateBlock) -> dict:

@@ -4,16 +4,18 @@
   the map CRS is the block's), read by the caller: :func:`read_orientation_file` returns None;
 * ``*.json`` — OpenSfM/ODM ``reconstruction.json`` (:func:`fotogeo.io.opensfm.read_opensfm`; ODM's
   ``cameras.json`` beside it is used for the cameras);
-* a folder, or its ``images.txt`` / ``cameras.txt`` / ``images.bin`` / ``cameras.bin`` — a COLMAP model
-  (:func:`fotogeo.io.colmap.read_colmap`;
-  its coordinates are in ``crs``);
+* a folder (``sparse/0/``), or its ``images.txt`` / ``cameras.txt`` / ``images.bin`` / ``cameras.bin`` — a COLMAP
+  model (:func:`fotogeo.io.colmap.read_colmap`; its coordinates are in ``crs``, or ECEF, or COLMAP's own frame
+  aligned to the images' GPS); a folder without a model is refused naming the models found below it;
 * ``*.geojson`` / ``*.csv`` — orthority's exterior parameters (:func:`fotogeo.io.orthority.read_orthority`) with
   the interior parameters of ``camera`` (orthority's YAML).
 
 Each returns the one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`. With the ``images`` themselves,
 their own EXIF GPS is evidence (:mod:`fotogeo.io.sfm_frame`): it decides the local frame of an OpenSfM/ODM
 reconstruction (``sfm_frame`` ``auto``), and every file's camera centres must agree with it within 3σ
-horizontally, else the file is refused by name. An OpenSfM reading is shown as an :class:`~fotogeo.errors.InputNote`.
+horizontally, else the file is refused by name (a COLMAP model aligned to that GPS here was tested by its
+alignment: :mod:`fotogeo.io.colmap_align`). An OpenSfM reading and a COLMAP alignment are shown as an
+:class:`~fotogeo.errors.InputNote`.
 """
 from __future__ import annotations
 
@@ -48,10 +50,12 @@ def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto
     if block is None:
         return None
     is_sfm = p.suffix.lower() == ".json" and not p.is_dir()
-    agree = check_gps(block, gps, f"orientation file {str(p)!r}", "sfm_frame" if is_sfm else None) if gps else ""
+    from .colmap_align import aligned_to_gps
+    agree = (check_gps(block, gps, f"orientation file {str(p)!r}", "sfm_frame" if is_sfm else None)
+             if gps and not aligned_to_gps(block) else "")
     if agree:
         block = block.with_notes(agree)
-    if is_sfm:
+    if is_sfm or block.frame_reading:  # how an SfM frame was read or aligned: among the run's first lines
         warnings.warn(f"orientation file {str(p)!r}: {block.frame_reading}" + (f"; {agree}" if agree else ""),
                       InputNote, stacklevel=2)
     return block
@@ -61,7 +65,7 @@ def _read(p: Path, crs, camera, sfm_frame: str, gps, images=()):
     suffix = p.suffix.lower()
     if p.is_dir() or p.name.lower() in _COLMAP:
         from .colmap import read_colmap
-        return read_colmap(p if p.is_dir() else p.parent, crs=crs)
+        return read_colmap(p if p.is_dir() else p.parent, crs=crs, gps=gps)
     if suffix == ".txt":
         return None
     if suffix == ".json":

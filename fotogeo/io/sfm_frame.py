@@ -60,6 +60,7 @@ class GpsFix:
     alt: float
     sigma_h: float
     tagged: bool  # the σ comes from the image's accuracy tags (else DEFAULT_SIGMA_H)
+    sigma_v: float | None = None  # σ of the altitude (m) from the accuracy tags, when they state it
 
 
 def images_gps(paths) -> dict:
@@ -72,9 +73,9 @@ def images_gps(paths) -> dict:
         m = read_image_metadata(str(p))
         if m.lon is None or m.lat is None:
             continue
-        sh = position_sigmas(m)[0]
+        sh, sv = position_sigmas(m)
         out[frame_key(p)] = GpsFix(float(m.lon), float(m.lat), float(m.altitude or 0.0),
-                                   float(sh) if sh else DEFAULT_SIGMA_H, bool(sh))
+                                   float(sh) if sh else DEFAULT_SIGMA_H, bool(sh), float(sv) if sv else None)
     return out
 
 

@@ -1,0 +1,113 @@
+"""A COLMAP model left in COLMAP's own frame, aligned to the images' own GPS as ``colmap model_aligner`` does.
+
+COLMAP's mapper leaves the model in an arbitrary frame (scale, rotation and origin of its first pair);
+``colmap model_aligner --ref_images_path`` estimates the similarity ``X_map = s·Q·X + t`` from the camera centres
+``X`` and their GPS positions. Here the same similarity is fitted when at least :data:`MIN_IMAGES` of the images
+given carry an EXIF/XMP GPS position: to their map coordinates ``(E, N)`` in the map CRS and their GPS altitude
+(the map axes are taken as Cartesian, as for a model aligned into a projected CRS), weighted by their horizontal
+and vertical σ (the accuracy tags; without them a consumer receiver, :data:`~fotogeo.io.sfm_frame.DEFAULT_SIGMA_H`
+horizontally and twice that vertically). The fit (:mod:`fotogeo.geometry.similarity3d`, Umeyama 1991) leaves out
+one bad fix when five or more images carry GPS; it is refused, naming ``--crs`` and ``model_aligner``, when
+
+* the centres with GPS lie near a line (one strip: the rotation about it is free; :data:`MIN_LINE_RATIO`),
+* the residuals exceed 3σ RMS (χ² per degree of freedom > 9): the GPS σ is understated or the model is not rigid, or
+* the fit's covariance leaves the tilt more uncertain than :data:`MAX_TILT_DEG` (few images, a small block, a
+  poor GPS).
+
+Then each centre becomes ``s·Q·C + t`` and each world → camera rotation ``R·Qᵀ``. The alignment is only as good as
+the GPS: its precision (the σ of the aligned centres and of the tilt, from the fit's covariance) is stated, and a
+warning is given when it exceeds :data:`SURVEY_M`.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from ..errors import FotogeoWarning, InputError
+
+#: images with GPS needed to align a model
+MIN_IMAGES = 3
+#: second / first singular value of the centred camera centres below which they are taken as a line
+MIN_LINE_RATIO = 0.05
+#: σ (m) of the aligned centres above which the alignment is announced as a warning, not a note
+SURVEY_M = 0.05
+#: σ (°) of the tilt beyond which the alignment is refused (±9 m per 100 m of height: no georeference at all)
+MAX_TILT_DEG = 5.0
+#: how the reading of an aligned model begins (:func:`aligned_to_gps`)
+ALIGNED = "COLMAP model in its own frame aligned to the images' own GPS"
+
+
+def aligned_to_gps(block) -> bool:
+    """Whether ``block`` was aligned to the images' GPS here: its fit to them is tested already (the χ² of the
+    similarity, one fix left out), so it is not tested again against every fix."""
+    return block.frame_reading.startswith(ALIGNED)
+
+
+def _refuse(where: str, why: str) -> InputError:
+    return InputError(f"{where}: it is in COLMAP's own frame and {why}; geo-register it (colmap model_aligner, with "
+                      f"GCPs or better GPS) and give the CRS of its positions (--crs)")
+
+
+def align_to_gps(images: list, gps: dict, map_crs, where: str) -> tuple:
+    """``(images in map_crs, sentence)``: ``images`` ``[(name, camera id, C, R_wc)]`` of a model in COLMAP's own
+    frame aligned to ``gps`` ``{frame key: GpsFix}`` (module docstring); None when fewer than :data:`MIN_IMAGES`
+    images carry GPS; an :class:`InputError` naming ``--crs`` when the alignment is ill-determined or contradicted."""
+    from ..geometry.similarity3d import line_ratio, robust_similarity, similarity_precision
+    from .block import frame_key
+    from .sfm_frame import TAG_SIGMA, _map_xy
+    keys = [frame_key(n) for n, *_ in images]
+    used = [k for k, key in enumerate(keys) if key in gps]
+    if len(used) < MIN_IMAGES:
+        return None
+    fixes = [gps[keys[k]] for k in used]
+    x = np.array([images[k][2] for k in used], float)
+    xy = _map_xy(map_crs, [g.lon for g in fixes], [g.lat for g in fixes])
+    y = np.column_stack([xy, [g.alt for g in fixes]])
+    sh = np.array([max(g.sigma_h, TAG_SIGMA) for g in fixes])
+    sv = np.array([max(g.sigma_v, TAG_SIGMA) if g.sigma_v else 2.0 * h for g, h in zip(fixes, sh)])
+    sigma = np.column_stack([sh, sh, sv])
+    ratio = line_ratio(x)
+    if ratio < MIN_LINE_RATIO:
+        raise _refuse(where, f"the centres of its {len(used)} images with GPS lie nearly on a line (spread ratio "
+                             f"{ratio:.3f}): their GPS leaves the rotation about that line free")
+    fit = robust_similarity(x, y, sigma)
+    names = [keys[k] for k in used]
+    keep = np.ones(len(used), bool)
+    if fit.left_out is not None:
+        keep[fit.left_out] = False
+    res = fit.residuals
+    rms_h = float(np.sqrt(np.mean(np.sum(res[keep, :2] ** 2, axis=1))))
+    rms_v = float(np.sqrt(np.mean(res[keep, 2] ** 2)))
+    if fit.chi2_dof > 9.0 or not fit.similarity.scale > 0:
+        off = np.linalg.norm(res / sigma, axis=1)
+        worst = ", ".join(f"{names[i]} {np.linalg.norm(res[i]):.2f} m" for i in np.argsort(-off)[:3])
+        raise _refuse(where, f"a similarity to the GPS of its {len(used)} images leaves residuals of {rms_h:.2f} m "
+                             f"RMS horizontally, {rms_v:.2f} m vertically, more than 3 x their σ "
+                             f"({np.median(sh):.3g} m, {np.median(sv):.3g} m; {worst})")
+    sim = fit.similarity
+    all_c = np.array([c for _, _, c, _ in images], float)
+    prec = similarity_precision(sim, x[keep], sigma[keep], at=all_c, chi2_dof=fit.chi2_dof)
+    if prec.tilt_deg > MAX_TILT_DEG:
+        raise _refuse(where, f"the GPS of its {len(used)} images (σ {np.median(sh):.3g} m, {np.median(sv):.3g} m) "
+                             f"determines its tilt only to ±{prec.tilt_deg:.1f}°")
+    out = [(n, cid, sim.apply(c[None])[0], R @ sim.rotation.T) for n, cid, c, R in images]
+    tagged = all(g.tagged for g in fixes)
+    dropped = f"; {names[fit.left_out]}'s GPS left out ({np.linalg.norm(res[fit.left_out]):.2f} m off)" \
+        if fit.left_out is not None else ""
+    per100 = 100.0 * math.tan(math.radians(prec.tilt_deg))
+    said = (f"{ALIGNED} as colmap model_aligner does "
+            f"(similarity, Umeyama 1991): {int(keep.sum())} images, GPS σ {np.median(sh):.3g} m horizontally, "
+            f"{np.median(sv):.3g} m vertically" + ("" if tagged else " (no accuracy tags: a consumer receiver "
+                                                                     "assumed)")
+            + f", scale {sim.scale:.6g}, residuals {rms_h:.3f} m RMS horizontally, {rms_v:.3f} m vertically{dropped}; "
+              f"expected error of the cameras ±{prec.horizontal:.3f} m horizontally, ±{prec.vertical:.3f} m "
+              f"vertically, tilt ±{prec.tilt_deg:.3f}° (±{per100:.3f} m per 100 m of height above the ground); "
+              f"heights are the GPS altitudes' (reference not stated)")
+    if prec.horizontal > SURVEY_M or per100 > SURVEY_M:
+        warnings.warn(f"{where}: aligned to the images' GPS only: expected error ≈ {prec.horizontal:.2f} m "
+                      f"horizontally at the cameras plus {per100:.2f} m per 100 m of height (tilt ±"
+                      f"{prec.tilt_deg:.2f}°), not an accurate georeference; align it with GCPs or RTK GPS "
+                      f"(colmap model_aligner) for better", FotogeoWarning, stacklevel=4)
+    return out, said
