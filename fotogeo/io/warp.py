@@ -307,7 +307,9 @@ def compress_threads(threads: int) -> int:
 
 def write_env(threads: int, zlevel: int | None = None):
     """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for
-    compressing tiles and computing overviews, and the overviews' DEFLATE level ``zlevel``."""
+    compressing tiles and computing overviews, and the overviews' DEFLATE level ``zlevel``. Sources are read with
+    ``threads=1``: GDAL's decoding pool costs a TIFF of one-row strips (its default layout) 0.15-0.20 CPU s per
+    2304 x 1728 RGB frame with 2 threads against 0.02-0.03 with one (docs/benchmarks/products.md)."""
     extra = {"ZLEVEL_OVERVIEW": str(int(zlevel))} if zlevel else {}
     return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))), **extra)
 
@@ -335,7 +337,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     progress = progress or Progress()
     threads = default_threads() if threads is None else max(1, int(threads))
     windows = windows_of(height, width, block)
-    with write_env(threads), ropen(src_path) as src:
+    with write_env(1), ropen(src_path) as src:  # GDAL decodes in the reading thread (write_env)
         plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
         plan = reduced_plan(src_path, src, plan, width, height) if reduce else plan
         with ropen(src_path, overview_level=plan.level) if plan.level is not None else nullcontext(src) as lvl:
@@ -371,7 +373,7 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
                               nodata=plan.nodata, predictor=True, num_threads=str(compress_threads(threads)),
                               **({"zlevel": int(zlevel)} if zlevel else {}))
     valid = collisions = 0
-    with write_env(threads), ropen(dst_path, "w", **profile) as dst:
+    with write_env(1), ropen(dst_path, "w", **profile) as dst:  # compressing threads: the creation option
         try:
             dst.colorinterp = colorinterp
         except Exception:  # noqa: BLE001 - colour interpretation is cosmetic
