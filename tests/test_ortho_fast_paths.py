@@ -80,18 +80,33 @@ def test_a_source_above_the_budget_is_read_window_by_window(tmp_path):
 
 
 @pytest.mark.parametrize("resampling", ["nearest", "bilinear"])
-def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_path, resampling):
+def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_path, resampling, monkeypatch):
+    monkeypatch.setattr("fotogeo.io.warp.OVERVIEW_MIN", 64)  # several levels on this small output
     _source(tmp_path / "s.tif", "uint8", nodata=0, holes=True, size=(600, 520))
     _warp(tmp_path / "s.tif", tmp_path / "open.tif", 2, resampling, block=64)
     _warp(tmp_path / "s.tif", tmp_path / "later.tif", 2, resampling, block=64, overviews=False)
     with rasterio.open(tmp_path / "later.tif", "r+") as ds:
         add_overviews(ds, ds.width, ds.height, resampling)
     with rasterio.open(tmp_path / "open.tif") as a, rasterio.open(tmp_path / "later.tif") as b:
-        assert a.overviews(1) == b.overviews(1) and len(a.overviews(1)) >= 1
+        assert a.overviews(1) == b.overviews(1) and len(a.overviews(1)) >= 2
         for level in range(len(a.overviews(1))):
             h, w = a.height // a.overviews(1)[level], a.width // a.overviews(1)[level]
             np.testing.assert_array_equal(a.read(out_shape=(a.count, h, w)), b.read(out_shape=(b.count, h, w)))
         np.testing.assert_array_equal(a.read(), b.read())
+
+
+@pytest.mark.parametrize("shape, factors", [((1030, 1100), [2, 4]), ((2066, 2080), [2, 4, 8]),
+                                            ((783, 1397), [2]), ((511, 4000), [])])
+def test_overview_ladder_stops_where_the_level_is_256_px_on_its_short_side(tmp_path, shape, factors):
+    """orthority's ladder (docs/benchmarks/products.md): on main the levels went on down to 128 px ([2, 4, 8] for
+    1030 x 1100, [2, 4] for 783 x 1397, [2] for 511 x 4000)."""
+    h, w = shape
+    with rasterio.open(tmp_path / "o.tif", "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8",
+                       tiled=True, blockxsize=256, blockysize=256) as ds:
+        ds.write(np.zeros((1, h, w), np.uint8))
+        add_overviews(ds, w, h, "bilinear")
+    with rasterio.open(tmp_path / "o.tif") as ds:
+        assert ds.overviews(1) == factors
 
 
 def test_keep_freed_memory_is_a_process_setting_that_reports_itself():
