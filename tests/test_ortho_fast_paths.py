@@ -109,5 +109,30 @@ def test_overview_ladder_stops_where_the_level_is_256_px_on_its_short_side(tmp_p
         assert ds.overviews(1) == factors
 
 
+def test_the_source_is_read_with_one_gdal_decoding_thread(tmp_path, monkeypatch):
+    """Whole or window by window, the source is read with ``GDAL_NUM_THREADS=1`` whatever fotogeo's thread count
+    (GDAL's decoding pool cost a TIFF of one-row strips several times the read's CPU time; docs/benchmarks/
+    products.md); the overviews keep their threads. On main the reads saw "3"."""
+    from rasterio.env import get_gdal_config
+    import fotogeo.io.warp as warp
+    seen = []
+
+    def spy(real):
+        def wrapped(*a, **k):
+            seen.append(str(get_gdal_config("GDAL_NUM_THREADS")))
+            return real(*a, **k)
+        return wrapped
+
+    _source(tmp_path / "s.tif", "uint8", bands=3, size=(300, 260))
+    monkeypatch.setattr(warp, "whole_source", spy(warp.whole_source))
+    monkeypatch.setattr(warp, "add_overviews", spy(warp.add_overviews))
+    monkeypatch.setattr(warp, "OVERVIEW_MIN", 64)
+    _warp(tmp_path / "s.tif", tmp_path / "whole.tif", 3, "bilinear", block=64)
+    monkeypatch.setattr(warp, "whole_source", lambda *a, **k: None)
+    monkeypatch.setattr(warp, "_source_window", spy(warp._source_window))
+    _warp(tmp_path / "s.tif", tmp_path / "windowed.tif", 3, "bilinear", block=64)
+    assert seen[0] == "1" and seen[1] == "3" and set(seen[2:-1]) == {"1"} and seen[-1] == "3" and len(seen) > 4
+
+
 def test_keep_freed_memory_is_a_process_setting_that_reports_itself():
     assert warp_source.keep_freed_memory() is True  # glibc (Linux): mallopt accepts both values
