@@ -9,7 +9,7 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   interpolation, DEFLATE;
   With ``--orthority-compression both`` orthority also runs with fotogeo's creation options (``-co``: 256² tiles,
   DEFLATE level 1, horizontal predictor; row ``orthority_z1``): the same compression on both sides. Both build
-  average overviews inside the file (orthority down to 256 px, fotogeo to 128 px: one level more);
+  average overviews inside the file, while a level keeps 256 px on its short side (the same ladder);
 * ``qb2`` — the QuickBird Basic-1B image with its vendor RPC on the same DEM through fotogeo ``--rpc`` and
   ``gdalwarp -rpc -to RPC_DEM=…`` (``-tap``, bilinear, GDAL's default transformer error 0.125 px, and
   ``-et 0``; all CPUs). Both take the DEM's values as ellipsoidal heights (fotogeo ``--dem-heights

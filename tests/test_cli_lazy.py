@@ -73,4 +73,5 @@ def test_ortho_imports_only_what_it_uses(tmp_path):
     assert during == 0, "fotogeo ortho froze objects during the run: a process running it again would keep them"
     assert frozen > 10000, f"fotogeo ortho froze {frozen} objects at exit: its imports' (tens of thousands) expected"
     with rasterio.open(out) as ds:  # the nadir tag, written with the file
-        assert len(ds.tags()["FOTOGEO_NADIR"].split()) == 2 and ds.overviews(1)
+        assert len(ds.tags()["FOTOGEO_NADIR"].split()) == 2
+        assert ds.overviews(1) == [f for f in (2, 4, 8) if min(ds.shape) / f >= 256]  # built with the file

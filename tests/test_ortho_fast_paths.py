@@ -80,18 +80,58 @@ def test_a_source_above_the_budget_is_read_window_by_window(tmp_path):
 
 
 @pytest.mark.parametrize("resampling", ["nearest", "bilinear"])
-def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_path, resampling):
+def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_path, resampling, monkeypatch):
+    monkeypatch.setattr("fotogeo.io.warp.OVERVIEW_MIN", 64)  # several levels on this small output
     _source(tmp_path / "s.tif", "uint8", nodata=0, holes=True, size=(600, 520))
     _warp(tmp_path / "s.tif", tmp_path / "open.tif", 2, resampling, block=64)
     _warp(tmp_path / "s.tif", tmp_path / "later.tif", 2, resampling, block=64, overviews=False)
     with rasterio.open(tmp_path / "later.tif", "r+") as ds:
         add_overviews(ds, ds.width, ds.height, resampling)
     with rasterio.open(tmp_path / "open.tif") as a, rasterio.open(tmp_path / "later.tif") as b:
-        assert a.overviews(1) == b.overviews(1) and len(a.overviews(1)) >= 1
+        assert a.overviews(1) == b.overviews(1) and len(a.overviews(1)) >= 2
         for level in range(len(a.overviews(1))):
             h, w = a.height // a.overviews(1)[level], a.width // a.overviews(1)[level]
             np.testing.assert_array_equal(a.read(out_shape=(a.count, h, w)), b.read(out_shape=(b.count, h, w)))
         np.testing.assert_array_equal(a.read(), b.read())
+
+
+@pytest.mark.parametrize("shape, factors", [((1030, 1100), [2, 4]), ((2066, 2080), [2, 4, 8]),
+                                            ((783, 1397), [2]), ((511, 4000), [])])
+def test_overview_ladder_stops_where_the_level_is_256_px_on_its_short_side(tmp_path, shape, factors):
+    """orthority's ladder (docs/benchmarks/products.md): on main the levels went on down to 128 px ([2, 4, 8] for
+    1030 x 1100, [2, 4] for 783 x 1397, [2] for 511 x 4000)."""
+    h, w = shape
+    with rasterio.open(tmp_path / "o.tif", "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8",
+                       tiled=True, blockxsize=256, blockysize=256) as ds:
+        ds.write(np.zeros((1, h, w), np.uint8))
+        add_overviews(ds, w, h, "bilinear")
+    with rasterio.open(tmp_path / "o.tif") as ds:
+        assert ds.overviews(1) == factors
+
+
+def test_the_source_is_read_with_one_gdal_decoding_thread(tmp_path, monkeypatch):
+    """Whole or window by window, the source is read with ``GDAL_NUM_THREADS=1`` whatever fotogeo's thread count
+    (GDAL's decoding pool cost a TIFF of one-row strips several times the read's CPU time; docs/benchmarks/
+    products.md); the overviews keep their threads. On main the reads saw "3"."""
+    from rasterio.env import get_gdal_config
+    import fotogeo.io.warp as warp
+    seen = []
+
+    def spy(real):
+        def wrapped(*a, **k):
+            seen.append(str(get_gdal_config("GDAL_NUM_THREADS")))
+            return real(*a, **k)
+        return wrapped
+
+    _source(tmp_path / "s.tif", "uint8", bands=3, size=(300, 260))
+    monkeypatch.setattr(warp, "whole_source", spy(warp.whole_source))
+    monkeypatch.setattr(warp, "add_overviews", spy(warp.add_overviews))
+    monkeypatch.setattr(warp, "OVERVIEW_MIN", 64)
+    _warp(tmp_path / "s.tif", tmp_path / "whole.tif", 3, "bilinear", block=64)
+    monkeypatch.setattr(warp, "whole_source", lambda *a, **k: None)
+    monkeypatch.setattr(warp, "_source_window", spy(warp._source_window))
+    _warp(tmp_path / "s.tif", tmp_path / "windowed.tif", 3, "bilinear", block=64)
+    assert seen[0] == "1" and seen[1] == "3" and set(seen[2:-1]) == {"1"} and seen[-1] == "3" and len(seen) > 4
 
 
 def test_keep_freed_memory_is_a_process_setting_that_reports_itself():

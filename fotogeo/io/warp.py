@@ -50,6 +50,7 @@ RESAMPLING = {n: {"nearest": cv2.INTER_NEAREST, "bilinear": cv2.INTER_LINEAR, "c
               for n in RESAMPLINGS}
 _MARGIN = {"nearest": 1, "bilinear": 2, "cubic": 3}
 _INT16_MAX = 32767
+OVERVIEW_MIN = 256  #: smallest overview's short side, px (orthority's; docs/benchmarks/products.md says why)
 #: environment variable bounding fotogeo's resampling threads (the batch sets it to 1 in its tasks)
 THREADS_ENV = "FOTOGEO_NUM_THREADS"
 
@@ -76,10 +77,9 @@ def grid_covering(XY, res: float):
 
 
 def default_nodata(nodata, dtype):
-    """The output nodata: the source's if set; else one no valid value of ``dtype`` can take
-    by accident — NaN for floating point, the most negative value for signed integers (a
-    source without nodata rarely reaches it; a valid pixel that does is counted and warned
-    about) — and 0 for unsigned integers (GDAL's usual choice for a warped image).
+    """The output nodata: the source's if set; else one no valid value of ``dtype`` can take by accident — NaN for
+    floats, the most negative value for signed integers (a source without nodata rarely reaches it; a valid pixel
+    that does is counted and warned about) — and 0 for unsigned integers (GDAL's usual choice for a warped image).
 
     >>> default_nodata(None, "float32"), default_nodata(None, "int16"), default_nodata(None, "uint8")
     (nan, -32768, 0)
@@ -306,8 +306,9 @@ def compress_threads(threads: int) -> int:
 
 
 def write_env(threads: int, zlevel: int | None = None):
-    """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for
-    compressing tiles and computing overviews, and the overviews' DEFLATE level ``zlevel``."""
+    """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for compressing tiles
+    and computing overviews, the overviews' DEFLATE level ``zlevel``. Sources are read with ``threads=1``: GDAL's
+    decoding pool cost a TIFF of one-row strips 6x the CPU time (docs/benchmarks/products.md)."""
     extra = {"ZLEVEL_OVERVIEW": str(int(zlevel))} if zlevel else {}
     return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))), **extra)
 
@@ -335,7 +336,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
     progress = progress or Progress()
     threads = default_threads() if threads is None else max(1, int(threads))
     windows = windows_of(height, width, block)
-    with write_env(threads), ropen(src_path) as src:
+    with write_env(1), ropen(src_path) as src:  # GDAL decodes in the reading thread (write_env)
         plan = make_plan(src, inverse_map, transform, resampling, nodata, src_nodata)
         plan = reduced_plan(src_path, src, plan, width, height) if reduce else plan
         with ropen(src_path, overview_level=plan.level) if plan.level is not None else nullcontext(src) as lvl:
@@ -357,11 +358,10 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
                   progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None,
                   overviews: bool = False, tags: dict | None = None) -> dict:
-    """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height``
-    whose pixel (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`. ``overviews``
-    (:func:`add_overviews`) are built before the file is closed, from the tiles GDAL still holds in its cache (the
-    same values as from the file reopened, without decompressing what was just compressed); ``tags``: GDAL metadata
-    items written with the file (no reopening to add them)."""
+    """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height`` whose pixel
+    (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`. ``overviews``: built before
+    the file is closed (:func:`add_overviews`), from the tiles GDAL still caches (the same values as from the file
+    reopened, without decompressing what was just compressed); ``tags``: GDAL metadata written with the file."""
     progress = progress or Progress()
     r_off, c_off = offset
     profile = geotiff_profile(width=width, height=height, count=plan.count, dtype=plan.dtype,
@@ -371,7 +371,7 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
                               nodata=plan.nodata, predictor=True, num_threads=str(compress_threads(threads)),
                               **({"zlevel": int(zlevel)} if zlevel else {}))
     valid = collisions = 0
-    with write_env(threads), ropen(dst_path, "w", **profile) as dst:
+    with write_env(1), ropen(dst_path, "w", **profile) as dst:  # compressing threads: the creation option
         try:
             dst.colorinterp = colorinterp
         except Exception:  # noqa: BLE001 - colour interpretation is cosmetic
@@ -392,9 +392,9 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
 
 
 def add_overviews(dst, width: int, height: int, resampling: str) -> None:
-    """Internal overviews of an open (``w`` or ``r+``) GeoTIFF: factors 2..64 while the level keeps ≥ 128
-    pixels on its short side; nearest for nearest-neighbour outputs, else average."""
-    factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= 128]
+    """Internal overviews of an open (``w`` or ``r+``) GeoTIFF, nearest for nearest-neighbour outputs, else average:
+    factors 2..64 while the level keeps ≥ :data:`OVERVIEW_MIN` px on its short side."""
+    factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= OVERVIEW_MIN]
     if factors:
         dst.build_overviews(factors, Resampling.nearest if resampling == "nearest" else Resampling.average)
         dst.update_tags(ns="rio_overview", resampling=resampling)
