@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs, geotiff_profile, ropen
+from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
+from ...io.raster import AtomicOutputs, geotiff_profile, ropen
 from ...mosaic.blend import balance as balance_band
 from ...mosaic.blend import overlap_statistics, signed_distance
 from ...mosaic.patches import Patch, overlapping_pairs

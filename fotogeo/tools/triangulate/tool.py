@@ -63,7 +63,7 @@ import numpy as np
 
 from ...errors import InputError, ModelError, OutputError
 from ...io.block import frame_key, read_image_observations
-from ...io.raster import GEOTIFF_SUFFIXES, check_outputs
+from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
