@@ -30,11 +30,12 @@ in its row; nothing is refused for it.
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...errors import MatchingError
+from ...errors import InputError, MatchingError, ModelError
 from ...geometry.attitude import rotation_angle
 from .determinacy import frames_text, why_not_dropped
 
@@ -151,3 +152,42 @@ def _over_gps(frames, names, hints, level, fits, problems, rows, gcp) -> Registr
         row.update(attitude=why or "the files' tags (the registration agrees)",
                    gps_offset_m=round(float(np.linalg.norm(pose.centre - hints[k].centre)), 2))
     return RegistrationStart(list(frames), list(names), tuple(eos), gcp, rows, [])
+
+
+def none_registered(rows, level) -> str:
+    """What happened when the frames' GPS start was registered to the reference and no frame registered while
+    ``level`` (frame names) have no attitude in their files (:func:`_over_gps`' rows, all "gps"): the frames tried
+    with their matches and inliers, the first reasons, and the fix; ``""`` when a frame registered (its attitude
+    serves the level frames: :func:`fotogeo.tools.triangulate.guided.measured_attitudes`) or none is level."""
+    if not rows or not level or any(r.get("status") != "gps" for r in rows):
+        return ""
+    tried = ", ".join(f"{r['name']} {r.get('matches', 0)}/{r.get('inliers', 0)}" for r in rows[:12])
+    more = f" and {len(rows) - 12} more" if len(rows) > 12 else ""
+    reasons = "; ".join(dict.fromkeys(str(r.get("reason", "")).replace("not registered to the reference", "").strip(
+        " ()") or "not registered" for r in rows))
+    return (f"no frame registered to the reference: {len(rows)} frame(s) tried (matches/inliers: {tried}{more}; "
+            f"{reasons[:200]}), so the {len(level)} frame(s) without attitude in their files ({frames_list(level)}) "
+            f"started level and no frame of known attitude could measure theirs; check that the reference orthophoto "
+            f"shows their ground (place, season, resolution) and the DEM covers it, or give their attitude (gimbal "
+            f"tags, --geoinfo, --eo) or GCPs (--gcps)")
+
+
+def frames_list(names, most: int = 6) -> str:
+    """``"a, b, c and 4 more"``."""
+    names = list(names)
+    return ", ".join(names[:most]) + (f" and {len(names) - most} more" if len(names) > most else "")
+
+
+@contextmanager
+def saying_none_registered(start):
+    """A refusal raised inside, in a block started from the images' GPS whose registration to the reference placed
+    no frame while some have no attitude (:func:`none_registered`), says that first: the refusal itself (angle σ,
+    too few ties) is its consequence."""
+    try:
+        yield
+    except (ModelError, MatchingError, InputError) as exc:
+        rows = start.registration if getattr(start, "over_gps", False) else None
+        said = none_registered(rows, [n for n in start.names if start.level.get(n)])
+        if not said:
+            raise
+        raise type(exc)(f"{said}; then: {exc}", option=exc.option, frames=exc.frames) from None

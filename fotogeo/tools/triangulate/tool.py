@@ -73,6 +73,7 @@ from .determinacy import adjust_determined
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .refusal import reporting_refusal
+from .register import saying_none_registered
 from .sources import block_start
 from .surface import block_dsm
 
@@ -193,7 +194,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         with prog.timed("inputs"):
             obs = read_image_observations(observations)
     else:
-        with prog.timed("matching"):
+        with prog.timed("matching"), saying_none_registered(start):
             height = start_height(gcp, kw["dem"], map_crs, eos, cam)
             obs, matching, eos, height = _matched(
                 frames, names, cam, eos, height, start.measure(height),
@@ -215,7 +216,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     prog(0.5, "inputs read")
     refused = reporting_refusal(finals["json"], matching, names, {"frames": [str(f) for f in frames],
                                                                    "folder": str(folder)})
-    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost):
+    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost), saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
