@@ -34,6 +34,7 @@ from pyproj import CRS
 
 from ..crs import parse_crs, transform_points
 from ..errors import FotogeoWarning, InputError, InputNote, VectorError
+from .image_extent import on_image, outside_reason
 from .tables import duplicate_ids
 
 #: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
@@ -262,14 +263,10 @@ def _validate(g: Gcps, what: str):
 
 def outside_image(pixel, width: int, height: int) -> np.ndarray:
     """Boolean mask of the pixel positions ``(N, 2)`` (col, row; corner convention) outside the ``width`` x
-    ``height`` image: ``0 <= col <= width`` and ``0 <= row <= height`` are inside."""
+    ``height`` image: not :func:`~fotogeo.io.image_extent.on_image` (edges included), the rule the QGIS picker's
+    click guard applies too."""
     pixel = np.asarray(pixel, float).reshape(-1, 2)
-    return ~((pixel[:, 0] >= 0) & (pixel[:, 0] <= width) & (pixel[:, 1] >= 0) & (pixel[:, 1] <= height))
-
-
-def outside_reason(width: int, height: int) -> str:
-    """The one wording of a GCP outside the image (warnings, reports' ``skipped``, the QGIS picker's flag)."""
-    return f"outside the image ({width}x{height} px)"
+    return ~on_image(pixel[:, 0], pixel[:, 1], width, height)
 
 
 def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model"):

@@ -225,7 +225,7 @@ def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, p
         tried = [fits[n] for n in names]
         said = ", ".join(f"{t.name} {t.matches}" for t in tried[:12]) + (f" and {len(tried) - 12} more"
                                                                            if len(tried) > 12 else "")
-        why = "; ".join(dict.fromkeys(t.reason for t in tried))[:200]
+        why = f"{tried[0].name}: {tried[0].reason}"[:160]  # the others' reasons alike or in report.json
         raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])} "
                             f"({len(tried)} frame(s) tried, matches: {said}; {why}); check that the orthophoto covers "
                             f"the frames and the approximate orientation")

@@ -163,10 +163,9 @@ def none_registered(rows, level) -> str:
         return ""
     tried = ", ".join(f"{r['name']} {r.get('matches', 0)}/{r.get('inliers', 0)}" for r in rows[:12])
     more = f" and {len(rows) - 12} more" if len(rows) > 12 else ""
-    reasons = "; ".join(dict.fromkeys(str(r.get("reason", "")).replace("not registered to the reference", "").strip(
-        " ()") or "not registered" for r in rows))
+    first = str(rows[0].get("reason", "")).replace("not registered to the reference", "").strip(" ()")
     return (f"no frame registered to the reference: {len(rows)} frame(s) tried (matches/inliers: {tried}{more}; "
-            f"{reasons[:200]}), so the {len(level)} frame(s) without attitude in their files ({frames_list(level)}) "
+            f"{rows[0]['name']}: {(first or 'not registered')[:160]}), so the {len(level)} frame(s) without attitude in their files ({frames_list(level)}) "
             f"started level and no frame of known attitude could measure theirs; check that the reference orthophoto "
             f"shows their ground (place, season, resolution) and the DEM covers it, or give their attitude (gimbal "
             f"tags, --geoinfo, --eo) or GCPs (--gcps)")
