@@ -336,16 +336,19 @@ def _plain(path, x0, y0, values):
     return str(path)
 
 
-@pytest.mark.parametrize("tile", [None, 64])
-def test_a_real_zero_is_kept_and_the_valid_area_is_the_mask_band(tmp_path, monkeypatch, tile):
-    """Orthophotos without nodata whose data hold 0: the mosaic keeps every value (0 included; its nodata of 0 wrote
-    them as 1) and marks its valid area in an internal mask band (no nodata value), also when assembled from tiles."""
+@pytest.mark.parametrize("full, tile", [(False, None), (True, None), (True, 64)])
+def test_a_real_zero_is_kept_and_the_nodata_is_a_value_the_data_lack(tmp_path, monkeypatch, full, tile):
+    """Orthophotos without nodata whose data hold 0: the mosaic keeps every value (its nodata of 0 wrote them as 1);
+    its nodata is a value no data pixel holds (here 255), or, when the data use all 256 values, none — the valid
+    area is then an internal mask band — also when assembled from tiles."""
     import fotogeo.tools.ortho.mosaic_tiles as mt
     if tile:
         monkeypatch.setattr(mt, "TILE", tile)
     c, r = np.meshgrid(np.arange(160) + 0.5, np.arange(120) + 0.5)
     a = np.clip(np.rint(texture(c, r)), 0, 255).astype(np.uint8)
     a[10:30, 5:40] = 0  # a black patch (shadow, water) far from the seam
+    if full:
+        a[100:104, 0:64] = np.arange(256, dtype=np.uint8).reshape(4, 64)  # every grey level
     b = np.clip(np.rint(texture(c + 100, r + 40)), 0, 255).astype(np.uint8)
     paths = [_plain(tmp_path / "a.tif", 0, 0, a), _plain(tmp_path / "b.tif", 100, 40, b)]
     rep = mosaic(paths, str(tmp_path / "m.tif"), balance=False)
@@ -354,18 +357,23 @@ def test_a_real_zero_is_kept_and_the_valid_area_is_the_mask_band(tmp_path, monke
         assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
     assert m.shape == (160, 260)
     assert np.array_equal(m[10:30, 5:40], np.zeros((20, 35), np.uint8))  # the zeros kept ...
-    assert nodata is None and flags == ([rasterio.enums.MaskFlags.per_dataset],)
-    assert rep["nodata"] is None and rep["valid_area"] == "internal mask band"
     assert (mask[10:30, 5:40] == 255).all()  # ... and valid
     assert np.array_equal(m[:120, :80], a[:, :80])  # away from the seam: a's values, every one
     assert (mask[:40, 160:] == 0).all() and (mask[120:, :100] == 0).all()  # the corners no image covers
     assert (mask[:120, :160] == 255).all() and (mask[40:, 100:] == 255).all()
+    if full:
+        assert nodata is None and flags == ([rasterio.enums.MaskFlags.per_dataset],) and rep["nodata"] is None
+        assert "mask band" in rep["valid_area"]
+    else:
+        assert nodata == 255 and rep["nodata"] == 255 and rep["valid_area"] == "a value no data pixel holds"
+    assert rep["moved_off_nodata"] == 0
 
 
 def test_a_blend_landing_on_the_shared_nodata_is_moved_off_it():
-    from fotogeo.tools.ortho.mosaic_tiles import off_nodata, output_nodata
-    assert output_nodata([0, 0]) == 0 and output_nodata([0, None]) is None and output_nodata([0, 255]) is None
-    assert np.isnan(output_nodata([float("nan"), float("nan")]))
+    from fotogeo.tools.ortho.mosaic_nodata import shared_nodata
+    from fotogeo.tools.ortho.mosaic_tiles import off_nodata
+    assert shared_nodata([0, 0]) == 0 and shared_nodata([0, None]) is None and shared_nodata([0, 255]) is None
+    assert np.isnan(shared_nodata([float("nan"), float("nan")]))
     out = np.array([[[255, 3], [255, 255]]], np.uint8)
     valid = np.array([[True, True], [False, True]])
     assert off_nodata(out, valid, 255) == 2 and out.tolist() == [[[254, 3], [255, 254]]]

@@ -49,7 +49,8 @@ from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..common.dask_cluster import connect
 from .mosaic_collar import collar_masks
-from .mosaic_tiles import Blend, output_nodata, write_tiled
+from .mosaic_nodata import output_nodata
+from .mosaic_tiles import Blend, write_tiled
 
 #: cells of the seam grid (seamlines, balancing statistics, feather distances)
 SEAM_PIXELS = 4_000_000
@@ -274,7 +275,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
     origins = tuple((p.r0, p.c0) for p in patches)
     del patches  # the blending needs the signed distances only
     width_m = feather if feather is not None else max(16 * abs(transform.a), 2 * abs(t.a))
-    nodata = output_nodata(i.nodata for i in infos)
+    nodata, why = output_nodata(read, infos)
     profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
                               transform=transform, nodata=nodata)
     blend = Blend(transform, gains, offsets, signed, origins, f, width_m, first.dtype, nodata,
@@ -293,6 +294,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
             "height": height, "seam_grid_factor": f, "feather_m": width_m, "images": names,
             "gains": gains.tolist(), "offsets": offsets.tolist(), "labels_transform": list(t)[:6],
             "cells_per_image": np.bincount(labels[labels >= 0], minlength=n).tolist(), "overlapping_pairs": len(pairs),
-            "nodata": nodata, "valid_area": "nodata value" if nodata is not None else "internal mask band",
+            "nodata": None if nodata is None or nodata != nodata else nodata, "valid_area": why,
+            "moved_off_nodata": tiled["moved_off_nodata"],
             "tiles": tiled["tiles"], "max_orthophotos_per_tile": tiled["max_orthophotos_per_tile"],
             "executor": "dask" if client is not None else "threads"}

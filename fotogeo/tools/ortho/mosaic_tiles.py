@@ -33,7 +33,7 @@ class Blend:
     """The mosaic's grid, gains and offsets ``(n, bands)``, each orthophoto's signed distances on the seam grid
     (``signed[i]`` over its window whose top-left cell is ``origins[i]``; ``factor`` output pixels per seam
     cell), the feather width, the output type and nodata (None: the valid area is the mosaic's mask band,
-    :func:`output_nodata`), and each orthophoto's bounds."""
+    :func:`fotogeo.tools.ortho.mosaic_nodata.output_nodata`), and each orthophoto's bounds."""
     transform: object
     gains: np.ndarray
     offsets: np.ndarray
@@ -53,8 +53,9 @@ class Blend:
                 b.top > y0]
 
     def window(self, handle, r0: int, c0: int, h: int, w: int) -> tuple:
-        """``(values, valid)``: the blended ``(bands, h, w)`` window at ``(r0, c0)`` and its valid cells ``(h, w)``;
-        ``handle(i)`` opens orthophoto ``i``. A valid cell never holds the nodata value (:func:`off_nodata`)."""
+        """``(values, valid, moved)``: the blended ``(bands, h, w)`` window at ``(r0, c0)``, its valid cells ``(h, w)``
+        and the count of band values moved off the nodata (:func:`off_nodata`: a valid cell never holds it);
+        ``handle(i)`` opens orthophoto ``i``."""
         import cv2
         f = self.factor
         mx = ((np.arange(c0, c0 + w) + 0.5) / f - 0.5).astype(np.float32)  # seam-grid coordinates (centres)
@@ -79,24 +80,13 @@ class Blend:
             out = np.clip(np.rint(out), info.min, info.max)
         valid = ok.any(axis=0)
         out = out.astype(self.dtype)
+        moved = 0
         if self.nodata is not None:
-            off_nodata(out, valid, self.nodata)
+            moved = off_nodata(out, valid, self.nodata)
             out[:, ~valid] = self.nodata
         else:
             out[:, ~valid] = 0
-        return out, valid
-
-
-def output_nodata(nodatas):
-    """The mosaic's nodata value: the orthophotos' own when they all carry the same one (none of their valid pixels
-    holds it), else None — the valid area is then written as the GeoTIFF's internal mask band (GDAL's per-dataset
-    mask, ``gdal_translate -mask``; QGIS and GDAL read it like nodata) and every data value is kept as it is, 0
-    included (a nodata of 0 for inputs without one turned a real 0 into 1)."""
-    nodatas = list(nodatas)
-    first = nodatas[0]
-    if first is None or any(n is None or not (n == first or (n != n and first != first)) for n in nodatas):
-        return None
-    return first
+        return out, valid, moved
 
 
 def off_nodata(out, valid, nodata) -> int:
@@ -148,7 +138,7 @@ def blend_tile(paths, blend: Blend, tile_path, window, profile: dict, pin: bool 
         from ..common.dask_cluster import pin_threads
         pin_threads()
     r0, c0, h, w = window
-    opened = {}
+    opened, moved = {}, 0
 
     def handle(i):
         if i not in opened:
@@ -160,7 +150,8 @@ def blend_tile(paths, blend: Blend, tile_path, window, profile: dict, pin: bool 
         with write_env(1), rasterio.Env(GDAL_TIFF_INTERNAL_MASK=True), \
                 rasterio.open(tile_path, "w", **tile_profile(profile, h, w, t)) as dst:
             for br, bc, bh, bw in windows_of(r0 + h, c0 + w, BLOCK, r0, c0, h, w):
-                values, valid = blend.window(handle, br, bc, bh, bw)
+                values, valid, n = blend.window(handle, br, bc, bh, bw)
+                moved += n
                 win = Window(bc - c0, br - r0, bw, bh)
                 dst.write(values, window=win)
                 if blend.nodata is None:
@@ -168,7 +159,7 @@ def blend_tile(paths, blend: Blend, tile_path, window, profile: dict, pin: bool 
     finally:
         for ds in opened.values():
             ds.close()
-    return {"path": str(tile_path), "window": list(window), "orthophotos": len(opened)}
+    return {"path": str(tile_path), "window": list(window), "orthophotos": len(opened), "moved_off_nodata": moved}
 
 
 def _completed(futures, client):
@@ -220,5 +211,6 @@ def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, re
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
         shutil.rmtree(folder, ignore_errors=True)
-    return {"tiles": len(tiles), "max_orthophotos_per_tile": max((d["orthophotos"] for d in done), default=0)}
+    return {"tiles": len(tiles), "max_orthophotos_per_tile": max((d["orthophotos"] for d in done), default=0),
+            "moved_off_nodata": sum(d["moved_off_nodata"] for d in done)}
 
