@@ -123,6 +123,18 @@ def _matched(frames, names, cam, eos, height, start, match, prog):
     return obs, rep, tuple(eos), height
 
 
+def _measure(start, height, dem, crs):
+    """The start's ``measure`` callable (:meth:`~fotogeo.tools.triangulate.sources.BlockStart.measure`) with the
+    DEM (``terrain``) the level frames' attitudes are measured on (:func:`fotogeo.tools.triangulate.guided.
+    measured_attitudes`: on a plane, the ground points of steep oblique rays over relief are metres off)."""
+    measure = start.measure(height)
+    if measure is not None and dem is not None:
+        from .ortho import terrain
+        src = terrain(dem, crs, None)
+        measure.terrain = None if isinstance(src, (int, float)) else src
+    return measure
+
+
 def _match_options(detection_level, gruber_cells, points_per_region, lsm_window, scheduler=None,
                    workers=None) -> dict:
     """The tie-point matching settings of the option table as :func:`block_tie_points` arguments."""
@@ -197,7 +209,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         with prog.timed("matching"), saying_none_registered(start):
             height = start_height(gcp, kw["dem"], map_crs, eos, cam)
             obs, matching, eos, height = _matched(
-                frames, names, cam, eos, height, start.measure(height),
+                frames, names, cam, eos, height, _measure(start, height, kw["dem"], map_crs),
                 _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"],
                                kw["scheduler"], kw["workers"]) | {"advice": _overlap_advice(eo, camera, gcp)},
                 prog.stage(0.2, 0.5, "matching the frames"))
