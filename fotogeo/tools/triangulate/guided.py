@@ -32,13 +32,13 @@ the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangula
 
 **A second pass for the level frames** (:func:`level_pass`, after the start has measured κ): a level frame's whole
 attitude is measured on its plain ties with the frames of known attitude (:func:`measured_attitudes`: those frames'
-rays through the plane give the ground points, and the rotation that best turns the level frame's rays onto the
-directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), in rounds: a frame
-whose ties are all with level frames is measured once they are (a reference blanked under several frames leaves whole
-neighbourhoods level); its pairs then go through the same ground-plane matching as the others. Left level, a frame of
-an oblique block starts 30° off: its pairs with converging views keep few plain ties, least-squares matching, started
-from its level affinity, loses most of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of
-seed 0, the reference zeroed under DJI_303).
+rays through the DEM when the run has one, else the plane, give the ground points, and the rotation that best turns
+the level frame's rays onto the directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its
+attitude), in rounds: a frame whose ties are all with level frames is measured once they are (a reference blanked
+under several frames leaves whole neighbourhoods level); its pairs then go through the same ground-plane matching as
+the others. Left level, a frame of an oblique block starts 30° off: its pairs with converging views keep few plain
+ties, least-squares matching, started from its level affinity, loses most of them, and the bundle dropped it ("3 points
+(needs 6)": the 12-frame block of seed 0, the reference zeroed under DJI_303).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
@@ -334,8 +334,9 @@ def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float, t
     :data:`MIN_ATTITUDE_TIES` ties in its pairs ``found`` with frames of known attitude, turned to the attitude those
     ties measure (its centre kept); in rounds, the frames measured in one round counting as known in the next, until
     a round measures none: the ties' ground points are the known frames' rays through the ``terrain`` (a DEM,
-    :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world`; None: the plane ``height``), and the rotation ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit
-    directions ``u`` from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
+    :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world`; None: the plane ``height``), and the rotation
+    ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit directions ``u``
+    from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
     measured pixels → distortion-free ones (:func:`fotogeo.tools.triangulate.pairs.ideal_pixels`; None: already)."""
     undistort = ideal or (lambda xy: np.asarray(xy, dtype=np.float64))
     out, measured = list(eos), [False] * len(eos)

@@ -165,7 +165,8 @@ def none_registered(rows, level) -> str:
     more = f" and {len(rows) - 12} more" if len(rows) > 12 else ""
     first = str(rows[0].get("reason", "")).replace("not registered to the reference", "").strip(" ()")
     return (f"no frame registered to the reference: {len(rows)} frame(s) tried (matches/inliers: {tried}{more}; "
-            f"{rows[0]['name']}: {(first or 'not registered')[:160]}), so the {len(level)} frame(s) without attitude in their files ({frames_list(level)}) "
+            f"{rows[0]['name']}: {(first or 'not registered')[:160]}), so the {len(level)} frame(s) without attitude "
+            f"in their files ({frames_list(level)}) "
             f"started level and no frame of known attitude could measure theirs; check that the reference orthophoto "
             f"shows their ground (place, season, resolution) and the DEM covers it, or give their attitude (gimbal "
             f"tags, --geoinfo, --eo) or GCPs (--gcps)")
