@@ -152,11 +152,12 @@ def test_a_refusal_after_no_frame_registered_says_so_first():
     with pytest.raises(ModelError) as info, saying_none_registered(start):
         raise ModelError("the block does not determine frame(s) a: angle σ 12.3° above 0.5°", frames=["a"])
     text = str(info.value)
-    assert text.startswith("no frame registered to the reference: 3 frame(s) tried (matches/inliers: a 0/0, "
-                           "b 41/0, c 17/0; a: no matches with the reference), so"), text
-    assert "the 3 frame(s) without attitude in their files (a, b, c) started level" in text
-    assert "give their attitude (gimbal tags, --geoinfo, --eo) or GCPs (--gcps)" in text
+    assert text.startswith("no frame registered to the reference (3 tried, matches/inliers: a 0/0, b 41/0, c 17/0; "
+                           "a: no matches with the reference): the 3 frame(s) without attitude tags started level"), text
+    assert "give a reference showing their ground" in text and "or GCPs; then: " in text
     assert text.endswith("then: the block does not determine frame(s) a: angle σ 12.3° above 0.5°")
+    from fotogeo.errors import one_line
+    assert len(text) < 800 and one_line(text) == text  # the CLI's one line keeps it whole
     assert list(info.value.frames) == ["a"]
     start.registration[1] = {**start.registration[1], "status": "start"}  # one frame registered: its refusal as is
     with pytest.raises(ModelError, match="^the block does not determine"), saying_none_registered(start):

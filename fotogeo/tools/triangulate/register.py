@@ -161,21 +161,13 @@ def none_registered(rows, level) -> str:
     serves the level frames: :func:`fotogeo.tools.triangulate.guided.measured_attitudes`) or none is level."""
     if not rows or not level or any(r.get("status") != "gps" for r in rows):
         return ""
-    tried = ", ".join(f"{r['name']} {r.get('matches', 0)}/{r.get('inliers', 0)}" for r in rows[:12])
-    more = f" and {len(rows) - 12} more" if len(rows) > 12 else ""
+    tried = ", ".join(f"{r['name']} {r.get('matches', 0)}/{r.get('inliers', 0)}" for r in rows[:4])
+    more = f" and {len(rows) - 4} more" if len(rows) > 4 else ""
     first = str(rows[0].get("reason", "")).replace("not registered to the reference", "").strip(" ()")
-    return (f"no frame registered to the reference: {len(rows)} frame(s) tried (matches/inliers: {tried}{more}; "
-            f"{rows[0]['name']}: {(first or 'not registered')[:160]}), so the {len(level)} frame(s) without attitude "
-            f"in their files ({frames_list(level)}) "
-            f"started level and no frame of known attitude could measure theirs; check that the reference orthophoto "
-            f"shows their ground (place, season, resolution) and the DEM covers it, or give their attitude (gimbal "
-            f"tags, --geoinfo, --eo) or GCPs (--gcps)")
-
-
-def frames_list(names, most: int = 6) -> str:
-    """``"a, b, c and 4 more"``."""
-    names = list(names)
-    return ", ".join(names[:most]) + (f" and {len(names) - most} more" if len(names) > most else "")
+    return (f"no frame registered to the reference ({len(rows)} tried, matches/inliers: {tried}{more}; "
+            f"{rows[0]['name']}: {(first or 'not registered')[:60]}): the {len(level)} frame(s) without attitude "
+            f"tags started level, none of known attitude to measure theirs — give a reference showing their ground, "
+            f"their attitude (gimbal tags, --geoinfo, --eo) or GCPs")
 
 
 @contextmanager
