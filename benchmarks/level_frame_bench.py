@@ -82,7 +82,8 @@ def _run(tree: Path, block, ortho: Path, dem: Path, out: Path, tags: bool = Fals
     res = {"tree": str(tree), "rc": p.returncode, "cpu_s": round(cpu, 1)}
     eo_file = out / "exterior_orientation.txt"
     if not eo_file.exists():
-        own = p.stderr.split("\tCommand being timed:")[0].strip().splitlines()  # before /usr/bin/time's lines
+        own = [ln for ln in p.stderr.split("\tCommand being timed:")[0].strip().splitlines()
+               if not ln.startswith("Command exited with non-zero status")]  # before /usr/bin/time's lines
         return {**res, "error": own[-1:]}
     eos = read_exterior_orientation(eo_file)
     ang = {n: angle_error(e, block["truth"][n]) for n, e in eos.items()}

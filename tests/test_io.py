@@ -17,7 +17,8 @@ import shapely
 from fotogeo.errors import InputError, OutputError, VectorError
 from fotogeo.io.gcps import read_gcps
 from fotogeo.io.points import write_points
-from fotogeo.io.raster import AtomicOutputs, check_output
+from fotogeo.io.output_checks import check_output
+from fotogeo.io.raster import AtomicOutputs
 from fotogeo.io.report import write_json
 from fotogeo.io.tables import find_column, numeric_columns, read_table, require_columns, write_table
 

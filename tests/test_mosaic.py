@@ -325,3 +325,55 @@ def test_another_band_set_names_the_gdal_fix(pair, tmp_path):
     result = CliRunner().invoke(main, ["mosaic", str(pair[0]), str(tmp_path / "two.tif"), "-o", str(tmp_path / "m.tif")])
     assert_one_line_error(result, "has 2 bands of uint8")
     assert "gdal_translate -b to keep the same bands, -ot to convert" in result.stderr
+
+
+def _plain(path, x0, y0, values):
+    """A 1-band uint8 orthophoto without nodata, mask or alpha, its top-left corner ``(x0, y0)`` m from the origin."""
+    h, w = values.shape
+    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8", crs="EPSG:32635",
+                       transform=Affine(1.0, 0, X0 + x0, 0, -1.0, Y1 - y0)) as ds:
+        ds.write(values, 1)
+    return str(path)
+
+
+@pytest.mark.parametrize("full, tile", [(False, None), (True, None), (True, 64)])
+def test_a_real_zero_is_kept_and_the_nodata_is_a_value_the_data_lack(tmp_path, monkeypatch, full, tile):
+    """Orthophotos without nodata whose data hold 0: the mosaic keeps every value (its nodata of 0 wrote them as 1);
+    its nodata is a value no data pixel holds (here 255), or, when the data use all 256 values, none — the valid
+    area is then an internal mask band — also when assembled from tiles."""
+    import fotogeo.tools.ortho.mosaic_tiles as mt
+    if tile:
+        monkeypatch.setattr(mt, "TILE", tile)
+    c, r = np.meshgrid(np.arange(160) + 0.5, np.arange(120) + 0.5)
+    a = np.clip(np.rint(texture(c, r)), 0, 255).astype(np.uint8)
+    a[10:30, 5:40] = 0  # a black patch (shadow, water) far from the seam
+    if full:
+        a[100:104, 0:64] = np.arange(256, dtype=np.uint8).reshape(4, 64)  # every grey level
+    b = np.clip(np.rint(texture(c + 100, r + 40)), 0, 255).astype(np.uint8)
+    paths = [_plain(tmp_path / "a.tif", 0, 0, a), _plain(tmp_path / "b.tif", 100, 40, b)]
+    rep = mosaic(paths, str(tmp_path / "m.tif"), balance=False)
+    with rasterio.open(tmp_path / "m.tif") as ds:
+        m, mask, nodata, flags = ds.read(1), ds.read_masks(1), ds.nodata, ds.mask_flag_enums
+        assert ds.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+    assert m.shape == (160, 260)
+    assert np.array_equal(m[10:30, 5:40], np.zeros((20, 35), np.uint8))  # the zeros kept ...
+    assert (mask[10:30, 5:40] == 255).all()  # ... and valid
+    assert np.array_equal(m[:120, :80], a[:, :80])  # away from the seam: a's values, every one
+    assert (mask[:40, 160:] == 0).all() and (mask[120:, :100] == 0).all()  # the corners no image covers
+    assert (mask[:120, :160] == 255).all() and (mask[40:, 100:] == 255).all()
+    if full:
+        assert nodata is None and flags == ([rasterio.enums.MaskFlags.per_dataset],) and rep["nodata"] is None
+        assert "mask band" in rep["valid_area"]
+    else:
+        assert nodata == 255 and rep["nodata"] == 255 and rep["valid_area"] == "a value no data pixel holds"
+    assert rep["moved_off_nodata"] == 0
+
+
+def test_a_blend_landing_on_the_shared_nodata_is_moved_off_it():
+    from fotogeo.tools.ortho.mosaic_nodata import shared_nodata
+    from fotogeo.tools.ortho.mosaic_tiles import off_nodata
+    assert shared_nodata([0, 0]) == 0 and shared_nodata([0, None]) is None and shared_nodata([0, 255]) is None
+    assert np.isnan(shared_nodata([float("nan"), float("nan")]))
+    out = np.array([[[255, 3], [255, 255]]], np.uint8)
+    valid = np.array([[True, True], [False, True]])
+    assert off_nodata(out, valid, 255) == 2 and out.tolist() == [[[254, 3], [255, 254]]]

@@ -89,6 +89,23 @@ def _by_id(rows):
     return {r["id"]: r for r in rows}
 
 
+def test_the_click_guard_is_the_rule_orient_skips_by(monkeypatch):
+    """The picker's image checks a click by fotogeo.io.image_extent.on_image (the rule of gcps.outside_image), not a
+    copy of it, and words a refusal as orient does (outside_reason)."""
+    need_qgis()
+    from types import SimpleNamespace
+
+    from fotogeo.io.gcps import outside_image, outside_reason
+    from processing_provider.picker import image_source
+    image = SimpleNamespace(width=640, height=1152)
+    for col, row in [(0, 0), (640, 1152), (640.5, 3), (-0.2, 5), (3, 1152.01), (float("nan"), 4)]:
+        assert image_source.PickerImage.inside(image, col, row) == (not outside_image([[col, row]], 640, 1152)[0])
+    assert image_source.PickerImage.outside(image) == outside_reason(640, 1152)
+    calls = []
+    monkeypatch.setattr(image_source, "on_image", lambda *a: calls.append(a) or False)
+    assert image_source.PickerImage.inside(image, 1.0, 2.0) is False and calls == [(1.0, 2.0, 640, 1152)]
+
+
 def test_dock_rejects_a_file_that_is_not_a_raster(picked):
     state, _, tmp = picked
     opened, message = state["not_raster"]

@@ -30,8 +30,9 @@ from click.testing import CliRunner
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import InputError, ModelError, OutputError
-from fotogeo.io import raster as io_raster
-from fotogeo.io.raster import AtomicOutputs, check_grid
+from fotogeo.io import output_checks
+from fotogeo.io.output_checks import check_grid
+from fotogeo.io.raster import AtomicOutputs
 from fotogeo.io.warp import warp_to_grid
 from fotogeo.models import get_model
 from fotogeo.models.robust import fit_tie_points
@@ -503,7 +504,7 @@ def test_unwritable_output_folder_is_refused_before_matching(scene, tmp_path, mo
 
     def denied(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
-    monkeypatch.setattr(io_raster.tempfile, "mkstemp", denied)
+    monkeypatch.setattr(output_checks.tempfile, "mkstemp", denied)
     _forbid_matching(monkeypatch)
     code, err, _ = _cli(["register", s.reference, s.target, "-o", tmp_path / "o.tif", "-q"])
     _one_error_line(code, err, "not writable")
@@ -513,8 +514,8 @@ def test_unwritable_output_folder_is_refused_before_matching(scene, tmp_path, mo
 def test_too_little_disk_space_is_refused_before_resampling(scene, tmp_path, monkeypatch):
     s = scene["scene"]
     tgt, ref = _tie_points(scene)
-    usage = io_raster.shutil.disk_usage(tmp_path)
-    monkeypatch.setattr(io_raster.shutil, "disk_usage", lambda p: usage._replace(free=2 ** 20))
+    usage = output_checks.shutil.disk_usage(tmp_path)
+    monkeypatch.setattr(output_checks.shutil, "disk_usage", lambda p: usage._replace(free=2 ** 20))
     with pytest.raises(OutputError, match=r"not enough free space .* 1 MB free"):
         fotogeo.register(s.reference, s.target, tmp_path / "o.tif", tie_points=(tgt, ref))
     assert list(tmp_path.iterdir()) == []

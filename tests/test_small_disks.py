@@ -14,7 +14,7 @@ from click.testing import CliRunner
 import fotogeo
 from fotogeo.cli import main
 from fotogeo.errors import OutputError
-from fotogeo.io import raster
+from fotogeo.io import output_checks
 from test_bad_input import _failing_json, assert_one_line_error, env, out  # noqa: F401 (fixtures)
 
 Usage = namedtuple("Usage", "total used free")
@@ -35,9 +35,10 @@ def test_a_refused_write_on_a_small_disk_is_not_a_full_disk(env, out, monkeypatc
 
 def test_the_space_check_refuses_only_clearly_too_little(tmp_path, monkeypatch):
     monkeypatch.setattr(shutil, "disk_usage", lambda folder: Usage(6 * 2 ** 20, 2 ** 20, 5 * 2 ** 20))
-    raster.check_space(tmp_path, raster.grid_bytes(1000, 500, 3, "uint8"), "a 2 MB orthophoto")  # 5 MB free: fine
+    # 5 MB free: fine
+    output_checks.check_space(tmp_path, output_checks.grid_bytes(1000, 500, 3, "uint8"), "a 2 MB orthophoto")
     with pytest.raises(OutputError, match="5 MB free, about 26 MB needed"):
-        raster.check_space(tmp_path, 100 * 2 ** 20, "a 100 MB orthophoto")
+        output_checks.check_space(tmp_path, 100 * 2 ** 20, "a 100 MB orthophoto")
 
 
 @pytest.fixture

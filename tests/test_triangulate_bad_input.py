@@ -5,6 +5,7 @@ import pytest
 from click.testing import CliRunner
 
 from fotogeo.cli import main
+from fotogeo.errors import InputError
 from fotogeo.orientation.block_simulation import simulate_block
 from test_bad_input import assert_one_line_error
 from test_triangulate import CAMERA, write_block
@@ -140,3 +141,20 @@ def test_a_point_outside_every_frame_is_skipped_as_orient_skips_it(block):
     assert first not in set(kept.name) and (gcp.name == first).sum() >= 2
     assert f"lie outside the image ({w}x{h} px) and are skipped" in text
     assert text.count(f"{first} in ") == (gcp.name == first).sum(), text  # each measurement named
+    # the rest counted as measurements of points (each point is measured in several frames)
+    assert f"the other {len(kept.name)} measurements of {len(set(kept.name))} points used" in text, text
+
+
+def test_the_control_left_is_counted_in_points_not_measurements():
+    """A point measured in three frames is one control point: with three needed and it alone left inside its frames,
+    the GCPs are refused (on main its three measurements counted as three points and passed)."""
+    import numpy as np
+
+    from fotogeo.io.gcps import skip_outside
+    ids = ["A in f1", "A in f2", "A in f3", "B in f1", "B in f2", "C in f3"]
+    pixel = np.array([[10, 10], [20, 20], [30, 30], [5000, 9000], [5000, 9000], [-4, 50]], float)
+    roles = np.array(["control"] * 6)
+    with pytest.raises(InputError, match=r"1 control point\(s\) remain \(measured 3 times\), the block needs 3"):
+        skip_outside(ids, pixel, roles, 100, 100, "GCP file 'g.txt'", 3, "the block", points=list("AAABBC"))
+    keep, skipped = skip_outside(ids[:4], pixel[:4], roles[:4], 100, 100, "g", 1, "the block", points=list("AAAB"))
+    assert keep.tolist() == [True, True, True, False] and [s["id"] for s in skipped] == ["B in f1"]

@@ -89,8 +89,10 @@ def test_thinning_prefers_points_seen_in_more_frames():
 def test_frames_outside_every_reference_are_refused(ngi_inputs):
     i = ngi_inputs
     far = [dataclasses.replace(e, X=e.X + 80000.0) for e in i["approx"]]
-    with pytest.raises(MatchingError, match="no frame could be matched to the reference"):
+    with pytest.raises(MatchingError, match="no frame could be matched to the reference") as info:
         automatic_control(i["frames"], NAMES, i["camera"], far, i["tiles"], i["dem"], i["dem"].crs)
+    # what was tried, per frame (the fix follows)
+    assert f"({len(NAMES)} frame(s) tried, matches: {NAMES[0]} 0" in str(info.value), str(info.value)
 
 
 def test_a_reference_without_georeference_is_refused(ngi_inputs, tmp_path):

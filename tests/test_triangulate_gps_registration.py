@@ -127,6 +127,43 @@ def test_a_frame_the_reference_cannot_place_keeps_its_gps_level_start():
     assert [r["status"] for r in start.registration] == ["start", "gps"]
 
 
+def test_a_refusal_after_no_frame_registered_says_so_first():
+    """GPS frames without attitude whose registration to the reference placed none: every frame starts level and the
+    level pass has no frame of known attitude to measure them from, so the adjustment refuses by angle σ — the line
+    says first that no frame registered (frames tried, matches/inliers, the reasons) and the fix."""
+    from fotogeo.errors import ModelError
+    from fotogeo.tools.triangulate.control import FrameFit
+    from fotogeo.tools.triangulate.register import _over_gps, _row, saying_none_registered
+    from fotogeo.tools.triangulate.sources import BlockStart
+
+    names = ["a", "b", "c"]
+    gps = {n: ExteriorOrientation(30.0 * k, 0.0, 400.0, 0.0, 0.0, 90.0) for k, n in enumerate(names)}
+    fits = {"a": FrameFit("a", reason="no matches with the reference"),
+            "b": FrameFit("b", matches=41, reason="only 5 inliers of 41 matches"),
+            "c": FrameFit("c", matches=17, reason="only 5 inliers of 17 matches")}
+    problems = {n: f"not registered to the reference ({fits[n].reason})" for n in names}
+    rows = [_row(n, fits[n], problems[n]) for n in names]
+    reg = _over_gps([f"{n}.tif" for n in names], names, [gps[n] for n in names], [True] * 3, fits, problems, rows,
+                    None)
+    start = BlockStart(None, (0.0,) * 5, list(names), dict(gps), None, "", "--camera; orientation from the images' GPS",
+                       sigmas={n: (5.0, 10.0, None) for n in names}, level=dict.fromkeys(names, True),
+                       registration=[], over_gps=True)
+    start.take_registration(reg)
+    with pytest.raises(ModelError) as info, saying_none_registered(start):
+        raise ModelError("the block does not determine frame(s) a: angle σ 12.3° above 0.5°", frames=["a"])
+    text = str(info.value)
+    assert text.startswith("no frame registered to the reference (3 tried, matches/inliers: a 0/0, b 41/0, c 17/0; "
+                           "a: no matches with the reference): the 3 frame(s) without attitude tags started level"), text
+    assert "give a reference showing their ground" in text and "or GCPs; then: " in text
+    assert text.endswith("then: the block does not determine frame(s) a: angle σ 12.3° above 0.5°")
+    from fotogeo.errors import one_line
+    assert len(text) < 800 and one_line(text) == text  # the CLI's one line keeps it whole
+    assert list(info.value.frames) == ["a"]
+    start.registration[1] = {**start.registration[1], "status": "start"}  # one frame registered: its refusal as is
+    with pytest.raises(ModelError, match="^the block does not determine"), saying_none_registered(start):
+        raise ModelError("the block does not determine frame(s) a: angle σ 12.3° above 0.5°")
+
+
 def test_the_images_kappa_moves_only_the_frames_whose_attitude_is_unknown():
     """One frame left level (unregistered) must not turn the registered ones: κ measured on the pairs assumes a
     level camera. On main every frame's κ was replaced when any was level — on the 12-frame block of seed 0

@@ -34,6 +34,7 @@ from pyproj import CRS
 
 from ..crs import parse_crs, transform_points
 from ..errors import FotogeoWarning, InputError, InputNote, VectorError
+from .image_extent import on_image, outside_reason
 from .tables import duplicate_ids
 
 #: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
@@ -262,14 +263,10 @@ def _validate(g: Gcps, what: str):
 
 def outside_image(pixel, width: int, height: int) -> np.ndarray:
     """Boolean mask of the pixel positions ``(N, 2)`` (col, row; corner convention) outside the ``width`` x
-    ``height`` image: ``0 <= col <= width`` and ``0 <= row <= height`` are inside."""
+    ``height`` image: not :func:`~fotogeo.io.image_extent.on_image` (edges included), the rule the QGIS picker's
+    click guard applies too."""
     pixel = np.asarray(pixel, float).reshape(-1, 2)
-    return ~((pixel[:, 0] >= 0) & (pixel[:, 0] <= width) & (pixel[:, 1] >= 0) & (pixel[:, 1] <= height))
-
-
-def outside_reason(width: int, height: int) -> str:
-    """The one wording of a GCP outside the image (warnings, reports' ``skipped``, the QGIS picker's flag)."""
-    return f"outside the image ({width}x{height} px)"
+    return ~on_image(pixel[:, 0], pixel[:, 1], width, height)
 
 
 def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model"):
@@ -281,10 +278,11 @@ def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, n
 
 
 def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: int = 1,
-                 needed_by: str = "the model", source: str = ""):
+                 needed_by: str = "the model", source: str = "", points=None):
     """``(keep mask, skipped records)`` of GCP measurements ``ids`` at ``pixel`` (``roles``: "control",
     "check", ...) on a ``width`` x ``height`` image: the one rule of orient, rpc-bias, compare-models and
-    triangulate (whose ids name the frame too).
+    triangulate (whose ids name the frame too, and whose ``points`` name the ground point of each measurement:
+    one point measured in several frames counts once against ``needed``; None: one point per measurement).
 
     A GCP whose pixel lies outside the raster is almost always a typo in col/row or a GCP of another image
     (or of the uncropped scene): it is skipped with one :class:`~fotogeo.errors.FotogeoWarning` naming each id
@@ -307,13 +305,16 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
         return (", ".join(f"{s['id']} (col {s['col']:.1f}, row {s['row']:.1f})" for s in skipped[:most])
                 + (f" and {len(skipped) - most} more" if len(skipped) > most else ""))
 
-    n_kept, n_control = int((~out).sum()), int((roles[~out] == "control").sum())
-    if n_kept and (n_control >= needed or (roles == "control").sum() < needed):  # too few anyway: the model says
-        warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other {n_kept} used: "
-                      f"{named(10)} (a typo in col/row, or a GCP of another image?)", FotogeoWarning, stacklevel=4)
+    points = ids if points is None else np.asarray(points).astype(str)
+    control = roles == "control"
+    n_kept, n_control = int((~out).sum()), len(set(points[~out & control]))
+    if n_kept and (n_control >= needed or len(set(points[control])) < needed):  # too few anyway: the model says
+        warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other "
+                      f"{_measurements(n_kept, len(set(points[~out])))} used: {named(10)} (a typo in col/row, or a "
+                      f"GCP of another image?)", FotogeoWarning, stacklevel=4)
         return ~out, skipped
-    head = (f"GCP(s) {named(5)} of {what} lie {reason}: {n_control} control point(s) remain, {needed_by} needs "
-            f"{needed}")
+    head = (f"GCP(s) {named(5)} of {what} lie {reason}: {n_control} control point(s) remain"
+            f"{_measured_in(int((~out & control).sum()), n_control)}, {needed_by} needs {needed}")
     if not str(source).lower().endswith(".points"):
         raise InputError(f"{head}; check the col/row fields (corner convention) and that the GCPs were measured "
                          f"on this image")
@@ -325,3 +326,13 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     raise InputError(f"{head}. A .points file holds sourceX = col, sourceY = -row for an unreferenced raster, "
                      f"or the raster's map coordinates for a georeferenced one; check that the file was measured "
                      f"on this image (and on its georeferenced or unreferenced version as used here)")
+
+
+def _measurements(n_measurements: int, n_points: int) -> str:
+    """``"5"`` when every point is measured once, else ``"5 measurements of 2 points"``."""
+    return str(n_measurements) if n_measurements == n_points else f"{n_measurements} measurements of {n_points} points"
+
+
+def _measured_in(n_measurements: int, n_points: int) -> str:
+    """`` (measured 5 times)`` after a count of points measured more often than once, else nothing."""
+    return "" if n_measurements == n_points else f" (measured {n_measurements} times)"

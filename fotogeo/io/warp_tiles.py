@@ -54,8 +54,9 @@ def warp_tile(src_path, tile_path, plan, crs, window, block: int, threads: int =
 
 
 def write_vrt(path, tiles, *, crs, transform, width: int, height: int, count: int, dtype: str, nodata,
-              colorinterp=()) -> Path:
-    """A GDAL VRT placing each tile ``(tile_path, (r0, c0, h, w))`` at its window of the grid."""
+              colorinterp=(), mask: bool = False) -> Path:
+    """A GDAL VRT placing each tile ``(tile_path, (r0, c0, h, w))`` at its window of the grid; with ``mask``, the
+    tiles' per-dataset mask bands too (the VRT's ``MaskBand``, which the COG copy writes as an internal mask)."""
     path = Path(path)
     wkt = crs.to_wkt() if hasattr(crs, "to_wkt") else str(crs)
     gt = ", ".join(repr(float(v)) for v in (transform.c, transform.a, transform.b, transform.f, transform.d,
@@ -73,6 +74,13 @@ def write_vrt(path, tiles, *, crs, transform, width: int, height: int, count: in
                          f'<SourceBand>{b}</SourceBand><SrcRect xOff="0" yOff="0" xSize="{w}" ySize="{h}"/>'
                          f'<DstRect xOff="{c0}" yOff="{r0}" xSize="{w}" ySize="{h}"/></SimpleSource>')
         lines.append("  </VRTRasterBand>")
+    if mask:
+        lines.append('  <MaskBand><VRTRasterBand dataType="Byte">')
+        lines += [f'    <SimpleSource><SourceFilename relativeToVRT="1">{escape(os.path.relpath(p, path.parent))}'
+                  f'</SourceFilename><SourceBand>mask,1</SourceBand><SrcRect xOff="0" yOff="0" xSize="{w}" '
+                  f'ySize="{h}"/><DstRect xOff="{c0}" yOff="{r0}" xSize="{w}" ySize="{h}"/></SimpleSource>'
+                  for p, (r0, c0, h, w) in tiles]
+        lines.append("  </VRTRasterBand></MaskBand>")
     lines.append("</VRTDataset>\n")
     path.write_text("\n".join(lines), encoding="utf-8")
     return path

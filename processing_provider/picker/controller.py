@@ -106,8 +106,7 @@ class PickerController(QObject):
             return
         here = self._side_position(side, point)
         if side == IMAGE and not self.image.inside(*here):
-            self.message.emit(f"({here[0]:.1f}, {here[1]:.1f}) px is outside the image "
-                              f"({self.image.width} x {self.image.height} px)")
+            self.message.emit(f"({here[0]:.1f}, {here[1]:.1f}) px is {self.image.outside()}")
             return
         if self.pending is None or self.pending[0] == side:
             self.pending = (side, here)
@@ -130,7 +129,7 @@ class PickerController(QObject):
             return
         a, b = self._side_position(side, point)
         if side == IMAGE and not self.image.inside(a, b):
-            self.message.emit(f"({a:.1f}, {b:.1f}) px is outside the image: GCP {gcp_id} not moved")
+            self.message.emit(f"({a:.1f}, {b:.1f}) px is {self.image.outside()}: GCP {gcp_id} not moved")
             self.show()
             return
         after = replace(before, col=a, row=b) if side == IMAGE else replace(before, x=a, y=b)

@@ -16,6 +16,8 @@ import tempfile
 
 from qgis.core import QgsApplication, QgsRasterLayer, QgsTask
 
+from fotogeo.io.image_extent import on_image, outside_reason  # standard library only
+
 #: pixels above which an image without overviews gets them (rendering then reads the pyramids)
 OVERVIEW_PIXELS = 4000 * 4000
 
@@ -114,6 +116,10 @@ class PickerImage:
         return col, -row
 
     def inside(self, col: float, row: float) -> bool:
-        """The click guard: ``not fotogeo.io.gcps.outside_image`` (corners included), which the worker applies to
-        the table's flag; restated here because nothing in this package imports fotogeo's numpy code."""
-        return 0 <= col <= self.width and 0 <= row <= self.height
+        """The click guard: :func:`fotogeo.io.image_extent.on_image` (edges included), the rule by which the worker
+        flags a GCP off the image in the table (:func:`fotogeo.io.gcps.outside_image`)."""
+        return bool(on_image(col, row, self.width, self.height))
+
+    def outside(self) -> str:
+        """The wording of a position off this image (:func:`fotogeo.io.image_extent.outside_reason`)."""
+        return outside_reason(self.width, self.height)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ...crs import check_lonlat_range, require_planar
 from ...errors import InputError, VectorError
-from ...io.raster import check_grid, check_space, grid_bytes
+from ...io.output_checks import check_grid, check_space, grid_bytes
 
 
 def check_camera_size(camera, width: int, height: int, image, source: str = "") -> None:
@@ -83,8 +83,8 @@ def check_gcp_crs(gcps, source) -> None:
 def check_output_grid(path, width: int, height: int, *, bands: int, dtype, source_pixels: int, what: str,
                       resolution: float | None = None) -> None:
     """The size guard of every output grid: pixel count against an absolute limit and against
-    the source's pixel count (:func:`~fotogeo.io.raster.check_grid`), then the free space of
-    the output folder against the grid's uncompressed size (:func:`~fotogeo.io.raster.check_space`)."""
+    the source's pixel count (:func:`~fotogeo.io.output_checks.check_grid`), then the free space of
+    the output folder against the grid's uncompressed size (:func:`~fotogeo.io.output_checks.check_space`)."""
     check_grid(width, height, source_pixels=source_pixels, what=what, resolution=resolution)
     check_space(Path(path).resolve().parent, grid_bytes(width, height, bands, dtype), what)
 

@@ -26,7 +26,8 @@ from ...coreg.pipeline import CoregOptions, Coregistration, coregister_strips, s
 from ...crs import transform_points
 from ...errors import InputError, MatchingError, RasterError
 from ...io.report import write_json
-from ...io.raster import AtomicOutputs, check_output, gdal_env, open_raster
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, gdal_env, open_raster
 from ...io.warp import default_nodata
 from ...options.coreg import COREG
 from ...pixels import map_to_pixel, outline, pixel_to_map

@@ -162,7 +162,9 @@ def run_demo(folder, *, progress=None, seed: int = 7, overwrite: bool = False, *
     import tempfile
     from dataclasses import replace
 
-    from ...io.raster import AtomicOutputs, check_output
+    from ...io.output_checks import check_output
+
+    from ...io.raster import AtomicOutputs
     from ...progress import as_progress
     from . import block as demo_block
     from ..register.tool import register

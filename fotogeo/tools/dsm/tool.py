@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import FotogeoWarning, InputError
-from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs
+from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
+from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon

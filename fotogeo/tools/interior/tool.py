@@ -25,7 +25,8 @@ import numpy as np
 from ...errors import InputError
 from ...io.calibration_report import read_calibration_report
 from ...io.interior_json import interior_record
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster, read_decimated
 from ...matching.fiducials import MarkShape, mark_template, measure_marks, predict
 from ...options.interior import INTERIOR
 from ...orientation.interior import fit_interior

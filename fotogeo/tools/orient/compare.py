@@ -14,7 +14,8 @@ import numpy as np
 from ...errors import InputError, OutputError
 from ...io.camera import load_camera
 from ...io.gcps import inside_image, read_gcps
-from ...io.raster import AtomicOutputs, check_output, open_raster
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster
 from ...models import get_model
 from ...orientation.comparison import compare, parse_counts
 from . import compare_report as report

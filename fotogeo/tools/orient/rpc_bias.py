@@ -27,7 +27,8 @@ import numpy as np
 from ...crs import to_lonlat
 from ...errors import InputError
 from ...io.gcps import inside_image, read_gcps
-from ...io.raster import AtomicOutputs, check_outputs, open_raster
+from ...io.output_checks import check_outputs
+from ...io.raster import AtomicOutputs, open_raster
 from ...io.report import write_json
 from ...io.rpc import write_rpc_geotiff
 from ...io.rpc_image import image_rpc

@@ -40,7 +40,8 @@ from affine import Affine
 from ...errors import FotogeoWarning, InputError
 from ...io.camera import load_camera
 from ...io.gcps import inside_image, read_gcps
-from ...io.raster import AtomicOutputs, RasterInfo, check_output, open_raster, read_decimated
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, RasterInfo, open_raster, read_decimated
 from ...io.report import write_json
 from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal_scale, write_layers
 from ...geometry.georeference import Georeference

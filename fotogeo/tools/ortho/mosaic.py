@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
-from ...io.raster import GEOTIFF_SUFFIXES, AtomicOutputs, check_outputs, geotiff_profile, ropen
+from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
+from ...io.raster import AtomicOutputs, geotiff_profile, ropen
 from ...mosaic.blend import balance as balance_band
 from ...mosaic.blend import overlap_statistics, signed_distance
 from ...mosaic.patches import Patch, overlapping_pairs
@@ -48,6 +49,7 @@ from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..common.dask_cluster import connect
 from .mosaic_collar import collar_masks
+from .mosaic_nodata import output_nodata
 from .mosaic_tiles import Blend, write_tiled
 
 #: cells of the seam grid (seamlines, balancing statistics, feather distances)
@@ -273,7 +275,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
     origins = tuple((p.r0, p.c0) for p in patches)
     del patches  # the blending needs the signed distances only
     width_m = feather if feather is not None else max(16 * abs(transform.a), 2 * abs(t.a))
-    nodata = first.nodata if first.nodata is not None else 0
+    nodata, why = output_nodata(read, infos)
     profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
                               transform=transform, nodata=nodata)
     blend = Blend(transform, gains, offsets, signed, origins, f, width_m, first.dtype, nodata,
@@ -292,5 +294,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
             "height": height, "seam_grid_factor": f, "feather_m": width_m, "images": names,
             "gains": gains.tolist(), "offsets": offsets.tolist(), "labels_transform": list(t)[:6],
             "cells_per_image": np.bincount(labels[labels >= 0], minlength=n).tolist(), "overlapping_pairs": len(pairs),
+            "nodata": None if nodata is None or nodata != nodata else nodata, "valid_area": why,
+            "moved_off_nodata": tiled["moved_off_nodata"],
             "tiles": tiled["tiles"], "max_orthophotos_per_tile": tiled["max_orthophotos_per_tile"],
             "executor": "dask" if client is not None else "threads"}

@@ -32,7 +32,8 @@ TILE, BLOCK = 4096, 512
 class Blend:
     """The mosaic's grid, gains and offsets ``(n, bands)``, each orthophoto's signed distances on the seam grid
     (``signed[i]`` over its window whose top-left cell is ``origins[i]``; ``factor`` output pixels per seam
-    cell), the feather width, the output type and nodata, and each orthophoto's bounds."""
+    cell), the feather width, the output type and nodata (None: the valid area is the mosaic's mask band,
+    :func:`fotogeo.tools.ortho.mosaic_nodata.output_nodata`), and each orthophoto's bounds."""
     transform: object
     gains: np.ndarray
     offsets: np.ndarray
@@ -41,7 +42,7 @@ class Blend:
     factor: int
     feather: float
     dtype: str
-    nodata: float
+    nodata: float | None
     bounds: tuple
 
     def reaching(self, r0: int, c0: int, h: int, w: int) -> list[int]:
@@ -51,8 +52,10 @@ class Blend:
         return [i for i, b in enumerate(self.bounds) if b.left < x1 and b.right > x0 and b.bottom < y1 and
                 b.top > y0]
 
-    def window(self, handle, r0: int, c0: int, h: int, w: int) -> np.ndarray:
-        """The blended ``(bands, h, w)`` window at ``(r0, c0)``; ``handle(i)`` opens orthophoto ``i``."""
+    def window(self, handle, r0: int, c0: int, h: int, w: int) -> tuple:
+        """``(values, valid, moved)``: the blended ``(bands, h, w)`` window at ``(r0, c0)``, its valid cells ``(h, w)``
+        and the count of band values moved off the nodata (:func:`off_nodata`: a valid cell never holds it);
+        ``handle(i)`` opens orthophoto ``i``."""
         import cv2
         f = self.factor
         mx = ((np.arange(c0, c0 + w) + 0.5) / f - 0.5).astype(np.float32)  # seam-grid coordinates (centres)
@@ -72,11 +75,34 @@ class Blend:
             wts = feather_weights(sd, ok, self.feather)
             for k, i in enumerate(which):
                 out += wts[k] * (self.gains[i][:, None, None] * vals[k] + self.offsets[i][:, None, None])
-        info = np.iinfo(self.dtype) if np.dtype(self.dtype).kind in "iu" else None
-        if info is not None:
-            out = np.clip(np.rint(out), info.min + (1 if self.nodata == info.min else 0), info.max)
-        out[:, ~ok.any(axis=0)] = self.nodata
-        return out.astype(self.dtype)
+        if np.dtype(self.dtype).kind in "iu":
+            info = np.iinfo(self.dtype)
+            out = np.clip(np.rint(out), info.min, info.max)
+        valid = ok.any(axis=0)
+        out = out.astype(self.dtype)
+        moved = 0
+        if self.nodata is not None:
+            moved = off_nodata(out, valid, self.nodata)
+            out[:, ~valid] = self.nodata
+        else:
+            out[:, ~valid] = 0
+        return out, valid, moved
+
+
+def off_nodata(out, valid, nodata) -> int:
+    """Move the band values of the valid cells of ``out`` ``(bands, h, w)`` that equal ``nodata`` (GDAL's nodata is
+    per band) one step away from it, within the type's range, so that they do not read as nodata; returns their
+    count. Only a blend or a balancing produces them: an orthophoto's band value at its nodata is nodata there."""
+    nd = out.dtype.type(nodata)
+    hit = valid[None] & (out == nd)
+    n = int(np.count_nonzero(hit))
+    if n:
+        if out.dtype.kind in "iu":
+            moved = nd - 1 if nd == np.iinfo(out.dtype).max else nd + 1
+        else:
+            moved = np.nextafter(nd, out.dtype.type(0))
+        out[hit] = moved
+    return n
 
 
 def read_window(ds, x0: float, y1: float, h: int, w: int):
@@ -112,7 +138,7 @@ def blend_tile(paths, blend: Blend, tile_path, window, profile: dict, pin: bool 
         from ..common.dask_cluster import pin_threads
         pin_threads()
     r0, c0, h, w = window
-    opened = {}
+    opened, moved = {}, 0
 
     def handle(i):
         if i not in opened:
@@ -121,13 +147,19 @@ def blend_tile(paths, blend: Blend, tile_path, window, profile: dict, pin: bool 
 
     t = blend.transform * blend.transform.translation(c0, r0)
     try:
-        with write_env(1), rasterio.open(tile_path, "w", **tile_profile(profile, h, w, t)) as dst:
+        with write_env(1), rasterio.Env(GDAL_TIFF_INTERNAL_MASK=True), \
+                rasterio.open(tile_path, "w", **tile_profile(profile, h, w, t)) as dst:
             for br, bc, bh, bw in windows_of(r0 + h, c0 + w, BLOCK, r0, c0, h, w):
-                dst.write(blend.window(handle, br, bc, bh, bw), window=Window(bc - c0, br - r0, bw, bh))
+                values, valid, n = blend.window(handle, br, bc, bh, bw)
+                moved += n
+                win = Window(bc - c0, br - r0, bw, bh)
+                dst.write(values, window=win)
+                if blend.nodata is None:
+                    dst.write_mask(np.where(valid, 255, 0).astype(np.uint8), window=win)
     finally:
         for ds in opened.values():
             ds.close()
-    return {"path": str(tile_path), "window": list(window), "orthophotos": len(opened)}
+    return {"path": str(tile_path), "window": list(window), "orthophotos": len(opened), "moved_off_nodata": moved}
 
 
 def _completed(futures, client):
@@ -166,7 +198,8 @@ def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, re
             release()
         vrt = write_vrt(folder / "tiles.vrt", [(d["path"], tuple(d["window"])) for d in done], crs=profile["crs"],
                         transform=profile["transform"], width=profile["width"], height=profile["height"],
-                        count=profile["count"], dtype=profile["dtype"], nodata=profile["nodata"])
+                        count=profile["count"], dtype=profile["dtype"], nodata=profile["nodata"],
+                        mask=profile["nodata"] is None)
         if progress is not None:
             progress(lo + (hi - lo) * 0.8, "assembling the tiles into a cloud-optimised GeoTIFF")
         to_cog(vrt, dst_path, dtype=profile["dtype"], resampling="average", threads=default_threads())
@@ -178,5 +211,6 @@ def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, re
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
         shutil.rmtree(folder, ignore_errors=True)
-    return {"tiles": len(tiles), "max_orthophotos_per_tile": max((d["orthophotos"] for d in done), default=0)}
+    return {"tiles": len(tiles), "max_orthophotos_per_tile": max((d["orthophotos"] for d in done), default=0),
+            "moved_off_nodata": sum(d["moved_off_nodata"] for d in done)}
 

@@ -40,7 +40,8 @@ from ...geometry.dem import heights_at, underlying_dem
 from ...geometry.georeference import Georeference
 from ...geometry.lattice import ground_to_image_on_lattice, piecewise_on_lattice
 from ...geometry.occlusion import visible_pixels
-from ...io.raster import AtomicOutputs, check_output, open_raster
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster
 from ...io.warp import grid_covering, warp_to_grid
 from ...io.warp_gdal import centres_to_map
 from ...pixels import HALF, outline

@@ -27,7 +27,8 @@ def points_to_layer(points, output, *, raster=None, crs=None, layer: str = DEFAU
     """
     import shapely
 
-    from ...io.raster import AtomicOutputs, check_output
+    from ...io.output_checks import check_output
+    from ...io.raster import AtomicOutputs
     from ...io.vector import write_layers
     from ...progress import as_progress
 
@@ -71,7 +72,8 @@ def layer_to_points(source, output, *, layer: str | None = None, raster=None, ov
     coordinates follow the unreferenced convention unless ``raster`` (georeferenced) is
     given. Points are written in ``id`` order when the field exists. Returns a summary dict.
     """
-    from ...io.raster import AtomicOutputs, check_output
+    from ...io.output_checks import check_output
+    from ...io.raster import AtomicOutputs
     from ...io.tables import find_column, is_layer, read_table, require_columns
     from ...progress import as_progress
 

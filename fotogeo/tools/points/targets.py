@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster, read_decimated
 from ...io.tables import numeric_columns, read_table, write_table
 from ...matching.status import CONVERGED
 from ...progress import as_progress

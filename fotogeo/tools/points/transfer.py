@@ -19,7 +19,8 @@ import numpy as np
 
 from ...errors import FotogeoWarning, VectorError
 from ...image.fusion import pca_fuse
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster, read_decimated
 from ...io.tables import find_column, is_layer, numeric_columns, read_table, write_table
 from ...matching.status import CONVERGED
 from ...progress import as_progress

@@ -13,7 +13,8 @@ import numpy as np
 from rasterio.windows import Window
 
 from ...image.fusion import pca_fuse, valid_mask
-from ...io.raster import AtomicOutputs, check_output, geotiff_profile, open_raster, read_decimated, ropen
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, geotiff_profile, open_raster, read_decimated, ropen
 from ...progress import as_progress
 from ..common.boundary import tool
 

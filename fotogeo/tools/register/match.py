@@ -23,7 +23,8 @@ from ...features.detect import detect
 from ...features.match import match_descriptors
 from ...image.contrast import apply_contrast
 from ...image.fusion import pca_fuse
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_decimated
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster, read_decimated
 from ...io.vector import write_layers
 from ...models import Projective, ransac
 from ...options import REGISTER, RegisterOptions

@@ -31,7 +31,8 @@ import numpy as np
 from ...crs import choose_output_crs, pixel_size_in, require_projected, short_name, to_lonlat, transform_points
 from ...errors import InputError, ModelError
 from ...geometry.georeference import Georeference
-from ...io.raster import AtomicOutputs, check_output, open_raster, read_dem
+from ...io.output_checks import check_output
+from ...io.raster import AtomicOutputs, open_raster, read_dem
 from ...io.report import write_json
 from ...io.warp import grid_covering, warp_to_grid
 from ...models import get_model

@@ -222,8 +222,13 @@ def _candidates(frames, names, camera, eos, tiles, crs, heights, mean_h, opts, p
         fits[names[i]] = FrameFit(names[i], model, len(px), int(inl.sum()), used)
         rows.append((np.full(int(inl.sum()), i), px[inl], xyz[inl], tile[inl], ref_xy[inl], res[inl]))
     if not rows:
-        raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])}; "
-                            f"check that the orthophoto covers the frames and the approximate orientation")
+        tried = [fits[n] for n in names]
+        said = ", ".join(f"{t.name} {t.matches}" for t in tried[:12]) + (f" and {len(tried) - 12} more"
+                                                                           if len(tried) > 12 else "")
+        why = f"{tried[0].name}: {tried[0].reason}"[:160]  # the others' reasons alike or in report.json
+        raise MatchingError(f"no frame could be matched to the reference {', '.join(str(t.path) for t in tiles[:3])} "
+                            f"({len(tried)} frame(s) tried, matches: {said}; {why}); check that the orthophoto covers "
+                            f"the frames and the approximate orientation")
     return (np.concatenate(c) for c in zip(*rows))
 
 

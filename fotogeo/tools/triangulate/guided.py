@@ -32,13 +32,13 @@ the tie inliers were 4,503 that way and are 6,877 per pair (docs/howto/triangula
 
 **A second pass for the level frames** (:func:`level_pass`, after the start has measured κ): a level frame's whole
 attitude is measured on its plain ties with the frames of known attitude (:func:`measured_attitudes`: those frames'
-rays through the plane give the ground points, and the rotation that best turns the level frame's rays onto the
-directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its attitude), in rounds: a frame
-whose ties are all with level frames is measured once they are (a reference blanked under several frames leaves whole
-neighbourhoods level); its pairs then go through the same ground-plane matching as the others. Left level, a frame of
-an oblique block starts 30° off: its pairs with converging views keep few plain ties, least-squares matching, started
-from its level affinity, loses most of them, and the bundle dropped it ("3 points (needs 6)": the 12-frame block of
-seed 0, the reference zeroed under DJI_303).
+rays through the DEM when the run has one, else the plane, give the ground points, and the rotation that best turns
+the level frame's rays onto the directions to them — Wahba's problem (1965), solved by SVD as Kabsch (1976) — is its
+attitude), in rounds: a frame whose ties are all with level frames is measured once they are (a reference blanked
+under several frames leaves whole neighbourhoods level); its pairs then go through the same ground-plane matching as
+the others. Left level, a frame of an oblique block starts 30° off: its pairs with converging views keep few plain
+ties, least-squares matching, started from its level affinity, loses most of them, and the bundle dropped it ("3 points
+(needs 6)": the 12-frame block of seed 0, the reference zeroed under DJI_303).
 
 **The plane's height.** The median height of the plain pairs' inliers (pairs with at least
 :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS` inliers and axes within :data:`CONVERGING_DEG`: the
@@ -309,13 +309,14 @@ def ray_heights(camera, eos, xy_i, xy_j) -> np.ndarray:
 
 
 def level_pass(infos, pairs, found, camera, distortion, eos, height: float, known, opts, threshold: float, ideal,
-               max_pixels: int, progress=None):
+               max_pixels: int, progress=None, terrain=None):
     """``(found, guided, eos, measured)``: the second pass for the frames whose attitude is unknown (module
     docstring): ``eos`` with the attitude of each such frame measured on its ties (:func:`measured_attitudes`;
     ``measured`` one bool per frame), and ``found`` and ``guided`` (:func:`guided_results`' rows) with the pairs that
-    hold a measured frame, and no frame still unknown, matched on the ground plane too."""
+    hold a measured frame, and no frame still unknown, matched on the ground plane too. ``terrain``: the DEM the
+    attitudes are measured on (:func:`measured_attitudes`)."""
     known = _known(known, eos)
-    eos, measured = measured_attitudes(camera, ideal, eos, pairs, found, known, height)
+    eos, measured = measured_attitudes(camera, ideal, eos, pairs, found, known, height, terrain)
     now = [k or m for k, m in zip(known, measured)]
     redo = [k for k, (i, j) in enumerate(pairs) if (measured[i] or measured[j]) and now[i] and now[j]]
     if not redo:
@@ -328,13 +329,14 @@ def level_pass(infos, pairs, found, camera, distortion, eos, height: float, know
     return found, tried, eos, measured
 
 
-def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -> tuple:
+def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float, terrain=None) -> tuple:
     """``(eos, measured)``: each frame whose attitude is unknown (``known`` False) with at least
     :data:`MIN_ATTITUDE_TIES` ties in its pairs ``found`` with frames of known attitude, turned to the attitude those
     ties measure (its centre kept); in rounds, the frames measured in one round counting as known in the next, until
-    a round measures none: the ties' ground points are the known frames' rays through the plane ``height``,
-    and the rotation ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit
-    directions ``u`` from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
+    a round measures none: the ties' ground points are the known frames' rays through the ``terrain`` (a DEM,
+    :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world`; None: the plane ``height``), and the rotation
+    ``R`` minimising ``Σ |R d − u|²`` over the frame's unit rays ``d`` (camera axes) and the unit directions ``u``
+    from its centre to the ground points is its attitude (:func:`_rotation_to`). ``ideal``: the
     measured pixels → distortion-free ones (:func:`fotogeo.tools.triangulate.pairs.ideal_pixels`; None: already)."""
     undistort = ideal or (lambda xy: np.asarray(xy, dtype=np.float64))
     out, measured = list(eos), [False] * len(eos)
@@ -342,7 +344,7 @@ def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -
         now = [k or m for k, m in zip(known, measured)]
         took = {}
         for f in (f for f in range(len(eos)) if not now[f]):
-            R = _rotation_to(*_rays_and_directions(camera, undistort, out, pairs, found, now, f, height))
+            R = _rotation_to(*_rays_and_directions(camera, undistort, out, pairs, found, now, f, height, terrain))
             if R is not None:
                 omega, phi, kappa = angles_patb(R @ np.diag([1.0, -1.0, -1.0]))  # OpenCV camera axes -> PATB
                 took[f] = replace(eos[f], omega=omega, phi=phi, kappa=kappa)
@@ -352,9 +354,10 @@ def measured_attitudes(camera, ideal, eos, pairs, found, known, height: float) -
             out[f], measured[f] = eo, True
 
 
-def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height) -> tuple:
+def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height, terrain=None) -> tuple:
     """``(d, u)`` of frame ``f`` (:func:`measured_attitudes`): its rays (camera axes) to its ties with the frames
-    ``known``, and the directions from its centre to their ground points; empty arrays when it has none."""
+    ``known``, and the directions from its centre to their ground points (on ``terrain``, else on the plane
+    ``height``; NaN where a ray misses the DEM); empty arrays when it has none."""
     d, u = [np.zeros((0, 3))], [np.zeros((0, 3))]
     for (i, j), got in zip(pairs, found):
         g = j if i == f else i if j == f else None
@@ -362,7 +365,10 @@ def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height)
             continue
         xy_f, xy_g = (got[1], got[2]) if i == f else (got[2], got[1])
         d.append(camera.rays(undistort(xy_f)))
-        u.append(OrientedFrame(camera, eos[g]).pixel_to_world_at(undistort(xy_g), height) - eos[f].centre)
+        other = OrientedFrame(camera, eos[g])
+        ground = (other.pixel_to_world_at(undistort(xy_g), height) if terrain is None else
+                  other.pixel_to_world(undistort(xy_g), terrain))
+        u.append(ground - eos[f].centre)
     return np.vstack(d), np.vstack(u)
 
 

@@ -131,7 +131,7 @@ def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
     w, h = camera.image_size
     roles = np.full(len(gcp.name), "control", dtype=object) if gcp.role is None else gcp.role
     keep, skipped = skip_outside([f"{n} in {f}" for n, f in zip(gcp.name, gcp.frame)], gcp.pixel, roles, w, h,
-                                 f"GCP file {str(path)!r}", needed_by="the block")
+                                 f"GCP file {str(path)!r}", needed_by="the block", points=gcp.name)
     if skipped:
         keep = np.flatnonzero(keep)
         gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],

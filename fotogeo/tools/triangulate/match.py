@@ -207,14 +207,14 @@ def _with_guided(per_pair, guided) -> list:
 
 
 def _level_pass(infos, pairs, found, per_pair, camera, distortion, eos, height, known, opts, level, epipolar_px,
-                prog):
+                prog, terrain=None):
     """``(found, per_pair, eos, measured)`` of :func:`fotogeo.tools.triangulate.guided.level_pass`: the frames left
     level get their attitude from their ties and their pairs a ground-plane pass; ``measured`` one bool per frame."""
     from .guided import level_pass, tile_pixels
     det = _detection_options(opts, infos[0], level)
     found, tried, eos, measured = level_pass(infos, pairs, found, camera, distortion, eos, height, known, det,
                                              epipolar_px * 2 ** level, ideal_pixels(camera, distortion),
-                                             tile_pixels(det, infos[0]), prog)
+                                             tile_pixels(det, infos[0]), prog, terrain)
     return found, _with_guided(per_pair, {tuple(g.pop("pair")): g for g in tried}), eos, measured
 
 
@@ -340,7 +340,8 @@ def _block_tie_points(frames, camera, eos, height, epipolar_px, level, cells, pe
         if guided and known is not None and not all(known):  # the level frames' attitude, then their ground plane
             found, report["pairs"], eos, took = _level_pass(infos, pairs, found, per_pair, camera, distortion, eos,
                                                             height, known, opts, level, epipolar_px,
-                                                            prog.stage(0.6, 0.7, "the level frames' pairs"))
+                                                            prog.stage(0.6, 0.7, "the level frames' pairs"),
+                                                            getattr(start, "terrain", None))
             report["start"]["attitude_from_ties_deg"] = [[round(float(a), 2) for a in (e.omega, e.phi, e.kappa)]
                                                          if t else None for e, t in zip(eos, took)]
             uf, pos, _ = _joined(pairs, found)

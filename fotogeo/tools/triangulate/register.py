@@ -30,11 +30,12 @@ in its row; nothing is refused for it.
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...errors import MatchingError
+from ...errors import InputError, MatchingError, ModelError
 from ...geometry.attitude import rotation_angle
 from .determinacy import frames_text, why_not_dropped
 
@@ -151,3 +152,34 @@ def _over_gps(frames, names, hints, level, fits, problems, rows, gcp) -> Registr
         row.update(attitude=why or "the files' tags (the registration agrees)",
                    gps_offset_m=round(float(np.linalg.norm(pose.centre - hints[k].centre)), 2))
     return RegistrationStart(list(frames), list(names), tuple(eos), gcp, rows, [])
+
+
+def none_registered(rows, level) -> str:
+    """What happened when the frames' GPS start was registered to the reference and no frame registered while
+    ``level`` (frame names) have no attitude in their files (:func:`_over_gps`' rows, all "gps"): the frames tried
+    with their matches and inliers, the first reasons, and the fix; ``""`` when a frame registered (its attitude
+    serves the level frames: :func:`fotogeo.tools.triangulate.guided.measured_attitudes`) or none is level."""
+    if not rows or not level or any(r.get("status") != "gps" for r in rows):
+        return ""
+    tried = ", ".join(f"{r['name']} {r.get('matches', 0)}/{r.get('inliers', 0)}" for r in rows[:4])
+    more = f" and {len(rows) - 4} more" if len(rows) > 4 else ""
+    first = str(rows[0].get("reason", "")).replace("not registered to the reference", "").strip(" ()")
+    return (f"no frame registered to the reference ({len(rows)} tried, matches/inliers: {tried}{more}; "
+            f"{rows[0]['name']}: {(first or 'not registered')[:60]}): the {len(level)} frame(s) without attitude "
+            f"tags started level, none of known attitude to measure theirs — give a reference showing their ground, "
+            f"their attitude (gimbal tags, --geoinfo, --eo) or GCPs")
+
+
+@contextmanager
+def saying_none_registered(start):
+    """A refusal raised inside, in a block started from the images' GPS whose registration to the reference placed
+    no frame while some have no attitude (:func:`none_registered`), says that first: the refusal itself (angle σ,
+    too few ties) is its consequence."""
+    try:
+        yield
+    except (ModelError, MatchingError, InputError) as exc:
+        rows = start.registration if getattr(start, "over_gps", False) else None
+        said = none_registered(rows, [n for n in start.names if start.level.get(n)])
+        if not said:
+            raise
+        raise type(exc)(f"{said}; then: {exc}", option=exc.option, frames=exc.frames) from None

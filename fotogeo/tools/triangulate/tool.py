@@ -63,7 +63,7 @@ import numpy as np
 
 from ...errors import InputError, ModelError, OutputError
 from ...io.block import frame_key, read_image_observations
-from ...io.raster import GEOTIFF_SUFFIXES, check_outputs
+from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
@@ -73,6 +73,7 @@ from .determinacy import adjust_determined
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .refusal import reporting_refusal
+from .register import saying_none_registered
 from .sources import block_start
 from .surface import block_dsm
 
@@ -120,6 +121,18 @@ def _matched(frames, names, cam, eos, height, start, match, prog):
     st = rep.get("start") or {}
     eos, height = st.pop("eos", eos), st.pop("height", height)
     return obs, rep, tuple(eos), height
+
+
+def _measure(start, height, dem, crs):
+    """The start's ``measure`` callable (:meth:`~fotogeo.tools.triangulate.sources.BlockStart.measure`) with the
+    DEM (``terrain``) the level frames' attitudes are measured on (:func:`fotogeo.tools.triangulate.guided.
+    measured_attitudes`: on a plane, the ground points of steep oblique rays over relief are metres off)."""
+    measure = start.measure(height)
+    if measure is not None and dem is not None:
+        from .ortho import terrain
+        src = terrain(dem, crs, None)
+        measure.terrain = None if isinstance(src, (int, float)) else src
+    return measure
 
 
 def _match_options(detection_level, gruber_cells, points_per_region, lsm_window, scheduler=None,
@@ -193,10 +206,10 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         with prog.timed("inputs"):
             obs = read_image_observations(observations)
     else:
-        with prog.timed("matching"):
+        with prog.timed("matching"), saying_none_registered(start):
             height = start_height(gcp, kw["dem"], map_crs, eos, cam)
             obs, matching, eos, height = _matched(
-                frames, names, cam, eos, height, start.measure(height),
+                frames, names, cam, eos, height, _measure(start, height, kw["dem"], map_crs),
                 _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"],
                                kw["scheduler"], kw["workers"]) | {"advice": _overlap_advice(eo, camera, gcp)},
                 prog.stage(0.2, 0.5, "matching the frames"))
@@ -215,7 +228,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     prog(0.5, "inputs read")
     refused = reporting_refusal(finals["json"], matching, names, {"frames": [str(f) for f in frames],
                                                                    "folder": str(folder)})
-    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost):
+    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost), saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
