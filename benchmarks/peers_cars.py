@@ -303,6 +303,8 @@ def finished_run(out_dir) -> dict | None:
     if "Exit status" not in tv:
         return None
     rec = json.loads((out_dir / "run.json").read_text()) if (out_dir / "run.json").is_file() else {}
+    if "config" not in rec and (out_dir / "conf.json").is_file():
+        rec["config"] = json.loads((out_dir / "conf.json").read_text())
     user, sys_ = _time_v(tv, "User time (seconds)"), _time_v(tv, "System time (seconds)")
     single = _time_v(tv, "Maximum resident set size (kbytes)")
     rec.update({"user_s": user, "sys_s": sys_, "log": str(log),
