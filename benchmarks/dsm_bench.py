@@ -379,7 +379,7 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
         if "skipped" in r:
             return [{"case": "ventoux CARS", "skipped": r["skipped"]}]
         runs[key] = r
-    return _cars_rows(outs, runs, f"kept in {keep}" if keep else "run now")
+    return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
 def oblique_sets(tmp: Path, names=None) -> list:
