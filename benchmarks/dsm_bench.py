@@ -2,7 +2,7 @@
 
 Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py
       [--cases rendered,refine,ngi,ventoux,rendered_rpc,ebee,witness] [--cars] [--ebee-resolutions 0.2,0.1]
-      [--baseline-tree OLD] [--rounds 3] [--ebee-dir DIR]
+      [--baseline-tree OLD] [--rounds 3] [--ebee-dir DIR] [--cars-dir DIR]
 
 * ``rendered`` — the three rendered blocks of ``tests/dsm_scenes.py`` (``nadir``: 2 x 4 frames 1000 m above
   ±40 m; ``oblique``: the DJI-like block, 30° off nadir, Brown distortion; ``held_out``: 3 x 3 frames with
@@ -17,8 +17,9 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py
   ``right_image.geom`` (also with ``--refine``) and with ``right_image_bias.geom`` (RPC about 60 px off): completeness of the footprints'
   overlap, median height, the relative pointing correction measured, whether the warning came, CPU and wall.
   With ``--cars``, CARS on the same pair through ``benchmarks/peers_cars.py`` (its own venv; skipped with the
-  reason when it is not installed): its completeness, CPU, wall and memory, and the height differences
-  (median, NMAD) where both DSMs have a value.
+  reason when it is not installed): its completeness, CPU, wall and memory, and fotogeo − CARS (median, NMAD,
+  the share of CARS's valid cells where fotogeo has a height; each fotogeo run, ``--refine`` too), as for the
+  recorded runs below; ``--cars-dir DIR`` keeps CARS's runs in DIR and reuses the finished ones found there.
 * ``rendered_rpc`` — the rendered satellite pairs of ``tests/rendered_rpc_pair.py`` (pushbroom views from 700 km,
   0.7 m GSD, uint16 12-bit, RPCs fitted to the exact geometry, hills, roughness and buildings; never used while
   tuning): ``fotogeo dsm A B --rpc -o DSM.tif --report r.json --resolution 0.5`` run as a user runs it (a child
@@ -157,6 +158,11 @@ def ebee(tmp: Path, resolutions: list, rounds: int = 1, baseline=None, keep=None
             if label == "baseline":
                 with rasterio.open(runs["this tree"][-1]["out"]) as a, rasterio.open(got[-1]["out"]) as b:
                     ha, hb = a.read(1, masked=True), b.read(1, masked=True)
+                    row["same_grid"] = a.transform == b.transform
+                if ha.shape != hb.shape or not row["same_grid"]:  # another grid: no cell-by-cell difference
+                    row["same_grid"], row["grids_rows_cols"] = False, [list(ha.shape), list(hb.shape)]
+                    rows.append(row)
+                    continue
                 both = ~(ha.mask | hb.mask)
                 row["same_valid_cells"] = bool((ha.mask == hb.mask).all())
                 row["max_abs_diff_m"] = float(np.abs(ha.data[both] - hb.data[both]).max()) if both.any() else None
@@ -297,7 +303,7 @@ def ngi(tmp: Path) -> list:
     return rows
 
 
-def ventoux(tmp: Path, cars: bool) -> list:
+def ventoux(tmp: Path, cars: bool, keep=None) -> list:
     from fotogeo.tools.dsm import dsm
     v = DATA / "rpc" / "ventoux"
     rows, outs = [], {}
@@ -317,7 +323,7 @@ def ventoux(tmp: Path, cars: bool) -> list:
                      "median_height_m": rep["heights"]["median"], "pointing_px": p.get("relative_pointing_px"),
                      "warned_large_pointing": any("relative pointing error" in m for m in said),
                      "cpu_s": cpu, "wall_s": wall})
-    rows += _cars(tmp, v, outs) if cars else _cars_recorded(outs)
+    rows += _cars(tmp, v, outs, keep) if cars else _cars_recorded(outs)
     return rows
 
 
@@ -329,45 +335,51 @@ def _valid_area(path) -> float:
 
 
 def _cars_recorded(outs: dict) -> list:
-    """CARS's runs recorded by ``benchmarks/peers_cars.py`` on this machine (``results/peers_cars.json``): its
-    figures, and fotogeo's DSM against CARS's where both have a height; fotogeo's valid area over the same
-    footprint overlap CARS's completeness is measured on."""
+    """CARS's runs recorded by ``benchmarks/peers_cars.py`` on this machine (``results/peers_cars.json``)."""
     rec = ROOT / "benchmarks" / "results" / "peers_cars.json"
     if not rec.is_file():
         return [{"case": "ventoux CARS", "skipped": "no recorded run (benchmarks/peers_cars.py; or pass --cars)"}]
+    return _cars_rows(outs, json.loads(rec.read_text()), "recorded")
+
+
+def _cars_rows(outs: dict, runs: dict, how: str) -> list:
+    """CARS's figures (``runs``: ``cars_ventoux_m100``, ``cars_ventoux_bias`` -> :func:`peers_cars.run_cars`'s
+    records) and fotogeo's DSMs against CARS's where both have a height (``peers_cars.compare_dsms``: its
+    ``share_of_ref_area`` is the share of CARS's valid cells where fotogeo has a height); fotogeo's valid area over
+    the same footprint overlap CARS's completeness is measured on."""
     from peers_cars import compare_dsms
-    d = json.loads(rec.read_text())
     rows = []
     for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom"),
                        ("cars_ventoux_m100", "right_image.geom, --refine")):
-        r = d.get(key, {})
+        r = runs.get(key, {})
         if not r.get("dsm") or not Path(r["dsm"]).is_file():
-            rows.append({"case": f"ventoux CARS ({right})", "skipped": f"recorded DSM of {key} not found"})
+            rows.append({"case": f"ventoux CARS ({right})", "skipped": f"{how} DSM of {key} not found"})
             continue
-        rows.append({"case": f"ventoux CARS ({right.split(',')[0]}, recorded, margins 100 m) vs fotogeo ({right})",
+        rows.append({"case": f"ventoux CARS ({right.split(',')[0]}, {how}, margins 100 m) vs fotogeo ({right})",
                      "completeness": r.get("valid_fraction_in_overlap"), "median_height_m": r.get("h_median_m"),
                      "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
                      "fotogeo_in_cars_overlap": _valid_area(outs[right]) / r["footprint_overlap_m2"],
-                     "fotogeo_minus_cars": compare_dsms(outs[right], r["dsm"])})
+                     "fotogeo_minus_cars": compare_dsms(outs[right], r["dsm"]), "cars_dsm": r["dsm"]})
     return rows
 
 
-def _cars(tmp: Path, v: Path, outs: dict) -> list:
+def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
+    """CARS on ventoux now (``peers_cars.run_cars``, margins ±100 m), into ``keep`` (``--cars-dir``) when given,
+    where a finished run of an earlier call is reused (``peers_cars.finished_run``), else into ``tmp``."""
     try:
-        from peers_cars import run_cars
+        from peers_cars import finished_run, run_cars
     except ImportError:
         return [{"case": "ventoux CARS", "skipped": "benchmarks/peers_cars.py is not in this checkout"}]
-    rows = []
-    for right in ("right_image.geom", "right_image_bias.geom"):
-        r = run_cars(v / "left_image.tif", v / "right_image.tif", tmp / f"cars_{right}", geom1=v / "left_image.geom",
-                     geom2=v / right, margins=100)
+    runs = {}
+    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom")):
+        folder = Path(keep or tmp) / key
+        r = (finished_run(folder) if keep else None) or run_cars(
+            v / "left_image.tif", v / "right_image.tif", folder, geom1=v / "left_image.geom", geom2=v / right,
+            margins=100)
         if "skipped" in r:
             return [{"case": "ventoux CARS", "skipped": r["skipped"]}]
-        d = _against(outs[right], r["dsm"])
-        rows.append({"case": f"ventoux CARS ({right})", "completeness": r.get("valid_fraction_in_overlap"),
-                     "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
-                     "fotogeo_minus_cars": _stats(d) if d.size else None})
-    return rows
+        runs[key] = r
+    return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
 def oblique_sets(tmp: Path, names=None) -> list:
@@ -451,6 +463,7 @@ def main():
     ap.add_argument("--cases", default="rendered,ngi,ventoux")
     ap.add_argument("--cars", action="store_true",
                     help="also run CARS on ventoux and the rendered B/H 0.4 pair (benchmarks/peers_cars.py)")
+    ap.add_argument("--cars-dir", help="ventoux --cars: keep CARS's runs in this folder, reuse the finished ones there")
     ap.add_argument("--rpc-cases", help="rendered_rpc: only these RPC_CASES names, separated by ';'")
     ap.add_argument("--ebee-resolutions", default="0.2", help="ebee: DSM resolutions (m), separated by ','")
     ap.add_argument("--baseline-tree", help="ebee: also run the dsm commands with this checkout, alternated")
@@ -470,7 +483,7 @@ def main():
             (tmp / case).mkdir()
             rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
-                     "ventoux": lambda: ventoux(tmp / case, args.cars),
+                     "ventoux": lambda: ventoux(tmp / case, args.cars, args.cars_dir),
                      "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars),
                      "ebee": lambda: ebee(tmp / case, [float(r) for r in args.ebee_resolutions.split(",")],
                                           args.rounds, args.baseline_tree, args.ebee_dir),

@@ -285,23 +285,38 @@ def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None
         while proc.poll() is None:
             peak = max(peak, _tree_rss_mib(ps))
             time.sleep(0.5)
-    wall = time.perf_counter() - t0
+    rec = {"exit_code": proc.returncode, "wall_s": round(time.perf_counter() - t0, 1), "peak_rss_mib": peak,
+           "initial_height": height, "margins_m": margins, "config": conf, "cars": exe, "load_avg_end": os.getloadavg()}
+    (out_dir / "run.json").write_text(json.dumps(rec, default=str))
+    return finished_run(out_dir)
+
+
+def finished_run(out_dir) -> dict | None:
+    """A run of :func:`run_cars` kept in ``out_dir``: what its ``run.json`` holds (wall time, peak summed memory,
+    exit code, as measured while it ran; absent when the folder was kept from a run that did not write it) with
+    what its files give (user + system CPU and the largest single process from ``time.txt``, the DSM, its
+    completeness, CARS's own measures, the log's notes); ``None`` when the folder holds no finished run.
+    Lets a benchmark reuse a run (``dsm_bench.py --cars-dir``) instead of paying CARS again."""
+    out_dir = Path(out_dir)
+    timing, log, dsm = out_dir / "time.txt", out_dir / "cars.log", out_dir / "out" / "dsm" / "dsm.tif"
     tv = timing.read_text() if timing.exists() else ""
+    if "Exit status" not in tv:
+        return None
+    rec = json.loads((out_dir / "run.json").read_text()) if (out_dir / "run.json").is_file() else {}
+    if "config" not in rec and (out_dir / "conf.json").is_file():
+        rec["config"] = json.loads((out_dir / "conf.json").read_text())
     user, sys_ = _time_v(tv, "User time (seconds)"), _time_v(tv, "System time (seconds)")
     single = _time_v(tv, "Maximum resident set size (kbytes)")
-    rec = {"exit_code": proc.returncode, "wall_s": round(wall, 1), "user_s": user, "sys_s": sys_,
-           "cpu_s": round(user + sys_, 1) if user is not None and sys_ is not None else None,
-           "peak_rss_mib": peak, "max_rss_single_mib": round(single / 1024) if single else None,
-           "initial_height": height, "margins_m": margins, "config": conf, "log": str(log),
-           "cars": exe, "load_avg_end": os.getloadavg()}
-    dsm = out_dir / "out" / "dsm" / "dsm.tif"
-    if proc.returncode or not dsm.exists():
-        lines = log.read_text(errors="replace").splitlines()
+    rec.update({"user_s": user, "sys_s": sys_, "log": str(log),
+                "cpu_s": round(user + sys_, 1) if user is not None and sys_ is not None else None,
+                "max_rss_single_mib": round(single / 1024) if single else None})
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    if rec.get("exit_code", int(_time_v(tv, "Exit status") or 0)) or not dsm.exists():
         return rec | {"error": "CARS failed or wrote no DSM", "log_tail": "\n".join(lines[-20:])}
     rec["dsm"] = str(dsm)
     rec.update(_completeness(out_dir / "out", dsm))
     rec["cars_measured"] = cars_facts(out_dir / "out")
-    warn = [ln for ln in log.read_text(errors="replace").splitlines() if re.search(r"WARNING|shift|disparity", ln)]
+    warn = [ln for ln in lines if re.search(r"WARNING|shift|disparity", ln)]
     rec["log_notes"] = warn[-30:]
     return rec
 

@@ -1,0 +1,42 @@
+"""benchmarks/peers_cars.finished_run: a CARS run kept in its folder (``dsm_bench.py --cars-dir``) is reused only
+when it finished, with the CPU of its ``time.txt`` and the wall time and peak memory its ``run.json`` kept."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import rasterio
+from rasterio.transform import from_origin
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+from peers_cars import finished_run  # noqa: E402
+
+TIME_V = "\tUser time (seconds): 136.05\n\tSystem time (seconds): 6.17\n" \
+         "\tMaximum resident set size (kbytes): 1124868\n\tExit status: {}\n"
+
+
+def _dsm(path: Path):
+    path.parent.mkdir(parents=True)
+    h = np.full((4, 5), 538.0, np.float32)
+    h[0, 0] = -32768
+    with rasterio.open(path, "w", driver="GTiff", width=5, height=4, count=1, dtype="float32", nodata=-32768,
+                       crs="EPSG:32631", transform=from_origin(600000, 4900000, 0.5, 0.5)) as ds:
+        ds.write(h[None])
+
+
+def test_a_kept_run_is_reused_only_when_finished(tmp_path):
+    assert finished_run(tmp_path) is None  # nothing ran: the benchmark runs CARS
+    (tmp_path / "time.txt").write_text("\tUser time (seconds): 3.0\n")  # killed before /usr/bin/time's summary
+    assert finished_run(tmp_path) is None
+    (tmp_path / "time.txt").write_text(TIME_V.format(1))
+    assert "error" in finished_run(tmp_path)  # CARS failed: never read as a run
+    (tmp_path / "time.txt").write_text(TIME_V.format(0))
+    assert "error" in finished_run(tmp_path)  # no DSM
+    _dsm(tmp_path / "out" / "dsm" / "dsm.tif")
+    (tmp_path / "run.json").write_text(json.dumps({"exit_code": 0, "wall_s": 1514.7, "peak_rss_mib": 2900}))
+    r = finished_run(tmp_path)
+    assert r["cpu_s"] == 142.2 and r["max_rss_single_mib"] == 1099 and r["wall_s"] == 1514.7
+    assert r["peak_rss_mib"] == 2900 and r["dsm"].endswith("dsm.tif") and r["valid_fraction"] == 19 / 20
