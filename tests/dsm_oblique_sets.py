@@ -67,10 +67,12 @@ def _shots(rng, p: dict):
     return out
 
 
-def make_set(name: str, folder) -> dict:
-    """Render and write set ``name`` of :data:`SETS` into ``folder``: ``{"images", "camera", "eo", "surface", "gsd"
-    (the nadir-distance GSD of the written frames), "crs", "names"}``."""
-    p = {"height": 80.0, "size": (640, 480), "focal": 0.8, "relief": 8.0, "shrink": 1, "seed": 0, **SETS[name]}
+def make_set(name, folder) -> dict:
+    """Render and write set ``name`` of :data:`SETS` (or a dict of parameters as theirs: another set) into
+    ``folder``: ``{"images", "camera", "eo", "surface", "gsd" (the nadir-distance GSD of the written frames), "crs",
+    "names"}``."""
+    p = {"height": 80.0, "size": (640, 480), "focal": 0.8, "relief": 8.0, "shrink": 1, "seed": 0,
+         **(name if isinstance(name, dict) else SETS[name])}
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(p["seed"])

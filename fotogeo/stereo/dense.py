@@ -12,6 +12,11 @@ only where:
 * the two agree within ``lr_tolerance`` px (left–right consistency: ``|d_L(x) − d_R(x − d_L(x))| ≤ tol``);
 * both the pixel and its match lie inside their source images (``valid`` masks, eroded by the block size: a
   block that reaches outside an image matches its border, not the scene);
+* the pixels outside the images (beyond a frame's edge, outside the other image of the pair) do not take part:
+  they are filled with independent noise in each image (:func:`_outside_as_noise`) before matching. Filled with one
+  constant in both, they match each other perfectly at the disparity that lines up the two images' edges, and SGM's
+  paths carry that disparity into the valid pixels along the edge, where it passes the left–right check (both
+  directions see the same empty area): a band of consistent, wrong heights along the overlap's border;
 * the left pixel has texture: the grey values' standard deviation over its ``TEXTURE_WINDOW`` neighbourhood
   reaches ``min_texture`` levels (of the 8-bit stretch). SGM's paths carry costs from textured places into flat
   ones, where they would give a smooth, plausible and unmeasured surface; there a hole is the honest answer.
@@ -183,6 +188,23 @@ def median_filter(d, size: int) -> np.ndarray:
     return out
 
 
+def _outside_as_noise(img8, valid, seed: int) -> np.ndarray:
+    """``img8`` with its pixels outside ``valid`` set to uniform noise in 1..255 (``seed``: reproducible, and
+    independent between the two images of a pair; module docstring)."""
+    out = np.array(img8, copy=True)
+    bad = ~np.asarray(valid, bool)
+    out[bad] = np.random.default_rng(seed).integers(1, 256, int(bad.sum()), dtype=np.uint8)
+    return out
+
+
+def _matched_grey(img, valid, block: int, seed: int) -> np.ndarray:
+    """The 8-bit image SGBM matches: ``img`` stretched over the pixels whose ``block`` lies inside ``valid``
+    (:func:`to_uint8`), kept on all ``valid`` pixels, noise outside (:func:`_outside_as_noise`)."""
+    inner = np.asarray(img, np.float32)[_eroded(valid, block)]
+    bounds = tuple(np.percentile(inner, [0.5, 99.5])) if inner.size else None
+    return _outside_as_noise(to_uint8(img, valid, bounds), valid, seed)
+
+
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
@@ -191,9 +213,9 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
     docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
     none; ``scale_penalties``: P1, P2 scaled to the contrast — the pair's factor ``penalty``
     (:func:`penalty_scale`) when given, else this image's)."""
+    L, R = _matched_grey(left, valid_left, block, 1), _matched_grey(right, valid_right, block, 2)
     valid_left = _eroded(valid_left, block)  # no match whose block reaches outside an image
     valid_right = _eroded(valid_right, block)
-    L, R = to_uint8(left, valid_left), to_uint8(right, valid_right)
     dmin, ndisp = disparity_range(lo, hi)
     if not scale_penalties:
         scale = 1.0

@@ -66,7 +66,7 @@ class Products:
         for k, name in enumerate(BANDS[:profile["count"]]):
             self.ds.set_band_description(k + 1, name)
         self.stride = max(1, int(grid.width * grid.height // HEIGHT_SAMPLE))
-        self.valid = self.inside = self.filled = self.speckles = 0
+        self.valid = self.inside = self.filled = self.speckles = self.single = 0
         self.sample, self.lo, self.hi = [], np.inf, -np.inf
 
     def add(self, core, expanded, height, count, spread) -> None:
@@ -91,6 +91,7 @@ class Products:
         if np.isfinite(height).any():
             overlap = self.seen(self.grid.sub(*core), matched[cut])
             self.valid += int((valid & overlap).sum())
+            self.single += int((valid & overlap & (count == 1)).sum())
             self.inside += int(overlap.sum())
             v = height[np.isfinite(height)]
             self.lo, self.hi = min(self.lo, float(v.min())), max(self.hi, float(v.max()))
@@ -122,6 +123,7 @@ class Products:
                      "transform": list(transform_of(g))[:6]},
             "completeness": round(self.valid / max(1, self.inside), 4),
             "stereo_cells": self.inside, "filled_cells": self.filled,
+            "single_pair_share": round(self.single / max(1, self.valid), 4),
             "heights": {"min": self.lo, "median": float(np.median(heights)), "max": self.hi},
             "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
                           "wall": round(time.perf_counter() - t0[1], 3)},

@@ -27,6 +27,8 @@ from .outputs import SPECKLE_CELLS, Products
 MAX_EPIPOLAR_PX = 2.0
 #: below this share of its overlap matched, a pair is named in a warning
 LOW_DENSITY = 0.5
+#: above this share of the DSM's heights from a single pair, the pairs left out for their views are named
+THIN = 0.5
 #: a DEM whose heights at the sparse matches differ from theirs by more than this in the median (m; more than the
 #: geoid departs from the ellipsoid anywhere) is refused (:func:`_dem_fits_orientation`)
 DEM_MISFIT_M = 150.0
@@ -239,5 +241,19 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         finally:
             products.close()
         out.commit()
+    _warn_thin(choices, names, rep["single_pair_share"])
     prog(1.0, "done")
     return rep
+
+
+def _warn_thin(choices, names, single: float) -> None:
+    """Name the pairs left out because their views differ too much (:class:`~fotogeo.stereo.pairs.Limits`
+    ``max_view_angle``) when more than :data:`THIN` of the heights come from one pair: nothing checks those, and
+    the views left out are what would (e.g. one pair per strip of an oblique flight, strips 90 degrees apart)."""
+    wide = [p for p in choices if not p.kept and p.view_angle > Limits().max_view_angle]
+    if wide and single > THIN:
+        listed = ", ".join(f"{names[p.i]}-{names[p.j]}" for p in wide[:6]) + (", ..." if len(wide) > 6 else "")
+        warnings.warn(f"{100 * single:.0f} % of the DSM's heights come from a single pair: {len(wide)} pairs were "
+                      f"left out because their views differ by more than {Limits().max_view_angle:g} degrees "
+                      f"({listed}); the surface is thin there (no second pair checks it). Fly more frames per strip "
+                      "or give such pairs with --pairs to match them anyway", FotogeoWarning, stacklevel=3)
