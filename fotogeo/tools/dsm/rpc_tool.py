@@ -106,6 +106,27 @@ def _placeless(im) -> str:
             f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f}")
 
 
+def _check_places(name: str, pair, size: float, large: bool) -> None:
+    """Refuse the pair ``name`` when an image of it looks :func:`_placeless` and its relative pointing error
+    (``size`` px, ``large`` above :data:`~.rpc_pairs.LARGE_POINTING_PX`) is large; warn when it only looks so."""
+    a, b = pair
+    lost = [f"{im.name!r} ({why})" for im in (a, b) for why in [_placeless(im)] if why]
+    if not lost:
+        return
+    many = len(lost) > 1
+    where = (f"pair {name}: {' and '.join(lost)} {'are' if many else 'is'} read at the first pixel of the "
+             f"product {'their RPC files describe' if many else 'its RPC file describes'}")
+    fix = (f"cut {'them' if many else 'it'} again from the product with gdal_translate -srcwin COL ROW W H (GDAL "
+           f"moves the RPC into the cut), or beside an OSSIM .geom give {'each' if many else 'it'} a CRS-less "
+           f"geotransform at its place (gdal_edit.py -a_ullr COL ROW COL+W ROW+H), or the RPC of its own pixels")
+    if large:
+        raise InputError(f"{where}, and the pair's RPCs disagree by {size:.0f} px after matching "
+                         f"(vendor RPCs: a few): cut-outs that lost their place, whose DSM would lie at the "
+                         f"product's corner — {fix}")
+    rp.warn(f"{where}: right only if {'they are' if many else 'it is'} that corner of the product; a cut-out "
+            f"from elsewhere comes out at the product's corner with wrong heights — {fix}")
+
+
 def _try_read(read, path):
     try:
         return read(path)
@@ -154,20 +175,7 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
                         f"absolute pointing is off; correct them with GCPs (fotogeo rpc-bias) before trusting "
                         f"absolute heights")
     entry["relative_pointing_large"] = bool(np.hypot(*pt["tau"]) > rp.LARGE_POINTING_PX)
-    lost = [f"{im.name!r} ({why})" for im in (a, b) for why in [_placeless(im)] if why]
-    many = len(lost) > 1
-    where = (f"pair {name}: {' and '.join(lost)} {'are' if many else 'is'} read at the first pixel of the "
-             f"product {'their RPC files describe' if many else 'its RPC file describes'}")
-    fix = (f"cut {'them' if many else 'it'} again from the product with gdal_translate -srcwin COL ROW W H (GDAL "
-           f"moves the RPC into the cut), or beside an OSSIM .geom give {'each' if many else 'it'} a CRS-less "
-           f"geotransform at its place (gdal_edit.py -a_ullr COL ROW COL+W ROW+H), or the RPC of its own pixels")
-    if lost and entry["relative_pointing_large"]:
-        raise InputError(f"{where}, and the pair's RPCs disagree by {np.hypot(*pt['tau']):.0f} px after matching "
-                         f"(vendor RPCs: a few): cut-outs that lost their place, whose DSM would lie at the "
-                         f"product's corner — {fix}")
-    if lost:
-        rp.warn(f"{where}: right only if {'they are' if many else 'it is'} that corner of the product; a cut-out "
-                f"from elsewhere comes out at the product's corner with wrong heights — {fix}")
+    _check_places(name, (a, b), float(np.hypot(*pt["tau"])), entry["relative_pointing_large"])
     rp.warn(rp.pointing_warning(name, pt, dem_source is not None))
     return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
 
