@@ -1,7 +1,8 @@
 """How far ``fotogeo dsm --fill``'s interpolated heights are from the truth, by distance to the matched cells.
 
 ``--fill`` fills the holes inside the convex hull of each output tile's matched cells by Telea's inpainting (Telea
-2004) and marks them in the fourth band. Each case runs ``fotogeo dsm ... --fill`` as a user does (a child process,
+2004), at most ``--fill-max-distance`` cells from a matched cell, and marks them in the fourth band. Each case runs
+``fotogeo dsm ... --fill --fill-max-distance D`` for each D of ``--max-distances`` as a user does (a child process,
 ``cwd`` outside any checkout, ``PYTHONPATH`` the tree measured: this checkout and ``--baseline-tree`` in the same run)
 and compares the DSM with a truth at its cell centres:
 
@@ -10,12 +11,13 @@ and compares the DSM with a truth at its cell centres:
 * ``ngi`` — NGI frames 0182/0184 with their camera, EO and ``--dem ngi/dem.tif`` at 12 m: the 24 m DEM resampled
   bilinearly (a coarse reference: the matched cells' own RMSE against it is the floor).
 
-Per case and tree: the matched cells' RMSE, the filled cells' RMSE and largest error in bins of distance (cells) to
-the nearest matched cell, the completeness the report states, and CPU = user + system of the child. Printed as a
-table and written to ``benchmarks/results/dsm_fill_bench.json``.
+Per case, tree and D: the matched cells' RMSE, the filled cells' count, RMSE and largest error in bins of distance
+(cells) to the nearest matched cell, and CPU = user + system of the child. Printed as a table and written to
+``benchmarks/results/dsm_fill_bench.json`` (keys ``CASE TREE md=D``; a D above the tree's range, or a baseline tree
+without the option, is run without it).
 
     PYTHONPATH=. .venv/bin/python benchmarks/dsm_fill_bench.py [--cases rendered,ngi] [--size 400]
-        [--baseline-tree OLD] [--work DIR]
+        [--max-distances 2,4,8,64] [--baseline-tree OLD] [--work DIR]
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "dsm_fill_bench.json"
-BINS = ((0, 2), (2, 4), (4, 8), (8, 16), (16, 10 ** 9))
+BINS = ((0, 1), (1, 2), (2, 4), (4, 8), (8, 16), (16, 32), (32, 10 ** 9))
 
 
 def inputs(case: str, work: Path, size: int) -> tuple:
@@ -64,10 +66,12 @@ def dem_truth(path: Path):
     return truth
 
 
-def run(tree: Path, args: list, out: Path) -> float:
-    """``fotogeo dsm ARGS --fill -o OUT`` with ``tree``'s fotogeo; returns the child's CPU seconds."""
+def run(tree: Path, args: list, out: Path, md: float | None) -> float:
+    """``fotogeo dsm ARGS --fill [--fill-max-distance MD] -o OUT`` with ``tree``'s fotogeo; returns the child's CPU
+    seconds."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    p = subprocess.run([sys.executable, "-m", "fotogeo", "-q", "dsm", *args, "--fill", "-o", str(out)],
+    limit = [] if md is None else ["--fill-max-distance", f"{md:g}"]
+    p = subprocess.run([sys.executable, "-m", "fotogeo", "-q", "dsm", *args, "--fill", *limit, "-o", str(out)],
                        env=dict(os.environ, PYTHONPATH=str(tree)), cwd=out.parent, capture_output=True, text=True)
     if p.returncode:
         raise SystemExit(f"dsm failed with {tree}: {p.stderr.strip()[-400:]}")
@@ -106,7 +110,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="rendered,ngi")
     ap.add_argument("--size", type=int, default=400, help="the rendered pair's size in pixels [400]")
-    ap.add_argument("--baseline-tree", type=Path, help="a second checkout measured in the same run")
+    ap.add_argument("--max-distances", default="2,4,8,64",
+                    help="the --fill-max-distance values run, in cells [2,4,8,64; 64: the largest]")
+    ap.add_argument("--baseline-tree", type=Path, help="a second checkout measured in the same run (no distance "
+                    "limit: run once, without --fill-max-distance)")
     ap.add_argument("--work", type=Path, help="folder for the inputs and DSMs [a temporary one]")
     a = ap.parse_args(argv)
     if "ngi" in a.cases and not DATA.exists():
@@ -118,14 +125,16 @@ def main(argv=None) -> None:
         for case in a.cases.split(","):
             (work / case).mkdir(parents=True, exist_ok=True)
             args, truth = inputs(case, work / case, a.size)
-            for label, tree in trees.items():
-                dsm = work / case / f"dsm_{label.replace(' ', '_')}.tif"
+            for label, tree, md in [(k, t, None if k == "baseline" else float(d)) for k, t in trees.items()
+                                    for d in (a.max_distances.split(",") if k != "baseline" else [None])]:
+                dsm = work / case / f"dsm_{label.replace(' ', '_')}_{md}.tif"
                 dsm.unlink(missing_ok=True)
-                cpu = run(tree, args, dsm)
-                row = {"cpu_s": round(cpu, 2), **errors(dsm, truth), "command": " ".join(sys.argv),
-                       "load_average": [round(v, 1) for v in os.getloadavg()[:2]]}
-                results[f"{case} {label}"] = row
-                print(f"{case:9s} {label:14s} matched {row['matched_rmse_m']:6.2f} m ({row['matched_cells']}), "
+                cpu = run(tree, args, dsm, md)
+                row = {"cpu_s": round(cpu, 2), "fill_max_distance": md, **errors(dsm, truth),
+                       "command": " ".join(sys.argv), "load_average": [round(v, 1) for v in os.getloadavg()[:2]]}
+                key = f"{case} {label}" + ("" if md is None else f" md={md:g}")
+                results[key] = row
+                print(f"{key:24s} matched {row['matched_rmse_m']:6.2f} m ({row['matched_cells']}), "
                       f"filled {row['filled_rmse_m']:6.2f} m ({row['filled_cells']}), CPU {cpu:.1f} s")
                 for k, b in row["by_distance"].items():
                     print(f"{'':25s} distance {k:>7s} cells: {b['cells']:6d}, RMSE {b['rmse_m']:6.2f} m, "

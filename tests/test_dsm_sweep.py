@@ -117,7 +117,8 @@ def test_a_dsm_with_holes_for_occlusion_points_to_dsm_fill(pair, tmp_path):
     with rasterio.open(dem, "w", driver="GTiff", width=60, height=60, count=1, dtype="float32", crs=CRS,
                        transform=from_origin(499980.0, 4420030.0, 1.0, 1.0), nodata=-32767.0) as ds:
         ds.write(z[None])
-    with pytest.raises(InputError, match=r"has nodata holes .*fill them first \(fotogeo dsm --fill, or "):
+    with pytest.raises(InputError, match=r"has nodata holes .*fill them first \(fotogeo dsm --fill, which fills 4 "
+                                         r"cells from the data unless --fill-max-distance reaches farther; or "):
         ortho(pair["images"][:1], tmp_path / "o.tif", camera=pair["camera"], eo=pair["eo"], dem=dem, occlusion=True,
               dst_crs=CRS)
 

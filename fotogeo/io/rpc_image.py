@@ -19,7 +19,9 @@ pixels (GDAL's RPC transformer ignores any geotransform, and ``gdal_translate -s
 (a CRS) with a separate RPC file (its pixels are not the sensor's), and RPC tags beside a CRS-less geotransform that
 is not the identity. That file says two things the reader cannot tell apart: tags already in the window's pixels
 (GDAL's reading) or a cut-out that kept the full product's tags (read as GDAL reads them, every pixel lands
-``(c, f)`` px off: a DSM kilometres from its place for a window deep in a product, with no error).
+``(c, f)`` px off: a DSM kilometres from its place for a window deep in a product, with no error). A geotransform
+that also resamples (``a ≠ 1``: ``gdal_translate -outsize``) adds a third reading: tags rescaled by a GDAL older
+than 3.9.3, ``(1 − 1/a) / 2`` px off the RPC's centre convention (:func:`_resampled_message`).
 """
 from __future__ import annotations
 
@@ -78,18 +80,42 @@ def _pixel_geotransform(image) -> tuple | None:
     return (t.a, t.c, t.e, t.f)
 
 
-def _refuse_tags_with_window(image: Path) -> None:
-    """Refuse GDAL RPC tags beside a CRS-less geotransform that is not the identity (module docstring)."""
+def _tags_window(image: Path):
+    """The affine geotransform of an image with GDAL RPC tags when it has no CRS and is not the identity (the
+    ambiguous case of the module docstring), else None."""
     from .raster import ropen
     with ropen(image) as ds:
         crs, t = ds.crs, ds.transform
     if crs is not None or (t.a, t.b, t.c, t.d, t.e, t.f) == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0):
-        return
+        return None
+    return t
+
+
+def _refuse_tags_with_window(image: Path, t) -> None:
+    """Refuse GDAL RPC tags beside a CRS-less geotransform ``t`` that is not the identity (module docstring)."""
+    if (t.a, t.e) != (1.0, 1.0) and t.b == t.d == 0:
+        raise InputError(_resampled_message(image, t))
     raise InputError(f"image {str(image)!r} has GDAL RPC tags and a geotransform without a CRS (its pixel (0, 0) at "
                      f"({t.c:g}, {t.f:g}) of the product): GDAL ignores that geotransform, but a cut-out that kept the "
-                     f"full product's tags would be {math.hypot(t.c, t.f):.0f} px off; if the tags are this image's own, "
-                     f"remove the geotransform (gdal_edit.py -unsetgt {image.name}), if they are the product's, cut "
-                     f"the image from the product with gdal_translate -srcwin (it shifts LINE_OFF/SAMP_OFF)")
+                     f"full product's tags would be {math.hypot(t.c, t.f):.0f} px off; if the tags are this image's "
+                     f"own, remove the geotransform (gdal_edit.py -unsetgt {image.name}), if they are the product's, "
+                     f"cut the image from the product with gdal_translate -srcwin (it shifts LINE_OFF/SAMP_OFF)")
+
+
+def _resampled_message(image: Path, t) -> str:
+    """The refusal of GDAL RPC tags beside a CRS-less geotransform that scales the pixels (``gdal_translate
+    -outsize``/``-tr`` on a sensor image): the tags were rescaled by the GDAL that resampled it, and GDAL before
+    3.9.3 rescaled the offsets as corner coordinates, ``LINE_OFF · r``, where the RPC's (0, 0) is the first pixel's
+    centre, ``(LINE_OFF + ½) · r − ½`` (GDAL issue 10600, fixed by its pull request 10602): the two differ by
+    ``(1 − r) / 2`` pixels, ``r = 1 / a``; the file does not say which GDAL wrote it."""
+    off = max(abs(1 - 1 / t.a), abs(1 - 1 / t.e)) / 2
+    return (f"image {str(image)!r} has GDAL RPC tags and a geotransform without a CRS that resamples its pixels "
+            f"{t.a:g} x {t.e:g} (what gdal_translate -outsize or -tr leaves on a sensor image): its tags were "
+            f"rescaled by the GDAL that resampled it, and GDAL before 3.9.3 rescaled LINE_OFF and SAMP_OFF from the "
+            f"pixel's corner instead of its centre (GDAL issue 10600): {off:.2g} px off here, enough to shift the "
+            f"heights of a stereo pair; if GDAL 3.9.3 or later resampled it, remove the geotransform (gdal_edit.py "
+            f"-unsetgt {image.name}); otherwise resample the original again with GDAL 3.9.3 or later, or give "
+            f"fotogeo the original")
 
 
 def in_window(rpc: Rpc, a: float, c: float, e: float, f: float) -> Rpc:
@@ -109,7 +135,9 @@ def image_rpc(image, rpc=None) -> ImageRpc:
             if "carries no RPC" not in str(exc):
                 raise
         else:
-            _refuse_tags_with_window(image)
+            t = _tags_window(image)
+            if t is not None:
+                _refuse_tags_with_window(image, t)
             return ImageRpc(tags, "GDAL RPC metadata")
         found = sidecar_rpc_files(image)
         if not found:

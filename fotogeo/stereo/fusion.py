@@ -22,7 +22,8 @@ fall between points, and those are gaps of the sampling, not unmeasured surface;
 :func:`remove_speckles` then drops small islands of heights (fewer than ``max_cells`` cells connected by steps of at
 most ``max_step``): isolated mismatches, which a cell seen by one pair cannot outvote. Holes stay NaN;
 :func:`fill_holes` fills them only when asked (OpenCV's Telea inpainting, 2004, on the heights, inside the
-convex hull of the heights) and returns the mask of what it filled.
+convex hull of the heights and, as ``gdal_fillnodata -md`` does, no farther than a maximum distance in cells from
+the nearest height: the Euclidean distance between cell centres) and returns the mask of what it filled.
 """
 from __future__ import annotations
 
@@ -202,13 +203,18 @@ def remove_speckles(height, max_cells: int, max_step: float) -> tuple:
     return out, int(gone.sum())
 
 
-def fill_holes(height, radius: int = 8, everywhere: bool = False) -> tuple:
+def fill_holes(height, radius: int = 8, everywhere: bool = False, max_distance: float | None = None) -> tuple:
     """``(filled heights, mask)``: the NaN cells of ``height`` inside the convex hull of its valid cells (all of
-    them with ``everywhere``) filled by Telea inpainting (``radius`` cells), ``mask`` uint8 1 where filled."""
+    them with ``everywhere``) and at most ``max_distance`` cells from the nearest valid cell (Euclidean, between
+    cell centres; None: any distance) filled by Telea inpainting (``radius`` cells), ``mask`` uint8 1 where
+    filled; the cells beyond stay NaN."""
     valid = np.isfinite(height)
     if valid.all() or not valid.any():
         return height.copy(), np.zeros(height.shape, np.uint8)
     holes = ~valid
+    if max_distance is not None:  # the exact Euclidean distance to the nearest valid cell (OpenCV's precise mask)
+        near = cv2.distanceTransform(holes.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        holes &= near <= max_distance + 1e-4
     if not everywhere:
         hull = np.zeros(height.shape, np.uint8)
         rc = np.column_stack(np.nonzero(valid))[:, ::-1].astype(np.int32)

@@ -2,12 +2,14 @@
 tile, the point cloud, and the JSON report.
 
 The DSM has float32 bands: 1 the height (nodata :data:`NODATA`), 2 the number of pairs that gave it, 3 the
-spread (standard deviation) of the points' heights in the cell, and with ``fill`` 4 the filled cells (1).
+spread (standard deviation) of the points' heights in the cell, and with ``fill`` (the filling's reach in cells,
+None for none) 4 the filled cells (1).
 
 :class:`Products` takes the fused heights of one output tile at a time (:meth:`Products.add`), over the tile
 expanded by a margin of cells: there it removes the speckles (islands smaller than :data:`SPECKLE_CELLS` cells,
 :func:`fotogeo.stereo.fusion.remove_speckles` — a margin of that many cells sees every island that touches the
-tile whole, so tiles give the result of the whole grid), fills the holes with ``fill`` (inside the expanded tile),
+tile whole, so tiles give the result of the whole grid), fills the holes with ``fill`` (inside the expanded tile:
+a reach up to the margin sees every height it measures from, so here too tiles give the whole grid's result),
 writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
 the report and turns the GeoTIFF into a COG. Memory: the tile, never the grid.
 """
@@ -48,7 +50,7 @@ class Products:
     """The outputs of one run inside the :class:`~fotogeo.io.raster.AtomicOutputs` ``out`` (module docstring);
     ``seen(grid, height)`` gives the cells of a (sub-)grid that both images of a kept pair see."""
 
-    def __init__(self, out, output, grid, crs, *, fill: bool, point_cloud=None, report=None, seen=None):
+    def __init__(self, out, output, grid, crs, *, fill: float | None, point_cloud=None, report=None, seen=None):
         import rasterio
 
         from ...io.raster import gdal_env, geotiff_profile
@@ -59,8 +61,9 @@ class Products:
             from ...io.las import LasWriter
             self.cloud = LasWriter(out.temp(point_cloud), crs, compress=Path(point_cloud).suffix.lower() == ".laz")
         self.tmp = out.temp(output)
-        profile = geotiff_profile(width=grid.width, height=grid.height, count=4 if fill else 3, dtype="float32",
-                                  crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA, predictor=True)
+        profile = geotiff_profile(width=grid.width, height=grid.height, count=3 if fill is None else 4,
+                                  dtype="float32", crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA,
+                                  predictor=True)
         with gdal_env():
             self.ds = rasterio.open(self.tmp, "w", **profile)
         for k, name in enumerate(BANDS[:profile["count"]]):
@@ -79,8 +82,8 @@ class Products:
         height, _ = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * self.grid.resolution)
         gone = before & ~np.isfinite(height)
         matched, filled = height, None  # the stereo cells are found on the matched heights, never the filled ones
-        if self.fill and np.isfinite(height).any():
-            height, filled = fill_holes(height)
+        if self.fill is not None and np.isfinite(height).any():
+            height, filled = fill_holes(height, max_distance=self.fill)
         r, c = core[0] - expanded[0], core[1] - expanded[1]
         cut = (slice(r, r + core[2]), slice(c, c + core[3]))
         height, count, spread = height[cut], count[cut].copy(), spread[cut]
@@ -98,7 +101,7 @@ class Products:
             self.sample.append(v[::self.stride])
         bands = [np.where(np.isfinite(height), height, NODATA), count.astype(np.float32),
                  np.where(np.isfinite(spread), spread, NODATA)]
-        if self.fill:
+        if self.fill is not None:
             self.filled += int(filled[cut].sum()) if filled is not None else 0
             bands.append(filled[cut].astype(np.float32) if filled is not None else np.zeros(height.shape, np.float32))
         with gdal_env():  # the bounded block cache: GDAL's default would hold a large grid's written blocks
@@ -124,6 +127,7 @@ class Products:
             "completeness": round(self.valid / max(1, self.inside), 4),
             "stereo_cells": self.inside, "filled_cells": self.filled,
             "single_pair_share": round(self.single / max(1, self.valid), 4),
+            **({} if self.fill is None else {"fill_max_distance_cells": self.fill}),
             "heights": {"min": self.lo, "median": float(np.median(heights)), "max": self.hi},
             "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
                           "wall": round(time.perf_counter() - t0[1], 3)},

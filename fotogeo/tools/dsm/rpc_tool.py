@@ -8,6 +8,7 @@ points' median height); the default cell twice the left images' ground sample di
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -83,6 +84,61 @@ def _lost_offset(ims, i: int, j: int) -> str:
     return ""
 
 
+def _placeless(im) -> str:
+    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): its RPC is a file's
+    (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it; GDAL's own tags follow its crops), it has no
+    window geotransform, and it is smaller than half the product the file describes (``2·SCALE`` pixels a side,
+    about), so its pixel (0, 0) is read as the product's first."""
+    from ...io.rpc import read_rpc
+    from ...io.rpc_image import image_rpc, sidecar_rpc_files
+    info = image_rpc(im.path)
+    r = info.rpc
+    if info.product_window is not None or im.width > r.samp_scale or im.height > r.line_scale:
+        return ""
+    if info.source == "GDAL RPC metadata":
+        files = [f for f in sidecar_rpc_files(im.path) if _same_rpc(_try_read(read_rpc, f), r)]
+        if not files:
+            return ""
+        source = files[0]
+    else:
+        source = info.source
+    return (f"{im.width} x {im.height} px, no geotransform; {Path(source).name}: a product of about "
+            f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f}")
+
+
+def _check_places(name: str, pair, size: float, large: bool) -> None:
+    """Refuse the pair ``name`` when an image of it looks :func:`_placeless` and its relative pointing error
+    (``size`` px, ``large`` above :data:`~.rpc_pairs.LARGE_POINTING_PX`) is large; warn when it only looks so."""
+    a, b = pair
+    lost = [f"{im.name!r} ({why})" for im in (a, b) for why in [_placeless(im)] if why]
+    if not lost:
+        return
+    many = len(lost) > 1
+    where = (f"pair {name}: {' and '.join(lost)} {'are' if many else 'is'} read at the first pixel of the "
+             f"product {'their RPC files describe' if many else 'its RPC file describes'}")
+    fix = (f"cut {'them' if many else 'it'} again from the product with gdal_translate -srcwin COL ROW W H (GDAL "
+           f"moves the RPC into the cut), or beside an OSSIM .geom give {'each' if many else 'it'} a CRS-less "
+           f"geotransform at its place (gdal_edit.py -a_ullr COL ROW COL+W ROW+H), or the RPC of its own pixels")
+    if large:
+        raise InputError(f"{where}, and the pair's RPCs disagree by {size:.0f} px after matching "
+                         f"(vendor RPCs: a few): cut-outs that lost their place, whose DSM would lie at the "
+                         f"product's corner — {fix}")
+    rp.warn(f"{where}: right only if {'they are' if many else 'it is'} that corner of the product; a cut-out "
+            f"from elsewhere comes out at the product's corner with wrong heights — {fix}")
+
+
+def _try_read(read, path):
+    try:
+        return read(path)
+    except InputError:
+        return None
+
+
+def _same_rpc(a, b) -> bool:
+    keys = ("line_off", "samp_off", "line_scale", "samp_scale", "lat_off", "long_off")
+    return a is not None and all(np.isclose(getattr(a, k), getattr(b, k), rtol=1e-9, atol=1e-9) for k in keys)
+
+
 def _dem_heights(dem, dem_heights, crs, ims):
     source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
     from ...geometry.dem import heights_at, underlying_dem
@@ -118,8 +174,9 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
                 rp.warn(f"pair {name}: its tie points lie {np.median(dz):+.1f} m from the DEM (median): the RPCs' "
                         f"absolute pointing is off; correct them with GCPs (fotogeo rpc-bias) before trusting "
                         f"absolute heights")
-    rp.warn(rp.pointing_warning(name, pt, dem_source is not None))
     entry["relative_pointing_large"] = bool(np.hypot(*pt["tau"]) > rp.LARGE_POINTING_PX)
+    _check_places(name, (a, b), float(np.hypot(*pt["tau"])), entry["relative_pointing_large"])
+    rp.warn(rp.pointing_warning(name, pt, dem_source is not None))
     return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
 
 

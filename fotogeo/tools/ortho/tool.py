@@ -224,8 +224,11 @@ def occlusion_surface(heights, dem):
     d = underlying_dem(heights)[0]
     share = holes(d)
     if share > 0:
+        from ...options.dsm import DSM
+        reach = DSM["fill_max_distance"].default
         raise InputError(f"DSM {str(dem)!r} has nodata holes ({100 * share:.2g} % of its area): a hole would let "
-                         f"hidden ground show through; fill them first (fotogeo dsm --fill, or gdal_fillnodata.py) or "
+                         f"hidden ground show through; fill them first (fotogeo dsm --fill, which fills {reach:g} "
+                         f"cells from the data unless --fill-max-distance reaches farther; or gdal_fillnodata.py) or "
                          f"orthorectify without occlusion masking")
     from ...geometry.occlusion import MaxPyramid
     return heights, 0.5 * min(abs(d.transform.a), abs(d.transform.e)), MaxPyramid(d) if heights is d else None

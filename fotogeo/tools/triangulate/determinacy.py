@@ -68,6 +68,9 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0):
     ``{"name", "reason"}``."""
     dropped, restarted = [], []
     total = len(block.frames) + dropped_before
+    free = free_roll(block, opts)
+    if free:  # no adjustment can fix it, no frame dropped helps: refused before adjusting
+        raise ModelError(free)
     sparse = sparse_frames(block, min_points=kw["min_frame_points"])
     if sparse:  # refused (or dropped) before adjusting: no adjustment can give them points
         block, opts = _refused_or_dropped(sparse, set(sparse), block, opts, kw, dropped, total)
@@ -92,6 +95,34 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0):
             _warn_prior_held(quality, kw["max_angle_sigma"])
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
         block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped, total)
+
+
+def free_roll(block, opts) -> str | None:
+    """The refusal when the datum leaves the block free to roll: no GCP or control point, no attitude prior, and
+    the frames whose position has a prior (GNSS, ``--eo-sigma-position``) have their centres on one line — two
+    frames always do, a straight strip nearly. A rotation of the whole block about that line moves no centre and
+    changes no image residual: the normal equations are singular (a datum defect of one rotation; Granshaw 1980),
+    however many tie points. The line is fitted to the centres (principal axis); "on it" means the centres' RMS
+    distance from it is at most the largest position σ (the roll's σ, about σ / distance in radians, is then a
+    radian or more). None when something else fixes the rotation."""
+    m = len(block.frames)
+    w = eo_weights(opts.eo_sigma, m)
+    held = (w[:, :3] > 0).all(axis=1)
+    if (w[:, 3:] > 0).any() or np.isin(np.asarray(block.role), ("control",)).any() or held.sum() < 2:
+        return None
+    c = np.array([e.centre for e in block.eo], float).reshape(m, 3)[held]
+    sv = np.linalg.svd(c - c.mean(axis=0), compute_uv=False)
+    off = float(sv[1] / np.sqrt(len(c)))
+    sigma = float(np.max(1.0 / np.sqrt(w[held, :3])))
+    if off > sigma:
+        return None
+    line = ("the 2 centres make one line" if len(c) == 2 else
+            f"the {len(c)} centres lie on one line within their σ ({off:.2g} m RMS from it)")
+    return (f"only the positions of the frames are held (--eo-sigma-position {sigma:g} m), and {line}: a rotation of the whole block about that line (the "
+            f"roll about the base) moves no centre and no image point, so the adjustment cannot determine the "
+            f"frames' attitude (no angle σ: the normal equations are singular). Give the attitude a prior "
+            f"(--eo-sigma-angle, e.g. the INS/gimbal accuracy in degrees), a frame off that line, or ground "
+            f"control (--gcps, or --reference with --dem)")
 
 
 def _refused_or_dropped(bad: dict, drop: set, block, opts, kw, dropped: list, total: int):
