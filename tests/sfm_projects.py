@@ -95,7 +95,8 @@ def shifted_gps(src: Path, dst: Path, dxy) -> Path:
 def gps_of(path) -> tuple:
     from fotogeo.io.exif import read_image_metadata
     m = read_image_metadata(str(path))
-    return float(m.lon), float(m.lat), float(m.altitude or 0.0)
+    assert m.altitude is not None, f"{path} carries no GPS altitude: a test project needs one (never taken as 0)"
+    return float(m.lon), float(m.lat), float(m.altitude)
 
 
 def pose_cv(eo) -> tuple:

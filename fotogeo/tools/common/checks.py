@@ -25,8 +25,8 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     cw, ch = (int(v) for v in camera.image_size)
     if (cw, ch) == (int(width), int(height)):
         return
-    of, fix = ((f" of {source}", " (resized after the reconstruction? only an exact reduction by a whole number "
-                "or an exact enlargement of both sides is scaled; other sizes may be crops); give the images it "
+    of, fix = ((f" of {source}", " (resized after the reconstruction? only an enlargement, a reduction by a whole "
+                "number or to a long side of 512, 1024, 2048, 4096 or 8192 px is scaled; other sizes may be crops); give the images it "
                 "was made from, or --camera with this size's focal length and principal point") if source else
                ("", "; give the camera file of this image (or scale its image size and principal point)"))
     raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
@@ -34,43 +34,71 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
 
 #: the largest factor between the size an SfM project's camera was made for and the image's that is scaled
 MAX_RESIZE = 16
+#: long sides (px) that resizing tools reduce images to: powers of two, ODM's ``--resize-to`` and WebODM's
+#: upload resize default (2048) among them
+RESIZE_LONG_SIDES = (512, 1024, 2048, 4096, 8192)
+
+
+def _shorter_follows(big, small) -> bool:
+    """Whether ``small`` ``(long, short)`` is ``big`` scaled by ``small_long/big_long`` with the short side rounded
+    or floored (within 1 px), as every resize writes a whole number of pixels."""
+    return abs(small[1] - big[1] * small[0] / big[0]) < 1.0
 
 
 def resize_factor(camera_size, width: int, height: int):
-    """The exact factor ``s`` (a :class:`~fractions.Fraction`) by which an image of ``camera_size`` became
-    ``width`` x ``height``, or None: ``s`` the same on both sides, and either an enlargement (``1 < s ≤``
-    :data:`MAX_RESIZE`: the reconstruction was made on reduced copies; a crop cannot enlarge) or a reduction by a
-    whole number (``s = 1/k``, ``k ≤`` :data:`MAX_RESIZE`). Another reduction (``s = 15/16``) is also what a crop of
-    the same aspect gives, which the sizes cannot tell from a resize: None."""
-    from fractions import Fraction
+    """``(sx, sy, how)``: the per-axis factors by which an image of ``camera_size`` became ``width`` x ``height``
+    in a resize, and how it is read, or None. A resize maps the image's corners to corners, each side to a whole
+    number of pixels (ODM ``int(w·r)``, OpenCV ``round``): ``sx = width/w0``, ``sy = height/h0``, which differ by
+    less than a pixel over the short side. Read as a resize:
+
+    * an enlargement (``1 < s ≤`` :data:`MAX_RESIZE`; the reconstruction was made on reduced copies): a crop cannot
+      enlarge;
+    * a reduction by a whole number ``k ≤`` :data:`MAX_RESIZE` (each side within 1 px of ``w0/k``, ``h0/k``);
+    * a reduction to a long side of :data:`RESIZE_LONG_SIDES` (ODM's 2048: 5472x3648 -> 2048x1365).
+
+    In each the short side follows the long one within 1 px (an aspect change is not a resize). Any other reduction
+    (``15/16``: 640x480 -> 600x450) is what a crop of the same aspect also gives, and the sizes cannot tell a crop to
+    a whole fraction or to a long side of :data:`RESIZE_LONG_SIDES` from a resize either: those two are taken as
+    the resizes they usually are."""
     w0, h0 = (int(v) for v in camera_size)
-    s = Fraction(int(width), w0)
-    if Fraction(int(height), h0) != s or s == 1:
+    w, h = int(width), int(height)
+    if min(w, h, w0, h0) <= 0:
         return None
-    if 1 < s <= MAX_RESIZE or (s.numerator == 1 and s.denominator <= MAX_RESIZE):
-        return s
+    long0, long1 = (w0, h0) if w0 >= h0 else (h0, w0), (w, h) if w0 >= h0 else (h, w)
+    big, small = (long1, long0) if long1[0] > long0[0] else (long0, long1)
+    if long1[0] == long0[0] or not _shorter_follows(big, small) or big[0] > MAX_RESIZE * small[0]:
+        return None
+    sx, sy = w / w0, h / h0
+    if long1[0] > long0[0] and long1[1] >= long0[1]:
+        return sx, sy, f"enlarged by {sx:.6g} x {sy:.6g}"
+    k = round(long0[0] / long1[0])
+    if all(abs(a / k - b) < 1.0 for a, b in zip(long0, long1)):
+        return sx, sy, f"reduced by {'exactly ' if w0 == k * w and h0 == k * h else ''}1/{k}"
+    if long1[0] in RESIZE_LONG_SIDES:
+        return sx, sy, f"reduced to a long side of {long1[0]} px"
     return None
 
 
 def camera_for_image(camera, width: int, height: int, image, source: str) -> tuple:
     """``(camera, note)``: the camera of the SfM project ``source`` for an image of ``width`` x ``height``.
 
-    When the image was resized after the reconstruction by an exact factor ``s`` (:func:`resize_factor`), the
+    When the image was resized after the reconstruction (:func:`resize_factor`: per axis ``sx``, ``sy``), the
     interior orientation is scaled as ODM's own resize does (``opendm/osfm.py``): a resize maps the image's corner to
-    corner, so in the corner convention every pixel coordinate, the principal point and the focal length in pixels
-    take the factor ``s``, and Brown's distortion, acting on ``(x/z, y/z)``, is unchanged; the sensor size is kept,
-    so ``f_px = f·w/sensor_w`` follows the new width. Any other size (a crop, an aspect change) is refused by
+    corner, so in the corner convention every pixel coordinate and the principal point take ``(sx, sy)``; Brown's
+    distortion, acting on ``(x/z, y/z)``, is unchanged; the sensor size is kept, so ``fx = f·w/sensor_w`` and
+    ``fy = f·h/sensor_h`` follow the new width and height. Any other size (a crop, an aspect change) is refused by
     :func:`check_camera_size`."""
     from dataclasses import replace
-    s = resize_factor(camera.image_size, width, height) if source else None
-    if s is None:
+    r = resize_factor(camera.image_size, width, height) if source else None
+    if r is None:
         check_camera_size(camera, width, height, image, source)
         return camera, ""
+    sx, sy, how = r
     w0, h0 = (int(v) for v in camera.image_size)
-    pp = tuple(float(v) * float(s) for v in camera.principal_point)
+    pp = (float(camera.principal_point[0]) * sx, float(camera.principal_point[1]) * sy)
     note = (f"the camera of {source} is for {w0}x{h0} images; {str(image)!r} (and any image of its size) is "
-            f"{width}x{height}, the same image {'enlarged' if s > 1 else 'reduced'} by exactly {s}: the interior "
-            f"orientation is scaled by {float(s):.6g}")
+            f"{width}x{height}, the same image {how}: the interior orientation is scaled by {sx:.6g} across, "
+            f"{sy:.6g} down")
     return replace(camera, image_size=(int(width), int(height)), principal_point=pp), note
 
 
