@@ -269,6 +269,18 @@ def test_colmap_own_frame_leaves_out_one_bad_gps_fix(sc, tmp_path):
     _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
 
 
+def test_colmap_own_frame_with_images_without_gps_altitude_is_refused(sc, tmp_path):
+    """lat/lon without an altitude: main read the altitude as 0 (images_gps) and put the cameras at Z ≈ 0."""
+    from fotogeo.io.sfm_frame import images_gps
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    imgs = [sp.without_altitude(p, tmp_path / "noalt" / p.name) for p in sc["rtk"]]
+    gps = images_gps(imgs)
+    assert len(gps) == len(imgs) and all(g.alt is None and g.height_reference is None for g in gps.values())
+    with pytest.raises(InputError, match=f"{len(imgs)} of its {len(imgs)} images with GPS carry latitude and "
+                                         f"longitude but no GPS altitude .*model_aligner.*--crs"):
+        _read(folder, imgs)
+
+
 def test_colmap_own_frame_with_two_gps_images_is_refused(sc, tmp_path):
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
     with pytest.raises(InputError, match="model_aligner.*--crs.*at least 3 of its images carrying GPS"):

@@ -25,9 +25,10 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     cw, ch = (int(v) for v in camera.image_size)
     if (cw, ch) == (int(width), int(height)):
         return
-    of, fix = ((f" of {source}", " (resized after the reconstruction? only an enlargement, a reduction by a whole "
-                "number or to a long side of 512, 1024, 2048, 4096 or 8192 px is scaled; other sizes may be crops); give the images it "
-                "was made from, or --camera with this size's focal length and principal point") if source else
+    of, fix = ((f" of {source}", " (resized after the reconstruction? only an enlargement, a reduction by a "
+                "whole number or to a long side of 512, 1024, 2048, 4096 or 8192 px is scaled; other sizes may be "
+                "crops); give the images it was made from, or --camera with this size's focal length and principal "
+                "point") if source else
                ("", "; give the camera file of this image (or scale its image size and principal point)"))
     raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
 
