@@ -66,13 +66,6 @@ def fit_similarity(x, y, weights=None) -> Similarity3D:
     return Similarity3D(s, Q, my - s * Q @ mx)
 
 
-def line_ratio(x) -> float:
-    """Second over first singular value of the centred points ``x``: 0 on a line, 1 spread evenly."""
-    d = np.asarray(x, np.float64) - np.mean(x, axis=0)
-    sv = np.linalg.svd(d, compute_uv=False)
-    return float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
-
-
 def _skew(v) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 

@@ -6,19 +6,19 @@ COLMAP's mapper leaves the model in an arbitrary frame (scale, rotation and orig
 given carry an EXIF/XMP GPS position: to their map coordinates ``(E, N)`` in the map CRS and their GPS altitude
 (the map axes are taken as Cartesian, as for a model aligned into a projected CRS), weighted by their horizontal
 and vertical σ (the accuracy tags; without them a consumer receiver, :data:`~fotogeo.io.sfm_frame.DEFAULT_SIGMA_H`
-horizontally and twice that vertically). The fit (:mod:`fotogeo.geometry.similarity3d`, Umeyama 1991) leaves out
-one bad fix when five or more images carry GPS; it is refused, naming ``--crs`` and ``model_aligner``, when
+horizontally and twice that vertically). An image with latitude and longitude but no GPS altitude is left out
+and named: its altitude is never taken as 0. The fit (:mod:`fotogeo.geometry.similarity3d`, Umeyama 1991) leaves
+out one bad fix when five or more images carry GPS; it is refused, naming ``--crs`` and ``model_aligner``, when
 
 * fewer than :data:`MIN_IMAGES` of them carry a GPS altitude (latitude and longitude alone leave the heights and
-  the tilt free: they are not invented; the images without one are named), or some lack one (those are left out and
-  named),
+  the tilt free: they are not invented; the images without one are named),
 * the centres with GPS lie on a line (the normal matrix of the fit is singular,
   :data:`~fotogeo.geometry.similarity3d.MAX_CONDITION`: the rotation about the line is free),
 * the residuals exceed 3σ RMS (χ² per degree of freedom >
   :data:`~fotogeo.geometry.similarity3d.CHI2_DOF_MAX`): the GPS σ is understated or the model is not rigid, or
 * the fit's covariance leaves the tilt more uncertain than :data:`MAX_TILT_DEG` (few images, a small block, a
   narrow strip, a poor GPS). A shape ratio alone decides nothing: two RTK strips 40 m apart and 1.5 km long are a
-  thin block whose tilt their GPS fixes to ±0.005°.
+  thin block whose tilt their GPS (σ 2 cm) fixes to ±0.005°.
 
 Then each centre becomes ``s·Q·C + t`` and each world → camera rotation ``R·Qᵀ``. The alignment is only as good as
 the GPS: its precision (the σ of the aligned centres and of the tilt, from the fit's covariance) is stated, and a
