@@ -195,7 +195,8 @@ def test_images_cropped_after_the_reconstruction_are_refused_naming_the_model(sc
     ((640, 480), (320, 240), "reduced by exactly 1/2"),
     ((2048, 1365), (5472, 3648), "enlarged by 2.67188 x 2.67253"),  # a model made on ODM's reduced copies
     ((5472, 3648), (5000, 3333), None), ((640, 480), (600, 450), None),  # what a crop of the same aspect gives
-    ((5472, 3648), (2048, 1367), None), ((2048, 1365), (2048, 1366), None), ((640, 480), (320, 200), None)])
+    ((5472, 3648), (2048, 1367), None), ((2048, 1365), (2048, 1366), None), ((640, 480), (320, 200), None),
+    ((1000, 666), (1600, 1066), None)])  # enlarged by 1.6 across, 1.6006 down: not a resize of the image
 def test_resizes_are_told_from_crops_by_their_sizes(size, image, how):
     """main took only exact fractions: ODM's 2048 px resize of a DJI 5472x3648 (2048x1365, the height floored) was
     refused. Each axis takes its own factor; a crop's size (any other reduction, an aspect change) is not scaled."""

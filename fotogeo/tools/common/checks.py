@@ -40,43 +40,47 @@ MAX_RESIZE = 16
 RESIZE_LONG_SIDES = (512, 1024, 2048, 4096, 8192)
 
 
-def _shorter_follows(big, small) -> bool:
-    """Whether ``small`` ``(long, short)`` is ``big`` scaled by ``small_long/big_long`` with the short side rounded
-    or floored (within 1 px), as every resize writes a whole number of pixels."""
-    return abs(small[1] - big[1] * small[0] / big[0]) < 1.0
+def _resize_of(big, small) -> str | None:
+    """How ``small`` ``(long, short)`` is a resize of ``big``, or None: its short side within 1 px of the long
+    side's factor (every resize writes whole pixels: ODM ``int(w·r)``, OpenCV ``round``) and either a whole
+    fraction ``1/k`` (each side within 1 px of ``big/k``) or a long side of :data:`RESIZE_LONG_SIDES`."""
+    if abs(small[1] - big[1] * small[0] / big[0]) >= 1.0 or big[0] > MAX_RESIZE * small[0]:
+        return None
+    k = round(big[0] / small[0])
+    if k > 1 and all(abs(a / k - b) < 1.0 for a, b in zip(big, small)):
+        return f"1/{k}"
+    return f"a long side of {small[0]} px" if small[0] in RESIZE_LONG_SIDES else None
 
 
 def resize_factor(camera_size, width: int, height: int):
     """``(sx, sy, how)``: the per-axis factors by which an image of ``camera_size`` became ``width`` x ``height``
     in a resize, and how it is read, or None. A resize maps the image's corners to corners, each side to a whole
-    number of pixels (ODM ``int(w·r)``, OpenCV ``round``): ``sx = width/w0``, ``sy = height/h0``, which differ by
-    less than a pixel over the short side. Read as a resize:
+    number of pixels: ``sx = width/w0``, ``sy = height/h0``, which differ by less than a pixel over the short side.
+    Read as a resize, the smaller of the two sizes being the larger resized (:func:`_resize_of`):
 
-    * an enlargement (``1 < s ≤`` :data:`MAX_RESIZE`; the reconstruction was made on reduced copies): a crop cannot
-      enlarge;
-    * a reduction by a whole number ``k ≤`` :data:`MAX_RESIZE` (each side within 1 px of ``w0/k``, ``h0/k``);
-    * a reduction to a long side of :data:`RESIZE_LONG_SIDES` (ODM's 2048: 5472x3648 -> 2048x1365).
+    * a reduction by a whole number ``k ≤`` :data:`MAX_RESIZE` (each side within 1 px of ``w0/k``, ``h0/k``), or to a
+      long side of :data:`RESIZE_LONG_SIDES` (ODM's 2048: 5472x3648 -> 2048x1365);
+    * an enlargement, the camera's size being such a resize of the image's (the reconstruction was made on reduced
+      copies: 2048x1365 -> 5472x3648), or one exact factor on both sides (``1 < s ≤`` :data:`MAX_RESIZE`).
 
-    In each the short side follows the long one within 1 px (an aspect change is not a resize). Any other reduction
-    (``15/16``: 640x480 -> 600x450) is what a crop of the same aspect also gives, and the sizes cannot tell a crop to
-    a whole fraction or to a long side of :data:`RESIZE_LONG_SIDES` from a resize either: those two are taken as
-    the resizes they usually are."""
+    An aspect change is not a resize. Any other reduction (``15/16``: 640x480 -> 600x450) is what a crop of the same
+    aspect also gives: None. The sizes cannot tell a crop to a whole fraction or to a long side of
+    :data:`RESIZE_LONG_SIDES` (keeping the aspect to 1 px) from a resize: those are taken as the resizes they
+    usually are."""
+    from fractions import Fraction
     w0, h0 = (int(v) for v in camera_size)
     w, h = int(width), int(height)
     if min(w, h, w0, h0) <= 0:
         return None
-    long0, long1 = (w0, h0) if w0 >= h0 else (h0, w0), (w, h) if w0 >= h0 else (h, w)
-    big, small = (long1, long0) if long1[0] > long0[0] else (long0, long1)
-    if long1[0] == long0[0] or not _shorter_follows(big, small) or big[0] > MAX_RESIZE * small[0]:
-        return None
+    cam, img = ((w0, h0), (w, h)) if w0 >= h0 else ((h0, w0), (h, w))  # (long, short)
     sx, sy = w / w0, h / h0
-    if long1[0] > long0[0] and long1[1] >= long0[1]:
-        return sx, sy, f"enlarged by {sx:.6g} x {sy:.6g}"
-    k = round(long0[0] / long1[0])
-    if all(abs(a / k - b) < 1.0 for a, b in zip(long0, long1)):
-        return sx, sy, f"reduced by {'exactly ' if w0 == k * w and h0 == k * h else ''}1/{k}"
-    if long1[0] in RESIZE_LONG_SIDES:
-        return sx, sy, f"reduced to a long side of {long1[0]} px"
+    if img[0] > cam[0] and img[1] >= cam[1]:
+        how = _resize_of(img, cam)
+        exact = Fraction(w, w0) == Fraction(h, h0) and sx <= MAX_RESIZE
+        return (sx, sy, f"enlarged by {sx:.6g} x {sy:.6g}") if how or exact else None
+    if img[0] < cam[0] and (how := _resize_of(cam, img)):
+        exact = "exactly " if how.startswith("1/") and w0 == w * int(how[2:]) and h0 == h * int(how[2:]) else ""
+        return sx, sy, f"reduced {'by ' + exact if how.startswith('1/') else 'to '}{how}"
     return None
 
 
