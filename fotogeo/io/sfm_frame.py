@@ -17,8 +17,8 @@ this order:
 3. the shots' ``gps_position`` read as topocentric, with their ``gps_dop`` as σ.
 
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
-chosen when it fits (``χ²/(2n) ≤ 9``, RMS within 3σ) and the other fits worse by ``Δχ² ≥ 25`` (a 5σ
-separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
+chosen when it fits (``χ²/(2n) ≤`` :data:`~fotogeo.geometry.similarity3d.CHI2_DOF_MAX` = 9, RMS within 3σ)
+and the other fits worse by ``Δχ² ≥ 25`` (a 5σ separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
 topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor
 ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within
 :data:`SAME_M` (horizontally) and :data:`SAME_DEG` of each other the choice is immaterial (topocentric is taken
@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.similarity3d import CHI2_DOF_MAX
 
 #: σ (m) of a consumer receiver's horizontal GPS position, when the image carries no accuracy tag
 DEFAULT_SIGMA_H = 5.0
@@ -125,7 +126,7 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
     other = READINGS[1 - READINGS.index(best)]
     said = (f"{source} ({len(names)} image(s), σ {np.median(sigma):.3g} m): {_rms(res[best]):.3f} m RMS "
             f"horizontally as {best}, {_rms(res[other]):.3f} m as {other}")
-    if chi[best] / (2 * len(names)) > 9.0:
+    if chi[best] / (2 * len(names)) > CHI2_DOF_MAX:
         return None, f"neither reading fits the {said}"
     if chi[other] - chi[best] < 25.0:
         return None, f"the {said}: too close to tell"
