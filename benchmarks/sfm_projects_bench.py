@@ -101,6 +101,8 @@ def cases(sc, work: Path) -> list:
                 imgs = [p for p in imgs if p.stem.startswith("DJI_1")]
             if kind == "bad":  # one RTK fix 30 m off
                 imgs[3] = sp.shifted_gps(imgs[3], work / "bad_gps" / imgs[3].name, (30.0, -10.0))
+            if kind == "no-altitude":  # latitude and longitude only
+                imgs = [sp.without_altitude(p, work / "no_alt" / p.name) for p in imgs]
             cam = {"tool": "colmap", "model": "OPENCV", "params": cams["OPENCV"]}
             return dict(eo=f, images=imgs, n=len(imgs), camera=cam, args=["--crs", sp.TRUTH_CRS])
         return build
@@ -111,7 +113,9 @@ def cases(sc, work: Path) -> list:
             ("colmap-own-bad-gps", "COLMAP model not aligned, 16 RTK images, one fix 30 m off",
              colmap_aligned("rtk", "bad")),
             ("colmap-own-strip", "COLMAP model not aligned, the 4 RTK images of one strip (centres near a line)",
-             colmap_aligned("rtk", "strip"))]
+             colmap_aligned("rtk", "strip")),
+            ("colmap-own-no-altitude", "COLMAP model not aligned, 16 RTK images with latitude and longitude but no "
+                                       "altitude", colmap_aligned("rtk", "no-altitude"))]
 
     def colmap_misc(kind):
         def build():
@@ -122,20 +126,23 @@ def cases(sc, work: Path) -> list:
             shots = sc["names"][2:] if kind == "missing" else None
             f = sp.colmap_model(work / f"colmap_{kind}", sc, camset, names=names, shots=shots)
             imgs = sc["rtk"]
-            size = {"resized": (320, 240), "resized-4-5": (512, 384), "enlarged": (1280, 960),
-                    "aspect": (320, 200), "cropped": (600, 450)}.get(kind)
+            size = {"resized": (320, 240), "resized-4-5": (512, 384), "resized-1-3": (213, 160),
+                    "enlarged": (1280, 960), "aspect": (320, 200), "cropped": (600, 450)}.get(kind)
             if size:
                 imgs = _resized(sc, work / kind, size)
             eo = {"folder": f, "folder-empty": f.parent}.get(kind, f / "images.txt")
             return dict(eo=eo, images=imgs, camera={"tool": "colmap", "model": "OPENCV", "params": cams["OPENCV"]},
-                        args=["--crs", sp.TRUTH_CRS], scale=size[0] / 640 if size else 1.0)
+                        args=["--crs", sp.TRUTH_CRS], scale=(size[0] / 640, size[1] / 480) if size else (1.0, 1.0))
         return build
     out += [(f"colmap-{k}", d, colmap_misc(k)) for k, d in (
         ("subfolders", "COLMAP images named with sub-folders and another extension (flight1/sub/X.JPG)"),
         ("two-cameras", "COLMAP model with two camera ids"),
         ("missing", "COLMAP model without the first two images (given on the command line)"),
         ("resized", "COLMAP model of 640x480 images given the images resized to 320x240"),
-        ("resized-4-5", "COLMAP model of 640x480 images given the images resized to 512x384 (4/5)"),
+        ("resized-4-5", "COLMAP model of 640x480 images given the images resized to 512x384 (4/5: a long side of "
+                        "512 px)"),
+        ("resized-1-3", "COLMAP model of 640x480 images given the images resized to 213x160 (1/3, the width "
+                        "floored: 213.33 -> 213)"),
         ("enlarged", "COLMAP model of 640x480 images given the images enlarged to 1280x960 (originals)"),
         ("aspect", "COLMAP model of 640x480 images given the images squeezed to 320x200 (aspect changed)"),
         ("cropped", "COLMAP model of 640x480 images given the images cropped to 600x450 (the size a 15/16 "
@@ -250,9 +257,10 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), "auto", b["images"][:n])
-            if b.get("scale", 1.0) != 1.0:
+            scale = np.asarray(b.get("scale", (1.0, 1.0)), float)  # per axis (sx, sy)
+            if np.any(scale != 1.0):
                 blk = _as_ortho_scales(blk, imgs[0])
-            row.update(sp.measure(blk, sc, b["camera"], b.get("scale", 1.0)))
+            row.update(sp.measure(blk, sc, b["camera"], scale))
         except FotogeoError as exc:
             row["read_error"] = str(exc)
     ok = row["exit"] != 0 and ("--" in row["message"] or "give" in row["message"] or "$W" in row["message"])

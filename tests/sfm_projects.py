@@ -92,10 +92,26 @@ def shifted_gps(src: Path, dst: Path, dxy) -> Path:
     return dst
 
 
+def without_altitude(src: Path, dst: Path) -> Path:
+    """A copy of ``src`` with its latitude and longitude but no altitude (no EXIF GPSAltitude, no DJI
+    AbsoluteAltitude), as some cameras and converters write them."""
+    import re
+
+    import rasterio
+    import rendered_oblique as ro
+    with rasterio.open(src) as ds:
+        img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+    xmp = re.sub(r" drone-dji:\w*Altitude='[^']*'", "", xmp)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    ro._write(dst, img, {k: v for k, v in tags.items() if not k.startswith("EXIF_GPSAltitude")}, xmp)
+    return dst
+
+
 def gps_of(path) -> tuple:
     from fotogeo.io.exif import read_image_metadata
     m = read_image_metadata(str(path))
-    return float(m.lon), float(m.lat), float(m.altitude or 0.0)
+    assert m.altitude is not None, f"{path} carries no GPS altitude: a test project needs one (never taken as 0)"
+    return float(m.lon), float(m.lat), float(m.altitude)
 
 
 def pose_cv(eo) -> tuple:
@@ -374,11 +390,11 @@ def orthority_files(folder: Path, sc: dict, cam: dict, *, fmt="geojson") -> tupl
     return ext, folder / "interior.yaml"
 
 
-def measure(block, sc: dict, cam: dict, scale: float = 1.0) -> dict:
+def measure(block, sc: dict, cam: dict, scale=1.0) -> dict:
     """Orthophoto shift of ``block`` against the truth: ground points in view of every frame (on the ground height)
-    are projected by the tool's camera ``cam`` (:func:`tool_pixel`, pixels times ``scale``) and the true pose, then
-    back through fotogeo's reading onto the same height; median and p90 of the horizontal distances (m), the worst
-    centre error (m) and rotation angle (°)."""
+    are projected by the tool's camera ``cam`` (:func:`tool_pixel`, pixels times ``scale``, a factor or per axis
+    ``(sx, sy)``) and the true pose, then back through fotogeo's reading onto the same height; median and p90 of the
+    horizontal distances (m), the worst centre error (m) and rotation angle (°)."""
     from fotogeo.geometry.camera import OrientedFrame
     from fotogeo.orientation.adjusted_frame import AdjustedFrame
     shifts, centre, angle = [], 0.0, 0.0

@@ -3,6 +3,8 @@ the similarity, its precision, one blunder left out, and the refusals of an ill-
 The full block: tests/test_sfm_projects.py."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from pyproj import Transformer
@@ -10,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from fotogeo.crs import parse_crs
 from fotogeo.errors import InputError
-from fotogeo.geometry.similarity3d import fit_similarity, line_ratio, robust_similarity, similarity_precision
+from fotogeo.geometry.similarity3d import fit_similarity, robust_similarity, similarity_precision
 from fotogeo.io.colmap_align import align_to_gps
 from fotogeo.io.sfm_frame import GpsFix
 
@@ -50,7 +52,7 @@ def test_umeyama_recovers_an_exact_similarity():
 def test_alignment_of_rtk_gps_lands_within_centimetres():
     truth = _grid()
     images, gps = _block(truth, 0.02, np.random.default_rng(2))
-    out, said = align_to_gps(images, gps, parse_crs(CRS), "model")
+    out, said, _ = align_to_gps(images, gps, parse_crs(CRS), "model")
     err = np.array([o[2] for o in out]) - truth
     assert np.abs(err).max() < 0.08 and "9 images" in said and "expected error" in said
     assert all(np.allclose(o[3], np.eye(3), atol=3e-3) for o in out)  # R·Qᵀ undoes the model's rotation
@@ -62,7 +64,7 @@ def test_consumer_gps_aligns_with_a_warning_of_the_expected_error():
     truth = _grid(4, 4, step=40.0)
     images, gps = _block(truth, 2.0, np.random.default_rng(8))
     with pytest.warns(FotogeoWarning, match=r"aligned to the images' GPS only: expected error ≈ [0-9.]+ m"):
-        out, said = align_to_gps(images, gps, parse_crs(CRS), "model")
+        out, said, _ = align_to_gps(images, gps, parse_crs(CRS), "model")
     err = np.linalg.norm((np.array([o[2] for o in out]) - truth)[:, :2], axis=1)
     assert 0.05 < np.median(err) < 4.0 and "expected error of the cameras ±" in said
 
@@ -70,7 +72,7 @@ def test_consumer_gps_aligns_with_a_warning_of_the_expected_error():
 def test_one_bad_fix_is_left_out_and_named():
     truth = _grid()
     images, gps = _block(truth, 0.02, np.random.default_rng(3), blunder=(4, np.array([25.0, 0.0, 0.0])))
-    out, said = align_to_gps(images, gps, parse_crs(CRS), "model")
+    out, said, _ = align_to_gps(images, gps, parse_crs(CRS), "model")
     assert "IMG_04's GPS left out" in said
     assert np.abs(np.array([o[2] for o in out]) - truth).max() < 0.08
 
@@ -78,7 +80,7 @@ def test_one_bad_fix_is_left_out_and_named():
 def test_centres_on_a_line_are_refused():
     line = np.array([[500000.0 + 20 * k, 6650000.0 + 10 * k, 380.0] for k in range(6)])
     images, gps = _block(line, 0.02, np.random.default_rng(4))
-    with pytest.raises(InputError, match="lie nearly on a line.*model_aligner.*--crs"):
+    with pytest.raises(InputError, match="lie on a line .condition number.*model_aligner.*--crs"):
         align_to_gps(images, gps, parse_crs(CRS), "model")
 
 
@@ -101,12 +103,67 @@ def test_fewer_than_three_gps_images_do_not_align():
     assert align_to_gps(images, dict(list(gps.items())[:2]), parse_crs(CRS), "model") is None
 
 
-def test_precision_shrinks_with_the_gps_sigma_and_the_line_ratio():
+def test_precision_shrinks_with_the_gps_sigma_and_is_infinite_on_a_line():
     x = _grid()
     sim = fit_similarity(x, x)
     p1 = similarity_precision(sim, x, np.full((9, 3), 2.0))
     p2 = similarity_precision(sim, x, np.full((9, 3), 0.02))
-    assert p1.horizontal == pytest.approx(100 * p2.horizontal) and p1.tilt_deg > 0
-    assert line_ratio(x) > 0.9 and line_ratio(x[::4]) < 1e-9
+    assert p1.horizontal == pytest.approx(100 * p2.horizontal) and p1.tilt_deg > 0 and p1.condition < 1e3
+    line = similarity_precision(sim, x[::4], np.full((3, 3), 0.02))
+    assert line.tilt_deg == np.inf and line.condition > 1e12
     fit = robust_similarity(x, x + 0.01, np.full((9, 3), 0.02))
     assert fit.left_out is None and fit.chi2_dof < 1
+
+
+def _corridor():
+    """Two strips 40 m apart, 1.5 km long, 120 images: a thin block (shape ratio 0.046), not a line."""
+    return np.array([[500000.0 + x, 6650000.0 + y, 380.0] for y in (0.0, 40.0) for x in np.arange(0, 1500, 25.0)])
+
+
+def test_the_tilt_sigma_does_not_depend_on_where_the_points_are():
+    """The precision linearised about the model frame's origin lost the tilt to rounding with map coordinates
+    (~1e5 m): on main 0.00024° at 1e5 m against 0.00524° about the centroid (20 x too optimistic)."""
+    c = _corridor() - _corridor().mean(axis=0)
+    tilt = [similarity_precision(fit_similarity(c + o, c + o), c + o, np.full((120, 3), 0.02)).tilt_deg
+            for o in (0.0, 1e3, 1e5, 6e6)]
+    assert tilt[0] == pytest.approx(0.005236, rel=1e-3) and np.allclose(tilt, tilt[0], rtol=1e-6)
+
+
+def test_a_corridor_of_two_rtk_strips_is_aligned_not_refused_as_a_line():
+    """main refused it by the shape ratio alone (0.046 < 0.05) although its RTK GPS (σ 2 cm, 3 cm vertically) fixes
+    the tilt to ±0.013°."""
+    truth = _corridor()
+    images, gps = _block(truth, 0.02, np.random.default_rng(2))
+    out, said, _ = align_to_gps(images, gps, parse_crs(CRS), "model")
+    assert np.abs(np.array([o[2] for o in out]) - truth).max() < 0.02 and re.search(r"tilt ±0\.01\d°", said)
+
+
+def test_images_without_gps_altitude_are_refused_not_put_at_height_0():
+    """lat/lon without GPSAltitude: main took the altitude as 0 and landed the cameras at Z ≈ 0 (truth 380 m) with
+    only a warning of ≈ 1 m; refused naming the images (heights and tilt are not invented)."""
+    from dataclasses import replace
+    images, gps = _block(_grid(4, 4, step=40.0), 2.0, np.random.default_rng(8))
+    gps = {k: replace(g, alt=None, tagged=False, sigma_v=None) for k, g in gps.items()}
+    with pytest.raises(InputError, match=r"16 of its 16 images with GPS carry latitude and longitude but no GPS "
+                                         r"altitude \(IMG_00, IMG_01, IMG_02, ...\).*model_aligner"):
+        align_to_gps(images, gps, parse_crs(CRS), "model")
+
+
+def test_images_without_gps_altitude_among_others_are_left_out_and_named():
+    from dataclasses import replace
+    truth = _grid(4, 4)
+    images, gps = _block(truth, 0.02, np.random.default_rng(9))
+    gps["IMG_05"] = replace(gps["IMG_05"], alt=None, sigma_v=None)
+    out, said, _ = align_to_gps(images, gps, parse_crs(CRS), "model")
+    assert "15 images" in said and "1 image(s) without GPS altitude left out (IMG_05)" in said
+    assert np.abs(np.array([o[2] for o in out]) - truth).max() < 0.08
+
+
+def test_the_heights_reference_is_the_gps_fixes_common_one():
+    from dataclasses import replace
+    images, gps = _block(_grid(), 0.02, np.random.default_rng(2))
+    ell = {k: replace(g, height_reference="ellipsoid") for k, g in gps.items()}
+    out, said, ref = align_to_gps(images, ell, parse_crs(CRS), "model")
+    assert ref == "ellipsoid" and "heights are the GPS altitudes' (above the ellipsoid" in said
+    mixed = dict(ell, IMG_00=gps["IMG_00"])
+    assert align_to_gps(images, mixed, parse_crs(CRS), "model")[2] is None

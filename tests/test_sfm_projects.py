@@ -188,6 +188,33 @@ def test_images_cropped_after_the_reconstruction_are_refused_naming_the_model(sc
         image_models(small, parse_crs(sp.TRUTH_CRS), eo=folder / "images.txt")
 
 
+@pytest.mark.parametrize("size, image, how", [
+    ((5472, 3648), (2048, 1365), "reduced to a long side of 2048 px"),  # ODM --resize-to 2048: int(3648·r) = 1365
+    ((3648, 5472), (1365, 2048), "reduced to a long side of 2048 px"),  # portrait
+    ((4000, 3000), (1333, 1000), "reduced by 1/3"),  # 1333.3 floored
+    ((640, 480), (320, 240), "reduced by exactly 1/2"),
+    ((2048, 1365), (5472, 3648), "enlarged by 2.67188 x 2.67253"),  # a model made on ODM's reduced copies
+    ((5472, 3648), (5000, 3333), None), ((640, 480), (600, 450), None),  # what a crop of the same aspect gives
+    ((5472, 3648), (2048, 1367), None), ((2048, 1365), (2048, 1366), None), ((640, 480), (320, 200), None),
+    ((1000, 666), (1600, 1066), None)])  # enlarged by 1.6 across, 1.6006 down: not a resize of the image
+def test_resizes_are_told_from_crops_by_their_sizes(size, image, how):
+    """main took only exact fractions: ODM's 2048 px resize of a DJI 5472x3648 (2048x1365, the height floored) was
+    refused. Each axis takes its own factor; a crop's size (any other reduction, an aspect change) is not scaled."""
+    from fotogeo.geometry.camera import FrameCamera
+    from fotogeo.tools.common.checks import camera_for_image, resize_factor
+    got = resize_factor(size, *image)
+    assert (got and got[2]) == how
+    cam = FrameCamera(8.8, (13.2, 8.8), size, (size[0] / 2 + 10.0, size[1] / 2 - 6.0))
+    if how is None:
+        with pytest.raises(InputError, match=f"is for images of {size[0]}x{size[1]} .*resized after"):
+            camera_for_image(cam, *image, "a.JPG", "--eo m/images.txt")
+        return
+    new, note = camera_for_image(cam, *image, "a.JPG", "--eo m/images.txt")
+    sx, sy = image[0] / size[0], image[1] / size[1]
+    assert new.principal_point == pytest.approx((cam.principal_point[0] * sx, cam.principal_point[1] * sy))
+    assert new.fx == pytest.approx(cam.fx * sx) and new.fy == pytest.approx(cam.fy * sy) and how in note
+
+
 def test_colmap_model_folder_on_the_command_line(sc, tmp_path):
     """``--eo sparse/0/`` (a COLMAP model's folder): click refused a folder on main; a folder without a model is
     refused naming it and the models found below it."""
@@ -218,13 +245,17 @@ def test_colmap_model_in_its_own_frame_is_aligned_to_rtk_gps(sc, tmp_path):
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
     block = _read(folder, sc["rtk"])
     assert "aligned to the images' own GPS" in block.frame_reading and "expected error" in block.frame_reading
+    # DJI RTK altitudes are ellipsoidal: passed through (main left the reference unknown)
+    assert {s.height_reference for s in block.shots.values()} == {"ellipsoid"}
+    assert "above the ellipsoid" in block.frame_reading
     got = _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
     assert got["centre_m"] < 0.1
 
 
 def test_colmap_own_frame_with_consumer_gps_of_a_small_block_is_refused(sc, tmp_path):
     """8 consumer GPS images (no accuracy tags: σ 5 m, 10 m vertically) over ~70 m: the tilt is not determined
-    (±5.6°); refused naming --crs rather than aligned. The bench's 16 images are aligned with a warning."""
+    (±8.0°; 5.6° before the precision was taken about the centroid); refused naming --crs rather than aligned. The
+    bench's 16 images are aligned with a warning."""
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
     with pytest.raises(InputError, match="determines its tilt only to .*model_aligner.*--crs"):
         _read(folder, sc["consumer"])
@@ -238,6 +269,18 @@ def test_colmap_own_frame_leaves_out_one_bad_gps_fix(sc, tmp_path):
     block = _read(folder, imgs)
     assert f"{imgs[3].stem}'s GPS left out" in block.frame_reading
     _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
+
+
+def test_colmap_own_frame_with_images_without_gps_altitude_is_refused(sc, tmp_path):
+    """lat/lon without an altitude: main read the altitude as 0 (images_gps) and put the cameras at Z ≈ 0."""
+    from fotogeo.io.sfm_frame import images_gps
+    folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))}, transform=sp.arbitrary_transform)
+    imgs = [sp.without_altitude(p, tmp_path / "noalt" / p.name) for p in sc["rtk"]]
+    gps = images_gps(imgs)
+    assert len(gps) == len(imgs) and all(g.alt is None and g.height_reference is None for g in gps.values())
+    with pytest.raises(InputError, match=f"{len(imgs)} of its {len(imgs)} images with GPS carry latitude and "
+                                         f"longitude but no GPS altitude .*model_aligner.*--crs"):
+        _read(folder, imgs)
 
 
 def test_colmap_own_frame_with_two_gps_images_is_refused(sc, tmp_path):

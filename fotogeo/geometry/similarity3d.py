@@ -9,9 +9,12 @@ precision and the residual test, not the closed form.
 
 :func:`similarity_precision` linearises ``y_i = s·Q·exp([ω]×)·x_i·(1 + δ) + t`` in the seven unknowns
 ``(δ, ω, t)`` with per-axis σ, ``N = Σ J_iᵀ W_i J_i`` and ``Cov = N⁻¹``: from it the σ of any aligned point and the
-tilt (rotation about the horizontal axes). The similarity is ill-determined when the points lie near a line (the
-rotation about it is free): the ratio of the second to the first singular value of the centred source points
-measures it (:func:`line_ratio`).
+tilt (rotation about the horizontal axes). ``x`` is taken about its weighted centroid ``x̄`` (``t`` then the aligned
+centroid): linearised about a far origin (map coordinates ~1e5 m) the rotation and the translation are nearly
+collinear columns of ``J`` and ``N`` loses the tilt's precision to rounding (the tilt σ of a corridor came out 20 x
+too small). The similarity is ill-determined when the points lie on a line (the rotation about it is free, ``N``
+singular): the condition number of ``N`` scaled to a unit diagonal (:attr:`Precision.condition`) says it, and the
+covariance of a nearly singular ``N`` states the large σ it implies (no pseudo-inverse hides the free direction).
 
 :func:`robust_similarity` fits all points and, when their normalised residuals fail the χ² test and there are
 enough points, leaves out the one point whose leave-one-out residual is largest (one blunder, e.g. one bad GPS
@@ -28,6 +31,9 @@ from .camera import nearest_rotation
 
 #: χ² per degree of freedom above which the residuals do not agree with the σ given (3σ RMS)
 CHI2_DOF_MAX = 9.0
+#: condition number of the scaled normal matrix beyond which the points are taken as a line (double precision
+#: keeps ~16 digits; at 1e12 the covariance has lost all but ~4 of them)
+MAX_CONDITION = 1e12
 
 
 @dataclass(frozen=True)
@@ -60,13 +66,6 @@ def fit_similarity(x, y, weights=None) -> Similarity3D:
     return Similarity3D(s, Q, my - s * Q @ mx)
 
 
-def line_ratio(x) -> float:
-    """Second over first singular value of the centred points ``x``: 0 on a line, 1 spread evenly."""
-    d = np.asarray(x, np.float64) - np.mean(x, axis=0)
-    sv = np.linalg.svd(d, compute_uv=False)
-    return float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
-
-
 def _skew(v) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
@@ -90,24 +89,35 @@ class Precision:
     horizontal: float
     vertical: float
     tilt_deg: float
+    condition: float = 1.0  # of N scaled to a unit diagonal: > MAX_CONDITION, the points lie on a line
 
 
 def similarity_precision(sim: Similarity3D, x, sigma, at=None, chi2_dof: float = 1.0) -> Precision:
     """The precision of ``sim`` fitted to ``x`` (``(N, 3)``) with per-axis σ ``sigma`` ``(N, 3)`` (module
     docstring), at the points ``at`` [``x``]; the covariance is scaled by ``chi2_dof`` when above 1 (residuals
     larger than the σ given: the a-posteriori variance factor), never shrunk."""
-    J = _jacobian(sim, x)
     W = 1.0 / np.asarray(sigma, np.float64) ** 2
+    x = np.asarray(x, np.float64)
+    w = np.mean(W, axis=1)
+    c = w @ x / np.sum(w)  # the weighted centroid: N about it keeps its digits (module docstring)
+    J = _jacobian(sim, x - c)
     N = np.einsum("nai,na,naj->ij", J, W, J)
-    cov = np.linalg.pinv(N) * max(1.0, float(chi2_dof))
-    Ja = _jacobian(sim, x if at is None else at)
+    d = np.sqrt(np.diag(N))
+    if not np.all(d > 0):
+        return Precision(np.inf, np.inf, np.inf, np.inf)
+    ev = np.linalg.eigvalsh(N / np.outer(d, d))
+    cond = float(ev[-1] / ev[0]) if ev[0] > 0 else np.inf
+    if not cond <= MAX_CONDITION:
+        return Precision(np.inf, np.inf, np.inf, cond)
+    cov = np.linalg.inv(N) * max(1.0, float(chi2_dof))
+    Ja = _jacobian(sim, (x if at is None else np.asarray(at, np.float64)) - c)
     C = np.einsum("nai,ij,nbj->nab", Ja, cov, Ja)
     h = float(np.sqrt(np.mean(C[:, 0, 0] + C[:, 1, 1])))
     v = float(np.sqrt(np.mean(C[:, 2, 2])))
     # ω is the rotation in the source frame: its horizontal part in the target frame is Q·ω's x, y
     Qc = sim.rotation @ cov[1:4, 1:4] @ sim.rotation.T
     tilt = float(np.degrees(np.sqrt(Qc[0, 0] + Qc[1, 1])))
-    return Precision(h, v, tilt)
+    return Precision(h, v, tilt, cond)
 
 
 @dataclass(frozen=True)

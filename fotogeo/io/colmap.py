@@ -245,8 +245,8 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None, gps
     cf, imf = _model_file(folder, "cameras"), _model_file(folder, "images")
     cams = read_colmap_cameras(cf) if cf.suffix == ".txt" else read_colmap_cameras_bin(cf)
     images = read_colmap_images(imf) if imf.suffix == ".txt" else read_colmap_images_bin(imf)
-    images, frame, aligned = _in_map(images, map_crs, f"COLMAP model {str(folder)!r}", gps)
-    height_reference = "ellipsoid" if frame == "ecef" else None if frame == "gps" else height_reference
+    images, frame, aligned, ref = _in_map(images, map_crs, f"COLMAP model {str(folder)!r}", gps)
+    height_reference = ref if frame in ("ecef", "gps") else height_reference
     shots = {}
     for name, cid, C, R in images:
         key = frame_key(name)
@@ -269,18 +269,19 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None, gps
 
 
 def _in_map(images: list, map_crs, where: str, gps=None) -> tuple:
-    """``(images with centres and rotations in map_crs, "map" | "ecef" | "gps", sentence)`` (module docstring: ECEF
-    detected; coordinates outside the CRS's area of use aligned to the images' ``gps`` or refused)."""
+    """``(images with centres and rotations in map_crs, "map" | "ecef" | "gps", sentence, height reference)``
+    (module docstring: ECEF detected — ellipsoidal heights; coordinates outside the CRS's area of use aligned to the
+    images' ``gps`` — their altitudes' common reference, None when unknown — or refused)."""
     from ..crs import outside_area_of_use
     C = np.array([c for _, _, c, _ in images], float)
     if not outside_area_of_use(map_crs, C[:, :2], 1.0).any():  # widened by 1°: a block may overhang a zone
-        return images, "map", ""
+        return images, "map", "", None
     r = np.linalg.norm(C, axis=1)
     if not np.all((r > ECEF_BAND[0]) & (r < ECEF_BAND[1])):
         from .colmap_align import MIN_IMAGES, align_to_gps
         aligned = align_to_gps(images, gps, map_crs, where) if gps else None
         if aligned is not None:
-            return aligned[0], "gps", aligned[1]
+            return aligned[0], "gps", *aligned[1:]
         e = np.median(C, axis=0)
         raise InputError(f"{where}: its camera centres (around {e[0]:.6g}, {e[1]:.6g}, {e[2]:.6g}) are not in "
                          f"{map_crs.name} (outside its area of use) nor in ECEF; the model is in COLMAP's own frame or "
@@ -289,7 +290,7 @@ def _in_map(images: list, map_crs, where: str, gps=None) -> tuple:
     from ..geometry.local_frames import ecef_to_map
     xyz, M = ecef_to_map(C, map_crs)
     out = [(n, cid, p, R @ m.T) for (n, cid, _, R), p, m in zip(images, xyz, M)]
-    return out, "ecef", ""
+    return out, "ecef", "", "ellipsoid"
 
 
 def _colmap_ids(block: ApproximateBlock) -> dict:

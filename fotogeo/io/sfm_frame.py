@@ -17,8 +17,8 @@ this order:
 3. the shots' ``gps_position`` read as topocentric, with their ``gps_dop`` as σ.
 
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
-chosen when it fits (``χ²/(2n) ≤ 9``, RMS within 3σ) and the other fits worse by ``Δχ² ≥ 25`` (a 5σ
-separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
+chosen when it fits (``χ²/(2n) ≤`` :data:`~fotogeo.geometry.similarity3d.CHI2_DOF_MAX` = 9, RMS within 3σ)
+and the other fits worse by ``Δχ² ≥ 25`` (a 5σ separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
 topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor
 ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within
 :data:`SAME_M` (horizontally) and :data:`SAME_DEG` of each other the choice is immaterial (topocentric is taken
@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..geometry.similarity3d import CHI2_DOF_MAX
 
 #: σ (m) of a consumer receiver's horizontal GPS position, when the image carries no accuracy tag
 DEFAULT_SIGMA_H = 5.0
@@ -53,33 +54,38 @@ _WHAT = {"topocentric": "OpenSfM's topocentric frame", "grid": "ODM's offsets al
 
 @dataclass(frozen=True)
 class GpsFix:
-    """An image's own GPS: lon, lat (degrees), altitude (m) and the σ of its horizontal position (m)."""
+    """An image's own GPS: lon, lat (degrees), altitude (m; None when the image carries none — never taken as 0),
+    the σ of its horizontal position (m) and the altitude's vertical reference when the vendor documents it
+    (:func:`fotogeo.io.exif_block.height_reference`)."""
 
     lon: float
     lat: float
-    alt: float
+    alt: float | None
     sigma_h: float
     tagged: bool  # the σ comes from the image's accuracy tags (else DEFAULT_SIGMA_H)
     sigma_v: float | None = None  # σ of the altitude (m) from the accuracy tags, when they state it
+    height_reference: str | None = None  # "ellipsoid" / "geoid" / None (unknown)
 
 
 def images_gps(paths) -> dict:
     """``{frame key: GpsFix}`` of the images in ``paths`` that carry an EXIF/XMP GPS position."""
     from .block import frame_key
     from .exif import read_image_metadata
-    from .exif_block import position_sigmas
+    from .exif_block import height_reference, position_sigmas
     out = {}
     for p in paths or ():
         m = read_image_metadata(str(p))
         if m.lon is None or m.lat is None:
             continue
         sh, sv = position_sigmas(m)
-        out[frame_key(p)] = GpsFix(float(m.lon), float(m.lat), float(m.altitude or 0.0),
-                                   float(sh) if sh else DEFAULT_SIGMA_H, bool(sh), float(sv) if sv else None)
+        alt = float(m.altitude) if m.altitude is not None else None
+        out[frame_key(p)] = GpsFix(float(m.lon), float(m.lat), alt, float(sh) if sh else DEFAULT_SIGMA_H, bool(sh),
+                                   float(sv) if sv else None, height_reference(m)[0] if alt is not None else None)
     return out
 
 
-def _map_xy(crs, lon, lat) -> np.ndarray:
+def map_xy(crs, lon, lat) -> np.ndarray:
+    """``(N, 2)`` map coordinates in ``crs`` of WGS 84 ``lon``, ``lat`` (degrees)."""
     from ..crs import transform_points
     return transform_points("EPSG:4326", crs, np.column_stack([np.asarray(lon, float), np.asarray(lat, float)]))
 
@@ -113,14 +119,14 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
         return None, f"none of the images with {source} is a shot of the reconstruction"
     xyz = np.array([local[n] for n in names], float)
     ev = np.array([gps[n] for n in names], float)
-    want, sigma = _map_xy(crs, ev[:, 0], ev[:, 1]), ev[:, 2]
+    want, sigma = map_xy(crs, ev[:, 0], ev[:, 1]), ev[:, 2]
     res = {k: LocalFrame(k, ref, crs, *(grid or ())).to_map(xyz)[0][:, :2] - want for k in READINGS}
     chi = {k: _chi2(r, sigma) for k, r in res.items()}
     best = min(chi, key=chi.get)
     other = READINGS[1 - READINGS.index(best)]
     said = (f"{source} ({len(names)} image(s), σ {np.median(sigma):.3g} m): {_rms(res[best]):.3f} m RMS "
             f"horizontally as {best}, {_rms(res[other]):.3f} m as {other}")
-    if chi[best] / (2 * len(names)) > 9.0:
+    if chi[best] / (2 * len(names)) > CHI2_DOF_MAX:
         return None, f"neither reading fits the {said}"
     if chi[other] - chi[best] < 25.0:
         return None, f"the {said}: too close to tell"
@@ -134,7 +140,7 @@ def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
     if not names or block.crs is None:
         return ""
     pos = np.array([block.shots[n].position[:2] for n in names], float)
-    want = _map_xy(block.crs, [gps[n].lon for n in names], [gps[n].lat for n in names])
+    want = map_xy(block.crs, [gps[n].lon for n in names], [gps[n].lat for n in names])
     sigma = np.array([max(gps[n].sigma_h, TAG_SIGMA) for n in names])
     off = np.linalg.norm(pos - want, axis=1)
     rms, s = _rms(pos - want), float(np.sqrt(np.mean(sigma ** 2)))

@@ -25,52 +25,85 @@ def check_camera_size(camera, width: int, height: int, image, source: str = "") 
     cw, ch = (int(v) for v in camera.image_size)
     if (cw, ch) == (int(width), int(height)):
         return
-    of, fix = ((f" of {source}", " (resized after the reconstruction? only an exact reduction by a whole number "
-                "or an exact enlargement of both sides is scaled; other sizes may be crops); give the images it "
-                "was made from, or --camera with this size's focal length and principal point") if source else
+    of, fix = ((f" of {source}", " (resized after the reconstruction? only an enlargement, a reduction by a "
+                "whole number or to a long side of 512, 1024, 2048, 4096 or 8192 px is scaled; other sizes may be "
+                "crops); give the images it was made from, or --camera with this size's focal length and principal "
+                "point") if source else
                ("", "; give the camera file of this image (or scale its image size and principal point)"))
     raise InputError(f"the camera{of} is for images of {cw}x{ch} pixels but {str(image)!r} is {width}x{height}{fix}")
 
 
 #: the largest factor between the size an SfM project's camera was made for and the image's that is scaled
 MAX_RESIZE = 16
+#: long sides (px) that resizing tools reduce images to: powers of two, ODM's ``--resize-to`` and WebODM's
+#: upload resize default (2048) among them
+RESIZE_LONG_SIDES = (512, 1024, 2048, 4096, 8192)
+
+
+def _resize_of(big, small) -> str | None:
+    """How ``small`` ``(long, short)`` is a resize of ``big``, or None: its short side within 1 px of the long
+    side's factor (every resize writes whole pixels: ODM ``int(w·r)``, OpenCV ``round``) and either a whole
+    fraction ``1/k`` (each side within 1 px of ``big/k``) or a long side of :data:`RESIZE_LONG_SIDES`."""
+    if abs(small[1] - big[1] * small[0] / big[0]) >= 1.0 or big[0] > MAX_RESIZE * small[0]:
+        return None
+    k = round(big[0] / small[0])
+    if k > 1 and all(abs(a / k - b) < 1.0 for a, b in zip(big, small)):
+        return f"1/{k}"
+    return f"a long side of {small[0]} px" if small[0] in RESIZE_LONG_SIDES else None
 
 
 def resize_factor(camera_size, width: int, height: int):
-    """The exact factor ``s`` (a :class:`~fractions.Fraction`) by which an image of ``camera_size`` became
-    ``width`` x ``height``, or None: ``s`` the same on both sides, and either an enlargement (``1 < s ≤``
-    :data:`MAX_RESIZE`: the reconstruction was made on reduced copies; a crop cannot enlarge) or a reduction by a
-    whole number (``s = 1/k``, ``k ≤`` :data:`MAX_RESIZE`). Another reduction (``s = 15/16``) is also what a crop of
-    the same aspect gives, which the sizes cannot tell from a resize: None."""
+    """``(sx, sy, how)``: the per-axis factors by which an image of ``camera_size`` became ``width`` x ``height``
+    in a resize, and how it is read, or None. A resize maps the image's corners to corners, each side to a whole
+    number of pixels: ``sx = width/w0``, ``sy = height/h0``, which differ by less than a pixel over the short side.
+    Read as a resize, the smaller of the two sizes being the larger resized (:func:`_resize_of`):
+
+    * a reduction by a whole number ``k ≤`` :data:`MAX_RESIZE` (each side within 1 px of ``w0/k``, ``h0/k``), or to a
+      long side of :data:`RESIZE_LONG_SIDES` (ODM's 2048: 5472x3648 -> 2048x1365);
+    * an enlargement, the camera's size being such a resize of the image's (the reconstruction was made on reduced
+      copies: 2048x1365 -> 5472x3648), or one exact factor on both sides (``1 < s ≤`` :data:`MAX_RESIZE`).
+
+    An aspect change is not a resize. Any other reduction (``15/16``: 640x480 -> 600x450) is what a crop of the same
+    aspect also gives: None. The sizes cannot tell a crop to a whole fraction or to a long side of
+    :data:`RESIZE_LONG_SIDES` (keeping the aspect to 1 px) from a resize: those are taken as the resizes they
+    usually are."""
     from fractions import Fraction
     w0, h0 = (int(v) for v in camera_size)
-    s = Fraction(int(width), w0)
-    if Fraction(int(height), h0) != s or s == 1:
+    w, h = int(width), int(height)
+    if min(w, h, w0, h0) <= 0:
         return None
-    if 1 < s <= MAX_RESIZE or (s.numerator == 1 and s.denominator <= MAX_RESIZE):
-        return s
+    cam, img = ((w0, h0), (w, h)) if w0 >= h0 else ((h0, w0), (h, w))  # (long, short)
+    sx, sy = w / w0, h / h0
+    if img[0] > cam[0] and img[1] >= cam[1]:
+        how = _resize_of(img, cam)
+        exact = Fraction(w, w0) == Fraction(h, h0) and sx <= MAX_RESIZE
+        return (sx, sy, f"enlarged by {sx:.6g} x {sy:.6g}") if how or exact else None
+    if img[0] < cam[0] and (how := _resize_of(cam, img)):
+        exact = "exactly " if how.startswith("1/") and w0 == w * int(how[2:]) and h0 == h * int(how[2:]) else ""
+        return sx, sy, f"reduced {'by ' + exact if how.startswith('1/') else 'to '}{how}"
     return None
 
 
 def camera_for_image(camera, width: int, height: int, image, source: str) -> tuple:
     """``(camera, note)``: the camera of the SfM project ``source`` for an image of ``width`` x ``height``.
 
-    When the image was resized after the reconstruction by an exact factor ``s`` (:func:`resize_factor`), the
+    When the image was resized after the reconstruction (:func:`resize_factor`: per axis ``sx``, ``sy``), the
     interior orientation is scaled as ODM's own resize does (``opendm/osfm.py``): a resize maps the image's corner to
-    corner, so in the corner convention every pixel coordinate, the principal point and the focal length in pixels
-    take the factor ``s``, and Brown's distortion, acting on ``(x/z, y/z)``, is unchanged; the sensor size is kept,
-    so ``f_px = f·w/sensor_w`` follows the new width. Any other size (a crop, an aspect change) is refused by
+    corner, so in the corner convention every pixel coordinate and the principal point take ``(sx, sy)``; Brown's
+    distortion, acting on ``(x/z, y/z)``, is unchanged; the sensor size is kept, so ``fx = f·w/sensor_w`` and
+    ``fy = f·h/sensor_h`` follow the new width and height. Any other size (a crop, an aspect change) is refused by
     :func:`check_camera_size`."""
     from dataclasses import replace
-    s = resize_factor(camera.image_size, width, height) if source else None
-    if s is None:
+    r = resize_factor(camera.image_size, width, height) if source else None
+    if r is None:
         check_camera_size(camera, width, height, image, source)
         return camera, ""
+    sx, sy, how = r
     w0, h0 = (int(v) for v in camera.image_size)
-    pp = tuple(float(v) * float(s) for v in camera.principal_point)
+    pp = (float(camera.principal_point[0]) * sx, float(camera.principal_point[1]) * sy)
     note = (f"the camera of {source} is for {w0}x{h0} images; {str(image)!r} (and any image of its size) is "
-            f"{width}x{height}, the same image {'enlarged' if s > 1 else 'reduced'} by exactly {s}: the interior "
-            f"orientation is scaled by {float(s):.6g}")
+            f"{width}x{height}, the same image {how}: the interior orientation is scaled by {sx:.6g} across, "
+            f"{sy:.6g} down")
     return replace(camera, image_size=(int(width), int(height)), principal_point=pp), note
 
 
