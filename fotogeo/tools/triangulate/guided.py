@@ -52,13 +52,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 
 from ...errors import FotogeoError
 from ...geometry.camera import OrientedFrame, angles_patb, nearest_rotation
-from ...geometry.dem import as_height_source
+from ...geometry.dem import below
 from ...progress import as_progress
 from .ground import block_grid, footprint, grid_to_pixels, ground_features
 from .pairs import MIN_PAIR_INLIERS, epipolar_kept, grey
@@ -369,20 +368,9 @@ def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height,
         d.append(camera.rays(undistort(xy_f)))
         other = OrientedFrame(camera, eos[g])
         ground = (other.pixel_to_world_at(undistort(xy_g), height) if terrain is None else
-                  other.pixel_to_world(undistort(xy_g), _below(terrain, eos[g].Z)))
+                  other.pixel_to_world(undistort(xy_g), below(terrain, eos[g].Z)))
         u.append(ground - eos[f].centre)
     return np.vstack(d), np.vstack(u)
-
-
-def _below(terrain, z: float):
-    """``terrain``, or, where it rises to the height ``z`` of the known frame's centre somewhere (a regional DEM
-    with hills higher than a drone block 100 m over a valley: :meth:`~fotogeo.geometry.camera.OrientedFrame.
-    pixel_to_world` refuses a search bracket reaching the centre), its heights without their range: the rays
-    are then intersected below the centre only, as for a sampler of unknown relief."""
-    src = as_height_source(terrain)
-    if not hasattr(src, "z_range") or src.z_range[1] < z:
-        return src
-    return SimpleNamespace(heights_and_gradient=src.heights_and_gradient)
 
 
 def _rotation_to(d, u, rounds: int = 2):
