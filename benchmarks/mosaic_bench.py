@@ -16,6 +16,11 @@ workers included) is sampled every 0.1 s (``tree_peak_mb``):
 
 The grids show what grows with the number of orthophotos (2 x 2 = 4 against 12 x 12 = 144 on the same mosaic).
 Writes benchmarks/results/mosaic_bench.json and prints a table.
+
+``--nodata-inputs FILE...`` instead times, in this process (CPU s, ``time.process_time``), the count of the values
+the mosaic's nodata must avoid (:func:`fotogeo.tools.ortho.mosaic_nodata.values_used`) on each file beside one plain
+read of it, for the fotogeo on ``PYTHONPATH`` (run it with cwd outside any checkout to compare trees); adds one row
+per tree and file to benchmarks/results/mosaic_nodata_bench.json.
 """
 from __future__ import annotations
 
@@ -136,13 +141,41 @@ def table(res) -> str:
     return "\n".join(lines)
 
 
+def run_nodata(paths) -> list:
+    """CPU s of ``values_used`` and of one plain read on each of ``paths`` (``--nodata-inputs``)."""
+    import fotogeo
+    from fotogeo.io.raster import ropen
+    from fotogeo.tools.ortho.mosaic_nodata import values_used
+    rows = []
+    for p in paths:
+        t = time.process_time()
+        with ropen(p) as ds:
+            shape, dtype = ds.read().shape, ds.dtypes[0]
+        plain = time.process_time() - t
+        t = time.process_time()
+        used = values_used([p], np.dtype(dtype))
+        rows.append({"tree": str(Path(fotogeo.__file__).parents[1]), "file": str(p), "shape": list(shape),
+                     "dtype": dtype, "plain_read_cpu_s": round(plain, 3),
+                     "values_used_cpu_s": round(time.process_time() - t, 3), "values_used": int(used.sum())})
+        print(rows[-1])
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--size", type=int, default=20000)
     ap.add_argument("--grids", type=int, nargs="+", default=[2, 12])
     ap.add_argument("--overlap", type=int, default=600)
     ap.add_argument("--workers", type=int, nargs="*", default=[1, 2])
+    ap.add_argument("--nodata-inputs", nargs="+", default=None)
     a = ap.parse_args(argv)
+    if a.nodata_inputs:
+        out = OUT.with_name("mosaic_nodata_bench.json")
+        old = json.loads(out.read_text()) if out.exists() else []
+        new = run_nodata(a.nodata_inputs)
+        keep = [r for r in old if (r["tree"], r["file"]) not in {(n["tree"], n["file"]) for n in new}]
+        out.write_text(json.dumps(keep + new, indent=1))
+        return
     rng = np.random.default_rng(0)
     res = {"size": a.size, "overlap": a.overlap, "cpus": len(os.sched_getaffinity(0)),
            "load_before": os.getloadavg()[0], "grids": []}

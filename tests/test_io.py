@@ -328,3 +328,11 @@ def test_outside_area_of_use_widens_wraps_and_refuses_what_does_not_transform():
         [False, True, True]
     assert outside_area_of_use(CRS.from_epsg(3832), [[170.0, 0.0], [-170.0, 0.0], [0.0, 0.0]],
                                lonlat=True).tolist() == [False, False, True]
+
+
+def test_the_output_checks_keep_their_public_names_in_fotogeo_io_raster():
+    """Review of s19: ``fotogeo.io.raster.check_output`` (docs/reference/api.md) moved to
+    :mod:`fotogeo.io.output_checks` without a re-export (int19 622ee5c: ImportError)."""
+    from fotogeo.io import output_checks, raster
+    for name in ("check_output", "check_outputs", "check_grid", "check_space", "grid_bytes", "GEOTIFF_SUFFIXES"):
+        assert getattr(raster, name) is getattr(output_checks, name), name

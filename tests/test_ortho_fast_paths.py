@@ -96,10 +96,11 @@ def test_overviews_built_before_closing_equal_those_of_the_reopened_file(tmp_pat
 
 
 @pytest.mark.parametrize("shape, factors", [((1030, 1100), [2, 4]), ((2066, 2080), [2, 4, 8]),
-                                            ((783, 1397), [2]), ((511, 4000), [])])
+                                            ((783, 1397), [2]), ((511, 4000), [2]), ((60000, 448), [2, 4, 8, 16, 32])])
 def test_overview_ladder_stops_where_the_level_is_256_px_on_its_short_side(tmp_path, shape, factors):
     """orthority's ladder (docs/benchmarks/products.md): on main the levels went on down to 128 px ([2, 4, 8] for
-    1030 x 1100, [2, 4] for 783 x 1397, [2] for 511 x 4000)."""
+    1030 x 1100, [2, 4] for 783 x 1397, [2] for 511 x 4000). Outputs over 4:1 keep levels while the long side keeps
+    1024 px: a 448 x 60000 corridor got none on int19 622ee5c (its short side is under 512 px), 511 x 4000 none."""
     h, w = shape
     with rasterio.open(tmp_path / "o.tif", "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8",
                        tiled=True, blockxsize=256, blockysize=256) as ds:

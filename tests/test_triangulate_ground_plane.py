@@ -230,3 +230,32 @@ def test_the_pairs_of_a_measured_level_frame_are_matched_on_the_ground_plane(mon
     assert seen["pairs"] == [(0, 2), (1, 2)] and seen["known"] == [True, True, True, False] and seen["eos"] == new
     assert out[0] is found[0] and out[3] is None and len(out[1][1]) == len(out[2][1]) == 50
     assert [r["pair"] for r in tried] == [[0, 2], [1, 2]]
+
+
+def test_a_hill_higher_than_the_cameras_outside_the_block_does_not_refuse_the_level_pass():
+    """Review of s19: the level pass gave the whole DEM to ``pixel_to_world``, whose search bracket is the DEM's
+    height range; a regional DEM with one hill 2 km away higher than the drone (150 m, cameras at 80 m) refused the
+    block ("the DEM reaches 151.8, above the projection centre"; int19 622ee5c raised ModelError here). The rays of
+    a frame the DEM rises above somewhere are intersected below its centre: the level frame is measured on the DEM
+    as without the hill."""
+    from affine import Affine
+
+    from fotogeo.geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame
+    from fotogeo.geometry.dem import Dem
+    from rendered_oblique import angle_error
+    cam = FrameCamera(520.0, (640.0, 480.0), (640, 480), (320.0, 240.0))
+    known = ExteriorOrientation(0.0, 0.0, 80.0, 0.0, -30.0, -90.0)
+    truth = ExteriorOrientation(46.0, 46.0, 80.0, -30.0, 0.0, 180.0)
+    level = ExteriorOrientation(46.0, 46.0, 80.0, 0.0, 0.0, 190.0)
+    X, Y = np.meshgrid(np.arange(-200, 2200, 2.0) + 1.0, np.arange(300, -300, -2.0) - 1.0)
+    relief = 12.0 * np.sin(X / 25.0) + 10.0 * np.cos(Y / 20.0)
+    hill = 150.0 * np.exp(-((X - 2000.0) ** 2 + Y ** 2) / 200.0 ** 2)
+    grid = Affine(2.0, 0, -200, 0, -2.0, 300)
+    rng = np.random.default_rng(3)
+    p0 = rng.uniform(0, cam.image_size, (1500, 2))
+    xyz = OrientedFrame(cam, known).pixel_to_world(p0, Dem(relief, grid))
+    p1 = OrientedFrame(cam, truth).world_to_pixel(xyz)
+    seen = np.all((p1 >= 0) & (p1 < cam.image_size), axis=1) & np.isfinite(xyz).all(axis=1)
+    args = (cam, None, [known, level], [(0, 1)], [(0, p0[seen], p1[seen])], [True, False], 0.0)
+    eos, measured = guided.measured_attitudes(*args, terrain=Dem(relief + hill, grid))
+    assert measured == [False, True] and angle_error(eos[1], truth) < 0.1, angle_error(eos[1], truth)

@@ -217,6 +217,17 @@ def as_height_source(dem) -> HeightSource:
     return _Sampled(f)
 
 
+def below(heights, z: float) -> HeightSource:
+    """``heights`` as a :class:`HeightSource`, without its ``z_range`` when that reaches the height ``z`` of a
+    projection centre: :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world` then intersects the rays
+    below the centre only (as for a sampler of unknown relief) instead of refusing the whole DEM because one hill
+    somewhere — a regional DEM around a drone block 100 m over a valley — rises above the camera."""
+    src = as_height_source(heights)
+    if not hasattr(src, "z_range") or src.z_range[1] < z:
+        return src
+    return _Unbounded(src)
+
+
 @dataclass(frozen=True)
 class _Constant:
     z: float
@@ -242,6 +253,15 @@ class _Sampled:
         gx = (np.asarray(self.f(XY + [e, 0])) - np.asarray(self.f(XY - [e, 0]))).reshape(-1) / (2 * e)
         gy = (np.asarray(self.f(XY + [0, e])) - np.asarray(self.f(XY - [0, e]))).reshape(-1) / (2 * e)
         return h, gx, gy
+
+
+@dataclass(frozen=True)
+class _Unbounded:
+    """A height source hiding the ``z_range`` of ``source`` (:func:`below`)."""
+    source: object
+
+    def heights_and_gradient(self, XY):
+        return self.source.heights_and_gradient(XY)
 
 
 class DemSampler:

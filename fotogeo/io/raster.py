@@ -1,7 +1,7 @@
 """Raster input checks and reads, and atomic outputs (temporary file renamed when complete).
 
 The checks of an output before any work (its name, folder, free space, grid size) are in
-:mod:`fotogeo.io.output_checks`."""
+:mod:`fotogeo.io.output_checks`; the names they had here (``check_output`` is documented public API) are kept."""
 from __future__ import annotations
 
 import contextlib
@@ -20,6 +20,8 @@ from rasterio.windows import Window
 
 from ..errors import InputError, OutputError, RasterError, one_line
 from ..geometry.dem import Dem
+from .output_checks import (GEOTIFF_SUFFIXES, check_grid, check_output, check_outputs,  # noqa: F401 (kept names)
+                            check_space, grid_bytes)
 
 
 @contextlib.contextmanager

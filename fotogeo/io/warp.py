@@ -392,9 +392,9 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
 
 
 def add_overviews(dst, width: int, height: int, resampling: str) -> None:
-    """Internal overviews of an open (``w`` or ``r+``) GeoTIFF, nearest for nearest-neighbour outputs, else average:
-    factors 2..64 while the level keeps ≥ :data:`OVERVIEW_MIN` px on its short side."""
-    factors = [f for f in (2, 4, 8, 16, 32, 64) if min(width, height) / f >= OVERVIEW_MIN]
+    """Internal overviews (nearest for nearest-neighbour outputs, else average) of an open GeoTIFF: factors 2..64 while
+    the level keeps ≥ :data:`OVERVIEW_MIN` px on its short side (orthority's) or 4× that on its long side (over 4:1)."""
+    factors = [f for f in (2, 4, 8, 16, 32, 64) if max(min(width, height), max(width, height) / 4) / f >= OVERVIEW_MIN]
     if factors:
         dst.build_overviews(factors, Resampling.nearest if resampling == "nearest" else Resampling.average)
         dst.update_tags(ns="rio_overview", resampling=resampling)

@@ -275,7 +275,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
     origins = tuple((p.r0, p.c0) for p in patches)
     del patches  # the blending needs the signed distances only
     width_m = feather if feather is not None else max(16 * abs(transform.a), 2 * abs(t.a))
-    nodata, why = output_nodata(read, infos)
+    nodata, why = output_nodata(read, infos, prog.stage(0.35, 0.4, "choosing the nodata value"))
     profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
                               transform=transform, nodata=nodata)
     blend = Blend(transform, gains, offsets, signed, origins, f, width_m, first.dtype, nodata,

@@ -57,6 +57,7 @@ import numpy as np
 
 from ...errors import FotogeoError
 from ...geometry.camera import OrientedFrame, angles_patb, nearest_rotation
+from ...geometry.dem import below
 from ...progress import as_progress
 from .ground import block_grid, footprint, grid_to_pixels, ground_features
 from .pairs import MIN_PAIR_INLIERS, epipolar_kept, grey
@@ -367,7 +368,7 @@ def _rays_and_directions(camera, undistort, eos, pairs, found, known, f, height,
         d.append(camera.rays(undistort(xy_f)))
         other = OrientedFrame(camera, eos[g])
         ground = (other.pixel_to_world_at(undistort(xy_g), height) if terrain is None else
-                  other.pixel_to_world(undistort(xy_g), terrain))
+                  other.pixel_to_world(undistort(xy_g), below(terrain, eos[g].Z)))
         u.append(ground - eos[f].centre)
     return np.vstack(d), np.vstack(u)
 

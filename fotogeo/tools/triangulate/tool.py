@@ -123,15 +123,24 @@ def _matched(frames, names, cam, eos, height, start, match, prog):
     return obs, rep, tuple(eos), height
 
 
-def _measure(start, height, dem, crs):
+def _dem_source(dem, crs):
+    """The DEM ``dem`` (None: none given) as a height source in the map CRS ``crs``, read once for
+    :func:`start_height` and :func:`_measure`."""
+    if dem is None:
+        return None
+    from .ortho import terrain
+    src = terrain(dem, crs, None)
+    return None if isinstance(src, (int, float)) else src
+
+
+def _measure(start, height, source):
     """The start's ``measure`` callable (:meth:`~fotogeo.tools.triangulate.sources.BlockStart.measure`) with the
-    DEM (``terrain``) the level frames' attitudes are measured on (:func:`fotogeo.tools.triangulate.guided.
-    measured_attitudes`: on a plane, the ground points of steep oblique rays over relief are metres off)."""
+    DEM height ``source`` (:func:`_dem_source`; None: none) the level frames' attitudes are measured on
+    (:func:`fotogeo.tools.triangulate.guided.measured_attitudes`: on a plane, the ground points of steep oblique
+    rays over relief are metres off)."""
     measure = start.measure(height)
-    if measure is not None and dem is not None:
-        from .ortho import terrain
-        src = terrain(dem, crs, None)
-        measure.terrain = None if isinstance(src, (int, float)) else src
+    if measure is not None and source is not None:
+        measure.terrain = source
     return measure
 
 
@@ -207,9 +216,11 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
             obs = read_image_observations(observations)
     else:
         with prog.timed("matching"), saying_none_registered(start):
-            height = start_height(gcp, kw["dem"], map_crs, eos, cam)
+            needed = gcp is None or start.measure(0.0) is not None  # the DEM's mean height, or the level frames'
+            src = _dem_source(kw["dem"], map_crs) if needed else None
+            height = start_height(gcp, kw["dem"], map_crs, eos, cam, source=src)
             obs, matching, eos, height = _matched(
-                frames, names, cam, eos, height, _measure(start, height, kw["dem"], map_crs),
+                frames, names, cam, eos, height, _measure(start, height, src),
                 _match_options(kw["detection_level"], kw["gruber_cells"], kw["points_per_region"], kw["lsm_window"],
                                kw["scheduler"], kw["workers"]) | {"advice": _overlap_advice(eo, camera, gcp)},
                 prog.stage(0.2, 0.5, "matching the frames"))
@@ -285,16 +296,15 @@ def _control(frames, start, kw, prog):
     return frames, names, gcp, map_crs, eos, check_ids, auto, dropped
 
 
-def start_height(gcp, dem, crs, eos, camera):
+def start_height(gcp, dem, crs, eos, camera, *, source=None):
     """The terrain height for footprints and the LSM start: the mean GCP height, else the mean DEM height
     under the frames' image centres, else None (measured on the images,
-    :mod:`fotogeo.tools.triangulate.start`)."""
+    :mod:`fotogeo.tools.triangulate.start`). ``source``: the DEM already read (:func:`_dem_source`)."""
     if gcp is not None:
         return float(np.mean(gcp.ground[:, 2]))
     if dem is not None:
-        from .ortho import terrain
-        src = terrain(dem, crs, None)
-        if src is not None and not isinstance(src, (int, float)):
+        src = _dem_source(dem, crs) if source is None else source
+        if src is not None:
             xy = np.array([[e.X, e.Y] for e in eos])
             h = src.heights_and_gradient(xy)[0]
             if np.isfinite(h).any():
