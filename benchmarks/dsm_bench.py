@@ -382,19 +382,24 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
     return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
-def oblique_sets(tmp: Path, names=None) -> list:
+def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False) -> list:
     """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
     IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
     -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
     the pairs kept and the reasons of the others; then the first set's first two strips alone against the whole
-    flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height)."""
+    flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height). ``params``: more sets as
+    parameter dicts (``make_set``'s, JSON), named by their JSON; ``pair_rows``: each kept pair also alone
+    (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
+    miss the target)."""
     import re
 
     from dsm_oblique_sets import SETS, make_set
     from dsm_scenes import compare
     rows, py = [], [sys.executable, "-m", "fotogeo", "dsm"]
-    for name in names or list(SETS):
-        sc = make_set(name, tmp / name.replace(" ", "_").replace("/", ""))
+    sets = [(n, n) for n in (names if names is not None else [] if params else list(SETS))]
+    sets += [(json.dumps(p), {**p, "strips": [tuple(x) for x in p["strips"]]}) for p in params or []]
+    for name, spec in sets:
+        sc = make_set(spec, tmp / f"set{len(rows)}")
         out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
         row = {"case": f"oblique_sets {name}", "frames": len(sc["images"]), "gsd_m": sc["gsd"]}
         try:
@@ -413,8 +418,30 @@ def oblique_sets(tmp: Path, names=None) -> list:
                      "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
                      "median_m": c["median"],
                      "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"]})
+        if pair_rows:
+            rows += _pairs_alone(tmp, sc, name, r, out, py)
         if name == next(iter(SETS)):  # the whole flight vs its first two strips
             rows.append(_subset_vs_whole(tmp, sc, out, py))
+    return rows
+
+
+def _pairs_alone(tmp: Path, sc: dict, name: str, report: dict, whole: Path, py: list) -> list:
+    """Each kept pair of a set matched alone (``--pairs``) on the set's grid: RMSE, NMAD, share of cells > 3 GSD off,
+    its convergence angle and B/H from the report."""
+    from dsm_scenes import compare
+    rows = []
+    for p in (q for q in report["pairs"] if q["kept"]):
+        a, b = p["images"]
+        pairs, out = tmp / f"pair_{a}_{b}.txt", tmp / f"pair_{a}_{b}.tif"
+        pairs.write_text(f"{a} {b}\n")
+        row = {"case": f"oblique_sets {name} pair {a}-{b} alone", "convergence_deg": p["convergence_deg"],
+               "base_to_height": p["base_to_height"], "view_angle_deg": p["view_angle_deg"]}
+        row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
+                            "--crs", sc["crs"], "--pairs", str(pairs), "-o", str(out), "-q", *_grid_of(whole)],
+                           cwd=tmp))
+        c = compare(out, sc["surface"])
+        rows.append({**row, "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"], "median_m": c["median"],
+                     "over_3gsd": float((c["abs"] > 3 * sc["gsd"]).mean()), "cells": c["n"]})
     return rows
 
 
@@ -470,6 +497,9 @@ def main():
     ap.add_argument("--rounds", type=int, default=1, help="ebee: runs of each tree per resolution (median CPU)")
     ap.add_argument("--ebee-dir", help="ebee: a folder keeping the images and their orientation between runs")
     ap.add_argument("--oblique-sets", help="oblique_sets: only these SETS names, separated by ';'")
+    ap.add_argument("--oblique-params", help="oblique_sets: more sets as make_set's parameter dicts, a JSON list "
+                    "(with --oblique-params only: only these)")
+    ap.add_argument("--pair-rows", action="store_true", help="oblique_sets: each kept pair also alone vs the truth")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -488,7 +518,8 @@ def main():
                      "ebee": lambda: ebee(tmp / case, [float(r) for r in args.ebee_resolutions.split(",")],
                                           args.rounds, args.baseline_tree, args.ebee_dir),
                      "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree),
-                     "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets))}[case]()
+                     "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets),
+                                                          _params(args.oblique_params), args.pair_rows)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}
@@ -496,6 +527,10 @@ def main():
         cases = [c for c in args.cases.split(",") if (c == "oblique_sets") == (name == "dsm_oblique_bench")]
         if cases:
             _write(ROOT / "benchmarks" / "results" / f"{name}.json", cases, rows, run)
+
+
+def _params(text):
+    return json.loads(text) if text else None
 
 
 def _names(text):

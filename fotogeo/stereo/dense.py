@@ -17,6 +17,12 @@ only where:
   constant in both, they match each other perfectly at the disparity that lines up the two images' edges, and SGM's
   paths carry that disparity into the valid pixels along the edge, where it passes the left–right check (both
   directions see the same empty area): a band of consistent, wrong heights along the overlap's border;
+* the disparity lies inside the searched range ``[lo, hi]`` by at least ``RANGE_EDGE`` px: SGBM searches
+  ``numDisparities`` (a multiple of 16) from ``minDisparity``, and where the true disparity lies beyond the range
+  the cost's minimum is cut off at the range's end, a plausible disparity that the left–right check passes (both
+  directions are cut off alike). A range from sparse matches or heights can miss a pixel's disparity; the pixel
+  is then a hole, not a height at the range's end (as the coarse-to-fine band's ends in
+  :mod:`fotogeo.stereo.pyramid`);
 * the left pixel has texture: the grey values' standard deviation over its ``TEXTURE_WINDOW`` neighbourhood
   reaches ``min_texture`` levels (of the 8-bit stretch). SGM's paths carry costs from textured places into flat
   ones, where they would give a smooth, plausible and unmeasured surface; there a hole is the honest answer.
@@ -130,6 +136,10 @@ def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window:
                                  speckleRange=speckle_range, preFilterCap=PREFILTER_CAP, mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY)
 
 
+#: disparities closer than this (px) to the searched range's ends are dropped (module docstring)
+RANGE_EDGE = 1.0
+
+
 def _sgbm(matcher, left, right, dmin: int, ndisp: int) -> np.ndarray:
     """Disparities of ``left`` (float32, NaN where none); both images padded on the left so that every column
     has its full disparity range."""
@@ -233,6 +243,8 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
         back = np.take_along_axis(dr, xi, axis=1)
         vr = np.take_along_axis(valid_right, xi, axis=1)
         ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr & (texture(L) >= min_texture)
+    with np.errstate(invalid="ignore"):
+        ok &= (dl >= lo + RANGE_EDGE) & (dl <= hi - RANGE_EDGE)  # not cut off at the range's ends
     dl[~ok] = np.nan
     if half_shift:
         dl = _cancel_subpixel_error(m, L, R, dl, dmin, ndisp, lr_tolerance)
