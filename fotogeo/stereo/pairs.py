@@ -12,7 +12,9 @@ For two images with projection centres (or, for RPC images, points far along the
 A candidate pair is kept when its overlap, B/H and view angle pass the limits; then each image keeps at most
 ``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first:
 a wide base helps the heights up to B/H 0.4, views that differ make the images differ and the matching fail.
-Every pair left out carries its reason.
+Every pair left out carries its reason. Pairs the user gives (``dsm --pairs``) are all matched when they pass the
+overlap and B/H limits: the view-angle limit is a default for the automatic choice (whether views further apart
+still match depends on the scene), so a given pair above it is kept and its reason says so.
 """
 from __future__ import annotations
 
@@ -109,7 +111,7 @@ def footprints_height(footprints, i, j) -> float:
     return float(np.nanmean(f[:, 2])) if f.shape[1] > 2 else 0.0
 
 
-def _reason(p: PairChoice, lim: Limits) -> str:
+def _reason(p: PairChoice, lim: Limits, given: bool = False) -> str:
     if p.overlap < lim.min_overlap:
         return f"overlap {100 * p.overlap:.0f} % below {100 * lim.min_overlap:.0f} %"
     if p.base_height < lim.min_base_height:
@@ -117,7 +119,7 @@ def _reason(p: PairChoice, lim: Limits) -> str:
                 f"noisy (about {1 / max(p.base_height, 1e-3):.0f} x the matching error)")
     if p.base_height > lim.max_base_height:
         return f"base-to-height ratio {p.base_height:.2f} above {lim.max_base_height:g}: the views differ too much"
-    if p.view_angle > lim.max_view_angle:
+    if p.view_angle > lim.max_view_angle and not given:
         return f"the views differ by {p.view_angle:.0f} degrees (above {lim.max_view_angle:g})"
     return ""
 
@@ -129,7 +131,7 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
     cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
     out = [measure(i, j, centres, axes, footprints) for i, j in cand]
     for p in out:
-        p.reason = _reason(p, limits)
+        p.reason = _reason(p, limits, given is not None)
     ok = sorted((p for p in out if not p.reason),
                 key=lambda p: -p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / limits.max_view_angle))
     used = np.zeros(n, int)
@@ -138,6 +140,8 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
             p.reason = f"both images already have {limits.per_image} better partners"
             continue
         p.kept, p.reason = True, "kept"
+        if p.view_angle > limits.max_view_angle:  # only a given pair: the user's choice over the view limit
+            p.reason = f"kept as given (the views differ by {p.view_angle:.0f} degrees, above {limits.max_view_angle:g})"
         used[p.i] += 1
         used[p.j] += 1
     return out
