@@ -73,3 +73,22 @@ def test_images_that_keep_their_place_are_not_placeless(data_dir, tmp_path):
     assert image_rpc(tmp_path / "tags.tif").source == "GDAL RPC metadata"
     assert placeless(rpc_images([tmp_path / "tags.tif"], "auto", None)[0][0]) == ""
     assert np.isfinite(ims[0].width)
+
+
+def test_a_crop_with_its_own_moved_rpc_is_not_taken_for_one_that_lost_its_place(data_dir, tmp_path, monkeypatch):
+    """A ventoux crop without a geotransform whose _RPC.TXT is the crop's own (offsets moved by the crop's corner, as
+    ``gdal_translate -srcwin -co RPCTXT=YES`` writes) describes its pixels: it is not flagged (it was, from its size
+    alone, by review of session 19), while the product's RPC beside the same pixels still is."""
+    from fotogeo.io.rpc import read_rpc
+    from fotogeo.io.rpc_image import image_rpc
+    from fotogeo.tools.dsm.rpc_tool import _placeless as placeless, rpc_images
+    monkeypatch.setenv("GDAL_PAM_ENABLED", "NO")
+    v = data_dir / "rpc" / "ventoux"
+    for side in ("left", "right"):
+        _placeless(v / f"{side}_image.tif", tmp_path / f"{side}.tif")
+        _rpc_text(image_rpc(v / f"{side}_image.tif").rpc, tmp_path / f"{side}_RPC.TXT")
+    ims, _, _ = rpc_images([tmp_path / "left.tif", tmp_path / "right.tif"], "auto", None)
+    assert [placeless(im) for im in ims] == ["", ""]
+    _rpc_text(read_rpc(v / "left_image.geom"), tmp_path / "left_RPC.TXT")
+    ims, _, _ = rpc_images([tmp_path / "left.tif", tmp_path / "right.tif"], "auto", None)
+    assert "no geotransform" in placeless(ims[0]) and placeless(ims[1]) == ""

@@ -70,7 +70,7 @@ def _lost_offset(ims, i: int, j: int) -> str:
     for k, o in ((i, j), (j, i)):
         r, im = info[k].rpc, ims[k]
         if (info[k].product_window is not None or info[k].source == "GDAL RPC metadata"
-                or im.width > r.samp_scale or im.height > r.line_scale):
+                or im.width > r.samp_scale or im.height > r.line_scale or not _describes_whole_product(r)):
             continue
         w = info[o].product_window
         there = (f", while {ims[o].name!r} carries its place in that product (its pixel (0, 0) at ({w[1]:g}, {w[3]:g}))"
@@ -84,6 +84,15 @@ def _lost_offset(ims, i: int, j: int) -> str:
     return ""
 
 
+def _describes_whole_product(r) -> bool:
+    """Whether RPC ``r``'s offsets sit at the centre of the image its scales span (``OFF ≈ SCALE``, within 10 %,
+    as in the vendors' files: rpcm's differ by at most 7.3 %), i.e. it is a whole product's RPC; a crop's own RPC
+    (``gdal_translate -srcwin`` writing RPB/_RPC.TXT) has its offsets moved by the crop's corner (``OFF − SCALE ≈
+    −COL``) and describes the crop's pixels."""
+    return (abs(r.samp_off - r.samp_scale) <= 0.1 * r.samp_scale
+            and abs(r.line_off - r.line_scale) <= 0.1 * r.line_scale)
+
+
 def _placeless(im) -> str:
     """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): its RPC is a file's
     (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it; GDAL's own tags follow its crops), it has no
@@ -93,7 +102,8 @@ def _placeless(im) -> str:
     from ...io.rpc_image import image_rpc, sidecar_rpc_files
     info = image_rpc(im.path)
     r = info.rpc
-    if info.product_window is not None or im.width > r.samp_scale or im.height > r.line_scale:
+    if (info.product_window is not None or im.width > r.samp_scale or im.height > r.line_scale
+            or not _describes_whole_product(r)):
         return ""
     if info.source == "GDAL RPC metadata":
         files = [f for f in sidecar_rpc_files(im.path) if _same_rpc(_try_read(read_rpc, f), r)]
