@@ -88,3 +88,14 @@ def test_the_tags_as_gdal_writes_them_since_3_9_3_project_right_and_the_older_on
     assert np.isclose(old.line_off, rpc.line_off * r)
     d = old.to_model().forward(resized["llh"]) - resized["px"] / 2
     assert np.allclose(d, 0.25, atol=0.01), d
+
+
+@pytest.mark.parametrize("gt", [(0.5, 0, 10, 0, -0.5, 20), (0, 1, 0, 1, 0, 0)])
+def test_a_flipped_or_degenerate_window_is_not_called_a_resample(tmp_path, gt):
+    """A north-up world-file geotransform (e < 0) or a degenerate one (a = 0) beside RPC tags is refused as a window
+    (one line), not as a resample of '0.5 x -0.5' nor with a ZeroDivisionError (review of session 19)."""
+    from affine import Affine
+    from fotogeo.io.rpc_image import _refuse_tags_with_window
+    with pytest.raises(InputError, match=r"GDAL RPC tags and a geotransform without a CRS \(its pixel") as info:
+        _refuse_tags_with_window(tmp_path / "x.tif", Affine(*gt))
+    assert "\n" not in str(info.value)

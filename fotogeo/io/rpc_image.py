@@ -93,7 +93,7 @@ def _tags_window(image: Path):
 
 def _refuse_tags_with_window(image: Path, t) -> None:
     """Refuse GDAL RPC tags beside a CRS-less geotransform ``t`` that is not the identity (module docstring)."""
-    if (t.a, t.e) != (1.0, 1.0) and t.b == t.d == 0:
+    if t.a > 0 and t.e > 0 and (t.a, t.e) != (1.0, 1.0) and t.b == t.d == 0:
         raise InputError(_resampled_message(image, t))
     raise InputError(f"image {str(image)!r} has GDAL RPC tags and a geotransform without a CRS (its pixel (0, 0) at "
                      f"({t.c:g}, {t.f:g}) of the product): GDAL ignores that geotransform, but a cut-out that kept the "
@@ -107,10 +107,12 @@ def _resampled_message(image: Path, t) -> str:
     -outsize``/``-tr`` on a sensor image): the tags were rescaled by the GDAL that resampled it, and GDAL before
     3.9.3 rescaled the offsets as corner coordinates, ``LINE_OFF · r``, where the RPC's (0, 0) is the first pixel's
     centre, ``(LINE_OFF + ½) · r − ½`` (GDAL issue 10600, fixed by its pull request 10602): the two differ by
-    ``(1 − r) / 2`` pixels, ``r = 1 / a``; the file does not say which GDAL wrote it."""
+    ``(1 − r) / 2`` pixels, ``r = 1 / a``; the file does not say which GDAL wrote it. Only seen when the source
+    carried a CRS-less window geotransform that the resample scaled: GDAL 3.6 writes none for a sensor image
+    without one, and such a resample cannot be told from the file (read as its tags say)."""
     off = max(abs(1 - 1 / t.a), abs(1 - 1 / t.e)) / 2
     return (f"image {str(image)!r} has GDAL RPC tags and a geotransform without a CRS that resamples its pixels "
-            f"{t.a:g} x {t.e:g} (what gdal_translate -outsize or -tr leaves on a sensor image): its tags were "
+            f"{t.a:g} x {t.e:g} (what gdal_translate -outsize or -tr leaves on a cut-out carrying its window): its tags were "
             f"rescaled by the GDAL that resampled it, and GDAL before 3.9.3 rescaled LINE_OFF and SAMP_OFF from the "
             f"pixel's corner instead of its centre (GDAL issue 10600): {off:.2g} px off here, enough to shift the "
             f"heights of a stereo pair; if GDAL 3.9.3 or later resampled it, remove the geotransform (gdal_edit.py "
