@@ -57,3 +57,14 @@ def test_a_32_bit_mosaic_gets_a_nodata_value_the_data_lack(tmp_path):
     assert _nodata(tmp_path, [[-2 ** 31, 5]], "int32")[0] == 2 ** 31 - 1
     none, why = _nodata(tmp_path, [[-2 ** 31, 2 ** 31 - 1]], "int32")
     assert none is None and "both occur" in why
+
+
+def test_a_wide_type_is_read_once_for_its_candidates(tmp_path, monkeypatch):
+    """uint32 inputs: the two candidate values are looked for in one pass over the inputs (review of session 19:
+    the pass sat in the list comprehension's condition and ran once per candidate)."""
+    from fotogeo.tools.ortho import mosaic_nodata
+    calls = []
+    real = mosaic_nodata._occurring
+    monkeypatch.setattr(mosaic_nodata, "_occurring", lambda *a, **k: calls.append(1) or real(*a, **k))
+    assert _nodata(tmp_path, [[7, 70000], [9]], "uint32")[0] == 0
+    assert len(calls) == 1

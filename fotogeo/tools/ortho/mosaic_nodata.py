@@ -96,7 +96,8 @@ def output_nodata(paths, infos, progress=None) -> tuple:
     info = np.iinfo(dtype)
     first = [default_nodata(None, dtype), int(info.max)]  # one rule with fotogeo.io.warp, then the other end
     if dtype.itemsize * 8 > COUNTED_BITS:
-        free = [v for v in first if v not in _occurring(paths, first)]
+        seen = _occurring(paths, first)  # one pass over the inputs, not one per candidate
+        free = [v for v in first if v not in seen]
         return (free[0], "a value no data pixel holds") if free else \
             (None, f"a mask band (the {dtype.name} values {first[0]} and {first[1]} both occur in the data)")
     used = values_used(paths, dtype, progress=progress)
