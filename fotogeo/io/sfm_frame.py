@@ -18,7 +18,8 @@ this order:
 
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
 chosen when it fits (``χ²/(2n) ≤`` :data:`~fotogeo.geometry.similarity3d.CHI2_DOF_MAX` = 9, RMS within 3σ)
-and the other fits worse by ``Δχ² ≥ 25`` (a 5σ separation). Without such evidence, the layout decides: the file named ``reconstruction.topocentric.json`` is
+and the other fits worse by ``Δχ² ≥ 25`` (a 5σ separation). Without such evidence, the layout decides: the file
+named ``reconstruction.topocentric.json`` is
 topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor
 ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within
 :data:`SAME_M` (horizontally) and :data:`SAME_DEG` of each other the choice is immaterial (topocentric is taken

@@ -17,9 +17,9 @@ only where:
   constant in both, they match each other perfectly at the disparity that lines up the two images' edges, and SGM's
   paths carry that disparity into the valid pixels along the edge, where it passes the left–right check (both
   directions see the same empty area): a band of consistent, wrong heights along the overlap's border;
-* the disparity lies inside the searched range ``[lo, hi]`` by at least ``RANGE_EDGE`` px: SGBM searches
-  ``numDisparities`` (a multiple of 16) from ``minDisparity``, and where the true disparity lies beyond the range
-  the cost's minimum is cut off at the range's end, a plausible disparity that the left–right check passes (both
+* the disparity lies inside the requested range ``[lo, hi]`` by at least ``RANGE_EDGE`` px (callers pad it): SGBM
+  searches ``numDisparities`` (a multiple of 16) from ``minDisparity``, and where the true disparity lies beyond the
+  range the cost's minimum is cut off at the range's end, a plausible disparity that the left–right check passes (both
   directions are cut off alike). A range from sparse matches or heights can miss a pixel's disparity; the pixel
   is then a hole, not a height at the range's end (as the coarse-to-fine band's ends in
   :mod:`fotogeo.stereo.pyramid`);

@@ -141,7 +141,8 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
             continue
         p.kept, p.reason = True, "kept"
         if p.view_angle > limits.max_view_angle:  # only a given pair: the user's choice over the view limit
-            p.reason = f"kept as given (the views differ by {p.view_angle:.0f} degrees, above {limits.max_view_angle:g})"
+            p.reason = (f"kept as given (the views differ by {p.view_angle:.0f} degrees, "
+                        f"above {limits.max_view_angle:g})")
         used[p.i] += 1
         used[p.j] += 1
     return out

@@ -118,7 +118,8 @@ def free_roll(block, opts) -> str | None:
         return None
     line = ("the 2 centres make one line" if len(c) == 2 else
             f"the {len(c)} centres lie on one line within their σ ({off:.2g} m RMS from it)")
-    return (f"only the positions of the frames are held (--eo-sigma-position {sigma:g} m), and {line}: a rotation of the whole block about that line (the "
+    return (f"only the positions of the frames are held (--eo-sigma-position {sigma:g} m), and {line}: a rotation "
+            f"of the whole block about that line (the "
             f"roll about the base) moves no centre and no image point, so the adjustment cannot determine the "
             f"frames' attitude (no angle σ: the normal equations are singular). Give the attitude a prior "
             f"(--eo-sigma-angle, e.g. the INS/gimbal accuracy in degrees), a frame off that line, or ground "
