@@ -35,6 +35,21 @@ def shared_nodata(nodatas):
     return first
 
 
+def _valid_strips(paths, rows: int):
+    """``(share read, valid values)`` of each strip of ``rows`` rows of the rasters ``paths``, all bands, read
+    through fotogeo's reader (GDAL's masks: nodata, mask bands, alpha)."""
+    from rasterio.windows import Window
+
+    from ...io.raster import gdal_env, ropen
+    total = max(1, len(paths))
+    with gdal_env():
+        for done, p in enumerate(paths):
+            with ropen(p) as ds:
+                for r0 in range(0, ds.height, rows):
+                    a = ds.read(window=Window(0, r0, ds.width, min(rows, ds.height - r0)), masked=True)
+                    yield (done + min(r0 + rows, ds.height) / ds.height) / total, a.compressed()
+
+
 def values_used(paths, dtype, rows: int = 512, progress=None) -> np.ndarray:
     """Per value of the integer ``dtype`` (at most :data:`COUNTED_BITS` bits), in the order of ``value − min``,
     whether a valid pixel of any band of the rasters ``paths`` holds it (GDAL's masks: nodata, mask bands,
@@ -42,44 +57,28 @@ def values_used(paths, dtype, rows: int = 512, progress=None) -> np.ndarray:
     (``np.bincount``; a signed value ``v`` is counted at ``v − min``, its two's complement with the sign bit
     flipped, so nothing is widened); it stops as soon as every value is used. ``progress``: a
     :class:`~fotogeo.progress.Progress` told the share of rows read."""
-    from rasterio.windows import Window
-
-    from ...io.raster import gdal_env, ropen
     dtype = np.dtype(dtype)
     unsigned = np.dtype(f"u{dtype.itemsize}")
     flip = unsigned.type(1 << (8 * dtype.itemsize - 1)) if dtype.kind == "i" else unsigned.type(0)
     used = np.zeros(1 << (8 * dtype.itemsize), bool)
-    done, total = 0, max(1, len(paths))
-    with gdal_env():
-        for p in paths:
-            with ropen(p) as ds:
-                for r0 in range(0, ds.height, rows):
-                    a = ds.read(window=Window(0, r0, ds.width, min(rows, ds.height - r0)), masked=True)
-                    v = np.ascontiguousarray(a.compressed().astype(dtype, copy=False)).view(unsigned) ^ flip
-                    used |= np.bincount(v, minlength=len(used)) > 0
-                    if used.all():
-                        return used
-                    if progress is not None:
-                        progress((done + min(r0 + rows, ds.height) / ds.height) / total)
-            done += 1
+    for share, a in _valid_strips(paths, rows):
+        v = np.ascontiguousarray(a.astype(dtype, copy=False)).view(unsigned) ^ flip
+        used |= np.bincount(v, minlength=len(used)) > 0
+        if used.all():
+            return used
+        if progress is not None:
+            progress(share)
     return used
 
 
 def _occurring(paths, values, rows: int = 512) -> set:
     """Which of the ``values`` a valid pixel of any band of the rasters ``paths`` holds (types too wide to count
     every value: :data:`COUNTED_BITS`); one read in strips, stopping when all occur."""
-    from rasterio.windows import Window
-
-    from ...io.raster import gdal_env, ropen
     seen = set()
-    with gdal_env():
-        for p in paths:
-            with ropen(p) as ds:
-                for r0 in range(0, ds.height, rows):
-                    a = ds.read(window=Window(0, r0, ds.width, min(rows, ds.height - r0)), masked=True).compressed()
-                    seen |= {v for v in values if v not in seen and np.any(a == v)}
-                    if len(seen) == len(values):
-                        return seen
+    for _, a in _valid_strips(paths, rows):
+        seen |= {v for v in values if v not in seen and np.any(a == v)}
+        if len(seen) == len(values):
+            return seen
     return seen
 
 
