@@ -26,6 +26,10 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   uncompressed TIFFs beside the drone case's folder) with the camera scaled to them (``im_size``, ``focal_len``
   and ``sensor_size`` halved; the Brown terms and the principal point are normalised, unchanged): another image
   size and another format (a TIFF without overviews, read whole at full resolution).
+* ``drone_other`` — held out from this and every earlier stop's tuning: the strips' four other frames (IMG_2186,
+  IMG_2189, IMG_2280, IMG_2282: never orthorectified by the code's tuning), the same camera, orientation and
+  surface as ``drone`` (their poses come from the same six-frame adjustment), at 10 and 20 cm.
+
 With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's ``fotogeo ortho`` runs N alternating
 pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
 exit's as that less its own CPU at the end of ``main`` (``FOTOGEO_EXIT_RUN``): medians, the median of the pairs'
@@ -35,7 +39,8 @@ differences and whether both trees' outputs have the same pixels (``results/orth
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
 drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
 (NGI 1 m, qb2 2 m, drone 2 cm: 25x and 9x more output cells, where the work rather than the start-up dominates);
-``coarse`` and ``coarser`` (drone and drone_half 10 and 20 cm: small outputs, where the start-up weighs most).
+``coarse`` and ``coarser`` (drone, drone_half and drone_other 10 and 20 cm: small outputs, where the start-up
+weighs most).
 
 Each command runs ``--repeat`` times in a fresh process under ``/usr/bin/time``: median wall time (the whole
 command as a user runs it — ``fotogeo ortho`` and ``oty frame``, each through its click entry point —, interpreter
@@ -70,7 +75,7 @@ DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
 RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
        "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1, "coarser": 0.2},
-       "drone_half": {"coarse": 0.1, "coarser": 0.2}}
+       "drone_half": {"coarse": 0.1, "coarser": 0.2}, "drone_other": {"coarse": 0.1, "coarser": 0.2}}
 #: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
 FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMPRESS=DEFLATE", "ZLEVEL=1",
                           "PREDICTOR=2") for a in ("-co", o)]
@@ -80,6 +85,8 @@ FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMP
 FOTOGEO_ENV = {"PYTHONPATH": str(ROOT)}
 DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
 DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
+#: the drone_other case: the strips' other four frames, never run through ortho by the code's tuning
+DRONE_OTHER = ["IMG_2186", "IMG_2189", "IMG_2280", "IMG_2282"]
 
 #: ``python -c`` puts the working folder first on ``sys.path``: run from a checkout, its ``fotogeo`` would shadow the
 #: one ``PYTHONPATH`` names (``--baseline-tree`` of ortho_threshold_bench.py timed this checkout twice), so it is dropped
@@ -169,8 +176,9 @@ def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
             "mean_abs_diff": round(float(np.abs(A - B)[valid].mean()), 3), "overlap_px": int(valid.sum())}
 
 
-def drone_inputs(folder: Path) -> dict:
-    """The drone case's camera, orientation and surface in ``folder``, made once (module docstring)."""
+def drone_inputs(folder: Path, frames=DRONE_FRAMES) -> dict:
+    """The drone case's camera, orientation and surface in ``folder``, made once (module docstring), for the
+    strip frames ``frames``."""
     folder.mkdir(parents=True, exist_ok=True)
     tri, dem = folder / "triangulate", folder / "dem.tif"
     img = DATA / "drone_snowpeak" / "img"
@@ -186,7 +194,7 @@ def drone_inputs(folder: Path) -> dict:
              if ln.strip() and not ln.startswith("#")]
     ext = folder / "ext.csv"  # orthority's CSV: the same fields, comma-separated
     ext.write_text("".join(",".join(f) + "\n" for f in lines))
-    return {"frames": [str(img / f"{n}.JPG") for n in DRONE_FRAMES], "dem": str(dem),
+    return {"frames": [str(img / f"{n}.JPG") for n in frames], "dem": str(dem),
             "camera": str(tri / "camera.yaml"), "eo": str(tri / "exterior_orientation.txt"), "ext": str(ext),
             "crs": ["-c", "EPSG:32654"]}
 
@@ -300,8 +308,8 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--cases", default="ngi,qb2,drone")
     ap.add_argument("--resolutions", default="native,fine",
-                    help="comma-separated levels among native, fine, coarse and coarser (the last two: drone and "
-                         "drone_half only); CASE:LEVEL for one case only")
+                    help="comma-separated levels among native, fine, coarse and coarser (the last two: drone, "
+                         "drone_half and drone_other only), or metres; CASE:LEVEL for one case only")
     ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
                     help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
                          "creation options (row orthority_z1)")
@@ -339,7 +347,8 @@ def main(argv=None):
                     r = qb2_case(work, res, a.repeat)
                 else:
                     drone = a.drone_dir or Path(tmp) / "drone"
-                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(drone)
+                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(
+                        drone, DRONE_OTHER if case == "drone_other" else DRONE_FRAMES)
                     inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
                     r = (exit_pairs(work, inp, res, a.pairs, a.baseline_tree.resolve()) if a.pairs else
                          frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both"))

@@ -300,9 +300,10 @@ def read_dem(path, band: int = 1):
         raise RasterError(f"cannot read DEM {path}: {exc}") from None
 
 
-def dem_height_scale(ds, band: int = 1) -> float:
+def dem_height_scale(ds, band: int = 1, crs=None) -> float:
     """The factor bringing the heights of band ``band`` of the open raster ``ds`` into its CRS's length unit:
-    :func:`~fotogeo.geometry.vertical.height_scale` of its CRS and the band's unit type (1 when unstated)."""
+    :func:`~fotogeo.geometry.vertical.height_scale` of its CRS (``crs``: the same, already parsed by pyproj)
+    and the band's unit type (1 when unstated)."""
     from ..geometry.vertical import height_scale
     units = ds.units or ()
-    return height_scale(ds.crs, units[band - 1] if len(units) >= band else None)
+    return height_scale(ds.crs if crs is None else crs, units[band - 1] if len(units) >= band else None)

@@ -36,7 +36,7 @@ import numpy as np
 
 from ...crs import parse_crs, require_projected, utm_crs_for
 from ...errors import FotogeoWarning, InputError, InputNote
-from ...geometry.vertical import ShiftedHeights, crs_height_reference, horizontal_crs
+from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs
 from ...io.block import frame_key
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
@@ -54,6 +54,8 @@ class OrthoImage:
     width: int
     height: int
     height_reference: str | None = None  # what the orientation states for its Z (frames), "ellipsoid" for RPC
+    count: int | None = None  # the file's bands and pixel type, when its reader opened it (else plan_grid does)
+    dtype: str | None = None
 
 
 class FittedGroundModel:
@@ -103,7 +105,7 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
                              "no --camera, --eo or --rpc", option="model")
         info = open_raster(images[0], "image")
         return [OrthoImage(str(images[0]), names[0], FittedGroundModel(read_fitted_model(model)[0]), "fitted",
-                           info.width, info.height)]
+                           info.width, info.height, count=info.count, dtype=info.dtype)]
     if rpc:
         if camera is not None or eo is not None:
             raise InputError("give either --rpc (images carrying RPC metadata) or --camera/--eo (frame cameras), "
@@ -125,7 +127,8 @@ def _rpc_image(path, name, crs) -> OrthoImage:
     from ...io.rpc_image import image_rpc
     info = open_raster(path, "image")
     rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
-    return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid")
+    return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid",
+                      info.count, info.dtype)
 
 
 def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
@@ -191,7 +194,8 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             warnings.warn(note, InputNote, stacklevel=3)
             if said is not None:
                 said.append(note)
-        out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref))
+        out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref,
+                              info.count, info.dtype))
     return out
 
 
@@ -288,9 +292,11 @@ def read_dem_under(path, images, crs):
     with ropen(path) as ds:
         if ds.crs is None:
             raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
+        dcrs = as_pyproj(ds.crs)  # parsed once; the Dem carries it, so its users parse no WKT again
+        scale = dem_height_scale(ds, crs=dcrs)
         f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
         small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
-        z = small.compressed().astype(float) * dem_height_scale(ds)
+        z = small.compressed().astype(float) * scale
         z = z[np.isfinite(z)]
         if not z.size:
             raise InputError(f"DEM {str(path)!r} holds no valid height")
@@ -300,7 +306,7 @@ def read_dem_under(path, images, crs):
             for h in (float(z.min()) - pad, float(z.max()) + pad):
                 xy = im.model.inverse(outline(im.width, im.height, 9), h)[:, :2]
                 corners.append(xy[np.isfinite(xy).all(axis=1)])
-        xy = transform_points(crs, horizontal_crs(ds.crs), np.vstack(corners))
+        xy = transform_points(crs, horizontal_crs(dcrs), np.vstack(corners))
         if not len(xy):
             return read_dem(path)
         inv = ~ds.transform
@@ -309,12 +315,12 @@ def read_dem_under(path, images, crs):
         c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
         if c1 - c0 < 2 or r1 - r0 < 2:
-            raise InputError(_not_under(path, images, ds.crs, "the images' ground lies outside it"))
+            raise InputError(_not_under(path, images, dcrs, "the images' ground lies outside it"))
         win = Window(c0, r0, c1 - c0, r1 - r0)
-        data = ds.read(1, window=win, masked=True).astype(np.float64) * dem_height_scale(ds)
+        data = ds.read(1, window=win, masked=True).astype(np.float64) * scale
         if not np.isfinite(data.filled(np.nan)).any():
-            raise InputError(_not_under(path, images, ds.crs, "it holds no height under the images"))
-        return Dem(data.filled(np.nan), ds.window_transform(win), ds.crs, str(path))
+            raise InputError(_not_under(path, images, dcrs, "it holds no height under the images"))
+        return Dem(data.filled(np.nan), ds.window_transform(win), dcrs, str(path))
 
 
 def _not_under(path, images, dem_crs, why: str) -> str:

@@ -201,8 +201,11 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
         raise ModelError(f"image {im.name!r}: no ground sample distance at its centre; check its orientation")
     res = float(resolution or gsd)
     transform, width, height = grid_covering(XY, res)
-    info = open_raster(im.path, "image")
-    check_output_grid(path, width, height, bands=info.count, dtype=info.dtype, source_pixels=im.width * im.height,
+    count, dtype = im.count, im.dtype  # as the image's reader found them (inputs.image_models)
+    if count is None:  # built elsewhere without opening the file (triangulate --ortho, dsm)
+        info = open_raster(im.path, "image")
+        count, dtype = info.count, info.dtype
+    check_output_grid(path, width, height, bands=count, dtype=dtype, source_pixels=im.width * im.height,
                       resolution=res, what=f"the orthophoto {str(path)!r}")
     return OrthoGrid(transform, width, height, res, coverage)
 
