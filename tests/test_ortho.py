@@ -82,6 +82,22 @@ def test_bare_dem_leaves_the_double_image(scene, tmp_path):
     assert (v != 0).mean() > 0.999
 
 
+def test_each_input_opened_as_often_as_it_is_read(scene, tmp_path, monkeypatch):
+    """The frame is opened by its reader (size, bands, type) and by the resampling only: the grid's output check
+    takes the bands and type the reader found (it opened the file a third time before)."""
+    from collections import Counter
+    opened = Counter()
+    real = rasterio.open
+
+    def counting(path, *args, **kw):
+        opened[str(path)] += 1
+        return real(path, *args, **kw)
+
+    monkeypatch.setattr(rasterio, "open", counting)
+    _run(scene, tmp_path / "o.tif", resampling="bilinear")
+    assert opened[str(scene["frame"])] == 2
+
+
 def test_pyramid_skips_change_nothing(scene):
     """Rays skipping block-sized stretches above the DSM's block maxima find exactly the occlusions found by
     sampling every half cell (random ground points and directions over the box scene)."""
@@ -180,6 +196,8 @@ def test_orientation_file_in_another_crs_refused(data_dir, tmp_path):
 def test_dem_read_under_the_images_only(data_dir):
     """Only the DEM window under a frame is read (memory bounded by the frame's ground area), with the heights
     of the whole DEM there."""
+    from pyproj import CRS
+
     from fotogeo.io.raster import read_dem
     from fotogeo.tools.ortho.inputs import image_models, map_crs, read_dem_under
     ngi = data_dir / "ngi"
@@ -189,6 +207,7 @@ def test_dem_read_under_the_images_only(data_dir):
                       eo=str(ngi / "exterior_orientation.txt"))[0]
     part, whole = read_dem_under(ngi / "dem.tif", [im], crs), read_dem(ngi / "dem.tif")
     assert part.data.size < 0.6 * whole.data.size
+    assert isinstance(part.crs, CRS) and part.crs.equals(CRS.from_wkt(whole.crs.to_wkt()))  # parsed once, carried
     ground = im.model.inverse(np.column_stack([np.linspace(0, 640, 50), np.linspace(0, 1152, 50)]), part)
     assert np.isfinite(ground).all()
     assert np.array_equal(part.heights(ground[:, :2]), whole.heights(ground[:, :2]))
