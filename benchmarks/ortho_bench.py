@@ -34,7 +34,9 @@ With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's 
 pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
 exit's as that less its own CPU at the end of ``main`` (``FOTOGEO_EXIT_RUN``): medians, the median of the pairs'
 differences and whether both trees' outputs have the same pixels (``results/ortho_exit_pairs.json``).
-``--resolutions`` also takes metres (``0.2``).
+``--resolutions`` also takes metres (``0.2``). ``--import-cost N`` times N fresh processes importing the
+third-party modules of an ``ortho`` run of frames, alternating with N that import pyproj as well
+(``results/ortho_import_cost.json``).
 
 Resolutions: ``native`` (NGI 5 m, qb2 6 m, about the images' ground sample distances) and ``fine``
 drone 3 cm, about the frames' 2.9-3.3 cm; ``fine``
@@ -278,6 +280,27 @@ def qb2_case(work: Path, res: float, n: int) -> dict:
     return out
 
 
+#: the third-party modules an ``ortho`` run of frames imports (``python -X importtime``), pyproj apart
+ORTHO_IMPORTS = "numpy, rasterio, cv2, yaml, click"
+
+
+def import_cost(n: int) -> None:
+    """``--import-cost N``: the CPU time (user + system) of N fresh processes importing :data:`ORTHO_IMPORTS`,
+    alternating with N that also import pyproj; medians, ranges and the median of the pairs' differences."""
+    runs = {"without": [], "with_pyproj": []}
+    for _ in range(n):
+        runs["without"].append(timed([sys.executable, "-c", f"import {ORTHO_IMPORTS}"])["cpu_s"])
+        runs["with_pyproj"].append(timed([sys.executable, "-c", f"import {ORTHO_IMPORTS}, pyproj"])["cpu_s"])
+    runs = {k: [round(t, 3) for t in v] for k, v in runs.items()}
+    out = {k: {"median": round(statistics.median(v), 3), "min": min(v), "max": max(v), "each": v}
+           for k, v in runs.items()}
+    out["pyproj_cpu_s_median_of_pairs"] = round(statistics.median(
+        b - a for a, b in zip(runs["without"], runs["with_pyproj"])), 3)
+    out.update(processes=n, load_average=[round(v, 2) for v in os.getloadavg()], command=" ".join(sys.argv))
+    print(json.dumps(out))
+    OUT.with_name("ortho_import_cost.json").write_text(json.dumps(out, indent=1))
+
+
 def table(results: dict) -> str:
     rows = ["case       res   tool          wall s  cpu s  work s  peak MB  wall ratio  cpu ratio  rounds' cpu ratio "
             "(median, range)  shift med/p95/max px"]
@@ -320,7 +343,12 @@ def main(argv=None):
                     "(this checkout, --baseline-tree) per frame case, with each process's exit CPU; "
                     "writes results/ortho_exit_pairs.json")
     ap.add_argument("--baseline-tree", type=Path, help="--pairs: the other fotogeo checkout")
+    ap.add_argument("--import-cost", type=int, metavar="N",
+                    help="instead: N alternating processes importing the third-party modules of an ortho run with "
+                         "and without pyproj (CPU s; results/ortho_import_cost.json)")
     a = ap.parse_args(argv)
+    if a.import_cost:
+        return import_cost(a.import_cost)
     if a.pairs and not a.baseline_tree:
         ap.error("--pairs needs --baseline-tree (the checkout to alternate with)")
     if not DATA.exists():
