@@ -30,18 +30,3 @@ def test_a_2d_fit_far_off_hints_at_the_dem():
     assert line.startswith("hint:") and "6.9 reference px (34.5 m)" in line and line.endswith("--dem")
     assert "DEM (terrain-aware" in in_labels(line, REGISTER_TERRAIN)
     assert hint_lines(_report(1.0)) == [] and hint_lines(_report(6.9, terrain=True)) == []
-
-
-def test_the_summary_of_a_weak_feature_fit_kept_when_the_windows_fail_says_both():
-    """The windows' refusal is reported beside the kept feature fit (a KeyError 'windows' before: a traceback after
-    the outputs were made, on an RGB reference against a NIR-only target)."""
-    from fotogeo.tools.register.report import summary_lines
-    refused = "co-registration refused: only 7 reliable windows of 64"
-    rep = {"keypoints": {"target": 1504, "reference": 2414}, "matches": 47, "inliers": 9, "control": {}, "check": {},
-           "area_based": {"why": "feature matching kept only 9 inliers (fewer than 12)", "refused": refused,
-                          "note": "the feature fit is kept"},
-           "output_crs": "EPSG:32633", "output_crs_rule": "given", "output_grid": {"width": 5, "height": 5,
-                                                                                   "resolution": 10.0}}
-    first, second = summary_lines(rep)[:2]
-    assert first.startswith("keypoints 1504 / 2414, matches 47, inliers 9")
-    assert refused in second and second.endswith("the feature fit is kept")

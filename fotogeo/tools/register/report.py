@@ -152,10 +152,8 @@ def summary_lines(rep: dict) -> list[str]:
     """The lines the command line prints after a registration (units named), then :func:`hint_lines`."""
     lines = [f"keypoints {rep['keypoints']['target']} / {rep['keypoints']['reference']}, "
              f"matches {rep['matches']}, {_inliers_text(rep)}"]
-    a = rep.get("area_based")
-    if a and "refused" in a:  # the windows failed too: the weak feature fit was kept
-        lines.append(f"area-based windows could not step in: {a['refused']}; {a['note']}")
-    elif a:
+    if "area_based" in rep:
+        a = rep["area_based"]
         lines[0] = (f"feature matching failed ({a['why']}); tie points from {a['windows']['reliable']} reliable "
                     f"windows of {a['windows']['total']} (area-based, {a['window']} px windows every "
                     f"{a['grid_spacing']} px), inliers {rep['inliers']}")
