@@ -127,15 +127,18 @@ BAND_SETS = {
     "ref8_tgt3": ("rgb8", "rgb"),  # the 8-band reference's bands 2-4 are the target's 3 (reversed)
     "ref4_tgt1": ("rgbn", "pan"),
     "ref3_tgt2": ("rgb", "ng"),
+    "ref3_tgtN": ("rgb", "n"),  # a NIR-only target: its vegetation bright where the visible bands are dark
+    "ref1_tgt3": ("pan", "rgb"),  # a panchromatic reference, an RGB target
+    "ref8_tgt1": ("rgb8", "r"),  # an 8-band reference, a red-only target
 }
 
 
 def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
     """The bands ``kind`` from ``rgb`` (3, rows, cols) float: ``rgb``; ``rgbn`` + a NIR-like band;
     ``rgb8`` as an 8-band sensor (coastal, B, G, R, red edge, NIR, SWIR 1, SWIR 2); ``pan`` the mean of
-    R, G, B; ``ng`` the NIR-like band and G. The NIR-like band is bright where green exceeds red
-    (vegetation) and dark where blue exceeds green (water): not a monotone function of the brightness,
-    as real NIR is not, so the 8-band PCA is not the RGB one."""
+    R, G, B; ``ng`` the NIR-like band and G; ``n`` the NIR-like band alone; ``r`` R alone. The NIR-like band
+    is bright where green exceeds red (vegetation) and dark where blue exceeds green (water): not a monotone
+    function of the brightness, as real NIR is not, so the 8-band PCA is not the RGB one."""
     R, G, B = rgb
     nir = np.clip(60 + R + 3.0 * (G - R) - 2.0 * np.maximum(B - G, 0), 0, 255)
     swir1 = np.clip(30 + 0.9 * R + 0.3 * G - 1.5 * np.maximum(B - G, 0), 0, 255)
@@ -145,6 +148,10 @@ def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
         return ((R + G + B) / 3)[None]
     if kind == "ng":
         return np.stack([nir, G])
+    if kind == "n":
+        return nir[None]
+    if kind == "r":
+        return R[None]
     if kind == "rgbn":
         return np.stack([R, G, B, nir])
     return np.stack([np.clip(0.8 * B + 25, 0, 255), B, G, R, 0.5 * (R + nir), nir, swir1, 0.7 * swir1 + 10])

@@ -27,6 +27,8 @@ SOURCES = {
     "s2": ("ngi/sentinel2_b432_byte.tif", (0, 200, 797, 900), "ngi/sentinel2_b432_byte.tif", (0, 0), None),
     "s2_pair": ("s2_pair/ref_S2A_20160608T153121_T33UUU_sub.jp2", (600, 900, 1000, 1000),
                 "s2_pair/tgt_S2A_20160529T153631_T33UUU_sub.jp2", S2_PAIR_OFFSET, 0),
+    "s2_pair_full": ("s2_pair/ref_S2A_20160608T153121_T33UUU_sub.jp2", None,
+                     "s2_pair/tgt_S2A_20160529T153631_T33UUU_sub.jp2", S2_PAIR_OFFSET, 0),
 }
 
 
@@ -42,6 +44,7 @@ class Case:
     noise: float = 2.0  # grey levels (of 255)
     clouds: float = 0.0  # fraction of the chip under clouds
     invert: bool = False  # contrast inverted (a band whose vegetation turns from dark to bright)
+    mirror: bool = False  # the chip flipped left-right (a scan read from the wrong side): no similarity fits it
 
 
 #: name -> case; TUNE were used to choose the method's constants, HELD_OUT were not
@@ -62,13 +65,31 @@ HELD_OUT = {
                                    invert=True),
     "s2pair_r75_s1.2_clouds": Case("s2_pair", 75, 1.2, 380, (0.6, 0.4), gamma=0.8, noise=1, clouds=0.15),
 }
-CASES = {**TUNE, **HELD_OUT}
+#: a new user's chips (issue 32's sweep, benchmarks/coarse_register_bench.py --users): rotations to ±170°, scales
+#: 0.7-1.4, chips of 200-2000 px, and mirrored chips, which must be refused
+USERS = {
+    "s2pair_r170_s1.0": Case("s2_pair", 170, 1.0, 400, (0.5, 0.5), noise=1),
+    "s2pair_r-170_s0.7": Case("s2_pair", -170, 0.7, 500, (0.5, 0.5), noise=1),
+    "s2pair_r-150_s0.75": Case("s2_pair", -150, 0.75, 450, (0.5, 0.5), noise=1),
+    "s2pair_r100_s0.7": Case("s2_pair", 100, 0.7, 450, (0.5, 0.5), noise=1),
+    "s2pair_r-30_s0.8": Case("s2_pair", -30, 0.8, 450, (0.5, 0.5), noise=1),
+    "landsat_r-95_s1.4": Case("landsat", -95, 1.4, 300, (0.5, 0.5), gamma=0.9, noise=2),
+    "s2_r-170_s1.3": Case("s2", -170, 1.3, 300, (0.5, 0.5), gamma=1.1, mix=0.2, noise=2),
+    "s2pair_r60_s1.0_200px": Case("s2_pair", 60, 1.0, 200, (0.45, 0.5), noise=1),
+    "s2pairfull_r90_s1.3_200px": Case("s2_pair_full", 90, 1.3, 200, (0.4, 0.6), noise=1),
+    "s2pairfull_r30_s1.0_1500px": Case("s2_pair_full", 30, 1.0, 1500, (0.5, 0.5), noise=1),
+    "s2pairfull_r-170_s0.7_2000px": Case("s2_pair_full", -170, 0.7, 2000, (0.5, 0.5), noise=1),
+    "landsat_r30_mirrored": Case("landsat", 30, 1.0, 300, (0.5, 0.5), noise=2, mirror=True),
+    "s2pair_r0_mirrored": Case("s2_pair", 0, 1.0, 400, (0.5, 0.5), noise=1, mirror=True),
+    "s2_r-60_s1.1_mirrored": Case("s2", -60, 1.1, 320, (0.5, 0.5), noise=2, mirror=True),
+}
+CASES = {**TUNE, **HELD_OUT, **USERS}
 
 
-def similarity(deg: float, scale: float, size: int, ref_xy) -> np.ndarray:
-    """H: target px -> reference px, the chip centre on ``ref_xy``."""
+def similarity(deg: float, scale: float, size: int, ref_xy, mirror: bool = False) -> np.ndarray:
+    """H: target px -> reference px, the chip centre on ``ref_xy``; ``mirror``: the chip's columns reversed first."""
     c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
-    A = scale * np.array([[c, -s], [s, c]])
+    A = scale * np.array([[c, -s], [s, c]]) @ np.diag([-1.0 if mirror else 1.0, 1.0])
     t = np.asarray(ref_xy, float) - A @ np.array([size / 2, size / 2])
     return np.vstack([np.hstack([A, t[:, None]]), [0, 0, 1]])
 
@@ -106,7 +127,7 @@ def make_case(data: Path, name: str, folder: Path, seed: int = 0):
     with rasterio.open(reference, "w", **profile) as ds:
         ds.write(ref_img.astype(profile["dtype"]))
     rh, rw = ref_img.shape[1:]
-    H = similarity(case.deg, case.scale, case.size, (case.centre[0] * rw, case.centre[1] * rh))
+    H = similarity(case.deg, case.scale, case.size, (case.centre[0] * rw, case.centre[1] * rh), case.mirror)
     # the chip is read from its own file: reference px -> chip-file px
     cc, cr = (crop or (0, 0))[:2]
     to_chip = np.array([[1, 0, cc - offset[0]], [0, 1, cr - offset[1]], [0, 0, 1.0]]) @ H

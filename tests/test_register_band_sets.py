@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import rasterio
 
+from fotogeo.errors import MatchingError
 from fotogeo.image.band_match import combined_fusion, fit_combination
 from fotogeo.image.fusion import pca_fuse
 from fotogeo.tools.register.tool import register
@@ -57,3 +58,17 @@ def test_default_is_sub_pixel_and_beats_sift_across_band_sets(data_dir, tmp_path
     assert err["default"] <= 0.05 and err["default"] <= err["sift"], err
     if band_set == "ref8_tgt3":
         assert bands["combined"] == "reference" and bands["correlation_combined"] > bands["correlation_pca"]
+
+
+def test_a_weak_feature_fit_the_windows_cannot_confirm_is_refused(data_dir, tmp_path):
+    """RGB reference, NIR-only target (s2, r30_s0.85_p): SURF keeps 9 inliers and the windows on R against NIR
+    find 7 reliable of 64; the 9-inlier fit was written 5.0 px (max 16 px) off the exact warp with exit 0."""
+    ref, tgt, _, _ = known_warp_bands(data_dir, "s2", "r30_s0.85_p", "ref3_tgtN", tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(MatchingError, match="the feature fit of 9 inliers .* is not confirmed, so none is written") as e:
+            register(ref, tgt, tmp_path / "out.tif", seed=0)
+    message = str(e.value)
+    assert message.endswith("--no-area-fallback") and "--window" not in message
+    assert "reference band 1, target band 1: try other bands first in --reference-bands/--target-bands" in message
+    assert not (tmp_path / "out.tif").exists()

@@ -61,8 +61,9 @@ def fallback_windows(width: int, height: int, window: int, spacing: int) -> tupl
 def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given, refine):
     """``(tie points, their output positions, fit, refine note)``: feature matching (``find()``) and the
     model (``fit(pts)``); when matching fails, or its fit keeps fewer than :data:`WEAK_INLIERS` inliers
-    (a homography through so few points may be wrong), the windows of :func:`area_tie_points` instead
-    — a weak feature fit is kept only when they fail too (the report's ``area_based`` says why)."""
+    (a homography through so few points may be wrong), the windows of :func:`area_tie_points` instead.
+    When they fail too, the weak fit is refused, not kept: nothing confirms it, and such a fit can be many
+    pixels off while its few points agree (``--no-area-fallback`` keeps it, as it skips the windows)."""
     try:
         pts = find()
         pts, dst, gf = fit(pts)
@@ -81,8 +82,8 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
                                                                                              f"windows"))
         return (*fit(area), "area-based windows (feature matching too weak)")
     except (MatchingError, ModelError) as e:
-        pts.counts["area_based"] = {"why": why, "refused": str(e), "note": "the feature fit is kept"}
-        return pts, dst, gf, refine
+        raise MatchingError(f"the feature fit of {n} inliers of {str(target)!r} is not confirmed, so none is "
+                            f"written: {e} — {HINT}, or keep that fit with --no-area-fallback") from None
 
 
 def area_tie_points(reference, target, ref, tgt, opts, why: str, progress=None) -> TiePoints:
@@ -107,8 +108,12 @@ def _window_tie_points(reference, target, ref, tgt, opts, why, bands, coarse, pr
         run = run_coregistration(reference, target, copts, reference_band=bands[0], target_band=bands[1],
                                  reference_nodata=opts.reference_nodata, target_nodata=opts.target_nodata,
                                  progress=progress)
-    except MatchingError as e:
-        raise MatchingError(f"{why}; area-based matching did not help either: {e}") from None
+    except MatchingError as e:  # coreg's advice names coreg's flags: register's own instead
+        what = str(e).split(" — try ")[0]
+        raise MatchingError(f"{why}; area-based matching did not help either: {what} ({window} px windows every "
+                            f"{spacing} px, reference band {bands[0]}, target band {bands[1]}: try other bands "
+                            f"first in --reference-bands/--target-bands, or --local-window/--local-grid-spacing)"
+                            ) from None
     res = run.result
     ok = res.reliable
     p, d = res.windows.position[ok], res.windows.shift[ok]
