@@ -36,7 +36,8 @@ GROUND = 300.0
 DEWARP = (-0.05, 0.015, 0.0, 0.0003, -0.0002)  # k1, k2, k3, p1, p2
 
 #: name -> the set's parameters: strips [(heading°, pitch°, frames)], base (m between frames), height (m),
-#: image size (px), focal (× width), relief (m), converge, shrink, seed
+#: image size (px), focal (× width), relief (m), converge, shrink, seed; ``frames`` (names, e.g. ``["S1_01",
+#: "S2_01"]``): only those frames rendered and written (the others' positions still drawn: the same set otherwise)
 SETS = {
     "pitch -45, 4 headings": dict(strips=[(h, -45.0, 2) for h in (0, 90, 180, 270)], base=22.0),
     "pitch -70, 4 headings": dict(strips=[(h, -70.0, 2) for h in (0, 90, 180, 270)], base=22.0, seed=3),
@@ -86,6 +87,9 @@ def make_set(name, folder) -> dict:
     corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
     extent = np.vstack([OrientedFrame(cam, e).pixel_to_world_at(corners, GROUND) for e in eos])
     extent = extent[np.all(np.abs(extent[:, :2] - ORIGIN) < 400, axis=1)]  # rays near the horizon: a bounded ground
+    if p.get("frames"):  # some of the set's frames only: the same shots, terrain and texture, fewer renderings
+        keep = [k for k, (n, *_) in enumerate(shots) if n in p["frames"]]
+        shots, eos = [shots[k] for k in keep], [eos[k] for k in keep]
     sb = SimpleNamespace(true_camera=cam, true_xyz=extent, gsd=p["height"] / f, surface=surface, true_eo=tuple(eos),
                          true_distortion=DEWARP, true_additional=())
     images, _ = render_block(sb, seed=p["seed"], noise=2.0)

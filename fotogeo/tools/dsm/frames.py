@@ -27,6 +27,16 @@ oblique pair one height's disparity varies across the image) plus ``PAD_PX``, an
 Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
 searches the DEM's range.
 
+**Local height ranges** (:func:`strip_heights`): a strip with a local range keeps only the points within its
+local heights, not the pair's. Its disparity range is the union of its pixels' (over an oblique pair one height's
+disparity varies across the strip by hundreds of pixels), so a pixel may find a disparity that is inside the
+strip's range yet whose height lies outside the heights the range was made of: outside that pixel's own range.
+Where it comes from: at the rectified images' top and bottom rows the two images' valid columns may not overlap
+at the surface's disparity (rows both images reach, ground only one of them sees); the left pixels without a
+partner there meet right pixels without a partner that meet them back, real texture on both sides, and pass the
+left–right check at a wrong disparity (on the oblique set "1280x960 full" of ``tests/dsm_oblique_sets.py``: a
+band of −22 m, 280–287 m where the matches near the strip span 296–301 m, padded to 288–308 m).
+
 **Coarse to fine** (``COARSE_TO_FINE``; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
 per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
 on copies ``pyramid.FACTOR`` times smaller over that range, and at full resolution within a narrow band around the
@@ -198,21 +208,41 @@ def guides(sp, ceiling: float) -> np.ndarray:
     return np.column_stack([sp["uv"], z])[keep].astype(float)
 
 
-def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
-    """``(low, high, local)``: the disparity range of the rectified left pixels ``box`` ``(u0, v0, u1, v1)`` from
-    the sparse matches ``near`` (:func:`guides`) around it (module docstring), inside the pair's ``[lo, hi]``;
-    ``(lo, hi, False)`` when too few matches lie near the box."""
+def local_heights(near, box) -> tuple | None:
+    """``(low, high)``: the heights the sparse matches ``near`` (:func:`guides`) within ``LOCAL_NEAR`` rectified
+    pixels of the box ``(u0, v0, u1, v1)`` span, padded by half their span and ``LOCAL_PAD_M`` metres (module
+    docstring); None when fewer than ``LOCAL_MIN`` lie that near."""
     if near is None or len(near) < LOCAL_MIN:
-        return lo, hi, False
+        return None
     u0, v0, u1, v1 = box
     u, v, z = near[:, 0], near[:, 1], near[:, 2]
     z = z[(u >= u0 - LOCAL_NEAR) & (u <= u1 + LOCAL_NEAR) & (v >= v0 - LOCAL_NEAR) & (v <= v1 + LOCAL_NEAR)]
     if len(z) < LOCAL_MIN:
-        return lo, hi, False
+        return None
     pad = 0.5 * (z.max() - z.min()) + LOCAL_PAD_M
-    a, b = disparity_bounds(rp, z.min() - pad, z.max() + pad, box, n=5)
+    return float(z.min() - pad), float(z.max() + pad)
+
+
+def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
+    """``(low, high, local)``: the disparity range of the rectified left pixels ``box`` ``(u0, v0, u1, v1)`` from
+    the sparse matches ``near`` (:func:`guides`) around it (:func:`local_heights`, module docstring), inside the
+    pair's ``[lo, hi]``; ``(lo, hi, False)`` when too few matches lie near the box."""
+    z = local_heights(near, box)
+    if z is None:
+        return lo, hi, False
+    a, b = disparity_bounds(rp, *z, box, n=5)
     a, b = max(lo, a), min(hi, b)
     return (a, b, True) if b > a else (lo, hi, False)
+
+
+def strip_heights(near, box, zlim: tuple, local: bool) -> tuple:
+    """The heights a strip's points are kept within: the pair's ``zlim``, narrowed to the strip's
+    :func:`local_heights` when its range is ``local`` (module docstring, *local height ranges*)."""
+    z = local_heights(near, box) if local else None
+    if z is None:
+        return zlim
+    a, b = max(zlim[0], z[0]), min(zlim[1], z[1])
+    return (a, b) if b > a else zlim
 
 
 #: the pair's penalty factor (:func:`pair_penalty`) is measured on this many bands of this many rectified rows
@@ -357,7 +387,8 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
-        out = _strip(rp, views, sources, local_range(rp, near, core_box, lo, hi), zlim, stats, core_box, colours,
-                     refine, penalty)
+        rng = local_range(rp, near, core_box, lo, hi)
+        out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2]), stats, core_box,
+                     colours, refine, penalty)
         if out is not None:
             yield out
