@@ -3,7 +3,7 @@ or the output grid.
 
 Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_memory.py [--sizes 2000,4000,6000] [--kind frames|rpc]
       [--resolution M] [--bounds XMIN,YMIN,XMAX,YMAX] [--workers 0,2] [--scheduler ADDRESS] [--code DIR]
-      [--keep DIR]
+      [--keep DIR] [--fill D] [--point-cloud]
 
 Each case is a pair of ``size x size`` pixels rendered over a known terrain by ``tests/rendered_pair.py`` (0.1 m
 ground sample distance, ±16 m of relief): ``--kind frames`` (default) nadir frames with their camera and exterior
@@ -19,6 +19,10 @@ report's completeness is read.
 2 worker processes (``dsm --workers 2``; ``--scheduler ADDRESS``: on a running cluster instead). ``peak_rss_mb``
 stays the main process's own peak — what the tiles' results cost it — and ``workers_peak_rss_mb`` is the largest
 peak of one worker process (polled every 0.2 s, from ``/proc/PID/status`` of the child's descendants).
+
+``--fill D``: ``dsm --fill --fill-max-distance D`` (the filled band and its inpainting per tile); ``--point-cloud``:
+``dsm --point-cloud points.laz`` too (every triangulated point written): both must keep the main process's memory
+bounded by the tile as the plain DSM does.
 
 ``--code DIR`` measures the fotogeo of another checkout (its root on the child's PYTHONPATH), e.g. the main
 branch's whole-image version, on the same renders. Prints a table and writes
@@ -82,7 +86,8 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore")
     rep = dsm(a["images"], a["out"], camera=a.get("camera"), eo=a.get("eo"), rpc="camera" not in a, crs=a["crs"],
               report=a["report"], resolution=a.get("resolution"), bounds=a.get("bounds"), overwrite=True,
-              workers=a.get("workers") or None, scheduler=a.get("scheduler"))
+              workers=a.get("workers") or None, scheduler=a.get("scheduler"), fill=a.get("fill", False),
+              fill_max_distance=a.get("fill_max_distance") or 4.0, point_cloud=a.get("point_cloud"))
 done.set()
 kids = [psutil.Process(p) for p in list(workers_peak) if psutil.pid_exists(p)]
 print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter() - w,
@@ -93,12 +98,16 @@ print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter(
 """
 
 
-def run(sc: dict, folder: Path, code: Path, resolution=None, bounds=None, workers=0, scheduler=None) -> dict:
+def run(sc: dict, folder: Path, code: Path, resolution=None, bounds=None, workers=0, scheduler=None,
+        fill=None, point_cloud=False) -> dict:
     tag = "" if code == ROOT else f"_{code.name}"  # another checkout's outputs beside, not over, this one's
     tag += (f"_{resolution:g}m" if resolution else "") + ("_bounds" if bounds else "")
     tag += f"_dask{workers}" if workers else ("_dask" if scheduler else "")
+    tag += (f"_fill{fill:g}" if fill else "") + ("_las" if point_cloud else "")
     args = {**sc, "crs": CRS, "resolution": resolution, "bounds": bounds, "out": str(folder / f"dsm{tag}.tif"),
-            "report": str(folder / f"report{tag}.json"), "workers": workers, "scheduler": scheduler}
+            "report": str(folder / f"report{tag}.json"), "workers": workers, "scheduler": scheduler,
+            "fill": bool(fill), "fill_max_distance": fill,
+            "point_cloud": str(folder / f"points{tag}.laz") if point_cloud else None}
     env = dict(os.environ, PYTHONPATH=str(code), GDAL_PAM_ENABLED="NO", OMP_NUM_THREADS="1")
     r = subprocess.run([sys.executable, "-c", CHILD, json.dumps(args)], env=env, capture_output=True, text=True)
     if r.returncode:
@@ -119,6 +128,9 @@ def main() -> None:
     ap.add_argument("--workers", default="0", help="comma-separated: 0 = the tiles in the main process, N = on a "
                     "local Dask cluster of N worker processes (dsm --workers N)")
     ap.add_argument("--scheduler", default=None, help="the tiles on the running Dask scheduler at this address")
+    ap.add_argument("--fill", type=float, default=None, metavar="D",
+                    help="dsm --fill --fill-max-distance D (cells) [no filling]")
+    ap.add_argument("--point-cloud", action="store_true", help="also write the point cloud (dsm --point-cloud)")
     a = ap.parse_args()
     code = Path(a.code).resolve()
     label = ("this checkout" if code == ROOT else str(code)) + ("" if a.kind == "frames" else f" ({a.kind})")
@@ -135,11 +147,12 @@ def main() -> None:
             render_s = time.perf_counter() - t
             for workers in (int(x) for x in a.workers.split(",")):
                 r = run({k: v for k, v in sc.items() if k != "rpc_fit_px"}, folder, code, a.resolution, a.bounds,
-                        workers, a.scheduler)
+                        workers, a.scheduler, a.fill, a.point_cloud)
                 g = r.pop("grid")
                 rows.append({"size_px": size, "resolution_m": g["resolution"], "bounds": a.bounds,
                              "tiles": "dask " + (a.scheduler or f"{workers} workers") if workers or a.scheduler
-                             else "main process", "image_mb": round(2 * size * size / 2 ** 20, 1),
+                             else "main process", "fill_max_distance": a.fill, "point_cloud": a.point_cloud,
+                             "image_mb": round(2 * size * size / 2 ** 20, 1),
                              "dsm_cells": f"{g['width']}x{g['height']}",
                              "dsm_mcells": round(g["width"] * g["height"] / 1e6, 1), "render_s": round(render_s, 1),
                              **r})
@@ -155,7 +168,8 @@ def main() -> None:
 def _save(label: str, rows: list, load0) -> None:
     res = ROOT / "benchmarks" / "results" / "dsm_memory.json"
     old = json.loads(res.read_text()) if res.is_file() else {}
-    key = lambda r: (r["size_px"], r.get("resolution_m"), r.get("bounds"), r.get("tiles", "main process"))  # noqa: E731
+    key = lambda r: (r["size_px"], r.get("resolution_m"), r.get("bounds"), r.get("tiles", "main process"),  # noqa: E731
+                     r.get("fill_max_distance"), r.get("point_cloud", False))
     sizes = {key(r) for r in rows}  # rows of other sizes from earlier runs stay, each with its command
     kept = [r for r in old.get(label, {}).get("rows", []) if key(r) not in sizes]
     now = {"command": "benchmarks/dsm_memory.py " + " ".join(sys.argv[1:]),
