@@ -23,9 +23,8 @@ DSM = Table(
            advanced=True),
     Option("pairs", "file", None, "Pairs to match (text file; empty = chosen automatically)",
            "A text file of the pairs to match, two image names (file names without extension) per line [chosen "
-           "from footprints, overlap, the base across the lines of sight (convergence angle) and view angle; a given "
-           "pair is matched even when its views differ by more than 70 degrees].",
-           file_filter="Text (*.txt);;All files (*)"),
+           "from footprints, overlap, base-to-height ratio and view angle; a given pair is matched even when its views "
+           "differ by more than 45 degrees].", file_filter="Text (*.txt);;All files (*)"),
     Option("resolution", "float", None, "Cell size (0 = twice the images' ground sample distance)",
            "Cell size of the DSM in map units [twice the median ground sample distance of the pairs].",
            minimum=0.0, exclusive_minimum=True, automatic=0.0),
