@@ -15,11 +15,12 @@ For two images with projection centres (or, for RPC images, points far along the
 * **view angle** — the angle between the two optical axes (obliques looking different ways cannot be matched).
 
 A candidate pair is kept when its overlap, ``b⊥/H`` and view angle pass the limits; then each image keeps at most
-``per_image`` partners, the best by ``overlap · min(1, (b⊥/H) / 0.4) · (1 − ¼ · view angle / max view angle)``
-first: a wide base across the rays helps the heights up to 0.4; views that differ make the images differ, and
-matched alone a pair's completeness fell by up to a fifth from views 22° to 75° apart while its heights stayed
-within 1 GSD (``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``): a mild penalty, not the whole
-score. The limit stays 45° though the sweep would allow 70°: multi-pair runs with such pairs gave gross errors no
+``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first
+(the whole base here still: ranking by ``b⊥/H`` changes the pairs of six of the eight sets of
+``tests/dsm_oblique_sets.py``, not measured yet). Matched alone, a pair's heights stayed within 1 GSD from views
+22° to 75° apart and its completeness fell by up to a fifth (``benchmarks/dsm_bench.py --cases oblique_sets
+--view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: multi-pair runs with such pairs gave
+gross errors no
 pair gives alone (not traced; docs/howto/dsm.md). Every pair left out carries its reason. Pairs the user gives
 (``dsm --pairs``) are all matched when they pass the overlap and ``b⊥/H`` limits: the view-angle limit is a default
 for the automatic choice (whether views further apart still match depends on the scene), so a given pair above it
@@ -154,7 +155,7 @@ def _reason(p: PairChoice, lim: Limits, given: bool = False) -> str:
 
 def _score(p: PairChoice, lim: Limits) -> float:
     """The order in which pairs get an image's partners (module docstring)."""
-    return p.overlap * min(1.0, base_across(p) / 0.4) * (1.0 - 0.25 * p.view_angle / lim.max_view_angle)
+    return p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / lim.max_view_angle)
 
 
 def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None) -> list:
