@@ -382,7 +382,7 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
     return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
-def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False) -> list:
+def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sweep: bool = False) -> list:
     """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
     IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
     -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
@@ -390,11 +390,14 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False) ->
     flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height). ``params``: more sets as
     parameter dicts (``make_set``'s, JSON), named by their JSON; ``pair_rows``: each kept pair also alone
     (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
-    miss the target)."""
+    miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``."""
     import re
 
     from dsm_oblique_sets import SETS, make_set
     from dsm_scenes import compare
+    if sweep:
+        from dsm_view_sweep import view_angle_sweep
+        return view_angle_sweep(tmp, _time_v)
     rows, py = [], [sys.executable, "-m", "fotogeo", "dsm"]
     sets = [(n, n) for n in (names if names is not None else [] if params else list(SETS))]
     sets += [(json.dumps(p), {**p, "strips": [tuple(x) for x in p["strips"]]}) for p in params or []]
@@ -500,6 +503,8 @@ def main():
     ap.add_argument("--oblique-params", help="oblique_sets: more sets as make_set's parameter dicts, a JSON list "
                     "(with --oblique-params only: only these)")
     ap.add_argument("--pair-rows", action="store_true", help="oblique_sets: each kept pair also alone vs the truth")
+    ap.add_argument("--view-angle-sweep", action="store_true",
+                    help="oblique_sets: only pairs with views 20-70 degrees apart (benchmarks/dsm_view_sweep.py)")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -519,7 +524,8 @@ def main():
                                           args.rounds, args.baseline_tree, args.ebee_dir),
                      "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree),
                      "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets),
-                                                          _params(args.oblique_params), args.pair_rows)}[case]()
+                                                          _params(args.oblique_params), args.pair_rows,
+                                                          args.view_angle_sweep)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}
