@@ -38,7 +38,7 @@ from .products import MOSAIC, ORTHO  # noqa: F401
 from .register import (DEMO, FUSE, MATCH, REGISTER, REGISTER_BATCH, REGISTER_TERRAIN,  # noqa: F401
                        RegisterOptions)
 from .shared import *  # noqa: F401,F403
-from .table import KINDS, Option, Table, field_options, in_labels  # noqa: F401
+from .table import KINDS, Option, Table, check_needs, field_options, in_labels  # noqa: F401
 from .triangulate import TRIANGULATE  # noqa: F401
 
 
