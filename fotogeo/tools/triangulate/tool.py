@@ -241,7 +241,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                                                    "folder": str(folder)})
     with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost), saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
-            0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped))
+            0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
+            sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
