@@ -99,8 +99,9 @@ def test_the_cli_refuses_a_reach_without_fill_naming_both_flags(value, tmp_path)
     from fotogeo.cli import main
     r = CliRunner().invoke(main, ["dsm", "a.tif", "b.tif", "--camera", "c.yaml", "--eo", "e.txt",
                                   "--fill-max-distance", value, "-o", str(tmp_path / "d.tif")])
-    assert r.exit_code == 2 and r.output.strip() == (f"Error: --fill-max-distance {float(value)} acts only with --fill "
-                                                     f"(alone it would be ignored): give both, or leave it out"), r.output
+    assert r.exit_code == 2 and r.output.strip() == (
+        f"Error: --fill-max-distance {float(value)} acts only with --fill (alone it would be ignored): give both, "
+        f"or leave it out"), r.output
     assert "[default: (4.0 with --fill)]" in " ".join(CliRunner().invoke(main, ["dsm", "--help"]).output.split())
 
 

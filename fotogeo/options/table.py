@@ -120,10 +120,10 @@ def check_needs(values: dict, options) -> None:
     would be ignored (``dsm --fill-max-distance`` without ``--fill`` was). The error names both (``also``), so the
     command line says both flags and QGIS both labels.
 
-    >>> check_needs({"reach": 2.0, "fill": False}, [Option("fill", "bool", False), Option("reach", "float", 4.0,
-    ...                                                                                    needs="fill")])
+    >>> check_needs({"md": 2.0, "fill": False}, [Option("fill", "bool", False), Option("md", "float", 4.0,
+    ...                                                                              needs="fill")])
     Traceback (most recent call last):
-    fotogeo.errors.InputError: reach 2.0 acts only with fill=True (alone it would be ignored): give both, or leave it out
+    fotogeo.errors.InputError: md 2.0 acts only with fill=True (alone it would be ignored): give both, or leave it out
     """
     for o in options:
         if o.needs and values.get(o.name) is not None and not values.get(o.needs):
