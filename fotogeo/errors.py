@@ -15,13 +15,16 @@ class FotogeoError(Exception):
     one; the command line then names it by its flag and QGIS by its parameter's label
     (:func:`in_callers_words`), the Python API keeps the keyword.
 
+    ``also``: further options the message names (e.g. the one ``option`` needs), named alike by each caller.
+
     ``frames``: the names of the images (frames) the message refuses, when it is about some of a block's: a caller
     that adds context (e.g. the pairs tried by a refused triangulation) puts theirs first without reading the text.
     """
 
-    def __init__(self, *args, option: str | None = None, frames=()):
+    def __init__(self, *args, option: str | None = None, frames=(), also=()):
         super().__init__(*args)
         self.option = option
+        self.also = tuple(also)
         self.frames = tuple(map(str, frames))
 
 

@@ -221,7 +221,8 @@ def serve(stdin=None) -> int:
         channel.send(type="error", error="Cancelled", message=str(e), cancelled=True)
         return EXIT_CANCELLED
     except FotogeoError as e:
-        channel.send(type="error", error=type(e).__name__, message=str(e), option=e.option, cancelled=False)
+        channel.send(type="error", error=type(e).__name__, message=str(e), option=e.option,
+                     also=list(e.also), cancelled=False)
         return EXIT_ERROR
     except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the traceback
         import traceback
@@ -256,7 +257,8 @@ def answer_request(request: dict, channel: _Channel) -> None:
             warnings.simplefilter("always")
             result = func(progress=None, **kwargs)  # made JSON as it is written (_json_line)
     except FotogeoError as e:
-        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e), option=e.option)
+        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e), option=e.option,
+                     also=list(e.also))
         return
     except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the session
         import traceback

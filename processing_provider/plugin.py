@@ -78,6 +78,9 @@ class FotogeoPlugin:
             self.picker_action = None
         from .session import close_shared_session
         close_shared_session()
+        preview = sys.modules.get(f"{__package__}.picker.preview")  # loaded only once a picker was opened
+        if preview is not None:
+            preview.remove_folders()
         if self.menu is not None:
             self.menu.remove()
             self.menu = None

@@ -138,12 +138,13 @@ def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
 
 
 def _in_callers_words(error: dict, words) -> str:
-    """The worker's error message in the caller's words: ``words(message, option)``, ``option`` the option
-    the error is about (``error["option"]``, :attr:`fotogeo.errors.FotogeoError.option`) or None."""
+    """The worker's error message in the caller's words: ``words(message, option, also)``, ``option`` the option
+    the error is about (``error["option"]``, :attr:`fotogeo.errors.FotogeoError.option`) or None, ``also`` the
+    further options it names (:attr:`~fotogeo.errors.FotogeoError.also`)."""
     message = error.get("message") or error.get("error", "fotogeo failed")
     if words is str:
         return message
-    return words(message, error.get("option"))
+    return words(message, error.get("option"), tuple(error.get("also") or ()))
 
 
 def _follow(proc, feedback, words=str):

@@ -138,7 +138,8 @@ def frame_dock(setup, args: dict, model: str):
 
 def run(main, state: dict, out: str):
     """``main()``, then ``state`` (its traceback as ``error`` if it raised) written to ``out/state.json``; exits at
-    once (one QgsApplication per process, no teardown)."""
+    once (one QgsApplication per process, no teardown), the live preview's folders removed first as the
+    interpreter's exit would (:func:`processing_provider.picker.preview.remove_folders`)."""
     try:
         main()
     except Exception:
@@ -146,4 +147,7 @@ def run(main, state: dict, out: str):
     with open(os.path.join(out, "state.json"), "w") as f:
         json.dump({k: v for k, v in state.items() if not k.startswith("_")}, f)
     sys.stdout.flush()
+    for name, module in list(sys.modules.items()):  # os._exit skips the interpreter's exit, whose clean-up this is
+        if name.endswith("picker.preview"):
+            module.remove_folders()
     os._exit(0)

@@ -47,13 +47,18 @@ def test_ngi_dem_in_feet_is_named_as_such(data_dir, tmp_path):
 
 
 @pytest.mark.data
-def test_an_rpc_cutout_that_lost_its_place_is_named(data_dir, tmp_path):
+@pytest.mark.parametrize("source", [".geom", "_RPC.TXT", ".RPB", "tags"])
+def test_an_rpc_cutout_that_lost_its_place_is_named(data_dir, tmp_path, monkeypatch, source):
     """Ventoux's left image cut at (60, 40) and written without its geotransform beside the product's .geom (sweep
-    case v05): its pixels are read at the product's corner, km away; the refusal said only "overlap 0 %"."""
+    case v05): its pixels are read at the product's corner, km away; the refusal said only "overlap 0 %". The same
+    with the product's RPC in an _RPC.TXT or .RPB beside it, or in its GeoTIFF tags (GDAL's RPC metadata: the check
+    skipped them, and the refusal said only "overlap 0 %" again)."""
     import shutil
     import warnings
 
+    from fotogeo.io.rpc import read_rpc, write_rpc_geotiff
     from fotogeo.tools.dsm import dsm
+    monkeypatch.setenv("GDAL_PAM_ENABLED", "NO")
     v = data_dir / "rpc" / "ventoux"
     with rasterio.open(v / "left_image.tif") as ds:
         crop = ds.read(window=((40, 440), (60, 460)))
@@ -62,13 +67,43 @@ def test_an_rpc_cutout_that_lost_its_place_is_named(data_dir, tmp_path):
         with rasterio.open(tmp_path / "left.tif", "w", driver="GTiff", width=400, height=400, count=crop.shape[0],
                            dtype=crop.dtype) as ds:
             ds.write(crop)
-    shutil.copy(v / "left_image.geom", tmp_path / "left.geom")
+    product = read_rpc(v / "left_image.geom")
+    if source == ".geom":
+        shutil.copy(v / "left_image.geom", tmp_path / "left.geom")
+    elif source == "tags":
+        write_rpc_geotiff(tmp_path / "left.tif", tmp_path / "tagged.tif", product)
+        (tmp_path / "tagged.tif").replace(tmp_path / "left.tif")
+    else:
+        _rpc_file(product, tmp_path / f"left{source}")
     shutil.copy(v / "right_image.tif", tmp_path / "right.tif")
     shutil.copy(v / "right_image.geom", tmp_path / "right.geom")
-    with pytest.raises(InputError, match=r"overlap 0 % below 20 %; 'left' is 400 x 400 pixels without a geotransform"
-                                         r".*'right' carries its place in that product \(its pixel \(0, 0\) at "
-                                         r"\(4915, 5162\)\).*gdal_edit.py -a_ullr"):
+    what = "its GeoTIFF RPC tags describe" if source == "tags" else rf"its RPC file '.*left{source}' describes"
+    fix = "the RPC of its own pixels" if source == "tags" else "gdal_edit.py -a_ullr"
+    with pytest.raises(InputError, match=rf"overlap 0 % below 20 %; 'left' is 400 x 400 pixels without a geotransform"
+                                         rf", so its pixel \(0, 0\) is read as the first pixel of the product {what}"
+                                         rf".*'right' carries its place in that product \(its pixel \(0, 0\) at "
+                                         rf"\(4915, 5162\)\).*{fix}"):
         dsm([tmp_path / "left.tif", tmp_path / "right.tif"], tmp_path / "a.tif", rpc=True)
+
+
+def _rpc_file(rpc, path):
+    """``rpc`` as GDAL's text RPC beside an image: ``_RPC.TXT`` (one coefficient a line) or ``.RPB``."""
+    md = rpc.to_gdal_metadata()
+    if path.name.endswith(".RPB"):
+        names = {"LINE_OFF": "lineOffset", "SAMP_OFF": "sampOffset", "LAT_OFF": "latOffset", "LONG_OFF": "longOffset",
+                 "HEIGHT_OFF": "heightOffset", "LINE_SCALE": "lineScale", "SAMP_SCALE": "sampScale",
+                 "LAT_SCALE": "latScale", "LONG_SCALE": "longScale", "HEIGHT_SCALE": "heightScale"}
+        lines = ['satId = "X";', "BEGIN_GROUP = IMAGE", "\terrBias = 1.0;", "\terrRand = 1.0;"]
+        lines += [f"\t{v} = {md[k]};" for k, v in names.items()]
+        for k, v in (("LINE_NUM_COEFF", "lineNumCoef"), ("LINE_DEN_COEFF", "lineDenCoef"),
+                     ("SAMP_NUM_COEFF", "sampNumCoef"), ("SAMP_DEN_COEFF", "sampDenCoef")):
+            lines.append(f"\t{v} = (" + ",".join(md[k].split()) + ");")
+        path.write_text("\n".join(lines + ["END_GROUP = IMAGE", "END;"]) + "\n")
+        return
+    lines = [f"{k}: {v}" for k, v in md.items() if not k.endswith("COEFF")]
+    for k in ("LINE_NUM_COEFF", "LINE_DEN_COEFF", "SAMP_NUM_COEFF", "SAMP_DEN_COEFF"):
+        lines += [f"{k}_{i + 1}: {v}" for i, v in enumerate(md[k].split())]
+    path.write_text("\n".join(lines) + "\n")
 
 
 def test_noise_bands_are_left_out_of_the_fusion_and_equal_bands_weigh_alike():

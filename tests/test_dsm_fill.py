@@ -88,3 +88,27 @@ def test_the_reach_stays_within_the_output_tiles_margin():
     from fotogeo.options.dsm import DSM
     from fotogeo.tools.dsm.outputs import TILE_MARGIN
     assert DSM["fill_max_distance"].maximum == TILE_MARGIN and DSM["fill_max_distance"].default <= TILE_MARGIN
+
+
+@pytest.mark.parametrize("value", ["2", "4"])
+def test_the_cli_refuses_a_reach_without_fill_naming_both_flags(value, tmp_path):
+    """``--fill-max-distance`` without ``--fill`` was ignored without a word (the table's default 4 was passed
+    either way); now refused before any file is read, even when it is the default."""
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    r = CliRunner().invoke(main, ["dsm", "a.tif", "b.tif", "--camera", "c.yaml", "--eo", "e.txt",
+                                  "--fill-max-distance", value, "-o", str(tmp_path / "d.tif")])
+    assert r.exit_code == 2 and r.output.strip() == (
+        f"Error: --fill-max-distance {float(value)} acts only with --fill (alone it would be ignored): give both, "
+        f"or leave it out"), r.output
+    assert "[default: (4.0 with --fill)]" in " ".join(CliRunner().invoke(main, ["dsm", "--help"]).output.split())
+
+
+def test_the_tool_refuses_a_reach_without_fill_and_fills_to_4_cells_by_default(pair, tmp_path):
+    from fotogeo.tools.dsm import dsm
+    with pytest.raises(InputError, match=r"^fill_max_distance 2 acts only with fill=True .*leave it out$") as e:
+        dsm(pair["images"], tmp_path / "d.tif", camera=pair["camera"], eo=pair["eo"], fill_max_distance=2)
+    assert (e.value.option, e.value.also) == ("fill_max_distance", ("fill",)) and not (tmp_path / "d.tif").exists()
+    rep = dsm(pair["images"], tmp_path / "d.tif", camera=pair["camera"], eo=pair["eo"], crs=CRS, fill=True)
+    assert rep["fill_max_distance_cells"] == 4.0

@@ -151,7 +151,11 @@ def test_every_tool_keyword_is_in_its_table(tool):
     assert not keywords - skip - set(table_args), f"{tool}: keywords without an option"
     takes_any = any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())
     assert takes_any or set(table_args) <= keywords, f"{tool}: options the tool does not take"
+    needs = {o.name for t in tables for o in t.values() if o.needs}  # not given: None, the default with the other
     for name, value in table_args.items():  # the table's defaults are the tool's (fields=None: the same names)
         default = sig.parameters[name].default if name in sig.parameters else inspect.Parameter.empty
+        if name in needs:
+            assert default is None, (tool, name)
+            continue
         if default is not inspect.Parameter.empty and not (default is None and isinstance(value, dict)):
             assert value == (tuple(default) if isinstance(default, (list, tuple)) else default), (tool, name)

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -54,14 +56,20 @@ def run_script(script: str, args: dict, tmp_path: Path, timeout: int = 300) -> d
     need_qgis()
     args_file = tmp_path / "args.json"
     args_file.write_text(json.dumps({"root": str(ROOT), "out": str(tmp_path), **args}))
+    temp = Path(tempfile.mkdtemp(prefix="picker-script-"))  # the script's temporary folder: what it leaves is seen
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", HOME=str(tmp_path / "home"), GDAL_PAM_ENABLED="NO",
-               FOTOGEO_PYTHON=sys.executable)
-    r = subprocess.run([sys.executable, str(ROOT / "tests" / script), str(args_file)], cwd=tmp_path, env=env,
-                       capture_output=True, text=True, timeout=timeout)
+               FOTOGEO_PYTHON=sys.executable, TMPDIR=str(temp))
+    try:
+        r = subprocess.run([sys.executable, str(ROOT / "tests" / script), str(args_file)], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=timeout)
+    finally:
+        left = sorted(p.name for p in temp.glob("fotogeo-preview-*"))
+        shutil.rmtree(temp, ignore_errors=True)
     state_file = tmp_path / "state.json"
     assert state_file.exists(), f"{script} failed (rc {r.returncode}):\n{r.stdout[-3000:]}\n{r.stderr[-3000:]}"
     state = json.loads(state_file.read_text())
     assert "error" not in state, state["error"] + r.stderr[-2000:]
+    assert not left, f"{script} left the live preview's temporary folders {left}"
     return state
 
 

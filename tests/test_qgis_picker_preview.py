@@ -27,6 +27,17 @@ def test_preview_appears_at_the_models_minimum_and_goes_below_it(previewed):
     assert s["closed"] == {"folder_removed": True, "item_in_scene": False}
 
 
+@pytest.mark.parametrize("unload", [False, True])
+def test_the_preview_folder_is_made_on_first_use_and_never_left_behind(tmp_path, unload):
+    """The ``fotogeo-preview-*`` folder was made when the dock was, and left in the temporary folder when the dock
+    was never closed (46 of them in /tmp here): now made by the first warp and removed at the interpreter's exit
+    or the plugin's unload even when the preview is not closed (run_script checks its temporary folder)."""
+    from test_qgis_picker import run_script
+    state = run_script("picker_folders_script.py", {"unload": unload}, tmp_path)
+    assert state["before_first_warp"] is None and state["after_first_warp"] is True
+    assert state.get("after_unload", False) is False
+
+
 def template_shift(before_png, after_png, screen_xy, canvas_width, half=20, reach=60):
     """``(shift in screen pixels (2,), match score, score where it was)`` of the preview's picture around screen
     point ``screen_xy`` from ``before_png`` to ``after_png`` (normalised cross-correlation of a (2·half + 1)²

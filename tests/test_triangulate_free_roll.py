@@ -52,3 +52,44 @@ def test_anything_that_fixes_the_roll_lets_the_block_through(what):
     else:
         sigma = None
     assert free_roll(block, BundleOptions(eo_sigma=sigma)) is None
+
+
+def test_a_frame_off_the_line_that_is_dropped_does_not_hold_the_roll():
+    """The check ran once, before the frames too sparse to adjust were dropped: a third frame off the line of two
+    held them, then was dropped, and the two left went into an adjustment that cannot fix their roll. It is now
+    made on the frames left, before each adjustment, naming the frame dropped."""
+    block = _block(1, 3)
+    c = np.array([e.centre for e in block.eo])
+    across = np.cross(c[2] - c[0], [0.0, 0.0, 1.0])
+    eo = list(block.eo)
+    eo[1] = dataclasses.replace(eo[1], X=eo[1].X + 200 * across[0] / np.linalg.norm(across),
+                                Y=eo[1].Y + 200 * across[1] / np.linalg.norm(across))  # 200 m off the line
+    first = np.flatnonzero(block.obs_frame == 1)[:3]  # frame 1 keeps 3 observations: too sparse to adjust
+    keep = (block.obs_frame != 1) | np.isin(np.arange(len(block.obs_frame)), first)
+    block = dataclasses.replace(block, eo=tuple(eo), obs_frame=block.obs_frame[keep], obs_point=block.obs_point[keep],
+                                obs_pixel=block.obs_pixel[keep],
+                                obs_sigma=None if block.obs_sigma is None else np.asarray(block.obs_sigma)[keep])
+    opts = BundleOptions(snooping=False, eo_sigma=(0.5, np.inf))
+    assert free_roll(block, opts) is None  # three frames, one 200 m off the line: held
+    with pytest.raises(ModelError, match=rf"only the positions of the frames are held .* the 2 centres make one line"
+                                         rf".*--gcps.* \(dropped already: {block.frames[1]}\)$"):
+        adjust_determined(block, opts, KW, None)
+
+
+@pytest.mark.parametrize("tagged", [(True, True), (True, False), (False, False), "flag"])
+def test_the_refusal_says_where_the_position_sigma_came_from(tagged):
+    """The σ of the images' own GPS (accuracy tags, or a consumer receiver's 5 m) was named as
+    ``--eo-sigma-position``, a flag the run was not given."""
+    from fotogeo.tools.triangulate.sources import BlockStart
+    block = _block(1, 2)
+    start = BlockStart(CAMERA, (), list(block.frames), {}, None, "", "")
+    if tagged != "flag":
+        start.tagged = dict(zip(block.frames, tagged))
+    source = start.sigma_source(0.5 if tagged == "flag" else None, None)
+    text = free_roll(block, BundleOptions(eo_sigma=(0.02, np.inf)), source)
+    expected = {(True, True): "σ 0.02 m from the images' GNSS accuracy tags",
+                (True, False): "σ 0.02 m from the GNSS accuracy tags of 1 of the 2 images, 5 m for the others' GPS",
+                (False, False): "σ 0.02 m for the images' GPS, 5 m when they carry no accuracy tag",
+                "flag": "--eo-sigma-position 0.02 m"}[tagged]
+    assert text.startswith(f"only the positions of the frames are held ({expected}")
+    assert ("--eo-sigma-position" in text) == (tagged == "flag") and "--eo-sigma-angle" in text

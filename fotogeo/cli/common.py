@@ -94,6 +94,14 @@ def flag_of(name: str | None) -> str | None:
     return option.cli_flag if option else _SWITCHES.get(name)
 
 
+def _in_flags(e) -> str:
+    """The message of the error ``e`` with the options it names (``option``, ``also``) called by their flags."""
+    text = str(e)
+    for name in (e.option, *getattr(e, "also", ())):
+        text = in_callers_words(text, name, flag_of(name))
+    return text
+
+
 _CLICK_TYPES = {"int": int, "float": float, "str": str, "crs": str}
 
 
@@ -190,7 +198,7 @@ def run_tool(func):
         except FotogeoError as e:
             # an output that exists names --overwrite but is the file system's state, not a bad value: exit 1
             stop(EXIT_USAGE if e.option and not isinstance(e, OutputError) else EXIT_FAILED,
-                 f"Error: {in_callers_words(str(e), e.option, flag_of(e.option))}")
+                 f"Error: {_in_flags(e)}")
         if as_json:
             print_json({"exit_code": 0, "result": result})
         return result
@@ -249,6 +257,8 @@ def click_option(option: Option):
         kw.update(type=click.Path(), default=option.default)
     else:
         kw.update(type=_CLICK_TYPES[option.kind], default=option.default)
+    if option.needs:  # not given: None, so that the tool can refuse it given alone; the default shown with the other
+        kw.update(default=None, show_default=f"{option.default} with --{option.needs.replace('_', '-')}")
     return click.option(*decls, **kw)
 
 

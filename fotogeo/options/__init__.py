@@ -21,6 +21,11 @@ default is ``None`` is an optional parameter (empty = ``None``), unless it has a
 ``automatic`` value — the number standing for ``None`` ("0 = automatic") — or a
 ``none_choice`` — the enum entry, listed first, standing for ``None`` ("default").
 
+An option that acts only with a bool option (``needs``, e.g. ``fill_max_distance`` with ``fill``) is passed as None
+when not given — the command line's default is None (``--help`` shows "4.0 with --fill"), QGIS passes None when
+its parameter keeps the default while the other is off — and the tool boundary refuses it given alone, naming both
+(:func:`~fotogeo.options.table.check_needs`); the tool applies the table's default when the other is on.
+
 The choice lists (:data:`DETECTORS`, :data:`CONTRASTS`, :data:`RESAMPLINGS`,
 :data:`PLANAR_MODELS`, :data:`TERRAIN_MODELS`, :data:`ORIENTATION_MODELS`, ...) live in
 :mod:`.shared` and the array and tool modules import them, so there is one list of each. The package
@@ -38,7 +43,7 @@ from .products import MOSAIC, ORTHO  # noqa: F401
 from .register import (DEMO, FUSE, MATCH, REGISTER, REGISTER_BATCH, REGISTER_TERRAIN,  # noqa: F401
                        RegisterOptions)
 from .shared import *  # noqa: F401,F403
-from .table import KINDS, Option, Table, field_options, in_labels  # noqa: F401
+from .table import KINDS, Option, Table, check_needs, field_options, in_labels  # noqa: F401
 from .triangulate import TRIANGULATE  # noqa: F401
 
 

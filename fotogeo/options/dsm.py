@@ -44,7 +44,7 @@ DSM = Table(
            "With --fill: fill only the cells at most this many cells (the Euclidean distance between cell "
            "centres, as gdal_fillnodata -md counts pixels) from a matched height; farther cells stay nodata and "
            "are not marked filled. At most 64 (the output tiles' margin).", minimum=0.0, maximum=64.0,
-           exclusive_minimum=True, advanced=True),
+           exclusive_minimum=True, advanced=True, needs="fill"),
     Option("bands", "str", None, "Bands to match, e.g. 1 or 4,3,2 (empty = the first three)",
            "Bands of each image fused into the grey image matched, e.g. 1 or 4,3,2 [the first three; empty, "
            "constant and noise bands left out with a warning]; the point cloud's colours come from them too.",

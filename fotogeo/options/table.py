@@ -42,6 +42,9 @@ class Option:
     flag: str | None = None  # command-line flag [--name-with-dashes]
     param: str | None = None  # QGIS parameter name [NAME]
     repeat: bool = False  # kind "str": the flag may be repeated; the values are joined with ";" (QGIS: one text)
+    #: the (bool) option this one acts with: its ``default`` applies only then; the tool's argument defaults to None
+    #: (not given), and a value given without that option is refused (:func:`check_needs`), never ignored
+    needs: str | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -72,7 +75,7 @@ class Option:
     def check(self, value) -> None:
         """Raise :class:`InputError` naming the option unless ``value`` has its kind, range and choices."""
         if value is None:
-            if self.nullable:
+            if self.nullable or self.needs:  # a ``needs`` option not given: its default applies with the other
                 return
             raise InputError(f"{self.name} needs a value (default {self.default!r})", option=self.name)
         if self.kind == "choice":
@@ -110,6 +113,22 @@ class Option:
                 raise InputError(f"{self.name} needs at least one value", option=self.name)
             for item in items:  # each item as an "int" or a "choice" option of the same name and range
                 replace(self, kind="int" if self.kind == "ints" else "choice", default=0).check(item)
+
+
+def check_needs(values: dict, options) -> None:
+    """Refuse an option of ``options`` given (not None in ``values``) while the option it ``needs`` is off: it
+    would be ignored (``dsm --fill-max-distance`` without ``--fill`` was). The error names both (``also``), so the
+    command line says both flags and QGIS both labels.
+
+    >>> check_needs({"md": 2.0, "fill": False}, [Option("fill", "bool", False), Option("md", "float", 4.0,
+    ...                                                                              needs="fill")])
+    Traceback (most recent call last):
+    fotogeo.errors.InputError: md 2.0 acts only with fill=True (alone it would be ignored): give both, or leave it out
+    """
+    for o in options:
+        if o.needs and values.get(o.name) is not None and not values.get(o.needs):
+            raise InputError(f"{o.name} {values[o.name]!r} acts only with {o.needs}=True (alone it would be ignored): "
+                             f"give both, or leave it out", option=o.name, also=(o.needs,))
 
 
 class Table(dict):

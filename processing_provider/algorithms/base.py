@@ -251,12 +251,15 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         """
         return runner.run_tool(tool, *args, feedback=feedback, words=self.in_words, **kwargs)
 
-    def in_words(self, message: str, option: str | None = None) -> str:
+    def in_words(self, message: str, option: str | None = None, also=()) -> str:
         """A tool's message as this dialog speaks: command-line flags → the parameter labels the user sees;
-        ``option``, the option an error is about (``FotogeoError.option``), named by its label too."""
-        for table in self.OPTIONS:
-            if option in table:
-                message = in_callers_words(message, option, table[option].cli_flag)
+        ``option``, the option an error is about (``FotogeoError.option``), and ``also``, the further options it
+        names (``FotogeoError.also``), by their labels too."""
+        for name in (option, *also):
+            for table in self.OPTIONS:
+                if name in table:
+                    message = in_callers_words(message, name, table[name].cli_flag)
+                    break
         return in_labels(message, *self.OPTIONS, extra=self.WORDS)
 
     # -- parameters ----------------------------------------------------------------------
@@ -333,6 +336,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
             if option.nullable and option.automatic is None and (given is None or str(given).strip() == ""):
                 return None
             value = (self.parameterAsInt if kind == "int" else self.parameterAsDouble)(parameters, name, context)
+            if option.needs and value == option.default and not self._needed_on(parameters, option, context):
+                return None  # the dialog always holds the default: left as it is, it is not given
             return None if option.nullable and value == option.automatic else value
         if kind == "bool":
             return self.parameterAsBoolean(parameters, name, context)
@@ -358,6 +363,11 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if kind == "raster_out":
             return self.parameterAsOutputLayer(parameters, name, context) or None if parameters.get(name) else None
         return self.raster_path(parameters, name, context) if parameters.get(name) else None  # raster
+
+    def _needed_on(self, parameters, option: Option, context) -> bool:
+        """Whether the (bool) option ``option`` needs (:attr:`Option.needs`) is on in ``parameters``."""
+        needed = next((t[option.needs] for t in self.OPTIONS if option.needs in t), None)
+        return needed is not None and self.parameterAsBoolean(parameters, needed.qgis_name, context)
 
     def option_arguments(self, parameters, context, *tables: Table) -> dict:
         """The tool's keyword arguments from the parameters of ``tables`` [:attr:`OPTIONS`]."""

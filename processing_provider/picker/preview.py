@@ -13,6 +13,7 @@ ends (a drag of ten edits costs at most two warps, never a queue).
 """
 from __future__ import annotations
 
+import atexit
 import os
 import shutil
 import tempfile
@@ -24,6 +25,30 @@ from qgis.PyQt.QtCore import QObject, QPointF, QRectF, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
 OPACITY = 0.6  # the default: the map shows through the warped image
+#: the preview folders this process made and has not removed: a dock never closed properly (QGIS killed, a script
+#: ending with os._exit) left them in the temporary folder; they go at interpreter exit and the plugin's unload
+_FOLDERS: set[str] = set()
+
+
+def new_folder() -> str:
+    """A new ``fotogeo-preview-*`` temporary folder, remembered until :func:`remove_folder`."""
+    folder = tempfile.mkdtemp(prefix="fotogeo-preview-")
+    _FOLDERS.add(folder)
+    return folder
+
+
+def remove_folder(folder: str | None) -> None:
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
+        _FOLDERS.discard(folder)
+
+
+@atexit.register
+def remove_folders() -> None:
+    """Remove every preview folder this process made and has not removed (interpreter exit, plugin unload; a
+    process ending with ``os._exit`` calls it first)."""
+    for folder in list(_FOLDERS):
+        remove_folder(folder)
 
 
 class PreviewItem(QgsMapCanvasItem):
@@ -89,7 +114,7 @@ class LivePreview(QObject):
         self.running = False
         self.pending: tuple | None = None
         self.last: dict = {}
-        self.folder = tempfile.mkdtemp(prefix="fotogeo-preview-")
+        self.folder: str | None = None  # made on the first warp (new_folder), removed on close
         self._done.connect(self._finished)
 
     def canvas_request(self) -> dict:
@@ -110,6 +135,8 @@ class LivePreview(QObject):
             self.last = {"ok": False, "message": "no preview", "generation": self.generation}
             self.shown.emit(self.last)
             return
+        if self.folder is None or not os.path.isdir(self.folder):
+            self.folder = new_folder()
         kwargs = {**{k: v for k, v in fit_kwargs.items() if k != "image_sigma"},  # the blunder test's: not a warp's
                   **self.canvas_request(), "output": os.path.join(self.folder, "preview.rgba")}
         self.pending = (self.generation, kwargs)
@@ -156,4 +183,4 @@ class LivePreview(QObject):
         self.pending = None
         self.item.remove()
         self.session.close()
-        shutil.rmtree(self.folder, ignore_errors=True)
+        remove_folder(self.folder)

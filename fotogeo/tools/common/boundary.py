@@ -109,7 +109,9 @@ def _argument_values(bound) -> dict:
 
 
 def check_options(values: dict, tables) -> None:
-    """Check each value named in ``tables`` (the first table declaring a name wins)."""
+    """Check each value named in ``tables`` (the first table declaring a name wins), then that no option is given
+    without the option it needs (:func:`~fotogeo.options.table.check_needs`)."""
+    from ...options.table import check_needs
     declared = {}
     for table in tables:
         for name, option in table.items():
@@ -117,6 +119,7 @@ def check_options(values: dict, tables) -> None:
     for name, value in values.items():
         if name in declared:
             declared[name].check(value)
+    check_needs(values, declared.values())
 
 
 def check_nodata(value, dtype: str, what: str) -> None:

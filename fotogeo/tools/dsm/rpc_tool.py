@@ -61,26 +61,32 @@ def _choose(ims, names, zlo, zhi, pairs) -> list:
 
 
 def _lost_offset(ims, i: int, j: int) -> str:
-    """The likely cause of a pair of RPC images that do not overlap, "" when there is none to name: one of them is
-    smaller than half the product its RPC file describes (``2·SCALE`` pixels a side, about) and has no geotransform,
-    so its pixel (0, 0) is read as the product's first (:mod:`fotogeo.io.rpc_image`): a cut-out that lost its place
-    in the product; the other's place, when it carries one, is named as what was expected."""
+    """The likely cause of a pair of RPC images that do not overlap, "" when there is none to name: one of them
+    looks cut out of the product its RPC describes without its place (:func:`_product_rpc`), so its pixel (0, 0) is
+    read as the product's first (:mod:`fotogeo.io.rpc_image`); the other's place, when it carries one, is named as
+    what was expected. Every source :func:`~fotogeo.io.rpc_image.image_rpc` reads is checked: an RPC file given or
+    beside the image (.geom, .RPB, _RPC.TXT, RPC XML), read by fotogeo or by GDAL, and GeoTIFF RPC tags; only the
+    fix differs (a window geotransform for a file, the RPC of its own pixels for tags, which the reader keeps
+    without a window)."""
     from ...io.rpc_image import image_rpc
-    info = {k: image_rpc(ims[k].path) for k in (i, j)}
+    found = {k: _product_rpc(ims[k]) for k in (i, j)}
     for k, o in ((i, j), (j, i)):
-        r, im = info[k].rpc, ims[k]
-        if (info[k].product_window is not None or info[k].source == "GDAL RPC metadata"
-                or im.width > r.samp_scale or im.height > r.line_scale or not _describes_whole_product(r)):
+        if found[k] is None:
             continue
-        w = info[o].product_window
+        info, source = found[k]
+        r, im = info.rpc, ims[k]
+        w = found[o][0].product_window if found[o] is not None else image_rpc(ims[o].path).product_window
         there = (f", while {ims[o].name!r} carries its place in that product (its pixel (0, 0) at ({w[1]:g}, {w[3]:g}))"
                  if w is not None else "")
+        what = f"its RPC file {source!r}" if source else "its GeoTIFF RPC tags"
+        fix = (f"give it a geotransform without a CRS putting its pixel (0, 0) at its column and row in the product "
+               f"(gdal_edit.py -a_ullr COL ROW COL+{im.width} ROW+{im.height}), or the RPC of its own pixels" if source
+               else "give it the RPC of its own pixels (gdal_translate -srcwin from the product moves the tags into "
+                    "the cut)")
         return (f"{im.name!r} is {im.width} x {im.height} pixels without a geotransform, so its pixel (0, 0) is read "
-                f"as the first pixel of the product its RPC file {info[k].source!r} describes (about "
+                f"as the first pixel of the product {what} describe{'s' if source else ''} (about "
                 f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f} pixels){there}: if it was cut out of that product "
-                f"it lost its place; give it a geotransform without a CRS putting its pixel (0, 0) at its column and "
-                f"row in the product (gdal_edit.py -a_ullr COL ROW COL+{im.width} ROW+{im.height}), or the RPC of its "
-                f"own pixels")
+                f"it lost its place; {fix}")
     return ""
 
 
@@ -93,26 +99,36 @@ def _describes_whole_product(r) -> bool:
             and abs(r.line_off - r.line_scale) <= 0.1 * r.line_scale)
 
 
-def _placeless(im) -> str:
-    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): its RPC is a file's
-    (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it; GDAL's own tags follow its crops), it has no
-    window geotransform, and it is smaller than half the product the file describes (``2·SCALE`` pixels a side,
-    about), so its pixel (0, 0) is read as the product's first."""
+def _product_rpc(im):
+    """``(ImageRpc, file)`` when image ``im`` may be a cut-out that lost its place in its product, else None: no
+    window geotransform, smaller than half the product its RPC describes (``2·SCALE`` pixels a side, about), and an
+    RPC that is a whole product's (:func:`_describes_whole_product`), so its pixel (0, 0) is read as the product's
+    first. ``file``: the RPC file (fotogeo's reading, or the one beside the image GDAL read as its metadata), None
+    for GeoTIFF RPC tags."""
     from ...io.rpc import read_rpc
     from ...io.rpc_image import image_rpc, sidecar_rpc_files
     info = image_rpc(im.path)
     r = info.rpc
     if (info.product_window is not None or im.width > r.samp_scale or im.height > r.line_scale
             or not _describes_whole_product(r)):
+        return None
+    if info.source != "GDAL RPC metadata":
+        return info, info.source
+    files = [f for f in sidecar_rpc_files(im.path) if _same_rpc(_try_read(read_rpc, f), r)]
+    return info, (str(files[0]) if files else None)
+
+
+def _placeless(im) -> str:
+    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): :func:`_product_rpc`
+    with an RPC file (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it). GeoTIFF RPC tags are not
+    taken for it here, where a pair that matched is refused: GDAL writes them per dataset and moves them into every
+    window it cuts (a tagged image that matched is taken at its word); :func:`_lost_offset` names them when a pair
+    does not even overlap."""
+    found = _product_rpc(im)
+    if found is None or found[1] is None:
         return ""
-    if info.source == "GDAL RPC metadata":
-        files = [f for f in sidecar_rpc_files(im.path) if _same_rpc(_try_read(read_rpc, f), r)]
-        if not files:
-            return ""
-        source = files[0]
-    else:
-        source = info.source
-    return (f"{im.width} x {im.height} px, no geotransform; {Path(source).name}: a product of about "
+    r = found[0].rpc
+    return (f"{im.width} x {im.height} px, no geotransform; {Path(found[1]).name}: a product of about "
             f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f}")
 
 

@@ -39,11 +39,12 @@ FEET = (0.3048, 1200.0 / 3937.0)
 @tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, fill_max_distance: float = 4.0, bands=None, scheduler=None, workers=None,
+        fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None, workers=None,
         point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
-    filled cells, none over ``fill_max_distance`` cells from a matched one); ``point_cloud`` a LAS/LAZ of every
+    filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
+    ``fill`` it is refused); ``point_cloud`` a LAS/LAZ of every
     point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with ``scheduler`` (a
     running cluster) or ``workers`` (a local cluster of that many processes), else in this process
     (:mod:`.matching`)."""
@@ -57,7 +58,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
                          f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
-    fill = fill_max_distance if fill else None  # below: the filling's reach in cells, None for no filling
+    # below: the filling's reach in cells (the table's default when not given), None for no filling
+    fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
                    (report, "report", None)), inputs, overwrite)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -278,9 +279,22 @@ _RANGE_PIXELS = 1_000_000
 
 def read_dem_under(path, images, crs):
     """The part of the DEM ``path`` under the images, as a :class:`~fotogeo.geometry.dem.Dem` (memory bounded by
-    the images' ground area, not the DEM's): the heights' range from a decimated read (padded by 10 % and the
-    100 m a geoid shift may add), each image's outline on the planes of the lowest and highest height (every line
-    of sight between them lies inside their bounding box), that box in the DEM's CRS plus two cells."""
+    the images' ground area, not the DEM's): each image's outline on the planes of the lowest and highest height
+    (every line of sight between them lies inside their bounding box), read by :func:`read_dem_around`."""
+    from ...pixels import outline
+
+    def corners(lo, hi):
+        return [im.model.inverse(outline(im.width, im.height, 9), h)[:, :2] for im in images for h in (lo, hi)]
+    return read_dem_around(path, crs, corners, partial(_not_under, path, images))
+
+
+def read_dem_around(path, crs, corners, refusal):
+    """The window of the DEM ``path`` around the points ``corners(lowest, highest)`` gives (a list of ``(N, 2)``
+    arrays in the map CRS ``crs``, NaN rows ignored), as a :class:`~fotogeo.geometry.dem.Dem` whose memory follows
+    that area, not the DEM's: the heights' range comes from a decimated read (at most :data:`_RANGE_PIXELS`),
+    padded by 10 % and the 100 m a geoid shift may add; the points' bounding box in the DEM's CRS plus two cells is
+    read. The whole DEM when no point is finite; ``refusal(dem_crs, why)``: the message when the box misses the DEM
+    or holds no height (None: return None then)."""
     import math
 
     from rasterio.windows import Window
@@ -288,7 +302,6 @@ def read_dem_under(path, images, crs):
     from ...crs import transform_points
     from ...geometry.dem import Dem
     from ...io.raster import dem_height_scale, ropen
-    from ...pixels import outline
     with ropen(path) as ds:
         if ds.crs is None:
             raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
@@ -301,12 +314,9 @@ def read_dem_under(path, images, crs):
         if not z.size:
             raise InputError(f"DEM {str(path)!r} holds no valid height")
         pad = 0.1 * float(z.max() - z.min()) + 100.0
-        corners = []
-        for im in images:
-            for h in (float(z.min()) - pad, float(z.max()) + pad):
-                xy = im.model.inverse(outline(im.width, im.height, 9), h)[:, :2]
-                corners.append(xy[np.isfinite(xy).all(axis=1)])
-        xy = transform_points(crs, horizontal_crs(dcrs), np.vstack(corners))
+        xy = np.vstack([np.asarray(c, float).reshape(-1, 2) for c in corners(float(z.min()) - pad,
+                                                                              float(z.max()) + pad)])
+        xy = transform_points(crs, horizontal_crs(dcrs), xy[np.isfinite(xy).all(axis=1)])
         if not len(xy):
             return read_dem(path)
         inv = ~ds.transform
@@ -315,11 +325,15 @@ def read_dem_under(path, images, crs):
         c1, r1 = np.ceil(cr.max(axis=0)).astype(int) + 2
         c0, r0, c1, r1 = max(c0, 0), max(r0, 0), min(c1, ds.width), min(r1, ds.height)
         if c1 - c0 < 2 or r1 - r0 < 2:
-            raise InputError(_not_under(path, images, dcrs, "the images' ground lies outside it"))
+            if refusal is None:
+                return None
+            raise InputError(refusal(dcrs, "the images' ground lies outside it"))
         win = Window(c0, r0, c1 - c0, r1 - r0)
         data = ds.read(1, window=win, masked=True).astype(np.float64) * scale
         if not np.isfinite(data.filled(np.nan)).any():
-            raise InputError(_not_under(path, images, dcrs, "it holds no height under the images"))
+            if refusal is None:
+                return None
+            raise InputError(refusal(dcrs, "it holds no height under the images"))
         return Dem(data.filled(np.nan), ds.window_transform(win), dcrs, str(path))
 
 

@@ -58,23 +58,23 @@ def why_not_dropped(total: int, left: int) -> str | None:
     return None
 
 
-def adjust_determined(block, opts, kw, prog, dropped_before: int = 0):
+def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_source: str | None = None):
     """``(result, block, FrameQuality, dropped, restarted)``: the adjustment, every frame checked (module
     docstring); an undetermined frame is dropped and the block adjusted again (``undetermined="drop"``), or fails
     the run. Frames whose observations are too few or too clustered even before any is rejected
     (:func:`~fotogeo.orientation.bundle_quality.sparse_frames`) are refused or dropped before the first adjustment,
     in seconds rather than after it. ``dropped_before``: frames of the flight already left out (e.g. by the
     registration start), counted in the share that may be dropped. ``dropped`` and ``restarted`` are lists of
-    ``{"name", "reason"}``."""
+    ``{"name", "reason"}``. ``sigma_source``: where the position priors' σ came from (:func:`free_roll`)."""
     dropped, restarted = [], []
     total = len(block.frames) + dropped_before
-    free = free_roll(block, opts)
-    if free:  # no adjustment can fix it, no frame dropped helps: refused before adjusting
-        raise ModelError(free)
     sparse = sparse_frames(block, min_points=kw["min_frame_points"])
     if sparse:  # refused (or dropped) before adjusting: no adjustment can give them points
         block, opts = _refused_or_dropped(sparse, set(sparse), block, opts, kw, dropped, total)
     while True:
+        free = free_roll(block, opts, sigma_source)
+        if free:  # of the frames left: no adjustment can fix it, dropping more cannot help; refused before adjusting
+            raise ModelError(free + (f" (dropped already: {', '.join(d['name'] for d in dropped)})" if dropped else ""))
         try:
             result = adjust_block(block, opts, progress=prog)
         except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
@@ -97,14 +97,17 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0):
         block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped, total)
 
 
-def free_roll(block, opts) -> str | None:
+def free_roll(block, opts, source: str | None = None) -> str | None:
     """The refusal when the datum leaves the block free to roll: no GCP or control point, no attitude prior, and
     the frames whose position has a prior (GNSS, ``--eo-sigma-position``) have their centres on one line — two
     frames always do, a straight strip nearly. A rotation of the whole block about that line moves no centre and
     changes no image residual: the normal equations are singular (a datum defect of one rotation; Granshaw 1980),
     however many tie points. The line is fitted to the centres (principal axis); "on it" means the centres' RMS
     distance from it is at most the largest position σ (the roll's σ, about σ / distance in radians, is then a
-    radian or more). None when something else fixes the rotation."""
+    radian or more). None when something else fixes the rotation. Checked on the frames left each time before
+    adjusting (:func:`adjust_determined`): a frame off the line that is dropped no longer holds the roll.
+    ``source``: where the position σ came from, as the refusal says it after the σ (e.g. "from the images' GNSS
+    accuracy tags", :meth:`~.sources.BlockStart.sigma_source`; None: ``--eo-sigma-position``)."""
     m = len(block.frames)
     w = eo_weights(opts.eo_sigma, m)
     held = (w[:, :3] > 0).all(axis=1)
@@ -118,7 +121,8 @@ def free_roll(block, opts) -> str | None:
         return None
     line = ("the 2 centres make one line" if len(c) == 2 else
             f"the {len(c)} centres lie on one line within their σ ({off:.2g} m RMS from it)")
-    return (f"only the positions of the frames are held (--eo-sigma-position {sigma:g} m), and {line}: a rotation "
+    held_by = f"σ {sigma:g} m {source}" if source else f"--eo-sigma-position {sigma:g} m"
+    return (f"only the positions of the frames are held ({held_by}), and {line}: a rotation "
             f"of the whole block about that line (the "
             f"roll about the base) moves no centre and no image point, so the adjustment cannot determine the "
             f"frames' attitude (no angle σ: the normal equations are singular). Give the attitude a prior "

@@ -34,6 +34,37 @@ def frame_models(result, block) -> list:
     return [AdjustedFrame(result.camera, e, result.distortion, n) for n, e in zip(block.frames, result.eo)]
 
 
+#: the largest angle from the nadir a ray may leave a frame at and still find its ground in the DEM window read
+#: before the adjustment (:func:`dem_near_frames`); flatter rays, if any, find no height there (NaN: left out)
+MAX_OFF_NADIR_DEG = 80.0
+
+
+def frame_reach(camera, eos, lowest: float) -> list:
+    """The ground the frames ``eos`` can see down to the height ``lowest``, as the corners of one square per frame
+    (``[(4, 2)]`` in the frames' CRS): centred below the frame, half side ``(Z − lowest)·tan θ``, ``θ`` the angle of
+    its optical axis from the nadir plus half the field of view's diagonal (at most :data:`MAX_OFF_NADIR_DEG`)."""
+    w, h = camera.image_size
+    half = np.arctan(np.hypot(0.5 * w / camera.fx, 0.5 * h / camera.fy))
+    out = []
+    for e in eos:
+        axis = e.rotation_cv @ np.array([0.0, 0.0, 1.0])
+        theta = min(float(np.arccos(np.clip(-axis[2], -1.0, 1.0))) + half, np.radians(MAX_OFF_NADIR_DEG))
+        r = max(e.Z - lowest, 0.0) * np.tan(theta)
+        out.append(np.array([[e.X - r, e.Y - r], [e.X + r, e.Y - r], [e.X + r, e.Y + r], [e.X - r, e.Y + r]]))
+    return out
+
+
+def dem_near_frames(dem, crs, camera, eos):
+    """The DEM ``dem`` around the frames ``eos`` before any adjustment (their ground, :func:`frame_reach`, read by
+    :func:`fotogeo.tools.ortho.inputs.read_dem_around`: memory bounded by the block's area, not a regional DEM's),
+    as a height source in the map CRS ``crs``; None when no height of it lies there (the start then measures on a
+    plane, as without a DEM; the stages after the adjustment say what they lack)."""
+    from ..orient.rectify import dem_heights
+    from ..ortho.inputs import read_dem_around
+    d = read_dem_around(dem, crs, lambda lo, hi: frame_reach(camera, eos, lo), None)
+    return None if d is None else dem_heights(d, crs)
+
+
 def terrain(dem, crs, result, images=()):
     """The height source: the DEM in the map CRS (with the frames ``images``, :func:`frame_images`, the part under
     them, as ``fotogeo ortho`` reads it: :func:`fotogeo.tools.ortho.inputs.terrain`), else the mean height of the

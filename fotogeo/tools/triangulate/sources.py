@@ -69,6 +69,7 @@ class BlockStart:
     frame_reading: str = ""  # how an SfM --eo file's local frame was read and why (fotogeo.io.sfm_frame)
     interior_rule: str = ""  # which interior parameters the adjustment estimates and why (interior_to_estimate)
     lost: dict = field(default_factory=dict)  # frame -> what of its files' metadata could not be read
+    tagged: dict = field(default_factory=dict)  # name -> True where the position σ is the images' accuracy tags'
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -99,6 +100,22 @@ class BlockStart:
             sh, sv, sa = self.sigmas.get(n, (np.inf, np.inf, None))
             rows.append([sh, sh, sv] + [sa if sa is not None else np.inf] * 3)
         return np.array(rows, dtype=float)
+
+    def sigma_source(self, position, height) -> str | None:
+        """Where the position priors' σ came from, as a refusal says it after the σ (:func:`~.determinacy.free_roll`):
+        None when ``--eo-sigma-position`` gave it; ``--eo-sigma-height`` alone; the images' GNSS accuracy tags; or
+        :data:`GNSS_SIGMA` for GPS without them (the images' own σ: no flag of the run to name)."""
+        if position is not None:
+            return None
+        if height is not None:
+            return f"from --eo-sigma-height {height:g} m, horizontal too (give --eo-sigma-position)"
+        tags = [n for n in self.names if self.tagged.get(n)]
+        if tags and len(tags) == len(self.names):
+            return "from the images' GNSS accuracy tags"
+        if tags:
+            return (f"from the GNSS accuracy tags of {len(tags)} of the {len(self.names)} images, {GNSS_SIGMA[0]:g} m "
+                    f"for the others' GPS")
+        return f"for the images' GPS, {GNSS_SIGMA[0]:g} m when they carry no accuracy tag (a consumer receiver's)"
 
     def gps_hints(self):
         """``(eos, level)`` in frame order: the GPS start that chooses each frame's reference tiles, or None
@@ -324,6 +341,7 @@ def _start_from_images(start: BlockStart, approx, map_crs) -> None:
         sh = s.sigma_h if s.sigma_h else GNSS_SIGMA[0]
         sv = s.sigma_v if s.sigma_v else GNSS_SIGMA[1]
         start.sigmas[n] = (sh, sv, ATTITUDE_SIGMA if s.angles is not None else None)
+        start.tagged[n] = bool(s.sigma_h)
     start.source += "; orientation from the images' GPS" + ("" if all(not v for v in start.level.values()) else
                                                               " (attitude unknown: level start, κ from the images)")
 

@@ -123,14 +123,14 @@ def _matched(frames, names, cam, eos, height, start, match, prog):
     return obs, rep, tuple(eos), height
 
 
-def _dem_source(dem, crs):
+def _dem_source(dem, crs, camera, eos):
     """The DEM ``dem`` (None: none given) as a height source in the map CRS ``crs``, read once for
-    :func:`start_height` and :func:`_measure`."""
+    :func:`start_height` and :func:`_measure`: only its window under the frames ``eos``
+    (:func:`~fotogeo.tools.triangulate.ortho.dem_near_frames`; a regional DEM is not read whole)."""
     if dem is None:
         return None
-    from .ortho import terrain
-    src = terrain(dem, crs, None)
-    return None if isinstance(src, (int, float)) else src
+    from .ortho import dem_near_frames
+    return dem_near_frames(dem, crs, camera, eos)
 
 
 def _measure(start, height, source):
@@ -217,7 +217,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     else:
         with prog.timed("matching"), saying_none_registered(start):
             needed = gcp is None or start.measure(0.0) is not None  # the DEM's mean height, or the level frames'
-            src = _dem_source(kw["dem"], map_crs) if needed else None
+            src = _dem_source(kw["dem"], map_crs, cam, eos) if needed else None
             height = start_height(gcp, kw["dem"], map_crs, eos, cam, source=src)
             obs, matching, eos, height = _matched(
                 frames, names, cam, eos, height, _measure(start, height, src),
@@ -241,7 +241,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                                                                    "folder": str(folder)})
     with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost), saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
-            0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped))
+            0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
+            sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
@@ -303,7 +304,7 @@ def start_height(gcp, dem, crs, eos, camera, *, source=None):
     if gcp is not None:
         return float(np.mean(gcp.ground[:, 2]))
     if dem is not None:
-        src = _dem_source(dem, crs) if source is None else source
+        src = _dem_source(dem, crs, camera, eos) if source is None else source
         if src is not None:
             xy = np.array([[e.X, e.Y] for e in eos])
             h = src.heights_and_gradient(xy)[0]
