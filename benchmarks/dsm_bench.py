@@ -382,7 +382,8 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
     return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
-def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sweep: bool = False) -> list:
+def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sweep: bool = False,
+                 extra=()) -> list:
     """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
     IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
     -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
@@ -390,7 +391,9 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height). ``params``: more sets as
     parameter dicts (``make_set``'s, JSON), named by their JSON; ``pair_rows``: each kept pair also alone
     (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
-    miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``."""
+    miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``; ``extra``:
+    more ``fotogeo dsm`` options for every set (``--oblique-dsm-options``, e.g. ``--refine``; the row names them).
+    Each row also says where its squared error lies (:func:`_by_pairs`)."""
     import re
 
     from dsm_oblique_sets import SETS, make_set
@@ -404,10 +407,11 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     for name, spec in sets:
         sc = make_set(spec, tmp / f"set{len(rows)}")
         out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
-        row = {"case": f"oblique_sets {name}", "frames": len(sc["images"]), "gsd_m": sc["gsd"]}
+        row = {"case": f"oblique_sets {name}" + "".join(f" {o}" for o in extra), "frames": len(sc["images"]),
+               "gsd_m": sc["gsd"]}
         try:
             row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
-                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q"], cwd=tmp))
+                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q", *extra], cwd=tmp))
         except SystemExit as e:  # a refusal: its last line is the row
             rows.append({**row, "refused": str(e).strip().splitlines()[-1]})
             continue
@@ -420,12 +424,28 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
         rows.append({**row, "resolution_m": r["grid"]["resolution"], "pairs_kept": r["pairs_kept"], "pairs_left": left,
                      "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
                      "median_m": c["median"],
-                     "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"]})
+                     "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"],
+                     "by_pairs": _by_pairs(out, c["abs"])})
         if pair_rows:
             rows += _pairs_alone(tmp, sc, name, r, out, py)
         if name == next(iter(SETS)):  # the whole flight vs its first two strips
             rows.append(_subset_vs_whole(tmp, sc, out, py))
     return rows
+
+
+def _by_pairs(dsm_path, err) -> dict:
+    """Where the squared error lies: per number of pairs that gave a cell (the DSM's count band, band 2; "3+"
+    for three or more), the share of the valid cells and of the sum of squared errors, and their RMSE (m);
+    ``err`` the cells' errors in :func:`dsm_scenes.compare`'s order (its valid cells, row by row)."""
+    import rasterio
+    with rasterio.open(dsm_path) as ds:
+        h, n, nod = ds.read(1), ds.read(2), ds.nodata
+    n, e2 = n[h != nod], np.asarray(err, float) ** 2
+    out = {}
+    for key, sel in (("1", n == 1), ("2", n == 2), ("3+", n >= 3)):
+        out[key] = {"cells": round(float(sel.mean()), 4), "sq_err": round(float(e2[sel].sum() / e2.sum()), 4),
+                    "rmse_m": round(float(np.sqrt(e2[sel].mean())), 4) if sel.any() else None}
+    return out
 
 
 def _pairs_alone(tmp: Path, sc: dict, name: str, report: dict, whole: Path, py: list) -> list:
@@ -505,6 +525,8 @@ def main():
     ap.add_argument("--pair-rows", action="store_true", help="oblique_sets: each kept pair also alone vs the truth")
     ap.add_argument("--view-angle-sweep", action="store_true",
                     help="oblique_sets: only pairs with views 20-70 degrees apart (benchmarks/dsm_view_sweep.py)")
+    ap.add_argument("--oblique-dsm-options", default="", help="oblique_sets: more fotogeo dsm options for every set, "
+                    "e.g. --oblique-dsm-options=--refine (the rows' names carry them)")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -525,7 +547,8 @@ def main():
                      "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree),
                      "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets),
                                                           _params(args.oblique_params), args.pair_rows,
-                                                          args.view_angle_sweep)}[case]()
+                                                           args.view_angle_sweep,
+                                                           args.oblique_dsm_options.split())}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}
