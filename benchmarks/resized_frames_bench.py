@@ -8,7 +8,9 @@ downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 with
 * ``EXIF only`` — the original's EXIF APP1 segment and no XMP (what PIL's ``save(exif=im.info["exif"])`` leaves:
   ``PixelXDimension`` still 4608, the senseFly XMP attitude and GPS accuracy gone);
 * ``EXIF + XMP`` — both APP1 segments as they were (a tool that copies the metadata);
-* ``no metadata`` — ``cv2.imwrite`` alone (no EXIF: no GPS, no focal length).
+* ``no metadata`` — ``cv2.imwrite`` alone (no EXIF: no GPS, no focal length);
+* ``EXIF rewritten + XMP`` — ``PixelXDimension``/``PixelYDimension`` set to the new size, the rest (the full
+  frame's ``FocalPlaneXResolution``) and the XMP as they were.
 
 Each set is triangulated from its files alone (``fotogeo triangulate *.JPG -o all``). For the sets that orient,
 every frame's centre and PATB angles are compared with the full-size run's (max over the common frames) and with
@@ -30,7 +32,8 @@ import dsm_heldout_bench as hb  # noqa: E402
 
 OUT = hb.ROOT / "benchmarks" / "results" / "resized_frames_bench.json"
 SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (2, "exif"), "1/2, EXIF + XMP": (2, "exif+xmp"),
-        "1/4, EXIF only": (4, "exif"), "1/4, EXIF + XMP": (4, "exif+xmp"), "1/2, no metadata": (2, "none")}
+        "1/4, EXIF only": (4, "exif"), "1/4, EXIF + XMP": (4, "exif+xmp"), "1/2, no metadata": (2, "none"),
+        "1/2, EXIF rewritten + XMP": (2, "rewritten")}
 
 
 def _copy(src: Path, dst: Path, factor: int, keep: str) -> Path:
@@ -43,11 +46,25 @@ def _copy(src: Path, dst: Path, factor: int, keep: str) -> Path:
     segs, i = [], 2
     while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
         n = struct.unpack(">H", data[i + 2:i + 4])[0]
-        if data[i + 1] == 0xE1 and (keep == "exif+xmp" or (keep == "exif" and data[i + 4:i + 10] == b"Exif\0\0")):
-            segs.append(data[i:i + 2 + n])
+        exif = data[i + 4:i + 10] == b"Exif\0\0"
+        if data[i + 1] == 0xE1 and (keep != "none" and (exif or keep != "exif")):
+            segs.append(_rewritten(data[i:i + 2 + n], img.shape) if exif and keep == "rewritten" else data[i:i + 2 + n])
         i += 2 + n
     dst.write_bytes(b"\xff\xd8" + b"".join(segs) + enc[2:])
     return dst
+
+
+def _rewritten(segment: bytes, shape) -> bytes:
+    """The EXIF APP1 ``segment`` with ``PixelXDimension``/``PixelYDimension`` set to the resized size (what a tool
+    that updates them leaves; ``FocalPlaneXResolution`` still describes the full-resolution frame)."""
+    from PIL import Image
+    ex = Image.Exif()
+    ex.load(segment[4:])
+    ifd = ex.get_ifd(0x8769)
+    ifd[0xA002], ifd[0xA003] = int(shape[1]), int(shape[0])
+    body = ex.tobytes()
+    body = body if body.startswith(b"Exif") else b"Exif\0\0" + body
+    return b"\xff\xe1" + struct.pack(">H", len(body) + 2) + body
 
 
 def _orientation(folder: Path) -> dict:
