@@ -227,7 +227,8 @@ def _versus(path, ref) -> dict:
 
 
 def _resized(src: Path, folder: Path, factor: int) -> list:
-    """Copies of the eBee frames resized by ``1/factor`` (INTER_AREA), their EXIF (GPS, focal length) kept."""
+    """Copies of the eBee frames resized by ``1/factor`` (INTER_AREA), their EXIF (GPS, focal length) kept and their
+    XMP (attitude) dropped, as PIL's ``save(exif=...)`` leaves them (see ``resized_frames_bench.py``)."""
     import cv2
     from PIL import Image
     folder.mkdir(parents=True, exist_ok=True)

@@ -64,10 +64,11 @@ def rename_ifd0_tag(path, tag: int, new_tag: int, *, exif_ifd: bool = False) -> 
     raise ValueError(f"{path}: no {'Exif IFD' if exif_ifd else 'IFD0'} tag 0x{tag:04x}")
 
 
-def resized_copy(src, dst, factor: float) -> Path:
+def resized_copy(src, dst, factor: float, *, xmp: bool = True) -> Path:
     """``src`` downsampled by ``factor`` (OpenCV, area averaging) into the JPEG ``dst`` with the original's APP1
     segments (EXIF, XMP) as they were — what a resizing tool that keeps the metadata leaves: the EXIF
-    PixelXDimension and the calibration tags still describe the full-resolution frame."""
+    PixelXDimension and the calibration tags still describe the full-resolution frame. ``xmp=False``: the EXIF
+    only (PIL's ``save(exif=im.info["exif"])`` drops the XMP packet so)."""
     import cv2
     import numpy as np
     data = Path(src).read_bytes()
@@ -77,7 +78,7 @@ def resized_copy(src, dst, factor: float) -> Path:
     segments, i = [], 2
     while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
         length = struct.unpack(">H", data[i + 2:i + 4])[0]
-        if data[i + 1] == 0xE1:
+        if data[i + 1] == 0xE1 and (xmp or data[i + 4:i + 10] == b"Exif\x00\x00"):
             segments.append(data[i:i + 2 + length])
         i += 2 + length
     Path(dst).write_bytes(b"\xff\xd8" + b"".join(segments) + enc.tobytes()[2:])

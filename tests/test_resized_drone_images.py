@@ -109,6 +109,38 @@ def test_resized_real_frames_triangulate_from_their_files(tmp_path, data_dir):
     assert res.exit_code != 0 and "does not determine" in res.output, res.output  # refused, not silently off
 
 
+@pytest.mark.data
+def test_resized_copies_without_their_xmp_are_refused_naming_the_resize(tmp_path, data_dir):
+    """The eBee frames resized with their EXIF but not their XMP (as PIL's save(exif=...) leaves them) lose the
+    attitude prior: the two strips, which do not overlap each other, leave each strip's roll free and the run is
+    refused — the refusal names the resize and the fix (copy the XMP), not only "near-parallel rays or no datum".
+    With the XMP kept the copies read the originals' attitude."""
+    src = data_dir / "drone_snowpeak" / "img"
+    names = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
+    (tmp_path / "bare").mkdir()
+    (tmp_path / "kept").mkdir()
+    bare = [jm.resized_copy(src / f"{n}.JPG", tmp_path / "bare" / f"{n}.JPG", 4, xmp=False) for n in names]
+    kept = jm.resized_copy(src / "IMG_2186.JPG", tmp_path / "kept" / "IMG_2186.JPG", 4)
+    block = read_exif_block(bare)
+    assert set(block.lost) == set(names) and all(s.angles is None for s in block.shots.values())
+    assert "1152x864 (its EXIF PixelXDimension says 4608x3456) without XMP" in block.lost["IMG_2186"]
+    assert any(n.startswith("resized copies without XMP") for n in block.notes)
+    with_xmp = read_exif_block([kept])
+    assert not with_xmp.lost and with_xmp.shots["IMG_2186"].angles is not None
+    assert not read_exif_block([src / "IMG_2186.JPG"]).lost  # the original: nothing lost
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, bare), "-o", str(tmp_path / "out"), "-q"])
+    assert res.exit_code != 0, res.output
+    said = " ".join(res.output.split())
+    assert "IMG_2186, IMG_2188, IMG_2189, IMG_2280, IMG_2281 and 1 more: a copy resized to 1152x864" in said, said
+    assert "exiftool -tagsFromFile ORIGINAL -xmp:all COPY" in said and "--geoinfo, --eo" in said, said
+
+
+def test_what_was_lost_is_said_once_per_reason():
+    from fotogeo.tools.triangulate.tool import _grouped
+    lost = {f"F{i}": "resized" for i in range(7)} | {"G": "unreadable"}
+    assert _grouped(lost) == "F0, F1, F2, F3, F4 and 2 more: resized; G: unreadable"
+
+
 def test_a_frame_overlapping_none_gets_advice_on_the_source_given():
     """"check the orientation file" only when one was given (--eo)."""
     from fotogeo.tools.triangulate.tool import _overlap_advice

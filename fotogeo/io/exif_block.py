@@ -54,6 +54,7 @@ from ..geometry.attitude import patb_in_map, rotation_from_body_ypr, rotation_fr
 from ..geometry.camera import FrameCamera
 
 from .exif import ImageMetadata, read_image_metadata
+from .exif_camera import resized_without_xmp
 
 
 def height_reference(meta: ImageMetadata) -> tuple[str | None, str]:
@@ -256,6 +257,7 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
         geoinfo = read_geoinfo(geoinfo)
     geoinfo = geoinfo or {}
     metas = _read_all(paths)
+    resized = {m.name: why for m in metas if (why := resized_without_xmp(m))}
     if geoinfo:
         _geoinfo_covers(geoinfo, [m.name for m in metas], source)
     pos = {m.name: _position(m, geoinfo.get(m.name)) for m in metas}
@@ -286,6 +288,10 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     notes.append(f"height reference: {heights}")
     lost = {m.name: f"{m.xmp_error.split(' (')[0]}: its attitude, GPS accuracy and calibration tags were lost"
             for m in metas if m.xmp_error}
+    lost.update({n: why for n, why in resized.items() if shots[n].angles is None})
+    if resized:
+        notes.append(f"resized copies without XMP (no attitude, GPS accuracy or calibration from it): "
+                     f"{', '.join(sorted(resized)[:10])}{' …' if len(resized) > 10 else ''}")
     if lost:
         notes.append(f"XMP unreadable, attitude, GPS accuracy and calibration lost: {', '.join(sorted(lost)[:10])}")
     missing = sorted(n for n in pos if n not in located)

@@ -13,6 +13,13 @@ the size the camera wrote). Sources that contradict each other are named, never 
 * the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
   (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
   (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
+
+A resized copy is also known by what it lacks: tools that resize (PIL's ``save(exif=...)``, many batch
+resizers) copy the EXIF block and drop the XMP packet, where drone cameras write the attitude (senseFly
+``sensefly:Yaw/Pitch/Roll``, DJI gimbal angles), the GNSS accuracy and the calibration. A file smaller than its
+``PixelXDimension`` with no XMP at all is named as such (:func:`resized_without_xmp`): measured on the eBee flight
+of ``drone_snowpeak``, the copies so made lose their attitude prior, and two strips that do not overlap each other
+then leave each strip's roll free — the same refusal as the full-size originals stripped of their XMP.
 """
 from __future__ import annotations
 
@@ -56,6 +63,18 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
     return s, note
+
+
+def resized_without_xmp(meta: ImageMetadata) -> str | None:
+    """What a copy resized after capture lost with its XMP (module docstring), None when the file is at its EXIF
+    ``PixelXDimension`` size, has no such tag, or carries XMP."""
+    full = meta.pixel_dimension
+    if not full or (full[0], full[1]) == (meta.width, meta.height) or meta.xmp or meta.xmp_error:
+        return None
+    return (f"a copy resized to {meta.width}x{meta.height} (its EXIF PixelXDimension says {full[0]}x{full[1]}) "
+            f"without XMP: the resizing tool kept the EXIF and dropped the XMP, and with it the attitude, GPS "
+            f"accuracy and calibration tags a drone camera writes there; copy it from the original "
+            f"(exiftool -tagsFromFile ORIGINAL -xmp:all COPY)")
 
 
 def focal_of(meta: ImageMetadata):

@@ -161,9 +161,18 @@ def _saying_what_was_lost(lost: dict):
             [n for n in lost if re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", str(exc))]
         if not named:
             raise
-        said = "; ".join(f"{n}: {lost[n]}" for n in named[:5])  # first: a long refusal is cut at its end
+        said = _grouped({n: lost[n] for n in named})  # first: a long refusal is cut at its end
         raise type(exc)(f"{said} (repair the files or give the attitude another way: --geoinfo, --eo); {exc}",
                         option=exc.option, frames=exc.frames) from None
+
+
+def _grouped(lost: dict) -> str:
+    """``{frame: what was lost}`` said once per distinct reason, its frames named before it (the first 5)."""
+    by = {}
+    for n, why in lost.items():
+        by.setdefault(why, []).append(n)
+    return "; ".join(f"{', '.join(ns[:5])}{f' and {len(ns) - 5} more' if len(ns) > 5 else ''}: {why}"
+                     for why, ns in by.items())
 
 
 def _overlap_advice(eo, camera, gcp) -> str:

@@ -1,0 +1,121 @@
+"""Resized drone frames: `fotogeo triangulate` on copies of the eBee flight made the ways users resize.
+
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/resized_frames_bench.py [--work /tmp/resized_frames_bench] [--tree T]
+
+The 8 eBee frames of ``drone_snowpeak`` (see :mod:`dsm_heldout_bench`'s ``ebee`` group) are copied whole and
+downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 with
+
+* ``EXIF only`` — the original's EXIF APP1 segment and no XMP (what PIL's ``save(exif=im.info["exif"])`` leaves:
+  ``PixelXDimension`` still 4608, the senseFly XMP attitude and GPS accuracy gone);
+* ``EXIF + XMP`` — both APP1 segments as they were (a tool that copies the metadata);
+* ``no metadata`` — ``cv2.imwrite`` alone (no EXIF: no GPS, no focal length);
+* ``EXIF rewritten + XMP`` — ``PixelXDimension``/``PixelYDimension`` set to the new size, the rest (the full
+  frame's ``FocalPlaneXResolution``) and the XMP as they were.
+
+Each set is triangulated from its files alone (``fotogeo triangulate *.JPG -o all``). For the sets that orient,
+every frame's centre and PATB angles are compared with the full-size run's (max over the common frames) and with
+the full-size run's own σ. Rows go to ``benchmarks/results/resized_frames_bench.json`` (CPU s = user + sys).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import struct
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import dsm_heldout_bench as hb  # noqa: E402
+
+OUT = hb.ROOT / "benchmarks" / "results" / "resized_frames_bench.json"
+SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (2, "exif"), "1/2, EXIF + XMP": (2, "exif+xmp"),
+        "1/4, EXIF only": (4, "exif"), "1/4, EXIF + XMP": (4, "exif+xmp"), "1/2, no metadata": (2, "none"),
+        "1/2, EXIF rewritten + XMP": (2, "rewritten")}
+
+
+def _copy(src: Path, dst: Path, factor: int, keep: str) -> Path:
+    import cv2
+    data = src.read_bytes()
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if factor > 1:
+        img = cv2.resize(img, (img.shape[1] // factor, img.shape[0] // factor), interpolation=cv2.INTER_AREA)
+    enc = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes()
+    segs, i = [], 2
+    while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
+        n = struct.unpack(">H", data[i + 2:i + 4])[0]
+        exif = data[i + 4:i + 10] == b"Exif\0\0"
+        if data[i + 1] == 0xE1 and (keep != "none" and (exif or keep != "exif")):
+            segs.append(_rewritten(data[i:i + 2 + n], img.shape) if exif and keep == "rewritten" else data[i:i + 2 + n])
+        i += 2 + n
+    dst.write_bytes(b"\xff\xd8" + b"".join(segs) + enc[2:])
+    return dst
+
+
+def _rewritten(segment: bytes, shape) -> bytes:
+    """The EXIF APP1 ``segment`` with ``PixelXDimension``/``PixelYDimension`` set to the resized size (what a tool
+    that updates them leaves; ``FocalPlaneXResolution`` still describes the full-resolution frame)."""
+    from PIL import Image
+    ex = Image.Exif()
+    ex.load(segment[4:])
+    ifd = ex.get_ifd(0x8769)
+    ifd[0xA002], ifd[0xA003] = int(shape[1]), int(shape[0])
+    body = ex.tobytes()
+    body = body if body.startswith(b"Exif") else b"Exif\0\0" + body
+    return b"\xff\xe1" + struct.pack(">H", len(body) + 2) + body
+
+
+def _orientation(folder: Path) -> dict:
+    sys.path.insert(0, str(hb.TREE))
+    from fotogeo.io.camera import read_exterior_orientation
+    return read_exterior_orientation(folder / "exterior_orientation.txt")
+
+
+def _versus(eo: dict, ref: dict, ref_report: dict) -> dict:
+    common = sorted(set(eo) & set(ref))
+    dc = [float(np.linalg.norm(eo[n].centre - ref[n].centre)) for n in common]
+    da = [max(abs((getattr(eo[n], k) - getattr(ref[n], k) + 180) % 360 - 180) for k in ("omega", "phi", "kappa"))
+          for n in common]
+    sig = {f["name"]: f.get("sigma") or {} for f in ref_report.get("frames", [])}
+    pos = [max(sig[n].get(k, np.nan) for k in ("X0", "Y0", "Z0")) for n in common if n in sig]
+    ang = [max(sig[n].get(k, np.nan) for k in ("rx_deg", "ry_deg", "rz_deg")) for n in common if n in sig]
+    return {"frames_oriented": len(eo), "common_with_full_size": len(common),
+            "max_centre_diff_m": round(max(dc), 3) if dc else None,
+            "max_angle_diff_deg": round(max(da), 3) if da else None,
+            "full_size_max_position_sigma_m": round(max(pos), 2) if pos else None,
+            "full_size_max_angle_sigma_deg": round(max(ang), 2) if ang else None}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", default="/tmp/resized_frames_bench", help="copies and runs go here (reused)")
+    ap.add_argument("--tree", default=str(hb.ROOT), help="the fotogeo checkout measured")
+    a = ap.parse_args()
+    hb.TREE = Path(a.tree).resolve()
+    src = hb.DATA / "drone_snowpeak" / "img"
+    if not src.is_dir():
+        sys.exit(f"no drone_snowpeak in {hb.DATA}")
+    rows, ref, ref_report = [], None, {}
+    for label, (factor, keep) in SETS.items():
+        folder = Path(a.work).resolve() / label.replace("/", "_").replace(" ", "").replace(",", "_")
+        folder.mkdir(parents=True, exist_ok=True)
+        imgs = [_copy(src / f"{n}.JPG", folder / f"{n}.JPG", factor, keep) for n in hb.EBEE]
+        cmd = hb.PY + ["triangulate", *imgs, "-o", folder / "all", "--overwrite", "-q"]
+        row = {"case": label, **hb.time_v(cmd, folder), "command": hb._command(cmd, folder)}
+        if row["exit"] == 0:
+            eo = _orientation(folder / "all")
+            if ref is None:
+                ref, ref_report = eo, json.loads((folder / "all" / "report.json").read_text())
+                row["frames_oriented"] = len(eo)
+            else:
+                row.update(_versus(eo, ref, ref_report))
+        rows.append(row)
+        print(row, flush=True)
+    stamp = {"load_average": round(os.getloadavg()[0], 1), **({} if hb.TREE == hb.ROOT else {"tree": str(hb.TREE)})}
+    OUT.write_text(json.dumps({"rows": [{**r, **stamp} for r in rows]}, indent=1, ensure_ascii=False))
+
+
+if __name__ == "__main__":
+    main()
