@@ -7,6 +7,7 @@ here: the similarity target pixel -> reference pixel found by Fourier–Mellin
 0.4–2.5) on the matching bands read at most ``FINE_SIDE`` px across, composed with the reference's
 geotransform. The target is not resampled: a VRT beside nothing of the user's (a temporary folder)
 gives the target file that georeference, and the windows then run as for a georeferenced target.
+After a weak feature fit the windows start from that fit instead (:func:`seed_from_fit`, its affine part).
 A similarity whose confidence (the translation's peak ratio) is below
 :data:`fotogeo.coreg.similarity.MIN_CONFIDENCE` is refused: the images may not show the same area.
 """

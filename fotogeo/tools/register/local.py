@@ -8,7 +8,9 @@ images (robust to seasonal and sensor radiometry):
   the reference and the target *on the target's own grid*, so the target must be georeferenced
   within ``max_shift`` (5) of its pixels — the usual case for satellite scenes of one area. An
   unreferenced target is first given one by a coarse similarity (:mod:`.coarse`, Fourier–Mellin:
-  any rotation, scale 0.4–2.5), refused when its confidence is low. A
+  any rotation, scale 0.4–2.5), refused when its confidence is low. A weak feature fit (few inliers, or
+  an imprecise one: :func:`corner_standard_error`) is followed by the windows started from that fit
+  (:func:`.coarse.seed_from_fit`), and the fit closer to the windows' check points is kept. A
   reliable window at target position ``p`` with the composed shift ``d`` (target = reference +
   shift) is the tie point target pixel ``p + d`` ↔ the reference pixel of the map point of ``p``,
   with the window's LSM σ; the model is then fitted as for feature tie points.
