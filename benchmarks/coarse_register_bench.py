@@ -7,7 +7,8 @@ Cases (tests/rotated_pairs.py): a chip of a real scene (Landsat-7 RGB, the Senti
 second date of the s2_pair) rotated, scaled, re-banded (gamma, band mix, noise, clouds, inverted contrast),
 without georeference, registered to the scene with :func:`fotogeo.register` (seed 0). ``TUNE`` cases chose
 the method's constants; ``HELD_OUT`` cases did not. Methods: ``default`` (features first, the windows when
-matching fails or keeps fewer than 12 inliers) and ``windows`` (SURF switched off with
+matching fails, keeps fewer than 12 inliers or its fit is imprecise — then started from
+that fit) and ``windows`` (SURF switched off with
 ``hessian_threshold=1e9``, so that the Fourier–Mellin + windows path always runs). Reported: the RMSE and
 maximum at check points (a 15x15 grid of chip pixels inside the scene and clear of clouds) against the
 known warp, reference pixels; the path taken; the pre-alignment's confidence (peak ratio). Unrelated pairs
@@ -37,7 +38,7 @@ DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "coarse_register_bench.json"
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
-from rotated_pairs import CASES, HELD_OUT, USERS, apply, make_case  # noqa: E402
+from rotated_pairs import CASES, HELD_OUT, TESTS, USERS, apply, make_case  # noqa: E402
 
 METHODS = {"default": {}, "windows": dict(hessian_threshold=1e9)}
 UNRELATED = [("s2_r40_s0.9", "landsat_r25_s1.1"), ("landsat_r25_s1.1", "s2pair_r25_s1.1"),
@@ -89,7 +90,8 @@ def main(argv=None):
                 t = ds.transform
             for method in a.methods.split(","):
                 r, sec, err = run(ref, tgt, tmp / "out.tif", METHODS[method])
-                row = {"case": name, "set": "users" if name in USERS else "held-out" if name in HELD_OUT else "tune",
+                row = {"case": name, "set": ("users" if name in USERS else "held-out" if name in HELD_OUT else
+                                             "tests" if name in TESTS else "tune"),
                        "method": method, "mirrored": CASES[name].mirror,
                        "time_s": round(sec, 2)}
                 if r is None:

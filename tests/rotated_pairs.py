@@ -83,7 +83,14 @@ USERS = {
     "s2pair_r0_mirrored": Case("s2_pair", 0, 1.0, 400, (0.5, 0.5), noise=1, mirror=True),
     "s2_r-60_s1.1_mirrored": Case("s2", -60, 1.1, 320, (0.5, 0.5), noise=2, mirror=True),
 }
-CASES = {**TUNE, **HELD_OUT, **USERS}
+#: cases of the tests only (no benchmark sweep chose or measured a constant on them)
+TESTS = {
+    "s2pair_r45_s0.75": Case("s2_pair", 45, 0.75, 420, (0.55, 0.45), noise=1),
+    "s2pair_r-100_s0.8": Case("s2_pair", -100, 0.8, 400, (0.45, 0.55), noise=1),
+    "s2pair_r-120_s1.0_200px": Case("s2_pair", -120, 1.0, 200, (0.55, 0.45), noise=1),
+    "s2pair_r135_s0.7": Case("s2_pair", 135, 0.7, 480, (0.5, 0.5), noise=1),
+}
+CASES = {**TUNE, **HELD_OUT, **USERS, **TESTS}
 
 
 def similarity(deg: float, scale: float, size: int, ref_xy, mirror: bool = False) -> np.ndarray:

@@ -1,6 +1,7 @@
 """Coarse pre-alignment of unreferenced targets: the Fourier–Mellin similarity (fotogeo.coreg.similarity) on
 arrays, and ``register`` of rotated, scaled two-date chips without georeference (tests/rotated_pairs.py)."""
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ import rasterio
 from fotogeo.coreg.similarity import estimate_similarity, similarity_matrix
 from fotogeo.errors import MatchingError
 from fotogeo.pixels import pixel_to_map
+from fotogeo.tools.register.local import MAX_CORNER_SE_PX, corner_standard_error
 from fotogeo.tools.register.tool import register
 from rotated_pairs import apply, make_case
 
@@ -29,7 +31,8 @@ def cases(data_dir, tmp_path_factory):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return {name: make_case(data_dir, name, folder) for name in
-                ("landsat_r25_s1.1", "s2_r200_s0.85", "landsat_r40_s1.2_inverted", "s2pair_r-140_s0.9")}
+                ("landsat_r25_s1.1", "s2_r200_s0.85", "landsat_r40_s1.2_inverted", "s2pair_r-140_s0.9",
+                 "s2pair_r-100_s0.8")}
 
 
 def test_similarity_matrix_is_rotation_then_scale():
@@ -84,6 +87,36 @@ def test_a_weak_feature_fit_gives_way_to_the_windows(cases, tmp_path):
     r = _register(ref, tgt, tmp_path / "out.tif")
     assert "feature matching kept only" in r.report["area_based"]["why"]
     assert _check_rmse(r, ref, H, check) < 0.5
+
+
+def test_an_imprecise_feature_fit_of_many_inliers_is_checked_and_beaten_by_the_windows(cases, tmp_path):
+    """Two dates (s2_pair), -100°, finer than the reference (0.8), a case no sweep ran: SURF keeps 26 inliers (more
+    than 12) whose fit was written 2.57 px RMSE (max 8.7 px) off; its standard error at the chip's corners says
+    it is imprecise, the windows seeded from it are run, and their fit is kept, closer to their check points."""
+    ref, tgt, H, check = cases["s2pair_r-100_s0.8"]
+    r = _register(ref, tgt, tmp_path / "out.tif")
+    a = r.report["area_based"]
+    assert "is imprecise: standard error" in a["why"] and a["pre_alignment"]["method"].startswith("the feature fit")
+    c = a["compared"]
+    assert c["kept"] == "windows" and c["windows_fit_rmse_px"] < c["feature_fit_rmse_px"]
+    assert c["feature_fit_corner_se_px"] > MAX_CORNER_SE_PX
+    assert _check_rmse(r, ref, H, check) < 0.5
+
+
+def test_the_corner_standard_error_grows_with_clustered_points_and_scatter():
+    """σ0·sqrt(1/n + (c − x̄)ᵀS⁻¹(c − x̄)) at the worst corner: points spread over the image vs the same
+    points squeezed into its centre, and twice the residuals."""
+    rng = np.random.default_rng(0)
+    src = rng.uniform(0, 400, (30, 2))
+    res = rng.normal(0, 0.5, (30, 2))
+
+    def se(xy, r):
+        gf = SimpleNamespace(role=np.array(["control"] * 30), residual_m=r, z=None)
+        return corner_standard_error(gf, SimpleNamespace(src=xy), 1.0, 400, 400)
+    spread = se(src, res)
+    assert se(200 + (src - 200) / 4, res) > 3 * spread and se(src, 2 * res) == pytest.approx(2 * spread)
+    s0 = np.sqrt(np.sum(res ** 2) / 54)
+    assert s0 * np.sqrt(1 / 30) < spread < s0
 
 
 def test_unrelated_unreferenced_images_are_refused_not_registered(cases, tmp_path):

@@ -7,6 +7,7 @@ here: the similarity target pixel -> reference pixel found by Fourier–Mellin
 0.4–2.5) on the matching bands read at most ``FINE_SIDE`` px across, composed with the reference's
 geotransform. The target is not resampled: a VRT beside nothing of the user's (a temporary folder)
 gives the target file that georeference, and the windows then run as for a georeferenced target.
+After a weak feature fit the windows start from that fit instead (:func:`seed_from_fit`, its affine part).
 A similarity whose confidence (the translation's peak ratio) is below
 :data:`fotogeo.coreg.similarity.MIN_CONFIDENCE` is refused: the images may not show the same area.
 """
@@ -46,12 +47,7 @@ def pre_align(reference, target, ref, tgt, opts, folder, bands: tuple[int, int])
     T, S_t = read_grey(target, bands[1], opts.target_nodata, factor)
     sim = estimate_similarity(R, T, min_confidence=MIN_CONFIDENCE, name=f"the target {str(target)!r}")
     M = S_r @ sim.matrix @ np.linalg.inv(S_t)  # target px -> reference px, full resolution
-    transform = ref.transform * Affine(M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2])
-    nodata = tgt.nodata if opts.target_nodata is None else opts.target_nodata
-    vrt = write_vrt(Path(folder) / "target_pre_aligned.vrt", [(Path(target).resolve(), (0, 0, tgt.height,
-                                                                                         tgt.width))],
-                    crs=ref.crs, transform=transform, width=tgt.width, height=tgt.height, count=tgt.count,
-                    dtype=tgt.dtype, nodata=nodata)
+    vrt, aligned = georeferenced_vrt(target, ref, tgt, opts, folder, M)
     scale = float(np.sqrt(abs(np.linalg.det(M[:2, :2]))))
     report = {"method": "Fourier-Mellin (log-polar magnitude spectra + phase correlation)",
               "rotation_deg": round(float(np.degrees(np.arctan2(M[1, 0], M[0, 0]))), 3),
@@ -61,4 +57,33 @@ def pre_align(reference, target, ref, tgt, opts, folder, bands: tuple[int, int])
               "rotation_scale_peak_ratio": round(sim.rotation_ratio, 2), "read_at_factor": round(factor, 3),
               "note": "the target had no georeference: the windows ran on the target pre-aligned by this "
                       "similarity (target pixel -> reference pixel)"}
-    return vrt, replace(tgt, path=Path(vrt), crs=ref.crs, transform=transform), report
+    return vrt, aligned, report
+
+
+def georeferenced_vrt(target, ref, tgt, opts, folder, M):
+    """``(vrt path, target info)``: the target given the georeference ``ref.transform · M`` (``M``: 3x3 affine,
+    target pixel -> reference pixel) by a VRT written into ``folder``; the target's pixels are not resampled."""
+    transform = ref.transform * Affine(M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2])
+    nodata = tgt.nodata if opts.target_nodata is None else opts.target_nodata
+    vrt = write_vrt(Path(folder) / "target_pre_aligned.vrt", [(Path(target).resolve(), (0, 0, tgt.height,
+                                                                                         tgt.width))],
+                    crs=ref.crs, transform=transform, width=tgt.width, height=tgt.height, count=tgt.count,
+                    dtype=tgt.dtype, nodata=nodata)
+    return vrt, replace(tgt, path=Path(vrt), crs=ref.crs, transform=transform)
+
+
+def seed_from_fit(target, ref, tgt, opts, folder, to_reference_px):
+    """``(vrt path, target info, report entry)``: the windows' starting georeference from a feature fit —
+    the affine map target pixel -> reference pixel closest (least squares on a 9 x 9 grid over the target)
+    to ``to_reference_px`` (the fit's target pixel -> reference pixel, possibly projective)."""
+    g = np.linspace(0.0, 1.0, 9)
+    src = np.stack(np.meshgrid(g * tgt.width, g * tgt.height), -1).reshape(-1, 2)
+    dst = to_reference_px(src)
+    A = np.column_stack([src, np.ones(len(src))])
+    coef = np.linalg.lstsq(A, dst, rcond=None)[0]  # (3, 2)
+    M = np.vstack([coef.T, [0.0, 0.0, 1.0]])
+    vrt, aligned = georeferenced_vrt(target, ref, tgt, opts, folder, M)
+    left = float(np.hypot(*(A @ coef - dst).T).max())
+    return vrt, aligned, {"method": "the feature fit's affine part (least squares over the target)",
+                          "max_departure_reference_px": round(left, 3),
+                          "note": "the windows ran on the target given the feature fit's georeference"}

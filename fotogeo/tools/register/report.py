@@ -154,9 +154,17 @@ def summary_lines(rep: dict) -> list[str]:
              f"matches {rep['matches']}, {_inliers_text(rep)}"]
     if "area_based" in rep:
         a = rep["area_based"]
-        lines[0] = (f"feature matching failed ({a['why']}); tie points from {a['windows']['reliable']} reliable "
+        c = a.get("compared")
+        lead = "feature matching failed" if c is None else (
+            f"the feature fit was {c['feature_fit_rmse_px']:.2f} px off the windows' check points, their own fit "
+            f"{c['windows_fit_rmse_px']:.2f} px")
+        lines[0] = (f"{lead} ({a['why']}); tie points from {a['windows']['reliable']} reliable "
                     f"windows of {a['windows']['total']} (area-based, {a['window']} px windows every "
                     f"{a['grid_spacing']} px), inliers {rep['inliers']}")
+    if "windows_check" in rep:
+        c = rep["windows_check"]
+        lines.append(f"the feature fit was checked by area-based windows and kept: {c['feature_fit_rmse_px']:.2f} "
+                     f"px off their {c['at']}, their own fit {c['windows_fit_rmse_px']:.2f} px")
     if rep.get("lsm", {}).get("tried"):
         lsm = rep["lsm"]
         sig = lsm.get("median_sigma_px")

@@ -117,7 +117,7 @@ def register(reference, target, output, *, vectors=None, report=None, field=None
             fit = _fitter(opts, ref, ref_px, tgt, crs, res, dem, camera, prog)
             pts, dst, gf, refine = matched_and_fitted(
                 reference, target, ref, tgt, opts, prog, lambda: find_points(opts, ref, tgt, prog, tie_points, refine),
-                fit, tie_points, refine)
+                fit, tie_points, refine, ref_px)
             counts = pts.counts
             check_output_grid(output, gf.width, gf.height, bands=tgt.count, dtype=tgt.dtype,
                               source_pixels=tgt.width * tgt.height, resolution=res,
