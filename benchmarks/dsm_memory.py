@@ -87,7 +87,8 @@ with warnings.catch_warnings():
     rep = dsm(a["images"], a["out"], camera=a.get("camera"), eo=a.get("eo"), rpc="camera" not in a, crs=a["crs"],
               report=a["report"], resolution=a.get("resolution"), bounds=a.get("bounds"), overwrite=True,
               workers=a.get("workers") or None, scheduler=a.get("scheduler"), fill=a.get("fill", False),
-              fill_max_distance=a.get("fill_max_distance") or 4.0, point_cloud=a.get("point_cloud"))
+              fill_max_distance=(a.get("fill_max_distance") or 4.0) if a.get("fill") else None,
+              point_cloud=a.get("point_cloud"))
 done.set()
 kids = [psutil.Process(p) for p in list(workers_peak) if psutil.pid_exists(p)]
 print(json.dumps({"cpu_s": time.process_time() - c, "wall_s": time.perf_counter() - w,

@@ -66,7 +66,8 @@ def test_a_weak_feature_fit_the_windows_cannot_confirm_is_refused(data_dir, tmp_
     ref, tgt, _, _ = known_warp_bands(data_dir, "s2", "r30_s0.85_p", "ref3_tgtN", tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        with pytest.raises(MatchingError, match="the feature fit of 9 inliers .* is not confirmed, so none is written") as e:
+        with pytest.raises(MatchingError,
+                           match="the feature fit of 9 inliers .* is not confirmed, so none is written") as e:
             register(ref, tgt, tmp_path / "out.tif", seed=0)
     message = str(e.value)
     assert message.endswith("--no-area-fallback") and "--window" not in message

@@ -59,6 +59,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
                             overwrite=True, **self.option_arguments(parameters, context))
         for p in rep["pairs"]:
             state = (f"{100 * p.get('match_density', 0):.0f} % matched" if p["kept"] else f"left out: {p['reason']}")
-            feedback.pushInfo(f"pair {p['images'][0]}-{p['images'][1]}: B/H {p['base_to_height']:.2f}, {state}")
+            feedback.pushInfo(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} "
+                              f"degrees (B/H {p['base_to_height']:.2f}), {state}")
         feedback.pushInfo(f"{100 * rep['completeness']:.1f} % of the overlap has a height")
         return {self.OUTPUT: output, self.CLOUD: cloud, self.REPORT: report, self.COMPLETENESS: rep["completeness"]}

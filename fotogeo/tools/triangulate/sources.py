@@ -108,7 +108,7 @@ class BlockStart:
         if position is not None:
             return None
         if height is not None:
-            return f"from --eo-sigma-height {height:g} m, horizontal too (give --eo-sigma-position)"
+            return f"with --eo-sigma-height {height:g} m holding the heights only (give --eo-sigma-position)"
         tags = [n for n in self.names if self.tagged.get(n)]
         if tags and len(tags) == len(self.names):
             return "from the images' GNSS accuracy tags"
