@@ -197,24 +197,33 @@ def _readmit_uncovered(out: list, footprints, limits: Limits) -> None:
     covers (at least :data:`NEW_GROUND` of it, on a grid of ``COVER_SAMPLES``² points over the overlap): a block
     with long forward and short side overlap otherwise keeps each image's wide cross-strip partners and drops
     the consecutive frames of a strip, whose ground only they two see (a 3 x 3 block at 80 % / 30 %: 16 % of the
-    ground two frames see got no height, and the report's completeness, over the kept pairs, did not show it)."""
-    capped = [p for p in out if p.reason.startswith("both images already have")]
+    ground two frames see got no height, and the report's completeness, over the kept pairs, did not show it).
+    Only a pair whose base lies across its lines of sight (``b⊥/H`` at least :data:`READMIT_ACROSS` of ``B/H``)
+    is kept for ground: obliques flown the way they look, their base mostly along the lines of sight, gave 2 GSD
+    RMSE on the ground only they saw (the oblique set "parallel, 2 strips N, pitch -60": 0.59 → 1.10 GSD with
+    them) where nadir strips' consecutive frames gave 0.87 GSD. Kept pairs whose bounding box misses the
+    overlap are not tested (a 144-image block: 41 → 10 CPU s)."""
+    capped = [p for p in out if p.reason.startswith("both images already have")
+              and base_across(p) >= READMIT_ACROSS * p.base_height]
     kept = [overlap_polygon(footprints[p.i], footprints[p.j]) for p in out if p.kept]
+    kept = [(k, k.min(axis=0), k.max(axis=0)) for k in kept if len(k) >= 3]
     for p in capped:  # in the order of their score (choose_pairs sorted them)
         poly = overlap_polygon(footprints[p.i], footprints[p.j])
         if len(poly) < 3:
             continue
-        u, v = (np.linspace(a, b, COVER_SAMPLES) for a, b in zip(poly.min(axis=0), poly.max(axis=0)))
+        lo, hi = poly.min(axis=0), poly.max(axis=0)
+        u, v = (np.linspace(a, b, COVER_SAMPLES) for a, b in zip(lo, hi))
         g = np.stack(np.meshgrid(u, v), -1).reshape(-1, 2)
         g = g[_inside(g, poly)]
         if not len(g):
             continue
         covered = np.zeros(len(g), bool)
-        for k in kept:
-            covered |= _inside(g, k)
+        for k, klo, khi in kept:
+            if (klo <= hi).all() and (khi >= lo).all():
+                covered |= _inside(g, k)
         new = 1.0 - covered.mean()
         if new >= NEW_GROUND:
-            p.kept, kept = True, kept + [poly]
+            p.kept, kept = True, kept + [(poly, lo, hi)]
             p.reason = (f"kept over the {limits.per_image} partners per image: {100 * new:.0f} % of its overlap "
                         "is covered by no other kept pair")
 
@@ -223,3 +232,5 @@ def _readmit_uncovered(out: list, footprints, limits: Limits) -> None:
 NEW_GROUND = 0.05
 #: points per side of the grid its overlap is sampled on
 COVER_SAMPLES = 24
+#: a capped pair is kept for ground only when its base across the lines of sight is at least this share of its base
+READMIT_ACROSS = 0.9
