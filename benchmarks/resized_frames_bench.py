@@ -108,6 +108,7 @@ def main() -> None:
                     help="only these sets ('full size', the reference, is always run first)")
     ap.add_argument("--frames", nargs="+", default=hb.EBEE, help="a subset of the 8 eBee frames (the cases' labels "
                     "then name them, their rows kept beside the 8-frame ones)")
+    ap.add_argument("--out", default=str(OUT), help="the JSON the rows go to")
     a = ap.parse_args()
     hb.TREE = Path(a.tree).resolve()
     src = hb.DATA / "drone_snowpeak" / "img"
@@ -135,9 +136,10 @@ def main() -> None:
     stamp = {"load_average": round(os.getloadavg()[0], 1), **({} if hb.TREE == hb.ROOT else {"tree": str(hb.TREE)})}
     new = {r["case"]: {**r, **stamp} for r in rows}
     partial = a.cases != list(SETS) or a.frames != hb.EBEE
-    old = json.loads(OUT.read_text())["rows"] if OUT.exists() and partial else []
+    out = Path(a.out)
+    old = json.loads(out.read_text())["rows"] if out.exists() and partial else []
     kept = [r for r in old if r["case"] not in new]
-    OUT.write_text(json.dumps({"rows": kept + list(new.values())}, indent=1, ensure_ascii=False))
+    out.write_text(json.dumps({"rows": kept + list(new.values())}, indent=1, ensure_ascii=False))
 
 
 if __name__ == "__main__":
