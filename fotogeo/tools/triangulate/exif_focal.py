@@ -12,8 +12,8 @@ other unknowns to fit and the tie points' residuals grow. Least-squares matching
 (Grün 1985, from the LSM normal equations); the image group's a-posteriori σ₀
 with those σ (before the image variance component rescales them, :func:`fotogeo.orientation.bundle._image_variance`)
 is how many times the residuals exceed the matcher's precision. Measured on the eBee flight of ``drone_snowpeak``
-(``benchmarks/resized_frames_bench.py``): 2.33 at full size, ~1 for correctly resized copies, 10.0 for the
-1/2 copies with ``PixelXDimension`` rewritten (focal 3210 px instead of 1605), 7.8 on a 3-frame strip of them.
+(``benchmarks/resized_frames_bench.py``): 2.33 at full size, 1.29 and 0.91 for correctly resized copies, 10.0
+for the 1/2 copies with ``PixelXDimension`` rewritten (focal 3210 px instead of 1605), 7.8 on a 3-frame strip of them.
 Above :data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the sensor
 width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given
 explicitly (``none`` included) takes the camera as the user's and skips the check.
