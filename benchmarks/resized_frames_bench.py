@@ -1,6 +1,7 @@
 """Resized drone frames: `fotogeo triangulate` on copies of the eBee flight made the ways users resize.
 
 Run:  PYTHONPATH=. .venv/bin/python benchmarks/resized_frames_bench.py [--work /tmp/resized_frames_bench] [--tree T]
+      [--cases '1/2, EXIF rewritten + XMP' ...] [--frames IMG_2280 IMG_2281 IMG_2282]
 
 The 8 eBee frames of ``drone_snowpeak`` (see :mod:`dsm_heldout_bench`'s ``ebee`` group) are copied whole and
 downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 with
@@ -14,7 +15,10 @@ downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 with
 
 Each set is triangulated from its files alone (``fotogeo triangulate *.JPG -o all``). For the sets that orient,
 every frame's centre and PATB angles are compared with the full-size run's (max over the common frames) and with
-the full-size run's own σ. Rows go to ``benchmarks/results/resized_frames_bench.json`` (CPU s = user + sys).
+the full-size run's own σ, and the image points' σ₀ with least-squares matching's σ is kept (the residual check of
+:mod:`fotogeo.tools.triangulate.exif_focal`). Rows go to ``benchmarks/results/resized_frames_bench.json`` (CPU s =
+user + sys); ``--cases`` runs only some sets and ``--frames`` a subset of the frames (their rows replace or join the
+JSON's).
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ import dsm_heldout_bench as hb  # noqa: E402
 OUT = hb.ROOT / "benchmarks" / "results" / "resized_frames_bench.json"
 SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (2, "exif"), "1/2, EXIF + XMP": (2, "exif+xmp"),
         "1/4, EXIF only": (4, "exif"), "1/4, EXIF + XMP": (4, "exif+xmp"), "1/2, no metadata": (2, "none"),
-        "1/2, EXIF rewritten + XMP": (2, "rewritten")}
+        "1/2, EXIF rewritten + XMP": (2, "rewritten"), "1/4, EXIF rewritten + XMP": (4, "rewritten")}
 
 
 def _copy(src: Path, dst: Path, factor: int, keep: str) -> Path:
@@ -73,6 +77,14 @@ def _orientation(folder: Path) -> dict:
     return read_exterior_orientation(folder / "exterior_orientation.txt")
 
 
+def _image_sigma0(report: Path) -> float | None:
+    """The image group's σ₀ with least-squares matching's σ (what :mod:`fotogeo.tools.triangulate.exif_focal`
+    checks)."""
+    image = json.loads(report.read_text())["statistics"]["variance_components"]["image"]
+    s0 = image.get("sigma0_given", image.get("sigma0"))
+    return round(s0, 2) if s0 is not None else None
+
+
 def _versus(eo: dict, ref: dict, ref_report: dict) -> dict:
     common = sorted(set(eo) & set(ref))
     dc = [float(np.linalg.norm(eo[n].centre - ref[n].centre)) for n in common]
@@ -92,19 +104,27 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", default="/tmp/resized_frames_bench", help="copies and runs go here (reused)")
     ap.add_argument("--tree", default=str(hb.ROOT), help="the fotogeo checkout measured")
+    ap.add_argument("--cases", nargs="+", choices=list(SETS), default=list(SETS),
+                    help="only these sets ('full size', the reference, is always run first)")
+    ap.add_argument("--frames", nargs="+", default=hb.EBEE, help="a subset of the 8 eBee frames (the cases' labels "
+                    "then name them, their rows kept beside the 8-frame ones)")
+    ap.add_argument("--out", default=str(OUT), help="the JSON the rows go to")
     a = ap.parse_args()
     hb.TREE = Path(a.tree).resolve()
     src = hb.DATA / "drone_snowpeak" / "img"
     if not src.is_dir():
         sys.exit(f"no drone_snowpeak in {hb.DATA}")
     rows, ref, ref_report = [], None, {}
-    for label, (factor, keep) in SETS.items():
-        folder = Path(a.work).resolve() / label.replace("/", "_").replace(" ", "").replace(",", "_")
+    for label in ["full size", *(c for c in a.cases if c != "full size")]:
+        factor, keep = SETS[label]
+        tag = "" if a.frames == hb.EBEE else f" ({' '.join(a.frames)})"
+        folder = Path(a.work).resolve() / (label + tag).replace("/", "_").replace(" ", "").replace(",", "_")
         folder.mkdir(parents=True, exist_ok=True)
-        imgs = [_copy(src / f"{n}.JPG", folder / f"{n}.JPG", factor, keep) for n in hb.EBEE]
+        imgs = [_copy(src / f"{n}.JPG", folder / f"{n}.JPG", factor, keep) for n in a.frames]
         cmd = hb.PY + ["triangulate", *imgs, "-o", folder / "all", "--overwrite", "-q"]
-        row = {"case": label, **hb.time_v(cmd, folder), "command": hb._command(cmd, folder)}
+        row = {"case": label + tag, **hb.time_v(cmd, folder), "command": hb._command(cmd, folder)}
         if row["exit"] == 0:
+            row["image_sigma0_with_matcher_sigma"] = _image_sigma0(folder / "all" / "report.json")
             eo = _orientation(folder / "all")
             if ref is None:
                 ref, ref_report = eo, json.loads((folder / "all" / "report.json").read_text())
@@ -114,7 +134,12 @@ def main() -> None:
         rows.append(row)
         print(row, flush=True)
     stamp = {"load_average": round(os.getloadavg()[0], 1), **({} if hb.TREE == hb.ROOT else {"tree": str(hb.TREE)})}
-    OUT.write_text(json.dumps({"rows": [{**r, **stamp} for r in rows]}, indent=1, ensure_ascii=False))
+    new = {r["case"]: {**r, **stamp} for r in rows}
+    partial = a.cases != list(SETS) or a.frames != hb.EBEE
+    out = Path(a.out)
+    old = json.loads(out.read_text())["rows"] if out.exists() and partial else []
+    kept = [r for r in old if r["case"] not in new]
+    out.write_text(json.dumps({"rows": kept + list(new.values())}, indent=1, ensure_ascii=False))
 
 
 if __name__ == "__main__":

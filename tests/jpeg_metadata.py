@@ -45,9 +45,8 @@ def _ifd_entries(data, order: str, tiff: int, ifd: int):
         yield struct.unpack(order + "H", data[at:at + 2])[0], at
 
 
-def rename_ifd0_tag(path, tag: int, new_tag: int, *, exif_ifd: bool = False) -> None:
-    """Give the IFD0 entry ``tag`` the number ``new_tag`` (e.g. GPSInfo 0x8825 -> a private tag: no GPS); with
-    ``exif_ifd``, the entry of the Exif sub-IFD (pointed to by IFD0's 0x8769; e.g. PixelXDimension 0xA002)."""
+def _entry(path, tag: int, exif_ifd: bool):
+    """``(data, byte order, offset of the entry)`` of the IFD0 (or Exif sub-IFD) entry ``tag`` of ``path``."""
     data = bytearray(Path(path).read_bytes())
     start, _ = _app1(bytes(data), b"Exif\x00\x00")
     tiff = start + 6
@@ -58,10 +57,25 @@ def rename_ifd0_tag(path, tag: int, new_tag: int, *, exif_ifd: bool = False) -> 
         ifd = tiff + struct.unpack(order + "I", data[at + 8:at + 12])[0]
     for t, at in _ifd_entries(data, order, tiff, ifd):
         if t == tag:
-            data[at:at + 2] = struct.pack(order + "H", new_tag)
-            Path(path).write_bytes(bytes(data))
-            return
+            return data, order, at
     raise ValueError(f"{path}: no {'Exif IFD' if exif_ifd else 'IFD0'} tag 0x{tag:04x}")
+
+
+def rename_ifd0_tag(path, tag: int, new_tag: int, *, exif_ifd: bool = False) -> None:
+    """Give the IFD0 entry ``tag`` the number ``new_tag`` (e.g. GPSInfo 0x8825 -> a private tag: no GPS); with
+    ``exif_ifd``, the entry of the Exif sub-IFD (pointed to by IFD0's 0x8769; e.g. PixelXDimension 0xA002)."""
+    data, order, at = _entry(path, tag, exif_ifd)
+    data[at:at + 2] = struct.pack(order + "H", new_tag)
+    Path(path).write_bytes(bytes(data))
+
+
+def set_integer_tag(path, tag: int, value: int, *, exif_ifd: bool = False) -> None:
+    """Set the one-value SHORT or LONG entry ``tag`` (stored in the entry itself) to ``value``, e.g. the Exif
+    IFD's PixelXDimension 0xA002 rewritten to a resized size (what Photoshop/Lightroom exports leave)."""
+    data, order, at = _entry(path, tag, exif_ifd)
+    kind = struct.unpack(order + "H", data[at + 2:at + 4])[0]
+    data[at + 8:at + 12] = (struct.pack(order + "HH", value, 0) if kind == 3 else struct.pack(order + "I", value))
+    Path(path).write_bytes(bytes(data))
 
 
 def resized_copy(src, dst, factor: float, *, xmp: bool = True) -> Path:

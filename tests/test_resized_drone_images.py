@@ -154,3 +154,41 @@ def test_a_frame_overlapping_none_gets_advice_on_the_source_given():
 def main_cli():
     from fotogeo.cli import main
     return main
+
+
+@pytest.mark.data
+def test_copies_with_pixel_dimension_rewritten_are_refused_by_their_residuals(tmp_path, data_dir):
+    """eBee frames resized to 1/2 with EXIF PixelXDimension rewritten to the new size (Photoshop/Lightroom exports)
+    and FocalPlaneXResolution left for the full frame: the focal length read is 3210 px at 2304 px, twice too long,
+    and no FocalLengthIn35mmFilm contradicts it. The adjustment cannot estimate f (held fixed for its correlation
+    with the height) and bends the rest: the tie points' residuals are several times least-squares matching's
+    precision, and the run is refused naming the camera's source, the sensor it implies and the fix."""
+    src = data_dir / "drone_snowpeak" / "img"
+    frames = [jm.resized_copy(src / f"{n}.JPG", tmp_path / f"{n}.JPG", 2) for n in ("IMG_2186", "IMG_2188", "IMG_2189")]
+    for f in frames:
+        jm.set_integer_tag(f, 0xA002, 2304, exif_ifd=True)
+        jm.set_integer_tag(f, 0xA003, 1728, exif_ifd=True)
+    assert _camera(frames[0]).camera.fx == pytest.approx(_camera(src / "IMG_2186.JPG").camera.fx, rel=1e-12)
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "out"), "-q"])
+    said = " ".join(res.output.split())
+    assert res.exit_code != 0 and not (tmp_path / "out" / "exterior_orientation.txt").exists(), said
+    assert "times least-squares matching's precision" in said and "focal 3210 px at 2304x1728 px" in said, said
+    assert "sensor 3.09 x 2.31 mm" in said and "--camera" in said, said
+
+
+def test_exif_focal_check_applies_to_focal_plane_cameras_not_given_ones():
+    """The residual check (fotogeo.tools.triangulate.exif_focal) refuses only a focal length from EXIF
+    FocalPlaneXResolution, and not when --self-calibration was given (the camera taken as the user's)."""
+    from fotogeo.errors import ModelError
+    from fotogeo.geometry.camera import FrameCamera
+    from fotogeo.tools.triangulate.exif_focal import MAX_IMAGE_SIGMA0, check_exif_focal
+    cam = FrameCamera(3210.0, (2304.0, 1728.0), (2304, 1728))
+    src = "4.3 mm x FocalPlaneXResolution (746.57 px/mm)"
+    bad = {"variance_components": {"image": {"sigma0": 1.0, "sigma0_given": 2 * MAX_IMAGE_SIGMA0}}}
+    good = {"variance_components": {"image": {"sigma0": 0.9 * MAX_IMAGE_SIGMA0}}}
+    with pytest.raises(ModelError, match=r"focal 3210 px at 2304x1728 px .* sensor 3.09 x 2.31 mm"):
+        check_exif_focal(src, cam, bad, given=False)
+    check_exif_focal(src, cam, good, given=False)
+    check_exif_focal(src, cam, bad, given=True)
+    check_exif_focal("drone-dji:DewarpData", cam, bad, given=False)
+    check_exif_focal("", cam, bad, given=False)

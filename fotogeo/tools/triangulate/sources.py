@@ -70,6 +70,7 @@ class BlockStart:
     interior_rule: str = ""  # which interior parameters the adjustment estimates and why (interior_to_estimate)
     lost: dict = field(default_factory=dict)  # frame -> what of its files' metadata could not be read
     tagged: dict = field(default_factory=dict)  # name -> True where the position σ is the images' accuracy tags'
+    camera_source: str = ""  # how the images' EXIF gave the focal length (fotogeo.io.exif_camera.focal_of), else ""
 
     def measure(self, height):
         """The ``start`` callable of :func:`~fotogeo.tools.triangulate.match.block_tie_points`, or None when
@@ -260,7 +261,8 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo,
     frame_names(frames, cam)
     start = BlockStart(cam, dist, names, {}, map_crs, rule, source,
                        notes=list(approx.notes) if approx is not None else [],
-                       lost=dict(approx.lost) if approx is not None else {})
+                       lost=dict(approx.lost) if approx is not None else {},
+                       camera_source=_camera_source(approx) if camera is None else "")
     if by_registration:
         start.registration = []
         start.source += "; orientation from registering every frame to the reference (--reference, --dem)"
@@ -295,6 +297,11 @@ def _single_camera(approx):
                          f"camera separately, or give one --camera for all")
     ac = approx.cameras[next(iter(used))]
     return ac.camera, ac.distortion_tuple()
+
+
+def _camera_source(approx) -> str:
+    """How the images' EXIF gave the block's one camera (checked by :mod:`~fotogeo.tools.triangulate.exif_focal`)."""
+    return next(iter(approx.cameras.values())).source if approx.cameras else ""
 
 
 def _require_gps(names, approx) -> None:
