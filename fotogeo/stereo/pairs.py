@@ -103,7 +103,7 @@ def measure(i, j, centres, axes, footprints) -> PairChoice:
     ground."""
     overlap = overlap_share(footprints[i], footprints[j])
     if overlap <= 0:
-        return PairChoice(i, j, 0.0, 0.0, 0.0, 0.0)
+        return PairChoice(i, j, 0.0, 0.0, 0.0, 0.0, extra={"overlap_polygon": np.zeros((0, 2))})
     poly = overlap_polygon(footprints[i], footprints[j])
     g = poly.mean(axis=0)
     ci, cj = np.asarray(centres[i], float), np.asarray(centres[j], float)
@@ -115,7 +115,7 @@ def measure(i, j, centres, axes, footprints) -> PairChoice:
     view = math.degrees(math.acos(np.clip(np.dot(axes[i], axes[j]) / (np.linalg.norm(axes[i]) *
                                                                       np.linalg.norm(axes[j])), -1, 1)))
     return PairChoice(i, j, overlap, float(np.linalg.norm(ci - cj) / h), conv, view, (float(g[0]), float(g[1])),
-                      extra={"distance": float(h)})
+                      extra={"distance": float(h), "overlap_polygon": poly})
 
 
 def _convergence(ci, cj, ground) -> np.ndarray:
@@ -205,10 +205,10 @@ def _readmit_uncovered(out: list, footprints, limits: Limits) -> None:
     overlap are not tested (a 144-image block: 41 → 10 CPU s)."""
     capped = [p for p in out if p.reason.startswith("both images already have")
               and base_across(p) >= READMIT_ACROSS * p.base_height]
-    kept = [overlap_polygon(footprints[p.i], footprints[p.j]) for p in out if p.kept]
+    kept = [p.extra["overlap_polygon"] for p in out if p.kept]
     kept = [(k, k.min(axis=0), k.max(axis=0)) for k in kept if len(k) >= 3]
     for p in capped:  # in the order of their score (choose_pairs sorted them)
-        poly = overlap_polygon(footprints[p.i], footprints[p.j])
+        poly = p.extra["overlap_polygon"]
         if len(poly) < 3:
             continue
         lo, hi = poly.min(axis=0), poly.max(axis=0)

@@ -13,7 +13,7 @@ from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
-from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
+from ...stereo.pairs import Limits, choose_pairs
 from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
@@ -156,8 +156,6 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     axes = [v.axis for v in views]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names))
     plan.leave_out_forward(choices, views)
-    for p in choices:
-        p.extra["overlap_polygon"] = overlap_polygon(fps[p.i], fps[p.j])
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
