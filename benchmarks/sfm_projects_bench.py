@@ -41,70 +41,75 @@ WARNED = "read, expected error warned"
 
 
 def _colmap_cams(sc):
-    import rendered_oblique as ro
     c = sc["camera"]
     (ppx, ppy), f = c.principal_point, c.fx
-    k1, k2, p1, p2, k3 = ro.DEWARP
+    k1, k2, p1, p2, k3 = sc["dewarp"]
     return {"SIMPLE_PINHOLE": [f, ppx, ppy], "PINHOLE": [f, f * 1.002, ppx, ppy], "SIMPLE_RADIAL": [f, ppx, ppy, k1],
             "RADIAL": [f, ppx, ppy, k1, k2], "OPENCV": [f, f, ppx, ppy, k1, k2, p1, p2],
             "FULL_OPENCV": [f, f, ppx, ppy, k1, k2, p1, p2, 0.003, 0.0, 0.0, 0.0],
             "FULL_OPENCV_k4": [f, f, ppx, ppy, k1, k2, p1, p2, 0.0, 0.01, 0.0, 0.0],
-            "OPENCV_FISHEYE": [f, f, ppx, ppy, 0.01, 0.0, 0.0, 0.0]}
+            "OPENCV_FISHEYE": [f, f, ppx, ppy, 0.01, 0.0, 0.0, 0.0], "FOV": [f, f, ppx, ppy, 0.01],
+            "SIMPLE_RADIAL_FISHEYE": [f, ppx, ppy, 0.01], "RADIAL_FISHEYE": [f, ppx, ppy, 0.01, 0.0],
+            "THIN_PRISM_FISHEYE": [f, f, ppx, ppy, 0.01, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            "RAD_TAN_THIN_PRISM_FISHEYE": [f, f, ppx, ppy, 0.01] + [0.0] * 11}
 
 
 def cases(sc, work: Path) -> list:
     """``[(id, description, build)]``; ``build()`` -> ``dict(eo, images, camera (truth, tool's), args, crs, yaml)``."""
     out = []
     cams = _colmap_cams(sc)
+    crs, (W, H) = sc["crs"], sc["size"]
 
     def colmap_case(model, binary=False, **kw):
         name = model.replace("_k4", "")
 
         def build():
-            f = sp.colmap_model(work / f"colmap_{model}_{int(binary)}", sc, {1: (name, 640, 480, cams[model])},
+            f = sp.colmap_model(work / f"colmap_{model}_{int(binary)}", sc, {1: (name, W, H, cams[model])},
                                 binary=binary, **kw)
             return dict(eo=f / ("images.bin" if binary else "images.txt"), images=sc["rtk"],
-                        camera={"tool": "colmap", "model": name, "params": cams[model]}, args=["--crs", sp.TRUTH_CRS])
+                        camera={"tool": "colmap", "model": name, "params": cams[model]}, args=["--crs", crs])
         return build
-    for model in ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV", "FULL_OPENCV_k4",
-                  "OPENCV_FISHEYE"):
-        out.append((f"colmap-txt-{model}", f"COLMAP text model, {model}", colmap_case(model)))
-    for model in ("SIMPLE_RADIAL", "OPENCV", "FULL_OPENCV"):
-        out.append((f"colmap-bin-{model}", f"COLMAP binary model, {model}", colmap_case(model, True)))
+    for binary in (False, True):
+        for model in ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV",
+                      "FULL_OPENCV_k4", "OPENCV_FISHEYE", *FISHEYES):
+            out.append((f"colmap-{'bin' if binary else 'txt'}-{model}",
+                        f"COLMAP {'binary' if binary else 'text'} model, {model}", colmap_case(model, binary)))
 
-    def colmap_frame(transform, images, crs):
+    def colmap_frame(key, transform, images, crs):
         def build():
-            f = sp.colmap_model(work / f"colmap_{transform.__name__}_{images}", sc, {1: ("OPENCV", 640, 480,
-                                                                                       cams["OPENCV"])},
+            f = sp.colmap_model(work / f"colmap_{key}_{images}", sc, {1: ("OPENCV", W, H, cams["OPENCV"])},
                                 transform=transform)
             return dict(eo=f / "images.txt", images=sc[images], camera={"tool": "colmap", "model": "OPENCV",
                                                                           "params": cams["OPENCV"]},
                         args=["--crs", crs] if crs else [])
         return build
-    out += [("colmap-arbitrary-rtk", "COLMAP model not aligned (arbitrary frame), RTK images, --crs UTM 33",
-             colmap_frame(sp.arbitrary_transform, "rtk", sp.TRUTH_CRS)),
-            ("colmap-arbitrary-bare", "COLMAP model not aligned, images without GPS, --crs UTM 33",
-             colmap_frame(sp.arbitrary_transform, "bare", sp.TRUTH_CRS)),
-            ("colmap-ecef-rtk", "COLMAP model_aligner into ECEF, RTK images, --crs UTM 33",
-             colmap_frame(sp.ecef_transform, "rtk", sp.TRUTH_CRS)),
+    zone = f"UTM {int(crs[-2:])}"
+    ecef = lambda C, R: sp.ecef_transform(C, R, crs)  # noqa: E731
+    out += [("colmap-arbitrary-rtk", f"COLMAP model not aligned (arbitrary frame), RTK images, --crs {zone}",
+             colmap_frame("arbitrary", sp.arbitrary_transform, "rtk", crs)),
+            ("colmap-arbitrary-bare", f"COLMAP model not aligned, images without GPS, --crs {zone}",
+             colmap_frame("arbitrary", sp.arbitrary_transform, "bare", crs)),
+            ("colmap-ecef-rtk", f"COLMAP model_aligner into ECEF, RTK images, --crs {zone}",
+             colmap_frame("ecef", ecef, "rtk", crs)),
             ("colmap-ecef-bare", "COLMAP model_aligner into ECEF, images without GPS, no --crs (the DEM's)",
-             colmap_frame(sp.ecef_transform, "bare", None)),
-            ("colmap-utm-consumer", "COLMAP model_aligner into UTM 33, consumer GPS images",
-             colmap_frame(lambda C, R: (C, R), "consumer", sp.TRUTH_CRS))]
+             colmap_frame("ecef", ecef, "bare", None)),
+            ("colmap-utm-consumer", f"COLMAP model_aligner into {zone}, consumer GPS images",
+             colmap_frame("utm", lambda C, R: (C, R), "consumer", crs))]
+    out += _colmap_more(sc, work, cams, colmap_frame)
 
     def colmap_aligned(images, kind="all"):
         def build():
-            f = sp.colmap_model(work / f"colmap_own_{images}_{kind}", sc, {1: ("OPENCV", 640, 480, cams["OPENCV"])},
+            f = sp.colmap_model(work / f"colmap_own_{images}_{kind}", sc, {1: ("OPENCV", W, H, cams["OPENCV"])},
                                 transform=sp.arbitrary_transform)
             imgs = list(sc[images])
             if kind == "strip":  # the first strip alone: its centres lie near a line
                 imgs = [p for p in imgs if p.stem.startswith("DJI_1")]
             if kind == "bad":  # one RTK fix 30 m off
-                imgs[3] = sp.shifted_gps(imgs[3], work / "bad_gps" / imgs[3].name, (30.0, -10.0))
+                imgs[3] = sp.shifted_gps(imgs[3], work / "bad_gps" / imgs[3].name, (30.0, -10.0), crs)
             if kind == "no-altitude":  # latitude and longitude only
                 imgs = [sp.without_altitude(p, work / "no_alt" / p.name) for p in imgs]
             cam = {"tool": "colmap", "model": "OPENCV", "params": cams["OPENCV"]}
-            return dict(eo=f, images=imgs, n=len(imgs), camera=cam, args=["--crs", sp.TRUTH_CRS])
+            return dict(eo=f, images=imgs, n=len(imgs), camera=cam, args=["--crs", crs])
         return build
     out += [("colmap-own-rtk", "COLMAP model not aligned (its own frame), folder as --eo, all 16 RTK images",
              colmap_aligned("rtk")),
@@ -120,19 +125,20 @@ def cases(sc, work: Path) -> list:
     def colmap_misc(kind):
         def build():
             names = {n: f"flight1/sub/{n}.JPG" for n in sc["names"]} if kind == "subfolders" else None
-            camset = {1: ("OPENCV", 640, 480, cams["OPENCV"])}
+            camset = {1: ("OPENCV", W, H, cams["OPENCV"])}
             if kind == "two-cameras":
-                camset[2] = ("OPENCV", 640, 480, cams["OPENCV"])
+                camset[2] = ("OPENCV", W, H, cams["OPENCV"])
             shots = sc["names"][2:] if kind == "missing" else None
             f = sp.colmap_model(work / f"colmap_{kind}", sc, camset, names=names, shots=shots)
             imgs = sc["rtk"]
-            size = {"resized": (320, 240), "resized-4-5": (512, 384), "resized-1-3": (213, 160),
-                    "enlarged": (1280, 960), "aspect": (320, 200), "cropped": (600, 450)}.get(kind)
+            size = {"resized": (W // 2, H // 2), "resized-4-5": (W * 4 // 5, H * 4 // 5), "resized-1-3": (W // 3, H // 3),
+                    "enlarged": (2 * W, 2 * H), "aspect": (W // 2, H * 5 // 12),
+                    "cropped": (W * 15 // 16, H * 15 // 16)}.get(kind)
             if size:
                 imgs = _resized(sc, work / kind, size)
             eo = {"folder": f, "folder-empty": f.parent}.get(kind, f / "images.txt")
             return dict(eo=eo, images=imgs, camera={"tool": "colmap", "model": "OPENCV", "params": cams["OPENCV"]},
-                        args=["--crs", sp.TRUTH_CRS], scale=(size[0] / 640, size[1] / 480) if size else (1.0, 1.0))
+                        args=["--crs", crs], scale=(size[0] / W, size[1] / H) if size else (1.0, 1.0))
         return build
     out += [(f"colmap-{k}", d, colmap_misc(k)) for k, d in (
         ("subfolders", "COLMAP images named with sub-folders and another extension (flight1/sub/X.JPG)"),
@@ -153,7 +159,8 @@ def cases(sc, work: Path) -> list:
     def osfm(key, images="rtk", **kw):
         def build():
             f = sp.opensfm_project(work / key, sc, sc["rtk"], **kw)
-            return dict(eo=f, images=sc[images], camera={"tool": "opensfm", **sp.opensfm_camera(sc["camera"])}, args=[])
+            return dict(eo=f, images=sc[images], camera={"tool": "opensfm", **sp.opensfm_camera(sc["camera"],
+                                                                                              sc["dewarp"])}, args=[])
         return build
     odm = dict(odm=True)
     out += [("odm-full-rtk", "ODM project as ODM leaves it (geocoords poses, exif/, coords.txt, topocentric copy), RTK",
@@ -185,17 +192,21 @@ def cases(sc, work: Path) -> list:
             ("opensfm-two-recs", "OpenSfM with two reconstructions, the images given in the smaller (second) one",
              osfm("osfm_2", odm=False, reconstructions=[sc["names"][2:], sc["names"][:2]])),
             ("opensfm-fisheye", "OpenSfM fisheye camera", osfm("osfm_f", odm=False, camera={
-                "projection_type": "fisheye", "width": 640, "height": 480, "focal": 0.8, "k1": 0.0, "k2": 0.0}))]
+                "projection_type": "fisheye", "width": W, "height": H, "focal": 0.8, "k1": 0.0, "k2": 0.0}))]
+    out += _opensfm_more(sc, work)
 
-    def tortho(key, cam):
+    def tortho(key, cam, fmt="geojson"):
         def build():
-            ext, yml = sp.orthority_files(work / key, sc, cam)
+            ext, yml = sp.orthority_files(work / key, sc, cam, fmt=fmt)
+            if fmt.startswith("csv"):
+                ext = _orthority_csv(sc, ext, fmt == "csv")
             return dict(eo=ext, images=sc["rtk"], camera={"tool": "orthority", **cam}, args=["--camera", str(yml)],
                         yaml=yml)
         return build
     c = sc["camera"]
-    base = {"width": 640, "height": 480, "focal_len": c.fx / 640, "cx": (c.principal_point[0] - 320) / 640,
-            "cy": (c.principal_point[1] - 240) / 640}
+    m = max(W, H)
+    base = {"width": W, "height": H, "focal_len": c.fx / m, "cx": (c.principal_point[0] - W / 2) / m,
+            "cy": (c.principal_point[1] - H / 2) / m}
     out += [("orthority-brown", "orthority GeoJSON + brown camera", tortho("ot_b", {**base, "type": "brown",
                                                                                      "k1": -0.06, "k2": 0.02,
                                                                                      "p1": 4e-4, "p2": -3e-4,
@@ -205,7 +216,151 @@ def cases(sc, work: Path) -> list:
             ("orthority-opencv-k4", "orthority opencv camera with k4", tortho("ot_o4", {**base, "type": "opencv",
                                                                                       "k1": -0.06, "k4": 0.01})),
             ("orthority-fisheye", "orthority fisheye camera", tortho("ot_f", {**base, "type": "fisheye",
-                                                                             "k1": 0.01}))]
+                                                                             "k1": 0.01})),
+            ("orthority-pinhole", "orthority pinhole camera", tortho("ot_p", {**base, "type": "pinhole"})),
+            ("orthority-json-brown", "orthority interior parameters in JSON syntax (int_param.json), brown camera",
+             tortho("ot_jb", {**base, "type": "brown", "k1": -0.06, "k2": 0.02, "p1": 4e-4, "p2": -3e-4}, "json")),
+            ("orthority-json-fisheye", "orthority interior parameters in JSON syntax, fisheye camera",
+             tortho("ot_jf", {**base, "type": "fisheye", "k1": 0.01}, "json")),
+            ("orthority-csv", "orthority CSV exterior parameters (header, degrees) with a .prj beside them",
+             tortho("ot_csv", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv")),
+            ("orthority-csv-noprj", "orthority CSV exterior parameters without a .prj (the CRS not stated)",
+             tortho("ot_csvn", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv-noprj"))]
+    return out
+
+
+#: COLMAP's fisheye and other models beyond fotogeo's Brown model (each must be refused by name)
+FISHEYES = ("FOV", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE")
+
+
+def _renamed(sc, folder: Path, rename) -> list:
+    """Copies of the RTK images named ``rename(stem) + suffix`` in ``folder`` (a user's copy of the images)."""
+    import shutil
+    folder.mkdir(parents=True, exist_ok=True)
+    return [Path(shutil.copy(p, folder / (rename(p.stem) + p.suffix))) for p in sc["rtk"]]
+
+
+#: project names -> the names of the files the user gives: (project name of stem N, file stem of stem N)
+NAMINGS = {"spaces": (lambda n: f"flight 1/{n.replace('_', ' ')}.JPG", lambda n: n.replace("_", " ")),
+           "case": (lambda n: f"{n.lower()}.jpg", lambda n: n),
+           "spaces-flat": (lambda n: f"{n.replace('_', ' ')}.JPG", lambda n: n.replace("_", " ")),
+           "windows": (lambda n: f"flight1\\\\{n}.JPG", lambda n: n)}
+
+
+def _colmap_more(sc, work: Path, cams: dict, colmap_frame) -> list:
+    """COLMAP cases beyond the models: model_aligner's ENU frame, a neighbouring UTM zone, an unknown binary model
+    id, image names with spaces, another case, Windows separators."""
+    crs, (W, H) = sc["crs"], sc["size"]
+    cam = {"tool": "colmap", "model": "OPENCV", "params": cams["OPENCV"]}
+    neighbour = f"EPSG:{int(crs[5:]) + 1}"
+
+    def enu(images):
+        def build():
+            lon, lat, alt = sp.gps_of(sc["rtk"][0])
+            f = sp.colmap_model(work / f"colmap_enu_{images}", sc, {1: ("OPENCV", W, H, cams["OPENCV"])},
+                                transform=lambda C, R: sp.enu_transform(C, R, (lat, lon, alt), crs))
+            return dict(eo=f, images=sc[images], n=len(sc[images]), camera=cam, args=["--crs", crs])
+        return build
+
+    def unknown_id():
+        f = sp.colmap_model(work / "colmap_id12", sc, {1: ("OPENCV", W, H, cams["OPENCV"])}, binary=True)
+        data = bytearray((f / "cameras.bin").read_bytes())
+        data[12:16] = (12).to_bytes(4, "little")  # the model id of camera 1, after the count and its id
+        (f / "cameras.bin").write_bytes(bytes(data))
+        return dict(eo=f, images=sc["rtk"], camera=cam, args=["--crs", crs])
+
+    def named(kind):
+        def build():
+            project, stem = NAMINGS[kind]
+            f = sp.colmap_model(work / f"colmap_names_{kind}", sc, {1: ("OPENCV", W, H, cams["OPENCV"])},
+                                names={n: project(n) for n in sc["names"]})
+            imgs = _renamed(sc, work / f"images_{kind}", stem)
+            return dict(eo=f, images=imgs, camera=cam, args=["--crs", crs], stems=[stem(n) for n in sc["names"]])
+        return build
+    def crlf():
+        f = sp.colmap_model(work / "colmap_crlf", sc, {1: ("OPENCV", W, H, cams["OPENCV"])})
+        for n in ("cameras.txt", "images.txt", "points3D.txt"):
+            (f / n).write_bytes(b"\xef\xbb\xbf" + (f / n).read_bytes().replace(b"\n", b"\r\n"))
+        return dict(eo=f, images=sc["rtk"], camera=cam, args=["--crs", crs])
+    other = lambda C, R: sp.other_zone_transform(C, R, crs, neighbour)  # noqa: E731
+    return [("colmap-enu-rtk", "COLMAP model_aligner --alignment_type enu (east, north, up at the first image), all "
+                               "RTK images", enu("rtk")),
+            ("colmap-enu-bare", "COLMAP model_aligner --alignment_type enu, images without GPS", enu("bare")),
+            ("colmap-zone-rtk", f"COLMAP model aligned to positions in the neighbouring zone ({neighbour}), --crs "
+                                f"{crs}, RTK images", colmap_frame("zone", other, "rtk", crs)),
+            ("colmap-zone-bare", f"COLMAP model aligned in {neighbour}, --crs {crs}, images without GPS",
+             colmap_frame("zone", other, "bare", crs)),
+            ("colmap-crlf-bom", "COLMAP text model saved on Windows (CRLF line ends, a UTF-8 BOM)", crlf),
+            ("colmap-bin-id12", "COLMAP binary model with a camera model id this reader does not know (12)",
+             unknown_id),
+            ("colmap-names-spaces", "COLMAP image names with a folder and spaces ('flight 1/DJI 101.JPG'), the files "
+                                    "'DJI 101.tif'", named("spaces")),
+            ("colmap-names-case", "COLMAP image names in lower case ('dji_101.jpg'), the files 'DJI_101.tif'",
+             named("case")),
+            ("colmap-names-windows", "COLMAP image names with Windows separators ('flight1\\\\DJI_101.JPG')",
+             named("windows"))]
+
+
+def _opensfm_more(sc, work: Path) -> list:
+    """OpenSfM/ODM cases beyond the frames: shots without GPS, images in two reconstructions, ODM without
+    reference_lla, ODM's cameras.json given as the camera, image names with spaces or another case."""
+    cam = {"tool": "opensfm", **sp.opensfm_camera(sc["camera"], sc["dewarp"])}
+
+    def osfm(key, images="rtk", n=2, args=(), **kw):
+        def build():
+            f = sp.opensfm_project(work / key, sc, sc["rtk"], **kw)
+            return dict(eo=f, images=sc[images], n=n, camera=cam, args=list(args))
+        return build
+
+    def cameras_json():
+        f = sp.opensfm_project(work / "odm_cj", sc, sc["rtk"], odm=True, exif=False, coords=False,
+                               topocentric_copy=False)
+        rec = json.loads(f.read_text())[0]
+        (f.parent.parent / "cameras.json").write_text(json.dumps(rec["cameras"], indent=4))
+        return dict(eo=f, images=sc["rtk"], camera=cam, args=["--camera", str(f.parent.parent / "cameras.json")])
+
+    def named(kind, odm):
+        def build():
+            project, stem = NAMINGS[kind]
+            f = sp.opensfm_project(work / f"osfm_names_{kind}_{odm}", sc, sc["rtk"], odm=odm,
+                                   names={n: project(n) for n in sc["names"]})
+            imgs = _renamed(sc, work / f"images_{kind}", stem)
+            return dict(eo=f, images=imgs, camera=cam, args=[], stems=[stem(n) for n in sc["names"]])
+        return build
+    half = len(sc["names"]) // 2
+    return [("opensfm-nogps-rtk", "OpenSfM reconstruction.json + reference_lla.json, shots without gps_position "
+                                  "(no GPS priors); RTK images", osfm("osfm_ng", odm=False, exif=False, no_gps=True)),
+            ("opensfm-nogps-bare", "OpenSfM reconstruction.json, shots without gps_position; images without GPS",
+             osfm("osfm_ngb", "bare", odm=False, exif=False, no_gps=True)),
+            ("odm-nogps-bare", "ODM project (coords.txt, topocentric copy), shots without gps_position; images "
+                               "without GPS", osfm("odm_ngb", "bare", odm=True, no_gps=True)),
+            ("opensfm-two-recs-split", "OpenSfM with two reconstructions, the images given split across them",
+             osfm("osfm_2s", odm=False, n=len(sc["names"]),
+                  reconstructions=[sc["names"][:half], sc["names"][half:]])),
+            ("odm-no-reference", "ODM project (coords.txt) whose reconstruction carries no reference_lla",
+             osfm("odm_nr", odm=True, reference=False)),
+            ("odm-cameras-json", "ODM opensfm/reconstruction.json with ODM's cameras.json as --camera; RTK images",
+             cameras_json),
+            ("odm-names-case", "ODM project with image names in lower case ('dji_101.jpg'), the files 'DJI_101.tif'",
+             named("case", True)),
+            ("opensfm-names-spaces", "OpenSfM project with image names with spaces ('DJI 101.JPG')",
+             named("spaces-flat", False))]
+
+
+def _orthority_csv(sc, geojson: Path, prj: bool) -> Path:
+    """orthority's CSV exterior parameters (``filename,x,y,z,omega,phi,kappa``, degrees) of ``geojson``'s poses,
+    with the CRS as a ``.prj`` (WKT) beside them when ``prj``."""
+    from pyproj import CRS
+    feats = json.loads(geojson.read_text())["features"]
+    lines = ["filename,x,y,z,omega,phi,kappa,camera"]
+    for f in feats:
+        p = f["properties"]
+        lines.append(",".join([p["filename"], *map(repr, p["xyz"]), *(repr(math.degrees(a)) for a in p["opk"]),
+                               p["camera"]]))
+    out = geojson.with_name("ext_param.csv")
+    out.write_text("\n".join(lines) + "\n")
+    if prj:
+        out.with_suffix(".prj").write_text(CRS.from_user_input(sc["crs"]).to_wkt("WKT1_ESRI"))
     return out
 
 
@@ -252,7 +407,7 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
     if stated:  # the run warned that its georeference is only as good as this (with ~100 m of height)
         row["stated_m"] = float(stated.group(1)) + float(stated.group(2))
     if run.exit_code == 0:
-        crs = sp.TRUTH_CRS
+        crs = sc["crs"]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -260,7 +415,10 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
             scale = np.asarray(b.get("scale", (1.0, 1.0)), float)  # per axis (sx, sy)
             if np.any(scale != 1.0):
                 blk = _as_ortho_scales(blk, imgs[0])
-            row.update(sp.measure(blk, sc, b["camera"], scale))
+            from fotogeo.io.block import match_keys
+            stems = b.get("stems", sc["names"])
+            keys = match_keys(stems, blk.shots)  # as ortho matches the files to the file's names
+            row.update(sp.measure(blk, sc, b["camera"], scale, {n: keys.get(k, k) for n, k in zip(sc["names"], stems)}))
         except FotogeoError as exc:
             row["read_error"] = str(exc)
     ok = row["exit"] != 0 and ("--" in row["message"] or "give" in row["message"] or "$W" in row["message"])
@@ -301,22 +459,31 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default="", help="comma-separated case ids (default: all)")
     ap.add_argument("--table", default=None, help="also write the case table (Markdown) here")
     ap.add_argument("--work", default=None, help="scratch folder (default: a temporary one)")
+    ap.add_argument("--place", choices=("north", "south", "both"), default="both",
+                    help="the block at 60° N on the UTM 33/34 edge (640x480), at 33° S on the 18/19 edge (portrait "
+                         "480x640, another lens; ids prefixed 'S:'), or both")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent / "results" / "sfm_projects_bench.json"))
     a = ap.parse_args(argv)
     warnings.filterwarnings("ignore", message="Dataset has no geotransform")
     work = Path(a.work or tempfile.mkdtemp(prefix="sfm_projects_"))
-    sc = sp.scene(work / "scene")
     wanted = set(filter(None, a.only.split(",")))
-    rows = []
-    for cid, what, build in cases(sc, work):
-        if wanted and cid not in wanted:
+    rows, places = [], []
+    for place, prefix, spec in (("north", "", None), ("south", "S:", sp.SOUTH)):
+        if a.place not in (place, "both"):
             continue
-        r = run_case(cid, what, build, sc, work)
-        rows.append(r)
-        print(f"{cid:24s} exit {r['exit']}  {r.get('median_m', float('nan')):.4f}/{r.get('p90_m', float('nan')):.4f} m"
-              f"  {r['verdict']}: {r['message'][:160]}", flush=True)
-    if not wanted:
-        Path(a.out).write_text(json.dumps({"place": [sp.LAT, sp.LON], "rows": rows}, indent=1) + "\n")
+        sc = sp.scene(work / place / "scene", place=spec)
+        places.append({"place": place, "crs": sc["crs"], "size": list(sc["size"]),
+                       "lat_lon": [spec["lat"], spec["lon"]] if spec else [sp.LAT, sp.LON]})
+        for cid, what, build in cases(sc, work / place):
+            if wanted and cid not in wanted and prefix + cid not in wanted:
+                continue
+            r = run_case(prefix + cid, what, build, sc, work / place)
+            r["message"], r["command"] = (r[k].replace(f"$W/{place}", "$W") for k in ("message", "command"))
+            rows.append(r)
+            print(f"{prefix + cid:26s} exit {r['exit']}  {r.get('median_m', float('nan')):.4f}/"
+                  f"{r.get('p90_m', float('nan')):.4f} m  {r['verdict']}: {r['message'][:160]}", flush=True)
+    if not wanted and a.place == "both":
+        Path(a.out).write_text(json.dumps({"places": places, "rows": rows}, indent=1) + "\n")
     if a.table:
         Path(a.table).parent.mkdir(parents=True, exist_ok=True)
         Path(a.table).write_text(table(rows))

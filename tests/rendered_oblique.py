@@ -35,9 +35,9 @@ DEWARP = (-0.06, 0.02, 0.0004, -0.0003, 0.0)
 HEADINGS = (0.0, 90.0, 180.0, 270.0)
 
 
-def _camera(pp_offset=PP_OFFSET) -> FrameCamera:
-    w, h = SIZE
-    return FrameCamera(FOCAL_PX, (float(w), float(h)), SIZE, (w / 2 + pp_offset[0], h / 2 + pp_offset[1]))
+def _camera(pp_offset=PP_OFFSET, size=SIZE, focal=FOCAL_PX) -> FrameCamera:
+    w, h = size
+    return FrameCamera(focal, (float(w), float(h)), tuple(size), (w / 2 + pp_offset[0], h / 2 + pp_offset[1]))
 
 
 def flight(rng, per_strip: int = 5, base: float = 28.0, height: float = 80.0, pitch: float = -60.0, origin=ORIGIN):
@@ -76,7 +76,7 @@ def _xmp(body: str) -> str:
             f"{body}</rdf:Description></rdf:RDF></x:xmpmeta>\n<?xpacket end='w'?>")
 
 
-def _tags(centre, ypr, gimbal: bool, crs=CRS, rtk=None, lens=(PP_OFFSET, DEWARP), calibration=True):
+def _tags(centre, ypr, gimbal: bool, crs=CRS, rtk=None, lens=(PP_OFFSET, DEWARP), calibration=True, focal=FOCAL_PX):
     """EXIF and XMP of one frame; without ``calibration`` what a camera without one writes: the
     ``FocalLengthIn35mmFilm`` (28 mm, rounded as EXIF's integer is) and no ``DewarpData``."""
     lon, lat = _lonlat(centre[:2], crs)
@@ -93,7 +93,7 @@ def _tags(centre, ypr, gimbal: bool, crs=CRS, rtk=None, lens=(PP_OFFSET, DEWARP)
                   f" drone-dji:GimbalRollDegree='{ypr[2]:+.2f}'")
     if not calibration:
         return {**tags, "EXIF_FocalLengthIn35mmFilm": "28"}, _xmp(f"{attrs}>")
-    dewarp = ",".join(f"{v:g}" for v in (FOCAL_PX, FOCAL_PX, *lens[0], *lens[1]))
+    dewarp = ",".join(f"{v:g}" for v in (focal, focal, *lens[0], *lens[1]))
     return tags, _xmp(f"{attrs}><drone-dji:DewarpData>2024-01-01;{dewarp}</drone-dji:DewarpData>")
 
 
@@ -111,17 +111,18 @@ def _write(path, img, tags, xmp):
 
 def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sigma: float = 5.0,
                   per_strip: int = 5, place=None, rtk=None, calibration: bool = True, pp_offset=PP_OFFSET,
-                  dewarp=DEWARP):
+                  dewarp=DEWARP, size=SIZE, focal=FOCAL_PX):
     """Render the block and write it twice (module docstring): ``folder/gimbal`` with the gimbal angles in the
     XMP, ``folder/nadir`` without (the same pixels, GPS and calibration); returns ``{"gimbal": paths, "nadir":
     paths, "truth": {name: EO}, "names", "gsd", "dem", "camera", "crs"}``. ``place``: ``(CRS, origin)`` elsewhere than
     the default's; ``rtk``: the GPS σ (m) of a DJI RTK fix, written in the XMP (then ``gps_sigma`` is that);
     ``pp_offset`` and ``dewarp``: the lens (principal point − image centre in px; Brown's k1, k2, p1, p2, k3);
-    ``calibration`` False: the files carry no calibration, only ``FocalLengthIn35mmFilm`` (:func:`_tags`)."""
+    ``calibration`` False: the files carry no calibration, only ``FocalLengthIn35mmFilm`` (:func:`_tags`);
+    ``size`` (w, h) and ``focal`` (px): another sensor (a portrait frame: h > w)."""
     crs, origin = place or (CRS, ORIGIN)
     gps_sigma = gps_sigma if rtk is None else rtk
     rng = np.random.default_rng(seed)
-    cam = _camera(pp_offset)
+    cam = _camera(pp_offset, size, focal)
     shots = flight(rng, per_strip, origin=origin)
     truth = {}
     for name, _, centre, ypr in shots:
@@ -129,9 +130,9 @@ def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sig
         truth[name] = ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, crs))
     surface = terrain(rng, origin, (260.0, 260.0), GROUND, 8.0)
     frames = [OrientedFrame(cam, truth[n]) for n, *_ in shots]
-    corners = np.array([[0, 0], [SIZE[0], 0], [SIZE[0], SIZE[1]], [0, SIZE[1]]], dtype=float)
+    corners = np.array([[0, 0], [size[0], 0], [size[0], size[1]], [0, size[1]]], dtype=float)
     extent = np.vstack([f.pixel_to_world_at(corners, GROUND) for f in frames])
-    gsd = 80.0 / FOCAL_PX
+    gsd = 80.0 / focal
     k1, k2, p1, p2, k3 = dewarp
     sb = SimpleNamespace(true_camera=cam, true_xyz=extent, gsd=gsd, surface=surface,
                          true_eo=tuple(truth[n] for n, *_ in shots), true_distortion=(k1, k2, k3, p1, p2),
@@ -145,7 +146,7 @@ def oblique_block(folder, *, seed: int = 0, gps_sigma: float = 2.0, attitude_sig
         noisy = tuple(np.asarray(ypr) + rng.normal(0, attitude_sigma, 3))
         for kind in paths:
             path = folder / kind / f"{name}.tif"
-            _write(path, img, *_tags(gps, noisy, kind == "gimbal", crs, rtk, (pp_offset, dewarp), calibration))
+            _write(path, img, *_tags(gps, noisy, kind == "gimbal", crs, rtk, (pp_offset, dewarp), calibration, focal))
             paths[kind].append(path)
     return {**paths, "truth": truth, "names": [n for n, *_ in shots], "gsd": gsd, "dem": dem, "camera": cam, "sb": sb,
             "seed": seed, "crs": crs}

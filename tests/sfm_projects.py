@@ -34,28 +34,39 @@ LAT, LON = 60.0, 17.99989  # 6 m west of the 18° E edge of UTM 33: the photos s
 TRUTH_CRS = "EPSG:32633"
 D = np.diag([1.0, -1.0, -1.0])
 COLMAP_IDS = {"SIMPLE_PINHOLE": 0, "PINHOLE": 1, "SIMPLE_RADIAL": 2, "RADIAL": 3, "OPENCV": 4, "OPENCV_FISHEYE": 5,
-              "FULL_OPENCV": 6, "FOV": 7, "SIMPLE_RADIAL_FISHEYE": 8, "RADIAL_FISHEYE": 9, "THIN_PRISM_FISHEYE": 10}
+              "FULL_OPENCV": 6, "FOV": 7, "SIMPLE_RADIAL_FISHEYE": 8, "RADIAL_FISHEYE": 9, "THIN_PRISM_FISHEYE": 10,
+              "RAD_TAN_THIN_PRISM_FISHEYE": 11}
+#: a second place, sensor and lens (``scene(place=SOUTH)``): 33° S, 6 m east of the 72° W edge of UTM zones 18/19
+#: (southern and western hemispheres, convergence 1.6°), portrait 480 x 640 frames, another focal length and lens
+SOUTH = {"lat": -33.0, "lon": -71.99993, "crs": "EPSG:32719", "size": (480, 640), "focal": 575.0,
+         "pp_offset": (-2.5, 3.0), "dewarp": (-0.11, 0.05, -0.0006, 0.0002, -0.01)}
 
 
 # -- the truth -----------------------------------------------------------------------------------------------------
-def scene(folder: Path, seed: int = 3, per_strip: int = 4) -> dict:
-    """Render the block (module docstring) and its three copies of the images (rtk, consumer, bare)."""
+def scene(folder: Path, seed: int = 3, per_strip: int = 4, place: dict | None = None) -> dict:
+    """Render the block (module docstring) and its three copies of the images (rtk, consumer, bare); ``place``
+    (e.g. :data:`SOUTH`): another ``lat, lon, crs`` and camera ``size, focal, pp_offset, dewarp``. The truth CRS is
+    ``sc["crs"]``, the lens ``sc["dewarp"]`` (Brown's k1, k2, p1, p2, k3)."""
     import rendered_oblique as ro
     from pyproj import Transformer
-    origin = Transformer.from_crs(4326, TRUTH_CRS, always_xy=True).transform(LON, LAT)
-    blk = ro.oblique_block(folder / "render", seed=seed, per_strip=per_strip, place=(TRUTH_CRS, origin), rtk=0.02)
+    pl = {"lat": LAT, "lon": LON, "crs": TRUTH_CRS, "size": ro.SIZE, "focal": ro.FOCAL_PX, "pp_offset": ro.PP_OFFSET,
+          "dewarp": ro.DEWARP, **(place or {})}
+    crs = pl["crs"]
+    origin = Transformer.from_crs(4326, crs, always_xy=True).transform(pl["lon"], pl["lat"])
+    blk = ro.oblique_block(folder / "render", seed=seed, per_strip=per_strip, place=(crs, origin), rtk=0.02,
+                           size=pl["size"], focal=pl["focal"], pp_offset=pl["pp_offset"], dewarp=pl["dewarp"])
     rng = np.random.default_rng(seed + 100)
     out = {"rtk": blk["gimbal"], "consumer": [], "bare": []}
     for kind in ("consumer", "bare"):
         (folder / kind).mkdir(parents=True, exist_ok=True)
     for p in blk["gimbal"]:
-        out["consumer"].append(_retag(p, folder / "consumer" / p.name, rng, 2.0))
-        out["bare"].append(_retag(p, folder / "bare" / p.name, None, 0.0))
+        out["consumer"].append(_retag(p, folder / "consumer" / p.name, rng, 2.0, crs))
+        out["bare"].append(_retag(p, folder / "bare" / p.name, None, 0.0, crs))
     _, dem = ro.write_reference(blk, folder / "ref")
-    return {**blk, **out, "dem": dem, "ground": ro.GROUND}
+    return {**blk, **out, "dem": dem, "ground": ro.GROUND, "dewarp": pl["dewarp"], "size": tuple(pl["size"])}
 
 
-def _retag(src: Path, dst: Path, rng, sigma: float) -> Path:
+def _retag(src: Path, dst: Path, rng, sigma: float, crs=TRUTH_CRS) -> Path:
     """A copy of ``src`` without RTK tags and with its GPS ``sigma`` m off (a consumer receiver), or without GPS."""
     import re
 
@@ -68,15 +79,15 @@ def _retag(src: Path, dst: Path, rng, sigma: float) -> Path:
     tags = {k: v for k, v in tags.items() if not k.startswith("EXIF_GPS")}
     if rng is not None:
         lon, lat, alt = gps_of(src)
-        x, y = Transformer.from_crs(4326, TRUTH_CRS, always_xy=True).transform(lon, lat)
+        x, y = Transformer.from_crs(4326, crs, always_xy=True).transform(lon, lat)
         t2, _ = ro._tags(np.array([x + rng.normal(0, sigma), y + rng.normal(0, sigma), alt]), (0, -60, 0), False,
-                         TRUTH_CRS)
+                         crs)
         tags.update({k: v for k, v in t2.items() if k.startswith("EXIF_GPS")})
     ro._write(dst, img, tags, xmp)
     return dst
 
 
-def shifted_gps(src: Path, dst: Path, dxy) -> Path:
+def shifted_gps(src: Path, dst: Path, dxy, crs=TRUTH_CRS) -> Path:
     """A copy of ``src`` whose EXIF GPS is ``dxy`` metres (east, north) off, its accuracy tags kept (a blunder)."""
     import rasterio
     import rendered_oblique as ro
@@ -84,8 +95,8 @@ def shifted_gps(src: Path, dst: Path, dxy) -> Path:
     with rasterio.open(src) as ds:
         img, tags, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
     lon, lat, alt = gps_of(src)
-    x, y = Transformer.from_crs(4326, TRUTH_CRS, always_xy=True).transform(lon, lat)
-    t2, _ = ro._tags(np.array([x + dxy[0], y + dxy[1], alt]), (0, -60, 0), False, TRUTH_CRS)
+    x, y = Transformer.from_crs(4326, crs, always_xy=True).transform(lon, lat)
+    t2, _ = ro._tags(np.array([x + dxy[0], y + dxy[1], alt]), (0, -60, 0), False, crs)
     tags.update({k: v for k, v in t2.items() if k.startswith("EXIF_GPS")})
     dst.parent.mkdir(parents=True, exist_ok=True)
     ro._write(dst, img, tags, xmp)
@@ -199,12 +210,25 @@ def colmap_model(folder: Path, sc: dict, cameras: dict, *, binary=False, transfo
     return folder
 
 
-def ecef_transform(C, R):
+def ecef_transform(C, R, crs=TRUTH_CRS):
     """The map pose as ``model_aligner --alignment_type ecef`` leaves it: ECEF positions, ECEF -> camera rotations."""
-    llh = map_to_llh(C[None])[0]
+    llh = map_to_llh(C[None], crs)[0]
     X = llh_to_ecef(llh[None])[0]
-    J = _jacobian(lambda P: llh_to_ecef(map_to_llh(P)), C)  # map vectors -> ECEF vectors
+    J = _jacobian(lambda P: llh_to_ecef(map_to_llh(P, crs)), C)  # map vectors -> ECEF vectors
     return X, R @ J.T
+
+
+def enu_transform(C, R, ref, crs=TRUTH_CRS):
+    """The map pose as ``model_aligner --alignment_type enu`` leaves it: east, north, up (m) at ``ref = (lat, lon,
+    alt)`` on WGS 84, ENU -> camera rotations (OpenSfM's topocentric frame, :func:`topo_pose`)."""
+    return topo_pose(C, R, ref, crs)
+
+
+def other_zone_transform(C, R, src=TRUTH_CRS, dst="EPSG:32634"):
+    """The map pose in another projected CRS ``dst`` (``model_aligner`` given positions in the neighbouring UTM
+    zone): positions through lon/lat, rotations by the Jacobian's rotation."""
+    J = _jacobian(lambda P: llh_to_map(map_to_llh(P, src), dst), C)
+    return llh_to_map(map_to_llh(C[None], src), dst)[0], R @ J.T
 
 
 def arbitrary_transform(C, R, s=0.05, angle=37.0, shift=(3.0, -2.0, 1.0)):
@@ -265,20 +289,21 @@ def _jacobian(f, x, h=1.0) -> np.ndarray:
     return U @ Vt
 
 
-def topo_pose(C, R, ref):
+def topo_pose(C, R, ref, crs=TRUTH_CRS):
     """A map pose in OpenSfM's topocentric frame at ``ref``: ``(C_topo, R_wc_topo)``."""
-    J = _jacobian(lambda P: to_topo(P, ref), C)  # map vectors -> topocentric vectors
-    return to_topo(C[None], ref)[0], R @ J.T
+    J = _jacobian(lambda P: to_topo(P, ref, crs), C)  # map vectors -> topocentric vectors
+    return to_topo(C[None], ref, crs)[0], R @ J.T
 
 
 # -- OpenSfM / ODM -------------------------------------------------------------------------------------------------
-def opensfm_camera(cam) -> dict:
-    """The true camera as OpenSfM's ``brown`` camera (normalised by max(w, h))."""
+def opensfm_camera(cam, dewarp=None) -> dict:
+    """The true camera as OpenSfM's ``brown`` camera (normalised by max(w, h)); ``dewarp`` (k1, k2, p1, p2, k3)
+    by default the renderer's."""
     import rendered_oblique as ro
-    w, h = ro.SIZE
+    w, h = (int(v) for v in cam.image_size)
     m = max(w, h)
     c = cam.principal_point
-    k1, k2, p1, p2, k3 = ro.DEWARP
+    k1, k2, p1, p2, k3 = dewarp or ro.DEWARP
     return {"projection_type": "brown", "width": w, "height": h, "focal_x": cam.fx / m, "focal_y": cam.fy / m,
             "c_x": (c[0] - w / 2) / m, "c_y": (c[1] - h / 2) / m, "k1": k1, "k2": k2, "k3": k3, "p1": p1, "p2": p2}
 
@@ -294,11 +319,14 @@ def odm_zone(sc: dict, images) -> tuple:
 
 
 def opensfm_project(folder: Path, sc: dict, images, *, odm: bool, exif=True, coords=True, topocentric_copy=True,
-                    reconstructions=None, reference=True, camera=None, dop=None, imposed=True) -> Path:
+                    reconstructions=None, reference=True, camera=None, dop=None, imposed=True, names=None,
+                    no_gps=False) -> Path:
     """An OpenSfM (``odm`` False) or ODM project of the truth in ``folder`` (module docstring); returns the path of
     ``opensfm/reconstruction.json``. ``reconstructions``: lists of shot names, one reconstruction each;
     ``imposed`` False: an ODM of February–July 2021, which kept OpenSfM's own reference (the photos' mean GPS)
-    while ``export_geocoords`` subtracted its UTM offset."""
+    while ``export_geocoords`` subtracted its UTM offset; ``names``: the shots' file names by truth name (default
+    ``NAME.tif``); ``no_gps``: shots without ``gps_position``/``gps_dop`` (OpenSfM run without GPS priors)."""
+    name_of = names or {}
     from scipy.spatial.transform import Rotation
     osfm = folder / "opensfm"
     osfm.mkdir(parents=True, exist_ok=True)
@@ -311,18 +339,22 @@ def opensfm_project(folder: Path, sc: dict, images, *, odm: bool, exif=True, coo
     else:
         g = np.array(list(gps.values()))
         ref = (float(g[:, 1].mean()), float(g[:, 0].mean()), float(g[:, 2].mean()))
-    cam = camera or opensfm_camera(sc["camera"])
+    crs = sc.get("crs", TRUTH_CRS)
+    cam = camera or opensfm_camera(sc["camera"], sc.get("dewarp"))
+    w, h = (int(v) for v in sc["camera"].image_size)
+    cid = f"v2 dji fc-render {w} {h} brown 0.8125"
     recs = []
     for group in reconstructions or [sc["names"]]:
         shots = {}
         for n in group:
-            Ct, Rt = topo_pose(*pose_cv(sc["truth"][n]), ref)
+            Ct, Rt = topo_pose(*pose_cv(sc["truth"][n]), ref, crs)
             lon, lat, alt = gps[n]
-            gp = to_topo(llh_to_map(np.array([[lon, lat, alt]]))[None][0], ref)[0]
-            shots[n + ".tif"] = {"rotation": Rotation.from_matrix(Rt).as_rotvec().tolist(),
-                                 "translation": (-Rt @ Ct).tolist(), "camera": "v2 dji fc-render 640 480 brown 0.8125",
-                                 "gps_position": gp.tolist(), "gps_dop": dop or 15.0}
-        rec = {"cameras": {"v2 dji fc-render 640 480 brown 0.8125": cam}, "shots": shots, "points": {}}
+            gp = to_topo(llh_to_map(np.array([[lon, lat, alt]]), crs)[None][0], ref, crs)[0]
+            shots[name_of.get(n, n + ".tif")] = {"rotation": Rotation.from_matrix(Rt).as_rotvec().tolist(),
+                                                 "translation": (-Rt @ Ct).tolist(), "camera": cid,
+                                                 **({} if no_gps else {"gps_position": gp.tolist(),
+                                                                        "gps_dop": dop or 15.0})}
+        rec = {"cameras": {cid: cam}, "shots": shots, "points": {}}
         if reference:
             rec["reference_lla"] = dict(zip(("latitude", "longitude", "altitude"), ref))
         recs.append(rec)
@@ -343,8 +375,8 @@ def opensfm_project(folder: Path, sc: dict, images, *, odm: bool, exif=True, coo
     if exif:
         (osfm / "exif").mkdir(exist_ok=True)
         for n, (lon, lat, alt) in gps.items():
-            (osfm / "exif" / f"{n}.tif.exif").write_text(json.dumps(
-                {"width": 640, "height": 480, "gps": {"latitude": lat, "longitude": lon, "altitude": alt,
+            (osfm / "exif" / f"{name_of.get(n, n + '.tif')}.exif").write_text(json.dumps(
+                {"width": w, "height": h, "gps": {"latitude": lat, "longitude": lon, "altitude": alt,
                                                       "dop": dop or 15.0}}))
     return path
 
@@ -373,7 +405,8 @@ def _geocoords(rec: dict, ref, epsg, off) -> dict:
 
 # -- orthority -----------------------------------------------------------------------------------------------------
 def orthority_files(folder: Path, sc: dict, cam: dict, *, fmt="geojson") -> tuple:
-    """orthority's exterior (GeoJSON, ``opk`` radians) and interior (YAML) files of the truth with camera ``cam``."""
+    """orthority's exterior (GeoJSON, ``opk`` radians) and interior files of the truth with camera ``cam``: YAML, or
+    with ``fmt`` "json" the same mapping in JSON syntax (a YAML subset orthority reads alike)."""
     folder.mkdir(parents=True, exist_ok=True)
     feats = []
     for n in sc["names"]:
@@ -382,29 +415,36 @@ def orthority_files(folder: Path, sc: dict, cam: dict, *, fmt="geojson") -> tupl
                       "properties": {"filename": n + ".tif", "camera": "dji", "xyz": [e.X, e.Y, e.Z],
                                      "opk": [math.radians(a) for a in (e.omega, e.phi, e.kappa)]}})
     ext = folder / "exterior.geojson"
-    ext.write_text(json.dumps({"type": "FeatureCollection", "world_crs": TRUTH_CRS, "features": feats}))
+    ext.write_text(json.dumps({"type": "FeatureCollection", "world_crs": sc.get("crs", TRUTH_CRS), "features": feats}))
     keys = [k for k in cam if k not in ("tool", "width", "height")]
+    if fmt == "json":
+        d = {"im_size": [cam["width"], cam["height"]], **{k: cam[k] for k in keys}}
+        (folder / "int_param.json").write_text(json.dumps({"dji": d}, indent=4))
+        return ext, folder / "int_param.json"
     lines = ["dji:", f"    im_size: [{cam['width']}, {cam['height']}]"] + [f"    {k}: {cam[k]!r}" if k != "type" else
                                                                               f"    type: {cam[k]}" for k in keys]
     (folder / "interior.yaml").write_text("\n".join(lines) + "\n")
     return ext, folder / "interior.yaml"
 
 
-def measure(block, sc: dict, cam: dict, scale=1.0) -> dict:
+def measure(block, sc: dict, cam: dict, scale=1.0, keys=None) -> dict:
     """Orthophoto shift of ``block`` against the truth: ground points in view of every frame (on the ground height)
     are projected by the tool's camera ``cam`` (:func:`tool_pixel`, pixels times ``scale``, a factor or per axis
     ``(sx, sy)``) and the true pose, then back through fotogeo's reading onto the same height; median and p90 of the
-    horizontal distances (m), the worst centre error (m) and rotation angle (°)."""
+    horizontal distances (m), the worst centre error (m) and rotation angle (°). ``keys``: the block's frame key of
+    each truth name (images renamed), by default the name."""
     from fotogeo.geometry.camera import OrientedFrame
     from fotogeo.orientation.adjusted_frame import AdjustedFrame
     shifts, centre, angle = [], 0.0, 0.0
-    g = np.stack(np.meshgrid(np.linspace(20, 620, 9), np.linspace(20, 460, 7)), -1).reshape(-1, 2)
+    w, h = sc["camera"].image_size
+    g = np.stack(np.meshgrid(np.linspace(20, w - 20, 9), np.linspace(20, h - 20, 7)), -1).reshape(-1, 2)
     for n, e in sc["truth"].items():
-        s = block.shots.get(n)
+        k = (keys or {}).get(n, n)
+        s = block.shots.get(k)
         if s is None or s.exterior is None:
             continue
-        ac = block.camera_of(n)
-        read = AdjustedFrame(ac.camera, s.exterior, ac.distortion, n)
+        ac = block.camera_of(k)
+        read = AdjustedFrame(ac.camera, s.exterior, ac.distortion, k)
         X = OrientedFrame(sc["camera"], e).pixel_to_world_at(g, sc["ground"])
         C, R = pose_cv(e)
         back = read.inverse(tool_pixel(cam, (X - C) @ R.T) * scale, sc["ground"])

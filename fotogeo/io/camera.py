@@ -99,6 +99,8 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
     if not data:
         raise InputError(f"camera file {str(path)!r} defines no camera")
     cid, d = next(iter(data.items()))
+    if isinstance(d, dict) and "projection_type" in d:
+        return _opensfm_cameras(path, data, lines)
     try:
         cam = _frame_camera(d, ("pinhole", "brown"))
         dist = {k: _number(d, k, default=0.0) for k in BROWN_TERMS}
@@ -109,6 +111,24 @@ def read_camera_with_distortion(path) -> tuple[FrameCamera, dict]:
                                   f"it needs im_size [w, h], sensor_size [w, h] and focal_len (type pinhole, or "
                                   f"brown with k1, k2, p1, p2, k3; optional cx, cy)")) from None
     return cam, dist
+
+
+def _opensfm_cameras(path: Path, data: dict, lines: dict) -> tuple[FrameCamera, dict]:
+    """The one camera of ODM's ``cameras.json`` (OpenSfM camera dicts by id, ``projection_type``; read by
+    :func:`fotogeo.io.opensfm.camera_from_opensfm`) and its distortion; several cameras are refused by name (which
+    image has which is in the reconstruction.json)."""
+    from .opensfm import camera_from_opensfm
+    if len(data) > 1:
+        raise InputError(f"camera file {str(path)!r} is ODM's/OpenSfM's cameras.json with {len(data)} cameras; give "
+                         f"it without --camera beside opensfm/reconstruction.json (which names each image's camera) "
+                         f"or one camera")
+    cid, d = next(iter(data.items()))
+    try:
+        c = camera_from_opensfm(d, f"OpenSfM camera {cid!r} of {str(path)!r}")
+    except (ValueError, TypeError) as exc:
+        raise InputError(one_line(f"camera file {str(path)!r} (ODM/OpenSfM cameras.json), line {lines[cid]}: camera "
+                                  f"{cid!r}: {exc}")) from None
+    return c.camera, {k: float(c.distortion.get(k, 0.0)) for k in BROWN_TERMS}
 
 
 def read_exterior_orientation(path) -> dict[str, ExteriorOrientation]:

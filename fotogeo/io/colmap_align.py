@@ -84,11 +84,12 @@ def align_to_gps(images: list, gps: dict, map_crs, where: str) -> tuple:
     :class:`InputError` naming ``--crs`` when the alignment is ill-determined or contradicted."""
     from ..geometry.similarity3d import CHI2_DOF_MAX, robust_similarity, similarity_precision
     from .block import frame_key
-    from .sfm_frame import TAG_SIGMA, map_xy
+    from .sfm_frame import TAG_SIGMA, gps_for, map_xy
+    keys = [frame_key(n) for n, *_ in images]
+    gps = gps_for(gps, keys)
     used = _with_altitude(images, gps, where)
     if used is None:
         return None
-    keys = [frame_key(n) for n, *_ in images]
     no_alt = [key for key in keys if key in gps and gps[key].alt is None]
     fixes = [gps[keys[k]] for k in used]
     x = np.array([images[k][2] for k in used], float)

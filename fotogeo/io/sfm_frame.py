@@ -85,6 +85,14 @@ def images_gps(paths) -> dict:
     return out
 
 
+def gps_for(gps: dict, keys) -> dict:
+    """``gps`` re-keyed by the file's frame ``keys``: each image's key, or the one differing only by case
+    (:func:`fotogeo.io.block.match_keys`), so a project naming ``dji_0001.jpg`` is checked against ``DJI_0001.JPG``'s
+    GPS."""
+    from .block import match_keys
+    return {k: gps[n] for n, k in match_keys(gps, keys).items()}
+
+
 def map_xy(crs, lon, lat) -> np.ndarray:
     """``(N, 2)`` map coordinates in ``crs`` of WGS 84 ``lon``, ``lat`` (degrees)."""
     from ..crs import transform_points
@@ -115,6 +123,7 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
     """``(reading, sentence)`` from ``local`` ``{name: local xyz}`` against ``gps`` ``{name: (lon, lat, σ)}``
     (module docstring), or ``(None, sentence)`` when they cannot tell or contradict both readings."""
     from ..geometry.local_frames import LocalFrame
+    gps = gps_for(gps, local)
     names = sorted(set(local) & set(gps))
     if not names:
         return None, f"none of the images with {source} is a shot of the reconstruction"
@@ -137,7 +146,8 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
 def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
     """The sentence saying how ``block``'s centres agree with the images' own ``gps`` ({name: GpsFix}); an
     :class:`InputError` naming ``what`` and the frames furthest off when the horizontal RMS exceeds 3σ."""
-    names = sorted(n for n in gps if n in block.shots and block.shots[n].position is not None)
+    gps = gps_for(gps, block.shots)
+    names = sorted(n for n in gps if block.shots[n].position is not None)
     if not names or block.crs is None:
         return ""
     pos = np.array([block.shots[n].position[:2] for n in names], float)

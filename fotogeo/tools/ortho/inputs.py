@@ -38,7 +38,7 @@ import numpy as np
 from ...crs import parse_crs, require_projected, utm_crs_for
 from ...errors import FotogeoWarning, InputError, InputNote
 from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs
-from ...io.block import frame_key
+from ...io.block import frame_key, match_keys
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
@@ -172,13 +172,20 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         from ...io.orientation_file import cameras_from_camera_file
         own = cameras_from_camera_file(eo)  # orthority's: the block's cameras ARE --camera's
         given = read_camera_with_distortion(camera) if camera is not None and not own else None
-        poses = {}
+        poses, keys = {}, match_keys(names, block.shots)
+        other = sorted(f"{n} as {k!r}" for n, k in keys.items() if n != k)
+        if other:
+            note = (f"--eo {str(eo)!r} names image(s) in another case than the files: {', '.join(other[:5])} (matched "
+                    f"ignoring case, each to its only such name)")
+            warnings.warn(note, InputNote, stacklevel=3)
+            if said is not None:
+                said.append(note)
         for n in names:
-            shot = block.shots.get(n)
+            shot = block.shots.get(keys.get(n, n))
             if shot is None or shot.exterior is None:
                 poses[n] = (None, None, None, None, "")
                 continue
-            cam, dist = given or (block.camera_of(n).camera, block.camera_of(n).distortion)
+            cam, dist = given or (block.camera_of(keys[n]).camera, block.camera_of(keys[n]).distortion)
             poses[n] = (shot.exterior, cam, dist, shot.height_reference, "" if given else f"--eo {str(eo)!r}")
     missing = [n for n in names if poses[n][0] is None]
     if missing:
