@@ -40,30 +40,32 @@ from .yaml_file import yaml_key
 
 
 def frame_key(name) -> str:
-    """The name a frame is known by: its file name without folder (``/`` or Windows' ``\\``, as a project written
-    on Windows names its images) and extension.
-
-    >>> frame_key("flight1/DJI_0001.JPG"), frame_key("flight1\\sub\\DJI 0002.jpg"), frame_key("a.b.tif")
-    ('DJI_0001', 'DJI 0002', 'a.b')
-    """
-    return Path(str(name).replace("\\", "/")).stem
+    """The name a frame is known by: its file name without folder and extension."""
+    return Path(str(name)).stem
 
 
 def match_keys(names, keys) -> dict:
-    """``{name: key}``: each frame name's key among ``keys`` — the name itself, else the one key equal to it but for
-    case (a project whose images were renamed or copied through a case-insensitive file system: ``DJI_0001.JPG``
-    against ``dji_0001.jpg``); a name with no such key, or with several, is left out."""
+    r"""``{name: key}``: each frame name's key among ``keys`` — the name itself, else the one key that is the name
+    after a Windows folder (``flight1\DJI_0001``, a project written on Windows: a backslash is part of a file name
+    here), else the one key equal to it but for case and such a folder (images renamed, or copied through a
+    case-insensitive file system: ``dji_0001.jpg`` for ``DJI_0001.JPG``); a name with no such key, or with several,
+    is left out.
+
+    >>> match_keys(["DJI_1", "DJI_2", "a"], ["flight1\\DJI_1", "dji_2", "a", "A"])
+    {'DJI_1': 'flight1\\DJI_1', 'DJI_2': 'dji_2', 'a': 'a'}
+    """
     keys = list(keys)
-    folded = {}
+    bare, folded = {}, {}
     for k in keys:
-        folded.setdefault(k.casefold(), []).append(k)
+        b = k.replace("\\", "/").rsplit("/", 1)[-1]
+        bare.setdefault(b, []).append(k)
+        folded.setdefault(b.casefold(), []).append(k)
     own = set(keys)
     out = {}
     for n in names:
-        if n in own:
-            out[n] = n
-        elif len(folded.get(n.casefold(), ())) == 1:
-            out[n] = folded[n.casefold()][0]
+        found = [n] if n in own else bare.get(n) or folded.get(n.casefold(), [])
+        if len(found) == 1:
+            out[n] = found[0]
     return out
 
 

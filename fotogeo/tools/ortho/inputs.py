@@ -175,8 +175,8 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         poses, keys = {}, match_keys(names, block.shots)
         other = sorted(f"{n} as {k!r}" for n, k in keys.items() if n != k)
         if other:
-            note = (f"--eo {str(eo)!r} names image(s) in another case than the files: {', '.join(other[:5])} (matched "
-                    f"ignoring case, each to its only such name)")
+            note = (f"--eo {str(eo)!r} names image(s) otherwise than the files: {', '.join(other[:5])} (matched "
+                    f"ignoring case and Windows folders, each to its only such name)")
             warnings.warn(note, InputNote, stacklevel=3)
             if said is not None:
                 said.append(note)
