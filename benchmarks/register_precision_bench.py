@@ -98,7 +98,8 @@ def describe(r, seconds, px: float, dense=None) -> dict:
     out = {"time_s": seconds[0], "cpu_s": seconds[1], "matches": rep["matches"], "inliers": rep["inliers"],
            "check_n": chk.get("n"), "check_rmse_px": chk.get("rmse_px"), "check_ce90_px": chk.get("ce90_px"),
            "lsm_converged": lsm.get("converged", lsm.get("refined")), "lsm_of": lsm.get("of"),
-           "lsm_median_sigma_px": lsm.get("median_sigma_px"), "timings_s": rep["timings_s"]}
+           "lsm_median_sigma_px": lsm.get("median_sigma_px"), "timings_s": rep["timings_s"],
+           "bands_rematched": rep.get("bands_rematched")}
     if dense is not None:
         grid, truth = dense
         err = np.hypot(*(r.model.forward(grid) - truth).T) / px

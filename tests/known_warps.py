@@ -128,6 +128,7 @@ BAND_SETS = {
     "ref4_tgt1": ("rgbn", "pan"),
     "ref3_tgt2": ("rgb", "ng"),
     "ref3_tgtN": ("rgb", "n"),  # a NIR-only target: its vegetation bright where the visible bands are dark
+    "ref3_tgtS": ("rgb", "s"),  # a SWIR-only target: water dark, the visible bands mixed in other weights
     "ref1_tgt3": ("pan", "rgb"),  # a panchromatic reference, an RGB target
     "ref8_tgt1": ("rgb8", "r"),  # an 8-band reference, a red-only target
 }
@@ -136,7 +137,8 @@ BAND_SETS = {
 def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
     """The bands ``kind`` from ``rgb`` (3, rows, cols) float: ``rgb``; ``rgbn`` + a NIR-like band;
     ``rgb8`` as an 8-band sensor (coastal, B, G, R, red edge, NIR, SWIR 1, SWIR 2); ``pan`` the mean of
-    R, G, B; ``ng`` the NIR-like band and G; ``n`` the NIR-like band alone; ``r`` R alone. The NIR-like band
+    R, G, B; ``ng`` the NIR-like band and G; ``n`` the NIR-like band alone; ``s`` the first SWIR-like band
+    alone; ``r`` R alone. The NIR-like band
     is bright where green exceeds red (vegetation) and dark where blue exceeds green (water): not a monotone
     function of the brightness, as real NIR is not, so the 8-band PCA is not the RGB one."""
     R, G, B = rgb
@@ -150,6 +152,8 @@ def derived_bands(rgb: np.ndarray, kind: str) -> np.ndarray:
         return np.stack([nir, G])
     if kind == "n":
         return nir[None]
+    if kind == "s":
+        return swir1[None]
     if kind == "r":
         return R[None]
     if kind == "rgbn":

@@ -60,15 +60,33 @@ def test_default_is_sub_pixel_and_beats_sift_across_band_sets(data_dir, tmp_path
         assert bands["combined"] == "reference" and bands["correlation_combined"] > bands["correlation_pca"]
 
 
+def test_a_nir_only_target_is_matched_again_on_the_reference_bands_combined(data_dir, tmp_path):
+    """RGB reference, NIR-only target (s2, r45_s1.2_p; not a case of benchmarks/register_bands_bench.py): on
+    the PCA fusions SURF keeps 11 inliers and the windows on R against NIR 8 reliable of 64, so it was refused;
+    the 11 inliers' rough homography fits the RGB combination that looks like the NIR (smoothed), SURF on it
+    keeps hundreds and LSM makes it sub-pixel."""
+    ref, tgt, grid, truth = known_warp_bands(data_dir, "s2", "r45_s1.2_p", "ref3_tgtN", tmp_path)
+    with rasterio.open(ref) as ds:
+        px = abs(ds.transform.a)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = register(ref, tgt, tmp_path / "out.tif", seed=0)
+    again = r.report["bands_rematched"]
+    assert again["combined"] == "reference" and again["inliers_after"] > 10 * again["inliers_before"]
+    assert again["correlation_combined"] > 0.9 > again["correlation_pca"]
+    assert np.sqrt(np.mean(np.hypot(*(r.model.forward(grid) - truth).T) ** 2)) / px <= 0.05
+
+
 def test_a_weak_feature_fit_the_windows_cannot_confirm_is_refused(data_dir, tmp_path):
-    """RGB reference, NIR-only target (s2, r30_s0.85_p): SURF keeps 9 inliers and the windows on R against NIR
-    find 7 reliable of 64; the 9-inlier fit was written 5.0 px (max 16 px) off the exact warp with exit 0."""
+    """RGB reference limited to R (``reference_bands``), NIR-only target (s2, r30_s0.85_p): nothing to combine;
+    SIFT keeps 12 inliers whose fit's standard error at the corners is 3.1 px and the windows on R against NIR
+    find 7 reliable of 64: refused, none written (such a fit of 9 SURF inliers was written 5.0 px off)."""
     ref, tgt, _, _ = known_warp_bands(data_dir, "s2", "r30_s0.85_p", "ref3_tgtN", tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(MatchingError,
-                           match="the feature fit of 9 inliers .* is not confirmed, so none is written") as e:
-            register(ref, tgt, tmp_path / "out.tif", seed=0)
+                           match="the feature fit of 12 inliers .* is not confirmed, so none is written") as e:
+            register(ref, tgt, tmp_path / "out.tif", seed=0, reference_bands="1", detector="sift", refine="none")
     message = str(e.value)
     assert message.endswith("--no-area-fallback") and "--window" not in message
     assert "reference band 1, target band 1: try other bands first in --reference-bands/--target-bands" in message

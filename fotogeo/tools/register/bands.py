@@ -4,20 +4,40 @@ Features are matched on each image's own PCA fusion (:func:`.match.fused_for_mat
 image with more bands fused is re-read and its bands combined to predict the other's fused image
 (:mod:`fotogeo.image.band_match`) through the approximate homography of the consistent matches; the
 combination replaces its PCA fusion (for the decimated and the full-resolution LSM alike) when it
-correlates better with the other image and LSM on a sample of the tie points is more precise with it. An RGB target against an 8-band reference is then matched on
-the reference's bands weighted as the target's brightness is, not on the reference's own first
-principal component.
+correlates better with the other image and LSM on a sample of the tie points is more precise with it. An RGB
+target against an 8-band reference is then matched on the reference's bands weighted as the target's
+brightness is, not on the reference's own first principal component.
+
+The features themselves are matched on the PCA fusions, which correspond when the two images have the same
+bands. When they do not — a NIR-only target against an RGB reference, whose vegetation is bright where the
+visible bands are dark — the first match may keep only a handful of homography inliers. Their homography,
+however rough, aligns the images well enough to fit the same combination on smoothed images
+(:func:`combined_for_matching`); the features of that side are then detected again on it and matched once
+more (:func:`fotogeo.tools.register.match.find_tie_points`), and the match with more inliers is kept.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
+import cv2
 import numpy as np
 
+from ...errors import FotogeoError
+from ...features.detect import detect
 from ...image.band_match import combined_fusion, fit_combination
+from ...image.contrast import apply_contrast
 from ...io.raster import read_decimated
-from .match import select_bands
+from ...models import Projective, ransac
+from .match import match_keypoints, select_bands
 
 #: the combined bands must converge on at least this share of the trial points PCA fusion converges on
 TRIAL_SHARE = 0.9
+#: a first feature match with fewer homography inliers than this is tried again on combined bands
+REMATCH_BELOW = 50
+#: Gaussian σ (matched pixels) of the smoothing before a combination is fitted through a rough homography:
+#: smoothing leaves a linear relation between bands as it is, and makes a misalignment of a few pixels (the
+#: RANSAC threshold) small against the structures compared
+ROUGH_FIT_SMOOTHING = 3.0
 
 
 def _bands(info, role: str, opts) -> np.ndarray:
@@ -27,27 +47,28 @@ def _bands(info, role: str, opts) -> np.ndarray:
     return bands[np.asarray(numbers) - 1] if numbers != tuple(range(1, info.count + 1)) else bands
 
 
-def matched_fusions(infos, opts, fu_ref, fu_tgt, homography, trial=None):
+def matched_fusions(infos, opts, fu_ref, fu_tgt, homography, trial=None, matched="PCA fusions"):
     """``(reference fusion, target fusion, report)`` for LSM; ``homography`` maps reference pixels to
-    target pixels of the fused images (module docstring). ``trial(fu_ref, fu_tgt) -> (converged, median
-    σ)`` runs LSM on a sample of the tie points: the combination is kept only when it converges on at
-    least :data:`TRIAL_SHARE` as many and with a lower median σ (a combination fitted to a non-linear
-    radiometric change can amplify noise or texture the other image lacks)."""
+    target pixels of the fused images (module docstring), ``matched`` names them (the features' own: PCA
+    fusions, or one side's bands combined by :func:`combined_for_matching`). ``trial(fu_ref, fu_tgt) ->
+    (converged, median σ)`` runs LSM on a sample of the tie points: the combination is kept only when it
+    converges on at least :data:`TRIAL_SHARE` as many and with a lower median σ (a combination fitted to a
+    non-linear radiometric change can amplify noise or texture the other image lacks)."""
     n_ref, n_tgt = len(fu_ref.bands), len(fu_tgt.bands)
     if max(n_ref, n_tgt) < 2:
-        return fu_ref, fu_tgt, {"lsm_on": "PCA fusions (one band each)"}
+        return fu_ref, fu_tgt, {"lsm_on": f"{matched} (one band each)"}
     side = "reference" if n_ref >= n_tgt else "target"
     own, other = (fu_ref, fu_tgt) if side == "reference" else (fu_tgt, fu_ref)
     to_other = homography.forward if side == "reference" else homography.inverse
     bands = _bands(infos[0] if side == "reference" else infos[1], side, opts)
     comb = fit_combination(bands, np.asarray(own.mask, bool), own, to_other, other)
     if comb is None:
-        return fu_ref, fu_tgt, {"lsm_on": "PCA fusions (too little overlap to combine bands)"}
+        return fu_ref, fu_tgt, {"lsm_on": f"{matched} (too little overlap to combine bands)"}
     report = {"combined": side, "weights": [round(float(w), 4) for w in comb.weights],
               "offset": round(comb.offset, 3), "correlation_pca": round(comb.correlation_pca, 4),
               "correlation_combined": round(comb.correlation, 4), "pixels": comb.n}
     if not comb.better:
-        return fu_ref, fu_tgt, {"lsm_on": "PCA fusions (combining the bands did not correlate better)", **report}
+        return fu_ref, fu_tgt, {"lsm_on": f"{matched} (combining the bands did not correlate better)", **report}
     new = combined_fusion(bands, np.asarray(own.mask, bool), own, comb)
     pair = (new, fu_tgt) if side == "reference" else (fu_ref, new)
     if trial is not None:
@@ -55,7 +76,65 @@ def matched_fusions(infos, opts, fu_ref, fu_tgt, homography, trial=None):
         report["trial"] = {"pca": {"converged": pca_n, "median_sigma_px": pca_s},
                            "combined": {"converged": new_n, "median_sigma_px": new_s}}
         if not (new_n >= TRIAL_SHARE * pca_n and (pca_s is None or (new_s is not None and new_s < pca_s))):
-            return fu_ref, fu_tgt, {"lsm_on": "PCA fusions (LSM on the combined bands was less precise on a "
+            return fu_ref, fu_tgt, {"lsm_on": f"{matched} (LSM on the combined bands was less precise on a "
                                               "trial)", **report}
     report["lsm_on"] = f"the {side}'s bands combined to match the other's fusion"
     return (*pair, report)
+
+
+def combined_for_matching(infos, opts, fu_ref, fu_tgt, homography):
+    """``(side, fusion, report)``: the bands of one image (the one with more bands fused; the reference when
+    alike) combined to look like the other's PCA fusion through ``homography`` (reference -> target pixels of
+    the images matched, from a weak first match), fitted on images smoothed by :data:`ROUGH_FIT_SMOOTHING`;
+    None when both have one band, the overlap is too small or the combination does not correlate better
+    than the PCA fusion (the module docstring)."""
+    n_ref, n_tgt = len(fu_ref.bands), len(fu_tgt.bands)
+    if max(n_ref, n_tgt) < 2:
+        return None
+    side = "reference" if n_ref >= n_tgt else "target"
+    own, other = (fu_ref, fu_tgt) if side == "reference" else (fu_tgt, fu_ref)
+    to_other = homography.forward if side == "reference" else homography.inverse
+    bands = _bands(infos[0] if side == "reference" else infos[1], side, opts).astype(np.float32)
+    valid = np.asarray(own.mask, bool)
+    blur = lambda a: cv2.GaussianBlur(np.asarray(a, np.float32), (0, 0), ROUGH_FIT_SMOOTHING)  # noqa: E731
+    inner = cv2.erode(valid.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool)  # no blurred border
+    comb = fit_combination(np.stack([blur(b) for b in bands]), inner, replace(own, image=blur(own.image)),
+                           to_other, replace(other, image=blur(other.image)))
+    if comb is None or not comb.better:
+        return None
+    report = {"combined": side, "weights": [round(float(w), 4) for w in comb.weights],
+              "correlation_pca": round(comb.correlation_pca, 4), "correlation_combined": round(comb.correlation, 4)}
+    return side, combined_fusion(bands, valid, own, comb), report
+
+
+def _inliers(kp_ref, kp_tgt, m, opts):
+    """``(homography reference -> target pixels matched, inliers)`` of the matches ``m``, or ``(None, 0)``."""
+    try:
+        r = ransac(Projective, kp_ref.xy[m.pairs[:, 1]], kp_tgt.xy[m.pairs[:, 0]], opts.ransac_threshold,
+                   rng=opts.seed)
+    except FotogeoError:
+        return None, 0
+    return r.model, int(r.inliers.sum())
+
+
+def rematch(infos, opts, fused, kps, m):
+    """``(fu_ref, fu_tgt, kp_ref, kp_tgt, matches, report)``: with one side's keypoints detected again on its
+    bands combined to look like the other's fusion (:func:`combined_for_matching`) when a match with fewer
+    than :data:`REMATCH_BELOW` homography inliers gains inliers so; else the fusions, keypoints and matches
+    given and None."""
+    given = (*fused, *kps, m, None)
+    if max(len(fused[0].bands), len(fused[1].bands)) < 2:
+        return given
+    H, n0 = _inliers(*kps, m, opts)
+    found = combined_for_matching(infos, opts, *fused, H) if H is not None and n0 < REMATCH_BELOW else None
+    if found is None:
+        return given
+    side, new, report = found
+    kp = detect(apply_contrast(new.image, new.mask, opts.contrast), new.mask, opts.detector,
+                max_keypoints=opts.max_keypoints, hessian_threshold=opts.hessian_threshold)
+    fu_ref, fu_tgt = (new, fused[1]) if side == "reference" else (fused[0], new)
+    kp_ref, kp_tgt = (kp, kps[1]) if side == "reference" else (kps[0], kp)
+    m2 = match_keypoints(kp_tgt, kp_ref, opts)
+    n1 = _inliers(kp_ref, kp_tgt, m2, opts)[1] if len(m2) >= 6 else 0
+    report.update(inliers_before=n0, inliers_after=n1)
+    return (fu_ref, fu_tgt, kp_ref, kp_tgt, m2, report) if n1 > n0 else given

@@ -207,8 +207,12 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
         kp_tgt, f_tgt, fu_tgt = _features(tgt, "target", opts, stages[1])
         ex_ref, ex_tgt = fu_ref.explained, fu_tgt.explained
     with prog.stage(0.9, 1.0, "matching descriptors").timed("match"):
-        m = match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
-                              laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
+        m = match_keypoints(kp_tgt, kp_ref, opts)
+    again = None
+    if fu_ref is not None and len(m) >= 6:  # bands that do not correspond: matched again on combined bands
+        from .bands import rematch  # .bands builds on this module
+        with prog.timed("rematch_bands"):
+            fu_ref, fu_tgt, kp_ref, kp_tgt, m, again = rematch((ref, tgt), opts, (fu_ref, fu_tgt), (kp_ref, kp_tgt), m)
     min_pts = 6
     if len(m) < min_pts:
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "
@@ -217,6 +221,7 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
               "pca_explained_variance": {"reference": ex_ref, "target": ex_tgt}}
     if fu_ref is not None:
         counts["bands_fused"] = {"reference": list(fu_ref.bands), "target": list(fu_tgt.bands)}
+        counts.update({"bands_rematched": again} if again else {})
         dropped = {r: {str(k): v for k, v in f.dropped.items()} for r, f in (("reference", fu_ref), ("target", fu_tgt))
                    if f.dropped}
         if dropped:
@@ -225,6 +230,12 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
     if images:
         return t_xy * f_tgt, r_xy * f_ref, counts, (fu_ref, fu_tgt, f_ref, f_tgt)
     return t_xy * f_tgt, r_xy * f_ref, counts
+
+
+def match_keypoints(kp_tgt, kp_ref, opts):
+    """:func:`~fotogeo.features.match.match_descriptors` of two keypoint sets with the options' ratio test."""
+    return match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
+                             laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
 
 
 #: status of a tie point LSM was not tried on: too far from the approximate homography (a likely mismatch)

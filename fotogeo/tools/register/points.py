@@ -133,8 +133,11 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
                          "fit_uses": "every match"}
         return TiePoints(src, ref_xy, counts)
     cand = sel.inliers
+    again = counts.get("bands_rematched")
     fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model,
-                                            _lsm_trial(r_m[cand], t_m[cand], sel.ransac.model, opts.seed))
+                                            _lsm_trial(r_m[cand], t_m[cand], sel.ransac.model, opts.seed),
+                                            f"the {again['combined']}'s bands combined as matched" if again else
+                                            "PCA fusions")
     pick = cand.copy()
     budget = lsm_budget(fu_ref.image.size + fu_tgt.image.size)
     if cand.sum() > budget:
