@@ -59,7 +59,8 @@ def test_the_originals_and_a_copy_without_pixel_dimension(tmp_path, data_dir):
         focal_of(read_image_metadata(copy))
     # every record of the size rewritten or gone: nothing in the file tells (the residual check of exif_focal is left)
     last = _resized(src / "IMG_2280.JPG", tmp_path / "b.JPG", 2, rewrite=True, drop=(INTEROP, MAKER_NOTE))
-    assert focal_of(read_image_metadata(last))[0] == pytest.approx(focal_of(read_image_metadata(src / "IMG_2280.JPG"))[0])
+    full_fx = focal_of(read_image_metadata(src / "IMG_2280.JPG"))[0]
+    assert focal_of(read_image_metadata(last))[0] == pytest.approx(full_fx)
 
 
 @pytest.mark.parametrize("said,refused", [((6000, 4000), False), ((3000, 2000), True)])
@@ -77,3 +78,27 @@ def test_another_cameras_related_image_size(tmp_path, said, refused):
             focal_of(meta)
     else:
         assert focal_of(meta)[0] == pytest.approx(35 * 400 / 2)  # 400 px/mm at 6000 px, scaled to 3000
+
+
+@pytest.mark.parametrize("moved", [0, 300, -40])
+def test_a_canon_maker_note_moved_by_a_tool_is_read_where_its_values_went(tmp_path, moved):
+    """A maker note whose values' offsets were written for another place in the file (a tool moved the note without
+    fixing them, ``moved`` bytes): read from the first value's place right after the note's directory; a block
+    whose size word does not match its length (another layout) gives nothing."""
+    import struct
+
+    from fotogeo.io.exif_sizes import _canon_size
+
+    def jpeg(size_word):
+        af = struct.pack("<49H", size_word, 2, 9, 1, 4608, 3456, 4608, 3456, *([0] * 41))
+        note_at, exif_at = 60, 26
+        note = struct.pack("<HHHII", 1, 0x0026, 3, 49, note_at + 18 + moved) + b"\0" * 4 + af
+        tiff = (b"II*\0" + struct.pack("<I", 8) + struct.pack("<HHHII", 1, 0x8769, 4, 1, exif_at) + b"\0" * 4
+                + struct.pack("<HHHII", 1, 0x927C, 7, len(note), note_at) + b"\0" * 4)
+        tiff = tiff.ljust(note_at, b"\0") + note
+        path = tmp_path / f"c{size_word}.jpg"
+        body = b"Exif\0\0" + tiff
+        path.write_bytes(b"\xff\xd8\xff\xe1" + struct.pack(">H", len(body) + 2) + body + b"\xff\xd9")
+        return path
+    assert _canon_size(jpeg(98)) == (4608, 3456)
+    assert _canon_size(jpeg(97)) is None
