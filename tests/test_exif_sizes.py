@@ -102,3 +102,21 @@ def test_a_canon_maker_note_moved_by_a_tool_is_read_where_its_values_went(tmp_pa
         return path
     assert _canon_size(jpeg(98)) == (4608, 3456)
     assert _canon_size(jpeg(97)) is None
+
+
+@pytest.mark.data
+def test_the_fix_named_works_a_camera_given_is_used_and_the_exif_camera_not_read(tmp_path, data_dir):
+    """The refusal names --camera: with a camera given, triangulate's start reads the copies' GPS and attitude and
+    not their contradicting EXIF camera (it was refused the same way, so the fix named could not be followed)."""
+    from fotogeo.tools.triangulate.sources import _from_images
+    src = data_dir / "drone_snowpeak" / "img"
+    frames = [_resized(src / f"{n}.JPG", tmp_path / f"{n}.JPG", 2, rewrite=True) for n in ("IMG_2280", "IMG_2281")]
+    cam = tmp_path / "cam.yaml"
+    cam.write_text("ixus:\n  type: pinhole\n  im_size: [2304, 1728]\n  focal_len: 4.3\n"
+                   "  sensor_size: [6.1722, 4.6227]\n")
+    with pytest.raises(InputError, match="PixelXDimension rewritten"):
+        _from_images(frames, None, None, True)
+    block = _from_images(frames, None, None, True, camera=str(cam))
+    assert set(block.cameras) == {"--camera"} and block.cameras["--camera"].camera.fx == pytest.approx(1605.1, abs=1)
+    assert all(s.position is not None and s.angles is not None for s in block.shots.values())
+    assert any("the images' EXIF/XMP camera is not read" in n for n in block.notes)
