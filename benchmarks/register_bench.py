@@ -1,6 +1,8 @@
 """Registration benchmark (issue 2): fotogeo SURF vs OpenCV SIFT vs Orfeo ToolBox SURF tie points.
 
-Run:  .venv/bin/python benchmarks/register_bench.py [--quick] [--no-otb] [--no-big]
+Run:  .venv/bin/python benchmarks/register_bench.py [--quick] [--no-otb] [--no-big] [--cases C,..] [--methods M,..]
+      [--output JSON] [--merge]   (--merge: this run's rows replace the same case and method in --output, the
+      others are kept; each row names the run that measured it)
 
 Every method goes through the SAME RANSAC, robust fit, check-point hold-out, geo step,
 resampling and outputs of :func:`fotogeo.tools.register.tool.register` (seed 0, default options unless
@@ -38,7 +40,7 @@ Big image: a 20000x20000 3-band uint8 tiled DEFLATE GeoTIFF (the central 640x640
 registered to orthophoto tile 1 in a subprocess; peak RSS and the peak reached by each stage
 (VmHWM read from /proc at every progress message) are reported. Requirement: well under 2 GB.
 
-Writes benchmarks/results/register_bench.json and prints tables.
+Writes benchmarks/results/register_bench.json (``--output``) and prints tables.
 """
 from __future__ import annotations
 
@@ -197,6 +199,19 @@ class Truth:
             return pixel_to_map(self.t_ref, _apply(self.H, xy))
         return self.scene.frame.pixel_to_world(xy, self.scene.dem)[:, :2]
 
+    def in_crs(self, crs: str) -> "Truth":
+        """This truth with its dense grid's true positions in ``crs`` (register writes in the reference's CRS, e.g.
+        the NGI orthophotos' transverse Mercator, not the UTM zone the truth is made in); raw matches are still
+        judged in :attr:`crs` (:meth:`correct_share`)."""
+        import copy
+        from pyproj import CRS
+        from fotogeo.crs import transform_points
+        if CRS.from_user_input(crs) == CRS.from_user_input(self.crs):
+            return self
+        out = copy.copy(self)
+        out.truth = transform_points(CRS.from_user_input(self.crs), CRS.from_user_input(crs), self.truth)
+        return out
+
     def evaluate(self, model, reference, raw=None) -> dict:
         from fotogeo.models import Projective
         rms = lambda e: float(np.sqrt(np.mean(np.asarray(e) ** 2)))  # noqa: E731
@@ -353,7 +368,8 @@ def worker(spec_path: str):
         timings.update(rep["timings_s"])
         res.update(ok=True, wall_s=wall, report={k: rep.get(k) for k in (
             "keypoints", "matches", "inliers", "ransac", "check", "control", "model", "output_crs",
-            "output_grid", "reference_pixel_size", "robust_sigma_m")})
+            "output_grid", "reference_pixel_size", "robust_sigma_m", "corner_standard_error_px", "area_based",
+            "windows_check", "refine")})
         if method.startswith("otb"):
             res["report"]["keypoints"] = {"reference": res["otb"]["keypoints_reference"],
                                           "target": res["otb"]["keypoints_target"]}
@@ -417,16 +433,46 @@ def summarise(res, truth, case):
         kp = rep["keypoints"]
         s.update(keypoints=[kp.get("reference"), kp.get("target")], matches=rep["matches"], inliers=rep["inliers"],
                  check_n=rep["check"].get("n"), check_rmse_m=rep["check"].get("rmse_m"),
-                 check_rmse_px=rep["check"].get("rmse_px"))
+                 check_rmse_px=rep["check"].get("rmse_px"), weak_fit=weak_fit(rep))
         if truth is not None:
             from fotogeo.models import model_from_dict
-            if rep["output_crs"] != truth.crs:
-                s["truth_error"] = f"output CRS {rep['output_crs']} != truth CRS {truth.crs}"
-            else:
-                s.update(truth.evaluate(model_from_dict(rep["model"]), case["reference"], res.get("raw")))
+            s.update(truth.in_crs(rep["output_crs"]).evaluate(model_from_dict(rep["model"]), case["reference"],
+                                                               res.get("raw")))
     elif truth is not None and res.get("raw"):
         s.update(truth.correct_share(res["raw"], case["reference"]))
     return s
+
+
+def weak_fit(rep) -> dict | None:
+    """What register's weak-fit check did (``None``: the feature fit was strong, the windows never ran)."""
+    se = rep.get("corner_standard_error_px")
+    if rep.get("windows_check"):
+        return {"corner_se_px": se, "kept": "feature fit", **{k: rep["windows_check"].get(k) for k in (
+            "feature_fit_rmse_px", "windows_fit_rmse_px", "at")}}
+    area = rep.get("area_based")
+    if area:
+        c = area.get("compared") or {}
+        return {"why": area.get("why"), "corner_se_px": c.get("feature_fit_corner_se_px"), "kept": "windows",
+                "feature_fit_rmse_px": c.get("feature_fit_rmse_px"),
+                "windows_fit_rmse_px": c.get("windows_fit_rmse_px"), "at": c.get("at"),
+                "window_tie_points": rep.get("matches")}
+    return None
+
+
+def merge_rows(output: Path, rows: list, run: dict) -> tuple[list, list]:
+    """The rows of ``output`` (an earlier run's JSON) with this run's rows in place of the same (case, method)
+    and the others kept, each tagged with the run that measured it (``measured``); and the runs merged."""
+    old = json.loads(output.read_text())
+    first = {k: old.get(k) for k in ("command", "date", "source")}
+    runs = old.get("runs") or [first]
+    for r in rows:
+        r["measured"] = run
+    new = {(r["case"], r["method"]): r for r in rows}
+    kept = [{**r, "measured": r.get("measured", first)} for r in old["rows"] if (r["case"], r["method"]) not in new]
+    order = [(r["case"], r["method"]) for r in old["rows"]]
+    merged = sorted(kept + rows, key=lambda r: order.index((r["case"], r["method"]))
+                    if (r["case"], r["method"]) in order else len(order))
+    return merged, runs + [run]
 
 
 def fmt(x, spec="{:.2f}", none="-"):
@@ -619,6 +665,10 @@ def main():
     ap.add_argument("--no-big", action="store_true", help="skip the 20000x20000 memory check")
     ap.add_argument("--big-only", action="store_true", help="only the 20000x20000 memory check (prints, writes no JSON)")
     ap.add_argument("--cases", help="comma-separated case names to run (default: all)")
+    ap.add_argument("--methods", help=f"comma-separated methods to run, of {','.join(METHODS)} (default: all)")
+    ap.add_argument("--output", type=Path, default=OUT, help=f"the JSON to write (default {OUT.relative_to(ROOT)})")
+    ap.add_argument("--merge", action="store_true",
+                    help="keep the rows of --output this run does not measure (same case and method: replaced)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--probe-read", nargs=2, help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -628,7 +678,10 @@ def main():
         return probe_read(*a.probe_read)
     if not DATA.is_dir():
         sys.exit(f"real data not found at {DATA} (set FOTOGEO_DATA)")
-    methods = [m for m in METHODS if not (m.startswith("otb") and a.no_otb)]
+    methods = [m for m in METHODS if not (m.startswith("otb") and a.no_otb)
+               and (not a.methods or m in a.methods.split(","))]
+    if a.merge and not a.output.is_file():
+        sys.exit(f"--merge: {a.output} does not exist (run without --merge first)")
     if "otb" in methods and shutil.which(OTB_EXE) is None:
         print(f"note: {OTB_EXE} not on PATH (apt-get install otb-bin); OTB skipped")
         methods = [m for m in methods if not m.startswith("otb")]
@@ -680,24 +733,35 @@ def main():
     print(f"\nbenchmark wall time {total:.0f} s")
     if a.big_only:  # a development aid: the JSON always holds a whole run
         return
-    OUT.parent.mkdir(parents=True, exist_ok=True)
+    a.output.parent.mkdir(parents=True, exist_ok=True)
     if big:
         big["result"].pop("raw", None)
-    OUT.write_text(json.dumps({
+    command = " ".join([Path(sys.executable).name] + sys.argv)
+    date = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    runs = None
+    if a.merge:
+        rows, runs = merge_rows(a.output, rows, {"command": command, "date": date, "source": state})
+        big = big or json.loads(a.output.read_text()).get("big_image")
+        rat = ratios(rows)
+    a.output.write_text(json.dumps({
         "quick": a.quick, "methods": methods, "rows": rows, "ratios_fotogeo_surf_over_peer": rat, "big_image": big,
+        "runs": runs,
         "notes": {"peak_rss_mb": "max RSS of the fresh Python process that ran the case (includes imports: "
                                  "base_rss_mb); for otb '+N' is the OTB process's own peak",
                   "raw_correct_share": f"share of raw matches within {CORRECT_TOL_PX} reference px of the truth "
                                        "(s2 cases, '~' in the table: of the target's own georeference, approximate)",
                   "georef_rmse_m": "s2 cases: RMSE of the fitted model against the target's own georeference on "
                                    "a 50 px grid (not a truth; the s2_pair target is known to be within ~1 px)",
-                  "time_s.total": "register's timings_s.total; for otb: fusion + OTB call + register(tie_points)"},
+                  "time_s.total": "register's timings_s.total; for otb: fusion + OTB call + register(tie_points)",
+                  "weak_fit": "register's weak-fit check: None when the feature fit was strong; else the corner "
+                              "standard error, the fit kept and both fits' RMSE at the windows' check points",
+                  "runs": "with --merge: every run whose rows the file holds; each row's 'measured' names its run"},
         "source": state,
-        "command": " ".join([Path(sys.executable).name] + sys.argv),
+        "command": command,
         "machine": {"python": platform.python_version(), "cpus": os.cpu_count(), "platform": platform.platform()},
-        "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "wall_s": total,
+        "date": date, "wall_s": total,
     }, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
-    print(f"wrote {OUT.relative_to(ROOT)}")
+    print(f"wrote {a.output}")
 
 
 if __name__ == "__main__":

@@ -4,14 +4,18 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/resized_frames_bench.py [--work /
       [--cases '1/2, EXIF rewritten + XMP' ...] [--frames IMG_2280 IMG_2281 IMG_2282]
 
 The 8 eBee frames of ``drone_snowpeak`` (see :mod:`dsm_heldout_bench`'s ``ebee`` group) are copied whole and
-downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 with
+downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 (some sets 1/3 and 0.6) with
 
 * ``EXIF only`` — the original's EXIF APP1 segment and no XMP (what PIL's ``save(exif=im.info["exif"])`` leaves:
   ``PixelXDimension`` still 4608, the senseFly XMP attitude and GPS accuracy gone);
 * ``EXIF + XMP`` — both APP1 segments as they were (a tool that copies the metadata);
 * ``no metadata`` — ``cv2.imwrite`` alone (no EXIF: no GPS, no focal length);
 * ``EXIF rewritten + XMP`` — ``PixelXDimension``/``PixelYDimension`` set to the new size, the rest (the full
-  frame's ``FocalPlaneXResolution``) and the XMP as they were.
+  frame's ``FocalPlaneXResolution``, the Interoperability IFD's ``RelatedImageWidth`` and Canon's maker note, which
+  record the camera's 4608x3456) and the XMP as they were; ``EXIF and RelatedImageWidth rewritten`` also sets
+  ``RelatedImageWidth``/``Length``; ``every size rewritten, no maker note`` also drops the maker note, so that
+  nothing in the files records the size the camera wrote (only the residual check of
+  :mod:`fotogeo.tools.triangulate.exif_focal` is left).
 
 Each set is triangulated from its files alone (``fotogeo triangulate *.JPG -o all``). For the sets that orient,
 every frame's centre and PATB angles are compared with the full-size run's (max over the common frames) and with
@@ -35,37 +39,51 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import dsm_heldout_bench as hb  # noqa: E402
 
 OUT = hb.ROOT / "benchmarks" / "results" / "resized_frames_bench.json"
-SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (2, "exif"), "1/2, EXIF + XMP": (2, "exif+xmp"),
-        "1/4, EXIF only": (4, "exif"), "1/4, EXIF + XMP": (4, "exif+xmp"), "1/2, no metadata": (2, "none"),
-        "1/2, EXIF rewritten + XMP": (2, "rewritten"), "1/4, EXIF rewritten + XMP": (4, "rewritten")}
+SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (1 / 2, "exif"), "1/2, EXIF + XMP": (1 / 2, "exif+xmp"),
+        "1/4, EXIF only": (1 / 4, "exif"), "1/4, EXIF + XMP": (1 / 4, "exif+xmp"), "1/2, no metadata": (1 / 2, "none"),
+        "1/2, EXIF rewritten + XMP": (1 / 2, "rewritten"), "1/4, EXIF rewritten + XMP": (1 / 4, "rewritten"),
+        "1/3, EXIF + XMP": (1 / 3, "exif+xmp"), "0.6, EXIF + XMP": (0.6, "exif+xmp"),
+        "1/3, EXIF rewritten + XMP": (1 / 3, "rewritten"), "0.6, EXIF rewritten + XMP": (0.6, "rewritten"),
+        "1/2, EXIF and RelatedImageWidth rewritten + XMP": (1 / 2, "rewritten+related"),
+        "1/2, every size rewritten, no maker note + XMP": (1 / 2, "rewritten+related-makernote"),
+        "1/4, every size rewritten, no maker note + XMP": (1 / 4, "rewritten+related-makernote")}
 
 
-def _copy(src: Path, dst: Path, factor: int, keep: str) -> Path:
+def _copy(src: Path, dst: Path, scale: float, keep: str) -> Path:
     import cv2
     data = src.read_bytes()
     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if factor > 1:
-        img = cv2.resize(img, (img.shape[1] // factor, img.shape[0] // factor), interpolation=cv2.INTER_AREA)
+    if scale < 1:
+        size = (round(img.shape[1] * scale), round(img.shape[0] * scale))
+        img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
     enc = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes()
     segs, i = [], 2
     while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
         n = struct.unpack(">H", data[i + 2:i + 4])[0]
         exif = data[i + 4:i + 10] == b"Exif\0\0"
         if data[i + 1] == 0xE1 and (keep != "none" and (exif or keep != "exif")):
-            segs.append(_rewritten(data[i:i + 2 + n], img.shape) if exif and keep == "rewritten" else data[i:i + 2 + n])
+            rewrite = exif and keep.startswith("rewritten")
+            segs.append(_rewritten(data[i:i + 2 + n], img.shape, keep) if rewrite else data[i:i + 2 + n])
         i += 2 + n
     dst.write_bytes(b"\xff\xd8" + b"".join(segs) + enc[2:])
     return dst
 
 
-def _rewritten(segment: bytes, shape) -> bytes:
+def _rewritten(segment: bytes, shape, keep: str = "rewritten") -> bytes:
     """The EXIF APP1 ``segment`` with ``PixelXDimension``/``PixelYDimension`` set to the resized size (what a tool
-    that updates them leaves; ``FocalPlaneXResolution`` still describes the full-resolution frame)."""
+    that updates them leaves; ``FocalPlaneXResolution`` still describes the full-resolution frame); with
+    ``+related`` the Interoperability IFD's ``RelatedImageWidth``/``Length`` too, with ``-makernote`` the maker
+    note dropped (nothing in the file then records the camera's size)."""
     from PIL import Image
     ex = Image.Exif()
     ex.load(segment[4:])
     ifd = ex.get_ifd(0x8769)
     ifd[0xA002], ifd[0xA003] = int(shape[1]), int(shape[0])
+    if "+related" in keep:
+        interop = ex.get_ifd(0xA005)
+        interop[0x1001], interop[0x1002] = int(shape[1]), int(shape[0])
+    if "-makernote" in keep:
+        ifd.pop(0x927C, None)
     body = ex.tobytes()
     body = body if body.startswith(b"Exif") else b"Exif\0\0" + body
     return b"\xff\xe1" + struct.pack(">H", len(body) + 2) + body

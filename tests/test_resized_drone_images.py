@@ -100,9 +100,11 @@ def test_resized_real_frames_triangulate_from_their_files(tmp_path, data_dir):
         d = np.array([e.X, e.Y, e.Z]) - gps[n].position
         assert np.hypot(d[0], d[1]) < 3 * gps[n].sigma_h and abs(d[2]) < 3 * gps[n].sigma_v, (n, d)
     assert rep["statistics"]["image_rms_px"] < 0.5
-    # without PixelXDimension nothing says the file was resized: the focal length is 4x too long
+    # without PixelXDimension, RelatedImageWidth and the maker note nothing says the file was resized: the focal
+    # length is 4x too long
     for f in frames:
-        jm.rename_ifd0_tag(f, 0xA002, 0xA0F2, exif_ifd=True)
+        for k, tag in enumerate((0xA002, 0xA005, 0x927C)):
+            jm.rename_ifd0_tag(f, tag, 0xA0F2 + k, exif_ifd=True)
     assert _camera(frames[0]).camera.fx == pytest.approx(full_fx, rel=1e-12)
     res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "o2"), "-q",
                                           "--undetermined", "fail"])
@@ -158,8 +160,9 @@ def main_cli():
 
 @pytest.mark.data
 def test_copies_with_pixel_dimension_rewritten_are_refused_by_their_residuals(tmp_path, data_dir):
-    """eBee frames resized to 1/2 with EXIF PixelXDimension rewritten to the new size (Photoshop/Lightroom exports)
-    and FocalPlaneXResolution left for the full frame: the focal length read is 3210 px at 2304 px, twice too long,
+    """eBee frames resized to 1/2 with EXIF PixelXDimension rewritten to the new size (Photoshop/Lightroom exports),
+    no other record of the camera's size left (RelatedImageWidth, maker note) and FocalPlaneXResolution left for the
+    full frame: the focal length read is 3210 px at 2304 px, twice too long,
     and no FocalLengthIn35mmFilm contradicts it. The adjustment cannot estimate f (held fixed for its correlation
     with the height) and bends the rest: the tie points' residuals are several times least-squares matching's
     precision, and the run is refused naming the camera's source, the sensor it implies and the fix."""
@@ -168,6 +171,8 @@ def test_copies_with_pixel_dimension_rewritten_are_refused_by_their_residuals(tm
     for f in frames:
         jm.set_integer_tag(f, 0xA002, 2304, exif_ifd=True)
         jm.set_integer_tag(f, 0xA003, 1728, exif_ifd=True)
+        for k, tag in enumerate((0xA005, 0x927C)):  # RelatedImageWidth and the maker note would name the copy
+            jm.rename_ifd0_tag(f, tag, 0xA0F2 + k, exif_ifd=True)  # (tests/test_exif_sizes.py): none left here
     assert _camera(frames[0]).camera.fx == pytest.approx(_camera(src / "IMG_2186.JPG").camera.fx, rel=1e-12)
     res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "out"), "-q"])
     said = " ".join(res.output.split())

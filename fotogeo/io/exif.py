@@ -112,6 +112,7 @@ class ImageMetadata:
     xmp: dict = field(default_factory=dict)
     pixel_dimension: tuple | None = None  # EXIF PixelXDimension, PixelYDimension: the size the camera wrote
     xmp_error: str | None = None  # why the XMP packet was ignored (not valid XML), None when it was read
+    written_sizes: tuple = ()  # ((source, (w, h)), …): other records of the size the camera wrote (exif_sizes)
 
     def x(self, *names) -> float | None:
         """The first of the XMP ``names`` (case-insensitive ``prefix:Name``) that is a number."""
@@ -163,6 +164,7 @@ def read_image_metadata(path) -> ImageMetadata:
     """EXIF and XMP of one image through GDAL (module docstring)."""
     from rasterio.errors import RasterioError
 
+    from .exif_sizes import written_sizes
     from .raster import ropen
     p = Path(path)
     if not p.is_file():
@@ -191,7 +193,8 @@ def read_image_metadata(path) -> ImageMetadata:
     return ImageMetadata(str(p), frame_key(p), int(w), int(h), text("EXIF_Make"), text("EXIF_Model"), lon, lat, z,
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
-                         _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error)
+                         _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error,
+                         written_sizes(p, tags, text("EXIF_Make")))
 
 
 def _pixel_dimension(tags):

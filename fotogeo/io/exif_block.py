@@ -237,7 +237,7 @@ def _geoinfo_covers(geoinfo: dict, names: list, source: str) -> None:
                       f"{' …' if len(lacking) > 5 else ''}): their own EXIF/XMP is used", FotogeoWarning, stacklevel=3)
 
 
-def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
+def read_exif_block(paths, crs=None, geoinfo=None, camera=None) -> ApproximateBlock:
     """The :class:`ApproximateBlock` of drone images (module docstring).
 
     ``crs``: the map CRS (any spec :func:`fotogeo.crs.parse_crs` reads); default the UTM zone of the
@@ -248,7 +248,9 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     names them; the caller decides whether exterior orientations or GCPs make up for them); angles of
     images without GPS use the block's mean position for the meridian convergence. One height
     reference per block: ellipsoid mixed with geoid is an :class:`InputError`; a known reference
-    mixed with an unknown one makes the block's unknown (a warning and a note say so).
+    mixed with an unknown one makes the block's unknown (a warning and a note say so). ``camera``: an
+    :class:`ApproxCamera` the user gave (``--camera``) for every image; their EXIF/XMP camera is then not read, so
+    that a contradiction in it (a rewritten ``PixelXDimension``) does not stand in the way of the fix it names.
     """
     from pyproj import Transformer
     source = f"geoinfo file {str(geoinfo)!r}" if isinstance(geoinfo, (str, Path)) else "the geoinfo"
@@ -266,7 +268,11 @@ def read_exif_block(paths, crs=None, geoinfo=None) -> ApproximateBlock:
     mean = _mean_lonlat(lonlats) if lonlats else None
     map_crs, crs_note = block_crs(crs, mean)
     notes = [crs_note]
-    cameras, ids = _cameras(metas, notes)
+    if camera is None:
+        cameras, ids = _cameras(metas, notes)
+    else:
+        cameras, ids = {camera.source: camera}, {m.name: camera.source for m in metas}
+        notes.append(f"camera: {camera.source} for every image (the images' EXIF/XMP camera is not read)")
     ref = _one_reference({n: p[3] for n, p in located.items()},
                          {m.name: _height_source(m, geoinfo.get(m.name)) for m in metas}, notes)
     to_map = Transformer.from_crs("EPSG:4326", map_crs, always_xy=True) if map_crs is not None else None

@@ -6,6 +6,10 @@ EXIF ``FocalPlaneXResolution`` (pixels per unit on the sensor). A copy downsampl
 so they are scaled to the file: ``s = width / PixelXDimension`` (EXIF ``PixelXDimension``/``PixelYDimension``,
 the size the camera wrote). Sources that contradict each other are named, never arbitrated:
 
+* ``PixelXDimension`` against the other records of the size the camera wrote (EXIF ``RelatedImageWidth``, Canon's
+  maker note; :mod:`.exif_sizes`): a tool that rewrote ``PixelXDimension`` to a resized copy's size would make the
+  focal length ``1/s`` times too long, whatever ``s``;
+
 * ``PixelXDimension × PixelYDimension`` not the file's size times one factor (cropped, rotated or resized
   unevenly): the calibration cannot be carried over;
 * DJI ``CalibratedOpticalCenterX/Y`` (written as the full frame's centre, w/2, h/2) implying another full
@@ -42,6 +46,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     """``(s, note)``: the factor from the camera's full-resolution pixels to the file's (module docstring)."""
     w, h = meta.width, meta.height
     full = meta.pixel_dimension
+    _check_written_sizes(meta, full)
     s = 1.0
     if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
         sx, sy = w / full[0], h / full[1]
@@ -63,6 +68,30 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
     return s, note
+
+
+def _check_written_sizes(meta: ImageMetadata, full) -> None:
+    """``PixelXDimension`` (without it, the file's size) against the other records of the size the camera wrote
+    (:mod:`.exif_sizes`); a disagreement is named (module docstring)."""
+    file = (meta.width, meta.height)
+    for source, size in meta.written_sizes:
+        said = full or file
+        if size in (said, said[::-1]):
+            continue
+        fix = (f"give the camera (--camera), use the originals, or restore the tag "
+               f"(exiftool -PixelXDimension={size[0]} -PixelYDimension={size[1]} FILE)")
+        if full is None:
+            raise InputError(f"{_fix(meta)}: it carries no EXIF PixelXDimension but its {source} says "
+                             f"{size[0]}x{size[1]}: it was resized after capture, and its calibration tags describe "
+                             f"the {size[0]}x{size[1]} frame; {fix}")
+        if full == file:
+            raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension says {full[0]}x{full[1]}, the file's own size, "
+                             f"but its {source} says {size[0]}x{size[1]}: a copy resized with PixelXDimension "
+                             f"rewritten to the new size, while FocalPlaneXResolution and the other calibration tags "
+                             f"describe the {size[0]}x{size[1]} frame (its focal length in pixels would come out "
+                             f"{size[0] / full[0]:.3g} times too long); {fix}")
+        raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension says {full[0]}x{full[1]} but its {source} says "
+                         f"{size[0]}x{size[1]}: the image was resized and its tags edited; give the camera (--camera)")
 
 
 def resized_without_xmp(meta: ImageMetadata) -> str | None:

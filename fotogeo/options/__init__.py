@@ -22,9 +22,11 @@ default is ``None`` is an optional parameter (empty = ``None``), unless it has a
 ``none_choice`` — the enum entry, listed first, standing for ``None`` ("default").
 
 An option that acts only with a bool option (``needs``, e.g. ``fill_max_distance`` with ``fill``) is passed as None
-when not given — the command line's default is None (``--help`` shows "4.0 with --fill"), QGIS passes None when
-its parameter keeps the default while the other is off — and the tool boundary refuses it given alone, naming both
-(:func:`~fotogeo.options.table.check_needs`); the tool applies the table's default when the other is on.
+when not given — the command line's default is None (``--help`` shows "4.0 with --fill"); QGIS passes None while
+the other is off, whatever its parameter holds (the dialog keeps every parameter's last-used value, so a value there
+is no choice made for the run; a value other than the default is named in the log as not used) — and the tool
+boundary refuses it given alone, naming both (:func:`~fotogeo.options.table.check_needs`); the tool applies the
+table's default when the other is on.
 
 The choice lists (:data:`DETECTORS`, :data:`CONTRASTS`, :data:`RESAMPLINGS`,
 :data:`PLANAR_MODELS`, :data:`TERRAIN_MODELS`, :data:`ORIENTATION_MODELS`, ...) live in

@@ -249,6 +249,9 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message, an option
         it names called by its parameter's label (:meth:`option_label`).
         """
+        for note in self.__dict__.pop("_unused_notes", []):  # options left unused (:meth:`_not_used`)
+            if feedback is not None:
+                feedback.pushWarning(note)
         return runner.run_tool(tool, *args, feedback=feedback, words=self.in_words, **kwargs)
 
     def in_words(self, message: str, option: str | None = None, also=()) -> str:
@@ -336,8 +339,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
             if option.nullable and option.automatic is None and (given is None or str(given).strip() == ""):
                 return None
             value = (self.parameterAsInt if kind == "int" else self.parameterAsDouble)(parameters, name, context)
-            if option.needs and value == option.default and not self._needed_on(parameters, option, context):
-                return None  # the dialog always holds the default: left as it is, it is not given
+            if option.needs and not self._needed_on(parameters, option, context):
+                return self._not_used(option, value)
             return None if option.nullable and value == option.automatic else value
         if kind == "bool":
             return self.parameterAsBoolean(parameters, name, context)
@@ -363,6 +366,19 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         if kind == "raster_out":
             return self.parameterAsOutputLayer(parameters, name, context) or None if parameters.get(name) else None
         return self.raster_path(parameters, name, context) if parameters.get(name) else None  # raster
+
+    def _not_used(self, option: Option, value) -> None:
+        """None for ``option``'s value while the switch it needs is off. The dialog always holds a value — the
+        default, or the last one used, which QGIS keeps for every parameter, the advanced ones the user does not
+        see included — so a value there is not a choice made for this run as a command-line flag is: it is not
+        refused (``check_needs``) but left unused, with a warning in the log naming both labels and the fix
+        (:meth:`run_tool` writes it)."""
+        if value != option.default:
+            needed = next(t[option.needs] for t in self.OPTIONS if option.needs in t)
+            self.__dict__.setdefault("_unused_notes", []).append(
+                f"“{option.label}” {value:g} is not used: it acts only with “{needed.label}”, which is off; tick "
+                f"“{needed.label}” to use it (left as it is, the last value used stays in the dialog)")
+        return None
 
     def _needed_on(self, parameters, option: Option, context) -> bool:
         """Whether the (bool) option ``option`` needs (:attr:`Option.needs`) is on in ``parameters``."""

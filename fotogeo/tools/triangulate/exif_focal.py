@@ -4,7 +4,9 @@
 :mod:`fotogeo.io.exif_camera` scales it to a resized file by ``width / PixelXDimension``. A tool that rewrites
 ``PixelXDimension``/``PixelYDimension`` to the new size (Photoshop/Lightroom exports) leaves it describing the full
 frame, so the focal length in pixels comes out ``1/s`` times too long; a camera that writes no
-``FocalLengthIn35mmFilm`` (the senseFly eBee's Canon IXUS 125 HS) leaves nothing in the files to contradict it.
+``FocalLengthIn35mmFilm`` (the senseFly eBee's Canon IXUS 125 HS) leaves only the other records of the size the camera
+wrote to contradict it (:mod:`fotogeo.io.exif_sizes`, checked when the file is read); this check is what is left
+when the resizing tool rewrote or dropped those too.
 
 The focal length cannot be told from the flying height in a near-nadir block over gentle terrain (its multiple
 correlation exceeds ``--max-correlation``, so the self-calibration holds it fixed), so the adjustment bends the

@@ -219,14 +219,21 @@ def map_crs_rule(crs, gcps, reference, dem, approx_crs) -> tuple:
     return None, ""
 
 
-def _from_images(frames, crs, geoinfo, need_position: bool):
+def _from_images(frames, crs, geoinfo, need_position: bool, camera=None):
     """The ApproximateBlock of what the images carry (EXIF/XMP, and ``geoinfo``); frames without a GPS
-    position are refused first when ``need_position`` (no --eo, no --gcps) and no geoinfo can give one."""
+    position are refused first when ``need_position`` (no --eo, no --gcps) and no geoinfo can give one.
+    ``camera``: the ``--camera`` given (its EXIF counterpart is then not read)."""
     from ...io.exif import read_image_metadata
     from ...io.exif_block import read_exif_block
     if need_position and geoinfo is None:
         _refuse_without_gps([frame_key(f) for f in frames if read_image_metadata(str(f)).lon is None], len(frames))
-    return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo)
+    from .inputs import DISTORTION_ORDER, read_camera
+    given = None
+    if camera is not None:
+        from ...geometry.approx_block import ApproxCamera
+        cam, dist = read_camera(camera)
+        given = ApproxCamera(cam, dict(zip(DISTORTION_ORDER, dist)), "--camera")
+    return read_exif_block([str(f) for f in frames], crs=crs, geoinfo=geoinfo, camera=given)
 
 
 def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo, sfm_frame="auto") -> BlockStart:
@@ -243,7 +250,7 @@ def block_start(frames, camera, eo, gcps, crs, gcp_crs, reference, dem, geoinfo,
     if camera is None or (eo is None and not gcps and not by_registration):
         given = parse_crs(crs, "--crs") if crs and str(crs).lower() != "auto" else None
         approx = _from_images(frames, given or _first_projected(reference, dem), geoinfo,
-                              eo is None and not gcps and not by_registration)
+                              eo is None and not gcps and not by_registration, camera)
     if approx is not None and eo is None and not gcps and not by_registration:
         _require_gps(names, approx)
     map_crs, rule = map_crs_rule(crs, gcps, reference, dem, approx.crs if approx is not None else None)

@@ -1,0 +1,101 @@
+"""The full-frame size a camera wrote outside ``PixelXDimension``, in places resizing tools seldom edit.
+
+EXIF ``PixelXDimension``/``PixelYDimension`` is the size the calibration tags (``FocalPlaneXResolution``, DJI
+``DewarpData``) describe; a tool that rewrites it to a resized copy's size makes the focal length in pixels
+``1/s`` times too long. Two other records of the size a camera wrote are read here, so that
+:func:`fotogeo.io.exif_camera.size_scale` can name such a copy instead of trusting the edited tag:
+
+* the EXIF Interoperability IFD's ``RelatedImageWidth``/``RelatedImageLength`` (tags 0x1001/0x1002, DCF),
+  which GDAL exposes as ``EXIF_Related_Image_Width``/``EXIF_Related_Image_Length``;
+* Canon's maker note ``AFInfo2`` (tag 0x0026) or ``AFInfo`` (0x0012): ``CanonImageWidth``/``CanonImageHeight``
+  (the layout documented by ExifTool's Canon tag tables, Harvey 2024). Maker-note values are addressed from the
+  TIFF header; a tool that moved the note without fixing them shifts them by one constant, which is undone by
+  taking the first out-of-line value to start right after the note's directory (as ExifTool's ``FixBase`` does),
+  and a block is used only when its own size word matches its length.
+"""
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+#: (maker-note tag, index of the size word, index of CanonImageWidth) for Canon's AF information blocks
+_CANON_AF = ((0x0026, 0, 4), (0x0012, None, 2))
+_SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 7: 1, 8: 2, 9: 4, 10: 8}
+
+
+def written_sizes(path, tags: dict, make: str | None) -> tuple:
+    """``((source, (width, height)), …)``: the full-frame sizes recorded besides ``PixelXDimension`` (module
+    docstring); ``tags`` are GDAL's ``EXIF_*`` items of the file."""
+    out = []
+    w, h = _int(tags.get("EXIF_Related_Image_Width")), _int(tags.get("EXIF_Related_Image_Length"))
+    if w and h:
+        out.append(("EXIF RelatedImageWidth x RelatedImageLength", (w, h)))
+    if (make or "").strip().lower().startswith("canon"):
+        size = _canon_size(path)
+        if size:
+            out.append(("Canon maker note CanonImageWidth x CanonImageHeight", size))
+    return tuple(out)
+
+
+def _int(text) -> int | None:
+    try:
+        v = int(float(str(text).strip("() ")))
+    except (TypeError, ValueError):
+        return None
+    return v if v > 0 else None
+
+
+def _canon_size(path) -> tuple | None:
+    """CanonImageWidth x CanonImageHeight from a JPEG's Canon maker note, None when absent or unreadable."""
+    tiff = _exif_tiff(path)
+    if tiff is None or tiff[:2] not in (b"II", b"MM"):
+        return None
+    bo = "<" if tiff[:2] == b"II" else ">"
+    try:
+        exif_ifd = _entries(tiff, bo, struct.unpack(bo + "I", tiff[4:8])[0]).get(0x8769)
+        note = _entries(tiff, bo, exif_ifd[2]).get(0x927C) if exif_ifd else None
+        if not note or note[1] < 14:
+            return None
+        start = note[2]
+        entries = _entries(tiff, bo, start)
+    except (struct.error, IndexError):
+        return None
+    outside = [e[2] for e in entries.values() if _SIZES.get(e[0], 1) * e[1] > 4]
+    shift = (start + 2 + 12 * len(entries) + 4 - min(outside)) if outside else 0
+    for tag, size_word, at in _CANON_AF:
+        if tag in entries and entries[tag][0] == 3 and entries[tag][1] > at + 1:
+            typ, count, off = entries[tag]
+            for base in dict.fromkeys((0, shift)):
+                vals = struct.unpack(bo + f"{count}H", tiff[off + base:off + base + 2 * count].ljust(2 * count, b"\0"))
+                if (size_word is None or vals[size_word] == 2 * count) and vals[at] > 0 and vals[at + 1] > 0:
+                    return int(vals[at]), int(vals[at + 1])
+    return None
+
+
+def _entries(tiff: bytes, bo: str, at: int) -> dict:
+    """``{tag: (type, count, value or offset)}`` of the IFD at ``at``."""
+    n = struct.unpack(bo + "H", tiff[at:at + 2])[0]
+    out = {}
+    for i in range(n):
+        tag, typ, count = struct.unpack(bo + "HHI", tiff[at + 2 + 12 * i:at + 10 + 12 * i])
+        raw = tiff[at + 10 + 12 * i:at + 14 + 12 * i]
+        out[tag] = (typ, count, struct.unpack(bo + "I", raw)[0])
+    return out
+
+
+def _exif_tiff(path) -> bytes | None:
+    """The TIFF block of a JPEG's EXIF APP1 segment, None for another format or without one."""
+    try:
+        with open(Path(path), "rb") as f:
+            data = f.read(1 << 17)
+    except OSError:
+        return None
+    if data[:2] != b"\xff\xd8":
+        return None
+    i = 2
+    while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] not in (0xDA, 0xD9):
+        n = struct.unpack(">H", data[i + 2:i + 4])[0]
+        if data[i + 1] == 0xE1 and data[i + 4:i + 10] == b"Exif\0\0":
+            return data[i + 10:i + 2 + n]
+        i += 2 + n
+    return None
