@@ -139,7 +139,7 @@ def same_crs(a, b) -> bool:
     >>> same_crs("EPSG:32735", CRS.from_epsg(32735)), same_crs("EPSG:32735", "EPSG:32635")
     (True, False)
     """
-    if a is b or (_is_rasterio(a) and _is_rasterio(b) and a.to_wkt() == b.to_wkt()):
+    if a is b or (is_rasterio_crs(a) and is_rasterio_crs(b) and a.to_wkt() == b.to_wkt()):
         return True
     from pyproj import CRS
     return CRS.from_user_input(a) == CRS.from_user_input(b)
@@ -148,14 +148,15 @@ def same_crs(a, b) -> bool:
 def crs_name(crs) -> str:
     """The name of ``crs`` (pyproj's ``CRS.name``; a rasterio CRS's from its PROJJSON, which is what pyproj reads it
     from, without importing pyproj)."""
-    if _is_rasterio(crs):
+    if is_rasterio_crs(crs):
         j = crs.to_dict(projjson=True)
         return j.get("name", j.get("source_crs", {}).get("name", ""))  # a bound CRS: its source's
     from pyproj import CRS
     return CRS.from_user_input(crs).name
 
 
-def _is_rasterio(crs) -> bool:
+def is_rasterio_crs(crs) -> bool:
+    """Whether ``crs`` is a rasterio CRS (GDAL's parse; a raster's CRS as fotogeo keeps it when no pyproj is needed)."""
     return type(crs).__module__.startswith("rasterio")
 
 

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..crs import is_rasterio_crs
+
 
 def crs_height_reference(crs) -> str | None:
     """``"geoid"``, ``"ellipsoid"`` or None (not stated) for a CRS (pyproj/rasterio/WKT; module docstring).
@@ -41,9 +43,9 @@ def horizontal_crs(crs):
     CRS for a rasterio CRS (a DEM's, read without pyproj), else a pyproj CRS."""
     j = _unbound(crs_json(crs))
     if j["type"] != "CompoundCRS":
-        return crs if _is_rasterio(crs) else as_pyproj(crs)
+        return crs if is_rasterio_crs(crs) else as_pyproj(crs)
     i = next(i for i, s in enumerate(j["components"]) if _unbound(s)["type"] != "VerticalCRS")
-    if _is_rasterio(crs):
+    if is_rasterio_crs(crs):
         return type(crs).from_dict(j["components"][i])
     return as_pyproj(crs).sub_crs_list[i]
 
@@ -64,13 +66,9 @@ def crs_json(crs) -> dict:
     """``crs`` as PROJJSON (PROJ's JSON of a CRS, the one description fotogeo's height and unit questions are read
     from): through rasterio (GDAL's PROJ) for a rasterio CRS, so that a run whose CRSs all come from rasters need not
     import pyproj; through pyproj otherwise."""
-    if _is_rasterio(crs):
+    if is_rasterio_crs(crs):
         return crs.to_dict(projjson=True)
     return as_pyproj(crs).to_json_dict()
-
-
-def _is_rasterio(crs) -> bool:
-    return type(crs).__module__.startswith("rasterio")
 
 
 def _unbound(j: dict) -> dict:
