@@ -33,7 +33,8 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
 With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's ``fotogeo ortho`` runs N alternating
 pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
 exit's as that less its own CPU at the end of ``main`` (``FOTOGEO_EXIT_RUN``): medians, the median of the pairs'
-differences and whether both trees' outputs have the same pixels (``results/ortho_exit_pairs.json``).
+differences and whether both trees' outputs have the same pixels, grid and CRS, and the same bytes
+(``results/ortho_exit_pairs.json``).
 ``--resolutions`` also takes metres (``0.2``). ``--import-cost N`` times N fresh processes importing the
 third-party modules of an ``ortho`` run of frames, alternating with N that import pyproj as well
 (``results/ortho_import_cost.json``).
@@ -61,7 +62,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import statistics
 import subprocess
 import sys
@@ -70,10 +70,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ortho_exit_pairs import exit_pairs  # the --pairs harness (beside this file: on sys.path)
+# the --pairs harness, the inputs and the timing (beside this file: on sys.path)
+from ortho_bench_inputs import DATA, DRONE_FRAMES, DRONE_OTHER, drone_inputs, half_inputs, ngi_inputs  # noqa: F401
+from ortho_bench_timing import ratio_range, repeat, summary, tile_shifts, timed  # noqa: F401
+from ortho_exit_pairs import exit_pairs
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
 RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
        "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1, "coarser": 0.2},
@@ -85,10 +87,6 @@ FOTOGEO_CO = [a for o in ("TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", "COMP
 #: ignored by git) as pip compiles an installed package's (with PYTHONDONTWRITEBYTECODE set nothing else would, and
 #: every run would compile ~200 modules)
 FOTOGEO_ENV = {"PYTHONPATH": str(ROOT)}
-DRONE_STRIPS = ["IMG_2186", "IMG_2188", "IMG_2189", "IMG_2280", "IMG_2281", "IMG_2282"]
-DRONE_FRAMES = ["IMG_2188", "IMG_2281"]
-#: the drone_other case: the strips' other four frames, never run through ortho by the code's tuning
-DRONE_OTHER = ["IMG_2186", "IMG_2189", "IMG_2280", "IMG_2282"]
 
 #: ``python -c`` puts the working folder first on ``sys.path``: run from a checkout, its ``fotogeo`` would shadow the
 #: one ``PYTHONPATH`` names (``--baseline-tree`` of ortho_threshold_bench.py timed this checkout twice), so it is dropped
@@ -113,122 +111,6 @@ try:
 finally:
     print("WORK", time.perf_counter() - t)
 """
-
-
-def timed(cmd, env=None) -> dict:
-    """Run ``cmd`` under /usr/bin/time: wall seconds, peak RSS (MB), the child's WORK seconds if printed."""
-    full = ["/usr/bin/time", "-f", "TIME %e %M %U %S", *cmd]
-    p = subprocess.run(full, capture_output=True, text=True, env={**os.environ, **(env or {})})
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(map(str, cmd))[:200]} failed: {p.stderr.strip()[-600:]}")
-    line = next(ln for ln in p.stderr.splitlines() if ln.startswith("TIME "))
-    wall, rss, user, system = line.split()[1:5]
-    work = next((float(ln.split()[1]) for ln in p.stdout.splitlines() if ln.startswith("WORK ")), None)
-    return {"wall_s": float(wall), "cpu_s": float(user) + float(system), "peak_mb": int(rss) / 1024, "work_s": work}
-
-
-def repeat(cmd, n, before=None, env=None) -> dict:
-    runs = []
-    for _ in range(n):
-        if before:
-            before()
-        runs.append(timed(cmd, env))
-    return summary(runs)
-
-
-def summary(runs) -> dict:
-    """Medians of :func:`timed`'s fields over ``runs``."""
-    med = {k: statistics.median([r[k] for r in runs]) if runs[0][k] is not None else None for k in runs[0]}
-    return {**{k: (round(v, 3) if v is not None else None) for k, v in med.items()}, "runs": len(runs)}
-
-
-def ratio_range(ratios) -> dict:
-    return {"median": round(statistics.median(ratios), 3), "min": round(min(ratios), 3),
-            "max": round(max(ratios), 3)}
-
-
-def tile_shifts(a_path, b_path, tile: int = 128) -> dict:
-    """Local shifts (px) between two rasters on the same pixel grid (module docstring)."""
-    import cv2
-    import rasterio
-    from rasterio.windows import from_bounds
-    with rasterio.open(a_path) as a, rasterio.open(b_path) as b:
-        if abs(a.transform.a - b.transform.a) > 1e-9:
-            raise RuntimeError("outputs on different pixel sizes")
-        l, r = max(a.bounds.left, b.bounds.left), min(a.bounds.right, b.bounds.right)
-        bo, t = max(a.bounds.bottom, b.bounds.bottom), min(a.bounds.top, b.bounds.top)
-        wins = [from_bounds(l, bo, r, t, d.transform).round_offsets().round_lengths() for d in (a, b)]
-        h = min(w.height for w in wins)
-        w_ = min(w.width for w in wins)
-        wins = [w.__class__(w.col_off, w.row_off, w_, h) for w in wins]
-        A, B = (d.read(1, window=w).astype(np.float32) for d, w in zip((a, b), wins))
-        valid = (a.read_masks(1, window=wins[0]) > 0) & (b.read_masks(1, window=wins[1]) > 0)
-    hann = cv2.createHanningWindow((tile, tile), cv2.CV_32F)
-    shifts = []
-    for i in range(0, h - tile + 1, tile):
-        for j in range(0, w_ - tile + 1, tile):
-            if valid[i:i + tile, j:j + tile].all():
-                (dx, dy), _ = cv2.phaseCorrelate(A[i:i + tile, j:j + tile], B[i:i + tile, j:j + tile], hann)
-                shifts.append((dx, dy))
-    s = np.array(shifts)
-    length = np.hypot(s[:, 0], s[:, 1])
-    return {"tiles": len(s), "median_dx": round(float(np.median(s[:, 0])), 4),
-            "median_dy": round(float(np.median(s[:, 1])), 4), "p95_px": round(float(np.percentile(length, 95)), 4),
-            "max_px": round(float(length.max()), 4),
-            "mean_abs_diff": round(float(np.abs(A - B)[valid].mean()), 3), "overlap_px": int(valid.sum())}
-
-
-def drone_inputs(folder: Path, frames=DRONE_FRAMES) -> dict:
-    """The drone case's camera, orientation and surface in ``folder``, made once (module docstring), for the
-    strip frames ``frames``."""
-    folder.mkdir(parents=True, exist_ok=True)
-    tri, dem = folder / "triangulate", folder / "dem.tif"
-    img = DATA / "drone_snowpeak" / "img"
-    if not (tri / "camera.yaml").exists():
-        cmd = [sys.executable, "-m", "fotogeo", "triangulate", *(str(img / f"{n}.JPG") for n in DRONE_STRIPS),
-               "-o", str(tri), "--self-calibration", "k1,k2,p1,p2", "-q", "--overwrite"]
-        subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT), "GDAL_PAM_ENABLED": "NO"})
-    if not dem.exists():
-        subprocess.run(["gdal_grid", "-q", "-a", "invdist:power=2.0:smoothing=20:max_points=24", "-txe", "326900",
-                        "327560", "-tye", "4157320", "4156740", "-outsize", "330", "290", "-ot", "Float32",
-                        "-a_srs", "EPSG:32654", "-l", "tie_points", str(tri / "block.gpkg"), str(dem)], check=True)
-    lines = [ln.split() for ln in (tri / "exterior_orientation.txt").read_text().splitlines()
-             if ln.strip() and not ln.startswith("#")]
-    ext = folder / "ext.csv"  # orthority's CSV: the same fields, comma-separated
-    ext.write_text("".join(",".join(f) + "\n" for f in lines))
-    return {"frames": [str(img / f"{n}.JPG") for n in frames], "dem": str(dem),
-            "camera": str(tri / "camera.yaml"), "eo": str(tri / "exterior_orientation.txt"), "ext": str(ext),
-            "crs": ["-c", "EPSG:32654"]}
-
-
-def half_inputs(inp: dict, folder: Path) -> dict:
-    """The drone case's frames at half size and its camera scaled to them (module docstring), made in ``folder``."""
-    import yaml
-    folder.mkdir(parents=True, exist_ok=True)
-    frames = []
-    for f in inp["frames"]:
-        half = folder / (Path(f).stem + ".tif")
-        if not half.exists():
-            subprocess.run(["gdal_translate", "-q", "-outsize", "50%", "50%", "-r", "average", f, str(half)],
-                           check=True, env={**os.environ, "GDAL_PAM_ENABLED": "NO"})
-        frames.append(str(half))
-    cams = yaml.safe_load(Path(inp["camera"]).read_text())
-    for cam in cams.values():
-        cam["im_size"] = [v // 2 for v in cam["im_size"]]
-        cam["focal_len"] = cam["focal_len"] / 2
-        cam["sensor_size"] = [v / 2 for v in cam["sensor_size"]]
-    camera = folder / "camera.yaml"
-    camera.write_text(yaml.safe_dump(cams, sort_keys=False))
-    return {**inp, "frames": frames, "camera": str(camera)}
-
-
-def ngi_inputs(work: Path) -> dict:
-    ngi = DATA / "ngi"
-    ext = work / "ext.csv"  # orthority reads the same lines as CSV
-    shutil.copy(ngi / "exterior_orientation.txt", ext)
-    return {"frames": sorted(str(p) for p in (ngi / "frames").glob("*.tif")), "dem": str(ngi / "dem.tif"),
-            "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
-            "ext": str(ext), "crs": []}
 
 
 def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False) -> dict:

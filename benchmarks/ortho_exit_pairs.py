@@ -3,6 +3,7 @@ spends after ``main`` returns), this checkout against ``OLD`` alternating pair b
 ``ortho_bench.py``; ``results/ortho_exit_pairs.json``)."""
 from __future__ import annotations
 
+import filecmp
 import os
 import statistics
 import subprocess
@@ -54,13 +55,15 @@ def exit_pairs(work: Path, inp: dict, res: float, n: int, baseline: Path) -> dic
                     inp["eo"], "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
             runs[label].append(_exit_run([sys.executable, "-c", FOTOGEO_EXIT_RUN, *args],
                                          {"PYTHONPATH": str(trees[label])}, work))
-    same = True
+    same = same_bytes = True
     for f in inp["frames"]:
-        with rasterio.open(work / "this" / f"{Path(f).stem}_ortho.tif") as x, \
-                rasterio.open(work / "baseline" / f"{Path(f).stem}_ortho.tif") as y:
-            same &= x.shape == y.shape and x.transform == y.transform and bool((x.read() == y.read()).all())
+        a, b = (work / t / f"{Path(f).stem}_ortho.tif" for t in ("this", "baseline"))
+        with rasterio.open(a) as x, rasterio.open(b) as y:
+            same &= x.shape == y.shape and x.transform == y.transform and x.crs.to_wkt() == y.crs.to_wkt() and \
+                bool((x.read() == y.read()).all())
+        same_bytes &= filecmp.cmp(a, b, shallow=False)
     med = {label: {k: round(statistics.median(r[k] for r in rs), 4) for k in ("cpu_s", "exit_cpu_s")}
            | {"cpu_s_each": [round(r["cpu_s"], 3) for r in rs]} for label, rs in runs.items()}
     diff = [a["cpu_s"] - b["cpu_s"] for a, b in zip(runs["this"], runs["baseline"])]
     return {**med, "pairs": n, "baseline_tree": str(baseline), "pair_diff_cpu_s": round(statistics.median(diff), 4),
-            "same_pixels": same}
+            "same_pixels": same, "same_bytes": same_bytes}

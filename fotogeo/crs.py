@@ -1,13 +1,15 @@
-"""CRS helpers: the automatic UTM zone, transformers, and pixel sizes across CRSs."""
+"""CRS helpers: the automatic UTM zone, transformers, and pixel sizes across CRSs.
+
+pyproj parses, compares and transforms CRSs; it is imported by the functions that need it, not with this module: a
+run whose CRSs all come from rasters (``fotogeo ortho`` of frames on a DEM) holds them as rasterio's and, when two of
+them have the same WKT, needs no pyproj at all (:func:`same_crs`; the DEM's vertical part is read from PROJJSON,
+:func:`fotogeo.geometry.vertical.crs_json`).
+"""
 from __future__ import annotations
 
 import warnings
 
 import numpy as np
-from pyproj import CRS, Transformer
-from pyproj.aoi import AreaOfInterest
-from pyproj.database import query_utm_crs_info
-from pyproj.exceptions import CRSError
 
 from .errors import InputError
 
@@ -22,6 +24,8 @@ def parse_crs(spec, what: str = "CRS") -> CRS:
     Traceback (most recent call last):
     fotogeo.errors.InputError: output CRS 'EPSG:99999' is not a CRS pyproj understands (...); give an EPSG code ...
     """
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
     try:
         return CRS.from_user_input(spec)
     except (CRSError, TypeError, ValueError) as e:
@@ -35,6 +39,9 @@ def utm_crs_for(lon: float, lat: float) -> CRS:
     >>> utm_crs_for(27.1, 39.9).to_epsg(), utm_crs_for(18.5, -33.9).to_epsg()
     (32635, 32734)
     """
+    from pyproj import CRS
+    from pyproj.aoi import AreaOfInterest
+    from pyproj.database import query_utm_crs_info
     infos = query_utm_crs_info(datum_name="WGS 84",
                                area_of_interest=AreaOfInterest(lon, lat, lon, lat))
     infos = [i for i in infos if i.code.startswith(("326", "327"))]
@@ -54,6 +61,7 @@ def _transform(t: Transformer, p: np.ndarray) -> np.ndarray:
 
 def to_lonlat(crs: CRS, xy) -> np.ndarray:
     """Geographic (lon, lat) of points given in ``crs``."""
+    from pyproj import CRS, Transformer
     t = Transformer.from_crs(crs, CRS.from_epsg(4326), always_xy=True)
     return _transform(t, np.asarray(xy, float).reshape(-1, 2))
 
@@ -84,6 +92,7 @@ def choose_output_crs(spec, reference_crs: CRS, centre_xy) -> tuple[CRS, str]:
     >>> choose_output_crs(None, CRS.from_epsg(4326), [[27.1, 39.9]])[0].to_epsg()
     32635
     """
+    from pyproj import CRS
     word = "auto" if spec is None else str(spec).strip().lower()
     ref = CRS.from_user_input(reference_crs)
     if word == "reference" or (word == "auto" and not (ref.is_geographic or ref.is_geocentric)):
@@ -107,8 +116,9 @@ def resolve_crs(spec, reference_crs: CRS, centre_xy) -> CRS:
 def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
     """Transform (N, 2) points between CRSs (x = easting/longitude first)."""
     p = np.asarray(xy, float).reshape(-1, 2)
-    if CRS.from_user_input(src_crs) == CRS.from_user_input(dst_crs):
+    if same_crs(src_crs, dst_crs):
         return p.copy()
+    from pyproj import Transformer
     return _transform(Transformer.from_crs(src_crs, dst_crs, always_xy=True), p)
 
 
@@ -121,8 +131,39 @@ def pixel_size_in(transform, src_crs: CRS, dst_crs: CRS, col: float, row: float)
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
+def same_crs(a, b) -> bool:
+    """Whether CRSs ``a`` and ``b`` (pyproj, rasterio, or anything :func:`parse_crs` takes) are the same, as pyproj's
+    ``==`` says; two rasterio CRSs with the same WKT are without asking pyproj (the same text parses to the same CRS).
+
+    >>> from pyproj import CRS
+    >>> same_crs("EPSG:32735", CRS.from_epsg(32735)), same_crs("EPSG:32735", "EPSG:32635")
+    (True, False)
+    """
+    if a is b or (is_rasterio_crs(a) and is_rasterio_crs(b) and a.to_wkt() == b.to_wkt()):
+        return True
+    from pyproj import CRS
+    return CRS.from_user_input(a) == CRS.from_user_input(b)
+
+
+def crs_name(crs) -> str:
+    """The name of ``crs`` (pyproj's ``CRS.name``; a rasterio CRS's from its PROJJSON, which is what pyproj reads it
+    from, without importing pyproj)."""
+    if is_rasterio_crs(crs):
+        j = crs.to_dict(projjson=True)
+        return j.get("name", j.get("source_crs", {}).get("name", ""))  # a bound CRS: its source's
+    from pyproj import CRS
+    return CRS.from_user_input(crs).name
+
+
+def is_rasterio_crs(crs) -> bool:
+    """Whether ``crs`` is a rasterio CRS (GDAL's parse; a raster's CRS as fotogeo keeps it when no pyproj is needed)."""
+    return type(crs).__module__.startswith("rasterio")
+
+
 def _name(crs: CRS) -> str:
     """A short name of ``crs`` for messages (its EPSG code or name, never a whole WKT)."""
+    from pyproj import CRS
+    crs = CRS.from_user_input(crs)
     epsg = crs.to_epsg()
     return f"EPSG:{epsg}" if epsg else repr(crs.name[:60])
 
@@ -138,11 +179,14 @@ def crs_text(crs: CRS) -> str:
 def short_name(crs: CRS) -> str:
     """``crs`` in one short phrase for summaries: its EPSG code, else its name, else its PROJ string.
 
+    >>> from pyproj import CRS
     >>> short_name(CRS.from_epsg(32735))
     'EPSG:32735'
     >>> short_name(CRS.from_proj4("+proj=tmerc +lon_0=25 +ellps=WGS84 +units=m"))[:26]
     '+proj=tmerc +lat_0=0 +lon_'
     """
+    from pyproj import CRS
+    crs = CRS.from_user_input(crs)  # a rasterio CRS (fotogeo.crs) named as pyproj names it
     epsg = crs.to_epsg()
     if epsg:
         return f"EPSG:{epsg}"
@@ -156,6 +200,7 @@ def short_name(crs: CRS) -> str:
 def require_planar(crs: CRS, what: str) -> CRS:
     """Refuse a geocentric CRS (X, Y, Z from the Earth's centre: not a map) for ``what``.
 
+    >>> from pyproj import CRS
     >>> require_planar(CRS.from_epsg(4978), "GCP CRS")
     Traceback (most recent call last):
     fotogeo.errors.InputError: GCP CRS EPSG:4978 is geocentric (X, Y, Z from the Earth's centre), not a map; ...
@@ -171,6 +216,7 @@ def require_projected(crs: CRS, what: str, near_lonlat=None) -> CRS:
     geographic CRS would report degrees as metres); the message suggests the UTM zone of
     ``near_lonlat`` when given.
 
+    >>> from pyproj import CRS
     >>> require_projected(CRS.from_epsg(4326), "output CRS", (27.1, 39.9))
     Traceback (most recent call last):
     fotogeo.errors.InputError: output CRS EPSG:4326 is geographic (degrees); fotogeo's residuals, resolution ...
@@ -187,6 +233,7 @@ def check_lonlat_range(crs: CRS, xy, what: str):
     """Refuse points labelled with a geographic ``crs`` whose coordinates cannot be degrees
     (|lon| > 360 or |lat| > 90): metres labelled as EPSG:4326, a wrong CRS in the file.
 
+    >>> from pyproj import CRS
     >>> check_lonlat_range(CRS.from_epsg(4326), [[500000.0, 4420000.0]], "GCPs 'g.csv'")
     Traceback (most recent call last):
     fotogeo.errors.InputError: GCPs 'g.csv' are labelled EPSG:4326 (degrees) but their coordinates reach ...
@@ -204,6 +251,7 @@ def check_lonlat_range(crs: CRS, xy, what: str):
 def area_of_use(crs: CRS):
     """pyproj's ``AreaOfUse`` of ``crs`` (west, south, east, north in degrees), that of its EPSG code when its WKT
     carries none (a GeoTIFF's often does not), else None."""
+    from pyproj import CRS
     if crs.area_of_use is not None:
         return crs.area_of_use
     epsg = crs.to_epsg()
@@ -217,6 +265,7 @@ def outside_area_of_use(crs: CRS, points, margin_deg: float = 0.0, *, lonlat: bo
     antimeridian has west > east); a point that does not transform (NaN, infinite) is outside; with no known area
     only such points are.
 
+    >>> from pyproj import CRS
     >>> outside_area_of_use(CRS.from_epsg(32633), [[500000.0, 6650000.0], [-5e6, 6650000.0]]).tolist()
     [False, True]
     """

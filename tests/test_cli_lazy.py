@@ -31,12 +31,12 @@ main.main(sys.argv[1:], standalone_mode=False)
 print(json.dumps([sorted(sys.modules), gc.get_freeze_count()]))
 """
 
-#: modules ``ortho`` never uses: other sub-commands, their tools and heavy libraries (``importlib.metadata`` is not
-#: among them: pyproj imports it)
+#: modules ``ortho`` never uses: other sub-commands, their tools and heavy libraries; pyproj too when, as here, the
+#: map CRS is the DEM's and the orientation file states none (the CRSs are rasterio's, :mod:`fotogeo.crs`)
 NOT_ON_ORTHO = ["fotogeo.cli.triangulate", "fotogeo.cli.dsm", "fotogeo.cli.register", "fotogeo.cli.mosaic",
                 "fotogeo.tools.triangulate", "fotogeo.tools.dsm", "fotogeo.tools.register", "fotogeo.matching",
                 "fotogeo.features", "scipy", "sklearn", "geopandas", "shapely", "pyogrio", "fiona", "matplotlib",
-                "dask", "distributed", "laspy"]
+                "dask", "distributed", "laspy", "pyproj"]
 
 
 def test_command_table_is_what_the_modules_define():

@@ -29,7 +29,6 @@ from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from pyproj import CRS, Transformer
 
 from ..errors import InputError
 from ..pixels import as_points, to_centre
@@ -273,12 +272,18 @@ class DemSampler:
     """
 
     def __init__(self, dem, crs):
+        from ..crs import same_crs
         from .vertical import length_unit_m
         self.dem = dem
         if dem.crs is None:
             raise InputError(f"DEM {dem.path!r} has no CRS; assign one (gdal_edit.py -a_srs) before using it")
-        dcrs = CRS.from_user_input(dem.crs)
-        self._t = None if dcrs == CRS.from_user_input(crs) else Transformer.from_crs(crs, dcrs, always_xy=True)
+        dcrs = dem.crs
+        if same_crs(dcrs, crs):
+            self._t = None
+        else:
+            from pyproj import Transformer
+            from .vertical import as_pyproj
+            self._t = Transformer.from_crs(as_pyproj(crs), as_pyproj(dcrs), always_xy=True)
         self.z_scale = length_unit_m(dcrs) / length_unit_m(crs)
         self.z_range = tuple(z * self.z_scale for z in dem.z_range)
 

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..crs import is_rasterio_crs
+
 
 def crs_height_reference(crs) -> str | None:
     """``"geoid"``, ``"ellipsoid"`` or None (not stated) for a CRS (pyproj/rasterio/WKT; module docstring).
@@ -28,20 +30,65 @@ def crs_height_reference(crs) -> str | None:
     """
     if crs is None:
         return None
-    c = as_pyproj(crs)
-    if c.is_compound:
-        return "geoid" if any(s.is_vertical for s in c.sub_crs_list) else None
-    if c.is_vertical:
+    j = _unbound(crs_json(crs))
+    if j["type"] == "CompoundCRS":
+        return "geoid" if any(_unbound(s)["type"] == "VerticalCRS" for s in j["components"]) else None
+    if j["type"] == "VerticalCRS":
         return "geoid"
-    return "ellipsoid" if len(c.axis_info) == 3 else None
+    return "ellipsoid" if len(_axes(j)) == 3 else None
 
 
 def horizontal_crs(crs):
-    """The horizontal part of a compound CRS (the CRS itself otherwise), as a pyproj CRS."""
-    c = as_pyproj(crs)
-    if c.is_compound:
-        return next(s for s in c.sub_crs_list if not s.is_vertical)
-    return c
+    """The horizontal part of a compound CRS (the CRS itself otherwise), in the library ``crs`` came in: a rasterio
+    CRS for a rasterio CRS (a DEM's, read without pyproj), else a pyproj CRS."""
+    j = _unbound(crs_json(crs))
+    if j["type"] != "CompoundCRS":
+        return crs if is_rasterio_crs(crs) else as_pyproj(crs)
+    i = next(i for i, s in enumerate(j["components"]) if _unbound(s)["type"] != "VerticalCRS")
+    if is_rasterio_crs(crs):
+        return type(crs).from_dict(j["components"][i])
+    return as_pyproj(crs).sub_crs_list[i]
+
+
+def is_projected(crs) -> bool:
+    """Whether ``crs`` (its horizontal part, if compound) is a projected CRS, as pyproj's ``is_projected`` says.
+
+    >>> is_projected("EPSG:32735+3855"), is_projected("EPSG:4326")
+    (True, False)
+    """
+    j = _unbound(crs_json(crs))
+    if j["type"] == "CompoundCRS":
+        j = next(_unbound(s) for s in j["components"] if _unbound(s)["type"] != "VerticalCRS")
+    return j["type"] == "ProjectedCRS"
+
+
+def crs_json(crs) -> dict:
+    """``crs`` as PROJJSON (PROJ's JSON of a CRS, the one description fotogeo's height and unit questions are read
+    from): through rasterio (GDAL's PROJ) for a rasterio CRS, so that a run whose CRSs all come from rasters need not
+    import pyproj; through pyproj otherwise."""
+    if is_rasterio_crs(crs):
+        return crs.to_dict(projjson=True)
+    return as_pyproj(crs).to_json_dict()
+
+
+def _unbound(j: dict) -> dict:
+    """The source CRS of a PROJJSON bound CRS (a CRS with a transformation to WGS 84 attached), else ``j``."""
+    return j["source_crs"] if j.get("type") == "BoundCRS" else j
+
+
+def _axes(j: dict) -> list:
+    """The axes of PROJJSON CRS ``j`` (a compound CRS's: its components', in order)."""
+    if j.get("type") == "CompoundCRS":
+        return [a for s in j["components"] for a in _axes(_unbound(s))]
+    return (j.get("coordinate_system") or {}).get("axis") or []
+
+
+def _unit_m(axis: dict) -> float:
+    """The conversion factor of a PROJJSON axis's unit to the SI unit (metre, radian), 1 when unstated."""
+    unit = axis.get("unit", "metre")
+    if isinstance(unit, dict):
+        return float(unit.get("conversion_factor", 1.0))
+    return {"degree": 0.017453292519943295, "radian": 1.0}.get(unit, 1.0)
 
 
 class ShiftedHeights:
@@ -89,29 +136,32 @@ def height_scale(crs, band_unit: str | None, source: str = "DEM") -> float:
     """
     if crs is None:
         return 1.0
-    c = as_pyproj(crs)
-    vertical = next((s for s in c.sub_crs_list if s.is_vertical), None) if c.is_compound else None
-    xy_m = length_unit_m(c)
+    j = _unbound(crs_json(crs))
+    vertical = next((_unbound(s) for s in j["components"] if _unbound(s)["type"] == "VerticalCRS"), None) \
+        if j["type"] == "CompoundCRS" else None
+    xy_m = length_unit_m(j)
     unit = (band_unit or "").strip().lower()
     if unit in _LENGTH_UNITS:
         z_m = _LENGTH_UNITS[unit]
-    elif vertical is not None and vertical.axis_info:
-        z_m = float(vertical.axis_info[0].unit_conversion_factor)
+    elif vertical is not None and _axes(vertical):
+        z_m = _unit_m(_axes(vertical)[0])
     else:
         return 1.0
     return z_m / xy_m
 
 
 def length_unit_m(crs) -> float:
-    """Metres per unit of the horizontal axes of ``crs`` (0.3048 for a CRS in feet); 1 for a geographic CRS, whose
-    heights are metres.
+    """Metres per unit of the horizontal axes of ``crs`` (a CRS or its PROJJSON, :func:`crs_json`; 0.3048 for a CRS
+    in feet); 1 for a geographic CRS, whose heights are metres.
 
     >>> length_unit_m("EPSG:32735"), round(length_unit_m("EPSG:2263"), 7), length_unit_m("EPSG:4326")
     (1.0, 0.3048006, 1.0)
     """
-    c = as_pyproj(crs)
-    h = horizontal_crs(c)
-    return 1.0 if h.is_geographic or not h.axis_info else float(h.axis_info[0].unit_conversion_factor)
+    j = _unbound(crs if isinstance(crs, dict) else crs_json(crs))
+    if j["type"] == "CompoundCRS":
+        j = next(_unbound(s) for s in j["components"] if _unbound(s)["type"] != "VerticalCRS")
+    geographic = j["type"] == "GeographicCRS" or (j.get("coordinate_system") or {}).get("subtype") == "ellipsoidal"
+    return 1.0 if geographic or not _axes(j) else _unit_m(_axes(j)[0])
 
 
 def as_pyproj(crs):

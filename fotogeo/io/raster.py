@@ -5,6 +5,7 @@ The checks of an output before any work (its name, folder, free space, grid size
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import tempfile
@@ -41,13 +42,22 @@ class RasterInfo:
     height: int
     count: int
     dtype: str
-    crs: object  # pyproj.CRS or None
+    #: the CRS as the raster states it: rasterio's (GDAL's parse, no pyproj import), or None; :attr:`crs` is pyproj's
+    raster_crs: object
     transform: object  # affine.Affine
     nodata: float | None
 
+    @functools.cached_property
+    def crs(self):
+        """The raster's CRS as a pyproj CRS (parsed from :attr:`raster_crs`'s WKT when first asked), or None."""
+        if self.raster_crs is None:
+            return None
+        from pyproj import CRS
+        return CRS.from_wkt(self.raster_crs.to_wkt())
+
     @property
     def georeferenced(self) -> bool:
-        return self.crs is not None and not self.transform.is_identity
+        return self.raster_crs is not None and not self.transform.is_identity
 
 
 #: GDAL virtual file systems (``/vsizip/``, ``/vsicurl/``, ``/vsis3/``, ...) and URL schemes rasterio opens
@@ -77,9 +87,8 @@ def open_raster(path, role: str = "raster") -> RasterInfo:
         raise RasterError(f"{role} {str(p)!r} does not exist")
     try:
         with ropen(p) as ds:
-            from pyproj import CRS
-            crs = CRS.from_wkt(ds.crs.to_wkt()) if ds.crs else None
-            info = RasterInfo(p, ds.width, ds.height, ds.count, ds.dtypes[0], crs, ds.transform, ds.nodata)
+            info = RasterInfo(p, ds.width, ds.height, ds.count, ds.dtypes[0], ds.crs or None, ds.transform,
+                              ds.nodata)
     except RasterioIOError as e:
         if isinstance(p, str):
             raise RasterError(one_line(f"{role} {p!r} cannot be read through GDAL ({e}); check the virtual path "

@@ -35,9 +35,9 @@ from functools import partial
 
 import numpy as np
 
-from ...crs import parse_crs, require_projected, utm_crs_for
+from ...crs import parse_crs, require_projected, same_crs, utm_crs_for
 from ...errors import FotogeoWarning, InputError, InputNote
-from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs
+from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs, is_projected
 from ...io.block import frame_key, match_keys
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
@@ -148,7 +148,7 @@ def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
                 raise
     block = block or read_orientation_file(eo, crs=crs, camera=camera, sfm_frame=sfm_frame, images=images)
     stated = block.crs if block is not None else exterior_orientation_crs(eo)
-    if crs is not None and stated is not None and not stated.equals(crs):
+    if crs is not None and stated is not None and not same_crs(stated, crs):
         from ...crs import short_name
         raise InputError(f"--eo {str(eo)!r} is in {short_name(stated)} but the map CRS is {short_name(crs)}; "
                          f"give --crs {short_name(stated)} (and a DEM in it or any CRS) or an orientation file in "
@@ -221,11 +221,11 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         return require_projected(horizontal_crs(c), "output CRS (--crs)"), "given (--crs)"
     if dem is not None:
         info = open_raster(dem, "DEM")
-        if info.crs is None:
+        if info.raster_crs is None:
             raise InputError(f"DEM {str(dem)!r} has no CRS; assign one (gdal_edit.py -a_srs) so that it can be "
                              f"placed under the images")
-        h = horizontal_crs(info.crs)
-        if h.is_projected:
+        h = horizontal_crs(info.raster_crs)  # rasterio's: no pyproj when the run needs none (fotogeo.crs)
+        if is_projected(h):
             return h, "the DEM's CRS (--dem)"
     if eo is not None and not rpc:
         stated = (getattr(orientation_block(eo, None, camera, sfm_frame, images), "crs", None) if is_block_file(eo)
@@ -312,7 +312,7 @@ def read_dem_around(path, crs, corners, refusal):
     with ropen(path) as ds:
         if ds.crs is None:
             raise InputError(f"DEM {str(path)!r} has no CRS; assign one (gdal_edit.py -a_srs)")
-        dcrs = as_pyproj(ds.crs)  # parsed once; the Dem carries it, so its users parse no WKT again
+        dcrs = ds.crs  # GDAL's parse (rasterio), carried by the Dem: pyproj parses it only if a transformation needs it
         scale = dem_height_scale(ds, crs=dcrs)
         f = max(1, math.ceil(math.sqrt(ds.width * ds.height / _RANGE_PIXELS)))
         small = ds.read(1, out_shape=(max(2, ds.height // f), max(2, ds.width // f)), masked=True)
@@ -347,7 +347,7 @@ def read_dem_around(path, crs, corners, refusal):
 def _not_under(path, images, dem_crs, why: str) -> str:
     """The one-line refusal of a DEM that misses every image (dsm took the NaN heights into a traceback)."""
     names = ", ".join(repr(im.name) for im in images[:3]) + (" …" if len(images) > 3 else "")
-    crs = horizontal_crs(dem_crs)
+    crs = as_pyproj(horizontal_crs(dem_crs))
     return (f"DEM {str(path)!r} does not cover image{'s' if len(images) > 1 else ''} {names}: {why}; check the "
             f"DEM's extent and that the orientation and the DEM are in the same CRS "
             f"({crs.to_string() if crs.to_epsg() else crs.name})")
@@ -364,7 +364,7 @@ def require_heights(names, dem, height, rpc: bool) -> None:
 def _as_map_source(d, crs):
     """The Dem ``d`` as a height source at points in ``crs`` (itself when its horizontal CRS is ``crs``)."""
     from ...geometry.dem import DemSampler
-    return d if horizontal_crs(d.crs).equals(crs) else DemSampler(d, crs)
+    return d if same_crs(horizontal_crs(d.crs), crs) else DemSampler(d, crs)
 
 
 def holes(d) -> float:

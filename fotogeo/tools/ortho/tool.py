@@ -35,9 +35,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...crs import crs_name
 from ...errors import FotogeoWarning, InputError, ModelError
 from ...geometry.dem import heights_at, underlying_dem
 from ...geometry.georeference import Georeference
+from ...geometry.vertical import as_pyproj
 from ...geometry.lattice import ground_to_image_on_lattice, piecewise_on_lattice
 from ...geometry.occlusion import visible_pixels
 from ...io.output_checks import check_output
@@ -181,7 +183,7 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
     if coverage == 0:
         raise InputError(f"DEM {dem_name!r} does not cover image {im.name!r}: none of its rays reaches the DEM; "
                          f"check the DEM's extent and that the orientation and the DEM are in the same CRS "
-                         f"({crs.to_string()})")
+                         f"({as_pyproj(crs).to_string()})")
     if coverage < 0.999:
         pct = f"{100 * coverage:.0f}" if coverage < 0.995 else f"{min(100 * coverage, 99.9):.1f}"
         warnings.warn(f"DEM {dem_name!r} covers {pct} % of image {im.name!r}: the orthophoto is "
@@ -322,7 +324,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     covs = frame_covariances(eo, ims) if uncertainty else {}
     grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
     prog(0.05, "grids planned")
-    rep = {"fotogeo": "ortho", "crs": crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
+    rep = {"fotogeo": "ortho", "crs": crs_name(crs), "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}
     if said:
         rep["orientation"] = said

@@ -69,7 +69,7 @@ def georeferenced_vrt(target, ref, tgt, opts, folder, M):
                                                                                          tgt.width))],
                     crs=ref.crs, transform=transform, width=tgt.width, height=tgt.height, count=tgt.count,
                     dtype=tgt.dtype, nodata=nodata)
-    return vrt, replace(tgt, path=Path(vrt), crs=ref.crs, transform=transform)
+    return vrt, replace(tgt, path=Path(vrt), raster_crs=ref.raster_crs, transform=transform)
 
 
 def seed_from_fit(target, ref, tgt, opts, folder, to_reference_px):
