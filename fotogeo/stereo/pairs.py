@@ -158,14 +158,18 @@ def _score(p: PairChoice, lim: Limits) -> float:
     return p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / lim.max_view_angle)
 
 
-def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None) -> list:
+def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None) -> list:
     """Every candidate :class:`PairChoice` of the images (all pairs, or only ``given`` index pairs), kept or
-    left out with a reason (module docstring)."""
+    left out with a reason (module docstring). ``leave_out(p)``: the caller's reason ("" for none) to leave out a
+    pair that passes the limits, asked before the per-image cap and the readmission, so that such a pair takes no
+    image's place and covers no ground (a frame tool's forward motion: the epipole in the image)."""
     n = len(centres)
     cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
     out = [measure(i, j, centres, axes, footprints) for i, j in cand]
     for p in out:
         p.reason = _reason(p, limits, given is not None)
+        if not p.reason and leave_out is not None:
+            p.reason = leave_out(p)
     ok = sorted((p for p in out if not p.reason), key=lambda p: -_score(p, limits))
     used = np.zeros(n, int)
     for p in ok:
