@@ -22,6 +22,9 @@ is covered by no kept pair (ground only those two images see would otherwise get
 heights stayed within 1 GSD from views 22° to 75° apart and its completeness fell by up to a fifth
 (``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``); the limit stays 45° though the sweep would
 allow 70°: multi-pair runs with such pairs gave gross errors no pair gives alone (not traced; docs/howto/dsm.md).
+Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
+the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
+out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").
 Every pair left out carries its reason. Pairs the user gives (``dsm --pairs``) are all matched when they pass the
 overlap and ``b⊥/H`` limits: the view-angle limit is a default for the automatic choice (whether views further apart
 still match depends on the scene), so a given pair above it is kept and its reason says so.
