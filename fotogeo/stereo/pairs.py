@@ -16,12 +16,16 @@ For two images with projection centres (or, for RPC images, points far along the
 
 A candidate pair is kept when its overlap, ``b⊥/H`` and view angle pass the limits; then each image keeps at most
 ``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first (the
-whole base here still: ranking by ``b⊥/H`` changes the pairs of six of the eight sets of
-``tests/dsm_oblique_sets.py``, not measured yet). A pair over that cap is kept all the same when part of its overlap
-is covered by no kept pair (ground only those two images see would otherwise get no height). Matched alone, a pair's
-heights stayed within 1 GSD from views 22° to 75° apart and its completeness fell by up to a fifth
-(``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``); the limit stays 45° though the sweep would
-allow 70°: multi-pair runs with such pairs gave gross errors no pair gives alone (not traced; docs/howto/dsm.md).
+whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the eight of
+``tests/dsm_oblique_sets.py`` in their runs, RMSE 0.593 → 0.606 GSD, 98.0 → 97.7 % complete: not taken). A pair
+over that cap is kept all the same when part of its overlap is covered by no kept pair (ground only those two
+images see would otherwise get no height). Matched alone, a pair's heights stayed within 1 GSD from views 22° to
+75° apart and its completeness fell by up to a fifth (``benchmarks/dsm_bench.py --cases oblique_sets
+--view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: multi-pair runs with such pairs gave
+gross errors no pair gives alone (not traced; docs/howto/dsm.md).
+Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
+the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
+out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").
 Every pair left out carries its reason. Pairs the user gives (``dsm --pairs``) are all matched when they pass the
 overlap and ``b⊥/H`` limits: the view-angle limit is a default for the automatic choice (whether views further apart
 still match depends on the scene), so a given pair above it is kept and its reason says so.
@@ -158,14 +162,18 @@ def _score(p: PairChoice, lim: Limits) -> float:
     return p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / lim.max_view_angle)
 
 
-def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None) -> list:
+def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None) -> list:
     """Every candidate :class:`PairChoice` of the images (all pairs, or only ``given`` index pairs), kept or
-    left out with a reason (module docstring)."""
+    left out with a reason (module docstring). ``leave_out(p)``: the caller's reason ("" for none) to leave out a
+    pair that passes the limits, asked before the per-image cap and the readmission, so that such a pair takes no
+    image's place and covers no ground (a frame tool's forward motion: the epipole in the image)."""
     n = len(centres)
     cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
     out = [measure(i, j, centres, axes, footprints) for i, j in cand]
     for p in out:
         p.reason = _reason(p, limits, given is not None)
+        if not p.reason and leave_out is not None:
+            p.reason = leave_out(p)
     ok = sorted((p for p in out if not p.reason), key=lambda p: -_score(p, limits))
     used = np.zeros(n, int)
     for p in ok:

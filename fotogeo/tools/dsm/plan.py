@@ -3,8 +3,9 @@ disparity range and the output grid.
 
 * **Heights**: a DEM's range (``--dem``), else the heights of sparse matches of the pair of images whose centres
   are nearest (:func:`sparse_heights`);
-* **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, then pairs whose base
-  line points into either image (the epipole inside the frame: forward motion) are left out;
+* **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, pairs whose base
+  line points into either image (the epipole inside the frame: forward motion) left out before the per-image cap
+  (:func:`forward_reason`: such a pair takes no image's place and covers no ground of the readmission);
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
   highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
   padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
@@ -119,16 +120,13 @@ def fov_half_angle(view) -> float:
     return math.degrees(math.atan(0.5 * math.hypot(*view.size) / view.focal))
 
 
-def leave_out_forward(choices, views) -> None:
-    """Pairs whose base line points into either image (module docstring) are left out, with the reason."""
-    for p in choices:
-        if not p.kept:
-            continue
-        a = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
-        if a < fov_half_angle(views[p.i]) + 5.0:
-            p.kept = False
-            p.reason = (f"the base line is {a:.0f} degrees from a view direction (the epipole lies in the image): "
-                        f"forward motion cannot be rectified")
+def forward_reason(p, views) -> str:
+    """Why pair ``p`` is left out when its base line points into either image (module docstring), else ""."""
+    a = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
+    if a < fov_half_angle(views[p.i]) + 5.0:
+        return (f"the base line is {a:.0f} degrees from a view direction (the epipole lies in the image): "
+                f"forward motion cannot be rectified")
+    return ""
 
 
 def disparity_bounds(rp, zlo: float, zhi: float, box=None, n: int = 17) -> tuple:

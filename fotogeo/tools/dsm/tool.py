@@ -154,8 +154,8 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
-    choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names))
-    plan.leave_out_forward(choices, views)
+    choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
+                           leave_out=lambda p: plan.forward_reason(p, views))
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
