@@ -50,6 +50,7 @@ group's other rows stay, each with the command and load average of the run that 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import shutil
@@ -389,7 +390,8 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
     the pairs kept and the reasons of the others; then the first set's first two strips alone against the whole
     flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height). ``params``: more sets as
-    parameter dicts (``make_set``'s, JSON), named by their JSON; ``pair_rows``: each kept pair also alone
+    parameter dicts (``make_set``'s, JSON; ``"all_pairs": true`` gives every pair with ``--pairs``), named by their
+    JSON; ``pair_rows``: each kept pair also alone
     (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
     miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``; ``extra``:
     more ``fotogeo dsm`` options for every set (``--oblique-dsm-options``, e.g. ``--refine``; the row names them).
@@ -405,13 +407,18 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     sets = [(n, n) for n in (names if names is not None else [] if params else list(SETS))]
     sets += [(json.dumps(p), {**p, "strips": [tuple(x) for x in p["strips"]]}) for p in params or []]
     for name, spec in sets:
+        given = spec.pop("all_pairs", False) if isinstance(spec, dict) else False
         sc = make_set(spec, tmp / f"set{len(rows)}")
         out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
         row = {"case": f"oblique_sets {name}" + "".join(f" {o}" for o in extra), "frames": len(sc["images"]),
                "gsd_m": sc["gsd"]}
+        if given:  # every pair of frames given (--pairs): none left out for its views
+            given = tmp / f"pairs{len(rows)}.txt"
+            given.write_text("".join(f"{a} {b}\n" for a, b in itertools.combinations(sc["names"], 2)))
         try:
             row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
-                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q", *extra], cwd=tmp))
+                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q", *extra,
+                                *(["--pairs", str(given)] if given else [])], cwd=tmp))
         except SystemExit as e:  # a refusal: its last line is the row
             rows.append({**row, "refused": str(e).strip().splitlines()[-1]})
             continue

@@ -17,6 +17,17 @@ only where:
   constant in both, they match each other perfectly at the disparity that lines up the two images' edges, and SGM's
   paths carry that disparity into the valid pixels along the edge, where it passes the left–right check (both
   directions see the same empty area): a band of consistent, wrong heights along the overlap's border;
+* a pixel without a partner does not meet another without one (``partner``, :func:`_partner_fill`): where the
+  two images' valid areas do not overlap at the surface's disparity (the rows both images reach at an oblique
+  pair's top or bottom, ground only one of them sees), the left pixels whose partner lies outside the right image
+  and the right pixels whose partner lies outside the left one match each other: real texture against real texture
+  costs less than against noise, SGM's paths line the two areas up at one disparity (the range's end, or where
+  their edges meet), the left–right check passes it (both directions see the same two areas) and it is tens of
+  metres wrong. Given the disparity each left pixel is expected at (from the pair's sparse matches), each image's
+  outside pixels are filled with the other image's valid pixels they would meet there instead of noise, blurred: a
+  pixel without a partner then finds its own texture outside the other image, near its true disparity, and is
+  refused as matched outside the image (the partner check below); a pixel with a partner still prefers it (the
+  blurred copy costs more), so an expected disparity some pixels off costs no heights at the overlap's edge;
 * the disparity lies inside the requested range ``[lo, hi]`` by at least ``RANGE_EDGE`` px (callers pad it): SGBM
   searches ``numDisparities`` (a multiple of 16) from ``minDisparity``, and where the true disparity lies beyond the
   range the cost's minimum is cut off at the range's end, a plausible disparity that the left–right check passes (both
@@ -215,15 +226,52 @@ def _matched_grey(img, valid, block: int, seed: int) -> np.ndarray:
     return _outside_as_noise(to_uint8(img, valid, bounds), valid, seed)
 
 
+#: the outside pixels' fill (:func:`_partner_fill`) is blurred by a Gaussian of this sigma (px): a copy costs more
+#: than a true partner (which then wins where the expected disparity errs and both lie in the range) and still
+#: far less than texture it does not show
+PARTNER_BLUR = 2.0
+
+
+def _partner_fill(L, R, valid_left, valid_right, partner) -> tuple:
+    """``(L', R')``: the 8-bit images with each one's pixels outside its ``valid`` area set to the grey of the
+    other image's valid pixel they meet at the expected disparity ``partner`` (of the left pixels, NaN: none;
+    module docstring): a left pixel ``u`` meets the right pixel ``u − g(u)``, a right pixel ``x`` the left pixel
+    ``x + g(x + g(x))``, blurred (``PARTNER_BLUR``); the others keep their noise. ``L'`` serves the right-to-left
+    matching, ``R'`` the left-to-right one."""
+    rows, cols = L.shape
+    g = np.asarray(partner, np.float32)
+    x = np.broadcast_to(np.arange(cols, dtype=np.float32)[None, :], (rows, cols))
+    y = np.broadcast_to(np.arange(rows, dtype=np.float32)[:, None], (rows, cols))
+
+    def read(img, valid, at):
+        at = np.where(np.isfinite(at), at, -1.0).astype(np.float32)
+        seen = cv2.remap(np.asarray(valid, np.uint8), at, y.astype(np.float32), cv2.INTER_NEAREST,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
+        return cv2.remap(img, at, y.astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT), seen
+
+    rl, sl = read(R, valid_right, x - g)
+    first = np.rint(x + np.nan_to_num(g, nan=-1e6))
+    inside = (first >= 0) & (first < cols)
+    gx = np.take_along_axis(g, np.where(inside, first, 0).astype(np.intp), axis=1)
+    lr, sr = read(L, valid_left, np.where(inside, x + gx, np.nan))
+    rl, lr = (cv2.GaussianBlur(c, (0, 0), PARTNER_BLUR) for c in (rl, lr))
+    return np.where(~valid_left & sl, rl, L), np.where(~valid_right & sr, lr, R)
+
+
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
               uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
-              median: int = 5, scale_penalties: bool = True, penalty: float | None = None) -> np.ndarray:
+              median: int = 5, scale_penalties: bool = True, penalty: float | None = None,
+              partner=None) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
     none; ``scale_penalties``: P1, P2 scaled to the contrast — the pair's factor ``penalty``
-    (:func:`penalty_scale`) when given, else this image's)."""
+    (:func:`penalty_scale`) when given, else this image's; ``partner``: the disparity each left pixel is expected
+    at (``left``'s shape, NaN where unknown), the outside pixels filled from the other image there
+    (:func:`_partner_fill`) instead of noise only)."""
     L, R = _matched_grey(left, valid_left, block, 1), _matched_grey(right, valid_right, block, 2)
+    Lf, Rf = (L, R) if partner is None else _partner_fill(L, R, np.asarray(valid_left, bool),
+                                                          np.asarray(valid_right, bool), partner)
     valid_left = _eroded(valid_left, block)  # no match whose block reaches outside an image
     valid_right = _eroded(valid_right, block)
     dmin, ndisp = disparity_range(lo, hi)
@@ -232,8 +280,8 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
     else:
         scale = penalty if penalty is not None else max(1.0, contrast(L, valid_left) / CONTRAST_REF)
     m = _matcher(dmin, ndisp, block, uniqueness, speckle_window, speckle_range, scale)
-    dl = _sgbm(m, L, R, dmin, ndisp)
-    dr = _sgbm(m, R[:, ::-1].copy(), L[:, ::-1].copy(), dmin, ndisp)[:, ::-1]
+    dl = _sgbm(m, L, Rf, dmin, ndisp)
+    dr = _sgbm(m, R[:, ::-1].copy(), Lf[:, ::-1].copy(), dmin, ndisp)[:, ::-1]
     rows, cols = dl.shape
     x = np.arange(cols, dtype=np.float32)[None, :]
     with np.errstate(invalid="ignore"):
@@ -247,5 +295,5 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
         ok &= (dl >= lo + RANGE_EDGE) & (dl <= hi - RANGE_EDGE)  # not cut off at the range's ends
     dl[~ok] = np.nan
     if half_shift:
-        dl = _cancel_subpixel_error(m, L, R, dl, dmin, ndisp, lr_tolerance)
+        dl = _cancel_subpixel_error(m, L, Rf, dl, dmin, ndisp, lr_tolerance)
     return median_filter(dl, median)

@@ -92,12 +92,13 @@ def shrink(img, factor: int) -> np.ndarray:
 
 
 def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float, factor: int | None = None,
-                     penalty: float | None = None, side: str = "left"):
+                     penalty: float | None = None, side: str = "left", partner=None):
     """Disparities (coarse pixels, NaN where none) of the pair shrunk ``factor`` (default ``FACTOR``) times
     within ``[lo, hi]`` full pixels: :func:`~fotogeo.stereo.dense.disparity` with its filters, without the
     sub-pixel cancellation; of the left image's pixels (``side="left"``), of the right image's (``"right"``: the
     same matching with the images' roles and rows mirrored, a right pixel ``x`` meets the left pixel ``x + d``),
-    or ``(left's, right's)`` (``"both"``)."""
+    or ``(left's, right's)`` (``"both"``); ``partner``: the left pixels' expected disparities (full pixels, NaN
+    where unknown; the left side's matching only, :func:`~fotogeo.stereo.dense.disparity`)."""
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
@@ -111,7 +112,9 @@ def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float,
     dl = dr = None
     if side in ("left", "both"):
         pad = lambda m: np.pad(m, ((0, 0), (a, b)))
-        dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, **kw)[:, a:a + L.shape[1]]
+        g = None if partner is None else np.pad(shrink(partner, factor) / factor, ((0, 0), (a, b)),
+                                                constant_values=np.nan)
+        dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, partner=g, **kw)[:, a:a + L.shape[1]]
     if side in ("right", "both"):
         pad = lambda m: np.pad(m, ((0, 0), (b, a)))
         dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
@@ -289,11 +292,12 @@ def fill_cost(windows) -> int:
     return sum(w.cost for w in windows)
 
 
-def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, penalty: float | None = None) -> tuple:
+def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, penalty: float | None = None,
+                     partner=None) -> tuple:
     """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
     :func:`~fotogeo.stereo.dense.disparity` in the ``windows`` (:func:`fill_windows` of these or more pixels,
     derived once: a window whose cores hold no needing pixel is skipped), the right window shifted by its range's
-    low end; the others untouched."""
+    low end; the others untouched; ``partner`` the left pixels' expected disparities (NaN where unknown)."""
     searched, d = 0, d.copy()
     for w in windows:
         if not any(need[core].any() for core in w.cores):
@@ -301,7 +305,7 @@ def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, pen
         rs, cs, t = w.rows, w.cols, w.t
         L, R = left[rs, cs], _columns(right[rs], cs.start - t, cs.stop - t)
         dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), w.ra - t,
-                       w.rb - t, penalty=penalty) + t
+                       w.rb - t, penalty=penalty, partner=None if partner is None else partner[rs, cs] - t) + t
         searched += dd.size * w.n
         for core in w.cores:
             got = dd[core[0].start - rs.start:core[0].stop - rs.start,

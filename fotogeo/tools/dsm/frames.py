@@ -245,6 +245,39 @@ def strip_heights(near, box, zlim: tuple, local: bool) -> tuple:
     return (a, b) if b > a else zlim
 
 
+#: the expected disparities of a strip's left pixels (:func:`expected_disparity`) are found on nodes this many
+#: rectified pixels apart
+GUIDE_STEP = 32
+
+
+def expected_disparity(rp: RectifiedPair, near, rows: tuple, cols: tuple) -> np.ndarray | None:
+    """The disparity (float32 ``(rows, cols)`` of the rectified left pixels ``rows`` ``(r0, r1)`` x ``cols``
+    ``(c0, c1)``) each pixel is expected at: its ray at the median height of the ``LOCAL_MIN`` sparse matches
+    ``near`` (:func:`guides`) nearest to it in the rectified left image (at the rows where the images barely
+    overlap few matches lie near: the nearest still tell the heights around), found on nodes ``GUIDE_STEP`` pixels
+    apart and linear between them (what :func:`fotogeo.stereo.dense.disparity` fills the pixels outside the images
+    by, its ``partner``: a pixel without a partner is refused, not matched to another without one); None with
+    fewer than ``LOCAL_MIN`` matches."""
+    if near is None or len(near) < LOCAL_MIN:
+        return None
+    (r0, r1), (c0, c1) = rows, cols
+    u, v = np.meshgrid(np.arange(c0, c1 + GUIDE_STEP, GUIDE_STEP, dtype=float),
+                       np.arange(r0, r1 + GUIDE_STEP, GUIDE_STEP, dtype=float))
+    dist = np.hypot(u.reshape(-1, 1) - near[None, :, 0], v.reshape(-1, 1) - near[None, :, 1])
+    nearest = np.argpartition(dist, LOCAL_MIN - 1, axis=1)[:, :LOCAL_MIN]
+    z = np.median(near[nearest, 2], axis=1)
+    d = rp.rays(u, v, 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = (z - rp.centres[0][2]) / d[:, 2]
+    P = rp.centres[0] + lam[:, None] * d
+    dn = np.where(lam > 0, rp.disparity(P), np.nan).reshape(u.shape).astype(np.float32)
+    # linear between the nodes: node k at pixel k * GUIDE_STEP of the piece
+    x = (np.arange(c1 - c0, dtype=np.float32) + HALF) / GUIDE_STEP
+    y = (np.arange(r1 - r0, dtype=np.float32) + HALF) / GUIDE_STEP
+    X, Y = np.meshgrid(x, y)
+    return cv2.remap(dn, X, Y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
 #: the pair's penalty factor (:func:`pair_penalty`) is measured on this many bands of this many rectified rows
 PENALTY_BANDS = 8
 PENALTY_ROWS = 32
@@ -272,14 +305,14 @@ def _warped_maps(maps, D0) -> tuple:
                  for m in maps)
 
 
-def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty) -> tuple:
+def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, guide=None) -> tuple:
     """``(result or None, coarse disparities searched per pixel)``: the strip's windows matched coarse to fine
     (:func:`_match`'s result) if that pays, None if not. The left image's coarse copy is matched first: when its
     band alone (with both coarse copies' search) would already exceed ``pyramid.GAIN`` of the whole range's
     disparities, the right image's copy is not matched; else the pixels the copies do not support and their fill
     windows (:func:`fotogeo.stereo.pyramid.fill_windows`, derived once and matched as derived) complete the cost."""
     whole, per = disparity_range(sa, sb)[1], disparity_range(sa / pyr.FACTOR, sb / pyr.FACTOR)[1] / pyr.FACTOR ** 2
-    dc = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
+    dc = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, partner=guide)
     gd = pyr.guide(dc, g1.shape, v1m)
     # a band wider than the margin: its last columns go unmatched
     if gd is None or gd[1] >= MARGIN or disparity_range(-gd[1], gd[1])[1] + 2 * per > pyr.GAIN * whole:
@@ -294,18 +327,19 @@ def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: 
     if band + 2 * per + pyr.fill_cost(windows) / g1.size > pyr.GAIN * whole:
         return None, 2 * per
     g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
-    dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty)
+    dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty, partner=None if guide is None else guide - D0)
     with np.errstate(invalid="ignore"):
         dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
     d = pyr.witnessed(pyr.resolve(dp, D0), dcr, near_border=near)
     with np.errstate(invalid="ignore"):
         d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
     need = v1m & v2w & np.isnan(d) & unsup
-    d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, windows, penalty)
+    d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, windows, penalty, guide)
     return (d, v2w, band + 2 * per + extra / g1.size, True), 2 * per
 
 
-def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, pyramid: bool) -> tuple:
+def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, pyramid: bool,
+           guide=None) -> tuple:
     """``(d, partner valid, disparities searched per pixel, coarse)`` of a strip's windows (window columns, the
     right window's as read): with ``pyramid`` and a range of ``pyramid.MIN_RANGE`` px or more, coarse to fine
     (:func:`_coarse_to_fine`, :mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled
@@ -314,11 +348,11 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
     else the whole range (plus the coarse search already made)."""
     coarse = 0.0  # disparities per pixel the coarse copies searched
     if pyramid and sb - sa >= pyr.MIN_RANGE:
-        got, coarse = _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty)
+        got, coarse = _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty, guide)
         if got is not None:
             return got
     wc = g1.shape[1]
-    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty)
+    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, partner=guide)
     shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
     partner = np.zeros_like(v2m)
     if abs(shift) < wc:
@@ -327,7 +361,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
 
 
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
-           refine: bool, penalty: float | None = None):
+           refine: bool, penalty: float | None = None, near=None):
     """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
     the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
     columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
@@ -345,8 +379,9 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
     g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s, maps=maps2)
     if not v1m.any() or not v2m.any():
         return None
+    guide = expected_disparity(rp, near, (a, b), (ca, cb))
     d, partner, searched, coarse = _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty,
-                                          COARSE_TO_FINE)
+                                          COARSE_TO_FINE, None if guide is None else guide - s)
     stats["strips"] += 1
     stats["local_strips"] += int(local)
     stats["coarse_strips"] += int(coarse)
@@ -389,6 +424,6 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
         rng = local_range(rp, near, core_box, lo, hi)
         out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2]), stats, core_box,
-                     colours, refine, penalty)
+                     colours, refine, penalty, near)
         if out is not None:
             yield out
