@@ -46,7 +46,7 @@ from fotogeo.io.camera import read_exterior_orientation
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-NGI = ROOT.parent / "shared" / "data" / "ngi"
+DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))  # as --data sets it
 PY = [sys.executable, "-m", "fotogeo"]
 KEYS = ("X0", "Y0", "Z0", "rx_deg", "ry_deg", "rz_deg")
 
@@ -63,10 +63,17 @@ RENDERED = {
                                                  None, 9),
     "rendered 2 x 4, GNSS 3 m given 0.5 m": ({"n_control": 0, "eo_noise": (3.0, 0.3)}, (0.5, 0.3), 10),
 }
-EBEE = ROOT.parent / "shared" / "data" / "drone_snowpeak" / "img"
 EBEE_SUBSETS = {"ebee triple 2186/2188/2189": ["IMG_2186", "IMG_2188", "IMG_2189"],
                 "ebee triple 2280/2281/2282": ["IMG_2280", "IMG_2281", "IMG_2282"]}
 CASES = ["ngi no EO", "ngi EO s0", "ngi EO s1", *RENDERED, *EBEE_SUBSETS]
+
+
+def ngi() -> Path:
+    return DATA / "ngi"
+
+
+def ebee() -> Path:
+    return DATA / "drone_snowpeak" / "img"
 
 
 def frame_errors(eo, true) -> np.ndarray:
@@ -120,10 +127,10 @@ def ngi_case(label: str, work: Path, tree: Path) -> dict:
     """The NGI pair through ``fotogeo triangulate`` (module docstring)."""
     from ngi_triangulation import NAMES, perturbed
     from fotogeo.io.block import write_exterior_orientation
-    truth = read_exterior_orientation(NGI / "exterior_orientation.txt")
-    args = ["triangulate", *[NGI / "frames" / f"{n}.tif" for n in NAMES], "--camera", NGI / "interior_orientation.yaml",
-            "--reference", NGI / "ortho" / "ngi_rgb_byte_1.tif", "--reference", NGI / "ortho" / "ngi_rgb_byte_2.tif",
-            "--dem", NGI / "dem.tif", "-o", work / "out", "--overwrite", "-q"]
+    truth = read_exterior_orientation(ngi() / "exterior_orientation.txt")
+    args = ["triangulate", *[ngi() / "frames" / f"{n}.tif" for n in NAMES], "--camera", ngi() / "interior_orientation.yaml",
+            "--reference", ngi() / "ortho" / "ngi_rgb_byte_1.tif", "--reference", ngi() / "ortho" / "ngi_rgb_byte_2.tif",
+            "--dem", ngi() / "dem.tif", "-o", work / "out", "--overwrite", "-q"]
     if label.startswith("ngi EO s"):
         rng = np.random.default_rng(int(label.rsplit("s", 1)[1]))
         write_exterior_orientation(work / "eo.txt", NAMES, [perturbed(truth[n], rng, 20.0, 0.5) for n in NAMES])
@@ -140,9 +147,9 @@ def ngi_case(label: str, work: Path, tree: Path) -> dict:
 def ebee_case(label: str, work: Path, tree: Path, reference: Path) -> dict:
     """A subset of the eBee flight from its files alone against the all-frame run (``reference``, made once)."""
     if not (reference / "exterior_orientation.txt").is_file():
-        run_cli(["triangulate", *sorted(EBEE.glob("*.JPG")), "-o", reference, "--overwrite", "-q"], tree,
+        run_cli(["triangulate", *sorted(ebee().glob("*.JPG")), "-o", reference, "--overwrite", "-q"], tree,
                 reference.parent / "ebee_all.log")
-    args = ["triangulate", *[EBEE / f"{n}.JPG" for n in EBEE_SUBSETS[label]], "-o", work / "out", "--overwrite", "-q"]
+    args = ["triangulate", *[ebee() / f"{n}.JPG" for n in EBEE_SUBSETS[label]], "-o", work / "out", "--overwrite", "-q"]
     code = run_cli(args, tree, work / "triangulate.log")
     if code or not (reference / "exterior_orientation.txt").is_file():
         return {"exit": code or 1, "message": (work / "triangulate.log").read_text()[-400:]}
@@ -161,13 +168,13 @@ def ngi_ortho(work: Path, tree: Path) -> dict:
     from fotogeo.io.camera import load_camera
     from fotogeo.io.raster import read_dem
     out = work / "out"
-    args = ["ortho", *[NGI / "frames" / f"{n}.tif" for n in NAMES], "--camera", NGI / "interior_orientation.yaml",
-            "--eo", out / "exterior_orientation.txt", "--dem", NGI / "dem.tif", "--uncertainty",
+    args = ["ortho", *[ngi() / "frames" / f"{n}.tif" for n in NAMES], "--camera", ngi() / "interior_orientation.yaml",
+            "--eo", out / "exterior_orientation.txt", "--dem", ngi() / "dem.tif", "--uncertainty",
             "--dem-sigma", "0.001", "--resolution", "10", "-o", work / "ortho", "--overwrite", "-q"]
     if run_cli(args, tree, work / "ortho.log"):
         return {"message": (work / "ortho.log").read_text()[-400:]}
-    cam, dem = load_camera(NGI / "interior_orientation.yaml"), read_dem(NGI / "dem.tif")
-    truth, adj = read_exterior_orientation(NGI / "exterior_orientation.txt"), read_exterior_orientation(
+    cam, dem = load_camera(ngi() / "interior_orientation.yaml"), read_dem(ngi() / "dem.tif")
+    truth, adj = read_exterior_orientation(ngi() / "exterior_orientation.txt"), read_exterior_orientation(
         out / "exterior_orientation.txt")
     err, sig = [], []
     for n in NAMES:
@@ -237,9 +244,12 @@ def main(argv=None) -> None:
     ap.add_argument("--cases", nargs="+", default=CASES, choices=CASES)
     ap.add_argument("--ortho", action="store_true", help="also ortho --uncertainty against ground errors")
     ap.add_argument("--seeds", type=int, default=1, help="seeds per rendered case (from the case's own)")
+    ap.add_argument("--data", default=str(DATA), help="the shared data folder (ngi/, drone_snowpeak/)")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo tree the CLI cases run (PYTHONPATH)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "triangulate_sigma_bench.json"))
     a = ap.parse_args(argv)
+    global DATA
+    DATA = Path(a.data)
     table = {}
     with tempfile.TemporaryDirectory() as tmp:
         for k, label in enumerate(a.cases):
