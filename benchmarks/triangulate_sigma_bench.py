@@ -244,12 +244,13 @@ def main(argv=None) -> None:
     ap.add_argument("--cases", nargs="+", default=CASES, choices=CASES)
     ap.add_argument("--ortho", action="store_true", help="also ortho --uncertainty against ground errors")
     ap.add_argument("--seeds", type=int, default=1, help="seeds per rendered case (from the case's own)")
-    ap.add_argument("--data", default=str(DATA), help="the shared data folder (ngi/, drone_snowpeak/)")
+    ap.add_argument("--data", default=None, help="the shared data folder (ngi/, drone_snowpeak/)")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo tree the CLI cases run (PYTHONPATH)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "triangulate_sigma_bench.json"))
     a = ap.parse_args(argv)
-    global DATA
-    DATA = Path(a.data)
+    if a.data:
+        os.environ["FOTOGEO_DATA"] = a.data
+        globals()["DATA"] = Path(a.data)
     table = {}
     with tempfile.TemporaryDirectory() as tmp:
         for k, label in enumerate(a.cases):
