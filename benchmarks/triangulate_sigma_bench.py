@@ -120,7 +120,8 @@ def cpu_seconds() -> float:
 def run_cli(args, tree: Path, log: Path) -> int:
     env = dict(os.environ, PYTHONPATH=str(tree), GDAL_PAM_ENABLED="NO")
     with open(log, "w") as fh:
-        return subprocess.run(PY + [str(a) for a in args], cwd="/", env=env, stdout=fh, stderr=subprocess.STDOUT).returncode
+        return subprocess.run(PY + [str(a) for a in args], cwd="/", env=env, stdout=fh,
+                              stderr=subprocess.STDOUT).returncode
 
 
 def ngi_case(label: str, work: Path, tree: Path) -> dict:
@@ -128,8 +129,9 @@ def ngi_case(label: str, work: Path, tree: Path) -> dict:
     from ngi_triangulation import NAMES, perturbed
     from fotogeo.io.block import write_exterior_orientation
     truth = read_exterior_orientation(ngi() / "exterior_orientation.txt")
-    args = ["triangulate", *[ngi() / "frames" / f"{n}.tif" for n in NAMES], "--camera", ngi() / "interior_orientation.yaml",
-            "--reference", ngi() / "ortho" / "ngi_rgb_byte_1.tif", "--reference", ngi() / "ortho" / "ngi_rgb_byte_2.tif",
+    d = ngi()
+    args = ["triangulate", *[d / "frames" / f"{n}.tif" for n in NAMES], "--camera", d / "interior_orientation.yaml",
+            "--reference", d / "ortho" / "ngi_rgb_byte_1.tif", "--reference", d / "ortho" / "ngi_rgb_byte_2.tif",
             "--dem", ngi() / "dem.tif", "-o", work / "out", "--overwrite", "-q"]
     if label.startswith("ngi EO s"):
         rng = np.random.default_rng(int(label.rsplit("s", 1)[1]))
@@ -140,7 +142,8 @@ def ngi_case(label: str, work: Path, tree: Path) -> dict:
         return {"exit": code, "message": (work / "triangulate.log").read_text()[-400:]}
     rep = json.loads((work / "out" / "report.json").read_text())
     rows = frame_rows(rep, read_exterior_orientation(work / "out" / "exterior_orientation.txt"), truth)
-    return {"exit": 0, "sigma0": rep["sigma0"], "covariance_scale": rep["covariance_scale"], "rows": rows,
+    return {"exit": 0, "sigma0": rep["sigma0"], "covariance_scale": rep["covariance_scale"],
+            "covariance_rule": rep["statistics"].get("covariance_rule"), "rows": rows,
             "command": " ".join(str(a) for a in args)}
 
 
@@ -156,7 +159,8 @@ def ebee_case(label: str, work: Path, tree: Path, reference: Path) -> dict:
     rep = json.loads((work / "out" / "report.json").read_text())
     rows = frame_rows(rep, read_exterior_orientation(work / "out" / "exterior_orientation.txt"),
                       read_exterior_orientation(reference / "exterior_orientation.txt"))
-    return {"exit": 0, "sigma0": rep["sigma0"], "covariance_scale": rep["covariance_scale"], "rows": rows,
+    return {"exit": 0, "sigma0": rep["sigma0"], "covariance_scale": rep["covariance_scale"],
+            "covariance_rule": rep["statistics"].get("covariance_rule"), "rows": rows,
             "command": " ".join(str(a) for a in args), "reference": "the all-frame run (shares the GPS priors)"}
 
 
@@ -212,6 +216,7 @@ def rendered_case(label: str, work: Path, with_ortho: bool, seeds: int) -> dict:
         rows = frame_rows(rep, dict(zip(names, r["result"].eo)), dict(zip(names, r["sb"].true_eo)))
         out["seeds"].append(seed)
         out["sigma0"].append(rep["sigma0"])
+        out.setdefault("covariance_rule", []).append(rep["statistics"].get("covariance_rule"))
         out["rows"] += [{"seed": seed, **row} for row in rows]
         if with_ortho:
             from fotogeo.tools.ortho.tool import ortho
@@ -272,7 +277,8 @@ def main(argv=None) -> None:
             print_row(label, r)
     all_rows = [row for r in table.values() if not r.get("exit") for row in r["rows"]]
     print(f"{'all cases':<38} {json.dumps(pooled(all_rows))}")
-    Path(a.out).write_text(json.dumps({"command": " ".join(sys.argv[1:]), "note": "CPU s = user + sys of this process and its children; load-dependent",
+    note = "CPU s = user + sys of this process and its children; load-dependent"
+    Path(a.out).write_text(json.dumps({"command": " ".join(sys.argv[1:]), "note": note,
                                        "load_average": os.getloadavg(), "pooled": pooled(all_rows), "cases": table},
                                       indent=1, default=float))
 
