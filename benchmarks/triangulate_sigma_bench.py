@@ -275,13 +275,17 @@ def main(argv=None) -> None:
                 r["pooled"] = pooled(r["rows"])
             table[label] = r
             print_row(label, r)
-    all_rows = [row for r in table.values() if not r.get("exit") for row in r["rows"]]
-    print(f"{'all cases':<38} {json.dumps(pooled(all_rows))}")
-    note = "CPU s = user + sys of this process and its children; load-dependent"
-    Path(a.out).write_text(json.dumps({"command": " ".join(sys.argv[1:]), "note": note,
-                                       "load_average": os.getloadavg(), "pooled": pooled(all_rows), "cases": table},
-                                      indent=1, default=float))
+            write(a.out, table)
+    print(f"{'all cases':<38} {json.dumps(write(a.out, table))}")
 
+
+def write(out: str, table: dict) -> dict:
+    """The rows so far into ``out`` (after every case: a long run cut short keeps its cases); the pooled row."""
+    rows = [row for r in table.values() if not r.get("exit") for row in r["rows"]]
+    note = "CPU s = user + sys of this process and its children; load-dependent"
+    Path(out).write_text(json.dumps({"command": " ".join(sys.argv[1:]), "note": note, "load_average": os.getloadavg(),
+                                     "pooled": pooled(rows), "cases": table}, indent=1, default=float))
+    return pooled(rows)
 
 if __name__ == "__main__":
     main()
