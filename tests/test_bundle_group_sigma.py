@@ -38,12 +38,13 @@ def test_frames_sigma_not_below_their_errors_when_the_gnss_sigma_is_too_small(se
     assert "position_prior" in result.stats["covariance_rule"]
 
 
-def test_right_a_priori_sigma_keeps_the_a_priori_covariance():
+def test_groups_within_their_sigma_keep_the_a_priori_covariance():
+    """GPS given the 2 m it is off: every group's σ0 below 1, the covariance is the a-priori one (not widened; fails
+    if the factors were the groups' σ0 without the floor of max(σ0, 1), which would shrink it)."""
     sb = _block(2.0, 12)
     result = adjust_block(sb.block, BundleOptions(eo_sigma=(2.0, 0.3)))
-    groups = result.stats["variance_components"]
-    assert max(g["sigma0"] for g in groups.values()) <= 1.0 or result.stats["covariance_scale"] >= 1.0
-    if all(g["sigma0"] <= max(result.sigma0, 1.0) for g in groups.values()):
-        assert "widened" not in result.stats["covariance_rule"]
+    assert all(g["sigma0"] < 1 for g in result.stats["variance_components"].values())
+    assert "widened" not in result.stats["covariance_rule"]
+    np.testing.assert_allclose(result.eo_sigma, result.eo_sigma_a_priori * result.stats["covariance_scale"])
     z = _position_z(sb, result)
     assert np.sqrt(np.mean(z ** 2)) < 2.0
