@@ -8,8 +8,8 @@ observations allow (the same floor as the data snooping's, :mod:`fotogeo.orienta
 observation group's own ``σ̂_g`` (:mod:`fotogeo.orientation.bundle_variance`) exceeds ``σ̂`` — GNSS positions or
 control given a σ far below their errors, whose misfit the image points' redundancy dilutes in σ₀ — each group's
 weights are divided by ``f_g² = max(σ̂_g, σ̂)²`` and the normal matrix inverted again (:func:`widened`; Förstner
-(1979): the groups' variance components, applied once and only widening); the covariances are then those of the
-widened weights, not scaled again. σ of the orientation are
+(1979): the groups' variance components, estimated again on a re-solved copy, only ever widening); the covariances
+are then those of the widened weights at the solution, not scaled again. σ of the orientation are
 ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
 degrees, as :mod:`fotogeo.models.collinearity` reports them; NaN where the diagonal is negative, a singular
 system), given the rest of the block ``σ₀ √diag((S_jj)⁻¹)`` (:func:`sigma_in_block`), σ of the points
