@@ -88,14 +88,14 @@ def _reweighted(pb, f: dict, base: float):
 
 def widened(pb, s, post, solve=None, rounds: int = 4):
     """``(posterior, scale, rule)`` of the covariances at the solution ``s`` (module docstring): ``post`` scaled
-    by :func:`covariance_scale`, or, when a group's σ̂_g exceeds that scale, the posterior of the weights widened
+    by :func:`covariance_scale`, or, when a group's σ̂_g exceeds that scale by more than 5 %, the posterior of the weights widened
     by :func:`group_factors` (scale 1). A group whose a-priori σ is far too small pulls the solution onto its
     observations and shows a fraction of its misfit in its residuals, so ``solve(problem, state) -> state``
     (the adjustment's solver) re-solves a copy with the widened weights and the groups' σ̂_g are estimated again
     until none exceeds 1.05 (at most ``rounds`` times; Förstner 1979); ``s`` itself is not moved."""
     base, rule = covariance_scale(post.sigma0)
     f = group_factors({k: g for k, g in post.groups.items() if k in _GROUPS}, post.sigma0)
-    if all(v <= base for v in f.values()):
+    if all(v <= 1.05 * base for v in f.values()):  # the tolerance of the estimate below
         return post, base, rule
     state = s
     for _ in range(rounds if solve is not None else 0):
