@@ -15,6 +15,7 @@ compared with the σ raster at that place.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -52,10 +53,17 @@ def write_dem(path: Path, dem: Dem) -> Path:
     return path
 
 
-def realisation(folder: Path, seed: int, dem_sigma: float) -> dict:
-    """The block of ``seed`` adjusted and written into ``folder`` (module docstring)."""
-    sb = simulate_block(seed=seed, strips=2, frames_per_strip=4, camera=CAMERA, point_spacing=80.0,
-                        blunder_fraction=0.0, margin=5.0)
+def realisation(folder: Path, seed: int, dem_sigma: float, options=None, control_sigma_given=None, **shape) -> dict:
+    """The block of ``seed`` adjusted (``options``: :class:`~fotogeo.orientation.bundle.BundleOptions`) and written
+    into ``folder`` (module docstring); ``shape`` overrides :func:`simulate_block`'s 2 x 4 block of :data:`CAMERA`;
+    ``control_sigma_given`` ``(plan, height)``: the control's σ handed to the adjustment when it is not the σ of
+    its simulated errors (``shape["control_sigma"]``)."""
+    shape = {"strips": 2, "frames_per_strip": 4, "camera": CAMERA, "point_spacing": 80.0, **shape}
+    sb = simulate_block(seed=seed, blunder_fraction=0.0, margin=5.0, **shape)
+    if control_sigma_given is not None:
+        b = sb.block
+        sig = np.where((b.role == "control")[:, None], np.array(control_sigma_given)[[0, 0, 1]], b.point_sigma)
+        sb = dataclasses.replace(sb, block=dataclasses.replace(b, point_sigma=sig))
     images, dem = render_block(sb)
     paths = write_frames(folder, sb, images)
     height = float(np.nanmean(sb.block.point_xyz[:, 2]))
@@ -64,7 +72,7 @@ def realisation(folder: Path, seed: int, dem_sigma: float) -> dict:
     frame = np.array([index[f] for f in obs.frame])
     track = np.array([int(p[3:]) for p in obs.point])
     block = with_ties(sb, frame, track, obs.pixel, obs.sigma, 0.3)
-    result = adjust_block(block)
+    result = adjust_block(block, options) if options is not None else adjust_block(block)
     write_exterior_orientation(folder / "exterior_orientation.txt", block.frames, result.eo, "adjusted")
     write_json(folder / "report.json", report(result, block, CRS_OBJECT, {}))
     write_interior_orientation(folder / "camera.yaml", "adjusted", result.camera, result.distortion)
@@ -84,7 +92,7 @@ def check_points(r: dict, n: int = 2000, seed: int = 0):
         XY = rng.uniform(lo, hi, (n, 2))
         G = np.column_stack([XY, r["dem"].heights(XY)])
         px = OrientedFrame(sb.true_camera, true_eo).world_to_pixel(G)
-        w, h = CAMERA.image_size
+        w, h = sb.true_camera.image_size
         with np.errstate(invalid="ignore"):
             seen = np.isfinite(px).all(axis=1) & (px[:, 0] > 0) & (px[:, 0] < w) & (px[:, 1] > 0) & (px[:, 1] < h)
         model = AdjustedFrame(result.camera, eo, result.distortion)

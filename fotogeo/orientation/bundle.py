@@ -120,7 +120,8 @@ class BundleOptions:
     significance: float = 3.0
     max_iterations: int = 60
     max_residual_px: float = 10.0
-    #: estimate the image points' σ as a variance component when they drive σ₀ (:func:`_image_variance`)
+    #: estimate the image points' σ as a variance component when they drive σ₀ (:func:`_image_variance`), and widen
+    #: the covariances by each group's σ̂ (:func:`~fotogeo.orientation.bundle_result.widened`); off: the global rule
     estimate_image_sigma: bool = True
 
 
@@ -240,7 +241,10 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     pb, s, post, factor = _image_variance(run, pb, s, post, opts, prog)
     prog.timings["total"] = time.perf_counter() - t0
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
-    result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings))
+    result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings),
+                         s if opts.estimate_image_sigma else None,  # off: nothing estimated, the global rule
+                         lambda pw, sw: _solve(pw, sw, pw.p0, opts, prog.stage(0.99, 1.0, "group variance"),
+                                               "group variance components")[0])
     if factor is not None:
         result.stats["variance_components"]["image"].update(factor)
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)

@@ -263,8 +263,10 @@ def prior_residuals(result, block, eo_sigma):
     R = np.stack([e.rotation_cv for e in result.eo])
     v = np.concatenate([np.stack([e.centre for e in result.eo]) - np.stack([e.centre for e in block.eo]),
                         np.degrees(log_rotation(np.transpose(R0, (0, 2, 1)) @ R))], axis=1)
-    from .bundle_result import covariance_scale
-    post = np.asarray(result.eo_sigma, float) / covariance_scale(float(result.sigma0))[0]
+    post = result.eo_sigma_a_priori
+    if post is None:
+        from .bundle_result import covariance_scale
+        post = np.asarray(result.eo_sigma, float) / covariance_scale(float(result.sigma0))[0]
     with np.errstate(invalid="ignore"):
         var = prior_sigma ** 2 - post ** 2
         sigma_v = np.where(var > (0.01 * prior_sigma) ** 2, np.sqrt(np.maximum(var, 0.0)), np.nan)

@@ -4,7 +4,12 @@ Orientations go back to the map CRS (``X_map = X_local + O``, PATB angles from `
 every σ and covariance below is scaled by ``σ̂ = max(σ₀, 1)`` (:func:`covariance_scale`), written ``σ₀`` there: a
 block whose residuals are smaller than their a-priori σ (σ₀ < 1) keeps the a-priori precision — σ₀ < 1 says
 the a-priori σ were pessimistic or the redundancy is small, not that the orientation is better than its
-observations allow (the same floor as the data snooping's, :mod:`fotogeo.orientation.bundle_robust`); σ of the orientation are
+observations allow (the same floor as the data snooping's, :mod:`fotogeo.orientation.bundle_robust`). When one
+observation group's own ``σ̂_g`` (:mod:`fotogeo.orientation.bundle_variance`) exceeds ``σ̂`` — GNSS positions or
+control given a σ far below their errors, whose misfit the image points' redundancy dilutes in σ₀ — each group's
+weights are divided by ``f_g² = max(σ̂_g, σ̂)²`` and the normal matrix inverted again (:func:`widened`; Förstner
+(1979): the groups' variance components, estimated again on a re-solved copy, only ever widening); the covariances
+are then those of the widened weights at the solution, not scaled again. σ of the orientation are
 ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
 degrees, as :mod:`fotogeo.models.collinearity` reports them; NaN where the diagonal is negative, a singular
 system), given the rest of the block ``σ₀ √diag((S_jj)⁻¹)`` (:func:`sigma_in_block`), σ of the points
@@ -25,10 +30,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..errors import FotogeoError
 from ..geometry.camera import ExteriorOrientation, angles_patb
 from . import bundle_jacobian as bj
 from .bundle_control import images_only_errors, rmse
-from .bundle_robust import largest_w
+from .bundle_robust import largest_w, posterior
 
 
 def _rmse(d: np.ndarray) -> dict:
@@ -53,6 +59,60 @@ def covariance_scale(sigma0: float) -> tuple[float, str]:
         return 1.0, (f"covariances scaled by 1 (the a-priori precision), not by sigma0 {sigma0:.3g}: residuals "
                      f"below their a-priori sigma do not make the orientation more precise than its observations")
     return float(sigma0), f"covariances scaled by sigma0 {sigma0:.3g} (residuals above their a-priori sigma)"
+
+
+#: the groups of :func:`fotogeo.orientation.bundle_variance.variance_components` and the Problem's weights they scale
+_GROUPS = ("image", "control", "position_prior", "attitude_prior")
+
+
+def group_factors(groups: dict, sigma0: float) -> dict:
+    """``{group: f_g}``, ``f_g = max(σ̂_g, σ̂)`` with ``σ̂`` of :func:`covariance_scale`; a group without σ̂_g
+    (too little redundancy) gets ``σ̂``.
+
+    >>> group_factors({"image": {"sigma0": 0.7}, "position_prior": {"sigma0": 5.0}, "control": {"sigma0": None}}, 0.8)
+    {'image': 1.0, 'position_prior': 5.0, 'control': 1.0}
+    """
+    base = covariance_scale(sigma0)[0]
+    out = {}
+    for k, g in groups.items():
+        s = g.get("sigma0")
+        out[k] = max(float(s), base) if s is not None and np.isfinite(s) else base
+    return out
+
+
+def _reweighted(pb, f: dict, base: float):
+    e = np.repeat([f.get("position_prior", base), f.get("attitude_prior", base)], 3)
+    return replace(pb, p0=pb.p0 / f.get("image", base) ** 2, ctrl_w=pb.ctrl_w / f.get("control", base) ** 2,
+                   eo_w=pb.eo_w / e ** 2)
+
+
+def widened(pb, s, post, solve=None, rounds: int = 4):
+    """``(posterior, scale, rule)`` of the covariances at the solution ``s`` (module docstring): ``post`` scaled
+    by :func:`covariance_scale`, or, when a group's σ̂_g exceeds that scale by more than 5 %, the posterior of the weights widened
+    by :func:`group_factors` (scale 1). A group whose a-priori σ is far too small pulls the solution onto its
+    observations and shows a fraction of its misfit in its residuals, so ``solve(problem, state) -> state``
+    (the adjustment's solver) re-solves a copy with the widened weights and the groups' σ̂_g are estimated again
+    until none exceeds 1.05 (at most ``rounds`` times; Förstner 1979); ``s`` itself is not moved."""
+    base, rule = covariance_scale(post.sigma0)
+    f = group_factors({k: g for k, g in post.groups.items() if k in _GROUPS}, post.sigma0)
+    if all(v <= 1.05 * base for v in f.values()):  # the tolerance of the estimate below
+        return post, base, rule
+    state = s
+    for _ in range(rounds if solve is not None else 0):
+        pw = _reweighted(pb, f, base)
+        try:
+            state = solve(pw, state)
+        except FotogeoError:
+            break
+        more = group_factors({k: g for k, g in posterior(pw, state, pw.p0).groups.items() if k in f}, 1.0)
+        if all(v <= 1.05 for v in more.values()):
+            break
+        f = {k: v * more[k] for k, v in f.items()}
+    pw = _reweighted(pb, f, base)
+    said = ", ".join(f"{k} {v:.3g}" for k, v in f.items() if v > base)
+    return posterior(pw, s, pw.p0), 1.0, (f"covariances from the a-priori sigma widened by max(sigma0, 1) = "
+                                          f"{base:.3g} and, where a group's own sigma0 is larger, by that ({said}): "
+                                          f"its residuals exceed its a-priori sigma")
 
 
 def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
@@ -103,15 +163,18 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
     return out
 
 
-def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
-    """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``."""
+def make_result(block, run, pb, post, fixed, correlations, blunders, timings, s=None, solve=None):
+    """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state ``s`` of ``run`` (its covariances
+    widened by the groups' σ̂, :func:`widened` with ``solve``, when ``s`` is given)."""
     from .bundle_types import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
-    s0, rule = covariance_scale(post.sigma0)
+    cov, s0, rule = widened(pb, s, post, solve) if s is not None else (post, *covariance_scale(post.sigma0))
     eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
-    sd = s0 * _root(np.diag(post.S_inv), np.diag(post.S_inv) * np.diag(post.S))
+    sd = s0 * _root(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
+    a_priori = _root(np.diag(post.S_inv), np.diag(post.S_inv) * np.diag(post.S))[:6 * m].reshape(m, 6)
+    a_priori[:, 3:] = np.degrees(a_priori[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
     cam = replace(block.camera, focal_length=float(run.interior[0]),
                   principal_point=(float(run.interior[1]), float(run.interior[2])))
@@ -122,7 +185,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     xyz = np.full((P, 3), np.nan)
     xyz[pb.point_ids] = run.X[pb.point_ids] + run.origin
     psig = np.full((P, 3), np.nan)
-    psig[pb.point_ids] = s0 * np.sqrt(np.maximum(np.diagonal(post.point_cofactor, axis1=1, axis2=2), 0.0))
+    psig[pb.point_ids] = s0 * np.sqrt(np.maximum(np.diagonal(cov.point_cofactor, axis1=1, axis2=2), 0.0))
     rays = np.zeros(P, int)
     rays[pb.point_ids] = pb.st.counts
     live = np.isfinite(xyz[block.obs_point]).all(axis=1)
@@ -148,8 +211,9 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings):
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
                           psig, rays, res, status.astype(str), red, w, post.sigma0, stats, tuple(fixed), tuple(correlations),
-                          tuple(blunders), run.iterations, timings, *covariance_blocks(post.S_inv, s0, m),
-                          tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(post.S, s0, m))
+                          tuple(blunders), run.iterations, timings, *covariance_blocks(cov.S_inv, s0, m),
+                          tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(cov.S, s0, m),
+                          a_priori)
     errors = images_only_errors(result, block)
     stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
     return result

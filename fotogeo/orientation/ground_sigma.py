@@ -116,7 +116,10 @@ def planimetric_sigma(*args, **kwargs) -> np.ndarray:
 
 #: how the triangulation report's covariances read (``fotogeo triangulate`` report.json → ``fotogeo ortho
 #: --uncertainty``)
-COVARIANCE_NOTE = ("frames[].covariance: max(sigma0, 1)^2 (statistics.covariance_scale) times the inverse normal matrix block of X0, Y0, Z0 (m, map axes) "
+COVARIANCE_NOTE = ("frames[].covariance: max(sigma0, 1)^2 (statistics.covariance_scale) times the inverse normal "
+                   "matrix block, or, when an observation group's own sigma0 is larger (statistics.covariance_rule), "
+                   "the inverse normal matrix with that group's weights divided by it squared; "
+                   "of X0, Y0, Z0 (m, map axes) "
                    "and the rotation increments about the OpenCV camera axes x right, y down, z forward (rad; "
                    "R <- R exp([d]x)); with self-calibration frames[].covariance_interior (6 x k) and "
                    "interior_covariance (k x k) of covariance_parameters")
