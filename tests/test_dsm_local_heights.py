@@ -1,5 +1,5 @@
 """fotogeo dsm on frames: a strip with a local range keeps only the points within the heights its range was made
-of (``frames.strip_heights``). At the bottom rows of a cross-strip oblique pair's rectified images the two images'
+of (``local.strip_heights``). At the bottom rows of a cross-strip oblique pair's rectified images the two images'
 valid columns do not overlap at the surface's disparity; the left pixels without a partner there met right pixels
 without a partner, real texture on both sides, at one wrong disparity inside the strip's (wide, oblique) range,
 and passed the left–right check: a band of heights about 22 m too low."""

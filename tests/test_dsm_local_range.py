@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fotogeo.stereo.rectify import rectify
-from fotogeo.tools.dsm import frames
+from fotogeo.tools.dsm import frames, local as local_ranges
 from fotogeo.tools.dsm.plan import disparity_bounds
 
 from dsm_scenes import compare, make_scene
@@ -16,25 +16,25 @@ from test_dsm_tiles import _views
 def test_local_range_follows_the_matches_near_the_strip(monkeypatch):
     """Matches at 10 m near the strip and at 80 m far from it: the strip's range is that of 10 m padded by
     ``LOCAL_PAD_M`` (and ``PAD_PX``), inside the pair's; too few matches near it: the pair's range."""
-    monkeypatch.setattr(frames, "LOCAL_NEAR", 20)
+    monkeypatch.setattr(local_ranges, "LOCAL_NEAR", 20)
     rp = rectify(*_views())
     w, h = rp.size
     lo, hi = disparity_bounds(rp, -50.0, 150.0)
     box = (0, 0, w, 40)
     near = np.array([(u, v, 10.0) for u in np.linspace(0, w, 5) for v in (5.0, 30.0)]
                     + [(u, h - 5.0, 80.0) for u in np.linspace(0, w, 5)])
-    a, b, local = frames.local_range(rp, near, box, lo, hi)
-    pad = frames.LOCAL_PAD_M
+    a, b, local = local_ranges.local_range(rp, near, box, lo, hi)
+    pad = local_ranges.LOCAL_PAD_M
     assert local
     assert np.allclose((a, b), disparity_bounds(rp, 10.0 - pad, 10.0 + pad, box, n=5))
     assert lo < a < b < hi and b - a < 0.3 * (hi - lo)
-    assert frames.local_range(rp, near[:frames.LOCAL_MIN - 1], box, lo, hi) == (lo, hi, False)
-    assert frames.local_range(rp, None, box, lo, hi) == (lo, hi, False)
+    assert local_ranges.local_range(rp, near[:local_ranges.LOCAL_MIN - 1], box, lo, hi) == (lo, hi, False)
+    assert local_ranges.local_range(rp, None, box, lo, hi) == (lo, hi, False)
     # matches spanning 10 to 30 m near the strip: padded by half their span too, and never beyond the pair's range
     near[1::2, 2] = 30.0
-    a2, b2, _ = frames.local_range(rp, near, box, lo, hi)
+    a2, b2, _ = local_ranges.local_range(rp, near, box, lo, hi)
     assert np.allclose((a2, b2), disparity_bounds(rp, 10.0 - 10.0 - pad, 30.0 + 10.0 + pad, box, n=5))
-    assert frames.local_range(rp, near, box, a + 1.0, a + 3.0)[:2] == (a + 1.0, a + 3.0)
+    assert local_ranges.local_range(rp, near, box, a + 1.0, a + 3.0)[:2] == (a + 1.0, a + 3.0)
 
 
 def _run(sc, out, report):
@@ -49,13 +49,13 @@ def test_rendered_pair_searches_local_ranges_with_the_same_accuracy(tmp_path, mo
     everywhere (the same run with too few matches for any local range)."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(frames, "STRIP", 48)
-    monkeypatch.setattr(frames, "LOCAL_NEAR", 24)
+    monkeypatch.setattr(local_ranges, "LOCAL_NEAR", 24)
     rep, local = _run(sc, tmp_path / "local.tif", tmp_path / "local.json")
     pair = next(p for p in rep["pairs"] if p["kept"])
     used, strips = (int(x) for x in pair["local_range_strips"].split(" of "))
     lo, hi = pair["disparity_range_px"]
     assert strips >= 5 and used >= 0.8 * strips, pair["local_range_strips"]
-    monkeypatch.setattr(frames, "LOCAL_MIN", 10 ** 9)
+    monkeypatch.setattr(local_ranges, "LOCAL_MIN", 10 ** 9)
     rep_g, whole = _run(sc, tmp_path / "pair.tif", tmp_path / "pair.json")
     pair_g = next(p for p in rep_g["pairs"] if p["kept"])
     assert pair_g["local_range_strips"] == f"0 of {strips}"

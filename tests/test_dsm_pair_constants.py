@@ -9,7 +9,7 @@ import numpy as np
 from fotogeo.orientation.block_render import texture
 from fotogeo.stereo import dense
 from fotogeo.stereo.rectify import rectify
-from fotogeo.tools.dsm import frames
+from fotogeo.tools.dsm import frames, local
 from fotogeo.tools.dsm.plan import disparity_bounds, matched_heights, plausible_heights
 
 from rendered_pair import CRS, render
@@ -59,20 +59,20 @@ def test_guides_drop_the_mismatches_the_pair_range_drops():
     z = rng.normal(100.0, 2.0, 300)
     z[7] = -300.0
     sp = {"uv": uv, "points": np.column_stack([uv, z])}
-    near = frames.guides(sp, ceiling=300.0)  # the cameras 300 m up
+    near = local.guides(sp, ceiling=300.0)  # the cameras 300 m up
     assert len(near) == 299 and near[:, 2].min() > 90.0
     assert np.array_equal(plausible_heights(z, 300.0), z > 0)
     lo, hi = disparity_bounds(rp, -400.0, 250.0)
     u, v = uv[7]
     box = (max(0, int(u) - 20), max(0, int(v) - 20), min(w, int(u) + 20), min(h, int(v) + 20))
     clean = np.column_stack([uv, z])[z > 0]
-    assert frames.local_range(rp, near, box, lo, hi) == frames.local_range(rp, clean, box, lo, hi)
+    assert local.local_range(rp, near, box, lo, hi) == local.local_range(rp, clean, box, lo, hi)
     ground = disparity_bounds(rp, 95.0, 105.0, box, n=5)
-    a, b, _ = frames.local_range(rp, near, box, lo, hi)
+    a, b, _ = local.local_range(rp, near, box, lo, hi)
     assert a <= ground[0] and ground[1] <= b
     # the raw heights: the range widened by the mismatch reaches above the cameras, where no height has a
     # disparity, and the strip would search only the depths below the ground
-    a_raw, b_raw, _ = frames.local_range(rp, np.column_stack([uv, z]), box, lo, hi)
+    a_raw, b_raw, _ = local.local_range(rp, np.column_stack([uv, z]), box, lo, hi)
     assert b_raw < ground[0]
 
 

@@ -1,9 +1,9 @@
 """fotogeo dsm on frames: a pixel without a partner is not matched to another without one
-(:func:`fotogeo.stereo.dense.disparity`'s ``partner``, filled from :func:`fotogeo.tools.dsm.frames.expected_disparity`).
+(:func:`fotogeo.stereo.dense.disparity`'s ``partner``, filled from :func:`fotogeo.tools.dsm.local.expected_disparity`).
 At the bottom rows of a cross-strip oblique pair's rectified images the two images' valid columns do not overlap at
 the surface's disparity; the left pixels whose partner lies outside the right image met right pixels whose partner
 lies outside the left one, real texture on both sides, at one wrong disparity that passed the left–right check.
-The strips' local heights (``frames.strip_heights``) dropped the band where it fell outside them; here they are
+The strips' local heights (``local.strip_heights``) dropped the band where it fell outside them; here they are
 switched off, so that what is measured is the matching itself (the −55° set flown east and south: the band lay
 inside the local heights)."""
 from __future__ import annotations

@@ -49,7 +49,7 @@ class PairMatch:
     """One kept pair ready to match: its :class:`~fotogeo.tools.dsm.plan` choice ``pair``, rectified pair ``rp``,
     disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, whether to refine
     its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that bound each strip's
-    disparities (:func:`.frames.guides`, :func:`.frames.local_range`; None: the pair's range everywhere), its SGBM
+    disparities (:func:`.local.guides`, :func:`.local.local_range`; None: the pair's range everywhere), its SGBM
     penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), and what its tiles gave (pixel counts,
     points, seconds)."""
     pair: object

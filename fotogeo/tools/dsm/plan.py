@@ -95,7 +95,7 @@ def plausible_heights(z, ceiling: float) -> np.ndarray:
     """Which sparse matches' heights ``z`` are not mismatches (bool): those within ``max(6 NMAD, ½ of the cameras'
     height above the median)`` of the median (a few rays that meet hundreds of metres below the ground set the 1st
     percentile on a drone pair); ``ceiling`` the lower camera's height. The one filter of the pair's range
-    (:func:`matched_heights`) and of its strips' local ranges (:func:`.frames.guides`)."""
+    (:func:`matched_heights`) and of its strips' local ranges (:func:`.local.guides`)."""
     z = np.asarray(z, float)
     med = float(np.median(z))
     window = max(6.0 * 1.4826 * float(np.median(np.abs(z - med))), 0.5 * max(float(ceiling) - med, 1.0))

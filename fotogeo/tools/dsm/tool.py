@@ -18,7 +18,7 @@ from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
-from . import frames, matching, plan
+from . import frames, local, matching, plan
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
 from .outputs import SPECKLE_CELLS, Products
 
@@ -166,7 +166,7 @@ def _choose(ims, views, names, zmid, pairs) -> list:
 
 def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     """``(rectified pair, disparity range, height range, None, sparse matches)`` of one kept pair (the matches
-    that bound each strip's range, :func:`.frames.local_range`, None with a DEM), or ``(…, reason, None)`` to
+    that bound each strip's range, :func:`.local.local_range`, None with a DEM), or ``(…, reason, None)`` to
     leave it out; ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
     rp = rectify(views[p.i], views[p.j], scale)
     sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
@@ -189,7 +189,7 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
-    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, frames.guides(sp, ceiling)
+    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling)
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
