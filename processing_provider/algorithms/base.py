@@ -249,7 +249,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         a fotogeo error arrives as a :class:`QgsProcessingException` with the tool's message, an option
         it names called by its parameter's label (:meth:`option_label`).
         """
-        for note in self.__dict__.pop("_unused_notes", []):  # options left unused (:meth:`_not_used`)
+        for note in dict.fromkeys(self.__dict__.pop("_unused_notes", [])):  # options left unused (:meth:`_not_used`)
             if feedback is not None:
                 feedback.pushWarning(note)
         return runner.run_tool(tool, *args, feedback=feedback, words=self.in_words, **kwargs)
@@ -373,16 +373,21 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         see included — so a value there is not a choice made for this run as a command-line flag is: it is not
         refused (``check_needs``) but left unused, with a warning in the log naming both labels and the fix
         (:meth:`run_tool` writes it)."""
-        if value != option.default:
-            needed = next(t[option.needs] for t in self.OPTIONS if option.needs in t)
+        needed = self._needed(option)
+        if value != option.default and needed is not None:
+            shown = f"{value:g}" if isinstance(value, (int, float)) else str(value)
             self.__dict__.setdefault("_unused_notes", []).append(
-                f"“{option.label}” {value:g} is not used: it acts only with “{needed.label}”, which is off; tick "
+                f"“{option.label}” {shown} is not used: it acts only with “{needed.label}”, which is off; tick "
                 f"“{needed.label}” to use it (left as it is, the last value used stays in the dialog)")
         return None
 
+    def _needed(self, option: Option) -> Option | None:
+        """The option ``option`` needs (:attr:`Option.needs`) among this algorithm's :attr:`OPTIONS`, or None."""
+        return next((t[option.needs] for t in self.OPTIONS if option.needs in t), None)
+
     def _needed_on(self, parameters, option: Option, context) -> bool:
         """Whether the (bool) option ``option`` needs (:attr:`Option.needs`) is on in ``parameters``."""
-        needed = next((t[option.needs] for t in self.OPTIONS if option.needs in t), None)
+        needed = self._needed(option)
         return needed is not None and self.parameterAsBoolean(parameters, needed.qgis_name, context)
 
     def option_arguments(self, parameters, context, *tables: Table) -> dict:
