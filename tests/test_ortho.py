@@ -3,6 +3,7 @@ RPC image (real data), the separable fast paths against the general ones, and ba
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -332,6 +333,16 @@ def test_partial_dem_clips_and_names_the_coverage(scene, bad, tmp_path):
     assert any("covers 4" in w or "covers 5" in w for w in warn), warn  # about half the frame
     with rasterio.open(out) as ds, rasterio.open(bad / "half.tif") as dem:
         assert ds.bounds.right <= dem.bounds.right + 0.5
+
+
+def test_warnings_are_output_whatever_the_interpreter_filters(scene, bad, tmp_path):
+    """fotogeo's warnings are the run's output: ``python -W ignore`` / ``PYTHONWARNINGS=ignore`` (a global
+    "ignore" filter) does not hide them from the console nor from ``--json``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result, _ = _cli(scene, tmp_path, "--json", dem=bad / "half.tif")
+    assert result.exit_code == 0, result.output
+    assert any("covers 4" in w or "covers 5" in w for w in json.loads(result.stdout).get("warnings", [])), result.output
 
 
 def test_dem_holes_without_occlusion_warn(scene, bad, tmp_path):

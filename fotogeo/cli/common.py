@@ -73,6 +73,10 @@ def warnings_as_lines(recorded: list | None = None):
             click.echo(f"{label}: {text}", err=True)
 
     with warnings.catch_warnings():
+        # fotogeo's own warnings are the run's output, not a library's notes: shown whatever filters the
+        # interpreter was started with (``-W ignore``, ``PYTHONWARNINGS``); a tool's own narrower filters,
+        # set inside, still come first
+        warnings.simplefilter("always", FotogeoWarning)
         warnings.showwarning = show
         yield
 
