@@ -88,11 +88,16 @@ def _renamed(sc, folder, rename):
     return [shutil.copy(p, folder / (rename(p.stem) + p.suffix)) for p in sc["rtk"][:2]]
 
 
-@pytest.mark.parametrize("naming", ["windows", "case"])
+WINDOWS = {"windows": "flight1\\{}.JPG", "case": "{}.jpg", "dotted": "C:\\flight.1\\{}"}
+
+
+@pytest.mark.parametrize("naming", ["windows", "case", "dotted"])
 def test_colmap_names_of_another_system(south, tmp_path, naming):
-    """A model naming its images 'flight1\\\\DJI_101.JPG' (Windows) or 'dji_101.jpg' (another case) for the files
-    DJI_101.tif: main found no orientation for DJI_101 and refused; ortho reads them and says how it matched."""
-    project = {"windows": lambda n: f"flight1\\{n}.JPG", "case": lambda n: f"{n.lower()}.jpg"}[naming]
+    """A model naming its images 'flight1\\\\DJI_101.JPG' (Windows), 'dji_101.jpg' (another case) or
+    'C:\\\\flight.1\\\\DJI_101' (a dotted folder, no extension: main keyed it 'C:\\\\flight') for the files DJI_101.tif:
+    main found no orientation for DJI_101 and refused; ortho reads them and says how it matched."""
+    def project(n):
+        return WINDOWS[naming].format(n.lower() if naming == "case" else n)
     folder = sp.colmap_model(tmp_path, south, {1: ("OPENCV", 480, 640, _colmap(south))},
                              names={n: project(n) for n in south["names"]})
     said = []
@@ -100,8 +105,45 @@ def test_colmap_names_of_another_system(south, tmp_path, naming):
     assert set(frames) == {p.stem for p in south["rtk"][:2]}
     assert "otherwise than the files" in " ".join(said)
     block = _read(folder, south["rtk"][:2], south)
-    keys = {n: (n.lower() if naming == "case" else f"flight1\\{n}") for n in south["names"]}
+    keys = {n: project(n).removesuffix(".jpg").removesuffix(".JPG") for n in south["names"]}
     _right(block, south, {"tool": "colmap", "model": "OPENCV", "params": _colmap(south)}, keys)
+
+
+def test_two_files_never_share_one_shot(south, tmp_path):
+    """Two image files differing by case ('DJI_101.tif', 'dji_101.tif') and a project naming one shot 'DJI_101':
+    main rectified both with DJI_101's pose (only a note); dji_101 is refused, naming the image whose shot it is."""
+    folder = sp.colmap_model(tmp_path / "m", south, {1: ("OPENCV", 480, 640, _colmap(south))})
+    first = south["rtk"][0]
+    images = [first, shutil.copy(first, tmp_path / (first.stem.lower() + first.suffix))]
+    with pytest.raises(InputError, match=rf"no orientation for the image\(s\) {first.stem.lower()} \('{first.stem}' "
+                                         rf"is the image {first.stem}'s\)"):
+        _ortho_block(folder, images, south)
+
+
+def test_a_name_in_two_windows_folders_is_refused_naming_both(south, tmp_path):
+    """DJI restarts its numbering per folder: a project with 'f1\\\\DJI_101.JPG' and 'f2\\\\DJI_101.JPG' cannot tell
+    which is the file DJI_101.tif; the refusal names both (main: 'no orientation for DJI_101' alone)."""
+    n0, n1 = south["names"][:2]
+    folder = sp.colmap_model(tmp_path, south, {1: ("OPENCV", 480, 640, _colmap(south))},
+                             names={n0: f"f1\\{n0}.JPG", n1: f"f2\\{n0}.JPG"})
+    with pytest.raises(InputError, match=r"could be any of 'f1\\\\.*', 'f2\\\\.*'"):
+        _ortho_block(folder, south["rtk"][:1], south)
+
+
+def test_match_keys_claims_a_key_once():
+    """Reviewer's cases: a key is taken at most once, exact names first; two claimants leave it unmatched."""
+    from fotogeo.io.block import frame_key, match_keys
+    from fotogeo.io.sfm_frame import gps_for
+    assert match_keys(["DJI_1", "dji_1"], ["DJI_1", "DJI_2"]) == {"DJI_1": "DJI_1"}  # main: both to DJI_1
+    assert match_keys(["DJI_1", "Dji_1"], ["dji_1"]) == {}
+    from fotogeo.io.block import unmatched_reasons
+    assert unmatched_reasons(["DJI_1", "Dji_1"], ["dji_1"]) == {n: "'dji_1' claimed by DJI_1 and Dji_1"
+                                                                for n in ("DJI_1", "Dji_1")}
+    assert match_keys(["DJI_1"], ["f1\\DJI_1", "DJI_1"]) == {"DJI_1": "DJI_1"}
+    assert gps_for({"DJI_1": "A", "dji_1": "B"}, ["DJI_1"]) == gps_for({"dji_1": "B", "DJI_1": "A"}, ["DJI_1"]) \
+        == {"DJI_1": "A"}  # main: the later image's GPS
+    assert frame_key("C:\\flight.1\\DJI_1") == "C:\\flight.1\\DJI_1" and frame_key("/a/b.c/x.y.tif") == "x.y"
+    assert frame_key("back\\slash.tif") == "back\\slash"
 
 
 def test_odm_names_in_another_case_still_take_the_images_gps_as_evidence(south, tmp_path):

@@ -40,32 +40,76 @@ from .yaml_file import yaml_key
 
 
 def frame_key(name) -> str:
-    """The name a frame is known by: its file name without folder and extension."""
-    return Path(str(name)).stem
+    r"""The name a frame is known by: its file name without folder and extension. A backslash stays part of the name
+    (a file name may hold one here), but the extension is looked for after it only: ``C:\flight.1\DJI_1`` (a Windows
+    path without extension, read on Linux) keeps its whole name, for :func:`match_keys` to drop the folder."""
+    name = Path(str(name)).name
+    head, sep, tail = name.rpartition("\\")
+    return head + sep + Path(tail).stem if tail else name
+
+
+def _bare(key: str) -> str:
+    return key.replace("\\", "/").rsplit("/", 1)[-1]
+
+
+def key_candidates(names, keys) -> dict:
+    r"""``{name: [keys]}``: the keys each frame name may stand for — the name itself when it is a key (an exact
+    match claims its key first), else the keys that are the name after a Windows folder (``flight1\DJI_0001``, a
+    project written on Windows: a backslash is part of a file name here), else those equal to it but for case and
+    such a folder (images renamed, or copied through a case-insensitive file system: ``dji_0001.jpg`` for
+    ``DJI_0001.JPG``). A key that is one of the ``names`` is never another name's fallback."""
+    names, keys = list(names), list(keys)
+    own, given = set(keys), set(names)
+    bare, folded = {}, {}
+    for k in keys:
+        if k not in given:
+            bare.setdefault(_bare(k), []).append(k)
+            folded.setdefault(_bare(k).casefold(), []).append(k)
+    return {n: [n] if n in own else bare.get(n) or folded.get(n.casefold(), []) for n in names}
+
+
+def _claims(found: dict) -> dict:
+    out = {}
+    for n, ks in found.items():
+        for k in ks:
+            out.setdefault(k, []).append(n)
+    return out
 
 
 def match_keys(names, keys) -> dict:
-    r"""``{name: key}``: each frame name's key among ``keys`` — the name itself, else the one key that is the name
-    after a Windows folder (``flight1\DJI_0001``, a project written on Windows: a backslash is part of a file name
-    here), else the one key equal to it but for case and such a folder (images renamed, or copied through a
-    case-insensitive file system: ``dji_0001.jpg`` for ``DJI_0001.JPG``); a name with no such key, or with several,
-    is left out.
+    r"""``{name: key}``: each frame name's key among ``keys`` (:func:`key_candidates`), when it has one candidate that
+    no other name claims: a key is taken at most once, so two images never share one shot's pose or GPS; a name with
+    no such key is left out (:func:`unmatched_reasons` says why).
 
     >>> match_keys(["DJI_1", "DJI_2", "a"], ["flight1\\DJI_1", "dji_2", "a", "A"])
     {'DJI_1': 'flight1\\DJI_1', 'DJI_2': 'dji_2', 'a': 'a'}
+    >>> match_keys(["DJI_1", "dji_1", "A", "a"], ["DJI_1", "f\\A"])
+    {'DJI_1': 'DJI_1'}
     """
-    keys = list(keys)
-    bare, folded = {}, {}
-    for k in keys:
-        b = k.replace("\\", "/").rsplit("/", 1)[-1]
-        bare.setdefault(b, []).append(k)
-        folded.setdefault(b.casefold(), []).append(k)
+    found = key_candidates(names, keys)
+    claims = _claims(found)
+    return {n: ks[0] for n, ks in found.items() if len(ks) == 1 and len(claims[ks[0]]) == 1}
+
+
+def unmatched_reasons(names, keys) -> dict:
+    """``{name: reason}`` for the names :func:`match_keys` leaves out with a candidate: several keys it could be, or
+    a key another name claims too (both named); a name without any candidate is not listed."""
+    names, keys = list(names), list(keys)
+    found, got = key_candidates(names, keys), match_keys(names, keys)
+    claims = _claims(found)
     own = set(keys)
     out = {}
     for n in names:
-        found = [n] if n in own else bare.get(n) or folded.get(n.casefold(), [])
-        if len(found) == 1:
-            out[n] = found[0]
+        if n in got:
+            continue
+        if len(found[n]) > 1:
+            out[n] = f"could be any of {', '.join(map(repr, found[n][:5]))}"
+        elif found[n]:
+            out[n] = f"{found[n][0]!r} claimed by {' and '.join(claims[found[n][0]][:5])}"
+        else:
+            taken = [k for k in own & set(names) if k != n and _bare(k).casefold() == n.casefold()]
+            if taken:
+                out[n] = f"{taken[0]!r} is the image {taken[0]}'s"
     return out
 
 

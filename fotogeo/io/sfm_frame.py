@@ -88,7 +88,7 @@ def images_gps(paths) -> dict:
 def gps_for(gps: dict, keys) -> dict:
     """``gps`` re-keyed by the file's frame ``keys``: each image's key, or the one differing only by case
     (:func:`fotogeo.io.block.match_keys`), so a project naming ``dji_0001.jpg`` is checked against ``DJI_0001.JPG``'s
-    GPS."""
+    GPS; a key is taken by one image at most (the exact name first), so no image's GPS overwrites another's."""
     from .block import match_keys
     return {k: gps[n] for n, k in match_keys(gps, keys).items()}
 

@@ -38,7 +38,7 @@ import numpy as np
 from ...crs import parse_crs, require_projected, same_crs, utm_crs_for
 from ...errors import FotogeoWarning, InputError, InputNote
 from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs, is_projected
-from ...io.block import frame_key, match_keys
+from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
@@ -189,7 +189,9 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
             poses[n] = (shot.exterior, cam, dist, shot.height_reference, "" if given else f"--eo {str(eo)!r}")
     missing = [n for n in names if poses[n][0] is None]
     if missing:
-        raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(missing[:10])}; give a "
+        why = unmatched_reasons(names, block.shots) if block is not None else {}
+        said_why = [f"{n} ({why[n]})" if n in why else n for n in missing[:10]]
+        raise InputError(f"--eo {str(eo)!r} has no orientation for the image(s) {', '.join(said_why)}; give a "
                          f"file with one pose per image, named by the image file's name (with or without its extension)")
     out, scaled = [], set()
     for path, n in zip(images, names):
