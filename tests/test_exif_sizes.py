@@ -161,7 +161,8 @@ def test_a_moved_afinfo_without_size_word_is_read_where_it_went_or_not_at_all(mo
                                             ((4650, 2560), False), ((4600, 2600), False)])
 def test_only_a_uniform_factor_is_refused(record, refused):
     """A 4608x2592 file (PixelXDimension the same) whose RelatedImageWidth says ``record``: a 4:3 frame (a 16:9 cut in
-    camera), sizes off by more than 1 % between the axes or by a few pixels are noted; twice the size, either orientation, is refused."""
+    camera), sizes off by more than 1 % between the axes or by a few pixels are noted; twice the size, either
+    orientation, is refused."""
     from fotogeo.io.exif import ImageMetadata
     from fotogeo.io.exif_camera import size_scale
     meta = ImageMetadata("x.JPG", "x", 4608, 2592, "SONY", "X", None, None, None, None, None, None, 4.3, None, None,
