@@ -34,15 +34,23 @@ def _resized(src, dst, factor, *, rewrite: bool, drop=()):
 @pytest.mark.parametrize("factor", [2, 3, 4, 1 / 0.6])
 @pytest.mark.parametrize("drop", [(), (INTEROP,), (MAKER_NOTE,)], ids=["both", "maker note only", "interop only"])
 def test_rewritten_pixel_dimension_is_named_at_every_factor(tmp_path, data_dir, factor, drop):
+    """Refused by RelatedImageWidth; by the Canon maker note alone only noted (an in-camera smaller JPEG may keep
+    the sensor's size there and cannot be told from such a copy)."""
     src = data_dir / "drone_snowpeak" / "img" / "IMG_2280.JPG"
     full_fx = focal_of(read_image_metadata(src))[0]
     right = read_image_metadata(_resized(src, tmp_path / "right.JPG", factor, rewrite=False, drop=drop))
     assert focal_of(right)[0] == pytest.approx(full_fx * right.width / FULL[0], rel=1e-3)  # not refused, scaled
     bad = read_image_metadata(_resized(src, tmp_path / "bad.JPG", factor, rewrite=True, drop=drop))
-    source = "Canon maker note" if INTEROP in drop else "EXIF RelatedImageWidth"
+    if INTEROP in drop:
+        k = FULL[0] / bad.width
+        assert rf"CanonImageHeight says 4608x3456 (a smaller JPEG written by the camera or a copy with " \
+               rf"PixelXDimension rewritten; if the latter, its focal length in pixels is {k:.3g} times too long" \
+               in focal_of(bad)[4]
+        return
     with pytest.raises(InputError, match=rf"PixelXDimension says {bad.width}x{bad.height}, the file's own size, but "
-                                         rf"its {source}.* says 4608x3456: a copy resized with PixelXDimension "
-                                         rf"rewritten .*exiftool -PixelXDimension=4608 -PixelYDimension=3456"):
+                                         rf"its EXIF RelatedImageWidth.* says 4608x3456: a copy resized with "
+                                         rf"PixelXDimension rewritten .*exiftool -PixelXDimension=4608 "
+                                         rf"-PixelYDimension=3456"):
         focal_of(bad)
 
 
@@ -120,3 +128,48 @@ def test_the_fix_named_works_a_camera_given_is_used_and_the_exif_camera_not_read
     assert set(block.cameras) == {"--camera"} and block.cameras["--camera"].camera.fx == pytest.approx(1605.1, abs=1)
     assert all(s.position is not None and s.angles is not None for s in block.shots.values())
     assert any("the images' EXIF/XMP camera is not read" in n for n in block.notes)
+
+
+def _canon_tiff(af: list, tag: int, moved: int) -> bytes:
+    """A TIFF block whose maker note carries CameraSettings and the AF block ``af`` (``tag``) out of line, the note
+    placed ``moved`` bytes after where its values' offsets say, filler 0x1234 before it."""
+    import struct
+    exif_at, note_at = 26, 44
+    vals_at = note_at + 2 + 24 + 4
+    note = struct.pack("<HHHII", 2, 0x0001, 3, 4, vals_at) + struct.pack("<HHII", tag, 3, len(af), vals_at + 8)
+    note += b"\0" * 4 + struct.pack("<4H", 1, 2, 3, 4) + struct.pack(f"<{len(af)}H", *af)
+    head = b"II*\0" + struct.pack("<I", 8) + struct.pack("<HHHII", 1, 0x8769, 4, 1, exif_at) + b"\0" * 4
+    head += struct.pack("<HHHII", 1, 0x927C, 7, len(note), note_at + moved) + b"\0" * 4
+    return head + struct.pack("<H", 0x1234) * (moved // 2) + note
+
+
+@pytest.mark.parametrize("moved", [0, 64, 200])
+def test_a_moved_afinfo_without_size_word_is_read_where_it_went_or_not_at_all(monkeypatch, moved):
+    """AFInfo (0x0012, no size word) moved by a tool: read at the shifted place (the stale one holds 0x1234 words,
+    4660x4660); a block that is not plausible (more valid than AF points, AFImageWidth above CanonImageWidth,
+    another aspect than the file's) gives nothing."""
+    from fotogeo.io import exif_sizes as xs
+    good = [9, 9, 4608, 3456, 4608, 3456, 100, 100, 0, 0, 0, 0]
+    for af, aspects, want in ((good, (4 / 3,), FULL), (good, (), FULL), (good, (16 / 9,), None),
+                              (good, (3 / 4,), FULL), ([9, 10] + good[2:], (4 / 3,), None),
+                              (good[:4] + [5000] + good[5:], (4 / 3,), None)):
+        monkeypatch.setattr(xs, "_exif_tiff", lambda p, t=_canon_tiff(af, 0x0012, moved): t)
+        assert xs._canon_size("x.jpg", aspects) == want, (af, aspects)
+
+
+@pytest.mark.parametrize("record,refused", [((4608, 3456), False), ((9216, 5184), True), ((5184, 9216), True),
+                                            ((4650, 2560), False), ((4600, 2600), False)])
+def test_only_a_uniform_factor_is_refused(record, refused):
+    """A 4608x2592 file (PixelXDimension the same) whose RelatedImageWidth says ``record``: a 4:3 frame (a 16:9 cut in
+    camera), sizes off by more than 1 % between the axes or by a few pixels are noted; twice the size, either
+    orientation, is refused."""
+    from fotogeo.io.exif import ImageMetadata
+    from fotogeo.io.exif_camera import size_scale
+    meta = ImageMetadata("x.JPG", "x", 4608, 2592, "SONY", "X", None, None, None, None, None, None, 4.3, None, None,
+                         {}, (4608, 2592), None, (("EXIF RelatedImageWidth x RelatedImageLength", record),))
+    if refused:
+        with pytest.raises(InputError, match=r"a copy resized .* 2 times too long"):
+            size_scale(meta)
+    else:
+        s, note = size_scale(meta)
+        assert s == 1.0 and f"says {record[0]}x{record[1]} (not the file's size times one factor" in note

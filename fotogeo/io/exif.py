@@ -194,7 +194,7 @@ def read_image_metadata(path) -> ImageMetadata:
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
                          _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error,
-                         written_sizes(p, tags, text("EXIF_Make")))
+                         written_sizes(p, tags, text("EXIF_Make"), (int(w), int(h))))
 
 
 def _pixel_dimension(tags):

@@ -46,7 +46,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     """``(s, note)``: the factor from the camera's full-resolution pixels to the file's (module docstring)."""
     w, h = meta.width, meta.height
     full = meta.pixel_dimension
-    _check_written_sizes(meta, full)
+    noted = _check_written_sizes(meta, full)
     s = 1.0
     if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
         sx, sy = w / full[0], h / full[1]
@@ -67,16 +67,28 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
                              f"tags edited; give the camera (--camera)")
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
-    return s, note
+    return s, "; ".join(n for n in (note, noted) if n)
 
 
-def _check_written_sizes(meta: ImageMetadata, full) -> None:
+def _check_written_sizes(meta: ImageMetadata, full) -> str:
     """``PixelXDimension`` (without it, the file's size) against the other records of the size the camera wrote
-    (:mod:`.exif_sizes`); a disagreement is named (module docstring)."""
+    (:mod:`.exif_sizes`): a record that is the said size times one factor ``k != 1`` (both axes, either orientation)
+    names a resized copy and is refused; any other disagreement (another aspect: a 16:9 frame cut in camera from a
+    4:3 sensor) cannot tell a factor and is only noted. A Canon maker note alone against a ``PixelXDimension`` equal to
+    the file's size is noted too: an in-camera smaller JPEG (Canon's M/S sizes) may keep the sensor's full size there,
+    and nothing in the file tells it from a copy with the tag rewritten. Returns the notes, "" without any."""
     file = (meta.width, meta.height)
+    notes = []
     for source, size in meta.written_sizes:
         said = full or file
-        if size in (said, said[::-1]):
+        k = _uniform_factor(size, said)
+        if k == 1.0:
+            continue
+        if k is None or (full == file and source.startswith("Canon maker note")):
+            why = ("not the file's size times one factor: another aspect, not used" if k is None else
+                   "a smaller JPEG written by the camera or a copy with PixelXDimension rewritten; if the latter, "
+                   "its focal length in pixels is {k:.3g} times too long: give the camera (--camera)".format(k=k))
+            notes.append(f"its {source} says {size[0]}x{size[1]} ({why})")
             continue
         fix = (f"give the camera (--camera), use the originals, or restore the tag "
                f"(exiftool -PixelXDimension={size[0]} -PixelYDimension={size[1]} FILE)")
@@ -89,9 +101,22 @@ def _check_written_sizes(meta: ImageMetadata, full) -> None:
                              f"but its {source} says {size[0]}x{size[1]}: a copy resized with PixelXDimension "
                              f"rewritten to the new size, while FocalPlaneXResolution and the other calibration tags "
                              f"describe the {size[0]}x{size[1]} frame (its focal length in pixels would come out "
-                             f"{size[0] / full[0]:.3g} times too long); {fix}")
+                             f"{k:.3g} times too long); {fix}")
         raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension says {full[0]}x{full[1]} but its {source} says "
                          f"{size[0]}x{size[1]}: the image was resized and its tags edited; give the camera (--camera)")
+    return "; ".join(notes)
+
+
+def _uniform_factor(size, said) -> float | None:
+    """``k`` with ``size ≈ k · said`` on both axes (``said`` swapped allowed: a portrait frame), 1.0 when equal,
+    None when no single factor other than ~1 fits (:data:`SIZE_TOLERANCE`: a few pixels off is no resize)."""
+    if tuple(size) in (tuple(said), tuple(said)[::-1]):
+        return 1.0
+    for w, h in (said, said[::-1]):
+        sx, sy = size[0] / w, size[1] / h
+        if abs(sx / sy - 1.0) <= SIZE_TOLERANCE and abs(math.sqrt(sx * sy) - 1.0) > SIZE_TOLERANCE:
+            return math.sqrt(sx * sy)
+    return None
 
 
 def resized_without_xmp(meta: ImageMetadata) -> str | None:

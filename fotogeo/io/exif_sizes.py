@@ -10,30 +10,39 @@ EXIF ``PixelXDimension``/``PixelYDimension`` is the size the calibration tags (`
 * Canon's maker note ``AFInfo2`` (tag 0x0026) or ``AFInfo`` (0x0012): ``CanonImageWidth``/``CanonImageHeight``
   (the layout documented by ExifTool's Canon tag tables, Harvey 2024). Maker-note values are addressed from the
   TIFF header; a tool that moved the note without fixing them shifts them by one constant, which is undone by
-  taking the first out-of-line value to start right after the note's directory (as ExifTool's ``FixBase`` does),
-  and a block is used only when its own size word matches its length.
+  taking the first out-of-line value to start right after the note's directory (as ExifTool's ``FixBase`` does;
+  the shifted place is read first, the recorded one second). ``AFInfo`` has no size word, so whatever lies at a
+  wrong place would read as a size: a block is used only when it is plausible — its size word (``AFInfo2``)
+  matches its length, ``NumAFPoints >= ValidAFPoints``, ``0 < AFImageWidth <= CanonImageWidth``, and
+  ``CanonImageWidth/CanonImageHeight`` is within 1 % of the aspect of the file or of its ``PixelXDimension`` (either
+  orientation). Otherwise the note gives nothing: an implausible record is ignored, never a reason to refuse.
 """
 from __future__ import annotations
 
 import struct
 from pathlib import Path
 
-#: (maker-note tag, index of the size word, index of CanonImageWidth) for Canon's AF information blocks
-_CANON_AF = ((0x0026, 0, 4), (0x0012, None, 2))
+#: (maker-note tag, index of the size word, index of NumAFPoints) for Canon's AF information blocks; NumAFPoints is
+#: followed by ValidAFPoints, CanonImageWidth, CanonImageHeight, AFImageWidth, AFImageHeight (Harvey 2024)
+_CANON_AF = ((0x0026, 0, 2), (0x0012, None, 0))
+#: relative difference tolerated between a maker-note size's aspect and the file's
+ASPECT_TOLERANCE = 0.01
 _SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 7: 1, 8: 2, 9: 4, 10: 8}
 
 
-def written_sizes(path, tags: dict, make: str | None) -> tuple:
+def written_sizes(path, tags: dict, make: str | None, size: tuple = ()) -> tuple:
     """``((source, (width, height)), …)``: the full-frame sizes recorded besides ``PixelXDimension`` (module
-    docstring); ``tags`` are GDAL's ``EXIF_*`` items of the file."""
+    docstring); ``tags`` are GDAL's ``EXIF_*`` items of the file, ``size`` its ``(width, height)`` in pixels."""
     out = []
     w, h = _int(tags.get("EXIF_Related_Image_Width")), _int(tags.get("EXIF_Related_Image_Length"))
     if w and h:
         out.append(("EXIF RelatedImageWidth x RelatedImageLength", (w, h)))
     if (make or "").strip().lower().startswith("canon"):
-        size = _canon_size(path)
-        if size:
-            out.append(("Canon maker note CanonImageWidth x CanonImageHeight", size))
+        shapes = (tuple(size) or (None, None), (_int(tags.get("EXIF_PixelXDimension")),
+                                                   _int(tags.get("EXIF_PixelYDimension"))))
+        canon = _canon_size(path, tuple(a / b for a, b in shapes if a and b))
+        if canon:
+            out.append(("Canon maker note CanonImageWidth x CanonImageHeight", canon))
     return tuple(out)
 
 
@@ -45,8 +54,9 @@ def _int(text) -> int | None:
     return v if v > 0 else None
 
 
-def _canon_size(path) -> tuple | None:
-    """CanonImageWidth x CanonImageHeight from a JPEG's Canon maker note, None when absent or unreadable."""
+def _canon_size(path, aspects: tuple = ()) -> tuple | None:
+    """CanonImageWidth x CanonImageHeight from a JPEG's Canon maker note, None when absent, unreadable or implausible
+    (module docstring); ``aspects``: the width/height ratios it may have (none: not checked)."""
     tiff = _exif_tiff(path)
     if tiff is None or tiff[:2] not in (b"II", b"MM"):
         return None
@@ -63,13 +73,23 @@ def _canon_size(path) -> tuple | None:
     outside = [e[2] for e in entries.values() if _SIZES.get(e[0], 1) * e[1] > 4]
     shift = (start + 2 + 12 * len(entries) + 4 - min(outside)) if outside else 0
     for tag, size_word, at in _CANON_AF:
-        if tag in entries and entries[tag][0] == 3 and entries[tag][1] > at + 1:
+        if tag in entries and entries[tag][0] == 3 and entries[tag][1] >= at + 6:
             typ, count, off = entries[tag]
-            for base in dict.fromkeys((0, shift)):
+            for base in dict.fromkeys((shift, 0)):
                 vals = struct.unpack(bo + f"{count}H", tiff[off + base:off + base + 2 * count].ljust(2 * count, b"\0"))
-                if (size_word is None or vals[size_word] == 2 * count) and vals[at] > 0 and vals[at + 1] > 0:
-                    return int(vals[at]), int(vals[at + 1])
+                if (size_word is None or vals[size_word] == 2 * count) and _plausible(vals[at:at + 6], aspects):
+                    return int(vals[at + 2]), int(vals[at + 3])
     return None
+
+
+def _plausible(af, aspects: tuple) -> bool:
+    """NumAFPoints, ValidAFPoints, CanonImageWidth/Height, AFImageWidth/Height that can be a camera's (module
+    docstring)."""
+    n, valid, w, h, af_w, af_h = af
+    if not (n >= valid and w > 0 and h > 0 and 0 < af_w <= w and af_h > 0):
+        return False
+    return not aspects or any(abs(w / h / a - 1) <= ASPECT_TOLERANCE or abs(h / w / a - 1) <= ASPECT_TOLERANCE
+                              for a in aspects)
 
 
 def _entries(tiff: bytes, bo: str, at: int) -> dict:
