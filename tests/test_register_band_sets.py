@@ -2,7 +2,9 @@
 (fotogeo.image.band_match, fotogeo.tools.register.bands), measured on known warps of real images with other
 band counts (tests/known_warps.py BAND_SETS)."""
 import warnings
+from types import SimpleNamespace
 
+import cv2
 import numpy as np
 import pytest
 import rasterio
@@ -10,6 +12,7 @@ import rasterio
 from fotogeo.errors import MatchingError
 from fotogeo.image.band_match import combined_fusion, fit_combination
 from fotogeo.image.fusion import pca_fuse
+from fotogeo.tools.register import bands as bands_mod
 from fotogeo.tools.register.tool import register
 from known_warps import known_warp_bands
 
@@ -22,6 +25,9 @@ class _Shift:
 
     def forward(self, xy):
         return np.asarray(xy, float) + self.d
+
+    def inverse(self, xy):
+        return np.asarray(xy, float) - self.d
 
 
 def test_the_combination_of_bands_that_predicts_the_other_image_is_found(rng):
@@ -72,7 +78,7 @@ def test_a_nir_only_target_is_matched_again_on_the_reference_bands_combined(data
         warnings.simplefilter("ignore")
         r = register(ref, tgt, tmp_path / "out.tif", seed=0)
     again = r.report["bands_rematched"]
-    assert again["combined"] == "reference" and again["inliers_after"] > 10 * again["inliers_before"]
+    assert again["kept"] and again["combined"] == "reference" and again["inliers_after"] > 10 * again["inliers_before"]
     assert again["correlation_combined"] > 0.9 > again["correlation_pca"]
     assert np.sqrt(np.mean(np.hypot(*(r.model.forward(grid) - truth).T) ** 2)) / px <= 0.05
 
@@ -91,3 +97,63 @@ def test_a_weak_feature_fit_the_windows_cannot_confirm_is_refused(data_dir, tmp_
     assert message.endswith("--no-area-fallback") and "--window" not in message
     assert "reference band 1, target band 1: try other bands first in --reference-bands/--target-bands" in message
     assert not (tmp_path / "out.tif").exists()
+
+
+def _unrelated_scene(seed, shape=(400, 400)):
+    """Three smooth random bands of one scene (the reviewer's /tmp/s21-review/r4_bands_gate.py)."""
+    r = np.random.default_rng(seed)
+    base = cv2.GaussianBlur(r.random(shape).astype(np.float32), (0, 0), 4)
+    return np.stack([np.clip(128 + 600 * (base - base.mean()) * r.uniform(0.5, 1.5) + r.normal(0, 5, shape), 0, 255)
+                     for _ in range(3)]).astype(np.float32)
+
+
+class _Rigid:
+    """A rotation + shift as the (wrong) rough homography, reference -> target pixels."""
+
+    def __init__(self, a, dx, dy):
+        self.M = np.array([[np.cos(a), -np.sin(a), dx], [np.sin(a), np.cos(a), dy]])
+
+    def forward(self, xy):
+        return np.asarray(xy, float) @ self.M[:, :2].T + self.M[:, 2]
+
+    def inverse(self, xy):
+        return (np.asarray(xy, float) - self.M[:, 2]) @ np.linalg.inv(self.M[:, :2]).T
+
+
+def test_unrelated_scenes_under_a_wrong_rough_homography_are_not_combined_for_a_rematch(monkeypatch):
+    """An RGB reference and a one-band target of unrelated scenes, 20 random wrong rough homographies: the
+    combination "correlated better" than PCA 17 times of 20 at correlations <= 0.09 and was re-matched on; it must
+    clear REMATCH_MIN_CORRELATION, so none is (each refusal named in the report)."""
+    ref, tgt = _unrelated_scene(1), _unrelated_scene(2)[:1]
+    fu_ref, fu_tgt = pca_fuse(ref), pca_fuse(tgt)
+    monkeypatch.setattr(bands_mod, "_bands", lambda info, role, opts: info)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        H = _Rigid(rng.uniform(-0.3, 0.3), *rng.uniform(-50, 50, 2))
+        side, new, report = bands_mod.combined_for_matching((ref, tgt), None, fu_ref, fu_tgt, H)
+        assert new is None and "correlate" in report["refused"], report
+        assert report["correlation_combined"] < bands_mod.REMATCH_MIN_CORRELATION
+
+
+@pytest.mark.parametrize("n1, off_px, refused", [(7, 0.5, "7 inliers after the re-match, 20 needed"),
+                                                    (30, 0.5, None), (30, 40.0, "differs from the first match's")])
+def test_a_rematch_is_kept_only_with_enough_inliers_and_the_rough_alignment(monkeypatch, n1, off_px, refused):
+    """The first match keeps 6 inliers; a re-match of 7 was kept (one more than 6); now it needs max(2·6, 20)
+    inliers and a homography within REMATCH_AGREE_PX of the rough one at the first match's inliers."""
+    fused = tuple(pca_fuse(_unrelated_scene(s)) for s in (1, 2))
+    rough, other = _Shift((3, 4)), _Shift((3 + off_px, 4))
+    results = iter([(rough, 6, np.array([[10.0, 20.0], [300.0, 50.0]])), (other, n1, None)])
+    monkeypatch.setattr(bands_mod, "_inliers", lambda *a: next(results))
+    monkeypatch.setattr(bands_mod, "combined_for_matching",
+                        lambda infos, opts, fu_ref, fu_tgt, H: ("reference", fu_ref, {"combined": "reference"}))
+    monkeypatch.setattr(bands_mod, "detect", lambda *a, **k: "new keypoints")
+    monkeypatch.setattr(bands_mod, "match_keypoints", lambda *a: np.zeros((40, 2)))
+    opts = SimpleNamespace(contrast="linear", detector="surf", max_keypoints=None, hessian_threshold=None)
+    out = bands_mod.rematch(None, opts, fused, ("kp_ref", "kp_tgt"), "first matches")
+    report = out[-1]
+    assert report["inliers_before"] == 6 and report["inliers_after"] == n1
+    if refused:
+        assert out[:-1] == (*fused, "kp_ref", "kp_tgt", "first matches")
+        assert report["kept"] is False and refused in report["refused"]
+    else:
+        assert out[2] == "new keypoints" and report["kept"] is True and report["disagreement_px"] == 0.5

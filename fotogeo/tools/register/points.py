@@ -134,6 +134,7 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         return TiePoints(src, ref_xy, counts)
     cand = sel.inliers
     again = counts.get("bands_rematched")
+    again = again if again and again.get("kept") else None
     fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model,
                                             _lsm_trial(r_m[cand], t_m[cand], sel.ransac.model, opts.seed),
                                             f"the {again['combined']}'s bands combined as matched" if again else
