@@ -466,7 +466,7 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
                      "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
                      "median_m": c["median"],
                      "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"],
-                     "by_pairs": _by_pairs(out, c["abs"])})
+                     "over_3gsd": float((c["abs"] > 3 * sc["gsd"]).mean()), "by_pairs": _by_pairs(out, c["abs"])})
         if pair_rows:
             rows += _pairs_alone(tmp, sc, name + tag, r, out, py)
         if name == next(iter(SETS)):  # the whole flight vs its first two strips
