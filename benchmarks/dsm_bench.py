@@ -89,17 +89,50 @@ def _stats(d) -> dict:
     return {"median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "rmse": float(np.sqrt(np.mean(d ** 2)))}
 
 
-def rendered(tmp: Path, refine: bool = False) -> list:
+#: a child ``fotogeo`` run with the automatic view-angle limit at ``{0}`` degrees (``--view-angle-limit``)
+LIMIT_RUN = ("import runpy, sys; sys.path.insert(0, {1!r}); import dsm_bench; dsm_bench.set_view_limit({0}); "
+             "runpy.run_module('fotogeo', run_name='__main__')")
+
+
+def set_view_limit(deg) -> str:
+    """Set the default ``fotogeo.stereo.pairs.Limits.max_view_angle`` of this process to ``deg`` degrees (``None``:
+    leave it) for ``--view-angle-limit``, a measure of the automatic pair choice with another limit (given pairs
+    are matched whatever their views); returns the rows' name suffix."""
+    import dataclasses
+
+    from fotogeo.stereo.pairs import Limits
+    if deg is None:
+        return ""
+    names = [f.name for f in dataclasses.fields(Limits)]
+    d = list(Limits.__init__.__defaults__)
+    d[names.index("max_view_angle")] = float(deg)
+    Limits.__init__.__defaults__ = tuple(d)
+    return _limit_tag(deg)
+
+
+def _limit_tag(deg) -> str:
+    return "" if deg is None else f" (view-angle limit {float(deg):g})"
+
+
+def _python(limit=None) -> list:
+    """The child command's ``python`` (with ``--view-angle-limit``: through :data:`LIMIT_RUN`)."""
+    if limit is None:
+        return [sys.executable, "-m", "fotogeo"]
+    return [sys.executable, "-c", LIMIT_RUN.format(float(limit), str(ROOT / "benchmarks"))]
+
+
+def rendered(tmp: Path, refine: bool = False, limit=None) -> list:
     from dsm_scenes import compare, make_scene
 
     from fotogeo.tools.dsm import dsm
-    rows = []
+    tag, rows = set_view_limit(limit), []
     for kind in ("nadir", "held_out") if refine else ("nadir", "oblique", "held_out"):
         sc = make_scene(kind, tmp / kind)
         rep, cpu, wall, _ = _timed(dsm, sc["images"], tmp / f"{kind}.tif", camera=sc["camera"], eo=sc["eo"],
                                    crs=sc["crs"], refine=refine)
         c, g = compare(tmp / f"{kind}.tif", sc["surface"]), sc["gsd"]
-        rows.append({"case": f"refined {kind} (--refine)" if refine else f"rendered {kind}", "gsd_m": g, "resolution_m": rep["grid"]["resolution"],
+        rows.append({"case": (f"refined {kind} (--refine)" if refine else f"rendered {kind}") + tag, "gsd_m": g,
+                     "resolution_m": rep["grid"]["resolution"],
                      "pairs": rep["pairs_kept"], "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / g, "nmad_m": c["nmad"],
                      "median_m": c["median"], "within_1gsd": float((c["abs"] <= g).mean()),
                      "within_2gsd": float((c["abs"] <= 2 * g).mean()), "completeness": rep["completeness"],
@@ -384,7 +417,7 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
 
 
 def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sweep: bool = False,
-                 extra=()) -> list:
+                 extra=(), limit=None) -> list:
     """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
     IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
     -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
@@ -394,7 +427,8 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     JSON; ``pair_rows``: each kept pair also alone
     (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
     miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``; ``extra``:
-    more ``fotogeo dsm`` options for every set (``--oblique-dsm-options``, e.g. ``--refine``; the row names them).
+    more ``fotogeo dsm`` options for every set (``--oblique-dsm-options``, e.g. ``--refine``; the row names them);
+    ``limit``: the automatic view-angle limit (``--view-angle-limit``, :func:`set_view_limit`; the row names it).
     Each row also says where its squared error lies (:func:`_by_pairs`)."""
     import re
 
@@ -403,14 +437,14 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
     if sweep:
         from dsm_view_sweep import view_angle_sweep
         return view_angle_sweep(tmp, _time_v)
-    rows, py = [], [sys.executable, "-m", "fotogeo", "dsm"]
+    rows, py, tag = [], [*_python(limit), "dsm"], _limit_tag(limit)
     sets = [(n, n) for n in (names if names is not None else [] if params else list(SETS))]
     sets += [(json.dumps(p), {**p, "strips": [tuple(x) for x in p["strips"]]}) for p in params or []]
     for name, spec in sets:
         given = spec.pop("all_pairs", False) if isinstance(spec, dict) else False
         sc = make_set(spec, tmp / f"set{len(rows)}")
         out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
-        row = {"case": f"oblique_sets {name}" + "".join(f" {o}" for o in extra), "frames": len(sc["images"]),
+        row = {"case": f"oblique_sets {name}" + "".join(f" {o}" for o in extra) + tag, "frames": len(sc["images"]),
                "gsd_m": sc["gsd"]}
         if given:  # every pair of frames given (--pairs): none left out for its views
             given = tmp / f"pairs{len(rows)}.txt"
@@ -432,11 +466,11 @@ def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sw
                      "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
                      "median_m": c["median"],
                      "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"],
-                     "by_pairs": _by_pairs(out, c["abs"])})
+                     "over_3gsd": float((c["abs"] > 3 * sc["gsd"]).mean()), "by_pairs": _by_pairs(out, c["abs"])})
         if pair_rows:
-            rows += _pairs_alone(tmp, sc, name, r, out, py)
+            rows += _pairs_alone(tmp, sc, name + tag, r, out, py)
         if name == next(iter(SETS)):  # the whole flight vs its first two strips
-            rows.append(_subset_vs_whole(tmp, sc, out, py))
+            rows.append(_subset_vs_whole(tmp, sc, out, py, tag))
     return rows
 
 
@@ -475,10 +509,10 @@ def _pairs_alone(tmp: Path, sc: dict, name: str, report: dict, whole: Path, py: 
     return rows
 
 
-def _subset_vs_whole(tmp: Path, sc: dict, whole: Path, py: list) -> dict:
+def _subset_vs_whole(tmp: Path, sc: dict, whole: Path, py: list, tag: str = "") -> dict:
     sub = [p for p in sc["images"] if p.stem.startswith(("S1_", "S2_"))]
     out = tmp / "subset.tif"
-    row = {"case": "oblique_sets first two strips vs the whole flight", "frames": len(sub)}
+    row = {"case": "oblique_sets first two strips vs the whole flight" + tag, "frames": len(sub)}
     row.update(_time_v([*py, *map(str, sub), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]), "--crs", sc["crs"],
                         "-o", str(out), "-q", *_grid_of(whole)], cwd=tmp))
     import rasterio
@@ -534,6 +568,8 @@ def main():
                     help="oblique_sets: only pairs with views 20-70 degrees apart (benchmarks/dsm_view_sweep.py)")
     ap.add_argument("--oblique-dsm-options", default="", help="oblique_sets: more fotogeo dsm options for every set, "
                     "e.g. --oblique-dsm-options=--refine (the rows' names carry them)")
+    ap.add_argument("--view-angle-limit", type=float, help="rendered, oblique_sets: the automatic pair choice's "
+                    "view-angle limit (degrees) instead of fotogeo.stereo.pairs.Limits' (the rows' names carry it)")
     args = ap.parse_args()
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -545,7 +581,8 @@ def main():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
-            rows += {"rendered": lambda: rendered(tmp / case), "refine": lambda: rendered(tmp / case, True),
+            rows += {"rendered": lambda: rendered(tmp / case, limit=args.view_angle_limit),
+                     "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars, args.cars_dir),
                      "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars),
@@ -555,7 +592,8 @@ def main():
                      "oblique_sets": lambda: oblique_sets(tmp / case, _names(args.oblique_sets),
                                                           _params(args.oblique_params), args.pair_rows,
                                                            args.view_angle_sweep,
-                                                           args.oblique_dsm_options.split())}[case]()
+                                                           args.oblique_dsm_options.split(),
+                                                           args.view_angle_limit)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}

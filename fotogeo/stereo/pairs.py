@@ -21,8 +21,10 @@ whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the e
 over that cap is kept all the same when part of its overlap is covered by no kept pair (ground only those two
 images see would otherwise get no height). Matched alone, a pair's heights stayed within 1 GSD from views 22° to
 75° apart and its completeness fell by up to a fifth (``benchmarks/dsm_bench.py --cases oblique_sets
---view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: multi-pair runs with such pairs gave
-gross errors no pair gives alone (not traced; docs/howto/dsm.md).
+--view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: at 70° (``--view-angle-limit 70``,
+after the partner fill of :func:`fotogeo.stereo.dense.disparity`) the oblique sets' RMSE improved, but the rendered
+oblique block's got worse (other pairs win the cap through the ranking's limit term), completeness fell by up to 4
+points and CPU rose up to 6× (docs/howto/dsm.md, "The view-angle limit at 70°").
 Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
 the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
 out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").
