@@ -303,10 +303,12 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
 
 
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
-                 colours: bool = False, refine: bool = False, near=None, penalty: float | None = None):
+                 colours: bool = False, refine: bool = False, near=None, penalty: float | None = None,
+                 local: bool = True):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
     left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the pair's disparity range, ``near`` its
-    sparse matches (:func:`guides`; None: every strip searches ``[lo, hi]``), ``zlim`` the heights kept;
+    sparse matches (:func:`guides`: each pixel's expected disparity, and when ``local`` each strip's range; None
+    or not ``local``: every strip searches ``[lo, hi]``, as with a DEM), ``zlim`` the heights kept;
     ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
     disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
     matching (:func:`fotogeo.stereo.refine.refine`); ``penalty`` the pair's penalty factor (:func:`pair_penalty`;
@@ -319,7 +321,7 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
-        rng = local_range(rp, near, core_box, lo, hi)
+        rng = local_range(rp, near if local else None, core_box, lo, hi)
         out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2]), stats, core_box,
                      colours, refine, penalty, near)
         if out is not None:

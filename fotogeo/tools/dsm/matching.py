@@ -48,8 +48,9 @@ BOX_PAD = 2
 class PairMatch:
     """One kept pair ready to match: its :class:`~fotogeo.tools.dsm.plan` choice ``pair``, rectified pair ``rp``,
     disparity range, height range, views and :class:`~fotogeo.tools.dsm.inputs.SourceImage` s, whether to refine
-    its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that bound each strip's
-    disparities (:func:`.local.guides`, :func:`.local.local_range`; None: the pair's range everywhere), its SGBM
+    its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that give each pixel's
+    expected disparity (:func:`.local.expected_disparity`) and, when ``local``, bound each strip's disparities
+    (:func:`.local.guides`, :func:`.local.local_range`; None or not ``local``: the pair's range everywhere), its SGBM
     penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), and what its tiles gave (pixel counts,
     points, seconds)."""
     pair: object
@@ -61,6 +62,7 @@ class PairMatch:
     refine: bool = False
     near: object = None
     penalty: float | None = None
+    local: bool = True
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -87,7 +89,8 @@ class PairMatch:
         """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
-                                       colours=colours, refine=self.refine, near=self.near, penalty=self.penalty)
+                                       colours=colours, refine=self.refine, near=self.near, penalty=self.penalty,
+                                       local=self.local)
 
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""

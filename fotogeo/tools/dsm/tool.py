@@ -166,8 +166,9 @@ def _choose(ims, views, names, zmid, pairs) -> list:
 
 def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     """``(rectified pair, disparity range, height range, None, sparse matches)`` of one kept pair (the matches
-    that bound each strip's range, :func:`.local.local_range`, None with a DEM), or ``(…, reason, None)`` to
-    leave it out; ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
+    :func:`.local.guides` that give each pixel's expected disparity, :func:`.local.expected_disparity`, and without
+    a DEM bound each strip's range, :func:`.local.local_range`), or ``(…, reason, None)`` to leave it out;
+    ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
     rp = rectify(views[p.i], views[p.j], scale)
     sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
                              ids=(p.i, p.j))
@@ -180,12 +181,12 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
     why = frames.sparse_problem(sp, MAX_EPIPOLAR_PX)
     if why:
         return rp, None, None, why, None
-    if use_dem:
-        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, None
+    ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
+    if use_dem:  # the DEM's range in every strip; the matches still tell the disparity a pixel is expected at
+        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, local.guides(sp, ceiling)
     if sp["n"] < 20:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search"), None
-    ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
     zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
@@ -225,7 +226,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         else:
             pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
             setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near,
-                                                    frames.pair_penalty(rp, pv, ps))
+                                                    frames.pair_penalty(rp, pv, ps), local=dem is None)
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
