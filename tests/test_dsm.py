@@ -164,6 +164,28 @@ def test_ngi_frames_against_the_24m_dem(data_dir, tmp_path):
     assert rep["completeness"] > 0.8 and rep["points_written"] > 100_000
 
 
+@pytest.mark.data
+def test_ngi_frames_on_the_dem_take_its_crs(data_dir, tmp_path):
+    """The DSM's CRS from ``--dem`` (no ``--crs``): the DEM's CRS (read without pyproj, as ``ortho`` reads it) is
+    the DSM's and the report names it — the run ended in a traceback when only ``ortho`` took a rasterio CRS."""
+    import rasterio
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    from fotogeo.geometry.vertical import as_pyproj, horizontal_crs
+    ngi = data_dir / "ngi"
+    frames = [str(ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif") for n in ("0182", "0184")]
+    out = tmp_path / "dsm.tif"
+    result = CliRunner().invoke(main, ["dsm", *frames, "--camera", str(ngi / "interior_orientation.yaml"), "--eo",
+                                       str(ngi / "exterior_orientation.txt"), "--dem", str(ngi / "dem.tif"), "-o",
+                                       str(out), "--report", str(tmp_path / "r.json"), "-q"])
+    assert result.exit_code == 0, result.output
+    rep = json.loads((tmp_path / "r.json").read_text())
+    with rasterio.open(out) as a, rasterio.open(ngi / "dem.tif") as b:
+        assert as_pyproj(a.crs).equals(as_pyproj(horizontal_crs(b.crs)))  # the DEM's horizontal part
+        assert rep["crs"] and rep["completeness"] > 0.8
+
+
 # -- bad input -----------------------------------------------------------------------------------------------------
 
 def test_bad_input_is_one_line_naming_the_images(tmp_path):

@@ -224,6 +224,7 @@ def rpc_images(images, crs, dem) -> tuple:
     ``ortho``'s rule (:func:`~fotogeo.tools.ortho.inputs.map_crs`; else the UTM zone of the first image's RPC)."""
     from ...crs import utm_crs_for
     from ...geometry.lonlat_model import LonLatModel
+    from ...geometry.vertical import as_pyproj
     from ...io.block import frame_key
     from ...io.raster import open_raster
     from ...io.rpc_image import image_rpc
@@ -236,6 +237,7 @@ def rpc_images(images, crs, dem) -> tuple:
     if given or dem is not None:
         try:
             map_c, rule = map_crs(crs, dem, None, [], False)
+            map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's; the DSM's steps ask pyproj's
         except InputError:
             if given:
                 raise  # a DEM in geographic coordinates: the UTM zone stays

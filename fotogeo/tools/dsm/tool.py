@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import FotogeoWarning, InputError
+from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
@@ -72,6 +73,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                        crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
                        report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
+    map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the DSM's steps ask pyproj's
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
                    bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,

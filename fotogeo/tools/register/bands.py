@@ -38,7 +38,7 @@ from ...image.band_match import combined_fusion, fit_combination
 from ...image.contrast import apply_contrast
 from ...io.raster import read_decimated
 from ...models import Projective, ransac
-from .match import match_keypoints, select_bands
+from .selection import match_keypoints, select_bands
 
 #: the combined bands must converge on at least this share of the trial points PCA fusion converges on
 TRIAL_SHARE = 0.9

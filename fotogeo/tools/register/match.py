@@ -8,7 +8,7 @@ and detected once. :func:`lsm_tie_points` refines matched positions by least-squ
 :mod:`fotogeo.tools.register.points`).
 
 Bands: ``reference_bands`` / ``target_bands`` (1-based, as ``gdal_translate -b``) choose the
-bands fused for matching (:func:`select_bands`); of those, empty or constant bands are left out
+bands fused for matching (:func:`.selection.select_bands`); of those, empty or constant bands are left out
 of the PCA with a warning (:func:`fotogeo.image.fusion.pca_fuse`).
 """
 from __future__ import annotations
@@ -18,19 +18,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import FotogeoError, FotogeoWarning, InputError, MatchingError
+from ...errors import FotogeoError, FotogeoWarning, MatchingError
 from ...features.detect import detect
-from ...features.match import match_descriptors
 from ...image.contrast import apply_contrast
 from ...image.fusion import pca_fuse
 from ...io.output_checks import check_output
 from ...io.raster import AtomicOutputs, open_raster, read_decimated
 from ...io.vector import write_layers
 from ...models import Projective, ransac
-from ...options import REGISTER, RegisterOptions
+from ...options import RegisterOptions
 from ...pixels import pixel_to_map
 from ...progress import as_progress
 from ..common.boundary import tool
+from .bands import rematch
+from .selection import band_numbers, match_keypoints, select_bands  # noqa: F401 (register's other modules)
 
 
 #: fewer homography inliers than this are what chance gives among unrelated matches (the disjoint Landsat / NGI
@@ -38,57 +39,6 @@ from ..common.boundary import tool
 #: :data:`fotogeo.tools.triangulate.pairs.MIN_PAIR_INLIERS`): the registration checks such a fit by windows
 #: (``local.WEAK_INLIERS``), ``match`` flags no inlier and says so
 WEAK_INLIERS = 12
-
-
-def band_numbers(value, option: str) -> tuple[int, ...] | None:
-    """The band numbers of a ``*_bands`` option: ``"1,2,3"`` (or ``"1 2 3"``, an int, a sequence of
-    ints) → ``(1, 2, 3)``; None or empty → None (every band). Syntax only (the range needs the file).
-
-    >>> band_numbers("3, 2,1", "reference_bands"), band_numbers(None, "target_bands"), band_numbers(4, "x")
-    ((3, 2, 1), None, (4,))
-    >>> band_numbers("1,a", "reference_bands")
-    Traceback (most recent call last):
-    fotogeo.errors.InputError: --reference-bands '1,a': give band numbers from 1, separated by commas (e.g. 1,2,3)
-    """
-    if value is None:
-        return None
-    flag = REGISTER[option].cli_flag if option in REGISTER else option
-    if isinstance(value, str):
-        items = value.replace(",", " ").split()
-        numbers = tuple(int(t) for t in items) if all(t.isdigit() for t in items) else None
-    else:
-        items = list(value) if isinstance(value, (tuple, list, np.ndarray)) else [value]
-        whole = all(isinstance(t, (int, np.integer)) and not isinstance(t, bool) for t in items)
-        numbers = tuple(int(t) for t in items) if whole else None
-    if numbers is None or any(n < 1 for n in numbers):
-        raise InputError(f"{flag} {value!r}: give band numbers from 1, separated by commas (e.g. 1,2,3)",
-                         option=option)
-    if len(set(numbers)) != len(numbers):
-        twice = sorted({n for n in numbers if numbers.count(n) > 1})
-        raise InputError(f"{flag} {value!r}: band {', '.join(map(str, twice))} given twice; give each band once",
-                         option=option)
-    return numbers or None
-
-
-def select_bands(value, count: int, role: str) -> tuple[int, ...]:
-    """The band numbers of ``role`` (``reference`` / ``target``) to fuse: ``value`` of its
-    ``<role>_bands`` option checked against the ``count`` bands of the file (all when None).
-
-    >>> select_bands("5", 3, "reference")
-    Traceback (most recent call last):
-    fotogeo.errors.InputError: --reference-bands 5: the reference has 3 bands (1-3); give band numbers in that range
-    """
-    option = f"{role}_bands"
-    numbers = band_numbers(value, option)
-    if numbers is None:
-        return tuple(range(1, count + 1))
-    outside = [n for n in numbers if n > count]
-    if outside:
-        flag = REGISTER[option].cli_flag if option in REGISTER else option
-        given = value if isinstance(value, str) else ",".join(map(str, numbers))
-        raise InputError(f"{flag} {given}: the {role} has {count} band{'s' if count > 1 else ''} "
-                         f"({'1' if count == 1 else f'1-{count}'}); give band numbers in that range", option=option)
-    return numbers
 
 
 def _per_band_mask(bands, info, mask):
@@ -210,7 +160,6 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
         m = match_keypoints(kp_tgt, kp_ref, opts)
     again = None
     if fu_ref is not None and len(m) >= 6:  # bands that do not correspond: matched again on combined bands
-        from .bands import rematch  # .bands builds on this module
         with prog.timed("rematch_bands"):
             fu_ref, fu_tgt, kp_ref, kp_tgt, m, again = rematch((ref, tgt), opts, (fu_ref, fu_tgt), (kp_ref, kp_tgt), m)
     min_pts = 6
@@ -230,12 +179,6 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
     if images:
         return t_xy * f_tgt, r_xy * f_ref, counts, (fu_ref, fu_tgt, f_ref, f_tgt)
     return t_xy * f_tgt, r_xy * f_ref, counts
-
-
-def match_keypoints(kp_tgt, kp_ref, opts):
-    """:func:`~fotogeo.features.match.match_descriptors` of two keypoint sets with the options' ratio test."""
-    return match_descriptors(kp_tgt.descriptors, kp_ref.descriptors, ratio=opts.ratio, mutual=opts.mutual,
-                             laplacian1=kp_tgt.laplacian, laplacian2=kp_ref.laplacian)
 
 
 #: status of a tie point LSM was not tried on: too far from the approximate homography (a likely mismatch)
