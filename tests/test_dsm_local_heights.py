@@ -6,31 +6,11 @@ and passed the left–right check: a band of heights about 22 m too low."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
-from fotogeo.tools.dsm import dsm, frames, matching
+from fotogeo.tools.dsm import frames
 
 from dsm_oblique_sets import SETS, make_set
-
-
-class _Stop(Exception):
-    pass
-
-
-def _pair_match(sc, monkeypatch):
-    """The :class:`~fotogeo.tools.dsm.matching.PairMatch` and grid ``fotogeo dsm`` sets up for the set ``sc``
-    (stopped before matching)."""
-    got = {}
-
-    def capture(grid, matches, *a, **k):
-        got.update(grid=grid, matches=matches)
-        raise _Stop
-
-    monkeypatch.setattr(matching, "match_tiles", capture)
-    with pytest.raises(_Stop):
-        dsm(sc["images"], sc["images"][0].parent / "dsm.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"])
-    (m,) = got["matches"]
-    return m, got["grid"]
+from test_dsm_partnerless import _pair_match
 
 
 def test_partnerless_rows_of_an_oblique_cross_pair_stay_holes(tmp_path, monkeypatch):
