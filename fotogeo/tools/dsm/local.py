@@ -103,8 +103,8 @@ def expected_disparity(rp: RectifiedPair, near, rows: tuple, cols: tuple) -> np.
     (r0, r1), (c0, c1) = rows, cols
     u, v = np.meshgrid(np.arange(c0, c1 + GUIDE_STEP, GUIDE_STEP, dtype=float),
                        np.arange(r0, r1 + GUIDE_STEP, GUIDE_STEP, dtype=float))
-    dist = np.hypot(u.reshape(-1, 1) - near[None, :, 0], v.reshape(-1, 1) - near[None, :, 1])
-    nearest = np.argpartition(dist, LOCAL_MIN - 1, axis=1)[:, :LOCAL_MIN]
+    from scipy.spatial import cKDTree  # nodes x matches distances would take ~100 MB on a wide strip
+    _, nearest = cKDTree(near[:, :2]).query(np.column_stack([u.ravel(), v.ravel()]), k=LOCAL_MIN)
     z = np.median(near[nearest, 2], axis=1)
     d = rp.rays(u, v, 0)
     with np.errstate(divide="ignore", invalid="ignore"):
