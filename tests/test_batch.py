@@ -254,3 +254,27 @@ def test_manifest_names_the_2d_model():
     row = scene_row("s", "t.tif", {"model": {"model": "projective", "params": [1.0] * 9}}, "o.tif")
     assert row["model"] == "projective"
     assert scene_row("s", "t.tif", {"terrain": {"chosen": "dlt"}, "model": {"model": "dlt"}}, "o.tif")["model"] == "dlt"
+
+
+def test_a_nir_only_scene_of_a_batch_is_matched_again_on_the_reference_bands(data_dir, thread_client, tmp_path):
+    """Issue 32's band sets in a batch: an RGB reference and a NIR-only target (s2, r45_s1.2_p, the case of
+    tests/test_register_band_sets.py) registered by register_batch go through the same band re-match as
+    ``register`` (fotogeo.tools.register.bands.rematch, called by find_tie_points for every scene): the scene's
+    report names it and the fit is sub-pixel. Without the re-match the PCA fusions keep 11 SURF inliers and the
+    scene fails."""
+    import json
+
+    import numpy as np
+    import rasterio
+    from fotogeo.models import model_from_dict
+    from known_warps import known_warp_bands
+    ref, tgt, grid, truth = known_warp_bands(data_dir, "s2", "r45_s1.2_p", "ref3_tgtN", tmp_path)
+    r = register_batch(ref, [tgt], tmp_path / "out", client=thread_client, seed=0)
+    assert (r.ok, r.failed) == (1, 0), r.failures
+    report = json.loads((tmp_path / "out" / f"{tgt.stem}.json").read_text(encoding="utf-8"))
+    again = report["bands_rematched"]
+    assert again["kept"] and again["combined"] == "reference" and again["inliers_after"] > 10 * again["inliers_before"]
+    with rasterio.open(ref) as ds:
+        px = abs(ds.transform.a)
+    err = np.hypot(*(model_from_dict(report["model"]).forward(grid) - truth).T)
+    assert np.sqrt(np.mean(err ** 2)) / px <= 0.05
