@@ -129,14 +129,23 @@ def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
 
 def _restored(file, frame) -> tuple:
     """``(width, height, factor)``: the camera's size to write back and the file's factor to it — the simple factor
-    ``p/q`` (``q <= 8``) nearest ``file/frame`` when within 5 % and the file's size over it is whole (a resize by
-    1/2, 1/3, 3/5), else ``frame`` rounded and the factor as measured (the 35 mm equivalent is rounded to a
-    millimetre, so the frame it implies is a few pixels off)."""
+    ``p/q`` (``q <= 8``) nearest ``file/frame`` when within 5 % and the file's size over it is whole but for the
+    resize's rounding (a resize by 1/2, 1/3, 3/5: :func:`_before`), else ``frame`` rounded and the factor as
+    measured (the 35 mm equivalent is rounded to a millimetre, so the frame it implies is a few pixels off)."""
     k = math.sqrt(file[0] / frame[0] * file[1] / frame[1])
     f = Fraction(k).limit_denominator(8)
-    if f > 0 and abs(f / k - 1) <= 0.05 and all((v / f).denominator == 1 for v in file):
-        return int(file[0] / f), int(file[1] / f), f
+    if f > 0 and abs(f / k - 1) <= 0.05:
+        sizes = [_before(v, f) for v in file]
+        if all(sizes):
+            return (*sizes, f)
     return round(frame[0]), round(frame[1]), k
+
+
+def _before(v: int, f: Fraction) -> int | None:
+    """The size ``W`` that a resize by ``f`` rounded to ``v`` pixels (``round(W·f) == v``); of several, the one with
+    most factors of two (sensors' sizes are multiples of 8 or 16: 3456, not 3457, for 2074 at 3/5); None if none."""
+    got = [W for W in range(math.ceil((v - 0.5) / f), math.floor((v + 0.5) / f) + 1) if round(W * f) == v]
+    return max(got, key=lambda W: (W & -W, -W)) if got else None
 
 
 def _check_written_sizes(meta: ImageMetadata, full) -> str:
