@@ -41,10 +41,13 @@ def test_every_size_rewritten_is_named_by_the_sensor(tmp_path, data_dir, factor,
                                          rf"that FocalLength 4.3 mm and FocalLengthIn35mmFilm 24 mm imply describe a "
                                          rf"4630x3477 frame but its EXIF PixelXDimension says {bad.width}x"
                                          rf"{bad.height}, the file's own size: a copy resized by {by} .*exiftool "
-                                         rf"-PixelXDimension=4608 -PixelYDimension=3456 FILE"):
+                                         rf"-PixelXDimension=4608 -PixelYDimension=3456 -RelatedImageWidth=4608 "
+                                         rf"-RelatedImageHeight=3456 FILE"):
         focal_of(bad)
     right = _copy(src, tmp_path / "right.JPG", factor, rewrite=False)  # the same tag on a copy resized right
     assert focal_of(right)[0] == pytest.approx(full * right.width / 4608, rel=1e-3)
+    jm.set_exif_tags(tmp_path / "bad.JPG", {PX: 4608, PY: 3456}, interop={INTEROP_W: 4608, INTEROP_H: 3456})  # the fix
+    assert focal_of(read_image_metadata(tmp_path / "bad.JPG"))[0] == pytest.approx(focal_of(right)[0], rel=1e-12)
 
 
 @pytest.mark.data
@@ -67,7 +70,8 @@ DJI = {"EXIF_Make": "DJI", "EXIF_Model": "FC-test", "EXIF_FocalLength": "(8.8)",
 
 
 def test_a_dji_copy_with_its_calibration_and_sizes_rewritten(tmp_path):
-    """DewarpData gives the focal; the focal plane names the frame; several images are refused once each."""
+    """DewarpData gives the focal, checked against the 35 mm equivalent (the focal plane is not used beside a DJI
+    calibration); the factor and the fix are named, and several images are refused once each."""
     xmp = ("<?xpacket begin=''?><x:xmpmeta xmlns:x='adobe:ns:meta/'><rdf:RDF xmlns:rdf='http://www.w3.org/1999/02/"
            "22-rdf-syntax-ns#'><rdf:Description xmlns:drone-dji='http://www.dji.com/drone-dji/1.0/' drone-dji:"
            "DewarpData='2024-01-01;3650,3650,10,-8,0,0,0,0,0'/></rdf:RDF></x:xmpmeta>")
@@ -78,8 +82,10 @@ def test_a_dji_copy_with_its_calibration_and_sizes_rewritten(tmp_path):
     bad = [write_image(tmp_path / f"bad{k}.tif", {**DJI, "EXIF_PixelXDimension": str(size[0]),
                                                   "EXIF_PixelYDimension": str(size[1])}, xmp, size=size)
            for k in range(3)]
-    with pytest.raises(InputError, match=r"'.*bad0.tif' \(684x456 px\): EXIF FocalPlaneXResolution.* describe a "
-                                         r"5472x3648 frame .*resized by 1/8 .*-PixelXDimension=5472 "
+    with pytest.raises(InputError, match=r"'.*bad0.tif' \(684x456 px\): the focal length from drone-dji:DewarpData "
+                                         r"is 3650 px, FocalLengthIn35mmFilm 24 mm gives 456 px, but its EXIF "
+                                         r"PixelXDimension says 684x456, the file's own size: a copy resized by 1/8 "
+                                         r".*-PixelXDimension=5472 "
                                          r"-PixelYDimension=3648 FILE\) \(and 2 more image\(s\) refused on their own "
                                          r"camera tags: bad1, bad2\)") as e:
         read_exif_block(bad)

@@ -21,8 +21,10 @@ the size the camera wrote). Sources that contradict each other are named, never 
   says (the file's own without it), ``|k − 1| >`` :data:`F35_TOLERANCE`, names a copy resized with every size
   record rewritten, with its factor and the tags that restore it. These three tags survive the tools that
   rewrite ``PixelXDimension``, ``RelatedImageWidth`` and drop the maker note (they describe the sensor, not the
-  file), and a camera's own file agrees with itself: Canon writes ``FocalPlaneXResolution`` for the size it
-  stores, smaller JPEGs included;
+  file), and a camera's own file agrees with itself (the eight eBee originals within 0.5 % with the IXUS's
+  24 mm). Used when the focal plane is the camera source (no DJI XMP calibration): beside ``DewarpData`` or
+  ``CalibratedFocalLength`` the calibration itself is checked against the 35 mm equivalent (below), and no DJI
+  original was at hand to show that its ``FocalPlaneXResolution`` agrees;
 * the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
   (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
   (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
@@ -76,7 +78,8 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
         if max(abs(implied[0] / expect[0] - 1), abs(implied[1] / expect[1] - 1)) > 0.05:
             raise _resized(meta, full, f"DJI CalibratedOpticalCenterX/Y ({cx:g}, {cy:g}) belong to a "
                                        f"{implied[0]:.0f}x{implied[1]:.0f} frame", implied)
-    _check_focal_plane(meta, full)
+    if _full_resolution(meta, w, h, 1.0, focal_plane=False) is None:  # the focal plane is the camera source
+        _check_focal_plane(meta, full)
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
     return s, "; ".join(n for n in (note, noted) if n)
@@ -120,11 +123,13 @@ def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
         told = f"its EXIF PixelXDimension says {full[0]}x{full[1]}"
     W, H, k = _restored((w, h), frame)
     by = f"{k.numerator}/{k.denominator}" if isinstance(k, Fraction) and k.denominator > 1 else f"{float(k):.3g}"
+    related = any(src.startswith("EXIF RelatedImageWidth") for src, _ in meta.written_sizes)
+    tags = f"-PixelXDimension={W} -PixelYDimension={H}" + (
+        f" -RelatedImageWidth={W} -RelatedImageHeight={H}" if related else "")
     return InputError(f"{_fix(meta)}: {what} but {told}: a copy resized by {by} with its size records rewritten, "
                       f"or its tags edited (its focal length in pixels would come out {1 / float(k):.3g} times too "
                       f"long); "
-                      f"give the camera (--camera), use the originals, or restore the tags (exiftool "
-                      f"-PixelXDimension={W} -PixelYDimension={H} FILE)")
+                      f"give the camera (--camera), use the originals, or restore the tags (exiftool {tags} FILE)")
 
 
 def _restored(file, frame) -> tuple:
@@ -227,14 +232,15 @@ def focal_of(meta: ImageMetadata):
         if abs(fx / f35 - 1.0) > F35_TOLERANCE:
             scaled = f" scaled by {s:.4g} for its size" if s != 1.0 else ""
             said = (w / s, h / s)
-            raise _resized(meta, meta.pixel_dimension, f"the focal length from {src} is {fx:.0f} px{scaled} but "
+            raise _resized(meta, meta.pixel_dimension, f"the focal length from {src} is {fx:.0f} px{scaled}, "
                                                        f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm gives "
-                                                       f"{f35:.0f} px", (said[0] * fx / f35, said[1] * fx / f35))
+                                                       f"{f35:.0f} px,", (said[0] * fx / f35, said[1] * fx / f35))
     return fx, fy, pp, dist, src + (f"; {note}" if note else "")
 
 
-def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float):
-    """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none."""
+def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane: bool = True):
+    """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none
+    (``focal_plane`` False: DJI's XMP calibration only)."""
     vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
     if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
         dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
@@ -242,7 +248,7 @@ def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float):
     if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
         cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
         return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"
-    if meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
+    if focal_plane and meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
         ppmm = meta.focal_plane_ppmm[0] * s
         return f * ppmm, f * ppmm, None, {}, f"{f:g} mm x FocalPlaneXResolution ({ppmm:.2f} px/mm)"
     return None
