@@ -26,6 +26,10 @@ ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two re
 and said). Otherwise the file is refused, naming the option ``sfm_frame``. Heights are not compared (the GPS
 altitude's reference is often unknown).
 
+Which image's GPS is a shot's (:func:`images_gps`, :func:`gps_for`): every image given claims its own name, with
+GPS or without, and the same file name in two folders is one image when their GPS is the same, else matched by the
+path the project names or refused by name — an image never lends its GPS to another's shot.
+
 :func:`check_gps` is the same test for any SfM block (COLMAP, orthority, OpenSfM after its reading): the
 block's centres must agree with the images' own GPS within 3σ horizontally (RMS), else it is refused by name.
 """
