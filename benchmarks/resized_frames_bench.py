@@ -15,7 +15,10 @@ downsampled by OpenCV (INTER_AREA) to 1/2 and 1/4 (some sets 1/3 and 0.6) with
   record the camera's 4608x3456) and the XMP as they were; ``EXIF and RelatedImageWidth rewritten`` also sets
   ``RelatedImageWidth``/``Length``; ``every size rewritten, no maker note`` also drops the maker note, so that
   nothing in the files records the size the camera wrote (only the residual check of
-  :mod:`fotogeo.tools.triangulate.exif_focal` is left).
+  :mod:`fotogeo.tools.triangulate.exif_focal` is left); ``FocalLengthIn35mmFilm added`` writes the camera's
+  published 35 mm equivalent (24 mm), which the IXUS does not write but most cameras do: with it,
+  ``FocalPlaneXResolution`` over the sensor it implies records the camera's frame (:mod:`fotogeo.io.exif_camera`).
+  ``full size`` and ``1/2, EXIF + XMP`` with the tag added check that it does not refuse a right file.
 
 Each set is triangulated from its files alone (``fotogeo triangulate *.JPG -o all``). For the sets that orient,
 every frame's centre and PATB angles are compared with the full-size run's (max over the common frames) and with
@@ -46,7 +49,18 @@ SETS = {"full size": (1, "exif+xmp"), "1/2, EXIF only": (1 / 2, "exif"), "1/2, E
         "1/3, EXIF rewritten + XMP": (1 / 3, "rewritten"), "0.6, EXIF rewritten + XMP": (0.6, "rewritten"),
         "1/2, EXIF and RelatedImageWidth rewritten + XMP": (1 / 2, "rewritten+related"),
         "1/2, every size rewritten, no maker note + XMP": (1 / 2, "rewritten+related-makernote"),
-        "1/4, every size rewritten, no maker note + XMP": (1 / 4, "rewritten+related-makernote")}
+        "1/4, every size rewritten, no maker note + XMP": (1 / 4, "rewritten+related-makernote"),
+        "full size, FocalLengthIn35mmFilm added": (1, "exif+xmp+f35"),
+        "1/2, EXIF + XMP, FocalLengthIn35mmFilm added": (1 / 2, "exif+xmp+f35"),
+        "1/2, every size rewritten, no maker note, FocalLengthIn35mmFilm added + XMP":
+            (1 / 2, "rewritten+related-makernote+f35"),
+        "1/4, every size rewritten, no maker note, FocalLengthIn35mmFilm added + XMP":
+            (1 / 4, "rewritten+related-makernote+f35"),
+        "0.6, every size rewritten, no maker note, FocalLengthIn35mmFilm added + XMP":
+            (0.6, "rewritten+related-makernote+f35")}
+#: the IXUS 125 HS's published 35 mm equivalent at 4.3 mm (its FocalPlaneXResolution over 4608 px gives 24.1 mm),
+#: which the camera does not write: ``FocalLengthIn35mmFilm added`` writes it, as DJI cameras and phones do
+F35_MM = 24
 
 
 def _copy(src: Path, dst: Path, scale: float, keep: str) -> Path:
@@ -62,7 +76,7 @@ def _copy(src: Path, dst: Path, scale: float, keep: str) -> Path:
         n = struct.unpack(">H", data[i + 2:i + 4])[0]
         exif = data[i + 4:i + 10] == b"Exif\0\0"
         if data[i + 1] == 0xE1 and (keep != "none" and (exif or keep != "exif")):
-            rewrite = exif and keep.startswith("rewritten")
+            rewrite = exif and (keep.startswith("rewritten") or keep.endswith("+f35"))
             segs.append(_rewritten(data[i:i + 2 + n], img.shape, keep) if rewrite else data[i:i + 2 + n])
         i += 2 + n
     dst.write_bytes(b"\xff\xd8" + b"".join(segs) + enc[2:])
@@ -73,12 +87,16 @@ def _rewritten(segment: bytes, shape, keep: str = "rewritten") -> bytes:
     """The EXIF APP1 ``segment`` with ``PixelXDimension``/``PixelYDimension`` set to the resized size (what a tool
     that updates them leaves; ``FocalPlaneXResolution`` still describes the full-resolution frame); with
     ``+related`` the Interoperability IFD's ``RelatedImageWidth``/``Length`` too, with ``-makernote`` the maker
-    note dropped (nothing in the file then records the camera's size)."""
+    note dropped (nothing in the file then records the camera's size), with ``+f35`` FocalLengthIn35mmFilm added
+    (:data:`F35_MM`; then ``FocalPlaneXResolution`` over the sensor it implies still records the camera's size)."""
     from PIL import Image
     ex = Image.Exif()
     ex.load(segment[4:])
     ifd = ex.get_ifd(0x8769)
-    ifd[0xA002], ifd[0xA003] = int(shape[1]), int(shape[0])
+    if keep.startswith("rewritten"):
+        ifd[0xA002], ifd[0xA003] = int(shape[1]), int(shape[0])
+    if keep.endswith("+f35"):
+        ifd[0xA405] = F35_MM
     if "+related" in keep:
         interop = ex.get_ifd(0xA005)
         interop[0x1001], interop[0x1002] = int(shape[1]), int(shape[0])

@@ -116,3 +116,24 @@ def copy_frames(src_folder, names, dst_folder) -> list[Path]:
     dst = Path(dst_folder)
     dst.mkdir(parents=True, exist_ok=True)
     return [Path(shutil.copy(Path(src_folder) / f"{n}.JPG", dst / f"{n}.JPG")) for n in names]
+
+
+def set_exif_tags(path, tags: dict, *, interop: dict | None = None, drop=()) -> None:
+    """Set the EXIF sub-IFD's ``tags`` ``{tag: value}`` (added when absent, e.g. 0xA405 FocalLengthIn35mmFilm), the
+    Interoperability IFD's ``interop`` entries, and drop the EXIF sub-IFD's ``drop`` tags (e.g. 0x927C, the maker
+    note), re-serialising the EXIF APP1 segment with PIL (what a tool that rewrites the EXIF leaves)."""
+    from PIL import Image
+    data = Path(path).read_bytes()
+    start, end = _app1(data, b"Exif\x00\x00")
+    ex = Image.Exif()
+    ex.load(data[start:end])
+    ifd = ex.get_ifd(0x8769)
+    ifd.update(tags)
+    for tag in drop:
+        ifd.pop(tag, None)
+    if interop:
+        ex.get_ifd(0xA005).update(interop)
+    body = ex.tobytes()
+    body = body if body.startswith(b"Exif") else b"Exif\x00\x00" + body
+    head = start - 4
+    Path(path).write_bytes(data[:head] + b"\xff\xe1" + struct.pack(">H", len(body) + 2) + body + data[end:])

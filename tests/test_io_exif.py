@@ -117,8 +117,11 @@ def test_exif_only_image_refs_units_and_35mm(tmp_path):
     # focal plane resolution in centimetres: 5 mm x 1000 px/cm / 10 = 500 px
     tags.update(EXIF_FocalPlaneXResolution="(1000)", EXIF_FocalPlaneYResolution="(1000)",
                 EXIF_FocalPlaneResolutionUnit="3")
-    # ... which contradicts the 35 mm equivalent (44 px): named, not arbitrated
-    with pytest.raises(InputError, match="500 px but FocalLengthIn35mmFilm 24 mm gives 44 px"):
+    # ... which contradicts the 35 mm equivalent (44 px): named, not arbitrated — by the frame the focal plane
+    # resolution describes over the sensor the 35 mm equivalent implies (9.01 mm diagonal at 100 px/mm)
+    with pytest.raises(InputError, match=r"FocalPlaneXResolution/YResolution \(100\.0, 100\.0 px/mm\) over the sensor "
+                                         r"that FocalLength 5 mm and FocalLengthIn35mmFilm 24 mm imply describe a "
+                                         r"721x541 frame but the file is 64x48"):
         read_exif_block([write_image(tmp_path / "c.tif", tags)])
     tags.pop("EXIF_FocalLengthIn35mmFilm")
     b = read_exif_block([write_image(tmp_path / "b.tif", tags)])

@@ -58,8 +58,8 @@ def _refuse(where: str, why: str) -> InputError:
 def _with_altitude(images: list, gps: dict, where: str) -> list:
     """Indices of ``images`` whose GPS carries an altitude; an :class:`InputError` naming the images without one
     when fewer than :data:`MIN_IMAGES` do (heights and tilt would be invented); None below MIN_IMAGES with GPS."""
-    from .block import frame_key
-    keys = [frame_key(n) for n, *_ in images]
+    from .sfm_frame import project_key
+    keys = [project_key(n) for n, *_ in images]
     used = [k for k, key in enumerate(keys) if key in gps]
     if len(used) < MIN_IMAGES:
         return None
@@ -83,9 +83,8 @@ def align_to_gps(images: list, gps: dict, map_crs, where: str) -> tuple:
     the fixes' common one (None: unknown); None when fewer than :data:`MIN_IMAGES` images carry GPS; an
     :class:`InputError` naming ``--crs`` when the alignment is ill-determined or contradicted."""
     from ..geometry.similarity3d import CHI2_DOF_MAX, robust_similarity, similarity_precision
-    from .block import frame_key
-    from .sfm_frame import TAG_SIGMA, gps_for, map_xy
-    keys = [frame_key(n) for n, *_ in images]
+    from .sfm_frame import TAG_SIGMA, gps_for, map_xy, project_key
+    keys = [project_key(n) for n, *_ in images]
     gps = gps_for(gps, keys)
     used = _with_altitude(images, gps, where)
     if used is None:

@@ -212,16 +212,28 @@ def _read_all(paths) -> list[ImageMetadata]:
 
 
 def _cameras(metas, notes: list) -> tuple[dict, dict]:
-    """``({camera id: ApproxCamera}, {image name: camera id})``: the first image of an id defines it."""
-    cameras, ids = {}, {}
+    """``({camera id: ApproxCamera}, {image name: camera id})``: the first image of an id defines it. Images whose
+    camera tags contradict each other are refused together: the first one's reason in full, the others by name."""
+    cameras, ids, refused = {}, {}, []
     for m in metas:
-        cid, cam = camera_of(m)
+        try:
+            cid, cam = camera_of(m)
+        except InputError as exc:
+            refused.append((m.name, exc))
+            continue
         ids[m.name] = cid
         if cid not in cameras:
             cameras[cid] = cam
             notes.append(f"camera {cid!r}: focal {cam.camera.fx:.1f} px from {cam.source}")
         elif abs(cam.camera.fx / cameras[cid].camera.fx - 1) > 1e-3:
             notes.append(f"image {m.name!r}: focal {cam.camera.fx:.1f} px differs from its camera's; the first is kept")
+    if len(refused) == 1:
+        raise refused[0][1]
+    if refused:
+        more = [n for n, _ in refused[1:]]
+        raise InputError(f"{refused[0][1]} (and {len(more)} more image(s) refused on their own camera tags: "
+                         f"{', '.join(more[:5])}{' …' if len(more) > 5 else ''})", frames=[n for n, _ in refused],
+                         option=refused[0][1].option)
     return cameras, ids
 
 

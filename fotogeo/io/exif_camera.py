@@ -14,9 +14,24 @@ the size the camera wrote). Sources that contradict each other are named, never 
   unevenly): the calibration cannot be carried over;
 * DJI ``CalibratedOpticalCenterX/Y`` (written as the full frame's centre, w/2, h/2) implying another full
   size than ``PixelXDimension`` does (tags edited by the resizing tool);
+* EXIF ``FocalPlaneXResolution``/``YResolution`` (``p`` pixels per millimetre on the sensor) over the sensor the
+  35 mm equivalent implies — diagonal ``d = 43.27 · f / f35`` mm from ``FocalLength`` ``f`` and
+  ``FocalLengthIn35mmFilm`` ``f35``, split in the frame's aspect — give the camera's frame in pixels,
+  ``(p_x · d · w / hypot(w, h), p_y · d · h / hypot(w, h))``; a frame ``k`` times the size ``PixelXDimension``
+  says (the file's own without it), ``|k − 1| >`` :data:`F35_TOLERANCE`, names a copy resized with every size
+  record rewritten, with its factor and the tags that restore it. These three tags survive the tools that
+  rewrite ``PixelXDimension``, ``RelatedImageWidth`` and drop the maker note (they describe the sensor, not the
+  file), and a camera's own file agrees with itself (the eight eBee originals within 0.5 % with the IXUS's
+  24 mm). Used when the focal plane is the camera source (no DJI XMP calibration): beside ``DewarpData`` or
+  ``CalibratedFocalLength`` the calibration itself is checked against the 35 mm equivalent (below), and no DJI
+  original was at hand to show that its ``FocalPlaneXResolution`` agrees;
 * the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
   (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
   (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
+
+Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
+thumbnail's size (the vendor's choice, 160x120 on the eBee's Canon whatever the frame) and ``FocalLength`` against
+the 35 mm equivalent alone (a crop factor, no size in pixels).
 
 A resized copy is also known by what it lacks: tools that resize (PIL's ``save(exif=...)``, many batch
 resizers) copy the EXIF block and drop the XMP packet, where drone cameras write the attitude (senseFly
@@ -28,6 +43,7 @@ then leave each strip's roll free — the same refusal as the full-size original
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 from ..errors import InputError
 from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers
@@ -60,14 +76,81 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
         implied = (2 * cx, 2 * cy)
         expect = (w / s, h / s)
         if max(abs(implied[0] / expect[0] - 1), abs(implied[1] / expect[1] - 1)) > 0.05:
-            said = (f"its EXIF PixelXDimension says {full[0]}x{full[1]}" if full else
-                    f"the file is {w}x{h} and carries no EXIF PixelXDimension")
-            raise InputError(f"{_fix(meta)}: DJI CalibratedOpticalCenterX/Y ({cx:g}, {cy:g}) belong to a "
-                             f"{implied[0]:.0f}x{implied[1]:.0f} frame but {said}: the image was resized and its "
-                             f"tags edited; give the camera (--camera)")
+            raise _resized(meta, full, f"DJI CalibratedOpticalCenterX/Y ({cx:g}, {cy:g}) belong to a "
+                                       f"{implied[0]:.0f}x{implied[1]:.0f} frame", implied)
+    if _full_resolution(meta, w, h, 1.0, focal_plane=False) is None:  # the focal plane is the camera source
+        _check_focal_plane(meta, full)
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
     return s, "; ".join(n for n in (note, noted) if n)
+
+
+def sensor_frame(meta: ImageMetadata, said=None) -> tuple | None:
+    """``(width, height)`` in pixels of the frame that ``FocalPlaneX/YResolution`` describe over the sensor implied
+    by ``FocalLength`` and ``FocalLengthIn35mmFilm`` (module docstring), split in the aspect of ``said`` (default
+    the file's); None unless the three tags are there."""
+    if not (meta.focal_plane_ppmm and meta.focal_mm and meta.focal_35mm and meta.focal_mm > 0 and meta.focal_35mm > 0):
+        return None
+    w, h = said or (meta.width, meta.height)
+    d = DIAGONAL_35MM * meta.focal_mm / meta.focal_35mm
+    return meta.focal_plane_ppmm[0] * d * w / math.hypot(w, h), meta.focal_plane_ppmm[1] * d * h / math.hypot(w, h)
+
+
+def _check_focal_plane(meta: ImageMetadata, full) -> None:
+    """A copy resized with every size record rewritten, named by :func:`sensor_frame` (module docstring)."""
+    said = full or (meta.width, meta.height)
+    frame = sensor_frame(meta, said)
+    if frame is None:
+        return
+    k = math.sqrt(frame[0] / said[0] * frame[1] / said[1])
+    if abs(k - 1.0) > F35_TOLERANCE:
+        ppmm = meta.focal_plane_ppmm
+        raise _resized(meta, full, f"EXIF FocalPlaneXResolution/YResolution ({ppmm[0]:.1f}, {ppmm[1]:.1f} px/mm) "
+                                   f"over the sensor that FocalLength {meta.focal_mm:g} mm and FocalLengthIn35mmFilm "
+                                   f"{meta.focal_35mm:g} mm imply describe a {frame[0]:.0f}x{frame[1]:.0f} frame",
+                       frame)
+
+
+def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
+    """The refusal of a file whose calibration records (``what``) describe another ``frame`` than its size records
+    say: the records, the factor and the tags that restore it."""
+    w, h = meta.width, meta.height
+    if full is None:
+        told = f"the file is {w}x{h} and carries no EXIF PixelXDimension"
+    elif tuple(full) == (w, h):
+        told = f"its EXIF PixelXDimension says {full[0]}x{full[1]}, the file's own size"
+    else:
+        told = f"its EXIF PixelXDimension says {full[0]}x{full[1]}"
+    W, H, k = _restored((w, h), frame)
+    by = f"{k.numerator}/{k.denominator}" if isinstance(k, Fraction) and k.denominator > 1 else f"{float(k):.3g}"
+    related = any(src.startswith("EXIF RelatedImageWidth") for src, _ in meta.written_sizes)
+    tags = f"-PixelXDimension={W} -PixelYDimension={H}" + (
+        f" -RelatedImageWidth={W} -RelatedImageHeight={H}" if related else "")
+    return InputError(f"{_fix(meta)}: {what} but {told}: a copy resized by {by} with its size records rewritten, "
+                      f"or its tags edited (its focal length in pixels would come out {1 / float(k):.3g} times too "
+                      f"long); "
+                      f"give the camera (--camera), use the originals, or restore the tags (exiftool {tags} FILE)")
+
+
+def _restored(file, frame) -> tuple:
+    """``(width, height, factor)``: the camera's size to write back and the file's factor to it — the simple factor
+    ``p/q`` (``q <= 8``) nearest ``file/frame`` when within 5 % and the file's size over it is whole but for the
+    resize's rounding (a resize by 1/2, 1/3, 3/5: :func:`_before`), else ``frame`` rounded and the factor as
+    measured (the 35 mm equivalent is rounded to a millimetre, so the frame it implies is a few pixels off)."""
+    k = math.sqrt(file[0] / frame[0] * file[1] / frame[1])
+    f = Fraction(k).limit_denominator(8)
+    if f > 0 and abs(f / k - 1) <= 0.05:
+        sizes = [_before(v, f) for v in file]
+        if all(sizes):
+            return (*sizes, f)
+    return round(frame[0]), round(frame[1]), k
+
+
+def _before(v: int, f: Fraction) -> int | None:
+    """The size ``W`` that a resize by ``f`` rounded to ``v`` pixels (``round(W·f) == v``); of several, the one with
+    most factors of two (sensors' sizes are multiples of 8 or 16: 3456, not 3457, for 2074 at 3/5); None if none."""
+    got = [W for W in range(math.ceil((v - 0.5) / f), math.floor((v + 0.5) / f) + 1) if round(W * f) == v]
+    return max(got, key=lambda W: (W & -W, -W)) if got else None
 
 
 def _check_written_sizes(meta: ImageMetadata, full) -> str:
@@ -148,14 +231,16 @@ def focal_of(meta: ImageMetadata):
         f35 = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
         if abs(fx / f35 - 1.0) > F35_TOLERANCE:
             scaled = f" scaled by {s:.4g} for its size" if s != 1.0 else ""
-            raise InputError(f"{_fix(meta)}: the focal length from {src} is {fx:.0f} px{scaled} but "
-                             f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm gives {f35:.0f} px: the image was resized "
-                             f"or its tags edited; give the camera (--camera)")
+            said = (w / s, h / s)
+            raise _resized(meta, meta.pixel_dimension, f"the focal length from {src} is {fx:.0f} px{scaled}, "
+                                                       f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm gives "
+                                                       f"{f35:.0f} px,", (said[0] * fx / f35, said[1] * fx / f35))
     return fx, fy, pp, dist, src + (f"; {note}" if note else "")
 
 
-def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float):
-    """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none."""
+def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane: bool = True):
+    """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none
+    (``focal_plane`` False: DJI's XMP calibration only)."""
     vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
     if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
         dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
@@ -163,7 +248,7 @@ def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float):
     if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
         cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
         return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"
-    if meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
+    if focal_plane and meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
         ppmm = meta.focal_plane_ppmm[0] * s
         return f * ppmm, f * ppmm, None, {}, f"{f:g} mm x FocalPlaneXResolution ({ppmm:.2f} px/mm)"
     return None

@@ -26,6 +26,10 @@ ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two re
 and said). Otherwise the file is refused, naming the option ``sfm_frame``. Heights are not compared (the GPS
 altitude's reference is often unknown).
 
+Which image's GPS is a shot's (:func:`images_gps`, :func:`gps_for`): every image given claims its own name, with
+GPS or without, and the same file name in two folders is one image when their GPS is the same, else matched by the
+path the project names or refused by name — an image never lends its GPS to another's shot.
+
 :func:`check_gps` is the same test for any SfM block (COLMAP, orthority, OpenSfM after its reading): the
 block's centres must agree with the images' own GPS within 3σ horizontally (RMS), else it is refused by name.
 """
@@ -68,29 +72,114 @@ class GpsFix:
     height_reference: str | None = None  # "ellipsoid" / "geoid" / None (unknown)
 
 
-def images_gps(paths) -> dict:
-    """``{frame key: GpsFix}`` of the images in ``paths`` that carry an EXIF/XMP GPS position."""
+class ImagesGps(dict):
+    """``{image key: GpsFix}`` of the images given that carry a GPS position (:func:`images_gps`); ``without``: the
+    keys of the images given that carry none (they still claim their own name, :func:`gps_for`); ``paths``:
+    ``{key: path}`` of every image given, for the messages."""
+
+    def __init__(self, items=(), without=(), paths=None):
+        super().__init__(items)
+        self.without = tuple(without)
+        self.paths = dict(paths or {})
+
+    def mapped(self, f) -> "ImagesGps":
+        """The same images with each value ``f(value)``."""
+        return ImagesGps({k: f(v) for k, v in self.items()}, self.without, self.paths)
+
+
+def project_key(name) -> str:
+    r"""The key an SfM project's image name is matched by: the name without its extension, its folders kept
+    (``flight1/DJI_0001.JPG`` -> ``flight1/DJI_0001``; a Windows ``\`` read as a folder)."""
+    head, _, tail = str(name).replace("\\", "/").rpartition("/")
+    stem = Path(tail).stem if tail else tail
+    return f"{head}/{stem}" if head else stem
+
+
+def _tails(paths: list) -> list:
+    """The shortest ``folder/…/stem`` that tells apart images sharing a stem (copied folders)."""
+    parts = [Path(p).resolve().parent.parts for p in paths]
+    stem = Path(paths[0]).stem
+    for n in range(1, max(len(q) for q in parts) + 1):
+        keys = ["/".join((*q[-n:], stem)).lstrip("/") for q in parts]
+        if len(set(keys)) == len(keys):
+            return keys
+    return [str(Path(p).resolve().with_suffix("")) for p in paths]
+
+
+def images_gps(paths) -> ImagesGps:
+    """``{key: GpsFix}`` of the images in ``paths`` that carry an EXIF/XMP GPS position, keyed by file stem
+    (:func:`fotogeo.io.block.frame_key`); the stems of those without GPS are kept in ``without``. Images that share
+    a stem (``flight1/DJI_0001.JPG``, ``flight2/DJI_0001.JPG``) are one image when their GPS is the same (a copied
+    folder), else each is keyed by the folders that tell it apart (``flight1/DJI_0001``), for :func:`gps_for` to
+    match with the path the project names."""
     from .block import frame_key
     from .exif import read_image_metadata
     from .exif_block import height_reference, position_sigmas
-    out = {}
+    groups: dict = {}
     for p in paths or ():
-        m = read_image_metadata(str(p))
-        if m.lon is None or m.lat is None:
-            continue
-        sh, sv = position_sigmas(m)
-        alt = float(m.altitude) if m.altitude is not None else None
-        out[frame_key(p)] = GpsFix(float(m.lon), float(m.lat), alt, float(sh) if sh else DEFAULT_SIGMA_H, bool(sh),
-                                   float(sv) if sv else None, height_reference(m)[0] if alt is not None else None)
-    return out
+        groups.setdefault(frame_key(p), []).append((str(p), _fix_of(read_image_metadata(str(p)),
+                                                                     position_sigmas, height_reference)))
+    out, without, where = {}, [], {}
+    for key, items in groups.items():
+        fixes = {g for _, g in items}
+        keys = [key] if len(fixes) == 1 else _tails([p for p, _ in items])
+        for k, (p, g) in zip(keys, items):
+            where[k] = p
+            if g is None:
+                without.append(k)
+            else:
+                out[k] = g
+    return ImagesGps(out, without, where)
+
+
+def _fix_of(m, position_sigmas, height_reference) -> GpsFix | None:
+    if m.lon is None or m.lat is None:
+        return None
+    sh, sv = position_sigmas(m)
+    alt = float(m.altitude) if m.altitude is not None else None
+    return GpsFix(float(m.lon), float(m.lat), alt, float(sh) if sh else DEFAULT_SIGMA_H, bool(sh),
+                  float(sv) if sv else None, height_reference(m)[0] if alt is not None else None)
 
 
 def gps_for(gps: dict, keys) -> dict:
-    """``gps`` re-keyed by the file's frame ``keys``: each image's key, or the one differing only by case
-    (:func:`fotogeo.io.block.match_keys`), so a project naming ``dji_0001.jpg`` is checked against ``DJI_0001.JPG``'s
-    GPS; a key is taken by one image at most (the exact name first), so no image's GPS overwrites another's."""
+    """``gps`` re-keyed by the project's frame ``keys``: each image's key, or the one differing only by case or a
+    folder (:func:`fotogeo.io.block.match_keys`), so a project naming ``dji_0001.jpg`` is checked against
+    ``DJI_0001.JPG``'s GPS; a key is taken by one image at most (the exact name first), and every image given claims
+    its own name, with GPS or without (``gps.without``), so that no image lends its GPS to another's shot. Images
+    told apart by their folders (:func:`images_gps`) are matched by the path the project names (``flight1/DJI_0001``
+    ends like ``…/flight1/DJI_0001``); a project key that could be several of them is refused by name."""
     from .block import match_keys
-    return {k: gps[n] for n, k in match_keys(gps, keys).items()}
+    without = set(getattr(gps, "without", ()))
+    names = [*gps, *without]
+    keys = list(keys)
+    folded = [n for n in names if "/" in n]
+    found, rest = {}, []
+    for k in keys:
+        kp = project_key(k)
+        same = [n for n in folded if n.rsplit("/", 1)[1] == kp.rsplit("/", 1)[-1]]
+        hit = [n for n in same if kp == n or kp.endswith("/" + n) or n.endswith("/" + kp)]
+        if len(hit) > 1:
+            raise _ambiguous(gps, k, hit)
+        if hit:
+            found[hit[0]] = k
+        else:
+            rest.append(k)
+    plain = [n for n in names if "/" not in n]
+    found.update(match_keys(plain, rest))
+    return {k: gps[n] for n, k in found.items() if n not in without}
+
+
+def _ambiguous(gps, key, names) -> InputError:
+    paths = getattr(gps, "paths", {})
+    fixes = [gps.get(n) for n in names]
+    apart = ""
+    if all(fixes[:2]):
+        from pyproj import Geod
+        apart = f", {Geod(ellps='WGS84').inv(fixes[0].lon, fixes[0].lat, fixes[1].lon, fixes[1].lat)[2]:.1f} m apart"
+    said = " and ".join(repr(paths.get(n, n)) for n in names[:3])
+    return InputError(f"images {said} share the name of the project's image {key!r} but not their GPS (positions "
+                      f"differ{apart}), and the project's name does not say which folder it is: give only the "
+                      f"images of the project's folder, or rename the others", frames=names)
 
 
 def map_xy(crs, lon, lat) -> np.ndarray:
@@ -268,8 +357,9 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
         return frame, f"OpenSfM local frame read as {frame} ({_WHAT[frame]}), as told (sfm_frame {frame})"
     steps = []
     if gps:
-        steps.append(({n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()}, "camera centres vs the images' own "
-                                                                              "EXIF GPS"))
+        ev = gps.mapped(lambda g: (g.lon, g.lat, g.sigma_h)) if isinstance(gps, ImagesGps) else \
+            {n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()}
+        steps.append((ev, "camera centres vs the images' own EXIF GPS"))
     exif = _exif_gps(Path(path).parent, list(shots))
     if exif:
         steps.append((exif, "camera centres vs the GPS of the exif/<image>.exif beside it"))
