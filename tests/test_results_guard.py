@@ -37,6 +37,7 @@ from fotogeo.io.warp import warp_to_grid
 from fotogeo.models import get_model
 from fotogeo.models.robust import fit_tie_points
 from fotogeo.orientation import adjustment
+from fotogeo.orientation import blunders as blunder_test
 from fotogeo.pixels import map_to_pixel, pixel_to_map
 from fotogeo.progress import as_progress
 from fotogeo.tools.demo.tool import make_scene
@@ -476,7 +477,7 @@ def test_closed_form_leave_one_out_equals_refits(name):
     np.testing.assert_allclose(closed, refit, atol=1e-8 if linear else 1e-2)
 
 
-def test_data_snooping_on_2400_points_takes_seconds_and_can_be_cancelled():
+def test_data_snooping_on_2400_points_takes_seconds_and_can_be_cancelled(monkeypatch):
     rng = np.random.default_rng(3)
     n = 2400
     ground = np.column_stack([rng.uniform(5e5, 5.1e5, n), rng.uniform(4.42e6, 4.43e6, n)])
@@ -484,9 +485,12 @@ def test_data_snooping_on_2400_points_takes_seconds_and_can_be_cancelled():
     blunders = rng.choice(n, 5, replace=False)
     px[blunders] += 15
     ids = np.array([f"P{i}" for i in range(n)])
-    t0 = time.perf_counter()
+    # seconds, not minutes: the deletion statistics in closed form, never a refit per point (those took 6 min);
+    # checked by what runs, not by a time bound that a loaded or slower machine breaks
+    def refit(*a, **k):
+        raise AssertionError("a refit per point")
+    monkeypatch.setattr(blunder_test._Fit, "_by_refits", refit)
     fit = adjustment.fit_orientation("projective", ground, px, np.full(n, "control"), ids, remove_blunders=True)
-    assert time.perf_counter() - t0 < 20  # measured 0.6 s (6 min with leave-one-out refits)
     removed = {f["id"] for f in fit.snooping if f["removed"]}
     # every blunder found; at α = 0.1 % a few of 2400 good points are flagged too (measured 3)
     assert set(ids[blunders]) <= removed and len(removed) <= len(blunders) + 8, removed

@@ -143,6 +143,10 @@ def read_decimated(info: RasterInfo, max_pixels: int, role: str = "raster", stri
 GEOTIFF_BLOCK = 256
 
 
+#: profile entries that rasterio reads itself rather than passing to GDAL as creation options
+_NOT_OPTIONS = frozenset({"driver", "dtype", "crs", "transform", "nodata", "width", "height", "count"})
+
+
 def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fields) -> dict:
     """The rasterio profile of a GeoTIFF output: ``base`` (e.g. a source's ``profile``)
     updated with ``fields`` (width, height, count, dtype, crs, transform, nodata, …) and
@@ -152,11 +156,19 @@ def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fiel
     differencing, for integers; 3, floating point, otherwise) and ``BIGTIFF=IF_SAFER``, for
     large outputs such as rectified images. Without ``base`` and ``fields`` the result are
     the creation options alone, e.g. for ``rasterio.shutil.copy``.
+
+    Creation options given as text are passed upper case (a source's profile says ``interleave="pixel"``): GDAL
+    compares them with the C library's ``strcasecmp``, for which ``i`` and ``I`` differ in a Turkish locale
+    (``LANG=tr_TR.UTF-8``), where GDAL refused "INTERLEAVE=pixel unsupported, value must be PIXEL or BAND".
+
+    >>> geotiff_profile({"interleave": "pixel", "dtype": "uint8"})["interleave"], geotiff_profile()["compress"]
+    ('PIXEL', 'DEFLATE')
     """
     profile = dict(base or {})
     profile.update(fields)
+    profile.update({k: v.upper() for k, v in profile.items() if isinstance(v, str) and k not in _NOT_OPTIONS})
     profile.update(driver="GTiff", tiled=True, blockxsize=GEOTIFF_BLOCK, blockysize=GEOTIFF_BLOCK,
-                   compress="deflate")
+                   compress="DEFLATE")
     if predictor:
         profile.update(predictor=2 if np.dtype(profile["dtype"]).kind in "iu" else 3, BIGTIFF="IF_SAFER")
     return profile

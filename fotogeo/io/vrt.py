@@ -60,7 +60,7 @@ def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bil
     snd = "" if nodata is None else f"<NODATA>{nodata!r}</NODATA>"
     name = escape(str(source) if is_virtual_path(source) else str(Path(source).resolve()))
     bands = "".join(
-        f'<VRTRasterBand dataType="{vtype}" band="{b}">{nd}<ComplexSource resampling="{resampling}">'
+        f'<VRTRasterBand dataType="{vtype}" band="{b}">{nd}<ComplexSource resampling="{resampling.upper()}">'
         f'<SourceFilename relativeToVRT="0">{name}</SourceFilename><SourceBand>{b}</SourceBand>'
         f'<SrcRect xOff="{src[0]!r}" yOff="{src[1]!r}" xSize="{src[2]!r}" ySize="{src[3]!r}"/>'
         f'<DstRect xOff="0" yOff="0" xSize="{width}" ySize="{height}"/>{snd}</ComplexSource></VRTRasterBand>'
@@ -68,7 +68,7 @@ def lattice_vrt(source: str, info, lattice: Affine, path, resampling: str = "bil
     if mask is not None:
         fx, fy = mask_scale
         src = (src[0] / fx, src[1] / fy, src[2] / fx, src[3] / fy)
-        bands += (f'<MaskBand><VRTRasterBand dataType="Byte"><ComplexSource resampling="near">'
+        bands += (f'<MaskBand><VRTRasterBand dataType="Byte"><ComplexSource resampling="NEAR">'
                   f'<SourceFilename relativeToVRT="0">{escape(str(Path(mask).resolve()))}</SourceFilename>'
                   f'<SourceBand>1</SourceBand><SrcRect xOff="{src[0]!r}" yOff="{src[1]!r}" xSize="{src[2]!r}" '
                   f'ySize="{src[3]!r}"/><DstRect xOff="0" yOff="0" xSize="{width}" ySize="{height}"/>'
