@@ -250,8 +250,8 @@ def _partner_fill(L, R, valid_left, valid_right, partner) -> tuple:
     """``(L', R')``: the 8-bit images with each one's pixels outside its ``valid`` area set to the grey of the
     other image's valid pixel they meet at the expected disparity ``partner`` (of the left pixels, NaN: none;
     module docstring): a left pixel ``u`` meets the right pixel ``u − g(u)``, a right pixel ``x`` the left pixel
-    ``x + g(x + g(x))`` (:func:`right_expected`), blurred (``PARTNER_BLUR``); the others keep their noise. ``L'`` serves the right-to-left
-    matching, ``R'`` the left-to-right one."""
+    ``x + g(x + g(x))`` (:func:`right_expected`), blurred (``PARTNER_BLUR``); the others keep their noise. ``L'``
+    serves the right-to-left matching, ``R'`` the left-to-right one."""
     rows, cols = L.shape
     g = np.asarray(partner, np.float32)
     x = np.broadcast_to(np.arange(cols, dtype=np.float32)[None, :], (rows, cols))

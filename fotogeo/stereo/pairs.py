@@ -15,16 +15,21 @@ For two images with projection centres (or, for RPC images, points far along the
 * **view angle** — the angle between the two optical axes (obliques looking different ways cannot be matched).
 
 A candidate pair is kept when its overlap, ``b⊥/H`` and view angle pass the limits; then each image keeps at most
-``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first (the
-whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the eight of
+``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / rank_view_angle)`` first
+(the whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the eight of
 ``tests/dsm_oblique_sets.py`` in their runs, RMSE 0.593 → 0.606 GSD, 98.0 → 97.7 % complete: not taken). A pair
 over that cap is kept all the same when part of its overlap is covered by no kept pair (ground only those two
-images see would otherwise get no height). Matched alone, a pair's heights stayed within 1 GSD from views 22° to
-75° apart and its completeness fell by up to a fifth (``benchmarks/dsm_bench.py --cases oblique_sets
---view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: at 70° (``--view-angle-limit 70``,
-after the partner fill of :func:`fotogeo.stereo.dense.disparity`) the oblique sets' RMSE improved, but the rendered
-oblique block's got worse (other pairs win the cap through the ranking's limit term), completeness fell by up to 4
-points and CPU rose up to 6× (docs/howto/dsm.md, "The view-angle limit at 70°").
+images see would otherwise get no height). The ranking's reference angle ``rank_view_angle`` (45°) is not the
+admission limit ``max_view_angle``: pairs whose views differ by more than it (admitted when the limit is higher)
+rank after all the others, by the same product with the limit's term, and each image keeps at most
+``per_image_wide`` of them, so that a higher limit leaves the choice among the narrower pairs as it was and only
+adds partners (with the term moving with the limit, at 70°, other pairs won the cap on the rendered oblique block:
+24 → 20 pairs, RMSE 0.0521 → 0.0578 m; the −45° set kept 16 pairs instead of 3, CPU 6x). Matched alone, a pair's
+heights stayed within 1 GSD from views 22° to 75° apart and its completeness fell by up to a fifth
+(``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``); the limit stays 45° though the sweep would
+allow 70°: at 70° with the ranking at 45° every measured set's RMSE fell, the rendered oblique block kept its
+pairs, but the completeness fell by 1.2 and 3.9 points on two sets and CPU rose 1.7–2.7x on four
+(docs/howto/dsm.md, "The ranking apart from the limit").
 Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
 the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
 out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").

@@ -100,8 +100,8 @@ def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float,
     or ``(left's, right's)`` (``"both"``); ``partner``: the left pixels' expected disparities (full pixels, NaN
     where unknown, :func:`~fotogeo.stereo.dense.disparity`), the right side's matching given the right pixels'
     (:func:`~fotogeo.stereo.dense.right_expected`): each side's pixels without a partner are refused, not lined up
-    with the other side's (without it the right side's partnerless band found wrong disparities that the
-    witness and the unsupported pixels' test read)."""
+    with the other side's, as the left side's (the right side's disparities are the witness of the fine ones and
+    decide which pixels are unsupported)."""
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
