@@ -40,6 +40,12 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py
 * ``witness`` — ``pyramid.witnessed`` and ``pyramid.witness_envelope`` on a synthetic 480 x 2200 strip: median CPU
   ms per call, this tree's and ``--baseline-tree``'s (each in a child process), and a hash of their outputs.
 
+* ``oblique_sets`` — the oblique frame sets of ``tests/dsm_oblique_sets.py`` (``benchmarks/dsm_oblique_cases.py``;
+  ``--oblique-sets``, ``--oblique-params``, ``--pair-rows``, ``--view-angle-sweep``, ``--oblique-dsm-options``),
+  written to ``results/dsm_oblique_bench.json``. ``rendered`` and ``oblique_sets`` take ``--view-angle-limit DEG``
+  and ``--pair-limits NAME=VALUE,...`` (other fields of ``fotogeo.stereo.pairs.Limits`` for the automatic pair
+  choice, set in the ``fotogeo`` process: ``benchmarks/dsm_bench_run.py``; the rows' names carry them).
+
 Without ``--cars``, CARS's runs recorded on this machine by ``benchmarks/peers_cars.py``
 (``results/peers_cars.json``, margins ±100 m) are read and fotogeo's DSMs compared with their DSMs.
 
@@ -50,20 +56,19 @@ group's other rows stay, each with the command and load average of the run that 
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import os
 import shutil
 import sys
 import tempfile
-import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
+from dsm_bench_run import _stats, _time_v, _timed, limits_of, set_limits  # noqa: E402  (re-exported: _stats)
+from dsm_oblique_cases import oblique_sets  # noqa: E402
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
 PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux",
@@ -76,56 +81,11 @@ RPC_CASES = {"B/H 0.4": (1024, 0.4, (0, 0), "gdal"), "B/H 0.4, 3 px pointing": (
 NGI_CRS = "+proj=tmerc +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84"
 
 
-def _timed(func, *a, **kw):
-    c, w = time.process_time(), time.perf_counter()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        out = func(*a, **kw)
-    return out, time.process_time() - c, time.perf_counter() - w, [str(x.message) for x in caught]
-
-
-def _stats(d) -> dict:
-    med = float(np.median(d))
-    return {"median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "rmse": float(np.sqrt(np.mean(d ** 2)))}
-
-
-#: a child ``fotogeo`` run with the automatic view-angle limit at ``{0}`` degrees (``--view-angle-limit``)
-LIMIT_RUN = ("import runpy, sys; sys.path.insert(0, {1!r}); import dsm_bench; dsm_bench.set_view_limit({0}); "
-             "runpy.run_module('fotogeo', run_name='__main__')")
-
-
-def set_view_limit(deg) -> str:
-    """Set the default ``fotogeo.stereo.pairs.Limits.max_view_angle`` of this process to ``deg`` degrees (``None``:
-    leave it) for ``--view-angle-limit``, a measure of the automatic pair choice with another limit (given pairs
-    are matched whatever their views); returns the rows' name suffix."""
-    import dataclasses
-
-    from fotogeo.stereo.pairs import Limits
-    if deg is None:
-        return ""
-    names = [f.name for f in dataclasses.fields(Limits)]
-    d = list(Limits.__init__.__defaults__)
-    d[names.index("max_view_angle")] = float(deg)
-    Limits.__init__.__defaults__ = tuple(d)
-    return _limit_tag(deg)
-
-
-def _limit_tag(deg) -> str:
-    return "" if deg is None else f" (view-angle limit {float(deg):g})"
-
-
-def _python(limit=None) -> list:
-    """The child command's ``python`` (with ``--view-angle-limit``: through :data:`LIMIT_RUN`)."""
-    if limit is None:
-        return [sys.executable, "-m", "fotogeo"]
-    return [sys.executable, "-c", LIMIT_RUN.format(float(limit), str(ROOT / "benchmarks"))]
-
-
-def rendered(tmp: Path, refine: bool = False, limit=None) -> list:
+def rendered(tmp: Path, refine: bool = False, limits=None) -> list:
     from dsm_scenes import compare, make_scene
 
     from fotogeo.tools.dsm import dsm
-    tag, rows = set_view_limit(limit), []
+    tag, rows = set_limits(limits), []
     for kind in ("nadir", "held_out") if refine else ("nadir", "oblique", "held_out"):
         sc = make_scene(kind, tmp / kind)
         rep, cpu, wall, _ = _timed(dsm, sc["images"], tmp / f"{kind}.tif", camera=sc["camera"], eo=sc["eo"],
@@ -138,23 +98,6 @@ def rendered(tmp: Path, refine: bool = False, limit=None) -> list:
                      "within_2gsd": float((c["abs"] <= 2 * g).mean()), "completeness": rep["completeness"],
                      "cpu_s": cpu, "wall_s": wall})
     return rows
-
-
-def _time_v(cmd: list, cwd=None, tree: Path = ROOT) -> dict:
-    """Run ``cmd`` under ``/usr/bin/time -v`` (its own small process: the child's peak is not the parent's) with
-    ``tree`` on ``PYTHONPATH`` (``cwd`` outside any checkout for ``python -m``): user + system CPU (s), peak
-    resident memory (MiB), wall (s)."""
-    import re
-    import subprocess
-    w = time.perf_counter()
-    r = subprocess.run(["/usr/bin/time", "-v", *cmd], capture_output=True, text=True, cwd=cwd,
-                       env=dict(os.environ, PYTHONPATH=str(tree)))
-    if r.returncode:
-        raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr[-3000:]}")
-    num = {k: float(re.search(rf"{k}.*: ([\d.]+)", r.stderr).group(1))
-           for k in ("User time", "System time", "Maximum resident set size")}
-    return {"cpu_s": num["User time"] + num["System time"], "peak_rss_mib": num["Maximum resident set size"] / 1024,
-            "wall_s": time.perf_counter() - w}
 
 
 def ebee(tmp: Path, resolutions: list, rounds: int = 1, baseline=None, keep=None) -> list:
@@ -416,127 +359,6 @@ def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
     return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
-def oblique_sets(tmp: Path, names=None, params=None, pair_rows: bool = False, sweep: bool = False,
-                 extra=(), limit=None) -> list:
-    """The oblique frame sets of ``tests/dsm_oblique_sets.py`` (never used while tuning), each through ``fotogeo dsm
-    IMAGES --camera C --eo EO -o DSM.tif --report r.json`` as a user runs it (a child process under ``/usr/bin/time
-    -v``, cwd outside the checkout): RMSE, NMAD, median of DSM − truth, the share within 1 GSD, completeness, CPU,
-    the pairs kept and the reasons of the others; then the first set's first two strips alone against the whole
-    flight's DSM (issue 30's measure: NMAD of subset − whole where both have a height). ``params``: more sets as
-    parameter dicts (``make_set``'s, JSON; ``"all_pairs": true`` gives every pair with ``--pairs``), named by their
-    JSON; ``pair_rows``: each kept pair also alone
-    (``--pairs``, on the set's grid) against the truth, beside its convergence angle and B/H (which pairs' heights
-    miss the target); ``sweep``: only the view-angle sweep of ``benchmarks/dsm_view_sweep.py``; ``extra``:
-    more ``fotogeo dsm`` options for every set (``--oblique-dsm-options``, e.g. ``--refine``; the row names them);
-    ``limit``: the automatic view-angle limit (``--view-angle-limit``, :func:`set_view_limit`; the row names it).
-    Each row also says where its squared error lies (:func:`_by_pairs`)."""
-    import re
-
-    from dsm_oblique_sets import SETS, make_set
-    from dsm_scenes import compare
-    if sweep:
-        from dsm_view_sweep import view_angle_sweep
-        return view_angle_sweep(tmp, _time_v)
-    rows, py, tag = [], [*_python(limit), "dsm"], _limit_tag(limit)
-    sets = [(n, n) for n in (names if names is not None else [] if params else list(SETS))]
-    sets += [(json.dumps(p), {**p, "strips": [tuple(x) for x in p["strips"]]}) for p in params or []]
-    for name, spec in sets:
-        given = spec.pop("all_pairs", False) if isinstance(spec, dict) else False
-        sc = make_set(spec, tmp / f"set{len(rows)}")
-        out, rep = tmp / f"{len(rows)}.tif", tmp / f"{len(rows)}.json"
-        row = {"case": f"oblique_sets {name}" + "".join(f" {o}" for o in extra) + tag, "frames": len(sc["images"]),
-               "gsd_m": sc["gsd"]}
-        if given:  # every pair of frames given (--pairs): none left out for its views
-            given = tmp / f"pairs{len(rows)}.txt"
-            given.write_text("".join(f"{a} {b}\n" for a, b in itertools.combinations(sc["names"], 2)))
-        try:
-            row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
-                                "--crs", sc["crs"], "-o", str(out), "--report", str(rep), "-q", *extra,
-                                *(["--pairs", str(given)] if given else [])], cwd=tmp))
-        except SystemExit as e:  # a refusal: its last line is the row
-            rows.append({**row, "refused": str(e).strip().splitlines()[-1]})
-            continue
-        r, c = json.loads(rep.read_text()), compare(out, sc["surface"])
-        left = {}
-        for p in r["pairs"]:
-            if not p["kept"]:
-                key = re.sub(r"\d+(\.\d+)?", "N", p["reason"].split(" (")[0].split(":")[0])
-                left[key] = left.get(key, 0) + 1
-        rows.append({**row, "resolution_m": r["grid"]["resolution"], "pairs_kept": r["pairs_kept"], "pairs_left": left,
-                     "rmse_m": c["rmse"], "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"],
-                     "median_m": c["median"],
-                     "within_1gsd": float((c["abs"] <= sc["gsd"]).mean()), "completeness": r["completeness"],
-                     "over_3gsd": float((c["abs"] > 3 * sc["gsd"]).mean()), "by_pairs": _by_pairs(out, c["abs"])})
-        if pair_rows:
-            rows += _pairs_alone(tmp, sc, name + tag, r, out, py)
-        if name == next(iter(SETS)):  # the whole flight vs its first two strips
-            rows.append(_subset_vs_whole(tmp, sc, out, py, tag))
-    return rows
-
-
-def _by_pairs(dsm_path, err) -> dict:
-    """Where the squared error lies: per number of pairs that gave a cell (the DSM's count band, band 2; "3+"
-    for three or more), the share of the valid cells and of the sum of squared errors, and their RMSE (m);
-    ``err`` the cells' errors in :func:`dsm_scenes.compare`'s order (its valid cells, row by row)."""
-    import rasterio
-    with rasterio.open(dsm_path) as ds:
-        h, n, nod = ds.read(1), ds.read(2), ds.nodata
-    n, e2 = n[h != nod], np.asarray(err, float) ** 2
-    out = {}
-    for key, sel in (("1", n == 1), ("2", n == 2), ("3+", n >= 3)):
-        out[key] = {"cells": round(float(sel.mean()), 4), "sq_err": round(float(e2[sel].sum() / e2.sum()), 4),
-                    "rmse_m": round(float(np.sqrt(e2[sel].mean())), 4) if sel.any() else None}
-    return out
-
-
-def _pairs_alone(tmp: Path, sc: dict, name: str, report: dict, whole: Path, py: list) -> list:
-    """Each kept pair of a set matched alone (``--pairs``) on the set's grid: RMSE, NMAD, share of cells > 3 GSD off,
-    its convergence angle and B/H from the report."""
-    from dsm_scenes import compare
-    rows = []
-    for p in (q for q in report["pairs"] if q["kept"]):
-        a, b = p["images"]
-        pairs, out = tmp / f"pair_{a}_{b}.txt", tmp / f"pair_{a}_{b}.tif"
-        pairs.write_text(f"{a} {b}\n")
-        row = {"case": f"oblique_sets {name} pair {a}-{b} alone", "convergence_deg": p["convergence_deg"],
-               "base_to_height": p["base_to_height"], "view_angle_deg": p["view_angle_deg"]}
-        row.update(_time_v([*py, *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]),
-                            "--crs", sc["crs"], "--pairs", str(pairs), "-o", str(out), "-q", *_grid_of(whole)],
-                           cwd=tmp))
-        c = compare(out, sc["surface"])
-        rows.append({**row, "rmse_gsd": c["rmse"] / sc["gsd"], "nmad_m": c["nmad"], "median_m": c["median"],
-                     "over_3gsd": float((c["abs"] > 3 * sc["gsd"]).mean()), "cells": c["n"]})
-    return rows
-
-
-def _subset_vs_whole(tmp: Path, sc: dict, whole: Path, py: list, tag: str = "") -> dict:
-    sub = [p for p in sc["images"] if p.stem.startswith(("S1_", "S2_"))]
-    out = tmp / "subset.tif"
-    row = {"case": "oblique_sets first two strips vs the whole flight" + tag, "frames": len(sub)}
-    row.update(_time_v([*py, *map(str, sub), "--camera", str(sc["camera"]), "--eo", str(sc["eo"]), "--crs", sc["crs"],
-                        "-o", str(out), "-q", *_grid_of(whole)], cwd=tmp))
-    import rasterio
-
-    from dsm_scenes import compare
-    from rasterio.windows import from_bounds
-    with rasterio.open(out) as a, rasterio.open(whole) as b:  # the subset's cells on the whole's (aligned) grid
-        win = from_bounds(*b.bounds, a.transform).round_offsets().round_lengths()
-        x = a.read(1, window=win, boundless=True, fill_value=a.nodata, out_shape=b.shape).astype(float)
-        y = b.read(1).astype(float)
-        ok = (x != a.nodata) & (y != b.nodata)
-    c = compare(out, sc["surface"])
-    return {**row, **{f"{k}_vs_whole_m": v for k, v in _stats(x[ok] - y[ok]).items()}, "common_cells": int(ok.sum()),
-            "share_of_whole_cells": float(ok.sum() / max(1, (y != b.nodata).sum())), "rmse_m": c["rmse"],
-            "nmad_m": c["nmad"], "median_m": c["median"]}
-
-
-def _grid_of(path) -> list:
-    """``--bounds`` and ``--resolution`` of a DSM: another run on its grid."""
-    import rasterio
-    with rasterio.open(path) as ds:
-        return ["--bounds", ",".join(f"{v:.6f}" for v in ds.bounds), "--resolution", f"{ds.res[0]:.9g}"]
-
-
 def _merge(runs: list, group: str, new: list, run: dict) -> list:
     """``runs`` with ``group``'s rows of the same names replaced by ``new`` (each with ``run``: command, load);
     its other rows stay in their order with the run that measured them."""
@@ -570,7 +392,11 @@ def main():
                     "e.g. --oblique-dsm-options=--refine (the rows' names carry them)")
     ap.add_argument("--view-angle-limit", type=float, help="rendered, oblique_sets: the automatic pair choice's "
                     "view-angle limit (degrees) instead of fotogeo.stereo.pairs.Limits' (the rows' names carry it)")
+    ap.add_argument("--pair-limits", help="rendered, oblique_sets: more fields of fotogeo.stereo.pairs.Limits for the "
+                    "automatic choice, NAME=VALUE separated by ',' (e.g. rank_view_angle=45,per_image_wide=1; the "
+                    "rows' names carry them)")
     args = ap.parse_args()
+    limits = limits_of(args.view_angle_limit, args.pair_limits)
     rpc_names = [n.strip() for n in args.rpc_cases.split(";")] if args.rpc_cases else None
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
     rows, load0 = [], os.getloadavg()
@@ -581,7 +407,7 @@ def main():
                 rows.append({"case": case, "skipped": f"no data at {DATA}"})
                 continue
             (tmp / case).mkdir()
-            rows += {"rendered": lambda: rendered(tmp / case, limit=args.view_angle_limit),
+            rows += {"rendered": lambda: rendered(tmp / case, limits=limits),
                      "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars, args.cars_dir),
@@ -593,7 +419,7 @@ def main():
                                                           _params(args.oblique_params), args.pair_rows,
                                                            args.view_angle_sweep,
                                                            args.oblique_dsm_options.split(),
-                                                           args.view_angle_limit)}[case]()
+                                                           limits)}[case]()
     for r in rows:
         print(" | ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
     run = {"command": " ".join(sys.argv), "load_average": [load0, os.getloadavg()]}

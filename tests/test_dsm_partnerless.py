@@ -91,3 +91,29 @@ def test_a_pixel_with_a_partner_keeps_it_when_the_expected_disparity_errs():
         ok = np.isfinite(d)
         assert not (ok & (np.abs(d - D) > 2)).any()
         assert ok.sum() >= 0.85 * plain, (g, ok.sum(), plain)
+
+
+def test_the_right_images_coarse_pass_gets_the_partner_fill_too():
+    """The coarse-to-fine step's right pass (``pyramid.coarse_disparity(side="right")``, the witness of the fine
+    disparities and the test of the unsupported pixels) is the left pass of the mirrored pair, the partner fill
+    included: each right pixel's expected disparity is :func:`dense.right_expected` of the left pixels' (main
+    before this test gave the right pass no fill: its pixels without a partner met the left's without one)."""
+    import cv2
+    from fotogeo.orientation.block_render import texture
+    from fotogeo.stereo import pyramid
+    rng = np.random.default_rng(5)
+    rows, cols, D = 160, 640, 120
+    tex = cv2.resize(texture(rng, (320, 1600)), (cols + D, rows), interpolation=cv2.INTER_AREA)
+    left = (tex[:, :cols] + rng.normal(0, 2, (rows, cols))).astype(np.float32)
+    right = (tex[:, D:D + cols] + rng.normal(0, 2, (rows, cols))).astype(np.float32)
+    vl, vr = np.zeros((rows, cols), bool), np.zeros((rows, cols), bool)
+    vl[:, 320:600], vr[:, 40:300] = True, True  # partners only for left 320-420 / right 200-300
+    g = np.full((rows, cols), float(D), np.float32)
+    gr = dense.right_expected(g)
+    assert np.isnan(gr[:, cols - D:]).all() and (gr[:, :cols - D] == D).all()
+    dr = pyramid.coarse_disparity(left, right, vl, vr, 0, 400, side="right", partner=g)
+    mirrored = pyramid.coarse_disparity(right[:, ::-1], left[:, ::-1], vr[:, ::-1], vl[:, ::-1], 0, 400,
+                                        side="left", partner=gr[:, ::-1])
+    both = np.isfinite(dr) | np.isfinite(mirrored[:, ::-1])
+    assert both.any() and np.allclose(dr[both], mirrored[:, ::-1][both], equal_nan=False), \
+        f"{int((np.isfinite(dr) != np.isfinite(mirrored[:, ::-1])).sum())} right pixels differ"

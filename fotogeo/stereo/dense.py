@@ -232,12 +232,26 @@ def _matched_grey(img, valid, block: int, seed: int) -> np.ndarray:
 PARTNER_BLUR = 2.0
 
 
+def right_expected(partner) -> np.ndarray:
+    """The disparity each right pixel is expected at, from the left pixels' ``partner`` (float32 ``(rows, cols)``,
+    NaN: unknown): the right pixel ``x`` meets the left pixel ``x + g(x + g(x))`` (one step of the fixed point
+    ``u = x + g(u)``, ``x + g(x)`` rounded); NaN where that left pixel lies outside the image or has none. What
+    the right image's own matching (images mirrored) is given as its ``partner``."""
+    g = np.asarray(partner, np.float32)
+    cols = g.shape[1]
+    x = np.arange(cols, dtype=np.float32)[None, :]
+    first = np.rint(x + np.nan_to_num(g, nan=-1e6))
+    inside = (first >= 0) & (first < cols)
+    gx = np.take_along_axis(g, np.where(inside, first, 0).astype(np.intp), axis=1)
+    return np.where(inside, gx, np.nan).astype(np.float32)
+
+
 def _partner_fill(L, R, valid_left, valid_right, partner) -> tuple:
     """``(L', R')``: the 8-bit images with each one's pixels outside its ``valid`` area set to the grey of the
     other image's valid pixel they meet at the expected disparity ``partner`` (of the left pixels, NaN: none;
     module docstring): a left pixel ``u`` meets the right pixel ``u − g(u)``, a right pixel ``x`` the left pixel
-    ``x + g(x + g(x))``, blurred (``PARTNER_BLUR``); the others keep their noise. ``L'`` serves the right-to-left
-    matching, ``R'`` the left-to-right one."""
+    ``x + g(x + g(x))`` (:func:`right_expected`), blurred (``PARTNER_BLUR``); the others keep their noise. ``L'``
+    serves the right-to-left matching, ``R'`` the left-to-right one."""
     rows, cols = L.shape
     g = np.asarray(partner, np.float32)
     x = np.broadcast_to(np.arange(cols, dtype=np.float32)[None, :], (rows, cols))
@@ -250,10 +264,7 @@ def _partner_fill(L, R, valid_left, valid_right, partner) -> tuple:
         return cv2.remap(img, at, y.astype(np.float32), cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT), seen
 
     rl, sl = read(R, valid_right, x - g)
-    first = np.rint(x + np.nan_to_num(g, nan=-1e6))
-    inside = (first >= 0) & (first < cols)
-    gx = np.take_along_axis(g, np.where(inside, first, 0).astype(np.intp), axis=1)
-    lr, sr = read(L, valid_left, np.where(inside, x + gx, np.nan))
+    lr, sr = read(L, valid_left, x + right_expected(g))
     rl, lr = (cv2.GaussianBlur(c, (0, 0), PARTNER_BLUR) for c in (rl, lr))
     return np.where(~valid_left & sl, rl, L), np.where(~valid_right & sr, lr, R)
 

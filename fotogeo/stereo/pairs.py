@@ -15,16 +15,21 @@ For two images with projection centres (or, for RPC images, points far along the
 * **view angle** — the angle between the two optical axes (obliques looking different ways cannot be matched).
 
 A candidate pair is kept when its overlap, ``b⊥/H`` and view angle pass the limits; then each image keeps at most
-``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / max view angle)`` first (the
-whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the eight of
+``per_image`` partners, the best by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / rank_view_angle)`` first
+(the whole base: ranking by ``b⊥/H`` changed only the parallel set's pairs of the eight of
 ``tests/dsm_oblique_sets.py`` in their runs, RMSE 0.593 → 0.606 GSD, 98.0 → 97.7 % complete: not taken). A pair
 over that cap is kept all the same when part of its overlap is covered by no kept pair (ground only those two
-images see would otherwise get no height). Matched alone, a pair's heights stayed within 1 GSD from views 22° to
-75° apart and its completeness fell by up to a fifth (``benchmarks/dsm_bench.py --cases oblique_sets
---view-angle-sweep``); the limit stays 45° though the sweep would allow 70°: at 70° (``--view-angle-limit 70``,
-after the partner fill of :func:`fotogeo.stereo.dense.disparity`) the oblique sets' RMSE improved, but the rendered
-oblique block's got worse (other pairs win the cap through the ranking's limit term), completeness fell by up to 4
-points and CPU rose up to 6× (docs/howto/dsm.md, "The view-angle limit at 70°").
+images see would otherwise get no height). The ranking's reference angle ``rank_view_angle`` (45°) is not the
+admission limit ``max_view_angle``: pairs whose views differ by more than it (admitted when the limit is higher)
+rank after all the others, by the same product with the limit's term, and each image keeps at most
+``per_image_wide`` of them, so that a higher limit leaves the choice among the narrower pairs as it was and only
+adds partners (with the term moving with the limit, at 70°, other pairs won the cap on the rendered oblique block:
+24 → 20 pairs, RMSE 0.0521 → 0.0578 m; the −45° set kept 16 pairs instead of 3, CPU 6x). Matched alone, a pair's
+heights stayed within 1 GSD from views 22° to 75° apart and its completeness fell by up to a fifth
+(``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``); the limit stays 45° though the sweep would
+allow 70°: at 70° with the ranking at 45° every measured set's RMSE fell, the rendered oblique block kept its
+pairs, but the completeness fell by 1.2 and 3.9 points on two sets and CPU rose 1.7–2.7x on four
+(docs/howto/dsm.md, "The ranking apart from the limit").
 Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
 the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
 out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").
@@ -49,6 +54,10 @@ class Limits:
     max_base_height: float = 2.0
     max_view_angle: float = 45.0
     per_image: int = 3
+    #: the ranking's reference angle: the score's ``1 − view angle / rank_view_angle`` (module docstring)
+    rank_view_angle: float = 45.0
+    #: partners per image whose views differ by more than ``rank_view_angle`` (admitted up to ``max_view_angle``)
+    per_image_wide: int = 1
 
 
 @dataclass
@@ -159,9 +168,22 @@ def _reason(p: PairChoice, lim: Limits, given: bool = False) -> str:
     return ""
 
 
-def _score(p: PairChoice, lim: Limits) -> float:
-    """The order in which pairs get an image's partners (module docstring)."""
-    return p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / lim.max_view_angle)
+def _wide(p: PairChoice, lim: Limits) -> bool:
+    """Whether the pair's views differ by more than the ranking's reference angle (module docstring; never with
+    the admission limit at or below it)."""
+    return p.view_angle > min(lim.rank_view_angle, lim.max_view_angle)
+
+
+def _score(p: PairChoice, lim: Limits) -> tuple:
+    """The order in which pairs get an image's partners (module docstring), best first when sorted: the pairs
+    within ``rank_view_angle`` by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / rank_view_angle)``, then the
+    wider ones (admitted up to ``max_view_angle``) by the same product with ``max_view_angle``'s term. The
+    reference angle does not move with the admission limit: with both at 70° the narrow pairs' order changed
+    and other pairs won the per-image cap (the rendered oblique block of ``dsm_bench.py --cases rendered``: 24 →
+    20 pairs, RMSE 0.0521 → 0.0578 m)."""
+    wide = _wide(p, lim)
+    ref = lim.max_view_angle if wide else min(lim.rank_view_angle, lim.max_view_angle)
+    return (not wide, p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / ref))
 
 
 def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None) -> list:
@@ -176,11 +198,15 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
         p.reason = _reason(p, limits, given is not None)
         if not p.reason and leave_out is not None:
             p.reason = leave_out(p)
-    ok = sorted((p for p in out if not p.reason), key=lambda p: -_score(p, limits))
-    used = np.zeros(n, int)
+    ok = sorted((p for p in out if not p.reason), key=lambda p: _score(p, limits), reverse=True)
+    used, wide = np.zeros(n, int), np.zeros(n, int)
     for p in ok:
         if given is None and used[p.i] >= limits.per_image and used[p.j] >= limits.per_image:
             p.reason = f"both images already have {limits.per_image} better partners"
+            continue
+        if given is None and _wide(p, limits) and max(wide[p.i], wide[p.j]) >= limits.per_image_wide:
+            p.reason = (f"an image already has {limits.per_image_wide} partner(s) whose views differ by more than "
+                        f"{limits.rank_view_angle:g} degrees (these {p.view_angle:.0f})")
             continue
         p.kept, p.reason = True, "kept"
         if p.view_angle > limits.max_view_angle:  # only a given pair: the user's choice over the view limit
@@ -188,6 +214,8 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
                         f"above {limits.max_view_angle:g})")
         used[p.i] += 1
         used[p.j] += 1
+        wide[p.i] += int(_wide(p, limits))
+        wide[p.j] += int(_wide(p, limits))
     _readmit_uncovered(out, footprints, limits)
     return out
 

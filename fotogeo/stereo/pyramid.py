@@ -42,7 +42,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .dense import disparity, disparity_range
+from .dense import disparity, disparity_range, right_expected
 
 #: the coarse copies are this many times smaller per side
 FACTOR = 4
@@ -98,7 +98,10 @@ def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float,
     sub-pixel cancellation; of the left image's pixels (``side="left"``), of the right image's (``"right"``: the
     same matching with the images' roles and rows mirrored, a right pixel ``x`` meets the left pixel ``x + d``),
     or ``(left's, right's)`` (``"both"``); ``partner``: the left pixels' expected disparities (full pixels, NaN
-    where unknown; the left side's matching only, :func:`~fotogeo.stereo.dense.disparity`)."""
+    where unknown, :func:`~fotogeo.stereo.dense.disparity`), the right side's matching given the right pixels'
+    (:func:`~fotogeo.stereo.dense.right_expected`): each side's pixels without a partner are refused, not lined up
+    with the other side's, as the left side's (the right side's disparities are the witness of the fine ones and
+    decide which pixels are unsupported)."""
     factor = factor or FACTOR
     vl = shrink(valid_left, factor) >= 1.0
     vr = shrink(valid_right, factor) >= 1.0
@@ -109,15 +112,16 @@ def coarse_disparity(left, right, valid_left, valid_right, lo: float, hi: float,
     # with invalid columns there, every column of the copy is searched (partners in the padding are refused)
     dmin, n = disparity_range(lo, hi)
     a, b = max(dmin + n, 0) + 1, max(-dmin, 0) + 1
+    g = None if partner is None else shrink(partner, factor) / factor
     dl = dr = None
     if side in ("left", "both"):
-        pad = lambda m: np.pad(m, ((0, 0), (a, b)))
-        g = None if partner is None else np.pad(shrink(partner, factor) / factor, ((0, 0), (a, b)),
-                                                constant_values=np.nan)
-        dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, partner=g, **kw)[:, a:a + L.shape[1]]
+        pad = lambda m, v=0: np.pad(m, ((0, 0), (a, b)), constant_values=v)
+        dl = disparity(pad(L), pad(R), pad(vl), pad(vr), lo, hi, partner=None if g is None else pad(g, np.nan),
+                       **kw)[:, a:a + L.shape[1]]
     if side in ("right", "both"):
-        pad = lambda m: np.pad(m, ((0, 0), (b, a)))
-        dr = disparity(pad(R)[:, ::-1], pad(L)[:, ::-1], pad(vr)[:, ::-1], pad(vl)[:, ::-1], lo, hi, **kw)[:, ::-1]
+        pad = lambda m, v=0: np.pad(m, ((0, 0), (b, a)), constant_values=v)[:, ::-1]
+        gr = None if g is None else pad(right_expected(g), np.nan)  # a right pixel's, mirrored: the same values
+        dr = disparity(pad(R), pad(L), pad(vr), pad(vl), lo, hi, partner=gr, **kw)[:, ::-1]
         dr = np.ascontiguousarray(dr[:, b:b + R.shape[1]])
     return {"left": dl, "right": dr, "both": (dl, dr)}[side]
 

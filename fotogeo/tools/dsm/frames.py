@@ -215,7 +215,7 @@ def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: 
     if gd is None or gd[1] >= MARGIN or disparity_range(-gd[1], gd[1])[1] + 2 * per > pyr.GAIN * whole:
         return None, per
     (D0, R), band = gd, disparity_range(-gd[1], gd[1])[1]
-    dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, side="right")
+    dcr = pyr.coarse_disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, side="right", partner=guide)
     wm = _warped_maps(maps2, D0)
     near = pyr.near_border(D0, v1m, v2m)
     unsup = v1m & pyr.unsupported(dc, dcr, D0, near) & (wm[0] >= 0) & (wm[1] >= 0) & \
