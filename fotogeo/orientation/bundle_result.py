@@ -187,22 +187,30 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
     return out
 
 
-def make_result(block, run, pb, post, fixed, correlations, blunders, timings, given=None, factors=None):
+def frame_eos(run) -> tuple:
+    """The map orientations of ``run``'s frames (module docstring)."""
+    return tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV))
+                 for j in range(len(run.C)))
+
+
+def make_result(block, run, pb, post, fixed, correlations, blunders, timings, given=None, factors=None,
+                given_eo=None):
     """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``, ``pb`` and ``post`` its
     problem and posterior; ``given``: the posterior with the given weights when ``pb`` was re-weighted per group
     (:func:`reweighted`, ``factors``) — σ₀ and the groups' σ̂ reported are then the given weights' (what the
-    groups' a-priori σ say), residuals and covariances the re-weighted solution's."""
+    groups' a-priori σ say), residuals and covariances the re-weighted solution's; ``given_eo`` the orientations
+    of the given weights (the priors' test)."""
     from .bundle_types import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
     given = given if given is not None else post
     cov, (s0, rule) = post, covariance_scale(post.sigma0)
     if factors is not None:
         rule = reweighted_rule(factors, post)
-    eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
+    eo = frame_eos(run)
     sd = s0 * _root(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
-    a_priori = _root(np.diag(post.S_inv), np.diag(post.S_inv) * np.diag(post.S))[:6 * m].reshape(m, 6)
+    a_priori = _root(np.diag(given.S_inv), np.diag(given.S_inv) * np.diag(given.S))[:6 * m].reshape(m, 6)
     a_priori[:, 3:] = np.degrees(a_priori[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
     cam = replace(block.camera, focal_length=float(run.interior[0]),
@@ -247,7 +255,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, gi
                           tuple(correlations),
                           tuple(blunders), run.iterations, timings, *covariance_blocks(cov.S_inv, s0, m),
                           tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(cov.S, s0, m),
-                          a_priori)
+                          a_priori, given_eo if factors is not None else None)
     errors = images_only_errors(result, block)
     stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
     return result

@@ -45,7 +45,8 @@ class BundleResult:
     #: (m, 6) σ of each orientation given every other frame and the interior (σ₀ √diag((S_jj)⁻¹), as eo_sigma):
     #: what its own rays (and priors) hold within the block, the block's datum aside (bundle_result)
     eo_sigma_in_block: np.ndarray | None = None
-    #: (m, 6) √diag(S⁻¹) with the a-priori weights (widened per group by ``stats["group_factors"]`` when the groups
-    #: were re-weighted), unscaled (as eo_sigma's units): what the observations would give if those σ were right
-    #: (the priors' residual test, bundle_quality)
+    #: (m, 6) √diag(S⁻¹) with the a-priori weights, unscaled (as eo_sigma's units): what the observations would give
+    #: if every a-priori σ were right (the priors' residual test, bundle_quality)
     eo_sigma_a_priori: np.ndarray | None = None
+    #: the orientations of the given weights when the groups were re-weighted (``stats["group_factors"]``), else None
+    eo_given_weights: tuple | None = None
