@@ -23,14 +23,21 @@ Cases (``--cases``, labels below):
   (``tests/rendered_block_uncertainty.py``); with ``--ortho`` also their ``ortho --uncertainty`` rasters against the
   check points' ground errors (exact DEM: the orientation's term alone).
 
+``--control-draws N``: for each rendered case, its last seed's block adjusted again ``N`` times with only its
+control points' noise drawn anew (:func:`control_draws`): whether one seed's ``e/σ`` is one draw of a datum that
+rests on a few GCPs. Per case also the RMS of the errors themselves (m, °): whether re-weighting moves the frames
+closer to the truth. ``--ebee-reference DIR`` keeps the all-frame eBee run, to compare two trees against one.
+
 Rows go to ``benchmarks/results/triangulate_sigma_bench.json`` (``--out``), CPU seconds (user + sys, this process
 and its children) per case.
 
     PYTHONPATH=. .venv/bin/python benchmarks/triangulate_sigma_bench.py [--cases 'ngi no EO' ...] [--ortho]
+        [--seeds 2] [--control-draws 30] [--ebee-reference DIR]
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import subprocess
@@ -62,6 +69,16 @@ RENDERED = {
     "rendered 2 x 4, control 0.5 m given 3 cm": ({"control_sigma": (0.5, 0.5), "control_sigma_given": (0.02, 0.03)},
                                                  None, 9),
     "rendered 2 x 4, GNSS 3 m given 0.5 m": ({"n_control": 0, "eo_noise": (3.0, 0.3)}, (0.5, 0.3), 10),
+    # held out of the s22 variance-component iteration (not run while it was built)
+    "rendered 3 x 4, f 9 mm 700 m, GNSS 2 m given 0.3 m, 4 GCP": (
+        {"strips": 3, "n_control": 4, "eo_noise": (2.0, 0.2), "flying_height": 700.0, "side_overlap": 0.4,
+         "camera": FrameCamera(9.0, (4.8, 6.4), (480, 640))}, (0.3, 0.2), 21),
+    "rendered 2 x 5, 70 % forward 500 m, relief 80 m, GNSS 1.5 m given 0.2 m": (
+        {"frames_per_strip": 5, "n_control": 0, "eo_noise": (1.5, 0.2), "forward_overlap": 0.7,
+         "flying_height": 500.0, "relief": 80.0}, (0.2, 0.2), 23),
+    "rendered 2 x 4, wide lens 400 m, GNSS 1 m given 1 m, 3 GCP": (
+        {"n_control": 3, "eo_noise": (1.0, 0.2), "flying_height": 400.0,
+         "camera": FrameCamera(4.0, (4.0, 6.0), (400, 600))}, (1.0, 0.2), 25),
 }
 EBEE_SUBSETS = {"ebee triple 2186/2188/2189": ["IMG_2186", "IMG_2188", "IMG_2189"],
                 "ebee triple 2280/2281/2282": ["IMG_2280", "IMG_2281", "IMG_2282"]}
@@ -103,7 +120,10 @@ def pooled(rows: list) -> dict:
     out = {"frames": len(rows)}
     if not rows:
         return out
-    z = np.array([r["error"] for r in rows]) / np.array([r["sigma"] for r in rows])
+    e = np.array([r["error"] for r in rows])
+    z = e / np.array([r["sigma"] for r in rows])
+    out["position_rms_error_m"] = float(np.sqrt(np.mean(e[:, :3] ** 2)))  # per axis: whether the errors fall
+    out["angle_rms_error_deg"] = float(np.sqrt(np.mean(e[:, 3:] ** 2)))
     for kind, sl, key in (("position", slice(0, 3), "position_ratio"), ("angle", slice(3, 6), "angle_ratio")):
         zk = z[:, sl][np.isfinite(z[:, sl])]
         out[f"{kind}_rms_e_over_sigma"] = float(np.sqrt(np.mean(zk ** 2))) if zk.size else None
@@ -161,7 +181,10 @@ def ebee_case(label: str, work: Path, tree: Path, reference: Path) -> dict:
                       read_exterior_orientation(reference / "exterior_orientation.txt"))
     return {"exit": 0, "sigma0": rep["sigma0"], "covariance_scale": rep["covariance_scale"],
             "covariance_rule": rep["statistics"].get("covariance_rule"), "rows": rows,
-            "command": " ".join(str(a) for a in args), "reference": "the all-frame run (shares the GPS priors)"}
+            "command": " ".join(str(a) for a in args), "reference": "the all-frame run (shares the GPS priors)",
+            "group_factors": rep["statistics"].get("group_factors"), "variance_components": {
+                k: g.get("sigma0") for k, g in (rep["statistics"].get("variance_components") or {}).items()},
+            "reference_sigma0": json.loads((reference / "report.json").read_text())["sigma0"]}
 
 
 def ngi_ortho(work: Path, tree: Path) -> dict:
@@ -217,6 +240,7 @@ def rendered_case(label: str, work: Path, with_ortho: bool, seeds: int) -> dict:
         out["seeds"].append(seed)
         out["sigma0"].append(rep["sigma0"])
         out.setdefault("covariance_rule", []).append(rep["statistics"].get("covariance_rule"))
+        out.setdefault("group_factors", []).append(rep["statistics"].get("group_factors"))
         out["rows"] += [{"seed": seed, **row} for row in rows]
         if with_ortho:
             from fotogeo.tools.ortho.tool import ortho
@@ -230,6 +254,48 @@ def rendered_case(label: str, work: Path, with_ortho: bool, seeds: int) -> dict:
     return out
 
 
+def control_draws(label: str, work: Path, n: int, seed: int) -> dict:
+    """The case's block of ``seed`` rendered, matched and adjusted once, then ``n`` times more with only its control
+    points' image observations and coordinates drawn again from their simulated noise (σ 0.3 px; the control σ),
+    the matched ties kept: the pooled ``e/σ`` of each draw. A datum resting on a few GCPs moves every frame
+    alike, so one seed's frames are nearly one sample of it, not eight."""
+    from rendered_block_uncertainty import realisation
+    from fotogeo.orientation import bundle_jacobian as bj
+    from fotogeo.orientation.block_simulation import true_interior
+    from fotogeo.orientation.bundle import BundleOptions, adjust_block
+    shape, prior, _ = RENDERED[label]
+    options = BundleOptions() if prior is None else BundleOptions(eo_sigma=prior)
+    (work / "draws").mkdir()
+    r = realisation(work / "draws", seed, 0.0, options, **shape)
+    sb, block = r["sb"], r["block"]
+    ctrl = block.role == "control"
+    obs = np.flatnonzero(ctrl[block.obs_point])
+    index = {p: k for k, p in enumerate(sb.block.point_ids)}
+    true = np.array([sb.true_xyz[index[p]] if c else np.full(3, np.nan) for p, c in zip(block.point_ids, ctrl)])
+    R, C = np.stack([e.rotation_cv for e in sb.true_eo]), np.stack([e.centre for e in sb.true_eo])
+    px = bj.project(R, C, true, block.obs_frame[obs], block.obs_point[obs],
+                    true_interior(sb.true_camera, sb.true_distortion), bj.pixel_scale(block.camera))
+    rng = np.random.default_rng(seed + 500)
+    names = block.frames
+
+    def draw(result):
+        return pooled(frame_rows({"frames": [{"name": nm, "sigma": dict(zip(KEYS, map(float, s)))}
+                                             for nm, s in zip(names, result.eo_sigma)]},
+                                 dict(zip(names, result.eo)), dict(zip(names, sb.true_eo))))
+    first, rows = draw(r["result"]), []
+    for _ in range(n):
+        pix, xyz = block.obs_pixel.copy(), block.point_xyz.copy()
+        pix[obs] = px + rng.normal(0.0, 0.3, px.shape)
+        xyz[ctrl] = true[ctrl] + rng.normal(size=(int(ctrl.sum()), 3)) * block.point_sigma[ctrl]
+        rows.append(draw(adjust_block(dataclasses.replace(block, obs_pixel=pix, point_xyz=xyz), options)))
+    e = np.array([[d["position_rms_e_over_sigma"], d["angle_rms_e_over_sigma"]] for d in rows])
+    return {"seed": seed, "draws": n, "as_rendered": first, "per_draw": e.tolist(),
+            "position_rms_e_over_sigma": float(np.sqrt(np.mean(e[:, 0] ** 2))),
+            "angle_rms_e_over_sigma": float(np.sqrt(np.mean(e[:, 1] ** 2))),
+            "position_median": float(np.median(e[:, 0])),
+            "share_above_as_rendered": float(np.mean(e[:, 0] >= first["position_rms_e_over_sigma"]))}
+
+
 def print_row(label: str, r: dict) -> None:
     if r.get("exit"):
         print(f"{label:<38} refused/failed: {r.get('message', '')[-200:]}")
@@ -238,7 +304,8 @@ def print_row(label: str, r: dict) -> None:
     o = r.get("ortho") or {}
     ortho = f" ortho obs/pred {o['ratio']:.2f} (>2σ {100 * o['beyond_2sigma']:.0f} %)" if "ratio" in o else ""
     s0 = "/".join(f"{v:.2f}" for v in np.atleast_1d(r["sigma0"]))
-    print(f"{label:<38} σ0 {s0} n {p['frames']:>2}  pos e/σ {p['position_rms_e_over_sigma']:.2f} "
+    print(f"{label:<38} σ0 {s0} n {p['frames']:>2}  rms e {p['position_rms_error_m']:.3g} m "
+          f"{p['angle_rms_error_deg']:.3g}°  pos e/σ {p['position_rms_e_over_sigma']:.2f} "
           f"worst {p['position_worst_frame_ratio']:.2f} >2σ {100 * p['position_beyond_2sigma']:3.0f} %  "
           f"ang e/σ {p['angle_rms_e_over_sigma']:.2f} worst {p['angle_worst_frame_ratio']:.2f} "
           f">2σ {100 * p['angle_beyond_2sigma']:3.0f} %  cpu {r['cpu_s']:.1f} s{ortho}")
@@ -249,6 +316,11 @@ def main(argv=None) -> None:
     ap.add_argument("--cases", nargs="+", default=CASES, choices=CASES)
     ap.add_argument("--ortho", action="store_true", help="also ortho --uncertainty against ground errors")
     ap.add_argument("--seeds", type=int, default=1, help="seeds per rendered case (from the case's own)")
+    ap.add_argument("--control-draws", type=int, default=0, metavar="N",
+                    help="rendered cases: N re-draws of the control's noise on the last seed's ties (control_draws)")
+    ap.add_argument("--ebee-reference", default=None, metavar="DIR",
+                    help="the all-frame eBee run's output folder, made there if missing (default: a temporary one); "
+                         "pass one made by the tree before a change to compare two trees against one reference")
     ap.add_argument("--data", default=None, help="the shared data folder (ngi/, drone_snowpeak/)")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo tree the CLI cases run (PYTHONPATH)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "triangulate_sigma_bench.json"))
@@ -267,9 +339,16 @@ def main(argv=None) -> None:
                 if a.ortho and label == "ngi no EO" and not r.get("exit"):
                     r["ortho"] = ngi_ortho(work, Path(a.tree))
             elif label.startswith("ebee"):
-                r = ebee_case(label, work, Path(a.tree), Path(tmp) / "ebee_all")
+                r = ebee_case(label, work, Path(a.tree), Path(a.ebee_reference or Path(tmp) / "ebee_all"))
             else:
                 r = rendered_case(label, work, a.ortho, a.seeds)
+                if a.control_draws:
+                    d = r["control_draws"] = control_draws(label, work, a.control_draws, r["seeds"][-1])
+                    print(f"{label:<38} seed {d['seed']}: e/σ {d['as_rendered']['position_rms_e_over_sigma']:.2f} "
+                          f"as rendered; {d['draws']} draws of the control's noise: e/σ RMS "
+                          f"{d['position_rms_e_over_sigma']:.2f} (median {d['position_median']:.2f}, angles "
+                          f"{d['angle_rms_e_over_sigma']:.2f}), {100 * d['share_above_as_rendered']:.0f} % of "
+                          f"draws at or above the rendered one")
             r["cpu_s"] = cpu_seconds() - t0
             if not r.get("exit"):
                 r["pooled"] = pooled(r["rows"])

@@ -77,7 +77,7 @@ def realisation(folder: Path, seed: int, dem_sigma: float, options=None, control
     write_json(folder / "report.json", report(result, block, CRS_OBJECT, {}))
     write_interior_orientation(folder / "camera.yaml", "adjusted", result.camera, result.distortion)
     wrong = noisy_dem(dem, dem_sigma, seed + 1000)
-    return {"sb": sb, "result": result, "images": paths, "eo": folder / "exterior_orientation.txt",
+    return {"sb": sb, "block": block, "result": result, "images": paths, "eo": folder / "exterior_orientation.txt",
             "camera": folder / "camera.yaml",
             "dem": dem, "noisy_dem": wrong, "dem_path": write_dem(folder / "dem.tif", wrong)}
 

@@ -137,3 +137,23 @@ def test_the_estimate_can_be_turned_off_and_then_the_global_rule_scales_every_si
     assert 2.5 < off.sigma0 < 3.5 and off.stats["covariance_scale"] == off.sigma0
     assert "factor" not in off.stats["variance_components"]["image"]
     assert "driven by the image points" in variance_lines({"statistics": off.stats, "sigma0": off.sigma0})[1]
+
+
+@pytest.mark.parametrize("given, warned", [((0.02, 0.03), True), ((0.5, 0.5), False)])
+def test_control_whose_sigma_the_block_cannot_check_is_warned_about(given, warned):
+    """GCPs 0.5 m off under a 1.7 m GSD: given 3 cm, their redundancy is near 0 — no residual can show the σ too
+    small and every frame's σ rests on it (e/σ 1.67, ``benchmarks/triangulate_sigma_bench.py``): warned, in
+    report.json's ``sigma_warnings`` and on the console, naming the options. Given the 0.5 m they are off, the
+    images check them: no warning. Main: no such warning."""
+    from fotogeo.tools.triangulate.outputs import unchecked_lines
+    sb = simulate_block(seed=9, strips=2, frames_per_strip=4, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
+                        point_spacing=80.0, margin=5.0, blunder_fraction=0.0, n_control=8, control_sigma=(0.5, 0.5))
+    b = sb.block
+    sig = np.where((b.role == "control")[:, None], np.array(given)[[0, 0, 1]], b.point_sigma)
+    result = adjust_block(dataclasses.replace(b, point_sigma=sig))
+    lines = unchecked_lines(result.stats["variance_components"])
+    said = [line for line in lines if "control coordinates' given sigma" in line]
+    assert bool(said) == warned, lines
+    if warned:
+        assert "(0.02 m)" in said[0] and "--control-sigma-xy" in said[0]
+        assert said[0] in variance_lines({"statistics": result.stats, "sigma0": result.sigma0})

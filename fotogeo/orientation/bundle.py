@@ -55,7 +55,7 @@ from . import bundle_jacobian as bj
 from .bundle_lm import State, levenberg_marquardt
 from .bundle_types import ROLES, BundleResult  # noqa: F401 (part of this module's API)
 from .bundle_problem import active_points, build_problem, check_block, initial_points, local_frame
-from .bundle_result import make_result
+from .bundle_result import frame_eos, make_result, reweighted
 from .bundle_variance import images_too_strong
 from .bundle_robust import huber_weights, interior_correlations, posterior, skipped_huber
 from .bundle_rules import DETERMINED_PX, _to_fix  # noqa: F401 (part of this module's API)
@@ -241,10 +241,12 @@ def adjust_block(block: Block, options: BundleOptions | None = None, *, progress
     pb, s, post, factor = _image_variance(run, pb, s, post, opts, prog)
     prog.timings["total"] = time.perf_counter() - t0
     corr = interior_correlations(pb, post, block.frames, bj.INTERIOR_NAMES) if run.free else []
-    result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings),
-                         s if opts.estimate_image_sigma else None,  # off: nothing estimated, the global rule
-                         lambda pw, sw: _solve(pw, sw, pw.p0, opts, prog.stage(0.99, 1.0, "group variance"),
-                                               "group variance components")[0])
+    given, factors, given_eo = post, None, frame_eos(run)
+    if opts.estimate_image_sigma:  # off: nothing estimated, the global rule
+        pb, s, post, factors = reweighted(pb, s, post, lambda pw, sw: _group_solve(run, pw, sw, opts, prog))
+        run.keep(pb, s)
+    result = make_result(run.block, run, pb, post, fixed, corr, blunders, dict(prog.timings), given, factors,
+                         given_eo)
     if factor is not None:
         result.stats["variance_components"]["image"].update(factor)
     result.stats["n_points_unusable"] = run.unusable  # rays not meeting in front of the cameras (or at infinity)
@@ -307,6 +309,14 @@ def _image_variance(run, pb, s, post, opts, prog):
         run.keep(pb, s)
         post = posterior(pb, s, pb.p0)
     return pb, s, post, {"sigma0_given": float(given), "factor": float(factor)}
+
+
+def _group_solve(run, pb, s, opts, prog):
+    """``s`` solved with the groups' re-weighted problem ``pb`` (:func:`~fotogeo.orientation.bundle_result.
+    reweighted`), its iterations counted."""
+    s, it = _solve(pb, s, pb.p0, opts, prog.stage(0.99, 1.0, "group variance"), "group variance components")
+    run.iterations += it
+    return s
 
 
 def expand_self_calibration(names) -> tuple:

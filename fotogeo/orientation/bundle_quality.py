@@ -252,7 +252,10 @@ def prior_residuals(result, block, eo_sigma):
     ``v`` the adjusted minus the prior (the approximate orientation the block started from; the rotation as
     ``log(R_priorᵀ R)``, the residual the adjustment minimises), ``σ_v = √(σ_prior² − σ_adj²/σ₀²)`` its σ
     (the a-posteriori cofactor of a residual, ``Q_v = Q_l − Q_l̂``, with the a priori σ₀ = 1; NaN where the
-    component has no prior or the images add nothing to it, ``σ_v ≤ 1 %`` of σ_prior)."""
+    component has no prior or the images add nothing to it, ``σ_v ≤ 1 %`` of σ_prior). When the adjustment
+    re-weighted its groups (:func:`~fotogeo.orientation.bundle_result.reweighted`) the test stays at the σ given
+    and the solution of those weights (``result.eo_given_weights``): widened, a group's σ would absorb the few
+    wrong priors (or a wrong camera held fixed) this test is there to name."""
     from .bundle_jacobian import log_rotation
     from .bundle_problem import eo_weights
     m = len(block.frames)
@@ -260,8 +263,9 @@ def prior_residuals(result, block, eo_sigma):
     prior_sigma = np.where(w > 0, 1.0 / np.sqrt(np.where(w > 0, w, 1.0)), np.nan)
     prior_sigma[:, 3:] = np.degrees(prior_sigma[:, 3:])
     R0 = np.stack([e.rotation_cv for e in block.eo])
-    R = np.stack([e.rotation_cv for e in result.eo])
-    v = np.concatenate([np.stack([e.centre for e in result.eo]) - np.stack([e.centre for e in block.eo]),
+    eo = result.eo_given_weights or result.eo  # tested with the σ given, at the solution of those weights
+    R = np.stack([e.rotation_cv for e in eo])
+    v = np.concatenate([np.stack([e.centre for e in eo]) - np.stack([e.centre for e in block.eo]),
                         np.degrees(log_rotation(np.transpose(R0, (0, 2, 1)) @ R))], axis=1)
     post = result.eo_sigma_a_priori
     if post is None:

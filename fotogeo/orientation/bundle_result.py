@@ -7,10 +7,11 @@ the a-priori σ were pessimistic or the redundancy is small, not that the orient
 observations allow (the same floor as the data snooping's, :mod:`fotogeo.orientation.bundle_robust`). When one
 observation group's own ``σ̂_g`` (:mod:`fotogeo.orientation.bundle_variance`) exceeds ``σ̂`` — GNSS positions or
 control given a σ far below their errors, whose misfit the image points' redundancy dilutes in σ₀ — each group's
-weights are divided by ``f_g² = max(σ̂_g, σ̂)²`` and the normal matrix inverted again (:func:`widened`; Förstner
-(1979): the groups' variance components, estimated again on a re-solved copy, only ever widening); the covariances
-are then those of the widened weights at the solution, not scaled again. σ of the orientation are
-``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
+weights are divided by ``f_g²``, starting from ``max(σ̂_g, σ̂)²``, and the block solved again until every group's
+σ̂_g is 1 (:func:`reweighted`; Förstner (1979), Koch (1999): iterated variance components, never below a group's
+a-priori σ); the orientations and the covariances are then both those of the re-weighted groups, not scaled
+again, while σ₀ and the groups' σ̂_g reported stay those of the given weights (what their a-priori σ say).
+σ of the orientation are ``σ₀ √diag(S⁻¹)`` (positions in m, rotations about the camera axes in
 degrees, as :mod:`fotogeo.models.collinearity` reports them; NaN where the diagonal is negative, a singular
 system), given the rest of the block ``σ₀ √diag((S_jj)⁻¹)`` (:func:`sigma_in_block`), σ of the points
 ``σ₀ √diag(Σ_bb,i)``. The full covariance of each frame's orientation is the ``6 × 6`` diagonal block
@@ -86,33 +87,56 @@ def _reweighted(pb, f: dict, base: float):
                    eo_w=pb.eo_w / e ** 2)
 
 
-def widened(pb, s, post, solve=None, rounds: int = 4):
-    """``(posterior, scale, rule)`` of the covariances at the solution ``s`` (module docstring): ``post`` scaled
-    by :func:`covariance_scale`, or, when a group's σ̂_g exceeds that scale by more than 5 %, the posterior of the weights widened
-    by :func:`group_factors` (scale 1). A group whose a-priori σ is far too small pulls the solution onto its
-    observations and shows a fraction of its misfit in its residuals, so ``solve(problem, state) -> state``
-    (the adjustment's solver) re-solves a copy with the widened weights and the groups' σ̂_g are estimated again
-    until none exceeds 1.05 (at most ``rounds`` times; Förstner 1979); ``s`` itself is not moved."""
-    base, rule = covariance_scale(post.sigma0)
+def _converged(f: dict, s: dict, tol: float = 0.05) -> bool:
+    """Every group's re-estimated ``σ̂_g`` within ``tol`` of 1, or below it where its factor is at the floor 1 (a
+    group is never weighted above its a-priori σ); a group without ``σ̂_g`` (NaN) cannot move."""
+    return all(not np.isfinite(s[k]) or abs(s[k] - 1.0) <= tol or (f[k] <= 1.0 and s[k] <= 1.0 + tol) for k in f)
+
+
+def reweighted(pb, s, post, solve=None, rounds: int = 8):
+    """``(problem, state, posterior, factors)``: the solution and its posterior with each observation group's
+    weights divided by its variance component (module docstring), or the input and None when no group's σ̂_g
+    exceeds the scale of :func:`covariance_scale` by more than 5 %.
+
+    Iterated variance-component estimation (Förstner 1979; Koch 1999, §3.6): from ``f_g`` of
+    :func:`group_factors` the block is solved again with the weights ``p_g / f_g²`` (``solve(problem, state) ->
+    state``, the adjustment's solver), every group's ``σ̂_g`` estimated at that solution and ``f_g ← max(f_g σ̂_g,
+    1)``, until every ``σ̂_g`` is within 5 % of 1 (or below it at ``f_g = 1``: a group is never weighted above its
+    a-priori σ), at most ``rounds`` solves. A group whose a-priori σ is far too small pulls the solution onto its
+    observations and shows a fraction of its misfit in its residuals; re-solved, the coordinates and the
+    covariance come from the same weights. Without ``solve``, or when the first re-solve fails, the covariance
+    of the widened weights is taken at ``s`` (``s`` not moved)."""
     f = group_factors({k: g for k, g in post.groups.items() if k in _GROUPS}, post.sigma0)
+    base = covariance_scale(post.sigma0)[0]
     if all(v <= 1.05 * base for v in f.values()):  # the tolerance of the estimate below
-        return post, base, rule
-    state = s
-    for _ in range(rounds if solve is not None else 0):
+        return pb, s, post, None
+    best, state = None, s
+    for k in range(rounds if solve is not None else 0):
         pw = _reweighted(pb, f, base)
         try:
             state = solve(pw, state)
         except FotogeoError:
             break
-        more = group_factors({k: g for k, g in posterior(pw, state, pw.p0).groups.items() if k in f}, 1.0)
-        if all(v <= 1.05 for v in more.values()):
+        pw_post = posterior(pw, state, pw.p0)
+        best = (pw, state, pw_post, {**f, "solves": k + 1})
+        more = {g: float(pw_post.groups.get(g, {}).get("sigma0", np.nan)) for g in f}
+        if _converged(f, more):
             break
-        f = {k: v * more[k] for k, v in f.items()}
-    pw = _reweighted(pb, f, base)
-    said = ", ".join(f"{k} {v:.3g}" for k, v in f.items() if v > base)
-    return posterior(pw, s, pw.p0), 1.0, (f"covariances from the a-priori sigma widened by max(sigma0, 1) = "
-                                          f"{base:.3g} and, where a group's own sigma0 is larger, by that ({said}): "
-                                          f"its residuals exceed its a-priori sigma")
+        f = {g: max(v * more[g], 1.0) if np.isfinite(more[g]) else v for g, v in f.items()}
+    if best is None:
+        pw = _reweighted(pb, f, base)
+        return pw, s, posterior(pw, s, pw.p0), {**f, "solves": 0}
+    return best
+
+
+def reweighted_rule(factors: dict, post) -> str:
+    """The sentence of ``statistics.covariance_rule`` for the factors of :func:`reweighted` and its posterior."""
+    said = ", ".join(f"{k} {v:.3g}" for k, v in factors.items() if k != "solves")
+    how = (f"the orientations re-solved with those weights ({factors['solves']} solves, variance components; "
+           f"sigma0 then {post.sigma0:.3g})" if factors["solves"] else
+           "the orientations could not be re-solved: covariance of the widened weights at the given-weight solution")
+    return (f"covariances from the a-priori sigma widened per observation group by its own sigma0 where it exceeds "
+            f"max(sigma0, 1) ({said}): its residuals exceed its a-priori sigma; {how}")
 
 
 def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
@@ -163,17 +187,30 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
     return out
 
 
-def make_result(block, run, pb, post, fixed, correlations, blunders, timings, s=None, solve=None):
-    """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state ``s`` of ``run`` (its covariances
-    widened by the groups' σ̂, :func:`widened` with ``solve``, when ``s`` is given)."""
+def frame_eos(run) -> tuple:
+    """The map orientations of ``run``'s frames (module docstring)."""
+    return tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV))
+                 for j in range(len(run.C)))
+
+
+def make_result(block, run, pb, post, fixed, correlations, blunders, timings, given=None, factors=None,
+                given_eo=None):
+    """A :class:`~fotogeo.orientation.bundle.BundleResult` from the final state of ``run``, ``pb`` and ``post`` its
+    problem and posterior; ``given``: the posterior with the given weights when ``pb`` was re-weighted per group
+    (:func:`reweighted`, ``factors``) — σ₀ and the groups' σ̂ reported are then the given weights' (what the
+    groups' a-priori σ say), residuals and covariances the re-weighted solution's; ``given_eo`` the orientations
+    of the given weights (the priors' test)."""
     from .bundle_types import BundleResult
     m, P, n = len(block.frames), len(block.point_ids), len(block.obs_frame)
-    cov, s0, rule = widened(pb, s, post, solve) if s is not None else (post, *covariance_scale(post.sigma0))
-    eo = tuple(ExteriorOrientation(*(run.C[j] + run.origin), *angles_patb(run.R[j] @ bj.D_CV)) for j in range(m))
+    given = given if given is not None else post
+    cov, (s0, rule) = post, covariance_scale(post.sigma0)
+    if factors is not None:
+        rule = reweighted_rule(factors, post)
+    eo = frame_eos(run)
     sd = s0 * _root(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
-    a_priori = _root(np.diag(post.S_inv), np.diag(post.S_inv) * np.diag(post.S))[:6 * m].reshape(m, 6)
+    a_priori = _root(np.diag(given.S_inv), np.diag(given.S_inv) * np.diag(given.S))[:6 * m].reshape(m, 6)
     a_priori[:, 3:] = np.degrees(a_priori[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
     cam = replace(block.camera, focal_length=float(run.interior[0]),
@@ -199,21 +236,26 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, s=
     red[pb.obs_ids] = post.r
     w = np.full(n, np.nan)
     w[pb.obs_ids] = largest_w(post.w)  # NaN: not testable
-    stats = {"sigma0": post.sigma0, "covariance_scale": s0, "covariance_rule": rule, "redundancy": int(post.redundancy), "n_frames": m,
+    stats = {"sigma0": given.sigma0, "covariance_scale": s0, "covariance_rule": rule,
+             "redundancy": int(post.redundancy), "n_frames": m,
              "n_points": int(len(pb.point_ids)), "n_observations": int(len(pb.obs_ids)),
              "image_rms_px": float(np.sqrt(np.mean(np.sum(post.v ** 2, axis=1) / 2))),
              "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r)),
-             "variance_components": post.groups}
+             "variance_components": given.groups}
+    if factors is not None:
+        stats["group_factors"] = dict(factors)
+        stats["sigma0_reweighted"] = post.sigma0
     for role in ("control", "check"):
         sel = (block.role == role) & np.isfinite(xyz).all(axis=1)
         stats[role] = _rmse(xyz[sel] - block.point_xyz[sel])
     stats["n_blunders"] = sum(1 for b in blunders if b.get("kind") == "image")
     stats["n_control_rejected"] = int(np.count_nonzero(block.role == "rejected"))
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
-                          psig, rays, res, status.astype(str), red, w, post.sigma0, stats, tuple(fixed), tuple(correlations),
+                          psig, rays, res, status.astype(str), red, w, given.sigma0, stats, tuple(fixed),
+                          tuple(correlations),
                           tuple(blunders), run.iterations, timings, *covariance_blocks(cov.S_inv, s0, m),
                           tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(cov.S, s0, m),
-                          a_priori)
+                          a_priori, given_eo if factors is not None else None)
     errors = images_only_errors(result, block)
     stats["control_images"] = rmse(errors[np.isfinite(errors[:, :2]).all(axis=1)])
     return result

@@ -48,3 +48,5 @@ class BundleResult:
     #: (m, 6) √diag(S⁻¹) with the a-priori weights, unscaled (as eo_sigma's units): what the observations would give
     #: if every a-priori σ were right (the priors' residual test, bundle_quality)
     eo_sigma_a_priori: np.ndarray | None = None
+    #: the orientations of the given weights when the groups were re-weighted (``stats["group_factors"]``), else None
+    eo_given_weights: tuple | None = None

@@ -32,7 +32,8 @@ def variance_components(p, v, r_image, ctrl_w, ctrl_v, ctrl_q, eo_w, eo_v, S_inv
     """``{group: {"sigma0", "redundancy", "n", "vtpv", …}}`` for the groups present (module docstring):
     ``image`` (weights ``p`` ``(n,)`` px⁻², residuals ``v`` ``(n, 2)``, redundancy numbers ``r_image``
     ``(n, 2)``; ``a_priori_px`` the median a-priori σ), ``control`` (weights, residuals and a-posteriori
-    cofactor diagonals ``(P, 3)``), ``position_prior`` and ``attitude_prior`` (``eo_w``, ``eo_v`` ``(m, 6)``;
+    cofactor diagonals ``(P, 3)``; ``a_priori`` the median σ of a coordinate, m), ``position_prior`` and
+    ``attitude_prior`` (``eo_w``, ``eo_v`` ``(m, 6)``;
     ``S_inv_diag`` the first ``6m`` diagonal entries of the inverse reduced camera matrix; ``a_priori`` the
     median a-priori σ, m or degrees). ``σ̂_g × a_priori`` is what the group's observations measure."""
     out = {}
@@ -44,7 +45,7 @@ def variance_components(p, v, r_image, ctrl_w, ctrl_v, ctrl_q, eo_w, eo_v, S_inv
     if ctrl.any():
         r_c = np.clip(1.0 - ctrl_w[ctrl] * ctrl_q[ctrl], 0.0, 1.0)
         out["control"] = _group(float(np.sum(ctrl_w[ctrl] * ctrl_v[ctrl] ** 2)), float(np.sum(r_c)),
-                                int(ctrl.sum()))
+                                int(ctrl.sum()), a_priori=float(np.median(1.0 / np.sqrt(ctrl_w[ctrl]))))
     m = len(eo_w)
     q = np.asarray(S_inv_diag, float)[:6 * m].reshape(m, 6)
     for name, cols in (("position_prior", slice(0, 3)), ("attitude_prior", slice(3, 6))):

@@ -118,7 +118,8 @@ def planimetric_sigma(*args, **kwargs) -> np.ndarray:
 #: --uncertainty``)
 COVARIANCE_NOTE = ("frames[].covariance: max(sigma0, 1)^2 (statistics.covariance_scale) times the inverse normal "
                    "matrix block, or, when an observation group's own sigma0 is larger (statistics.covariance_rule), "
-                   "the inverse normal matrix with that group's weights divided by it squared; "
+                   "the inverse normal matrix with each group's weights divided by its variance component "
+                   "squared (statistics.group_factors), at the orientations re-solved with those weights; "
                    "of X0, Y0, Z0 (m, map axes) "
                    "and the rotation increments about the OpenCV camera axes x right, y down, z forward (rad; "
                    "R <- R exp([d]x)); with self-calibration frames[].covariance_interior (6 x k) and "

@@ -212,6 +212,7 @@ def report(result, block, crs, inputs: dict, stages: dict | None = None) -> dict
             "iterations": result.iterations,
             "timings_s": stage_timings(stages, result.timings) if stages is not None else dict(result.timings),
             "point_sigma_by_role": point_sigma_by_role(result),
+            "sigma_warnings": unchecked_lines(result.stats.get("variance_components") or {}),
             "matching_summary": matching_summary(inputs.get("matching"), result),
             "residuals_by_size": residuals_by_size(result, block),
             "notes": {"residuals_by_size": f"image residuals v = projected − measured of the observations still in "
@@ -274,6 +275,31 @@ _DRIVEN = {"image": "the image points' a-priori sigma is too small (matched tie 
                              "--eo-sigma-angle"}
 
 
+#: the options that give each group's σ, for the warning of :func:`unchecked_lines`
+_GIVE = {"control": "--control-sigma-xy/--control-sigma-z (or the GCP file's sigma columns)",
+         "position_prior": "--eo-sigma-position/--eo-sigma-height", "attitude_prior": "--eo-sigma-angle"}
+
+
+def unchecked_lines(groups: dict) -> list:
+    """A warning for each prior group (control, GPS, attitude) whose σ0 the adjustment cannot estimate: its
+    redundancy (:mod:`fotogeo.orientation.bundle_variance`) below 1, i.e. the images measure those coordinates
+    less precisely than their a-priori σ, so no residual can show that σ too small — a σ of 3 cm for GCPs
+    0.5 m off under a 1.7 m GSD left every frame e/σ 1.67 (``benchmarks/triangulate_sigma_bench.py``). Every
+    σ reported then rests on the given one."""
+    out = []
+    for key, g in groups.items():
+        s0 = g.get("sigma0")
+        if key not in _GIVE or (s0 is not None and np.isfinite(s0)):
+            continue
+        name, unit = _GROUPS[key]
+        prior = f" ({g['a_priori']:.3g} {unit})" if g.get("a_priori") else ""
+        out.append(f"warning: the {name}' given sigma{prior} cannot be checked by this block (redundancy "
+                   f"{g.get('redundancy', 0.0):.2f} of {g.get('n', 0)}: the images measure them less precisely "
+                   f"than that sigma); every sigma reported takes it as right, and an error above it stays in the "
+                   f"frames unseen — give their real accuracy with {_GIVE[key]}")
+    return out
+
+
 def variance_lines(rep: dict) -> list:
     """σ0 per observation group (``statistics.variance_components``, :mod:`fotogeo.orientation.bundle_variance`)
     in words: each group's σ0 and what its observations measure in their unit, a group the images cannot check
@@ -300,13 +326,17 @@ def variance_lines(rep: dict) -> list:
                      f"matching's formal sigma for matched tie points) gave them a sigma0 of "
                      f"{image['sigma0_given']:.2f}; weighted as {image.get('a_priori_px', 0.0):.3g} px instead "
                      f"(variance component), so a prior's sigma is not scaled by it")
+    lines += unchecked_lines(groups)
     top = dominant_group(groups)
     if top is not None:
-        s0 = groups[top]["sigma0"]
+        s0, f = groups[top]["sigma0"], (st.get("group_factors") or {}).get(top)
+        done = (f"its weights were divided by {f:.3g}² and the block solved again (statistics.group_factors): the "
+                f"orientations and their sigma come from the re-weighted groups" if f else
+                f"every sigma reported is scaled by sigma0 {float(rep.get('sigma0', s0)):.3g}, so what the other "
+                f"observations hold (e.g. an attitude held by its prior) may read up to that many times less "
+                f"precise than it is")
         lines.append(f"sigma0 is driven by the {_GROUPS.get(top, (top,))[0]} ({s0:.2f}): {_DRIVEN.get(top, '')}; "
-                     f"every sigma reported is scaled by sigma0 {float(rep.get('sigma0', s0)):.3g}, so what the other "
-                     f"observations hold (e.g. an attitude held by its prior) may read up to that many times less "
-                     f"precise than it is")
+                     + done)
         unchecked = [_GROUPS.get(k, (k,))[0] for k, g in groups.items()
                      if g.get("sigma0") is None or not np.isfinite(g["sigma0"])]
         if unchecked:  # an error in a group nothing checks shows in the others
