@@ -15,8 +15,9 @@ source image its pixels need (:class:`~fotogeo.tools.dsm.inputs.SourceImage`): m
 the images.
 
 **Local disparity and height ranges** (:mod:`.local`): each strip searches the disparities of the heights
-the pair's sparse matches give around it (with ``--dem``: the DEM's heights there ± a margin, :mod:`.dem_guide`), keeps the points within those heights, and its pixels outside the
-images are filled as their partner is expected (:func:`.local.expected_disparity`).
+the pair's sparse matches give around it (with ``--dem``: the DEM's heights there ± a margin, :mod:`.dem_guide`),
+keeps the points within those heights, and its pixels outside the images are filled as their partner is expected
+(:func:`.local.expected_disparity`).
 
 **Coarse to fine** (``COARSE_TO_FINE``; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
 per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched

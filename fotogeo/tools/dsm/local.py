@@ -10,8 +10,9 @@ between the matches — a roof, a tree, a steeper slope — rises above or dips 
 the relief seen around, and the fixed metres cover a flat neighbourhood with an object the matches missed),
 turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an
 oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
-Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
-searches the DEM's range.
+Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range. With a DEM (``--dem``) that fits
+the pair's matches (:mod:`.dem_guide`) a strip searches the heights where its rays meet the DEM ± the DEM's margin
+(:func:`dem_heights`; the matches' rule where the DEM has a void), and each pixel expects the DEM's height.
 
 **Local height ranges** (:func:`strip_heights`): a strip with a local range keeps only the points within its
 local heights, not the pair's. Its disparity range is the union of its pixels' (over an oblique pair one height's
@@ -21,8 +22,9 @@ Where it comes from: at the rectified images' top and bottom rows the two images
 at the surface's disparity (rows both images reach, ground only one of them sees); the left pixels without a
 partner there meet right pixels without a partner that meet them back, real texture on both sides, and pass the
 left–right check at a wrong disparity (on the oblique set "1280x960 full" of ``tests/dsm_oblique_sets.py``: a
-band of −22 m, 280–287 m where the matches near the strip span 296–301 m, padded to 288–308 m). Those pixels are now refused where they are matched
-(:func:`expected_disparity`, the ``partner`` of :func:`fotogeo.stereo.dense.disparity`); the heights stay a guard."""
+band of −22 m, 280–287 m where the matches near the strip span 296–301 m, padded to 288–308 m). Those pixels are
+now refused where they are matched (:func:`expected_disparity`, the ``partner`` of
+:func:`fotogeo.stereo.dense.disparity`); the heights stay a guard."""
 from __future__ import annotations
 
 import cv2
@@ -40,9 +42,9 @@ LOCAL_PAD_M = 5.0
 
 
 def guides(sp, ceiling: float) -> np.ndarray:
-    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`.frames.sparse_check` that is
-    not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter; ``ceiling`` the
-    lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
+    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`.frames.sparse_check`
+    that is not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter;
+    ``ceiling`` the lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
     z = sp["points"][:, 2]
     keep = plausible_heights(z, ceiling) if len(z) else np.zeros(0, bool)
     return np.column_stack([sp["uv"], z])[keep].astype(float)

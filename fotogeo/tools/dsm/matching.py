@@ -52,8 +52,8 @@ class PairMatch:
     expected disparity (:func:`.local.expected_disparity`) and, when ``local``, bound each strip's disparities
     (:func:`.local.guides`, :func:`.local.local_range`; None or not ``local``: the pair's range everywhere), its SGBM
     penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), its DEM (:class:`.dem_guide.DemGuide`:
-    the heights each strip expects and searches where it has them; None: the matches'), and what its tiles gave (pixel counts,
-    points, seconds)."""
+    the heights each strip expects and searches where it has them; None: the matches'), and what its tiles gave
+    (pixel counts, points, seconds)."""
     pair: object
     rp: object
     drange: tuple
