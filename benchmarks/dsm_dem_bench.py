@@ -18,6 +18,7 @@ import argparse
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -138,19 +139,21 @@ def main():
         tag = f" ({Path(args.tree).resolve().name})"
     import fotogeo
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
-    dems, rows, load0 = args.dems.split(","), [], os.getloadavg()
+    dems, load0 = args.dems.split(","), os.getloadavg()
+    out = ROOT / "benchmarks" / "results" / "dsm_dem_bench.json"
+    run = {"command": " ".join(sys.argv), "fotogeo": str(Path(fotogeo.__file__).parent),
+           "started": time.strftime("%Y-%m-%dT%H:%M:%S"), "rows": []}
     with tempfile.TemporaryDirectory(prefix="dsm_dem_bench_") as t:
         for case in args.cases.split(","):
             (Path(t) / case).mkdir()
             new = {"rendered": rendered, "oblique_set": oblique_set, "ngi": ngi}[case](Path(t) / case, dems, tag)
             for r in new:
                 print(json.dumps(r, default=str), flush=True)
-            rows += new
-    out = ROOT / "benchmarks" / "results" / "dsm_dem_bench.json"
-    runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
-    runs.append({"command": " ".join(sys.argv), "fotogeo": str(Path(fotogeo.__file__).parent),
-                 "load_average": [load0, os.getloadavg()], "rows": rows})
-    out.write_text(json.dumps({"runs": runs}, indent=1, default=str) + "\n")
+            run["rows"] += new
+            run["load_average"] = [load0, os.getloadavg()]
+            runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
+            runs = [r for r in runs if r.get("started") != run["started"]]  # this run's rows so far: once
+            out.write_text(json.dumps({"runs": runs + [run]}, indent=1, default=str) + "\n")
     print(f"-> {out}")
 
 
