@@ -10,11 +10,12 @@ first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. `
 (e.g. main, the run's "before")::
 
     PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi] \\
-        [--dems none,true,srtm,smooth-20,+50] [--tree ../main]
+        [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main]
 """
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -30,6 +31,9 @@ import dsm_bench  # noqa: E402  (puts the checkout and its tests on sys.path)
 #: name -> (cell m or None: the reference's, Gaussian sigma in cells, offset m, void over the middle ninth)
 DEMS = {"true": (None, 0.0, 0.0, False), "srtm": (30.0, 1.5, 10.0, True), "smooth-20": (None, 3.0, -20.0, False),
         "+50": (None, 0.0, 50.0, False)}
+#: the rendered scenes' reference DEM reaches this far (m) beyond the projection centres (its middle ninth, the
+#: ``srtm`` DEM's void, then covers part of the images, not all)
+REF_MARGIN = 300.0
 #: the oblique set: two frames of ``tests/dsm_oblique_sets.py``'s "1280x960 full" from strips 90 degrees apart
 OBLIQUE = ("1280x960 full", ["S1_01", "S2_01"])
 
@@ -75,7 +79,7 @@ def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str) -> list:
     from dsm_scenes import compare, write_dem
 
     from fotogeo.tools.dsm import dsm
-    ref = write_dem(sc, tmp / f"{case}_ref.tif", cell=20.0)
+    ref = write_dem(sc, tmp / f"{case}_ref.tif", cell=20.0, margin=REF_MARGIN)
     rows = []
     for name in dems:
         dem = degraded(ref, tmp / f"{case}_{name}.tif", name, 20.0)
@@ -94,10 +98,9 @@ def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str) -> list:
     return rows
 
 
-def rendered(tmp: Path, dems: list, tag: str) -> list:
+def rendered(tmp: Path, dems: list, tag: str, kinds=("nadir", "oblique")) -> list:
     from dsm_scenes import make_scene
-    return [r for kind in ("nadir", "oblique") for r in _scene_runs(tmp, f"rendered {kind}",
-                                                                     make_scene(kind, tmp / kind), dems, tag)]
+    return [r for kind in kinds for r in _scene_runs(tmp, f"rendered {kind}", make_scene(kind, tmp / kind), dems, tag)]
 
 
 def oblique_set(tmp: Path, dems: list, tag: str) -> list:
@@ -131,6 +134,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default="rendered,oblique_set,ngi")
     ap.add_argument("--dems", default="none,true,srtm,smooth-20,+50")
+    ap.add_argument("--rendered", default="nadir,oblique", help="rendered: these scenes of tests/dsm_scenes.py")
     ap.add_argument("--tree", help="run this checkout's fotogeo (e.g. ../main: the before); rows name it")
     args = ap.parse_args()
     tag = ""
@@ -146,7 +150,8 @@ def main():
     with tempfile.TemporaryDirectory(prefix="dsm_dem_bench_") as t:
         for case in args.cases.split(","):
             (Path(t) / case).mkdir()
-            new = {"rendered": rendered, "oblique_set": oblique_set, "ngi": ngi}[case](Path(t) / case, dems, tag)
+            new = {"rendered": functools.partial(rendered, kinds=args.rendered.split(",")), "oblique_set": oblique_set,
+                   "ngi": ngi}[case](Path(t) / case, dems, tag)
             for r in new:
                 print(json.dumps(r, default=str), flush=True)
             run["rows"] += new
