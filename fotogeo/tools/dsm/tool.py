@@ -199,13 +199,17 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims) -> tuple
 
 def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     """The pair's :class:`.dem_guide.DemGuide` (``dem`` :func:`_heights`'s ``(source, run's fit)``): the DEM over
-    its footprints at ``zlo`` and ``zhi``, fitted to its sparse matches (the run's fit when they are too few);
-    None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`). The fit goes
-    into the pair's report entry."""
+    its footprints at ``zlo`` and ``zhi``, fitted to its sparse matches (the run's fit when the pair has too few);
+    None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`), or when the pair
+    has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
     from ...geometry.dem import underlying_dem
     source, run_fit = dem
     pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
-    f = dem_guide.fit(source, pts) or run_fit or dem_guide.DemFit(0.0, 0.0, dem_guide.DEM_UNMEASURED_M, 0)
+    f = dem_guide.fit(source, pts)
+    if f is None and sp["n"] >= 20:  # matches enough, none on the DEM (a void): unchecked, it guides nothing
+        p.extra["dem"] = {"matches": 0, "guides_strips": False}
+        return None
+    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, dem_guide.DEM_UNMEASURED_M, 0)
     used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
     p.extra["dem"] = f.as_report(used)
     if not used:
@@ -279,7 +283,7 @@ def _warn_dem(dem, fits) -> None:
     """One warning naming what the pairs' fits of the DEM ``dem`` (their report entries, :mod:`.dem_guide`) say:
     the first pair's problems, and how many pairs share them."""
     said = [(name, dem_guide.problems(dem_guide.DemFit(f["offset_m"], f["nmad_m"], f["margin_m"], f["matches"]),
-                                      name)) for name, f in fits if f["matches"]]
+                                      name)) for name, f in fits if f.get("matches")]
     said = [(name, why) for name, why in said if why]
     if said:
         more = f" (and {len(said) - 1} more pair(s) alike)" if len(said) > 1 else ""
