@@ -17,7 +17,8 @@ DSM = Table(
     Option("rpc", "bool", False, "Images carry an RPC (GDAL RPC metadata, RPB/XML/.geom beside them)",
            "The images carry an RPC (GeoTIFF RPC tags, RPC/RPB/XML files or an OSSIM .geom beside them)."),
     Option("dem", "raster", None, "Reference DEM (disparity search range; empty = from sparse matches)",
-           "A coarse DEM/DSM (e.g. SRTM) bounding the heights searched [from sparse matches of each pair]."),
+           "A coarse DEM/DSM (e.g. SRTM) bounding the heights searched; frames: each strip searches around "
+           "it, fitted to each pair's sparse matches (an offset is named and removed) [from sparse matches]."),
     Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
            "Height reference of the DEM: auto (what its CRS states), ellipsoid or geoid.", choices=DEM_HEIGHTS,
            advanced=True),

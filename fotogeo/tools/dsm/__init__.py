@@ -11,7 +11,8 @@
    was kept or left out;
 3. **per pair** (:mod:`.frames`): exact epipolar rectification with the lens distortion removed
    (:mod:`fotogeo.stereo.rectify`), a sparse check of the orientation (epipolar residuals, rays' miss distances),
-   the disparity range from the heights (``--dem``, else sparse matches), semi-global matching with sub-pixel
+   the disparity range from the heights (``--dem`` fitted to the sparse matches, :mod:`.dem_guide`, else
+   sparse matches), semi-global matching with sub-pixel
    disparities and left–right, uniqueness and speckle filters (:mod:`fotogeo.stereo.dense`) strip by strip, and
    triangulation of every matched pixel (:mod:`fotogeo.stereo.rays`) — by output tiles (:mod:`.matching`): each
    tile's pixels matched from the windows of the images they need, so memory is bounded by the tile;

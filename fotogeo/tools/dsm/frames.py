@@ -15,8 +15,9 @@ source image its pixels need (:class:`~fotogeo.tools.dsm.inputs.SourceImage`): m
 the images.
 
 **Local disparity and height ranges** (:mod:`.local`): each strip searches the disparities of the heights
-the pair's sparse matches give around it, keeps the points within those heights, and its pixels outside the
-images are filled as their partner is expected (:func:`.local.expected_disparity`).
+the pair's sparse matches give around it (with ``--dem``: the DEM's heights there ± a margin, :mod:`.dem_guide`),
+keeps the points within those heights, and its pixels outside the images are filled as their partner is expected
+(:func:`.local.expected_disparity`).
 
 **Coarse to fine** (``COARSE_TO_FINE``; :func:`_match`, :mod:`fotogeo.stereo.pyramid`): one band
 per strip cannot follow a slope across it, so a strip whose range is ``pyramid.MIN_RANGE`` px or wider is matched
@@ -258,7 +259,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
 
 
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
-           refine: bool, penalty: float | None = None, near=None):
+           refine: bool, penalty: float | None = None, near=None, dem=None):
     """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
     the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
     columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
@@ -276,7 +277,7 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
     g2, v2m, _ = rectified(rp, views[1], 1, sources[1], a, b, ca - s, cb - s, maps=maps2)
     if not v1m.any() or not v2m.any():
         return None
-    guide = expected_disparity(rp, near, (a, b), (ca, cb))
+    guide = expected_disparity(rp, near, (a, b), (ca, cb), dem)
     d, partner, searched, coarse = _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty,
                                           COARSE_TO_FINE, None if guide is None else guide - s)
     stats["strips"] += 1
@@ -304,11 +305,12 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
 
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
                  colours: bool = False, refine: bool = False, near=None, penalty: float | None = None,
-                 local: bool = True):
+                 local: bool = True, dem=None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
     left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the pair's disparity range, ``near`` its
     sparse matches (:func:`guides`: each pixel's expected disparity, and when ``local`` each strip's range; None
-    or not ``local``: every strip searches ``[lo, hi]``, as with a DEM), ``zlim`` the heights kept;
+    or not ``local``: every strip searches ``[lo, hi]``), ``dem`` the pair's :class:`.dem_guide.DemGuide` (the
+    expected disparities and local ranges from the DEM's heights where it has them), ``zlim`` the heights kept;
     ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
     disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
     matching (:func:`fotogeo.stereo.refine.refine`); ``penalty`` the pair's penalty factor (:func:`pair_penalty`;
@@ -321,8 +323,8 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         stats.setdefault(k, 0)
     for r0 in range(v0, v1, STRIP):
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
-        rng = local_range(rp, near if local else None, core_box, lo, hi)
-        out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2]), stats, core_box,
-                     colours, refine, penalty, near)
+        rng = local_range(rp, near if local else None, core_box, lo, hi, dem if local else None)
+        out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2], rp, dem), stats, core_box,
+                     colours, refine, penalty, near, dem)
         if out is not None:
             yield out

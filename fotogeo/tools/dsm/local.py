@@ -10,8 +10,9 @@ between the matches — a roof, a tree, a steeper slope — rises above or dips 
 the relief seen around, and the fixed metres cover a flat neighbourhood with an object the matches missed),
 turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an
 oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
-Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range; with a DEM (``--dem``) every strip
-searches the DEM's range.
+Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range. With a DEM (``--dem``) that fits
+the pair's matches (:mod:`.dem_guide`) a strip searches the heights where its rays meet the DEM ± the DEM's margin
+(:func:`dem_heights`; the matches' rule where the DEM has a void), and each pixel expects the DEM's height.
 
 **Local height ranges** (:func:`strip_heights`): a strip with a local range keeps only the points within its
 local heights, not the pair's. Its disparity range is the union of its pixels' (over an oblique pair one height's
@@ -21,8 +22,9 @@ Where it comes from: at the rectified images' top and bottom rows the two images
 at the surface's disparity (rows both images reach, ground only one of them sees); the left pixels without a
 partner there meet right pixels without a partner that meet them back, real texture on both sides, and pass the
 left–right check at a wrong disparity (on the oblique set "1280x960 full" of ``tests/dsm_oblique_sets.py``: a
-band of −22 m, 280–287 m where the matches near the strip span 296–301 m, padded to 288–308 m). Those pixels are now refused where they are matched
-(:func:`expected_disparity`, the ``partner`` of :func:`fotogeo.stereo.dense.disparity`); the heights stay a guard."""
+band of −22 m, 280–287 m where the matches near the strip span 296–301 m, padded to 288–308 m). Those pixels are
+now refused where they are matched (:func:`expected_disparity`, the ``partner`` of
+:func:`fotogeo.stereo.dense.disparity`); the heights stay a guard."""
 from __future__ import annotations
 
 import cv2
@@ -40,18 +42,22 @@ LOCAL_PAD_M = 5.0
 
 
 def guides(sp, ceiling: float) -> np.ndarray:
-    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`.frames.sparse_check` that is
-    not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter; ``ceiling`` the
-    lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
+    """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`.frames.sparse_check`
+    that is not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter;
+    ``ceiling`` the lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
     z = sp["points"][:, 2]
     keep = plausible_heights(z, ceiling) if len(z) else np.zeros(0, bool)
     return np.column_stack([sp["uv"], z])[keep].astype(float)
 
 
-def local_heights(near, box) -> tuple | None:
+def local_heights(near, box, rp: RectifiedPair | None = None, dem=None) -> tuple | None:
     """``(low, high)``: the heights the sparse matches ``near`` (:func:`guides`) within ``LOCAL_NEAR`` rectified
     pixels of the box ``(u0, v0, u1, v1)`` span, padded by half their span and ``LOCAL_PAD_M`` metres (module
-    docstring); None when fewer than ``LOCAL_MIN`` lie that near."""
+    docstring); None when fewer than ``LOCAL_MIN`` lie that near. With a ``dem`` (:class:`.dem_guide.DemGuide`)
+    and the pair ``rp``: the heights where the box's rays meet the DEM (:func:`dem_heights`) ± its margin, and the
+    matches' where it has none."""
+    if dem is not None:
+        return dem_heights(rp, near, dem, box)
     if near is None or len(near) < LOCAL_MIN:
         return None
     u0, v0, u1, v1 = box
@@ -63,11 +69,57 @@ def local_heights(near, box) -> tuple | None:
     return float(z.min() - pad), float(z.max() + pad)
 
 
-def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
+def _nodes(box) -> tuple:
+    """The nodes ``(u, v)`` (2-D) ``GUIDE_STEP`` rectified pixels apart over the box ``(u0, v0, u1, v1)``, its far
+    edges included."""
+    u0, v0, u1, v1 = box
+    return np.meshgrid(np.arange(u0, u1 + GUIDE_STEP, GUIDE_STEP, dtype=float),
+                       np.arange(v0, v1 + GUIDE_STEP, GUIDE_STEP, dtype=float))
+
+
+def _nearest_median(near, u, v) -> np.ndarray:
+    """The median height of the ``LOCAL_MIN`` sparse matches ``near`` nearest each node ``(u, v)`` (flat)."""
+    from scipy.spatial import cKDTree  # nodes x matches distances would take ~100 MB on a wide strip
+    _, nearest = cKDTree(near[:, :2]).query(np.column_stack([np.ravel(u), np.ravel(v)]), k=LOCAL_MIN)
+    return np.median(near[nearest, 2], axis=1)
+
+
+def _on_dem(rp, near, dem, u, v) -> tuple:
+    """``(z, residual, matches' z)`` of the nodes ``(u, v)`` (flat): where their rays meet the DEM ``dem``
+    (:meth:`.dem_guide.DemGuide.node_heights`, started at the nearest matches' median, or the DEM's median where
+    the matches are too few) and the nearest matches' median height (NaN when they are too few)."""
+    few = near is None or len(near) < LOCAL_MIN
+    zm = np.full(np.size(u), np.nan) if few else _nearest_median(near, u, v)
+    if dem is None:
+        return np.full(np.size(u), np.nan), np.zeros(np.size(u)), zm
+    start = np.where(np.isfinite(zm), zm, float(np.nanmedian(dem.dem.data)) - dem.fitted.offset)
+    return (*dem.node_heights(rp, u, v, start), zm)
+
+
+def dem_heights(rp, near, dem, box) -> tuple | None:
+    """``(low, high)``: the heights where the rays of the box's nodes meet the DEM ``dem``
+    (:meth:`.dem_guide.DemGuide.node_heights`) widened by each node's residual and the DEM's margin, joined with the
+    matches' :func:`local_heights` when the DEM has no height at some node (a void, its edge); None when neither
+    says anything there."""
+    u, v = _nodes(box)
+    z, res, _ = _on_dem(rp, near, dem, u, v)
+    ok = np.isfinite(z)
+    spans = []
+    if ok.any():
+        spans.append((float(np.min(z[ok] - res[ok])) - dem.margin, float(np.max(z[ok] + res[ok])) + dem.margin))
+    if not ok.all():
+        z = local_heights(near, box)
+        if z is None:
+            return None
+        spans.append(z)
+    return min(a for a, _ in spans), max(b for _, b in spans)
+
+
+def local_range(rp: RectifiedPair, near, box, lo: float, hi: float, dem=None) -> tuple:
     """``(low, high, local)``: the disparity range of the rectified left pixels ``box`` ``(u0, v0, u1, v1)`` from
-    the sparse matches ``near`` (:func:`guides`) around it (:func:`local_heights`, module docstring), inside the
-    pair's ``[lo, hi]``; ``(lo, hi, False)`` when too few matches lie near the box."""
-    z = local_heights(near, box)
+    the sparse matches ``near`` (:func:`guides`) around it, or the DEM ``dem`` there (:func:`local_heights`, module
+    docstring), inside the pair's ``[lo, hi]``; ``(lo, hi, False)`` when neither bounds the box."""
+    z = local_heights(near, box, rp, dem)
     if z is None:
         return lo, hi, False
     a, b = disparity_bounds(rp, *z, box, n=5)
@@ -75,10 +127,11 @@ def local_range(rp: RectifiedPair, near, box, lo: float, hi: float) -> tuple:
     return (a, b, True) if b > a else (lo, hi, False)
 
 
-def strip_heights(near, box, zlim: tuple, local: bool) -> tuple:
+def strip_heights(near, box, zlim: tuple, local: bool, rp: RectifiedPair | None = None, dem=None) -> tuple:
     """The heights a strip's points are kept within: the pair's ``zlim``, narrowed to the strip's
-    :func:`local_heights` when its range is ``local`` (module docstring, *local height ranges*)."""
-    z = local_heights(near, box) if local else None
+    :func:`local_heights` (``rp``, ``dem`` as there) when its range is ``local`` (module docstring, *local height
+    ranges*)."""
+    z = local_heights(near, box, rp, dem) if local else None
     if z is None:
         return zlim
     a, b = max(zlim[0], z[0]), min(zlim[1], z[1])
@@ -90,22 +143,21 @@ def strip_heights(near, box, zlim: tuple, local: bool) -> tuple:
 GUIDE_STEP = 32
 
 
-def expected_disparity(rp: RectifiedPair, near, rows: tuple, cols: tuple) -> np.ndarray | None:
+def expected_disparity(rp: RectifiedPair, near, rows: tuple, cols: tuple, dem=None) -> np.ndarray | None:
     """The disparity (float32 ``(rows, cols)`` of the rectified left pixels ``rows`` ``(r0, r1)`` x ``cols``
-    ``(c0, c1)``) each pixel is expected at: its ray at the median height of the ``LOCAL_MIN`` sparse matches
+    ``(c0, c1)``) each pixel is expected at: its ray at the height where it meets the DEM ``dem``
+    (:class:`.dem_guide.DemGuide`) or, where there is none, the median height of the ``LOCAL_MIN`` sparse matches
     ``near`` (:func:`guides`) nearest to it in the rectified left image (at the rows where the images barely
     overlap few matches lie near: the nearest still tell the heights around), found on nodes ``GUIDE_STEP`` pixels
     apart and linear between them (what :func:`fotogeo.stereo.dense.disparity` fills the pixels outside the images
     by, its ``partner``: a pixel without a partner is refused, not matched to another without one); None with
-    fewer than ``LOCAL_MIN`` matches."""
-    if near is None or len(near) < LOCAL_MIN:
+    fewer than ``LOCAL_MIN`` matches and no DEM."""
+    if dem is None and (near is None or len(near) < LOCAL_MIN):
         return None
     (r0, r1), (c0, c1) = rows, cols
-    u, v = np.meshgrid(np.arange(c0, c1 + GUIDE_STEP, GUIDE_STEP, dtype=float),
-                       np.arange(r0, r1 + GUIDE_STEP, GUIDE_STEP, dtype=float))
-    from scipy.spatial import cKDTree  # nodes x matches distances would take ~100 MB on a wide strip
-    _, nearest = cKDTree(near[:, :2]).query(np.column_stack([u.ravel(), v.ravel()]), k=LOCAL_MIN)
-    z = np.median(near[nearest, 2], axis=1)
+    u, v = _nodes((c0, r0, c1, r1))
+    zd, _, zm = _on_dem(rp, near, dem, u, v)
+    z = np.where(np.isfinite(zd), zd, zm)
     d = rp.rays(u, v, 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = (z - rp.centres[0][2]) / d[:, 2]

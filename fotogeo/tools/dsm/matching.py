@@ -51,8 +51,9 @@ class PairMatch:
     its disparities (:func:`fotogeo.stereo.refine.refine`), its sparse matches ``near`` that give each pixel's
     expected disparity (:func:`.local.expected_disparity`) and, when ``local``, bound each strip's disparities
     (:func:`.local.guides`, :func:`.local.local_range`; None or not ``local``: the pair's range everywhere), its SGBM
-    penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), and what its tiles gave (pixel counts,
-    points, seconds)."""
+    penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), its DEM (:class:`.dem_guide.DemGuide`:
+    the heights each strip expects and searches where it has them; None: the matches'), and what its tiles gave
+    (pixel counts, points, seconds)."""
     pair: object
     rp: object
     drange: tuple
@@ -63,6 +64,7 @@ class PairMatch:
     near: object = None
     penalty: float | None = None
     local: bool = True
+    dem: object = None
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -90,7 +92,7 @@ class PairMatch:
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
                                        colours=colours, refine=self.refine, near=self.near, penalty=self.penalty,
-                                       local=self.local)
+                                       local=self.local, dem=self.dem)
 
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""

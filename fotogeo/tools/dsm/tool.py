@@ -19,7 +19,7 @@ from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
-from . import frames, local, matching, plan
+from . import dem_guide, frames, local, matching, plan
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
 from .outputs import SPECKLE_CELLS, Products
 
@@ -101,45 +101,45 @@ def _centres_in_area_of_use(views, crs) -> None:
 
 
 def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
-    """``(zlo, zhi, height reference, notes)`` of the terrain (plan module docstring)."""
+    """``(zlo, zhi, height reference, notes, DEM)`` of the terrain (plan module docstring); ``DEM`` None without
+    one, else ``(height source, its fit at the nearest pair's matches or None)``: its heights shifted by the fit's
+    offset (:mod:`.dem_guide`)."""
     if dem is not None:
         source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
         from ...geometry.dem import underlying_dem
         d = underlying_dem(source)[0]
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
-        _dem_fits_orientation(dem, source, views, sources, features)
-        return zlo - pad, zhi + pad, ref, notes + ["height range from the DEM"]
+        f = _dem_fits_orientation(dem, source, views, sources, features)
+        o = 0.0 if f is None else f.offset
+        return zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"], (source, f)
     check = functools.partial(frames.sparse_check, cache=features)
     zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
                                    Limits().min_overlap)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
-    return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"]
+    return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"], None
 
 
-def _dem_fits_orientation(dem, source, views, sources, features) -> None:
-    """Refuse a DEM whose heights at the nearest pair's sparse matches (:func:`.plan.sparse_heights`'s pair)
-    differ from the heights the orientation gives those matches by more than ``DEM_MISFIT_M`` in the median: a
-    DEM in feet read as metres, or a DEM or an orientation in another vertical datum. Its range would set the
-    footprints' plane and the disparity search, and the run fail later for a wrong cause (a small overlap).
-    Nothing is checked when the matches are too few or cannot be trusted (no evidence either way)."""
-    from ...geometry.dem import heights_at
+def _dem_fits_orientation(dem, source, views, sources, features):
+    """The DEM's :class:`.dem_guide.DemFit` at the nearest pair's sparse matches (:func:`.plan.sparse_heights`'s
+    pair); refused when they differ from the heights the orientation gives those matches by more than
+    ``DEM_MISFIT_M`` in the median: a DEM in feet read as metres, or a DEM or an orientation in another vertical
+    datum. Its range would set the footprints' plane and the disparity search, and the run fail later for a wrong
+    cause (a small overlap). None when the matches are too few or cannot be trusted (no evidence either way)."""
     i, j = plan.nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = frames.sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), cache=features, ids=(i, j))
     if sp["n"] < 20 or frames.sparse_problem(sp, MAX_EPIPOLAR_PX):
-        return
+        return None
     P = sp["points"][plan.plausible_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))]
+    f = dem_guide.fit(source, P)
+    if f is None or abs(f.offset) <= DEM_MISFIT_M:
+        return f
+    from ...geometry.dem import heights_at
     h = heights_at(source, P[:, :2])
     ok = np.isfinite(h)
-    if ok.sum() < 20:
-        return
     h, z = h[ok], P[ok, 2]
-    dz = h - z
-    med = float(np.median(dz))
-    if abs(med) <= DEM_MISFIT_M:
-        return
     ratio = float(np.median(h) / np.median(z)) if np.median(z) > 0 else 0.0
     unit = next((f" ({ratio:.2f} times theirs: are the DEM's heights in feet? convert them to metres, e.g. "
                  f"gdal_calc.py -A DEM --calc=\"A*{m:.6g}\" --outfile DEM_m.tif)" for m in FEET
@@ -148,7 +148,7 @@ def _dem_fits_orientation(dem, source, views, sources, features) -> None:
         f"DEM {str(dem)!r} (dem) does not fit the orientation: at {len(z)} sparse matches of {views[i].name!r} and "
         f"{views[j].name!r} it gives heights {np.percentile(h, 1):.0f} to {np.percentile(h, 99):.0f} (1st-99th "
         f"percentile) where the orientation puts them at {np.percentile(z, 1):.0f} to {np.percentile(z, 99):.0f}, "
-        f"{med:+.0f} m apart{unit}; check the DEM's vertical unit and reference and the orientation's heights",
+        f"{f.offset:+.0f} m apart{unit}; check the DEM's vertical unit and reference and the orientation's heights",
         option="dem")
 
 
@@ -166,10 +166,11 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     return choices
 
 
-def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
-    """``(rectified pair, disparity range, height range, None, sparse matches)`` of one kept pair (the matches
-    :func:`.local.guides` that give each pixel's expected disparity, :func:`.local.expected_disparity`, and without
-    a DEM bound each strip's range, :func:`.local.local_range`), or ``(…, reason, None)`` to leave it out;
+def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims) -> tuple:
+    """``(rectified pair, disparity range, height range, None, sparse matches, DEM guide)`` of one kept pair (the
+    matches :func:`.local.guides` that give each pixel's expected disparity, :func:`.local.expected_disparity`,
+    and bound each strip's range, :func:`.local.local_range`; the :class:`.dem_guide.DemGuide` that does both where
+    the DEM has heights, None without ``dem``, :func:`_heights`'s), or ``(…, reason, None, None)`` to leave it out;
     ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
     rp = rectify(views[p.i], views[p.j], scale)
     sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
@@ -182,17 +183,42 @@ def _pair_setup(p, views, sources, zlo, zhi, use_dem, scale, features) -> tuple:
                                    "p95": float(np.percentile(sp["miss"], 95))})
     why = frames.sparse_problem(sp, MAX_EPIPOLAR_PX)
     if why:
-        return rp, None, None, why, None
+        return rp, None, None, why, None, None
     ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
-    if use_dem:  # the DEM's range in every strip; the matches still tell the disparity a pixel is expected at
-        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, local.guides(sp, ceiling)
+    guide = _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling) if dem is not None else None
+    if dem is not None and (guide is not None or sp["n"] < 20):  # a DEM the pair's matches disagree with: theirs
+        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, local.guides(sp, ceiling), guide
     if sp["n"] < 20:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
-                                f"the images?); give a coarse DEM (--dem) to bound the search"), None
+                                f"the images?); give a coarse DEM (--dem) to bound the search"), None, None
     zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
-    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling)
+    return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), None
+
+
+def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
+    """The pair's :class:`.dem_guide.DemGuide` (``dem`` :func:`_heights`'s ``(source, run's fit)``): the DEM over
+    its footprints at ``zlo`` and ``zhi``, fitted to its sparse matches (the run's fit when the pair has too few);
+    None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`), or when the pair
+    has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
+    from ...geometry.dem import underlying_dem
+    source, run_fit = dem
+    pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
+    f = dem_guide.fit(source, pts)
+    if f is None and sp["n"] >= 20:  # matches enough, none on the DEM (a void): unchecked, it guides nothing
+        p.extra["dem"] = {"matches": 0, "guides_strips": False}
+        return None
+    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, dem_guide.DEM_UNMEASURED_M, 0)
+    used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
+    p.extra["dem"] = f.as_report(used)
+    if not used:
+        return None
+    d, other = underlying_dem(source)
+    cell = 0.0 if other else abs(float(d.transform.a))
+    fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in (zlo, zhi)]
+    grid = dem_guide.pair_dem(source, fps, cell)
+    return None if grid is None else dem_guide.DemGuide(grid, f)
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
@@ -205,7 +231,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path, bands) for im in ims]
     features = {}
-    zlo, zhi, ref, notes = _heights(ims, views, sources, dem, dem_heights, crs, features)
+    zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
     choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs)
     kept = [p for p in choices if p.kept]
@@ -219,8 +245,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     for k, p in enumerate(kept):
         prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
         t = time.perf_counter()
-        rp, drange, zlim, why, near = _pair_setup(p, views, sources, zlo, zhi, dem is not None,
-                                                  min(1.0, 2.0 * gsd / res), features)
+        rp, drange, zlim, why, near, guide = _pair_setup(p, views, sources, zlo, zhi, heights,
+                                                         min(1.0, 2.0 * gsd / res), features, ims)
         timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
         if why:
             p.kept, p.reason = False, why
@@ -228,7 +254,9 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         else:
             pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
             setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near,
-                                                    frames.pair_penalty(rp, pv, ps), local=dem is None)
+                                                    frames.pair_penalty(rp, pv, ps), dem=guide)
+    if dem is not None:
+        _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"]) for p in kept if "dem" in p.extra])
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
@@ -249,6 +277,17 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
     _warn_thin(choices, names, rep["single_pair_share"])
     prog(1.0, "done")
     return rep
+
+
+def _warn_dem(dem, fits) -> None:
+    """One warning naming what the pairs' fits of the DEM ``dem`` (their report entries, :mod:`.dem_guide`) say:
+    the first pair's problems, and how many pairs share them."""
+    said = [(name, dem_guide.problems(dem_guide.DemFit(f["offset_m"], f["nmad_m"], f["margin_m"], f["matches"]),
+                                      name)) for name, f in fits if f.get("matches")]
+    said = [(name, why) for name, why in said if why]
+    if said:
+        more = f" (and {len(said) - 1} more pair(s) alike)" if len(said) > 1 else ""
+        warnings.warn(f"DEM {str(dem)!r} (--dem): " + "; ".join(said[0][1]) + more, FotogeoWarning, stacklevel=4)
 
 
 def _warn_thin(choices, names, single: float) -> None:

@@ -1,0 +1,166 @@
+"""fotogeo dsm with and without --dem, the DEM as users bring one: coarse, smoothed, offset, with voids (issue 30).
+
+Each case runs once without a DEM and once per DEM of ``DEMS``, made from the case's reference surface (the rendered
+scenes' truth; NGI's 24 m DEM, read only): ``true`` the reference itself (rendered: 20 m cells), ``srtm`` 30 m
+cells (NGI: its 24 m) smoothed by a Gaussian of 1.5 cells, 10 m too high and with a void over the middle ninth,
+``smooth-20`` smoothed by 3 cells and 20 m too low, ``+50`` 50 m too high (another vertical reference: named).
+Rows: RMSE, NMAD and median of DSM − truth (rendered; NGI: DSM − its 24 m DEM, the issue's done-when: within 3 m
+median and 5 m NMAD), completeness, CPU (``time.process_time`` of the run in this process), the DEM's fit of the
+first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. ``--tree`` runs another checkout
+(e.g. main, the run's "before")::
+
+    PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi] \\
+        [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main]
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks")]
+import dsm_bench  # noqa: E402  (puts the checkout and its tests on sys.path)
+
+#: name -> (cell m or None: the reference's, Gaussian sigma in cells, offset m, void over the middle ninth)
+DEMS = {"true": (None, 0.0, 0.0, False), "srtm": (30.0, 1.5, 10.0, True), "smooth-20": (None, 3.0, -20.0, False),
+        "+50": (None, 0.0, 50.0, False)}
+#: the rendered scenes' reference DEM reaches this far (m) beyond the projection centres (its middle ninth, the
+#: ``srtm`` DEM's void, then covers part of the images, not all)
+REF_MARGIN = 300.0
+#: the oblique set: two frames of ``tests/dsm_oblique_sets.py``'s "1280x960 full" from strips 90 degrees apart
+OBLIQUE = ("1280x960 full", ["S1_01", "S2_01"])
+
+
+def degraded(ref, out: Path, name: str, cell_ref: float) -> str | None:
+    """Write DEM ``name`` (:data:`DEMS`) made from the reference GeoTIFF ``ref`` (its cells ``cell_ref`` m) to
+    ``out``; None for ``none``."""
+    import rasterio
+    from rasterio.enums import Resampling
+    from scipy.ndimage import gaussian_filter
+    if name == "none":
+        return None
+    cell, sigma, offset, void = DEMS[name]
+    with rasterio.open(ref) as ds:
+        k = max(1, round((cell or cell_ref) / cell_ref))
+        shape = (max(2, ds.height // k), max(2, ds.width // k))
+        z = ds.read(1, out_shape=shape, resampling=Resampling.average, masked=True).filled(np.nan).astype(float)
+        profile = dict(driver="GTiff", width=shape[1], height=shape[0], count=1, dtype="float32", crs=ds.crs,
+                       transform=ds.transform * ds.transform.scale(ds.width / shape[1], ds.height / shape[0]),
+                       nodata=-9999.0)
+    if sigma:
+        z = gaussian_filter(z, sigma, mode="nearest")
+    z = z + offset
+    if void:
+        h, w = z.shape
+        z[h // 3:2 * h // 3, w // 3:2 * w // 3] = np.nan
+    with rasterio.open(out, "w", **profile) as ds:
+        ds.write(np.where(np.isfinite(z), z, -9999.0).astype(np.float32), 1)
+    return str(out)
+
+
+def _row(case: str, dem: str, rep: dict, cpu: float, said: list, err=None) -> dict:
+    fit = next((p.get("dem") for p in rep["pairs"] if p.get("dem")), None)
+    row = {"case": f"dem {case}, {dem}", "completeness": rep["completeness"], "cpu_s": cpu, "dem_fit": fit,
+           "dem_warnings": [s[:160] for s in said if "DEM" in s]}
+    if err is not None:
+        s = dsm_bench._stats(err)
+        row.update(rmse_m=s["rmse"], nmad_m=s["nmad"], median_m=s["median"])
+    return row
+
+
+def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str) -> list:
+    from dsm_scenes import compare, write_dem
+
+    from fotogeo.tools.dsm import dsm
+    ref = write_dem(sc, tmp / f"{case}_ref.tif", cell=20.0, margin=REF_MARGIN)
+    rows = []
+    for name in dems:
+        dem = degraded(ref, tmp / f"{case}_{name}.tif", name, 20.0)
+        out = tmp / f"{case}_{name}.tif".replace(".tif", "_dsm.tif")
+        try:
+            rep, cpu, _, said = dsm_bench._timed(dsm, sc["images"], out, camera=sc["camera"], eo=sc["eo"],
+                                                 crs=sc["crs"], dem=dem)
+        except Exception as e:  # a refusal is a row
+            rows.append({"case": f"dem {case}, {name}{tag}", "refused": str(e)[:300]})
+            continue
+        c = compare(out, sc["surface"])
+        row = _row(case, name + tag, rep, cpu, said)
+        row.update(rmse_m=c["rmse"], nmad_m=c["nmad"], median_m=c["median"], gsd_m=sc["gsd"],
+                   rmse_gsd=c["rmse"] / sc["gsd"])
+        rows.append(row)
+    return rows
+
+
+def rendered(tmp: Path, dems: list, tag: str, kinds=("nadir", "oblique")) -> list:
+    from dsm_scenes import make_scene
+    return [r for kind in kinds for r in _scene_runs(tmp, f"rendered {kind}", make_scene(kind, tmp / kind), dems, tag)]
+
+
+def oblique_set(tmp: Path, dems: list, tag: str) -> list:
+    from dsm_oblique_sets import SETS, make_set
+    name, frames = OBLIQUE
+    sc = make_set({**SETS[name], "frames": frames}, tmp / "set")
+    return _scene_runs(tmp, f"oblique set {name} {'-'.join(frames)}", sc, dems, tag)
+
+
+def ngi(tmp: Path, dems: list, tag: str) -> list:
+    from fotogeo.tools.dsm import dsm
+    d = dsm_bench.DATA / "ngi"
+    frames = [d / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif" for n in ("0182", "0184")]
+    rows = []
+    for name in dems:
+        dem = degraded(d / "dem.tif", tmp / f"ngi_{name}.tif", name, 24.0)
+        out = tmp / f"ngi_{name}_dsm.tif"
+        try:
+            rep, cpu, _, said = dsm_bench._timed(dsm, frames, out, camera=d / "interior_orientation.yaml",
+                                                 eo=d / "exterior_orientation.txt", crs=dsm_bench.NGI_CRS, dem=dem)
+        except Exception as e:
+            rows.append({"case": f"dem NGI 0182/0184, {name}{tag}", "refused": str(e)[:300]})
+            continue
+        rows.append(_row("NGI 0182/0184 vs the 24 m DEM", name + tag, rep, cpu, said,
+                         dsm_bench._against(out, d / "dem.tif")))
+    return rows
+
+
+def main():
+    import tempfile
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default="rendered,oblique_set,ngi")
+    ap.add_argument("--dems", default="none,true,srtm,smooth-20,+50")
+    ap.add_argument("--rendered", default="nadir,oblique", help="rendered: these scenes of tests/dsm_scenes.py")
+    ap.add_argument("--tree", help="run this checkout's fotogeo (e.g. ../main: the before); rows name it")
+    args = ap.parse_args()
+    tag = ""
+    if args.tree:
+        sys.path.insert(0, str(Path(args.tree).resolve()))
+        tag = f" ({Path(args.tree).resolve().name})"
+    import fotogeo
+    os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
+    dems, load0 = args.dems.split(","), os.getloadavg()
+    out = ROOT / "benchmarks" / "results" / "dsm_dem_bench.json"
+    run = {"command": " ".join(sys.argv), "fotogeo": str(Path(fotogeo.__file__).parent),
+           "started": time.strftime("%Y-%m-%dT%H:%M:%S"), "rows": []}
+    with tempfile.TemporaryDirectory(prefix="dsm_dem_bench_") as t:
+        for case in args.cases.split(","):
+            (Path(t) / case).mkdir()
+            new = {"rendered": functools.partial(rendered, kinds=args.rendered.split(",")), "oblique_set": oblique_set,
+                   "ngi": ngi}[case](Path(t) / case, dems, tag)
+            for r in new:
+                print(json.dumps(r, default=str), flush=True)
+            run["rows"] += new
+            run["load_average"] = [load0, os.getloadavg()]
+            runs = json.loads(out.read_text()).get("runs", []) if out.is_file() else []
+            runs = [r for r in runs if r.get("started") != run["started"]]  # this run's rows so far: once
+            out.write_text(json.dumps({"runs": runs + [run]}, indent=1, default=str) + "\n")
+    print(f"-> {out}")
+
+
+if __name__ == "__main__":
+    main()

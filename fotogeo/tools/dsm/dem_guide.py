@@ -1,0 +1,135 @@
+"""A coarse DEM (``fotogeo dsm --dem``) as the guide of each strip of a pair: the heights it expects and searches.
+
+**The fit** (:func:`fit`): the DEM's heights ``H`` at the pair's sparse matches (:func:`.local.guides`, without the
+mismatches) against the heights ``Z`` the orientation gives them: offset ``o = median(H − Z)``, spread
+``s = 1.4826 · median |H − Z − o|`` (NMAD), and the margin the strips search around the DEM,
+``m = DEM_PAD_M + DEM_ERROR_K · P95 |H − Z − o|`` — what a coarse DEM misses (a smoothed ridge, a roof, a tree,
+a void's edge) is measured at the matches, not assumed. The DEM is used shifted by ``−o``: the DSM's heights come
+from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another vertical
+reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
+(:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
+
+**Node heights** (:meth:`DemGuide.node_heights`): the height where the ray of a rectified left pixel meets the DEM,
+by the damped fixed point ``z ← z + ½ (H(C + λ(z) d) − z)``, ``λ(z) = (z − C_z) / d_z`` (C the left centre, d the
+pixel's ray), started at the median height of the nearest sparse matches. With ``g = dH/dz`` along the ray (the
+slope times the ray's tangent) the error shrinks by ``(1 + g) / 2`` per step: it converges for ``−3 < g < 1``;
+what is left (``|H − z|`` after ``DEM_ITER`` steps) widens that node's range. NaN where the DEM has no height
+(voids, outside it): those nodes take the sparse matches' heights (:mod:`.local`)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...geometry.dem import Dem, heights_at
+
+#: the margin around the DEM's heights (m): this much plus ``DEM_ERROR_K`` times the 95th percentile of the
+#: DEM's error at the sparse matches (module docstring)
+DEM_PAD_M = 5.0
+DEM_ERROR_K = 1.5
+#: fewer sparse matches with a DEM height than this and the pair's fit is not measured (the run's is used)
+DEM_MIN_MATCHES = 20
+#: a DEM this far (m, median) from the matches' heights is named; this spread (NMAD, m) and it guides no strip
+DEM_OFFSET_WARN_M = 10.0
+DEM_MAX_SPREAD_M = 25.0
+#: the margin (m) of a pair no sparse match measured the DEM for
+DEM_UNMEASURED_M = 30.0
+#: damped fixed-point steps of a node's height (module docstring)
+DEM_ITER = 8
+#: the DEM is kept per pair on at most this many nodes a side (its own cells when fewer)
+DEM_NODES = 512
+
+
+@dataclass(frozen=True)
+class DemFit:
+    """The DEM against a pair's sparse matches (module docstring): ``offset`` and ``spread`` (m), the strips'
+    ``margin`` (m), the ``matches`` measured."""
+    offset: float
+    spread: float
+    margin: float
+    matches: int
+
+    def as_report(self, used: bool) -> dict:
+        return {"offset_m": round(self.offset, 2), "nmad_m": round(self.spread, 2),
+                "margin_m": round(self.margin, 2), "matches": self.matches, "guides_strips": used}
+
+
+def fit(source, points) -> DemFit | None:
+    """The :class:`DemFit` of the height source ``source`` at the sparse matches ``points`` ``(N, 3)`` (map
+    frame); None with fewer than ``DEM_MIN_MATCHES`` of them on the DEM."""
+    P = np.asarray(points, float).reshape(-1, 3)
+    h = heights_at(source, P[:, :2]) if len(P) else np.zeros(0)
+    ok = np.isfinite(h)
+    if ok.sum() < DEM_MIN_MATCHES:
+        return None
+    r = h[ok] - P[ok, 2]
+    o = float(np.median(r))
+    a = np.abs(r - o)
+    return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * float(np.percentile(a, 95)),
+                  int(ok.sum()))
+
+
+def problems(f: DemFit, where: str) -> list:
+    """What a user is told about the fit ``f`` (module docstring); ``where`` names the matches."""
+    out = []
+    if abs(f.offset) > DEM_OFFSET_WARN_M:
+        out.append(f"its heights lie {f.offset:+.1f} m from those the orientation gives {f.matches} sparse matches "
+                   f"of {where} (median; NMAD {f.spread:.1f} m): another vertical reference (geoid or ellipsoid: "
+                   f"--dem-heights, --geoid) or a shifted DEM? It is used shifted by {-f.offset:+.1f} m (the DSM's "
+                   f"heights come from the orientation); give a DEM in the orientation's vertical reference")
+    if f.spread > DEM_MAX_SPREAD_M:
+        out.append(f"its heights disagree with the {f.matches} sparse matches of {where} (NMAD {f.spread:.1f} m "
+                   f"after the median offset): a DEM of other ground or time? It does not guide that pair's "
+                   f"search (its sparse matches do); check the DEM")
+    return out
+
+
+@dataclass(frozen=True)
+class DemGuide:
+    """A pair's DEM (``dem``, a :class:`~fotogeo.geometry.dem.Dem` sampled in the map CRS over the pair's ground,
+    picklable for a Dask task) and its :class:`DemFit` ``fitted``; heights are the DEM's minus the fit's offset."""
+    dem: Dem
+    fitted: DemFit
+
+    @property
+    def margin(self) -> float:
+        return self.fitted.margin
+
+    def heights(self, XY) -> np.ndarray:
+        return self.dem.heights(np.asarray(XY, float)) - self.fitted.offset
+
+    def node_heights(self, rp, u, v, z0) -> tuple:
+        """``(z, residual)``: where the rays of the rectified left pixels ``(u, v)`` meet the DEM (module
+        docstring), started at ``z0``, and ``|H − z|`` left after the last step; NaN where the DEM has none."""
+        d = rp.rays(np.ravel(u), np.ravel(v), 0)
+        C = rp.centres[0]
+        z = np.broadcast_to(np.asarray(z0, float), d[:, 2].shape).copy()
+        found = np.zeros(len(z), bool)
+        h = np.full(len(z), np.nan)
+        for _ in range(DEM_ITER):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lam = (z - C[2]) / d[:, 2]
+            h = np.where(lam > 0, self.heights(C[:2] + lam[:, None] * d[:, :2]), np.nan)
+            ok = np.isfinite(h)
+            found |= ok
+            z = np.where(ok, z + 0.5 * (h - z), z)
+        z = np.where(found & np.isfinite(h), z, np.nan)
+        return z, np.abs(h - z)
+
+
+def pair_dem(source, footprints, cell: float) -> Dem | None:
+    """The height source ``source`` sampled at its own cells ``cell`` (m; coarser when the area would need more
+    than ``DEM_NODES`` a side) over the bounding box of ``footprints`` ``(N, 2+)`` (a pair's ground at its lowest
+    and highest heights) and a cell around it; None when no footprint."""
+    from rasterio.transform import from_origin
+    xy = np.vstack([np.asarray(f, float)[:, :2] for f in footprints if len(f)]) if footprints else np.zeros((0, 2))
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        return None
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    step = max(float(cell), (x1 - x0) / DEM_NODES, (y1 - y0) / DEM_NODES, 1e-3)
+    x0, y1 = x0 - step, y1 + step
+    nx, ny = int(np.ceil((x1 + step - x0) / step)), int(np.ceil((y1 - (y0 - step)) / step))
+    X, Y = np.meshgrid(x0 + (np.arange(nx) + 0.5) * step, y1 - (np.arange(ny) + 0.5) * step)
+    Z = heights_at(source, np.column_stack([X.ravel(), Y.ravel()])).reshape(ny, nx)
+    return Dem(Z, from_origin(x0, y1, step, step))

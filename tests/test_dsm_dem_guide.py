@@ -1,0 +1,126 @@
+"""``fotogeo dsm --dem``: a coarse DEM guides each strip (:mod:`fotogeo.tools.dsm.dem_guide`) — the heights it
+expects and searches — after it has been fitted to the pair's sparse matches: an offset DEM (another vertical
+reference) is named and used shifted, one that disagrees with the images is named and not followed, and where it
+has voids the matches' heights take over."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+import rasterio
+
+from fotogeo.errors import FotogeoWarning
+from fotogeo.tools.dsm import dem_guide, local
+
+from dsm_scenes import make_scene, write_dem
+from test_dsm_partnerless import _pair_match
+
+
+@pytest.fixture(scope="module")
+def nadir(tmp_path_factory):
+    return make_scene("nadir", tmp_path_factory.mktemp("nadir"))
+
+
+def _degraded(sc, path, *, offset=0.0, noise=0.0, void=False, cell=20.0):
+    """The scene's true surface as a ``cell`` m DEM, ``offset`` m higher, with Gaussian ``noise`` (m) per cell and
+    with ``void``, its middle third nodata."""
+    write_dem(sc, path, cell=cell)
+    with rasterio.open(path, "r+") as ds:
+        z = ds.read(1).astype(float) + offset + np.random.default_rng(5).normal(0, noise or 1e-9, (ds.height, ds.width))
+        if void:
+            ds.nodata = -9999.0
+            h, w = z.shape
+            z[h // 3:2 * h // 3, w // 3:2 * w // 3] = -9999.0
+        ds.write(z.astype(np.float32), 1)
+    return str(path)
+
+
+def _setup(sc, monkeypatch, dem):
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        m, grid = _pair_match_first(sc, monkeypatch, dem)
+    return m, grid, [str(w.message) for w in got if issubclass(w.category, FotogeoWarning)]
+
+
+def _pair_match_first(sc, monkeypatch, dem):
+    """The first kept pair's :class:`~fotogeo.tools.dsm.matching.PairMatch` (two frames of the scene's first strip)."""
+    two = {**sc, "images": sc["images"][:2]}
+    return _pair_match(two, monkeypatch, dem=dem)
+
+
+def _truth_on_rays(m, u, v, surface):
+    """The true height where the rays of rectified left pixels ``(u, v)`` meet ``surface`` (bisection)."""
+    d = m.rp.rays(u.ravel(), v.ravel(), 0)
+    C = m.rp.centres[0]
+    lo, hi = np.full(len(d), -500.0), np.full(len(d), C[2] - 1.0)
+    for _ in range(60):
+        z = 0.5 * (lo + hi)
+        P = C + ((z - C[2]) / d[:, 2])[:, None] * d
+        above = z > surface(P[:, :2])
+        hi, lo = np.where(above, z, hi), np.where(above, lo, z)
+    return 0.5 * (lo + hi)
+
+
+def test_an_offset_dem_is_named_and_followed_shifted(nadir, tmp_path, monkeypatch):
+    """A 20 m DEM of the true surface 50 m too high (geoid vs ellipsoid heights): named with the fix, and its
+    heights used shifted by the offset measured at the sparse matches (before: followed silently, 50 m off, each
+    strip searching the DEM's whole range)."""
+    m, grid, said = _setup(nadir, monkeypatch, _degraded(nadir, tmp_path / "dem.tif", offset=50.0))
+    assert any("+50.0 m" in s and "--dem-heights" in s for s in said), said
+    assert m.dem is not None and abs(m.dem.fitted.offset - 50.0) < 1.0
+    assert m.pair.extra["dem"]["guides_strips"]
+    u0, v0, u1, v1 = m.box(grid)
+    u, v = np.meshgrid(np.linspace(u0 + 20, u1 - 20, 12), np.linspace(v0 + 20, v1 - 20, 12))
+    z, _, _ = local._on_dem(m.rp, m.near, m.dem, u.ravel(), v.ravel())
+    truth = _truth_on_rays(m, u, v, nadir["surface"])
+    ok = np.isfinite(z)
+    assert ok.mean() > 0.9 and np.median(np.abs(z[ok] - truth[ok])) < 2.0
+    # each strip's heights bracket the truth under it and are narrower than the pair's
+    box = (u0, v0, u1, min(v1, v0 + 384))
+    lo, hi = local.local_heights(m.near, box, m.rp, m.dem)
+    under = _truth_on_rays(m, *np.meshgrid(np.linspace(u0, u1, 20), np.linspace(box[1], box[3], 8)),
+                           nadir["surface"])
+    assert lo < under.min() and hi > under.max()
+    assert hi - lo < m.zlim[1] - m.zlim[0]
+
+
+def test_a_dem_of_other_ground_is_named_and_not_followed(nadir, tmp_path, monkeypatch):
+    """A DEM whose cells scatter by 60 m about the surface (another place, another time): named, and the pair's
+    strips take their heights from the sparse matches (before: followed without a word)."""
+    m, _, said = _setup(nadir, monkeypatch, _degraded(nadir, tmp_path / "dem.tif", noise=60.0))
+    assert any("disagree" in s and "NMAD" in s for s in said), said
+    assert m.dem is None and m.local and m.near is not None
+    assert not m.pair.extra["dem"]["guides_strips"]
+
+
+def test_where_the_dem_has_a_void_the_matches_give_the_heights(nadir, tmp_path, monkeypatch):
+    """A DEM with its middle third nodata: the nodes over the void take the nearest matches' heights, every pixel
+    still has an expected disparity, and the strip's range is bounded."""
+    m, grid, _ = _setup(nadir, monkeypatch, _degraded(nadir, tmp_path / "dem.tif", void=True))
+    assert m.dem is not None
+    u0, v0, u1, v1 = m.box(grid)
+    u, v = np.meshgrid(np.arange(u0, u1, 16.0), np.arange(v0, v1, 16.0))
+    zd, _, zm = local._on_dem(m.rp, m.near, m.dem, u.ravel(), v.ravel())
+    assert np.isnan(zd).any() and np.isfinite(zm).all()
+    g = local.expected_disparity(m.rp, m.near, (v0, v1), (u0, u1), m.dem)
+    assert np.isfinite(g).all()
+    lo, hi, is_local = local.local_range(m.rp, m.near, (u0, v0, u1, v1), *m.drange, m.dem)
+    assert is_local and m.drange[0] <= lo < hi <= m.drange[1]
+
+
+def test_the_fit_measures_offset_spread_and_margin():
+    """The fit's equations (:func:`fotogeo.tools.dsm.dem_guide.fit`) on a plane and a DEM 12 m above it with
+    ±3 m of error: offset 12, NMAD about 3 (1.4826 · median), margin ``DEM_PAD_M + 1.5 · P95``."""
+    from fotogeo.geometry.dem import Dem
+    from rasterio.transform import from_origin
+    rng = np.random.default_rng(1)
+    P = np.column_stack([rng.uniform(0, 1000, (400, 2)), np.zeros(400)])
+    P[:, 2] = 100.0 + 0.05 * P[:, 0]
+    X, Y = np.meshgrid(np.arange(0, 1000, 10.0) + 5, 1000 - np.arange(0, 1000, 10.0) - 5)
+    Z = 112.0 + 0.05 * X + rng.normal(0, 3.0, X.shape)
+    f = dem_guide.fit(Dem(Z, from_origin(0, 1000, 10, 10)), P)
+    assert abs(f.offset - 12.0) < 0.7 and 1.0 < f.spread < 3.5 and f.matches > 350  # (bilinear: under 3)
+    assert dem_guide.DEM_PAD_M + 5.0 < f.margin < dem_guide.DEM_PAD_M + 12.0
+    assert dem_guide.problems(f, "a-b") and "+11.9 m" in dem_guide.problems(f, "a-b")[0]
+    assert dem_guide.fit(Dem(Z, from_origin(5000, 1000, 10, 10)), P) is None  # no match on it
