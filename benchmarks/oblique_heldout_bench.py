@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from rendered_dji_flight import dji_flight  # noqa: E402
+from rendered_dji_flight import dji_flight, errors  # noqa: E402
 
 from fotogeo.errors import FotogeoError  # noqa: E402
 from fotogeo.io.camera import read_exterior_orientation  # noqa: E402
@@ -48,40 +48,12 @@ CASES = {
                                        "nadir": False, "relief": 10.0, "buildings": 6, "storeys": (15.0, 25.0)},
     "ring-p4p-912-gps5-z40": {"pattern": "ring", "file_size": (912, 608), "seed": 8, "rtk": False, "gps_sigma": 5.0,
                               "gps_offset": (2.0, -3.0, 40.0)},
+    "ring45-4views-p4p-912-towers-gps": {"pattern": "ring", "file_size": (912, 608), "seed": 12, "off_nadir": 45.0,
+                                         "nadir": False, "views": 4, "relief": 10.0, "buildings": 6,
+                                         "storeys": (15.0, 25.0), **NON_RTK},
     "ring-p4p-912-noxmp": {"pattern": "ring", "file_size": (912, 608), "seed": 9, "xmp": False, **NON_RTK},
 }
 QUICK = ("ring-p4p-912-rtk", "grid45-p4p-912-rtk")
-
-
-def helmert(src, dst):
-    """``(s, R, t)`` minimising Σ‖s R src + t − dst‖² (Umeyama 1991)."""
-    mu_s, mu_d = src.mean(0), dst.mean(0)
-    a, b = src - mu_s, dst - mu_d
-    U, S, Vt = np.linalg.svd(b.T @ a / len(src))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    R = U @ D @ Vt
-    s = float(np.trace(np.diag(S) @ D) / (a ** 2).sum(1).mean())
-    return s, R, mu_d - s * R @ mu_s
-
-
-def _angle(M, N) -> float:
-    return float(np.degrees(np.arccos(np.clip((np.trace(M.T @ N) - 1) / 2, -1.0, 1.0))))
-
-
-def errors(adj: dict, truth: dict, fit: bool) -> dict:
-    """Per frame centre (m) and angle (°) errors; ``fit``: after the similarity of :func:`helmert`."""
-    names = sorted(adj)
-    C = np.array([adj[n].centre for n in names])
-    T = np.array([truth[n].centre for n in names])
-    s, R, t = helmert(C, T) if fit else (1.0, np.eye(3), np.zeros(3))
-    centre = np.linalg.norm((s * C @ R.T + t) - T, axis=1)
-    angle = np.array([_angle(R @ adj[n].rotation, truth[n].rotation) for n in names])
-    out = {"centre_max_m": float(centre.max()), "centre_median_m": float(np.median(centre)),
-           "angle_max_deg": float(angle.max()), "angle_median_deg": float(np.median(angle)),
-           "worst_frame": names[int(np.argmax(angle))]}
-    if fit:
-        out["scale_ppm"] = (s - 1) * 1e6
-    return out
 
 
 def _cpu() -> float:

@@ -49,9 +49,9 @@ def camera(sensor: str, file_size) -> FrameCamera:
     return FrameCamera(focal * s, (float(w), float(h)), tuple(file_size), (w / 2 + off[0] * s, h / 2 + off[1] * s))
 
 
-def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True):
+def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True, views: int = 8):
     """``[(name, centre (3,), (yaw, pitch, roll))]`` of the true flight (module docstring; ``ring``: its obliques
-    ``off_nadir`` degrees from the vertical, the nadir grid only with ``nadir``); 1° of pitch/roll and 1.5° of yaw
+    ``off_nadir`` degrees from the vertical, ``views`` of them evenly around, the nadir grid only with ``nadir``); 1° of pitch/roll and 1.5° of yaw
     off the nominal gimbal, 1 m off the nominal positions."""
     out = []
 
@@ -62,8 +62,8 @@ def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True):
     tx, ty = TARGET
     if pattern == "ring":
         lead = HEIGHT * math.tan(math.radians(off_nadir))
-        for k in range(8):
-            az = 45.0 * k
+        for k in range(views):
+            az = 360.0 / views * k
             d = np.array([math.sin(math.radians(az)), math.cos(math.radians(az))])
             add(f"DJI_01{k:02d}", (tx - d[0] * lead, ty - d[1] * lead), az, off_nadir - 90.0)
         for r in range(3 if nadir else 0):
@@ -103,6 +103,16 @@ def surface_dem(rng, extent: float, relief: float, buildings: int, storeys=(5.0,
     return Dem(z, t)
 
 
+def _supersampled(sensor, file_size, eos, dem, tex, tex_t, distortion, rng, factor: int = 2) -> list:
+    """The views rendered at ``factor`` times the files' size and area-averaged down: each pixel integrates its
+    footprint on the ground as a sensor does (a single bilinear sample per pixel aliases the texture where an
+    oblique frame's pixels cover several texels, and differently in each view)."""
+    import cv2
+    big = camera(sensor, (file_size[0] * factor, file_size[1] * factor))
+    return [cv2.resize(img, tuple(file_size), interpolation=cv2.INTER_AREA)
+            for img in render_views(big, eos, dem, tex, tex_t, distortion, rng)]
+
+
 def _tags(sensor, centre, ypr, gps_sigma: float, rtk: bool):
     """EXIF and XMP of one frame, the calibration at full resolution (module docstring)."""
     (w, h), focal, off = SENSORS[sensor]
@@ -127,7 +137,8 @@ def _tags(sensor, centre, ypr, gps_sigma: float, rtk: bool):
 
 def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=(1368, 912), seed: int = 0,
                kind: str = "fractal", relief: float = 4.0, buildings: int = 4, storeys=(5.0, 12.0),
-               off_nadir: float = 30.0, nadir: bool = True, rtk: bool = True, xmp: bool = True,
+               off_nadir: float = 30.0, nadir: bool = True, views: int = 8, rtk: bool = True,
+               xmp: bool = True,
                gps_sigma: float = 0.02, gps_offset=(0.0, 0.0, 0.0), yaw_sigma: float = 3.0,
                attitude_sigma: float = 1.0):
     """Render and write the flight (module docstring) in ``folder`` (``xmp`` False: the EXIF only, as a resizing tool
@@ -137,7 +148,7 @@ def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     cam = camera(sensor, file_size)
-    sh = shots(pattern, rng, off_nadir, nadir)
+    sh = shots(pattern, rng, off_nadir, nadir, views)
     truth = {}
     for name, centre, ypr in sh:
         lon, lat = _lonlat(centre[:2], CRS)
@@ -148,7 +159,7 @@ def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=
     texel = max(0.1, 0.5 * HEIGHT / cam.fx)
     tex, tex_t = ground(kind, rng, extent, texel)
     k1, k2, p1, p2, k3 = DEWARP
-    images = render_views(cam, [truth[n] for n, *_ in sh], dem, tex, tex_t, (k1, k2, k3, p1, p2), rng)
+    images = _supersampled(sensor, file_size, [truth[n] for n, *_ in sh], dem, tex, tex_t, (k1, k2, k3, p1, p2), rng)
     paths = []
     offset = np.asarray(gps_offset, float)
     for (name, centre, ypr), img in zip(sh, images):
@@ -157,3 +168,27 @@ def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=
         tags, packet = _tags(sensor, gps, att, gps_sigma, rtk)
         paths.append(write_jpeg(folder / f"{name}.JPG", img, tags, packet if xmp else ""))
     return {"frames": paths, "truth": truth, "names": [n for n, *_ in sh], "camera": cam, "dem": dem}
+
+
+def _angle(M, N) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(M.T @ N) - 1) / 2, -1.0, 1.0))))
+
+
+def errors(adj: dict, truth: dict, fit: bool) -> dict:
+    """The worst and median frame's centre (m) and angle (°) errors of the orientations ``adj`` against ``truth``;
+    ``fit``: after the 7-parameter similarity of the adjusted centres onto the true ones
+    (:func:`fotogeo.geometry.similarity3d.fit_similarity`, Umeyama 1991), its rotation applied to the attitudes."""
+    from fotogeo.geometry.similarity3d import fit_similarity
+    names = sorted(adj)
+    C = np.array([adj[n].centre for n in names])
+    T = np.array([truth[n].centre for n in names])
+    sim = fit_similarity(C, T) if fit else None
+    R = sim.rotation if fit else np.eye(3)
+    centre = np.linalg.norm((sim.apply(C) if fit else C) - T, axis=1)
+    angle = np.array([_angle(R @ adj[n].rotation, truth[n].rotation) for n in names])
+    out = {"centre_max_m": float(centre.max()), "centre_median_m": float(np.median(centre)),
+           "angle_max_deg": float(angle.max()), "angle_median_deg": float(np.median(angle)),
+           "worst_frame": names[int(np.argmax(angle))]}
+    if fit:
+        out["scale_ppm"] = (sim.scale - 1) * 1e6
+    return out
