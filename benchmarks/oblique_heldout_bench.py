@@ -116,13 +116,13 @@ def main(argv=None):
     args = ap.parse_args(argv)
     names = args.cases.split(",") if args.cases else (QUICK if args.quick else list(CASES))
     rows = []
+    out = Path(args.out) if args.out else RESULTS / "oblique_heldout_bench.json"
+    out.parent.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
             rows.append(run_case(name, CASES[name], Path(tmp)))
             print_row(rows[-1])
-    out = Path(args.out) if args.out else RESULTS / "oblique_heldout_bench.json"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps({"cases": rows}, indent=1))
+            out.write_text(json.dumps({"cases": rows}, indent=1))  # after each case: a long run keeps what it measured
     print(f"written {out}")
 
 

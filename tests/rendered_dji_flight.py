@@ -14,10 +14,14 @@ azimuth, looking at it, plus a 3 × 3 nadir grid over it; ``double-grid`` — fo
 north then south) of three frames each, the gimbal at −45° looking along the flight. ~60 m above the ground.
 
 Ground: Gaussian hills of ``relief`` m and ``buildings`` flat-roofed boxes ``storeys`` (5–12) m high (a DEM with
-steps, 0.5 m cells; where a wall hides the ground the renderer takes one of the ray's crossings, so the views disagree there as real
-occlusions do). GPS: the true centre plus ``gps_offset`` (common to all frames: a non-RTK fix's datum) plus
-N(0, ``gps_sigma``); with ``rtk`` the XMP carries ``RtkFlag`` 50 and the σ, without it no RTK tag. The gimbal: the
-true yaw/pitch/roll plus N(0, ``yaw_sigma``) on yaw and N(0, ``attitude_sigma``) on pitch and roll.
+steps, 0.5 m cells; where a wall hides the ground the renderer takes one of the ray's crossings, so the views
+disagree there as real occlusions do). The hills overlap: the ground may lie tens of metres below the nominal
+300 m, the flight then higher above it and the obliques' axes meeting beyond the place. Each pixel is the mean of
+2 × 2 rendered samples (:func:`_supersampled`).
+
+GPS: the true centre plus ``gps_offset`` (common to all frames: a non-RTK fix's datum) plus N(0, ``gps_sigma``);
+with ``rtk`` the XMP carries ``RtkFlag`` 50 and the σ, without it no RTK tag. The gimbal: the true yaw/pitch/roll
+plus N(0, ``yaw_sigma``) on yaw and N(0, ``attitude_sigma``) on pitch and roll.
 """
 from __future__ import annotations
 
@@ -51,8 +55,8 @@ def camera(sensor: str, file_size) -> FrameCamera:
 
 def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True, views: int = 8):
     """``[(name, centre (3,), (yaw, pitch, roll))]`` of the true flight (module docstring; ``ring``: its obliques
-    ``off_nadir`` degrees from the vertical, ``views`` of them evenly around, the nadir grid only with ``nadir``); 1° of pitch/roll and 1.5° of yaw
-    off the nominal gimbal, 1 m off the nominal positions."""
+    ``off_nadir`` degrees from the vertical, ``views`` of them evenly around, the nadir grid only with ``nadir``);
+    1° of pitch/roll and 1.5° of yaw off the nominal gimbal, 1 m off the nominal positions."""
     out = []
 
     def add(name, xy, yaw, pitch):
@@ -142,8 +146,8 @@ def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=
                gps_sigma: float = 0.02, gps_offset=(0.0, 0.0, 0.0), yaw_sigma: float = 3.0,
                attitude_sigma: float = 1.0):
     """Render and write the flight (module docstring) in ``folder`` (``xmp`` False: the EXIF only, as a resizing tool
-    that drops the XMP packet leaves the files: no gimbal angles, no calibration, no RTK σ); returns ``{"frames": paths, "truth": {name: EO},
-    "names", "camera", "dem"}``."""
+    that drops the XMP packet leaves the files: no gimbal angles, no calibration, no RTK σ); returns
+    ``{"frames": paths, "truth": {name: EO}, "names", "camera", "dem"}``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
