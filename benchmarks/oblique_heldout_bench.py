@@ -51,6 +51,9 @@ CASES = {
     "ring45-4views-p4p-912-towers-gps": {"pattern": "ring", "file_size": (912, 608), "seed": 12, "off_nadir": 45.0,
                                          "nadir": False, "views": 4, "relief": 10.0, "buildings": 6,
                                          "storeys": (15.0, 25.0), **NON_RTK},
+    "ring45-4views-p4p-456-towers-rtk": {"pattern": "ring", "file_size": (456, 304), "seed": 13, "off_nadir": 45.0,
+                                         "nadir": False, "views": 4, "relief": 10.0, "buildings": 6,
+                                         "storeys": (15.0, 25.0)},
     "ring-p4p-912-noxmp": {"pattern": "ring", "file_size": (912, 608), "seed": 9, "xmp": False, **NON_RTK},
 }
 QUICK = ("ring-p4p-912-rtk", "grid45-p4p-912-rtk")
