@@ -121,7 +121,8 @@ def _tags(cam, full, centre, ypr, rtk: float):
 
 
 def write_jpeg(path: Path, img, tags: dict, xmp: str) -> Path:
-    """An RGB JPEG of the grey ``img`` with EXIF (GDAL writes the segment) and the XMP APP1 packet added."""
+    """An RGB JPEG of the grey ``img`` with EXIF (GDAL writes the segment) and the XMP APP1 packet added (none when
+    ``xmp`` is empty)."""
     tif = path.with_suffix(".tmp.tif")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
@@ -133,6 +134,8 @@ def write_jpeg(path: Path, img, tags: dict, xmp: str) -> Path:
     tif.unlink()
     for aux in path.parent.glob(path.name + ".aux.xml"):
         aux.unlink()
+    if not xmp:  # what a tool that keeps the EXIF only leaves (PIL's save(exif=...))
+        return path
     data = path.read_bytes()
     payload = b"http://ns.adobe.com/xap/1.0/\x00" + xmp.encode()
     path.write_bytes(data[:2] + b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload + data[2:])
