@@ -34,6 +34,9 @@ def read_table(path, what: str, layer: str | None = None):
             import pandas as pd
             return pd.read_csv(p, float_precision="round_trip", **csv_dialect(p))
         import geopandas as gpd
+
+        from .clocale import import_pyogrio
+        import_pyogrio()
         return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
     except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
         kind = "CSV" if csv else "a vector layer" + (f" (layer {layer!r})" if layer else "")

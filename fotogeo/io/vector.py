@@ -23,6 +23,9 @@ import numpy as np
 import shapely
 
 from ..errors import InputError, OutputError
+from .clocale import import_pyogrio
+
+import_pyogrio()
 
 #: the drawn length of a typical vector, as a fraction of the diagonal of the layer's extent
 VISIBLE_FRACTION = 0.03
