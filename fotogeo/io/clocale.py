@@ -6,7 +6,8 @@ pyogrio checks at start-up that its list of known configuration options is sorte
 "ERROR 1: apszKnownConfigOptions[] isn't correctly sorted" lines on every run that read or wrote a vector layer
 (QGIS sets the process locale from the user's language). :func:`c_case_rules` switches the calling thread to
 ``C.UTF-8`` case rules (glibc ``newlocale``/``uselocale``: thread-local, other threads and Python keep theirs),
-which :func:`import_pyogrio` uses around the import that starts pyogrio's GDAL.
+which :func:`import_pyogrio` uses around the import that starts pyogrio's GDAL and the GeoPackage writer and the
+table reader around their pyogrio calls (pyogrio also warned "driver GPKG does not support creation option VERSION").
 """
 from __future__ import annotations
 
