@@ -388,6 +388,8 @@ def check_environment() -> dict:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    from .io.clocale import c_case_rules_for_process
+    c_case_rules_for_process()  # QGIS passes the user's locale; GDAL compares option names by it
     if argv[:1] == ["--check"]:
         print(json.dumps(check_environment(), indent=1))
         return 0

@@ -93,3 +93,19 @@ def test_a_vector_layer_is_written_under_a_turkish_locale_without_gdal_errors(tm
     assert run.returncode == 0, run.stderr[-2000:]
     assert "ERROR" not in run.stderr and "Warning" not in run.stderr, run.stderr[:500]
     assert run.stdout.split() == ["i1"]
+
+
+def test_the_command_line_writes_a_geotiff_under_a_turkish_locale_without_gdal_warnings(tmp_path):
+    """GDAL 3.10 validates creation options by ``strcasecmp``: under tr_TR it warned "driver GTiff does not support
+    creation option COMPRESS" (TILED, PREDICTOR, ...) on every GeoTIFF the command line wrote."""
+    env = _turkish_env(tmp_path)
+    make = ("import numpy as np, rasterio; from rasterio.transform import from_origin; "
+            "ds = rasterio.open('s.tif', 'w', driver='GTiff', width=32, height=32, count=3, dtype='uint8', "
+            "crs='EPSG:32635', transform=from_origin(0, 32, 1, 1)); "
+            "ds.write(np.random.default_rng(0).integers(0, 255, (3, 32, 32)).astype('uint8')); ds.close()")
+    subprocess.run([sys.executable, "-c", make], env=env, check=True, cwd=tmp_path)
+    run = subprocess.run([sys.executable, "-m", "fotogeo", "fuse", "s.tif", "-o", "f.tif"], env=env,
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "not support" not in run.stderr, run.stderr[:500]
+    assert (tmp_path / "f.tif").exists()

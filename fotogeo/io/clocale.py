@@ -25,6 +25,7 @@ def _libc():
         libc.newlocale.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_void_p]
         libc.uselocale.argtypes = [ctypes.c_void_p]
         libc.freelocale.argtypes = [ctypes.c_void_p]
+        libc.strcasecmp.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
         return libc
     except (OSError, AttributeError):  # no POSIX 2008 locales (Windows, old libc): nothing to switch
         return None
@@ -45,6 +46,25 @@ def c_case_rules():
     finally:
         libc.uselocale(old)
         libc.freelocale(loc)
+
+
+def c_case_rules_for_process() -> bool:
+    """In a process fotogeo runs itself (the command line, the QGIS plugin's worker): when the inherited ``LC_CTYPE``
+    tells ``i`` from ``I`` (tr_TR, az_AZ), use ``C.UTF-8``'s for the whole process, its threads included; else
+    nothing. There GDAL 3.10 warned "driver GTiff does not support creation option COMPRESS" (and TILED,
+    BLOCKXSIZE, PREDICTOR, BIGTIFF, NUM_THREADS) on every GeoTIFF written, though it applied them. Python's own
+    encodings are fixed at start-up and unchanged. Returns whether the process was switched."""
+    import locale
+    libc = _libc()
+    if libc is None or libc.strcasecmp(b"I", b"i") == 0:
+        return False
+    for name in ("C.UTF-8", "C"):
+        try:
+            locale.setlocale(locale.LC_CTYPE, name)
+            return True
+        except locale.Error:
+            continue
+    return False
 
 
 def import_pyogrio():
