@@ -321,6 +321,9 @@ def _smoke_test(folder: str) -> None:
     import shapely
     from pyproj import Transformer
     from rasterio.transform import from_origin
+
+    from .io.clocale import import_pyogrio
+    import_pyogrio()
     x, _ = Transformer.from_crs("EPSG:4326", "EPSG:32635", always_xy=True).transform(27.0, -29.0)
     if not 400_000 < x < 600_000:
         raise RuntimeError(f"pyproj transformed lon 27 to x={x} in UTM 35, expected about 500000")
@@ -385,6 +388,8 @@ def check_environment() -> dict:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    from .io.clocale import c_case_rules_for_process
+    c_case_rules_for_process()  # QGIS passes the user's locale; GDAL compares option names by it
     if argv[:1] == ["--check"]:
         print(json.dumps(check_environment(), indent=1))
         return 0

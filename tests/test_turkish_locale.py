@@ -79,3 +79,33 @@ def test_a_lattice_vrt_resamples_alike_under_a_turkish_locale(tmp_path):
             for e in (c, env)]
     assert all(r.returncode == 0 for r in runs), [r.stderr[-1000:] for r in runs]
     assert runs[0].stdout == runs[1].stdout, "the VRT's bilinear resampling differs under tr_TR.UTF-8"
+
+
+def test_a_vector_layer_is_written_under_a_turkish_locale_without_gdal_errors(tmp_path):
+    """pyogrio's GDAL checks at start-up that its configuration option names are sorted by ``strcasecmp``: under
+    tr_TR that check printed 57 "ERROR 1: ... isn't correctly sorted" lines on every run writing a GeoPackage, and
+    pyogrio warned "driver GPKG does not support creation option VERSION" (GDAL still wrote GeoPackage 1.2)."""
+    env = _turkish_env(tmp_path)
+    code = ("import shapely; from fotogeo.io.vector import write_layers; from fotogeo.io.tables import read_table; "
+            "write_layers('p.gpkg', {'gcps': {'id': ['i1'], 'geometry': shapely.points([[1.0, 2.0]])}}, 'EPSG:32635'); "
+            "print(read_table('p.gpkg', 'p.gpkg', layer='gcps')['id'][0])")
+    run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "ERROR" not in run.stderr and "Warning" not in run.stderr, run.stderr[:500]
+    assert run.stdout.split() == ["i1"]
+
+
+def test_the_command_line_writes_a_geotiff_under_a_turkish_locale_without_gdal_warnings(tmp_path):
+    """GDAL 3.10 validates creation options by ``strcasecmp``: under tr_TR it warned "driver GTiff does not support
+    creation option COMPRESS" (TILED, PREDICTOR, ...) on every GeoTIFF the command line wrote."""
+    env = _turkish_env(tmp_path)
+    make = ("import numpy as np, rasterio; from rasterio.transform import from_origin; "
+            "ds = rasterio.open('s.tif', 'w', driver='GTiff', width=32, height=32, count=3, dtype='uint8', "
+            "crs='EPSG:32635', transform=from_origin(0, 32, 1, 1)); "
+            "ds.write(np.random.default_rng(0).integers(0, 255, (3, 32, 32)).astype('uint8')); ds.close()")
+    subprocess.run([sys.executable, "-c", make], env=env, check=True, cwd=tmp_path)
+    run = subprocess.run([sys.executable, "-m", "fotogeo", "fuse", "s.tif", "-o", "f.tif"], env=env,
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "not support" not in run.stderr, run.stderr[:500]
+    assert (tmp_path / "f.tif").exists()

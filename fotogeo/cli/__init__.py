@@ -94,6 +94,8 @@ def main(verbose, quiet, json_output):
     Exit codes: 0 done, 1 the run failed, 2 a usage error, 130 cancelled (Ctrl-C). Raster inputs may be
     GDAL virtual paths (/vsizip/, /vsicurl/, /vsis3/) or URLs.
     """
+    from ..io.clocale import c_case_rules_for_process
+    c_case_rules_for_process()  # GDAL's option names compared as in English under a Turkish or Azeri locale
     conventions.settings(verbose=verbose, quiet=quiet, json=json_output)
     conventions.setup_logging(verbose, quiet)
     # once, however many runs a process makes: at the process's exit what is left is frozen, so the interpreter's

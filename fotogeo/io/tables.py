@@ -34,7 +34,11 @@ def read_table(path, what: str, layer: str | None = None):
             import pandas as pd
             return pd.read_csv(p, float_precision="round_trip", **csv_dialect(p))
         import geopandas as gpd
-        return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
+
+        from .clocale import c_case_rules, import_pyogrio
+        import_pyogrio()
+        with c_case_rules():
+            return gpd.read_file(p, layer=layer, engine="pyogrio") if layer else gpd.read_file(p, engine="pyogrio")
     except Exception as e:  # noqa: BLE001 - any reader failure becomes one clear error
         kind = "CSV" if csv else "a vector layer" + (f" (layer {layer!r})" if layer else "")
         raise VectorError(one_line(f"{what} {str(p)!r} cannot be read as {kind}: {e}")) from None

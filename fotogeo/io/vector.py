@@ -23,6 +23,9 @@ import numpy as np
 import shapely
 
 from ..errors import InputError, OutputError
+from .clocale import c_case_rules, import_pyogrio
+
+import_pyogrio()
 
 #: the drawn length of a typical vector, as a fraction of the diagonal of the layer's extent
 VISIBLE_FRACTION = 0.03
@@ -205,6 +208,7 @@ def write_layers(path, layers: dict, crs, descriptions: dict | None = None, appe
             opts = {"dataset_options": {"VERSION": "1.2"}} if first else {}
             if name in descriptions:
                 opts["layer_options"] = {"DESCRIPTION": descriptions[name]}
-            gdf.to_file(path, layer=name, driver="GPKG", mode="w" if first else "a", engine="pyogrio", **opts)
+            with c_case_rules():  # pyogrio checks the options against the driver's list with strcasecmp
+                gdf.to_file(path, layer=name, driver="GPKG", mode="w" if first else "a", engine="pyogrio", **opts)
     except Exception as e:  # noqa: BLE001 - any writer failure becomes one clear error
         raise OutputError(f"could not write GeoPackage {str(path)!r}: {e}") from None
