@@ -14,11 +14,18 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import ctypes.util
+import functools
+import sys
 
 _LC_CTYPE_MASK = 1  # glibc: 1 << LC_CTYPE, LC_CTYPE == 0
 
 
+@functools.lru_cache(maxsize=1)
 def _libc():
+    """glibc through ctypes, or None: the masks below are glibc's, and elsewhere (Windows has no C library to find,
+    macOS numbers the categories otherwise) the case rules GDAL meets are not the Turkish ones."""
+    if not sys.platform.startswith("linux"):
+        return None
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or None)
         libc.newlocale.restype = libc.uselocale.restype = ctypes.c_void_p
@@ -27,7 +34,7 @@ def _libc():
         libc.freelocale.argtypes = [ctypes.c_void_p]
         libc.strcasecmp.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
         return libc
-    except (OSError, AttributeError):  # no POSIX 2008 locales (Windows, old libc): nothing to switch
+    except (OSError, AttributeError, TypeError):  # no C library or no POSIX 2008 locales: nothing to switch
         return None
 
 
