@@ -90,3 +90,34 @@ def test_a_dji_copy_with_its_calibration_and_sizes_rewritten(tmp_path):
                                          r"camera tags: bad1, bad2\)") as e:
         read_exif_block(bad)
     assert e.value.frames == ("bad0", "bad1", "bad2")
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("f35, zoom, refused", [
+    (48, (2, 1), None),  # the camera's own full-size file at 2x digital zoom, the 35 mm equivalent including it
+    (48, None, r"the file is 2 times larger than that frame — a digital zoom the file does not state \(EXIF "
+               r"DigitalZoomRatio\), an enlarged copy or its tags edited \(its focal length in pixels would come out "
+               r"2 times too short\); give the camera"),
+    (24, (2, 1), r"DigitalZoomRatio is 2 .* describe a 4630x3477 frame, the file's own: both records include the "
+                 r"zoom or neither does: .*give the camera \(--camera\)"),
+    (36, (2, 1), r"DigitalZoomRatio is 2 .* describe a 3087x2318 frame, neither the file's 4608x3456 nor 1/2 of it"),
+    (None, (2, 1), r"DigitalZoomRatio is 2 .* only 4.3 mm x FocalPlaneXResolution .* gives its focal length, which "
+                   r"may or may not include the zoom"),
+    (24, (0, 1), None)])  # 0: no digital zoom used
+def test_a_digital_zoom_is_named_and_used_when_the_records_agree(tmp_path, data_dir, f35, zoom, refused):
+    """An unresized eBee original tagged as taken at digital zoom: with FocalLengthIn35mmFilm 48 and DigitalZoomRatio
+    2 the focal plane x 2 is the file's camera (main refused it as 'a copy resized by 2 ... 0.5 times too long');
+    records that cannot tell whether they include the zoom are refused naming it; without the zoom tag the file is
+    not called a resize."""
+    import shutil
+    dst = shutil.copy(data_dir / "drone_snowpeak" / "img" / "IMG_2280.JPG", tmp_path / "z.JPG")
+    base = focal_of(read_image_metadata(dst))[0]  # 4.3 mm x 746.6 px/mm: no FocalLengthIn35mmFilm in the original
+    jm.set_exif_tags(dst, {**({F35: f35} if f35 else {}), **({0xA404: zoom} if zoom else {})})
+    m = read_image_metadata(dst)
+    if refused:
+        with pytest.raises(InputError, match=refused):
+            focal_of(m)
+        return
+    f, _, _, _, src = focal_of(m)
+    z = zoom[0] if zoom[0] else 1
+    assert f == pytest.approx(base * z, rel=1e-12) and ("DigitalZoomRatio 2" in src) == (z == 2)

@@ -57,3 +57,36 @@ def test_a_copied_folder_is_one_image(tmp_path):
     b = _img(tmp_path / "copy" / "DJI_0001.tif", _gps(0.0))
     gps = images_gps([a, b])
     assert list(gps) == ["DJI_0001"] and gps_for(gps, ["DJI_0001"]) == {"DJI_0001": gps["DJI_0001"]}
+
+
+@pytest.mark.parametrize("key, got", [("flight1/dji_0001", "flight1/DJI_0001"),
+                                      ("FLIGHT2/DJI_0001", "flight2/DJI_0001"), ("dji_0001", None), ("DJI_0001", None)])
+def test_folders_are_matched_whatever_the_case(tmp_path, key, got):
+    """The project's name differing by case from the images' is matched like every other key (main gave ``{}``:
+    the shot silently lost its GPS evidence); a bare name that could be either folder's is refused by name."""
+    a = _img(tmp_path / "flight1" / "DJI_0001.tif", _gps(0.0))
+    b = _img(tmp_path / "flight2" / "DJI_0001.tif", _gps(2.0))
+    gps = images_gps([a, b])
+    if got is None:
+        with pytest.raises(InputError, match=rf"share the name of the project's image '{key}' but not their GPS "
+                                             rf"\(positions differ, 61.8 m apart\)"):
+            gps_for(gps, [key])
+    else:
+        assert gps_for(gps, [key]) == {key: gps[got]}
+
+
+def test_the_same_name_with_another_extension_in_one_folder(tmp_path):
+    """``IMG_1.JPG`` with GPS and ``IMG_1.tif`` without, in one folder: keyed by their full names; a project naming
+    ``IMG_1`` is refused as "same name, different extension" without a distance (main: the two keys collided and the
+    message named one file twice, "0.0 m apart"); a project naming the extension gets that file's GPS or none."""
+    jpg = _img(tmp_path / "f" / "IMG_1.JPG", _gps(0.0))
+    tif = _img(tmp_path / "f" / "IMG_1.tif", {"EXIF_Make": "ACME", "EXIF_Model": "Cam"})
+    gps = images_gps([jpg, tif])
+    assert set(gps) == {"f/IMG_1.JPG"} and gps.without == ("f/IMG_1.tif",)
+    with pytest.raises(InputError, match=r"images '.*f/IMG_1.JPG' and '.*f/IMG_1.tif' have the same name, different "
+                                         r"extension, as the project's image 'IMG_1' but not their GPS \(one of "
+                                         r"them carries none\)") as err:
+        gps_for(gps, ["IMG_1"])
+    assert " m apart" not in str(err.value)
+    assert gps_for(gps, ["img_1.jpg"]) == {"img_1.jpg": gps["f/IMG_1.JPG"]}
+    assert gps_for(gps, ["f/IMG_1.tif"]) == {}

@@ -330,3 +330,22 @@ def test_odm_grid_zone_from_coords_and_whole_metres(tmp_path):
     (tmp_path / "odm_georeferencing" / "coords.txt").write_text(f"WGS84 UTM 34N\n{off[0]:.0f} {off[1]:.0f}\n")
     (crs, origin), why, odm = odm_grid(path, (lat, lon, 12.5))
     assert crs.to_epsg() == 32634 and "coords.txt" in why and tuple(origin) == tuple(off) and odm
+
+
+def test_colmap_names_the_folder_of_an_image_another_flight_shares(sc, tmp_path):
+    """images.txt names ``flight1/<name>.tif``; the images given are flight1's and another flight's image of the same
+    name 500 m off: the model's shots are checked against flight1's GPS (main dropped the folder and refused the model
+    as ambiguous, ``share the name``); a model naming no folder is still refused by name."""
+    import shutil
+    names = sc["names"][:2]
+    own = [shutil.copy(p, (tmp_path / "flight1").mkdir(exist_ok=True) or tmp_path / "flight1" / p.name)
+           for p in sc["rtk"][:2]]
+    other = sp.shifted_gps(sc["rtk"][0], tmp_path / "flight2" / sc["rtk"][0].name, (500.0, 0.0))
+    cams = {1: ("OPENCV", 640, 480, _colmap(sc))}
+    folder = sp.colmap_model(tmp_path / "m", sc, cams, shots=names, names={n: f"flight1/{n}.tif" for n in names})
+    block = _read(folder / "images.txt", [*own, other])
+    assert any("from the images' own GPS of 2 image(s)" in n for n in block.notes), block.notes
+    _right(block, sc, {"tool": "colmap", "model": "OPENCV", "params": _colmap(sc)})
+    bare = sp.colmap_model(tmp_path / "b", sc, cams, shots=names)
+    with pytest.raises(InputError, match="share the name of the project's image"):
+        _read(bare / "images.txt", [*own, other])

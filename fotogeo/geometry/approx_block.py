@@ -55,7 +55,9 @@ class ApproxShot:
     ``position`` ``(3,)`` in the block's CRS (Z in metres, ``height_reference``) or ``None``;
     ``angles`` ``(ω, φ, κ)`` PATB degrees in the block's CRS or ``None`` (unknown attitude);
     ``sigma_h`` / ``sigma_v`` the horizontal / vertical σ of the position (m) and ``sigma_angle``
-    of the angles (degrees) when the source states them (RTK accuracy tags), else ``None``.
+    of the angles (degrees) when the source states them (RTK accuracy tags), else ``None``; ``project_name`` the
+    image's name as its SfM project gives it, folders kept (COLMAP's ``flight1/DJI_0001.JPG``), which tells the
+    images' own GPS evidence apart when two folders hold the same file name (``""``: the frame name).
     """
 
     name: str
@@ -67,6 +69,7 @@ class ApproxShot:
     sigma_angle: float | None = None
     height_reference: str | None = None
     source: str = ""
+    project_name: str = ""
 
     def __post_init__(self):
         if self.position is not None:

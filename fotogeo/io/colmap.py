@@ -257,7 +257,7 @@ def read_colmap(model_dir, crs=None, *, height_reference: str | None = None, gps
             raise InputError(f"COLMAP model {str(folder)!r}: two images have the stem {key!r}; fotogeo keys frames "
                              f"by file stem: rename them")
         shots[key] = ApproxShot(key, cid, tuple(C), patb_from_world_to_camera(R),
-                                height_reference=height_reference, source="COLMAP model")
+                                height_reference=height_reference, source="COLMAP model", project_name=name)
     used = {s.camera_id for s in shots.values()}
     notes = (f"read from COLMAP model {str(folder)!r}",
              f"model coordinates taken as {map_crs.name} (X easting, Y northing, Z up)" if frame == "map" else

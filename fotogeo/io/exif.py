@@ -113,6 +113,7 @@ class ImageMetadata:
     pixel_dimension: tuple | None = None  # EXIF PixelXDimension, PixelYDimension: the size the camera wrote
     xmp_error: str | None = None  # why the XMP packet was ignored (not valid XML), None when it was read
     written_sizes: tuple = ()  # ((source, (w, h)), …): other records of the size the camera wrote (exif_sizes)
+    digital_zoom: float | None = None  # EXIF DigitalZoomRatio (0xA404): 0 or 1 when none was used
 
     def x(self, *names) -> float | None:
         """The first of the XMP ``names`` (case-insensitive ``prefix:Name``) that is a number."""
@@ -194,7 +195,8 @@ def read_image_metadata(path) -> ImageMetadata:
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
                          _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error,
-                         written_sizes(p, tags, text("EXIF_Make"), (int(w), int(h))))
+                         written_sizes(p, tags, text("EXIF_Make"), (int(w), int(h))),
+                         _first(tags.get("EXIF_DigitalZoomRatio")))
 
 
 def _pixel_dimension(tags):

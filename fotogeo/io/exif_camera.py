@@ -29,6 +29,13 @@ the size the camera wrote). Sources that contradict each other are named, never 
   (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
   (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
 
+A digital zoom (EXIF ``DigitalZoomRatio`` ``z > 1``: the centre ``1/z`` of the sensor enlarged to the full frame)
+makes each file pixel ``1/z`` of a sensor pixel, so the focal plane's ``f · p`` is ``z`` times too short. It is used,
+as ``f · p · z``, only when ``FocalLengthIn35mmFilm`` includes the zoom — the frame the two records imply is ``1/z``
+of the file's, two records agreeing — and refused naming ``DigitalZoomRatio`` and ``--camera`` otherwise (a frame the
+file's own size: both records include the zoom or neither does; one record alone cannot say). Without the tag, a file
+larger than the frame its records imply is not called a resize: its focal length would come out ``k`` times too short.
+
 Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
 thumbnail's size (the vendor's choice, 160x120 on the eBee's Canon whatever the frame) and ``FocalLength`` against
 the 35 mm equivalent alone (a crop factor, no size in pixels).
@@ -96,13 +103,30 @@ def sensor_frame(meta: ImageMetadata, said=None) -> tuple | None:
     return meta.focal_plane_ppmm[0] * d * w / math.hypot(w, h), meta.focal_plane_ppmm[1] * d * h / math.hypot(w, h)
 
 
+def digital_zoom(meta: ImageMetadata) -> float | None:
+    """EXIF ``DigitalZoomRatio`` when a digital zoom was used (> 1), else None (module docstring)."""
+    z = meta.digital_zoom
+    return float(z) if z and math.isfinite(z) and z > 1.0 + 1e-6 else None
+
+
 def _check_focal_plane(meta: ImageMetadata, full) -> None:
-    """A copy resized with every size record rewritten, named by :func:`sensor_frame` (module docstring)."""
+    """A copy resized with every size record rewritten, named by :func:`sensor_frame` (module docstring); with a
+    digital zoom ``z``, the frame ``1/z`` of the file's that a 35 mm equivalent including the zoom implies is the
+    camera's own (:func:`focal_of`), and any other frame is refused naming ``DigitalZoomRatio``."""
     said = full or (meta.width, meta.height)
     frame = sensor_frame(meta, said)
     if frame is None:
         return
     k = math.sqrt(frame[0] / said[0] * frame[1] / said[1])
+    if (z := digital_zoom(meta)) is not None:
+        if abs(k * z - 1.0) > F35_TOLERANCE:
+            raise _zoomed(meta, z, f"FocalLength {meta.focal_mm:g} mm x FocalPlaneXResolution and "
+                                   f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm describe a {frame[0]:.0f}x"
+                                   f"{frame[1]:.0f} frame, " + ("the file's own: both records include the zoom or "
+                                                               "neither does" if abs(k - 1.0) <= F35_TOLERANCE else
+                                                               f"neither the file's {said[0]}x{said[1]} nor 1/{z:g} "
+                                                               f"of it"))
+        return
     if abs(k - 1.0) > F35_TOLERANCE:
         ppmm = meta.focal_plane_ppmm
         raise _resized(meta, full, f"EXIF FocalPlaneXResolution/YResolution ({ppmm[0]:.1f}, {ppmm[1]:.1f} px/mm) "
@@ -123,6 +147,11 @@ def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
         told = f"its EXIF PixelXDimension says {full[0]}x{full[1]}"
     W, H, k = _restored((w, h), frame)
     by = f"{k.numerator}/{k.denominator}" if isinstance(k, Fraction) and k.denominator > 1 else f"{float(k):.3g}"
+    if k > 1:  # the file is larger than the frame: no resize names it (a digital zoom, an enlarged copy, an edit)
+        return InputError(f"{_fix(meta)}: {what} but {told}: the file is {by} times larger than that frame — a "
+                          f"digital zoom the file does not state (EXIF DigitalZoomRatio), an enlarged copy or its "
+                          f"tags edited (its focal length in pixels would come out {float(k):.3g} times too short); "
+                          f"give the camera (--camera) or use the originals")
     related = any(src.startswith("EXIF RelatedImageWidth") for src, _ in meta.written_sizes)
     tags = f"-PixelXDimension={W} -PixelYDimension={H}" + (
         f" -RelatedImageWidth={W} -RelatedImageHeight={H}" if related else "")
@@ -130,6 +159,12 @@ def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
                       f"or its tags edited (its focal length in pixels would come out {1 / float(k):.3g} times too "
                       f"long); "
                       f"give the camera (--camera), use the originals, or restore the tags (exiftool {tags} FILE)")
+
+
+def _zoomed(meta: ImageMetadata, z: float, why: str) -> InputError:
+    """The refusal of a digitally zoomed file whose focal length in pixels the records cannot tell."""
+    return InputError(f"{_fix(meta)}: its EXIF DigitalZoomRatio is {z:g} (a crop of the sensor enlarged to the "
+                      f"frame) and {why}: its focal length in pixels cannot be told; give the camera (--camera)")
 
 
 def _restored(file, frame) -> tuple:
@@ -220,6 +255,8 @@ def focal_of(meta: ImageMetadata):
     w, h = meta.width, meta.height
     s, note = size_scale(meta)
     got = _full_resolution(meta, w, h, s)
+    if (z := digital_zoom(meta)) is not None:
+        got = _zoom_focal(meta, got, z)
     if got is None:
         if meta.focal_35mm:
             f = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
@@ -236,6 +273,19 @@ def focal_of(meta: ImageMetadata):
                                                        f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm gives "
                                                        f"{f35:.0f} px,", (said[0] * fx / f35, said[1] * fx / f35))
     return fx, fy, pp, dist, src + (f"; {note}" if note else "")
+
+
+def _zoom_focal(meta: ImageMetadata, got, z: float):
+    """The focal plane's camera of a file digitally zoomed by ``z``: ``f · p · z`` (each file pixel is ``1/z`` of a
+    sensor pixel, the crop centred), when ``FocalLengthIn35mmFilm`` includes the zoom (checked by
+    :func:`_check_focal_plane`); any other source may or may not include it and is refused."""
+    w, h = meta.width, meta.height
+    if got is None or not meta.focal_35mm or _full_resolution(meta, w, h, 1.0, focal_plane=False) is not None:
+        src = got[4] if got else (f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm" if meta.focal_35mm else "")
+        raise _zoomed(meta, z, f"only {src or 'no focal record'} gives its focal length, which may or may not "
+                               f"include the zoom")
+    fx, fy, pp, dist, src = got
+    return fx * z, fy * z, pp, dist, f"{src} x DigitalZoomRatio {z:g} (FocalLengthIn35mmFilm agrees)"
 
 
 def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane: bool = True):

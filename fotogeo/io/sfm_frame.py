@@ -75,16 +75,18 @@ class GpsFix:
 class ImagesGps(dict):
     """``{image key: GpsFix}`` of the images given that carry a GPS position (:func:`images_gps`); ``without``: the
     keys of the images given that carry none (they still claim their own name, :func:`gps_for`); ``paths``:
-    ``{key: path}`` of every image given, for the messages."""
+    ``{key: path}`` of every image given, for the messages; ``named``: the keys that keep their extension (images of
+    one folder told apart only by it)."""
 
-    def __init__(self, items=(), without=(), paths=None):
+    def __init__(self, items=(), without=(), paths=None, named=()):
         super().__init__(items)
         self.without = tuple(without)
         self.paths = dict(paths or {})
+        self.named = frozenset(named)
 
     def mapped(self, f) -> "ImagesGps":
         """The same images with each value ``f(value)``."""
-        return ImagesGps({k: f(v) for k, v in self.items()}, self.without, self.paths)
+        return ImagesGps({k: f(v) for k, v in self.items()}, self.without, self.paths, self.named)
 
 
 def project_key(name) -> str:
@@ -96,14 +98,16 @@ def project_key(name) -> str:
 
 
 def _tails(paths: list) -> list:
-    """The shortest ``folder/…/stem`` that tells apart images sharing a stem (copied folders)."""
-    parts = [Path(p).resolve().parent.parts for p in paths]
-    stem = Path(paths[0]).stem
+    """The shortest ``folder/…/name`` that tells apart images sharing a stem (copied folders): the stem, or the name
+    with its extension for images of one folder (``f/IMG_1.JPG``, ``f/IMG_1.tif``: same name, different extension)."""
+    res = [Path(p).resolve() for p in paths]
+    names = [r.name if sum(q.parent == r.parent for q in res) > 1 else r.stem for r in res]
+    parts = [r.parent.parts for r in res]
     for n in range(1, max(len(q) for q in parts) + 1):
-        keys = ["/".join((*q[-n:], stem)).lstrip("/") for q in parts]
+        keys = ["/".join((*q[-n:], m)).lstrip("/") for q, m in zip(parts, names)]
         if len(set(keys)) == len(keys):
             return keys
-    return [str(Path(p).resolve().with_suffix("")) for p in paths]
+    return [str(r) for r in res]
 
 
 def images_gps(paths) -> ImagesGps:
@@ -119,17 +123,19 @@ def images_gps(paths) -> ImagesGps:
     for p in paths or ():
         groups.setdefault(frame_key(p), []).append((str(p), _fix_of(read_image_metadata(str(p)),
                                                                      position_sigmas, height_reference)))
-    out, without, where = {}, [], {}
+    out, without, where, named = {}, [], {}, []
     for key, items in groups.items():
         fixes = {g for _, g in items}
         keys = [key] if len(fixes) == 1 else _tails([p for p, _ in items])
         for k, (p, g) in zip(keys, items):
             where[k] = p
+            if Path(p).suffix and k.endswith("/" + Path(p).name):
+                named.append(k)
             if g is None:
                 without.append(k)
             else:
                 out[k] = g
-    return ImagesGps(out, without, where)
+    return ImagesGps(out, without, where, named)
 
 
 def _fix_of(m, position_sigmas, height_reference) -> GpsFix | None:
@@ -147,17 +153,20 @@ def gps_for(gps: dict, keys) -> dict:
     ``DJI_0001.JPG``'s GPS; a key is taken by one image at most (the exact name first), and every image given claims
     its own name, with GPS or without (``gps.without``), so that no image lends its GPS to another's shot. Images
     told apart by their folders (:func:`images_gps`) are matched by the path the project names (``flight1/DJI_0001``
-    ends like ``…/flight1/DJI_0001``); a project key that could be several of them is refused by name."""
+    ends like ``…/flight1/DJI_0001``, whatever the case); images of one folder told apart by their extension only are
+    matched by the project's name with its extension; a project key that could be several of them is refused by
+    name."""
     from .block import match_keys
     without = set(getattr(gps, "without", ()))
+    named = getattr(gps, "named", frozenset())
     names = [*gps, *without]
     keys = list(keys)
     folded = [n for n in names if "/" in n]
     found, rest = {}, []
     for k in keys:
-        kp = project_key(k)
-        same = [n for n in folded if n.rsplit("/", 1)[1] == kp.rsplit("/", 1)[-1]]
-        hit = [n for n in same if kp == n or kp.endswith("/" + n) or n.endswith("/" + kp)]
+        kp, kf = project_key(k).casefold(), str(k).replace("\\", "/").casefold()
+        hit = [n for n in folded if _ends(kp, project_key(n).casefold() if n in named else n.casefold())
+               and (n not in named or kf == kp or _ends(kf, n.casefold()))]
         if len(hit) > 1:
             raise _ambiguous(gps, k, hit)
         if hit:
@@ -165,21 +174,34 @@ def gps_for(gps: dict, keys) -> dict:
         else:
             rest.append(k)
     plain = [n for n in names if "/" not in n]
-    found.update(match_keys(plain, rest))
+    back: dict = {}  # the project's names matched by their key (an extension never tells plain names apart)
+    for k in rest:
+        back.setdefault(project_key(k), []).append(k)
+    found.update((n, back[k][0]) for n, k in match_keys(plain, [k for k in back if len(back[k]) == 1]).items())
     return {k: gps[n] for n, k in found.items() if n not in without}
+
+
+def _ends(a: str, b: str) -> bool:
+    """Whether the names ``a`` and ``b`` are the same file, one naming more of its folders than the other."""
+    return a == b or a.endswith("/" + b) or b.endswith("/" + a)
 
 
 def _ambiguous(gps, key, names) -> InputError:
     paths = getattr(gps, "paths", {})
     fixes = [gps.get(n) for n in names]
-    apart = ""
     if all(fixes[:2]):
         from pyproj import Geod
-        apart = f", {Geod(ellps='WGS84').inv(fixes[0].lon, fixes[0].lat, fixes[1].lon, fixes[1].lat)[2]:.1f} m apart"
+        apart = Geod(ellps="WGS84").inv(fixes[0].lon, fixes[0].lat, fixes[1].lon, fixes[1].lat)[2]
+        differ = f"positions differ, {apart:.1f} m apart"
+    else:
+        differ = "one of them carries none"
     said = " and ".join(repr(paths.get(n, n)) for n in names[:3])
-    return InputError(f"images {said} share the name of the project's image {key!r} but not their GPS (positions "
-                      f"differ{apart}), and the project's name does not say which folder it is: give only the "
-                      f"images of the project's folder, or rename the others", frames=names)
+    one = len({str(Path(paths.get(n, n)).parent) for n in names}) == 1  # same name, different extension
+    share, which = (("have the same name, different extension, as", "it is: give only the images the project was "
+                     "made of") if one else ("share the name of", "folder it is: give only the images of the "
+                                             "project's folder"))
+    return InputError(f"images {said} {share} the project's image {key!r} but not their GPS ({differ}), and the "
+                      f"project's name does not say which {which}, or rename the others", frames=names)
 
 
 def map_xy(crs, lon, lat) -> np.ndarray:
@@ -235,7 +257,8 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
 def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
     """The sentence saying how ``block``'s centres agree with the images' own ``gps`` ({name: GpsFix}); an
     :class:`InputError` naming ``what`` and the frames furthest off when the horizontal RMS exceeds 3σ."""
-    gps = gps_for(gps, block.shots)
+    named = {s.project_name or k: k for k, s in block.shots.items()}  # the project's own name: its folder tells
+    gps = {named[n]: g for n, g in gps_for(gps, named).items()}
     names = sorted(n for n in gps if block.shots[n].position is not None)
     if not names or block.crs is None:
         return ""
