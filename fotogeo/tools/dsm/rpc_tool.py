@@ -249,8 +249,8 @@ def rpc_images(images, crs, dem) -> tuple:
     return out, map_c, rule
 
 
-def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
+            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
     ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
     ims, map_c, rule = rpc_images(images, crs, dem)

@@ -40,8 +40,8 @@ FEET = (0.3048, 1200.0 / 3937.0)
 @tool(DSM, rasters={"dem": None, "geoid": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
-        refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None, workers=None,
-        point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+        refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None,
+        workers=None, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
@@ -69,15 +69,17 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         check_writable(point_cloud)
     if rpc:
         from .rpc_tool import rpc_dsm
-        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs, resolution=resolution,
-                       crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
-                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
+        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                       resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                       point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                       dask=(scheduler, workers), bands=bands)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the DSM's steps ask pyproj's
     ims = image_models(images, map_c, camera=camera, eo=eo)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
-                   resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
-                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
+                   resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                   point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                   dask=(scheduler, workers), bands=bands)
 
 
 def _centres_in_area_of_use(views, crs) -> None:
@@ -223,8 +225,8 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     return None if grid is None else dem_guide.DemGuide(grid, f)
 
 
-def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
+            report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
     bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]

@@ -25,7 +25,8 @@ height reference is what ``--dem-heights`` says, else what its CRS states
 (:func:`fotogeo.geometry.vertical.crs_height_reference`). An RPC needs ellipsoidal heights: a DEM of geoid
 heights is shifted by ``--geoid`` (undulations ``N``, ``h = H + N``) or refused; a DEM that does not state its
 reference is used as ellipsoidal with a warning. Frame orientations are used in the DEM's own vertical frame
-unless their file states another reference (then the same rule).
+unless their file states another reference (then the same rule) or ``--geoid`` is given (it asks for ellipsoidal
+heights: a geoid DEM is shifted by it, any other refused, as under an RPC).
 """
 from __future__ import annotations
 
