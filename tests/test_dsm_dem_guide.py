@@ -4,6 +4,7 @@ reference) is named and used shifted, one that disagrees with the images is name
 has voids the matches' heights take over."""
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 import rasterio
 
 from fotogeo.errors import FotogeoWarning
+from fotogeo.options.dsm import DSM
 from fotogeo.tools.dsm import dem_guide, local
 
 from dsm_scenes import make_scene, write_dem
@@ -68,6 +70,8 @@ def test_an_offset_dem_is_named_and_followed_shifted(nadir, tmp_path, monkeypatc
     strip searching the DEM's whole range)."""
     m, grid, said = _setup(nadir, monkeypatch, _degraded(nadir, tmp_path / "dem.tif", offset=50.0))
     assert any("+50.0 m" in s and "--dem-heights" in s for s in said), said
+    named = {f for s in said for f in re.findall(r"--[a-z][a-z-]*", s)}
+    assert named <= {o.cli_flag for o in DSM.values()}, named  # before: --geoid, which dsm did not have
     assert m.dem is not None and abs(m.dem.fitted.offset - 50.0) < 1.0
     assert m.pair.extra["dem"]["guides_strips"]
     u0, v0, u1, v1 = m.box(grid)
@@ -124,3 +128,56 @@ def test_the_fit_measures_offset_spread_and_margin():
     assert dem_guide.DEM_PAD_M + 5.0 < f.margin < dem_guide.DEM_PAD_M + 12.0
     assert dem_guide.problems(f, "a-b") and "+11.9 m" in dem_guide.problems(f, "a-b")[0]
     assert dem_guide.fit(Dem(Z, from_origin(5000, 1000, 10, 10)), P) is None  # no match on it
+
+
+def test_geoid_undulations_make_a_geoid_dem_ellipsoidal(nadir, tmp_path, monkeypatch):
+    """``--geoid`` (ortho's option, now dsm's too): a DEM of the true surface declared geoid heights, with
+    undulations N = −30 m, is used as H + N, so the fit measures a −30 m offset (before: dsm had no --geoid, yet
+    its DEM warning and ortho's refusal of a geoid DEM named it)."""
+    dem = _degraded(nadir, tmp_path / "dem.tif")
+    with rasterio.open(dem) as ds:
+        profile, shape = ds.profile, ds.shape
+    with rasterio.open(tmp_path / "n.tif", "w", **profile) as ds:
+        ds.write(np.full(shape, -30.0, np.float32), 1)
+    two = {**nadir, "images": nadir["images"][:2]}
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        m, _ = _pair_match(two, monkeypatch, dem=dem, dem_heights="geoid", geoid=str(tmp_path / "n.tif"))
+    assert abs(m.dem.fitted.offset + 30.0) < 1.0
+    said = [str(w.message) for w in got if issubclass(w.category, FotogeoWarning)]
+    assert any(re.search(r"lie -3\d\.\d m", s) and "--geoid" in s for s in said), said
+
+
+def test_a_pair_no_match_measured_guides_unchecked_is_named_and_searches_the_runs_padding(nadir, tmp_path):
+    """A pair with fewer than 20 sparse matches and no fit of the run: its DEM is searched ± the larger of 30 m
+    and the run's padding of the DEM's range, and named (before: ± 30 m, without a word)."""
+    from types import SimpleNamespace
+    from fotogeo.tools.dsm import tool
+    from fotogeo.tools.ortho.inputs import image_models, terrain
+    ims = image_models(nadir["images"][:2], nadir["crs"], camera=nadir["camera"], eo=nadir["eo"])
+    source, _, _ = terrain(_degraded(nadir, tmp_path / "dem.tif"), None, nadir["crs"], ims)
+    p = SimpleNamespace(i=0, j=1, extra={})
+    sp = {"n": 7, "points": np.zeros((7, 3)) + [0.0, 0.0, 1e6]}  # none plausible: nothing measures the DEM
+    g = tool._pair_dem(p, sp, (source, None, 80.0), ims, 0.0, 200.0, 1e9)
+    assert g is not None and g.margin == 80.0 and p.extra["dem"]["matches"] == 0
+    with pytest.warns(FotogeoWarning, match=r"not checked for pair a-b \(7 sparse matches.*± 80 m"):
+        tool._warn_dem("dem.tif", [("a-b", p.extra["dem"], 7)])
+
+
+def test_a_dem_all_void_under_a_pair_starts_no_node_and_says_nothing():
+    """A pair's DEM grid all nodata: the nodes have no DEM height (NaN), without numpy's "All-NaN slice" warning
+    (before: raised under -W error)."""
+    from fotogeo.geometry.dem import Dem
+    from rasterio.transform import from_origin
+
+    class Nadir:  # a camera 100 m up looking down
+        centres = [np.array([50.0, 50.0, 100.0])]
+
+        def rays(self, u, v, k):
+            return np.column_stack([np.zeros(len(u)), np.zeros(len(u)), -np.ones(len(u))])
+
+    g = dem_guide.DemGuide(Dem(np.full((4, 4), np.nan), from_origin(0, 100, 25, 25)), dem_guide.DemFit(0, 0, 30, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        z, _, zm = local._on_dem(Nadir(), None, g, np.array([1.0, 2.0]), np.array([1.0, 2.0]))
+    assert np.isnan(z).all() and np.isnan(zm).all()

@@ -22,6 +22,7 @@ DSM = Table(
     Option("dem_heights", "choice", "auto", "Height reference of the DEM (auto = what its CRS states)",
            "Height reference of the DEM: auto (what its CRS states), ellipsoid or geoid.", choices=DEM_HEIGHTS,
            advanced=True),
+    replace(ORTHO["geoid"], label="Geoid undulations N (h = H + N) making a geoid DEM ellipsoidal"),
     Option("pairs", "file", None, "Pairs to match (text file; empty = chosen automatically)",
            "A text file of the pairs to match, two image names (file names without extension) per line [chosen "
            "from footprints, overlap, base-to-height ratio and view angle; a given pair is matched even when its views "

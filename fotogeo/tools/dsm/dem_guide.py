@@ -32,7 +32,8 @@ DEM_MIN_MATCHES = 20
 #: a DEM this far (m, median) from the matches' heights is named; this spread (NMAD, m) and it guides no strip
 DEM_OFFSET_WARN_M = 10.0
 DEM_MAX_SPREAD_M = 25.0
-#: the margin (m) of a pair no sparse match measured the DEM for
+#: the least margin (m) of a pair no sparse match measured the DEM for (the run's padding of the DEM's range when
+#: larger; named in a warning)
 DEM_UNMEASURED_M = 30.0
 #: damped fixed-point steps of a node's height (module docstring)
 DEM_ITER = 8
@@ -69,8 +70,13 @@ def fit(source, points) -> DemFit | None:
                   int(ok.sum()))
 
 
-def problems(f: DemFit, where: str) -> list:
-    """What a user is told about the fit ``f`` (module docstring); ``where`` names the matches."""
+def problems(f: DemFit, where: str, sparse: int = 0) -> list:
+    """What a user is told about the fit ``f`` (module docstring); ``where`` names the matches, ``sparse`` how many
+    the pair has: with none measured (``f.matches`` 0), the DEM guides that pair unchecked."""
+    if not f.matches:
+        return [f"it was not checked for pair {where} ({sparse} sparse matches; {DEM_MIN_MATCHES} on the DEM "
+                f"measure it, and no other pair did): its heights, as they are, guide that pair's search "
+                f"± {f.margin:.0f} m; give a DEM in the orientation's vertical reference"]
     out = []
     if abs(f.offset) > DEM_OFFSET_WARN_M:
         out.append(f"its heights lie {f.offset:+.1f} m from those the orientation gives {f.matches} sparse matches "

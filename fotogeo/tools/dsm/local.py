@@ -92,7 +92,8 @@ def _on_dem(rp, near, dem, u, v) -> tuple:
     zm = np.full(np.size(u), np.nan) if few else _nearest_median(near, u, v)
     if dem is None:
         return np.full(np.size(u), np.nan), np.zeros(np.size(u)), zm
-    start = np.where(np.isfinite(zm), zm, float(np.nanmedian(dem.dem.data)) - dem.fitted.offset)
+    data = dem.dem.data[np.isfinite(dem.dem.data)]  # all NaN (the pair over a void): no start, no DEM height
+    start = np.where(np.isfinite(zm), zm, (float(np.median(data)) if data.size else np.nan) - dem.fitted.offset)
     return (*dem.node_heights(rp, u, v, start), zm)
 
 

@@ -165,8 +165,8 @@ def _same_rpc(a, b) -> bool:
     return a is not None and all(np.isclose(getattr(a, k), getattr(b, k), rtol=1e-9, atol=1e-9) for k in keys)
 
 
-def _dem_heights(dem, dem_heights, crs, ims):
-    source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
+def _dem_heights(dem, dem_heights, geoid, crs, ims):
+    source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
     from ...geometry.dem import heights_at, underlying_dem
     d = underlying_dem(source)[0]
     zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
@@ -249,8 +249,8 @@ def rpc_images(images, crs, dem) -> tuple:
     return out, map_c, rule
 
 
-def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
+            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
     ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
     ims, map_c, rule = rpc_images(images, crs, dem)
@@ -259,7 +259,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, pairs, resolution, crs, bounds,
     dem_source, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
     if dem is not None:
-        dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, map_c, ims)
+        dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, geoid, map_c, ims)
         notes += more + ["height range from the DEM"]
     sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)

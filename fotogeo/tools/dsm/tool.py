@@ -37,11 +37,11 @@ DEM_MISFIT_M = 150.0
 FEET = (0.3048, 1200.0 / 3937.0)
 
 
-@tool(DSM, rasters={"dem": None}, outputs=("output", "point_cloud", "report"))
+@tool(DSM, rasters={"dem": None, "geoid": None}, outputs=("output", "point_cloud", "report"))
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
-        dem_heights: str = "auto", pairs=None, resolution=None, crs="auto", bounds=None, refine: bool = False,
-        fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None, workers=None,
-        point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+        dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
+        refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None,
+        workers=None, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
@@ -61,7 +61,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     camera, eo = orientation_files(orientation, camera, eo)
     # below: the filling's reach in cells (the table's default when not given), None for no filling
     fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
-    inputs = [*images, camera, eo, dem, pairs if isinstance(pairs, (str, Path)) else None]
+    inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
                    (report, "report", None)), inputs, overwrite)
     if point_cloud is not None:
@@ -69,15 +69,17 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         check_writable(point_cloud)
     if rpc:
         from .rpc_tool import rpc_dsm
-        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                       crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud,
-                       report=report, overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
+        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                       resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                       point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                       dask=(scheduler, workers), bands=bands)
     map_c, rule = map_crs(crs, dem, eo, images, False, camera)
     map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the DSM's steps ask pyproj's
     ims = image_models(images, map_c, camera=camera, eo=eo)
-    return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, pairs=pairs, resolution=resolution,
-                   bounds=parse_bounds(bounds), refine=refine, fill=fill, point_cloud=point_cloud, report=report,
-                   overwrite=overwrite, prog=prog, t0=t0, dask=(scheduler, workers), bands=bands)
+    return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                   resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                   point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                   dask=(scheduler, workers), bands=bands)
 
 
 def _centres_in_area_of_use(views, crs) -> None:
@@ -100,19 +102,19 @@ def _centres_in_area_of_use(views, crs) -> None:
                       f"X, Y in another CRS? The DSM is placed where they say", FotogeoWarning, stacklevel=4)
 
 
-def _heights(ims, views, sources, dem, dem_heights, crs, features) -> tuple:
+def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tuple:
     """``(zlo, zhi, height reference, notes, DEM)`` of the terrain (plan module docstring); ``DEM`` None without
-    one, else ``(height source, its fit at the nearest pair's matches or None)``: its heights shifted by the fit's
-    offset (:mod:`.dem_guide`)."""
+    one, else ``(height source, its fit at the nearest pair's matches or None, the padding of its range)``: its
+    heights shifted by the fit's offset (:mod:`.dem_guide`)."""
     if dem is not None:
-        source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights)
+        source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
         from ...geometry.dem import underlying_dem
         d = underlying_dem(source)[0]
         zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
         pad = 0.1 * (zhi - zlo) + 20.0
         f = _dem_fits_orientation(dem, source, views, sources, features)
         o = 0.0 if f is None else f.offset
-        return zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"], (source, f)
+        return zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"], (source, f, pad)
     check = functools.partial(frames.sparse_check, cache=features)
     zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
                                    Limits().min_overlap)
@@ -198,18 +200,20 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims) -> tuple
 
 
 def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
-    """The pair's :class:`.dem_guide.DemGuide` (``dem`` :func:`_heights`'s ``(source, run's fit)``): the DEM over
-    its footprints at ``zlo`` and ``zhi``, fitted to its sparse matches (the run's fit when the pair has too few);
+    """The pair's :class:`.dem_guide.DemGuide` (``dem`` :func:`_heights`'s ``(source, run's fit, padding)``): the
+    DEM over its footprints at ``zlo`` and ``zhi``, fitted to its sparse matches (the run's fit when the pair has too
+    few; with neither, unchecked: searched ± max(``DEM_UNMEASURED_M``, the run's padding), and named by
+    :func:`_warn_dem`);
     None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`), or when the pair
     has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
     from ...geometry.dem import underlying_dem
-    source, run_fit = dem
+    source, run_fit, pad = dem
     pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
     f = dem_guide.fit(source, pts)
     if f is None and sp["n"] >= 20:  # matches enough, none on the DEM (a void): unchecked, it guides nothing
         p.extra["dem"] = {"matches": 0, "guides_strips": False}
         return None
-    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, dem_guide.DEM_UNMEASURED_M, 0)
+    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
     used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
     p.extra["dem"] = f.as_report(used)
     if not used:
@@ -221,8 +225,8 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     return None if grid is None else dem_guide.DemGuide(grid, f)
 
 
-def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, bounds, refine, fill, point_cloud, report,
-            overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
+            report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
     bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
@@ -231,7 +235,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
         _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path, bands) for im in ims]
     features = {}
-    zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, crs, features)
+    zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, geoid, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
     choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs)
     kept = [p for p in choices if p.kept]
@@ -256,7 +260,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
             setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near,
                                                     frames.pair_penalty(rp, pv, ps), dem=guide)
     if dem is not None:
-        _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"]) for p in kept if "dem" in p.extra])
+        _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"], p.extra["sparse_matches"]) for p in kept
+                        if "dem" in p.extra])
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
@@ -280,10 +285,11 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, pairs, resolution, boun
 
 
 def _warn_dem(dem, fits) -> None:
-    """One warning naming what the pairs' fits of the DEM ``dem`` (their report entries, :mod:`.dem_guide`) say:
-    the first pair's problems, and how many pairs share them."""
+    """One warning naming what the pairs' fits of the DEM ``dem`` (``(pair, report entry, sparse matches)``,
+    :mod:`.dem_guide`) say: the first pair's problems, and how many pairs share them; a pair whose search the DEM
+    guides unchecked (no fit measured) is a problem too."""
     said = [(name, dem_guide.problems(dem_guide.DemFit(f["offset_m"], f["nmad_m"], f["margin_m"], f["matches"]),
-                                      name)) for name, f in fits if f.get("matches")]
+                                      name, n)) for name, f, n in fits if f.get("matches") or f["guides_strips"]]
     said = [(name, why) for name, why in said if why]
     if said:
         more = f" (and {len(said) - 1} more pair(s) alike)" if len(said) > 1 else ""

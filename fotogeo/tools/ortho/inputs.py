@@ -25,7 +25,8 @@ height reference is what ``--dem-heights`` says, else what its CRS states
 (:func:`fotogeo.geometry.vertical.crs_height_reference`). An RPC needs ellipsoidal heights: a DEM of geoid
 heights is shifted by ``--geoid`` (undulations ``N``, ``h = H + N``) or refused; a DEM that does not state its
 reference is used as ellipsoidal with a warning. Frame orientations are used in the DEM's own vertical frame
-unless their file states another reference (then the same rule).
+unless their file states another reference (then the same rule) or ``--geoid`` is given (it asks for ellipsoidal
+heights: a geoid DEM is shifted by it, any other refused, as under an RPC).
 """
 from __future__ import annotations
 
@@ -260,12 +261,12 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
         raise InputError(f"the orientations mix height references ({', '.join(sorted(wanted))}); orthorectify "
                          f"the images of each reference separately")
     notes = [f"DEM heights: {ref or 'reference not stated'}" + (" (from its CRS)" if ref == stated and ref else "")]
-    if not wanted:
-        return source, ref, notes + ["DEM heights used as they are, in the vertical frame of the orientations"]
-    target = wanted.pop()
     if geoid is not None and ref != "geoid":
         raise InputError(f"--geoid {str(geoid)!r} is given but the heights of DEM {str(dem)!r} are "
                          f"{ref or 'of unstated reference'}; give --dem-heights geoid if they are geoid heights")
+    if not wanted and geoid is None:
+        return source, ref, notes + ["DEM heights used as they are, in the vertical frame of the orientations"]
+    target = wanted.pop() if wanted else "ellipsoid"  # --geoid asks for ellipsoidal heights
     if ref is None:
         warnings.warn(f"DEM {str(dem)!r} does not state its height reference; its heights are taken as {target} "
                       f"heights, as the {'RPC needs' if 'rpc' in kinds else 'orientation states'} (give --dem-heights "
