@@ -27,11 +27,12 @@ observations (px), and per role the RMSE of ``adjusted − known`` per axis, pla
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 
 import numpy as np
 
-from ..errors import FotogeoError
+from ..errors import FotogeoError, FotogeoWarning
 from ..geometry.camera import ExteriorOrientation, angles_patb
 from . import bundle_jacobian as bj
 from .bundle_control import images_only_errors, rmse
@@ -93,6 +94,39 @@ def _converged(f: dict, s: dict, tol: float = 0.05) -> bool:
     return all(not np.isfinite(s[k]) or abs(s[k] - 1.0) <= tol or (f[k] <= 1.0 and s[k] <= 1.0 + tol) for k in f)
 
 
+#: the prior groups: observations of the unknowns themselves, which the image points may check too little to
+#: estimate their σ̂_g (redundancy below 1: NaN, :mod:`fotogeo.orientation.bundle_variance`)
+_PRIORS = ("control", "position_prior", "attitude_prior")
+
+
+def uncheckable(groups: dict, f: dict, base: float) -> list:
+    """The prior groups without ``σ̂_g`` (redundancy ``r_g`` < 1) that may hold the misfit another group shows, when
+    one group's factor ``f_g`` exceeds ``base`` by more than 5 %: the misfit cannot be attributed. An error in a
+    group nothing checks goes into the others' residuals (attitude priors 0.3° off given 0.001°, ``r_g`` 0.05:
+    GNSS good to 0.05 m given 0.5 m showed σ̂ 6.6, the images 2.1); re-weighting those would widen the good
+    groups and keep the wrong one, moving the frames further off (position errors 2.84 → 3.12 m,
+    ``tests/test_bundle_variance_unattributed.py``). Such a group is named when its own ``vᵀPv / r_g`` (a σ̂_g² of
+    little weight) exceeds a quarter of the largest checked factor squared, ``(f_max / 2)²``: attitude priors 0.3°
+    off given 0.001° gave 118–288 against GNSS 6.6²–12.7² (≥ 43, seeds 10–12), GCPs at centimetres 3.0 against
+    GNSS 5.59² (the held-out 3 × 4 block of ``benchmarks/triangulate_sigma_bench.py``, seed 21) and 0.2 against
+    1.19² (3 GCP, seed 26), whose GNSS is then re-weighted. Without ``vtpv`` the group is named.
+
+    >>> nan = float("nan")
+    >>> uncheckable({"position_prior": {"sigma0": 6.6}, "attitude_prior": {"sigma0": nan, "redundancy": 0.05,
+    ...              "vtpv": 15.2}}, {"position_prior": 6.6, "attitude_prior": 1.0}, 1.0)
+    ['attitude_prior']
+    >>> uncheckable({"position_prior": {"sigma0": 5.6}, "control": {"sigma0": nan, "redundancy": 0.07,
+    ...              "vtpv": 0.21}}, {"position_prior": 5.6, "control": 1.0}, 1.0)
+    []
+    """
+    blind = [k for k in _PRIORS if k in groups and not np.isfinite(groups[k].get("sigma0") or np.nan)]
+    top = max((v for k, v in f.items() if k not in blind), default=base)
+    if top <= 1.05 * base:
+        return []
+    share = {k: groups[k].get("redundancy", 0.0) * (top / 2) ** 2 for k in blind}
+    return [k for k in blind if not groups[k].get("vtpv", np.inf) <= share[k]]
+
+
 def reweighted(pb, s, post, solve=None, rounds: int = 8):
     """``(problem, state, posterior, factors)``: the solution and its posterior with each observation group's
     weights divided by its variance component (module docstring), or the input and None when no group's σ̂_g
@@ -102,39 +136,66 @@ def reweighted(pb, s, post, solve=None, rounds: int = 8):
     :func:`group_factors` the block is solved again with the weights ``p_g / f_g²`` (``solve(problem, state) ->
     state``, the adjustment's solver), every group's ``σ̂_g`` estimated at that solution and ``f_g ← max(f_g σ̂_g,
     1)``, until every ``σ̂_g`` is within 5 % of 1 (or below it at ``f_g = 1``: a group is never weighted above its
-    a-priori σ), at most ``rounds`` solves. A group whose a-priori σ is far too small pulls the solution onto its
+    a-priori σ), at most ``rounds`` solves (``factors["converged"]`` False and ``factors["sigma0_last"]`` the
+    last σ̂_g when that limit stops it). A group whose a-priori σ is far too small pulls the solution onto its
     observations and shows a fraction of its misfit in its residuals; re-solved, the coordinates and the
-    covariance come from the same weights. Without ``solve``, or when the first re-solve fails, the covariance
-    of the widened weights is taken at ``s`` (``s`` not moved)."""
+    covariance come from the same weights. Without ``solve``, when the first re-solve fails, or when a prior
+    group is :func:`uncheckable` (``factors["uncheckable"]``: the misfit cannot be attributed), the covariance
+    of the widened weights is taken at ``s`` (``s`` not moved, ``factors["solves"]`` 0)."""
     f = group_factors({k: g for k, g in post.groups.items() if k in _GROUPS}, post.sigma0)
     base = covariance_scale(post.sigma0)[0]
     if all(v <= 1.05 * base for v in f.values()):  # the tolerance of the estimate below
         return pb, s, post, None
-    best, state = None, s
-    for k in range(rounds if solve is not None else 0):
+    blind = uncheckable(post.groups, f, base)
+    best, state, done = None, s, False
+    for k in range(rounds if solve is not None and not blind else 0):
         pw = _reweighted(pb, f, base)
         try:
             state = solve(pw, state)
         except FotogeoError:
             break
         pw_post = posterior(pw, state, pw.p0)
-        best = (pw, state, pw_post, {**f, "solves": k + 1})
         more = {g: float(pw_post.groups.get(g, {}).get("sigma0", np.nan)) for g in f}
+        best = (pw, state, pw_post, {**f, "solves": k + 1, "sigma0_last": more})
         if _converged(f, more):
+            done = True
             break
         f = {g: max(v * more[g], 1.0) if np.isfinite(more[g]) else v for g, v in f.items()}
     if best is None:
         pw = _reweighted(pb, f, base)
+        if blind:
+            said = unattributed_sentence(post.groups, f, blind, base)
+            warnings.warn(said, FotogeoWarning, stacklevel=2)
+            return pw, s, posterior(pw, s, pw.p0), {**f, "solves": 0, "uncheckable": blind, "unattributed": said}
         return pw, s, posterior(pw, s, pw.p0), {**f, "solves": 0}
+    best[3]["converged"] = done
     return best
+
+
+def unattributed_sentence(groups: dict, f: dict, blind: list, base: float) -> str:
+    """Why the groups were not re-weighted when :func:`uncheckable` names ``blind`` (``base``: σ̂ of
+    :func:`covariance_scale`)."""
+    high = ", ".join(f"{k} {f[k]:.3g}" for k in f if k not in blind and f[k] > 1.05 * base)
+    who = ", ".join(f"{k} (redundancy {groups[k].get('redundancy', 0.0):.2f})" for k in blind)
+    return (f"the misfit cannot be attributed to an observation group: {high or 'a group'} above its a-priori "
+            f"sigma, but {who} has too little redundancy for its own sigma0 and may be the cause (its a-priori "
+            f"sigma too small: give its real accuracy); the given-weights solution kept, not re-weighted")
 
 
 def reweighted_rule(factors: dict, post) -> str:
     """The sentence of ``statistics.covariance_rule`` for the factors of :func:`reweighted` and its posterior."""
-    said = ", ".join(f"{k} {v:.3g}" for k, v in factors.items() if k != "solves")
-    how = (f"the orientations re-solved with those weights ({factors['solves']} solves, variance components; "
-           f"sigma0 then {post.sigma0:.3g})" if factors["solves"] else
-           "the orientations could not be re-solved: covariance of the widened weights at the given-weight solution")
+    said = ", ".join(f"{k} {factors[k]:.3g}" for k in _GROUPS if k in factors)
+    if factors.get("unattributed"):
+        how = factors["unattributed"] + ": covariance of the widened weights at that solution"
+    elif not factors["solves"]:
+        how = "the orientations could not be re-solved: covariance of the widened weights at the given-weight solution"
+    elif factors.get("converged", True):
+        how = (f"the orientations re-solved with those weights ({factors['solves']} solves, variance components; "
+               f"sigma0 then {post.sigma0:.3g})")
+    else:
+        last = ", ".join(f"{k} {v:.3g}" for k, v in factors.get("sigma0_last", {}).items())
+        how = (f"the orientations re-solved with those weights, not converged in {factors['solves']} solves (the "
+               f"last solve's sigma0 by group: {last}; sigma0 then {post.sigma0:.3g})")
     return (f"covariances from the a-priori sigma widened per observation group by its own sigma0 where it exceeds "
             f"max(sigma0, 1) ({said}): its residuals exceed its a-priori sigma; {how}")
 
@@ -243,7 +304,8 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, gi
              "n_blunders": len(blunders), "mean_redundancy_number": float(np.mean(post.r)),
              "variance_components": given.groups}
     if factors is not None:
-        stats["group_factors"] = dict(factors)
+        stats["group_factors"] = {k: v for k, v in factors.items() if k in _GROUPS or k == "solves"}
+        stats["reweighting"] = {k: v for k, v in factors.items() if k not in stats["group_factors"]}
         stats["sigma0_reweighted"] = post.sigma0
     for role in ("control", "check"):
         sel = (block.role == role) & np.isfinite(xyz).all(axis=1)

@@ -328,10 +328,14 @@ def variance_lines(rep: dict) -> list:
                      f"(variance component), so a prior's sigma is not scaled by it")
     lines += unchecked_lines(groups)
     top = dominant_group(groups)
-    if top is not None:
+    blind = (st.get("reweighting") or {}).get("uncheckable")
+    if blind:  # the misfit shows in the groups checked, the cause may be one nothing checks
+        lines.append(unattributed_line(groups, blind, top))
+    elif top is not None:
         s0, f = groups[top]["sigma0"], (st.get("group_factors") or {}).get(top)
+        solves = (st.get("group_factors") or {}).get("solves")
         done = (f"its weights were divided by {f:.3g}² and the block solved again (statistics.group_factors): the "
-                f"orientations and their sigma come from the re-weighted groups" if f else
+                f"orientations and their sigma come from the re-weighted groups" if f and solves else
                 f"every sigma reported is scaled by sigma0 {float(rep.get('sigma0', s0)):.3g}, so what the other "
                 f"observations hold (e.g. an attitude held by its prior) may read up to that many times less "
                 f"precise than it is")
@@ -341,7 +345,26 @@ def variance_lines(rep: dict) -> list:
                      if g.get("sigma0") is None or not np.isfinite(g["sigma0"])]
         if unchecked:  # an error in a group nothing checks shows in the others
             lines[-1] += f" (or the {', '.join(unchecked)}, which nothing checks, are wrong)"
+    if (st.get("reweighting") or {}).get("converged") is False:
+        last = ", ".join(f"{_GROUPS.get(k, (k,))[0]} {v:.2f}" for k, v in st["reweighting"]["sigma0_last"].items())
+        lines.append(f"warning: the re-weighting of the observation groups did not converge in "
+                     f"{st['group_factors']['solves']} solves (last sigma0 by group: {last}): the orientations and "
+                     f"their sigma are the last solve's")
     return lines
+
+
+def unattributed_line(groups: dict, blind: list, top: str | None) -> str:
+    """The report's line when the misfit cannot be attributed (:func:`~fotogeo.orientation.bundle_result.uncheckable`):
+    the groups above their σ, the uncheckable ones as a possible cause with their option, and what was done."""
+    high = [f"{_GROUPS.get(k, (k,))[0]} {g['sigma0']:.2f}" for k, g in groups.items()
+            if g.get("sigma0") is not None and np.isfinite(g["sigma0"]) and g["sigma0"] > 1.05]
+    who = "; ".join(f"the {_GROUPS.get(k, (k,))[0]} (redundancy {groups[k].get('redundancy', 0.0):.2f}, "
+                    f"{_GIVE.get(k, 'its sigma')})" for k in blind)
+    said = f"sigma0 by group {', '.join(high)} exceeds the a-priori sigma" if high else "sigma0 exceeds 1"
+    return (f"warning: the misfit cannot be attributed: {said}, but a group nothing checks may be the cause "
+            f"rather than {_GROUPS.get(top, ('those groups',))[0] if top else 'those groups'} — {who}: check that "
+            f"sigma; the orientations are those of the given weights (not re-weighted), their sigma widened per "
+            f"group (statistics.covariance_rule)")
 
 
 def held_fixed_line(fixed) -> str:
