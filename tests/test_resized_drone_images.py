@@ -65,7 +65,8 @@ def test_contradicting_sources_are_named(tmp_path):
     # the resizing tool updated PixelXDimension but not the calibration: the 35 mm equivalent contradicts it
     tags = {**BASE, **_dim(160, 120), "EXIF_FocalLengthIn35mmFilm": f"{round(F35)}"}
     with pytest.raises(InputError, match=r"DewarpData is 520 px, FocalLengthIn35mmFilm 28 mm gives 129 px, but its "
-                                         r"EXIF PixelXDimension says 160x120, the file's own size: a copy resized by 1/4 .*-PixelXDimension=640 "
+                                         r"EXIF PixelXDimension says 160x120, the file's own size: "
+                                         r"a copy resized by 1/4 .*-PixelXDimension=640 "
                                          r"-PixelYDimension=480 FILE"):
         read_exif_block([write_image(tmp_path / "a.tif", tags, dewarp, size=(160, 120))])
     # the optical centre belongs to a 640 x 480 frame, the file is 160 x 120 and says nothing of its size
