@@ -149,7 +149,7 @@ def test_read_table_csv_numbers_read_back_to_the_bit(tmp_path):
     decimal comma: pandas' default float parser is off by one unit in the last place on about 12 % of them, which
     a DLT's blunder statistic amplified to 1.8e-9 under another BLAS kernel (OPENBLAS_CORETYPE=Prescott)."""
     v = np.random.default_rng(0).uniform(0, 7e6, (2000, 4))
-    rows = [f"g{k};{x!r};{y!r};{c!r};{r!r}\n" for k, (x, y, c, r) in enumerate(v)]
+    rows = [f"g{k};{x!r};{y!r};{c!r};{r!r}\n" for k, (x, y, c, r) in enumerate(v.tolist())]
     (tmp_path / "a.csv").write_text("id,x,y,col,row\n" + "".join(rows).replace(";", ","))
     (tmp_path / "b.csv").write_text("id;x;y;col;row\n" + "".join(rows).replace(".", ","))
     for name in ("a.csv", "b.csv"):
