@@ -92,7 +92,7 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_sour
         bad = _merged(own, contradicted)
         drop = set(own) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
         if not bad:
-            _warn_prior_held(quality, kw["max_angle_sigma"])
+            _warn_prior_held(quality, kw["max_angle_sigma"], block, opts)
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
         block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped, total)
 
@@ -186,13 +186,55 @@ def _merged(own: dict, contradicted: dict) -> dict:
     return bad
 
 
-def _warn_prior_held(quality, max_angle_sigma: float) -> None:
+def _warn_prior_held(quality, max_angle_sigma: float, block=None, opts=None) -> None:
+    text = prior_held_warning(quality, max_angle_sigma, block, opts)
+    if text:
+        warnings.warn(text, FotogeoWarning, stacklevel=3)
+
+
+def prior_held_warning(quality, max_angle_sigma: float, block=None, opts=None) -> str | None:
+    """The warning for frames whose angle σ exceeds ``max_angle_sigma`` (their attitude rests on its prior), with
+    what this flight's geometry cannot fix (:func:`tilt_left_free`); None when no frame does."""
     held = prior_held_frames(quality, max_angle_sigma)
-    if held:
-        warnings.warn(f"{len(held)} frame(s) keep an angle σ above {max_angle_sigma:g}° (up to "
-                      f"{max(held.values()):.3g}°): the images tie them but their absolute attitude rests on "
-                      f"its prior (e.g. a short strip cannot fix its roll); add GCPs or cross strips",
-                      FotogeoWarning, stacklevel=3)
+    if not held:
+        return None
+    why, fix = tilt_left_free(block, opts) if block is not None else (None, "add GCPs")
+    return (f"{len(held)} frame(s) keep an angle σ above {max_angle_sigma:g}° (up to {max(held.values()):.3g}°): "
+            f"the images tie them but their absolute attitude rests on its prior"
+            + (f" ({why})" if why else "") + f"; {fix}")
+
+
+#: the centres' spread across over along their principal axis below which the flight is one line (a strip)
+LINE_ASPECT = 0.25
+
+
+def tilt_left_free(block, opts) -> tuple:
+    """``(what this flight cannot fix, the fix)``. A rotation ``θ`` of the whole block about a horizontal axis
+    through the centres' mean moves centre ``i`` vertically by ``θ·dᵢ`` (``dᵢ`` its horizontal distance from the
+    axis), so height priors of σ ``σ_z`` fix it to ``σ_θ = σ_z / √(Σ dᵢ²)``, weakest about the centres' principal
+    (longest) horizontal axis, where ``Σ dᵢ² = n·λ_min`` of their horizontal covariance. A strip (spread across
+    below :data:`LINE_ASPECT` of the spread along) leaves its roll about the line to the attitude prior; a block,
+    a ring or a cross pattern leaves the tilt of the whole block at ``σ_θ``; with control points, or without
+    position priors on two frames, the frames' own ties are named instead."""
+    m = len(block.frames)
+    w = eo_weights(opts.eo_sigma, m)
+    held = (w[:, :3] > 0).all(axis=1)
+    if np.isin(np.asarray(block.role), ("control",)).any() or held.sum() < 2:
+        return "their own tie points do not fix it", "add tie points around those frames or GCPs they see"
+    c = np.array([e.centre for e in block.eo], float).reshape(m, 3)[held]
+    lam, vec = np.linalg.eigh(np.cov((c[:, :2] - c[:, :2].mean(axis=0)).T, bias=True))
+    along, across = (np.ptp((c[:, :2] - c[:, :2].mean(axis=0)) @ vec[:, k]) for k in (1, 0))
+    sigma_z = float(np.max(1.0 / np.sqrt(w[held, 2])))
+    tilt = np.degrees(sigma_z / np.sqrt(max(len(c) * lam[0], 1e-12)))
+    bearing = np.degrees(np.arctan2(vec[0, 1], vec[1, 1])) % 180.0
+    bound = f"to {tilt:.2g}° at best" if tilt < 10 else "hardly at all"
+    if across < LINE_ASPECT * along:
+        return (f"the {len(c)} centres fly one line, {along:.0f} m long and {across:.0f} m across: their positions "
+                f"(σ {sigma_z:g} m in height) fix the roll about that line {bound}"), \
+            "add GCPs or a cross strip"
+    return (f"the {len(c)} centres spread {along:.0f} × {across:.0f} m: their positions (σ {sigma_z:g} m in height) "
+            f"fix the tilt of the whole block {bound}, about the axis at bearing {bearing:.0f}°"), \
+        "add GCPs or more precise positions (RTK/PPK, --eo-sigma-position)"
 
 
 def _restart(result, block, opts, kw, prog, checks, restarted):
