@@ -309,6 +309,11 @@ def print_row(label: str, r: dict) -> None:
           f"worst {p['position_worst_frame_ratio']:.2f} >2σ {100 * p['position_beyond_2sigma']:3.0f} %  "
           f"ang e/σ {p['angle_rms_e_over_sigma']:.2f} worst {p['angle_worst_frame_ratio']:.2f} "
           f">2σ {100 * p['angle_beyond_2sigma']:3.0f} %  cpu {r['cpu_s']:.1f} s{ortho}")
+    if len(r.get("seeds", ())) > 2:  # one seed's e/σ rests on its groups' σ̂ of a few redundancies
+        z = [pooled([w for w in r["rows"] if w["seed"] == s])["position_rms_e_over_sigma"] for s in r["seeds"]]
+        f = [g["position_prior"] for g in r.get("group_factors", ()) if g and "position_prior" in g]
+        print(f"{'':<38} per seed: centres e/σ {min(z):.2f}–{max(z):.2f} (median {np.median(z):.2f})"
+              + (f", GNSS factor {min(f):.2f}–{max(f):.2f} (RMS {np.sqrt(np.mean(np.square(f))):.2f})" if f else ""))
 
 
 def main(argv=None) -> None:

@@ -34,6 +34,8 @@ CAMERA = FrameCamera(6.0, (4.0, 6.0), (400, 600))
 #: label: (simulate_block shape, the approximate EO's errors (m, °), eo_sigma given (m, °), control σ given or
 #: None, seeds) — none of these seeds or shapes was run while the rule was fitted
 CASES = {
+    "fitted: 2 x 4, attitude 0.3° off given 0.001°, GNSS 0.05 m given 0.5 m": (
+        {"n_control": 0}, (0.05, 0.3), (0.5, 0.001), None, (10, 11, 12)),
     "3 x 4, attitude 0.3° off given 0.001°, GNSS 0.05 m given 0.5 m": (
         {"strips": 3, "n_control": 0}, (0.05, 0.3), (0.5, 0.001), None, (40, 41, 42)),
     "2 x 5, attitude 0.1° off given 0.002°, GNSS 0.1 m given 0.3 m": (

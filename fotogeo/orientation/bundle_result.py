@@ -179,7 +179,8 @@ def unattributed_sentence(groups: dict, f: dict, blind: list, base: float) -> st
     who = ", ".join(f"{k} (redundancy {groups[k].get('redundancy', 0.0):.2f})" for k in blind)
     return (f"the misfit cannot be attributed to an observation group: {high or 'a group'} above its a-priori "
             f"sigma, but {who} has too little redundancy for its own sigma0 and may be the cause (its a-priori "
-            f"sigma too small: give its real accuracy); the given-weights solution kept, not re-weighted")
+            f"sigma too small: give its real accuracy); the given-weights solution kept, not re-weighted; the "
+            f"frames' sigma rest on that group's a-priori sigma and may be well below their errors")
 
 
 def reweighted_rule(factors: dict, post) -> str:
