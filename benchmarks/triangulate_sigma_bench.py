@@ -241,6 +241,8 @@ def rendered_case(label: str, work: Path, with_ortho: bool, seeds: int) -> dict:
         out["sigma0"].append(rep["sigma0"])
         out.setdefault("covariance_rule", []).append(rep["statistics"].get("covariance_rule"))
         out.setdefault("group_factors", []).append(rep["statistics"].get("group_factors"))
+        out.setdefault("redundancy", []).append({k: g.get("redundancy") for k, g in
+                                                 (rep["statistics"].get("variance_components") or {}).items()})
         out["rows"] += [{"seed": seed, **row} for row in rows]
         if with_ortho:
             from fotogeo.tools.ortho.tool import ortho
@@ -312,8 +314,10 @@ def print_row(label: str, r: dict) -> None:
     if len(r.get("seeds", ())) > 2:  # one seed's e/σ rests on its groups' σ̂ of a few redundancies
         z = [pooled([w for w in r["rows"] if w["seed"] == s])["position_rms_e_over_sigma"] for s in r["seeds"]]
         f = [g["position_prior"] for g in r.get("group_factors", ()) if g and "position_prior" in g]
+        red = [g["position_prior"] for g in r.get("redundancy", ()) if g.get("position_prior") is not None]
         print(f"{'':<38} per seed: centres e/σ {min(z):.2f}–{max(z):.2f} (median {np.median(z):.2f})"
-              + (f", GNSS factor {min(f):.2f}–{max(f):.2f} (RMS {np.sqrt(np.mean(np.square(f))):.2f})" if f else ""))
+              + (f", GNSS factor {min(f):.2f}–{max(f):.2f} (RMS {np.sqrt(np.mean(np.square(f))):.2f})" if f else "")
+              + (f", GNSS redundancy {min(red):.1f}–{max(red):.1f}" if red else ""))
 
 
 def main(argv=None) -> None:
