@@ -90,3 +90,15 @@ def test_with_middles(n):
     out = dem_module._with_middles(nodes)
     assert np.array_equal(out[::2], nodes) and len(out) == 2 * len(nodes) - 1
     assert ((out[:-1] <= out[1:])).all()
+
+
+def test_bilinear_heights_alike_whatever_the_dems_memory_order():
+    """The flat-index corners (a C-ordered DEM) and the 2-D ones (any other) give the same heights."""
+    dem = _utm_dem()
+    other = Dem(np.asfortranarray(dem.data), dem.transform, dem.crs)
+    assert not other.data.flags.c_contiguous
+    rng = np.random.default_rng(3)
+    XY = np.column_stack([rng.uniform(679990, 687210, 5000), rng.uniform(6222790, 6230010, 5000)])
+    h = dem.heights(XY)
+    assert np.isnan(h).any() and np.isfinite(h).any()
+    assert np.array_equal(h, other.heights(XY), equal_nan=True)

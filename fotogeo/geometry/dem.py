@@ -131,9 +131,16 @@ class Dem:
         return self._bilinear(*self._index_pixels(np.asarray(col, float), np.asarray(row, float)))
 
     def _bilinear(self, i, j, t, u, inside):
+        """The module docstring's bilinear height at the cells ``(i, j)`` of :meth:`_index` (NaN where not inside);
+        the four corners taken from the flat array by one index (a C-ordered DEM: a view, no copy)."""
         z = self.data
-        top = z[i, j] + u * (z[i, j + 1] - z[i, j])
-        bottom = z[i + 1, j] + u * (z[i + 1, j + 1] - z[i + 1, j])
+        if z.flags.c_contiguous:
+            flat, k, n = z.reshape(-1), i * z.shape[1] + j, z.shape[1]
+            z00, z01, z10, z11 = flat.take(k), flat.take(k + 1), flat.take(k + n), flat.take(k + n + 1)
+        else:
+            z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+        top = z00 + u * (z01 - z00)
+        bottom = z10 + u * (z11 - z10)
         return np.where(inside, top + t * (bottom - top), np.nan)
 
     def heights_grid(self, X, Y):
