@@ -26,6 +26,11 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   uncompressed TIFFs beside the drone case's folder) with the camera scaled to them (``im_size``, ``focal_len``
   and ``sensor_size`` halved; the Brown terms and the principal point are normalised, unchanged): another image
   size and another format (a TIFF without overviews, read whole at full resolution).
+* ``ngi_u16``, ``ngi_half``, ``ngi_dem_utm`` — held out from every stop's tuning: the NGI case with one thing changed
+  (``ortho_bench_inputs.ngi_variant``): the frames as 3-band UInt16 (values x 257), the frames at half size with the
+  camera scaled (twice the ground sample distance: ``native`` is 10 m), the DEM warped to UTM 35S + EGM2008 heights
+  with the map CRS given to both tools as the frames' Lo25 (fotogeo ``--crs``, orthority ``-c``; fotogeo then
+  imports pyproj to sample the DEM across CRSs).
 * ``drone_other`` — held out from this and every earlier stop's tuning: the strips' four other frames (IMG_2186,
   IMG_2189, IMG_2280, IMG_2282: never orthorectified by the code's tuning), the same camera, orientation and
   surface as ``drone`` (their poses come from the same six-frame adjustment), at 10 and 20 cm.
@@ -71,13 +76,15 @@ from pathlib import Path
 import numpy as np
 
 # the --pairs harness, the inputs and the timing (beside this file: on sys.path)
-from ortho_bench_inputs import DATA, DRONE_FRAMES, DRONE_OTHER, drone_inputs, half_inputs, ngi_inputs  # noqa: F401
+from ortho_bench_inputs import (DATA, DRONE_FRAMES, DRONE_OTHER, drone_inputs, half_inputs, ngi_inputs,  # noqa: F401
+                                ngi_variant)
 from ortho_bench_timing import ratio_range, repeat, summary, tile_shifts, timed  # noqa: F401
 from ortho_exit_pairs import exit_pairs
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "results" / "ortho_bench.json"
-RES = {"ngi": {"native": 5.0, "fine": 1.0}, "qb2": {"native": 6.0, "fine": 2.0},
+RES = {"ngi": {"native": 5.0, "fine": 1.0}, "ngi_u16": {"native": 5.0}, "ngi_half": {"native": 10.0},
+       "ngi_dem_utm": {"native": 5.0}, "qb2": {"native": 6.0, "fine": 2.0},
        "drone": {"native": 0.03, "fine": 0.02, "coarse": 0.1, "coarser": 0.2},
        "drone_half": {"coarse": 0.1, "coarser": 0.2}, "drone_other": {"coarse": 0.1, "coarser": 0.2}}
 #: fotogeo's GeoTIFF creation options (256² tiles, DEFLATE level 1, horizontal predictor) for orthority's ``-co``
@@ -119,7 +126,7 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
     frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
     args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
-            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+            "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q", *inp.get("fotogeo_args", [])]
     fg_dir.mkdir(exist_ok=True)
     fg_cmd = [sys.executable, "-c", FOTOGEO_RUN, *args]
     if not oty_py:
@@ -257,8 +264,8 @@ def main(argv=None):
                     r = qb2_case(work, res, a.repeat)
                 else:
                     drone = a.drone_dir or Path(tmp) / "drone"
-                    inp = ngi_inputs(work) if case == "ngi" else drone_inputs(
-                        drone, DRONE_OTHER if case == "drone_other" else DRONE_FRAMES)
+                    inp = ngi_inputs(work) if case == "ngi" else ngi_variant(work, case[4:]) if case.startswith(
+                        "ngi_") else drone_inputs(drone, DRONE_OTHER if case == "drone_other" else DRONE_FRAMES)
                     inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
                     r = (exit_pairs(work, inp, res, a.pairs, a.baseline_tree.resolve()) if a.pairs else
                          frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both"))

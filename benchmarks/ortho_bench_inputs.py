@@ -1,6 +1,6 @@
 """``benchmarks/ortho_bench.py``'s frame inputs: the NGI frames as they are, the eBee strips' camera, orientation and
-surface made once (``fotogeo triangulate`` and ``gdal_grid``), and the eBee frames at half size (module docstring of
-``ortho_bench.py``)."""
+surface made once (``fotogeo triangulate`` and ``gdal_grid``), the eBee frames at half size and the NGI frames changed
+one way at a time (module docstring of ``ortho_bench.py``)."""
 from __future__ import annotations
 
 import os
@@ -68,3 +68,30 @@ def ngi_inputs(work: Path) -> dict:
     return {"frames": sorted(str(p) for p in (ngi / "frames").glob("*.tif")), "dem": str(ngi / "dem.tif"),
             "camera": str(ngi / "interior_orientation.yaml"), "eo": str(ngi / "exterior_orientation.txt"),
             "ext": str(ext), "crs": []}
+
+
+#: the NGI frames' horizontal CRS (the DEM's, Lo25 on WGS 84), given to both tools when the DEM is in another one
+NGI_LO25 = "+proj=tmerc +lat_0=0 +lon_0=25 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m +no_defs +type=crs"
+
+
+def ngi_variant(work: Path, kind: str) -> dict:
+    """The NGI case with one thing changed (module docstring of ``ortho_bench.py``), made in ``work``: ``u16`` the
+    frames as 3-band UInt16 (values x 257, tiled DEFLATE), ``half`` the frames at half size and the camera scaled
+    (twice the ground sample distance), ``dem_utm`` the DEM warped to UTM 35S + EGM2008 heights (EPSG:32735+3855,
+    bilinear, 24 m) and the map CRS given to both tools as the frames' Lo25 (:data:`NGI_LO25`)."""
+    inp = ngi_inputs(work)
+    env = {**os.environ, "GDAL_PAM_ENABLED": "NO"}
+    if kind == "half":
+        return half_inputs(inp, work / "half")
+    if kind == "dem_utm":
+        dem = work / "dem_utm.tif"
+        subprocess.run(["gdalwarp", "-q", "-t_srs", "EPSG:32735+3855", "-r", "bilinear", "-tr", "24", "24",
+                        inp["dem"], str(dem)], check=True, env=env)
+        return {**inp, "dem": str(dem), "crs": ["-c", NGI_LO25], "fotogeo_args": ["--crs", NGI_LO25]}
+    frames = []
+    for f in inp["frames"]:
+        out = work / Path(f).name
+        subprocess.run(["gdal_translate", "-q", "-ot", "UInt16", "-scale", "0", "255", "0", "65535", "-co",
+                        "TILED=YES", "-co", "COMPRESS=DEFLATE", f, str(out)], check=True, env=env)
+        frames.append(str(out))
+    return {**inp, "frames": frames}

@@ -52,7 +52,8 @@ def exit_pairs(work: Path, inp: dict, res: float, n: int, baseline: Path) -> dic
             out = work / label
             out.mkdir(exist_ok=True)
             args = ["ortho", *inp["frames"], "-o", str(out), "--dem", inp["dem"], "--camera", inp["camera"], "--eo",
-                    inp["eo"], "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q"]
+                    inp["eo"], "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q",
+                    *inp.get("fotogeo_args", [])]
             runs[label].append(_exit_run([sys.executable, "-c", FOTOGEO_EXIT_RUN, *args],
                                          {"PYTHONPATH": str(trees[label])}, work))
     same = same_bytes = True

@@ -32,11 +32,13 @@ print(json.dumps([sorted(sys.modules), gc.get_freeze_count()]))
 """
 
 #: modules ``ortho`` never uses: other sub-commands, their tools and heavy libraries; pyproj too when, as here, the
-#: map CRS is the DEM's and the orientation file states none (the CRSs are rasterio's, :mod:`fotogeo.crs`)
+#: map CRS is the DEM's and the orientation file states none (the CRSs are rasterio's, :mod:`fotogeo.crs`);
+#: ctypes.util, whose ``find_library`` runs ``ldconfig -p`` in a child process (the C library is the process's own,
+#: :mod:`fotogeo.io.clocale`)
 NOT_ON_ORTHO = ["fotogeo.cli.triangulate", "fotogeo.cli.dsm", "fotogeo.cli.register", "fotogeo.cli.mosaic",
                 "fotogeo.tools.triangulate", "fotogeo.tools.dsm", "fotogeo.tools.register", "fotogeo.matching",
                 "fotogeo.features", "scipy", "sklearn", "geopandas", "shapely", "pyogrio", "fiona", "matplotlib",
-                "dask", "distributed", "laspy", "pyproj"]
+                "dask", "distributed", "laspy", "pyproj", "ctypes.util"]
 
 
 def test_command_table_is_what_the_modules_define():

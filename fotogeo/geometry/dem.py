@@ -32,6 +32,10 @@ import numpy as np
 
 from ..errors import InputError
 from ..pixels import as_points, to_centre
+from .lattice import bilinear, lattice
+
+#: :meth:`DemSampler.heights_grid`: lattice step (cells) of the exactly transformed points, their error bound (DEM px)
+GRID_STEP, GRID_TOL_PX = 64, 1e-3
 
 
 @runtime_checkable
@@ -103,7 +107,11 @@ class Dem:
     def _index(self, XY):
         P = as_points(XY, 2, "DEM sample points")
         a, b, c0, d, e, f0 = self._inverse()
-        p = to_centre(np.column_stack([a * P[:, 0] + b * P[:, 1] + c0, d * P[:, 0] + e * P[:, 1] + f0]))
+        return self._index_pixels(a * P[:, 0] + b * P[:, 1] + c0, d * P[:, 0] + e * P[:, 1] + f0)
+
+    def _index_pixels(self, col, row):
+        """:meth:`_index` of the DEM's own pixel coordinates ``(col, row)`` (corner convention), each ``(N,)``."""
+        p = to_centre(np.column_stack([col, row]))
         rows, cols = self.data.shape
         c, r = p[:, 0], p[:, 1]
         inside = (c >= -0.5) & (c <= cols - 0.5) & (r >= -0.5) & (r <= rows - 0.5)
@@ -116,10 +124,23 @@ class Dem:
     def heights(self, XY) -> np.ndarray:
         """Bilinear heights ``(N,)`` at map points ``XY`` ``(N, 2)``; NaN outside or at nodata (the
         value of :meth:`heights_and_gradient` without the gradient: resampling asks it per output cell)."""
-        i, j, t, u, inside = self._index(XY)
+        return self._bilinear(*self._index(XY))
+
+    def heights_at_pixels(self, col, row) -> np.ndarray:
+        """:meth:`heights` at the DEM's own pixel coordinates ``(col, row)`` (corner convention), each ``(N,)``."""
+        return self._bilinear(*self._index_pixels(np.asarray(col, float), np.asarray(row, float)))
+
+    def _bilinear(self, i, j, t, u, inside):
+        """The module docstring's bilinear height at the cells ``(i, j)`` of :meth:`_index` (NaN where not inside);
+        the four corners taken from the flat array by one index (a C-ordered DEM: a view, no copy)."""
         z = self.data
-        top = z[i, j] + u * (z[i, j + 1] - z[i, j])
-        bottom = z[i + 1, j] + u * (z[i + 1, j + 1] - z[i + 1, j])
+        if z.flags.c_contiguous:
+            flat, k, n = z.reshape(-1), i * z.shape[1] + j, z.shape[1]
+            z00, z01, z10, z11 = flat.take(k), flat.take(k + 1), flat.take(k + n), flat.take(k + n + 1)
+        else:
+            z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+        top = z00 + u * (z01 - z00)
+        bottom = z10 + u * (z11 - z10)
         return np.where(inside, top + t * (bottom - top), np.nan)
 
     def heights_grid(self, X, Y):
@@ -294,12 +315,51 @@ class DemSampler:
         h = self.dem.heights(XY)
         return h * self.z_scale if self.z_scale != 1.0 else h
 
+    def heights_grid(self, X, Y):
+        """Heights ``(len(Y), len(X))`` at the grid ``X`` (columns) × ``Y`` (rows) of ``crs``: :meth:`heights`' values
+        but for the CRS transformation, which is exact on a lattice of every :data:`GRID_STEP`-th row and column
+        (:func:`~fotogeo.geometry.lattice.lattice`) and bilinear between its nodes in the DEM's pixel coordinates.
+        It is checked at the middle of every lattice edge and cell (where bilinear interpolation of a smooth mapping
+        errs most): when a point is more than :data:`GRID_TOL_PX` DEM pixels from the exact transformation's, or a
+        node has none, the result is None (the caller then asks :meth:`heights` per point). A height is then off by
+        at most that bound times the DEM's largest height step between neighbouring cells."""
+        X, Y = np.asarray(X, float), np.asarray(Y, float)
+        if self._t is None:
+            h = self.dem.heights_grid(X, Y)
+            return h if h is None or self.z_scale == 1.0 else h * self.z_scale
+        rows, cols = lattice(len(Y), GRID_STEP), lattice(len(X), GRID_STEP)
+        rc, cc = _with_middles(rows), _with_middles(cols)
+        exact = self._dem_pixels(X[cc], Y[rc])  # (2, len(rc), len(cc)): nodes at even indices, middles at odd
+        if not np.isfinite(exact).all():
+            return None
+        full = bilinear(exact[:, ::2, ::2], rows, cols, len(Y), len(X))
+        if not np.hypot(*(full[:, rc][:, :, cc] - exact)).max() <= GRID_TOL_PX:
+            return None
+        h = self.dem.heights_at_pixels(full[0].ravel(), full[1].ravel()).reshape(len(Y), len(X))
+        return h * self.z_scale if self.z_scale != 1.0 else h
+
+    def _dem_pixels(self, X, Y) -> np.ndarray:
+        """The DEM's pixel coordinates ``(2, len(Y), len(X))`` (column, row; corner convention) of the grid ``X``
+        × ``Y`` of ``crs``, transformed exactly."""
+        XX, YY = np.meshgrid(X, Y)
+        x, y = (np.asarray(v, float) for v in self._t.transform(XX.ravel(), YY.ravel()))
+        a, b, c0, d, e, f0 = self.dem._inverse()
+        return np.stack([a * x + b * y + c0, d * x + e * y + f0]).reshape(2, len(Y), len(X))
+
     def heights_and_gradient(self, XY, step: float = 1.0):
         XY = np.asarray(XY, float)
         h = self.heights(XY)
         gx = (self.heights(XY + [step, 0]) - self.heights(XY - [step, 0])) / (2 * step)
         gy = (self.heights(XY + [0, step]) - self.heights(XY - [0, step])) / (2 * step)
         return h, gx, gy
+
+
+def _with_middles(nodes) -> np.ndarray:
+    """``nodes`` (increasing indices) with the middle index between each two inserted: nodes at even positions."""
+    out = np.empty(2 * len(nodes) - 1, np.intp)
+    out[::2] = nodes
+    out[1::2] = (nodes[:-1] + nodes[1:]) // 2
+    return out
 
 
 def underlying_dem(heights) -> tuple:

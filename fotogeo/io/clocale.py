@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import ctypes.util
 import functools
 import sys
 
@@ -27,7 +26,7 @@ def _libc():
     if not sys.platform.startswith("linux"):
         return None
     try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or None)
+        libc = _own_libc()
         libc.newlocale.restype = libc.uselocale.restype = ctypes.c_void_p
         libc.newlocale.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_void_p]
         libc.uselocale.argtypes = [ctypes.c_void_p]
@@ -36,6 +35,17 @@ def _libc():
         return libc
     except (OSError, AttributeError, TypeError):  # no C library or no POSIX 2008 locales: nothing to switch
         return None
+
+
+def _own_libc():
+    """The C library the process runs on: its own symbols (``dlopen(NULL)``), which hold the C library's; only where
+    they lack ``newlocale`` (a static build) the library ``ctypes.util.find_library`` names, whose search runs
+    ``ldconfig -p`` in a child process (every command line run starts here: docs/benchmarks/products.md)."""
+    libc = ctypes.CDLL(None)
+    if hasattr(libc, "newlocale"):
+        return libc
+    from ctypes.util import find_library
+    return ctypes.CDLL(find_library("c") or None)
 
 
 @contextlib.contextmanager
