@@ -141,6 +141,25 @@ class DemGuide:
         return z, np.abs(h - z)
 
 
+def pair_guide(source, points, sparse: int, unmeasured: DemFit, footprints) -> tuple:
+    """``(DemGuide or None, report entry, DemFit or None)`` of a pair: the height source ``source`` fitted at its
+    sparse matches ``points`` (:func:`fit`; ``sparse`` how many it has), sampled over its ``footprints``
+    (:func:`pair_dem`). With fewer than ``DEM_MIN_MATCHES`` on the DEM the fit ``unmeasured`` stands in (the run's,
+    or the DEM unchecked), unless the pair has that many matches, all off the DEM (a void, a DEM beside it: nothing
+    checks it, it guides nothing); a spread over ``DEM_MAX_SPREAD_M`` guides nothing either."""
+    f = fit(source, points)
+    if f is None and sparse >= DEM_MIN_MATCHES:
+        return None, {"matches": 0, "guides_strips": False}, None
+    f = f or unmeasured
+    used = f.spread <= DEM_MAX_SPREAD_M
+    if not used:
+        return None, f.as_report(False), f
+    from ...geometry.dem import underlying_dem
+    d, other = underlying_dem(source)
+    grid = pair_dem(source, footprints, 0.0 if other else abs(float(d.transform.a)))
+    return (None if grid is None else DemGuide(grid, f)), f.as_report(grid is not None), f
+
+
 def pair_dem(source, footprints, cell: float) -> Dem | None:
     """The height source ``source`` sampled at its own cells ``cell`` (m; coarser when the area would need more
     than ``DEM_NODES`` a side) over the bounding box of ``footprints`` ``(N, 2+)`` (a pair's ground at its lowest

@@ -30,24 +30,13 @@ def pair_guide(p, name: str, ims, pt: dict, source, zlim, pad: float) -> tuple:
     (:func:`.rpc_pairs.pointing`) on the height source ``source``; ``zlim`` the run's heights, ``pad`` the DEM
     range's padding (the margin of an unchecked DEM: at least ``DEM_UNMEASURED_M``). The fit goes into the pair's
     report (``dem``)."""
-    a = ims[p.i]
-    ground = a.model.inverse(pt["p1"], pt["z"])
-    f = dem_guide.fit(source, np.column_stack([ground[:, :2], pt["z"]]))
+    ground = ims[p.i].model.inverse(pt["p1"], pt["z"])
     n = int(len(pt["z"]))
-    if f is None and n >= dem_guide.DEM_MIN_MATCHES:  # tie points enough, (almost) none on the DEM
-        p.extra["dem"] = {"matches": 0, "guides_strips": False}
-        return None, dem_guide.problems(dem_guide.DemFit(0.0, 0.0, 0.0, 0), name, n, guides=False)
-    f = f or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
-    used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
-    p.extra["dem"] = f.as_report(used)
-    said = dem_guide.problems(f, name, n, other=RPC_OFFSET)
-    if not used:
-        return None, said
-    from ...geometry.dem import underlying_dem
-    d, other = underlying_dem(source)
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
-    grid = dem_guide.pair_dem(source, fps, 0.0 if other else abs(float(d.transform.a)))
-    return (None if grid is None else dem_guide.DemGuide(grid, f)), said
+    unchecked = dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
+    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, unchecked,
+                                                    fps)
+    return guide, dem_guide.problems(f or unchecked, name, n, guides=f is not None, other=RPC_OFFSET)
 
 
 def pair_range(guide, tie: tuple, zlim: tuple) -> tuple:

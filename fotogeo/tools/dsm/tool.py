@@ -208,23 +208,12 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     :func:`_warn_dem`);
     None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`), or when the pair
     has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
-    from ...geometry.dem import underlying_dem
     source, run_fit, pad = dem
     pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
-    f = dem_guide.fit(source, pts)
-    if f is None and sp["n"] >= dem_guide.DEM_MIN_MATCHES:  # matches, none on the DEM (a void): it guides nothing
-        p.extra["dem"] = {"matches": 0, "guides_strips": False}
-        return None
-    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
-    used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
-    p.extra["dem"] = f.as_report(used)
-    if not used:
-        return None
-    d, other = underlying_dem(source)
-    cell = 0.0 if other else abs(float(d.transform.a))
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in (zlo, zhi)]
-    grid = dem_guide.pair_dem(source, fps, cell)
-    return None if grid is None else dem_guide.DemGuide(grid, f)
+    unmeasured = run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
+    guide, p.extra["dem"], _ = dem_guide.pair_guide(source, pts, sp["n"], unmeasured, fps)
+    return guide
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
