@@ -134,7 +134,7 @@ def _visible_completeness(dsm_path, sc, step: int = 3) -> float:
     return round(float((h.ravel() != nod)[seen].mean()), 3)
 
 
-def rpc_rows(work: Path, names, dems=("none",)) -> list:
+def rpc_rows(work: Path, names, dems=("none",), save=None) -> list:
     """The ``rpc`` group; ``dems`` (``--rpc-dems``): each case once per DEM of ``dsm_dem_bench.DEMS`` made from the
     truth averaged to 20 m (:func:`_rpc_dem`; ``none``: without ``--dem``), its rows named ``NAME, --dem DEM`` with
     the report's fit of the DEM."""
@@ -165,6 +165,8 @@ def rpc_rows(work: Path, names, dems=("none",)) -> list:
                     row["dem"] = json.loads((folder / f"report{tail}.json").read_text())["pairs"][0].get("dem")
             rows.append({**row, "command": _command(cmd, folder)})
             print(rows[-1], flush=True)
+            if save:  # a long run keeps its rows as they come
+                save(rows)
     return rows
 
 
@@ -359,7 +361,8 @@ def main() -> None:
     work = Path(a.work).resolve()
     names = set(a.cases.split(";")) if a.cases else None
     load0, rows = os.getloadavg()[0], []
-    groups = {"rpc": lambda w, n: rpc_rows(w, n, a.rpc_dems.split(",")), "frames": frame_rows, "ebee": ebee_rows}
+    groups = {"rpc": lambda w, n: rpc_rows(w, n, a.rpc_dems.split(","), lambda r: _save(rows + r, load0)),
+              "frames": frame_rows, "ebee": ebee_rows}
     for g in a.groups.split(","):
         rows += groups[g](work, names)
         _save(rows, load0)
