@@ -1,15 +1,16 @@
 """fotogeo dsm with and without --dem, the DEM as users bring one: coarse, smoothed, offset, with voids (issue 30).
 
 Each case runs once without a DEM and once per DEM of ``DEMS``, made from the case's reference surface (the rendered
-scenes' truth; NGI's 24 m DEM, read only): ``true`` the reference itself (rendered: 20 m cells), ``srtm`` 30 m
-cells (NGI: its 24 m) smoothed by a Gaussian of 1.5 cells, 10 m too high and with a void over the middle ninth,
-``smooth-20`` smoothed by 3 cells and 20 m too low, ``+50`` 50 m too high (another vertical reference: named).
+scenes' truth; NGI's 24 m DEM, read only; ventoux: the DSM of its own run without a DEM averaged to 20 m): ``true``
+the reference itself (rendered: 20 m cells), ``srtm`` 30 m cells (NGI: its 24 m) smoothed by a Gaussian of 1.5
+cells, 10 m too high and with a void over the middle ninth, ``smooth-20`` smoothed by 3 cells and 20 m too low,
+``+50`` 50 m too high (another vertical reference: named).
 Rows: RMSE, NMAD and median of DSM − truth (rendered; NGI: DSM − its 24 m DEM, the issue's done-when: within 3 m
 median and 5 m NMAD), completeness, CPU (``time.process_time`` of the run in this process), the DEM's fit of the
 first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. ``--tree`` runs another checkout
 (e.g. main, the run's "before")::
 
-    PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi] \\
+    PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi,ventoux] \\
         [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main]
 """
 from __future__ import annotations
@@ -129,6 +130,67 @@ def ngi(tmp: Path, dems: list, tag: str) -> list:
     return rows
 
 
+def _averaged(src, out: Path, cell: float, pad: int = 10) -> str:
+    """The DSM ``src`` averaged (its nodata left out) onto cells of ``cell`` m, ``pad`` cells wider on every side,
+    the cells without a height given the nearest one's (a DEM as users bring one covers the images), written to
+    ``out``."""
+    import rasterio
+    from rasterio.enums import Resampling
+    from scipy.ndimage import distance_transform_edt
+    with rasterio.open(src) as ds:
+        k = max(1, round(cell / abs(ds.transform.a)))
+        shape = (max(2, ds.height // k), max(2, ds.width // k))
+        z = ds.read(1, out_shape=shape, resampling=Resampling.average, masked=True).filled(np.nan).astype(float)
+        t = ds.transform * ds.transform.scale(ds.width / shape[1], ds.height / shape[0])
+        crs = ds.crs
+    z = np.pad(z, pad, constant_values=np.nan)
+    t = t * t.translation(-pad, -pad)
+    near = distance_transform_edt(~np.isfinite(z), return_distances=False, return_indices=True)
+    z = z[tuple(near)]
+    profile = dict(driver="GTiff", width=z.shape[1], height=z.shape[0], count=1, dtype="float32", crs=crs,
+                   transform=t, nodata=-9999.0)
+    with rasterio.open(out, "w", **profile) as ds:
+        ds.write(z.astype(np.float32), 1)
+    return str(out)
+
+
+def ventoux(tmp: Path, dems: list, tag: str) -> list:
+    """The Pleiades pair (``--rpc``, 0.5 m; its images and .geom copied as ``dsm_bench.py`` does) with each DEM,
+    made from the run without one (the only surface covering the pair here: CARS's covers 42 % of the overlap)
+    averaged to 20 m cells; rows: fotogeo − CARS (the recorded run, ``results/peers_cars.json``) where both have a
+    height (``peers_cars.compare_dsms``: median, NMAD, share of CARS's cells with a fotogeo height)."""
+    import shutil
+
+    from peers_cars import compare_dsms
+
+    from fotogeo.tools.dsm import dsm
+    v = dsm_bench.DATA / "rpc" / "ventoux"
+    for name, src in (("left.tif", "left_image.tif"), ("left.geom", "left_image.geom"),
+                      ("right.tif", "right_image.tif"), ("right.geom", "right_image.geom")):
+        shutil.copy(v / src, tmp / name)
+    rec = ROOT / "benchmarks" / "results" / "peers_cars.json"
+    cars = json.loads(rec.read_text()).get("cars_ventoux_m100", {}).get("dsm") if rec.is_file() else None
+    rows, ref = [], None
+    for name in ["none"] + [d for d in dems if d != "none"]:
+        dem = degraded(ref, tmp / f"dem_{name}.tif", name, 20.0) if ref else None
+        out = tmp / f"dsm_{name}.tif"
+        try:
+            rep, cpu, _, said = dsm_bench._timed(dsm, [tmp / "left.tif", tmp / "right.tif"], out, rpc=True,
+                                                 resolution=0.5, dem=dem)
+        except Exception as e:
+            rows.append({"case": f"dem ventoux, {name}{tag}", "refused": str(e)[:300]})
+            continue
+        if ref is None:
+            ref = _averaged(out, tmp / "ref20.tif", 20.0)
+        row = _row("ventoux (--rpc, 0.5 m) vs CARS", name + tag, rep, cpu, said)
+        row["height_range_m"] = rep["pairs"][0].get("height_range")
+        if cars and Path(cars).is_file():
+            row["fotogeo_minus_cars"] = compare_dsms(out, cars)
+        if name in dems:
+            rows.append(row)
+    return rows
+
+
 def main():
     import tempfile
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -151,7 +213,7 @@ def main():
         for case in args.cases.split(","):
             (Path(t) / case).mkdir()
             new = {"rendered": functools.partial(rendered, kinds=args.rendered.split(",")), "oblique_set": oblique_set,
-                   "ngi": ngi}[case](Path(t) / case, dems, tag)
+                   "ngi": ngi, "ventoux": ventoux}[case](Path(t) / case, dems, tag)
             for r in new:
                 print(json.dumps(r, default=str), flush=True)
             run["rows"] += new

@@ -1,7 +1,7 @@
 """``fotogeo dsm`` on data the DSM benchmarks never tuned on: truth (or a reference DSM) against the result.
 
 Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_heldout_bench.py [--groups rpc,frames,ebee] [--cases NAMES]
-      [--work DIR] [--tree OTHER_CHECKOUT]
+      [--work DIR] [--tree OTHER_CHECKOUT] [--rpc-dems none,true,srtm,smooth-20,+50]
 
 Every DSM is made as a user makes it: ``python -m fotogeo dsm ...`` in a child process under ``/usr/bin/time -v``
 (``cwd`` outside any checkout, ``PYTHONPATH`` this tree): user + system CPU and peak memory per row; the row keeps
@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 OUT = ROOT / "benchmarks" / "results" / "dsm_heldout_bench.json"
 PY = [sys.executable, "-m", "fotogeo"]
@@ -134,7 +134,10 @@ def _visible_completeness(dsm_path, sc, step: int = 3) -> float:
     return round(float((h.ravel() != nod)[seen].mean()), 3)
 
 
-def rpc_rows(work: Path, names) -> list:
+def rpc_rows(work: Path, names, dems=("none",), save=None) -> list:
+    """The ``rpc`` group; ``dems`` (``--rpc-dems``): each case once per DEM of ``dsm_dem_bench.DEMS`` made from the
+    truth averaged to 20 m (:func:`_rpc_dem`; ``none``: without ``--dem``), its rows named ``NAME, --dem DEM`` with
+    the report's fit of the DEM."""
     from rendered_rpc_pair import compare, render_rpc_pair
     rows = []
     for name, kw in RPC.items():
@@ -145,17 +148,42 @@ def rpc_rows(work: Path, names) -> list:
         folder = work / "rpc" / re.sub(r"[^\w]+", "_", name)
         sc = render_rpc_pair(folder, **kw)
         images = _uint8_copy(sc["images"], folder / "u8") if u8 else sc["images"]
-        cmd = PY + ["dsm", *images, "--rpc", "-o", folder / "dsm.tif", "--resolution", "0.5", "--overwrite",
-                    "--report", folder / "report.json"]
-        row = {"group": "rpc", "case": name, "gsd_m": sc["gsd"], **time_v(cmd, folder)}
-        if row["exit"] == 0:
-            row.update({k: (round(v, 3) if isinstance(v, float) else v) for k, v in compare(folder / "dsm.tif",
-                                                                                            sc).items()})
-            row["rmse_gsd"] = round(row["rmse_m"] / sc["gsd"], 2)
-            row["completeness_visible"] = _visible_completeness(folder / "dsm.tif", sc)
-        rows.append({**row, "command": _command(cmd, folder)})
-        print(rows[-1], flush=True)
+        for dem in dems:
+            tail = "" if dem == "none" else "_" + re.sub(r"[^\w]+", "_", dem)
+            cmd = PY + ["dsm", *images, "--rpc", "-o", folder / f"dsm{tail}.tif", "--resolution", "0.5",
+                        "--overwrite", "--report", folder / f"report{tail}.json"]
+            if dem != "none":
+                cmd += ["--dem", _rpc_dem(sc, folder, dem), "--dem-heights", "ellipsoid"]
+            case = name + ("" if dem == "none" else f", --dem {dem}")
+            row = {"group": "rpc", "case": case, "gsd_m": sc["gsd"], **time_v(cmd, folder)}
+            if row["exit"] == 0:
+                row.update({k: (round(v, 3) if isinstance(v, float) else v)
+                            for k, v in compare(folder / f"dsm{tail}.tif", sc).items()})
+                row["rmse_gsd"] = round(row["rmse_m"] / sc["gsd"], 2)
+                row["completeness_visible"] = _visible_completeness(folder / f"dsm{tail}.tif", sc)
+                if dem != "none":
+                    row["dem"] = json.loads((folder / f"report{tail}.json").read_text())["pairs"][0].get("dem")
+            rows.append({**row, "command": _command(cmd, folder)})
+            print(rows[-1], flush=True)
+            if save:  # a long run keeps its rows as they come
+                save(rows)
     return rows
+
+
+def _rpc_dem(sc: dict, folder: Path, name: str) -> Path:
+    """DEM ``name`` of ``dsm_dem_bench.DEMS`` made from the scene's truth averaged to 20 m cells."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    from dsm_dem_bench import degraded
+    t, z = sc["truth_transform"], sc["truth"]
+    k = int(round(20.0 / t.a))
+    n = (z.shape[0] // k, z.shape[1] // k)
+    z = z[:n[0] * k, :n[1] * k].reshape(n[0], k, n[1], k).mean(axis=(1, 3))
+    with rasterio.open(folder / "ref20.tif", "w", driver="GTiff", width=n[1], height=n[0], count=1, dtype="float32",
+                       crs=sc["crs"], transform=t * Affine.scale(k)) as ds:
+        ds.write(z.astype(np.float32)[None])
+    return Path(degraded(folder / "ref20.tif", folder / f"dem_{name}.tif", name, 20.0))
 
 
 def _footprint_share(dsm_path, sc) -> dict:
@@ -326,13 +354,15 @@ def main() -> None:
     ap.add_argument("--cases", default=None, help="case names separated by ';' [all of each group]")
     ap.add_argument("--work", default="/tmp/dsm_heldout_bench", help="renders and DSMs go here (reused)")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo checkout measured (its rows carry its path)")
+    ap.add_argument("--rpc-dems", default="none", help="rpc: also with these DEMs (dsm_dem_bench.DEMS), e.g. none,srtm")
     a = ap.parse_args()
     global TREE
     TREE = Path(a.tree).resolve()
     work = Path(a.work).resolve()
     names = set(a.cases.split(";")) if a.cases else None
     load0, rows = os.getloadavg()[0], []
-    groups = {"rpc": rpc_rows, "frames": frame_rows, "ebee": ebee_rows}
+    groups = {"rpc": lambda w, n: rpc_rows(w, n, a.rpc_dems.split(","), lambda r: _save(rows + r, load0)),
+              "frames": frame_rows, "ebee": ebee_rows}
     for g in a.groups.split(","):
         rows += groups[g](work, names)
         _save(rows, load0)

@@ -113,6 +113,26 @@ def test_where_the_dem_has_a_void_the_matches_give_the_heights(nadir, tmp_path, 
     assert is_local and m.drange[0] <= lo < hi <= m.drange[1]
 
 
+def test_a_dem_void_under_every_match_is_named_and_guides_nothing(nadir, tmp_path):
+    """A pair with 30 sparse matches, all over the DEM's void: the DEM guides nothing there (``dem``: 0 matches, not
+    guiding; the pair's strips take the matches' heights as without a DEM) and the void is named (before: left to
+    the matches without a word; a benchmark row only)."""
+    from types import SimpleNamespace
+    from fotogeo.tools.dsm import tool
+    from fotogeo.tools.ortho.inputs import image_models, terrain
+    ims = image_models(nadir["images"][:2], nadir["crs"], camera=nadir["camera"], eo=nadir["eo"])
+    source, _, _ = terrain(_degraded(nadir, tmp_path / "dem.tif", void=True), None, nadir["crs"], ims)
+    with rasterio.open(tmp_path / "dem.tif") as ds:  # the void: the middle third of the DEM
+        mid = np.array([(ds.bounds.left + ds.bounds.right) / 2, (ds.bounds.bottom + ds.bounds.top) / 2])
+    rng = np.random.default_rng(2)
+    sp = {"n": 30, "points": np.column_stack([mid + rng.uniform(-100, 100, (30, 2)), np.full(30, 100.0)])}
+    p = SimpleNamespace(i=0, j=1, extra={})
+    assert tool._pair_dem(p, sp, (source, None, 20.0), ims, 0.0, 200.0, 1e9) is None
+    assert p.extra["dem"] == {"matches": 0, "guides_strips": False}
+    with pytest.warns(FotogeoWarning, match=r"fewer than 20 of the 30 sparse matches of a-b.*does not cover"):
+        tool._warn_dem("dem.tif", [("a-b", p.extra["dem"], 30)])
+
+
 def test_the_fit_measures_offset_spread_and_margin():
     """The fit's equations (:func:`fotogeo.tools.dsm.dem_guide.fit`) on a plane and a DEM 12 m above it with
     ±3 m of error: offset 12, NMAD about 3 (1.4826 · median), margin ``DEM_PAD_M + 1.5 · P95``."""

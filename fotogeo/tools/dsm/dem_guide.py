@@ -70,9 +70,15 @@ def fit(source, points) -> DemFit | None:
                   int(ok.sum()))
 
 
-def problems(f: DemFit, where: str, sparse: int = 0) -> list:
+def problems(f: DemFit, where: str, sparse: int = 0, guides: bool = True, other: str = "") -> list:
     """What a user is told about the fit ``f`` (module docstring); ``where`` names the matches, ``sparse`` how many
-    the pair has: with none measured (``f.matches`` 0), the DEM guides that pair unchecked."""
+    the pair has: with none measured (``f.matches`` 0), the DEM guides that pair unchecked, or (``guides`` False:
+    the pair has matches, none on the DEM) nothing; ``other`` another cause of an offset the orientation may have
+    (satellite RPCs: their absolute pointing)."""
+    if not f.matches and not guides:
+        return [f"it has a height under fewer than {DEM_MIN_MATCHES} of the {sparse} sparse matches of {where} (a "
+                f"void, or it does not cover that pair): unchecked, it guides nothing there (the matches do); give a "
+                f"DEM covering the images"]
     if not f.matches:
         return [f"it was not checked for pair {where} ({sparse} sparse matches; {DEM_MIN_MATCHES} on the DEM "
                 f"measure it, and no other pair did): its heights, as they are, guide that pair's search "
@@ -81,8 +87,8 @@ def problems(f: DemFit, where: str, sparse: int = 0) -> list:
     if abs(f.offset) > DEM_OFFSET_WARN_M:
         out.append(f"its heights lie {f.offset:+.1f} m from those the orientation gives {f.matches} sparse matches "
                    f"of {where} (median; NMAD {f.spread:.1f} m): another vertical reference (geoid or ellipsoid: "
-                   f"--dem-heights, --geoid) or a shifted DEM? It is used shifted by {-f.offset:+.1f} m (the DSM's "
-                   f"heights come from the orientation); give a DEM in the orientation's vertical reference")
+                   f"--dem-heights, --geoid){other} or a shifted DEM? It is used shifted by {-f.offset:+.1f} m (the "
+                   f"DSM's heights come from the orientation); give a DEM in the orientation's vertical reference")
     if f.spread > DEM_MAX_SPREAD_M:
         out.append(f"its heights disagree with the {f.matches} sparse matches of {where} (NMAD {f.spread:.1f} m "
                    f"after the median offset): a DEM of other ground or time? It does not guide that pair's "
@@ -109,18 +115,49 @@ class DemGuide:
         docstring), started at ``z0``, and ``|H − z|`` left after the last step; NaN where the DEM has none."""
         d = rp.rays(np.ravel(u), np.ravel(v), 0)
         C = rp.centres[0]
-        z = np.broadcast_to(np.asarray(z0, float), d[:, 2].shape).copy()
+
+        def ground(z):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lam = (z - C[2]) / d[:, 2]
+            return np.where((lam > 0)[:, None], C[:2] + lam[:, None] * d[:, :2], np.nan)
+        return self.meet(ground, z0, len(d))
+
+    def meet(self, ground, z0, n: int) -> tuple:
+        """``(z, residual)``: the damped fixed point of the module docstring for any line of sight, ``ground(z)``
+        ``(n, 2)`` the map points of the ``n`` lines at heights ``z`` ``(n,)`` (NaN where a line has none), started
+        at ``z0``; NaN where the DEM has no height."""
+        z = np.broadcast_to(np.asarray(z0, float), (n,)).copy()
         found = np.zeros(len(z), bool)
         h = np.full(len(z), np.nan)
         for _ in range(DEM_ITER):
-            with np.errstate(divide="ignore", invalid="ignore"):
-                lam = (z - C[2]) / d[:, 2]
-            h = np.where(lam > 0, self.heights(C[:2] + lam[:, None] * d[:, :2]), np.nan)
+            XY = np.asarray(ground(z), float)
+            h = np.full(len(z), np.nan)
+            xy_ok = np.isfinite(XY).all(axis=1)
+            h[xy_ok] = self.heights(XY[xy_ok])
             ok = np.isfinite(h)
             found |= ok
             z = np.where(ok, z + 0.5 * (h - z), z)
         z = np.where(found & np.isfinite(h), z, np.nan)
         return z, np.abs(h - z)
+
+
+def pair_guide(source, points, sparse: int, unmeasured: DemFit, footprints) -> tuple:
+    """``(DemGuide or None, report entry, DemFit or None)`` of a pair: the height source ``source`` fitted at its
+    sparse matches ``points`` (:func:`fit`; ``sparse`` how many it has), sampled over its ``footprints``
+    (:func:`pair_dem`). With fewer than ``DEM_MIN_MATCHES`` on the DEM the fit ``unmeasured`` stands in (the run's,
+    or the DEM unchecked), unless the pair has that many matches, all off the DEM (a void, a DEM beside it: nothing
+    checks it, it guides nothing); a spread over ``DEM_MAX_SPREAD_M`` guides nothing either."""
+    f = fit(source, points)
+    if f is None and sparse >= DEM_MIN_MATCHES:
+        return None, {"matches": 0, "guides_strips": False}, None
+    f = f or unmeasured
+    used = f.spread <= DEM_MAX_SPREAD_M
+    if not used:
+        return None, f.as_report(False), f
+    from ...geometry.dem import underlying_dem
+    d, other = underlying_dem(source)
+    grid = pair_dem(source, footprints, 0.0 if other else abs(float(d.transform.a)))
+    return (None if grid is None else DemGuide(grid, f)), f.as_report(grid is not None), f
 
 
 def pair_dem(source, footprints, cell: float) -> Dem | None:

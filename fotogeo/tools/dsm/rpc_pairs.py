@@ -2,8 +2,8 @@
 
 Per pair (left = the first image, right = the second):
 
-1. **heights**: the DEM's range (``--dem``), else the RPCs' own range (``HEIGHT_OFF ± HEIGHT_SCALE``) narrowed by
-   sparse matches;
+1. **heights**: the RPCs' own range (``HEIGHT_OFF ± HEIGHT_SCALE``, with ``--dem`` the DEM's too) narrowed by
+   the tie points of step 2; with ``--dem`` the DEM, fitted to the tie points, bounds each tile's (:mod:`.rpc_dem`);
 2. **relative pointing correction** (:func:`fotogeo.stereo.affine_epipolar.pointing_correction`): SIFT tie points
    of the two images (whole up to ``TIE_SIDE`` pixels a side, else on copies averaged to that size), their
    offsets from the epipolar curves, one translation of the right image; its size is reported and, when large,
@@ -45,6 +45,7 @@ from ...stereo import affine_epipolar as ae
 from ...stereo.dense import disparity, to_uint8
 from ...stereo.refine import refine as refine_disparities
 from .frames import SPARSE_SIDE
+from .rpc_dem import tile_range
 
 TILE = 512
 #: refinements of a matched pixel's height along the epipolar curve (module docstring, step 3)
@@ -231,11 +232,12 @@ def _at_least(a: int, b: int, n: int) -> tuple:
     return max(0, min(a, b - min(TILE, n))), b
 
 
-def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False):
+def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False, dem=None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None, miss px (N,))`` of the left pixels ``box``
     ``(c0, r0, c1, r1)`` (widened to at least ``TILE`` pixels a side: the context of a small box), in equal locally
     epipolar tiles of at most ``TILE`` pixels a side (module docstring, step 3; ``refine`` too); ``colours``: the
-    left image's, read by the window of the tile's matched pixels."""
+    left image's, read by the window of the tile's matched pixels; ``dem`` a :class:`.dem_guide.DemGuide`: each
+    tile's heights (:func:`.rpc_dem.tile_range`)."""
     W, H = sources[0].width, sources[0].height
     (c0, c1), (r0, r1) = _at_least(box[0], box[2], W), _at_least(box[1], box[3], H)
     nc, nr = -(-(c1 - c0) // TILE), -(-(r1 - r0) // TILE)
@@ -243,11 +245,12 @@ def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False
     for rt, rt1 in zip(rs[:-1], rs[1:]):
         for ct, ct1 in zip(cs[:-1], cs[1:]):
             tile = (int(ct), int(rt), int(ct1), int(rt1))
-            p1, p2 = match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine)
+            zl, zh = (zlo, zhi) if dem is None else tile_range(m1, dem, tile, zlo, zhi)
+            p1, p2 = match_tile(m1, m2, tau, sources, tile, zl, zh, stats, refine)
             if not len(p1):
                 continue
-            P, miss = triangulate(m1, m2, tau, p1, p2, zlo, zhi)
-            ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zlo) & (P[:, 2] <= zhi)
+            P, miss = triangulate(m1, m2, tau, p1, p2, zl, zh)
+            ok = np.isfinite(P).all(axis=1) & (P[:, 2] >= zl) & (P[:, 2] <= zh)
             rgb = None
             if colours:
                 src = sources[0]
@@ -265,8 +268,8 @@ class RpcPairMatch:
     height range, the relative pointing correction ``tau``, and what its tiles gave (pixel counts, points, a
     sample of the miss distances, seconds)."""
 
-    def __init__(self, pair, name: str, models, sources, zlim, tau, refine: bool = False):
-        self.pair, self.name, self.models, self.sources = pair, name, models, sources
+    def __init__(self, pair, name: str, models, sources, zlim, tau, refine: bool = False, dem=None):
+        self.pair, self.name, self.models, self.sources, self.dem = pair, name, models, sources, dem
         self.zlim, self.tau, self.refine = (float(zlim[0]), float(zlim[1])), np.asarray(tau, float), refine
         self.stats, self.points, self.seconds, self.miss = {}, 0, 0.0, []
 
@@ -289,7 +292,7 @@ class RpcPairMatch:
     def dense(self, box, colours: bool = False):
         """Yield ``(points (N, 3), colours or None)`` of the left pixels ``box`` (:func:`box_points`)."""
         for P, rgb, miss in box_points(*self.models, self.sources, *self.zlim, self.tau, self.stats, box, colours,
-                                       self.refine):
+                                       self.refine, self.dem):
             self.miss.append(miss[::max(1, len(miss) // MISS_SAMPLE)])
             yield P, rgb
 

@@ -18,6 +18,7 @@ from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..common.checks import check_output_grid
 from ..ortho.inputs import map_crs, terrain
 from . import matching, plan
+from . import rpc_dem
 from . import rpc_pairs as rp
 from .inputs import SourceImage, read_pairs
 from .outputs import SPECKLE_CELLS, Products
@@ -165,16 +166,21 @@ def _same_rpc(a, b) -> bool:
     return a is not None and all(np.isclose(getattr(a, k), getattr(b, k), rtol=1e-9, atol=1e-9) for k in keys)
 
 
-def _dem_heights(dem, dem_heights, geoid, crs, ims):
+def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
+    """``(height source, low, high, notes, padding)``: the DEM read in the RPCs' (ellipsoidal) reference and its
+    range padded by 10 % and 30 m."""
     source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
-    from ...geometry.dem import heights_at, underlying_dem
+    from ...geometry.dem import underlying_dem
     d = underlying_dem(source)[0]
     zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
-    return source, zlo - 0.1 * (zhi - zlo) - 30.0, zhi + 0.1 * (zhi - zlo) + 30.0, notes, heights_at
+    pad = 0.1 * (zhi - zlo) + 30.0
+    return source, zlo - pad, zhi + pad, notes, pad
 
 
-def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
-    """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`) with the DEM check."""
+def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
+    """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`: the tie points' range
+    widened by half its span and 30 m), with a DEM (``dem``: ``(path, height source, padding)``) its guide of the
+    tiles (:mod:`.rpc_dem`) and the range the guide gives."""
     a, b = ims[p.i], ims[p.j]
     pt = rp.pointing(a.model, b.model, (sources[p.i], sources[p.j]), zlo, zhi)
     name = f"{a.name}-{b.name}"
@@ -185,25 +191,19 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem_source) -> dict:
              # ventoux's ordinary Pleiades pair gives 6.9 m, more than the rendered pair's 3.2 m for a true 4.2 m)
              "height_shift_if_along_as_across_m": round(float(np.hypot(*pt["tau"]) * pt["m_per_px"]), 2)}
     z0, z1 = np.percentile(pt["z"], [1, 99])
-    if dem_source is None:
-        span = z1 - z0
-        zlo, zhi = max(zlo, z0 - 0.5 * span - 30.0), min(zhi, z1 + 0.5 * span + 30.0)
-    else:
-        from ...geometry.dem import heights_at
-        ground = a.model.inverse(pt["p1"], pt["z"])
-        dz = pt["z"] - heights_at(dem_source, ground[:, :2])
-        dz = dz[np.isfinite(dz)]
-        if dz.size:
-            entry["tie_heights_minus_dem_m"] = {"median": round(float(np.median(dz)), 3),
-                                                "nmad": round(float(1.4826 * np.median(np.abs(dz - np.median(dz)))), 3)}
-            if abs(np.median(dz)) > 10.0:
-                rp.warn(f"pair {name}: its tie points lie {np.median(dz):+.1f} m from the DEM (median): the RPCs' "
-                        f"absolute pointing is off; correct them with GCPs (fotogeo rpc-bias) before trusting "
-                        f"absolute heights")
+    span = z1 - z0
+    tie = (max(zlo, z0 - 0.5 * span - 30.0), min(zhi, z1 + 0.5 * span + 30.0))
+    guide = None
+    if dem is not None:
+        guide, said = rpc_dem.pair_guide(p, name, ims, pt, dem[1], (zlo, zhi), dem[2])
+        if said:
+            rp.warn(f"DEM {str(dem[0])!r} (--dem): " + "; ".join(said))
+        tie = tie if guide is None else rpc_dem.pair_range(guide, tie, (zlo, zhi))
     entry["relative_pointing_large"] = bool(np.hypot(*pt["tau"]) > rp.LARGE_POINTING_PX)
     _check_places(name, (a, b), float(np.hypot(*pt["tau"])), entry["relative_pointing_large"])
-    rp.warn(rp.pointing_warning(name, pt, dem_source is not None))
-    return {"tau": pt["tau"], "zlo": float(zlo), "zhi": float(zhi), "entry": entry, "zmed": float(np.median(pt["z"]))}
+    rp.warn(rp.pointing_warning(name, pt, dem is not None))
+    return {"tau": pt["tau"], "zlo": float(tie[0]), "zhi": float(tie[1]), "entry": entry,
+            "zmed": float(np.median(pt["z"])), "dem": guide}
 
 
 def _no_vertical_part(crs) -> None:
@@ -256,17 +256,18 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
-    dem_source, ref = None, "ellipsoid"
+    guide, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
-    if dem is not None:
-        dem_source, zlo, zhi, more, _ = _dem_heights(dem, dem_heights, geoid, map_c, ims)
-        notes += more + ["height range from the DEM"]
+    if dem is not None:  # the RPCs' range with the DEM's: a DEM in another vertical reference must not cut it
+        source, dlo, dhi, more, pad = _dem_heights(dem, dem_heights, geoid, map_c, ims)
+        zlo, zhi, guide = min(zlo, dlo), max(zhi, dhi), (dem, source, pad)
+        notes += more + ["height range from the DEM and the tie points"]
     sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
     kept = [p for p in choices if p.kept]
     setups = {}
     for p in kept:
-        setups[(p.i, p.j)] = s = _pair_setup(p, ims, sources, zlo, zhi, dem_source)
+        setups[(p.i, p.j)] = s = _pair_setup(p, ims, sources, zlo, zhi, guide)
         p.extra.update(s["entry"], height_range=[round(s["zlo"], 2), round(s["zhi"], 2)])
     prog(0.1, "pointing corrected")
     return _match_and_write(ims, sources, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
@@ -309,7 +310,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
     timings = {}
     matches = [rp.RpcPairMatch(p, f"{names[p.i]}-{names[p.j]}", (ims[p.i].model, ims[p.j].model),
                                (sources[p.i], sources[p.j]), (setups[(p.i, p.j)]["zlo"], setups[(p.i, p.j)]["zhi"]),
-                               setups[(p.i, p.j)]["tau"], refine) for p in kept]
+                               setups[(p.i, p.j)]["tau"], refine, dem=setups[(p.i, p.j)]["dem"]) for p in kept]
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)

@@ -132,7 +132,7 @@ def _dem_fits_orientation(dem, source, views, sources, features):
     i, j = plan.nearest_pair(views)
     rp = rectify(views[i], views[j], min(1.0, 1500.0 / max(max(views[i].size), 1)))
     sp = frames.sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), cache=features, ids=(i, j))
-    if sp["n"] < 20 or frames.sparse_problem(sp, MAX_EPIPOLAR_PX):
+    if sp["n"] < dem_guide.DEM_MIN_MATCHES or frames.sparse_problem(sp, MAX_EPIPOLAR_PX):
         return None
     P = sp["points"][plan.plausible_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))]
     f = dem_guide.fit(source, P)
@@ -188,9 +188,11 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims) -> tuple
         return rp, None, None, why, None, None
     ceiling = min(views[p.i].centre[2], views[p.j].centre[2])
     guide = _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling) if dem is not None else None
-    if dem is not None and (guide is not None or sp["n"] < 20):  # a DEM the pair's matches disagree with: theirs
+    # the DEM guides, or too few matches to go without its range; else (a DEM they disagree with or have no height
+    # on) the matches' heights, as without --dem
+    if dem is not None and (guide is not None or sp["n"] < dem_guide.DEM_MIN_MATCHES):
         return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, local.guides(sp, ceiling), guide
-    if sp["n"] < 20:
+    if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search"), None, None
     zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
@@ -206,23 +208,12 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     :func:`_warn_dem`);
     None when its spread says it does not show this ground (:data:`.dem_guide.DEM_MAX_SPREAD_M`), or when the pair
     has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
-    from ...geometry.dem import underlying_dem
     source, run_fit, pad = dem
     pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
-    f = dem_guide.fit(source, pts)
-    if f is None and sp["n"] >= 20:  # matches enough, none on the DEM (a void): unchecked, it guides nothing
-        p.extra["dem"] = {"matches": 0, "guides_strips": False}
-        return None
-    f = f or run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
-    used = f.spread <= dem_guide.DEM_MAX_SPREAD_M
-    p.extra["dem"] = f.as_report(used)
-    if not used:
-        return None
-    d, other = underlying_dem(source)
-    cell = 0.0 if other else abs(float(d.transform.a))
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in (zlo, zhi)]
-    grid = dem_guide.pair_dem(source, fps, cell)
-    return None if grid is None else dem_guide.DemGuide(grid, f)
+    unmeasured = run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
+    guide, p.extra["dem"], _ = dem_guide.pair_guide(source, pts, sp["n"], unmeasured, fps)
+    return guide
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
@@ -288,8 +279,9 @@ def _warn_dem(dem, fits) -> None:
     """One warning naming what the pairs' fits of the DEM ``dem`` (``(pair, report entry, sparse matches)``,
     :mod:`.dem_guide`) say: the first pair's problems, and how many pairs share them; a pair whose search the DEM
     guides unchecked (no fit measured) is a problem too."""
-    said = [(name, dem_guide.problems(dem_guide.DemFit(f["offset_m"], f["nmad_m"], f["margin_m"], f["matches"]),
-                                      name, n)) for name, f, n in fits if f.get("matches") or f["guides_strips"]]
+    said = [(name, dem_guide.problems(dem_guide.DemFit(f.get("offset_m", 0.0), f.get("nmad_m", 0.0),
+                                                       f.get("margin_m", 0.0), f["matches"]), name, n,
+                                      f["guides_strips"])) for name, f, n in fits]
     said = [(name, why) for name, why in said if why]
     if said:
         more = f" (and {len(said) - 1} more pair(s) alike)" if len(said) > 1 else ""

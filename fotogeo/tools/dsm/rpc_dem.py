@@ -1,0 +1,63 @@
+"""A coarse DEM (``fotogeo dsm --rpc --dem``) as the guide of each tile of an RPC pair, through :mod:`.dem_guide`.
+
+**The fit**: the DEM's heights at the pair's tie points (:func:`.rpc_pairs.pointing`, located through the left
+RPC at the heights the two RPCs give them) against those heights: :func:`.dem_guide.fit`'s offset, NMAD and margin,
+named by :func:`.dem_guide.problems` (an offset: another vertical reference, a shifted DEM, or RPCs whose absolute
+pointing is off; a spread: a DEM of other ground). Fewer than ``DEM_MIN_MATCHES`` tie points on the DEM (a void, a
+DEM beside the pair) and the DEM guides nothing there (named); a spread over ``DEM_MAX_SPREAD_M`` likewise.
+
+**The tiles** (:func:`tile_range`): the left pixels of a ``TILE_NODES`` × ``TILE_NODES`` grid over a tile meet the
+DEM (shifted by the offset) where their lines of sight through the left RPC, ``X(z) = RPC⁻¹(p, z)``, reach it
+(:meth:`.dem_guide.DemGuide.meet`, the damped fixed point ``z ← z + ½ (H(X(z)) − z)``); the tile searches
+``[min z − m, max z + m]`` (``m`` the fit's margin plus what each node's iteration left), inside the pair's
+range. A tile any node of which falls in a void or off the DEM keeps the pair's range (the tie points'). Heights
+are ellipsoidal as the RPCs' (the DEM is read in that reference: ``--dem-heights``, ``--geoid``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import dem_guide, plan
+
+#: nodes a side of the grid over a tile whose lines of sight meet the DEM
+TILE_NODES = 9
+#: the RPC's other causes of an offset from the DEM, appended to :func:`.dem_guide.problems`' question
+RPC_OFFSET = ", RPCs whose absolute pointing is off (fotogeo rpc-bias with GCPs)"
+
+
+def pair_guide(p, name: str, ims, pt: dict, source, zlim, pad: float) -> tuple:
+    """``(DemGuide or None, warnings)`` of the pair ``p`` (images ``ims`` i, j) from its tie points ``pt``
+    (:func:`.rpc_pairs.pointing`) on the height source ``source``; ``zlim`` the run's heights, ``pad`` the DEM
+    range's padding (the margin of an unchecked DEM: at least ``DEM_UNMEASURED_M``). The fit goes into the pair's
+    report (``dem``)."""
+    ground = ims[p.i].model.inverse(pt["p1"], pt["z"])
+    n = int(len(pt["z"]))
+    fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
+    unchecked = dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
+    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, unchecked,
+                                                    fps)
+    return guide, dem_guide.problems(f or unchecked, name, n, guides=f is not None, other=RPC_OFFSET)
+
+
+def pair_range(guide, tie: tuple, zlim: tuple) -> tuple:
+    """The pair's heights with a DEM ``guide``: the shifted DEM's over the pair ± its margin, with the tie points'
+    ``tie`` (the tiles a void leaves to them), inside the run's ``zlim``."""
+    h = guide.dem.data[np.isfinite(guide.dem.data)] - guide.fitted.offset
+    if not h.size:
+        return tie
+    lo, hi = min(tie[0], float(h.min()) - guide.margin), max(tie[1], float(h.max()) + guide.margin)
+    return max(zlim[0], lo), min(zlim[1], hi)
+
+
+def tile_range(m1, guide, tile, zlo: float, zhi: float) -> tuple:
+    """``(low, high)`` heights a tile ``(c0, r0, c1, r1)`` of left pixels searches (module docstring), inside the
+    pair's ``(zlo, zhi)``; those when any node has no DEM height."""
+    c0, r0, c1, r1 = tile
+    u, v = np.meshgrid(np.linspace(c0, c1, TILE_NODES), np.linspace(r0, r1, TILE_NODES))
+    g = np.column_stack([u.ravel(), v.ravel()])
+    z, res = guide.meet(lambda h: m1.inverse(g, h)[:, :2], 0.5 * (zlo + zhi), len(g))
+    if not np.isfinite(z).all():
+        return zlo, zhi
+    lo, hi = float(np.min(z - res)) - guide.margin, float(np.max(z + res)) + guide.margin
+    lo, hi = max(zlo, lo), min(zhi, hi)
+    return (lo, hi) if hi > lo else (zlo, zhi)
