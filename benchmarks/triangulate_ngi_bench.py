@@ -71,7 +71,8 @@ def _banded(src: Path, dst: Path, kind: str) -> None:
         out[:, (rgb == nodata).all(axis=0)] = nodata
     for key in ("photometric", "compress", "jpeg_quality", "blockxsize", "blockysize", "tiled", "interleave"):
         profile.pop(key, None)
-    profile.update(driver="GTiff", count=len(out), dtype="uint8", compress="deflate")
+    profile.update(driver="GTiff", count=len(out), dtype="uint8", compress="deflate",
+                   photometric="RGB" if kind == "rgb" else "MINISBLACK")  # a 4th band is no alpha
     with rasterio.open(dst, "w", **profile) as ds:
         ds.write(out)
 
