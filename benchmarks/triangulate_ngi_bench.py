@@ -26,21 +26,73 @@ Prints a table and writes ``benchmarks/results/triangulate_ngi_bench.json``.
 With ``--tool`` the same block also goes through ``fotogeo triangulate --reference ... --dem ...``
 (its own tie points and control merging), to show what the command gives.
 
-    .venv/bin/python benchmarks/triangulate_ngi_bench.py [--seeds 3] [--level 1] [--tool]
+``--bands CASE`` runs the block on a copy of the data with frames or orthophotos in other band sets
+(:data:`BAND_CASES`, the bands of :func:`known_warps.derived_bands` made from their RGB; issue 32): a NIR-only frame
+beside an RGB one (its tie pair across band sets, its control a NIR frame against RGB orthophotos), a panchromatic and
+a 4-band (NIR, B, G, R) frame, NIR-only orthophotos or 8-band orthophotos against the RGB frames.
+
+    .venv/bin/python benchmarks/triangulate_ngi_bench.py [--seeds 3] [--level 1] [--tool] [--bands CASE]
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("GDAL_PAM_ENABLED", "NO")  # nothing written beside the data read
 
 from fotogeo.io.raster import read_dem
 from fotogeo.io.camera import load_camera, read_exterior_orientation
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+from known_warps import derived_bands  # noqa: E402
 from ngi_triangulation import NAMES, dense_grid, registration_rmse, run_seed  # noqa: E402
+
+#: ``--bands`` cases: the band set of each frame (by name; others RGB) and of the orthophotos
+BAND_CASES = {"rgb": {}, "frame-nir": {"frames": {NAMES[1]: "n"}},
+              "frames-pan-nbgr": {"frames": {NAMES[0]: "pan", NAMES[1]: "nbgr"}},
+              "ortho-nir": {"ortho": "n"}, "ortho-8band": {"ortho": "rgb8"}}
+
+
+def _banded(src: Path, dst: Path, kind: str) -> None:
+    """``src`` (RGB) written as ``dst`` in the bands ``kind`` (``nbgr``: NIR, B, G, R), its nodata kept."""
+    import rasterio
+    with rasterio.open(src) as ds:
+        rgb, profile, nodata = ds.read()[:3].astype(np.float64), ds.profile.copy(), ds.nodata
+    bands = derived_bands(rgb, "rgbn")[[3, 2, 1, 0]] if kind == "nbgr" else derived_bands(rgb, kind)
+    out = np.clip(np.round(bands), 0 if nodata is None else 1, 255).astype(np.uint8)
+    if nodata is not None:
+        out[:, (rgb == nodata).all(axis=0)] = nodata
+    for key in ("photometric", "compress", "jpeg_quality", "blockxsize", "blockysize", "tiled", "interleave"):
+        profile.pop(key, None)
+    profile.update(driver="GTiff", count=len(out), dtype="uint8", compress="deflate",
+                   photometric="RGB" if kind == "rgb" else "MINISBLACK")  # a 4th band is no alpha
+    with rasterio.open(dst, "w", **profile) as ds:
+        ds.write(out)
+
+
+def banded_copy(ngi: Path, case: str, folder: Path) -> Path:
+    """The NGI folder with the frames and orthophotos of ``BAND_CASES[case]`` in their band sets (the rest linked)."""
+    spec = BAND_CASES[case]
+    if not spec:
+        return ngi
+    out = folder / "ngi"
+    for sub in ("frames", "ortho"):
+        (out / sub).mkdir(parents=True)
+    for f in ngi.iterdir():
+        if f.is_file():
+            (out / f.name).symlink_to(f)
+    for f in sorted((ngi / "frames").glob("*.tif")):
+        _banded(f, out / "frames" / f.name, spec.get("frames", {}).get(f.stem, "rgb"))
+    for f in sorted((ngi / "ortho").glob("*.tif")):
+        _banded(f, out / "ortho" / f.name, spec.get("ortho", "rgb"))
+    return out
 
 
 def add_registration(ngi, rows) -> dict:
@@ -82,14 +134,17 @@ def main(argv=None):
                     help="approximate orientation: the truth perturbed (20 m, 0.5°, seeded) or "
                          "single-frame registration")
     ap.add_argument("--tool", action="store_true", help="also run the block through fotogeo triangulate")
+    ap.add_argument("--bands", choices=tuple(BAND_CASES), default="rgb", help="frames' and orthophotos' bands")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "triangulate_ngi_bench.json"))
     a = ap.parse_args(argv)
-    ngi = Path(a.data)
-    rows = [run_seed(ngi, s, a.level, tool=a.tool, start=a.start) for s in range(a.seeds)]
-    reg = add_registration(ngi, rows)
+    with tempfile.TemporaryDirectory() as tmp:
+        ngi = banded_copy(Path(a.data), a.bands, Path(tmp))
+        rows = [run_seed(ngi, s, a.level, tool=a.tool, start=a.start) for s in range(a.seeds)]
+        reg = add_registration(ngi, rows)
     print_table(rows, reg)
     Path(a.out).write_text(json.dumps({"note": "times load-dependent (2 shared cores)", "level": a.level,
-                                       "rows": rows, "registration_dense_rmse_m": reg}, indent=1, default=float))
+                                       "bands": a.bands, "rows": rows, "registration_dense_rmse_m": reg},
+                                      indent=1, default=float))
 
 
 if __name__ == "__main__":

@@ -15,7 +15,12 @@ with the block's simulated control (:func:`fotogeo.orientation.bundle.adjust_blo
 Printed and written to ``benchmarks/results/triangulate_ties_bench.json``: tracks, observations,
 σ₀, image RMS (px), check RMSE in plan and height (m and GSD), wall time of matching and adjustment.
 
-    .venv/bin/python benchmarks/triangulate_ties_bench.py [--quick]
+``--bands mixed`` writes the frames in other band sets (issue 32): three textures rendered through the same
+cameras make R, G, B (each mostly the first texture), and the frames cycle through RGB, a NIR-like band alone,
+panchromatic and 4 bands in the order NIR, B, G, R (:func:`known_warps.derived_bands`), so that pairs of frames
+match across band sets. ``--variants`` picks the configurations.
+
+    .venv/bin/python benchmarks/triangulate_ties_bench.py [--quick] [--bands mixed] [--variants after]
 """
 from __future__ import annotations
 
@@ -35,6 +40,7 @@ from fotogeo.orientation.bundle import BundleOptions, adjust_block
 from fotogeo.tools.triangulate.match import block_tie_points
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from known_warps import derived_bands  # noqa: E402
 from rendered_block_ties import with_ties, write_frames  # noqa: E402
 
 VARIANTS = {
@@ -43,6 +49,23 @@ VARIANTS = {
     "after": dict(level=1, per_region=25, lsm=True),
     "full+lsm": dict(level=0, per_region=25, lsm=True),
 }
+
+
+#: the band sets the frames of ``--bands mixed`` cycle through (:func:`mixed_band_frames`)
+MIXED = ("rgb", "n", "pan", "nbgr")
+
+
+def mixed_band_frames(sb, seed: int) -> list:
+    """One ``(bands, rows, cols)`` uint8 array per frame of ``sb`` in the band sets :data:`MIXED` (module docstring):
+    three rendered textures T0, T1, T2 make R = 0.7 T0 + 0.3 T1, G = 0.7 T0 + 0.3 T2, B = 0.6 T0 + 0.4 T1."""
+    t = [np.asarray(render_block(sb, seed=seed + 1000 * k)[0], np.float64) for k in range(3)]
+    out = []
+    for f in range(len(t[0])):
+        rgb = np.stack([0.7 * t[0][f] + 0.3 * t[1][f], 0.7 * t[0][f] + 0.3 * t[2][f], 0.6 * t[0][f] + 0.4 * t[1][f]])
+        kind = MIXED[f % len(MIXED)]
+        bands = derived_bands(rgb, "rgbn")[[3, 2, 1, 0]] if kind == "nbgr" else derived_bands(rgb, kind)
+        out.append(np.clip(np.rint(bands), 0, 255).astype(np.uint8))
+    return out
 
 
 def run_variant(sb, paths, name, kw, a_priori):
@@ -67,6 +90,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="one seed, 400x600 frames")
     ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--bands", choices=("grey", "mixed"), default="grey", help="frames' bands (module docstring)")
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated subset of " + ",".join(VARIANTS))
     ap.add_argument("--out", default=str(Path(__file__).parent / "results" / "triangulate_ties_bench.json"))
     a = ap.parse_args(argv)
     size = (400, 600) if a.quick else (800, 1200)
@@ -75,12 +100,12 @@ def main(argv=None):
     for seed in range(1 if a.quick else a.seeds):
         sb = simulate_block(seed=seed + 1, strips=2, frames_per_strip=4, camera=cam, point_spacing=80.0,
                             blunder_fraction=0.0, margin=5.0)
-        images, _ = render_block(sb, seed=seed)
+        images = render_block(sb, seed=seed)[0] if a.bands == "grey" else mixed_band_frames(sb, seed)
         with tempfile.TemporaryDirectory() as tmp:
             paths = write_frames(Path(tmp), sb, images)
-            for name, kw in VARIANTS.items():
-                r = run_variant(sb, paths, name, kw, 0.3)
-                r["seed"], r["frame_size"] = seed + 1, list(size)
+            for name in a.variants.split(","):
+                r = run_variant(sb, paths, name, VARIANTS[name], 0.3)
+                r["seed"], r["frame_size"], r["bands"] = seed + 1, list(size), a.bands
                 rows.append(r)
                 print(f"seed {seed + 1} {name:9s} tracks {r['tracks']:5d} obs {r['observations']:6d} "
                       f"σ0 {r['sigma0']:.3f} image RMS {r['image_rms_px']:.3f} px  check {r['check_n']:2d}: "

@@ -15,15 +15,17 @@ import rasterio.errors
 
 
 def write_frames(folder: Path, sb, images) -> list:
-    """Each rendered frame as an ungeoreferenced 8-bit GeoTIFF ``folder/<frame name>.tif``; the paths in frame order."""
+    """Each rendered frame (``(rows, cols)`` or ``(bands, rows, cols)``) as an ungeoreferenced 8-bit GeoTIFF
+    ``folder/<frame name>.tif``; the paths in frame order."""
     paths = []
     for name, img in zip(sb.block.frames, images):
+        img = img if img.ndim == 3 else img[None]
         path = folder / f"{name}.tif"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-            with rasterio.open(path, "w", driver="GTiff", width=img.shape[1], height=img.shape[0], count=1,
+            with rasterio.open(path, "w", driver="GTiff", width=img.shape[2], height=img.shape[1], count=len(img),
                                dtype="uint8") as ds:
-                ds.write(img[None])
+                ds.write(img)
         paths.append(path)
     return paths
 

@@ -25,8 +25,6 @@ import shapely
 from ..errors import InputError, OutputError
 from .clocale import c_case_rules, import_pyogrio
 
-import_pyogrio()
-
 #: the drawn length of a typical vector, as a fraction of the diagonal of the layer's extent
 VISIBLE_FRACTION = 0.03
 #: the paper size (mm) the layer's extent fills at the nominal map scale of the legend
@@ -199,6 +197,7 @@ def write_layers(path, layers: dict, crs, descriptions: dict | None = None, appe
     text}``) become the layers' GeoPackage descriptions (QGIS shows them as the layer's abstract)."""
     path = Path(path)
     descriptions = descriptions or {}
+    import_pyogrio()  # pyogrio (its GDAL started under C case rules) on the first write, not when this module loads
     try:
         for i, (name, columns) in enumerate(layers.items()):
             gdf = gpd.GeoDataFrame({k: v for k, v in columns.items() if k != "geometry"},

@@ -150,17 +150,34 @@ def _disagreement(H0, H1, xy) -> float:
     return float(np.median(np.where(np.isfinite(d), d, np.inf)))
 
 
+def _band_counts(infos, opts, fused) -> list:
+    """The number of bands each side's fusion has (``fused`` a pair of fusions), or will have (``fused`` a callable
+    not called yet: the bands :func:`.selection.select_bands` picks)."""
+    if not callable(fused):
+        return [len(f.bands) for f in fused]
+    return [len(select_bands(getattr(opts, f"{role}_bands", None), info.count, role))
+            for info, role in zip(infos, ("reference", "target"))]
+
+
 def rematch(infos, opts, fused, kps, m):
     """``(fu_ref, fu_tgt, kp_ref, kp_tgt, matches, report)``: with one side's keypoints detected again on its
     bands combined to look like the other's fusion (:func:`combined_for_matching`) when a match with fewer
     than :data:`REMATCH_BELOW` homography inliers tried so passes the module docstring's checks (report with
     ``kept: true``); else the fusions, keypoints and matches given, with the report of the refusal
-    (``kept: false``, ``refused``), or None when no re-match was tried."""
-    given = (*fused, *kps, m, None)
-    if max(len(fused[0].bands), len(fused[1].bands)) < 2:
+    (``kept: false``, ``refused``), or None when no re-match was tried. ``fused``: the two PCA fusions the
+    keypoints were detected on, or a callable returning them, called only when a re-match is tried (keypoints
+    from :class:`.match.FeatureCache`, which keeps no images; the fusions returned are None when not read)."""
+    lazy = callable(fused)
+    given = ((None, None) if lazy else fused) + (*kps, m, None)
+    if max(_band_counts(infos, opts, fused)) < 2:
         return given
     H, n0, at = _inliers(*kps, m, opts)
-    found = combined_for_matching(infos, opts, *fused, H) if H is not None and n0 < REMATCH_BELOW else None
+    if H is None or n0 >= REMATCH_BELOW:
+        return given
+    if lazy:
+        fused = tuple(fused())
+        given = (*fused, *given[2:])
+    found = combined_for_matching(infos, opts, *fused, H)
     if found is None:
         return given
     side, new, report = found

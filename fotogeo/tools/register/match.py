@@ -143,7 +143,8 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
     pixels (corner convention). ``ref``/``tgt`` are :class:`~fotogeo.io.raster.RasterInfo`.
     Wall times of the steps go to ``prog.timings`` (:meth:`fotogeo.progress.Progress.timed`).
     With a ``cache``, keypoints already detected are reused (the same results: detection is
-    deterministic). The positions are the keypoints' (``opts.refine`` is the caller's:
+    deterministic); a match weak enough for the band re-match (:func:`.bands.rematch`) reads the two fused
+    images again for it. The positions are the keypoints' (``opts.refine`` is the caller's:
     :func:`lsm_tie_points`); with ``images`` a 4th value ``(fused reference, fused target,
     reference factor, target factor)`` gives the images matched for it (no cache then)."""
     prog = as_progress(prog)
@@ -159,9 +160,11 @@ def find_tie_points(ref, tgt, opts, prog=None, *, cache: FeatureCache | None = N
     with prog.stage(0.9, 1.0, "matching descriptors").timed("match"):
         m = match_keypoints(kp_tgt, kp_ref, opts)
     again = None
-    if fu_ref is not None and len(m) >= 6:  # bands that do not correspond: matched again on combined bands
+    if len(m) >= 6:  # bands that do not correspond: matched again on combined bands (cached: the images re-read)
+        fused = (fu_ref, fu_tgt) if fu_ref is not None else lambda: (fused_for_matching(ref, "reference", opts)[0],
+                                                                      fused_for_matching(tgt, "target", opts)[0])
         with prog.timed("rematch_bands"):
-            fu_ref, fu_tgt, kp_ref, kp_tgt, m, again = rematch((ref, tgt), opts, (fu_ref, fu_tgt), (kp_ref, kp_tgt), m)
+            fu_ref, fu_tgt, kp_ref, kp_tgt, m, again = rematch((ref, tgt), opts, fused, (kp_ref, kp_tgt), m)
     min_pts = 6
     if len(m) < min_pts:
         raise MatchingError(f"only {len(m)} descriptor matches between {str(tgt.path)!r} and "

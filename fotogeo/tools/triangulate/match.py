@@ -8,7 +8,8 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   across strips.
 * **Detection on a pyramid level**: every overlapping pair goes through
   :func:`fotogeo.tools.register.match.find_tie_points` (PCA, SURF, ratio test and mutual check, as the
-  registration; Dihkan 2019) on the frames reduced to pyramid level ``level`` (averaged by
+  registration; Dihkan 2019; a weak match of frames in other band sets matched again as there,
+  :func:`fotogeo.tools.register.bands.rematch`) on the frames reduced to pyramid level ``level`` (averaged by
   ``2**level``: ``max_match_pixels`` = w·h / 4**level), the keypoints scaled back to full
   resolution; a RANSAC fundamental matrix (Fischler & Bolles 1981) with ``epipolar_px · 2**level``
   keeps the pairs that fit the two-view geometry. The RANSAC sees the measured pixels, distortion
