@@ -13,8 +13,8 @@ from collections import Counter
 import cv2
 import numpy as np
 
-from fotogeo.stereo.pairs import PairChoice
 from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
+from fotogeo.stereo.pairs import PairChoice
 from fotogeo.tools.dsm import frames, plan, tool
 from fotogeo.tools.ortho.inputs import image_models
 from rendered_converging import CRS, GROUND

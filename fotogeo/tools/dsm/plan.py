@@ -4,8 +4,13 @@ disparity range and the output grid.
 * **Heights**: a DEM's range (``--dem``), else the heights of sparse matches of the pair of images whose centres
   are nearest (:func:`sparse_heights`);
 * **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, pairs whose base
-  line points into either image (the epipole inside the frame: forward motion) left out before the per-image cap
-  (:func:`forward_reason`: such a pair takes no image's place and covers no ground of the readmission);
+  line points into either image or within :data:`EPIPOLE_MARGIN` degrees of its border (the epipole inside or next
+  to the frame: forward motion; :func:`epipole_margin`, the border taken at the epipole's azimuth about the axis)
+  left out before the per-image cap (:func:`forward_reason`: such a pair takes no image's place and covers no
+  ground of the readmission). Frames flown the way they look at −45° have their epipole ~19° above a 3:2 image
+  (the border 26° from the axis that way, the diagonal 42°): bounding the base's angle by the half diagonal + 5°
+  left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/howto/dsm.md, "Strip pairs of frames
+  flown the way they look");
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
   highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
   padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
