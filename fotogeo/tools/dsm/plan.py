@@ -148,7 +148,8 @@ def forward_reason(p, views) -> str:
     if a < EPIPOLE_MARGIN:
         where = "in the image" if a < 0 else f"{a:.0f} degrees outside the image"
         angle = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
-        return (f"the base line is {angle:.0f} degrees from a view direction (the epipole {where}): forward motion cannot be rectified")
+        return (f"the base line is {angle:.0f} degrees from a view direction (the epipole {where}): forward motion "
+                "cannot be rectified")
     return ""
 
 
