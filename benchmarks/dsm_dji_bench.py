@@ -1,7 +1,7 @@
 """``fotogeo dsm`` on rendered DJI flights as users bring them (issue 30: "held-out DJI oblique frames with a known
 orientation: NMAD ≤ 0.5 m against a DSM made from the whole flight").
 
-Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_dji_bench.py [--cases NAME,NAME] [--work DIR]
+Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_dji_bench.py [--cases NAME,NAME] [--work DIR] [--whole-only]
 
 Per flight (``tests/rendered_dji_flight.py``: real DJI sensors resized after capture, XMP at full size, hills with
 flat-roofed buildings — a DEM with steps; sensors, patterns and terrain unlike ``dsm_bench.py``'s sets):
@@ -46,6 +46,13 @@ CASES = {
                            ["DJI_0100", "DJI_0101", "DJI_0102"]),
     "grid45-p4p-684-rtk": ({"pattern": "double-grid", "sensor": "p4p", "file_size": (684, 456), "seed": 32,
                             "relief": 4.0, "buildings": 4},
+                           ["DJI_1000", "DJI_1001", "DJI_1002"]),
+    # held out from the pair rule's change (s23): other pitches, sensor, spacing, seeds
+    "grid35-mavic-800-rtk": ({"pattern": "double-grid", "sensor": "mavic", "file_size": (800, 600), "seed": 34,
+                              "relief": 6.0, "buildings": 4, "grid": (55.0, 25.0)},
+                             ["DJI_1000", "DJI_1001", "DJI_1002"]),
+    "grid55-p4p-684-rtk": ({"pattern": "double-grid", "sensor": "p4p", "file_size": (684, 456), "seed": 35,
+                            "relief": 5.0, "buildings": 5, "grid": (35.0, 22.0)},
                            ["DJI_1000", "DJI_1001", "DJI_1002"]),
     "ring45-only-p4p-684-towers-rtk": ({"pattern": "ring", "sensor": "p4p", "file_size": (684, 456), "seed": 33,
                                         "off_nadir": 45.0, "nadir": False, "relief": 10.0, "buildings": 6,
@@ -127,7 +134,7 @@ def _pairs(cmd: list) -> dict:
             "report_completeness": rep.get("completeness")}
 
 
-def run_case(name: str, work: Path) -> list:
+def run_case(name: str, work: Path, whole_only: bool = False) -> list:
     import rasterio
     spec, held = CASES[name]
     folder = work / name
@@ -144,7 +151,7 @@ def run_case(name: str, work: Path) -> list:
 
     whole, cmd, r = _dsm(folder, "whole_true", list(frames.values()), ["--camera", cam, "--eo", eo])
     row("whole flight, true orientation", whole, cmd, r, None)
-    if r["exit"]:
+    if r["exit"] or whole_only:
         return rows
     with rasterio.open(whole) as ds:
         bounds = tuple(ds.bounds)
@@ -175,10 +182,11 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", help="comma-separated names of " + ", ".join(CASES))
     ap.add_argument("--work", default="/tmp/dsm_dji_bench", help="renders and DSMs go here")
+    ap.add_argument("--whole-only", action="store_true", help="the whole flight's DSM only (no held-out rows)")
     a = ap.parse_args(argv)
     load0, rows = os.getloadavg()[0], []
     for name in (a.cases.split(",") if a.cases else CASES):
-        rows += run_case(name, Path(a.work).resolve())
+        rows += run_case(name, Path(a.work).resolve(), a.whole_only)
         _save(rows, load0)
     head = ("flight", "case", "exit", "cpu_s", "pairs_kept")
     for r in rows:

@@ -11,7 +11,7 @@ the full frame gives, since a pixel edge at ``x`` full-size pixels lies at ``x /
 
 Patterns (:func:`shots`): ``ring`` — eight obliques 30° off nadir (gimbal pitch −60°) around one place every 45° of
 azimuth, looking at it, plus a 3 × 3 nadir grid over it; ``double-grid`` — four lines (two flown east then west, two
-north then south) of three frames each, the gimbal at −45° looking along the flight. ~60 m above the ground.
+north then south) of three frames each, the gimbal at −45° (``grid``) looking along the flight. ~60 m above the ground.
 
 Ground: Gaussian hills of ``relief`` m and ``buildings`` flat-roofed boxes ``storeys`` (5–12) m high (a DEM with
 steps, 0.5 m cells; where a wall hides the ground the renderer takes one of the ray's crossings, so the views
@@ -53,9 +53,10 @@ def camera(sensor: str, file_size) -> FrameCamera:
     return FrameCamera(focal * s, (float(w), float(h)), tuple(file_size), (w / 2 + off[0] * s, h / 2 + off[1] * s))
 
 
-def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True, views: int = 8):
+def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True, views: int = 8, grid=(45.0, 18.0)):
     """``[(name, centre (3,), (yaw, pitch, roll))]`` of the true flight (module docstring; ``ring``: its obliques
-    ``off_nadir`` degrees from the vertical, ``views`` of them evenly around, the nadir grid only with ``nadir``);
+    ``off_nadir`` degrees from the vertical, ``views`` of them evenly around, the nadir grid only with ``nadir``;
+    ``double-grid``: ``grid`` = (the gimbal's degrees from the vertical, the frames' spacing along a line in m));
     1° of pitch/roll and 1.5° of yaw off the nominal gimbal, 1 m off the nominal positions."""
     out = []
 
@@ -74,14 +75,14 @@ def shots(pattern: str, rng, off_nadir: float = 30.0, nadir: bool = True, views:
             for c in range(3):
                 add(f"DJI_02{3 * r + c:02d}", (tx + (c - 1) * 22.0, ty + (1 - r) * 16.0), 0.0, -90.0)
     elif pattern == "double-grid":
-        lead = HEIGHT * math.tan(math.radians(45.0))
+        lead = HEIGHT * math.tan(math.radians(grid[0]))
         k = 0
         for line, (heading, across) in enumerate(((90.0, 15.0), (270.0, -15.0), (0.0, -15.0), (180.0, 15.0))):
             d = np.array([math.sin(math.radians(heading)), math.cos(math.radians(heading))])
             side = np.array([d[1], -d[0]]) * across
             for step in (-1, 0, 1):
-                xy = np.array(TARGET) + side + d * (step * 18.0 - lead)
-                add(f"DJI_{line + 1}{k:03d}", xy, heading, -45.0)
+                xy = np.array(TARGET) + side + d * (step * grid[1] - lead)
+                add(f"DJI_{line + 1}{k:03d}", xy, heading, grid[0] - 90.0)
                 k += 1
     else:
         raise ValueError(pattern)
@@ -139,10 +140,19 @@ def _tags(sensor, centre, ypr, gps_sigma: float, rtk: bool):
     return tags, _xmp(f"{attrs}><drone-dji:DewarpData>2024-01-01;{dewarp}</drone-dji:DewarpData>")
 
 
+def true_orientation(sh) -> dict:
+    """``{name: ExteriorOrientation}`` of :func:`shots`' flight (map CRS :data:`CRS`)."""
+    truth = {}
+    for name, centre, ypr in sh:
+        lon, lat = _lonlat(centre[:2], CRS)
+        truth[name] = ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, CRS))
+    return truth
+
+
 def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=(1368, 912), seed: int = 0,
                kind: str = "fractal", relief: float = 4.0, buildings: int = 4, storeys=(5.0, 12.0),
                off_nadir: float = 30.0, nadir: bool = True, views: int = 8, rtk: bool = True,
-               xmp: bool = True,
+               xmp: bool = True, grid=(45.0, 18.0),
                gps_sigma: float = 0.02, gps_offset=(0.0, 0.0, 0.0), yaw_sigma: float = 3.0,
                attitude_sigma: float = 1.0):
     """Render and write the flight (module docstring) in ``folder`` (``xmp`` False: the EXIF only, as a resizing tool
@@ -152,12 +162,10 @@ def dji_flight(folder, *, pattern: str = "ring", sensor: str = "p4p", file_size=
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     cam = camera(sensor, file_size)
-    sh = shots(pattern, rng, off_nadir, nadir, views)
-    truth = {}
-    for name, centre, ypr in sh:
-        lon, lat = _lonlat(centre[:2], CRS)
-        truth[name] = ExteriorOrientation(*centre, *patb_in_map(rotation_from_ypr(*ypr), lon, lat, CRS))
+    sh = shots(pattern, rng, off_nadir, nadir, views, grid)
+    truth = true_orientation(sh)
     far = 75.0 if pattern == "double-grid" or off_nadir > 35 else 62.0  # the farthest ray off nadir the frames see
+    far = max(far, min(82.0, grid[0] + 27.0)) if pattern == "double-grid" else far  # the gimbal above -45°
     extent = HEIGHT * math.tan(math.radians(far)) + 60.0
     dem = surface_dem(rng, extent, relief, buildings, storeys)
     texel = max(0.1, 0.5 * HEIGHT / cam.fx)

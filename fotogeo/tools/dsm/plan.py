@@ -4,8 +4,13 @@ disparity range and the output grid.
 * **Heights**: a DEM's range (``--dem``), else the heights of sparse matches of the pair of images whose centres
   are nearest (:func:`sparse_heights`);
 * **pairs**: :func:`fotogeo.stereo.pairs.choose_pairs` on the footprints at the mean height, pairs whose base
-  line points into either image (the epipole inside the frame: forward motion) left out before the per-image cap
-  (:func:`forward_reason`: such a pair takes no image's place and covers no ground of the readmission);
+  line points into either image or within :data:`EPIPOLE_MARGIN` degrees of its border (the epipole inside or next
+  to the frame: forward motion; :func:`epipole_margin`, the border taken at the epipole's azimuth about the axis)
+  left out before the per-image cap (:func:`forward_reason`: such a pair takes no image's place and covers no
+  ground of the readmission). Frames flown the way they look at −45° have their epipole ~19° above a 3:2 image
+  (the border 26° from the axis that way, the diagonal 42°): bounding the base's angle by the half diagonal + 5°
+  left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/howto/dsm.md, "Strip pairs of frames
+  flown the way they look");
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
   highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
   padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
@@ -26,6 +31,8 @@ PAD_PX = 8.0
 #: no ground lies lower than this (m; the Dead Sea shore is at −430 m above the geoid, which departs from the
 #: ellipsoid by at most 106 m): frames whose footprints overlap only below it show different ground
 LOWEST_GROUND = -1000.0
+#: a pair is left out as forward motion when its epipole lies less than this many degrees outside either image
+EPIPOLE_MARGIN = 5.0
 
 
 def footprint(im, z: float) -> np.ndarray:
@@ -115,17 +122,34 @@ def matched_heights(z, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> 
     return lo - grow, min(hi + grow, med + 0.75 * max(float(ceiling) - med, 1.0))
 
 
-def fov_half_angle(view) -> float:
-    """Half the diagonal field of view of a frame (degrees)."""
-    return math.degrees(math.atan(0.5 * math.hypot(*view.size) / view.focal))
+def epipole_margin(view, direction) -> float:
+    """How far (degrees) the line ``direction`` (world ``(3,)``, either way along it) passes outside the frame's
+    field of view: its angle ``θ`` from the optical axis minus the angle ``θ_edge(φ)`` of the image border's ray at
+    the same azimuth ``φ`` about the axis (the border's rays through the camera model, distortion removed),
+    negative when the epipole lies inside the image. For a 3:2 frame pitched along the flight the border lies
+    26° from the axis towards the base but 42° along the diagonal: a bound on the diagonal refused such frames'
+    strip pairs, whose epipole lies far above the image (module docstring)."""
+    edge = view.rays(outline(*view.size, 17)) @ view.rotation
+    d = np.asarray(direction, float) @ view.rotation
+    d = d if d[2] >= 0 else -d
+    theta_e = np.degrees(np.arctan2(np.hypot(edge[:, 0], edge[:, 1]), edge[:, 2]))
+    phi_e = np.arctan2(edge[:, 1], edge[:, 0])
+    order = np.argsort(phi_e)
+    theta = math.degrees(math.atan2(math.hypot(d[0], d[1]), d[2]))
+    at = float(np.interp(math.atan2(d[1], d[0]), phi_e[order], theta_e[order], period=2 * math.pi))
+    return theta - at
 
 
 def forward_reason(p, views) -> str:
-    """Why pair ``p`` is left out when its base line points into either image (module docstring), else ""."""
-    a = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
-    if a < fov_half_angle(views[p.i]) + 5.0:
-        return (f"the base line is {a:.0f} degrees from a view direction (the epipole lies in the image): "
-                f"forward motion cannot be rectified")
+    """Why pair ``p`` is left out when its base line points into either image or within
+    :data:`EPIPOLE_MARGIN` degrees of its border (module docstring), else ""."""
+    b = np.asarray(views[p.j].centre, float) - np.asarray(views[p.i].centre, float)
+    a = min(epipole_margin(views[p.i], b), epipole_margin(views[p.j], b))
+    if a < EPIPOLE_MARGIN:
+        where = "in the image" if a < 0 else f"{a:.0f} degrees outside the image"
+        angle = min(epipole_angle(views[p.i], views[p.j]), epipole_angle(views[p.j], views[p.i]))
+        return (f"the base line is {angle:.0f} degrees from a view direction (the epipole {where}): forward motion "
+                "cannot be rectified")
     return ""
 
 
