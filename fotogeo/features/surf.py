@@ -252,8 +252,8 @@ def _filled(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """float32 image minus its valid mean (computed in float64), nodata 0 -- i.e. filled by the mean.
 
     SURF sees differences only: exact in real arithmetic, and in float32 a large offset (uint16 DN 10000 +- 50) no
-    longer eats the box sums' and Haar responses' precision (Pleiades DN + 10000 moved 12 % of the box keypoints
-    by > 0.01 px and Gaussian descriptors by up to 0.17 before; ``tests/test_surf_heldout.py``)."""
+    longer eats the box sums' and Haar responses' precision (Pleiades DN + 10000: 5554 box keypoints instead of 5549,
+    Gaussian descriptors changed by up to 0.12 before; ``tests/test_surf_heldout.py``)."""
     centred = (img.astype(np.float64) - img[valid].mean(dtype=np.float64)).astype(np.float32)
     centred[~valid] = 0.0
     return centred
