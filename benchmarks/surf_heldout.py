@@ -147,8 +147,8 @@ def tile_rows(name, rel, crop, cases, cache, log=print, only=None, run_ours=run_
     """Protocol rows of one tile: fotogeo (``run_ours``) computed, peers from ``cache`` when
     present; ``only``: the tile's own case list; ``opts``: ``surf_protocol.load_variant``'s options,
     and ``date`` = (path, crop) of the image B is warped from (default: the tile itself)."""
-    opts = opts or {}
-    a, va, ra = sp.load_variant(DATA, rel, crop, opts)
+    floor, opts = (0.0, {}) if opts is None else (sp.MIN_VALID, opts)   # the fourth set's tiles: >= half valid
+    a, va, ra = sp.load_variant(DATA, rel, crop, opts, floor)
     src, shift = (a, va, ra), np.eye(3)
     if opts.get("date"):    # the dates' residual misregistration d (B content at x + d), part of the truth
         src = sp.load_variant(DATA, *opts["date"], opts)
