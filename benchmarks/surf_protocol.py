@@ -34,6 +34,7 @@ N_TOP = 1500
 REP_TOL = 2.5
 MATCH_TOL = 3.0
 RATIO = 0.8
+MIN_VALID = 0.5      # smallest valid fraction of a fourth-set tile (surf_heldout; earlier splits have 42 %)
 
 #: held-out tiles: (name, path under the data folder, crop (row0, col0, rows, cols) or None)
 TILES = [
@@ -64,6 +65,37 @@ def load_tile(data, rel, crop):
     img = np.clip((m - lo) / (hi - lo) * 255, 0, 255)
     img[~valid] = 0
     return np.rint(img).astype(np.uint8), valid
+
+
+def load_variant(data, rel, crop, opts=None, min_valid=0.0):
+    """A tile as :func:`load_tile` with the variant options of ``opts`` (issue 32's other band sets):
+    ``band`` (1-based) one band instead of the band mean; ``pca`` the first principal component
+    (:func:`fotogeo.image.fusion.pca_fuse`) instead of the mean; ``raw`` also return the values
+    before the uint8 stretch (float32, 0 outside the valid mask), which fotogeo then gets instead
+    of the uint8 image (a 16-bit band or float heights as a user passes them). Valid: every band
+    finite and > 0. Returns (uint8 image, valid mask, raw values or None)."""
+    import rasterio
+    from rasterio.windows import Window
+    opts = opts or {}
+    with rasterio.open(data / rel) as ds:
+        win = None if crop is None else Window(crop[1], crop[0], crop[3], crop[2])
+        a = ds.read(window=win).astype(np.float32)
+    if opts.get("band"):
+        a = a[[opts["band"] - 1]]
+    valid = (np.isfinite(a) & (a > 0)).all(0)
+    if valid.mean() < min_valid:    # a crop of the swath's nodata would score a handful of keypoints
+        raise ValueError(f"{rel} crop {crop}: only {valid.mean():.0%} of the pixels are valid "
+                         f"(> 0); choose a crop at least {min_valid:.0%} valid")
+    if opts.get("pca"):
+        from fotogeo.image.fusion import pca_fuse
+        m = pca_fuse(a, valid).image
+    else:
+        m = np.where(valid, a.mean(0), 0).astype(np.float32)
+    lo, hi = np.percentile(m[valid], [1, 99])
+    img = np.clip((m - lo) / (hi - lo) * 255, 0, 255)
+    img[~valid] = 0
+    raw = np.where(valid, m, 0).astype(np.float32) if opts.get("raw") else None
+    return np.rint(img).astype(np.uint8), valid, raw
 
 
 def evaluate(fa, fb, hm, va, vb, apply_h, inside):

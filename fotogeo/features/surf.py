@@ -249,10 +249,14 @@ def fine_weight(s):
 
 
 def _filled(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """float32 copy of the image with nodata filled by the valid mean (the fine octave's input)."""
-    filled = img.astype(np.float32, copy=True)
-    filled[~valid] = filled[valid].mean()
-    return filled
+    """float32 image minus its valid mean (computed in float64), nodata 0 -- i.e. filled by the mean.
+
+    SURF sees differences only: exact in real arithmetic, and in float32 a large offset (uint16 DN 10000 +- 50) no
+    longer eats the box sums' and Haar responses' precision (Pleiades DN + 10000: 5554 box keypoints instead of 5549,
+    Gaussian descriptors changed by up to 0.12 before; ``tests/test_surf_heldout.py``)."""
+    centred = (img.astype(np.float64) - img[valid].mean(dtype=np.float64)).astype(np.float32)
+    centred[~valid] = 0.0
+    return centred
 
 
 def _with_fine(kp: dict, kf: dict, threshold: float) -> dict:
@@ -268,11 +272,8 @@ def _with_fine(kp: dict, kf: dict, threshold: float) -> dict:
 
 
 def _prepared(img: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """float32 image with nodata filled by the valid mean, pre-smoothed (σ :data:`PRESMOOTH_SIGMA`)."""
-    if not valid.all():
-        img = img.copy()
-        img[~valid] = img[valid].mean()
-    img = img.astype(np.float32, copy=False)
+    """:func:`_filled` image (valid mean removed), pre-smoothed (σ :data:`PRESMOOTH_SIGMA`)."""
+    img = _filled(img, valid)
     if PRESMOOTH_SIGMA > 0:
         img = cv2.GaussianBlur(img, (0, 0), PRESMOOTH_SIGMA, borderType=cv2.BORDER_REFLECT_101)
     return img
