@@ -21,8 +21,8 @@ increment about the OpenCV camera axes (x right, y down, z forward) of the bundl
 free interior parameters' block and their cross-covariance with each frame (what
 :mod:`fotogeo.orientation.ground_sigma` propagates to the ground). Statistics: σ₀, the image RMS of the used
 observations (px), and per role the RMSE of ``adjusted − known`` per axis, planimetric
-``√(RMSE_X² + RMSE_Y²)`` and in height, in metres: control (residuals of the weighted coordinates: how far their σ let them move), check
-(true errors) and ``control_images`` (the control points placed by their rays alone,
+``√(RMSE_X² + RMSE_Y²)`` and in height, in metres: control (residuals of the weighted coordinates: how far their σ
+let them move), check (true errors) and ``control_images`` (the control points placed by their rays alone,
 :mod:`fotogeo.orientation.bundle_control`: errors in metres comparable to the check points').
 """
 from __future__ import annotations
