@@ -118,8 +118,28 @@ def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
     p = np.asarray(xy, float).reshape(-1, 2)
     if same_crs(src_crs, dst_crs):
         return p.copy()
-    from pyproj import Transformer
-    return _transform(Transformer.from_crs(src_crs, dst_crs, always_xy=True), p)
+    return _transform(transformer(src_crs, dst_crs), p)
+
+
+def transformer(src_crs, dst_crs):
+    """pyproj's ``Transformer`` from ``src_crs`` to ``dst_crs`` (pyproj or rasterio CRSs or what pyproj parses;
+    x = easting/longitude first), made once per pair of CRSs in a process (keyed by their WKT): finding the operation
+    in PROJ's database costs ~30 ms, and a run of ``ortho`` over a DEM in another CRS asked for the same one twice.
+    (pyproj's transformers are thread-safe since pyproj 3.1.)"""
+    from pyproj import CRS, Transformer
+    src, dst = (CRS.from_user_input(c) for c in (src_crs, dst_crs))  # (a rasterio CRS through its WKT)
+    key = (src.to_wkt(), dst.to_wkt())
+    if None in key:
+        return Transformer.from_crs(src, dst, always_xy=True)
+    if key not in _TRANSFORMERS:
+        if len(_TRANSFORMERS) >= 16:
+            _TRANSFORMERS.clear()
+        _TRANSFORMERS[key] = Transformer.from_crs(src, dst, always_xy=True)
+    return _TRANSFORMERS[key]
+
+
+#: :func:`transformer`'s transformers by the WKT of their CRSs
+_TRANSFORMERS: dict = {}
 
 
 def pixel_size_in(transform, src_crs: CRS, dst_crs: CRS, col: float, row: float) -> float:

@@ -31,11 +31,16 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..errors import InputError
-from ..pixels import as_points, to_centre
+from ..pixels import HALF, as_points, to_centre
+from .height_sources import as_height_source, below  # noqa: F401 (their home before)
 from .lattice import bilinear, lattice
 
 #: :meth:`DemSampler.heights_grid`: lattice step (cells) of the exactly transformed points, their error bound (DEM px)
 GRID_STEP, GRID_TOL_PX = 64, 1e-3
+#: rows of a window whose heights :meth:`DemSampler.heights_grid` computes at a time (~16 k cells of a 512-cell row)
+_ROWS = 32
+#: :meth:`Dem._quads`: the largest DEM (cells) whose cells' corners are kept as one array (4 x 8 bytes per cell)
+QUAD_CELLS = 1 << 22
 
 
 @runtime_checkable
@@ -110,16 +115,24 @@ class Dem:
         return self._index_pixels(a * P[:, 0] + b * P[:, 1] + c0, d * P[:, 0] + e * P[:, 1] + f0)
 
     def _index_pixels(self, col, row):
-        """:meth:`_index` of the DEM's own pixel coordinates ``(col, row)`` (corner convention), each ``(N,)``."""
-        p = to_centre(np.column_stack([col, row]))
+        """:meth:`_index` of the DEM's own pixel coordinates ``(col, row)`` (corner convention), each ``(N,)``: the
+        row and column ``(i, j)`` of each point's cell, its weights ``(t, u)`` and whether it lies on the DEM (a few
+        passes over new arrays, the weights made in place: orthorectification asks it for every output cell)."""
         rows, cols = self.data.shape
-        c, r = p[:, 0], p[:, 1]
-        inside = (c >= -0.5) & (c <= cols - 0.5) & (r >= -0.5) & (r <= rows - 0.5)
-        c = np.clip(np.where(inside, c, 0.0), 0.0, cols - 1.0)
-        r = np.clip(np.where(inside, r, 0.0), 0.0, rows - 1.0)
-        j = np.minimum(np.floor(c).astype(np.intp), cols - 2)
-        i = np.minimum(np.floor(r).astype(np.intp), rows - 2)
-        return i, j, r - i, c - j, inside
+        c, r = np.asarray(col, np.float64) - HALF, np.asarray(row, np.float64) - HALF  # to_centre
+        inside = (c >= -0.5) & (c <= cols - 0.5)
+        inside &= r >= -0.5
+        inside &= r <= rows - 0.5
+        if not inside.all():
+            c[~inside], r[~inside] = 0.0, 0.0
+        np.clip(c, 0.0, cols - 1.0, out=c)
+        np.clip(r, 0.0, rows - 1.0, out=r)
+        j, i = c.astype(np.intp), r.astype(np.intp)  # truncation: the floor of these non-negative values
+        np.minimum(j, cols - 2, out=j)
+        np.minimum(i, rows - 2, out=i)
+        c -= j
+        r -= i
+        return i, j, r, c, inside
 
     def heights(self, XY) -> np.ndarray:
         """Bilinear heights ``(N,)`` at map points ``XY`` ``(N, 2)``; NaN outside or at nodata (the
@@ -131,17 +144,45 @@ class Dem:
         return self._bilinear(*self._index_pixels(np.asarray(col, float), np.asarray(row, float)))
 
     def _bilinear(self, i, j, t, u, inside):
-        """The module docstring's bilinear height at the cells ``(i, j)`` of :meth:`_index` (NaN where not inside);
-        the four corners taken from the flat array by one index (a C-ordered DEM: a view, no copy)."""
+        """The module docstring's bilinear height at the cells ``(i, j)`` of :meth:`_index` (NaN where not inside),
+        ``top + t (bottom − top)`` with ``top = z00 + u (z01 − z00)``; the four corners of every cell in one gather
+        from :meth:`_quads` (or, for a large DEM, four from the flat array)."""
         z = self.data
-        if z.flags.c_contiguous:
+        quads = self._quads()
+        if quads is not None:
+            q = quads.take(i * (z.shape[1] - 1) + j).view(np.float64).reshape(-1, 4)
+            z00, z01, z10, z11 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+        elif z.flags.c_contiguous:
             flat, k, n = z.reshape(-1), i * z.shape[1] + j, z.shape[1]
             z00, z01, z10, z11 = flat.take(k), flat.take(k + 1), flat.take(k + n), flat.take(k + n + 1)
         else:
             z00, z01, z10, z11 = z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
-        top = z00 + u * (z01 - z00)
-        bottom = z10 + u * (z11 - z10)
-        return np.where(inside, top + t * (bottom - top), np.nan)
+        top = z01 - z00
+        top *= u
+        top += z00
+        h = z11 - z10
+        h *= u
+        h += z10
+        h -= top
+        h *= t
+        h += top
+        if not inside.all():
+            h[~inside] = np.nan
+        return h.reshape(np.shape(i))
+
+    def _quads(self):
+        """The four corners ``(z00, z01, z10, z11)`` of every cell (rows − 1, cols − 1) as one 32-byte element each,
+        so that :meth:`_bilinear` gathers a cell with one index (~4x less CPU than four gathers); made once, for a
+        DEM of at most :data:`QUAD_CELLS` cells (four times its memory), else None."""
+        if self.data.size > QUAD_CELLS:
+            return None
+        q = self.__dict__.get("_quads_")
+        if q is None:
+            z = self.data
+            q = np.stack([z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]], axis=-1).reshape(-1, 4)
+            q = np.ascontiguousarray(q).view(np.dtype((np.void, 32))).reshape(-1)
+            self.__dict__["_quads_"] = q  # a cache, not a field (the dataclass is frozen)
+        return q
 
     def heights_grid(self, X, Y):
         """Bilinear heights ``(len(Y), len(X))`` at the points of the grid ``X`` (columns) × ``Y`` (rows),
@@ -195,6 +236,9 @@ class Dem:
         dY = dh_du * b + dh_dt * e
         return h, np.where(inside, dX, np.nan), np.where(inside, dY, np.nan)
 
+    def __getstate__(self):  # pickled (dask tasks) without the cache of :meth:`_quads`
+        return {k: v for k, v in self.__dict__.items() if k != "_quads_"}
+
     def __repr__(self) -> str:  # the array is large
         return f"Dem(shape={self.shape}, path={self.path!r})"
 
@@ -219,71 +263,6 @@ def _crossings(p, n: int) -> np.ndarray:
     return np.sort((lines - p[0]) / (p[1] - p[0]))
 
 
-def as_height_source(dem) -> HeightSource:
-    """Wrap ``dem`` into a :class:`HeightSource` (an object with ``heights_and_gradient(XY)``).
-
-    Accepts a :class:`Dem` (or anything with ``heights_and_gradient``), any object with a
-    ``heights(XY)`` method or a callable ``XY -> heights`` (gradient by central differences
-    with a 1 map-unit step), or a number (a constant height).
-    """
-    if hasattr(dem, "heights_and_gradient"):
-        return dem
-    if isinstance(dem, (int, float, np.floating, np.integer)):
-        return _Constant(float(dem))
-    f = getattr(dem, "heights", dem)
-    if not callable(f):
-        raise InputError("dem must be a fotogeo.geometry.dem.Dem, an object with heights(XY), a callable "
-                         f"XY -> heights or a constant height; got {type(dem).__name__}")
-    return _Sampled(f)
-
-
-def below(heights, z: float) -> HeightSource:
-    """``heights`` as a :class:`HeightSource`, without its ``z_range`` when that reaches the height ``z`` of a
-    projection centre: :meth:`~fotogeo.geometry.camera.OrientedFrame.pixel_to_world` then intersects the rays
-    below the centre only (as for a sampler of unknown relief) instead of refusing the whole DEM because one hill
-    somewhere — a regional DEM around a drone block 100 m over a valley — rises above the camera."""
-    src = as_height_source(heights)
-    if not hasattr(src, "z_range") or src.z_range[1] < z:
-        return src
-    return _Unbounded(src)
-
-
-@dataclass(frozen=True)
-class _Constant:
-    z: float
-
-    @property
-    def z_range(self) -> tuple[float, float]:
-        return self.z, self.z
-
-    def heights_and_gradient(self, XY):
-        n = len(XY)
-        return np.full(n, self.z), np.zeros(n), np.zeros(n)
-
-
-@dataclass(frozen=True)
-class _Sampled:
-    f: object
-    step: float = 1.0
-
-    def heights_and_gradient(self, XY):
-        XY = np.asarray(XY, dtype=np.float64)
-        e = self.step
-        h = np.asarray(self.f(XY), dtype=np.float64).reshape(-1)
-        gx = (np.asarray(self.f(XY + [e, 0])) - np.asarray(self.f(XY - [e, 0]))).reshape(-1) / (2 * e)
-        gy = (np.asarray(self.f(XY + [0, e])) - np.asarray(self.f(XY - [0, e]))).reshape(-1) / (2 * e)
-        return h, gx, gy
-
-
-@dataclass(frozen=True)
-class _Unbounded:
-    """A height source hiding the ``z_range`` of ``source`` (:func:`below`)."""
-    source: object
-
-    def heights_and_gradient(self, XY):
-        return self.source.heights_and_gradient(XY)
-
-
 class DemSampler:
     """Heights of a :class:`~fotogeo.geometry.dem.Dem` at points given in another CRS (bilinear).
 
@@ -302,9 +281,9 @@ class DemSampler:
         if same_crs(dcrs, crs):
             self._t = None
         else:
-            from pyproj import Transformer
-            from .vertical import as_pyproj
-            self._t = Transformer.from_crs(as_pyproj(crs), as_pyproj(dcrs), always_xy=True)
+            from ..crs import transformer
+            from .vertical import horizontal_crs
+            self._t = transformer(crs, horizontal_crs(dcrs))  # the one read_dem_around's window used
         self.z_scale = length_unit_m(dcrs) / length_unit_m(crs)
         self.z_range = tuple(z * self.z_scale for z in dem.z_range)
 
@@ -335,7 +314,10 @@ class DemSampler:
         full = bilinear(exact[:, ::2, ::2], rows, cols, len(Y), len(X))
         if not np.hypot(*(full[:, rc][:, :, cc] - exact)).max() <= GRID_TOL_PX:
             return None
-        h = self.dem.heights_at_pixels(full[0].ravel(), full[1].ravel()).reshape(len(Y), len(X))
+        h = np.empty((len(Y), len(X)))
+        for r0 in range(0, len(Y), _ROWS):  # a block of rows at a time: the temporaries stay in the cache
+            b = full[:, r0:r0 + _ROWS]
+            h[r0:r0 + _ROWS] = self.dem.heights_at_pixels(b[0].ravel(), b[1].ravel()).reshape(b.shape[1:])
         return h * self.z_scale if self.z_scale != 1.0 else h
 
     def _dem_pixels(self, X, Y) -> np.ndarray:
@@ -347,11 +329,13 @@ class DemSampler:
         return np.stack([a * x + b * y + c0, d * x + e * y + f0]).reshape(2, len(Y), len(X))
 
     def heights_and_gradient(self, XY, step: float = 1.0):
-        XY = np.asarray(XY, float)
-        h = self.heights(XY)
-        gx = (self.heights(XY + [step, 0]) - self.heights(XY - [step, 0])) / (2 * step)
-        gy = (self.heights(XY + [0, step]) - self.heights(XY - [0, step])) / (2 * step)
-        return h, gx, gy
+        """:meth:`heights` and their central differences over ``step`` map units, the five point sets through one
+        transformation and one sampling (a ray intersection asks this every iteration)."""
+        XY = np.asarray(XY, float).reshape(-1, 2)
+        n = len(XY)
+        h = self.heights(np.concatenate([XY, XY + [step, 0], XY - [step, 0], XY + [0, step], XY - [0, step]]))
+        h0, xp, xm, yp, ym = (h[k * n:(k + 1) * n] for k in range(5))
+        return h0, (xp - xm) / (2 * step), (yp - ym) / (2 * step)
 
 
 def _with_middles(nodes) -> np.ndarray:
