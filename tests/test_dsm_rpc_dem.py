@@ -105,3 +105,23 @@ def test_a_dem_void_under_the_pair_is_named_and_guides_nothing(scene, tmp_path, 
     m, said = _setup(scene, monkeypatch, _dem(scene, tmp_path / "dem.tif", void=True), tmp_path / "d.tif")
     assert m.dem is None and m.pair.extra["dem"] == {"matches": 0, "guides_strips": False}
     assert any("(--dem)" in s and "does not cover" in s for s in said), said
+
+
+def test_a_dem_the_few_tie_points_cannot_check_guides_nothing(scene, tmp_path, monkeypatch):
+    """A pair with 15 tie points (10 are enough for its pointing, 20 check a DEM) and a DEM 50 m high: unchecked, the
+    DEM is named as not used for that pair and guides no tile, whose heights are the tie points' and hold the truth
+    (before: it guided every tile unchecked ± 41 m, and the tile searched 835.8-980.6 m over a true 817.1-890.6 m)."""
+    from fotogeo.tools.dsm import rpc_pairs
+    pointing = rpc_pairs.pointing
+
+    def few(*a, **k):
+        pt = pointing(*a, **k)
+        keep = {key: v[:15] for key, v in pt.items() if key in ("z", "p1")}
+        return {**pt, **keep, "n": 15}
+    monkeypatch.setattr(rpc_pairs, "pointing", few)
+    m, said = _setup(scene, monkeypatch, _dem(scene, tmp_path / "dem.tif", offset=50.0), tmp_path / "d.tif")
+    assert m.dem is None and m.pair.extra["dem"] == {"matches": 0, "guides_strips": False}, m.pair.extra["dem"]
+    named = [s for s in said if "(--dem)" in s and "sim_a-sim_b has 15" in s and "not used" in s]
+    assert named, said
+    under = _truth_under(scene, TILE)
+    assert m.zlim[0] < under.min() and m.zlim[1] > under.max(), (m.zlim, under.min(), under.max())

@@ -73,8 +73,12 @@ def fit(source, points) -> DemFit | None:
 def problems(f: DemFit, where: str, sparse: int = 0, guides: bool = True, other: str = "") -> list:
     """What a user is told about the fit ``f`` (module docstring); ``where`` names the matches, ``sparse`` how many
     the pair has: with none measured (``f.matches`` 0), the DEM guides that pair unchecked, or (``guides`` False:
-    the pair has matches, none on the DEM) nothing; ``other`` another cause of an offset the orientation may have
-    (satellite RPCs: their absolute pointing)."""
+    too few matches to check it, or matches none of which is on the DEM) nothing; ``other`` another cause of an
+    offset the orientation may have (satellite RPCs: their absolute pointing)."""
+    if not f.matches and not guides and sparse < DEM_MIN_MATCHES:
+        return [f"pair {where} has {sparse} sparse matches, fewer than the {DEM_MIN_MATCHES} that check it: "
+                f"unchecked, it is not used for that pair (an offset or another vertical reference would cut the "
+                f"surface out of the search; the matches' heights are searched)"]
     if not f.matches and not guides:
         return [f"it has a height under fewer than {DEM_MIN_MATCHES} of the {sparse} sparse matches of {where} (a "
                 f"void, or it does not cover that pair): unchecked, it guides nothing there (the matches do); give a "
@@ -141,14 +145,16 @@ class DemGuide:
         return z, np.abs(h - z)
 
 
-def pair_guide(source, points, sparse: int, unmeasured: DemFit, footprints) -> tuple:
+def pair_guide(source, points, sparse: int, unmeasured: DemFit | None, footprints) -> tuple:
     """``(DemGuide or None, report entry, DemFit or None)`` of a pair: the height source ``source`` fitted at its
     sparse matches ``points`` (:func:`fit`; ``sparse`` how many it has), sampled over its ``footprints``
     (:func:`pair_dem`). With fewer than ``DEM_MIN_MATCHES`` on the DEM the fit ``unmeasured`` stands in (the run's,
     or the DEM unchecked), unless the pair has that many matches, all off the DEM (a void, a DEM beside it: nothing
-    checks it, it guides nothing); a spread over ``DEM_MAX_SPREAD_M`` guides nothing either."""
+    checks it, it guides nothing), or ``unmeasured`` is None (satellite pairs: their tie points always give a
+    range, and an unchecked DEM 50 m off would cut the truth out of it); a spread over ``DEM_MAX_SPREAD_M`` guides
+    nothing either."""
     f = fit(source, points)
-    if f is None and sparse >= DEM_MIN_MATCHES:
+    if f is None and (unmeasured is None or sparse >= DEM_MIN_MATCHES):
         return None, {"matches": 0, "guides_strips": False}, None
     f = f or unmeasured
     used = f.spread <= DEM_MAX_SPREAD_M

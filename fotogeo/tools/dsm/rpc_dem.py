@@ -4,7 +4,8 @@
 RPC at the heights the two RPCs give them) against those heights: :func:`.dem_guide.fit`'s offset, NMAD and margin,
 named by :func:`.dem_guide.problems` (an offset: another vertical reference, a shifted DEM, or RPCs whose absolute
 pointing is off; a spread: a DEM of other ground). Fewer than ``DEM_MIN_MATCHES`` tie points on the DEM (a void, a
-DEM beside the pair) and the DEM guides nothing there (named); a spread over ``DEM_MAX_SPREAD_M`` likewise.
+DEM beside the pair, or a pair with fewer tie points) and the DEM, unchecked, guides nothing there (named): the tie
+points' range stands; a spread over ``DEM_MAX_SPREAD_M`` likewise.
 
 **The tiles** (:func:`tile_range`): the left pixels of a ``TILE_NODES`` × ``TILE_NODES`` grid over a tile meet the
 DEM (shifted by the offset) where their lines of sight through the left RPC, ``X(z) = RPC⁻¹(p, z)``, reach it
@@ -27,16 +28,17 @@ RPC_OFFSET = ", RPCs whose absolute pointing is off (fotogeo rpc-bias with GCPs)
 
 def pair_guide(p, name: str, ims, pt: dict, source, zlim, pad: float) -> tuple:
     """``(DemGuide or None, warnings)`` of the pair ``p`` (images ``ims`` i, j) from its tie points ``pt``
-    (:func:`.rpc_pairs.pointing`) on the height source ``source``; ``zlim`` the run's heights, ``pad`` the DEM
-    range's padding (the margin of an unchecked DEM: at least ``DEM_UNMEASURED_M``). The fit goes into the pair's
+    (:func:`.rpc_pairs.pointing`) on the height source ``source``; ``zlim`` the run's heights. A DEM the tie points
+    cannot check (fewer than ``DEM_MIN_MATCHES`` of them on it) guides nothing: the tie points' range stands, as
+    without a DEM (an unchecked DEM 50 m high, guiding ± max(30 m, ``pad``), cut the truth out of a tile's range
+    with 15 tie points); ``pad`` (the DEM range's padding) is no longer used here. The fit goes into the pair's
     report (``dem``)."""
     ground = ims[p.i].model.inverse(pt["p1"], pt["z"])
     n = int(len(pt["z"]))
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
-    unchecked = dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
-    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, unchecked,
-                                                    fps)
-    return guide, dem_guide.problems(f or unchecked, name, n, guides=f is not None, other=RPC_OFFSET)
+    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, None, fps)
+    # with no fit measured nothing guides (``guides`` False); a measured fit's problems do not depend on it
+    return guide, dem_guide.problems(f or dem_guide.DemFit(0.0, 0.0, 0.0, 0), name, n, guides=False, other=RPC_OFFSET)
 
 
 def pair_range(guide, tie: tuple, zlim: tuple) -> tuple:
