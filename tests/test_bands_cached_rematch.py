@@ -36,7 +36,7 @@ class _Fusion:
 
 def test_the_images_are_read_for_a_rematch_only_when_the_cached_match_is_weak(monkeypatch):
     """The fusions are a callable on the cached path: not called when the first match has enough inliers (or
-    both sides have one band), called when it is weak."""
+    both sides have one band, or as many bands: one camera's frames), called when it is weak."""
     calls = []
 
     def fused():
@@ -49,7 +49,8 @@ def test_the_images_are_read_for_a_rematch_only_when_the_cached_match_is_weak(mo
 
     opts = RegisterOptions()
     monkeypatch.setattr(bands_mod, "combined_for_matching", lambda *a: None)
-    for n0, counts, read in ((bands_mod.REMATCH_BELOW, (3, 1), False), (5, (1, 1), False), (5, (3, 1), True)):
+    for n0, counts, read in ((bands_mod.REMATCH_BELOW, (3, 1), False), (5, (1, 1), False), (5, (3, 3), False),
+                             (5, (3, 1), True), (5, (3, 4), True)):
         monkeypatch.setattr(bands_mod, "_inliers", lambda *a, n0=n0: ("H", n0, None))
         calls.clear()
         out = bands_mod.rematch((Info(counts[0]), Info(counts[1])), opts, fused, ("kp_ref", "kp_tgt"), "m")

@@ -26,13 +26,12 @@ TILE_NODES = 9
 RPC_OFFSET = ", RPCs whose absolute pointing is off (fotogeo rpc-bias with GCPs)"
 
 
-def pair_guide(p, name: str, ims, pt: dict, source, zlim, pad: float) -> tuple:
+def pair_guide(p, name: str, ims, pt: dict, source, zlim) -> tuple:
     """``(DemGuide or None, warnings)`` of the pair ``p`` (images ``ims`` i, j) from its tie points ``pt``
     (:func:`.rpc_pairs.pointing`) on the height source ``source``; ``zlim`` the run's heights. A DEM the tie points
     cannot check (fewer than ``DEM_MIN_MATCHES`` of them on it) guides nothing: the tie points' range stands, as
-    without a DEM (an unchecked DEM 50 m high, guiding ± max(30 m, ``pad``), cut the truth out of a tile's range
-    with 15 tie points); ``pad`` (the DEM range's padding) is no longer used here. The fit goes into the pair's
-    report (``dem``)."""
+    without a DEM (an unchecked DEM 50 m high, guiding ± max(30 m, the DEM range's padding), cut the truth out of a
+    tile's range with 15 tie points). The fit goes into the pair's report (``dem``)."""
     ground = ims[p.i].model.inverse(pt["p1"], pt["z"])
     n = int(len(pt["z"]))
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]

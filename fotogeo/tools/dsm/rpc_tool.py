@@ -195,7 +195,7 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
     tie = (max(zlo, z0 - 0.5 * span - 30.0), min(zhi, z1 + 0.5 * span + 30.0))
     guide = None
     if dem is not None:
-        guide, said = rpc_dem.pair_guide(p, name, ims, pt, dem[1], (zlo, zhi), dem[2])
+        guide, said = rpc_dem.pair_guide(p, name, ims, pt, dem[1], (zlo, zhi))
         if said:
             rp.warn(f"DEM {str(dem[0])!r} (--dem): " + "; ".join(said))
         tie = tie if guide is None else rpc_dem.pair_range(guide, tie, (zlo, zhi))

@@ -166,10 +166,13 @@ def rematch(infos, opts, fused, kps, m):
     ``kept: true``); else the fusions, keypoints and matches given, with the report of the refusal
     (``kept: false``, ``refused``), or None when no re-match was tried. ``fused``: the two PCA fusions the
     keypoints were detected on, or a callable returning them, called only when a re-match is tried (keypoints
-    from :class:`.match.FeatureCache`, which keeps no images; the fusions returned are None when not read)."""
+    from :class:`.match.FeatureCache`, which keeps no images; the fusions returned are None when not read).
+    Cached keypoints are a block's frames (triangulate): a pair with as many bands on both sides is taken as one
+    camera's and is not re-read (a weak match there is the overlap's or the viewpoint's, not the bands')."""
     lazy = callable(fused)
     given = ((None, None) if lazy else fused) + (*kps, m, None)
-    if max(_band_counts(infos, opts, fused)) < 2:
+    counts = _band_counts(infos, opts, fused)
+    if max(counts) < 2 or (lazy and counts[0] == counts[1]):
         return given
     H, n0, at = _inliers(*kps, m, opts)
     if H is None or n0 >= REMATCH_BELOW:
