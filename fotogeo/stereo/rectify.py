@@ -170,10 +170,12 @@ def _normalised_outline(view: FrameView, R) -> np.ndarray:
     return d[:, :2] / d[:, 2:3]
 
 
-def rectify(view1: FrameView, view2: FrameView, scale: float = 1.0) -> RectifiedPair:
-    """The :class:`RectifiedPair` of two frames (module docstring); ``scale`` the rectified focal length over the
-    mean of the two (< 1: matched on a coarser grid). The rows are those both images cover, each image's
-    columns its own extent."""
+def rectified_extent(view1: FrameView, view2: FrameView, scale: float = 1.0) -> tuple:
+    """``(R, f, n1, n2, (y0, y1), (w, h))`` of :func:`rectify`: the common rotation, the rectified focal length,
+    the two outlines' normalised coordinates, the common rows' normalised extent and the size in pixels (the rows
+    both images cover, the wider image's columns). The one computation of the rectified size, for the pair choice
+    too (:func:`fotogeo.tools.dsm.plan.forward_reason`); refused (:class:`ModelError`) when the frames share no
+    epipolar line. The size grows like ``1 / sin²`` of the epipole's distance outside the image."""
     R = common_rotation(view1.centre, view2.centre, view1.axis, view2.axis)
     f = scale * 0.5 * (view1.focal + view2.focal)
     n1, n2 = _normalised_outline(view1, R), _normalised_outline(view2, R)
@@ -183,7 +185,14 @@ def rectify(view1: FrameView, view2: FrameView, scale: float = 1.0) -> Rectified
     if y1 <= y0:
         raise ModelError(f"frames {view1.name!r} and {view2.name!r} share no epipolar line: they do not overlap")
     widths = [(n[:, 0].max() - n[:, 0].min()) * f for n in (n1, n2)]
-    w, h = int(math.ceil(max(widths))), int(math.ceil((y1 - y0) * f))
+    return R, f, n1, n2, (y0, y1), (int(math.ceil(max(widths))), int(math.ceil((y1 - y0) * f)))
+
+
+def rectify(view1: FrameView, view2: FrameView, scale: float = 1.0) -> RectifiedPair:
+    """The :class:`RectifiedPair` of two frames (module docstring); ``scale`` the rectified focal length over the
+    mean of the two (< 1: matched on a coarser grid). The rows are those both images cover, each image's
+    columns its own extent (:func:`rectified_extent`); refused beyond :data:`MAX_RECTIFIED_PIXELS`."""
+    R, f, n1, n2, (y0, _), (w, h) = rectified_extent(view1, view2, scale)
     if 2 * w * h > MAX_RECTIFIED_PIXELS:
         raise ModelError(f"frames {view1.name!r} and {view2.name!r}: the rectified pair would have {w} x {h} pixels; "
                          f"give a coarser --resolution")

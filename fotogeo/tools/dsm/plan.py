@@ -10,7 +10,9 @@ disparity range and the output grid.
   ground of the readmission). Frames flown the way they look at −45° have their epipole ~19° above a 3:2 image
   (the border 26° from the axis that way, the diagonal 42°): bounding the base's angle by the half diagonal + 5°
   left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/howto/dsm.md, "Strip pairs of frames
-  flown the way they look");
+  flown the way they look"); then pairs whose rectified images would outgrow what :func:`.rectify` takes at the
+  run's resolution (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image,
+  12.6 times the frames' pixels 16° outside on a DJI strip pair, so a margin alone does not say it fits);
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
   highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
   padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
@@ -22,10 +24,10 @@ import math
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, ModelError
 from ...pixels import outline
 from ...stereo.fusion import GridSpec
-from ...stereo.rectify import epipole_angle, rectify
+from ...stereo.rectify import MAX_RECTIFIED_PIXELS, epipole_angle, rectified_extent, rectify
 
 PAD_PX = 8.0
 #: no ground lies lower than this (m; the Dead Sea shore is at −430 m above the geoid, which departs from the
@@ -151,6 +153,31 @@ def forward_reason(p, views) -> str:
         return (f"the base line is {angle:.0f} degrees from a view direction (the epipole {where}): forward motion "
                 "cannot be rectified")
     return ""
+
+
+def size_reason(vi, vj, scale: float, fine: float) -> str:
+    """Why the pair of views ``vi``, ``vj`` cannot be rectified at ``scale`` (:func:`.rectify`'s own extent,
+    :func:`.rectified_extent`, and its bound :data:`.MAX_RECTIFIED_PIXELS`), else "". ``fine``: the resolution
+    (map units) at scale 1; the resolution that fits is ``fine / s*`` with ``s* = scale·√(MAX / (2 w h))`` (the
+    pixels go with the square of the scale), rounded up to two digits."""
+    try:
+        _, _, _, _, _, (w, h) = rectified_extent(vi, vj, scale)
+    except ModelError as e:
+        return str(e)
+    if 2 * w * h <= MAX_RECTIFIED_PIXELS:
+        return ""
+    fit = fine / (scale * math.sqrt(MAX_RECTIFIED_PIXELS / (2.0 * w * h)))
+    fit = math.ceil(fit / 10 ** (math.floor(math.log10(fit)) - 1)) * 10 ** (math.floor(math.log10(fit)) - 1)
+    return (f"the rectified pair would have {w} x {h} pixels, more than {MAX_RECTIFIED_PIXELS // 2} per image "
+            f"(its epipole lies near the image): give --resolution {fit:.3g} or coarser")
+
+
+def rectify_reason(p, views, resolution=None) -> str:
+    """:func:`size_reason` of pair ``p`` in the pair choice: at the scale the run will rectify it with
+    (``2 GSD / resolution`` capped at 1, the pair's GSD its distance over the focal length; 1 without
+    ``--resolution``, whose default is twice the GSD)."""
+    fine = 2.0 * p.extra["distance"] / views[p.i].focal
+    return size_reason(views[p.i], views[p.j], min(1.0, fine / resolution) if resolution else 1.0, fine)
 
 
 def disparity_bounds(rp, zlo: float, zhi: float, box=None, n: int = 17) -> tuple:

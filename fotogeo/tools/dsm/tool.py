@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError
+from ...errors import FotogeoWarning, InputError, ModelError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.raster import AtomicOutputs
@@ -154,12 +154,13 @@ def _dem_fits_orientation(dem, source, views, sources, features):
         option="dem")
 
 
-def _choose(ims, views, names, zmid, pairs) -> list:
+def _choose(ims, views, names, zmid, pairs, resolution=None) -> list:
     """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
-                           leave_out=lambda p: plan.forward_reason(p, views))
+                           leave_out=lambda p: (plan.forward_reason(p, views)
+                                                or plan.rectify_reason(p, views, resolution)))
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
@@ -168,13 +169,17 @@ def _choose(ims, views, names, zmid, pairs) -> list:
     return choices
 
 
-def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims) -> tuple:
+def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0) -> tuple:
     """``(rectified pair, disparity range, height range, None, sparse matches, DEM guide)`` of one kept pair (the
     matches :func:`.local.guides` that give each pixel's expected disparity, :func:`.local.expected_disparity`,
     and bound each strip's range, :func:`.local.local_range`; the :class:`.dem_guide.DemGuide` that does both where
     the DEM has heights, None without ``dem``, :func:`_heights`'s), or ``(…, reason, None, None)`` to leave it out;
-    ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache)."""
-    rp = rectify(views[p.i], views[p.j], scale)
+    ``features`` the images' sparse features (:func:`.frames.sparse_check`'s cache); a pair :func:`.rectify`
+    refuses is left out (:func:`.plan.size_reason`, ``fine`` the resolution at scale 1, naming the one that fits)."""
+    try:
+        rp = rectify(views[p.i], views[p.j], scale)
+    except ModelError as e:
+        return None, None, None, plan.size_reason(views[p.i], views[p.j], scale, fine) or str(e), None, None
     sp = frames.sparse_check(rp, (views[p.i], views[p.j]), (sources[p.i], sources[p.j]), cache=features,
                              ids=(p.i, p.j))
     p.extra.update(sparse_matches=sp["n"])
@@ -228,7 +233,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     features = {}
     zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, geoid, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
-    choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs)
+    choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs, resolution)
     kept = [p for p in choices if p.kept]
     gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
@@ -241,7 +246,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
         prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
         t = time.perf_counter()
         rp, drange, zlim, why, near, guide = _pair_setup(p, views, sources, zlo, zhi, heights,
-                                                         min(1.0, 2.0 * gsd / res), features, ims)
+                                                         min(1.0, 2.0 * gsd / res), features, ims, 2.0 * gsd)
         timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
         if why:
             p.kept, p.reason = False, why
