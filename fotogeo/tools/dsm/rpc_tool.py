@@ -167,19 +167,19 @@ def _same_rpc(a, b) -> bool:
 
 
 def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
-    """``(height source, low, high, notes, padding)``: the DEM read in the RPCs' (ellipsoidal) reference and its
-    range padded by 10 % and 30 m."""
+    """``(height source, low, high, notes)``: the DEM read in the RPCs' (ellipsoidal) reference and its range
+    padded by 10 % and 30 m."""
     source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
     from ...geometry.dem import underlying_dem
     d = underlying_dem(source)[0]
     zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
     pad = 0.1 * (zhi - zlo) + 30.0
-    return source, zlo - pad, zhi + pad, notes, pad
+    return source, zlo - pad, zhi + pad, notes
 
 
 def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
     """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`: the tie points' range
-    widened by half its span and 30 m), with a DEM (``dem``: ``(path, height source, padding)``) its guide of the
+    widened by half its span and 30 m), with a DEM (``dem``: ``(path, height source)``) its guide of the
     tiles (:mod:`.rpc_dem`) and the range the guide gives."""
     a, b = ims[p.i], ims[p.j]
     pt = rp.pointing(a.model, b.model, (sources[p.i], sources[p.j]), zlo, zhi)
@@ -259,8 +259,8 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     guide, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
     if dem is not None:  # the RPCs' range with the DEM's: a DEM in another vertical reference must not cut it
-        source, dlo, dhi, more, pad = _dem_heights(dem, dem_heights, geoid, map_c, ims)
-        zlo, zhi, guide = min(zlo, dlo), max(zhi, dhi), (dem, source, pad)
+        source, dlo, dhi, more = _dem_heights(dem, dem_heights, geoid, map_c, ims)
+        zlo, zhi, guide = min(zlo, dlo), max(zhi, dhi), (dem, source)
         notes += more + ["height range from the DEM and the tie points"]
     sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
