@@ -191,6 +191,15 @@ def ventoux(tmp: Path, dems: list, tag: str) -> list:
     return rows
 
 
+def use_tree(tree) -> str:
+    """Put the checkout ``tree`` (None: this one) first on ``sys.path``, before fotogeo is imported; the rows' tag
+    naming it."""
+    if not tree:
+        return ""
+    sys.path.insert(0, str(Path(tree).resolve()))
+    return f" ({Path(tree).resolve().name})"
+
+
 def main():
     import tempfile
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -199,10 +208,7 @@ def main():
     ap.add_argument("--rendered", default="nadir,oblique", help="rendered: these scenes of tests/dsm_scenes.py")
     ap.add_argument("--tree", help="run this checkout's fotogeo (e.g. ../main: the before); rows name it")
     args = ap.parse_args()
-    tag = ""
-    if args.tree:
-        sys.path.insert(0, str(Path(args.tree).resolve()))
-        tag = f" ({Path(args.tree).resolve().name})"
+    tag = use_tree(args.tree)
     import fotogeo
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
     dems, load0 = args.dems.split(","), os.getloadavg()

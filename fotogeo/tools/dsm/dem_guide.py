@@ -3,8 +3,15 @@
 **The fit** (:func:`fit`): the DEM's heights ``H`` at the pair's sparse matches (:func:`.local.guides`, without the
 mismatches) against the heights ``Z`` the orientation gives them: offset ``o = median(H − Z)``, spread
 ``s = 1.4826 · median |H − Z − o|`` (NMAD), and the margin the strips search around the DEM,
-``m = DEM_PAD_M + DEM_ERROR_K · P95 |H − Z − o|`` — what a coarse DEM misses (a smoothed ridge, a roof, a tree,
-a void's edge) is measured at the matches, not assumed. The DEM is used shifted by ``−o``: the DSM's heights come
+``m = DEM_PAD_M + DEM_ERROR_K · U`` — what a coarse DEM misses (a smoothed ridge, a roof, a tree, a void's edge) is
+measured at the matches, not assumed. ``U`` (:func:`upper_quantile`) bounds the ``DEM_QUANTILE`` quantile of
+``|H − Z − o|`` over the pair's ground with confidence ``DEM_CONFIDENCE``, not the matches' own percentile, which
+few matches underestimate: with ``n`` matches sorted, ``a(r)`` is above the ``p`` quantile with probability
+``P(Binomial(n, p) ≤ r − 1)`` whatever their distribution (Wilks 1941), and ``U`` is the least such ``a(r)`` reaching
+the confidence ``c``; when even the largest does not (``1 − pⁿ < c``: fewer than 59 for ``p = c = 0.95``), the largest
+bounds the lower quantile ``p_n = (1 − c)^(1/n)``, and an exponential tail (a generalized Pareto tail of shape 0,
+Pickands 1975) through the median ``a½`` and it reaches ``p``:
+``U = a½ + (a(n) − a½) · ln(½ / (1 − p)) / ln(½ / (1 − p_n))``. The DEM is used shifted by ``−o``: the DSM's heights come
 from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another vertical
 reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
 (:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
@@ -23,10 +30,13 @@ import numpy as np
 
 from ...geometry.dem import Dem, heights_at
 
-#: the margin around the DEM's heights (m): this much plus ``DEM_ERROR_K`` times the 95th percentile of the
-#: DEM's error at the sparse matches (module docstring)
+#: the margin around the DEM's heights (m): this much plus ``DEM_ERROR_K`` times an upper bound, with confidence
+#: ``DEM_CONFIDENCE``, of the ``DEM_QUANTILE`` quantile of the DEM's error measured at the sparse matches (module
+#: docstring)
 DEM_PAD_M = 5.0
 DEM_ERROR_K = 1.5
+DEM_QUANTILE = 0.95
+DEM_CONFIDENCE = 0.95
 #: fewer sparse matches with a DEM height than this and the pair's fit is not measured (the run's is used)
 DEM_MIN_MATCHES = 20
 #: a DEM this far (m, median) from the matches' heights is named; this spread (NMAD, m) and it guides no strip
@@ -66,8 +76,22 @@ def fit(source, points) -> DemFit | None:
     r = h[ok] - P[ok, 2]
     o = float(np.median(r))
     a = np.abs(r - o)
-    return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * float(np.percentile(a, 95)),
-                  int(ok.sum()))
+    return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * upper_quantile(a), int(ok.sum()))
+
+
+def upper_quantile(a, p: float = DEM_QUANTILE, c: float = DEM_CONFIDENCE) -> float:
+    """An upper bound of the ``p`` quantile of the population the values ``a`` (>= 0, at least one) are a random
+    sample of, with confidence ``c`` (module docstring): an order statistic of ``a``, or beyond its largest along an
+    exponential tail when ``a`` is too small for one."""
+    from scipy.stats import binom
+    s = np.sort(np.asarray(a, float).ravel())
+    n = len(s)
+    r = int(binom.ppf(c, n, p))  # the least r with P(Binomial(n, p) <= r) >= c: s[r] is the bound
+    if r < n:
+        return float(s[r])
+    half = float(np.median(s))
+    p_n = (1.0 - c) ** (1.0 / n)
+    return half + (float(s[-1]) - half) * float(np.log(0.5 / (1.0 - p)) / np.log(0.5 / (1.0 - p_n)))
 
 
 def problems(f: DemFit, where: str, sparse: int = 0, guides: bool = True, other: str = "") -> list:
