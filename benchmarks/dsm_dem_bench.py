@@ -11,7 +11,9 @@ first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. `
 (e.g. main, the run's "before")::
 
     PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi,ventoux] \\
-        [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main]
+        [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main] [--ties 25]
+
+``--ties N``: each ``--rpc`` pair (ventoux) keeps N of its tie points, a random subset (seed 0).
 """
 from __future__ import annotations
 
@@ -191,6 +193,18 @@ def ventoux(tmp: Path, dems: list, tag: str) -> list:
     return rows
 
 
+def _thin_ties(n: int) -> None:
+    """``dsm --rpc`` pairs keep ``n`` of their tie points (a random subset, seed 0), as a pair with few of them."""
+    from fotogeo.tools.dsm import rpc_pairs
+    pointing = rpc_pairs.pointing
+
+    def thinned(*a, **k):
+        pt = pointing(*a, **k)
+        keep = np.sort(np.random.default_rng(0).choice(len(pt["z"]), min(n, len(pt["z"])), replace=False))
+        return {**pt, "z": pt["z"][keep], "p1": pt["p1"][keep], "n": len(keep)}
+    rpc_pairs.pointing = thinned
+
+
 def use_tree(tree) -> str:
     """Put the checkout ``tree`` (None: this one) first on ``sys.path``, before fotogeo is imported; the rows' tag
     naming it."""
@@ -207,9 +221,13 @@ def main():
     ap.add_argument("--dems", default="none,true,srtm,smooth-20,+50")
     ap.add_argument("--rendered", default="nadir,oblique", help="rendered: these scenes of tests/dsm_scenes.py")
     ap.add_argument("--tree", help="run this checkout's fotogeo (e.g. ../main: the before); rows name it")
+    ap.add_argument("--ties", type=int, help="ventoux: keep this many of the pair's tie points (random, seed 0)")
     args = ap.parse_args()
     tag = use_tree(args.tree)
     import fotogeo
+    if args.ties:
+        tag += f", {args.ties} tie points"
+        _thin_ties(args.ties)
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
     dems, load0 = args.dems.split(","), os.getloadavg()
     out = ROOT / "benchmarks" / "results" / "dsm_dem_bench.json"
