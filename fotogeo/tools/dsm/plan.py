@@ -175,12 +175,13 @@ def size_reason(vi, vj, scale: float, fine: float) -> str:
 def rectified_stretch(p, views) -> float:
     """How many times the larger frame's pixels each rectified image of pair ``p`` has (:func:`.rectified_extent`
     at scale 1; the pixels go with the square of the scale, so the ratio holds at every scale). It is what
-    rectification does to the frames: about 1 for a base across the lines of sight, growing like 1/sin² of the
-    epipole's distance outside the image as the far rows are stretched along the base, and the matching's cost
-    (rectified pixels times their disparities) grows with it. The pair choice ranks the pairs beyond
-    :data:`fotogeo.stereo.pairs.NEAR_STRETCH` after the others (module docstring). Unlike the epipole's margin
-    (degrees), it does not depend on the field of view: 5° outside a narrow frame stretches it more than 5° outside
-    a wide one."""
+    rectification does to the frames: 1–3 for a base across the lines of sight (more when the base runs along the
+    frame's diagonal: the rectified rows follow the base), growing like 1/sin² of the epipole's distance outside the
+    image as the rows far from the epipole are stretched along the base, and the matching's cost (rectified pixels
+    times their disparities) grows with it. The pair choice ranks the pairs beyond
+    :data:`fotogeo.stereo.pairs.NEAR_STRETCH` after the others (module docstring). The epipole's margin in degrees
+    (:func:`epipole_margin`) says less: the same margin stretches a wide frame more than a narrow one, since the
+    scale across the rectified image goes with the ratio of the epipole's distances to the far and near borders."""
     vi, vj = views[p.i], views[p.j]
     w, h = rectified_extent(vi, vj, 1.0)[-1]
     return w * h / max(vi.size[0] * vi.size[1], vj.size[0] * vj.size[1])
