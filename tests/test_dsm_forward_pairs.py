@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 
-from fotogeo.stereo.pairs import Limits
+from fotogeo.stereo.pairs import NEAR_STRETCH, Limits
 from fotogeo.stereo.rectify import epipole_angle
 from fotogeo.tools.dsm import frames, plan, tool
 from fotogeo.tools.ortho.inputs import image_models
@@ -48,3 +48,22 @@ def test_forward_pairs_take_no_partner_place_and_cover_no_ground(tmp_path, monke
         if p.reason.startswith("both images already have"):
             assert partners[p.i] >= cap and partners[p.j] >= cap, (p.i, p.j, partners)
     assert len(kept) >= 8
+
+
+def test_pairs_whose_rectified_images_are_stretched_take_no_cap_from_cross_strip_pairs(tmp_path):
+    # under the epipole rule the strip pairs (their epipole 9–15° above the frames, rectified to 14–75 x the
+    # frames' pixels) are admitted; ranked by the product alone (whole B/H) they took the cap from six cross-strip
+    # pairs (S1_02–S2_01, S1_02–S2_02, …): ground two pairs saw came to one (docs/howto/dsm.md)
+    sc = make_set(FORWARD_SET, tmp_path)
+    ims = image_models([str(p) for p in sc["images"]], CRS, camera=str(sc["camera"]), eo=str(sc["eo"]))
+    views = [frames.frame_view(im) for im in ims]
+    names = [im.name for im in ims]
+    out = tool._choose(ims, views, names, GROUND, None)
+    admitted = [p for p in out if p.kept or p.reason.startswith("both images already have")]
+    neighbours = [p for p in admitted if names[p.i][1] != names[p.j][1]
+                  and abs(int(names[p.i][3:]) - int(names[p.j][3:])) <= 1]
+    assert len(neighbours) >= 8 and all(p.kept for p in neighbours), [
+        (names[p.i], names[p.j], p.reason) for p in neighbours if not p.kept]
+    for p in admitted:  # every pair ranked last for its stretch says so
+        stretch = plan.rectified_stretch(p, views)
+        assert ("rectify to" in p.reason) == (stretch > NEAR_STRETCH), (p.reason, stretch)

@@ -33,6 +33,15 @@ pairs, but the completeness fell by 1.2 and 3.9 points on two sets and CPU rose 
 Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
 the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
 out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").
+Pairs whose epipole lies near the images (the caller's ``stretch``: the rectified images' pixels over the frames',
+:func:`fotogeo.tools.dsm.plan.rectified_stretch`) rank after the others, in the order of the product over their
+stretch, once it exceeds :data:`NEAR_STRETCH`: the base lies mostly along the lines of sight, so the whole ``B/H``
+in the product overstates them, their overlap is smaller, and rectification stretches the frames along the base
+(matching cost grows with it). Ranked by the product alone, such pairs of frames flown the way they look took the
+per-image cap from cross-strip pairs of larger overlap, leaving ground that one pair saw; ranked last, they fill an
+image's places only where the others leave some (a capped one is readmitted for ground on the readmission's terms,
+which a base along the lines of sight does not meet). A pair's reason says when it was ranked last, and how much
+its rectified images are stretched.
 Every pair left out carries its reason. Pairs the user gives (``dsm --pairs``) are all matched when they pass the
 overlap and ``b⊥/H`` limits: the view-angle limit is a default for the automatic choice (whether views further apart
 still match depends on the scene), so a given pair above it is kept and its reason says so.
@@ -174,23 +183,33 @@ def _wide(p: PairChoice, lim: Limits) -> bool:
     return p.view_angle > min(lim.rank_view_angle, lim.max_view_angle)
 
 
+def _stretched(p: PairChoice) -> bool:
+    """Whether the pair's rectified images exceed :data:`NEAR_STRETCH` times the frames' pixels (its epipole near
+    the image; module docstring)."""
+    return p.extra.get("rectified_stretch", 1.0) > NEAR_STRETCH
+
+
 def _score(p: PairChoice, lim: Limits) -> tuple:
     """The order in which pairs get an image's partners (module docstring), best first when sorted: the pairs
     within ``rank_view_angle`` by ``overlap · min(1, (B/H) / 0.4) · (1 − view angle / rank_view_angle)``, then the
     wider ones (admitted up to ``max_view_angle``) by the same product with ``max_view_angle``'s term. The
-    reference angle does not move with the admission limit: with both at 70° the narrow pairs' order changed
-    and other pairs won the per-image cap (the rendered oblique block of ``dsm_bench.py --cases rendered``: 24 →
-    20 pairs, RMSE 0.0521 → 0.0578 m)."""
-    wide = _wide(p, lim)
+    reference angle does not move with the admission limit: with it the narrow pairs' order changed and other
+    pairs won the per-image cap. Within each, the pairs whose rectified images are stretched beyond
+    :data:`NEAR_STRETCH` times the frames' pixels come last, by the product over the stretch."""
+    wide, near = _wide(p, lim), _stretched(p)
     ref = lim.max_view_angle if wide else min(lim.rank_view_angle, lim.max_view_angle)
-    return (not wide, p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / ref))
+    product = p.overlap * min(1.0, p.base_height / 0.4) * (1.0 - p.view_angle / ref)
+    return (not wide, not near, product / p.extra["rectified_stretch"] if near else product)
 
 
-def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None) -> list:
+def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None,
+                 stretch=None) -> list:
     """Every candidate :class:`PairChoice` of the images (all pairs, or only ``given`` index pairs), kept or
     left out with a reason (module docstring). ``leave_out(p)``: the caller's reason ("" for none) to leave out a
     pair that passes the limits, asked before the per-image cap and the readmission, so that such a pair takes no
-    image's place and covers no ground (a frame tool's forward motion: the epipole in the image)."""
+    image's place and covers no ground (a frame tool's forward motion: the epipole in the image). ``stretch(p)``:
+    the rectified images' pixels over the frames' of a pair left in (``extra["rectified_stretch"]``; none: 1),
+    which ranks the pairs beyond :data:`NEAR_STRETCH` last (module docstring)."""
     n = len(centres)
     cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
     out = [measure(i, j, centres, axes, footprints) for i, j in cand]
@@ -198,17 +217,19 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
         p.reason = _reason(p, limits, given is not None)
         if not p.reason and leave_out is not None:
             p.reason = leave_out(p)
+        if not p.reason and stretch is not None:
+            p.extra["rectified_stretch"] = float(stretch(p))
     ok = sorted((p for p in out if not p.reason), key=lambda p: _score(p, limits), reverse=True)
     used, wide = np.zeros(n, int), np.zeros(n, int)
     for p in ok:
         if given is None and used[p.i] >= limits.per_image and used[p.j] >= limits.per_image:
-            p.reason = f"both images already have {limits.per_image} better partners"
+            p.reason = f"both images already have {limits.per_image} better partners" + _ranked_last(p)
             continue
         if given is None and _wide(p, limits) and max(wide[p.i], wide[p.j]) >= limits.per_image_wide:
             p.reason = (f"an image already has {limits.per_image_wide} partner(s) whose views differ by more than "
                         f"{limits.rank_view_angle:g} degrees (these {p.view_angle:.0f})")
             continue
-        p.kept, p.reason = True, "kept"
+        p.kept, p.reason = True, "kept" + ("" if given is not None else _ranked_last(p))
         if p.view_angle > limits.max_view_angle:  # only a given pair: the user's choice over the view limit
             p.reason = (f"kept as given (the views differ by {p.view_angle:.0f} degrees, "
                         f"above {limits.max_view_angle:g})")
@@ -218,6 +239,14 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
         wide[p.j] += int(_wide(p, limits))
     _readmit_uncovered(out, footprints, limits)
     return out
+
+
+def _ranked_last(p: PairChoice) -> str:
+    """The reason's note on a pair ranked after the others for its rectified stretch ("" for none)."""
+    if not _stretched(p):
+        return ""
+    return (f" (ranked after the pairs below {NEAR_STRETCH:g} x: its epipole lies near the images, which rectify to "
+            f"{p.extra['rectified_stretch']:.0f} x the frames' pixels)")
 
 
 def _inside(points, poly) -> np.ndarray:
@@ -268,6 +297,8 @@ def _readmit_uncovered(out: list, footprints, limits: Limits) -> None:
 
 #: a pair over the per-image cap is kept when at least this share of its overlap no kept pair covers
 NEW_GROUND = 0.05
+#: pairs whose rectified images exceed this many times the frames' pixels rank after the others
+NEAR_STRETCH = 4.0
 #: points per side of the grid its overlap is sampled on
 COVER_SAMPLES = 24
 #: a capped pair is kept for ground only when its base across the lines of sight is at least this share of its base

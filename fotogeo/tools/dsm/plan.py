@@ -172,6 +172,21 @@ def size_reason(vi, vj, scale: float, fine: float) -> str:
             f"(its epipole lies near the image): give --resolution {fit:.3g} or coarser")
 
 
+def rectified_stretch(p, views) -> float:
+    """How many times the larger frame's pixels each rectified image of pair ``p`` has (:func:`.rectified_extent`
+    at scale 1; the pixels go with the square of the scale, so the ratio holds at every scale). It is what
+    rectification does to the frames: 1–3 for a base across the lines of sight (more when the base runs along the
+    frame's diagonal: the rectified rows follow the base), growing like 1/sin² of the epipole's distance outside the
+    image as the rows far from the epipole are stretched along the base, and the matching's cost (rectified pixels
+    times their disparities) grows with it. The pair choice ranks the pairs beyond
+    :data:`fotogeo.stereo.pairs.NEAR_STRETCH` after the others (module docstring). The epipole's margin in degrees
+    (:func:`epipole_margin`) says less: the same margin stretches a wide frame more than a narrow one, since the
+    scale across the rectified image goes with the ratio of the epipole's distances to the far and near borders."""
+    vi, vj = views[p.i], views[p.j]
+    w, h = rectified_extent(vi, vj, 1.0)[-1]
+    return w * h / max(vi.size[0] * vi.size[1], vj.size[0] * vj.size[1])
+
+
 def rectify_reason(p, views, resolution=None) -> str:
     """:func:`size_reason` of pair ``p`` in the pair choice: at the scale the run will rectify it with
     (``2 GSD / resolution`` capped at 1, the pair's GSD its distance over the focal length; 1 without

@@ -160,7 +160,8 @@ def _choose(ims, views, names, zmid, pairs, resolution=None) -> list:
     axes = [v.axis for v in views]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
                            leave_out=lambda p: (plan.forward_reason(p, views)
-                                                or plan.rectify_reason(p, views, resolution)))
+                                                or plan.rectify_reason(p, views, resolution)),
+                           stretch=lambda p: plan.rectified_stretch(p, views))
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
