@@ -19,7 +19,7 @@ from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
-from . import dem_guide, frames, local, matching, plan
+from . import dem_guide, frames, local, matching, plan, refill
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
 from .outputs import SPECKLE_CELLS, Products
 
@@ -154,20 +154,40 @@ def _dem_fits_orientation(dem, source, views, sources, features):
         option="dem")
 
 
-def _choose(ims, views, names, zmid, pairs, resolution=None) -> list:
-    """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best."""
+def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=None) -> list:
+    """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best.
+    ``refused``: ``{(i, j): reason}`` of pairs refused when set up, left out as well (:mod:`.refill`); ``memo``: a
+    dict keeping the other reasons to leave a pair out between the choices of one run."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
+    refused, memo = refused or {}, {} if memo is None else memo
+
+    def leave_out(p):
+        if (p.i, p.j) not in memo:
+            memo[(p.i, p.j)] = plan.forward_reason(p, views) or plan.rectify_reason(p, views, resolution)
+        return refused.get((p.i, p.j)) or memo[(p.i, p.j)]
+
+    def stretch(p):
+        if ("stretch", p.i, p.j) not in memo:
+            memo[("stretch", p.i, p.j)] = plan.rectified_stretch(p, views)
+        return memo[("stretch", p.i, p.j)]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
-                           leave_out=lambda p: (plan.forward_reason(p, views)
-                                                or plan.rectify_reason(p, views, resolution)),
-                           stretch=lambda p: plan.rectified_stretch(p, views))
-    if not any(p.kept for p in choices):
+                           leave_out=leave_out, stretch=stretch)
+    if not any(p.kept for p in choices) and not refused:
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
                          f"overlapping): {best.reason}; give images that overlap by at least 20 % and were taken "
                          f"from different positions")
     return choices
+
+
+def _grid(kept, res, bounds, output, ims):
+    """The output grid over the overlaps of the ``kept`` pairs (:func:`.plan.grid_for`), refused when too large."""
+    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds, SPECKLE_CELLS)
+    check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
+                      source_pixels=sum(im.width * im.height for im in ims), resolution=res,
+                      what=f"the DSM {str(output)!r}")
+    return grid
 
 
 def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0) -> tuple:
@@ -234,35 +254,39 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     features = {}
     zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, geoid, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
-    choices = _choose(ims, views, names, 0.5 * (zlo + zhi), pairs, resolution)
-    kept = [p for p in choices if p.kept]
-    gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in kept]))
+    memo = {}
+    choose = functools.partial(_choose, ims, views, names, 0.5 * (zlo + zhi), pairs, resolution, memo=memo)
+    initial = choose()
+    first = [p for p in initial if p.kept]
+    gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in first]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
-    grid = plan.grid_for([p.extra["overlap_polygon"] for p in kept], res, bounds, SPECKLE_CELLS)
-    check_output_grid(output, grid.width, grid.height, bands=4, dtype="float32",
-                      source_pixels=sum(im.width * im.height for im in ims), resolution=res,
-                      what=f"the DSM {str(output)!r}")
-    setups, timings = {}, {}
-    for k, p in enumerate(kept):
-        prog(0.05 + 0.05 * k / len(kept), f"checking {names[p.i]} with {names[p.j]}")
+    grid = _grid(first, res, bounds, output, ims)
+    timings = {}
+
+    def set_up(p):
+        prog(0.05 + 0.05 * min(1.0, len(timings) / len(first)), f"checking {names[p.i]} with {names[p.j]}")
         t = time.perf_counter()
         rp, drange, zlim, why, near, guide = _pair_setup(p, views, sources, zlo, zhi, heights,
                                                          min(1.0, 2.0 * gsd / res), features, ims, 2.0 * gsd)
         timings[f"{names[p.i]}-{names[p.j]}"] = time.perf_counter() - t
         if why:
-            p.kept, p.reason = False, why
-            warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=3)
-        else:
-            pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
-            setups[(p.i, p.j)] = matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near,
-                                                    frames.pair_penalty(rp, pv, ps), dem=guide)
+            warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {why}", FotogeoWarning, stacklevel=4)
+            return why
+        pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
+        return matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near, frames.pair_penalty(rp, pv, ps),
+                                  dem=guide)
+    choices, setups, tried = refill.settle(lambda refused: choose(refused=refused) if refused else initial, set_up,
+                                           names)
     if dem is not None:
-        _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"], p.extra["sparse_matches"]) for p in kept
+        _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"], p.extra["sparse_matches"]) for p in tried
                         if "dem" in p.extra])
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
-            f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in kept))
-    seen = lambda g, h: plan.stereo_mask(g, h, [p for p in kept if p.kept], ims)  # noqa: E731
+            f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in tried))
+    added = [p for p in tried if "replaces" in p.extra]
+    if added:  # the pairs the refill chose widen the grid as the first choice's did
+        grid = _grid(first + added, res, bounds, output, ims)
+    seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
         try:
@@ -271,7 +295,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
             for m in setups.values():  # the pairs' entries before the report is written
                 m.report(LOW_DENSITY)
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
-                                  "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in kept if p.kept)
+                                  "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in tried if p.kept)
                                   + "): the images may be textureless or cloud-covered where they overlap")
         finally:
             products.close()
