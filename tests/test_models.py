@@ -64,6 +64,31 @@ def test_ransac_with_outliers_and_robust_refit(rng):
         ransac(Projective, src, rng.uniform(0, 1000, (300, 2)), 0.01, rng=1, max_trials=50)
 
 
+@pytest.mark.parametrize("seed", [0, 3, 5])
+def test_ransac_equal_counts_do_not_follow_the_last_bits_of_a_fit(seed):
+    """Two exact affine structures of 40 pairs each: their MSAC scores differ by rounding only. Each 'machine'
+    rounds every fitted parameter differently in its last bit (as another BLAS does); the seeded RANSAC must
+    choose the same structure on all of them."""
+    g = np.random.default_rng(7)
+    src = g.uniform(0, 1000, (80, 2))
+    dst = np.where(np.arange(80)[:, None] < 40, src @ [[1.01, -0.01], [0.02, 0.99]] + [5.0, -3.0],
+                   src @ [[0.98, 0.02], [-0.03, 1.02]] + [40.0, 25.0])
+    chosen = set()
+    for machine in range(6):
+        ulp = np.random.default_rng(machine)
+
+        class Rounded(Affine):
+            @classmethod
+            def _fit(cls, s, d, w):
+                p = super()._fit(s, d, w)
+                return p * (1 + np.finfo(float).eps * ulp.integers(-1, 2, p.shape))
+
+        r = ransac(Rounded, src, dst, 1.0, rng=seed, max_trials=200)
+        assert r.inliers.sum() == 40 and (r.inliers[:40].all() or r.inliers[40:].all())
+        chosen.add(bool(r.inliers[0]))
+    assert len(chosen) == 1
+
+
 def test_fit_tie_points_holds_out_spread_check_points(rng):
     src = rng.uniform(0, 1000, (400, 2))
     dst = _apply(_h(), src) + rng.normal(0, 0.5, (400, 2))

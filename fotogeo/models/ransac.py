@@ -8,6 +8,10 @@ of having missed a better sample falls below ``1 - confidence``:
 fails ``is_valid(model)`` (e.g. a homography that folds the image,
 :meth:`~fotogeo.models.base.Model.folds`) is rejected before its consensus is counted.
 ``fit_options`` (e.g. the camera of the collinearity model) go to every ``estimate``.
+Equal counts are broken by the MSAC score ``Σ min(r, threshold)`` (Torr & Zisserman 2000), but only
+when the scores differ by more than ``1e-6 · n · threshold``: two consensus sets of exact data (two
+structures of equal size) differ by rounding alone, and a choice between them must not follow the
+last bits of the BLAS at hand, so the first such sample drawn (the seeded generator's order) is kept.
 
 :func:`robust_refit` then re-estimates on *all* pairs by iteratively reweighted least
 squares with Tukey's biweight ``w = (1 - (r / (c σ))²)²`` for ``|r| < c σ`` (0 beyond),
@@ -25,6 +29,9 @@ import numpy as np
 
 from ..errors import FotogeoError, MatchingError
 from .base import Model
+
+#: MSAC scores of equal counts closer than this fraction of ``n * threshold`` are a tie (the first sample kept)
+_TIE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,7 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
         raise MatchingError(f"RANSAC for a {model_cls.name} model needs at least {need} matches; got {n}")
     rng = np.random.default_rng(rng)
     best_count, best_mask, best_err, trials = 0, None, np.inf, 0
+    tie = _TIE * n * threshold
     limit = max_trials
     while trials < limit:
         trials += 1
@@ -65,7 +73,7 @@ def ransac(model_cls, src, dst, threshold: float, *, max_trials: int = 5000,
         mask = r < threshold
         count = int(mask.sum())
         err = float(np.sum(np.minimum(r, threshold)))  # MSAC-style tie break
-        if count > best_count or (count == best_count and err < best_err):
+        if count > best_count or (count == best_count and err < best_err - tie):
             best_count, best_mask, best_err = count, mask, err
             ratio = count / n
             if ratio >= 1.0:
