@@ -124,18 +124,31 @@ def transform_points(src_crs: CRS, dst_crs: CRS, xy) -> np.ndarray:
 def transformer(src_crs, dst_crs):
     """pyproj's ``Transformer`` from ``src_crs`` to ``dst_crs`` (pyproj or rasterio CRSs or what pyproj parses;
     x = easting/longitude first), made once per pair of CRSs in a process (keyed by their WKT): finding the operation
-    in PROJ's database costs ~30 ms, and a run of ``ortho`` over a DEM in another CRS asked for the same one twice.
-    (pyproj's transformers are thread-safe since pyproj 3.1.)"""
+    in PROJ's database is what costs, and a run of ``ortho`` over a DEM in another CRS asks for the same one more
+    than once. The operation found is kept as its PROJ pipeline (:func:`_as_pipeline`). (pyproj's transformers are
+    thread-safe since pyproj 3.1.)"""
     from pyproj import CRS, Transformer
     src, dst = (CRS.from_user_input(c) for c in (src_crs, dst_crs))  # (a rasterio CRS through its WKT)
     key = (src.to_wkt(), dst.to_wkt())
     if None in key:
-        return Transformer.from_crs(src, dst, always_xy=True)
+        return _as_pipeline(Transformer.from_crs(src, dst, always_xy=True))
     if key not in _TRANSFORMERS:
         if len(_TRANSFORMERS) >= 16:
             _TRANSFORMERS.clear()
-        _TRANSFORMERS[key] = Transformer.from_crs(src, dst, always_xy=True)
+        _TRANSFORMERS[key] = _as_pipeline(Transformer.from_crs(src, dst, always_xy=True))
     return _TRANSFORMERS[key]
+
+
+def _as_pipeline(t):
+    """The pyproj transformer ``t`` rebuilt from the PROJ pipeline of the one operation it chose (the string PROJ
+    itself runs: the same coordinates bit for bit), or ``t`` when it holds several operations chosen point by point
+    (no single pipeline). pyproj makes a transformer again in every thread that first uses it (a thread-local
+    copy): from ``Transformer.from_crs`` that repeats the search of PROJ's database for the operation, from a
+    pipeline it only parses the string — :func:`fotogeo.io.warp.warp_to_grid`'s worker threads transform through
+    the DEM sampler's transformer (:class:`fotogeo.geometry.dem.DemSampler`)."""
+    from pyproj import Transformer
+    pipeline = t.to_proj4()
+    return Transformer.from_pipeline(pipeline) if pipeline else t
 
 
 #: :func:`transformer`'s transformers by the WKT of their CRSs
