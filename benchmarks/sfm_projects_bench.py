@@ -233,7 +233,7 @@ def cases(sc, work: Path) -> list:
              tortho("ot_csv", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv")),
             ("orthority-csv-noprj", "orthority CSV exterior parameters without a .prj (the CRS not stated)",
              tortho("ot_csvn", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv-noprj"))]
-    return out
+    return out + more.undistorted_more(sc, work)
 
 
 def _resized(sc, folder: Path, size) -> list:
