@@ -283,7 +283,8 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), "auto", b["images"][:n])
+                frame = b["args"][b["args"].index("--sfm-frame") + 1] if "--sfm-frame" in b["args"] else "auto"
+                blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), frame, b["images"][:n])
             scale = np.asarray(b.get("scale", (1.0, 1.0)), float)  # per axis (sx, sy)
             if np.any(scale != 1.0):
                 blk = _as_ortho_scales(blk, imgs[0])
