@@ -12,15 +12,9 @@ import pytest
 import sfm_projects as sp
 from fotogeo.crs import parse_crs
 from fotogeo.errors import FotogeoWarning, InputError, InputNote
+from test_sfm_projects import sc  # noqa: F401 (the rendered block, a module fixture)
 
 MEDIAN_M, P90_M = 0.05, 0.10
-
-
-@pytest.fixture(scope="module")
-def sc(tmp_path_factory):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return sp.scene(tmp_path_factory.mktemp("sfm_lens"), per_strip=2)
 
 
 def _persp(sc):
