@@ -233,7 +233,7 @@ def cases(sc, work: Path) -> list:
              tortho("ot_csv", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv")),
             ("orthority-csv-noprj", "orthority CSV exterior parameters without a .prj (the CRS not stated)",
              tortho("ot_csvn", {**base, "type": "brown", "k1": -0.06, "k2": 0.02}, "csv-noprj"))]
-    return out
+    return out + more.undistorted_more(sc, work)
 
 
 def _resized(sc, folder: Path, size) -> list:
@@ -283,7 +283,8 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), "auto", b["images"][:n])
+                frame = b["args"][b["args"].index("--sfm-frame") + 1] if "--sfm-frame" in b["args"] else "auto"
+                blk = orientation_block(b["eo"], parse_crs(crs), b.get("yaml"), frame, b["images"][:n])
             scale = np.asarray(b.get("scale", (1.0, 1.0)), float)  # per axis (sx, sy)
             if np.any(scale != 1.0):
                 blk = _as_ortho_scales(blk, imgs[0])

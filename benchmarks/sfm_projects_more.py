@@ -1,7 +1,8 @@
 """Cases of ``benchmarks/sfm_projects_bench.py`` beyond its first 52 (issue 32): every COLMAP model beyond fotogeo's
 Brown model, model_aligner's ENU frame and a neighbouring UTM zone, a text model saved on Windows, image names with
 spaces, in another case or with Windows separators; OpenSfM/ODM shots without GPS, images split over two
-reconstructions, ODM without reference_lla, ODM's cameras.json as the camera, renamed images; orthority's CSV.
+reconstructions, ODM without reference_lla, ODM's cameras.json as the camera, renamed images; orthority's CSV; the
+models of undistorted images (OpenSfM's/ODM's ``undistorted/``, COLMAP's ``dense/sparse``) with either images.
 Each ``build()`` returns what ``run_case`` runs (its docstring), ``stems`` the images' file stems by truth name.
 """
 from __future__ import annotations
@@ -145,3 +146,52 @@ def orthority_csv(sc, geojson: Path, prj: bool) -> Path:
     if prj:
         out.with_suffix(".prj").write_text(CRS.from_user_input(sc["crs"]).to_wkt("WKT1_ESRI"))
     return out
+
+
+def undistorted_more(sc, work: Path) -> list:
+    """The models of the undistorted images (OpenSfM's and ODM's ``opensfm/undistorted/reconstruction.json``, a
+    ``perspective`` camera with k1 = k2 = 0; COLMAP ``image_undistorter``'s ``dense/sparse``, ``PINHOLE``) given
+    with the original images (to be refused: the images' DewarpData states their lens) and with the undistorted
+    images they belong with (to be read right)."""
+    import shutil
+    (w, h), f = sc["size"], sc["camera"].fx
+    persp = {"projection_type": "perspective", "width": w, "height": h, "focal": f / max(w, h), "k1": 0.0, "k2": 0.0}
+    lens = {"tool": "opensfm", **sp.opensfm_camera(sc["camera"], sc["dewarp"])}
+    flat = {"tool": "opensfm", **persp}
+
+    def osfm(key, odm, images):
+        def build():
+            rec = sp.opensfm_project(work / key, sc, sc["rtk"], odm=odm, camera=persp)
+            (rec.parent / "undistorted").mkdir(exist_ok=True)
+            eo = Path(shutil.copy(rec, rec.parent / "undistorted" / "reconstruction.json"))
+            imgs = sc["rtk"] if images == "originals" else sp.undistorted_images(sc, work / f"undist_{images}",
+                                                                                  images == "tags", 2)
+            frame = ["--sfm-frame", "grid" if odm else "topocentric"] if images == "bare" else []  # no GPS to tell
+            return dict(eo=eo, images=imgs, camera=lens if images == "originals" else flat, args=frame)
+        return build
+
+    def colmap(images):
+        def build():
+            pin = [f, f, w / 2, h / 2]
+            model = sp.colmap_model(work / "colmap_undist" / "dense" / "sparse", sc, {1: ("PINHOLE", w, h, pin)})
+            c, (ppx, ppy) = sc["camera"], sc["camera"].principal_point
+            k1, k2, p1, p2, _ = sc["dewarp"]
+            truth = ({"tool": "colmap", "model": "OPENCV", "params": [c.fx, c.fy, ppx, ppy, k1, k2, p1, p2]}
+                     if images == "originals" else {"tool": "colmap", "model": "PINHOLE", "params": pin})
+            imgs = sc["rtk"] if images == "originals" else sp.undistorted_images(sc, work / "undist_bare", False, 2)
+            return dict(eo=model / "images.txt", images=imgs, camera=truth, args=["--crs", sc["crs"]])
+        return build
+    return [("undist-osfm-originals", "OpenSfM opensfm/undistorted/reconstruction.json (perspective, k = 0) given the "
+                                      "original images (DewarpData)", osfm("undist_osfm_o", False, "originals")),
+            ("undist-odm-originals", "ODM opensfm/undistorted/reconstruction.json given the original images",
+             osfm("undist_odm_o", True, "originals")),
+            ("undist-osfm-undistorted", "OpenSfM undistorted/reconstruction.json given the undistorted images "
+                                        "(written without EXIF/XMP)", osfm("undist_osfm_u", False, "bare")),
+            ("undist-odm-undistorted", "ODM undistorted/reconstruction.json given the undistorted images",
+             osfm("undist_odm_u", True, "bare")),
+            ("undist-osfm-dewarpflag", "OpenSfM undistorted/reconstruction.json given undistorted images with the "
+                                       "originals' tags and DewarpFlag 1", osfm("undist_osfm_t", False, "tags")),
+            ("undist-colmap-originals", "COLMAP dense/sparse (image_undistorter, PINHOLE) given the original images",
+             colmap("originals")),
+            ("undist-colmap-undistorted", "COLMAP dense/sparse (PINHOLE) given the undistorted images",
+             colmap("bare"))]

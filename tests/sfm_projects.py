@@ -150,3 +150,29 @@ def measure(block, sc: dict, cam: dict, scale=1.0, keys=None) -> dict:
     sh = np.array(shifts)
     return {"median_m": float(np.median(sh)), "p90_m": float(np.percentile(sh, 90)), "centre_m": centre,
             "angle_deg": angle, "frames": len(block.shots)}
+
+
+def undistorted_images(sc, folder: Path, tags: bool = False, n: int | None = None) -> list:
+    """The first ``n`` RTK images undistorted to a distortion-free camera (the lens's focal length,
+    the principal point at the centre), as SfM tools resample them for dense matching: written without EXIF/XMP
+    (OpenSfM, ODM, COLMAP), or (``tags``) with the originals' tags and DJI ``DewarpFlag`` 1 (a camera's own)."""
+    import cv2
+    import rasterio
+    import rendered_oblique as ro
+    folder.mkdir(parents=True, exist_ok=True)
+    c, (w, h) = sc["camera"], sc["size"]
+    k = np.array([[c.fx, 0, c.principal_point[0] - 0.5], [0, c.fy, c.principal_point[1] - 0.5], [0, 0, 1]])
+    new = np.array([[c.fx, 0, w / 2 - 0.5], [0, c.fx, h / 2 - 0.5], [0, 0, 1]])
+    out = []
+    for p in sc["rtk"][:n]:
+        with rasterio.open(p) as ds:
+            img, t, xmp = ds.read(1), ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+        flat = cv2.undistort(img, k, np.array(sc["dewarp"], float), None, new)
+        if tags:
+            ro._write(folder / p.name, flat, t, xmp.replace("><drone-dji:DewarpData>",
+                                                            " drone-dji:DewarpFlag='1'><drone-dji:DewarpData>"))
+        else:
+            with rasterio.open(folder / p.name, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8") as ds:
+                ds.write(flat[None])
+        out.append(folder / p.name)
+    return out

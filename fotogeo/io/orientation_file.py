@@ -14,7 +14,9 @@ Each returns the one :class:`~fotogeo.geometry.approx_block.ApproximateBlock`. W
 their own EXIF GPS is evidence (:mod:`fotogeo.io.sfm_frame`): it decides the local frame of an OpenSfM/ODM
 reconstruction (``sfm_frame`` ``auto``), and every file's camera centres must agree with it within 3σ
 horizontally, else the file is refused by name (a COLMAP model aligned to that GPS here was tested by its
-alignment: :mod:`fotogeo.io.colmap_align`). An OpenSfM reading and a COLMAP alignment are shown as an
+alignment: :mod:`fotogeo.io.colmap_align`). A distortion-free camera (the model of undistorted images) given with
+images whose own calibration states a lens distortion is refused (:mod:`fotogeo.io.sfm_lens`; not when a ``camera``
+replaces the file's cameras). An OpenSfM reading and a COLMAP alignment are shown as an
 :class:`~fotogeo.errors.InputNote`.
 """
 from __future__ import annotations
@@ -55,6 +57,11 @@ def read_orientation_file(path, crs=None, camera=None, *, sfm_frame: str = "auto
              if gps and not aligned_to_gps(block) else "")
     if agree:
         block = block.with_notes(agree)
+    from .sfm_lens import check_lens
+    replaced = camera is not None and not cameras_from_camera_file(p)  # the callers' --camera replaces its cameras
+    lens = check_lens(block, images, p) if images and not replaced else ""
+    if lens:
+        warnings.warn(f"orientation file {str(p)!r}: {lens}", InputNote, stacklevel=2)
     if is_sfm or block.frame_reading:  # how an SfM frame was read or aligned: among the run's first lines
         warnings.warn(f"orientation file {str(p)!r}: {block.frame_reading}" + (f"; {agree}" if agree else ""),
                       InputNote, stacklevel=2)
