@@ -57,7 +57,8 @@ def written_sizes(path, tags: dict, make: str | None, size: tuple = ()) -> tuple
 def thumbnail_view(path, full: tuple) -> tuple | None:
     """``(r_resize, r_crop, (x, y), thumbnail width)`` (module docstring): the correlation of the file with the whole
     EXIF thumbnail, with the best place in it for a crop of the ``full`` frame, and that place's top-left corner in
-    ``full``'s pixels (to a thumbnail pixel); None without a thumbnail of ``full``'s aspect, a readable file, or texture to match."""
+    ``full``'s pixels (to a thumbnail pixel); None without a thumbnail of ``full``'s aspect, a readable file, or
+    texture to match."""
     import cv2
     import numpy as np
     tiff = _exif_tiff(path)
@@ -65,7 +66,9 @@ def thumbnail_view(path, full: tuple) -> tuple | None:
         return None
     bo = "<" if tiff[:2] == b"II" else ">"
     try:
-        ifd1 = struct.unpack(bo + "I", tiff[8 + 12 * struct.unpack(bo + "H", tiff[8:10])[0] + 2:][:4])[0]
+        ifd0 = struct.unpack(bo + "I", tiff[4:8])[0]
+        after = ifd0 + 2 + 12 * struct.unpack(bo + "H", tiff[ifd0:ifd0 + 2])[0]
+        ifd1 = struct.unpack(bo + "I", tiff[after:after + 4])[0]
         entries = _entries(tiff, bo, ifd1) if ifd1 else {}
     except (struct.error, IndexError):
         return None
@@ -74,7 +77,9 @@ def thumbnail_view(path, full: tuple) -> tuple | None:
     start, n = entries[0x0201][2], entries[0x0202][2]
     thumb = cv2.imdecode(np.frombuffer(tiff[start:start + n], np.uint8), cv2.IMREAD_GRAYSCALE)
     image = cv2.imread(str(path), cv2.IMREAD_REDUCED_GRAYSCALE_8 | cv2.IMREAD_IGNORE_ORIENTATION)
-    if thumb is None or image is None or abs(thumb.shape[1] / thumb.shape[0] / (full[0] / full[1]) - 1) > ASPECT_TOLERANCE:
+    if thumb is None or image is None:
+        return None
+    if abs(thumb.shape[1] / thumb.shape[0] * full[1] / full[0] - 1) > ASPECT_TOLERANCE:
         return None
     k = thumb.shape[1] / full[0]
     h, w = image.shape

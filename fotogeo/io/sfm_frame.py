@@ -138,7 +138,8 @@ def refusal(where: str, why: str, sep: tuple) -> InputError:
               "the images with GPS (their EXIF GPS decides)")
     return InputError(f"{where}: its local coordinates may be OpenSfM's topocentric frame or ODM's offsets along the "
                       f"UTM grid, which place the cameras up to {m:.2f} m and {deg:.2f}° apart here, and {why} — "
-                      f"give {images}, or say which with sfm_frame topocentric (OpenSfM) or grid (ODM)", option="sfm_frame")
+                      f"give {images}, or say which with sfm_frame topocentric (OpenSfM) or grid (ODM)",
+                      option="sfm_frame")
 
 
 def immaterial(sep: tuple) -> bool:
