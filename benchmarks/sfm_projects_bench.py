@@ -298,7 +298,7 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
             row.update(sp.measure(blk, sc, b["camera"], scale, {n: keys.get(k, k) for n, k in zip(sc["names"], stems)}))
         except FotogeoError as exc:
             row["read_error"] = str(exc)
-    ok = row["exit"] != 0 and ("--" in row["message"] or "give" in row["message"] or "$W" in row["message"])
+    ok = row["exit"] != 0 and by_name(row["message"])
     warned = False
     if row["exit"] == 0:
         ok = row.get("median_m", 1e9) <= MEDIAN_M and row.get("p90_m", 1e9) <= P90_M
@@ -306,6 +306,12 @@ def run_case(cid, what, build, sc, work: Path) -> dict:
     row["verdict"] = ("read right" if row["exit"] == 0 and ok else WARNED if warned else "WRONG IN SILENCE"
                       if row["exit"] == 0 else "refused by name" if ok else "refused, unclear")
     return row
+
+
+def by_name(message: str) -> bool:
+    """A refusal names its fix: the option to give (``--x``), whole — after any cut ("…": one_line shortens the
+    detail before the fix, never the fix); naming the input ("$W/…") alone is no fix."""
+    return "--" in message.rpartition("…")[2]
 
 
 def _as_ortho_scales(block, image):

@@ -2,6 +2,7 @@
 reader and by ``fotogeo ortho``; bare names with spaces written before are read too."""
 from __future__ import annotations
 
+import re
 import shutil
 
 import numpy as np
@@ -85,3 +86,13 @@ def test_orientation_lines_named_with_the_image_extension(data_dir, tmp_path):
     theirs = image_models([frame], crs, camera=cam, eo=str(ngi / "exterior_orientation.txt"))[0]
     px = np.array([[0.0, 0.0], [320.0, 576.0], [640.0, 1152.0]])
     np.testing.assert_array_equal(ours.model.inverse(px, 500.0), theirs.model.inverse(px, 500.0))
+
+
+@pytest.mark.parametrize("name", ["two\nlines", "car\rreturn", "bell\x07", "sep\u2028arator"])
+def test_a_name_with_a_line_break_or_control_character_is_refused_on_writing(tmp_path, name):
+    """It was written, and the reader then refused the file it could not split into lines."""
+    eo = ExteriorOrientation(1000.0, 2000.0, 300.0, 0.5, -0.25, 90.0)
+    with pytest.raises(InputError, match=rf"^frame {re.escape(repr(name))}: its name holds the control character "
+                                         rf".*rename the image$"):
+        write_exterior_orientation(tmp_path / "eo.txt", ["plain", name], [eo, eo])
+    assert not (tmp_path / "eo.txt").exists()

@@ -93,3 +93,22 @@ def test_the_refusal_says_where_the_position_sigma_came_from(tagged):
                 "flag": "--eo-sigma-position 0.02 m"}[tagged]
     assert text.startswith(f"only the positions of the frames are held ({expected}")
     assert ("--eo-sigma-position" in text) == (tagged == "flag") and "--eo-sigma-angle" in text
+
+
+def test_the_refusal_says_what_the_frames_files_lost():
+    """Images whose XMP was cut lost their attitude tags: a warning per image said so, then the free-roll refusal
+    asked for --eo-sigma-angle without saying why there was none. It now names the frames, so the refusal says what
+    their files lost, and keeps the fix whole when the line is cut."""
+    from fotogeo.errors import one_line
+    from fotogeo.tools.triangulate.tool import _saying_what_was_lost
+    block = _block(1, 2)
+    lost = {n: "its XMP packet is not valid XML: its attitude, GPS accuracy and calibration tags were lost"
+            for n in block.frames}
+    with pytest.raises(ModelError) as err, _saying_what_was_lost(lost):
+        adjust_determined(block, BundleOptions(snooping=False, eo_sigma=(0.5, np.inf)), KW, None)
+    text = str(err.value)
+    assert f"{', '.join(block.frames)}: its XMP packet is not valid XML: its attitude" in text
+    assert "the roll about the base" in text
+    assert one_line("y" * 900 + " " + text).endswith("(--eo-sigma-angle, e.g. the INS/gimbal accuracy in degrees), a "
+                                                     "frame off that line, or ground control (--gcps, or --reference "
+                                                     "with --dem)")

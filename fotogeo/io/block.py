@@ -28,6 +28,7 @@
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -289,8 +290,13 @@ def write_gcp_list(path, crs_line: str, gcp: GcpList) -> None:
 def write_exterior_orientation(path, names, eos, header: str = "") -> None:
     """``name X Y Z omega phi kappa`` lines (module docstring); ``header`` becomes ``#`` comments. A name holding
     spaces, quotes, ``#`` or backslashes is quoted as the shell quotes it (``shlex.quote``), which
-    :func:`fotogeo.io.camera.read_exterior_orientation` reads back."""
+    :func:`fotogeo.io.camera.read_exterior_orientation` reads back (a tab too); a name holding another control
+    character (a line break) or a Unicode line separator is refused, naming the frame."""
     import shlex
+    for n in names:
+        if bad := [c for c in str(n) if c != "\t" and unicodedata.category(c) in ("Cc", "Zl", "Zp")]:
+            raise InputError(f"frame {str(n)!r}: its name holds the control character {bad[0]!r}, which "
+                             f"{Path(path).name} cannot hold on its one line per frame; rename the image")
     out = [f"# {h}" for h in header.splitlines()] if header else []
     names = [n if re.fullmatch(r"[^\s#'\"\\]+", str(n)) else shlex.quote(str(n)) for n in names]
     out += [f"{n} {e.X:.4f} {e.Y:.4f} {e.Z:.4f} {e.omega:.8f} {e.phi:.8f} {e.kappa:.8f}" for n, e in zip(names, eos)]

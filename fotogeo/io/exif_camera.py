@@ -36,6 +36,14 @@ of the file's, two records agreeing — and refused naming ``DigitalZoomRatio`` 
 file's own size: both records include the zoom or neither does; one record alone cannot say). Without the tag, a file
 larger than the frame its records imply is not called a resize: its focal length would come out ``k`` times too short.
 
+A file smaller than ``PixelXDimension`` is a resize only if one factor gives its size to the pixel on both axes
+(:func:`resize_factor`: a copy with its border trimmed is not). A crop of the frame keeps every record above, and
+they all describe the camera's frame, not the file: ``FocalPlaneXResolution``, the 35 mm equivalent and DJI's
+``CalibratedOpticalCenterX/Y`` agree with a resize of the same size, and so do the tie points' residuals of a nadir
+block (a focal length too short goes into the height). The camera's EXIF thumbnail, of the whole frame, tells them
+apart (:func:`.exif_sizes.thumbnail_view`): a crop it shows is refused; otherwise the resize taken is said as an
+:class:`~fotogeo.errors.InputNote` with what told it, since without a thumbnail nothing does.
+
 Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
 thumbnail's size (the vendor's choice, 160x120 on the eBee's Canon whatever the frame) and ``FocalLength`` against
 the 35 mm equivalent alone (a crop factor, no size in pixels).
@@ -50,15 +58,20 @@ then leave each strip's roll free — the same refusal as the full-size original
 from __future__ import annotations
 
 import math
+import warnings
 from fractions import Fraction
 
-from ..errors import InputError
+from ..errors import InputError, InputNote
 from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers
+from .exif_sizes import thumbnail_view
 
 #: relative difference tolerated between a calibrated focal length and the 35 mm equivalent's
 F35_TOLERANCE = 0.15
 #: relative difference tolerated between the two axes' scale factors and between full sizes
 SIZE_TOLERANCE = 0.01
+#: correlations of a file with its EXIF thumbnail: below the first as a whole and above the second at one place in it
+#: (:func:`_check_thumbnail`), the file is a crop of the camera's frame
+THUMB_RESIZE, THUMB_CROP = 0.5, 0.8
 
 
 def _fix(meta: ImageMetadata) -> str:
@@ -70,14 +83,14 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     w, h = meta.width, meta.height
     full = meta.pixel_dimension
     noted = _check_written_sizes(meta, full)
-    s = 1.0
+    s, seen = 1.0, None
     if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
-        sx, sy = w / full[0], h / full[1]
-        if abs(sx / sy - 1.0) > SIZE_TOLERANCE:
+        s = resize_factor((w, h), full)
+        if s is None:
             raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension x PixelYDimension is {full[0]}x{full[1]}, not "
-                             f"the file's size times one factor (cropped, rotated or resized unevenly): its camera "
-                             f"calibration cannot be carried over; give the camera (--camera)")
-        s = math.sqrt(sx * sy)
+                             f"the file's size times one factor to the pixel (cropped, trimmed, rotated or resized "
+                             f"unevenly): its camera calibration cannot be carried over; give the camera (--camera)")
+        seen = _check_thumbnail(meta, full)
     cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
     if cx and cy and cx > 0 and cy > 0:
         implied = (2 * cx, 2 * cy)
@@ -89,6 +102,11 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
         _check_focal_plane(meta, full)
     note = "" if s == 1.0 else f"calibration scaled by {s:.4g} to the file's {w}x{h} px (EXIF PixelXDimension " \
                                f"{full[0]}x{full[1]})"
+    if s != 1.0:
+        warnings.warn(f"images of {w}x{h} px whose EXIF PixelXDimension says {full[0]}x{full[1]} are taken as a "
+                      f"resize by {_ratio(s)} from {full[0]}x{full[1]} (their calibration scaled to the file; "
+                      f"{'their EXIF thumbnail agrees' if seen else 'nothing in them tells a crop from a resize'}); "
+                      f"if the images were cropped, give --camera", InputNote, stacklevel=2)
     return s, "; ".join(n for n in (note, noted) if n)
 
 
@@ -226,15 +244,49 @@ def _check_written_sizes(meta: ImageMetadata, full) -> str:
 
 
 def _uniform_factor(size, said) -> float | None:
-    """``k`` with ``size ≈ k · said`` on both axes (``said`` swapped allowed: a portrait frame), 1.0 when equal,
-    None when no single factor other than ~1 fits (:data:`SIZE_TOLERANCE`: a few pixels off is no resize)."""
+    """``k`` with ``size = k · said`` to the pixel on both axes (:func:`resize_factor`; ``said`` swapped allowed: a
+    portrait frame), 1.0 when equal, None when no single factor other than ~1 fits (:data:`SIZE_TOLERANCE`: a few
+    pixels off is no resize)."""
     if tuple(size) in (tuple(said), tuple(said)[::-1]):
         return 1.0
     for w, h in (said, said[::-1]):
-        sx, sy = size[0] / w, size[1] / h
-        if abs(sx / sy - 1.0) <= SIZE_TOLERANCE and abs(math.sqrt(sx * sy) - 1.0) > SIZE_TOLERANCE:
-            return math.sqrt(sx * sy)
+        k = resize_factor(size, (w, h))
+        if k is not None and abs(k - 1.0) > SIZE_TOLERANCE:
+            return k
     return None
+
+
+def resize_factor(size, said) -> float | None:
+    """``k`` such that a resize of ``said`` by ``k`` gives ``size`` on both axes to within the resize's rounding
+    (``|round(k · said) − size| <= 1`` px, ``k`` taken on the longer axis), None when no such factor exists: a
+    trimmed border (2244x1688 from 4608x3456) or another aspect is no resize, whatever the geometric mean says."""
+    i = 0 if said[0] >= said[1] else 1
+    k = size[i] / said[i]
+    return k if all(abs(round(k * a) - b) <= 1 for a, b in zip(said, size)) else None
+
+
+def _ratio(k: float) -> str:
+    """``k`` as a simple fraction when it is one (``1/2``, ``3/5``), else to four digits."""
+    f = Fraction(k).limit_denominator(8)
+    return f"{f.numerator}/{f.denominator}" if abs(f / k - 1) < 1e-3 and f.denominator > 1 else f"{k:.4g}"
+
+
+def _check_thumbnail(meta: ImageMetadata, full) -> bool:
+    """Refuse a file taken for a resize of the ``full`` frame that the camera's own EXIF thumbnail shows to be a crop
+    of it (:func:`.exif_sizes.thumbnail_view`): the whole file does not match the thumbnail (correlation below
+    :data:`THUMB_RESIZE`) while one part of the thumbnail does (at least :data:`THUMB_CROP`). Without a thumbnail,
+    texture or a clear match nothing is told and the resize stands (the note of :func:`size_scale` says so).
+    Returns True when the thumbnail matches the whole file (at least :data:`THUMB_CROP`)."""
+    view = thumbnail_view(meta.path, full)
+    if view is None or view[0] >= THUMB_RESIZE or view[1] < THUMB_CROP:
+        return view is not None and view[0] >= THUMB_CROP
+    r_resize, r_crop, (x, y), _ = view
+    raise InputError(f"{_fix(meta)}: its EXIF thumbnail (the camera's view of its whole {full[0]}x{full[1]} frame, "
+                     f"EXIF PixelXDimension) matches the file at {x},{y} of that frame (± {full[0] / view[3]:.0f} px, "
+                     f"correlation {r_crop:.2f}) and "
+                     f"not as a whole ({r_resize:.2f}): the image was cropped, not resized, so its focal length in "
+                     f"pixels is the camera's and its principal point moved by the crop; give the camera of the crop "
+                     f"(--camera) or use the originals")
 
 
 def resized_without_xmp(meta: ImageMetadata) -> str | None:

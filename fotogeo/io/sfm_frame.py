@@ -129,12 +129,17 @@ def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
 
 
 def refusal(where: str, why: str, sep: tuple) -> InputError:
-    """The refusal of an undecided reading (module docstring), naming ``sfm_frame``."""
+    """The refusal of an undecided reading (module docstring), naming ``sfm_frame``; the fix after " — ", where
+    :func:`fotogeo.errors.one_line` keeps it however long the evidence before it is. Images given whose GPS could
+    not decide (``why`` names them) call for images with a GPS precise enough, not for the same images again."""
     m, deg = sep
+    given = "images' own EXIF GPS" in why
+    images = ("images with a GPS precise enough to tell them apart (RTK)" if given else
+              "the images with GPS (their EXIF GPS decides)")
     return InputError(f"{where}: its local coordinates may be OpenSfM's topocentric frame or ODM's offsets along the "
-                      f"UTM grid, which place the cameras up to {m:.2f} m and {deg:.2f}° apart here, and {why}; "
-                      f"give the images themselves (their EXIF GPS decides), or say which with sfm_frame topocentric "
-                      f"(OpenSfM) or grid (ODM)", option="sfm_frame")
+                      f"UTM grid, which place the cameras up to {m:.2f} m and {deg:.2f}° apart here, and {why} — "
+                      f"give {images}, or say which with sfm_frame topocentric (OpenSfM) or grid (ODM)",
+                      option="sfm_frame")
 
 
 def immaterial(sep: tuple) -> bool:

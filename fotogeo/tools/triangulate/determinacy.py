@@ -74,7 +74,8 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_sour
     while True:
         free = free_roll(block, opts, sigma_source)
         if free:  # of the frames left: no adjustment can fix it, dropping more cannot help; refused before adjusting
-            raise ModelError(free + (f" (dropped already: {', '.join(d['name'] for d in dropped)})" if dropped else ""))
+            raise ModelError(free + (f" (dropped already: {', '.join(d['name'] for d in dropped)})" if dropped else ""),
+                             frames=block.frames)  # every frame rolls: a caller may say what their files lost
         try:
             result = adjust_block(block, opts, progress=prog)
         except ModelError as e:  # frames that lost their tie points (to snooping): dropped on request
@@ -125,7 +126,7 @@ def free_roll(block, opts, source: str | None = None) -> str | None:
     return (f"only the positions of the frames are held ({held_by}), and {line}: a rotation "
             f"of the whole block about that line (the "
             f"roll about the base) moves no centre and no image point, so the adjustment cannot determine the "
-            f"frames' attitude (no angle σ: the normal equations are singular). Give the attitude a prior "
+            f"frames' attitude (no angle σ: the normal equations are singular) — give the attitude a prior "
             f"(--eo-sigma-angle, e.g. the INS/gimbal accuracy in degrees), a frame off that line, or ground "
             f"control (--gcps, or --reference with --dem)")
 

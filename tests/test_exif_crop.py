@@ -1,0 +1,89 @@
+"""A copy of a camera's frame that keeps its EXIF was taken for a resize whenever its size was smaller than EXIF
+PixelXDimension says: a centre crop of the eBee's 4608x3456 frame (2304x1728) got the focal length of a resize by
+1/2 (1605 px instead of 3210), and a resized copy with its border trimmed (2244x1688) the geometric mean of two
+factors. The camera's own EXIF thumbnail now tells a crop (fotogeo.io.exif_sizes.thumbnail_view), a resize must give
+the file's size to the pixel on both axes, and the resize taken is said on the console (a Note)."""
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+import jpeg_metadata as jm
+from fotogeo.errors import InputError, InputNote
+from fotogeo.io.exif import read_image_metadata
+from fotogeo.io.exif_camera import focal_of
+
+
+def _cropped(src, dst, box):
+    """``src``'s pixels ``box = (x0, y0, x1, y1)`` into the JPEG ``dst`` with the original's APP1 segments (EXIF,
+    its thumbnail, XMP) as they were — what a cropping tool that keeps the metadata leaves."""
+    import struct
+
+    import cv2
+    import numpy as np
+    data = src.read_bytes()
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    x0, y0, x1, y1 = box
+    enc = cv2.imencode(".jpg", img[y0:y1, x0:x1], [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes()
+    segments, i = [], 2
+    while i + 4 <= len(data) and data[i] == 0xFF and data[i + 1] != 0xDA:
+        length = struct.unpack(">H", data[i + 2:i + 4])[0]
+        if data[i + 1] == 0xE1:
+            segments.append(data[i:i + 2 + length])
+        i += 2 + length
+    dst.write_bytes(b"\xff\xd8" + b"".join(segments) + enc[2:])
+    return dst
+
+
+@pytest.fixture
+def original(data_dir):
+    return data_dir / "drone_snowpeak" / "img" / "IMG_2281.JPG"
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("box", [(1152, 864, 3456, 2592), (0, 0, 2304, 1728), (2000, 1500, 3536, 2652)],
+                         ids=["centre 1/2", "corner 1/2", "off-centre 1/3"])
+def test_a_crop_with_the_exif_kept_is_refused_by_its_thumbnail(tmp_path, original, box):
+    """Placed to a thumbnail pixel (160 px wide: 29 px of the frame)."""
+    import re
+    crop = read_image_metadata(_cropped(original, tmp_path / "crop.JPG", box))
+    assert (crop.width, crop.height) == (box[2] - box[0], box[3] - box[1])
+    with pytest.raises(InputError, match=r"its EXIF thumbnail .* matches the file at \d+,\d+ of that frame \(± 29 px, "
+                                         r"correlation 0.9\d\).*cropped, not resized.*--camera") as err:
+        focal_of(crop)
+    x, y = map(int, re.search(r"at (\d+),(\d+) of", str(err.value)).groups())
+    assert abs(x - box[0]) <= 29 and abs(y - box[1]) <= 29
+
+
+@pytest.mark.data
+def test_a_resize_is_said_with_what_tells_it(tmp_path, original):
+    full = focal_of(read_image_metadata(original))[0]
+    half = read_image_metadata(jm.resized_copy(original, tmp_path / "half.JPG", 2.0))
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert focal_of(half)[0] == pytest.approx(full / 2, rel=1e-9)
+    notes = [str(w.message) for w in got if issubclass(w.category, InputNote)]
+    assert notes == ["images of 2304x1728 px whose EXIF PixelXDimension says 4608x3456 are taken as a resize by 1/2 "
+                     "from 4608x3456 (their calibration scaled to the file; their EXIF thumbnail agrees); if the "
+                     "images were cropped, give --camera"]
+
+
+@pytest.mark.data
+def test_a_resized_copy_with_its_border_trimmed_is_refused(tmp_path, original):
+    half = jm.resized_copy(original, tmp_path / "half.JPG", 2.0)
+    trimmed = read_image_metadata(_cropped(half, tmp_path / "trim.JPG", (30, 20, 2274, 1708)))
+    assert (trimmed.width, trimmed.height) == (2244, 1688)
+    with pytest.raises(InputError, match=r"PixelXDimension x PixelYDimension is 4608x3456, not the file's size times "
+                                         r"one factor to the pixel \(cropped, trimmed.*--camera"):
+        focal_of(trimmed)
+
+
+@pytest.mark.parametrize("size,said,k", [((2304, 1728), (4608, 3456), 0.5), ((1536, 1152), (4608, 3456), 1 / 3),
+                                         ((2765, 2074), (4608, 3456), 0.6), ((1000, 750), (4000, 3000), 0.25),
+                                         ((2244, 1688), (4608, 3456), None), ((2304, 1722), (4608, 3456), None),
+                                         ((1728, 2304), (4608, 3456), None)])
+def test_a_resize_gives_the_size_to_the_pixel_on_both_axes(size, said, k):
+    from fotogeo.io.exif_camera import resize_factor
+    got = resize_factor(size, said)
+    assert got is None if k is None else got == pytest.approx(k, rel=1e-3)
