@@ -35,6 +35,7 @@ import numpy as np
 
 from ...errors import FotogeoWarning
 from ...stereo.fusion import Fusion, GridSpec, PairLayer, remove_speckles
+from ...stereo.rays import intersection_angles
 from . import frames
 from .outputs import SPECKLE_CELLS, SPECKLE_STEP, TILE_MARGIN
 
@@ -87,6 +88,11 @@ class PairMatch:
     def name(self) -> str:
         return f"{self.views[0].name}-{self.views[1].name}"
 
+    def angles(self, P) -> np.ndarray:
+        """The intersection angles (degrees) of the pair's rays at its points ``P`` ``(N, 3)``
+        (:func:`fotogeo.stereo.rays.intersection_angles`)."""
+        return intersection_angles(P, *self.rp.centres)
+
     def dense(self, box, colours: bool = False):
         """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
         (:func:`.frames.dense_points`)."""
@@ -107,30 +113,40 @@ class PairMatch:
                        rectified_size=list(self.rp.size),
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),
                        penalty_scale=None if self.penalty is None else round(self.penalty, 4),
-                       match_density=round(density, 4), points=self.points)
+                       match_density=round(density, 4), points=self.points,
+                       set_aside_cells=st.get("set_aside_cells", 0))
         if density < low_density:
             warnings.warn(f"pair {a}-{b}: only {100 * density:.0f} % of the overlap matched (textureless, "
                           f"cloud-covered or changed areas?); its holes stay nodata", FotogeoWarning, stacklevel=4)
 
 
-def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
-    """The pairs' points fused on the expanded tile ``sub``; the point cloud gets those in ``core``."""
-    fusion = Fusion(sub)
+def _tile(matches, sub: GridSpec, core: tuple, cloud, min_angle: float = 0.0) -> tuple:
+    """The pairs' points fused on the expanded tile ``sub`` (:class:`~fotogeo.stereo.fusion.Fusion`,
+    ``min_angle``): its bands ``(height, count, spread)``; the point cloud gets the points in the window ``core``
+    ``(r0, c0, rows, cols)`` of ``sub``, each pair's ``stats["set_aside_cells"]`` the core's cells where its
+    heights were set aside for their narrow rays."""
+    fusion, added = Fusion(sub, min_angle), []
+    inner = sub.sub(*core)
     for m in matches:
         box = m.box(sub)
         if box is None:
             continue
         t, layer = time.perf_counter(), PairLayer(sub)
         for P, rgb in m.dense(box, colours=cloud is not None):
-            layer.add(P)
-            inside = core.cells(P[:, :2])[1]
+            layer.add(P, m.angles(P) if min_angle > 0 and hasattr(m, "angles") else None)
+            inside = inner.cells(P[:, :2])[1]
             m.points += int(inside.sum())
             if cloud is not None:
                 cloud.write(P[inside], rgb[inside])
         m.seconds += time.perf_counter() - t
         if layer.n.any():
             fusion.add(_despeckled(layer))
-    return fusion
+            added.append(m)
+    bands = fusion.result(core=core)
+    for m, k in zip(added, fusion.set_aside):
+        if k:
+            m.stats["set_aside_cells"] = m.stats.get("set_aside_cells", 0) + k
+    return bands
 
 
 def _despeckled(layer: PairLayer) -> PairLayer:
@@ -145,24 +161,32 @@ def _despeckled(layer: PairLayer) -> PairLayer:
     return layer
 
 
-def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None) -> None:
+def _within(core, expanded) -> tuple:
+    """The window ``core`` ``(r0, c0, rows, cols)`` of the grid as a window of its window ``expanded``."""
+    return core[0] - expanded[0], core[1] - expanded[1], core[2], core[3]
+
+
+def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None,
+                min_angle: float = 0.0) -> None:
     """Match ``matches`` (:class:`PairMatch`, or RPC pairs' :class:`.rpc_pairs.RpcPairMatch`: anything with
-    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``, ``stats``) tile by tile onto
-    ``grid`` and hand each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets
-    each pair's seconds. With ``scheduler`` or ``workers`` the tiles are Dask tasks (module docstring)."""
+    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``, ``stats``; with ``angles(P)`` its
+    points' intersection angles) tile by tile onto ``grid`` and hand each tile to ``products``
+    (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds; ``min_angle`` (degrees):
+    the fusion's (:class:`~fotogeo.stereo.fusion.Fusion`). With ``scheduler`` or ``workers`` the tiles are Dask
+    tasks (module docstring)."""
     tiles = list(grid.tiles(TILE_CELLS, TILE_MARGIN if TILE_CELLS < max(grid.width, grid.height) else 0))
     if scheduler or workers:
         from ..common.dask_cluster import connect
         client, close = connect(None, scheduler, workers, what="dsm --scheduler/--workers")
         try:
-            _dask_tiles(client, grid, matches, tiles, products, stage)
+            _dask_tiles(client, grid, matches, tiles, products, stage, min_angle)
         finally:
             close()
     else:
         for k, (core, expanded) in enumerate(tiles):
             stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")
-            fusion = _tile(matches, grid.sub(*expanded), grid.sub(*core), products.cloud)
-            products.add(core, expanded, *fusion.result())
+            bands = _tile(matches, grid.sub(*expanded), _within(core, expanded), products.cloud, min_angle)
+            products.add(core, expanded, *bands)
     for m in matches:
         timings[m.name] = round(timings.get(m.name, 0.0) + m.seconds, 3)
 
@@ -211,16 +235,16 @@ class _PointFile:
         return self.path
 
 
-def tile_task(matches, grid: GridSpec, core, expanded, cloud_path=None) -> tuple:
+def tile_task(matches, grid: GridSpec, core, expanded, cloud_path=None, min_angle: float = 0.0) -> tuple:
     """One output tile on a Dask worker: ``((height, count, spread), counters per pair, points file or None)``
     (module docstring); one thread for GDAL, OpenCV and BLAS."""
     from ..common.dask_cluster import pin_threads
     pin_threads()
     ms = [_fresh(m) for m in matches]  # a worker's copies are shared by its tasks: each task counts its own
     cloud = _PointFile(cloud_path) if cloud_path else None
-    fusion = _tile(ms, grid.sub(*expanded), grid.sub(*core), cloud)
+    bands = _tile(ms, grid.sub(*expanded), _within(core, expanded), cloud, min_angle)
     counters = [(m.stats, m.points, m.seconds, getattr(m, "miss", None)) for m in ms]
-    return fusion.result(), counters, cloud.save() if cloud else None
+    return bands, counters, cloud.save() if cloud else None
 
 
 def _copy_points(path, cloud) -> None:
@@ -231,7 +255,7 @@ def _copy_points(path, cloud) -> None:
     Path(path).unlink()
 
 
-def _dask_tiles(client, grid, matches, tiles, products, stage) -> None:
+def _dask_tiles(client, grid, matches, tiles, products, stage, min_angle: float = 0.0) -> None:
     """The tiles as Dask tasks on ``client``, their results written in tile order (module docstring)."""
     light = [_fresh(m) for m in matches]
     ahead = AHEAD_PER_WORKER * max(1, len(client.scheduler_info().get("workers", {})))
@@ -247,7 +271,7 @@ def _dask_tiles(client, grid, matches, tiles, products, stage) -> None:
             stage(k / len(tiles), f"tile {k + 1} of {len(tiles)} (Dask)")
             while nxt < len(tiles) and nxt <= k + ahead:
                 path = str(folder / f"tile_{nxt:06d}.npz") if folder else None
-                pending.append(client.submit(tile_task, light, grid, *tiles[nxt], path, pure=False))
+                pending.append(client.submit(tile_task, light, grid, *tiles[nxt], path, min_angle, pure=False))
                 nxt += 1
             bands, counters, points = pending.popleft().result()
             for m, c in zip(matches, counters):
