@@ -18,8 +18,7 @@ fall between points, and those are gaps of the sampling, not unmeasured surface;
   angle of its points there, rasterised as the heights are; :func:`fotogeo.stereo.rays.intersection_angles`) is
   **set aside** where another pair's rays meet under ``min_angle`` or more: its height, ``1 / sin γ`` times noisier
   than theirs, does not enter the median as their equal, and where no pair reaches the angle the narrow ones still
-  give the height (a hole would not be more accurate than them). As ASP's and CARS's triangulation filters,
-  per point, without their holes;
+  give the height (Ames Stereo Pipeline's ``--min-triangulation-angle`` drops such points, holes included);
 * **count** — how many pairs gave a height (those set aside not counted);
 * **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs and weighted as
   the rasterisation weighs them (``sqrt(Σwz²/Σw − (Σwz/Σw)²)``): the surface's roughness and the matching noise

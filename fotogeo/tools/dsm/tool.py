@@ -41,7 +41,7 @@ FEET = (0.3048, 1200.0 / 3937.0)
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
         refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None,
-        workers=None, min_ray_angle: float = 5.0, point_cloud=None, report=None, overwrite: bool = False,
+        workers=None, min_ray_angle: float = 0.0, point_cloud=None, report=None, overwrite: bool = False,
         progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
