@@ -35,7 +35,7 @@ def test_a_pairs_island_is_removed_before_it_joins_another_pairs():
     grid = GridSpec(0.0, 40.0, 1.0, 40, 40)
     a = _Pair(np.vstack([_cells(0, 20, 0, 40, 300.0), _cells(30, 35, 0, 8, 270.0)]))
     b = _Pair(_cells(35, 40, 0, 8, 272.0))
-    height, count, _ = matching._tile([a, b], grid, (0, 0, grid.height, grid.width), None)
+    height, count, _ = matching._tile([a, b], grid, grid, None).result()
     height, _ = remove_speckles(height, SPECKLE_CELLS, SPECKLE_STEP * grid.resolution)
     assert np.isfinite(height[:, :20]).all() and np.allclose(height[:, :20], 300.0)
     assert np.isnan(height[:, 21:]).all()

@@ -1,12 +1,14 @@
-"""Heights from rays meeting under a small angle (fotogeo.stereo.rays.intersection_angles) are set aside in the
-fusion where a pair of wider rays gives one (fotogeo.stereo.fusion.Fusion ``min_angle``, dsm --min-ray-angle), and
-still give the height where no pair does."""
+"""The angle under which a pair's rays meet at its points (fotogeo.stereo.rays.intersection_angles) and the DSM
+report's per-pair figures of it (fotogeo.tools.dsm.matching: the median angle, the share under 5°)."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from fotogeo.stereo.fusion import Fusion, GridSpec, PairLayer, fuse
 from fotogeo.stereo.rays import closest_points, intersection_angles
-from fotogeo.tools.dsm import matching
+from fotogeo.tools.dsm.matching import angle_figures
+
+from dsm_scenes import make_scene
 
 
 def test_the_angle_of_two_rays_at_their_point():
@@ -20,72 +22,35 @@ def test_the_angle_of_two_rays_at_their_point():
     assert g[2] == pytest.approx(np.degrees(np.arccos(c_a @ c_b / np.linalg.norm(c_a) / np.linalg.norm(c_b))))
     X, _ = closest_points(c1, P[:1] - c1, c2, P[:1] - c2)     # the rays of the triangulation meet at the point
     assert np.allclose(X, P[:1])
+    assert np.isnan(intersection_angles(np.array([[np.nan, 0.0, 0.0], [-10.0, 0.0, 100.0]]), c1, c2)).all()
 
 
-def _points(grid, cols, z, rng, sigma):
-    """One point per cell of columns ``cols`` (all rows) at height ``z`` + N(0, ``sigma``)."""
-    c, r = np.meshgrid(np.arange(*cols) + 0.5, np.arange(grid.height) + 0.5)
-    c, r = c.ravel() * grid.resolution + grid.x0, grid.y0 - r.ravel() * grid.resolution
-    return np.column_stack([c, r, z + rng.normal(0.0, sigma, c.size)])
+def test_the_reports_angle_figures_are_the_median_and_share_of_the_angles_counted():
+    rng = np.random.default_rng(3)
+    g = np.concatenate([rng.uniform(1.0, 5.0, 3000), rng.uniform(5.0, 20.0, 7000)])
+    counts = np.bincount((g / 0.1).astype(int), minlength=1800)
+    f = angle_figures(counts)
+    assert f["ray_angle_median_deg"] == pytest.approx(np.median(g), abs=0.1)
+    assert f["ray_angle_under_5deg"] == pytest.approx(0.3, abs=1e-4)
+    assert angle_figures(None) == {} and angle_figures(np.zeros(1800, int)) == {}
 
 
-def _layers(grid, rng):
-    """A narrow pair (2°, σ 0.6 m) over the whole grid and a wide one (12°, σ 0.1 m) over its left half."""
-    narrow, wide = PairLayer(grid), PairLayer(grid)
-    P = _points(grid, (0, grid.width), 50.0, rng, 0.6)
-    narrow.add(P, np.full(len(P), 2.0))
-    P = _points(grid, (0, grid.width // 2), 50.0, rng, 0.1)
-    wide.add(P, np.full(len(P), 12.0))
-    return narrow, wide
-
-
-def test_narrow_rays_are_set_aside_where_wide_ones_measure_and_kept_where_none_do():
-    rng = np.random.default_rng(7)
-    grid = GridSpec(0.0, 40.0, 1.0, 40, 40)
-    narrow, wide = _layers(grid, rng)
-    before, n0, _ = fuse([narrow, wide])              # every pair's height alike: the two heights' mean
-    f = Fusion(grid, min_angle=5.0)
-    f.add(narrow)
-    f.add(wide)
-    after, n1, _ = f.result()
-    left, right = np.s_[:, 2:18], np.s_[:, 22:38]
-    assert np.isfinite(after).all() and np.isfinite(before).all()      # no hole where only narrow rays reach
-    err0, err1 = np.std(before[left] - 50.0), np.std(after[left] - 50.0)
-    assert err1 < 0.6 * err0                          # the wide pair's heights alone where it measures
-    assert np.allclose(after[right], before[right])   # the narrow pair's where it is alone
-    assert (n0[left] == 2).all() and (n1[left] == 1).all() and (n1[right] == 1).all()
-    assert f.set_aside[0] >= 19 * 40 and f.set_aside[1] == 0   # the left half (its edge column splat-reached)
-
-
-class _Pair:
-    """A pair as :func:`fotogeo.tools.dsm.matching._tile` takes it: fixed points, their angles when ``angle``."""
-
-    def __init__(self, P, angle=None):
-        self.P, self.angle, self.stats, self.points, self.seconds = P, angle, {}, 0, 0.0
-        if angle is not None:
-            self.angles = lambda P: np.full(len(P), angle)
-
-    def box(self, sub):
-        return 0, 0, 1, 1
-
-    def dense(self, box, colours=False):
-        yield self.P, None
-
-
-def test_tiles_set_narrow_pairs_aside_and_count_their_cells_and_pairs_without_angles_are_never_set_aside():
-    rng = np.random.default_rng(8)
-    grid = GridSpec(0.0, 40.0, 1.0, 40, 40)
-    narrow = _points(grid, (0, 40), 50.0, rng, 0.6)
-    wide = _points(grid, (0, 20), 50.0, rng, 0.1)
-    whole = (0, 0, grid.height, grid.width)
-    a, b = _Pair(narrow, 2.0), _Pair(wide, 12.0)
-    height, count, _ = matching._tile([a, b], grid, whole, None, min_angle=5.0)
-    assert a.stats["set_aside_cells"] >= 19 * 40 and "set_aside_cells" not in b.stats
-    assert (count[:, :19] == 1).all() and np.isfinite(height).all()
-    core = (0, 0, 40, 10)                             # counted within the tile's core only
-    c = _Pair(narrow, 2.0)
-    matching._tile([c, _Pair(wide, 12.0)], grid, core, None, min_angle=5.0)
-    assert c.stats["set_aside_cells"] == 10 * 40
-    d, e = _Pair(narrow), _Pair(wide)                 # RPC pairs: no angles, every height counts
-    height2, count2, _ = matching._tile([d, e], grid, whole, None, min_angle=5.0)
-    assert (count2[:, :19] == 2).all() and not d.stats
+def test_the_dsm_report_gives_each_frame_pairs_ray_angles(tmp_path):
+    """Two consecutive nadir frames: the report's median angle is that of the rays at the point cloud's points
+    (from the two projection centres), its share under 5° theirs."""
+    laspy = pytest.importorskip("laspy", reason="laspy (a dependency of fotogeo) is not installed")
+    from fotogeo.tools.dsm import dsm
+    sc = make_scene("nadir", tmp_path / "scene")
+    names = ("s1_01", "s1_02")
+    imgs = [p for p in sc["images"] if Path(p).stem in names]
+    rep = dsm(imgs, tmp_path / "d.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"],
+              point_cloud=tmp_path / "p.las", report=tmp_path / "r.json")
+    (p,) = [q for q in rep["pairs"] if q["kept"]]
+    rows = {x.split()[0]: x.split() for x in Path(sc["eo"]).read_text().splitlines() if x and x[0] != "#"}
+    c1, c2 = (np.array([float(v) for v in rows[n][1:4]]) for n in names)
+    las = laspy.read(tmp_path / "p.las")
+    g = intersection_angles(np.column_stack([las.x, las.y, las.z]), c1, c2)
+    assert len(g) == p["points"] > 1000
+    assert p["ray_angle_median_deg"] == pytest.approx(np.median(g), abs=0.1)
+    assert p["ray_angle_under_5deg"] == pytest.approx(np.mean(g < 5.0), abs=1e-3)
+    assert 0.8 * p["convergence_deg"] < p["ray_angle_median_deg"] < 1.2 * p["convergence_deg"]

@@ -47,11 +47,6 @@ DSM = Table(
            "centres, as gdal_fillnodata -md counts pixels) from a matched height; farther cells stay nodata and "
            "are not marked filled. At most 64 (the output tiles' margin).", minimum=0.0, maximum=64.0,
            exclusive_minimum=True, advanced=True, needs="fill"),
-    Option("min_ray_angle", "float", 0.0, "Set aside heights from rays meeting under this angle (degrees)",
-           "Frames: where a pair's rays meet under less than this many degrees in a cell and another pair's meet "
-           "under more, the narrow pair's height (1 / sin of the angle times noisier) does not enter the median; "
-           "where no pair reaches it the narrow pairs still give the height. 0: every pair's height counts "
-           "alike [0]. The report gives each pair's cells set aside.", minimum=0.0, maximum=90.0, advanced=True),
     Option("bands", "str", None, "Bands to match, e.g. 1 or 4,3,2 (empty = the first three)",
            "Bands of each image fused into the grey image matched, e.g. 1 or 4,3,2 [the first three; empty, "
            "constant and noise bands left out with a warning]; the point cloud's colours come from them too.",

@@ -13,13 +13,8 @@ fall between points, and those are gaps of the sampling, not unmeasured surface;
 (its border cells get one cell's reach at most). Across the pairs
 (:class:`Fusion`, pair by pair: 4 bytes per cell and pair once a pair is done; :func:`fuse`), per cell:
 
-* **height** — the median of the pairs' heights (one pair: its height), NaN where no pair has one; with
-  ``min_angle`` (:class:`Fusion`), a pair whose rays meet under a smaller angle in the cell (the mean intersection
-  angle of its points there, rasterised as the heights are; :func:`fotogeo.stereo.rays.intersection_angles`) is
-  **set aside** where another pair's rays meet under ``min_angle`` or more: its height, ``1 / sin γ`` times noisier
-  than theirs, does not enter the median as their equal, and where no pair reaches the angle the narrow ones still
-  give the height (Ames Stereo Pipeline's ``--min-triangulation-angle`` drops such points, holes included);
-* **count** — how many pairs gave a height (those set aside not counted);
+* **height** — the median of the pairs' heights (one pair: its height), NaN where no pair has one;
+* **count** — how many pairs gave a height;
 * **spread** — the standard deviation of all points' heights in the cell, pooled over the pairs and weighted as
   the rasterisation weighs them (``sqrt(Σwz²/Σw − (Σwz/Σw)²)``): the surface's roughness and the matching noise
   at once.
@@ -86,8 +81,7 @@ _RING2 = np.array([[2.0, 1.0, 2.0], [1.0, 0.0, 1.0], [2.0, 1.0, 2.0]])
 
 
 class PairLayer:
-    """Sums of one pair's points per cell: count, Σz, Σz² and, when the points come with their rays' intersection
-    angles, Σγ (``sg``; None without)."""
+    """Sums of one pair's points per cell: count, Σz, Σz²."""
 
     def __init__(self, grid: GridSpec):
         self.grid = grid
@@ -95,11 +89,9 @@ class PairLayer:
         self.n = np.zeros(n, np.int32)
         self.s = np.zeros(n, np.float64)
         self.s2 = np.zeros(n, np.float64)
-        self.sg = None
 
-    def add(self, XYZ, angles=None) -> int:
-        """Add points ``(N, 3)`` (NaN rows ignored) and their intersection angles ``(N,)`` (degrees; None: none
-        known); returns how many fell on the grid."""
+    def add(self, XYZ) -> int:
+        """Add points ``(N, 3)`` (NaN rows ignored); returns how many fell on the grid."""
         XYZ = np.asarray(XYZ, float)
         ok = np.isfinite(XYZ).all(axis=1)
         idx, inside = self.grid.cells(XYZ[:, :2])
@@ -109,19 +101,7 @@ class PairLayer:
         self.n += np.bincount(idx, minlength=n).astype(np.int32)
         self.s += np.bincount(idx, weights=z, minlength=n)
         self.s2 += np.bincount(idx, weights=z * z, minlength=n)
-        if angles is not None:
-            g = np.nan_to_num(np.asarray(angles, float)[ok], nan=0.0)
-            self.sg = (np.zeros(n) if self.sg is None else self.sg) + np.bincount(idx, weights=g, minlength=n)
         return int(ok.sum())
-
-    def angle(self) -> np.ndarray | None:
-        """The mean intersection angle (degrees) of the pair's points per cell ``(height, width)`` float32,
-        weighted as :meth:`mean` weighs their heights; None when the points came without angles."""
-        if self.sg is None:
-            return None
-        shape = (self.grid.height, self.grid.width)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return (splat(self.sg.reshape(shape)) / splat(self.n.reshape(shape))).astype(np.float32)
 
     def mean(self) -> np.ndarray:
         """The pair's height per cell ``(height, width)`` float32 (module docstring, *rasterisation*), NaN where
@@ -150,49 +130,27 @@ def reached(n) -> np.ndarray:
 
 class Fusion:
     """The pairs' layers as they come (:meth:`add`): each pair's mean heights kept as float32 (4 bytes per cell
-    and pair; with ``min_angle`` > 0 its mean intersection angles too, 4 more), the points' counts and sums pooled
-    in one set; :meth:`result` gives :func:`fuse`'s bands (module docstring: ``min_angle`` in degrees, 0: every
-    pair's height enters the median) and ``set_aside``, per layer added, the cells it was set aside in."""
+    and pair), the points' counts and sums pooled in one set; :meth:`result` gives :func:`fuse`'s bands."""
 
-    def __init__(self, grid: GridSpec, min_angle: float = 0.0):
-        self.grid, self.means, self.angles, self.min_angle = grid, [], [], float(min_angle)
+    def __init__(self, grid: GridSpec):
+        self.grid, self.means = grid, []
         n = grid.width * grid.height
         self.n, self.s, self.s2 = np.zeros(n, np.int64), np.zeros(n), np.zeros(n)
-        self.set_aside = []
 
     def add(self, layer: PairLayer) -> None:
         self.means.append(layer.mean())
-        if self.min_angle > 0:
-            self.angles.append(layer.angle())
         self.n += layer.n
         self.s += layer.s
         self.s2 += layer.s2
 
-    def _narrow(self, block, r0: int, rows: int) -> np.ndarray:
-        """The cells of ``block`` (the layers' heights in rows ``r0`` to ``r0 + rows``) whose pair is set aside
-        (module docstring): its angle under ``min_angle`` where another pair's reaches it."""
-        narrow = np.stack([np.zeros(block.shape[1:], bool) if a is None else ~(a[r0:r0 + rows] >= self.min_angle)
-                           for a in self.angles]) & np.isfinite(block)
-        wide = (np.isfinite(block) & ~narrow).any(axis=0)
-        return narrow & wide[None]
-
-    def result(self, rows_per_block: int = 512, core=None) -> tuple:
-        """``(height, count, spread)`` (module docstring), the median taken in blocks of rows; ``set_aside`` gets
-        per layer the number of cells it was set aside in, within ``core`` ``(r0, c0, rows, cols)`` (None: all)."""
+    def result(self, rows_per_block: int = 512) -> tuple:
+        """``(height, count, spread)`` (module docstring), the median taken in blocks of rows."""
         shape = (self.grid.height, self.grid.width)
         height, count = np.full(shape, np.nan, np.float32), np.zeros(shape, np.int16)
-        r_a, c_a, r_b, c_b = (0, 0, *shape) if core is None else (core[0], core[1], core[0] + core[2],
-                                                                   core[1] + core[3])
-        self.set_aside = [0] * len(self.means)
         for r0 in range(0, shape[0], rows_per_block):
             block = np.stack([m[r0:r0 + rows_per_block] for m in self.means]) if self.means else None
             if block is None:
                 break
-            if self.min_angle > 0:
-                narrow = self._narrow(block, r0, rows_per_block)
-                block[narrow] = np.nan
-                inner = narrow[:, max(0, r_a - r0):max(0, r_b - r0), c_a:c_b]
-                self.set_aside = [k + int(v) for k, v in zip(self.set_aside, inner.sum(axis=(1, 2)))]
             count[r0:r0 + rows_per_block] = np.isfinite(block).sum(axis=0)
             height[r0:r0 + rows_per_block] = nan_median(block)
         n, s, s2 = (splat(a.reshape(shape)) for a in (self.n, self.s, self.s2))
@@ -219,10 +177,10 @@ def nan_median(stack) -> np.ndarray:
     return out.astype(stack.dtype, copy=False)
 
 
-def fuse(layers, min_angle: float = 0.0) -> tuple:
+def fuse(layers) -> tuple:
     """``(height, count, spread)`` ``(rows, cols)`` of the :class:`PairLayer` s (module docstring)."""
     layers = list(layers)
-    f = Fusion(layers[0].grid, min_angle)
+    f = Fusion(layers[0].grid)
     for ly in layers:
         f.add(ly)
     return f.result()

@@ -43,6 +43,10 @@ from .outputs import SPECKLE_CELLS, SPECKLE_STEP, TILE_MARGIN
 TILE_CELLS = 1024
 #: rectified pixels added around a tile's box
 BOX_PAD = 2
+#: width (degrees) of the bins in which a pair's intersection angles are counted for its report entry
+ANGLE_BIN = 0.1
+#: the report's narrow rays: the share of a pair's points whose rays meet under this angle (degrees)
+NARROW_RAYS = 5.0
 
 
 @dataclass
@@ -88,17 +92,21 @@ class PairMatch:
     def name(self) -> str:
         return f"{self.views[0].name}-{self.views[1].name}"
 
-    def angles(self, P) -> np.ndarray:
-        """The intersection angles (degrees) of the pair's rays at its points ``P`` ``(N, 3)``
-        (:func:`fotogeo.stereo.rays.intersection_angles`)."""
-        return intersection_angles(P, *self.rp.centres)
-
     def dense(self, box, colours: bool = False):
         """Yield ``(points (N, 3), colours or None)`` of the rectified left pixels ``box``
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
                                        colours=colours, refine=self.refine, near=self.near, penalty=self.penalty,
                                        local=self.local, dem=self.dem)
+
+    def count_angles(self, P) -> None:
+        """Add the intersection angles of the pair's rays at its points ``P`` ``(N, 3)``
+        (:func:`fotogeo.stereo.rays.intersection_angles`) to ``stats["angles"]``, counts in bins of ``ANGLE_BIN``
+        degrees from 0° to 180°: the report's median angle and share of narrow rays (:func:`angle_figures`)."""
+        g = intersection_angles(P, *self.rp.centres)
+        k = (g[np.isfinite(g)] / ANGLE_BIN).astype(np.int64)
+        n = int(round(180.0 / ANGLE_BIN))
+        self.stats["angles"] = self.stats.get("angles", 0) + np.bincount(np.minimum(k, n - 1), minlength=n)
 
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""
@@ -114,39 +122,49 @@ class PairMatch:
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),
                        penalty_scale=None if self.penalty is None else round(self.penalty, 4),
                        match_density=round(density, 4), points=self.points,
-                       set_aside_cells=st.get("set_aside_cells", 0))
+                       **angle_figures(st.get("angles")))
         if density < low_density:
             warnings.warn(f"pair {a}-{b}: only {100 * density:.0f} % of the overlap matched (textureless, "
                           f"cloud-covered or changed areas?); its holes stay nodata", FotogeoWarning, stacklevel=4)
 
 
-def _tile(matches, sub: GridSpec, core: tuple, cloud, min_angle: float = 0.0) -> tuple:
-    """The pairs' points fused on the expanded tile ``sub`` (:class:`~fotogeo.stereo.fusion.Fusion`,
-    ``min_angle``): its bands ``(height, count, spread)``; the point cloud gets the points in the window ``core``
-    ``(r0, c0, rows, cols)`` of ``sub``, each pair's ``stats["set_aside_cells"]`` the core's cells where its
-    heights were set aside for their narrow rays."""
-    fusion, added = Fusion(sub, min_angle), []
-    inner = sub.sub(*core)
+def angle_figures(counts) -> dict:
+    """A pair's ``ray_angle_median_deg`` (the median intersection angle of its points, interpolated within its
+    bin) and ``ray_angle_under_5deg`` (the share of its points whose rays meet under ``NARROW_RAYS``) from the counts
+    of :meth:`PairMatch.count_angles`; nothing without counts (RPC pairs, no point)."""
+    counts = np.asarray(0 if counts is None else counts)
+    total = int(counts.sum())
+    if not total:
+        return {}
+    cum = np.cumsum(counts)
+    k = int(np.searchsorted(cum, 0.5 * total))
+    below = cum[k - 1] if k else 0
+    median = ANGLE_BIN * (k + (0.5 * total - below) / counts[k])
+    narrow = cum[int(round(NARROW_RAYS / ANGLE_BIN)) - 1] / total
+    return {"ray_angle_median_deg": round(float(median), 1), "ray_angle_under_5deg": round(float(narrow), 4)}
+
+
+def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
+    """The pairs' points fused on the expanded tile ``sub``; the point cloud gets those in ``core``, and the
+    intersection angles of those are counted (pairs with ``count_angles``: frames)."""
+    fusion = Fusion(sub)
     for m in matches:
         box = m.box(sub)
         if box is None:
             continue
         t, layer = time.perf_counter(), PairLayer(sub)
         for P, rgb in m.dense(box, colours=cloud is not None):
-            layer.add(P, m.angles(P) if min_angle > 0 and hasattr(m, "angles") else None)
-            inside = inner.cells(P[:, :2])[1]
+            layer.add(P)
+            inside = core.cells(P[:, :2])[1]
             m.points += int(inside.sum())
+            if hasattr(m, "count_angles"):
+                m.count_angles(P[inside])
             if cloud is not None:
                 cloud.write(P[inside], rgb[inside])
         m.seconds += time.perf_counter() - t
         if layer.n.any():
             fusion.add(_despeckled(layer))
-            added.append(m)
-    bands = fusion.result(core=core)
-    for m, k in zip(added, fusion.set_aside):
-        if k:
-            m.stats["set_aside_cells"] = m.stats.get("set_aside_cells", 0) + k
-    return bands
+    return fusion
 
 
 def _despeckled(layer: PairLayer) -> PairLayer:
@@ -161,32 +179,24 @@ def _despeckled(layer: PairLayer) -> PairLayer:
     return layer
 
 
-def _within(core, expanded) -> tuple:
-    """The window ``core`` ``(r0, c0, rows, cols)`` of the grid as a window of its window ``expanded``."""
-    return core[0] - expanded[0], core[1] - expanded[1], core[2], core[3]
-
-
-def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None,
-                min_angle: float = 0.0) -> None:
+def match_tiles(grid: GridSpec, matches, products, stage, timings: dict, scheduler=None, workers=None) -> None:
     """Match ``matches`` (:class:`PairMatch`, or RPC pairs' :class:`.rpc_pairs.RpcPairMatch`: anything with
-    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``, ``stats``; with ``angles(P)`` its
-    points' intersection angles) tile by tile onto ``grid`` and hand each tile to ``products``
-    (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets each pair's seconds; ``min_angle`` (degrees):
-    the fusion's (:class:`~fotogeo.stereo.fusion.Fusion`). With ``scheduler`` or ``workers`` the tiles are Dask
-    tasks (module docstring)."""
+    ``box(sub)``, ``dense(box, colours)``, ``name``, ``points``, ``seconds``, ``stats``) tile by tile onto
+    ``grid`` and hand each tile to ``products`` (:class:`~fotogeo.tools.dsm.outputs.Products`); ``timings`` gets
+    each pair's seconds. With ``scheduler`` or ``workers`` the tiles are Dask tasks (module docstring)."""
     tiles = list(grid.tiles(TILE_CELLS, TILE_MARGIN if TILE_CELLS < max(grid.width, grid.height) else 0))
     if scheduler or workers:
         from ..common.dask_cluster import connect
         client, close = connect(None, scheduler, workers, what="dsm --scheduler/--workers")
         try:
-            _dask_tiles(client, grid, matches, tiles, products, stage, min_angle)
+            _dask_tiles(client, grid, matches, tiles, products, stage)
         finally:
             close()
     else:
         for k, (core, expanded) in enumerate(tiles):
             stage(k / len(tiles), f"tile {k + 1} of {len(tiles)}")
-            bands = _tile(matches, grid.sub(*expanded), _within(core, expanded), products.cloud, min_angle)
-            products.add(core, expanded, *bands)
+            fusion = _tile(matches, grid.sub(*expanded), grid.sub(*core), products.cloud)
+            products.add(core, expanded, *fusion.result())
     for m in matches:
         timings[m.name] = round(timings.get(m.name, 0.0) + m.seconds, 3)
 
@@ -235,16 +245,16 @@ class _PointFile:
         return self.path
 
 
-def tile_task(matches, grid: GridSpec, core, expanded, cloud_path=None, min_angle: float = 0.0) -> tuple:
+def tile_task(matches, grid: GridSpec, core, expanded, cloud_path=None) -> tuple:
     """One output tile on a Dask worker: ``((height, count, spread), counters per pair, points file or None)``
     (module docstring); one thread for GDAL, OpenCV and BLAS."""
     from ..common.dask_cluster import pin_threads
     pin_threads()
     ms = [_fresh(m) for m in matches]  # a worker's copies are shared by its tasks: each task counts its own
     cloud = _PointFile(cloud_path) if cloud_path else None
-    bands = _tile(ms, grid.sub(*expanded), _within(core, expanded), cloud, min_angle)
+    fusion = _tile(ms, grid.sub(*expanded), grid.sub(*core), cloud)
     counters = [(m.stats, m.points, m.seconds, getattr(m, "miss", None)) for m in ms]
-    return bands, counters, cloud.save() if cloud else None
+    return fusion.result(), counters, cloud.save() if cloud else None
 
 
 def _copy_points(path, cloud) -> None:
@@ -255,7 +265,7 @@ def _copy_points(path, cloud) -> None:
     Path(path).unlink()
 
 
-def _dask_tiles(client, grid, matches, tiles, products, stage, min_angle: float = 0.0) -> None:
+def _dask_tiles(client, grid, matches, tiles, products, stage) -> None:
     """The tiles as Dask tasks on ``client``, their results written in tile order (module docstring)."""
     light = [_fresh(m) for m in matches]
     ahead = AHEAD_PER_WORKER * max(1, len(client.scheduler_info().get("workers", {})))
@@ -271,7 +281,7 @@ def _dask_tiles(client, grid, matches, tiles, products, stage, min_angle: float 
             stage(k / len(tiles), f"tile {k + 1} of {len(tiles)} (Dask)")
             while nxt < len(tiles) and nxt <= k + ahead:
                 path = str(folder / f"tile_{nxt:06d}.npz") if folder else None
-                pending.append(client.submit(tile_task, light, grid, *tiles[nxt], path, min_angle, pure=False))
+                pending.append(client.submit(tile_task, light, grid, *tiles[nxt], path, pure=False))
                 nxt += 1
             bands, counters, points = pending.popleft().result()
             for m, c in zip(matches, counters):

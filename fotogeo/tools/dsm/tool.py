@@ -41,14 +41,11 @@ FEET = (0.3048, 1200.0 / 3937.0)
 def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
         dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
         refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None,
-        workers=None, min_ray_angle: float = 0.0, point_cloud=None, report=None, overwrite: bool = False,
-        progress=None) -> dict:
+        workers=None, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
-    ``fill`` it is refused); ``min_ray_angle`` (degrees, frames): a pair's heights from rays meeting under a
-    smaller angle are set aside where another pair's reach it (:mod:`fotogeo.stereo.fusion`; 0: never);
-    ``point_cloud`` a LAS/LAZ of every
+    ``fill`` it is refused); ``point_cloud`` a LAS/LAZ of every
     point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with ``scheduler`` (a
     running cluster) or ``workers`` (a local cluster of that many processes), else in this process
     (:mod:`.matching`)."""
@@ -82,7 +79,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
                    resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                    point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                   dask=(scheduler, workers), bands=bands, min_angle=min_ray_angle)
+                   dask=(scheduler, workers), bands=bands)
 
 
 def _centres_in_area_of_use(views, crs) -> None:
@@ -225,9 +222,9 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
-            report, overwrite, prog, t0, dask=(None, None), bands=None, min_angle: float = 0.0) -> dict:
+            report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
-    bands matched (:class:`.inputs.SourceImage`); ``min_angle`` the fusion's (:func:`.matching.match_tiles`)."""
+    bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     if rule == "given (--crs)":
@@ -269,7 +266,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
-                                 *dask, min_angle=min_angle)
+                                 *dask)
             for m in setups.values():  # the pairs' entries before the report is written
                 m.report(LOW_DENSITY)
             rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
