@@ -7,6 +7,11 @@ Rays ``P1(s) = C1 + s·d1`` and ``P2(t) = C2 + t·d2``; with ``w = C1 − C2``, 
 
 the point is their mid-point and the miss distance ``|P1(s) − P2(t)|``. Rays that are parallel, or meet behind
 either centre (``s ≤ 0`` or ``t ≤ 0``), give NaN.
+
+:func:`intersection_angles` gives the angle γ under which the rays of a point meet (at the point, between its
+directions to the two centres). A height's standard deviation grows like ``σ_parallax / sin γ`` (Kraus 2007: the
+normal case's ``σ_Z = Z² σ_px / (B f)``, ``B / Z ≈ γ``): rays meeting under a few degrees give heights several
+times noisier than those of a wide pair.
 """
 from __future__ import annotations
 
@@ -33,3 +38,13 @@ def closest_points(c1, d1, c2, d2) -> tuple:
     P[bad] = np.nan
     miss[bad] = np.nan
     return P, miss
+
+
+def intersection_angles(P, c1, c2) -> np.ndarray:
+    """The angle γ (degrees) at each point ``P`` ``(N, 3)`` between its directions to the centres ``c1`` and ``c2``
+    ``(3,)`` (module docstring); NaN where a point is NaN or on a centre."""
+    P = np.asarray(P, float)
+    a, b = np.asarray(c1, float) - P, np.asarray(c2, float) - P
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = (a * b).sum(1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))

@@ -35,6 +35,7 @@ import numpy as np
 
 from ...errors import FotogeoWarning
 from ...stereo.fusion import Fusion, GridSpec, PairLayer, remove_speckles
+from ...stereo.rays import intersection_angles
 from . import frames
 from .outputs import SPECKLE_CELLS, SPECKLE_STEP, TILE_MARGIN
 
@@ -42,6 +43,10 @@ from .outputs import SPECKLE_CELLS, SPECKLE_STEP, TILE_MARGIN
 TILE_CELLS = 1024
 #: rectified pixels added around a tile's box
 BOX_PAD = 2
+#: width (degrees) of the bins in which a pair's intersection angles are counted for its report entry
+ANGLE_BIN = 0.1
+#: the report's narrow rays: the share of a pair's points whose rays meet under this angle (degrees)
+NARROW_RAYS = 5.0
 
 
 @dataclass
@@ -94,6 +99,15 @@ class PairMatch:
                                        colours=colours, refine=self.refine, near=self.near, penalty=self.penalty,
                                        local=self.local, dem=self.dem)
 
+    def count_angles(self, P) -> None:
+        """Add the intersection angles of the pair's rays at its points ``P`` ``(N, 3)``
+        (:func:`fotogeo.stereo.rays.intersection_angles`) to ``stats["angles"]``, counts in bins of ``ANGLE_BIN``
+        degrees from 0° to 180°: the report's median angle and share of narrow rays (:func:`angle_figures`)."""
+        g = intersection_angles(P, *self.rp.centres)
+        k = (g[np.isfinite(g)] / ANGLE_BIN).astype(np.int64)
+        n = int(round(180.0 / ANGLE_BIN))
+        self.stats["angles"] = self.stats.get("angles", 0) + np.bincount(np.minimum(k, n - 1), minlength=n)
+
     def report(self, low_density: float) -> None:
         """The pair's entry in the report; a warning naming it when less than ``low_density`` of it matched."""
         p, (a, b) = self.pair, (v.name for v in self.views)
@@ -107,14 +121,32 @@ class PairMatch:
                        rectified_size=list(self.rp.size),
                        rectified_scale=round(self.rp.focal / (0.5 * (self.views[0].focal + self.views[1].focal)), 4),
                        penalty_scale=None if self.penalty is None else round(self.penalty, 4),
-                       match_density=round(density, 4), points=self.points)
+                       match_density=round(density, 4), points=self.points,
+                       **angle_figures(st.get("angles")))
         if density < low_density:
             warnings.warn(f"pair {a}-{b}: only {100 * density:.0f} % of the overlap matched (textureless, "
                           f"cloud-covered or changed areas?); its holes stay nodata", FotogeoWarning, stacklevel=4)
 
 
+def angle_figures(counts) -> dict:
+    """A pair's ``ray_angle_median_deg`` (the median intersection angle of its points, interpolated within its
+    bin) and ``ray_angle_under_5deg`` (the share of its points whose rays meet under ``NARROW_RAYS``) from the counts
+    of :meth:`PairMatch.count_angles`; nothing without counts (RPC pairs, no point)."""
+    counts = np.asarray(0 if counts is None else counts)
+    total = int(counts.sum())
+    if not total:
+        return {}
+    cum = np.cumsum(counts)
+    k = int(np.searchsorted(cum, 0.5 * total))
+    below = cum[k - 1] if k else 0
+    median = ANGLE_BIN * (k + (0.5 * total - below) / counts[k])
+    narrow = cum[int(round(NARROW_RAYS / ANGLE_BIN)) - 1] / total
+    return {"ray_angle_median_deg": round(float(median), 1), "ray_angle_under_5deg": round(float(narrow), 4)}
+
+
 def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
-    """The pairs' points fused on the expanded tile ``sub``; the point cloud gets those in ``core``."""
+    """The pairs' points fused on the expanded tile ``sub``; the point cloud gets those in ``core``, and the
+    intersection angles of those are counted (pairs with ``count_angles``: frames)."""
     fusion = Fusion(sub)
     for m in matches:
         box = m.box(sub)
@@ -125,6 +157,8 @@ def _tile(matches, sub: GridSpec, core: GridSpec, cloud) -> Fusion:
             layer.add(P)
             inside = core.cells(P[:, :2])[1]
             m.points += int(inside.sum())
+            if hasattr(m, "count_angles"):
+                m.count_angles(P[inside])
             if cloud is not None:
                 cloud.write(P[inside], rgb[inside])
         m.seconds += time.perf_counter() - t
