@@ -45,8 +45,10 @@ def command(images, output, point_cloud, report, overwrite, quiet, **kw):
         if p["kept"] or len(rep["pairs"]) <= 12:
             what = (f"{100 * p.get('match_density', 0):.0f} % matched, {p.get('points', 0)} points" if p["kept"]
                     else f"left out: {p['reason']}")
+            points = (f"; at its points {p['ray_angle_median_deg']:.1f} median, "
+                      f"{100 * p['ray_angle_under_5deg']:.0f} % under 5" if "ray_angle_median_deg" in p else "")
             click.echo(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} degrees "
-                       f"(B/H {p['base_to_height']:.2f}), {what}")
+                       f"(B/H {p['base_to_height']:.2f}{points}), {what}")
     g = rep["grid"]
     click.echo(f"DSM {g['width']}x{g['height']} cells at {g['resolution']:g}, {100 * rep['completeness']:.1f} % of "
                f"the overlap with a height -> {rep['outputs']['dsm']}")
