@@ -1,7 +1,8 @@
 """Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
 
-Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3] [--fotogeo-compress zstd]
-      [--cases ngi,qb2,drone,drone_half] [--resolutions native,fine] [--drone-dir DIR] [--out JSON]
+Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
+      [--cases ngi,qb2,drone,drone_half] [--resolutions native,fine] [--drone-dir DIR] [--fotogeo-compress zstd]
+      [--out JSON]
 
 * ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
