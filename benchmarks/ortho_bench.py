@@ -1,7 +1,8 @@
 """Orthorectification (issue 21): ``fotogeo ortho`` beside orthority and ``gdalwarp -rpc`` on the same grids.
 
 Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/python] [--repeat 3]
-      [--cases ngi,qb2,drone,drone_half] [--resolutions native,fine] [--drone-dir DIR] [--out JSON]
+      [--cases ngi,qb2,drone,drone_half] [--resolutions native,fine] [--drone-dir DIR] [--fotogeo-compress zstd]
+      [--out JSON]
 
 * ``ngi`` — the two NGI frames (camera ``interior_orientation.yaml``, ``exterior_orientation.txt``, the 24-m DEM)
   through fotogeo and orthority (``oty frame``, PyPI, AGPL: installed in its own venv, run as a program only),
@@ -34,6 +35,10 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
 * ``drone_other`` — held out from this and every earlier stop's tuning: the strips' four other frames (IMG_2186,
   IMG_2189, IMG_2280, IMG_2282: never orthorectified by the code's tuning), the same camera, orientation and
   surface as ``drone`` (their poses come from the same six-frame adjustment), at 10 and 20 cm.
+
+With ``--fotogeo-compress zstd`` (comma-separated ``--compress`` values) each frame case's rounds also run fotogeo
+with that compression (row ``fotogeo_zstd``, its ratios over orthority; ``compare_zstd``: per frame whether its
+pixels equal the default DEFLATE output's, full resolution and every overview level, and the three files' MB).
 
 With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's ``fotogeo ortho`` runs N alternating
 pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
@@ -120,29 +125,59 @@ finally:
 """
 
 
-def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False) -> dict:
+def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False, compress=()) -> dict:
     """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``;
-    ``same``: orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`)."""
+    ``same``: orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`); ``compress``: fotogeo also with
+    each of these ``--compress`` values (rows ``fotogeo_<value>``, in the same rounds; :func:`compare_outputs`)."""
     frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
     args = ["ortho", *frames, "-o", str(fg_dir), "--dem", inp["dem"], "--camera", inp["camera"], "--eo", inp["eo"],
             "--resolution", str(res), "--resampling", "bilinear", "--overwrite", "-q", *inp.get("fotogeo_args", [])]
     fg_dir.mkdir(exist_ok=True)
     fg_cmd = [sys.executable, "-c", FOTOGEO_RUN, *args]
+    fg_cmds = {"fotogeo": fg_cmd}
+    for c in compress:
+        (work / f"fotogeo_{c}").mkdir(exist_ok=True)
+        fg_cmds[f"fotogeo_{c}"] = [str(work / f"fotogeo_{c}") if a == str(fg_dir) else a for a in fg_cmd] + [
+            "--compress", c]
     if not oty_py:
-        return {"fotogeo": repeat(fg_cmd, n, env=FOTOGEO_ENV)}
+        return {k: repeat(c, n, env=FOTOGEO_ENV) for k, c in fg_cmds.items()}
     cmd = [oty_py, "-c", ORTHORITY_RUN, "frame", "-d", inp["dem"], "-ip", inp["camera"], "-ep", inp["ext"],
            *inp["crs"], "-r", str(res), "-ap", "-i", "bilinear", "-di", "bilinear", "-cm", "deflate", "-nwm",
            "-od", str(oty_dir), "-o", *frames]
     oty_dir.mkdir(exist_ok=True)
-    rounds = [(timed(fg_cmd, FOTOGEO_ENV), timed(cmd)) for _ in range(n)]  # alternating: the same load on both
-    out = {"fotogeo": summary([r[0] for r in rounds]), "orthority": summary([r[1] for r in rounds]),
-           "cpu_ratio_rounds": ratio_range([a["cpu_s"] / b["cpu_s"] for a, b in rounds])}
+    rounds = [({k: timed(c, FOTOGEO_ENV) for k, c in fg_cmds.items()}, timed(cmd))  # alternating: the same load
+              for _ in range(n)]
+    out = {"fotogeo": summary([r[0]["fotogeo"] for r in rounds]), "orthority": summary([r[1] for r in rounds]),
+           "cpu_ratio_rounds": ratio_range([a["fotogeo"]["cpu_s"] / b["cpu_s"] for a, b in rounds])}
+    for c in compress:
+        out[f"fotogeo_{c}"] = summary([r[0][f"fotogeo_{c}"] for r in rounds])
+        out[f"cpu_ratio_rounds_{c}"] = ratio_range([a[f"fotogeo_{c}"]["cpu_s"] / b["cpu_s"] for a, b in rounds])
+        out[f"compare_{c}"] = compare_outputs(fg_dir, work / f"fotogeo_{c}", oty_dir, frames)
     if same:
         at = cmd.index("-cm")
         out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
     out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
                                                   oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
+    return out
+
+
+def compare_outputs(deflate: Path, other: Path, oty_dir: Path, frames) -> dict:
+    """Per frame: whether fotogeo's outputs in ``deflate`` and ``other`` (another ``--compress``) hold the same
+    pixels, full resolution and every overview level, and the file sizes (MB) of both and of orthority's."""
+    import rasterio
+    out = {}
+    for f in frames:
+        a, b = deflate / f"{Path(f).stem}_ortho.tif", other / f"{Path(f).stem}_ortho.tif"
+        with rasterio.open(a) as da, rasterio.open(b) as db:
+            same = da.overviews(1) == db.overviews(1) and np.array_equal(da.read(), db.read()) and all(
+                np.array_equal(da.read(out_shape=(da.count, da.height // k, da.width // k)),
+                               db.read(out_shape=(db.count, db.height // k, db.width // k))) for k in da.overviews(1))
+            tags = db.tags(ns="IMAGE_STRUCTURE").get("COMPRESSION")
+        oty = oty_dir / f"{Path(f).stem}_ORTHO.tif"
+        out[Path(f).stem] = {"same_pixels": bool(same), "compression": tags, "mb": {
+            "fotogeo": a.stat().st_size / 1e6, "other": b.stat().st_size / 1e6,
+            "orthority": oty.stat().st_size / 1e6 if oty.exists() else None}}
     return out
 
 
@@ -198,14 +233,16 @@ def table(results: dict) -> str:
             fg = r["fotogeo"]
             for tool in [k for k in r if "cpu_s" in r[k]]:
                 t = r[tool]
+                extra = tool.startswith("fotogeo_") and "orthority" in r  # another --compress: over orthority
+                num, den = (t, r["orthority"]) if extra else (fg, t)
                 ag = r.get("agreement_" + tool) or (r.get("agreement") if tool == "orthority" else None)
                 if ag and "tiles" not in ag:  # per frame
                     ag = max(ag.values(), key=lambda a: a["max_px"])
                 shift = f"{np.hypot(ag['median_dx'], ag['median_dy']):.3f}/{ag['p95_px']:.3f}/{ag['max_px']:.3f}" \
                     if ag else ""
-                rw = fg["wall_s"] / t["wall_s"]
-                rc = fg["cpu_s"] / t["cpu_s"]
-                rr = r.get("cpu_ratio_rounds") if tool == "orthority" else None
+                rw = num["wall_s"] / den["wall_s"]
+                rc = num["cpu_s"] / den["cpu_s"]
+                rr = r.get("cpu_ratio_rounds") if tool == "orthority" else r.get("cpu_ratio_rounds_" + tool[8:])
                 rounds = f"{rr['median']:.3f} ({rr['min']:.3f}-{rr['max']:.3f})" if rr else ""
                 rows.append(f"{case:<10} {res:<5} {tool:<13} {t['wall_s']:>6.2f} {t['cpu_s']:>6.2f}  "
                             f"{(t['work_s'] or float('nan')):>6.2f}  {t['peak_mb']:>7.0f}  {rw:>10.2f}  {rc:>9.2f}  "
@@ -225,6 +262,9 @@ def main(argv=None):
     ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
                     help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
                          "creation options (row orthority_z1)")
+    ap.add_argument("--fotogeo-compress", default="",
+                    help="comma-separated --compress values fotogeo also runs with (rows fotogeo_<value>, ratios over "
+                         "orthority; pixels compared with the default's), e.g. zstd")
     ap.add_argument("--out", type=Path, default=OUT, help=f"the JSON written [{OUT.relative_to(ROOT)}]")
     ap.add_argument("--drone-dir", type=Path,
                     help="folder keeping the drone case's triangulation and surface between runs [a temporary one]")
@@ -268,7 +308,8 @@ def main(argv=None):
                         "ngi_") else drone_inputs(drone, DRONE_OTHER if case == "drone_other" else DRONE_FRAMES)
                     inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
                     r = (exit_pairs(work, inp, res, a.pairs, a.baseline_tree.resolve()) if a.pairs else
-                         frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both"))
+                         frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both",
+                                    [c for c in a.fotogeo_compress.split(",") if c]))
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
     results["load_average_end"] = [round(v, 2) for v in os.getloadavg()]

@@ -597,6 +597,19 @@ def test_ortho_box_scene(qgis_app, tmp_path):
     assert hidden.sum() > 500 and (v.ravel()[hidden] == 0).mean() > 0.99
 
 
+def test_ortho_compression_enum(qgis_app, tmp_path):
+    """fotogeo:ortho's "Compression" enum reaches the tool: zstd is what the file says."""
+    import box_scene as bs
+    import rasterio
+    from fotogeo.options import ORTHO
+    paths = bs.write_scene(tmp_path)
+    run("ortho", {"IMAGES": [str(paths["frame"])], "DEM": str(paths["dsm"]), "CAMERA": str(paths["camera"]),
+                  "EO": str(paths["eo"]), "RESOLUTION": 0.5, "COMPRESS": ORTHO["compress"].choices.index("zstd"),
+                  "OUTDIR": str(tmp_path / "out")})
+    with rasterio.open(tmp_path / "out" / "frame_ortho.tif") as ds:
+        assert ds.tags(ns="IMAGE_STRUCTURE")["COMPRESSION"] == "ZSTD"
+
+
 def test_mosaic_two_orthos(qgis_app, tmp_path):
     """fotogeo:mosaic: the mosaic and its seamlines layer (the synthetic pair of tests/test_mosaic.py)."""
     import test_mosaic as tm

@@ -15,17 +15,19 @@ from pathlib import Path
 
 from ..errors import OutputError
 
-#: creation options of the COG copy (deflate keeps every data type lossless)
-COG_OPTIONS = {"COMPRESS": "DEFLATE", "PREDICTOR": "YES", "BLOCKSIZE": 512, "OVERVIEWS": "AUTO", "BIGTIFF": "IF_SAFER"}
+#: creation options of the COG copy besides its compression (:func:`~fotogeo.io.compression.cog_options`)
+COG_OPTIONS = {"BLOCKSIZE": 512, "OVERVIEWS": "AUTO", "BIGTIFF": "IF_SAFER"}
 
 
-def convert_to_cog(path, resampling: str = "nearest") -> Path:
-    """Rewrite the GeoTIFF ``path`` as a Cloud Optimized GeoTIFF (overviews by ``resampling``), under fotogeo's
+def convert_to_cog(path, resampling: str = "nearest", compress: str = "deflate") -> Path:
+    """Rewrite the GeoTIFF ``path`` as a Cloud Optimized GeoTIFF (overviews by ``resampling``; ``compress``: one of
+    :data:`fotogeo.options.COMPRESSIONS`, every one lossless), under fotogeo's
     bounded GDAL block cache (:func:`~fotogeo.io.raster.gdal_env`; GDAL's default, 5 % of RAM, holds blocks of a
     large grid while its overviews are built)."""
     import rasterio.shutil
     from rasterio.errors import RasterioError
 
+    from .compression import cog_options
     from .raster import gdal_env
 
     path = Path(path)
@@ -34,7 +36,8 @@ def convert_to_cog(path, resampling: str = "nearest") -> Path:
     os.unlink(tmp)
     try:
         with gdal_env():
-            rasterio.shutil.copy(path, tmp, driver="COG", OVERVIEW_RESAMPLING=resampling.upper(), **COG_OPTIONS)
+            rasterio.shutil.copy(path, tmp, driver="COG", OVERVIEW_RESAMPLING=resampling.upper(), **COG_OPTIONS,
+                                 **cog_options(compress))
         os.replace(tmp, path)
     except (RasterioError, OSError) as e:
         raise OutputError(f"could not write the Cloud Optimized GeoTIFF {str(path)!r}: {e}") from None

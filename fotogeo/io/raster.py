@@ -21,6 +21,7 @@ from rasterio.windows import Window
 
 from ..errors import InputError, OutputError, RasterError, one_line
 from ..geometry.dem import Dem
+from .compression import gtiff_options
 from .output_checks import (GEOTIFF_SUFFIXES, check_grid, check_output, check_outputs,  # noqa: F401 (kept names)
                             check_space, grid_bytes)
 
@@ -147,12 +148,14 @@ GEOTIFF_BLOCK = 256
 _NOT_OPTIONS = frozenset({"driver", "dtype", "crs", "transform", "nodata", "width", "height", "count"})
 
 
-def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fields) -> dict:
+def geotiff_profile(base: dict | None = None, *, predictor: bool = False, compress: str = "deflate",
+                    **fields) -> dict:
     """The rasterio profile of a GeoTIFF output: ``base`` (e.g. a source's ``profile``)
     updated with ``fields`` (width, height, count, dtype, crs, transform, nodata, …) and
-    fotogeo's creation options — driver GTiff, tiled in 256x256 blocks, DEFLATE compression.
+    fotogeo's creation options — driver GTiff, tiled in 256x256 blocks, ``compress``
+    (:mod:`fotogeo.io.compression`: DEFLATE unless asked; a ``zlevel`` field is its level).
 
-    With ``predictor``, also the DEFLATE predictor for the data type (2, horizontal
+    With ``predictor``, also the predictor for the data type (2, horizontal
     differencing, for integers; 3, floating point, otherwise) and ``BIGTIFF=IF_SAFER``, for
     large outputs such as rectified images. Without ``base`` and ``fields`` the result are
     the creation options alone, e.g. for ``rasterio.shutil.copy``.
@@ -167,10 +170,12 @@ def geotiff_profile(base: dict | None = None, *, predictor: bool = False, **fiel
     profile = dict(base or {})
     profile.update(fields)
     profile.update({k: v.upper() for k, v in profile.items() if isinstance(v, str) and k not in _NOT_OPTIONS})
-    profile.update(driver="GTiff", tiled=True, blockxsize=GEOTIFF_BLOCK, blockysize=GEOTIFF_BLOCK,
-                   compress="DEFLATE")
+    options = gtiff_options(compress, profile["dtype"] if predictor else None, zlevel=profile.pop("zlevel", None))
+    for key in ("predictor", "zstd_level") if options["compress"] == "NONE" else ():
+        profile.pop(key, None)  # a source's, meaningless uncompressed
+    profile.update(driver="GTiff", tiled=True, blockxsize=GEOTIFF_BLOCK, blockysize=GEOTIFF_BLOCK, **options)
     if predictor:
-        profile.update(predictor=2 if np.dtype(profile["dtype"]).kind in "iu" else 3, BIGTIFF="IF_SAFER")
+        profile.update(BIGTIFF="IF_SAFER")
     return profile
 
 

@@ -39,6 +39,7 @@ from ..errors import FotogeoWarning
 from ..options import RESAMPLINGS
 from ..pixels import HALF
 from ..progress import Progress
+from .compression import overview_env
 from .raster import GDAL_CACHE_BYTES, geotiff_profile, ropen
 from .warp_gdal import GeotransformInverse, centres_to_map, nearest_pixels_xy, nearest_source_pixels  # noqa: F401
 from .warp_levels import reduced_plan
@@ -305,32 +306,31 @@ def compress_threads(threads: int) -> int:
     return max(1, int(threads) // 2)
 
 
-def write_env(threads: int, zlevel: int | None = None):
+def write_env(threads: int, zlevel: int | None = None, compress: str = "deflate"):
     """GDAL settings of fotogeo's raster writes: a bounded block cache, ``threads`` threads for compressing tiles
-    and computing overviews, the overviews' DEFLATE level ``zlevel``. Sources are read with ``threads=1``: GDAL's
-    decoding pool cost a TIFF of one-row strips 6x the CPU time (docs/benchmarks/products.md)."""
-    extra = {"ZLEVEL_OVERVIEW": str(int(zlevel))} if zlevel else {}
+    and computing overviews, the overviews' level (:func:`~fotogeo.io.compression.overview_env`). Sources are read
+    with ``threads=1``: GDAL's decoding pool cost a TIFF of one-row strips 6x the CPU time (docs/benchmarks)."""
+    extra = overview_env(compress, zlevel)
     return rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE_BYTES, GDAL_NUM_THREADS=str(max(1, int(threads))), **extra)
 
 
 def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
                  resampling: str = "nearest", nodata=None, src_nodata=None, block: int = 512,
                  progress: Progress | None = None, overviews: bool = True, threads: int | None = None,
-                 zlevel: int | None = None, tags: dict | None = None, reduce: bool = False) -> dict:
+                 zlevel: int | None = None, tags: dict | None = None, reduce: bool = False,
+                 compress: str = "deflate") -> dict:
     """Resample ``src_path`` onto the grid (crs, transform, width, height) into ``dst_path``.
 
     ``inverse_map((N, 2) map XY) -> (N, 2)`` source pixel coordinates (corner convention); one
     that also has ``grid(transform, r0, c0, h, w)`` is asked that instead, for the same positions of a
     window's ``h x w`` cell centres (row by row), so that it can do per-row and per-column work once
     (orthorectification samples a north-up DEM that way). It is called from several threads at once
-    (``threads``, default :func:`default_threads`), so
-    it must not keep state between calls. ``src_nodata`` overrides the source's own nodata value
-    (a pixel is invalid when every band equals it). ``zlevel`` sets the DEFLATE level of the file and its
-    overviews (GDAL's default 6 when None; 1 writes imagery with the horizontal predictor about 4x faster
-    for 10 % more bytes, measured on the NGI orthophotos). ``tags``: GDAL metadata items of the file, written with
-    it. ``reduce``: read the source's reduced level where the output samples it coarsely
-    (:mod:`fotogeo.io.warp_levels`). Returns a small summary (valid pixel count, the level's ``source_factor``).
-    ``dst_path`` is written in place: callers give a temporary path (see
+    (``threads``, default :func:`default_threads`), so it must not keep state between calls. ``src_nodata``
+    overrides the source's own nodata value (a pixel is invalid when every band equals it). ``compress``: the file's
+    compression (:mod:`fotogeo.io.compression`), ``zlevel`` its and its overviews' DEFLATE level (GDAL's 6 when
+    None). ``tags``: GDAL metadata items of the file, written with it. ``reduce``: read the source's reduced level
+    where the output samples it coarsely (:mod:`fotogeo.io.warp_levels`). Returns a small summary (valid pixel
+    count, the level's ``source_factor``). ``dst_path`` is written in place: callers give a temporary path (see
     :class:`fotogeo.io.raster.AtomicOutputs`).
     """
     progress = progress or Progress()
@@ -346,7 +346,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
         colorinterp = src.colorinterp
     summary = write_windows(src_path, dst_path, plan, windows, crs=crs, width=width, height=height, threads=threads,
                             colorinterp=colorinterp, progress=progress, share=0.9 if overviews else 1.0,
-                            zlevel=zlevel, overviews=overviews, tags=tags)
+                            zlevel=zlevel, overviews=overviews, tags=tags, compress=compress)
     progress(1.0, "resampled")
     if summary["nodata_collisions"] and np.dtype(plan.dtype).kind == "i":
         warnings.warn(f"{summary['nodata_collisions']} valid pixels of {src_path} equal the output nodata value "
@@ -357,7 +357,7 @@ def warp_to_grid(src_path, dst_path, inverse_map, *, crs, transform, width: int,
 
 def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height, threads, colorinterp=None,
                   progress=None, share: float = 1.0, offset=(0, 0), zlevel: int | None = None,
-                  overviews: bool = False, tags: dict | None = None) -> dict:
+                  overviews: bool = False, tags: dict | None = None, compress: str = "deflate") -> dict:
     """Write the ``windows`` of ``plan``'s grid into a new GeoTIFF ``dst_path`` of ``width x height`` whose pixel
     (0, 0) is the grid's ``offset`` = (row, col); the summary of :func:`warp_to_grid`. ``overviews``: built before
     the file is closed (:func:`add_overviews`), from the tiles GDAL still caches (the same values as from the file
@@ -369,7 +369,7 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
                               transform=plan.transform * plan.transform.translation(c_off, r_off) if any(offset)
                               else plan.transform,
                               nodata=plan.nodata, predictor=True, num_threads=str(compress_threads(threads)),
-                              **({"zlevel": int(zlevel)} if zlevel else {}))
+                              compress=compress, **({"zlevel": int(zlevel)} if zlevel else {}))
     valid = collisions = 0
     with write_env(1), ropen(dst_path, "w", **profile) as dst:  # compressing threads: the creation option
         try:
@@ -385,7 +385,7 @@ def write_windows(src_path, dst_path, plan: Plan, windows, *, crs, width, height
             collisions += n_coll
             progress((k + 1) / len(windows) * share, f"resampling window {k + 1}/{len(windows)}")
         if overviews:
-            with write_env(threads, zlevel):
+            with write_env(threads, zlevel, compress):
                 add_overviews(dst, width, height, plan.resampling)
     nd = plan.nodata
     return {"valid_pixels": valid, "nodata": None if nd != nd else nd, "nodata_collisions": collisions}

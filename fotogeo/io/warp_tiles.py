@@ -21,10 +21,10 @@ import tempfile
 from pathlib import Path
 from xml.sax.saxutils import escape
 
-import numpy as np
 from rasterio.shutil import copy as rio_copy
 
 from ..progress import Progress
+from .compression import cog_options
 from .warp import default_threads, make_plan, windows_of, write_env, write_windows
 from .raster import GEOTIFF_BLOCK, ropen
 
@@ -86,13 +86,14 @@ def write_vrt(path, tiles, *, crs, transform, width: int, height: int, count: in
     return path
 
 
-def to_cog(vrt, dst_path, *, dtype: str, resampling: str, threads: int) -> None:
-    """Copy ``vrt`` to a Cloud-Optimised GeoTIFF: DEFLATE with the data type's predictor, 256² tiles,
-    overviews (nearest for nearest-neighbour outputs, else average), ``threads`` compressing."""
+def to_cog(vrt, dst_path, *, resampling: str, threads: int, compress: str = "deflate") -> None:
+    """Copy ``vrt`` to a Cloud-Optimised GeoTIFF: ``compress`` (:func:`~fotogeo.io.compression.cog_options`:
+    DEFLATE unless asked) with the data type's predictor, 256² tiles, overviews (nearest for nearest-neighbour
+    outputs, else average), ``threads`` compressing."""
     with write_env(threads):
-        rio_copy(str(vrt), str(dst_path), driver="COG", compress="DEFLATE", blocksize=GEOTIFF_BLOCK,
-                 predictor="YES" if np.dtype(dtype).kind in "iu" else "FLOATING_POINT", bigtiff="IF_SAFER",
-                 num_threads=str(threads), overview_resampling="NEAREST" if resampling == "nearest" else "AVERAGE")
+        rio_copy(str(vrt), str(dst_path), driver="COG", blocksize=GEOTIFF_BLOCK, bigtiff="IF_SAFER",
+                 num_threads=str(threads), overview_resampling="NEAREST" if resampling == "nearest" else "AVERAGE",
+                 **cog_options(compress))
 
 
 def warp_tiled(src_path, dst_path, inverse_map, *, crs, transform, width: int, height: int,
@@ -131,7 +132,7 @@ def warp_tiled(src_path, dst_path, inverse_map, *, crs, transform, width: int, h
                         transform=transform, width=width, height=height, count=plan.count, dtype=plan.dtype,
                         nodata=plan.nodata, colorinterp=colorinterp)
         progress(0.8, "assembling the tiles into a cloud-optimised GeoTIFF")
-        to_cog(vrt, dst_path, dtype=plan.dtype, resampling=resampling, threads=default_threads())
+        to_cog(vrt, dst_path, resampling=resampling, threads=default_threads())
     finally:
         if own_pool:
             pool.shutdown(wait=True, cancel_futures=True)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .register import REGISTER_BATCH
-from .shared import DEM_HEIGHTS, DEM_SIGMA, RESAMPLING, SFM_FRAME, UNCERTAINTY, YAML
+from .shared import COMPRESS, DEM_HEIGHTS, DEM_SIGMA, RESAMPLING, SFM_FRAME, UNCERTAINTY, YAML
 from .table import Option, Table
 
 #: orthorectification of oriented images (``fotogeo ortho``, fotogeo.tools.ortho.tool)
@@ -47,6 +47,7 @@ ORTHO = Table(
            "exact ones, like gdalwarp -et; 0 computes every cell exactly.", minimum=0.0, advanced=True),
     Option("cog", "bool", False, "Write Cloud Optimized GeoTIFFs (COG)",
            "Write Cloud Optimized GeoTIFFs (GDAL's COG layout).", advanced=True),
+    COMPRESS,
     UNCERTAINTY,
     DEM_SIGMA,
     Option("view_bands", "bool", False,
@@ -64,6 +65,7 @@ MOSAIC = Table(
     Option("dsm", "raster", None, "DSM: seamlines avoid above-ground objects (buildings, trees)",
            "DSM: seamlines go around cells more than 2.5 m above the local ground (the DSM's morphological "
            "opening over 40 m)."),
+    COMPRESS,
 ) + REGISTER_BATCH.only("scheduler", "workers", scheduler={
     "help": "Blend the tiles on the running Dask scheduler at this address, e.g. tcp://host:8786 (the workers "
             "must see the same paths) [threads in this process].", "advanced": True}, workers={

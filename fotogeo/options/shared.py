@@ -33,6 +33,8 @@ UNDETERMINED = ("drop", "fail")
 DEM_HEIGHTS = ("auto", "ellipsoid", "geoid")
 #: image representations of the area-based co-registration (fotogeo.coreg.representation)
 COREG_REPRESENTATIONS = ("orientation", "gradient", "rank", "intensity")
+#: compression of the GeoTIFF outputs (fotogeo.io.compression); deflate first: the default every TIFF reader reads
+COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
 
 # -- shared options -----------------------------------------------------------------------
 SEED = Option("seed", "int", 0, "Random seed", minimum=0, advanced=True)
@@ -49,6 +51,11 @@ EXAGGERATION = Option("exaggeration", "str", "auto", "Error vector exaggeration 
                       "readable, see the report) or a number.", minimum=0.0, exclusive_minimum=True, choices=("auto",),
                       advanced=True)
 RESAMPLING = Option("resampling", "choice", "nearest", "Resampling", choices=RESAMPLINGS)
+#: the GeoTIFF outputs' compression (``fotogeo ortho`` and ``fotogeo mosaic``; fotogeo.io.compression)
+COMPRESS = Option("compress", "choice", "deflate", "Compression (zstd: faster, read by GDAL >= 2.3 and QGIS)",
+                  "Compression of the GeoTIFF outputs: deflate (every TIFF reader), zstd (level 1: faster to write; "
+                  "GDAL >= 2.3 and QGIS read it, some older TIFF readers do not), lzw or none.",
+                  choices=COMPRESSIONS, advanced=True)
 #: the planimetric σ raster beside each orthophoto (``fotogeo ortho`` and ``triangulate --orthorectify``) and the
 #: DEM's height σ it adds (fotogeo.tools.ortho.products)
 UNCERTAINTY = Option("uncertainty", "bool", False,

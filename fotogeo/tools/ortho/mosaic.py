@@ -24,7 +24,7 @@ origin a fraction of a pixel off) is read through a VRT that resamples it onto t
    Cloud-Optimised GeoTIFF with overviews. Memory: the seam grid (bounded) plus one window per orthophoto
    reaching it per task.
 
-Outputs (all or nothing): ``output`` (COG, DEFLATE, overviews) and the GeoPackage ``seamlines``
+Outputs (all or nothing): ``output`` (COG, DEFLATE or ``compress``'s, overviews) and the GeoPackage ``seamlines``
 (default ``output`` with ``.gpkg``): layer ``seamlines`` (lines between two images: ``image_a``, ``image_b``) and
 ``regions`` (each image's part of the mosaic, with its gains and offsets).
 """
@@ -196,13 +196,15 @@ def _seam_layers(labels, t, names, gains, offsets, pairs):
 
 
 @tool(MOSAIC)
-def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, dsm=None, scheduler=None,
-           workers=None, overwrite: bool = False, progress=None) -> dict:
+def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True, dsm=None, compress: str = "deflate",
+           scheduler=None, workers=None, overwrite: bool = False, progress=None) -> dict:
     """Mosaic ``orthos`` into ``output`` with seamlines written to ``seamlines`` (module docstring); GDAL's block
     cache bounded as in every fotogeo write (:func:`fotogeo.io.warp.write_env`). The tiles run on Dask when
     ``scheduler`` (a running cluster) or ``workers`` (a local cluster of that many processes) is given, else in
-    threads of this process."""
+    threads of this process. ``compress``: the mosaic's compression (:mod:`fotogeo.io.compression`)."""
+    from ...io.compression import check_compression
     from ...io.warp import default_threads, write_env
+    compress = check_compression(compress)
     client, end = (connect(None, scheduler, workers, "mosaic --scheduler/--workers") if scheduler or workers
                    else (None, lambda: None))
     ended = []
@@ -214,7 +216,8 @@ def mosaic(orthos, output, *, seamlines=None, feather=None, balance: bool = True
 
     try:
         with write_env(default_threads(), 1):
-            return _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client, close)
+            return _mosaic(orthos, output, seamlines, (feather, balance, dsm, compress), overwrite, progress, client,
+                           close)
     finally:
         close()
 
@@ -228,7 +231,8 @@ def _balance(patches, pairs, bands: int, enabled: bool):
     return gains, offsets
 
 
-def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progress, client, release) -> dict:
+def _mosaic(orthos, output, seamlines, choices, overwrite, progress, client, release) -> dict:
+    """The run of :func:`mosaic`; ``choices``: its ``(feather, balance, dsm, compress)``."""
     import tempfile
 
     from ...io.raster import open_raster
@@ -247,14 +251,15 @@ def _mosaic(orthos, output, seamlines, feather, balance, dsm, overwrite, progres
         if resampled:
             prog(0.01, f"resampled onto the mosaic's pixel lattice ({abs(lattice.a):g} × {abs(lattice.e):g}): "
                        + ", ".join(resampled))
-        result = _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feather, balance, dsm,
-                                    overwrite, prog, client, release)
+        result = _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, choices, overwrite, prog,
+                                    client, release)
     return {**result, "resampled_onto_lattice": resampled, "collars_taken_as_nodata": collars}
 
 
-def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feather, balance, dsm, overwrite, prog,
-                       client, release) -> dict:
+def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, choices, overwrite, prog, client,
+                       release) -> dict:
     """The mosaic of orthophotos ``paths`` all on one pixel ``lattice``, their pixels read from ``read``."""
+    feather, balance, dsm, compress = choices
     from rasterio.coords import BoundingBox
     from rasterio.transform import array_bounds
 
@@ -277,7 +282,7 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, feat
     width_m = feather if feather is not None else max(16 * abs(transform.a), 2 * abs(t.a))
     nodata, why = output_nodata(read, infos, prog.stage(0.35, 0.4, "choosing the nodata value"))
     profile = geotiff_profile(width=width, height=height, count=bands, dtype=first.dtype, crs=crs,
-                              transform=transform, nodata=nodata)
+                              transform=transform, nodata=nodata, compress=compress)
     blend = Blend(transform, gains, offsets, signed, origins, f, width_m, first.dtype, nodata,
                   tuple(BoundingBox(*array_bounds(i.height, i.width, i.transform)) for i in infos))
     prog(0.4, "blending")

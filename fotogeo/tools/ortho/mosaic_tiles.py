@@ -202,7 +202,7 @@ def write_tiled(paths, blend: Blend, dst_path, profile: dict, *, client=None, re
                         mask=profile["nodata"] is None)
         if progress is not None:
             progress(lo + (hi - lo) * 0.8, "assembling the tiles into a cloud-optimised GeoTIFF")
-        to_cog(vrt, dst_path, dtype=profile["dtype"], resampling="average", threads=default_threads())
+        to_cog(vrt, dst_path, resampling="average", threads=default_threads(), compress=profile["compress"])
     except (Cancelled, KeyboardInterrupt):
         for fut in futures:
             fut.cancel()

@@ -22,8 +22,8 @@ Frames can also come from a fitted ``orient`` model (``model``: orient's JSON re
 ``uncertainty`` and ``view_bands`` each orthophoto gets rasters beside it on its grid: the predicted planimetric σ
 of every cell and its view geometry (:mod:`fotogeo.tools.ortho.products`).
 
-Outputs: one GeoTIFF per image (tiled, DEFLATE, internal overviews; ``cog``: GDAL's COG layout), ``output``
-itself for one image, ``<output>/<name>_ortho.tif`` for several; written through
+Outputs: one GeoTIFF per image (tiled, DEFLATE or ``compress``'s, internal overviews; ``cog``: GDAL's COG
+layout), ``output`` itself for one image, ``<output>/<name>_ortho.tif`` for several; written through
 :class:`~fotogeo.io.raster.AtomicOutputs` (all or nothing). :func:`plan_grid` and :func:`write_orthophoto` are
 also ``triangulate --orthorectify``'s (:mod:`fotogeo.tools.triangulate.ortho`): one orthorectification.
 """
@@ -42,6 +42,7 @@ from ...geometry.georeference import Georeference
 from ...geometry.vertical import as_pyproj
 from ...geometry.lattice import ground_to_image_on_lattice, piecewise_on_lattice
 from ...geometry.occlusion import visible_pixels
+from ...io.compression import check_compression
 from ...io.output_checks import check_output
 from ...io.raster import AtomicOutputs, open_raster
 from ...io.warp import grid_covering, warp_to_grid
@@ -251,12 +252,13 @@ def warn_dem_holes(dem, heights) -> None:
 
 def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, progress, *,
                      occlusion=(None, 1.0, None), cog: bool = False,
-                     error_threshold: float = ORTHO["error_threshold"].default) -> dict:
+                     error_threshold: float = ORTHO["error_threshold"].default, compress: str = "deflate") -> dict:
     """Resample the image ``im`` (:class:`~fotogeo.tools.ortho.inputs.OrthoImage`) onto ``grid``
     (:func:`plan_grid`) into ``path`` (module docstring, step 2), tagged ``FOTOGEO_NADIR`` (:func:`nadir_point`:
     ``fotogeo mosaic`` starts its seamlines where relief displacement vanishes); ``occlusion``: the
     ``(surface, step, pyramid)`` of :func:`occlusion_surface`, ``cog``: GDAL's COG layout instead of internal
-    overviews; ``error_threshold``: :class:`OrthoMapping`'s. The report entry: the grid's size, resolution,
+    overviews; ``error_threshold``: :class:`OrthoMapping`'s; ``compress``: the file's compression
+    (:mod:`fotogeo.io.compression`; DEFLATE at level :data:`ZLEVEL`). The report entry: the grid's size, resolution,
     transform, DEM coverage and what was written.
     The one orthorectification of frames and RPC images (``fotogeo ortho`` and ``triangulate --orthorectify``)."""
     surface, step, pyramid = occlusion
@@ -265,10 +267,10 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
     nadir = " ".join(f"{v:.3f}" for v in nadir_point(im, heights, crs))
     written = warp_to_grid(im.path, path, mapping, crs=crs, transform=grid.transform, width=grid.width,
                            height=grid.height, resampling=resampling, progress=progress, overviews=not cog,
-                           zlevel=ZLEVEL, tags={"FOTOGEO_NADIR": nadir}, reduce=True)
+                           zlevel=ZLEVEL, tags={"FOTOGEO_NADIR": nadir}, reduce=True, compress=compress)
     if cog:
         from ...io.cog import convert_to_cog
-        convert_to_cog(path, resampling)
+        convert_to_cog(path, resampling, compress)
     return {"width": grid.width, "height": grid.height, "resolution": grid.resolution,
             "transform": list(grid.transform)[:6], "dem_coverage": grid.coverage, **written}
 
@@ -277,8 +279,8 @@ def write_orthophoto(path, im, heights, crs, grid: OrthoGrid, resampling: str, p
 def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
           dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
           resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
-          dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False,
-          progress=None) -> dict:
+          dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", compress: str = "deflate",
+          overwrite: bool = False, progress=None) -> dict:
     """Orthorectify ``images`` onto the DEM into ``output`` (module docstring); returns the report dict. A folder
     made for several orthophotos is removed again when the run fails before writing into it."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
@@ -289,7 +291,7 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
                       dem_heights=dem_heights, geoid=geoid, occlusion=occlusion, resolution=resolution,
                       dst_crs=dst_crs, resampling=resampling, error_threshold=error_threshold,
                       cog=cog, uncertainty=uncertainty, dem_sigma=dem_sigma, view_bands=view_bands, sfm_frame=sfm_frame,
-                      overwrite=overwrite, progress=progress)
+                      compress=compress, overwrite=overwrite, progress=progress)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()
@@ -299,12 +301,13 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
 def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
            resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
-           dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", overwrite: bool = False,
-           progress=None) -> dict:
+           dem_sigma=None, view_bands: bool = False, sfm_frame: str = "auto", compress: str = "deflate",
+           overwrite: bool = False, progress=None) -> dict:
     """The run of :func:`ortho`."""
     prog = as_progress(progress)
     if not images:
         raise InputError("give at least one image to orthorectify")
+    compress = check_compression(compress)
     inputs = [*images, dem, camera, eo, geoid, model]
     paths = output_paths(images, output)
     extras = product_paths(paths, uncertainty, view_bands)
@@ -336,7 +339,8 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
             stage = prog.stage(0.05 + 0.95 * k / len(ims), 0.05 + 0.95 * (k + 1) / len(ims),
                                f"orthorectifying {im.name}")
             entry = write_orthophoto(out.temp(paths[im.name]), im, heights, crs, g, resampling, stage,
-                                     occlusion=(surface, step, pyramid), cog=cog, error_threshold=error_threshold)
+                                     occlusion=(surface, step, pyramid), cog=cog, error_threshold=error_threshold,
+                                     compress=compress)
             rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, **entry,
                                       **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
                                                        sigma_h)}
