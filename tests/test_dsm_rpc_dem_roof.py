@@ -102,16 +102,28 @@ def test_a_tall_block_on_a_dem_of_the_ground_keeps_its_top(scene, tmp_path, monk
     assert m.dem.above > m.dem.margin and fit["margin_above_m"] == pytest.approx(m.dem.above, abs=0.01), fit
 
 
-def test_the_margin_above_the_dem_is_the_largest_rise_the_matches_measure():
-    """Matches on a flat DEM: most on the ground (± 1 m), a few on roofs 12-30 m over it: the margin above is the
-    highest roof plus the pad, the one below the symmetric bound, which a few roofs do not reach."""
-    rng = np.random.default_rng(3)
-    z = np.concatenate([rng.normal(0.0, 0.5, 200), [12.0, 18.0, 30.0]])
+def _fit(z):
+    """The fit of matches at heights ``z`` over a flat DEM at 0."""
     P = np.column_stack([np.arange(len(z)), np.zeros(len(z)), z])
-    f = dem_guide.fit(lambda XY: np.zeros(len(XY)), P)
+    return dem_guide.fit(lambda XY: np.zeros(len(XY)), P)
+
+
+def test_the_margin_above_the_dem_is_the_highest_rise_the_matches_measure():
+    """2000 matches on the ground (± 0.5 m) and three on roofs 12-30 m over it: the margin above is the highest roof
+    plus the pad; the one below the symmetric bound, which three roofs do not reach."""
+    rng = np.random.default_rng(3)
+    f = _fit(np.concatenate([rng.normal(0.0, 0.5, 2000), [12.0, 18.0, 30.0]]))
     assert f.rise == pytest.approx(30.0 + f.offset)
     assert f.above == pytest.approx(dem_guide.DEM_PAD_M + 30.0 + f.offset)
     assert f.margin < 10.0 < f.above
+
+
+def test_from_few_matches_the_rise_reaches_beyond_the_highest():
+    """20 matches, five on roofs: the rise bounds a higher roof than the highest of them (the exponential tail of
+    :func:`.dem_guide.upper_quantile`), and never less than it."""
+    f = _fit(np.array([0.0] * 15 + [4.0, 6.0, 8.0, 10.0, 12.0]))
+    assert f.rise > 12.0 - f.offset
+    assert f.above == pytest.approx(dem_guide.DEM_PAD_M + f.rise)
 
 
 def test_the_guided_dsm_keeps_the_blocks_top(scene, tmp_path):
