@@ -16,9 +16,9 @@ heavy-tailed (a DEM of the ground lies under roofs and trees, and the tallest of
 quantile leaves out): ``rise`` is the highest a match stands over the shifted DEM, ``max(Z − (H − o))``, or, when
 larger, the upper bound above of the ``DEM_RISE_QUANTILE`` quantile of ``max(Z − (H − o), 0)`` (from few matches
 that bound lies beyond the largest, along the exponential tail), and the margin above is ``max(m, DEM_PAD_M +
-rise)`` (:attr:`DemFit.above`; satellite tiles, :mod:`.rpc_dem`). The DEM is used shifted by ``−o``: the DSM's heights come
-from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another vertical
-reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
+rise)`` (:attr:`DemFit.above`; satellite tiles, :mod:`.rpc_dem`). The DEM is used shifted by ``−o``: the DSM's
+heights come from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another
+vertical reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
 (:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
 
 **Node heights** (:meth:`DemGuide.node_heights`): the height where the ray of a rectified left pixel meets the DEM,

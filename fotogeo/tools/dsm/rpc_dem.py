@@ -11,9 +11,10 @@ points' range stands; a spread over ``DEM_MAX_SPREAD_M`` likewise.
 DEM (shifted by the offset) where their lines of sight through the left RPC, ``X(z) = RPC⁻¹(p, z)``, reach it
 (:meth:`.dem_guide.DemGuide.meet`, the damped fixed point ``z ← z + ½ (H(X(z)) − z)``); the tile searches
 ``[min z − m, max z + m⁺]`` (``m`` the fit's margin, ``m⁺`` its margin above, :attr:`.dem_guide.DemFit.above`:
-the highest tie point over the DEM plus the pad, so that roofs and trees a DEM of the ground lies under stay in
-the range; each widened by what the nodes' iteration left), inside the pair's range. A tile any node of which falls in a void or off the DEM keeps the pair's range (the tie points'). Heights
-are ellipsoidal as the RPCs' (the DEM is read in that reference: ``--dem-heights``, ``--geoid``).
+the tie points' rise over the DEM plus the pad, so that roofs and trees a DEM of the ground lies under stay in the
+range; each widened by what the nodes' iteration left), inside the pair's range. A tile any node of which falls in
+a void or off the DEM keeps the pair's range (the tie points'). Heights are ellipsoidal as the RPCs' (the DEM is
+read in that reference: ``--dem-heights``, ``--geoid``).
 """
 from __future__ import annotations
 
