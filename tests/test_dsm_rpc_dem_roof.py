@@ -8,10 +8,10 @@ import warnings
 import numpy as np
 import pytest
 import rasterio
-from rasterio.transform import Affine
 
 import rendered_rpc_pair
-from fotogeo.tools.dsm import dem_guide, matching, rpc_dem
+from fotogeo.tools.dsm import dem_guide, rpc_dem
+from test_dsm_rpc_dem import _dem, _setup
 
 SIZE = 256
 #: the block at the scene's centre: its side (m), and its roof's height over the scene's highest ground (m)
@@ -43,36 +43,13 @@ def scene(tmp_path_factory):
     return {**sc, "ground": kept["ground"], "roof": float(sc["truth"][int(r), int(c)])}
 
 
-def _ground_dem(sc, path, cell=20.0) -> str:
-    """The ground without the block averaged onto ``cell`` m cells."""
-    t = sc["truth_transform"]
-    k = int(round(cell / t.a))
-    z = sc["ground"]
-    n = (z.shape[0] // k, z.shape[1] // k)
-    z = z[:n[0] * k, :n[1] * k].reshape(n[0], k, n[1], k).mean(axis=(1, 3))
-    with rasterio.open(path, "w", driver="GTiff", width=n[1], height=n[0], count=1, dtype="float32", crs=sc["crs"],
-                       transform=t * Affine.scale(k), nodata=-9999.0) as ds:
-        ds.write(z.astype(np.float32)[None])
-    return str(path)
-
-
-class _Stop(Exception):
-    pass
+def _ground_dem(sc, path) -> str:
+    """The ground without the block averaged onto 20 m cells."""
+    return _dem({**sc, "truth": sc["ground"]}, path)
 
 
 def _pair(sc, monkeypatch, dem, out):
-    from fotogeo.tools.dsm import dsm
-    got = {}
-
-    def capture(grid, matches, *a, **k):
-        got.update(matches=matches)
-        raise _Stop
-    monkeypatch.setattr(matching, "match_tiles", capture)
-    with warnings.catch_warnings(), pytest.raises(_Stop):
-        warnings.simplefilter("ignore")
-        dsm(sc["images"], out, rpc=True, resolution=0.7, dem=dem, dem_heights="ellipsoid")
-    (m,) = got["matches"]
-    return m
+    return _setup(sc, monkeypatch, dem, out)[0]
 
 
 def _block_tile(sc, m):
