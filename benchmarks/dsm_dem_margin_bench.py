@@ -83,7 +83,7 @@ def _truth(sc: dict, windows: list) -> list:
     for c0, r0, c1, r1 in windows:
         col, row = np.meshgrid(np.linspace(c0, c1, 25), np.linspace(r0, r1, 25))
         z = _first_hit(sc["cameras"][0], sc["truth"], sc["truth_transform"], col.ravel(), row.ravel())[2]
-        out.append((float(z.min()), float(z.max())))
+        out.append(np.asarray(z, float))
     return out
 
 
@@ -91,14 +91,16 @@ def _measure(args, pt, windows, truth, keep) -> dict:
     from fotogeo.tools.dsm import rpc_dem
     s = _subset_setup(args, pt, keep)
     m1 = args[1][args[0].i].model
-    held, widths = [], []
-    for w, (t0, t1) in zip(windows, truth):
+    held, widths, out = [], [], []
+    for w, z in zip(windows, truth):
         lo, hi = (rpc_dem.tile_range(m1, s["dem"], w, s["zlo"], s["zhi"]) if s["dem"] is not None
                   else (s["zlo"], s["zhi"]))
-        held.append(lo <= t0 and hi >= t1)
+        held.append(lo <= z.min() and hi >= z.max())
         widths.append(hi - lo)
-    return {"held": held, "width": float(np.mean(widths)),
-            "margin": None if s["dem"] is None else float(s["dem"].margin)}
+        out.append(float(np.mean((z < lo) | (z > hi))))
+    return {"held": held, "width": float(np.mean(widths)), "outside": float(np.mean(out)),
+            "margin": None if s["dem"] is None else float(s["dem"].margin),
+            "above": None if s["dem"] is None else float(getattr(s["dem"], "above", s["dem"].margin))}
 
 
 def _rows(dem: str, args, pt, windows, truth, ns: list, seeds: int, tag: str) -> list:
@@ -116,11 +118,14 @@ def _rows(dem: str, args, pt, windows, truth, ns: list, seeds: int, tag: str) ->
                "windows": len(windows), "held_windows": round(float(held.mean()), 4),
                "held_all_windows": round(float(held.all(axis=1).mean()), 4),
                "mean_window_range_m": round(float(np.mean([r["width"] for r in runs])), 2),
+               "cells_outside": round(float(np.mean([r["outside"] for r in runs])), 5),
                "dem_guides": round(len(margins) / len(runs), 3)}
         if len(margins) and full["margin"] is not None:
             row.update(margin_all_m=round(full["margin"], 2), margin_median_m=round(float(np.median(margins)), 2),
                        margin_p5_p95_m=[round(float(v), 2) for v in np.percentile(margins, [5, 95])],
-                       reaches_margin_all=round(float(np.mean(margins >= full["margin"] - 1e-9)), 3))
+                       reaches_margin_all=round(float(np.mean(margins >= full["margin"] - 1e-9)), 3),
+                       above_median_m=round(float(np.median([r["above"] for r in runs if r["above"] is not None])),
+                                            2))
         rows.append(row)
     return rows
 

@@ -11,9 +11,14 @@ few matches underestimate: with ``n`` matches sorted, ``a(r)`` is above the ``p`
 the confidence ``c``; when even the largest does not (``1 − pⁿ < c``: fewer than 59 for ``p = c = 0.95``), the largest
 bounds the lower quantile ``p_n = (1 − c)^(1/n)``, and an exponential tail (a generalized Pareto tail of shape 0,
 Pickands 1975) through the median ``a½`` and it reaches ``p``:
-``U = a½ + (a(n) − a½) · ln(½ / (1 − p)) / ln(½ / (1 − p_n))``. The DEM is used shifted by ``−o``: the DSM's heights come
-from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another vertical
-reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
+``U = a½ + (a(n) − a½) · ln(½ / (1 − p)) / ln(½ / (1 − p_n))``. **Above the DEM** the error is one-sided and
+heavy-tailed (a DEM of the ground lies under roofs and trees, and the tallest of them are the few matches a
+quantile leaves out): ``rise`` is the highest a match stands over the shifted DEM, ``max(Z − (H − o))``, or, when
+larger, the upper bound above of the ``DEM_RISE_QUANTILE`` quantile of ``max(Z − (H − o), 0)`` (from few matches
+that bound lies beyond the largest, along the exponential tail), and the margin above is ``max(m, DEM_PAD_M +
+rise)`` (:attr:`DemFit.above`; satellite tiles, :mod:`.rpc_dem`). The DEM is used shifted by ``−o``: the DSM's
+heights come from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another
+vertical reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
 (:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
 
 **Node heights** (:meth:`DemGuide.node_heights`): the height where the ray of a rectified left pixel meets the DEM,
@@ -37,6 +42,8 @@ DEM_PAD_M = 5.0
 DEM_ERROR_K = 1.5
 DEM_QUANTILE = 0.95
 DEM_CONFIDENCE = 0.95
+#: the quantile of the matches' rise over the DEM bounded for the margin above it (module docstring)
+DEM_RISE_QUANTILE = 0.99
 #: fewer sparse matches with a DEM height than this and the pair's fit is not measured (the run's is used)
 DEM_MIN_MATCHES = 20
 #: a DEM this far (m, median) from the matches' heights is named; this spread (NMAD, m) and it guides no strip
@@ -54,11 +61,19 @@ DEM_NODES = 512
 @dataclass(frozen=True)
 class DemFit:
     """The DEM against a pair's sparse matches (module docstring): ``offset`` and ``spread`` (m), the strips'
-    ``margin`` (m), the ``matches`` measured."""
+    ``margin`` (m), the ``matches`` measured, and ``rise`` (m): how high over the shifted DEM the surface stands
+    (roofs, trees on the ground a DEM models; module docstring)."""
     offset: float
     spread: float
     margin: float
     matches: int
+    rise: float = 0.0
+
+    @property
+    def above(self) -> float:
+        """The margin searched above the shifted DEM (module docstring): the ``rise`` plus ``DEM_PAD_M``, at least
+        the symmetric ``margin``."""
+        return max(self.margin, DEM_PAD_M + self.rise)
 
     def as_report(self, used: bool) -> dict:
         return {"offset_m": round(self.offset, 2), "nmad_m": round(self.spread, 2),
@@ -76,7 +91,8 @@ def fit(source, points) -> DemFit | None:
     r = h[ok] - P[ok, 2]
     o = float(np.median(r))
     a = np.abs(r - o)
-    return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * upper_quantile(a), int(ok.sum()))
+    return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * upper_quantile(a), int(ok.sum()),
+                  max(0.0, float(np.max(o - r)), upper_quantile(np.maximum(o - r, 0.0), DEM_RISE_QUANTILE)))
 
 
 def upper_quantile(a, p: float = DEM_QUANTILE, c: float = DEM_CONFIDENCE) -> float:
@@ -134,6 +150,10 @@ class DemGuide:
     @property
     def margin(self) -> float:
         return self.fitted.margin
+
+    @property
+    def above(self) -> float:
+        return self.fitted.above
 
     def heights(self, XY) -> np.ndarray:
         return self.dem.heights(np.asarray(XY, float)) - self.fitted.offset
