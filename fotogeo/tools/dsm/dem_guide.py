@@ -95,19 +95,28 @@ def fit(source, points) -> DemFit | None:
                   max(0.0, float(np.max(o - r)), upper_quantile(np.maximum(o - r, 0.0), DEM_RISE_QUANTILE)))
 
 
+#: from this many values on, the exponential tail of :func:`upper_quantile` is anchored on the second largest
+TAIL_SECOND_FROM = 10
+
+
 def upper_quantile(a, p: float = DEM_QUANTILE, c: float = DEM_CONFIDENCE) -> float:
     """An upper bound of the ``p`` quantile of the population the values ``a`` (>= 0, at least one) are a random
     sample of, with confidence ``c`` (module docstring): an order statistic of ``a``, or beyond its largest along an
-    exponential tail when ``a`` is too small for one."""
+    exponential tail when ``a`` is too small for one. The tail runs from the median through the ``k``-th largest
+    value, taken as the quantile it exceeds with confidence ``c`` (the ``k``-th largest of ``n`` uniform values is
+    Beta(n − k + 1, k) distributed); ``k`` is 2 from :data:`TAIL_SECOND_FROM` values on, so that one mismatch among
+    20–60 matches does not widen the search by tens of metres."""
     from scipy.stats import binom
     s = np.sort(np.asarray(a, float).ravel())
     n = len(s)
     r = int(binom.ppf(c, n, p))  # the least r with P(Binomial(n, p) <= r) >= c: s[r] is the bound
-    if r < n:
+    if r < n - 1 or (r < n and n < TAIL_SECOND_FROM):
         return float(s[r])
+    from scipy.stats import beta
     half = float(np.median(s))
-    p_n = (1.0 - c) ** (1.0 / n)
-    return half + (float(s[-1]) - half) * float(np.log(0.5 / (1.0 - p)) / np.log(0.5 / (1.0 - p_n)))
+    k = 2 if n >= TAIL_SECOND_FROM else 1  # anchored on the second largest: one mismatch does not set the bound
+    p_k = float(beta.ppf(1.0 - c, n - k + 1, k))  # the k-th largest of n lies above this quantile with confidence c
+    return half + (float(s[-k]) - half) * float(np.log(0.5 / (1.0 - p)) / np.log(0.5 / (1.0 - p_k)))
 
 
 def problems(f: DemFit, where: str, sparse: int = 0, guides: bool = True, other: str = "") -> list:
