@@ -98,8 +98,8 @@ def scene(kind, folder) -> list:
     from dsm_scenes import make_scene
     sc, orig, got = make_scene(kind, folder), tool._choose, []
 
-    def spy(ims, views, names, zmid, pairs, resolution=None):
-        got.extend(_rows(orig(ims, views, names, zmid, pairs, resolution), names, views))
+    def spy(ims, views, names, *a, **k):
+        got.extend(_rows(orig(ims, views, names, *a, **k), names, views))
         raise _Chosen
     tool._choose = spy
     try:
