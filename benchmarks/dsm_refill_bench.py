@@ -109,6 +109,9 @@ def main(argv=None) -> None:
     ap.add_argument("--work", default="/tmp/dsm_refill_bench", help="renders and DSMs go here")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo checkout measured (its rows carry its path)")
     a = ap.parse_args(argv)
+    wrong = [c for c in (a.cases.split(";") if a.cases else []) if c not in CASES]
+    if wrong:
+        ap.error(f"--cases: no case {wrong[0]!r}; give names separated by ';' from: " + "; ".join(CASES))
     dsm_heldout_bench.TREE = Path(a.tree).resolve()
     import os
     rows = []
