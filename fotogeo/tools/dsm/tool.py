@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError, ModelError
+from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.raster import AtomicOutputs
@@ -190,6 +190,27 @@ def _grid(kept, res, bounds, output, ims):
     return grid
 
 
+def _widen(first, added, setups, res, bounds, output, ims, names):
+    """The output grid over the ``first`` choice's kept pairs and the refill's ``added`` ones (:mod:`.refill`); an
+    added pair whose overlap would make it too large (:func:`_grid` refuses) is left out with that reason and its
+    set-up dropped from ``setups``, so the refill never refuses a run the first choice's grid fits."""
+    try:
+        return _grid(first + added, res, bounds, output, ims)
+    except OutputError:
+        pass
+    kept = list(first)
+    for p in added:
+        try:
+            _grid(kept + [p], res, bounds, output, ims)
+        except OutputError as e:
+            p.kept, p.reason = False, f"its overlap would widen the output grid too far ({e})"
+            setups.pop((p.i, p.j), None)
+            warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {p.reason}", FotogeoWarning, stacklevel=3)
+        else:
+            kept.append(p)
+    return _grid(kept, res, bounds, output, ims)
+
+
 def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0) -> tuple:
     """``(rectified pair, disparity range, height range, None, sparse matches, DEM guide)`` of one kept pair (the
     matches :func:`.local.guides` that give each pixel's expected disparity, :func:`.local.expected_disparity`,
@@ -283,9 +304,9 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in tried))
-    added = [p for p in tried if "replaces" in p.extra]
-    if added:  # the pairs the refill chose widen the grid as the first choice's did
-        grid = _grid(first + added, res, bounds, output, ims)
+    added = [p for p in tried if "replaces" in p.extra and p.kept]
+    if added:  # the pairs the refill chose and could set up widen the grid as the first choice's did
+        grid = _widen(first, added, setups, res, bounds, output, ims, names)
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
