@@ -11,22 +11,11 @@ import pytest
 from fotogeo.stereo.pairs import PairChoice
 from fotogeo.tools.dsm import dsm, matching
 
-from dsm_scenes import make_scene
+from dsm_scenes import make_scene, turned_eo
 
 
 class _Stop(Exception):
     pass
-
-
-def _turned(eo: Path, name: str, dk: float, out: Path) -> Path:
-    rows = []
-    for line in eo.read_text().splitlines():
-        f = line.split()
-        if f and f[0] == name:
-            f[-1] = f"{float(f[-1]) + dk:.8f}"
-        rows.append(" ".join(f))
-    out.write_text("\n".join(rows) + "\n")
-    return out
 
 
 def test_a_pair_refused_when_set_up_gives_its_partner_the_next_candidate(tmp_path, monkeypatch):
@@ -35,7 +24,7 @@ def test_a_pair_refused_when_set_up_gives_its_partner_the_next_candidate(tmp_pat
     capped in the first choice ("both images already have 3 better partners"), is now chosen, set up and matched,
     and says which refusal it replaces. Pairs set up once are not set up again."""
     sc = make_scene("nadir", tmp_path / "scene")
-    eo = _turned(Path(sc["eo"]), "s1_02", 1.0, tmp_path / "eo.txt")
+    eo = turned_eo(Path(sc["eo"]), "s1_02", 1.0, tmp_path / "eo.txt")
     got, calls = {}, []
 
     def capture(grid, matches, *a, **k):
@@ -100,7 +89,7 @@ def _refill_run(tmp_path, monkeypatch, refuse=(), limit=None):
     from fotogeo.errors import OutputError
     from fotogeo.tools.dsm import tool
     sc = make_scene("nadir", tmp_path / "scene")
-    eo = _turned(Path(sc["eo"]), "s1_02", 1.0, tmp_path / "eo.txt")
+    eo = turned_eo(Path(sc["eo"]), "s1_02", 1.0, tmp_path / "eo.txt")
     grids, got = [], {}
     grid, setup = tool._grid, tool._pair_setup
 
