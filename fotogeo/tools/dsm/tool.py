@@ -157,20 +157,24 @@ def _dem_fits_orientation(dem, source, views, sources, features):
 def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=None) -> list:
     """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best.
     ``refused``: ``{(i, j): reason}`` of pairs refused when set up, left out as well (:mod:`.refill`); ``memo``: a
-    dict keeping the other reasons to leave a pair out between the choices of one run."""
+    dict keeping the pairs' measures between the choices of one run (``"reasons"``: the other reasons to leave a
+    pair out, ``"stretch"``: the rectified stretch of a pair left in; :func:`.plan.choice_measures`)."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
-    refused, memo = refused or {}, {} if memo is None else memo
+    memo = {} if memo is None else memo
+    refused, reasons, stretches = refused or {}, memo.setdefault("reasons", {}), memo.setdefault("stretch", {})
 
     def leave_out(p):
-        if (p.i, p.j) not in memo:
-            memo[(p.i, p.j)] = plan.forward_reason(p, views) or plan.rectify_reason(p, views, resolution)
-        return refused.get((p.i, p.j)) or memo[(p.i, p.j)]
+        if (p.i, p.j) not in reasons:
+            reasons[(p.i, p.j)], s = plan.choice_measures(p, views, resolution)
+            if s is not None:
+                stretches[(p.i, p.j)] = s
+        return refused.get((p.i, p.j)) or reasons[(p.i, p.j)]
 
     def stretch(p):
-        if ("stretch", p.i, p.j) not in memo:
-            memo[("stretch", p.i, p.j)] = plan.rectified_stretch(p, views)
-        return memo[("stretch", p.i, p.j)]
+        if (p.i, p.j) not in stretches:
+            stretches[(p.i, p.j)] = plan.rectified_stretch(p, views)
+        return stretches[(p.i, p.j)]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
                            leave_out=leave_out, stretch=stretch)
     if not any(p.kept for p in choices) and not refused:
