@@ -98,8 +98,8 @@ def scene(kind, folder) -> list:
     from dsm_scenes import make_scene
     sc, orig, got = make_scene(kind, folder), tool._choose, []
 
-    def spy(ims, views, names, zmid, pairs, resolution=None):
-        got.extend(_rows(orig(ims, views, names, zmid, pairs, resolution), names, views))
+    def spy(ims, views, names, *a, **k):
+        got.extend(_rows(orig(ims, views, names, *a, **k), names, views))
         raise _Chosen
     tool._choose = spy
     try:
@@ -117,11 +117,14 @@ def main() -> None:
     ap.add_argument("out")
     ap.add_argument("--compare")
     ap.add_argument("--work", default="/tmp/dsm_pair_choice")
-    ap.add_argument("--sets", help="only these sets, separated by ','")
+    ap.add_argument("--sets", help="only these sets, separated by ';'")
     a = ap.parse_args()
     every = ["fwd38", *dos.SETS, *SCENES, *DJI]
+    wrong = [s for s in (a.sets.split(";") if a.sets else []) if s not in every]
+    if wrong:
+        ap.error(f"--sets: no set {wrong[0]!r}; give names separated by ';' from: " + "; ".join(every))
     res, work = {}, Path(a.work)
-    for k, name in enumerate(a.sets.split(",") if a.sets else every):
+    for k, name in enumerate(a.sets.split(";") if a.sets else every):
         folder = work / f"set{k}"
         res[name] = (oblique(FWD38, folder) if name == "fwd38" else oblique(name, folder) if name in dos.SETS
                      else scene(name, folder) if name in SCENES else dji(name, folder))

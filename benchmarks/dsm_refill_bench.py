@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT / "tests"), str(ROOT)]
 import dsm_heldout_bench  # noqa: E402
 import numpy as np  # noqa: E402
-from dsm_scenes import compare, make_scene  # noqa: E402
+from dsm_scenes import compare, make_scene, turned_eo  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "dsm_refill_bench.json"
 #: name -> (scene, the frame whose κ is turned, by how many degrees), or (a ``dsm_dji_bench`` flight, the automatic
@@ -38,18 +38,6 @@ OUT = ROOT / "benchmarks" / "results" / "dsm_refill_bench.json"
 CASES = {"nadir, s1_02 κ +1°": ("nadir", "s1_02", 1.0),
          "held_out, s2_02 κ +1°": ("held_out", "s2_02", 1.0),
          "grid45-p4p-684-rtk, view-angle limit 65°": ("grid45-p4p-684-rtk", {"max_view_angle": 65.0})}
-
-
-def _turned_eo(eo: Path, name: str, dk: float, out: Path) -> Path:
-    """The orientation file ``eo`` with frame ``name``'s κ (the last column) turned by ``dk`` degrees."""
-    rows = []
-    for line in eo.read_text().splitlines():
-        f = line.split()
-        if f and f[0] == name:
-            f[-1] = f"{float(f[-1]) + dk:.8f}"
-        rows.append(" ".join(f))
-    out.write_text("\n".join(rows) + "\n")
-    return out
 
 
 def _dji(folder: Path, flight: str, limits: dict) -> tuple:
@@ -77,7 +65,7 @@ def _dji(folder: Path, flight: str, limits: dict) -> tuple:
 def _scene(folder: Path, scene: str, name: str, dk: float) -> tuple:
     """The rendered ``scene`` with frame ``name``'s κ turned by ``dk`` degrees: ``(command, DSM, comparison)``."""
     sc = make_scene(scene, folder / "scene")
-    eo = _turned_eo(Path(sc["eo"]), name, dk, folder / "eo_turned.txt")
+    eo = turned_eo(Path(sc["eo"]), name, dk, folder / "eo_turned.txt")
     out = folder / "dsm.tif"
     cmd = [*dsm_heldout_bench.PY, "dsm", *map(str, sc["images"]), "--camera", str(sc["camera"]), "--eo", str(eo),
            "--crs", sc["crs"], "-o", str(out)]
@@ -109,6 +97,9 @@ def main(argv=None) -> None:
     ap.add_argument("--work", default="/tmp/dsm_refill_bench", help="renders and DSMs go here")
     ap.add_argument("--tree", default=str(ROOT), help="the fotogeo checkout measured (its rows carry its path)")
     a = ap.parse_args(argv)
+    wrong = [c for c in (a.cases.split(";") if a.cases else []) if c not in CASES]
+    if wrong:
+        ap.error(f"--cases: no case {wrong[0]!r}; give names separated by ';' from: " + "; ".join(CASES))
     dsm_heldout_bench.TREE = Path(a.tree).resolve()
     import os
     rows = []

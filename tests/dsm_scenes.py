@@ -106,3 +106,16 @@ def compare(dsm_path, surface, *, edge: int = 0) -> dict:
     med = float(np.median(d))
     return {"n": int(valid.sum()), "cells": int(h.size), "rmse": float(np.sqrt(np.mean(d ** 2))),
             "median": med, "nmad": float(1.4826 * np.median(np.abs(d - med))), "abs": np.abs(d)}
+
+
+def turned_eo(eo: Path, name: str, dk: float, out: Path) -> Path:
+    """The orientation file ``eo`` with frame ``name``'s κ (the last column) turned by ``dk`` degrees, written to
+    ``out``: its pairs pass the pair choice (the footprints barely move) and are refused when set up."""
+    rows = []
+    for line in eo.read_text().splitlines():
+        f = line.split()
+        if f and f[0] == name:
+            f[-1] = f"{float(f[-1]) + dk:.8f}"
+        rows.append(" ".join(f))
+    out.write_text("\n".join(rows) + "\n")
+    return out

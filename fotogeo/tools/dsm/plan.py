@@ -155,13 +155,14 @@ def forward_reason(p, views) -> str:
     return ""
 
 
-def size_reason(vi, vj, scale: float, fine: float) -> str:
+def size_reason(vi, vj, scale: float, fine: float, extent=None) -> str:
     """Why the pair of views ``vi``, ``vj`` cannot be rectified at ``scale`` (:func:`.rectify`'s own extent,
     :func:`.rectified_extent`, and its bound :data:`.MAX_RECTIFIED_PIXELS`), else "". ``fine``: the resolution
     (map units) at scale 1; the resolution that fits is ``fine / s*`` with ``s* = scale·√(MAX / (2 w h))`` (the
-    pixels go with the square of the scale), rounded up to two digits."""
+    pixels go with the square of the scale), rounded up to two digits. ``extent``: the pair's
+    :func:`.rectified_extent` at ``scale`` when already computed."""
     try:
-        _, _, _, _, _, (w, h) = rectified_extent(vi, vj, scale)
+        _, _, _, _, _, (w, h) = extent or rectified_extent(vi, vj, scale)
     except ModelError as e:
         return str(e)
     if 2 * w * h <= MAX_RECTIFIED_PIXELS:
@@ -172,7 +173,7 @@ def size_reason(vi, vj, scale: float, fine: float) -> str:
             f"(its epipole lies near the image): give --resolution {fit:.3g} or coarser")
 
 
-def rectified_stretch(p, views) -> float:
+def rectified_stretch(p, views, extent=None) -> float:
     """How many times the larger frame's pixels each rectified image of pair ``p`` has (:func:`.rectified_extent`
     at scale 1; the pixels go with the square of the scale, so the ratio holds at every scale). It is what
     rectification does to the frames: 1–3 for a base across the lines of sight (more when the base runs along the
@@ -181,18 +182,36 @@ def rectified_stretch(p, views) -> float:
     times their disparities) grows with it. The pair choice ranks the pairs beyond
     :data:`fotogeo.stereo.pairs.NEAR_STRETCH` after the others (module docstring). The epipole's margin in degrees
     (:func:`epipole_margin`) says less: the same margin stretches a wide frame more than a narrow one, since the
-    scale across the rectified image goes with the ratio of the epipole's distances to the far and near borders."""
+    scale across the rectified image goes with the ratio of the epipole's distances to the far and near borders.
+    ``extent``: the pair's :func:`.rectified_extent` at scale 1 when already computed."""
     vi, vj = views[p.i], views[p.j]
-    w, h = rectified_extent(vi, vj, 1.0)[-1]
+    w, h = (extent or rectified_extent(vi, vj, 1.0))[-1]
     return w * h / max(vi.size[0] * vi.size[1], vj.size[0] * vj.size[1])
 
 
-def rectify_reason(p, views, resolution=None) -> str:
+def rectify_reason(p, views, resolution=None, extent=None) -> str:
     """:func:`size_reason` of pair ``p`` in the pair choice: at the scale the run will rectify it with
     (``2 GSD / resolution`` capped at 1, the pair's GSD its distance over the focal length; 1 without
-    ``--resolution``, whose default is twice the GSD)."""
+    ``--resolution``, whose default is twice the GSD). ``extent``: the pair's :func:`.rectified_extent` at scale 1,
+    used when that is the run's scale (the rounded sizes at another scale are measured there)."""
     fine = 2.0 * p.extra["distance"] / views[p.i].focal
-    return size_reason(views[p.i], views[p.j], min(1.0, fine / resolution) if resolution else 1.0, fine)
+    scale = min(1.0, fine / resolution) if resolution else 1.0
+    return size_reason(views[p.i], views[p.j], scale, fine, extent if scale == 1.0 else None)
+
+
+def choice_measures(p, views, resolution=None) -> tuple:
+    """``(reason, stretch)`` of pair ``p`` in the pair choice: :func:`forward_reason` or :func:`rectify_reason` ("" to
+    leave it in), and the :func:`rectified_stretch` of a pair left in (None for one left out), both from one
+    :func:`.rectified_extent` at scale 1 (a second at the run's scale only when ``resolution`` makes it coarser)."""
+    why = forward_reason(p, views)
+    if why:
+        return why, None
+    try:
+        extent = rectified_extent(views[p.i], views[p.j], 1.0)
+    except ModelError as e:  # the frames share no epipolar line: at every scale
+        return str(e), None
+    why = rectify_reason(p, views, resolution, extent)
+    return why, None if why else rectified_stretch(p, views, extent)
 
 
 def disparity_bounds(rp, zlo: float, zhi: float, box=None, n: int = 17) -> tuple:

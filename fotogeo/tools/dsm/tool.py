@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError, ModelError
+from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.raster import AtomicOutputs
@@ -157,20 +157,24 @@ def _dem_fits_orientation(dem, source, views, sources, features):
 def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=None) -> list:
     """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best.
     ``refused``: ``{(i, j): reason}`` of pairs refused when set up, left out as well (:mod:`.refill`); ``memo``: a
-    dict keeping the other reasons to leave a pair out between the choices of one run."""
+    dict keeping the pairs' measures between the choices of one run (``"reasons"``: the other reasons to leave a
+    pair out, ``"stretch"``: the rectified stretch of a pair left in; :func:`.plan.choice_measures`)."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
-    refused, memo = refused or {}, {} if memo is None else memo
+    memo = {} if memo is None else memo
+    refused, reasons, stretches = refused or {}, memo.setdefault("reasons", {}), memo.setdefault("stretch", {})
 
     def leave_out(p):
-        if (p.i, p.j) not in memo:
-            memo[(p.i, p.j)] = plan.forward_reason(p, views) or plan.rectify_reason(p, views, resolution)
-        return refused.get((p.i, p.j)) or memo[(p.i, p.j)]
+        if (p.i, p.j) not in reasons:
+            reasons[(p.i, p.j)], s = plan.choice_measures(p, views, resolution)
+            if s is not None:
+                stretches[(p.i, p.j)] = s
+        return refused.get((p.i, p.j)) or reasons[(p.i, p.j)]
 
     def stretch(p):
-        if ("stretch", p.i, p.j) not in memo:
-            memo[("stretch", p.i, p.j)] = plan.rectified_stretch(p, views)
-        return memo[("stretch", p.i, p.j)]
+        if (p.i, p.j) not in stretches:
+            stretches[(p.i, p.j)] = plan.rectified_stretch(p, views)
+        return stretches[(p.i, p.j)]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
                            leave_out=leave_out, stretch=stretch)
     if not any(p.kept for p in choices) and not refused:
@@ -188,6 +192,27 @@ def _grid(kept, res, bounds, output, ims):
                       source_pixels=sum(im.width * im.height for im in ims), resolution=res,
                       what=f"the DSM {str(output)!r}")
     return grid
+
+
+def _widen(first, added, setups, res, bounds, output, ims, names):
+    """The output grid over the ``first`` choice's kept pairs and the refill's ``added`` ones (:mod:`.refill`); an
+    added pair whose overlap would make it too large (:func:`_grid` refuses) is left out with that reason and its
+    set-up dropped from ``setups``, so the refill never refuses a run the first choice's grid fits."""
+    try:
+        return _grid(first + added, res, bounds, output, ims)
+    except OutputError:
+        pass
+    kept = list(first)
+    for p in added:
+        try:
+            _grid(kept + [p], res, bounds, output, ims)
+        except OutputError as e:
+            p.kept, p.reason = False, f"its overlap would widen the output grid too far ({e})"
+            setups.pop((p.i, p.j), None)
+            warnings.warn(f"pair {names[p.i]}-{names[p.j]} left out: {p.reason}", FotogeoWarning, stacklevel=3)
+        else:
+            kept.append(p)
+    return _grid(kept, res, bounds, output, ims)
 
 
 def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0) -> tuple:
@@ -283,9 +308,9 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     if not setups:
         raise InputError("no pair could be matched: " + "; ".join(
             f"{names[p.i]}-{names[p.j]}: {p.reason}" for p in tried))
-    added = [p for p in tried if "replaces" in p.extra]
-    if added:  # the pairs the refill chose widen the grid as the first choice's did
-        grid = _grid(first + added, res, bounds, output, ims)
+    added = [p for p in tried if "replaces" in p.extra and p.kept]
+    if added:  # the pairs the refill chose and could set up widen the grid as the first choice's did
+        grid = _widen(first, added, setups, res, bounds, output, ims, names)
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
