@@ -213,7 +213,7 @@ def test_the_worst_frame_line_never_prints_nan(monkeypatch, tmp_path):
 def test_a_singular_direction_reads_undetermined_whatever_its_rounding():
     """The inverse of a singular system holds, in the free direction, a diagonal of any sign and size depending on
     the BLAS (0 m clipped here, 5.15e3 km on another machine): its variance inflation S_ii·(S⁻¹)_ii says it."""
-    from fotogeo.orientation.bundle_result import UNDETERMINED_INFLATION, _root
+    from fotogeo.models.precision import UNDETERMINED_INFLATION, determined_sqrt as _root
     variance = np.array([1e-4, 5.15e6 ** 2, -3.0, 2.0, 0.01])
     inflation = np.array([12.0, 2.7e11, 2.7e11, UNDETERMINED_INFLATION, 2.5e8])  # the last: held by a prior only
     out = _root(variance, inflation)

@@ -27,7 +27,8 @@ image w, h, ppx, ppy), so :func:`~fotogeo.models.base.model_from_dict` restores 
 computed in map units relative to the points' centroid).
 
 ``info``: ``sigma0`` = sqrt(vᵀPv / (2n − 6)) (px), ``std`` (standard deviations of the 6
-unknowns, σ0²·(JᵀPJ)⁻¹, in map units and degrees), ``cond`` (of the scaled Jacobian),
+unknowns, σ0²·(JᵀPJ)⁻¹, in map units and degrees; NaN for an unknown the points leave undetermined, by the
+bundle's rule, :mod:`fotogeo.models.precision`), ``cond`` (of the scaled Jacobian),
 ``iterations``, ``init`` ("dlt" or "pnp").
 """
 from __future__ import annotations
@@ -41,6 +42,7 @@ from ..errors import InputError, ModelError
 from ..geometry.camera import ExteriorOrientation, FrameCamera, OrientedFrame, angles_patb, nearest_rotation
 from ..geometry.dem import is_height_source
 from .base import Normalisation, check_pairs, register_model
+from .precision import determined_sqrt, ridge_inverse
 from .spatial import DLT, FittedModel
 
 _D = np.diag([1.0, -1.0, -1.0])
@@ -227,12 +229,10 @@ class Collinearity(FittedModel):
         sv = np.linalg.svd(Jw, compute_uv=False)
         info = {"sigma0": sigma0, "cond": float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
                 "iterations": it}
-        try:
-            Q = np.linalg.inv(Jw.T @ Jw)
-            std = np.sqrt(np.diag(Q)) * sigma0
-            info["std"] = [*(std[:3] * scale), *np.degrees(std[3:])]  # rotation std about camera axes
-        except np.linalg.LinAlgError:
-            info["std"] = [float("inf")] * 6
+        N = Jw.T @ Jw
+        q = np.diag(ridge_inverse(N))
+        std = determined_sqrt(q, q * np.diag(N)) * sigma0  # NaN: undetermined, the bundle's rule
+        info["std"] = [*(std[:3] * scale), *np.degrees(std[3:])]  # rotation std about camera axes
         return C, Rcv, info
 
     def to_dict(self) -> dict:

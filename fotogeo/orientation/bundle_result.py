@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import FotogeoError, FotogeoWarning
 from ..geometry.camera import ExteriorOrientation, angles_patb
+from ..models.precision import determined_sqrt
 from . import bundle_jacobian as bj
 from .bundle_control import images_only_errors, rmse
 from .bundle_robust import largest_w, posterior
@@ -210,28 +211,6 @@ def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
     return frames, Q[6 * m:, 6 * m:].copy(), Q[:6 * m, 6 * m:].reshape(m, 6, -1).copy()
 
 
-#: a parameter whose variance inflation ``S_ii·(S⁻¹)_ii`` exceeds this is undetermined (NaN σ). The inverse's
-#: ridge (1e-12 on the unit diagonal, :func:`fotogeo.orientation.bundle_robust._inverse`) puts a direction the
-#: system leaves free at an inflation near ``v_i²·1e12`` (``v`` the free direction) — or, after rounding in the BLAS
-#: at hand, at any sign and size — so above 1e10 the ridge supplies a percent or more of the parameter's
-#: information: its σ says nothing of the data. A parameter held only by a prior stays far below (2.5e8 measured:
-#: the roll of a three-frame drone strip held by its 5° attitude prior).
-UNDETERMINED_INFLATION = 1e10
-
-
-def _root(variance: np.ndarray, inflation=None) -> np.ndarray:
-    """``√variance``, NaN where it is negative or where its ``inflation`` (``S_ii·(S⁻¹)_ii``) is above
-    :data:`UNDETERMINED_INFLATION`: a singular reduced system (a parameter nothing determines) inverts with a
-    diagonal of any sign and size there; clipped to 0 it read as a perfect σ (the free position of a frame whose
-    points have no third ray came out σ 0 m), on another BLAS as 5e3 km."""
-    variance = np.asarray(variance, float)
-    ok = variance >= 0
-    if inflation is not None:
-        ok &= np.isfinite(inflation) & (np.asarray(inflation, float) <= UNDETERMINED_INFLATION)
-    with np.errstate(invalid="ignore"):
-        return np.where(ok, np.sqrt(np.abs(variance)), np.nan)
-
-
 def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
     """``(m, 6)`` σ of every frame's orientation with every other unknown held: ``σ₀ √diag((S_jj)⁻¹)``, ``S_jj``
     its 6 × 6 block of the reduced camera matrix (its rays through their points and its priors); positions in
@@ -242,7 +221,7 @@ def sigma_in_block(S: np.ndarray, s0: float, m: int) -> np.ndarray:
         block = S[6 * j:6 * j + 6, 6 * j:6 * j + 6]
         try:
             inv = np.diag(np.linalg.inv(block))
-            out[j] = s0 * _root(inv, inv * np.diag(block))
+            out[j] = s0 * determined_sqrt(inv, inv * np.diag(block))
         except np.linalg.LinAlgError:
             continue
     out[:, 3:] = np.degrees(out[:, 3:])
@@ -269,10 +248,10 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, gi
     if factors is not None:
         rule = reweighted_rule(factors, post)
     eo = frame_eos(run)
-    sd = s0 * _root(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
+    sd = s0 * determined_sqrt(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
-    a_priori = _root(np.diag(given.S_inv), np.diag(given.S_inv) * np.diag(given.S))[:6 * m].reshape(m, 6)
+    a_priori = determined_sqrt(np.diag(given.S_inv), np.diag(given.S_inv) * np.diag(given.S))[:6 * m].reshape(m, 6)
     a_priori[:, 3:] = np.degrees(a_priori[:, 3:])
     interior_sigma = {bj.INTERIOR_NAMES[k]: float(sd[6 * m + q]) for q, k in enumerate(pb.st.free_interior)}
     cam = replace(block.camera, focal_length=float(run.interior[0]),

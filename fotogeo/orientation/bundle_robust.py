@@ -38,8 +38,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg import lapack
 
+from ..models.precision import dense_inverse, unit_scaled
 from . import bundle_jacobian as bj
 from .bundle_lm import Huber, Problem, State, eo_prior_residual, cost, linearise
 from .bundle_banded import selected_inverse
@@ -121,10 +121,8 @@ def _inverse(S: np.ndarray, st=None) -> np.ndarray:
     — all that is read of it — by Takahashi's recurrence on the band Cholesky factor; otherwise
     (a wide band, or a matrix not positive definite) dense, by Cholesky factorisation (LAPACK
     ``potrf`` and ``potri``: a third of the work of a general inverse), falling back to the
-    general (pseudo-)inverse."""
-    d = np.sqrt(np.maximum(np.diag(S), 1e-300))
-    Sn = S / d[:, None] / d[None, :]
-    Sn[np.diag_indices(len(S))] += 1e-12
+    general (pseudo-)inverse (:mod:`fotogeo.models.precision`, the resection's too)."""
+    Sn, d = unit_scaled(S)
     inv = None
     if st is not None:
         try:
@@ -132,20 +130,8 @@ def _inverse(S: np.ndarray, st=None) -> np.ndarray:
         except np.linalg.LinAlgError:
             inv = None
     if inv is None:
-        inv = _dense_inverse(Sn)
+        inv = dense_inverse(Sn)
     return inv / d[:, None] / d[None, :]
-
-
-def _dense_inverse(Sn):
-    c, info = lapack.dpotrf(Sn, lower=0)
-    if info == 0:
-        inv, info = lapack.dpotri(c, lower=0)
-    if info == 0:
-        return np.triu(inv) + np.triu(inv, 1).T
-    try:
-        return np.linalg.inv(Sn)
-    except np.linalg.LinAlgError:
-        return np.linalg.pinv(Sn)
 
 
 def posterior(pb: Problem, s: State, p: np.ndarray) -> Posterior:

@@ -70,8 +70,8 @@ def pose_problem(fit, dem) -> str:
     if not np.isfinite([eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa]).all():
         return "its registration gives no finite pose"
     if not np.all(np.isfinite(std)) or std[3:].max() > MAX_ANGLE_SIGMA:
-        return (f"its registration does not determine the attitude (angle σ {std[3:].max():.3g}° from "
-                f"{fit.inliers} inliers)")
+        angle = f"{std[3:].max():.3g}°" if np.all(np.isfinite(std)) else "undetermined"
+        return f"its registration does not determine the attitude (angle σ {angle} from {fit.inliers} inliers)"
     ground = dem.heights(np.array([[eo.X, eo.Y]]))[0]
     if np.isfinite(ground) and eo.Z <= ground:
         return f"its registration puts the camera below the terrain ({eo.Z:.0f} m, terrain {ground:.0f} m)"
@@ -85,7 +85,8 @@ def _row(name, fit, problem) -> dict:
         info, eo = fit.model.info, fit.model.frame.eo
         std = [float(v) for v in info.get("std", [np.nan] * 6)]
         row.update(sigma0_px=round(float(info.get("sigma0", np.nan)), 3),
-                   position_sigma_m=round(float(np.linalg.norm(std[:3])), 3), angle_sigma_deg=round(max(std[3:]), 4),
+                   position_sigma_m=round(float(np.linalg.norm(std[:3])), 3),
+                   angle_sigma_deg=round(float(np.max(std[3:])), 4),
                    pose=[round(float(v), 4) for v in (eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa)])
     return row
 
