@@ -70,6 +70,29 @@ def test_a_resize_is_said_with_what_tells_it(tmp_path, original):
 
 
 @pytest.mark.data
+def test_a_thumbnail_pointer_past_the_exif_block_is_no_thumbnail(tmp_path, original):
+    """IFD1 JPEGInterchangeFormat pointing past the APP1 segment (an empty slice for OpenCV to decode)."""
+    import struct
+    half = jm.resized_copy(original, tmp_path / "half.JPG", 2.0)
+    data = bytearray(half.read_bytes())
+    t = data.find(b"Exif\0\0") + 6
+    bo = "<" if data[t:t + 2] == b"II" else ">"
+    ifd0 = struct.unpack(bo + "I", data[t + 4:t + 8])[0]
+    n0 = struct.unpack(bo + "H", data[t + ifd0:t + ifd0 + 2])[0]
+    ifd1 = struct.unpack(bo + "I", data[t + ifd0 + 2 + 12 * n0:t + ifd0 + 6 + 12 * n0])[0]
+    for e in range(struct.unpack(bo + "H", data[t + ifd1:t + ifd1 + 2])[0]):
+        at = t + ifd1 + 2 + 12 * e
+        if struct.unpack(bo + "H", data[at:at + 2])[0] == 0x0201:
+            data[at + 8:at + 12] = struct.pack(bo + "I", 60000)
+    bad = tmp_path / "bad.JPG"
+    bad.write_bytes(bytes(data))
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        assert focal_of(read_image_metadata(bad))[0] == pytest.approx(focal_of(read_image_metadata(half))[0])
+    assert any("nothing in them tells a crop from a resize" in str(w.message) for w in got)
+
+
+@pytest.mark.data
 def test_a_resized_copy_with_its_border_trimmed_is_refused(tmp_path, original):
     half = jm.resized_copy(original, tmp_path / "half.JPG", 2.0)
     trimmed = read_image_metadata(_cropped(half, tmp_path / "trim.JPG", (30, 20, 2274, 1708)))

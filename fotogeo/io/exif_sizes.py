@@ -75,8 +75,13 @@ def thumbnail_view(path, full: tuple) -> tuple | None:
     if 0x0201 not in entries or 0x0202 not in entries:
         return None
     start, n = entries[0x0201][2], entries[0x0202][2]
-    thumb = cv2.imdecode(np.frombuffer(tiff[start:start + n], np.uint8), cv2.IMREAD_GRAYSCALE)
-    image = cv2.imread(str(path), cv2.IMREAD_REDUCED_GRAYSCALE_8 | cv2.IMREAD_IGNORE_ORIENTATION)
+    if n == 0 or start + n > len(tiff):  # a pointer past the EXIF block (or the part of it read): no thumbnail
+        return None
+    try:
+        thumb = cv2.imdecode(np.frombuffer(tiff[start:start + n], np.uint8), cv2.IMREAD_GRAYSCALE)
+        image = cv2.imread(str(path), cv2.IMREAD_REDUCED_GRAYSCALE_8 | cv2.IMREAD_IGNORE_ORIENTATION)
+    except cv2.error:
+        return None
     if thumb is None or image is None:
         return None
     if abs(thumb.shape[1] / thumb.shape[0] * full[1] / full[0] - 1) > ASPECT_TOLERANCE:
