@@ -42,10 +42,13 @@ def original(data_dir):
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("box", [(1152, 864, 3456, 2592), (0, 0, 2304, 1728), (2000, 1500, 3536, 2652)],
-                         ids=["centre 1/2", "corner 1/2", "off-centre 1/3"])
+@pytest.mark.parametrize("box", [(1152, 864, 3456, 2592), (0, 0, 2304, 1728), (2000, 1500, 3536, 2652),
+                                 (96, 72, 4512, 3384), (192, 144, 4416, 3312)],
+                         ids=["centre 1/2", "corner 1/2", "off-centre 1/3", "trim 96/72", "trim 192/144"])
 def test_a_crop_with_the_exif_kept_is_refused_by_its_thumbnail(tmp_path, original, box):
-    """Placed to a thumbnail pixel (160 px wide: 29 px of the frame)."""
+    """Placed to a thumbnail pixel (160 px wide: 29 px of the frame). A crop keeping most of the frame (96/72 px per
+    side: 4416x3312, taken for a resize by 0.9583) still matches the thumbnail fairly well as a whole, but clearly
+    better at its place, 3 thumbnail pixels from the corner where a resize lies."""
     import re
     crop = read_image_metadata(_cropped(original, tmp_path / "crop.JPG", box))
     assert (crop.width, crop.height) == (box[2] - box[0], box[3] - box[1])
@@ -67,6 +70,16 @@ def test_a_resize_is_said_with_what_tells_it(tmp_path, original):
     assert notes == ["images of 2304x1728 px whose EXIF PixelXDimension says 4608x3456 are taken as a resize by 1/2 "
                      "from 4608x3456 (their calibration scaled to the file; their EXIF thumbnail agrees); if the "
                      "images were cropped, give --camera"]
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("factor", [3.0, 1 / 0.6, 1 / 0.37, 7.3, 1.01])
+def test_a_resize_is_not_taken_for_a_crop(tmp_path, original, factor):
+    full = focal_of(read_image_metadata(original))[0]
+    copy = read_image_metadata(jm.resized_copy(original, tmp_path / "copy.JPG", factor))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputNote)
+        assert focal_of(copy)[0] == pytest.approx(full * copy.width / 4608, rel=1e-9)
 
 
 @pytest.mark.data

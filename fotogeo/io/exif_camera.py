@@ -72,6 +72,9 @@ SIZE_TOLERANCE = 0.01
 #: correlations of a file with its EXIF thumbnail: below the first as a whole and above the second at one place in it
 #: (:func:`_check_thumbnail`), the file is a crop of the camera's frame
 THUMB_RESIZE, THUMB_CROP = 0.5, 0.8
+#: a crop also when its place in the thumbnail correlates this much better than the whole file, at least
+#: :data:`THUMB_SHIFT` thumbnail pixels from the corner where a resize puts it
+THUMB_MARGIN, THUMB_SHIFT = 0.1, 2.0
 
 
 def _fix(meta: ImageMetadata) -> str:
@@ -278,15 +281,26 @@ def _check_thumbnail(meta: ImageMetadata, full) -> bool:
     texture or a clear match nothing is told and the resize stands (the note of :func:`size_scale` says so).
     Returns True when the thumbnail matches the whole file (at least :data:`THUMB_CROP`)."""
     view = thumbnail_view(meta.path, full)
-    if view is None or view[0] >= THUMB_RESIZE or view[1] < THUMB_CROP:
+    if view is None or not _thumbnail_crop(view, full):
         return view is not None and view[0] >= THUMB_CROP
     r_resize, r_crop, (x, y), _ = view
     raise InputError(f"{_fix(meta)}: its EXIF thumbnail (the camera's view of its whole {full[0]}x{full[1]} frame, "
                      f"EXIF PixelXDimension) matches the file at {x},{y} of that frame (± {full[0] / view[3]:.0f} px, "
-                     f"correlation {r_crop:.2f}) and "
-                     f"not as a whole ({r_resize:.2f}): the image was cropped, not resized, so its focal length in "
+                     f"correlation {r_crop:.2f}) better than as a whole ({r_resize:.2f}): the image was cropped, not resized, so its focal length in "
                      f"pixels is the camera's and its principal point moved by the crop; give the camera of the crop "
                      f"(--camera) or use the originals")
+
+
+def _thumbnail_crop(view, full) -> bool:
+    """Whether :func:`.exif_sizes.thumbnail_view`'s ``view`` shows a crop: one place in the thumbnail matches (at
+    least :data:`THUMB_CROP`) and the whole file does not (below :data:`THUMB_RESIZE`), or matches clearly worse
+    (by :data:`THUMB_MARGIN`) than that place, at least :data:`THUMB_SHIFT` thumbnail pixels from the corner (0, 0)
+    where a resize of the whole frame lies — a crop keeping most of the frame still matches well as a whole."""
+    r_resize, r_crop, (x, y), tw = view
+    if r_crop < THUMB_CROP:
+        return False
+    shift = max(abs(x), abs(y)) * tw / full[0]
+    return r_resize < THUMB_RESIZE or (r_crop - r_resize >= THUMB_MARGIN and shift >= THUMB_SHIFT)
 
 
 def resized_without_xmp(meta: ImageMetadata) -> str | None:
