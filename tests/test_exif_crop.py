@@ -83,6 +83,18 @@ def test_a_resize_is_not_taken_for_a_crop(tmp_path, original, factor):
 
 
 @pytest.mark.data
+def test_a_trim_narrower_than_the_thumbnail_sees_is_not_said_to_agree(tmp_path, original):
+    """48/36 px per side (4512x3384, a resize by 0.9792 to the pixel): 3.3 thumbnail pixels narrower, 1.7 per side."""
+    trim = read_image_metadata(_cropped(original, tmp_path / "trim.JPG", (48, 36, 4560, 3420)))
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        focal_of(trim)
+    notes = [str(w.message) for w in got if issubclass(w.category, InputNote)]
+    assert len(notes) == 1 and "agrees" not in notes[0]
+    assert "their EXIF thumbnail, 160 px wide, cannot tell a trim of under 115 px of the frame's width" in notes[0]
+
+
+@pytest.mark.data
 def test_a_thumbnail_pointer_past_the_exif_block_is_no_thumbnail(tmp_path, original):
     """IFD1 JPEGInterchangeFormat pointing past the APP1 segment (an empty slice for OpenCV to decode)."""
     import struct

@@ -86,7 +86,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     w, h = meta.width, meta.height
     full = meta.pixel_dimension
     noted = _check_written_sizes(meta, full)
-    s, seen = 1.0, None
+    s, seen = 1.0, 0
     if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
         s = resize_factor((w, h), full)
         if s is None:
@@ -108,7 +108,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     if s != 1.0:
         warnings.warn(f"images of {w}x{h} px whose EXIF PixelXDimension says {full[0]}x{full[1]} are taken as a "
                       f"resize by {_ratio(s)} from {full[0]}x{full[1]} (their calibration scaled to the file; "
-                      f"{'their EXIF thumbnail agrees' if seen else 'nothing in them tells a crop from a resize'}); "
+                      f"{_thumbnail_says(seen, s, full)}); "
                       f"if the images were cropped, give --camera", InputNote, stacklevel=2)
     return s, "; ".join(n for n in (note, noted) if n)
 
@@ -274,15 +274,27 @@ def _ratio(k: float) -> str:
     return f"{f.numerator}/{f.denominator}" if abs(f / k - 1) < 1e-3 and f.denominator > 1 else f"{k:.4g}"
 
 
-def _check_thumbnail(meta: ImageMetadata, full) -> bool:
+def _thumbnail_says(seen: int, s: float, full) -> str:
+    """What the EXIF thumbnail (``seen`` pixels wide when it matches the whole file, else 0) tells of a resize by
+    ``s`` of the ``full`` frame: it agrees only when a centred crop of the same size, ``(1 − s) · seen`` thumbnail
+    pixels narrower, lies :data:`THUMB_SHIFT` of them from the corner (:func:`_thumbnail_crop` would see it)."""
+    if not seen:
+        return "nothing in them tells a crop from a resize"
+    if (1 - s) * seen >= 2 * THUMB_SHIFT:
+        return "their EXIF thumbnail agrees"
+    return (f"their EXIF thumbnail, {seen} px wide, cannot tell a trim of under {2 * THUMB_SHIFT * full[0] / seen:.0f} "
+            f"px of the frame's width from a resize")
+
+
+def _check_thumbnail(meta: ImageMetadata, full) -> int:
     """Refuse a file taken for a resize of the ``full`` frame that the camera's own EXIF thumbnail shows to be a crop
     of it (:func:`.exif_sizes.thumbnail_view`): the whole file does not match the thumbnail (correlation below
     :data:`THUMB_RESIZE`) while one part of the thumbnail does (at least :data:`THUMB_CROP`). Without a thumbnail,
     texture or a clear match nothing is told and the resize stands (the note of :func:`size_scale` says so).
-    Returns True when the thumbnail matches the whole file (at least :data:`THUMB_CROP`)."""
+    Returns the thumbnail's width when it matches the whole file (at least :data:`THUMB_CROP`), else 0."""
     view = thumbnail_view(meta.path, full)
     if view is None or not _thumbnail_crop(view, full):
-        return view is not None and view[0] >= THUMB_CROP
+        return view[3] if view is not None and view[0] >= THUMB_CROP else 0
     r_resize, r_crop, (x, y), _ = view
     raise InputError(f"{_fix(meta)}: its EXIF thumbnail (the camera's view of its whole {full[0]}x{full[1]} frame, "
                      f"EXIF PixelXDimension) matches the file at {x},{y} of that frame (± {full[0] / view[3]:.0f} px, "
