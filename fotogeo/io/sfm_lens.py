@@ -18,9 +18,9 @@ given with images whose calibration displaces the border by more than :data:`FAR
 camera's own displacement is refused in one line naming both sources, the files the model belongs with and the model
 of these images (a self-calibration with a small distortion near the maker's small one is not a mistaken file);
 images without a distortion calibration, or at another size than the one their calibration is written for (a
-resized or cropped copy: COLMAP's ``dense/images`` keep the originals' tags), cannot be checked, which is said (an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the
-images' calibration: a self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a
-mistaken file.
+resized or cropped copy: COLMAP's ``dense/images`` keep the originals' tags), cannot be checked, which is said
+(an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the images' calibration: a
+self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a mistaken file.
 """
 from __future__ import annotations
 
