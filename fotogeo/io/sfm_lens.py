@@ -63,12 +63,12 @@ def _images_lens(path: str):
     got = _full_resolution(meta, w, h, 1.0, focal_plane=False)
     if got is None or not got[4].startswith("drone-dji:DewarpData"):
         return None, "no DJI DewarpData"
-    full = meta.pixel_dimension
-    if full and (full[0], full[1]) != (w, h):
-        return None, f"DewarpData of a {full[0]}x{full[1]} frame in a {w}x{h} file"
     fx, fy, pp, dist, _ = got
     if not dist:
         return 0.0, "drone-dji:DewarpFlag 1 (undistorted by the camera)"
+    full = meta.pixel_dimension
+    if full and (full[0], full[1]) != (w, h):
+        return None, f"DewarpData of a {full[0]}x{full[1]} frame in a {w}x{h} file"
     d = border_displacement(w, h, fx, fy, pp, dist)
     return d, f"drone-dji:DewarpData (k1 {dist.get('k1', 0.0):g}, up to {d:.1f} px at the frame's edge)"
 
