@@ -53,6 +53,26 @@ def test_ortho_writes_the_compression_asked_with_the_same_pixels(scene, tmp_path
         assert np.array_equal(got[2], base[2]) and np.array_equal(got[3], base[3]) and got[4] == base[4], name
 
 
+def test_ortho_free_space_check_takes_an_uncompressed_output_whole(scene, tmp_path, monkeypatch):
+    """A disk with room for a quarter of the orthophoto (DEFLATE's best) but not for all of it: the default run
+    goes on, --compress none is refused before anything is written."""
+    import collections
+    import shutil
+    from fotogeo.errors import OutputError
+    from fotogeo.io.output_checks import grid_bytes
+    plain = tmp_path / "default.tif"
+    ortho([str(scene["frame"])], str(plain), **_ortho_args(scene))
+    with rasterio.open(plain) as ds:
+        nbytes = grid_bytes(ds.width, ds.height, ds.count, ds.dtypes[0])
+    free = int((nbytes / 4 + nbytes) / 2 + 2 ** 20)
+    usage = collections.namedtuple("Usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda folder: usage(10 * free, 9 * free, free))
+    ortho([str(scene["frame"])], str(tmp_path / "deflate.tif"), **_ortho_args(scene))
+    with pytest.raises(OutputError, match="not enough free space"):
+        ortho([str(scene["frame"])], str(tmp_path / "none.tif"), compress="none", **_ortho_args(scene))
+    assert not (tmp_path / "none.tif").exists()
+
+
 def test_ortho_cli_takes_compress(scene, tmp_path):
     out = tmp_path / "z.tif"
     result = CliRunner().invoke(main, ["ortho", str(scene["frame"]), "--camera", str(scene["camera"]), "--eo",

@@ -132,6 +132,19 @@ def test_default_dem_sigma_is_half_the_dem_cell(blocks, tmp_path):
     assert rep["dem_sigma_rule"].startswith("half the DEM's cell")
 
 
+def test_sigma_and_view_rasters_take_the_compression_asked(blocks, tmp_path):
+    """--compress reaches the σ and view rasters as well as the orthophoto (they were DEFLATE whatever was asked)."""
+    import rasterio
+    r, _ = blocks[0]
+    for name, tag in (("none", None), ("zstd", "ZSTD")):
+        rep = ortho(r["images"][:1], tmp_path / f"{name}.tif", dem=r["dem_path"], camera=r["camera"], eo=r["eo"],
+                    uncertainty=True, view_bands=True, resolution=6.0, compress=name)
+        im = next(iter(rep["images"].values()))
+        for path in (im["path"], im["sigma"]["path"], im["view"]["path"]):
+            with rasterio.open(path) as ds:
+                assert ds.tags(ns="IMAGE_STRUCTURE").get("COMPRESSION") == tag, (name, path)
+
+
 def test_uncertainty_is_refused_without_a_covariance(blocks, tmp_path):
     r, _ = blocks[0]
     eo = tmp_path / "exterior_orientation.txt"

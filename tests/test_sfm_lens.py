@@ -63,7 +63,7 @@ def test_each_opensfm_model_with_its_own_images_and_the_undistorted_one_refused_
     with pytest.raises(InputError) as e:
         _read(flat, sc["rtk"][:2])
     msg = str(e.value)
-    assert "\n" not in msg and "DewarpData" in msg and "no lens distortion" in msg
+    assert "\n" not in msg and "DewarpData" in msg and "far below the lens the images state" in msg
     assert "give opensfm/reconstruction.json" in msg and "opensfm/undistorted/images" in msg
 
 
@@ -82,4 +82,47 @@ def test_undistorted_model_with_the_undistorted_images_reads_right_with_a_note(s
     images = sp.undistorted_images(sc, tmp_path / "images", n=2)
     block, notes = _read(_undistorted_model(sc, tmp_path, odm), images, "grid" if odm else "topocentric")
     _right(block, sc, {"tool": "opensfm", **_persp(sc)})
-    assert any("cannot be checked" in n and "no calibration tags" in n for n in notes), notes
+    assert any("cannot be checked" in n and "no DJI DewarpData" in n for n in notes), notes
+
+
+def test_small_self_calibrated_distortion_near_the_images_small_lens_is_not_refused(monkeypatch):
+    """A self-calibrated camera moving the border by 0.9 px with images whose DewarpData says 1.2 px is not the
+    undistorted model (0.3 px apart); 1.2 px is not far above 0.9 px, 4 px is, and is refused."""
+    from types import SimpleNamespace as NS
+    import fotogeo.io.sfm_lens as lens
+    w, h, f = 5472, 3648, 3660.0
+    k1 = 0.9 / lens.border_displacement(w, h, f, f, (w / 2, h / 2), {"k1": 1.0})
+    cam = NS(camera=NS(image_size=(w, h), fx=f, fy=f, principal_point=(w / 2, h / 2)), distortion={"k1": k1},
+             source="OpenSfM brown camera 'v2 dji fc6310r'")
+    block = NS(shots={"DJI_0001": NS(camera_id="v2 dji fc6310r")}, camera_of=lambda k: cam)
+    for px, refused in ((1.2, False), (4.0, True)):
+        monkeypatch.setattr(lens, "_images_lens", lambda p: (px, f"drone-dji:DewarpData (up to {px} px)"))
+        if refused:
+            with pytest.raises(InputError, match=r"distortion \(.*up to 0\.90 px\) is far below the lens the images"):
+                lens.check_lens(block, ["/x/DJI_0001.JPG"], "/p/opensfm/reconstruction.json")
+        else:
+            assert lens.check_lens(block, ["/x/DJI_0001.JPG"], "/p/opensfm/reconstruction.json") == ""
+
+
+def test_undistorted_copies_keeping_the_originals_tags_at_another_size_cannot_be_checked(sc, tmp_path):
+    """COLMAP's dense/images keep the originals' EXIF/XMP (DewarpData, PixelXDimension of the camera's frame): at
+    another size than PixelXDimension the tags' pixels are not the file's, so the pair is noted as not checkable, not
+    refused, and without the EXIF camera's resize note (the SfM model's camera is used)."""
+    import rasterio
+    import rendered_oblique as ro
+    (w, h), f = sc["size"], sc["camera"].fx
+    model = sp.colmap_model(tmp_path / "dense" / "sparse", sc, {1: ("PINHOLE", w, h, [f, f, w / 2, h / 2])})
+    flat = sp.undistorted_images(sc, tmp_path / "flat", n=2)
+    images = []
+    for p, q in zip(sc["rtk"][:2], flat):
+        with rasterio.open(p) as ds:
+            tags, xmp = ds.tags(), next(iter(ds.tags(ns="xml:XMP").values()))
+        with rasterio.open(q) as ds:
+            img = ds.read(1)
+        tags.update(EXIF_PixelXDimension=str(2 * w), EXIF_PixelYDimension=str(2 * h))
+        (tmp_path / "images").mkdir(exist_ok=True)
+        ro._write(tmp_path / "images" / p.name, img, tags, xmp)
+        images.append(tmp_path / "images" / p.name)
+    block, notes = _read(model / "images.txt", images)
+    assert any("cannot be checked" in n and f"DewarpData of a {2 * w}x{2 * h} frame" in n for n in notes), notes
+    assert not any("--camera" in n or "resize" in n for n in notes), notes

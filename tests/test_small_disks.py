@@ -41,6 +41,16 @@ def test_the_space_check_refuses_only_clearly_too_little(tmp_path, monkeypatch):
         output_checks.check_space(tmp_path, 100 * 2 ** 20, "a 100 MB orthophoto")
 
 
+def test_the_space_check_of_an_uncompressed_output_needs_its_whole_size(tmp_path, monkeypatch):
+    """12 MB written with DEFLATE fits in 5 MB free (a quarter: 3 MB + 1 MB); written with --compress none it does
+    not (12 MB + 1 MB)."""
+    monkeypatch.setattr(shutil, "disk_usage", lambda folder: Usage(6 * 2 ** 20, 2 ** 20, 5 * 2 ** 20))
+    output_checks.check_space(tmp_path, 12 * 2 ** 20, "a 12 MB orthophoto")
+    output_checks.check_space(tmp_path, 12 * 2 ** 20, "a 12 MB orthophoto", "zstd")
+    with pytest.raises(OutputError, match="5 MB free, about 13 MB needed"):
+        output_checks.check_space(tmp_path, 12 * 2 ** 20, "a 12 MB orthophoto", "none")
+
+
 @pytest.fixture
 def read_only_tiny(tmp_path):
     """A 600 kB tmpfs mounted read-only (root and mount needed; skipped otherwise)."""

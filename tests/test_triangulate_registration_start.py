@@ -161,6 +161,9 @@ def test_pose_problem_refuses_an_undetermined_or_underground_pose():
     assert "does not determine the attitude" in pose_problem(loose, _Flat())
     free = FrameFit("a", _Model(eo, [1.0, np.nan, np.nan, np.nan, np.nan, 0.02]), 30, 21)  # GCPs on a line
     assert "does not determine the attitude (angle σ undetermined from 21 inliers)" in pose_problem(free, _Flat())
+    unplaced = FrameFit("a", _Model(eo, [np.nan, 1.0, 1.0, 0.01, 0.01, 0.02]), 30, 21)  # angles finite
+    assert pose_problem(unplaced, _Flat()) == ("its registration does not determine the position (position σ "
+                                               "undetermined from 21 inliers)")
     low = FrameFit("a", _Model(ExteriorOrientation(0.0, 0.0, 100.0, 0.0, 0.0, 0.0), [1.0] * 3 + [0.01] * 3), 100, 80)
     assert "below the terrain" in pose_problem(low, _Flat())
     assert "no matches" in pose_problem(FrameFit("a", reason="no matches with the reference"), _Flat())

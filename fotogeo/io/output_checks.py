@@ -6,7 +6,8 @@ An output is refused when it equals an input, exists without ``overwrite``, is a
 unwritable folder (a temporary file is created there and removed: permission bits do not tell about ACLs,
 read-only mounts or quotas), or has a name that promises another format than the one written. A grid is refused
 above :data:`MAX_GRID_PIXELS` pixels or :data:`MAX_GRID_UPSAMPLING` times its source's; the free space when it is
-below the uncompressed size divided by :data:`BEST_COMPRESSION`.
+below the uncompressed size divided by :data:`BEST_COMPRESSION` (1 for an uncompressed output, ``compress``
+``"none"``).
 """
 from __future__ import annotations
 
@@ -96,11 +97,11 @@ def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolu
                       f"{hint}")
 
 
-def check_space(folder, nbytes: float, what: str):
+def check_space(folder, nbytes: float, what: str, compress: str = "deflate"):
     """Refuse when the free space of ``folder`` is clearly too little for ``nbytes`` uncompressed
     output (less than ``nbytes / BEST_COMPRESSION`` plus 1 MB for the headers and side files: a margin that
-    does not refuse a small output on a small disk)."""
-    need = float(nbytes) / BEST_COMPRESSION + 2 ** 20
+    does not refuse a small output on a small disk); written with ``compress`` ``"none"``, ``nbytes`` itself."""
+    need = float(nbytes) / (1 if str(compress).lower() == "none" else BEST_COMPRESSION) + 2 ** 20
     try:
         free = shutil.disk_usage(folder).free
     except OSError:

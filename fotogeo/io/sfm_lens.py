@@ -14,11 +14,13 @@ The displacement of a Brown model (OpenCV's: ``x_d = x·(1 + k1·r² + k2·r⁴ 
 ``y`` alike, on ``x = (u − c_x)/f_x``) is measured in pixels at points along the frame's border, where a radial
 distortion is largest; a camera whose largest displacement is below :data:`DISTORTION_PX` is distortion-free for
 this purpose (an orthophoto made with it is off by less than that many pixels anywhere). An SfM camera below it
-given with images whose calibration displaces the border by more is refused in one line naming both sources, the
-files the model belongs with and the model of these images; images without a distortion calibration cannot be
-checked, which is said (an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the
-images' calibration: a self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a
-mistaken file.
+given with images whose calibration displaces the border by more than :data:`FAR_BELOW` times both that bound and the
+camera's own displacement is refused in one line naming both sources, the files the model belongs with and the model
+of these images (a self-calibration with a small distortion near the maker's small one is not a mistaken file);
+images without a distortion calibration, or at another size than the one their calibration is written for (a
+resized or cropped copy: COLMAP's ``dense/images`` keep the originals' tags), cannot be checked, which is said
+(an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the images' calibration: a
+self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a mistaken file.
 """
 from __future__ import annotations
 
@@ -30,6 +32,8 @@ from ..errors import InputError
 
 #: largest border displacement (pixels) of a camera taken as distortion-free (module docstring)
 DISTORTION_PX = 1.0
+#: how many times both DISTORTION_PX and the SfM camera's own displacement the images' lens must exceed to refuse
+FAR_BELOW = 3.0
 
 
 def border_displacement(w: int, h: int, fx: float, fy: float, pp, distortion: dict) -> float:
@@ -49,20 +53,23 @@ def border_displacement(w: int, h: int, fx: float, fy: float, pp, distortion: di
 
 
 def _images_lens(path: str):
-    """``(displacement px or None, source)`` of the distortion the image's own tags state; None: no statement."""
+    """``(displacement px or None, source)`` of the distortion the image's own DJI tags state; None: no statement.
+    The tags are read as written, in the camera's full-resolution pixels: a file at another size than its EXIF
+    ``PixelXDimension`` (a resized or cropped copy) cannot be checked, whatever camera the SfM file gives it."""
     from .exif import read_image_metadata
-    from .exif_camera import focal_of
+    from .exif_camera import _full_resolution
     meta = read_image_metadata(path)
-    try:
-        fx, fy, pp, dist, src = focal_of(meta)
-    except InputError:
-        return None, "no calibration tags"
-    if not src.startswith("drone-dji:DewarpData"):
-        return None, src.split(";")[0]
+    w, h = meta.width, meta.height
+    got = _full_resolution(meta, w, h, 1.0, focal_plane=False)
+    if got is None or not got[4].startswith("drone-dji:DewarpData"):
+        return None, "no DJI DewarpData"
+    fx, fy, pp, dist, _ = got
     if not dist:
         return 0.0, "drone-dji:DewarpFlag 1 (undistorted by the camera)"
-    pp = pp or (meta.width / 2.0, meta.height / 2.0)
-    d = border_displacement(meta.width, meta.height, fx, fy, pp, dist)
+    full = meta.pixel_dimension
+    if full and (full[0], full[1]) != (w, h):
+        return None, f"DewarpData of a {full[0]}x{full[1]} frame in a {w}x{h} file"
+    d = border_displacement(w, h, fx, fy, pp, dist)
     return d, f"drone-dji:DewarpData (k1 {dist.get('k1', 0.0):g}, up to {d:.1f} px at the frame's edge)"
 
 
@@ -97,12 +104,11 @@ def check_lens(block, images, path) -> str:
         img, src = _images_lens(paths[name])
         if img is None:
             unstated.append((name, src))
-        elif own < DISTORTION_PX < img:
+        elif own < DISTORTION_PX and img > FAR_BELOW * max(DISTORTION_PX, own):
             what = cam.source if cid in cam.source else f"{cid!r}, {cam.source}"
-            raise InputError(f"orientation file {str(path)!r}: its camera ({what}) has no lens distortion (up to "
-                             f"{own:.2f} px), the camera "
-                             f"of undistorted images, but image {paths[name]!r} states its lens's: {src}; "
-                             f"{_fix(path, cam.source)}")
+            raise InputError(f"orientation file {str(path)!r}: its camera's distortion ({what}; up to {own:.2f} px) "
+                             f"is far below the lens the images state, as the camera of undistorted images: image "
+                             f"{paths[name]!r} states {src}; {_fix(path, cam.source)}")
     if not unstated:
         return ""
     name, src = unstated[0]

@@ -114,12 +114,13 @@ def check_gcp_crs(gcps, source) -> None:
 
 
 def check_output_grid(path, width: int, height: int, *, bands: int, dtype, source_pixels: int, what: str,
-                      resolution: float | None = None) -> None:
+                      resolution: float | None = None, compress: str = "deflate") -> None:
     """The size guard of every output grid: pixel count against an absolute limit and against
     the source's pixel count (:func:`~fotogeo.io.output_checks.check_grid`), then the free space of
-    the output folder against the grid's uncompressed size (:func:`~fotogeo.io.output_checks.check_space`)."""
+    the output folder against the grid's uncompressed size (:func:`~fotogeo.io.output_checks.check_space`, written
+    with ``compress``)."""
     check_grid(width, height, source_pixels=source_pixels, what=what, resolution=resolution)
-    check_space(Path(path).resolve().parent, grid_bytes(width, height, bands, dtype), what)
+    check_space(Path(path).resolve().parent, grid_bytes(width, height, bands, dtype), what, compress)
 
 
 def check_window_fits(half_window: int, images: dict) -> None:

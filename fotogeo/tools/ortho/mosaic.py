@@ -267,7 +267,8 @@ def _mosaic_on_lattice(paths, read, infos, crs, lattice, output, seamlines, choi
     transform, width, height = _union_grid(infos, lattice)
     first = infos[0]
     check_output_grid(output, width, height, bands=first.count, dtype=first.dtype,
-                      source_pixels=sum(i.width * i.height for i in infos), what=f"the mosaic {str(output)!r}")
+                      source_pixels=sum(i.width * i.height for i in infos), what=f"the mosaic {str(output)!r}",
+                      compress=compress)
     patches, t, f, shape = _seam_patches(read, infos, transform, width, height, crs)
     prog(0.2, "seam grid read")
     above = above_ground(dsm, t, shape, crs) if dsm is not None else None

@@ -165,11 +165,12 @@ class CellGeometry:
 
 
 def write_cells(path, window_values, *, crs, transform, width: int, height: int, descriptions, units,
-                progress=None) -> dict:
+                progress=None, compress: str = "deflate") -> dict:
     """A float32 GeoTIFF of ``len(descriptions)`` bands on the grid, nodata NaN, filled window by window from
-    ``window_values(transform, r0, c0, h, w) -> (bands, h·w)``; returns ``{"min", "max"}`` of band 1."""
+    ``window_values(transform, r0, c0, h, w) -> (bands, h·w)``, compressed with ``compress``
+    (:mod:`fotogeo.io.compression`); returns ``{"min", "max"}`` of band 1."""
     prof = geotiff_profile(width=width, height=height, count=len(descriptions), dtype="float32", crs=crs,
-                           transform=transform, nodata=float("nan"), predictor=True)
+                           transform=transform, nodata=float("nan"), predictor=True, compress=compress)
     lo, hi = np.inf, -np.inf
     wins = windows_of(height, width, BLOCK)
     with ropen(path, "w", **prof) as ds:
@@ -186,11 +187,13 @@ def write_cells(path, window_values, *, crs, transform, width: int, height: int,
     return {"min": lo if np.isfinite(lo) else None, "max": hi if np.isfinite(hi) else None}
 
 
-def write_products(out, paths: dict, im, heights, grid, crs, cov, dem_sigma) -> dict:
+def write_products(out, paths: dict, im, heights, grid, crs, cov, dem_sigma, compress: str = "deflate") -> dict:
     """Write the rasters ``paths`` (:func:`product_paths`) of one image through ``out``
-    (:class:`~fotogeo.io.raster.AtomicOutputs`) on its orthophoto ``grid``; their report entries."""
+    (:class:`~fotogeo.io.raster.AtomicOutputs`) on its orthophoto ``grid``, compressed with ``compress``; their
+    report entries."""
     cells = CellGeometry(im.model, heights, (im.width, im.height))
-    grid_args = {"crs": crs, "transform": grid.transform, "width": grid.width, "height": grid.height}
+    grid_args = {"crs": crs, "transform": grid.transform, "width": grid.width, "height": grid.height,
+                 "compress": compress}
     rep = {}
     if "sigma" in paths:
         r = write_cells(out.temp(paths["sigma"]), cells.sigma(cov, dem_sigma[0]),

@@ -173,8 +173,8 @@ def _surface_bounds(heights, crs):
     return (*corners.min(axis=0), *corners.max(axis=0))
 
 
-def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
-    """The checked output grid of one image (module docstring, step 1)."""
+def plan_grid(im, heights, crs, resolution, path, dem_name, compress: str = "deflate") -> OrthoGrid:
+    """The checked output grid of one image (module docstring, step 1), to be written with ``compress``."""
     zlo, zhi = _z_range(heights)
     t = np.linspace(0, 1, 41)
     sample = np.column_stack([g.ravel() for g in np.meshgrid(t * im.width, t * im.height)])
@@ -209,7 +209,7 @@ def plan_grid(im, heights, crs, resolution, path, dem_name) -> OrthoGrid:
         info = open_raster(im.path, "image")
         count, dtype = info.count, info.dtype
     check_output_grid(path, width, height, bands=count, dtype=dtype, source_pixels=im.width * im.height,
-                      resolution=res, what=f"the orthophoto {str(path)!r}")
+                      resolution=res, what=f"the orthophoto {str(path)!r}", compress=compress)
     return OrthoGrid(transform, width, height, res, coverage)
 
 
@@ -325,7 +325,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
         warn_dem_holes(dem, heights)
     sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None
     covs = frame_covariances(eo, ims) if uncertainty else {}
-    grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem)) for im in ims}
+    grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem), compress) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs_name(crs), "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}
@@ -343,7 +343,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
                                      compress=compress)
             rep["images"][im.name] = {"path": str(paths[im.name]), "kind": im.kind, **entry,
                                       **write_products(out, extras[im.name], im, heights, g, crs, covs.get(im.name),
-                                                       sigma_h)}
+                                                       sigma_h, compress)}
         out.commit()
     prog(1.0, "done")
     return rep

@@ -10,9 +10,9 @@ then space resection on the inliers). That resection *is* the frame's pose; the 
 block's control, so nothing is matched twice.
 
 A pose is a start only when the registration determines it (:func:`pose_problem`): the fit
-succeeded, its angle σ (from the resection's covariance) is at most :data:`MAX_ANGLE_SIGMA`, and the
-camera lies above the terrain under it. A frame that fails is named with the reason and dropped
-(``undetermined="drop"``, the default, while the rest can be a block:
+succeeded, its angle σ (from the resection's covariance) is at most :data:`MAX_ANGLE_SIGMA`, its
+position σ is finite, and the camera lies above the terrain under it. A frame that fails is named
+with the reason and dropped (``undetermined="drop"``, the default, while the rest can be a block:
 :func:`~fotogeo.tools.triangulate.determinacy.why_not_dropped`), or refused (``"fail"``); every
 frame's registration (tiles, matches, inliers, σ0, position and angle σ) is reported under
 ``start.registration`` of ``report.json``.
@@ -69,9 +69,11 @@ def pose_problem(fit, dem) -> str:
     std = np.asarray(fit.model.info.get("std", [np.inf] * 6), dtype=np.float64)
     if not np.isfinite([eo.X, eo.Y, eo.Z, eo.omega, eo.phi, eo.kappa]).all():
         return "its registration gives no finite pose"
-    if not np.all(np.isfinite(std)) or std[3:].max() > MAX_ANGLE_SIGMA:
-        angle = f"{std[3:].max():.3g}°" if np.all(np.isfinite(std)) else "undetermined"
+    if not np.all(np.isfinite(std[3:])) or std[3:].max() > MAX_ANGLE_SIGMA:
+        angle = f"{std[3:].max():.3g}°" if np.all(np.isfinite(std[3:])) else "undetermined"
         return f"its registration does not determine the attitude (angle σ {angle} from {fit.inliers} inliers)"
+    if not np.all(np.isfinite(std[:3])):
+        return f"its registration does not determine the position (position σ undetermined from {fit.inliers} inliers)"
     ground = dem.heights(np.array([[eo.X, eo.Y]]))[0]
     if np.isfinite(ground) and eo.Z <= ground:
         return f"its registration puts the camera below the terrain ({eo.Z:.0f} m, terrain {ground:.0f} m)"
