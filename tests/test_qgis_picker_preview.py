@@ -4,6 +4,8 @@ around the dragged GCP moves with it —, switched off and on, gone again below 
 field added to a GCP layer made elsewhere when one of its points is disabled."""
 from __future__ import annotations
 
+import os
+
 import cv2
 import numpy as np
 import pytest
@@ -65,3 +67,33 @@ def test_preview_moves_with_a_dragged_gcp(previewed):
 def test_disabling_a_point_of_a_layer_without_the_field_adds_it(previewed):
     f = previewed["foreign_layer"]
     assert "enabled" in f["fields"] and f["enabled"] == [False, False] and f["off_fid"]
+
+
+def test_a_warp_writing_while_the_folder_is_removed_does_not_leave_it(tmp_path, monkeypatch):
+    """CI left ``fotogeo-preview-*`` once: a warp still running wrote ``preview.rgba.part`` while the folder was
+    being removed, so its last ``rmdir`` found it not empty (``ignore_errors``). Such a write is simulated here: the
+    folder is removed again until it is gone."""
+    import shutil
+    from processing_provider.picker import preview
+    folder = tmp_path / "fotogeo-preview-x"
+    folder.mkdir()
+    (folder / "preview.rgba").write_bytes(b"old")
+    real = shutil.rmtree
+    calls = []
+
+    def rmtree_with_a_write(path, ignore_errors=False):
+        calls.append(path)
+        if len(calls) > 1:
+            return real(path, ignore_errors=ignore_errors)
+        for entry in list(os.scandir(path)):
+            os.remove(entry.path)
+        (folder / "preview.rgba.part").write_bytes(b"new")  # the worker's write lands after the listing
+        try:
+            os.rmdir(path)
+        except OSError:
+            assert ignore_errors  # not empty: rmtree(ignore_errors=True) says nothing
+
+    monkeypatch.setattr(preview.shutil, "rmtree", rmtree_with_a_write)
+    preview._FOLDERS.add(str(folder))
+    preview.remove_folder(str(folder))
+    assert not folder.exists() and str(folder) not in preview._FOLDERS and len(calls) == 2

@@ -18,6 +18,7 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 
 from qgis.core import QgsCoordinateReferenceSystem, QgsPointXY, QgsRectangle
 from qgis.gui import QgsMapCanvasItem
@@ -37,10 +38,22 @@ def new_folder() -> str:
     return folder
 
 
+#: removal attempts: a warp still running in the worker process may write ``preview.rgba.part`` into the folder
+#: while it is being removed (the folder is then not empty when its entries are gone); it is removed again
+REMOVE_ATTEMPTS = 20
+REMOVE_WAIT_S = 0.05
+
+
 def remove_folder(folder: str | None) -> None:
-    if folder:
+    """Remove ``folder`` and what a warp still in flight writes into it meanwhile (:data:`REMOVE_ATTEMPTS`)."""
+    if not folder:
+        return
+    for attempt in range(REMOVE_ATTEMPTS):
         shutil.rmtree(folder, ignore_errors=True)
-        _FOLDERS.discard(folder)
+        if not os.path.exists(folder):
+            break
+        time.sleep(REMOVE_WAIT_S)
+    _FOLDERS.discard(folder)
 
 
 @atexit.register
