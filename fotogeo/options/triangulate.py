@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .shared import (DEM_SIGMA, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, SFM_FRAME, UNCERTAINTY,
+from .shared import (COMPRESS, DEM_SIGMA, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, SFM_FRAME, UNCERTAINTY,
                      UNDETERMINED, WORKERS)
 from .table import Option, Table
 
@@ -58,6 +58,10 @@ TRIANGULATE = Table(
            "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
            exclusive_minimum=True, automatic=0.0, advanced=True),
     replace(RESAMPLING, label="Orthorectification resampling", advanced=True),
+    replace(COMPRESS, label="Orthophoto and mosaic compression (zstd: faster; GDAL >= 2.3, QGIS)",
+            help="Compression of the orthophotos, their sigma rasters and the mosaic (--orthorectify, --mosaic): "
+                 "deflate (every TIFF reader), zstd (level 1: faster to write; GDAL >= 2.3 and QGIS read it, some "
+                 "older TIFF readers do not), lzw or none."),
     replace(UNCERTAINTY, label="Uncertainty rasters beside the orthophotos (<frame>_ortho_sigma.tif)",
             help="Also write <frame>_ortho_sigma.tif beside each orthophoto (with --orthorectify or --mosaic): the "
                  "predicted planimetric sigma (m) of every cell, from this adjustment's covariance and the DEM's "

@@ -111,12 +111,14 @@ def common_resolution(grids: dict) -> float | None:
     return float(f"{np.median(res):.3g}") if res else None
 
 
-def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quiet: bool = False) -> dict:
+def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quiet: bool = False,
+                compress: str = "deflate") -> dict:
     """Per frame (``images``: :func:`frame_images`), the checked output grid of its orthophoto — ``fotogeo ortho``'s
     (:func:`fotogeo.tools.ortho.tool.plan_grid`: clipped to the DEM where the frame leaves it) once its heights pass
     :func:`fotogeo.tools.orient.rectify.check_terrain_heights` against those of the adjusted points ``ground``; nothing is
     resampled yet. A frame whose grid cannot be made (e.g. off the DEM) gets the reason instead (a string): it
-    is reported and skipped, never losing the adjustment's outputs (``quiet``: without the warnings)."""
+    is reported and skipped, never losing the adjustment's outputs (``quiet``: without the warnings; ``compress``:
+    the orthophotos' compression, for the free-space check)."""
     from ..ortho.tool import plan_grid
     from ..orient.rectify import check_terrain_heights
     where = f"the DEM {str(dem)!r}" if dem is not None else f"the mean height {heights:.1f} of the adjusted points"
@@ -128,7 +130,7 @@ def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quie
             try:
                 check_terrain_heights(Georeference(im.model, heights=heights, crs=crs), im.width, im.height,
                                       ground[:, 2], where, "the adjusted points")
-                grids[im.name] = plan_grid(im, heights, crs, resolution, paths[im.name], str(dem))
+                grids[im.name] = plan_grid(im, heights, crs, resolution, paths[im.name], str(dem), compress)
             except (ModelError, InputError) as exc:
                 grids[im.name] = f"not orthorectified: {str(exc)[:300]}"
                 if not quiet:
@@ -136,9 +138,11 @@ def ortho_grids(paths: dict, images, heights, crs, dem, ground, resolution, quie
     return grids
 
 
-def orthorectify(temp_paths: dict, grids: dict, images, heights, crs, resampling, progress) -> dict:
+def orthorectify(temp_paths: dict, grids: dict, images, heights, crs, resampling, progress,
+                 compress: str = "deflate") -> dict:
     """Resample every frame onto its grid (:func:`ortho_grids`) into ``temp_paths`` through
-    :func:`fotogeo.tools.ortho.tool.write_orthophoto`, ``fotogeo ortho``'s own; a summary per frame."""
+    :func:`fotogeo.tools.ortho.tool.write_orthophoto`, ``fotogeo ortho``'s own, compressed with ``compress``
+    (:mod:`fotogeo.io.compression`); a summary per frame."""
     from ..ortho.tool import write_orthophoto
     out = {}
     for k, im in enumerate(images):
@@ -146,7 +150,8 @@ def orthorectify(temp_paths: dict, grids: dict, images, heights, crs, resampling
         if isinstance(grids.get(im.name), str) or im.name not in temp_paths:  # reported; the rest is still written
             out[im.name] = {"error": grids.get(im.name, "no grid")}
             continue
-        out[im.name] = write_orthophoto(temp_paths[im.name], im, heights, crs, grids[im.name], resampling, stage)
+        out[im.name] = write_orthophoto(temp_paths[im.name], im, heights, crs, grids[im.name], resampling, stage,
+                                        compress=compress)
     return out
 
 
@@ -174,12 +179,12 @@ def sigma_of_dem(paths: dict, heights, dem_sigma, crs):
 
 
 def write_sigma_rasters(out, paths: dict, grids: dict, done: dict, rep: dict, heights, crs, images,
-                        sigma_h) -> None:
+                        sigma_h, compress: str = "deflate") -> None:
     """Each orthorectified frame's σ raster (:func:`sigma_paths`) written through ``out``
     (:class:`~fotogeo.io.raster.AtomicOutputs`) on its orthophoto's grid, from the covariances of the report
     ``rep`` (as ``fotogeo ortho --uncertainty`` reads them from report.json), ``heights`` and the frames
     ``images`` (:func:`frame_images`); its entry goes into ``done[frame]`` (the report's ``orthorectified``),
-    the DEM's σ into ``rep``."""
+    the DEM's σ into ``rep``; compressed with ``compress``."""
     from ...orientation.ground_sigma import covariances_from_report
     from ..ortho.products import write_products
     covs = covariances_from_report(rep)
@@ -189,4 +194,4 @@ def write_sigma_rasters(out, paths: dict, grids: dict, done: dict, rep: dict, he
         if "error" in entry or f"sigma:{im.name}" not in paths:
             continue
         entry.update(write_products(out, {"sigma": paths[f"sigma:{im.name}"]}, im, heights, grids[im.name], crs,
-                                    covs[im.name], sigma_h))
+                                    covs[im.name], sigma_h, compress))

@@ -43,8 +43,9 @@ def adjusted_only(paths: dict, frames) -> dict:
 
 
 def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolution, resampling, overwrite,
-                  progress, dem_sigma=None, surface=None) -> None:
-    """Write every output of :func:`output_paths` (the orthophoto grids checked before any file) as one set; then
+                  progress, dem_sigma=None, surface=None, compress: str = "deflate") -> None:
+    """Write every output of :func:`output_paths` (the orthophoto grids checked before any file; the rasters
+    compressed with ``compress``, :mod:`fotogeo.io.compression`) as one set; then
     the mosaic of the orthophotos (:func:`mosaic_outputs`) and the surface model (``surface(frames, progress)``,
     :func:`fotogeo.tools.triangulate.surface.block_dsm`), whose failures leave that set in place. The seconds
     spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``, ``dsm``)."""
@@ -58,7 +59,8 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     paths = adjusted_only(paths, block.frames)
     ortho = {k.split(":", 1)[1]: p for k, p in paths.items() if k.startswith("ortho:")}
     images = frame_images(result, block, frames) if ortho else []
-    heights, grids = _terrain_and_grids(ortho, images, result, block, dem, resolution, rep, "mosaic" in paths)
+    heights, grids = _terrain_and_grids(ortho, images, result, block, dem, (resolution, compress), rep,
+                                        "mosaic" in paths)
     sigma_h = sigma_of_dem(paths, heights, dem_sigma, crs)
     feet = footprints(result, block, heights, crs)
     layers = {**block_layers(result, block), "footprints": feet}
@@ -71,9 +73,10 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         if ortho:
             temps = {n: out.temp(p) for n, p in ortho.items() if not isinstance(grids.get(n), str)}
             rep["orthorectified"] = orthorectify(temps, grids, images, heights, crs, resampling,
-                                                 progress.stage(0.0, 0.9, "orthorectifying"))
+                                                 progress.stage(0.0, 0.9, "orthorectifying"), compress)
             if sigma_h is not None:
-                write_sigma_rasters(out, paths, grids, rep["orthorectified"], rep, heights, crs, images, sigma_h)
+                write_sigma_rasters(out, paths, grids, rep["orthorectified"], rep, heights, crs, images, sigma_h,
+                                    compress)
         write_layers(out.temp(paths["gpkg"]), layers, crs)
         _timing(rep, "outputs", time.perf_counter() - t0)
         _write_reports(out, paths, rep, result, block, feet)
@@ -81,7 +84,8 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
     if "mosaic" in paths:
         t0 = time.perf_counter()
         rep["mosaic"] = mosaic_outputs(paths, rep.get("orthorectified") or {}, overwrite, progress.stage(0.9, 1.0,
-                                                                                                      "mosaic"))
+                                                                                                      "mosaic"),
+                                       compress)
         _timing(rep, "mosaic", time.perf_counter() - t0)
     if surface is not None:
         t0 = time.perf_counter()
@@ -93,13 +97,15 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
             out.commit()
 
 
-def _terrain_and_grids(ortho: dict, images, result, block, dem, resolution, rep: dict, mosaic: bool) -> tuple:
+def _terrain_and_grids(ortho: dict, images, result, block, dem, grid: tuple, rep: dict, mosaic: bool) -> tuple:
     """The heights (:func:`~fotogeo.tools.triangulate.ortho.terrain`) and the grids
-    (:func:`~fotogeo.tools.triangulate.ortho.ortho_grids`) of the orthophotos ``ortho`` of the frames ``images``,
+    (:func:`~fotogeo.tools.triangulate.ortho.ortho_grids`; ``grid``: their ``(resolution, compress)``, the latter
+    for the free-space check) of the orthophotos ``ortho`` of the frames ``images``,
     the DEM's holes warned of as ``fotogeo ortho`` does. A ``mosaic`` needs one pixel lattice: without
     ``resolution``, the frames' common one; it goes into ``rep["mosaic_resolution_m"]``."""
     from ..ortho.tool import warn_dem_holes
     from .ortho import common_resolution, ortho_grids, terrain
+    resolution, compress = grid
     heights = terrain(dem, block.crs, result, images)
     if not ortho:
         return heights, {}
@@ -111,7 +117,7 @@ def _terrain_and_grids(ortho: dict, images, result, block, dem, resolution, rep:
             resolution = common_resolution(ortho_grids(ortho, images, heights, block.crs, dem, ground, None,
                                                        quiet=True))
         rep["mosaic_resolution_m"] = resolution
-    return heights, ortho_grids(ortho, images, heights, block.crs, dem, ground, resolution)
+    return heights, ortho_grids(ortho, images, heights, block.crs, dem, ground, resolution, compress=compress)
 
 
 def _write_reports(out, paths, rep, result, block, feet) -> None:
@@ -129,8 +135,9 @@ def _timing(rep: dict, stage: str, seconds: float) -> None:
         timings.update(stage_timings(timings, timings["adjustment_steps"]))
 
 
-def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress) -> dict:
-    """``fotogeo mosaic`` (:func:`fotogeo.tools.ortho.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``,
+def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress, compress: str = "deflate") -> dict:
+    """``fotogeo mosaic`` (:func:`fotogeo.tools.ortho.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``
+    (compressed with ``compress``),
     seamlines into ``paths["seamlines"]``; its report, or ``{"error": ...}`` (warned) when it fails or fewer than
     two frames were orthorectified — the adjustment's outputs are written already and stay."""
     import warnings
@@ -141,7 +148,8 @@ def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress)
     try:
         if len(done) < 2:
             raise FotogeoError(f"{len(done)} frame(s) orthorectified; a mosaic needs two")
-        return mosaic(done, paths["mosaic"], seamlines=paths["seamlines"], overwrite=overwrite, progress=progress)
+        return mosaic(done, paths["mosaic"], seamlines=paths["seamlines"], overwrite=overwrite, progress=progress,
+                      compress=compress)
     except Cancelled:
         raise
     except FotogeoError as exc:

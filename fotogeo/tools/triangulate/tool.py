@@ -48,7 +48,8 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 * with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
   by :func:`fotogeo.tools.ortho.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
   else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
-  (``report.json`` ``mosaic.error``, a warning) and loses none of them;
+  (``report.json`` ``mosaic.error``, a warning) and loses none of them; the orthophotos, their σ rasters and the mosaic compressed with ``compress``
+  (:mod:`fotogeo.io.compression`);
 * with ``dsm`` (a path): the surface model of the adjusted frames, made as ``fotogeo dsm`` makes it
   (:mod:`fotogeo.tools.triangulate.surface`), written last in the same way (``report.json`` ``dsm``).
 """
@@ -63,6 +64,7 @@ import numpy as np
 
 from ...errors import InputError, ModelError, OutputError
 from ...io.block import frame_key, read_image_observations
+from ...io.compression import check_compression
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...orientation.bundle import Block, BundleOptions
 from ...progress import as_progress
@@ -192,8 +194,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
                 dem=None, orthorectify: bool = False, mosaic: bool = False, dsm=None, resolution=None,
-                uncertainty: bool = False,
-                dem_sigma=None,
+                uncertainty: bool = False, dem_sigma=None, compress: str = "deflate",
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 sfm_frame: str = "auto", undetermined: str = "drop", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
                 detection_level=None, gruber_cells: int = 3, points_per_region: int = 25, lsm_window: int = 21,
@@ -209,6 +210,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
 
 def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> dict:
     """The body of :func:`triangulate` once the output folder exists (``kw``: its keyword arguments)."""
+    kw["compress"] = check_compression(kw["compress"])  # before anything is written
     finals = output_paths(folder, names=[frame_key(f) for f in frames],
                           orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
     check_outputs([(p, "output", None) for p in finals.values()] + [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES)], inputs,
@@ -268,6 +270,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     write_outputs(finals, result, block, [f for f in frames if frame_key(f) in block.frames], rep,
                   dem=kw["dem"], resolution=kw["resolution"], resampling=kw["resampling"],
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"],
+                  compress=kw["compress"],
                   surface=None if kw["dsm"] is None else partial(block_dsm, kw["dsm"], finals, block.crs, kw["dem"],
                                                                  kw["overwrite"]))
     prog(1.0, "done")
