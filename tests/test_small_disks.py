@@ -72,3 +72,13 @@ def test_real_read_only_tiny_file_system(env, read_only_tiny):  # noqa: F811
                                        "-q"])
     assert_one_line_error(result, "not writable")
     assert "disk full" not in result.stderr and "Read-only file system" in result.stderr
+
+
+@pytest.mark.parametrize("compress", ["zstd", "lzw"])
+def test_the_space_check_takes_the_ratio_of_the_compression_asked(tmp_path, monkeypatch, compress):
+    """ZSTD (level 1) and LZW compress orthophotos less than DEFLATE: 76 MB fits in 20.5 MB free with DEFLATE
+    (76 / 4 + 1 = 20 MB), not with zstd or lzw (76 / 3.8 + 1 = 21 MB)."""
+    monkeypatch.setattr(shutil, "disk_usage", lambda folder: Usage(30 * 2 ** 20, 2 ** 20, int(20.5 * 2 ** 20)))
+    output_checks.check_space(tmp_path, 76 * 2 ** 20, "a 76 MB orthophoto", "deflate")
+    with pytest.raises(OutputError, match="about 21 MB needed"):
+        output_checks.check_space(tmp_path, 76 * 2 ** 20, "a 76 MB orthophoto", compress)

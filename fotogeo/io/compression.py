@@ -26,6 +26,12 @@ from ..options import COMPRESSIONS
 GDAL_COMPRESS = {"deflate": "DEFLATE", "zstd": "ZSTD", "lzw": "LZW", "none": "NONE"}
 #: Zstandard level of a ``zstd`` output: 1, the fastest
 ZSTD_LEVEL = 1
+#: the best compression ratio (uncompressed size with overviews / file size) each choice is taken to reach on
+#: imagery: the free-space check (:func:`fotogeo.io.output_checks.check_space`) finds free space below the
+#: uncompressed size / this clearly too little. DEFLATE rarely compresses imagery better than 4; ZSTD at level 1 and
+#: LZW, with the same predictor, compress fotogeo's orthophotos less than DEFLATE (their ratio to DEFLATE's, measured
+#: in docs/benchmarks/products.md, "Compression per codec", times 4); an uncompressed file is its whole size
+BEST_RATIO = {"deflate": 4.0, "zstd": 3.8, "lzw": 3.8, "none": 1.0}
 
 
 def predictor_for(dtype) -> int:
@@ -75,6 +81,15 @@ def overview_env(compress: str = "deflate", zlevel: int | None = None) -> dict:
     if name == "deflate" and zlevel:
         return {"ZLEVEL_OVERVIEW": str(int(zlevel))}
     return {"ZSTD_LEVEL_OVERVIEW": str(ZSTD_LEVEL)} if name == "zstd" else {}
+
+
+def best_ratio(compress) -> float:
+    """:data:`BEST_RATIO` of ``compress`` (:func:`compression_name`).
+
+    >>> best_ratio("DEFLATE"), best_ratio("lzw"), best_ratio("none")
+    (4.0, 3.8, 1.0)
+    """
+    return BEST_RATIO[compression_name(compress)]
 
 
 def compression_name(compress) -> str:

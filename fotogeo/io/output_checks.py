@@ -6,8 +6,8 @@ An output is refused when it equals an input, exists without ``overwrite``, is a
 unwritable folder (a temporary file is created there and removed: permission bits do not tell about ACLs,
 read-only mounts or quotas), or has a name that promises another format than the one written. A grid is refused
 above :data:`MAX_GRID_PIXELS` pixels or :data:`MAX_GRID_UPSAMPLING` times its source's; the free space when it is
-below the uncompressed size divided by :data:`BEST_COMPRESSION` (1 for an uncompressed output, ``compress``
-``"none"``).
+below the uncompressed size divided by the best ratio of its compression
+(:data:`fotogeo.io.compression.BEST_RATIO`: 1 for an uncompressed output, ``compress`` ``"none"``).
 """
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OutputError
+from .compression import best_ratio
 
 
 #: largest output grid fotogeo writes (pixels per band): 2^32, a 65536² raster
@@ -26,8 +27,6 @@ MAX_GRID_PIXELS = 2 ** 32
 #: an output grid may have at most this many times the pixels of its source image (10x finer
 #: than the source's own sampling, linearly); finer grids only interpolate
 MAX_GRID_UPSAMPLING = 100
-#: DEFLATE rarely compresses imagery better than this; free space below size / this is clearly too little
-BEST_COMPRESSION = 4
 
 
 #: what fotogeo writes under a suffix (the formats are chosen by the tools, not by the name)
@@ -99,9 +98,10 @@ def check_grid(width: int, height: int, *, source_pixels: int, what: str, resolu
 
 def check_space(folder, nbytes: float, what: str, compress: str = "deflate"):
     """Refuse when the free space of ``folder`` is clearly too little for ``nbytes`` uncompressed
-    output (less than ``nbytes / BEST_COMPRESSION`` plus 1 MB for the headers and side files: a margin that
-    does not refuse a small output on a small disk); written with ``compress`` ``"none"``, ``nbytes`` itself."""
-    need = float(nbytes) / (1 if str(compress).lower() == "none" else BEST_COMPRESSION) + 2 ** 20
+    output written with ``compress``: less than ``nbytes`` / its best ratio
+    (:func:`~fotogeo.io.compression.best_ratio`; with ``"none"`` ``nbytes`` itself) plus 1 MB for the headers and
+    side files, a margin that does not refuse a small output on a small disk."""
+    need = float(nbytes) / best_ratio(compress) + 2 ** 20
     try:
         free = shutil.disk_usage(folder).free
     except OSError:
