@@ -10,7 +10,10 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
   interpolation, DEFLATE;
   With ``--orthority-compression both`` orthority also runs with fotogeo's creation options (``-co``: 256² tiles,
   DEFLATE level 1, horizontal predictor; row ``orthority_z1``): the same compression on both sides. Both build
-  average overviews inside the file, while a level keeps 256 px on its short side (the same ladder);
+  average overviews inside the file, while a level keeps 256 px on its short side (the same ladder). With
+  ``--orthority-compression default`` orthority also runs at its own defaults, without ``-cm`` and ``-nwm``
+  (row ``orthority_default``: JPEG in YCbCr with an internal mask for 8-bit images, lossy; DEFLATE level 6
+  without a predictor otherwise; 512² tiles), with its files' MB (``orthority_default_mb``);
 * ``qb2`` — the QuickBird Basic-1B image with its vendor RPC on the same DEM through fotogeo ``--rpc`` and
   ``gdalwarp -rpc -to RPC_DEM=…`` (``-tap``, bilinear, GDAL's default transformer error 0.125 px, and
   ``-et 0``; all CPUs). Both take the DEM's values as ellipsoidal heights (fotogeo ``--dem-heights
@@ -38,7 +41,8 @@ Run:  .venv/bin/python benchmarks/ortho_bench.py [--orthority-python VENV/bin/py
 
 With ``--fotogeo-compress zstd`` (comma-separated ``--compress`` values) each frame case's rounds also run fotogeo
 with that compression (row ``fotogeo_zstd``, its ratios over orthority; ``compare_zstd``: per frame whether its
-pixels equal the default DEFLATE output's, full resolution and every overview level, and the three files' MB).
+pixels equal the default DEFLATE output's, full resolution and every overview level, the three files' MB and
+each fotogeo file's compression ratio to the grid's uncompressed size with overviews, the free-space check's).
 
 With ``--pairs N --baseline-tree OLD`` the peers are not run: each frame case's ``fotogeo ortho`` runs N alternating
 pairs (this checkout, OLD; the order swapped every pair), each process's CPU time read from ``RUSAGE_CHILDREN`` and its
@@ -125,9 +129,10 @@ finally:
 """
 
 
-def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = False, compress=()) -> dict:
+def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same="own", compress=()) -> dict:
     """fotogeo and orthority on the frames of ``inp`` (:func:`ngi_inputs`, :func:`drone_inputs`) at ``res``;
-    ``same``: orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`); ``compress``: fotogeo also with
+    ``same``: ``"both"``, orthority also with fotogeo's creation options (:data:`FOTOGEO_CO`), ``"default"``, also
+    at its own defaults (module docstring); ``compress``: fotogeo also with
     each of these ``--compress`` values (rows ``fotogeo_<value>``, in the same rounds; :func:`compare_outputs`)."""
     frames = inp["frames"]
     fg_dir, oty_dir = work / "fotogeo", work / "orthority"
@@ -154,9 +159,15 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
         out[f"fotogeo_{c}"] = summary([r[0][f"fotogeo_{c}"] for r in rounds])
         out[f"cpu_ratio_rounds_{c}"] = ratio_range([a[f"fotogeo_{c}"]["cpu_s"] / b["cpu_s"] for a, b in rounds])
         out[f"compare_{c}"] = compare_outputs(fg_dir, work / f"fotogeo_{c}", oty_dir, frames)
-    if same:
-        at = cmd.index("-cm")
+    at = cmd.index("-cm")
+    if same == "both":
         out["orthority_z1"] = repeat(cmd[:at] + FOTOGEO_CO + cmd[at + 2:], n)
+    if same == "default":
+        (work / "orthority_default").mkdir(exist_ok=True)
+        own = [str(work / "orthority_default") if a == str(oty_dir) else a for a in cmd[:at] + cmd[at + 3:]]
+        out["orthority_default"] = repeat(own, n)  # without "-cm deflate" and "-nwm"
+        out["orthority_default_mb"] = {Path(f).stem: (work / "orthority_default" / f"{Path(f).stem}_ORTHO.tif").stat(
+        ).st_size / 1e6 for f in frames}
     out["agreement"] = {Path(f).stem: tile_shifts(fg_dir / f"{Path(f).stem}_ortho.tif",
                                                   oty_dir / f"{Path(f).stem}_ORTHO.tif") for f in frames}
     return out
@@ -164,8 +175,12 @@ def frame_case(work: Path, res: float, oty_py, n: int, inp: dict, same: bool = F
 
 def compare_outputs(deflate: Path, other: Path, oty_dir: Path, frames) -> dict:
     """Per frame: whether fotogeo's outputs in ``deflate`` and ``other`` (another ``--compress``) hold the same
-    pixels, full resolution and every overview level, and the file sizes (MB) of both and of orthority's."""
+    pixels, full resolution and every overview level, the file sizes (MB) of both and of orthority's, the grid's
+    uncompressed size with overviews (MB, :func:`fotogeo.io.output_checks.grid_bytes`: what the free-space check
+    divides by a compression ratio) and each fotogeo file's ratio to it."""
     import rasterio
+
+    from fotogeo.io.output_checks import grid_bytes
     out = {}
     for f in frames:
         a, b = deflate / f"{Path(f).stem}_ortho.tif", other / f"{Path(f).stem}_ortho.tif"
@@ -174,10 +189,12 @@ def compare_outputs(deflate: Path, other: Path, oty_dir: Path, frames) -> dict:
                 np.array_equal(da.read(out_shape=(da.count, da.height // k, da.width // k)),
                                db.read(out_shape=(db.count, db.height // k, db.width // k))) for k in da.overviews(1))
             tags = db.tags(ns="IMAGE_STRUCTURE").get("COMPRESSION")
+            raw = grid_bytes(db.width, db.height, db.count, db.dtypes[0]) / 1e6
         oty = oty_dir / f"{Path(f).stem}_ORTHO.tif"
         out[Path(f).stem] = {"same_pixels": bool(same), "compression": tags, "mb": {
             "fotogeo": a.stat().st_size / 1e6, "other": b.stat().st_size / 1e6,
-            "orthority": oty.stat().st_size / 1e6 if oty.exists() else None}}
+            "orthority": oty.stat().st_size / 1e6 if oty.exists() else None, "uncompressed": raw},
+            "ratio": {"fotogeo": raw * 1e6 / a.stat().st_size, "other": raw * 1e6 / b.stat().st_size}}
     return out
 
 
@@ -259,9 +276,10 @@ def main(argv=None):
     ap.add_argument("--resolutions", default="native,fine",
                     help="comma-separated levels among native, fine, coarse and coarser (the last two: drone, "
                          "drone_half and drone_other only), or metres; CASE:LEVEL for one case only")
-    ap.add_argument("--orthority-compression", choices=["own", "both"], default="own",
+    ap.add_argument("--orthority-compression", choices=["own", "both", "default"], default="own",
                     help="orthority with its own -cm deflate (level 6, no predictor), or also with fotogeo's "
-                         "creation options (row orthority_z1)")
+                         "creation options (row orthority_z1), or also at its own defaults (row orthority_default: "
+                         "JPEG for 8-bit images)")
     ap.add_argument("--fotogeo-compress", default="",
                     help="comma-separated --compress values fotogeo also runs with (rows fotogeo_<value>, ratios over "
                          "orthority; pixels compared with the default's), e.g. zstd")
@@ -308,7 +326,7 @@ def main(argv=None):
                         "ngi_") else drone_inputs(drone, DRONE_OTHER if case == "drone_other" else DRONE_FRAMES)
                     inp = half_inputs(inp, drone / "half") if case == "drone_half" else inp
                     r = (exit_pairs(work, inp, res, a.pairs, a.baseline_tree.resolve()) if a.pairs else
-                         frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression == "both",
+                         frame_case(work, res, a.orthority_python, a.repeat, inp, a.orthority_compression,
                                     [c for c in a.fotogeo_compress.split(",") if c]))
                 results["cases"][case][f"{res:g}"] = r
                 print(json.dumps({case: {f"{res:g}": r}}), flush=True)
