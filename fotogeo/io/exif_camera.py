@@ -366,13 +366,27 @@ def _zoom_focal(meta: ImageMetadata, got, z: float):
     return fx * z, fy * z, pp, dist, f"{src} x DigitalZoomRatio {z:g} (FocalLengthIn35mmFilm agrees)"
 
 
+def dewarp_data(meta: ImageMetadata, s: float = 1.0):
+    """``(fx, fy, principal point, distortion)`` of DJI's XMP ``drone-dji:DewarpData`` in the file's pixels, None
+    when the file carries none (or not its nine numbers with positive focal lengths).
+
+    The tag is ``"date;fx,fy,cx,cy,k1,k2,p1,p2,k3"``: the focal lengths and the principal point's offset from the
+    frame's centre in the camera's full-resolution pixels (scaled here by ``s``, :func:`size_scale`; 1: read as
+    written), the principal point returned in the corner convention, ``(w/2 + s·cx, h/2 + s·cy)`` of the file's size;
+    ``distortion`` is Brown's ``{k1, k2, p1, p2, k3}`` (:mod:`fotogeo.geometry.brown`), ``{}`` when
+    ``drone-dji:DewarpFlag`` is 1 (the camera undistorted the image itself)."""
+    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
+    if len(vals) != 9 or vals[0] <= 0 or vals[1] <= 0:
+        return None
+    dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
+    return s * vals[0], s * vals[1], (meta.width / 2 + s * vals[2], meta.height / 2 + s * vals[3]), dist
+
+
 def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane: bool = True):
     """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none
     (``focal_plane`` False: DJI's XMP calibration only)."""
-    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
-    if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
-        dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
-        return s * vals[0], s * vals[1], (w / 2 + s * vals[2], h / 2 + s * vals[3]), dist, "drone-dji:DewarpData"
+    if (dewarp := dewarp_data(meta, s)) is not None:
+        return (*dewarp, "drone-dji:DewarpData")
     if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
         cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
         return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"

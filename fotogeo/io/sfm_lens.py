@@ -53,13 +53,13 @@ def _images_lens(path: str):
     The tags are read as written, in the camera's full-resolution pixels: a file at another size than its EXIF
     ``PixelXDimension`` (a resized or cropped copy) cannot be checked, whatever camera the SfM file gives it."""
     from .exif import read_image_metadata
-    from .exif_camera import _full_resolution
+    from .exif_camera import dewarp_data
     meta = read_image_metadata(path)
     w, h = meta.width, meta.height
-    got = _full_resolution(meta, w, h, 1.0, focal_plane=False)
-    if got is None or not got[4].startswith("drone-dji:DewarpData"):
+    got = dewarp_data(meta)
+    if got is None:
         return None, "no DJI DewarpData"
-    fx, fy, pp, dist, _ = got
+    fx, fy, pp, dist = got
     if not dist:
         return 0.0, "drone-dji:DewarpFlag 1 (undistorted by the camera)"
     full = meta.pixel_dimension
