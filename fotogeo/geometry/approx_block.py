@@ -27,10 +27,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from .brown import TERMS
 from .camera import ExteriorOrientation, FrameCamera
 
-#: Brown's distortion terms of an :class:`ApproxCamera`, in the order of ``Block.distortion``
-DISTORTION_TERMS = ("k1", "k2", "k3", "p1", "p2")
+#: Brown's distortion terms of an :class:`ApproxCamera`, in the order of ``Block.distortion`` (:mod:`.brown`'s)
+DISTORTION_TERMS = TERMS
 #: the vertical references a height may be given in
 HEIGHT_REFERENCES = ("ellipsoid", "geoid")
 

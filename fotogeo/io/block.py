@@ -287,6 +287,21 @@ def write_gcp_list(path, crs_line: str, gcp: GcpList) -> None:
     Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def line_breaking(name: str) -> str | None:
+    """The first character of ``name`` that an orientation file's one line per frame cannot hold (a control character
+    other than a tab, which is quoted, or a Unicode line or paragraph separator), None when there is none."""
+    return next((c for c in name if c != "\t" and unicodedata.category(c) in ("Cc", "Zl", "Zp")), None)
+
+
+def check_frame_names(frames) -> None:
+    """Refuse, before any work, a frame file whose name (:func:`frame_key`) holds a character the exterior orientation
+    written at the end (:func:`write_exterior_orientation`) cannot hold (:func:`line_breaking`), naming the file."""
+    for f in frames:
+        if (bad := line_breaking(frame_key(f))) is not None:
+            raise InputError(f"image {str(f)!r}: its file name holds the control character {bad!r}, which the "
+                             f"exterior orientation file cannot hold on its one line per frame; rename the file")
+
+
 def write_exterior_orientation(path, names, eos, header: str = "") -> None:
     """``name X Y Z omega phi kappa`` lines (module docstring); ``header`` becomes ``#`` comments. A name holding
     spaces, quotes, ``#`` or backslashes is quoted as the shell quotes it (``shlex.quote``), which
@@ -294,8 +309,8 @@ def write_exterior_orientation(path, names, eos, header: str = "") -> None:
     character (a line break) or a Unicode line separator is refused, naming the frame."""
     import shlex
     for n in names:
-        if bad := [c for c in str(n) if c != "\t" and unicodedata.category(c) in ("Cc", "Zl", "Zp")]:
-            raise InputError(f"frame {str(n)!r}: its name holds the control character {bad[0]!r}, which "
+        if (bad := line_breaking(str(n))) is not None:
+            raise InputError(f"frame {str(n)!r}: its name holds the control character {bad!r}, which "
                              f"{Path(path).name} cannot hold on its one line per frame; rename the image")
     out = [f"# {h}" for h in header.splitlines()] if header else []
     names = [n if re.fullmatch(r"[^\s#'\"\\]+", str(n)) else shlex.quote(str(n)) for n in names]

@@ -14,17 +14,17 @@ the size the camera wrote). Sources that contradict each other are named, never 
   unevenly): the calibration cannot be carried over;
 * DJI ``CalibratedOpticalCenterX/Y`` (written as the full frame's centre, w/2, h/2) implying another full
   size than ``PixelXDimension`` does (tags edited by the resizing tool);
-* EXIF ``FocalPlaneXResolution``/``YResolution`` (``p`` pixels per millimetre on the sensor) over the sensor the
-  35 mm equivalent implies — diagonal ``d = 43.27 · f / f35`` mm from ``FocalLength`` ``f`` and
-  ``FocalLengthIn35mmFilm`` ``f35``, split in the frame's aspect — give the camera's frame in pixels,
-  ``(p_x · d · w / hypot(w, h), p_y · d · h / hypot(w, h))``; a frame ``k`` times the size ``PixelXDimension``
-  says (the file's own without it), ``|k − 1| >`` :data:`F35_TOLERANCE`, names a copy resized with every size
-  record rewritten, with its factor and the tags that restore it. These three tags survive the tools that
-  rewrite ``PixelXDimension``, ``RelatedImageWidth`` and drop the maker note (they describe the sensor, not the
-  file), and a camera's own file agrees with itself (the eight eBee originals within 0.5 % with the IXUS's
-  24 mm). Used when the focal plane is the camera source (no DJI XMP calibration): beside ``DewarpData`` or
-  ``CalibratedFocalLength`` the calibration itself is checked against the 35 mm equivalent (below), and no DJI
-  original was at hand to show that its ``FocalPlaneXResolution`` agrees;
+* EXIF ``FocalPlaneXResolution``/``YResolution`` (``p`` pixels per millimetre on the sensor) over the sensor the 35 mm
+  equivalent implies — diagonal ``d = 43.27 · f / f35`` mm from ``FocalLength`` ``f`` and ``FocalLengthIn35mmFilm``
+  ``f35``, split in the frame's aspect — give the camera's frame in pixels, ``(p_x · d · w / hypot(w, h), p_y · d · h /
+  hypot(w, h))``; a frame ``k`` times the size ``PixelXDimension`` says (the file's own without it), ``|k − 1| >``
+  :data:`F35_TOLERANCE`, names a copy resized with every size record rewritten, with its factor and the tags that
+  restore it. These three tags survive the tools that rewrite ``PixelXDimension``, ``RelatedImageWidth`` and drop the
+  maker note (they describe the sensor, not the file), and a camera's own file agrees with itself (within
+  :data:`F35_TOLERANCE`; docs/howto/dsm.md, "When every record of the size is rewritten: the sensor", has how closely
+  the eBee's originals agree). Used when the focal plane is the camera source (no DJI XMP calibration): beside
+  ``DewarpData`` or ``CalibratedFocalLength`` the calibration itself is checked against the 35 mm equivalent (below),
+  and no DJI original was at hand to show that its ``FocalPlaneXResolution`` agrees;
 * the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
   (``f_px = f35 · hypot(w, h) / 43.27``, defined on the diagonal): more than :data:`F35_TOLERANCE` apart
   (the equivalent is rounded to a millimetre and may refer to another aspect ratio).
@@ -45,15 +45,15 @@ apart (:func:`.exif_sizes.thumbnail_view`): a crop it shows is refused; otherwis
 :class:`~fotogeo.errors.InputNote` with what told it, since without a thumbnail nothing does.
 
 Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
-thumbnail's size (the vendor's choice, 160x120 on the eBee's Canon whatever the frame) and ``FocalLength`` against
+thumbnail's size (the vendor's choice, the same whatever the frame) and ``FocalLength`` against
 the 35 mm equivalent alone (a crop factor, no size in pixels).
 
 A resized copy is also known by what it lacks: tools that resize (PIL's ``save(exif=...)``, many batch
 resizers) copy the EXIF block and drop the XMP packet, where drone cameras write the attitude (senseFly
 ``sensefly:Yaw/Pitch/Roll``, DJI gimbal angles), the GNSS accuracy and the calibration. A file smaller than its
-``PixelXDimension`` with no XMP at all is named as such (:func:`resized_without_xmp`): measured on the eBee flight
-of ``drone_snowpeak``, the copies so made lose their attitude prior, and two strips that do not overlap each other
-then leave each strip's roll free — the same refusal as the full-size originals stripped of their XMP.
+``PixelXDimension`` with no XMP at all is named as such (:func:`resized_without_xmp`): such a copy has lost its
+attitude prior, and two strips that do not overlap each other then leave each strip's roll free — the same refusal
+as the full-size originals stripped of their XMP (docs/howto/dsm.md, "eBee flight").
 """
 from __future__ import annotations
 
@@ -298,9 +298,9 @@ def _check_thumbnail(meta: ImageMetadata, full) -> int:
     r_resize, r_crop, (x, y), _ = view
     raise InputError(f"{_fix(meta)}: its EXIF thumbnail (the camera's view of its whole {full[0]}x{full[1]} frame, "
                      f"EXIF PixelXDimension) matches the file at {x},{y} of that frame (± {full[0] / view[3]:.0f} px, "
-                     f"correlation {r_crop:.2f}) better than as a whole ({r_resize:.2f}): the image was cropped, not resized, so its focal length in "
-                     f"pixels is the camera's and its principal point moved by the crop; give the camera of the crop "
-                     f"(--camera) or use the originals")
+                     f"correlation {r_crop:.2f}) better than as a whole ({r_resize:.2f}): the image was cropped, "
+                     f"not resized, so its focal length in pixels is the camera's and its principal point moved by "
+                     f"the crop; give the camera of the crop (--camera) or use the originals")
 
 
 def _thumbnail_crop(view, full) -> bool:
@@ -340,7 +340,8 @@ def focal_of(meta: ImageMetadata):
             f = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
             return f, f, None, {}, f"FocalLengthIn35mmFilm {meta.focal_35mm:g} mm (diagonal 43.27 mm)"
         raise InputError(f"image {meta.path!r}: no focal length in its EXIF/XMP (FocalLength with "
-                         f"FocalPlaneXResolution, FocalLengthIn35mmFilm, DJI CalibratedFocalLength); give a camera file")
+                         f"FocalPlaneXResolution, FocalLengthIn35mmFilm, DJI CalibratedFocalLength); "
+                         f"give a camera file")
     fx, fy, pp, dist, src = got
     if meta.focal_35mm:
         f35 = meta.focal_35mm * math.hypot(w, h) / DIAGONAL_35MM
@@ -366,13 +367,27 @@ def _zoom_focal(meta: ImageMetadata, got, z: float):
     return fx * z, fy * z, pp, dist, f"{src} x DigitalZoomRatio {z:g} (FocalLengthIn35mmFilm agrees)"
 
 
+def dewarp_data(meta: ImageMetadata, s: float = 1.0):
+    """``(fx, fy, principal point, distortion)`` of DJI's XMP ``drone-dji:DewarpData`` in the file's pixels, None
+    when the file carries none (or not its nine numbers with positive focal lengths).
+
+    The tag is ``"date;fx,fy,cx,cy,k1,k2,p1,p2,k3"``: the focal lengths and the principal point's offset from the
+    frame's centre in the camera's full-resolution pixels (scaled here by ``s``, :func:`size_scale`; 1: read as
+    written), the principal point returned in the corner convention, ``(w/2 + s·cx, h/2 + s·cy)`` of the file's size;
+    ``distortion`` is Brown's ``{k1, k2, p1, p2, k3}`` (:mod:`fotogeo.geometry.brown`), ``{}`` when
+    ``drone-dji:DewarpFlag`` is 1 (the camera undistorted the image itself)."""
+    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
+    if len(vals) != 9 or vals[0] <= 0 or vals[1] <= 0:
+        return None
+    dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
+    return s * vals[0], s * vals[1], (meta.width / 2 + s * vals[2], meta.height / 2 + s * vals[3]), dist
+
+
 def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane: bool = True):
     """The calibration sources written in full-resolution pixels, scaled by ``s``; None when there is none
     (``focal_plane`` False: DJI's XMP calibration only)."""
-    vals = exif_numbers((meta.xs("drone-dji:DewarpData") or "").split(";")[-1].replace(",", " "))
-    if len(vals) == 9 and vals[0] > 0 and vals[1] > 0:
-        dist = {} if meta.x("drone-dji:DewarpFlag") == 1 else dict(zip(("k1", "k2", "p1", "p2", "k3"), vals[4:]))
-        return s * vals[0], s * vals[1], (w / 2 + s * vals[2], h / 2 + s * vals[3]), dist, "drone-dji:DewarpData"
+    if (dewarp := dewarp_data(meta, s)) is not None:
+        return (*dewarp, "drone-dji:DewarpData")
     if (f := meta.x("drone-dji:CalibratedFocalLength")) and f > 0:
         cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
         return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"

@@ -10,17 +10,16 @@ the same). The images' own calibration tells (:func:`fotogeo.io.exif_camera.foca
 (Brown's k1, k2, p1, p2, k3 of the lens) says the files are distorted, ``DewarpFlag`` 1 that the camera already
 undistorted them.
 
-The displacement of a Brown model (OpenCV's: ``x_d = x·(1 + k1·r² + k2·r⁴ + k3·r⁶) + 2p1·xy + p2·(r² + 2x²)``,
-``y`` alike, on ``x = (u − c_x)/f_x``) is measured in pixels at points along the frame's border, where a radial
-distortion is largest; a camera whose largest displacement is below :data:`DISTORTION_PX` is distortion-free for
-this purpose (an orthophoto made with it is off by less than that many pixels anywhere). An SfM camera below it
-given with images whose calibration displaces the border by more than :data:`FAR_BELOW` times both that bound and the
-camera's own displacement is refused in one line naming both sources, the files the model belongs with and the model
-of these images (a self-calibration with a small distortion near the maker's small one is not a mistaken file);
-images without a distortion calibration, or at another size than the one their calibration is written for (a
-resized or cropped copy: COLMAP's ``dense/images`` keep the originals' tags), cannot be checked, which is said
-(an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the images' calibration: a
-self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a mistaken file.
+The displacement of Brown's model (OpenCV's convention, on ``x = (u − c_x)/f_x``: :mod:`fotogeo.geometry.brown`) is
+measured in pixels at points along the frame's border, where a radial distortion is largest; a camera whose largest
+displacement is below :data:`DISTORTION_PX` is distortion-free for this purpose (an orthophoto made with it is off by
+less than that many pixels anywhere). An SfM camera below it given with images whose calibration displaces the border by
+more than :data:`FAR_BELOW` times both that bound and the camera's own displacement is refused in one line naming both
+sources, the files the model belongs with and the model of these images (a self-calibration with a small distortion near
+the maker's small one is not a mistaken file); images without a distortion calibration, or at another size than the one
+their calibration is written for (a resized or cropped copy: COLMAP's ``dense/images`` keep the originals' tags), cannot
+be checked, which is said (an :class:`~fotogeo.errors.InputNote`). A model with distortion is not compared with the
+images' calibration: a self-calibration (Brown 1971) differs from the maker's by what it fitted, not by a mistaken file.
 """
 from __future__ import annotations
 
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import brown
 
 #: largest border displacement (pixels) of a camera taken as distortion-free (module docstring)
 DISTORTION_PX = 1.0
@@ -40,16 +40,12 @@ def border_displacement(w: int, h: int, fx: float, fy: float, pp, distortion: di
     """The largest distance (pixels) between the undistorted and the distorted position of points along the border
     of a ``w`` x ``h`` frame (corner convention), Brown's model (module docstring) with ``distortion``
     ``{k1, k2, k3, p1, p2}`` (missing terms 0) — the pixel's ray read as its undistorted position."""
-    k1, k2, k3, p1, p2 = (float(distortion.get(k, 0.0) or 0.0) for k in ("k1", "k2", "k3", "p1", "p2"))
     t = np.linspace(0.0, 1.0, 33)
     u = np.concatenate([t * w, t * w, np.zeros_like(t), np.full_like(t, w)])
     v = np.concatenate([np.zeros_like(t), np.full_like(t, h), t * h, t * h])
     x, y = (u - pp[0]) / fx, (v - pp[1]) / fy
-    r2 = x * x + y * y
-    radial = r2 * (k1 + r2 * (k2 + r2 * k3))
-    dx = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
-    dy = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
-    return float(np.max(np.hypot(fx * dx, fy * dy)))
+    _, _, xd, yd = brown.distort(x, y, brown.coefficients(distortion))
+    return float(np.max(np.hypot(fx * (xd - x), fy * (yd - y))))
 
 
 def _images_lens(path: str):
@@ -57,13 +53,13 @@ def _images_lens(path: str):
     The tags are read as written, in the camera's full-resolution pixels: a file at another size than its EXIF
     ``PixelXDimension`` (a resized or cropped copy) cannot be checked, whatever camera the SfM file gives it."""
     from .exif import read_image_metadata
-    from .exif_camera import _full_resolution
+    from .exif_camera import dewarp_data
     meta = read_image_metadata(path)
     w, h = meta.width, meta.height
-    got = _full_resolution(meta, w, h, 1.0, focal_plane=False)
-    if got is None or not got[4].startswith("drone-dji:DewarpData"):
+    got = dewarp_data(meta)
+    if got is None:
         return None, "no DJI DewarpData"
-    fx, fy, pp, dist, _ = got
+    fx, fy, pp, dist = got
     if not dist:
         return 0.0, "drone-dji:DewarpFlag 1 (undistorted by the camera)"
     full = meta.pixel_dimension

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import brown
 from ..geometry.camera import OrientedFrame
 from ..geometry.dem import is_height_source
 from ..pixels import as_points
@@ -20,33 +21,17 @@ _ROWS = 32
 
 def _pixels(c, interior, scale, col, row) -> None:
     """Pixels of the camera coordinates ``c`` (three arrays, overwritten) into ``col``, ``row``: pinhole, then Brown's
-    radial and decentring terms where they are not 0 (:meth:`AdjustedFrame.forward_grid`)."""
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:bj.N_PHYSICAL]
+    radial and decentring terms where they are not 0 (:func:`fotogeo.geometry.brown.distort`)."""
+    f, ppx, ppy = interior[:3]
+    coeffs = interior[3:bj.N_PHYSICAL]
     fx, fy = f * scale[0], f * scale[1]
     behind = c[2] <= 0
     u, v = np.divide(c[0], c[2], out=c[0]), np.divide(c[1], c[2], out=c[1])
-    if not (k1 or k2 or k3 or p1 or p2):  # pinhole: col = fx·u + ppx, row = fy·v + ppy
+    if not any(coeffs):  # pinhole: col = fx·u + ppx, row = fy·v + ppy
         np.multiply(u, fx, out=col)
         np.multiply(v, fy, out=row)
     else:
-        uu, vv, uv = u * u, v * v, u * v
-        r2 = np.add(uu, vv, out=c[2])
-        rho = r2 * k3
-        rho += k2
-        rho *= r2
-        rho += k1
-        rho *= r2
-        rho += 1.0
-        np.multiply(u, rho, out=col)  # u' = u ρ + 2 p1 u v + p2 (r² + 2 u²)
-        np.multiply(v, rho, out=row)  # v' = v ρ + p1 (r² + 2 v²) + 2 p2 u v
-        for out, sq, twice, same in ((col, uu, p1, p2), (row, vv, p2, p1)):
-            if twice:
-                out += (2 * twice) * uv
-            if same:
-                sq *= 2.0
-                sq += r2
-                sq *= same
-                out += sq
+        brown.distort(u, v, coeffs, out=(col, row))
         col *= fx
         row *= fy
     col += ppx

@@ -9,7 +9,8 @@ and the projection centre ``C_j``, all in the block's local Cartesian frame::
     u = x / z,   v = y / z,   r² = u² + v²
     ρ  = 1 + k1 r² + k2 r⁴ + k3 r⁶                                    (radial)
     u' = u ρ + 2 p1 u v + p2 (r² + 2u²)                               (Brown (1971), the
-    v' = v ρ + p1 (r² + 2v²) + 2 p2 u v                                OpenCV sign convention)
+    v' = v ρ + p1 (r² + 2v²) + 2 p2 u v                                OpenCV sign convention:
+                                                                      :mod:`fotogeo.geometry.brown`)
     col = fx u' + ppx,   row = fy v' + ppy,   fx = f·w/sensor_w,  fy = f·h/sensor_h
 
 The interior vector is ``(f, ppx, ppy, k1, k2, k3, p1, p2, b1 … b12)`` (:data:`INTERIOR_NAMES`):
@@ -38,6 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import brown
 from ..options import EBNER_PARAMETERS, INTERIOR_PARAMETERS
 from . import bundle_ebner
 
@@ -92,13 +94,9 @@ def camera_coordinates(R, C, X, frame, point) -> np.ndarray:
 
 
 def _distort(c, interior, scale):
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
     z = c[:, 2]
     u, v = c[:, 0] / z, c[:, 1] / z
-    r2 = u * u + v * v
-    rho = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    ud = u * rho + 2 * p1 * u * v + p2 * (r2 + 2 * u * u)
-    vd = v * rho + p1 * (r2 + 2 * v * v) + 2 * p2 * u * v
+    r2, rho, ud, vd = brown.distort(u, v, interior[3:N_PHYSICAL])
     return u, v, r2, rho, ud, vd
 
 
@@ -170,19 +168,12 @@ def project_with_jacobians(R, C, X, frame, point, interior, scale, additional: b
 
 def undistort_rays(pixel, interior, scale, iterations: int = 8) -> np.ndarray:
     """Camera-axis ray directions ``(n, 3)`` (z = 1) of pixels, removing Ebner's corrections, then
-    Brown's distortion, each by a fixed-point iteration ``(u, v) ← (u'_measured − Δ(u, v))``
-    (converges for moderate distortion)."""
-    f, ppx, ppy, k1, k2, k3, p1, p2 = interior[:N_PHYSICAL]
+    Brown's distortion, each by a fixed-point iteration (:func:`fotogeo.geometry.brown.undistort`: converges for
+    moderate distortion)."""
+    f, ppx, ppy = interior[:3]
     x, y = pixel[:, 0] - ppx, pixel[:, 1] - ppy
     b = _ebner(interior)
     if b is not None:
         x, y = bundle_ebner.remove(x, y, b, scale[2:4])
-    ud, vd = x / (f * scale[0]), y / (f * scale[1])
-    u, v = ud.copy(), vd.copy()
-    for _ in range(iterations):
-        r2 = u * u + v * v
-        rho = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        du = 2 * p1 * u * v + p2 * (r2 + 2 * u * u)
-        dv = p1 * (r2 + 2 * v * v) + 2 * p2 * u * v
-        u, v = (ud - du) / rho, (vd - dv) / rho
+    u, v = brown.undistort(x / (f * scale[0]), y / (f * scale[1]), interior[3:N_PHYSICAL], iterations)
     return np.column_stack([u, v, np.ones(len(u))])

@@ -7,12 +7,13 @@ disparity range and the output grid.
   line points into either image or within :data:`EPIPOLE_MARGIN` degrees of its border (the epipole inside or next
   to the frame: forward motion; :func:`epipole_margin`, the border taken at the epipole's azimuth about the axis)
   left out before the per-image cap (:func:`forward_reason`: such a pair takes no image's place and covers no
-  ground of the readmission). Frames flown the way they look at −45° have their epipole ~19° above a 3:2 image
-  (the border 26° from the axis that way, the diagonal 42°): bounding the base's angle by the half diagonal + 5°
-  left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/howto/dsm.md, "Strip pairs of frames
-  flown the way they look"); then pairs whose rectified images would outgrow what :func:`.rectify` takes at the
-  run's resolution (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image,
-  12.6 times the frames' pixels 16° outside on a DJI strip pair, so a margin alone does not say it fits);
+  ground of the readmission). The border is taken, not the corners: a frame flown the way it looks has its
+  border much nearer the optical axis towards the base than its diagonal, and the epipole of its strip partners
+  lies outside the image though within the half diagonal field of view, where a bound on the diagonal left out every
+  strip pair (docs/howto/dsm.md, "Strip pairs of frames flown the way they look", with the measured angles); then
+  pairs whose rectified images would outgrow what :func:`.rectify` takes at the run's resolution
+  (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image, so a margin alone
+  does not say it fits);
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
   highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
   padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
@@ -128,9 +129,9 @@ def epipole_margin(view, direction) -> float:
     """How far (degrees) the line ``direction`` (world ``(3,)``, either way along it) passes outside the frame's
     field of view: its angle ``θ`` from the optical axis minus the angle ``θ_edge(φ)`` of the image border's ray at
     the same azimuth ``φ`` about the axis (the border's rays through the camera model, distortion removed),
-    negative when the epipole lies inside the image. For a 3:2 frame pitched along the flight the border lies
-    26° from the axis towards the base but 42° along the diagonal: a bound on the diagonal refused such frames'
-    strip pairs, whose epipole lies far above the image (module docstring)."""
+    negative when the epipole lies inside the image. A 3:2 frame pitched along the flight has its border much
+    nearer the axis towards the base than along the diagonal: a bound on the diagonal refused such frames' strip
+    pairs, whose epipole lies well outside the image (module docstring)."""
     edge = view.rays(outline(*view.size, 17)) @ view.rotation
     d = np.asarray(direction, float) @ view.rotation
     d = d if d[2] >= 0 else -d
@@ -176,8 +177,9 @@ def size_reason(vi, vj, scale: float, fine: float, extent=None) -> str:
 def rectified_stretch(p, views, extent=None) -> float:
     """How many times the larger frame's pixels each rectified image of pair ``p`` has (:func:`.rectified_extent`
     at scale 1; the pixels go with the square of the scale, so the ratio holds at every scale). It is what
-    rectification does to the frames: 1–3 for a base across the lines of sight (more when the base runs along the
-    frame's diagonal: the rectified rows follow the base), growing like 1/sin² of the epipole's distance outside the
+    rectification does to the frames: a few times at most for a base across the lines of sight (more when the base
+    runs along the frame's diagonal: the rectified rows follow the base; docs/howto/dsm.md has the measured
+    ranges), growing like 1/sin² of the epipole's distance outside the
     image as the rows far from the epipole are stretched along the base, and the matching's cost (rectified pixels
     times their disparities) grows with it. The pair choice ranks the pairs beyond
     :data:`fotogeo.stereo.pairs.NEAR_STRETCH` after the others (module docstring). The epipole's margin in degrees

@@ -9,16 +9,15 @@ wrote to contradict it (:mod:`fotogeo.io.exif_sizes`, checked when the file is r
 when the resizing tool rewrote or dropped those too.
 
 The focal length cannot be told from the flying height in a near-nadir block over gentle terrain (its multiple
-correlation exceeds ``--max-correlation``, so the self-calibration holds it fixed), so the adjustment bends the
-other unknowns to fit and the tie points' residuals grow. Least-squares matching gives each tie point a formal σ
-(Grün 1985, from the LSM normal equations); the image group's a-posteriori σ₀
-with those σ (before the image variance component rescales them, :func:`fotogeo.orientation.bundle._image_variance`)
-is how many times the residuals exceed the matcher's precision. Measured on the eBee flight of ``drone_snowpeak``
-(``benchmarks/resized_frames_bench.py``): 2.33 at full size, 1.29 and 0.91 for correctly resized copies, 10.0
-for the 1/2 copies with ``PixelXDimension`` rewritten (focal 3210 px instead of 1605), 7.8 on a 3-frame strip of them.
-Above :data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the sensor
-width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given
-explicitly (``none`` included) takes the camera as the user's and skips the check.
+correlation exceeds ``--max-correlation``, so the self-calibration holds it fixed), so the adjustment bends the other
+unknowns to fit and the tie points' residuals grow. Least-squares matching gives each tie point a formal σ (Grün 1985,
+from the LSM normal equations); the image group's a-posteriori σ₀ with those σ (before the image variance component
+rescales them, :func:`fotogeo.orientation.bundle._image_variance`) is how many times the residuals exceed the matcher's
+precision: a few with the right camera, several times more with a focal length twice too long (docs/howto/dsm.md, "eBee
+flight", has the values measured by ``benchmarks/resized_frames_bench.py`` and the command). Above
+:data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the sensor width it implies
+(``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given explicitly (``none`` included)
+takes the camera as the user's and skips the check.
 """
 from __future__ import annotations
 
@@ -27,8 +26,7 @@ import numpy as np
 from ...errors import ModelError
 
 #: the image group's σ₀ with least-squares matching's formal σ above which a camera from FocalPlaneXResolution
-#: is refused (module docstring: 2.33 and 2.35 measured with the right camera, 7.8 and 10.0 with a focal twice
-#: too long)
+#: is refused: between what the right camera and a focal length twice too long give (module docstring)
 MAX_IMAGE_SIGMA0 = 4.0
 FOCAL_PLANE = "FocalPlaneXResolution"
 

@@ -26,14 +26,15 @@ import numpy as np
 
 from ...crs import parse_crs, require_projected
 from ...errors import FotogeoWarning, InputError, ModelError
+from ...geometry.brown import TERMS
 from ...io.block import GcpList, control_in, frame_key, read_control, split_check_points
 from ...io.camera import read_camera_with_distortion, read_exterior_orientation
 from ...io.gcps import skip_outside
 from ...io.raster import open_raster
 from ..common.checks import check_camera_size
 
-#: the order of ``Block.distortion``
-DISTORTION_ORDER = ("k1", "k2", "k3", "p1", "p2")
+#: the order of ``Block.distortion`` (Brown's terms, :mod:`fotogeo.geometry.brown`)
+DISTORTION_ORDER = TERMS
 
 
 def read_camera(camera):

@@ -63,7 +63,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError, ModelError, OutputError
-from ...io.block import frame_key, read_image_observations
+from ...io.block import check_frame_names, frame_key, read_image_observations
 from ...io.compression import check_compression
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...orientation.bundle import Block, BundleOptions
@@ -203,6 +203,7 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
     prog = as_progress(progress).with_own_timings()
     frames = [Path(f) for f in ([frames] if isinstance(frames, (str, Path)) else frames)]
     folder = Path(folder)
+    check_frame_names(frames)
     inputs = [*frames, camera, eo, observations, gcps, dem, geoinfo, *_as_list(reference)]
     with _output_folder(folder):
         return _triangulate(frames, camera, eo, observations, folder, inputs, prog, locals())
