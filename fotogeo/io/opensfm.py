@@ -144,7 +144,8 @@ def _reference(rec: dict, path: Path):
     lla = rec.get("reference_lla")
     where = f"OpenSfM reconstruction {str(path)!r}"
     if lla is None:
-        side = path.parent / "reference_lla.json"
+        from .sfm_frame import opensfm_folder
+        side = opensfm_folder(path)[0] / "reference_lla.json"  # undistorted/: OpenSfM's folder above
         if not side.is_file():
             raise InputError(f"{where} has no reference_lla and there is no reference_lla.json beside it; the "
                              f"reconstruction is not georeferenced (run OpenSfM/ODM with GPS or GCPs)")
