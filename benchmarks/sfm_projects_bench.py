@@ -163,9 +163,11 @@ def cases(sc, work: Path) -> list:
         ("folder", "COLMAP model given by its folder (--eo sparse/0/)"),
         ("folder-empty", "the folder above a COLMAP model given as --eo (no model in it)"))]
 
-    def osfm(key, images="rtk", **kw):
+    def osfm(key, images="rtk", flag=False, **kw):
         def build():
             f = sp.opensfm_project(work / key, sc, sc["rtk"], **kw)
+            if flag:  # ODM 2.4.7-2.6.3: reconstruction.json rewritten along the grid in place, no topocentric copy
+                (f.parent / "exported_geocoords.txt").write_text("")
             return dict(eo=f, images=sc[images], camera={"tool": "opensfm", **sp.opensfm_camera(sc["camera"],
                                                                                               sc["dewarp"])}, args=[])
         return build
@@ -189,6 +191,11 @@ def cases(sc, work: Path) -> list:
                                "consumer GPS images", osfm("odm21c", "consumer", imposed=False, **odm)),
             ("odm2021-no-coords", "ODM of Feb-Jul 2021 copied without odm_georeferencing/, consumer GPS images",
              osfm("odm21n", "consumer", imposed=False, coords=False, **odm)),
+            ("odm2021-flag-coords", "ODM 2.4.7-2.6.3 (exported_geocoords.txt, no topocentric copy, OpenSfM's "
+                                    "reference_lla, coords.txt), consumer GPS images",
+             osfm("odm21fc", "consumer", True, imposed=False, topocentric_copy=False, **odm)),
+            ("odm2021-flag-no-coords", "ODM 2.4.7-2.6.3 copied without odm_georeferencing/, consumer GPS images",
+             osfm("odm21fn", "consumer", True, imposed=False, topocentric_copy=False, coords=False, **odm)),
             ("opensfm-rtk", "OpenSfM project (topocentric, exif/), RTK images", osfm("osfm", odm=False)),
             ("opensfm-consumer", "OpenSfM project with exif/ (OpenSfM's default dop), consumer GPS images",
              osfm("osfm_c", "consumer", odm=False)),

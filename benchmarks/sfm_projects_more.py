@@ -159,14 +159,14 @@ def undistorted_more(sc, work: Path) -> list:
     lens = {"tool": "opensfm", **sp.opensfm_camera(sc["camera"], sc["dewarp"])}
     flat = {"tool": "opensfm", **persp}
 
-    def osfm(key, odm, images):
+    def osfm(key, odm, images, told=True):
         def build():
             rec = sp.opensfm_project(work / key, sc, sc["rtk"], odm=odm, camera=persp)
             (rec.parent / "undistorted").mkdir(exist_ok=True)
             eo = Path(shutil.copy(rec, rec.parent / "undistorted" / "reconstruction.json"))
             imgs = sc["rtk"] if images == "originals" else sp.undistorted_images(sc, work / f"undist_{images}",
                                                                                   images == "tags", 2)
-            frame = ["--sfm-frame", "grid" if odm else "topocentric"] if images == "bare" else []  # no GPS to tell
+            frame = ["--sfm-frame", "grid" if odm else "topocentric"] if images == "bare" and told else []
             return dict(eo=eo, images=imgs, camera=lens if images == "originals" else flat, args=frame)
         return build
 
@@ -189,6 +189,10 @@ def undistorted_more(sc, work: Path) -> list:
                                         "(written without EXIF/XMP)", osfm("undist_osfm_u", False, "bare")),
             ("undist-odm-undistorted", "ODM undistorted/reconstruction.json given the undistorted images",
              osfm("undist_odm_u", True, "bare")),
+            ("undist-osfm-undistorted-auto", "OpenSfM undistorted/reconstruction.json given the undistorted images "
+                                             "(no GPS), no --sfm-frame", osfm("undist_osfm_ua", False, "bare", False)),
+            ("undist-odm-undistorted-auto", "ODM undistorted/reconstruction.json given the undistorted images (no "
+                                            "GPS), no --sfm-frame", osfm("undist_odm_ua", True, "bare", False)),
             ("undist-osfm-dewarpflag", "OpenSfM undistorted/reconstruction.json given undistorted images with the "
                                        "originals' tags and DewarpFlag 1", osfm("undist_osfm_t", False, "tags")),
             ("undist-colmap-originals", "COLMAP dense/sparse (image_undistorter, PINHOLE) given the original images",

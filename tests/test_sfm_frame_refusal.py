@@ -19,16 +19,25 @@ IMAGES = ("the camera centres vs the images' own EXIF GPS (2 image(s), σ 5 m): 
 
 
 def test_the_fix_survives_the_cut_and_images_given_are_not_asked_for_again():
-    text = one_line(str(refusal(WHERE, "; ".join((IMAGES, EXIF, SHOTS)), (4.15, 2.6))))
+    text = one_line(str(refusal(WHERE, "; ".join((IMAGES, EXIF, SHOTS)), (4.15, 2.6), gps_given=True)))
     assert text.endswith("— give images with a GPS precise enough to tell them apart (RTK), or say which with "
                          "sfm_frame topocentric (OpenSfM) or grid (ODM)")
     assert "give the images themselves" not in text
 
 
 def test_without_images_it_asks_for_images_with_gps():
-    text = one_line(str(refusal(WHERE, "; ".join((EXIF, SHOTS)), (4.15, 2.6))))
+    text = one_line(str(refusal(WHERE, "; ".join((EXIF, SHOTS)), (4.15, 2.6), gps_given=False)))
     assert text.endswith("— give the images with GPS (their EXIF GPS decides), or say which with sfm_frame "
                          "topocentric (OpenSfM) or grid (ODM)")
+
+
+def test_the_wording_follows_the_callers_flag_not_the_evidence_text():
+    """Whether images with GPS were given is the caller's to say: a reason worded otherwise (another source's
+    sentence, a translation) does not turn the fix into asking for the same images again, nor the other way."""
+    rtk = "— give images with a GPS precise enough to tell them apart (RTK), or say which"
+    with_gps = "— give the images with GPS (their EXIF GPS decides), or say which"
+    assert rtk in one_line(str(refusal(WHERE, "; ".join((EXIF, SHOTS)), (4.15, 2.6), gps_given=True)))
+    assert with_gps in one_line(str(refusal(WHERE, IMAGES, (4.15, 2.6), gps_given=False)))
 
 
 def test_the_benchmark_counts_a_refusal_by_name_only_with_the_option_whole():

@@ -161,23 +161,20 @@ def test_epipolar_ransac_sees_the_pixels_of_the_distortion_free_camera():
     assert ideal_pixels(cam, (0.0,) * 5) is None and ideal_pixels(cam, None) is None
 
 
-def test_pairs_as_dask_tasks_give_the_same_tie_points(rendered):
-    """--scheduler / --workers (fotogeo.tools.triangulate.pairs): one detection task per frame, one matching
-    task per pair, one LSM task per frame pair, gathered in order — the tracks, pixels, σ and report of the
-    in-process path, to the bit."""
+def _on_a_thread_cluster(run):
+    """``run(client)`` on a one-worker Dask cluster in this process's threads (a monkeypatch reaches its tasks);
+    the threads its tasks pin in this process are restored afterwards."""
     distributed = pytest.importorskip("distributed")
     import os
 
     import cv2
 
     from fotogeo.tools.register.batch import SINGLE_THREAD_ENV
-    sb, _, paths, height, *_ = rendered
-    local = block_tie_points(paths, sb.block.camera, sb.block.eo, height)
     env, threads = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}, cv2.getNumThreads()
-    try:  # the tasks pin the threads of this process (the worker runs in it): restored afterwards
+    try:
         with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                       dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-            tasks = block_tie_points(paths, sb.block.camera, sb.block.eo, height, client=client)
+            return run(client)
     finally:
         cv2.setNumThreads(threads)
         for k, v in env.items():
@@ -185,7 +182,45 @@ def test_pairs_as_dask_tasks_give_the_same_tie_points(rendered):
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def test_pairs_as_dask_tasks_give_the_same_tie_points(rendered):
+    """--scheduler / --workers (fotogeo.tools.triangulate.pairs): one detection task per frame, one matching
+    task per pair, one LSM task per frame pair, gathered in order — the tracks, pixels, σ and report of the
+    in-process path, to the bit."""
+    sb, _, paths, height, *_ = rendered
+    local = block_tie_points(paths, sb.block.camera, sb.block.eo, height)
+    tasks = _on_a_thread_cluster(lambda client: block_tie_points(paths, sb.block.camera, sb.block.eo, height,
+                                                                 client=client))
     assert tasks[4]["pairs"] == local[4]["pairs"] and sum(p["inliers"] for p in local[4]["pairs"]) > 0
     for a, b in zip(local[:4], tasks[:4]):  # frame, track, pixel, sigma
         np.testing.assert_array_equal(a, b)
     assert tasks[4] == local[4]
+
+
+def test_a_pairs_band_rematch_is_reported_by_both_paths(rendered, monkeypatch):
+    """A pair's band re-match (``bands_rematched``, fotogeo.tools.register.bands.rematch) is in the per-pair
+    report whether the pairs run in this process or as Dask tasks, alike; both dropped it before. The re-match
+    itself is register's (test_register_band_sets.py, test_bands_cached_rematch.py): here find_tie_points
+    reports one for the pairs whose reference is the first frame."""
+    from pathlib import Path
+
+    import fotogeo.tools.triangulate.match as tm
+    import fotogeo.tools.triangulate.pairs as tp
+    sb, _, paths, height, *_ = rendered
+    again = {"combined": "target", "weights": [0.5, 0.5], "inliers_before": 9, "inliers_after": 41, "kept": True}
+
+    def reporting(real):
+        def find(ref, tgt, opts, *args, **kw):
+            xy_t, xy_r, counts = real(ref, tgt, opts, *args, **kw)
+            return xy_t, xy_r, {**counts, **({"bands_rematched": dict(again)}
+                                             if Path(str(ref.path)).name == Path(paths[0]).name else {})}
+        return find
+    for mod in (tm, tp):
+        monkeypatch.setattr(mod, "find_tie_points", reporting(mod.find_tie_points))
+    local = block_tie_points(paths, sb.block.camera, sb.block.eo, height, lsm=False)[4]["pairs"]
+    tasks = _on_a_thread_cluster(lambda client: block_tie_points(paths, sb.block.camera, sb.block.eo, height,
+                                                                 lsm=False, client=client))[4]["pairs"]
+    told = [r for r in local if "bands_rematched" in r]
+    assert told and all(r["pair"][0] == 0 and r["bands_rematched"] == again for r in told)
+    assert tasks == local

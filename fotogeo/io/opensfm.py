@@ -144,9 +144,12 @@ def _reference(rec: dict, path: Path):
     lla = rec.get("reference_lla")
     where = f"OpenSfM reconstruction {str(path)!r}"
     if lla is None:
-        side = path.parent / "reference_lla.json"
+        from .sfm_frame import opensfm_folder
+        folder, undistorted = opensfm_folder(path)  # undistorted/: OpenSfM's folder above holds it
+        side = folder / "reference_lla.json"
         if not side.is_file():
-            raise InputError(f"{where} has no reference_lla and there is no reference_lla.json beside it; the "
+            raise InputError(f"{where} has no reference_lla and there is no reference_lla.json "
+                             f"{'in the OpenSfM folder above it' if undistorted else 'beside it'}; the "
                              f"reconstruction is not georeferenced (run OpenSfM/ODM with GPS or GCPs)")
         lla, where = load_json(side, "OpenSfM reference", "give OpenSfM's reference_lla.json"), repr(str(side))
     try:

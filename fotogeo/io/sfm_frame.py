@@ -19,9 +19,14 @@ this order:
 With horizontal residuals ``r_i`` and σ ``s_i`` of each reading, ``χ² = Σ |r_i|²/s_i²``: a reading is
 chosen when it fits (``χ²/(2n) ≤`` :data:`~fotogeo.geometry.similarity3d.CHI2_DOF_MAX` = 9, RMS within 3σ)
 and the other fits worse by ``Δχ² ≥ 25`` (a 5σ separation). Without such evidence, the layout decides: the file
-named ``reconstruction.topocentric.json`` is
-topocentric, one beside it marks ODM's grid file, and OpenSfM's folder (``exif/``) with neither that copy nor
-ODM's reference or ``coords.txt`` is OpenSfM's own, topocentric; when the two readings place every camera within
+named ``reconstruction.topocentric.json`` is topocentric; one beside it, or ODM's flag ``exported_geocoords.txt``
+(ODM 2.4.7 to 2.6.3 rewrote ``reconstruction.json`` in place, keeping no topocentric copy), marks ODM's grid file;
+OpenSfM's folder (``exif/``) with none of these nor ODM's reference or ``coords.txt`` is OpenSfM's own,
+topocentric. ``undistorted/reconstruction.json`` (OpenSfM's ``undistort``, which ODM runs after
+``export_geocoords``) is read in OpenSfM's folder above it (:func:`opensfm_folder`: its ``exif/``, ODM's files one
+level further up) and in the frame of the file there whose poses it holds (``undistort`` copies them), never from
+its place alone: moved out of that folder, or beside a file of other poses, it has no layout. When the two
+readings place every camera within
 :data:`SAME_M` (horizontally) and :data:`SAME_DEG` of each other the choice is immaterial (topocentric is taken
 and said). Otherwise the file is refused, naming the option ``sfm_frame``. Heights are not compared (the GPS
 altitude's reference is often unknown).
@@ -51,6 +56,10 @@ OPENSFM_DOP = 15.0
 TAG_SIGMA = 0.05
 #: readings closer than these everywhere are the same for every purpose
 SAME_M, SAME_DEG = 0.005, 2e-4
+#: ODM's flag beside the reconstruction.json that its versions 2.4.7 to 2.6.3 rewrote along the grid in place
+ODM_FLAG = "exported_geocoords.txt"
+#: poses (radians, metres) that agree within this are copies of each other (OpenSfM's undistort copies them)
+POSE_TOL = 1e-6
 READINGS = ("topocentric", "grid")
 _WHAT = {"topocentric": "OpenSfM's topocentric frame", "grid": "ODM's offsets along the UTM grid"}
 
@@ -128,13 +137,12 @@ def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
             f"(σ {s:.3g} m)")
 
 
-def refusal(where: str, why: str, sep: tuple) -> InputError:
+def refusal(where: str, why: str, sep: tuple, gps_given: bool) -> InputError:
     """The refusal of an undecided reading (module docstring), naming ``sfm_frame``; the fix after " — ", where
-    :func:`fotogeo.errors.one_line` keeps it however long the evidence before it is. Images given whose GPS could
-    not decide (``why`` names them) call for images with a GPS precise enough, not for the same images again."""
+    :func:`fotogeo.errors.one_line` keeps it however long the evidence before it is. ``gps_given``: images with GPS
+    were given and could not decide, which calls for images with a GPS precise enough, not for the same images."""
     m, deg = sep
-    given = "images' own EXIF GPS" in why
-    images = ("images with a GPS precise enough to tell them apart (RTK)" if given else
+    images = ("images with a GPS precise enough to tell them apart (RTK)" if gps_given else
               "the images with GPS (their EXIF GPS decides)")
     return InputError(f"{where}: its local coordinates may be OpenSfM's topocentric frame or ODM's offsets along the "
                       f"UTM grid, which place the cameras up to {m:.2f} m and {deg:.2f}° apart here, and {why} — "
@@ -158,7 +166,7 @@ def odm_grid(path: Path, ref) -> tuple:
     from ..crs import utm_crs_for
     from .block import odm_crs
     own = utm_crs_for(ref[1], ref[0])
-    coords = Path(path).parent.parent / "odm_georeferencing" / "coords.txt"
+    coords = opensfm_folder(path)[0].parent / "odm_georeferencing" / "coords.txt"
     if coords.is_file():
         try:
             lines = coords.read_text(encoding="utf-8").splitlines()
@@ -211,19 +219,68 @@ def _gps_positions(shots: dict, ref, crs) -> dict:
     return {k: (g[0], g[1], d) for k, g, d in zip(keys, llh, dop)}
 
 
-def _layout(path: Path, odm: bool):
-    """``(reading, sentence)`` from the file layout, or None; ``odm``: ODM's reference or coords.txt was found."""
+def opensfm_folder(path) -> tuple:
+    """``(folder, undistorted)``: the OpenSfM data set ``path`` belongs to — the folder above for a file in
+    ``undistorted/`` (OpenSfM's ``undistort`` writes ``undistorted/reconstruction.json`` there, beside the images it
+    resamples, with the shots' poses copied), else the file's own folder."""
     p = Path(path)
+    return (p.parent.parent, True) if p.parent.name == "undistorted" else (p.parent, False)
+
+
+def _layout(path: Path, odm: bool, shots=None):
+    """``(reading, sentence, marker)`` from the file layout, or None; ``odm``: ODM's reference or coords.txt was
+    found; ``shots``: the file's own shots (an undistorted file is read as the file above holding its poses)."""
+    p = Path(path)
+    folder, undistorted = opensfm_folder(p)
+    if undistorted:
+        return _undistorted_layout(folder, odm, shots or {})
     if p.name.lower() == "reconstruction.topocentric.json":
-        return "topocentric", "read as topocentric: the file is ODM's copy of OpenSfM's topocentric reconstruction"
+        return ("topocentric", "read as topocentric: the file is ODM's copy of OpenSfM's topocentric reconstruction",
+                "")
     if (p.parent / "reconstruction.topocentric.json").is_file():
         return "grid", ("read as grid: reconstruction.topocentric.json beside it marks ODM's reconstruction.json, "
-                        "which export_geocoords wrote along the UTM grid")
+                        "which export_geocoords wrote along the UTM grid"), "reconstruction.topocentric.json"
+    if (p.parent / ODM_FLAG).is_file():
+        return "grid", (f"read as grid: {ODM_FLAG} beside it marks the reconstruction.json that ODM (2.4.7 to 2.6.3) "
+                        f"rewrote along the UTM grid with export_geocoords"), ODM_FLAG
     if not odm and (p.parent / "exif").is_dir():
         return "topocentric", ("read as topocentric: OpenSfM's folder (exif/ beside it) without "
                                "reconstruction.topocentric.json, ODM's reference or coords.txt — ODM moves OpenSfM's "
-                               "topocentric file there when it writes its own along the grid")
+                               "topocentric file there when it writes its own along the grid"), ""
     return None
+
+
+def _undistorted_layout(folder: Path, odm: bool, shots: dict):
+    """The layout of the OpenSfM file in ``folder`` whose poses ``shots`` hold (undistort copies them), or None
+    when no file there holds them (a folder copied elsewhere, or undistorted from another run)."""
+    for name in ("reconstruction.json", "reconstruction.topocentric.json"):
+        f = folder / name
+        if not (f.is_file() and _same_poses(f, shots)):
+            continue
+        got = _layout(f, odm)
+        if got is not None:
+            why = got[1].split(": ", 1)[1]
+            return got[0], (f"read as {got[0]}: undistorted/ holds the poses of the OpenSfM folder's {name} (OpenSfM's "
+                            f"undistort copies them), and {why}"), got[2]
+    return None
+
+
+def _same_poses(path: Path, shots: dict) -> bool:
+    """Whether every shot of ``shots`` that the reconstruction file ``path`` holds has the same pose there
+    (within :data:`POSE_TOL`), and at least one does."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    theirs = {}
+    for rec in data if isinstance(data, list) else ():
+        theirs.update(rec["shots"] if isinstance(rec, dict) and isinstance(rec.get("shots"), dict) else {})
+    common = [n for n in shots if n in theirs]
+    try:
+        a, b = (np.array([[*s[n]["rotation"], *s[n]["translation"]] for n in common], float) for s in (shots, theirs))
+    except (KeyError, TypeError, ValueError):
+        return False
+    return bool(common) and a.shape == b.shape and bool(np.all(np.abs(a - b) <= POSE_TOL))
 
 
 def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs, gps, where: str, grid=None,
@@ -239,9 +296,11 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
         ev = gps.mapped(lambda g: (g.lon, g.lat, g.sigma_h)) if isinstance(gps, ImagesGps) else \
             {n: (g.lon, g.lat, g.sigma_h) for n, g in gps.items()}
         steps.append((ev, "camera centres vs the images' own EXIF GPS"))
-    exif = _exif_gps(Path(path).parent, list(shots))
+    folder, undistorted = opensfm_folder(path)
+    exif = _exif_gps(folder, list(shots))
     if exif:
-        steps.append((exif, "camera centres vs the GPS of the exif/<image>.exif beside it"))
+        steps.append((exif, "camera centres vs the GPS of the exif/<image>.exif " +
+                      ("of the OpenSfM folder above it" if undistorted else "beside it")))
     gp = _gps_positions(shots, ref, crs)
     if gp:
         steps.append((gp, "camera centres vs the shots' gps_position (topocentric, as OpenSfM writes it)"))
@@ -251,12 +310,15 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
         if kind is not None:
             return kind, f"OpenSfM local frame {why}"
         reasons.append(why)
-    layout = _layout(path, odm_origin)
+    layout = _layout(path, odm_origin, shots)
     if layout is not None and layout[0] == "grid" and not odm_origin:
-        raise InputError(f"{where}: reconstruction.topocentric.json beside it marks ODM's file along the UTM grid, but "
-                         f"its offset is not known (reference_lla is not ODM's offset and no odm_georeferencing/"
-                         f"coords.txt is beside the opensfm folder); copy coords.txt with the project, give the "
-                         f"images with RTK GPS, or read reconstruction.topocentric.json instead", option="sfm_frame")
+        fix = ("copy coords.txt with the project or give the images with RTK GPS" if undistorted or layout[2] == ODM_FLAG
+               else "copy coords.txt with the project, give the images with RTK GPS, or read "
+                    "reconstruction.topocentric.json instead")
+        raise InputError(f"{where}: {layout[2]} {'in the folder above' if undistorted else 'beside it'} marks ODM's "
+                         f"file along the UTM grid, but its offset is not known (reference_lla is not ODM's offset "
+                         f"and no odm_georeferencing/coords.txt is beside the opensfm folder); {fix}",
+                         option="sfm_frame")
     if layout is not None:
         return layout[0], f"OpenSfM local frame {layout[1]}" + (f" ({'; '.join(reasons)})" if reasons else "")
     sep = separation(ref, crs, np.array(list(centres.values()), float), grid)
@@ -266,4 +328,4 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
     if not steps:
         reasons.append("no exif/<image>.exif is beside it, its shots carry no gps_position and the images' own GPS "
                        "is not at hand")
-    raise refusal(where, "; ".join(reasons), sep)
+    raise refusal(where, "; ".join(reasons), sep, bool(gps))

@@ -178,7 +178,7 @@ def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
     else:
         found = dask_pair_results(client, [info.path for info in infos], pairs, det, threshold, camera, distortion,
                                   prog.stage(0.0, 0.6, "matching"))
-    found = list(found)
+    found, rematched = (list(x) for x in zip(*found)) if pairs else ([], [])
     plain = [None if r is None else (r[0], len(r[1])) for r in found]
     guided, measured = {}, None
     if guide is not None:
@@ -189,7 +189,8 @@ def _pair_results(infos, pairs, opts, level, epipolar_px, prog, camera=None, dis
                                                 known=guide[2] if len(guide) > 2 else None)
         guided = {tuple(g.pop("pair")): g for g in tried}
     per_pair = [{"pair": [i, j], "matches": 0 if first is None else first[0],
-                 "inliers": 0 if first is None else first[1]} for (i, j), first in zip(pairs, plain)]
+                 "inliers": 0 if first is None else first[1], **({"bands_rematched": again} if again else {})}
+                for (i, j), first, again in zip(pairs, plain, rematched)]
     return found, _with_guided(per_pair, guided), measured
 
 
@@ -236,21 +237,22 @@ def _joined(pairs, found):
 
 
 def _local_pair_results(infos, pairs, det, threshold, ideal, prog):
-    """:func:`~fotogeo.tools.triangulate.pairs.epipolar_kept` of each pair in turn (None where the descriptors
-    do not match), each frame detected once (:class:`FeatureCache`, dropped after its last pair)."""
+    """``(kept, rematched)`` of each pair in turn: :func:`~fotogeo.tools.triangulate.pairs.epipolar_kept` (None
+    where the descriptors do not match) and the pair's ``bands_rematched`` report (None when no re-match was
+    tried), each frame detected once (:class:`FeatureCache`, dropped after its last pair)."""
     cache, last_pair = FeatureCache(), {f: k for k, pair in enumerate(pairs) for f in pair}
     for k, (i, j) in enumerate(pairs):
         try:
             stage = prog.stage(k / len(pairs), (k + 1) / len(pairs), f"matching pair {k + 1}/{len(pairs)}")
-            xy_j, xy_i, _ = find_tie_points(infos[i], infos[j], det, stage, cache=cache)
+            xy_j, xy_i, counts = find_tie_points(infos[i], infos[j], det, stage, cache=cache)
         except MatchingError:
-            yield None
+            yield None, None
             continue
         finally:
             for f in (i, j):
                 if last_pair[f] == k:
                     cache.forget(infos[f])
-        yield epipolar_kept(xy_i, xy_j, ideal, threshold)
+        yield epipolar_kept(xy_i, xy_j, ideal, threshold), counts.get("bands_rematched")
 
 
 def _tracks(uf, pos, n_frames):

@@ -95,16 +95,17 @@ def frame_features(path: str, role: str, det):
 
 
 def match_pair(path_i: str, path_j: str, features_i, features_j, det, threshold: float, camera, distortion):
-    """The Dask task matching one pair: :func:`epipolar_kept`'s ``(matches, xy_i, xy_j)``, or None when the
-    descriptors do not match (:class:`MatchingError`)."""
+    """The Dask task matching one pair: ``(kept, rematched)`` — :func:`epipolar_kept`'s ``(matches, xy_i, xy_j)``,
+    or None when the descriptors do not match (:class:`MatchingError`), and the pair's ``bands_rematched`` report
+    (:func:`fotogeo.tools.register.bands.rematch`; None when no re-match was tried), as the in-process path has them."""
     from ..common.dask_cluster import pin_threads
     pin_threads()
     try:
-        xy_j, xy_i, _ = find_tie_points(open_raster(path_i, "frame"), open_raster(path_j, "frame"), det,
-                                        cache=_Detected(features_i, features_j))
+        xy_j, xy_i, counts = find_tie_points(open_raster(path_i, "frame"), open_raster(path_j, "frame"), det,
+                                             cache=_Detected(features_i, features_j))
     except MatchingError:
-        return None
-    return epipolar_kept(xy_i, xy_j, ideal_pixels(camera, distortion), threshold)
+        return None, None
+    return epipolar_kept(xy_i, xy_j, ideal_pixels(camera, distortion), threshold), counts.get("bands_rematched")
 
 
 def _detections(client, paths, pairs, det, run: str):
@@ -160,8 +161,8 @@ def _gathered(futures: dict, prog, what: str) -> list:
 
 
 def dask_pair_results(client, paths, pairs, det, threshold: float, camera, distortion, progress=None) -> list:
-    """:func:`epipolar_kept` of every pair (None where the descriptors do not match), in pair order, computed
-    as Dask tasks on ``client`` (module docstring)."""
+    """:func:`match_pair`'s ``(kept, rematched)`` of every pair (``kept`` None where the descriptors do not match),
+    in pair order, computed as Dask tasks on ``client`` (module docstring)."""
     run = uuid.uuid4().hex[:8]
     features, which = _detections(client, paths, pairs, det, run)
     futures = {client.submit(match_pair, str(paths[i]), str(paths[j]), features[ki], features[kj], det, threshold,
