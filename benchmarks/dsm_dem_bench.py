@@ -10,10 +10,13 @@ median and 5 m NMAD), completeness, CPU (``time.process_time`` of the run in thi
 first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. ``--tree`` runs another checkout
 (e.g. main, the run's "before")::
 
-    PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi,ventoux] \\
+    PYTHONPATH=. .venv/bin/python benchmarks/dsm_dem_bench.py [--cases rendered,oblique_set,ngi,ventoux,block] \\
         [--dems none,true,srtm,smooth-20,+50] [--rendered nadir,oblique] [--tree ../main] [--ties 25]
 
-``--ties N``: each ``--rpc`` pair (ventoux) keeps N of its tie points, a random subset (seed 0).
+``--ties N``: each ``--rpc`` pair (ventoux) keeps N of its tie points (``MIN_TIES`` or more), a random subset
+(seed 0). ``block``: a rendered frame pair with a block standing on the ground (``tests/dsm_scenes.py``'s
+``nadir_block``), each DEM made from the ground without the block; rows add the roof's cells within 1.5 m of its
+height and the ground's RMSE, NMAD and completeness (:func:`_block_rows`).
 """
 from __future__ import annotations
 
@@ -37,6 +40,10 @@ DEMS = {"true": (None, 0.0, 0.0, False), "srtm": (30.0, 1.5, 10.0, True), "smoot
 #: the rendered scenes' reference DEM reaches this far (m) beyond the projection centres (its middle ninth, the
 #: ``srtm`` DEM's void, then covers part of the images, not all)
 REF_MARGIN = 300.0
+#: the cases (``--cases``)
+CASES = ("rendered", "oblique_set", "ngi", "ventoux", "block")
+#: ``--ties``: at least this many (a pair with fewer is refused by ``rpc_pairs.pointing`` itself)
+MIN_TIES = 10
 #: the oblique set: two frames of ``tests/dsm_oblique_sets.py``'s "1280x960 full" from strips 90 degrees apart
 OBLIQUE = ("1280x960 full", ["S1_01", "S2_01"])
 
@@ -78,11 +85,21 @@ def _row(case: str, dem: str, rep: dict, cpu: float, said: list, err=None) -> di
     return row
 
 
-def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str) -> list:
-    from dsm_scenes import compare, write_dem
+def _against_truth(out: Path, sc: dict) -> dict:
+    """The DSM ``out`` against the scene's true surface: RMSE, NMAD, median (m, and RMSE in GSDs)."""
+    from dsm_scenes import compare
+    c = compare(out, sc["surface"])
+    return dict(rmse_m=c["rmse"], nmad_m=c["nmad"], median_m=c["median"], gsd_m=sc["gsd"],
+                rmse_gsd=c["rmse"] / sc["gsd"])
+
+
+def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str, ref=None, measure=_against_truth) -> list:
+    """The scene ``sc``'s runs with each DEM of ``dems`` made from ``ref`` (a 20 m GeoTIFF; None: the scene's
+    surface ``REF_MARGIN`` beyond its projection centres), each row completed by ``measure(DSM, sc)``."""
+    from dsm_scenes import write_dem
 
     from fotogeo.tools.dsm import dsm
-    ref = write_dem(sc, tmp / f"{case}_ref.tif", cell=20.0, margin=REF_MARGIN)
+    ref = ref or write_dem(sc, tmp / f"{case}_ref.tif", cell=20.0, margin=REF_MARGIN)
     rows = []
     for name in dems:
         dem = degraded(ref, tmp / f"{case}_{name}.tif", name, 20.0)
@@ -93,11 +110,7 @@ def _scene_runs(tmp: Path, case: str, sc: dict, dems: list, tag: str) -> list:
         except Exception as e:  # a refusal is a row
             rows.append({"case": f"dem {case}, {name}{tag}", "refused": str(e)[:300]})
             continue
-        c = compare(out, sc["surface"])
-        row = _row(case, name + tag, rep, cpu, said)
-        row.update(rmse_m=c["rmse"], nmad_m=c["nmad"], median_m=c["median"], gsd_m=sc["gsd"],
-                   rmse_gsd=c["rmse"] / sc["gsd"])
-        rows.append(row)
+        rows.append({**_row(case, name + tag, rep, cpu, said), **measure(out, sc)})
     return rows
 
 
@@ -111,6 +124,43 @@ def oblique_set(tmp: Path, dems: list, tag: str) -> list:
     name, frames = OBLIQUE
     sc = make_set({**SETS[name], "frames": frames}, tmp / "set")
     return _scene_runs(tmp, f"oblique set {name} {'-'.join(frames)}", sc, dems, tag)
+
+
+#: ``block``: roof cells lie this far (m) inside the block's walls; ground cells this far outside them
+ROOF_INSET_M, GROUND_OUTSET_M = 2.0, 20.0
+
+
+def _block_rows(out: Path, sc: dict) -> dict:
+    """The DSM ``out`` on the block of the scene ``sc`` (its ``surface``, :func:`dsm_scenes.with_block`): the share
+    of its roof's cells (``ROOF_INSET_M`` inside the walls) with a height within 1.5 m of the roof's, and RMSE, NMAD
+    and completeness on the ground ``GROUND_OUTSET_M`` or more outside the walls."""
+    import rasterio
+    with rasterio.open(out) as ds:
+        h, t, nod = ds.read(1).astype(float), ds.transform, ds.nodata
+    surface = sc["surface"]
+    rows, cols = np.indices(h.shape)
+    XY = np.column_stack([(t.c + (cols + 0.5) * t.a).ravel(), (t.f + (rows + 0.5) * t.e).ravel()])
+    far = np.abs(XY - np.asarray(surface.centre)).max(axis=1)
+    z = np.where(h.ravel() == nod, np.nan, h.ravel())
+    roof, ground = far <= surface.side / 2 - ROOF_INSET_M, far >= surface.side / 2 + GROUND_OUTSET_M
+    d = z[ground] - surface(XY[ground])
+    ok = np.isfinite(d)
+    med = float(np.median(d[ok]))
+    return {"roof_cells": int(roof.sum()), "roof_within_1_5m": float(np.mean(np.abs(z[roof] - surface.roof) < 1.5)),
+            "roof_with_height": float(np.mean(np.isfinite(z[roof]))), "ground_completeness": float(ok.mean()),
+            "ground_rmse_m": float(np.sqrt(np.mean(d[ok] ** 2))), "ground_median_m": med,
+            "ground_nmad_m": float(1.4826 * np.median(np.abs(d[ok] - med)))}
+
+
+def block(tmp: Path, dems: list, tag: str) -> list:
+    """The rendered frame pair with a block (``tests/dsm_scenes.py``'s ``nadir_block``: :data:`dsm_scenes.BLOCK`
+    over the ground in their overlap) and each DEM made from the ground without the block (covering the images):
+    the roof's cells near its height, the ground's error and completeness (:func:`_block_rows`)."""
+    from dsm_scenes import make_scene, write_dem
+    sc = make_scene("nadir_block", tmp / "scene")
+    ref = write_dem({**sc, "surface": sc["surface"].ground}, tmp / "ground_ref.tif", cell=20.0)  # covers the images
+    return _scene_runs(tmp, f"rendered nadir with a block, {len(sc['images'])} frames", sc, dems, tag, ref,
+                       _block_rows)
 
 
 def ngi(tmp: Path, dems: list, tag: str) -> list:
@@ -223,9 +273,15 @@ def main():
     ap.add_argument("--tree", help="run this checkout's fotogeo (e.g. ../main: the before); rows name it")
     ap.add_argument("--ties", type=int, help="ventoux: keep this many of the pair's tie points (random, seed 0)")
     args = ap.parse_args()
+    bad = [c for c in args.cases.split(",") if c not in CASES]
+    if bad:
+        ap.error(f"--cases {','.join(bad)}: not a case; give some of {','.join(CASES)}")
+    if args.ties is not None and args.ties < MIN_TIES:
+        ap.error(f"--ties {args.ties}: a pair with fewer than {MIN_TIES} tie points is refused when set up; give "
+                 f"--ties {MIN_TIES} or more, or leave it out for all of them")
     tag = use_tree(args.tree)
     import fotogeo
-    if args.ties:
+    if args.ties is not None:
         tag += f", {args.ties} tie points"
         _thin_ties(args.ties)
     os.environ.setdefault("GDAL_PAM_ENABLED", "NO")
@@ -237,7 +293,8 @@ def main():
         for case in args.cases.split(","):
             (Path(t) / case).mkdir()
             new = {"rendered": functools.partial(rendered, kinds=args.rendered.split(",")), "oblique_set": oblique_set,
-                   "ngi": ngi, "ventoux": ventoux}[case](Path(t) / case, dems, tag)
+                   "ngi": ngi, "ventoux": ventoux,
+                   "block": block}[case](Path(t) / case, dems, tag)
             for r in new:
                 print(json.dumps(r, default=str), flush=True)
             run["rows"] += new

@@ -5,7 +5,9 @@ Three renders that differ (:data:`SCENES`): ``nadir`` — the demo's block (2 st
 1000 m above ±40 m of relief, no distortion); ``oblique`` — the DJI-like block of
 :mod:`tests.rendered_oblique` (30° off nadir, Brown distortion, three frames per strip, four headings);
 ``held_out`` — a block never used while building the pipeline (3 strips x 3 frames, 520 x 390 px, 700 m above
-±60 m, 70 % forward overlap, Brown distortion, another seed).
+±60 m, 70 % forward overlap, Brown distortion, another seed). ``nadir_block``: two nadir frames (800 x 1200 px,
+1000 m above hills of ±:data:`BLOCK_RELIEF` m) with a flat-roofed block (:data:`BLOCK`) standing in their overlap: a
+DEM of the ground (:func:`write_dem` of the ``surface``'s ``ground``) lies under its roof.
 """
 from __future__ import annotations
 
@@ -18,6 +20,10 @@ from fotogeo.geometry.camera import FrameCamera
 from fotogeo.io.block import write_exterior_orientation, write_interior_orientation
 
 SCENES = ("nadir", "oblique", "held_out")
+#: ``nadir_block``: the block's side and height over the ground (m), and its centre's offset (m, east, north) from
+#: the middle of the two frames' centres (:func:`with_block`); the ground's hills are ±``BLOCK_RELIEF`` m
+BLOCK = (60.0, 30.0, 150.0, 0.0)
+BLOCK_RELIEF = 5.0
 
 
 def _write_frames(folder: Path, names, images) -> list:
@@ -36,10 +42,30 @@ def _distortion(t) -> dict:
     return {"k1": k1, "k2": k2, "k3": k3, "p1": p1, "p2": p2}
 
 
-def _simulated(folder: Path, **kw) -> dict:
+def with_block(surface, centre, side: float, height: float):
+    """``surface`` (XY → Z) with a flat-roofed block of ``side`` m a side centred on ``centre`` (XY), its roof
+    ``height`` m over the ground at the centre; the block's ``roof`` height is an attribute of the result."""
+    roof = float(surface(np.asarray(centre, float)[None])[0]) + height
+
+    def blocked(XY):
+        XY = np.asarray(XY, float).reshape(-1, 2)
+        on = (np.abs(XY - np.asarray(centre, float)) <= side / 2).all(axis=1)
+        return np.where(on, roof, surface(XY))
+    blocked.roof, blocked.ground, blocked.centre, blocked.side = roof, surface, tuple(centre), side
+    return blocked
+
+
+def _simulated(folder: Path, block=None, **kw) -> dict:
+    """A simulated block rendered into ``folder``; ``block`` (:data:`BLOCK`): a block (:func:`with_block`) near the
+    middle of the first two frames' overlap."""
+    import dataclasses
+
     from fotogeo.orientation.block_render import render_block
     from fotogeo.orientation.block_simulation import simulate_block
     sb = simulate_block(blunder_fraction=0.0, n_control=4, n_check=4, **kw)
+    if block is not None:
+        c = np.mean([[e.X, e.Y] for e in sb.true_eo[:2]], axis=0) + block[2:]
+        sb = dataclasses.replace(sb, surface=with_block(sb.surface, c, *block[:2]))
     images, _ = render_block(sb, seed=kw.get("seed", 0))
     names = sb.block.frames
     paths = _write_frames(folder, names, images)
@@ -66,6 +92,10 @@ def make_scene(kind: str, folder) -> dict:
     if kind == "nadir":
         return _simulated(folder, seed=7, strips=2, frames_per_strip=4, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
                           point_spacing=80.0, relief=40.0, margin=5.0)
+    if kind == "nadir_block":
+        return _simulated(folder, block=BLOCK, seed=7, strips=1, frames_per_strip=2,
+                          camera=FrameCamera(12.0, (8.0, 12.0), (800, 1200)), point_spacing=80.0, relief=BLOCK_RELIEF,
+                          margin=5.0)
     if kind == "oblique":
         return _oblique(folder)
     if kind == "held_out":

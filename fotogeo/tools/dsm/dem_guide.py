@@ -16,7 +16,8 @@ heavy-tailed (a DEM of the ground lies under roofs and trees, and the tallest of
 quantile leaves out): ``rise`` is the highest a match stands over the shifted DEM, ``max(Z − (H − o))``, or, when
 larger, the upper bound above of the ``DEM_RISE_QUANTILE`` quantile of ``max(Z − (H − o), 0)`` (from few matches
 that bound lies beyond the largest, along the exponential tail), and the margin above is ``max(m, DEM_PAD_M +
-rise)`` (:attr:`DemFit.above`; satellite tiles, :mod:`.rpc_dem`). The DEM is used shifted by ``−o``: the DSM's
+rise)`` (:attr:`DemFit.above`; :meth:`DemGuide.span`, the heights a frame pair's strip, :mod:`.local`, and a
+satellite pair's tile, :mod:`.rpc_dem`, search). The DEM is used shifted by ``−o``: the DSM's
 heights come from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another
 vertical reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
 (:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
@@ -77,7 +78,8 @@ class DemFit:
 
     def as_report(self, used: bool) -> dict:
         return {"offset_m": round(self.offset, 2), "nmad_m": round(self.spread, 2),
-                "margin_m": round(self.margin, 2), "matches": self.matches, "guides_strips": used}
+                "margin_m": round(self.margin, 2), "margin_above_m": round(self.above, 2), "matches": self.matches,
+                "guides_strips": used}
 
 
 def fit(source, points) -> DemFit | None:
@@ -163,6 +165,23 @@ class DemGuide:
     @property
     def above(self) -> float:
         return self.fitted.above
+
+    def span(self, z, residual=0.0) -> tuple:
+        """``(low, high)``: the heights searched about the DEM's heights ``z`` (finite, shifted) each widened by
+        its ``residual``: the margin below the lowest, the margin above (:attr:`DemFit.above`) over the highest —
+        the one rule of a frame pair's strips (:mod:`.local`) and an RPC pair's tiles (:mod:`.rpc_dem`)."""
+        z, r = np.asarray(z, float), np.asarray(residual, float)
+        return float(np.min(z - r)) - self.margin, float(np.max(z + r)) + self.above
+
+    def pair_range(self, other: tuple, zlim: tuple) -> tuple:
+        """The pair's heights: the shifted DEM's over the pair within its margins (:meth:`span`) joined with the
+        range ``other`` (what guides where the DEM has a void: an RPC pair's tie points; a frame pair's run range),
+        inside ``zlim``."""
+        h = self.dem.data[np.isfinite(self.dem.data)] - self.fitted.offset
+        if not h.size:
+            return other
+        lo, hi = self.span(h)
+        return max(zlim[0], min(other[0], lo)), min(zlim[1], max(other[1], hi))
 
     def heights(self, XY) -> np.ndarray:
         return self.dem.heights(np.asarray(XY, float)) - self.fitted.offset

@@ -11,8 +11,10 @@ the relief seen around, and the fixed metres cover a flat neighbourhood with an 
 turned into disparities over the strip's own pixels (:func:`~fotogeo.tools.dsm.plan.disparity_bounds`: over an
 oblique pair one height's disparity varies across the image) plus ``PAD_PX``, and kept inside the pair's range.
 Fewer than ``LOCAL_MIN`` matches near a strip and it searches the pair's range. With a DEM (``--dem``) that fits
-the pair's matches (:mod:`.dem_guide`) a strip searches the heights where its rays meet the DEM ± the DEM's margin
-(:func:`dem_heights`; the matches' rule where the DEM has a void), and each pixel expects the DEM's height.
+the pair's matches (:mod:`.dem_guide`) a strip searches the heights where its rays meet the DEM, from the DEM's
+margin below them to its margin above them (the matches' rise over the DEM: roofs and trees on a DEM of the ground;
+:func:`dem_heights`, the rule of RPC tiles too; the matches' rule where the DEM has a void), and each pixel expects
+the DEM's height.
 
 **Local height ranges** (:func:`strip_heights`): a strip with a local range keeps only the points within its
 local heights, not the pair's. Its disparity range is the union of its pixels' (over an oblique pair one height's
@@ -54,7 +56,7 @@ def local_heights(near, box, rp: RectifiedPair | None = None, dem=None) -> tuple
     """``(low, high)``: the heights the sparse matches ``near`` (:func:`guides`) within ``LOCAL_NEAR`` rectified
     pixels of the box ``(u0, v0, u1, v1)`` span, padded by half their span and ``LOCAL_PAD_M`` metres (module
     docstring); None when fewer than ``LOCAL_MIN`` lie that near. With a ``dem`` (:class:`.dem_guide.DemGuide`)
-    and the pair ``rp``: the heights where the box's rays meet the DEM (:func:`dem_heights`) ± its margin, and the
+    and the pair ``rp``: the heights where the box's rays meet the DEM (:func:`dem_heights`) within its margins, the
     matches' where it has none."""
     if dem is not None:
         return dem_heights(rp, near, dem, box)
@@ -99,7 +101,8 @@ def _on_dem(rp, near, dem, u, v) -> tuple:
 
 def dem_heights(rp, near, dem, box) -> tuple | None:
     """``(low, high)``: the heights where the rays of the box's nodes meet the DEM ``dem``
-    (:meth:`.dem_guide.DemGuide.node_heights`) widened by each node's residual and the DEM's margin, joined with the
+    (:meth:`.dem_guide.DemGuide.node_heights`) widened by each node's residual, the DEM's margin below and its margin
+    above (:meth:`.dem_guide.DemGuide.span`: what stands on a DEM of the ground rises over it), joined with the
     matches' :func:`local_heights` when the DEM has no height at some node (a void, its edge); None when neither
     says anything there."""
     u, v = _nodes(box)
@@ -107,7 +110,7 @@ def dem_heights(rp, near, dem, box) -> tuple | None:
     ok = np.isfinite(z)
     spans = []
     if ok.any():
-        spans.append((float(np.min(z[ok] - res[ok])) - dem.margin, float(np.max(z[ok] + res[ok])) + dem.margin))
+        spans.append(dem.span(z[ok], res[ok]))
     if not ok.all():
         z = local_heights(near, box)
         if z is None:

@@ -10,7 +10,8 @@ points' range stands; a spread over ``DEM_MAX_SPREAD_M`` likewise.
 **The tiles** (:func:`tile_range`): the left pixels of a ``TILE_NODES`` × ``TILE_NODES`` grid over a tile meet the
 DEM (shifted by the offset) where their lines of sight through the left RPC, ``X(z) = RPC⁻¹(p, z)``, reach it
 (:meth:`.dem_guide.DemGuide.meet`, the damped fixed point ``z ← z + ½ (H(X(z)) − z)``); the tile searches
-``[min z − m, max z + m⁺]`` (``m`` the fit's margin, ``m⁺`` its margin above, :attr:`.dem_guide.DemFit.above`:
+``[min z − m, max z + m⁺]`` (:meth:`.dem_guide.DemGuide.span`, the frame pairs' rule too: ``m`` the fit's margin,
+``m⁺`` its margin above, :attr:`.dem_guide.DemFit.above`:
 the tie points' rise over the DEM plus the pad, so that roofs and trees a DEM of the ground lies under stay in the
 range; each widened by what the nodes' iteration left), inside the pair's range. A tile any node of which falls in
 a void or off the DEM keeps the pair's range (the tie points'). Heights are ellipsoidal as the RPCs' (the DEM is
@@ -38,20 +39,8 @@ def pair_guide(p, name: str, ims, pt: dict, source, zlim) -> tuple:
     n = int(len(pt["z"]))
     fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
     guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, None, fps)
-    if f is not None:
-        p.extra["dem"]["margin_above_m"] = round(f.above, 2)
     # with no fit measured nothing guides (``guides`` False); a measured fit's problems do not depend on it
     return guide, dem_guide.problems(f or dem_guide.DemFit(0.0, 0.0, 0.0, 0), name, n, guides=False, other=RPC_OFFSET)
-
-
-def pair_range(guide, tie: tuple, zlim: tuple) -> tuple:
-    """The pair's heights with a DEM ``guide``: the shifted DEM's over the pair, its margin below and its margin
-    above, with the tie points' ``tie`` (the tiles a void leaves to them), inside the run's ``zlim``."""
-    h = guide.dem.data[np.isfinite(guide.dem.data)] - guide.fitted.offset
-    if not h.size:
-        return tie
-    lo, hi = min(tie[0], float(h.min()) - guide.margin), max(tie[1], float(h.max()) + guide.above)
-    return max(zlim[0], lo), min(zlim[1], hi)
 
 
 def tile_range(m1, guide, tile, zlo: float, zhi: float) -> tuple:
@@ -63,6 +52,6 @@ def tile_range(m1, guide, tile, zlo: float, zhi: float) -> tuple:
     z, res = guide.meet(lambda h: m1.inverse(g, h)[:, :2], 0.5 * (zlo + zhi), len(g))
     if not np.isfinite(z).all():
         return zlo, zhi
-    lo, hi = float(np.min(z - res)) - guide.margin, float(np.max(z + res)) + guide.above
+    lo, hi = guide.span(z, res)
     lo, hi = max(zlo, lo), min(zhi, hi)
     return (lo, hi) if hi > lo else (zlo, zhi)

@@ -198,7 +198,7 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
         guide, said = rpc_dem.pair_guide(p, name, ims, pt, dem[1], (zlo, zhi))
         if said:
             rp.warn(f"DEM {str(dem[0])!r} (--dem): " + "; ".join(said))
-        tie = tie if guide is None else rpc_dem.pair_range(guide, tie, (zlo, zhi))
+        tie = tie if guide is None else guide.pair_range(tie, (zlo, zhi))
     entry["relative_pointing_large"] = bool(np.hypot(*pt["tau"]) > rp.LARGE_POINTING_PX)
     _check_places(name, (a, b), float(np.hypot(*pt["tau"])), entry["relative_pointing_large"])
     rp.warn(rp.pointing_warning(name, pt, dem is not None))

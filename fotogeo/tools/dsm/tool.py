@@ -242,7 +242,10 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     # the DEM guides, or too few matches to go without its range; else (a DEM they disagree with or have no height
     # on) the matches' heights, as without --dem
     if dem is not None and (guide is not None or sp["n"] < dem_guide.DEM_MIN_MATCHES):
-        return rp, plan.disparity_bounds(rp, zlo, zhi), (zlo, zhi), None, local.guides(sp, ceiling), guide
+        # above the run's range up to the DEM's margin above (what stands on it), below the lower camera as the
+        # matches' range (plan.matched_heights); the run's lowest height stays (its footprints set the grid)
+        zlim = (zlo, zhi) if guide is None else guide.pair_range((zlo, zhi), (zlo, zhi + 0.75 * max(ceiling - zhi, 0.0)))
+        return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), guide
     if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search"), None, None
