@@ -41,7 +41,17 @@ class LonLatModel:
     def inverse(self, pixel, heights=None, **_) -> np.ndarray:
         """Map ``(X, Y, Z)`` of image pixels at ``heights`` (a number, ``(N,)`` or a map-CRS height source)."""
         if is_height_source(heights):
-            source = heights
-            heights = lambda LL: heights_at(source, self.to_map(LL))  # noqa: E731 - the model samples in lon/lat
+            heights = _LonLatHeights(heights, self.to_map)  # the model samples in lon/lat
         ll = np.asarray(self.model.inverse(as_points(pixel, 2, "pixels"), heights), float)
         return np.column_stack([self.to_map(ll[:, :2]), ll[:, 2] if ll.shape[1] > 2 else np.full(len(ll), np.nan)])
+
+
+class _LonLatHeights:
+    """A map-CRS height ``source`` sampled at ``(lon, lat)`` (``to_map`` converts), keeping its ``z_range``."""
+
+    def __init__(self, source, to_map):
+        self.source, self.to_map = source, to_map
+        self.z_range = getattr(source, "z_range", None)
+
+    def __call__(self, LL) -> np.ndarray:
+        return heights_at(self.source, self.to_map(LL))

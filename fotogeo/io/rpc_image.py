@@ -22,6 +22,10 @@ is not the identity. That file says two things the reader cannot tell apart: tag
 ``(c, f)`` px off: a DSM kilometres from its place for a window deep in a product, with no error). A geotransform
 that also resamples (``a ≠ 1``: ``gdal_translate -outsize``) adds a third reading: tags rescaled by a GDAL older
 than 3.9.3, ``(1 − 1/a) / 2`` px off the RPC's centre convention (:func:`_resampled_message`).
+
+One image, one RPC: an RPC file beside the image that GDAL did not read (an OSSIM ``.geom`` beside RPC tags, a
+second file beside the first found) is read as it would be alone and compared with the RPC used; more than a
+pixel apart (:func:`rpc_gap_px`), the image is refused naming both and how to keep one (:func:`check_one_rpc`).
 """
 from __future__ import annotations
 
@@ -140,12 +144,23 @@ def image_rpc(image, rpc=None) -> ImageRpc:
             t = _tags_window(image)
             if t is not None:
                 _refuse_tags_with_window(image, t)
-            return ImageRpc(tags, "GDAL RPC metadata")
+            used = ImageRpc(tags, "GDAL RPC metadata")
+            read = gdal_rpc_files(image)
+            check_one_rpc(image, used, [f for f in sidecar_rpc_files(image) if f not in read])
+            return used
         found = sidecar_rpc_files(image)
         if not found:
-            raise InputError(f"image {str(image)!r} has no RPC: no GDAL RPC metadata and no .geom, .RPB, _RPC.TXT "
-                             f"or RPC XML beside it; give the RPC file")
-        rpc = found[0]
+            s = image.stem
+            raise InputError(f"image {str(image)!r} has no RPC: no GDAL RPC metadata and no RPC file beside it; put "
+                             f"the RPC of its product beside it as {s}.geom (OSSIM), {s}.RPB or {s}_RPC.TXT")
+        used = _file_rpc(image, found[0])
+        check_one_rpc(image, used, found[1:])
+        return used
+    return _file_rpc(image, rpc)
+
+
+def _file_rpc(image: Path, rpc) -> ImageRpc:
+    """The RPC file ``rpc`` moved into ``image``'s pixels by its window geotransform (module docstring)."""
     model = read_rpc(rpc)
     window = _pixel_geotransform(image)
     if window == "georeferenced":
@@ -154,3 +169,63 @@ def image_rpc(image, rpc=None) -> ImageRpc:
     if window is not None:
         model = in_window(model, *window)
     return ImageRpc(model, str(rpc), window)
+
+
+def gdal_rpc_files(image) -> list[Path]:
+    """The RPC files beside ``image`` (:func:`sidecar_rpc_files`) that GDAL read as its RPC metadata (it lists
+    them among the dataset's files: ``.RPB``, ``_RPC.TXT``, DIMAP or DigitalGlobe XML; never an OSSIM ``.geom``)."""
+    from .raster import ropen
+    with ropen(image) as ds:
+        listed = {Path(f).resolve() for f in (ds.files or [])}
+    return [f for f in sidecar_rpc_files(image) if f.resolve() in listed]
+
+
+def source_label(image, info: ImageRpc) -> str:
+    """The RPC source of ``info`` in a user's words: the file's name, the file GDAL read beside the image, or
+    "GeoTIFF RPC tags"."""
+    if info.source != "GDAL RPC metadata":
+        return Path(info.source).name + (" + window geotransform" if info.product_window is not None else "")
+    files = gdal_rpc_files(image)
+    return f"{files[0].name} (read by GDAL)" if files else "GeoTIFF RPC tags"
+
+
+def rpc_gap_px(a: Rpc, b: Rpc, width: int, height: int) -> float:
+    """The largest distance (px) between the pixels RPCs ``a`` and ``b`` give the same ground points: those ``a``
+    sees at a 5 x 5 grid over the ``width`` x ``height`` image at ``HEIGHT_OFF`` and ``HEIGHT_OFF ± ½·HEIGHT_SCALE``
+    (inf when ``b`` cannot place them)."""
+    import numpy as np
+    ma, mb = a.to_model(), b.to_model()
+    u, v = np.meshgrid(np.linspace(0, width, 5), np.linspace(0, height, 5))
+    px = np.column_stack([u.ravel(), v.ravel()])
+    gaps = []
+    for z in a.height_off + a.height_scale * np.array([-0.5, 0.0, 0.5]):
+        with np.errstate(all="ignore"):
+            g = np.asarray(ma.inverse(px, np.full(len(px), z)), float)
+            q = np.asarray(mb.forward(np.column_stack([g[:, 0], g[:, 1], np.full(len(px), z)])), float)
+        gaps.append(np.hypot(*(q - px).T))
+    gap = np.concatenate(gaps)
+    return float(gap.max()) if np.isfinite(gap).all() else math.inf
+
+
+def check_one_rpc(image: Path, used: ImageRpc, others: list) -> None:
+    """Refuse ``image`` when an RPC file in ``others`` (beside it, read as :func:`image_rpc` would read it alone)
+    disagrees with the RPC ``used`` by more than a pixel: one of them does not describe its pixels."""
+    from .raster import ropen
+    if not others:
+        return
+    with ropen(image) as ds:
+        w, h = ds.width, ds.height
+    name = source_label(image, used)
+    for f in others:
+        try:
+            other = _file_rpc(image, f)
+        except InputError:
+            continue  # unreadable or refused alone: not a second RPC of this image
+        gap = rpc_gap_px(used.rpc, other.rpc, w, h)
+        if gap <= 1.0:
+            continue
+        keep = (f"to keep {f.name} remove the tags (gdal_edit.py -unsetrpc {image.name}), to keep the tags move "
+                f"{f.name} away" if name == "GeoTIFF RPC tags" else
+                f"fotogeo reads {name.split(' ')[0]} first: move away the one that does not describe this image")
+        raise InputError(f"image {str(image)!r} has two RPCs that disagree by {gap:.0f} px: {name} (read first) "
+                         f"and {f.name} beside it; keep one: {keep}")

@@ -142,9 +142,15 @@ class FittedModel(Model):
 
         Step k: ``Z_k = h(XY_{k-1})``, ``XY_k`` = the inverse at ``Z_k`` (Newton, started at
         ``XY_{k-1}``). A point converges at the step where ``|Z_k − Z_{k-1}| < tol_z`` (or ``Z_k``
-        is NaN: off the DEM) and keeps ``XY_k``; the others go on, at most ``iterations`` steps.
+        is NaN: off the DEM) and keeps ``XY_k``; the others go on, at most ``iterations`` steps. ``Z_0``: the
+        model's height offset, moved into the source's ``z_range`` when it has one: a ray started above or below
+        every height of a small DEM lands beside it, off the terrain, and is lost.
         """
-        z0 = np.full(len(dst), float(self.src_norm.offset[2]))
+        z0 = float(self.src_norm.offset[2])
+        zr = getattr(src, "z_range", None)
+        if zr is not None and np.isfinite(zr).all():
+            z0 = min(max(z0, float(zr[0])), float(zr[1]))
+        z0 = np.full(len(dst), z0)
         return intersect_terrain(lambda idx, z, start: self._inverse_at(dst[idx], z, iterations, tol, start=start),
                                  lambda XY: heights_at(src, XY), z0, iterations, tol_z)
 

@@ -54,11 +54,34 @@ def _choose(ims, names, zlo, zhi, pairs) -> list:
     choices = best[1]
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
-        lost = _lost_offset(ims, best.i, best.j) if best.reason.startswith("overlap") else ""
+        lost = (_far_apart(ims, best.i, best.j) or _lost_offset(ims, best.i, best.j)
+                if best.reason.startswith("overlap") else "")
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
                          f"overlapping): {best.reason}; " + (lost or "give images of the same ground seen from "
                                                                        "different angles"))
     return choices
+
+
+def _far_apart(ims, i: int, j: int) -> str:
+    """The refusal's cause when images ``i`` and ``j`` show different places, "" otherwise: the ground their RPCs
+    are valid for (``LONG_OFF ± LONG_SCALE``, ``LAT_OFF ± LAT_SCALE``, the whole product's) does not overlap, so no
+    place in a product could make them overlap; each footprint named by its centre (the image's centre at
+    ``HEIGHT_OFF``) and their distance on a sphere of 6371 km."""
+    from ...io.rpc_image import image_rpc
+    r = [image_rpc(ims[k].path).rpc for k in (i, j)]
+    if (abs(r[0].long_off - r[1].long_off) <= r[0].long_scale + r[1].long_scale
+            and abs(r[0].lat_off - r[1].lat_off) <= r[0].lat_scale + r[1].lat_scale):
+        return ""
+    c = []
+    for k, rk in zip((i, j), r):
+        px = np.array([[ims[k].width / 2, ims[k].height / 2]] * 2)
+        c.append(np.asarray(rk.to_model().inverse(px, np.full(2, rk.height_off)), float)[0, :2])
+    (lo1, la1), (lo2, la2) = np.radians(c[0]), np.radians(c[1])
+    km = 6371.0 * 2 * np.arcsin(np.sqrt(np.sin((la2 - la1) / 2) ** 2
+                                        + np.cos(la1) * np.cos(la2) * np.sin((lo2 - lo1) / 2) ** 2))
+    return (f"their footprints do not overlap: {ims[i].name!r} is centred at lon {c[0][0]:.4f}, lat {c[0][1]:.4f} "
+            f"and {ims[j].name!r} at lon {c[1][0]:.4f}, lat {c[1][1]:.4f}, {km:.0f} km apart (even their whole "
+            f"products' RPCs cover no common ground): give images of the same ground seen from different angles")
 
 
 def _lost_offset(ims, i: int, j: int) -> str:
@@ -120,16 +143,16 @@ def _product_rpc(im):
 
 
 def _placeless(im) -> str:
-    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): :func:`_product_rpc`
-    with an RPC file (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it). GeoTIFF RPC tags are not
-    taken for it here, where a pair that matched is refused: GDAL writes them per dataset and moves them into every
-    window it cuts (a tagged image that matched is taken at its word); :func:`_lost_offset` names them when a pair
-    does not even overlap."""
+    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): :func:`_product_rpc`,
+    whatever its RPC's source: an RPC file (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it) or GeoTIFF
+    RPC tags, which GDAL writes per dataset and moves into every window it cuts (``OFF − SCALE ≈ −COL``), so tags of
+    a whole product on a much smaller image were not cut by GDAL, or come from its corner."""
     found = _product_rpc(im)
-    if found is None or found[1] is None:
+    if found is None:
         return ""
     r = found[0].rpc
-    return (f"{im.width} x {im.height} px, no geotransform; {Path(found[1]).name}: a product of about "
+    what = Path(found[1]).name if found[1] is not None else "GeoTIFF RPC tags"
+    return (f"{im.width} x {im.height} px, no geotransform; {what}: a product of about "
             f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f}")
 
 
@@ -142,10 +165,11 @@ def _check_places(name: str, pair, size: float, large: bool) -> None:
         return
     many = len(lost) > 1
     where = (f"pair {name}: {' and '.join(lost)} {'are' if many else 'is'} read at the first pixel of the "
-             f"product {'their RPC files describe' if many else 'its RPC file describes'}")
+             f"product {'their RPCs describe' if many else 'its RPC describes'}")
     fix = (f"cut {'them' if many else 'it'} again from the product with gdal_translate -srcwin COL ROW W H (GDAL "
-           f"moves the RPC into the cut), or beside an OSSIM .geom give {'each' if many else 'it'} a CRS-less "
-           f"geotransform at its place (gdal_edit.py -a_ullr COL ROW COL+W ROW+H), or the RPC of its own pixels")
+           f"moves the RPC into the cut), or beside an OSSIM .geom without RPC tags give {'each' if many else 'it'} "
+           f"a CRS-less geotransform at its place (gdal_edit.py -a_ullr COL ROW COL+W ROW+H), or the RPC of its "
+           f"own pixels")
     if large:
         raise InputError(f"{where}, and the pair's RPCs disagree by {size:.0f} px after matching "
                          f"(vendor RPCs: a few): cut-outs that lost their place, whose DSM would lie at the "
@@ -249,6 +273,12 @@ def rpc_images(images, crs, dem) -> tuple:
     return out, map_c, rule
 
 
+def _rpc_sources(images) -> list:
+    """Where each image's RPC was read (:func:`fotogeo.io.rpc_image.source_label`), for the console and report."""
+    from ...io.rpc_image import image_rpc, source_label
+    return [source_label(p, image_rpc(p)) for p in images]
+
+
 def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
             point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
@@ -258,12 +288,16 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     zlo, zhi = rp.rpc_height_range(ims)
     guide, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
+    origins = _rpc_sources(images)
+    notes.append("RPCs: " + "; ".join(f"{n} from {o}" for n, o in zip(names, origins)))
     if dem is not None:  # the RPCs' range with the DEM's: a DEM in another vertical reference must not cut it
         source, dlo, dhi, more = _dem_heights(dem, dem_heights, geoid, map_c, ims)
         zlo, zhi, guide = min(zlo, dlo), max(zhi, dhi), (dem, source)
         notes += more + ["height range from the DEM and the tie points"]
-    sources = [SourceImage(im.path, bands) for im in ims]
     choices = _choose(ims, names, zlo, zhi, pairs)
+    for p in choices:
+        p.extra["rpc_sources"] = [origins[p.i], origins[p.j]]
+    sources = [SourceImage(im.path, bands) for im in ims]
     kept = [p for p in choices if p.kept]
     setups = {}
     for p in kept:
