@@ -142,8 +142,8 @@ def test_a_rematch_is_kept_only_with_enough_inliers_and_the_rough_alignment(monk
     inliers and a homography within REMATCH_AGREE_PX of the rough one at the first match's inliers."""
     fused = tuple(pca_fuse(_unrelated_scene(s)) for s in (1, 2))
     rough, other = _Shift((3, 4)), _Shift((3 + off_px, 4))
-    results = iter([(rough, 6, np.array([[10.0, 20.0], [300.0, 50.0]])), (other, n1, None)])
-    monkeypatch.setattr(bands_mod, "_inliers", lambda *a: next(results))
+    monkeypatch.setattr(bands_mod, "_hypotheses", lambda *a: iter([(rough, 6, np.array([[10.0, 20.0], [300.0, 50.0]]))]))
+    monkeypatch.setattr(bands_mod, "_inliers", lambda *a: (other, n1, None))
     monkeypatch.setattr(bands_mod, "combined_for_matching",
                         lambda infos, opts, fu_ref, fu_tgt, H: ("reference", fu_ref, {"combined": "reference"}))
     monkeypatch.setattr(bands_mod, "detect", lambda *a, **k: "new keypoints")
