@@ -25,7 +25,7 @@ corners H₀ extrapolates: fitted to the 6 inliers of the s2 NIR-only case it is
 re-match of 682 inliers is right. Otherwise the first match is kept and the report's
 ``bands_rematched`` says why (``kept: false``, ``refused``).
 
-A handful of inliers among mostly wrong matches need not be the true alignment: with so few, RANSAC stops at
+A handful of inliers among mostly wrong matches need not be the true alignment: with so few, RANSAC may stop at
 its trial limit before its confidence is reached, and may keep a consensus of a few true and some wrong matches
 (the homography off by tens of pixels), which fits a combination that does not correlate. When the correlation
 gate refuses it, the same RANSAC draws on from the same seeded generator, and the consensus it keeps then — when
@@ -68,7 +68,7 @@ REMATCH_MIN_INLIERS = 20
 #: pixels of the images matched): both describe the same alignment there when the re-match is right (0.9-2.6 px
 #: on the s2 NIR-only and NIR + G cases of benchmarks/register_bands_bench.py and the r45 test case)
 REMATCH_AGREE_PX = 5.0
-#: hypotheses of the first match tried for the combination: RANSAC's kept one and its runners-up
+#: hypotheses of the first match tried for the combination: RANSAC's, then those it keeps drawing on
 REMATCH_TRIES = 4
 
 
