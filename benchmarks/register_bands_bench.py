@@ -2,6 +2,7 @@
 reference and the target have different bands.
 
 Run:  .venv/bin/python benchmarks/register_bands_bench.py [--cases ngi,s2,landsat] [--band-sets a,b] [--warps a,b]
+      [--methods surf+lsm,sift,sift+lsm]
 
 The known warps of benchmarks/register_precision_bench.py (tests/known_warps.py: a real image, an exact
 projective warp, gain 0.8 + offset 20 + noise σ 1), with the reference and the target in other band sets
@@ -9,7 +10,7 @@ projective warp, gain 0.8 + offset 20 + noise σ 1), with the reference and the 
 band and four other combinations), a 4-band reference (RGB + NIR-like) against a one-band (panchromatic)
 target, an RGB reference against a 2-band (NIR-like, G) target. Reported per case and method: the dense
 RMSE of the model against the exact warp (reference pixels; 20x20 grid), its maximum, inliers, LSM
-converged. Target: the default ≤ 0.05 px and ≤ ``sift`` on every case.
+converged. Target: the default ≤ 0.05 px and ≤ the SIFT variants run (``sift``, ``sift+lsm``) on every case.
 
 ``--pca-only`` runs LSM on the PCA fusions as before the band combination (the 'before' table).
 
@@ -34,6 +35,21 @@ sys.path.insert(0, str(ROOT / "tests"))
 from known_warps import BAND_SETS, IMAGES, WARPS, known_warp_bands  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "register_bands_bench.json"
+
+
+def verdicts_of(rows: list) -> list:
+    """Per case: the default's dense RMSE, each SIFT variant's run (``sift``, ``sift+lsm``) and whether the default
+    is ≤ 0.05 px and ≤ every one of them (a refused SIFT variant counts as beaten)."""
+    by = {(r["image"], r["band_set"], r["warp"], r["method"]): r for r in rows if "error" not in r}
+    sifts = sorted({r["method"] for r in rows if r["method"].startswith("sift")})
+    out = []
+    for (name, bs, warp) in sorted({(r["image"], r["band_set"], r["warp"]) for r in rows}):
+        d = by.get((name, bs, warp, "surf+lsm"))
+        s = {m: by[(name, bs, warp, m)]["dense_rmse_px"] for m in sifts if (name, bs, warp, m) in by}
+        ok = d is not None and d["dense_rmse_px"] <= 0.05 and all(d["dense_rmse_px"] <= v for v in s.values())
+        out.append({"case": f"{name}/{bs}/{warp}", "default_px": d and d["dense_rmse_px"], "sift_px": s,
+                    "ok": bool(ok)})
+    return out
 
 
 def main(argv=None):
@@ -72,15 +88,10 @@ def main(argv=None):
                             f"  failed: {err[:80]}" if r is None else
                             f"{fmt(row['dense_rmse_px']):>8}{fmt(row['dense_max_px']):>8}{row['inliers']:>6}"
                             f"{fmt(row['lsm_converged'], '{}'):>6}"), flush=True)
-    by = {(r["image"], r["band_set"], r["warp"], r["method"]): r for r in rows if "error" not in r}
-    verdicts = []
-    for (name, bs, warp) in sorted({(r["image"], r["band_set"], r["warp"]) for r in rows}):
-        d, s = by.get((name, bs, warp, "surf+lsm")), by.get((name, bs, warp, "sift"))
-        ok = d is not None and d["dense_rmse_px"] <= 0.05 and (s is None or d["dense_rmse_px"] <= s["dense_rmse_px"])
-        verdicts.append({"case": f"{name}/{bs}/{warp}", "default_px": d and d["dense_rmse_px"],
-                         "sift_px": s and s["dense_rmse_px"], "ok": bool(ok)})
-        print(f"{name}/{bs}/{warp}: default {fmt(d and d['dense_rmse_px'])} sift {fmt(s and s['dense_rmse_px'])}"
-              f" {'ok' if ok else 'NOT MET'}")
+    verdicts = verdicts_of(rows)
+    for v in verdicts:
+        print(f"{v['case']}: default {fmt(v['default_px'])} "
+              + " ".join(f"{m} {fmt(px)}" for m, px in v["sift_px"].items()) + f" {'ok' if v['ok'] else 'NOT MET'}")
     result = {"benchmark": "register_bands_bench", "argv": sys.argv[1:], "date": time.strftime("%Y-%m-%d %H:%M"),
               "machine": {"python": platform.python_version(), "cpus": os.cpu_count(), "load_avg": os.getloadavg()},
               "fotogeo": fotogeo.__version__, "units": "dense RMSE / max in reference pixels",

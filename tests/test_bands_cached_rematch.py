@@ -51,7 +51,7 @@ def test_the_images_are_read_for_a_rematch_only_when_the_cached_match_is_weak(mo
     monkeypatch.setattr(bands_mod, "combined_for_matching", lambda *a: None)
     for n0, counts, read in ((bands_mod.REMATCH_BELOW, (3, 1), False), (5, (1, 1), False), (5, (3, 3), False),
                              (5, (3, 1), True), (5, (3, 4), True)):
-        monkeypatch.setattr(bands_mod, "_inliers", lambda *a, n0=n0: ("H", n0, None))
+        monkeypatch.setattr(bands_mod, "_hypotheses", lambda *a, n0=n0: iter([("H", n0, None)]))
         calls.clear()
         out = bands_mod.rematch((Info(counts[0]), Info(counts[1])), opts, fused, ("kp_ref", "kp_tgt"), "m")
         assert bool(calls) is read and out[2:] == ("kp_ref", "kp_tgt", "m", None)

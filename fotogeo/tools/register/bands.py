@@ -24,9 +24,19 @@ REMATCH_AGREE_PX`` (the median: single keypoints of a cross-band match are off b
 corners H₀ extrapolates: fitted to the 6 inliers of the s2 NIR-only case it is 64 px off there while the
 re-match of 682 inliers is right. Otherwise the first match is kept and the report's
 ``bands_rematched`` says why (``kept: false``, ``refused``).
+
+A handful of inliers among mostly wrong matches need not be the true alignment: with so few, RANSAC may stop at
+its trial limit before its confidence is reached, and may keep a consensus of a few true and some wrong matches
+(the homography off by tens of pixels), which fits a combination that does not correlate. When the correlation
+gate refuses it, the same RANSAC draws on from the same seeded generator, and the consensus it keeps then — when
+it is not a consensus tried already — is tried through the same gate, at most :data:`REMATCH_TRIES` hypotheses in
+all. A re-match from one of them passes the same inlier count (twice the larger of the first consensus and its
+own, at least :data:`REMATCH_MIN_INLIERS`) and agreement (with that hypothesis at its own inliers) checks; the
+report's ``hypotheses`` lists each try's inliers and outcome.
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import cv2
@@ -58,6 +68,8 @@ REMATCH_MIN_INLIERS = 20
 #: pixels of the images matched): both describe the same alignment there when the re-match is right (0.9-2.6 px
 #: on the s2 NIR-only and NIR + G cases of benchmarks/register_bands_bench.py and the r45 test case)
 REMATCH_AGREE_PX = 5.0
+#: hypotheses of the first match tried for the combination: RANSAC's, then those it keeps drawing on
+REMATCH_TRIES = 4
 
 
 def _bands(info, role: str, opts) -> np.ndarray:
@@ -132,15 +144,51 @@ def combined_for_matching(infos, opts, fu_ref, fu_tgt, homography):
     return side, combined_fusion(bands, valid, own, comb), report
 
 
+def _hypotheses(kp_ref, kp_tgt, m, opts):
+    """``(homography reference -> target pixels matched, inliers, their reference pixels)`` of the matches ``m``:
+    RANSAC's, then RANSAC's again drawing on from the same generator (``opts.seed``) — each consensus once, at most
+    :data:`REMATCH_TRIES` runs (module docstring); nothing when RANSAC finds no consensus."""
+    src, dst = kp_ref.xy[m.pairs[:, 1]], kp_tgt.xy[m.pairs[:, 0]]
+    rng, seen = np.random.default_rng(opts.seed), []
+    for _ in range(REMATCH_TRIES):
+        try:
+            r = ransac(Projective, src, dst, opts.ransac_threshold, rng=rng)
+        except FotogeoError:
+            return
+        if not any(np.array_equal(r.inliers, s) for s in seen):
+            seen.append(r.inliers)
+            yield r.model, int(r.inliers.sum()), src[r.inliers]
+
+
 def _inliers(kp_ref, kp_tgt, m, opts):
-    """``(homography reference -> target pixels matched, inliers, their reference pixels)`` of the matches ``m``,
-    or ``(None, 0, None)``."""
-    src = kp_ref.xy[m.pairs[:, 1]]
-    try:
-        r = ransac(Projective, src, kp_tgt.xy[m.pairs[:, 0]], opts.ransac_threshold, rng=opts.seed)
-    except FotogeoError:
-        return None, 0, None
-    return r.model, int(r.inliers.sum()), src[r.inliers]
+    """The first of :func:`_hypotheses`, or ``(None, 0, None)``."""
+    return next(_hypotheses(kp_ref, kp_tgt, m, opts), (None, 0, None))
+
+
+def _combined_from_hypotheses(infos, opts, fused, hyps):
+    """``(side, fusion, report, (H, n, at))`` of the first hypothesis of ``hyps`` (:func:`_hypotheses`) whose
+    combination :func:`combined_for_matching` accepts; ``side`` and ``fusion`` None, with the first refusal's
+    report and every try's outcome, when none is; None when both sides have one band."""
+    tries, first = [], None
+    for H, n, at in hyps:
+        found = combined_for_matching(infos, opts, *fused, H)
+        if found is None:
+            return None
+        side, new, report = found
+        first = first or report
+        tries.append({"inliers": n, "correlation_combined": report.get("correlation_combined"),
+                      **({"refused": report["refused"]} if new is None else {"kept": True})})
+        if new is not None:
+            break
+    if new is None:
+        report = first
+        if len(tries) > 1:
+            report["refused"] += (f"; so did the {len(tries) - 1} next RANSAC hypotheses of the first match ("
+                                  + ", ".join(f"{t['inliers']} inliers: {t['correlation_combined']}"
+                                              for t in tries[1:]) + ")")
+    if len(tries) > 1:
+        report["hypotheses"] = tries
+    return side, new, report, (H, n, at)
 
 
 def _disagreement(H0, H1, xy) -> float:
@@ -174,16 +222,17 @@ def rematch(infos, opts, fused, kps, m):
     counts = _band_counts(infos, opts, fused)
     if max(counts) < 2 or (lazy and counts[0] == counts[1]):
         return given
-    H, n0, at = _inliers(*kps, m, opts)
+    hyps = _hypotheses(*kps, m, opts)
+    H, n0, at = next(hyps, (None, 0, None))
     if H is None or n0 >= REMATCH_BELOW:
         return given
     if lazy:
         fused = tuple(fused())
         given = (*fused, *given[2:])
-    found = combined_for_matching(infos, opts, *fused, H)
+    found = _combined_from_hypotheses(infos, opts, fused, itertools.chain([(H, n0, at)], hyps))
     if found is None:
         return given
-    side, new, report = found
+    side, new, report, (H, n, at) = found
     if new is None:
         return (*given[:-1], {**report, "inliers_before": n0, "kept": False})
     kp = detect(apply_contrast(new.image, new.mask, opts.contrast), new.mask, opts.detector,
@@ -193,7 +242,7 @@ def rematch(infos, opts, fused, kps, m):
     m2 = match_keypoints(kp_tgt, kp_ref, opts)
     H1, n1, _ = _inliers(kp_ref, kp_tgt, m2, opts) if len(m2) >= 6 else (None, 0, None)
     report.update(inliers_before=n0, inliers_after=n1)
-    need = max(2 * n0, REMATCH_MIN_INLIERS)
+    need = max(2 * max(n0, n), REMATCH_MIN_INLIERS)
     if n1 < need:
         return (*given[:-1], {**report, "kept": False, "refused": f"{n1} inliers after the re-match, {need} needed"})
     shift = _disagreement(H, H1, at)
@@ -201,5 +250,5 @@ def rematch(infos, opts, fused, kps, m):
     if not shift <= REMATCH_AGREE_PX:
         return (*given[:-1], {**report, "kept": False,
                               "refused": f"the re-match's homography differs from the first match's by {shift:.1f} "
-                                         f"px (median) at its {n0} inliers (at most {REMATCH_AGREE_PX} px)"})
+                                         f"px (median) at its {len(at)} inliers (at most {REMATCH_AGREE_PX} px)"})
     return fu_ref, fu_tgt, kp_ref, kp_tgt, m2, {**report, "kept": True}
