@@ -231,7 +231,7 @@ def _ventoux(data_dir, folder: Path, right_geom: str, edit=None) -> list:
 def test_ventoux_rpc_pair_and_its_biased_twin(data_dir, tmp_path):
     """The Pleiades pair fills most of its overlap (CARS 1.3: 42 % with wide margins) with a small relative
     pointing correction; with the right RPC about 60 px off, fotogeo measures the across-line part, warns that
-    absolute heights need a DEM or GCPs, and its surface comes out higher, as CARS's did."""
+    absolute heights need GCPs (rpc-bias), and its surface comes out higher, as CARS's did."""
     from fotogeo.errors import FotogeoWarning
     from fotogeo.tools.dsm import dsm
     good = dsm(_ventoux(data_dir, tmp_path / "a", "right_image.geom"), tmp_path / "a.tif", rpc=True, resolution=0.5,
@@ -240,12 +240,25 @@ def test_ventoux_rpc_pair_and_its_biased_twin(data_dir, tmp_path):
     assert good["completeness"] > 0.6 and good["height_reference"] == "ellipsoid"
     assert np.hypot(*p["relative_pointing_px"]) < 10 and p["epipolar_residual_px"]["after"] < 0.5
     with pytest.warns(FotogeoWarning, match=r"relative pointing error of the RPCs was large .*absolute heights need "
-                                            r"a reference DEM or GCPs"):
+                                            r"GCPs: correct the RPCs with them \(fotogeo rpc-bias"):
         bad = dsm(_ventoux(data_dir, tmp_path / "b", "right_image_bias.geom"), tmp_path / "b.tif", rpc=True,
                   resolution=0.5)
     q = bad["pairs"][0]
     assert q["relative_pointing_large"] and np.hypot(*q["relative_pointing_px"]) > 15
     assert bad["heights"]["median"] - good["heights"]["median"] > 40
+
+
+@pytest.mark.parametrize("have_dem", [False, True])
+def test_the_pointing_warning_offers_the_fix_that_moves_the_heights(have_dem):
+    """A large relative pointing error shifts every height: the fix offered is the RPCs corrected with GCPs
+    (rpc-bias); a DEM is said to measure the shift, not remove it (before, "give a reference DEM (--dem)" was
+    offered as a fix, and with --dem the DSM stayed as high)."""
+    from fotogeo.tools.dsm.rpc_pairs import pointing_warning
+    text = pointing_warning("a-b", {"tau": (20.0, 3.0), "n": 491, "m_per_px": 1.4}, have_dem)
+    assert "absolute heights need GCPs: correct the RPCs with them (fotogeo rpc-bias" in text, text
+    assert "but does not move them" in text if have_dem else "would measure how far the heights lie" in text
+    assert "give a reference DEM" not in text and pointing_warning("a-b", {"tau": (1.0, 0.0), "n": 9,
+                                                                           "m_per_px": 1.4}, have_dem) == ""
 
 
 @pytest.mark.data
