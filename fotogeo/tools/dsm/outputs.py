@@ -12,6 +12,10 @@ tile whole, so tiles give the result of the whole grid), fills the holes with ``
 a reach up to the margin sees every height it measures from, so here too tiles give the whole grid's result),
 writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
 the report and turns the GeoTIFF into a COG. Memory: the tile, never the grid.
+
+The report counts cells: ``overlap_cells`` those both images of a kept pair see (``stereo_cells``, its earlier
+name, kept for readers of earlier reports: it never counted cells with a height), ``matched_cells`` those of them
+with a matched height (``completeness`` = matched / overlap), ``filled_cells`` those ``fill`` gave a height.
 """
 from __future__ import annotations
 
@@ -125,7 +129,8 @@ class Products:
             "grid": {"width": g.width, "height": g.height, "resolution": g.resolution,
                      "transform": list(transform_of(g))[:6]},
             "completeness": round(self.valid / max(1, self.inside), 4),
-            "stereo_cells": self.inside, "filled_cells": self.filled,
+            "overlap_cells": self.inside, "matched_cells": self.valid, "stereo_cells": self.inside,
+            "filled_cells": self.filled,
             "single_pair_share": round(self.single / max(1, self.valid), 4),
             **({} if self.fill is None else {"fill_max_distance_cells": self.fill}),
             "heights": {"min": self.lo, "median": float(np.median(heights)), "max": self.hi},
