@@ -172,18 +172,27 @@ def test_ngi_frames_on_the_dem_take_its_crs(data_dir, tmp_path):
     from click.testing import CliRunner
 
     from fotogeo.cli import main
-    from fotogeo.geometry.vertical import as_pyproj, horizontal_crs
+    import laspy
+
+    from fotogeo.geometry.vertical import as_pyproj, crs_height_reference, horizontal_crs
     ngi = data_dir / "ngi"
     frames = [str(ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif") for n in ("0182", "0184")]
     out = tmp_path / "dsm.tif"
     result = CliRunner().invoke(main, ["dsm", *frames, "--camera", str(ngi / "interior_orientation.yaml"), "--eo",
                                        str(ngi / "exterior_orientation.txt"), "--dem", str(ngi / "dem.tif"), "-o",
-                                       str(out), "--report", str(tmp_path / "r.json"), "-q"])
+                                       str(out), "--report", str(tmp_path / "r.json"), "-q",
+                                       "--point-cloud", str(tmp_path / "p.las")])
     assert result.exit_code == 0, result.output
     rep = json.loads((tmp_path / "r.json").read_text())
     with rasterio.open(out) as a, rasterio.open(ngi / "dem.tif") as b:
-        assert as_pyproj(a.crs).equals(as_pyproj(horizontal_crs(b.crs)))  # the DEM's horizontal part
+        assert as_pyproj(horizontal_crs(a.crs)).equals(as_pyproj(horizontal_crs(b.crs)))  # the DEM's horizontal part
         assert rep["crs"] and rep["completeness"] > 0.8
+        # the heights' reference the report states is in the files too: the DEM's vertical CRS (EGM2008 height),
+        # compound as the DEM's (before: a 2-D CRS, and ortho --dem DSM said "reference not stated")
+        assert rep["height_reference"] == "geoid" == crs_height_reference(a.crs)
+        assert as_pyproj(b.crs).sub_crs_list[1].name == "EGM2008 height" == as_pyproj(a.crs).sub_crs_list[1].name
+    las = laspy.read(tmp_path / "p.las").header.parse_crs()
+    assert las.is_compound and las.sub_crs_list[1].name == "EGM2008 height"
 
 
 # -- bad input -----------------------------------------------------------------------------------------------------

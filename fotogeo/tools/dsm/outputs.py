@@ -46,6 +46,29 @@ def _pair_entry(p, names) -> dict:
     return d
 
 
+def with_dem_vertical(crs, ref, dem):
+    """The DSM's CRS: the map CRS ``crs`` joined, as a compound CRS, to the vertical CRS the ``dem`` file states
+    when the DSM's heights are in that DEM's reference (``ref`` "geoid", the report's ``height_reference``), so
+    that the GeoTIFF and the LAS say what the report says; ``crs`` otherwise (no DEM, ellipsoidal heights, a DEM
+    without a vertical CRS)."""
+    if ref != "geoid" or dem is None:
+        return crs
+    from pyproj.crs import CompoundCRS
+
+    from ...geometry.vertical import as_pyproj, crs_height_reference
+    from ...io.raster import open_raster
+    stated = open_raster(dem, "DEM").raster_crs
+    if stated is None or crs_height_reference(stated) != "geoid":
+        return crs
+    d, h = as_pyproj(stated), as_pyproj(crs)
+    parts = [s.source_crs if s.is_bound else s for s in (d.sub_crs_list or [d])]
+    v = next((s for s in parts if s.type_name == "Vertical CRS"), None)
+    if v is None:
+        return crs
+    name = h.name if h.name.endswith(f" + {v.name}") else f"{h.name} + {v.name}"
+    return CompoundCRS(name, [h, v])
+
+
 def transform_of(grid) -> Affine:
     return Affine(grid.resolution, 0.0, grid.x0, 0.0, -grid.resolution, grid.y0)
 
