@@ -172,18 +172,27 @@ def test_ngi_frames_on_the_dem_take_its_crs(data_dir, tmp_path):
     from click.testing import CliRunner
 
     from fotogeo.cli import main
-    from fotogeo.geometry.vertical import as_pyproj, horizontal_crs
+    import laspy
+
+    from fotogeo.geometry.vertical import as_pyproj, crs_height_reference, horizontal_crs
     ngi = data_dir / "ngi"
     frames = [str(ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif") for n in ("0182", "0184")]
     out = tmp_path / "dsm.tif"
     result = CliRunner().invoke(main, ["dsm", *frames, "--camera", str(ngi / "interior_orientation.yaml"), "--eo",
                                        str(ngi / "exterior_orientation.txt"), "--dem", str(ngi / "dem.tif"), "-o",
-                                       str(out), "--report", str(tmp_path / "r.json"), "-q"])
+                                       str(out), "--report", str(tmp_path / "r.json"), "-q",
+                                       "--point-cloud", str(tmp_path / "p.las")])
     assert result.exit_code == 0, result.output
     rep = json.loads((tmp_path / "r.json").read_text())
     with rasterio.open(out) as a, rasterio.open(ngi / "dem.tif") as b:
-        assert as_pyproj(a.crs).equals(as_pyproj(horizontal_crs(b.crs)))  # the DEM's horizontal part
+        assert as_pyproj(horizontal_crs(a.crs)).equals(as_pyproj(horizontal_crs(b.crs)))  # the DEM's horizontal part
         assert rep["crs"] and rep["completeness"] > 0.8
+        # the heights' reference the report states is in the files too: the DEM's vertical CRS (EGM2008 height),
+        # compound as the DEM's (before: a 2-D CRS, and ortho --dem DSM said "reference not stated")
+        assert rep["height_reference"] == "geoid" == crs_height_reference(a.crs)
+        assert as_pyproj(b.crs).sub_crs_list[1].name == "EGM2008 height" == as_pyproj(a.crs).sub_crs_list[1].name
+    las = laspy.read(tmp_path / "p.las").header.parse_crs()
+    assert las.is_compound and las.sub_crs_list[1].name == "EGM2008 height"
 
 
 # -- bad input -----------------------------------------------------------------------------------------------------
@@ -231,7 +240,7 @@ def _ventoux(data_dir, folder: Path, right_geom: str, edit=None) -> list:
 def test_ventoux_rpc_pair_and_its_biased_twin(data_dir, tmp_path):
     """The Pleiades pair fills most of its overlap (CARS 1.3: 42 % with wide margins) with a small relative
     pointing correction; with the right RPC about 60 px off, fotogeo measures the across-line part, warns that
-    absolute heights need a DEM or GCPs, and its surface comes out higher, as CARS's did."""
+    absolute heights need GCPs (rpc-bias), and its surface comes out higher, as CARS's did."""
     from fotogeo.errors import FotogeoWarning
     from fotogeo.tools.dsm import dsm
     good = dsm(_ventoux(data_dir, tmp_path / "a", "right_image.geom"), tmp_path / "a.tif", rpc=True, resolution=0.5,
@@ -240,12 +249,25 @@ def test_ventoux_rpc_pair_and_its_biased_twin(data_dir, tmp_path):
     assert good["completeness"] > 0.6 and good["height_reference"] == "ellipsoid"
     assert np.hypot(*p["relative_pointing_px"]) < 10 and p["epipolar_residual_px"]["after"] < 0.5
     with pytest.warns(FotogeoWarning, match=r"relative pointing error of the RPCs was large .*absolute heights need "
-                                            r"a reference DEM or GCPs"):
+                                            r"GCPs: correct the RPCs with them \(fotogeo rpc-bias"):
         bad = dsm(_ventoux(data_dir, tmp_path / "b", "right_image_bias.geom"), tmp_path / "b.tif", rpc=True,
                   resolution=0.5)
     q = bad["pairs"][0]
     assert q["relative_pointing_large"] and np.hypot(*q["relative_pointing_px"]) > 15
     assert bad["heights"]["median"] - good["heights"]["median"] > 40
+
+
+@pytest.mark.parametrize("have_dem", [False, True])
+def test_the_pointing_warning_offers_the_fix_that_moves_the_heights(have_dem):
+    """A large relative pointing error shifts every height: the fix offered is the RPCs corrected with GCPs
+    (rpc-bias); a DEM is said to measure the shift, not remove it (before, "give a reference DEM (--dem)" was
+    offered as a fix, and with --dem the DSM stayed as high)."""
+    from fotogeo.tools.dsm.rpc_pairs import pointing_warning
+    text = pointing_warning("a-b", {"tau": (20.0, 3.0), "n": 491, "m_per_px": 1.4}, have_dem)
+    assert "absolute heights need GCPs: correct the RPCs with them (fotogeo rpc-bias" in text, text
+    assert "but does not move them" in text if have_dem else "would measure how far the heights lie" in text
+    assert "give a reference DEM" not in text and pointing_warning("a-b", {"tau": (1.0, 0.0), "n": 9,
+                                                                           "m_per_px": 1.4}, have_dem) == ""
 
 
 @pytest.mark.data

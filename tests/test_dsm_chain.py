@@ -34,6 +34,8 @@ def test_triangulate_writes_the_dsm_of_the_adjusted_frames(pair, tmp_path):
     acc = accuracy(out)
     assert acc["rmse_m"] <= GSD and rep["dsm"]["completeness"] >= 0.9, (acc, rep["dsm"]["completeness"])
     assert rep["dsm"]["pairs_kept"] == 1 and rep["dsm"]["outputs"]["dsm"] == str(out)
+    # the DSM's CRS rule is the block's (it said "given (--crs)" whatever chose the block's CRS)
+    assert rep["dsm"]["crs_rule"] == f"the block's map CRS: {rep['start']['crs_rule']}", rep["dsm"]["crs_rule"]
     assert json.loads((tmp_path / "block" / "report.json").read_text())["dsm"]["completeness"] == \
         rep["dsm"]["completeness"]
     # the camera held fixed is written beside the orientation, so the folder alone serves dsm --orientation
@@ -75,3 +77,19 @@ def test_the_triangulate_folder_alone_orients_the_dsm(pair, tmp_path):
     res = CliRunner().invoke(main, [*args, "--crs", "EPSG:32636", "--overwrite"])
     assert res.exit_code != 0 and "exterior_orientation.txt' is in" in res.output and "--crs" in res.output, \
         res.output
+
+
+def test_the_console_names_the_dsm_pairs_as_dsm_does(pair, tmp_path):
+    """``triangulate --dsm`` prints the lines of ``fotogeo dsm`` for its surface model: each pair (before: none)
+    and the DSM with the cells that got a height."""
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    out = tmp_path / "dsm.tif"
+    res = CliRunner().invoke(main, ["triangulate", *map(str, pair["images"]), "--camera", str(pair["camera"]),
+                                    "--eo", str(pair["eo"]), "--crs", CRS, "--eo-sigma-position", "0.05",
+                                    "--eo-sigma-angle", "0.01", "-o", str(tmp_path / "block"), "--dsm", str(out)])
+    assert res.exit_code == 0, res.output
+    names = [p.stem for p in map(__import__("pathlib").Path, pair["images"])]
+    assert f"pair {names[0]}-{names[1]}: rays meet at " in res.output, res.output
+    assert "% of the overlap with a matched height -> " + str(out) in res.output, res.output

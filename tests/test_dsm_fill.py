@@ -64,6 +64,30 @@ def test_the_dsm_leaves_cells_beyond_the_reach_as_nodata_and_unmarked(pair, tmp_
     assert (h[(mask == 0) & ~matched] == ds.nodata).all()
 
 
+def test_the_report_and_console_count_matched_and_filled_cells(pair, tmp_path):
+    """The report's cell counts name what they count: ``overlap_cells`` both images see (the old
+    ``stereo_cells``), ``matched_cells`` with a matched height in the DSM; the console's DSM line gives the cells
+    --fill filled (before: the report only)."""
+    import json
+
+    import rasterio
+    from click.testing import CliRunner
+
+    from fotogeo.cli import main
+    r = CliRunner().invoke(main, ["dsm", *pair["images"], "--camera", str(pair["camera"]), "--eo", str(pair["eo"]),
+                                  "--crs", CRS, "--fill", "-o", str(tmp_path / "d.tif"),
+                                  "--report", str(tmp_path / "d.json")])
+    assert r.exit_code == 0, r.output
+    rep = json.loads((tmp_path / "d.json").read_text())
+    with rasterio.open(tmp_path / "d.tif") as ds:
+        h, mask = ds.read(1), ds.read(4)
+    matched = int(((h != ds.nodata) & (mask == 0)).sum())
+    assert rep["matched_cells"] == matched and rep["overlap_cells"] == rep["stereo_cells"] > matched
+    assert rep["completeness"] == round(matched / rep["overlap_cells"], 4)
+    assert 0 < rep["filled_cells"] == int((mask == 1).sum())
+    assert f", {rep['filled_cells']} cells filled (--fill) -> " in r.output, r.output
+
+
 @pytest.mark.parametrize("value", ["0", "65", "-2"])
 def test_the_cli_refuses_a_reach_outside_its_range(value, pair, tmp_path):
     from click.testing import CliRunner

@@ -622,14 +622,17 @@ def test_mosaic_two_orthos(qgis_app, tmp_path):
 
 
 def test_dsm_ngi_frames(qgis_app, data_dir, tmp_path):
-    """fotogeo:dsm on the NGI frames with their orientation: a DSM where the 24 m DEM is, its report beside it."""
+    """fotogeo:dsm on the NGI frames with their orientation: a DSM where the 24 m DEM is; REPORT left empty writes
+    no report (as the CLI without --report), so a file named as the DSM's report would be is left as it was."""
     import rasterio
     ngi = data_dir / "ngi"
     frames = [str(ngi / "frames" / f"3324c_2015_1004_05_{n}_RGB.tif") for n in ("0182", "0184")]
+    (tmp_path / "dsm.json").write_text('{"my": "notes"}')
     res = run("dsm", {"IMAGES": frames, "CAMERA": str(ngi / "interior_orientation.yaml"),
                       "EO": str(ngi / "exterior_orientation.txt"), "DEM": str(ngi / "dem.tif"),
                       "OUTPUT": str(tmp_path / "dsm.tif")})
-    assert res["REPORT"] == str(tmp_path / "dsm.json") and res["COMPLETENESS"] > 0.8
+    assert not res["REPORT"] and res["COMPLETENESS"] > 0.8
+    assert (tmp_path / "dsm.json").read_text() == '{"my": "notes"}'
     with rasterio.open(tmp_path / "dsm.tif") as ds:
         assert ds.count == 3 and ds.descriptions[:2] == ("height", "pairs")
 

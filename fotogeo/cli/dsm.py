@@ -41,16 +41,26 @@ def command(images, output, point_cloud, report, overwrite, quiet, **kw):
     finally:
         bar.close()
     click.echo(f"map CRS {rep['crs']}: {rep['crs_rule']}; heights: {'; '.join(rep['notes'])}")
+    for line in result_lines(rep):
+        click.echo(line)
+
+
+def result_lines(rep: dict) -> list[str]:
+    """The console's lines of a DSM report (:func:`fotogeo.tools.dsm.dsm`): its pairs (every one up to 12, else
+    the kept ones), the DSM's grid and cells with a height (matched, and filled with --fill), the point cloud."""
+    lines = []
     for p in rep["pairs"]:
         if p["kept"] or len(rep["pairs"]) <= 12:
             what = (f"{100 * p.get('match_density', 0):.0f} % matched, {p.get('points', 0)} points" if p["kept"]
                     else f"left out: {p['reason']}")
             points = (f"; at its points {p['ray_angle_median_deg']:.1f} median, "
                       f"{100 * p['ray_angle_under_5deg']:.0f} % under 5" if "ray_angle_median_deg" in p else "")
-            click.echo(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} degrees "
-                       f"(B/H {p['base_to_height']:.2f}{points}), {what}")
+            lines.append(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} degrees "
+                         f"(B/H {p['base_to_height']:.2f}{points}), {what}")
     g = rep["grid"]
-    click.echo(f"DSM {g['width']}x{g['height']} cells at {g['resolution']:g}, {100 * rep['completeness']:.1f} % of "
-               f"the overlap with a height -> {rep['outputs']['dsm']}")
+    filled = f", {rep['filled_cells']} cells filled (--fill)" if "fill_max_distance_cells" in rep else ""
+    lines.append(f"DSM {g['width']}x{g['height']} cells at {g['resolution']:g}, {100 * rep['completeness']:.1f} % of "
+                 f"the overlap with a matched height{filled} -> {rep['outputs']['dsm']}")
     if "point_cloud" in rep["outputs"]:
-        click.echo(f"{rep['points_written']} points -> {rep['outputs']['point_cloud']}")
+        lines.append(f"{rep['points_written']} points -> {rep['outputs']['point_cloud']}")
+    return lines

@@ -43,6 +43,7 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
     """
     from ..tools.triangulate import triangulate
     from ..tools.triangulate.outputs import accuracy_lines, dropped_lines, held_fixed_line, variance_lines
+    from .dsm import result_lines
     bar = ConsoleProgress(quiet)
     try:
         rep = triangulate(list(frames), camera, eo, observations, folder, gcps=gcps, reference=list(reference) or None,
@@ -93,10 +94,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
         click.echo(held_fixed_line(rep["fixed_parameters"]))
     surface = rep.get("dsm")
     if surface:
-        click.echo(surface["error"] if "error" in surface else
-                   f"DSM {surface['grid']['width']} x {surface['grid']['height']} cells of "
-                   f"{surface['grid']['resolution']:g} m, {100 * surface['completeness']:.0f} % of the overlap with a "
-                   f"height -> {surface['outputs']['dsm']}")
+        for line in [surface["error"]] if "error" in surface else result_lines(surface):
+            click.echo(line)
     click.echo(f"wrote {rep['folder']}")
     return rep
 

@@ -45,7 +45,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
             self.CLOUD, tr("Point cloud (LAS 1.4)"), "LAS (*.las);;LAZ (*.laz)", optional=True,
             createByDefault=False))
         self.addParameter(QgsProcessingParameterFileDestination(
-            self.REPORT, tr("Report (JSON) [beside the DSM]"), "JSON (*.json)", optional=True, createByDefault=False))
+            self.REPORT, tr("Report (JSON)"), "JSON (*.json)", optional=True, createByDefault=False))
         self.addOutput(QgsProcessingOutputNumber(self.COMPLETENESS, tr("Share of the overlap with a height")))
 
     def processAlgorithm(self, parameters, context, feedback):
@@ -53,7 +53,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
         if len(images) < 2:
             raise QgsProcessingException("IMAGES: give at least two overlapping oriented images")
         output = self.raster_output(parameters, self.OUTPUT, context)
-        report = self.file_output_or_beside(parameters, self.REPORT, context, output, ".json")
+        report = self.parameterAsFileOutput(parameters, self.REPORT, context) or None  # as the CLI: only if asked
         cloud = self.parameterAsFileOutput(parameters, self.CLOUD, context) or None
         rep = self.run_tool("dsm", images, output, point_cloud=cloud, report=report, feedback=feedback,
                             overwrite=True, **self.option_arguments(parameters, context))

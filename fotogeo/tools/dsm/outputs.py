@@ -12,6 +12,10 @@ tile whole, so tiles give the result of the whole grid), fills the holes with ``
 a reach up to the margin sees every height it measures from, so here too tiles give the whole grid's result),
 writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
 the report and turns the GeoTIFF into a COG. Memory: the tile, never the grid.
+
+The report counts cells: ``overlap_cells`` those both images of a kept pair see (``stereo_cells``, its earlier
+name, kept for readers of earlier reports: it never counted cells with a height), ``matched_cells`` those of them
+with a matched height (``completeness`` = matched / overlap), ``filled_cells`` those ``fill`` gave a height.
 """
 from __future__ import annotations
 
@@ -40,6 +44,29 @@ def _pair_entry(p, names) -> dict:
     d = p.as_dict(names)
     d.pop("overlap_polygon", None)
     return d
+
+
+def with_dem_vertical(crs, ref, dem):
+    """The DSM's CRS: the map CRS ``crs`` joined, as a compound CRS, to the vertical CRS the ``dem`` file states
+    when the DSM's heights are in that DEM's reference (``ref`` "geoid", the report's ``height_reference``), so
+    that the GeoTIFF and the LAS say what the report says; ``crs`` otherwise (no DEM, ellipsoidal heights, a DEM
+    without a vertical CRS)."""
+    if ref != "geoid" or dem is None:
+        return crs
+    from pyproj.crs import CompoundCRS
+
+    from ...geometry.vertical import as_pyproj, crs_height_reference
+    from ...io.raster import open_raster
+    stated = open_raster(dem, "DEM").raster_crs
+    if stated is None or crs_height_reference(stated) != "geoid":
+        return crs
+    d, h = as_pyproj(stated), as_pyproj(crs)
+    parts = [s.source_crs if s.is_bound else s for s in (d.sub_crs_list or [d])]
+    v = next((s for s in parts if s.type_name == "Vertical CRS"), None)
+    if v is None:
+        return crs
+    name = h.name if h.name.endswith(f" + {v.name}") else f"{h.name} + {v.name}"
+    return CompoundCRS(name, [h, v])
 
 
 def transform_of(grid) -> Affine:
@@ -125,7 +152,8 @@ class Products:
             "grid": {"width": g.width, "height": g.height, "resolution": g.resolution,
                      "transform": list(transform_of(g))[:6]},
             "completeness": round(self.valid / max(1, self.inside), 4),
-            "stereo_cells": self.inside, "filled_cells": self.filled,
+            "overlap_cells": self.inside, "matched_cells": self.valid, "stereo_cells": self.inside,
+            "filled_cells": self.filled,
             "single_pair_share": round(self.single / max(1, self.valid), 4),
             **({} if self.fill is None else {"fill_max_distance_cells": self.fill}),
             "heights": {"min": self.lo, "median": float(np.median(heights)), "max": self.hi},

@@ -311,12 +311,14 @@ def pointing_warning(name, pt: dict, have_dem: bool) -> str:
     size = float(np.hypot(*pt["tau"]))
     if size <= LARGE_POINTING_PX:
         return ""
-    fix = ("compare the heights with the DEM in the report" if have_dem else
-           "give a reference DEM (--dem) or correct the RPCs with GCPs (fotogeo rpc-bias)")
+    dem = ("the DEM (--dem) measures how far the heights lie from it (the report's pairs[].dem.offset_m) but does "
+           "not move them" if have_dem else "a reference DEM (--dem) would measure how far the heights lie from it "
+           "(the report's pairs[].dem.offset_m) but not move them")
     return (f"pair {name}: the relative pointing error of the RPCs was large ({size:.1f} px across the epipolar "
             f"lines, corrected from {pt['n']} tie points); the same error along the lines cannot be seen in the "
-            f"images and shifts every height by {pt['m_per_px']:.2g} m per pixel, so absolute heights need a "
-            f"reference DEM or GCPs: {fix}")
+            f"images and shifts every height by {pt['m_per_px']:.2g} m per pixel, so absolute heights need GCPs: "
+            f"correct the RPCs with them (fotogeo rpc-bias, one image at a time) and make the DSM from the "
+            f"corrected images; {dem}")
 
 
 def warn(text: str) -> None:

@@ -21,7 +21,7 @@ from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
 from . import dem_guide, frames, local, matching, plan, refill
 from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
-from .outputs import SPECKLE_CELLS, Products
+from .outputs import SPECKLE_CELLS, Products, with_dem_vertical
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -316,7 +316,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
         grid = _widen(first, added, setups, res, bounds, output, ims, names)
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
-        products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
+        products = Products(out, output, grid, with_dem_vertical(crs, ref, dem), fill=fill, point_cloud=point_cloud,
+                            report=report, seen=seen)
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
                                  *dask)

@@ -46,7 +46,7 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
                   progress, dem_sigma=None, surface=None, compress: str = "deflate") -> None:
     """Write every output of :func:`output_paths` (the orthophoto grids checked before any file; the rasters
     compressed with ``compress``, :mod:`fotogeo.io.compression`) as one set; then
-    the mosaic of the orthophotos (:func:`mosaic_outputs`) and the surface model (``surface(frames, progress)``,
+    the mosaic of the orthophotos (:func:`mosaic_outputs`) and the surface model (``surface(frames, progress, rule)``,
     :func:`fotogeo.tools.triangulate.surface.block_dsm`), whose failures leave that set in place. The seconds
     spent go into ``rep["timings_s"]`` (``outputs``, ``mosaic``, ``dsm``)."""
     import time
@@ -89,7 +89,8 @@ def write_outputs(paths: dict, result, block, frames, rep: dict, *, dem, resolut
         _timing(rep, "mosaic", time.perf_counter() - t0)
     if surface is not None:
         t0 = time.perf_counter()
-        rep["dsm"] = surface(frames, progress.stage(0.9, 1.0, "surface model"))
+        rule = (rep.get("start") or {}).get("crs_rule")
+        rep["dsm"] = surface(frames, progress.stage(0.9, 1.0, "surface model"), rule)
         _timing(rep, "dsm", time.perf_counter() - t0)
     if "mosaic" in paths or surface is not None:
         with AtomicOutputs(True) as out:  # the reports again, with the mosaic's and the surface model's outcome

@@ -11,15 +11,18 @@ import warnings
 from pathlib import Path
 
 
-def block_dsm(path, paths: dict, crs, dem, overwrite: bool, frames, progress) -> dict:
+def block_dsm(path, paths: dict, crs, dem, overwrite: bool, frames, progress, rule=None) -> dict:
     """The DSM of the adjusted ``frames`` written to ``path`` (module docstring); ``paths`` the run's outputs
-    (:func:`~fotogeo.tools.triangulate.outputs.output_paths`), ``crs`` the block's map CRS. Returns the DSM's report, or ``{"error": ...}``."""
+    (:func:`~fotogeo.tools.triangulate.outputs.output_paths`), ``crs`` the block's map CRS, ``rule`` how the block
+    chose it (``start.crs_rule``): the DSM's ``crs_rule``. Returns the DSM's report, or ``{"error": ...}``."""
     from ...errors import Cancelled, FotogeoError, FotogeoWarning
     from ..dsm import dsm
     folder = Path(paths["eo"]).parent
     try:
-        return dsm([str(f) for f in frames], path, camera=paths["camera"], eo=paths["eo"], crs=crs.to_wkt(),
-                   dem=dem, overwrite=overwrite, progress=progress)
+        rep = dsm([str(f) for f in frames], path, camera=paths["camera"], eo=paths["eo"], crs=crs.to_wkt(),
+                  dem=dem, overwrite=overwrite, progress=progress)
+        rep["crs_rule"] = f"the block's map CRS{f': {rule}' if rule else ''}"
+        return rep
     except Cancelled:
         raise
     except FotogeoError as exc:
