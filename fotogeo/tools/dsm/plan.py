@@ -9,7 +9,7 @@ disparity range and the output grid.
   left out before the per-image cap (:func:`forward_reason`: such a pair takes no image's place and covers no
   ground of the readmission). Frames flown the way they look at −45° have their epipole ~19° above a 3:2 image
   (the border 26° from the axis that way, the diagonal 42°): bounding the base's angle by the half diagonal + 5°
-  left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/howto/dsm.md, "Strip pairs of frames
+  left out every strip pair of a DJI double grid (1 pair of 66 kept; docs/benchmarks/dsm.md, "Strip pairs of frames
   flown the way they look"); then pairs whose rectified images would outgrow what :func:`.rectify` takes at the
   run's resolution (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image,
   12.6 times the frames' pixels 16° outside on a DJI strip pair, so a margin alone does not say it fits);
