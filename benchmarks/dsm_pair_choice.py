@@ -4,7 +4,7 @@ change of the pair choice leaves the choices it should not touch as they were, b
 Run:  PYTHONPATH=TREE .venv/bin/python TREE/benchmarks/dsm_pair_choice.py OUT.json [--compare OTHER.json]
       [--work DIR] [--sets NAME,NAME]
 
-* the eight oblique sets of ``tests/dsm_oblique_sets.py`` and the 38° forward set of docs/howto/dsm.md
+* the eight oblique sets of ``tests/dsm_oblique_sets.py`` and the 38° forward set of docs/benchmarks/dsm.md
   (``fwd38``: ``make_set``'s parameters below), rendered, chosen on the ground's plane (``GROUND``);
 * the three rendered blocks of ``tests/dsm_scenes.py`` (``dsm_bench.py --cases rendered``): ``fotogeo.tools.dsm.dsm``
   run until the pair choice returns (its own heights from the sparse matches), then stopped;

@@ -142,7 +142,7 @@ def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, m
     range, whatever it saves: by default ranges this narrow are searched whole), against the same run over the strips' whole ranges: the
     RMSE within a tenth of a GSD of it and within a GSD. Completeness is allowed 8
     points less: the coarse copies of these 400-px frames match under half of their pixels, and at the rectified
-    image's right border the band's last columns go unmatched (docs/howto/dsm.md)."""
+    image's right border the band's last columns go unmatched (docs/benchmarks/dsm.md)."""
     sc = make_scene("held_out", tmp_path / "scene")
     monkeypatch.setattr(pyramid, "MIN_RANGE", 0)
     monkeypatch.setattr(pyramid, "MIN_COARSE", 0)
@@ -157,7 +157,7 @@ def test_rendered_pair_coarse_to_fine_as_accurate_as_its_whole_range(tmp_path, m
     pair_w = next(p for p in rep_w["pairs"] if p["kept"])
     assert pair_w["coarse_to_fine_strips"] == f"0 of {strips}"
     # no assertion on the disparities searched: on these 400-px frames the whole-range fill of the pixels near the
-    # borders costs more than the band saves (docs/howto/dsm.md)
+    # borders costs more than the band saves (docs/benchmarks/dsm.md)
     assert ctf["rmse"] <= whole["rmse"] + 0.1 * sc["gsd"], (ctf, whole)
     assert ctf["rmse"] <= sc["gsd"]
     assert rep["completeness"] >= rep_w["completeness"] - 0.08

@@ -19,7 +19,7 @@ from dsm_oblique_sets import CRS, GROUND, make_set
 #: two parallel strips 20 m apart, 4 frames 30 m apart each, the gimbal 38° below the horizon along the flight
 #: (the base 34–42° from the view; the epipole ~13° above the image, so left out here only under a wider margin, as
 #: the rule based on the half diagonal field of view + 5°, 43°, left it out before s23); rendered small (the geometry
-#: only matters here; the same set at 640 x 480 is the benchmark's, docs/howto/dsm.md)
+#: only matters here; the same set at 640 x 480 is the benchmark's, docs/benchmarks/dsm.md)
 FORWARD_SET = dict(strips=[(0, -38.0, 4), (0, -38.0, 4)], base=30.0, side=10.0, seed=41, size=(320, 240))
 
 
@@ -53,7 +53,7 @@ def test_forward_pairs_take_no_partner_place_and_cover_no_ground(tmp_path, monke
 def test_pairs_whose_rectified_images_are_stretched_take_no_cap_from_cross_strip_pairs(tmp_path):
     # under the epipole rule the strip pairs (their epipole 9–15° above the frames, rectified to 14–75 x the
     # frames' pixels) are admitted; ranked by the product alone (whole B/H) they took the cap from six cross-strip
-    # pairs (S1_02–S2_01, S1_02–S2_02, …): ground two pairs saw came to one (docs/howto/dsm.md)
+    # pairs (S1_02–S2_01, S1_02–S2_02, …): ground two pairs saw came to one (docs/benchmarks/dsm.md)
     sc = make_set(FORWARD_SET, tmp_path)
     ims = image_models([str(p) for p in sc["images"]], CRS, camera=str(sc["camera"]), eo=str(sc["eo"]))
     views = [frames.frame_view(im) for im in ims]

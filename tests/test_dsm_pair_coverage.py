@@ -57,7 +57,7 @@ def test_inside_convex_polygon_either_orientation():
 
 def test_capped_pairs_flown_the_way_they_look_are_not_kept_for_ground():
     # the same block looking 60 degrees below the horizon along its strips: the consecutive frames' base lies along
-    # the lines of sight (b⊥/H about 0.8 of B/H); kept for ground they gave 2 GSD on it (docs/howto/dsm.md)
+    # the lines of sight (b⊥/H about 0.8 of B/H); kept for ground they gave 2 GSD on it (docs/benchmarks/dsm.md)
     c, _, f = _block()
     pitch = np.radians(60.0)
     c = [(x - z / np.tan(pitch), y, z) for x, y, z in c]

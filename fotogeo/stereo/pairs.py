@@ -29,7 +29,7 @@ heights stayed within 1 GSD from views 22° to 75° apart and its completeness f
 (``benchmarks/dsm_bench.py --cases oblique_sets --view-angle-sweep``); the limit stays 45° though the sweep would
 allow 70°: at 70° with the ranking at 45° every measured set's RMSE fell, the rendered oblique block kept its
 pairs, but the completeness fell by 1.2 and 3.9 points on two sets and CPU rose 1.7–2.7x on four
-(docs/howto/dsm.md, "The ranking apart from the limit").
+(docs/benchmarks/dsm.md, "The ranking apart from the limit").
 Pairs the caller rules out beyond these limits (``leave_out``: the frame tool's forward motion, the epipole in
 the image) are left out before the cap, so they take no image's place and cover no ground of the readmission (left
 out after it, they had: a forward-looking set's frame kept no pair while its cross-strip pairs were "capped").

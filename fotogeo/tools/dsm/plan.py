@@ -10,7 +10,7 @@ disparity range and the output grid.
   ground of the readmission). The border is taken, not the corners: a frame flown the way it looks has its
   border much nearer the optical axis towards the base than its diagonal, and the epipole of its strip partners
   lies outside the image though within the half diagonal field of view, where a bound on the diagonal left out every
-  strip pair (docs/howto/dsm.md, "Strip pairs of frames flown the way they look", with the measured angles); then
+  strip pair (docs/benchmarks/dsm.md, "Strip pairs of frames flown the way they look", with the measured angles); then
   pairs whose rectified images would outgrow what :func:`.rectify` takes at the run's resolution
   (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image, so a margin alone
   does not say it fits);
