@@ -21,8 +21,8 @@ the size the camera wrote). Sources that contradict each other are named, never 
   :data:`F35_TOLERANCE`, names a copy resized with every size record rewritten, with its factor and the tags that
   restore it. These three tags survive the tools that rewrite ``PixelXDimension``, ``RelatedImageWidth`` and drop the
   maker note (they describe the sensor, not the file), and a camera's own file agrees with itself (within
-  :data:`F35_TOLERANCE`; docs/howto/dsm.md, "When every record of the size is rewritten: the sensor", has how closely
-  the eBee's originals agree). Used when the focal plane is the camera source (no DJI XMP calibration): beside
+  :data:`F35_TOLERANCE`; docs/benchmarks/dsm.md, "When every record of the size is rewritten: the sensor", has how
+  closely the eBee's originals agree). Used when the focal plane is the camera source (no DJI XMP calibration): beside
   ``DewarpData`` or ``CalibratedFocalLength`` the calibration itself is checked against the 35 mm equivalent (below),
   and no DJI original was at hand to show that its ``FocalPlaneXResolution`` agrees;
 * the focal length in pixels against ``FocalLengthIn35mmFilm``, which does not depend on the file's size
@@ -53,7 +53,7 @@ resizers) copy the EXIF block and drop the XMP packet, where drone cameras write
 ``sensefly:Yaw/Pitch/Roll``, DJI gimbal angles), the GNSS accuracy and the calibration. A file smaller than its
 ``PixelXDimension`` with no XMP at all is named as such (:func:`resized_without_xmp`): such a copy has lost its
 attitude prior, and two strips that do not overlap each other then leave each strip's roll free — the same refusal
-as the full-size originals stripped of their XMP (docs/howto/dsm.md, "eBee flight").
+as the full-size originals stripped of their XMP (docs/benchmarks/dsm.md, "eBee flight").
 """
 from __future__ import annotations
 

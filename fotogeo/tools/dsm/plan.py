@@ -178,7 +178,7 @@ def rectified_stretch(p, views, extent=None) -> float:
     """How many times the larger frame's pixels each rectified image of pair ``p`` has (:func:`.rectified_extent`
     at scale 1; the pixels go with the square of the scale, so the ratio holds at every scale). It is what
     rectification does to the frames: a few times at most for a base across the lines of sight (more when the base
-    runs along the frame's diagonal: the rectified rows follow the base; docs/howto/dsm.md has the measured
+    runs along the frame's diagonal: the rectified rows follow the base; docs/benchmarks/dsm.md has the measured
     ranges), growing like 1/sin² of the epipole's distance outside the
     image as the rows far from the epipole are stretched along the base, and the matching's cost (rectified pixels
     times their disparities) grows with it. The pair choice ranks the pairs beyond

@@ -13,10 +13,10 @@ correlation exceeds ``--max-correlation``, so the self-calibration holds it fixe
 unknowns to fit and the tie points' residuals grow. Least-squares matching gives each tie point a formal σ (Grün 1985,
 from the LSM normal equations); the image group's a-posteriori σ₀ with those σ (before the image variance component
 rescales them, :func:`fotogeo.orientation.bundle._image_variance`) is how many times the residuals exceed the matcher's
-precision: a few with the right camera, several times more with a focal length twice too long (docs/howto/dsm.md, "eBee
-flight", has the values measured by ``benchmarks/resized_frames_bench.py`` and the command). Above
-:data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the sensor width it implies
-(``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given explicitly (``none`` included)
+precision: a few with the right camera, several times more with a focal length twice too long
+(docs/benchmarks/dsm.md, "eBee flight", has the values measured by ``benchmarks/resized_frames_bench.py`` and the
+command). Above :data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the
+sensor width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given explicitly (``none`` included)
 takes the camera as the user's and skips the check.
 """
 from __future__ import annotations
