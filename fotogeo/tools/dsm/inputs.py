@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...io.raster import gdal_env, open_raster, ropen
+from .plan import footprint
 
 
 def orientation_files(orientation, camera, eo) -> tuple:
@@ -33,6 +34,39 @@ def orientation_files(orientation, camera, eo) -> tuple:
                          f"wrote it only when self-calibrating): give the camera (--camera)", option="camera")
     camera = camera if camera is not None else cam
     return camera, eo_path
+
+
+#: the longest side of the decimated read that compares two images' pixels (:func:`distinct_images`)
+COMPARE_SIDE = 64
+
+
+def distinct_images(ims, heights) -> None:
+    """Refuse an image given twice (:class:`~fotogeo.tools.ortho.inputs.OrthoImage` list ``ims``): two images of
+    one name (their file stem: the pairs, ``--pairs`` and the report know an image by it), one file by two paths,
+    or a copy — the same size, the same orientation (their outlines on the planes ``heights`` within 1 mm) and the
+    same pixels (a read decimated to ``COMPARE_SIDE`` pixels a side). A copy adds no view: each cell it shares
+    with its original would count that pair twice and look checked by a second one."""
+    for a, i in enumerate(ims):
+        for j in ims[a + 1:]:
+            if os.path.exists(i.path) and os.path.exists(j.path) and os.path.samefile(i.path, j.path):
+                raise InputError(f"images: {i.path!r} and {j.path!r} are the same file; give each image once")
+            if i.name == j.name:
+                raise InputError(f"images: the names {i.name} occur twice ({i.path!r}, {j.path!r}); every image needs "
+                                 f"its own file name: rename one")
+            if (i.width, i.height) != (j.width, j.height):
+                continue
+            outlines = [[footprint(im, z) for z in heights] for im in (i, j)]
+            if all(a.shape == b.shape and np.allclose(a, b, rtol=0.0, atol=1e-3) for a, b in zip(*outlines)) \
+                    and np.array_equal(*(_decimated(im) for im in (i, j))):
+                raise InputError(f"images: {i.path!r} and {j.path!r} hold the same pixels and orientation (a copy): "
+                                 f"it adds no view; give each image once")
+
+
+def _decimated(im) -> np.ndarray:
+    """All bands of image ``im`` read (nearest) at most ``COMPARE_SIDE`` pixels a side."""
+    k = max(1, -(-max(im.width, im.height) // COMPARE_SIDE))
+    with gdal_env(), ropen(im.path) as ds:
+        return ds.read(out_shape=(ds.count, -(-im.height // k), -(-im.width // k)))
 
 
 def read_pairs(pairs, names) -> list | None:

@@ -20,7 +20,7 @@ from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
 from . import dem_guide, frames, local, matching, plan, refill
-from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
+from .inputs import SourceImage, distinct_images, orientation_files, parse_bounds, read_pairs
 from .outputs import SPECKLE_CELLS, Products
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
@@ -273,6 +273,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
+    low = min(v.centre[2] for v in views)
+    distinct_images(ims, (low - 10.0, low - 100.0))  # two planes under every camera
     if rule == "given (--crs)":
         _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path, bands) for im in ims]
