@@ -22,16 +22,17 @@ def orientation_files(orientation, camera, eo) -> tuple:
     from ..triangulate.outputs import CAMERA_FILE, FILES
     folder = Path(orientation)
     if eo is not None:
-        raise InputError("give either --orientation (triangulate's output folder) or --eo, not both",
-                         option="orientation")
+        raise InputError("give either orientation (triangulate's output folder) or eo, not both",
+                         option="orientation", also=("eo",))
     eo_path = folder / FILES[0]
     if not folder.is_dir() or not eo_path.is_file():
-        raise InputError(f"--orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
+        raise InputError(f"orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
                          f"{FILES[0]} in it)", option="orientation")
     cam = folder / CAMERA_FILE
     if camera is None and not cam.is_file():
-        raise InputError(f"--orientation {str(orientation)!r} holds no {CAMERA_FILE} (an older fotogeo's triangulate "
-                         f"wrote it only when self-calibrating): give the camera (--camera)", option="camera")
+        raise InputError(f"camera needed: orientation {str(orientation)!r} holds no {CAMERA_FILE} (an older "
+                         f"fotogeo's triangulate wrote it only when self-calibrating); give the camera's file",
+                         option="camera", also=("orientation",))
     camera = camera if camera is not None else cam
     return camera, eo_path
 
@@ -71,29 +72,36 @@ def _decimated(im) -> np.ndarray:
 
 def read_pairs(pairs, names) -> list | None:
     """Index pairs from ``pairs``: a text file of two image names per line (``#`` comments), or a sequence of
-    name pairs; None for automatic choice. Unknown names are refused, naming the line."""
+    name pairs; None for automatic choice. A line that does not name two of the images is refused, naming the line
+    and the name not among them. Messages call the option ``pairs`` (the caller's word for it replaces it,
+    :func:`fotogeo.errors.in_callers_words`)."""
     if pairs is None:
         return None
+    given = f"pairs {str(pairs)!r}"
     if isinstance(pairs, (str, Path)):
         path = Path(pairs)
         if not path.is_file():
-            raise InputError(f"--pairs {str(pairs)!r} does not exist", option="pairs")
+            raise InputError(f"{given} does not exist", option="pairs")
         rows = [(k + 1, line.split("#")[0].replace(",", " ").split())
                 for k, line in enumerate(path.read_text(encoding="utf-8").splitlines())]
         rows = [(k, r) for k, r in rows if r]
     else:
         rows = [(k + 1, list(p)) for k, p in enumerate(pairs)]
     index = {n: i for i, n in enumerate(names)}
+    among = f"{', '.join(names[:6])}{' ...' if len(names) > 6 else ''}"
     out = []
     for line, r in rows:
         r = [Path(str(x)).stem for x in r]
-        if len(r) != 2 or r[0] == r[1] or any(x not in index for x in r):
-            raise InputError(f"--pairs {str(pairs)!r} line {line}: expected two different image names among "
-                             f"{', '.join(names[:6])}{' ...' if len(names) > 6 else ''}; got {' '.join(r)!r}",
-                             option="pairs")
+        unknown = [x for x in r if x not in index]
+        if len(r) == 2 and unknown:
+            raise InputError(f"{given} line {line}: {unknown[0]!r} is not among the images ({among}); give their "
+                             f"file names without folder and extension", option="pairs")
+        if len(r) != 2 or r[0] == r[1]:
+            raise InputError(f"{given} line {line}: expected two different image names among {among}; got "
+                             f"{' '.join(r)!r}", option="pairs")
         out.append(tuple(sorted((index[r[0]], index[r[1]]))))
     if not out:
-        raise InputError(f"--pairs {str(pairs)!r} names no pair", option="pairs")
+        raise InputError(f"{given} names no pair", option="pairs")
     return sorted(set(out))
 
 
@@ -106,7 +114,7 @@ def parse_bounds(bounds) -> tuple | None:
     except ValueError:
         v = []
     if len(v) != 4 or not (v[2] > v[0] and v[3] > v[1]) or not np.isfinite(v).all():
-        raise InputError(f"--bounds {bounds!r}: give 'xmin,ymin,xmax,ymax' in the output CRS with xmax > xmin and "
+        raise InputError(f"bounds {bounds!r}: give 'xmin,ymin,xmax,ymax' in the output CRS with xmax > xmin and "
                          f"ymax > ymin", option="bounds")
     return tuple(v)
 

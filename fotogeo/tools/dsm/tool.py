@@ -59,6 +59,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
                          f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
+    _check_crs(crs)
     # below: the filling's reach in cells (the table's default when not given), None for no filling
     fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
@@ -80,6 +81,17 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                    resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                    point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
                    dask=(scheduler, workers), bands=bands)
+
+
+def _check_crs(crs) -> None:
+    """Refuse a ``crs`` pyproj cannot read before any input is opened, as a bad value of the option ``crs`` (the
+    command line's usage error, as a bad ``--bounds``); "auto" and None choose it."""
+    from ...crs import parse_crs
+    if crs is not None and str(crs).strip().lower() != "auto":
+        try:
+            parse_crs(crs, "crs")
+        except InputError as e:
+            raise InputError(str(e), option="crs") from None
 
 
 def _centres_in_area_of_use(views, crs) -> None:
