@@ -42,23 +42,29 @@ COMPARE_SIDE = 64
 
 
 def distinct_images(ims, heights) -> None:
-    """Refuse an image given twice (:class:`~fotogeo.tools.ortho.inputs.OrthoImage` list ``ims``): two images of
-    one name (their file stem: the pairs, ``--pairs`` and the report know an image by it), one file by two paths,
-    or a copy — the same size, the same orientation (their outlines on the planes ``heights`` within 1 mm) and the
-    same pixels (a read decimated to ``COMPARE_SIDE`` pixels a side). A copy adds no view: each cell it shares
-    with its original would count that pair twice and look checked by a second one."""
+    """Refuse an image given twice (:class:`~fotogeo.tools.ortho.inputs.OrthoImage` list ``ims``): one file by two
+    paths, two images of one name (their file stem: the pairs, ``--pairs`` and the report know an image by it), or
+    a copy — the same size, the same orientation (their outlines on the planes ``heights`` within 1 mm) and the
+    same pixels (a read decimated to ``COMPARE_SIDE`` pixels a side, only of images whose size and outlines
+    agree). A copy adds no view: each cell it shares with its original would count that pair twice and look
+    checked by a second one."""
+    files, names = {}, {}
+    for im in ims:
+        st = os.stat(im.path) if os.path.exists(im.path) else None
+        first = files.setdefault((st.st_dev, st.st_ino), im) if st is not None else im
+        if first is not im:
+            raise InputError(f"images: {first.path!r} and {im.path!r} are the same file; give each image once")
+        first = names.setdefault(im.name, im)
+        if first is not im:
+            raise InputError(f"images: the names {im.name} occur twice ({first.path!r}, {im.path!r}); every image "
+                             f"needs its own file name: rename one")
+    outlines = [np.concatenate([footprint(im, z) for z in heights]) for im in ims]
     for a, i in enumerate(ims):
-        for j in ims[a + 1:]:
-            if os.path.exists(i.path) and os.path.exists(j.path) and os.path.samefile(i.path, j.path):
-                raise InputError(f"images: {i.path!r} and {j.path!r} are the same file; give each image once")
-            if i.name == j.name:
-                raise InputError(f"images: the names {i.name} occur twice ({i.path!r}, {j.path!r}); every image needs "
-                                 f"its own file name: rename one")
-            if (i.width, i.height) != (j.width, j.height):
-                continue
-            outlines = [[footprint(im, z) for z in heights] for im in (i, j)]
-            if all(a.shape == b.shape and np.allclose(a, b, rtol=0.0, atol=1e-3) for a, b in zip(*outlines)) \
-                    and np.array_equal(*(_decimated(im) for im in (i, j))):
+        for b in range(a + 1, len(ims)):
+            j = ims[b]
+            if (i.width, i.height) == (j.width, j.height) and outlines[a].shape == outlines[b].shape \
+                    and np.allclose(outlines[a], outlines[b], rtol=0.0, atol=1e-3) \
+                    and np.array_equal(_decimated(i), _decimated(j)):
                 raise InputError(f"images: {i.path!r} and {j.path!r} hold the same pixels and orientation (a copy): "
                                  f"it adds no view; give each image once")
 
