@@ -208,7 +208,7 @@ def test_bad_input_is_one_line_naming_the_images(tmp_path):
     out = tmp_path / "triangulated"
     out.mkdir()
     (out / "exterior_orientation.txt").write_text(Path(sc["eo"]).read_text())
-    with pytest.raises(InputError, match=r"--orientation .* holds no camera.yaml .*--camera"):
+    with pytest.raises(InputError, match=r"camera needed: orientation .* holds no camera.yaml"):
         dsm(imgs[:2], tmp_path / "a.tif", orientation=out, crs=sc["crs"])
     # s1_01 and s2_01 lie at opposite ends of the two strips: they share no ground
     far = [p for p in imgs if Path(p).stem in ("s1_01", "s2_01")]
@@ -279,6 +279,52 @@ def test_rpc_without_a_usable_height_range_is_refused(data_dir, tmp_path):
                       edit=lambda t: re.sub(r"height_scale:\s*\S+", "height_scale:  90000", t))
     with pytest.raises(InputError, match=r"image 'right'.*no usable height range.*--dem"):
         dsm(images, tmp_path / "a.tif", rpc=True)
+
+
+@pytest.mark.data
+def test_an_rpc_image_given_twice_is_refused(data_dir, tmp_path):
+    """A byte copy of the left image (with its .geom), the same file by a second path, and two images of one stem in
+    two folders: the first two were matched with the right image twice (every cell counted two pairs, none seen by
+    a single one), the third ran as pair "img-img", which ``--pairs`` cannot name."""
+    import shutil
+
+    from fotogeo.tools.dsm import dsm
+    left, right = _ventoux(data_dir, tmp_path / "d", "right_image.geom")
+    for ext in (".tif", ".geom"):
+        shutil.copy(left.with_suffix(ext), tmp_path / "d" / f"copy{ext}")
+    with pytest.raises(InputError, match=r"images: '.*left.tif' and '.*copy.tif' hold the same pixels and "
+                                         r"orientation \(a copy\): it adds no view; give each image once"):
+        dsm([left, tmp_path / "d" / "copy.tif", right], tmp_path / "a.tif", rpc=True)
+    alias = tmp_path / "d" / ".." / "d" / "left.tif"
+    with pytest.raises(InputError, match=r"images: '.*left.tif' and '.*/\.\./d/left.tif' are the same file; give "
+                                         r"each image once"):
+        dsm([left, alias, right], tmp_path / "a.tif", rpc=True)
+    for d, src in (("d1", left), ("d2", right)):
+        (tmp_path / d).mkdir()
+        for ext in (".tif", ".geom"):
+            shutil.copy(src.with_suffix(ext), tmp_path / d / f"img{ext}")
+    with pytest.raises(InputError, match=r"images: the names img occur twice \('.*d1/img.tif', '.*d2/img.tif'\); "
+                                         r"every image needs its own file name: rename one"):
+        dsm([tmp_path / "d1" / "img.tif", tmp_path / "d2" / "img.tif"], tmp_path / "a.tif", rpc=True)
+    assert not (tmp_path / "a.tif").exists()
+
+
+def test_a_frame_copy_under_another_name_is_refused(tmp_path):
+    """A copy of a frame under another name with its EO line repeated: refused naming both; two blank frames (the
+    same pixels, different orientations) are not copies (:func:`test_small_base_and_textureless_pairs_are_named`)."""
+    import shutil
+
+    from fotogeo.tools.dsm import dsm
+    sc = make_scene("nadir", tmp_path / "scene")
+    imgs = [p for p in sc["images"] if Path(p).stem in ("s1_01", "s1_02")]
+    copy = tmp_path / "s1_01_copy.tif"
+    shutil.copy(imgs[0], copy)
+    lines = Path(sc["eo"]).read_text().splitlines()
+    eo = tmp_path / "eo.txt"
+    eo.write_text("\n".join(lines + [x.replace("s1_01", "s1_01_copy", 1) for x in lines if x.startswith("s1_01 ")]))
+    with pytest.raises(InputError, match=r"images: '.*s1_01.tif' and '.*s1_01_copy.tif' hold the same pixels and "
+                                         r"orientation \(a copy\)"):
+        dsm([imgs[0], copy, imgs[1]], tmp_path / "a.tif", camera=sc["camera"], eo=eo, crs=sc["crs"])
 
 
 def test_cli_one_line_error(tmp_path):

@@ -173,3 +173,28 @@ def test_bands_option_picks_the_bands_matched(tmp_path):
     assert e.value.option == "bands"
     with pytest.raises(InputError, match=r"bands '1,a': give band numbers"):
         SourceImage(path, "1,a")
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("with_dem", [True, False])
+def test_ngi_frames_with_their_names_swapped_are_refused_with_or_without_a_dem(data_dir, tmp_path, with_dem):
+    """NGI 0182 and 0184 under each other's names (each given the other's EO line): their SIFT matches follow into
+    the rectified pair 18 px off the epipolar lines and no two rays meet. With ``--dem`` the pair was matched
+    (0 sparse matches read as a textureless pair the DEM guides) into 228 cells 144 m off; now it is refused for
+    its orientation, as without a DEM, and neither refusal asks for a DEM."""
+    import shutil
+    from fotogeo.tools.dsm import dsm
+    ngi = data_dir / "ngi"
+    for a, b in (("0182", "0184"), ("0184", "0182")):
+        shutil.copy(ngi / "frames" / f"3324c_2015_1004_05_{a}_RGB.tif", tmp_path / f"3324c_2015_1004_05_{b}_RGB.tif")
+    frames = sorted(tmp_path.glob("*.tif"))
+    with rasterio.open(ngi / "dem.tif") as ds:
+        crs = ds.crs.to_wkt()
+    kw = {"dem": ngi / "dem.tif"} if with_dem else {"crs": crs}
+    with pytest.raises(InputError, match=r"the orientation does not fit the images: \d+ sparse matches lie 1\d\.\d px "
+                                         r"off their epipolar lines \(their rays do not meet\); check that each image "
+                                         r"has its own orientation \(file names swapped\?\)") as e:
+        dsm(frames, tmp_path / "a.tif", camera=ngi / "interior_orientation.yaml",
+            eo=ngi / "exterior_orientation.txt", **kw)
+    assert "--dem" not in str(e.value)
+    assert not (tmp_path / "a.tif").exists()

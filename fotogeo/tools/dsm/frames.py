@@ -131,11 +131,12 @@ def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000, ca
     """Sparse matches of the pair (module docstring): SIFT features of each source image (once per image and
     ``cache``, keyed by ``ids``), matched with Lowe's ratio test, their pixels followed into ``rp``'s rectified
     images: ``{"n", "dy" (px), "d" (px), "uv" (rectified left pixels), "points", "miss" (m)}``; ``n`` 0 when
-    nothing matched."""
+    nothing matched; ``"followed"`` the matches followed into the rectified pair, those whose rays do not meet
+    (an orientation that does not fit the images) too, which ``"dy_median"`` and ``"dy_spread"`` describe."""
     cache = {} if cache is None else cache
     (x1, d1), (x2, d2) = (_features(ids[i], views[i], sources[i], cache, max_features) for i in (0, 1))
     empty = {"n": 0, "dy": np.zeros(0), "d": np.zeros(0), "uv": np.zeros((0, 2)), "points": np.zeros((0, 3)),
-             "miss": np.zeros(0), "dy_median": 0.0, "dy_spread": 0.0}
+             "miss": np.zeros(0), "dy_median": 0.0, "dy_spread": 0.0, "followed": 0}
     if d1 is None or d2 is None or len(x1) < 8 or len(x2) < 8:
         return empty
     pairs = cv2.BFMatcher(cv2.NORM_L2).knnMatch(d1, d2, k=2)
@@ -157,22 +158,25 @@ def sparse_check(rp: RectifiedPair, views, sources, max_features: int = 4000, ca
                              rp.rays(p2[:, 0], p2[:, 1], 1))
     ok = np.isfinite(miss)
     return {"n": int(ok.sum()), "dy": dy[ok], "d": (p1[:, 0] - p2[:, 0])[ok], "uv": p1[ok], "points": P[ok],
-            "miss": miss[ok], "dy_median": med, "dy_spread": spread}
+            "miss": miss[ok], "dy_median": med, "dy_spread": spread, "followed": int(keep.sum())}
 
 
 def sparse_problem(sp, max_px: float) -> str:
     """Why the sparse matches of a pair cannot be trusted ("" when they can): they disagree among themselves (the
     images do not show the same ground, or the orientation is wrong), or agree on rows ``max_px`` apart (the
-    orientation does not fit the images)."""
-    if sp["n"] < 8:
+    orientation does not fit the images). Judged on the matches followed into the rectified pair, not on those
+    whose rays meet: a wrong orientation (two images' names swapped) may leave no ray pair meeting, and a pair
+    with no match is not a textureless one when its images match."""
+    if sp["followed"] < 8:
         return ""
     if sp["dy_spread"] > 3.0:
         return (f"its sparse matches disagree (their row differences spread {sp['dy_spread']:.0f} px): the images "
                 f"may not show the same ground, or their orientation is wrong")
     if abs(sp["dy_median"]) > max_px:
-        return (f"the orientation does not fit the images: sparse matches lie {abs(sp['dy_median']):.1f} px off "
-                f"their epipolar lines (rays miss by {np.median(sp['miss']):.2f} m); refine the orientation "
-                f"(fotogeo triangulate)")
+        miss = f"rays miss by {np.median(sp['miss']):.2f} m" if sp["n"] else "their rays do not meet"
+        return (f"the orientation does not fit the images: {sp['followed']} sparse matches lie "
+                f"{abs(sp['dy_median']):.1f} px off their epipolar lines ({miss}); check that each image has its own "
+                f"orientation (file names swapped?) or refine the orientation (fotogeo triangulate)")
     return ""
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...io.raster import gdal_env, open_raster, ropen
+from .plan import footprint
 
 
 def orientation_files(orientation, camera, eo) -> tuple:
@@ -21,45 +22,92 @@ def orientation_files(orientation, camera, eo) -> tuple:
     from ..triangulate.outputs import CAMERA_FILE, FILES
     folder = Path(orientation)
     if eo is not None:
-        raise InputError("give either --orientation (triangulate's output folder) or --eo, not both",
-                         option="orientation")
+        raise InputError("give either orientation (triangulate's output folder) or eo, not both",
+                         option="orientation", also=("eo",))
     eo_path = folder / FILES[0]
     if not folder.is_dir() or not eo_path.is_file():
-        raise InputError(f"--orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
+        raise InputError(f"orientation {str(orientation)!r} is not an output folder of fotogeo triangulate (no "
                          f"{FILES[0]} in it)", option="orientation")
     cam = folder / CAMERA_FILE
     if camera is None and not cam.is_file():
-        raise InputError(f"--orientation {str(orientation)!r} holds no {CAMERA_FILE} (an older fotogeo's triangulate "
-                         f"wrote it only when self-calibrating): give the camera (--camera)", option="camera")
+        raise InputError(f"camera needed: orientation {str(orientation)!r} holds no {CAMERA_FILE} (an older "
+                         f"fotogeo's triangulate wrote it only when self-calibrating); give the camera's file",
+                         option="camera", also=("orientation",))
     camera = camera if camera is not None else cam
     return camera, eo_path
 
 
+#: the longest side of the decimated read that compares two images' pixels (:func:`distinct_images`)
+COMPARE_SIDE = 64
+
+
+def distinct_images(ims, heights) -> None:
+    """Refuse an image given twice (:class:`~fotogeo.tools.ortho.inputs.OrthoImage` list ``ims``): one file by two
+    paths, two images of one name (their file stem: the pairs, ``--pairs`` and the report know an image by it), or
+    a copy — the same size, the same orientation (their outlines on the planes ``heights`` within 1 mm) and the
+    same pixels (a read decimated to ``COMPARE_SIDE`` pixels a side, only of images whose size and outlines
+    agree). A copy adds no view: each cell it shares with its original would count that pair twice and look
+    checked by a second one."""
+    files, names = {}, {}
+    for im in ims:
+        st = os.stat(im.path) if os.path.exists(im.path) else None
+        first = files.setdefault((st.st_dev, st.st_ino), im) if st is not None else im
+        if first is not im:
+            raise InputError(f"images: {first.path!r} and {im.path!r} are the same file; give each image once")
+        first = names.setdefault(im.name, im)
+        if first is not im:
+            raise InputError(f"images: the names {im.name} occur twice ({first.path!r}, {im.path!r}); every image "
+                             f"needs its own file name: rename one")
+    outlines = [np.concatenate([footprint(im, z) for z in heights]) for im in ims]
+    for a, i in enumerate(ims):
+        for b in range(a + 1, len(ims)):
+            j = ims[b]
+            if (i.width, i.height) == (j.width, j.height) and outlines[a].shape == outlines[b].shape \
+                    and np.allclose(outlines[a], outlines[b], rtol=0.0, atol=1e-3) \
+                    and np.array_equal(_decimated(i), _decimated(j)):
+                raise InputError(f"images: {i.path!r} and {j.path!r} hold the same pixels and orientation (a copy): "
+                                 f"it adds no view; give each image once")
+
+
+def _decimated(im) -> np.ndarray:
+    """All bands of image ``im`` read (nearest) at most ``COMPARE_SIDE`` pixels a side."""
+    k = max(1, -(-max(im.width, im.height) // COMPARE_SIDE))
+    with gdal_env(), ropen(im.path) as ds:
+        return ds.read(out_shape=(ds.count, -(-im.height // k), -(-im.width // k)))
+
+
 def read_pairs(pairs, names) -> list | None:
     """Index pairs from ``pairs``: a text file of two image names per line (``#`` comments), or a sequence of
-    name pairs; None for automatic choice. Unknown names are refused, naming the line."""
+    name pairs; None for automatic choice. A line that does not name two of the images is refused, naming the line
+    and the name not among them. Messages call the option ``pairs`` (the caller's word for it replaces it,
+    :func:`fotogeo.errors.in_callers_words`)."""
     if pairs is None:
         return None
+    given = f"pairs {str(pairs)!r}"
     if isinstance(pairs, (str, Path)):
         path = Path(pairs)
         if not path.is_file():
-            raise InputError(f"--pairs {str(pairs)!r} does not exist", option="pairs")
+            raise InputError(f"{given} does not exist", option="pairs")
         rows = [(k + 1, line.split("#")[0].replace(",", " ").split())
                 for k, line in enumerate(path.read_text(encoding="utf-8").splitlines())]
         rows = [(k, r) for k, r in rows if r]
     else:
         rows = [(k + 1, list(p)) for k, p in enumerate(pairs)]
     index = {n: i for i, n in enumerate(names)}
+    among = f"{', '.join(names[:6])}{' ...' if len(names) > 6 else ''}"
     out = []
     for line, r in rows:
         r = [Path(str(x)).stem for x in r]
-        if len(r) != 2 or r[0] == r[1] or any(x not in index for x in r):
-            raise InputError(f"--pairs {str(pairs)!r} line {line}: expected two different image names among "
-                             f"{', '.join(names[:6])}{' ...' if len(names) > 6 else ''}; got {' '.join(r)!r}",
-                             option="pairs")
+        unknown = [x for x in r if x not in index]
+        if len(r) == 2 and unknown:
+            raise InputError(f"{given} line {line}: {unknown[0]!r} is not among the images ({among}); give their "
+                             f"file names without folder and extension", option="pairs")
+        if len(r) != 2 or r[0] == r[1]:
+            raise InputError(f"{given} line {line}: expected two different image names among {among}; got "
+                             f"{' '.join(r)!r}", option="pairs")
         out.append(tuple(sorted((index[r[0]], index[r[1]]))))
     if not out:
-        raise InputError(f"--pairs {str(pairs)!r} names no pair", option="pairs")
+        raise InputError(f"{given} names no pair", option="pairs")
     return sorted(set(out))
 
 
@@ -72,7 +120,7 @@ def parse_bounds(bounds) -> tuple | None:
     except ValueError:
         v = []
     if len(v) != 4 or not (v[2] > v[0] and v[3] > v[1]) or not np.isfinite(v).all():
-        raise InputError(f"--bounds {bounds!r}: give 'xmin,ymin,xmax,ymax' in the output CRS with xmax > xmin and "
+        raise InputError(f"bounds {bounds!r}: give 'xmin,ymin,xmax,ymax' in the output CRS with xmax > xmin and "
                          f"ymax > ymin", option="bounds")
     return tuple(v)
 

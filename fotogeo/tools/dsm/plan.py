@@ -94,10 +94,10 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px, ims=Non
     sp = sparse_check(rp, (views[i], views[j]), (sources[i], sources[j]), ids=(i, j))
     few = (f"only {sp['n']} sparse matches (textureless or cloud-covered where they overlap, or an orientation that "
            f"does not fit them?)")
-    why = sparse_problem(sp, max_px) or (few if sp["n"] < 20 else "")
-    if why:
-        raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): {why}; the heights "
-                         f"cannot be bounded from them: give a coarse DEM of the area (--dem)")
+    wrong = sparse_problem(sp, max_px)  # a DEM would not mend an orientation that does not fit
+    if wrong or sp["n"] < 20:
+        raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): " + (wrong or (
+            f"{few}; the heights cannot be bounded from them: give a coarse DEM of the area (--dem)")))
     return matched_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))
 
 

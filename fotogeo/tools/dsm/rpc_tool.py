@@ -20,7 +20,7 @@ from ..ortho.inputs import map_crs, terrain
 from . import matching, plan
 from . import rpc_dem
 from . import rpc_pairs as rp
-from .inputs import SourceImage, read_pairs
+from .inputs import SourceImage, distinct_images, read_pairs
 from .outputs import SPECKLE_CELLS, Products
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
@@ -286,6 +286,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
+    distinct_images(ims, (zlo, zhi))
     guide, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
     origins = _rpc_sources(images)

@@ -20,7 +20,7 @@ from ..common.boundary import tool
 from ..common.checks import check_output_grid
 from ..ortho.inputs import image_models, map_crs, terrain
 from . import dem_guide, frames, local, matching, plan, refill
-from .inputs import SourceImage, orientation_files, parse_bounds, read_pairs
+from .inputs import SourceImage, distinct_images, orientation_files, parse_bounds, read_pairs
 from .outputs import SPECKLE_CELLS, Products, with_dem_vertical
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
@@ -59,6 +59,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
                          f"orientation (--{given}), not both", option=given)
     camera, eo = orientation_files(orientation, camera, eo)
+    _check_crs(crs)
     # below: the filling's reach in cells (the table's default when not given), None for no filling
     fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
@@ -80,6 +81,17 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
                    resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                    point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
                    dask=(scheduler, workers), bands=bands)
+
+
+def _check_crs(crs) -> None:
+    """Refuse a ``crs`` pyproj cannot read before any input is opened, as a bad value of the option ``crs`` (the
+    command line's usage error, as a bad ``--bounds``); "auto" and None choose it."""
+    from ...crs import parse_crs
+    if crs is not None and str(crs).strip().lower() != "auto":
+        try:
+            parse_crs(crs, "crs")
+        except InputError as e:
+            raise InputError(str(e), option="crs") from None
 
 
 def _centres_in_area_of_use(views, crs) -> None:
@@ -276,6 +288,8 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     bands matched (:class:`.inputs.SourceImage`)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
+    low = min(v.centre[2] for v in views)
+    distinct_images(ims, (low - 10.0, low - 100.0))  # two planes under every camera
     if rule == "given (--crs)":
         _centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path, bands) for im in ims]
