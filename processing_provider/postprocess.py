@@ -6,7 +6,10 @@ and labels each with its id and residual (px); ``styles/error_vectors.qml`` draw
 as arrows, coloured by ``role`` too, and :func:`show_legend` puts the layer's exaggeration
 sentence (its ``legend`` field) into the legend. ``styles/uncertainty.qml`` (rasters of a σ in metres,
 ``fotogeo ortho --uncertainty``) is a pseudocolour ramp (viridis) with a continuous legend labelled in
-metres; :func:`stretch_to_data` spreads it over the raster's own minimum … maximum. ``styles/coreg_windows.qml``
+metres; :func:`stretch_to_data` spreads it over the raster's own minimum … maximum. ``styles/dsm.qml`` (a surface
+model, ``fotogeo dsm``: band 1 the height, 2 the pair count, 3 the spread) shows band 1 alone as a hypsometric ramp
+(green, yellow, brown, white) with a legend in metres, spread over the heights' 2 … 98 % cumulative cut (the style's
+min/max origin) so that a few blunders do not flatten it. ``styles/coreg_windows.qml``
 draws co-registration windows: a reliable one (status ``ok``) as a green dot with an arrowhead along its shift,
 any other as a small grey cross.
 They are set through :class:`QgsProcessingLayerPostProcessorInterface`, which QGIS runs in
@@ -21,6 +24,7 @@ from qgis.core import (
     QgsLayerTreeLayer,
     QgsRasterBandStats,
     QgsRasterLayer,
+    QgsRasterMinMaxOrigin,
     QgsProcessingContext,
     QgsProcessingLayerPostProcessorInterface,
     QgsProcessingUtils,
@@ -32,7 +36,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QTimer
 
 STYLE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "styles")
-STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints", "uncertainty", "coreg_windows")
+STYLES = ("tie_points", "gcps", "error_vectors", "error_grid", "footprints", "uncertainty", "coreg_windows", "dsm")
 
 
 def style_path(style: str) -> str:
@@ -127,21 +131,33 @@ class StylePostProcessor(QgsProcessingLayerPostProcessorInterface):
 
 
 def stretch_to_data(layer) -> tuple | None:
-    """Spread a pseudocolour raster's ramp over its band 1's minimum … maximum (the style's 0 … 1 is a
-    placeholder); returns that range, None for another renderer or a raster without valid cells."""
-    renderer = layer.renderer()
+    """Spread a pseudocolour raster's ramp over its band's minimum … maximum — or, when the style's min/max origin
+    is a cumulative cut, over those quantiles of its values (the style's 0 … 1 is a placeholder: QGIS does not
+    recompute a loaded style's range); returns that range, None for another renderer or a raster without valid
+    cells. The layer gets a new renderer: its legend's labels follow (an edit in place would not tell it)."""
+    renderer = layer.renderer().clone() if layer.renderer() is not None else None
     shader = getattr(renderer, "shader", lambda: None)()
     ramp = shader.rasterShaderFunction() if shader is not None else None
-    stats = layer.dataProvider().bandStatistics(1, QgsRasterBandStats.Min | QgsRasterBandStats.Max)
-    lo, hi = float(stats.minimumValue), float(stats.maximumValue)
-    if ramp is None or not (hi >= lo) or abs(lo) == float("inf") or abs(hi) == float("inf"):
+    if ramp is None:
+        return None
+    band, origin = renderer.band(), renderer.minMaxOrigin()
+    if origin.limits() == QgsRasterMinMaxOrigin.CumulativeCut:
+        lo, hi = layer.dataProvider().cumulativeCut(band, origin.cumulativeCutLower(), origin.cumulativeCutUpper())
+    else:
+        stats = layer.dataProvider().bandStatistics(band, QgsRasterBandStats.Min | QgsRasterBandStats.Max)
+        lo, hi = stats.minimumValue, stats.maximumValue
+    lo, hi = float(lo), float(hi)
+    if not (hi >= lo) or abs(lo) == float("inf") or abs(hi) == float("inf"):
         return None
     hi = hi if hi > lo else lo + max(abs(lo), 1.0) * 1e-3
+    shader.setMinimumValue(lo)
+    shader.setMaximumValue(hi)
     ramp.setMinimumValue(lo)
     ramp.setMaximumValue(hi)
     ramp.classifyColorRamp(0, -1)
     renderer.setClassificationMin(lo)
     renderer.setClassificationMax(hi)
+    layer.setRenderer(renderer)
     return lo, hi
 
 
@@ -275,9 +291,21 @@ def load_on_completion(context, uri: str, name: str, output_name: str, style: st
     context.addLayerToLoadOnCompletion(uri, details)
 
 
+def file_layer_name(path: str) -> str | None:
+    """The name a raster output's layer takes: its file's stem ("dsm_0182" for dsm_0182.tif), as the tools' outputs
+    are named in the project; None for a temporary output (``OUTPUT.tif`` in Processing's temporary folder: the
+    parameter's description says more than that file's name)."""
+    if os.path.abspath(path).startswith(os.path.abspath(QgsProcessingUtils.tempFolder()) + os.sep):
+        return None
+    return os.path.splitext(os.path.basename(path))[0]
+
+
 def style_output(context, key: str, style: str | None, run: LoadedRun | None = None, name: str | None = None) -> None:
     """Set ``style`` on an output Processing already loads on completion (e.g. a vector destination), and
-    its layer ``name`` when given (instead of the parameter's description, the same for every run)."""
+    its layer ``name`` when given (instead of the parameter's description, the same for every run). ``key`` may be
+    the output's path as a tool reported it: it matches the path Processing holds however either is spelled."""
+    same = os.path.normcase(os.path.abspath(key))
+    key = next((k for k in context.layersToLoadOnCompletion() if os.path.normcase(os.path.abspath(k)) == same), key)
     if context.willLoadLayerOnCompletion(key):
         details = context.layerToLoadOnCompletionDetails(key)
         details.setPostProcessor(post_processor(style, run))

@@ -238,6 +238,19 @@ def test_qgis_process_bad_input_is_one_line(config, inputs, tmp_path):
     assert "is also an input; choose another output path" in text and "Traceback" not in text
 
 
+def test_qgis_process_help_is_plain_text(config):
+    """qgis_process prints an algorithm's help as it is (the desktop dialog renders it as HTML): no tags, no
+    entities; and fotogeo:dsm's help names both kinds of images it takes."""
+    for alg in ("fotogeo:ortho", "fotogeo:dsm"):
+        r = subprocess.run([QGIS_PROCESS, "help", alg], capture_output=True, text=True, timeout=120, env=_env(config))
+        assert r.returncode == 0, r.stderr[-2000:]
+        assert not re.search(r"</?b>|&lt;|&gt;|&amp;", r.stdout), r.stdout[:3000]
+        if alg == "fotogeo:ortho":
+            assert "Occlusion masking (with a DSM" in r.stdout and "<name>_ortho_sigma.tif" in r.stdout
+        else:
+            assert "frame cameras" in r.stdout and "satellite images carrying an RPC" in r.stdout
+
+
 def test_qgis_process_leaves_nothing_beside_raster_inputs(config, tmp_path):
     """qgis_process loads every raster parameter as a layer before the provider's code runs, and with GDAL's PAM
     on (a user's default) GDAL would save that layer's statistics as ``<input>.aux.xml`` beside the input: the

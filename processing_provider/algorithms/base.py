@@ -44,6 +44,7 @@ from fotogeo.errors import in_callers_words  # standard library only
 
 from .. import runner
 from ..side_files import no_side_files
+from .widgets import plain_text
 
 ICONS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "icons")
 REFERENCES = {
@@ -208,7 +209,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         ok, why = runner.runtime_status()
         if not ok:
             text += "\n\n<b>" + tr("Not runnable yet") + ":</b> " + why
-        return text
+        return plain_text(text) if QgsApplication.platform() == "qgis_process" else text  # it prints, not renders
 
     def canExecute(self):  # noqa: N802 - QGIS API
         """(False, what is missing and the fix) until fotogeo's runtime works."""

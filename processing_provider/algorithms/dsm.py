@@ -11,6 +11,7 @@ from qgis.core import (
 
 from fotogeo.options.dsm import DSM
 
+from ..postprocess import file_layer_name, style_output
 from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 
@@ -21,7 +22,7 @@ class DsmAlgorithm(FotogeoAlgorithm):
     HELP = ("Matches overlapping images whose orientation is known pair by pair and fuses the heights into a "
             "digital surface model: frame cameras with their interior orientation (YAML, pinhole or brown) and "
             "exterior orientation (the formats of 'Orthorectify oriented images', or triangulate's output "
-            "folder).\n\n"
+            "folder), or satellite images carrying an RPC ('Images carry an RPC').\n\n"
             "Pairs are chosen from the footprints, their overlap and base-to-height ratio (or given as a text file "
             "of two image names per line). Each pair is rectified to epipolar geometry with the lens distortion "
             "removed, checked by sparse matches (epipolar residuals, rays' miss distances), matched by semi-global "
@@ -29,7 +30,8 @@ class DsmAlgorithm(FotogeoAlgorithm):
             "a coarse DEM bounds the heights searched (else sparse matches do).\n\n"
             "Output: a Cloud-Optimised GeoTIFF, band 1 the median height of the pairs, band 2 how many pairs gave "
             "it, band 3 the spread of the points' heights; holes stay nodata unless filled (then band 4 marks the "
-            "filled cells). Optional: a LAS 1.4 point cloud coloured from the images, and a JSON report (pairs kept "
+            "filled cells); QGIS shows band 1, the height, in colour over its 2 … 98 % range. Optional: a LAS 1.4 "
+            "point cloud coloured from the images, and a JSON report (pairs kept "
             "and left out and why, match density, completeness, timings).\n\n"
             "References: Hirschmüller (2008): stereo processing by semiglobal matching and mutual information. "
             "Fusiello, Trucco & Verri (2000): a compact algorithm for rectification of stereo pairs.")
@@ -62,4 +64,6 @@ class DsmAlgorithm(FotogeoAlgorithm):
             feedback.pushInfo(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} "
                               f"degrees (B/H {p['base_to_height']:.2f}), {state}")
         feedback.pushInfo(f"{100 * rep['completeness']:.1f} % of the overlap has a height")
+        if context.willLoadLayerOnCompletion(output):  # band 1 (height) in pseudocolour, named after its file
+            style_output(context, output, "dsm", name=file_layer_name(output))
         return {self.OUTPUT: output, self.CLOUD: cloud, self.REPORT: report, self.COMPLETENESS: rep["completeness"]}

@@ -16,7 +16,7 @@ from qgis.core import (
 
 from fotogeo.options import TRIANGULATE, YAML
 
-from ..postprocess import LoadedRun, load_on_completion
+from ..postprocess import LoadedRun, file_layer_name, load_on_completion, style_output
 from .base import REFERENCES, FotogeoAlgorithm, RasterFilesParameter, tr, with_help
 
 CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files (*.*)"
@@ -187,6 +187,8 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
             result["DSM"] = surface
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
+            if surface:  # as fotogeo:dsm shows its DSM, when Processing loads it
+                style_output(context, surface, "dsm", run, name=file_layer_name(surface))
             for frame, done in (rep.get("orthorectified") or {}).items():
                 if "error" in done:  # not orthorectified (e.g. off the DEM): no file to load
                     continue

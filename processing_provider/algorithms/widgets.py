@@ -10,10 +10,12 @@ layer of the project (top of the layer tree first), or to empty when there is no
 off a DEM and off an image that is not a map product too (no georeference, or a rotated one: a raw frame with an
 approximate georeference; orthophotos and map-geometry scenes are north-up); ``role="dem"``
 (an optional DEM input) starts on the first layer that looks like a DEM. Only the desktop dialog reads
-this metadata; ``qgis_process`` and scripts are unaffected.
+this metadata; ``qgis_process`` and scripts are unaffected. The dialog renders an algorithm's help as HTML (a
+paragraph per line) while ``qgis_process help`` prints it as it is: :func:`plain_text` is the help it prints.
 """
 from __future__ import annotations
 
+import html
 import re
 import warnings
 
@@ -33,6 +35,15 @@ def looks_like_dem(name: str, bands: int) -> bool:
     (False, False, False)
     """
     return bands == 1 and bool(DEM_WORDS & set(re.split(r"[^a-z]+", name.lower())))
+
+
+def plain_text(text: str) -> str:
+    """An algorithm's help (HTML) as plain text: its tags dropped, its entities decoded.
+
+    >>> plain_text("<b>Uncertainty</b>: &lt;name&gt;_ortho_sigma.tif, σ &gt; 0")
+    'Uncertainty: <name>_ortho_sigma.tif, σ > 0'
+    """
+    return html.unescape(re.sub(r"<[^<>]+>", "", text))
 
 
 def other_layer(layers, taken, avoid=lambda layer: False):
