@@ -79,3 +79,18 @@ def test_the_bundle_the_orthophoto_and_the_lens_check_distort_alike(coeffs):
     ox, oy = _opencv(x, y, coeffs)
     expected = np.max(np.hypot(fx * (ox - x), fy * (oy - y)))
     assert border_displacement(w, h, fx, fy, cam.principal_point, dist) == pytest.approx(expected, rel=1e-9)
+
+
+def test_guided_matching_and_ideal_pixels_read_the_terms_as_brown_does():
+    """The two readers of a camera's distortion in triangulate (guided matching, ideal pixels) had their own
+    copies of the term order; they now go through :func:`brown.coefficients`: a dict with a None term reads 0."""
+    from fotogeo.geometry.camera import FrameCamera
+    from fotogeo.tools.triangulate.guided import _distortion_terms
+    from fotogeo.tools.triangulate.pairs import ideal_pixels
+    terms = {"k1": -0.05, "k2": None, "p2": 1e-4}
+    assert _distortion_terms(terms) == (-0.05, 0.0, 0.0, 0.0, 1e-4)
+    assert _distortion_terms(None) == () and _distortion_terms([0.1, 0, 0, 0, 0, 9.0]) == (0.1, 0.0, 0.0, 0.0, 0.0)
+    camera = FrameCamera(focal_length=20.0, sensor_size=(10.0, 8.0), image_size=(1000, 800))
+    ideal = ideal_pixels(camera, terms)
+    assert ideal is not None and np.isfinite(ideal(np.array([[100.0, 200.0]]))).all()
+    assert ideal_pixels(camera, {"k1": None}) is None

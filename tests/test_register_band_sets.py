@@ -150,7 +150,8 @@ def test_a_rematch_is_kept_only_with_enough_inliers_and_the_rough_alignment(monk
     inliers and a homography within REMATCH_AGREE_PX of the rough one at the first match's inliers."""
     fused = tuple(pca_fuse(_unrelated_scene(s)) for s in (1, 2))
     rough, other = _Shift((3, 4)), _Shift((3 + off_px, 4))
-    monkeypatch.setattr(bands_mod, "_hypotheses", lambda *a: iter([(rough, 6, np.array([[10.0, 20.0], [300.0, 50.0]]))]))
+    first = (rough, 6, np.array([[10.0, 20.0], [300.0, 50.0]]))
+    monkeypatch.setattr(bands_mod, "_hypotheses", lambda *a: iter([first]))
     monkeypatch.setattr(bands_mod, "_inliers", lambda *a: (other, n1, None))
     monkeypatch.setattr(bands_mod, "combined_for_matching",
                         lambda infos, opts, fu_ref, fu_tgt, H: ("reference", fu_ref, {"combined": "reference"}))
@@ -251,5 +252,6 @@ def test_every_hypothesis_refused_is_named_in_the_refusal(monkeypatch):
     report = out[-1]
     assert report["kept"] is False and not seen and out[:-1] == (*fused, "kp_ref", "kp_tgt", "first matches")
     assert report["refused"].startswith("the combined bands correlate 0.20")
-    assert "so did the 2 next RANSAC hypotheses of the first match (6 inliers: 0.2, 5 inliers: 0.2)" in report["refused"]
+    assert ("so did the 2 next RANSAC hypotheses of the first match (6 inliers: 0.2, 5 inliers: 0.2)"
+            in report["refused"])
     assert [t["inliers"] for t in report["hypotheses"]] == [6, 6, 5]

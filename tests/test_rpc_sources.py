@@ -33,7 +33,8 @@ def test_tags_and_a_different_geom_beside_are_refused_naming_both(data_dir, tmp_
     shutil.copy(v / "right_image_bias.geom", tmp_path / "right_image.geom")
     with pytest.raises(InputError, match=r"'.*right_image.tif' has two RPCs that disagree by 60 px: GeoTIFF RPC tags "
                                          r"\(read first\) and right_image.geom beside it; keep one: to keep "
-                                         r"right_image.geom remove the tags \(gdal_edit.py -unsetrpc right_image.tif\), "
+                                         r"right_image.geom remove the tags "
+                                         r"\(gdal_edit.py -unsetrpc right_image.tif\), "
                                          r"to keep the tags move right_image.geom away$"):
         image_rpc(tmp_path / "right_image.tif")
 

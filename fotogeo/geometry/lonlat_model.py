@@ -51,7 +51,8 @@ class _LonLatHeights:
 
     def __init__(self, source, to_map):
         self.source, self.to_map = source, to_map
-        self.z_range = getattr(source, "z_range", None)
+        if hasattr(source, "z_range"):  # callers test hasattr, never None
+            self.z_range = source.z_range
 
     def __call__(self, LL) -> np.ndarray:
         return heights_at(self.source, self.to_map(LL))

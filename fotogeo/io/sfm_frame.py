@@ -312,7 +312,8 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
         reasons.append(why)
     layout = _layout(path, odm_origin, shots)
     if layout is not None and layout[0] == "grid" and not odm_origin:
-        fix = ("copy coords.txt with the project or give the images with RTK GPS" if undistorted or layout[2] == ODM_FLAG
+        fix = ("copy coords.txt with the project or give the images with RTK GPS"
+               if undistorted or layout[2] == ODM_FLAG
                else "copy coords.txt with the project, give the images with RTK GPS, or read "
                     "reconstruction.topocentric.json instead")
         raise InputError(f"{where}: {layout[2]} {'in the folder above' if undistorted else 'beside it'} marks ODM's "

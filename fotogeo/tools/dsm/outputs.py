@@ -55,12 +55,12 @@ def with_dem_vertical(crs, ref, dem):
         return crs
     from pyproj.crs import CompoundCRS
 
-    from ...geometry.vertical import as_pyproj, crs_height_reference
+    from ...geometry.vertical import as_pyproj, crs_height_reference, horizontal_crs
     from ...io.raster import open_raster
     stated = open_raster(dem, "DEM").raster_crs
     if stated is None or crs_height_reference(stated) != "geoid":
         return crs
-    d, h = as_pyproj(stated), as_pyproj(crs)
+    d, h = as_pyproj(stated), as_pyproj(horizontal_crs(crs))  # a map CRS with a vertical part: its horizontal one
     parts = [s.source_crs if s.is_bound else s for s in (d.sub_crs_list or [d])]
     v = next((s for s in parts if s.type_name == "Vertical CRS"), None)
     if v is None:

@@ -256,7 +256,8 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     if dem is not None and (guide is not None or sp["n"] < dem_guide.DEM_MIN_MATCHES):
         # above the run's range up to the DEM's margin above (what stands on it), below the lower camera as the
         # matches' range (plan.matched_heights); the run's lowest height stays (its footprints set the grid)
-        zlim = (zlo, zhi) if guide is None else guide.pair_range((zlo, zhi), (zlo, zhi + 0.75 * max(ceiling - zhi, 0.0)))
+        reach = (zlo, zhi + 0.75 * max(ceiling - zhi, 0.0))
+        zlim = (zlo, zhi) if guide is None else guide.pair_range((zlo, zhi), reach)
         return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), guide
     if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "

@@ -16,8 +16,8 @@ rescales them, :func:`fotogeo.orientation.bundle._image_variance`) is how many t
 precision: a few with the right camera, several times more with a focal length twice too long
 (docs/benchmarks/dsm.md, "eBee flight", has the values measured by ``benchmarks/resized_frames_bench.py`` and the
 command). Above :data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the
-sensor width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given explicitly (``none`` included)
-takes the camera as the user's and skips the check.
+sensor width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given
+explicitly (``none`` included) takes the camera as the user's and skips the check.
 """
 from __future__ import annotations
 

@@ -56,6 +56,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import FotogeoError
+from ...geometry.brown import coefficients
 from ...geometry.camera import OrientedFrame, angles_patb, nearest_rotation
 from ...geometry.dem import below
 from ...progress import as_progress
@@ -286,10 +287,9 @@ def _median_height(camera, eos, result):
 
 
 def _distortion_terms(distortion) -> tuple:
-    """``(k1, k2, k3, p1, p2)`` of a Block's tuple or a camera file's dict (zeros when absent)."""
-    if isinstance(distortion, dict):
-        return tuple(float(distortion.get(k, 0.0)) for k in ("k1", "k2", "k3", "p1", "p2"))
-    return tuple(float(t) for t in (distortion or ())[:5])
+    """``(k1, k2, k3, p1, p2)`` of a Block's tuple or a camera file's dict (:func:`fotogeo.geometry.brown.coefficients`;
+    zeros when absent from a dict, ``()`` when None)."""
+    return coefficients(distortion if isinstance(distortion, dict) else tuple(distortion or ())[:5])
 
 
 def ray_heights(camera, eos, xy_i, xy_j) -> np.ndarray:

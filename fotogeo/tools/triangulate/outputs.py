@@ -137,8 +137,8 @@ def _timing(rep: dict, stage: str, seconds: float) -> None:
 
 
 def mosaic_outputs(paths: dict, orthorectified: dict, overwrite: bool, progress, compress: str = "deflate") -> dict:
-    """``fotogeo mosaic`` (:func:`fotogeo.tools.ortho.mosaic.mosaic`) of the orthophotos written into ``paths["mosaic"]``
-    (compressed with ``compress``),
+    """``fotogeo mosaic`` (:func:`fotogeo.tools.ortho.mosaic.mosaic`) of the orthophotos written into
+    ``paths["mosaic"]`` (compressed with ``compress``),
     seamlines into ``paths["seamlines"]``; its report, or ``{"error": ...}`` (warned) when it fails or fewer than
     two frames were orthorectified — the adjustment's outputs are written already and stay."""
     import warnings

@@ -24,6 +24,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from ...errors import Cancelled, MatchingError
+from ...geometry.brown import coefficients
 from ...geometry.camera import OrientedFrame
 from ...io.raster import open_raster, read_decimated
 from ...progress import as_progress
@@ -36,9 +37,7 @@ def ideal_pixels(camera, distortion):
     ``x_ideal = f·scale·(u, v) + pp``), or None when ``distortion`` is empty or all 0 (the pixels are ideal
     already). ``distortion``: ``(k1, k2, k3, p1, p2)`` (:class:`fotogeo.orientation.bundle.Block`'s) or a dict."""
     from ...orientation import bundle_jacobian as bj
-    if isinstance(distortion, dict):
-        distortion = [distortion.get(k, 0.0) for k in bj.INTERIOR_NAMES[3:bj.N_PHYSICAL]]
-    terms = [float(t) for t in (distortion or ())]
+    terms = list(coefficients(distortion if isinstance(distortion, dict) else tuple(distortion or ())))
     if not any(terms):
         return None
     interior = np.array([camera.focal_length, *camera.principal_point, *terms])

@@ -48,8 +48,8 @@ writes into ``folder``, as one set (nothing on an error or a cancel;
 * with ``mosaic`` (orthorectifies too): ``mosaic.tif`` and its seamlines ``mosaic.gpkg``, the orthophotos mosaicked
   by :func:`fotogeo.tools.ortho.mosaic.mosaic` (seamlines, balancing, feathering) on one pixel lattice (``resolution``,
   else the median GSD of the frames); written after the other outputs, so a failing mosaic is reported
-  (``report.json`` ``mosaic.error``, a warning) and loses none of them; the orthophotos, their σ rasters and the mosaic compressed with ``compress``
-  (:mod:`fotogeo.io.compression`);
+  (``report.json`` ``mosaic.error``, a warning) and loses none of them; the orthophotos, their σ rasters and the
+  mosaic compressed with ``compress`` (:mod:`fotogeo.io.compression`);
 * with ``dsm`` (a path): the surface model of the adjusted frames, made as ``fotogeo dsm`` makes it
   (:mod:`fotogeo.tools.triangulate.surface`), written last in the same way (``report.json`` ``dsm``).
 """
