@@ -37,11 +37,11 @@ def _undistorted(sc, folder, **kw):  # noqa: F811
     return rec, shutil.copy(rec, rec.parent / "undistorted" / "reconstruction.json")
 
 
-def _read(eo, images):
+def _read(eo, images, frame="auto"):
     from fotogeo.tools.ortho.inputs import orientation_block
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FotogeoWarning)
-        return orientation_block(eo, parse_crs(sp.TRUTH_CRS), None, "auto", images)
+        return orientation_block(eo, parse_crs(sp.TRUTH_CRS), None, frame, images)
 
 
 def _right(block, sc):  # noqa: F811
@@ -49,9 +49,9 @@ def _right(block, sc):  # noqa: F811
     assert got["median_m"] <= MEDIAN_M and got["p90_m"] <= P90_M, got
 
 
-def _refused(eo, images, match="sfm_frame topocentric .OpenSfM. or grid .ODM."):
+def _refused(eo, images, match="sfm_frame topocentric .OpenSfM. or grid .ODM.", frame="auto"):
     with pytest.raises(InputError, match=match) as err:
-        _read(eo, images)
+        _read(eo, images, frame)
     assert err.value.option == "sfm_frame" and "\n" not in str(err.value)
     return str(err.value)
 
@@ -100,3 +100,17 @@ def test_odm_flag_of_the_versions_without_a_topocentric_copy_marks_the_grid(sc, 
     (rec.parent / "exported_geocoords.txt").write_text("")
     assert "exported_geocoords.txt beside it" in _refused(rec, flat, "offset is not known")
     assert "exported_geocoords.txt in the folder above" in _refused(eo, flat, "offset is not known")
+
+
+def test_grid_told_without_odms_offset_is_refused_naming_coords_txt(sc, flat, tmp_path):  # noqa: F811
+    """sfm_frame grid on ODM 2.4.7-2.6.3's grid file (exported_geocoords.txt beside it) without coords.txt: the
+    offset would come from reference_lla, which is not ODM's there (main read it so, metres off in silence);
+    refused naming coords.txt. With coords.txt, told grid reads it right."""
+    rec, eo = _undistorted(sc, tmp_path / "a", odm=True, imposed=False, topocentric_copy=False)
+    (rec.parent / "exported_geocoords.txt").write_text("")
+    _right(_read(rec, flat, "grid"), sc)
+    rec, eo = _undistorted(sc, tmp_path / "b", odm=True, imposed=False, topocentric_copy=False, coords=False)
+    (rec.parent / "exported_geocoords.txt").write_text("")
+    for path in (rec, eo):
+        text = _refused(path, flat, "offset is not known", frame="grid")
+        assert "sfm_frame grid was told" in text and "copy coords.txt" in text

@@ -250,6 +250,22 @@ def _layout(path: Path, odm: bool, shots=None):
     return None
 
 
+def _unknown_offset(layout, path: Path, where: str, told: bool = False) -> None:
+    """Refuse an ODM layout marking a file along the UTM grid (``layout``: :func:`_layout`'s) whose grid offset is
+    not known (no ``coords.txt``; :func:`odm_grid`): reference_lla is not ODM's offset there, so the grid reading,
+    found or told (``told``: ``sfm_frame grid``), would place the cameras wrong in silence."""
+    if layout is None or layout[0] != "grid":
+        return
+    undistorted = opensfm_folder(path)[1]
+    fix = ("copy coords.txt with the project or give the images with RTK GPS" if undistorted or layout[2] == ODM_FLAG
+           else "copy coords.txt with the project, give the images with RTK GPS, or read "
+                "reconstruction.topocentric.json instead")
+    raise InputError(f"{where}: {'sfm_frame grid was told, but ' if told else ''}{layout[2]} "
+                     f"{'in the folder above' if undistorted else 'beside it'} marks ODM's file along the UTM grid, "
+                     f"but its offset is not known (reference_lla is not ODM's offset and no "
+                     f"odm_georeferencing/coords.txt is beside the opensfm folder); {fix}", option="sfm_frame")
+
+
 def _undistorted_layout(folder: Path, odm: bool, shots: dict):
     """The layout of the OpenSfM file in ``folder`` whose poses ``shots`` hold (undistort copies them), or None
     when no file there holds them (a folder copied elsewhere, or undistorted from another run)."""
@@ -289,6 +305,8 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
     else ODM's layout; an :class:`InputError` naming ``sfm_frame`` when nothing decides and the readings differ.
     ``odm_origin``: whether ODM's grid origin is known (:func:`odm_grid`); an ODM layout without it (a project of
     the ODM versions that kept OpenSfM's reference, copied without ``odm_georeferencing/coords.txt``) is refused."""
+    if frame == "grid" and not odm_origin:  # told grid: the offset would come from reference_lla, not ODM's
+        _unknown_offset(_layout(path, odm_origin, shots), path, where, told=True)
     if frame != "auto":
         return frame, f"OpenSfM local frame read as {frame} ({_WHAT[frame]}), as told (sfm_frame {frame})"
     steps = []
@@ -311,15 +329,8 @@ def choose_reading(frame: str, shots: dict, centres: dict, path: Path, ref, crs,
             return kind, f"OpenSfM local frame {why}"
         reasons.append(why)
     layout = _layout(path, odm_origin, shots)
-    if layout is not None and layout[0] == "grid" and not odm_origin:
-        fix = ("copy coords.txt with the project or give the images with RTK GPS"
-               if undistorted or layout[2] == ODM_FLAG
-               else "copy coords.txt with the project, give the images with RTK GPS, or read "
-                    "reconstruction.topocentric.json instead")
-        raise InputError(f"{where}: {layout[2]} {'in the folder above' if undistorted else 'beside it'} marks ODM's "
-                         f"file along the UTM grid, but its offset is not known (reference_lla is not ODM's offset "
-                         f"and no odm_georeferencing/coords.txt is beside the opensfm folder); {fix}",
-                         option="sfm_frame")
+    if not odm_origin:
+        _unknown_offset(layout, path, where)
     if layout is not None:
         return layout[0], f"OpenSfM local frame {layout[1]}" + (f" ({'; '.join(reasons)})" if reasons else "")
     sep = separation(ref, crs, np.array(list(centres.values()), float), grid)

@@ -122,9 +122,11 @@ def overlap_share(fi, fj) -> float:
     return _area(poly) / small if small > 0 and len(poly) >= 3 else 0.0
 
 
-def measure(i, j, centres, axes, footprints) -> PairChoice:
+def measure(i, j, centres, axes, footprints, local=None) -> PairChoice:
     """The measures of pair ``(i, j)`` (module docstring); footprints ``(N, 3)`` outlines ``(X, Y, Z)`` on the
-    ground."""
+    ground. ``local(points)``: the ground points ``(N, 3)`` in the Cartesian frame (metres) the centres and axes
+    are given in, when that is not the footprints' map CRS (:func:`fotogeo.crs.geocentric`), so that the base,
+    the distance and the angles are not measured in a map projection's units; the overlap stays the map's."""
     overlap = overlap_share(footprints[i], footprints[j])
     if overlap <= 0:
         return PairChoice(i, j, 0.0, 0.0, 0.0, 0.0, extra={"overlap_polygon": np.zeros((0, 2))})
@@ -132,9 +134,11 @@ def measure(i, j, centres, axes, footprints) -> PairChoice:
     g = poly.mean(axis=0)
     ci, cj = np.asarray(centres[i], float), np.asarray(centres[j], float)
     z = footprints_height(footprints, i, j)
-    G = np.array([g[0], g[1], z])
-    h = 0.5 * (np.linalg.norm(ci - G) + np.linalg.norm(cj - G))
     ground = np.column_stack([np.vstack([g, 0.5 * (poly + g)]), np.full(len(poly) + 1, z)])
+    if local is not None:
+        ground = np.asarray(local(ground), float)
+    G = ground[0]
+    h = 0.5 * (np.linalg.norm(ci - G) + np.linalg.norm(cj - G))
     conv = float(np.mean(_convergence(ci, cj, ground)))
     view = math.degrees(math.acos(np.clip(np.dot(axes[i], axes[j]) / (np.linalg.norm(axes[i]) *
                                                                       np.linalg.norm(axes[j])), -1, 1)))
@@ -203,16 +207,17 @@ def _score(p: PairChoice, lim: Limits) -> tuple:
 
 
 def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=None, leave_out=None,
-                 stretch=None) -> list:
+                 stretch=None, local=None) -> list:
     """Every candidate :class:`PairChoice` of the images (all pairs, or only ``given`` index pairs), kept or
     left out with a reason (module docstring). ``leave_out(p)``: the caller's reason ("" for none) to leave out a
     pair that passes the limits, asked before the per-image cap and the readmission, so that such a pair takes no
     image's place and covers no ground (a frame tool's forward motion: the epipole in the image). ``stretch(p)``:
     the rectified images' pixels over the frames' of a pair left in (``extra["rectified_stretch"]``; none: 1),
-    which ranks the pairs beyond :data:`NEAR_STRETCH` last (module docstring)."""
+    which ranks the pairs beyond :data:`NEAR_STRETCH` last (module docstring). ``local``: the Cartesian frame of
+    the centres and axes (:func:`measure`)."""
     n = len(centres)
     cand = given if given is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
-    out = [measure(i, j, centres, axes, footprints) for i, j in cand]
+    out = [measure(i, j, centres, axes, footprints, local) for i, j in cand]
     for p in out:
         p.reason = _reason(p, limits, given is not None)
         if not p.reason and leave_out is not None:

@@ -28,11 +28,15 @@ ORBIT = 700_000.0
 
 
 def _views(ims, z):
-    """``(centres, axes, footprints)`` of RPC images for :func:`choose_pairs` (module docstring)."""
+    """``(centres, axes, footprints)`` of RPC images for :func:`choose_pairs` (module docstring): the centres and
+    axes Earth-centred (:func:`fotogeo.crs.geocentric`), so that a ``--crs`` far from the scene, whose scale and
+    planimetry unlike the heights' metres would bend the lines of sight, leaves the pair's measures as they are;
+    the footprints in the map CRS."""
+    from ...crs import geocentric
     centres, axes, fps = [], [], []
     for im in ims:
         c = np.array([[im.width / 2, im.height / 2]] * 2)  # two points: pyproj's path for arrays, not scalars
-        lo, hi = im.model.inverse(c, z)[0], im.model.inverse(c, z + 1000.0)[0]
+        lo, hi = geocentric(im.model.crs, [im.model.inverse(c, z)[0], im.model.inverse(c, z + 1000.0)[0]])
         up = (hi - lo) / np.linalg.norm(hi - lo)
         centres.append(lo + ORBIT * up)
         axes.append(-up)
@@ -43,11 +47,13 @@ def _views(ims, z):
 def _choose(ims, names, zlo, zhi, pairs) -> list:
     """The pairs, measured at the height of the RPCs' range where the images overlap most (a small scene may
     overlap at its own height only)."""
+    from ...crs import geocentric
     given = read_pairs(pairs, names)
     best = None
     for z in np.linspace(zlo, zhi, 13):
         centres, axes, fps = _views(ims, z)
-        choices = choose_pairs(centres, axes, fps, Limits(min_base_height=0.05), given=given)
+        choices = choose_pairs(centres, axes, fps, Limits(min_base_height=0.05), given=given,
+                               local=lambda P: geocentric(ims[0].model.crs, P))
         score = sum(p.overlap for p in choices)
         if best is None or score > best[0]:
             best = (score, choices)
