@@ -125,6 +125,8 @@ def run_tool(tool: str, *args, feedback=None, words=str, **kwargs):
         proc.stdin.flush()
         final = _follow(proc, feedback, words)
         proc.wait()
+        if final is None and feedback is not None and feedback.isCanceled():  # SIGTERM before its handler was set
+            raise QgsProcessingException("cancelled by the user (fotogeo's worker ended before it began the tool)")
         if final is None:
             stderr.seek(0)
             tail = " | ".join(stderr.read().strip().splitlines()[-5:])
