@@ -129,8 +129,22 @@ def _rpc_image(path, name, crs) -> OrthoImage:
     from ...io.rpc_image import image_rpc
     info = open_raster(path, "image")
     rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
+    _refuse_placeless(path, info.width, info.height)
     return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid",
                       info.count, info.dtype)
+
+
+def _refuse_placeless(path, width: int, height: int) -> None:
+    """Refuse an RPC image that looks cut out of its product without its place
+    (:func:`fotogeo.io.rpc_place.product_rpc`): orthorectified, it would lie at the product's corner."""
+    from ...io.rpc_place import placeless
+    why = placeless(path, width, height)
+    if why:
+        raise InputError(f"RPC image {str(path)!r} ({why}) is read at the first pixel of that product: a cut-out "
+                         f"from elsewhere in it would be orthorectified at the product's corner; cut it again from "
+                         f"the product with gdal_translate -srcwin COL ROW W H (GDAL moves the RPC into the cut), "
+                         f"or beside an OSSIM .geom without RPC tags give it a CRS-less geotransform at its place "
+                         f"(gdal_edit.py -a_ullr COL ROW COL+W ROW+H)")
 
 
 def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):
