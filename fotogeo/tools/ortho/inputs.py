@@ -43,7 +43,7 @@ from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
-from ..common.checks import camera_for_image
+from ..common.checks import camera_for_image, distinct_files
 
 
 @dataclass(frozen=True)
@@ -98,9 +98,7 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
     """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named. How an
     SfM ``eo`` file was read (:mod:`fotogeo.io.sfm_frame`) is appended to the list ``said``."""
     names = [frame_key(p) for p in images]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"images: the names {', '.join(dup)} occur twice; every image needs its own file name")
+    distinct_files(images, names)
     if model is not None:
         if rpc or camera is not None or eo is not None or len(images) != 1:
             raise InputError("--model orthorectifies one image through its fitted orient model: give one image and "
