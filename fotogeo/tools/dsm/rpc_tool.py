@@ -194,7 +194,7 @@ def _no_vertical_part(crs) -> None:
     from ...crs import parse_crs
     c = parse_crs(crs, "--crs")
     if c.is_compound:
-        raise InputError(f"--crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
+        raise InputError(f"crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
                          f"images are above the ellipsoid and the DSM keeps them so: give the horizontal CRS alone "
                          f"({c.sub_crs_list[0].name}) and convert the heights afterwards if needed", option="crs")
 

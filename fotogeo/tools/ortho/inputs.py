@@ -81,14 +81,14 @@ def read_fitted_model(path) -> tuple:
     from ...models.base import model_from_dict
     rep = read_json(path, "--model")
     if rep.get("fotogeo") != "orient" or not isinstance(rep.get("model"), dict) or not rep.get("crs"):
-        raise InputError(f"--model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
+        raise InputError(f"model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
                          f"fitted model and the GCPs' CRS)", option="model")
     try:
         model = model_from_dict(rep["model"])
     except (KeyError, ValueError, TypeError) as exc:
-        raise InputError(f"--model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
+        raise InputError(f"model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
     if getattr(model, "direction", "ground-to-image") != "ground-to-image":
-        raise InputError(f"--model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
+        raise InputError(f"model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
                          f"ground → image model (refit with orient --model {model.name.replace('-i2g', '')})",
                          option="model")
     return model, rep["crs"]
