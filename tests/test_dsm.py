@@ -327,6 +327,27 @@ def test_a_frame_copy_under_another_name_is_refused(tmp_path):
         dsm([imgs[0], copy, imgs[1]], tmp_path / "a.tif", camera=sc["camera"], eo=eo, crs=sc["crs"])
 
 
+def test_a_frame_name_given_twice_names_both_paths(tmp_path):
+    """Two frames of one name in two folders, and one frame by two paths: dsm's frame path (through ortho's
+    image models) refused them without naming the paths ("the names s1_01 occur twice"); now with both."""
+    import shutil
+
+    from fotogeo.tools.dsm import dsm
+    from fotogeo.tools.ortho.inputs import image_models
+    sc = make_scene("nadir", tmp_path / "scene")
+    imgs = [p for p in sc["images"] if Path(p).stem in ("s1_01", "s1_02")]
+    (tmp_path / "d").mkdir()
+    other = tmp_path / "d" / "s1_01.tif"
+    shutil.copy(imgs[1], other)
+    with pytest.raises(InputError, match=r"images: the names s1_01 occur twice \('.*scene.*s1_01.tif', "
+                                         r"'.*d/s1_01.tif'\); every image needs its own file name: rename one"):
+        dsm([imgs[0], other], tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"])
+    alias = Path(imgs[0]).parent / ".." / Path(imgs[0]).parent.name / Path(imgs[0]).name
+    with pytest.raises(InputError, match=r"images: '.*s1_01.tif' and '.*/\.\./.*s1_01.tif' are the same file"):
+        image_models([imgs[0], alias], sc["crs"], camera=sc["camera"], eo=sc["eo"])
+    assert not (tmp_path / "a.tif").exists()
+
+
 def test_cli_one_line_error(tmp_path):
     from click.testing import CliRunner
 

@@ -176,7 +176,7 @@ def test_an_rpc_dsm_refuses_a_crs_with_a_vertical_part(data_dir, tmp_path):
     exit 0 — off the EGM96 heights asked for by the geoid's height at Ventoux."""
     from fotogeo.tools.dsm import dsm
     v = data_dir / "rpc" / "ventoux"
-    with pytest.raises(InputError, match=r"--crs 'EPSG:32631\+5773' has a vertical part \(EGM96 height\).*above the "
+    with pytest.raises(InputError, match=r"crs 'EPSG:32631\+5773' has a vertical part \(EGM96 height\).*above the "
                                          r"ellipsoid"):
         dsm([v / "left_image.tif", v / "right_image.tif"], tmp_path / "d.tif", rpc=True, crs="EPSG:32631+5773")
     assert not list(tmp_path.iterdir())

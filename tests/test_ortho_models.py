@@ -86,3 +86,17 @@ def test_fitted_models_refused_where_they_cannot_orthorectify(ngi, tmp_path):
     for extra, expected in cases:
         assert_one_line_error(CliRunner().invoke(main, base + extra), expected)
         assert not out.exists()
+
+
+def test_model_file_named_after_the_option_keeps_its_name(tmp_path):
+    """A refusal about ``--model model.json`` named the file ``'--model.json'``: the message spelled the flag and
+    the CLI put its flag on the next word ``model`` too (:func:`fotogeo.errors.in_callers_words`, first occurrence);
+    now the message says the keyword once and the file keeps its name."""
+    img = tmp_path / "img.tif"
+    with rasterio.open(img, "w", driver="GTiff", width=16, height=16, count=1, dtype="uint8") as ds:
+        ds.write(np.zeros((1, 16, 16), np.uint8))
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps({"fotogeo": "triangulate"}))
+    r = CliRunner().invoke(main, ["ortho", str(img), "--model", str(model), "--height", "0", "-o",
+                                  str(tmp_path / "o.tif"), "-q"])
+    assert_one_line_error(r, f"--model {str(model)!r} is not a report of fotogeo orient")

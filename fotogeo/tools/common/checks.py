@@ -6,6 +6,7 @@ output grid too large for the source or for the free disk space.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ...crs import check_lonlat_range, require_planar
@@ -157,3 +158,20 @@ def check_unique_ids(table, id_field: str, what: str) -> None:
         listed = "; ".join(f"{i!r} (rows {', '.join(map(str, rows))})" for i, rows in list(twice.items())[:10])
         raise VectorError(f"{what}: id(s) used more than once in field {str(column)!r}: {listed}"
                           f"{' and more' if len(twice) > 10 else ''}; give each point its own id")
+
+
+def distinct_files(paths, names) -> None:
+    """Refuse an image given twice among ``paths`` (``names``: their names, the file stems pairs, reports and
+    orientation files know them by): one file by two paths (same device and inode), or two images of one name;
+    both paths named."""
+    files, seen = {}, {}
+    for path, name in zip(paths, names):
+        path = str(path)
+        st = os.stat(path) if os.path.exists(path) else None
+        first = files.setdefault((st.st_dev, st.st_ino), path) if st is not None else path
+        if first != path:
+            raise InputError(f"images: {first!r} and {path!r} are the same file; give each image once")
+        first = seen.setdefault(name, path)
+        if first != path:
+            raise InputError(f"images: the names {name} occur twice ({first!r}, {path!r}); every image needs its "
+                             f"own file name: rename one")

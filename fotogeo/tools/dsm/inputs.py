@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...io.raster import gdal_env, open_raster, ropen
+from ..common.checks import distinct_files
 from .plan import footprint
 
 
@@ -48,16 +49,7 @@ def distinct_images(ims, heights) -> None:
     same pixels (a read decimated to ``COMPARE_SIDE`` pixels a side, only of images whose size and outlines
     agree). A copy adds no view: each cell it shares with its original would count that pair twice and look
     checked by a second one."""
-    files, names = {}, {}
-    for im in ims:
-        st = os.stat(im.path) if os.path.exists(im.path) else None
-        first = files.setdefault((st.st_dev, st.st_ino), im) if st is not None else im
-        if first is not im:
-            raise InputError(f"images: {first.path!r} and {im.path!r} are the same file; give each image once")
-        first = names.setdefault(im.name, im)
-        if first is not im:
-            raise InputError(f"images: the names {im.name} occur twice ({first.path!r}, {im.path!r}); every image "
-                             f"needs its own file name: rename one")
+    distinct_files([im.path for im in ims], [im.name for im in ims])
     outlines = [np.concatenate([footprint(im, z) for z in heights]) for im in ims]
     for a, i in enumerate(ims):
         for b in range(a + 1, len(ims)):

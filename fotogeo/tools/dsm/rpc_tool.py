@@ -8,7 +8,6 @@ points' median height); the default cell twice the left images' ground sample di
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -120,46 +119,16 @@ def _lost_offset(ims, i: int, j: int) -> str:
     return ""
 
 
-def _describes_whole_product(r) -> bool:
-    """Whether RPC ``r``'s offsets sit at the centre of the image its scales span (``OFF ≈ SCALE``, within 10 %,
-    as in the vendors' files: rpcm's differ by at most 7.3 %), i.e. it is a whole product's RPC; a crop's own RPC
-    (``gdal_translate -srcwin`` writing RPB/_RPC.TXT) has its offsets moved by the crop's corner (``OFF − SCALE ≈
-    −COL``) and describes the crop's pixels."""
-    return (abs(r.samp_off - r.samp_scale) <= 0.1 * r.samp_scale
-            and abs(r.line_off - r.line_scale) <= 0.1 * r.line_scale)
-
-
 def _product_rpc(im):
-    """``(ImageRpc, file)`` when image ``im`` may be a cut-out that lost its place in its product, else None: no
-    window geotransform, smaller than half the product its RPC describes (``2·SCALE`` pixels a side, about), and an
-    RPC that is a whole product's (:func:`_describes_whole_product`), so its pixel (0, 0) is read as the product's
-    first. ``file``: the RPC file (fotogeo's reading, or the one beside the image GDAL read as its metadata), None
-    for GeoTIFF RPC tags."""
-    from ...io.rpc import read_rpc
-    from ...io.rpc_image import image_rpc, sidecar_rpc_files
-    info = image_rpc(im.path)
-    r = info.rpc
-    if (info.product_window is not None or im.width > r.samp_scale or im.height > r.line_scale
-            or not _describes_whole_product(r)):
-        return None
-    if info.source != "GDAL RPC metadata":
-        return info, info.source
-    files = [f for f in sidecar_rpc_files(im.path) if _same_rpc(_try_read(read_rpc, f), r)]
-    return info, (str(files[0]) if files else None)
+    """:func:`fotogeo.io.rpc_place.product_rpc` of image ``im``."""
+    from ...io.rpc_place import product_rpc
+    return product_rpc(im.path, im.width, im.height)
 
 
 def _placeless(im) -> str:
-    """Why image ``im`` may be a cut-out that lost its place in its product ("" when not): :func:`_product_rpc`,
-    whatever its RPC's source: an RPC file (fotogeo's reading or GDAL's of an RPB/_RPC.TXT/XML beside it) or GeoTIFF
-    RPC tags, which GDAL writes per dataset and moves into every window it cuts (``OFF − SCALE ≈ −COL``), so tags of
-    a whole product on a much smaller image were not cut by GDAL, or come from its corner."""
-    found = _product_rpc(im)
-    if found is None:
-        return ""
-    r = found[0].rpc
-    what = Path(found[1]).name if found[1] is not None else "GeoTIFF RPC tags"
-    return (f"{im.width} x {im.height} px, no geotransform; {what}: a product of about "
-            f"{2 * r.samp_scale:.0f} x {2 * r.line_scale:.0f}")
+    """:func:`fotogeo.io.rpc_place.placeless` of image ``im``."""
+    from ...io.rpc_place import placeless
+    return placeless(im.path, im.width, im.height)
 
 
 def _check_places(name: str, pair, size: float, large: bool) -> None:
@@ -182,18 +151,6 @@ def _check_places(name: str, pair, size: float, large: bool) -> None:
                          f"product's corner — {fix}")
     rp.warn(f"{where}: right only if {'they are' if many else 'it is'} that corner of the product; a cut-out "
             f"from elsewhere comes out at the product's corner with wrong heights — {fix}")
-
-
-def _try_read(read, path):
-    try:
-        return read(path)
-    except InputError:
-        return None
-
-
-def _same_rpc(a, b) -> bool:
-    keys = ("line_off", "samp_off", "line_scale", "samp_scale", "lat_off", "long_off")
-    return a is not None and all(np.isclose(getattr(a, k), getattr(b, k), rtol=1e-9, atol=1e-9) for k in keys)
 
 
 def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
@@ -243,7 +200,7 @@ def _no_vertical_part(crs) -> None:
     from ...crs import parse_crs
     c = parse_crs(crs, "--crs")
     if c.is_compound:
-        raise InputError(f"--crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
+        raise InputError(f"crs {crs!r} has a vertical part ({c.sub_crs_list[-1].name}), but the heights of RPC "
                          f"images are above the ellipsoid and the DSM keeps them so: give the horizontal CRS alone "
                          f"({c.sub_crs_list[0].name}) and convert the heights afterwards if needed", option="crs")
 

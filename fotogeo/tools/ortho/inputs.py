@@ -43,7 +43,7 @@ from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
-from ..common.checks import camera_for_image
+from ..common.checks import camera_for_image, distinct_files
 
 
 @dataclass(frozen=True)
@@ -81,14 +81,14 @@ def read_fitted_model(path) -> tuple:
     from ...models.base import model_from_dict
     rep = read_json(path, "--model")
     if rep.get("fotogeo") != "orient" or not isinstance(rep.get("model"), dict) or not rep.get("crs"):
-        raise InputError(f"--model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
+        raise InputError(f"model {str(path)!r} is not a report of fotogeo orient (its JSON --report, with the "
                          f"fitted model and the GCPs' CRS)", option="model")
     try:
         model = model_from_dict(rep["model"])
     except (KeyError, ValueError, TypeError) as exc:
-        raise InputError(f"--model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
+        raise InputError(f"model {str(path)!r}: the fitted model cannot be rebuilt ({exc})", option="model") from None
     if getattr(model, "direction", "ground-to-image") != "ground-to-image":
-        raise InputError(f"--model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
+        raise InputError(f"model {str(path)!r}: {model.name} was fitted image → ground; orthorectification needs a "
                          f"ground → image model (refit with orient --model {model.name.replace('-i2g', '')})",
                          option="model")
     return model, rep["crs"]
@@ -98,9 +98,7 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
     """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named. How an
     SfM ``eo`` file was read (:mod:`fotogeo.io.sfm_frame`) is appended to the list ``said``."""
     names = [frame_key(p) for p in images]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"images: the names {', '.join(dup)} occur twice; every image needs its own file name")
+    distinct_files(images, names)
     if model is not None:
         if rpc or camera is not None or eo is not None or len(images) != 1:
             raise InputError("--model orthorectifies one image through its fitted orient model: give one image and "
@@ -129,8 +127,22 @@ def _rpc_image(path, name, crs) -> OrthoImage:
     from ...io.rpc_image import image_rpc
     info = open_raster(path, "image")
     rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
+    _refuse_placeless(path, info.width, info.height)
     return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid",
                       info.count, info.dtype)
+
+
+def _refuse_placeless(path, width: int, height: int) -> None:
+    """Refuse an RPC image that looks cut out of its product without its place
+    (:func:`fotogeo.io.rpc_place.product_rpc`): orthorectified, it would lie at the product's corner."""
+    from ...io.rpc_place import placeless
+    why = placeless(path, width, height)
+    if why:
+        raise InputError(f"RPC image {str(path)!r} ({why}) is read at the first pixel of that product: a cut-out "
+                         f"from elsewhere in it would be orthorectified at the product's corner; cut it again from "
+                         f"the product with gdal_translate -srcwin COL ROW W H (GDAL moves the RPC into the cut), "
+                         f"or beside an OSSIM .geom without RPC tags give it a CRS-less geotransform at its place "
+                         f"(gdal_edit.py -a_ullr COL ROW COL+W ROW+H)")
 
 
 def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):

@@ -56,25 +56,25 @@ def frame_covariances(eo, ims) -> dict:
     from ...orientation.ground_sigma import covariances_from_report
     rpc = [im.name for im in ims if im.kind != "frame"]
     if rpc or eo is None:
-        raise InputError(f"--uncertainty: the image(s) {', '.join(rpc[:5]) or 'given'} carry no orientation "
+        raise InputError(f"uncertainty: the image(s) {', '.join(rpc[:5]) or 'given'} carry no orientation "
                          f"covariance; it comes from triangulate's adjustment of frame cameras (--eo "
                          f"exterior_orientation.txt with its report.json)", option="uncertainty")
     report = Path(eo).parent / "report.json"
     rep = _read_report(report)
     cov = covariances_from_report(rep) if rep.get("fotogeo") == "triangulate" else {}
     if not cov:
-        raise InputError(f"--uncertainty: --eo {str(eo)!r} carries no covariance: no triangulate report.json with "
+        raise InputError(f"uncertainty: --eo {str(eo)!r} carries no covariance: no triangulate report.json with "
                          f"covariances beside it (write it with fotogeo triangulate, or orthorectify without "
                          f"--uncertainty)", option="uncertainty")
     missing = [im.name for im in ims if im.name not in cov]
     if missing:
-        raise InputError(f"--uncertainty: {str(report)!r} has no covariance for the image(s) "
+        raise InputError(f"uncertainty: {str(report)!r} has no covariance for the image(s) "
                          f"{', '.join(missing[:10])}", option="uncertainty")
     frames = {f["name"]: f for f in rep["frames"]}
     for im in ims:
         f, c = frames[im.name], im.model.projection_centre
         if np.hypot(*(np.array([f["X"], f["Y"], f["Z"]]) - c)[:2]) > SAME_EO_M or abs(f["Z"] - c[2]) > SAME_EO_M:
-            raise InputError(f"--uncertainty: {str(report)!r} is not the adjustment of --eo {str(eo)!r} (frame "
+            raise InputError(f"uncertainty: {str(report)!r} is not the adjustment of --eo {str(eo)!r} (frame "
                              f"{im.name!r} is elsewhere there); give the exterior_orientation.txt written with it",
                              option="uncertainty")
     return {im.name: cov[im.name] for im in ims}
