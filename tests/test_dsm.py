@@ -303,7 +303,7 @@ def test_an_rpc_image_given_twice_is_refused(data_dir, tmp_path):
         (tmp_path / d).mkdir()
         for ext in (".tif", ".geom"):
             shutil.copy(src.with_suffix(ext), tmp_path / d / f"img{ext}")
-    with pytest.raises(InputError, match=r"images: the names img occur twice \('.*d1/img.tif', '.*d2/img.tif'\); "
+    with pytest.raises(InputError, match=r"images: the name img occurs twice \('.*d1/img.tif', '.*d2/img.tif'\); "
                                          r"every image needs its own file name: rename one"):
         dsm([tmp_path / "d1" / "img.tif", tmp_path / "d2" / "img.tif"], tmp_path / "a.tif", rpc=True)
     assert not (tmp_path / "a.tif").exists()
@@ -339,7 +339,7 @@ def test_a_frame_name_given_twice_names_both_paths(tmp_path):
     (tmp_path / "d").mkdir()
     other = tmp_path / "d" / "s1_01.tif"
     shutil.copy(imgs[1], other)
-    with pytest.raises(InputError, match=r"images: the names s1_01 occur twice \('.*scene.*s1_01.tif', "
+    with pytest.raises(InputError, match=r"images: the name s1_01 occurs twice \('.*scene.*s1_01.tif', "
                                          r"'.*d/s1_01.tif'\); every image needs its own file name: rename one"):
         dsm([imgs[0], other], tmp_path / "a.tif", camera=sc["camera"], eo=sc["eo"], crs=sc["crs"])
     alias = Path(imgs[0]).parent / ".." / Path(imgs[0]).parent.name / Path(imgs[0]).name

@@ -92,3 +92,27 @@ def test_dsm_names_each_images_rpc_source(data_dir, tmp_path):
     rep = dsm([tmp_path / "left.tif", v / "right_image.tif"], tmp_path / "d.tif", rpc=True)
     assert rep["pairs"][0]["rpc_sources"] == ["GeoTIFF RPC tags", "right_image.geom + window geotransform"]
     assert "RPCs: left from GeoTIFF RPC tags; right_image from right_image.geom + window geotransform" in rep["notes"]
+
+
+def test_tags_that_a_dimap_xml_beside_hides_from_gdal_are_compared(data_dir, tmp_path):
+    """A ``gdal_translate -srcwin`` cut of a tagged product (GDAL moves the tags into the cut) kept under a Pleiades
+    ``IMG_…_R1C1`` name beside the product's ``RPC_….XML``: GDAL reads the XML and hides the file's own tags, so
+    the cut was read with the whole product's RPC, 141 px off, without a word (a reviewer's finding). Tags and the
+    XML of the same pixels (the uncut product) still agree."""
+    import subprocess
+    from fotogeo.io.rpc import read_rpc
+    from fotogeo.io.rpc_image import image_rpc
+    v = data_dir / "rpc" / "ventoux"
+    xml = next(v.glob("RPC_PHR1B_*.XML"))
+    shutil.copy(xml, tmp_path / xml.name)
+    _tagged(v / "left_image.tif", tmp_path / "product.tif", read_rpc(xml))
+    subprocess.run(["gdal_edit.py", "-unsetgt", str(tmp_path / "product.tif")], check=True)  # a sensor image
+    stem = xml.stem.replace("RPC_", "IMG_")
+    cut = tmp_path / f"{stem}_R1C1.tif"
+    subprocess.run(["gdal_translate", "-q", "-srcwin", "100", "100", "300", "300", str(tmp_path / "product.tif"),
+                    str(cut)], check=True)
+    with pytest.raises(InputError, match=r"has two RPCs that disagree by 1\d\d px: RPC_PHR1B_.*XML beside it "
+                                         r"\(GDAL reads it first\) and its own GeoTIFF RPC tags; keep one"):
+        image_rpc(cut)
+    shutil.copy(tmp_path / "product.tif", cut)  # the uncut product's tags: the XML's RPC, read as before
+    assert image_rpc(cut).rpc.line_off == pytest.approx(read_rpc(xml).line_off, abs=1.5)

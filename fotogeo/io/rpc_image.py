@@ -25,7 +25,8 @@ than 3.9.3, ``(1 − 1/a) / 2`` px off the RPC's centre convention (:func:`_resa
 
 One image, one RPC: an RPC file beside the image that GDAL did not read (an OSSIM ``.geom`` beside RPC tags, a
 second file beside the first found) is read as it would be alone and compared with the RPC used; more than a
-pixel apart (:func:`rpc_gap_px`), the image is refused naming both and how to keep one (:func:`check_one_rpc`).
+pixel apart (:func:`rpc_gap_px`), the image is refused naming both and how to keep one (:func:`check_one_rpc`);
+the same for the image's own RPC tags when GDAL read a file beside it instead (:func:`_check_hidden_tags`).
 """
 from __future__ import annotations
 
@@ -146,6 +147,8 @@ def image_rpc(image, rpc=None) -> ImageRpc:
                 _refuse_tags_with_window(image, t)
             used = ImageRpc(tags, "GDAL RPC metadata")
             read = gdal_rpc_files(image)
+            if read:
+                _check_hidden_tags(image, used, read[0])
             check_one_rpc(image, used, [f for f in sidecar_rpc_files(image) if f not in read])
             return used
         found = sidecar_rpc_files(image)
@@ -205,6 +208,25 @@ def rpc_gap_px(a: Rpc, b: Rpc, width: int, height: int) -> float:
         gaps.append(np.hypot(*(q - px).T))
     gap = np.concatenate(gaps)
     return float(gap.max()) if np.isfinite(gap).all() else math.inf
+
+
+def _check_hidden_tags(image: Path, used: ImageRpc, read: Path) -> None:
+    """Refuse ``image`` when GDAL read its RPC from the file ``read`` beside it (a DIMAP ``RPC_*.XML`` next to an
+    ``IMG_*`` name, an ``.RPB``) while the file's own RPC tags, which that file hides from GDAL, disagree by more
+    than a pixel: a ``gdal_translate -srcwin`` cut of a tagged product, kept under the product's name beside its
+    RPC file, carries its window's tags and would be read with the whole product's RPC."""
+    import rasterio
+    from .raster import ropen
+    with rasterio.Env(GDAL_DISABLE_READDIR_ON_OPEN="EMPTY_DIR"), ropen(image) as ds:
+        own, w, h = ds.rpcs, ds.width, ds.height
+    if own is None:
+        return
+    d = {k.upper(): v for k, v in own.to_dict().items()}
+    gap = rpc_gap_px(used.rpc, Rpc.from_mapping(d, f"RPC tags of {image}"), w, h)
+    if gap > 1.0:
+        raise InputError(f"image {str(image)!r} has two RPCs that disagree by {gap:.0f} px: {read.name} beside it "
+                         f"(GDAL reads it first) and its own GeoTIFF RPC tags; keep one: to keep the tags move "
+                         f"{read.name} away, to keep {read.name} remove the tags (gdal_edit.py -unsetrpc {image.name})")
 
 
 def check_one_rpc(image: Path, used: ImageRpc, others: list) -> None:

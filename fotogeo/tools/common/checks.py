@@ -173,5 +173,5 @@ def distinct_files(paths, names) -> None:
             raise InputError(f"images: {first!r} and {path!r} are the same file; give each image once")
         first = seen.setdefault(name, path)
         if first != path:
-            raise InputError(f"images: the names {name} occur twice ({first!r}, {path!r}); every image needs its "
+            raise InputError(f"images: the name {name} occurs twice ({first!r}, {path!r}); every image needs its "
                              f"own file name: rename one")
