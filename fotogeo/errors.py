@@ -128,11 +128,20 @@ def in_callers_words(message: str, option: str | None, words: str | None) -> str
 
     >>> in_callers_words("'o.tif' exists; pass overwrite=True to replace it", "overwrite", "--overwrite")
     "'o.tif' exists; pass --overwrite to replace it"
+
+    A message that spells the flag already has it replaced (a QGIS label), and a file named after the option keeps
+    its name:
+
+    >>> in_callers_words("--model orthorectifies through its fitted model", "model", "Fitted model file")
+    'Fitted model file orthorectifies through its fitted model'
+    >>> in_callers_words("cannot read 'model.json': model needed", "model", "--model")
+    "cannot read 'model.json': --model needed"
     """
     import re
     if not option or not words:
         return message
-    return re.sub(r"(?<![\w-])%s(?:=True)?(?!\w)" % re.escape(option), lambda m: words, message, count=1)
+    return re.sub(r"(?<![\w-])(?:--)?%s(?:=True)?(?![\w-]|\.\w)" % re.escape(option), lambda m: words, message,
+                  count=1)
 
 
 #: library warnings that tell a user nothing to act on, silenced: numpy's floating-point and empty/NaN-slice

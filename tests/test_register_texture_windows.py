@@ -37,5 +37,6 @@ def test_few_keypoint_matches_are_topped_up_by_textured_windows(data_dir, tmp_pa
     assert lsm["texture_windows"] > 0 and lsm["tried"] <= lsm["budget"]
     assert lsm["of"] == r.report["matches"] + lsm["texture_windows"] == sum(lsm["status"].values())
     assert lsm["refined"] > r.report["matches"]
+    assert lsm["consistent"] <= r.report["matches"]  # the matches consistent with the fit, not the texture windows
     dense = float(np.sqrt(np.mean(np.hypot(*(r.model.forward(grid) - truth).T) ** 2))) / px
     assert dense <= 0.05, dense

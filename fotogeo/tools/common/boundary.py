@@ -190,7 +190,8 @@ class _Call:
         self.outputs = {k: p for k, p in paths.items() if k in outputs}
         self.inputs = {k: p for k, p in paths.items() if k not in outputs and _may_be_path(p)}
         #: the CRS option given (name, value), named when a CRS cannot be used
-        self.crs = next(((k, values[k]) for k in ("crs", "dst_crs") if values.get(k) not in (None, "", "auto")), None)
+        self.crs = next(((k, values[k]) for k in ("crs", "dst_crs", "gcp_crs")
+                         if values.get(k) not in (None, "", "auto")), None)
 
     def final_paths(self, text: str) -> str:
         """``text`` with the hidden temporary files (``.OUT.xxxx.part.tif``) named by their final paths."""
@@ -351,11 +352,14 @@ def _translate_library(exc, call: _Call, text: str, about: str, writing: bool, l
     if isinstance(exc, MemoryError):
         return InputError(one_line(f"{call.name}: not enough memory ({text}); use a coarser output resolution, "
                                    f"smaller inputs or a machine with more memory"))
-    if lib == "pyproj":
+    if lib == "pyproj" and name == "CRSError":
         given, option = (f"{call.crs[0]} {str(call.crs[1])!r} or ", call.crs[0]) if call.crs else ("", None)
         return InputError(one_line(f"{call.name}: {given}the CRS of {about or 'the inputs'} cannot be used "
                                    f"({text}); give a CRS pyproj knows (EPSG code, WKT or PROJ string)"),
                           option=option)
+    if lib == "pyproj":  # a transformation or PROJ's data, not the CRS given
+        return InputError(one_line(f"{call.name}: PROJ could not transform the coordinates ({text}); check the "
+                                   f"CRSs of the inputs and PROJ's data (pyproj.datadir, PROJ_DATA)"))
     if isinstance(exc, OSError):
         kind = OutputError if writing else InputError
         return kind(one_line(f"{call.name}: {about or 'a file'}: {text}"))

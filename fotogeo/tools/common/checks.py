@@ -160,18 +160,19 @@ def check_unique_ids(table, id_field: str, what: str) -> None:
                           f"{' and more' if len(twice) > 10 else ''}; give each point its own id")
 
 
-def distinct_files(paths, names) -> None:
+def distinct_files(paths, names, what: str = "images") -> None:
     """Refuse an image given twice among ``paths`` (``names``: their names, the file stems pairs, reports and
     orientation files know them by): one file by two paths (same device and inode), or two images of one name;
-    both paths named."""
+    both paths named (``what``: the inputs' word in the message)."""
     files, seen = {}, {}
-    for path, name in zip(paths, names):
+    for i, (path, name) in enumerate(zip(paths, names)):
         path = str(path)
         st = os.stat(path) if os.path.exists(path) else None
-        first = files.setdefault((st.st_dev, st.st_ino), path) if st is not None else path
-        if first != path:
-            raise InputError(f"images: {first!r} and {path!r} are the same file; give each image once")
-        first = seen.setdefault(name, path)
-        if first != path:
-            raise InputError(f"images: the name {name} occurs twice ({first!r}, {path!r}); every image needs its "
+        j = files.setdefault((st.st_dev, st.st_ino) if st is not None else os.path.abspath(path), (i, path))
+        if j[0] != i:
+            raise InputError(f"{what}: {j[1]!r} and {path!r} are the same file; give each image once" if j[1] != path
+                             else f"{what}: {path!r} is given twice; give each image once")
+        j = seen.setdefault(name, (i, path))
+        if j[0] != i:
+            raise InputError(f"{what}: the name {name} occurs twice ({j[1]!r}, {path!r}); every image needs its "
                              f"own file name: rename one")

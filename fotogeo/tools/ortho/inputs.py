@@ -127,22 +127,26 @@ def _rpc_image(path, name, crs) -> OrthoImage:
     from ...io.rpc_image import image_rpc
     info = open_raster(path, "image")
     rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
-    _refuse_placeless(path, info.width, info.height)
+    _warn_placeless(path, info.width, info.height)
     return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid",
                       info.count, info.dtype)
 
 
-def _refuse_placeless(path, width: int, height: int) -> None:
-    """Refuse an RPC image that looks cut out of its product without its place
-    (:func:`fotogeo.io.rpc_place.product_rpc`): orthorectified, it would lie at the product's corner."""
+def _warn_placeless(path, width: int, height: int) -> None:
+    """Warn about an RPC image that looks cut out of its product without its place
+    (:func:`fotogeo.io.rpc_place.placeless`): orthorectified, such a cut-out lies at the product's corner. The file
+    alone cannot tell it from a crop ``gdal_translate -srcwin`` made near the product's corner (GDAL moves the
+    offsets by the crop's place, small beside the scales), which is right: so a warning, not a refusal (``dsm --rpc``
+    decides by the pair's relative pointing error)."""
     from ...io.rpc_place import placeless
     why = placeless(path, width, height)
     if why:
-        raise InputError(f"RPC image {str(path)!r} ({why}) is read at the first pixel of that product: a cut-out "
-                         f"from elsewhere in it would be orthorectified at the product's corner; cut it again from "
-                         f"the product with gdal_translate -srcwin COL ROW W H (GDAL moves the RPC into the cut), "
-                         f"or beside an OSSIM .geom without RPC tags give it a CRS-less geotransform at its place "
-                         f"(gdal_edit.py -a_ullr COL ROW COL+W ROW+H)")
+        warnings.warn(f"RPC image {str(path)!r} ({why}) is read at the first pixel of that product: right for a "
+                      f"crop gdal_translate -srcwin cut near the product's corner, but a cut-out from elsewhere "
+                      f"that kept the product's RPC is orthorectified at the product's corner, kilometres off; "
+                      f"check the orthophoto against a map, and give such a cut-out its place (beside an OSSIM "
+                      f".geom without RPC tags, a CRS-less geotransform: gdal_edit.py -a_ullr COL ROW COL+W ROW+H)",
+                      FotogeoWarning, stacklevel=3)
 
 
 def orientation_block(eo, crs, camera, sfm_frame="auto", images=()):

@@ -149,13 +149,15 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         idx = np.flatnonzero(cand)
         pick[idx] = spread_split(t_m[idx], budget / len(idx), opts.seed)
     status[cand & ~pick] = NOT_PICKED
-    extra = texture_points(_lsm_image(fu_ref), r_m[pick], budget - int(pick.sum()), LSM_HALF_WINDOW)
+    short = budget - int(pick.sum())
+    extra = texture_points(_lsm_image(fu_ref), r_m[pick], short, LSM_HALF_WINDOW) if short > 0 else np.empty((0, 2))
     if len(extra):  # fewer keypoints than the budget: windows of strong texture at the homography's prediction
         t_x = sel.ransac.model.forward(extra)
         src, ref_xy = np.vstack([src, t_x * f_tgt]), np.vstack([ref_xy, extra * f_ref])
         t_m, r_m = np.vstack([t_m, t_x]), np.vstack([r_m, extra])
         status = np.concatenate([status, np.full(len(extra), INCONSISTENT, dtype=object)])
-        cand, pick = (np.concatenate([a, np.ones(len(extra), bool)]) for a in (cand, pick))
+        cand = np.concatenate([cand, np.zeros(len(extra), bool)])  # "consistent" counts the matches only
+        pick = np.concatenate([pick, np.ones(len(extra), bool)])
         n = len(src)
     pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=sel.ransac.model, prefilter=np.inf,
                          half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)

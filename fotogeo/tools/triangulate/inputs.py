@@ -31,7 +31,7 @@ from ...io.block import GcpList, control_in, frame_key, read_control, split_chec
 from ...io.camera import read_camera_with_distortion, read_exterior_orientation
 from ...io.gcps import skip_outside
 from ...io.raster import open_raster
-from ..common.checks import check_camera_size
+from ..common.checks import check_camera_size, distinct_files
 
 #: the order of ``Block.distortion`` (Brown's terms, :mod:`fotogeo.geometry.brown`)
 DISTORTION_ORDER = TERMS
@@ -48,9 +48,7 @@ def read_camera(camera):
 def frame_names(frames, camera) -> list:
     """The frames' keys (file stems), each frame checked against the camera's image size."""
     names = [frame_key(f) for f in frames]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"frames: the names {', '.join(dup)} occur twice; every frame needs its own file name")
+    distinct_files(frames, names, "frames")
     for f in frames:
         info = open_raster(f, "frame")
         check_camera_size(camera, info.width, info.height, f)
