@@ -6,10 +6,7 @@ Features give the approximation, LSM the precision (as in the source papers). Wi
 
 1. the matches consistent with a robust homography between the two pixel sets (RANSAC + Tukey,
    the fit's own first step) are the candidates; at most :func:`lsm_budget` of them, spread over
-   the target, are refined (time: LSM costs about as much per point as detection per 1000 pixels); with fewer
-   than that, windows of strong texture (:func:`fotogeo.tools.register.texture.texture_points`) at the
-   homography's prediction top them up (a detector finding few matches across bands leaves parts of the
-   image without tie points otherwise);
+   the target, are refined (time: LSM costs about as much per point as detection per 1000 pixels);
 2. :func:`fotogeo.tools.register.match.lsm_tie_points` refines each on the fused images as matched (affine
    geometry from the homography's Jacobian, bicubic, 15x15 window); on decimated images
    (``max_match_pixels``) each converged point is refined again at full resolution on windows
@@ -40,8 +37,7 @@ from ...matching import CONVERGED
 from ...models import Projective
 from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
 from .bands import matched_fusions
-from .match import _lsm_image, find_tie_points, lsm_tie_points
-from .texture import texture_points
+from .match import find_tie_points, lsm_tie_points
 
 #: at least this many converged LSM points (and this share of those tried) for the fit to use
 #: converged points only
@@ -149,16 +145,6 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         idx = np.flatnonzero(cand)
         pick[idx] = spread_split(t_m[idx], budget / len(idx), opts.seed)
     status[cand & ~pick] = NOT_PICKED
-    short = budget - int(pick.sum())
-    extra = texture_points(_lsm_image(fu_ref), r_m[pick], short, LSM_HALF_WINDOW) if short > 0 else np.empty((0, 2))
-    if len(extra):  # fewer keypoints than the budget: windows of strong texture at the homography's prediction
-        t_x = sel.ransac.model.forward(extra)
-        src, ref_xy = np.vstack([src, t_x * f_tgt]), np.vstack([ref_xy, extra * f_ref])
-        t_m, r_m = np.vstack([t_m, t_x]), np.vstack([r_m, extra])
-        status = np.concatenate([status, np.full(len(extra), INCONSISTENT, dtype=object)])
-        cand = np.concatenate([cand, np.zeros(len(extra), bool)])  # "consistent" counts the matches only
-        pick = np.concatenate([pick, np.ones(len(extra), bool)])
-        n = len(src)
     pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=sel.ransac.model, prefilter=np.inf,
                          half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
     status[pick] = pts.status
@@ -182,7 +168,7 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
     moved = np.hypot(*(xy[ok] - t_m[ok]).T) * float(np.mean(f_tgt))
     counts["lsm"] = {
         "refined": int(ok.sum()), "of": int(n), "tried": int(pick.sum()), "consistent": int(cand.sum()),
-        "budget": budget, "texture_windows": int(len(extra)),
+        "budget": budget,
         "status": dict(zip(words.tolist(), k.tolist())),
         "median_sigma_px": float(np.median(sigma_px[ok])) if ok.any() else None,
         "median_shift_target_px": float(np.median(moved)) if ok.any() else None,
