@@ -66,23 +66,34 @@ def to_lonlat(crs: CRS, xy) -> np.ndarray:
     return _transform(t, np.asarray(xy, float).reshape(-1, 2))
 
 
+def ecef(lon, lat, h, ellipsoid=None) -> np.ndarray:
+    """Earth-centred Cartesian ``(N, 3)`` (metres) of longitudes, latitudes (degrees) and heights above
+    ``ellipsoid`` (pyproj's; WGS 84 when None, EPSG:4979 -> EPSG:4978): ``X = (N + h) cos φ cos λ``,
+    ``Y = (N + h) cos φ sin λ``, ``Z = (N (1 − e²) + h) sin φ``, ``N = a / √(1 − e² sin² φ)``.
+
+    >>> ecef([0.0, 90.0], [0.0, 0.0], [0.0, 10.0]).round(3).tolist()
+    [[6378137.0, 0.0, 0.0], [0.0, 6378147.0, 0.0]]
+    """
+    a, inv_f = (6378137.0, 298.257223563) if ellipsoid is None else (ellipsoid.semi_major_metre,
+                                                                     ellipsoid.inverse_flattening)
+    e2 = 0.0 if not inv_f else (2.0 - 1.0 / inv_f) / inv_f
+    lon, lat = np.radians(np.asarray(lon, float).ravel()), np.radians(np.asarray(lat, float).ravel())
+    h = np.asarray(h, float).ravel()
+    n = a / np.sqrt(1.0 - e2 * np.sin(lat) ** 2)
+    return np.column_stack([(n + h) * np.cos(lat) * np.cos(lon), (n + h) * np.cos(lat) * np.sin(lon),
+                            (n * (1.0 - e2) + h) * np.sin(lat)])
+
+
 def geocentric(crs, points) -> np.ndarray:
     """Earth-centred Cartesian ``(N, 3)`` (metres) of points ``(N, 3)``: x, y in ``crs`` (pyproj's or rasterio's),
-    the height above its ellipsoid. ``X = (N + h) cos φ cos λ``, ``Y = (N + h) cos φ sin λ``,
-    ``Z = (N (1 − e²) + h) sin φ`` with ``N = a / √(1 − e² sin² φ)`` on the CRS's own ellipsoid: distances and
-    angles measured there do not depend on the map projection (its scale and the heights' unlike metric)."""
+    the height above its ellipsoid, by :func:`ecef` on the CRS's own ellipsoid: distances and angles measured there
+    do not depend on the map projection (its scale and the heights' unlike metric)."""
     from pyproj import CRS
     c = CRS.from_user_input(crs)
     g = c.geodetic_crs
     p = np.asarray(points, float).reshape(-1, 3)
-    lon, lat = np.radians(transform_points(c, g, p[:, :2]).T)
-    e = g.ellipsoid
-    a, inv_f = e.semi_major_metre, e.inverse_flattening
-    e2 = 0.0 if not inv_f else (2.0 - 1.0 / inv_f) / inv_f
-    n = a / np.sqrt(1.0 - e2 * np.sin(lat) ** 2)
-    h = p[:, 2]
-    return np.column_stack([(n + h) * np.cos(lat) * np.cos(lon), (n + h) * np.cos(lat) * np.sin(lon),
-                            (n * (1.0 - e2) + h) * np.sin(lat)])
+    lon, lat = transform_points(c, g, p[:, :2]).T
+    return ecef(lon, lat, p[:, 2], g.ellipsoid)
 
 
 #: the words an output CRS may be given as, besides any CRS pyproj understands

@@ -96,3 +96,20 @@ def test_pixel_size_of_a_geographic_raster_in_utm_against_a_hand_computation():
     # the other way round: a 10 m UTM pixel measured in degrees is a (tiny) number of degrees
     deg = pixel_size_in(Affine(10.0, 0, 5e5, 0, -10.0, 4.43e6), CRS.from_epsg(32635), WGS84, 0, 0)
     assert 1e-4 < deg < 1.3e-4
+
+
+@pytest.mark.parametrize("crs, lon, lat", [("EPSG:3857", (-5.0, 8.0), (40.0, 48.0)),
+                                           ("EPSG:3031", (-180.0, 180.0), (-89.0, -65.0)),
+                                           ("EPSG:32631+5773", (0.0, 6.0), (40.0, 50.0))])
+def test_one_route_to_earth_centred(crs, lon, lat):
+    """``crs.ecef`` (the one formula of Earth-centred coordinates, ``geometry.local_frames`` uses it) is pyproj's
+    EPSG:4979 -> EPSG:4978, and ``crs.geocentric`` of points in a projected, polar or compound CRS is it."""
+    from pyproj import Transformer
+    from fotogeo.crs import ecef, geocentric
+    rng = np.random.default_rng(3)
+    ll = np.column_stack([rng.uniform(*lon, 50), rng.uniform(*lat, 50)])
+    h = rng.uniform(-100.0, 4000.0, 50)
+    want = np.column_stack(Transformer.from_crs(4979, 4978, always_xy=True).transform(ll[:, 0], ll[:, 1], h))
+    np.testing.assert_allclose(ecef(ll[:, 0], ll[:, 1], h), want, rtol=0, atol=1e-6)
+    xy = transform_points("EPSG:4326", crs, ll)
+    np.testing.assert_allclose(geocentric(crs, np.column_stack([xy, h])), want, rtol=0, atol=1e-6)

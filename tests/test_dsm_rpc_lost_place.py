@@ -29,6 +29,12 @@ def _placeless(src, dst):
             out.write(a)
 
 
+def placeless(im) -> str:
+    """:func:`fotogeo.io.rpc_place.placeless` of an RPC image as ``dsm --rpc`` reads it (its RPC read once)."""
+    from fotogeo.io.rpc_place import placeless as why
+    return why(im.path, im.width, im.height, im.rpc)
+
+
 def _rpc_text(rpc, path):
     md = rpc.to_gdal_metadata()
     lines = [f"{k}: {v}" for k, v in md.items() if not k.endswith("COEFF")]
@@ -72,7 +78,6 @@ def test_images_that_keep_their_place_are_not_placeless(data_dir, tmp_path):
     ``OFF − SCALE ≈ −COL``), are not taken for cut-outs that lost their place; the product's tags on a crop are."""
     from fotogeo.io.rpc import read_rpc, write_rpc_geotiff
     from fotogeo.io.rpc_image import image_rpc
-    from fotogeo.tools.dsm.rpc_tool import _placeless as placeless
     from fotogeo.tools.dsm.rpc_tool import rpc_images
     v = data_dir / "rpc" / "ventoux"
     ims, _, _ = rpc_images([v / "left_image.tif", v / "right_image.tif"], "auto", None)
@@ -91,7 +96,7 @@ def test_a_crop_with_its_own_moved_rpc_is_not_taken_for_one_that_lost_its_place(
     alone, by review of session 19), while the product's RPC beside the same pixels still is."""
     from fotogeo.io.rpc import read_rpc
     from fotogeo.io.rpc_image import image_rpc
-    from fotogeo.tools.dsm.rpc_tool import _placeless as placeless, rpc_images
+    from fotogeo.tools.dsm.rpc_tool import rpc_images
     monkeypatch.setenv("GDAL_PAM_ENABLED", "NO")
     v = data_dir / "rpc" / "ventoux"
     for side in ("left", "right"):

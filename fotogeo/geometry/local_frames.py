@@ -1,8 +1,8 @@
 """Local Cartesian frames of SfM reconstructions and the map (array layer, pyproj).
 
 * **topocentric** (OpenSfM): east-north-up axes at a reference ``(lat, lon, alt)``; positions go
-  through ECEF (EPSG:4978) and geodetic lon/lat/h (EPSG:4979), and a vector's axes turn with the
-  local ENU frame from the reference to the point;
+  through ECEF (EPSG:4978; from geodetic lon/lat/h, EPSG:4979, by :func:`fotogeo.crs.ecef`, back by pyproj), and
+  a vector's axes turn with the local ENU frame from the reference to the point;
 * **grid** (ODM, after OpenSfM's ``export_geocoords``): easting and northing as offsets parallel to the UTM grid
   from an origin — the UTM coordinates of the reference, or ODM's offset (``grid_origin``) — in the reference's
   zone or the one ODM chose (``grid_crs``); z is the altitude itself (``export_geocoords`` adds the reference's);
@@ -45,19 +45,18 @@ def _apply(src, dst, *cols) -> list:
 
 def topocentric_to_lonlath(xyz, ref) -> np.ndarray:
     """Topocentric ``(n, 3)`` at ``ref = (lat, lon, alt)`` -> ``(n, 3)`` lon, lat (degrees), ellipsoidal h."""
+    from ..crs import ecef
     lat0, lon0, h0 = ref
-    x0 = np.array(_transformer(4979, 4978).transform(lon0, lat0, h0))
-    e = x0 + np.asarray(xyz, float).reshape(-1, 3) @ _enu_to_ecef(lon0, lat0)[0].T
+    e = ecef(lon0, lat0, h0)[0] + np.asarray(xyz, float).reshape(-1, 3) @ _enu_to_ecef(lon0, lat0)[0].T
     return np.column_stack(_apply(4978, 4979, e[:, 0], e[:, 1], e[:, 2]))
 
 
 def lonlath_to_topocentric(llh, ref) -> np.ndarray:
     """Inverse of :func:`topocentric_to_lonlath`."""
+    from ..crs import ecef
     lat0, lon0, h0 = ref
-    x0 = np.array(_transformer(4979, 4978).transform(lon0, lat0, h0))
     p = np.asarray(llh, float).reshape(-1, 3)
-    e = np.column_stack(_apply(4979, 4978, p[:, 0], p[:, 1], p[:, 2]))
-    return (e - x0) @ _enu_to_ecef(lon0, lat0)[0]
+    return (ecef(p[:, 0], p[:, 1], p[:, 2]) - ecef(lon0, lat0, h0)[0]) @ _enu_to_ecef(lon0, lat0)[0]
 
 
 def grid_angle(crs, lon, lat) -> np.ndarray:

@@ -38,11 +38,12 @@ def _try_read(path):
         return None
 
 
-def product_rpc(image, width: int, height: int):
+def product_rpc(image, width: int, height: int, info=None):
     """``(ImageRpc, file)`` when the ``width`` x ``height`` ``image`` may be a cut-out that lost its place in its
     product (module docstring), else None. ``file``: the RPC file (fotogeo's reading, or the one beside the image
-    GDAL read as its metadata), None for GeoTIFF RPC tags."""
-    info = image_rpc(image)
+    GDAL read as its metadata), None for GeoTIFF RPC tags. ``info``: the image's
+    :class:`~fotogeo.io.rpc_image.ImageRpc` when already read (else read here)."""
+    info = image_rpc(image) if info is None else info
     r = info.rpc
     if (info.product_window is not None or width > r.samp_scale or height > r.line_scale
             or not describes_whole_product(r)):
@@ -53,10 +54,10 @@ def product_rpc(image, width: int, height: int):
     return info, (str(files[0]) if files else None)
 
 
-def placeless(image, width: int, height: int) -> str:
-    """Why ``image`` may be a cut-out that lost its place ("" when not, :func:`product_rpc`): its size, no
-    geotransform, its RPC's source and the size of the product that RPC describes."""
-    found = product_rpc(image, width, height)
+def placeless(image, width: int, height: int, info=None) -> str:
+    """Why ``image`` may be a cut-out that lost its place ("" when not, :func:`product_rpc`, ``info`` as there): its
+    size, no geotransform, its RPC's source and the size of the product that RPC describes."""
+    found = product_rpc(image, width, height, info)
     if found is None:
         return ""
     r = found[0].rpc

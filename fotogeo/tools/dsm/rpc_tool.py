@@ -72,8 +72,7 @@ def _far_apart(ims, i: int, j: int) -> str:
     are valid for (``LONG_OFF ± LONG_SCALE``, ``LAT_OFF ± LAT_SCALE``, the whole product's) does not overlap, so no
     place in a product could make them overlap; each footprint named by its centre (the image's centre at
     ``HEIGHT_OFF``) and their distance on a sphere of 6371 km."""
-    from ...io.rpc_image import image_rpc
-    r = [image_rpc(ims[k].path).rpc for k in (i, j)]
+    r = [ims[k].rpc.rpc for k in (i, j)]
     if (abs(r[0].long_off - r[1].long_off) <= r[0].long_scale + r[1].long_scale
             and abs(r[0].lat_off - r[1].lat_off) <= r[0].lat_scale + r[1].lat_scale):
         return ""
@@ -91,20 +90,20 @@ def _far_apart(ims, i: int, j: int) -> str:
 
 def _lost_offset(ims, i: int, j: int) -> str:
     """The likely cause of a pair of RPC images that do not overlap, "" when there is none to name: one of them
-    looks cut out of the product its RPC describes without its place (:func:`_product_rpc`), so its pixel (0, 0) is
-    read as the product's first (:mod:`fotogeo.io.rpc_image`); the other's place, when it carries one, is named as
-    what was expected. Every source :func:`~fotogeo.io.rpc_image.image_rpc` reads is checked: an RPC file given or
-    beside the image (.geom, .RPB, _RPC.TXT, RPC XML), read by fotogeo or by GDAL, and GeoTIFF RPC tags; only the
-    fix differs (a window geotransform for a file, the RPC of its own pixels for tags, which the reader keeps
-    without a window)."""
-    from ...io.rpc_image import image_rpc
-    found = {k: _product_rpc(ims[k]) for k in (i, j)}
+    looks cut out of the product its RPC describes without its place (:func:`~fotogeo.io.rpc_place.product_rpc`),
+    so its pixel (0, 0) is read as the product's first (:mod:`fotogeo.io.rpc_image`); the other's place, when it
+    carries one, is named as what was expected. Every source :func:`~fotogeo.io.rpc_image.image_rpc` reads is
+    checked: an RPC file given or beside the image (.geom, .RPB, _RPC.TXT, RPC XML), read by fotogeo or by GDAL, and
+    GeoTIFF RPC tags; only the fix differs (a window geotransform for a file, the RPC of its own pixels for tags,
+    which the reader keeps without a window)."""
+    from ...io.rpc_place import product_rpc
+    found = {k: product_rpc(ims[k].path, ims[k].width, ims[k].height, ims[k].rpc) for k in (i, j)}
     for k, o in ((i, j), (j, i)):
         if found[k] is None:
             continue
         info, source = found[k]
         r, im = info.rpc, ims[k]
-        w = found[o][0].product_window if found[o] is not None else image_rpc(ims[o].path).product_window
+        w = ims[o].rpc.product_window
         there = (f", while {ims[o].name!r} carries its place in that product (its pixel (0, 0) at ({w[1]:g}, {w[3]:g}))"
                  if w is not None else "")
         what = f"its RPC file {source!r}" if source else "its GeoTIFF RPC tags"
@@ -119,23 +118,12 @@ def _lost_offset(ims, i: int, j: int) -> str:
     return ""
 
 
-def _product_rpc(im):
-    """:func:`fotogeo.io.rpc_place.product_rpc` of image ``im``."""
-    from ...io.rpc_place import product_rpc
-    return product_rpc(im.path, im.width, im.height)
-
-
-def _placeless(im) -> str:
-    """:func:`fotogeo.io.rpc_place.placeless` of image ``im``."""
-    from ...io.rpc_place import placeless
-    return placeless(im.path, im.width, im.height)
-
-
 def _check_places(name: str, pair, size: float, large: bool) -> None:
-    """Refuse the pair ``name`` when an image of it looks :func:`_placeless` and its relative pointing error
-    (``size`` px, ``large`` above :data:`~.rpc_pairs.LARGE_POINTING_PX`) is large; warn when it only looks so."""
-    a, b = pair
-    lost = [f"{im.name!r} ({why})" for im in (a, b) for why in [_placeless(im)] if why]
+    """Refuse the pair ``name`` when an image of it looks :func:`~fotogeo.io.rpc_place.placeless` and its relative
+    pointing error (``size`` px, ``large`` above :data:`~.rpc_pairs.LARGE_POINTING_PX`) is large; warn when it only
+    looks so."""
+    from ...io.rpc_place import placeless
+    lost = [f"{im.name!r} ({why})" for im in pair for why in [placeless(im.path, im.width, im.height, im.rpc)] if why]
     if not lost:
         return
     many = len(lost) > 1
@@ -216,8 +204,9 @@ def rpc_images(images, crs, dem) -> tuple:
     from ...io.raster import open_raster
     from ...io.rpc_image import image_rpc
     from ..ortho.inputs import OrthoImage
-    rpcs = [image_rpc(p).rpc for p in images]
-    map_c, rule = utm_crs_for(rpcs[0].long_off, rpcs[0].lat_off), "the UTM zone of the image centre (RPC)"
+    found = [image_rpc(p) for p in images]  # read once: the run's steps take each image's from its OrthoImage
+    r0 = found[0].rpc
+    map_c, rule = utm_crs_for(r0.long_off, r0.lat_off), "the UTM zone of the image centre (RPC)"
     given = crs and str(crs).strip().lower() != "auto"
     if given:
         _no_vertical_part(crs)
@@ -229,17 +218,17 @@ def rpc_images(images, crs, dem) -> tuple:
             if given:
                 raise  # a DEM in geographic coordinates: the UTM zone stays
     out = []
-    for p, r in zip(images, rpcs):
+    for p, f in zip(images, found):
         info = open_raster(p, "image")
-        out.append(OrthoImage(str(p), frame_key(p), LonLatModel(r.to_model(), map_c), "rpc", info.width, info.height,
-                              "ellipsoid"))
+        out.append(OrthoImage(str(p), frame_key(p), LonLatModel(f.rpc.to_model(), map_c), "rpc", info.width,
+                              info.height, "ellipsoid", rpc=f))
     return out, map_c, rule
 
 
-def _rpc_sources(images) -> list:
+def _rpc_sources(ims) -> list:
     """Where each image's RPC was read (:func:`fotogeo.io.rpc_image.source_label`), for the console and report."""
-    from ...io.rpc_image import image_rpc, source_label
-    return [source_label(p, image_rpc(p)) for p in images]
+    from ...io.rpc_image import source_label
+    return [source_label(im.path, im.rpc) for im in ims]
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
@@ -252,7 +241,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     distinct_images(ims, (zlo, zhi))
     guide, ref = None, "ellipsoid"
     notes = ["heights above the ellipsoid (RPC)", "planimetry halfway between the pair's RPC geolocations"]
-    origins = _rpc_sources(images)
+    origins = _rpc_sources(ims)
     notes.append("RPCs: " + "; ".join(f"{n} from {o}" for n, o in zip(names, origins)))
     if dem is not None:  # the RPCs' range with the DEM's: a DEM in another vertical reference must not cut it
         source, dlo, dhi, more = _dem_heights(dem, dem_heights, geoid, map_c, ims)

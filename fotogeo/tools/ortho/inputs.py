@@ -43,6 +43,7 @@ from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem
+from ...io.rpc_image import image_rpc
 from ..common.checks import camera_for_image, distinct_files
 
 
@@ -58,6 +59,7 @@ class OrthoImage:
     height_reference: str | None = None  # what the orientation states for its Z (frames), "ellipsoid" for RPC
     count: int | None = None  # the file's bands and pixel type, when its reader opened it (else plan_grid does)
     dtype: str | None = None
+    rpc: object = None  # the ImageRpc read (RPC images: fotogeo.io.rpc_image), so that no step reads it again
 
 
 class FittedGroundModel:
@@ -94,9 +96,10 @@ def read_fitted_model(path) -> tuple:
     return model, rep["crs"]
 
 
-def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sfm_frame="auto", said=None) -> list:
+def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sfm_frame="auto", said=None,
+                 rpc_of=None) -> list:
     """The :class:`OrthoImage` of every image (module docstring); an image without an orientation is named. How an
-    SfM ``eo`` file was read (:mod:`fotogeo.io.sfm_frame`) is appended to the list ``said``."""
+    SfM ``eo`` file was read (:mod:`fotogeo.io.sfm_frame`) goes to ``said``; ``rpc_of``: the run's image_rpc."""
     names = [frame_key(p) for p in images]
     distinct_files(images, names)
     if model is not None:
@@ -110,7 +113,7 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
         if camera is not None or eo is not None:
             raise InputError("give either --rpc (images carrying RPC metadata) or --camera/--eo (frame cameras), "
                              "not both")
-        return [_rpc_image(p, n, crs) for p, n in zip(images, names)]
+        return [_rpc_image(p, n, crs, rpc_of) for p, n in zip(images, names)]
     if eo is None:
         _no_orientation(names)
     return _frame_images(images, names, camera, eo, crs, sfm_frame, said)
@@ -122,24 +125,22 @@ def _no_orientation(names) -> None:
                      f"(--eo, with --camera) of frame cameras, or --rpc for images carrying an RPC")
 
 
-def _rpc_image(path, name, crs) -> OrthoImage:
+def _rpc_image(path, name, crs, rpc_of=None) -> OrthoImage:
     from ...geometry.lonlat_model import LonLatModel
-    from ...io.rpc_image import image_rpc
     info = open_raster(path, "image")
-    rpc = image_rpc(path).rpc  # GDAL RPC metadata, else an RPC file beside the image
-    _warn_placeless(path, info.width, info.height)
-    return OrthoImage(str(path), name, LonLatModel(rpc.to_model(), crs), "rpc", info.width, info.height, "ellipsoid",
-                      info.count, info.dtype)
+    found = (rpc_of or image_rpc)(path)  # GDAL RPC metadata, else an RPC file beside the image
+    _warn_placeless(path, info.width, info.height, found)
+    return OrthoImage(str(path), name, LonLatModel(found.rpc.to_model(), crs), "rpc", info.width, info.height,
+                      "ellipsoid", info.count, info.dtype, found)
 
 
-def _warn_placeless(path, width: int, height: int) -> None:
-    """Warn about an RPC image that looks cut out of its product without its place
-    (:func:`fotogeo.io.rpc_place.placeless`): orthorectified, such a cut-out lies at the product's corner. The file
-    alone cannot tell it from a crop ``gdal_translate -srcwin`` made near the product's corner (GDAL moves the
-    offsets by the crop's place, small beside the scales), which is right: so a warning, not a refusal (``dsm --rpc``
-    decides by the pair's relative pointing error)."""
+def _warn_placeless(path, width: int, height: int, found) -> None:
+    """Warn about an RPC image that looks cut out of its product without its place (``rpc_place.placeless`` of its
+    RPC read, ``found``): orthorectified, such a cut-out lies at the product's corner. The file alone cannot tell it
+    from a crop ``gdal_translate -srcwin`` made near the product's corner (GDAL moves the offsets by the crop's place,
+    small beside the scales), which is right: a warning (``dsm --rpc`` decides by the pair's relative pointing)."""
     from ...io.rpc_place import placeless
-    why = placeless(path, width, height)
+    why = placeless(path, width, height, found)
     if why:
         warnings.warn(f"RPC image {str(path)!r} ({why}) is read at the first pixel of that product: right for a "
                       f"crop gdal_translate -srcwin cut near the product's corner, but a cut-out from elsewhere "
@@ -226,8 +227,8 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
     return out
 
 
-def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto") -> tuple:
-    """``(projected CRS, rule)`` of the module docstring."""
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto", rpc_of=None) -> tuple:
+    """``(projected CRS, rule)`` of the module docstring (``rpc_of`` as :func:`image_models`')."""
     if model is not None:
         c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model")
         given = None if not dst_crs or str(dst_crs).strip().lower() == "auto" else parse_crs(dst_crs, "--crs")
@@ -254,8 +255,7 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
                          "projected CRS")
     if rpc and images:
-        from ...io.rpc_image import image_rpc
-        r = image_rpc(images[0]).rpc
+        r = (rpc_of or image_rpc)(images[0]).rpc
         return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
     if eo is None and not rpc and images:  # what is missing is the orientation, not the CRS
         _no_orientation([frame_key(p) for p in images])

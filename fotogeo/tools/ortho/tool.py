@@ -29,6 +29,7 @@ also ``triangulate --orthorectify``'s (:mod:`fotogeo.tools.triangulate.ortho`): 
 """
 from __future__ import annotations
 
+import functools
 import warnings
 from pathlib import Path
 from typing import NamedTuple
@@ -45,6 +46,7 @@ from ...geometry.occlusion import visible_pixels
 from ...io.compression import check_compression
 from ...io.output_checks import check_output
 from ...io.raster import AtomicOutputs, open_raster
+from ...io.rpc_image import image_rpc
 from ...io.warp import grid_covering, warp_to_grid
 from ...io.warp_gdal import centres_to_map
 from ...pixels import HALF, outline
@@ -316,9 +318,11 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     for p in (q for e in extras.values() for q in e.values()):
         check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model, sfm_frame)
+    rpc_of = functools.lru_cache(maxsize=None)(image_rpc)  # each image's RPC read once in the run
+    crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model, sfm_frame, rpc_of)
     said = []
-    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model, sfm_frame=sfm_frame, said=said)
+    ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model, sfm_frame=sfm_frame, said=said,
+                       rpc_of=rpc_of)
     heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
     if not occlusion:
