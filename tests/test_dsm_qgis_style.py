@@ -64,3 +64,13 @@ def test_an_existing_style_is_refused_up_front_and_replaced_with_overwrite(pair,
     _run(pair, out, overwrite=True)
     assert _renderer(style).get("type") == "singlebandpseudocolor"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.qml", "d.tif"]
+
+
+def test_triangulate_refuses_an_existing_style_of_its_dsm_before_the_adjustment(pair, tmp_path):
+    """Before: found by the DSM step, after the whole adjustment."""
+    from fotogeo.tools.triangulate import triangulate
+    (tmp_path / "d.qml").write_text("a style the user saved")
+    with pytest.raises(OutputError, match=r"QGIS style of the DSM '.*d\.qml' exists"):
+        triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,
+                    dsm=tmp_path / "d.tif")
+    assert not (tmp_path / "block").exists() or not any((tmp_path / "block").iterdir())
