@@ -125,3 +125,33 @@ def test_qgis_process_prints_the_help_as_plain_text(qgis_app, monkeypatch):
     text = reg.algorithmById("fotogeo:ortho").shortHelpString()
     assert "Occlusion masking (with a DSM" in text and "<name>_ortho_sigma.tif" in text
     assert "satellite images carrying an RPC" in reg.algorithmById("fotogeo:dsm").shortHelpString()
+
+
+def test_the_command_lines_dsm_opens_in_qgis_as_its_height(qgis_app, tmp_path):
+    """``fotogeo dsm -o dsm.tif`` opened in QGIS without the plugin (browser, drag and drop, Layer > Add raster:
+    a QgsRasterLayer with its default style) is drawn as band 1 in pseudocolour over its heights' 2 … 98 %, as the
+    plugin loads it; the same file without its ``dsm.qml`` is QGIS's RGB of height, pairs and spread."""
+    import shutil
+    import subprocess
+    import sys
+
+    from qgis.core import QgsRasterLayer
+    from rendered_pair import render
+    (tmp_path / "pair").mkdir()
+    pair = render(tmp_path / "pair", 256)
+    out = tmp_path / "dsm.tif"
+    r = subprocess.run([sys.executable, "-m", "fotogeo", "dsm", *map(str, pair["images"]), "--camera",
+                        str(pair["camera"]), "--eo", str(pair["eo"]), "--crs", "EPSG:32635", "-o", str(out)],
+                       capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    bare = tmp_path / "bare" / "dsm.tif"
+    bare.parent.mkdir()
+    shutil.copy(out, bare)
+    assert QgsRasterLayer(str(bare), "bare").renderer().type() == "multibandcolor"
+    layer = QgsRasterLayer(str(out), "dsm")
+    assert layer.isValid()
+    import rasterio
+    with rasterio.open(out) as ds:
+        heights = ds.read(1, masked=True).compressed()
+    _assert_height_in_pseudocolour(layer, heights)
+    assert layer.renderer().usesBands() == [1]

@@ -333,3 +333,21 @@ def dem_height_scale(ds, band: int = 1, crs=None) -> float:
     from ..geometry.vertical import height_scale
     units = ds.units or ()
     return height_scale(ds.crs if crs is None else crs, units[band - 1] if len(units) >= band else None)
+
+
+#: a raster's metadata item stating its heights' reference ("ellipsoid", "geoid"): fotogeo's DSMs write it, as a
+#: GeoTIFF cannot carry a projected CRS with ellipsoidal heights
+HEIGHT_REFERENCE_TAG = "HEIGHT_REFERENCE"
+
+
+def stated_height_reference(path, crs) -> tuple:
+    """``(reference, where)``: the height reference the raster ``path`` of CRS ``crs`` states, ``"ellipsoid"``,
+    ``"geoid"`` or None, and where it says so, ``"CRS"`` (:func:`~fotogeo.geometry.vertical.crs_height_reference`,
+    first) or ``"metadata"`` (its :data:`HEIGHT_REFERENCE_TAG` item)."""
+    from ..geometry.vertical import crs_height_reference
+    ref = crs_height_reference(crs)
+    if ref is not None:
+        return ref, "CRS"
+    with ropen(path) as ds:
+        tag = ds.tags().get(HEIGHT_REFERENCE_TAG, "").strip().lower()
+    return (tag, "metadata") if tag in ("ellipsoid", "geoid") else (None, None)

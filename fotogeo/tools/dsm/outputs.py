@@ -11,7 +11,8 @@ expanded by a margin of cells: there it removes the speckles (islands smaller th
 tile whole, so tiles give the result of the whole grid), fills the holes with ``fill`` (inside the expanded tile:
 a reach up to the margin sees every height it measures from, so here too tiles give the whole grid's result),
 writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
-the report and turns the GeoTIFF into a COG. Memory: the tile, never the grid.
+the report, turns the GeoTIFF into a COG and writes beside it the QGIS style that draws band 1 over the heights'
+2 … 98 % (:mod:`fotogeo.io.qml`). Memory: the tile, never the grid.
 
 The report counts cells: ``overlap_cells`` those both images of a kept pair see (``stereo_cells``, its earlier
 name, kept for readers of earlier reports: it never counted cells with a height), ``matched_cells`` those of them
@@ -26,6 +27,8 @@ import numpy as np
 from affine import Affine
 
 from ...errors import InputError
+from ...io.qml import CUT, dsm_style_path, write_dsm_style
+from ...io.raster import HEIGHT_REFERENCE_TAG
 from ...stereo.fusion import fill_holes, remove_speckles
 
 NODATA = -32767.0
@@ -69,6 +72,18 @@ def with_dem_vertical(crs, ref, dem):
     return CompoundCRS(name, [h, v])
 
 
+def with_ellipsoidal_height(crs, ref):
+    """The point cloud's CRS: ``crs`` made 3-D (its third axis the ellipsoidal height) when the heights are
+    ellipsoidal (``ref`` "ellipsoid") and ``crs`` is 2-D; ``crs`` otherwise. LAS 1.4 stores it as WKT; a GeoTIFF
+    cannot (GeoTIFF 1.1 has no projected CRS with an ellipsoidal height, and GDAL writes none), so the DSM states
+    the reference in its metadata item :data:`fotogeo.io.raster.HEIGHT_REFERENCE_TAG` (as the report's
+    ``height_reference``), read back by :func:`fotogeo.io.raster.stated_height_reference`."""
+    from ...geometry.vertical import as_pyproj, crs_height_reference
+    if ref != "ellipsoid" or crs is None or crs_height_reference(crs) is not None:
+        return crs
+    return as_pyproj(crs).to_3d()
+
+
 def transform_of(grid) -> Affine:
     return Affine(grid.resolution, 0.0, grid.x0, 0.0, -grid.resolution, grid.y0)
 
@@ -77,7 +92,8 @@ class Products:
     """The outputs of one run inside the :class:`~fotogeo.io.raster.AtomicOutputs` ``out`` (module docstring);
     ``seen(grid, height)`` gives the cells of a (sub-)grid that both images of a kept pair see."""
 
-    def __init__(self, out, output, grid, crs, *, fill: float | None, point_cloud=None, report=None, seen=None):
+    def __init__(self, out, output, grid, crs, *, fill: float | None, point_cloud=None, report=None, seen=None,
+                 height_reference: str | None = None):
         import rasterio
 
         from ...io.raster import gdal_env, geotiff_profile
@@ -86,7 +102,8 @@ class Products:
         self.cloud = None
         if point_cloud is not None:
             from ...io.las import LasWriter
-            self.cloud = LasWriter(out.temp(point_cloud), crs, compress=Path(point_cloud).suffix.lower() == ".laz")
+            self.cloud = LasWriter(out.temp(point_cloud), with_ellipsoidal_height(crs, height_reference),
+                                   compress=Path(point_cloud).suffix.lower() == ".laz")
         self.tmp = out.temp(output)
         profile = geotiff_profile(width=grid.width, height=grid.height, count=3 if fill is None else 4,
                                   dtype="float32", crs=crs.to_wkt(), transform=transform_of(grid), nodata=NODATA,
@@ -95,6 +112,8 @@ class Products:
             self.ds = rasterio.open(self.tmp, "w", **profile)
         for k, name in enumerate(BANDS[:profile["count"]]):
             self.ds.set_band_description(k + 1, name)
+        if height_reference is not None:
+            self.ds.update_tags(**{HEIGHT_REFERENCE_TAG: height_reference})
         self.stride = max(1, int(grid.width * grid.height // HEIGHT_SAMPLE))
         self.valid = self.inside = self.filled = self.speckles = self.single = 0
         self.sample, self.lo, self.hi = [], np.inf, -np.inf
@@ -143,6 +162,8 @@ class Products:
         self.ds.close()
         convert_to_cog(self.tmp, "average")
         heights = np.concatenate(self.sample)
+        style = dsm_style_path(self.output)
+        write_dsm_style(self.out.temp(style), *np.quantile(heights, CUT))
         g = self.grid
         rep = {
             "fotogeo": "dsm", "crs": self.crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
@@ -160,7 +181,7 @@ class Products:
             "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
                           "wall": round(time.perf_counter() - t0[1], 3)},
             "speckle_cells_removed": self.speckles,
-            "outputs": {"dsm": str(self.output)},
+            "outputs": {"dsm": str(self.output), "qgis_style": str(style)},
         }
         if self.cloud is not None:
             self.cloud.close()

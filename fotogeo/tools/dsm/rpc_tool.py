@@ -300,7 +300,8 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
                                setups[(p.i, p.j)]["tau"], refine, dem=setups[(p.i, p.j)]["dem"]) for p in kept]
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
-        products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen)
+        products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen,
+                            height_reference=ref)
         try:
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:

@@ -11,6 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
+from ...io.qml import dsm_style_path
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -45,8 +46,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
-    ``fill`` it is refused); ``point_cloud`` a LAS/LAZ of every
-    point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with ``scheduler`` (a
+    ``fill`` it is refused) and beside it its QGIS style ``<name>.qml`` (band 1 in pseudocolour,
+    :mod:`fotogeo.io.qml`); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with ``scheduler`` (a
     running cluster) or ``workers`` (a local cluster of that many processes), else in this process
     (:mod:`.matching`)."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
@@ -63,8 +64,8 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     # below: the filling's reach in cells (the table's default when not given), None for no filling
     fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
-    check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (point_cloud, "point cloud", (".las", ".laz")),
-                   (report, "report", None)), inputs, overwrite)
+    check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (dsm_style_path(output), "QGIS style of the DSM", None),
+                   (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -332,7 +333,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, with_dem_vertical(crs, ref, dem), fill=fill, point_cloud=point_cloud,
-                            report=report, seen=seen)
+                            report=report, seen=seen, height_reference=ref)
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
                                  *dask)

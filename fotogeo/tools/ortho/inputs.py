@@ -38,11 +38,11 @@ import numpy as np
 
 from ...crs import parse_crs, require_projected, same_crs, utm_crs_for
 from ...errors import FotogeoWarning, InputError, InputNote
-from ...geometry.vertical import ShiftedHeights, as_pyproj, crs_height_reference, horizontal_crs, is_projected
+from ...geometry.vertical import ShiftedHeights, as_pyproj, horizontal_crs, is_projected
 from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
-from ...io.raster import open_raster, read_dem
+from ...io.raster import open_raster, read_dem, stated_height_reference
 from ...io.rpc_image import image_rpc
 from ..common.checks import camera_for_image, distinct_files
 
@@ -270,13 +270,13 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
         return float(height), None, [f"constant height {float(height):g}"]
     d = read_dem_under(dem, images, crs)
     source = _as_map_source(d, crs)
-    stated = crs_height_reference(d.crs)
+    stated, said = stated_height_reference(dem, d.crs)
     ref = stated if dem_heights in (None, "auto") else dem_heights
     wanted = {im.height_reference for im in images} - {None}
     if len(wanted) > 1:
         raise InputError(f"the orientations mix height references ({', '.join(sorted(wanted))}); orthorectify "
                          f"the images of each reference separately")
-    notes = [f"DEM heights: {ref or 'reference not stated'}" + (" (from its CRS)" if ref == stated and ref else "")]
+    notes = [f"DEM heights: {ref or 'reference not stated'}" + (f" (from its {said})" if ref == stated and ref else "")]
     if geoid is not None and ref != "geoid":
         raise InputError(f"--geoid {str(geoid)!r} is given but the heights of DEM {str(dem)!r} are "
                          f"{ref or 'of unstated reference'}; give --dem-heights geoid if they are geoid heights")

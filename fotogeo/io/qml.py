@@ -1,0 +1,90 @@
+"""A QGIS layer style (``.qml``) written beside a surface model, so that QGIS draws it as its heights.
+
+QGIS picks a raster's default renderer from its band count: a GeoTIFF of more than one band is drawn as a
+multiband colour composite of bands 1, 2, 3, whatever the bands' colour interpretation (GDAL's ``Gray`` /
+``Undefined``, ``PHOTOMETRIC=MINISBLACK``) says. When it opens a file-based layer it first loads, as the layer's
+default style, the file ``<folder>/<name>.qml`` beside ``<folder>/<name>.<ext>`` (``QgsMapLayer.styleURI``). A DSM's
+style therefore lives in ``<name>.qml``, written with the DSM (:func:`dsm_style_path`, :func:`write_dsm_style`).
+
+The style is the one of the QGIS plugin's ``styles/dsm.qml``: band 1 alone in a single-band pseudocolour
+renderer, a hypsometric ramp (green, yellow, brown, white) interpolated between :data:`RAMP` stops, a legend in
+metres. A loaded style keeps the range written in it (QGIS does not recompute it on load), so the range is the
+heights' 2 … 98 % quantiles (the min/max origin stated, a cumulative cut, is what QGIS's "Apply" recomputes).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+#: the ramp's stops: (fraction of the range, colour "r,g,b")
+RAMP = ((0.0, "26,152,80"), (0.25, "145,207,96"), (0.5, "254,224,139"), (0.75, "166,97,26"), (1.0, "245,245,245"))
+#: the cumulative cut of the range (lower, upper fraction of the heights)
+CUT = (0.02, 0.98)
+
+_TEMPLATE = """<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>
+<qgis version="3.22.16-Białowieża" styleCategories="Symbology">
+  <pipe>
+    <rasterrenderer type="singlebandpseudocolor" band="1" alphaBand="-1" opacity="1" nodataColor=""
+                    classificationMin="{lo!r}" classificationMax="{hi!r}">
+      <minMaxOrigin>
+        <limits>CumulativeCut</limits>
+        <extent>WholeRaster</extent>
+        <statAccuracy>Estimated</statAccuracy>
+        <cumulativeCutLower>{cut[0]}</cumulativeCutLower>
+        <cumulativeCutUpper>{cut[1]}</cumulativeCutUpper>
+        <stdDevFactor>2</stdDevFactor>
+      </minMaxOrigin>
+      <rastershader>
+        <colorrampshader colorRampType="INTERPOLATED" classificationMode="1" clip="0" labelPrecision="1"
+                         minimumValue="{lo!r}" maximumValue="{hi!r}">
+          <colorramp type="gradient" name="[source]">
+            <Option type="Map">
+              <Option name="color1" type="QString" value="{first},255"/>
+              <Option name="color2" type="QString" value="{last},255"/>
+              <Option name="discrete" type="QString" value="0"/>
+              <Option name="rampType" type="QString" value="gradient"/>
+              <Option name="stops" type="QString" value="{stops}"/>
+            </Option>
+          </colorramp>
+{items}
+          <rampLegendSettings useContinuousLegend="1" minimumLabel="" maximumLabel="" prefix="" suffix=" m"
+                              direction="0" orientation="2">
+            <numericFormat id="basic">
+              <Option type="Map">
+                <Option name="decimals" type="int" value="1"/>
+                <Option name="show_trailing_zeros" type="bool" value="false"/>
+              </Option>
+            </numericFormat>
+          </rampLegendSettings>
+        </colorrampshader>
+      </rastershader>
+    </rasterrenderer>
+    <brightnesscontrast gamma="1" contrast="0" brightness="0"/>
+    <huesaturation grayscaleMode="0" saturation="0" colorizeOn="0"/>
+    <rasterresampler maxOversampling="2"/>
+    <resamplingStage>resamplingFilter</resamplingStage>
+  </pipe>
+  <blendMode>0</blendMode>
+</qgis>
+"""
+
+
+def dsm_style_path(dsm) -> Path:
+    """The style QGIS loads with the raster ``dsm`` (``<folder>/<name>.qml``; module docstring)."""
+    return Path(dsm).with_suffix(".qml")
+
+
+def dsm_style(lo: float, hi: float) -> str:
+    """The QML text drawing band 1 over ``lo`` … ``hi`` metres (``hi`` > ``lo``; module docstring)."""
+    lo, hi = float(lo), float(hi)
+    hi = hi if hi > lo else lo + max(abs(lo), 1.0) * 1e-3  # a flat surface: a range QGIS can interpolate over
+    inner = ":".join(f"{f};{c},255" for f, c in RAMP[1:-1])
+    items = "\n".join(
+        f'          <item value="{lo + f * (hi - lo)!r}" label="{lo + f * (hi - lo):.1f}" '
+        f'color="#{"".join(f"{int(v):02x}" for v in c.split(","))}" alpha="255"/>' for f, c in RAMP)
+    return _TEMPLATE.format(lo=lo, hi=hi, cut=CUT, first=RAMP[0][1], last=RAMP[-1][1], stops=inner, items=items)
+
+
+def write_dsm_style(path, lo: float, hi: float) -> None:
+    """Write :func:`dsm_style` to ``path`` (an :class:`~fotogeo.io.raster.AtomicOutputs` temporary file)."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(dsm_style(lo, hi))
