@@ -15,8 +15,9 @@ disparity range and the output grid.
   (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image, so a margin alone
   does not say it fits);
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
-  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
-  padded by half their span and 10 m, :func:`matched_heights`), plus ``PAD_PX``;
+  highest height (from the DEM, or the pair's sparse matches' lowest and highest heights that neighbouring
+  matches support, without their mismatches, padded by half the span of their bulk and 10 m,
+  :func:`matched_heights`), plus ``PAD_PX``;
 * **grid**: ``--bounds``, else the union of the kept pairs' overlaps, its edges multiples of the resolution.
 """
 from __future__ import annotations
@@ -82,7 +83,10 @@ def footprints_apart(ims, views, i: int, j: int, min_overlap: float, steps: int 
 
 
 def sparse_heights(views, sources, sparse_check, sparse_problem, max_px, ims=None, min_overlap=0.2) -> tuple:
-    """``(low, high)`` heights of the sparse matches of the nearest pair (1st and 99th percentile), refused when
+    """``(low, high)`` heights of the sparse matches of the nearest pair, without their mismatches
+    (:func:`plausible_heights`): the 1st and 99th percentile, the heights of the bulk that place the run's footprints
+    (the pair choice, the grid), not a search range (each pair searches its own :func:`matched_heights`, which
+    keeps a small roof; its extremes here grow the grid by edge cells few rays meet well). Refused when
     the pair's footprints cannot overlap (:func:`footprints_apart`, with ``ims`` the images' models), or its
     matches are too few or cannot be trusted."""
     i, j = nearest_pair(views)
@@ -98,7 +102,9 @@ def sparse_heights(views, sources, sparse_check, sparse_problem, max_px, ims=Non
     if wrong or sp["n"] < 20:
         raise InputError(f"images {views[i].name!r} and {views[j].name!r} (the nearest pair): " + (wrong or (
             f"{few}; the heights cannot be bounded from them: give a coarse DEM of the area (--dem)")))
-    return matched_heights(sp["points"][:, 2], min(views[i].centre[2], views[j].centre[2]))
+    z = sp["points"][:, 2]
+    lo, hi = np.percentile(z[plausible_heights(z, min(views[i].centre[2], views[j].centre[2]))], [1, 99])
+    return float(lo), float(hi)
 
 
 def plausible_heights(z, ceiling: float) -> np.ndarray:
@@ -112,17 +118,65 @@ def plausible_heights(z, ceiling: float) -> np.ndarray:
     return np.abs(z - med) <= window
 
 
-def matched_heights(z, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> tuple:
-    """``(low, high)`` heights of sparse matches ``z`` without their mismatches (:func:`plausible_heights`): the
-    1st and 99th percentiles of the rest, each moved out by ``widen`` times their span plus ``pad`` metres. The
-    high end stays below the median plus ¾ of the cameras' height above it (``ceiling`` the lower camera's
-    height): a height range reaching above a camera has no disparity."""
-    z = np.asarray(z, float)
-    med = float(np.median(z))
-    kept = z[plausible_heights(z, ceiling)]
-    lo, hi = float(np.percentile(kept, 1)), float(np.percentile(kept, 99))
-    grow = widen * (hi - lo) + pad
-    return lo - grow, min(hi + grow, med + 0.75 * max(float(ceiling) - med, 1.0))
+#: a sparse match's height is supported (:func:`supported`) by ``SUPPORT_K`` others among its ``SUPPORT_NEAR``
+#: nearest within ``max(SUPPORT_BAND_M, SUPPORT_BAND_K · s)`` of it (``s`` the NMAD of those neighbours' heights)
+SUPPORT_NEAR = 8
+SUPPORT_K = 2
+SUPPORT_BAND_M = 2.0
+SUPPORT_BAND_K = 3.0
+
+
+def supported(xy, z) -> np.ndarray:
+    """Which heights ``z`` of sparse matches at ``xy`` ``(N, 2)`` (map or image coordinates: only the order of
+    distances counts) a surface supports (bool): at least ``SUPPORT_K`` of the ``SUPPORT_NEAR`` matches nearest each
+    lie within a band of its height. A roof or a tree carries several matches at its height, a mismatch stands
+    alone; a height range set by every height follows the worst mismatch, one set by percentiles cuts what covers
+    less of the overlap than the percentile (a roof over 1 % of it). The band is ``max(SUPPORT_BAND_M,
+    SUPPORT_BAND_K · s)``, ``s`` the NMAD of the neighbours' heights among themselves: the relief around (a slope
+    sampled sparsely, the ground beside a roof) widens it, flat ground under a lone mismatch does not. The one
+    rule of a pair's heights without a DEM (:func:`matched_heights`), its strips' (:func:`.local.guides`), an RPC
+    pair's tie points and the rise over a DEM (:func:`.dem_guide.fit`). Fewer than ``SUPPORT_K + 1`` matches: all."""
+    z = np.asarray(z, float).ravel()
+    if len(z) <= SUPPORT_K:
+        return np.ones(len(z), bool)
+    from scipy.spatial import cKDTree
+    k = min(SUPPORT_NEAR, len(z) - 1)
+    _, idx = cKDTree(np.asarray(xy, float).reshape(-1, 2)).query(np.asarray(xy, float).reshape(-1, 2), k=k + 1)
+    zn = z[idx[:, 1:]]  # the first neighbour is the match itself
+    spread = 1.4826 * np.median(np.abs(zn - np.median(zn, axis=1)[:, None]), axis=1)
+    band = np.maximum(SUPPORT_BAND_M, SUPPORT_BAND_K * spread)
+    return (np.abs(zn - z[:, None]) <= band[:, None]).sum(axis=1) >= SUPPORT_K
+
+
+def supported_span(xy, z) -> tuple:
+    """``(low, high)``: the lowest and highest of the heights ``z`` at ``xy`` that are :func:`supported` (all of
+    them when none is)."""
+    z = np.asarray(z, float).ravel()
+    ok = supported(xy, z)
+    z = z[ok] if ok.any() else z
+    return float(z.min()), float(z.max())
+
+
+def supported_range(xy, z, widen: float, pad: float) -> tuple:
+    """``(low, high)``: the :func:`supported_span` of the heights ``z`` at ``xy``, each end moved out by ``widen``
+    times the span of their bulk (1st to 99th percentile: the relief most of the overlap has, which a lone roof
+    does not widen) plus ``pad`` metres. The one range of a frame pair's (:func:`matched_heights`) and an RPC
+    pair's (:mod:`.rpc_tool`) sparse heights."""
+    lo, hi = supported_span(xy, z)
+    grow = widen * float(np.subtract(*np.percentile(np.asarray(z, float), [99, 1]))) + pad
+    return lo - grow, hi + grow
+
+
+def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> tuple:
+    """``(low, high)`` heights of sparse matches ``points`` ``(N, 3)`` without their mismatches
+    (:func:`plausible_heights`): :func:`supported_range` of the rest. The high end stays below the median plus ¾ of
+    the cameras' height above it (``ceiling`` the lower camera's height): a height range reaching above a camera
+    has no disparity."""
+    P = np.asarray(points, float).reshape(-1, 3)
+    med = float(np.median(P[:, 2]))
+    kept = P[plausible_heights(P[:, 2], ceiling)]
+    lo, hi = supported_range(kept[:, :2], kept[:, 2], widen, pad)
+    return lo, min(hi, med + 0.75 * max(float(ceiling) - med, 1.0))
 
 
 def epipole_margin(view, direction) -> float:

@@ -153,9 +153,10 @@ def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
 
 
 def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
-    """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`: the tie points' range
-    widened by half its span and 30 m), with a DEM (``dem``: ``(path, height source)``) its guide of the
-    tiles (:mod:`.rpc_dem`) and the range the guide gives."""
+    """The pointing correction and the pair's height range (:func:`.rpc_pairs.pointing`: the range of the tie
+    points' heights their neighbours support, widened by half the span of their bulk and 30 m,
+    :func:`.plan.supported_range`), with a DEM (``dem``: ``(path, height source)``) its guide of the tiles
+    (:mod:`.rpc_dem`) and the range the guide gives."""
     a, b = ims[p.i], ims[p.j]
     pt = rp.pointing(a.model, b.model, (sources[p.i], sources[p.j]), zlo, zhi)
     name = f"{a.name}-{b.name}"
@@ -165,9 +166,8 @@ def _pair_setup(p, ims, sources, zlo, zhi, dem) -> dict:
              # an along-line error as large as the across-line one measured: the heights' unseen shift (no warning:
              # ventoux's ordinary Pleiades pair gives 6.9 m, more than the rendered pair's 3.2 m for a true 4.2 m)
              "height_shift_if_along_as_across_m": round(float(np.hypot(*pt["tau"]) * pt["m_per_px"]), 2)}
-    z0, z1 = np.percentile(pt["z"], [1, 99])
-    span = z1 - z0
-    tie = (max(zlo, z0 - 0.5 * span - 30.0), min(zhi, z1 + 0.5 * span + 30.0))
+    z0, z1 = plan.supported_range(pt["p1"], pt["z"], 0.5, 30.0)
+    tie = (max(zlo, z0), min(zhi, z1))
     guide = None
     if dem is not None:
         guide, said = rpc_dem.pair_guide(p, name, ims, pt, dem[1], (zlo, zhi))

@@ -263,7 +263,7 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
                                 f"the images?); give a coarse DEM (--dem) to bound the search"), None, None
-    zlim = plan.matched_heights(sp["points"][:, 2], ceiling, widen=0.5, pad=10.0)
+    zlim = plan.matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), None
