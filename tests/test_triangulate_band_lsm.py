@@ -50,6 +50,8 @@ def test_a_cross_band_pair_converges_on_the_combined_bands(frames):
     assert ok.sum() >= 0.9 * len(anchors)
     err = np.hypot(*(got - (anchors[ok] + SHIFT)).T)
     assert np.median(err) < 0.1
+    by_task = pairs.lsm_task(str(ia.path), str(ib.path), anchors, xy, jac, 10, 3.5, 0.1)  # the Dask path: the same
+    assert all(np.array_equal(x, y) for x, y in zip(by_task, (ok, got, sigma)))
 
 
 def test_a_pair_of_equal_band_counts_is_matched_on_its_greys(frames):
