@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import uuid
 from contextlib import contextmanager
+from dataclasses import replace
 
+import cv2
 import numpy as np
 
 from ...errors import Cancelled, MatchingError
@@ -173,10 +175,79 @@ def dask_pair_results(client, paths, pairs, det, threshold: float, camera, disto
 
 def grey(info) -> np.ndarray:
     """The frame at full resolution as one float32 band (mean of the bands), NaN where nodata."""
+    return _full(info)[1]
+
+
+def _full(info) -> tuple:
+    """``(bands (B, rows, cols), grey)`` of the frame at full resolution (:func:`grey`)."""
     bands, mask, _ = read_decimated(info, info.width * info.height + 1, "frame")
     img = bands.astype(np.float32).mean(axis=0)
     img[~mask] = np.nan
-    return img
+    return bands, img
+
+
+def lsm_pair(info_a, info_b, grey_a, grey_b, anchors, xy, jacobian, half_window: int, max_shift: float,
+             min_sigma: float):
+    """:func:`lsm_group` of one frame pair on the greys (given); when the frames' band counts differ, also on
+    :func:`band_frames` (both frames' bands read again) in windows :data:`MIXED_WINDOW_SCALE` times wider — a trial,
+    as the registration's (:func:`fotogeo.tools.register.bands.matched_fusions`): that result is kept when more of
+    the windows converge (LSM's own correlation and σ gates), else the greys'."""
+    plain = lsm_group(grey_a, grey_b, anchors, xy, jacobian, half_window, max_shift, min_sigma)
+    if info_a.count == info_b.count:
+        return plain
+    images = band_frames(_full(info_a)[0], _full(info_b)[0], grey_a, grey_b, anchors, xy, half_window)
+    wide = lsm_group(*images, anchors, xy, jacobian, int(round(MIXED_WINDOW_SCALE * half_window)), max_shift,
+                     min_sigma)
+    return wide if wide[0].sum() > plain[0].sum() else plain
+
+
+#: a pair of frames in other band sets: the multi-band frame's bands are combined to look like the other's grey
+#: from the windows within this many window sizes of the ties (where the ties' homography holds)
+NEAR_TIES = 3
+#: ... and least-squares matched on them in windows this many times wider as a trial (:func:`lsm_pair`): what
+#: correlates across band sets is the larger structure (fields, roads), which a narrow window holds little of
+MIXED_WINDOW_SCALE = 1.5
+
+
+def band_frames(bands_a, bands_b, grey_a, grey_b, anchors, xy, half_window: int):
+    """``(image_a, image_b)`` least-squares matching reads: the frames' greys, or — when their band counts differ and
+    one has several — that frame's bands combined by least squares to predict the other's grey
+    (:func:`fotogeo.image.band_match.fit_combination`, fitted on images smoothed as the band re-match's rough fit,
+    :data:`fotogeo.tools.register.bands.ROUGH_FIT_SMOOTHING`, near the ties, through the homography of the ties
+    ``anchors`` (frame a) -> ``xy`` (frame b); one RANSAC) when it correlates better than the grey. A NIR-only frame
+    against an RGB one: vegetation bright in one and dark in the mean of the other, which LSM's gain and offset do
+    not model. ``bands_*`` (B, rows, cols)."""
+    if len(bands_a) == len(bands_b) or max(len(bands_a), len(bands_b)) < 2 or len(anchors) < 8:
+        return grey_a, grey_b
+    from ...errors import FotogeoError
+    from ...image.band_match import fit_combination
+    from ...image.fusion import Fusion
+    from ...models import Projective, ransac
+    from ..register.bands import ROUGH_FIT_SMOOTHING
+    a_side = len(bands_a) > len(bands_b)
+    bands, grey, other, src, dst = ((bands_a, grey_a, grey_b, anchors, xy) if a_side else
+                                    (bands_b, grey_b, grey_a, xy, anchors))
+    try:
+        H = ransac(Projective, np.asarray(src, float), np.asarray(dst, float), 2.0 * half_window,
+                   rng=np.random.default_rng(0)).model
+    except FotogeoError:
+        return grey_a, grey_b
+    near = np.zeros(grey.shape, np.uint8)
+    r = NEAR_TIES * (2 * half_window + 1)
+    for x, y in np.asarray(src, float):
+        near[max(0, int(y) - r):int(y) + r + 1, max(0, int(x) - r):int(x) + r + 1] = 1
+    blur = lambda im: cv2.GaussianBlur(np.nan_to_num(np.asarray(im, np.float32)), (0, 0),  # noqa: E731
+                                       ROUGH_FIT_SMOOTHING)
+    own_mask, other_mask = np.isfinite(grey), np.isfinite(other)
+    inner = cv2.erode(own_mask.astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool) & near.astype(bool)
+    fused = lambda im, m: Fusion(blur(im), m, np.ones(len(bands)), 1.0, (0.0, 255.0))  # noqa: E731
+    comb = fit_combination(np.stack([blur(b) for b in bands]), inner, fused(grey, own_mask), H.forward,
+                           replace(fused(other, other_mask), component=np.ones(1)))
+    if comb is None or not comb.better:
+        return grey_a, grey_b
+    img = (np.tensordot(comb.weights, bands.astype(np.float32), axes=1) + comb.offset).astype(np.float32)
+    img[~own_mask] = np.nan
+    return (img, grey_b) if a_side else (grey_a, img)
 
 
 def lsm_group(image_a, image_b, anchors, xy, jacobian, half_window: int, max_shift: float, min_sigma: float):
@@ -195,8 +266,9 @@ def lsm_task(path_a: str, path_b: str, anchors, xy, jacobian, half_window: int, 
     """The Dask task of :func:`lsm_group` on two frames read from their paths."""
     from ..common.dask_cluster import pin_threads
     pin_threads()
-    return lsm_group(grey(open_raster(path_a, "frame")), grey(open_raster(path_b, "frame")), anchors, xy, jacobian,
-                     half_window, max_shift, min_sigma)
+    info_a, info_b = open_raster(path_a, "frame"), open_raster(path_b, "frame")
+    return lsm_pair(info_a, info_b, grey(info_a), grey(info_b), anchors, xy, jacobian, half_window, max_shift,
+                    min_sigma)
 
 
 def dask_lsm_results(client, paths, groups, half_window: int, max_shift: float, min_sigma: float,
@@ -278,4 +350,5 @@ def _local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog):
         for f in (fa, fb):
             if f not in cache:
                 cache[f] = grey(infos[f])
-        yield lsm_group(cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift, min_sigma)
+        yield lsm_pair(infos[fa], infos[fb], cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift,
+                       min_sigma)

@@ -1,0 +1,64 @@
+"""Least-squares matching of tie points between frames in other band sets (triangulate's LSM trial on combined
+bands): a 3-band frame whose band mean is nearly flat against a one-band frame showing one band difference."""
+import cv2
+import numpy as np
+import pytest
+import rasterio
+
+from fotogeo.io.raster import open_raster
+from fotogeo.tools.triangulate import pairs
+
+SHIFT = np.array([1.3, -0.7])
+
+
+def _texture(size, seed):
+    rng = np.random.default_rng(seed)
+    t = cv2.GaussianBlur(rng.normal(size=(size, size)).astype(np.float32), (0, 0), 2.5)
+    return t / t.std()
+
+
+def _write(path, bands):
+    with rasterio.open(path, "w", driver="GTiff", width=bands.shape[2], height=bands.shape[1], count=len(bands),
+                       dtype="uint8") as ds:
+        ds.write(np.clip(np.round(bands), 1, 255).astype(np.uint8))
+    return open_raster(path, "frame")
+
+
+@pytest.fixture(scope="module")
+def frames(tmp_path_factory):
+    folder, size = tmp_path_factory.mktemp("band_lsm"), 240
+    t, other = _texture(size, 0), _texture(size, 1)
+    rng = np.random.default_rng(2)
+    # a: the structure lies in b1 - b2 (NIR-like), their mean holds a weak other texture only
+    a = np.stack([128 + 30 * t + 6 * other, 128 - 30 * t + 6 * other, 128 + 6 * other])
+    a = a + rng.normal(0, 1, (3, size, size))
+    yy, xx = np.mgrid[0:size, 0:size].astype(np.float32)
+    moved = cv2.remap(t, xx - SHIFT[0], yy - SHIFT[1], cv2.INTER_CUBIC)  # b(x) = t(x - shift)
+    b = (128 + 45 * moved + rng.normal(0, 1, (size, size)))[None]
+    return _write(folder / "a.tif", a), _write(folder / "b.tif", b)
+
+
+def test_a_cross_band_pair_converges_on_the_combined_bands(frames):
+    ia, ib = frames
+    g = np.arange(40, 201, 20, dtype=float)
+    anchors = np.array([(x, y) for y in g for x in g])
+    xy = anchors + SHIFT + np.random.default_rng(3).uniform(-1, 1, anchors.shape)
+    jac = np.broadcast_to(np.eye(2), (len(anchors), 2, 2)).copy()
+    ok, got, sigma = pairs.lsm_pair(ia, ib, pairs.grey(ia), pairs.grey(ib), anchors, xy, jac, 10, 3.5, 0.1)
+    plain_ok = pairs.lsm_group(pairs.grey(ia), pairs.grey(ib), anchors, xy, jac, 10, 3.5, 0.1)[0]
+    assert plain_ok.sum() < 0.5 * len(anchors)  # the greys do not correspond
+    assert ok.sum() >= 0.9 * len(anchors)
+    err = np.hypot(*(got - (anchors[ok] + SHIFT)).T)
+    assert np.median(err) < 0.1
+    by_task = pairs.lsm_task(str(ia.path), str(ib.path), anchors, xy, jac, 10, 3.5, 0.1)  # the Dask path: the same
+    assert all(np.array_equal(x, y) for x, y in zip(by_task, (ok, got, sigma)))
+
+
+def test_a_pair_of_equal_band_counts_is_matched_on_its_greys(frames):
+    ia, _ = frames
+    g = np.arange(40, 201, 40, dtype=float)
+    anchors = np.array([(x, y) for y in g for x in g])
+    jac = np.broadcast_to(np.eye(2), (len(anchors), 2, 2)).copy()
+    a = pairs.lsm_pair(ia, ia, pairs.grey(ia), pairs.grey(ia), anchors, anchors + 0.4, jac, 10, 3.5, 0.1)
+    b = pairs.lsm_group(pairs.grey(ia), pairs.grey(ia), anchors, anchors + 0.4, jac, 10, 3.5, 0.1)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
