@@ -404,3 +404,23 @@ def test_orthority_reads_the_ngi_files_like_fotogeo(data_dir):
     for name, eo in eos.items():
         assert got.shots[name].exterior == eo
         assert got.camera_of(name).camera == cam
+
+
+@pytest.mark.parametrize("with_camera", [False, True])
+def test_odm_shots_geojson_is_refused_naming_the_reconstruction(tmp_path, block, with_camera):
+    """ODM's odm_report/shots.geojson (filename, focal, width, height, translation, rotation: ODM's opendm/shots.py)
+    given where orthority's exterior parameters are read: refused by name, with or without a camera YAML, naming the
+    same project's opensfm/reconstruction.json (not numpy's reshape error, not a request for --camera)."""
+    from fotogeo.io.orientation_file import read_orientation_file
+    write_orthority_interior(tmp_path / "int.yaml", block.cameras)
+    report = tmp_path / "proj" / "odm_report"
+    report.mkdir(parents=True)
+    props = {"filename": "a.jpg", "focal": 0.8, "width": 800, "height": 600,
+             "translation": [271950.1, 5209459.7, 379.5], "rotation": [2.63, -0.1, 0.03]}
+    shots = report / "shots.geojson"
+    shots.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": props, "geometry": {"type": "Point", "coordinates": [12.0, 47.0, 379.5]}}]}))
+    want = ("ODM's shots.geojson", str(tmp_path / "proj" / "opensfm" / "reconstruction.json"))
+    _one_line_error(lambda: read_orientation_file(shots, camera=tmp_path / "int.yaml" if with_camera else None), *want)
+    if with_camera:
+        _one_line_error(lambda: read_orthority(shots, tmp_path / "int.yaml", crs=UTM35S), *want)

@@ -114,6 +114,7 @@ class ImageMetadata:
     xmp_error: str | None = None  # why the XMP packet was ignored (not valid XML), None when it was read
     written_sizes: tuple = ()  # ((source, (w, h)), …): other records of the size the camera wrote (exif_sizes)
     digital_zoom: float | None = None  # EXIF DigitalZoomRatio (0xA404): 0 or 1 when none was used
+    canon_focal: tuple | None = None  # (focal at capture or None, lens min, max) mm: Canon maker note (exif_lens)
 
     def x(self, *names) -> float | None:
         """The first of the XMP ``names`` (case-insensitive ``prefix:Name``) that is a number."""
@@ -165,6 +166,7 @@ def read_image_metadata(path) -> ImageMetadata:
     """EXIF and XMP of one image through GDAL (module docstring)."""
     from rasterio.errors import RasterioError
 
+    from .exif_lens import canon_focal
     from .exif_sizes import written_sizes
     from .raster import ropen
     p = Path(path)
@@ -196,7 +198,7 @@ def read_image_metadata(path) -> ImageMetadata:
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
                          _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error,
                          written_sizes(p, tags, text("EXIF_Make"), (int(w), int(h))),
-                         _first(tags.get("EXIF_DigitalZoomRatio")))
+                         _first(tags.get("EXIF_DigitalZoomRatio")), canon_focal(p, text("EXIF_Make")))
 
 
 def _pixel_dimension(tags):

@@ -63,6 +63,7 @@ from fractions import Fraction
 
 from ..errors import InputError, InputNote
 from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers
+from .exif_lens import check_maker_focal
 from .exif_sizes import thumbnail_view
 
 #: relative difference tolerated between a calibrated focal length and the 35 mm equivalent's
@@ -392,6 +393,7 @@ def _full_resolution(meta: ImageMetadata, w: int, h: int, s: float, focal_plane:
         cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
         return s * f, s * f, ((s * cx, s * cy) if cx and cy else None), {}, "drone-dji:CalibratedFocalLength"
     if focal_plane and meta.focal_plane_ppmm and (f := meta.x("Camera:PerspectiveFocalLength") or meta.focal_mm):
+        check_maker_focal(meta, f)
         ppmm = meta.focal_plane_ppmm[0] * s
         return f * ppmm, f * ppmm, None, {}, f"{f:g} mm x FocalPlaneXResolution ({ppmm:.2f} px/mm)"
     return None

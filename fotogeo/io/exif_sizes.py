@@ -112,6 +112,24 @@ def _int(text) -> int | None:
 def _canon_size(path, aspects: tuple = ()) -> tuple | None:
     """CanonImageWidth x CanonImageHeight from a JPEG's Canon maker note, None when absent, unreadable or implausible
     (module docstring); ``aspects``: the width/height ratios it may have (none: not checked)."""
+    got = maker_note(path)
+    if got is None:
+        return None
+    tiff, bo, entries, shift = got
+    for tag, size_word, at in _CANON_AF:
+        if tag in entries and entries[tag][0] == 3 and entries[tag][1] >= at + 6:
+            typ, count, off = entries[tag]
+            for base in dict.fromkeys((shift, 0)):
+                vals = struct.unpack(bo + f"{count}H", tiff[off + base:off + base + 2 * count].ljust(2 * count, b"\0"))
+                if (size_word is None or vals[size_word] == 2 * count) and _plausible(vals[at:at + 6], aspects):
+                    return int(vals[at + 2]), int(vals[at + 3])
+    return None
+
+
+def maker_note(path) -> tuple | None:
+    """``(tiff, byte order, {tag: (type, count, value or offset)}, shift)`` of a JPEG's maker note directory, None
+    without one; ``shift`` is what the out-of-line values moved by (module docstring: read there first, then at the
+    recorded place)."""
     tiff = _exif_tiff(path)
     if tiff is None or tiff[:2] not in (b"II", b"MM"):
         return None
@@ -126,15 +144,7 @@ def _canon_size(path, aspects: tuple = ()) -> tuple | None:
     except (struct.error, IndexError):
         return None
     outside = [e[2] for e in entries.values() if _SIZES.get(e[0], 1) * e[1] > 4]
-    shift = (start + 2 + 12 * len(entries) + 4 - min(outside)) if outside else 0
-    for tag, size_word, at in _CANON_AF:
-        if tag in entries and entries[tag][0] == 3 and entries[tag][1] >= at + 6:
-            typ, count, off = entries[tag]
-            for base in dict.fromkeys((shift, 0)):
-                vals = struct.unpack(bo + f"{count}H", tiff[off + base:off + base + 2 * count].ljust(2 * count, b"\0"))
-                if (size_word is None or vals[size_word] == 2 * count) and _plausible(vals[at:at + 6], aspects):
-                    return int(vals[at + 2]), int(vals[at + 3])
-    return None
+    return tiff, bo, entries, (start + 2 + 12 * len(entries) + 4 - min(outside)) if outside else 0
 
 
 def _plausible(af, aspects: tuple) -> bool:

@@ -82,6 +82,9 @@ def _read(p: Path, crs, camera, sfm_frame: str, gps, images=()):
         return read_opensfm(p, cams if cams.exists() and cams != p else None, crs=crs, frame=sfm_frame or "auto",
                             gps=gps, names=[frame_key(i) for i in images])
     if suffix in (".geojson", ".csv"):
+        if suffix == ".geojson":
+            from .orthority import refuse_odm_shots
+            refuse_odm_shots(p)
         if camera is None:
             raise InputError(f"orthority exterior parameters {str(p)!r} need their interior parameters: give the "
                              f"camera YAML (--camera)")

@@ -122,6 +122,7 @@ def _rows_geojson(path: Path) -> tuple[list, object]:
     """``[(filename, camera | None, xyz, opk in degrees)]`` and the ``world_crs`` of a GeoJSON file."""
     fix = "give orthority's exterior parameters (a FeatureCollection with world_crs and filename, camera, xyz, opk)"
     data = load_json(path, "orthority exterior parameters", fix)
+    refuse_odm_shots(path, data)
     feats = data.get("features") if isinstance(data, dict) else None
     if not isinstance(feats, list):
         raise InputError(f"orthority exterior parameters {str(path)!r} is not a GeoJSON FeatureCollection; {fix}")
@@ -139,6 +140,28 @@ def _rows_geojson(path: Path) -> tuple[list, object]:
             raise InputError(one_line(f"orthority exterior parameters {str(path)!r}, feature {i}: {exc}; each needs "
                                       f"filename, xyz [x, y, z] and opk [omega, phi, kappa] in radians")) from None
     return rows, data.get("world_crs")
+
+
+def refuse_odm_shots(path, data=None) -> None:
+    """Refuse ODM's ``odm_report/shots.geojson`` by name: a FeatureCollection whose first feature's properties are
+    ``filename, focal, width, height, translation, rotation`` (ODM's ``opendm/shots.py``) and no ``xyz``/``opk``.
+    ``translation`` is the camera centre in a UTM zone the file does not state (or in the local frame of an
+    unreferenced project) and ``rotation`` an OpenSfM axis-angle vector (world -> camera, camera axes x right,
+    y down, z forward), not orthority's PATB ω, φ, κ; the same project's ``opensfm/reconstruction.json`` holds these
+    poses with their reference (read by :func:`fotogeo.io.opensfm.read_opensfm`). ``data``: the file's parsed JSON
+    (read here when None)."""
+    if data is None:
+        data = load_json(path, "orthority exterior parameters", "give orthority's exterior parameters")
+    feats = data.get("features") if isinstance(data, dict) else None
+    first = feats[0] if isinstance(feats, list) and feats and isinstance(feats[0], dict) else {}
+    props = first.get("properties")
+    if not isinstance(props, dict) or not {"translation", "rotation"} <= set(props) or {"xyz", "opk"} & set(props):
+        return
+    project = Path(path).resolve().parent
+    rec = (project.parent if project.name == "odm_report" else project) / "opensfm" / "reconstruction.json"
+    raise InputError(f"{str(path)!r} is ODM's shots.geojson (translation, rotation: OpenSfM's axis-angle poses in a "
+                     f"UTM zone the file does not state), not orthority's exterior parameters (xyz, opk); give the "
+                     f"same ODM project's reconstruction instead (--eo {str(rec)!r})")
 
 
 def _sniff(line: str) -> str | None:
