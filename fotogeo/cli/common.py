@@ -14,7 +14,7 @@ import click
 
 from ..errors import (Cancelled, FotogeoError, FotogeoWarning, InputNote, OutputError, in_callers_words,
                       warning_line)
-from ..options import Option, Table, find_option
+from ..options import Option, Table, flags_of
 from . import conventions
 from .conventions import EXIT_FAILED, EXIT_USAGE, quiet_option  # noqa: F401 (the commands' -q)
 
@@ -93,9 +93,9 @@ _SWITCHES = {"overwrite": "--overwrite"}
 
 
 def flag_of(name: str | None) -> str | None:
-    """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``), None if none."""
-    option = find_option(name) if name else None
-    return option.cli_flag if option else _SWITCHES.get(name)
+    """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``), None if none; an argument
+    set from several options by their flags (:func:`fotogeo.options.flags_of`)."""
+    return (flags_of(name) or _SWITCHES.get(name)) if name else None
 
 
 def _in_flags(e) -> str:

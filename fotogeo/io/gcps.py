@@ -261,6 +261,29 @@ def _validate(g: Gcps, what: str):
         raise InputError(f"{what}: GCP id(s) {', '.join(dup_ids[:10])} are used more than once")
 
 
+#: the share of GCPs outside the image (of at least :data:`FEW_OUTSIDE` + 1) above which they are refused, not skipped
+MOST_OUTSIDE = 0.5
+#: GCPs outside the image that are skipped whatever their share (a typo or two, a scene cropped by its vendor)
+FEW_OUTSIDE = 2
+
+
+def _refuse_another_size(pixel, out, width: int, height: int, what: str, reason: str) -> None:
+    """Refuse GCPs most of which lie outside the image and whose pixels span more than the image across and down:
+    coordinates measured on a copy of another size (a 2x enlargement puts about three quarters of them outside) or
+    on another image, where the few left inside would give a plausible wrong model. A few outside stay skipped
+    (:func:`skip_outside`), and so do many beyond one edge only (a scene cut along it)."""
+    n_out, n = int(out.sum()), len(out)
+    lo, hi = pixel.min(axis=0), pixel.max(axis=0)
+    if n_out <= FEW_OUTSIDE or n_out <= MOST_OUTSIDE * n or not (hi - lo > (width, height)).all():
+        return
+    scale = max(hi[0] / width, hi[1] / height)
+    size = f", about {scale:.2g}x the image's size" if scale > 1 else ""
+    raise InputError(f"{n_out} of {n} GCP(s) of {what} lie {reason}: their pixels span col {lo[0]:.0f}..{hi[0]:.0f}, "
+                     f"row {lo[1]:.0f}..{hi[1]:.0f}{size}; the col/row were likely measured on a copy of another "
+                     f"size (resized, cropped) or on another image — measure them on this image ({width}x{height} "
+                     f"px) or scale them to it")
+
+
 def outside_image(pixel, width: int, height: int) -> np.ndarray:
     """Boolean mask of the pixel positions ``(N, 2)`` (col, row; corner convention) outside the ``width`` x
     ``height`` image: not :func:`~fotogeo.io.image_extent.on_image` (edges included), the rule the QGIS picker's
@@ -309,6 +332,7 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     control = roles == "control"
     n_kept, n_control = int((~out).sum()), len(set(points[~out & control]))
     if n_kept and (n_control >= needed or len(set(points[control])) < needed):  # too few anyway: the model says
+        _refuse_another_size(pixel, out, width, height, what, reason)
         warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other "
                       f"{_measurements(n_kept, len(set(points[~out])))} used: {named(10)} (a typo in col/row, or a "
                       f"GCP of another image?)", FotogeoWarning, stacklevel=4)

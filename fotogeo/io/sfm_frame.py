@@ -116,7 +116,8 @@ def decide(local: dict, gps: dict, ref, crs, source: str, grid=None):
 
 def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
     """The sentence saying how ``block``'s centres agree with the images' own ``gps`` ({name: GpsFix}); an
-    :class:`InputError` naming ``what`` and the frames furthest off when the horizontal RMS exceeds 3σ."""
+    :class:`InputError` naming ``what`` and the frames furthest off when the horizontal RMS exceeds 3σ, and the
+    options to check: the CRS the file is read in (``crs``) and ``option`` (an SfM file's local frame)."""
     named = {s.project_name or k: k for k, s in block.shots.items()}  # the project's own name: its folder tells
     gps = {named[n]: g for n, g in gps_for(gps, named).items()}
     names = sorted(n for n in gps if block.shots[n].position is not None)
@@ -131,8 +132,9 @@ def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
         worst = [f"{names[i]} {off[i]:.2f} m" for i in np.argsort(-off)[:3]]
         raise InputError(f"{what}: its camera centres are {rms:.2f} m RMS (horizontally) from the images' own GPS, "
                          f"more than 3 x their sigma {s:.3g} m ({', '.join(worst)}); the file was made in another "
-                         f"frame or CRS than it is read in, or for other images — check its CRS"
-                         + (f" and {option}" if option else ""), option=option)
+                         f"frame or CRS than it is read in, or for other images — check the CRS it is read in "
+                         f"(crs)" + (f" and {option}" if option else ""), option=option or "crs",
+                         also=("crs",) if option else ())
     return (f"camera centres {rms:.3f} m RMS horizontally from the images' own GPS of {len(names)} image(s) "
             f"(σ {s:.3g} m)")
 

@@ -54,6 +54,10 @@ DANISH_C = 2.5
 MIN_POINT_REDUNDANCY = 0.1
 MIN_POINT_REDUNDANCY_BLUNDER = 0.2
 MIN_REDUNDANCY_BLUNDER = 6
+#: an estimated image σ̂ below this (pixels) means the fit is exact: a tenth of the 0.1 px least-squares matching
+#: reaches at best (Ackermann), so the image positions were computed from the model (up to their rounding), not
+#: measured, and the residuals hold no measurement error a blunder could be told from
+EXACT_SIGMA_PX = 0.01
 _RAYLEIGH_MEDIAN = float(np.sqrt(2 * np.log(2)))
 
 
@@ -85,6 +89,10 @@ class BlunderTest:
         """What the test did, in one line."""
         if self.critical is None:
             return f"blunder test: not testable (redundancy 2n − u = {self.f})"
+        if not self.sigma_given and self.sigma < EXACT_SIGMA_PX:
+            return (f"blunder test: not possible, the fit is exact (σ̂ = {self.sigma:.1g} px estimated, below "
+                    f"{EXACT_SIGMA_PX:g} px: image positions computed from the model, not measured; redundancy "
+                    f"{self.f})")
         s = f"σ = {self.sigma:.2f} px given" if self.sigma_given else f"σ̂ = {self.sigma:.2f} px estimated"
         text = (f"blunder test: |w| > {self.critical:.2f} ({s}, redundancy {self.f}, {100 * self.alpha:g} % false "
                 f"alarms per fit)")

@@ -125,6 +125,10 @@ class BundleOptions:
     estimate_image_sigma: bool = True
 
 
+#: what a caller is asked to check when the adjustment does not converge (a tool names the inputs it was given)
+CHECK_START = "check the approximate exterior orientation, the camera file and the tie points"
+
+
 def _robust_weights(pb, s, opts):
     v = bj.project(s.R, s.C, s.X, pb.st.frame, pb.st.point, s.interior, pb.scale) - pb.pixel
     return pb.p0 * huber_weights(v, pb.p0, opts.huber_k)
@@ -137,8 +141,7 @@ def _solve(pb, s, p, opts, prog, label, huber=None):
     med = float(np.median(v))
     if not np.isfinite(med) or med > opts.max_residual_px:
         raise ModelError(f"bundle adjustment did not converge ({label}): median image residual {med:.3g} px "
-                         f"after {info.iterations} iterations; check the approximate exterior orientation, "
-                         f"the camera file and the tie points")
+                         f"after {info.iterations} iterations; {CHECK_START}")
     return s, info.iterations
 
 

@@ -39,7 +39,8 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
-from fotogeo.options import Option, Table, in_labels  # standard library only: loads without fotogeo's dependencies
+# standard library only: the plugin loads without fotogeo's dependencies
+from fotogeo.options import Option, Table, flags_of, in_labels
 from fotogeo.errors import in_callers_words  # standard library only
 
 from .. import runner
@@ -260,10 +261,8 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         ``option``, the option an error is about (``FotogeoError.option``), and ``also``, the further options it
         names (``FotogeoError.also``), by their labels too."""
         for name in (option, *also):
-            for table in self.OPTIONS:
-                if name in table:
-                    message = in_callers_words(message, name, table[name].cli_flag)
-                    break
+            # by its flag(s) (fotogeo.options.flags_of), which in_labels turns into this dialog's labels
+            message = in_callers_words(message, name, flags_of(name, self.OPTIONS))
         return in_labels(message, *self.OPTIONS, extra=self.WORDS)
 
     # -- parameters ----------------------------------------------------------------------

@@ -301,6 +301,8 @@ def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):
 
 #: pixels of the decimated read that bounds a DEM's heights before its window is chosen
 _RANGE_PIXELS = 1_000_000
+#: the fix of a DEM that misses the images (a caller that read the orientations in a CRS it was given names it)
+SAME_CRS = "check the DEM's extent and that the orientation and the DEM are in the same CRS"
 
 
 def read_dem_under(path, images, crs):
@@ -367,8 +369,7 @@ def _not_under(path, images, dem_crs, why: str) -> str:
     """The one-line refusal of a DEM that misses every image (dsm took the NaN heights into a traceback)."""
     names = ", ".join(repr(im.name) for im in images[:3]) + (" …" if len(images) > 3 else "")
     crs = as_pyproj(horizontal_crs(dem_crs))
-    return (f"DEM {str(path)!r} does not cover image{'s' if len(images) > 1 else ''} {names}: {why}; check the "
-            f"DEM's extent and that the orientation and the DEM are in the same CRS "
+    return (f"DEM {str(path)!r} does not cover image{'s' if len(images) > 1 else ''} {names}: {why}; {SAME_CRS} "
             f"({crs.to_string() if crs.to_epsg() else crs.name})")
 
 

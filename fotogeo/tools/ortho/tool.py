@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
@@ -54,7 +55,7 @@ from ...progress import as_progress
 from ...options.products import ORTHO
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
-from .inputs import holes, image_models, map_crs, require_heights, terrain
+from .inputs import SAME_CRS, holes, image_models, map_crs, require_heights, terrain
 from .products import dem_sigma_for, frame_covariances, product_paths, write_products
 
 
@@ -185,8 +186,7 @@ def plan_grid(im, heights, crs, resolution, path, dem_name, compress: str = "def
     coverage = float(hit.mean())
     if coverage == 0:
         raise InputError(f"DEM {dem_name!r} does not cover image {im.name!r}: none of its rays reaches the DEM; "
-                         f"check the DEM's extent and that the orientation and the DEM are in the same CRS "
-                         f"({as_pyproj(crs).to_string()})")
+                         f"{SAME_CRS} ({as_pyproj(crs).to_string()})")
     if coverage < 0.999:
         pct = f"{100 * coverage:.0f}" if coverage < 0.995 else f"{min(100 * coverage, 99.9):.1f}"
         warnings.warn(f"DEM {dem_name!r} covers {pct} % of image {im.name!r}: the orthophoto is "
@@ -300,6 +300,20 @@ def ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, 
         raise
 
 
+@contextmanager
+def _crs_as_cause(dst_crs, eo):
+    """A DEM that misses the images of an orientation file read in the CRS the caller gave (``dst_crs``; not an
+    OpenSfM reconstruction, whose positions come in latitude/longitude) names that CRS as a likely cause: COLMAP's
+    and fotogeo's lines carry no CRS, so coordinates of another zone land hundreds of kilometres away."""
+    try:
+        yield
+    except InputError as exc:
+        if dst_crs in (None, "auto") or eo is None or Path(eo).suffix.lower() == ".json" or SAME_CRS not in str(exc):
+            raise
+        raise InputError(f"{exc}; the orientation file {str(eo)!r} was read in the CRS given (dst_crs {dst_crs}): "
+                         f"if its coordinates are in another CRS, give that one", option="dst_crs") from None
+
+
 def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False, model=None, height=None,
            dem_heights: str = "auto", geoid=None, occlusion: bool = False, resolution=None, dst_crs="auto",
            resampling: str = "nearest", error_threshold: float = 0.125, cog: bool = False, uncertainty: bool = False,
@@ -323,13 +337,15 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     said = []
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model, sfm_frame=sfm_frame, said=said,
                        rpc_of=rpc_of)
-    heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
+    with _crs_as_cause(dst_crs, eo):
+        heights, ref, notes = terrain(dem, height, crs, ims, dem_heights=dem_heights, geoid=geoid)
     surface, step, pyramid = occlusion_surface(heights, dem) if occlusion else (None, 1.0, None)
     if not occlusion:
         warn_dem_holes(dem, heights)
     sigma_h = dem_sigma_for(dem_sigma, heights, crs) if uncertainty else None
     covs = frame_covariances(eo, ims) if uncertainty else {}
-    grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem), compress) for im in ims}
+    with _crs_as_cause(dst_crs, eo):
+        grids = {im.name: plan_grid(im, heights, crs, resolution, paths[im.name], str(dem), compress) for im in ims}
     prog(0.05, "grids planned")
     rep = {"fotogeo": "ortho", "crs": crs_name(crs), "crs_rule": rule, "height_reference": ref, "notes": notes,
            "occlusion": bool(occlusion), "resampling": resampling, "images": {}}

@@ -172,7 +172,8 @@ def area_tie_points(reference, target, ref, tgt, opts, why: str, progress=None, 
                                     pre_align(reference, target, ref, tgt, opts, folder, bands))
         except MatchingError as e:
             raise MatchingError(f"{why}; area-based matching could not step in: the target has no georeference "
-                                f"and {e} (georeference it approximately, or give tie points)") from None
+                                f"and {e} (georeference the target approximately, e.g. gdal_translate -a_srs CRS "
+                                f"-a_ullr ULX ULY LRX LRY, so the windows start from its place)") from None
         return _window_tie_points(reference, vrt, ref, aligned, opts, why, bands, coarse, progress)
 
 

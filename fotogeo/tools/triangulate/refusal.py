@@ -75,4 +75,4 @@ def reporting_refusal(path: Path, matching, names, inputs: dict):
             message = line
         except OSError:
             pass
-        raise type(exc)(message, option=exc.option, frames=exc.frames) from None
+        raise type(exc)(message, option=exc.option, frames=exc.frames, also=exc.also) from None

@@ -185,4 +185,4 @@ def saying_none_registered(start):
         said = none_registered(rows, [n for n in start.names if start.level.get(n)])
         if not said:
             raise
-        raise type(exc)(f"{said}; then: {exc}", option=exc.option, frames=exc.frames) from None
+        raise type(exc)(f"{said}; then: {exc}", option=exc.option, frames=exc.frames, also=exc.also) from None

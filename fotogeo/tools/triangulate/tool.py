@@ -67,7 +67,7 @@ from ...io.block import check_frame_names, frame_key, read_image_observations
 from ...io.compression import check_compression
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
 from ...io.qml import dsm_style_path
-from ...orientation.bundle import Block, BundleOptions
+from ...orientation.bundle import CHECK_START, Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
 from ...io.block import split_check_points
@@ -156,18 +156,35 @@ def _match_options(detection_level, gruber_cells, points_per_region, lsm_window,
 
 
 @contextmanager
-def _saying_what_was_lost(lost: dict):
-    """A refusal naming frames whose files' metadata could not be read says what was lost (their attitude…)."""
+def _saying_what_was_lost(lost: dict, camera_from_files: bool = False):
+    """A refusal naming frames whose files' metadata could not be read says what was lost (their attitude…); so
+    does any refusal of a run whose camera was read from those files (``camera_from_files``: no camera file), for
+    every such frame, when it names none of them (an adjustment that did not converge)."""
     try:
         yield
     except (ModelError, InputError) as exc:
         named = [n for n in lost if n in exc.frames] if exc.frames else \
             [n for n in lost if re.search(rf"(?<![\w-]){re.escape(n)}(?![\w-])", str(exc))]
+        if not named and camera_from_files:
+            named = list(lost)
         if not named:
             raise
         said = _grouped({n: lost[n] for n in named})  # first: a long refusal is cut at its end
         raise type(exc)(f"{said} (repair the files or give the attitude another way: --geoinfo, --eo); {exc}",
-                        option=exc.option, frames=exc.frames) from None
+                        option=exc.option, frames=exc.frames, also=exc.also) from None
+
+
+@contextmanager
+def _naming_given_inputs(advice: str):
+    """An adjustment that did not converge asks to check the inputs this run was given (``advice``), not a
+    camera file or an orientation file it had none of."""
+    try:
+        yield
+    except ModelError as exc:
+        if CHECK_START not in str(exc):
+            raise
+        raise ModelError(str(exc).replace(CHECK_START, advice), option=exc.option, frames=exc.frames,
+                         also=exc.also) from None
 
 
 def _grouped(lost: dict) -> str:
@@ -254,7 +271,11 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     prog(0.5, "inputs read")
     refused = reporting_refusal(finals["json"], matching, names, {"frames": [str(f) for f in frames],
                                                                    "folder": str(folder)})
-    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost), saying_none_registered(start):
+    given = _naming_given_inputs(_overlap_advice(eo, camera, gcp) + (", and the image observations (--observations)"
+                                                                      if observations is not None else
+                                                                      ", and the tie points"))
+    with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost, bool(start.camera_source)), given, \
+            saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
             sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
