@@ -181,7 +181,8 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         full = {"refined": int(better.sum()), "of": int(len(idx)),
                 "median_sigma_px": float(np.median(sigma_px[idx[better]])) if better.any() else None,
                 "note": "the others keep the position and σ of the LSM on the decimated images"}
-    enough = _enough(ok, pick)
+    m = np.arange(n) < n_matches  # the keypoint matches; the rest are texture windows
+    enough = _enough(ok[m], pick[m])  # the matches' own rule; a window takes part only where LSM converged
     words, k = np.unique(status.astype(str), return_counts=True)
     moved = np.hypot(*(xy[ok] - t_m[ok]).T) * float(np.mean(f_tgt))
     counts["lsm"] = {
@@ -194,13 +195,13 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
                                                               "target": float(np.mean(f_tgt))},
         **({"full_resolution": full} if full else {}),
         "fit_uses": "the converged points" if enough else
-                    f"every match: only {int(ok.sum())} of {int(pick.sum())} LSM runs converged"}
-    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+                    f"every match: only {int(ok[m].sum())} of {int(pick[m].sum())} LSM runs converged"
+                    + (" (texture windows: the converged ones)" if n > n_matches else "")}
+    usable = ok if enough else (None if n == n_matches else ok | m)
+    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), usable)
     if n == n_matches:
         return pts
-    m = np.arange(n) < n_matches
-    alone = replace(pts.subset(m), usable=ok[m] if _enough(ok[m], pick[m]) else None)
-    return replace(pts, matched=alone)
+    return replace(pts, matched=replace(pts.subset(m), usable=ok[m] if enough else None))
 
 
 def _enough(ok, pick) -> bool:
