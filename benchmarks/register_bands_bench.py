@@ -84,7 +84,7 @@ def main(argv=None):
                         if r is not None:
                             row["lsm_bands"] = r.report.get("lsm", {}).get("bands")
                             row["lsm_texture_windows"] = r.report.get("lsm", {}).get("texture_windows")
-                            row["lsm_texture_windows_check"] = r.report.get("lsm", {}).get("texture_windows_check")
+                            row["lsm_texture_windows_used"] = r.report.get("lsm", {}).get("texture_windows_used")
                         rows.append(row)
                         print(f"{name:<8}{bs:<11}{warp:<13}{method:<10}" + (
                             f"  failed: {err[:80]}" if r is None else

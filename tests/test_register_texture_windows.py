@@ -9,11 +9,13 @@ import pytest
 import rasterio
 
 from fotogeo.errors import MatchingError
+from fotogeo.pixels import pixel_to_map
 from fotogeo.tools.register import local
 from fotogeo.tools.register.points import TiePoints
 from fotogeo.tools.register.texture import texture_points
 from fotogeo.tools.register.tool import register
 from known_warps import known_warp_bands
+from rotated_pairs import apply, make_case
 
 
 def test_texture_points_are_textured_spread_inside_the_valid_area_and_away_from_taken(rng):
@@ -42,7 +44,7 @@ def test_few_keypoint_matches_are_topped_up_by_textured_windows(data_dir, tmp_pa
     lsm = r.report["lsm"]
     assert lsm["texture_windows"] > 0 and lsm["tried"] <= lsm["budget"]
     assert lsm["of"] == r.report["matches"] + lsm["texture_windows"] == sum(lsm["status"].values())
-    assert lsm["refined"] > r.report["matches"]
+    assert lsm["refined"] > r.report["matches"] and lsm["texture_windows_used"] is True
     dense = float(np.sqrt(np.mean(np.hypot(*(r.model.forward(grid) - truth).T) ** 2))) / px
     assert dense <= 0.05, dense
 
@@ -55,50 +57,52 @@ def _found(rng, n_matches, n_windows):
     return TiePoints(xy, xy, counts, matched=alone)
 
 
-def _fitter(matches_off, windows_off):
-    """``fit(pts)``: every point a control point (a fifth check points) with a 0.05 px scatter; the model is
-    ``matches_off`` px off the truth when fitted to the matches alone (< 100 points), else ``windows_off``."""
-    def fit(pts):
-        n = len(pts.src)
-        off = matches_off if n < 100 else windows_off
-        role = np.where(np.arange(n) % 5 == 0, "check", "control")
-        res = np.random.default_rng(n).normal(0, 0.05, (n, 2)) + off
-        model = SimpleNamespace(forward=lambda xy: xy + off)
-        return pts, pts.ref_xy, SimpleNamespace(inliers=np.ones(n, bool), role=role, residual_m=res, z=None,
-                                                model=model)
-    return fit
+def _fit(pts):
+    """A fit keeping every point as a control point with a 0.05 px scatter."""
+    n = len(pts.src)
+    res = np.random.default_rng(n).normal(0, 0.05, (n, 2))
+    return pts, pts.ref_xy, SimpleNamespace(inliers=np.ones(n, bool), role=np.array(["control"] * n), residual_m=res,
+                                            z=None)
 
 
-def _decide(found, fit, monkeypatch, area_fallback=True):
+def _decide(found, monkeypatch, area_fallback=True):
     def no_windows(*args, **kwargs):
         raise MatchingError("no reliable window")
     monkeypatch.setattr(local, "area_tie_points", no_windows)
     opts = SimpleNamespace(area_fallback=area_fallback)
     prog = SimpleNamespace(stage=lambda *a: None)
     return local.matched_and_fitted("ref.tif", "tgt.tif", None, SimpleNamespace(width=400, height=400), opts, prog,
-                                    lambda: found, fit, None, "lsm", 1.0)
+                                    lambda: found, _fit, None, "lsm", 1.0)
 
 
 def test_texture_windows_do_not_confirm_a_weak_fit_of_the_matches(rng, monkeypatch):
     # 8 matches (fewer than WEAK_INLIERS) + 150 windows at their homography's prediction: the decision is the 8's
     found = _found(rng, 8, 150)
     with pytest.raises(MatchingError, match="the feature fit of 8 inliers .* is not confirmed"):
-        _decide(found, _fitter(0.0, 0.0), monkeypatch)
-    pts, _, gf, _ = _decide(found, _fitter(0.0, 0.0), monkeypatch, area_fallback=False)  # kept, without windows
+        _decide(found, monkeypatch)
+    pts, _, gf, _ = _decide(found, monkeypatch, area_fallback=False)  # kept as asked, without the windows
     assert len(pts.src) == int(gf.inliers.sum()) == 8
-    assert found.counts["lsm"]["texture_windows_check"]["kept"] == "matches alone"
+    assert found.counts["lsm"]["texture_windows_used"] is False
 
 
-def test_texture_windows_refine_a_confirmed_fit_when_closer_to_its_check_points(rng, monkeypatch):
+def test_texture_windows_refine_a_fit_the_matches_confirm(rng, monkeypatch):
     found = _found(rng, 40, 110)
-    pts, _, gf, _ = _decide(found, _fitter(0.1, 0.0), monkeypatch)
-    assert len(pts.src) == 150 - 8  # the matches' 8 check points stay out of the fit with the windows
-    c = found.counts["lsm"]["texture_windows_check"]
-    assert c["kept"] == "with windows" and c["with_windows_rmse_px"] == 0 < c["matches_fit_rmse_px"]
+    pts, _, gf, _ = _decide(found, monkeypatch)
+    assert len(pts.src) == int(gf.inliers.sum()) == 150
+    assert found.counts["lsm"]["texture_windows_used"] is True
 
 
-def test_texture_windows_farther_from_the_check_points_are_dropped(rng, monkeypatch):
-    # two dates: windows on changed ground pull the fit 0.4 px off where the matches' fit is 0.1 px off
-    found = _found(rng, 40, 110)
-    pts, _, gf, _ = _decide(found, _fitter(0.1, 0.4), monkeypatch)
-    assert len(pts.src) == 40 and found.counts["lsm"]["texture_windows_check"]["kept"] == "matches alone"
+def test_texture_windows_that_did_not_converge_stay_out_of_the_fit(data_dir, tmp_path):
+    """Two dates (s2_pair), rotated 25°: most texture windows land on changed ground and do not converge. They must
+    not make the fit fall back to every match (unrefined windows sit at the rough homography's prediction)."""
+    ref, tgt, H, check = make_case(data_dir, "s2pair_r25_s1.1", tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = register(ref, tgt, tmp_path / "out.tif", seed=0)
+    lsm = r.report["lsm"]
+    assert lsm["texture_windows"] > 0 and lsm["texture_windows_used"] is True
+    assert lsm["fit_uses"] == "the converged points"
+    with rasterio.open(ref) as ds:
+        t = ds.transform
+    err = np.hypot(*(r.model.forward(check) - pixel_to_map(t, apply(H, check))).T) / abs(t.a)
+    assert np.sqrt(np.mean(err ** 2)) < 0.1

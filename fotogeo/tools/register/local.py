@@ -24,7 +24,6 @@ images (robust to seasonal and sensor radiometry):
 from __future__ import annotations
 
 import tempfile
-from dataclasses import replace
 
 import numpy as np
 
@@ -117,9 +116,9 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
     if se is not None and opts.area_fallback:
         pts.counts["corner_standard_error_px"] = se
     if given is not None or not opts.area_fallback or not weak:
-        return (*_with_texture_windows(found, (pts, dst, gf), fit, weak, ref_px), refine)
+        return (*_with_texture_windows(found, (pts, dst, gf), fit, weak), refine)
     if found.matched is not None:
-        pts.counts["lsm"]["texture_windows_check"] = {"kept": "matches alone", "why": "weak fit"}
+        pts.counts["lsm"]["texture_windows_used"] = False
     why = (f"feature matching kept only {n} inliers (fewer than {WEAK_INLIERS})" if n < WEAK_INLIERS else
            f"the feature fit of {n} inliers is imprecise: standard error {se:.2f} reference px at the target's "
            f"corners (more than {MAX_CORNER_SE_PX})")
@@ -135,36 +134,21 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
     return _better_supported((pts, dst, gf, refine), (*won, "area-based windows (weak feature fit)"), ref_px, se)
 
 
-def _with_texture_windows(found, first, fit, weak: bool, ref_px: float):
+def _with_texture_windows(found, first, fit, weak: bool):
     """``first`` (the fit of the keypoint matches alone: tie points, output positions, fit) or, when the
-    ``found`` tie points carry texture windows and that fit is not ``weak``, the fit with the windows included —
-    if it is at least as close to the first fit's check points (held out of both fits) as the first fit
-    (:func:`matched_and_fitted`). The report's ``lsm.texture_windows_check`` says which was kept."""
+    ``found`` tie points carry texture windows and that fit is not ``weak``, the fit with the windows (their
+    converged LSM positions) included (:func:`matched_and_fitted`); the report's ``lsm.texture_windows_used``
+    says which."""
     if found.matched is None:
         return first
-    pts, dst, gf = first
-    chk = gf.role == "check"
-    lsm = pts.counts["lsm"]
-    if weak or gf.z is not None or not chk.any():
-        lsm["texture_windows_check"] = {"kept": "matches alone", "why": "weak fit" if weak else "no check points"}
-        return first
-    alone = found.matched
-    rows = np.flatnonzero(alone.usable) if alone.usable is not None else np.arange(len(alone.src))
-    keep = np.ones(len(found.src), bool)
-    keep[rows[chk]] = False  # the matches' check points stay out of the fit with the windows too
-    try:
-        won = fit(replace(found.subset(keep), usable=None if found.usable is None else found.usable[keep]))
-    except (MatchingError, ModelError) as e:
-        lsm["texture_windows_check"] = {"kept": "matches alone", "why": str(e)}
-        return first
-    def rms(model) -> float:  # at the matches' check points, reference px
-        return float(np.sqrt(np.mean(np.sum(((model.forward(pts.src[chk]) - dst[chk]) / ref_px) ** 2, axis=1))))
-    check = {"at": f"{int(chk.sum())} check points of the matches' fit", "matches_fit_rmse_px": rms(gf.model),
-             "with_windows_rmse_px": rms(won[2].model)}
-    check["kept"] = "with windows" if check["with_windows_rmse_px"] <= check["matches_fit_rmse_px"] else \
-        "matches alone"
-    lsm["texture_windows_check"] = check
-    return won if check["kept"] == "with windows" else first
+    used = not weak
+    if used:
+        try:
+            won = fit(found)
+        except (MatchingError, ModelError):
+            used = False
+    first[0].counts["lsm"]["texture_windows_used"] = used
+    return won if used else first
 
 
 def _fit_to_reference_px(gf, ref):

@@ -121,8 +121,8 @@ def notes(rep: dict, terrain: bool) -> dict:
                         "weighted by the spatial balance / (σ² + s0²) (fit_weights); at most 'budget' consistent "
                         "matches are refined, spread over the target, topped up with 'texture_windows' (windows of "
                         "strong texture at the homography's prediction, counted in 'of') when the matches are fewer, "
-                        "kept ('texture_windows_check') only when the matches alone make a fit that is not weak and the "
-                        "fit with them is at least as close to that fit's check points; "
+                        "used ('texture_windows_used', the converged ones) only when the matches alone make a fit that "
+                        "is not weak; "
                         "median_sigma_px: radial σ in reference pixels")
     if terrain:
         notes["terrain"] = ("check_rmse_target_px / control_rmse_target_px: the same residuals measured in the "
