@@ -12,7 +12,9 @@ Features give the approximation, LSM the precision (as in the source papers). Wi
    image without tie points otherwise). Those windows only refine a fit the matches make on their own:
    ``TiePoints.matched`` keeps the matches alone, from which the caller decides whether the feature fit is
    weak (:func:`fotogeo.tools.register.local.matched_and_fitted`) before the windows take part — windows placed
-   at a wrong homography's prediction would agree with it;
+   at a wrong homography's prediction would agree with it; a window takes part only where its LSM converged
+   (one that did not sits at the rough homography's prediction), and whether the fit takes the converged
+   points only (step 3) is the matches' rule;
 2. :func:`fotogeo.tools.register.match.lsm_tie_points` refines each on the fused images as matched (affine
    geometry from the homography's Jacobian, bicubic, 15x15 window); on decimated images
    (``max_match_pixels``) each converged point is refined again at full resolution on windows
