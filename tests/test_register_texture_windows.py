@@ -94,14 +94,15 @@ def test_texture_windows_refine_a_fit_the_matches_confirm(rng, monkeypatch):
 
 def test_texture_windows_that_did_not_converge_stay_out_of_the_fit(data_dir, tmp_path):
     """Two dates (s2_pair), rotated 25°: most texture windows land on changed ground and do not converge. They must
-    not make the fit fall back to every match (unrefined windows sit at the rough homography's prediction)."""
+    not make the fit fall back to every match (unrefined windows sit at the rough homography's prediction), and
+    with so few converged none is used (the few that converge made a 1500 px two-date chip worse)."""
     ref, tgt, H, check = make_case(data_dir, "s2pair_r25_s1.1", tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = register(ref, tgt, tmp_path / "out.tif", seed=0)
     lsm = r.report["lsm"]
-    assert lsm["texture_windows"] > 0 and lsm["texture_windows_used"] is True
-    assert lsm["fit_uses"] == "the converged points"
+    assert lsm["texture_windows"] > 0 and lsm["texture_windows_converged"] < 0.25 * lsm["texture_windows"]
+    assert lsm["texture_windows_used"] is False and lsm["fit_uses"] == "the converged points"
     with rasterio.open(ref) as ds:
         t = ds.transform
     err = np.hypot(*(r.model.forward(check) - pixel_to_map(t, apply(H, check))).T) / abs(t.a)

@@ -13,8 +13,9 @@ Features give the approximation, LSM the precision (as in the source papers). Wi
    ``TiePoints.matched`` keeps the matches alone, from which the caller decides whether the feature fit is
    weak (:func:`fotogeo.tools.register.local.matched_and_fitted`) before the windows take part — windows placed
    at a wrong homography's prediction would agree with it; a window takes part only where its LSM converged
-   (one that did not sits at the rough homography's prediction), and whether the fit takes the converged
-   points only (step 3) is the matches' rule;
+   (one that did not sits at the rough homography's prediction), none does when fewer than
+   :data:`MIN_CONVERGED_SHARE` of them converged (changed ground between two dates), and whether the fit takes
+   the converged points only (step 3) is the matches' rule;
 2. :func:`fotogeo.tools.register.match.lsm_tie_points` refines each on the fused images as matched (affine
    geometry from the homography's Jacobian, bicubic, 15x15 window); on decimated images
    (``max_match_pixels``) each converged point is refined again at full resolution on windows
@@ -199,9 +200,15 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         "fit_uses": "the converged points" if enough else
                     f"every match: only {int(ok[m].sum())} of {int(pick[m].sum())} LSM runs converged"
                     + (" (texture windows: the converged ones)" if n > n_matches else "")}
-    usable = ok if enough else (None if n == n_matches else ok | m)
-    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), usable)
     if n == n_matches:
+        return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+    counts["lsm"]["texture_windows_converged"] = int(ok[~m].sum())
+    if ok[~m].mean() < MIN_CONVERGED_SHARE:  # most windows on changed ground (two dates): none of them is used
+        counts["lsm"]["texture_windows_used"] = False
+        ok = ok & m
+    usable = ok if enough else ok | m
+    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), usable)
+    if not ok[~m].any():
         return pts
     return replace(pts, matched=replace(pts.subset(m), usable=ok[m] if enough else None))
 
