@@ -83,6 +83,8 @@ def main(argv=None):
                         row.update({"error": err} if r is None else describe(r, seconds, px, (grid, truth)))
                         if r is not None:
                             row["lsm_bands"] = r.report.get("lsm", {}).get("bands")
+                            row["lsm_texture_windows"] = r.report.get("lsm", {}).get("texture_windows")
+                            row["lsm_texture_windows_used"] = r.report.get("lsm", {}).get("texture_windows_used")
                         rows.append(row)
                         print(f"{name:<8}{bs:<11}{warp:<13}{method:<10}" + (
                             f"  failed: {err[:80]}" if r is None else

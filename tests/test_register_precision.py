@@ -30,7 +30,7 @@ def test_known_warp_within_five_hundredths_of_a_pixel_by_default(data_dir, tmp_p
     assert dense_px(r, grid, truth, px) < TARGET_PX
     lsm = rep["lsm"]
     assert lsm["refined"] >= 0.8 * lsm["tried"] and lsm["tried"] <= lsm["budget"]
-    assert sum(lsm["status"].values()) == lsm["of"] == rep["matches"]
+    assert sum(lsm["status"].values()) == lsm["of"] == rep["matches"] + lsm["texture_windows"]
     assert rep["inliers"] <= lsm["refined"] and rep["check"]["n"] >= 20
     p = rep["precision"]
     assert 0 < p["tie_point_sigma_px"] < 0.1 and p["tie_point_sigma_m"] == pytest.approx(p["tie_point_sigma_px"] * px)

@@ -98,10 +98,12 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
     :func:`area_tie_points` — seeded from the fit when it has enough inliers, else as when matching fails —
     and of the two fits the one closer to the windows' check points (held out of the windows' fit, never used
     by the feature fit) is kept. When the windows fail too, the weak fit is refused: nothing confirms it
-    (``--no-area-fallback`` keeps it, as it skips the windows)."""
+    (``--no-area-fallback`` keeps it, as it skips the windows). The decision is the keypoint matches' alone
+    (``TiePoints.matched``): LSM windows of strong texture added at the approximate homography's prediction
+    agree with that homography, right or wrong, so they refine a feature fit only once it is accepted."""
     try:
-        pts = find()
-        pts, dst, gf = fit(pts)
+        found = find()
+        pts, dst, gf = fit(found if found.matched is None else found.matched)
     except MatchingError as e:
         if given is not None or not opts.area_fallback:
             raise MatchingError(f"{e} — registering {str(target)!r} to {str(reference)!r}; {HINT}") from None
@@ -109,13 +111,14 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
                               prog.stage(0.0, 0.55, "feature matching failed: matching windows"))
         return (*fit(pts), "area-based windows (feature matching failed)")
     n = int(gf.inliers.sum())
-    if given is not None or not opts.area_fallback:
-        return pts, dst, gf, refine
-    se = corner_standard_error(gf, pts, ref_px, tgt.width, tgt.height)
-    if se is not None:
+    se = corner_standard_error(gf, pts, ref_px, tgt.width, tgt.height) if given is None else None
+    weak = n < WEAK_INLIERS or (se is not None and se > MAX_CORNER_SE_PX)
+    if se is not None and opts.area_fallback:
         pts.counts["corner_standard_error_px"] = se
-    if n >= WEAK_INLIERS and (se is None or se <= MAX_CORNER_SE_PX):
-        return pts, dst, gf, refine
+    if given is not None or not opts.area_fallback or not weak:
+        return (*_with_texture_windows(found, (pts, dst, gf), fit, weak), refine)
+    if found.matched is not None:
+        pts.counts["lsm"]["texture_windows_used"] = False
     why = (f"feature matching kept only {n} inliers (fewer than {WEAK_INLIERS})" if n < WEAK_INLIERS else
            f"the feature fit of {n} inliers is imprecise: standard error {se:.2f} reference px at the target's "
            f"corners (more than {MAX_CORNER_SE_PX})")
@@ -129,6 +132,23 @@ def matched_and_fitted(reference, target, ref, tgt, opts, prog, find, fit, given
         raise MatchingError(f"the feature fit of {n} inliers of {str(target)!r} is not confirmed, so none is "
                             f"written: {e} — {HINT}, or keep that fit with --no-area-fallback") from None
     return _better_supported((pts, dst, gf, refine), (*won, "area-based windows (weak feature fit)"), ref_px, se)
+
+
+def _with_texture_windows(found, first, fit, weak: bool):
+    """``first`` (the fit of the keypoint matches alone: tie points, output positions, fit) or, when the
+    ``found`` tie points carry texture windows and that fit is not ``weak``, the fit with the windows (their
+    converged LSM positions) included (:func:`matched_and_fitted`); the report's ``lsm.texture_windows_used``
+    says which."""
+    if found.matched is None:
+        return first
+    used = not weak
+    if used:
+        try:
+            won = fit(found)
+        except (MatchingError, ModelError):
+            used = False
+    first[0].counts["lsm"]["texture_windows_used"] = used
+    return won if used else first
 
 
 def _fit_to_reference_px(gf, ref):

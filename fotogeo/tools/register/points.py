@@ -6,7 +6,16 @@ Features give the approximation, LSM the precision (as in the source papers). Wi
 
 1. the matches consistent with a robust homography between the two pixel sets (RANSAC + Tukey,
    the fit's own first step) are the candidates; at most :func:`lsm_budget` of them, spread over
-   the target, are refined (time: LSM costs about as much per point as detection per 1000 pixels);
+   the target, are refined (time: LSM costs about as much per point as detection per 1000 pixels); with fewer
+   than that, windows of strong texture (:func:`fotogeo.tools.register.texture.texture_points`) at the
+   homography's prediction top them up (a detector finding few matches across bands leaves parts of the
+   image without tie points otherwise). Those windows only refine a fit the matches make on their own:
+   ``TiePoints.matched`` keeps the matches alone, from which the caller decides whether the feature fit is
+   weak (:func:`fotogeo.tools.register.local.matched_and_fitted`) before the windows take part — windows placed
+   at a wrong homography's prediction would agree with it; a window takes part only where its LSM converged
+   (one that did not sits at the rough homography's prediction), none does when fewer than
+   :data:`MIN_CONVERGED_SHARE` of them converged (changed ground between two dates), and whether the fit takes
+   the converged points only (step 3) is the matches' rule;
 2. :func:`fotogeo.tools.register.match.lsm_tie_points` refines each on the fused images as matched (affine
    geometry from the homography's Jacobian, bicubic, 15x15 window); on decimated images
    (``max_match_pixels``) each converged point is refined again at full resolution on windows
@@ -37,7 +46,8 @@ from ...matching import CONVERGED
 from ...models import Projective
 from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
 from .bands import matched_fusions
-from .match import find_tie_points, lsm_tie_points
+from .match import _lsm_image, find_tie_points, lsm_tie_points
+from .texture import texture_points
 
 #: at least this many converged LSM points (and this share of those tried) for the fit to use
 #: converged points only
@@ -71,10 +81,12 @@ class TiePoints:
     sigma_px: np.ndarray | None = None  # (N,) radial σ of the refined position, reference pixels (NaN: none)
     status: np.ndarray | None = None  # (N,) LSM status
     usable: np.ndarray | None = None  # (N,) bool: may take part in the fit (None: all)
+    matched: "TiePoints | None" = None  # with texture windows: the keypoint matches alone (their own ``usable``)
 
     def subset(self, keep) -> "TiePoints":
-        """The tie points ``keep`` (a boolean mask), ``usable`` reset."""
-        return replace(self, usable=None, **{k: None if getattr(self, k) is None else getattr(self, k)[keep]
+        """The tie points ``keep`` (a boolean mask), ``usable`` and ``matched`` reset."""
+        return replace(self, usable=None, matched=None,
+                       **{k: None if getattr(self, k) is None else getattr(self, k)[keep]
                                              for k in ("src", "ref_xy", "sigma_px", "status")})
 
 
@@ -145,6 +157,15 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         idx = np.flatnonzero(cand)
         pick[idx] = spread_split(t_m[idx], budget / len(idx), opts.seed)
     status[cand & ~pick] = NOT_PICKED
+    n_matches = n
+    extra = texture_points(_lsm_image(fu_ref), r_m[pick], budget - int(pick.sum()), LSM_HALF_WINDOW)
+    if len(extra):  # fewer matches than the budget: windows of strong texture at the homography's prediction
+        t_x = sel.ransac.model.forward(extra)
+        src, ref_xy = np.vstack([src, t_x * f_tgt]), np.vstack([ref_xy, extra * f_ref])
+        t_m, r_m = np.vstack([t_m, t_x]), np.vstack([r_m, extra])
+        status = np.concatenate([status, np.full(len(extra), "", dtype=object)])  # LSM sets every one
+        cand, pick = (np.concatenate([a, np.ones(len(extra), bool)]) for a in (cand, pick))
+        n = len(src)
     pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=sel.ransac.model, prefilter=np.inf,
                          half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
     status[pick] = pts.status
@@ -163,12 +184,13 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         full = {"refined": int(better.sum()), "of": int(len(idx)),
                 "median_sigma_px": float(np.median(sigma_px[idx[better]])) if better.any() else None,
                 "note": "the others keep the position and σ of the LSM on the decimated images"}
-    enough = ok.sum() >= max(MIN_CONVERGED, MIN_CONVERGED_SHARE * pick.sum())
+    m = np.arange(n) < n_matches  # the keypoint matches; the rest are texture windows
+    enough = _enough(ok[m], pick[m])  # the matches' own rule; a window takes part only where LSM converged
     words, k = np.unique(status.astype(str), return_counts=True)
     moved = np.hypot(*(xy[ok] - t_m[ok]).T) * float(np.mean(f_tgt))
     counts["lsm"] = {
         "refined": int(ok.sum()), "of": int(n), "tried": int(pick.sum()), "consistent": int(cand.sum()),
-        "budget": budget,
+        "budget": budget, "texture_windows": int(n - n_matches),
         "status": dict(zip(words.tolist(), k.tolist())),
         "median_sigma_px": float(np.median(sigma_px[ok])) if ok.any() else None,
         "median_shift_target_px": float(np.median(moved)) if ok.any() else None,
@@ -176,8 +198,25 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
                                                               "target": float(np.mean(f_tgt))},
         **({"full_resolution": full} if full else {}),
         "fit_uses": "the converged points" if enough else
-                    f"every match: only {int(ok.sum())} of {int(pick.sum())} LSM runs converged"}
-    return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+                    f"every match: only {int(ok[m].sum())} of {int(pick[m].sum())} LSM runs converged"
+                    + (" (texture windows: the converged ones)" if n > n_matches else "")}
+    if n == n_matches:
+        return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+    counts["lsm"]["texture_windows_converged"] = int(ok[~m].sum())
+    if ok[~m].mean() < MIN_CONVERGED_SHARE:  # most windows on changed ground (two dates): none of them is used
+        counts["lsm"]["texture_windows_used"] = False
+        ok = ok & m
+    usable = ok if enough else ok | m
+    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), usable)
+    if not ok[~m].any():
+        return pts
+    return replace(pts, matched=replace(pts.subset(m), usable=ok[m] if enough else None))
+
+
+def _enough(ok, pick) -> bool:
+    """Whether the fit takes the converged points only: :data:`MIN_CONVERGED` of them and
+    :data:`MIN_CONVERGED_SHARE` of the ``pick`` tried."""
+    return bool(ok.sum() >= max(MIN_CONVERGED, MIN_CONVERGED_SHARE * pick.sum()))
 
 
 def _lsm_trial(r_m, t_m, homography, seed):

@@ -119,7 +119,11 @@ def notes(rep: dict, terrain: bool) -> dict:
                         "keypoint is matched into the target (affine geometry and radiometry, bicubic); status counts "
                         "every match (refined, or why not); the fit uses the converged points only ('fit_uses'), "
                         "weighted by the spatial balance / (σ² + s0²) (fit_weights); at most 'budget' consistent "
-                        "matches are refined, spread over the target; median_sigma_px: radial σ in reference pixels")
+                        "matches are refined, spread over the target, topped up with 'texture_windows' (windows of "
+                        "strong texture at the homography's prediction, counted in 'of') when the matches are fewer, "
+                        "used ('texture_windows_used', the converged ones) only when the matches alone make a fit that "
+                        "is not weak; "
+                        "median_sigma_px: radial σ in reference pixels")
     if terrain:
         notes["terrain"] = ("check_rmse_target_px / control_rmse_target_px: the same residuals measured in the "
                             "target image's pixels (the 3-D model maps ground to target pixels)")
