@@ -74,3 +74,17 @@ def test_triangulate_refuses_an_existing_style_of_its_dsm_before_the_adjustment(
         triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,
                     dsm=tmp_path / "d.tif")
     assert not (tmp_path / "block").exists() or not any((tmp_path / "block").iterdir())
+
+
+def test_a_style_that_would_restyle_an_input_is_refused(pair, tmp_path):
+    """``-o <images' folder>/<an image's name>.tiff``: its ``<name>.qml`` would make QGIS open that input image as
+    heights; refused before any work, nothing written."""
+    import shutil
+    src = Path(pair["images"][0])
+    folder = tmp_path / "w"
+    folder.mkdir()
+    images = [shutil.copy(p, folder / Path(p).name) for p in pair["images"]]
+    from fotogeo.tools.dsm import dsm
+    with pytest.raises(OutputError, match="restyle the input"):
+        dsm(images, folder / f"{src.stem}.tiff", camera=pair["camera"], eo=pair["eo"], crs=CRS)
+    assert sorted(p.name for p in folder.iterdir()) == sorted(Path(p).name for p in pair["images"])

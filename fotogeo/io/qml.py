@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import OutputError
+
 #: the ramp's stops: (fraction of the range, colour "r,g,b")
 RAMP = ((0.0, "26,152,80"), (0.25, "145,207,96"), (0.5, "254,224,139"), (0.75, "166,97,26"), (1.0, "245,245,245"))
 #: the cumulative cut of the range (lower, upper fraction of the heights)
@@ -71,6 +73,18 @@ _TEMPLATE = """<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>
 def dsm_style_path(dsm) -> Path:
     """The style QGIS loads with the raster ``dsm`` (``<folder>/<name>.qml``; module docstring)."""
     return Path(dsm).with_suffix(".qml")
+
+
+def check_styles_no_input(dsm, inputs, role: str = "DSM") -> None:
+    """Refuse a DSM ``dsm`` whose style (:func:`dsm_style_path`) QGIS would also load for one of the ``inputs``
+    (None: not given): an input ``<folder>/<name>.<ext>`` beside ``-o <folder>/<name>.tiff`` would open restyled
+    as heights."""
+    style = dsm_style_path(dsm).resolve()
+    for p in (p for p in inputs if p is not None):
+        if Path(p).with_suffix(".qml").resolve() == style:
+            raise OutputError(f"{role} {str(dsm)!r}: its QGIS style {style.name!r} would also restyle the input "
+                              f"{str(p)!r} (QGIS loads <name>.qml with any layer of that name); give the {role} "
+                              f"another name")
 
 
 def dsm_style(lo: float, hi: float) -> str:

@@ -13,13 +13,12 @@ bounds the lower quantile ``p_n = (1 − c)^(1/n)``, and an exponential tail (a 
 Pickands 1975) through the median ``a½`` and it reaches ``p``:
 ``U = a½ + (a(n) − a½) · ln(½ / (1 − p)) / ln(½ / (1 − p_n))``. **Above the DEM** the error is one-sided and
 heavy-tailed (a DEM of the ground lies under roofs and trees, and the tallest of them are the few matches a
-quantile leaves out): ``rise`` is the highest a match stands over the shifted DEM, ``max(Z − (H − o))`` over the
-matches whose departure ``H − Z`` their neighbours support (:func:`.plan.supported`: a roof carries several matches,
-a mismatch stands alone), or, when larger, the upper bound above of the ``DEM_RISE_QUANTILE`` quantile of
-``max(Z − (H − o), 0)`` (from few matches that bound lies beyond the largest, along the exponential tail), and the
-margin above is ``max(m, DEM_PAD_M + rise)`` (:attr:`DemFit.above`; :meth:`DemGuide.span`, the heights a frame
-pair's strip, :mod:`.local`, and a satellite pair's tile, :mod:`.rpc_dem`, search). The DEM is used shifted by
-``−o``: the DSM's heights come from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another
+quantile leaves out): ``rise`` is the highest a match stands over the shifted DEM, ``max(Z − (H − o))``, or, when
+larger, the upper bound above of the ``DEM_RISE_QUANTILE`` quantile of ``max(Z − (H − o), 0)`` (from few matches
+that bound lies beyond the largest, along the exponential tail), and the margin above is ``max(m, DEM_PAD_M +
+rise)`` (:attr:`DemFit.above`; :meth:`DemGuide.span`, the heights a frame pair's strip, :mod:`.local`, and a
+satellite pair's tile, :mod:`.rpc_dem`, search). The DEM is used shifted by ``−o``: the DSM's
+heights come from the orientation, the DEM only says where to look; an offset over ``DEM_OFFSET_WARN_M`` (another
 vertical reference, a shifted DEM) and a spread over ``DEM_MAX_SPREAD_M`` (a DEM of other ground or time) are named
 (:func:`problems`), and a DEM that spread does not guide the pair (the sparse matches do, as without ``--dem``).
 
@@ -36,7 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...geometry.dem import Dem, heights_at
-from .plan import supported
 
 #: the margin around the DEM's heights (m): this much plus ``DEM_ERROR_K`` times an upper bound, with confidence
 #: ``DEM_CONFIDENCE``, of the ``DEM_QUANTILE`` quantile of the DEM's error measured at the sparse matches (module
@@ -95,9 +93,8 @@ def fit(source, points) -> DemFit | None:
     r = h[ok] - P[ok, 2]
     o = float(np.median(r))
     a = np.abs(r - o)
-    up = (o - r)[supported(P[ok, :2], r)]  # a rise its neighbours support: a roof, not one mismatch
     return DemFit(o, float(1.4826 * np.median(a)), DEM_PAD_M + DEM_ERROR_K * upper_quantile(a), int(ok.sum()),
-                  max(0.0, float(np.max(up, initial=0.0)), upper_quantile(np.maximum(o - r, 0.0), DEM_RISE_QUANTILE)))
+                  max(0.0, float(np.max(o - r)), upper_quantile(np.maximum(o - r, 0.0), DEM_RISE_QUANTILE)))
 
 
 #: from this many values on, the exponential tail of :func:`upper_quantile` is anchored on the second largest

@@ -34,7 +34,7 @@ import numpy as np
 
 from ...pixels import HALF
 from ...stereo.rectify import RectifiedPair
-from .plan import disparity_bounds, plausible_heights, supported
+from .plan import disparity_bounds, plausible_heights
 
 #: a strip's local disparity range (module docstring): the sparse matches within this many rectified pixels of
 #: it, at least ``LOCAL_MIN`` of them, their heights' span padded by half itself and ``LOCAL_PAD_M`` metres
@@ -46,13 +46,10 @@ LOCAL_PAD_M = 5.0
 def guides(sp, ceiling: float) -> np.ndarray:
     """``(N, 3)`` rectified left pixel ``(u, v)`` and height of each sparse match of :func:`.frames.sparse_check`
     that is not a mismatch (:func:`~fotogeo.tools.dsm.plan.plausible_heights`, the pair range's filter;
-    ``ceiling`` the lower camera's height) and whose height its neighbours support
-    (:func:`~fotogeo.tools.dsm.plan.supported`): what :func:`local_range` reads (small and picklable, kept with the
-    pair)."""
+    ``ceiling`` the lower camera's height): what :func:`local_range` reads (small and picklable, kept with the pair)."""
     z = sp["points"][:, 2]
     keep = plausible_heights(z, ceiling) if len(z) else np.zeros(0, bool)
-    near = np.column_stack([sp["uv"], z])[keep].astype(float)
-    return near[supported(near[:, :2], near[:, 2])]
+    return np.column_stack([sp["uv"], z])[keep].astype(float)
 
 
 def local_heights(near, box, rp: RectifiedPair | None = None, dem=None) -> tuple | None:

@@ -15,8 +15,8 @@ disparity range and the output grid.
   (:func:`size_reason`: the size grows like 1/sin² of the epipole's distance outside the image, so a margin alone
   does not say it fits);
 * **disparity range** (:func:`disparity_bounds`): the rectified left image's rays on the planes of the lowest and
-  highest height (from the DEM, or the pair's sparse matches' lowest and highest heights that neighbouring
-  matches support, without their mismatches, padded by half the span of their bulk and 10 m,
+  highest height (from the DEM, or the pair's sparse matches' 1st–99th percentiles without their mismatches,
+  reaching out to the heights neighbouring matches support, padded by half the percentiles' span and 10 m,
   :func:`matched_heights`), plus ``PAD_PX``;
 * **grid**: ``--bounds``, else the union of the kept pairs' overlaps, its edges multiples of the resolution.
 """
@@ -130,12 +130,11 @@ def supported(xy, z) -> np.ndarray:
     """Which heights ``z`` of sparse matches at ``xy`` ``(N, 2)`` (map or image coordinates: only the order of
     distances counts) a surface supports (bool): at least ``SUPPORT_K`` of the ``SUPPORT_NEAR`` matches nearest each
     lie within a band of its height. A roof or a tree carries several matches at its height, a mismatch stands
-    alone; a height range set by every height follows the worst mismatch, one set by percentiles cuts what covers
-    less of the overlap than the percentile (a roof over 1 % of it). The band is ``max(SUPPORT_BAND_M,
+    alone; a range set by percentiles cuts what covers less of the overlap than the percentile (a roof over 1 % of
+    it), which :func:`supported_range` adds back. The band is ``max(SUPPORT_BAND_M,
     SUPPORT_BAND_K · s)``, ``s`` the NMAD of the neighbours' heights among themselves: the relief around (a slope
-    sampled sparsely, the ground beside a roof) widens it, flat ground under a lone mismatch does not. The one
-    rule of a pair's heights without a DEM (:func:`matched_heights`), its strips' (:func:`.local.guides`), an RPC
-    pair's tie points and the rise over a DEM (:func:`.dem_guide.fit`). Fewer than ``SUPPORT_K + 1`` matches: all."""
+    sampled sparsely, the ground beside a roof) widens it, flat ground under a lone mismatch does not. Fewer than
+    ``SUPPORT_K + 1`` matches: all."""
     z = np.asarray(z, float).ravel()
     if len(z) <= SUPPORT_K:
         return np.ones(len(z), bool)
@@ -158,13 +157,17 @@ def supported_span(xy, z) -> tuple:
 
 
 def supported_range(xy, z, widen: float, pad: float) -> tuple:
-    """``(low, high)``: the :func:`supported_span` of the heights ``z`` at ``xy``, each end moved out by ``widen``
-    times the span of their bulk (1st to 99th percentile: the relief most of the overlap has, which a lone roof
-    does not widen) plus ``pad`` metres. The one range of a frame pair's (:func:`matched_heights`) and an RPC
-    pair's (:mod:`.rpc_tool`) sparse heights."""
+    """``(low, high)``: the 1st and 99th percentiles of the heights ``z`` at ``xy`` (their bulk), reaching out to
+    the lowest and highest heights neighbouring matches :func:`support <supported>` (a small roof: above the 99th
+    percentile when it covers less than 1 % of the overlap), each end then moved out by ``widen`` times the bulk's
+    span plus ``pad`` metres. Never narrower than the percentiles alone: a height no neighbour supports (a mismatch,
+    or a roof that carries one match) is searched as far as the percentiles reach, as before the support rule. The
+    one range of a frame pair's (:func:`matched_heights`) and an RPC pair's (:mod:`.rpc_tool`) sparse heights."""
+    z = np.asarray(z, float).ravel()
+    p1, p99 = (float(v) for v in np.percentile(z, [1, 99]))
     lo, hi = supported_span(xy, z)
-    grow = widen * float(np.subtract(*np.percentile(np.asarray(z, float), [99, 1]))) + pad
-    return lo - grow, hi + grow
+    grow = widen * (p99 - p1) + pad
+    return min(lo, p1) - grow, max(hi, p99) + grow
 
 
 def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> tuple:

@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import dsm_style_path
+from ...io.qml import check_styles_no_input, dsm_style_path
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -47,9 +47,9 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
     ``fill`` it is refused) and beside it its QGIS style ``<name>.qml`` (band 1 in pseudocolour,
-    :mod:`fotogeo.io.qml`); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with ``scheduler`` (a
-    running cluster) or ``workers`` (a local cluster of that many processes), else in this process
-    (:mod:`.matching`)."""
+    :mod:`fotogeo.io.qml`); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the
+    report. The output tiles run as Dask tasks with ``scheduler`` (a running cluster) or ``workers`` (a local
+    cluster of that many processes), else in this process (:mod:`.matching`)."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
     prog = as_progress(progress)
     t0 = time.process_time(), time.perf_counter()
@@ -66,6 +66,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (dsm_style_path(output), "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
+    check_styles_no_input(output, [*images, dem])
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
