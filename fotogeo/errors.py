@@ -136,12 +136,14 @@ def in_callers_words(message: str, option: str | None, words: str | None) -> str
     'Fitted model file orthorectifies through its fitted model'
     >>> in_callers_words("cannot read 'model.json': model needed", "model", "--model")
     "cannot read 'model.json': --model needed"
+    >>> in_callers_words("file '/data/crs/eo.txt' is off — check the CRS it is read in (crs)", "crs", "--crs")
+    "file '/data/crs/eo.txt' is off — check the CRS it is read in (--crs)"
     """
     import re
     if not option or not words:
         return message
-    return re.sub(r"(?<![\w-])(?:--)?%s(?:=True)?(?![\w-]|\.\w)" % re.escape(option), lambda m: words, message,
-                  count=1)
+    return re.sub(r"(?<![\w\-/\\])(?:--)?%s(?:=True)?(?![\w\-/\\]|\.\w)" % re.escape(option), lambda m: words,
+                  message, count=1)
 
 
 #: library warnings that tell a user nothing to act on, silenced: numpy's floating-point and empty/NaN-slice

@@ -1,5 +1,5 @@
 """QGIS names the options a refusal is about by their labels, as the command line names them by their flags: an
-argument of the array layer set from two options (the bundle's eo_sigma) and the CRS option of a reader shared by
+option the bundle's datum refusal is about (the centres' σ) and the CRS option of a reader shared by
 several tools (ortho's is "dst_crs", shown as its "--crs")."""
 from __future__ import annotations
 
@@ -17,10 +17,9 @@ def _algorithm(name):
 
 def test_the_datum_refusal_names_the_prior_parameters(qgis_app):
     from fotogeo.options import TRIANGULATE
-    said = _algorithm("triangulate").in_words("or priors on the approximate exterior orientation (eo_sigma, e.g. "
-                                              "GNSS/INS centres)", "eo_sigma")
-    labels = [TRIANGULATE[n].label for n in ("eo_sigma_position", "eo_sigma_angle")]
-    assert f"(“{labels[0]}”/“{labels[1]}”, e.g." in said, said
+    said = _algorithm("triangulate").in_words("or priors on the approximate projection centres (eo_sigma_position, "
+                                              "e.g. GNSS/INS centres)", "eo_sigma_position")
+    assert f"(“{TRIANGULATE['eo_sigma_position'].label}”, e.g." in said, said
 
 
 def test_ortho_names_its_crs_parameter_for_a_file_far_from_the_images_gps(qgis_app):

@@ -24,13 +24,14 @@ def _block(n_control: int = 0):
 
 def test_the_datum_refusal_names_the_options_that_give_priors():
     """The bundle's refusal named its own argument (eo_sigma) and carried no option, so the command line left it as
-    it was: it names the two options that set it, by their flags, and exits with the usage code."""
+    it was: it names the option that satisfies it (the centres' σ: the datum counts position priors only; the
+    angles' σ cannot give it), by its flag, and exits with the usage code."""
     from fotogeo.cli.common import _in_flags
     with pytest.raises(InputError) as err:
         adjust_block(_block(), BundleOptions())
-    assert err.value.option == "eo_sigma"
+    assert err.value.option == "eo_sigma_position"
     said = _in_flags(err.value)
-    assert "priors on the approximate exterior orientation (--eo-sigma-position/--eo-sigma-angle, e.g." in said, said
+    assert "priors on the approximate projection centres (--eo-sigma-position, e.g." in said, said
 
 
 def test_a_run_that_did_not_converge_says_what_the_files_lost_and_names_only_inputs_given():
@@ -73,8 +74,9 @@ def test_gcps_measured_on_a_copy_of_another_size_are_refused_a_few_outside_skipp
 
 @pytest.mark.parametrize("sfm", [False, True])
 def test_centres_far_from_the_images_gps_name_crs_and_exit_as_bad_input(sfm):
-    """COLMAP's refusal ended 'check its CRS' with exit 1, OpenSfM's named --sfm-frame with exit 2: both name
-    --crs and exit with the usage code."""
+    """COLMAP's refusal ended 'check its CRS' with exit 1, OpenSfM's named --sfm-frame with exit 2: each names what
+    it is read in — COLMAP the CRS (--crs), an OpenSfM file its frame (--sfm-frame; it is not read in a CRS) — and
+    exits with the usage code."""
     from fotogeo.cli.common import _in_flags
     from fotogeo.geometry.approx_block import ApproxCamera, ApproximateBlock, ApproxShot
     from fotogeo.io.gps_keys import GpsFix
@@ -89,7 +91,8 @@ def test_centres_far_from_the_images_gps_name_crs_and_exit_as_bad_input(sfm):
     with pytest.raises(InputError) as err:
         check_gps(block, gps, "orientation file 'x'", "sfm_frame" if sfm else None)
     said = _in_flags(err.value)
-    assert "check the CRS it is read in (--crs)" in said and ("--sfm-frame" in said) == sfm, said
+    assert ("check the frame it is read in (--sfm-frame)" if sfm else "check the CRS it is read in (--crs)") in said
+    assert ("--crs" in said) != sfm, said
     assert _exit_code(err.value) == 2  # the command line's code of a bad input it can name the option of
 
 
@@ -156,3 +159,17 @@ def test_an_exact_fit_says_no_blunder_test_is_possible():
     assert note.startswith("blunder test: not possible, the fit is exact (σ̂ = ") and "probability" not in note, note
     noisy = detect_blunders(get_model("affine"), ground, pix + rng.normal(0, 0.5, pix.shape)).note()
     assert "probability" in noisy and "exact" not in noisy, noisy
+
+
+def test_an_exact_fit_flags_no_blunder():
+    """Computed GCPs with 0.004 px of noise (σ̂ ≈ 0.003 px): the note said the test was not possible while the next
+    line flagged a GCP as a blunder for a 0.013 px residual; an exact fit flags none and leaves none out."""
+    from fotogeo.models import get_model
+    from fotogeo.orientation.blunders import detect_blunders
+    rng = np.random.default_rng(17)  # a draw whose chance false alarm was flagged
+    ground = rng.uniform(0, 1000, (30, 2))
+    pix = ground @ [[0.5, 0.01], [-0.02, 0.49]] + [10.0, 20.0] + rng.normal(0, 0.004, (30, 2))
+    test = detect_blunders(get_model("affine"), ground, pix)
+    assert "the fit is exact" in test.note()
+    assert not (test.flag == "blunder").any() and not (test.flag == "suspect").any(), list(test.flag)
+    assert not test.outside.any()

@@ -132,9 +132,9 @@ def check_gps(block, gps: dict, what: str, option: str | None = None) -> str:
         worst = [f"{names[i]} {off[i]:.2f} m" for i in np.argsort(-off)[:3]]
         raise InputError(f"{what}: its camera centres are {rms:.2f} m RMS (horizontally) from the images' own GPS, "
                          f"more than 3 x their sigma {s:.3g} m ({', '.join(worst)}); the file was made in another "
-                         f"frame or CRS than it is read in, or for other images — check the CRS it is read in "
-                         f"(crs)" + (f" and {option}" if option else ""), option=option or "crs",
-                         also=("crs",) if option else ())
+                         f"frame or CRS than it is read in, or for other images — " + (
+                             f"check the frame it is read in ({option})" if option else
+                             "check the CRS it is read in (crs)"), option=option or "crs")
     return (f"camera centres {rms:.3f} m RMS horizontally from the images' own GPS of {len(names)} image(s) "
             f"(σ {s:.3g} m)")
 

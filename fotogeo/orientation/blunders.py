@@ -226,6 +226,11 @@ def detect_blunders(cls, src, pix, *, sigma: float | None = None, alpha: float =
     if 2 * n - u < (1 if sigma else 3) or n - 1 < cls.min_points:
         return BlunderTest(nan, nan, np.full((n, 2), np.nan), nan, np.full(n, "not testable", object), np.zeros(n, bool), None, 2 * n - u,
                            float(sigma or np.nan), sigma is not None, alpha)
+    if sigma is None:  # an exact fit (image positions computed from the model): nothing to test against
+        everything = np.ones(n, bool)
+        fit, p, s, f, m = _evaluate(cls, src, pix, everything, sigma, fit_options)
+        if np.nanmedian(s) < EXACT_SIGMA_PX:
+            return _result(fit, everything, p, s, f, sigma, alpha, m)
     inside = _robust_start(cls, src, pix, sigma, fit_options) >= 0.5
     budget = max(0, min(int(max_fraction * n), n - cls.min_points, (2 * n - u - (1 if sigma else 3)) // 2))
     if (~inside).sum() > budget:
@@ -258,6 +263,8 @@ def _result(fit, inside, p, s, f, sigma, alpha, m) -> BlunderTest:
     from scipy.stats import f as fisher
     w = np.sqrt(fit.T) / s
     bad = np.isfinite(p) & (p < alpha / m)
+    if sigma is None and np.nanmedian(s) < EXACT_SIGMA_PX:
+        bad[:] = False  # no blunder test on an exact fit (:meth:`BlunderTest.note`)
     if sigma is not None:
         critical = float(np.sqrt(chi2.isf(alpha / m, 2)))
     else:

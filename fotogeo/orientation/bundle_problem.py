@@ -78,8 +78,8 @@ def _check_datum(block, active, opts):
     n_ctrl = int(np.count_nonzero(active_points(block, active) & (block.role == "control")))
     if n_ctrl < 3 and not (eo_weights(opts.eo_sigma, len(block.frames))[:, :3] > 1e-9).any():
         raise InputError(f"the block has {n_ctrl} control point(s) seen in a frame; the datum needs at least 3 "
-                         f"(not on one line), or priors on the approximate exterior orientation (eo_sigma, "
-                         f"e.g. GNSS/INS centres)", option="eo_sigma")
+                         f"(not on one line), or priors on the approximate projection centres "
+                         f"(eo_sigma_position, e.g. GNSS/INS centres)", option="eo_sigma_position")
 
 
 def lonely_frames(block, active=None) -> list:

@@ -66,7 +66,7 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (dsm_style_path(output), "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
-    check_styles_no_input(output, [*images, dem])
+    check_styles_no_input(output, [*images, dem, geoid])
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)

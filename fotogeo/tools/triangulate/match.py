@@ -42,9 +42,9 @@ The steps of digital aerial triangulation's tie-point measurement (Yastıklı; B
   track left with fewer than two. A pair of frames in other band sets (a NIR-only frame against RGB) is also
   matched on the multi-band frame's bands combined to look like the other's grey, in wider windows, and keeps that
   when more windows converge (:func:`fotogeo.tools.triangulate.pairs.lsm_pair`). Each refined observation gets
-  the LSM's a-posteriori precision ``σ = sqrt((σx² + σy²) / 2)``, floored at ``min_sigma`` = 0.1 px: a Gauss–Markov σ of LSM
-  does not see interpolation error (:mod:`fotogeo.matching.lsm`) — on rendered frames (21² windows,
-  grey noise 2) most LSM σ were below 0.05 px while the true transfer errors had a median of 0.11 px,
+  the LSM's a-posteriori precision ``σ = sqrt((σx² + σy²) / 2)``, floored at ``min_sigma`` = 0.1 px: a
+  Gauss–Markov σ of LSM does not see interpolation error (:mod:`fotogeo.matching.lsm`) — on rendered frames (21²
+  windows, grey noise 2) most LSM σ were below 0.05 px while the true transfer errors had a median of 0.11 px,
   and on the NGI pair a 0.05 px floor let data snooping cull tie observations with 0.08 px residuals.
   The anchor, which defines the point, gets the RMS σ of its track's transfers.
 """
