@@ -43,7 +43,6 @@ from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
 from ...io.orientation_file import cameras_from_camera_file, is_block_file
 from ...io.raster import open_raster, read_dem, stated_height_reference
-from ...io.rpc_image import image_rpc
 from ..common.checks import camera_for_image, distinct_files
 
 
@@ -63,8 +62,7 @@ class OrthoImage:
 
 
 class FittedGroundModel:
-    """A fitted ``orient`` model (ground → image, :mod:`fotogeo.models`) taking map ``(X, Y, Z)`` whatever its own
-    dimensionality: a 2-D model sees ``(X, Y)`` only."""
+    """A fitted ``orient`` model (ground → image, :mod:`fotogeo.models`) taking map ``(X, Y, Z)``: a 2-D one sees XY."""
 
     def __init__(self, model):
         self.model, self.src_dims = model, model.src_dims
@@ -77,8 +75,7 @@ class FittedGroundModel:
 
 
 def read_fitted_model(path) -> tuple:
-    """``(model, CRS text)`` of orient's JSON report ``path``; anything else, or a model fitted image → ground,
-    refused in one line."""
+    """``(model, CRS text)`` of orient's JSON report ``path``; anything else, or an image → ground model, refused."""
     from ...io.report import read_json
     from ...models.base import model_from_dict
     rep = read_json(path, "--model")
@@ -127,6 +124,7 @@ def _no_orientation(names) -> None:
 
 def _rpc_image(path, name, crs, rpc_of=None) -> OrthoImage:
     from ...geometry.lonlat_model import LonLatModel
+    from ...io.rpc_image import image_rpc  # function level: the RPC reader imports the models (scipy)
     info = open_raster(path, "image")
     found = (rpc_of or image_rpc)(path)  # GDAL RPC metadata, else an RPC file beside the image
     _warn_placeless(path, info.width, info.height, found)
@@ -255,6 +253,7 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
         raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
                          "projected CRS")
     if rpc and images:
+        from ...io.rpc_image import image_rpc
         r = (rpc_of or image_rpc)(images[0]).rpc
         return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
     if eo is None and not rpc and images:  # what is missing is the orientation, not the CRS

@@ -47,7 +47,6 @@ from ...geometry.occlusion import visible_pixels
 from ...io.compression import check_compression
 from ...io.output_checks import check_output
 from ...io.raster import AtomicOutputs, open_raster
-from ...io.rpc_image import image_rpc
 from ...io.warp import grid_covering, warp_to_grid
 from ...io.warp_gdal import centres_to_map
 from ...pixels import HALF, outline
@@ -332,7 +331,7 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
     for p in (q for e in extras.values() for q in e.values()):
         check_output(p, inputs, overwrite, "orthophoto product")
     require_heights([Path(p).stem for p in images], dem, height, rpc)
-    rpc_of = functools.lru_cache(maxsize=None)(image_rpc)  # each image's RPC read once in the run
+    rpc_of = _rpc_reader() if rpc else None  # each image's RPC read once in the run
     crs, rule = map_crs(dst_crs, dem, eo, images, rpc, camera, model, sfm_frame, rpc_of)
     said = []
     ims = image_models(images, crs, camera=camera, eo=eo, rpc=rpc, model=model, sfm_frame=sfm_frame, said=said,
@@ -367,3 +366,10 @@ def _ortho(images, output, *, dem=None, camera=None, eo=None, rpc: bool = False,
         out.commit()
     prog(1.0, "done")
     return rep
+
+
+def _rpc_reader():
+    """:func:`fotogeo.io.rpc_image.image_rpc`, remembered per path for one run (imported here: the RPC reader
+    imports the models, and scipy with them, which a run of frames does not need)."""
+    from ...io.rpc_image import image_rpc
+    return functools.lru_cache(maxsize=None)(image_rpc)
