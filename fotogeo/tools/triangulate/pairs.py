@@ -223,8 +223,8 @@ AGREE_PX = 1.0
 
 def merged_windows(plain, wide, agree: float = AGREE_PX):
     """:func:`lsm_group` results ``(ok, xy, sigma)`` of the same windows merged: each window's plain fit when only
-    it converged, the wide one when only that converged, the plain one when both converged within ``agree`` px of
-    each other, and neither when they disagree (one of them is wrong, and nothing says which)."""
+    it converged, the one of smaller σ when both converged within ``agree`` px of each other, and neither when they
+    disagree (one of them is wrong, and nothing says which)."""
     n = len(plain[0])
     full = []
     for ok, got, sigma in (plain, wide):
@@ -234,7 +234,7 @@ def merged_windows(plain, wide, agree: float = AGREE_PX):
     (p_ok, p_xy, p_s), (w_ok, w_xy, w_s) = full
     apart = p_ok & w_ok & ~(np.hypot(*(p_xy - w_xy).T) <= agree)
     ok = (p_ok | w_ok) & ~apart
-    take_wide = (w_ok & ~p_ok)
+    take_wide = w_ok & ~(p_ok & (p_s <= w_s))
     return ok, np.where(take_wide[:, None], w_xy, p_xy)[ok], np.where(take_wide, w_s, p_s)[ok]
 
 
