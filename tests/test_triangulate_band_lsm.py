@@ -62,3 +62,50 @@ def test_a_pair_of_equal_band_counts_is_matched_on_its_greys(frames):
     a = pairs.lsm_pair(ia, ia, pairs.grey(ia), pairs.grey(ia), anchors, anchors + 0.4, jac, 10, 3.5, 0.1)
     b = pairs.lsm_group(pairs.grey(ia), pairs.grey(ia), anchors, anchors + 0.4, jac, 10, 3.5, 0.1)
     assert all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+def _planted(n, plain_ok, wide_ok, wide_offset):
+    """``lsm_group`` stand-in: the plain run (narrow windows) converged on ``plain_ok`` at the truth, the wide run
+    on ``wide_ok`` at the truth + ``wide_offset`` (n, 2)."""
+    truth = np.column_stack([np.arange(n, dtype=float) * 20 + 40, np.full(n, 60.0)])
+
+    def group(image_a, image_b, anchors, xy, jacobian, half_window, max_shift, min_sigma):
+        ok, at = (plain_ok, truth) if half_window == 10 else (wide_ok, truth + wide_offset)
+        return ok.copy(), at[ok], np.full(int(ok.sum()), 0.2)
+    return truth, group
+
+
+def test_a_wrong_wide_fit_is_not_accepted(frames, monkeypatch):
+    ia, ib = frames
+    n = 10
+    plain_ok = np.arange(n) < 6
+    wide_ok = np.ones(n, bool)  # more windows converge on the trial ...
+    offset = np.zeros((n, 2))
+    offset[:3] = (3.0, -2.0)  # ... but three of them far from where the plain run put them
+    offset[3:6] = (0.3, 0.2)  # three agree within LSM's precision
+    truth, group = _planted(n, plain_ok, wide_ok, offset)
+    monkeypatch.setattr(pairs, "lsm_group", group)
+    monkeypatch.setattr(pairs, "band_frames", lambda ba, bb, ga, gb, *a: (ga, gb))
+    g = np.zeros((32, 32), np.float32)
+    ok, got, sigma = pairs.lsm_pair(ia, ib, g, g, truth, truth, np.zeros((n, 2, 2)), 10, 3.5, 0.1)
+    assert ok.tolist() == [False] * 3 + [True] * 7  # the disagreeing windows dropped, the wide-only ones added
+    assert np.allclose(got, truth[3:])  # the plain fit where both agree
+    assert len(sigma) == 7
+
+
+def test_an_rgba_frame_beside_an_rgb_one_takes_the_equal_band_path(tmp_path, monkeypatch):
+    size = 64
+    t = 128 + 40 * _texture(size, 4)
+    rgb = _write(tmp_path / "rgb.tif", np.stack([t, t, t]))
+    with rasterio.open(tmp_path / "rgba.tif", "w", driver="GTiff", width=size, height=size, count=4, dtype="uint8",
+                       photometric="RGB", alpha="YES") as ds:  # GDAL's ExtraSamples: the 4th band is alpha
+        ds.write(np.clip(np.round(np.stack([t, t, t, np.full_like(t, 255)])), 1, 255).astype(np.uint8))
+    rgba = open_raster(tmp_path / "rgba.tif", "frame")
+    windows = []
+    real = pairs.lsm_group
+    monkeypatch.setattr(pairs, "lsm_group", lambda *a: windows.append(a[5]) or real(*a))
+    anchors = np.array([[32.0, 32.0], [24.0, 40.0]])
+    pairs.lsm_pair(rgba, rgb, pairs.grey(rgba), pairs.grey(rgb), anchors, anchors, np.broadcast_to(
+        np.eye(2), (2, 2, 2)).copy(), 6, 3.5, 0.1)
+    assert windows == [6]  # one run, on the greys: no band-set trial
+    assert rgba.count == 4 and pairs.data_bands(rgba) == [0, 1, 2]

@@ -28,7 +28,7 @@ import numpy as np
 from ...errors import Cancelled, MatchingError
 from ...geometry.brown import coefficients
 from ...geometry.camera import OrientedFrame
-from ...io.raster import open_raster, read_decimated
+from ...io.raster import open_raster, read_decimated, ropen
 from ...progress import as_progress
 from ..register.match import FeatureCache, find_tie_points
 
@@ -188,17 +188,54 @@ def _full(info) -> tuple:
 
 def lsm_pair(info_a, info_b, grey_a, grey_b, anchors, xy, jacobian, half_window: int, max_shift: float,
              min_sigma: float):
-    """:func:`lsm_group` of one frame pair on the greys (given); when the frames' band counts differ, also on
-    :func:`band_frames` (both frames' bands read again) in windows :data:`MIXED_WINDOW_SCALE` times wider — a trial,
-    as the registration's (:func:`fotogeo.tools.register.bands.matched_fusions`): that result is kept when more of
-    the windows converge (LSM's own correlation and σ gates), else the greys'."""
+    """:func:`lsm_group` of one frame pair on the greys (given); when the frames' counts of data bands differ
+    (:func:`data_bands`: an alpha band is a mask, not a band), also on :func:`band_frames` (both frames' bands read
+    again) in windows :data:`MIXED_WINDOW_SCALE` times wider — a trial, merged window by window
+    (:func:`merged_windows`). When the combined bands do not correlate better than the greys, :func:`band_frames`
+    returns the greys and the trial is least-squares matching of the greys in the wider windows, under the same
+    merge: it adds only windows the narrow run did not converge on, and drops those where the two disagree."""
     plain = lsm_group(grey_a, grey_b, anchors, xy, jacobian, half_window, max_shift, min_sigma)
-    if info_a.count == info_b.count:
+    keep_a, keep_b = data_bands(info_a), data_bands(info_b)
+    if len(keep_a) == len(keep_b):
         return plain
-    images = band_frames(_full(info_a)[0], _full(info_b)[0], grey_a, grey_b, anchors, xy, half_window)
+    images = band_frames(_full(info_a)[0][keep_a], _full(info_b)[0][keep_b], grey_a, grey_b, anchors, xy,
+                         half_window)
     wide = lsm_group(*images, anchors, xy, jacobian, int(round(MIXED_WINDOW_SCALE * half_window)), max_shift,
                      min_sigma)
-    return wide if wide[0].sum() > plain[0].sum() else plain
+    return merged_windows(plain, wide)
+
+
+def data_bands(info) -> list:
+    """The indices (0-based) of the frame's bands that hold data: all but those GDAL's colour interpretation calls
+    alpha (an RGBA frame beside an RGB one has as many; :func:`read_decimated` takes the alpha as the mask)."""
+    from rasterio.enums import ColorInterp
+    with ropen(info.path) as ds:
+        keep = [i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha]
+    return keep or list(range(info.count))
+
+
+#: a window converged both in the plain and in the wider trial run (:func:`merged_windows`) is dropped when the two
+#: positions lie further apart than this (px): converged LSM fits of one window agree to a few tenths of a pixel
+#: (their σ, floored by ``min_sigma``), and the 1.5x wider window adds a ring of the same local affinity, whose
+#: relief changes the fit by well under a pixel; a wrong fit lands a texture period or an edge away
+AGREE_PX = 1.0
+
+
+def merged_windows(plain, wide, agree: float = AGREE_PX):
+    """:func:`lsm_group` results ``(ok, xy, sigma)`` of the same windows merged: each window's plain fit when only
+    it converged, the one of smaller σ when both converged within ``agree`` px of each other, and neither when they
+    disagree (one of them is wrong, and nothing says which)."""
+    n = len(plain[0])
+    full = []
+    for ok, got, sigma in (plain, wide):
+        at, s = np.full((n, 2), np.nan), np.full(n, np.nan)
+        at[ok], s[ok] = got, sigma
+        full.append((np.asarray(ok, bool), at, s))
+    (p_ok, p_xy, p_s), (w_ok, w_xy, w_s) = full
+    apart = p_ok & w_ok & ~(np.hypot(*(p_xy - w_xy).T) <= agree)
+    ok = (p_ok | w_ok) & ~apart
+    take_wide = w_ok & ~(p_ok & (p_s <= w_s))
+    return ok, np.where(take_wide[:, None], w_xy, p_xy)[ok], np.where(take_wide, w_s, p_s)[ok]
 
 
 #: a pair of frames in other band sets: the multi-band frame's bands are combined to look like the other's grey
