@@ -35,3 +35,26 @@ def test_a_poor_image_sigma_raises_the_bar():
 def test_a_decentering_term_known_to_most_of_a_pixel_is_held_fixed():
     # a 6-frame nadir flight: p1 correlated 0.9993, its σ moving the image points by 0.76 px
     assert _to_fix([_entry("p1", 0.9993, 0.76, "k1", image_sigma_px=0.2)], 0.999)["parameter"] == "p1"
+
+
+def test_a_parameter_whose_inverse_diagonal_is_negative_is_held_fixed():
+    """A singular system inverts, in its free direction, to a diagonal of any sign and size the BLAS at hand gives:
+    negative, its σ was clipped to ~0 px, read as 'determined', and the parameter stayed free (on another machine
+    the same parameter came out huge and was held fixed). Read by the σ's rule (NaN: undetermined), it is held
+    fixed on every machine, its reason saying so."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from fotogeo.orientation.bundle_robust import interior_correlations
+    from fotogeo.orientation.bundle_rules import _fix_reason
+    S = np.eye(7)
+    S[6, 0] = S[0, 6] = 1.0  # f carries X0's information only: S singular
+    Si = np.eye(7)
+    Si[6, 6] = -3.0e9
+    pb = SimpleNamespace(st=SimpleNamespace(n_frames=1, free_interior=[0]))
+    post = SimpleNamespace(S=S, S_inv=Si, sigma0=1.0, interior_px=np.array([1.0]), image_sigma=0.3)
+    corr = interior_correlations(pb, post, ["a"], ["f"])
+    assert np.isnan(corr[0]["sigma_px"])
+    assert _to_fix(corr, 0.999)["parameter"] == "f"
+    assert "σ is undetermined" in _fix_reason(corr[0], 0.999)

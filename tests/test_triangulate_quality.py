@@ -219,3 +219,28 @@ def test_a_singular_direction_reads_undetermined_whatever_its_rounding():
     out = _root(variance, inflation)
     assert out[0] == pytest.approx(0.01) and np.isnan(out[1]) and np.isnan(out[2]) and out[3] == pytest.approx(2 ** 0.5)
     assert out[4] == pytest.approx(0.1)
+
+
+def test_the_report_covariance_is_blank_exactly_where_its_sigma_reads_undetermined(sb):
+    """The covariance `ortho --uncertainty` propagates (report.json frames[].covariance) holds, in an undetermined
+    direction, the same any-sign-any-size inverse as the σ: its rows and columns read NaN (null in the report)
+    where the frame's σ reads undetermined, by the one rule, and the σ raster's cells of that frame are NaN
+    instead of a number from the BLAS at hand; the determined frames keep their covariance."""
+    import json
+
+    from fotogeo.io.report import _finite
+    from fotogeo.orientation.ground_sigma import covariances_from_report, frame_covariance_entry
+    block = _pair_only(sb, 3, 2)
+    r = adjust_block(block, BundleOptions(snooping=False))
+    bad = np.isnan(r.eo_sigma)
+    assert bad[3, :3].any() and not bad[[0, 1, 2, 4, 5, 6, 7]].any()
+    rep = json.loads(json.dumps(_finite({"fotogeo": "triangulate", "frames": [
+        {"name": n, **frame_covariance_entry(r, j)} for j, n in enumerate(block.frames)]})))
+    covs = covariances_from_report(rep)
+    for j, n in enumerate(block.frames):
+        c = covs[n].matrix()
+        assert np.array_equal(np.isnan(np.diag(c)), bad[j]), (n, np.diag(c), r.eo_sigma[j])
+        assert np.isnan(c[bad[j]]).all() and np.isnan(c[:, bad[j]]).all()
+        assert np.isfinite(c[np.ix_(~bad[j], ~bad[j])]).all()
+        assert np.allclose(np.sqrt(np.diag(c)[~bad[j]]) * np.r_[1, 1, 1, *[180 / np.pi] * 3][~bad[j]],
+                           r.eo_sigma[j][~bad[j]])

@@ -60,8 +60,16 @@ def determined_sqrt(variance, inflation=None) -> np.ndarray:
     sign and size there; clipped to 0 it read as a perfect σ (the free position of a frame whose points have no third
     ray came out σ 0 m), on another BLAS as 5e3 km."""
     variance = np.asarray(variance, float)
+    with np.errstate(invalid="ignore"):
+        return np.where(undetermined(variance, inflation), np.nan, np.sqrt(np.abs(variance)))
+
+
+def undetermined(variance, inflation=None) -> np.ndarray:
+    """Where :func:`determined_sqrt` reads NaN: ``variance`` negative (or NaN), or its ``inflation`` not finite or
+    above :data:`UNDETERMINED_INFLATION`. A covariance's rows and columns of such parameters say nothing of the
+    data either (the bundle's report blanks them by this rule)."""
+    variance = np.asarray(variance, float)
     ok = variance >= 0
     if inflation is not None:
         ok &= np.isfinite(inflation) & (np.asarray(inflation, float) <= UNDETERMINED_INFLATION)
-    with np.errstate(invalid="ignore"):
-        return np.where(ok, np.sqrt(np.abs(variance)), np.nan)
+    return ~ok

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import FotogeoError, FotogeoWarning
 from ..geometry.camera import ExteriorOrientation, angles_patb
-from ..models.precision import determined_sqrt
+from ..models.precision import determined_sqrt, undetermined
 from . import bundle_jacobian as bj
 from .bundle_control import images_only_errors, rmse
 from .bundle_robust import largest_w, posterior
@@ -202,10 +202,15 @@ def reweighted_rule(factors: dict, post) -> str:
             f"max(sigma0, 1) ({said}): its residuals exceed its a-priori sigma; {how}")
 
 
-def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int) -> tuple:
+def covariance_blocks(S_inv: np.ndarray, sigma0: float, m: int, blank=None) -> tuple:
     """``(per frame (m, 6, 6), interior (k, k), frame-interior (m, 6, k))`` of ``σ₀² S⁻¹`` (module docstring):
-    the blocks the banded inverse holds (each frame's own and the interior rows)."""
+    the blocks the banded inverse holds (each frame's own and the interior rows); NaN in the rows and columns of
+    the unknowns ``blank`` (a mask: those whose σ reads undetermined, :func:`~fotogeo.models.precision.undetermined`
+    — their inverse holds any sign and size the BLAS at hand gives)."""
     Q = sigma0 ** 2 * S_inv
+    if blank is not None and np.any(blank):
+        Q[blank, :] = np.nan
+        Q[:, blank] = np.nan
     idx = 6 * np.arange(m)[:, None] + np.arange(6)
     frames = Q[idx[:, :, None], idx[:, None, :]]
     return frames, Q[6 * m:, 6 * m:].copy(), Q[:6 * m, 6 * m:].reshape(m, 6, -1).copy()
@@ -248,6 +253,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, gi
     if factors is not None:
         rule = reweighted_rule(factors, post)
     eo = frame_eos(run)
+    blank = undetermined(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     sd = s0 * determined_sqrt(np.diag(cov.S_inv), np.diag(cov.S_inv) * np.diag(cov.S))
     eo_sigma = sd[:6 * m].reshape(m, 6).copy()
     eo_sigma[:, 3:] = np.degrees(eo_sigma[:, 3:])
@@ -295,7 +301,7 @@ def make_result(block, run, pb, post, fixed, correlations, blunders, timings, gi
     result = BundleResult(tuple(block.frames), block.role.copy(), eo, eo_sigma, cam, distortion, interior_sigma, xyz,
                           psig, rays, res, status.astype(str), red, w, given.sigma0, stats, tuple(fixed),
                           tuple(correlations),
-                          tuple(blunders), run.iterations, timings, *covariance_blocks(cov.S_inv, s0, m),
+                          tuple(blunders), run.iterations, timings, *covariance_blocks(cov.S_inv, s0, m, blank),
                           tuple(bj.INTERIOR_NAMES[k] for k in pb.st.free_interior), sigma_in_block(cov.S, s0, m),
                           a_priori, given_eo if factors is not None else None)
     errors = images_only_errors(result, block)

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models.precision import dense_inverse, unit_scaled
+from ..models.precision import dense_inverse, determined_sqrt, unit_scaled
 from . import bundle_jacobian as bj
 from .bundle_lm import Huber, Problem, State, eo_prior_residual, cost, linearise
 from .bundle_banded import selected_inverse
@@ -196,7 +196,8 @@ def interior_correlations(pb: Problem, post: Posterior, frame_names, interior_na
     """For each free interior parameter: its multiple correlation ``ϱ`` with all other
     camera-side unknowns, its largest pairwise correlation and partner, and its a-posteriori σ in its
     unit and in pixels, ``σ_px = σ̂₀ √Q_kk · RMS|∂pixel/∂b_k|`` over the observations, with the image σ
-    ``σ̂₀ σ_image`` it is compared with (module docstring)."""
+    ``σ̂₀ σ_image`` it is compared with (module docstring); σ NaN where it reads undetermined
+    (:func:`~fotogeo.models.precision.determined_sqrt`: a negative or ridge-made inverse diagonal)."""
     m = pb.st.n_frames
     S, Si = post.S, post.S_inv
     names = [f"{frame_names[j]}.{a}" for j in range(m) for a in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
@@ -212,7 +213,8 @@ def interior_correlations(pb: Problem, post: Posterior, frame_names, interior_na
         corr[i] = 0.0
         j = int(np.argmax(np.abs(corr)))
         px = float(post.interior_px[q]) if q < len(post.interior_px) else float("nan")
+        sigma = s0 * float(determined_sqrt(Si[i, i], vif))  # NaN: undetermined, never "within half a pixel"
         out.append({"parameter": interior_names[k], "multiple_correlation": rho,
-                    "partner": names[j], "correlation": float(corr[j]), "sigma": float(s0 * sd[i]),
-                    "sigma_px": float(s0 * sd[i] * px), "image_sigma_px": float(s0 * post.image_sigma)})
+                    "partner": names[j], "correlation": float(corr[j]), "sigma": sigma,
+                    "sigma_px": sigma * px, "image_sigma_px": float(s0 * post.image_sigma)})
     return out

@@ -117,8 +117,9 @@ def _determined(c) -> bool:
 
 
 def _fix_reason(c, limit):
+    moves = (f"its σ moves the image points by {c['sigma_px']:.3g} px, more than "
+             f"{max(DETERMINED_PX, c['image_sigma_px']):.3g} px" if np.isfinite(c["sigma_px"]) else
+             "its σ is undetermined")
     return (f"{c['parameter']} cannot be told from the exterior orientation: its multiple correlation with "
             f"the other unknowns is {c['multiple_correlation']:.4f} > {limit} (largest: "
-            f"{c['correlation']:+.3f} with {c['partner']}) and its σ moves the image points by "
-            f"{c['sigma_px']:.3g} px, more than {max(DETERMINED_PX, c['image_sigma_px']):.3g} px; held fixed at its "
-            f"initial value")
+            f"{c['correlation']:+.3f} with {c['partner']}) and {moves}; held fixed at its initial value")
