@@ -209,8 +209,11 @@ def data_bands(info) -> list:
     """The indices (0-based) of the frame's bands that hold data: all but those GDAL's colour interpretation calls
     alpha (an RGBA frame beside an RGB one has as many; :func:`read_decimated` takes the alpha as the mask)."""
     from rasterio.enums import ColorInterp
-    with ropen(info.path) as ds:
-        keep = [i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha]
+    try:
+        with ropen(info.path) as ds:
+            keep = [i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha]
+    except Exception:  # noqa: BLE001 - GDAL's error reading them (a JPEG's broken XMP packet): every band is data
+        keep = []
     return keep or list(range(info.count))
 
 
