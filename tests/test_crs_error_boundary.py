@@ -39,3 +39,13 @@ def test_a_pyproj_error_inside_a_tool_is_one_line(tmp_path, monkeypatch, error, 
     assert_one_line_error(r, line)
     assert not (tmp_path / "o.tif").exists()
     assert isinstance(error, CRSError) or "give a CRS pyproj knows" not in r.output
+
+
+def test_a_gdal_error_is_not_read_as_permission_denied(tmp_path, monkeypatch):
+    """GDAL's errors carry GDAL's error class as ``errno`` (CPLE_AppDefined is 1, EPERM as an OS number): a broken
+    XMP packet read by GDAL came out as "cannot write …: permission denied; choose a folder you can write to"."""
+    from rasterio._err import CPLE_AppDefinedError
+    r = _ortho_failing_with(CPLE_AppDefinedError(1, 1, "Line 12: </rdf:Descr> doesn't have matching <rdf:Descr>."),
+                            tmp_path, monkeypatch)
+    assert r.exit_code == 1 and "permission denied" not in r.output.lower(), r.output
+    assert "doesn't have matching" in r.output, r.output

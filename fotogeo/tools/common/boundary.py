@@ -276,8 +276,14 @@ def _denied(exc: BaseException, text: str) -> bool:
     """Whether ``exc`` is a refused write or read (permissions, a read-only file system), whatever the free space:
     a read-only disk that is also small is not a full one."""
     low = text.lower()
-    return (getattr(exc, "errno", None) in (errno.EACCES, errno.EPERM, errno.EROFS) or any(s in low for s in _DENIED)
+    return (_os_errno(exc) in (errno.EACCES, errno.EPERM, errno.EROFS) or any(s in low for s in _DENIED)
             or "is not writable" in low)
+
+
+def _os_errno(exc: BaseException) -> int | None:
+    """The operating system's error number of ``exc``; None for GDAL's errors, whose ``errno`` is GDAL's own error
+    class (``CPLE_AppDefined`` is 1, which as an OS number is EPERM: a GDAL error read as "permission denied")."""
+    return getattr(exc, "errno", None) if isinstance(exc, OSError) else None
 
 
 def translate_own(exc: FotogeoError, call: _Call) -> FotogeoError | None:
@@ -303,7 +309,7 @@ def translate(exc: BaseException, call: _Call) -> FotogeoError | None:
     file = call.file_in(exc)
     role, is_output = call.role_of(file)
     about = f"{role} {file!r}" if role else (repr(file) if file else "")
-    code = getattr(exc, "errno", None)
+    code = _os_errno(exc)
     lib = _library(exc)
     writing = is_output or "writ" in low
     if code == errno.ENOSPC or any(s in low for s in _NO_SPACE):
