@@ -252,7 +252,7 @@ def lsm_tie_points(fu_ref, fu_tgt, ref_xy, tgt_xy, *, half_window: int = 10, max
     out = tgt_xy.copy()
     jac = np.full((n, 2, 2), np.nan)
     if tried.any():
-        ref_img, tgt_img = _lsm_image(fu_ref), _lsm_image(fu_tgt)
+        ref_img, tgt_img = lsm_image(fu_ref), lsm_image(fu_tgt)
         res = lsm_many(ref_img, tgt_img, ref_xy[tried], tgt_xy[tried], half_window=half_window,
                        approx_jacobian=J[tried], max_shift=max_shift, tolerance=tolerance)
         ok = res.ok
@@ -270,7 +270,7 @@ def lsm_tie_points(fu_ref, fu_tgt, ref_xy, tgt_xy, *, half_window: int = 10, max
 MAX_SPECK = 16
 
 
-def _lsm_image(fused) -> np.ndarray:
+def lsm_image(fused) -> np.ndarray:
     """The fused image for LSM: NaN where invalid, except specks of at most :data:`MAX_SPECK` pixels.
 
     A nodata value that valid pixels also take (0 in the dark water of a uint8 scene with nodata 0)

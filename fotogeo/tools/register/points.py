@@ -46,7 +46,7 @@ from ...matching import CONVERGED
 from ...models import Projective
 from ...models.robust import TieFit, balance_weights, select_tie_points, spread_split
 from .bands import matched_fusions
-from .match import _lsm_image, find_tie_points, lsm_tie_points
+from .match import find_tie_points, lsm_image, lsm_tie_points
 from .texture import texture_points
 
 #: at least this many converged LSM points (and this share of those tried) for the fit to use
@@ -132,23 +132,23 @@ def lsm_budget(pixels: int) -> int:
 
 
 def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> TiePoints:
-    """LSM of the consistent matches (module docstring), at most :data:`MAX_LSM_POINTS` of them; on
-    decimated images a second LSM at full resolution from the first one's result."""
+    """LSM of the consistent matches (module docstring), at most :data:`MAX_LSM_POINTS` of them, topped up by
+    texture windows; on decimated images a second LSM at full resolution from the first one's result."""
     t_m, r_m = src / f_tgt, ref_xy / f_ref  # in the pixels of the images matched
-    n = len(src)
-    status = np.full(n, INCONSISTENT, dtype=object)
+    n_matches = len(src)
+    status = np.full(n_matches, INCONSISTENT, dtype=object)
     try:  # the consistent matches: RANSAC homography + Tukey refit, as the fit's own first step
         sel = select_tie_points(Projective, r_m, t_m, threshold=opts.ransac_threshold, min_sigma=1.0,
                                 check_fraction=0.0, rng=opts.seed)
     except (MatchingError, ModelError):
-        counts["lsm"] = {"refined": 0, "of": n, "note": "too few consistent matches to start LSM from",
+        counts["lsm"] = {"refined": 0, "of": n_matches, "note": "too few consistent matches to start LSM from",
                          "fit_uses": "every match"}
         return TiePoints(src, ref_xy, counts)
-    cand = sel.inliers
+    cand, H = sel.inliers, sel.ransac.model
     again = counts.get("bands_rematched")
     again = again if again and again.get("kept") else None
-    fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, sel.ransac.model,
-                                            _lsm_trial(r_m[cand], t_m[cand], sel.ransac.model, opts.seed),
+    fu_ref, fu_tgt, bands = matched_fusions(infos, opts, fu_ref, fu_tgt, H,
+                                            _lsm_trial(r_m[cand], t_m[cand], H, opts.seed),
                                             f"the {again['combined']}'s bands combined as matched" if again else
                                             "PCA fusions")
     pick = cand.copy()
@@ -157,38 +157,53 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         idx = np.flatnonzero(cand)
         pick[idx] = spread_split(t_m[idx], budget / len(idx), opts.seed)
     status[cand & ~pick] = NOT_PICKED
-    n_matches = n
-    extra = texture_points(_lsm_image(fu_ref), r_m[pick], budget - int(pick.sum()), LSM_HALF_WINDOW)
+    extra = texture_points(lsm_image(fu_ref), r_m[pick], budget - int(pick.sum()), LSM_HALF_WINDOW)
     if len(extra):  # fewer matches than the budget: windows of strong texture at the homography's prediction
-        t_x = sel.ransac.model.forward(extra)
+        t_x = H.forward(extra)
         src, ref_xy = np.vstack([src, t_x * f_tgt]), np.vstack([ref_xy, extra * f_ref])
         t_m, r_m = np.vstack([t_m, t_x]), np.vstack([r_m, extra])
         status = np.concatenate([status, np.full(len(extra), "", dtype=object)])  # LSM sets every one
         cand, pick = (np.concatenate([a, np.ones(len(extra), bool)]) for a in (cand, pick))
-        n = len(src)
-    pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=sel.ransac.model, prefilter=np.inf,
+    pts = lsm_tie_points(fu_ref, fu_tgt, r_m[pick], t_m[pick], homography=H, prefilter=np.inf,
                          half_window=LSM_HALF_WINDOW, max_shift=LSM_MAX_SHIFT, tolerance=LSM_TOLERANCE)
     status[pick] = pts.status
-    xy, sigma_px = t_m.copy(), np.full(n, np.nan)
+    xy, sigma_px = t_m.copy(), np.full(len(src), np.nan)
     xy[pick] = pts.xy
     sigma_px[pick] = pts.sigma / pts.scale * float(np.mean(f_ref))  # target px matched -> reference px
     ok = status == CONVERGED
-    full = None
-    if max(f_ref.max(), f_tgt.max()) > 1.0 + 1e-6 and ok.any():  # decimated: again at full resolution
-        idx = np.flatnonzero(ok)
-        J = pts.jacobian[ok[pick]] * f_tgt[None, :, None] / f_ref[None, None, :]
-        fr = full_resolution_lsm(infos, opts, (fu_ref, fu_tgt), ref_xy[idx], xy[idx] * f_tgt, J)
-        better = fr.converged
-        xy[idx[better]] = fr.xy[better] / f_tgt
-        sigma_px[idx[better]] = fr.sigma[better] / fr.scale[better]
-        full = {"refined": int(better.sum()), "of": int(len(idx)),
-                "median_sigma_px": float(np.median(sigma_px[idx[better]])) if better.any() else None,
-                "note": "the others keep the position and σ of the LSM on the decimated images"}
-    m = np.arange(n) < n_matches  # the keypoint matches; the rest are texture windows
+    full = _full_resolution_pass(infos, opts, (fu_ref, fu_tgt), pts.jacobian[ok[pick]], ok, ref_xy, xy, sigma_px,
+                                 f_ref, f_tgt)
+    m = np.arange(len(src)) < n_matches  # the keypoint matches; the rest are texture windows
     enough = _enough(ok[m], pick[m])  # the matches' own rule; a window takes part only where LSM converged
+    counts["lsm"] = _lsm_summary(status, ok, pick, cand, m, enough, budget, xy - t_m, sigma_px, bands, f_ref,
+                                 f_tgt, full)
+    return _tie_points(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok, m, enough)
+
+
+def _full_resolution_pass(infos, opts, fused, jacobian, ok, ref_xy, xy, sigma_px, f_ref, f_tgt) -> dict | None:
+    """On decimated images, LSM of the ``ok`` points again at full resolution (:func:`full_resolution_lsm`)
+    from the first LSM's ``jacobian`` (one per ``ok`` point); ``xy`` (pixels matched) and ``sigma_px`` take the
+    result where it converged. Returns the report's ``full_resolution`` entry, None when nothing was decimated."""
+    if max(f_ref.max(), f_tgt.max()) <= 1.0 + 1e-6 or not ok.any():
+        return None
+    idx = np.flatnonzero(ok)
+    J = jacobian * f_tgt[None, :, None] / f_ref[None, None, :]
+    fr = full_resolution_lsm(infos, opts, fused, ref_xy[idx], xy[idx] * f_tgt, J)
+    better = fr.converged
+    xy[idx[better]] = fr.xy[better] / f_tgt
+    sigma_px[idx[better]] = fr.sigma[better] / fr.scale[better]
+    return {"refined": int(better.sum()), "of": int(len(idx)),
+            "median_sigma_px": float(np.median(sigma_px[idx[better]])) if better.any() else None,
+            "note": "the others keep the position and σ of the LSM on the decimated images"}
+
+
+def _lsm_summary(status, ok, pick, cand, m, enough, budget, moved_m, sigma_px, bands, f_ref, f_tgt, full) -> dict:
+    """The report's ``lsm`` entry: counts per status, median σ and shift, what the fit uses (``m``: the keypoint
+    matches, the rest texture windows; ``moved_m``: LSM's shifts in target pixels matched)."""
     words, k = np.unique(status.astype(str), return_counts=True)
-    moved = np.hypot(*(xy[ok] - t_m[ok]).T) * float(np.mean(f_tgt))
-    counts["lsm"] = {
+    moved = np.hypot(*moved_m[ok].T) * float(np.mean(f_tgt))
+    n, n_matches = len(status), int(m.sum())
+    return {
         "refined": int(ok.sum()), "of": int(n), "tried": int(pick.sum()), "consistent": int(cand.sum()),
         "budget": budget, "texture_windows": int(n - n_matches),
         "status": dict(zip(words.tolist(), k.tolist())),
@@ -200,14 +215,19 @@ def _refine(src, ref_xy, counts, infos, fu_ref, fu_tgt, f_ref, f_tgt, opts) -> T
         "fit_uses": "the converged points" if enough else
                     f"every match: only {int(ok[m].sum())} of {int(pick[m].sum())} LSM runs converged"
                     + (" (texture windows: the converged ones)" if n > n_matches else "")}
-    if n == n_matches:
-        return TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), ok if enough else None)
+
+
+def _tie_points(src, ref_xy, counts, sigma_px, status, ok, m, enough) -> TiePoints:
+    """The refined tie points: ``usable`` the converged ones (``enough``) or every match and the converged
+    windows; texture windows are left out when fewer than :data:`MIN_CONVERGED_SHARE` of them converged
+    (changed ground between two dates), and ``matched`` keeps the keypoint matches ``m`` alone."""
+    if m.all():
+        return TiePoints(src, ref_xy, counts, sigma_px, status, ok if enough else None)
     counts["lsm"]["texture_windows_converged"] = int(ok[~m].sum())
     if ok[~m].mean() < MIN_CONVERGED_SHARE:  # most windows on changed ground (two dates): none of them is used
         counts["lsm"]["texture_windows_used"] = False
         ok = ok & m
-    usable = ok if enough else ok | m
-    pts = TiePoints(xy * f_tgt, ref_xy, counts, sigma_px, status.astype(str), usable)
+    pts = TiePoints(src, ref_xy, counts, sigma_px, status, ok if enough else ok | m)
     if not ok[~m].any():
         return pts
     return replace(pts, matched=replace(pts.subset(m), usable=ok[m] if enough else None))
