@@ -157,6 +157,24 @@ def test_uncertainty_is_refused_without_a_covariance(blocks, tmp_path):
               dst_crs=CRS)
 
 
+def test_a_frame_whose_covariance_reads_undetermined_is_refused_by_name(blocks, tmp_path):
+    """triangulate writes an undetermined σ's covariance rows as null (NaN): the σ raster of that frame would be
+    NaN everywhere — an empty product in silence. It is refused naming the frame, the report and the way out."""
+    r, _ = blocks[0]
+    eo = tmp_path / "exterior_orientation.txt"
+    eo.write_text(r["eo"].read_text())
+    rep = json.loads((r["eo"].parent / "report.json").read_text())
+    name = rep["frames"][0]["name"]
+    cov = rep["frames"][0]["covariance"]
+    for k in range(6):
+        cov[3][k] = cov[k][3] = None  # ω undetermined, as triangulate writes it
+    (tmp_path / "report.json").write_text(json.dumps(rep))
+    image = next(p for p in r["images"] if name in str(p))
+    with pytest.raises(InputError, match=f"{name}.*undetermined.*without --uncertainty"):
+        ortho([image], tmp_path / "o.tif", dem=r["dem_path"], camera=r["camera"], eo=eo, uncertainty=True)
+    assert not (tmp_path / "o.tif").exists()
+
+
 def test_self_calibration_covariance_through_the_report_and_its_interior_terms():
     """With self-calibration the report carries the interior block and each frame's cross-covariance; read back,
     the propagation equals finite differences of the intersection under the frame's and the interior's

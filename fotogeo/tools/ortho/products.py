@@ -77,6 +77,11 @@ def frame_covariances(eo, ims) -> dict:
             raise InputError(f"uncertainty: {str(report)!r} is not the adjustment of --eo {str(eo)!r} (frame "
                              f"{im.name!r} is elsewhere there); give the exterior_orientation.txt written with it",
                              option="uncertainty")
+    vague = [im.name for im in ims if not np.isfinite(cov[im.name].matrix()).all()]
+    if vague:
+        raise InputError(f"uncertainty: {str(report)!r} reads the orientation of {', '.join(vague[:10])} as "
+                         f"undetermined (σ null in its covariance): no σ can be predicted there; orthorectify them "
+                         f"without --uncertainty, or triangulate again with more control", option="uncertainty")
     return {im.name: cov[im.name] for im in ims}
 
 
