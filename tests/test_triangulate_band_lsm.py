@@ -109,3 +109,20 @@ def test_an_rgba_frame_beside_an_rgb_one_takes_the_equal_band_path(tmp_path, mon
         np.eye(2), (2, 2, 2)).copy(), 6, 3.5, 0.1)
     assert windows == [6]  # one run, on the greys: no band-set trial
     assert rgba.count == 4 and pairs.data_bands(rgba) == [0, 1, 2]
+
+
+def test_a_pairs_band_sets_are_read_with_its_frames_not_opened_again(tmp_path, monkeypatch):
+    """Which bands hold data (alpha left out) is read once, when :func:`open_raster` opens the frame
+    (``RasterInfo.data_bands``): least-squares matching a pair whose greys are given opens no file."""
+    t = 128 + 40 * _texture(64, 5)
+    rgb = _write(tmp_path / "rgb.tif", np.stack([t, t, t]))
+    with rasterio.open(tmp_path / "rgba.tif", "w", driver="GTiff", width=64, height=64, count=4, dtype="uint8",
+                       photometric="RGB", alpha="YES") as ds:
+        ds.write(np.clip(np.round(np.stack([t, t, t, np.full_like(t, 255)])), 1, 255).astype(np.uint8))
+    rgba = open_raster(tmp_path / "rgba.tif", "frame")
+    assert (rgb.data_bands, rgba.data_bands) == ((0, 1, 2), (0, 1, 2))
+    greys, opened, real = (pairs.grey(rgba), pairs.grey(rgb)), [], rasterio.open
+    monkeypatch.setattr(rasterio, "open", lambda *a, **k: opened.append(a[0]) or real(*a, **k))
+    anchors = np.array([[32.0, 32.0], [24.0, 40.0]])
+    pairs.lsm_pair(rgba, rgb, *greys, anchors, anchors, np.broadcast_to(np.eye(2), (2, 2, 2)).copy(), 6, 3.5, 0.1)
+    assert opened == []

@@ -28,7 +28,7 @@ import numpy as np
 from ...errors import Cancelled, MatchingError
 from ...geometry.brown import coefficients
 from ...geometry.camera import OrientedFrame
-from ...io.raster import open_raster, read_decimated, ropen
+from ...io.raster import open_raster, read_decimated
 from ...progress import as_progress
 from ..register.match import FeatureCache, find_tie_points
 
@@ -206,15 +206,9 @@ def lsm_pair(info_a, info_b, grey_a, grey_b, anchors, xy, jacobian, half_window:
 
 
 def data_bands(info) -> list:
-    """The indices (0-based) of the frame's bands that hold data: all but those GDAL's colour interpretation calls
-    alpha (an RGBA frame beside an RGB one has as many; :func:`read_decimated` takes the alpha as the mask)."""
-    from rasterio.enums import ColorInterp
-    try:
-        with ropen(info.path) as ds:
-            keep = [i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha]
-    except Exception:  # noqa: BLE001 - GDAL's error reading them (a JPEG's broken XMP packet): every band is data
-        keep = []
-    return keep or list(range(info.count))
+    """The indices (0-based) of the frame's bands that hold data (:attr:`fotogeo.io.raster.RasterInfo.data_bands`:
+    an RGBA frame beside an RGB one has as many)."""
+    return list(info.data_bands or range(info.count))
 
 
 #: a window converged both in the plain and in the wider trial run (:func:`merged_windows`) is dropped when the two
