@@ -70,3 +70,16 @@ def test_the_focal_length_record_of_the_maker_note_checks_the_exif_tag(monkeypat
     else:
         with pytest.raises(InputError, match=want):
             check_maker_focal(meta, exif_mm)
+
+
+@pytest.mark.data
+def test_an_ebee_frames_maker_note_is_parsed_once_for_its_size_and_its_focal_length(data_dir, monkeypatch):
+    """The metadata reader parses a Canon maker note once; both readings of it (CanonImageWidth x CanonImageHeight
+    and the lens's focal lengths) come from that parse."""
+    from fotogeo.io import exif_sizes as xs
+    read, real = [], xs._exif_tiff
+    monkeypatch.setattr(xs, "_exif_tiff", lambda p: read.append(p) or real(p))
+    meta = read_image_metadata(data_dir / "drone_snowpeak" / "img" / "IMG_2280.JPG")
+    assert meta.canon_focal == (None, 4.3, 21.5)
+    assert ("Canon maker note CanonImageWidth x CanonImageHeight", (4608, 3456)) in meta.written_sizes
+    assert len(read) == 1

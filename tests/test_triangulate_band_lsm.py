@@ -109,3 +109,42 @@ def test_an_rgba_frame_beside_an_rgb_one_takes_the_equal_band_path(tmp_path, mon
         np.eye(2), (2, 2, 2)).copy(), 6, 3.5, 0.1)
     assert windows == [6]  # one run, on the greys: no band-set trial
     assert rgba.count == 4 and pairs.data_bands(rgba) == [0, 1, 2]
+
+
+def test_a_pairs_band_sets_are_read_with_its_frames_not_opened_again(tmp_path, monkeypatch):
+    """Which bands hold data (alpha left out) is read once, when :func:`open_raster` opens the frame
+    (``RasterInfo.data_bands``): least-squares matching a pair whose greys are given opens no file."""
+    t = 128 + 40 * _texture(64, 5)
+    rgb = _write(tmp_path / "rgb.tif", np.stack([t, t, t]))
+    with rasterio.open(tmp_path / "rgba.tif", "w", driver="GTiff", width=64, height=64, count=4, dtype="uint8",
+                       photometric="RGB", alpha="YES") as ds:
+        ds.write(np.clip(np.round(np.stack([t, t, t, np.full_like(t, 255)])), 1, 255).astype(np.uint8))
+    rgba = open_raster(tmp_path / "rgba.tif", "frame")
+    assert (rgb.data_bands, rgba.data_bands) == ((0, 1, 2), (0, 1, 2))
+    greys, opened, real = (pairs.grey(rgba), pairs.grey(rgb)), [], rasterio.open
+    monkeypatch.setattr(rasterio, "open", lambda *a, **k: opened.append(a[0]) or real(*a, **k))
+    anchors = np.array([[32.0, 32.0], [24.0, 40.0]])
+    pairs.lsm_pair(rgba, rgb, *greys, anchors, anchors, np.broadcast_to(np.eye(2), (2, 2, 2)).copy(), 6, 3.5, 0.1)
+    assert opened == []
+
+
+def test_a_mixed_pairs_frames_are_read_once_each_for_their_greys_and_bands(frames, monkeypatch):
+    """A pair in other band sets is read at full resolution once per frame, its grey and its bands from the same
+    read — in this process (the least-squares jobs' frame cache) and as a Dask task — with the results of the
+    pair's greys and bands read apart."""
+    ia, ib = frames
+    g = np.arange(40, 201, 40, dtype=float)
+    anchors = np.array([(x, y) for y in g for x in g])
+    xy = anchors + SHIFT + np.random.default_rng(4).uniform(-1, 1, anchors.shape)
+    jac = np.broadcast_to(np.eye(2), (len(anchors), 2, 2)).copy()
+    want = pairs.lsm_pair(ia, ib, pairs.grey(ia), pairs.grey(ib), anchors, xy, jac, 10, 3.5, 0.1)
+    reads, real = [], pairs.read_decimated
+    monkeypatch.setattr(pairs, "read_decimated", lambda info, *a, **k: reads.append(str(info.path)) or real(
+        info, *a, **k))
+    (local,) = pairs._local_lsm([ia, ib], [(0, 1, anchors, xy, jac)], 10, 3.5, 0.1, lambda *a: True)
+    assert sorted(reads) == sorted([str(ia.path), str(ib.path)])
+    by_task = pairs.lsm_task(str(ia.path), str(ib.path), anchors, xy, jac, 10, 3.5, 0.1)
+    assert sorted(reads) == sorted([str(ia.path), str(ib.path)] * 2)
+    for got in (local, by_task):
+        assert all(np.array_equal(x, y) for x, y in zip(got, want))
+    assert want[0].sum() > 0

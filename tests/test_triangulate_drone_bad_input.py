@@ -123,3 +123,16 @@ def test_a_corrupt_xmp_packet_is_warned_once_and_its_frame_refused(snowpeak, tmp
     # the refusal says what the unreadable packet cost the frame
     assert "IMG_2281: its XMP packet is not valid XML" in result.output and "attitude" in result.output.split(
         "IMG_2281: its XMP")[1], result.output
+
+
+def test_a_frame_whose_colour_interpretation_gdal_cannot_read_has_every_band_as_data(snowpeak, tmp_path):
+    """GDAL raises reading the colour interpretation of a JPEG whose XMP packet is cut: the one raster reader
+    (``open_raster``) catches that error of GDAL's and takes every band as data."""
+    from rasterio._err import CPLE_BaseError
+
+    from fotogeo.io.raster import open_raster, ropen
+    (frame,) = copy_frames(snowpeak / "img", ["IMG_2281"], tmp_path / "img")
+    write_xmp(frame, xmp_of(frame).replace("</rdf:Description>", "</rdf:Descr", 1))
+    with pytest.raises(CPLE_BaseError), ropen(frame) as ds:
+        ds.colorinterp  # noqa: B018 - the failure the reader guards against
+    assert open_raster(frame, "frame").data_bands == (0, 1, 2)

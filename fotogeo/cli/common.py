@@ -93,8 +93,8 @@ _SWITCHES = {"overwrite": "--overwrite"}
 
 
 def flag_of(name: str | None) -> str | None:
-    """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``), None if none; an argument
-    set from several options by their flags (:func:`fotogeo.options.flags_of`)."""
+    """The command-line flag of the option ``name`` (``half_window`` → ``--half-window``,
+    :func:`fotogeo.options.flags_of`), None if none."""
     return (flags_of(name) or _SWITCHES.get(name)) if name else None
 
 

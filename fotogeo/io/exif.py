@@ -166,8 +166,8 @@ def read_image_metadata(path) -> ImageMetadata:
     """EXIF and XMP of one image through GDAL (module docstring)."""
     from rasterio.errors import RasterioError
 
-    from .exif_lens import canon_focal
-    from .exif_sizes import written_sizes
+    from .exif_lens import note_focal
+    from .exif_sizes import canon_note, written_sizes
     from .raster import ropen
     p = Path(path)
     if not p.is_file():
@@ -193,12 +193,13 @@ def read_image_metadata(path) -> ImageMetadata:
     lon, lat = _gps(tags, get)
     z, ztag = _altitude(tags, get)
     text = lambda k: (tags.get(k) or "").strip("\x00 ").strip() or None  # noqa: E731
+    note = canon_note(p, text("EXIF_Make"))  # parsed once: the frame's size and its focal length read it
     return ImageMetadata(str(p), frame_key(p), int(w), int(h), text("EXIF_Make"), text("EXIF_Model"), lon, lat, z,
                          ztag, _first(tags.get("EXIF_GPSTrack")), _first(tags.get("EXIF_GPSImgDirection")),
                          _first(tags.get("EXIF_FocalLength")), _first(tags.get("EXIF_FocalLengthIn35mmFilm")),
                          _ppmm(tags), xmp, _pixel_dimension(tags), xmp_error,
-                         written_sizes(p, tags, text("EXIF_Make"), (int(w), int(h))),
-                         _first(tags.get("EXIF_DigitalZoomRatio")), canon_focal(p, text("EXIF_Make")))
+                         written_sizes(tags, (int(w), int(h)), note), _first(tags.get("EXIF_DigitalZoomRatio")),
+                         note_focal(note))
 
 
 def _pixel_dimension(tags):

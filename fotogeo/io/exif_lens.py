@@ -21,21 +21,24 @@ from __future__ import annotations
 import struct
 
 from ..errors import InputError
-from .exif_sizes import maker_note
+from .exif_sizes import canon_note
 
 #: relative difference tolerated between EXIF FocalLength and the maker note's records (units' rounding)
 FOCAL_TOLERANCE = 0.01
 
 
 def canon_focal(path, make: str | None) -> tuple | None:
-    """``(focal_mm or None, min_mm, max_mm)`` from a Canon JPEG's maker note (module docstring), None for another
-    make, without a readable ``CameraSettings`` block or with an implausible one (``0 < min <= max``, units > 0)."""
-    if not (make or "").strip().lower().startswith("canon"):
+    """:func:`note_focal` of the JPEG ``path``'s maker note; None for another make than Canon."""
+    return note_focal(canon_note(path, make))
+
+
+def note_focal(note) -> tuple | None:
+    """``(focal_mm or None, min_mm, max_mm)`` from a Canon maker note (:func:`.exif_sizes.canon_note`'s; module
+    docstring), None without one, without a readable ``CameraSettings`` block or with an implausible one
+    (``0 < min <= max``, units > 0)."""
+    if note is None or 0x0001 not in note[2]:
         return None
-    got = maker_note(path)
-    if got is None or 0x0001 not in got[2]:
-        return None
-    tiff, bo, entries, shift = got
+    tiff, bo, entries, shift = note
     typ, count, off = entries[0x0001]
     if typ != 3 or count < 26:
         return None

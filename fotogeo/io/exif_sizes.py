@@ -38,17 +38,18 @@ ASPECT_TOLERANCE = 0.01
 _SIZES = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 7: 1, 8: 2, 9: 4, 10: 8}
 
 
-def written_sizes(path, tags: dict, make: str | None, size: tuple = ()) -> tuple:
+def written_sizes(tags: dict, size: tuple = (), note=None) -> tuple:
     """``((source, (width, height)), …)``: the full-frame sizes recorded besides ``PixelXDimension`` (module
-    docstring); ``tags`` are GDAL's ``EXIF_*`` items of the file, ``size`` its ``(width, height)`` in pixels."""
+    docstring); ``tags`` are GDAL's ``EXIF_*`` items of the file, ``size`` its ``(width, height)`` in pixels, ``note``
+    its Canon maker note (:func:`canon_note`; None: none)."""
     out = []
     w, h = _int(tags.get("EXIF_Related_Image_Width")), _int(tags.get("EXIF_Related_Image_Length"))
     if w and h:
         out.append(("EXIF RelatedImageWidth x RelatedImageLength", (w, h)))
-    if (make or "").strip().lower().startswith("canon"):
+    if note is not None:
         shapes = (tuple(size) or (None, None), (_int(tags.get("EXIF_PixelXDimension")),
                                                    _int(tags.get("EXIF_PixelYDimension"))))
-        canon = _canon_size(path, tuple(a / b for a, b in shapes if a and b))
+        canon = canon_size(note, tuple(a / b for a, b in shapes if a and b))
         if canon:
             out.append(("Canon maker note CanonImageWidth x CanonImageHeight", canon))
     return tuple(out)
@@ -110,12 +111,17 @@ def _int(text) -> int | None:
 
 
 def _canon_size(path, aspects: tuple = ()) -> tuple | None:
-    """CanonImageWidth x CanonImageHeight from a JPEG's Canon maker note, None when absent, unreadable or implausible
-    (module docstring); ``aspects``: the width/height ratios it may have (none: not checked)."""
-    got = maker_note(path)
-    if got is None:
+    """:func:`canon_size` of the maker note of the JPEG ``path``."""
+    return canon_size(maker_note(path), aspects)
+
+
+def canon_size(note, aspects: tuple = ()) -> tuple | None:
+    """CanonImageWidth x CanonImageHeight from a Canon maker note (:func:`maker_note`'s), None when absent,
+    unreadable or implausible (module docstring); ``aspects``: the width/height ratios it may have (none: not
+    checked)."""
+    if note is None:
         return None
-    tiff, bo, entries, shift = got
+    tiff, bo, entries, shift = note
     for tag, size_word, at in _CANON_AF:
         if tag in entries and entries[tag][0] == 3 and entries[tag][1] >= at + 6:
             typ, count, off = entries[tag]
@@ -124,6 +130,12 @@ def _canon_size(path, aspects: tuple = ()) -> tuple | None:
                 if (size_word is None or vals[size_word] == 2 * count) and _plausible(vals[at:at + 6], aspects):
                     return int(vals[at + 2]), int(vals[at + 3])
     return None
+
+
+def canon_note(path, make: str | None) -> tuple | None:
+    """:func:`maker_note` of the JPEG ``path`` when its EXIF ``make`` is Canon's (the layout read here and by
+    :mod:`fotogeo.io.exif_lens`), else None: parsed once for every reading of it."""
+    return maker_note(path) if (make or "").strip().lower().startswith("canon") else None
 
 
 def maker_note(path) -> tuple | None:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import rasterio
-from rasterio.enums import Resampling
+from rasterio._err import CPLE_BaseError  # GDAL's errors (rasterio.errors does not name them)
+from rasterio.enums import ColorInterp, Resampling
 from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.windows import Window
 
@@ -47,6 +48,9 @@ class RasterInfo:
     raster_crs: object
     transform: object  # affine.Affine
     nodata: float | None
+    #: the 0-based indices of the bands holding data: all but those GDAL's colour interpretation calls alpha (a mask,
+    #: as :func:`read_decimated` takes it); every band when GDAL cannot read the interpretation (:func:`open_raster`)
+    data_bands: tuple = ()
 
     @functools.cached_property
     def crs(self):
@@ -89,7 +93,7 @@ def open_raster(path, role: str = "raster") -> RasterInfo:
     try:
         with ropen(p) as ds:
             info = RasterInfo(p, ds.width, ds.height, ds.count, ds.dtypes[0], ds.crs or None, ds.transform,
-                              ds.nodata)
+                              ds.nodata, _data_bands(ds))
     except RasterioIOError as e:
         if isinstance(p, str):
             raise RasterError(one_line(f"{role} {p!r} cannot be read through GDAL ({e}); check the virtual path "
@@ -99,6 +103,16 @@ def open_raster(path, role: str = "raster") -> RasterInfo:
     if info.width < 16 or info.height < 16:
         raise InputError(f"{role} {str(p)!r} is only {info.width}x{info.height} pixels; at least 16x16 is needed")
     return info
+
+
+def _data_bands(ds) -> tuple:
+    """:attr:`RasterInfo.data_bands` of the open raster ``ds``. GDAL may fail to read the colour interpretation
+    (a JPEG whose XMP packet is cut raises CPLE_AppDefined when asked): then every band is data."""
+    try:
+        keep = tuple(i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha)
+    except CPLE_BaseError:
+        keep = ()
+    return keep or tuple(range(ds.count))
 
 
 #: GDAL block cache for fotogeo's reads and writes (bytes). GDAL's default, 5 % of RAM, let

@@ -54,23 +54,15 @@ _TABLES = (REGISTER, REGISTER_TERRAIN, MATCH, FUSE, DEMO, GCP, ORIENT, COMPARE, 
            POINTS_TO_LAYER, LAYER_TO_POINTS, TRIANGULATE, REGISTER_BATCH, COREG, ORTHO, MOSAIC, INTERIOR, DSM)
 
 
-#: arguments of the array layer that a tool sets from several of its options (:class:`BundleOptions`'s ``eo_sigma``
-#: from the σ of the approximate positions and angles): an error about one (``FotogeoError.option``) names those
-#: options, by their flags on the command line and their labels in QGIS
-PARTS = {"eo_sigma": ("eo_sigma_position", "eo_sigma_angle")}
-
-
 def flags_of(name: str, tables=()) -> str | None:
     """The flag naming the option ``name`` in a message: its option's in the first of ``tables`` that has it, else in
-    every tool's (:func:`find_option`); an argument set from several options (:data:`PARTS`) by each of theirs, joined
-    by "/"; None if none.
+    every tool's (:func:`find_option`); None if none.
 
-    >>> flags_of("half_window"), flags_of("eo_sigma"), flags_of("nope")
-    ('--half-window', '--eo-sigma-position/--eo-sigma-angle', None)
+    >>> flags_of("half_window"), flags_of("nope")
+    ('--half-window', None)
     """
-    found = [next((t[part] for t in tables if part in t), None) or find_option(part)
-             for part in PARTS.get(name, (name,))]
-    return "/".join(o.cli_flag for o in found if o is not None) or None
+    found = next((t[name] for t in tables if name in t), None) or find_option(name)
+    return found.cli_flag if found is not None else None
 
 
 def find_option(name: str) -> Option | None:

@@ -261,7 +261,7 @@ class FotogeoAlgorithm(QgsProcessingAlgorithm):
         ``option``, the option an error is about (``FotogeoError.option``), and ``also``, the further options it
         names (``FotogeoError.also``), by their labels too."""
         for name in (option, *also):
-            # by its flag(s) (fotogeo.options.flags_of), which in_labels turns into this dialog's labels
+            # by its flag (fotogeo.options.flags_of), which in_labels turns into this dialog's labels
             message = in_callers_words(message, name, flags_of(name, self.OPTIONS))
         return in_labels(message, *self.OPTIONS, extra=self.WORDS)
 

@@ -28,7 +28,7 @@ import numpy as np
 from ...errors import Cancelled, MatchingError
 from ...geometry.brown import coefficients
 from ...geometry.camera import OrientedFrame
-from ...io.raster import open_raster, read_decimated, ropen
+from ...io.raster import open_raster, read_decimated
 from ...progress import as_progress
 from ..register.match import FeatureCache, find_tie_points
 
@@ -187,34 +187,38 @@ def _full(info) -> tuple:
 
 
 def lsm_pair(info_a, info_b, grey_a, grey_b, anchors, xy, jacobian, half_window: int, max_shift: float,
-             min_sigma: float):
+             min_sigma: float, bands=(None, None)):
     """:func:`lsm_group` of one frame pair on the greys (given); when the frames' counts of data bands differ
-    (:func:`data_bands`: an alpha band is a mask, not a band), also on :func:`band_frames` (both frames' bands read
-    again) in windows :data:`MIXED_WINDOW_SCALE` times wider — a trial, merged window by window
-    (:func:`merged_windows`). When the combined bands do not correlate better than the greys, :func:`band_frames`
-    returns the greys and the trial is least-squares matching of the greys in the wider windows, under the same
-    merge: it adds only windows the narrow run did not converge on, and drops those where the two disagree."""
+    (:func:`mixed`), also on :func:`band_frames` (of the frames' full-resolution ``bands``, read here when None) in
+    windows :data:`MIXED_WINDOW_SCALE` times wider — a trial, merged window by window (:func:`merged_windows`). When
+    the combined bands do not correlate better than the greys, :func:`band_frames` returns the greys and the trial
+    is least-squares matching of the greys in the wider windows, under the same merge: it adds only windows the
+    narrow run did not converge on, and drops those where the two disagree."""
     plain = lsm_group(grey_a, grey_b, anchors, xy, jacobian, half_window, max_shift, min_sigma)
-    keep_a, keep_b = data_bands(info_a), data_bands(info_b)
-    if len(keep_a) == len(keep_b):
+    if not mixed(info_a, info_b):
         return plain
-    images = band_frames(_full(info_a)[0][keep_a], _full(info_b)[0][keep_b], grey_a, grey_b, anchors, xy,
+    bands_a, bands_b = (_full(info)[0] if b is None else b for info, b in zip((info_a, info_b), bands))
+    images = band_frames(bands_a[data_bands(info_a)], bands_b[data_bands(info_b)], grey_a, grey_b, anchors, xy,
                          half_window)
     wide = lsm_group(*images, anchors, xy, jacobian, int(round(MIXED_WINDOW_SCALE * half_window)), max_shift,
                      min_sigma)
     return merged_windows(plain, wide)
 
 
+def mixed(info_a, info_b) -> bool:
+    """Whether two frames hold other counts of data bands (:func:`data_bands`: an alpha band is a mask)."""
+    return len(data_bands(info_a)) != len(data_bands(info_b))
+
+
+def frame_read(info, keep_bands: bool) -> tuple:
+    """``(bands or None, grey)`` of one read: :func:`grey` and, when ``keep_bands``, the bands it came from."""
+    bands, img = _full(info)
+    return (bands if keep_bands else None), img
+
+
 def data_bands(info) -> list:
-    """The indices (0-based) of the frame's bands that hold data: all but those GDAL's colour interpretation calls
-    alpha (an RGBA frame beside an RGB one has as many; :func:`read_decimated` takes the alpha as the mask)."""
-    from rasterio.enums import ColorInterp
-    try:
-        with ropen(info.path) as ds:
-            keep = [i for i, c in enumerate(ds.colorinterp) if c != ColorInterp.alpha]
-    except Exception:  # noqa: BLE001 - GDAL's error reading them (a JPEG's broken XMP packet): every band is data
-        keep = []
-    return keep or list(range(info.count))
+    """The 0-based indices of the frame's data bands (:attr:`fotogeo.io.raster.RasterInfo.data_bands`: no alpha)."""
+    return list(info.data_bands or range(info.count))
 
 
 #: a window converged both in the plain and in the wider trial run (:func:`merged_windows`) is dropped when the two
@@ -307,8 +311,8 @@ def lsm_task(path_a: str, path_b: str, anchors, xy, jacobian, half_window: int, 
     from ..common.dask_cluster import pin_threads
     pin_threads()
     info_a, info_b = open_raster(path_a, "frame"), open_raster(path_b, "frame")
-    return lsm_pair(info_a, info_b, grey(info_a), grey(info_b), anchors, xy, jacobian, half_window, max_shift,
-                    min_sigma)
+    (b_a, g_a), (b_b, g_b) = (frame_read(info, mixed(info_a, info_b)) for info in (info_a, info_b))
+    return lsm_pair(info_a, info_b, g_a, g_b, anchors, xy, jacobian, half_window, max_shift, min_sigma, (b_a, b_b))
 
 
 def dask_lsm_results(client, paths, groups, half_window: int, max_shift: float, min_sigma: float,
@@ -381,14 +385,15 @@ def refine_tracks(infos, frame, track, pixel, camera, eos, height, *, max_shift:
 
 
 def _local_lsm(infos, jobs, half_window, max_shift, min_sigma, prog):
-    """:func:`~fotogeo.tools.triangulate.pairs.lsm_group` of each job in turn, in this process (the anchor
-    frame stays in memory while its jobs run)."""
+    """:func:`lsm_pair` of each job in turn, in this process (the anchor frame stays in memory while its jobs run):
+    at most two frames held, each read once while held — its grey and, in a mixed pair (:func:`mixed`), its bands."""
+    with_bands = {f for fa, fb, *_ in jobs if mixed(infos[fa], infos[fb]) for f in (fa, fb)}
     cache: dict = {}
     for g, (fa, fb, anchors, xy, jac) in enumerate(jobs):
         prog(g / len(jobs), f"least-squares matching {g + 1}/{len(jobs)}")
         cache = {k: v for k, v in cache.items() if k in (fa, fb)}
         for f in (fa, fb):
             if f not in cache:
-                cache[f] = grey(infos[f])
-        yield lsm_pair(infos[fa], infos[fb], cache[fa], cache[fb], anchors, xy, jac, half_window, max_shift,
-                       min_sigma)
+                cache[f] = frame_read(infos[f], f in with_bands)
+        yield lsm_pair(infos[fa], infos[fb], cache[fa][1], cache[fb][1], anchors, xy, jac, half_window, max_shift,
+                       min_sigma, (cache[fa][0], cache[fb][0]))
