@@ -136,12 +136,10 @@ def describe(found: dict) -> str:
     turned = {1: "turned 90° clockwise", 2: "turned 180°", 3: "turned 90° counter-clockwise"}.get(t)
     if found.get("either_way"):
         turned = "turned a quarter turn"
-    if s != 1.0 and turned:
-        copy, fix = f"a copy about {s:.3g}x this image's size {turned}", f"rescale them (col/row ÷ {s:g}) and turn them back"
-    elif turned:
-        copy, fix = f"a copy of this image {turned}", "turn them back"
-    else:
-        copy, fix = f"a copy about {s:.3g}x this image's size", f"rescale them (col/row ÷ {s:g})"
+    size = f"a copy about {s:g}x this image's size" if s != 1.0 else "a copy of this image"
+    copy = " ".join(filter(None, (size, turned)))
+    fix = " and ".join(filter(None, (f"rescale them (col/row ÷ {s:g})" if s != 1.0 else "",
+                                     "turn them back" if turned else "")))
     return (f"the GCP pixels look measured on {copy}: read back onto this image, {found['n_read_back']} control "
             f"points fit with {found['rms_read_back']:.2f} px RMS, as given {found['n_given']} inside fit with "
             f"{found['rms_given']:.2f} px; measure them on this file or {fix}")
