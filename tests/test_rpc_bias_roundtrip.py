@@ -17,7 +17,8 @@ GRID = "GRID_PHR1B_P_201308051042194_SEN_690908101-001.tif"
 BIAS = np.array([2.3, -1.7])  # col, row
 
 
-def _gcps(v, path, bias=BIAS, affine=None):
+def _gcps(v, path, bias=BIAS, affine=None, within=500, read=None):
+    """The grid nodes whose crop pixel (+ ``bias``) lies in ``0..within``; ``read``: how their pixels were read."""
     import geopandas as gpd
     import shapely
     with rasterio.open(v / GRID) as ds:
@@ -32,8 +33,9 @@ def _gcps(v, path, bias=BIAS, affine=None):
     rows = []
     for k, h in ((1, 485.0), (2, 1000.0)):  # bands 2-3 and 4-5
         lon, lat = a[2 * k].ravel(), a[2 * k + 1].ravel()
-        for i in np.flatnonzero(np.all((px + bias > 0) & (px + bias < 500), axis=1)):
-            rows.append({"id": f"n{i}_{int(h)}", "col": px[i, 0] + bias[0], "row": px[i, 1] + bias[1], "z": h,
+        for i in np.flatnonzero(np.all((px + bias > 0) & (px + bias < within), axis=1)):
+            q = (px[i] + bias) if read is None else read(px[i:i + 1] + bias)[0]
+            rows.append({"id": f"n{i}_{int(h)}", "col": q[0], "row": q[1], "z": h,
                          "geometry": shapely.Point(lon[i], lat[i])})
     gpd.GeoDataFrame(rows, crs="EPSG:4326").to_file(path, layer="gcps", engine="pyogrio")
     return rows

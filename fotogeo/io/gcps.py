@@ -292,16 +292,18 @@ def outside_image(pixel, width: int, height: int) -> np.ndarray:
     return ~on_image(pixel[:, 0], pixel[:, 1], width, height)
 
 
-def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model"):
+def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, needed_by: str = "the model",
+                 span: bool = True):
     """``(kept, skipped)``: the GCPs whose image position lies inside the ``width`` x ``height`` image, and one
     record ``{"id", "col", "row", "reason"}`` per GCP left out — the one policy of every tool fitting to GCPs
     (:func:`skip_outside`)."""
-    keep, skipped = skip_outside(g.ids, g.pixel, g.role, width, height, what, needed, needed_by, g.source)
+    keep, skipped = skip_outside(g.ids, g.pixel, g.role, width, height, what, needed, needed_by, g.source,
+                                 span=span)
     return (g, []) if not skipped else (g.subset(keep), skipped)
 
 
 def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: int = 1,
-                 needed_by: str = "the model", source: str = "", points=None):
+                 needed_by: str = "the model", source: str = "", points=None, span: bool = True):
     """``(keep mask, skipped records)`` of GCP measurements ``ids`` at ``pixel`` (``roles``: "control",
     "check", ...) on a ``width`` x ``height`` image: the one rule of orient, rpc-bias, compare-models and
     triangulate (whose ids name the frame too, and whose ``points`` name the ground point of each measurement:
@@ -311,7 +313,9 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     (or of the uncropped scene): it is skipped with one :class:`~fotogeo.errors.FotogeoWarning` naming each id
     and pixel, and the rest is fitted. When the skipping leaves fewer than ``needed`` control points
     (``needed_by`` names what needs them; too few in the file as well is the model's own error), or none at all,
-    the GCPs are refused by an :class:`InputError` naming the skipped ones and the likely fix; for a ``.points``
+    the GCPs are refused by an :class:`InputError` naming the skipped ones and the likely fix; so are most of
+    them outside, spanning more than the image (:func:`_refuse_another_size`) unless ``span`` is false (a caller
+    whose fit tells a copy of another size from a crop, :mod:`fotogeo.orientation.copy_reading`); for a ``.points``
     ``source`` it explains the file's source-coordinate convention, the usual cause when most points fall
     outside: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive ``sourceY`` values put
     them above the image.
@@ -332,7 +336,8 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     control = roles == "control"
     n_kept, n_control = int((~out).sum()), len(set(points[~out & control]))
     if n_kept and (n_control >= needed or len(set(points[control])) < needed):  # too few anyway: the model says
-        _refuse_another_size(pixel, out, width, height, what, reason)
+        if span:
+            _refuse_another_size(pixel, out, width, height, what, reason)
         warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other "
                       f"{_measurements(n_kept, len(set(points[~out])))} used: {named(10)} (a typo in col/row, or a "
                       f"GCP of another image?)", FotogeoWarning, stacklevel=4)

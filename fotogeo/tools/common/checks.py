@@ -176,3 +176,19 @@ def distinct_files(paths, names, what: str = "images") -> None:
         if j[0] != i:
             raise InputError(f"{what}: the name {name} occurs twice ({j[1]!r}, {path!r}); every image needs its "
                              f"own file name: rename one")
+
+
+def inside_fitted(g, width: int, height: int, what: str, needed: int, needed_by: str, fit):
+    """:func:`~fotogeo.io.gcps.inside_image` of the GCPs ``g`` where a fit with a fixed scale tells positions read
+    on a copy of another size or turned (refused, naming it) from a crop's or a typo's
+    (:mod:`fotogeo.orientation.copy_reading`); the span rule stays only where too few lie inside to tell. ``fit``:
+    ``(rms(ground, pixel), the fit's least number of points, the image σ in px)``."""
+    from ...io.gcps import inside_image, outside_image
+    from ...orientation.copy_reading import copy_reading, describe
+    rms, least, sigma = fit
+    control = g.role == "control"
+    found = copy_reading(g.ground, g.pixel, control, width, height, rms, sigma, least)
+    if found:
+        raise InputError(f"GCP file {what!r}: {describe(found)}")
+    told = int((control & ~outside_image(g.pixel, width, height)).sum()) >= least + 2
+    return inside_image(g, width, height, what, needed, needed_by, span=not told)

@@ -34,10 +34,11 @@ from ...io.rpc import write_rpc_geotiff
 from ...io.rpc_image import image_rpc
 from ...models.stats import residual_stats
 from ...orientation.bias import MIN_GCPS, corrected_rpc, estimate_bias
+from ...orientation.copy_reading import CLICK_SIGMA_PX
 from ...pixels import from_centre
 from ...progress import as_progress
 from ..common.boundary import tool
-from ..common.checks import check_gcp_crs
+from ..common.checks import check_gcp_crs, inside_fitted
 
 
 @tool("RPC_BIAS", rasters={"image": None, "dem": None})
@@ -61,8 +62,9 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
     if not g.has_heights:
         raise InputError(f"GCP file {str(gcps)!r}: every GCP needs a height for an RPC (a z field, a DEM or a "
                          f"constant height)")
-    g, skipped = inside_image(g, info.width, info.height, f"{gcps}", MIN_GCPS[method],
-                              f"the {method} correction")
+    needed = (f"{gcps}", MIN_GCPS[method], f"the {method} correction")
+    g, skipped = (inside_fitted(g, info.width, info.height, *needed, (_shift_rms(rpc, g.crs), 1, CLICK_SIGMA_PX))
+                  if method == "shift" else inside_image(g, info.width, info.height, *needed))
     lonlat = to_lonlat(g.crs, g.ground[:, :2])
     ground = np.column_stack([lonlat, g.ground[:, 2]])
     control, check = g.role == "control", g.role == "check"
@@ -87,3 +89,15 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
         out.commit()
     prog(1.0, "done")
     return rep
+
+
+def _shift_rms(rpc, crs):
+    """``rms(ground, pixel)``: the RMS (px) of the residuals of the GCPs (``ground`` in ``crs``, ellipsoidal
+    heights) after the shift correction of ``rpc`` fitted to all of them; a copy of another size or a turned one
+    cannot be shifted onto the vendor RPC (:mod:`fotogeo.orientation.copy_reading`)."""
+    def rms(ground, pixel) -> float:
+        lonlat = to_lonlat(crs, ground[:, :2])
+        d = pixel - from_centre(rpc.project(lonlat[:, 0], lonlat[:, 1], ground[:, 2]))
+        d = d - d.mean(axis=0)
+        return float(np.sqrt(np.mean(np.sum(d ** 2, axis=1))))
+    return rms

@@ -47,8 +47,9 @@ from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal
 from ...geometry.georeference import Georeference
 from ...models import get_model
 from ...orientation.adjustment import fit_orientation, select_model
+from ...orientation.copy_reading import CLICK_SIGMA_PX, collinearity_rms
 from ...progress import as_progress
-from ..common.checks import check_camera_size, check_gcp_crs
+from ..common.checks import check_camera_size, check_gcp_crs, inside_fitted
 from ..common.boundary import OUTPUTS, tool
 from ..common.gcp_style import legend_class
 from .rectify import mean_height, rectify_grid, rectify_image
@@ -83,7 +84,7 @@ def orient(image, gcps, *, model: str = "auto", report=None, vectors=None, plot=
     check_gcp_crs(g, gcps)
     if image is not None:
         check_camera_size(camera, info.width, info.height, image)
-    g, skipped = inside_image(g, info.width, info.height, f"{gcps}", *_needed(model))
+    g, skipped = _inside(g, info, gcps, model, camera, image_sigma)
     prog(0.1, "GCPs read")
     scale_mm = scan_pixel_um / 1000.0 if scan_pixel_um else None
     selection = None
@@ -153,6 +154,16 @@ def ground_residuals(model, ground, pixel, crs):
 RASTER_OUTPUTS = ("plot", "rpc", "gcp_tiff", "rectify")
 
 
+def _inside(g, info, gcps, model: str, camera, image_sigma):
+    """:func:`~fotogeo.io.gcps.inside_image` of the GCPs; with a camera (collinearity or ``auto``) the fit tells
+    positions read on a copy of another size or turned (refused, naming it) from a crop's
+    (:mod:`fotogeo.orientation.copy_reading`), and the span rule is kept only where too few lie inside to tell."""
+    if camera is None or model not in ("collinearity", "auto"):
+        return inside_image(g, info.width, info.height, f"{gcps}", *_needed(model))
+    fit = (collinearity_rms(camera), get_model("collinearity").min_points, image_sigma or NOMINAL_SIGMA_PX)
+    return inside_fitted(g, info.width, info.height, f"{gcps}", *_needed(model), fit)
+
+
 def _needed(model: str) -> tuple[int, str]:
     """How many control points ``model`` needs and its name, for refusing GCPs that leave too few inside."""
     if model == "auto":
@@ -164,7 +175,7 @@ def _needed(model: str) -> tuple[int, str]:
 #: hint of relief the model cannot follow
 HINT_FACTOR = 3.0
 #: the click precision (px) assumed for that hint when ``image_sigma`` is not given
-NOMINAL_SIGMA_PX = 0.5
+NOMINAL_SIGMA_PX = CLICK_SIGMA_PX
 
 
 def _height_hint(g, fit, camera, image_sigma) -> list[str]:

@@ -1,0 +1,145 @@
+"""Whether GCP pixel positions were read on another copy of the image: one of another size or turned a quarter turn.
+
+A copy ``s`` times the image's size (a resize, whatever tool wrote it) scales every pixel position about the corner
+``(0, 0)``: the position read on the copy is ``s · (col, row)`` of this image (corner convention,
+:mod:`fotogeo.pixels`). A copy turned clockwise by a quarter turn is ``height`` x ``width``; its position
+``(c', r')`` is ``(r', height − c')`` of this image; turned by a half turn ``(width − c', height − r')``, by three
+quarters ``(width − r', c')``.
+
+A model with a free scale (affine, projective, polynomial, rational) absorbs a copy's scaling exactly: only which
+points fall inside changes, and a top-left crop of the frame the GCPs were measured on looks the same. A model whose
+interior is fixed — the collinearity equations with a camera's focal length and principal point in pixels — cannot:
+positions read on a copy leave residuals far above the click precision, which the same fit of the positions read
+back into this image (``/ s``, or turned back) does not. The rule (:func:`copy_reading`): when the least-squares fit
+of the control points inside the image leaves an RMS above :data:`EXPLAINED` times the image σ, every candidate
+reading is fitted to its own control points inside the image (at least as many as the positions as given keep), and
+the best one is named when it leaves :data:`BETTER` times less. A crop whose camera describes it (principal point
+where the frame's falls in the crop's pixels) fits as given and is left alone; so is a half turn about a central
+principal point, which the collinearity equations absorb (a rotation about the optical axis).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import FotogeoError
+from ..models import get_model
+from .adjustment import fit_data, image_residuals
+
+#: the click precision (px) assumed for a GCP's image position when none is given
+CLICK_SIGMA_PX = 0.5
+#: a fit's RMS (px) above this many times the image σ asks whether the positions were read on another copy
+EXPLAINED = 3.0
+#: a reading is named when its fit leaves at least this many times less RMS than the positions as given
+BETTER = 5.0
+#: the copies' sizes tried, as factors of this image's size (about 3 % apart), then refined around the best
+SCALES = np.exp(np.linspace(math.log(0.25), math.log(4.0), 97))
+#: factors this close to 1 are not a copy of another size (a fit's own scale error)
+NEAR_ONE = 0.04
+#: turns of a copy, clockwise, in quarter turns
+TURNS = (1, 2, 3)
+#: readings whose fits leave RMS within this factor of the best are not told apart
+TIE = 1.1
+
+
+def read_back(pixel, width: int, height: int, scale: float = 1.0, turns: int = 0) -> np.ndarray:
+    """Positions ``pixel`` read on a copy ``scale`` times this image's size and turned ``turns`` quarter turns
+    clockwise, as positions on this ``width`` x ``height`` image (module docstring)."""
+    p = np.asarray(pixel, float).reshape(-1, 2) / scale
+    c, r = p[:, 0], p[:, 1]
+    return {0: p, 1: np.column_stack([r, height - c]), 2: np.column_stack([width - c, height - r]),
+            3: np.column_stack([width - r, c])}[turns % 4]
+
+
+def collinearity_rms(camera):
+    """``rms(ground, pixel)``: the RMS (px) of the residual vectors of the collinearity resection with ``camera``
+    fitted to all the points by least squares; ``inf`` where it fails."""
+    cls = get_model("collinearity")
+
+    def rms(ground, pixel) -> float:
+        try:
+            src, dst = fit_data(cls, ground, pixel)
+            model = cls.estimate(src, dst, camera=camera)
+            res = image_residuals(model, ground, pixel)
+        except (FotogeoError, ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return math.inf
+        value = float(np.sqrt(np.mean(np.sum(res ** 2, axis=1))))
+        return value if math.isfinite(value) else math.inf
+    return rms
+
+
+def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma: float, min_points: int):
+    """``None`` when the control points' positions fit as given (or too few lie inside to tell), else
+    ``{"scale", "turns", "rms_given", "rms_read_back", "n_given", "n_read_back"}``: the reading of the positions
+    (:func:`read_back`) that explains them :data:`BETTER` times better (module docstring). ``fit_rms(ground,
+    pixel)`` fits the model; ``sigma``: the image σ (px) of the positions; ``min_points``: the model's minimum."""
+    ground, pixel, control = np.asarray(ground, float), np.asarray(pixel, float), np.asarray(control, bool)
+
+    def inside(p):
+        return control & (p[:, 0] >= 0) & (p[:, 0] <= width) & (p[:, 1] >= 0) & (p[:, 1] <= height)
+
+    given = inside(pixel)
+    n_given = int(given.sum())
+    if n_given < min_points + 2:
+        return None
+    rms_given = fit_rms(ground[given], pixel[given])
+    if rms_given <= EXPLAINED * sigma:
+        return None
+
+    def trial(scale, turns):
+        p = read_back(pixel, width, height, scale, turns)
+        keep = inside(p)
+        n = int(keep.sum())
+        return (fit_rms(ground[keep], p[keep]) if n >= n_given else math.inf), n
+
+    readings = [(s, 0) for s in SCALES if abs(math.log(s)) > NEAR_ONE] + [(1.0, t) for t in TURNS]
+    readings += [(s, t) for s in SCALES[::8] for t in TURNS if abs(math.log(s)) > NEAR_ONE]
+    scored = [(trial(s, t)[0], s, t) for s, t in readings]
+    least = min(r for r, _, _ in scored)
+    # readings the collinearity equations cannot tell apart (a half turn about a central principal point): the one
+    # with the fewest turns, a quarter turn either way when its opposite fits as well
+    _, turns, _, scale = min((t == 2, t, r, s) for r, s, t in scored if r <= TIE * least)
+    either = turns % 2 == 1 and any(t == (turns + 2) % 4 and r <= TIE * least for r, _, t in scored)
+    if scale != 1.0:
+        scale = _refine(lambda s: trial(s, turns)[0], scale)
+    rms, n = trial(scale, turns)
+    if not rms_given >= BETTER * rms:
+        return None
+    return {"scale": round(scale, 2), "turns": turns, "either_way": either, "rms_given": rms_given,
+            "rms_read_back": rms, "n_given": n_given, "n_read_back": n}
+
+
+def _refine(cost, scale: float, steps: int = 16) -> float:
+    """The factor near ``scale`` (within one step of :data:`SCALES`) where ``cost`` is least: golden-section search
+    on its logarithm."""
+    step = math.log(SCALES[1] / SCALES[0])
+    a, b = math.log(scale) - step, math.log(scale) + step
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = cost(math.exp(x1)), cost(math.exp(x2))
+    for _ in range(steps):
+        if f1 <= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - g * (b - a)
+            f1 = cost(math.exp(x1))
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + g * (b - a)
+            f2 = cost(math.exp(x2))
+    return math.exp((a + b) / 2.0)
+
+
+def describe(found: dict) -> str:
+    """The reading ``found`` (:func:`copy_reading`) in words: which copy and how to bring the positions back."""
+    s, t = found["scale"], found["turns"]
+    turned = {1: "turned 90° clockwise", 2: "turned 180°", 3: "turned 90° counter-clockwise"}.get(t)
+    if found.get("either_way"):
+        turned = "turned a quarter turn"
+    size = f"a copy about {s:g}x this image's size" if s != 1.0 else "a copy of this image"
+    copy = " ".join(filter(None, (size, turned)))
+    fix = " and ".join(filter(None, (f"rescale them (col/row ÷ {s:g})" if s != 1.0 else "",
+                                     "turn them back" if turned else "")))
+    return (f"the GCP pixels look measured on {copy}: read back onto this image, {found['n_read_back']} control "
+            f"points fit with {found['rms_read_back']:.2f} px RMS, as given {found['n_given']} inside fit with "
+            f"{found['rms_given']:.2f} px; measure them on this file or {fix}")

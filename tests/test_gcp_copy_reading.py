@@ -1,0 +1,92 @@
+"""GCP pixels read on another copy of the image (NGI frame 0182's true geometry, 0.3 px noise): with a camera the
+collinearity fit tells a copy of another size or turned a quarter turn (refused, naming it) from a crop of the frame
+whose camera describes the crop and from a typo or two (fitted). Before, 1.2-1.45x and 0.5x copies and a quarter turn
+gave a wrong model with exit 0 (sigma-hat 2-6 px), and the crop was refused as a copy of another size."""
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from fotogeo.cli import main
+from fotogeo.errors import InputError
+from fotogeo.geometry.camera import FrameCamera
+from fotogeo.io.camera import load_ngi_frame
+from fotogeo.io.raster import read_dem
+from fotogeo.orientation.simulation import make_gcps
+from fotogeo.tools.orient.tool import orient
+from test_bad_input import assert_one_line_error
+from test_orient import NAME, _write
+
+W, H = 640, 1152
+
+
+@pytest.fixture(scope="module")
+def truth(data_dir):
+    ngi = data_dir / "ngi"
+    frame, dem = load_ngi_frame(ngi, NAME), read_dem(ngi / "dem.tif")
+    s = make_gcps(frame, dem, 30, 10, "homogeneous", noise=0.3, seed=7)
+    return (np.vstack([s.gcp_ground, s.check_ground]), np.vstack([s.gcp_pixel, s.check_pixel]), dem.crs.to_wkt(),
+            str(ngi / "interior_orientation.yaml"))
+
+
+def _gcps(truth, pixel, path):
+    _write(path, truth[0], pixel, ["control"] * 30 + ["check"] * 10, truth[2])
+    return path
+
+
+@pytest.mark.parametrize("case,said", [
+    ("x1.2", "a copy about 1.2x this image's size"), ("x1.3", "a copy about 1.3x this image's size"),
+    ("x0.5", "a copy about 0.5x this image's size"), ("turned", "a copy of this image turned a quarter turn")])
+def test_pixels_read_on_a_copy_of_another_size_or_turned_are_refused_naming_it(truth, tmp_path, case, said):
+    c, r = truth[1][:, 0], truth[1][:, 1]
+    pixel = np.column_stack([H - r, c]) if case == "turned" else truth[1] * float(case[1:])
+    path = _gcps(truth, pixel, tmp_path / "g.gpkg")
+    with pytest.raises(InputError, match=rf"look measured on {said}: read back onto this image, 30 control points "
+                                         rf"fit with 0\.\d\d px RMS.*measure them on this file or"):
+        orient(None, path, model="collinearity", camera=truth[3])
+    if case == "x1.3":  # the command line: one line, nothing written
+        result = CliRunner().invoke(main, ["orient", str(path), "--camera", truth[3], "--model", "collinearity",
+                                           "--report", str(tmp_path / "r.json"), "-q"])
+        assert_one_line_error(result, "rescale them (col/row ÷ 1.3)")
+        assert not (tmp_path / "r.json").exists()
+
+
+def test_a_crop_of_the_frame_and_typos_are_fitted_as_before(truth, tmp_path):
+    """GCPs of the whole frame on a top-left crop whose camera is the crop's (the principal point where the frame's
+    falls): the ones inside are right and are fitted; two typos outside are skipped, one inside left to snooping."""
+    crop = FrameCamera(120.0, (46.08, 82.944), (W // 2, H // 2), principal_point=(W / 2, H / 2))
+    fit = orient(None, _gcps(truth, truth[1], tmp_path / "crop.gpkg"), model="collinearity", camera=crop)
+    inside = (truth[1] <= (W // 2, H // 2)).all(axis=1)
+    assert len(fit["skipped"]) == int((~inside).sum()) > 20 and fit["control"]["rms_xy_px"] < 0.6
+    typos = truth[1].copy()
+    typos[[0, 5], 0] += 700
+    typos[3] += (40, -25)
+    fit = orient(None, _gcps(truth, typos, tmp_path / "typos.gpkg"), model="collinearity", camera=truth[3])
+    assert [s["id"] for s in fit["skipped"]] == ["P0", "P5"] and fit["check"]["rms_xy_px"] < 3.0
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("case", ["x1.3", "x0.5", "turned", "crop"])
+def test_rpc_shift_tells_a_copy_from_a_crop(data_dir, tmp_path, case):
+    """rpc-bias (shift) on the Pleiades crop, GCPs from the rigorous model's grid: the vendor RPC fixes the scale, so
+    positions read on a 1.3x / 0.5x / turned copy are refused (before: a shift of 30-100 px written, exit 0), and the
+    grid nodes of a product twice the crop's size (a top-left crop: 38 of 50 outside) fit (before: refused)."""
+    import shutil
+
+    from fotogeo import rpc_bias
+    from test_rpc_bias_roundtrip import _gcps
+    v = data_dir / "rpc" / "ventoux"
+    for f in ("left_image.tif", "left_image.geom"):
+        shutil.copy(v / f, tmp_path)
+    read = {"x1.3": lambda p: p * 1.3, "x0.5": lambda p: p * 0.5, "crop": None,
+            "turned": lambda p: np.column_stack([500 - p[:, 1], p[:, 0]])}[case]
+    rows = _gcps(v, tmp_path / "g.gpkg", within=1000 if case == "crop" else 500, read=read)
+    run = dict(image=tmp_path / "left_image.tif", gcps=tmp_path / "g.gpkg", output=tmp_path / "o.tif")
+    if case == "crop":
+        rep = rpc_bias(**run)
+        assert len(rep["skipped"]) > len(rows) / 2 and rep["control"]["after"]["rms_xy"] < 0.01
+        return
+    said = {"x1.3": "a copy about 1.3x this image's size", "x0.5": "a copy about 0.5x this image's size",
+            "turned": "a copy of this image turned 90° clockwise"}[case]
+    with pytest.raises(InputError, match=f"look measured on {said}"):
+        rpc_bias(**run)
+    assert not (tmp_path / "o.tif").exists()
