@@ -232,9 +232,9 @@ def _rpc_sources(ims) -> list:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
-            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None, style=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
-    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
+    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`); ``style`` the QGIS style's path."""
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
@@ -301,7 +301,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen,
-                            height_reference=ref)
+                            height_reference=ref, style=style)
         try:
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:
