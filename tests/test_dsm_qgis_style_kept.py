@@ -69,3 +69,16 @@ def test_triangulate_dsm_without_its_style_keeps_the_users(pair, tmp_path):
                       eo_sigma_angle=0.01)  # the datum from the orientation given
     assert rep["dsm"]["outputs"] == {"dsm": str(tmp_path / "d.tif")}, rep["dsm"]
     assert style.read_text() == USERS and Path(tmp_path / "d.tif").exists()
+
+
+def test_the_rpc_dsm_follows_the_switch_too(tmp_path):
+    from rendered_rpc_pair import render_rpc_pair
+
+    from fotogeo.io.qml import MARKER
+    from fotogeo.tools.dsm import dsm
+    sc = render_rpc_pair(tmp_path, 256)
+    style = tmp_path / "dsm.qml"
+    rep = dsm(sc["images"], tmp_path / "dsm.tif", rpc=True, resolution=0.7, qgis_style=False)
+    assert "qgis_style" not in rep["outputs"] and not style.exists()
+    rep = dsm(sc["images"], tmp_path / "dsm.tif", rpc=True, resolution=0.7, overwrite=True)
+    assert rep["outputs"]["qgis_style"] == str(style) and MARKER in style.read_text()

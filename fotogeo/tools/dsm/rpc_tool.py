@@ -259,7 +259,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     prog(0.1, "pointing corrected")
     return _match_and_write(ims, sources, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
                             resolution=resolution, bounds=bounds, refine=refine, fill=fill, point_cloud=point_cloud,
-                            report=report, overwrite=overwrite, prog=prog, t0=t0, dask=dask)
+                            report=report, overwrite=overwrite, prog=prog, t0=t0, dask=dask, style=style)
 
 
 def _gsd(im, z) -> float:
@@ -282,7 +282,8 @@ def _empty(kept, names, setups) -> str:
 
 
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
-                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask) -> dict:
+                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask,
+                     style=None) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
     polys = []
