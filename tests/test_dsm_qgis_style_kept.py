@@ -48,6 +48,11 @@ def test_a_users_style_is_refused_naming_both_ways_and_fotogeos_own_is_told_apar
     assert run.exit_code == 1 and "\n" not in run.output.strip(), run.output
     assert "exists; pass --overwrite to replace it" in run.output and "--qgis-style off" in run.output, run.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.qml"] and style.read_text() == USERS
+    # a DSM there too: the style is named first (the DSM's refusal alone would have the user pass --overwrite and
+    # lose the style without a word)
+    out.write_bytes(b"an earlier DSM")
+    run = _cli(pair, out)
+    assert run.exit_code == 1 and "--qgis-style off" in run.output, run.output
     assert _cli(pair, out, "--overwrite").exit_code == 0
     assert MARKER in style.read_text() and users_style(out) is None
     # fotogeo's own style is the DSM's output: refused without --overwrite as the DSM is, not as a user's

@@ -112,11 +112,11 @@ def users_style(dsm) -> Path | None:
     return None if MARKER in head else style
 
 
-def check_style(dsm, inputs, overwrite: bool, role: str = "DSM") -> None:
-    """Before any work: :func:`check_styles_no_input`, and refuse to replace a style fotogeo did not write
+def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:
+    """Before any work, before the outputs' own checks (whose refusal of the DSM would have the user pass
+    ``overwrite`` and lose the style in silence): refuse to replace a style fotogeo did not write
     (:func:`users_style`) without ``overwrite``, naming the way to keep it (``qgis_style`` off). A style of
     fotogeo's that exists is the run's output like the DSM (:func:`fotogeo.io.output_checks.check_outputs`)."""
-    check_styles_no_input(dsm, inputs, role)
     mine = users_style(dsm)
     if mine is not None and not overwrite:
         raise OutputError(f"QGIS style of the {role} {str(mine)!r} exists; pass overwrite=True to replace it (fotogeo "

@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_style, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -68,9 +68,11 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
     style = dsm_style_path(output) if qgis_style else None
     if qgis_style:
-        check_style(output, [*images, dem, geoid], overwrite)
+        check_style(output, overwrite)
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
+    if qgis_style:
+        check_styles_no_input(output, [*images, dem, geoid])
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
