@@ -11,7 +11,9 @@ model, ``fotogeo dsm``: band 1 the height, 2 the pair count, 3 the spread) shows
 (green, yellow, brown, white) with a legend in metres, spread over the heights' 2 … 98 % cumulative cut (the style's
 min/max origin) so that a few blunders do not flatten it. ``styles/coreg_windows.qml``
 draws co-registration windows: a reliable one (status ``ok``) as a green dot with an arrowhead along its shift,
-any other as a small grey cross.
+any other as a small grey cross. A DSM beside which a ``.qml`` fotogeo did not write lies (a user's style, or QGIS's
+"Save as Default") keeps it: the run writes none (:func:`keep_users_style`) and the layer loads with it
+(:func:`dsm_look`).
 They are set through :class:`QgsProcessingLayerPostProcessorInterface`, which QGIS runs in
 the main thread for every output layer loaded on completion.
 """
@@ -311,3 +313,22 @@ def style_output(context, key: str, style: str | None, run: LoadedRun | None = N
         details.setPostProcessor(post_processor(style, run))
         if name:
             details.name, details.forceName = name, True
+
+
+def keep_users_style(arguments: dict, dsm, feedback, label: str) -> None:
+    """Keep a QGIS style beside the DSM ``dsm`` that fotogeo did not write (:func:`fotogeo.io.qml.users_style`): the
+    run writes none (``arguments["qgis_style"]`` off) and the log says so, naming the parameter ``label``. The tool
+    would replace it, the plugin passing ``overwrite`` always (QGIS asked about the DSM, not about its style)."""
+    from fotogeo.io.qml import users_style
+    mine = users_style(dsm) if dsm and arguments.get("qgis_style") else None
+    if mine is not None:
+        arguments["qgis_style"] = False
+        feedback.pushWarning(f"kept the QGIS style {str(mine)!r}: fotogeo did not write it (a style of yours?); "
+                             f"delete it to have fotogeo's written, or untick “{label}” to say so")
+
+
+def dsm_look(dsm) -> str | None:
+    """The style a loaded DSM gets: the plugin's ``dsm``, or None (its own) when a style fotogeo did not write lies
+    beside it (QGIS loads that as the layer's default)."""
+    from fotogeo.io.qml import users_style
+    return None if users_style(dsm) is not None else "dsm"

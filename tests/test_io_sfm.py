@@ -406,6 +406,18 @@ def test_orthority_reads_the_ngi_files_like_fotogeo(data_dir):
         assert got.camera_of(name).camera == cam
 
 
+def _odm_shots(folder):
+    """ODM's shots.geojson (filename, focal, width, height, translation, rotation: ODM's opendm/shots.py) in
+    ``folder``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    props = {"filename": "a.jpg", "focal": 0.8, "width": 800, "height": 600,
+             "translation": [271950.1, 5209459.7, 379.5], "rotation": [2.63, -0.1, 0.03]}
+    shots = folder / "shots.geojson"
+    shots.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": props, "geometry": {"type": "Point", "coordinates": [12.0, 47.0, 379.5]}}]}))
+    return shots
+
+
 @pytest.mark.parametrize("with_camera", [False, True])
 def test_odm_shots_geojson_is_refused_naming_the_reconstruction(tmp_path, block, with_camera):
     """ODM's odm_report/shots.geojson (filename, focal, width, height, translation, rotation: ODM's opendm/shots.py)
@@ -413,14 +425,21 @@ def test_odm_shots_geojson_is_refused_naming_the_reconstruction(tmp_path, block,
     same project's opensfm/reconstruction.json (not numpy's reshape error, not a request for --camera)."""
     from fotogeo.io.orientation_file import read_orientation_file
     write_orthority_interior(tmp_path / "int.yaml", block.cameras)
-    report = tmp_path / "proj" / "odm_report"
-    report.mkdir(parents=True)
-    props = {"filename": "a.jpg", "focal": 0.8, "width": 800, "height": 600,
-             "translation": [271950.1, 5209459.7, 379.5], "rotation": [2.63, -0.1, 0.03]}
-    shots = report / "shots.geojson"
-    shots.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": props, "geometry": {"type": "Point", "coordinates": [12.0, 47.0, 379.5]}}]}))
-    want = ("ODM's shots.geojson", str(tmp_path / "proj" / "opensfm" / "reconstruction.json"))
+    shots = _odm_shots(tmp_path / "proj" / "odm_report")
+    rec = tmp_path / "proj" / "opensfm" / "reconstruction.json"
+    rec.parent.mkdir()
+    rec.write_text("[]")  # named by its path only where it is (test_odm_shots_geojson_without_its_reconstruction)
+    want = ("ODM's shots.geojson", str(rec))
     _one_line_error(lambda: read_orientation_file(shots, camera=tmp_path / "int.yaml" if with_camera else None), *want)
     if with_camera:
         _one_line_error(lambda: read_orthority(shots, tmp_path / "int.yaml", crs=UTM35S), *want)
+
+
+def test_odm_shots_geojson_without_its_reconstruction_names_where_odm_writes_it(tmp_path):
+    """shots.geojson alone (downloaded without its project): the refusal named a reconstruction.json beside it that
+    is not there; it says where ODM writes one instead."""
+    from fotogeo.io.orientation_file import read_orientation_file
+    shots = _odm_shots(tmp_path)
+    msg = _one_line_error(lambda: read_orientation_file(shots), "ODM's shots.geojson",
+                          "the reconstruction ODM writes in the project's folder", "opensfm/reconstruction.json (--eo)")
+    assert str(tmp_path / "opensfm") not in msg, msg

@@ -130,8 +130,8 @@ def test_a_dem_missing_the_images_of_a_file_read_in_the_crs_given_names_that_crs
         assert err.value is missed
 
 
-def test_register_names_only_what_it_takes_for_an_unreferenced_target(monkeypatch):
-    """'or give tie points' named an input the register command has none of."""
+def unreferenced_target_refusal(monkeypatch) -> str:
+    """register's refusal of an unreferenced target that neither features nor the pre-alignment place."""
     from types import SimpleNamespace
 
     from fotogeo.errors import MatchingError
@@ -144,7 +144,12 @@ def test_register_names_only_what_it_takes_for_an_unreferenced_target(monkeypatc
     with pytest.raises(MatchingError) as err:
         local.area_tie_points("ref.tif", "tgt.tif", None, SimpleNamespace(georeferenced=False), RegisterOptions(),
                               "RANSAC found only 4 inliers")
-    said = str(err.value)
+    return str(err.value)
+
+
+def test_register_names_only_what_it_takes_for_an_unreferenced_target(monkeypatch):
+    """'or give tie points' named an input the register command has none of."""
+    said = unreferenced_target_refusal(monkeypatch)
     assert "tie points" not in said and "georeference the target approximately, e.g. gdal_translate" in said, said
 
 

@@ -148,8 +148,8 @@ def refuse_odm_shots(path, data=None) -> None:
     ``translation`` is the camera centre in a UTM zone the file does not state (or in the local frame of an
     unreferenced project) and ``rotation`` an OpenSfM axis-angle vector (world -> camera, camera axes x right,
     y down, z forward), not orthority's PATB ω, φ, κ; the same project's ``opensfm/reconstruction.json`` holds these
-    poses with their reference (read by :func:`fotogeo.io.opensfm.read_opensfm`). ``data``: the file's parsed JSON
-    (read here when None)."""
+    poses with their reference (read by :func:`fotogeo.io.opensfm.read_opensfm`): named by its path when it is
+    there, else by where ODM writes it. ``data``: the file's parsed JSON (read here when None)."""
     if data is None:
         data = load_json(path, "orthority exterior parameters", "give orthority's exterior parameters")
     feats = data.get("features") if isinstance(data, dict) else None
@@ -159,9 +159,11 @@ def refuse_odm_shots(path, data=None) -> None:
         return
     project = Path(path).resolve().parent
     rec = (project.parent if project.name == "odm_report" else project) / "opensfm" / "reconstruction.json"
+    fix = (f"give the same ODM project's reconstruction instead (--eo {str(rec)!r})" if rec.is_file() else
+           "give instead the reconstruction ODM writes in the project's folder (the one holding odm_report): "
+           "opensfm/reconstruction.json (--eo)")
     raise InputError(f"{str(path)!r} is ODM's shots.geojson (translation, rotation: OpenSfM's axis-angle poses in a "
-                     f"UTM zone the file does not state), not orthority's exterior parameters (xyz, opk); give the "
-                     f"same ODM project's reconstruction instead (--eo {str(rec)!r})")
+                     f"UTM zone the file does not state), not orthority's exterior parameters (xyz, opk); {fix}")
 
 
 def _sniff(line: str) -> str | None:

@@ -10,6 +10,11 @@ The style is the one of the QGIS plugin's ``styles/dsm.qml``: band 1 alone in a 
 renderer, a hypsometric ramp (green, yellow, brown, white) interpolated between :data:`RAMP` stops, a legend in
 metres. A loaded style keeps the range written in it (QGIS does not recompute it on load), so the range is the
 heights' 2 … 98 % quantiles (the min/max origin stated, a cumulative cut, is what QGIS's "Apply" recomputes).
+
+The file QGIS loads is also the one its "Save as Default" writes: a ``<name>.qml`` there may be a user's own style.
+fotogeo's carries :data:`MARKER`, an XML comment, which QGIS does not write back (it serialises the layer's style, not
+the file it loaded): a style without it is replaced only with ``overwrite`` (:func:`check_style`) — never in
+silence by the QGIS plugin, which keeps it (:func:`users_style`) — and a run may write none (``qgis_style`` off).
 """
 from __future__ import annotations
 
@@ -22,7 +27,13 @@ RAMP = ((0.0, "26,152,80"), (0.25, "145,207,96"), (0.5, "254,224,139"), (0.75, "
 #: the cumulative cut of the range (lower, upper fraction of the heights)
 CUT = (0.02, 0.98)
 
+#: the comment that marks a style as fotogeo's own (module docstring)
+MARKER = "<!-- written by fotogeo with its DSM -->"
+#: how far into a style :data:`MARKER` is looked for (it follows the DOCTYPE line)
+_HEAD = 512
+
 _TEMPLATE = """<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>
+{marker}
 <qgis version="3.22.16-Białowieża" styleCategories="Symbology">
   <pipe>
     <rasterrenderer type="singlebandpseudocolor" band="1" alphaBand="-1" opacity="1" nodataColor=""
@@ -87,6 +98,32 @@ def check_styles_no_input(dsm, inputs, role: str = "DSM") -> None:
                               f"another name")
 
 
+def users_style(dsm) -> Path | None:
+    """The style beside the raster ``dsm`` (:func:`dsm_style_path`) when it is a file fotogeo did not write (no
+    :data:`MARKER` near its start: a user's, or one QGIS saved as the layer's default), else None."""
+    style = dsm_style_path(dsm)
+    if not style.is_file():
+        return None
+    try:
+        with open(style, encoding="utf-8", errors="replace") as f:
+            head = f.read(_HEAD)
+    except OSError:
+        return style  # unreadable: not known to be fotogeo's
+    return None if MARKER in head else style
+
+
+def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:
+    """Before any work, before the outputs' own checks (whose refusal of the DSM would have the user pass
+    ``overwrite`` and lose the style in silence): refuse to replace a style fotogeo did not write
+    (:func:`users_style`) without ``overwrite``, naming the way to keep it (``qgis_style`` off). A style of
+    fotogeo's that exists is the run's output like the DSM (:func:`fotogeo.io.output_checks.check_outputs`)."""
+    mine = users_style(dsm)
+    if mine is not None and not overwrite:
+        raise OutputError(f"QGIS style of the {role} {str(mine)!r} exists; pass overwrite=True to replace it (fotogeo "
+                          f"did not write it: a style of yours?), or keep it and write none with qgis_style off",
+                          option="overwrite", also=("qgis_style",))
+
+
 def dsm_style(lo: float, hi: float) -> str:
     """The QML text drawing band 1 over ``lo`` … ``hi`` metres (``hi`` > ``lo``; module docstring)."""
     lo, hi = float(lo), float(hi)
@@ -95,7 +132,8 @@ def dsm_style(lo: float, hi: float) -> str:
     items = "\n".join(
         f'          <item value="{lo + f * (hi - lo)!r}" label="{lo + f * (hi - lo):.1f}" '
         f'color="#{"".join(f"{int(v):02x}" for v in c.split(","))}" alpha="255"/>' for f, c in RAMP)
-    return _TEMPLATE.format(lo=lo, hi=hi, cut=CUT, first=RAMP[0][1], last=RAMP[-1][1], stops=inner, items=items)
+    return _TEMPLATE.format(marker=MARKER, lo=lo, hi=hi, cut=CUT, first=RAMP[0][1], last=RAMP[-1][1], stops=inner,
+                            items=items)
 
 
 def write_dsm_style(path, lo: float, hi: float) -> None:

@@ -5,12 +5,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 from .products import ORTHO
-from .shared import DEM_HEIGHTS, SCHEDULER, WORKERS
+from .shared import DEM_HEIGHTS, QGIS_STYLE, SCHEDULER, WORKERS
 from .table import Option, Table
 
 #: dense matching of oriented images to a surface model (``fotogeo dsm``, fotogeo.tools.dsm)
 DSM = Table(
-    *ORTHO.only("camera", "eo").values(),  # the orientation files ortho reads, declared once
+    *ORTHO.only("camera", "eo", "sfm_frame").values(),  # the orientation files ortho reads, declared once
     Option("orientation", "folder", None, "triangulate's output folder (its camera and orientation)",
            "triangulate's output folder: its exterior_orientation.txt and camera.yaml instead of --eo "
            "(and of --camera unless given)."),
@@ -51,6 +51,7 @@ DSM = Table(
            "Bands of each image fused into the grey image matched, e.g. 1 or 4,3,2 [the first three; empty, "
            "constant and noise bands left out with a warning]; the point cloud's colours come from them too.",
            advanced=True),
+    QGIS_STYLE,
     replace(SCHEDULER, label="Dask scheduler address for the output tiles (empty = this process)",
             help="Match the output tiles as tasks on this Dask scheduler, e.g. tcp://host:8786 (the workers must "
                  "see the same paths) [this process].", advanced=True),

@@ -70,6 +70,10 @@ YAML = "YAML (*.yaml *.yml)"
 SFM_FRAME = Option("sfm_frame", "choice", "auto", "OpenSfM/ODM local frame (auto = from the images' GPS)", "Local frame of an OpenSfM/ODM reconstruction.json (--eo): topocentric (OpenSfM) or "
                    "grid (ODM's offsets along the UTM grid) [auto: decided by the images' own GPS or exif/; refused "
                    "when nothing decides].", choices=("auto", "topocentric", "grid"), advanced=True)
+#: the QGIS style written beside a DSM (``fotogeo dsm``, ``triangulate --dsm``; fotogeo.io.qml)
+QGIS_STYLE = Option("qgis_style", "bool", True, "Write a QGIS style (.qml) beside the DSM",
+                    "Write <name>.qml beside the DSM: QGIS opens band 1, the height, in colour over its 2-98 % range "
+                    "(a .qml fotogeo did not write is replaced only with --overwrite).")
 #: where Dask tasks run: register-batch's scenes, triangulate's pairs (fotogeo.tools.register.batch._cluster)
 SCHEDULER = Option("scheduler", "str", None, "Dask scheduler address (empty = a local cluster)",
                    "Address of a running Dask scheduler, e.g. tcp://host:8786 [a local cluster on this machine].")

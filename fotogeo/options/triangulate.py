@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .shared import (COMPRESS, DEM_SIGMA, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, SFM_FRAME, UNCERTAINTY,
-                     UNDETERMINED, WORKERS)
+from .shared import (COMPRESS, DEM_SIGMA, QGIS_STYLE, RESAMPLING, SCHEDULER, SEED, SELF_CALIBRATION, SFM_FRAME,
+                     UNCERTAINTY, UNDETERMINED, WORKERS)
 from .table import Option, Table
 
 #: aerial triangulation (``fotogeo triangulate``, fotogeo.tools.triangulate)
@@ -54,6 +54,8 @@ TRIANGULATE = Table(
            "Also write a DSM (GeoTIFF) here: the adjusted frames matched and fused as fotogeo dsm does "
            "(its default pairs and resolution; --dem bounds the heights searched). A failing DSM is reported and "
            "leaves the other outputs."),
+    replace(QGIS_STYLE, help="Write <name>.qml beside the --dsm: QGIS opens band 1, the height, in colour over its "
+                             "2-98 % range (a .qml fotogeo did not write is replaced only with --overwrite)."),
     Option("resolution", "float", None, "Orthophoto pixel size (0 = each frame's ground sample distance)",
            "Pixel size of the orthorectified frames [each frame's GSD; with --mosaic their median].", minimum=0.0,
            exclusive_minimum=True, automatic=0.0, advanced=True),

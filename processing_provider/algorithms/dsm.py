@@ -11,7 +11,7 @@ from qgis.core import (
 
 from fotogeo.options.dsm import DSM
 
-from ..postprocess import file_layer_name, style_output
+from ..postprocess import dsm_look, file_layer_name, keep_users_style, style_output
 from .base import FotogeoAlgorithm, RasterFilesParameter, tr
 
 
@@ -57,13 +57,15 @@ class DsmAlgorithm(FotogeoAlgorithm):
         output = self.raster_output(parameters, self.OUTPUT, context)
         report = self.parameterAsFileOutput(parameters, self.REPORT, context) or None  # as the CLI: only if asked
         cloud = self.parameterAsFileOutput(parameters, self.CLOUD, context) or None
+        arguments = self.option_arguments(parameters, context)
+        keep_users_style(arguments, output, feedback, self.OPTIONS[0]["qgis_style"].label)
         rep = self.run_tool("dsm", images, output, point_cloud=cloud, report=report, feedback=feedback,
-                            overwrite=True, **self.option_arguments(parameters, context))
+                            overwrite=True, **arguments)
         for p in rep["pairs"]:
             state = (f"{100 * p.get('match_density', 0):.0f} % matched" if p["kept"] else f"left out: {p['reason']}")
             feedback.pushInfo(f"pair {p['images'][0]}-{p['images'][1]}: rays meet at {p['convergence_deg']:.0f} "
                               f"degrees (B/H {p['base_to_height']:.2f}), {state}")
         feedback.pushInfo(f"{100 * rep['completeness']:.1f} % of the overlap has a height")
         if context.willLoadLayerOnCompletion(output):  # band 1 (height) in pseudocolour, named after its file
-            style_output(context, output, "dsm", name=file_layer_name(output))
+            style_output(context, output, dsm_look(output), name=file_layer_name(output))
         return {self.OUTPUT: output, self.CLOUD: cloud, self.REPORT: report, self.COMPLETENESS: rep["completeness"]}

@@ -16,7 +16,7 @@ from qgis.core import (
 
 from fotogeo.options import TRIANGULATE, YAML
 
-from ..postprocess import LoadedRun, file_layer_name, load_on_completion, style_output
+from ..postprocess import LoadedRun, dsm_look, file_layer_name, keep_users_style, load_on_completion, style_output
 from .base import REFERENCES, FotogeoAlgorithm, RasterFilesParameter, tr, with_help
 
 CONTROL_FILTER = "Ground control (*.txt *.gpkg *.csv *.geojson *.shp);;All files (*.*)"
@@ -119,9 +119,10 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         gcps = self._control_path(parameters, context, feedback)
         outdir = self.parameterAsString(parameters, self.OUTDIR, context)
         os.makedirs(outdir, exist_ok=True)
+        arguments = self.option_arguments(parameters, context)
+        keep_users_style(arguments, arguments.get("dsm"), feedback, self.OPTIONS[0]["qgis_style"].label)
         rep = self.run_tool("triangulate", frames, files[self.CAMERA], files[self.EO], files[self.OBSERVATIONS],
-                            outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True,
-                            **self.option_arguments(parameters, context))
+                            outdir, feedback=feedback, gcps=gcps, reference=reference, overwrite=True, **arguments)
         from fotogeo.tools.triangulate.outputs import accuracy_lines, dropped_lines, held_fixed_line, variance_lines
         for line in dropped_lines(rep):  # first, as a warning: the flag named by the dialog's label
             feedback.pushWarning(self.in_words(line))
@@ -188,7 +189,7 @@ class TriangulateAlgorithm(FotogeoAlgorithm):
         if context.project() is not None:  # the block's layers, vectors above the orthophotos
             run = LoadedRun()
             if surface:  # as fotogeo:dsm shows its DSM, when Processing loads it
-                style_output(context, surface, "dsm", run, name=file_layer_name(surface))
+                style_output(context, surface, dsm_look(surface), run, name=file_layer_name(surface))
             for frame, done in (rep.get("orthorectified") or {}).items():
                 if "error" in done:  # not orthorectified (e.g. off the DEM): no file to load
                     continue

@@ -11,8 +11,8 @@ expanded by a margin of cells: there it removes the speckles (islands smaller th
 tile whole, so tiles give the result of the whole grid), fills the holes with ``fill`` (inside the expanded tile:
 a reach up to the margin sees every height it measures from, so here too tiles give the whole grid's result),
 writes the tile's window and keeps what the report needs (completeness, heights); :meth:`Products.finish` writes
-the report, turns the GeoTIFF into a COG and writes beside it the QGIS style that draws band 1 over the heights'
-2 … 98 % (:mod:`fotogeo.io.qml`). Memory: the tile, never the grid.
+the report, turns the GeoTIFF into a COG and writes beside it (``style``: its path, None for none) the QGIS style
+that draws band 1 over the heights' 2 … 98 % (:mod:`fotogeo.io.qml`). Memory: the tile, never the grid.
 
 The report counts cells: ``overlap_cells`` those both images of a kept pair see (``stereo_cells``, its earlier
 name, kept for readers of earlier reports: it never counted cells with a height), ``matched_cells`` those of them
@@ -27,7 +27,7 @@ import numpy as np
 from affine import Affine
 
 from ...errors import InputError
-from ...io.qml import CUT, dsm_style_path, write_dsm_style
+from ...io.qml import CUT, write_dsm_style
 from ...io.raster import HEIGHT_REFERENCE_TAG
 from ...stereo.fusion import fill_holes, remove_speckles
 
@@ -93,12 +93,12 @@ class Products:
     ``seen(grid, height)`` gives the cells of a (sub-)grid that both images of a kept pair see."""
 
     def __init__(self, out, output, grid, crs, *, fill: float | None, point_cloud=None, report=None, seen=None,
-                 height_reference: str | None = None):
+                 height_reference: str | None = None, style=None):
         import rasterio
 
         from ...io.raster import gdal_env, geotiff_profile
         self.out, self.output, self.grid, self.crs, self.fill = out, output, grid, crs, fill
-        self.point_cloud, self.report, self.seen = point_cloud, report, seen
+        self.point_cloud, self.report, self.seen, self.style = point_cloud, report, seen, style
         self.cloud = None
         if point_cloud is not None:
             from ...io.las import LasWriter
@@ -162,8 +162,8 @@ class Products:
         self.ds.close()
         convert_to_cog(self.tmp, "average")
         heights = np.concatenate(self.sample)
-        style = dsm_style_path(self.output)
-        write_dsm_style(self.out.temp(style), *np.quantile(heights, CUT))
+        if self.style is not None:
+            write_dsm_style(self.out.temp(self.style), *np.quantile(heights, CUT))
         g = self.grid
         rep = {
             "fotogeo": "dsm", "crs": self.crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
@@ -181,7 +181,7 @@ class Products:
             "timings_s": {"pairs_wall": timings, "cpu": round(time.process_time() - t0[0], 3),
                           "wall": round(time.perf_counter() - t0[1], 3)},
             "speckle_cells_removed": self.speckles,
-            "outputs": {"dsm": str(self.output), "qgis_style": str(style)},
+            "outputs": {"dsm": str(self.output), **({} if self.style is None else {"qgis_style": str(self.style)})},
         }
         if self.cloud is not None:
             self.cloud.close()

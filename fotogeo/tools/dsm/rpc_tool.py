@@ -232,9 +232,9 @@ def _rpc_sources(ims) -> list:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
-            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None, style=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
-    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`)."""
+    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`); ``style`` the QGIS style's path."""
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
     zlo, zhi = rp.rpc_height_range(ims)
@@ -259,7 +259,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
     prog(0.1, "pointing corrected")
     return _match_and_write(ims, sources, names, choices, kept, setups, output, map_c, rule, ref, notes, zlo, zhi,
                             resolution=resolution, bounds=bounds, refine=refine, fill=fill, point_cloud=point_cloud,
-                            report=report, overwrite=overwrite, prog=prog, t0=t0, dask=dask)
+                            report=report, overwrite=overwrite, prog=prog, t0=t0, dask=dask, style=style)
 
 
 def _gsd(im, z) -> float:
@@ -282,7 +282,8 @@ def _empty(kept, names, setups) -> str:
 
 
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,
-                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask) -> dict:
+                     resolution, bounds, refine, fill, point_cloud, report, overwrite, prog, t0, dask,
+                     style=None) -> dict:
     gsd = float(np.median([_gsd(ims[p.i], 0.5 * (zlo + zhi)) for p in kept]))
     res = float(resolution or float(f"{2 * gsd:.2g}"))
     polys = []
@@ -301,7 +302,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen,
-                            height_reference=ref)
+                            height_reference=ref, style=style)
         try:
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:

@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_styles_no_input, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -39,17 +39,19 @@ FEET = (0.3048, 1200.0 / 3937.0)
 
 
 @tool(DSM, rasters={"dem": None, "geoid": None}, outputs=("output", "point_cloud", "report"))
-def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = False, dem=None,
-        dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
-        refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None, scheduler=None,
-        workers=None, point_cloud=None, report=None, overwrite: bool = False, progress=None) -> dict:
+def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orientation=None, rpc: bool = False,
+        dem=None, dem_heights: str = "auto", geoid=None, pairs=None, resolution=None, crs="auto", bounds=None,
+        refine: bool = False, fill: bool = False, fill_max_distance: float | None = None, bands=None,
+        qgis_style: bool = True, scheduler=None, workers=None, point_cloud=None, report=None, overwrite: bool = False,
+        progress=None) -> dict:
     """Match the oriented ``images`` pair by pair and fuse their points into the DSM ``output`` (GeoTIFF, COG
     layout: band 1 heights, 2 the number of pairs, 3 the spread of the points' heights, 4 with ``fill`` the
     filled cells, none over ``fill_max_distance`` cells from a matched one: 4 when not given; given without
-    ``fill`` it is refused) and beside it its QGIS style ``<name>.qml`` (band 1 in pseudocolour,
-    :mod:`fotogeo.io.qml`); ``point_cloud`` a LAS/LAZ of every point, ``report`` a JSON report. Returns the
-    report. The output tiles run as Dask tasks with ``scheduler`` (a running cluster) or ``workers`` (a local
-    cluster of that many processes), else in this process (:mod:`.matching`)."""
+    ``fill`` it is refused) and beside it, with ``qgis_style``, its QGIS style ``<name>.qml`` (band 1 in pseudocolour;
+    one fotogeo did not write replaced only with ``overwrite``, :mod:`fotogeo.io.qml`); ``point_cloud`` a LAS/LAZ
+    of every point, ``report`` a JSON report. Returns the report. The output tiles run as Dask tasks with
+    ``scheduler`` (a running cluster) or ``workers`` (a local cluster of that many processes), else in this process
+    (:mod:`.matching`)."""
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
     prog = as_progress(progress)
     t0 = time.process_time(), time.perf_counter()
@@ -64,9 +66,13 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
     # below: the filling's reach in cells (the table's default when not given), None for no filling
     fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
-    check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (dsm_style_path(output), "QGIS style of the DSM", None),
+    style = dsm_style_path(output) if qgis_style else None
+    if qgis_style:
+        check_style(output, overwrite)
+    check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
-    check_styles_no_input(output, [*images, dem, geoid])
+    if qgis_style:
+        check_styles_no_input(output, [*images, dem, geoid])
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -75,14 +81,14 @@ def dsm(images, output, *, camera=None, eo=None, orientation=None, rpc: bool = F
         return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
                        resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                        point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                       dask=(scheduler, workers), bands=bands)
-    map_c, rule = map_crs(crs, dem, eo, images, False, camera)
+                       dask=(scheduler, workers), bands=bands, style=style)
+    map_c, rule = map_crs(crs, dem, eo, images, False, camera, sfm_frame=sfm_frame)
     map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the DSM's steps ask pyproj's
-    ims = image_models(images, map_c, camera=camera, eo=eo)
+    ims = image_models(images, map_c, camera=camera, eo=eo, sfm_frame=sfm_frame)
     return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
                    resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                    point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                   dask=(scheduler, workers), bands=bands)
+                   dask=(scheduler, workers), bands=bands, style=style)
 
 
 def _check_crs(crs) -> None:
@@ -286,9 +292,9 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
-            report, overwrite, prog, t0, dask=(None, None), bands=None) -> dict:
+            report, overwrite, prog, t0, dask=(None, None), bands=None, style=None) -> dict:
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
-    bands matched (:class:`.inputs.SourceImage`)."""
+    bands matched (:class:`.inputs.SourceImage`); ``style`` the QGIS style's path (None: none written)."""
     names = [im.name for im in ims]
     views = [frames.frame_view(im) for im in ims]
     low = min(v.centre[2] for v in views)
@@ -334,7 +340,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, with_dem_vertical(crs, ref, dem), fill=fill, point_cloud=point_cloud,
-                            report=report, seen=seen, height_reference=ref)
+                            report=report, seen=seen, height_reference=ref, style=style)
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
                                  *dask)

@@ -193,7 +193,9 @@ def area_tie_points(reference, target, ref, tgt, opts, why: str, progress=None, 
         except MatchingError as e:
             raise MatchingError(f"{why}; area-based matching could not step in: the target has no georeference "
                                 f"and {e} (georeference the target approximately, e.g. gdal_translate -a_srs CRS "
-                                f"-a_ullr ULX ULY LRX LRY, so the windows start from its place)") from None
+                                f"-a_ullr ULX ULY LRX LRY if it is north-up, or, rotated, gdal_edit.py -a_srs CRS "
+                                f"-a_ulurll ULX ULY URX URY LLX LLY on a copy (its three corners), so the windows "
+                                f"start from its place)") from None
         return _window_tie_points(reference, vrt, ref, aligned, opts, why, bands, coarse, progress)
 
 

@@ -11,16 +11,18 @@ import warnings
 from pathlib import Path
 
 
-def block_dsm(path, paths: dict, crs, dem, overwrite: bool, frames, progress, rule=None) -> dict:
+def block_dsm(path, paths: dict, crs, dem, overwrite: bool, frames, progress, rule=None,
+              qgis_style: bool = True) -> dict:
     """The DSM of the adjusted ``frames`` written to ``path`` (module docstring); ``paths`` the run's outputs
     (:func:`~fotogeo.tools.triangulate.outputs.output_paths`), ``crs`` the block's map CRS, ``rule`` how the block
-    chose it (``start.crs_rule``): the DSM's ``crs_rule``. Returns the DSM's report, or ``{"error": ...}``."""
+    chose it (``start.crs_rule``): the DSM's ``crs_rule``; ``qgis_style`` as dsm's. Returns the DSM's report, or
+    ``{"error": ...}``."""
     from ...errors import Cancelled, FotogeoError, FotogeoWarning
     from ..dsm import dsm
     folder = Path(paths["eo"]).parent
     try:
         rep = dsm([str(f) for f in frames], path, camera=paths["camera"], eo=paths["eo"], crs=crs.to_wkt(),
-                  dem=dem, overwrite=overwrite, progress=progress)
+                  dem=dem, qgis_style=qgis_style, overwrite=overwrite, progress=progress)
         rep["crs_rule"] = f"the block's map CRS{f': {rule}' if rule else ''}"
         return rep
     except Cancelled:

@@ -66,7 +66,7 @@ from ...errors import InputError, ModelError, OutputError
 from ...io.block import check_frame_names, frame_key, read_image_observations
 from ...io.compression import check_compression
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_styles_no_input, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path
 from ...orientation.bundle import CHECK_START, Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
@@ -211,7 +211,8 @@ def triangulate(frames, camera, eo, observations, folder, *, gcps=None, crs=None
                 self_calibration=None, control_sigma_xy: float = 0.05, control_sigma_z: float = 0.05,
                 image_sigma: float = 1.0, eo_sigma_position=None, eo_sigma_angle=None, eo_sigma_height=None,
                 snooping: bool = True, max_correlation: float = 0.999, check_fraction=None, seed: int = 0,
-                dem=None, orthorectify: bool = False, mosaic: bool = False, dsm=None, resolution=None,
+                dem=None, orthorectify: bool = False, mosaic: bool = False, dsm=None, qgis_style: bool = True,
+                resolution=None,
                 uncertainty: bool = False, dem_sigma=None, compress: str = "deflate",
                 resampling: str = "nearest", reference=None, reference_sigma_xy=None, reference_sigma_z=None, geoinfo=None,
                 sfm_frame: str = "auto", undetermined: str = "drop", max_angle_sigma: float = 0.5, min_frame_points: int = 6,
@@ -232,10 +233,12 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     kw["compress"] = check_compression(kw["compress"])  # before anything is written
     finals = output_paths(folder, names=[frame_key(f) for f in frames],
                           orthorectify=kw["orthorectify"], mosaic=kw["mosaic"], uncertainty=kw["uncertainty"])
-    dsm_files = [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES),
-                 (kw["dsm"] and dsm_style_path(kw["dsm"]), "QGIS style of the DSM", None)]
+    style = dsm_style_path(kw["dsm"]) if kw["dsm"] and kw["qgis_style"] else None
+    if style is not None:
+        check_style(kw["dsm"], kw["overwrite"])
+    dsm_files = [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None)]
     check_outputs([(p, "output", None) for p in finals.values()] + dsm_files, inputs, kw["overwrite"])
-    if kw["dsm"]:
+    if style is not None:
         check_styles_no_input(kw["dsm"], [*frames, kw["dem"], *_as_list(kw["reference"])])
     with prog.timed("inputs"):
         start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
@@ -298,7 +301,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
                   overwrite=kw["overwrite"], progress=prog.stage(0.8, 1.0, "writing the outputs"), dem_sigma=kw["dem_sigma"],
                   compress=kw["compress"],
                   surface=None if kw["dsm"] is None else partial(block_dsm, kw["dsm"], finals, block.crs, kw["dem"],
-                                                                 kw["overwrite"]))
+                                                                 kw["overwrite"], qgis_style=kw["qgis_style"]))
     prog(1.0, "done")
     return rep
 
