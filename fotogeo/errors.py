@@ -138,11 +138,20 @@ def in_callers_words(message: str, option: str | None, words: str | None) -> str
     "cannot read 'model.json': --model needed"
     >>> in_callers_words("file '/data/crs/eo.txt' is off — check the CRS it is read in (crs)", "crs", "--crs")
     "file '/data/crs/eo.txt' is off — check the CRS it is read in (--crs)"
+
+    A switch turned off, ``option=False``, is its negative flag (which a QGIS dialog's
+    :func:`fotogeo.options.table.in_labels` reads as its box unticked):
+
+    >>> in_callers_words("or keep it with qgis_style=False", "qgis_style", "--qgis-style")
+    'or keep it with --no-qgis-style'
     """
     import re
     if not option or not words:
         return message
-    return re.sub(r"(?<![\w\-/\\])(?:--)?%s(?:=True)?(?![\w\-/\\]|\.\w)" % re.escape(option), lambda m: words,
+
+    def said(m):
+        return "--no-" + words[2:] if m.group(1) == "=False" and words.startswith("--") else words
+    return re.sub(r"(?<![\w\-/\\])(?:--)?%s(=True|=False)?(?![\w\-/\\]|\.\w)" % re.escape(option), said,
                   message, count=1)
 
 

@@ -46,13 +46,13 @@ def test_a_users_style_is_refused_naming_both_ways_and_fotogeos_own_is_told_apar
     assert users_style(out) == style
     run = _cli(pair, out)
     assert run.exit_code == 1 and "\n" not in run.output.strip(), run.output
-    assert "exists; pass --overwrite to replace it" in run.output and "--qgis-style off" in run.output, run.output
+    assert "exists; pass --overwrite to replace it" in run.output and "--no-qgis-style" in run.output, run.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.qml"] and style.read_text() == USERS
     # a DSM there too: the style is named first (the DSM's refusal alone would have the user pass --overwrite and
     # lose the style without a word)
     out.write_bytes(b"an earlier DSM")
     run = _cli(pair, out)
-    assert run.exit_code == 1 and "--qgis-style off" in run.output, run.output
+    assert run.exit_code == 1 and "--no-qgis-style" in run.output, run.output
     assert _cli(pair, out, "--overwrite").exit_code == 0
     assert MARKER in style.read_text() and users_style(out) is None
     # fotogeo's own style is the DSM's output: refused without --overwrite as the DSM is, not as a user's
@@ -66,7 +66,7 @@ def test_triangulate_dsm_without_its_style_keeps_the_users(pair, tmp_path):
     from fotogeo.tools.triangulate import triangulate
     style = tmp_path / "d.qml"
     style.write_text(USERS)
-    with pytest.raises(OutputError, match="qgis_style off"):
+    with pytest.raises(OutputError, match="qgis_style=False"):
         triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,
                     dsm=tmp_path / "d.tif")
     rep = triangulate(pair["images"], pair["camera"], pair["eo"], None, tmp_path / "block", crs=CRS,

@@ -115,12 +115,12 @@ def users_style(dsm) -> Path | None:
 def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:
     """Before any work, before the outputs' own checks (whose refusal of the DSM would have the user pass
     ``overwrite`` and lose the style in silence): refuse to replace a style fotogeo did not write
-    (:func:`users_style`) without ``overwrite``, naming the way to keep it (``qgis_style`` off). A style of
+    (:func:`users_style`) without ``overwrite``, naming the way to keep it (``qgis_style=False``). A style of
     fotogeo's that exists is the run's output like the DSM (:func:`fotogeo.io.output_checks.check_outputs`)."""
     mine = users_style(dsm)
     if mine is not None and not overwrite:
         raise OutputError(f"QGIS style of the {role} {str(mine)!r} exists; pass overwrite=True to replace it (fotogeo "
-                          f"did not write it: a style of yours?), or keep it and write none with qgis_style off",
+                          f"did not write it: a style of yours?), or keep it and write none with qgis_style=False",
                           option="overwrite", also=("qgis_style",))
 
 

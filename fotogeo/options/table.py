@@ -181,10 +181,20 @@ def in_labels(message: str, *tables: Table, extra: dict | None = None) -> str:
     'try a looser “Ratio test” (0.9) or give “Output CRS”; --other stays'
     >>> in_labels("ratio must be <= 1.0; got 2", t)
     '“Ratio test” must be <= 1.0; got 2'
+
+    A switch's negative flag (``--no-…``) is its box unticked:
+
+    >>> in_labels("or keep it with --no-style", Table(Option("style", "bool", True, "Write a style")))
+    'or keep it with “Write a style” unticked'
     """
     words = {o.cli_flag: o.label for t in tables for o in t.values() if o.label}
+    switches = {"--no-" + o.cli_flag[2:]: o.label for t in tables for o in t.values() if o.label and o.kind == "bool"}
     words.update(extra or {})
-    text = _FLAG.sub(lambda m: f"“{words[m.group(0)]}”" if m.group(0) in words else m.group(0), str(message))
+
+    def said(m):
+        flag = m.group(0)
+        return f"“{words[flag]}”" if flag in words else f"“{switches[flag]}” unticked" if flag in switches else flag
+    text = _FLAG.sub(said, str(message))
     for t in tables:
         for o in t.values():
             if o.label and re.match(rf"{re.escape(o.name)} (must|needs|['\"])", text):
