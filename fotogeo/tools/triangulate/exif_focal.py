@@ -24,11 +24,12 @@ position) leaves the residuals within that threshold when the edit is small, and
 a zoom position (:mod:`fotogeo.io.exif_lens`). The adjustment itself does: the self-calibration frees the focal
 length and holds it fixed only when the block cannot tell it from the exterior orientation to the image σ
 (:mod:`fotogeo.orientation.bundle_rules`); that rule keeps the estimate it had while free and its σ, and a block
-tied to its frames' GNSS positions determines that estimate to about a hundredth of the focal length — far too
-loosely to replace the camera (its σ moves the image corners by pixels), well enough to contradict a value several
-hundredths off. :func:`check_exif_focal` refuses a camera from the images whose focal length differs from that
+tied to its frames' GNSS positions determines that estimate far too loosely to replace the camera (its σ moves the
+image corners by more than the image σ) but well enough to contradict a value several hundredths off (the figures:
+docs/benchmarks/dsm.md, "A focal length edited inside the zoom range").
+:func:`check_exif_focal` refuses a camera from the images whose focal length differs from that
 estimate by more than :data:`FOCAL_SIGMAS` of its σ and :data:`FOCAL_SHARE` of the focal length (the second spares a
-lens whose true focal length departs from its nominal one by a hundredth or two), naming both values and the fix.
+lens whose true focal length departs from its nominal one), naming both values and the fix.
 The estimate is not used instead: held fixed, the focal length failed the rule that a self-calibrated camera must
 meet, and started from a focal length twice too long the free adjustment can stop halfway.
 """
@@ -92,7 +93,8 @@ def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed
                          f"right, --self-calibration none (or the parameters to estimate)", option="--camera")
     if free is None or abs(free[0] - f) <= max(FOCAL_SIGMAS * free[1], FOCAL_SHARE * f):
         return
-    raise ModelError(f"the images' focal length is {f:.0f} px from {camera_source.split(';')[0]}{estimate}, {abs(free[0] / f - 1):.0%} and "
+    raise ModelError(f"the images' focal length is {f:.0f} px from {camera_source.split(';')[0]}{estimate}, "
+                     f"{abs(free[0] / f - 1):.0%} and "
                      f"{abs(free[0] - f) / free[1]:.0f} σ from it (more than {FOCAL_SHARE:.0%} and "
                      f"{FOCAL_SIGMAS:g} σ): the focal length tag was edited or belongs to another lens or zoom "
                      f"position (the camera's original files keep the one it took them with); give the camera "
