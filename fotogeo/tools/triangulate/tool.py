@@ -284,7 +284,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
             sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
-        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]))
+        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed)
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
