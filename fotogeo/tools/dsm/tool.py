@@ -262,10 +262,12 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     # the DEM guides, or too few matches to go without its range; else (a DEM they disagree with or have no height
     # on) the matches' heights, as without --dem
     if dem is not None and (guide is not None or sp["n"] < dem_guide.DEM_MIN_MATCHES):
-        # above the run's range up to the DEM's margin above (what stands on it), below the lower camera as the
-        # matches' range (plan.matched_heights); the run's lowest height stays (its footprints set the grid)
-        reach = (zlo, zhi + 0.75 * max(ceiling - zhi, 0.0))
-        zlim = (zlo, zhi) if guide is None else guide.pair_range((zlo, zhi), reach)
+        # the run's range (the DEM's valid heights) joined with the matches' (plan.matched_heights, the RPC tie
+        # points' rule): ground in a void of the DEM above or below its valid heights is searched; above it up to
+        # the DEM's margin above (what stands on it), below the lower camera as the matches' range
+        run = _with_matches(sp, (zlo, zhi), ceiling)
+        reach = (run[0], max(run[1], zhi + 0.75 * max(ceiling - zhi, 0.0)))
+        zlim = run if guide is None else guide.pair_range(run, reach)
         return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), guide
     if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
@@ -274,6 +276,17 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), None
+
+
+def _with_matches(sp, zlim: tuple, ceiling: float) -> tuple:
+    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` (:func:`.plan.matched_heights`,
+    widened as without a DEM) when there are ``DEM_MIN_MATCHES`` of them: a DEM's valid heights bound neither the
+    ground under its voids nor a DEM shifted from the orientation's heights (the RPC pairs' tie points likewise,
+    :mod:`.rpc_tool`)."""
+    if sp["n"] < dem_guide.DEM_MIN_MATCHES:
+        return zlim
+    lo, hi = plan.matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
+    return min(zlim[0], lo), max(zlim[1], hi)
 
 
 def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
