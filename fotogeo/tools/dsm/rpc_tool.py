@@ -142,11 +142,9 @@ def _check_places(name: str, pair, size: float, large: bool) -> None:
 
 def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
     """``(height source, low, high, notes)``: the DEM read in the RPCs' (ellipsoidal) reference and its range
-    padded by 10 % and 30 m."""
+    (:func:`.plan.dem_range`, a geoid's undulations added) padded by 10 % and 30 m."""
     source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
-    from ...geometry.dem import underlying_dem
-    d = underlying_dem(source)[0]
-    zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
+    zlo, zhi = plan.dem_range(source, ims)
     pad = 0.1 * (zhi - zlo) + 30.0
     return source, zlo - pad, zhi + pad, notes
 

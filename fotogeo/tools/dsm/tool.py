@@ -128,19 +128,38 @@ def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tup
     heights shifted by the fit's offset (:mod:`.dem_guide`)."""
     if dem is not None:
         source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
-        from ...geometry.dem import underlying_dem
-        d = underlying_dem(source)[0]
-        zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
+        zlo, zhi = plan.dem_range(source, ims)
         pad = 0.1 * (zhi - zlo) + 20.0
         f = _dem_fits_orientation(dem, source, views, sources, features)
         o = 0.0 if f is None else f.offset
-        return zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"], (source, f, pad)
+        said = dem_heights not in (None, "auto") or geoid is not None
+        ref, why = _heights_reference(ims, ref, f, said)
+        return (zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"] + why,
+                (source, f, pad))
     check = functools.partial(frames.sparse_check, cache=features)
     zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
                                    Limits().min_overlap)
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"], None
+
+
+def _heights_reference(ims, dem_ref, fit, said: bool) -> tuple:
+    """``(reference, notes)`` of the DSM's heights, which are the orientation's (a DEM only guides the search):
+    the orientation's own when it states one; else the DEM's as the run reads it (``dem_ref``: stated in its file,
+    or by ``--dem-heights``/``--geoid``, ``said``) when its ``fit`` at the sparse matches finds the two within
+    ``DEM_OFFSET_WARN_M`` (where the geoid lies nearer the ellipsoid than that, the fit cannot tell them apart), or,
+    with no fit, when the user stated it; else None (not stated), with a note saying why."""
+    refs = {im.height_reference for im in ims} - {None}
+    if refs or dem_ref is None:
+        return (refs.pop() if len(refs) == 1 else None), []
+    if fit is None and said:
+        return dem_ref, []
+    if fit is not None and abs(fit.offset) <= dem_guide.DEM_OFFSET_WARN_M:
+        return dem_ref, []
+    why = (f"{-fit.offset:+.1f} m from the DEM's {dem_ref} heights, the median at the sparse matches"
+           if fit is not None else f"not measured against the DEM's {dem_ref} heights")
+    return None, [f"heights: the orientation's, reference not stated ({why})"]
 
 
 def _dem_fits_orientation(dem, source, views, sources, features):
