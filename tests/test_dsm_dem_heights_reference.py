@@ -1,6 +1,6 @@
 """``fotogeo dsm`` with frames and a DEM: the DSM's heights are the orientation's (the DEM only guides the search),
 so their reference is the DEM's only where the DEM's heights are measured to agree with them
-(:func:`fotogeo.tools.dsm.tool._heights_reference`); and a geoid DEM given with ``--geoid`` bounds the run's
+(:func:`fotogeo.tools.dsm.dem_guide.heights_reference`); and a geoid DEM given with ``--geoid`` bounds the run's
 heights shifted by the undulations, as it guides the pairs (:func:`fotogeo.tools.dsm.plan.dem_range`)."""
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """``fotogeo dsm`` with frames and a DEM whose voids cover the high ground: the pairs search the heights their
-sparse matches give as well as the DEM's valid ones (:func:`fotogeo.tools.dsm.tool._with_matches`), so the ground
+sparse matches give as well as the DEM's valid ones (:func:`fotogeo.tools.dsm.plan.with_matches`), so the ground
 above the DEM's highest valid height still gets heights."""
 from __future__ import annotations
 

@@ -196,6 +196,17 @@ def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0
     return lo, min(hi, med + 0.75 * max(float(ceiling) - med, 1.0))
 
 
+def with_matches(sp, zlim: tuple, ceiling: float, least: int) -> tuple:
+    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` (:func:`matched_heights`,
+    widened as without a DEM) when there are ``least`` of them: a DEM's valid heights bound neither the
+    ground under its voids nor a DEM shifted from the orientation's heights (the RPC pairs' tie points likewise,
+    :mod:`.rpc_tool`)."""
+    if sp["n"] < least:
+        return zlim
+    lo, hi = matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
+    return min(zlim[0], lo), max(zlim[1], hi)
+
+
 def epipole_margin(view, direction) -> float:
     """How far (degrees) the line ``direction`` (world ``(3,)``, either way along it) passes outside the frame's
     field of view: its angle ``θ`` from the optical axis minus the angle ``θ_edge(φ)`` of the image border's ray at

@@ -133,7 +133,7 @@ def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tup
         f = _dem_fits_orientation(dem, source, views, sources, features)
         o = 0.0 if f is None else f.offset
         said = dem_heights not in (None, "auto") or geoid is not None
-        ref, why = _heights_reference(ims, ref, f, said)
+        ref, why = dem_guide.heights_reference(ims, ref, f, said)
         return (zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"] + why,
                 (source, f, pad))
     check = functools.partial(frames.sparse_check, cache=features)
@@ -142,24 +142,6 @@ def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tup
     pad = 0.25 * (zhi - zlo) + 10.0
     refs = {im.height_reference for im in ims} - {None}
     return zlo - pad, zhi + pad, (refs.pop() if len(refs) == 1 else None), ["height range from sparse matches"], None
-
-
-def _heights_reference(ims, dem_ref, fit, said: bool) -> tuple:
-    """``(reference, notes)`` of the DSM's heights, which are the orientation's (a DEM only guides the search):
-    the orientation's own when it states one; else the DEM's as the run reads it (``dem_ref``: stated in its file,
-    or by ``--dem-heights``/``--geoid``, ``said``) when its ``fit`` at the sparse matches finds the two within
-    ``DEM_OFFSET_WARN_M`` (where the geoid lies nearer the ellipsoid than that, the fit cannot tell them apart), or,
-    with no fit, when the user stated it; else None (not stated), with a note saying why."""
-    refs = {im.height_reference for im in ims} - {None}
-    if refs or dem_ref is None:
-        return (refs.pop() if len(refs) == 1 else None), []
-    if fit is None and said:
-        return dem_ref, []
-    if fit is not None and abs(fit.offset) <= dem_guide.DEM_OFFSET_WARN_M:
-        return dem_ref, []
-    why = (f"{-fit.offset:+.1f} m from the DEM's {dem_ref} heights, the median at the sparse matches"
-           if fit is not None else f"not measured against the DEM's {dem_ref} heights")
-    return None, [f"heights: the orientation's, reference not stated ({why})"]
 
 
 def _dem_fits_orientation(dem, source, views, sources, features):
@@ -284,7 +266,7 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
         # the run's range (the DEM's valid heights) joined with the matches' (plan.matched_heights, the RPC tie
         # points' rule): ground in a void of the DEM above or below its valid heights is searched; above it up to
         # the DEM's margin above (what stands on it), below the lower camera as the matches' range
-        run = _with_matches(sp, (zlo, zhi), ceiling)
+        run = plan.with_matches(sp, (zlo, zhi), ceiling, dem_guide.DEM_MIN_MATCHES)
         reach = (run[0], max(run[1], zhi + 0.75 * max(ceiling - zhi, 0.0)))
         zlim = run if guide is None else guide.pair_range(run, reach)
         return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), guide
@@ -295,17 +277,6 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     # the heights, not the matches' disparities: over an oblique pair the disparity of one height varies across
     # the image, and the sparse matches need not reach its edges
     return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), None
-
-
-def _with_matches(sp, zlim: tuple, ceiling: float) -> tuple:
-    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` (:func:`.plan.matched_heights`,
-    widened as without a DEM) when there are ``DEM_MIN_MATCHES`` of them: a DEM's valid heights bound neither the
-    ground under its voids nor a DEM shifted from the orientation's heights (the RPC pairs' tie points likewise,
-    :mod:`.rpc_tool`)."""
-    if sp["n"] < dem_guide.DEM_MIN_MATCHES:
-        return zlim
-    lo, hi = plan.matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
-    return min(zlim[0], lo), max(zlim[1], hi)
 
 
 def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
