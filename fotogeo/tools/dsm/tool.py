@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_style, check_styles_no_input, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path, warn_earlier_style
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -69,6 +69,8 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     style = dsm_style_path(output) if qgis_style else None
     if qgis_style:
         check_style(output, overwrite)
+    else:
+        warn_earlier_style(output)
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
     if qgis_style:
