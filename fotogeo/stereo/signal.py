@@ -17,10 +17,10 @@ uniqueness ratio, CARS/Pandora's ambiguity (a flat cost curve), MicMac's correla
 
 :func:`matched_signal` applies the rule to both images of a pair, the left pixel and its match in the right one:
 an area uniform in one image only (a specular reflection, a saturated or clipped roof, a cloud in one frame)
-gives no height either. It also refuses the pixels within ``FLAT_REACH`` px of a signal-less one: their blocks
-take part of their cost from the uniform area, and SGM's paths carry the area's arbitrary disparities a few pixels
-into its textured border (as a foreground object "fattens" across an occlusion edge), where they pass the
-left-right check: thin lines of wrong heights along the area's edges.
+gives no height either. It also refuses the pixels within ``FLAT_REACH`` px of a signal-less area ``FLAT_WIDTH`` px
+wide or more: their blocks take part of their cost from the uniform area, and SGM's paths carry the area's
+arbitrary disparities a few pixels into its textured border (as a foreground object "fattens" across an
+occlusion edge), where they pass the left-right check: thin lines of wrong heights along the area's edges.
 """
 from __future__ import annotations
 
@@ -37,6 +37,8 @@ HALF_NORMAL_MEDIAN = 0.6745
 SIGNAL_TO_NOISE = 1.0
 #: pixels this close (px) to a signal-less one are refused too (module docstring)
 FLAT_REACH = 6
+#: signal-less areas narrower than this (px: saturated specks, low-contrast spots) do not take their border with them
+FLAT_WIDTH = 15
 
 
 def noise_sigma(img, valid) -> float:
@@ -67,11 +69,15 @@ def signal_mask(img, valid, floor: float, snr: float = SIGNAL_TO_NOISE) -> np.nd
 
 
 def _away_from_flat(mask, reach: int) -> np.ndarray:
-    """``mask`` without the pixels within ``reach`` pixels (a square) of one outside it."""
+    """``mask`` without the pixels within ``reach`` pixels (a square) of a signal-less area: where most pixels of a
+    ``FLAT_WIDTH`` x ``FLAT_WIDTH`` window lie outside ``mask`` (narrower spots, and the few pixels of a uniform
+    area whose noise passes by chance, do not count)."""
     if reach <= 0:
         return mask
-    k = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
-    return cv2.erode(mask.astype(np.uint8), k, borderType=cv2.BORDER_REPLICATE).astype(bool)
+    k = (FLAT_WIDTH, FLAT_WIDTH)
+    flat = (cv2.blur((~mask).astype(np.float32), k, borderType=cv2.BORDER_REPLICATE) > 0.5).astype(np.uint8)
+    near = cv2.dilate(flat, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)).astype(bool)
+    return mask & ~near
 
 
 def matched_signal(left, right, valid_left, valid_right, xr, floor: float, reach: int = FLAT_REACH) -> np.ndarray:
