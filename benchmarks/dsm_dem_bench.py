@@ -15,8 +15,9 @@ first pair (``dem`` of the report: offset, NMAD, margin) and the DEM warnings. `
 
 ``--ties N``: each ``--rpc`` pair (ventoux) keeps N of its tie points (``MIN_TIES`` or more), a random subset
 (seed 0). ``block``: a rendered frame pair with a block standing on the ground (``tests/dsm_scenes.py``'s
-``nadir_block``), each DEM made from the ground without the block; rows add the roof's cells within 1.5 m of its
-height and the ground's RMSE, NMAD and completeness (:func:`_block_rows`).
+``nadir_block``; ``narrow_block``: its ``nadir_narrow_block``, 12 m a side), each DEM made from the ground without the
+block; rows add the roof's cells within 1.5 m of its height and 1.5 m or more off it, and the ground's RMSE, NMAD and
+completeness (:func:`_block_rows`).
 """
 from __future__ import annotations
 
@@ -41,7 +42,7 @@ DEMS = {"true": (None, 0.0, 0.0, False), "srtm": (30.0, 1.5, 10.0, True), "smoot
 #: ``srtm`` DEM's void, then covers part of the images, not all)
 REF_MARGIN = 300.0
 #: the cases (``--cases``)
-CASES = ("rendered", "oblique_set", "ngi", "ventoux", "block")
+CASES = ("rendered", "oblique_set", "ngi", "ventoux", "block", "narrow_block")
 #: ``--ties``: at least this many (a pair with fewer is refused by ``rpc_pairs.pointing`` itself)
 MIN_TIES = 10
 #: the oblique set: two frames of ``tests/dsm_oblique_sets.py``'s "1280x960 full" from strips 90 degrees apart
@@ -132,8 +133,9 @@ ROOF_INSET_M, GROUND_OUTSET_M = 2.0, 20.0
 
 def _block_rows(out: Path, sc: dict) -> dict:
     """The DSM ``out`` on the block of the scene ``sc`` (its ``surface``, :func:`dsm_scenes.with_block`): the share
-    of its roof's cells (``ROOF_INSET_M`` inside the walls) with a height within 1.5 m of the roof's, and RMSE, NMAD
-    and completeness on the ground ``GROUND_OUTSET_M`` or more outside the walls."""
+    of its roof's cells (``ROOF_INSET_M`` inside the walls) with a height within 1.5 m of the roof's, with one 1.5 m
+    or more off it (a wrong height, not a hole), and RMSE, NMAD and completeness on the ground ``GROUND_OUTSET_M``
+    or more outside the walls."""
     import rasterio
     with rasterio.open(out) as ds:
         h, t, nod = ds.read(1).astype(float), ds.transform, ds.nodata
@@ -146,21 +148,24 @@ def _block_rows(out: Path, sc: dict) -> dict:
     d = z[ground] - surface(XY[ground])
     ok = np.isfinite(d)
     med = float(np.median(d[ok]))
-    return {"roof_cells": int(roof.sum()), "roof_within_1_5m": float(np.mean(np.abs(z[roof] - surface.roof) < 1.5)),
-            "roof_with_height": float(np.mean(np.isfinite(z[roof]))), "ground_completeness": float(ok.mean()),
+    off = np.abs(z[roof] - surface.roof)
+    return {"roof_cells": int(roof.sum()), "roof_within_1_5m": float(np.mean(off < 1.5)),
+            "roof_with_height": float(np.mean(np.isfinite(z[roof]))), "roof_off_1_5m": float(np.mean(off >= 1.5)),
+            "ground_completeness": float(ok.mean()),
             "ground_rmse_m": float(np.sqrt(np.mean(d[ok] ** 2))), "ground_median_m": med,
             "ground_nmad_m": float(1.4826 * np.median(np.abs(d[ok] - med)))}
 
 
-def block(tmp: Path, dems: list, tag: str) -> list:
-    """The rendered frame pair with a block (``tests/dsm_scenes.py``'s ``nadir_block``: :data:`dsm_scenes.BLOCK`
-    over the ground in their overlap) and each DEM made from the ground without the block (covering the images):
-    the roof's cells near its height, the ground's error and completeness (:func:`_block_rows`)."""
+def block(tmp: Path, dems: list, tag: str, kind: str = "nadir_block") -> list:
+    """The rendered frame pair with a block (``tests/dsm_scenes.py``'s ``kind``: ``nadir_block`` with
+    :data:`dsm_scenes.BLOCK`, ``nadir_narrow_block`` with :data:`dsm_scenes.NARROW_BLOCK`, over the ground in their
+    overlap) and each DEM made from the ground without the block (covering the images): the roof's cells near its
+    height, the roof's cells with a height off it, the ground's error and completeness (:func:`_block_rows`)."""
     from dsm_scenes import make_scene, write_dem
-    sc = make_scene("nadir_block", tmp / "scene")
+    sc = make_scene(kind, tmp / "scene")
     ref = write_dem({**sc, "surface": sc["surface"].ground}, tmp / "ground_ref.tif", cell=20.0)  # covers the images
-    return _scene_runs(tmp, f"rendered nadir with a block, {len(sc['images'])} frames", sc, dems, tag, ref,
-                       _block_rows)
+    return _scene_runs(tmp, f"rendered nadir with a {sc['surface'].side:g} m block, {len(sc['images'])} frames", sc,
+                       dems, tag, ref, _block_rows)
 
 
 def ngi(tmp: Path, dems: list, tag: str) -> list:
@@ -294,7 +299,8 @@ def main():
             (Path(t) / case).mkdir()
             new = {"rendered": functools.partial(rendered, kinds=args.rendered.split(",")), "oblique_set": oblique_set,
                    "ngi": ngi, "ventoux": ventoux,
-                   "block": block}[case](Path(t) / case, dems, tag)
+                   "block": block, "narrow_block": functools.partial(block, kind="nadir_narrow_block")}[case](
+                       Path(t) / case, dems, tag)
             for r in new:
                 print(json.dumps(r, default=str), flush=True)
             run["rows"] += new

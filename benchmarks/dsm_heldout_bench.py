@@ -114,24 +114,29 @@ def _uint8_copy(paths: list, folder: Path) -> list:
 
 def _visible_completeness(dsm_path, sc, step: int = 3) -> float:
     """The share of the cells both images see *unoccluded* that have a height (every ``step``-th cell): a cell is
-    seen by a view when the first surface point on the line of sight of its pixel (the renderer's own
-    ``_first_hit``) lies within one truth cell of it. :func:`rendered_rpc_pair.compare`'s completeness counts the
-    cells inside both images, walls' shadows included."""
+    seen as :func:`unoccluded` says. :func:`rendered_rpc_pair.compare`'s completeness counts the cells inside both
+    images, walls' shadows included."""
     import rasterio
-
-    from rendered_rpc_pair import _first_hit, _sample
     with rasterio.open(dsm_path) as ds:
         h, dt, nod = ds.read(1)[::step, ::step], ds.transform, ds.nodata
     rr, cc = np.mgrid[0:h.shape[0], 0:h.shape[1]] * step
     x, y = (np.asarray(v).ravel() for v in dt * (cc + 0.5, rr + 0.5))
+    return round(float((h.ravel() != nod)[unoccluded(x, y, sc)].mean()), 3)
+
+
+def unoccluded(x, y, sc) -> np.ndarray:
+    """Whether both views of the rendered scene ``sc`` see the map points ``x, y`` (on the truth): inside each image
+    and the first surface point on the line of sight of its pixel (the renderer's own ``_first_hit``) within one
+    truth cell of it."""
+    from rendered_rpc_pair import _first_hit, _sample
     z = _sample(sc["truth"], sc["truth_transform"], x, y)
-    seen = np.ones(x.size, bool)
+    seen = np.ones(x.shape, bool)
     for cam in sc["cameras"]:
         c, r = cam.ground_to_image(x, y, z)
         seen &= (c >= 0) & (c < cam.n) & (r >= 0) & (r < cam.n)
         xs, ys, _ = _first_hit(cam, sc["truth"], sc["truth_transform"], c, r)
         seen &= np.hypot(xs - x, ys - y) <= abs(sc["truth_transform"].a)
-    return round(float((h.ravel() != nod)[seen].mean()), 3)
+    return seen
 
 
 def rpc_rows(work: Path, names, dems=("none",), save=None) -> list:

@@ -7,6 +7,11 @@
   this image's size; on the frame turned 90° clockwise, 180°, 90° counter-clockwise; two typos outside (+700 px in
   col); one typo inside (+40, −25 px); the whole frame's GCPs on a top-left crop half its size whose camera is the
   crop's (principal point where the frame's falls).
+* ``orient`` over flat terrain: 40 pixels drawn uniformly on frame 0182, their ground points at one height
+  (the camera's height − 3000 m) by the same geometry, 0.3 px noise; read on a 2x copy (frame camera) and on a
+  top-left crop half the size (the crop's camera), where the collinearity equations trade the copy's scale for the
+  flying height; "off" is the fitted model's median distance from the true pixels (this image's). The NGI GCPs
+  without heights (``auto`` and ``collinearity``, with the camera).
 * ``rpc-bias``: the ventoux Pleiades crop (500x500) and its OSSIM ``.geom`` RPC; GCPs = the rigorous model's
   location-grid nodes inside it, moved by a known bias (2.3, −1.7) px; read on 1.3x / 0.5x / turned copies; two
   typos; the nodes of a product twice the crop's size (the crop its top-left quarter).
@@ -33,8 +38,8 @@ NAME = "3324c_2015_1004_05_0182"
 W, H = 640, 1152
 
 
-def _layer(path, ids, pixel, ground, crs, role=None):
-    cols = {"id": ids, "col": pixel[:, 0], "row": pixel[:, 1], "z": ground[:, 2]}
+def _layer(path, ids, pixel, ground, crs, role=None, with_z=True):
+    cols = {"id": ids, "col": pixel[:, 0], "row": pixel[:, 1]} | ({"z": ground[:, 2]} if with_z else {})
     if role is not None:
         cols["role"] = role
     gpd.GeoDataFrame(cols, geometry=shapely.points(ground[:, :2]), crs=crs).to_file(path, driver="GPKG")
@@ -81,6 +86,39 @@ def orient_cases(data: Path, tmp: Path, seed: int, noise: float):
         path = _layer(tmp / "g.gpkg", ids, pix, ground, dem.crs.to_wkt(), role)
         cam = crop if name.startswith("crop") else camera
         _run(name, lambda: orient(None, path, model="collinearity", camera=cam), said)
+
+
+def flat_cases(data: Path, tmp: Path, seed: int, noise: float):
+    from fotogeo.geometry.camera import FrameCamera
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.io.raster import read_dem
+    from fotogeo.orientation.simulation import make_gcps
+    from fotogeo.tools.orient.tool import orient
+    ngi = data / "ngi"
+    frame, dem = load_ngi_frame(ngi, NAME), read_dem(ngi / "dem.tif")
+    rng = np.random.default_rng(seed)
+    ground = frame.pixel_to_world_at(rng.uniform([5, 5], [W - 5, H - 5], (40, 2)), frame.eo.centre[2] - 3000.0)
+    true = frame.world_to_pixel(ground)
+    pixel = true + rng.normal(0, noise, (40, 2))
+    role, ids = ["control"] * 30 + ["check"] * 10, [f"P{i}" for i in range(40)]
+    crop = FrameCamera(120.0, (46.08, 82.944), (W // 2, H // 2), principal_point=(W / 2, H / 2))
+
+    def said(fit):
+        off = np.median(np.hypot(*(fit.model.forward(ground) - true).T))
+        return (f"exit 0  skipped {len(fit['skipped']):2d}  control n {fit['control']['n']:2d} RMS "
+                f"{fit['control']['rms_xy_px']:.2f} px  off {off:.0f} px")
+    print(f"orient over flat terrain, NGI {NAME} geometry, seed {seed}, noise {noise} px")
+    for name, pix, cam in (("flat x2", pixel * 2, frame.camera), ("flat crop", pixel, crop)):
+        path = _layer(tmp / "f.gpkg", ids, pix, ground, dem.crs.to_wkt(), role)
+        _run(name, lambda: orient(None, path, model="collinearity", camera=cam), said)
+    s = make_gcps(frame, dem, 30, 10, "homogeneous", noise=noise, seed=seed)
+    ground, pixel = np.vstack([s.gcp_ground, s.check_ground]), np.vstack([s.gcp_pixel, s.check_pixel])
+    path = _layer(tmp / "nz.gpkg", ids, pixel, ground, dem.crs.to_wkt(), role, with_z=False)
+    camera = str(ngi / "interior_orientation.yaml")
+    for model in ("auto", "collinearity"):
+        _run(f"no z, {model}"[:14], lambda: orient(None, path, model=model, camera=camera),
+             lambda fit: f"exit 0  model {fit.model_name}  check n {fit['check']['n']:2d} RMS "
+                         f"{fit['check']['rms_xy_px']:.2f} px")
 
 
 def rpc_cases(data: Path, tmp: Path):
@@ -130,6 +168,7 @@ def main():
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         orient_cases(args.data, Path(tmp), args.seed, args.noise)
+        flat_cases(args.data, Path(tmp), args.seed, args.noise)
         rpc_cases(args.data, Path(tmp))
 
 

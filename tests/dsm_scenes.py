@@ -7,7 +7,8 @@ Three renders that differ (:data:`SCENES`): ``nadir`` — the demo's block (2 st
 ``held_out`` — a block never used while building the pipeline (3 strips x 3 frames, 520 x 390 px, 700 m above
 ±60 m, 70 % forward overlap, Brown distortion, another seed). ``nadir_block``: two nadir frames (800 x 1200 px,
 1000 m above hills of ±:data:`BLOCK_RELIEF` m) with a flat-roofed block (:data:`BLOCK`) standing in their overlap: a
-DEM of the ground (:func:`write_dem` of the ``surface``'s ``ground``) lies under its roof.
+DEM of the ground (:func:`write_dem` of the ``surface``'s ``ground``) lies under its roof; ``nadir_narrow_block``: the
+same pair with a block narrower than it is high (:data:`NARROW_BLOCK`).
 """
 from __future__ import annotations
 
@@ -23,6 +24,8 @@ SCENES = ("nadir", "oblique", "held_out")
 #: ``nadir_block``: the block's side and height over the ground (m), and its centre's offset (m, east, north) from
 #: the middle of the two frames' centres (:func:`with_block`); the ground's hills are ±``BLOCK_RELIEF`` m
 BLOCK = (60.0, 30.0, 150.0, 0.0)
+#: ``nadir_narrow_block``: a block as :data:`BLOCK`, 12 m a side
+NARROW_BLOCK = (12.0, 30.0, 150.0, 0.0)
 BLOCK_RELIEF = 5.0
 
 
@@ -92,8 +95,9 @@ def make_scene(kind: str, folder) -> dict:
     if kind == "nadir":
         return _simulated(folder, seed=7, strips=2, frames_per_strip=4, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
                           point_spacing=80.0, relief=40.0, margin=5.0)
-    if kind == "nadir_block":
-        return _simulated(folder, block=BLOCK, seed=7, strips=1, frames_per_strip=2,
+    if kind in ("nadir_block", "nadir_narrow_block"):
+        return _simulated(folder, block=BLOCK if kind == "nadir_block" else NARROW_BLOCK, seed=7, strips=1,
+                          frames_per_strip=2,
                           camera=FrameCamera(12.0, (8.0, 12.0), (800, 1200)), point_spacing=80.0, relief=BLOCK_RELIEF,
                           margin=5.0)
     if kind == "oblique":

@@ -14,7 +14,7 @@ import rasterio
 
 from fotogeo.tools.dsm import local
 
-from dsm_scenes import BLOCK, BLOCK_RELIEF, make_scene, write_dem
+from dsm_scenes import BLOCK, BLOCK_RELIEF, NARROW_BLOCK, make_scene, write_dem
 from test_dsm_partnerless import _pair_match
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -61,15 +61,46 @@ def test_the_guided_dsm_of_a_frame_pair_keeps_the_roof(scene, tmp_path):
     assert _roof_share(tmp_path / "d.tif", scene["surface"]) > 0.6
 
 
-def _roof_share(path, surface) -> float:
-    """The share of the block's roof cells (2 m inside its walls) in the DSM ``path`` within 1.5 m of its height."""
+def _roof_cells(path, surface) -> np.ndarray:
+    """The DSM ``path``'s heights on the block's roof cells (2 m inside its walls), NaN where it has none."""
     half = surface.side / 2 - 2.0
     with rasterio.open(path) as ds:
         win = ds.window(surface.centre[0] - half, surface.centre[1] - half, surface.centre[0] + half,
                         surface.centre[1] + half)
-        z = ds.read(1, window=win.round_offsets().round_lengths(), masked=True).filled(np.nan).astype(float)
+        return ds.read(1, window=win.round_offsets().round_lengths(), masked=True).filled(np.nan).astype(float)
+
+
+def _roof_share(path, surface) -> float:
+    """The share of the block's roof cells (2 m inside its walls) in the DSM ``path`` within 1.5 m of its height."""
+    z = _roof_cells(path, surface)
     have = np.isfinite(z)
     return float(np.mean(have & (np.abs(np.where(have, z, 0.0) - surface.roof) < 1.5)))
+
+
+@pytest.fixture(scope="module")
+def narrow(tmp_path_factory):
+    """The rendered ``nadir_narrow_block`` pair (a block :data:`dsm_scenes.NARROW_BLOCK`, narrower than it is high)
+    and a 20 m DEM of the ground without the block."""
+    folder = tmp_path_factory.mktemp("narrow")
+    sc = make_scene("nadir_narrow_block", folder)
+    return {**sc, "dem": str(write_dem({**sc, "surface": sc["surface"].ground}, folder / "ground.tif"))}
+
+
+@pytest.mark.parametrize("with_dem", [True, False], ids=["dem", "no-dem"])
+def test_a_narrow_roof_gets_no_wrong_height(narrow, tmp_path, with_dem):
+    """A roof narrower than its disparity step to the ground: SGM's costs there have no clear minimum. Its cells
+    are holes or its height, never a plausible height between roof and ground (before: with the DEM of the ground
+    two thirds of its cells, without one a third, at heights down to the ground's)."""
+    from fotogeo.tools.dsm import dsm
+    assert NARROW_BLOCK[0] < NARROW_BLOCK[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        dsm(narrow["images"], tmp_path / "d.tif", camera=narrow["camera"], eo=narrow["eo"], crs=narrow["crs"],
+            dem=narrow["dem"] if with_dem else None)
+    z = _roof_cells(tmp_path / "d.tif", narrow["surface"])
+    have = np.isfinite(z)
+    off = have & (np.abs(np.where(have, z, 0.0) - narrow["surface"].roof) >= 1.5)
+    assert z.size >= 16 and off.mean() <= 0.05, (off.mean(), z[off] - narrow["surface"].roof)
 
 
 def test_without_a_dem_the_small_roof_is_kept(scene, tmp_path):

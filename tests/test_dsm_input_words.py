@@ -27,6 +27,18 @@ def test_an_unknown_name_in_the_pairs_file_is_named(tmp_path):
     assert in_callers_words(str(e.value), e.value.option, "Pairs file").startswith(f"Pairs file {str(pairs)!r}")
 
 
+def test_the_pairs_file_names_frames_with_spaces_quoted_or_tab_separated(tmp_path):
+    """Frames called ``frame one.png`` ran, but ``--pairs`` could not name them (quoted or tab-separated, both
+    refused); unquoted, the refusal says how."""
+    names = ["frame one", "frame three", "frame two"]
+    pairs = tmp_path / "pairs.txt"
+    pairs.write_text('"frame one" "frame two"  # quoted\nframe two\tframe three\n\'frame three\',"frame one.png"\n')
+    assert read_pairs(pairs, names) == [(0, 1), (0, 2), (1, 2)]
+    pairs.write_text("frame one frame two\n")
+    with pytest.raises(InputError, match=r"a name with spaces in quotes or the two names separated by a tab"):
+        read_pairs(pairs, names)
+
+
 def test_an_orientation_folder_without_its_camera_is_named_in_flags(tmp_path):
     """A folder called ``orientation`` holding no camera.yaml: the message read ``--orientation '…/--orientation'``
     and ``holds no --camera.yaml``."""

@@ -87,3 +87,21 @@ def test_the_rpc_dsm_follows_the_switch_too(tmp_path):
     assert "qgis_style" not in rep["outputs"] and not style.exists()
     rep = dsm(sc["images"], tmp_path / "dsm.tif", rpc=True, resolution=0.7, overwrite=True)
     assert rep["outputs"]["qgis_style"] == str(style) and MARKER in style.read_text()
+
+
+def test_without_a_style_an_earlier_runs_style_left_beside_the_dsm_is_named(pair, tmp_path):
+    """--overwrite --no-qgis-style replaces the DSM but not the style fotogeo wrote for it earlier: QGIS would draw the
+    new heights with the old range, so the run says so (a user's style is theirs: nothing said)."""
+    from fotogeo.cli import main
+    assert _cli(pair, tmp_path / "d.tif").exit_code == 0
+    before = (tmp_path / "d.qml").read_text()
+    args = ["dsm", *map(str, pair["images"]), "--camera", str(pair["camera"]), "--eo", str(pair["eo"]), "--crs", CRS,
+            "-o", str(tmp_path / "d.tif"), "--overwrite", "--no-qgis-style"]
+    run = CliRunner().invoke(main, args)
+    assert run.exit_code == 0, run.output
+    said = " ".join(run.output.split())
+    assert "the QGIS style fotogeo wrote for an earlier DSM of that name, is left beside it" in said, said
+    assert (tmp_path / "d.qml").read_text() == before
+    (tmp_path / "d.qml").write_text(USERS)
+    run = CliRunner().invoke(main, args)
+    assert run.exit_code == 0 and "is left beside it" not in " ".join(run.output.split()), run.output

@@ -2,15 +2,18 @@
 collinearity fit tells a copy of another size or turned a quarter turn (refused, naming it) from a crop of the frame
 whose camera describes the crop and from a typo or two (fitted). Before, 1.2-1.45x and 0.5x copies and a quarter turn
 gave a wrong model with exit 0 (sigma-hat 2-6 px), and the crop was refused as a copy of another size."""
+import math
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from fotogeo.cli import main
-from fotogeo.errors import InputError
+from fotogeo.errors import InputError, ModelError
 from fotogeo.geometry.camera import FrameCamera
 from fotogeo.io.camera import load_ngi_frame
 from fotogeo.io.raster import read_dem
+from fotogeo.orientation.copy_reading import copy_reading
 from fotogeo.orientation.simulation import make_gcps
 from fotogeo.tools.orient.tool import orient
 from test_bad_input import assert_one_line_error
@@ -90,3 +93,48 @@ def test_rpc_shift_tells_a_copy_from_a_crop(data_dir, tmp_path, case):
     with pytest.raises(InputError, match=f"look measured on {said}"):
         rpc_bias(**run)
     assert not (tmp_path / "o.tif").exists()
+
+
+@pytest.mark.parametrize("case", ["x2 copy", "crop"])
+def test_over_flat_terrain_a_copy_and_a_crop_cannot_be_told_and_are_refused_naming_both(data_dir, tmp_path, case):
+    """Flat terrain (one height): the collinearity equations trade a copy's scale for the flying height, so GCPs read
+    on a 2x copy fit as given as well as a crop's. Before, the 6 inside were fitted and 32 of 40 skipped, exit 0 and
+    the model hundreds of px off; now both readings are named (as given, and read back at the spread's scale)."""
+    frame = load_ngi_frame(data_dir / "ngi", NAME)
+    rng = np.random.default_rng(1)
+    px = rng.uniform([5, 5], [W - 5, H - 5], (40, 2))
+    ground = frame.pixel_to_world_at(px, frame.eo.centre[2] - 3000.0)
+    pixel = frame.world_to_pixel(ground) + rng.normal(0, 0.3, (40, 2))
+    crop = FrameCamera(120.0, (46.08, 82.944), (W // 2, H // 2), principal_point=(W / 2, H / 2))
+    pixel, camera = (pixel * 2, frame.camera) if case == "x2 copy" else (pixel, crop)
+    crs = read_dem(data_dir / "ngi" / "dem.tif").crs.to_wkt()
+    _write(tmp_path / "g.gpkg", ground, pixel, ["control"] * 30 + ["check"] * 10, crs)
+    with pytest.raises(InputError, match=r"GCPs lie outside the image, spanning about 2(\.0\d)?x its size, and the "
+                                         r"fit cannot tell .* as given, \d control points inside fit with 0\.\d\d px "
+                                         r"RMS; read back \(col/row ÷ 2(\.0\d)?\), 30 fit with 0\.\d\d px; .*rescale "
+                                         r"them .* if this image is a crop, remove the GCPs outside it"):
+        orient(None, tmp_path / "g.gpkg", model="collinearity", camera=camera)
+
+
+def test_gcps_without_heights_are_not_taken_for_a_copy(truth, tmp_path):
+    """Without heights every collinearity fit fails: nothing is told about a copy. ``auto`` fits its 2-D models as
+    without a camera, ``collinearity`` asks for heights (before: both refused as a copy about 0.24x, inf px)."""
+    _write(tmp_path / "nz.gpkg", truth[0], truth[1], ["control"] * 30 + ["check"] * 10, truth[2], with_z=False)
+    fit = orient(None, tmp_path / "nz.gpkg", model="auto", camera=truth[3])
+    assert fit.model.src_dims == 2 and fit["check"]["n"] == 10
+    with pytest.raises(ModelError, match="needs a height for every GCP"):
+        orient(None, tmp_path / "nz.gpkg", model="collinearity", camera=truth[3])
+
+
+@pytest.mark.parametrize("case", ["inf", "nan"])
+def test_a_fit_that_fails_names_no_copy(truth, case):
+    """A fit leaving no finite RMS (a failed resection, a projection out of its domain) tells nothing: every fit
+    failing (before: named a copy about 0.24x at inf px), or the positions as given fitting badly and every reading
+    back giving NaN (before: an uncaught ValueError)."""
+    control, given = np.arange(40) < 30, truth[1] * 0.15
+
+    def fit_rms(ground, pixel):
+        if case == "inf":
+            return math.inf
+        return 5.0 if pixel.shape == given[control].shape and np.allclose(pixel, given[control]) else math.nan
+    assert copy_reading(truth[0], given, control, W, H, fit_rms, 0.5, 3) is None

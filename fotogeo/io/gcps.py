@@ -272,16 +272,29 @@ def _refuse_another_size(pixel, out, width: int, height: int, what: str, reason:
     coordinates measured on a copy of another size (a 2x enlargement puts about three quarters of them outside) or
     on another image, where the few left inside would give a plausible wrong model. A few outside stay skipped
     (:func:`skip_outside`), and so do many beyond one edge only (a scene cut along it)."""
+    scale = another_size(pixel, out, width, height)
+    if scale is None:
+        return
     n_out, n = int(out.sum()), len(out)
     lo, hi = pixel.min(axis=0), pixel.max(axis=0)
-    if n_out <= FEW_OUTSIDE or n_out <= MOST_OUTSIDE * n or not (hi - lo > (width, height)).all():
-        return
-    scale = max(hi[0] / width, hi[1] / height)
     size = f", about {scale:.2g}x the image's size" if scale > 1 else ""
     raise InputError(f"{n_out} of {n} GCP(s) of {what} lie {reason}: their pixels span col {lo[0]:.0f}..{hi[0]:.0f}, "
                      f"row {lo[1]:.0f}..{hi[1]:.0f}{size}; the col/row were likely measured on a copy of another "
                      f"size (resized, cropped) or on another image — measure them on this image ({width}x{height} "
                      f"px) or scale them to it")
+
+
+def another_size(pixel, out, width: int, height: int):
+    """The size, as a factor of this image's, of the copy the GCP pixels ``(N, 2)`` span when most of them (``out``:
+    the mask of those outside) lie outside and they span more than the image across and down (the rule of
+    :func:`_refuse_another_size`): ``max(col_max / width, row_max / height)``; ``None`` when the rule does not
+    apply."""
+    pixel, out = np.asarray(pixel, float).reshape(-1, 2), np.asarray(out, bool)
+    n_out, n = int(out.sum()), len(out)
+    lo, hi = pixel.min(axis=0), pixel.max(axis=0)
+    if n_out <= FEW_OUTSIDE or n_out <= MOST_OUTSIDE * n or not (hi - lo > (width, height)).all():
+        return None
+    return float(max(hi[0] / width, hi[1] / height))
 
 
 def outside_image(pixel, width: int, height: int) -> np.ndarray:

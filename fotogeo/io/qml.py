@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import OutputError
+from ..errors import FotogeoWarning, OutputError
 
 #: the ramp's stops: (fraction of the range, colour "r,g,b")
 RAMP = ((0.0, "26,152,80"), (0.25, "145,207,96"), (0.5, "254,224,139"), (0.75, "166,97,26"), (1.0, "245,245,245"))
@@ -110,6 +110,17 @@ def users_style(dsm) -> Path | None:
     except OSError:
         return style  # unreadable: not known to be fotogeo's
     return None if MARKER in head else style
+
+
+def warn_earlier_style(dsm, role: str = "DSM") -> None:
+    """With no style written (``qgis_style`` off): warn when a style fotogeo wrote for an earlier run lies beside
+    ``dsm`` — QGIS would draw the new raster with that run's height range."""
+    import warnings
+    style = dsm_style_path(dsm)
+    if style.is_file() and users_style(dsm) is None:
+        warnings.warn(f"{str(style)!r}, the QGIS style fotogeo wrote for an earlier {role} of that name, is left "
+                      f"beside it (no style written this run): QGIS draws the new {role} with that run's height "
+                      f"range; delete it or write a new one", FotogeoWarning, stacklevel=3)
 
 
 def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:

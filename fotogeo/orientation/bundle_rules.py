@@ -62,7 +62,9 @@ def correlation_rule(run, pb, s, p, opts, resolve, fixed):
         worst = _to_fix(corr, opts.max_correlation)
         if worst is None:
             break
-        hold_fixed(run, worst["parameter"], {**worst, "reason": _fix_reason(worst, opts.max_correlation)}, fixed)
+        k = bj.INTERIOR_NAMES.index(worst["parameter"])  # its estimate while free, for a caller to compare
+        hold_fixed(run, worst["parameter"], {**worst, "estimate": float(s.interior[k]),
+                                             "reason": _fix_reason(worst, opts.max_correlation)}, fixed)
         pb, s, p = resolve("after fixing a parameter")
     return pb, s, p
 

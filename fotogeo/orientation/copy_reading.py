@@ -15,7 +15,13 @@ of the control points inside the image leaves an RMS above :data:`EXPLAINED` tim
 reading is fitted to its own control points inside the image (at least as many as the positions as given keep), and
 the best one is named when it leaves :data:`BETTER` times less. A crop whose camera describes it (principal point
 where the frame's falls in the crop's pixels) fits as given and is left alone; so is a half turn about a central
-principal point, which the collinearity equations absorb (a rotation about the optical axis).
+principal point, which the collinearity equations absorb (a rotation about the optical axis). A fit that fails or
+leaves a non-finite RMS (no heights, a projection out of its domain) tells nothing: no reading is named.
+
+Over flat terrain the collinearity equations trade a copy's scale for the flying height, so positions read on a
+copy ``s`` times the size fit as given as well as a crop's do. Whether the GCPs fitting as given are a crop's is
+therefore confirmed only when the positions read back at the size their spread implies fit worse than
+:data:`EXPLAINED` times the image σ (:func:`crop_reading`); when both fit, the two cannot be told apart.
 """
 from __future__ import annotations
 
@@ -75,23 +81,13 @@ def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
     (:func:`read_back`) that explains them :data:`BETTER` times better (module docstring). ``fit_rms(ground,
     pixel)`` fits the model; ``sigma``: the image σ (px) of the positions; ``min_points``: the model's minimum."""
     ground, pixel, control = np.asarray(ground, float), np.asarray(pixel, float), np.asarray(control, bool)
-
-    def inside(p):
-        return control & (p[:, 0] >= 0) & (p[:, 0] <= width) & (p[:, 1] >= 0) & (p[:, 1] <= height)
-
-    given = inside(pixel)
-    n_given = int(given.sum())
-    if n_given < min_points + 2:
-        return None
-    rms_given = fit_rms(ground[given], pixel[given])
-    if rms_given <= EXPLAINED * sigma:
+    rms_given, n_given = _fitted(ground, pixel, control, width, height, fit_rms)
+    if n_given < min_points + 2 or not math.isfinite(rms_given) or rms_given <= EXPLAINED * sigma:
         return None
 
     def trial(scale, turns):
-        p = read_back(pixel, width, height, scale, turns)
-        keep = inside(p)
-        n = int(keep.sum())
-        return (fit_rms(ground[keep], p[keep]) if n >= n_given else math.inf), n
+        rms, n = _fitted(ground, read_back(pixel, width, height, scale, turns), control, width, height, fit_rms)
+        return (rms if n >= n_given and math.isfinite(rms) else math.inf), n
 
     readings = [(s, 0) for s in SCALES if abs(math.log(s)) > NEAR_ONE] + [(1.0, t) for t in TURNS]
     readings += [(s, t) for s in SCALES[::8] for t in TURNS if abs(math.log(s)) > NEAR_ONE]
@@ -104,10 +100,41 @@ def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
     if scale != 1.0:
         scale = _refine(lambda s: trial(s, turns)[0], scale)
     rms, n = trial(scale, turns)
-    if not rms_given >= BETTER * rms:
+    if not (math.isfinite(rms) and rms_given >= BETTER * rms):
         return None
     return {"scale": round(scale, 2), "turns": turns, "either_way": either, "rms_given": rms_given,
             "rms_read_back": rms, "n_given": n_given, "n_read_back": n}
+
+
+def crop_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma: float, min_points: int,
+                 scale: float):
+    """Whether GCPs most of which lie outside, spanning about ``scale`` times this image's size, are a crop's
+    (module docstring): ``{"reading", "scale", "rms_given", "n_given", "rms_read_back", "n_read_back"}``;
+    ``reading`` is ``"crop"`` when the control points inside fit as given within :data:`EXPLAINED` times ``sigma``
+    and the positions read back at the best factor near ``scale`` (:func:`read_back`) do not, ``"either"`` when both
+    fit (the two cannot be told apart), ``None`` otherwise (too few points inside, a fit not finite, neither fits)."""
+    ground, pixel, control = np.asarray(ground, float), np.asarray(pixel, float), np.asarray(control, bool)
+
+    def back(s):
+        rms = _fitted(ground, read_back(pixel, width, height, s), control, width, height, fit_rms)[0]
+        return rms if math.isfinite(rms) else math.inf
+    rms_given, n_given = _fitted(ground, pixel, control, width, height, fit_rms)
+    scale = _refine(back, scale)
+    rms_back, n_back = _fitted(ground, read_back(pixel, width, height, scale), control, width, height, fit_rms)
+    fits_given = n_given >= min_points + 2 and rms_given <= EXPLAINED * sigma
+    fits_back = n_back >= min_points + 2 and rms_back <= EXPLAINED * sigma
+    finite = math.isfinite(rms_given) and math.isfinite(rms_back)
+    reading = ("either" if fits_back else "crop") if fits_given and finite else None
+    return {"reading": reading, "scale": round(scale, 2), "rms_given": rms_given, "n_given": n_given,
+            "rms_read_back": rms_back, "n_read_back": n_back}
+
+
+def _fitted(ground, pixel, control, width: int, height: int, fit_rms) -> tuple[float, int]:
+    """``(rms, n)``: ``fit_rms`` of the ``n`` control points whose ``pixel`` lies inside the image (``nan`` for
+    none)."""
+    keep = control & (pixel[:, 0] >= 0) & (pixel[:, 0] <= width) & (pixel[:, 1] >= 0) & (pixel[:, 1] <= height)
+    n = int(keep.sum())
+    return (float(fit_rms(ground[keep], pixel[keep])) if n else math.nan), n
 
 
 def _refine(cost, scale: float, steps: int = 16) -> float:
@@ -143,3 +170,15 @@ def describe(found: dict) -> str:
     return (f"the GCP pixels look measured on {copy}: read back onto this image, {found['n_read_back']} control "
             f"points fit with {found['rms_read_back']:.2f} px RMS, as given {found['n_given']} inside fit with "
             f"{found['rms_given']:.2f} px; measure them on this file or {fix}")
+
+
+def describe_undecided(told: dict, n_out: int, n: int) -> str:
+    """GCPs ``told`` (:func:`crop_reading`) that fit both as a crop's and as a copy's, in words: both readings and
+    what to do about each."""
+    s = told["scale"]
+    return (f"{n_out} of {n} GCPs lie outside the image, spanning about {s:g}x its size, and the fit cannot tell "
+            f"whether this image is a crop of the one they were measured on or they were measured on a copy about "
+            f"{s:g}x this image's size (over flat terrain both fit): as given, {told['n_given']} control points "
+            f"inside fit with {told['rms_given']:.2f} px RMS; read back (col/row ÷ {s:g}), {told['n_read_back']} fit "
+            f"with {told['rms_read_back']:.2f} px; if they were measured on a copy, rescale them (col/row ÷ {s:g}); "
+            f"if this image is a crop, remove the GCPs outside it")

@@ -6,9 +6,13 @@ small block, aggregated along several image paths with penalties ``P1`` for disp
 neighbours, in 1/16 px) twice — left → right and, on the mirrored images, right → left — and keeps a disparity
 only where:
 
-* both matchers found one (OpenCV's own filters: the best cost beats the second by ``uniqueness`` %, speckles —
-  connected regions smaller than ``speckle_window`` pixels whose disparities vary by at most ``speckle_range`` —
-  removed);
+* both matchers found one (OpenCV's own filters: the best aggregated cost ``C(d*)`` is unique — every ``C(d)``
+  with ``|d − d*| > 1`` reaches ``C(d*) · 100 / (100 − uniqueness)``; speckles — connected regions smaller than
+  ``speckle_window`` pixels whose disparities vary by at most ``speckle_range`` — removed). The ratio is
+  ``UNIQUENESS``, stricter than OpenCV's suggested 5–15: on a raised surface narrower than its disparity step to
+  the ground around it (a small roof), SGM's paths carry the ground's disparity and the smoothness penalties onto
+  it, its aggregated costs have no clear minimum, and the one picked, between roof and ground, passes both
+  matching directions and every check below; such a pixel must be a hole, not a height between the two;
 * the two agree within ``lr_tolerance`` px (left–right consistency: ``|d_L(x) − d_R(x − d_L(x))| ≤ tol``);
 * both the pixel and its match lie inside their source images (``valid`` masks, eroded by the block size: a
   block that reaches outside an image matches its border, not the scene);
@@ -128,6 +132,10 @@ def penalty_scale(lefts, valids, block: int = 5) -> float:
     bounds = tuple(np.percentile(values, [0.5, 99.5]))
     grads = np.concatenate([_gradients(to_uint8(g, v, bounds), v) for g, v in zip(lefts, valids)])
     return max(1.0, float(np.median(grads)) / CONTRAST_REF)
+
+
+#: OpenCV's ``uniquenessRatio`` (%) of :func:`disparity` (module docstring)
+UNIQUENESS = 30
 
 
 def _matcher(dmin: int, ndisp: int, block: int, uniqueness: int, speckle_window: int, speckle_range: int,
@@ -262,7 +270,7 @@ def _partner_fill(L, R, valid_left, valid_right, partner) -> tuple:
 
 
 def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, block: int = 5,
-              uniqueness: int = 10, speckle_window: int = 100, speckle_range: int = 2,
+              uniqueness: int = UNIQUENESS, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
               median: int = 5, scale_penalties: bool = True, penalty: float | None = None,
               partner=None) -> np.ndarray:

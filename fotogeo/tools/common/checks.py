@@ -181,14 +181,24 @@ def distinct_files(paths, names, what: str = "images") -> None:
 def inside_fitted(g, width: int, height: int, what: str, needed: int, needed_by: str, fit):
     """:func:`~fotogeo.io.gcps.inside_image` of the GCPs ``g`` where a fit with a fixed scale tells positions read
     on a copy of another size or turned (refused, naming it) from a crop's or a typo's
-    (:mod:`fotogeo.orientation.copy_reading`); the span rule stays only where too few lie inside to tell. ``fit``:
-    ``(rms(ground, pixel), the fit's least number of points, the image σ in px)``."""
-    from ...io.gcps import inside_image, outside_image
-    from ...orientation.copy_reading import copy_reading, describe
+    (:mod:`fotogeo.orientation.copy_reading`). The span rule (most outside, spanning more than the image) is
+    switched off only where the fit confirms a crop; where a copy's reading fits as well it is refused naming both,
+    and GCPs without heights are not fitted (the span rule stays). ``fit``: ``(rms(ground, pixel), the fit's least
+    number of points, the image σ in px)``."""
+    from ...io.gcps import another_size, inside_image, outside_image
+    from ...orientation.copy_reading import copy_reading, crop_reading, describe, describe_undecided
+    if not g.has_heights:
+        return inside_image(g, width, height, what, needed, needed_by)
     rms, least, sigma = fit
     control = g.role == "control"
     found = copy_reading(g.ground, g.pixel, control, width, height, rms, sigma, least)
     if found:
         raise InputError(f"GCP file {what!r}: {describe(found)}")
-    told = int((control & ~outside_image(g.pixel, width, height)).sum()) >= least + 2
-    return inside_image(g, width, height, what, needed, needed_by, span=not told)
+    out = outside_image(g.pixel, width, height)
+    scale = another_size(g.pixel, out, width, height)
+    if scale is None:
+        return inside_image(g, width, height, what, needed, needed_by)
+    told = crop_reading(g.ground, g.pixel, control, width, height, rms, sigma, least, scale)
+    if told["reading"] == "either":
+        raise InputError(f"GCP file {what!r}: {describe_undecided(told, int(out.sum()), len(out))}")
+    return inside_image(g, width, height, what, needed, needed_by, span=told["reading"] != "crop")

@@ -151,6 +151,24 @@ def problems(f: DemFit, where: str, sparse: int = 0, guides: bool = True, other:
     return out
 
 
+def heights_reference(ims, dem_ref, fit, said: bool) -> tuple:
+    """``(reference, notes)`` of the DSM's heights, which are the orientation's (a DEM only guides the search):
+    the orientation's own when it states one; else the DEM's as the run reads it (``dem_ref``: stated in its file,
+    or by ``--dem-heights``/``--geoid``, ``said``) when its ``fit`` at the sparse matches finds the two within
+    ``DEM_OFFSET_WARN_M`` (where the geoid lies nearer the ellipsoid than that, the fit cannot tell them apart), or,
+    with no fit, when the user stated it; else None (not stated), with a note saying why."""
+    refs = {im.height_reference for im in ims} - {None}
+    if refs or dem_ref is None:
+        return (refs.pop() if len(refs) == 1 else None), []
+    if fit is None and said:
+        return dem_ref, []
+    if fit is not None and abs(fit.offset) <= DEM_OFFSET_WARN_M:
+        return dem_ref, []
+    why = (f"{-fit.offset:+.1f} m from the DEM's {dem_ref} heights, the median at the sparse matches"
+           if fit is not None else f"not measured against the DEM's {dem_ref} heights")
+    return None, [f"heights: the orientation's, reference not stated ({why})"]
+
+
 @dataclass(frozen=True)
 class DemGuide:
     """A pair's DEM (``dem``, a :class:`~fotogeo.geometry.dem.Dem` sampled in the map CRS over the pair's ground,

@@ -80,8 +80,7 @@ def read_pairs(pairs, names) -> list | None:
         path = Path(pairs)
         if not path.is_file():
             raise InputError(f"{given} does not exist", option="pairs")
-        rows = [(k + 1, line.split("#")[0].replace(",", " ").split())
-                for k, line in enumerate(path.read_text(encoding="utf-8").splitlines())]
+        rows = [(k + 1, _pair_line(line)) for k, line in enumerate(path.read_text(encoding="utf-8").splitlines())]
         rows = [(k, r) for k, r in rows if r]
     else:
         rows = [(k + 1, list(p)) for k, p in enumerate(pairs)]
@@ -95,12 +94,32 @@ def read_pairs(pairs, names) -> list | None:
             raise InputError(f"{given} line {line}: {unknown[0]!r} is not among the images ({among}); give their "
                              f"file names without folder and extension", option="pairs")
         if len(r) != 2 or r[0] == r[1]:
-            raise InputError(f"{given} line {line}: expected two different image names among {among}; got "
+            spaced = next((n for n in names if " " in n), None)
+            quote = (f" (a name with spaces in quotes or the two names separated by a tab: \"{spaced}\" \"...\")"
+                     if spaced and len(r) > 2 else "")
+            raise InputError(f"{given} line {line}: expected two different image names among {among}{quote}; got "
                              f"{' '.join(r)!r}", option="pairs")
         out.append(tuple(sorted((index[r[0]], index[r[1]]))))
     if not out:
         raise InputError(f"{given} names no pair", option="pairs")
     return sorted(set(out))
+
+
+def _pair_line(line: str) -> list:
+    """The names on one line of a pairs file: after ``#`` a comment; two names separated by a tab, or by commas or
+    spaces, a name with spaces or commas in double or single quotes (``"frame one" "frame two"``)."""
+    if '"' in line or "'" in line:
+        import shlex
+        lex = shlex.shlex(line, posix=True)
+        lex.whitespace, lex.whitespace_split, lex.commenters = lex.whitespace + ",", True, "#"
+        try:
+            return list(lex)
+        except ValueError:  # an unpaired quote: a name with an apostrophe
+            pass
+    line = line.split("#")[0]
+    if "\t" in line.strip():
+        return [x.strip() for x in line.split("\t") if x.strip()]
+    return line.replace(",", " ").split()
 
 
 def parse_bounds(bounds) -> tuple | None:

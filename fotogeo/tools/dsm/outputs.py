@@ -21,12 +21,13 @@ with a matched height (``completeness`` = matched / overlap), ``filled_cells`` t
 from __future__ import annotations
 
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 from affine import Affine
 
-from ...errors import InputError
+from ...errors import FotogeoWarning, InputError
 from ...io.qml import CUT, write_dsm_style
 from ...io.raster import HEIGHT_REFERENCE_TAG
 from ...stereo.fusion import fill_holes, remove_speckles
@@ -41,6 +42,28 @@ TILE_MARGIN = SPECKLE_CELLS
 BANDS = ("height", "pairs", "spread", "filled")
 #: at most about this many heights are kept for the report's median (a regular sample of each tile beyond it)
 HEIGHT_SAMPLE = 4_000_000
+#: below this share of the overlap with a height (``completeness``) the run warns, naming the likely cause
+#: (:func:`coverage_cause`)
+LOW_COMPLETENESS = 0.5
+
+
+def finer_than_gsd(resolution: float, gsd: float | None) -> str:
+    """Why a DSM of cells ``resolution`` (m) comes out sparse from images of ground sample distance ``gsd`` (m,
+    None: not known), "" when its cells are not finer than a pixel: each pixel matched gives one point, so a cell
+    smaller than a pixel gets a height only where a point falls in it, and the islands of such cells are removed as
+    speckles (:data:`SPECKLE_CELLS`)."""
+    if gsd is None or not resolution < gsd:
+        return ""
+    return (f"--resolution {resolution:g} is finer than the images' ground sample distance ({gsd:.3g} m; one "
+            f"point per pixel matched leaves cells empty): give --resolution {float(f'{2 * gsd:.2g}'):g} (the "
+            f"default, twice the ground sample distance) or one nearer it")
+
+
+def coverage_cause(resolution: float, gsd: float | None) -> str:
+    """The likely cause the run can see of a DSM with few heights: a resolution finer than the images' ground
+    sample distance (:func:`finer_than_gsd`), else what no resolution mends (texture, cloud, change); one rule of
+    the frame and the RPC runs."""
+    return finer_than_gsd(resolution, gsd) or "textureless, cloud-covered or changed areas?"
 
 
 def _pair_entry(p, names) -> dict:
@@ -93,12 +116,13 @@ class Products:
     ``seen(grid, height)`` gives the cells of a (sub-)grid that both images of a kept pair see."""
 
     def __init__(self, out, output, grid, crs, *, fill: float | None, point_cloud=None, report=None, seen=None,
-                 height_reference: str | None = None, style=None):
+                 height_reference: str | None = None, style=None, gsd: float | None = None):
         import rasterio
 
         from ...io.raster import gdal_env, geotiff_profile
         self.out, self.output, self.grid, self.crs, self.fill = out, output, grid, crs, fill
         self.point_cloud, self.report, self.seen, self.style = point_cloud, report, seen, style
+        self.gsd = gsd  # the images' ground sample distance (m): the cause named when few cells get a height
         self.cloud = None
         if point_cloud is not None:
             from ...io.las import LasWriter
@@ -155,10 +179,13 @@ class Products:
 
     def finish(self, choices, names, rule, ref, notes, zlo, zhi, t0, timings, empty: str) -> dict:
         """Close the outputs and return the report (written with ``report``); ``empty`` the refusal when no cell
-        got a height."""
+        got a height, the resolution named first when it is finer than the images' ground sample distance; a
+        warning below ``LOW_COMPLETENESS`` names the likely cause (:func:`coverage_cause`)."""
         from ...io.cog import convert_to_cog
+        fine = finer_than_gsd(self.grid.resolution, self.gsd)
         if not self.sample:
-            raise InputError(empty)
+            head, _, cause = empty.partition(": ")  # "no height was matched …: the cause"
+            raise InputError(f"{head}: {fine}; or {cause}" if fine and cause else empty)
         self.ds.close()
         convert_to_cog(self.tmp, "average")
         heights = np.concatenate(self.sample)
@@ -191,6 +218,9 @@ class Products:
             from ...io.report import write_json
             rep["outputs"]["report"] = str(self.report)
             write_json(self.out.temp(self.report), rep)
+        if rep["completeness"] < LOW_COMPLETENESS:
+            warnings.warn(f"only {100 * rep['completeness']:.0f} % of the overlap got a height ("
+                          f"{coverage_cause(g.resolution, self.gsd)})", FotogeoWarning, stacklevel=4)
         return rep
 
     def close(self) -> None:

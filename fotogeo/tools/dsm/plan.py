@@ -46,6 +46,20 @@ def footprint(im, z: float) -> np.ndarray:
     return xyz[np.isfinite(xyz).all(axis=1)]
 
 
+def dem_range(source, ims) -> tuple:
+    """``(low, high)``: the heights of the DEM height source ``source`` as the run uses them (its valid cells in the
+    map CRS's unit, :attr:`z_range`), with a geoid's undulations added when it carries them
+    (:class:`~fotogeo.geometry.vertical.ShiftedHeights`, ``--geoid``): their least and greatest under the images
+    ``ims`` (their footprints' outlines), not over the whole geoid raster."""
+    und = getattr(source, "undulation", None)
+    lo, hi = (source if und is None else source.source).z_range
+    if und is None:
+        return float(lo), float(hi)
+    n = np.asarray(und.heights(np.vstack([footprint(im, 0.5 * (lo + hi))[:, :2] for im in ims])), float)
+    n = n[np.isfinite(n)]
+    return (float(lo + n.min()), float(hi + n.max())) if n.size else tuple(float(z) for z in source.z_range)
+
+
 def nearest_pair(views) -> tuple:
     """The two views whose projection centres are closest."""
     C = np.array([v.centre for v in views])
@@ -180,6 +194,17 @@ def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0
     kept = P[plausible_heights(P[:, 2], ceiling)]
     lo, hi = supported_range(kept[:, :2], kept[:, 2], widen, pad)
     return lo, min(hi, med + 0.75 * max(float(ceiling) - med, 1.0))
+
+
+def with_matches(sp, zlim: tuple, ceiling: float, least: int) -> tuple:
+    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` (:func:`matched_heights`,
+    widened as without a DEM) when there are ``least`` of them: a DEM's valid heights bound neither the
+    ground under its voids nor a DEM shifted from the orientation's heights (the RPC pairs' tie points likewise,
+    :mod:`.rpc_tool`)."""
+    if sp["n"] < least:
+        return zlim
+    lo, hi = matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
+    return min(zlim[0], lo), max(zlim[1], hi)
 
 
 def epipole_margin(view, direction) -> float:

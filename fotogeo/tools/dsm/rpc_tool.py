@@ -7,11 +7,10 @@ points' median height); the default cell twice the left images' ground sample di
 """
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 
-from ...errors import FotogeoWarning, InputError
+from ...errors import InputError
 from ...io.raster import AtomicOutputs
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..common.checks import check_output_grid
@@ -143,11 +142,9 @@ def _check_places(name: str, pair, size: float, large: bool) -> None:
 
 def _dem_heights(dem, dem_heights, geoid, crs, ims) -> tuple:
     """``(height source, low, high, notes)``: the DEM read in the RPCs' (ellipsoidal) reference and its range
-    padded by 10 % and 30 m."""
+    (:func:`.plan.dem_range`, a geoid's undulations added) padded by 10 % and 30 m."""
     source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
-    from ...geometry.dem import underlying_dem
-    d = underlying_dem(source)[0]
-    zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
+    zlo, zhi = plan.dem_range(source, ims)
     pad = 0.1 * (zhi - zlo) + 30.0
     return source, zlo - pad, zhi + pad, notes
 
@@ -302,7 +299,7 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
     seen = lambda g, h: plan.stereo_mask(g, h, kept, ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, crs, fill=fill, point_cloud=point_cloud, report=report, seen=seen,
-                            height_reference=ref, style=style)
+                            height_reference=ref, style=style, gsd=gsd)
         try:
             matching.match_tiles(grid, matches, products, prog.stage(0.1, 0.95, "matching"), timings, *dask)
             for m in matches:
@@ -312,7 +309,4 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
             products.close()
         out.commit()
     prog(1.0, "done")
-    if rep["completeness"] < 0.5:
-        warnings.warn(f"only {100 * rep['completeness']:.0f} % of the overlap got a height (textureless, "
-                      f"cloud-covered or changed areas?)", FotogeoWarning, stacklevel=3)
     return rep

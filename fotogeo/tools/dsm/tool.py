@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import FotogeoWarning, InputError, ModelError, OutputError
 from ...geometry.vertical import as_pyproj
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_style, check_styles_no_input, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path, warn_earlier_style
 from ...io.raster import AtomicOutputs
 from ...options.dsm import DSM
 from ...progress import as_progress
@@ -69,6 +69,8 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     style = dsm_style_path(output) if qgis_style else None
     if qgis_style:
         check_style(output, overwrite)
+    else:
+        warn_earlier_style(output)
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
     if qgis_style:
@@ -128,13 +130,14 @@ def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tup
     heights shifted by the fit's offset (:mod:`.dem_guide`)."""
     if dem is not None:
         source, ref, notes = terrain(dem, None, crs, ims, dem_heights=dem_heights, geoid=geoid)
-        from ...geometry.dem import underlying_dem
-        d = underlying_dem(source)[0]
-        zlo, zhi = float(np.nanmin(d.data)), float(np.nanmax(d.data))
+        zlo, zhi = plan.dem_range(source, ims)
         pad = 0.1 * (zhi - zlo) + 20.0
         f = _dem_fits_orientation(dem, source, views, sources, features)
         o = 0.0 if f is None else f.offset
-        return zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"], (source, f, pad)
+        said = dem_heights not in (None, "auto") or geoid is not None
+        ref, why = dem_guide.heights_reference(ims, ref, f, said)
+        return (zlo - pad - o, zhi + pad - o, ref, notes + ["height range from the DEM"] + why,
+                (source, f, pad))
     check = functools.partial(frames.sparse_check, cache=features)
     zlo, zhi = plan.sparse_heights(views, sources, check, frames.sparse_problem, MAX_EPIPOLAR_PX, ims,
                                    Limits().min_overlap)
@@ -262,10 +265,12 @@ def _pair_setup(p, views, sources, zlo, zhi, dem, scale, features, ims, fine=1.0
     # the DEM guides, or too few matches to go without its range; else (a DEM they disagree with or have no height
     # on) the matches' heights, as without --dem
     if dem is not None and (guide is not None or sp["n"] < dem_guide.DEM_MIN_MATCHES):
-        # above the run's range up to the DEM's margin above (what stands on it), below the lower camera as the
-        # matches' range (plan.matched_heights); the run's lowest height stays (its footprints set the grid)
-        reach = (zlo, zhi + 0.75 * max(ceiling - zhi, 0.0))
-        zlim = (zlo, zhi) if guide is None else guide.pair_range((zlo, zhi), reach)
+        # the run's range (the DEM's valid heights) joined with the matches' (plan.matched_heights, the RPC tie
+        # points' rule): ground in a void of the DEM above or below its valid heights is searched; above it up to
+        # the DEM's margin above (what stands on it), below the lower camera as the matches' range
+        run = plan.with_matches(sp, (zlo, zhi), ceiling, dem_guide.DEM_MIN_MATCHES)
+        reach = (run[0], max(run[1], zhi + 0.75 * max(ceiling - zhi, 0.0)))
+        zlim = run if guide is None else guide.pair_range(run, reach)
         return rp, plan.disparity_bounds(rp, *zlim), zlim, None, local.guides(sp, ceiling), guide
     if sp["n"] < dem_guide.DEM_MIN_MATCHES:
         return rp, None, None, (f"only {sp['n']} sparse matches (textureless, cloud-covered or changed between "
@@ -340,7 +345,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
     seen = lambda g, h: plan.stereo_mask(g, h, [p for p in tried if p.kept], ims)  # noqa: E731
     with AtomicOutputs(overwrite) as out:
         products = Products(out, output, grid, with_dem_vertical(crs, ref, dem), fill=fill, point_cloud=point_cloud,
-                            report=report, seen=seen, height_reference=ref, style=style)
+                            report=report, seen=seen, height_reference=ref, style=style, gsd=gsd)
         try:
             matching.match_tiles(grid, list(setups.values()), products, prog.stage(0.1, 0.95, "matching"), timings,
                                  *dask)

@@ -18,17 +18,44 @@ precision: a few with the right camera, several times more with a focal length t
 command). Above :data:`MAX_IMAGE_SIGMA0` with such a camera the run is refused, naming the camera's source, the
 sensor width it implies (``PixelXDimension / FocalPlaneXResolution``) and the fix; ``--self-calibration`` given
 explicitly (``none`` included) takes the camera as the user's and skips the check.
+
+A focal length edited to another value inside the lens's range (an editor, or a tag copied from another zoom
+position) leaves the residuals within that threshold when the edit is small, and nothing in the files tells it from
+a zoom position (:mod:`fotogeo.io.exif_lens`). The adjustment itself does: the self-calibration frees the focal
+length and holds it fixed only when the block cannot tell it from the exterior orientation to the image σ
+(:mod:`fotogeo.orientation.bundle_rules`); that rule keeps the estimate it had while free and its σ, and a block
+tied to its frames' GNSS positions determines that estimate far too loosely to replace the camera (its σ moves the
+image corners by more than the image σ) but well enough to contradict a value several hundredths off (the figures:
+docs/benchmarks/dsm.md, "A focal length edited inside the zoom range").
+:func:`check_exif_focal` warns when a camera from the images has a focal length that differs from that estimate
+by more than :data:`FOCAL_SIGMAS` of its σ and :data:`FOCAL_SHARE` of the focal length (the second spares a lens
+whose true focal length departs from its nominal one), naming both values and the ways out, and refuses it beyond
+:data:`FOCAL_REFUSE_SHARE`. Between the two it is a warning, not a refusal: on a rendered nadir block whose 35 mm
+equivalent gave exactly the true focal length, that nearly singular estimate (multiple correlation 0.9999, mostly
+with k2) came out 16 % and 16 σ away on one seed of four — the estimate can contradict a right camera by that much,
+while a focal length a quarter off moves the tie points' rays further than any seed did.
+The estimate is not used instead: held fixed, the focal length failed the rule that a self-calibrated camera must
+meet, and started from a focal length twice too long the free adjustment can stop halfway.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ...errors import ModelError
+from ...errors import FotogeoWarning, ModelError
 
 #: the image group's σ₀ with least-squares matching's formal σ above which a camera from FocalPlaneXResolution
 #: is refused: between what the right camera and a focal length twice too long give (module docstring)
 MAX_IMAGE_SIGMA0 = 4.0
 FOCAL_PLANE = "FocalPlaneXResolution"
+#: a focal length from the images is refused when the self-calibration's estimate held fixed is further from it than
+#: this many of its σ …
+FOCAL_SIGMAS = 3.0
+#: … and than this share of it: a warning (module docstring)
+FOCAL_SHARE = 0.05
+#: … and a refusal beyond this share
+FOCAL_REFUSE_SHARE = 0.25
 
 
 def image_sigma0_given(stats: dict) -> float | None:
@@ -38,25 +65,54 @@ def image_sigma0_given(stats: dict) -> float | None:
     return float(s0) if s0 is not None and np.isfinite(s0) else None
 
 
-def check_exif_focal(camera_source: str, camera, stats: dict, given: bool) -> None:
+def free_focal(fixed) -> tuple | None:
+    """``(estimate, σ)`` in px of the focal length the correlation rule held fixed (its estimate while free,
+    :func:`fotogeo.orientation.bundle_rules.correlation_rule`), None when it was not held so or its σ is unknown."""
+    for entry in fixed or ():
+        if entry.get("parameter") == "f" and "estimate" in entry and np.isfinite(entry.get("sigma", np.nan)):
+            return float(entry["estimate"]), float(entry["sigma"])
+    return None
+
+
+def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed=()) -> None:
     """Refuse (:class:`ModelError`) a camera whose focal length comes from EXIF ``FocalPlaneXResolution`` when the
-    tie points' residuals are more than :data:`MAX_IMAGE_SIGMA0` times the matcher's precision (module docstring).
+    tie points' residuals are more than :data:`MAX_IMAGE_SIGMA0` times the matcher's precision, and a camera from
+    the images whose focal length the self-calibration's estimate held fixed contradicts (module docstring).
     ``camera_source``: how the focal length was read (:func:`fotogeo.io.exif_camera.focal_of`'s source, "" for a
-    camera file); ``given``: ``--self-calibration`` was given."""
-    s0 = image_sigma0_given(stats)
-    if given or FOCAL_PLANE not in camera_source or s0 is None or s0 <= MAX_IMAGE_SIGMA0:
+    camera file); ``given``: ``--self-calibration`` was given; ``fixed``: the adjustment's parameters held fixed."""
+    if given or not camera_source:
         return
     w, h = camera.image_size
-    f = camera.focal_length * w / camera.sensor_size[0]
-    ppmm = f / _focal_mm(camera_source) if _focal_mm(camera_source) else None
-    sensor = f" and a sensor {w / ppmm:.2f} x {h / ppmm:.2f} mm" if ppmm else ""
-    raise ModelError(f"the tie points' residuals are {s0:.1f} times least-squares matching's precision (more than "
-                     f"{MAX_IMAGE_SIGMA0:g}) with the camera guessed from the images' EXIF: focal {f:.0f} px at "
-                     f"{w}x{h} px from {camera_source}{sensor}; FocalPlaneXResolution describes the camera's full "
-                     f"frame, so a copy resized with its EXIF PixelXDimension rewritten to the new size gets a focal "
-                     f"length too long by the resize factor; give the camera (--camera), triangulate the originals, "
-                     f"or, if the camera is right, --self-calibration none (or the parameters to estimate)",
-                     option="--camera")
+    px = w / camera.sensor_size[0]  # the camera's focal-length unit in pixels
+    f, free = camera.focal_length * px, free_focal(fixed)
+    mm = _focal_mm(camera_source)
+    free = None if free is None else (free[0] * px, free[1] * px)
+    estimate = "" if free is None else (f"; with the focal length free the adjustment puts it at {free[0]:.0f} ± "
+                                        f"{free[1]:.0f} px" + (f" ({free[0] * mm / f:.2f} mm)" if mm else ""))
+    s0 = image_sigma0_given(stats)
+    if FOCAL_PLANE in camera_source and s0 is not None and s0 > MAX_IMAGE_SIGMA0:
+        sensor = f" and a sensor {w * mm / f:.2f} x {h * mm / f:.2f} mm" if mm else ""
+        raise ModelError(f"the tie points' residuals are {s0:.1f} times least-squares matching's precision (more "
+                         f"than {MAX_IMAGE_SIGMA0:g}) with the camera guessed from the images' EXIF: focal {f:.0f} px "
+                         f"at {w}x{h} px from {camera_source}{sensor}{estimate}; FocalPlaneXResolution describes the "
+                         f"camera's full frame, so a copy resized with its EXIF PixelXDimension rewritten to the new "
+                         f"size gets a focal length too long by the resize factor (and an edited FocalLength tag by "
+                         f"any factor); give the camera (--camera), triangulate the originals, or, if the camera is "
+                         f"right, --self-calibration none (or the parameters to estimate)", option="--camera")
+    if free is None or abs(free[0] - f) <= max(FOCAL_SIGMAS * free[1], FOCAL_SHARE * f):
+        return
+    share = abs(free[0] / f - 1)
+    text = (f"the images' focal length is {f:.0f} px from {camera_source.split(';')[0]}{estimate}, {share:.0%} and "
+            f"{abs(free[0] - f) / free[1]:.0f} σ from it (more than {FOCAL_SHARE:.0%} and {FOCAL_SIGMAS:g} σ): the "
+            f"focal length tag may be edited, a rounded nominal value or another lens's or zoom position's (the "
+            f"camera's original files keep the one it took them with)")
+    if share <= FOCAL_REFUSE_SHARE:
+        warnings.warn(text + "; the results use the images' focal length: check them against control, give the "
+                      "camera (--camera), or let the adjustment estimate it (--self-calibration f,k1,k2,p1,p2 "
+                      "--max-correlation 1)", FotogeoWarning, stacklevel=2)
+        return
+    raise ModelError(text + f"; more than {FOCAL_REFUSE_SHARE:.0%} off: give the camera (--camera), or, if the "
+                     f"images' focal length is right, --self-calibration none", option="--camera")
 
 
 def _focal_mm(source: str) -> float | None:

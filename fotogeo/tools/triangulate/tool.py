@@ -66,7 +66,7 @@ from ...errors import InputError, ModelError, OutputError
 from ...io.block import check_frame_names, frame_key, read_image_observations
 from ...io.compression import check_compression
 from ...io.output_checks import GEOTIFF_SUFFIXES, check_outputs
-from ...io.qml import check_style, check_styles_no_input, dsm_style_path
+from ...io.qml import check_style, check_styles_no_input, dsm_style_path, warn_earlier_style
 from ...orientation.bundle import CHECK_START, Block, BundleOptions
 from ...progress import as_progress
 from ..common.boundary import tool
@@ -236,6 +236,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     style = dsm_style_path(kw["dsm"]) if kw["dsm"] and kw["qgis_style"] else None
     if style is not None:
         check_style(kw["dsm"], kw["overwrite"])
+    elif kw["dsm"]:
+        warn_earlier_style(kw["dsm"])
     dsm_files = [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None)]
     check_outputs([(p, "output", None) for p in finals.values()] + dsm_files, inputs, kw["overwrite"])
     if style is not None:
@@ -284,7 +286,7 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
             sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
-        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]))
+        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed)
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,

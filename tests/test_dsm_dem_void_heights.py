@@ -1,0 +1,56 @@
+"""``fotogeo dsm`` with frames and a DEM whose voids cover the high ground: the pairs search the heights their
+sparse matches give as well as the DEM's valid ones (:func:`fotogeo.tools.dsm.plan.with_matches`), so the ground
+above the DEM's highest valid height still gets heights."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+
+from fotogeo.tools.dsm import dsm
+
+from dsm_scenes import make_scene, write_dem
+
+
+@pytest.fixture(scope="module")
+def nadir(tmp_path_factory):
+    return make_scene("nadir", tmp_path_factory.mktemp("nadir"))
+
+
+def _high_voided(sc, path, share: float):
+    """A 20 m DEM of the scene's true surface with its cells above the ``share`` quantile of its heights under the
+    frames' centres ± 400 m nodata (an SRTM-like void over the peaks); returns the path and that height."""
+    write_dem(sc, path, cell=20.0)
+    with rasterio.open(path, "r+") as ds:
+        z = ds.read(1).astype(float)
+        t = ds.transform
+        rows, cols = np.indices(z.shape)
+        X, Y = t.c + (cols + 0.5) * t.a, t.f + (rows + 0.5) * t.e
+        xy = np.array([[float(v) for v in line.split()[1:3]] for line in open(sc["eo"]) if line.strip()
+                       and not line.startswith("#")])
+        near = ((X > xy[:, 0].min() - 400) & (X < xy[:, 0].max() + 400) & (Y > xy[:, 1].min() - 400)
+                & (Y < xy[:, 1].max() + 400))
+        cut = float(np.quantile(z[near], share))
+        ds.nodata = -9999.0
+        ds.write(np.where(z > cut, -9999.0, z).astype(np.float32), 1)
+    return str(path), cut
+
+
+def test_ground_above_the_dems_void_gets_heights(nadir, tmp_path):
+    """Before: each pair searched the DEM's valid heights plus a padding only, so the DSM had no height above
+    them (3 % of the cells above that range, at its edge); the matches' heights now reach them, as they do for RPC
+    pairs (36 %: as many as without a DEM, where the matches give every height), and those heights are right."""
+    dem, cut = _high_voided(nadir, tmp_path / "dem.tif", 0.6)
+    out = tmp_path / "dsm.tif"
+    rep = dsm(nadir["images"][:3], out, camera=nadir["camera"], eo=nadir["eo"], crs=nadir["crs"], dem=dem,
+              qgis_style=False)
+    with rasterio.open(out) as ds:
+        h, t, nod = ds.read(1).astype(float), ds.transform, ds.nodata
+    rows, cols = np.indices(h.shape)
+    XY = np.column_stack([(t.c + (cols + 0.5) * t.a).ravel(), (t.f + (rows + 0.5) * t.e).ravel()])
+    truth = nadir["surface"](XY).reshape(h.shape)
+    seen = h != nod
+    high = truth > rep["height_search_range"][1]  # above the run's range from the DEM (its valid heights, padded)
+    assert high.sum() > 50, high.sum()
+    assert seen[high].mean() > 0.25, seen[high].mean()
+    assert np.median(np.abs(h[high & seen] - truth[high & seen])) < 2.0
