@@ -2,8 +2,8 @@
 roof or a specular reflection shows only the images' noise, SGM's paths carry disparities into it and the left-right
 check passes whatever both directions settle on alike. Rendered pairs: a uniform "lake" on the ground (in both
 images, each with its own noise) and a patch uniform in one image only; no disparity of the area or of its border
-may be more than 1.5 px off (before: hundreds of pixels of the lakes up to 5 px off, the patch 1.8 px), and the
-textured ground around keeps its disparities."""
+may be more than a pixel off (before, with a uniqueness ratio of 30: 210 and 325 pixels of the lakes up to 2.4 px
+off, 50 of the patch up to 2.1 px; with 10: up to 4 px), and the textured ground around keeps its disparities."""
 from __future__ import annotations
 
 import cv2
@@ -38,7 +38,7 @@ def _pair(seed, where: str):
     return left, right, truth
 
 
-@pytest.mark.parametrize("seed, where", [(3, "both"), (8, "both"), (5, "left")])
+@pytest.mark.parametrize("seed, where", [(8, "both"), (11, "both"), (13, "left")])
 def test_a_uniform_area_is_a_hole_not_wrong_disparities(seed, where):
     left, right, truth = _pair(seed, where)
     ok = np.ones(left.shape, bool)
@@ -46,7 +46,7 @@ def test_a_uniform_area_is_a_hole_not_wrong_disparities(seed, where):
     err = np.abs(d - truth)
     near = np.zeros_like(ok)
     near[AREA[0].start - 8:AREA[0].stop + 8, AREA[1].start - 8:AREA[1].stop + 8] = True
-    assert not (err[near] > 1.5).any(), (int((err[near] > 1.5).sum()), float(np.nanmax(err[near])))
+    assert not (err[near] > 1.0).any(), (int((err[near] > 1.0).sum()), float(np.nanmax(err[near])))
     away = ~near
     away[:10] = away[-10:] = False
     away[:, :30] = away[:, -30:] = False
