@@ -37,8 +37,8 @@ HALF_NORMAL_MEDIAN = 0.6745
 SIGNAL_TO_NOISE = 1.0
 #: pixels this close (px) to a signal-less one are refused too (module docstring)
 FLAT_REACH = 6
-#: signal-less areas narrower than this (px: saturated specks, low-contrast spots) do not take their border with them
-FLAT_WIDTH = 15
+#: signal-less places narrower than about this (px: saturated specks, low-contrast spots) keep their border (module docstring)
+FLAT_WIDTH = 31
 
 
 def noise_sigma(img, valid) -> float:
@@ -69,14 +69,15 @@ def signal_mask(img, valid, floor: float, snr: float = SIGNAL_TO_NOISE) -> np.nd
 
 
 def _away_from_flat(mask, reach: int) -> np.ndarray:
-    """``mask`` without the pixels within ``reach`` pixels (a square) of a signal-less area: where most pixels of a
-    ``FLAT_WIDTH`` x ``FLAT_WIDTH`` window lie outside ``mask`` (narrower spots, and the few pixels of a uniform
-    area whose noise passes by chance, do not count)."""
+    """``mask`` without the pixels within ``reach`` pixels (a square) of a signal-less area: the pixels outside
+    ``mask`` within ``FLAT_WIDTH / 2`` of a place where most of a ``FLAT_WIDTH`` x ``FLAT_WIDTH`` window lies outside
+    it (narrower spots, and the few pixels of a uniform area whose noise passes by chance, do not count)."""
     if reach <= 0:
         return mask
     k = (FLAT_WIDTH, FLAT_WIDTH)
-    flat = (cv2.blur((~mask).astype(np.float32), k, borderType=cv2.BORDER_REPLICATE) > 0.5).astype(np.uint8)
-    near = cv2.dilate(flat, np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)).astype(bool)
+    core = (cv2.blur((~mask).astype(np.float32), k, borderType=cv2.BORDER_REPLICATE) > 0.5).astype(np.uint8)
+    area = cv2.dilate(core, np.ones(k, np.uint8)).astype(bool) & ~mask  # the area's own pixels out to its edge
+    near = cv2.dilate(area.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)).astype(bool)
     return mask & ~near
 
 
