@@ -37,7 +37,7 @@ HALF_NORMAL_MEDIAN = 0.6745
 SIGNAL_TO_NOISE = 1.0
 #: pixels this close (px) to a signal-less one are refused too (module docstring)
 FLAT_REACH = 6
-#: signal-less places narrower than about this (px: saturated specks, low-contrast spots) keep their border (module docstring)
+#: signal-less places narrower than about this (px: specks, low-contrast spots) keep their border
 FLAT_WIDTH = 31
 
 
