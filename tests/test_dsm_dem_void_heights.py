@@ -54,3 +54,20 @@ def test_ground_above_the_dems_void_gets_heights(nadir, tmp_path):
     assert high.sum() > 50, high.sum()
     assert seen[high].mean() > 0.25, seen[high].mean()
     assert np.median(np.abs(h[high & seen] - truth[high & seen])) < 2.0
+
+
+def test_a_lone_mismatch_among_a_few_dozen_matches_does_not_widen_a_dems_range():
+    """Beyond the DEM's heights only heights that neighbouring matches support are searched: one match 800 m above
+    ground at 100 ± 2 m among 25 widened [82, 117] to [-221, 1025] (review 3); a supported rise still does."""
+    import numpy as np
+    from fotogeo.tools.dsm.plan import with_matches
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0, 500, (25, 2))
+    z = 100 + rng.normal(0, 2, 25)
+    z[0] = 900.0
+    lo, hi = with_matches({"n": 25, "points": np.column_stack([xy, z])}, (95.0, 105.0), 3000.0, 20)
+    assert lo >= 85 and hi <= 120, (lo, hi)
+    z[1:6] = 160 + rng.normal(0, 0.5, 5)  # a hill the DEM's void hides: five neighbouring matches on it
+    xy[1:6] = xy[1] + rng.uniform(-5, 5, (5, 2))
+    lo, hi = with_matches({"n": 25, "points": np.column_stack([xy, z])}, (95.0, 105.0), 3000.0, 20)
+    assert 165 <= hi <= 175, (lo, hi)

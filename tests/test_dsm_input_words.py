@@ -37,6 +37,8 @@ def test_the_pairs_file_names_frames_with_spaces_quoted_or_tab_separated(tmp_pat
     pairs.write_text("frame one frame two\n")
     with pytest.raises(InputError, match=r"a name with spaces in quotes or the two names separated by a tab"):
         read_pairs(pairs, names)
+    pairs.write_text("O'Brien_1 O'Brien_2\n")  # an apostrophe inside a name is no quote (review 3)
+    assert read_pairs(pairs, ["O'Brien_1", "O'Brien_2"]) == [(0, 1)]
 
 
 def test_an_orientation_folder_without_its_camera_is_named_in_flags(tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import threading
 from collections import OrderedDict
 from pathlib import Path
@@ -108,7 +109,7 @@ def read_pairs(pairs, names) -> list | None:
 def _pair_line(line: str) -> list:
     """The names on one line of a pairs file: after ``#`` a comment; two names separated by a tab, or by commas or
     spaces, a name with spaces or commas in double or single quotes (``"frame one" "frame two"``)."""
-    if '"' in line or "'" in line:
+    if re.search(r"(^|[\s,])[\"']", line):  # a quoted name (an apostrophe inside a name is no quote)
         import shlex
         lex = shlex.shlex(line, posix=True)
         lex.whitespace, lex.whitespace_split, lex.commenters = lex.whitespace + ",", True, "#"

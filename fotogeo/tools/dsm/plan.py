@@ -196,15 +196,23 @@ def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0
     return lo, min(hi, med + 0.75 * max(float(ceiling) - med, 1.0))
 
 
-def with_matches(sp, zlim: tuple, ceiling: float, least: int) -> tuple:
-    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` (:func:`matched_heights`,
-    widened as without a DEM) when there are ``least`` of them: a DEM's valid heights bound neither the
-    ground under its voids nor a DEM shifted from the orientation's heights (the RPC pairs' tie points likewise,
-    :mod:`.rpc_tool`)."""
-    if sp["n"] < least:
+def with_matches(sp, zlim: tuple, ceiling: float, least: int, pad: float = 10.0) -> tuple:
+    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` that neighbouring matches
+    :func:`support <supported>` (after :func:`plausible_heights`), ``pad`` metres beyond, when there are ``least``
+    of them: a DEM's valid heights bound neither the ground under its voids nor a DEM shifted from the orientation's
+    heights (the RPC pairs' tie points likewise, :mod:`.rpc_tool`). Only supported heights reach beyond the DEM: a
+    lone mismatch among a few dozen matches would otherwise widen the range by hundreds of metres, which the DEM
+    bounded before."""
+    P = np.asarray(sp["points"], float).reshape(-1, 3)
+    if sp["n"] < least or len(P) == 0:
         return zlim
-    lo, hi = matched_heights(sp["points"], ceiling, widen=0.5, pad=10.0)
-    return min(zlim[0], lo), max(zlim[1], hi)
+    med = float(np.median(P[:, 2]))
+    kept = P[plausible_heights(P[:, 2], ceiling)]
+    z = kept[supported(kept[:, :2], kept[:, 2]), 2]
+    if len(z) < least:
+        return zlim
+    hi = min(float(z.max()) + pad, med + 0.75 * max(float(ceiling) - med, 1.0))
+    return min(zlim[0], float(z.min()) - pad), max(zlim[1], hi)
 
 
 def epipole_margin(view, direction) -> float:
