@@ -38,11 +38,9 @@ only where:
   directions are cut off alike). A range from sparse matches or heights can miss a pixel's disparity; the pixel
   is then a hole, not a height at the range's end (as the coarse-to-fine band's ends in
   :mod:`fotogeo.stereo.pyramid`);
-* the left pixel and its match have texture: the grey values' standard deviation over their ``TEXTURE_WINDOW``
-  neighbourhoods reaches ``min_texture`` levels (of the 8-bit stretch) and shows a signal above each image's
-  noise, and neither lies near a place without one (:func:`fotogeo.stereo.signal.matched_signal`). SGM's paths
-  carry costs from textured places into flat ones, where they would give a smooth, plausible and unmeasured surface
-  or islands of wrong heights; there a hole is the honest answer.
+* the left pixel has texture: the grey values' standard deviation over its ``TEXTURE_WINDOW`` neighbourhood
+  reaches ``min_texture`` levels (of the 8-bit stretch). SGM's paths carry costs from textured places into flat
+  ones, where they would give a smooth, plausible and unmeasured surface; there a hole is the honest answer.
 
 **Sub-pixel error cancellation** (Shimizu & Okutomi 2005): the parabola through three costs is biased
 towards whole disparities ("pixel-locking": the fractional parts of the disparities pile up at 0); the bias is
@@ -79,8 +77,6 @@ import math
 import cv2
 import numpy as np
 
-from .signal import TEXTURE_WINDOW, matched_signal, texture  # noqa: F401  (texture: re-exported)
-
 
 def to_uint8(img, valid, bounds=None) -> np.ndarray:
     """``img`` stretched to 1..255 between the 0.5 and 99.5 percentiles of its ``valid`` pixels (or ``bounds``
@@ -93,6 +89,18 @@ def to_uint8(img, valid, bounds=None) -> np.ndarray:
     out = np.clip(1 + 254 * (img - lo) / max(float(hi - lo), 1e-6), 1, 255)
     out[~valid] = 0
     return out.astype(np.uint8)
+
+
+#: the window (pixels) of the texture test
+TEXTURE_WINDOW = 7
+
+
+def texture(img8) -> np.ndarray:
+    """The grey values' local standard deviation over ``TEXTURE_WINDOW`` x ``TEXTURE_WINDOW`` pixels."""
+    g = img8.astype(np.float32)
+    k = (TEXTURE_WINDOW, TEXTURE_WINDOW)
+    m = cv2.blur(g, k)
+    return np.sqrt(np.maximum(cv2.blur(g * g, k) - m * m, 0.0))
 
 
 #: SGBM's pre-filter clips the row derivative to this (``preFilterCap``)
@@ -301,8 +309,7 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
         xi = np.where(inside, xr, 0).astype(np.intp)
         back = np.take_along_axis(dr, xi, axis=1)
         vr = np.take_along_axis(valid_right, xi, axis=1)
-        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr
-        ok &= matched_signal(L, R, valid_left, valid_right, xi, min_texture)
+        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr & (texture(L) >= min_texture)
     with np.errstate(invalid="ignore"):
         ok &= (dl >= lo + RANGE_EDGE) & (dl <= hi - RANGE_EDGE)  # not cut off at the range's ends
     dl[~ok] = np.nan
