@@ -31,7 +31,8 @@ def test_a_focal_length_its_free_estimate_contradicts_is_named_and_refused_a_qua
     with pytest.warns(FotogeoWarning, match=r"focal length is 803 px from 4.3 mm x FocalPlaneXResolution \(186.64 "
                                             r"px/mm\); with the focal length free the adjustment puts it at 933 ± 8 "
                                             r"px \(5.00 mm\), 16% and 16 σ from it .* edited.*--camera"):
-        check_exif_focal(SOURCE, cam, GOOD, False, _held(933.0 * units, 8.0 * units))
+        check_exif_focal(SOURCE, cam, stats := dict(GOOD), False, _held(933.0 * units, 8.0 * units))
+    assert "puts it at 933 ± 8 px" in stats["focal_length_check"]  # into report.json's statistics
     with pytest.raises(ModelError, match=r"puts it at 1100 ± 8 px .* 37% and 37 σ .* more than 25% off: .*--camera"):
         check_exif_focal(SOURCE, cam, GOOD, False, _held(1100.0 * units, 8.0 * units))
     check_exif_focal(SOURCE, cam, GOOD, False, _held(814.6 * units, 3.4 * units))  # 1.5 %, 3.5 σ: a real lens
@@ -58,6 +59,8 @@ def test_an_ebee_focal_length_edited_inside_its_zoom_range_is_named_or_refused(t
     assert "focal length is 933 px from 5 mm x FocalPlaneXResolution" in said and "--camera" in said, said
     free = float(said.split("puts it at ")[1].split(" px")[0].split(" ±")[0])
     assert abs(free / 802.57 - 1) < 0.03, said  # the camera's 4.3 mm, not the tag's 5 mm
+    res = CliRunner().invoke(_main(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "quiet"), "-q"])
+    assert res.exit_code == 0 and "camera: the images' focal length is 933 px" in res.output, res.output  # -q too
     res = CliRunner().invoke(_main(), ["triangulate", *map(str, frames), "-o", str(tmp_path / "kept"), "-q",
                                        "--self-calibration", "none"])
     assert res.exit_code == 0, res.output

@@ -58,6 +58,8 @@ def command(frames, camera, eo, observations, gcps, reference, folder, overwrite
                f"sigma0 {rep['sigma0']:.3f}, image RMS {st['image_rms_px']:.3f} px, {st['n_blunders']} blunders culled")
     if st.get("covariance_rule"):
         click.echo(f"sigma of the results: {st['covariance_rule']}")
+    if quiet and st.get("focal_length_check"):  # a camera its own adjustment contradicts: said even with -q
+        click.echo(f"camera: {st['focal_length_check']}")
     for line in variance_lines(rep):
         click.echo(line)
     for line in accuracy_lines(rep):

@@ -107,9 +107,10 @@ def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed
             f"focal length tag may be edited, a rounded nominal value or another lens's or zoom position's (the "
             f"camera's original files keep the one it took them with)")
     if share <= FOCAL_REFUSE_SHARE:
-        warnings.warn(text + "; the results use the images' focal length: check them against control, give the "
-                      "camera (--camera), or let the adjustment estimate it (--self-calibration f,k1,k2,p1,p2 "
-                      "--max-correlation 1)", FotogeoWarning, stacklevel=2)
+        text += ("; the results use the images' focal length: check them against control, give the camera "
+                 "(--camera), or let the adjustment estimate it (--self-calibration f,k1,k2,p1,p2 --max-correlation 1)")
+        stats["focal_length_check"] = text  # report.json's statistics; the command line prints it even with -q
+        warnings.warn(text, FotogeoWarning, stacklevel=2)
         return
     raise ModelError(text + f"; more than {FOCAL_REFUSE_SHARE:.0%} off: give the camera (--camera), or, if the "
                      f"images' focal length is right, --self-calibration none", option="--camera")
