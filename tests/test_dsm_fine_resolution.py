@@ -47,3 +47,15 @@ def test_the_cause_named_is_texture_when_the_resolution_is_not_finer_than_the_gs
     assert coverage_cause(2.0, 1.0).startswith("textureless")
     assert coverage_cause(2.0, None).startswith("textureless")
     assert "--resolution 0.5 is finer" in coverage_cause(0.5, 1.0) and "--resolution 2 " in coverage_cause(0.5, 1.0)
+
+
+def test_the_low_coverage_warning_comes_after_the_dsm_is_written(nadir, tmp_path):
+    """A caller that turns warnings into errors (``-W error``, an embedding application) lost the finished DSM: the
+    warning was raised before the outputs were committed (review 3). Now they are in place when it comes."""
+    out = tmp_path / "dsm.tif"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FotogeoWarning)
+        with pytest.raises(FotogeoWarning, match="% of the overlap got a height"):
+            dsm(nadir["images"][:2], out, camera=nadir["camera"], eo=nadir["eo"], crs=nadir["crs"],
+                resolution=round(0.55 * nadir["gsd"], 2), qgis_style=False)
+    assert out.is_file()

@@ -120,7 +120,7 @@ def warn_earlier_style(dsm, role: str = "DSM") -> None:
     if style.is_file() and users_style(dsm) is None:
         warnings.warn(f"{str(style)!r}, the QGIS style fotogeo wrote for an earlier {role} of that name, is left "
                       f"beside it (no style written this run): QGIS draws the new {role} with that run's height "
-                      f"range; delete it or write a new one", FotogeoWarning, stacklevel=3)
+                      f"range; delete it, or write a new one (without --no-qgis-style)", FotogeoWarning, stacklevel=3)
 
 
 def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:

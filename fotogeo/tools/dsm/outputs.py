@@ -122,6 +122,7 @@ class Products:
         from ...io.raster import gdal_env, geotiff_profile
         self.out, self.output, self.grid, self.crs, self.fill = out, output, grid, crs, fill
         self.point_cloud, self.report, self.seen, self.style = point_cloud, report, seen, style
+        self.coverage_warning = None
         self.gsd = gsd  # the images' ground sample distance (m): the cause named when few cells get a height
         self.cloud = None
         if point_cloud is not None:
@@ -218,10 +219,16 @@ class Products:
             from ...io.report import write_json
             rep["outputs"]["report"] = str(self.report)
             write_json(self.out.temp(self.report), rep)
-        if rep["completeness"] < LOW_COMPLETENESS:
-            warnings.warn(f"only {100 * rep['completeness']:.0f} % of the overlap got a height ("
-                          f"{coverage_cause(g.resolution, self.gsd)})", FotogeoWarning, stacklevel=4)
+        if rep["completeness"] < LOW_COMPLETENESS:  # said by warn_coverage, once the outputs are in place
+            self.coverage_warning = (f"only {100 * rep['completeness']:.0f} % of the overlap got a height ("
+                                     f"{coverage_cause(g.resolution, self.gsd)})")
         return rep
+
+    def warn_coverage(self) -> None:
+        """:meth:`finish`'s low-completeness warning, given after the outputs are committed: a caller that turns
+        warnings into errors keeps the DSM it was told about."""
+        if self.coverage_warning:
+            warnings.warn(self.coverage_warning, FotogeoWarning, stacklevel=3)
 
     def close(self) -> None:
         """Release the files (after :meth:`finish`, or on an error: AtomicOutputs then deletes them)."""

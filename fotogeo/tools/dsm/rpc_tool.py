@@ -308,5 +308,6 @@ def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, ru
         finally:
             products.close()
         out.commit()
+    products.warn_coverage()
     prog(1.0, "done")
     return rep

@@ -69,12 +69,12 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     style = dsm_style_path(output) if qgis_style else None
     if qgis_style:
         check_style(output, overwrite)
-    else:
-        warn_earlier_style(output)
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
                    (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
     if qgis_style:
         check_styles_no_input(output, [*images, dem, geoid])
+    else:  # after the outputs' checks: a run refused leaves the style with its own DSM
+        warn_earlier_style(output)
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
@@ -357,6 +357,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
         finally:
             products.close()
         out.commit()
+    products.warn_coverage()
     _warn_thin(choices, names, rep["single_pair_share"])
     prog(1.0, "done")
     return rep

@@ -236,12 +236,12 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     style = dsm_style_path(kw["dsm"]) if kw["dsm"] and kw["qgis_style"] else None
     if style is not None:
         check_style(kw["dsm"], kw["overwrite"])
-    elif kw["dsm"]:
-        warn_earlier_style(kw["dsm"])
     dsm_files = [(kw["dsm"], "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None)]
     check_outputs([(p, "output", None) for p in finals.values()] + dsm_files, inputs, kw["overwrite"])
     if style is not None:
         check_styles_no_input(kw["dsm"], [*frames, kw["dem"], *_as_list(kw["reference"])])
+    elif kw["dsm"]:  # after the outputs' checks, as dsm
+        warn_earlier_style(kw["dsm"])
     with prog.timed("inputs"):
         start = block_start(frames, camera, eo, kw["gcps"], kw["crs"], kw["gcp_crs"], kw["reference"], kw["dem"],
                             kw["geoinfo"], kw["sfm_frame"])
