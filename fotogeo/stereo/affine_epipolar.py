@@ -18,14 +18,21 @@ the median disparity ``u1 − u2`` of the grid at 0. Both maps take and give cor
 The **relative pointing correction** (s2p's "pointing error correction"): tie points ``p2`` lie off the
 epipolar curves ``q(h)`` of their ``p1`` (the right image's RPC misplaced relative to the left's); a
 translation ``τ`` of the right image minimises ``Σ (n_i·(q_i + τ − p2_i))²`` (``n_i`` the curve's unit
-normal at its closest point ``q_i``), robustly (points whose residual exceeds 3 px after the first fit are
-dropped). Along the epipolar lines ``τ`` is not observable: there it would move heights, not rows; when the
-lines are nearly parallel (a satellite pair) that component is left 0 (least squares truncated at a singular
-value ratio of 0.1).
+normal at its closest point ``q_i``), robustly: the largest consensus of the tie points within 3 px of one
+translation (:func:`fotogeo.models.ransac.ransac`, Fischler & Bolles 1981, on samples of two tie points) starts a
+least-squares refit that keeps the points within ``max(3 px, 3·1.4826·MAD)`` of it. A least-squares start over
+all tie points is not enough: in a thin overlap most of the SIFT matches lie where the other image does not
+reach, off by hundreds of pixels (the ventoux pair cut to a 47-column overlap: 53 of 88 agreeing at 4.8 px, a
+least-squares fit over all at 61.6 px). Along the epipolar lines ``τ`` is not observable: there it would move
+heights, not rows; when the lines are nearly parallel (a satellite pair) that component is left 0 (least squares
+truncated at a singular value ratio of 0.1).
 """
 from __future__ import annotations
 
 import numpy as np
+
+from ..errors import MatchingError
+from ..models.ransac import ransac
 
 
 def affine_fundamental(p1, p2) -> np.ndarray:
@@ -80,13 +87,36 @@ def curve_offsets(p2, q_lo, q_hi) -> tuple:
     return (w * nrm).sum(axis=1), nrm, (w * t).sum(axis=1) / L
 
 
+class _Shift:
+    """The translation ``τ`` of :func:`pointing_correction` in the interface :func:`fotogeo.models.ransac.ransac`
+    asks: ``src`` the curves' unit normals ``n_i``, ``dst`` the offsets ``(off_i, 0)``, residual ``|off_i − n_i·τ|``
+    (not a registered model: it maps nothing a user would pick)."""
+
+    name, min_points = "pointing shift", 2
+
+    def __init__(self, tau):
+        self.tau = tau
+
+    @classmethod
+    def estimate(cls, nrm, off, weights=None):
+        return cls(np.linalg.lstsq(nrm, off[:, 0], rcond=0.1)[0])  # along nearly parallel lines: not observed
+
+    def residuals(self, nrm, off):
+        return np.abs(off[:, 0] - nrm @ self.tau)
+
+
 def pointing_correction(p2, q_lo, q_hi, threshold: float = 3.0) -> tuple:
-    """``(τ (2,), inliers (N,) bool, residuals after (N,))`` (module docstring)."""
+    """``(τ (2,), inliers (N,) bool, residuals after (N,))`` (module docstring); no inliers (and ``τ = 0``) with
+    fewer than two tie points."""
     off, nrm, _ = curve_offsets(p2, q_lo, q_hi)
-    keep = np.ones(len(off), bool)
+    try:
+        keep = ransac(_Shift, nrm, np.column_stack([off, np.zeros_like(off)]), threshold, rng=0,
+                      min_inliers=2).inliers
+    except MatchingError:
+        return np.zeros(2), np.zeros(len(off), bool), off
     tau = np.zeros(2)
     for _ in range(3):
-        tau = np.linalg.lstsq(nrm[keep], off[keep], rcond=0.1)[0]  # along nearly parallel lines: not observed
+        tau = _Shift.estimate(nrm[keep], off[keep, None]).tau
         res = off - nrm @ tau
         new = np.abs(res) <= max(threshold, 3.0 * 1.4826 * np.median(np.abs(res[keep])))
         if np.array_equal(new, keep) or new.sum() < 3:

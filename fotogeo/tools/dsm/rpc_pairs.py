@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -59,6 +60,9 @@ BOX_PAD = 48
 MISS_SAMPLE = 4096
 #: the report lists at most this many tiles' disparity ranges
 MAX_RANGES = 64
+#: the relative pointing correction needs at least this many tie points, and as many agreeing on it (within
+#: 3 px): fewer cannot tell a correction from a chance alignment of false matches
+MIN_TIE_POINTS = 10
 #: a relative pointing correction above this many pixels is reported as large (a few pixels are usual for
 #: vendor RPCs without ground control)
 LARGE_POINTING_PX = 10.0
@@ -112,7 +116,7 @@ def pointing(m1, m2, sources, zlo, zhi) -> dict:
     (g1, s1), (g2, s2) = overview(sources[0]), overview(sources[1])
     p1, p2 = tie_points(g1, g2)
     p1, p2 = p1 * s1, p2 * s2
-    if len(p1) < 10:
+    if len(p1) < MIN_TIE_POINTS:
         raise InputError(f"only {len(p1)} tie points between the images: they may not overlap, or be textureless "
                          f"or cloud-covered; give images that show the same ground")
     q = _models(m1, m2, np.zeros(2))
@@ -121,6 +125,12 @@ def pointing(m1, m2, sources, zlo, zhi) -> dict:
     ok = np.isfinite(q_lo).all(axis=1) & np.isfinite(q_hi).all(axis=1)
     p1, p2, q_lo, q_hi = p1[ok], p2[ok], q_lo[ok], q_hi[ok]
     tau, inl, res = ae.pointing_correction(p2, q_lo, q_hi)
+    if inl.sum() < MIN_TIE_POINTS:
+        names = " and ".join(repr(Path(s.path).stem) for s in sources)
+        raise InputError(f"images {names}: only {int(inl.sum())} of their {len(p1)} tie points agree on one relative "
+                         f"pointing correction (within 3 px; {MIN_TIE_POINTS} needed), too few to tell it: the "
+                         f"images may overlap too thinly (the others then match ground only one image shows), or "
+                         f"show repetitive, textureless or cloud-covered ground; give images that overlap more")
     before = ae.curve_offsets(p2, q_lo, q_hi)[0]
     along = ae.curve_offsets(p2 - tau, q_lo, q_hi)[2]
     z = zlo + along * (zhi - zlo)
