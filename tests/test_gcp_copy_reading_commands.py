@@ -154,3 +154,36 @@ def test_triangulate_refuses_a_frame_whose_gcps_were_read_on_a_copy(ngi, tmp_pat
 def test_triangulate_reads_the_right_frames_control(ngi, tmp_path):
     gcp, _, _ = _block_control(ngi, tmp_path)
     assert len(gcp.name) == 80 and sorted(set(gcp.frame)) == [f"{n}_RGB" for n in FRAMES]
+
+
+def test_triangulate_command_refuses_the_copy_in_one_line_before_any_work(ngi, tmp_path):
+    """``fotogeo triangulate --gcps``: one line naming the file, the frame, the copy and the fix; nothing written."""
+    try:
+        _block_control(ngi, tmp_path, lambda p: p * 0.5)
+    except InputError:
+        pass  # the file is written; the refusal is the command's to give
+    frames = [str(ngi["dir"] / "frames" / f"{n}_RGB.tif") for n in FRAMES]
+    result = CliRunner().invoke(main, ["triangulate", *frames, "--camera", ngi["camera"], "--eo",
+                                       str(ngi["dir"] / "exterior_orientation.txt"), "--gcps",
+                                       str(tmp_path / "block.gpkg"), "-o", str(tmp_path / "out"), "-q"])
+    assert_one_line_error(result, f"frame {FRAMES[0]}_RGB: the GCP pixels look measured on a copy about 0.5x")
+    assert "rescale them (col/row ÷ 0.5)" in result.output
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_flat_crop_is_refused_saying_it_cannot_be_told_from_a_copy_and_what_to_give(data_dir, tmp_path):
+    """Over flat terrain a crop and a copy fit alike: the refusal says exactly that, and what to give instead — the
+    image the GCPs were measured on, or each GCP's own height where the ground has relief (not one constant)."""
+    from fotogeo.tools.orient.tool import orient
+    from test_orient import NAME
+    frame = load_ngi_frame(data_dir / "ngi", NAME)
+    rng = np.random.default_rng(1)
+    ground = frame.pixel_to_world_at(rng.uniform([5, 5], [W - 5, H - 5], (40, 2)), frame.eo.centre[2] - 3000.0)
+    pixel = frame.world_to_pixel(ground) + rng.normal(0, 0.3, (40, 2))
+    crop = FrameCamera(120.0, (46.08, 82.944), (W // 2, H // 2), principal_point=(W / 2, H / 2))
+    path = _layer(tmp_path / "g.gpkg", ground, pixel, read_dem(data_dir / "ngi" / "dem.tif").crs.to_wkt())
+    with pytest.raises(InputError, match=r"a crop of a flat scene cannot be told from a copy: give the image the GCPs "
+                                         r"were measured on \(the full frame\), or each GCP's own height \(a z field "
+                                         r"or a DEM, not one constant height\) where the ground has relief; if they "
+                                         r"were measured on a copy, rescale them"):
+        orient(None, path, model="collinearity", camera=crop)
