@@ -22,6 +22,8 @@
   ``rpc-bias --method affine`` (ventoux), and ``triangulate --gcps`` (the control as the block reads it,
   :func:`fotogeo.tools.triangulate.inputs.read_block_control`: frames 0182 and 0184, 30 control + 10 check points
   each, the first frame's read on the copy).
+* An approximate focal length (5–20 % off) is not taken for a copy: :func:`copy_reading` on NGI 0182's GCPs, at the
+  frame's flying height and 3500 m lower.
 
 Per case: refused (the first words of the message) or the fit (GCPs skipped, control RMS, check RMS or the
 shift's residual). Every line also goes to ``benchmarks/results/gcp_copy_bench.json`` (``--json``). Run from
@@ -263,6 +265,32 @@ def triangulate_cases(data: Path, tmp: Path, seed: int, noise: float):
              lambda r: f"exit 0  measurements kept {len(r[0].name)} of 80")
 
 
+def focal_cases(data: Path, seed: int, noise: float):
+    """An approximate focal length is no copy: NGI 0182's 30 GCPs (the true camera) checked with the camera's focal
+    5–20 % off, at the frame's flying height and 3500 m lower (relief a larger share of it)."""
+    import dataclasses
+
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.io.raster import read_dem
+    from fotogeo.orientation.copy_reading import collinearity_rms, copy_reading
+    from fotogeo.orientation.simulation import make_gcps
+    frame, dem = load_ngi_frame(data / "ngi", NAME), read_dem(data / "ngi" / "dem.tif")
+    _section(f"an approximate focal length (copy_reading), NGI {NAME}, seed {seed}, noise {noise} px")
+    for dz in (0.0, 3500.0):
+        low = dataclasses.replace(frame, eo=dataclasses.replace(frame.eo, Z=frame.eo.Z - dz))
+        s = make_gcps(low, dem, 30, 0, "homogeneous", noise=noise, seed=seed)
+        g, p = s.gcp_ground, s.gcp_pixel
+        share = (g[:, 2].max() - g[:, 2].min()) / (low.eo.Z - g[:, 2].mean())
+        for k in (1.05, 1.1, 1.2):
+            rms = collinearity_rms(dataclasses.replace(frame.camera, focal_length=frame.camera.focal_length * k))
+
+            def said(found, rms=rms, g=g, p=p):
+                named = "none named" if found is None else f"NAMED {found['scale']}x, {found['turns']} turns"
+                return f"as given {rms(g, p):.2f} px, {named}"
+            _run(f"f x{k:g} rel {share:.2f}", lambda: copy_reading(g, p, np.ones(len(p), bool), W, H, rms, 0.5, 4),
+                 said)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seed", type=int, default=7)
@@ -276,6 +304,7 @@ def main():
         rpc_cases(args.data, Path(tmp))
         compare_cases(args.data, Path(tmp), args.seed, args.noise)
         triangulate_cases(args.data, Path(tmp), args.seed, args.noise)
+        focal_cases(args.data, args.seed, args.noise)
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps({"seed": args.seed, "noise_px": args.noise, "lines": LINES}, indent=1) + "\n")
 
