@@ -15,14 +15,26 @@
 * ``rpc-bias``: the ventoux Pleiades crop (500x500) and its OSSIM ``.geom`` RPC; GCPs = the rigorous model's
   location-grid nodes inside it, moved by a known bias (2.3, −1.7) px; read on 1.3x / 0.5x / turned copies; two
   typos; the nodes of a product twice the crop's size (the crop its top-left quarter).
+* The other commands reading GCP pixels (issue 32), cases: the right image; GCPs read on a copy 0.5x and 0.25x the
+  size and turned 90° clockwise; a crop with an offset (the frame's pixels from (100, 200), 320x576, with its own
+  camera; for the RPC, the grid nodes of a product around the crop, the crop 250 px in from its corner):
+  ``compare-models`` with the NGI camera (frame 0182 raster; dlt + collinearity, 6 control points, one trial),
+  ``rpc-bias --method affine`` (ventoux), and ``triangulate --gcps`` (the control as the block reads it,
+  :func:`fotogeo.tools.triangulate.inputs.read_block_control`: frames 0182 and 0184, 30 control + 10 check points
+  each, the first frame's read on the copy).
+* An approximate focal length (5–20 % off) is not taken for a copy: :func:`copy_reading` on NGI 0182's GCPs, at the
+  frame's flying height and 3500 m lower.
 
 Per case: refused (the first words of the message) or the fit (GCPs skipped, control RMS, check RMS or the
-shift's residual). Run from outside the checkout: ``cd /tmp/x && PYTHONPATH=<tree> python
-<tree>/benchmarks/gcp_copy_bench.py [--seed 7] [--noise 0.3]``.
+shift's residual). Every line also goes to ``benchmarks/results/gcp_copy_bench.json`` (``--json``). Run from
+outside the checkout: ``cd /tmp/x && PYTHONPATH=<tree> python <tree>/benchmarks/gcp_copy_bench.py [--seed 7]
+[--noise 0.3]``.
 """
 from __future__ import annotations
 
 import argparse
+import inspect
+import json
 import shutil
 import tempfile
 import warnings
@@ -34,6 +46,10 @@ import rasterio
 import shapely
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+RESULTS = Path(__file__).resolve().parent / "results" / "gcp_copy_bench.json"
+#: every printed line as a record: (section, case, outcome)
+LINES = []
+SECTION = [""]
 NAME = "3324c_2015_1004_05_0182"
 W, H = 640, 1152
 
@@ -50,9 +66,16 @@ def _run(name, call, said):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            print(f"{name:14s} {said(call())}")
+            line = said(call())
         except Exception as e:  # noqa: BLE001 - the refusal is the result
-            print(f"{name:14s} REFUSED {type(e).__name__}: {str(e).split(': ', 1)[-1][:110]}")
+            line = f"REFUSED {type(e).__name__}: {str(e).split(': ', 1)[-1][:110]}"
+    print(f"{name:14s} {line}")
+    LINES.append({"section": SECTION[0], "case": name, "outcome": line})
+
+
+def _section(title):
+    SECTION[0] = title
+    print(title)
 
 
 def orient_cases(data: Path, tmp: Path, seed: int, noise: float):
@@ -81,7 +104,7 @@ def orient_cases(data: Path, tmp: Path, seed: int, noise: float):
         return (f"exit 0  skipped {len(rep['skipped']):2d}  control n {rep['control']['n']:2d} RMS "
                 f"{rep['control']['rms_xy_px']:.2f} px  check n {rep['check']['n']:2d} RMS "
                 f"{rep['check'].get('rms_xy_px', float('nan')):.2f} px")
-    print(f"orient, NGI {NAME}, seed {seed}, noise {noise} px")
+    _section(f"orient, NGI {NAME}, seed {seed}, noise {noise} px")
     for name, pix in cases.items():
         path = _layer(tmp / "g.gpkg", ids, pix, ground, dem.crs.to_wkt(), role)
         cam = crop if name.startswith("crop") else camera
@@ -107,7 +130,7 @@ def flat_cases(data: Path, tmp: Path, seed: int, noise: float):
         off = np.median(np.hypot(*(fit.model.forward(ground) - true).T))
         return (f"exit 0  skipped {len(fit['skipped']):2d}  control n {fit['control']['n']:2d} RMS "
                 f"{fit['control']['rms_xy_px']:.2f} px  off {off:.0f} px")
-    print(f"orient over flat terrain, NGI {NAME} geometry, seed {seed}, noise {noise} px")
+    _section(f"orient over flat terrain, NGI {NAME} geometry, seed {seed}, noise {noise} px")
     for name, pix, cam in (("flat x2", pixel * 2, frame.camera), ("flat crop", pixel, crop)):
         path = _layer(tmp / "f.gpkg", ids, pix, ground, dem.crs.to_wkt(), role)
         _run(name, lambda: orient(None, path, model="collinearity", camera=cam), said)
@@ -134,12 +157,12 @@ def rpc_cases(data: Path, tmp: Path):
     x, y = t * (c.ravel(), r.ravel())
     px = np.column_stack([x - w.c, y - w.f]) + (2.3, -1.7)
 
-    def layer(within, read=lambda p: p, typo=False):
+    def layer(within, read=lambda p: p, typo=False, shift=0):
         ids, pixel, ground = [], [], []
         for k, h in ((1, 485.0), (2, 1000.0)):
-            for i in np.flatnonzero(np.all((px > 0) & (px < within), axis=1)):
+            for i in np.flatnonzero(np.all((px + shift > 0) & (px + shift < within), axis=1)):
                 ids.append(f"n{i}_{int(h)}")
-                pixel.append(read(px[i:i + 1])[0])
+                pixel.append(read(px[i:i + 1] + shift)[0])
                 ground.append((a[2 * k].ravel()[i], a[2 * k + 1].ravel()[i], h))
         pixel = np.array(pixel)
         if typo:
@@ -154,10 +177,118 @@ def rpc_cases(data: Path, tmp: Path):
         return (f"exit 0  skipped {len(rep['skipped']):2d}  control n {rep['control']['after']['n']:2d} "
                 f"RMS after {rep['control']['after']['rms_xy']:.2f} px  shift "
                 f"{np.round(rep['correction']['shift_px'], 2).tolist()}")
-    print("rpc-bias (shift), ventoux left crop")
-    for name, make in cases.items():
-        path = make()
-        _run(name, lambda: rpc_bias(tmp / "left_image.tif", path, tmp / "o.tif", overwrite=True), said)
+    for method in ("shift", "affine"):
+        _section(f"rpc-bias ({method}), ventoux left crop")
+        todo = dict(cases) if method == "shift" else {
+            "right image": cases["as measured"], "x0.5": cases["x0.5"],
+            "x0.25": lambda: layer(500, lambda p: p * 0.25), "turned 90 cw": cases["turned 90 cw"],
+            "crop w/ offset": lambda: layer(1000, lambda p: p - 250, shift=250)}
+        for name, make in todo.items():
+            path = make()
+            _run(name, lambda: rpc_bias(tmp / "left_image.tif", path, tmp / "o.tif", method=method, overwrite=True),
+                 said)
+
+
+#: the crop with an offset of the other commands' cases: its top-left corner in the frame, its size
+OFFSET, CROP = (100, 200), (W // 2, H // 2)
+
+
+def _copies(pixel, w=W, h=H):
+    """The other commands' cases: the GCP pixels as read on each copy (module docstring)."""
+    c, r = pixel[:, 0], pixel[:, 1]
+    return {"right image": pixel, "x0.5": pixel * 0.5, "x0.25": pixel * 0.25,
+            "turned 90 cw": np.column_stack([h - r, c]), "crop w/ offset": pixel - OFFSET}
+
+
+def _ngi_sets(data: Path, seed: int, noise: float):
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.io.raster import read_dem
+    from fotogeo.orientation.simulation import make_gcps
+    ngi = data / "ngi"
+    dem = read_dem(ngi / "dem.tif")
+    out = {}
+    for k, name in enumerate((NAME, NAME[:-4] + "0184")):
+        s = make_gcps(load_ngi_frame(ngi, name), dem, 30, 10, "homogeneous", noise=noise, seed=seed + k)
+        out[name] = (np.vstack([s.gcp_ground, s.check_ground]), np.vstack([s.gcp_pixel, s.check_pixel]))
+    return out, dem.crs.to_wkt()
+
+
+def _crop_camera():
+    from fotogeo.geometry.camera import FrameCamera
+    return FrameCamera(120.0, (46.08, 82.944), CROP, principal_point=(W / 2 - OFFSET[0], H / 2 - OFFSET[1]))
+
+
+def compare_cases(data: Path, tmp: Path, seed: int, noise: float):
+    from fotogeo import compare_models
+    sets, crs = _ngi_sets(data, seed, noise)
+    ground, pixel = sets[NAME]
+    frame = data / "ngi" / "frames" / f"{NAME}_RGB.tif"
+    with rasterio.open(frame) as ds:
+        a = ds.read(window=rasterio.windows.Window(*OFFSET, *CROP))
+    with rasterio.open(tmp / "crop.tif", "w", driver="GTiff", width=CROP[0], height=CROP[1], count=a.shape[0],
+                       dtype=a.dtype) as out:
+        out.write(a)
+    role = ["control"] * 30 + ["check"] * 10
+
+    def said(rows):
+        rms = {m: np.median([r["check_rms_xy_px"] for r in rows if r["model"] == m and r.get("check_rms_xy_px")])
+               for m in ("dlt", "collinearity")}
+        return f"exit 0  check RMS (median of rows): dlt {rms['dlt']:.2f} px, collinearity {rms['collinearity']:.2f} px"
+    _section(f"compare-models with a camera, NGI {NAME}, seed {seed}, noise {noise} px")
+    for name, pix in _copies(pixel).items():
+        path = _layer(tmp / "c.gpkg", [f"P{i}" for i in range(40)], pix, ground, crs, role)
+        crop = name.startswith("crop")
+        _run(name, lambda: compare_models(tmp / "crop.tif" if crop else frame, path, models=["dlt", "collinearity"],
+                                          counts=(6,), trials=1, camera=_crop_camera() if crop else
+                                          str(data / "ngi" / "interior_orientation.yaml")), said)
+
+
+def triangulate_cases(data: Path, tmp: Path, seed: int, noise: float):
+    from fotogeo.tools.triangulate.inputs import read_block_control, read_camera
+    sets, crs = _ngi_sets(data, seed, noise)
+    cam, dist = read_camera(str(data / "ngi" / "interior_orientation.yaml"))
+    # the distortion argument is this branch's; without it (an older tree) the control is read as before
+    extra = (dist,) if "distortion" in inspect.signature(read_block_control).parameters else ()
+    _section(f"triangulate --gcps (the control as the block reads it), NGI 0182 + 0184, seed {seed}")
+    for name in _copies(sets[NAME][1]):
+        frames = []
+        for k, (frame, (ground, pixel)) in enumerate(sets.items()):
+            pix = _copies(pixel)[name] if k == 0 or name.startswith("crop") else pixel
+            frames.append(gpd.GeoDataFrame(
+                {"id": [f"{'AB'[k]}{i}" for i in range(40)], "frame": f"{frame}_RGB", "col": pix[:, 0],
+                 "row": pix[:, 1], "z": ground[:, 2]}, geometry=shapely.points(ground[:, :2]), crs=crs))
+        path = tmp / "t.gpkg"
+        gpd.GeoDataFrame(np.concatenate([f.values for f in frames]), columns=frames[0].columns, geometry="geometry",
+                         crs=crs).to_file(path, driver="GPKG")
+        camera = _crop_camera() if name.startswith("crop") else cam
+        _run(name, lambda: read_block_control(path, None, None, camera, [f"{f}_RGB" for f in sets], None, *extra),
+             lambda r: f"exit 0  measurements kept {len(r[0].name)} of 80")
+
+
+def focal_cases(data: Path, seed: int, noise: float):
+    """An approximate focal length is no copy: NGI 0182's 30 GCPs (the true camera) checked with the camera's focal
+    5–20 % off, at the frame's flying height and 3500 m lower (relief a larger share of it)."""
+    import dataclasses
+
+    from fotogeo.io.camera import load_ngi_frame
+    from fotogeo.io.raster import read_dem
+    from fotogeo.orientation.copy_reading import collinearity_rms, copy_reading
+    from fotogeo.orientation.simulation import make_gcps
+    frame, dem = load_ngi_frame(data / "ngi", NAME), read_dem(data / "ngi" / "dem.tif")
+    _section(f"an approximate focal length (copy_reading), NGI {NAME}, seed {seed}, noise {noise} px")
+    for dz in (0.0, 3500.0):
+        low = dataclasses.replace(frame, eo=dataclasses.replace(frame.eo, Z=frame.eo.Z - dz))
+        s = make_gcps(low, dem, 30, 0, "homogeneous", noise=noise, seed=seed)
+        g, p = s.gcp_ground, s.gcp_pixel
+        share = (g[:, 2].max() - g[:, 2].min()) / (low.eo.Z - g[:, 2].mean())
+        for k in (1.05, 1.1, 1.2):
+            rms = collinearity_rms(dataclasses.replace(frame.camera, focal_length=frame.camera.focal_length * k))
+
+            def said(found, rms=rms, g=g, p=p):
+                named = "none named" if found is None else f"NAMED {found['scale']}x, {found['turns']} turns"
+                return f"as given {rms(g, p):.2f} px, {named}"
+            _run(f"f x{k:g} rel {share:.2f}", lambda: copy_reading(g, p, np.ones(len(p), bool), W, H, rms, 0.5, 4),
+                 said)
 
 
 def main():
@@ -165,11 +296,17 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--noise", type=float, default=0.3)
     ap.add_argument("--data", type=Path, default=DATA)
+    ap.add_argument("--json", type=Path, default=RESULTS)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         orient_cases(args.data, Path(tmp), args.seed, args.noise)
         flat_cases(args.data, Path(tmp), args.seed, args.noise)
         rpc_cases(args.data, Path(tmp))
+        compare_cases(args.data, Path(tmp), args.seed, args.noise)
+        triangulate_cases(args.data, Path(tmp), args.seed, args.noise)
+        focal_cases(args.data, args.seed, args.noise)
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps({"seed": args.seed, "noise_px": args.noise, "lines": LINES}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -249,19 +249,19 @@ def test_the_picker_and_orient_skip_the_same_points_in_the_same_words(ngi, truth
 
 
 def test_one_rule_for_a_position_on_the_image_numbers_and_arrays_alike():
-    """fotogeo.io.image_extent.on_image is the rule of orient's skipping (gcps.outside_image) and of the QGIS
+    """fotogeo.image_extent.on_image is the rule of orient's skipping (gcps.outside_image) and of the QGIS
     picker's click guard; it imports the standard library only (the plugin loads it in QGIS's Python)."""
     import subprocess
     import sys
 
     from fotogeo.io.gcps import outside_image
-    from fotogeo.io.image_extent import on_image
+    from fotogeo.image_extent import on_image
     code = ("import importlib.abc, sys\n"
             "class Block(importlib.abc.MetaPathFinder):\n"
             "    def find_spec(self, name, path=None, target=None):\n"
             "        if name.split('.')[0] in ('numpy', 'pyproj', 'rasterio', 'qgis'): raise ImportError(name)\n"
             "sys.meta_path.insert(0, Block())\n"
-            "from fotogeo.io.image_extent import on_image\n"
+            "from fotogeo.image_extent import on_image\n"
             "print(on_image(640.0, 0.0, 640, 1152), on_image(640.5, 3.0, 640, 1152))\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and r.stdout.split() == ["True", "False"], r.stderr

@@ -52,7 +52,8 @@ def test_the_checker_sees_a_lazy_upward_import(tmp_path):
 
 # -- the whole graph: layers in order, and no circle ------------------------------------------------------------
 #: fotogeo's layers from the ground up (DESIGN.md, "Architecture"); a module may import its own layer or one below
-LAYERS = {**dict.fromkeys(("_version", "errors", "progress", "pixels", "crs", "options"), 0),
+LAYERS = {**dict.fromkeys(("_version", "errors", "progress", "pixels", "image_extent", "crs",
+                               "options"), 0),
           **dict.fromkeys(ARRAY_LAYERS + ("stereo",), 1), "io": 2, "tools": 3, "cli": 4, "worker": 4}
 
 

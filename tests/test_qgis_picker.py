@@ -98,7 +98,7 @@ def _by_id(rows):
 
 
 def test_the_click_guard_is_the_rule_orient_skips_by(monkeypatch):
-    """The picker's image checks a click by fotogeo.io.image_extent.on_image (the rule of gcps.outside_image), not a
+    """The picker's image checks a click by fotogeo.image_extent.on_image (the rule of gcps.outside_image), not a
     copy of it, and words a refusal as orient does (outside_reason)."""
     need_qgis()
     from types import SimpleNamespace

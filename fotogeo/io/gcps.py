@@ -34,7 +34,7 @@ from pyproj import CRS
 
 from ..crs import parse_crs, transform_points
 from ..errors import FotogeoWarning, InputError, InputNote, VectorError
-from .image_extent import on_image, outside_reason
+from ..image_extent import on_image, outside_reason
 from .tables import duplicate_ids
 
 #: ``blunder`` (written by ``orient`` for points data snooping removed) is kept out of the fit
@@ -299,7 +299,7 @@ def another_size(pixel, out, width: int, height: int):
 
 def outside_image(pixel, width: int, height: int) -> np.ndarray:
     """Boolean mask of the pixel positions ``(N, 2)`` (col, row; corner convention) outside the ``width`` x
-    ``height`` image: not :func:`~fotogeo.io.image_extent.on_image` (edges included), the rule the QGIS picker's
+    ``height`` image: not :func:`~fotogeo.image_extent.on_image` (edges included), the rule the QGIS picker's
     click guard applies too."""
     pixel = np.asarray(pixel, float).reshape(-1, 2)
     return ~on_image(pixel[:, 0], pixel[:, 1], width, height)

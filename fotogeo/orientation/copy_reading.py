@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from ..errors import FotogeoError
+from ..image_extent import on_image
 from ..models import get_model
 from .adjustment import fit_data, image_residuals
 
@@ -58,13 +59,15 @@ def read_back(pixel, width: int, height: int, scale: float = 1.0, turns: int = 0
             3: np.column_stack([width - r, c])}[turns % 4]
 
 
-def collinearity_rms(camera):
+def collinearity_rms(camera, distortion=None):
     """``rms(ground, pixel)``: the RMS (px) of the residual vectors of the collinearity resection with ``camera``
-    fitted to all the points by least squares; ``inf`` where it fails."""
+    fitted to all the points by least squares; ``inf`` where it fails. ``distortion``: Brown's ``(k1, k2, k3, p1,
+    p2)`` of the camera (a block's), removed from the pixels first (:func:`_pinhole`); None or zeros: none."""
     cls = get_model("collinearity")
 
     def rms(ground, pixel) -> float:
         try:
+            pixel = _pinhole(camera, distortion, np.asarray(pixel, float))
             src, dst = fit_data(cls, ground, pixel)
             model = cls.estimate(src, dst, camera=camera)
             res = image_residuals(model, ground, pixel)
@@ -73,6 +76,16 @@ def collinearity_rms(camera):
         value = float(np.sqrt(np.mean(np.sum(res ** 2, axis=1))))
         return value if math.isfinite(value) else math.inf
     return rms
+
+
+def _pinhole(camera, distortion, pixel) -> np.ndarray:
+    """``pixel`` as a distortion-free camera would see it: ``K·(u, v, 1)`` of the undistorted rays
+    (:func:`fotogeo.orientation.bundle_jacobian.undistort_rays`); ``pixel`` itself without distortion."""
+    if distortion is None or not np.any(np.asarray(distortion, float)):
+        return pixel
+    from . import bundle_jacobian as bj
+    interior = np.array([camera.focal_length, *camera.principal_point, *distortion], dtype=np.float64)
+    return bj.undistort_rays(pixel, interior, bj.pixel_scale(camera)) @ camera.K[:2].T
 
 
 def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma: float, min_points: int):
@@ -130,9 +143,9 @@ def crop_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
 
 
 def _fitted(ground, pixel, control, width: int, height: int, fit_rms) -> tuple[float, int]:
-    """``(rms, n)``: ``fit_rms`` of the ``n`` control points whose ``pixel`` lies inside the image (``nan`` for
-    none)."""
-    keep = control & (pixel[:, 0] >= 0) & (pixel[:, 0] <= width) & (pixel[:, 1] >= 0) & (pixel[:, 1] <= height)
+    """``(rms, n)``: ``fit_rms`` of the ``n`` control points whose ``pixel`` lies on the image
+    (:func:`fotogeo.image_extent.on_image`, the rule that skips GCPs outside; ``nan`` for none)."""
+    keep = control & on_image(pixel[:, 0], pixel[:, 1], width, height)
     n = int(keep.sum())
     return (float(fit_rms(ground[keep], pixel[keep])) if n else math.nan), n
 
@@ -180,5 +193,7 @@ def describe_undecided(told: dict, n_out: int, n: int) -> str:
             f"whether this image is a crop of the one they were measured on or they were measured on a copy about "
             f"{s:g}x this image's size (over flat terrain both fit): as given, {told['n_given']} control points "
             f"inside fit with {told['rms_given']:.2f} px RMS; read back (col/row ÷ {s:g}), {told['n_read_back']} fit "
-            f"with {told['rms_read_back']:.2f} px; if they were measured on a copy, rescale them (col/row ÷ {s:g}); "
-            f"if this image is a crop, remove the GCPs outside it")
+            f"with {told['rms_read_back']:.2f} px; a crop of a flat scene cannot be told from a copy: give the image "
+            f"the GCPs were measured on (the full frame), or each GCP's own height (a z field or a DEM, not one "
+            f"constant height) where the ground has relief; if they were measured on a "
+            f"copy, rescale them (col/row ÷ {s:g}); if this image is a crop, remove the GCPs outside it")

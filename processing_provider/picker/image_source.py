@@ -16,7 +16,7 @@ import tempfile
 
 from qgis.core import QgsApplication, QgsRasterLayer, QgsTask
 
-from fotogeo.io.image_extent import on_image, outside_reason  # standard library only
+from fotogeo.image_extent import on_image, outside_reason  # standard library only
 
 #: pixels above which an image without overviews gets them (rendering then reads the pyramids)
 OVERVIEW_PIXELS = 4000 * 4000
@@ -116,10 +116,10 @@ class PickerImage:
         return col, -row
 
     def inside(self, col: float, row: float) -> bool:
-        """The click guard: :func:`fotogeo.io.image_extent.on_image` (edges included), the rule by which the worker
+        """The click guard: :func:`fotogeo.image_extent.on_image` (edges included), the rule by which the worker
         flags a GCP off the image in the table (:func:`fotogeo.io.gcps.outside_image`)."""
         return bool(on_image(col, row, self.width, self.height))
 
     def outside(self) -> str:
-        """The wording of a position off this image (:func:`fotogeo.io.image_extent.outside_reason`)."""
+        """The wording of a position off this image (:func:`fotogeo.image_extent.outside_reason`)."""
         return outside_reason(self.width, self.height)

@@ -179,26 +179,44 @@ def distinct_files(paths, names, what: str = "images") -> None:
 
 
 def inside_fitted(g, width: int, height: int, what: str, needed: int, needed_by: str, fit):
-    """:func:`~fotogeo.io.gcps.inside_image` of the GCPs ``g`` where a fit with a fixed scale tells positions read
-    on a copy of another size or turned (refused, naming it) from a crop's or a typo's
-    (:mod:`fotogeo.orientation.copy_reading`). The span rule (most outside, spanning more than the image) is
-    switched off only where the fit confirms a crop; where a copy's reading fits as well it is refused naming both,
-    and GCPs without heights are not fitted (the span rule stays). ``fit``: ``(rms(ground, pixel), the fit's least
-    number of points, the image σ in px)``."""
-    from ...io.gcps import another_size, inside_image, outside_image
-    from ...orientation.copy_reading import copy_reading, crop_reading, describe, describe_undecided
+    """:func:`~fotogeo.io.gcps.inside_image` of the GCPs ``g`` after :func:`copy_check` (GCPs without heights are
+    not fitted: the span rule stays). ``fit``: ``(rms(ground, pixel), the fit's least number of points, the image σ
+    in px)`` — :func:`camera_fit` for a frame camera."""
+    from ...io.gcps import inside_image
     if not g.has_heights:
         return inside_image(g, width, height, what, needed, needed_by)
+    span = copy_check(g.ground, g.pixel, g.role == "control", width, height, f"GCP file {what!r}", fit)
+    return inside_image(g, width, height, what, needed, needed_by, span=span)
+
+
+def copy_check(ground, pixel, control, width: int, height: int, what: str, fit) -> bool:
+    """The one check of every command reading GCP pixels with a fit of fixed scale (orient, compare-models with a
+    camera, rpc-bias, triangulate per frame): positions read on a copy of another size or turned are refused naming
+    it (:mod:`fotogeo.orientation.copy_reading`; ``what`` opens the message), as are GCPs that fit both as a crop's
+    and as a copy's (flat terrain). Returns whether the span rule of :func:`~fotogeo.io.gcps.skip_outside` (most
+    outside, spanning more than the image) stays: false only where the fit confirms a crop."""
+    from ...io.gcps import another_size, outside_image
+    from ...orientation.copy_reading import copy_reading, crop_reading, describe, describe_undecided
     rms, least, sigma = fit
-    control = g.role == "control"
-    found = copy_reading(g.ground, g.pixel, control, width, height, rms, sigma, least)
+    found = copy_reading(ground, pixel, control, width, height, rms, sigma, least)
     if found:
-        raise InputError(f"GCP file {what!r}: {describe(found)}")
-    out = outside_image(g.pixel, width, height)
-    scale = another_size(g.pixel, out, width, height)
+        raise InputError(f"{what}: {describe(found)}")
+    out = outside_image(pixel, width, height)
+    scale = another_size(pixel, out, width, height)
     if scale is None:
-        return inside_image(g, width, height, what, needed, needed_by)
-    told = crop_reading(g.ground, g.pixel, control, width, height, rms, sigma, least, scale)
+        return True
+    told = crop_reading(ground, pixel, control, width, height, rms, sigma, least, scale)
     if told["reading"] == "either":
-        raise InputError(f"GCP file {what!r}: {describe_undecided(told, int(out.sum()), len(out))}")
-    return inside_image(g, width, height, what, needed, needed_by, span=told["reading"] != "crop")
+        raise InputError(f"{what}: {describe_undecided(told, int(out.sum()), len(out))}")
+    return told["reading"] != "crop"
+
+
+def camera_fit(camera, image_sigma=None, distortion=None) -> tuple:
+    """The ``fit`` of :func:`copy_check` for a frame camera: the collinearity resection's RMS
+    (:func:`~fotogeo.orientation.copy_reading.collinearity_rms`), its least number of points, and the image σ
+    (``image_sigma``, else the click precision
+    :data:`~fotogeo.orientation.copy_reading.CLICK_SIGMA_PX`)."""
+    from ...models import get_model
+    from ...orientation.copy_reading import CLICK_SIGMA_PX, collinearity_rms
+    return (collinearity_rms(camera, distortion), get_model("collinearity").min_points,
+            image_sigma or CLICK_SIGMA_PX)

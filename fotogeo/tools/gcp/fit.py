@@ -30,8 +30,8 @@ import numpy as np
 
 from ...crs import parse_crs
 from ...errors import InputError, ModelError, one_line
+from ...image_extent import outside_reason
 from ...io.gcps import outside_image
-from ...io.image_extent import outside_reason
 from ...io.tables import duplicate_ids
 from ...models import get_model
 from ...orientation.adjustment import fit_orientation, image_residuals, select_model

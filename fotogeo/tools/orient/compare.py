@@ -4,6 +4,10 @@ Sets (:mod:`fotogeo.orientation.comparison`): ``sets="random"`` draws control po
 by count and spread; ``sets="roles"`` takes the GCP file's role column and every column named
 ``role_<label>`` (e.g. ``role_homogeneous_20``) as fixed sets. Outputs (:mod:`.compare_report`):
 CSV, Markdown, HTML in the paper's layout and a folder of error-vector plots per model and layout.
+
+With a camera, GCP pixels read on a copy of the image of another size or turned are refused naming it, as ``orient``
+refuses them (:func:`fotogeo.tools.common.checks.copy_check`): the free-scale models would absorb the copy and fill
+the table with plausible wrong rows.
 """
 from __future__ import annotations
 
@@ -20,7 +24,7 @@ from ...models import get_model
 from ...orientation.comparison import compare, parse_counts
 from . import compare_report as report
 from ..common.boundary import OUTPUTS, tool
-from ..common.checks import check_camera_size, check_gcp_crs
+from ..common.checks import camera_fit, check_camera_size, check_gcp_crs, inside_fitted
 
 #: the default models: the paper's (affine with height, bilinear, projective, DLT, the RFMs solved as the
 #: paper did and regularised, both directions) and fotogeo's other 2-D models and collinearity
@@ -55,8 +59,9 @@ def compare_models(image, gcps, *, models=None, counts=None, sets: str = "random
     check_gcp_crs(g, gcps)
     camera = load_camera(camera)
     check_camera_size(camera, info.width, info.height, image)
-    g, _ = inside_image(g, info.width, info.height, f"{gcps}", get_model("similarity").min_points,
-                        "the simplest model (similarity)")
+    needed = (f"{gcps}", get_model("similarity").min_points, "the simplest model (similarity)")
+    g, _ = (inside_image(g, info.width, info.height, *needed) if camera is None else
+            inside_fitted(g, info.width, info.height, *needed, camera_fit(camera)))
     _check_partial_heights(g, gcps)
     role_sets = _role_sets(g, gcps) if sets == "roles" else None
     chosen = bool(models)

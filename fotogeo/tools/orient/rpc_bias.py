@@ -16,7 +16,8 @@ Heights are taken as given: RPC00B heights are ellipsoidal (WGS 84), so give ell
 heights (or a DEM in the same vertical datum as the one ``gdalwarp`` will use). GCPs whose
 pixel lies outside the image are skipped with a warning naming each (a vendor scene is often cropped), and
 listed in the report's ``skipped`` (:func:`fotogeo.io.gcps.inside_image`, the policy ``orient`` shares); too few
-left for the correction is an error.
+left for the correction is an error. GCP pixels read on a copy of another size or turned are refused naming it,
+for the shift and the affinity alike (:func:`fotogeo.tools.common.checks.copy_check` with the shift's fit).
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ import numpy as np
 
 from ...crs import to_lonlat
 from ...errors import InputError
-from ...io.gcps import inside_image, read_gcps
+from ...io.gcps import read_gcps
 from ...io.output_checks import check_outputs
 from ...io.raster import AtomicOutputs, open_raster
 from ...io.report import write_json
@@ -63,8 +64,7 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
         raise InputError(f"GCP file {str(gcps)!r}: every GCP needs a height for an RPC (a z field, a DEM or a "
                          f"constant height)")
     needed = (f"{gcps}", MIN_GCPS[method], f"the {method} correction")
-    g, skipped = (inside_fitted(g, info.width, info.height, *needed, (_shift_rms(rpc, g.crs), 1, CLICK_SIGMA_PX))
-                  if method == "shift" else inside_image(g, info.width, info.height, *needed))
+    g, skipped = inside_fitted(g, info.width, info.height, *needed, (_shift_rms(rpc, g.crs), 1, CLICK_SIGMA_PX))
     lonlat = to_lonlat(g.crs, g.ground[:, :2])
     ground = np.column_stack([lonlat, g.ground[:, 2]])
     control, check = g.role == "control", g.role == "check"
@@ -94,7 +94,9 @@ def rpc_bias(image, gcps, output, *, report=None, method: str = "shift", layer=N
 def _shift_rms(rpc, crs):
     """``rms(ground, pixel)``: the RMS (px) of the residuals of the GCPs (``ground`` in ``crs``, ellipsoidal
     heights) after the shift correction of ``rpc`` fitted to all of them; a copy of another size or a turned one
-    cannot be shifted onto the vendor RPC (:mod:`fotogeo.orientation.copy_reading`)."""
+    cannot be shifted onto the vendor RPC (:mod:`fotogeo.orientation.copy_reading`). The one check of both methods:
+    an affinity would absorb a copy's scale or turn (a0 + a1·col + a2·row), which a vendor RPC's bias, a few pixels
+    and parts per ten thousand (Grodecki & Dial 2003), never is."""
     def rms(ground, pixel) -> float:
         lonlat = to_lonlat(crs, ground[:, :2])
         d = pixel - from_centre(rpc.project(lonlat[:, 0], lonlat[:, 1], ground[:, 2]))

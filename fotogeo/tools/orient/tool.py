@@ -47,9 +47,9 @@ from ...io.vector import error_vectors, exaggeration_value, legend_text, nominal
 from ...geometry.georeference import Georeference
 from ...models import get_model
 from ...orientation.adjustment import fit_orientation, select_model
-from ...orientation.copy_reading import CLICK_SIGMA_PX, collinearity_rms
+from ...orientation.copy_reading import CLICK_SIGMA_PX
 from ...progress import as_progress
-from ..common.checks import check_camera_size, check_gcp_crs, inside_fitted
+from ..common.checks import camera_fit, check_camera_size, check_gcp_crs, inside_fitted
 from ..common.boundary import OUTPUTS, tool
 from ..common.gcp_style import legend_class
 from .rectify import mean_height, rectify_grid, rectify_image
@@ -160,8 +160,7 @@ def _inside(g, info, gcps, model: str, camera, image_sigma):
     (:mod:`fotogeo.orientation.copy_reading`), and the span rule is kept only where too few lie inside to tell."""
     if camera is None or model not in ("collinearity", "auto"):
         return inside_image(g, info.width, info.height, f"{gcps}", *_needed(model))
-    fit = (collinearity_rms(camera), get_model("collinearity").min_points, image_sigma or NOMINAL_SIGMA_PX)
-    return inside_fitted(g, info.width, info.height, f"{gcps}", *_needed(model), fit)
+    return inside_fitted(g, info.width, info.height, f"{gcps}", *_needed(model), camera_fit(camera, image_sigma))
 
 
 def _needed(model: str) -> tuple[int, str]:

@@ -5,7 +5,9 @@
   the distortion is the bundle adjustment's starting (or fixed) value.
 * **Control**: :func:`fotogeo.io.block.read_control` (``gcp_list.txt`` or a point layer / CSV in
   any CRS), transformed into the map CRS (``crs``, else the control's own CRS; it must be
-  projected). Measurements outside their frame are skipped by name (orient's rule), refused when none remain.
+  projected). Measurements outside their frame are skipped by name (orient's rule), refused when none remain;
+  a frame's measurements read on a copy of it of another size or turned are refused naming the frame and the copy
+  (orient's check, :func:`fotogeo.tools.common.checks.copy_check`).
 * **Automatic control** (``reference`` orthophoto(s) and ``dem``): the GCPs that
   :func:`fotogeo.tools.triangulate.control.automatic_control` finds by matching every frame to the
   reference (named ``auto…``), merged with the surveyed ones; they need the approximate
@@ -31,7 +33,7 @@ from ...io.block import GcpList, control_in, frame_key, read_control, split_chec
 from ...io.camera import read_camera_with_distortion, read_exterior_orientation
 from ...io.gcps import skip_outside
 from ...io.raster import open_raster
-from ..common.checks import check_camera_size, distinct_files
+from ..common.checks import camera_fit, check_camera_size, copy_check, distinct_files
 
 #: the order of ``Block.distortion`` (Brown's terms, :mod:`fotogeo.geometry.brown`)
 DISTORTION_ORDER = TERMS
@@ -55,10 +57,11 @@ def frame_names(frames, camera) -> list:
     return names
 
 
-def read_block_control(gcps, crs, gcp_crs, camera, names, check_points):
+def read_block_control(gcps, crs, gcp_crs, camera, names, check_points, distortion=None):
     """``(GcpList in the map CRS, map CRS, check-point names)``; ``gcps`` None: ``(None, crs, names)``.
     The check points are the names given and the file's ``check`` roles (the hold-out comes later,
-    :func:`check_point_names`)."""
+    :func:`check_point_names`). ``distortion``: the camera's Brown terms, removed from the pixels before the check
+    of each frame's measurements for a copy's reading (:func:`_in_frames`)."""
     ids = {c.strip() for c in (check_points or "").split(",") if c.strip()}
     if not gcps:
         if not crs:
@@ -72,7 +75,7 @@ def read_block_control(gcps, crs, gcp_crs, camera, names, check_points):
     map_crs = parse_crs(crs if crs else gcp.crs, "map CRS")
     require_projected(map_crs, "map CRS of the block (give a projected one with --crs)")
     gcp = control_in(gcp, map_crs)
-    gcp = _in_frames(gcp, names, camera, gcps)
+    gcp = _in_frames(gcp, names, camera, gcps, distortion)
     _same_ground_per_name(gcp, gcps)
     unknown = sorted(ids - set(gcp.name))
     if unknown:
@@ -113,9 +116,11 @@ def add_automatic_control(gcp, frames, names, camera, eos, reference, dem, map_c
                    np.vstack([gcp.pixel, auto.pixel]), np.concatenate([gcp.frame, auto.frame]), role)
 
 
-def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
+def _in_frames(gcp: GcpList, names, camera, path, distortion=None) -> GcpList:
     """Drop (with a warning) measurements in images that are not frames, and those outside their frame by the one
-    rule of every GCP tool (:func:`fotogeo.io.gcps.skip_outside`: skipped by name, refused when none remain)."""
+    rule of every GCP tool (:func:`fotogeo.io.gcps.skip_outside`: skipped by name, refused when none remain), after
+    the one check of each frame's measurements for pixels read on a copy of another size or turned
+    (:func:`fotogeo.tools.common.checks.copy_check` with the camera's collinearity fit, as ``orient``)."""
     from dataclasses import replace
     inside = np.array([f in set(names) for f in gcp.frame], dtype=bool)
     if not inside.any():
@@ -129,8 +134,11 @@ def _in_frames(gcp: GcpList, names, camera, path) -> GcpList:
                       frame=gcp.frame[keep], role=None if gcp.role is None else gcp.role[keep])
     w, h = camera.image_size
     roles = np.full(len(gcp.name), "control", dtype=object) if gcp.role is None else gcp.role
+    fit = camera_fit(camera, distortion=distortion)
+    span = all([copy_check(gcp.ground[gcp.frame == f], gcp.pixel[gcp.frame == f], roles[gcp.frame == f] == "control",
+                           w, h, f"GCP file {str(path)!r}, frame {f}", fit) for f in dict.fromkeys(gcp.frame)])
     keep, skipped = skip_outside([f"{n} in {f}" for n, f in zip(gcp.name, gcp.frame)], gcp.pixel, roles, w, h,
-                                 f"GCP file {str(path)!r}", needed_by="the block", points=gcp.name)
+                                 f"GCP file {str(path)!r}", needed_by="the block", points=gcp.name, span=span)
     if skipped:
         keep = np.flatnonzero(keep)
         gcp = replace(gcp, name=gcp.name[keep], ground=gcp.ground[keep], pixel=gcp.pixel[keep],

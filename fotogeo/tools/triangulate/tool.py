@@ -316,7 +316,7 @@ def _control(frames, start, kw, prog):
     (:mod:`fotogeo.tools.triangulate.inputs`) and the check points."""
     cam, names = start.camera, start.names
     gcp, map_crs, given_checks = read_block_control(kw["gcps"], start.crs, kw["gcp_crs"], cam, names,
-                                                    kw["check_points"])
+                                                    kw["check_points"], start.distortion)
     auto, dropped = set(), []
     reference, dem = _as_list(kw["reference"]), kw["dem"]
     if start.registration is not None:

@@ -1,5 +1,7 @@
 """Whether a pixel position lies on an image: the one rule of every tool fitting to GCPs
-(:func:`fotogeo.io.gcps.skip_outside`) and of the QGIS GCP picker's click guard.
+(:func:`fotogeo.io.gcps.skip_outside`), of the fit telling a copy's reading from a crop's
+(:mod:`fotogeo.orientation.copy_reading`) and of the QGIS GCP picker's click guard: in the ground layer, below the
+array layers and the file formats that both use it.
 
 In the corner convention (:mod:`fotogeo.pixels`: ``(0, 0)`` the top-left corner of the top-left pixel) a position
 ``(col, row)`` lies on a ``width`` x ``height`` image when ``0 <= col <= width`` and ``0 <= row <= height``: the
