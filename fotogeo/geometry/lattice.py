@@ -49,18 +49,25 @@ def bilinear(values, rows, cols, h: int, w: int) -> np.ndarray:
     (increasing indices from 0 to ``h - 1`` / ``w - 1``) interpolated bilinearly to every index of the ``h x w``
     window → ``(k, h, w)``: ``v_i + f (v_{i+1} − v_i)`` along the columns, then along the rows (each plane
     contiguous: whole rows are gathered)."""
-    def along(v, nodes, n, axis):
-        if len(nodes) == 1:
-            return np.repeat(v, n, axis=axis)
-        i = np.clip(np.searchsorted(nodes, np.arange(n), side="right") - 1, 0, len(nodes) - 2)
-        f = (np.arange(n) - nodes[i]) / (nodes[i + 1] - nodes[i])
-        shape = [1] * v.ndim
-        shape[axis] = n
-        out = np.take(np.diff(v, axis=axis), i, axis=axis)
-        out *= f.reshape(shape)
-        out += np.take(v, i, axis=axis)
-        return out
-    return along(along(np.asarray(values, float), cols, w, 2), rows, h, 1)
+    return along(along(np.asarray(values, float), cols, np.arange(w), 2), rows, np.arange(h), 1)
+
+
+def along(v, nodes, at, axis: int) -> np.ndarray:
+    """``v`` given at the lattice ``nodes`` along ``axis`` interpolated linearly to the indices ``at`` (the half of
+    :func:`bilinear` along one axis; each index's value depends only on it, so a subset of the indices gets the
+    values the whole range would: :meth:`~fotogeo.geometry.dem.DemSampler.heights_grid` takes a block of rows at a
+    time)."""
+    at = np.asarray(at)
+    if len(nodes) == 1:
+        return np.repeat(v, len(at), axis=axis)
+    i = np.clip(np.searchsorted(nodes, at, side="right") - 1, 0, len(nodes) - 2)
+    f = (at - nodes[i]) / (nodes[i + 1] - nodes[i])
+    shape = [1] * v.ndim
+    shape[axis] = len(at)
+    out = np.take(np.diff(v, axis=axis), i, axis=axis)
+    out *= f.reshape(shape)
+    out += np.take(v, i, axis=axis)
+    return out
 
 
 def ground_to_image_on_lattice(forward, X, Y, Z, *, step: int = MODEL_STEP, tol: float = MODEL_TOL_PX):
