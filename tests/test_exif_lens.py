@@ -59,11 +59,11 @@ def _note_tiff(record) -> bytes:
     (None, 8.6, None), (None, 30.0, "outside the 4.3-21.5 mm")])
 def test_the_focal_length_record_of_the_maker_note_checks_the_exif_tag(monkeypatch, record, exif_mm, want):
     from fotogeo.io import exif_sizes as xs
-    from fotogeo.io.exif_lens import canon_focal, check_maker_focal
+    from fotogeo.io.exif_lens import check_maker_focal, note_focal
     monkeypatch.setattr(xs, "_exif_tiff", lambda p: _note_tiff(record))
-    got = canon_focal("x.jpg", "Canon")
+    got = note_focal(xs.canon_note("x.jpg", "Canon"))  # read_image_metadata's path: the note parsed once
     assert got == ((record[1] / 1000 if record else None), 4.3, 21.5)
-    assert canon_focal("x.jpg", "DJI") is None
+    assert note_focal(xs.canon_note("x.jpg", "DJI")) is None
     meta = SimpleNamespace(path="x.jpg", canon_focal=got)
     if want is None:
         check_maker_focal(meta, exif_mm)

@@ -95,7 +95,7 @@ def test_a_canon_maker_note_moved_by_a_tool_is_read_where_its_values_went(tmp_pa
     whose size word does not match its length (another layout) gives nothing."""
     import struct
 
-    from fotogeo.io.exif_sizes import _canon_size
+    from fotogeo.io.exif_sizes import canon_size, maker_note
 
     def jpeg(size_word):
         af = struct.pack("<49H", size_word, 2, 9, 1, 4608, 3456, 4608, 3456, *([0] * 41))
@@ -108,8 +108,8 @@ def test_a_canon_maker_note_moved_by_a_tool_is_read_where_its_values_went(tmp_pa
         body = b"Exif\0\0" + tiff
         path.write_bytes(b"\xff\xd8\xff\xe1" + struct.pack(">H", len(body) + 2) + body + b"\xff\xd9")
         return path
-    assert _canon_size(jpeg(98)) == (4608, 3456)
-    assert _canon_size(jpeg(97)) is None
+    assert canon_size(maker_note(jpeg(98))) == (4608, 3456)
+    assert canon_size(maker_note(jpeg(97))) is None
 
 
 @pytest.mark.data
@@ -154,7 +154,7 @@ def test_a_moved_afinfo_without_size_word_is_read_where_it_went_or_not_at_all(mo
                               (good, (3 / 4,), FULL), ([9, 10] + good[2:], (4 / 3,), None),
                               (good[:4] + [5000] + good[5:], (4 / 3,), None)):
         monkeypatch.setattr(xs, "_exif_tiff", lambda p, t=_canon_tiff(af, 0x0012, moved): t)
-        assert xs._canon_size("x.jpg", aspects) == want, (af, aspects)
+        assert xs.canon_size(xs.maker_note("x.jpg"), aspects) == want, (af, aspects)
 
 
 @pytest.mark.parametrize("record,refused", [((4608, 3456), False), ((9216, 5184), True), ((5184, 9216), True),

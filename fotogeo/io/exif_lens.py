@@ -11,25 +11,20 @@ by ExifTool's Canon tag tables, Harvey 2024; 16-bit words, addressed as in :func
   ``FocalUnits``; its ``FocalPlaneXSize``/``YSize`` words hold a sensor size for a few old models only and are not
   read.
 
-:func:`canon_focal` returns ``(focal at capture or None, min, max)`` in millimetres; :func:`check_maker_focal`
-refuses an EXIF focal length more than :data:`FOCAL_TOLERANCE` from the maker note's focal length or outside the
-lens's range, naming both records and the fix. Inside the range without the 0x0002 record (the eBee's Canon IXUS
-125 HS writes none) the maker note cannot tell an edited value from a zoom position.
+:func:`note_focal` returns ``(focal at capture or None, min, max)`` in millimetres from the note
+:func:`.exif_sizes.canon_note` parsed (once per file, by :func:`fotogeo.io.exif.read_image_metadata`);
+:func:`check_maker_focal` refuses an EXIF focal length more than :data:`FOCAL_TOLERANCE` from the maker note's focal
+length or outside the lens's range, naming both records and the fix. Inside the range without the 0x0002 record
+(the eBee's Canon IXUS 125 HS writes none) the maker note cannot tell an edited value from a zoom position.
 """
 from __future__ import annotations
 
 import struct
 
 from ..errors import InputError
-from .exif_sizes import canon_note
 
 #: relative difference tolerated between EXIF FocalLength and the maker note's records (units' rounding)
 FOCAL_TOLERANCE = 0.01
-
-
-def canon_focal(path, make: str | None) -> tuple | None:
-    """:func:`note_focal` of the JPEG ``path``'s maker note; None for another make than Canon."""
-    return note_focal(canon_note(path, make))
 
 
 def note_focal(note) -> tuple | None:
@@ -63,7 +58,7 @@ def _words(tiff: bytes, bo: str, at: int, count: int) -> tuple | None:
 
 
 def check_maker_focal(meta, f_mm: float) -> None:
-    """Refuse an EXIF focal length ``f_mm`` that ``meta.canon_focal`` (:func:`canon_focal`) contradicts (module
+    """Refuse an EXIF focal length ``f_mm`` that ``meta.canon_focal`` (:func:`note_focal`) contradicts (module
     docstring); nothing without that record."""
     if not meta.canon_focal or not f_mm:
         return

@@ -110,11 +110,6 @@ def _int(text) -> int | None:
     return v if v > 0 else None
 
 
-def _canon_size(path, aspects: tuple = ()) -> tuple | None:
-    """:func:`canon_size` of the maker note of the JPEG ``path``."""
-    return canon_size(maker_note(path), aspects)
-
-
 def canon_size(note, aspects: tuple = ()) -> tuple | None:
     """CanonImageWidth x CanonImageHeight from a Canon maker note (:func:`maker_note`'s), None when absent,
     unreadable or implausible (module docstring); ``aspects``: the width/height ratios it may have (none: not

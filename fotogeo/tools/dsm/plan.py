@@ -46,6 +46,11 @@ def footprint(im, z: float) -> np.ndarray:
     return xyz[np.isfinite(xyz).all(axis=1)]
 
 
+def pair_footprints(ims, p, zlim: tuple) -> list:
+    """Pair ``p``'s :func:`footprint` s ``(N, 2)`` at its heights ``zlim``: its DEM's ground (:mod:`.dem_guide`)."""
+    return [footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
+
+
 def dem_range(source, ims) -> tuple:
     """``(low, high)``: the heights of the DEM height source ``source`` as the run uses them (its valid cells in the
     map CRS's unit, :attr:`z_range`), with a geoid's undulations added when it carries them
@@ -145,10 +150,9 @@ def supported(xy, z) -> np.ndarray:
     distances counts) a surface supports (bool): at least ``SUPPORT_K`` of the ``SUPPORT_NEAR`` matches nearest each
     lie within a band of its height. A roof or a tree carries several matches at its height, a mismatch stands
     alone; a range set by percentiles cuts what covers less of the overlap than the percentile (a roof over 1 % of
-    it), which :func:`supported_range` adds back. The band is ``max(SUPPORT_BAND_M,
-    SUPPORT_BAND_K · s)``, ``s`` the NMAD of the neighbours' heights among themselves: the relief around (a slope
-    sampled sparsely, the ground beside a roof) widens it, flat ground under a lone mismatch does not. Fewer than
-    ``SUPPORT_K + 1`` matches: all."""
+    it), which :func:`supported_range` adds back. The band is ``max(SUPPORT_BAND_M, SUPPORT_BAND_K · s)``, ``s`` the
+    NMAD of the neighbours' heights among themselves: the relief around (a slope sampled sparsely, the ground beside
+    a roof) widens it, flat ground under a lone mismatch does not. Fewer than ``SUPPORT_K + 1`` matches: all."""
     z = np.asarray(z, float).ravel()
     if len(z) <= SUPPORT_K:
         return np.ones(len(z), bool)
@@ -161,58 +165,60 @@ def supported(xy, z) -> np.ndarray:
     return (np.abs(zn - z[:, None]) <= band[:, None]).sum(axis=1) >= SUPPORT_K
 
 
-def supported_span(xy, z) -> tuple:
-    """``(low, high)``: the lowest and highest of the heights ``z`` at ``xy`` that are :func:`supported` (all of
-    them when none is)."""
-    z = np.asarray(z, float).ravel()
-    ok = supported(xy, z)
-    z = z[ok] if ok.any() else z
-    return float(z.min()), float(z.max())
+def supported_span(xy, z, least: int = 1) -> tuple | None:
+    """``(low, high)`` of the heights ``z`` at ``xy`` that are :func:`supported`; None when fewer than ``least`` are."""
+    z = np.asarray(z, float).ravel()[supported(xy, z)]
+    return (float(z.min()), float(z.max())) if len(z) >= max(least, 1) else None
 
 
 def supported_range(xy, z, widen: float, pad: float) -> tuple:
     """``(low, high)``: the 1st and 99th percentiles of the heights ``z`` at ``xy`` (their bulk), reaching out to
     the lowest and highest heights neighbouring matches :func:`support <supported>` (a small roof: above the 99th
-    percentile when it covers less than 1 % of the overlap), each end then moved out by ``widen`` times the bulk's
-    span plus ``pad`` metres. Never narrower than the percentiles alone: a height no neighbour supports (a mismatch,
-    or a roof that carries one match) is searched as far as the percentiles reach, as before the support rule. The
-    one range of a frame pair's (:func:`matched_heights`) and an RPC pair's (:mod:`.rpc_tool`) sparse heights."""
+    percentile when it covers less than 1 % of the overlap; all the heights when none is), each end then moved out
+    by ``widen`` times the bulk's span plus ``pad`` metres; never narrower than the percentiles (a mismatch, or a
+    roof carrying one match). A frame pair's (:func:`matched_heights`) and an RPC pair's range without a DEM."""
     z = np.asarray(z, float).ravel()
     p1, p99 = (float(v) for v in np.percentile(z, [1, 99]))
-    lo, hi = supported_span(xy, z)
+    lo, hi = supported_span(xy, z) or (float(z.min()), float(z.max()))
     grow = widen * (p99 - p1) + pad
     return min(lo, p1) - grow, max(hi, p99) + grow
 
 
+def below_cameras(z, ceiling: float) -> float:
+    """The highest height a frame pair searches: its matches' median height (of ``z``) plus ¾ of the lower camera's
+    (``ceiling``) above it; a range reaching above a camera has no disparity."""
+    med = float(np.median(z))
+    return med + 0.75 * max(float(ceiling) - med, 1.0)
+
+
 def matched_heights(points, ceiling: float, widen: float = 0.0, pad: float = 0.0) -> tuple:
     """``(low, high)`` heights of sparse matches ``points`` ``(N, 3)`` without their mismatches
-    (:func:`plausible_heights`): :func:`supported_range` of the rest. The high end stays below the median plus ¾ of
-    the cameras' height above it (``ceiling`` the lower camera's height): a height range reaching above a camera
-    has no disparity."""
+    (:func:`plausible_heights`): :func:`supported_range` of the rest, the high end :func:`below_cameras`."""
     P = np.asarray(points, float).reshape(-1, 3)
-    med = float(np.median(P[:, 2]))
     kept = P[plausible_heights(P[:, 2], ceiling)]
     lo, hi = supported_range(kept[:, :2], kept[:, 2], widen, pad)
-    return lo, min(hi, med + 0.75 * max(float(ceiling) - med, 1.0))
+    return lo, min(hi, below_cameras(P[:, 2], ceiling))
 
 
-def with_matches(sp, zlim: tuple, ceiling: float, least: int, pad: float = 10.0) -> tuple:
-    """The heights ``zlim`` joined with those of the pair's sparse matches ``sp`` that neighbouring matches
-    :func:`support <supported>` (after :func:`plausible_heights`), ``pad`` metres beyond, when there are ``least``
-    of them: a DEM's valid heights bound neither the ground under its voids nor a DEM shifted from the orientation's
-    heights (the RPC pairs' tie points likewise, :mod:`.rpc_tool`). Only supported heights reach beyond the DEM: a
-    lone mismatch among a few dozen matches would otherwise widen the range by hundreds of metres, which the DEM
-    bounded before."""
+def beyond_dem(zlim: tuple, xy, z, least: int, top: float = np.inf, pad: float = 10.0) -> tuple:
+    """A DEM's heights ``zlim`` joined with the lowest and highest sparse heights ``z`` at ``xy`` that neighbouring
+    matches :func:`support <supported>`, ``pad`` metres beyond (the high end at most ``top``), when ``least`` are
+    supported. A DEM bounds neither the ground under its voids nor a DEM shifted from the orientation's heights; the
+    percentiles (:func:`supported_range`) would let one mismatch among 25 matches widen [82, 117] to [-221, 1025] m.
+    A frame pair's rule (:func:`with_matches`); an RPC pair's tie points still use :func:`supported_range`."""
+    span = supported_span(xy, z, least)
+    return zlim if span is None else (min(zlim[0], span[0] - pad), max(zlim[1], min(span[1] + pad, top)))
+
+
+def with_matches(sp, zlim: tuple, ceiling: float, least: int) -> tuple:
+    """The heights ``zlim`` (the DEM's) joined with those beyond them the pair's sparse matches ``sp`` without
+    their mismatches (:func:`plausible_heights`) support (:func:`beyond_dem`), the high end :func:`below_cameras`,
+    when the pair has ``least`` matches."""
     P = np.asarray(sp["points"], float).reshape(-1, 3)
     if sp["n"] < least or len(P) == 0:
         return zlim
-    med = float(np.median(P[:, 2]))
     kept = P[plausible_heights(P[:, 2], ceiling)]
-    z = kept[supported(kept[:, :2], kept[:, 2]), 2]
-    if len(z) < least:
-        return zlim
-    hi = min(float(z.max()) + pad, med + 0.75 * max(float(ceiling) - med, 1.0))
-    return min(zlim[0], float(z.min()) - pad), max(zlim[1], hi)
+    return beyond_dem(zlim, kept[:, :2], kept[:, 2], least, below_cameras(P[:, 2], ceiling))
 
 
 def epipole_margin(view, direction) -> float:

@@ -37,8 +37,8 @@ def pair_guide(p, name: str, ims, pt: dict, source, zlim) -> tuple:
     tile's range with 15 tie points). The fit goes into the pair's report (``dem``)."""
     ground = ims[p.i].model.inverse(pt["p1"], pt["z"])
     n = int(len(pt["z"]))
-    fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in zlim]
-    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, None, fps)
+    guide, p.extra["dem"], f = dem_guide.pair_guide(source, np.column_stack([ground[:, :2], pt["z"]]), n, None,
+                                                    plan.pair_footprints(ims, p, zlim))
     # with no fit measured nothing guides (``guides`` False); a measured fit's problems do not depend on it
     return guide, dem_guide.problems(f or dem_guide.DemFit(0.0, 0.0, 0.0, 0), name, n, guides=False, other=RPC_OFFSET)
 

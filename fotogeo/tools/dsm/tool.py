@@ -290,9 +290,9 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
     has matches but none on the DEM (a void under them: nothing checks it). The fit goes into the pair's report."""
     source, run_fit, pad = dem
     pts = sp["points"][plan.plausible_heights(sp["points"][:, 2], ceiling)] if sp["n"] else np.zeros((0, 3))
-    fps = [plan.footprint(ims[k], z)[:, :2] for k in (p.i, p.j) for z in (zlo, zhi)]
     unmeasured = run_fit or dem_guide.DemFit(0.0, 0.0, max(dem_guide.DEM_UNMEASURED_M, pad), 0)
-    guide, p.extra["dem"], _ = dem_guide.pair_guide(source, pts, sp["n"], unmeasured, fps)
+    guide, p.extra["dem"], _ = dem_guide.pair_guide(source, pts, sp["n"], unmeasured,
+                                                    plan.pair_footprints(ims, p, (zlo, zhi)))
     return guide
 
 
