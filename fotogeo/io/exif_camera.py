@@ -146,10 +146,27 @@ def _check_focal_plane(meta: ImageMetadata, full) -> None:
         return
     if abs(k - 1.0) > F35_TOLERANCE:
         ppmm = meta.focal_plane_ppmm
+        if full and tuple(full) != (meta.width, meta.height):
+            raise _contradicting(meta, full, frame)
         raise _resized(meta, full, f"EXIF FocalPlaneXResolution/YResolution ({ppmm[0]:.1f}, {ppmm[1]:.1f} px/mm) "
                                    f"over the sensor that FocalLength {meta.focal_mm:g} mm and FocalLengthIn35mmFilm "
                                    f"{meta.focal_35mm:g} mm imply describe a {frame[0]:.0f}x{frame[1]:.0f} frame",
                        frame)
+
+
+def _contradicting(meta: ImageMetadata, full, frame) -> InputError:
+    """The refusal of a file resized from its ``PixelXDimension`` (the two sizes one factor apart) whose focal records
+    describe another ``frame``: a resize changes neither record, so one of them was edited (or the file resized twice,
+    ``PixelXDimension`` rewritten in between) — named as the two records' contradiction, not as a resize."""
+    f, f35, ppmm = meta.focal_mm, meta.focal_35mm, meta.focal_plane_ppmm[0]
+    by = f35 * math.hypot(*full) / DIAGONAL_35MM
+    return InputError(f"{_fix(meta)}: its EXIF FocalLength {f:g} mm x FocalPlaneXResolution ({ppmm:.1f} px/mm) gives "
+                      f"{f * ppmm:.0f} px in the {full[0]}x{full[1]} frame of its EXIF PixelXDimension (the file a "
+                      f"resize of it by {_ratio(meta.width / full[0])}), its FocalLengthIn35mmFilm {f35:g} mm gives "
+                      f"{by:.0f} px: the two focal records contradict each other (over the sensor they describe a "
+                      f"{frame[0]:.0f}x{frame[1]:.0f} frame), one of them edited (a resize changes neither) or the "
+                      f"file resized twice with PixelXDimension rewritten in between; give the camera (--camera) or "
+                      f"use the originals")
 
 
 def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
