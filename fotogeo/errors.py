@@ -93,10 +93,11 @@ def _shorten_wkt(text: str) -> str:
     return "".join(out) + text[pos:]
 
 
-def one_line(text, limit: int = 800, value_limit: int = 120) -> str:
+def one_line(text, limit: int | None = 800, value_limit: int = 120) -> str:
     """``text`` as one line for an error message: whitespace collapsed, WKT CRS definitions
     shortened to their names, quoted values longer than ``value_limit`` and the whole text
     longer than ``limit`` characters cut with "…" — before the last " — " (the fix), when the fix is short.
+    ``limit`` None: never cut (fotogeo's own refusals, composed to be read whole, issue 32).
 
     >>> one_line('CRS PROJCS["WGS 84 / UTM zone 35N",GEOGCS["WGS 84",DATUM["x"]]] is\\n  projected')
     'CRS PROJCS["WGS 84 / UTM zone 35N"] is projected'
@@ -107,7 +108,7 @@ def one_line(text, limit: int = 800, value_limit: int = 120) -> str:
     text = " ".join(_shorten_wkt(str(text)).split())
     half = value_limit // 2
     text = re.sub(r"(?<!\w)'([^']{%d,})'(?!\w)" % (value_limit + 1), lambda m: f"'{m.group(1)[:half]}…{m.group(1)[-8:]}'", text)
-    if len(text) <= limit:
+    if limit is None or len(text) <= limit:
         return text
     head, sep, fix = text.rpartition(" — ")  # the fix comes last: cut the detail before it, never the fix
     if sep and len(fix) < limit // 2:

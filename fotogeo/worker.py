@@ -257,7 +257,7 @@ def answer_request(request: dict, channel: _Channel) -> None:
             warnings.simplefilter("always")
             result = func(progress=None, **kwargs)  # made JSON as it is written (_json_line)
     except FotogeoError as e:
-        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e), option=e.option,
+        channel.send(id=rid, type="error", error=type(e).__name__, message=one_line(e, limit=None), option=e.option,
                      also=list(e.also))
         return
     except Exception as e:  # noqa: BLE001 - a bug or an unexpected library error: name it, keep the session

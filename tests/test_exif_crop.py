@@ -1,7 +1,7 @@
 """A copy of a camera's frame that keeps its EXIF was taken for a resize whenever its size was smaller than EXIF
 PixelXDimension says: a centre crop of the eBee's 4608x3456 frame (2304x1728) got the focal length of a resize by
 1/2 (1605 px instead of 3210), and a resized copy with its border trimmed (2244x1688) the geometric mean of two
-factors. The camera's own EXIF thumbnail now tells a crop (fotogeo.io.exif_sizes.thumbnail_view), a resize must give
+factors. The camera's own EXIF thumbnail now tells a crop (fotogeo.io.exif_thumbnail.thumbnail_view), a resize must give
 the file's size to the pixel on both axes, and the resize taken is said on the console (a Note)."""
 from __future__ import annotations
 
@@ -135,3 +135,79 @@ def test_a_resize_gives_the_size_to_the_pixel_on_both_axes(size, said, k):
     from fotogeo.io.exif_camera import resize_factor
     got = resize_factor(size, said)
     assert got is None if k is None else got == pytest.approx(k, rel=1e-3)
+
+
+def _cropped_resized(src, dst, box, factor):
+    """``src``'s pixels ``box`` resized by ``factor`` (OpenCV, area averaging) with the original's APP1 segments."""
+    import cv2
+    import numpy as np
+    img = cv2.imdecode(np.frombuffer(src.read_bytes(), np.uint8), cv2.IMREAD_COLOR)
+    x0, y0, x1, y1 = box
+    small = cv2.resize(img[y0:y1, x0:x1], (round((x1 - x0) * factor), round((y1 - y0) * factor)),
+                       interpolation=cv2.INTER_AREA)
+    enc = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, 92])[1].tobytes()
+    dst.write_bytes(_with_app1(src.read_bytes(), enc))
+    return dst
+
+
+def _with_app1(original: bytes, encoded: bytes) -> bytes:
+    import struct
+    segments, i = [], 2
+    while i + 4 <= len(original) and original[i] == 0xFF and original[i + 1] != 0xDA:
+        length = struct.unpack(">H", original[i + 2:i + 4])[0]
+        if original[i + 1] == 0xE1:
+            segments.append(original[i:i + 2 + length])
+        i += 2 + length
+    return b"\xff\xd8" + b"".join(segments) + encoded[2:]
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("fraction,place,factor", [(0.8, (0.5, 0.5), 1 / 4), (0.8, (0.0, 0.0), 1 / 4),
+                                                   (0.9, (0.5, 0.5), 1 / 2), (0.6, (0.8, 0.3), 1 / 3),
+                                                   (0.9, (0.0, 0.0), 0.37), (0.6, (0.5, 0.5), 1 / 4)],
+                         ids=["centre 80 % 1/4", "top-left 80 % 1/4", "centre 90 % 1/2", "off-centre 60 % 1/3",
+                              "top-left 90 % 0.37", "centre 60 % 1/4"])
+def test_a_crop_then_resized_is_refused_naming_both(tmp_path, original, fraction, place, factor):
+    """Cropped then resized with the EXIF kept, the copy's size is the frame's times ``fraction · factor``: it was
+    taken for a resize by that (the central 80 % at 1/4 for 1/5: focal length 642 px for 803, tie points 14 m high)
+    since the crop was looked for at the size of a plain crop only (a 32 px box in the 160 px thumbnail, not 128)."""
+    import re
+    cw, ch = round(4608 * fraction), round(3456 * fraction)
+    x0, y0 = round((4608 - cw) * place[0]), round((3456 - ch) * place[1])
+    copy = read_image_metadata(_cropped_resized(original, tmp_path / "copy.JPG", (x0, y0, x0 + cw, y0 + ch), factor))
+    with pytest.raises(InputError, match=r"its EXIF thumbnail .* matches the file as the \d+x\d+ px at \d+,\d+ of that "
+                                         r"frame \(± 29 px, correlation 0.9\d\).*cropped to them and resized by about "
+                                         r".*give the full-size images or the camera of the copies \(--camera\)") as e:
+        focal_of(copy)
+    w, h, x, y, r = re.search(r"the (\d+)x(\d+) px at (\d+),(\d+) .* times ([\d.]+) \(", str(e.value)).groups()
+    assert abs(int(w) - cw) <= 29 and abs(int(h) - ch) <= 29 and abs(int(x) - x0) <= 29 and abs(int(y) - y0) <= 29
+    assert float(r) == pytest.approx(factor, rel=0.02)
+
+
+@pytest.mark.data
+def test_a_copy_its_thumbnail_matches_nowhere_is_not_taken_for_a_resize(tmp_path, original):
+    """A 1/4 copy turned by 180° (the size of a resize by 1/4): the thumbnail matches it neither as a whole nor at any
+    place, which contradicts a plain resize; it was taken for one, in silence but for a Note."""
+    import cv2
+    import numpy as np
+    img = cv2.imdecode(np.frombuffer(original.read_bytes(), np.uint8), cv2.IMREAD_COLOR)
+    small = cv2.rotate(cv2.resize(img, (1152, 864), interpolation=cv2.INTER_AREA), cv2.ROTATE_180)
+    turned = tmp_path / "turned.JPG"
+    turned.write_bytes(_with_app1(original.read_bytes(), cv2.imencode(".jpg", small)[1].tobytes()))
+    with pytest.raises(InputError, match=r"its EXIF thumbnail .* matches the file neither as a whole \(correlation "
+                                         r"-?0\.\d\d; a resize matches at 0.5 or more\) nor at any place: it is not a "
+                                         r"plain resize by 1/4 of that frame .*--camera"):
+        focal_of(read_image_metadata(turned))
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("frame", ["IMG_2186", "IMG_2188", "IMG_2212", "IMG_2213"])
+def test_a_crop_keeping_the_top_left_corner_is_refused(tmp_path, data_dir, frame):
+    """90 % of the frame from its top-left corner still matches the thumbnail at 0.54-0.67 as a whole, and its place
+    is the corner where a resize lies: these four frames were taken for a resize by 0.9. Its far edges lie 16
+    thumbnail pixels inside the frame's."""
+    src = data_dir / "drone_snowpeak" / "img" / f"{frame}.JPG"
+    crop = read_image_metadata(_cropped(src, tmp_path / "crop.JPG", (0, 0, 4147, 3110)))
+    with pytest.raises(InputError, match=r"matches the file at 0,0 of that frame \(± 29 px, correlation 0.9\d\) "
+                                         r"better than as a whole \(0.[5-7]\d\): the image was cropped, not resized"):
+        focal_of(crop)

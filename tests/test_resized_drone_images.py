@@ -200,3 +200,25 @@ def test_exif_focal_check_applies_to_focal_plane_cameras_not_given_ones():
     check_exif_focal(src, cam, bad, given=True)
     check_exif_focal("drone-dji:DewarpData", cam, bad, given=False)
     check_exif_focal("", cam, bad, given=False)
+
+
+@pytest.mark.data
+def test_a_long_refusal_is_printed_whole(tmp_path, data_dir):
+    """Issue 32: a refusal is never cut. The strip's 1/4 copies without XMP are refused with what the files lost
+    before the adjustment's own reason and its fix, 1,100 characters in all: the reason was cut to "(0.43 m RMS from
+    … — give the attitude a prior", losing why the attitude is undetermined and which pairs were tried."""
+    names = ["IMG_2280", "IMG_2281", "IMG_2282"]
+    src = data_dir / "drone_snowpeak" / "img"
+    bare = [jm.resized_copy(src / f"{n}.JPG", tmp_path / f"{n}.JPG", 4, xmp=False) for n in names]
+    res = CliRunner().invoke(main_cli(), ["triangulate", *map(str, bare), "-o", str(tmp_path / "out"), "-q"])
+    assert res.exit_code == 1, res.output
+    said = " ".join(res.output.split())
+    assert "…" not in said, said
+    assert "a rotation of the whole block about that line" in said and "pair(s) tried" in said, said
+    assert "give the attitude a prior (--eo-sigma-angle" in said and "exiftool -tagsFromFile ORIGINAL" in said, said
+
+
+def test_one_line_without_a_limit_keeps_the_whole_text():
+    from fotogeo.errors import one_line
+    text = "reason " * 200 + "— the fix"
+    assert one_line(text, limit=None) == text.strip() and "…" in one_line(text)

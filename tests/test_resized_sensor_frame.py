@@ -121,3 +121,22 @@ def test_a_digital_zoom_is_named_and_used_when_the_records_agree(tmp_path, data_
     f, _, _, _, src = focal_of(m)
     z = zoom[0] if zoom[0] else 1
     assert f == pytest.approx(base * z, rel=1e-12) and ("DigitalZoomRatio 2" in src) == (z == 2)
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("tags,px", [({F35: 35}, r"3210 px .* FocalLengthIn35mmFilm 35 mm gives 4659 px"),
+                                     ({F35: 24, 0x920A: 5.0}, r"3733 px .* FocalLengthIn35mmFilm 24 mm gives 3195 px")],
+                         ids=["35 mm equivalent edited", "focal length edited"])
+def test_focal_records_that_contradict_each_other_in_a_resized_copy_are_named_so(tmp_path, data_dir, tags, px):
+    """A 1/4 copy whose PixelXDimension still says 4608x3456 (a resize the file's size agrees with) and one of whose
+    focal records was edited: a resize changes neither record, yet it was explained as "a copy resized by 3/8 with its
+    size records rewritten" with an exiftool fix writing PixelXDimension=3072 — a wrong camera if followed."""
+    src = data_dir / "drone_snowpeak" / "img" / "IMG_2280.JPG"
+    copy = jm.resized_copy(src, tmp_path / "copy.JPG", 4)
+    jm.set_exif_tags(copy, tags)
+    with pytest.raises(InputError, match=r"\(1152x864 px\): its EXIF FocalLength .* FocalPlaneXResolution "
+                                         r"\(746.6 px/mm\) gives " + px + r": the two focal records contradict "
+                                         r"each other .*one of them edited .*give the camera \(--camera\) or use "
+                                         r"the originals$") as e:
+        focal_of(read_image_metadata(copy))
+    assert "exiftool" not in str(e.value) and "a copy resized by" not in str(e.value)

@@ -41,8 +41,9 @@ A file smaller than ``PixelXDimension`` is a resize only if one factor gives its
 they all describe the camera's frame, not the file: ``FocalPlaneXResolution``, the 35 mm equivalent and DJI's
 ``CalibratedOpticalCenterX/Y`` agree with a resize of the same size, and so do the tie points' residuals of a nadir
 block (a focal length too short goes into the height). The camera's EXIF thumbnail, of the whole frame, tells them
-apart (:func:`.exif_sizes.thumbnail_view`): a crop it shows is refused; otherwise the resize taken is said as an
-:class:`~fotogeo.errors.InputNote` with what told it, since without a thumbnail nothing does.
+apart (:mod:`.exif_thumbnail`): a crop it shows, resized or not, is refused, and so is a file it does not match
+as a whole; otherwise the resize taken is said as an :class:`~fotogeo.errors.InputNote` with what told it, since
+without a thumbnail nothing does.
 
 Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
 thumbnail's size (the vendor's choice, the same whatever the frame) and ``FocalLength`` against
@@ -64,18 +65,12 @@ from fractions import Fraction
 from ..errors import InputError, InputNote
 from .exif import DIAGONAL_35MM, ImageMetadata, exif_numbers
 from .exif_lens import check_maker_focal
-from .exif_sizes import thumbnail_view
+from .exif_thumbnail import check_thumbnail, thumbnail_says
 
 #: relative difference tolerated between a calibrated focal length and the 35 mm equivalent's
 F35_TOLERANCE = 0.15
 #: relative difference tolerated between the two axes' scale factors and between full sizes
 SIZE_TOLERANCE = 0.01
-#: correlations of a file with its EXIF thumbnail: below the first as a whole and above the second at one place in it
-#: (:func:`_check_thumbnail`), the file is a crop of the camera's frame
-THUMB_RESIZE, THUMB_CROP = 0.5, 0.8
-#: a crop also when its place in the thumbnail correlates this much better than the whole file, at least
-#: :data:`THUMB_SHIFT` thumbnail pixels from the corner where a resize puts it
-THUMB_MARGIN, THUMB_SHIFT = 0.1, 2.0
 
 
 def _fix(meta: ImageMetadata) -> str:
@@ -94,7 +89,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
             raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension x PixelYDimension is {full[0]}x{full[1]}, not "
                              f"the file's size times one factor to the pixel (cropped, trimmed, rotated or resized "
                              f"unevenly): its camera calibration cannot be carried over; give the camera (--camera)")
-        seen = _check_thumbnail(meta, full)
+        seen = check_thumbnail(meta, full, s)
     cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
     if cx and cy and cx > 0 and cy > 0:
         implied = (2 * cx, 2 * cy)
@@ -109,7 +104,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     if s != 1.0:
         warnings.warn(f"images of {w}x{h} px whose EXIF PixelXDimension says {full[0]}x{full[1]} are taken as a "
                       f"resize by {_ratio(s)} from {full[0]}x{full[1]} (their calibration scaled to the file; "
-                      f"{_thumbnail_says(seen, s, full)}); "
+                      f"{thumbnail_says(seen, s, full)}); "
                       f"if the images were cropped, give --camera", InputNote, stacklevel=2)
     return s, "; ".join(n for n in (note, noted) if n)
 
@@ -151,10 +146,27 @@ def _check_focal_plane(meta: ImageMetadata, full) -> None:
         return
     if abs(k - 1.0) > F35_TOLERANCE:
         ppmm = meta.focal_plane_ppmm
+        if full and tuple(full) != (meta.width, meta.height):
+            raise _contradicting(meta, full, frame)
         raise _resized(meta, full, f"EXIF FocalPlaneXResolution/YResolution ({ppmm[0]:.1f}, {ppmm[1]:.1f} px/mm) "
                                    f"over the sensor that FocalLength {meta.focal_mm:g} mm and FocalLengthIn35mmFilm "
                                    f"{meta.focal_35mm:g} mm imply describe a {frame[0]:.0f}x{frame[1]:.0f} frame",
                        frame)
+
+
+def _contradicting(meta: ImageMetadata, full, frame) -> InputError:
+    """The refusal of a file resized from its ``PixelXDimension`` (the two sizes one factor apart) whose focal records
+    describe another ``frame``: a resize changes neither record, so one of them was edited (or the file resized twice,
+    ``PixelXDimension`` rewritten in between) — named as the two records' contradiction, not as a resize."""
+    f, f35, ppmm = meta.focal_mm, meta.focal_35mm, meta.focal_plane_ppmm[0]
+    by = f35 * math.hypot(*full) / DIAGONAL_35MM
+    return InputError(f"{_fix(meta)}: its EXIF FocalLength {f:g} mm x FocalPlaneXResolution ({ppmm:.1f} px/mm) gives "
+                      f"{f * ppmm:.0f} px in the {full[0]}x{full[1]} frame of its EXIF PixelXDimension (the file a "
+                      f"resize of it by {_ratio(meta.width / full[0])}), its FocalLengthIn35mmFilm {f35:g} mm gives "
+                      f"{by:.0f} px: the two focal records contradict each other (over the sensor they describe a "
+                      f"{frame[0]:.0f}x{frame[1]:.0f} frame), one of them edited (a resize changes neither) or the "
+                      f"file resized twice with PixelXDimension rewritten in between; give the camera (--camera) or "
+                      f"use the originals")
 
 
 def _resized(meta: ImageMetadata, full, what: str, frame) -> InputError:
@@ -273,47 +285,6 @@ def _ratio(k: float) -> str:
     """``k`` as a simple fraction when it is one (``1/2``, ``3/5``), else to four digits."""
     f = Fraction(k).limit_denominator(8)
     return f"{f.numerator}/{f.denominator}" if abs(f / k - 1) < 1e-3 and f.denominator > 1 else f"{k:.4g}"
-
-
-def _thumbnail_says(seen: int, s: float, full) -> str:
-    """What the EXIF thumbnail (``seen`` pixels wide when it matches the whole file, else 0) tells of a resize by
-    ``s`` of the ``full`` frame: it agrees only when a centred crop of the same size, ``(1 − s) · seen`` thumbnail
-    pixels narrower, lies :data:`THUMB_SHIFT` of them from the corner (:func:`_thumbnail_crop` would see it)."""
-    if not seen:
-        return "nothing in them tells a crop from a resize"
-    if (1 - s) * seen >= 2 * THUMB_SHIFT:
-        return "their EXIF thumbnail agrees"
-    return (f"their EXIF thumbnail, {seen} px wide, cannot tell a trim of under {2 * THUMB_SHIFT * full[0] / seen:.0f} "
-            f"px of the frame's width from a resize")
-
-
-def _check_thumbnail(meta: ImageMetadata, full) -> int:
-    """Refuse a file taken for a resize of the ``full`` frame that the camera's own EXIF thumbnail shows to be a crop
-    of it (:func:`.exif_sizes.thumbnail_view`): the whole file does not match the thumbnail (correlation below
-    :data:`THUMB_RESIZE`) while one part of the thumbnail does (at least :data:`THUMB_CROP`). Without a thumbnail,
-    texture or a clear match nothing is told and the resize stands (the note of :func:`size_scale` says so).
-    Returns the thumbnail's width when it matches the whole file (at least :data:`THUMB_CROP`), else 0."""
-    view = thumbnail_view(meta.path, full)
-    if view is None or not _thumbnail_crop(view, full):
-        return view[3] if view is not None and view[0] >= THUMB_CROP else 0
-    r_resize, r_crop, (x, y), _ = view
-    raise InputError(f"{_fix(meta)}: its EXIF thumbnail (the camera's view of its whole {full[0]}x{full[1]} frame, "
-                     f"EXIF PixelXDimension) matches the file at {x},{y} of that frame (± {full[0] / view[3]:.0f} px, "
-                     f"correlation {r_crop:.2f}) better than as a whole ({r_resize:.2f}): the image was cropped, "
-                     f"not resized, so its focal length in pixels is the camera's and its principal point moved by "
-                     f"the crop; give the camera of the crop (--camera) or use the originals")
-
-
-def _thumbnail_crop(view, full) -> bool:
-    """Whether :func:`.exif_sizes.thumbnail_view`'s ``view`` shows a crop: one place in the thumbnail matches (at
-    least :data:`THUMB_CROP`) and the whole file does not (below :data:`THUMB_RESIZE`), or matches clearly worse
-    (by :data:`THUMB_MARGIN`) than that place, at least :data:`THUMB_SHIFT` thumbnail pixels from the corner (0, 0)
-    where a resize of the whole frame lies — a crop keeping most of the frame still matches well as a whole."""
-    r_resize, r_crop, (x, y), tw = view
-    if r_crop < THUMB_CROP:
-        return False
-    shift = max(abs(x), abs(y)) * tw / full[0]
-    return r_resize < THUMB_RESIZE or (r_crop - r_resize >= THUMB_MARGIN and shift >= THUMB_SHIFT)
 
 
 def resized_without_xmp(meta: ImageMetadata) -> str | None:

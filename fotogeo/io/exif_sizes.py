@@ -17,13 +17,7 @@ EXIF ``PixelXDimension``/``PixelYDimension`` is the size the calibration tags (`
   ``CanonImageWidth/CanonImageHeight`` is within 1 % of the aspect of the file or of its ``PixelXDimension`` (either
   orientation). Otherwise the note gives nothing: an implausible record is ignored, never a reason to refuse.
 
-The EXIF thumbnail (IFD1 ``JPEGInterchangeFormat``) is the camera's own view of its whole frame and survives the tools
-that crop or resize the main image while copying the EXIF block. :func:`thumbnail_view` places the file in it: the
-file shrunk to the thumbnail's scale (``thumbnail width / PixelXDimension``) is matched against it by normalised
-cross-correlation (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``), once as the whole thumbnail (a resize) and at its
-best place (a crop). It tells a crop from a resize only when the file holds texture at that scale and the thumbnail
-shows the same frame (its aspect the frame's within :data:`ASPECT_TOLERANCE`: a letterboxed 16:9 thumbnail is not
-used); a crop of less than a few thumbnail pixels (a trimmed border) is not told from a resize here.
+The camera's EXIF thumbnail, its third record of the frame, is read by :mod:`.exif_thumbnail`.
 """
 from __future__ import annotations
 
@@ -53,53 +47,6 @@ def written_sizes(tags: dict, size: tuple = (), note=None) -> tuple:
         if canon:
             out.append(("Canon maker note CanonImageWidth x CanonImageHeight", canon))
     return tuple(out)
-
-
-def thumbnail_view(path, full: tuple) -> tuple | None:
-    """``(r_resize, r_crop, (x, y), thumbnail width)`` (module docstring): the correlation of the file with the whole
-    EXIF thumbnail, with the best place in it for a crop of the ``full`` frame, and that place's top-left corner in
-    ``full``'s pixels (to a thumbnail pixel); None without a thumbnail of ``full``'s aspect, a readable file, or
-    texture to match."""
-    import cv2
-    import numpy as np
-    tiff = _exif_tiff(path)
-    if tiff is None or tiff[:2] not in (b"II", b"MM"):
-        return None
-    bo = "<" if tiff[:2] == b"II" else ">"
-    try:
-        ifd0 = struct.unpack(bo + "I", tiff[4:8])[0]
-        after = ifd0 + 2 + 12 * struct.unpack(bo + "H", tiff[ifd0:ifd0 + 2])[0]
-        ifd1 = struct.unpack(bo + "I", tiff[after:after + 4])[0]
-        entries = _entries(tiff, bo, ifd1) if ifd1 else {}
-    except (struct.error, IndexError):
-        return None
-    if 0x0201 not in entries or 0x0202 not in entries:
-        return None
-    start, n = entries[0x0201][2], entries[0x0202][2]
-    if n == 0 or start + n > len(tiff):  # a pointer past the EXIF block (or the part of it read): no thumbnail
-        return None
-    try:
-        thumb = cv2.imdecode(np.frombuffer(tiff[start:start + n], np.uint8), cv2.IMREAD_GRAYSCALE)
-        image = cv2.imread(str(path), cv2.IMREAD_REDUCED_GRAYSCALE_8 | cv2.IMREAD_IGNORE_ORIENTATION)
-    except cv2.error:
-        return None
-    if thumb is None or image is None:
-        return None
-    if abs(thumb.shape[1] / thumb.shape[0] * full[1] / full[0] - 1) > ASPECT_TOLERANCE:
-        return None
-    k = thumb.shape[1] / full[0]
-    h, w = image.shape
-    small = (round(8 * w * k), round(8 * h * k))
-    if min(small) < 8 or small[0] > thumb.shape[1] or small[1] > thumb.shape[0]:
-        return None
-    thumb = thumb.astype(np.float32)
-    shrunk = cv2.resize(image.astype(np.float32), small, interpolation=cv2.INTER_AREA)
-    if shrunk.std() < 1.0 or thumb.std() < 1.0:
-        return None
-    whole = cv2.resize(image.astype(np.float32), thumb.shape[::-1], interpolation=cv2.INTER_AREA)
-    r_resize = float(cv2.matchTemplate(thumb, whole, cv2.TM_CCOEFF_NORMED)[0, 0])
-    _, r_crop, _, at = cv2.minMaxLoc(cv2.matchTemplate(thumb, shrunk, cv2.TM_CCOEFF_NORMED))
-    return r_resize, float(r_crop), (round(at[0] / k), round(at[1] / k)), thumb.shape[1]
 
 
 def _int(text) -> int | None:

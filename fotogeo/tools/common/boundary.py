@@ -287,8 +287,9 @@ def _os_errno(exc: BaseException) -> int | None:
 
 
 def translate_own(exc: FotogeoError, call: _Call) -> FotogeoError | None:
-    """``exc`` in one line with final paths; a failed write on a full disk says so. None: unchanged."""
-    text = one_line(call.final_paths(str(exc)))
+    """``exc`` in one line with final paths, whole however long (a refusal cut would lose what it names or its
+    fix); a failed write on a full disk says so. None: unchanged."""
+    text = one_line(call.final_paths(str(exc)), limit=None)
     about_space = text.lower().startswith("disk full") or "free space" in text.lower()
     denied = _denied(exc, text)
     if isinstance(exc, OSError) and not isinstance(exc, (InputError, ModelError)) and not about_space and not denied:

@@ -169,7 +169,7 @@ def _saying_what_was_lost(lost: dict, camera_from_files: bool = False):
             named = list(lost)
         if not named:
             raise
-        said = _grouped({n: lost[n] for n in named})  # first: a long refusal is cut at its end
+        said = _grouped({n: lost[n] for n in named})  # first: the cause before the symptom
         raise type(exc)(f"{said} (repair the files or give the attitude another way: --geoinfo, --eo); {exc}",
                         option=exc.option, frames=exc.frames, also=exc.also) from None
 
