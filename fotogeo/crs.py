@@ -274,10 +274,12 @@ def require_planar(crs: CRS, what: str) -> CRS:
     return crs
 
 
-def require_projected(crs: CRS, what: str, near_lonlat=None) -> CRS:
+def require_projected(crs: CRS, what: str, near_lonlat=None, choice: str | None = "'auto'") -> CRS:
     """Refuse a geocentric or geographic CRS for ``what``, an output measured in metres (a
     geographic CRS would report degrees as metres); the message suggests the UTM zone of
-    ``near_lonlat`` when given.
+    ``near_lonlat`` when given, and ``choice``: the caller's words for the other choice that works for its
+    inputs (its automatic one, by default; None when there is none to name, so that the hint never sends the
+    user to a choice that fails).
 
     >>> from pyproj import CRS
     >>> require_projected(CRS.from_epsg(4326), "output CRS", (27.1, 39.9))
@@ -286,9 +288,10 @@ def require_projected(crs: CRS, what: str, near_lonlat=None) -> CRS:
     """
     require_planar(crs, what)
     if crs.is_geographic:
-        zone = f"EPSG:{utm_crs_for(*near_lonlat).to_epsg()}, the UTM zone of the area, or " if near_lonlat else ""
+        named = ([f"EPSG:{utm_crs_for(*near_lonlat).to_epsg()}, the UTM zone of the area"] if near_lonlat else []) + (
+            [choice] if choice else [])
         raise InputError(f"{what} {_name(crs)} is geographic (degrees); fotogeo's residuals, resolution and "
-                         f"RMSE are in metres: use a projected CRS ({zone}'auto')")
+                         f"RMSE are in metres: use a projected CRS" + (f" ({', or '.join(named)})" if named else ""))
     return crs
 
 

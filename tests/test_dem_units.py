@@ -39,7 +39,8 @@ def test_read_dem_heights_in_the_crs_unit(tmp_path, crs, unit, factor):
 def test_ortho_dem_window_in_metres_from_a_feet_dem(data_dir, tmp_path):
     """The ortho tool's windowed DEM reader converts as read_dem does: the NGI DEM written in feet gives the
     metre DEM's heights under frame 0182."""
-    from fotogeo.tools.ortho.inputs import image_models, map_crs, read_dem_under
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models, read_dem_under
     ngi = data_dir / "ngi"
     ft = tmp_path / "dem_ft.tif"
     with rasterio.open(ngi / "dem.tif") as src:

@@ -74,7 +74,8 @@ def test_a_frame_view_pickles_with_the_standard_pickle(tmp_path):
     """What a task is sent for a frame pair pickles without cloudpickle (Dask would fall back to it and hide a
     closure): the view's rays and projection survive the round trip."""
     from fotogeo.tools.dsm.frames import frame_view
-    from fotogeo.tools.ortho.inputs import image_models, map_crs
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models
     sc = render(tmp_path, 120, seed=1)
     crs = map_crs(CRS, None, sc["eo"], sc["images"], False, sc["camera"])[0]
     view = frame_view(image_models(sc["images"], crs, camera=sc["camera"], eo=sc["eo"])[0])

@@ -74,7 +74,8 @@ def test_comma_and_semicolon_separated_lines(tmp_path):
 def test_orientation_lines_named_with_the_image_extension(data_dir, tmp_path):
     """NGI's exterior orientation with the frames named 'name.tif' (as Pix4D and Metashape write them) orients the
     frames as the stems do; on main ortho refused it ("has no orientation for the image(s)")."""
-    from fotogeo.tools.ortho.inputs import image_models, map_crs
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models
     ngi = data_dir / "ngi"
     eo = tmp_path / "eo.txt"
     eo.write_text("".join(line.replace("_RGB ", "_RGB.TIF ", 1) + "\n"

@@ -199,7 +199,8 @@ def test_dem_read_under_the_images_only(data_dir):
     of the whole DEM there."""
     from fotogeo.crs import same_crs
     from fotogeo.io.raster import read_dem
-    from fotogeo.tools.ortho.inputs import image_models, map_crs, read_dem_under
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models, read_dem_under
     ngi = data_dir / "ngi"
     frame = str(ngi / "frames" / "3324c_2015_1004_05_0182_RGB.tif")
     crs, _ = map_crs("auto", str(ngi / "dem.tif"), str(ngi / "exterior_orientation.txt"), [frame], False)
@@ -223,7 +224,8 @@ def test_qb2_rpc_against_gdal_transformer(data_dir, tmp_path):
     with pytest.raises(InputError, match="geoid heights but the RPC needs ellipsoid heights"):
         ortho([str(img)], str(tmp_path / "x.tif"), dem=str(dem), rpc=True)
     assert not (tmp_path / "x.tif").exists()
-    from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models, terrain
     crs, _ = map_crs("auto", str(dem), None, [str(img)], True)
     ims = image_models([str(img)], crs, rpc=True)
     heights, ref, _ = terrain(str(dem), None, crs, ims, dem_heights="ellipsoid")
@@ -244,7 +246,8 @@ def test_geoid_heights_made_ellipsoidal(data_dir, tmp_path):
     lon/lat raster), and --geoid on a DEM said to be ellipsoidal is refused."""
     from affine import Affine
     from fotogeo.errors import InputError
-    from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models, terrain
     geoid = tmp_path / "n.tif"
     with rasterio.open(geoid, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32", crs="EPSG:4326",
                        transform=Affine(0.05, 0, 23.5, 0, -0.05, -32.7)) as ds:

@@ -7,7 +7,8 @@ import warnings
 
 import rasterio
 
-from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
+from fotogeo.tools.ortho.crs_rule import map_crs
+from fotogeo.tools.ortho.inputs import image_models, terrain
 from fotogeo.tools.ortho.tool import plan_grid
 from test_ortho_error_threshold import rendered  # noqa: F401  (the fixture)
 

@@ -13,7 +13,8 @@ from click.testing import CliRunner
 import fotogeo.geometry.lattice as lattice
 from fotogeo.cli import main
 from fotogeo.io.warp import windows_of
-from fotogeo.tools.ortho.inputs import image_models, map_crs, terrain
+from fotogeo.tools.ortho.crs_rule import map_crs
+from fotogeo.tools.ortho.inputs import image_models, terrain
 from fotogeo.tools.ortho.tool import OrthoMapping, ortho, plan_grid
 from test_bad_input import assert_one_line_error
 

@@ -258,7 +258,8 @@ def test_image_rpc_refusals(data_dir, tmp_path):
 def test_ortho_reads_a_crop_with_its_geom(data_dir, tmp_path):
     """``ortho --rpc`` on an OTB/CARS crop: the .geom beside it, moved into the crop's pixels (UTM from the RPC)."""
     from fotogeo.crs import to_lonlat
-    from fotogeo.tools.ortho.inputs import image_models, map_crs
+    from fotogeo.tools.ortho.crs_rule import map_crs
+    from fotogeo.tools.ortho.inputs import image_models
 
     v = data_dir / "rpc" / "ventoux"
     for f in ("left_image.tif", "left_image.geom"):

@@ -292,7 +292,7 @@ def test_colmap_own_frame_with_two_gps_images_is_refused(sc, tmp_path):
 def test_colmap_images_txt_without_a_crs_is_read_as_a_model_not_as_eo_lines(sc, tmp_path):
     """ortho without --crs or a projected DEM looked for a fotogeo header in COLMAP's images.txt (a ``.txt``, so
     taken for ``name X Y Z omega phi kappa`` lines) and asked for the CRS of "the exterior orientation"."""
-    from fotogeo.tools.ortho.inputs import map_crs
+    from fotogeo.tools.ortho.crs_rule import map_crs
     folder = sp.colmap_model(tmp_path, sc, {1: ("OPENCV", 640, 480, _colmap(sc))})
     with pytest.raises(InputError, match=r"COLMAP model .*: COLMAP coordinates have no CRS"):
         map_crs(None, None, folder / "images.txt", sc["bare"][:2], False)

@@ -18,7 +18,8 @@ from .common import ConsoleProgress, options_from, quiet_option, run_tool, tool_
 @click.option("--report", type=click.Path(dir_okay=False), default=None,
               help="JSON report: pairs kept and left out and why, disparity ranges, disparities searched and the "
                    "strips matched coarse to fine, match density, epipolar residuals and ray miss distances, "
-                   "completeness, timings.")
+                   "completeness, timings; written also when the run is refused (status refused, the error, the "
+                   "pairs tried and why).")
 @click.option("--overwrite", is_flag=True)
 @quiet_option
 @run_tool

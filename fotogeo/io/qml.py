@@ -15,6 +15,9 @@ The file QGIS loads is also the one its "Save as Default" writes: a ``<name>.qml
 fotogeo's carries :data:`MARKER`, an XML comment, which QGIS does not write back (it serialises the layer's style, not
 the file it loaded): a style without it is replaced only with ``overwrite`` (:func:`check_style`) — never in
 silence by the QGIS plugin, which keeps it (:func:`users_style`) — and a run may write none (``qgis_style`` off).
+fotogeo wrote its style without the marker before it had one: such a file is recognised by its content, the text
+:func:`dsm_style` writes for the range it holds without the marker line (:func:`_earlier_fotogeo`), so that it is
+replaced as a marked one is; any edit (a colour, a stop, a range label, QGIS saving it back) makes it a user's.
 """
 from __future__ import annotations
 
@@ -31,6 +34,8 @@ CUT = (0.02, 0.98)
 MARKER = "<!-- written by fotogeo with its DSM -->"
 #: how far into a style :data:`MARKER` is looked for (it follows the DOCTYPE line)
 _HEAD = 512
+#: the most of a style read to recognise fotogeo's earlier, unmarked one (it has about 3 kB)
+_MOST = 16384
 
 _TEMPLATE = """<!DOCTYPE qgis PUBLIC 'http://mrcc.com/qgis.dtd' 'SYSTEM'>
 {marker}
@@ -105,11 +110,26 @@ def users_style(dsm) -> Path | None:
     if not style.is_file():
         return None
     try:
-        with open(style, encoding="utf-8", errors="replace") as f:
-            head = f.read(_HEAD)
+        with open(style, encoding="utf-8", errors="replace", newline="") as f:
+            text = f.read(_MOST + 1)
     except OSError:
         return style  # unreadable: not known to be fotogeo's
-    return None if MARKER in head else style
+    return None if MARKER in text[:_HEAD] or _earlier_fotogeo(text) else style
+
+
+def _earlier_fotogeo(text: str) -> bool:
+    """Whether ``text`` is the style an earlier fotogeo wrote, before :data:`MARKER` (module docstring): exactly
+    :func:`dsm_style` of the range in its ``classificationMin`` / ``classificationMax`` without the marker line
+    (floats written with ``repr`` read back to the same text)."""
+    import re
+    if len(text) > _MOST:
+        return False
+    found = [re.search(rf'{key}="([^"]*)"', text) for key in ("classificationMin", "classificationMax")]
+    try:
+        lo, hi = (float(m.group(1)) for m in found)
+    except (AttributeError, ValueError):
+        return False
+    return hi > lo and text == dsm_style(lo, hi).replace(MARKER + "\n", "", 1)
 
 
 def warn_earlier_style(dsm, role: str = "DSM") -> None:

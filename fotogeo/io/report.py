@@ -40,6 +40,19 @@ def write_json(path, data: dict) -> None:
         os.fsync(f.fileno())
 
 
+def write_json_whole(path, data: dict) -> None:
+    """:func:`write_json` to a temporary file beside ``path`` renamed over it: a reader sees the whole report or
+    none (the report of a refused run, written outside the run's atomic outputs)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write_json(tmp, data)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
 def read_json(path, what: str) -> dict:
     """A JSON report (one of fotogeo's): a dict, or one :class:`~fotogeo.errors.InputError` line naming ``what``."""
     from ..errors import InputError

@@ -167,18 +167,32 @@ def footprints_height(footprints, i, j) -> float:
 
 def _reason(p: PairChoice, lim: Limits, given: bool = False) -> str:
     if p.overlap < lim.min_overlap:
-        return f"overlap {100 * p.overlap:.0f} % below {100 * lim.min_overlap:.0f} %"
+        return f"overlap {shown(100 * p.overlap, 100 * lim.min_overlap)} % below {100 * lim.min_overlap:g} %"
     bh = base_across(p)
     if bh < lim.min_base_height:
-        return (f"base-to-height ratio {bh:.3f} across the lines of sight (the rays meet at {p.convergence:.1f} "
-                f"degrees), below {lim.min_base_height:g}: heights would be too noisy (about {1 / max(bh, 1e-3):.0f} "
-                f"x the matching error)")
+        return (f"base-to-height ratio {shown(bh, lim.min_base_height, 3)} across the lines of sight (the rays "
+                f"meet at {p.convergence:.1f} degrees), below {lim.min_base_height:g}: heights would be too noisy "
+                f"(about {1 / max(bh, 1e-3):.0f} x the matching error)")
     if bh > lim.max_base_height:
-        return (f"base-to-height ratio {bh:.2f} across the lines of sight (the rays meet at {p.convergence:.0f} "
-                f"degrees), above {lim.max_base_height:g}: the views differ too much")
+        return (f"base-to-height ratio {shown(bh, lim.max_base_height, 2)} across the lines of sight (the rays "
+                f"meet at {p.convergence:.0f} degrees), above {lim.max_base_height:g}: the views differ too much")
     if p.view_angle > lim.max_view_angle and not given:
-        return f"the views differ by {p.view_angle:.0f} degrees (above {lim.max_view_angle:g})"
+        return f"the views differ by {shown(p.view_angle, lim.max_view_angle)} degrees (above {lim.max_view_angle:g})"
     return ""
+
+
+def shown(value: float, limit: float, decimals: int = 0) -> str:
+    """``value`` with ``decimals`` decimals, or as many more (up to 6) as it takes not to read as the ``limit`` it
+    is compared with: an overlap of 19.6 % is refused as "19.6 % below 20 %", not "20 % below 20 %".
+
+    >>> shown(19.6, 20.0), shown(12.4, 20.0), shown(0.0799, 0.08, 3), shown(45.04, 45.0)
+    ('19.6', '12', '0.0799', '45.04')
+    """
+    text = f"{value:.{decimals}f}"
+    while float(text) == limit and decimals < 6 and value != limit:
+        decimals += 1
+        text = f"{value:.{decimals}f}"
+    return text
 
 
 def _wide(p: PairChoice, lim: Limits) -> bool:
@@ -232,11 +246,11 @@ def choose_pairs(centres, axes, footprints, limits: Limits = Limits(), given=Non
             continue
         if given is None and _wide(p, limits) and max(wide[p.i], wide[p.j]) >= limits.per_image_wide:
             p.reason = (f"an image already has {limits.per_image_wide} partner(s) whose views differ by more than "
-                        f"{limits.rank_view_angle:g} degrees (these {p.view_angle:.0f})")
+                        f"{limits.rank_view_angle:g} degrees (these {shown(p.view_angle, limits.rank_view_angle)})")
             continue
         p.kept, p.reason = True, "kept" + ("" if given is not None else _ranked_last(p))
         if p.view_angle > limits.max_view_angle:  # only a given pair: the user's choice over the view limit
-            p.reason = (f"kept as given (the views differ by {p.view_angle:.0f} degrees, "
+            p.reason = (f"kept as given (the views differ by {shown(p.view_angle, limits.max_view_angle)} degrees, "
                         f"above {limits.max_view_angle:g})")
         used[p.i] += 1
         used[p.j] += 1
@@ -251,7 +265,7 @@ def _ranked_last(p: PairChoice) -> str:
     if not _stretched(p):
         return ""
     return (f" (ranked after the pairs below {NEAR_STRETCH:g} x: its epipole lies near the images, which rectify to "
-            f"{p.extra['rectified_stretch']:.0f} x the frames' pixels)")
+            f"{shown(p.extra['rectified_stretch'], NEAR_STRETCH)} x the frames' pixels)")
 
 
 def _inside(points, poly) -> np.ndarray:

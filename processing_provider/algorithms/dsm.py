@@ -32,7 +32,8 @@ class DsmAlgorithm(FotogeoAlgorithm):
             "it, band 3 the spread of the points' heights; holes stay nodata unless filled (then band 4 marks the "
             "filled cells); QGIS shows band 1, the height, in colour over its 2 … 98 % range. Optional: a LAS 1.4 "
             "point cloud coloured from the images, and a JSON report (pairs kept "
-            "and left out and why, match density, completeness, timings).\n\n"
+            "and left out and why, match density, completeness, timings; written also when the run is refused: "
+            "status refused, the error, the pairs tried and why).\n\n"
             "References: Hirschmüller (2008): stereo processing by semiglobal matching and mutual information. "
             "Fusiello, Trucco & Verri (2000): a compact algorithm for rectification of stereo pairs.")
 

@@ -24,7 +24,9 @@
    (each task reads its own windows; this process writes the returned tiles);
 5. **outputs** (:mod:`.outputs`), all or nothing: the DSM (COG layout), ``--point-cloud`` (LAS 1.4 with the CRS
    as WKT and the left image's colours, :mod:`fotogeo.io.las`) and ``--report`` (JSON: pairs kept and left out
-   and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings).
+   and why, disparity ranges, match density, epipolar residuals and ray miss distances, completeness, timings);
+   a run refused after the outputs' checks writes the report alone, ``"status": "refused"`` with the error and the
+   pairs tried (:mod:`.refusal`).
 
 Heights are in the vertical frame of the orientation (the DEM's when one is given and the orientation states
 none); RPC heights are ellipsoidal.

@@ -5,12 +5,13 @@ from __future__ import annotations
 import os
 import re
 import threading
+import warnings
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import FotogeoWarning, InputError
 from ...io.raster import gdal_env, open_raster, ropen
 from ..common.checks import distinct_files
 from .plan import footprint
@@ -313,3 +314,23 @@ class SourceImage:
                 lo, hi = s
                 out.append(np.clip((b.astype(np.float32) - lo) * 255.0 / max(hi - lo, 1e-6), 0, 255).astype(np.uint8))
         return out if len(out) >= 3 else [out[0]] * 3
+
+
+def centres_in_area_of_use(views, crs) -> None:
+    """Warn when the cameras given in ``--crs`` lie outside its area of use: the orientation's X, Y are then most
+    likely in another CRS (NGI's Lo25 positions read as EPSG:32735 fall at −144° E, outside the zone's 24–30° E, and
+    the DSM came out at easting −55 km without a word). A warning, not a refusal: a flight may reach a little
+    beyond its zone's edge."""
+    from ...crs import area_of_use, outside_area_of_use, short_name, to_lonlat
+    aou = area_of_use(crs)
+    if aou is None:
+        return
+    centres = np.array([v.centre[:2] for v in views])
+    out = outside_area_of_use(crs, centres)
+    lon, lat = to_lonlat(crs, centres).T
+    if out.any():
+        k = int(np.argmax(out))
+        warnings.warn(f"--crs {short_name(crs)}: camera {views[k].name!r} at ({views[k].centre[0]:.0f}, "
+                      f"{views[k].centre[1]:.0f}) lies at {lon[k]:.2f}° E, {lat[k]:.2f}° N, outside the CRS's area of "
+                      f"use ({aou.west:g}..{aou.east:g}° E, {aou.south:g}..{aou.north:g}° N): are the orientation's "
+                      f"X, Y in another CRS? The DSM is placed where they say", FotogeoWarning, stacklevel=4)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import time
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from affine import Affine
@@ -47,6 +48,18 @@ HEIGHT_SAMPLE = 4_000_000
 LOW_COMPLETENESS = 0.5
 
 
+class NoHeight(NamedTuple):
+    """The refusal of a run where no cell got a height, in its two parts: what happened (``head``, which may
+    name images: any text) and its likely ``cause``; :meth:`Products.finish` puts the resolution before the cause
+    when it is finer than the images' ground sample distance. (A single sentence was split at its first ": ",
+    which a name holding ": " moved.)"""
+    head: str
+    cause: str
+
+    def __str__(self) -> str:
+        return f"{self.head}: {self.cause}"
+
+
 def finer_than_gsd(resolution: float, gsd: float | None) -> str:
     """Why a DSM of cells ``resolution`` (m) comes out sparse from images of ground sample distance ``gsd`` (m,
     None: not known), "" when its cells are not finer than a pixel: each pixel matched gives one point, so a cell
@@ -66,7 +79,8 @@ def coverage_cause(resolution: float, gsd: float | None) -> str:
     return finer_than_gsd(resolution, gsd) or "textureless, cloud-covered or changed areas?"
 
 
-def _pair_entry(p, names) -> dict:
+def pair_entry(p, names) -> dict:
+    """A pair's entry in the report (its measures, kept or not and why; not its overlap's outline)."""
     d = p.as_dict(names)
     d.pop("overlap_polygon", None)
     return d
@@ -178,15 +192,14 @@ class Products:
         with gdal_env():  # the bounded block cache: GDAL's default would hold a large grid's written blocks
             self.ds.write(np.stack(bands).astype(np.float32), window=Window(core[1], core[0], core[3], core[2]))
 
-    def finish(self, choices, names, rule, ref, notes, zlo, zhi, t0, timings, empty: str) -> dict:
+    def finish(self, choices, names, rule, ref, notes, zlo, zhi, t0, timings, empty: NoHeight) -> dict:
         """Close the outputs and return the report (written with ``report``); ``empty`` the refusal when no cell
         got a height, the resolution named first when it is finer than the images' ground sample distance; a
         warning below ``LOW_COMPLETENESS`` names the likely cause (:func:`coverage_cause`)."""
         from ...io.cog import convert_to_cog
         fine = finer_than_gsd(self.grid.resolution, self.gsd)
         if not self.sample:
-            head, _, cause = empty.partition(": ")  # "no height was matched …: the cause"
-            raise InputError(f"{head}: {fine}; or {cause}" if fine and cause else empty)
+            raise InputError(f"{empty.head}: {fine}; or {empty.cause}" if fine else str(empty))
         self.ds.close()
         convert_to_cog(self.tmp, "average")
         heights = np.concatenate(self.sample)
@@ -196,7 +209,7 @@ class Products:
         rep = {
             "fotogeo": "dsm", "crs": self.crs.name, "crs_rule": rule, "height_reference": ref, "notes": notes,
             "height_search_range": [round(zlo, 3), round(zhi, 3)],
-            "pairs": [_pair_entry(p, names) for p in choices],
+            "pairs": [pair_entry(p, names) for p in choices],
             "pairs_kept": sum(p.kept for p in choices),
             "grid": {"width": g.width, "height": g.height, "resolution": g.resolution,
                      "transform": list(transform_of(g))[:6]},

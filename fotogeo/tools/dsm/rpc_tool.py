@@ -14,12 +14,14 @@ from ...errors import InputError
 from ...io.raster import AtomicOutputs
 from ...stereo.pairs import Limits, choose_pairs, overlap_polygon
 from ..common.checks import check_output_grid
-from ..ortho.inputs import map_crs, terrain
+from ..ortho.crs_rule import map_crs
+from ..ortho.inputs import terrain
 from . import matching, plan
 from . import rpc_dem
 from . import rpc_pairs as rp
 from .inputs import SourceImage, distinct_images, read_pairs
-from .outputs import SPECKLE_CELLS, Products
+from .outputs import SPECKLE_CELLS, NoHeight, Products
+from .refusal import Attempt
 
 #: the distance up the line of sight standing for a satellite's position in the pair choice (m)
 ORBIT = 700_000.0
@@ -42,9 +44,9 @@ def _views(ims, z):
     return centres, axes, fps
 
 
-def _choose(ims, names, zlo, zhi, pairs) -> list:
+def _choose(ims, names, zlo, zhi, pairs, attempt=None) -> list:
     """The pairs, measured at the height of the RPCs' range where the images overlap most (a small scene may
-    overlap at its own height only)."""
+    overlap at its own height only); given to ``attempt`` (:class:`.refusal.Attempt`) before a refusal."""
     from ...crs import geocentric
     given = read_pairs(pairs, names)
     best = None
@@ -56,6 +58,8 @@ def _choose(ims, names, zlo, zhi, pairs) -> list:
         if best is None or score > best[0]:
             best = (score, choices)
     choices = best[1]
+    if attempt is not None:
+        attempt.choices = choices
     if not any(p.kept for p in choices):
         best = max(choices, key=lambda p: p.overlap)
         lost = (_far_apart(ims, best.i, best.j) or _lost_offset(ims, best.i, best.j)
@@ -193,7 +197,7 @@ def _no_vertical_part(crs) -> None:
 def rpc_images(images, crs, dem) -> tuple:
     """``(OrthoImage list, map CRS, rule)``: each image's RPC wherever it is (:func:`fotogeo.io.rpc_image.image_rpc`:
     GDAL RPC metadata, else a .geom/.RPB/_RPC.TXT/XML beside it, moved into a crop's pixels) in the map CRS of
-    ``ortho``'s rule (:func:`~fotogeo.tools.ortho.inputs.map_crs`; else the UTM zone of the first image's RPC)."""
+    ``ortho``'s rule (:func:`~fotogeo.tools.ortho.crs_rule.map_crs`; else the UTM zone of the first image's RPC)."""
     from ...crs import utm_crs_for
     from ...geometry.lonlat_model import LonLatModel
     from ...geometry.vertical import as_pyproj
@@ -209,7 +213,7 @@ def rpc_images(images, crs, dem) -> tuple:
         _no_vertical_part(crs)
     if given or dem is not None:
         try:
-            map_c, rule = map_crs(crs, dem, None, [], False)
+            map_c, rule = map_crs(crs, dem, None, list(images), True, rpc_of=lambda p: found[0])  # its first's
             map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's; the DSM's steps ask pyproj's
         except InputError:
             if given:
@@ -229,11 +233,15 @@ def _rpc_sources(ims) -> list:
 
 
 def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, crs, bounds, refine, fill,
-            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None, style=None) -> dict:
+            point_cloud, report, overwrite, prog, t0, dask=(None, None), bands=None, style=None,
+            attempt=None) -> dict:
     """``fotogeo dsm --rpc`` (module docstring); the report as :func:`fotogeo.tools.dsm.dsm`'s; ``dask``:
-    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`); ``style`` the QGIS style's path."""
+    ``(scheduler, workers)`` of the tiles (:func:`.matching.match_tiles`); ``style`` the QGIS style's path;
+    ``attempt`` the :class:`.refusal.Attempt` the run fills for the report of a refusal."""
     ims, map_c, rule = rpc_images(images, crs, dem)
     names = [im.name for im in ims]
+    attempt = attempt or Attempt()
+    attempt.names, attempt.crs, attempt.crs_rule = names, map_c, rule
     zlo, zhi = rp.rpc_height_range(ims)
     distinct_images(ims, (zlo, zhi))
     guide, ref = None, "ellipsoid"
@@ -244,7 +252,7 @@ def rpc_dsm(images, output, *, dem, dem_heights, geoid=None, pairs, resolution, 
         source, dlo, dhi, more = _dem_heights(dem, dem_heights, geoid, map_c, ims)
         zlo, zhi, guide = min(zlo, dlo), max(zhi, dhi), (dem, source)
         notes += more + ["height range from the DEM and the tie points"]
-    choices = _choose(ims, names, zlo, zhi, pairs)
+    choices = _choose(ims, names, zlo, zhi, pairs, attempt)
     for p in choices:
         p.extra["rpc_sources"] = [origins[p.i], origins[p.j]]
     sources = [SourceImage(im.path, bands) for im in ims]
@@ -266,16 +274,16 @@ def _gsd(im, z) -> float:
     return float(np.sqrt(abs(u[0] * v[1] - u[1] * v[0])))
 
 
-def _empty(kept, names, setups) -> str:
+def _empty(kept, names, setups) -> NoHeight:
     """The refusal when no cell got a height; pairs whose relative pointing error was large named (an RPC that does
     not describe its image's pixels: the image rotated, flipped or resampled after it, matches nothing)."""
     large = [f"{names[p.i]}-{names[p.j]} ({np.hypot(*setups[(p.i, p.j)]['tau']):.0f} px)" for p in kept
              if setups[(p.i, p.j)]["entry"]["relative_pointing_large"]]
-    why = "no height was matched in any pair: the images may be textureless or cloud-covered"
+    why = "the images may be textureless or cloud-covered"
     if large:
         why += (f", or their RPCs may not describe their pixels: the relative pointing error was large for "
                 f"{', '.join(large)} (an image rotated, flipped, resampled or cut after its RPC was made?)")
-    return why
+    return NoHeight("no height was matched in any pair", why)
 
 
 def _match_and_write(ims, sources, names, choices, kept, setups, output, crs, rule, ref, notes, zlo, zhi, *,

@@ -19,10 +19,12 @@ from ...stereo.pairs import Limits, choose_pairs
 from ...stereo.rectify import rectify
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
-from ..ortho.inputs import image_models, map_crs, terrain
+from ..ortho.crs_rule import map_crs
+from ..ortho.inputs import image_models, no_sfm_frame_with_rpc, terrain
 from . import dem_guide, frames, local, matching, plan, refill
-from .inputs import SourceImage, distinct_images, orientation_files, parse_bounds, read_pairs
-from .outputs import SPECKLE_CELLS, Products, with_dem_vertical
+from .inputs import SourceImage, centres_in_area_of_use, distinct_images, orientation_files, parse_bounds, read_pairs
+from .outputs import SPECKLE_CELLS, NoHeight, Products, with_dem_vertical
+from .refusal import Attempt, reporting_refusal
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -61,6 +63,8 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
         given = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
         raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
                          f"orientation (--{given}), not both", option=given)
+    if rpc:
+        no_sfm_frame_with_rpc(sfm_frame)
     camera, eo = orientation_files(orientation, camera, eo)
     _check_crs(crs)
     # below: the filling's reach in cells (the table's default when not given), None for no filling
@@ -78,19 +82,23 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
-    if rpc:
-        from .rpc_tool import rpc_dsm
-        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
-                       resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+    given = {"images": images, "camera": camera, "eo": eo, "rpc": rpc, "dem": dem, "geoid": geoid, "crs": crs,
+             "pairs": pairs, "resolution": resolution, "bounds": bounds, "output": output}
+    with reporting_refusal(report, given) as attempt:  # a refusal from here on still writes the report
+        if rpc:
+            from .rpc_tool import rpc_dsm
+            return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                           resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                           point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                           dask=(scheduler, workers), bands=bands, style=style, attempt=attempt)
+        map_c, rule = map_crs(crs, dem, eo, images, False, camera, sfm_frame=sfm_frame)
+        map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the steps ask pyproj's
+        attempt.crs, attempt.crs_rule = map_c, rule
+        ims = image_models(images, map_c, camera=camera, eo=eo, sfm_frame=sfm_frame)
+        return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                       resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                        point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                       dask=(scheduler, workers), bands=bands, style=style)
-    map_c, rule = map_crs(crs, dem, eo, images, False, camera, sfm_frame=sfm_frame)
-    map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the DSM's steps ask pyproj's
-    ims = image_models(images, map_c, camera=camera, eo=eo, sfm_frame=sfm_frame)
-    return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
-                   resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
-                   point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                   dask=(scheduler, workers), bands=bands, style=style)
+                       dask=(scheduler, workers), bands=bands, style=style, attempt=attempt)
 
 
 def _check_crs(crs) -> None:
@@ -102,26 +110,6 @@ def _check_crs(crs) -> None:
             parse_crs(crs, "crs")
         except InputError as e:
             raise InputError(str(e), option="crs") from None
-
-
-def _centres_in_area_of_use(views, crs) -> None:
-    """Warn when the cameras given in ``--crs`` lie outside its area of use: the orientation's X, Y are then most
-    likely in another CRS (NGI's Lo25 positions read as EPSG:32735 fall at −144° E, outside the zone's 24–30° E, and
-    the DSM came out at easting −55 km without a word). A warning, not a refusal: a flight may reach a little
-    beyond its zone's edge."""
-    from ...crs import area_of_use, outside_area_of_use, short_name, to_lonlat
-    aou = area_of_use(crs)
-    if aou is None:
-        return
-    centres = np.array([v.centre[:2] for v in views])
-    out = outside_area_of_use(crs, centres)
-    lon, lat = to_lonlat(crs, centres).T
-    if out.any():
-        k = int(np.argmax(out))
-        warnings.warn(f"--crs {short_name(crs)}: camera {views[k].name!r} at ({views[k].centre[0]:.0f}, "
-                      f"{views[k].centre[1]:.0f}) lies at {lon[k]:.2f}° E, {lat[k]:.2f}° N, outside the CRS's area of "
-                      f"use ({aou.west:g}..{aou.east:g}° E, {aou.south:g}..{aou.north:g}° N): are the orientation's "
-                      f"X, Y in another CRS? The DSM is placed where they say", FotogeoWarning, stacklevel=4)
 
 
 def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tuple:
@@ -177,11 +165,12 @@ def _dem_fits_orientation(dem, source, views, sources, features):
         option="dem")
 
 
-def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=None) -> list:
+def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=None, attempt=None) -> list:
     """The candidate pairs, kept or left out (plan module docstring); none kept is refused naming the best.
     ``refused``: ``{(i, j): reason}`` of pairs refused when set up, left out as well (:mod:`.refill`); ``memo``: a
     dict keeping the pairs' measures between the choices of one run (``"reasons"``: the other reasons to leave a
-    pair out, ``"stretch"``: the rectified stretch of a pair left in; :func:`.plan.choice_measures`)."""
+    pair out, ``"stretch"``: the rectified stretch of a pair left in; :func:`.plan.choice_measures`); ``attempt``:
+    the run's :class:`.refusal.Attempt`, given the choice before a refusal."""
     fps = [plan.footprint(im, zmid) for im in ims]
     axes = [v.axis for v in views]
     memo = {} if memo is None else memo
@@ -200,6 +189,8 @@ def _choose(ims, views, names, zmid, pairs, resolution=None, refused=None, memo=
         return stretches[(p.i, p.j)]
     choices = choose_pairs([v.centre for v in views], axes, fps, Limits(), given=read_pairs(pairs, names),
                            leave_out=leave_out, stretch=stretch)
+    if attempt is not None:
+        attempt.choices = choices
     if not any(p.kept for p in choices) and not refused:
         best = max(choices, key=lambda p: p.overlap)
         raise InputError(f"no stereo pair among the images: {names[best.i]} and {names[best.j]} (the best "
@@ -297,21 +288,25 @@ def _pair_dem(p, sp, dem, ims, zlo, zhi, ceiling):
 
 
 def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolution, bounds, refine, fill, point_cloud,
-            report, overwrite, prog, t0, dask=(None, None), bands=None, style=None) -> dict:
+            report, overwrite, prog, t0, dask=(None, None), bands=None, style=None, attempt=None) -> dict:
     """The frame pipeline (package docstring); ``dask``: ``(scheduler, workers)`` of the tiles; ``bands`` the
-    bands matched (:class:`.inputs.SourceImage`); ``style`` the QGIS style's path (None: none written)."""
+    bands matched (:class:`.inputs.SourceImage`); ``style`` the QGIS style's path (None: none written);
+    ``attempt`` the :class:`.refusal.Attempt` the run fills for the report of a refusal."""
     names = [im.name for im in ims]
+    attempt = attempt or Attempt()
+    attempt.names = names
     views = [frames.frame_view(im) for im in ims]
     low = min(v.centre[2] for v in views)
     distinct_images(ims, (low - 10.0, low - 100.0))  # two planes under every camera
     if rule == "given (--crs)":
-        _centres_in_area_of_use(views, crs)
+        centres_in_area_of_use(views, crs)
     sources = [SourceImage(im.path, bands) for im in ims]
     features = {}
     zlo, zhi, ref, notes, heights = _heights(ims, views, sources, dem, dem_heights, geoid, crs, features)
     prog(0.05, f"heights {zlo:.1f} to {zhi:.1f}")
     memo = {}
-    choose = functools.partial(_choose, ims, views, names, 0.5 * (zlo + zhi), pairs, resolution, memo=memo)
+    choose = functools.partial(_choose, ims, views, names, 0.5 * (zlo + zhi), pairs, resolution, memo=memo,
+                               attempt=attempt)
     initial = choose()
     first = [p for p in initial if p.kept]
     gsd = float(np.median([p.extra["distance"] / views[p.i].focal for p in first]))
@@ -333,6 +328,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
                                   dem=guide)
     choices, setups, tried = refill.settle(lambda refused: choose(refused=refused) if refused else initial, set_up,
                                            names)
+    attempt.choices = choices
     if dem is not None:
         _warn_dem(dem, [(f"{names[p.i]}-{names[p.j]}", p.extra["dem"], p.extra["sparse_matches"]) for p in tried
                         if "dem" in p.extra])
@@ -351,9 +347,10 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
                                  *dask)
             for m in setups.values():  # the pairs' entries before the report is written
                 m.report(LOW_DENSITY)
-            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, "no height was matched "
-                                  "in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in tried if p.kept)
-                                  + "): the images may be textureless or cloud-covered where they overlap")
+            rep = products.finish(choices, names, rule, ref, notes, zlo, zhi, t0, timings, NoHeight(
+                "no height was matched in any pair (" + ", ".join(f"{names[p.i]}-{names[p.j]}" for p in tried
+                                                                   if p.kept) + ")",
+                "the images may be textureless or cloud-covered where they overlap"))
         finally:
             products.close()
         out.commit()

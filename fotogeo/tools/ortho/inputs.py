@@ -15,10 +15,7 @@
   the CRS of its GCPs (:class:`FittedGroundModel`; a 2-D model ignores the heights); a model fitted image →
   ground (``*-i2g``) is refused.
 
-**Map CRS** (:func:`map_crs`): a fitted model's, the CRS of its GCPs (another ``--crs`` is refused); ``--crs``;
-else the DEM's horizontal CRS when projected; else the CRS of the
-orientation file (SfM, orthority, or the ``# fotogeo …, CRS …`` header triangulate writes); else the UTM zone of the image centre (RPC). Frame orientations from a ``.txt`` file
-without that header are in the map CRS; an orientation file in another CRS than the one given is refused (mixed CRSs).
+**Map CRS** (:func:`fotogeo.tools.ortho.crs_rule.map_crs`, the rule ``dsm`` shares).
 
 **Heights** (:func:`terrain`): the DEM (or a constant ``--height``), bilinear, queried in the map CRS. Its
 height reference is what ``--dem-heights`` says, else what its CRS states
@@ -36,12 +33,12 @@ from functools import partial
 
 import numpy as np
 
-from ...crs import parse_crs, require_projected, same_crs, utm_crs_for
+from ...crs import same_crs
 from ...errors import FotogeoWarning, InputError, InputNote
-from ...geometry.vertical import ShiftedHeights, as_pyproj, horizontal_crs, is_projected
+from ...geometry.vertical import ShiftedHeights, as_pyproj, horizontal_crs
 from ...io.block import frame_key, match_keys, unmatched_reasons
 from ...io.camera import exterior_orientation_crs
-from ...io.orientation_file import cameras_from_camera_file, is_block_file
+from ...io.orientation_file import cameras_from_camera_file
 from ...io.raster import open_raster, read_dem, stated_height_reference
 from ..common.checks import camera_for_image, distinct_files
 
@@ -110,10 +107,20 @@ def image_models(images, crs, *, camera=None, eo=None, rpc=False, model=None, sf
         if camera is not None or eo is not None:
             raise InputError("give either --rpc (images carrying RPC metadata) or --camera/--eo (frame cameras), "
                              "not both")
+        no_sfm_frame_with_rpc(sfm_frame)
         return [_rpc_image(p, n, crs, rpc_of) for p, n in zip(images, names)]
     if eo is None:
         _no_orientation(names)
     return _frame_images(images, names, camera, eo, crs, sfm_frame, said)
+
+
+def no_sfm_frame_with_rpc(sfm_frame) -> None:
+    """Refuse a local frame of an SfM reconstruction (``sfm_frame`` other than its default "auto") given with
+    ``rpc``: each image's orientation is then its RPC, and the choice would be ignored without a word."""
+    if sfm_frame not in (None, "auto"):
+        raise InputError(f"sfm_frame {sfm_frame!r} reads an OpenSfM/ODM reconstruction given as the frames' "
+                         f"orientation, but with rpc=True each image's orientation is its RPC: leave one of them out",
+                         option="sfm_frame", also=("rpc",))
 
 
 def _no_orientation(names) -> None:
@@ -223,42 +230,6 @@ def _frame_images(images, names, camera, eo, crs, sfm_frame="auto", said=None) -
         out.append(OrthoImage(str(path), n, AdjustedFrame(cam, ext, dist, n), "frame", info.width, info.height, ref,
                               info.count, info.dtype))
     return out
-
-
-def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto", rpc_of=None) -> tuple:
-    """``(projected CRS, rule)`` of the module docstring (``rpc_of`` as :func:`image_models`')."""
-    if model is not None:
-        c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model")
-        given = None if not dst_crs or str(dst_crs).strip().lower() == "auto" else parse_crs(dst_crs, "--crs")
-        if given is not None and not horizontal_crs(given).equals(c):
-            raise InputError(f"--crs differs from the CRS of the fitted model's GCPs ({c.name}): the model takes "
-                             f"map coordinates in that CRS; leave --crs out", option="dst_crs")
-        return c, "the CRS of the fitted model's GCPs (--model)"
-    if dst_crs and str(dst_crs).strip().lower() != "auto":
-        c = parse_crs(dst_crs, "--crs")
-        return require_projected(horizontal_crs(c), "output CRS (--crs)"), "given (--crs)"
-    if dem is not None:
-        info = open_raster(dem, "DEM")
-        if info.raster_crs is None:
-            raise InputError(f"DEM {str(dem)!r} has no CRS; assign one (gdal_edit.py -a_srs) so that it can be "
-                             f"placed under the images")
-        h = horizontal_crs(info.raster_crs)  # rasterio's: no pyproj when the run needs none (fotogeo.crs)
-        if is_projected(h):
-            return h, "the DEM's CRS (--dem)"
-    if eo is not None and not rpc:
-        stated = (getattr(orientation_block(eo, None, camera, sfm_frame, images), "crs", None) if is_block_file(eo)
-                  else exterior_orientation_crs(eo))  # fotogeo's lines state it in their header, if at all
-        if stated is not None:
-            return require_projected(horizontal_crs(stated), f"CRS of --eo {str(eo)!r}"), f"the CRS of --eo {str(eo)!r}"
-        raise InputError("no map CRS for the exterior orientation: give --crs (the CRS of its X, Y) or a DEM in a "
-                         "projected CRS")
-    if rpc and images:
-        from ...io.rpc_image import image_rpc
-        r = (rpc_of or image_rpc)(images[0]).rpc
-        return utm_crs_for(r.long_off, r.lat_off), "the UTM zone of the image centre (RPC)"
-    if eo is None and not rpc and images:  # what is missing is the orientation, not the CRS
-        _no_orientation([frame_key(p) for p in images])
-    raise InputError("no map CRS: give --crs (a projected CRS) or a DEM in a projected CRS")
 
 
 def terrain(dem, height, crs, images, *, dem_heights="auto", geoid=None):

@@ -54,7 +54,8 @@ from ...progress import as_progress
 from ...options.products import ORTHO
 from ..common.boundary import tool
 from ..common.checks import check_output_grid
-from .inputs import SAME_CRS, holes, image_models, map_crs, require_heights, terrain
+from .crs_rule import map_crs
+from .inputs import SAME_CRS, holes, image_models, require_heights, terrain
 from .products import dem_sigma_for, frame_covariances, product_paths, write_products
 
 

@@ -10,7 +10,6 @@ the one file such a run writes (written whole or not at all: a temporary file re
 """
 from __future__ import annotations
 
-import os
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -45,16 +44,9 @@ def pair_summary(matching: dict, names, refused=()) -> str:
 
 def write_refusal_report(path: Path, message: str, matching: dict, names, inputs: dict) -> None:
     """``report.json`` of a refused run (module docstring), written to a temporary file and renamed."""
-    from ...io.report import write_json
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write_json(tmp, {"refused": message, "inputs": inputs, "frames": list(map(str, names)),
-                         "matching": matching})
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    from ...io.report import write_json_whole
+    write_json_whole(path, {"refused": message, "inputs": inputs, "frames": list(map(str, names)),
+                            "matching": matching})
 
 
 @contextmanager
