@@ -21,7 +21,8 @@ both axes and each Sobel kernel odd in one, so their responses to white noise ar
 Gaussian). It leaves out the texture's edges, which pass ``N`` and, counted, raise the estimate with the
 texture's share (an estimate over every pixel of one piece gave 6.9 for a true 1.2 where 60 % of it was busy
 texture, and removed real low-contrast ground beside it). The estimate is made once per image, over pieces
-spread across it (:func:`fotogeo.tools.dsm.frames.pair_noise`), not per matched piece: a piece that is all
+spread across it (:func:`fotogeo.tools.dsm.frames.pair_noise`; an RPC pair's
+:class:`~fotogeo.tools.dsm.rpc_pairs.RpcPairMatch`), not per matched piece: a piece that is all
 uniform area or all busy texture does not set its own threshold. It is made on the source image's pixels
 (:meth:`fotogeo.tools.dsm.inputs.SourceImage.noise`), where the noise is white: resampling to the rectified
 geometry only lowers it, and a rectified image smaller than its source folds the scene's finest texture into the
