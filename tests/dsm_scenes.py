@@ -8,7 +8,12 @@ Three renders that differ (:data:`SCENES`): ``nadir`` — the demo's block (2 st
 ±60 m, 70 % forward overlap, Brown distortion, another seed). ``nadir_block``: two nadir frames (800 x 1200 px,
 1000 m above hills of ±:data:`BLOCK_RELIEF` m) with a flat-roofed block (:data:`BLOCK`) standing in their overlap: a
 DEM of the ground (:func:`write_dem` of the ``surface``'s ``ground``) lies under its roof; ``nadir_narrow_block``: the
-same pair with a block narrower than it is high (:data:`NARROW_BLOCK`).
+same pair with a block narrower than it is high (:data:`NARROW_BLOCK`). ``nadir_lake``: the ``nadir`` block with its
+ground texture a constant grey (:data:`UNIFORM_GREY`) over a disc (:data:`LAKE`; every frame sees it uniform, each
+with its own noise: water, a bare grey field); ``nadir_grey_patch``: the ``nadir`` block with a rectangle of every
+other frame (:data:`GREY_PATCH`) a constant grey plus the frame's noise (a cloud, a reflection, a saturated roof
+in one view only). The scene's ``region`` (XY → bool) is the lake's ground (None for the patch: the cells it
+touches depend on the pair).
 """
 from __future__ import annotations
 
@@ -27,6 +32,13 @@ BLOCK = (60.0, 30.0, 150.0, 0.0)
 #: ``nadir_narrow_block``: a block as :data:`BLOCK`, 12 m a side
 NARROW_BLOCK = (12.0, 30.0, 150.0, 0.0)
 BLOCK_RELIEF = 5.0
+#: ``nadir_lake``: the disc of uniform ground (m: radius, and its centre's offset east, north from the middle of the
+#: frames' centres)
+LAKE = (160.0, 60.0, -40.0)
+#: ``nadir_grey_patch``: the rectangle (first row, last row, first column, last column) uniform in every other frame
+GREY_PATCH = (150, 330, 120, 300)
+#: the grey of the uniform areas (before the frames' noise)
+UNIFORM_GREY = 120.0
 
 
 def _write_frames(folder: Path, names, images) -> list:
@@ -58,24 +70,60 @@ def with_block(surface, centre, side: float, height: float):
     return blocked
 
 
-def _simulated(folder: Path, block=None, **kw) -> dict:
-    """A simulated block rendered into ``folder``; ``block`` (:data:`BLOCK`): a block (:func:`with_block`) near the
-    middle of the first two frames' overlap."""
-    import dataclasses
+def _lake(sb, lake):
+    """``(region, texture maker)``: the disc ``lake`` (:data:`LAKE`) around the middle of ``sb``'s frame centres
+    (XY → bool) and a replacement of :mod:`~fotogeo.orientation.block_render`'s ``_texture`` that paints it
+    :data:`UNIFORM_GREY`."""
+    from fotogeo.orientation import block_render
+    c = np.mean([[e.X, e.Y] for e in sb.true_eo], axis=0) + lake[1:]
 
-    from fotogeo.orientation.block_render import render_block
+    def region(XY):
+        return np.hypot(*(np.asarray(XY, float).reshape(-1, 2) - c).T) <= lake[0]
+
+    original = block_render._texture
+
+    def painted(sb_, rng, texture_pixel):
+        tex, t = original(sb_, rng, texture_pixel)
+        rows, cols = np.indices(tex.shape)
+        tex[region(np.column_stack([t.c + (cols.ravel() + 0.5) * t.a, t.f + (rows.ravel() + 0.5) * t.e]))
+            .reshape(tex.shape)] = UNIFORM_GREY
+        return tex, t
+    return region, painted
+
+
+def _simulated(folder: Path, block=None, lake=None, patch=None, **kw) -> dict:
+    """A simulated block rendered into ``folder``; ``block`` (:data:`BLOCK`): a block (:func:`with_block`) near the
+    middle of the first two frames' overlap; ``lake`` (:data:`LAKE`): uniform ground (:func:`_lake`); ``patch``
+    (:data:`GREY_PATCH`): a rectangle of every other frame uniform grey plus noise (the render's 2 levels)."""
+    import dataclasses
+    from unittest import mock
+
+    from fotogeo.orientation import block_render
     from fotogeo.orientation.block_simulation import simulate_block
     sb = simulate_block(blunder_fraction=0.0, n_control=4, n_check=4, **kw)
     if block is not None:
         c = np.mean([[e.X, e.Y] for e in sb.true_eo[:2]], axis=0) + block[2:]
         sb = dataclasses.replace(sb, surface=with_block(sb.surface, c, *block[:2]))
-    images, _ = render_block(sb, seed=kw.get("seed", 0))
+    region = None
+    if lake is not None:
+        region, painted = _lake(sb, lake)
+        with mock.patch.object(block_render, "_texture", painted):
+            images, _ = block_render.render_block(sb, seed=kw.get("seed", 0))
+    else:
+        images, _ = block_render.render_block(sb, seed=kw.get("seed", 0))
+    if patch is not None:
+        rng = np.random.default_rng(99)
+        r0, r1, c0, c1 = patch
+        for img in images[::2]:
+            grey = UNIFORM_GREY + rng.normal(0, 2.0, (r1 - r0, c1 - c0))
+            img[r0:r1, c0:c1] = np.clip(np.round(grey), 1, 255).astype(np.uint8)
     names = sb.block.frames
     paths = _write_frames(folder, names, images)
     cam, eo = folder / "camera.yaml", folder / "eo.txt"
     write_interior_orientation(cam, "cam", sb.true_camera, _distortion(sb.true_distortion))
     write_exterior_orientation(eo, names, sb.true_eo)
-    return {"images": paths, "camera": cam, "eo": eo, "surface": sb.surface, "gsd": sb.gsd, "crs": "EPSG:32635"}
+    return {"images": paths, "camera": cam, "eo": eo, "surface": sb.surface, "gsd": sb.gsd, "crs": "EPSG:32635",
+            "region": region}
 
 
 def _oblique(folder: Path) -> dict:
@@ -92,9 +140,10 @@ def make_scene(kind: str, folder) -> dict:
     """Write the scene ``kind`` into ``folder``: ``{"images", "camera", "eo", "surface" (XY → Z), "gsd", "crs"}``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    if kind == "nadir":
+    if kind in ("nadir", "nadir_lake", "nadir_grey_patch"):
         return _simulated(folder, seed=7, strips=2, frames_per_strip=4, camera=FrameCamera(6.0, (4.0, 6.0), (400, 600)),
-                          point_spacing=80.0, relief=40.0, margin=5.0)
+                          point_spacing=80.0, relief=40.0, margin=5.0, lake=LAKE if kind == "nadir_lake" else None,
+                          patch=GREY_PATCH if kind == "nadir_grey_patch" else None)
     if kind in ("nadir_block", "nadir_narrow_block"):
         return _simulated(folder, block=BLOCK if kind == "nadir_block" else NARROW_BLOCK, seed=7, strips=1,
                           frames_per_strip=2,

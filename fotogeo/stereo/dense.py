@@ -39,8 +39,11 @@ only where:
   is then a hole, not a height at the range's end (as the coarse-to-fine band's ends in
   :mod:`fotogeo.stereo.pyramid`);
 * the left pixel has texture: the grey values' standard deviation over its ``TEXTURE_WINDOW`` neighbourhood
-  reaches ``min_texture`` levels (of the 8-bit stretch). SGM's paths carry costs from textured places into flat
-  ones, where they would give a smooth, plausible and unmeasured surface; there a hole is the honest answer.
+  reaches ``min_texture`` levels (of the 8-bit stretch) and, given the images' ``noise``, a signal above it, as
+  does its match in the right image (:func:`fotogeo.stereo.texture.textured`: an area uniform in one view only, a
+  cloud or a reflection, is a hole too). SGM's paths carry costs from textured places into flat ones, where
+  they would give a smooth, plausible and unmeasured surface or islands of wrong heights; there a hole is the
+  honest answer.
 
 **Sub-pixel error cancellation** (Shimizu & Okutomi 2005): the parabola through three costs is biased
 towards whole disparities ("pixel-locking": the fractional parts of the disparities pile up at 0); the bias is
@@ -77,6 +80,8 @@ import math
 import cv2
 import numpy as np
 
+from .texture import TEXTURE_WINDOW, texture, textured  # noqa: F401  (TEXTURE_WINDOW, texture: re-exported)
+
 
 def to_uint8(img, valid, bounds=None) -> np.ndarray:
     """``img`` stretched to 1..255 between the 0.5 and 99.5 percentiles of its ``valid`` pixels (or ``bounds``
@@ -89,18 +94,6 @@ def to_uint8(img, valid, bounds=None) -> np.ndarray:
     out = np.clip(1 + 254 * (img - lo) / max(float(hi - lo), 1e-6), 1, 255)
     out[~valid] = 0
     return out.astype(np.uint8)
-
-
-#: the window (pixels) of the texture test
-TEXTURE_WINDOW = 7
-
-
-def texture(img8) -> np.ndarray:
-    """The grey values' local standard deviation over ``TEXTURE_WINDOW`` x ``TEXTURE_WINDOW`` pixels."""
-    g = img8.astype(np.float32)
-    k = (TEXTURE_WINDOW, TEXTURE_WINDOW)
-    m = cv2.blur(g, k)
-    return np.sqrt(np.maximum(cv2.blur(g * g, k) - m * m, 0.0))
 
 
 #: SGBM's pre-filter clips the row derivative to this (``preFilterCap``)
@@ -281,16 +274,20 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
               uniqueness: int = UNIQUENESS, speckle_window: int = 100, speckle_range: int = 2,
               lr_tolerance: float = 1.0, min_texture: float = 2.0, half_shift: bool = True,
               median: int = 5, scale_penalties: bool = True, penalty: float | None = None,
-              partner=None) -> np.ndarray:
+              partner=None, noise: tuple | None = None) -> np.ndarray:
     """Filtered disparities ``(rows, cols)`` of the rectified ``left`` image within ``[lo, hi]`` px (module
     docstring; ``half_shift``: the sub-pixel error cancellation; ``median``: the median filter's window, 1 =
     none; ``scale_penalties``: P1, P2 scaled to the contrast — the pair's factor ``penalty``
     (:func:`penalty_scale`) when given, else this image's; ``partner``: the disparity each left pixel is expected
     at (``left``'s shape, NaN where unknown), the outside pixels filled from the other image there
-    (:func:`_partner_fill`) instead of noise only)."""
+    (:func:`_partner_fill`) instead of noise only; ``noise``: the two images' noise σ ``(left, right)`` in their
+    grey units (:func:`fotogeo.stereo.texture.noise_sigma`, once per image), None: the texture test in levels of
+    the stretch only)."""
     L, R = _matched_grey(left, valid_left, block, 1), _matched_grey(right, valid_right, block, 2)
     Lf, Rf = (L, R) if partner is None else _partner_fill(L, R, np.asarray(valid_left, bool),
                                                           np.asarray(valid_right, bool), partner)
+    has_texture = textured(left, L, valid_left, min_texture, None if noise is None else noise[0])
+    theirs = None if noise is None else textured(right, R, valid_right, 0.0, noise[1])
     valid_left = _eroded(valid_left, block)  # no match whose block reaches outside an image
     valid_right = _eroded(valid_right, block)
     dmin, ndisp = disparity_range(lo, hi)
@@ -309,7 +306,8 @@ def disparity(left, right, valid_left, valid_right, lo: float, hi: float, *, blo
         xi = np.where(inside, xr, 0).astype(np.intp)
         back = np.take_along_axis(dr, xi, axis=1)
         vr = np.take_along_axis(valid_right, xi, axis=1)
-        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr & (texture(L) >= min_texture)
+        ok = inside & (np.abs(back - dl) <= lr_tolerance) & valid_left & vr
+        ok &= has_texture if theirs is None else has_texture & np.take_along_axis(theirs, xi, axis=1)
     with np.errstate(invalid="ignore"):
         ok &= (dl >= lo + RANGE_EDGE) & (dl <= hi - RANGE_EDGE)  # not cut off at the range's ends
     dl[~ok] = np.nan

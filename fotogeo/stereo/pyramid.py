@@ -297,11 +297,12 @@ def fill_cost(windows) -> int:
 
 
 def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, penalty: float | None = None,
-                     partner=None) -> tuple:
+                     partner=None, noise: tuple | None = None) -> tuple:
     """``(d, disparities searched)``: ``d`` with its ``need`` pixels matched by
     :func:`~fotogeo.stereo.dense.disparity` in the ``windows`` (:func:`fill_windows` of these or more pixels,
     derived once: a window whose cores hold no needing pixel is skipped), the right window shifted by its range's
-    low end; the others untouched; ``partner`` the left pixels' expected disparities (NaN where unknown)."""
+    low end; the others untouched; ``partner`` the left pixels' expected disparities (NaN where unknown),
+    ``noise`` the images' noise σ (the texture test's, :func:`~fotogeo.stereo.dense.disparity`)."""
     searched, d = 0, d.copy()
     for w in windows:
         if not any(need[core].any() for core in w.cores):
@@ -309,7 +310,8 @@ def fill_unsupported(d, left, right, valid_left, valid_right, need, windows, pen
         rs, cs, t = w.rows, w.cols, w.t
         L, R = left[rs, cs], _columns(right[rs], cs.start - t, cs.stop - t)
         dd = disparity(L, R, valid_left[rs, cs], _columns(valid_right[rs], cs.start - t, cs.stop - t), w.ra - t,
-                       w.rb - t, penalty=penalty, partner=None if partner is None else partner[rs, cs] - t) + t
+                       w.rb - t, penalty=penalty, partner=None if partner is None else partner[rs, cs] - t,
+                       noise=noise) + t
         searched += dd.size * w.n
         for core in w.cores:
             got = dd[core[0].start - rs.start:core[0].stop - rs.start,

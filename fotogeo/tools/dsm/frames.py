@@ -195,6 +195,15 @@ def pair_penalty(rp: RectifiedPair, views, sources) -> float:
     return penalty_scale([g for g, _ in pieces], [v for _, v in pieces])
 
 
+def pair_noise(sources) -> tuple:
+    """``(left, right)``: the noise σ of the pair's two source images (:meth:`.inputs.SourceImage.noise`, once per
+    image), the texture test's thresholds in every strip. Measured on the source pixels, not the rectified ones:
+    resampling only lowers the noise, and a rectified image smaller than its source folds the scene's finest
+    texture into the high frequencies the estimate reads as noise (the eBee frames at 0.2 m: 1.46 grey levels
+    rectified, 0.43 in the source)."""
+    return tuple(s.noise() for s in sources)
+
+
 def _warped_maps(maps, D0) -> tuple:
     """The source maps of the right window resampled along its rows at ``x' − D0(x', y)`` (:mod:`~fotogeo.stereo.
     pyramid`; linear between the maps' columns, −1 outside the window)."""
@@ -207,7 +216,8 @@ def _warped_maps(maps, D0) -> tuple:
                  for m in maps)
 
 
-def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, guide=None) -> tuple:
+def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, guide=None,
+                    noise: tuple | None = None) -> tuple:
     """``(result or None, coarse disparities searched per pixel)``: the strip's windows matched coarse to fine
     (:func:`_match`'s result) if that pays, None if not. The left image's coarse copy is matched first: when its
     band alone (with both coarse copies' search) would already exceed ``pyramid.GAIN`` of the whole range's
@@ -229,32 +239,34 @@ def _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: 
     if band + 2 * per + pyr.fill_cost(windows) / g1.size > pyr.GAIN * whole:
         return None, 2 * per
     g2w, v2w, _ = rectified(rp, views[1], 1, sources[1], 0, 0, maps=wm)
-    dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty, partner=None if guide is None else guide - D0)
+    dp = disparity(g1, g2w, v1m, v2w, -R, R, penalty=penalty, partner=None if guide is None else guide - D0,
+                   noise=noise)
     with np.errstate(invalid="ignore"):
         dp[np.abs(dp) > R - pyr.EDGE] = np.nan  # at the band's ends: the true disparity may lie beyond
     d = pyr.witnessed(pyr.resolve(dp, D0), dcr, near_border=near)
     with np.errstate(invalid="ignore"):
         d[(d < sa) | (d > sb)] = np.nan  # outside the strip's range: never the whole search's answer
     need = v1m & v2w & np.isnan(d) & unsup
-    d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, windows, penalty, guide)
+    d, extra = pyr.fill_unsupported(d, g1, g2, v1m, v2m, need, windows, penalty, guide, noise)
     return (d, v2w, band + 2 * per + extra / g1.size, True), 2 * per
 
 
 def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, penalty, pyramid: bool,
-           guide=None) -> tuple:
+           guide=None, noise=None) -> tuple:
     """``(d, partner valid, disparities searched per pixel, coarse)`` of a strip's windows (window columns, the
     right window's as read): with ``pyramid`` and a range of ``pyramid.MIN_RANGE`` px or more, coarse to fine
     (:func:`_coarse_to_fine`, :mod:`fotogeo.stereo.pyramid`: the right image read again through its maps resampled
     by the coarse offset, one interpolation of the source as before) where that searches at most ``pyramid.GAIN``
     of the whole range's disparities (the band, the coarse copies and the fill of the pixels they do not support),
-    else the whole range (plus the coarse search already made)."""
+    else the whole range (plus the coarse search already made); ``noise`` the images' σ (:func:`pair_noise`: the
+    full-resolution matchings' texture test; the coarse copies, a guide only, keep the stretch's)."""
     coarse = 0.0  # disparities per pixel the coarse copies searched
     if pyramid and sb - sa >= pyr.MIN_RANGE:
-        got, coarse = _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty, guide)
+        got, coarse = _coarse_to_fine(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty, guide, noise)
         if got is not None:
             return got
     wc = g1.shape[1]
-    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, partner=guide)
+    d = disparity(g1, g2, v1m, v2m, sa, sb, penalty=penalty, partner=guide, noise=noise)
     shift = int(round(0.5 * (sa + sb)))  # matchable: the partner at the middle disparity lies in the image
     partner = np.zeros_like(v2m)
     if abs(shift) < wc:
@@ -263,7 +275,7 @@ def _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa: float, sb: float, pe
 
 
 def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: dict, core_box, colours: bool,
-           refine: bool, penalty: float | None = None, near=None, dem=None):
+           refine: bool, penalty: float | None = None, near=None, dem=None, noise=None):
     """``(points, colours or None)`` of the rectified left pixels ``core_box`` ``(u0, r0, u1, r1)`` matched within
     the disparities ``rng`` ``(low, high, local)`` with ``MARGIN`` more rows and columns on either side and the
     columns the range's width needs (the right image's window shifted by the range's whole low end: the columns
@@ -283,7 +295,7 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
         return None
     guide = expected_disparity(rp, near, (a, b), (ca, cb), dem)
     d, partner, searched, coarse = _match(rp, views, sources, g1, v1m, g2, v2m, maps2, sa, sb, penalty,
-                                          COARSE_TO_FINE, None if guide is None else guide - s)
+                                          COARSE_TO_FINE, None if guide is None else guide - s, noise)
     stats["strips"] += 1
     stats["local_strips"] += int(local)
     stats["coarse_strips"] += int(coarse)
@@ -309,7 +321,7 @@ def _strip(rp: RectifiedPair, views, sources, rng: tuple, zlim: tuple, stats: di
 
 def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: tuple, stats: dict, box=None,
                  colours: bool = False, refine: bool = False, near=None, penalty: float | None = None,
-                 local: bool = True, dem=None):
+                 local: bool = True, dem=None, noise: tuple | None = None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None)`` strip by strip (module docstring) of the rectified
     left pixels ``box`` ``(u0, v0, u1, v1)`` (default: all); ``[lo, hi]`` the pair's disparity range, ``near`` its
     sparse matches (:func:`guides`: each pixel's expected disparity, and when ``local`` each strip's range; None
@@ -318,7 +330,8 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
     ``stats`` gets the matched and matchable pixel counts, the strips, those with a local range and the
     disparities searched (summed over the strips' pixels); ``refine``: the disparities refined by least-squares
     matching (:func:`fotogeo.stereo.refine.refine`); ``penalty`` the pair's penalty factor (:func:`pair_penalty`;
-    None: each strip's own). The box is cut into strips of ``STRIP`` rows and its
+    None: each strip's own), ``noise`` the images' noise σ (:func:`pair_noise`; None: the texture test in
+    levels of each strip's stretch only). The box is cut into strips of ``STRIP`` rows and its
     columns, each matched by :func:`_strip` with its source pixels read by windows: memory follows the strip, not
     the images."""
     w, h = rp.size
@@ -329,6 +342,6 @@ def dense_points(rp: RectifiedPair, views, sources, lo: float, hi: float, zlim: 
         core_box = (u0, r0, u1, min(v1, r0 + STRIP))
         rng = local_range(rp, near if local else None, core_box, lo, hi, dem if local else None)
         out = _strip(rp, views, sources, rng, strip_heights(near, core_box, zlim, rng[2], rp, dem), stats, core_box,
-                     colours, refine, penalty, near, dem)
+                     colours, refine, penalty, near, dem, noise)
         if out is not None:
             yield out

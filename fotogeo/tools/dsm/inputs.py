@@ -13,6 +13,7 @@ import numpy as np
 
 from ...errors import FotogeoWarning, InputError
 from ...io.raster import gdal_env, open_raster, ropen
+from ...stereo.texture import noise_sigma
 from ..common.checks import distinct_files
 from .plan import footprint
 
@@ -162,6 +163,8 @@ def read_image(path) -> tuple:
 
 #: the longest side of the decimated read that gives an image's colour stretch
 STRETCH_SIDE = 1024
+#: :meth:`SourceImage.noise` is measured on this many bands of this many full-resolution rows
+NOISE_BANDS, NOISE_ROWS = 8, 32
 #: an untiled source image is decoded whole once when its bands take at most this many bytes (:class:`SourceImage`)
 CACHE_IMAGE_BYTES = 256 * 2 ** 20
 #: the decoded images this process keeps at most (bytes; the least recently used dropped first): two of the largest
@@ -241,7 +244,7 @@ class SourceImage:
         info = open_raster(path, "image")
         self.path, self.width, self.height = str(path), info.width, info.height
         self.bands = _bands(bands, info.count, self.path)
-        self._stretch = None
+        self._stretch = self._noise = None
         self.key = self._cache_key(info)
         self.weights = self._weights(info.nodata)
 
@@ -296,6 +299,15 @@ class SourceImage:
     def grey(self, x0: int, y0: int, x1: int, y1: int, k: int = 1) -> np.ndarray:
         """Grey values ``(rows, cols)`` float32 of the window (class docstring; :meth:`read`'s arguments)."""
         return np.tensordot(self.weights, self._window(x0, y0, x1, y1, k, copy=False).astype(np.float32), axes=1)
+
+    def noise(self) -> float:
+        """The noise σ of the grey values (:func:`fotogeo.stereo.texture.noise_sigma`) over ``NOISE_BANDS`` bands
+        of ``NOISE_ROWS`` full-resolution rows spread over the image (0: nodata), computed once."""
+        if self._noise is None:
+            starts = np.unique(np.linspace(0, max(0, self.height - NOISE_ROWS), NOISE_BANDS).round().astype(int))
+            bands = [self.grey(0, int(r), self.width, min(self.height, int(r) + NOISE_ROWS)) for r in starts]
+            self._noise = noise_sigma(bands, [g > 0 for g in bands])
+        return self._noise
 
     def stretches(self) -> list:
         """Each band's ``(low, high)`` colour stretch (None: already 8 bits), computed once (class docstring)."""

@@ -57,7 +57,8 @@ class PairMatch:
     expected disparity (:func:`.local.expected_disparity`) and, when ``local``, bound each strip's disparities
     (:func:`.local.guides`, :func:`.local.local_range`; None or not ``local``: the pair's range everywhere), its SGBM
     penalty factor (:func:`.frames.pair_penalty`; None: each strip's own), its DEM (:class:`.dem_guide.DemGuide`:
-    the heights each strip expects and searches where it has them; None: the matches'), and what its tiles gave
+    the heights each strip expects and searches where it has them; None: the matches'), its images' noise σ
+    (:func:`.frames.pair_noise`: the texture test's thresholds; None: the stretch's only), and what its tiles gave
     (pixel counts, points, seconds)."""
     pair: object
     rp: object
@@ -70,6 +71,7 @@ class PairMatch:
     penalty: float | None = None
     local: bool = True
     dem: object = None
+    noise: tuple | None = None
     stats: dict = field(default_factory=dict)
     points: int = 0
     seconds: float = 0.0
@@ -97,7 +99,7 @@ class PairMatch:
         (:func:`.frames.dense_points`)."""
         yield from frames.dense_points(self.rp, self.views, self.sources, *self.drange, self.zlim, self.stats, box,
                                        colours=colours, refine=self.refine, near=self.near, penalty=self.penalty,
-                                       local=self.local, dem=self.dem)
+                                       local=self.local, dem=self.dem, noise=self.noise)
 
     def count_angles(self, P) -> None:
         """Add the intersection angles of the pair's rays at its points ``P`` ``(N, 3)``

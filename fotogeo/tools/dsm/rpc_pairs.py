@@ -197,10 +197,10 @@ def _rectified(src, A, u0, v0, w, h):
     return out, valid
 
 
-def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False) -> tuple:
+def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False, noise=None) -> tuple:
     """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3), the
     rectified tiles read from the windows of the two :class:`~fotogeo.tools.dsm.inputs.SourceImage` s
-    ``sources`` they need."""
+    ``sources`` they need; ``noise`` the two images' noise σ (the texture test's, :mod:`fotogeo.stereo.texture`)."""
     q = _models(m1, m2, tau)
     p1g, p2g, mid = tile_correspondences(m1, q, tile, (zlo, 0.5 * (zlo + zhi), zhi))
     A1, A2 = ae.rectifying_maps(p1g, p2g, mid)
@@ -213,7 +213,7 @@ def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False
     w, h = int(np.ceil(corners[:, 0].max())) + D - u0, int(np.ceil(corners[:, 1].max())) + 16 - v0
     L, vl = _rectified(sources[0], A1, u0, v0, w, h)
     R, vr = _rectified(sources[1], A2, u0, v0, w, h)
-    disp = disparity(L, R, vl, vr, lo, hi)
+    disp = disparity(L, R, vl, vr, lo, hi, noise=noise)
     if refine:
         disp = refine_disparities(L, R, disp)
     rows, cols = np.nonzero(np.isfinite(disp))
@@ -242,7 +242,8 @@ def _at_least(a: int, b: int, n: int) -> tuple:
     return max(0, min(a, b - min(TILE, n))), b
 
 
-def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False, dem=None):
+def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False, refine: bool = False, dem=None,
+               noise=None):
     """Yield ``(points (N, 3), colours (N, 3) uint8 or None, miss px (N,))`` of the left pixels ``box``
     ``(c0, r0, c1, r1)`` (widened to at least ``TILE`` pixels a side: the context of a small box), in equal locally
     epipolar tiles of at most ``TILE`` pixels a side (module docstring, step 3; ``refine`` too); ``colours``: the
@@ -256,7 +257,7 @@ def box_points(m1, m2, sources, zlo, zhi, tau, stats, box, colours: bool = False
         for ct, ct1 in zip(cs[:-1], cs[1:]):
             tile = (int(ct), int(rt), int(ct1), int(rt1))
             zl, zh = (zlo, zhi) if dem is None else tile_range(m1, dem, tile, zlo, zhi)
-            p1, p2 = match_tile(m1, m2, tau, sources, tile, zl, zh, stats, refine)
+            p1, p2 = match_tile(m1, m2, tau, sources, tile, zl, zh, stats, refine, noise)
             if not len(p1):
                 continue
             P, miss = triangulate(m1, m2, tau, p1, p2, zl, zh)
@@ -282,6 +283,7 @@ class RpcPairMatch:
         self.pair, self.name, self.models, self.sources, self.dem = pair, name, models, sources, dem
         self.zlim, self.tau, self.refine = (float(zlim[0]), float(zlim[1])), np.asarray(tau, float), refine
         self.stats, self.points, self.seconds, self.miss = {}, 0, 0.0, []
+        self.noise = tuple(s.noise() for s in sources)  # once per image, here: a Dask task gets the values
 
     def box(self, sub) -> tuple | None:
         """``(c0, r0, c1, r1)``: the left pixels whose points may fall in the grid ``sub``: a 3 x 3 grid over it
@@ -302,7 +304,7 @@ class RpcPairMatch:
     def dense(self, box, colours: bool = False):
         """Yield ``(points (N, 3), colours or None)`` of the left pixels ``box`` (:func:`box_points`)."""
         for P, rgb, miss in box_points(*self.models, self.sources, *self.zlim, self.tau, self.stats, box, colours,
-                                       self.refine, self.dem):
+                                       self.refine, self.dem, self.noise):
             self.miss.append(miss[::max(1, len(miss) // MISS_SAMPLE)])
             yield P, rgb
 

@@ -325,7 +325,7 @@ def _frames(ims, output, crs, rule, *, dem, dem_heights, geoid, pairs, resolutio
             return why
         pv, ps = (views[p.i], views[p.j]), (sources[p.i], sources[p.j])
         return matching.PairMatch(p, rp, drange, zlim, pv, ps, refine, near, frames.pair_penalty(rp, pv, ps),
-                                  dem=guide)
+                                  dem=guide, noise=frames.pair_noise(ps))
     choices, setups, tried = refill.settle(lambda refused: choose(refused=refused) if refused else initial, set_up,
                                            names)
     attempt.choices = choices
