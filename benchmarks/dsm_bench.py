@@ -30,7 +30,8 @@ Run:  PYTHONPATH=. .venv/bin/python benchmarks/dsm_bench.py
   of the cells both images see that have a height. ``--rpc-cases`` picks some of them (names of ``RPC_CASES``
   separated by ``;``). With ``--cars``, CARS runs on the ``B/H 0.4`` pair (GeoTIFF RPC tags, margins ±100 m as on
   ventoux) in the same run: the same statistics against the truth on its own grid, its CPU and peak memory,
-  fotogeo − CARS, and fotogeo's CPU, memory, NMAD and completeness as ratios of CARS's.
+  fotogeo − CARS, and fotogeo's CPU, memory, NMAD and completeness as ratios of CARS's (``--cars-dir DIR``: CARS's
+  run kept in ``DIR/rendered_BH_0.4``, a finished one reused).
 
 * ``ebee`` — the eBee pair IMG_2280/IMG_2281 of ``drone_snowpeak`` (oriented by ``fotogeo triangulate`` of the
   pair) at ``--ebee-resolutions`` (default 0.2 m), ``fotogeo dsm`` as a user runs it (a child process under
@@ -197,7 +198,7 @@ def witness(tmp: Path, rounds: int, baseline=None) -> list:
     return rows
 
 
-def rendered_rpc(tmp: Path, names=None, cars: bool = False) -> list:
+def rendered_rpc(tmp: Path, names=None, cars: bool = False, keep=None) -> list:
     from rendered_rpc_pair import compare, pointing_height_bias, render_rpc_pair, with_pointing
     rows, scenes = [], {}
     unknown = set(names or ()) - set(RPC_CASES)
@@ -227,17 +228,20 @@ def rendered_rpc(tmp: Path, names=None, cars: bool = False) -> list:
                      "completeness": c["completeness"], "report_completeness": r["completeness"],
                      "pointing_px": p.get("relative_pointing_px"), "base_to_height": p.get("base_to_height"), **t})
         if cars and name == "B/H 0.4":
-            rows.append(_cars_rendered(folder, sc, out, rows[-1]))
+            rows.append(_cars_rendered(folder, sc, out, rows[-1], keep))
     return rows
 
 
-def _cars_rendered(folder: Path, sc: dict, ours: Path, row: dict) -> dict:
+def _cars_rendered(folder: Path, sc: dict, ours: Path, row: dict, keep=None) -> dict:
     """CARS on a rendered pair (its GeoTIFF RPC tags, margins ±100 m): against the truth as fotogeo's row,
-    fotogeo − CARS, and fotogeo's CPU, peak memory, NMAD and completeness as ratios of CARS's."""
-    from peers_cars import compare_dsms, run_cars
+    fotogeo − CARS, and fotogeo's CPU, peak memory, NMAD and completeness as ratios of CARS's. With ``keep``
+    (``--cars-dir``) the run goes to ``keep/rendered_<folder>`` and a finished one found there is reused (the
+    pair is rendered the same every time: fixed seeds)."""
+    from peers_cars import compare_dsms, finished_run, run_cars
     from rendered_rpc_pair import compare
     case = row["case"].replace("rendered_rpc", "rendered_rpc CARS 1.3", 1)
-    r = run_cars(sc["images"][0], sc["images"][1], folder / "cars", margins=100)
+    where = Path(keep) / f"rendered_{folder.name}" if keep else folder / "cars"
+    r = (finished_run(where) if keep else None) or run_cars(sc["images"][0], sc["images"][1], where, margins=100)
     if "skipped" in r or "error" in r:
         return {"case": case, "skipped": r.get("skipped") or r.get("error"), "log_tail": r.get("log_tail")}
     c = compare(r["dsm"], sc)
@@ -376,7 +380,7 @@ def main():
     ap.add_argument("--cases", default="rendered,ngi,ventoux")
     ap.add_argument("--cars", action="store_true",
                     help="also run CARS on ventoux and the rendered B/H 0.4 pair (benchmarks/peers_cars.py)")
-    ap.add_argument("--cars-dir", help="ventoux --cars: keep CARS's runs in this folder, reuse the finished ones there")
+    ap.add_argument("--cars-dir", help="--cars: keep CARS's runs in this folder, reuse the finished ones there")
     ap.add_argument("--rpc-cases", help="rendered_rpc: only these RPC_CASES names, separated by ';'")
     ap.add_argument("--ebee-resolutions", default="0.2", help="ebee: DSM resolutions (m), separated by ','")
     ap.add_argument("--baseline-tree", help="ebee: also run the dsm commands with this checkout, alternated")
@@ -411,7 +415,7 @@ def main():
                      "refine": lambda: rendered(tmp / case, True),
                      "ngi": lambda: ngi(tmp / case),
                      "ventoux": lambda: ventoux(tmp / case, args.cars, args.cars_dir),
-                     "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars),
+                     "rendered_rpc": lambda: rendered_rpc(tmp / case, rpc_names, args.cars, args.cars_dir),
                      "ebee": lambda: ebee(tmp / case, [float(r) for r in args.ebee_resolutions.split(",")],
                                           args.rounds, args.baseline_tree, args.ebee_dir),
                      "witness": lambda: witness(tmp / case, args.rounds, args.baseline_tree),

@@ -40,3 +40,31 @@ def test_a_kept_run_is_reused_only_when_finished(tmp_path):
     r = finished_run(tmp_path)
     assert r["cpu_s"] == 142.2 and r["max_rss_single_mib"] == 1099 and r["wall_s"] == 1514.7
     assert r["peak_rss_mib"] == 2900 and r["dsm"].endswith("dsm.tif") and r["valid_fraction"] == 19 / 20
+
+
+def test_the_rendered_pair_reuses_a_kept_run(tmp_path, monkeypatch):
+    """``dsm_bench.py --cases rendered_rpc --cars --cars-dir DIR``: a finished CARS run of the B/H 0.4 pair kept in
+    ``DIR/rendered_BH_0.4`` is read, not run again (before: CARS ran into the temporary folder every time, ~170-310 s
+    of CPU, and ``--cars-dir`` applied to ventoux only)."""
+    import peers_cars
+    import rendered_rpc_pair
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    import dsm_bench
+    kept = tmp_path / "cars" / "rendered_BH_0.4"
+    kept.mkdir(parents=True)
+    (kept / "time.txt").write_text(TIME_V.format(0))
+    _dsm(kept / "out" / "dsm" / "dsm.tif")
+    (kept / "run.json").write_text(json.dumps({"exit_code": 0, "wall_s": 1281.0, "peak_rss_mib": 3721}))
+
+    def no_run(*a, **k):
+        raise AssertionError("CARS ran again")
+    monkeypatch.setattr(peers_cars, "run_cars", no_run)
+    monkeypatch.setattr(rendered_rpc_pair, "compare", lambda *a, **k: {
+        "rmse_m": 1.0, "nmad_m": 0.3, "median_m": 0.0, "within_1m": 0.9, "completeness": 0.85})
+    monkeypatch.setattr(peers_cars, "compare_dsms", lambda ours, ref: {"ref": ref})
+    row = {"case": "rendered_rpc 1024², B/H 0.4", "cpu_s": 40.0, "peak_rss_mib": 450.0, "nmad_m": 0.29,
+           "completeness": 0.916}
+    r = dsm_bench._cars_rendered(tmp_path / "BH_0.4", {"images": ["a.tif", "b.tif"]}, tmp_path / "DSM.tif", row,
+                                 keep=tmp_path / "cars")
+    assert r["cpu_s"] == 142.2 and r["fotogeo_minus_cars"]["ref"] == str(kept / "out" / "dsm" / "dsm.tif")
+    assert r["fotogeo_over_cars"]["cpu"] == 40.0 / 142.2
