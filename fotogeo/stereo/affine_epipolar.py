@@ -15,17 +15,21 @@ and each image gets a rectifying similarity, rows ``v`` and columns ``u`` (``n =
 so that ``v1 = v2`` for every correspondence; ``σ = ±1`` keeps both images the same handedness and ``t`` puts
 the median disparity ``u1 − u2`` of the grid at 0. Both maps take and give corner-convention pixels.
 
-The **relative pointing correction** (s2p's "pointing error correction"): tie points ``p2`` lie off the
-epipolar curves ``q(h)`` of their ``p1`` (the right image's RPC misplaced relative to the left's); a
-translation ``τ`` of the right image minimises ``Σ (n_i·(q_i + τ − p2_i))²`` (``n_i`` the curve's unit
-normal at its closest point ``q_i``), robustly: the largest consensus of the tie points within 3 px of one
-translation (:func:`fotogeo.models.ransac.ransac`, Fischler & Bolles 1981, on samples of two tie points) starts a
-least-squares refit that keeps the points within ``max(3 px, 3·1.4826·MAD)`` of it. A least-squares start over
-all tie points is not enough: in a thin overlap most of the SIFT matches lie where the other image does not
-reach, off by hundreds of pixels (the ventoux pair cut to a 47-column overlap: 53 of 88 agreeing at 4.8 px, a
-least-squares fit over all at 61.6 px). Along the epipolar lines ``τ`` is not observable: there it would move
-heights, not rows; when the lines are nearly parallel (a satellite pair) that component is left 0 (least squares
-truncated at a singular value ratio of 0.1).
+The **relative pointing correction** (s2p's "pointing error correction"): tie points ``p2`` lie off the epipolar
+curves ``q(h)`` of their ``p1`` (the right image's RPC misplaced relative to the left's); a translation ``τ`` of the
+right image minimises ``Σ (n_i·(q_i + τ − p2_i))²`` (``n_i`` the curve's unit normal at its closest point ``q_i``),
+robustly: the largest consensus of the tie points within ``threshold`` of one translation
+(:func:`fotogeo.models.ransac.ransac`, Fischler & Bolles 1981, on samples of two tie points) starts a least-squares
+refit that keeps the points within ``max(3 px, 3·1.4826·MAD)`` of it. ``threshold`` is in the tie points' own scale:
+3 px for tie points found on the images whole, 3·k px for tie points found on overviews averaged over k x k blocks
+and multiplied back (their scatter grows k times; :func:`fotogeo.tools.dsm.rpc_pairs.agreement_px`); the refit's
+trimming follows the consensus's own scatter (the MAD) down to 3 px, not to ``threshold``: at k = 14 a 42 px floor
+kept the false ties within 42 px of ``τ`` (simulated, 100 true ties of σ 8 px among 100 false: median error 1.24 px
+with it, 0.60 px without). A least-squares start over all tie points is not enough: in a thin overlap most of the
+SIFT matches lie where the other image does not reach, off by hundreds of pixels (the ventoux pair cut to a
+47-column overlap: 53 of 88 agreeing on a τ of 4.77 px, a least-squares fit over all, trimmed, at 61.6 px). Along
+the epipolar lines ``τ`` is not observable: there it would move heights, not rows; when the lines are nearly
+parallel (a satellite pair) that component is left 0 (least squares truncated at a singular value ratio of 0.1).
 """
 from __future__ import annotations
 
@@ -33,6 +37,10 @@ import numpy as np
 
 from ..errors import MatchingError
 from ..models.ransac import ransac
+
+#: the least-squares refit of the pointing correction keeps tie points within 3·1.4826·MAD of it, and at least
+#: those within this many pixels (or the consensus threshold, when smaller)
+TRIM_FLOOR_PX = 3.0
 
 
 def affine_fundamental(p1, p2) -> np.ndarray:
@@ -106,8 +114,8 @@ class _Shift:
 
 
 def pointing_correction(p2, q_lo, q_hi, threshold: float = 3.0) -> tuple:
-    """``(τ (2,), inliers (N,) bool, residuals after (N,))`` (module docstring); no inliers (and ``τ = 0``) with
-    fewer than two tie points."""
+    """``(τ (2,), inliers (N,) bool, residuals after (N,))`` (module docstring; ``threshold`` in the pixels of
+    ``p2``, the tie points' scale); no inliers (and ``τ = 0``) with fewer than two tie points."""
     off, nrm, _ = curve_offsets(p2, q_lo, q_hi)
     try:
         keep = ransac(_Shift, nrm, np.column_stack([off, np.zeros_like(off)]), threshold, rng=0,
@@ -118,7 +126,7 @@ def pointing_correction(p2, q_lo, q_hi, threshold: float = 3.0) -> tuple:
     for _ in range(3):
         tau = _Shift.estimate(nrm[keep], off[keep, None]).tau
         res = off - nrm @ tau
-        new = np.abs(res) <= max(threshold, 3.0 * 1.4826 * np.median(np.abs(res[keep])))
+        new = np.abs(res) <= max(min(threshold, TRIM_FLOOR_PX), 3.0 * 1.4826 * np.median(np.abs(res[keep])))
         if np.array_equal(new, keep) or new.sum() < 3:
             break
         keep = new

@@ -6,7 +6,8 @@ Per pair (left = the first image, right = the second):
    the tie points of step 2; with ``--dem`` the DEM, fitted to the tie points, bounds each tile's (:mod:`.rpc_dem`);
 2. **relative pointing correction** (:func:`fotogeo.stereo.affine_epipolar.pointing_correction`): SIFT tie points
    of the two images (whole up to ``TIE_SIDE`` pixels a side, else on copies averaged to that size), their
-   offsets from the epipolar curves, one translation of the right image; its size is reported and, when large,
+   offsets from the epipolar curves, one translation of the right image (the tie points agreeing on it within
+   :func:`agreement_px`: 3 px, times the overviews' pixel size); its size is reported and, when large,
    named in a warning: the same error along the epipolar lines is invisible to the
    images and moves every height, so absolute heights then need a reference DEM or GCPs;
 3. **tiles** of ``TILE`` left pixels: correspondences of a 3-D grid (the tile's pixels at three heights)
@@ -61,8 +62,12 @@ MISS_SAMPLE = 4096
 #: the report lists at most this many tiles' disparity ranges
 MAX_RANGES = 64
 #: the relative pointing correction needs at least this many tie points, and as many agreeing on it (within
-#: 3 px): fewer cannot tell a correction from a chance alignment of false matches
+#: :func:`agreement_px`): fewer cannot tell a correction from a chance alignment of false matches
 MIN_TIE_POINTS = 10
+#: tie points agree on one relative pointing correction within this many pixels *of the overview they were found
+#: on* (:func:`agreement_px`): SIFT's scatter there (NMAD 0.28 px on the ventoux pair) grows with the overview's
+#: pixel size when it is multiplied back to source pixels
+AGREEMENT_OVERVIEW_PX = 3.0
 #: a relative pointing correction above this many pixels is reported as large (a few pixels are usual for
 #: vendor RPCs without ground control)
 LARGE_POINTING_PX = 10.0
@@ -110,27 +115,36 @@ def overview(src) -> tuple:
     return g, (src.width / g.shape[1], src.height / g.shape[0])
 
 
+def agreement_px(s1, s2) -> float:
+    """The consensus threshold (source pixels) of tie points found on overviews of pixel sizes ``s1``, ``s2``
+    (``(sx, sy)`` source pixels, :func:`overview`): ``AGREEMENT_OVERVIEW_PX`` times the larger size — 3 px for
+    images whole, 3·k px on overviews averaged over k x k blocks."""
+    return AGREEMENT_OVERVIEW_PX * max(1.0, *s1, *s2)
+
+
 def pointing(m1, m2, sources, zlo, zhi) -> dict:
     """The relative pointing correction and the tie points' heights (module docstring, steps 1–2), the tie
     points found on :func:`overview` s of the two images."""
     (g1, s1), (g2, s2) = overview(sources[0]), overview(sources[1])
     p1, p2 = tie_points(g1, g2)
     p1, p2 = p1 * s1, p2 * s2
+    names = " and ".join(repr(Path(s.path).stem) for s in sources)
     if len(p1) < MIN_TIE_POINTS:
-        raise InputError(f"only {len(p1)} tie points between the images: they may not overlap, or be textureless "
-                         f"or cloud-covered; give images that show the same ground")
+        raise InputError(f"images {names}: only {len(p1)} tie points between them: they may not overlap, or be "
+                         f"textureless or cloud-covered; give images that show the same ground")
     q = _models(m1, m2, np.zeros(2))
     q_lo, P_lo = q(p1, zlo)
     q_hi, _ = q(p1, zhi)
     ok = np.isfinite(q_lo).all(axis=1) & np.isfinite(q_hi).all(axis=1)
     p1, p2, q_lo, q_hi = p1[ok], p2[ok], q_lo[ok], q_hi[ok]
-    tau, inl, res = ae.pointing_correction(p2, q_lo, q_hi)
+    within = agreement_px(s1, s2)
+    tau, inl, res = ae.pointing_correction(p2, q_lo, q_hi, threshold=within)
     if inl.sum() < MIN_TIE_POINTS:
-        names = " and ".join(repr(Path(s.path).stem) for s in sources)
         raise InputError(f"images {names}: only {int(inl.sum())} of their {len(p1)} tie points agree on one relative "
-                         f"pointing correction (within 3 px; {MIN_TIE_POINTS} needed), too few to tell it: the "
-                         f"images may overlap too thinly (the others then match ground only one image shows), or "
-                         f"show repetitive, textureless or cloud-covered ground; give images that overlap more")
+                         f"pointing correction (within {within:.3g} px; {MIN_TIE_POINTS} needed), too few to tell "
+                         f"it: the images may overlap too thinly (the others then match ground only one image "
+                         f"shows), or show repetitive, textureless or cloud-covered ground; give images that overlap "
+                         f"more")
     before = ae.curve_offsets(p2, q_lo, q_hi)[0]
     along = ae.curve_offsets(p2 - tau, q_lo, q_hi)[2]
     z = zlo + along * (zhi - zlo)
