@@ -76,12 +76,12 @@ def exif_counts() -> dict | None:
     frames = sorted((DATA / "drone_snowpeak" / "img").glob("*.JPG"))
     if not frames:
         return None
-    reads, real = [], exif_sizes._exif_tiff
-    exif_sizes._exif_tiff = lambda p: reads.append(p) or real(p)
+    reads, real = [], exif_sizes.exif_tiff
+    exif_sizes.exif_tiff = lambda p: reads.append(p) or real(p)
     try:
         metas = [read_image_metadata(f) for f in frames]
     finally:
-        exif_sizes._exif_tiff = real
+        exif_sizes.exif_tiff = real
     return {"frames": len(frames), "maker_note_parses": len(reads),
             "canon_focal": sorted({m.canon_focal for m in metas}, key=str),
             "written_sizes": sorted({m.written_sizes for m in metas}, key=str)}

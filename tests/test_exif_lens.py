@@ -60,7 +60,7 @@ def _note_tiff(record) -> bytes:
 def test_the_focal_length_record_of_the_maker_note_checks_the_exif_tag(monkeypatch, record, exif_mm, want):
     from fotogeo.io import exif_sizes as xs
     from fotogeo.io.exif_lens import check_maker_focal, note_focal
-    monkeypatch.setattr(xs, "_exif_tiff", lambda p: _note_tiff(record))
+    monkeypatch.setattr(xs, "exif_tiff", lambda p: _note_tiff(record))
     got = note_focal(xs.canon_note("x.jpg", "Canon"))  # read_image_metadata's path: the note parsed once
     assert got == ((record[1] / 1000 if record else None), 4.3, 21.5)
     assert note_focal(xs.canon_note("x.jpg", "DJI")) is None
@@ -77,8 +77,8 @@ def test_an_ebee_frames_maker_note_is_parsed_once_for_its_size_and_its_focal_len
     """The metadata reader parses a Canon maker note once; both readings of it (CanonImageWidth x CanonImageHeight
     and the lens's focal lengths) come from that parse."""
     from fotogeo.io import exif_sizes as xs
-    read, real = [], xs._exif_tiff
-    monkeypatch.setattr(xs, "_exif_tiff", lambda p: read.append(p) or real(p))
+    read, real = [], xs.exif_tiff
+    monkeypatch.setattr(xs, "exif_tiff", lambda p: read.append(p) or real(p))
     meta = read_image_metadata(data_dir / "drone_snowpeak" / "img" / "IMG_2280.JPG")
     assert meta.canon_focal == (None, 4.3, 21.5)
     assert ("Canon maker note CanonImageWidth x CanonImageHeight", (4608, 3456)) in meta.written_sizes

@@ -153,7 +153,7 @@ def test_a_moved_afinfo_without_size_word_is_read_where_it_went_or_not_at_all(mo
     for af, aspects, want in ((good, (4 / 3,), FULL), (good, (), FULL), (good, (16 / 9,), None),
                               (good, (3 / 4,), FULL), ([9, 10] + good[2:], (4 / 3,), None),
                               (good[:4] + [5000] + good[5:], (4 / 3,), None)):
-        monkeypatch.setattr(xs, "_exif_tiff", lambda p, t=_canon_tiff(af, 0x0012, moved): t)
+        monkeypatch.setattr(xs, "exif_tiff", lambda p, t=_canon_tiff(af, 0x0012, moved): t)
         assert xs.canon_size(xs.maker_note("x.jpg"), aspects) == want, (af, aspects)
 
 

@@ -42,7 +42,8 @@ they all describe the camera's frame, not the file: ``FocalPlaneXResolution``, t
 ``CalibratedOpticalCenterX/Y`` agree with a resize of the same size, and so do the tie points' residuals of a nadir
 block (a focal length too short goes into the height). The camera's EXIF thumbnail, of the whole frame, tells them
 apart (:mod:`.exif_thumbnail`): a crop it shows, resized or not, is refused, and so is a file it does not match
-as a whole; otherwise the resize taken is said as an :class:`~fotogeo.errors.InputNote` with what told it, since
+as a whole, a mirrored one, and one turned a half turn beside a DJI calibration (its principal point and tangential
+terms are the turned frame's; with the principal point at the centre the turned resize is the same camera); otherwise the resize taken is said as an :class:`~fotogeo.errors.InputNote` with what told it, since
 without a thumbnail nothing does.
 
 Each contradiction is refused once per image, naming the records, the factor and the fix. Not used: a
@@ -82,14 +83,15 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     w, h = meta.width, meta.height
     full = meta.pixel_dimension
     noted = _check_written_sizes(meta, full)
-    s, seen = 1.0, 0
+    s, seen, turn = 1.0, 0, ""
     if full and full[0] > 0 and full[1] > 0 and (full[0], full[1]) != (w, h):
         s = resize_factor((w, h), full)
         if s is None:
             raise InputError(f"{_fix(meta)}: its EXIF PixelXDimension x PixelYDimension is {full[0]}x{full[1]}, not "
                              f"the file's size times one factor to the pixel (cropped, trimmed, rotated or resized "
                              f"unevenly): its camera calibration cannot be carried over; give the camera (--camera)")
-        seen = check_thumbnail(meta, full, s)
+        dji = _full_resolution(meta, w, h, 1.0, focal_plane=False)  # a principal point and distortion of its own
+        seen, turn = check_thumbnail(meta, full, s, centred=dji is None)
     cx, cy = meta.x("drone-dji:CalibratedOpticalCenterX"), meta.x("drone-dji:CalibratedOpticalCenterY")
     if cx and cy and cx > 0 and cy > 0:
         implied = (2 * cx, 2 * cy)
@@ -104,7 +106,7 @@ def size_scale(meta: ImageMetadata) -> tuple[float, str]:
     if s != 1.0:
         warnings.warn(f"images of {w}x{h} px whose EXIF PixelXDimension says {full[0]}x{full[1]} are taken as a "
                       f"resize by {_ratio(s)} from {full[0]}x{full[1]} (their calibration scaled to the file; "
-                      f"{thumbnail_says(seen, s, full)}); "
+                      f"{thumbnail_says(seen, s, full, turn)}); "
                       f"if the images were cropped, give --camera", InputNote, stacklevel=2)
     return s, "; ".join(n for n in (note, noted) if n)
 

@@ -84,17 +84,17 @@ def maker_note(path) -> tuple | None:
     """``(tiff, byte order, {tag: (type, count, value or offset)}, shift)`` of a JPEG's maker note directory, None
     without one; ``shift`` is what the out-of-line values moved by (module docstring: read there first, then at the
     recorded place)."""
-    tiff = _exif_tiff(path)
+    tiff = exif_tiff(path)
     if tiff is None or tiff[:2] not in (b"II", b"MM"):
         return None
     bo = "<" if tiff[:2] == b"II" else ">"
     try:
-        exif_ifd = _entries(tiff, bo, struct.unpack(bo + "I", tiff[4:8])[0]).get(0x8769)
-        note = _entries(tiff, bo, exif_ifd[2]).get(0x927C) if exif_ifd else None
+        exif_ifd = ifd_entries(tiff, bo, struct.unpack(bo + "I", tiff[4:8])[0]).get(0x8769)
+        note = ifd_entries(tiff, bo, exif_ifd[2]).get(0x927C) if exif_ifd else None
         if not note or note[1] < 14:
             return None
         start = note[2]
-        entries = _entries(tiff, bo, start)
+        entries = ifd_entries(tiff, bo, start)
     except (struct.error, IndexError):
         return None
     outside = [e[2] for e in entries.values() if _SIZES.get(e[0], 1) * e[1] > 4]
@@ -111,7 +111,7 @@ def _plausible(af, aspects: tuple) -> bool:
                               for a in aspects)
 
 
-def _entries(tiff: bytes, bo: str, at: int) -> dict:
+def ifd_entries(tiff: bytes, bo: str, at: int) -> dict:
     """``{tag: (type, count, value or offset)}`` of the IFD at ``at``."""
     n = struct.unpack(bo + "H", tiff[at:at + 2])[0]
     out = {}
@@ -122,7 +122,7 @@ def _entries(tiff: bytes, bo: str, at: int) -> dict:
     return out
 
 
-def _exif_tiff(path) -> bytes | None:
+def exif_tiff(path) -> bytes | None:
     """The TIFF block of a JPEG's EXIF APP1 segment, None for another format or without one."""
     try:
         with open(Path(path), "rb") as f:
