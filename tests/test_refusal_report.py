@@ -20,7 +20,7 @@ def nadir(tmp_path_factory):
 
 
 @pytest.mark.parametrize("case, option, words", [
-    ("one image", None, "at least two overlapping images"),
+    ("one image", "images", "at least two overlapping images"),
     ("unknown crs", "crs", "EPSG:999999"),
     ("geographic crs", "crs", "geographic"),
     ("rpc with eo", "eo", "give either --rpc or the frames' orientation"),
@@ -33,7 +33,7 @@ def test_a_run_refused_by_its_first_checks_writes_the_report(nadir, tmp_path, ca
     args = ["dsm", *images, "--camera", str(nadir["camera"]), "--eo", str(nadir["eo"]), "--crs", crs,
             "-o", str(out), "--report", str(rep), *(["--rpc"] if case == "rpc with eo" else [])]
     r = CliRunner().invoke(main, args)
-    assert r.exit_code != 0 and words in r.output and "Traceback" not in r.output, r.output
+    assert r.exit_code == 2 and words in r.output and "Traceback" not in r.output, r.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json"], r.output  # the report alone
     got = json.loads(rep.read_text())
     assert got["fotogeo"] == "dsm" and got["status"] == "refused" and got["option"] == option, got

@@ -84,7 +84,8 @@ def _checked_run(images, output, given, attempt, *, sfm_frame, dem_heights, refi
     rpc, dem, geoid, crs, pairs, resolution, bounds, camera, eo, orientation = map(given.get, (
         "rpc", "dem", "geoid", "crs", "pairs", "resolution", "bounds", "camera", "eo", "orientation"))
     if len(images) < 2:
-        raise InputError("a surface model needs at least two overlapping images; give two or more")
+        raise InputError("a surface model needs at least two overlapping images; give two or more images",
+                         option="images")  # the command line's usage error, as before
     if rpc and (camera, eo, orientation) != (None, None, None):
         named = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
         raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
