@@ -70,6 +70,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 from dsm_bench_run import _stats, _time_v, _timed, limits_of, set_limits  # noqa: E402  (re-exported: _stats)
 from dsm_oblique_cases import oblique_sets  # noqa: E402
+from dsm_bench_cars import _cars, _cars_recorded, _cars_rendered  # noqa: E402  (re-exported: _cars_rendered)
 DATA = Path(os.environ.get("FOTOGEO_DATA", ROOT.parent / "shared" / "data"))
 #: case -> the prefix of its rows' names (one JSON holds the latest run of each case)
 PREFIX = {"rendered": "rendered", "refine": "refined", "ngi": "NGI", "ventoux": "ventoux",
@@ -232,30 +233,6 @@ def rendered_rpc(tmp: Path, names=None, cars: bool = False, keep=None) -> list:
     return rows
 
 
-def _cars_rendered(folder: Path, sc: dict, ours: Path, row: dict, keep=None) -> dict:
-    """CARS on a rendered pair (its GeoTIFF RPC tags, margins ±100 m): against the truth as fotogeo's row,
-    fotogeo − CARS, and fotogeo's CPU, peak memory, NMAD and completeness as ratios of CARS's. With ``keep``
-    (``--cars-dir``) the run goes to ``keep/rendered_<folder>`` and a finished one found there is reused (the
-    pair is rendered the same every time: fixed seeds)."""
-    from peers_cars import compare_dsms, finished_run, run_cars
-    from rendered_rpc_pair import compare
-    case = row["case"].replace("rendered_rpc", "rendered_rpc CARS 1.3", 1)
-    where = Path(keep) / f"rendered_{folder.name}" if keep else folder / "cars"
-    r = (finished_run(where) if keep else None) or run_cars(sc["images"][0], sc["images"][1], where, margins=100)
-    if "skipped" in r or "error" in r:
-        return {"case": case, "skipped": r.get("skipped") or r.get("error"), "log_tail": r.get("log_tail")}
-    c = compare(r["dsm"], sc)
-    return {"case": case, "config": "GeoTIFF RPC tags, margins 100 m, 1 worker, full resolution only, 0.5 m",
-            "rmse_m": c["rmse_m"], "nmad_m": c["nmad_m"], "median_m": c["median_m"], "within_1m": c["within_1m"],
-            "completeness": c["completeness"], "cpu_s": r["cpu_s"], "wall_s": r["wall_s"],
-            "peak_rss_mib": r["peak_rss_mib"], "max_rss_single_mib": r["max_rss_single_mib"],
-            "valid_fraction_in_overlap": r.get("valid_fraction_in_overlap"), "cars_measured": r.get("cars_measured"),
-            "initial_height": r.get("initial_height"), "fotogeo_minus_cars": compare_dsms(ours, r["dsm"]),
-            "fotogeo_over_cars": {"cpu": row["cpu_s"] / r["cpu_s"], "peak_memory": row["peak_rss_mib"] /
-                                  r["peak_rss_mib"], "nmad": row["nmad_m"] / c["nmad_m"],
-                                  "completeness": row["completeness"] / c["completeness"]}}
-
-
 def _against(dsm_path, ref_path) -> np.ndarray:
     import rasterio
     from rasterio.warp import Resampling, reproject
@@ -306,61 +283,6 @@ def ventoux(tmp: Path, cars: bool, keep=None) -> list:
                      "cpu_s": cpu, "wall_s": wall})
     rows += _cars(tmp, v, outs, keep) if cars else _cars_recorded(outs)
     return rows
-
-
-def _valid_area(path) -> float:
-    import rasterio
-    with rasterio.open(path) as ds:
-        h = ds.read(1)
-        return float((h != ds.nodata).sum() * abs(ds.transform.a * ds.transform.e))
-
-
-def _cars_recorded(outs: dict) -> list:
-    """CARS's runs recorded by ``benchmarks/peers_cars.py`` on this machine (``results/peers_cars.json``)."""
-    rec = ROOT / "benchmarks" / "results" / "peers_cars.json"
-    if not rec.is_file():
-        return [{"case": "ventoux CARS", "skipped": "no recorded run (benchmarks/peers_cars.py; or pass --cars)"}]
-    return _cars_rows(outs, json.loads(rec.read_text()), "recorded")
-
-
-def _cars_rows(outs: dict, runs: dict, how: str) -> list:
-    """CARS's figures (``runs``: ``cars_ventoux_m100``, ``cars_ventoux_bias`` -> :func:`peers_cars.run_cars`'s
-    records) and fotogeo's DSMs against CARS's where both have a height (``peers_cars.compare_dsms``: its
-    ``share_of_ref_area`` is the share of CARS's valid cells where fotogeo has a height); fotogeo's valid area over
-    the same footprint overlap CARS's completeness is measured on."""
-    from peers_cars import compare_dsms
-    rows = []
-    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom"),
-                       ("cars_ventoux_m100", "right_image.geom, --refine")):
-        r = runs.get(key, {})
-        if not r.get("dsm") or not Path(r["dsm"]).is_file():
-            rows.append({"case": f"ventoux CARS ({right})", "skipped": f"{how} DSM of {key} not found"})
-            continue
-        rows.append({"case": f"ventoux CARS ({right.split(',')[0]}, {how}, margins 100 m) vs fotogeo ({right})",
-                     "completeness": r.get("valid_fraction_in_overlap"), "median_height_m": r.get("h_median_m"),
-                     "cpu_s": r.get("cpu_s"), "wall_s": r.get("wall_s"), "peak_rss_mib": r.get("peak_rss_mib"),
-                     "fotogeo_in_cars_overlap": _valid_area(outs[right]) / r["footprint_overlap_m2"],
-                     "fotogeo_minus_cars": compare_dsms(outs[right], r["dsm"]), "cars_dsm": r["dsm"]})
-    return rows
-
-
-def _cars(tmp: Path, v: Path, outs: dict, keep=None) -> list:
-    """CARS on ventoux now (``peers_cars.run_cars``, margins ±100 m), into ``keep`` (``--cars-dir``) when given,
-    where a finished run of an earlier call is reused (``peers_cars.finished_run``), else into ``tmp``."""
-    try:
-        from peers_cars import finished_run, run_cars
-    except ImportError:
-        return [{"case": "ventoux CARS", "skipped": "benchmarks/peers_cars.py is not in this checkout"}]
-    runs = {}
-    for key, right in (("cars_ventoux_m100", "right_image.geom"), ("cars_ventoux_bias", "right_image_bias.geom")):
-        folder = Path(keep or tmp) / key
-        r = (finished_run(folder) if keep else None) or run_cars(
-            v / "left_image.tif", v / "right_image.tif", folder, geom1=v / "left_image.geom", geom2=v / right,
-            margins=100)
-        if "skipped" in r:
-            return [{"case": "ventoux CARS", "skipped": r["skipped"]}]
-        runs[key] = r
-    return _cars_rows(outs, runs, "kept" if keep else "run now")
 
 
 def _merge(runs: list, group: str, new: list, run: dict) -> list:

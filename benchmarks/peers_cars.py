@@ -247,6 +247,22 @@ def compare_dsms(test, ref) -> dict:
             "share_of_ref_area": float(both.sum() / max(1, np.isfinite(b).sum()))}
 
 
+def run_inputs(img1, img2, geom1=None, geom2=None) -> list:
+    """What a run was made of: ``[size in bytes, SHA-256 of the first MiB]`` of each of its inputs (None for a geom
+    not given), in :func:`run_cars`'s order. Kept in ``run.json``; a kept run is reused only for the same inputs
+    (:func:`finished_run`): its folder's name alone let a run of other images (another ``--rpc-cases`` rendering,
+    another geom) stand for this one."""
+    import hashlib
+    out = []
+    for p in (img1, img2, geom1, geom2):
+        if p is None:
+            out.append(None)
+            continue
+        with open(p, "rb") as f:
+            out.append([os.path.getsize(p), hashlib.sha256(f.read(1 << 20)).hexdigest()])
+    return out
+
+
 def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None, margins=None,
              resolution: float = 0.5, cars: str | None = None, nice: int = 10) -> dict:
     """Run CARS on the pair (``img1``, ``img2``; RPCs in their tags or in OSSIM ``geom1``/``geom2``) into
@@ -286,16 +302,18 @@ def run_cars(img1, img2, out_dir, *, geom1=None, geom2=None, initial_height=None
             peak = max(peak, _tree_rss_mib(ps))
             time.sleep(0.5)
     rec = {"exit_code": proc.returncode, "wall_s": round(time.perf_counter() - t0, 1), "peak_rss_mib": peak,
-           "initial_height": height, "margins_m": margins, "config": conf, "cars": exe, "load_avg_end": os.getloadavg()}
+           "initial_height": height, "margins_m": margins, "config": conf, "cars": exe, "load_avg_end": os.getloadavg(),
+           "inputs": run_inputs(img1, img2, geom1, geom2)}
     (out_dir / "run.json").write_text(json.dumps(rec, default=str))
     return finished_run(out_dir)
 
 
-def finished_run(out_dir) -> dict | None:
+def finished_run(out_dir, inputs=None) -> dict | None:
     """A run of :func:`run_cars` kept in ``out_dir``: what its ``run.json`` holds (wall time, peak summed memory,
     exit code, as measured while it ran; absent when the folder was kept from a run that did not write it) with
     what its files give (user + system CPU and the largest single process from ``time.txt``, the DSM, its
-    completeness, CARS's own measures, the log's notes); ``None`` when the folder holds no finished run.
+    completeness, CARS's own measures, the log's notes); ``None`` when the folder holds no finished run, or, with
+    ``inputs`` (:func:`run_inputs`), none whose ``run.json`` says it ran on those inputs.
     Lets a benchmark reuse a run (``dsm_bench.py --cars-dir``) instead of paying CARS again."""
     out_dir = Path(out_dir)
     timing, log, dsm = out_dir / "time.txt", out_dir / "cars.log", out_dir / "out" / "dsm" / "dsm.tif"
@@ -303,6 +321,8 @@ def finished_run(out_dir) -> dict | None:
     if "Exit status" not in tv:
         return None
     rec = json.loads((out_dir / "run.json").read_text()) if (out_dir / "run.json").is_file() else {}
+    if inputs is not None and rec.get("inputs") != json.loads(json.dumps(inputs)):
+        return None
     if "config" not in rec and (out_dir / "conf.json").is_file():
         rec["config"] = json.loads((out_dir / "conf.json").read_text())
     user, sys_ = _time_v(tv, "User time (seconds)"), _time_v(tv, "System time (seconds)")

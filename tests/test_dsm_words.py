@@ -142,6 +142,20 @@ def test_fotogeos_earlier_unmarked_style_is_replaced_like_a_marked_one(nadir, tm
     assert r.exit_code == 0 and MARKER in (tmp_path / "dsm.qml").read_text(), r.output
 
 
+@pytest.mark.parametrize("ending", ["\r\n", "\r"])
+def test_fotogeos_earlier_style_saved_with_other_line_endings_is_still_fotogeos(tmp_path, ending):
+    """The earlier style copied through Windows (CRLF; or old Mac CR) was compared byte for byte, read with
+    ``newline=""``, and taken for the user's: refused as "a style of yours". Its line endings are now compared as
+    LF; an edited one stays the user's (:func:`test_an_edited_earlier_style_stays_the_users`)."""
+    from fotogeo.io.qml import check_style, users_style
+    (tmp_path / "dsm.qml").write_bytes(_earlier_style(101.25, 187.5).replace("\n", ending).encode())
+    assert users_style(tmp_path / "dsm.tif") is None
+    check_style(tmp_path / "dsm.tif", overwrite=False)  # fotogeo's: the outputs' checks decide, not a refusal
+    (tmp_path / "dsm.qml").write_bytes(_earlier_style(101.25, 187.5).replace("245,245,245", "240,240,240")
+                                       .replace("\n", ending).encode())
+    assert users_style(tmp_path / "dsm.tif") == tmp_path / "dsm.qml"
+
+
 @pytest.mark.parametrize("edit", [("245,245,245", "240,240,240"), ('suffix=" m"', 'suffix=" ft"'),
                                   ("</qgis>\n", "</qgis>\n<!-- mine -->\n")])
 def test_an_edited_earlier_style_stays_the_users(tmp_path, edit):

@@ -54,7 +54,11 @@ def test_the_rendered_pair_reuses_a_kept_run(tmp_path, monkeypatch):
     kept.mkdir(parents=True)
     (kept / "time.txt").write_text(TIME_V.format(0))
     _dsm(kept / "out" / "dsm" / "dsm.tif")
-    (kept / "run.json").write_text(json.dumps({"exit_code": 0, "wall_s": 1281.0, "peak_rss_mib": 3721}))
+    images = [tmp_path / "a.tif", tmp_path / "b.tif"]
+    for k, p in enumerate(images):
+        p.write_bytes(bytes([k]) * 3000)
+    (kept / "run.json").write_text(json.dumps({"exit_code": 0, "wall_s": 1281.0, "peak_rss_mib": 3721,
+                                               "inputs": peers_cars.run_inputs(*images)}))
 
     def no_run(*a, **k):
         raise AssertionError("CARS ran again")
@@ -64,7 +68,28 @@ def test_the_rendered_pair_reuses_a_kept_run(tmp_path, monkeypatch):
     monkeypatch.setattr(peers_cars, "compare_dsms", lambda ours, ref: {"ref": ref})
     row = {"case": "rendered_rpc 1024², B/H 0.4", "cpu_s": 40.0, "peak_rss_mib": 450.0, "nmad_m": 0.29,
            "completeness": 0.916}
-    r = dsm_bench._cars_rendered(tmp_path / "BH_0.4", {"images": ["a.tif", "b.tif"]}, tmp_path / "DSM.tif", row,
+    r = dsm_bench._cars_rendered(tmp_path / "BH_0.4", {"images": images}, tmp_path / "DSM.tif", row,
                                  keep=tmp_path / "cars")
     assert r["cpu_s"] == 142.2 and r["fotogeo_minus_cars"]["ref"] == str(kept / "out" / "dsm" / "dsm.tif")
     assert r["fotogeo_over_cars"]["cpu"] == 40.0 / 142.2
+
+
+def test_a_kept_run_of_other_inputs_is_not_reused(tmp_path):
+    """``--cars-dir`` reused a kept run by its folder's name alone: a run of other images (another rendering of
+    the pair, another geom) stood for this one. ``run.json`` now keeps the inputs' size and the SHA-256 of their
+    first MiB (``peers_cars.run_inputs``); a run is reused only for the same, and one kept without them is run
+    again."""
+    from peers_cars import run_inputs
+    a, b, c = (tmp_path / f"{n}.tif" for n in "abc")
+    a.write_bytes(b"\x01" * 5000)
+    b.write_bytes(b"\x02" * 5000)
+    c.write_bytes(b"\x02" * 4999 + b"\x03")  # the same size, other bytes
+    (tmp_path / "time.txt").write_text(TIME_V.format(0))
+    _dsm(tmp_path / "out" / "dsm" / "dsm.tif")
+    (tmp_path / "run.json").write_text(json.dumps({"exit_code": 0}))
+    assert finished_run(tmp_path, run_inputs(a, b)) is None  # kept before its inputs were recorded
+    assert finished_run(tmp_path)["cpu_s"] == 142.2  # asked without inputs: as before
+    (tmp_path / "run.json").write_text(json.dumps({"exit_code": 0, "inputs": run_inputs(a, b)}))
+    assert finished_run(tmp_path, run_inputs(a, b))["cpu_s"] == 142.2
+    assert finished_run(tmp_path, run_inputs(a, c)) is None and finished_run(tmp_path, run_inputs(b, a)) is None
+    assert finished_run(tmp_path, run_inputs(a, b, a)) is None  # a geom the kept run did not have

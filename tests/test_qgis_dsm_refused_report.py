@@ -44,3 +44,21 @@ def test_fotogeos_earlier_unmarked_style_is_replaced_in_qgis(qgis_app, tmp_path)
     processing.run("fotogeo:dsm", {"IMAGES": [str(p) for p in sc["images"][:2]], "CAMERA": str(sc["camera"]),
                                    "EO": str(sc["eo"]), "CRS": sc["crs"], "OUTPUT": str(out)}, feedback=fb)
     assert MARKER in style.read_text() and not [w for w in fb.warnings if "kept the QGIS style" in w], fb.warnings
+
+
+def test_a_geographic_crs_refused_in_qgis_writes_the_report_naming_the_option(qgis_app, tmp_path):
+    """A refusal of the inputs' first checks (here a geographic CRS) came before the report's context: no report.
+    Now written, in the one refusal format (:mod:`fotogeo.tools.common.refusal`), its option ``crs`` named."""
+    import processing
+    from qgis.core import QgsProcessingException
+
+    from dsm_scenes import make_scene
+    sc = make_scene("nadir", tmp_path / "scene")
+    rep, out = tmp_path / "r.json", tmp_path / "dsm.tif"
+    with pytest.raises(QgsProcessingException, match="geographic"):
+        processing.run("fotogeo:dsm", {"IMAGES": [str(p) for p in sc["images"][:2]], "CAMERA": str(sc["camera"]),
+                                       "EO": str(sc["eo"]), "CRS": "EPSG:4326", "OUTPUT": str(out),
+                                       "REPORT": str(rep)})
+    got = json.loads(rep.read_text())
+    assert got["status"] == "refused" and got["option"] == "crs" and got["refused"] == got["error"]
+    assert "geographic" in got["error"] and not out.exists()

@@ -33,8 +33,7 @@ def command(images, output, point_cloud, report, overwrite, quiet, **kw):
     north-up grid (median of the pairs). Holes stay nodata unless --fill.
     """
     from ..tools.dsm import dsm
-    if len(images) < 2:
-        raise click.UsageError("a surface model needs at least two overlapping images; give two or more IMAGES")
+    # fewer than two IMAGES: refused by the tool, which writes --report of the refusal (fotogeo.tools.common.refusal)
     bar = ConsoleProgress(quiet)
     try:
         rep = dsm(list(images), output, point_cloud=point_cloud, report=report, overwrite=overwrite, progress=bar,

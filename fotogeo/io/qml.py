@@ -120,10 +120,12 @@ def users_style(dsm) -> Path | None:
 def _earlier_fotogeo(text: str) -> bool:
     """Whether ``text`` is the style an earlier fotogeo wrote, before :data:`MARKER` (module docstring): exactly
     :func:`dsm_style` of the range in its ``classificationMin`` / ``classificationMax`` without the marker line
-    (floats written with ``repr`` read back to the same text)."""
+    (floats written with ``repr`` read back to the same text). Its line endings are compared as LF: a copy
+    saved on Windows (CRLF) or with old Mac CR endings is the same style."""
     import re
     if len(text) > _MOST:
         return False
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
     found = [re.search(rf'{key}="([^"]*)"', text) for key in ("classificationMin", "classificationMax")]
     try:
         lo, hi = (float(m.group(1)) for m in found)

@@ -18,6 +18,26 @@ from ..common.checks import distinct_files
 from .plan import footprint
 
 
+def check_crs(crs) -> None:
+    """Refuse a ``crs`` pyproj cannot read before any input is opened, as a bad value of the option ``crs`` (the
+    command line's usage error, as a bad ``--bounds``); "auto" and None choose it."""
+    from ...crs import parse_crs
+    if crs is not None and str(crs).strip().lower() != "auto":
+        try:
+            parse_crs(crs, "crs")
+        except InputError as e:
+            raise InputError(str(e), option="crs") from None
+
+
+def orientation_inputs(orientation, camera, eo) -> list:
+    """The orientation's files as :func:`orientation_files` would take them, without checking them (the outputs'
+    checks, before any refusal of the inputs, must not write over them)."""
+    if orientation is None:
+        return [camera, eo]
+    from ..triangulate.outputs import CAMERA_FILE, FILES
+    return [camera if camera is not None else Path(orientation) / CAMERA_FILE, Path(orientation) / FILES[0]]
+
+
 def orientation_files(orientation, camera, eo) -> tuple:
     """``(camera, eo)``: from triangulate's output folder ``orientation`` (its exterior_orientation.txt and
     camera.yaml; ``camera``, when given, instead of the folder's), or as given."""

@@ -5,18 +5,14 @@ height matched, a bad input found on the way) wrote nothing, and the user could 
 why each was left out. Its report now says ``"status": "refused"``, the error's line (``error``, and ``option``: the
 tool's name of the option it concerns, which the command line calls by its flag and QGIS by its label), the inputs,
 and what the run had found when it stopped: the map CRS and its rule, and every candidate pair with its measures
-and why it was kept or left out (as in a finished run's report). It is written as a refused ``triangulate``
-writes its ``report.json`` (:mod:`fotogeo.tools.triangulate.refusal`), whole or not at all
-(:func:`fotogeo.io.report.write_json_whole`); a report that cannot be written leaves the refusal as it was. A run
-refused by the outputs' own checks (an existing file without ``--overwrite``, a report beside an input) writes
-nothing: the report's path is then no place to write.
+and why it was kept or left out (as in a finished run's report). It is the one refusal report
+(:mod:`fotogeo.tools.common.refusal`, as a refused ``triangulate``'s ``report.json``): whole or not at all, the
+refusal left as it was when the report cannot be written. Every refusal once the outputs were checked writes it
+(two images needed, ``--rpc`` with a frames' orientation or ``--sfm-frame``, a bad ``--crs`` too); a run refused by
+the outputs' own checks (an existing file without ``--overwrite``, a report beside an input) writes nothing: the
+report's path is then no place to write.
 """
 from __future__ import annotations
-
-from contextlib import contextmanager
-from pathlib import Path
-
-from ...errors import FotogeoError
 
 
 class Attempt:
@@ -37,29 +33,3 @@ class Attempt:
             out.update(pairs=[pair_entry(p, self.names) for p in self.choices],
                        pairs_kept=sum(p.kept for p in self.choices))
         return out
-
-
-@contextmanager
-def reporting_refusal(report, inputs: dict):
-    """Yield an :class:`Attempt` for the run to fill; a deliberate refusal (:class:`~fotogeo.errors.FotogeoError`)
-    raised inside writes the report ``report`` (None: none asked) of the module docstring and is raised again."""
-    attempt = Attempt()
-    try:
-        yield attempt
-    except FotogeoError as exc:
-        if report is not None:
-            write_refusal(report, exc, inputs, attempt)
-        raise
-
-
-def write_refusal(report, exc: FotogeoError, inputs: dict, attempt: Attempt) -> None:
-    """The refused run's report (module docstring); an :class:`OSError` writing it is left unsaid (the refusal is
-    what the user must read)."""
-    from ...io.report import write_json_whole
-    data = {"fotogeo": "dsm", "status": "refused", "error": str(exc), "option": exc.option,
-            "inputs": {k: (str(v) if isinstance(v, Path) else v) for k, v in inputs.items() if v is not None},
-            **attempt.entries(), "outputs": {"report": str(report)}}
-    try:
-        write_json_whole(report, data)
-    except OSError:
-        pass

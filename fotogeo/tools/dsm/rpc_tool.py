@@ -213,7 +213,8 @@ def rpc_images(images, crs, dem) -> tuple:
         _no_vertical_part(crs)
     if given or dem is not None:
         try:
-            map_c, rule = map_crs(crs, dem, None, list(images), True, rpc_of=lambda p: found[0])  # its first's
+            map_c, rule = map_crs(crs, dem, None, list(images), True, rpc_of=lambda p: found[0],  # its first's
+                                  crs_option="crs")
             map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's; the DSM's steps ask pyproj's
         except InputError:
             if given:

@@ -22,9 +22,11 @@ from ..common.checks import check_output_grid
 from ..ortho.crs_rule import map_crs
 from ..ortho.inputs import image_models, no_sfm_frame_with_rpc, terrain
 from . import dem_guide, frames, local, matching, plan, refill
-from .inputs import SourceImage, centres_in_area_of_use, distinct_images, orientation_files, parse_bounds, read_pairs
+from .inputs import (SourceImage, centres_in_area_of_use, check_crs, distinct_images, orientation_files,
+                     orientation_inputs, parse_bounds, read_pairs)
 from .outputs import SPECKLE_CELLS, NoHeight, Products, with_dem_vertical
-from .refusal import Attempt, reporting_refusal
+from ..common.refusal import reporting_refusal
+from .refusal import Attempt
 
 #: a pair whose sparse matches' median row difference exceeds this (rectified px) is left out: its orientation
 #: does not fit the images well enough for matching along rows
@@ -57,24 +59,44 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     images = [str(p) for p in ([images] if isinstance(images, (str, Path)) else images)]
     prog = as_progress(progress)
     t0 = time.process_time(), time.perf_counter()
-    if len(images) < 2:
-        raise InputError("a surface model needs at least two overlapping images; give two or more")
-    if rpc and (camera, eo, orientation) != (None, None, None):
-        given = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
-        raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
-                         f"orientation (--{given}), not both", option=given)
-    if rpc:
-        no_sfm_frame_with_rpc(sfm_frame)
-    camera, eo = orientation_files(orientation, camera, eo)
-    _check_crs(crs)
-    # below: the filling's reach in cells (the table's default when not given), None for no filling
-    fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
-    inputs = [*images, camera, eo, dem, geoid, pairs if isinstance(pairs, (str, Path)) else None]
     style = dsm_style_path(output) if qgis_style else None
     if qgis_style:
         check_style(output, overwrite)
     check_outputs(((output, "DSM", GEOTIFF_SUFFIXES), (style, "QGIS style of the DSM", None),
-                   (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)), inputs, overwrite)
+                   (point_cloud, "point cloud", (".las", ".laz")), (report, "report", None)),
+                  [*images, *orientation_inputs(orientation, camera, eo), dem, geoid,
+                   pairs if isinstance(pairs, (str, Path)) else None], overwrite)
+    given = {"images": images, "camera": camera, "eo": eo, "orientation": orientation, "rpc": rpc, "dem": dem,
+             "geoid": geoid, "crs": crs, "pairs": pairs, "resolution": resolution, "bounds": bounds,
+             "output": output}
+    attempt = Attempt()  # a refusal from here on, the report's path checked, still writes the report (.refusal)
+    with reporting_refusal(report, "dsm", given, attempt.entries):
+        return _checked_run(images, output, given, attempt, sfm_frame=sfm_frame, dem_heights=dem_heights,
+                            refine=refine, fill=fill, fill_max_distance=fill_max_distance, bands=bands,
+                            qgis_style=qgis_style, scheduler=scheduler, workers=workers, point_cloud=point_cloud,
+                            report=report, overwrite=overwrite, prog=prog, t0=t0, style=style)
+
+
+def _checked_run(images, output, given, attempt, *, sfm_frame, dem_heights, refine, fill, fill_max_distance, bands,
+                 qgis_style, scheduler, workers, point_cloud, report, overwrite, prog, t0, style) -> dict:
+    """:func:`dsm` once its outputs were checked: the inputs' own checks, then the run (``given``: the inputs as
+    given, the orientation files found put in it for the report)."""
+    rpc, dem, geoid, crs, pairs, resolution, bounds, camera, eo, orientation = map(given.get, (
+        "rpc", "dem", "geoid", "crs", "pairs", "resolution", "bounds", "camera", "eo", "orientation"))
+    if len(images) < 2:
+        raise InputError("a surface model needs at least two overlapping images; give two or more images",
+                         option="images")  # the command line's usage error, as before
+    if rpc and (camera, eo, orientation) != (None, None, None):
+        named = next(k for k, v in (("orientation", orientation), ("eo", eo), ("camera", camera)) if v is not None)
+        raise InputError(f"--rpc takes each image's orientation from its RPC: give either --rpc or the frames' "
+                         f"orientation (--{named}), not both", option=named)
+    if rpc:
+        no_sfm_frame_with_rpc(sfm_frame)
+    camera, eo = orientation_files(orientation, camera, eo)
+    given.update(camera=camera, eo=eo)
+    check_crs(crs)
+    # below: the filling's reach in cells (the table's default when not given), None for no filling
+    fill = (DSM["fill_max_distance"].default if fill_max_distance is None else fill_max_distance) if fill else None
     if qgis_style:
         check_styles_no_input(output, [*images, dem, geoid])
     else:  # after the outputs' checks: a run refused leaves the style with its own DSM
@@ -82,34 +104,20 @@ def dsm(images, output, *, camera=None, eo=None, sfm_frame: str = "auto", orient
     if point_cloud is not None:
         from ...io.las import check_writable
         check_writable(point_cloud)
-    given = {"images": images, "camera": camera, "eo": eo, "rpc": rpc, "dem": dem, "geoid": geoid, "crs": crs,
-             "pairs": pairs, "resolution": resolution, "bounds": bounds, "output": output}
-    with reporting_refusal(report, given) as attempt:  # a refusal from here on still writes the report
-        if rpc:
-            from .rpc_tool import rpc_dsm
-            return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
-                           resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
-                           point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
-                           dask=(scheduler, workers), bands=bands, style=style, attempt=attempt)
-        map_c, rule = map_crs(crs, dem, eo, images, False, camera, sfm_frame=sfm_frame)
-        map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the steps ask pyproj's
-        attempt.crs, attempt.crs_rule = map_c, rule
-        ims = image_models(images, map_c, camera=camera, eo=eo, sfm_frame=sfm_frame)
-        return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
-                       resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+    if rpc:
+        from .rpc_tool import rpc_dsm
+        return rpc_dsm(images, output, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                       resolution=resolution, crs=crs, bounds=parse_bounds(bounds), refine=refine, fill=fill,
                        point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
                        dask=(scheduler, workers), bands=bands, style=style, attempt=attempt)
-
-
-def _check_crs(crs) -> None:
-    """Refuse a ``crs`` pyproj cannot read before any input is opened, as a bad value of the option ``crs`` (the
-    command line's usage error, as a bad ``--bounds``); "auto" and None choose it."""
-    from ...crs import parse_crs
-    if crs is not None and str(crs).strip().lower() != "auto":
-        try:
-            parse_crs(crs, "crs")
-        except InputError as e:
-            raise InputError(str(e), option="crs") from None
+    map_c, rule = map_crs(crs, dem, eo, images, False, camera, sfm_frame=sfm_frame, crs_option="crs")
+    map_c = as_pyproj(map_c)  # a DEM's CRS comes as rasterio's (ortho's cold start); the steps ask pyproj's
+    attempt.crs, attempt.crs_rule = map_c, rule
+    ims = image_models(images, map_c, camera=camera, eo=eo, sfm_frame=sfm_frame)
+    return _frames(ims, output, map_c, rule, dem=dem, dem_heights=dem_heights, geoid=geoid, pairs=pairs,
+                   resolution=resolution, bounds=parse_bounds(bounds), refine=refine, fill=fill,
+                   point_cloud=point_cloud, report=report, overwrite=overwrite, prog=prog, t0=t0,
+                   dask=(scheduler, workers), bands=bands, style=style, attempt=attempt)
 
 
 def _heights(ims, views, sources, dem, dem_heights, geoid, crs, features) -> tuple:

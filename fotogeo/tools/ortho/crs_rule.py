@@ -20,8 +20,10 @@ from ...io.raster import open_raster
 from .inputs import _no_orientation, orientation_block, read_fitted_model
 
 
-def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto", rpc_of=None) -> tuple:
-    """``(projected CRS, rule)`` of the module docstring (``rpc_of`` as :func:`.inputs.image_models`')."""
+def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="auto", rpc_of=None,
+            crs_option="dst_crs") -> tuple:
+    """``(projected CRS, rule)`` of the module docstring (``rpc_of`` as :func:`.inputs.image_models`';
+    ``crs_option``: the tool's name of the option ``dst_crs`` comes from, which a refusal of it names)."""
     if model is not None:
         c = require_projected(horizontal_crs(parse_crs(read_fitted_model(model)[1], "--model")), "CRS of --model",
                               choice=None)
@@ -31,11 +33,14 @@ def map_crs(dst_crs, dem, eo, images, rpc, camera=None, model=None, sfm_frame="a
                              f"map coordinates in that CRS; leave --crs out", option="dst_crs")
         return c, "the CRS of the fitted model's GCPs (--model)"
     if dst_crs and str(dst_crs).strip().lower() != "auto":
-        c = horizontal_crs(parse_crs(dst_crs, "--crs"))
-        if not (c.is_geographic or c.is_geocentric):
-            return c, "given (--crs)"
-        choice = _automatic_choice(dem, eo, images, rpc, camera, sfm_frame, rpc_of)
-        return require_projected(c, "output CRS (--crs)", choice=choice), "given (--crs)"
+        try:
+            c = horizontal_crs(parse_crs(dst_crs, "--crs"))
+            if not (c.is_geographic or c.is_geocentric):
+                return c, "given (--crs)"
+            choice = _automatic_choice(dem, eo, images, rpc, camera, sfm_frame, rpc_of)
+            return require_projected(c, "output CRS (--crs)", choice=choice), "given (--crs)"
+        except InputError as e:  # the option's name for the report of the refusal and QGIS's label
+            raise InputError(str(e), option=crs_option, also=e.also) from None
     if dem is not None:
         info = open_raster(dem, "DEM")
         if info.raster_crs is None:

@@ -5,15 +5,15 @@ A block refused for lack of ties (a frame reached by too few tie points, a frame
 question about matching: which pairs were tried, how many descriptor matches each gave and how many of them fit
 the two-view geometry — on the frames as they are and, where it ran, on the ground plane
 (:mod:`fotogeo.tools.triangulate.guided`). The error names the weakest pairs with their counts (the one line
-stays short); ``report.json`` in the output folder lists every pair, with the refusal, the inputs and the start —
-the one file such a run writes (written whole or not at all: a temporary file renamed).
+stays short); ``report.json`` in the output folder lists every pair, with the refusal and the inputs — the one
+file such a run writes, in the format of every refused run's report (:mod:`fotogeo.tools.common.refusal`).
 """
 from __future__ import annotations
 
-from contextlib import contextmanager
 from pathlib import Path
 
 from ...errors import InputError, MatchingError, ModelError
+from ..common.refusal import reporting_refusal as common_reporting
 
 #: pairs named in the error's line (those of the refused frames first, the weakest first); every pair is in the report
 SHOWN = 3
@@ -42,29 +42,19 @@ def pair_summary(matching: dict, names, refused=()) -> str:
     return f"{len(rows)} pair(s) tried (matches/epipolar inliers): {', '.join(parts)}{more}"
 
 
-def write_refusal_report(path: Path, message: str, matching: dict, names, inputs: dict) -> None:
-    """``report.json`` of a refused run (module docstring), written to a temporary file and renamed."""
-    from ...io.report import write_json_whole
-    write_json_whole(path, {"refused": message, "inputs": inputs, "frames": list(map(str, names)),
-                            "matching": matching})
-
-
-@contextmanager
 def reporting_refusal(path: Path, matching, names, inputs: dict):
-    """A refusal (:class:`ModelError`, :class:`MatchingError`, :class:`InputError`) raised inside, once the frames were matched (``matching`` not None), is raised
-    again with the pairs tried in its line, after their report is written to ``path``."""
-    try:
-        yield
-    except (ModelError, MatchingError, InputError) as exc:
-        if matching is None:
-            raise
+    """A refusal (:class:`ModelError`, :class:`MatchingError`, :class:`InputError`) raised inside, once the frames
+    were matched (``matching`` not None), is raised again with the pairs tried in its line, after their report is
+    written to ``path`` (the one refusal report, :mod:`fotogeo.tools.common.refusal`: ``frames`` and ``matching``
+    what the run had found)."""
+    def found():
+        return None if matching is None else {"frames": list(map(str, names)), "matching": matching}
+
+    def reword(exc, path):
         head, sep, fix = str(exc).rpartition(" — ")  # the pairs go with the detail, before the fix
         head, sep, fix = (head, sep, fix) if sep else (fix, "", "")
         message = f"{head}; {pair_summary(matching, names, exc.frames)}{sep}{fix}"
-        try:  # the line names the report by its folder and name (the full path would crowd the one line)
-            line = f"{message}; every pair in {Path(path).parent.name}/{Path(path).name}"
-            write_refusal_report(path, line, matching, names, inputs)
-            message = line
-        except OSError:
-            pass
-        raise type(exc)(message, option=exc.option, frames=exc.frames, also=exc.also) from None
+        # the line names the report by its folder and name (the full path would crowd the one line)
+        return f"{message}; every pair in {Path(path).parent.name}/{Path(path).name}", message
+
+    return common_reporting(path, "triangulate", inputs, found, (ModelError, MatchingError, InputError), reword)
