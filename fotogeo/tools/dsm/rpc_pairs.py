@@ -211,6 +211,21 @@ def _rectified(src, A, u0, v0, w, h):
     return out, valid
 
 
+def window_margins(lo: float, hi: float) -> tuple:
+    """``(before, after)``: the columns the rectified window of a tile takes before and after the tile's own for
+    disparities ``[lo, hi]`` (``d = u_left − u_right``), so that every pixel of the tile keeps both directions of the
+    left–right check (:func:`fotogeo.stereo.dense.disparity`). SGBM leaves a left column ``x`` without a disparity
+    when ``x − d_min`` falls beyond the image's last column (``d_min = ⌊lo⌋ < 0``), and so the right-to-left pass
+    (matched on the flipped images) leaves the right columns ``x_r < −d_min``; the partner ``x_r = x − d`` of a
+    tile's pixel at disparity up to ``hi`` is among them unless the tile starts ``hi − d_min`` columns in — the
+    range's width, not its larger end ``max(|lo|, |hi|)``, which cut the last ~35 columns of every tile whose
+    heights lay near the range's low end (a DEM's range, issue 30). 16 columns more each side: the block and the
+    rounding of SGBM's range."""
+    from ...stereo.dense import disparity_range
+    dmin = disparity_range(lo, hi)[0]
+    return int(np.ceil(max(hi, 0.0))) + max(0, -dmin) + 16, int(np.ceil(max(abs(lo), abs(hi)))) + 16
+
+
 def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False, noise=None) -> tuple:
     """``(left pixels (N, 2), right pixels (N, 2))`` of one tile's dense matches (module docstring, step 3), the
     rectified tiles read from the windows of the two :class:`~fotogeo.tools.dsm.inputs.SourceImage` s
@@ -222,9 +237,9 @@ def match_tile(m1, m2, tau, sources, tile, zlo, zhi, stats, refine: bool = False
     lo, hi = float(d.min()) - 4.0, float(d.max()) + 4.0
     c0, r0, c1, r1 = tile
     corners = ae.apply(A1, np.array([[c0, r0], [c1, r0], [c1, r1], [c0, r1]], float))
-    D = int(np.ceil(max(abs(lo), abs(hi)))) + 16
-    u0, v0 = int(np.floor(corners[:, 0].min())) - D, int(np.floor(corners[:, 1].min())) - 16
-    w, h = int(np.ceil(corners[:, 0].max())) + D - u0, int(np.ceil(corners[:, 1].max())) + 16 - v0
+    before, after = window_margins(lo, hi)
+    u0, v0 = int(np.floor(corners[:, 0].min())) - before, int(np.floor(corners[:, 1].min())) - 16
+    w, h = int(np.ceil(corners[:, 0].max())) + after - u0, int(np.ceil(corners[:, 1].max())) + 16 - v0
     L, vl = _rectified(sources[0], A1, u0, v0, w, h)
     R, vr = _rectified(sources[1], A2, u0, v0, w, h)
     disp = disparity(L, R, vl, vr, lo, hi, noise=noise)
