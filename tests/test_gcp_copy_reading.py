@@ -167,7 +167,7 @@ def test_a_poor_camera_does_not_name_a_copy(data_dir, seed, k1, focal):
 def test_the_check_of_a_poor_camera_fits_a_coarse_set_of_readings_then_refines(data_dir):
     """Triangulate checks every frame with its starting camera, which often leaves more than 3σ on the right
     positions: every reading is then fitted. Coarse factors first (every 4th), readings leaving fewer points inside
-    than as given not fitted: 51 resections (8 GCPs, focal 1.4x), 29-48 with 30; before, 149-153 (0.6-0.9 s CPU)."""
+    than as given not fitted: 51 resections (8 GCPs, focal 1.4x), 42-48 with 30; before, 149-153 (0.6-1 s CPU)."""
     import dataclasses
     from fotogeo.orientation.copy_reading import collinearity_rms
     ngi = data_dir / "ngi"
