@@ -187,3 +187,29 @@ def test_a_flat_crop_is_refused_saying_it_cannot_be_told_from_a_copy_and_what_to
                                          r"or a DEM, not one constant height\) where the ground has relief; if they "
                                          r"were measured on a copy, rescale them"):
         orient(None, path, model="collinearity", camera=crop)
+
+
+def test_triangulate_keeps_the_span_rule_for_a_frame_beside_a_confirmed_crop(ngi, tmp_path):
+    """The span rule (most GCPs outside, spanning more than the image: another image's) is turned off per frame, only
+    for the frame whose fit confirms a crop. Frames 0182 and 0184 as top-left crops half the frame's size (the crop's
+    camera): 0182's GCPs are its whole frame's (a crop, fitted), 0184's are its frame's positions given to other
+    ground points (GCPs of another image). Before, one frame confirmed as a crop turned the rule off for the block:
+    0184's few inside were kept, exit 0."""
+    from fotogeo.tools.triangulate.inputs import read_block_control
+    crop = FrameCamera(120.0, (46.08, 82.944), (W // 2, H // 2), principal_point=(W / 2, H / 2))
+    parts = []
+    for k, name in enumerate(FRAMES):
+        ground, pixel = ngi["sets"][name]
+        pixel = pixel if k == 0 else pixel[np.random.default_rng(3).permutation(len(pixel))]
+        parts.append(gpd.read_file(_layer(tmp_path / f"{k}.gpkg", ground, pixel, ngi["crs"], f"{name}_RGB", "AB"[k])))
+    path = tmp_path / "block.gpkg"
+    gpd.GeoDataFrame(np.concatenate([p.values for p in parts]), columns=parts[0].columns, geometry="geometry",
+                     crs=ngi["crs"]).to_file(path, driver="GPKG")
+    names = [f"{n}_RGB" for n in FRAMES]
+    with pytest.raises(InputError, match=r"lie outside the image .* their pixels span .*the col/row were likely "
+                                         r"measured on a copy of another size"):
+        read_block_control(path, None, None, crop, names, None, None)
+    first = tmp_path / "first.gpkg"  # the crop's frame alone is fitted: its GCPs outside skipped
+    parts[0].to_file(first, driver="GPKG")
+    gcp, _, _ = read_block_control(first, None, None, crop, names, None, None)
+    assert 0 < len(gcp.name) < 20 and set(gcp.frame) == {names[0]}

@@ -316,7 +316,7 @@ def inside_image(g: Gcps, width: int, height: int, what: str, needed: int = 1, n
 
 
 def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: int = 1,
-                 needed_by: str = "the model", source: str = "", points=None, span: bool = True):
+                 needed_by: str = "the model", source: str = "", points=None, span=True):
     """``(keep mask, skipped records)`` of GCP measurements ``ids`` at ``pixel`` (``roles``: "control",
     "check", ...) on a ``width`` x ``height`` image: the one rule of orient, rpc-bias, compare-models and
     triangulate (whose ids name the frame too, and whose ``points`` name the ground point of each measurement:
@@ -328,7 +328,9 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     (``needed_by`` names what needs them; too few in the file as well is the model's own error), or none at all,
     the GCPs are refused by an :class:`InputError` naming the skipped ones and the likely fix; so are most of
     them outside, spanning more than the image (:func:`_refuse_another_size`) unless ``span`` is false (a caller
-    whose fit tells a copy of another size from a crop, :mod:`fotogeo.orientation.copy_reading`); for a ``.points``
+    whose fit tells a copy of another size from a crop, :mod:`fotogeo.orientation.copy_reading`; a mask, one per
+    measurement: the rule looks at those where it is true, e.g. every frame but those the fit confirms a crop of
+    the image their GCPs were measured on); for a ``.points``
     ``source`` it explains the file's source-coordinate convention, the usual cause when most points fall
     outside: an unreferenced raster's points have ``sourceY = -row`` (y up), so positive ``sourceY`` values put
     them above the image.
@@ -349,8 +351,9 @@ def skip_outside(ids, pixel, roles, width: int, height: int, what: str, needed: 
     control = roles == "control"
     n_kept, n_control = int((~out).sum()), len(set(points[~out & control]))
     if n_kept and (n_control >= needed or len(set(points[control])) < needed):  # too few anyway: the model says
-        if span:
-            _refuse_another_size(pixel, out, width, height, what, reason)
+        ruled = np.broadcast_to(np.asarray(span, bool), out.shape)
+        if ruled.any():
+            _refuse_another_size(pixel[ruled], out[ruled], width, height, what, reason)
         warnings.warn(f"{len(skipped)} GCP(s) of {what} lie {reason} and are skipped, the other "
                       f"{_measurements(n_kept, len(set(points[~out])))} used: {named(10)} (a typo in col/row, or a "
                       f"GCP of another image?)", FotogeoWarning, stacklevel=4)

@@ -13,7 +13,14 @@ positions read on a copy leave residuals far above the click precision, which th
 back into this image (``/ s``, or turned back) does not. The rule (:func:`copy_reading`): when the least-squares fit
 of the control points inside the image leaves an RMS above :data:`EXPLAINED` times the image σ, every candidate
 reading is fitted to its own control points inside the image (at least as many as the positions as given keep), and
-the best one is named when it leaves :data:`BETTER` times less. A crop whose camera describes it (principal point
+the best one is named when it leaves :data:`BETTER` times less, or :data:`BETTER_EXPLAINED` times less when the
+click precision explains it (RMS at most :data:`EXPLAINED` times σ: a copy read back with a good camera, which a
+camera that leaves the right positions unexplained — a focal length 20 % off — does not imitate: its best reading
+leaves about as much as as given). Both RMS are compared in the given positions' pixels: reading back ``/ s`` divides any residual the fit leaves (an unmodelled distortion, a focal length 20 % off)
+by ``s`` too, so the read-back RMS counts ``s`` times (:func:`_read_back_rms`); otherwise a poor camera's misfit,
+shrunk four times, would name a copy 4x the size. The factors tried stay inside :data:`SCALES`: a coarse set first
+(:func:`_coarse_scales`), then the best refined within one coarse step (:func:`_refine`); a reading that leaves
+fewer control points inside than the positions as given is not fitted. A crop whose camera describes it (principal point
 where the frame's falls in the crop's pixels) fits as given and is left alone; so is a half turn about a central
 principal point, which the collinearity equations absorb (a rotation about the optical axis). A fit that fails or
 leaves a non-finite RMS (no heights, a projection out of its domain) tells nothing: no reading is named.
@@ -40,8 +47,12 @@ CLICK_SIGMA_PX = 0.5
 EXPLAINED = 3.0
 #: a reading is named when its fit leaves at least this many times less RMS than the positions as given
 BETTER = 5.0
+#: a reading whose fit the click precision explains (RMS ≤ EXPLAINED · σ) is named when it leaves this many times less
+BETTER_EXPLAINED = 2.0
 #: the copies' sizes tried, as factors of this image's size (about 3 % apart), then refined around the best
 SCALES = np.exp(np.linspace(math.log(0.25), math.log(4.0), 97))
+#: the scales fitted first are every COARSE-th of SCALES (about 12 % apart); the best is then refined
+COARSE = 4
 #: factors this close to 1 are not a copy of another size (a fit's own scale error)
 NEAR_ONE = 0.04
 #: turns of a copy, clockwise, in quarter turns
@@ -91,7 +102,8 @@ def _pinhole(camera, distortion, pixel) -> np.ndarray:
 def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma: float, min_points: int):
     """``None`` when the control points' positions fit as given (or too few lie inside to tell), else
     ``{"scale", "turns", "rms_given", "rms_read_back", "n_given", "n_read_back"}``: the reading of the positions
-    (:func:`read_back`) that explains them :data:`BETTER` times better (module docstring). ``fit_rms(ground,
+    (:func:`read_back`) that explains them :data:`BETTER` times better, or :data:`BETTER_EXPLAINED` times and within
+    :data:`EXPLAINED` · ``sigma`` (module docstring; RMS compared in the given positions' pixels). ``fit_rms(ground,
     pixel)`` fits the model; ``sigma``: the image σ (px) of the positions; ``min_points``: the model's minimum."""
     ground, pixel, control = np.asarray(ground, float), np.asarray(pixel, float), np.asarray(control, bool)
     rms_given, n_given = _fitted(ground, pixel, control, width, height, fit_rms)
@@ -99,10 +111,12 @@ def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
         return None
 
     def trial(scale, turns):
-        rms, n = _fitted(ground, read_back(pixel, width, height, scale, turns), control, width, height, fit_rms)
-        return (rms if n >= n_given and math.isfinite(rms) else math.inf), n
+        """The reading's RMS in the given positions' pixels (:func:`_read_back_rms`), and its points inside."""
+        rms, n = _fitted(ground, read_back(pixel, width, height, scale, turns), control, width, height, fit_rms,
+                         least=n_given)
+        return _read_back_rms(rms, scale), n
 
-    readings = [(s, 0) for s in SCALES if abs(math.log(s)) > NEAR_ONE] + [(1.0, t) for t in TURNS]
+    readings = [(s, 0) for s in _coarse_scales()] + [(1.0, t) for t in TURNS]
     readings += [(s, t) for s in SCALES[::8] for t in TURNS if abs(math.log(s)) > NEAR_ONE]
     scored = [(trial(s, t)[0], s, t) for s, t in readings]
     least = min(r for r, _, _ in scored)
@@ -111,12 +125,29 @@ def copy_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
     _, turns, _, scale = min((t == 2, t, r, s) for r, s, t in scored if r <= TIE * least)
     either = turns % 2 == 1 and any(t == (turns + 2) % 4 and r <= TIE * least for r, _, t in scored)
     if scale != 1.0:
-        scale = _refine(lambda s: trial(s, turns)[0], scale)
-    rms, n = trial(scale, turns)
-    if not (math.isfinite(rms) and rms_given >= BETTER * rms):
+        scale = _refine(lambda s: trial(s, turns)[0], scale, COARSE * math.log(SCALES[1] / SCALES[0]), within=SCALES)
+    rms, n = _fitted(ground, read_back(pixel, width, height, scale, turns), control, width, height, fit_rms,
+                     least=n_given)
+    left = _read_back_rms(rms, scale)
+    if not rms_given >= (BETTER_EXPLAINED if left <= EXPLAINED * sigma else BETTER) * left:
         return None
     return {"scale": round(scale, 2), "turns": turns, "either_way": either, "rms_given": rms_given,
             "rms_read_back": rms, "n_given": n_given, "n_read_back": n}
+
+
+def _coarse_scales() -> list:
+    """The factors of :data:`SCALES` fitted first: every :data:`COARSE`-th, and the two nearest 1 beyond
+    :data:`NEAR_ONE`, so that a copy's factor lies within half a coarse step of one of them and nearer to it than to
+    1 (its refinement, one coarse step either way, then reaches it)."""
+    far = [s for s in SCALES if abs(math.log(s)) > NEAR_ONE]
+    near = [max(s for s in far if s < 1.0), min(s for s in far if s > 1.0)]
+    return sorted({float(s) for s in SCALES[::COARSE] if abs(math.log(s)) > NEAR_ONE} | set(near))
+
+
+def _read_back_rms(rms: float, scale: float) -> float:
+    """The RMS ``rms`` (px of this image) of positions read back ``/ scale``, in the given positions' pixels:
+    ``rms · scale`` (``inf`` when not finite), the units of the positions as given."""
+    return rms * scale if math.isfinite(rms) else math.inf
 
 
 def crop_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma: float, min_points: int,
@@ -142,19 +173,25 @@ def crop_reading(ground, pixel, control, width: int, height: int, fit_rms, sigma
             "rms_read_back": rms_back, "n_read_back": n_back}
 
 
-def _fitted(ground, pixel, control, width: int, height: int, fit_rms) -> tuple[float, int]:
+def _fitted(ground, pixel, control, width: int, height: int, fit_rms, least: int = 0) -> tuple[float, int]:
     """``(rms, n)``: ``fit_rms`` of the ``n`` control points whose ``pixel`` lies on the image
-    (:func:`fotogeo.image_extent.on_image`, the rule that skips GCPs outside; ``nan`` for none)."""
+    (:func:`fotogeo.image_extent.on_image`, the rule that skips GCPs outside; ``nan`` for none); ``inf``, not
+    fitted, when fewer than ``least`` lie inside."""
     keep = control & on_image(pixel[:, 0], pixel[:, 1], width, height)
     n = int(keep.sum())
+    if n < least:
+        return math.inf, n
     return (float(fit_rms(ground[keep], pixel[keep])) if n else math.nan), n
 
 
-def _refine(cost, scale: float, steps: int = 16) -> float:
-    """The factor near ``scale`` (within one step of :data:`SCALES`) where ``cost`` is least: golden-section search
-    on its logarithm."""
-    step = math.log(SCALES[1] / SCALES[0])
+def _refine(cost, scale: float, step: float | None = None, within=None, steps: int = 16) -> float:
+    """The factor near ``scale`` (within ``step`` of its logarithm, one step of :data:`SCALES` by default; inside
+    the range of the factors ``within`` when given) where ``cost`` is least: golden-section search on its
+    logarithm."""
+    step = math.log(SCALES[1] / SCALES[0]) if step is None else step
     a, b = math.log(scale) - step, math.log(scale) + step
+    if within is not None:
+        a, b = max(a, math.log(min(within))), min(b, math.log(max(within)))
     g = (math.sqrt(5.0) - 1.0) / 2.0
     x1, x2 = b - g * (b - a), a + g * (b - a)
     f1, f2 = cost(math.exp(x1)), cost(math.exp(x2))

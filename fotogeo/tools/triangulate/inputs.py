@@ -135,8 +135,12 @@ def _in_frames(gcp: GcpList, names, camera, path, distortion=None) -> GcpList:
     w, h = camera.image_size
     roles = np.full(len(gcp.name), "control", dtype=object) if gcp.role is None else gcp.role
     fit = camera_fit(camera, distortion=distortion)
-    span = all([copy_check(gcp.ground[gcp.frame == f], gcp.pixel[gcp.frame == f], roles[gcp.frame == f] == "control",
-                           w, h, f"GCP file {str(path)!r}, frame {f}", fit) for f in dict.fromkeys(gcp.frame)])
+    # the span rule stays for every frame but those whose fit confirms a crop: a mask, one per measurement
+    span = np.ones(len(gcp.name), dtype=bool)
+    for f in dict.fromkeys(gcp.frame):
+        mine = gcp.frame == f
+        span[mine] = copy_check(gcp.ground[mine], gcp.pixel[mine], roles[mine] == "control", w, h,
+                                f"GCP file {str(path)!r}, frame {f}", fit)
     keep, skipped = skip_outside([f"{n} in {f}" for n, f in zip(gcp.name, gcp.frame)], gcp.pixel, roles, w, h,
                                  f"GCP file {str(path)!r}", needed_by="the block", points=gcp.name, span=span)
     if skipped:
