@@ -73,7 +73,7 @@ from ..common.boundary import tool
 from ...io.block import split_check_points
 from .control import reference_sigmas
 from .determinacy import adjust_determined
-from .exif_focal import check_exif_focal
+from .exif_focal import check_exif_focal, focal_hypotheses
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .refusal import reporting_refusal
@@ -286,7 +286,8 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
             sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
-        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed)
+        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed,
+                         refit=partial(focal_hypotheses, block, opts), lens_estimated=bool(opts.self_calibration))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
