@@ -118,7 +118,7 @@ def focal_hypotheses(block, opts) -> dict:
 
 
 def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed=(), *, refit=None,
-                     lens_estimated: bool = True) -> None:
+                     lens_modelled: bool = True) -> None:
     """Refuse (:class:`ModelError`) a camera whose focal length comes from EXIF ``FocalPlaneXResolution`` when the
     tie points' residuals are more than :data:`MAX_IMAGE_SIGMA0` times the matcher's precision and, where ``refit``
     is given, the focal length divided by a resize factor fits :data:`CLEARLY` better (a warning where the block
@@ -126,7 +126,7 @@ def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed
     contradicts (module docstring). ``camera_source``: how the focal length was read
     (:func:`fotogeo.io.exif_camera.focal_of`'s source, "" for a camera file); ``given``: ``--self-calibration`` was
     given; ``fixed``: the adjustment's parameters held fixed; ``refit``: ``() -> {k: σ₀}`` (:func:`focal_hypotheses`
-    of the block); ``lens_estimated``: the adjustment estimated interior parameters (else σ₀ carries the lens)."""
+    of the block); ``lens_modelled``: the adjustment estimated interior parameters (else σ₀ carries the lens)."""
     if given or not camera_source:
         return
     w, h = camera.image_size
@@ -137,8 +137,8 @@ def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed
     estimate = "" if free is None else (f"; with the focal length free the adjustment puts it at {free[0]:.0f} ± "
                                         f"{free[1]:.0f} px" + (f" ({free[0] * mm / f:.2f} mm)" if mm else ""))
     s0 = image_sigma0_given(stats)
-    if FOCAL_PLANE in camera_source and s0 is not None and (s0 > MAX_IMAGE_SIGMA0 or not lens_estimated):
-        _check_focal_plane(camera_source, (w, h), f, mm, s0, estimate, stats, refit, lens_estimated)
+    if FOCAL_PLANE in camera_source and s0 is not None and (s0 > MAX_IMAGE_SIGMA0 or not lens_modelled):
+        _check_focal_plane(camera_source, (w, h), f, mm, s0, estimate, stats, refit, lens_modelled)
     if free is None or abs(free[0] - f) <= max(FOCAL_SIGMAS * free[1], FOCAL_SHARE * f):
         return
     share = abs(free[0] / f - 1)
@@ -155,7 +155,7 @@ def check_exif_focal(camera_source: str, camera, stats: dict, given: bool, fixed
                      f"images' focal length is right, --self-calibration none", option="--camera")
 
 
-def _check_focal_plane(source, size, f, mm, s0, estimate, stats, refit, lens_estimated) -> None:
+def _check_focal_plane(source, size, f, mm, s0, estimate, stats, refit, lens_modelled) -> None:
     """The residual check of a focal length from ``FocalPlaneXResolution`` (:func:`check_exif_focal`): refuse,
     warn (the block cannot tell) or pass on the hypotheses ``refit`` gives (refuse on σ₀ alone without it)."""
     hyp = {} if refit is None else refit()
@@ -183,7 +183,7 @@ def _check_focal_plane(source, size, f, mm, s0, estimate, stats, refit, lens_est
         raise ModelError(f"{why}; {cause}; give the camera (--camera), triangulate the originals, or, if the camera is "
                          f"right, --self-calibration none (or the parameters to estimate)", option="--camera")
     lens = ("; the camera held fixed (too few frames to calibrate it), the residuals also carry its lens distortion"
-            if not lens_estimated else "")
+            if not lens_modelled else "")
     _warn(stats, f"{why}: the block cannot tell a wrong focal length from other causes (not {CLEARLY:g} times apart)"
                  f"{lens}; {cause}: if these images are such a copy, give the camera (--camera) or triangulate the "
                  f"originals; more frames (3 or more, across strips) let the adjustment check it")
