@@ -50,6 +50,7 @@ def _copies(work: Path) -> dict:
 
 
 def _row(folder: Path, frames: list, out: Path) -> dict:
+    out.parent.mkdir(parents=True, exist_ok=True)
     cmd = hb.PY + ["triangulate", *[folder / f"{n}.JPG" for n in frames], "-o", out, "--overwrite", "-q"]
     row = hb.time_v(cmd, out.parent)
     m = re.search(r"residuals are ([\d.]+) times", row.get("message", ""))
