@@ -42,7 +42,7 @@ frames are too few to calibrate it, :meth:`~fotogeo.tools.triangulate.sources.Bl
 its residuals carry the lens distortion, which shrinks in pixels with the image: the eBee pair IMG_2280/2281 gave
 σ₀ 6.3 at full size with the right camera and 2.4 as a 1/4 copy with a focal length four times too long. Nor can a
 pair tell the focal length: two near-nadir frames related by a translation along the strip see ``x = f·X/Z`` and the
-parallax ``f·B/Z`` unchanged when ``f`` and the depths ``Z`` scale together (the normal case; Kraus 2007, § 4.3), so
+parallax ``f·B/Z`` unchanged when ``f`` and the depths ``Z`` scale together (the normal case of a stereo pair), so
 re-adjusted with ``f/2 … f/4`` that pair's σ₀ moved by at most a third. So the focal hypothesis is tested directly
 (:func:`focal_hypotheses`): when σ₀ exceeds :data:`MAX_IMAGE_SIGMA0`, or the block estimated no interior parameter
 (σ₀ then says nothing of the focal length), the adjustment is run again with the focal length divided by each
