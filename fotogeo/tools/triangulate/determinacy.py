@@ -58,14 +58,17 @@ def why_not_dropped(total: int, left: int) -> str | None:
     return None
 
 
-def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_source: str | None = None):
+def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_source: str | None = None,
+                      final: dict | None = None):
     """``(result, block, FrameQuality, dropped, restarted)``: the adjustment, every frame checked (module
     docstring); an undetermined frame is dropped and the block adjusted again (``undetermined="drop"``), or fails
     the run. Frames whose observations are too few or too clustered even before any is rejected
     (:func:`~fotogeo.orientation.bundle_quality.sparse_frames`) are refused or dropped before the first adjustment,
     in seconds rather than after it. ``dropped_before``: frames of the flight already left out (e.g. by the
     registration start), counted in the share that may be dropped. ``dropped`` and ``restarted`` are lists of
-    ``{"name", "reason"}``. ``sigma_source``: where the position priors' σ came from (:func:`free_roll`)."""
+    ``{"name", "reason"}``. ``sigma_source``: where the position priors' σ came from (:func:`free_roll`).
+    ``final``: a dict that receives the options the returned result was adjusted with (``"opts"``: dropping or
+    restarting a frame changes them), to adjust that block again."""
     dropped, restarted = [], []
     total = len(block.frames) + dropped_before
     sparse = sparse_frames(block, min_points=kw["min_frame_points"])
@@ -94,6 +97,8 @@ def adjust_determined(block, opts, kw, prog, dropped_before: int = 0, sigma_sour
         drop = set(own) or set(list(contradicted)[:1])  # one wrong frame pulls its neighbours: one at a time
         if not bad:
             _warn_prior_held(quality, kw["max_angle_sigma"], block, opts)
+            if final is not None:
+                final["opts"] = opts
             return result, block, quality, dropped, [r for r in restarted if r["name"] in block.frames]
         block, opts = _refused_or_dropped(bad, drop, block, opts, kw, dropped, total)
 

@@ -73,7 +73,7 @@ from ..common.boundary import tool
 from ...io.block import split_check_points
 from .control import reference_sigmas
 from .determinacy import adjust_determined
-from .exif_focal import check_exif_focal
+from .exif_focal import check_exif_focal, focal_hypotheses
 from .inputs import add_automatic_control, check_fraction_for, orientations, read_block_control
 from .outputs import CAMERA_FILE, FILES, output_paths, report, write_outputs
 from .refusal import reporting_refusal
@@ -281,12 +281,15 @@ def _triangulate(frames, camera, eo, observations, folder, inputs, prog, kw) -> 
     given = _naming_given_inputs(_overlap_advice(eo, camera, gcp) + (", and the image observations (--observations)"
                                                                       if observations is not None else
                                                                       ", and the tie points"))
+    final = {}  # the options of the block adjust_determined returns
     with refused, prog.timed("adjustment"), _saying_what_was_lost(start.lost, bool(start.camera_source)), given, \
             saying_none_registered(start):
         result, block, quality, undetermined, restarted = adjust_determined(block, opts, kw, prog.stage(
             0.5, 0.8, "bundle adjustment"), dropped_before=len(dropped),
-            sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]))
-        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed)
+            sigma_source=start.sigma_source(kw["eo_sigma_position"], kw["eo_sigma_height"]), final=final)
+        check_exif_focal(start.camera_source, block.camera, result.stats, bool(kw["self_calibration"]), result.fixed,
+                         refit=partial(focal_hypotheses, block, final["opts"]),
+                         lens_modelled=bool(opts.self_calibration) or any(block.distortion))
     rep = report(result, block, map_crs, {"frames": [str(f) for f in frames], "camera": str(camera) if camera else None,
                                          "eo": str(eo) if eo else None, "gcps": str(kw["gcps"]) if kw["gcps"] else None,
                                          "observations": str(observations) if observations else None,
