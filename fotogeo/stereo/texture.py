@@ -74,24 +74,15 @@ class NoiseLevel(float):
     """An image's noise: as a float its σ over all its homogeneous pixels (grey units); :meth:`at` its σ at a
     brightness, ``σ(I) = √(a + b·I)`` (Foi et al. 2008, "Practical Poissonian-Gaussian noise modeling": the
     read-out noise ``a`` and the photon noise ``b·I``, ``a, b ≥ 0``). A float alone is a noise that does not
-    depend on the brightness. ``clipped``: the ``(low, high)`` grey values at and beyond which the image is
-    clipped (:func:`noise_sigma`), ±inf where it is not."""
+    depend on the brightness."""
 
-    def __new__(cls, sigma: float, a: float | None = None, b: float = 0.0, clipped=(-np.inf, np.inf)):
+    def __new__(cls, sigma: float, a: float | None = None, b: float = 0.0):
         self = super().__new__(cls, sigma)
         self.a, self.b = (float(sigma) ** 2 if a is None else float(a)), float(b)
-        self.clipped = (float(clipped[0]), float(clipped[1]))
         return self
 
     def __reduce__(self):
-        return NoiseLevel, (float(self), self.a, self.b, self.clipped)
-
-    def unclipped(self, img) -> np.ndarray:
-        """The pixels of ``img`` (grey values resampled from the image) inside its clipping levels."""
-        lo, hi = self.clipped
-        tol = 1e-3 * (hi - lo) if np.isfinite(hi - lo) else 1e-3
-        g = np.asarray(img, np.float32)
-        return (g > lo + tol) & (g < hi - tol)
+        return NoiseLevel, (float(self), self.a, self.b)
 
     def at(self, brightness) -> np.ndarray:
         """σ at the grey values ``brightness`` (an array)."""
@@ -162,27 +153,9 @@ def noise_sigma(imgs, valids, low_gradient: float | None = None) -> NoiseLevel:
         low = sel & (grad <= np.percentile(grad[sel], q))
         sigmas.append(_immerkaer(n[low]))
         means.append(float(np.median(mean[low])))
-    clipped = _clipping(imgs, valids, lo, hi)
     if len(sigmas) < 2:
-        return NoiseLevel(sigma, clipped=clipped)
-    return NoiseLevel(sigma, *_fit_level(np.array(sigmas), np.array(means)), clipped=clipped)
-
-
-#: an image's lowest or highest grey counts as clipping where at least this share of its pixels has it over a
-#: constant 3 x 3 neighbourhood (a plateau: noise clipped at 255 here and there is no clipped area)
-CLIPPED_SHARE = 0.001
-
-
-def _clipping(imgs, valids, lo: float, hi: float) -> tuple:
-    """``(low, high)`` clipping levels of the pieces ``imgs``: ``lo``/``hi`` where at least ``CLIPPED_SHARE`` of
-    the ``valids`` pixels sit there on a plateau, else ∓inf."""
-    box, n, at = np.ones((3, 3), np.uint8), 0, [0, 0]
-    for g, v in zip(imgs, valids):
-        g, v = np.asarray(g, np.float32), np.asarray(v, bool)
-        flat = v & (cv2.dilate(g, box) == cv2.erode(g, box))
-        n += int(v.sum())
-        at = [at[0] + int((flat & (g == lo)).sum()), at[1] + int((flat & (g == hi)).sum())]
-    return (lo if at[0] >= CLIPPED_SHARE * n else -np.inf, hi if at[1] >= CLIPPED_SHARE * n else np.inf)
+        return NoiseLevel(sigma)
+    return NoiseLevel(sigma, *_fit_level(np.array(sigmas), np.array(means)))
 
 
 #: pixels this close (px) to an image's invalid ones are left out of the texture: a resampling kernel (bicubic:
@@ -212,8 +185,6 @@ def textured(left, left8, valid, min_texture: float, noise=None,
     (:func:`clean_texture`) reaches ``snr`` (default ``SIGNAL_TO_NOISE``) times the noise at the window's mean."""
     ok = texture(left8) >= min_texture if min_texture > 0 else np.ones(np.shape(left), bool)
     if noise:
-        if isinstance(noise, NoiseLevel):
-            valid = np.asarray(valid, bool) & noise.unclipped(left)  # a clipped area's outline is no texture
         spread, mean = clean_texture(left, valid, with_mean=True)
         ok &= spread >= (SIGNAL_TO_NOISE if snr is None else snr) * noise_at(noise, mean)
     return ok
