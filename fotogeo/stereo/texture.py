@@ -6,7 +6,8 @@ it, the noise decides between near-equal costs, and the left-right check passes 
 on alike — islands of consistent, wrong heights. A threshold in grey levels of the 8-bit stretch
 (``min_texture``) does not tell noise from texture: the noise in those levels depends on the sensor and on the
 stretch. :func:`textured` keeps a pixel where the grey values' standard deviation over its ``TEXTURE_WINDOW``
-neighbourhood (:func:`texture`) reaches ``SIGNAL_TO_NOISE`` times the image's noise ``σ`` (and ``min_texture``
+neighbourhood (:func:`texture`) reaches ``SIGNAL_TO_NOISE`` times the image's noise ``σ(I)`` at the
+neighbourhood's mean grey ``I`` (and ``min_texture``
 levels of the stretch, as before); :func:`fotogeo.stereo.dense.disparity` asks it of the left pixel and of its
 match in the right image (an area uniform in one view only). The standard deviation leaves out the pixels within
 ``EDGE_REACH`` of an image's edge (:func:`clean_texture`): the resampling mixed the black beyond it into them.
@@ -16,7 +17,12 @@ using a hybrid approach"): the pixels whose Sobel gradient ``|Gx| + |Gy|`` lies 
 percentile (the homogeneous ones), and on them Immerkær's (1996) estimate: the image convolved with
 ``N = [[1, -2, 1], [-2, 4, -2], [1, -2, 1]]`` (the difference of two discrete Laplacians: it cancels any surface
 up to second order and turns white noise of ``σ`` into noise of ``6σ``),
-``σ = √(π/2) · mean|I * N| / 6``. Selecting by gradient does not bias the estimate on noise: ``N`` is even in
+``σ = √(π/2) · mean|I * N| / 6``. The pixels at the image's lowest or highest grey and those of a constant
+3 x 3 neighbourhood are not candidates: clipped (a cloud, snow, a white roof at 255) they have neither gradient
+nor noise, and made σ 0 (the NGI frame 0182 with its top 5 % rows at 255: 1.729 → 0.005). The noise grows with
+the brightness (photon noise): one σ per image, set by the bright pixels, removed a dark shadow's correct
+matches; the same estimate is made in ``NOISE_BINS`` brightness bins and ``σ²(I) = a + b·I`` fitted to them
+(Foi et al. 2008, :class:`NoiseLevel`). Selecting by gradient does not bias the estimate on noise: ``N`` is even in
 both axes and each Sobel kernel odd in one, so their responses to white noise are uncorrelated (independent if
 Gaussian). It leaves out the texture's edges, which pass ``N`` and, counted, raise the estimate with the
 texture's share (an estimate over every pixel of one piece gave 6.9 for a true 1.2 where 60 % of it was busy
@@ -26,7 +32,9 @@ spread across it (:func:`fotogeo.tools.dsm.frames.pair_noise`; an RPC pair's
 uniform area or all busy texture does not set its own threshold. It is made on the source image's pixels
 (:meth:`fotogeo.tools.dsm.inputs.SourceImage.noise`), where the noise is white: resampling to the rectified
 geometry only lowers it, and a rectified image smaller than its source folds the scene's finest texture into the
-high frequencies the estimate takes for noise.
+high frequencies the estimate takes for noise. (Where a rectification magnifies, the resampling lowers the
+noise's spread over the window further and the threshold is too high for real faint texture: measured, not
+mended — the frame pipeline's rectification scale is at most 1, an RPC pair's left tile is its source's pixels.)
 """
 from __future__ import annotations
 
@@ -57,26 +65,97 @@ def texture(img) -> np.ndarray:
     return np.sqrt(np.maximum(cv2.blur(g * g, k) - m * m, 0.0))
 
 
-def _responses(img, valid) -> tuple:
-    """``(|I * N|, |Gx| + |Gy|)`` at the ``valid`` pixels of ``img`` whose 3 x 3 neighbourhood lies in ``valid``."""
-    inner = cv2.erode(np.asarray(valid, np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+#: the brightness bins of the noise model (equal counts of homogeneous pixels; Foi et al. 2008 fit their
+#: level sets the same way)
+NOISE_BINS = 8
+
+
+class NoiseLevel(float):
+    """An image's noise: as a float its σ over all its homogeneous pixels (grey units); :meth:`at` its σ at a
+    brightness, ``σ(I) = √(a + b·I)`` (Foi et al. 2008, "Practical Poissonian-Gaussian noise modeling": the
+    read-out noise ``a`` and the photon noise ``b·I``, ``a, b ≥ 0``). A float alone is a noise that does not
+    depend on the brightness."""
+
+    def __new__(cls, sigma: float, a: float | None = None, b: float = 0.0):
+        self = super().__new__(cls, sigma)
+        self.a, self.b = (float(sigma) ** 2 if a is None else float(a)), float(b)
+        return self
+
+    def __reduce__(self):
+        return NoiseLevel, (float(self), self.a, self.b)
+
+    def at(self, brightness) -> np.ndarray:
+        """σ at the grey values ``brightness`` (an array)."""
+        return np.sqrt(np.maximum(self.a + self.b * np.maximum(np.asarray(brightness, np.float32), 0.0), 0.0))
+
+
+def noise_at(noise, brightness) -> np.ndarray:
+    """σ of ``noise`` (a :class:`NoiseLevel` or a float: the same σ everywhere) at the grey values ``brightness``."""
+    if isinstance(noise, NoiseLevel):
+        return noise.at(brightness)
+    return np.full(np.shape(brightness), float(noise), np.float32)
+
+
+def _responses(img, valid, lo: float, hi: float) -> tuple:
+    """``(|I * N|, |Gx| + |Gy|, local mean)`` at the ``valid`` pixels of ``img`` whose 3 x 3 neighbourhood lies
+    in ``valid``, is not constant and holds neither ``lo`` nor ``hi`` (the image's extremes: a sensor's or a
+    stretch's clipping — a cloud, snow, a white roof at 255 — has neither gradient nor noise, and would make the
+    homogeneous pixels' estimate 0)."""
     g = np.asarray(img, np.float32)
+    box = np.ones((3, 3), np.uint8)
+    top, bottom = cv2.dilate(g, box), cv2.erode(g, box)
+    inner = cv2.erode(np.asarray(valid, np.uint8), box).astype(bool) & (top > bottom) & (top < hi) & (bottom > lo)
     n = np.abs(cv2.filter2D(g, cv2.CV_32F, NOISE_KERNEL, borderType=cv2.BORDER_REPLICATE))
     grad = np.abs(cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)) + np.abs(cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3))
-    return n[inner], grad[inner]
+    return n[inner], grad[inner], cv2.blur(g, (3, 3))[inner]
 
 
-def noise_sigma(imgs, valids, low_gradient: float | None = None) -> float:
-    """The standard deviation of the white noise of an image given as pieces ``imgs`` (float, any grey units)
-    with their ``valids`` masks (module docstring: Immerkær's estimate on the pixels below the ``low_gradient``
-    percentile of the Sobel gradient, default ``LOW_GRADIENT``); 0 without pixels."""
-    parts = [_responses(g, v) for g, v in zip(imgs, valids)]
-    n = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0)
-    grad = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
+def _immerkaer(n) -> float:
+    return float(math.sqrt(math.pi / 2) * np.mean(n) / 6.0)
+
+
+def _fit_level(sigmas, means) -> tuple:
+    """``(a, b)`` of ``σ² = a + b·I`` (:class:`NoiseLevel`) by least squares with ``a, b ≥ 0``, refit once without
+    the bins more than 3 robust deviations off (a bin of fine real texture everywhere: its σ too high)."""
+    from scipy.optimize import nnls
+    A, y = np.column_stack([np.ones_like(means), means]), np.asarray(sigmas) ** 2
+    ab = nnls(A, y)[0]
+    r = y - A @ ab
+    keep = np.abs(r - np.median(r)) <= 3 * 1.4826 * np.median(np.abs(r - np.median(r))) + 1e-12
+    if keep.sum() >= 2 and not keep.all():
+        ab = nnls(A[keep], y[keep])[0]
+    return float(ab[0]), float(ab[1])
+
+
+def noise_sigma(imgs, valids, low_gradient: float | None = None) -> NoiseLevel:
+    """The noise of an image given as pieces ``imgs`` (float, any grey units) with their ``valids`` masks, a
+    :class:`NoiseLevel` (0 without pixels). Its σ: Immerkær's estimate on the pixels below the ``low_gradient``
+    percentile (default ``LOW_GRADIENT``) of the Sobel gradient (module docstring); its model ``σ²(I) = a + b·I``:
+    the same estimate in ``NOISE_BINS`` bins of the pixels' brightness (the gradient's percentile taken in each:
+    the photon noise raises the bright pixels' gradients), fitted (:func:`_fit_level`)."""
+    q = LOW_GRADIENT if low_gradient is None else low_gradient
+    vals = [np.asarray(g, np.float32)[np.asarray(v, bool)] for g, v in zip(imgs, valids)]
+    vals = [v for v in vals if v.size]
+    if not vals:
+        return NoiseLevel(0.0)
+    lo, hi = min(float(v.min()) for v in vals), max(float(v.max()) for v in vals)
+    parts = [_responses(g, v, lo, hi) for g, v in zip(imgs, valids)]
+    n, grad, mean = (np.concatenate([p[i] for p in parts]) for i in range(3))
     if not n.size:
-        return 0.0
-    low = grad <= np.percentile(grad, LOW_GRADIENT if low_gradient is None else low_gradient)
-    return float(math.sqrt(math.pi / 2) * np.mean(n[low]) / 6.0)
+        return NoiseLevel(0.0)
+    sigma = _immerkaer(n[grad <= np.percentile(grad, q)])
+    edges = np.unique(np.percentile(mean, np.linspace(0, 100, NOISE_BINS + 1)))
+    sigmas, means = [], []
+    for b0, b1 in zip(edges[:-1], edges[1:]):
+        sel = (mean >= b0) & (mean <= b1)
+        if sel.sum() < 200:
+            continue
+        low = sel & (grad <= np.percentile(grad[sel], q))
+        sigmas.append(_immerkaer(n[low]))
+        means.append(float(np.median(mean[low])))
+    if len(sigmas) < 2:
+        return NoiseLevel(sigma)
+    return NoiseLevel(sigma, *_fit_level(np.array(sigmas), np.array(means)))
 
 
 #: pixels this close (px) to an image's invalid ones are left out of the texture: a resampling kernel (bicubic:
@@ -84,25 +163,28 @@ def noise_sigma(imgs, valids, low_gradient: float | None = None) -> float:
 EDGE_REACH = 2
 
 
-def clean_texture(img, valid) -> np.ndarray:
+def clean_texture(img, valid, with_mean: bool = False):
     """:func:`texture` of ``img`` over its pixels ``EDGE_REACH`` px or more inside ``valid`` only (a masked
-    standard deviation); 0 where fewer than half the window's pixels are such."""
+    standard deviation); 0 where fewer than half the window's pixels are such. ``with_mean``: ``(std, mean)``,
+    the mean over the same pixels."""
     core = cv2.erode(np.asarray(valid, np.uint8), np.ones((2 * EDGE_REACH + 1,) * 2, np.uint8)).astype(np.float32)
     g = np.asarray(img, np.float32) * core
     k = (TEXTURE_WINDOW, TEXTURE_WINDOW)
     n = cv2.blur(core, k)
     m = cv2.blur(g, k) / np.maximum(n, 1e-6)
     s = np.sqrt(np.maximum(cv2.blur(g * g, k) / np.maximum(n, 1e-6) - m * m, 0.0))
-    return np.where(n >= 0.5, s, 0.0)
+    s = np.where(n >= 0.5, s, 0.0)
+    return (s, m) if with_mean else s
 
 
-def textured(left, left8, valid, min_texture: float, noise: float | None = None,
+def textured(left, left8, valid, min_texture: float, noise=None,
              snr: float | None = None) -> np.ndarray:
     """Boolean mask of the pixels with texture: the local standard deviation (:func:`texture`) of the 8-bit
-    stretch ``left8`` reaches ``min_texture`` levels and, with ``noise`` (the image's σ in ``left``'s grey units,
-    :func:`noise_sigma`), that of ``left`` away from the edges of its ``valid`` pixels (:func:`clean_texture`)
-    reaches ``snr`` (default ``SIGNAL_TO_NOISE``) times it."""
+    stretch ``left8`` reaches ``min_texture`` levels and, with ``noise`` (the image's :class:`NoiseLevel` or σ in
+    ``left``'s grey units, :func:`noise_sigma`), that of ``left`` away from the edges of its ``valid`` pixels
+    (:func:`clean_texture`) reaches ``snr`` (default ``SIGNAL_TO_NOISE``) times the noise at the window's mean."""
     ok = texture(left8) >= min_texture if min_texture > 0 else np.ones(np.shape(left), bool)
     if noise:
-        ok &= clean_texture(left, valid) >= (SIGNAL_TO_NOISE if snr is None else snr) * noise
+        spread, mean = clean_texture(left, valid, with_mean=True)
+        ok &= spread >= (SIGNAL_TO_NOISE if snr is None else snr) * noise_at(noise, mean)
     return ok
