@@ -164,6 +164,24 @@ def test_a_poor_camera_does_not_name_a_copy(data_dir, seed, k1, focal):
                         4) is None
 
 
+@pytest.mark.parametrize("longer,lower,n,focal", [(4, 4000.0, 20, 0.9), (8, 0.0, 20, 0.7), (4, 3000.0, 8, 0.8)])
+def test_a_narrow_field_camera_with_its_focal_length_off_does_not_name_a_copy(data_dir, longer, lower, n, focal):
+    """A focal length off by k scales the image about the principal point, a copy about the corner; the resection
+    absorbs the difference (a shift) by a rotation, the better the narrower the field of view: NGI 0182 with a focal
+    length 4x / 8x its own (a 5° / 2.7° field), right GCP positions and the focal 10-30 % short were named "a copy
+    1.08-1.49x" through the 2x rule (review 3 of session 28). The focal-length hypothesis explaining them as well,
+    only the 5x rule may name a copy: none named here."""
+    import dataclasses
+    from fotogeo.orientation.copy_reading import collinearity_rms
+    ngi = data_dir / "ngi"
+    frame, dem = load_ngi_frame(ngi, NAME), read_dem(ngi / "dem.tif")
+    cam = dataclasses.replace(frame.camera, focal_length=frame.camera.focal_length * longer)
+    fr = dataclasses.replace(frame, camera=cam, eo=dataclasses.replace(frame.eo, Z=frame.eo.Z - lower))
+    s = make_gcps(fr, dem, n, 0, "homogeneous", noise=0.3, seed=5)
+    rms = collinearity_rms(dataclasses.replace(cam, focal_length=cam.focal_length * focal))
+    assert copy_reading(s.gcp_ground, s.gcp_pixel, np.ones(len(s.gcp_pixel), bool), W, H, rms, 0.5, 3) is None
+
+
 def test_the_check_of_a_poor_camera_fits_a_coarse_set_of_readings_then_refines(data_dir):
     """Triangulate checks every frame with its starting camera, which often leaves more than 3σ on the right
     positions: every reading is then fitted. Coarse factors first (every 4th), readings leaving fewer points inside
