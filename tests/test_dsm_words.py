@@ -188,3 +188,19 @@ def test_no_height_refusal_keeps_image_names_that_hold_a_colon(nadir, tmp_path):
             resolution=round(0.2 * nadir["gsd"], 2))
     assert str(e.value).startswith("no height was matched in any pair (strip: 1_01-strip: 1_02): --resolution "), e.value
     assert "; or the images may be textureless or cloud-covered where they overlap" in str(e.value), e.value
+
+
+def test_the_style_ramp_ends_at_the_range_itself_and_an_earlier_interpolated_end_is_still_fotogeos(tmp_path):
+    """``lo + 1·(hi − lo)`` differs from ``hi`` in its last bit for some ranges (−3.955488362312317 …
+    5.589982786178588, a DSM of the rendered block): the ramp's last item must be ``hi`` itself (QGIS clamps the
+    top of the range to the ramp), and a style an earlier fotogeo wrote with the interpolated end is still
+    recognised as fotogeo's, not a user's."""
+    import re
+    from fotogeo.io import qml
+    lo, hi = -3.955488362312317, 5.589982786178588
+    values = [float(v) for v in re.findall(r'<item value="([^"]*)"', qml.dsm_style(lo, hi))]
+    assert values[0] == lo and values[-1] == hi
+    earlier = qml.dsm_style(lo, hi, exact_ends=False).replace(qml.MARKER + "\n", "", 1)
+    assert earlier != qml.dsm_style(lo, hi).replace(qml.MARKER + "\n", "", 1)  # the ends did differ
+    assert qml._earlier_fotogeo(earlier)
+    assert not qml._earlier_fotogeo(earlier.replace("245,245,245", "245,245,244"))

@@ -131,7 +131,7 @@ def _earlier_fotogeo(text: str) -> bool:
         lo, hi = (float(m.group(1)) for m in found)
     except (AttributeError, ValueError):
         return False
-    return hi > lo and text == dsm_style(lo, hi).replace(MARKER + "\n", "", 1)
+    return hi > lo and any(text == dsm_style(lo, hi, exact).replace(MARKER + "\n", "", 1) for exact in (True, False))
 
 
 def warn_earlier_style(dsm, role: str = "DSM") -> None:
@@ -157,13 +157,18 @@ def check_style(dsm, overwrite: bool, role: str = "DSM") -> None:
                           option="overwrite", also=("qgis_style",))
 
 
-def dsm_style(lo: float, hi: float) -> str:
-    """The QML text drawing band 1 over ``lo`` … ``hi`` metres (``hi`` > ``lo``; module docstring)."""
+def dsm_style(lo: float, hi: float, exact_ends: bool = True) -> str:
+    """The QML text drawing band 1 over ``lo`` … ``hi`` metres (``hi`` > ``lo``; module docstring). The ramp's first
+    and last items are ``lo`` and ``hi`` themselves (``lo + 1·(hi − lo)`` can differ from ``hi`` in its last bit);
+    ``exact_ends=False``: as fotogeo wrote them before session 28, the ends interpolated too."""
     lo, hi = float(lo), float(hi)
     hi = hi if hi > lo else lo + max(abs(lo), 1.0) * 1e-3  # a flat surface: a range QGIS can interpolate over
     inner = ":".join(f"{f};{c},255" for f, c in RAMP[1:-1])
+
+    def at(f):
+        return lo if exact_ends and f == 0 else hi if exact_ends and f == 1 else lo + f * (hi - lo)
     items = "\n".join(
-        f'          <item value="{lo + f * (hi - lo)!r}" label="{lo + f * (hi - lo):.1f}" '
+        f'          <item value="{at(f)!r}" label="{at(f):.1f}" '
         f'color="#{"".join(f"{int(v):02x}" for v in c.split(","))}" alpha="255"/>' for f, c in RAMP)
     return _TEMPLATE.format(marker=MARKER, lo=lo, hi=hi, cut=CUT, first=RAMP[0][1], last=RAMP[-1][1], stops=inner,
                             items=items)
